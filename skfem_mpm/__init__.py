@@ -1,0 +1,25 @@
+"""skfem-mpm: the implicit Material Point Method as a scikit-fem plugin.
+
+Material points replace Gauss points as a moving quadrature: scikit-fem
+assembles forms on a :class:`MaterialPointBasis` and applies boundary
+conditions; this package locates points, moves them and keeps their state.
+
+"""
+from .basis import MaterialPointBasis
+from .errors import (InvalidInputError, InvalidMaterialError, MPMError,
+                     PointsOutsideGridError, SingularSystemError,
+                     UnsupportedElementError)
+from .locate import locate_points, point_locator
+from .materials import LinearElastic
+from .points import MaterialPoints, seed_gauss_points, seed_points
+from .solver import Result, StepRecord, solve_mpm
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "MaterialPointBasis", "MaterialPoints", "seed_points", "seed_gauss_points",
+    "locate_points", "point_locator", "MPMError", "InvalidInputError",
+    "InvalidMaterialError", "PointsOutsideGridError", "SingularSystemError",
+    "UnsupportedElementError", "LinearElastic", "solve_mpm", "Result",
+    "StepRecord",
+]

@@ -1,0 +1,99 @@
+"""The seed's numerical example: a column compressed by its own weight.
+
+Height ``L0 = 50``, ``E = 1e6``, ``nu = 0``, body force ramped to
+``rho0 b = 800`` per unit volume (40000 in all, shortening the column by
+about 1), fixed at the base (seed 2.2.3, Figure 2.8).  In 1D the column is a
+line of elements; in 2D a plane-strain strip one element wide on rollers,
+which gives the same answer.
+
+"""
+
+import numpy as np
+from numpy import ndarray
+from skfem import ElementLineP1, ElementQuad1, MeshLine, MeshQuad
+
+from .materials import LinearElastic
+from .points import MaterialPoints, seed_points
+from .solver import Result, solve_mpm
+
+__all__ = ["HEIGHT", "LOAD", "MATERIAL", "column_grid", "run_column",
+           "column_error", "analytical_stress", "analytical_stress_current",
+           "vertical_stress"]
+
+HEIGHT = 50.
+LOAD = 800.
+MATERIAL = LinearElastic(E=1e6, nu=0.)
+
+
+def column_grid(nelems: int, dim: int = 1):
+    """Background grid and element of a column of ``nelems`` elements."""
+    y = np.linspace(0., HEIGHT, nelems + 1)
+    if dim == 1:
+        return MeshLine(y), ElementLineP1()
+    if dim == 2:
+        h = HEIGHT / nelems
+        return MeshQuad.init_tensor(np.array([0., h]), y), ElementQuad1()
+    raise ValueError("the column is defined in 1D and 2D, not {}D".format(dim))
+
+
+def column_supports(dim: int):
+    """Fixed base; in 2D, rollers on both sides (no horizontal motion)."""
+    def supports(basis):
+        base = basis.get_dofs(lambda x: np.isclose(x[-1], 0.)).all()
+        if dim == 1:
+            return base
+        return np.concatenate((base, basis.nodal_dofs[0]))
+    return supports
+
+
+def vertical_stress(points: MaterialPoints) -> ndarray:
+    """The vertical normal stress of every point."""
+    d = points.dim - 1
+    return points.stress[d, d]
+
+
+def analytical_stress(Y: ndarray) -> ndarray:
+    """Linear solution ``sigma = -rho0 b (L0 - Y)`` at initial heights Y."""
+    return -LOAD * (HEIGHT - Y)
+
+
+def analytical_stress_current(z: ndarray, top: float) -> ndarray:
+    """Seed (2.27): the stress at current height z of a column of current
+    height ``top`` (finite-deformation solution, compression negative)."""
+    E = MATERIAL.E
+    return -E * (np.sqrt(2 * LOAD / E * (top - z) + 1) - 1)
+
+
+def column_error(points: MaterialPoints) -> float:
+    """Seed (2.28): ``sum_p |sigma_a(Y_p) - sigma_p| V_p / (W L0)``.
+
+    Normalised by the weight ``W = rho0 b L0 V0 / L0`` and the height: the
+    sum is divided by ``rho0 b L0 V0`` with ``V0`` the total volume, which
+    in 1D is the seed's ``W L0``.
+
+    """
+    Y = points.x0[-1]
+    diff = np.abs(analytical_stress(Y) - vertical_stress(points))
+    return float(diff @ points.volume / (LOAD * HEIGHT * points.volume.sum()))
+
+
+def run_column(nelems: int, ppc: int = 2, nsteps: int = 1, dim: int = 1,
+               **kwargs) -> Result:
+    """Run the column with ``ppc`` points per element and direction.
+
+    Extra keyword arguments go to :func:`~skfem_mpm.solve_mpm`.
+
+    Examples
+    --------
+    >>> from skfem_mpm.column import run_column, column_error
+    >>> res = run_column(4, ppc=2, nsteps=1)
+    >>> round(column_error(res.points), 6)   # h / (4 L0)
+    0.0625
+
+    """
+    mesh, elem = column_grid(nelems, dim)
+    points = seed_points(mesh, ppc)
+    body_force = np.zeros(dim)
+    body_force[-1] = -LOAD
+    return solve_mpm(mesh, elem, points, MATERIAL, column_supports(dim),
+                     body_force=body_force, nsteps=nsteps, **kwargs)

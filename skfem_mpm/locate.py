@@ -1,0 +1,292 @@
+"""Point location: the element holding each material point and its local
+coordinates in that element (seed 2.2.2, "Particle element locations" and
+"Local coordinate identification").
+
+Two paths give the same answer:
+
+- a tensor-grid path for axis-aligned tensor-product grids (``MeshLine``,
+  ``MeshQuad``/``MeshHex`` made by ``init_tensor``), O(1) per point on
+  uniformly spaced axes and O(log n) per point on graded ones;
+- a general path for any scikit-fem mesh (triangles, tetrahedra, distorted
+  quadrilaterals and hexahedra): nearest element centroids from a k-d tree,
+  then local coordinates by the inverse affine map or by Newton iteration on
+  the isoparametric map.
+
+Points on element boundaries are assigned deterministically: a point within
+``tol`` (relative to the element size) of a face belongs to every element
+sharing that face, and the one whose centroid has the largest coordinate
+sum wins (ties: lowest element index).  On a tensor grid that is the cell
+above the point along every axis, except on the grid's upper boundary.
+
+"""
+import logging
+from typing import Callable, Tuple
+
+import numpy as np
+from numpy import ndarray
+from scipy.spatial import cKDTree
+from skfem.mesh import Mesh
+from skfem.refdom import RefHex, RefLine, RefQuad, RefTet, RefTri
+
+from .errors import (InvalidInputError, PointsOutsideGridError,
+                     UnsupportedElementError)
+from .mapping import fresh_mapping
+from .points import check_finite
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["point_locator", "locate_points"]
+
+Locator = Callable[[ndarray], Tuple[ndarray, ndarray]]
+
+CHUNK = 100_000
+
+
+def point_locator(mesh: Mesh, method: str = "auto",
+                  tol: float = 1e-12) -> Locator:
+    """Build a locator for ``mesh``, once per grid.
+
+    Parameters
+    ----------
+    mesh
+        Any scikit-fem mesh.
+    method
+        ``"auto"`` (tensor-grid path when the mesh is an axis-aligned
+        tensor-product grid, general path otherwise), ``"tensor"`` or
+        ``"general"``.
+    tol
+        Relative tolerance within which a point on an element face belongs
+        to that element.
+
+    Returns
+    -------
+    locate
+        ``locate(x) -> (tind, X)`` for positions ``x`` of shape (dim, n):
+        element indices (n,) and local coordinates (dim, n).  Raises
+        :class:`~skfem_mpm.errors.PointsOutsideGridError` for points outside
+        the mesh.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem import MeshQuad
+    >>> from skfem_mpm import point_locator
+    >>> locate = point_locator(MeshQuad.init_tensor([0., 1., 2.], [0., 1.]))
+    >>> tind, X = locate(np.array([[0.5, 1.5], [0.25, 0.75]]))
+    >>> tind.tolist()
+    [0, 1]
+
+    """
+    if method not in ("auto", "tensor", "general"):
+        raise InvalidInputError(
+            "method must be 'auto', 'tensor' or 'general', got {!r}"
+            .format(method))
+    if mesh.refdom not in (RefLine, RefQuad, RefHex, RefTri, RefTet):
+        raise UnsupportedElementError(
+            "cannot locate points on a {} mesh".format(type(mesh).__name__))
+    grid = None if method == "general" else _tensor_grid(mesh)
+    if method == "tensor" and grid is None:
+        raise UnsupportedElementError(
+            "{} is not an axis-aligned tensor-product grid; use method="
+            "'general'".format(type(mesh).__name__))
+    if grid is not None:
+        find = _tensor_finder(mesh, grid, tol)
+    elif mesh.affine:
+        find = _general_finder(mesh, tol, _affine_local(mesh))
+    else:
+        find = _general_finder(mesh, tol, _newton_local(mesh))
+    dim = mesh.dim()
+
+    def locate(x: ndarray) -> Tuple[ndarray, ndarray]:
+        x = np.asarray(x, dtype=np.float64)
+        if x.ndim != 2 or x.shape[0] != dim:
+            raise InvalidInputError(
+                "positions must have shape ({}, n) for a {}D mesh, got {}"
+                .format(dim, dim, x.shape))
+        check_finite("x", x)
+        tind, X = find(x)
+        missing = np.flatnonzero(tind < 0)
+        if missing.size:
+            raise PointsOutsideGridError(
+                "{} material point(s) lie outside the grid, indices {}{} at "
+                "x = {}".format(missing.size, missing[:10].tolist(),
+                                "..." if missing.size > 10 else "",
+                                x[:, missing[:3]].T.tolist()),
+                indices=missing)
+        return tind, X
+
+    return locate
+
+
+def locate_points(mesh: Mesh, x: ndarray, **kwargs) -> Tuple[ndarray, ndarray]:
+    """Locate points once: ``point_locator(mesh, **kwargs)(x)``.
+
+    Build the locator with :func:`point_locator` when locating repeatedly on
+    the same grid.
+
+    """
+    return point_locator(mesh, **kwargs)(x)
+
+
+def _element_affine_maps(mesh: Mesh) -> Tuple[ndarray, ndarray]:
+    """x = origin + A X per element; returns origin (dim, nel), A^-1."""
+    mapping = fresh_mapping(mesh)
+    X0 = np.zeros((mesh.dim(), 1))
+    origin = mapping.F(X0)[:, :, 0]
+    A = mapping.DF(X0)[:, :, :, 0]
+    Ainv = np.linalg.inv(np.moveaxis(A, -1, 0))
+    return origin, np.moveaxis(Ainv, 0, -1)
+
+
+def _tensor_grid(mesh: Mesh):
+    """(axes, shape, cell_to_elem) if mesh is an axis-aligned grid, else None."""
+    dim = mesh.dim()
+    if mesh.refdom not in (RefLine, RefQuad, RefHex) \
+            or mesh.t.shape[0] != 2 ** dim:
+        return None
+    axes = [np.unique(mesh.p[d]) for d in range(dim)]
+    shape = tuple(len(a) - 1 for a in axes)
+    if min(shape) < 1 or np.prod(shape) != mesh.nelements \
+            or np.prod([len(a) for a in axes]) != mesh.nvertices:
+        return None
+    idx = np.array([np.searchsorted(a, mesh.p[d]) for d, a in enumerate(axes)])
+    ti = idx[:, mesh.t]                       # (dim, corners, nel)
+    lo = ti.min(axis=1)
+    off = ti - lo[:, None, :]
+    if off.max() > 1:
+        return None
+    code = sum(off[d] << d for d in range(dim))
+    if not (np.sort(code, axis=0) == np.arange(2 ** dim)[:, None]).all():
+        return None
+    cell = np.ravel_multi_index(tuple(lo), shape)
+    cell_to_elem = np.full(np.prod(shape), -1, dtype=np.int64)
+    cell_to_elem[cell] = np.arange(mesh.nelements)
+    if (cell_to_elem < 0).any():
+        return None
+    return axes, shape, cell_to_elem
+
+
+def _axis_cells(a: ndarray, x: ndarray, tol: float) -> ndarray:
+    """Cell index of x along one axis with nodes a; -1 outside."""
+    n = len(a) - 1
+    h = np.diff(a)
+    uniform = np.allclose(h, h[0], rtol=1e-12, atol=0.)
+    if uniform:
+        s = (x - a[0]) / h[0]
+        i = np.floor(s + tol).astype(np.int64)
+        outside = (s < -tol) | (s > n + tol)
+    else:
+        i = np.searchsorted(a[1:-1] - tol * h[:-1], x, side="right")
+        outside = (x < a[0] - tol * h[0]) | (x > a[-1] + tol * h[-1])
+    i = np.clip(i, 0, n - 1)
+    i[outside] = -1
+    return i
+
+
+def _tensor_finder(mesh: Mesh, grid, tol: float):
+    axes, shape, cell_to_elem = grid
+    origin, Ainv = _element_affine_maps(mesh)
+
+    def find(x):
+        cells = [_axis_cells(a, x[d], tol) for d, a in enumerate(axes)]
+        outside = np.any([c < 0 for c in cells], axis=0)
+        cells = [np.where(outside, 0, c) for c in cells]
+        tind = cell_to_elem[np.ravel_multi_index(tuple(cells), shape)]
+        X = np.einsum("ijn,jn->in", Ainv[:, :, tind], x - origin[:, tind])
+        tind[outside] = -1
+        return tind, X
+
+    return find
+
+
+def _margin(refdom, X: ndarray) -> ndarray:
+    """Smallest distance to the reference element's faces (< 0: outside)."""
+    if refdom in (RefTri, RefTet):
+        return np.minimum(X.min(axis=0), 1. - X.sum(axis=0))
+    return np.minimum(X.min(axis=0), (1. - X).min(axis=0))
+
+
+def _affine_local(mesh: Mesh):
+    origin, Ainv = _element_affine_maps(mesh)
+
+    def local(x, cand):
+        """x (dim, m), cand (m, k) -> X (dim, m, k)."""
+        return np.einsum("ijmk,jmk->imk", Ainv[:, :, cand],
+                         x[:, :, None] - origin[:, cand])
+
+    return local
+
+
+def _newton_local(mesh: Mesh, maxiter: int = 30):
+    """Inverse isoparametric map by Newton iteration (no mapping caches)."""
+    elem = mesh.elem()
+    p, t = mesh.doflocs, mesh.dofs.element_dofs
+    dim = mesh.dim()
+
+    def local(x, cand):
+        m, k = cand.shape
+        tind = cand.ravel()
+        target = np.repeat(x, k, axis=1)
+        X = np.full((dim, m * k), .5)
+        active = np.arange(m * k)
+        for _ in range(maxiter):
+            Xa, ta = X[:, active], tind[active]
+            F = np.zeros(Xa.shape)
+            DF = np.zeros((dim,) + Xa.shape)
+            for i in range(t.shape[0]):
+                phi, dphi = elem.lbasis(Xa, i)
+                node = p[:, t[i, ta]]                 # (dim, pairs)
+                F += node * phi
+                DF += node[:, None] * dphi[None]
+            dX = np.linalg.solve(np.moveaxis(DF, (0, 1), (-2, -1)),
+                                 (target[:, active] - F).T[..., None])
+            Xnew = np.clip(Xa + dX[..., 0].T, -2., 3.)
+            moved = np.abs(Xnew - Xa).max(axis=0) > 1e-14
+            X[:, active] = Xnew
+            active = active[moved]
+            if active.size == 0:
+                break
+        return X.reshape(dim, m, k)
+
+    return local
+
+
+def _general_finder(mesh: Mesh, tol: float, local):
+    centroids = mesh.p[:, mesh.t].mean(axis=1)
+    csum = centroids.sum(axis=0)
+    tree = cKDTree(centroids.T)
+    nel = mesh.nelements
+    k0 = min(nel, 2 ** mesh.dim())
+    kmax = min(nel, 512)
+
+    def find_chunk(x):
+        n = x.shape[1]
+        tind = np.full(n, -1, dtype=np.int64)
+        X = np.zeros_like(x)
+        todo = np.arange(n)
+        k = k0
+        while todo.size:
+            _, cand = tree.query(x[:, todo].T, k=k)
+            cand = cand.reshape(todo.size, k)
+            Xc = local(x[:, todo], cand)
+            inside = _margin(mesh.refdom, Xc) >= -tol
+            score = np.where(inside, csum[cand], -np.inf)
+            best = score.max(axis=1)
+            tie = np.where(score == best[:, None], cand, nel).argmin(axis=1)
+            found = np.isfinite(best)
+            rows = np.flatnonzero(found)
+            tind[todo[rows]] = cand[rows, tie[rows]]
+            X[:, todo[rows]] = Xc[:, rows, tie[rows]]
+            todo = todo[~found]
+            if k >= kmax:
+                break
+            k = min(kmax, 4 * k)
+        return tind, X
+
+    def find(x):
+        parts = [find_chunk(x[:, s:s + CHUNK])
+                 for s in range(0, x.shape[1], CHUNK)]
+        return (np.concatenate([p[0] for p in parts]),
+                np.hstack([p[1] for p in parts]))
+
+    return find

@@ -1,0 +1,263 @@
+"""Implicit quasi-static load stepping, small strain: seed Algorithm 2.1.
+
+Each load step reads like the algorithm: locate the points, activate the
+elements and DOFs that hold them, map external forces, assemble the
+stiffness from the points, solve, update strains and stresses at the points,
+check equilibrium, move the points.
+
+The solve of each step is the seed's (2.22) with the out-of-balance force
+as right-hand side, ``K du = f_ext(n+1) - f_int(sigma_n)``, the internal
+force being assembled at the points' current positions.  In the first step
+(zero initial stress) this is ``K du = f_ext``, the finite element solve.
+
+"""
+import logging
+import time
+from dataclasses import dataclass, field
+from typing import Callable, List, Optional
+
+import numpy as np
+from numpy import ndarray
+from skfem import Basis, asm
+from skfem.element import Element, ElementVector
+from skfem.mesh import Mesh
+
+from .basis import MaterialPointBasis
+from .errors import InvalidInputError, PointsOutsideGridError, \
+    SingularSystemError
+from .forms import (as_body_force, assemble_body_force, body_force,
+                    full_tensor, in_plane, internal_force)
+from .linsolve import free_dofs, solve_active, support_dofs
+from .locate import Locator, point_locator
+from .materials import LinearElastic
+from .points import MaterialPoints
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["solve_mpm", "Result", "StepRecord"]
+
+PHASES = ("locate", "assemble", "solve", "update", "check")
+
+
+@dataclass
+class StepRecord:
+    """What one load step did.
+
+    Attributes
+    ----------
+    step, load_factor
+        Step number (from 1) and the load factor reached (``step/nsteps``).
+    residual
+        Equilibrium check: ``|f_ext - f_int|`` over the free DOFs after the
+        stress update, relative to ``|f_ext|``.
+    n_active_elements, n_free_dofs
+        Size of the active grid.
+    timings
+        Seconds per phase: locate, assemble, solve, update, check.
+    u
+        Grid displacement increment of the step (``None`` unless
+        snapshots are kept).
+    x, displacement, stress
+        Point positions (after the update), accumulated displacements and
+        stresses at the end of the step (``None`` unless kept).
+
+    """
+    step: int
+    load_factor: float
+    residual: float
+    n_active_elements: int
+    n_free_dofs: int
+    timings: dict
+    u: Optional[ndarray] = None
+    x: Optional[ndarray] = None
+    displacement: Optional[ndarray] = None
+    stress: Optional[ndarray] = None
+
+
+@dataclass
+class Result:
+    """The outcome of :func:`solve_mpm`.
+
+    Attributes
+    ----------
+    points
+        Final material-point state.
+    history
+        One :class:`StepRecord` per load step.
+    basis
+        The material-point basis of the last step (before the final
+        position update), e.g. for plotting the last grid solution.
+
+    """
+    points: MaterialPoints
+    history: List[StepRecord] = field(default_factory=list)
+    basis: Optional[MaterialPointBasis] = None
+
+    def timings(self) -> dict:
+        """Total seconds per phase over all steps."""
+        return {p: sum(r.timings[p] for r in self.history) for p in PHASES}
+
+
+def vector_element(elem: Element) -> Element:
+    """``elem`` as a vector element (displacements have dim components)."""
+    return elem if isinstance(elem, ElementVector) else ElementVector(elem)
+
+
+def point_force_field(basis: MaterialPointBasis, points: MaterialPoints,
+                      factor: float) -> ndarray:
+    """Point forces as a force-per-volume field for :data:`body_force`."""
+    return basis.quadrature_field(factor * points.force / points.volume)
+
+
+def external_force(basis: MaterialPointBasis, points: MaterialPoints,
+                   gravity: Optional[ndarray], factor: float) -> ndarray:
+    """``f_ext`` at load factor ``factor``: body force (2.19) and point
+    forces (2.18), each assembled only when the scene has it."""
+    f = np.zeros(basis.N)
+    if gravity is not None:
+        f += assemble_body_force(basis, factor * gravity)
+    if points.force.any():
+        f += asm(body_force, basis, b=point_force_field(basis, points, factor))
+    return f
+
+
+def assemble_internal_force(basis: MaterialPointBasis,
+                            stress: ndarray) -> ndarray:
+    """``f_int = sum_p B_p^T sigma_p V_p``, seed (2.24)."""
+    sig = basis.quadrature_field(in_plane(stress, basis.mesh.dim()))
+    return asm(internal_force, basis, sig=sig)
+
+
+def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
+              material: LinearElastic, supports, body_force=None,
+              nsteps: int = 1, locator: Optional[Locator] = None,
+              solver: Optional[Callable] = None, keep_snapshots: bool = True,
+              update_positions: bool = True) -> Result:
+    """Run the implicit MPM of seed Algorithm 2.1 (small strain).
+
+    Parameters
+    ----------
+    mesh
+        Background grid, any scikit-fem mesh.
+    elem
+        scikit-fem element (``ElementQuad1()`` or its ``ElementVector``).
+    points
+        Initial material points; copied, not modified.
+    material
+        :class:`~skfem_mpm.materials.LinearElastic`.
+    supports
+        Fixed (zero) grid DOFs: DOF indices, a ``DofsView`` or a callable
+        taking the grid's ``Basis`` (Gauss quadrature, all elements), e.g.
+        ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.
+    body_force
+        Body force per unit volume at full load, shape (dim,); ``None``: no
+        body force is assembled.
+    nsteps
+        Number of load steps; loads are ramped linearly.
+    locator
+        Optional :func:`~skfem_mpm.point_locator` of ``mesh`` to reuse.
+    solver
+        Optional scikit-fem linear solver ``f(A, b) -> x``.
+    keep_snapshots
+        Keep per-step grid displacements, point positions, displacements
+        and stresses in the history.
+    update_positions
+        Move the points at the end of each step (MPM).  ``False`` keeps
+        them fixed: a finite element analysis with the points as quadrature.
+
+    Returns
+    -------
+    Result
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem import MeshLine, ElementLineP1
+    >>> from skfem_mpm import seed_points, solve_mpm, LinearElastic
+    >>> mesh = MeshLine(np.linspace(0., 50., 11))
+    >>> res = solve_mpm(mesh, ElementLineP1(), seed_points(mesh, 2),
+    ...                 LinearElastic(1e6, 0.), lambda b: b.get_dofs(lambda x: x[0] == 0),
+    ...                 body_force=[-800.], nsteps=1)
+    >>> round(float(res.points.displacement[0].min()), 4)
+    -0.9975
+
+    """
+    if int(nsteps) != nsteps or nsteps < 1:
+        raise InvalidInputError(
+            "nsteps must be a positive integer, got {}".format(nsteps))
+    if points.dim != mesh.dim():
+        raise InvalidInputError(
+            "points are {}D but the mesh is {}D".format(points.dim, mesh.dim()))
+    gravity = as_body_force(body_force, mesh.dim())
+    elem = vector_element(elem)
+    grid = Basis(mesh, elem, intorder=0)
+    D = support_dofs(supports, grid)
+    locate = point_locator(mesh) if locator is None else locator
+    stiffness = material.stiffness_form()
+    points = points.copy()
+    result = Result(points=points)
+    location = None
+    for step in range(1, int(nsteps) + 1):
+        factor = step / nsteps
+        t = dict.fromkeys(PHASES, 0.)
+        tic = time.perf_counter()
+        if location is None or update_positions:
+            try:
+                location = locate(points.x)
+            except PointsOutsideGridError as err:
+                err.step = step
+                raise
+        t["locate"] = time.perf_counter() - tic
+
+        tic = time.perf_counter()
+        basis = MaterialPointBasis(mesh, elem, points, location, dofs=grid.dofs)
+        try:
+            free = free_dofs(basis.active_dofs, D)
+        except SingularSystemError as err:
+            raise SingularSystemError("step {}: {}".format(step, err)) from err
+        f_ext = external_force(basis, points, gravity, factor)
+        f_int = assemble_internal_force(basis, points.stress) \
+            if points.stress.any() else np.zeros(basis.N)
+        K = asm(stiffness, basis)
+        t["assemble"] = time.perf_counter() - tic
+
+        tic = time.perf_counter()
+        try:
+            du = solve_active(K, f_ext - f_int, free, solver=solver)
+        except SingularSystemError as err:
+            raise SingularSystemError("step {}: {}".format(step, err)) from err
+        t["solve"] = time.perf_counter() - tic
+
+        tic = time.perf_counter()
+        du_field = basis.interpolate(du)
+        grad = basis.point_values(du_field.grad)
+        deps = full_tensor(.5 * (grad + grad.transpose(1, 0, 2)))
+        points.strain += deps
+        points.stress += material.stress(deps)
+        t["update"] = time.perf_counter() - tic
+
+        tic = time.perf_counter()
+        r = (f_ext - assemble_internal_force(basis, points.stress))[free]
+        residual = np.linalg.norm(r) / max(np.linalg.norm(f_ext[free]),
+                                          np.finfo(float).tiny)
+        t["check"] = time.perf_counter() - tic
+
+        tic = time.perf_counter()
+        dup = basis.point_values(du_field.value)
+        points.displacement += dup
+        if update_positions:
+            points.x += dup
+        t["update"] += time.perf_counter() - tic
+
+        record = StepRecord(step, factor, residual, basis.nelems, free.size, t)
+        if keep_snapshots:
+            record.u = du
+            record.x = points.x.copy()
+            record.displacement = points.displacement.copy()
+            record.stress = points.stress.copy()
+        result.history.append(record)
+        result.basis = basis
+        logger.info("step %d/%d: %d active elements, %d free DOFs, "
+                    "residual %.2e, %.3f s", step, nsteps, basis.nelems,
+                    free.size, residual, sum(t.values()))
+    return result
