@@ -84,4 +84,4 @@ def solve_fe(mesh: Mesh, elem: Element, material: LinearElastic, supports,
     grad = basis.interpolate(u).grad
     strain = full_tensor(.5 * (grad + grad.transpose(1, 0, 2, 3)))
     return FEResult(basis, u, material.stress(strain),
-                    basis.global_coordinates().value)
+                    np.asarray(basis.global_coordinates()))

@@ -13,12 +13,13 @@ from typing import Callable, Optional
 import numpy as np
 from numpy import ndarray
 from scipy.sparse import spmatrix
-from scipy.sparse.linalg import MatrixRankWarning
+from scipy.sparse.linalg import MatrixRankWarning, splu
 from skfem import condense, solve
 
 from .errors import InvalidInputError, SingularSystemError
 
-__all__ = ["support_dofs", "free_dofs", "solve_active"]
+__all__ = ["support_dofs", "free_dofs", "solver_direct_checked",
+           "solve_active"]
 
 
 def support_dofs(supports, basis) -> ndarray:
@@ -57,10 +58,46 @@ def free_dofs(active: ndarray, D: ndarray) -> ndarray:
     return free
 
 
+def solver_direct_checked(pivot_tol: float = 1e-10) -> Callable:
+    """scipy's sparse LU (SuperLU) as a scikit-fem solver ``f(A, b) -> x``
+    that refuses singular systems.
+
+    A stiffness with rigid-body modes factorises with a pivot at round-off
+    level (1e-16 to 1e-11 of the largest pivot, growing with the size) where
+    a supported body's smallest pivot is a sizeable fraction of the largest
+    one; pivots below ``pivot_tol`` times the largest raise
+    :class:`~skfem_mpm.errors.SingularSystemError`.
+
+    """
+    def solver(A, b, **kwargs):
+        try:
+            lu = splu(A.tocsc())
+        except RuntimeError as err:
+            raise SingularSystemError(
+                "the stiffness on {} free DOFs is singular ({}): the active "
+                "grid has rigid-body modes; add supports".format(A.shape[0],
+                                                                 err)) from err
+        pivots = np.abs(lu.U.diagonal())
+        ratio = pivots.min() / pivots.max()
+        if not ratio >= pivot_tol:
+            raise SingularSystemError(
+                "the stiffness on {} free DOFs is singular: smallest pivot "
+                "{:.1e} of the largest (below {:.0e}); the active grid has "
+                "rigid-body modes: add supports".format(A.shape[0], ratio,
+                                                        pivot_tol))
+        return lu.solve(b)
+
+    return solver
+
+
 def solve_active(K: spmatrix, f: ndarray, free: ndarray,
                  solver: Optional[Callable] = None, tol: float = 1e-8,
                  ) -> ndarray:
-    """Solve ``K u = f`` on the DOFs ``free`` (zero elsewhere).
+    """Solve ``K u = f`` on the DOFs ``free`` (zero elsewhere) with
+    scikit-fem's ``condense`` and ``solve``.
+
+    ``solver`` is a scikit-fem solver ``f(A, b) -> x``; default
+    :func:`solver_direct_checked`.
 
     Raises
     ------
@@ -76,7 +113,8 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
         warnings.simplefilter("error", MatrixRankWarning)
         try:
             A, b, x, I = condense(K, f, I=free)
-            u = solve(A, b, x, I, solver=solver)
+            u = solve(A, b, x, I, solver=solver_direct_checked()
+                      if solver is None else solver)
         except (MatrixRankWarning, RuntimeError) as err:
             raise SingularSystemError(
                 "the stiffness on {} free DOFs is singular ({}): the active "

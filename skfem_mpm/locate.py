@@ -24,6 +24,7 @@ from typing import Callable, Tuple
 
 import numpy as np
 from numpy import ndarray
+from scipy.sparse import coo_matrix
 from scipy.spatial import cKDTree
 from skfem.mesh import Mesh
 from skfem.refdom import RefHex, RefLine, RefQuad, RefTet, RefTri
@@ -246,41 +247,70 @@ def _newton_local(mesh: Mesh, maxiter: int = 30):
             active = active[moved]
             if active.size == 0:
                 break
+        X[:, active] = np.nan      # not converged: not inside
         return X.reshape(dim, m, k)
 
     return local
+
+
+def _vertex_neighbours(mesh: Mesh) -> ndarray:
+    """(nel, max_neighbours) elements sharing a vertex with each element,
+    the element itself included; rows padded with the element itself."""
+    nel, nv = mesh.nelements, mesh.t.shape[0]
+    incidence = coo_matrix((np.ones(mesh.t.size), (np.repeat(
+        np.arange(nel), nv), mesh.t.T.ravel())), shape=(nel, mesh.nvertices))
+    adjacency = (incidence.tocsr() @ incidence.T.tocsr()).tocsr()
+    counts = np.diff(adjacency.indptr)
+    out = np.repeat(np.arange(nel)[:, None], counts.max(), axis=1)
+    rows = np.repeat(np.arange(nel), counts)
+    cols = np.arange(adjacency.nnz) - np.repeat(adjacency.indptr[:-1], counts)
+    out[rows, cols] = adjacency.indices
+    return out
 
 
 def _general_finder(mesh: Mesh, tol: float, local):
     centroids = mesh.p[:, mesh.t].mean(axis=1)
     csum = centroids.sum(axis=0)
     tree = cKDTree(centroids.T)
+    neighbours = _vertex_neighbours(mesh)
     nel = mesh.nelements
     k0 = min(nel, 2 ** mesh.dim())
     kmax = min(nel, 512)
+
+    def choose(x, cand):
+        """Among candidates (m, k) holding x (dim, m), the deciding one:
+        largest centroid coordinate sum, then lowest index."""
+        Xc = local(x, cand)
+        margin = _margin(mesh.refdom, Xc)
+        score = np.where(margin >= -tol, csum[cand], -np.inf)
+        best = score.max(axis=1)
+        pick = np.where(score == best[:, None], cand, nel).argmin(axis=1)
+        rows = np.arange(cand.shape[0])
+        return (np.isfinite(best), cand[rows, pick], Xc[:, rows, pick],
+                margin[rows, pick])
 
     def find_chunk(x):
         n = x.shape[1]
         tind = np.full(n, -1, dtype=np.int64)
         X = np.zeros_like(x)
+        margin = np.zeros(n)
         todo = np.arange(n)
         k = k0
         while todo.size:
             _, cand = tree.query(x[:, todo].T, k=k)
-            cand = cand.reshape(todo.size, k)
-            Xc = local(x[:, todo], cand)
-            inside = _margin(mesh.refdom, Xc) >= -tol
-            score = np.where(inside, csum[cand], -np.inf)
-            best = score.max(axis=1)
-            tie = np.where(score == best[:, None], cand, nel).argmin(axis=1)
-            found = np.isfinite(best)
-            rows = np.flatnonzero(found)
-            tind[todo[rows]] = cand[rows, tie[rows]]
-            X[:, todo[rows]] = Xc[:, rows, tie[rows]]
+            found, t, Xt, mt = choose(x[:, todo], cand.reshape(todo.size, k))
+            hit = todo[found]
+            tind[hit], X[:, hit], margin[hit] = t[found], Xt[:, found], \
+                mt[found]
             todo = todo[~found]
             if k >= kmax:
                 break
             k = min(kmax, 4 * k)
+        # near a face, every element sharing a vertex may hold the point
+        near = np.flatnonzero((tind >= 0) & (margin <= tol))
+        if near.size:
+            _, t, Xt, _ = choose(x[:, near], neighbours[tind[near]])
+            tind[near], X[:, near] = t, Xt
         return tind, X
 
     def find(x):

@@ -243,7 +243,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         t["check"] = time.perf_counter() - tic
 
         tic = time.perf_counter()
-        dup = basis.point_values(du_field.value)
+        dup = basis.point_values(np.asarray(du_field))
         points.displacement += dup
         if update_positions:
             points.x += dup

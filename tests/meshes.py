@@ -1,0 +1,25 @@
+"""Meshes shared by the tests."""
+import numpy as np
+from skfem import (ElementHex1, ElementLineP1, ElementQuad1, ElementTetP1,
+                   ElementTriP1, MeshHex, MeshLine, MeshQuad, MeshTet, MeshTri)
+
+
+def distorted_quads():
+    """A quadrilateral mesh with non-parallelogram (bilinear) elements."""
+    mesh = MeshQuad().refined(2)
+    p = mesh.p.copy()
+    interior = (p > 0).all(axis=0) & (p < 1).all(axis=0)
+    rng = np.random.default_rng(0)
+    p[:, interior] += rng.uniform(-.06, .06, size=(2, interior.sum()))
+    return MeshQuad(p, mesh.t)
+
+
+FAMILIES = {
+    "line": (lambda: MeshLine(np.linspace(0., 2., 7)), ElementLineP1),
+    "quad": (lambda: MeshQuad.init_tensor(np.linspace(0, 2, 5),
+                                          np.linspace(0, 1, 4)), ElementQuad1),
+    "quad-distorted": (distorted_quads, ElementQuad1),
+    "tri": (lambda: MeshTri().refined(2), ElementTriP1),
+    "hex": (lambda: MeshHex().refined(1), ElementHex1),
+    "tet": (lambda: MeshTet().refined(1), ElementTetP1),
+}

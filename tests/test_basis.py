@@ -1,0 +1,99 @@
+import numpy as np
+import pytest
+from skfem import (Basis, BilinearForm, ElementQuad1, ElementVector,
+                   Functional, LinearForm, MeshQuad, asm, condense, solve)
+from skfem.helpers import dot
+from skfem.models.elasticity import linear_elasticity
+from skfem.models.poisson import laplace
+
+from skfem_mpm import (InvalidInputError, MaterialPointBasis, MaterialPoints,
+                       seed_gauss_points)
+
+
+def test_vector_elasticity_equals_fe_at_gauss_points(family):
+    name, mesh, elem = family
+    elem = ElementVector(elem)
+    fe = Basis(mesh, elem, intorder=2)
+    mp = MaterialPointBasis(mesh, elem, seed_gauss_points(mesh, 2))
+    form = linear_elasticity(1.3, .7)
+    K_fe, K_mp = asm(form, fe), asm(form, mp)
+    assert abs(K_mp - K_fe).max() <= 1e-12 * abs(K_fe).max()
+    load = LinearForm(lambda v, w: dot(w.x, v))
+    f_fe, f_mp = asm(load, fe), asm(load, mp)
+    assert np.abs(f_mp - f_fe).max() <= 1e-12 * np.abs(f_fe).max()
+    area = Functional(lambda w: 1. + 0. * w.x[0])
+    assert abs(asm(area, mp) - asm(area, fe)) < 1e-13
+
+
+def arbitrary_points(mesh, n, seed=0):
+    """Random points inside random elements, with random positive volumes."""
+    rng = np.random.default_rng(seed)
+    tind = rng.integers(0, mesh.nelements, n)
+    X = rng.random((mesh.dim(), n))
+    if mesh.refdom.name in ("Triangular", "Tetrahedral"):
+        X *= (rng.random(n) / X.sum(axis=0))[None]   # inside the simplex
+    from skfem_mpm.mapping import fresh_mapping
+    x = fresh_mapping(mesh).F(X[:, :, None], tind=tind)[:, :, 0]
+    return MaterialPoints(x=x, volume=rng.uniform(.1, 1., n))
+
+
+def test_partition_of_unity_and_linear_reproduction(family):
+    name, mesh, elem = family
+    points = arbitrary_points(mesh, 300)
+    basis = MaterialPointBasis(mesh, elem, points)
+    dim = mesh.dim()
+    # sum of shape functions is one, sum of gradients zero
+    one = basis.interpolate(np.ones(basis.N))
+    assert np.abs(basis.point_values(np.asarray(one)) - 1.).max() < 1e-13
+    assert np.abs(basis.point_values(one.grad)).max() < 1e-12
+    # nodal coordinates interpolate to the point positions, gradient = I
+    for d in range(dim):
+        field = basis.interpolate(basis.doflocs[d])
+        assert np.abs(basis.point_values(np.asarray(field)) - points.x[d]).max() \
+            < 1e-13
+        grad = basis.point_values(field.grad)
+        assert np.abs(grad - np.eye(dim)[d][:, None]).max() < 1e-11
+
+
+def test_padding_slots_carry_no_weight():
+    mesh = MeshQuad().refined(1)
+    # 3 points in element holding (.1, .1), 1 point elsewhere
+    x = np.array([[.1, .2, .15, .7], [.1, .2, .3, .8]])
+    pts = MaterialPoints(x=x, volume=np.array([1., 2., 3., 4.]))
+    basis = MaterialPointBasis(mesh, ElementQuad1(), pts)
+    assert basis.nelems == 2 and basis.point_index.shape == (2, 3)
+    assert (basis.point_index == -1).sum() == 2
+    np.testing.assert_allclose(basis.dx.sum(), 10.)
+    mass = asm(BilinearForm(lambda u, v, w: u * v), basis)
+    assert abs(mass.sum() - 10.) < 1e-13
+    values = np.arange(4.) * 10
+    np.testing.assert_array_equal(
+        basis.point_values(basis.quadrature_field(values)), values)
+    # active DOFs: the nodes of the two active elements
+    assert basis.active_dofs.size == 7
+
+
+def test_condense_and_solve_on_the_active_grid():
+    """Poisson with points in part of the domain: scikit-fem's condense and
+    solve on the active DOFs reproduce a linear field exactly."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    pts = seed_gauss_points(mesh, 2, region=lambda x: x[0] < .5)
+    basis = MaterialPointBasis(mesh, ElementQuad1(), pts)
+    K = asm(laplace, basis)
+    exact = 1. + 2. * basis.doflocs[0] - basis.doflocs[1]
+    active = basis.active_dofs
+    x, y = basis.doflocs[:, active]
+    D = active[(x == 0) | (x == .5) | (y == 0) | (y == 1)]
+    I = np.setdiff1d(active, D)
+    u = solve(*condense(K, np.zeros(basis.N), x=exact, I=I))
+    assert np.abs(u[active] - exact[active]).max() < 1e-12
+
+
+def test_bad_basis_input():
+    mesh = MeshQuad()
+    with pytest.raises(InvalidInputError, match="must be MaterialPoints"):
+        MaterialPointBasis(mesh, ElementQuad1(), np.zeros((2, 3)))
+    pts = MaterialPoints(x=np.full((2, 2), .5), volume=np.ones(2))
+    with pytest.raises(InvalidInputError, match="does not match 2 points"):
+        MaterialPointBasis(mesh, ElementQuad1(), pts,
+                           location=(np.zeros(3, dtype=int), np.zeros((2, 3))))

@@ -1,0 +1,121 @@
+import numpy as np
+import pytest
+from skfem import MeshHex, MeshLine, MeshQuad, MeshTet, MeshTri
+
+from skfem_mpm import (InvalidInputError, PointsOutsideGridError,
+                       UnsupportedElementError, point_locator)
+from skfem_mpm.mapping import fresh_mapping
+
+from meshes import distorted_quads
+
+TENSOR_GRIDS = {
+    "line": MeshLine(np.array([0., .3, .5, 1.2, 2.])),
+    "quad-uniform": MeshQuad.init_tensor(np.linspace(0, 3, 31),
+                                         np.linspace(-1, 1, 21)),
+    "quad-graded": MeshQuad.init_tensor(np.array([0., .1, .3, .7, 1.5]),
+                                        np.array([0., .5, .6, 2.])),
+    "hex": MeshHex.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 4),
+                               np.array([0., .2, 1.])),
+}
+
+
+def maps_back(mesh, tind, X, x):
+    """Global coordinates of (tind, X) equal x."""
+    y = fresh_mapping(mesh).F(X[:, :, None], tind=tind)[:, :, 0]
+    return np.abs(y - x).max()
+
+
+def random_points(mesh, n, seed=0):
+    rng = np.random.default_rng(seed)
+    lo, hi = mesh.p.min(axis=1), mesh.p.max(axis=1)
+    return lo[:, None] + (hi - lo)[:, None] * rng.random((mesh.dim(), n))
+
+
+@pytest.mark.parametrize("name", list(TENSOR_GRIDS))
+def test_tensor_and_general_paths_agree(name):
+    mesh = TENSOR_GRIDS[name]
+    x = random_points(mesh, 20000)
+    # points exactly on every node and on the outer boundary, plus
+    # perturbations of 1e-14 around them
+    nodes = mesh.p
+    x = np.hstack((x, nodes, nodes + 1e-14, nodes - 1e-14))
+    lo, hi = mesh.p.min(axis=1)[:, None], mesh.p.max(axis=1)[:, None]
+    x = np.clip(x, lo, hi)
+    t1, X1 = point_locator(mesh, method="tensor")(x)
+    t2, X2 = point_locator(mesh, method="general")(x)
+    np.testing.assert_array_equal(t1, t2)
+    assert np.abs(X1 - X2).max() < 1e-12
+    assert maps_back(mesh, t1, X1, x) < 1e-12
+
+
+def test_points_on_grid_lines_go_to_the_upper_cell():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 3), np.linspace(0, 2, 3))
+    locate = point_locator(mesh)
+    x = np.array([[1., 1., 2., 0., 1.],
+                  [1., .5, 2., 0., 2.]])
+    tind, X = locate(x)
+    centroids = mesh.p[:, mesh.t].mean(axis=1)[:, tind]
+    np.testing.assert_allclose(centroids, [[1.5, 1.5, 1.5, .5, 1.5],
+                                           [1.5, .5, 1.5, .5, 1.5]])
+    # a perturbation of 1e-14 does not change the assignment
+    for shift in (1e-14, -1e-14):
+        t2, X2 = locate(np.clip(x + shift, 0, 2))
+        np.testing.assert_array_equal(t2, tind)
+        assert np.abs(X2 - X).max() < 1e-13
+
+
+@pytest.mark.parametrize("mesh", [MeshTri().refined(3), MeshTet().refined(2),
+                                  distorted_quads(),
+                                  MeshHex().refined(1).with_defaults()])
+def test_general_path_on_unstructured_and_distorted_meshes(mesh):
+    if isinstance(mesh, MeshHex):   # make it non-affine
+        p = mesh.p.copy()
+        inner = (p > 0).all(axis=0) & (p < 1).all(axis=0)
+        p[:, inner] += .1
+        mesh = MeshHex(p, mesh.t)
+    x = random_points(mesh, 5000, seed=1)
+    locate = point_locator(mesh)
+    tind, X = locate(x)
+    assert maps_back(mesh, tind, X, x) < 1e-10
+    # every local coordinate inside the reference element
+    assert X.min() > -1e-10 and X.max() < 1 + 1e-10
+
+
+def test_million_points_on_a_tensor_grid():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 10, 201), np.linspace(0, 5, 101))
+    x = random_points(mesh, 1_000_000, seed=2)
+    tind, X = point_locator(mesh)(x)
+    # cell index from the coordinates directly
+    ix = np.minimum((x[0] / .05).astype(int), 199)
+    iy = np.minimum((x[1] / .05).astype(int), 99)
+    centroids = mesh.p[:, mesh.t].mean(axis=1)
+    assert np.abs(centroids[0, tind] - (ix + .5) * .05).max() < 1e-12
+    assert np.abs(centroids[1, tind] - (iy + .5) * .05).max() < 1e-12
+    assert X.min() >= -1e-12 and X.max() <= 1 + 1e-12
+
+
+def test_outside_points_are_named():
+    mesh = MeshQuad().refined(1)
+    x = np.array([[.5, 1.5, .2, -.1], [.5, .5, .2, .3]])
+    for method in ("tensor", "general"):
+        with pytest.raises(PointsOutsideGridError,
+                           match=r"2 material point\(s\).*indices \[1, 3\]") \
+                as err:
+            point_locator(mesh, method=method)(x)
+        np.testing.assert_array_equal(err.value.indices, [1, 3])
+    tri = MeshTri()
+    with pytest.raises(PointsOutsideGridError, match=r"indices \[0\]"):
+        point_locator(tri)(np.array([[.9], [.9001]]) + np.array([[0], [.2]]))
+
+
+def test_bad_locator_input():
+    mesh = MeshQuad()
+    locate = point_locator(mesh)
+    with pytest.raises(InvalidInputError, match="non-finite"):
+        locate(np.array([[.5, np.nan], [.5, .5]]))
+    with pytest.raises(InvalidInputError, match=r"shape \(2, n\)"):
+        locate(np.zeros((3, 4)))
+    with pytest.raises(UnsupportedElementError, match="not an axis-aligned"):
+        point_locator(MeshTri(), method="tensor")
+    with pytest.raises(InvalidInputError, match="method"):
+        point_locator(mesh, method="fast")

@@ -1,0 +1,64 @@
+import numpy as np
+import pytest
+from skfem import MeshHex, MeshQuad, MeshTri
+
+from skfem_mpm import (InvalidInputError, MaterialPoints, UnsupportedElementError,
+                       seed_gauss_points, seed_points)
+from skfem.mesh import MeshTet
+
+
+def test_subcell_seeding_fills_elements_with_equal_volumes():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 3), np.linspace(0, 1, 3))
+    mp = seed_points(mesh, 3)
+    assert mp.n == 4 * 9
+    np.testing.assert_allclose(mp.volume, 0.5 / 9, rtol=1e-14)
+    assert abs(mp.volume.sum() - 2.) < 1e-13
+    # sub-cell centres of the first cell [0, 1] x [0, 0.5]
+    xs = np.sort(np.unique(np.round(mp.x[0][mp.x[0] < 1], 12)))
+    np.testing.assert_allclose(xs, [1 / 6, 1 / 2, 5 / 6])
+
+
+@pytest.mark.parametrize("mesh", [MeshTri().refined(1), MeshHex().refined(1)])
+def test_seeding_volume_equals_mesh_volume(mesh):
+    for mp in (seed_points(mesh, 2), seed_gauss_points(mesh, 2)):
+        assert abs(mp.volume.sum() - 1.) < 1e-13
+    tri = seed_points(MeshTri(), 3)
+    assert tri.n == 2 * 9 and np.allclose(tri.volume, .5 / 9)
+
+
+def test_region_restricts_points():
+    mesh = MeshQuad().refined(2)
+    mp = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+    assert mp.n == 32 and (mp.x[1] < .5).all()
+    assert abs(mp.volume.sum() - .5) < 1e-14
+    mp = seed_gauss_points(mesh, 2, elements=np.array([0, 1]))
+    assert mp.n == 8
+    with pytest.raises(InvalidInputError, match="no material point"):
+        seed_points(mesh, 2, region=lambda x: x[0] > 5)
+
+
+def test_tet_subcell_seeding_is_refused_with_a_pointer():
+    with pytest.raises(UnsupportedElementError, match="seed_gauss_points"):
+        seed_points(MeshTet(), 2)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(x=[[0., np.nan]], volume=[1., 1.]), "x holds 1 non-finite"),
+    (dict(x=[[0., 1.]], volume=[1., np.inf]), "volume holds 1 non-finite"),
+    (dict(x=[[0., 1.]], volume=[1., 0.]), "point 1 has volume 0"),
+    (dict(x=[[0., 1.]], volume=[-1., 1.]), "volume must be positive"),
+    (dict(x=[[0., 1.]], volume=[1.]), r"volume must have shape \(2,\)"),
+    (dict(x=[0., 1.], volume=[1., 1.]), r"shape \(dim, n\)"),
+    (dict(x=[[0., 1.]], volume=[1., 1.], force=[[1.]]), "force must have"),
+])
+def test_bad_point_input_is_named(kwargs, match):
+    with pytest.raises(InvalidInputError, match=match):
+        MaterialPoints(**kwargs)
+
+
+def test_copy_is_deep():
+    mp = seed_points(MeshQuad(), 2)
+    cp = mp.copy()
+    cp.x[0, 0] += 1.
+    cp.stress[0, 0, 0] = 5.
+    assert mp.x[0, 0] != cp.x[0, 0] and mp.stress[0, 0, 0] == 0.
