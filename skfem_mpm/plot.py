@@ -1,5 +1,5 @@
-"""Plots of point results (matplotlib, imported lazily)."""
-from typing import Sequence
+"""Plots of point results (matplotlib, imported lazily, Agg backend)."""
+from typing import Dict, Sequence
 
 import numpy as np
 
@@ -8,19 +8,30 @@ from .column import analytical_stress, analytical_stress_current, \
 from .io import atomic_path
 from .solver import Result
 
-__all__ = ["plot_column_stress"]
+__all__ = ["pyplot", "save_figure", "draw_column_stress", "draw_convergence",
+           "plot_column_stress"]
 
 
-def plot_column_stress(results: Sequence[Result], labels: Sequence[str],
-                       path, title: str = ""):
-    """Vertical stress of the column's points against height, with the
-    linear solution at initial heights and seed (2.27) at current ones
-    (seed Figure 2.9).  Written atomically to ``path`` (PNG)."""
+def pyplot():
+    """matplotlib.pyplot on the non-interactive Agg backend."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    return plt
 
-    fig, ax = plt.subplots(figsize=(4.5, 4.))
+
+def save_figure(fig, path, dpi: int = 120):
+    """Write ``fig`` to ``path`` (PNG) atomically and close it."""
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=dpi, format="png")
+    pyplot().close(fig)
+
+
+def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
+                       title: str = ""):
+    """Vertical stress of the column's points against current height, with
+    the linear solution at initial heights and seed (2.27) at current ones
+    (a panel of seed Figure 2.9)."""
     for res, label in zip(results, labels):
         pts = res.points
         order = np.argsort(pts.x[-1])
@@ -29,16 +40,36 @@ def plot_column_stress(results: Sequence[Result], labels: Sequence[str],
     pts = results[0].points
     Y = np.linspace(0., pts.x0[-1].max(), 200)
     ax.plot(-analytical_stress(Y), Y, "k--", lw=1,
-            label=r"$\rho_0 b (L_0 - Y)$ at initial height")
+            label=r"$\rho_0 b (L_0 - Y)$, initial height")
     top = pts.x[-1].max()
     z = np.linspace(0., top, 200)
     ax.plot(-analytical_stress_current(z, top), z, "k:", lw=1,
-            label="(2.27) at current height")
+            label="(2.27), current height")
     ax.set_xlabel(r"$-\sigma_{yy}$")
     ax.set_ylabel("height")
-    ax.set_title(title)
-    ax.legend(fontsize=7)
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6)
+
+
+def draw_convergence(ax, nelems: np.ndarray, errors: Dict[str, np.ndarray],
+                     rates: Dict[str, float], title: str = ""):
+    """Error against number of elements on log-log axes, one curve per
+    label with its fitted rate (a panel of seed Figure 2.10)."""
+    for label, err in errors.items():
+        ax.loglog(nelems, err, "o-", ms=3, lw=.8,
+                  label="{} (rate {:.2f})".format(label, rates[label]))
+    ref = errors[next(iter(errors))][0] * nelems[0] / nelems
+    ax.loglog(nelems, ref, "k:", lw=.8, label="slope 1")
+    ax.set_xlabel("number of elements")
+    ax.set_ylabel("error (2.28)")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6)
+
+
+def plot_column_stress(results: Sequence[Result], labels: Sequence[str],
+                       path, title: str = ""):
+    """One stress-profile panel written to ``path`` (PNG)."""
+    fig, ax = pyplot().subplots(figsize=(4.5, 4.))
+    draw_column_stress(ax, results, labels, title)
     fig.tight_layout()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=120, format="png")
-    plt.close(fig)
+    save_figure(fig, path)

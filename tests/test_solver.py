@@ -176,3 +176,16 @@ def test_bad_solver_input():
         solve_mpm(mesh, elem, MaterialPoints(x=[[.5]], volume=[1.]), MAT, sup)
     with pytest.raises(InvalidInputError, match="support DOF indices"):
         solve_mpm(mesh, elem, pts, MAT, np.array([0, 10**6]))
+
+
+def test_weak_equilibrium_with_a_linear_test_field():
+    """With v = (0, y), zero on the fixed base, the discrete weak form gives
+    sum_p sigma_yy V_p = sum_p y_p b_y V_p exactly after one step."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 4, 5), np.linspace(0, 12, 13))
+    pts = seed_points(mesh, 3, region=lambda x: x[1] < 10)
+    res = solve_mpm(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
+                    lambda b: b.get_dofs(lambda x: x[1] == 0),
+                    body_force=[0., -800.])
+    total = res.points.stress[1, 1] @ pts.volume
+    assert total == pytest.approx(-800. * pts.x[1] @ pts.volume, rel=1e-12)
+    assert total == pytest.approx(-160000., rel=1e-12)

@@ -1,0 +1,33 @@
+"""The README's commands and example stay true."""
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+README = (ROOT / "README.md").read_text()
+
+
+def blocks(language):
+    return re.findall(r"```{}\n(.*?)```".format(language), README, re.S)
+
+
+def test_two_commands_and_ci_runs_the_test_command():
+    commands = [b.strip() for b in blocks("bash")]
+    assert len(commands) == 2
+    main_job, tests = commands
+    assert main_job.endswith("skfem-mpm run")
+    ci = (ROOT / ".ci" / "run").read_text().splitlines()
+    assert tests in ci
+
+
+def test_readme_examples_run():
+    namespace = {}
+    for code in blocks("python"):
+        exec(compile(code, "README.md", "exec"), namespace)
+    pts = namespace["pts"]
+    # weak equilibrium with the test field v = (0, y), zero on the fixed
+    # base: sum_p sigma_yy V_p = int y b_y dV = -800 * 4 * 10**2 / 2, exact
+    # in one step; the 10 steps move the points by ~0.4%
+    total = pts.stress[1, 1] @ pts.volume
+    assert abs(total / -160000. - 1.) < 1e-2
+    assert namespace["result"].history[-1].residual < 1e-10
+    assert namespace["K"].shape == (130, 130)
