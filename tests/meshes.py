@@ -1,7 +1,8 @@
 """Meshes shared by the tests."""
 import numpy as np
-from skfem import (ElementHex1, ElementLineP1, ElementQuad1, ElementTetP1,
-                   ElementTriP1, MeshHex, MeshLine, MeshQuad, MeshTet, MeshTri)
+from skfem import (ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2,
+                   ElementTetP1, ElementTriP1, ElementTriP2, MeshHex, MeshLine,
+                   MeshQuad, MeshTet, MeshTri)
 
 
 def distorted_quads():
@@ -22,4 +23,8 @@ FAMILIES = {
     "tri": (lambda: MeshTri().refined(2), ElementTriP1),
     "hex": (lambda: MeshHex().refined(1), ElementHex1),
     "tet": (lambda: MeshTet().refined(1), ElementTetP1),
+    "quad-Q2": (lambda: MeshQuad.init_tensor(np.linspace(0, 2, 4),
+                                             np.linspace(0, 1, 3)),
+                ElementQuad2),
+    "tri-P2": (lambda: MeshTri().refined(1), ElementTriP2),
 }
