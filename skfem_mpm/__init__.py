@@ -6,11 +6,14 @@ conditions; this package locates points, moves them and keeps their state.
 
 """
 from .basis import MaterialPointBasis
-from .errors import (InvalidInputError, InvalidMaterialError, MPMError,
+from .errors import (ConvergenceError, InvalidInputError, InvalidMaterialError,
+                     InversionError, MPMError, NewtonDivergenceError,
                      PointsOutsideGridError, SingularSystemError,
                      UnsupportedElementError)
 from .locate import locate_points, point_locator
-from .materials import LinearElastic
+
+from .finite import solve_finite
+from .materials import LinearElastic, VonMises
 from .points import MaterialPoints, seed_gauss_points, seed_points
 from .solver import Result, StepRecord, solve_mpm
 
@@ -21,5 +24,6 @@ __all__ = [
     "locate_points", "point_locator", "MPMError", "InvalidInputError",
     "InvalidMaterialError", "PointsOutsideGridError", "SingularSystemError",
     "UnsupportedElementError", "LinearElastic", "solve_mpm", "Result",
-    "StepRecord",
+    "StepRecord", "VonMises", "solve_finite", "ConvergenceError",
+    "NewtonDivergenceError", "InversionError",
 ]

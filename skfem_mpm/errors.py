@@ -6,6 +6,7 @@ problem.  Messages say what is wrong, where (point or node indices) and with
 which value.
 
 """
+import numpy as np
 
 
 class MPMError(Exception):
@@ -47,3 +48,47 @@ class PointsOutsideGridError(MPMError):
 class SingularSystemError(MPMError):
     """The stiffness matrix is singular: the active grid has rigid-body
     modes (missing or insufficient supports) or the factorisation failed."""
+
+
+class ConvergenceError(MPMError):
+    """A load step could not be completed even after cutting it back to the
+    smallest allowed increment.
+
+    Attributes
+    ----------
+    state
+        The last converged :class:`~skfem_mpm.MaterialPoints` (nothing is
+        lost).
+    load_factor
+        The load factor of that state.
+    history
+        The records of the converged steps.
+
+    """
+
+    def __init__(self, message, state=None, load_factor=None, history=None):
+        super().__init__(message)
+        self.state = state
+        self.load_factor = load_factor
+        self.history = history
+
+
+class NewtonDivergenceError(ConvergenceError):
+    """Newton-Raphson did not reach the tolerance within the allowed
+    iterations (or produced non-finite values)."""
+
+
+class InversionError(ConvergenceError):
+    """A point's deformation gradient has ``det F <= 0`` (inverted
+    material)."""
+
+
+def check_finite(name: str, a: np.ndarray):
+    """Raise :class:`InvalidInputError` naming the first non-finite entry."""
+    bad = ~np.isfinite(a)
+    if bad.any():
+        where = np.argwhere(bad)
+        raise InvalidInputError(
+            "{} holds {} non-finite value(s) (NaN or inf), first at index {}: {}"
+            .format(name, int(bad.sum()), tuple(int(i) for i in where[0]),
+                    a[tuple(where[0])]))

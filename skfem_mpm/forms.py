@@ -10,8 +10,7 @@ from skfem.assembly import LinearForm, asm
 from skfem.assembly.basis import AbstractBasis
 from skfem.helpers import ddot, dot, sym_grad
 
-from .errors import InvalidInputError
-from .points import check_finite
+from .errors import InvalidInputError, check_finite
 
 __all__ = ["body_force", "internal_force", "in_plane", "full_tensor",
            "as_body_force", "assemble_body_force"]

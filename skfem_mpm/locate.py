@@ -30,9 +30,8 @@ from skfem.mesh import Mesh
 from skfem.refdom import RefHex, RefLine, RefQuad, RefTet, RefTri
 
 from .errors import (InvalidInputError, PointsOutsideGridError,
-                     UnsupportedElementError)
+                     UnsupportedElementError, check_finite)
 from .mapping import fresh_mapping
-from .points import check_finite
 
 logger = logging.getLogger(__name__)
 
@@ -85,7 +84,7 @@ def point_locator(mesh: Mesh, method: str = "auto",
     if mesh.refdom not in (RefLine, RefQuad, RefHex, RefTri, RefTet):
         raise UnsupportedElementError(
             "cannot locate points on a {} mesh".format(type(mesh).__name__))
-    grid = None if method == "general" else _tensor_grid(mesh)
+    grid = None if method == "general" else tensor_grid(mesh)
     if method == "tensor" and grid is None:
         raise UnsupportedElementError(
             "{} is not an axis-aligned tensor-product grid; use method="
@@ -139,7 +138,7 @@ def _element_affine_maps(mesh: Mesh) -> Tuple[ndarray, ndarray]:
     return origin, np.moveaxis(Ainv, 0, -1)
 
 
-def _tensor_grid(mesh: Mesh):
+def tensor_grid(mesh: Mesh):
     """(axes, shape, cell_to_elem) if mesh is an axis-aligned grid, else None."""
     dim = mesh.dim()
     if mesh.refdom not in (RefLine, RefQuad, RefHex) \

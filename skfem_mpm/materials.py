@@ -15,7 +15,7 @@ from skfem.models.elasticity import linear_elasticity
 
 from .errors import InvalidMaterialError
 
-__all__ = ["LinearElastic"]
+__all__ = ["LinearElastic", "VonMises"]
 
 
 @dataclass(frozen=True)
@@ -71,6 +71,76 @@ class LinearElastic:
             out[i, i] += self.lam * trace
         return out
 
+    def principal_update(self, eps: ndarray):
+        """Principal Kirchhoff stresses of principal logarithmic strains
+        (3, n): Hencky hyperelasticity.  Returns ``(tau, eps_e, D, yielded)``
+        with the tangent ``D = dtau/deps`` (3, 3, n)."""
+        tau = 2 * self.mu * eps + self.lam * eps.sum(axis=0)
+        D = np.broadcast_to(self.principal_stiffness()[:, :, None],
+                            (3, 3, eps.shape[1]))
+        return tau, eps, D, np.zeros(eps.shape[1], dtype=bool)
+
+    def principal_stiffness(self) -> ndarray:
+        """``lam 1 (x) 1 + 2 mu I`` on principal values, (3, 3)."""
+        return self.lam * np.ones((3, 3)) + 2 * self.mu * np.eye(3)
+
     def stiffness_form(self) -> BilinearForm:
         """The tangent stiffness as a scikit-fem form, seed (2.20)."""
         return linear_elasticity(self.lam, self.mu)
+
+
+@dataclass(frozen=True)
+class VonMises(LinearElastic):
+    """Von Mises elasto-plasticity, linear elastic and perfectly plastic,
+    with the return map in principal logarithmic strains (the exponential
+    map of finite-deformation plasticity).
+
+    Parameters
+    ----------
+    E, nu
+        Elastic constants as in :class:`LinearElastic`.
+    yield_stress
+        Uniaxial yield stress (of the Kirchhoff stress), positive.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem_mpm.materials import VonMises
+    >>> mat = VonMises(E=1e6, nu=0.3, yield_stress=20e3)
+    >>> eps = np.array([[0.05], [-0.05], [0.]])
+    >>> tau, eps_e, D, yielded = mat.principal_update(eps)
+    >>> bool(yielded[0]), round(float(np.sqrt(1.5) * np.linalg.norm(
+    ...     tau[:, 0] - tau[:, 0].mean())), 6)
+    (True, 20000.0)
+
+    """
+    yield_stress: float
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not float(self.yield_stress) > 0:
+            raise InvalidMaterialError(
+                "yield_stress must be positive, got {}".format(
+                    self.yield_stress))
+
+    def principal_update(self, eps: ndarray):
+        tau, _, D, _ = LinearElastic.principal_update(self, eps)
+        p = tau.mean(axis=0)
+        s = tau - p
+        norm_s = np.linalg.norm(s, axis=0)
+        q = np.sqrt(1.5) * norm_s
+        yielded = q > self.yield_stress * (1 + 1e-12)
+        if not yielded.any():
+            return tau, eps, D, yielded
+        ratio = np.where(yielded, self.yield_stress / np.where(yielded, q, 1.),
+                         1.)
+        tau = p + ratio * s
+        bulk = self.E / (3 * (1 - 2 * self.nu))
+        eps_e = np.where(yielded, np.linalg.solve(self.principal_stiffness(),
+                                                  tau), eps)
+        n = s / np.where(norm_s > 0, norm_s, 1.)
+        dev = np.eye(3) - np.ones((3, 3)) / 3
+        Dp = bulk * np.ones((3, 3, 1)) + 2 * self.mu * ratio * (
+            dev[:, :, None] - np.einsum("ap,bp->abp", n, n))
+        D = np.where(yielded, Dp, D)
+        return tau, eps_e, D, yielded

@@ -4,15 +4,20 @@ State is kept as a struct of arrays, points along the last axis:
 
 - ``x`` (dim, n): current positions,
 - ``x0`` (dim, n): initial positions (``Y`` in the seed's error measure),
-- ``volume`` (n,): volumes, fixed in standard MPM,
+- ``volume`` (n,): volumes, fixed in small-strain MPM, ``det(F) volume0``
+  in finite deformation,
+- ``volume0`` (n,): initial volumes,
 - ``stress`` and ``strain`` (3, 3, n): full symmetric 3x3 tensors whatever
   the dimension of the grid, so that plane strain keeps ``sigma_zz`` and 1D
   keeps the lateral stresses,
 - ``displacement`` (dim, n): accumulated displacement,
-- ``force`` (dim, n): point forces at full load (ramped by the solver).
+- ``force`` (dim, n): point forces at full load (ramped by the solver),
+- ``F`` and ``be`` (3, 3, n): deformation gradient and elastic left
+  Cauchy-Green tensor (finite deformation),
+- ``domain`` (dim, n) or ``None``: GIMP domain half-lengths.
 
 """
-from dataclasses import dataclass, field
+from dataclasses import dataclass, fields
 from typing import Callable, Optional
 
 import numpy as np
@@ -21,21 +26,11 @@ from skfem.mesh import Mesh
 from skfem.quadrature import get_quadrature
 from skfem.refdom import RefLine, RefQuad, RefHex, RefTri
 
-from .errors import InvalidInputError, UnsupportedElementError
+from .errors import InvalidInputError, UnsupportedElementError, check_finite
+from .locate import tensor_grid
 from .mapping import fresh_mapping
 
 __all__ = ["MaterialPoints", "seed_points", "seed_gauss_points"]
-
-
-def check_finite(name: str, a: ndarray):
-    """Raise :class:`InvalidInputError` naming the first non-finite entry."""
-    bad = ~np.isfinite(a)
-    if bad.any():
-        where = np.argwhere(bad)
-        raise InvalidInputError(
-            "{} holds {} non-finite value(s) (NaN or inf), first at index {}: {}"
-            .format(name, int(bad.sum()), tuple(int(i) for i in where[0]),
-                    a[tuple(where[0])]))
 
 
 @dataclass
@@ -67,7 +62,10 @@ class MaterialPoints:
     stress: Optional[ndarray] = None
     strain: Optional[ndarray] = None
     displacement: Optional[ndarray] = None
-    extra: dict = field(default_factory=dict)
+    volume0: Optional[ndarray] = None
+    F: Optional[ndarray] = None
+    be: Optional[ndarray] = None
+    domain: Optional[ndarray] = None
 
     def __post_init__(self):
         self.x = np.array(self.x, dtype=np.float64)
@@ -91,16 +89,21 @@ class MaterialPoints:
                 "volume must be positive: {} point(s) are not, first point {} "
                 "has volume {}".format(int((self.volume <= 0).sum()), i,
                                        self.volume[i]))
+        identity = np.repeat(np.eye(3)[:, :, None], n, axis=2)
         defaults = {
-            "force": (dim, n), "x0": None, "stress": (3, 3, n),
-            "strain": (3, 3, n), "displacement": (dim, n),
+            "force": np.zeros((dim, n)), "x0": self.x, "stress":
+            np.zeros((3, 3, n)), "strain": np.zeros((3, 3, n)),
+            "displacement": np.zeros((dim, n)), "volume0": self.volume,
+            "F": identity, "be": identity, "domain": None,
         }
-        for name, shape in defaults.items():
+        for name, default in defaults.items():
             value = getattr(self, name)
             if value is None:
-                value = self.x.copy() if name == "x0" else np.zeros(shape)
+                if default is None:
+                    continue
+                value = default
             value = np.array(value, dtype=np.float64)
-            expected = self.x.shape if shape is None else shape
+            expected = (default if default is not None else self.x).shape
             if value.shape != expected:
                 raise InvalidInputError("{} must have shape {}, got {}"
                                         .format(name, expected, value.shape))
@@ -117,11 +120,9 @@ class MaterialPoints:
 
     def copy(self) -> "MaterialPoints":
         """Return a deep copy of the state."""
-        return MaterialPoints(
-            x=self.x.copy(), volume=self.volume.copy(), force=self.force.copy(),
-            x0=self.x0.copy(), stress=self.stress.copy(),
-            strain=self.strain.copy(), displacement=self.displacement.copy(),
-            extra={k: np.copy(v) for k, v in self.extra.items()})
+        return MaterialPoints(**{f.name: None if getattr(self, f.name) is None
+                                 else getattr(self, f.name).copy()
+                                 for f in fields(self)})
 
 
 def _subcell_centres(refdom, n: int) -> ndarray:
@@ -144,9 +145,11 @@ def _subcell_centres(refdom, n: int) -> ndarray:
             refdom.__name__))
 
 
-def _points_from_reference(mesh: Mesh, X: ndarray, w: ndarray,
-                           region, elements) -> MaterialPoints:
-    """Map reference points X with reference weights w into every element."""
+def _points_from_reference(mesh: Mesh, X: ndarray, w: ndarray, region,
+                           elements, half=None) -> MaterialPoints:
+    """Map reference points X with reference weights w into every element;
+    ``half`` (dim, nelements): GIMP half-lengths of the points of each
+    element."""
     tind = (np.arange(mesh.nelements) if elements is None
             else np.asarray(elements, dtype=np.int64))
     mapping = fresh_mapping(mesh)
@@ -154,6 +157,8 @@ def _points_from_reference(mesh: Mesh, X: ndarray, w: ndarray,
     detJ = np.abs(mapping.detDF(X, tind=tind))        # (nel, nq)
     volume = (detJ * w).ravel()
     x = x.reshape(mesh.dim(), -1)
+    domain = None if half is None else np.repeat(half[:, tind], X.shape[1],
+                                                 axis=1)
     if region is not None:
         keep = np.asarray(region(x), dtype=bool)
         if keep.shape != (x.shape[1],):
@@ -161,9 +166,10 @@ def _points_from_reference(mesh: Mesh, X: ndarray, w: ndarray,
                 "region must return one bool per point, shape ({},), got {}"
                 .format(x.shape[1], keep.shape))
         x, volume = x[:, keep], volume[keep]
+        domain = None if domain is None else domain[:, keep]
     if x.shape[1] == 0:
         raise InvalidInputError("the region holds no material point")
-    return MaterialPoints(x=x, volume=volume)
+    return MaterialPoints(x=x, volume=volume, domain=domain)
 
 
 def seed_points(mesh: Mesh, n: int, region: Optional[Callable] = None,
@@ -171,7 +177,8 @@ def seed_points(mesh: Mesh, n: int, region: Optional[Callable] = None,
     """Seed n^d points per element at the centres of equal sub-cells.
 
     Each point receives the volume of its sub-cell (seed Figure 2.4), so the
-    points of an element add up to the element's volume.
+    points of an element add up to the element's volume.  On axis-aligned
+    tensor-product grids each point's GIMP ``domain`` is its sub-cell.
 
     Parameters
     ----------
@@ -199,7 +206,11 @@ def seed_points(mesh: Mesh, n: int, region: Optional[Callable] = None,
         raise InvalidInputError("n must be a positive integer, got {}".format(n))
     X = _subcell_centres(mesh.refdom, int(n))
     w = np.full(X.shape[1], _reference_volume(mesh.refdom) / X.shape[1])
-    return _points_from_reference(mesh, X, w, region, elements)
+    half = None
+    if tensor_grid(mesh) is not None:
+        half = (mesh.p[:, mesh.t].max(axis=1) - mesh.p[:, mesh.t].min(axis=1)
+                ) / (2 * n)
+    return _points_from_reference(mesh, X, w, region, elements, half)
 
 
 def _reference_volume(refdom) -> float:

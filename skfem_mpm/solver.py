@@ -60,6 +60,10 @@ class StepRecord:
     x, displacement, stress
         Point positions (after the update), accumulated displacements and
         stresses at the end of the step (``None`` unless kept).
+    newton_residuals
+        Finite deformation: the residual of every Newton iteration.
+    n_yielded
+        Finite deformation: points on the yield surface.
 
     """
     step: int
@@ -72,6 +76,8 @@ class StepRecord:
     x: Optional[ndarray] = None
     displacement: Optional[ndarray] = None
     stress: Optional[ndarray] = None
+    newton_residuals: Optional[List[float]] = None
+    n_yielded: int = 0
 
 
 @dataclass

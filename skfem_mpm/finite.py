@@ -1,0 +1,325 @@
+"""Implicit MPM and GIMP with finite deformation: updated Lagrangian load
+steps, each solved by Newton-Raphson with the consistent tangent, with
+load-step cut-back.
+
+Per load step: locate the points and build the step's point operator at
+their start-of-step positions (standard MPM: scikit-fem ``asm`` on a
+material-point basis; GIMP: averaged weights over the points' domains), map
+the external forces, then iterate: increment of the deformation gradient
+``dF = I + grad(du)``, Hencky stress update (a return map for plasticity),
+internal force, out-of-balance force, tangent, solve.  At convergence the
+points move, ``F``, volumes (``det(F) volume0``) and, for cpGIMP, domains are
+updated.  A step whose Newton loop fails or that inverts a point
+(``det F <= 0``) is bisected and retried, down to ``2**-max_cutbacks`` of a
+load step; then the error carries the last converged state.
+
+"""
+import logging
+import time
+from typing import Callable, Optional
+
+import numpy as np
+from numpy import ndarray
+from skfem import Basis
+from skfem.element import Element
+from skfem.mesh import Mesh
+
+from .basis import MaterialPointBasis
+from .errors import (InvalidInputError, InversionError, NewtonDivergenceError,
+                     PointsOutsideGridError, SingularSystemError)
+from .forms import as_body_force
+from .gimp import gimp_operator, stretched_domains
+from .kinematics import hencky_update, pull_back, spatial_tangent
+from .linsolve import free_dofs, solve_active, support_dofs
+from .locate import Locator, point_locator
+from .operators import AsmOperator
+from .points import MaterialPoints
+from .solver import PHASES, Result, StepRecord, vector_element
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["solve_finite", "METHODS"]
+
+METHODS = ("mpm", "ugimp", "cpgimp")
+
+
+def _det3(F: ndarray) -> ndarray:
+    return np.linalg.det(np.moveaxis(F, -1, 0))
+
+
+def _inv3(F: ndarray) -> ndarray:
+    return np.moveaxis(np.linalg.inv(np.moveaxis(F, -1, 0)), 0, -1)
+
+
+def deformation_increment(grad_du: ndarray) -> ndarray:
+    """``dF = I + grad(du)`` as (3, 3, n) from in-plane (dim, dim, n)."""
+    dim, n = grad_du.shape[0], grad_du.shape[-1]
+    dF = np.repeat(np.eye(3)[:, :, None], n, axis=2)
+    dF[:dim, :dim] += grad_du
+    return dF
+
+
+class _Step:
+    """One load step from a converged state: operator, loads, Newton."""
+
+    def __init__(self, ctx, points: MaterialPoints, f_old: float,
+                 f_new: float, step: int):
+        self.ctx, self.points, self.step = ctx, points, step
+        self.f_old, self.f_new = f_old, f_new
+        self.t = dict.fromkeys(PHASES, 0.)
+
+    def operator(self):
+        ctx, pts = self.ctx, self.points
+        tic = time.perf_counter()
+        try:
+            location = ctx.locate(pts.x)
+        except PointsOutsideGridError as err:
+            err.step, err.state = self.step, pts
+            raise
+        self.t["locate"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        if ctx.method == "mpm":
+            op = AsmOperator(MaterialPointBasis(ctx.mesh, ctx.elem, pts,
+                                                location, dofs=ctx.dofs))
+        else:
+            op = gimp_operator(ctx.mesh, ctx.elem, pts.x, pts.domain,
+                               ctx.locate)
+        self.t["assemble"] += time.perf_counter() - tic
+        return op
+
+    def constitutive(self, op, du: ndarray):
+        """Stress state of the displacement increment du."""
+        tic = time.perf_counter()
+        dF = deformation_increment(op.gradients(du))
+        detdF = _det3(dF)
+        bad = np.flatnonzero(~(detdF > 0))
+        if bad.size:
+            raise InversionError(
+                "step {}: {} point(s) invert (det dF <= 0), first {} at x = {}"
+                .format(self.step, bad.size, bad[:5].tolist(),
+                        self.points.x[:, bad[0]].tolist()))
+        b_tr = np.einsum("abp,bcp,dcp->adp", dF, self.points.be, dF)
+        state = (dF,) + hencky_update(self.ctx.material, b_tr) + (b_tr,)
+        self.t["update"] += time.perf_counter() - tic
+        return state
+
+    def run(self):
+        ctx, pts = self.ctx, self.points
+        op = self.operator()
+        tic = time.perf_counter()
+        D, du = ctx.D, np.zeros(op.N)
+        if ctx.prescribed is not None:
+            dofs, values = ctx.prescribed(ctx.grid, self.f_old, self.f_new)
+            dofs = np.asarray(dofs, dtype=np.int64)
+            du[dofs] = values
+            D = np.union1d(D, dofs)
+        free = free_dofs(op.active_dofs, D) if op.active_dofs.size > 0 \
+            else np.array([], dtype=np.int64)
+        f_ext = np.zeros(op.N)
+        load = ctx.point_load(pts)
+        if load is not None:
+            f_ext = op.point_force(self.f_new * load)
+        self.t["assemble"] += time.perf_counter() - tic
+        residuals = []
+        for it in range(ctx.max_iter + 1):
+            dF, tau, b_e, strain, dtau_db, yielded, b_tr = \
+                self.constitutive(op, du)
+            tic = time.perf_counter()
+            dF_inv = _inv3(dF)
+            P = np.einsum("abp,ebp->aep", tau[:ctx.dim, :ctx.dim],
+                          dF_inv[:ctx.dim, :ctx.dim])
+            f_int = op.force(P, pts.volume0)
+            r = f_ext - f_int
+            scale = max(np.linalg.norm(f_ext), np.linalg.norm(f_int),
+                        np.finfo(float).tiny)
+            residuals.append(float(np.linalg.norm(r[free]) / scale))
+            self.t["check"] += time.perf_counter() - tic
+            logger.debug("step %d iteration %d: residual %.3e", self.step,
+                         it, residuals[-1])
+            if residuals[-1] <= ctx.tol or free.size == 0:
+                break
+            if it == ctx.max_iter or not np.isfinite(residuals[-1]):
+                raise NewtonDivergenceError(
+                    "step {}: Newton-Raphson did not converge in {} "
+                    "iterations (residuals {})".format(
+                        self.step, ctx.max_iter,
+                        ", ".join("{:.1e}".format(r) for r in residuals)))
+            tic = time.perf_counter()
+            A = spatial_tangent(dtau_db, b_tr, tau)
+            _, At = pull_back(tau, A, dF_inv, ctx.dim)
+            K = op.stiffness(At, pts.volume0)
+            self.t["assemble"] += time.perf_counter() - tic
+            tic = time.perf_counter()
+            try:
+                du = du + solve_active(K, r, free, solver=ctx.solver)
+            except SingularSystemError as err:
+                raise SingularSystemError("step {}: {}".format(self.step,
+                                                               err)) from err
+            self.t["solve"] += time.perf_counter() - tic
+        return self.finish(op, du, dF, tau, b_e, strain, yielded, residuals,
+                           free)
+
+    def finish(self, op, du, dF, tau, b_e, strain, yielded, residuals, free):
+        ctx, old = self.ctx, self.points
+        tic = time.perf_counter()
+        new = old.copy()
+        new.F = np.einsum("abp,bcp->acp", dF, old.F)
+        J = _det3(new.F)
+        if not (J > 0).all():
+            raise InversionError("step {}: det F <= 0 at {} point(s)".format(
+                self.step, int((J <= 0).sum())))
+        new.be, new.strain = b_e, strain
+        new.stress = tau / J
+        new.volume = J * old.volume0
+        dx = op.values(du)
+        new.x = old.x + dx
+        new.displacement = old.displacement + dx
+        if ctx.method == "cpgimp":
+            new.domain = stretched_domains(ctx.domain0, new.F)
+        self.t["update"] += time.perf_counter() - tic
+        record = StepRecord(self.step, self.f_new, residuals[-1], op.nelems,
+                            free.size, self.t)
+        record.newton_residuals = residuals
+        record.n_yielded = int(yielded.sum())
+        if ctx.keep_snapshots:
+            record.u, record.x = du, new.x.copy()
+            record.displacement = new.displacement.copy()
+            record.stress = new.stress.copy()
+        return new, record
+
+
+class _Context:
+    """What stays fixed over a run."""
+
+    def __init__(self, **kwargs):
+        self.__dict__.update(kwargs)
+
+    def point_load(self, pts: MaterialPoints) -> Optional[ndarray]:
+        """Full-load point forces plus body force on initial volumes, or
+        ``None`` when the scene has neither."""
+        load = pts.force if pts.force.any() else None
+        if self.gravity is not None:
+            weight = self.gravity[:, None] * pts.volume0
+            load = weight if load is None else load + weight
+        return load
+
+
+def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
+                 supports, body_force=None, nsteps: int = 1,
+                 method: str = "mpm", prescribed: Optional[Callable] = None,
+                 tol: float = 1e-9, max_iter: int = 25, max_cutbacks: int = 8,
+                 locator: Optional[Locator] = None,
+                 solver: Optional[Callable] = None,
+                 keep_snapshots: bool = True) -> Result:
+    """Finite-deformation implicit MPM or GIMP (updated Lagrangian,
+    Hencky elasticity, optional von Mises plasticity).
+
+    Parameters
+    ----------
+    mesh, elem, points, supports, locator, solver, keep_snapshots
+        As in :func:`~skfem_mpm.solve_mpm`.
+    material
+        :class:`~skfem_mpm.LinearElastic` (Hencky hyperelasticity) or
+        :class:`~skfem_mpm.VonMises`.
+    body_force
+        Body force per unit *initial* volume at full load (``rho0 g``), so
+        the weight is conserved exactly; ``None``: none.
+    nsteps
+        Load steps (loads ramped linearly); a step may be cut back.
+    method
+        ``"mpm"``, ``"ugimp"`` or ``"cpgimp"`` (GIMP needs a tensor grid
+        and point domains, set by :func:`~skfem_mpm.seed_points`).
+    prescribed
+        Optional ``prescribed(grid_basis, f_old, f_new) -> (dofs,
+        increments)``: grid displacements imposed over a step from load
+        factor ``f_old`` to ``f_new`` (the grid is reset every step, so these
+        are increments).
+    tol
+        Newton tolerance on the out-of-balance force over the free DOFs,
+        relative to the larger of the external and internal force norms.
+    max_iter, max_cutbacks
+        Newton iterations per attempt, and how many times a load step may be
+        halved before giving up.
+
+    Returns
+    -------
+    Result
+        ``history[k].newton_residuals`` holds every iteration's residual.
+
+    Raises
+    ------
+    NewtonDivergenceError, InversionError
+        When a step fails at the smallest increment; ``err.state`` is the
+        last converged state, ``err.load_factor`` its load factor.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem import MeshQuad, ElementQuad1
+    >>> from skfem_mpm import LinearElastic, seed_points, solve_finite
+    >>> mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 3, 7))
+    >>> pts = seed_points(mesh, 2, region=lambda x: x[1] < 2)
+    >>> res = solve_finite(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+    ...                    lambda b: b.get_dofs(lambda x: x[1] == 0),
+    ...                    body_force=[0., -100.], nsteps=2, method="cpgimp")
+    >>> [len(r.newton_residuals) > 1 for r in res.history]
+    [True, True]
+    >>> bool(res.history[-1].residual < 1e-9)
+    True
+
+    """
+    if method not in METHODS:
+        raise InvalidInputError("method must be one of {}, got {!r}".format(
+            METHODS, method))
+    if int(nsteps) != nsteps or nsteps < 1:
+        raise InvalidInputError(
+            "nsteps must be a positive integer, got {}".format(nsteps))
+    if points.dim != mesh.dim():
+        raise InvalidInputError(
+            "points are {}D but the mesh is {}D".format(points.dim, mesh.dim()))
+    if method != "mpm" and points.domain is None:
+        raise InvalidInputError(
+            "method {!r} needs point domains (MaterialPoints.domain); "
+            "seed_points sets them on tensor-product grids".format(method))
+    elem = vector_element(elem)
+    grid = Basis(mesh, elem, intorder=0)
+    ctx = _Context(
+        mesh=mesh, elem=elem, material=material, method=method, grid=grid,
+        dofs=grid.dofs, D=support_dofs(supports, grid), dim=mesh.dim(),
+        gravity=as_body_force(body_force, mesh.dim()), prescribed=prescribed,
+        locate=point_locator(mesh) if locator is None else locator,
+        tol=tol, max_iter=max_iter, solver=solver,
+        keep_snapshots=keep_snapshots,
+        domain0=None if points.domain is None else points.domain.copy())
+    points = points.copy()
+    result = Result(points=points)
+    factor, step, increment = 0., 0, 1. / nsteps
+    smallest = increment / 2 ** max_cutbacks
+    while factor < 1. - 1e-12:
+        boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
+        target = min(factor + increment, boundary)
+        try:
+            points, record = _Step(ctx, points, factor, target,
+                                   step + 1).run()
+        except (NewtonDivergenceError, InversionError) as err:
+            if (target - factor) / 2 < smallest * (1 - 1e-9):
+                raise type(err)(
+                    "{}; no convergence down to a load increment of {:.2e}: "
+                    "the last converged state (load factor {:.4f}) is "
+                    "attached".format(err, smallest, factor),
+                    state=points, load_factor=factor,
+                    history=result.history) from err
+            increment = (target - factor) / 2
+            logger.warning("%s: cutting the load increment back to %.3e",
+                           err, increment)
+            continue
+        step += 1
+        factor = target
+        if abs(factor - boundary) < 1e-12:
+            increment = 1. / nsteps
+        result.history.append(record)
+        result.points = points
+        logger.info("step %d: load factor %.4f, %d Newton iterations, "
+                    "residual %.2e", step, factor,
+                    len(record.newton_residuals) - 1, record.residual)
+    return result

@@ -1,0 +1,109 @@
+"""Finite deformation at the points: updated Lagrangian, multiplicative
+update, logarithmic (Hencky) strains, exponential-map stress update.
+
+Per point, with ``dF = I + grad(du)`` the increment of the deformation
+gradient over a load step (gradients on the grid at the start of the step):
+
+- trial elastic left Cauchy-Green tensor ``b_tr = dF b_n dF^T``,
+- trial logarithmic strains ``eps_tr = ln(eig(b_tr)) / 2`` in its principal
+  directions, mapped by the material to principal Kirchhoff stresses and
+  elastic strains (a return map for plasticity), then
+  ``b_e = exp(2 eps_e)``, ``tau`` coaxial with ``b_tr``, ``sigma = tau/J``.
+
+The consistent tangent is the derivative of ``tau`` with respect to the
+displacement increment, including the geometric term; it is pulled back to
+the start-of-step configuration so that the grid operators built at the
+start of a step serve every Newton iteration.  All tensors are 3x3 (plane
+strain and 1D keep the out-of-plane components), points on the last axis.
+
+"""
+from typing import Tuple
+
+import numpy as np
+from numpy import ndarray
+
+__all__ = ["hencky_update", "spatial_tangent", "pull_back"]
+
+
+def _eigh(b: ndarray) -> Tuple[ndarray, ndarray]:
+    """Eigenvalues (3, n) and eigenvectors (3, 3, n), vecs[:, A] = e_A."""
+    w, v = np.linalg.eigh(np.moveaxis(b, -1, 0))
+    return w.T, np.moveaxis(v, 0, -1)
+
+
+def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
+                         vecs: ndarray) -> ndarray:
+    """Derivative of ``Y = sum_A y_A e_A (x) e_A`` with respect to the
+    symmetric tensor ``X = sum_A x_A e_A (x) e_A``, shape (3, 3, 3, 3, n).
+
+    ``dy_dx[A, B]`` is the derivative of the principal value ``y_A`` with
+    respect to ``x_B``.  Repeated eigenvalues use the limit
+    ``dy_A/dx_A - dy_A/dx_B`` of ``(y_A - y_B)/(x_A - x_B)``.
+
+    """
+    EA = np.einsum("aAp,bAp->abAp", vecs, vecs)
+    T = np.einsum("ABp,abAp,cdBp->abcdp", dy_dx, EA, EA, optimize=True)
+    diff = x[:, None] - x[None, :]
+    close = np.abs(diff) <= 1e-9 * np.abs(x).max(axis=0)
+    limit = np.einsum("AAp->Ap", dy_dx)[:, None] - dy_dx
+    with np.errstate(divide="ignore", invalid="ignore"):
+        theta = np.where(close, limit, (y[:, None] - y[None, :]) / diff)
+    theta[np.arange(3), np.arange(3)] = 0.
+    EAB = np.einsum("aAp,bBp->abABp", vecs, vecs)
+    sym = .5 * (EAB + EAB.transpose(1, 0, 2, 3, 4))
+    T += np.einsum("ABp,abABp,cdABp->abcdp", theta, EAB, sym, optimize=True)
+    return T
+
+
+def hencky_update(material, b_trial: ndarray):
+    """Stress update from the trial elastic left Cauchy-Green tensor.
+
+    Parameters
+    ----------
+    material
+        Provides ``principal_update(eps_trial) -> (tau, eps_e, D, yielded)``
+        on principal values (3, n) with the algorithmic tangent D (3, 3, n).
+    b_trial
+        (3, 3, n).
+
+    Returns
+    -------
+    tau, b_e, eps_e, dtau_db, yielded
+        Kirchhoff stress, updated elastic left Cauchy-Green tensor and
+        elastic logarithmic strain (3, 3, n), derivative of tau with
+        respect to b_trial (3, 3, 3, 3, n), and the points that yielded.
+
+    """
+    x, vecs = _eigh(b_trial)
+    if not (x > 0).all():
+        raise FloatingPointError("b_trial is not positive definite")
+    tau_p, eps_e, D, yielded = material.principal_update(.5 * np.log(x))
+    tau = np.einsum("Ap,aAp,bAp->abp", tau_p, vecs, vecs)
+    b_e = np.einsum("Ap,aAp,bAp->abp", np.exp(2. * eps_e), vecs, vecs)
+    strain = np.einsum("Ap,aAp,bAp->abp", eps_e, vecs, vecs)
+    dtau_db = isotropic_derivative(x, tau_p, D / (2. * x[None]), vecs)
+    return tau, b_e, strain, dtau_db, yielded
+
+
+def spatial_tangent(dtau_db: ndarray, b_trial: ndarray,
+                    tau: ndarray) -> ndarray:
+    """``A_abcd`` with ``delta(tau grad N)`` linear in ``l = grad_x(du)``:
+    ``A = 2 dtau/db_tr . b_tr - delta_bc tau_ad`` (the last term is the
+    geometric stiffness)."""
+    A = 2. * np.einsum("abcfp,fdp->abcdp", dtau_db, b_trial, optimize=True)
+    A -= np.einsum("bc,adp->abcdp", np.eye(3), tau)
+    return A
+
+
+def pull_back(tau: ndarray, A: ndarray, dF_inv: ndarray, dim: int):
+    """Stress and tangent for gradients taken at the start of the step.
+
+    With ``grad_x N = grad_n N . dF^-1``: ``P = tau dF^-T`` and
+    ``A~_aecf = dF^-1_eb A_abcd dF^-1_fd``, in-plane (dim) components.
+
+    """
+    Fi = dF_inv[:dim, :dim]
+    P = np.einsum("abp,ebp->aep", tau[:dim, :dim], Fi)
+    At = np.einsum("ebp,abcdp,fdp->aecfp", Fi, A[:dim, :dim, :dim, :dim], Fi,
+                   optimize=True)
+    return P, At
