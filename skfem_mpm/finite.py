@@ -20,6 +20,7 @@ from typing import Callable, Optional
 
 import numpy as np
 from numpy import ndarray
+from scipy.sparse import diags
 from skfem import Basis
 from skfem.element import Element
 from skfem.mesh import Mesh
@@ -30,7 +31,8 @@ from .errors import (InvalidInputError, InversionError, NewtonDivergenceError,
 from .forms import as_body_force
 from .gimp import gimp_operator, stretched_domains
 from .kinematics import hencky_update, pull_back, spatial_tangent
-from .linsolve import free_dofs, solve_active, support_dofs
+from .linsolve import (check_rigid_body_modes, free_dofs, solve_active,
+                       support_dofs)
 from .locate import Locator, point_locator
 from .operators import AsmOperator
 from .points import MaterialPoints
@@ -41,6 +43,7 @@ logger = logging.getLogger(__name__)
 __all__ = ["solve_finite", "METHODS"]
 
 METHODS = ("mpm", "ugimp", "cpgimp")
+STABILISATION = 1e-7
 
 
 def _det3(F: ndarray) -> ndarray:
@@ -113,8 +116,9 @@ class _Step:
             dofs = np.asarray(dofs, dtype=np.int64)
             du[dofs] = values
             D = np.union1d(D, dofs)
-        free = free_dofs(op.active_dofs, D) if op.active_dofs.size > 0 \
-            else np.array([], dtype=np.int64)
+        check_rigid_body_modes(op.adjacency(), ctx.grid.doflocs[:, ::ctx.dim],
+                               op.active_dofs, D, ctx.dim, self.step)
+        free = free_dofs(op.active_dofs, D)
         f_ext = np.zeros(op.N)
         load = ctx.point_load(pts)
         if load is not None:
@@ -148,6 +152,11 @@ class _Step:
             A = spatial_tangent(dtau_db, b_tr, tau)
             _, At = pull_back(tau, A, dF_inv, ctx.dim)
             K = op.stiffness(At, pts.volume0)
+            # points leave zero-energy modes on weakly supported nodes (a
+            # new cell entered by one point); they carry no residual, and a
+            # tangent-only stabilisation keeps the solve regular without
+            # changing the converged state
+            K = K + STABILISATION * diags(K.diagonal())
             self.t["assemble"] += time.perf_counter() - tic
             tic = time.perf_counter()
             try:

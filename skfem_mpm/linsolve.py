@@ -12,14 +12,16 @@ from typing import Callable, Optional
 
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import spmatrix
+from scipy.sparse import coo_matrix, spmatrix
+from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import MatrixRankWarning, splu
 from skfem import condense, solve
 
 from .errors import InvalidInputError, SingularSystemError
 
-__all__ = ["support_dofs", "free_dofs", "solver_direct_checked",
-           "solve_active"]
+__all__ = ["support_dofs", "free_dofs", "element_adjacency",
+           "check_rigid_body_modes",
+           "solver_direct_checked", "solve_active"]
 
 
 def support_dofs(supports, basis) -> ndarray:
@@ -43,48 +45,127 @@ def support_dofs(supports, basis) -> ndarray:
 
 
 def free_dofs(active: ndarray, D: ndarray) -> ndarray:
-    """The active DOFs that are not supported.
+    """The active DOFs that are not supported."""
+    return np.setdiff1d(active, D, assume_unique=True)
 
-    Raises :class:`~skfem_mpm.errors.SingularSystemError` when no active DOF
-    is supported: the body could move freely.
+
+def rigid_modes(xyz: ndarray, dim: int) -> ndarray:
+    """Rigid-body modes at nodes xyz (dim, m) as (m, dim, nmodes):
+    translations, then rotations about the nodes' centroid, scaled by the
+    nodes' extent."""
+    m = xyz.shape[1]
+    rel = xyz - xyz.mean(axis=1, keepdims=True)
+    rel = rel / max(np.abs(rel).max(), np.finfo(float).tiny)
+    modes = [np.broadcast_to(np.eye(dim)[:, a:a + 1], (dim, m))
+             for a in range(dim)]
+    for a, b in ((0, 1), (1, 2), (2, 0))[:{1: 0, 2: 1, 3: 3}[dim]]:
+        rot = np.zeros((dim, m))
+        rot[a], rot[b] = -rel[b], rel[a]
+        modes.append(rot)
+    return np.moveaxis(np.array(modes), 0, -1).transpose(1, 0, 2)
+
+
+MODE_NAMES = {1: ["translation along x"],
+              2: ["translation along x", "translation along y", "rotation"],
+              3: ["translation along x", "translation along y",
+                  "translation along z", "rotation about z",
+                  "rotation about x", "rotation about y"]}
+
+
+def element_adjacency(element_dofs: ndarray, dim: int, n_nodes: int):
+    """Node adjacency (n_nodes, n_nodes) of vector element DOFs
+    (Nbfun, nelems): nodes sharing an element."""
+    nodes = element_dofs[::dim] // dim
+    rows = np.repeat(nodes, nodes.shape[0], axis=0).ravel()
+    cols = np.tile(nodes, (nodes.shape[0], 1)).ravel()
+    return coo_matrix((np.ones(rows.size), (rows, cols)),
+                      shape=(n_nodes, n_nodes)).tocsr()
+
+
+def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
+                           D: ndarray, dim: int, step=None):
+    """Raise :class:`~skfem_mpm.errors.SingularSystemError` if a connected
+    part of the active grid can move rigidly.
+
+    Parameters
+    ----------
+    adjacency
+        Sparse (n_nodes, n_nodes) matrix, nonzero where two scalar DOFs
+        (nodes) share a point or an active element.
+    doflocs
+        Scalar DOF locations (dim, n_nodes).
+    active, D
+        Active and supported (or prescribed) vector DOFs; vector DOF
+        ``dim * k + a`` is component a of node k.
 
     """
-    free = np.setdiff1d(active, D, assume_unique=True)
-    if free.size == active.size:
-        raise SingularSystemError(
-            "none of the {} active grid DOFs is supported; the body can move "
-            "freely (rigid-body modes): add supports on grid nodes the body "
-            "occupies".format(active.size))
-    return free
+    nodes = np.unique(active // dim)
+    sub = adjacency[nodes][:, nodes]
+    ncomp, label = connected_components(sub, directed=False)
+    fixed = D[np.isin(D // dim, nodes)]
+    fixed_label = label[np.searchsorted(nodes, fixed // dim)]
+    where = "" if step is None else "step {}: ".format(step)
+    for c in range(ncomp):
+        members = nodes[label == c]
+        box = [doflocs[:, members].min(axis=1).round(6).tolist(),
+               doflocs[:, members].max(axis=1).round(6).tolist()]
+        held = fixed[fixed_label == c]
+        if held.size == 0:
+            raise SingularSystemError(
+                "{}a body on {} grid nodes (bounding box {} to {}) touches no "
+                "supported node: it can move freely (rigid-body modes); add "
+                "supports".format(where, members.size, *box))
+        k, a = held // dim, held % dim
+        R = rigid_modes(doflocs[:, k], dim)[np.arange(held.size), a]
+        sv = np.linalg.svd(R, compute_uv=False)
+        nmodes = R.shape[1]
+        if held.size < nmodes or sv.min() < 1e-8 * sv.max():
+            _, _, vt = np.linalg.svd(R)
+            free = np.abs(vt[-1]) > 1e-6
+            names = [n for n, f in zip(MODE_NAMES[dim], free) if f]
+            raise SingularSystemError(
+                "{}a body on {} grid nodes (bounding box {} to {}) is not held"
+                " against {}: its supports allow a rigid-body motion; add "
+                "supports".format(where, members.size, *box,
+                                  " / ".join(names)))
 
 
-def solver_direct_checked(pivot_tol: float = 1e-10) -> Callable:
+def solver_direct_checked(pivot_tol: float = 1e-9) -> Callable:
     """scipy's sparse LU (SuperLU) as a scikit-fem solver ``f(A, b) -> x``
     that refuses singular systems.
 
-    A stiffness with rigid-body modes factorises with a pivot at round-off
-    level (1e-16 to 1e-11 of the largest pivot, growing with the size) where
-    a supported body's smallest pivot is a sizeable fraction of the largest
-    one; pivots below ``pivot_tol`` times the largest raise
+    Each pivot is compared with the diagonal entry of the (permuted) matrix
+    it eliminates: a rigid-body mode leaves a pivot at round-off level of
+    its diagonal (1e-12 and below), while grid nodes that points support
+    only weakly have small diagonals *and* small pivots, a ratio of order
+    one.  A ratio below ``pivot_tol`` raises
     :class:`~skfem_mpm.errors.SingularSystemError`.
 
     """
     def solver(A, b, **kwargs):
+        A = A.tocsc()
         try:
-            lu = splu(A.tocsc())
+            lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=.1,
+                      options=dict(SymmetricMode=True))
         except RuntimeError as err:
             raise SingularSystemError(
                 "the stiffness on {} free DOFs is singular ({}): the active "
                 "grid has rigid-body modes; add supports".format(A.shape[0],
                                                                  err)) from err
-        pivots = np.abs(lu.U.diagonal())
-        ratio = pivots.min() / pivots.max()
-        if not ratio >= pivot_tol:
+        n = A.shape[0]
+        rows, cols = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+        rows[lu.perm_r], cols[lu.perm_c] = np.arange(n), np.arange(n)
+        diagonal = np.abs(np.asarray(A[rows, cols]).ravel())
+        with np.errstate(divide="ignore", over="ignore"):
+            # an off-diagonal pivot (zero diagonal entry) counts as regular
+            ratio = np.abs(lu.U.diagonal()) / diagonal
+        worst = int(np.argmin(ratio))
+        if not ratio[worst] >= pivot_tol:
             raise SingularSystemError(
-                "the stiffness on {} free DOFs is singular: smallest pivot "
-                "{:.1e} of the largest (below {:.0e}); the active grid has "
-                "rigid-body modes: add supports".format(A.shape[0], ratio,
-                                                        pivot_tol))
+                "the stiffness on {} free DOFs is singular: a pivot is {:.1e} "
+                "of its diagonal entry (below {:.0e}), at condensed DOF {}; "
+                "the active grid has rigid-body modes: add supports".format(
+                    n, ratio[worst], pivot_tol, cols[worst]))
         return lu.solve(b)
 
     return solver

@@ -13,7 +13,8 @@ several elements, uses sparse per-point operators built in
 - ``values(u) -> (dim, n)`` and ``gradients(u) -> (dim, dim, n)``,
 - ``force(P, w)``: ``f_ai = sum_p w_p P_abp dN_i/dx_b`` (internal force),
 - ``point_force(f)``: ``f_ai = sum_p N_i(x_p) f_ap`` (point and body forces),
-- ``stiffness(A, w)``: ``K_(ai)(cj) = sum_p w_p A_abcdp dN_i/dx_b dN_j/dx_d``.
+- ``stiffness(A, w)``: ``K_(ai)(cj) = sum_p w_p A_abcdp dN_i/dx_b dN_j/dx_d``,
+- ``adjacency()``: grid nodes coupled by points (for rigid-body checks).
 
 """
 import numpy as np
@@ -24,6 +25,7 @@ from skfem.helpers import ddot, grad
 
 from .basis import MaterialPointBasis
 from .forms import body_force
+from .linsolve import element_adjacency
 
 __all__ = ["AsmOperator", "SparseOperator"]
 
@@ -79,6 +81,10 @@ class AsmOperator:
     def stiffness(self, A: ndarray, w: ndarray):
         return asm(pulled_tangent, self.basis, A=self._field(A, w))
 
+    def adjacency(self):
+        return element_adjacency(self.basis.element_dofs, self.dim,
+                                 self.N // self.dim)
+
 
 class SparseOperator:
     """Per-point sparse operators ``S`` (values) and ``G[d]`` (gradients),
@@ -104,6 +110,11 @@ class SparseOperator:
                                            [g.indices for g in self.G]))
         self.active_dofs = (self.dim * support[:, None]
                             + np.arange(self.dim)).ravel()
+
+    def adjacency(self):
+        pattern = self.S.copy()
+        pattern.data[:] = 1.
+        return (pattern.T @ pattern).tocsr()
 
     def _components(self, u: ndarray) -> ndarray:
         return u.reshape(-1, self.dim)

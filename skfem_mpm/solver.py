@@ -27,7 +27,8 @@ from .errors import InvalidInputError, PointsOutsideGridError, \
     SingularSystemError
 from .forms import (as_body_force, assemble_body_force, body_force,
                     full_tensor, in_plane, internal_force)
-from .linsolve import free_dofs, solve_active, support_dofs
+from .linsolve import (check_rigid_body_modes, element_adjacency, free_dofs,
+                       solve_active, support_dofs)
 from .locate import Locator, point_locator
 from .materials import LinearElastic
 from .points import MaterialPoints
@@ -198,6 +199,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     elem = vector_element(elem)
     grid = Basis(mesh, elem, intorder=0)
     D = support_dofs(supports, grid)
+    dim = mesh.dim()
     locate = point_locator(mesh) if locator is None else locator
     stiffness = material.stiffness_form()
     points = points.copy()
@@ -217,10 +219,11 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
 
         tic = time.perf_counter()
         basis = MaterialPointBasis(mesh, elem, points, location, dofs=grid.dofs)
-        try:
-            free = free_dofs(basis.active_dofs, D)
-        except SingularSystemError as err:
-            raise SingularSystemError("step {}: {}".format(step, err)) from err
+        active = basis.active_dofs
+        check_rigid_body_modes(
+            element_adjacency(basis.element_dofs, dim, basis.N // dim),
+            grid.doflocs[:, ::dim], active, D, dim, step)
+        free = free_dofs(active, D)
         f_ext = external_force(basis, points, gravity, factor)
         f_int = assemble_internal_force(basis, points.stress) \
             if points.stress.any() else np.zeros(basis.N)
