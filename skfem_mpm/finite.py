@@ -134,8 +134,9 @@ class _Step:
                           dF_inv[:ctx.dim, :ctx.dim])
             f_int = op.force(P, pts.volume0)
             r = f_ext - f_int
-            scale = max(np.linalg.norm(f_ext), np.linalg.norm(f_int),
-                        np.finfo(float).tiny)
+            scale = np.linalg.norm(f_ext)
+            if scale == 0.:                  # driven by prescribed motion
+                scale = max(np.linalg.norm(f_int), np.finfo(float).tiny)
             residuals.append(float(np.linalg.norm(r[free]) / scale))
             self.t["check"] += time.perf_counter() - tic
             logger.debug("step %d iteration %d: residual %.3e", self.step,
@@ -245,7 +246,8 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         are increments).
     tol
         Newton tolerance on the out-of-balance force over the free DOFs,
-        relative to the larger of the external and internal force norms.
+        relative to the external force norm (to the internal force norm in
+        steps driven by prescribed displacements only).
     max_iter, max_cutbacks
         Newton iterations per attempt, and how many times a load step may be
         halved before giving up.

@@ -66,9 +66,11 @@ def stretched_domains(domain0: ndarray, F: ndarray) -> ndarray:
     return domain0 * np.einsum("paa->ap", U)
 
 
-def _axis_pieces(a: ndarray, lo: ndarray, hi: ndarray):
+def _axis_pieces(a: ndarray, lo: ndarray, hi: ndarray, tol: float = 1e-12):
     """Pieces of [lo, hi] cut by grid nodes a: lists of (start, end) arrays,
-    zero length where a point has fewer pieces."""
+    zero length where a point has fewer pieces.  A domain edge within
+    ``tol`` cell sizes of a grid line is on that line (no sliver pieces from
+    round-off)."""
     n = len(a) - 1
     first = np.clip(np.searchsorted(a, lo, side="right") - 1, 0, n - 1)
     last = np.clip(np.searchsorted(a, hi, side="left") - 1, 0, n - 1)
@@ -77,7 +79,8 @@ def _axis_pieces(a: ndarray, lo: ndarray, hi: ndarray):
         cell = np.minimum(first + k, n - 1)
         start = np.maximum(lo, a[cell])
         end = np.where(first + k <= last, np.minimum(hi, a[cell + 1]), start)
-        pieces.append((start, np.maximum(end, start)))
+        sliver = end - start <= tol * (a[cell + 1] - a[cell])
+        pieces.append((start, np.where(sliver, start, end)))
     return pieces
 
 
