@@ -49,3 +49,64 @@ def test_column_figures_are_written(column, tmp_path):
     for name in ("column_stress_profiles.png", "column_convergence.png"):
         assert (tmp_path / name).stat().st_size > 10_000
     assert not list(tmp_path.glob(".*"))      # no temporary file left
+
+
+@pytest.fixture(scope="module")
+def cantilever():
+    return load("cantilever")
+
+
+def test_cantilever_follows_the_elastica(cantilever):
+    assert cantilever.v_error < .02 and cantilever.u_error < .02
+    assert len(cantilever.result.history) == 50
+    assert max(r.residual for r in cantilever.result.history) <= 1e-9
+
+
+def test_cantilever_newton_is_quadratic(cantilever):
+    """r_k+1 <= C r_k^2 with a bounded C once r_k < 1e-3 (a linearly
+    converging iteration has r_k+1 / r_k^2 growing without bound); measured
+    C is 20 to 350 with r_k+1 above 1e-8 (the round-off floor of this
+    residual is 1e-10 to 1e-9), and no step needs more than 7 iterations."""
+    pairs = np.array([(a, b) for r in cantilever.result.history
+                      for a, b in zip(r.newton_residuals[:-1],
+                                      r.newton_residuals[1:])
+                      if a < 1e-3 and b > 1e-8])
+    assert len(pairs) >= 15
+    assert (pairs[:, 1] / pairs[:, 0] ** 2).max() < 1e3
+    assert cantilever.newton_iterations <= 7
+
+
+def test_cantilever_gap_at_small_loads_shrinks_with_h(cantilever):
+    from skfem_mpm.elastica import elastica_tip
+    _, alpha, v, u = cantilever.cantilever(h=.25)
+    v_ref, u_ref = elastica_tip(alpha * (1 - cantilever.NU ** 2))
+    for a in (1., 2.):
+        coarse = np.argmin(np.abs(cantilever.alpha - a))
+        fine = np.argmin(np.abs(alpha - a))
+        gap_coarse = abs(cantilever.v[coarse] / cantilever.v_ref[coarse] - 1)
+        gap_fine = abs(v[fine] / v_ref[fine] - 1)
+        assert gap_fine < .5 * gap_coarse
+        gap_coarse = abs(cantilever.u[coarse] / cantilever.u_ref[coarse] - 1)
+        gap_fine = abs(u[fine] / u_ref[fine] - 1)
+        assert gap_fine < .5 * gap_coarse
+
+
+def test_collapse_runs_conserves_mass_and_collapses(tmp_path):
+    collapse = load("collapse")
+    history = collapse.result.history
+    assert len(history) == 40           # every step converged, no cut-back
+    assert max(r.residual for r in history) <= 1e-9
+    assert collapse.mass_error == 0.
+    pts = collapse.result.points
+    density = 1. * pts.volume0 / pts.volume       # rho0 = 1
+    assert abs(density @ pts.volume - pts.volume0.sum()) < 1e-12 * 64
+    spread = np.interp([.4, 1.], collapse.load, collapse.spread)
+    assert spread[0] < .25 and spread[1] > 5.
+    assert history[-1].n_yielded > pts.n / 2
+    collapse.visualize(tmp_path)
+    assert (tmp_path / "collapse.png").stat().st_size > 10_000
+
+
+def test_cantilever_figure(cantilever, tmp_path):
+    cantilever.visualize(tmp_path)
+    assert (tmp_path / "cantilever.png").stat().st_size > 10_000

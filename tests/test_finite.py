@@ -1,0 +1,227 @@
+"""Finite deformation, GIMP and plasticity (seed chapter 3: iGIMP)."""
+import logging
+
+import numpy as np
+import pytest
+from skfem import (Basis, ElementQuad1, ElementVector, MeshQuad)
+
+from skfem_mpm import (ConvergenceError, InvalidInputError, InvalidMaterialError,
+                       LinearElastic, MaterialPointBasis, MaterialPoints,
+                       VonMises,
+                       point_locator, seed_points, solve_finite)
+from skfem_mpm.column import (HEIGHT, LOAD, MATERIAL, analytical_stress,
+                              column_grid, column_supports)
+from skfem_mpm.gimp import gimp_operator
+from skfem_mpm.kinematics import hencky_update, spatial_tangent
+from skfem_mpm.operators import AsmOperator
+
+
+def column_error(points):
+    """sum_p |sigma_p - sigma_a(Y_p)| V_p / (rho0 g L0 V0)."""
+    diff = np.abs(points.stress[1, 1] - analytical_stress(points.x0[1]))
+    return diff @ points.volume / (LOAD * HEIGHT * points.volume0.sum())
+
+
+def run_column(nelems, method, nsteps=20):
+    mesh, elem = column_grid(nelems, dim=2)
+    return solve_finite(mesh, elem, seed_points(mesh, 2), MATERIAL,
+                        column_supports(2), body_force=[0., -LOAD],
+                        nsteps=nsteps, method=method, keep_snapshots=False)
+
+
+@pytest.fixture(scope="module")
+def columns():
+    nelems = np.array([4, 8, 16, 32, 64, 128, 256])
+    runs = {m: [run_column(n, m) for n in nelems] for m in ("mpm", "cpgimp")}
+    return nelems, runs
+
+
+def test_gimp_column_converges_where_mpm_plateaus(columns):
+    nelems, runs = columns
+    gimp = np.array([column_error(r.points) for r in runs["cpgimp"]])
+    mpm = np.array([column_error(r.points) for r in runs["mpm"]])
+    assert (np.diff(gimp) < 0).all()
+    rate = np.log(gimp[0] / gimp[-1]) / np.log(nelems[-1] / nelems[0])
+    assert rate >= 1.3
+    assert gimp[-1] < 1e-4
+    assert (mpm[2:] > 1e-2).all()
+
+
+def quadratic_pairs(history, below=1e-3, floor=1e-10):
+    """(r_k, r_k+1) of every step once r_k < below, with r_k+1 above the
+    round-off floor of the residual (about 1e-11 here)."""
+    return [(a, b) for r in history
+            for a, b in zip(r.newton_residuals[:-1], r.newton_residuals[1:])
+            if a < below and b > floor]
+
+
+def test_newton_converges_quadratically_in_the_column(columns):
+    _, runs = columns
+    for method in ("mpm", "cpgimp"):
+        history = runs[method][3].history
+        assert max(r.residual for r in history) <= 1e-9
+        pairs = quadratic_pairs(history)
+        assert len(pairs) >= 5
+        assert min(np.log(b) / np.log(a) for a, b in pairs) >= 1.8
+
+
+def test_consistent_tangent_matches_finite_differences():
+    """The tangent of tau with respect to l = grad_x(du), elastic and
+    plastic, with distinct and repeated eigenvalues."""
+    rng = np.random.default_rng(3)
+    n = 6
+    H = .1 * rng.standard_normal((3, 3, n))
+    H[2], H[:, 2] = 0., 0.
+    H[:, :, 0] = np.diag([-.05, 0., 0.])        # repeated eigenvalues
+    dF = np.eye(3)[:, :, None] + H
+    b_n = np.repeat(np.eye(3)[:, :, None], n, axis=2)
+    for material in (LinearElastic(1e3, .3), VonMises(1e3, .3, 20.)):
+        def tau(dF):
+            return hencky_update(material, np.einsum(
+                "abp,bcp,dcp->adp", dF, b_n, dF))[0]
+        b_tr = np.einsum("abp,bcp,dcp->adp", dF, b_n, dF)
+        t, _, _, dtau_db, yielded = hencky_update(material, b_tr)
+        A = spatial_tangent(dtau_db, b_tr, t)
+        worst = 0.
+        for c in range(2):
+            for d in range(2):
+                l = np.zeros((3, 3, 1))
+                l[c, d] = 1.
+                h = 1e-6
+                dplus = np.einsum("abp,bcp->acp", np.eye(3)[:, :, None] + h * l,
+                                  dF)
+                dminus = np.einsum("abp,bcp->acp",
+                                   np.eye(3)[:, :, None] - h * l, dF)
+                fd = (tau(dplus) - tau(dminus)) / (2 * h)
+                exact = A[:, :, c, d] + np.einsum("b,ap->abp", np.eye(3)[:, c],
+                                                  t[:, d])
+                worst = max(worst, np.abs(exact - fd).max() / np.abs(t).max())
+        assert worst < 1e-7
+    assert yielded.all()
+
+
+def test_von_mises_return_lands_on_the_yield_surface():
+    mat = VonMises(E=1e6, nu=.3, yield_stress=20e3)
+    eps = np.array([[.05, 1e-4], [-.03, 0.], [0., 0.]])
+    tau, eps_e, D, yielded = mat.principal_update(eps)
+    q = np.sqrt(1.5) * np.linalg.norm(tau - tau.mean(axis=0), axis=0)
+    assert yielded.tolist() == [True, False]
+    assert q[0] == pytest.approx(20e3, rel=1e-12)
+    # the pressure is elastic: the return is purely deviatoric
+    elastic = LinearElastic(1e6, .3).principal_update(eps)[0]
+    assert tau[:, 0].mean() == pytest.approx(elastic[:, 0].mean(), rel=1e-12)
+    np.testing.assert_allclose(tau[:, 1], elastic[:, 1], rtol=1e-12)
+    with pytest.raises(InvalidMaterialError, match="yield_stress"):
+        VonMises(1e6, .3, yield_stress=0.)
+
+
+def rotation_increments(theta):
+    """Grid increments of a rigid rotation by theta per step about 0."""
+    R = np.array([[np.cos(theta), -np.sin(theta)],
+                  [np.sin(theta), np.cos(theta)]])
+
+    def prescribed(basis, f_old, f_new):
+        nodes = basis.doflocs[:, ::2]
+        increments = (R - np.eye(2)) @ nodes
+        return basis.nodal_dofs.T.ravel(), increments.T.ravel()
+
+    return prescribed
+
+
+@pytest.mark.parametrize("method", ["mpm", "cpgimp"])
+def test_rigid_rotation_is_stress_free(method):
+    mesh = MeshQuad.init_tensor(np.linspace(-2, 2, 9), np.linspace(-2, 2, 9))
+    points = seed_points(mesh, 2, region=lambda x: (np.abs(x) < 1).all(axis=0))
+    E = 1e6
+    res = solve_finite(mesh, ElementQuad1(), points, LinearElastic(E, .3),
+                       np.array([], dtype=int), nsteps=10, method=method,
+                       prescribed=rotation_increments(np.pi / 20))
+    pts = res.points
+    assert np.abs(pts.stress).max() < 1e-8 * E
+    assert np.abs(pts.volume / points.volume - 1).max() < 1e-12
+    # rotated by 90 degrees: (x, y) -> (-y, x)
+    expected = np.array([-points.x[1], points.x[0]])
+    assert np.abs(pts.x - expected).max() < 1e-12
+    if method == "cpgimp":
+        np.testing.assert_allclose(pts.domain, points.domain, rtol=1e-12)
+
+
+def test_gimp_equals_mpm_for_domains_inside_elements():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 4, 5), np.linspace(0, 3, 4))
+    pts = seed_points(mesh, 3)
+    elem = ElementVector(ElementQuad1())
+    gimp = gimp_operator(mesh, elem, pts.x, pts.domain, point_locator(mesh))
+    mpm = AsmOperator(MaterialPointBasis(mesh, elem, pts,
+                                         dofs=Basis(mesh, elem).dofs))
+    rng = np.random.default_rng(0)
+    u = rng.random(mpm.N)
+    P, A = rng.random((2, 2, pts.n)), rng.random((2, 2, 2, 2, pts.n))
+    assert np.abs(gimp.values(u) - mpm.values(u)).max() < 1e-14
+    assert np.abs(gimp.gradients(u) - mpm.gradients(u)).max() < 1e-13
+    assert np.abs(gimp.force(P, pts.volume) - mpm.force(P, pts.volume)
+                  ).max() < 1e-13
+    assert abs(gimp.stiffness(A, pts.volume) - mpm.stiffness(A, pts.volume)
+               ).max() < 1e-13
+    # and a whole load step
+    mesh, elem = column_grid(8, dim=2)
+    one = [solve_finite(mesh, elem, seed_points(mesh, 2), MATERIAL,
+                        column_supports(2), body_force=[0., -LOAD],
+                        method=m).points for m in ("mpm", "ugimp")]
+    assert np.abs(one[0].stress - one[1].stress).max() < 1e-9 * LOAD * HEIGHT
+    assert np.abs(one[0].x - one[1].x).max() < 1e-13
+
+
+def test_internal_force_is_continuous_across_element_boundaries():
+    """One point with a fixed stress moves through x = 1: the GIMP internal
+    force changes in proportion to the step, standard MPM's jumps."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 3), np.linspace(0, 1, 2))
+    elem = ElementVector(ElementQuad1())
+    dofs = Basis(mesh, elem).dofs
+    locate = point_locator(mesh)
+    P = np.zeros((2, 2, 1))
+    P[0, 0] = 1.
+    xs = np.linspace(.9, 1.1, 201)
+    forces = {"gimp": [], "mpm": []}
+    for x in xs:
+        pt = MaterialPoints(x=[[x], [.5]], volume=[.01],
+                            domain=[[.05], [.05]])
+        forces["gimp"].append(gimp_operator(mesh, elem, pt.x, pt.domain,
+                                            locate).force(P, pt.volume))
+        forces["mpm"].append(AsmOperator(MaterialPointBasis(
+            mesh, elem, pt, dofs=dofs)).force(P, pt.volume))
+    jumps = {k: np.abs(np.diff(np.array(v), axis=0)).max()
+             for k, v in forces.items()}
+    scale = np.abs(np.array(forces["mpm"])).max()
+    # steps of 1e-3 through a domain 0.1 wide: GIMP changes by ~1e-2 of the
+    # force per step; MPM's gradient switches element: a jump of order one
+    assert jumps["gimp"] < 3e-2 * scale
+    assert jumps["mpm"] > .5 * scale
+
+
+def test_cut_back_then_error_with_the_last_converged_state(caplog):
+    """A load that crushes the column: steps are bisected, then the error
+    carries the last converged state."""
+    mesh, elem = column_grid(4, dim=2)
+    points = seed_points(mesh, 2)
+    caplog.set_level(logging.WARNING, logger="skfem_mpm.finite")
+    with pytest.raises(ConvergenceError) as err:
+        solve_finite(mesh, elem, points, LinearElastic(1e3, 0.),
+                     column_supports(2), body_force=[0., -1e3], nsteps=2,
+                     method="cpgimp", max_cutbacks=3)
+    assert "cutting the load increment back" in caplog.text
+    state = err.value.state
+    assert 0 <= err.value.load_factor < 1.
+    assert state.n == points.n and np.isfinite(state.stress).all()
+    assert (np.linalg.det(np.moveaxis(state.F, -1, 0)) > 0).all()
+
+
+def test_bad_finite_input():
+    mesh, elem = column_grid(4, dim=2)
+    pts = seed_points(mesh, 2)
+    with pytest.raises(InvalidInputError, match="method must be one of"):
+        solve_finite(mesh, elem, pts, MATERIAL, column_supports(2),
+                     method="gimp")
+    pts.domain = None
+    with pytest.raises(InvalidInputError, match="needs point domains"):
+        solve_finite(mesh, elem, pts, MATERIAL, column_supports(2),
+                     method="ugimp")
