@@ -36,7 +36,8 @@ from .linsolve import (check_rigid_body_modes, free_dofs, solve_active,
 from .locate import Locator, point_locator
 from .operators import AsmOperator
 from .points import MaterialPoints
-from .solver import PHASES, Result, StepRecord, vector_element
+from .solver import (PHASES, Result, StepRecord, check_run_input,
+                     vector_element)
 
 logger = logging.getLogger(__name__)
 
@@ -282,12 +283,7 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     if method not in METHODS:
         raise InvalidInputError("method must be one of {}, got {!r}".format(
             METHODS, method))
-    if int(nsteps) != nsteps or nsteps < 1:
-        raise InvalidInputError(
-            "nsteps must be a positive integer, got {}".format(nsteps))
-    if points.dim != mesh.dim():
-        raise InvalidInputError(
-            "points are {}D but the mesh is {}D".format(points.dim, mesh.dim()))
+    check_run_input(mesh, points, nsteps)
     if method != "mpm" and points.domain is None:
         raise InvalidInputError(
             "method {!r} needs point domains (MaterialPoints.domain); "
@@ -308,7 +304,9 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     smallest = increment / 2 ** max_cutbacks
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
-        target = min(factor + increment, boundary)
+        target = factor + increment
+        if target > boundary - 1e-12:
+            target = boundary
         try:
             points, record = _Step(ctx, points, factor, target,
                                    step + 1).run()

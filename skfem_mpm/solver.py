@@ -110,6 +110,17 @@ def vector_element(elem: Element) -> Element:
     return elem if isinstance(elem, ElementVector) else ElementVector(elem)
 
 
+def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int):
+    """Raise :class:`~skfem_mpm.errors.InvalidInputError` for a step count
+    that is not a positive integer or points of another dimension."""
+    if int(nsteps) != nsteps or nsteps < 1:
+        raise InvalidInputError(
+            "nsteps must be a positive integer, got {}".format(nsteps))
+    if points.dim != mesh.dim():
+        raise InvalidInputError(
+            "points are {}D but the mesh is {}D".format(points.dim, mesh.dim()))
+
+
 def point_force_field(basis: MaterialPointBasis, points: MaterialPoints,
                       factor: float) -> ndarray:
     """Point forces as a force-per-volume field for :data:`body_force`."""
@@ -189,12 +200,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     -0.9975
 
     """
-    if int(nsteps) != nsteps or nsteps < 1:
-        raise InvalidInputError(
-            "nsteps must be a positive integer, got {}".format(nsteps))
-    if points.dim != mesh.dim():
-        raise InvalidInputError(
-            "points are {}D but the mesh is {}D".format(points.dim, mesh.dim()))
+    check_run_input(mesh, points, nsteps)
     gravity = as_body_force(body_force, mesh.dim())
     elem = vector_element(elem)
     grid = Basis(mesh, elem, intorder=0)

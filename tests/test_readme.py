@@ -31,3 +31,6 @@ def test_readme_examples_run():
     assert abs(total / -160000. - 1.) < 1e-2
     assert namespace["result"].history[-1].residual < 1e-10
     assert namespace["K"].shape == (130, 130)
+    large = namespace["large"]
+    assert len(large.history) == 10 and large.history[-1].load_factor == 1.
+    assert max(r.residual for r in large.history) <= 1e-9
