@@ -3,7 +3,8 @@ import logging
 
 import numpy as np
 import pytest
-from skfem import (Basis, ElementQuad1, ElementVector, MeshQuad)
+from skfem import (Basis, ElementHex1, ElementLineP1, ElementQuad1,
+                   ElementQuad2, ElementVector, MeshHex, MeshLine, MeshQuad)
 
 from skfem_mpm import (ConvergenceError, InvalidInputError, InvalidMaterialError,
                        LinearElastic, MaterialPointBasis, MaterialPoints,
@@ -225,3 +226,36 @@ def test_bad_finite_input():
     with pytest.raises(InvalidInputError, match="needs point domains"):
         solve_finite(mesh, elem, pts, MATERIAL, column_supports(2),
                      method="ugimp")
+
+
+@pytest.mark.parametrize("mesh, elem", [
+    (MeshLine(np.linspace(0, 2, 5)), ElementLineP1()),
+    (MeshHex.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 3),
+                         np.linspace(0, 1, 4)), ElementHex1()),
+    (MeshQuad.init_tensor(np.linspace(0, 2, 4), np.linspace(0, 1, 3)),
+     ElementQuad2()),
+])
+def test_gimp_in_1d_3d_and_quadratic(mesh, elem):
+    """Partition of unity and linear reproduction with domains crossing
+    element boundaries; Q1-type elements equal MPM for in-cell domains."""
+    pts = seed_points(mesh, 2)
+    locate = point_locator(mesh)
+    inside = gimp_operator(mesh, elem, pts.x, pts.domain, locate)
+    if elem.maxdeg == 1:
+        mpm = MaterialPointBasis(mesh, elem, pts)
+        for j in range(mesh.dim()):
+            u = mpm.doflocs[j] ** 2
+            field = mpm.interpolate(u)
+            assert np.abs(inside.S @ u - mpm.point_values(np.asarray(field))
+                          ).max() < 1e-13
+    crossing = gimp_operator(mesh, elem, pts.x, 1.6 * pts.domain, locate)
+    coords = Basis(mesh, elem).doflocs
+    assert np.abs(crossing.S.sum(axis=1) - 1).max() < 1e-13
+    interior = ((pts.x - 1.6 * pts.domain > coords.min(axis=1)[:, None]) &
+                (pts.x + 1.6 * pts.domain < coords.max(axis=1)[:, None])
+                ).all(axis=0)
+    for j in range(mesh.dim()):
+        assert np.abs((crossing.S @ coords[j] - pts.x[j])[interior]).max() \
+            < 1e-13
+        for d in range(mesh.dim()):
+            assert np.abs(crossing.G[d] @ coords[j] - (j == d)).max() < 1e-12
