@@ -34,6 +34,7 @@ from .kinematics import hencky_update, pull_back, spatial_tangent
 from .linsolve import (check_rigid_body_modes, free_dofs, solve_active,
                        support_dofs)
 from .locate import Locator, point_locator
+from .materials import at_points, is_plastic
 from .operators import AsmOperator
 from .points import MaterialPoints
 from .solver import (PHASES, Result, StepRecord, check_run_input,
@@ -75,6 +76,7 @@ class _Step:
     def operator(self):
         ctx, pts = self.ctx, self.points
         tic = time.perf_counter()
+        ctx.counters["locate"] += 1
         try:
             location = ctx.locate(pts.x)
         except PointsOutsideGridError as err:
@@ -104,6 +106,7 @@ class _Step:
                         self.points.x[:, bad[0]].tolist()))
         b_tr = np.einsum("abp,bcp,dcp->adp", dF, self.points.be, dF)
         state = (dF,) + hencky_update(self.ctx.material, b_tr) + (b_tr,)
+        self.ctx.counters["return_maps"] += self.ctx.plastic
         self.t["update"] += time.perf_counter() - tic
         return state
 
@@ -122,6 +125,7 @@ class _Step:
         free = free_dofs(op.active_dofs, D)
         f_ext = np.zeros(op.N)
         load = ctx.point_load(pts)
+        ctx.counters["body_force"] += ctx.gravity is not None
         if load is not None:
             f_ext = op.point_force(self.f_new * load)
         self.t["assemble"] += time.perf_counter() - tic
@@ -161,6 +165,8 @@ class _Step:
             K = K + STABILISATION * diags(K.diagonal())
             self.t["assemble"] += time.perf_counter() - tic
             tic = time.perf_counter()
+            ctx.counters["linear_solves"] += 1
+            ctx.counters["newton_iterations"] += 1
             try:
                 du = du + solve_active(K, r, free, solver=ctx.solver)
             except SingularSystemError as err:
@@ -221,7 +227,9 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                  tol: float = 1e-9, max_iter: int = 25, max_cutbacks: int = 8,
                  locator: Optional[Locator] = None,
                  solver: Optional[Callable] = None,
-                 keep_snapshots: bool = True) -> Result:
+                 keep_snapshots: bool = True, first_step: int = 1,
+                 domain0: Optional[ndarray] = None,
+                 callback: Optional[Callable] = None) -> Result:
     """Finite-deformation implicit MPM or GIMP (updated Lagrangian,
     Hencky elasticity, optional von Mises plasticity).
 
@@ -252,6 +260,11 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     max_iter, max_cutbacks
         Newton iterations per attempt, and how many times a load step may be
         halved before giving up.
+    first_step, domain0
+        Resume: ``points`` is the state after step ``first_step - 1``, and
+        ``domain0`` the initial GIMP domains (default ``points.domain``).
+    callback
+        Called as ``callback(record, points)`` after every converged step.
 
     Returns
     -------
@@ -290,17 +303,20 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             "seed_points sets them on tensor-product grids".format(method))
     elem = vector_element(elem)
     grid = Basis(mesh, elem, intorder=0)
+    material = at_points(material, points)
+    result = Result(points=points.copy())
     ctx = _Context(
         mesh=mesh, elem=elem, material=material, method=method, grid=grid,
+        counters=result.counters, plastic=is_plastic(material),
         dofs=grid.dofs, D=support_dofs(supports, grid), dim=mesh.dim(),
         gravity=as_body_force(body_force, mesh.dim()), prescribed=prescribed,
         locate=point_locator(mesh) if locator is None else locator,
         tol=tol, max_iter=max_iter, solver=solver,
         keep_snapshots=keep_snapshots,
-        domain0=None if points.domain is None else points.domain.copy())
-    points = points.copy()
-    result = Result(points=points)
-    factor, step, increment = 0., 0, 1. / nsteps
+        domain0=points.domain if domain0 is None else domain0)
+    points = result.points
+    step = int(first_step) - 1
+    factor, increment = step / nsteps, 1. / nsteps
     smallest = increment / 2 ** max_cutbacks
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
@@ -328,6 +344,8 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             increment = 1. / nsteps
         result.history.append(record)
         result.points = points
+        if callback is not None:
+            callback(record, points)
         logger.info("step %d: load factor %.4f, %d Newton iterations, "
                     "residual %.2e", step, factor,
                     len(record.newton_residuals) - 1, record.residual)

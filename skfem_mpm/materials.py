@@ -10,12 +10,14 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy import ndarray
-from skfem.assembly import BilinearForm
+from skfem.assembly import BilinearForm, asm
+from skfem.helpers import ddot, eye, sym_grad, trace
 from skfem.models.elasticity import linear_elasticity
 
 from .errors import InvalidMaterialError
 
-__all__ = ["LinearElastic", "VonMises"]
+__all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
+           "is_plastic", "assemble_elastic_stiffness"]
 
 
 @dataclass(frozen=True)
@@ -144,3 +146,73 @@ class VonMises(LinearElastic):
             dev[:, :, None] - np.einsum("ap,bp->abp", n, n))
         D = np.where(yielded, Dp, D)
         return tau, eps_e, D, yielded
+
+
+class PointMaterials:
+    """Several materials, one per body: point p follows
+    ``materials[body[p]]``.
+
+    Offers what the solvers use of a single material (``lam``, ``mu`` and
+    ``stress`` per point, ``principal_update``) so that bodies of different
+    materials share one grid.
+
+    """
+
+    def __init__(self, materials, body: ndarray):
+        self.materials = list(materials)
+        self.body = np.asarray(body)
+        if self.body.max() >= len(self.materials):
+            raise InvalidMaterialError(
+                "points refer to body {} but only {} material(s) are given"
+                .format(int(self.body.max()), len(self.materials)))
+        self.lam = np.array([m.lam for m in self.materials])[self.body]
+        self.mu = np.array([m.mu for m in self.materials])[self.body]
+
+    def stress(self, strain: ndarray) -> ndarray:
+        """``2 mu eps + lam tr(eps) I`` with per-point Lame parameters."""
+        return LinearElastic.stress(self, strain)
+
+    def principal_update(self, eps: ndarray):
+        tau, eps_e = np.empty_like(eps), np.empty_like(eps)
+        D = np.empty((3, 3, eps.shape[1]))
+        yielded = np.zeros(eps.shape[1], dtype=bool)
+        for k, material in enumerate(self.materials):
+            sel = self.body == k
+            if sel.any():
+                tau[:, sel], eps_e[:, sel], D[:, :, sel], yielded[sel] = \
+                    material.principal_update(eps[:, sel])
+        return tau, eps_e, D, yielded
+
+
+def at_points(material, points) -> object:
+    """The material of every point: ``material`` itself, or a
+    :class:`PointMaterials` when a list of materials (one per body) is
+    given."""
+    if isinstance(material, (list, tuple)):
+        return PointMaterials(material, points.body)
+    return material
+
+
+def is_plastic(material) -> bool:
+    """Whether a stress update involves a return map."""
+    if isinstance(material, PointMaterials):
+        return any(is_plastic(m) for m in material.materials)
+    return isinstance(material, VonMises)
+
+
+@BilinearForm
+def elasticity_at_points(u, v, w):
+    """Linear elasticity with Lame parameters given at the points."""
+    strain = sym_grad(u)
+    return ddot(2. * w.mu * strain + w.lam * eye(trace(strain),
+                                                 strain.shape[0]),
+                sym_grad(v))
+
+
+def assemble_elastic_stiffness(material, basis):
+    """The small-strain stiffness (2.21) on a material-point basis."""
+    if isinstance(material, PointMaterials):
+        return asm(elasticity_at_points, basis,
+                   lam=basis.quadrature_field(material.lam),
+                   mu=basis.quadrature_field(material.mu))
+    return asm(material.stiffness_form(), basis)

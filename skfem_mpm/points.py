@@ -14,7 +14,8 @@ State is kept as a struct of arrays, points along the last axis:
 - ``force`` (dim, n): point forces at full load (ramped by the solver),
 - ``F`` and ``be`` (3, 3, n): deformation gradient and elastic left
   Cauchy-Green tensor (finite deformation),
-- ``domain`` (dim, n) or ``None``: GIMP domain half-lengths.
+- ``domain`` (dim, n) or ``None``: GIMP domain half-lengths,
+- ``body`` (n,) integers: which body (and material) each point belongs to.
 
 """
 from dataclasses import dataclass, fields
@@ -30,7 +31,8 @@ from .errors import InvalidInputError, UnsupportedElementError, check_finite
 from .locate import tensor_grid
 from .mapping import fresh_mapping
 
-__all__ = ["MaterialPoints", "seed_points", "seed_gauss_points"]
+__all__ = ["MaterialPoints", "seed_points", "seed_gauss_points",
+           "concatenate_points"]
 
 
 @dataclass
@@ -66,6 +68,7 @@ class MaterialPoints:
     F: Optional[ndarray] = None
     be: Optional[ndarray] = None
     domain: Optional[ndarray] = None
+    body: Optional[ndarray] = None
 
     def __post_init__(self):
         self.x = np.array(self.x, dtype=np.float64)
@@ -109,6 +112,14 @@ class MaterialPoints:
                                         .format(name, expected, value.shape))
             check_finite(name, value)
             setattr(self, name, value)
+        self.body = np.zeros(n, dtype=np.int64) if self.body is None \
+            else np.array(self.body, dtype=np.int64)
+        if self.body.shape != (n,) or (self.body < 0).any():
+            raise InvalidInputError(
+                "body must hold one non-negative integer per point, shape "
+                "({},), got {}".format(n, self.body.shape))
+        if self.domain is not None and not (self.domain > 0).all():
+            raise InvalidInputError("domain half-lengths must be positive")
 
     @property
     def dim(self) -> int:
@@ -246,3 +257,33 @@ def seed_gauss_points(mesh: Mesh, intorder: int = 2,
     """
     X, W = get_quadrature(mesh.refdom, intorder)
     return _points_from_reference(mesh, X, W, region, elements)
+
+
+def concatenate_points(parts) -> MaterialPoints:
+    """Join point sets (e.g. bodies) into one, keeping every field.
+
+    Examples
+    --------
+    >>> from skfem import MeshQuad
+    >>> from skfem_mpm import seed_points
+    >>> from skfem_mpm.points import concatenate_points
+    >>> mesh = MeshQuad().refined(1)
+    >>> a = seed_points(mesh, 1, region=lambda x: x[0] < .5)
+    >>> b = seed_points(mesh, 1, region=lambda x: x[0] > .5)
+    >>> b.body[:] = 1
+    >>> concatenate_points([a, b]).body.tolist()
+    [0, 0, 1, 1]
+
+    """
+    parts = list(parts)
+    kwargs = {}
+    for f in fields(MaterialPoints):
+        values = [getattr(p, f.name) for p in parts]
+        if any(v is None for v in values):
+            if not all(v is None for v in values):
+                raise InvalidInputError(
+                    "cannot join point sets where only some have {}".format(
+                        f.name))
+            continue
+        kwargs[f.name] = np.concatenate(values, axis=-1)
+    return MaterialPoints(**kwargs)

@@ -30,7 +30,7 @@ from .forms import (as_body_force, assemble_body_force, body_force,
 from .linsolve import (check_rigid_body_modes, element_adjacency, free_dofs,
                        solve_active, support_dofs)
 from .locate import Locator, point_locator
-from .materials import LinearElastic
+from .materials import LinearElastic, assemble_elastic_stiffness, at_points
 from .points import MaterialPoints
 
 logger = logging.getLogger(__name__)
@@ -94,11 +94,19 @@ class Result:
     basis
         The material-point basis of the last step (before the final
         position update), e.g. for plotting the last grid solution.
+    counters
+        How often each kind of work was done: ``locate`` (point location),
+        ``body_force`` (body-force assemblies), ``linear_solves``,
+        ``return_maps`` (stress updates with a return map),
+        ``newton_iterations``.
 
     """
     points: MaterialPoints
     history: List[StepRecord] = field(default_factory=list)
     basis: Optional[MaterialPointBasis] = None
+    counters: dict = field(default_factory=lambda: dict.fromkeys(
+        ("locate", "body_force", "linear_solves", "return_maps",
+         "newton_iterations"), 0))
 
     def timings(self) -> dict:
         """Total seconds per phase over all steps."""
@@ -128,11 +136,13 @@ def point_force_field(basis: MaterialPointBasis, points: MaterialPoints,
 
 
 def external_force(basis: MaterialPointBasis, points: MaterialPoints,
-                   gravity: Optional[ndarray], factor: float) -> ndarray:
+                   gravity: Optional[ndarray], factor: float,
+                   counters: dict) -> ndarray:
     """``f_ext`` at load factor ``factor``: body force (2.19) and point
     forces (2.18), each assembled only when the scene has it."""
     f = np.zeros(basis.N)
     if gravity is not None:
+        counters["body_force"] += 1
         f += assemble_body_force(basis, factor * gravity)
     if points.force.any():
         f += asm(body_force, basis, b=point_force_field(basis, points, factor))
@@ -150,7 +160,8 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
               material: LinearElastic, supports, body_force=None,
               nsteps: int = 1, locator: Optional[Locator] = None,
               solver: Optional[Callable] = None, keep_snapshots: bool = True,
-              update_positions: bool = True) -> Result:
+              update_positions: bool = True, first_step: int = 1,
+              callback: Optional[Callable] = None) -> Result:
     """Run the implicit MPM of seed Algorithm 2.1 (small strain).
 
     Parameters
@@ -182,6 +193,12 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     update_positions
         Move the points at the end of each step (MPM).  ``False`` keeps
         them fixed: a finite element analysis with the points as quadrature.
+    material
+        One material, or a list with one per body (``points.body``).
+    first_step
+        Resume: ``points`` is the state after step ``first_step - 1``.
+    callback
+        Called as ``callback(record, points)`` after every step.
 
     Returns
     -------
@@ -207,15 +224,17 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     D = support_dofs(supports, grid)
     dim = mesh.dim()
     locate = point_locator(mesh) if locator is None else locator
-    stiffness = material.stiffness_form()
     points = points.copy()
+    material = at_points(material, points)
     result = Result(points=points)
+    counters = result.counters
     location = None
-    for step in range(1, int(nsteps) + 1):
+    for step in range(int(first_step), int(nsteps) + 1):
         factor = step / nsteps
         t = dict.fromkeys(PHASES, 0.)
         tic = time.perf_counter()
         if location is None or update_positions:
+            counters["locate"] += 1
             try:
                 location = locate(points.x)
             except PointsOutsideGridError as err:
@@ -230,15 +249,16 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
             element_adjacency(basis.element_dofs, dim, basis.N // dim),
             grid.doflocs[:, ::dim], active, D, dim, step)
         free = free_dofs(active, D)
-        f_ext = external_force(basis, points, gravity, factor)
+        f_ext = external_force(basis, points, gravity, factor, counters)
         f_int = assemble_internal_force(basis, points.stress) \
             if points.stress.any() else np.zeros(basis.N)
-        K = asm(stiffness, basis)
+        K = assemble_elastic_stiffness(material, basis)
         t["assemble"] = time.perf_counter() - tic
 
         tic = time.perf_counter()
         try:
             du = solve_active(K, f_ext - f_int, free, solver=solver)
+            counters["linear_solves"] += 1
         except SingularSystemError as err:
             raise SingularSystemError("step {}: {}".format(step, err)) from err
         t["solve"] = time.perf_counter() - tic
@@ -272,6 +292,8 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
             record.stress = points.stress.copy()
         result.history.append(record)
         result.basis = basis
+        if callback is not None:
+            callback(record, points)
         logger.info("step %d/%d: %d active elements, %d free DOFs, "
                     "residual %.2e, %.3f s", step, nsteps, basis.nelems,
                     free.size, residual, sum(t.values()))
