@@ -14,16 +14,11 @@ from pathlib import Path
 import numpy as np
 
 from skfem_mpm import seed_points, solve_finite
-from skfem_mpm.column import (HEIGHT, LOAD, MATERIAL, analytical_stress,
-                              column_grid, column_supports)
+from skfem_mpm.column import (LOAD, MATERIAL, column_error, column_grid,
+                              column_supports)
 from skfem_mpm.solver import PHASES
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "examples"))
-
-
-def column_error(points):
-    diff = np.abs(points.stress[1, 1] - analytical_stress(points.x0[1]))
-    return diff @ points.volume / (LOAD * HEIGHT * points.volume0.sum())
 
 
 def row(label, result, seconds, error=None):

@@ -52,9 +52,12 @@ def vertical_stress(points: MaterialPoints) -> ndarray:
     return points.stress[d, d]
 
 
-def analytical_stress(Y: ndarray) -> ndarray:
-    """Linear solution ``sigma = -rho0 b (L0 - Y)`` at initial heights Y."""
-    return -LOAD * (HEIGHT - Y)
+def analytical_stress(Y: ndarray, load: float = LOAD,
+                      height: float = HEIGHT) -> ndarray:
+    """``sigma = -rho0 b (L0 - Y)`` at initial heights Y: the linear
+    solution, and the exact Cauchy stress of any elastic law for a column
+    on rollers (the weight above a point over an unchanged area)."""
+    return -load * (height - Y)
 
 
 def analytical_stress_current(z: ndarray, top: float) -> ndarray:
@@ -64,17 +67,20 @@ def analytical_stress_current(z: ndarray, top: float) -> ndarray:
     return -E * (np.sqrt(2 * LOAD / E * (top - z) + 1) - 1)
 
 
-def column_error(points: MaterialPoints) -> float:
+def column_error(points: MaterialPoints, load: float = LOAD,
+                 height: float = HEIGHT) -> float:
     """Seed (2.28): ``sum_p |sigma_a(Y_p) - sigma_p| V_p / (W L0)``.
 
     Normalised by the weight ``W = rho0 b L0 V0 / L0`` and the height: the
-    sum is divided by ``rho0 b L0 V0`` with ``V0`` the total volume, which
-    in 1D is the seed's ``W L0``.
+    sum is divided by ``rho0 b L0 V0`` with ``V0`` the total initial volume,
+    which in 1D is the seed's ``W L0``.  ``V_p`` are the current volumes
+    (fixed in small strain).
 
     """
     Y = points.x0[-1]
-    diff = np.abs(analytical_stress(Y) - vertical_stress(points))
-    return float(diff @ points.volume / (LOAD * HEIGHT * points.volume.sum()))
+    diff = np.abs(analytical_stress(Y, load, height) - vertical_stress(points))
+    return float(diff @ points.volume / (load * height
+                                         * points.volume0.sum()))
 
 
 def run_column(nelems: int, ppc: int = 2, nsteps: int = 1, dim: int = 1,

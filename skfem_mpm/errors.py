@@ -92,3 +92,14 @@ def check_finite(name: str, a: np.ndarray):
             "{} holds {} non-finite value(s) (NaN or inf), first at index {}: {}"
             .format(name, int(bad.sum()), tuple(int(i) for i in where[0]),
                     a[tuple(where[0])]))
+
+
+class SceneError(InvalidInputError):
+    """A scene description has problems; ``problems`` lists one message per
+    problem, each naming the key and the offending value."""
+
+    def __init__(self, problems, source=""):
+        self.problems = list(problems)
+        super().__init__("{}{} problem(s):\n".format(
+            source + ": " if source else "", len(self.problems))
+            + "\n".join(self.problems))

@@ -199,6 +199,7 @@ class _Step:
         record.newton_residuals = residuals
         record.n_yielded = int(yielded.sum())
         if ctx.keep_snapshots:
+            record.elements = op.elements
             record.u, record.x = du, new.x.copy()
             record.displacement = new.displacement.copy()
             record.stress = new.stress.copy()

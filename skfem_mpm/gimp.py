@@ -158,4 +158,4 @@ def gimp_operator(mesh: Mesh, elem: Element, x: ndarray, domain: ndarray,
                           shape=shape).tocsr()
 
     return SparseOperator(matrix(vals), [matrix(g) for g in grads],
-                          basis.nelems)
+                          basis.tind)

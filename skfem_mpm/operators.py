@@ -57,6 +57,7 @@ class AsmOperator:
         self.dim = basis.mesh.dim()
         self.N = basis.N
         self.nelems = basis.nelems
+        self.elements = basis.tind
         self.active_dofs = basis.active_dofs
 
     def values(self, u: ndarray) -> ndarray:
@@ -96,16 +97,17 @@ class SparseOperator:
     S, G
         csr matrices: ``S[p, k]`` weight of scalar DOF k at point p and
         ``G[d][p, k]`` its derivative along axis d.
-    nelems
-        Number of active elements (for reporting).
+    elements
+        The active elements (holding part of a point's domain).
 
     """
 
-    def __init__(self, S: csr_matrix, G, nelems: int):
+    def __init__(self, S: csr_matrix, G, elements: ndarray):
         self.S, self.G = S, list(G)
         self.dim = len(self.G)
         self.N = self.dim * S.shape[1]
-        self.nelems = nelems
+        self.elements = elements
+        self.nelems = len(elements)
         support = np.unique(np.concatenate([S.indices] +
                                            [g.indices for g in self.G]))
         self.active_dofs = (self.dim * support[:, None]

@@ -65,6 +65,8 @@ class StepRecord:
         Finite deformation: the residual of every Newton iteration.
     n_yielded
         Finite deformation: points on the yield surface.
+    elements
+        The active elements of the step (kept with the snapshots).
 
     """
     step: int
@@ -79,6 +81,7 @@ class StepRecord:
     stress: Optional[ndarray] = None
     newton_residuals: Optional[List[float]] = None
     n_yielded: int = 0
+    elements: Optional[ndarray] = None
 
 
 @dataclass
@@ -286,6 +289,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
 
         record = StepRecord(step, factor, residual, basis.nelems, free.size, t)
         if keep_snapshots:
+            record.elements = basis.tind
             record.u = du
             record.x = points.x.copy()
             record.displacement = points.displacement.copy()

@@ -10,17 +10,11 @@ from skfem_mpm import (ConvergenceError, InvalidInputError, InvalidMaterialError
                        LinearElastic, MaterialPointBasis, MaterialPoints,
                        VonMises,
                        point_locator, seed_points, solve_finite)
-from skfem_mpm.column import (HEIGHT, LOAD, MATERIAL, analytical_stress,
+from skfem_mpm.column import (HEIGHT, LOAD, MATERIAL, column_error,
                               column_grid, column_supports)
 from skfem_mpm.gimp import gimp_operator
 from skfem_mpm.kinematics import hencky_update, spatial_tangent
 from skfem_mpm.operators import AsmOperator
-
-
-def column_error(points):
-    """sum_p |sigma_p - sigma_a(Y_p)| V_p / (rho0 g L0 V0)."""
-    diff = np.abs(points.stress[1, 1] - analytical_stress(points.x0[1]))
-    return diff @ points.volume / (LOAD * HEIGHT * points.volume0.sum())
 
 
 def run_column(nelems, method, nsteps=20):

@@ -1,0 +1,145 @@
+"""Run output for ParaView and for scripts: a VTU time series of the points
+(all their state as point data) and of the active grid (nodal
+displacements), PVD collections, ``summary.json``, and checkpoints that
+load without pickle.  Every file is written atomically.
+
+"""
+import json
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+from numpy import ndarray
+
+from .errors import InvalidInputError
+from .io import atomic_path
+from .points import MaterialPoints
+
+__all__ = ["SeriesWriter", "write_summary", "save_checkpoint",
+           "load_checkpoint"]
+
+CHECKPOINT = "checkpoint.npz"
+
+
+def _pad3(a: ndarray) -> ndarray:
+    """(dim, n) vectors as (n, 3) for VTK."""
+    out = np.zeros((a.shape[1], 3))
+    out[:, :a.shape[0]] = a.T
+    return out
+
+
+def point_cloud(points: MaterialPoints):
+    """The points as a meshio mesh of vertices with all state fields."""
+    import meshio
+    n = points.n
+    data = {
+        "volume": points.volume, "volume0": points.volume0,
+        "body": points.body.astype(np.float64),
+        "displacement": _pad3(points.displacement),
+        "initial_position": _pad3(points.x0), "force": _pad3(points.force),
+        "stress": points.stress.reshape(9, n).T,
+        "strain": points.strain.reshape(9, n).T,
+        "F": points.F.reshape(9, n).T,
+        "von_mises": np.sqrt(1.5) * np.linalg.norm(
+            (points.stress - np.einsum("iip->p", points.stress) / 3
+             * np.eye(3)[:, :, None]).reshape(9, n), axis=0),
+    }
+    if points.domain is not None:
+        data["domain"] = _pad3(points.domain)
+    return meshio.Mesh(_pad3(points.x), [("vertex", np.arange(n)[:, None])],
+                       point_data=data)
+
+
+CELL_TYPES = {(1, 2): "line", (2, 4): "quad", (2, 3): "triangle",
+              (3, 8): "hexahedron", (3, 4): "tetra"}
+
+
+def active_grid(mesh, elements: ndarray, u: Optional[ndarray]):
+    """The grid's active elements with nodal displacements."""
+    import meshio
+    t = mesh.t[:, elements]
+    if mesh.t.shape[0] == 8:
+        t = t[[0, 2, 4, 1, 3, 6, 7, 5]]       # scikit-fem to VTK hexahedra
+    cell = CELL_TYPES[(mesh.dim(), mesh.t.shape[0])]
+    data = {}
+    if u is not None:
+        data["displacement"] = _pad3(
+            u[:mesh.dim() * mesh.nvertices].reshape(-1, mesh.dim()).T)
+    return meshio.Mesh(_pad3(mesh.p), [(cell, t.T)], point_data=data)
+
+
+class SeriesWriter:
+    """Writes ``points_NNNN.vtu`` and ``grid_NNNN.vtu`` per step and keeps
+    ``points.pvd`` / ``grid.pvd`` up to date."""
+
+    def __init__(self, outdir, mesh):
+        self.outdir = Path(outdir)
+        self.mesh = mesh
+        self.entries = []
+
+    def write(self, step: int, time: float, points: MaterialPoints,
+              elements: ndarray, u: Optional[ndarray]):
+        import meshio
+        names = ("points_{:04d}.vtu".format(step),
+                 "grid_{:04d}.vtu".format(step))
+        for name, m in zip(names, (point_cloud(points),
+                                   active_grid(self.mesh, elements, u))):
+            with atomic_path(self.outdir / name) as tmp:
+                meshio.write(tmp, m, file_format="vtu")
+        self.entries.append((time, names))
+        for k, collection in enumerate(("points.pvd", "grid.pvd")):
+            lines = ['<?xml version="1.0"?>',
+                     '<VTKFile type="Collection" version="0.1">',
+                     "<Collection>"]
+            lines += ['<DataSet timestep="{!r}" file="{}"/>'.format(t, n[k])
+                      for t, n in self.entries]
+            lines += ["</Collection>", "</VTKFile>"]
+            with atomic_path(self.outdir / collection) as tmp:
+                Path(tmp).write_text("\n".join(lines) + "\n")
+
+    def restore(self, steps):
+        """Re-register the files of steps already written (resume)."""
+        self.entries = [(t, ("points_{:04d}.vtu".format(s),
+                             "grid_{:04d}.vtu".format(s))) for s, t in steps]
+
+
+def write_summary(path, summary: dict):
+    """Write ``summary`` as JSON atomically."""
+    with atomic_path(path) as tmp:
+        Path(tmp).write_text(json.dumps(summary, indent=2, sort_keys=True))
+
+
+HISTORY_KEYS = ("step", "load_factor", "residual", "n_active_elements",
+                "n_free_dofs")
+
+
+def save_checkpoint(outdir, step: int, points: MaterialPoints, history,
+                    domain0: Optional[ndarray]):
+    """Save the full state after ``step`` (numpy arrays only, no pickle)."""
+    arrays = {"step": np.array(step)}
+    for name in ("x", "volume", "force", "x0", "stress", "strain",
+                 "displacement", "volume0", "F", "be", "body"):
+        arrays["points_" + name] = getattr(points, name)
+    if points.domain is not None:
+        arrays["points_domain"] = points.domain
+    if domain0 is not None:
+        arrays["domain0"] = domain0
+    arrays["history"] = np.array([[getattr(r, k) for k in HISTORY_KEYS]
+                                  for r in history], dtype=np.float64
+                                 ).reshape(-1, len(HISTORY_KEYS))
+    with atomic_path(Path(outdir) / CHECKPOINT) as tmp:
+        with open(tmp, "wb") as f:
+            np.savez(f, **arrays)
+
+
+def load_checkpoint(outdir):
+    """Load a checkpoint: ``(step, points, history rows, domain0)``."""
+    path = Path(outdir) / CHECKPOINT
+    if not path.exists():
+        raise InvalidInputError("no checkpoint in {}".format(outdir))
+    with np.load(path, allow_pickle=False) as data:
+        fields = {k[len("points_"):]: data[k] for k in data.files
+                  if k.startswith("points_")}
+        domain0 = data["domain0"] if "domain0" in data.files else None
+        return (int(data["step"]), MaterialPoints(**fields),
+                data["history"], domain0)

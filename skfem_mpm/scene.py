@@ -1,0 +1,254 @@
+"""Scenes: what is in a simulation, and only the effects it calls for.
+
+A :class:`Scene` names a background grid, bodies of material points with
+their materials, supports, loads and the method.  :func:`run_scene` builds
+the solver from exactly those parts: no body-force assembly without
+gravity, one linear solve per step (no Newton loop) for small-strain
+elasticity, no return map for elastic bodies, no point relocation in FE
+mode, no domain update for standard MPM.
+
+"""
+from dataclasses import dataclass, field
+from typing import Callable, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+from numpy import ndarray
+from skfem import ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2, \
+    MeshHex, MeshLine, MeshQuad
+
+from .errors import InvalidInputError
+from .finite import solve_finite
+from .materials import LinearElastic, VonMises
+from .points import MaterialPoints, concatenate_points, seed_points
+from .solver import Result, solve_mpm
+
+__all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
+           "build_points", "run_scene", "METHODS", "KINEMATICS",
+           "BOUNDARIES"]
+
+METHODS = ("fem", "mpm", "ugimp", "cpgimp")
+KINEMATICS = ("small", "finite")
+AXES = "xyz"
+BOUNDARIES = {"left": (0, 0), "right": (0, 1), "bottom": (1, 0),
+              "top": (1, 1), "back": (2, 0), "front": (2, 1)}
+
+
+@dataclass
+class Grid:
+    """An axis-aligned background grid: ``axes[d] = (lo, hi, cells)``.
+
+    ``element`` is ``"Q1"`` (line, quadrilateral or hexahedron by
+    dimension) or ``"Q2"`` (2D).  A ready scikit-fem ``mesh`` and ``elem``
+    may be given instead (Python API only).
+    """
+    axes: Sequence[Tuple[float, float, int]] = ()
+    element: str = "Q1"
+    mesh: object = None
+    elem: object = None
+
+    def build(self):
+        if self.mesh is not None:
+            return self.mesh, self.elem
+        nodes = [np.linspace(lo, hi, int(n) + 1) for lo, hi, n in self.axes]
+        dim = len(nodes)
+        mesh = {1: lambda: MeshLine(nodes[0]),
+                2: lambda: MeshQuad.init_tensor(*nodes),
+                3: lambda: MeshHex.init_tensor(*nodes)}[dim]()
+        if self.element == "Q2" and dim == 2:
+            return mesh, ElementQuad2()
+        return mesh, {1: ElementLineP1, 2: ElementQuad1,
+                      3: ElementHex1}[dim]()
+
+
+@dataclass
+class Body:
+    """Material points filling ``region`` (``[(lo, hi), ...]`` per axis or a
+    callable on coordinates), ``points_per_cell`` per axis."""
+    name: str
+    region: Union[Sequence[Tuple[float, float]], Callable]
+    material: Union[LinearElastic, VonMises]
+    points_per_cell: int = 2
+
+    def contains(self, x: ndarray) -> ndarray:
+        if callable(self.region):
+            return np.asarray(self.region(x), dtype=bool)
+        return np.all([(x[d] > lo) & (x[d] < hi)
+                       for d, (lo, hi) in enumerate(self.region)], axis=0)
+
+
+@dataclass
+class Support:
+    """Fixed grid DOFs: on a named ``boundary`` of the grid or on the nodes
+    where ``where(x)`` holds; ``components`` among ``"x", "y", "z"``."""
+    boundary: Optional[str] = None
+    where: Optional[Callable] = None
+    components: Sequence[str] = ("x", "y", "z")
+
+
+@dataclass
+class PointLoad:
+    """A force shared by the ``count`` points nearest ``at`` (initially)."""
+    at: Sequence[float]
+    force: Sequence[float]
+    count: int = 1
+
+
+@dataclass
+class Traction:
+    """A traction (force per area) on one ``side`` of a box body, shared by
+    the body's outermost layer of points on that side in proportion to
+    their area."""
+    body: str
+    side: str
+    traction: Sequence[float]
+
+
+@dataclass
+class Scene:
+    """A whole simulation.
+
+    Parameters
+    ----------
+    grid, bodies, supports
+        Background grid, bodies, supports.
+    gravity
+        Body force per unit (initial) volume, ``None`` for none.
+    point_loads, tractions
+        Loads at full load factor, ramped over the steps.
+    method
+        ``"fem"`` (points fixed: finite elements with the points as
+        quadrature), ``"mpm"``, ``"ugimp"`` or ``"cpgimp"``.
+    kinematics
+        ``"small"`` (the seed's incremental small-strain scheme, one linear
+        solve per step) or ``"finite"`` (Newton per step).
+    steps, tolerance, max_iterations
+        Load steps and, for finite deformation, Newton settings.
+    """
+    grid: Grid
+    bodies: List[Body]
+    supports: List[Support] = field(default_factory=list)
+    gravity: Optional[Sequence[float]] = None
+    point_loads: List[PointLoad] = field(default_factory=list)
+    tractions: List[Traction] = field(default_factory=list)
+    method: str = "mpm"
+    kinematics: str = "small"
+    steps: int = 1
+    tolerance: float = 1e-9
+    max_iterations: int = 25
+    name: str = "scene"
+    reference: Optional[str] = None
+
+    def check(self):
+        """Raise :class:`~skfem_mpm.errors.InvalidInputError` for
+        combinations no solver offers."""
+        if self.method not in METHODS:
+            raise InvalidInputError("method must be one of {}, got {!r}"
+                                    .format(METHODS, self.method))
+        if self.kinematics not in KINEMATICS:
+            raise InvalidInputError("kinematics must be one of {}, got {!r}"
+                                    .format(KINEMATICS, self.kinematics))
+        if self.kinematics == "small" and self.method in ("ugimp", "cpgimp"):
+            raise InvalidInputError(
+                "GIMP is offered with kinematics = 'finite' only")
+        if self.kinematics == "finite" and self.method == "fem":
+            raise InvalidInputError(
+                "method 'fem' is offered with kinematics = 'small' only")
+        plastic = [b.name for b in self.bodies
+                   if isinstance(b.material, VonMises)]
+        if plastic and self.kinematics == "small":
+            raise InvalidInputError(
+                "plastic bodies {} need kinematics = 'finite'".format(plastic))
+        if not self.bodies:
+            raise InvalidInputError("a scene needs at least one body")
+
+
+def build_points(scene: Scene, mesh) -> MaterialPoints:
+    """Seed every body (``points.body`` = body index) and attach the point
+    loads and tractions."""
+    parts = []
+    for k, body in enumerate(scene.bodies):
+        try:
+            pts = seed_points(mesh, body.points_per_cell, region=body.contains)
+        except InvalidInputError as err:
+            raise InvalidInputError("body {!r}: {}".format(body.name, err))
+        pts.body[:] = k
+        parts.append(pts)
+    points = concatenate_points(parts)
+    for load in scene.point_loads:
+        distance = np.linalg.norm(points.x - np.asarray(load.at, float)[:, None],
+                                  axis=0)
+        nearest = np.argsort(distance, kind="stable")[:load.count]
+        points.force[:, nearest] += np.asarray(load.force, float)[:, None] \
+            / load.count
+    names = [b.name for b in scene.bodies]
+    for traction in scene.tractions:
+        if traction.body not in names:
+            raise InvalidInputError("traction on unknown body {!r}".format(
+                traction.body))
+        axis, upper = BOUNDARIES[traction.side]
+        mine = np.flatnonzero(points.body == names.index(traction.body))
+        coord = points.x[axis, mine]
+        edge = coord.max() if upper else coord.min()
+        layer = mine[np.abs(coord - edge) <= points.domain[axis, mine]
+                     * (1 + 1e-9)]
+        area = points.volume[layer] / (2 * points.domain[axis, layer])
+        points.force[:, layer] += np.asarray(traction.traction, float)[
+            :, None] * area
+    return points
+
+
+def scene_supports(scene: Scene, dim: int):
+    """The supports as a callable on the grid basis."""
+    def supports(basis):
+        dofs = []
+        for s in scene.supports:
+            comps = [AXES.index(c) for c in s.components if AXES.index(c) < dim]
+            if s.boundary is not None:
+                axis, upper = BOUNDARIES[s.boundary]
+                nodes_x = basis.mesh.p[axis]
+                value = nodes_x.max() if upper else nodes_x.min()
+                nodes = basis.mesh.nodes_satisfying(
+                    lambda x, a=axis, v=value: np.isclose(x[a], v))
+            else:
+                nodes = basis.mesh.nodes_satisfying(s.where)
+            dofs.append(basis.nodal_dofs[comps][:, nodes].ravel())
+        return np.concatenate(dofs) if dofs else np.array([], dtype=np.int64)
+    return supports
+
+
+def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
+              first_step: int = 1, domain0: Optional[ndarray] = None,
+              callback: Optional[Callable] = None) -> Result:
+    """Run a scene (from its start, or resumed from ``points`` after step
+    ``first_step - 1``).
+
+    Examples
+    --------
+    >>> from skfem_mpm.scene import Body, Grid, Scene, Support, run_scene
+    >>> from skfem_mpm import LinearElastic
+    >>> scene = Scene(grid=Grid([(0., 50., 10)]),
+    ...               bodies=[Body("column", [(0., 50.)],
+    ...                            LinearElastic(1e6, 0.))],
+    ...               supports=[Support(boundary="left")], gravity=[-800.])
+    >>> result = run_scene(scene)
+    >>> result.counters["linear_solves"], result.counters["return_maps"]
+    (1, 0)
+
+    """
+    scene.check()
+    mesh, elem = scene.grid.build()
+    if points is None:
+        points = build_points(scene, mesh)
+    materials = [b.material for b in scene.bodies]
+    material = materials[0] if len(materials) == 1 else materials
+    supports = scene_supports(scene, mesh.dim())
+    if scene.kinematics == "small":
+        return solve_mpm(mesh, elem, points, material, supports,
+                         body_force=scene.gravity, nsteps=scene.steps,
+                         update_positions=scene.method != "fem",
+                         first_step=first_step, callback=callback)
+    return solve_finite(mesh, elem, points, material, supports,
+                        body_force=scene.gravity, nsteps=scene.steps,
+                        method=scene.method, tol=scene.tolerance,
+                        max_iter=scene.max_iterations, first_step=first_step,
+                        domain0=domain0, callback=callback)

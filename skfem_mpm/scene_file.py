@@ -1,0 +1,315 @@
+"""Scene files: a :class:`~skfem_mpm.scene.Scene` in TOML.
+
+Every problem in a file is reported, one line each, naming the key and the
+offending value (unknown keys, wrong types, impossible values), in a
+:class:`~skfem_mpm.errors.SceneError`.  The format, with every key::
+
+    name = "column"
+    reference = "column"            # optional: analytical reference
+    [grid]
+    x = [0.0, 1.0, 1]               # lo, hi, cells (y, z likewise)
+    y = [0.0, 50.0, 20]
+    element = "Q1"                  # or "Q2" (2D)
+    [[bodies]]
+    name = "column"
+    region = { x = [0.0, 1.0], y = [0.0, 50.0] }
+    points_per_cell = 2
+    material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
+    # or { model = "von_mises", E = .., nu = .., yield_stress = .. }
+    [[supports]]
+    boundary = "bottom"             # left right bottom top back front
+    components = ["x", "y"]         # default: all
+    [gravity]
+    body_force = [0.0, -800.0]      # per unit (initial) volume
+    [[point_loads]]
+    at = [10.0, 0.5]
+    force = [0.0, -1e5]
+    points = 2                      # shared by the nearest points
+    [[tractions]]
+    body = "column"
+    side = "top"
+    traction = [0.0, -100.0]
+    [solver]
+    method = "mpm"                  # fem mpm ugimp cpgimp
+    kinematics = "small"            # small finite
+    steps = 20
+    tolerance = 1e-9
+    max_iterations = 25
+
+"""
+import math
+from pathlib import Path
+
+try:
+    import tomllib
+except ImportError:                       # Python 3.10
+    import tomli as tomllib
+
+from .errors import SceneError
+from .materials import LinearElastic, VonMises
+from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
+                    Scene, Support, Traction)
+
+__all__ = ["load_scene", "parse_scene", "REFERENCES"]
+
+REFERENCES = ("column",)
+AXES = ("x", "y", "z")
+
+
+class _Checker:
+    """Collects problems while reading a TOML tree."""
+
+    def __init__(self):
+        self.problems = []
+
+    def bad(self, key, message, value):
+        self.problems.append("{}: {}, got {!r}".format(key, message, value))
+
+    def table(self, data, key, allowed, required=()):
+        if not isinstance(data, dict):
+            self.bad(key, "must be a table", data)
+            return {}
+        for k in data:
+            if k not in allowed:
+                self.bad("{}.{}".format(key, k) if key else k,
+                         "unknown key (allowed: {})".format(", ".join(allowed)),
+                         data[k])
+        for k in required:
+            if k not in data:
+                self.problems.append("{}: missing".format(
+                    "{}.{}".format(key, k) if key else k))
+        return data
+
+    def number(self, data, key, name, default=None, low=None, high=None,
+               open_low=True, integer=False):
+        path = "{}.{}".format(key, name) if key else name
+        if name not in data:
+            return default
+        value = data[name]
+        kind = int if integer else (int, float)
+        if isinstance(value, bool) or not isinstance(value, kind) or (
+                not integer and not math.isfinite(value)):
+            self.bad(path, "must be {}".format(
+                "an integer" if integer else "a finite number"), value)
+            return default
+        if low is not None and (value <= low if open_low else value < low):
+            self.bad(path, "must be {} {}".format(">" if open_low else ">=",
+                                                  low), value)
+            return default
+        if high is not None and value >= high:
+            self.bad(path, "must be < {}".format(high), value)
+            return default
+        return value
+
+    def choice(self, data, key, name, choices, default=None):
+        path = "{}.{}".format(key, name) if key else name
+        value = data.get(name, default)
+        if value not in choices:
+            self.bad(path, "must be one of {}".format(", ".join(choices)),
+                     value)
+            return default
+        return value
+
+    def vector(self, data, key, name, length, default=None):
+        path = "{}.{}".format(key, name) if key else name
+        if name not in data:
+            return default
+        value = data[name]
+        if not isinstance(value, list) or len(value) != length or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool)
+                and math.isfinite(v) for v in value):
+            self.bad(path, "must be a list of {} finite numbers".format(
+                length), value)
+            return default
+        return [float(v) for v in value]
+
+    def array(self, data, name):
+        value = data.get(name, [])
+        if not isinstance(value, list) or not all(isinstance(v, dict)
+                                                  for v in value):
+            self.bad(name, "must be an array of tables ([[{}]])".format(name),
+                     value)
+            return []
+        return value
+
+
+def _grid(c, data):
+    data = c.table(data, "grid", AXES + ("element",))
+    axes = []
+    for name in AXES:
+        if name not in data:
+            break
+        v = data[name]
+        if not (isinstance(v, list) and len(v) == 3 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool)
+                for x in v) and isinstance(v[2], int) and v[2] >= 1
+                and v[1] > v[0]):
+            c.bad("grid." + name, "must be [lo, hi, cells] with lo < hi and "
+                  "cells a positive integer", v)
+            axes.append((0., 1., 1))
+        else:
+            axes.append((float(v[0]), float(v[1]), int(v[2])))
+    if not axes:
+        c.problems.append("grid.x: missing")
+        axes = [(0., 1., 1)]
+    element = c.choice(data, "grid", "element", ("Q1", "Q2"), "Q1")
+    if element == "Q2" and len(axes) != 2:
+        c.bad("grid.element", "Q2 is offered on 2D grids", element)
+    return Grid(axes=axes, element=element)
+
+
+def _material(c, data, key):
+    data = c.table(data, key, ("model", "E", "nu", "yield_stress"),
+                   ("model", "E", "nu"))
+    model = c.choice(data, key, "model", ("linear_elastic", "von_mises"),
+                     "linear_elastic")
+    E = c.number(data, key, "E", 1., low=0.)
+    nu = c.number(data, key, "nu", 0., low=-1., high=.5)
+    if model == "von_mises":
+        if "yield_stress" not in data:
+            c.problems.append(key + ".yield_stress: missing (von_mises)")
+        ys = c.number(data, key, "yield_stress", 1., low=0.)
+        return VonMises(E=E, nu=nu, yield_stress=ys)
+    if "yield_stress" in data:
+        c.bad(key + ".yield_stress", "only for model = 'von_mises'",
+              data["yield_stress"])
+    return LinearElastic(E=E, nu=nu)
+
+
+def _body(c, data, k, dim):
+    key = "bodies[{}]".format(k)
+    data = c.table(data, key, ("name", "region", "points_per_cell",
+                               "material"), ("region", "material"))
+    name = data.get("name", "body{}".format(k))
+    if not isinstance(name, str):
+        c.bad(key + ".name", "must be a string", name)
+        name = "body{}".format(k)
+    region = c.table(data.get("region", {}), key + ".region", AXES[:dim])
+    box = []
+    for d in range(dim):
+        v = region.get(AXES[d], [-math.inf, math.inf])
+        if not (isinstance(v, list) and len(v) == 2 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool)
+                for x in v) and v[0] < v[1]):
+            c.bad("{}.region.{}".format(key, AXES[d]), "must be [lo, hi] "
+                  "with lo < hi", v)
+            v = [0., 1.]
+        box.append((float(v[0]), float(v[1])))
+    ppc = c.number(data, key, "points_per_cell", 2, low=1, open_low=False,
+                   integer=True)
+    material = _material(c, data.get("material", {}), key + ".material")
+    return Body(name=name, region=box, material=material, points_per_cell=ppc)
+
+
+def parse_scene(data: dict, source: str = "") -> Scene:
+    """Build a :class:`~skfem_mpm.scene.Scene` from a parsed TOML tree.
+
+    Raises
+    ------
+    SceneError
+        Listing every problem found.
+    """
+    c = _Checker()
+    c.table(data, "", ("name", "reference", "grid", "bodies", "supports",
+                       "gravity", "point_loads", "tractions", "solver"),
+            ("grid", "bodies"))
+    grid = _grid(c, data.get("grid", {}))
+    dim = len(grid.axes)
+    bodies = [_body(c, b, k, dim) for k, b in
+              enumerate(c.array(data, "bodies"))]
+    if "bodies" in data and not bodies:
+        c.problems.append("bodies: at least one [[bodies]] table is needed")
+    supports = []
+    for k, s in enumerate(c.array(data, "supports")):
+        key = "supports[{}]".format(k)
+        s = c.table(s, key, ("boundary", "components"), ("boundary",))
+        sides = [b for b, (axis, _) in BOUNDARIES.items() if axis < dim]
+        boundary = c.choice(s, key, "boundary", sides, sides[0])
+        comps = s.get("components", list(AXES[:dim]))
+        if not isinstance(comps, list) or not comps or not all(
+                x in AXES[:dim] for x in comps):
+            c.bad(key + ".components", "must be a list of {}".format(
+                ", ".join(AXES[:dim])), comps)
+            comps = list(AXES[:dim])
+        supports.append(Support(boundary=boundary, components=comps))
+    gravity = None
+    if "gravity" in data:
+        g = c.table(data["gravity"], "gravity", ("body_force",),
+                    ("body_force",))
+        gravity = c.vector(g, "gravity", "body_force", dim)
+    loads = []
+    for k, p in enumerate(c.array(data, "point_loads")):
+        key = "point_loads[{}]".format(k)
+        p = c.table(p, key, ("at", "force", "points"), ("at", "force"))
+        loads.append(PointLoad(
+            at=c.vector(p, key, "at", dim, [0.] * dim),
+            force=c.vector(p, key, "force", dim, [0.] * dim),
+            count=c.number(p, key, "points", 1, low=1, open_low=False,
+                           integer=True)))
+    tractions = []
+    names = [b.name for b in bodies]
+    for k, t in enumerate(c.array(data, "tractions")):
+        key = "tractions[{}]".format(k)
+        t = c.table(t, key, ("body", "side", "traction"),
+                    ("body", "side", "traction"))
+        body = t.get("body")
+        if body is not None and body not in names:
+            c.bad(key + ".body", "must name a body ({})".format(
+                ", ".join(names)), body)
+        sides = [b for b, (axis, _) in BOUNDARIES.items() if axis < dim]
+        tractions.append(Traction(
+            body=body, side=c.choice(t, key, "side", sides, sides[0]),
+            traction=c.vector(t, key, "traction", dim, [0.] * dim)))
+    solver = c.table(data.get("solver", {}), "solver",
+                     ("method", "kinematics", "steps", "tolerance",
+                      "max_iterations"))
+    method = c.choice(solver, "solver", "method", METHODS, "mpm")
+    kinematics = c.choice(solver, "solver", "kinematics", KINEMATICS, "small")
+    scene = Scene(
+        grid=grid, bodies=bodies, supports=supports, gravity=gravity,
+        point_loads=loads, tractions=tractions, method=method,
+        kinematics=kinematics,
+        steps=c.number(solver, "solver", "steps", 1, low=1, open_low=False,
+                       integer=True),
+        tolerance=c.number(solver, "solver", "tolerance", 1e-9, low=0.),
+        max_iterations=c.number(solver, "solver", "max_iterations", 25,
+                                low=1, open_low=False, integer=True),
+        name=data.get("name", "scene") if isinstance(data.get("name", ""),
+                                                     str) else "scene",
+        reference=c.choice(data, "", "reference", REFERENCES + (None,)))
+    if not c.problems:
+        try:
+            scene.check()
+        except Exception as err:
+            c.problems.append("solver: {}".format(err))
+    if not supports and not c.problems:
+        c.problems.append("supports: missing: without supports every body "
+                          "can move freely")
+    if c.problems:
+        raise SceneError(c.problems, source)
+    return scene
+
+
+def load_scene(path) -> Scene:
+    """Read and validate a scene file.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> import skfem_mpm
+    >>> from skfem_mpm.scene_file import load_scene
+    >>> scene = load_scene(Path(skfem_mpm.__file__).parent / "column.toml")
+    >>> scene.steps, scene.method
+    (20, 'mpm')
+
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as err:
+        raise SceneError(["{}: cannot be read ({})".format(path, err)])
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(["{}: not valid TOML: {}".format(path, err)])
+    return parse_scene(data, str(path))
