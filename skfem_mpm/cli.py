@@ -1,24 +1,38 @@
-"""Command line: ``skfem-mpm run`` simulates the seed's column.
+"""Command line: ``skfem-mpm run | compare``.
 
 The command line prints; the library only logs.
 
 """
 import argparse
 import logging
+import shutil
 import sys
+import time
 from pathlib import Path
 
-from .column import column_error, run_column, vertical_stress
-from .errors import MPMError
+import numpy as np
+
+from .errors import MPMError, SceneError
 from .solver import PHASES
 
 DESCRIPTION = """\
 Implicit Material Point Method on scikit-fem.
 
-  skfem-mpm run                 the seed's column under self weight
-                                (20 elements, 2 points each, 20 load steps)
-  skfem-mpm run --elements 100 --steps 1 --out results
+  skfem-mpm run                       the seed's column under self weight
+                                      (the embedded scene column.toml)
+  skfem-mpm run SCENE.toml --out DIR  any scene; DIR gets a ParaView time
+                                      series (points.pvd, grid.pvd), PNG
+                                      plots and summary.json
+  skfem-mpm run SCENE.toml --out DIR --checkpoint-every 5
+  skfem-mpm run --resume DIR          continue an interrupted run
+  skfem-mpm compare SCENE.toml        FE and MPM on the same scene, side by
+                                      side
+
+Scene files are TOML; `python -c "import skfem_mpm.scene_file as s;
+print(s.__doc__)"` lists every key, and examples/*.toml are ready to run.
 """
+
+EMBEDDED = Path(__file__).resolve().parent / "column.toml"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -26,60 +40,250 @@ def build_parser() -> argparse.ArgumentParser:
         prog="skfem-mpm", description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="simulate the seed's column and plot it")
-    run.add_argument("--elements", type=int, default=20,
-                     help="grid elements over the height (default 20)")
-    run.add_argument("--ppc", type=int, default=2,
-                     help="points per element and direction (default 2)")
-    run.add_argument("--steps", type=int, default=20,
-                     help="load steps (default 20)")
-    run.add_argument("--dim", type=int, choices=(1, 2), default=1,
-                     help="1D column or 2D plane-strain strip (default 1)")
+    run = sub.add_parser("run", help="run a scene (default: the column)")
+    run.add_argument("scene", nargs="?", type=Path,
+                     help="scene file (default: the embedded column)")
     run.add_argument("--out", type=Path, default=Path("skfem-mpm-output"),
                      help="output folder (default ./skfem-mpm-output)")
-    run.add_argument("-v", "--verbose", action="store_true",
-                     help="log every load step")
+    run.add_argument("--checkpoint-every", type=int, default=0, metavar="N",
+                     help="save the full state every N steps")
+    run.add_argument("--resume", type=Path, metavar="DIR",
+                     help="resume the run whose output folder is DIR")
+    run.add_argument("--max-steps", type=int, default=0, metavar="N",
+                     help="stop after N steps of this invocation (resume "
+                          "later with --resume)")
+    run.add_argument("--steps", type=int, default=0, metavar="N",
+                     help="override the scene's number of load steps")
+    run.add_argument("--no-series", action="store_true",
+                     help="write plots and summary only, no VTU series")
+    compare = sub.add_parser("compare",
+                             help="run FE and MPM on one scene and plot both")
+    compare.add_argument("scene", type=Path)
+    compare.add_argument("--out", type=Path,
+                         default=Path("skfem-mpm-compare"))
+    for p in (run, compare):
+        p.add_argument("--no-progress", action="store_true",
+                       help="no progress bar")
+        p.add_argument("-v", "--verbose", action="store_true",
+                       help="log every load step")
     return parser
 
 
-def run(args) -> int:
-    from .plot import plot_column_stress
+class Progress:
+    """A one-line progress bar on stderr (only on a terminal)."""
 
-    for name in ("elements", "ppc", "steps"):
-        if getattr(args, name) < 1:
-            print("skfem-mpm: --{} must be a positive integer, got {}"
-                  .format(name, getattr(args, name)), file=sys.stderr)
-            return 2
-    result = run_column(args.elements, args.ppc, args.steps, dim=args.dim,
-                        keep_snapshots=False)
+    def __init__(self, total: int, enabled: bool):
+        self.total = total
+        self.enabled = enabled and sys.stderr.isatty()
+
+    def __call__(self, record):
+        if not self.enabled:
+            return
+        done = int(30 * record.load_factor)
+        newton = "" if record.newton_residuals is None else \
+            " newton {}".format(len(record.newton_residuals) - 1)
+        sys.stderr.write("\rstep {:4d}/{} [{}{}]{} residual {:.1e}".format(
+            record.step, self.total, "#" * done, "." * (30 - done), newton,
+            record.residual))
+        if record.load_factor >= 1.:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+class StopRun(Exception):
+    """Raised by the step callback to end a run early (``--max-steps``)."""
+
+
+def summarise(scene, result, seconds: float) -> dict:
+    """The numbers of a run, for ``summary.json`` and the terminal."""
+    from .column import column_error
     pts = result.points
-    timings = result.timings()
-    total = sum(timings.values())
-    print("column under self weight: {}D, {} elements, {} points, {} load "
-          "steps".format(args.dim, args.elements, pts.n, args.steps))
-    print("  error (2.28)              {:.4e}".format(column_error(pts)))
-    print("  top displacement          {:.4f}".format(
-        pts.displacement[-1][pts.x0[-1].argmax()]))
-    print("  base stress (min)         {:.1f}".format(
-        vertical_stress(pts).min()))
+    history = result.history
+    summary = {
+        "scene": scene.name, "method": scene.method,
+        "kinematics": scene.kinematics, "steps": scene.steps,
+        "steps_run": len(history), "points": int(pts.n),
+        "load_factor": float(history[-1].load_factor) if history else 0.,
+        "max_residual": max((float(r.residual) for r in history),
+                            default=0.),
+        "wall_seconds": seconds, "timings": result.timings(),
+        "counters": result.counters,
+        "max_displacement": float(np.abs(pts.displacement).max()),
+    }
+    if history and history[0].newton_residuals is not None:
+        summary["newton_iterations"] = [len(r.newton_residuals) - 1
+                                        for r in history]
+    if scene.reference == "column" and scene.gravity is not None:
+        height = max(hi for lo, hi in [scene.bodies[0].region[-1]])
+        summary["error"] = column_error(pts, abs(scene.gravity[-1]), height)
+    return summary
+
+
+def plot_outputs(scene, result, outdir: Path, loaded):
+    """Final configuration coloured by the vertical stress; the column's
+    stress profile; a load-displacement curve when there are point
+    loads."""
+    from .plot import plot_column_stress, pyplot, save_figure
+    pts = result.points
+    d = pts.dim - 1
+    fig, ax = pyplot().subplots(figsize=(5, 4))
+    y = pts.x[1] if pts.dim > 1 else np.zeros(pts.n)
+    sc = ax.scatter(pts.x[0], y, c=pts.stress[d, d], s=4, cmap="coolwarm")
+    fig.colorbar(sc, ax=ax, label="sigma_{}{}".format("xyz"[d], "xyz"[d]))
+    ax.set_aspect("equal" if pts.dim > 1 else "auto")
+    ax.set_title("{}: final configuration".format(scene.name))
+    fig.tight_layout()
+    save_figure(fig, outdir / "final_stress.png")
+    if scene.reference == "column":
+        plot_column_stress([result], ["{}, {} steps".format(
+            scene.method, scene.steps)], outdir / "column_stress.png",
+            title=scene.name)
+    if loaded.size and result.history[0].displacement is not None:
+        fig, ax = pyplot().subplots(figsize=(5, 4))
+        factor = [0.] + [r.load_factor for r in result.history]
+        for k in range(pts.dim):
+            disp = [0.] + [r.displacement[k, loaded].mean()
+                           for r in result.history]
+            ax.plot(disp, factor, "o-", ms=3, label="xyz"[k])
+        ax.set_xlabel("displacement of the loaded points")
+        ax.set_ylabel("load factor")
+        ax.legend()
+        fig.tight_layout()
+        save_figure(fig, outdir / "load_displacement.png")
+
+
+def run(args) -> int:
+    from .output import (SeriesWriter, load_checkpoint, save_checkpoint,
+                         write_summary)
+    from .io import atomic_path
+    from .scene import build_points, run_scene
+    from .scene_file import load_scene
+
+    for name in ("checkpoint_every", "max_steps", "steps"):
+        if getattr(args, name) < 0:
+            print("skfem-mpm: --{} must be >= 0, got {}".format(
+                name.replace("_", "-"), getattr(args, name)), file=sys.stderr)
+            return 2
+    first_step, points, domain0, rows = 1, None, None, None
+    if args.resume is not None:
+        outdir = args.resume
+        source = outdir / "scene.toml"
+        scene = load_scene(source)
+        step, scene.steps, points, rows, domain0 = load_checkpoint(outdir)
+        first_step = step + 1
+    else:
+        outdir = args.out
+        source = args.scene or EMBEDDED
+        scene = load_scene(source)
+        if args.steps:
+            scene.steps = args.steps
+    mesh, _ = scene.grid.build()
+    if points is None:
+        points = build_points(scene, mesh)
+        domain0 = points.domain
+    loaded = np.flatnonzero(np.abs(points.force).sum(axis=0))
+    outdir.mkdir(parents=True, exist_ok=True)
+    if args.resume is None:
+        with atomic_path(outdir / "scene.toml") as tmp:
+            shutil.copyfile(source, tmp)
+    series = None if args.no_series else SeriesWriter(outdir, mesh)
+    if series is not None and rows is not None:
+        series.restore([(int(r[0]), float(r[1])) for r in rows])
+    progress = Progress(scene.steps, not args.no_progress)
+    history = []
+
+    def callback(record, pts):
+        history.append(record)
+        progress(record)
+        if series is not None:
+            series.write(record.step, float(record.load_factor), pts,
+                         record.elements, record.u)
+        if args.checkpoint_every and record.step % args.checkpoint_every == 0:
+            save_checkpoint(outdir, record.step, scene.steps, pts, history,
+                            domain0)
+        if args.max_steps and len(history) >= args.max_steps \
+                and record.load_factor < 1.:
+            raise StopRun(record.step)
+
+    tic = time.perf_counter()
+    try:
+        result = run_scene(scene, points, first_step, domain0, callback)
+    except StopRun as stop:
+        print("stopped after step {}; continue with: skfem-mpm run "
+              "--resume {}".format(stop.args[0], outdir))
+        return 0
+    seconds = time.perf_counter() - tic
+    summary = summarise(scene, result, seconds)
+    write_summary(outdir / "summary.json", summary)
+    plot_outputs(scene, result, outdir, loaded)
+    print("{}: {} {} ({} kinematics), {} points, {} load steps".format(
+        scene.name, "resumed" if args.resume else "ran", scene.method,
+        scene.kinematics, summary["points"], scene.steps))
+    if "error" in summary:
+        print("  error (2.28)              {:.4e}".format(summary["error"]))
+    print("  max displacement          {:.4f}".format(
+        summary["max_displacement"]))
     print("  max equilibrium residual  {:.1e}".format(
-        max(r.residual for r in result.history)))
-    print("  time {:.3f} s: ".format(total) + ", ".join(
-        "{} {:.0%}".format(p, timings[p] / total) for p in PHASES))
-    path = args.out / "column_stress.png"
-    plot_column_stress([result], ["MPM, {} steps".format(args.steps)], path,
-                       title="{} elements, {} points per element".format(
-                           args.elements, args.ppc ** args.dim))
-    print("  plot                      {}".format(path))
+        summary["max_residual"]))
+    total = sum(summary["timings"].values()) or 1.
+    print("  time {:.3f} s: ".format(seconds) + ", ".join(
+        "{} {:.0%}".format(p, summary["timings"][p] / total) for p in PHASES))
+    print("  output                    {}".format(outdir))
+    return 0
+
+
+def compare(args) -> int:
+    from dataclasses import replace
+    from .plot import pyplot, save_figure
+    from .scene import run_scene
+    from .scene_file import load_scene
+
+    scene = load_scene(args.scene)
+    runs = {}
+    for method in ("fem", scene.method if scene.method != "fem" else "mpm"):
+        kinematics = "small" if method in ("fem", "mpm") and \
+            scene.kinematics == "small" else scene.kinematics
+        if method == "fem":
+            kinematics = "small"
+        variant = replace(scene, method=method, kinematics=kinematics)
+        tic = time.perf_counter()
+        result = run_scene(variant)
+        runs[method] = (variant, result, time.perf_counter() - tic)
+    args.out.mkdir(parents=True, exist_ok=True)
+    fig, axes = pyplot().subplots(1, 2, figsize=(10, 4), sharey=True)
+    for ax, (method, (variant, result, seconds)) in zip(axes, runs.items()):
+        pts = result.points
+        d = pts.dim - 1
+        y = pts.x[1] if pts.dim > 1 else np.zeros(pts.n)
+        sc = ax.scatter(pts.x[0], y, c=pts.stress[d, d], s=4,
+                        cmap="coolwarm")
+        fig.colorbar(sc, ax=ax)
+        ax.set_title("{} ({} kinematics): {:.2f} s".format(
+            method, variant.kinematics, seconds))
+        summary = summarise(variant, result, seconds)
+        print("{:>7}: max displacement {:.4f}{}, {:.3f} s".format(
+            method, summary["max_displacement"],
+            ", error {:.3e}".format(summary["error"]) if "error" in summary
+            else "", seconds))
+    fig.tight_layout()
+    save_figure(fig, args.out / "compare.png")
+    print("  plot {}".format(args.out / "compare.png"))
     return 0
 
 
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    try:
+        args = build_parser().parse_args(argv)
+    except SystemExit as exit:
+        return int(exit.code or 0)
     logging.basicConfig(level=logging.INFO if args.verbose else
                         logging.WARNING, format="%(name)s: %(message)s")
     try:
-        return run(args)
+        return {"run": run, "compare": compare}[args.command](args)
+    except SceneError as err:
+        for problem in err.problems:
+            print("skfem-mpm: {}".format(problem), file=sys.stderr)
+        return 2
     except MPMError as err:
         print("skfem-mpm: {}: {}".format(type(err).__name__, err),
               file=sys.stderr)

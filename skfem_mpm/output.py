@@ -113,10 +113,11 @@ HISTORY_KEYS = ("step", "load_factor", "residual", "n_active_elements",
                 "n_free_dofs")
 
 
-def save_checkpoint(outdir, step: int, points: MaterialPoints, history,
-                    domain0: Optional[ndarray]):
-    """Save the full state after ``step`` (numpy arrays only, no pickle)."""
-    arrays = {"step": np.array(step)}
+def save_checkpoint(outdir, step: int, nsteps: int, points: MaterialPoints,
+                    history, domain0: Optional[ndarray]):
+    """Save the full state after ``step`` of ``nsteps`` (numpy arrays only,
+    no pickle)."""
+    arrays = {"step": np.array(step), "nsteps": np.array(nsteps)}
     for name in ("x", "volume", "force", "x0", "stress", "strain",
                  "displacement", "volume0", "F", "be", "body"):
         arrays["points_" + name] = getattr(points, name)
@@ -133,7 +134,8 @@ def save_checkpoint(outdir, step: int, points: MaterialPoints, history,
 
 
 def load_checkpoint(outdir):
-    """Load a checkpoint: ``(step, points, history rows, domain0)``."""
+    """Load a checkpoint: ``(step, nsteps, points, history rows,
+    domain0)``."""
     path = Path(outdir) / CHECKPOINT
     if not path.exists():
         raise InvalidInputError("no checkpoint in {}".format(outdir))
@@ -141,5 +143,5 @@ def load_checkpoint(outdir):
         fields = {k[len("points_"):]: data[k] for k in data.files
                   if k.startswith("points_")}
         domain0 = data["domain0"] if "domain0" in data.files else None
-        return (int(data["step"]), MaterialPoints(**fields),
-                data["history"], domain0)
+        return (int(data["step"]), int(data["nsteps"]),
+                MaterialPoints(**fields), data["history"], domain0)

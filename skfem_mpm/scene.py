@@ -78,11 +78,13 @@ class Body:
 
 @dataclass
 class Support:
-    """Fixed grid DOFs: on a named ``boundary`` of the grid or on the nodes
-    where ``where(x)`` holds; ``components`` among ``"x", "y", "z"``."""
+    """Fixed grid DOFs: on a named ``boundary`` of the grid, at the grid
+    node ``at`` (coordinates), or on the nodes where ``where(x)`` holds;
+    ``components`` among ``"x", "y", "z"``."""
     boundary: Optional[str] = None
     where: Optional[Callable] = None
     components: Sequence[str] = ("x", "y", "z")
+    at: Optional[Sequence[float]] = None
 
 
 @dataclass
@@ -209,6 +211,16 @@ def scene_supports(scene: Scene, dim: int):
                 value = nodes_x.max() if upper else nodes_x.min()
                 nodes = basis.mesh.nodes_satisfying(
                     lambda x, a=axis, v=value: np.isclose(x[a], v))
+            elif s.at is not None:
+                distance = np.linalg.norm(basis.mesh.p - np.asarray(
+                    s.at, float)[:, None], axis=0)
+                nodes = np.flatnonzero(distance <= 1e-9 * (1 + np.abs(
+                    basis.mesh.p).max()))
+                if nodes.size == 0:
+                    raise InvalidInputError(
+                        "support at {}: no grid node there (nearest is {})"
+                        .format(list(s.at), basis.mesh.p[
+                            :, distance.argmin()].tolist()))
             else:
                 nodes = basis.mesh.nodes_satisfying(s.where)
             dofs.append(basis.nodal_dofs[comps][:, nodes].ravel())

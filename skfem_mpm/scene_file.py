@@ -19,6 +19,8 @@ offending value (unknown keys, wrong types, impossible values), in a
     [[supports]]
     boundary = "bottom"             # left right bottom top back front
     components = ["x", "y"]         # default: all
+    [[supports]]
+    at = [0.0, 0.5]                 # or one grid node by its coordinates
     [gravity]
     body_force = [0.0, -800.0]      # per unit (initial) volume
     [[point_loads]]
@@ -201,6 +203,14 @@ def _body(c, data, k, dim):
     return Body(name=name, region=box, material=material, points_per_cell=ppc)
 
 
+def _name(c, data):
+    name = data.get("name", "scene")
+    if not isinstance(name, str):
+        c.bad("name", "must be a string", name)
+        return "scene"
+    return name
+
+
 def parse_scene(data: dict, source: str = "") -> Scene:
     """Build a :class:`~skfem_mpm.scene.Scene` from a parsed TOML tree.
 
@@ -222,16 +232,22 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     supports = []
     for k, s in enumerate(c.array(data, "supports")):
         key = "supports[{}]".format(k)
-        s = c.table(s, key, ("boundary", "components"), ("boundary",))
+        s = c.table(s, key, ("boundary", "at", "components"))
         sides = [b for b, (axis, _) in BOUNDARIES.items() if axis < dim]
-        boundary = c.choice(s, key, "boundary", sides, sides[0])
+        at, boundary = None, None
+        if ("boundary" in s) == ("at" in s):
+            c.bad(key, "needs exactly one of boundary, at", s)
+        elif "at" in s:
+            at = c.vector(s, key, "at", dim, [0.] * dim)
+        else:
+            boundary = c.choice(s, key, "boundary", sides, sides[0])
         comps = s.get("components", list(AXES[:dim]))
         if not isinstance(comps, list) or not comps or not all(
                 x in AXES[:dim] for x in comps):
             c.bad(key + ".components", "must be a list of {}".format(
                 ", ".join(AXES[:dim])), comps)
             comps = list(AXES[:dim])
-        supports.append(Support(boundary=boundary, components=comps))
+        supports.append(Support(boundary=boundary, at=at, components=comps))
     gravity = None
     if "gravity" in data:
         g = c.table(data["gravity"], "gravity", ("body_force",),
@@ -274,8 +290,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         tolerance=c.number(solver, "solver", "tolerance", 1e-9, low=0.),
         max_iterations=c.number(solver, "solver", "max_iterations", 25,
                                 low=1, open_low=False, integer=True),
-        name=data.get("name", "scene") if isinstance(data.get("name", ""),
-                                                     str) else "scene",
+        name=_name(c, data),
         reference=c.choice(data, "", "reference", REFERENCES + (None,)))
     if not c.problems:
         try:

@@ -1,0 +1,162 @@
+"""Scenes, scene files, the command line and its output."""
+from pathlib import Path
+
+import meshio
+import numpy as np
+import pytest
+
+from skfem_mpm import LinearElastic, VonMises
+from skfem_mpm.cli import main
+from skfem_mpm.scene import Body, Grid, PointLoad, Scene, Support, run_scene
+from skfem_mpm.scene_file import load_scene
+
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
+
+
+def block(method="mpm", kinematics="small", material=None, gravity=None,
+          steps=3):
+    return Scene(grid=Grid([(0., 4., 4), (0., 3., 3)]),
+                 bodies=[Body("block", [(0., 2.), (0., 2.)],
+                              material or LinearElastic(1e4, .3))],
+                 supports=[Support(boundary="bottom")], gravity=gravity,
+                 point_loads=[PointLoad(at=[2., 2.], force=[10., -50.])],
+                 method=method, kinematics=kinematics, steps=steps)
+
+
+def test_effect_gating():
+    # elastic, small strain, no gravity: no body force, one solve per step,
+    # no return map, no Newton iteration
+    counters = run_scene(block()).counters
+    assert counters == {"locate": 3, "body_force": 0, "linear_solves": 3,
+                        "return_maps": 0, "newton_iterations": 0}
+    # FE mode never relocates the points
+    fem = run_scene(block(method="fem"))
+    assert fem.counters["locate"] == 1
+    assert (fem.points.x == fem.points.x0).all()
+    # gravity is assembled once per step only when asked for
+    assert run_scene(block(gravity=[0., -1.])).counters["body_force"] == 3
+    # finite deformation of an elastic body: Newton, still no return map
+    finite = run_scene(block(method="cpgimp", kinematics="finite")).counters
+    assert finite["return_maps"] == 0 and finite["newton_iterations"] >= 3
+    plastic = run_scene(block(method="mpm", kinematics="finite",
+                              material=VonMises(1e4, .3, 1e3))).counters
+    assert plastic["return_maps"] > 0
+
+
+def test_two_bodies_with_their_own_materials():
+    """A stiff body on a soft one under a point load: the soft one takes
+    the strain, equilibrium holds."""
+    scene = Scene(grid=Grid([(0., 2., 2), (0., 4., 4)]),
+                  bodies=[Body("soft", [(0., 2.), (0., 2.)],
+                               LinearElastic(1e3, .3)),
+                          Body("stiff", [(0., 2.), (2., 4.)],
+                               LinearElastic(1e6, .3))],
+                  supports=[Support(boundary="bottom")],
+                  point_loads=[PointLoad(at=[1., 4.], force=[0., -10.],
+                                         count=4)])
+    res = run_scene(scene)
+    pts = res.points
+    strain = np.abs(pts.strain[1, 1])
+    assert strain[pts.body == 0].mean() > 100 * strain[pts.body == 1].mean()
+    assert res.history[-1].residual < 1e-10
+
+
+@pytest.mark.parametrize("name, steps", [("column", 5), ("cantilever", 5),
+                                         ("collapse", 8), ("block3d", 2)])
+def test_shipped_scene_files_run_from_the_cli(name, steps, tmp_path, capsys):
+    out = tmp_path / name
+    assert main(["run", str(EXAMPLES / (name + ".toml")), "--out", str(out),
+                 "--steps", str(steps), "--no-progress"]) == 0
+    assert "load steps" in capsys.readouterr().out
+    pvd = (out / "points.pvd").read_text()
+    assert pvd.count("<DataSet") == steps
+    cloud = meshio.read(out / "points_{:04d}.vtu".format(steps))
+    for field in ("stress", "displacement", "volume", "F", "von_mises"):
+        assert field in cloud.point_data
+    assert np.isfinite(cloud.point_data["stress"]).all()
+    grid = meshio.read(out / "grid_{:04d}.vtu".format(steps))
+    assert "displacement" in grid.point_data and len(grid.cells[0]) > 0
+    assert (out / "summary.json").exists()
+    assert (out / "final_stress.png").stat().st_size > 5000
+
+
+def test_default_run_prints_and_plots(tmp_path, capsys):
+    assert main(["run", "--out", str(tmp_path), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    error = float(out.split("error (2.28)")[1].split()[0])
+    assert 1e-2 < error < 5e-2          # 20 elements, 20 steps: plateau
+    assert (tmp_path / "column_stress.png").stat().st_size > 10_000
+
+
+BAD = """
+name = 3
+[grid]
+x = [0.0, 1.0, 0]
+colour = "red"
+[[bodies]]
+region = { x = [0.0, 1.0] }
+points_per_cell = 0
+material = { model = "linear_elastic", E = -1.0, nu = 0.5 }
+[solver]
+steps = "many"
+"""
+
+
+def test_bad_scene_files_exit_2_and_write_nothing(tmp_path, capsys):
+    scene = tmp_path / "bad.toml"
+    scene.write_text(BAD)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 7
+    for text in ("grid.x: must be [lo, hi, cells]",
+                 "grid.colour: unknown key", "points_per_cell: must be >= 1",
+                 "material.E: must be > 0.0, got -1.0",
+                 "material.nu: must be < 0.5, got 0.5",
+                 "solver.steps: must be an integer, got 'many'",
+                 "name: must be a string"):
+        assert any(text in line for line in err), text
+    assert not out.exists()
+    scene.write_text("[grid\nx = 1")
+    assert main(["run", str(scene), "--out", str(out)]) == 2
+    assert "not valid TOML" in capsys.readouterr().err
+    assert main(["run", str(tmp_path / "missing.toml")]) == 2
+
+
+def test_resume_is_bit_identical(tmp_path):
+    scene = str(EXAMPLES / "column.toml")
+    straight, split = tmp_path / "straight", tmp_path / "split"
+    assert main(["run", scene, "--out", str(straight), "--steps", "8",
+                 "--no-progress"]) == 0
+    assert main(["run", scene, "--out", str(split), "--steps", "8",
+                 "--checkpoint-every", "3", "--max-steps", "4",
+                 "--no-progress"]) == 0
+    assert not (split / "summary.json").exists()
+    assert main(["run", "--resume", str(split), "--no-progress"]) == 0
+    a = meshio.read(straight / "points_0008.vtu")
+    b = meshio.read(split / "points_0008.vtu")
+    assert np.array_equal(a.points, b.points)
+    for field in ("stress", "F", "volume", "domain"):
+        assert np.array_equal(a.point_data[field], b.point_data[field])
+    assert (split / "points.pvd").read_text().count("<DataSet") == 8
+
+
+def test_compare_draws_fe_and_mpm(tmp_path, capsys):
+    assert main(["compare", str(EXAMPLES / "block3d.toml"), "--out",
+                 str(tmp_path), "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "fem" in out and "mpm" in out
+    assert (tmp_path / "compare.png").stat().st_size > 10_000
+
+
+def test_scene_files_load():
+    for path in EXAMPLES.glob("*.toml"):
+        assert load_scene(path).steps >= 1
+
+
+def test_help_and_bad_options(capsys):
+    assert main(["--help"]) == 0
+    assert "skfem-mpm run --resume DIR" in capsys.readouterr().out
+    assert main(["run", "--checkpoint-every", "-1"]) == 2
+    assert "--checkpoint-every must be >= 0" in capsys.readouterr().err
+    assert main(["frobnicate"]) == 2
