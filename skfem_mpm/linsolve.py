@@ -173,12 +173,13 @@ def solver_direct_checked(pivot_tol: float = 1e-9) -> Callable:
 
 def solve_active(K: spmatrix, f: ndarray, free: ndarray,
                  solver: Optional[Callable] = None, tol: float = 1e-10,
-                 ) -> ndarray:
+                 x: Optional[ndarray] = None) -> ndarray:
     """Solve ``K u = f`` on the DOFs ``free`` (zero elsewhere) with
     scikit-fem's ``condense`` and ``solve``.
 
     ``solver`` is a scikit-fem solver ``f(A, b) -> x``; default
-    :func:`solver_direct_checked`.
+    :func:`solver_direct_checked`.  ``x`` holds prescribed values on the
+    DOFs that are not free (zero by default).
 
     Raises
     ------
@@ -193,7 +194,7 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
     with warnings.catch_warnings():
         warnings.simplefilter("error", MatrixRankWarning)
         try:
-            A, b, x, I = condense(K, f, I=free)
+            A, b, x, I = condense(K, f, x=x, I=free)
             u = solve(A, b, x, I, solver=solver_direct_checked()
                       if solver is None else solver)
         except (MatrixRankWarning, RuntimeError) as err:

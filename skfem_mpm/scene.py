@@ -78,21 +78,26 @@ class Body:
 
 @dataclass
 class Support:
-    """Fixed grid DOFs: on a named ``boundary`` of the grid, at the grid
+    """Supported grid DOFs: on a named ``boundary`` of the grid, at the grid
     node ``at`` (coordinates), or on the nodes where ``where(x)`` holds;
-    ``components`` among ``"x", "y", "z"``."""
+    ``components`` among ``"x", "y", "z"``; ``value`` (one per component)
+    the displacement reached at full load, ramped over the steps (default:
+    fixed)."""
     boundary: Optional[str] = None
     where: Optional[Callable] = None
     components: Sequence[str] = ("x", "y", "z")
     at: Optional[Sequence[float]] = None
+    value: Optional[Sequence[float]] = None
 
 
 @dataclass
 class PointLoad:
-    """A force shared by the ``count`` points nearest ``at`` (initially)."""
-    at: Sequence[float]
-    force: Sequence[float]
+    """A force shared by the ``count`` points nearest ``at`` (initially),
+    or by the points where ``where(x)`` holds."""
+    at: Optional[Sequence[float]] = None
+    force: Sequence[float] = ()
     count: int = 1
+    where: Optional[Callable] = None
 
 
 @dataclass
@@ -177,11 +182,16 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
         parts.append(pts)
     points = concatenate_points(parts)
     for load in scene.point_loads:
-        distance = np.linalg.norm(points.x - np.asarray(load.at, float)[:, None],
-                                  axis=0)
-        nearest = np.argsort(distance, kind="stable")[:load.count]
-        points.force[:, nearest] += np.asarray(load.force, float)[:, None] \
-            / load.count
+        if load.where is not None:
+            chosen = np.flatnonzero(load.where(points.x))
+            if chosen.size == 0:
+                raise InvalidInputError("a point load selects no point")
+        else:
+            distance = np.linalg.norm(points.x - np.asarray(
+                load.at, float)[:, None], axis=0)
+            chosen = np.argsort(distance, kind="stable")[:load.count]
+        points.force[:, chosen] += np.asarray(load.force, float)[:, None] \
+            / chosen.size
     names = [b.name for b in scene.bodies]
     for traction in scene.tractions:
         if traction.body not in names:
@@ -199,33 +209,52 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
     return points
 
 
+def _support_dofs(s: Support, basis, dim: int) -> ndarray:
+    """The DOFs of one support, (components, nodes)."""
+    comps = [AXES.index(c) for c in s.components if AXES.index(c) < dim]
+    p = basis.mesh.p
+    if s.boundary is not None:
+        axis, upper = BOUNDARIES[s.boundary]
+        value = p[axis].max() if upper else p[axis].min()
+        nodes = basis.mesh.nodes_satisfying(
+            lambda x: np.isclose(x[axis], value))
+    elif s.at is not None:
+        distance = np.linalg.norm(p - np.asarray(s.at, float)[:, None], axis=0)
+        nodes = np.flatnonzero(distance <= 1e-9 * (1 + np.abs(p).max()))
+        if nodes.size == 0:
+            raise InvalidInputError(
+                "support at {}: no grid node there (nearest is {})".format(
+                    list(s.at), p[:, distance.argmin()].tolist()))
+    else:
+        nodes = basis.mesh.nodes_satisfying(s.where)
+    return basis.nodal_dofs[comps][:, nodes]
+
+
 def scene_supports(scene: Scene, dim: int):
-    """The supports as a callable on the grid basis."""
+    """The fixed supports as a callable on the grid basis."""
     def supports(basis):
-        dofs = []
-        for s in scene.supports:
-            comps = [AXES.index(c) for c in s.components if AXES.index(c) < dim]
-            if s.boundary is not None:
-                axis, upper = BOUNDARIES[s.boundary]
-                nodes_x = basis.mesh.p[axis]
-                value = nodes_x.max() if upper else nodes_x.min()
-                nodes = basis.mesh.nodes_satisfying(
-                    lambda x, a=axis, v=value: np.isclose(x[a], v))
-            elif s.at is not None:
-                distance = np.linalg.norm(basis.mesh.p - np.asarray(
-                    s.at, float)[:, None], axis=0)
-                nodes = np.flatnonzero(distance <= 1e-9 * (1 + np.abs(
-                    basis.mesh.p).max()))
-                if nodes.size == 0:
-                    raise InvalidInputError(
-                        "support at {}: no grid node there (nearest is {})"
-                        .format(list(s.at), basis.mesh.p[
-                            :, distance.argmin()].tolist()))
-            else:
-                nodes = basis.mesh.nodes_satisfying(s.where)
-            dofs.append(basis.nodal_dofs[comps][:, nodes].ravel())
+        dofs = [_support_dofs(s, basis, dim).ravel() for s in scene.supports
+                if s.value is None]
         return np.concatenate(dofs) if dofs else np.array([], dtype=np.int64)
     return supports
+
+
+def scene_prescribed(scene: Scene, dim: int):
+    """Supports with values as ``prescribed(basis, f_old, f_new)``, or
+    ``None``."""
+    moving = [s for s in scene.supports if s.value is not None]
+    if not moving:
+        return None
+
+    def prescribed(basis, f_old, f_new):
+        dofs, values = [], []
+        for s in moving:
+            d = _support_dofs(s, basis, dim)
+            dofs.append(d.ravel())
+            values.append((np.asarray(s.value, float)[:, None]
+                           * (f_new - f_old) * np.ones(d.shape)).ravel())
+        return np.concatenate(dofs), np.concatenate(values)
+    return prescribed
 
 
 def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
@@ -254,13 +283,16 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     materials = [b.material for b in scene.bodies]
     material = materials[0] if len(materials) == 1 else materials
     supports = scene_supports(scene, mesh.dim())
+    prescribed = scene_prescribed(scene, mesh.dim())
     if scene.kinematics == "small":
         return solve_mpm(mesh, elem, points, material, supports,
                          body_force=scene.gravity, nsteps=scene.steps,
                          update_positions=scene.method != "fem",
-                         first_step=first_step, callback=callback)
+                         first_step=first_step, callback=callback,
+                         prescribed=prescribed)
     return solve_finite(mesh, elem, points, material, supports,
                         body_force=scene.gravity, nsteps=scene.steps,
-                        method=scene.method, tol=scene.tolerance,
-                        max_iter=scene.max_iterations, first_step=first_step,
-                        domain0=domain0, callback=callback)
+                        method=scene.method, prescribed=prescribed,
+                        tol=scene.tolerance, max_iter=scene.max_iterations,
+                        first_step=first_step, domain0=domain0,
+                        callback=callback)

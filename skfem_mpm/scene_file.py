@@ -19,6 +19,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     [[supports]]
     boundary = "bottom"             # left right bottom top back front
     components = ["x", "y"]         # default: all
+    value = [0.0, -0.1]             # optional: displacement at full load
     [[supports]]
     at = [0.0, 0.5]                 # or one grid node by its coordinates
     [gravity]
@@ -232,7 +233,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     supports = []
     for k, s in enumerate(c.array(data, "supports")):
         key = "supports[{}]".format(k)
-        s = c.table(s, key, ("boundary", "at", "components"))
+        s = c.table(s, key, ("boundary", "at", "components", "value"))
         sides = [b for b, (axis, _) in BOUNDARIES.items() if axis < dim]
         at, boundary = None, None
         if ("boundary" in s) == ("at" in s):
@@ -247,7 +248,9 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             c.bad(key + ".components", "must be a list of {}".format(
                 ", ".join(AXES[:dim])), comps)
             comps = list(AXES[:dim])
-        supports.append(Support(boundary=boundary, at=at, components=comps))
+        value = c.vector(s, key, "value", len(comps))
+        supports.append(Support(boundary=boundary, at=at, components=comps,
+                                value=value))
     gravity = None
     if "gravity" in data:
         g = c.table(data["gravity"], "gravity", ("body_force",),

@@ -164,7 +164,8 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
               nsteps: int = 1, locator: Optional[Locator] = None,
               solver: Optional[Callable] = None, keep_snapshots: bool = True,
               update_positions: bool = True, first_step: int = 1,
-              callback: Optional[Callable] = None) -> Result:
+              callback: Optional[Callable] = None,
+              prescribed: Optional[Callable] = None) -> Result:
     """Run the implicit MPM of seed Algorithm 2.1 (small strain).
 
     Parameters
@@ -202,6 +203,10 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         Resume: ``points`` is the state after step ``first_step - 1``.
     callback
         Called as ``callback(record, points)`` after every step.
+    prescribed
+        Optional ``prescribed(grid_basis, f_old, f_new) -> (dofs,
+        increments)``: grid displacement increments imposed over a step
+        (as in :func:`~skfem_mpm.solve_finite`).
 
     Returns
     -------
@@ -248,10 +253,16 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         tic = time.perf_counter()
         basis = MaterialPointBasis(mesh, elem, points, location, dofs=grid.dofs)
         active = basis.active_dofs
+        fixed, x = D, None
+        if prescribed is not None:
+            dofs, values = prescribed(grid, (step - 1) / nsteps, factor)
+            x = np.zeros(basis.N)
+            x[np.asarray(dofs, dtype=np.int64)] = values
+            fixed = np.union1d(D, dofs)
         check_rigid_body_modes(
             element_adjacency(basis.element_dofs, dim, basis.N // dim),
-            grid.doflocs[:, ::dim], active, D, dim, step)
-        free = free_dofs(active, D)
+            grid.doflocs[:, ::dim], active, fixed, dim, step)
+        free = free_dofs(active, fixed)
         f_ext = external_force(basis, points, gravity, factor, counters)
         f_int = assemble_internal_force(basis, points.stress) \
             if points.stress.any() else np.zeros(basis.N)
@@ -260,7 +271,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
 
         tic = time.perf_counter()
         try:
-            du = solve_active(K, f_ext - f_int, free, solver=solver)
+            du = solve_active(K, f_ext - f_int, free, solver=solver, x=x)
             counters["linear_solves"] += 1
         except SingularSystemError as err:
             raise SingularSystemError("step {}: {}".format(step, err)) from err

@@ -160,3 +160,39 @@ def test_help_and_bad_options(capsys):
     assert main(["run", "--checkpoint-every", "-1"]) == 2
     assert "--checkpoint-every must be >= 0" in capsys.readouterr().err
     assert main(["frobnicate"]) == 2
+
+
+@pytest.mark.parametrize("kinematics, method, steps", [
+    ("small", "mpm", 4), ("finite", "mpm", 4), ("finite", "cpgimp", 1)])
+def test_prescribed_support_values(kinematics, method, steps):
+    """A bar pulled at its end by a prescribed displacement of 0.1.  The
+    grid is reset every step, so each of n steps stretches the material by
+    1 + 0.1/(10 n) about the fixed end: the stretch is (1 + 0.01/n)**n.
+    (With GIMP over several steps the end points' domains would reach into
+    the empty cell beyond the pulled nodes, hence one step there.)"""
+    scene = Scene(grid=Grid([(0., 12., 6), (0., 1., 1)]),
+                  bodies=[Body("bar", [(0., 10.), (0., 1.)],
+                               LinearElastic(1e3, 0.))],
+                  supports=[Support(boundary="left", components=["x"]),
+                            Support(boundary="bottom", components=["y"]),
+                            Support(where=lambda x: np.isclose(x[0], 10.),
+                                    components=["x"], value=[.1])],
+                  method=method, kinematics=kinematics, steps=steps)
+    pts = run_scene(scene).points
+    stretch = (1 + .01 / steps) ** steps
+    np.testing.assert_allclose(pts.displacement[0], (stretch - 1) * pts.x0[0],
+                               rtol=1e-10, atol=1e-12)
+    if kinematics == "small":          # strain increments of 0.01 / n
+        np.testing.assert_allclose(pts.stress[0, 0], 10., rtol=1e-10)
+    else:                              # Hencky: sigma = E ln(stretch) / J
+        np.testing.assert_allclose(pts.stress[0, 0], 1e3 * np.log(stretch)
+                                   / stretch, rtol=1e-10)
+
+
+def test_point_load_by_predicate():
+    scene = block()
+    scene.point_loads = [PointLoad(where=lambda x: x[1] > 1.5,
+                                   force=[0., -8.])]
+    res = run_scene(scene)
+    assert res.points.force[1].sum() == pytest.approx(-8.)
+    assert (res.points.force[1][res.points.x0[1] < 1.5] == 0).all()
