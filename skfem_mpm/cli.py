@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import MPMError, SceneError
+from .errors import InvalidInputError, MPMError, SceneError
 from .solver import PHASES
 
 DESCRIPTION = """\
@@ -27,6 +27,9 @@ Implicit Material Point Method on scikit-fem.
   skfem-mpm run --resume DIR          continue an interrupted run
   skfem-mpm compare SCENE.toml        FE and MPM on the same scene, side by
                                       side
+  skfem-mpm study SCENE.toml --vary elements=4,8,16 --vary ppc=2,3
+                                      accuracy against cost over a grid of
+                                      choices (--workers N: local Dask)
 
 Scene files are TOML; `python -c "import skfem_mpm.scene_file as s;
 print(s.__doc__)"` lists every key, and examples/*.toml are ready to run.
@@ -61,7 +64,20 @@ def build_parser() -> argparse.ArgumentParser:
     compare.add_argument("scene", type=Path)
     compare.add_argument("--out", type=Path,
                          default=Path("skfem-mpm-compare"))
-    for p in (run, compare):
+    study = sub.add_parser(
+        "study", help="error and cost over a grid of choices",
+        description="Vary elements, ppc (points per cell and axis), "
+        "loadsteps and method (fem, mpm, ugimp, cpgimp); without --vary, "
+        "the seed's grid: elements 4..256, ppc 2..5, loadsteps 1, 2, 20.")
+    study.add_argument("scene", type=Path)
+    study.add_argument("--vary", action="append", default=[],
+                       metavar="NAME=V1,V2,...")
+    study.add_argument("--out", type=Path, default=Path("skfem-mpm-study"))
+    study.add_argument("--workers", type=int, default=0,
+                       help="run on a local Dask cluster of N workers")
+    study.add_argument("--scheduler", metavar="ADDRESS",
+                       help="run on the Dask scheduler at ADDRESS")
+    for p in (run, compare, study):
         p.add_argument("--no-progress", action="store_true",
                        help="no progress bar")
         p.add_argument("-v", "--verbose", action="store_true",
@@ -271,6 +287,62 @@ def compare(args) -> int:
     return 0
 
 
+def parse_vary(items):
+    """``["elements=4,8", "method=mpm,cpgimp"]`` as a dict of lists."""
+    from .study import DEFAULT_VARY
+    if not items:
+        return dict(DEFAULT_VARY)
+    vary = {}
+    for item in items:
+        name, _, values = item.partition("=")
+        if not values:
+            raise SceneError(["--vary {!r}: expected NAME=V1,V2,...".format(
+                item)])
+        values = values.split(",")
+        if name != "method":
+            try:
+                values = [int(v) for v in values]
+            except ValueError:
+                raise SceneError(["--vary {}: values must be integers, got "
+                                  "{}".format(name, values)])
+        vary[name] = values
+    return vary
+
+
+def run_study(args) -> int:
+    from .scene_file import load_scene
+    from .study import VARIABLES, fitted_rate, plot_study, study
+
+    scene = load_scene(args.scene)
+    vary = parse_vary(args.vary)
+    rows = study(scene, vary, args.out, scheduler=args.scheduler,
+                 workers=args.workers, progress=not args.no_progress)
+    keys = [k for k in VARIABLES if k in vary]
+    print(" ".join("{:>9}".format(k) for k in keys) +
+          " {:>10} {:>9} {:>8} {:>7}".format("error", "seconds", "points",
+                                             "newton"))
+    for r in rows:
+        print(" ".join("{:>9}".format(r[k]) for k in keys) + (
+            " failed: " + r["failure"] if r["failure"] else
+            " {:>10.3e} {:>9.3f} {:>8} {:>7}".format(
+                r["error"], r["wall_seconds"], r["points"],
+                r["newton_iterations"])))
+    if "elements" in vary:
+        others = [k for k in keys if k != "elements"]
+        groups = {}
+        for r in rows:
+            if not r["failure"]:
+                groups.setdefault(tuple(r[k] for k in others), []).append(r)
+        for group, rs in groups.items():
+            print("rate {}: {:.2f}".format(
+                ", ".join("{}={}".format(k, v) for k, v in zip(others, group))
+                or "all", fitted_rate([r["elements"] for r in rs],
+                                      [r["error"] for r in rs])))
+    for path in plot_study(rows, args.out):
+        print("  plot {}".format(path))
+    return 0
+
+
 def main(argv=None) -> int:
     try:
         args = build_parser().parse_args(argv)
@@ -279,10 +351,14 @@ def main(argv=None) -> int:
     logging.basicConfig(level=logging.INFO if args.verbose else
                         logging.WARNING, format="%(name)s: %(message)s")
     try:
-        return {"run": run, "compare": compare}[args.command](args)
+        return {"run": run, "compare": compare,
+                "study": run_study}[args.command](args)
     except SceneError as err:
         for problem in err.problems:
             print("skfem-mpm: {}".format(problem), file=sys.stderr)
+        return 2
+    except InvalidInputError as err:
+        print("skfem-mpm: {}".format(err), file=sys.stderr)
         return 2
     except MPMError as err:
         print("skfem-mpm: {}: {}".format(type(err).__name__, err),

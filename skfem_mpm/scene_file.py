@@ -5,7 +5,8 @@ offending value (unknown keys, wrong types, impossible values), in a
 :class:`~skfem_mpm.errors.SceneError`.  The format, with every key::
 
     name = "column"
-    reference = "column"            # optional: analytical reference
+    reference = "column"            # optional: "column" (seed 2.28) or
+                                    # "elastica" (end-loaded cantilever)
     [grid]
     x = [0.0, 1.0, 1]               # lo, hi, cells (y, z likewise)
     y = [0.0, 50.0, 20]
@@ -55,7 +56,7 @@ from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
 
 __all__ = ["load_scene", "parse_scene", "REFERENCES"]
 
-REFERENCES = ("column",)
+REFERENCES = ("column", "elastica")
 AXES = ("x", "y", "z")
 
 
