@@ -239,10 +239,13 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
             sys.stderr.write("\n")
         return _ordered(rows, cases)
     from dask.distributed import Client, LocalCluster, as_completed
+    if not logger.isEnabledFor(logging.INFO):
+        logging.getLogger("distributed").setLevel(logging.ERROR)
     cluster = None
     if scheduler is None:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
-                               processes=True, dashboard_address=None)
+                               processes=True, host="127.0.0.1",
+                               dashboard_address="127.0.0.1:0")
     with Client(scheduler or cluster) as client:
         nworkers = len(client.scheduler_info()["workers"])
         futures = [client.submit(run_case, scene, params, pure=False)
