@@ -105,7 +105,8 @@ class _Step:
                 .format(self.step, bad.size, bad[:5].tolist(),
                         self.points.x[:, bad[0]].tolist()))
         b_tr = np.einsum("abp,bcp,dcp->adp", dF, self.points.be, dF)
-        state = (dF,) + hencky_update(self.ctx.material, b_tr) + (b_tr,)
+        state = (dF,) + hencky_update(self.ctx.material, b_tr,
+                                      self.ctx.dim) + (b_tr,)
         self.ctx.counters["return_maps"] += self.ctx.plastic
         self.t["update"] += time.perf_counter() - tic
         return state

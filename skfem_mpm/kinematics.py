@@ -25,22 +25,44 @@ from numpy import ndarray
 __all__ = ["hencky_update", "spatial_tangent", "pull_back"]
 
 
-def _eigh(b: ndarray) -> Tuple[ndarray, ndarray]:
-    """Eigenvalues (3, n) and eigenvectors (3, 3, n), vecs[:, A] = e_A."""
-    w, v = np.linalg.eigh(np.moveaxis(b, -1, 0))
-    return w.T, np.moveaxis(v, 0, -1)
+def principal_frame(b: ndarray, dim: int = 3) -> Tuple[ndarray, ndarray]:
+    """Eigenvalues (3, n) and eigenvectors (3, 3, n), ``vecs[:, A] = e_A``,
+    of symmetric (3, 3, n) tensors.
+
+    For ``dim < 3`` the out-of-plane axes are eigenvectors (plane strain,
+    uniaxial strain): the in-plane pairs come first, the 2x2 block in
+    closed form.
+
+    """
+    n = b.shape[-1]
+    if dim == 3:
+        w, v = np.linalg.eigh(np.moveaxis(b, -1, 0))
+        return w.T, np.moveaxis(v, 0, -1)
+    x = np.einsum("aap->ap", b).copy()
+    vecs = np.zeros((3, 3, n))
+    vecs[[0, 1, 2], [0, 1, 2]] = 1.
+    if dim == 2:
+        p, q, r = b[0, 0], b[1, 1], b[0, 1]
+        mean, radius = (p + q) / 2, np.hypot((p - q) / 2, r)
+        angle = .5 * np.arctan2(2 * r, p - q)
+        c, s = np.cos(angle), np.sin(angle)
+        x[0], x[1] = mean + radius, mean - radius
+        vecs[0, 0], vecs[1, 0], vecs[0, 1], vecs[1, 1] = c, s, -s, c
+    return x, vecs
 
 
 def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
                          vecs: ndarray) -> ndarray:
     """Derivative of ``Y = sum_A y_A e_A (x) e_A`` with respect to the
-    symmetric tensor ``X = sum_A x_A e_A (x) e_A``, shape (3, 3, 3, 3, n).
+    symmetric tensor ``X = sum_A x_A e_A (x) e_A``, shape (k, k, k, k, n)
+    for k eigenpairs given (k = 3, or the in-plane pairs and components).
 
     ``dy_dx[A, B]`` is the derivative of the principal value ``y_A`` with
     respect to ``x_B``.  Repeated eigenvalues use the limit
     ``dy_A/dx_A - dy_A/dx_B`` of ``(y_A - y_B)/(x_A - x_B)``.
 
     """
+    k = len(x)
     EA = np.einsum("aAp,bAp->abAp", vecs, vecs)
     T = np.einsum("ABp,abAp,cdBp->abcdp", dy_dx, EA, EA, optimize=True)
     diff = x[:, None] - x[None, :]
@@ -48,14 +70,14 @@ def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
     limit = np.einsum("AAp->Ap", dy_dx)[:, None] - dy_dx
     with np.errstate(divide="ignore", invalid="ignore"):
         theta = np.where(close, limit, (y[:, None] - y[None, :]) / diff)
-    theta[np.arange(3), np.arange(3)] = 0.
+    theta[np.arange(k), np.arange(k)] = 0.
     EAB = np.einsum("aAp,bBp->abABp", vecs, vecs)
     sym = .5 * (EAB + EAB.transpose(1, 0, 2, 3, 4))
     T += np.einsum("ABp,abABp,cdABp->abcdp", theta, EAB, sym, optimize=True)
     return T
 
 
-def hencky_update(material, b_trial: ndarray):
+def hencky_update(material, b_trial: ndarray, dim: int = 3):
     """Stress update from the trial elastic left Cauchy-Green tensor.
 
     Parameters
@@ -65,23 +87,30 @@ def hencky_update(material, b_trial: ndarray):
         on principal values (3, n) with the algorithmic tangent D (3, 3, n).
     b_trial
         (3, 3, n).
+    dim
+        Dimension of the grid: below 3 the out-of-plane axes are principal
+        (plane strain, uniaxial strain) and only the in-plane tangent is
+        formed.
 
     Returns
     -------
     tau, b_e, eps_e, dtau_db, yielded
         Kirchhoff stress, updated elastic left Cauchy-Green tensor and
-        elastic logarithmic strain (3, 3, n), derivative of tau with
-        respect to b_trial (3, 3, 3, 3, n), and the points that yielded.
+        elastic logarithmic strain (3, 3, n), derivative of the in-plane
+        tau with respect to the in-plane b_trial (dim, dim, dim, dim, n),
+        and the points that yielded.
 
     """
-    x, vecs = _eigh(b_trial)
+    x, vecs = principal_frame(b_trial, dim)
     if not (x > 0).all():
         raise FloatingPointError("b_trial is not positive definite")
     tau_p, eps_e, D, yielded = material.principal_update(.5 * np.log(x))
     tau = np.einsum("Ap,aAp,bAp->abp", tau_p, vecs, vecs)
     b_e = np.einsum("Ap,aAp,bAp->abp", np.exp(2. * eps_e), vecs, vecs)
     strain = np.einsum("Ap,aAp,bAp->abp", eps_e, vecs, vecs)
-    dtau_db = isotropic_derivative(x, tau_p, D / (2. * x[None]), vecs)
+    dtau_db = isotropic_derivative(x[:dim], tau_p[:dim],
+                                   (D / (2. * x[None]))[:dim, :dim],
+                                   vecs[:dim, :dim])
     return tau, b_e, strain, dtau_db, yielded
 
 
@@ -89,9 +118,11 @@ def spatial_tangent(dtau_db: ndarray, b_trial: ndarray,
                     tau: ndarray) -> ndarray:
     """``A_abcd`` with ``delta(tau grad N)`` linear in ``l = grad_x(du)``:
     ``A = 2 dtau/db_tr . b_tr - delta_bc tau_ad`` (the last term is the
-    geometric stiffness)."""
-    A = 2. * np.einsum("abcfp,fdp->abcdp", dtau_db, b_trial, optimize=True)
-    A -= np.einsum("bc,adp->abcdp", np.eye(3), tau)
+    geometric stiffness), in the components of ``dtau_db``."""
+    k = dtau_db.shape[0]
+    A = 2. * np.einsum("abcfp,fdp->abcdp", dtau_db, b_trial[:k, :k],
+                       optimize=True)
+    A -= np.einsum("bc,adp->abcdp", np.eye(k), tau[:k, :k])
     return A
 
 

@@ -130,15 +130,17 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
                                   " / ".join(names)))
 
 
-def solver_direct_checked(pivot_tol: float = 1e-9) -> Callable:
-    """scipy's sparse LU (SuperLU) as a scikit-fem solver ``f(A, b) -> x``
-    that refuses singular systems.
+def solver_direct_checked(pivot_tol: float = 1e-9,
+                          growth_tol: float = 1e12) -> Callable:
+    """scipy's sparse LU (SuperLU, symmetric mode) as a scikit-fem solver
+    ``f(A, b) -> x`` that refuses singular systems.
 
-    Each pivot is compared with the diagonal entry of the (permuted) matrix
-    it eliminates: a rigid-body mode leaves a pivot at round-off level of
-    its diagonal (1e-12 and below), while grid nodes that points support
-    only weakly have small diagonals *and* small pivots, a ratio of order
-    one.  A ratio below ``pivot_tol`` raises
+    A solution that grows beyond ``growth_tol`` times ``|b| / max|A_ii|``
+    is examined: each pivot is compared with the diagonal entry of the
+    (permuted) matrix it eliminates.  A zero-energy mode leaves a pivot at
+    round-off level of its diagonal (1e-12 and below), while grid nodes
+    that points support only weakly have small diagonals *and* small
+    pivots, a ratio of order one.  A ratio below ``pivot_tol`` raises
     :class:`~skfem_mpm.errors.SingularSystemError`.
 
     """
@@ -152,21 +154,27 @@ def solver_direct_checked(pivot_tol: float = 1e-9) -> Callable:
                 "the stiffness on {} free DOFs is singular ({}): the active "
                 "grid has rigid-body modes; add supports".format(A.shape[0],
                                                                  err)) from err
+        x = lu.solve(b)
+        diagonal = np.abs(A.diagonal())
+        scale = np.abs(b).max() / max(diagonal.max(), np.finfo(float).tiny)
+        if np.all(np.isfinite(x)) and np.abs(x).max() <= growth_tol * scale:
+            return x
         n = A.shape[0]
         rows, cols = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
         rows[lu.perm_r], cols[lu.perm_c] = np.arange(n), np.arange(n)
-        diagonal = np.abs(np.asarray(A[rows, cols]).ravel())
+        pivoted = np.abs(np.asarray(A[rows, cols]).ravel())
         with np.errstate(divide="ignore", over="ignore"):
             # an off-diagonal pivot (zero diagonal entry) counts as regular
-            ratio = np.abs(lu.U.diagonal()) / diagonal
+            ratio = np.abs(lu.U.diagonal()) / pivoted
         worst = int(np.argmin(ratio))
-        if not ratio[worst] >= pivot_tol:
+        if not ratio[worst] >= pivot_tol or not np.all(np.isfinite(x)):
             raise SingularSystemError(
                 "the stiffness on {} free DOFs is singular: a pivot is {:.1e} "
                 "of its diagonal entry (below {:.0e}), at condensed DOF {}; "
-                "the active grid has rigid-body modes: add supports".format(
+                "points leave a zero-energy mode (a grid node supported by "
+                "too few points) or the grid has rigid-body modes".format(
                     n, ratio[worst], pivot_tol, cols[worst]))
-        return lu.solve(b)
+        return x
 
     return solver
 

@@ -253,3 +253,23 @@ def test_gimp_in_1d_3d_and_quadratic(mesh, elem):
             < 1e-13
         for d in range(mesh.dim()):
             assert np.abs(crossing.G[d] @ coords[j] - (j == d)).max() < 1e-12
+
+
+def test_plane_strain_fast_path_equals_the_3d_path():
+    """Closed-form in-plane eigenpairs and the in-plane tangent give the 3D
+    results, elastic and plastic, including repeated eigenvalues."""
+    rng = np.random.default_rng(7)
+    n = 50
+    H = .2 * rng.standard_normal((3, 3, n))
+    H[2], H[:, 2] = 0., 0.
+    H[:, :, :5] = 0.                        # b = I: all eigenvalues equal
+    dF = np.eye(3)[:, :, None] + H
+    b = np.einsum("abp,cbp->acp", dF, dF)
+    for material in (LinearElastic(1e3, .3), VonMises(1e3, .3, 20.)):
+        full = hencky_update(material, b, 3)
+        plane = hencky_update(material, b, 2)
+        for a, c in zip(full[:3], plane[:3]):
+            assert np.abs(a - c).max() < 1e-12 * np.abs(a).max()
+        A3 = spatial_tangent(full[3], b, full[0])[:2, :2, :2, :2]
+        A2 = spatial_tangent(plane[3], b, plane[0])
+        assert np.abs(A3 - A2).max() < 1e-10 * np.abs(A3).max()

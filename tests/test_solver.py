@@ -192,3 +192,19 @@ def test_weak_equilibrium_with_a_linear_test_field():
     total = res.points.stress[1, 1] @ pts.volume
     assert total == pytest.approx(-800. * pts.x[1] @ pts.volume, rel=1e-12)
     assert total == pytest.approx(-160000., rel=1e-12)
+
+
+def test_zero_energy_mode_of_a_lone_point_is_refused():
+    """One point alone in a cell: its two unshared nodes (4 DOFs) meet only
+    3 strain components, a zero-energy mode.  A load with a component along
+    it (here a horizontal body force) has no solution: refused.  (Vertical
+    gravity is orthogonal to this mode and is solved.)"""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 3), np.linspace(0, 2, 3))
+    body = seed_points(mesh, 2, region=lambda x: x[1] < 1)
+    lone = MaterialPoints(x=[[.3], [1.6]], volume=[.25], domain=[[.25], [.25]])
+    from skfem_mpm.points import concatenate_points
+    pts = concatenate_points([body, lone])
+    with pytest.raises(SingularSystemError, match="zero-energy mode"):
+        solve_mpm(mesh, ElementQuad1(), pts, MAT,
+                  lambda b: b.get_dofs(lambda x: x[1] == 0),
+                  body_force=[.5, -1.])
