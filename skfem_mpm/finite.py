@@ -169,7 +169,8 @@ class _Step:
             ctx.counters["linear_solves"] += 1
             ctx.counters["newton_iterations"] += 1
             try:
-                du = du + solve_active(K, r, free, solver=ctx.solver)
+                du = du + solve_active(K, r, free, solver=ctx.solver,
+                                       doflocs=ctx.grid.doflocs)
             except SingularSystemError as err:
                 raise SingularSystemError("step {}: {}".format(self.step,
                                                                err)) from err

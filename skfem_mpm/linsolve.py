@@ -14,14 +14,14 @@ import numpy as np
 from numpy import ndarray
 from scipy.sparse import coo_matrix, spmatrix
 from scipy.sparse.csgraph import connected_components
-from scipy.sparse.linalg import MatrixRankWarning, splu
+from scipy.sparse.linalg import MatrixRankWarning
 from skfem import condense, solve
 
 from .errors import InvalidInputError, SingularSystemError
+from .solvers import get_solver
 
 __all__ = ["support_dofs", "free_dofs", "element_adjacency",
-           "check_rigid_body_modes",
-           "solver_direct_checked", "solve_active"]
+           "check_rigid_body_modes", "solve_active"]
 
 
 def support_dofs(supports, basis) -> ndarray:
@@ -130,64 +130,19 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
                                   " / ".join(names)))
 
 
-def solver_direct_checked(pivot_tol: float = 1e-9,
-                          growth_tol: float = 1e12) -> Callable:
-    """scipy's sparse LU (SuperLU, symmetric mode) as a scikit-fem solver
-    ``f(A, b) -> x`` that refuses singular systems.
-
-    A solution that grows beyond ``growth_tol`` times ``|b| / max|A_ii|``
-    is examined: each pivot is compared with the diagonal entry of the
-    (permuted) matrix it eliminates.  A zero-energy mode leaves a pivot at
-    round-off level of its diagonal (1e-12 and below), while grid nodes
-    that points support only weakly have small diagonals *and* small
-    pivots, a ratio of order one.  A ratio below ``pivot_tol`` raises
-    :class:`~skfem_mpm.errors.SingularSystemError`.
-
-    """
-    def solver(A, b, **kwargs):
-        A = A.tocsc()
-        try:
-            lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=.1,
-                      options=dict(SymmetricMode=True))
-        except RuntimeError as err:
-            raise SingularSystemError(
-                "the stiffness on {} free DOFs is singular ({}): the active "
-                "grid has rigid-body modes; add supports".format(A.shape[0],
-                                                                 err)) from err
-        x = lu.solve(b)
-        diagonal = np.abs(A.diagonal())
-        scale = np.abs(b).max() / max(diagonal.max(), np.finfo(float).tiny)
-        if np.all(np.isfinite(x)) and np.abs(x).max() <= growth_tol * scale:
-            return x
-        n = A.shape[0]
-        rows, cols = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
-        rows[lu.perm_r], cols[lu.perm_c] = np.arange(n), np.arange(n)
-        pivoted = np.abs(np.asarray(A[rows, cols]).ravel())
-        with np.errstate(divide="ignore", over="ignore"):
-            # an off-diagonal pivot (zero diagonal entry) counts as regular
-            ratio = np.abs(lu.U.diagonal()) / pivoted
-        worst = int(np.argmin(ratio))
-        if not ratio[worst] >= pivot_tol or not np.all(np.isfinite(x)):
-            raise SingularSystemError(
-                "the stiffness on {} free DOFs is singular: a pivot is {:.1e} "
-                "of its diagonal entry (below {:.0e}), at condensed DOF {}; "
-                "points leave a zero-energy mode (a grid node supported by "
-                "too few points) or the grid has rigid-body modes".format(
-                    n, ratio[worst], pivot_tol, cols[worst]))
-        return x
-
-    return solver
-
-
 def solve_active(K: spmatrix, f: ndarray, free: ndarray,
                  solver: Optional[Callable] = None, tol: float = 1e-10,
-                 x: Optional[ndarray] = None) -> ndarray:
+                 x: Optional[ndarray] = None,
+                 doflocs: Optional[ndarray] = None) -> ndarray:
     """Solve ``K u = f`` on the DOFs ``free`` (zero elsewhere) with
     scikit-fem's ``condense`` and ``solve``.
 
-    ``solver`` is a scikit-fem solver ``f(A, b) -> x``; default
-    :func:`solver_direct_checked`.  ``x`` holds prescribed values on the
-    DOFs that are not free (zero by default).
+    ``solver`` is a scikit-fem solver ``f(A, b) -> x`` or a name for
+    :func:`~skfem_mpm.solvers.get_solver`; default
+    :func:`~skfem_mpm.solvers.solver_direct_checked`.  ``x`` holds
+    prescribed values on the DOFs that are not free (zero by default).
+    ``doflocs`` (dim, N) gives solvers that want them (algebraic multigrid)
+    the rigid-body modes of the free DOFs.
 
     Raises
     ------
@@ -203,8 +158,14 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
         warnings.simplefilter("error", MatrixRankWarning)
         try:
             A, b, x, I = condense(K, f, x=x, I=free)
-            u = solve(A, b, x, I, solver=solver_direct_checked()
-                      if solver is None else solver)
+            solver = get_solver(solver)
+            kwargs = {}
+            if getattr(solver, "wants_modes", False) and doflocs is not None:
+                dim = doflocs.shape[0]
+                kwargs["modes"] = rigid_modes(
+                    doflocs[:, I // dim * dim], dim)[np.arange(I.size),
+                                                     I % dim]
+            u = solve(A, b, x, I, solver=solver, **kwargs)
         except (MatrixRankWarning, RuntimeError) as err:
             raise SingularSystemError(
                 "the stiffness on {} free DOFs is singular ({}): the active "

@@ -130,6 +130,9 @@ class Scene:
         solve per step) or ``"finite"`` (Newton per step).
     steps, tolerance, max_iterations
         Load steps and, for finite deformation, Newton settings.
+    linear_solver
+        ``"scipy"``, ``"pypardiso"``, ``"pyamg"`` or ``"auto"``
+        (:mod:`skfem_mpm.solvers`).
     """
     grid: Grid
     bodies: List[Body]
@@ -144,6 +147,7 @@ class Scene:
     max_iterations: int = 25
     name: str = "scene"
     reference: Optional[str] = None
+    linear_solver: str = "scipy"
 
     def check(self):
         """Raise :class:`~skfem_mpm.errors.InvalidInputError` for
@@ -289,10 +293,10 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                          body_force=scene.gravity, nsteps=scene.steps,
                          update_positions=scene.method != "fem",
                          first_step=first_step, callback=callback,
-                         prescribed=prescribed)
+                         prescribed=prescribed, solver=scene.linear_solver)
     return solve_finite(mesh, elem, points, material, supports,
                         body_force=scene.gravity, nsteps=scene.steps,
                         method=scene.method, prescribed=prescribed,
                         tol=scene.tolerance, max_iter=scene.max_iterations,
                         first_step=first_step, domain0=domain0,
-                        callback=callback)
+                        callback=callback, solver=scene.linear_solver)

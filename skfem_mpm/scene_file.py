@@ -39,6 +39,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     steps = 20
     tolerance = 1e-9
     max_iterations = 25
+    linear = "scipy"                # pypardiso pyamg auto
 
 """
 import math
@@ -53,6 +54,7 @@ from .errors import SceneError
 from .materials import LinearElastic, VonMises
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction)
+from .solvers import FACTORIES
 
 __all__ = ["load_scene", "parse_scene", "REFERENCES"]
 
@@ -282,7 +284,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             traction=c.vector(t, key, "traction", dim, [0.] * dim)))
     solver = c.table(data.get("solver", {}), "solver",
                      ("method", "kinematics", "steps", "tolerance",
-                      "max_iterations"))
+                      "max_iterations", "linear"))
     method = c.choice(solver, "solver", "method", METHODS, "mpm")
     kinematics = c.choice(solver, "solver", "kinematics", KINEMATICS, "small")
     scene = Scene(
@@ -295,7 +297,9 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         max_iterations=c.number(solver, "solver", "max_iterations", 25,
                                 low=1, open_low=False, integer=True),
         name=_name(c, data),
-        reference=c.choice(data, "", "reference", REFERENCES + (None,)))
+        reference=c.choice(data, "", "reference", REFERENCES + (None,)),
+        linear_solver=c.choice(solver, "solver", "linear",
+                               tuple(FACTORIES), "scipy"))
     if not c.problems:
         try:
             scene.check()

@@ -190,7 +190,9 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     locator
         Optional :func:`~skfem_mpm.point_locator` of ``mesh`` to reuse.
     solver
-        Optional scikit-fem linear solver ``f(A, b) -> x``.
+        Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name from
+        :mod:`skfem_mpm.solvers` (``"scipy"``, ``"pypardiso"``,
+        ``"pyamg"``, ``"auto"``); default scipy's SuperLU.
     keep_snapshots
         Keep per-step grid displacements, point positions, displacements
         and stresses in the history.
@@ -271,7 +273,8 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
 
         tic = time.perf_counter()
         try:
-            du = solve_active(K, f_ext - f_int, free, solver=solver, x=x)
+            du = solve_active(K, f_ext - f_int, free, solver=solver, x=x,
+                              doflocs=grid.doflocs)
             counters["linear_solves"] += 1
         except SingularSystemError as err:
             raise SingularSystemError("step {}: {}".format(step, err)) from err

@@ -1,0 +1,182 @@
+"""Linear solver back ends behind scikit-fem's ``solver=`` hook.
+
+Each factory returns ``f(A, b, **kwargs) -> x``:
+
+- :func:`solver_direct_checked`: scipy's SuperLU in symmetric mode, which
+  refuses singular systems (the default);
+- :func:`solver_pypardiso`: Intel MKL Pardiso through pypardiso (optional),
+  symmetric positive definite mode for elastic steps;
+- :func:`solver_pyamg`: smoothed-aggregation algebraic multigrid with the
+  rigid-body modes as near-null space, conjugate gradients (optional), for
+  systems a direct factorisation does not fit;
+- ``"auto"``: pypardiso when installed, else SuperLU up to
+  :data:`AUTO_DIRECT_LIMIT` DOFs, pyamg beyond when installed.
+
+"""
+import importlib.util
+import logging
+from typing import Callable, Union
+
+import numpy as np
+from scipy.sparse import triu
+from scipy.sparse.linalg import splu
+
+from .errors import InvalidInputError, SingularSystemError
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["solver_direct_checked", "solver_pypardiso", "solver_pyamg",
+           "solver_auto", "get_solver", "available_solvers",
+           "AUTO_DIRECT_LIMIT"]
+
+AUTO_DIRECT_LIMIT = 1_500_000
+
+
+def solver_direct_checked(pivot_tol: float = 1e-9,
+                          growth_tol: float = 1e12) -> Callable:
+    """scipy's sparse LU (SuperLU, symmetric mode) as a scikit-fem solver
+    ``f(A, b) -> x`` that refuses singular systems.
+
+    A solution that grows beyond ``growth_tol`` times ``|b| / max|A_ii|``
+    is examined: each pivot is compared with the diagonal entry of the
+    (permuted) matrix it eliminates.  A zero-energy mode leaves a pivot at
+    round-off level of its diagonal (1e-12 and below), while grid nodes
+    that points support only weakly have small diagonals *and* small
+    pivots, a ratio of order one.  A ratio below ``pivot_tol`` raises
+    :class:`~skfem_mpm.errors.SingularSystemError`.
+
+    """
+    def solver(A, b, **kwargs):
+        A = A.tocsc()
+        try:
+            lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=.1,
+                      options=dict(SymmetricMode=True))
+        except RuntimeError as err:
+            raise SingularSystemError(
+                "the stiffness on {} free DOFs is singular ({}): the active "
+                "grid has rigid-body modes; add supports".format(A.shape[0],
+                                                                 err)) from err
+        x = lu.solve(b)
+        diagonal = np.abs(A.diagonal())
+        scale = np.abs(b).max() / max(diagonal.max(), np.finfo(float).tiny)
+        if np.all(np.isfinite(x)) and np.abs(x).max() <= growth_tol * scale:
+            return x
+        n = A.shape[0]
+        rows, cols = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+        rows[lu.perm_r], cols[lu.perm_c] = np.arange(n), np.arange(n)
+        pivoted = np.abs(np.asarray(A[rows, cols]).ravel())
+        with np.errstate(divide="ignore", over="ignore"):
+            # an off-diagonal pivot (zero diagonal entry) counts as regular
+            ratio = np.abs(lu.U.diagonal()) / pivoted
+        worst = int(np.argmin(ratio))
+        if not ratio[worst] >= pivot_tol or not np.all(np.isfinite(x)):
+            raise SingularSystemError(
+                "the stiffness on {} free DOFs is singular: a pivot is {:.1e} "
+                "of its diagonal entry (below {:.0e}), at condensed DOF {}; "
+                "points leave a zero-energy mode (a grid node supported by "
+                "too few points) or the grid has rigid-body modes".format(
+                    n, ratio[worst], pivot_tol, cols[worst]))
+        return x
+
+    return solver
+
+
+def _require(module: str, extra: str):
+    if importlib.util.find_spec(module) is None:
+        raise InvalidInputError(
+            "the {} solver needs the optional package {} (pip install "
+            "{})".format(extra, module, extra))
+
+
+def solver_pypardiso(spd: bool = True) -> Callable:
+    """MKL Pardiso via pypardiso; ``spd=True`` factorises the upper
+    triangle as symmetric positive definite (elastic steps), ``False`` as a
+    general real matrix."""
+    _require("pypardiso", "pypardiso")
+
+    def solver(A, b, **kwargs):
+        import pypardiso
+        pardiso = pypardiso.PyPardisoSolver(mtype=2 if spd else 11)
+        matrix = triu(A, format="csr") if spd else A.tocsr()
+        try:
+            x = pardiso.solve(matrix, b)
+        finally:
+            pardiso.free_memory(everything=True)
+        if not np.all(np.isfinite(x)):
+            raise SingularSystemError("Pardiso returned non-finite values: "
+                                      "the stiffness is singular")
+        return x
+
+    return solver
+
+
+def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
+    """Smoothed-aggregation AMG preconditioned CG (pyamg), with the
+    rigid-body modes of the free DOFs as near-null space when the caller
+    provides them (``modes``).  Logs the iterations; raises
+    :class:`~skfem_mpm.errors.SingularSystemError` if it does not converge.
+    """
+    _require("pyamg", "pyamg")
+
+    def solver(A, b, modes=None, **kwargs):
+        import pyamg
+        ml = pyamg.smoothed_aggregation_solver(A.tocsr(), B=modes)
+        residuals = []
+        x = ml.solve(b, tol=tol, maxiter=maxiter, accel="cg",
+                     residuals=residuals)
+        relative = residuals[-1] / max(residuals[0], np.finfo(float).tiny)
+        solver.iterations.append(len(residuals) - 1)
+        logger.info("pyamg: %d iterations, relative residual %.1e",
+                    len(residuals) - 1, relative)
+        if not relative <= tol * 10:
+            raise SingularSystemError(
+                "pyamg did not converge: relative residual {:.1e} after {} "
+                "iterations".format(relative, len(residuals) - 1))
+        return x
+
+    solver.wants_modes = True
+    solver.iterations = []
+    return solver
+
+
+def available_solvers() -> list:
+    """Names of the back ends importable here."""
+    names = ["scipy"]
+    for name in ("pypardiso", "pyamg"):
+        if importlib.util.find_spec(name) is not None:
+            names.append(name)
+    return names
+
+
+def solver_auto() -> Callable:
+    """Pick the fastest installed back end for each system's size."""
+    installed = available_solvers()
+    direct = solver_pypardiso() if "pypardiso" in installed \
+        else solver_direct_checked()
+    iterative = solver_pyamg() if "pyamg" in installed else None
+
+    def solver(A, b, modes=None, **kwargs):
+        if iterative is not None and "pypardiso" not in installed \
+                and A.shape[0] > AUTO_DIRECT_LIMIT:
+            return iterative(A, b, modes=modes)
+        return direct(A, b)
+
+    solver.wants_modes = iterative is not None
+    return solver
+
+
+FACTORIES = {"scipy": solver_direct_checked, "pypardiso": solver_pypardiso,
+             "pyamg": solver_pyamg, "auto": solver_auto}
+
+
+def get_solver(solver: Union[None, str, Callable]) -> Callable:
+    """A solver function from a name (``"scipy"``, ``"pypardiso"``,
+    ``"pyamg"``, ``"auto"``), a function, or ``None`` (scipy)."""
+    if solver is None:
+        return solver_direct_checked()
+    if callable(solver):
+        return solver
+    if solver not in FACTORIES:
+        raise InvalidInputError("linear solver must be one of {}, got {!r}"
+                                .format(", ".join(FACTORIES), solver))
+    return FACTORIES[solver]()

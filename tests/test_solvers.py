@@ -1,0 +1,45 @@
+"""Linear solver back ends give the same answer."""
+import numpy as np
+import pytest
+from skfem import ElementHex1, ElementQuad1, MeshHex, MeshQuad
+
+from skfem_mpm import InvalidInputError, LinearElastic, seed_points, solve_mpm
+from skfem_mpm.solvers import available_solvers, get_solver, solver_pyamg
+
+
+def block(mesh, elem, solver):
+    pts = seed_points(mesh, 2)
+    res = solve_mpm(mesh, elem, pts, LinearElastic(1e4, .3),
+                    lambda b: b.get_dofs(lambda x: x[-1] == 0),
+                    body_force=np.r_[np.zeros(mesh.dim() - 1), -10.],
+                    solver=solver, keep_snapshots=True)
+    return res.history[0].u
+
+
+@pytest.mark.parametrize("name", ["scipy", "pypardiso", "pyamg", "auto"])
+def test_back_ends_agree(name):
+    assert name in available_solvers() + ["auto"]     # the test extra
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 21), np.linspace(0, 1, 11))
+    reference = block(mesh, ElementQuad1(), "scipy")
+    u = block(mesh, ElementQuad1(), name)
+    assert np.abs(u - reference).max() < 1e-8 * np.abs(reference).max()
+
+
+def test_amg_uses_rigid_body_modes_in_3d():
+    mesh = MeshHex.init_tensor(*[np.linspace(0, 1, 7)] * 3)
+    reference = block(mesh, ElementHex1(), "scipy")
+    amg = solver_pyamg()
+    u = block(mesh, ElementHex1(), amg)
+    assert np.abs(u - reference).max() < 1e-7 * np.abs(reference).max()
+    with_modes = amg.iterations[-1]
+
+    def without_modes(A, b, **kwargs):          # hide the modes
+        return plain(A, b)
+    plain = solver_pyamg()
+    block(mesh, ElementHex1(), without_modes)
+    assert with_modes < plain.iterations[-1]
+
+
+def test_unknown_solver_name():
+    with pytest.raises(InvalidInputError, match="linear solver must be one"):
+        get_solver("cholmod")
