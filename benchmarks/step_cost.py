@@ -1,11 +1,14 @@
 """Cost of an implicit MPM load step per phase, 2D plane strain.
 
-A square block on a Q1 grid, 2x2 points per cell, fixed base, body force,
-two load steps (the second assembles internal forces of moved points).
-Prints, per size: seconds per step and points per second for each phase,
-and the share of the step spent in the linear solve.
+A square block on a Q1 grid, 2x2 points per cell, fixed base, body force.
+For each method (standard MPM or cpGIMP) and kinematics (small strain: two
+load steps; finite deformation: one load step, Newton), prints per size:
+seconds per load step, each phase's points per second, the share of the
+linear solve, the non-solve cost per point and per Newton iteration, and
+the growth of the resident set per point; then the fitted exponent of the
+non-solve time against the number of points.
 
-    python benchmarks/step_cost.py [--max-points 1e6]
+    python benchmarks/step_cost.py [--max-points 1e6] [--solver scipy]
 """
 import argparse
 import platform
@@ -14,52 +17,88 @@ import time
 import numpy as np
 from skfem import ElementQuad1, MeshQuad
 
-from skfem_mpm import LinearElastic, point_locator, seed_points, solve_mpm
+from skfem_mpm import LinearElastic, point_locator, seed_points, solve_finite
+from skfem_mpm import solve_mpm
 from skfem_mpm.solver import PHASES
+from skfem_mpm.study import PeakMemory
+
+SIZES = (16, 50, 158, 500)                 # cells per side: 1e3 .. 1e6 points
 
 
 def block(ncells: int):
-    x = np.linspace(0., 1., ncells + 1)
-    mesh = MeshQuad.init_tensor(x, np.linspace(0., 1.2, int(1.2 * ncells) + 1))
-    points = seed_points(mesh, 2, region=lambda p: p[1] < 1.)
+    """A unit square of material in a grid two cells wider on each side
+    and 20% higher (room for the Poisson expansion)."""
+    h = 1. / ncells
+    x = np.linspace(-2 * h, 1. + 2 * h, ncells + 5)
+    y = np.linspace(0., 1.2, int(1.2 * ncells) + 1)
+    mesh = MeshQuad.init_tensor(x, y)
+    points = seed_points(mesh, 2, region=lambda p: (p[1] < 1.) & (p[0] > 0)
+                         & (p[0] < 1.))
     return mesh, points
 
 
-def run(ncells: int, nsteps: int = 2):
+def run(ncells: int, method: str, kinematics: str, solver: str):
     mesh, points = block(ncells)
-    locator = point_locator(mesh)
-    tic = time.perf_counter()
-    res = solve_mpm(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
-                    lambda b: b.get_dofs(lambda x: x[1] == 0),
-                    body_force=[0., -1e3], nsteps=nsteps, locator=locator,
-                    keep_snapshots=False)
-    wall = (time.perf_counter() - tic) / nsteps
+    args = (mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    kwargs = dict(body_force=[0., -1e4], locator=point_locator(mesh),
+                  keep_snapshots=False, solver=solver)
+    with PeakMemory() as memory:
+        tic = time.perf_counter()
+        if kinematics == "small":
+            res = solve_mpm(*args, nsteps=2, **kwargs)
+        else:
+            res = solve_finite(*args, nsteps=1, method=method, **kwargs)
+        wall = time.perf_counter() - tic
+    nsteps = len(res.history)
     per_step = {p: t / nsteps for p, t in res.timings().items()}
-    return points.n, res.history[-1].n_free_dofs, per_step, wall
+    iterations = max(res.counters["newton_iterations"], nsteps)
+    return dict(points=points.n, dofs=res.history[-1].n_free_dofs,
+                wall=wall / nsteps, phases=per_step,
+                iteration_us=(sum(per_step.values()) - per_step["solve"])
+                * nsteps / iterations / points.n * 1e6,
+                memory=memory.peak / points.n)
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-points", type=float, default=1e6)
+    parser.add_argument("--solver", default="scipy")
+    parser.add_argument("--cases", default="mpm:small,mpm:finite,cpgimp:finite")
     args = parser.parse_args()
-    print("machine: {} {}, {} ({})".format(platform.system(),
-                                           platform.machine(),
-                                           platform.python_version(),
-                                           platform.processor() or "cpu"))
-    header = "{:>9} {:>8} {:>8} | ".format("points", "dofs", "s/step") + \
-        " ".join("{:>16}".format(p) for p in PHASES) + " | solve share"
-    print(header)
-    print("{:>28} | ".format("") + " ".join(
-        "{:>16}".format("s (points/s)") for _ in PHASES))
-    for ncells in (16, 50, 158, 500):
-        if 4 * ncells ** 2 > args.max_points * 1.01:
-            break
-        n, dofs, per_step, wall = run(ncells)
-        cells = " ".join("{:>16}".format("{:.3f} ({:.1e})".format(
-            per_step[p], n / per_step[p] if per_step[p] > 0 else np.inf))
-            for p in PHASES)
-        print("{:>9} {:>8} {:>8.3f} | {} | {:>6.0%}".format(
-            n, dofs, wall, cells, per_step["solve"] / wall), flush=True)
+    print("machine: {} {}, Python {}, solver {}".format(
+        platform.system(), platform.machine(), platform.python_version(),
+        args.solver))
+    for case in args.cases.split(","):
+        method, kinematics = case.split(":")
+        print("\n{} with {} kinematics".format(method, kinematics))
+        print("{:>8} {:>7} {:>8} | {} | {:>6} {:>9} {:>8}".format(
+            "points", "dofs", "s/step",
+            " ".join("{:>9}".format(p) for p in PHASES), "solve",
+            "us/pt/it", "B/point"))
+        # us/pt/it: non-solve seconds per point and Newton iteration (per
+        # step for small strain); B/point: resident-set growth per point,
+        # the factorisation included
+        rows = []
+        for ncells in SIZES:
+            if 4 * ncells ** 2 > args.max_points * 1.01:
+                break
+            r = run(ncells, method, kinematics, args.solver)
+            rows.append(r)
+            print("{:>8} {:>7} {:>8.3f} | {} | {:>6.0%} {:>9.2f} {:>8.0f}"
+                  .format(r["points"], r["dofs"], r["wall"], " ".join(
+                      "{:>9.1e}".format(r["points"] / r["phases"][p])
+                      for p in PHASES), r["phases"]["solve"] / r["wall"],
+                      r["iteration_us"], r["memory"]), flush=True)
+        if len(rows) >= 2:
+            n = np.array([r["points"] for r in rows], float)
+            t = np.array([r["wall"] - r["phases"]["solve"] for r in rows])
+            big = n >= 1e4
+            print("non-solve time ~ points^{:.2f} (from 1e4 points: "
+                  "^{:.2f})".format(np.polyfit(np.log(n), np.log(t), 1)[0],
+                                    np.polyfit(np.log(n[big]),
+                                               np.log(t[big]), 1)[0]
+                                    if big.sum() >= 2 else float("nan")))
 
 
 if __name__ == "__main__":
