@@ -40,8 +40,8 @@ def test_small_strain_memory_is_flat_over_1000_steps():
     # a Jacobian cache would add ~10 kB per step here; a history record
     # (a few scalars and the phase timings) is under 1.5 kB
     assert per_step < 1500
-    assert not hasattr(mesh, "_cached_mapping") or not getattr(
-        mesh._cached_mapping, "_cache", {})
+    # the mesh's own mapping holds only the grid basis' fixed Jacobians
+    assert len(getattr(mesh._cached_mapping, "_cache", {})) <= 4
     assert np.isfinite(result.points.stress).all()
 
 
