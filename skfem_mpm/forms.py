@@ -1,4 +1,4 @@
-"""Load and internal-force forms, seed (2.18), (2.19) and (2.24).
+"""Load forms, seed (2.18) and (2.19), and tensor helpers.
 
 Plain scikit-fem ``LinearForm`` s; point data reaches them as quadrature
 fields (see :meth:`MaterialPointBasis.quadrature_field`).
@@ -8,12 +8,12 @@ import numpy as np
 from numpy import ndarray
 from skfem.assembly import LinearForm, asm
 from skfem.assembly.basis import AbstractBasis
-from skfem.helpers import ddot, dot, sym_grad
+from skfem.helpers import dot
 
 from .errors import InvalidInputError, check_finite
 
-__all__ = ["body_force", "internal_force", "in_plane", "full_tensor",
-           "as_body_force", "assemble_body_force"]
+__all__ = ["body_force", "in_plane", "full_tensor", "as_body_force",
+           "assemble_body_force"]
 
 
 @LinearForm
@@ -22,12 +22,6 @@ def body_force(v, w):
     constant vector.  Point forces, seed (2.18), use the same form with
     ``b = f_p / V_p`` at the points."""
     return dot(w.b, v)
-
-
-@LinearForm
-def internal_force(v, w):
-    """``int B^T sigma dV``, seed (2.23)-(2.24)."""
-    return ddot(w.sig, sym_grad(v))
 
 
 def in_plane(tensor: ndarray, dim: int) -> ndarray:

@@ -10,14 +10,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy import ndarray
-from skfem.assembly import BilinearForm, asm
-from skfem.helpers import ddot, eye, sym_grad, trace
+from skfem.assembly import BilinearForm
 from skfem.models.elasticity import linear_elasticity
 
 from .errors import InvalidMaterialError
 
 __all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
-           "is_plastic", "assemble_elastic_stiffness"]
+           "is_plastic", "elastic_tensor"]
 
 
 @dataclass(frozen=True)
@@ -200,19 +199,13 @@ def is_plastic(material) -> bool:
     return isinstance(material, VonMises)
 
 
-@BilinearForm
-def elasticity_at_points(u, v, w):
-    """Linear elasticity with Lame parameters given at the points."""
-    strain = sym_grad(u)
-    return ddot(2. * w.mu * strain + w.lam * eye(trace(strain),
-                                                 strain.shape[0]),
-                sym_grad(v))
-
-
-def assemble_elastic_stiffness(material, basis):
-    """The small-strain stiffness (2.21) on a material-point basis."""
-    if isinstance(material, PointMaterials):
-        return asm(elasticity_at_points, basis,
-                   lam=basis.quadrature_field(material.lam),
-                   mu=basis.quadrature_field(material.mu))
-    return asm(material.stiffness_form(), basis)
+def elastic_tensor(material, n: int, dim: int) -> ndarray:
+    """``C_abcd = lam d_ab d_cd + mu (d_ac d_bd + d_ad d_bc)`` of every
+    point, (dim, dim, dim, dim, n): the small-strain tangent (2.3) in the
+    form the point operators assemble."""
+    eye = np.eye(dim)
+    lam = np.broadcast_to(material.lam, (n,))
+    mu = np.broadcast_to(material.mu, (n,))
+    return (np.einsum("ab,cd,p->abcdp", eye, eye, lam)
+            + np.einsum("ac,bd,p->abcdp", eye, eye, mu)
+            + np.einsum("ad,bc,p->abcdp", eye, eye, mu))

@@ -24,6 +24,8 @@ from skfem.assembly import BilinearForm, LinearForm, asm
 from skfem.helpers import ddot, grad
 
 from .basis import MaterialPointBasis
+from .fastpath import (ElementPattern, local_force, local_stiffness,
+                       scalar_gradients)
 from .forms import body_force
 from .linsolve import element_adjacency
 
@@ -43,17 +45,25 @@ def pulled_force(v, w):
 
 
 class AsmOperator:
-    """Standard MPM: scikit-fem's ``asm`` on a material-point basis.
+    """Standard MPM on a material-point basis: scikit-fem's ``asm``, or the
+    vectorised fast path of :mod:`skfem_mpm.fastpath` (equal to round-off)
+    for the force and the stiffness.
 
     Parameters
     ----------
     basis
         A :class:`~skfem_mpm.MaterialPointBasis` with a vector element.
+    fast
+        Assemble force and stiffness with the fast path.
 
     """
 
-    def __init__(self, basis: MaterialPointBasis):
+    def __init__(self, basis: MaterialPointBasis, fast: bool = True):
         self.basis = basis
+        self.fast = fast
+        if fast:
+            self._pattern = None
+            self._G = scalar_gradients(basis)
         self.dim = basis.mesh.dim()
         self.N = basis.N
         self.nelems = basis.nelems
@@ -73,13 +83,26 @@ class AsmOperator:
     def _volumes(self) -> ndarray:
         return self.basis.point_values(self.basis.dx)
 
+    def pattern(self) -> ElementPattern:
+        """The stiffness pattern, built on first use, then reused."""
+        if self._pattern is None:
+            self._pattern = ElementPattern(self.basis.element_dofs, self.N)
+        return self._pattern
+
     def force(self, P: ndarray, w: ndarray) -> ndarray:
+        if self.fast:
+            f = local_force(self._G, self.basis.quadrature_field(P * w))
+            return np.bincount(self.basis.element_dofs.ravel(),
+                               weights=f.ravel(), minlength=self.N)
         return asm(pulled_force, self.basis, P=self._field(P, w))
 
     def point_force(self, f: ndarray) -> ndarray:
         return asm(body_force, self.basis, b=self._field(f, np.ones(f.shape[1])))
 
     def stiffness(self, A: ndarray, w: ndarray):
+        if self.fast:
+            return self.pattern().matrix(local_stiffness(
+                self._G, self.basis.quadrature_field(A * w)))
         return asm(pulled_tangent, self.basis, A=self._field(A, w))
 
     def adjacency(self):

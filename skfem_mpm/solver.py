@@ -26,11 +26,12 @@ from .basis import MaterialPointBasis
 from .errors import InvalidInputError, PointsOutsideGridError, \
     SingularSystemError
 from .forms import (as_body_force, assemble_body_force, body_force,
-                    full_tensor, in_plane, internal_force)
+                    full_tensor, in_plane)
 from .linsolve import (check_rigid_body_modes, element_adjacency, free_dofs,
                        solve_active, support_dofs)
 from .locate import Locator, point_locator
-from .materials import LinearElastic, assemble_elastic_stiffness, at_points
+from .materials import LinearElastic, at_points, elastic_tensor
+from .operators import AsmOperator
 from .points import MaterialPoints
 
 logger = logging.getLogger(__name__)
@@ -152,13 +153,6 @@ def external_force(basis: MaterialPointBasis, points: MaterialPoints,
     return f
 
 
-def assemble_internal_force(basis: MaterialPointBasis,
-                            stress: ndarray) -> ndarray:
-    """``f_int = sum_p B_p^T sigma_p V_p``, seed (2.24)."""
-    sig = basis.quadrature_field(in_plane(stress, basis.mesh.dim()))
-    return asm(internal_force, basis, sig=sig)
-
-
 def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
               material: LinearElastic, supports, body_force=None,
               nsteps: int = 1, locator: Optional[Locator] = None,
@@ -266,9 +260,11 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
             grid.doflocs[:, ::dim], active, fixed, dim, step)
         free = free_dofs(active, fixed)
         f_ext = external_force(basis, points, gravity, factor, counters)
-        f_int = assemble_internal_force(basis, points.stress) \
+        op = AsmOperator(basis)
+        f_int = op.force(in_plane(points.stress, dim), points.volume) \
             if points.stress.any() else np.zeros(basis.N)
-        K = assemble_elastic_stiffness(material, basis)
+        K = op.stiffness(elastic_tensor(material, points.n, dim),
+                         points.volume)
         t["assemble"] = time.perf_counter() - tic
 
         tic = time.perf_counter()
@@ -289,7 +285,8 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         t["update"] = time.perf_counter() - tic
 
         tic = time.perf_counter()
-        r = (f_ext - assemble_internal_force(basis, points.stress))[free]
+        r = (f_ext - op.force(in_plane(points.stress, dim),
+                              points.volume))[free]
         residual = np.linalg.norm(r) / max(np.linalg.norm(f_ext[free]),
                                           np.finfo(float).tiny)
         t["check"] = time.perf_counter() - tic

@@ -30,6 +30,8 @@ __all__ = ["solver_direct_checked", "solver_pypardiso", "solver_pyamg",
            "AUTO_DIRECT_LIMIT"]
 
 AUTO_DIRECT_LIMIT = 1_500_000
+CAUSES = ("points leave a zero-energy mode (a grid node supported by too few "
+          "points) or the grid has rigid-body modes (missing supports)")
 
 
 def solver_direct_checked(pivot_tol: float = 1e-9,
@@ -52,10 +54,9 @@ def solver_direct_checked(pivot_tol: float = 1e-9,
             lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=.1,
                       options=dict(SymmetricMode=True))
         except RuntimeError as err:
-            raise SingularSystemError(
-                "the stiffness on {} free DOFs is singular ({}): the active "
-                "grid has rigid-body modes; add supports".format(A.shape[0],
-                                                                 err)) from err
+            raise SingularSystemError("the stiffness on {} free DOFs is "
+                                      "singular ({}): {}".format(
+                                          A.shape[0], err, CAUSES)) from err
         x = lu.solve(b)
         diagonal = np.abs(A.diagonal())
         scale = np.abs(b).max() / max(diagonal.max(), np.finfo(float).tiny)
@@ -73,9 +74,7 @@ def solver_direct_checked(pivot_tol: float = 1e-9,
             raise SingularSystemError(
                 "the stiffness on {} free DOFs is singular: a pivot is {:.1e} "
                 "of its diagonal entry (below {:.0e}), at condensed DOF {}; "
-                "points leave a zero-energy mode (a grid node supported by "
-                "too few points) or the grid has rigid-body modes".format(
-                    n, ratio[worst], pivot_tol, cols[worst]))
+                "{}".format(n, ratio[worst], pivot_tol, cols[worst], CAUSES))
         return x
 
     return solver
