@@ -2,57 +2,68 @@
 material-point basis, tested to equal scikit-fem's ``asm`` to round-off.
 
 Element matrices are summed over each element's points in the basis's
-padded (element, slot) layout, and scattered into a CSR matrix through a
-sparsity pattern computed once per load step (a sort of the element DOF
-pairs) and reused by every Newton iteration: each assembly is then one
-``np.bincount``, linear in the number of points.
+padded (element, slot) layout, and scattered into a CSR matrix through the
+sparsity pattern of the whole grid, computed once per run (a sort of the
+element DOF pairs) and shared by every load step and Newton iteration: each
+assembly is then one ``np.bincount``, linear in the number of points.  The
+matrix carries explicit zeros on inactive DOFs, which condensing onto the
+free DOFs drops.
 
 """
 import numpy as np
 from numpy import ndarray
 from scipy.sparse import csr_matrix
 
-__all__ = ["ElementPattern", "scalar_gradients", "local_stiffness",
-           "local_force"]
+__all__ = ["ElementPattern", "scalar_fields", "local_stiffness",
+           "local_force", "local_load"]
 
 CHUNK = 20_000          # elements per block (bounds the temporaries)
 
 
 class ElementPattern:
-    """CSR pattern of element DOFs (nloc, nelems) in an N x N matrix."""
+    """CSR pattern of all elements' DOFs (nloc, nelems) in an N x N matrix.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem_mpm.fastpath import ElementPattern
+    >>> pattern = ElementPattern(np.array([[0, 1], [1, 2]]), 3)
+    >>> local = np.ones((1, 2, 2))
+    >>> pattern.matrix(local, np.array([1])).toarray().tolist()
+    [[0.0, 0.0, 0.0], [0.0, 1.0, 1.0], [0.0, 1.0, 1.0]]
+
+    """
 
     def __init__(self, element_dofs: ndarray, N: int):
         nloc, nel = element_dofs.shape
         rows = np.repeat(element_dofs, nloc, axis=0)        # (nloc^2, nel)
         cols = np.tile(element_dofs, (nloc, 1))
         keys = (rows.astype(np.int64) * N + cols).T.ravel()  # element-major
-        unique, self.scatter = np.unique(keys, return_inverse=True)
+        unique, scatter = np.unique(keys, return_inverse=True)
+        self.scatter = scatter.reshape(nel, nloc * nloc)
         self.indices = (unique % N).astype(np.int32)
         self.indptr = np.searchsorted(unique // N, np.arange(N + 1)).astype(
             np.int32)
         self.N = N
-        self.element_dofs = element_dofs
 
-    def matrix(self, local: ndarray) -> csr_matrix:
-        """Assemble element matrices (nelems, nloc, nloc)."""
-        data = np.bincount(self.scatter, weights=local.ravel(),
+    def matrix(self, local: ndarray, elements: ndarray) -> csr_matrix:
+        """Assemble element matrices (len(elements), nloc, nloc)."""
+        data = np.bincount(self.scatter[elements].ravel(),
+                           weights=local.ravel(),
                            minlength=len(self.indices))
         return csr_matrix((data, self.indices, self.indptr),
                           shape=(self.N, self.N))
 
-    def vector(self, local: ndarray) -> ndarray:
-        """Assemble element vectors (nloc, nelems)."""
-        return np.bincount(self.element_dofs.ravel(), weights=local.ravel(),
-                           minlength=self.N)
 
-
-def scalar_gradients(basis) -> ndarray:
-    """Gradients of the scalar shape functions at the points of a basis
-    with a vector element, (dim, nnodes_local, nelems, slots)."""
+def scalar_fields(basis):
+    """Values (nnodes_local, nelems, slots) and gradients (dim,
+    nnodes_local, nelems, slots) of the scalar shape functions at the
+    points of a basis with a vector element."""
     dim = basis.mesh.dim()
-    return np.array([basis.basis[dim * i][0].grad[0]
-                     for i in range(basis.Nbfun // dim)]).transpose(
-                         1, 0, 2, 3)
+    fields = [basis.basis[dim * i][0] for i in range(basis.Nbfun // dim)]
+    values = np.array([np.asarray(f)[0] for f in fields])
+    grads = np.array([f.grad[0] for f in fields]).transpose(1, 0, 2, 3)
+    return values, grads
 
 
 def local_stiffness(G: ndarray, A: ndarray) -> ndarray:
@@ -74,3 +85,10 @@ def local_force(G: ndarray, P: ndarray) -> ndarray:
     dim, nodes = G.shape[0], G.shape[1]
     f = np.einsum("abem,biem->iae", P, G)
     return f.reshape(nodes * dim, -1)
+
+
+def local_load(N: ndarray, f: ndarray) -> ndarray:
+    """Element vectors ``f_(ia) = sum_slots N_i f_a`` of point forces
+    (dim, nelems, slots); returns (nloc, nelems)."""
+    out = np.einsum("iem,aem->iae", N, f)
+    return out.reshape(-1, N.shape[1])

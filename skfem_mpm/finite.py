@@ -37,8 +37,9 @@ from .locate import Locator, point_locator
 from .materials import at_points, is_plastic
 from .operators import AsmOperator
 from .points import MaterialPoints
+from .fastpath import ElementPattern
 from .solver import (PHASES, Result, StepRecord, check_run_input,
-                     vector_element)
+                     point_loads, vector_element)
 
 logger = logging.getLogger(__name__)
 
@@ -86,7 +87,8 @@ class _Step:
         tic = time.perf_counter()
         if ctx.method == "mpm":
             op = AsmOperator(MaterialPointBasis(ctx.mesh, ctx.elem, pts,
-                                                location, dofs=ctx.dofs))
+                                                location, dofs=ctx.dofs),
+                             ctx.pattern)
         else:
             op = gimp_operator(ctx.mesh, ctx.elem, pts.x, pts.domain,
                                ctx.locate)
@@ -125,8 +127,7 @@ class _Step:
                                op.active_dofs, D, ctx.dim, self.step)
         free = free_dofs(op.active_dofs, D)
         f_ext = np.zeros(op.N)
-        load = ctx.point_load(pts)
-        ctx.counters["body_force"] += ctx.gravity is not None
+        load = point_loads(pts, ctx.gravity, ctx.counters)
         if load is not None:
             f_ext = op.point_force(self.f_new * load)
         self.t["assemble"] += time.perf_counter() - tic
@@ -214,14 +215,6 @@ class _Context:
     def __init__(self, **kwargs):
         self.__dict__.update(kwargs)
 
-    def point_load(self, pts: MaterialPoints) -> Optional[ndarray]:
-        """Full-load point forces plus body force on initial volumes, or
-        ``None`` when the scene has neither."""
-        load = pts.force if pts.force.any() else None
-        if self.gravity is not None:
-            weight = self.gravity[:, None] * pts.volume0
-            load = weight if load is None else load + weight
-        return load
 
 
 def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
@@ -310,6 +303,8 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     result = Result(points=points.copy())
     ctx = _Context(
         mesh=mesh, elem=elem, material=material, method=method, grid=grid,
+        pattern=ElementPattern(grid.dofs.element_dofs, grid.N)
+        if method == "mpm" else None,
         counters=result.counters, plastic=is_plastic(material),
         dofs=grid.dofs, D=support_dofs(supports, grid), dim=mesh.dim(),
         gravity=as_body_force(body_force, mesh.dim()), prescribed=prescribed,

@@ -17,6 +17,8 @@ several elements, uses sparse per-point operators built in
 - ``adjacency()``: grid nodes coupled by points (for rigid-body checks).
 
 """
+from typing import Optional
+
 import numpy as np
 from numpy import ndarray
 from scipy.sparse import bmat, csr_matrix
@@ -24,8 +26,8 @@ from skfem.assembly import BilinearForm, LinearForm, asm
 from skfem.helpers import ddot, grad
 
 from .basis import MaterialPointBasis
-from .fastpath import (ElementPattern, local_force, local_stiffness,
-                       scalar_gradients)
+from .fastpath import (ElementPattern, local_force, local_load,
+                       local_stiffness, scalar_fields)
 from .forms import body_force
 from .linsolve import element_adjacency
 
@@ -53,17 +55,21 @@ class AsmOperator:
     ----------
     basis
         A :class:`~skfem_mpm.MaterialPointBasis` with a vector element.
+    pattern
+        The grid's :class:`~skfem_mpm.fastpath.ElementPattern` to share
+        between steps (built here when not given).
     fast
-        Assemble force and stiffness with the fast path.
+        Assemble forces and stiffness with the fast path.
 
     """
 
-    def __init__(self, basis: MaterialPointBasis, fast: bool = True):
+    def __init__(self, basis: MaterialPointBasis,
+                 pattern: Optional[ElementPattern] = None, fast: bool = True):
         self.basis = basis
         self.fast = fast
         if fast:
-            self._pattern = None
-            self._G = scalar_gradients(basis)
+            self._pattern = pattern
+            self._N, self._G = scalar_fields(basis)
         self.dim = basis.mesh.dim()
         self.N = basis.N
         self.nelems = basis.nelems
@@ -84,9 +90,10 @@ class AsmOperator:
         return self.basis.point_values(self.basis.dx)
 
     def pattern(self) -> ElementPattern:
-        """The stiffness pattern, built on first use, then reused."""
+        """The grid's stiffness pattern (built on first use if not given)."""
         if self._pattern is None:
-            self._pattern = ElementPattern(self.basis.element_dofs, self.N)
+            self._pattern = ElementPattern(self.basis.dofs.element_dofs,
+                                           self.N)
         return self._pattern
 
     def force(self, P: ndarray, w: ndarray) -> ndarray:
@@ -97,12 +104,16 @@ class AsmOperator:
         return asm(pulled_force, self.basis, P=self._field(P, w))
 
     def point_force(self, f: ndarray) -> ndarray:
+        if self.fast:
+            local = local_load(self._N, self.basis.quadrature_field(f))
+            return np.bincount(self.basis.element_dofs.ravel(),
+                               weights=local.ravel(), minlength=self.N)
         return asm(body_force, self.basis, b=self._field(f, np.ones(f.shape[1])))
 
     def stiffness(self, A: ndarray, w: ndarray):
         if self.fast:
             return self.pattern().matrix(local_stiffness(
-                self._G, self.basis.quadrature_field(A * w)))
+                self._G, self.basis.quadrature_field(A * w)), self.basis.tind)
         return asm(pulled_tangent, self.basis, A=self._field(A, w))
 
     def adjacency(self):

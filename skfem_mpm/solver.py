@@ -18,19 +18,19 @@ from typing import Callable, List, Optional
 
 import numpy as np
 from numpy import ndarray
-from skfem import Basis, asm
+from skfem import Basis
 from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 
 from .basis import MaterialPointBasis
 from .errors import InvalidInputError, PointsOutsideGridError, \
     SingularSystemError
-from .forms import (as_body_force, assemble_body_force, body_force,
-                    full_tensor, in_plane)
+from .forms import as_body_force, full_tensor, in_plane
 from .linsolve import (check_rigid_body_modes, element_adjacency, free_dofs,
                        solve_active, support_dofs)
 from .locate import Locator, point_locator
 from .materials import LinearElastic, at_points, elastic_tensor
+from .fastpath import ElementPattern
 from .operators import AsmOperator
 from .points import MaterialPoints
 
@@ -133,24 +133,17 @@ def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int):
             "points are {}D but the mesh is {}D".format(points.dim, mesh.dim()))
 
 
-def point_force_field(basis: MaterialPointBasis, points: MaterialPoints,
-                      factor: float) -> ndarray:
-    """Point forces as a force-per-volume field for :data:`body_force`."""
-    return basis.quadrature_field(factor * points.force / points.volume)
-
-
-def external_force(basis: MaterialPointBasis, points: MaterialPoints,
-                   gravity: Optional[ndarray], factor: float,
-                   counters: dict) -> ndarray:
-    """``f_ext`` at load factor ``factor``: body force (2.19) and point
-    forces (2.18), each assembled only when the scene has it."""
-    f = np.zeros(basis.N)
+def point_loads(points: MaterialPoints, gravity: Optional[ndarray],
+                counters: dict) -> Optional[ndarray]:
+    """Point forces (2.18) plus the body force on the point volumes (2.19)
+    at full load, (dim, n), or ``None`` when the scene has neither; the body
+    force only when the scene has gravity."""
+    load = points.force if points.force.any() else None
     if gravity is not None:
         counters["body_force"] += 1
-        f += assemble_body_force(basis, factor * gravity)
-    if points.force.any():
-        f += asm(body_force, basis, b=point_force_field(basis, points, factor))
-    return f
+        weight = gravity[:, None] * points.volume0
+        load = weight if load is None else load + weight
+    return load
 
 
 def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
@@ -228,6 +221,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     D = support_dofs(supports, grid)
     dim = mesh.dim()
     locate = point_locator(mesh) if locator is None else locator
+    pattern = ElementPattern(grid.dofs.element_dofs, grid.N)
     points = points.copy()
     material = at_points(material, points)
     result = Result(points=points)
@@ -259,8 +253,10 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
             element_adjacency(basis.element_dofs, dim, basis.N // dim),
             grid.doflocs[:, ::dim], active, fixed, dim, step)
         free = free_dofs(active, fixed)
-        f_ext = external_force(basis, points, gravity, factor, counters)
-        op = AsmOperator(basis)
+        op = AsmOperator(basis, pattern)
+        load = point_loads(points, gravity, counters)
+        f_ext = np.zeros(basis.N) if load is None else \
+            op.point_force(factor * load)
         f_int = op.force(in_plane(points.stress, dim), points.volume) \
             if points.stress.any() else np.zeros(basis.N)
         K = op.stiffness(elastic_tensor(material, points.n, dim),

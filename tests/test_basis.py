@@ -124,3 +124,18 @@ def test_fast_path_equals_asm(family):
     K4 = asm(linear_elasticity(LinearElastic(2., .3).lam,
                                LinearElastic(2., .3).mu), basis)
     assert abs(K3 - K4).max() <= 1e-13 * abs(K4).max()
+
+
+def test_fast_point_forces_equal_asm(family):
+    from skfem_mpm.operators import AsmOperator
+    name, mesh, elem = family
+    points = arbitrary_points(mesh, 60, seed=6)
+    basis = MaterialPointBasis(mesh, ElementVector(elem), points)
+    f = np.random.default_rng(8).random((mesh.dim(), points.n))
+    fast = AsmOperator(basis).point_force(f)
+    reference = AsmOperator(basis, fast=False).point_force(f)
+    assert np.abs(fast - reference).max() <= 1e-14 * np.abs(reference).max()
+    # the total force is kept (partition of unity)
+    assert np.allclose(fast.reshape(-1, mesh.dim()).sum(axis=0)
+                       if name not in ("quad-Q2", "tri-P2") else
+                       f.sum(axis=1), f.sum(axis=1), rtol=1e-12)
