@@ -228,8 +228,23 @@ def run(args) -> int:
         print("stopped after step {}; continue with: skfem-mpm run "
               "--resume {}".format(stop.args[0], outdir))
         return 0
+    except MPMError as err:
+        # keep what converged: a checkpoint of the last converged state and
+        # a summary saying what failed
+        last = history[-1].step if history else first_step - 1
+        state = getattr(err, "state", None)
+        if state is not None:
+            save_checkpoint(outdir, last, scene.steps, state, history,
+                            domain0)
+        write_summary(outdir / "summary.json", {
+            "scene": scene.name, "status": "failed",
+            "error": "{}: {}".format(type(err).__name__, err),
+            "last_converged_step": last,
+            "checkpoint": state is not None})
+        raise
     seconds = time.perf_counter() - tic
     summary = summarise(scene, result, seconds)
+    summary["status"] = "completed"
     write_summary(outdir / "summary.json", summary)
     plot_outputs(scene, result, outdir, loaded)
     print("{}: {} {} ({} kinematics), {} points, {} load steps".format(

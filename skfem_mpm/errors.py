@@ -36,13 +36,21 @@ class PointsOutsideGridError(MPMError):
         Indices of the points outside the grid.
     step
         The load step in which they left it (``None`` outside a run).
+    state
+        The last converged :class:`~skfem_mpm.MaterialPoints` (in a run).
 
     """
 
-    def __init__(self, message, indices=None, step=None):
+    def __init__(self, message, indices=None, step=None, state=None):
         super().__init__(message)
         self.indices = indices
         self.step = step
+        self.state = state
+
+    def __str__(self):
+        text = super().__str__()
+        return text if self.step is None else "step {}: {}".format(
+            self.step, text)
 
 
 class SingularSystemError(MPMError):

@@ -14,8 +14,8 @@ import numpy as np
 from numpy import ndarray
 from scipy.sparse import csr_matrix
 
-__all__ = ["ElementPattern", "scalar_fields", "local_stiffness",
-           "local_force", "local_load"]
+__all__ = ["ElementPattern", "local_stiffness", "local_force",
+           "local_load"]
 
 CHUNK = 20_000          # elements per block (bounds the temporaries)
 
@@ -53,17 +53,6 @@ class ElementPattern:
                            minlength=len(self.indices))
         return csr_matrix((data, self.indices, self.indptr),
                           shape=(self.N, self.N))
-
-
-def scalar_fields(basis):
-    """Values (nnodes_local, nelems, slots) and gradients (dim,
-    nnodes_local, nelems, slots) of the scalar shape functions at the
-    points of a basis with a vector element."""
-    dim = basis.mesh.dim()
-    fields = [basis.basis[dim * i][0] for i in range(basis.Nbfun // dim)]
-    values = np.array([np.asarray(f)[0] for f in fields])
-    grads = np.array([f.grad[0] for f in fields]).transpose(1, 0, 2, 3)
-    return values, grads
 
 
 def local_stiffness(G: ndarray, A: ndarray) -> ndarray:

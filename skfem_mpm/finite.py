@@ -21,7 +21,6 @@ from typing import Callable, Optional
 import numpy as np
 from numpy import ndarray
 from scipy.sparse import diags
-from skfem import Basis
 from skfem.element import Element
 from skfem.mesh import Mesh
 
@@ -35,11 +34,10 @@ from .linsolve import (check_rigid_body_modes, free_dofs, solve_active,
                        support_dofs)
 from .locate import Locator, point_locator
 from .materials import at_points, is_plastic
-from .operators import AsmOperator
+from .operators import PointOperator
 from .points import MaterialPoints
-from .fastpath import ElementPattern
 from .solver import (PHASES, Result, StepRecord, check_run_input,
-                     point_loads, vector_element)
+                     grid_parts, point_loads)
 
 logger = logging.getLogger(__name__)
 
@@ -86,9 +84,9 @@ class _Step:
         self.t["locate"] += time.perf_counter() - tic
         tic = time.perf_counter()
         if ctx.method == "mpm":
-            op = AsmOperator(MaterialPointBasis(ctx.mesh, ctx.elem, pts,
-                                                location, dofs=ctx.dofs),
-                             ctx.pattern)
+            op = PointOperator(MaterialPointBasis(
+                ctx.mesh, ctx.scalar, pts, location, dofs=ctx.scalar_dofs),
+                ctx.pattern)
         else:
             op = gimp_operator(ctx.mesh, ctx.elem, pts.x, pts.domain,
                                ctx.locate)
@@ -297,16 +295,14 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         raise InvalidInputError(
             "method {!r} needs point domains (MaterialPoints.domain); "
             "seed_points sets them on tensor-product grids".format(method))
-    elem = vector_element(elem)
-    grid = Basis(mesh, elem, intorder=0)
+    scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     material = at_points(material, points)
     result = Result(points=points.copy())
     ctx = _Context(
-        mesh=mesh, elem=elem, material=material, method=method, grid=grid,
-        pattern=ElementPattern(grid.dofs.element_dofs, grid.N)
-        if method == "mpm" else None,
+        mesh=mesh, elem=scalar, scalar=scalar, material=material,
+        method=method, grid=grid, pattern=pattern, scalar_dofs=scalar_dofs,
         counters=result.counters, plastic=is_plastic(material),
-        dofs=grid.dofs, D=support_dofs(supports, grid), dim=mesh.dim(),
+        D=support_dofs(supports, grid), dim=mesh.dim(),
         gravity=as_body_force(body_force, mesh.dim()), prescribed=prescribed,
         locate=point_locator(mesh) if locator is None else locator,
         tol=tol, max_iter=max_iter, solver=solver,

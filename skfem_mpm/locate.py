@@ -173,8 +173,8 @@ def _axis_cells(a: ndarray, x: ndarray, tol: float) -> ndarray:
     uniform = np.allclose(h, h[0], rtol=1e-12, atol=0.)
     if uniform:
         s = (x - a[0]) / h[0]
-        i = np.floor(s + tol).astype(np.int64)
         outside = (s < -tol) | (s > n + tol)
+        i = np.floor(np.clip(s, -1., n + 1.) + tol).astype(np.int64)
     else:
         i = np.searchsorted(a[1:-1] - tol * h[:-1], x, side="right")
         outside = (x < a[0] - tol * h[0]) | (x > a[-1] + tol * h[-1])

@@ -3,8 +3,10 @@ method.
 
 A point operator maps grid displacements to point values and gradients and
 assembles forces and tangents from point stresses, with the gradients taken
-at the start of the load step.  Standard MPM uses scikit-fem's ``asm`` on a
-:class:`~skfem_mpm.MaterialPointBasis`; GIMP, whose points couple nodes of
+at the start of the load step.  Standard MPM evaluates the scikit-fem element at
+the points through a :class:`~skfem_mpm.MaterialPointBasis` and assembles
+with scikit-fem's ``asm`` (:class:`AsmOperator`) or its vectorised twin
+(:class:`PointOperator`, the default); GIMP, whose points couple nodes of
 several elements, uses sparse per-point operators built in
 :mod:`skfem_mpm.gimp`.  Both expose:
 
@@ -27,7 +29,7 @@ from skfem.helpers import ddot, grad
 
 from .basis import MaterialPointBasis
 from .fastpath import (ElementPattern, local_force, local_load,
-                       local_stiffness, scalar_fields)
+                       local_stiffness)
 from .forms import body_force
 from .linsolve import element_adjacency
 
@@ -47,29 +49,19 @@ def pulled_force(v, w):
 
 
 class AsmOperator:
-    """Standard MPM on a material-point basis: scikit-fem's ``asm``, or the
-    vectorised fast path of :mod:`skfem_mpm.fastpath` (equal to round-off)
-    for the force and the stiffness.
+    """Standard MPM through scikit-fem's ``asm`` on a material-point basis
+    with a vector element: the reference the fast :class:`PointOperator` is
+    tested against, and the path for user-supplied forms.
 
     Parameters
     ----------
     basis
         A :class:`~skfem_mpm.MaterialPointBasis` with a vector element.
-    pattern
-        The grid's :class:`~skfem_mpm.fastpath.ElementPattern` to share
-        between steps (built here when not given).
-    fast
-        Assemble forces and stiffness with the fast path.
 
     """
 
-    def __init__(self, basis: MaterialPointBasis,
-                 pattern: Optional[ElementPattern] = None, fast: bool = True):
+    def __init__(self, basis: MaterialPointBasis):
         self.basis = basis
-        self.fast = fast
-        if fast:
-            self._pattern = pattern
-            self._N, self._G = scalar_fields(basis)
         self.dim = basis.mesh.dim()
         self.N = basis.N
         self.nelems = basis.nelems
@@ -84,40 +76,94 @@ class AsmOperator:
 
     def _field(self, values: ndarray, w: ndarray) -> ndarray:
         """Point values times weights over volumes: asm multiplies by dx."""
-        return self.basis.quadrature_field(values * (w / self._volumes()))
-
-    def _volumes(self) -> ndarray:
-        return self.basis.point_values(self.basis.dx)
-
-    def pattern(self) -> ElementPattern:
-        """The grid's stiffness pattern (built on first use if not given)."""
-        if self._pattern is None:
-            self._pattern = ElementPattern(self.basis.dofs.element_dofs,
-                                           self.N)
-        return self._pattern
+        volumes = self.basis.point_values(self.basis.dx)
+        return self.basis.quadrature_field(values * (w / volumes))
 
     def force(self, P: ndarray, w: ndarray) -> ndarray:
-        if self.fast:
-            f = local_force(self._G, self.basis.quadrature_field(P * w))
-            return np.bincount(self.basis.element_dofs.ravel(),
-                               weights=f.ravel(), minlength=self.N)
         return asm(pulled_force, self.basis, P=self._field(P, w))
 
     def point_force(self, f: ndarray) -> ndarray:
-        if self.fast:
-            local = local_load(self._N, self.basis.quadrature_field(f))
-            return np.bincount(self.basis.element_dofs.ravel(),
-                               weights=local.ravel(), minlength=self.N)
-        return asm(body_force, self.basis, b=self._field(f, np.ones(f.shape[1])))
+        return asm(body_force, self.basis,
+                   b=self._field(f, np.ones(f.shape[1])))
 
     def stiffness(self, A: ndarray, w: ndarray):
-        if self.fast:
-            return self.pattern().matrix(local_stiffness(
-                self._G, self.basis.quadrature_field(A * w)), self.basis.tind)
         return asm(pulled_tangent, self.basis, A=self._field(A, w))
 
     def adjacency(self):
         return element_adjacency(self.basis.element_dofs, self.dim,
+                                 self.N // self.dim)
+
+
+class PointOperator:
+    """Standard MPM, vectorised (:mod:`skfem_mpm.fastpath`): the same
+    operator as :class:`AsmOperator`, to round-off, from a material-point
+    basis of the *scalar* element (the vector DOFs ``dim * k + a`` follow
+    scikit-fem's ``ElementVector``).
+
+    Parameters
+    ----------
+    basis
+        A :class:`~skfem_mpm.MaterialPointBasis` with a scalar element.
+    pattern
+        The grid's vector :class:`~skfem_mpm.fastpath.ElementPattern` to
+        share between steps (built on first use when not given).
+
+    """
+
+    def __init__(self, basis: MaterialPointBasis,
+                 pattern: Optional[ElementPattern] = None):
+        self.basis = basis
+        self.dim = dim = basis.mesh.dim()
+        self.N = dim * basis.N
+        self.nelems = basis.nelems
+        self.elements = basis.tind
+        self._pattern = pattern
+        self._values = np.array([np.asarray(f[0]) for f in basis.basis])
+        self._grads = np.array([f[0].grad for f in basis.basis]).transpose(
+            1, 0, 2, 3)
+        self._dofs = basis.element_dofs                    # scalar (nloc, e)
+        self.element_dofs = (dim * self._dofs[:, None]
+                             + np.arange(dim)[:, None]).reshape(
+                                 -1, basis.nelems)
+        self.active_dofs = np.unique(self.element_dofs)
+
+    def _at_points(self, u: ndarray, shape_fields: ndarray) -> ndarray:
+        U = u.reshape(-1, self.dim)[self._dofs]          # (nloc, e, dim)
+        return self.basis.point_values(np.einsum(
+            "...iem,iea->a...em", shape_fields, U))
+
+    def values(self, u: ndarray) -> ndarray:
+        return self._at_points(u, self._values)
+
+    def gradients(self, u: ndarray) -> ndarray:
+        return self._at_points(u, self._grads)
+
+    def pattern(self) -> ElementPattern:
+        if self._pattern is None:
+            grid = (self.dim * self.basis.dofs.element_dofs[:, None]
+                    + np.arange(self.dim)[:, None]).reshape(
+                        -1, self.basis.mesh.nelements)
+            self._pattern = ElementPattern(grid, self.N)
+        return self._pattern
+
+    def _scatter(self, local: ndarray) -> ndarray:
+        return np.bincount(self.element_dofs.ravel(), weights=local.ravel(),
+                           minlength=self.N)
+
+    def force(self, P: ndarray, w: ndarray) -> ndarray:
+        return self._scatter(local_force(
+            self._grads, self.basis.quadrature_field(P * w)))
+
+    def point_force(self, f: ndarray) -> ndarray:
+        return self._scatter(local_load(self._values,
+                                        self.basis.quadrature_field(f)))
+
+    def stiffness(self, A: ndarray, w: ndarray):
+        return self.pattern().matrix(local_stiffness(
+            self._grads, self.basis.quadrature_field(A * w)), self.elements)
+
+    def adjacency(self):
+        return element_adjacency(self.element_dofs, self.dim,
                                  self.N // self.dim)
 
 

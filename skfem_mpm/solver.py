@@ -19,6 +19,7 @@ from typing import Callable, List, Optional
 import numpy as np
 from numpy import ndarray
 from skfem import Basis
+from skfem.assembly import Dofs
 from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 
@@ -26,12 +27,12 @@ from .basis import MaterialPointBasis
 from .errors import InvalidInputError, PointsOutsideGridError, \
     SingularSystemError
 from .forms import as_body_force, full_tensor, in_plane
-from .linsolve import (check_rigid_body_modes, element_adjacency, free_dofs,
-                       solve_active, support_dofs)
+from .linsolve import (check_rigid_body_modes, free_dofs, solve_active,
+                       support_dofs)
 from .locate import Locator, point_locator
 from .materials import LinearElastic, at_points, elastic_tensor
 from .fastpath import ElementPattern
-from .operators import AsmOperator
+from .operators import PointOperator
 from .points import MaterialPoints
 
 logger = logging.getLogger(__name__)
@@ -96,8 +97,9 @@ class Result:
     history
         One :class:`StepRecord` per load step.
     basis
-        The material-point basis of the last step (before the final
-        position update), e.g. for plotting the last grid solution.
+        The material-point basis (scalar element) of the last step, before
+        the final position update; vector DOF ``dim * k + a`` of the grid
+        solution is component a at its DOF k.
     counters
         How often each kind of work was done: ``locate`` (point location),
         ``body_force`` (body-force assemblies), ``linear_solves``,
@@ -115,6 +117,16 @@ class Result:
     def timings(self) -> dict:
         """Total seconds per phase over all steps."""
         return {p: sum(r.timings[p] for r in self.history) for p in PHASES}
+
+
+def grid_parts(mesh: Mesh, elem: Element):
+    """What a run keeps of the grid: the scalar element, the vector grid
+    basis (supports, DOF locations), the scalar ``Dofs`` for the
+    material-point bases and the vector stiffness pattern."""
+    scalar = elem.elem if isinstance(elem, ElementVector) else elem
+    grid = Basis(mesh, vector_element(elem), intorder=0)
+    return (scalar, grid, Dofs(mesh, scalar),
+            ElementPattern(grid.dofs.element_dofs, grid.N))
 
 
 def vector_element(elem: Element) -> Element:
@@ -216,12 +228,10 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     """
     check_run_input(mesh, points, nsteps)
     gravity = as_body_force(body_force, mesh.dim())
-    elem = vector_element(elem)
-    grid = Basis(mesh, elem, intorder=0)
+    scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     D = support_dofs(supports, grid)
     dim = mesh.dim()
     locate = point_locator(mesh) if locator is None else locator
-    pattern = ElementPattern(grid.dofs.element_dofs, grid.N)
     points = points.copy()
     material = at_points(material, points)
     result = Result(points=points)
@@ -236,29 +246,28 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
             try:
                 location = locate(points.x)
             except PointsOutsideGridError as err:
-                err.step = step
+                err.step, err.state = step, points
                 raise
         t["locate"] = time.perf_counter() - tic
 
         tic = time.perf_counter()
-        basis = MaterialPointBasis(mesh, elem, points, location, dofs=grid.dofs)
-        active = basis.active_dofs
+        basis = MaterialPointBasis(mesh, scalar, points, location,
+                                   dofs=scalar_dofs)
+        op = PointOperator(basis, pattern)
         fixed, x = D, None
         if prescribed is not None:
             dofs, values = prescribed(grid, (step - 1) / nsteps, factor)
-            x = np.zeros(basis.N)
+            x = np.zeros(op.N)
             x[np.asarray(dofs, dtype=np.int64)] = values
             fixed = np.union1d(D, dofs)
-        check_rigid_body_modes(
-            element_adjacency(basis.element_dofs, dim, basis.N // dim),
-            grid.doflocs[:, ::dim], active, fixed, dim, step)
-        free = free_dofs(active, fixed)
-        op = AsmOperator(basis, pattern)
+        check_rigid_body_modes(op.adjacency(), grid.doflocs[:, ::dim],
+                               op.active_dofs, fixed, dim, step)
+        free = free_dofs(op.active_dofs, fixed)
         load = point_loads(points, gravity, counters)
-        f_ext = np.zeros(basis.N) if load is None else \
+        f_ext = np.zeros(op.N) if load is None else \
             op.point_force(factor * load)
         f_int = op.force(in_plane(points.stress, dim), points.volume) \
-            if points.stress.any() else np.zeros(basis.N)
+            if points.stress.any() else np.zeros(op.N)
         K = op.stiffness(elastic_tensor(material, points.n, dim),
                          points.volume)
         t["assemble"] = time.perf_counter() - tic
@@ -273,8 +282,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         t["solve"] = time.perf_counter() - tic
 
         tic = time.perf_counter()
-        du_field = basis.interpolate(du)
-        grad = basis.point_values(du_field.grad)
+        grad = op.gradients(du)
         deps = full_tensor(.5 * (grad + grad.transpose(1, 0, 2)))
         points.strain += deps
         points.stress += material.stress(deps)
@@ -288,7 +296,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         t["check"] = time.perf_counter() - tic
 
         tic = time.perf_counter()
-        dup = basis.point_values(np.asarray(du_field))
+        dup = op.values(du)
         points.displacement += dup
         if update_positions:
             points.x += dup
