@@ -9,16 +9,13 @@ from skfem import (Basis, ElementQuad1, ElementVector, MeshHex, MeshLine,
 from skfem.models.elasticity import linear_elasticity
 
 from skfem_mpm import (InvalidInputError, LinearElastic, MaterialPointBasis,
-                       MaterialPoints, MPMError, PointsOutsideGridError,
-                       SingularSystemError, seed_gauss_points, seed_points,
-                       solve_mpm)
+                       MaterialPoints, MPMError, SingularSystemError,
+                       seed_gauss_points, seed_points, solve_mpm)
 from skfem_mpm.cli import main
 from skfem_mpm import solve_finite
 from skfem_mpm.column import (LOAD, MATERIAL, column_error, column_grid,
                               column_supports, run_column)
-from skfem_mpm.scene import Body, Grid, PointLoad, Scene, Support, run_scene
-
-from meshes import FAMILIES
+from skfem_mpm.scene import Body, Grid, Scene, Support, run_scene
 
 GRIDS = {
     1: lambda: MeshLine(np.linspace(0, 2, 5)),
