@@ -199,12 +199,12 @@ def is_plastic(material) -> bool:
     return isinstance(material, VonMises)
 
 
-def elastic_tensor(material, n: int, dim: int) -> ndarray:
+def elastic_tensor(material, n: int, dim: int, lam=None) -> ndarray:
     """``C_abcd = lam d_ab d_cd + mu (d_ac d_bd + d_ad d_bc)`` of every
     point, (dim, dim, dim, dim, n): the small-strain tangent (2.3) in the
-    form the point operators assemble."""
+    form the point operators assemble (``lam`` overrides the material's)."""
     eye = np.eye(dim)
-    lam = np.broadcast_to(material.lam, (n,))
+    lam = np.broadcast_to(material.lam if lam is None else lam, (n,))
     mu = np.broadcast_to(material.mu, (n,))
     return (np.einsum("ab,cd,p->abcdp", eye, eye, lam)
             + np.einsum("ac,bd,p->abcdp", eye, eye, mu)

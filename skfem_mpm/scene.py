@@ -133,6 +133,8 @@ class Scene:
     linear_solver
         ``"scipy"``, ``"pypardiso"``, ``"pyamg"`` or ``"auto"``
         (:mod:`skfem_mpm.solvers`).
+    antilocking
+        Mean dilatation against volumetric locking (small strain).
     """
     grid: Grid
     bodies: List[Body]
@@ -148,6 +150,7 @@ class Scene:
     name: str = "scene"
     reference: Optional[str] = None
     linear_solver: str = "scipy"
+    antilocking: bool = False
 
     def check(self):
         """Raise :class:`~skfem_mpm.errors.InvalidInputError` for
@@ -161,6 +164,9 @@ class Scene:
         if self.kinematics == "small" and self.method in ("ugimp", "cpgimp"):
             raise InvalidInputError(
                 "GIMP is offered with kinematics = 'finite' only")
+        if self.antilocking and self.kinematics != "small":
+            raise InvalidInputError(
+                "antilocking is offered with kinematics = 'small' only")
         if self.kinematics == "finite" and self.method == "fem":
             raise InvalidInputError(
                 "method 'fem' is offered with kinematics = 'small' only")
@@ -293,7 +299,8 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                          body_force=scene.gravity, nsteps=scene.steps,
                          update_positions=scene.method != "fem",
                          first_step=first_step, callback=callback,
-                         prescribed=prescribed, solver=scene.linear_solver)
+                         prescribed=prescribed, solver=scene.linear_solver,
+                         antilocking=scene.antilocking)
     return solve_finite(mesh, elem, points, material, supports,
                         body_force=scene.gravity, nsteps=scene.steps,
                         method=scene.method, prescribed=prescribed,

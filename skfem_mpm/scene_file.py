@@ -40,6 +40,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     tolerance = 1e-9
     max_iterations = 25
     linear = "scipy"                # pypardiso pyamg auto
+    antilocking = false             # mean dilatation (small strain)
 
 """
 import math
@@ -112,6 +113,14 @@ class _Checker:
         value = data.get(name, default)
         if value not in choices:
             self.bad(path, "must be one of {}".format(", ".join(choices)),
+                     value)
+            return default
+        return value
+
+    def boolean(self, data, key, name, default=False):
+        value = data.get(name, default)
+        if not isinstance(value, bool):
+            self.bad("{}.{}".format(key, name), "must be true or false",
                      value)
             return default
         return value
@@ -284,7 +293,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             traction=c.vector(t, key, "traction", dim, [0.] * dim)))
     solver = c.table(data.get("solver", {}), "solver",
                      ("method", "kinematics", "steps", "tolerance",
-                      "max_iterations", "linear"))
+                      "max_iterations", "linear", "antilocking"))
     method = c.choice(solver, "solver", "method", METHODS, "mpm")
     kinematics = c.choice(solver, "solver", "kinematics", KINEMATICS, "small")
     scene = Scene(
@@ -299,7 +308,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         name=_name(c, data),
         reference=c.choice(data, "", "reference", REFERENCES + (None,)),
         linear_solver=c.choice(solver, "solver", "linear",
-                               tuple(FACTORIES), "scipy"))
+                               tuple(FACTORIES), "scipy"),
+        antilocking=c.boolean(solver, "solver", "antilocking"))
     if not c.problems:
         try:
             scene.check()

@@ -33,6 +33,7 @@ from .locate import Locator, point_locator
 from .materials import LinearElastic, at_points, elastic_tensor
 from .fastpath import ElementPattern
 from .operators import PointOperator
+from .volumetric import MeanDilatation
 from .points import MaterialPoints
 
 logger = logging.getLogger(__name__)
@@ -164,7 +165,8 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
               solver: Optional[Callable] = None, keep_snapshots: bool = True,
               update_positions: bool = True, first_step: int = 1,
               callback: Optional[Callable] = None,
-              prescribed: Optional[Callable] = None) -> Result:
+              prescribed: Optional[Callable] = None,
+              antilocking: bool = False) -> Result:
     """Run the implicit MPM of seed Algorithm 2.1 (small strain).
 
     Parameters
@@ -208,6 +210,9 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         Optional ``prescribed(grid_basis, f_old, f_new) -> (dofs,
         increments)``: grid displacement increments imposed over a step
         (as in :func:`~skfem_mpm.solve_finite`).
+    antilocking
+        Mean dilatation on the points (:mod:`skfem_mpm.volumetric`, a
+        B-bar method) against volumetric locking as nu approaches 0.5.
 
     Returns
     -------
@@ -268,8 +273,14 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
             op.point_force(factor * load)
         f_int = op.force(in_plane(points.stress, dim), points.volume) \
             if points.stress.any() else np.zeros(op.N)
-        K = op.stiffness(elastic_tensor(material, points.n, dim),
-                         points.volume)
+        if antilocking:
+            dilatation = MeanDilatation(op, material.lam, points.volume)
+            K = op.stiffness(elastic_tensor(material, points.n, dim,
+                                            lam=0.), points.volume) \
+                + dilatation.stiffness()
+        else:
+            K = op.stiffness(elastic_tensor(material, points.n, dim),
+                             points.volume)
         t["assemble"] = time.perf_counter() - tic
 
         tic = time.perf_counter()
@@ -285,7 +296,13 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         grad = op.gradients(du)
         deps = full_tensor(.5 * (grad + grad.transpose(1, 0, 2)))
         points.strain += deps
-        points.stress += material.stress(deps)
+        if antilocking:
+            points.stress += 2 * material.mu * deps
+            for i in range(3):
+                points.stress[i, i] += dilatation.lam_at_points() \
+                    * dilatation.theta(du)
+        else:
+            points.stress += material.stress(deps)
         t["update"] = time.perf_counter() - tic
 
         tic = time.perf_counter()

@@ -196,3 +196,29 @@ def test_point_load_by_predicate():
     res = run_scene(scene)
     assert res.points.force[1].sum() == pytest.approx(-8.)
     assert (res.points.force[1][res.points.x0[1] < 1.5] == 0).all()
+
+
+def test_antilocking_from_a_scene_file(tmp_path, capsys):
+    scene = tmp_path / "soft.toml"
+    scene.write_text("""
+[grid]
+x = [0.0, 4.0, 8]
+y = [0.0, 1.0, 2]
+[[bodies]]
+region = { x = [0.0, 4.0], y = [0.0, 1.0] }
+material = { model = "linear_elastic", E = 1e3, nu = 0.499 }
+[[supports]]
+boundary = "left"
+[gravity]
+body_force = [0.0, -1.0]
+[solver]
+antilocking = true
+""")
+    assert load_scene(scene).antilocking
+    assert main(["run", str(scene), "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 0
+    scene.write_text(scene.read_text().replace("antilocking = true",
+                                               "antilocking = 1"))
+    assert main(["run", str(scene), "--out", str(tmp_path / "p")]) == 2
+    assert "solver.antilocking: must be true or false" in \
+        capsys.readouterr().err
