@@ -135,6 +135,8 @@ class Scene:
         (:mod:`skfem_mpm.solvers`).
     antilocking
         Mean dilatation against volumetric locking (small strain).
+    ghost
+        Ghost-penalty factor for partially filled cells (small strain).
     """
     grid: Grid
     bodies: List[Body]
@@ -151,6 +153,7 @@ class Scene:
     reference: Optional[str] = None
     linear_solver: str = "scipy"
     antilocking: bool = False
+    ghost: float = 0.
 
     def check(self):
         """Raise :class:`~skfem_mpm.errors.InvalidInputError` for
@@ -164,9 +167,9 @@ class Scene:
         if self.kinematics == "small" and self.method in ("ugimp", "cpgimp"):
             raise InvalidInputError(
                 "GIMP is offered with kinematics = 'finite' only")
-        if self.antilocking and self.kinematics != "small":
-            raise InvalidInputError(
-                "antilocking is offered with kinematics = 'small' only")
+        if (self.antilocking or self.ghost) and self.kinematics != "small":
+            raise InvalidInputError("antilocking and ghost are offered with "
+                                    "kinematics = 'small' only")
         if self.kinematics == "finite" and self.method == "fem":
             raise InvalidInputError(
                 "method 'fem' is offered with kinematics = 'small' only")
@@ -300,7 +303,7 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                          update_positions=scene.method != "fem",
                          first_step=first_step, callback=callback,
                          prescribed=prescribed, solver=scene.linear_solver,
-                         antilocking=scene.antilocking)
+                         antilocking=scene.antilocking, ghost=scene.ghost)
     return solve_finite(mesh, elem, points, material, supports,
                         body_force=scene.gravity, nsteps=scene.steps,
                         method=scene.method, prescribed=prescribed,

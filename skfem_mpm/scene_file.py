@@ -41,6 +41,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     max_iterations = 25
     linear = "scipy"                # pypardiso pyamg auto
     antilocking = false             # mean dilatation (small strain)
+    ghost = 0.0                     # ghost penalty for cut cells (small)
 
 """
 import math
@@ -293,7 +294,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             traction=c.vector(t, key, "traction", dim, [0.] * dim)))
     solver = c.table(data.get("solver", {}), "solver",
                      ("method", "kinematics", "steps", "tolerance",
-                      "max_iterations", "linear", "antilocking"))
+                      "max_iterations", "linear", "antilocking", "ghost"))
     method = c.choice(solver, "solver", "method", METHODS, "mpm")
     kinematics = c.choice(solver, "solver", "kinematics", KINEMATICS, "small")
     scene = Scene(
@@ -309,7 +310,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         reference=c.choice(data, "", "reference", REFERENCES + (None,)),
         linear_solver=c.choice(solver, "solver", "linear",
                                tuple(FACTORIES), "scipy"),
-        antilocking=c.boolean(solver, "solver", "antilocking"))
+        antilocking=c.boolean(solver, "solver", "antilocking"),
+        ghost=c.number(solver, "solver", "ghost", 0., low=0., open_low=False))
     if not c.problems:
         try:
             scene.check()

@@ -33,6 +33,7 @@ from .locate import Locator, point_locator
 from .materials import LinearElastic, at_points, elastic_tensor
 from .fastpath import ElementPattern
 from .operators import PointOperator
+from .ghost import ghost_penalty
 from .volumetric import MeanDilatation
 from .points import MaterialPoints
 
@@ -166,7 +167,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
               update_positions: bool = True, first_step: int = 1,
               callback: Optional[Callable] = None,
               prescribed: Optional[Callable] = None,
-              antilocking: bool = False) -> Result:
+              antilocking: bool = False, ghost: float = 0.) -> Result:
     """Run the implicit MPM of seed Algorithm 2.1 (small strain).
 
     Parameters
@@ -213,6 +214,9 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     antilocking
         Mean dilatation on the points (:mod:`skfem_mpm.volumetric`, a
         B-bar method) against volumetric locking as nu approaches 0.5.
+    ghost
+        Ghost-penalty factor for partially filled cells
+        (:mod:`skfem_mpm.ghost`, e.g. 0.1); 0: none.
 
     Returns
     -------
@@ -236,6 +240,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     D = support_dofs(supports, grid)
     dim = mesh.dim()
+    cell_volume = grid.dx.sum(axis=1) if ghost else None
     locate = point_locator(mesh) if locator is None else locator
     points = points.copy()
     material = at_points(material, points)
@@ -281,6 +286,16 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         else:
             K = op.stiffness(elastic_tensor(material, points.n, dim),
                              points.volume)
+        G = None
+        if ghost:
+            fill = np.bincount(location[0], points.volume,
+                               mesh.nelements) / cell_volume
+            mu = np.bincount(location[0], points.volume * np.broadcast_to(
+                material.mu, (points.n,)), mesh.nelements) \
+                / np.maximum(fill * cell_volume, np.finfo(float).tiny)
+            G = ghost_penalty(mesh, grid.elem, fill, mu, ghost)
+            if G is not None:
+                K = K + G
         t["assemble"] = time.perf_counter() - tic
 
         tic = time.perf_counter()
@@ -306,8 +321,10 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         t["update"] = time.perf_counter() - tic
 
         tic = time.perf_counter()
-        r = (f_ext - op.force(in_plane(points.stress, dim),
-                              points.volume))[free]
+        r = f_ext - op.force(in_plane(points.stress, dim), points.volume)
+        if G is not None:                     # the ghost forces balance too
+            r -= G @ du
+        r = r[free]
         residual = np.linalg.norm(r) / max(np.linalg.norm(f_ext[free]),
                                           np.finfo(float).tiny)
         t["check"] = time.perf_counter() - tic
