@@ -272,11 +272,22 @@ def fitted_rate(x, y) -> float:
     return float(-np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
 
 
+def _finish(fig, ax, xlabel: str, ylabel: str, path: Path) -> Path:
+    """Label, legend and write one study figure."""
+    from .plot import save_figure
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.legend(fontsize=6)
+    fig.tight_layout()
+    save_figure(fig, path)
+    return path
+
+
 def plot_study(rows: List[dict], outdir) -> List[Path]:
     """(a) error against elements with the fitted rate per curve, (b) error
     against wall time per method with the Pareto front, (c) time per phase
     against points with fitted exponents.  Returns the files written."""
-    from .plot import pyplot, save_figure
+    from .plot import pyplot
     plt = pyplot()
     outdir = Path(outdir)
     ok = [r for r in rows if not r.get("failure")]
@@ -295,12 +306,8 @@ def plot_study(rows: List[dict], outdir) -> List[Path]:
             y = [r["error"] for r in rs]
             ax.loglog(x, y, "o-", ms=3, lw=.8, label="{} (rate {:.2f})"
                       .format(label or "all", fitted_rate(x, y)))
-        ax.set_xlabel("number of elements")
-        ax.set_ylabel("error")
-        ax.legend(fontsize=6)
-        fig.tight_layout()
-        save_figure(fig, outdir / "error_vs_elements.png")
-        written.append(outdir / "error_vs_elements.png")
+        written.append(_finish(fig, ax, "number of elements", "error",
+                               outdir / "error_vs_elements.png"))
     if any(np.isfinite(r["error"]) for r in ok):
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
         methods = sorted({r.get("method", "scene") for r in ok})
@@ -315,12 +322,8 @@ def plot_study(rows: List[dict], outdir) -> List[Path]:
                 front.append((r["wall_seconds"], r["error"]))
         if front:
             ax.loglog(*zip(*front), "k-", lw=.8, label="Pareto front")
-        ax.set_xlabel("wall time per case [s]")
-        ax.set_ylabel("error")
-        ax.legend(fontsize=7)
-        fig.tight_layout()
-        save_figure(fig, outdir / "error_vs_time.png")
-        written.append(outdir / "error_vs_time.png")
+        written.append(_finish(fig, ax, "wall time per case [s]", "error",
+                               outdir / "error_vs_time.png"))
     fig, ax = plt.subplots(figsize=(6.5, 4.5))
     points = np.array([r["points"] for r in ok], float)
     steps = np.array([max(r["steps_run"], 1) for r in ok], float)
@@ -331,10 +334,7 @@ def plot_study(rows: List[dict], outdir) -> List[Path]:
             slope = np.polyfit(np.log(points[good]), np.log(t[good]), 1)[0]
             ax.loglog(points[good], t[good], "o", ms=3,
                       label="{} (exponent {:.2f})".format(p, slope))
-    ax.set_xlabel("material points")
-    ax.set_ylabel("seconds per load step")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, outdir / "time_vs_points.png")
-    written.append(outdir / "time_vs_points.png")
+    written.append(_finish(fig, ax, "material points",
+                           "seconds per load step",
+                           outdir / "time_vs_points.png"))
     return written
