@@ -112,7 +112,7 @@ class StopRun(Exception):
 
 def summarise(scene, result, seconds: float) -> dict:
     """The numbers of a run, for ``summary.json`` and the terminal."""
-    from .column import column_error
+    from .study import case_error
     pts = result.points
     history = result.history
     summary = {
@@ -129,9 +129,9 @@ def summarise(scene, result, seconds: float) -> dict:
     if history and history[0].newton_residuals is not None:
         summary["newton_iterations"] = [len(r.newton_residuals) - 1
                                         for r in history]
-    if scene.reference == "column" and scene.gravity is not None:
-        height = max(hi for lo, hi in [scene.bodies[0].region[-1]])
-        summary["error"] = column_error(pts, abs(scene.gravity[-1]), height)
+    error = case_error(scene, result)
+    if np.isfinite(error):
+        summary["error"] = error
     return summary
 
 

@@ -88,7 +88,7 @@ class _Step:
                 ctx.mesh, ctx.scalar, pts, location, dofs=ctx.scalar_dofs),
                 ctx.pattern)
         else:
-            op = gimp_operator(ctx.mesh, ctx.elem, pts.x, pts.domain,
+            op = gimp_operator(ctx.mesh, ctx.scalar, pts.x, pts.domain,
                                ctx.locate)
         self.t["assemble"] += time.perf_counter() - tic
         return op
@@ -299,7 +299,7 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     material = at_points(material, points)
     result = Result(points=points.copy())
     ctx = _Context(
-        mesh=mesh, elem=scalar, scalar=scalar, material=material,
+        mesh=mesh, scalar=scalar, material=material,
         method=method, grid=grid, pattern=pattern, scalar_dofs=scalar_dofs,
         counters=result.counters, plastic=is_plastic(material),
         D=support_dofs(supports, grid), dim=mesh.dim(),

@@ -108,6 +108,14 @@ class PointOperator:
         The grid's vector :class:`~skfem_mpm.fastpath.ElementPattern` to
         share between steps (built on first use when not given).
 
+    Attributes
+    ----------
+    shape_values, shape_gradients
+        Scalar shape functions (nloc, nelems, slots) and their gradients
+        (dim, nloc, nelems, slots) at the points.
+    scalar_dofs, element_dofs
+        Scalar (nloc, nelems) and vector (dim * nloc, nelems) element DOFs.
+
     """
 
     def __init__(self, basis: MaterialPointBasis,
@@ -118,25 +126,25 @@ class PointOperator:
         self.nelems = basis.nelems
         self.elements = basis.tind
         self._pattern = pattern
-        self._values = np.array([np.asarray(f[0]) for f in basis.basis])
-        self._grads = np.array([f[0].grad for f in basis.basis]).transpose(
+        self.shape_values = np.array([np.asarray(f[0]) for f in basis.basis])
+        self.shape_gradients = np.array([f[0].grad for f in basis.basis]).transpose(
             1, 0, 2, 3)
-        self._dofs = basis.element_dofs                    # scalar (nloc, e)
-        self.element_dofs = (dim * self._dofs[:, None]
+        self.scalar_dofs = basis.element_dofs                    # scalar (nloc, e)
+        self.element_dofs = (dim * self.scalar_dofs[:, None]
                              + np.arange(dim)[:, None]).reshape(
                                  -1, basis.nelems)
         self.active_dofs = np.unique(self.element_dofs)
 
     def _at_points(self, u: ndarray, shape_fields: ndarray) -> ndarray:
-        U = u.reshape(-1, self.dim)[self._dofs]          # (nloc, e, dim)
+        U = u.reshape(-1, self.dim)[self.scalar_dofs]          # (nloc, e, dim)
         return self.basis.point_values(np.einsum(
             "...iem,iea->a...em", shape_fields, U))
 
     def values(self, u: ndarray) -> ndarray:
-        return self._at_points(u, self._values)
+        return self._at_points(u, self.shape_values)
 
     def gradients(self, u: ndarray) -> ndarray:
-        return self._at_points(u, self._grads)
+        return self._at_points(u, self.shape_gradients)
 
     def pattern(self) -> ElementPattern:
         if self._pattern is None:
@@ -152,15 +160,15 @@ class PointOperator:
 
     def force(self, P: ndarray, w: ndarray) -> ndarray:
         return self._scatter(local_force(
-            self._grads, self.basis.quadrature_field(P * w)))
+            self.shape_gradients, self.basis.quadrature_field(P * w)))
 
     def point_force(self, f: ndarray) -> ndarray:
-        return self._scatter(local_load(self._values,
+        return self._scatter(local_load(self.shape_values,
                                         self.basis.quadrature_field(f)))
 
     def stiffness(self, A: ndarray, w: ndarray):
         return self.pattern().matrix(local_stiffness(
-            self._grads, self.basis.quadrature_field(A * w)), self.elements)
+            self.shape_gradients, self.basis.quadrature_field(A * w)), self.elements)
 
     def adjacency(self):
         return element_adjacency(self.element_dofs, self.dim,

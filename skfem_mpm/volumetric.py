@@ -40,12 +40,12 @@ class MeanDilatation:
         self.lam = (basis.quadrature_field(np.broadcast_to(
             lam, volume.shape) * volume)).sum(axis=1) / self.volume
         # averaged divergence operator b_e: (e, nloc_nodes, dim)
-        self.b = np.einsum("aiem,em->eia", op._grads, W) \
+        self.b = np.einsum("aiem,em->eia", op.shape_gradients, W) \
             / self.volume[:, None, None]
 
     def theta(self, u: ndarray) -> ndarray:
         """Mean volumetric strain of every point's element, (n,)."""
-        U = u.reshape(-1, self.op.dim)[self.op._dofs]       # (nloc, e, dim)
+        U = u.reshape(-1, self.op.dim)[self.op.scalar_dofs]       # (nloc, e, dim)
         per_element = np.einsum("eia,iea->e", self.b, U)
         return self.op.basis.point_values(np.broadcast_to(
             per_element[:, None], self.op.basis.point_index.shape))
