@@ -90,7 +90,10 @@ class MaterialPointBasis(CellBasis):
         dx[row, slot] = points.volume[order]
         self.point_index = np.full(shape, -1, dtype=np.int64)
         self.point_index[row, slot] = order
-        self._slots = (row, slot, order)
+        # flat slot of every point, and the padding slots
+        self._slot_of_point = np.empty(points.n, dtype=np.int64)
+        self._slot_of_point[order] = row * shape[1] + slot
+        self._padding = np.flatnonzero(self.point_index.ravel() < 0)
         self._doflocs = None
         super().__init__(mesh, elem, mapping=fresh_mapping(mesh),
                          elements=elements, quadrature=(Xq, dx), dofs=dofs,
@@ -122,17 +125,13 @@ class MaterialPointBasis(CellBasis):
     def point_values(self, field: ndarray) -> ndarray:
         """Reorder a quadrature field (..., nelems, nqp) into point order
         (..., n), dropping padding slots."""
-        row, slot, order = self._slots
-        out = np.empty(field.shape[:-2] + (len(order),), dtype=field.dtype)
-        out[..., order] = field[..., row, slot]
-        return out
+        flat = field.reshape(field.shape[:-2] + (-1,))
+        return np.take(flat, self._slot_of_point, axis=-1)
 
     def quadrature_field(self, values: ndarray) -> ndarray:
         """Scatter point values (..., n) into a quadrature field
         (..., nelems, nqp), zero in padding slots: the inverse of
         :meth:`point_values`, for point data entering forms."""
-        row, slot, order = self._slots
-        out = np.zeros(values.shape[:-1] + self.point_index.shape,
-                       dtype=values.dtype)
-        out[..., row, slot] = values[..., order]
-        return out
+        out = np.take(values, self.point_index.ravel(), axis=-1)
+        out[..., self._padding] = 0.
+        return out.reshape(values.shape[:-1] + self.point_index.shape)

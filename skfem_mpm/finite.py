@@ -29,11 +29,12 @@ from .errors import (InvalidInputError, InversionError, NewtonDivergenceError,
                      PointsOutsideGridError, SingularSystemError)
 from .forms import as_body_force
 from .gimp import gimp_operator, stretched_domains
-from .kinematics import hencky_update, pull_back, spatial_tangent
+from .kinematics import (hencky_update, inverse_and_det, pull_back,
+                         spatial_tangent)
 from .linsolve import (check_rigid_body_modes, free_dofs, solve_active,
                        support_dofs)
 from .locate import Locator, point_locator
-from .materials import at_points, is_plastic
+from .materials import PointMaterials, at_points, is_plastic
 from .operators import PointOperator
 from .points import MaterialPoints
 from .solver import (PHASES, Result, StepRecord, check_run_input,
@@ -45,14 +46,19 @@ __all__ = ["solve_finite", "METHODS"]
 
 METHODS = ("mpm", "ugimp", "cpgimp")
 STABILISATION = 1e-7
+POINT_BLOCK = 16384    # points per block of the constitutive update
 
 
-def _det3(F: ndarray) -> ndarray:
-    return np.linalg.det(np.moveaxis(F, -1, 0))
+def point_blocks(n: int, size: int = POINT_BLOCK):
+    """Slices covering n points in blocks of ``size``."""
+    return [slice(s, min(s + size, n)) for s in range(0, n, size)]
 
 
-def _inv3(F: ndarray) -> ndarray:
-    return np.moveaxis(np.linalg.inv(np.moveaxis(F, -1, 0)), 0, -1)
+def material_block(material, block: slice):
+    """The material(s) of a block of points."""
+    if isinstance(material, PointMaterials):
+        return material.take(block)
+    return material
 
 
 def deformation_increment(grad_du: ndarray) -> ndarray:
@@ -94,22 +100,43 @@ class _Step:
         return op
 
     def constitutive(self, op, du: ndarray):
-        """Stress state of the displacement increment du."""
+        """Stress state of the displacement increment du, block by block
+        of points (temporaries stay cache-sized whatever the run's size)."""
         tic = time.perf_counter()
+        ctx, be = self.ctx, self.points.be
         dF = deformation_increment(op.gradients(du))
-        detdF = _det3(dF)
+        dF_inv, detdF = inverse_and_det(dF, ctx.dim)
         bad = np.flatnonzero(~(detdF > 0))
         if bad.size:
             raise InversionError(
                 "step {}: {} point(s) invert (det dF <= 0), first {} at x = {}"
                 .format(self.step, bad.size, bad[:5].tolist(),
                         self.points.x[:, bad[0]].tolist()))
-        b_tr = np.einsum("abp,bcp,dcp->adp", dF, self.points.be, dF)
-        state = (dF,) + hencky_update(self.ctx.material, b_tr,
-                                      self.ctx.dim) + (b_tr,)
+        n, dim = dF.shape[-1], ctx.dim
+        b_tr = np.empty_like(dF)
+        tau, b_e, strain = (np.empty_like(dF) for _ in range(3))
+        dtau_db = np.empty((dim,) * 4 + (n,))
+        yielded = np.empty(n, dtype=bool)
+        for block in point_blocks(n):
+            b_tr[..., block] = np.einsum("abp,bcp,dcp->adp", dF[..., block],
+                                         be[..., block], dF[..., block])
+            (tau[..., block], b_e[..., block], strain[..., block],
+             dtau_db[..., block], yielded[block]) = hencky_update(
+                 material_block(ctx.material, block), b_tr[..., block], dim)
         self.ctx.counters["return_maps"] += self.ctx.plastic
         self.t["update"] += time.perf_counter() - tic
-        return state
+        return dF, dF_inv, tau, b_e, strain, dtau_db, yielded, b_tr
+
+    def tangent(self, dtau_db, b_tr, tau, dF_inv) -> ndarray:
+        """Consistent tangent pulled back to the start of the step,
+        (dim, dim, dim, dim, n), block by block of points."""
+        At = np.empty_like(dtau_db)
+        for block in point_blocks(At.shape[-1]):
+            A = spatial_tangent(dtau_db[..., block], b_tr[..., block],
+                                tau[..., block])
+            At[..., block] = pull_back(tau[..., block], A,
+                                       dF_inv[..., block], self.ctx.dim)[1]
+        return At
 
     def run(self):
         ctx, pts = self.ctx, self.points
@@ -131,10 +158,9 @@ class _Step:
         self.t["assemble"] += time.perf_counter() - tic
         residuals = []
         for it in range(ctx.max_iter + 1):
-            dF, tau, b_e, strain, dtau_db, yielded, b_tr = \
+            dF, dF_inv, tau, b_e, strain, dtau_db, yielded, b_tr = \
                 self.constitutive(op, du)
             tic = time.perf_counter()
-            dF_inv = _inv3(dF)
             P = np.einsum("abp,ebp->aep", tau[:ctx.dim, :ctx.dim],
                           dF_inv[:ctx.dim, :ctx.dim])
             f_int = op.force(P, pts.volume0)
@@ -155,9 +181,8 @@ class _Step:
                         self.step, ctx.max_iter,
                         ", ".join("{:.1e}".format(r) for r in residuals)))
             tic = time.perf_counter()
-            A = spatial_tangent(dtau_db, b_tr, tau)
-            _, At = pull_back(tau, A, dF_inv, ctx.dim)
-            K = op.stiffness(At, pts.volume0)
+            K = op.stiffness(self.tangent(dtau_db, b_tr, tau, dF_inv),
+                             pts.volume0)
             # points leave zero-energy modes on weakly supported nodes (a
             # new cell entered by one point); they carry no residual, and a
             # tangent-only stabilisation keeps the solve regular without
@@ -182,7 +207,7 @@ class _Step:
         tic = time.perf_counter()
         new = old.copy()
         new.F = np.einsum("abp,bcp->acp", dF, old.F)
-        J = _det3(new.F)
+        J = inverse_and_det(new.F, ctx.dim)[1]
         if not (J > 0).all():
             raise InversionError("step {}: det F <= 0 at {} point(s)".format(
                 self.step, int((J <= 0).sum())))

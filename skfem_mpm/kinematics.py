@@ -22,7 +22,8 @@ from typing import Tuple
 import numpy as np
 from numpy import ndarray
 
-__all__ = ["hencky_update", "spatial_tangent", "pull_back"]
+__all__ = ["hencky_update", "spatial_tangent", "pull_back",
+           "inverse_and_det"]
 
 
 def principal_frame(b: ndarray, dim: int = 3) -> Tuple[ndarray, ndarray]:
@@ -64,16 +65,19 @@ def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
     """
     k = len(x)
     EA = np.einsum("aAp,bAp->abAp", vecs, vecs)
-    T = np.einsum("ABp,abAp,cdBp->abcdp", dy_dx, EA, EA, optimize=True)
+    T = np.einsum("abBp,cdBp->abcdp",
+                  np.einsum("ABp,abAp->abBp", dy_dx, EA), EA)
     diff = x[:, None] - x[None, :]
     close = np.abs(diff) <= 1e-9 * np.abs(x).max(axis=0)
     limit = np.einsum("AAp->Ap", dy_dx)[:, None] - dy_dx
     with np.errstate(divide="ignore", invalid="ignore"):
         theta = np.where(close, limit, (y[:, None] - y[None, :]) / diff)
     theta[np.arange(k), np.arange(k)] = 0.
-    EAB = np.einsum("aAp,bBp->abABp", vecs, vecs)
-    sym = .5 * (EAB + EAB.transpose(1, 0, 2, 3, 4))
-    T += np.einsum("ABp,abABp,cdABp->abcdp", theta, EAB, sym, optimize=True)
+    # sum_AB theta_AB (e_A (x) e_B) (x) sym(e_A (x) e_B), from the pairs
+    # G_abcd = sum_AB theta_AB (e_A e_A)_ac (e_B e_B)_bd symmetrised in cd
+    G = np.einsum("acBp,bdBp->abcdp",
+                  np.einsum("ABp,acAp->acBp", theta, EA), EA)
+    T += .5 * (G + G.transpose(0, 1, 3, 2, 4))
     return T
 
 
@@ -120,8 +124,7 @@ def spatial_tangent(dtau_db: ndarray, b_trial: ndarray,
     ``A = 2 dtau/db_tr . b_tr - delta_bc tau_ad`` (the last term is the
     geometric stiffness), in the components of ``dtau_db``."""
     k = dtau_db.shape[0]
-    A = 2. * np.einsum("abcfp,fdp->abcdp", dtau_db, b_trial[:k, :k],
-                       optimize=True)
+    A = 2. * np.einsum("abcfp,fdp->abcdp", dtau_db, b_trial[:k, :k])
     A -= np.einsum("bc,adp->abcdp", np.eye(k), tau[:k, :k])
     return A
 
@@ -135,6 +138,41 @@ def pull_back(tau: ndarray, A: ndarray, dF_inv: ndarray, dim: int):
     """
     Fi = dF_inv[:dim, :dim]
     P = np.einsum("abp,ebp->aep", tau[:dim, :dim], Fi)
-    At = np.einsum("ebp,abcdp,fdp->aecfp", Fi, A[:dim, :dim, :dim, :dim], Fi,
-                   optimize=True)
+    At = np.einsum("ebp,abcdp,fdp->aecfp", Fi, A[:dim, :dim, :dim, :dim], Fi)
     return P, At
+
+
+def inverse_and_det(F: ndarray, dim: int) -> Tuple[ndarray, ndarray]:
+    """Inverse (3, 3, n) and determinant (n,) of deformation gradients
+    (3, 3, n) of a ``dim``-dimensional motion.
+
+    Below 3D the out-of-plane block of ``F`` is the identity (plane strain,
+    uniaxial strain), and both follow in closed form from the in-plane
+    block; the inverse is not finite where the determinant vanishes.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> F = np.eye(3)[:, :, None].repeat(2, axis=2)
+    >>> F[0, 1] = [0.5, 2.]; F[1, 1] = [2., 1.]
+    >>> inv, det = inverse_and_det(F, 2)
+    >>> det.tolist()
+    [2.0, 1.0]
+    >>> bool(np.allclose(np.einsum("abp,bcp->acp", inv, F), np.eye(3)[..., None]))
+    True
+
+    """
+    if dim == 3:
+        Fm = np.moveaxis(F, -1, 0)
+        return np.moveaxis(np.linalg.inv(Fm), 0, -1), np.linalg.det(Fm)
+    inv = np.zeros_like(F)
+    inv[[1, 2], [1, 2]] = 1.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if dim == 2:
+            det = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+            inv[0, 0], inv[1, 1] = F[1, 1] / det, F[0, 0] / det
+            inv[0, 1], inv[1, 0] = -F[0, 1] / det, -F[1, 0] / det
+        else:
+            det = F[0, 0].copy()
+            inv[0, 0] = 1. / det
+    return inv, det

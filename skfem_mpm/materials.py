@@ -167,6 +167,10 @@ class PointMaterials:
         self.lam = np.array([m.lam for m in self.materials])[self.body]
         self.mu = np.array([m.mu for m in self.materials])[self.body]
 
+    def take(self, points) -> "PointMaterials":
+        """The materials of a subset of the points (an index or slice)."""
+        return PointMaterials(self.materials, self.body[points])
+
     def stress(self, strain: ndarray) -> ndarray:
         """``2 mu eps + lam tr(eps) I`` with per-point Lame parameters."""
         return LinearElastic.stress(self, strain)
