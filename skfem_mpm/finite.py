@@ -28,7 +28,7 @@ from .basis import MaterialPointBasis
 from .errors import (InvalidInputError, InversionError, NewtonDivergenceError,
                      PointsOutsideGridError, SingularSystemError)
 from .forms import as_body_force
-from .gimp import gimp_operator, stretched_domains
+from .gimp import gimp_operators, stretched_domains
 from .kinematics import (hencky_update, inverse_and_det, pull_back,
                          spatial_tangent)
 from .linsolve import (check_rigid_body_modes, free_dofs, solve_active,
@@ -94,8 +94,7 @@ class _Step:
                 ctx.mesh, ctx.scalar, pts, location, dofs=ctx.scalar_dofs),
                 ctx.pattern)
         else:
-            op = gimp_operator(ctx.mesh, ctx.scalar, pts.x, pts.domain,
-                               ctx.locate)
+            op = ctx.gimp(pts.x, pts.domain)
         self.t["assemble"] += time.perf_counter() - tic
         return op
 
@@ -323,13 +322,15 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     material = at_points(material, points)
     result = Result(points=points.copy())
+    locator = point_locator(mesh) if locator is None else locator
     ctx = _Context(
         mesh=mesh, scalar=scalar, material=material,
         method=method, grid=grid, pattern=pattern, scalar_dofs=scalar_dofs,
         counters=result.counters, plastic=is_plastic(material),
         D=support_dofs(supports, grid), dim=mesh.dim(),
         gravity=as_body_force(body_force, mesh.dim()), prescribed=prescribed,
-        locate=point_locator(mesh) if locator is None else locator,
+        locate=locator, gimp=None if method == "mpm" else gimp_operators(
+            mesh, scalar, locator),
         tol=tol, max_iter=max_iter, solver=solver,
         keep_snapshots=keep_snapshots,
         domain0=points.domain if domain0 is None else domain0)

@@ -7,15 +7,18 @@ shape function over the domain, its gradient operator the averaged
 gradient.  The domain is cut into pieces by the grid lines; every piece lies
 in one element and is integrated exactly by a Gauss rule evaluated with the
 scikit-fem element itself (a :class:`~skfem_mpm.MaterialPointBasis` on the
-sub-points), so any tensor-product element family works.  Domains are
-clipped to the grid.
+sub-points), so any tensor-product element family works; linear elements
+take the closed form of :mod:`skfem_mpm.gimp_linear` instead, equal to
+round-off and without sub-points.  Domains are clipped to the grid.
 
 Two domain updates: ``"ugimp"`` keeps domains fixed; ``"cpgimp"`` stretches
 them with the diagonal of the right stretch tensor ``U`` of ``F = R U``, so
 a rigid rotation leaves them unchanged.
 
 """
+import functools
 import itertools
+from typing import Callable
 
 import numpy as np
 from numpy import ndarray
@@ -26,11 +29,13 @@ from skfem.mesh import Mesh
 
 from .basis import MaterialPointBasis
 from .errors import UnsupportedElementError
+from .gimp_linear import LINEAR_ELEMENTS, LinearGimp
 from .locate import Locator, tensor_grid
 from .operators import SparseOperator
 from .points import MaterialPoints
 
-__all__ = ["gimp_operator", "initial_domains", "stretched_domains"]
+__all__ = ["gimp_operator", "gimp_operators", "subpoint_gimp_operator",
+           "initial_domains", "stretched_domains"]
 
 
 def _grid_axes(mesh: Mesh):
@@ -111,9 +116,34 @@ def _subpoints(axes, x: ndarray, domain: ndarray, order: int):
     return coords, weights / total[parent], parent
 
 
+def gimp_operators(mesh: Mesh, elem: Element,
+                   locate: Locator) -> Callable[[ndarray, ndarray],
+                                                SparseOperator]:
+    """``operator(x, domain)`` giving the GIMP operator of points on this
+    grid: closed form for linear elements (:class:`~skfem_mpm.gimp_linear.
+    LinearGimp`), Gauss sub-points (:func:`subpoint_gimp_operator`)
+    otherwise.  Set up once per run (node numbering), called every step."""
+    scalar = elem.elem if isinstance(elem, ElementVector) else elem
+    _grid_axes(mesh)
+    if isinstance(scalar, LINEAR_ELEMENTS):
+        return LinearGimp(mesh, scalar)
+    return functools.partial(subpoint_gimp_operator, mesh, scalar,
+                             locate=locate)
+
+
 def gimp_operator(mesh: Mesh, elem: Element, x: ndarray, domain: ndarray,
                   locate: Locator) -> SparseOperator:
-    """GIMP weights and gradients of points x with half-lengths ``domain``.
+    """GIMP weights and gradients of points x with half-lengths ``domain``
+    (parameters as in :func:`subpoint_gimp_operator`; see
+    :func:`gimp_operators` to reuse the set-up over steps)."""
+    return gimp_operators(mesh, elem, locate)(x, domain)
+
+
+def subpoint_gimp_operator(mesh: Mesh, elem: Element, x: ndarray,
+                           domain: ndarray,
+                           locate: Locator) -> SparseOperator:
+    """GIMP weights and gradients of points x with half-lengths ``domain``
+    by Gauss sub-points on every domain piece (any tensor-product element).
 
     Parameters
     ----------
