@@ -35,24 +35,32 @@ class ElementPattern:
     """
 
     def __init__(self, element_dofs: ndarray, N: int):
-        nloc, nel = element_dofs.shape
-        rows = np.repeat(element_dofs, nloc, axis=0)        # (nloc^2, nel)
-        cols = np.tile(element_dofs, (nloc, 1))
-        keys = (rows.astype(np.int64) * N + cols).T.ravel()  # element-major
-        unique, scatter = np.unique(keys, return_inverse=True)
-        self.scatter = scatter.reshape(nel, nloc * nloc)
-        self.indices = (unique % N).astype(np.int32)
-        self.indptr = np.searchsorted(unique // N, np.arange(N + 1)).astype(
-            np.int32)
-        self.N = N
+        self.element_dofs, self.N = element_dofs, N
+        self._structure = None
+
+    def structure(self):
+        """``(scatter, indices, indptr)``, computed on first use (a run
+        that never assembles on the element pattern, GIMP, skips it):
+        ``scatter[e]`` the CSR positions of element e's matrix entries."""
+        if self._structure is None:
+            element_dofs, N = self.element_dofs, self.N
+            nloc, nel = element_dofs.shape
+            rows = np.repeat(element_dofs, nloc, axis=0)    # (nloc^2, nel)
+            cols = np.tile(element_dofs, (nloc, 1))
+            keys = (rows.astype(np.int64) * N + cols).T.ravel()
+            unique, scatter = np.unique(keys, return_inverse=True)
+            self._structure = (scatter.reshape(nel, nloc * nloc),
+                               (unique % N).astype(np.int32),
+                               np.searchsorted(unique // N, np.arange(
+                                   N + 1)).astype(np.int32))
+        return self._structure
 
     def matrix(self, local: ndarray, elements: ndarray) -> csr_matrix:
         """Assemble element matrices (len(elements), nloc, nloc)."""
-        data = np.bincount(self.scatter[elements].ravel(),
-                           weights=local.ravel(),
-                           minlength=len(self.indices))
-        return csr_matrix((data, self.indices, self.indptr),
-                          shape=(self.N, self.N))
+        scatter, indices, indptr = self.structure()
+        data = np.bincount(scatter[elements].ravel(), weights=local.ravel(),
+                           minlength=len(indices))
+        return csr_matrix((data, indices, indptr), shape=(self.N, self.N))
 
 
 def local_stiffness(G: ndarray, A: ndarray) -> ndarray:

@@ -20,7 +20,6 @@ from typing import Callable, Optional
 
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import diags
 from skfem.element import Element
 from skfem.mesh import Mesh
 
@@ -77,6 +76,7 @@ class _Step:
         self.ctx, self.points, self.step = ctx, points, step
         self.f_old, self.f_new = f_old, f_new
         self.t = dict.fromkeys(PHASES, 0.)
+        self.buffers = None
 
     def operator(self):
         ctx, pts = self.ctx, self.points
@@ -112,10 +112,11 @@ class _Step:
                 .format(self.step, bad.size, bad[:5].tolist(),
                         self.points.x[:, bad[0]].tolist()))
         n, dim = dF.shape[-1], ctx.dim
-        b_tr = np.empty_like(dF)
-        tau, b_e, strain = (np.empty_like(dF) for _ in range(3))
-        dtau_db = np.empty((dim,) * 4 + (n,))
-        yielded = np.empty(n, dtype=bool)
+        if self.buffers is None:         # reused by every Newton iteration
+            self.buffers = (*(np.empty_like(dF) for _ in range(4)),
+                            np.empty((dim,) * 4 + (n,)),
+                            np.empty(n, dtype=bool))
+        b_tr, tau, b_e, strain, dtau_db, yielded = self.buffers
         for block in point_blocks(n):
             b_tr[..., block] = np.einsum("abp,bcp,dcp->adp", dF[..., block],
                                          be[..., block], dF[..., block])
@@ -186,7 +187,7 @@ class _Step:
             # new cell entered by one point); they carry no residual, and a
             # tangent-only stabilisation keeps the solve regular without
             # changing the converged state
-            K = K + STABILISATION * diags(K.diagonal())
+            K.setdiag(K.diagonal() * (1. + STABILISATION))   # in place
             self.t["assemble"] += time.perf_counter() - tic
             tic = time.perf_counter()
             ctx.counters["linear_solves"] += 1

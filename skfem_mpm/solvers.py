@@ -15,6 +15,7 @@ Each factory returns ``f(A, b, **kwargs) -> x``:
 """
 import importlib.util
 import logging
+import weakref
 from typing import Callable, Union
 
 import numpy as np
@@ -90,22 +91,45 @@ def _require(module: str, extra: str):
 def solver_pypardiso(spd: bool = True) -> Callable:
     """MKL Pardiso via pypardiso; ``spd=True`` factorises the upper
     triangle as symmetric positive definite (elastic steps), ``False`` as a
-    general real matrix."""
+    general real matrix.
+
+    The returned solver keeps its symbolic analysis (fill-reducing ordering
+    and factor structure) and redoes only the numerical factorisation while
+    successive matrices share one sparsity pattern, as the Newton iterations
+    of a load step do; ``solver.analyses`` counts the analyses.  Its MKL
+    memory is released with the solver.
+
+    """
     _require("pypardiso", "pypardiso")
+    import pypardiso
+
+    pardiso = pypardiso.PyPardisoSolver(mtype=2 if spd else 11)
+    weakref.finalize(pardiso, pardiso.free_memory, everything=True)
+    analysed = {}
 
     def solver(A, b, **kwargs):
-        import pypardiso
-        pardiso = pypardiso.PyPardisoSolver(mtype=2 if spd else 11)
         matrix = triu(A, format="csr") if spd else A.tocsr()
-        try:
-            x = pardiso.solve(matrix, b)
-        finally:
+        matrix.sort_indices()
+        if not np.diff(matrix.indptr).all():     # Pardiso would crash
+            raise SingularSystemError("the stiffness has an empty row")
+        same = analysed and all(
+            np.array_equal(getattr(matrix, name), analysed[name])
+            for name in ("indptr", "indices"))
+        if not same:
             pardiso.free_memory(everything=True)
+            pardiso.set_phase(11)
+            pardiso._call_pardiso(matrix, np.zeros(matrix.shape[0]))
+            analysed.update(indptr=matrix.indptr.copy(),
+                            indices=matrix.indices.copy())
+            solver.analyses += 1
+        pardiso.set_phase(23)            # numerical factorisation, solve
+        x = pardiso._call_pardiso(matrix, np.asfortranarray(b, dtype=float))
         if not np.all(np.isfinite(x)):
             raise SingularSystemError("Pardiso returned non-finite values: "
                                       "the stiffness is singular")
         return x
 
+    solver.analyses = 0
     return solver
 
 

@@ -3,7 +3,8 @@ import numpy as np
 import pytest
 from skfem import ElementHex1, ElementQuad1, MeshHex, MeshQuad
 
-from skfem_mpm import InvalidInputError, LinearElastic, seed_points, solve_mpm
+from skfem_mpm import (InvalidInputError, LinearElastic, seed_points,
+                       solve_finite, solve_mpm)
 from skfem_mpm.solvers import available_solvers, get_solver, solver_pyamg
 
 
@@ -43,3 +44,18 @@ def test_amg_uses_rigid_body_modes_in_3d():
 def test_unknown_solver_name():
     with pytest.raises(InvalidInputError, match="linear solver must be one"):
         get_solver("cholmod")
+
+
+def test_pardiso_reuses_its_analysis_over_newton_iterations():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < 1.)
+    run = dict(body_force=[0., -2e3], nsteps=2, keep_snapshots=False)
+    args = (mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    pardiso = get_solver("pypardiso")
+    res = solve_finite(*args, solver=pardiso, **run)
+    reference = solve_finite(*args, solver="scipy", **run)
+    solves = res.counters["linear_solves"]
+    assert solves >= 6                  # several Newton iterations a step
+    assert pardiso.analyses == 1        # one pattern for the whole run
+    assert np.abs(res.points.x - reference.points.x).max() < 1e-12
