@@ -3,16 +3,22 @@
 A square block on a Q1 grid, 2x2 points per cell, fixed base, body force.
 For each method (standard MPM or cpGIMP) and kinematics (small strain: two
 load steps; finite deformation: one load step, Newton), prints per size:
-seconds per load step, each phase's points per second, the share of the
-linear solve, the non-solve cost per point and per Newton iteration, and
-the growth of the resident set per point; then the fitted exponent of the
-non-solve time against the number of points.
+seconds per load step (the sum of its phases), each phase's points per
+second, the share of the linear solve ("solve": condensation,
+factorisation, substitution and the backward-error check), the non-solve
+cost per point and per Newton iteration, the run's one-off set-up (grid
+basis, DOFs, stiffness pattern), the peak of the numpy/Python heap per
+point (tracemalloc: the factorisation, allocated by SuperLU or MKL, is not
+in it) and the growth of the resident set per point (factorisation
+included); then the fitted exponent of the non-solve time against the
+number of points.
 
     python benchmarks/step_cost.py [--max-points 1e6] [--solver scipy]
 """
 import argparse
 import platform
 import time
+import tracemalloc
 
 import numpy as np
 from skfem import ElementQuad1, MeshQuad
@@ -43,6 +49,7 @@ def run(ncells: int, method: str, kinematics: str, solver: str):
             lambda b: b.get_dofs(lambda x: x[1] == 0))
     kwargs = dict(body_force=[0., -1e4], locator=point_locator(mesh),
                   keep_snapshots=False, solver=solver)
+    tracemalloc.start()
     with PeakMemory() as memory:
         tic = time.perf_counter()
         if kinematics == "small":
@@ -50,14 +57,18 @@ def run(ncells: int, method: str, kinematics: str, solver: str):
         else:
             res = solve_finite(*args, nsteps=1, method=method, **kwargs)
         wall = time.perf_counter() - tic
+    heap = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
     nsteps = len(res.history)
     per_step = {p: t / nsteps for p, t in res.timings().items()}
+    step = sum(per_step.values())
     iterations = max(res.counters["newton_iterations"], nsteps)
     return dict(points=points.n, dofs=res.history[-1].n_free_dofs,
-                wall=wall / nsteps, phases=per_step,
-                iteration_us=(sum(per_step.values()) - per_step["solve"])
+                step=step, phases=per_step,
+                setup=wall - step * nsteps,
+                iteration_us=(step - per_step["solve"])
                 * nsteps / iterations / points.n * 1e6,
-                memory=memory.peak / points.n)
+                heap=heap / points.n, memory=memory.peak / points.n)
 
 
 def main():
@@ -72,27 +83,30 @@ def main():
     for case in args.cases.split(","):
         method, kinematics = case.split(":")
         print("\n{} with {} kinematics".format(method, kinematics))
-        print("{:>8} {:>7} {:>8} | {} | {:>6} {:>9} {:>8}".format(
+        print("{:>8} {:>7} {:>8} | {} | {:>6} {:>9} {:>7} {:>7} {:>7}".format(
             "points", "dofs", "s/step",
             " ".join("{:>9}".format(p) for p in PHASES), "solve",
-            "us/pt/it", "B/point"))
+            "us/pt/it", "setup", "heap/pt", "RSS/pt"))
         # us/pt/it: non-solve seconds per point and Newton iteration (per
-        # step for small strain); B/point: resident-set growth per point,
-        # the factorisation included
+        # step for small strain); setup: seconds, once per run; heap/pt:
+        # bytes, tracemalloc peak; RSS/pt: bytes, resident-set growth, the
+        # factorisation included
         rows = []
         for ncells in SIZES:
             if 4 * ncells ** 2 > args.max_points * 1.01:
                 break
             r = run(ncells, method, kinematics, args.solver)
             rows.append(r)
-            print("{:>8} {:>7} {:>8.3f} | {} | {:>6.0%} {:>9.2f} {:>8.0f}"
-                  .format(r["points"], r["dofs"], r["wall"], " ".join(
-                      "{:>9.1e}".format(r["points"] / r["phases"][p])
-                      for p in PHASES), r["phases"]["solve"] / r["wall"],
-                      r["iteration_us"], r["memory"]), flush=True)
+            print("{:>8} {:>7} {:>8.3f} | {} | {:>6.0%} {:>9.2f} {:>7.2f} "
+                  "{:>7.0f} {:>7.0f}".format(
+                      r["points"], r["dofs"], r["step"], " ".join(
+                          "{:>9.1e}".format(r["points"] / r["phases"][p])
+                          for p in PHASES), r["phases"]["solve"] / r["step"],
+                      r["iteration_us"], r["setup"], r["heap"],
+                      r["memory"]), flush=True)
         if len(rows) >= 2:
             n = np.array([r["points"] for r in rows], float)
-            t = np.array([r["wall"] - r["phases"]["solve"] for r in rows])
+            t = np.array([r["step"] - r["phases"]["solve"] for r in rows])
             big = n >= 1e4
             print("non-solve time ~ points^{:.2f} (from 1e4 points: "
                   "^{:.2f})".format(np.polyfit(np.log(n), np.log(t), 1)[0],

@@ -17,7 +17,7 @@ from scipy.sparse import csr_matrix
 __all__ = ["ElementPattern", "local_stiffness", "local_force",
            "local_load"]
 
-CHUNK = 20_000          # elements per block (bounds the temporaries)
+CHUNK = 4096            # elements per block (bounds the temporaries)
 
 
 class ElementPattern:
@@ -29,7 +29,7 @@ class ElementPattern:
     >>> from skfem_mpm.fastpath import ElementPattern
     >>> pattern = ElementPattern(np.array([[0, 1], [1, 2]]), 3)
     >>> local = np.ones((1, 2, 2))
-    >>> pattern.matrix(local, np.array([1])).toarray().tolist()
+    >>> pattern.matrix([(np.array([1]), local)]).toarray().tolist()
     [[0.0, 0.0, 0.0], [0.0, 1.0, 1.0], [0.0, 1.0, 1.0]]
 
     """
@@ -49,31 +49,46 @@ class ElementPattern:
             cols = np.tile(element_dofs, (nloc, 1))
             keys = (rows.astype(np.int64) * N + cols).T.ravel()
             unique, scatter = np.unique(keys, return_inverse=True)
-            self._structure = (scatter.reshape(nel, nloc * nloc),
+            self._structure = (scatter.reshape(nel, nloc * nloc).astype(
+                np.int32 if len(unique) < 2 ** 31 else np.int64),
                                (unique % N).astype(np.int32),
                                np.searchsorted(unique // N, np.arange(
                                    N + 1)).astype(np.int32))
         return self._structure
 
-    def matrix(self, local: ndarray, elements: ndarray) -> csr_matrix:
-        """Assemble element matrices (len(elements), nloc, nloc)."""
+    def matrix(self, blocks) -> csr_matrix:
+        """Assemble element matrices given in blocks ``(elements, local)``,
+        local (len(elements), nloc, nloc): each block is added in place, so
+        only one block of element matrices exists at a time."""
         scatter, indices, indptr = self.structure()
-        data = np.bincount(scatter[elements].ravel(), weights=local.ravel(),
-                           minlength=len(indices))
+        data = np.zeros(len(indices))
+        for elements, local in blocks:
+            np.add.at(data, scatter[elements].ravel(), local.ravel())
         return csr_matrix((data, indices, indptr), shape=(self.N, self.N))
 
 
-def local_stiffness(G: ndarray, A: ndarray) -> ndarray:
-    """Element matrices ``K_(ia)(jc) = sum_slots A_abcd G_bi G_dj`` with the
-    weights folded into A (dim, dim, dim, dim, nelems, slots); returns
-    (nelems, nloc, nloc) in interleaved vector order (node-major)."""
+def local_stiffness(G: ndarray, A: ndarray, w: ndarray, slots: ndarray):
+    """Element matrices ``K_(ia)(jc) = sum_slots w A_abcd G_bi G_dj``, block
+    by block of elements.
+
+    ``G`` (dim, nloc, nelems, nslots) holds the shape gradients in the
+    padded layout of a material-point basis, ``A`` (dim, dim, dim, dim, n)
+    and ``w`` (n,) the tangent and weight of every point, in point order,
+    and ``slots`` (nelems, nslots) the point in every slot (-1 in padding).
+    Yields ``(block, local)``: a slice of the elements and their matrices
+    (len, nloc, nloc) in interleaved vector order (node-major); the tangent
+    is gathered into the layout one block at a time, so no padded or
+    weighted copy of it exists.
+
+    """
     dim, nodes, nel = G.shape[0], G.shape[1], G.shape[2]
-    out = np.empty((nel, nodes, dim, nodes, dim))
     for s in range(0, nel, CHUNK):
         e = slice(s, s + CHUNK)
-        AG = np.einsum("abcdem,djem->abcjem", A[..., e, :], G[:, :, e])
-        out[e] = np.einsum("abcjem,biem->eiajc", AG, G[:, :, e])
-    return out.reshape(nel, nodes * dim, nodes * dim)
+        we = np.where(slots[e] < 0, 0., np.take(w, slots[e]))
+        Ae = np.take(A, slots[e], axis=-1) * we      # (..., chunk, nslots)
+        AG = np.einsum("abcdem,djem->abcjem", Ae, G[:, :, e])
+        local = np.einsum("abcjem,biem->eiajc", AG, G[:, :, e])
+        yield e, local.reshape(-1, nodes * dim, nodes * dim)
 
 
 def local_force(G: ndarray, P: ndarray) -> ndarray:

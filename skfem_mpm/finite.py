@@ -14,6 +14,7 @@ updated.  A step whose Newton loop fails or that inverts a point
 load step; then the error carries the last converged state.
 
 """
+import copy
 import logging
 import time
 from typing import Callable, Optional
@@ -113,30 +114,42 @@ class _Step:
                         self.points.x[:, bad[0]].tolist()))
         n, dim = dF.shape[-1], ctx.dim
         if self.buffers is None:         # reused by every Newton iteration
-            self.buffers = (*(np.empty_like(dF) for _ in range(4)),
+            self.buffers = (np.empty_like(dF), np.empty_like(dF),
                             np.empty((dim,) * 4 + (n,)),
                             np.empty(n, dtype=bool))
-        b_tr, tau, b_e, strain, dtau_db, yielded = self.buffers
+        b_tr, tau, dtau_db, yielded = self.buffers
         for block in point_blocks(n):
             b_tr[..., block] = np.einsum("abp,bcp,dcp->adp", dF[..., block],
                                          be[..., block], dF[..., block])
-            (tau[..., block], b_e[..., block], strain[..., block],
-             dtau_db[..., block], yielded[block]) = hencky_update(
-                 material_block(ctx.material, block), b_tr[..., block], dim)
+            tau[..., block], _, _, dtau_db[..., block], yielded[block] = \
+                hencky_update(material_block(ctx.material, block),
+                              b_tr[..., block], dim)
         self.ctx.counters["return_maps"] += self.ctx.plastic
         self.t["update"] += time.perf_counter() - tic
-        return dF, dF_inv, tau, b_e, strain, dtau_db, yielded, b_tr
+        return dF, dF_inv, tau, dtau_db, yielded, b_tr
+
+    def elastic_state(self, b_tr: ndarray):
+        """Elastic left Cauchy-Green tensor and logarithmic strain of the
+        converged trial state (not kept during the iterations: memory)."""
+        b_e, strain = np.empty_like(b_tr), np.empty_like(b_tr)
+        for block in point_blocks(b_tr.shape[-1]):
+            _, b_e[..., block], strain[..., block], _, _ = hencky_update(
+                material_block(self.ctx.material, block), b_tr[..., block],
+                self.ctx.dim)
+        self.ctx.counters["return_maps"] += self.ctx.plastic
+        return b_e, strain
 
     def tangent(self, dtau_db, b_tr, tau, dF_inv) -> ndarray:
         """Consistent tangent pulled back to the start of the step,
-        (dim, dim, dim, dim, n), block by block of points."""
-        At = np.empty_like(dtau_db)
-        for block in point_blocks(At.shape[-1]):
+        (dim, dim, dim, dim, n), block by block of points, written over
+        ``dtau_db`` (not needed after)."""
+        for block in point_blocks(dtau_db.shape[-1]):
             A = spatial_tangent(dtau_db[..., block], b_tr[..., block],
                                 tau[..., block])
-            At[..., block] = pull_back(tau[..., block], A,
-                                       dF_inv[..., block], self.ctx.dim)[1]
-        return At
+            dtau_db[..., block] = pull_back(tau[..., block], A,
+                                            dF_inv[..., block],
+                                            self.ctx.dim)[1]
+        return dtau_db
 
     def run(self):
         ctx, pts = self.ctx, self.points
@@ -158,7 +171,7 @@ class _Step:
         self.t["assemble"] += time.perf_counter() - tic
         residuals = []
         for it in range(ctx.max_iter + 1):
-            dF, dF_inv, tau, b_e, strain, dtau_db, yielded, b_tr = \
+            dF, dF_inv, tau, dtau_db, yielded, b_tr = \
                 self.constitutive(op, du)
             tic = time.perf_counter()
             P = np.einsum("abp,ebp->aep", tau[:ctx.dim, :ctx.dim],
@@ -199,19 +212,20 @@ class _Step:
                 raise SingularSystemError("step {}: {}".format(self.step,
                                                                err)) from err
             self.t["solve"] += time.perf_counter() - tic
-        return self.finish(op, du, dF, tau, b_e, strain, yielded, residuals,
-                           free)
+        return self.finish(op, du, dF, tau, b_tr, yielded, residuals, free)
 
-    def finish(self, op, du, dF, tau, b_e, strain, yielded, residuals, free):
+    def finish(self, op, du, dF, tau, b_tr, yielded, residuals, free):
         ctx, old = self.ctx, self.points
         tic = time.perf_counter()
-        new = old.copy()
+        # the finite-deformation solver replaces a state's arrays and never
+        # writes into them, so a new state shares the unchanged ones
+        new = copy.copy(old)
         new.F = np.einsum("abp,bcp->acp", dF, old.F)
         J = inverse_and_det(new.F, ctx.dim)[1]
         if not (J > 0).all():
             raise InversionError("step {}: det F <= 0 at {} point(s)".format(
                 self.step, int((J <= 0).sum())))
-        new.be, new.strain = b_e, strain
+        new.be, new.strain = self.elastic_state(b_tr)
         new.stress = tau / J
         new.volume = J * old.volume0
         dx = op.values(du)

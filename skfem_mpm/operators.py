@@ -167,8 +167,9 @@ class PointOperator:
                                         self.basis.quadrature_field(f)))
 
     def stiffness(self, A: ndarray, w: ndarray):
-        return self.pattern().matrix(local_stiffness(
-            self.shape_gradients, self.basis.quadrature_field(A * w)), self.elements)
+        return self.pattern().matrix(
+            (self.elements[block], local) for block, local in local_stiffness(
+                self.shape_gradients, A, w, self.basis.point_index))
 
     def adjacency(self):
         return element_adjacency(self.element_dofs, self.dim,

@@ -92,21 +92,26 @@ class MaterialPoints:
                 "volume must be positive: {} point(s) are not, first point {} "
                 "has volume {}".format(int((self.volume <= 0).sum()), i,
                                        self.volume[i]))
-        identity = np.repeat(np.eye(3)[:, :, None], n, axis=2)
-        defaults = {
-            "force": np.zeros((dim, n)), "x0": self.x, "stress":
-            np.zeros((3, 3, n)), "strain": np.zeros((3, 3, n)),
-            "displacement": np.zeros((dim, n)), "volume0": self.volume,
-            "F": identity, "be": identity, "domain": None,
+        identity = np.eye(3)[:, :, None]
+        defaults = {       # made only where a value is missing
+            "force": lambda: np.zeros((dim, n)), "x0": lambda: self.x,
+            "stress": lambda: np.zeros((3, 3, n)),
+            "strain": lambda: np.zeros((3, 3, n)),
+            "displacement": lambda: np.zeros((dim, n)),
+            "volume0": lambda: self.volume,
+            "F": lambda: np.repeat(identity, n, axis=2),
+            "be": lambda: np.repeat(identity, n, axis=2),
         }
-        for name, default in defaults.items():
+        shapes = {"force": (dim, n), "x0": (dim, n), "displacement": (dim, n),
+                  "volume0": (n,), "domain": (dim, n)}
+        for name in list(defaults) + ["domain"]:
             value = getattr(self, name)
             if value is None:
-                if default is None:
+                if name == "domain":
                     continue
-                value = default
+                value = defaults[name]()
             value = np.array(value, dtype=np.float64)
-            expected = (default if default is not None else self.x).shape
+            expected = shapes.get(name, (3, 3, n))
             if value.shape != expected:
                 raise InvalidInputError("{} must have shape {}, got {}"
                                         .format(name, expected, value.shape))
@@ -130,9 +135,9 @@ class MaterialPoints:
         return self.x.shape[1]
 
     def copy(self) -> "MaterialPoints":
-        """Return a deep copy of the state."""
-        return MaterialPoints(**{f.name: None if getattr(self, f.name) is None
-                                 else getattr(self, f.name).copy()
+        """Return a deep copy of the state (the constructor copies every
+        array once)."""
+        return MaterialPoints(**{f.name: getattr(self, f.name)
                                  for f in fields(self)})
 
 

@@ -20,6 +20,7 @@ import numpy as np
 from numpy import ndarray
 from skfem import Basis
 from skfem.assembly import Dofs
+from skfem.quadrature import get_quadrature
 from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 
@@ -126,7 +127,12 @@ def grid_parts(mesh: Mesh, elem: Element):
     basis (supports, DOF locations), the scalar ``Dofs`` for the
     material-point bases and the vector stiffness pattern."""
     scalar = elem.elem if isinstance(elem, ElementVector) else elem
-    grid = Basis(mesh, vector_element(elem), intorder=0)
+    # the grid basis serves DOFs, DOF locations and facets (all elements);
+    # the basis functions it evaluates are never used, so it evaluates them
+    # at one point (the centroid) of one element
+    X, W = get_quadrature(mesh.refdom, 0)
+    grid = Basis(mesh, vector_element(elem), elements=np.array([0]),
+                 quadrature=(X @ W[:, None] / W.sum(), np.array([W.sum()])))
     return (scalar, grid, Dofs(mesh, scalar),
             ElementPattern(grid.dofs.element_dofs, grid.N))
 
@@ -182,7 +188,8 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         :class:`~skfem_mpm.materials.LinearElastic`.
     supports
         Fixed (zero) grid DOFs: DOF indices, a ``DofsView`` or a callable
-        taking the grid's ``Basis`` (Gauss quadrature, all elements), e.g.
+        taking the grid's vector ``Basis`` (its DOFs and facets cover the
+        whole grid), e.g.
         ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.
     body_force
         Body force per unit volume at full load, shape (dim,); ``None``: no
@@ -240,7 +247,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     D = support_dofs(supports, grid)
     dim = mesh.dim()
-    cell_volume = grid.dx.sum(axis=1) if ghost else None
+    cell_volume = Basis(mesh, scalar).dx.sum(axis=1) if ghost else None
     locate = point_locator(mesh) if locator is None else locator
     points = points.copy()
     material = at_points(material, points)

@@ -60,4 +60,4 @@ class MeanDilatation:
         b = self.b.reshape(len(self.volume), -1)            # node-major
         local = (self.lam * self.volume)[:, None, None] * b[:, :, None] \
             * b[:, None, :]
-        return self.op.pattern().matrix(local, self.op.elements)
+        return self.op.pattern().matrix([(self.op.elements, local)])
