@@ -37,6 +37,7 @@ from .locate import Locator, point_locator
 from .materials import PointMaterials, at_points, is_plastic
 from .operators import PointOperator
 from .points import MaterialPoints
+from .solvers import get_solver
 from .solver import (PHASES, Result, StepRecord, check_run_input,
                      grid_parts, point_loads)
 
@@ -330,6 +331,7 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         raise InvalidInputError("method must be one of {}, got {!r}".format(
             METHODS, method))
     check_run_input(mesh, points, nsteps)
+    solver = get_solver(solver)      # one instance: it may keep state
     if method != "mpm" and points.domain is None:
         raise InvalidInputError(
             "method {!r} needs point domains (MaterialPoints.domain); "

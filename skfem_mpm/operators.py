@@ -23,7 +23,7 @@ from typing import Optional
 
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import bmat, csr_matrix
+from scipy.sparse import csr_matrix
 from skfem.assembly import BilinearForm, LinearForm, asm
 from skfem.helpers import ddot, grad
 
@@ -184,8 +184,8 @@ class SparseOperator:
     Parameters
     ----------
     S, G
-        csr matrices: ``S[p, k]`` weight of scalar DOF k at point p and
-        ``G[d][p, k]`` its derivative along axis d.
+        csr matrices of one sparsity pattern: ``S[p, k]`` weight of scalar
+        DOF k at point p and ``G[d][p, k]`` its derivative along axis d.
     elements
         The active elements (holding part of a point's domain).
 
@@ -193,14 +193,17 @@ class SparseOperator:
 
     def __init__(self, S: csr_matrix, G, elements: ndarray):
         self.S, self.G = S, list(G)
+        if not all(np.array_equal(g.indptr, S.indptr)
+                   and np.array_equal(g.indices, S.indices) for g in self.G):
+            raise ValueError("S and G must share one sparsity pattern")
         self.dim = len(self.G)
         self.N = self.dim * S.shape[1]
         self.elements = elements
         self.nelems = len(elements)
-        support = np.unique(np.concatenate([S.indices] +
-                                           [g.indices for g in self.G]))
+        support = np.unique(S.indices)
         self.active_dofs = (self.dim * support[:, None]
                             + np.arange(self.dim)).ravel()
+        self._gradient_rows = None
 
     def adjacency(self):
         pattern = self.S.copy()
@@ -228,13 +231,32 @@ class SparseOperator:
     def point_force(self, f: ndarray) -> ndarray:
         return self._interleave([self.S.T @ f[a] for a in range(self.dim)])
 
+    def _stacked(self, data: ndarray, component: int) -> csr_matrix:
+        """Rows ``(b, p)`` for b < dim, row (b, p) the pattern of point p,
+        columns the vector DOFs of ``component``: (dim * n, N)."""
+        S, dim = self.S, self.dim
+        indptr = np.concatenate([S.indptr[:-1] + b * S.nnz
+                                 for b in range(dim)] + [[dim * S.nnz]])
+        return csr_matrix((data, np.tile(S.indices * dim + component, dim),
+                           indptr), shape=(dim * S.shape[0], self.N))
+
     def stiffness(self, A: ndarray, w: ndarray):
-        dim = self.dim
-        blocks = [[sum(self.G[b].T @ self.G[d].multiply(
-            (w * A[a, b, c, d])[:, None]).tocsr()
-            for b in range(dim) for d in range(dim))
-            for c in range(dim)] for a in range(dim)]
-        K = bmat(blocks, format="csr")
-        n = self.S.shape[1]
-        order = (np.arange(dim)[None, :] * n + np.arange(n)[:, None]).ravel()
-        return K[order][:, order]
+        """``K_(ia)(jc) = sum_(b,d) G_b^T diag(w A_abcd) G_d``: per
+        component pair one sparse product of the stacked gradients with
+        ``H_(bp)j = sum_d w_p A_abcdp G_d[p, j]``, formed on the shared
+        pattern's data."""
+        dim, S = self.dim, self.S
+        if self._gradient_rows is None:       # G_b^T, one per component a
+            g = np.concatenate([G.data for G in self.G])
+            self._gradient_rows = [self._stacked(g, a).T.tocsr()
+                                   for a in range(dim)]
+        counts = np.diff(S.indptr)
+        K = None
+        for a in range(dim):
+            for c in range(dim):
+                H = np.concatenate([
+                    sum(np.repeat(w * A[a, b, c, d], counts) * self.G[d].data
+                        for d in range(dim)) for b in range(dim)])
+                M = self._gradient_rows[a] @ self._stacked(H, c)
+                K = M if K is None else K + M
+        return K.tocsr()

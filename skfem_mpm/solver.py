@@ -37,6 +37,7 @@ from .operators import PointOperator
 from .ghost import ghost_penalty
 from .volumetric import MeanDilatation
 from .points import MaterialPoints
+from .solvers import get_solver
 
 logger = logging.getLogger(__name__)
 
@@ -243,6 +244,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
 
     """
     check_run_input(mesh, points, nsteps)
+    solver = get_solver(solver)      # one instance: it may keep state
     gravity = as_body_force(body_force, mesh.dim())
     scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     D = support_dofs(supports, grid)

@@ -65,3 +65,18 @@ def test_higher_order_elements_use_subpoints():
     assert abs(op.S.sum(axis=1) - 1.).max() < 1e-13
     assert isinstance(gimp_operators(mesh, ElementQuad1(),
                                      point_locator(mesh)), LinearGimp)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_sparse_stiffness_equals_dense_sum_over_points(dim):
+    mesh, elem = GRIDS[dim]
+    x, domain = random_points(mesh, 40)
+    op = LinearGimp(mesh, elem)(x, domain)
+    n = x.shape[1]
+    A = RNG.random((dim,) * 4 + (n,))          # no symmetry assumed
+    w = RNG.random(n)
+    G = np.array([g.toarray() for g in op.G])          # (dim, n, nodes)
+    dense = np.einsum("abcdp,p,bpi,dpj->iajc", A, w, G, G).reshape(
+        op.N, op.N)
+    K = op.stiffness(A, w).toarray()
+    assert np.abs(K - dense).max() < 1e-13 * np.abs(dense).max()
