@@ -73,8 +73,8 @@ def local_stiffness(G: ndarray, A: ndarray, w: ndarray, slots: ndarray):
 
     ``G`` (dim, nloc, nelems, nslots) holds the shape gradients in the
     padded layout of a material-point basis, ``A`` (dim, dim, dim, dim, n)
-    and ``w`` (n,) the tangent and weight of every point, in point order,
-    and ``slots`` (nelems, nslots) the point in every slot (-1 in padding).
+    and ``w`` (n,) the tangent and weight of every point, in point order
+    (A may be one tensor broadcast to all points), and ``slots`` (nelems, nslots) the point in every slot (-1 in padding).
     Yields ``(block, local)``: a slice of the elements and their matrices
     (len, nloc, nloc) in interleaved vector order (node-major); the tangent
     is gathered into the layout one block at a time, so no padded or
@@ -82,10 +82,12 @@ def local_stiffness(G: ndarray, A: ndarray, w: ndarray, slots: ndarray):
 
     """
     dim, nodes, nel = G.shape[0], G.shape[1], G.shape[2]
+    uniform = A.strides[-1] == 0          # one tensor broadcast to all points
     for s in range(0, nel, CHUNK):
         e = slice(s, s + CHUNK)
         we = np.where(slots[e] < 0, 0., np.take(w, slots[e]))
-        Ae = np.take(A, slots[e], axis=-1) * we      # (..., chunk, nslots)
+        Ae = (A[..., :1, None] if uniform
+              else np.take(A, slots[e], axis=-1)) * we  # (..., chunk, nslots)
         AG = np.einsum("abcdem,djem->abcjem", Ae, G[:, :, e])
         local = np.einsum("abcjem,biem->eiajc", AG, G[:, :, e])
         yield e, local.reshape(-1, nodes * dim, nodes * dim)

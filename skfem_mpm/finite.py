@@ -337,6 +337,8 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             "method {!r} needs point domains (MaterialPoints.domain); "
             "seed_points sets them on tensor-product grids".format(method))
     scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
+    if method == "mpm":
+        pattern.structure()              # set-up, shared by every step
     material = at_points(material, points)
     result = Result(points=points.copy())
     locator = point_locator(mesh) if locator is None else locator

@@ -206,10 +206,18 @@ def is_plastic(material) -> bool:
 def elastic_tensor(material, n: int, dim: int, lam=None) -> ndarray:
     """``C_abcd = lam d_ab d_cd + mu (d_ac d_bd + d_ad d_bc)`` of every
     point, (dim, dim, dim, dim, n): the small-strain tangent (2.3) in the
-    form the point operators assemble (``lam`` overrides the material's)."""
+    form the point operators assemble (``lam`` overrides the material's);
+    a read-only broadcast of one tensor when the moduli are uniform."""
     eye = np.eye(dim)
-    lam = np.broadcast_to(material.lam if lam is None else lam, (n,))
-    mu = np.broadcast_to(material.mu, (n,))
+    lam = material.lam if lam is None else lam
+    mu = material.mu
+    if np.ndim(lam) == 0 and np.ndim(mu) == 0:     # one tensor for all
+        C = (lam * np.einsum("ab,cd->abcd", eye, eye)
+             + mu * (np.einsum("ac,bd->abcd", eye, eye)
+                     + np.einsum("ad,bc->abcd", eye, eye)))
+        return np.broadcast_to(C[..., None], C.shape + (n,))
+    lam = np.broadcast_to(lam, (n,))
+    mu = np.broadcast_to(mu, (n,))
     return (np.einsum("ab,cd,p->abcdp", eye, eye, lam)
             + np.einsum("ac,bd,p->abcdp", eye, eye, mu)
             + np.einsum("ad,bc,p->abcdp", eye, eye, mu))

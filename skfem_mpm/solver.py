@@ -247,6 +247,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     solver = get_solver(solver)      # one instance: it may keep state
     gravity = as_body_force(body_force, mesh.dim())
     scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
+    pattern.structure()                  # set-up, shared by every step
     D = support_dofs(supports, grid)
     dim = mesh.dim()
     cell_volume = Basis(mesh, scalar).dx.sum(axis=1) if ghost else None
