@@ -10,8 +10,9 @@ cost per point and per Newton iteration, the run's one-off set-up (grid
 basis, DOFs, stiffness pattern), the peak of the numpy/Python heap per
 point (tracemalloc: the factorisation, allocated by SuperLU or MKL, is not
 in it) and the growth of the resident set per point (factorisation
-included); then the fitted exponent of the non-solve time against the
-number of points.
+included); then the fitted exponents of the non-solve time per step and
+per Newton iteration against the number of points, and the iterations per
+step.
 
     python benchmarks/step_cost.py [--max-points 1e6] [--solver scipy]
 """
@@ -68,7 +69,8 @@ def run(ncells: int, method: str, kinematics: str, solver: str):
                 setup=wall - step * nsteps,
                 iteration_us=(step - per_step["solve"])
                 * nsteps / iterations / points.n * 1e6,
-                heap=heap / points.n, memory=memory.peak / points.n)
+                heap=heap / points.n, memory=memory.peak / points.n,
+                iterations=round(iterations / nsteps, 1))
 
 
 def main():
@@ -106,13 +108,20 @@ def main():
                       r["memory"]), flush=True)
         if len(rows) >= 2:
             n = np.array([r["points"] for r in rows], float)
-            t = np.array([r["step"] - r["phases"]["solve"] for r in rows])
             big = n >= 1e4
-            print("non-solve time ~ points^{:.2f} (from 1e4 points: "
-                  "^{:.2f})".format(np.polyfit(np.log(n), np.log(t), 1)[0],
-                                    np.polyfit(np.log(n[big]),
-                                               np.log(t[big]), 1)[0]
-                                    if big.sum() >= 2 else float("nan")))
+            for what, t in (
+                    ("per step", [r["step"] - r["phases"]["solve"]
+                                  for r in rows]),
+                    ("per Newton iteration", [r["iteration_us"] * r["points"]
+                                              for r in rows])):
+                t = np.array(t)
+                print("non-solve time {} ~ points^{:.2f} (from 1e4 points: "
+                      "^{:.2f})".format(what, np.polyfit(
+                          np.log(n), np.log(t), 1)[0], np.polyfit(
+                              np.log(n[big]), np.log(t[big]), 1)[0]
+                          if big.sum() >= 2 else float("nan")))
+            print("Newton iterations per step:", " ".join(
+                str(r["iterations"]) for r in rows))
 
 
 if __name__ == "__main__":

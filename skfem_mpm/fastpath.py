@@ -17,7 +17,7 @@ from scipy.sparse import csr_matrix
 __all__ = ["ElementPattern", "local_stiffness", "local_force",
            "local_load"]
 
-CHUNK = 4096            # elements per block (bounds the temporaries)
+CHUNK = 1024            # elements per block (bounds the temporaries)
 
 
 class ElementPattern:
@@ -43,17 +43,25 @@ class ElementPattern:
         that never assembles on the element pattern, GIMP, skips it):
         ``scatter[e]`` the CSR positions of element e's matrix entries."""
         if self._structure is None:
-            element_dofs, N = self.element_dofs, self.N
-            nloc, nel = element_dofs.shape
-            rows = np.repeat(element_dofs, nloc, axis=0)    # (nloc^2, nel)
-            cols = np.tile(element_dofs, (nloc, 1))
-            keys = (rows.astype(np.int64) * N + cols).T.ravel()
-            unique, scatter = np.unique(keys, return_inverse=True)
-            self._structure = (scatter.reshape(nel, nloc * nloc).astype(
-                np.int32 if len(unique) < 2 ** 31 else np.int64),
-                               (unique % N).astype(np.int32),
-                               np.searchsorted(unique // N, np.arange(
-                                   N + 1)).astype(np.int32))
+            dofs, N = self.element_dofs, self.N
+            nloc, nel = dofs.shape
+            incidence = csr_matrix((np.ones(dofs.size), dofs.T.ravel(),
+                                    np.arange(0, dofs.size + 1, nloc)),
+                                   shape=(nel, N))
+            pattern = (incidence.T @ incidence).tocsr()
+            pattern.sort_indices()
+            index = np.int32 if pattern.nnz < 2 ** 31 else np.int64
+            # (row, column) keys of the pattern, ascending
+            keys = np.repeat(np.arange(N, dtype=np.int64) * N,
+                             np.diff(pattern.indptr)) + pattern.indices
+            scatter = np.empty((nel, nloc * nloc), dtype=index)
+            for s in range(0, nel, CHUNK):
+                d = dofs[:, s:s + CHUNK].T.astype(np.int64)    # (k, nloc)
+                scatter[s:s + CHUNK] = np.searchsorted(
+                    keys, (d[:, :, None] * N + d[:, None, :]).reshape(
+                        len(d), -1))
+            self._structure = (scatter, pattern.indices.astype(index),
+                               pattern.indptr.astype(index))
         return self._structure
 
     def matrix(self, blocks) -> csr_matrix:

@@ -47,7 +47,7 @@ __all__ = ["solve_finite", "METHODS"]
 
 METHODS = ("mpm", "ugimp", "cpgimp")
 STABILISATION = 1e-7
-POINT_BLOCK = 16384    # points per block of the constitutive update
+POINT_BLOCK = 2048     # points per block of the constitutive update
 
 
 def point_blocks(n: int, size: int = POINT_BLOCK):
@@ -197,23 +197,39 @@ class _Step:
             tic = time.perf_counter()
             K = op.stiffness(self.tangent(dtau_db, b_tr, tau, dF_inv),
                              pts.volume0)
-            # points leave zero-energy modes on weakly supported nodes (a
-            # new cell entered by one point); they carry no residual, and a
-            # tangent-only stabilisation keeps the solve regular without
-            # changing the converged state
-            K.setdiag(K.diagonal() * (1. + STABILISATION))   # in place
             self.t["assemble"] += time.perf_counter() - tic
             tic = time.perf_counter()
-            ctx.counters["linear_solves"] += 1
             ctx.counters["newton_iterations"] += 1
-            try:
-                du = du + solve_active(K, r, free, solver=ctx.solver,
-                                       doflocs=ctx.grid.doflocs)
-            except SingularSystemError as err:
-                raise SingularSystemError("step {}: {}".format(self.step,
-                                                               err)) from err
+            du = du + self.solve(K, r, free)
             self.t["solve"] += time.perf_counter() - tic
         return self.finish(op, du, dF, tau, b_tr, yielded, residuals, free)
+
+    def solve(self, K, r: ndarray, free: ndarray) -> ndarray:
+        """Newton's increment with the exact tangent; with a stabilised one
+        where points leave zero-energy modes on weakly supported nodes (a
+        cell entered by one point).  Those modes carry no residual, so the
+        stabilisation, ``STABILISATION`` times the diagonal added to the
+        tangent only, does not change the converged state; it is used only
+        when needed because it slows Newton to a linear rate of about
+        ``STABILISATION`` times the tangent's condition number."""
+        ctx = self.ctx
+        ctx.counters["linear_solves"] += 1
+        try:
+            return solve_active(K, r, free, solver=ctx.solver,
+                                doflocs=ctx.grid.doflocs)
+        except SingularSystemError as err:
+            logger.warning("step %d: %s; solving again with the tangent "
+                           "stabilised by %.0e of its diagonal", self.step,
+                           err, STABILISATION)
+        K.setdiag(K.diagonal() * (1. + STABILISATION))       # in place
+        ctx.counters["linear_solves"] += 1
+        ctx.counters["stabilised_solves"] += 1
+        try:
+            return solve_active(K, r, free, solver=ctx.solver,
+                                doflocs=ctx.grid.doflocs)
+        except SingularSystemError as err:
+            raise SingularSystemError("step {}: {}".format(self.step,
+                                                           err)) from err
 
     def finish(self, op, du, dF, tau, b_tr, yielded, residuals, free):
         ctx, old = self.ctx, self.points

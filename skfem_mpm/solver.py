@@ -108,7 +108,8 @@ class Result:
         How often each kind of work was done: ``locate`` (point location),
         ``body_force`` (body-force assemblies), ``linear_solves``,
         ``return_maps`` (stress updates with a return map),
-        ``newton_iterations``.
+        ``newton_iterations``, ``stabilised_solves`` (Newton solves that
+        needed the stabilised tangent: zero-energy modes).
 
     """
     points: MaterialPoints
@@ -116,7 +117,7 @@ class Result:
     basis: Optional[MaterialPointBasis] = None
     counters: dict = field(default_factory=lambda: dict.fromkeys(
         ("locate", "body_force", "linear_solves", "return_maps",
-         "newton_iterations"), 0))
+         "newton_iterations", "stabilised_solves"), 0))
 
     def timings(self) -> dict:
         """Total seconds per phase over all steps."""

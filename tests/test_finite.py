@@ -273,3 +273,36 @@ def test_plane_strain_fast_path_equals_the_3d_path():
         A3 = spatial_tangent(full[3], b, full[0])[:2, :2, :2, :2]
         A2 = spatial_tangent(plane[3], b, plane[0])
         assert np.abs(A3 - A2).max() < 1e-10 * np.abs(A3).max()
+
+
+def test_stabilised_tangent_only_where_zero_energy_modes_need_it():
+    """Newton solves with the exact tangent (quadratic convergence on a fine
+    grid, no stabilisation); a solve refused as singular (zero-energy
+    modes) is repeated once with the tangent stabilised on its diagonal."""
+    from skfem_mpm import SingularSystemError
+    from skfem_mpm.finite import STABILISATION
+    from skfem_mpm.solvers import solver_direct_checked
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 41), np.linspace(0, 1.2, 49))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < 1)
+    args = (mesh, ElementQuad1(), pts, LinearElastic(1e5, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    res = solve_finite(*args, body_force=[0., -1e3], nsteps=2)
+    assert res.counters["stabilised_solves"] == 0
+    for record in res.history:
+        r = np.array(record.newton_residuals)
+        r = r[r > 1e-12]
+        assert (r[2:] <= 10 * r[1:-1] ** 2).all(), r      # quadratic
+    direct, diagonals = solver_direct_checked(), []
+
+    def refuse_first(A, b, **kwargs):
+        diagonals.append(A.diagonal())
+        if len(diagonals) == 1:
+            raise SingularSystemError("a zero-energy mode")
+        return direct(A, b)
+    res = solve_finite(*args, body_force=[0., -1e3], solver=refuse_first)
+    assert res.counters["stabilised_solves"] == 1
+    assert res.counters["linear_solves"] == res.counters[
+        "newton_iterations"] + 1
+    assert np.allclose(diagonals[1], diagonals[0] * (1 + STABILISATION),
+                       rtol=1e-15, atol=0.)
+    assert res.history[-1].residual <= 1e-9

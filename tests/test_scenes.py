@@ -28,7 +28,8 @@ def test_effect_gating():
     # no return map, no Newton iteration
     counters = run_scene(block()).counters
     assert counters == {"locate": 3, "body_force": 0, "linear_solves": 3,
-                        "return_maps": 0, "newton_iterations": 0}
+                        "return_maps": 0, "newton_iterations": 0,
+                        "stabilised_solves": 0}
     # FE mode never relocates the points
     fem = run_scene(block(method="fem"))
     assert fem.counters["locate"] == 1
