@@ -1,6 +1,7 @@
-"""Cost of an implicit MPM load step per phase, 2D plane strain.
+"""Cost of an implicit MPM load step per phase, 2D plane strain (or 3D).
 
-A square block on a Q1 grid, 2x2 points per cell, fixed base, body force.
+A square block on a Q1 grid, 2x2 points per cell, fixed base, body force
+(``--dim 3``: a cube on a hexahedral grid, 2x2x2 points per cell).
 For each method (standard MPM or cpGIMP) and kinematics (small strain: two
 load steps; finite deformation: one load step, Newton), prints per size:
 seconds per load step (the sum of its phases), each phase's points per
@@ -15,6 +16,7 @@ per Newton iteration against the number of points, and the iterations per
 step.
 
     python benchmarks/step_cost.py [--max-points 1e6] [--solver scipy]
+        [--cases mpm:small,mpm:finite,cpgimp:finite] [--dim 2]
 """
 import argparse
 import platform
@@ -22,34 +24,40 @@ import time
 import tracemalloc
 
 import numpy as np
-from skfem import ElementQuad1, MeshQuad
+from skfem import ElementHex1, ElementQuad1, MeshHex, MeshQuad
 
 from skfem_mpm import LinearElastic, point_locator, seed_points, solve_finite
 from skfem_mpm import solve_mpm
 from skfem_mpm.solver import PHASES
+from skfem_mpm.solvers import get_solver
 from skfem_mpm.study import PeakMemory
 
-SIZES = (16, 50, 158, 500)                 # cells per side: 1e3 .. 1e6 points
+SIZES = {2: (16, 50, 158, 500),            # cells per side: 1e3 .. 1e6 points
+         3: (5, 11, 24, 40)}               # 1e3 .. 5.1e5 points
+GRIDS = {2: (MeshQuad, ElementQuad1), 3: (MeshHex, ElementHex1)}
 
 
-def block(ncells: int):
-    """A unit square of material in a grid two cells wider on each side
-    and 20% higher (room for the Poisson expansion)."""
+def block(ncells: int, dim: int = 2):
+    """A unit square (cube) of material in a grid two cells wider on each
+    side and 20% higher (room for the Poisson expansion)."""
     h = 1. / ncells
-    x = np.linspace(-2 * h, 1. + 2 * h, ncells + 5)
-    y = np.linspace(0., 1.2, int(1.2 * ncells) + 1)
-    mesh = MeshQuad.init_tensor(x, y)
-    points = seed_points(mesh, 2, region=lambda p: (p[1] < 1.) & (p[0] > 0)
-                         & (p[0] < 1.))
+    lateral = np.linspace(-2 * h, 1. + 2 * h, ncells + 5)
+    vertical = np.linspace(0., 1.2, int(1.2 * ncells) + 1)
+    mesh = GRIDS[dim][0].init_tensor(*[lateral] * (dim - 1), vertical)
+    points = seed_points(mesh, 2, region=lambda p: (p[-1] < 1.) & np.all(
+        (p[:-1] > 0) & (p[:-1] < 1.), axis=0))
     return mesh, points
 
 
-def run(ncells: int, method: str, kinematics: str, solver: str):
-    mesh, points = block(ncells)
-    args = (mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
-            lambda b: b.get_dofs(lambda x: x[1] == 0))
-    kwargs = dict(body_force=[0., -1e4], locator=point_locator(mesh),
-                  keep_snapshots=False, solver=solver)
+def run(ncells: int, method: str, kinematics: str, solver: str,
+        dim: int = 2):
+    mesh, points = block(ncells, dim)
+    args = (mesh, GRIDS[dim][1](), points, LinearElastic(1e6, .3),
+            lambda b: b.get_dofs(lambda x: x[-1] == 0))
+    solver = get_solver(solver)
+    kwargs = dict(body_force=np.r_[np.zeros(dim - 1), -1e4],
+                  locator=point_locator(mesh), keep_snapshots=False,
+                  solver=solver)
     tracemalloc.start()
     with PeakMemory() as memory:
         tic = time.perf_counter()
@@ -70,7 +78,8 @@ def run(ncells: int, method: str, kinematics: str, solver: str):
                 iteration_us=(step - per_step["solve"])
                 * nsteps / iterations / points.n * 1e6,
                 heap=heap / points.n, memory=memory.peak / points.n,
-                iterations=round(iterations / nsteps, 1))
+                iterations=round(iterations / nsteps, 1),
+                amg=getattr(solver, "iterations", None))
 
 
 def main():
@@ -78,10 +87,11 @@ def main():
     parser.add_argument("--max-points", type=float, default=1e6)
     parser.add_argument("--solver", default="scipy")
     parser.add_argument("--cases", default="mpm:small,mpm:finite,cpgimp:finite")
+    parser.add_argument("--dim", type=int, default=2, choices=(2, 3))
     args = parser.parse_args()
-    print("machine: {} {}, Python {}, solver {}".format(
+    print("machine: {} {}, Python {}, solver {}, {}D".format(
         platform.system(), platform.machine(), platform.python_version(),
-        args.solver))
+        args.solver, args.dim))
     for case in args.cases.split(","):
         method, kinematics = case.split(":")
         print("\n{} with {} kinematics".format(method, kinematics))
@@ -94,10 +104,10 @@ def main():
         # bytes, tracemalloc peak; RSS/pt: bytes, resident-set growth, the
         # factorisation included
         rows = []
-        for ncells in SIZES:
-            if 4 * ncells ** 2 > args.max_points * 1.01:
+        for ncells in SIZES[args.dim]:
+            if (2 * ncells) ** args.dim > args.max_points * 1.01:
                 break
-            r = run(ncells, method, kinematics, args.solver)
+            r = run(ncells, method, kinematics, args.solver, args.dim)
             rows.append(r)
             print("{:>8} {:>7} {:>8.3f} | {} | {:>6.0%} {:>9.2f} {:>7.2f} "
                   "{:>7.0f} {:>7.0f}".format(
@@ -122,6 +132,9 @@ def main():
                           if big.sum() >= 2 else float("nan")))
             print("Newton iterations per step:", " ".join(
                 str(r["iterations"]) for r in rows))
+            if rows[0]["amg"] is not None:
+                print("AMG-CG iterations per solve:", "; ".join(
+                    " ".join(map(str, r["amg"])) for r in rows))
 
 
 if __name__ == "__main__":

@@ -102,6 +102,7 @@ def solver_pypardiso(spd: bool = True) -> Callable:
     """
     _require("pypardiso", "pypardiso")
     import pypardiso
+    from pypardiso.pardiso_wrapper import PyPardisoError
 
     pardiso = pypardiso.PyPardisoSolver(mtype=2 if spd else 11)
     weakref.finalize(pardiso, pardiso.free_memory, everything=True)
@@ -123,7 +124,16 @@ def solver_pypardiso(spd: bool = True) -> Callable:
                             indices=matrix.indices.copy())
             solver.analyses += 1
         pardiso.set_phase(23)            # numerical factorisation, solve
-        x = pardiso._call_pardiso(matrix, np.asfortranarray(b, dtype=float))
+        try:
+            x = pardiso._call_pardiso(matrix,
+                                      np.asfortranarray(b, dtype=float))
+        except PyPardisoError as err:    # -4: zero pivot (not definite)
+            analysed.clear()
+            raise SingularSystemError(
+                "Pardiso failed with error {} on {} free DOFs: the "
+                "stiffness is singular{}".format(
+                    err.value, matrix.shape[0],
+                    " or not positive definite" if spd else "")) from err
         if not np.all(np.isfinite(x)):
             raise SingularSystemError("Pardiso returned non-finite values: "
                                       "the stiffness is singular")

@@ -59,3 +59,11 @@ def test_pardiso_reuses_its_analysis_over_newton_iterations():
     assert solves >= 6                  # several Newton iterations a step
     assert pardiso.analyses == 1        # one pattern for the whole run
     assert np.abs(res.points.x - reference.points.x).max() < 1e-12
+
+
+def test_pardiso_failure_is_a_singular_system_error():
+    from scipy.sparse import csr_matrix
+    from skfem_mpm import SingularSystemError
+    indefinite = csr_matrix(np.array([[1., 2.], [2., 1.]]))
+    with pytest.raises(SingularSystemError, match="not positive definite"):
+        get_solver("pypardiso")(indefinite, np.ones(2))
