@@ -3,15 +3,17 @@ steps, each solved by Newton-Raphson with the consistent tangent, with
 load-step cut-back.
 
 Per load step: locate the points and build the step's point operator at
-their start-of-step positions (standard MPM: scikit-fem ``asm`` on a
-material-point basis; GIMP: averaged weights over the points' domains), map
-the external forces, then iterate: increment of the deformation gradient
-``dF = I + grad(du)``, Hencky stress update (a return map for plasticity),
-internal force, out-of-balance force, tangent, solve.  At convergence the
-points move, ``F``, volumes (``det(F) volume0``) and, for cpGIMP, domains are
-updated.  A step whose Newton loop fails or that inverts a point
-(``det F <= 0``) is bisected and retried, down to ``2**-max_cutbacks`` of a
-load step; then the error carries the last converged state.
+their start-of-step positions (standard MPM: the vectorised twin of
+scikit-fem ``asm`` on a material-point basis; GIMP: averaged weights over
+the points' domains), map the external forces, then iterate: increment of
+the deformation gradient ``dF = I + grad(du)``, Hencky stress update (a
+return map for plasticity), internal force, out-of-balance force, exact
+tangent, solve.  At convergence the points move, ``F``, volumes
+(``det(F) volume0``) and, for cpGIMP, domains are updated.  A step whose
+Newton loop fails or that inverts a point (``det F <= 0``) is retried with
+a stabilised tangent (zero-energy modes of weakly supported nodes), then
+bisected and retried, down to ``2**-max_cutbacks`` of a load step; then the
+error carries the last converged state.
 
 """
 import copy
@@ -74,9 +76,10 @@ class _Step:
     """One load step from a converged state: operator, loads, Newton."""
 
     def __init__(self, ctx, points: MaterialPoints, f_old: float,
-                 f_new: float, step: int):
+                 f_new: float, step: int, stabilise: bool = False):
         self.ctx, self.points, self.step = ctx, points, step
         self.f_old, self.f_new = f_old, f_new
+        self.stabilise = stabilise
         self.t = dict.fromkeys(PHASES, 0.)
         self.buffers = None
 
@@ -207,20 +210,23 @@ class _Step:
     def solve(self, K, r: ndarray, free: ndarray) -> ndarray:
         """Newton's increment with the exact tangent; with a stabilised one
         where points leave zero-energy modes on weakly supported nodes (a
-        cell entered by one point).  Those modes carry no residual, so the
-        stabilisation, ``STABILISATION`` times the diagonal added to the
-        tangent only, does not change the converged state; it is used only
-        when needed because it slows Newton to a linear rate of about
-        ``STABILISATION`` times the tangent's condition number."""
+        cell entered by one point): when the step is retried so
+        (``stabilise``), or when the exact tangent is refused as singular.
+        Those modes carry no residual, so the stabilisation,
+        ``STABILISATION`` times the diagonal added to the tangent only, does
+        not change the converged state; it is used only when needed because
+        it slows Newton to a linear rate of about ``STABILISATION`` times the
+        tangent's condition number."""
         ctx = self.ctx
-        ctx.counters["linear_solves"] += 1
-        try:
-            return solve_active(K, r, free, solver=ctx.solver,
-                                doflocs=ctx.grid.doflocs)
-        except SingularSystemError as err:
-            logger.warning("step %d: %s; solving again with the tangent "
-                           "stabilised by %.0e of its diagonal", self.step,
-                           err, STABILISATION)
+        if not self.stabilise:
+            ctx.counters["linear_solves"] += 1
+            try:
+                return solve_active(K, r, free, solver=ctx.solver,
+                                    doflocs=ctx.grid.doflocs)
+            except SingularSystemError as err:
+                logger.warning("step %d: %s; solving again with the tangent "
+                               "stabilised by %.0e of its diagonal",
+                               self.step, err, STABILISATION)
         K.setdiag(K.diagonal() * (1. + STABILISATION))       # in place
         ctx.counters["linear_solves"] += 1
         ctx.counters["stabilised_solves"] += 1
@@ -261,6 +267,19 @@ class _Step:
             record.displacement = new.displacement.copy()
             record.stress = new.stress.copy()
         return new, record
+
+
+def _attempt(ctx, points: MaterialPoints, f_old: float, f_new: float,
+             step: int):
+    """A load step with the exact tangent, retried once with the stabilised
+    tangent if Newton fails (zero-energy modes not refused as singular can
+    still derail it)."""
+    try:
+        return _Step(ctx, points, f_old, f_new, step).run()
+    except (NewtonDivergenceError, InversionError) as err:
+        logger.warning("%s: retrying the step with the tangent stabilised "
+                       "by %.0e of its diagonal", err, STABILISATION)
+    return _Step(ctx, points, f_old, f_new, step, stabilise=True).run()
 
 
 class _Context:
@@ -379,8 +398,7 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         if target > boundary - 1e-12:
             target = boundary
         try:
-            points, record = _Step(ctx, points, factor, target,
-                                   step + 1).run()
+            points, record = _attempt(ctx, points, factor, target, step + 1)
         except (NewtonDivergenceError, InversionError) as err:
             if (target - factor) / 2 < smallest * (1 - 1e-9):
                 raise type(err)(
