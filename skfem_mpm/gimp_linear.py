@@ -25,6 +25,7 @@ from skfem.element import (Element, ElementHex1, ElementLineP1,
                            ElementQuad1)
 from skfem.mesh import Mesh
 
+from .errors import UnsupportedElementError
 from .locate import tensor_grid
 from .operators import SparseOperator
 
@@ -84,8 +85,10 @@ class LinearGimp:
     def __init__(self, mesh: Mesh, elem: Element):
         grid = tensor_grid(mesh)
         if grid is None or not isinstance(elem, LINEAR_ELEMENTS):
-            raise ValueError("LinearGimp needs a tensor-product grid and a "
-                             "linear element")
+            raise UnsupportedElementError(
+                "closed-form GIMP weights need an axis-aligned tensor-product "
+                "grid and ElementLineP1/Quad1/Hex1, got {} and {}".format(
+                    type(mesh).__name__, type(elem).__name__))
         self.axes, self.shape, self.cell_to_elem = grid
         self.dim = len(self.axes)
         nodes = tuple(len(a) for a in self.axes)

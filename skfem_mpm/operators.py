@@ -28,6 +28,7 @@ from skfem.assembly import BilinearForm, LinearForm, asm
 from skfem.helpers import ddot, grad
 
 from .basis import MaterialPointBasis
+from .errors import InvalidInputError
 from .fastpath import (ElementPattern, local_force, local_load,
                        local_stiffness)
 from .forms import body_force
@@ -195,7 +196,8 @@ class SparseOperator:
         self.S, self.G = S, list(G)
         if not all(np.array_equal(g.indptr, S.indptr)
                    and np.array_equal(g.indices, S.indices) for g in self.G):
-            raise ValueError("S and G must share one sparsity pattern")
+            raise InvalidInputError("S and G must share one sparsity "
+                                    "pattern")
         self.dim = len(self.G)
         self.N = self.dim * S.shape[1]
         self.elements = elements

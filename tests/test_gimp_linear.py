@@ -80,3 +80,16 @@ def test_sparse_stiffness_equals_dense_sum_over_points(dim):
         op.N, op.N)
     K = op.stiffness(A, w).toarray()
     assert np.abs(K - dense).max() < 1e-13 * np.abs(dense).max()
+
+
+def test_bad_input_is_refused():
+    from scipy.sparse import csr_matrix
+    from skfem import MeshTri
+    from skfem_mpm import InvalidInputError, UnsupportedElementError
+    from skfem_mpm.operators import SparseOperator
+    with pytest.raises(UnsupportedElementError, match="tensor-product"):
+        LinearGimp(MeshTri(), ElementQuad1())
+    S = csr_matrix(np.array([[.5, .5, 0.]]))
+    G = csr_matrix(np.array([[-1., 0., 1.]]))
+    with pytest.raises(InvalidInputError, match="one sparsity pattern"):
+        SparseOperator(S, [G], np.array([0]))
