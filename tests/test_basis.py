@@ -143,3 +143,19 @@ def test_fast_point_forces_equal_asm(family):
     # the total force is kept (partition of unity)
     assert np.allclose(fast.reshape(-1, mesh.dim()).sum(axis=0),
                        f.sum(axis=1), rtol=1e-12)
+
+
+def test_point_mapping_caches_by_identity_and_stays_bounded():
+    from skfem.mapping import MappingIsoparametric
+    from skfem_mpm.mapping import PointMapping
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 4), np.r_[0., .3, 1.])
+    mapping, reference = PointMapping(mesh), MappingIsoparametric(
+        mesh, mesh.elem(), mesh.bndelem)
+    rng = np.random.default_rng(3)
+    for _ in range(5):                     # new points every "step"
+        X = rng.random((2, 4))                # reference points, all cells
+        first = mapping.invDF(X)
+        assert mapping.invDF(X) is first   # computed once per set of points
+        assert np.abs(first - reference.invDF(X)).max() < 1e-14
+        assert np.abs(mapping.detDF(X) - reference.detDF(X)).max() < 1e-15
+    assert len(mapping._entries) == 5      # invDF and the four J: bounded
