@@ -18,6 +18,7 @@ from skfem.element import Element
 from skfem.mesh import Mesh
 
 from .errors import InvalidInputError
+from .linsolve import distinct
 from .locate import locate_points
 from .mapping import fresh_mapping
 from .points import MaterialPoints
@@ -120,7 +121,7 @@ class MaterialPointBasis(CellBasis):
     @property
     def active_dofs(self) -> ndarray:
         """The DOFs of the active elements: grid nodes with point support."""
-        return np.unique(self.element_dofs)
+        return distinct(self.element_dofs, self.N)
 
     def point_values(self, field: ndarray) -> ndarray:
         """Reorder a quadrature field (..., nelems, nqp) into point order

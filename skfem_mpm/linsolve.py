@@ -44,9 +44,23 @@ def support_dofs(supports, basis) -> ndarray:
     return D
 
 
+def distinct(indices: ndarray, n: int) -> ndarray:
+    """The sorted distinct entries of an index array with entries below n,
+    through a mask: linear in the size (``np.unique`` sorts)."""
+    mask = np.zeros(n, dtype=bool)
+    mask[np.ravel(indices)] = True
+    return np.flatnonzero(mask)
+
+
 def free_dofs(active: ndarray, D: ndarray) -> ndarray:
-    """The active DOFs that are not supported."""
-    return np.setdiff1d(active, D, assume_unique=True)
+    """The active DOFs that are not supported (both sorted, distinct)."""
+    if active.size == 0:
+        return active
+    mask = np.zeros(int(max(active[-1], D[-1] if D.size else 0)) + 1,
+                    dtype=bool)
+    mask[active] = True
+    mask[D] = False
+    return np.flatnonzero(mask)
 
 
 def rigid_modes(xyz: ndarray, dim: int) -> ndarray:
@@ -73,11 +87,16 @@ MODE_NAMES = {1: ["translation along x"],
 
 
 def element_adjacency(element_dofs: ndarray, dim: int, n_nodes: int):
-    """Node adjacency (n_nodes, n_nodes) of vector element DOFs
-    (Nbfun, nelems): nodes sharing an element."""
+    """Connectivity graph (n_nodes, n_nodes) of the nodes of vector element
+    DOFs (Nbfun, nelems): each element's nodes joined in a chain, which has
+    the connected components of the full adjacency at a fraction of its
+    size."""
     nodes = element_dofs[::dim] // dim
-    rows = np.repeat(nodes, nodes.shape[0], axis=0).ravel()
-    cols = np.tile(nodes, (nodes.shape[0], 1)).ravel()
+    return edge_graph(nodes[:-1].ravel(), nodes[1:].ravel(), n_nodes)
+
+
+def edge_graph(rows: ndarray, cols: ndarray, n_nodes: int):
+    """Sparse graph (n_nodes, n_nodes) with edges rows[k] -- cols[k]."""
     return coo_matrix((np.ones(rows.size), (rows, cols)),
                       shape=(n_nodes, n_nodes)).tocsr()
 
@@ -99,7 +118,7 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
         ``dim * k + a`` is component a of node k.
 
     """
-    nodes = np.unique(active // dim)
+    nodes = distinct(active // dim, adjacency.shape[0])
     sub = adjacency[nodes][:, nodes]
     ncomp, label = connected_components(sub, directed=False)
     fixed = D[np.isin(D // dim, nodes)]

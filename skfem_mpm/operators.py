@@ -32,7 +32,7 @@ from .errors import InvalidInputError
 from .fastpath import (ElementPattern, local_force, local_load,
                        local_stiffness)
 from .forms import body_force
-from .linsolve import element_adjacency
+from .linsolve import edge_graph, distinct, element_adjacency
 
 __all__ = ["AsmOperator", "SparseOperator"]
 
@@ -134,7 +134,7 @@ class PointOperator:
         self.element_dofs = (dim * self.scalar_dofs[:, None]
                              + np.arange(dim)[:, None]).reshape(
                                  -1, basis.nelems)
-        self.active_dofs = np.unique(self.element_dofs)
+        self.active_dofs = distinct(self.element_dofs, self.N)
 
     def _at_points(self, u: ndarray, shape_fields: ndarray) -> ndarray:
         U = u.reshape(-1, self.dim)[self.scalar_dofs]          # (nloc, e, dim)
@@ -202,15 +202,18 @@ class SparseOperator:
         self.N = self.dim * S.shape[1]
         self.elements = elements
         self.nelems = len(elements)
-        support = np.unique(S.indices)
+        support = distinct(S.indices, S.shape[1])
         self.active_dofs = (self.dim * support[:, None]
                             + np.arange(self.dim)).ravel()
         self._gradient_rows = None
 
     def adjacency(self):
-        pattern = self.S.copy()
-        pattern.data[:] = 1.
-        return (pattern.T @ pattern).tocsr()
+        """The nodes of each point's support joined in a chain."""
+        S = self.S
+        same = np.repeat(np.arange(S.shape[0]), np.diff(S.indptr))
+        link = np.flatnonzero(same[1:] == same[:-1])
+        return edge_graph(S.indices[link], S.indices[link + 1],
+                           S.shape[1])
 
     def _components(self, u: ndarray) -> ndarray:
         return u.reshape(-1, self.dim)
