@@ -96,9 +96,16 @@ def local_stiffness(G: ndarray, A: ndarray, w: ndarray, slots: ndarray):
         we = np.where(slots[e] < 0, 0., np.take(w, slots[e]))
         Ae = (A[..., :1, None] if uniform
               else np.take(A, slots[e], axis=-1)) * we  # (..., chunk, nslots)
-        AG = np.einsum("abcdem,djem->abcjem", Ae, G[:, :, e])
-        local = np.einsum("abcjem,biem->eiajc", AG, G[:, :, e])
-        yield e, local.reshape(-1, nodes * dim, nodes * dim)
+        Ge = G[:, :, e]
+        # AG_abcj = sum_d A_abcd G_dj, per element and slot
+        AG = Ae[:, :, :, 0, None] * Ge[0][None, None, None]
+        for d in range(1, dim):
+            AG += Ae[:, :, :, d, None] * Ge[d][None, None, None]
+        # K_i(ajc) = sum_(b, slot) G_bi AG_abcj: one small matmul an element
+        k = Ge.shape[2]
+        left = Ge.transpose(2, 1, 0, 3).reshape(k, nodes, -1)
+        right = AG.transpose(4, 1, 5, 0, 3, 2).reshape(k, left.shape[2], -1)
+        yield e, np.matmul(left, right).reshape(k, nodes * dim, nodes * dim)
 
 
 def local_force(G: ndarray, P: ndarray) -> ndarray:
