@@ -52,16 +52,6 @@ def principal_frame(b: ndarray, dim: int = 3) -> Tuple[ndarray, ndarray]:
     return x, vecs
 
 
-def sum_over(k: int, term) -> ndarray:
-    """``sum_(i < k) term(i)`` for terms with the points on the last axis:
-    a contraction over a small index as k broadcast products of contiguous
-    point arrays (an einsum would loop over the small index innermost)."""
-    out = term(0)
-    for i in range(1, k):
-        out += term(i)
-    return out
-
-
 def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
                          vecs: ndarray) -> ndarray:
     """Derivative of ``Y = sum_A y_A e_A (x) e_A`` with respect to the
@@ -74,9 +64,9 @@ def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
 
     """
     k = len(x)
-    EA = vecs[:, None] * vecs[None, :]                          # (a,b,A,p)
-    H = sum_over(k, lambda A: EA[:, :, A, None] * dy_dx[A][None, None])
-    T = sum_over(k, lambda B: H[:, :, B, None, None] * EA[None, None, :, :, B])
+    EA = np.einsum("aAp,bAp->abAp", vecs, vecs)
+    T = np.einsum("abBp,cdBp->abcdp",
+                  np.einsum("ABp,abAp->abBp", dy_dx, EA), EA)
     diff = x[:, None] - x[None, :]
     close = np.abs(diff) <= 1e-9 * np.abs(x).max(axis=0)
     limit = np.einsum("AAp->Ap", dy_dx)[:, None] - dy_dx
@@ -85,8 +75,8 @@ def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
     theta[np.arange(k), np.arange(k)] = 0.
     # sum_AB theta_AB (e_A (x) e_B) (x) sym(e_A (x) e_B), from the pairs
     # G_abcd = sum_AB theta_AB (e_A e_A)_ac (e_B e_B)_bd symmetrised in cd
-    M = sum_over(k, lambda A: EA[:, :, A, None] * theta[A][None, None])
-    G = sum_over(k, lambda B: M[:, None, :, None, B] * EA[None, :, None, :, B])
+    G = np.einsum("acBp,bdBp->abcdp",
+                  np.einsum("ABp,acAp->acBp", theta, EA), EA)
     T += .5 * (G + G.transpose(0, 1, 3, 2, 4))
     return T
 
@@ -119,12 +109,9 @@ def hencky_update(material, b_trial: ndarray, dim: int = 3):
     if not (x > 0).all():
         raise FloatingPointError("b_trial is not positive definite")
     tau_p, eps_e, D, yielded = material.principal_update(.5 * np.log(x))
-    EA = vecs[:, None] * vecs[None, :]                          # (a,b,A,p)
-
-    def spectral(values):
-        return sum_over(3, lambda A: values[A] * EA[:, :, A])
-    tau, b_e, strain = (spectral(v) for v in (tau_p, np.exp(2. * eps_e),
-                                              eps_e))
+    tau = np.einsum("Ap,aAp,bAp->abp", tau_p, vecs, vecs)
+    b_e = np.einsum("Ap,aAp,bAp->abp", np.exp(2. * eps_e), vecs, vecs)
+    strain = np.einsum("Ap,aAp,bAp->abp", eps_e, vecs, vecs)
     dtau_db = isotropic_derivative(x[:dim], tau_p[:dim],
                                    (D / (2. * x[None]))[:dim, :dim],
                                    vecs[:dim, :dim])
@@ -137,10 +124,8 @@ def spatial_tangent(dtau_db: ndarray, b_trial: ndarray,
     ``A = 2 dtau/db_tr . b_tr - delta_bc tau_ad`` (the last term is the
     geometric stiffness), in the components of ``dtau_db``."""
     k = dtau_db.shape[0]
-    A = sum_over(k, lambda f: dtau_db[:, :, :, f, None]
-                 * (2. * b_trial[f, :k])[None, None, None])
-    for b in range(k):
-        A[:, b, b] -= tau[:k, :k]
+    A = 2. * np.einsum("abcfp,fdp->abcdp", dtau_db, b_trial[:k, :k])
+    A -= np.einsum("bc,adp->abcdp", np.eye(k), tau[:k, :k])
     return A
 
 
@@ -153,11 +138,10 @@ def pull_back(tau: ndarray, A: ndarray, dF_inv: ndarray, dim: int):
     """
     Fi = dF_inv[:dim, :dim]
     P = np.einsum("abp,ebp->aep", tau[:dim, :dim], Fi)
-    A = A[:dim, :dim, :dim, :dim]
-    X = sum_over(dim, lambda b: A[:, b, None] * Fi[None, :, b, None, None])
-    At = sum_over(dim, lambda d: X[:, :, :, d, None]
-                  * Fi[None, None, None, :, d])
-    return P, At
+    # two two-operand contractions: a three-operand einsum loops over every
+    # index combination (3x slower in 3D)
+    X = np.einsum("ebp,abcdp->aecdp", Fi, A[:dim, :dim, :dim, :dim])
+    return P, np.einsum("aecdp,fdp->aecfp", X, Fi)
 
 
 def inverse_and_det(F: ndarray, dim: int) -> Tuple[ndarray, ndarray]:
