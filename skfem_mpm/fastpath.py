@@ -17,7 +17,7 @@ from scipy.sparse import csr_matrix
 __all__ = ["ElementPattern", "local_stiffness", "local_force",
            "local_load"]
 
-CHUNK = 1024            # elements per block (bounds the temporaries)
+CHUNK = 512             # elements per block (bounds the temporaries)
 
 
 class ElementPattern:
