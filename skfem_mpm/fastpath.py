@@ -82,7 +82,8 @@ def local_stiffness(G: ndarray, A: ndarray, w: ndarray, slots: ndarray):
     ``G`` (dim, nloc, nelems, nslots) holds the shape gradients in the
     padded layout of a material-point basis, ``A`` (dim, dim, dim, dim, n)
     and ``w`` (n,) the tangent and weight of every point, in point order
-    (A may be one tensor broadcast to all points), and ``slots`` (nelems, nslots) the point in every slot (-1 in padding).
+    (A may be one tensor broadcast to all points), and ``slots`` (nelems,
+    nslots) the point in every slot (-1 in padding).
     Yields ``(block, local)``: a slice of the elements and their matrices
     (len, nloc, nloc) in interleaved vector order (node-major); the tangent
     is gathered into the layout one block at a time, so no padded or

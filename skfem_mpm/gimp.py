@@ -29,7 +29,7 @@ from skfem.mesh import Mesh
 
 from .basis import MaterialPointBasis
 from .errors import UnsupportedElementError
-from .gimp_linear import LINEAR_ELEMENTS, LinearGimp
+from .gimp_linear import LINEAR_ELEMENTS, SLIVER, LinearGimp
 from .locate import Locator, tensor_grid
 from .operators import SparseOperator
 from .points import MaterialPoints
@@ -71,7 +71,8 @@ def stretched_domains(domain0: ndarray, F: ndarray) -> ndarray:
     return domain0 * np.einsum("paa->ap", U)
 
 
-def _axis_pieces(a: ndarray, lo: ndarray, hi: ndarray, tol: float = 1e-12):
+def _axis_pieces(a: ndarray, lo: ndarray, hi: ndarray,
+                 tol: float = SLIVER):
     """Pieces of [lo, hi] cut by grid nodes a: lists of (start, end) arrays,
     zero length where a point has fewer pieces.  A domain edge within
     ``tol`` cell sizes of a grid line is on that line (no sliver pieces from

@@ -32,7 +32,7 @@ from .operators import SparseOperator
 __all__ = ["LinearGimp", "LINEAR_ELEMENTS"]
 
 LINEAR_ELEMENTS = (ElementLineP1, ElementQuad1, ElementHex1)
-SLIVER = 1e-12          # relative to the cell size, as in skfem_mpm.gimp
+SLIVER = 1e-12          # relative to the cell size; skfem_mpm.gimp's too
 
 
 def _hat_terms(a: ndarray, node: ndarray, x: ndarray):

@@ -97,7 +97,8 @@ def solver_pypardiso(spd: bool = True) -> Callable:
     and factor structure) and redoes only the numerical factorisation while
     successive matrices share one sparsity pattern, as the Newton iterations
     of a load step do; ``solver.analyses`` counts the analyses.  Its MKL
-    memory is released with the solver.
+    memory is released when the solver is garbage collected (or by calling
+    ``solver.release()``).
 
     """
     _require("pypardiso", "pypardiso")
@@ -105,7 +106,6 @@ def solver_pypardiso(spd: bool = True) -> Callable:
     from pypardiso.pardiso_wrapper import PyPardisoError
 
     pardiso = pypardiso.PyPardisoSolver(mtype=2 if spd else 11)
-    weakref.finalize(pardiso, pardiso.free_memory, everything=True)
     analysed = {}
 
     def solver(A, b, **kwargs):
@@ -140,6 +140,10 @@ def solver_pypardiso(spd: bool = True) -> Callable:
         return x
 
     solver.analyses = 0
+    # MKL's memory goes with the solver function (a finaliser on the Pardiso
+    # object itself would keep it alive through its own bound method)
+    solver.release = weakref.finalize(solver, pardiso.free_memory,
+                                      everything=True)
     return solver
 
 

@@ -67,3 +67,15 @@ def test_pardiso_failure_is_a_singular_system_error():
     indefinite = csr_matrix(np.array([[1., 2.], [2., 1.]]))
     with pytest.raises(SingularSystemError, match="not positive definite"):
         get_solver("pypardiso")(indefinite, np.ones(2))
+
+
+def test_pardiso_memory_goes_with_the_solver():
+    import gc
+    from scipy.sparse import identity
+    pardiso = get_solver("pypardiso")
+    pardiso(identity(3, format="csr"), np.ones(3))
+    release = pardiso.release
+    assert release.alive
+    del pardiso
+    gc.collect()
+    assert not release.alive
