@@ -14,9 +14,9 @@ from pathlib import Path
 import numpy as np
 
 from skfem_mpm import seed_points, solve_finite
-from skfem_mpm.column import (LOAD, MATERIAL, column_error, column_grid,
+from skfem_mpm.studies.column import (LOAD, MATERIAL, column_error, column_grid,
                               column_supports)
-from skfem_mpm.solver import PHASES
+from skfem_mpm.solve.small import PHASES
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "examples"))
 

@@ -2,7 +2,7 @@
 
 The condensed small-strain stiffness of a block of material points (2D
 plane strain Q1 with 2x2 points per cell; 3D hexahedra with 2x2x2 points
-per cell), solved by every installed back end of :mod:`skfem_mpm.solvers`:
+per cell), solved by every installed back end of :mod:`skfem_mpm.solve.backends`:
 seconds, AMG iterations, and the relative residual.
 
     python benchmarks/solvers.py [--max-dofs 5e5] [--3d-points 5e5]
@@ -14,10 +14,10 @@ import numpy as np
 from skfem import ElementHex1, ElementQuad1, ElementVector, MeshHex, MeshQuad
 
 from skfem_mpm import LinearElastic, MaterialPointBasis, seed_points
-from skfem_mpm.linsolve import solve_active
-from skfem_mpm.materials import elastic_tensor
-from skfem_mpm.operators import AsmOperator
-from skfem_mpm.solvers import available_solvers, solver_pyamg
+from skfem_mpm.solve.linear import solve_active
+from skfem_mpm.mechanics.materials import elastic_tensor
+from skfem_mpm.methods.operators import AsmOperator
+from skfem_mpm.solve.backends import available_solvers, solver_pyamg
 
 
 def system(mesh, elem):

@@ -28,9 +28,9 @@ from skfem import ElementHex1, ElementQuad1, MeshHex, MeshQuad
 
 from skfem_mpm import LinearElastic, point_locator, seed_points, solve_finite
 from skfem_mpm import solve_mpm
-from skfem_mpm.solver import PHASES
-from skfem_mpm.solvers import get_solver
-from skfem_mpm.study import PeakMemory
+from skfem_mpm.solve.small import PHASES
+from skfem_mpm.solve.backends import get_solver
+from skfem_mpm.studies.study import PeakMemory
 
 SIZES = {2: (16, 50, 158, 500),            # cells per side: 1e3 .. 1e6 points
          3: (5, 11, 24, 40)}               # 1e3 .. 5.1e5 points

@@ -14,7 +14,7 @@ import numpy as np
 from skfem import ElementQuad1, MeshQuad
 
 from skfem_mpm import LinearElastic, seed_points, solve_finite
-from skfem_mpm.elastica import elastica_tip
+from skfem_mpm.studies.elastica import elastica_tip
 
 LENGTH, DEPTH, E, NU = 10., 1., 12e6, .2
 ALPHA = 10.                                  # P L^2 / (E I) at full load
@@ -62,7 +62,7 @@ newton_iterations = max(len(r.newton_residuals) - 1 for r in result.history)
 
 def visualize(outdir="."):
     from pathlib import Path
-    from skfem_mpm.plot import pyplot, save_figure
+    from skfem_mpm.scenes.plot import pyplot, save_figure
     fig, (ax, ay) = pyplot().subplots(1, 2, figsize=(10, 4))
     ax.plot(alpha, v, "o", ms=3, label="GIMP, vertical")
     ax.plot(alpha, u, "s", ms=3, label="GIMP, horizontal")

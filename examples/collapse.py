@@ -38,7 +38,7 @@ iterations = [len(r.newton_residuals) - 1 for r in result.history]
 
 def visualize(outdir="."):
     from pathlib import Path
-    from skfem_mpm.plot import pyplot, save_figure
+    from skfem_mpm.scenes.plot import pyplot, save_figure
     fig, (ax, ay) = pyplot().subplots(1, 2, figsize=(11, 3.5))
     pts = result.points
     q = np.sqrt(1.5) * np.linalg.norm(

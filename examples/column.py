@@ -11,7 +11,7 @@ Run ``python examples/column.py [OUTDIR]`` to write both figures as PNG.
 """
 import numpy as np
 
-from skfem_mpm.column import column_error, run_column, vertical_stress
+from skfem_mpm.studies.column import column_error, run_column, vertical_stress
 
 # Figure 2.9: stress profiles, 2 points per element
 profiles = {(nel, nsteps): run_column(nel, ppc=2, nsteps=nsteps)
@@ -39,7 +39,7 @@ dim_difference = np.abs(
 
 def visualize(outdir="."):
     from pathlib import Path
-    from skfem_mpm.plot import (draw_column_stress, draw_convergence,
+    from skfem_mpm.scenes.plot import (draw_column_stress, draw_convergence,
                                 pyplot, save_figure)
     plt = pyplot()
     fig, axes = plt.subplots(3, 2, figsize=(8, 10), sharey=True)

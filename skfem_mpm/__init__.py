@@ -5,17 +5,17 @@ assembles forms on a :class:`MaterialPointBasis` and applies boundary
 conditions; this package locates points, moves them and keeps their state.
 
 """
-from .basis import MaterialPointBasis
+from .quadrature.basis import MaterialPointBasis
 from .errors import (ConvergenceError, InvalidInputError, InvalidMaterialError,
                      InversionError, MPMError, NewtonDivergenceError,
                      PointsOutsideGridError, SingularSystemError,
                      UnsupportedElementError)
-from .locate import locate_points, point_locator
+from .quadrature.locate import locate_points, point_locator
 
-from .finite import solve_finite
-from .materials import LinearElastic, VonMises
-from .points import MaterialPoints, seed_gauss_points, seed_points
-from .solver import Result, StepRecord, solve_mpm
+from .solve.finite import solve_finite
+from .mechanics.materials import LinearElastic, VonMises
+from .quadrature.points import MaterialPoints, seed_gauss_points, seed_points
+from .solve.small import Result, StepRecord, solve_mpm
 
 __version__ = "0.1.0"
 

@@ -33,7 +33,7 @@ def arbitrary_points(mesh, n, seed=0):
     X = rng.random((mesh.dim(), n))
     if mesh.refdom.name in ("Triangular", "Tetrahedral"):
         X *= (rng.random(n) / X.sum(axis=0))[None]   # inside the simplex
-    from skfem_mpm.mapping import fresh_mapping
+    from skfem_mpm.quadrature.mapping import fresh_mapping
     x = fresh_mapping(mesh).F(X[:, :, None], tind=tind)[:, :, 0]
     return MaterialPoints(x=x, volume=rng.uniform(.1, 1., n))
 
@@ -103,7 +103,7 @@ def test_bad_basis_input():
 def test_fast_path_equals_asm(family):
     """The vectorised force and stiffness assembly equals scikit-fem's asm
     to round-off (points at random, unequal counts per element)."""
-    from skfem_mpm.operators import AsmOperator, PointOperator
+    from skfem_mpm.methods.operators import AsmOperator, PointOperator
     name, mesh, elem = family
     points = arbitrary_points(mesh, 120, seed=4)
     basis = MaterialPointBasis(mesh, ElementVector(elem), points)
@@ -123,7 +123,7 @@ def test_fast_path_equals_asm(family):
     f1, f2 = fast.force(P, points.volume), reference.force(P, points.volume)
     assert np.abs(f1 - f2).max() <= 1e-13 * np.abs(f2).max()
     # the small-strain stiffness of the solver equals skfem's model
-    from skfem_mpm.materials import elastic_tensor
+    from skfem_mpm.mechanics.materials import elastic_tensor
     K3 = fast.stiffness(elastic_tensor(LinearElastic(2., .3), n, dim),
                         points.volume)
     K4 = asm(linear_elasticity(LinearElastic(2., .3).lam,
@@ -132,7 +132,7 @@ def test_fast_path_equals_asm(family):
 
 
 def test_fast_point_forces_equal_asm(family):
-    from skfem_mpm.operators import AsmOperator, PointOperator
+    from skfem_mpm.methods.operators import AsmOperator, PointOperator
     name, mesh, elem = family
     points = arbitrary_points(mesh, 60, seed=6)
     basis = MaterialPointBasis(mesh, ElementVector(elem), points)
@@ -147,7 +147,7 @@ def test_fast_point_forces_equal_asm(family):
 
 def test_point_mapping_caches_by_identity_and_stays_bounded():
     from skfem.mapping import MappingIsoparametric
-    from skfem_mpm.mapping import PointMapping
+    from skfem_mpm.quadrature.mapping import PointMapping
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 4), np.r_[0., .3, 1.])
     mapping, reference = PointMapping(mesh), MappingIsoparametric(
         mesh, mesh.elem(), mesh.bndelem)

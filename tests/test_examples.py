@@ -36,7 +36,7 @@ def test_column_figure_2_10(column):
 
 def test_column_figure_2_9_and_dimensions(column):
     # 10 elements: 20 steps give about the one-step profile; 100 do not
-    from skfem_mpm.column import column_error
+    from skfem_mpm.studies.column import column_error
     coarse = [column_error(column.profiles[10, n].points) for n in (1, 20)]
     fine = [column_error(column.profiles[100, n].points) for n in (1, 20)]
     assert coarse[1] < 1.1 * coarse[0]
@@ -77,7 +77,7 @@ def test_cantilever_newton_is_quadratic(cantilever):
 
 
 def test_cantilever_gap_at_small_loads_shrinks_with_h(cantilever):
-    from skfem_mpm.elastica import elastica_tip
+    from skfem_mpm.studies.elastica import elastica_tip
     _, alpha, v, u = cantilever.cantilever(h=.25)
     v_ref, u_ref = elastica_tip(alpha * (1 - cantilever.NU ** 2))
     for a in (1., 2.):

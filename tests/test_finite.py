@@ -10,11 +10,11 @@ from skfem_mpm import (ConvergenceError, InvalidInputError, InvalidMaterialError
                        LinearElastic, MaterialPointBasis, MaterialPoints,
                        VonMises,
                        point_locator, seed_points, solve_finite)
-from skfem_mpm.column import (HEIGHT, LOAD, MATERIAL, column_error,
+from skfem_mpm.studies.column import (HEIGHT, LOAD, MATERIAL, column_error,
                               column_grid, column_supports)
-from skfem_mpm.gimp import gimp_operator
-from skfem_mpm.kinematics import hencky_update, spatial_tangent
-from skfem_mpm.operators import AsmOperator
+from skfem_mpm.methods.gimp import gimp_operator
+from skfem_mpm.mechanics.hencky import hencky_update, spatial_tangent
+from skfem_mpm.methods.operators import AsmOperator
 
 
 def run_column(nelems, method, nsteps=20):
@@ -198,7 +198,7 @@ def test_cut_back_then_error_with_the_last_converged_state(caplog):
     carries the last converged state."""
     mesh, elem = column_grid(4, dim=2)
     points = seed_points(mesh, 2)
-    caplog.set_level(logging.WARNING, logger="skfem_mpm.finite")
+    caplog.set_level(logging.WARNING, logger="skfem_mpm.solve.finite")
     with pytest.raises(ConvergenceError) as err:
         solve_finite(mesh, elem, points, LinearElastic(1e3, 0.),
                      column_supports(2), body_force=[0., -1e3], nsteps=2,
@@ -280,8 +280,8 @@ def test_stabilised_tangent_only_where_zero_energy_modes_need_it():
     grid, no stabilisation); a solve refused as singular (zero-energy
     modes) is repeated once with the tangent stabilised on its diagonal."""
     from skfem_mpm import SingularSystemError
-    from skfem_mpm.finite import STABILISATION
-    from skfem_mpm.solvers import solver_direct_checked
+    from skfem_mpm.solve.finite import STABILISATION
+    from skfem_mpm.solve.backends import solver_direct_checked
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 41), np.linspace(0, 1.2, 49))
     pts = seed_points(mesh, 2, region=lambda x: x[1] < 1)
     args = (mesh, ElementQuad1(), pts, LinearElastic(1e5, .3),
@@ -309,7 +309,8 @@ def test_stabilised_tangent_only_where_zero_energy_modes_need_it():
 
 
 def test_failed_step_is_retried_with_the_stabilised_tangent(monkeypatch):
-    from skfem_mpm import NewtonDivergenceError, finite
+    from skfem_mpm import NewtonDivergenceError
+    from skfem_mpm.solve import finite
     attempts, original = [], finite._Step.run
 
     def run(step):
@@ -335,9 +336,9 @@ def test_hard_cantilever_completes(method, error):
     cover newly entered cells; with the exact tangent Newton fails on some
     steps, the stabilised retry (and cut-back) carries every step."""
     from pathlib import Path
-    from skfem_mpm.scene import run_scene
-    from skfem_mpm.scene_file import load_scene
-    from skfem_mpm.study import case_error, configure
+    from skfem_mpm.scenes.scene import run_scene
+    from skfem_mpm.scenes.scene_file import load_scene
+    from skfem_mpm.studies.study import case_error, configure
     scene = configure(load_scene(Path(__file__).parent.parent / "examples"
                                  / "cantilever.toml"),
                       dict(elements=46, ppc=3, method=method))

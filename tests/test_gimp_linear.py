@@ -6,8 +6,8 @@ from skfem import (ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2,
                    MeshHex, MeshLine, MeshQuad)
 
 from skfem_mpm import point_locator
-from skfem_mpm.gimp import gimp_operators, subpoint_gimp_operator
-from skfem_mpm.gimp_linear import LinearGimp
+from skfem_mpm.methods.gimp import gimp_operators, subpoint_gimp_operator
+from skfem_mpm.methods.gimp_linear import LinearGimp
 
 RNG = np.random.default_rng(7)
 GRIDS = {
@@ -86,7 +86,7 @@ def test_bad_input_is_refused():
     from scipy.sparse import csr_matrix
     from skfem import MeshTri
     from skfem_mpm import InvalidInputError, UnsupportedElementError
-    from skfem_mpm.operators import SparseOperator
+    from skfem_mpm.methods.operators import SparseOperator
     with pytest.raises(UnsupportedElementError, match="tensor-product"):
         LinearGimp(MeshTri(), ElementQuad1())
     S = csr_matrix(np.array([[.5, .5, 0.]]))

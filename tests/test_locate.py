@@ -4,7 +4,7 @@ from skfem import MeshHex, MeshLine, MeshQuad, MeshTet, MeshTri
 
 from skfem_mpm import (InvalidInputError, PointsOutsideGridError,
                        UnsupportedElementError, point_locator)
-from skfem_mpm.mapping import fresh_mapping
+from skfem_mpm.quadrature.mapping import fresh_mapping
 
 from meshes import distorted_quads
 

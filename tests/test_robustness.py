@@ -12,11 +12,11 @@ from skfem_mpm import (InvalidInputError, LinearElastic, MaterialPointBasis,
                        MaterialPoints, MPMError, SingularSystemError,
                        locate_points, seed_gauss_points, seed_points,
                        solve_mpm)
-from skfem_mpm.cli import main
+from skfem_mpm.scenes.cli import main
 from skfem_mpm import solve_finite
-from skfem_mpm.column import (LOAD, MATERIAL, column_error, column_grid,
+from skfem_mpm.studies.column import (LOAD, MATERIAL, column_error, column_grid,
                               column_supports, run_column)
-from skfem_mpm.scene import Body, Grid, Scene, Support, run_scene
+from skfem_mpm.scenes.scene import Body, Grid, Scene, Support, run_scene
 
 GRIDS = {
     1: lambda: MeshLine(np.linspace(0, 2, 5)),
@@ -272,7 +272,7 @@ def test_any_input_gives_a_result_or_a_documented_error(x, v, E, nu):
 def sliver_case(sliver):
     """A 2 x 1 block on a grid of h = 0.5, plus (optionally) a sliver: one
     point of volume ``sliver`` cells a hair past the block's right edge."""
-    from skfem_mpm.points import concatenate_points
+    from skfem_mpm.quadrature.points import concatenate_points
     h = .5
     mesh = MeshQuad.init_tensor(np.arange(0, 3.1, h), np.arange(0, 2.1, h))
     points = seed_points(mesh, 2, region=lambda x: (x[0] < 2) & (x[1] < 1))
@@ -285,9 +285,9 @@ def sliver_case(sliver):
 
 def stabilised_condition(mesh, points, gamma):
     """Condition number of the condensed stiffness solve_mpm assembles."""
-    from skfem_mpm.ghost import ghost_penalty
-    from skfem_mpm.materials import elastic_tensor
-    from skfem_mpm.operators import PointOperator
+    from skfem_mpm.stabilisation.ghost import ghost_penalty
+    from skfem_mpm.mechanics.materials import elastic_tensor
+    from skfem_mpm.methods.operators import PointOperator
     material = LinearElastic(1e3, .3)
     op = PointOperator(MaterialPointBasis(mesh, ElementQuad1(), points))
     K = op.stiffness(elastic_tensor(material, points.n, 2), points.volume)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from skfem_mpm import LinearElastic, VonMises
-from skfem_mpm.cli import main
-from skfem_mpm.scene import Body, Grid, PointLoad, Scene, Support, run_scene
-from skfem_mpm.scene_file import load_scene
+from skfem_mpm.scenes.cli import main
+from skfem_mpm.scenes.scene import Body, Grid, PointLoad, Scene, Support, run_scene
+from skfem_mpm.scenes.scene_file import load_scene
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 

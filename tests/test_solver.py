@@ -6,9 +6,9 @@ from skfem_mpm import (InvalidInputError, InvalidMaterialError, LinearElastic,
                        MaterialPoints, PointsOutsideGridError,
                        SingularSystemError, seed_gauss_points, seed_points,
                        solve_mpm)
-from skfem_mpm.column import (column_error, column_grid, run_column,
+from skfem_mpm.studies.column import (column_error, column_grid, run_column,
                               vertical_stress)
-from skfem_mpm.fe import solve_fe
+from skfem_mpm.solve.fe import solve_fe
 
 MAT = LinearElastic(E=210., nu=.3)
 
@@ -202,7 +202,7 @@ def test_zero_energy_mode_of_a_lone_point_is_refused():
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 3), np.linspace(0, 2, 3))
     body = seed_points(mesh, 2, region=lambda x: x[1] < 1)
     lone = MaterialPoints(x=[[.3], [1.6]], volume=[.25], domain=[[.25], [.25]])
-    from skfem_mpm.points import concatenate_points
+    from skfem_mpm.quadrature.points import concatenate_points
     pts = concatenate_points([body, lone])
     with pytest.raises(SingularSystemError, match="zero-energy mode"):
         solve_mpm(mesh, ElementQuad1(), pts, MAT,

@@ -5,7 +5,7 @@ from skfem import ElementHex1, ElementQuad1, MeshHex, MeshQuad
 
 from skfem_mpm import (InvalidInputError, LinearElastic, seed_points,
                        solve_finite, solve_mpm)
-from skfem_mpm.solvers import available_solvers, get_solver, solver_pyamg
+from skfem_mpm.solve.backends import available_solvers, get_solver, solver_pyamg
 
 
 def block(mesh, elem, solver):

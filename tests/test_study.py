@@ -4,10 +4,10 @@ from pathlib import Path
 
 import numpy as np
 
-import skfem_mpm.study as study_module
-from skfem_mpm.cli import EMBEDDED, main
-from skfem_mpm.scene_file import load_scene
-from skfem_mpm.study import fitted_rate, study
+import skfem_mpm.studies.study as study_module
+from skfem_mpm.scenes.cli import EMBEDDED, main
+from skfem_mpm.scenes.scene_file import load_scene
+from skfem_mpm.studies.study import fitted_rate, study
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 COLUMN = load_scene(EMBEDDED)

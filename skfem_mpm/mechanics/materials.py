@@ -13,7 +13,7 @@ from numpy import ndarray
 from skfem.assembly import BilinearForm
 from skfem.models.elasticity import linear_elasticity
 
-from .errors import InvalidMaterialError
+from ..errors import InvalidMaterialError
 
 __all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
            "is_plastic", "elastic_tensor"]
@@ -33,7 +33,7 @@ class LinearElastic:
     Examples
     --------
     >>> import numpy as np
-    >>> from skfem_mpm.materials import LinearElastic
+    >>> from skfem_mpm.mechanics.materials import LinearElastic
     >>> mat = LinearElastic(E=1e6, nu=0.)
     >>> eps = np.zeros((3, 3, 1)); eps[0, 0] = 1e-3
     >>> float(mat.stress(eps)[0, 0, 0])
@@ -106,7 +106,7 @@ class VonMises(LinearElastic):
     Examples
     --------
     >>> import numpy as np
-    >>> from skfem_mpm.materials import VonMises
+    >>> from skfem_mpm.mechanics.materials import VonMises
     >>> mat = VonMises(E=1e6, nu=0.3, yield_stress=20e3)
     >>> eps = np.array([[0.05], [-0.05], [0.]])
     >>> tau, eps_e, D, yielded = mat.principal_update(eps)

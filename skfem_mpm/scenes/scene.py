@@ -16,11 +16,11 @@ from numpy import ndarray
 from skfem import ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2, \
     MeshHex, MeshLine, MeshQuad
 
-from .errors import InvalidInputError
-from .finite import solve_finite
-from .materials import LinearElastic, VonMises
-from .points import MaterialPoints, concatenate_points, seed_points
-from .solver import Result, solve_mpm
+from ..errors import InvalidInputError
+from ..solve.finite import solve_finite
+from ..mechanics.materials import LinearElastic, VonMises
+from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
+from ..solve.small import Result, solve_mpm
 
 __all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
            "build_points", "run_scene", "METHODS", "KINEMATICS",
@@ -132,7 +132,7 @@ class Scene:
         Load steps and, for finite deformation, Newton settings.
     linear_solver
         ``"scipy"``, ``"pypardiso"``, ``"pyamg"`` or ``"auto"``
-        (:mod:`skfem_mpm.solvers`).
+        (:mod:`skfem_mpm.solve.backends`).
     antilocking
         Mean dilatation against volumetric locking (small strain).
     ghost
@@ -278,7 +278,7 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
 
     Examples
     --------
-    >>> from skfem_mpm.scene import Body, Grid, Scene, Support, run_scene
+    >>> from skfem_mpm.scenes.scene import Body, Grid, Scene, Support, run_scene
     >>> from skfem_mpm import LinearElastic
     >>> scene = Scene(grid=Grid([(0., 50., 10)]),
     ...               bodies=[Body("column", [(0., 50.)],

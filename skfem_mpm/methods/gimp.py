@@ -8,7 +8,7 @@ gradient.  The domain is cut into pieces by the grid lines; every piece lies
 in one element and is integrated exactly by a Gauss rule evaluated with the
 scikit-fem element itself (a :class:`~skfem_mpm.MaterialPointBasis` on the
 sub-points), so any tensor-product element family works; linear elements
-take the closed form of :mod:`skfem_mpm.gimp_linear` instead, equal to
+take the closed form of :mod:`skfem_mpm.methods.gimp_linear` instead, equal to
 round-off and without sub-points.  Domains are clipped to the grid.
 
 Two domain updates: ``"ugimp"`` keeps domains fixed; ``"cpgimp"`` stretches
@@ -27,12 +27,12 @@ from scipy.sparse import coo_matrix
 from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 
-from .basis import MaterialPointBasis
-from .errors import UnsupportedElementError
+from ..quadrature.basis import MaterialPointBasis
+from ..errors import UnsupportedElementError
 from .gimp_linear import LINEAR_ELEMENTS, SLIVER, LinearGimp
-from .locate import Locator, tensor_grid
+from ..quadrature.locate import Locator, tensor_grid
 from .operators import SparseOperator
-from .points import MaterialPoints
+from ..quadrature.points import MaterialPoints
 
 __all__ = ["gimp_operator", "gimp_operators", "subpoint_gimp_operator",
            "initial_domains", "stretched_domains"]
@@ -121,7 +121,7 @@ def gimp_operators(mesh: Mesh, elem: Element,
                    locate: Locator) -> Callable[[ndarray, ndarray],
                                                 SparseOperator]:
     """``operator(x, domain)`` giving the GIMP operator of points on this
-    grid: closed form for linear elements (:class:`~skfem_mpm.gimp_linear.
+    grid: closed form for linear elements (:class:`~skfem_mpm.methods.gimp_linear.
     LinearGimp`), Gauss sub-points (:func:`subpoint_gimp_operator`)
     otherwise.  Set up once per run (node numbering), called every step."""
     scalar = elem.elem if isinstance(elem, ElementVector) else elem

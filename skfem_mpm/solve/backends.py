@@ -22,7 +22,7 @@ import numpy as np
 from scipy.sparse import triu
 from scipy.sparse.linalg import splu
 
-from .errors import InvalidInputError, SingularSystemError
+from ..errors import InvalidInputError, SingularSystemError
 
 logger = logging.getLogger(__name__)
 

@@ -13,10 +13,10 @@ from skfem import Basis, asm
 from skfem.element import Element
 from skfem.mesh import Mesh
 
-from .forms import as_body_force, assemble_body_force, full_tensor
-from .linsolve import free_dofs, solve_active, support_dofs
-from .materials import LinearElastic
-from .solver import vector_element
+from ..mechanics.forms import as_body_force, assemble_body_force, full_tensor
+from .linear import free_dofs, solve_active, support_dofs
+from ..mechanics.materials import LinearElastic
+from .small import vector_element
 
 __all__ = ["FEResult", "solve_fe"]
 
@@ -63,7 +63,7 @@ def solve_fe(mesh: Mesh, elem: Element, material: LinearElastic, supports,
     >>> import numpy as np
     >>> from skfem import MeshLine, ElementLineP1
     >>> from skfem_mpm import LinearElastic
-    >>> from skfem_mpm.fe import solve_fe
+    >>> from skfem_mpm.solve.fe import solve_fe
     >>> fe = solve_fe(MeshLine(np.linspace(0., 50., 11)), ElementLineP1(),
     ...               LinearElastic(1e6, 0.), lambda b: b.get_dofs(
     ...                   lambda x: x[0] == 0), body_force=[-800.])

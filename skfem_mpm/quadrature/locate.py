@@ -29,7 +29,7 @@ from scipy.spatial import cKDTree
 from skfem.mesh import Mesh
 from skfem.refdom import RefHex, RefLine, RefQuad, RefTet, RefTri
 
-from .errors import (InvalidInputError, PointsOutsideGridError,
+from ..errors import (InvalidInputError, PointsOutsideGridError,
                      UnsupportedElementError, check_finite)
 from .mapping import fresh_mapping
 

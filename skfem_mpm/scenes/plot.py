@@ -3,10 +3,10 @@ from typing import Dict, Sequence
 
 import numpy as np
 
-from .column import analytical_stress, analytical_stress_current, \
+from ..studies.column import analytical_stress, analytical_stress_current, \
     vertical_stress
 from .io import atomic_path
-from .solver import Result
+from ..solve.small import Result
 
 __all__ = ["pyplot", "save_figure", "draw_column_stress", "draw_convergence",
            "plot_column_stress"]

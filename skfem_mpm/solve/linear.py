@@ -17,8 +17,8 @@ from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import MatrixRankWarning
 from skfem import condense, solve
 
-from .errors import InvalidInputError, SingularSystemError
-from .solvers import get_solver
+from ..errors import InvalidInputError, SingularSystemError
+from .backends import get_solver
 
 __all__ = ["support_dofs", "free_dofs", "element_adjacency",
            "check_rigid_body_modes", "solve_active"]
@@ -157,8 +157,8 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
     scikit-fem's ``condense`` and ``solve``.
 
     ``solver`` is a scikit-fem solver ``f(A, b) -> x`` or a name for
-    :func:`~skfem_mpm.solvers.get_solver`; default
-    :func:`~skfem_mpm.solvers.solver_direct_checked`.  ``x`` holds
+    :func:`~skfem_mpm.solve.backends.get_solver`; default
+    :func:`~skfem_mpm.solve.backends.solver_direct_checked`.  ``x`` holds
     prescribed values on the DOFs that are not free (zero by default).
     ``doflocs`` (dim, N) gives solvers that want them (algebraic multigrid)
     the rigid-body modes of the free DOFs.

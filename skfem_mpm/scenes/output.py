@@ -11,9 +11,9 @@ from typing import Optional
 import numpy as np
 from numpy import ndarray
 
-from .errors import InvalidInputError
+from ..errors import InvalidInputError
 from .io import atomic_path
-from .points import MaterialPoints
+from ..quadrature.points import MaterialPoints
 
 __all__ = ["SeriesWriter", "write_summary", "save_checkpoint",
            "load_checkpoint"]

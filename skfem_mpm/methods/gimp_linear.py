@@ -11,7 +11,7 @@ products of 1D integrals over the domain ``[lo, hi]`` of every axis:
   derivative),
 
 with no sub-points, no point location and no element evaluation; the
-result equals the Gauss sub-point construction of :mod:`skfem_mpm.gimp`
+result equals the Gauss sub-point construction of :mod:`skfem_mpm.methods.gimp`
 to round-off (tested), including its conventions: domains clipped to the
 grid, and a domain edge within ``1e-12`` cell sizes of a grid line put on
 that line (no sliver coupling).
@@ -25,14 +25,14 @@ from skfem.element import (Element, ElementHex1, ElementLineP1,
                            ElementQuad1)
 from skfem.mesh import Mesh
 
-from .errors import UnsupportedElementError
-from .locate import tensor_grid
+from ..errors import UnsupportedElementError
+from ..quadrature.locate import tensor_grid
 from .operators import SparseOperator
 
 __all__ = ["LinearGimp", "LINEAR_ELEMENTS"]
 
 LINEAR_ELEMENTS = (ElementLineP1, ElementQuad1, ElementHex1)
-SLIVER = 1e-12          # relative to the cell size; skfem_mpm.gimp's too
+SLIVER = 1e-12          # relative to the cell size; skfem_mpm.methods.gimp's too
 
 
 def _hat_terms(a: ndarray, node: ndarray, x: ndarray):
@@ -67,7 +67,7 @@ class LinearGimp:
     ----------
     mesh
         An axis-aligned tensor-product grid (see
-        :func:`~skfem_mpm.locate.tensor_grid`).
+        :func:`~skfem_mpm.quadrature.locate.tensor_grid`).
     elem
         ``ElementLineP1``, ``ElementQuad1`` or ``ElementHex1`` (scalar).
 

@@ -31,7 +31,7 @@ def elastica_tip(alphas: ndarray, nodes: int = 401):
 
     Examples
     --------
-    >>> from skfem_mpm.elastica import elastica_tip
+    >>> from skfem_mpm.studies.elastica import elastica_tip
     >>> v, u = elastica_tip([1e-3])
     >>> round(float(v[0] / 1e-3), 4)    # small loads: v/L = alpha / 3
     0.3333

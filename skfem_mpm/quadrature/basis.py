@@ -17,8 +17,8 @@ from skfem.assembly import CellBasis, Dofs
 from skfem.element import Element
 from skfem.mesh import Mesh
 
-from .errors import InvalidInputError
-from .linsolve import distinct
+from ..errors import InvalidInputError
+from ..solve.linear import distinct
 from .locate import locate_points
 from .mapping import fresh_mapping
 from .points import MaterialPoints

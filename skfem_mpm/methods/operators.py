@@ -8,7 +8,7 @@ the points through a :class:`~skfem_mpm.MaterialPointBasis` and assembles
 with scikit-fem's ``asm`` (:class:`AsmOperator`) or its vectorised twin
 (:class:`PointOperator`, the default); GIMP, whose points couple nodes of
 several elements, uses sparse per-point operators built in
-:mod:`skfem_mpm.gimp`.  Both expose:
+:mod:`skfem_mpm.methods.gimp`.  Both expose:
 
 - ``N`` (number of vector DOFs), ``active_dofs``, ``nelems`` (active
   elements),
@@ -27,12 +27,12 @@ from scipy.sparse import csr_matrix
 from skfem.assembly import BilinearForm, LinearForm, asm
 from skfem.helpers import ddot, grad
 
-from .basis import MaterialPointBasis
-from .errors import InvalidInputError
-from .fastpath import (ElementPattern, local_force, local_load,
+from ..quadrature.basis import MaterialPointBasis
+from ..errors import InvalidInputError
+from .assembly import (ElementPattern, local_force, local_load,
                        local_stiffness)
-from .forms import body_force
-from .linsolve import edge_graph, distinct, element_adjacency
+from ..mechanics.forms import body_force
+from ..solve.linear import edge_graph, distinct, element_adjacency
 
 __all__ = ["AsmOperator", "SparseOperator"]
 
@@ -96,7 +96,7 @@ class AsmOperator:
 
 
 class PointOperator:
-    """Standard MPM, vectorised (:mod:`skfem_mpm.fastpath`): the same
+    """Standard MPM, vectorised (:mod:`skfem_mpm.methods.assembly`): the same
     operator as :class:`AsmOperator`, to round-off, from a material-point
     basis of the *scalar* element (the vector DOFs ``dim * k + a`` follow
     scikit-fem's ``ElementVector``).
@@ -106,7 +106,7 @@ class PointOperator:
     basis
         A :class:`~skfem_mpm.MaterialPointBasis` with a scalar element.
     pattern
-        The grid's vector :class:`~skfem_mpm.fastpath.ElementPattern` to
+        The grid's vector :class:`~skfem_mpm.methods.assembly.ElementPattern` to
         share between steps (built on first use when not given).
 
     Attributes

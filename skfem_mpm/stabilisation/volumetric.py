@@ -15,7 +15,7 @@ stiffness.
 import numpy as np
 from numpy import ndarray
 
-from .operators import PointOperator
+from ..methods.operators import PointOperator
 
 __all__ = ["MeanDilatation"]
 
@@ -26,7 +26,7 @@ class MeanDilatation:
     Parameters
     ----------
     op
-        The step's :class:`~skfem_mpm.operators.PointOperator`.
+        The step's :class:`~skfem_mpm.methods.operators.PointOperator`.
     lam, volume
         Per-point lambda (or a scalar) and volumes.
 

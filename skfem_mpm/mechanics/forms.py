@@ -10,7 +10,7 @@ from skfem.assembly import LinearForm, asm
 from skfem.assembly.basis import AbstractBasis
 from skfem.helpers import dot
 
-from .errors import InvalidInputError, check_finite
+from ..errors import InvalidInputError, check_finite
 
 __all__ = ["body_force", "in_plane", "full_tensor", "as_body_force",
            "assemble_body_force"]

@@ -15,7 +15,7 @@ def atomic_path(path):
     Examples
     --------
     >>> import os, tempfile
-    >>> from skfem_mpm.io import atomic_path
+    >>> from skfem_mpm.scenes.io import atomic_path
     >>> target = os.path.join(tempfile.mkdtemp(), "out.txt")
     >>> with atomic_path(target) as tmp:
     ...     _ = open(tmp, "w").write("done")

@@ -12,9 +12,9 @@ import numpy as np
 from numpy import ndarray
 from skfem import ElementLineP1, ElementQuad1, MeshLine, MeshQuad
 
-from .materials import LinearElastic
-from .points import MaterialPoints, seed_points
-from .solver import Result, solve_mpm
+from ..mechanics.materials import LinearElastic
+from ..quadrature.points import MaterialPoints, seed_points
+from ..solve.small import Result, solve_mpm
 
 __all__ = ["HEIGHT", "LOAD", "MATERIAL", "column_grid", "run_column",
            "column_error", "analytical_stress", "analytical_stress_current",
@@ -91,7 +91,7 @@ def run_column(nelems: int, ppc: int = 2, nsteps: int = 1, dim: int = 1,
 
     Examples
     --------
-    >>> from skfem_mpm.column import run_column, column_error
+    >>> from skfem_mpm.studies.column import run_column, column_error
     >>> res = run_column(4, ppc=2, nsteps=1)
     >>> round(column_error(res.points), 6)   # h / (4 L0)
     0.0625

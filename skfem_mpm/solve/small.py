@@ -24,20 +24,20 @@ from skfem.quadrature import get_quadrature
 from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 
-from .basis import MaterialPointBasis
-from .errors import InvalidInputError, PointsOutsideGridError, \
+from ..quadrature.basis import MaterialPointBasis
+from ..errors import InvalidInputError, PointsOutsideGridError, \
     SingularSystemError
-from .forms import as_body_force, full_tensor, in_plane
-from .linsolve import (check_rigid_body_modes, free_dofs, solve_active,
+from ..mechanics.forms import as_body_force, full_tensor, in_plane
+from .linear import (check_rigid_body_modes, free_dofs, solve_active,
                        support_dofs)
-from .locate import Locator, point_locator
-from .materials import LinearElastic, at_points, elastic_tensor
-from .fastpath import ElementPattern
-from .operators import PointOperator
-from .ghost import ghost_penalty
-from .volumetric import MeanDilatation
-from .points import MaterialPoints
-from .solvers import get_solver
+from ..quadrature.locate import Locator, point_locator
+from ..mechanics.materials import LinearElastic, at_points, elastic_tensor
+from ..methods.assembly import ElementPattern
+from ..methods.operators import PointOperator
+from ..stabilisation.ghost import ghost_penalty
+from ..stabilisation.volumetric import MeanDilatation
+from ..quadrature.points import MaterialPoints
+from .backends import get_solver
 
 logger = logging.getLogger(__name__)
 
@@ -187,7 +187,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     points
         Initial material points; copied, not modified.
     material
-        :class:`~skfem_mpm.materials.LinearElastic`.
+        :class:`~skfem_mpm.mechanics.materials.LinearElastic`.
     supports
         Fixed (zero) grid DOFs: DOF indices, a ``DofsView`` or a callable
         taking the grid's vector ``Basis`` (its DOFs and facets cover the
@@ -202,7 +202,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         Optional :func:`~skfem_mpm.point_locator` of ``mesh`` to reuse.
     solver
         Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name from
-        :mod:`skfem_mpm.solvers` (``"scipy"``, ``"pypardiso"``,
+        :mod:`skfem_mpm.solve.backends` (``"scipy"``, ``"pypardiso"``,
         ``"pyamg"``, ``"auto"``); default scipy's SuperLU.
     keep_snapshots
         Keep per-step grid displacements, point positions, displacements
@@ -221,11 +221,11 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         increments)``: grid displacement increments imposed over a step
         (as in :func:`~skfem_mpm.solve_finite`).
     antilocking
-        Mean dilatation on the points (:mod:`skfem_mpm.volumetric`, a
+        Mean dilatation on the points (:mod:`skfem_mpm.stabilisation.volumetric`, a
         B-bar method) against volumetric locking as nu approaches 0.5.
     ghost
         Ghost-penalty factor for partially filled cells
-        (:mod:`skfem_mpm.ghost`, e.g. 0.1); 0: none.
+        (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none.
 
     Returns
     -------

@@ -25,10 +25,10 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from .errors import InvalidInputError, MPMError
-from .io import atomic_path
-from .scene import METHODS, Grid, Scene, run_scene
-from .solver import PHASES
+from ..errors import InvalidInputError, MPMError
+from ..scenes.io import atomic_path
+from ..scenes.scene import METHODS, Grid, Scene, run_scene
+from ..solve.small import PHASES
 
 logger = logging.getLogger(__name__)
 
@@ -195,9 +195,9 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     Examples
     --------
     >>> import tempfile
-    >>> from skfem_mpm.cli import EMBEDDED
-    >>> from skfem_mpm.scene_file import load_scene
-    >>> from skfem_mpm.study import study
+    >>> from skfem_mpm.scenes.cli import EMBEDDED
+    >>> from skfem_mpm.scenes.scene_file import load_scene
+    >>> from skfem_mpm.studies.study import study
     >>> rows = study(load_scene(EMBEDDED), {"elements": [4, 8],
     ...              "loadsteps": [1]}, tempfile.mkdtemp(), progress=False)
     >>> [round(r["error"], 6) for r in rows]
@@ -274,7 +274,7 @@ def fitted_rate(x, y) -> float:
 
 def _finish(fig, ax, xlabel: str, ylabel: str, path: Path) -> Path:
     """Label, legend and write one study figure."""
-    from .plot import save_figure
+    from ..scenes.plot import save_figure
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.legend(fontsize=6)
@@ -287,7 +287,7 @@ def plot_study(rows: List[dict], outdir) -> List[Path]:
     """(a) error against elements with the fitted rate per curve, (b) error
     against wall time per method with the Pareto front, (c) time per phase
     against points with fitted exponents.  Returns the files written."""
-    from .plot import pyplot
+    from ..scenes.plot import pyplot
     plt = pyplot()
     outdir = Path(outdir)
     ok = [r for r in rows if not r.get("failure")]

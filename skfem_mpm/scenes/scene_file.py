@@ -1,4 +1,4 @@
-"""Scene files: a :class:`~skfem_mpm.scene.Scene` in TOML.
+"""Scene files: a :class:`~skfem_mpm.scenes.scene.Scene` in TOML.
 
 Every problem in a file is reported, one line each, naming the key and the
 offending value (unknown keys, wrong types, impossible values), in a
@@ -52,11 +52,11 @@ try:
 except ImportError:                       # Python 3.10
     import tomli as tomllib
 
-from .errors import SceneError
-from .materials import LinearElastic, VonMises
+from ..errors import SceneError
+from ..mechanics.materials import LinearElastic, VonMises
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction)
-from .solvers import FACTORIES
+from ..solve.backends import FACTORIES
 
 __all__ = ["load_scene", "parse_scene", "REFERENCES"]
 
@@ -226,7 +226,7 @@ def _name(c, data):
 
 
 def parse_scene(data: dict, source: str = "") -> Scene:
-    """Build a :class:`~skfem_mpm.scene.Scene` from a parsed TOML tree.
+    """Build a :class:`~skfem_mpm.scenes.scene.Scene` from a parsed TOML tree.
 
     Raises
     ------
@@ -332,8 +332,8 @@ def load_scene(path) -> Scene:
     --------
     >>> from pathlib import Path
     >>> import skfem_mpm
-    >>> from skfem_mpm.scene_file import load_scene
-    >>> scene = load_scene(Path(skfem_mpm.__file__).parent / "column.toml")
+    >>> from skfem_mpm.scenes.scene_file import load_scene
+    >>> scene = load_scene(Path(skfem_mpm.__file__).parent / "scenes" / "column.toml")
     >>> scene.steps, scene.method
     (20, 'mpm')
 

@@ -26,21 +26,21 @@ from numpy import ndarray
 from skfem.element import Element
 from skfem.mesh import Mesh
 
-from .basis import MaterialPointBasis
-from .errors import (InvalidInputError, InversionError, NewtonDivergenceError,
+from ..quadrature.basis import MaterialPointBasis
+from ..errors import (InvalidInputError, InversionError, NewtonDivergenceError,
                      PointsOutsideGridError, SingularSystemError)
-from .forms import as_body_force
-from .gimp import gimp_operators, stretched_domains
-from .kinematics import (hencky_update, inverse_and_det, pull_back,
+from ..mechanics.forms import as_body_force
+from ..methods.gimp import gimp_operators, stretched_domains
+from ..mechanics.hencky import (hencky_update, inverse_and_det, pull_back,
                          spatial_tangent)
-from .linsolve import (check_rigid_body_modes, free_dofs, solve_active,
+from .linear import (check_rigid_body_modes, free_dofs, solve_active,
                        support_dofs)
-from .locate import Locator, point_locator
-from .materials import PointMaterials, at_points, is_plastic
-from .operators import PointOperator
-from .points import MaterialPoints
-from .solvers import get_solver
-from .solver import (PHASES, Result, StepRecord, check_run_input,
+from ..quadrature.locate import Locator, point_locator
+from ..mechanics.materials import PointMaterials, at_points, is_plastic
+from ..methods.operators import PointOperator
+from ..quadrature.points import MaterialPoints
+from .backends import get_solver
+from .small import (PHASES, Result, StepRecord, check_run_input,
                      grid_parts, point_loads)
 
 logger = logging.getLogger(__name__)

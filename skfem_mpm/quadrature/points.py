@@ -27,7 +27,7 @@ from skfem.mesh import Mesh
 from skfem.quadrature import get_quadrature
 from skfem.refdom import RefLine, RefQuad, RefHex, RefTri
 
-from .errors import InvalidInputError, UnsupportedElementError, check_finite
+from ..errors import InvalidInputError, UnsupportedElementError, check_finite
 from .locate import tensor_grid
 from .mapping import fresh_mapping
 
@@ -271,7 +271,7 @@ def concatenate_points(parts) -> MaterialPoints:
     --------
     >>> from skfem import MeshQuad
     >>> from skfem_mpm import seed_points
-    >>> from skfem_mpm.points import concatenate_points
+    >>> from skfem_mpm.quadrature.points import concatenate_points
     >>> mesh = MeshQuad().refined(1)
     >>> a = seed_points(mesh, 1, region=lambda x: x[0] < .5)
     >>> b = seed_points(mesh, 1, region=lambda x: x[0] > .5)

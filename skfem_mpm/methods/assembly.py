@@ -26,7 +26,7 @@ class ElementPattern:
     Examples
     --------
     >>> import numpy as np
-    >>> from skfem_mpm.fastpath import ElementPattern
+    >>> from skfem_mpm.methods.assembly import ElementPattern
     >>> pattern = ElementPattern(np.array([[0, 1], [1, 2]]), 3)
     >>> local = np.ones((1, 2, 2))
     >>> pattern.matrix([(np.array([1]), local)]).toarray().tolist()

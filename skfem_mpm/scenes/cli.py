@@ -12,8 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InvalidInputError, MPMError, SceneError
-from .solver import PHASES
+from ..errors import InvalidInputError, MPMError, SceneError
+from ..solve.small import PHASES
 
 DESCRIPTION = """\
 Implicit Material Point Method on scikit-fem.
@@ -31,7 +31,7 @@ Implicit Material Point Method on scikit-fem.
                                       accuracy against cost over a grid of
                                       choices (--workers N: local Dask)
 
-Scene files are TOML; `python -c "import skfem_mpm.scene_file as s;
+Scene files are TOML; `python -c "import skfem_mpm.scenes.scene_file as s;
 print(s.__doc__)"` lists every key, and examples/*.toml are ready to run.
 """
 
@@ -112,7 +112,7 @@ class StopRun(Exception):
 
 def summarise(scene, result, seconds: float) -> dict:
     """The numbers of a run, for ``summary.json`` and the terminal."""
-    from .study import case_error
+    from ..studies.study import case_error
     pts = result.points
     history = result.history
     summary = {
@@ -304,7 +304,7 @@ def compare(args) -> int:
 
 def parse_vary(items):
     """``["elements=4,8", "method=mpm,cpgimp"]`` as a dict of lists."""
-    from .study import DEFAULT_VARY
+    from ..studies.study import DEFAULT_VARY
     if not items:
         return dict(DEFAULT_VARY)
     vary = {}
@@ -326,7 +326,7 @@ def parse_vary(items):
 
 def run_study(args) -> int:
     from .scene_file import load_scene
-    from .study import VARIABLES, fitted_rate, plot_study, study
+    from ..studies.study import VARIABLES, fitted_rate, plot_study, study
 
     scene = load_scene(args.scene)
     vary = parse_vary(args.vary)
