@@ -16,7 +16,7 @@ import numpy as np
 from skfem_mpm import seed_points, solve_finite
 from skfem_mpm.studies.column import (LOAD, MATERIAL, column_error, column_grid,
                               column_supports)
-from skfem_mpm.solve.small import PHASES
+from skfem_mpm.solve.results import PHASES
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "examples"))
 

@@ -28,7 +28,7 @@ from skfem import ElementHex1, ElementQuad1, MeshHex, MeshQuad
 
 from skfem_mpm import LinearElastic, point_locator, seed_points, solve_finite
 from skfem_mpm import solve_mpm
-from skfem_mpm.solve.small import PHASES
+from skfem_mpm.solve.results import PHASES
 from skfem_mpm.solve.backends import get_solver
 from skfem_mpm.studies.study import PeakMemory
 

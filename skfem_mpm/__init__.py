@@ -12,10 +12,14 @@ from .errors import (ConvergenceError, InvalidInputError, InvalidMaterialError,
                      UnsupportedElementError)
 from .quadrature.locate import locate_points, point_locator
 
-from .solve.finite import solve_finite
 from .mechanics.materials import LinearElastic, VonMises
 from .quadrature.points import MaterialPoints, seed_gauss_points, seed_points
-from .solve.small import Result, StepRecord, solve_mpm
+from .solve.core import simulate
+from .solve.fe import solve_fe
+from .solve.finite import solve_finite
+from .solve.loads import GridLoad, Pressure, Traction, side_points
+from .solve.results import Result, StepRecord
+from .solve.small import solve_mpm
 
 __version__ = "0.1.0"
 
@@ -25,5 +29,6 @@ __all__ = [
     "InvalidMaterialError", "PointsOutsideGridError", "SingularSystemError",
     "UnsupportedElementError", "LinearElastic", "solve_mpm", "Result",
     "StepRecord", "VonMises", "solve_finite", "ConvergenceError",
-    "NewtonDivergenceError", "InversionError",
+    "NewtonDivergenceError", "InversionError", "simulate", "solve_fe",
+    "Traction", "Pressure", "GridLoad", "side_points",
 ]

@@ -22,6 +22,8 @@ from typing import Tuple
 import numpy as np
 from numpy import ndarray
 
+from .materials import initial_state
+
 __all__ = ["hencky_update", "spatial_tangent", "pull_back",
            "inverse_and_det"]
 
@@ -81,41 +83,47 @@ def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
     return T
 
 
-def hencky_update(material, b_trial: ndarray, dim: int = 3):
+def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None):
     """Stress update from the trial elastic left Cauchy-Green tensor.
 
     Parameters
     ----------
     material
-        Provides ``principal_update(eps_trial) -> (tau, eps_e, D, yielded)``
-        on principal values (3, n) with the algorithmic tangent D (3, 3, n).
+        Follows the material protocol (:mod:`skfem_mpm.mechanics.materials`):
+        ``principal_update(eps_trial, state) -> (tau, eps_e, D, yielded,
+        state)`` on principal values (3, n), tangent D (3, 3, n).
     b_trial
         (3, 3, n).
     dim
         Dimension of the grid: below 3 the out-of-plane axes are principal
         (plane strain, uniaxial strain) and only the in-plane tangent is
         formed.
+    state
+        The points' internal variables at the start of the step.
 
     Returns
     -------
-    tau, b_e, eps_e, dtau_db, yielded
+    tau, b_e, eps_e, dtau_db, yielded, state
         Kirchhoff stress, updated elastic left Cauchy-Green tensor and
         elastic logarithmic strain (3, 3, n), derivative of the in-plane
         tau with respect to the in-plane b_trial (dim, dim, dim, dim, n),
-        and the points that yielded.
+        the points that yielded and the updated internal variables.
 
     """
     x, vecs = principal_frame(b_trial, dim)
     if not (x > 0).all():
         raise FloatingPointError("b_trial is not positive definite")
-    tau_p, eps_e, D, yielded = material.principal_update(.5 * np.log(x))
+    if state is None:
+        state = initial_state(material, x.shape[1])
+    tau_p, eps_e, D, yielded, state = material.principal_update(
+        .5 * np.log(x), state)
     tau = np.einsum("Ap,aAp,bAp->abp", tau_p, vecs, vecs)
     b_e = np.einsum("Ap,aAp,bAp->abp", np.exp(2. * eps_e), vecs, vecs)
     strain = np.einsum("Ap,aAp,bAp->abp", eps_e, vecs, vecs)
     dtau_db = isotropic_derivative(x[:dim], tau_p[:dim],
                                    (D / (2. * x[None]))[:dim, :dim],
                                    vecs[:dim, :dim])
-    return tau, b_e, strain, dtau_db, yielded
+    return tau, b_e, strain, dtau_db, yielded, state
 
 
 def spatial_tangent(dtau_db: ndarray, b_trial: ndarray,

@@ -1,9 +1,36 @@
-"""Constitutive models.
+"""Constitutive models and the protocol they follow.
 
 Stresses and strains are full symmetric 3x3 tensors, shape (3, 3, ...):
 plane strain is the 3D law with ``eps_zz = eps_xz = eps_yz = 0`` and 1D is
 uniaxial strain (all lateral strains zero), so one law serves every
 dimension.
+
+The material protocol
+---------------------
+A material is an object with
+
+- ``lam``, ``mu``: elastic Lame parameters (they scale the ghost penalty
+  and the mean dilatation, and give the elastic tangent);
+- ``plastic``: ``True`` if an update may involve a return map (a purely
+  elastic body never runs one);
+- ``state_variables``: a dict ``{name: initial value}`` of the per-point
+  internal variables the model carries (e.g. the equivalent plastic
+  strain); the points carry them in ``MaterialPoints.state`` through steps,
+  checkpoints and output without the solver knowing their meaning;
+- ``principal_update(eps, state) -> (tau, eps_e, D, yielded, new_state)``:
+  the isotropic return map on principal values, vectorised over points:
+  trial elastic strains ``eps`` (3, n) (logarithmic in finite deformation,
+  infinitesimal in small strain), the state at the start of the step
+  (``{name: (n,) array}``, never modified) to principal stresses ``tau``
+  (Kirchhoff in finite deformation, Cauchy in small strain), elastic
+  strains ``eps_e`` (3, n), the algorithmic tangent ``D = dtau/deps``
+  (3, 3, n), the points that yielded (n,) and the new state;
+- ``stress(strain)`` for elastic materials: the linear law, which small
+  strain uses without any return map.
+
+The kinematics (:mod:`skfem_mpm.mechanics.kinematics`) turn principal
+values into tensors and consistent tangents, so a model written once works
+in small strain and in finite deformation.
 
 """
 from dataclasses import dataclass
@@ -16,7 +43,8 @@ from skfem.models.elasticity import linear_elasticity
 from ..errors import InvalidMaterialError
 
 __all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
-           "is_plastic", "elastic_tensor"]
+           "is_plastic", "elastic_tensor", "state_variables",
+           "initial_state"]
 
 
 @dataclass(frozen=True)
@@ -43,8 +71,16 @@ class LinearElastic:
     E: float
     nu: float
 
+    plastic = False
+    state_variables = {}
+
     def __post_init__(self):
-        E, nu = float(self.E), float(self.nu)
+        try:
+            E, nu = float(self.E), float(self.nu)
+        except (TypeError, ValueError):
+            raise InvalidMaterialError(
+                "E and nu must be numbers, got E = {!r}, nu = {!r}".format(
+                    self.E, self.nu)) from None
         if not np.isfinite(E) or E <= 0:
             raise InvalidMaterialError(
                 "Young's modulus E must be positive and finite, got {}"
@@ -72,14 +108,15 @@ class LinearElastic:
             out[i, i] += self.lam * trace
         return out
 
-    def principal_update(self, eps: ndarray):
-        """Principal Kirchhoff stresses of principal logarithmic strains
-        (3, n): Hencky hyperelasticity.  Returns ``(tau, eps_e, D, yielded)``
-        with the tangent ``D = dtau/deps`` (3, 3, n)."""
+    def principal_update(self, eps: ndarray, state=None):
+        """Principal stresses of principal elastic strains (3, n): Hencky
+        hyperelasticity in finite deformation, Hooke's law in small strain.
+        Returns ``(tau, eps_e, D, yielded, state)`` with the tangent
+        ``D = dtau/deps`` (3, 3, n); no internal variables."""
         tau = 2 * self.mu * eps + self.lam * eps.sum(axis=0)
         D = np.broadcast_to(self.principal_stiffness()[:, :, None],
                             (3, 3, eps.shape[1]))
-        return tau, eps, D, np.zeros(eps.shape[1], dtype=bool)
+        return tau, eps, D, np.zeros(eps.shape[1], dtype=bool), {}
 
     def principal_stiffness(self) -> ndarray:
         """``lam 1 (x) 1 + 2 mu I`` on principal values, (3, 3)."""
@@ -93,8 +130,9 @@ class LinearElastic:
 @dataclass(frozen=True)
 class VonMises(LinearElastic):
     """Von Mises elasto-plasticity, linear elastic and perfectly plastic,
-    with the return map in principal logarithmic strains (the exponential
-    map of finite-deformation plasticity).
+    with the radial return map in principal strains (logarithmic ones in
+    finite deformation: the exponential map).  Internal variable:
+    ``equivalent_plastic_strain``, ``sqrt(2/3) |eps_p|`` accumulated.
 
     Parameters
     ----------
@@ -109,7 +147,8 @@ class VonMises(LinearElastic):
     >>> from skfem_mpm.mechanics.materials import VonMises
     >>> mat = VonMises(E=1e6, nu=0.3, yield_stress=20e3)
     >>> eps = np.array([[0.05], [-0.05], [0.]])
-    >>> tau, eps_e, D, yielded = mat.principal_update(eps)
+    >>> tau, eps_e, D, yielded, state = mat.principal_update(
+    ...     eps, {"equivalent_plastic_strain": np.zeros(1)})
     >>> bool(yielded[0]), round(float(np.sqrt(1.5) * np.linalg.norm(
     ...     tau[:, 0] - tau[:, 0].mean())), 6)
     (True, 20000.0)
@@ -117,22 +156,29 @@ class VonMises(LinearElastic):
     """
     yield_stress: float
 
+    plastic = True
+    state_variables = {"equivalent_plastic_strain": 0.}
+
     def __post_init__(self):
         super().__post_init__()
-        if not float(self.yield_stress) > 0:
+        if not isinstance(self.yield_stress, (int, float, np.floating,
+                                              np.integer)) \
+                or not float(self.yield_stress) > 0 \
+                or not np.isfinite(float(self.yield_stress)):
             raise InvalidMaterialError(
                 "yield_stress must be positive, got {}".format(
                     self.yield_stress))
 
-    def principal_update(self, eps: ndarray):
-        tau, _, D, _ = LinearElastic.principal_update(self, eps)
+    def principal_update(self, eps: ndarray, state):
+        tau, _, D, _, _ = LinearElastic.principal_update(self, eps)
         p = tau.mean(axis=0)
         s = tau - p
         norm_s = np.linalg.norm(s, axis=0)
         q = np.sqrt(1.5) * norm_s
         yielded = q > self.yield_stress * (1 + 1e-12)
+        eq = state["equivalent_plastic_strain"]
         if not yielded.any():
-            return tau, eps, D, yielded
+            return tau, eps, D, yielded, {"equivalent_plastic_strain": eq}
         ratio = np.where(yielded, self.yield_stress / np.where(yielded, q, 1.),
                          1.)
         tau = p + ratio * s
@@ -144,7 +190,9 @@ class VonMises(LinearElastic):
         Dp = bulk * np.ones((3, 3, 1)) + 2 * self.mu * ratio * (
             dev[:, :, None] - np.einsum("ap,bp->abp", n, n))
         D = np.where(yielded, Dp, D)
-        return tau, eps_e, D, yielded
+        # plastic multiplier: (q_trial - yield) / (3 mu) on the yielded points
+        eq = eq + np.where(yielded, q - self.yield_stress, 0.) / (3 * self.mu)
+        return tau, eps_e, D, yielded, {"equivalent_plastic_strain": eq}
 
 
 class PointMaterials:
@@ -166,6 +214,8 @@ class PointMaterials:
                 .format(int(self.body.max()), len(self.materials)))
         self.lam = np.array([m.lam for m in self.materials])[self.body]
         self.mu = np.array([m.mu for m in self.materials])[self.body]
+        self.plastic = any(m.plastic for m in self.materials)
+        self.state_variables = state_variables(self.materials)
 
     def take(self, points) -> "PointMaterials":
         """The materials of a subset of the points (an index or slice)."""
@@ -175,16 +225,23 @@ class PointMaterials:
         """``2 mu eps + lam tr(eps) I`` with per-point Lame parameters."""
         return LinearElastic.stress(self, strain)
 
-    def principal_update(self, eps: ndarray):
+    def principal_update(self, eps: ndarray, state):
+        """Each body's model on its points; a body's internal variables
+        stay unchanged on the points of other bodies."""
         tau, eps_e = np.empty_like(eps), np.empty_like(eps)
         D = np.empty((3, 3, eps.shape[1]))
         yielded = np.zeros(eps.shape[1], dtype=bool)
+        new = {name: value.copy() for name, value in state.items()}
         for k, material in enumerate(self.materials):
-            sel = self.body == k
-            if sel.any():
-                tau[:, sel], eps_e[:, sel], D[:, :, sel], yielded[sel] = \
-                    material.principal_update(eps[:, sel])
-        return tau, eps_e, D, yielded
+            sel = np.flatnonzero(self.body == k)
+            if sel.size:
+                tau[:, sel], eps_e[:, sel], D[:, :, sel], yielded[sel], \
+                    mine = material.principal_update(
+                        eps[:, sel], {name: state[name][sel]
+                                      for name in material.state_variables})
+                for name, value in mine.items():
+                    new[name][sel] = value
+        return tau, eps_e, D, yielded, new
 
 
 def at_points(material, points) -> object:
@@ -197,10 +254,22 @@ def at_points(material, points) -> object:
 
 
 def is_plastic(material) -> bool:
-    """Whether a stress update involves a return map."""
-    if isinstance(material, PointMaterials):
-        return any(is_plastic(m) for m in material.materials)
-    return isinstance(material, VonMises)
+    """Whether a stress update may involve a return map."""
+    return bool(getattr(material, "plastic", False))
+
+
+def state_variables(materials) -> dict:
+    """The internal variables ``{name: initial value}`` of several
+    materials; a name declared twice must have one initial value."""
+    out = {}
+    for material in materials:
+        for name, value in getattr(material, "state_variables", {}).items():
+            if name in out and out[name] != value:
+                raise InvalidMaterialError(
+                    "state variable {!r} has two initial values ({} and {})"
+                    .format(name, out[name], value))
+            out[name] = value
+    return out
 
 
 def elastic_tensor(material, n: int, dim: int, lam=None) -> ndarray:
@@ -221,3 +290,9 @@ def elastic_tensor(material, n: int, dim: int, lam=None) -> ndarray:
     return (np.einsum("ab,cd,p->abcdp", eye, eye, lam)
             + np.einsum("ac,bd,p->abcdp", eye, eye, mu)
             + np.einsum("ad,bc,p->abcdp", eye, eye, mu))
+
+
+def initial_state(material, n: int) -> dict:
+    """The internal variables of ``n`` points at their initial values."""
+    return {name: np.full(n, float(value)) for name, value in
+            getattr(material, "state_variables", {}).items()}

@@ -15,7 +15,13 @@ State is kept as a struct of arrays, points along the last axis:
 - ``F`` and ``be`` (3, 3, n): deformation gradient and elastic left
   Cauchy-Green tensor (finite deformation),
 - ``domain`` (dim, n) or ``None``: GIMP domain half-lengths,
-- ``body`` (n,) integers: which body (and material) each point belongs to.
+- ``body`` (n,) integers: which body (and material) each point belongs to,
+- ``state``: the materials' internal variables, ``{name: (n,) array}``
+  (e.g. ``equivalent_plastic_strain``), set by the solvers from the
+  materials' ``state_variables``.
+
+``strain`` is the elastic strain: infinitesimal in small strain (equal to
+the total strain of an elastic body), logarithmic in finite deformation.
 
 """
 from dataclasses import dataclass, fields
@@ -69,6 +75,7 @@ class MaterialPoints:
     be: Optional[ndarray] = None
     domain: Optional[ndarray] = None
     body: Optional[ndarray] = None
+    state: Optional[dict] = None
 
     def __post_init__(self):
         self.x = np.array(self.x, dtype=np.float64)
@@ -125,6 +132,26 @@ class MaterialPoints:
                 "({},), got {}".format(n, self.body.shape))
         if self.domain is not None and not (self.domain > 0).all():
             raise InvalidInputError("domain half-lengths must be positive")
+        state = {} if self.state is None else self.state
+        if not isinstance(state, dict):
+            raise InvalidInputError("state must be a dict of per-point "
+                                    "arrays, got {}".format(type(state)))
+        self.state = {}
+        names = {f.name for f in fields(self)}
+        for name, value in state.items():
+            if not isinstance(name, str) or not name.isidentifier() \
+                    or name in names:
+                raise InvalidInputError(
+                    "state variable names must be identifiers other than "
+                    "the point fields ({}), got {!r}".format(
+                        ", ".join(sorted(names)), name))
+            value = np.array(value, dtype=np.float64)
+            if value.shape != (n,):
+                raise InvalidInputError(
+                    "state variable {!r} must have shape ({},), got {}"
+                    .format(name, n, value.shape))
+            check_finite("state variable " + name, value)
+            self.state[name] = value
 
     @property
     def dim(self) -> int:
@@ -282,7 +309,16 @@ def concatenate_points(parts) -> MaterialPoints:
     """
     parts = list(parts)
     kwargs = {}
+    names = set(parts[0].state)
+    if any(set(p.state) != names for p in parts):
+        raise InvalidInputError(
+            "cannot join point sets with different state variables: {}"
+            .format([sorted(p.state) for p in parts]))
+    kwargs["state"] = {name: np.concatenate([p.state[name] for p in parts])
+                       for name in names}
     for f in fields(MaterialPoints):
+        if f.name == "state":
+            continue
         values = [getattr(p, f.name) for p in parts]
         if any(v is None for v in values):
             if not all(v is None for v in values):

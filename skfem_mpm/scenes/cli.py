@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InvalidInputError, MPMError, SceneError
-from ..solve.small import PHASES
+from ..solve.results import PHASES
 
 DESCRIPTION = """\
 Implicit Material Point Method on scikit-fem.

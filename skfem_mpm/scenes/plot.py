@@ -6,7 +6,7 @@ import numpy as np
 from ..studies.column import analytical_stress, analytical_stress_current, \
     vertical_stress
 from .io import atomic_path
-from ..solve.small import Result
+from ..solve.results import Result
 
 __all__ = ["pyplot", "save_figure", "draw_column_stress", "draw_convergence",
            "plot_column_stress"]

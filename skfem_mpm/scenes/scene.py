@@ -17,10 +17,10 @@ from skfem import ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2, \
     MeshHex, MeshLine, MeshQuad
 
 from ..errors import InvalidInputError
-from ..solve.finite import solve_finite
-from ..mechanics.materials import LinearElastic, VonMises
+from ..mechanics.materials import LinearElastic, VonMises, is_plastic
+from ..solve.core import RHS, simulate
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
-from ..solve.small import Result, solve_mpm
+from ..solve.results import Result
 
 __all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
            "build_points", "run_scene", "METHODS", "KINEMATICS",
@@ -126,17 +126,23 @@ class Scene:
         ``"fem"`` (points fixed: finite elements with the points as
         quadrature), ``"mpm"``, ``"ugimp"`` or ``"cpgimp"``.
     kinematics
-        ``"small"`` (the seed's incremental small-strain scheme, one linear
-        solve per step) or ``"finite"`` (Newton per step).
+        ``"small"`` (the seed's incremental small-strain scheme: one linear
+        solve per step for elastic bodies, Newton for plastic ones) or
+        ``"finite"`` (Newton per step).  Every method works with both.
     steps, tolerance, max_iterations
         Load steps and, for finite deformation, Newton settings.
     linear_solver
         ``"scipy"``, ``"pypardiso"``, ``"pyamg"`` or ``"auto"``
         (:mod:`skfem_mpm.solve.backends`).
     antilocking
-        Mean dilatation against volumetric locking (small strain).
+        Mean dilatation (B-bar) against volumetric locking (``"mpm"``,
+        ``"fem"``; any kinematics).
     ghost
-        Ghost-penalty factor for partially filled cells (small strain).
+        Ghost-penalty factor for partially filled cells (any method and
+        kinematics).
+    rhs
+        ``"residual"`` or ``"increment"`` (the seed's literal scheme,
+        small-strain elastic scenes): see :func:`~skfem_mpm.simulate`.
     """
     grid: Grid
     bodies: List[Body]
@@ -154,6 +160,7 @@ class Scene:
     linear_solver: str = "scipy"
     antilocking: bool = False
     ghost: float = 0.
+    rhs: str = "residual"
 
     def check(self):
         """Raise :class:`~skfem_mpm.errors.InvalidInputError` for
@@ -164,20 +171,19 @@ class Scene:
         if self.kinematics not in KINEMATICS:
             raise InvalidInputError("kinematics must be one of {}, got {!r}"
                                     .format(KINEMATICS, self.kinematics))
-        if self.kinematics == "small" and self.method in ("ugimp", "cpgimp"):
+        if self.antilocking and self.method in ("ugimp", "cpgimp"):
             raise InvalidInputError(
-                "GIMP is offered with kinematics = 'finite' only")
-        if (self.antilocking or self.ghost) and self.kinematics != "small":
-            raise InvalidInputError("antilocking and ghost are offered with "
-                                    "kinematics = 'small' only")
-        if self.kinematics == "finite" and self.method == "fem":
+                "antilocking (mean dilatation) averages over the points of "
+                "each grid cell: it needs method 'mpm' or 'fem', not {!r}"
+                .format(self.method))
+        if self.rhs not in RHS:
+            raise InvalidInputError("rhs must be one of {}, got {!r}".format(
+                RHS, self.rhs))
+        if self.rhs == "increment" and (self.kinematics != "small" or any(
+                is_plastic(b.material) for b in self.bodies)):
             raise InvalidInputError(
-                "method 'fem' is offered with kinematics = 'small' only")
-        plastic = [b.name for b in self.bodies
-                   if isinstance(b.material, VonMises)]
-        if plastic and self.kinematics == "small":
-            raise InvalidInputError(
-                "plastic bodies {} need kinematics = 'finite'".format(plastic))
+                "rhs = 'increment' (the seed's one-solve scheme) is for "
+                "small-strain elastic scenes")
         if not self.bodies:
             raise InvalidInputError("a scene needs at least one body")
 
@@ -297,16 +303,11 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     material = materials[0] if len(materials) == 1 else materials
     supports = scene_supports(scene, mesh.dim())
     prescribed = scene_prescribed(scene, mesh.dim())
-    if scene.kinematics == "small":
-        return solve_mpm(mesh, elem, points, material, supports,
-                         body_force=scene.gravity, nsteps=scene.steps,
-                         update_positions=scene.method != "fem",
-                         first_step=first_step, callback=callback,
-                         prescribed=prescribed, solver=scene.linear_solver,
-                         antilocking=scene.antilocking, ghost=scene.ghost)
-    return solve_finite(mesh, elem, points, material, supports,
-                        body_force=scene.gravity, nsteps=scene.steps,
-                        method=scene.method, prescribed=prescribed,
-                        tol=scene.tolerance, max_iter=scene.max_iterations,
-                        first_step=first_step, domain0=domain0,
-                        callback=callback, solver=scene.linear_solver)
+    return simulate(mesh, elem, points, material, supports,
+                    body_force=scene.gravity, nsteps=scene.steps,
+                    method=scene.method, kinematics=scene.kinematics,
+                    prescribed=prescribed, rhs=scene.rhs,
+                    antilocking=scene.antilocking, ghost=scene.ghost,
+                    tol=scene.tolerance, max_iter=scene.max_iterations,
+                    first_step=first_step, domain0=domain0,
+                    callback=callback, solver=scene.linear_solver)

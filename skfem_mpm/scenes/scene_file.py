@@ -40,8 +40,10 @@ offending value (unknown keys, wrong types, impossible values), in a
     tolerance = 1e-9
     max_iterations = 25
     linear = "scipy"                # pypardiso pyamg auto
-    antilocking = false             # mean dilatation (small strain)
-    ghost = 0.0                     # ghost penalty for cut cells (small)
+    antilocking = false             # mean dilatation, B-bar (mpm, fem)
+    ghost = 0.0                     # ghost penalty for cut cells
+    rhs = "residual"                # or "increment": the seed's literal
+                                    # scheme (small-strain elastic scenes)
 
 """
 import math
@@ -54,6 +56,7 @@ except ImportError:                       # Python 3.10
 
 from ..errors import SceneError
 from ..mechanics.materials import LinearElastic, VonMises
+from ..solve.core import RHS
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction)
 from ..solve.backends import FACTORIES
@@ -294,7 +297,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             traction=c.vector(t, key, "traction", dim, [0.] * dim)))
     solver = c.table(data.get("solver", {}), "solver",
                      ("method", "kinematics", "steps", "tolerance",
-                      "max_iterations", "linear", "antilocking", "ghost"))
+                      "max_iterations", "linear", "antilocking", "ghost",
+                      "rhs"))
     method = c.choice(solver, "solver", "method", METHODS, "mpm")
     kinematics = c.choice(solver, "solver", "kinematics", KINEMATICS, "small")
     scene = Scene(
@@ -311,7 +315,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         linear_solver=c.choice(solver, "solver", "linear",
                                tuple(FACTORIES), "scipy"),
         antilocking=c.boolean(solver, "solver", "antilocking"),
-        ghost=c.number(solver, "solver", "ghost", 0., low=0., open_low=False))
+        ghost=c.number(solver, "solver", "ghost", 0., low=0., open_low=False),
+        rhs=c.choice(solver, "solver", "rhs", RHS, "residual"))
     if not c.problems:
         try:
             scene.check()

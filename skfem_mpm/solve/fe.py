@@ -16,7 +16,7 @@ from skfem.mesh import Mesh
 from ..mechanics.forms import as_body_force, assemble_body_force, full_tensor
 from .linear import free_dofs, solve_active, support_dofs
 from ..mechanics.materials import LinearElastic
-from .small import vector_element
+from .core import vector_element
 
 __all__ = ["FEResult", "solve_fe"]
 

@@ -22,7 +22,7 @@ from numpy import ndarray
 from skfem import BilinearForm, InteriorFacetBasis, asm
 from skfem.helpers import dot, grad, mul
 
-__all__ = ["ghost_penalty", "cut_cells"]
+__all__ = ["ghost_penalty", "cut_cells", "GhostStabilisation"]
 
 
 @BilinearForm
@@ -68,3 +68,39 @@ def ghost_penalty(mesh, elem, fill: ndarray, mu: ndarray,
     return sum((-1) ** (i + j) * asm(normal_derivative_jump, sides[j],
                                      sides[i], weight=weight)
                for i in (0, 1) for j in (0, 1))
+
+
+class GhostStabilisation:
+    """The ghost penalty as a piece of the load step: ``matrix(op,
+    points)`` is the step's penalty ``G`` (or ``None``), which the core adds
+    to the tangent and, times the displacement increment, to the internal
+    force, in any kinematics (``G`` is constant over a step: Newton keeps
+    its rate).
+
+    Parameters
+    ----------
+    mesh, elem
+        The grid and its vector element.
+    gamma
+        Penalty factor (dimensionless, e.g. 0.1); positive.
+    material
+        The points' material(s): ``mu`` per point scales the penalty.
+
+    """
+
+    def __init__(self, mesh, elem, gamma: float, material):
+        from skfem import Basis
+        self.mesh, self.elem, self.gamma = mesh, elem, gamma
+        self.material = material
+        self.cell_volume = Basis(mesh, elem.elem if hasattr(elem, "elem")
+                                 else elem).dx.sum(axis=1)
+
+    def matrix(self, op, points):
+        cells = op.point_elements
+        n = self.mesh.nelements
+        filled = np.bincount(cells, points.volume, n)
+        mu = np.bincount(cells, points.volume * np.broadcast_to(
+            self.material.mu, (points.n,)), n) / np.maximum(
+                filled, np.finfo(float).tiny)
+        return ghost_penalty(self.mesh, self.elem, filled / self.cell_volume,
+                             mu, self.gamma)

@@ -1,63 +1,121 @@
-"""Mean dilatation on the material points: an anti-locking option for
-nearly incompressible small-strain elasticity (a B-bar method).
+"""Mean dilatation on the material points: the B-bar method (Hughes 1980)
+against volumetric locking, in small strain and finite deformation.
 
-The volumetric strain of every point is replaced by the volume average of
-its element, ``theta_e = sum_p V_p div(u)_p / sum_p V_p``, and the Lame
-parameter lambda by its element average, so the lambda term of the
-stiffness is ``lambda_e V_e b_e b_e^T`` with ``b_e`` the averaged
-divergence operator: one volumetric constraint per element instead of one
-per point, which removes volumetric locking of Q1 elements as nu -> 0.5.
-The stress of a point is ``2 mu eps_p + lambda_e theta_e I`` and the
-internal force ``sum_p V_p sigma_p : grad(v)`` stays consistent with the
-stiffness.
+The volumetric part of every point's displacement gradient is replaced by
+the volume average over the points of its element,
+
+    grad_bar(u) = grad(u) + (theta_e(u) - div(u)) I / dim,
+    theta_e(u) = sum_p V_p div(u)_p / sum_p V_p,
+
+one volumetric constraint per element instead of one per point, which
+removes the locking of Q1 elements as nu -> 0.5.  The modified gradient is
+linear in the displacement, so wrapping the step's point operator is all it
+takes: stresses follow from ``grad_bar`` (of the increment, in finite
+deformation ``dF = I + grad_bar(du)``, the B-bar extension of Moran, Ortiz
+and Shih, 1990), and internal force and tangent use the same operator, so
+Newton keeps its quadratic rate.  Homogeneous deformations are unchanged
+(``theta_e = div(u)``): the patch test still passes.
 
 """
 import numpy as np
 from numpy import ndarray
 
+from ..errors import InvalidInputError
 from ..methods.operators import PointOperator
 
 __all__ = ["MeanDilatation"]
 
 
+def _traces(A: ndarray, dim: int):
+    """``tr1_cd = A_aacd``, ``tr2_ab = A_abcc`` and ``tr12 = A_aacc``."""
+    tr1 = np.einsum("aacdp->cdp", A)
+    tr2 = np.einsum("abccp->abp", A)
+    return tr1, tr2, np.einsum("aap->p", tr1)
+
+
 class MeanDilatation:
-    """Element averages of one step's point operator.
+    """The B-bar twin of one step's :class:`~skfem_mpm.methods.operators.
+    PointOperator`: same interface, gradients ``grad_bar``.
 
     Parameters
     ----------
     op
-        The step's :class:`~skfem_mpm.methods.operators.PointOperator`.
-    lam, volume
-        Per-point lambda (or a scalar) and volumes.
+        The step's point operator (standard MPM or FE: GIMP points span
+        several cells, which have no single average).
+    volume
+        Point volumes weighting the element averages, (n,).
 
     """
 
-    def __init__(self, op: PointOperator, lam, volume: ndarray):
-        self.op = op
+    def __init__(self, op, volume: ndarray):
+        if not isinstance(op, PointOperator):
+            raise InvalidInputError(
+                "antilocking (mean dilatation) averages over the points of "
+                "each grid cell: it needs method 'mpm' or 'fem', not GIMP "
+                "(whose points span several cells)")
+        self.op, self.dim = op, op.dim
+        for name in ("N", "nelems", "elements", "active_dofs", "values",
+                     "point_force", "adjacency", "point_elements", "basis"):
+            setattr(self, name, getattr(op, name))
         basis = op.basis
-        W = basis.quadrature_field(volume)                  # (e, m)
-        self.volume = W.sum(axis=1)                         # V_e
-        self.lam = (basis.quadrature_field(np.broadcast_to(
-            lam, volume.shape) * volume)).sum(axis=1) / self.volume
-        # averaged divergence operator b_e: (e, nloc_nodes, dim)
+        W = basis.quadrature_field(volume)                   # (e, slots)
+        # averaged gradient b_e: theta_e(u) = sum_ia b_e[i, a] u_ia
         self.b = np.einsum("aiem,em->eia", op.shape_gradients, W) \
-            / self.volume[:, None, None]
+            / W.sum(axis=1)[:, None, None]
 
-    def theta(self, u: ndarray) -> ndarray:
-        """Mean volumetric strain of every point's element, (n,)."""
-        U = u.reshape(-1, self.op.dim)[self.op.scalar_dofs]       # (nloc, e, dim)
-        per_element = np.einsum("eia,iea->e", self.b, U)
-        return self.op.basis.point_values(np.broadcast_to(
-            per_element[:, None], self.op.basis.point_index.shape))
+    def _element_values(self, u: ndarray) -> ndarray:
+        """theta_e(u) at every point, (n,)."""
+        U = u.reshape(-1, self.dim)[self.op.scalar_dofs]     # (nloc, e, dim)
+        theta = np.einsum("eia,iea->e", self.b, U)
+        basis = self.op.basis
+        return basis.point_values(np.broadcast_to(
+            theta[:, None], basis.point_index.shape))
 
-    def lam_at_points(self) -> ndarray:
-        """Element-averaged lambda at every point, (n,)."""
-        return self.op.basis.point_values(np.broadcast_to(
-            self.lam[:, None], self.op.basis.point_index.shape))
+    def gradients(self, u: ndarray) -> ndarray:
+        g = self.op.gradients(u)
+        shift = (self._element_values(u) - np.einsum("aap->p", g)) / self.dim
+        return g + np.eye(self.dim)[:, :, None] * shift
 
-    def stiffness(self):
-        """``sum_e lambda_e V_e b_e b_e^T`` in the grid's pattern."""
-        b = self.b.reshape(len(self.volume), -1)            # node-major
-        local = (self.lam * self.volume)[:, None, None] * b[:, :, None] \
-            * b[:, None, :]
-        return self.op.pattern().matrix([(self.op.elements, local)])
+    def _scatter_elements(self, local: ndarray) -> ndarray:
+        """Element vectors (e, nloc, dim) onto the grid."""
+        return np.bincount(self.op.element_dofs.ravel(),
+                           weights=local.reshape(len(local), -1).T.ravel(),
+                           minlength=self.N)
+
+    def force(self, P: ndarray, w: ndarray) -> ndarray:
+        eye = np.eye(self.dim)[:, :, None]
+        mean = np.einsum("aap->p", P) / self.dim
+        s = self.op.basis.quadrature_field(w * mean).sum(axis=1)    # (e,)
+        return self.op.force(P - eye * mean, w) \
+            + self._scatter_elements(self.b * s[:, None, None])
+
+    def stiffness(self, A: ndarray, w: ndarray):
+        dim = self.dim
+        uniform = A.strides[-1] == 0
+        An = A[..., :1] if uniform else A
+        tr1, tr2, tr12 = _traces(An, dim)
+        eye = np.eye(dim)
+        dd = np.einsum("ab,cd->abcd", eye, eye)[..., None]
+        deviatoric = An - (np.einsum("ab,cdp->abcdp", eye, tr1)
+                           + np.einsum("abp,cd->abcdp", tr2, eye)) / dim \
+            + dd * tr12 / dim ** 2
+        R = (tr1 - eye[:, :, None] * tr12 / dim) / dim       # row: theta_v
+        L = (tr2 - eye[:, :, None] * tr12 / dim) / dim       # column: theta_u
+        if uniform:
+            n = A.shape[-1]
+            deviatoric = np.broadcast_to(deviatoric, deviatoric.shape[:-1]
+                                         + (n,))
+            R, L, tr12 = (np.broadcast_to(a, a.shape[:-1] + (n,))
+                          for a in (R, L, tr12))
+        basis, G = self.op.basis, self.op.shape_gradients  # (dim, nloc, e, m)
+        field = basis.quadrature_field
+        h_row = np.einsum("cdem,djem->ejc", field(R * w), G)
+        h_col = np.einsum("abem,biem->eia", field(L * w), G)
+        vol = field(tr12 * w).sum(axis=1) / dim ** 2
+        e = len(self.b)
+        b = self.b.reshape(e, -1)
+        local = b[:, :, None] * h_row.reshape(e, -1)[:, None, :] \
+            + h_col.reshape(e, -1)[:, :, None] * b[:, None, :] \
+            + vol[:, None, None] * b[:, :, None] * b[:, None, :]
+        return self.op.stiffness(deviatoric, w) \
+            + self.op.pattern().matrix([(self.elements, local)])

@@ -14,7 +14,8 @@ from skfem import ElementLineP1, ElementQuad1, MeshLine, MeshQuad
 
 from ..mechanics.materials import LinearElastic
 from ..quadrature.points import MaterialPoints, seed_points
-from ..solve.small import Result, solve_mpm
+from ..solve.results import Result
+from ..solve.small import solve_mpm
 
 __all__ = ["HEIGHT", "LOAD", "MATERIAL", "column_grid", "run_column",
            "column_error", "analytical_stress", "analytical_stress_current",

@@ -28,7 +28,7 @@ import numpy as np
 from ..errors import InvalidInputError, MPMError
 from ..scenes.io import atomic_path
 from ..scenes.scene import METHODS, Grid, Scene, run_scene
-from ..solve.small import PHASES
+from ..solve.results import PHASES
 
 logger = logging.getLogger(__name__)
 
@@ -51,8 +51,8 @@ def refine(scene: Scene, elements: int) -> Scene:
 
 
 def configure(scene: Scene, params: dict) -> Scene:
-    """The scene with one case's choices applied.  ``method = "fem"`` runs
-    small strain, GIMP finite deformation, MPM the scene's kinematics."""
+    """The scene with one case's choices applied (every method runs with
+    the scene's kinematics)."""
     out = scene
     if "elements" in params:
         out = refine(out, int(params["elements"]))
@@ -62,10 +62,7 @@ def configure(scene: Scene, params: dict) -> Scene:
     if "loadsteps" in params:
         out = replace(out, steps=int(params["loadsteps"]))
     if "method" in params:
-        method = params["method"]
-        kinematics = {"fem": "small", "ugimp": "finite",
-                      "cpgimp": "finite"}.get(method, out.kinematics)
-        out = replace(out, method=method, kinematics=kinematics)
+        out = replace(out, method=params["method"])
     return out
 
 

@@ -1,0 +1,267 @@
+"""Kinematics: how a displacement increment on the grid becomes stresses
+and tangents at the points, whatever the material.
+
+Two pieces share one interface, so the load-step core never asks which is
+present.  ``kinematics.response(op, du, points)`` evaluates the trial state
+of a grid displacement increment ``du`` (gradients through the step's point
+operator ``op``) and returns a :class:`Response` with
+
+- ``P`` (dim, dim, n) and ``w`` (n,): the internal force is
+  ``op.force(P, w)``;
+- ``tangent()`` (dim, dim, dim, dim, n): the consistent tangent, assembled
+  as ``op.stiffness(tangent, w)``;
+- ``commit(points)``: the points' new stress, strain, deformation and
+  internal variables once the step has converged (positions are the
+  core's business).
+
+:class:`SmallStrain` is the seed's incremental small-strain scheme (points'
+volumes fixed, ``eps += sym(grad du)``; an elastic body takes Hooke's law
+and its constant tangent, a plastic one the return map on principal values
+with the consistent tangent).  :class:`FiniteStrain` is the updated
+Lagrangian multiplicative scheme with Hencky strains
+(:mod:`skfem_mpm.mechanics.hencky`); with an operator that stays in the
+initial configuration (``method = "fem"``) it is the total Lagrangian
+scheme of finite elements: the increment's gradient is mapped through the
+start-of-step deformation gradient.
+
+"""
+import copy
+from typing import Callable
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import InversionError
+from .forms import full_tensor
+from .hencky import (hencky_update, inverse_and_det, isotropic_derivative,
+                     principal_frame, pull_back, spatial_tangent)
+from .materials import PointMaterials, elastic_tensor, is_plastic
+
+__all__ = ["SmallStrain", "FiniteStrain", "Response", "KINEMATICS",
+           "point_blocks"]
+
+KINEMATICS = ("small", "finite")
+POINT_BLOCK = 2048     # points per block of the constitutive update
+
+
+def point_blocks(n: int, size: int = POINT_BLOCK):
+    """Slices covering n points in blocks of ``size``."""
+    return [slice(s, min(s + size, n)) for s in range(0, n, size)]
+
+
+def material_block(material, block: slice):
+    """The material(s) of a block of points."""
+    if isinstance(material, PointMaterials):
+        return material.take(block)
+    return material
+
+
+def state_block(state: dict, block: slice) -> dict:
+    return {name: value[block] for name, value in state.items()}
+
+
+class Response:
+    """The trial state of one displacement increment.
+
+    Attributes
+    ----------
+    P, w
+        Stress measure and weights of the internal force.
+    yielded
+        Points on the yield surface (n,).
+
+    """
+
+    def __init__(self, P: ndarray, w: ndarray, yielded: ndarray,
+                 tangent: Callable[[], ndarray], commit: Callable):
+        self.P, self.w, self.yielded = P, w, yielded
+        self._tangent, self._commit = tangent, commit
+
+    def tangent(self) -> ndarray:
+        """The consistent tangent (dim, dim, dim, dim, n)."""
+        return self._tangent()
+
+    def commit(self, points):
+        """A new state: ``points`` with the converged stress, strain,
+        deformation and internal variables (positions unchanged)."""
+        return self._commit(points)
+
+
+class SmallStrain:
+    """Small strain: ``eps_n+1 = eps_n + sym(grad du)``, weights the fixed
+    point volumes.
+
+    Parameters
+    ----------
+    material
+        A material (protocol of :mod:`skfem_mpm.mechanics.materials`), or
+        :class:`~skfem_mpm.mechanics.materials.PointMaterials`.
+    dim
+        Dimension of the grid.
+    counters
+        The run's counters (``return_maps`` counts plastic updates).
+
+    """
+
+    name = "small"
+
+    def __init__(self, material, dim: int, counters: dict):
+        self.material, self.dim, self.counters = material, dim, counters
+        self.plastic = is_plastic(material)
+        self._elastic = None
+
+    def elastic_tangent(self, n: int) -> ndarray:
+        """Hooke's tensor of every point (a broadcast when uniform)."""
+        if self._elastic is None or self._elastic.shape[-1] != n:
+            self._elastic = elastic_tensor(self.material, n, self.dim)
+        return self._elastic
+
+    def response(self, op, du: ndarray, points) -> Response:
+        grad = op.gradients(du)
+        deps = full_tensor(.5 * (grad + grad.transpose(1, 0, 2)))
+        dim = self.dim
+        if not self.plastic:
+            stress = points.stress + self.material.stress(deps)
+            strain = points.strain + deps
+
+            def commit(old):
+                new = copy.copy(old)
+                new.stress, new.strain = stress, strain
+                return new
+            return Response(stress[:dim, :dim], points.volume,
+                            np.zeros(points.n, dtype=bool),
+                            lambda: self.elastic_tangent(points.n), commit)
+        self.counters["return_maps"] += 1
+        x, vecs = principal_frame(points.strain + deps, dim)
+        sig, eps_e, D, yielded, state = self.material.principal_update(
+            x, points.state)
+        stress = np.einsum("Ap,aAp,bAp->abp", sig, vecs, vecs)
+        strain = np.einsum("Ap,aAp,bAp->abp", eps_e, vecs, vecs)
+
+        def tangent():
+            return isotropic_derivative(x[:dim], sig[:dim], D[:dim, :dim],
+                                        vecs[:dim, :dim])
+
+        def commit(old):
+            new = copy.copy(old)
+            new.stress, new.strain, new.state = stress, strain, state
+            return new
+        return Response(stress[:dim, :dim], points.volume, yielded, tangent,
+                        commit)
+
+
+def deformation_increment(grad_du: ndarray) -> ndarray:
+    """``dF = I + grad(du)`` as (3, 3, n) from in-plane (dim, dim, n)."""
+    dim, n = grad_du.shape[0], grad_du.shape[-1]
+    dF = np.repeat(np.eye(3)[:, :, None], n, axis=2)
+    dF[:dim, :dim] += grad_du
+    return dF
+
+
+class FiniteStrain:
+    """Finite deformation: ``dF = I + grad_n(du)``, ``b_tr = dF b_n dF^T``,
+    Hencky stress update, weights the initial volumes (Kirchhoff stress).
+
+    Parameters
+    ----------
+    material, dim, counters
+        As in :class:`SmallStrain`.
+    total_lagrangian
+        The point operator stays in the initial configuration (finite
+        elements): gradients of the increment are mapped through the
+        start-of-step ``F``.
+
+    """
+
+    name = "finite"
+
+    def __init__(self, material, dim: int, counters: dict,
+                 total_lagrangian: bool = False):
+        self.material, self.dim, self.counters = material, dim, counters
+        self.plastic = is_plastic(material)
+        self.total_lagrangian = total_lagrangian
+        self._buffers = None
+        self._step_inverse = None
+
+    def _workspace(self, n: int):
+        """Arrays reused by every Newton iteration (memory)."""
+        if self._buffers is None or self._buffers[0].shape[-1] != n:
+            self._buffers = (np.empty((3, 3, n)), np.empty((3, 3, n)),
+                             np.empty((self.dim,) * 4 + (n,)),
+                             np.empty(n, dtype=bool))
+        return self._buffers
+
+    def response(self, op, du: ndarray, points) -> Response:
+        dim = self.dim
+        grad = op.gradients(du)
+        F_inv = None
+        if self.total_lagrangian:         # grad_X(du) F_n^-1 = grad_xn(du)
+            F_inv = inverse_and_det(points.F, dim)[0][:dim, :dim]
+            grad = np.einsum("abp,bcp->acp", grad, F_inv)
+        dF = deformation_increment(grad)
+        dF_inv, detdF = inverse_and_det(dF, dim)
+        bad = np.flatnonzero(~(detdF > 0))
+        if bad.size:
+            raise InversionError(
+                "{} point(s) invert (det dF <= 0), first {} at x = {}".format(
+                    bad.size, bad[:5].tolist(), points.x[:, bad[0]].tolist()))
+        if F_inv is not None:             # gradients live at X, not x_n
+            dF_inv = dF_inv.copy()
+            dF_inv[:dim, :dim] = np.einsum("abp,bcp->acp", F_inv,
+                                           dF_inv[:dim, :dim])
+        b_tr, tau, dtau_db, yielded = self._workspace(points.n)
+        state = {}
+        for block in point_blocks(points.n):
+            b_tr[..., block] = np.einsum("abp,bcp,dcp->adp", dF[..., block],
+                                         points.be[..., block], dF[..., block])
+            tau[..., block], _, _, dtau_db[..., block], yielded[block], \
+                new = hencky_update(material_block(self.material, block),
+                                    b_tr[..., block], dim,
+                                    state_block(points.state, block))
+            for name, value in new.items():
+                state.setdefault(name, np.empty(points.n))[block] = value
+        self.counters["return_maps"] += self.plastic
+        P = np.einsum("abp,ebp->aep", tau[:dim, :dim], dF_inv[:dim, :dim])
+
+        def tangent():
+            """Pulled back to the operator's configuration, written over
+            ``dtau_db`` (not needed after)."""
+            for block in point_blocks(points.n):
+                A = spatial_tangent(dtau_db[..., block], b_tr[..., block],
+                                    tau[..., block])
+                dtau_db[..., block] = pull_back(tau[..., block], A,
+                                                dF_inv[..., block], dim)[1]
+            return dtau_db
+
+        def commit(old):
+            new = copy.copy(old)
+            new.F = np.einsum("abp,bcp->acp", dF, old.F)
+            J = inverse_and_det(new.F, dim)[1]
+            if not (J > 0).all():
+                raise InversionError("det F <= 0 at {} point(s)".format(
+                    int((J <= 0).sum())))
+            new.be, new.strain = self.elastic_state(b_tr, old.state)
+            new.stress = tau / J
+            new.volume = J * old.volume0
+            new.state = state
+            return new
+        return Response(P, points.volume0, yielded.copy(), tangent, commit)
+
+    def elastic_state(self, b_tr: ndarray, state: dict):
+        """Elastic left Cauchy-Green tensor and logarithmic strain of the
+        converged trial state (not kept during the iterations: memory)."""
+        b_e, strain = np.empty_like(b_tr), np.empty_like(b_tr)
+        for block in point_blocks(b_tr.shape[-1]):
+            _, b_e[..., block], strain[..., block], _, _, _ = hencky_update(
+                material_block(self.material, block), b_tr[..., block],
+                self.dim, state_block(state, block))
+        self.counters["return_maps"] += self.plastic
+        return b_e, strain
+
+
+def make_kinematics(name: str, material, dim: int, counters: dict,
+                    total_lagrangian: bool = False):
+    """The kinematics piece called ``name`` (``"small"`` or ``"finite"``)."""
+    if name == "small":
+        return SmallStrain(material, dim, counters)
+    return FiniteStrain(material, dim, counters, total_lagrangian)

@@ -1,0 +1,111 @@
+"""Methods: how the points of a load step become its point operator.
+
+A method piece answers, for the load-step core: where are the points
+(``locate``), what is the step's point operator (``operator``), do the
+points move at the end of a step (``moves``), and how do GIMP domains
+follow the deformation (``domains``).
+
+- ``"fem"``: finite elements with the points as quadrature: the points are
+  located once and never move, so the operator is built once (in finite
+  deformation the scheme is total Lagrangian);
+- ``"mpm"``: standard MPM, the scikit-fem element evaluated at the points
+  (:class:`~skfem_mpm.methods.operators.PointOperator`), rebuilt every step
+  at the points' positions (updated Lagrangian);
+- ``"ugimp"``, ``"cpgimp"``: GIMP, weights averaged over the points'
+  domains (:mod:`skfem_mpm.methods.gimp`); cpGIMP stretches the domains
+  with the deformation, uGIMP keeps them.  GIMP needs an axis-aligned
+  tensor-product grid and point domains: refused at set-up otherwise.
+
+"""
+import time
+from typing import Optional
+
+from numpy import ndarray
+
+from ..errors import InvalidInputError, PointsOutsideGridError
+from ..quadrature.basis import MaterialPointBasis
+from .gimp import gimp_operators, stretched_domains
+from .operators import PointOperator
+
+__all__ = ["METHODS", "make_method"]
+
+METHODS = ("fem", "mpm", "ugimp", "cpgimp")
+
+
+class PointMethod:
+    """Standard MPM (``moves=True``) or finite elements with the points
+    as quadrature (``moves=False``: located once, operator kept).  Every
+    operator carries ``point_elements``, the cell holding each point."""
+
+    def __init__(self, name: str, mesh, scalar, scalar_dofs, pattern,
+                 locate, counters: dict):
+        self.name, self.mesh, self.scalar = name, mesh, scalar
+        self.scalar_dofs, self.pattern = scalar_dofs, pattern
+        self._locate, self.counters = locate, counters
+        self.moves = name != "fem"
+        self._operator = None
+
+    def locate(self, points, step: int, timings: dict):
+        """Element and local coordinates of the points; the error carries
+        the step and the (last converged) points."""
+        tic = time.perf_counter()
+        self.counters["locate"] += 1
+        try:
+            return self._locate(points.x)
+        except PointsOutsideGridError as err:
+            err.step, err.state = step, points
+            raise
+        finally:
+            timings["locate"] += time.perf_counter() - tic
+
+    def operator(self, points, step: int, timings: dict):
+        """The step's point operator (seconds go to ``timings``: locate,
+        assemble)."""
+        if self._operator is not None:
+            return self._operator
+        location = self.locate(points, step, timings)
+        tic = time.perf_counter()
+        op = PointOperator(MaterialPointBasis(
+            self.mesh, self.scalar, points, location, dofs=self.scalar_dofs),
+            self.pattern)
+        op.point_elements = location[0]
+        if not self.moves:
+            self._operator = op
+        timings["assemble"] += time.perf_counter() - tic
+        return op
+
+    def domains(self, domain0: Optional[ndarray], F: ndarray):
+        return None
+
+
+class GimpMethod(PointMethod):
+    """uGIMP (domains fixed) or cpGIMP (domains stretched by ``U``)."""
+
+    def __init__(self, name, mesh, scalar, scalar_dofs, pattern, locate,
+                 counters):
+        super().__init__(name, mesh, scalar, scalar_dofs, pattern, locate,
+                         counters)
+        self.gimp = gimp_operators(mesh, scalar, locate)
+
+    def operator(self, points, step: int, timings: dict):
+        location = self.locate(points, step, timings)   # inside the grid
+        tic = time.perf_counter()
+        op = self.gimp(points.x, points.domain)
+        op.point_elements = location[0]
+        timings["assemble"] += time.perf_counter() - tic
+        return op
+
+    def domains(self, domain0: Optional[ndarray], F: ndarray):
+        if self.name == "cpgimp":
+            return stretched_domains(domain0, F)
+        return None
+
+
+def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
+                counters: dict):
+    """The method piece called ``name`` (one of :data:`METHODS`)."""
+    if name not in METHODS:
+        raise InvalidInputError("method must be one of {}, got {!r}".format(
+            METHODS, name))
+    kind = GimpMethod if name in ("ugimp", "cpgimp") else PointMethod
+    return kind(name, mesh, scalar, scalar_dofs, pattern, locate, counters)

@@ -1,0 +1,453 @@
+"""The load-step core: one loop for every method, kinematics, material,
+stabilisation and load.
+
+A load step reads like the seed's Algorithm 2.1 and its finite-deformation
+extension::
+
+    locate the points, build the step's point operator      (method)
+    supports, prescribed motion and free DOFs               (supports)
+    map the external forces                                 (loads)
+    iterate:
+        stresses and tangent of the increment               (kinematics,
+                                                             material)
+        internal force, out-of-balance force                (+ stabilisation)
+        converged?  else assemble the tangent, solve
+    update the points: state, positions, domains            (kinematics,
+                                                             method)
+
+The pieces are objects the loop calls and never inspects: a method
+(:mod:`skfem_mpm.methods.method`), a kinematics
+(:mod:`skfem_mpm.mechanics.kinematics`) with its material
+(:mod:`skfem_mpm.mechanics.materials`), stabilisations (the mean
+dilatation wraps the point operator; the ghost penalty adds a matrix) and
+the loads (:mod:`skfem_mpm.solve.loads`).
+
+A linear step (small strain, elastic) takes exactly one linear solve: the
+iteration's first residual is the out-of-balance force
+``f_ext(n+1) - f_int(sigma_n)`` (``rhs="residual"``) or, the seed's literal
+scheme, the load increment ``f_ext(n+1) - f_ext(n)`` (``rhs="increment"``,
+which leaves the out-of-balance force of earlier steps uncorrected: its
+residual is reported, not enforced).  A nonlinear step iterates
+Newton-Raphson with the consistent tangent; a step whose Newton loop fails
+or that inverts a point is retried with a stabilised tangent, then cut back.
+
+"""
+import logging
+import time
+from typing import Callable, Optional, Sequence
+
+import numpy as np
+from numpy import ndarray
+from skfem import Basis
+from skfem.assembly import Dofs
+from skfem.element import Element, ElementVector
+from skfem.mesh import Mesh
+from skfem.quadrature import get_quadrature
+
+from ..errors import (InvalidInputError, InversionError,
+                      NewtonDivergenceError, SingularSystemError)
+from ..mechanics.forms import as_body_force
+from ..mechanics.kinematics import KINEMATICS, make_kinematics
+from ..mechanics.materials import at_points, initial_state, is_plastic
+from ..methods.assembly import ElementPattern
+from ..methods.method import METHODS, make_method
+from ..quadrature.locate import Locator, point_locator
+from ..quadrature.points import MaterialPoints
+from ..stabilisation.ghost import GhostStabilisation
+from ..stabilisation.volumetric import MeanDilatation
+from .backends import get_solver
+from .linear import check_rigid_body_modes, free_dofs, solve_active, \
+    support_dofs
+from .loads import ExternalLoads
+from .results import PHASES, Result, StepRecord
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["simulate", "RHS", "STABILISATION"]
+
+RHS = ("residual", "increment")
+STABILISATION = 1e-7
+
+
+def vector_element(elem: Element) -> Element:
+    """``elem`` as a vector element (displacements have dim components)."""
+    return elem if isinstance(elem, ElementVector) else ElementVector(elem)
+
+
+def grid_parts(mesh: Mesh, elem: Element):
+    """What a run keeps of the grid: the scalar element, the vector grid
+    basis (supports, DOF locations), the scalar ``Dofs`` for the
+    material-point bases and the vector stiffness pattern."""
+    scalar = elem.elem if isinstance(elem, ElementVector) else elem
+    # the grid basis serves DOFs, DOF locations and facets (all elements);
+    # the basis functions it evaluates are never used, so it evaluates them
+    # at one point (the centroid) of one element
+    X, W = get_quadrature(mesh.refdom, 0)
+    grid = Basis(mesh, vector_element(elem), elements=np.array([0]),
+                 quadrature=(X @ W[:, None] / W.sum(), np.array([W.sum()])))
+    return (scalar, grid, Dofs(mesh, scalar),
+            ElementPattern(grid.dofs.element_dofs, grid.N))
+
+
+def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int):
+    """Raise :class:`~skfem_mpm.errors.InvalidInputError` for a step count
+    that is not a positive integer or points of another dimension."""
+    if isinstance(nsteps, bool) or not isinstance(
+            nsteps, (int, np.integer)) or nsteps < 1:
+        raise InvalidInputError(
+            "nsteps must be a positive integer, got {!r}".format(nsteps))
+    if points.dim != mesh.dim():
+        raise InvalidInputError(
+            "points are {}D but the mesh is {}D".format(points.dim, mesh.dim()))
+
+
+class Run:
+    """What stays fixed over a run: the grid, the pieces and the settings."""
+
+    def __init__(self, **kwargs):
+        self.__dict__.update(kwargs)
+
+
+def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
+              step: int, stabilise: bool = False):
+    """One load step from the converged state ``points``, from load factor
+    ``f_old`` to ``f_new``: returns the new state and the step's record."""
+    t = dict.fromkeys(PHASES, 0.)
+    op = run.method.operator(points, step, t)
+    tic = time.perf_counter()
+    if run.antilocking:
+        op = MeanDilatation(op, points.volume)
+    fixed, du = run.D, np.zeros(op.N)
+    if run.prescribed is not None:
+        dofs, values = run.prescribed(run.grid, f_old, f_new)
+        dofs = np.asarray(dofs, dtype=np.int64)
+        du[dofs] = values
+        fixed = np.union1d(fixed, dofs)
+    check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
+                           op.active_dofs, fixed, run.dim, step)
+    free = free_dofs(op.active_dofs, fixed)
+    f_ext = run.loads.external(op, points, f_new)
+    G = None if run.ghost is None else run.ghost.matrix(op, points)
+    t["assemble"] += time.perf_counter() - tic
+    residuals = []
+    for it in range(run.max_iter + 1):
+        tic = time.perf_counter()
+        try:
+            response = run.kinematics.response(op, du, points)
+        except InversionError as err:
+            raise InversionError("step {}: {}".format(step, err)) from err
+        t["update"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        f_int = op.force(response.P, response.w)
+        if G is not None:                       # the ghost forces balance too
+            f_int += G @ du
+        r = f_ext - f_int
+        scale = np.linalg.norm(f_ext)
+        if scale == 0.:                         # driven by prescribed motion
+            scale = max(np.linalg.norm(f_int), np.finfo(float).tiny)
+        residuals.append(float(np.linalg.norm(r[free]) / scale))
+        t["check"] += time.perf_counter() - tic
+        logger.debug("step %d iteration %d: residual %.3e", step, it,
+                     residuals[-1])
+        if residuals[-1] <= run.tol or free.size == 0 or (
+                run.rhs == "increment" and it == 1):
+            break
+        if it == run.max_iter or not np.isfinite(residuals[-1]):
+            raise NewtonDivergenceError(
+                "step {}: {} did not converge in {} iterations (residuals "
+                "{})".format(step, "the equilibrium iteration" if run.linear
+                             else "Newton-Raphson", run.max_iter,
+                             ", ".join("{:.1e}".format(r) for r in residuals)))
+        tic = time.perf_counter()
+        K = op.stiffness(response.tangent(), response.w)
+        if G is not None:
+            K = K + G
+        if run.rhs == "increment":
+            r = f_ext - run.loads.external(op, points, f_old)
+        t["assemble"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        du = du + solve_step(run, K, r, free, step, stabilise)
+        t["solve"] += time.perf_counter() - tic
+    tic = time.perf_counter()
+    new = response.commit(points)
+    dx = op.values(du)
+    new.displacement = points.displacement + dx
+    if run.method.moves:
+        new.x = points.x + dx
+        domains = run.method.domains(run.domain0, new.F)
+        if domains is not None:
+            new.domain = domains
+    held = fixed[np.isin(fixed, op.active_dofs)]
+    t["update"] += time.perf_counter() - tic
+    record = StepRecord(step, f_new, residuals[-1], op.nelems, free.size, t,
+                        reaction_dofs=held, reaction_values=-r[held],
+                        n_dofs=op.N)
+    if not run.linear:
+        record.newton_residuals = residuals
+        record.n_yielded = int(response.yielded.sum())
+    if run.keep_snapshots:
+        record.elements = op.elements
+        record.u, record.x = du, new.x.copy()
+        record.displacement = new.displacement.copy()
+        record.stress = new.stress.copy()
+    return new, record, op
+
+
+def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
+               stabilise: bool) -> ndarray:
+    """Newton's increment with the exact tangent; in nonlinear steps with a
+    stabilised one where points leave zero-energy modes on weakly supported
+    nodes (a cell entered by one point): when the step is retried so
+    (``stabilise``), or when the exact tangent is refused as singular.
+    Those modes carry no residual, so the stabilisation, ``STABILISATION``
+    times the diagonal added to the tangent only, does not change the
+    converged state; it is used only when needed because it slows Newton to
+    a linear rate of about ``STABILISATION`` times the tangent's condition
+    number.  A linear step solves once, exactly, or raises."""
+    counters = run.counters
+    if not run.linear:
+        counters["newton_iterations"] += 1
+    if not stabilise:
+        counters["linear_solves"] += 1
+        try:
+            return solve_active(K, r, free, solver=run.solver,
+                                doflocs=run.grid.doflocs)
+        except SingularSystemError as err:
+            if run.linear:
+                raise SingularSystemError("step {}: {}".format(step, err)) \
+                    from err
+            logger.warning("step %d: %s; solving again with the tangent "
+                           "stabilised by %.0e of its diagonal", step, err,
+                           STABILISATION)
+    K.setdiag(K.diagonal() * (1. + STABILISATION))           # in place
+    counters["linear_solves"] += 1
+    counters["stabilised_solves"] += 1
+    try:
+        return solve_active(K, r, free, solver=run.solver,
+                            doflocs=run.grid.doflocs)
+    except SingularSystemError as err:
+        raise SingularSystemError("step {}: {}".format(step, err)) from err
+
+
+def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
+            step: int):
+    """A load step with the exact tangent; a nonlinear one is retried once
+    with the stabilised tangent if Newton fails (zero-energy modes not
+    refused as singular can still derail it)."""
+    try:
+        return load_step(run, points, f_old, f_new, step)
+    except (NewtonDivergenceError, InversionError) as err:
+        if run.linear:
+            raise
+        logger.warning("%s: retrying the step with the tangent stabilised "
+                       "by %.0e of its diagonal", err, STABILISATION)
+    return load_step(run, points, f_old, f_new, step, stabilise=True)
+
+
+def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
+             supports, body_force=None, loads: Sequence = (),
+             prescribed: Optional[Callable] = None, nsteps: int = 1,
+             method: str = "mpm", kinematics: str = "small",
+             rhs: str = "residual", antilocking: bool = False,
+             ghost: float = 0., tol: float = 1e-9, max_iter: int = 25,
+             max_cutbacks: int = 8, solver=None,
+             locator: Optional[Locator] = None, keep_snapshots: bool = True,
+             first_step: int = 1, domain0: Optional[ndarray] = None,
+             callback: Optional[Callable] = None) -> Result:
+    """Quasi-static implicit MPM, GIMP or FE: any method with any
+    kinematics, material, stabilisation and loads.
+
+    Parameters
+    ----------
+    mesh, elem
+        Background grid (any scikit-fem mesh; GIMP needs an axis-aligned
+        tensor-product grid) and its scikit-fem element (scalar or
+        ``ElementVector``).
+    points
+        Initial :class:`~skfem_mpm.MaterialPoints`; copied, not modified.
+    material
+        A material (:class:`~skfem_mpm.LinearElastic`,
+        :class:`~skfem_mpm.VonMises` or any object following the protocol
+        of :mod:`skfem_mpm.mechanics.materials`), or a list with one per
+        body (``points.body``).
+    supports
+        Fixed (zero) grid DOFs: DOF indices, a ``DofsView`` or a callable
+        taking the grid's vector ``Basis``, e.g.
+        ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.
+    body_force
+        Body force per unit *initial* volume at full load, shape (dim,);
+        ``None``: none is assembled.  Point forces at full load are
+        ``points.force``.
+    loads
+        Further loads at full load (:mod:`skfem_mpm.solve.loads`):
+        :class:`~skfem_mpm.Traction`, :class:`~skfem_mpm.Pressure` on a side
+        of a body, :class:`~skfem_mpm.GridLoad` (a scikit-fem
+        ``LinearForm``).
+    prescribed
+        Optional ``prescribed(grid_basis, f_old, f_new) -> (dofs,
+        increments)``: grid displacement increments imposed over a step
+        from load factor ``f_old`` to ``f_new``.
+    nsteps
+        Load steps; every load is ramped linearly.  A nonlinear step may be
+        cut back (bisected) down to ``2**-max_cutbacks`` of a step.
+    method
+        ``"fem"`` (points fixed: finite elements with the points as
+        quadrature), ``"mpm"``, ``"ugimp"`` or ``"cpgimp"``.
+    kinematics
+        ``"small"`` (incremental small strain) or ``"finite"`` (updated
+        Lagrangian Hencky; total Lagrangian with ``"fem"``).
+    rhs
+        Right-hand side of a linear step's solve: ``"residual"`` (the
+        out-of-balance force) or ``"increment"`` (the seed's load
+        increment; linear steps only).
+    antilocking
+        Mean dilatation (B-bar, :mod:`skfem_mpm.stabilisation.volumetric`)
+        against volumetric locking; ``"mpm"`` and ``"fem"``.
+    ghost
+        Ghost-penalty factor for partially filled cells
+        (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none.
+    tol, max_iter
+        Tolerance on the out-of-balance force over the free DOFs relative
+        to the external force (to the internal force in steps driven by
+        prescribed motion only), and iterations per attempt.
+    solver
+        Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name
+        (``"scipy"``, ``"pypardiso"``, ``"pyamg"``, ``"auto"``).
+    locator, keep_snapshots, callback
+        A :func:`~skfem_mpm.point_locator` of ``mesh`` to reuse; keep
+        per-step grid increments, positions, displacements and stresses in
+        the history; ``callback(record, points)`` after every step.
+    first_step, domain0
+        Resume: ``points`` is the state after step ``first_step - 1``, and
+        ``domain0`` the initial GIMP domains (default ``points.domain``).
+
+    Returns
+    -------
+    Result
+
+    Raises
+    ------
+    NewtonDivergenceError, InversionError
+        When a step fails at the smallest increment; ``err.state`` is the
+        last converged state, ``err.load_factor`` its load factor.
+
+    Examples
+    --------
+    Small-strain plasticity with standard MPM (Newton with the consistent
+    tangent, return maps only because the body is plastic):
+
+    >>> import numpy as np
+    >>> from skfem import MeshQuad, ElementQuad1
+    >>> from skfem_mpm import VonMises, seed_points, simulate
+    >>> mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
+    >>> res = simulate(mesh, ElementQuad1(), seed_points(mesh, 2),
+    ...                VonMises(1e4, .3, yield_stress=5.),
+    ...                lambda b: b.get_dofs(lambda x: x[1] == 0),
+    ...                body_force=[0., -10.], nsteps=2, kinematics="small")
+    >>> res.counters["return_maps"] > 0, bool(res.history[-1].residual < 1e-9)
+    (True, True)
+
+    """
+    if kinematics not in KINEMATICS:
+        raise InvalidInputError("kinematics must be one of {}, got {!r}"
+                                .format(KINEMATICS, kinematics))
+    if method not in METHODS:
+        raise InvalidInputError("method must be one of {}, got {!r}".format(
+            METHODS, method))
+    if rhs not in RHS:
+        raise InvalidInputError("rhs must be one of {}, got {!r}".format(
+            RHS, rhs))
+    check_run_input(mesh, points, nsteps)
+    if not (isinstance(ghost, (int, float, np.number)) and ghost >= 0
+            and np.isfinite(ghost)):
+        raise InvalidInputError("ghost must be a finite number >= 0, got "
+                                "{!r}".format(ghost))
+    if antilocking and method in ("ugimp", "cpgimp"):
+        raise InvalidInputError(
+            "antilocking (mean dilatation) averages over the points of each "
+            "grid cell: it needs method 'mpm' or 'fem', not {!r} (GIMP points "
+            "span several cells)".format(method))
+    if method in ("ugimp", "cpgimp") and points.domain is None:
+        raise InvalidInputError(
+            "method {!r} needs point domains (MaterialPoints.domain); "
+            "seed_points sets them on tensor-product grids".format(method))
+    material = at_points(material, points)
+    linear = kinematics == "small" and not is_plastic(material)
+    if rhs == "increment" and not linear:
+        raise InvalidInputError(
+            "rhs = 'increment' (the seed's one-solve scheme) is for linear "
+            "steps (small strain, elastic); {} needs the out-of-balance "
+            "force (rhs = 'residual')".format(
+                "finite deformation" if kinematics == "finite"
+                else "plasticity"))
+    if not (isinstance(tol, (int, float, np.number)) and 0 < tol < 1):
+        raise InvalidInputError("tol must lie in (0, 1), got {!r}".format(tol))
+    for name, value, low in (("max_iter", max_iter, 1),
+                             ("max_cutbacks", max_cutbacks, 0)):
+        if isinstance(value, bool) or not isinstance(
+                value, (int, np.integer)) or not low <= value <= 60:
+            raise InvalidInputError("{} must be an integer in [{}, 60], got "
+                                    "{!r}".format(name, low, value))
+    scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
+    result = Result(points=points.copy())
+    points = result.points
+    for name, value in initial_state(material, points.n).items():
+        points.state.setdefault(name, value)
+    counters = result.counters
+    locate = point_locator(mesh) if locator is None else locator
+    piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
+                        counters)
+    if method in ("fem", "mpm"):
+        pattern.structure()              # set-up, shared by every step
+    domain0 = points.domain if domain0 is None else domain0
+    run = Run(
+        mesh=mesh, dim=mesh.dim(), grid=grid, method=piece, linear=linear,
+        kinematics=make_kinematics(kinematics, material, mesh.dim(), counters,
+                                   total_lagrangian=method == "fem"),
+        loads=ExternalLoads(mesh, scalar, grid,
+                            as_body_force(body_force, mesh.dim()), loads,
+                            domain0, counters, points.n),
+        ghost=GhostStabilisation(mesh, grid.elem, ghost, material)
+        if ghost else None,
+        antilocking=bool(antilocking), D=support_dofs(supports, grid),
+        prescribed=prescribed, rhs=rhs, tol=tol, max_iter=max_iter,
+        solver=get_solver(solver), counters=counters,
+        keep_snapshots=keep_snapshots, domain0=domain0)
+    step = int(first_step) - 1
+    factor, increment = step / nsteps, 1. / nsteps
+    smallest = increment / 2 ** max_cutbacks
+    while factor < 1. - 1e-12:
+        boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
+        target = min(factor + increment, boundary)
+        if target > boundary - 1e-12:
+            target = boundary
+        try:
+            points, record, op = attempt(run, points, factor, target,
+                                         step + 1)
+        except (NewtonDivergenceError, InversionError) as err:
+            if run.linear or (target - factor) / 2 < smallest * (1 - 1e-9):
+                raise type(err)(
+                    "{}; no convergence down to a load increment of {:.2e}: "
+                    "the last converged state (load factor {:.4f}) is "
+                    "attached".format(err, target - factor, factor),
+                    state=points, load_factor=factor,
+                    history=result.history) from err
+            increment = (target - factor) / 2
+            logger.warning("%s: cutting the load increment back to %.3e",
+                           err, increment)
+            continue
+        step += 1
+        factor = target
+        if abs(factor - boundary) < 1e-12:
+            increment = 1. / nsteps
+        result.history.append(record)
+        result.points = points
+        result.basis = getattr(op, "basis", None)
+        if callback is not None:
+            callback(record, points)
+        logger.info("step %d: load factor %.4f, %s, residual %.2e", step,
+                    factor, "{} Newton iterations".format(
+                        len(record.newton_residuals) - 1) if not run.linear
+                    else "{} free DOFs".format(record.n_free_dofs),
+                    record.residual)
+    return result

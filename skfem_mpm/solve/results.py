@@ -1,0 +1,112 @@
+"""What a run returns: the final points, a record per load step, and
+counters of the work done."""
+from dataclasses import dataclass, field
+from typing import List, Optional
+
+import numpy as np
+from numpy import ndarray
+
+from ..quadrature.basis import MaterialPointBasis
+from ..quadrature.points import MaterialPoints
+
+__all__ = ["Result", "StepRecord", "PHASES"]
+
+PHASES = ("locate", "assemble", "solve", "update", "check")
+
+
+@dataclass
+class StepRecord:
+    """What one load step did.
+
+    Attributes
+    ----------
+    step, load_factor
+        Step number (from 1) and the load factor reached (``step/nsteps``).
+    residual
+        Equilibrium check: ``|f_ext - f_int|`` over the free DOFs after the
+        stress update, relative to ``|f_ext|``.
+    n_active_elements, n_free_dofs
+        Size of the active grid.
+    timings
+        Seconds per phase: locate, assemble, solve, update, check.
+    u
+        Grid displacement increment of the step (``None`` unless
+        snapshots are kept).
+    x, displacement, stress
+        Point positions (after the update), accumulated displacements and
+        stresses at the end of the step (``None`` unless kept).
+    newton_residuals
+        Finite deformation: the residual of every Newton iteration.
+    n_yielded
+        Finite deformation: points on the yield surface.
+    elements
+        The active elements of the step (kept with the snapshots).
+    reaction_dofs, reaction_values
+        The supported and prescribed active grid DOFs and the reaction
+        forces there at the end of the step (internal minus external
+        force); :attr:`reactions` expands them into a grid vector.
+    n_dofs
+        Number of grid DOFs (the length of ``u`` and ``reactions``).
+
+    """
+    step: int
+    load_factor: float
+    residual: float
+    n_active_elements: int
+    n_free_dofs: int
+    timings: dict
+    u: Optional[ndarray] = None
+    x: Optional[ndarray] = None
+    displacement: Optional[ndarray] = None
+    stress: Optional[ndarray] = None
+    newton_residuals: Optional[List[float]] = None
+    n_yielded: int = 0
+    elements: Optional[ndarray] = None
+    reaction_dofs: Optional[ndarray] = None
+    reaction_values: Optional[ndarray] = None
+    n_dofs: int = 0
+
+    @property
+    def reactions(self) -> ndarray:
+        """Reaction forces as a grid vector like ``u``, zero off the
+        supported and prescribed DOFs (vector DOF ``dim * k + a`` is
+        component a at node k)."""
+        out = np.zeros(self.n_dofs)
+        if self.reaction_dofs is not None:
+            out[self.reaction_dofs] = self.reaction_values
+        return out
+
+
+@dataclass
+class Result:
+    """The outcome of a run (:func:`~skfem_mpm.simulate`,
+    :func:`~skfem_mpm.solve_mpm`, :func:`~skfem_mpm.solve_finite`).
+
+    Attributes
+    ----------
+    points
+        Final material-point state.
+    history
+        One :class:`StepRecord` per load step.
+    basis
+        The material-point basis (scalar element) of the last step, before
+        the final position update; vector DOF ``dim * k + a`` of the grid
+        solution is component a at its DOF k.
+    counters
+        How often each kind of work was done: ``locate`` (point location),
+        ``body_force`` (body-force assemblies), ``linear_solves``,
+        ``return_maps`` (stress updates with a return map),
+        ``newton_iterations``, ``stabilised_solves`` (Newton solves that
+        needed the stabilised tangent: zero-energy modes).
+
+    """
+    points: MaterialPoints
+    history: List[StepRecord] = field(default_factory=list)
+    basis: Optional[MaterialPointBasis] = None
+    counters: dict = field(default_factory=lambda: dict.fromkeys(
+        ("locate", "body_force", "linear_solves", "return_maps",
+         "newton_iterations", "stabilised_solves"), 0))
+
+    def timings(self) -> dict:
+        """Total seconds per phase over all steps."""
+        return {p: sum(r.timings[p] for r in self.history) for p in PHASES}
