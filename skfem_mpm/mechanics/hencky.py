@@ -83,8 +83,15 @@ def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
     return T
 
 
-def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None):
+def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None,
+                  b_minus_identity=None):
     """Stress update from the trial elastic left Cauchy-Green tensor.
+
+    Near the identity (small strains) the logarithmic strains follow from
+    ``b_trial - I`` through ``log1p`` of its eigenvalues, and the tangent
+    from their differences, so both keep their relative accuracy whatever
+    the size of the strain (give ``b_minus_identity`` computed without
+    cancellation; otherwise it is ``b_trial - I``).
 
     Parameters
     ----------
@@ -100,6 +107,8 @@ def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None):
         formed.
     state
         The points' internal variables at the start of the step.
+    b_minus_identity
+        ``b_trial - I`` (3, 3, n) computed without cancellation.
 
     Returns
     -------
@@ -110,17 +119,21 @@ def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None):
         the points that yielded and the updated internal variables.
 
     """
-    x, vecs = principal_frame(b_trial, dim)
-    if not (x > 0).all():
+    if b_minus_identity is None:
+        b_minus_identity = b_trial - np.eye(3)[:, :, None]
+    d, vecs = principal_frame(b_minus_identity, dim)  # eig(b) = 1 + d
+    if not (d > -1).all():
         raise FloatingPointError("b_trial is not positive definite")
+    x = 1. + d
     if state is None:
         state = initial_state(material, x.shape[1])
     tau_p, eps_e, D, yielded, state = material.principal_update(
-        .5 * np.log(x), state)
+        .5 * np.log1p(d), state)
     tau = np.einsum("Ap,aAp,bAp->abp", tau_p, vecs, vecs)
     b_e = np.einsum("Ap,aAp,bAp->abp", np.exp(2. * eps_e), vecs, vecs)
     strain = np.einsum("Ap,aAp,bAp->abp", eps_e, vecs, vecs)
-    dtau_db = isotropic_derivative(x[:dim], tau_p[:dim],
+    # the derivative depends on eigenvalue differences only: those of d
+    dtau_db = isotropic_derivative(d[:dim], tau_p[:dim],
                                    (D / (2. * x[None]))[:dim, :dim],
                                    vecs[:dim, :dim])
     return tau, b_e, strain, dtau_db, yielded, state

@@ -26,7 +26,7 @@ start-of-step deformation gradient.
 
 """
 import copy
-from typing import Callable
+from typing import Callable, Optional
 
 import numpy as np
 from numpy import ndarray
@@ -69,13 +69,19 @@ class Response:
         Stress measure and weights of the internal force.
     yielded
         Points on the yield surface (n,).
+    deformation
+        Finite deformation: ``deformation(idx)``, the trial deformation
+        gradient (3, 3, m) of points ``idx`` (follower loads); ``None`` in
+        small strain.
 
     """
 
     def __init__(self, P: ndarray, w: ndarray, yielded: ndarray,
-                 tangent: Callable[[], ndarray], commit: Callable):
+                 tangent: Callable[[], ndarray], commit: Callable,
+                 deformation: Optional[Callable] = None):
         self.P, self.w, self.yielded = P, w, yielded
         self._tangent, self._commit = tangent, commit
+        self.deformation = deformation
 
     def tangent(self) -> ndarray:
         """The consistent tangent (dim, dim, dim, dim, n)."""
@@ -181,15 +187,28 @@ class FiniteStrain:
         self.plastic = is_plastic(material)
         self.total_lagrangian = total_lagrangian
         self._buffers = None
-        self._step_inverse = None
+        self._start = (None, None)
 
     def _workspace(self, n: int):
         """Arrays reused by every Newton iteration (memory)."""
         if self._buffers is None or self._buffers[0].shape[-1] != n:
             self._buffers = (np.empty((3, 3, n)), np.empty((3, 3, n)),
+                             np.empty((3, 3, n)),
                              np.empty((self.dim,) * 4 + (n,)),
                              np.empty(n, dtype=bool))
         return self._buffers
+
+    def start_deviation(self, points) -> ndarray:
+        """``b_n - I = sum_A expm1(2 eps_A) e_A e_A`` from the points'
+        elastic logarithmic strain, without the cancellation of
+        ``b_n - I`` (computed once per step)."""
+        strain, value = self._start
+        if strain is not points.strain:
+            eps, vecs = principal_frame(points.strain, self.dim)
+            value = np.einsum("Ap,aAp,bAp->abp", np.expm1(2. * eps), vecs,
+                              vecs)
+            self._start = (points.strain, value)
+        return value
 
     def response(self, op, du: ndarray, points) -> Response:
         dim = self.dim
@@ -209,15 +228,24 @@ class FiniteStrain:
             dF_inv = dF_inv.copy()
             dF_inv[:dim, :dim] = np.einsum("abp,bcp->acp", F_inv,
                                            dF_inv[:dim, :dim])
-        b_tr, tau, dtau_db, yielded = self._workspace(points.n)
+        b_tr, b_dev, tau, dtau_db, yielded = self._workspace(points.n)
+        start = self.start_deviation(points)
+        H = dF - np.eye(3)[:, :, None]
+        H[:dim, :dim] = grad
         state = {}
         for block in point_blocks(points.n):
-            b_tr[..., block] = np.einsum("abp,bcp,dcp->adp", dF[..., block],
-                                         points.be[..., block], dF[..., block])
+            # b_tr - I = dF (b_n - I) dF^T + H + H^T + H H^T, H = dF - I
+            Hb = H[..., block]
+            b_dev[..., block] = np.einsum(
+                "abp,bcp,dcp->adp", dF[..., block], start[..., block],
+                dF[..., block]) + Hb + Hb.transpose(1, 0, 2) + np.einsum(
+                    "abp,cbp->acp", Hb, Hb)
+            b_tr[..., block] = b_dev[..., block] + np.eye(3)[:, :, None]
             tau[..., block], _, _, dtau_db[..., block], yielded[block], \
                 new = hencky_update(material_block(self.material, block),
                                     b_tr[..., block], dim,
-                                    state_block(points.state, block))
+                                    state_block(points.state, block),
+                                    b_dev[..., block])
             for name, value in new.items():
                 state.setdefault(name, np.empty(points.n))[block] = value
         self.counters["return_maps"] += self.plastic
@@ -240,21 +268,24 @@ class FiniteStrain:
             if not (J > 0).all():
                 raise InversionError("det F <= 0 at {} point(s)".format(
                     int((J <= 0).sum())))
-            new.be, new.strain = self.elastic_state(b_tr, old.state)
+            new.be, new.strain = self.elastic_state(b_tr, b_dev, old.state)
             new.stress = tau / J
             new.volume = J * old.volume0
             new.state = state
             return new
-        return Response(P, points.volume0, yielded.copy(), tangent, commit)
+        def deformation(idx):
+            return np.einsum("abp,bcp->acp", dF[..., idx], points.F[..., idx])
+        return Response(P, points.volume0, yielded.copy(), tangent, commit,
+                        deformation)
 
-    def elastic_state(self, b_tr: ndarray, state: dict):
+    def elastic_state(self, b_tr: ndarray, b_dev: ndarray, state: dict):
         """Elastic left Cauchy-Green tensor and logarithmic strain of the
         converged trial state (not kept during the iterations: memory)."""
         b_e, strain = np.empty_like(b_tr), np.empty_like(b_tr)
         for block in point_blocks(b_tr.shape[-1]):
             _, b_e[..., block], strain[..., block], _, _, _ = hencky_update(
                 material_block(self.material, block), b_tr[..., block],
-                self.dim, state_block(state, block))
+                self.dim, state_block(state, block), b_dev[..., block])
         self.counters["return_maps"] += self.plastic
         return b_e, strain
 

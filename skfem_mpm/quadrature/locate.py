@@ -35,7 +35,7 @@ from .mapping import fresh_mapping
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["point_locator", "locate_points"]
+__all__ = ["point_locator", "locate_points", "cell_coordinates"]
 
 Locator = Callable[[ndarray], Tuple[ndarray, ndarray]]
 
@@ -126,6 +126,47 @@ def locate_points(mesh: Mesh, x: ndarray, **kwargs) -> Tuple[ndarray, ndarray]:
 
     """
     return point_locator(mesh, **kwargs)(x)
+
+
+def cell_coordinates(mesh: Mesh) -> Callable[[ndarray, ndarray], ndarray]:
+    """Build ``local(x, tind) -> X``: local coordinates (dim, n) of positions
+    ``x`` (dim, n) in *given* elements ``tind`` (n,), clipped into the
+    reference element (a position outside its element is moved to the
+    nearest point of it, on tensor grids; simplices scale back onto the
+    face ``sum X = 1``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem import MeshQuad
+    >>> from skfem_mpm.quadrature.locate import cell_coordinates
+    >>> local = cell_coordinates(MeshQuad.init_tensor([0., 1., 2.], [0., 1.]))
+    >>> X = local(np.array([[0.5, 2.5], [0.25, 0.5]]), np.array([0, 1]))
+    >>> X.T.tolist()    # init_tensor: reference axis 0 runs along y
+    [[0.25, 0.5], [0.5, 1.0]]
+
+    """
+    if tensor_grid(mesh) is not None or mesh.affine:
+        origin, Ainv = _element_affine_maps(mesh)
+
+        def raw(x, tind):
+            return np.einsum("ijn,jn->in", Ainv[:, :, tind],
+                             x - origin[:, tind])
+    else:
+        newton = _newton_local(mesh)
+
+        def raw(x, tind):
+            return newton(x, tind[:, None])[:, :, 0]
+
+    simplex = mesh.refdom in (RefTri, RefTet)
+
+    def local(x: ndarray, tind: ndarray) -> ndarray:
+        X = np.clip(np.nan_to_num(raw(x, tind), nan=.5), 0., 1.)
+        if simplex:
+            X /= np.maximum(X.sum(axis=0), 1.)
+        return X
+
+    return local
 
 
 def _element_affine_maps(mesh: Mesh) -> Tuple[ndarray, ndarray]:

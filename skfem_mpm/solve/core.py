@@ -138,6 +138,9 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             raise InversionError("step {}: {}".format(step, err)) from err
         t["update"] += time.perf_counter() - tic
         tic = time.perf_counter()
+        if run.loads.follows:                   # pressure on the trial surface
+            f_ext = run.loads.external(op, points, f_new,
+                                       response.deformation)
         f_int = op.force(response.P, response.w)
         if G is not None:                       # the ghost forces balance too
             f_int += G @ du
@@ -406,7 +409,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                                    total_lagrangian=method == "fem"),
         loads=ExternalLoads(mesh, scalar, grid,
                             as_body_force(body_force, mesh.dim()), loads,
-                            domain0, counters, points.n),
+                            domain0, counters, points.n,
+                            follow=kinematics == "finite"),
         ghost=GhostStabilisation(mesh, grid.elem, ghost, material)
         if ghost else None,
         antilocking=bool(antilocking), D=support_dofs(supports, grid),

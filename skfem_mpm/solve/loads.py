@@ -9,12 +9,18 @@ Every load is given at full load and ramped linearly by the load factor.
 - :class:`Traction` and :class:`Pressure` act on one side of a body: each
   point of the outermost layer on that side carries the face of its domain
   (``MaterialPoints.domain``), whose centre ``x + F (d0 n0)`` is the load's
-  point of application, mapped with the grid's shape functions there (with
-  two points per cell along the side, this integrates a uniform traction
-  exactly, as finite elements do).  A traction is a dead load per initial
+  point of application, mapped with the shape functions of the cell that
+  holds the point (with two points per cell along the side, this
+  integrates a uniform traction exactly, as finite elements do).  A face
+  centre that has left the point's cell is taken at the nearest point of
+  that cell: the force goes to nodes the step's points support (a cell
+  without points has no stiffness to carry it) and its resultant is kept.  A traction is a dead load per initial
   area; a pressure follows the surface in finite deformation: its force
-  ``-p J F^-T N A0`` (Nanson's formula) uses the surface as it is at the
-  start of each load step.
+  ``-p J F^-T N A0`` (Nanson's formula) is evaluated at every iteration's
+  trial deformation, so the converged state carries the pressure on the
+  deformed surface.  Its load stiffness is not in the tangent (which stays
+  symmetric): Newton then contracts at a linear rate of the order of the
+  pressure over the stiffness, fast for the usual ``p << E``.
 - :class:`GridLoad`: any scikit-fem ``LinearForm`` assembled on the whole
   grid with Gaussian quadrature (a load fixed in space).
 
@@ -29,6 +35,7 @@ from ..errors import InvalidInputError, check_finite
 from ..mechanics.hencky import inverse_and_det
 from ..methods.operators import PointOperator
 from ..quadrature.basis import MaterialPointBasis
+from ..quadrature.locate import cell_coordinates
 from ..quadrature.points import MaterialPoints
 
 __all__ = ["Traction", "Pressure", "GridLoad", "SIDES", "side_points",
@@ -126,17 +133,27 @@ class ExternalLoads:
         Initial domain half-lengths of the points (surface loads).
     counters
         The run's counters (``body_force`` counts body-force assemblies).
+    n_points
+        Number of points (checks the surface loads' indices).
+    follow
+        Pressures follow the surface (finite deformation): ``follows`` is
+        then true when there is a pressure, and the core evaluates the
+        external force at every iteration's trial deformation.
 
     """
 
     def __init__(self, mesh, elem, grid, gravity, loads, domain0, counters,
-                 n_points: int):
+                 n_points: int, follow: bool = False):
         self.mesh, self.elem, self.dim = mesh, elem, mesh.dim()
         self.gravity, self.counters, self.domain0 = gravity, counters, domain0
-        self.surface, self.grid_vector = [], None
+        self.surface, self.grid_vector, self.cell_local = [], None, None
+        self._faces = (None, [])
+        self.grid, self.doflocs = grid, None
         for load in loads:
             if isinstance(load, (Traction, Pressure)):
                 self.surface.append(self._surface(load, n_points))
+                if self.cell_local is None:
+                    self.cell_local = cell_coordinates(mesh)
             elif isinstance(load, GridLoad):
                 from skfem import Basis, asm
                 f = asm(load.form, Basis(mesh, grid.elem),
@@ -148,6 +165,8 @@ class ExternalLoads:
                 raise InvalidInputError(
                     "loads must be Traction, Pressure or GridLoad items, got "
                     "{}".format(type(load).__name__))
+        self.follow = follow
+        self.follows = follow and any(item[-1] for item in self.surface)
 
     def _surface(self, load, n_points: int):
         axis, sign = _side(load.side, self.dim)
@@ -171,12 +190,12 @@ class ExternalLoads:
         check_finite(type(load).__name__, value)
         return idx, axis, sign, value, isinstance(load, Pressure)
 
-    def has_loads(self, points) -> bool:
-        return bool(self.gravity is not None or points.force.any()
-                    or self.surface or self.grid_vector is not None)
-
-    def external(self, op, points: MaterialPoints, factor: float) -> ndarray:
-        """Grid force vector at load factor ``factor``."""
+    def external(self, op, points: MaterialPoints, factor: float,
+                 deformation=None) -> ndarray:
+        """Grid force vector at load factor ``factor``; ``deformation(idx)``
+        gives the trial deformation gradient (3, 3, m) of points ``idx``
+        for the pressures that follow the surface (default: the start of
+        the step's ``points.F``)."""
         f = np.zeros(op.N)
         load = points.force if points.force.any() else None
         if self.gravity is not None:
@@ -185,25 +204,54 @@ class ExternalLoads:
             load = weight if load is None else load + weight
         if load is not None:
             f += op.point_force(factor * load)
-        for idx, axis, sign, value, follower in self.surface:
-            f += factor * self._surface_force(points, idx, axis, sign, value,
-                                              follower, op.N)
+        if self.surface:
+            if self._faces[0] is not op:         # once per step
+                self._faces = (op, [self._face_operator(op, points, *item)
+                                    for item in self.surface])
+            for face, (idx, axis, sign, value, pressure) in zip(
+                    self._faces[1], self.surface):
+                if not pressure:
+                    force = value[:, None] * face.area
+                else:               # -p J F^-T N A0 (Nanson's formula)
+                    F = points.F[:, :, idx] if deformation is None or \
+                        not self.follow else deformation(idx)
+                    F_inv, J = inverse_and_det(F, self.dim)
+                    force = -value * sign * J * F_inv[axis, :self.dim] \
+                        * face.area
+                f += factor * face.point_force(force)[:op.N]
         if self.grid_vector is not None:
+            self._check_supported(op)
             f += factor * self.grid_vector
         return f
 
-    def _surface_force(self, points, idx, axis, sign, value, follower, N):
-        """Forces on the faces of points ``idx`` at the faces' centres."""
-        dim = self.dim
+    def _check_supported(self, op):
+        """A grid load on nodes no point supports in this step would be
+        lost (those DOFs have no stiffness): refused, naming the nodes."""
+        off = np.ones(op.N, dtype=bool)
+        off[op.active_dofs] = False
+        lost = np.flatnonzero(off[:self.grid_vector.size]
+                              & (self.grid_vector != 0.))
+        if lost.size:
+            nodes = np.unique(lost // self.dim)
+            if self.doflocs is None:
+                self.doflocs = self.grid.doflocs
+            raise InvalidInputError(
+                "a GridLoad acts on {} grid node(s) that no material point "
+                "supports in this step, e.g. at {}: its force there would be "
+                "lost; restrict the form to the body".format(
+                    nodes.size, self.doflocs[:, lost[:3]].T.tolist()))
+
+    def _face_operator(self, op, points, idx, axis, sign, value, pressure):
+        """The faces of points ``idx`` as a point operator at the faces'
+        centres (start of the step) in the cells holding the points, with
+        the faces' initial areas as ``area``."""
         d0 = self.domain0[axis, idx]
-        F = points.F[:dim, :dim, idx]
+        F = points.F[:self.dim, :self.dim, idx]
         area = points.volume0[idx] / (2 * d0)              # initial area
         centre = points.x[:, idx] + sign * F[:, axis] * d0
-        if follower:        # -p J F^-T N A0 at the start of the step
-            F_inv, J = inverse_and_det(points.F[:, :, idx], dim)
-            force = -value * sign * J * F_inv[axis, :dim] * area
-        else:
-            force = value[:, None] * area
-        faces = MaterialPoints(x=centre, volume=area)
-        basis = MaterialPointBasis(self.mesh, self.elem, faces)
-        return PointOperator(basis).point_force(force)[:N]
+        cells = op.point_elements[idx]
+        face = PointOperator(MaterialPointBasis(
+            self.mesh, self.elem, MaterialPoints(x=centre, volume=area),
+            (cells, self.cell_local(centre, cells))))
+        face.area = area
+        return face
