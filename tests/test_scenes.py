@@ -1,4 +1,5 @@
 """Scenes, scene files, the command line and its output."""
+import json
 from pathlib import Path
 
 import meshio
@@ -6,6 +7,7 @@ import numpy as np
 import pytest
 
 from skfem_mpm import LinearElastic, VonMises
+from skfem_mpm.errors import SceneError
 from skfem_mpm.scenes.cli import main
 from skfem_mpm.scenes.scene import Body, Grid, PointLoad, Scene, Support, run_scene
 from skfem_mpm.scenes.scene_file import load_scene
@@ -148,6 +150,33 @@ def test_compare_draws_fe_and_mpm(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "fem" in out and "mpm" in out
     assert (tmp_path / "compare.png").stat().st_size > 10_000
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["methods"] == ["fem", "mpm"]
+    for name in ("fem", "mpm"):
+        assert meshio.read(tmp_path / (name + ".vtu")).points.shape[1] == 3
+
+
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+def test_compare_is_like_with_like(kinematics, tmp_path):
+    """In one load step MPM's points have not moved when the step is
+    solved: FE and MPM are the same computation, in either kinematics, and
+    ``compare`` reports a difference at round-off (1e-10 relative); over
+    several steps it reports the (non-zero) grid-crossing difference."""
+    text = COMBINATION.format(
+        material='{ model = "von_mises", E = 1e4, nu = 0.3, '
+                 'yield_stress = 20.0 }', method="mpm", kinematics=kinematics,
+        ghost=0., antilocking="false", load="traction = [2.0, -10.0]")
+    path = tmp_path / "scene.toml"
+    for steps, small in ((1, True), (3, False)):
+        path.write_text(text.replace("steps = 2", "steps = {}".format(steps)))
+        out = tmp_path / str(steps)
+        assert main(["compare", str(path), "--out", str(out)]) == 0
+        summary = json.loads((out / "summary.json").read_text())
+        assert summary["kinematics"] == kinematics
+        assert all(run["kinematics"] == kinematics
+                   for run in summary["runs"].values())
+        relative = summary["difference"]["displacement"]["max_relative"]
+        assert (relative < 1e-10) == small, relative
 
 
 def test_scene_files_load():
@@ -223,3 +252,99 @@ antilocking = true
     assert main(["run", str(scene), "--out", str(tmp_path / "p")]) == 2
     assert "solver.antilocking: must be true or false" in \
         capsys.readouterr().err
+
+
+COMBINATION = """
+name = "combination"
+[grid]
+x = [0.0, 3.0, 6]
+y = [0.0, 2.0, 4]
+[[bodies]]
+name = "block"
+region = {{ x = [0.0, 2.0], y = [0.0, 1.25] }}
+material = {material}
+[[supports]]
+name = "base"
+boundary = "bottom"
+[gravity]
+body_force = [0.0, -20.0]
+[[tractions]]
+body = "block"
+side = "top"
+{load}
+[solver]
+method = "{method}"
+kinematics = "{kinematics}"
+steps = 2
+ghost = {ghost}
+antilocking = {antilocking}
+"""
+
+SCENE_MATRIX = [(m, k, p, s) for m in ("fem", "mpm", "ugimp", "cpgimp")
+                for k in ("small", "finite") for p in (False, True)
+                for s in ("none", "ghost", "antilocking")]
+
+
+@pytest.mark.parametrize("method, kinematics, plastic, stabilisation",
+                         SCENE_MATRIX)
+def test_every_combination_runs_from_a_scene_file(method, kinematics, plastic,
+                                                  stabilisation, tmp_path):
+    """Method x kinematics x material x stabilisation from a scene file:
+    each runs (the weight and the traction ramped over two steps), the
+    reactions of the support named ``base`` balance the loads (to 1e-10 of
+    their size in linear steps, to 1e-8 after Newton iterations stopped at
+    the tolerance 1e-9), return maps run iff the body is plastic; mean dilatation
+    with GIMP is refused before any work with the reason."""
+    material = ('{ model = "von_mises", E = 1e4, nu = 0.3, '
+                'yield_stress = 20.0 }' if plastic else
+                '{ model = "linear_elastic", E = 1e4, nu = 0.3 }')
+    text = COMBINATION.format(
+        material=material, method=method, kinematics=kinematics,
+        ghost=.1 if stabilisation == "ghost" else 0.,
+        antilocking=str(stabilisation == "antilocking").lower(),
+        load="traction = [2.0, -10.0]")
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    if stabilisation == "antilocking" and method in ("ugimp", "cpgimp"):
+        with pytest.raises(SceneError, match="mean dilatation"):
+            load_scene(path)
+        return
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--no-progress",
+                 "--no-series"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed" and summary["steps_run"] == 2
+    assert summary["max_residual"] <= 1e-9
+    assert (summary["counters"]["return_maps"] > 0) == plastic
+    weight = 20. * 2. * 1.25                # body force per initial volume
+    # linear steps balance to round-off; Newton steps to the residual left
+    # on the free DOFs (1e-9 of the load each, summed over the DOFs)
+    linear = kinematics == "small" and not plastic
+    for factor, reaction in zip((.5, 1.), summary["reactions"]["base"]):
+        applied = factor * np.array([2. * 2., -weight - 10. * 2.])
+        assert np.abs(np.array(reaction) + applied).max() < (
+            1e-10 if linear else 1e-8) * weight
+
+
+def test_pressure_from_a_scene_file_is_the_traction_in_small_strain(tmp_path):
+    """``pressure = p`` on the top equals ``traction = [0, -p]`` in small
+    strain, to round-off; unnamed supports are ``support-N``."""
+    stresses = []
+    for load in ("pressure = 10.0", "traction = [0.0, -10.0]"):
+        path = tmp_path / "scene.toml"
+        path.write_text(COMBINATION.format(
+            material='{ model = "linear_elastic", E = 1e4, nu = 0.3 }',
+            method="mpm", kinematics="small", ghost=0., antilocking="false",
+            load=load).replace('name = "base"\n', ""))
+        result = run_scene(load_scene(path))
+        stresses.append(result.points.stress)
+    assert np.abs(stresses[0] - stresses[1]).max() < 1e-12 * np.abs(
+        stresses[1]).max()
+    from skfem_mpm.scenes.cli import summarise
+    assert list(summarise(load_scene(path), result, 0.)["reactions"]) == \
+        ["support-1"]
+    path.write_text(path.read_text().replace("traction = [0.0, -10.0]",
+                                             "traction = [0.0, -10.0]\n"
+                                             "pressure = 1.0"))
+    with pytest.raises(SceneError, match="exactly one of traction, pressure"):
+        load_scene(path)

@@ -36,6 +36,7 @@ print(s.__doc__)"` lists every key, and examples/*.toml are ready to run.
 """
 
 EMBEDDED = Path(__file__).resolve().parent / "column.toml"
+AXES = "xyz"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -129,10 +130,31 @@ def summarise(scene, result, seconds: float) -> dict:
     if history and history[0].newton_residuals is not None:
         summary["newton_iterations"] = [len(r.newton_residuals) - 1
                                         for r in history]
+    if history:
+        summary["reactions"] = support_reactions(scene, history)
     error = case_error(scene, result)
     if np.isfinite(error):
         summary["error"] = error
     return summary
+
+
+def support_reactions(scene, history) -> dict:
+    """Per support name, the resultant reaction force (one vector of the
+    grid's dimension per step, zero in unsupported components)."""
+    from ..solve.core import grid_parts
+    from .scene import scene_support_dofs, support_names
+    mesh, elem = scene.grid.build()
+    grid, dim = grid_parts(mesh, elem)[1], mesh.dim()
+    reactions = np.array([r.reactions for r in history])      # (steps, N)
+    out = {}
+    for name, support in zip(support_names(scene), scene.supports):
+        axes = [AXES.index(c) for c in support.components
+                if AXES.index(c) < dim]
+        dofs = scene_support_dofs(support, grid, dim)         # (axes, nodes)
+        total = np.zeros((len(history), dim))
+        total[:, axes] = reactions[:, dofs].sum(axis=2)
+        out[name] = total.tolist()
+    return out
 
 
 def plot_outputs(scene, result, outdir: Path, loaded):
@@ -264,7 +286,14 @@ def run(args) -> int:
 
 
 def compare(args) -> int:
+    """FE (the points as fixed quadrature) against the scene's method (MPM
+    when the scene is FE), with the scene's kinematics, material and loads:
+    like with like.  Writes both states as VTU, a figure on one colour
+    scale and ``summary.json`` with their difference."""
     from dataclasses import replace
+    import meshio
+    from .io import atomic_path
+    from .output import point_cloud, write_summary
     from .plot import pyplot, save_figure
     from .scene import run_scene
     from .scene_file import load_scene
@@ -272,33 +301,60 @@ def compare(args) -> int:
     scene = load_scene(args.scene)
     runs = {}
     for method in ("fem", scene.method if scene.method != "fem" else "mpm"):
-        kinematics = "small" if method in ("fem", "mpm") and \
-            scene.kinematics == "small" else scene.kinematics
-        if method == "fem":
-            kinematics = "small"
-        variant = replace(scene, method=method, kinematics=kinematics)
+        variant = replace(scene, method=method)
         tic = time.perf_counter()
         result = run_scene(variant)
         runs[method] = (variant, result, time.perf_counter() - tic)
     args.out.mkdir(parents=True, exist_ok=True)
+    other = list(runs.values())[1][0]
+    a, b = (r.points for _, r, _ in runs.values())
+    difference = {}
+    for name in ("displacement", "stress"):
+        d = getattr(b, name) - getattr(a, name)
+        scale = np.abs(getattr(a, name)).max()
+        difference[name] = {
+            "max": float(np.abs(d).max()),
+            "rms": float(np.sqrt(np.mean(d ** 2))),
+            "max_relative": float(np.abs(d).max() / scale) if scale else 0.}
+    summary = {"scene": scene.name, "kinematics": scene.kinematics,
+               "methods": list(runs), "difference": difference,
+               "difference_is": "{} minus fem, at the same material points "
+                                "(max, root mean square, max over the fem "
+                                "field's largest magnitude)".format(
+                                    other.method),
+               "runs": {m: summarise(v, r, s) for m, (v, r, s) in
+                        runs.items()}}
+    write_summary(args.out / "summary.json", summary)
+    d = a.dim - 1
+    component = "sigma_{0}{0}".format("xyz"[d])
+    limit = max(np.abs(p.stress[d, d]).max() for p in (a, b)) or 1.
     fig, axes = pyplot().subplots(1, 2, figsize=(10, 4), sharey=True)
     for ax, (method, (variant, result, seconds)) in zip(axes, runs.items()):
         pts = result.points
-        d = pts.dim - 1
-        y = pts.x[1] if pts.dim > 1 else np.zeros(pts.n)
-        sc = ax.scatter(pts.x[0], y, c=pts.stress[d, d], s=4,
-                        cmap="coolwarm")
-        fig.colorbar(sc, ax=ax)
+        with atomic_path(args.out / "{}.vtu".format(method)) as tmp:
+            meshio.write(tmp, point_cloud(pts), file_format="vtu")
+        x = pts.x0 + pts.displacement        # FE points stay at x0
+        y = x[1] if pts.dim > 1 else np.zeros(pts.n)
+        sc = ax.scatter(x[0], y, c=pts.stress[d, d], s=4,
+                        cmap="coolwarm", vmin=-limit, vmax=limit)
         ax.set_title("{} ({} kinematics): {:.2f} s".format(
             method, variant.kinematics, seconds))
-        summary = summarise(variant, result, seconds)
-        print("{:>7}: max displacement {:.4f}{}, {:.3f} s".format(
-            method, summary["max_displacement"],
-            ", error {:.3e}".format(summary["error"]) if "error" in summary
-            else "", seconds))
-    fig.tight_layout()
+        ax.set_xlabel("x")
+        ax.set_aspect("equal" if pts.dim > 1 else "auto")
+        print("{:>7}: max displacement {:.4f}, {:.3f} s".format(
+            method, float(np.abs(pts.displacement).max()), seconds))
+    axes[0].set_ylabel("y" if a.dim > 1 else "")
+    fig.colorbar(sc, ax=list(axes), label=component + " (stress units)")
+    fig.suptitle("{}: {} at the deformed points, one colour scale".format(
+        scene.name, component))
     save_figure(fig, args.out / "compare.png")
-    print("  plot {}".format(args.out / "compare.png"))
+    print("  {} - fem: displacement max {:.3e} ({:.2e} relative), stress max "
+          "{:.3e} ({:.2e} relative)".format(
+              other.method, difference["displacement"]["max"],
+              difference["displacement"]["max_relative"],
+              difference["stress"]["max"],
+              difference["stress"]["max_relative"]))
+    print("  output {}".format(args.out))
     return 0
 
 

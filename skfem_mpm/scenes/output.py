@@ -46,6 +46,8 @@ def point_cloud(points: MaterialPoints):
     }
     if points.domain is not None:
         data["domain"] = _pad3(points.domain)
+    for name, value in points.state.items():     # the material's variables
+        data[name if name not in data else "state_" + name] = value
     return meshio.Mesh(_pad3(points.x), [("vertex", np.arange(n)[:, None])],
                        point_data=data)
 
@@ -123,6 +125,8 @@ def save_checkpoint(outdir, step: int, nsteps: int, points: MaterialPoints,
         arrays["points_" + name] = getattr(points, name)
     if points.domain is not None:
         arrays["points_domain"] = points.domain
+    for name, value in points.state.items():
+        arrays["state_" + name] = value
     if domain0 is not None:
         arrays["domain0"] = domain0
     arrays["history"] = np.array([[getattr(r, k) for k in HISTORY_KEYS]
@@ -142,6 +146,8 @@ def load_checkpoint(outdir):
     with np.load(path, allow_pickle=False) as data:
         fields = {k[len("points_"):]: data[k] for k in data.files
                   if k.startswith("points_")}
+        fields["state"] = {k[len("state_"):]: data[k] for k in data.files
+                           if k.startswith("state_")}
         domain0 = data["domain0"] if "domain0" in data.files else None
         return (int(data["step"]), int(data["nsteps"]),
                 MaterialPoints(**fields), data["history"], domain0)

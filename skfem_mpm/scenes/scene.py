@@ -20,10 +20,12 @@ from ..errors import InvalidInputError
 from ..mechanics.materials import LinearElastic, VonMises, is_plastic
 from ..solve.core import RHS, simulate
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
+from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
 from ..solve.results import Result
 
 __all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
-           "build_points", "run_scene", "METHODS", "KINEMATICS",
+           "build_points", "surface_loads", "support_names", "scene_support_dofs",
+           "run_scene", "METHODS", "KINEMATICS",
            "BOUNDARIES"]
 
 METHODS = ("fem", "mpm", "ugimp", "cpgimp")
@@ -82,12 +84,14 @@ class Support:
     node ``at`` (coordinates), or on the nodes where ``where(x)`` holds;
     ``components`` among ``"x", "y", "z"``; ``value`` (one per component)
     the displacement reached at full load, ramped over the steps (default:
-    fixed)."""
+    fixed).  ``name`` labels its reaction forces in ``summary.json``
+    (default ``support-N``, N counting from 1)."""
     boundary: Optional[str] = None
     where: Optional[Callable] = None
     components: Sequence[str] = ("x", "y", "z")
     at: Optional[Sequence[float]] = None
     value: Optional[Sequence[float]] = None
+    name: Optional[str] = None
 
 
 @dataclass
@@ -102,12 +106,16 @@ class PointLoad:
 
 @dataclass
 class Traction:
-    """A traction (force per area) on one ``side`` of a box body, shared by
-    the body's outermost layer of points on that side in proportion to
-    their area."""
+    """A traction (force per initial area, fixed direction) or a
+    ``pressure`` (positive pushes in; follows the surface in finite
+    deformation) on one ``side`` of a body: the faces of its outermost
+    layer of points there (:class:`skfem_mpm.Traction`,
+    :class:`skfem_mpm.Pressure`).  Give exactly one of ``traction`` and
+    ``pressure``."""
     body: str
     side: str
-    traction: Sequence[float]
+    traction: Optional[Sequence[float]] = None
+    pressure: Optional[float] = None
 
 
 @dataclass
@@ -186,11 +194,30 @@ class Scene:
                 "small-strain elastic scenes")
         if not self.bodies:
             raise InvalidInputError("a scene needs at least one body")
+        names = support_names(self)
+        if len(set(names)) < len(names):
+            raise InvalidInputError("support names must differ, got {}"
+                                    .format(names))
+        bodies = [b.name for b in self.bodies]
+        for t in self.tractions:
+            if t.body not in bodies:
+                raise InvalidInputError(
+                    "traction on unknown body {!r}".format(t.body))
+            if (t.traction is None) == (t.pressure is None):
+                raise InvalidInputError(
+                    "a traction on body {!r} needs exactly one of traction "
+                    "and pressure".format(t.body))
+
+
+def support_names(scene: Scene) -> List[str]:
+    """The supports' names (``support-N`` where none is given)."""
+    return [s.name or "support-{}".format(k + 1)
+            for k, s in enumerate(scene.supports)]
 
 
 def build_points(scene: Scene, mesh) -> MaterialPoints:
     """Seed every body (``points.body`` = body index) and attach the point
-    loads and tractions."""
+    loads."""
     parts = []
     for k, body in enumerate(scene.bodies):
         try:
@@ -211,24 +238,23 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
             chosen = np.argsort(distance, kind="stable")[:load.count]
         points.force[:, chosen] += np.asarray(load.force, float)[:, None] \
             / chosen.size
-    names = [b.name for b in scene.bodies]
-    for traction in scene.tractions:
-        if traction.body not in names:
-            raise InvalidInputError("traction on unknown body {!r}".format(
-                traction.body))
-        axis, upper = BOUNDARIES[traction.side]
-        mine = np.flatnonzero(points.body == names.index(traction.body))
-        coord = points.x[axis, mine]
-        edge = coord.max() if upper else coord.min()
-        layer = mine[np.abs(coord - edge) <= points.domain[axis, mine]
-                     * (1 + 1e-9)]
-        area = points.volume[layer] / (2 * points.domain[axis, layer])
-        points.force[:, layer] += np.asarray(traction.traction, float)[
-            :, None] * area
     return points
 
 
-def _support_dofs(s: Support, basis, dim: int) -> ndarray:
+def surface_loads(scene: Scene, points: MaterialPoints) -> list:
+    """The scene's tractions and pressures as loads on the outermost layer
+    of their body's points (``points``: the initial ones)."""
+    loads = []
+    names = [b.name for b in scene.bodies]
+    for t in scene.tractions:
+        layer = side_points(points, t.side,
+                            points.body == names.index(t.body))
+        loads.append(Pressure(layer, t.side, t.pressure) if t.traction is None
+                     else SurfaceTraction(layer, t.side, t.traction))
+    return loads
+
+
+def scene_support_dofs(s: Support, basis, dim: int) -> ndarray:
     """The DOFs of one support, (components, nodes)."""
     comps = [AXES.index(c) for c in s.components if AXES.index(c) < dim]
     p = basis.mesh.p
@@ -252,7 +278,7 @@ def _support_dofs(s: Support, basis, dim: int) -> ndarray:
 def scene_supports(scene: Scene, dim: int):
     """The fixed supports as a callable on the grid basis."""
     def supports(basis):
-        dofs = [_support_dofs(s, basis, dim).ravel() for s in scene.supports
+        dofs = [scene_support_dofs(s, basis, dim).ravel() for s in scene.supports
                 if s.value is None]
         return np.concatenate(dofs) if dofs else np.array([], dtype=np.int64)
     return supports
@@ -268,7 +294,7 @@ def scene_prescribed(scene: Scene, dim: int):
     def prescribed(basis, f_old, f_new):
         dofs, values = [], []
         for s in moving:
-            d = _support_dofs(s, basis, dim)
+            d = scene_support_dofs(s, basis, dim)
             dofs.append(d.ravel())
             values.append((np.asarray(s.value, float)[:, None]
                            * (f_new - f_old) * np.ones(d.shape)).ravel())
@@ -297,8 +323,9 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     """
     scene.check()
     mesh, elem = scene.grid.build()
+    initial = build_points(scene, mesh)
     if points is None:
-        points = build_points(scene, mesh)
+        points = initial
     materials = [b.material for b in scene.bodies]
     material = materials[0] if len(materials) == 1 else materials
     supports = scene_supports(scene, mesh.dim())
@@ -307,6 +334,7 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                     body_force=scene.gravity, nsteps=scene.steps,
                     method=scene.method, kinematics=scene.kinematics,
                     prescribed=prescribed, rhs=scene.rhs,
+                    loads=surface_loads(scene, initial),
                     antilocking=scene.antilocking, ghost=scene.ghost,
                     tol=scene.tolerance, max_iter=scene.max_iterations,
                     first_step=first_step, domain0=domain0,

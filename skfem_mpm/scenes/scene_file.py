@@ -18,6 +18,8 @@ offending value (unknown keys, wrong types, impossible values), in a
     material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
     # or { model = "von_mises", E = .., nu = .., yield_stress = .. }
     [[supports]]
+    name = "base"                   # optional: labels its reactions in
+                                    # summary.json (default "support-N")
     boundary = "bottom"             # left right bottom top back front
     components = ["x", "y"]         # default: all
     value = [0.0, -0.1]             # optional: displacement at full load
@@ -32,7 +34,9 @@ offending value (unknown keys, wrong types, impossible values), in a
     [[tractions]]
     body = "column"
     side = "top"
-    traction = [0.0, -100.0]
+    traction = [0.0, -100.0]        # per initial area, fixed direction
+    # or pressure = 100.0           # pushes in, follows the surface in
+                                    # finite deformation
     [solver]
     method = "mpm"                  # fem mpm ugimp cpgimp
     kinematics = "small"            # small finite
@@ -249,7 +253,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     supports = []
     for k, s in enumerate(c.array(data, "supports")):
         key = "supports[{}]".format(k)
-        s = c.table(s, key, ("boundary", "at", "components", "value"))
+        s = c.table(s, key, ("boundary", "at", "components", "value",
+                             "name"))
         sides = [b for b, (axis, _) in BOUNDARIES.items() if axis < dim]
         at, boundary = None, None
         if ("boundary" in s) == ("at" in s):
@@ -265,8 +270,12 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                 ", ".join(AXES[:dim])), comps)
             comps = list(AXES[:dim])
         value = c.vector(s, key, "value", len(comps))
+        name = s.get("name")
+        if name is not None and (not isinstance(name, str) or not name):
+            c.bad(key + ".name", "must be a non-empty string", name)
+            name = None
         supports.append(Support(boundary=boundary, at=at, components=comps,
-                                value=value))
+                                value=value, name=name))
     gravity = None
     if "gravity" in data:
         g = c.table(data["gravity"], "gravity", ("body_force",),
@@ -285,8 +294,10 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     names = [b.name for b in bodies]
     for k, t in enumerate(c.array(data, "tractions")):
         key = "tractions[{}]".format(k)
-        t = c.table(t, key, ("body", "side", "traction"),
-                    ("body", "side", "traction"))
+        t = c.table(t, key, ("body", "side", "traction", "pressure"),
+                    ("body", "side"))
+        if ("traction" in t) == ("pressure" in t):
+            c.bad(key, "needs exactly one of traction, pressure", t)
         body = t.get("body")
         if body is not None and body not in names:
             c.bad(key + ".body", "must name a body ({})".format(
@@ -294,7 +305,10 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         sides = [b for b, (axis, _) in BOUNDARIES.items() if axis < dim]
         tractions.append(Traction(
             body=body, side=c.choice(t, key, "side", sides, sides[0]),
-            traction=c.vector(t, key, "traction", dim, [0.] * dim)))
+            traction=c.vector(t, key, "traction", dim) if "traction" in t
+            else None,
+            pressure=c.number(t, key, "pressure", 0.) if "pressure" in t
+            else None))
     solver = c.table(data.get("solver", {}), "solver",
                      ("method", "kinematics", "steps", "tolerance",
                       "max_iterations", "linear", "antilocking", "ghost",

@@ -1,0 +1,152 @@
+"""The material protocol: a model written outside the package (von Mises
+with linear isotropic hardening) runs through the core in small strain and
+finite deformation, against the closed form; its internal variable is
+carried through checkpoints (resume bit-identical) and into the VTU."""
+from dataclasses import dataclass
+
+import meshio
+import numpy as np
+import pytest
+from skfem import ElementQuad1, MeshQuad
+
+from skfem_mpm import LinearElastic, seed_points, simulate
+from skfem_mpm.scenes.output import (SeriesWriter, load_checkpoint,
+                                     save_checkpoint)
+
+
+@dataclass(frozen=True)
+class HardeningVonMises(LinearElastic):
+    """Von Mises with linear isotropic hardening: yield stress
+    ``yield_stress + H alpha`` with ``alpha`` the equivalent plastic strain
+    (the radial return of Simo and Hughes, Computational Inelasticity,
+    section 3.3.2, in principal values, with its consistent tangent)."""
+    yield_stress: float = 1.
+    H: float = 0.
+
+    plastic = True
+    state_variables = {"alpha": 0.}
+
+    def principal_update(self, eps, state):
+        tau, _, D, _, _ = LinearElastic.principal_update(self, eps)
+        alpha = state["alpha"]
+        p = tau.mean(axis=0)
+        s = tau - p
+        norm_s = np.linalg.norm(s, axis=0)
+        q = np.sqrt(1.5) * norm_s
+        f = q - (self.yield_stress + self.H * alpha)
+        yielded = f > 1e-12 * self.yield_stress
+        if not yielded.any():
+            return tau, eps, D, yielded, {"alpha": alpha}
+        mu, H = self.mu, self.H
+        dgamma = np.where(yielded, f, 0.) / (3 * mu + H)
+        ratio = 1 - 3 * mu * dgamma / np.where(yielded, q, 1.)
+        tau = p + ratio * s
+        eps_e = np.linalg.solve(self.principal_stiffness(), tau)
+        n = s / np.where(norm_s > 0, norm_s, 1.)
+        dev = np.eye(3) - np.ones((3, 3)) / 3
+        bulk = self.E / (3 * (1 - 2 * self.nu))
+        theta_bar = 3 * mu / (3 * mu + H) - (1 - ratio)
+        Dp = bulk * np.ones((3, 3, 1)) + 2 * mu * (
+            ratio * dev[:, :, None] - theta_bar * np.einsum("ap,bp->abp", n,
+                                                            n))
+        D = np.where(yielded, Dp, D)
+        return tau, eps_e, D, yielded, {"alpha": alpha + dgamma}
+
+
+MATERIAL = HardeningVonMises(1e4, .3, yield_stress=10., H=2e3)
+GAMMA = 5e-3
+
+
+def shear_run(nsteps, kinematics="small", points=None, **kwargs):
+    """A unit block on a 2 x 2 grid whose boundary follows the simple
+    shear ``u_x = f gamma y`` at load factor f (from ``points``, default
+    2 x 2 per cell)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+
+    def prescribed(basis, f_old, f_new):
+        nodes = mesh.boundary_nodes()
+        du = np.zeros((2, nodes.size))
+        du[0] = (f_new - f_old) * GAMMA * mesh.p[1, nodes]
+        return basis.nodal_dofs[:, nodes].T.ravel(), du.T.ravel()
+    if points is None:
+        points = seed_points(mesh, 2)
+    return simulate(mesh, ElementQuad1(), points, MATERIAL,
+                    np.array([], dtype=np.int64), prescribed=prescribed,
+                    nsteps=nsteps, kinematics=kinematics, **kwargs)
+
+
+def closed_form_shear(gamma):
+    """``sigma_xy`` of monotonic simple shear with linear hardening:
+    elastic ``mu gamma`` up to ``s_y / sqrt 3``, then
+    ``(s_y / sqrt 3 + H gamma / 3) / (1 + H / (3 mu))``, and the
+    equivalent plastic strain ``(gamma - sigma_xy / mu) / sqrt 3``."""
+    mu, H, sy = MATERIAL.mu, MATERIAL.H, MATERIAL.yield_stress
+    elastic = mu * gamma
+    plastic = (sy / np.sqrt(3) + H * gamma / 3) / (1 + H / (3 * mu))
+    sxy = np.where(elastic <= sy / np.sqrt(3), elastic, plastic)
+    return sxy, (gamma - sxy / mu) / np.sqrt(3)
+
+
+def test_user_hardening_model_matches_the_closed_form():
+    res = shear_run(10)
+    yielded = 0
+    for r in res.history:
+        sxy, _ = closed_form_shear(GAMMA * r.load_factor)
+        assert np.abs(r.stress[0, 1] - sxy).max() < 1e-10 * MATERIAL.yield_stress
+        yielded += r.n_yielded > 0
+    assert yielded >= 5
+    _, alpha = closed_form_shear(GAMMA)
+    assert alpha > 0
+    assert np.abs(res.points.state["alpha"] - alpha).max() < 1e-12
+    # the consistent tangent: Newton converges quadratically
+    pairs = [(a, b) for r in res.history
+             for a, b in zip(r.newton_residuals[:-1], r.newton_residuals[1:])
+             if a < 1e-2 and b > 1e-13]
+    assert pairs and min(np.log(b) / np.log(a) for a, b in pairs) >= 1.8
+
+
+def test_user_model_in_finite_deformation():
+    """At 0.5% shear the finite-deformation answer is the small-strain one
+    to the order of the strain (relative difference below 1%)."""
+    small = shear_run(10).points
+    finite = shear_run(10, kinematics="finite").points
+    assert np.abs(finite.state["alpha"] - small.state["alpha"]).max() < \
+        1e-2 * small.state["alpha"].max()
+    assert np.abs(finite.stress[0, 1] - small.stress[0, 1]).max() < \
+        1e-2 * np.abs(small.stress[0, 1]).max()
+
+
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+def test_internal_variables_survive_checkpoint_and_resume(tmp_path,
+                                                          kinematics):
+    """Stop after 3 of 6 steps, save a checkpoint, load it, resume: the
+    state, internal variables included, equals the uninterrupted run's
+    bit for bit; the VTU of every step carries the variable."""
+    whole = shear_run(6, kinematics).points
+
+    class Stop(Exception):
+        pass
+
+    writer = SeriesWriter(tmp_path, MeshQuad.init_tensor(
+        np.linspace(0, 1, 3), np.linspace(0, 1, 3)))
+
+    def stop_after_three(record, points):
+        writer.write(record.step, record.load_factor, points,
+                     record.elements, record.u)
+        if record.step == 3:
+            save_checkpoint(tmp_path, record.step, 6, points, [record],
+                            points.domain)
+            raise Stop
+    with pytest.raises(Stop):
+        shear_run(6, kinematics, callback=stop_after_three)
+    step, nsteps, points, _, domain0 = load_checkpoint(tmp_path)
+    assert (step, nsteps) == (3, 6)
+    assert points.state["alpha"].max() > 0
+    resumed = shear_run(6, kinematics, points=points, first_step=4,
+                        domain0=domain0).points
+    for name in ("x", "stress", "strain", "F", "be", "volume",
+                 "displacement"):
+        assert np.array_equal(getattr(resumed, name), getattr(whole, name))
+    assert np.array_equal(resumed.state["alpha"], whole.state["alpha"])
+    vtu = meshio.read(tmp_path / "points_0003.vtu")
+    assert np.array_equal(vtu.point_data["alpha"], points.state["alpha"])
