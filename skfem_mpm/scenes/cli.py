@@ -68,7 +68,8 @@ def build_parser() -> argparse.ArgumentParser:
     study = sub.add_parser(
         "study", help="error and cost over a grid of choices",
         description="Vary elements, ppc (points per cell and axis), "
-        "loadsteps and method (fem, mpm, ugimp, cpgimp); without --vary, "
+        "loadsteps, method (fem, mpm, ugimp, cpgimp) and rhs (residual, "
+        "increment: the right-hand side of linear steps); without --vary, "
         "the seed's grid: elements 4..256, ppc 2..5, loadsteps 1, 2, 20.")
     study.add_argument("scene", type=Path)
     study.add_argument("--vary", action="append", default=[],
@@ -360,7 +361,7 @@ def compare(args) -> int:
 
 def parse_vary(items):
     """``["elements=4,8", "method=mpm,cpgimp"]`` as a dict of lists."""
-    from ..studies.study import DEFAULT_VARY
+    from ..studies.study import CHOICES, DEFAULT_VARY
     if not items:
         return dict(DEFAULT_VARY)
     vary = {}
@@ -370,7 +371,7 @@ def parse_vary(items):
             raise SceneError(["--vary {!r}: expected NAME=V1,V2,...".format(
                 item)])
         values = values.split(",")
-        if name != "method":
+        if name not in CHOICES:
             try:
                 values = [int(v) for v in values]
             except ValueError:
