@@ -193,7 +193,6 @@ class FiniteStrain:
         """Arrays reused by every Newton iteration (memory)."""
         if self._buffers is None or self._buffers[0].shape[-1] != n:
             self._buffers = (np.empty((3, 3, n)), np.empty((3, 3, n)),
-                             np.empty((3, 3, n)),
                              np.empty((self.dim,) * 4 + (n,)),
                              np.empty(n, dtype=bool))
         return self._buffers
@@ -228,22 +227,22 @@ class FiniteStrain:
             dF_inv = dF_inv.copy()
             dF_inv[:dim, :dim] = np.einsum("abp,bcp->acp", F_inv,
                                            dF_inv[:dim, :dim])
-        b_tr, b_dev, tau, dtau_db, yielded = self._workspace(points.n)
+        b_dev, tau, dtau_db, yielded = self._workspace(points.n)
+        eye = np.eye(3)[:, :, None]
         start = self.start_deviation(points)
-        H = dF - np.eye(3)[:, :, None]
-        H[:dim, :dim] = grad
         state = {}
         for block in point_blocks(points.n):
-            # b_tr - I = dF (b_n - I) dF^T + H + H^T + H H^T, H = dF - I
-            Hb = H[..., block]
+            # b_tr - I = dF (b_n - I) dF^T + G + G^T + G G^T with the
+            # in-plane G = dF - I (no cancellation at small strains)
+            G = grad[..., block]
             b_dev[..., block] = np.einsum(
                 "abp,bcp,dcp->adp", dF[..., block], start[..., block],
-                dF[..., block]) + Hb + Hb.transpose(1, 0, 2) + np.einsum(
-                    "abp,cbp->acp", Hb, Hb)
-            b_tr[..., block] = b_dev[..., block] + np.eye(3)[:, :, None]
+                dF[..., block])
+            b_dev[:dim, :dim, block] += G + G.transpose(1, 0, 2) \
+                + np.einsum("abp,cbp->acp", G, G)
             tau[..., block], _, _, dtau_db[..., block], yielded[block], \
                 new = hencky_update(material_block(self.material, block),
-                                    b_tr[..., block], dim,
+                                    b_dev[..., block] + eye, dim,
                                     state_block(points.state, block),
                                     b_dev[..., block])
             for name, value in new.items():
@@ -255,7 +254,8 @@ class FiniteStrain:
             """Pulled back to the operator's configuration, written over
             ``dtau_db`` (not needed after)."""
             for block in point_blocks(points.n):
-                A = spatial_tangent(dtau_db[..., block], b_tr[..., block],
+                A = spatial_tangent(dtau_db[..., block],
+                                    b_dev[..., block] + eye,
                                     tau[..., block])
                 dtau_db[..., block] = pull_back(tau[..., block], A,
                                                 dF_inv[..., block], dim)[1]
@@ -268,7 +268,7 @@ class FiniteStrain:
             if not (J > 0).all():
                 raise InversionError("det F <= 0 at {} point(s)".format(
                     int((J <= 0).sum())))
-            new.be, new.strain = self.elastic_state(b_tr, b_dev, old.state)
+            new.be, new.strain = self.elastic_state(b_dev, old.state)
             new.stress = tau / J
             new.volume = J * old.volume0
             new.state = state
@@ -278,14 +278,17 @@ class FiniteStrain:
         return Response(P, points.volume0, yielded.copy(), tangent, commit,
                         deformation)
 
-    def elastic_state(self, b_tr: ndarray, b_dev: ndarray, state: dict):
+    def elastic_state(self, b_dev: ndarray, state: dict):
         """Elastic left Cauchy-Green tensor and logarithmic strain of the
-        converged trial state (not kept during the iterations: memory)."""
-        b_e, strain = np.empty_like(b_tr), np.empty_like(b_tr)
-        for block in point_blocks(b_tr.shape[-1]):
+        converged trial state ``b_tr = I + b_dev`` (not kept during the
+        iterations: memory)."""
+        b_e, strain = np.empty_like(b_dev), np.empty_like(b_dev)
+        eye = np.eye(3)[:, :, None]
+        for block in point_blocks(b_dev.shape[-1]):
             _, b_e[..., block], strain[..., block], _, _, _ = hencky_update(
-                material_block(self.material, block), b_tr[..., block],
-                self.dim, state_block(state, block), b_dev[..., block])
+                material_block(self.material, block),
+                b_dev[..., block] + eye, self.dim, state_block(state, block),
+                b_dev[..., block])
         self.counters["return_maps"] += self.plastic
         return b_e, strain
 
