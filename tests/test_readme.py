@@ -34,3 +34,10 @@ def test_readme_examples_run():
     large = namespace["large"]
     assert len(large.history) == 10 and large.history[-1].load_factor == 1.
     assert max(r.residual for r in large.history) <= 1e-9
+    # the reactions hold the weight (800 x 4 x 10) and the pressure on the
+    # top (1e3 x 4 wide, vertical on the unrotated top) to the Newton
+    # tolerance
+    reaction = large.history[-1].reactions.reshape(-1, 2).sum(axis=0)
+    weight = 800. * large.points.volume0.sum()
+    assert abs(reaction[1] / (weight + 1e3 * 4.) - 1.) < 1e-2
+    assert abs(reaction[0]) < 1e-2 * reaction[1]

@@ -30,7 +30,9 @@ A material is an object with
 
 The kinematics (:mod:`skfem_mpm.mechanics.kinematics`) turn principal
 values into tensors and consistent tangents, so a model written once works
-in small strain and in finite deformation.
+in small strain and in finite deformation.  ``docs/materials.md`` writes a
+model of one's own (von Mises with linear isotropic hardening, run by
+``tests/test_materials.py``).
 
 """
 from dataclasses import dataclass
