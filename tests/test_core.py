@@ -102,7 +102,15 @@ def test_refusals_come_before_any_work():
             (dict(tol=0.), "tol must"),
             (dict(max_iter=-1), "max_iter"),
             (dict(max_cutbacks=10000), "max_cutbacks"),
-            (dict(method="cpgimp", antilocking=True), "mean dilatation")]:
+            (dict(method="cpgimp", antilocking=True), "mean dilatation"),
+            (dict(ghost=True), "ghost must be"),
+            (dict(antilocking=1), "antilocking must be True or False"),
+            (dict(rhs="increment", prescribed=lambda b, f0, f1: (
+                np.array([0]), np.array([0.]))), "prescribed displacements"),
+            (dict(loads=[Pressure(np.array([0]), "top", [1., 2.])]),
+             "Pressure.pressure must be one number"),
+            (dict(loads=[Traction(np.array([0.5]), "top", [1., 2.])]),
+             "integer indices")]:
         with pytest.raises(InvalidInputError, match=match):
             simulate(*args, callback=pytest.fail, **kwargs)
     gauss = seed_gauss_points(mesh, 2)
@@ -404,3 +412,56 @@ def test_grid_load_is_the_body_force_and_refused_off_the_body():
     with pytest.raises(InvalidInputError, match="no material point supports"):
         simulate(mesh, ElementQuad1(), part, LinearElastic(1e3, .3), args[-1],
                  loads=[GridLoad(gravity, fields)])
+
+
+def test_surface_loads_in_finite_elements_stay_in_the_reference():
+    """Finite elements (total Lagrangian) with B-bar under a dead traction
+    on the top of a block on rollers: the state is homogeneous (every
+    point's F equal to 1e-12), and a run resumed after 2 of 4 steps equals
+    the straight run to round-off (the faces stay at their reference
+    centres)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 7), np.linspace(0, 1.5, 4))
+    points = seed_points(mesh, 2, region=lambda x: (x[0] < 2) & (x[1] < 1))
+
+    def rollers(b):
+        return np.concatenate([b.get_dofs(lambda x: x[1] == 0).nodal["u^2"],
+                               b.get_dofs(lambda x: x[0] == 0).nodal["u^1"]])
+    kwargs = dict(loads=[Traction(side_points(points, "top"), "top",
+                                  [0., -100.])], nsteps=4,
+                  kinematics="finite", method="fem", antilocking=True)
+    args = (mesh, ElementQuad1(), points, LinearElastic(1e3, .3), rollers)
+    straight = simulate(*args, **kwargs).points
+    assert np.abs(straight.F[1, 1] - 1).min() > .05      # 10% strain
+    for a, b in ((0, 0), (1, 1), (0, 1)):
+        assert np.ptp(straight.F[a, b]) < 1e-12
+    half = {}
+
+    class Stop(Exception):
+        pass
+
+    def stop(record, state):
+        if record.step == 2:
+            half["points"] = state
+            raise Stop
+    with pytest.raises(Stop):
+        simulate(*args, callback=stop, **kwargs)
+    resumed = simulate(mesh, ElementQuad1(), half["points"], args[3],
+                       rollers, first_step=3, domain0=points.domain,
+                       **kwargs).points
+    assert np.abs(resumed.F - straight.F).max() < 1e-13
+
+
+@pytest.mark.parametrize("kinematics", KINEMATICS)
+@pytest.mark.parametrize("plastic", [False, True])
+def test_internal_variables_of_no_model_are_kept(kinematics, plastic):
+    """Points may carry variables no material declares (a user's tag):
+    every kinematics and material leaves them untouched."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 7), np.linspace(0, 1.5, 4))
+    points = seed_points(mesh, 2, region=lambda x: (x[0] < 2) & (x[1] < 1))
+    points.state["tag"] = np.arange(points.n, dtype=float)
+    material = VonMises(1e3, .3, 5.) if plastic else LinearElastic(1e3, .3)
+    res = simulate(mesh, ElementQuad1(), points, material,
+                   lambda b: b.get_dofs(lambda x: x[1] == 0),
+                   body_force=[0., -10.], kinematics=kinematics)
+    assert np.array_equal(res.points.state["tag"], points.state["tag"])
+    assert ("equivalent_plastic_strain" in res.points.state) == plastic

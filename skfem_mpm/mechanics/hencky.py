@@ -22,6 +22,7 @@ from typing import Tuple
 import numpy as np
 from numpy import ndarray
 
+from ..errors import InversionError
 from .materials import initial_state
 
 __all__ = ["hencky_update", "spatial_tangent", "pull_back",
@@ -122,8 +123,12 @@ def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None,
     if b_minus_identity is None:
         b_minus_identity = b_trial - np.eye(3)[:, :, None]
     d, vecs = principal_frame(b_minus_identity, dim)  # eig(b) = 1 + d
-    if not (d > -1).all():
-        raise FloatingPointError("b_trial is not positive definite")
+    bad = np.flatnonzero(~(d > -1).all(axis=0))
+    if bad.size:
+        raise InversionError(
+            "the trial elastic deformation b_tr is not positive definite (a "
+            "principal stretch <= 0 or NaN) at {} point(s) of the block, "
+            "first {}".format(bad.size, bad[:5].tolist()))
     x = 1. + d
     if state is None:
         state = initial_state(material, x.shape[1])

@@ -109,8 +109,6 @@ class SmallStrain:
 
     """
 
-    name = "small"
-
     def __init__(self, material, dim: int, counters: dict):
         self.material, self.dim, self.counters = material, dim, counters
         self.plastic = is_plastic(material)
@@ -150,7 +148,8 @@ class SmallStrain:
 
         def commit(old):
             new = copy.copy(old)
-            new.stress, new.strain, new.state = stress, strain, state
+            new.stress, new.strain = stress, strain
+            new.state = {**old.state, **state}    # variables of no model kept
             return new
         return Response(stress[:dim, :dim], points.volume, yielded, tangent,
                         commit)
@@ -179,8 +178,6 @@ class FiniteStrain:
 
     """
 
-    name = "finite"
-
     def __init__(self, material, dim: int, counters: dict,
                  total_lagrangian: bool = False):
         self.material, self.dim, self.counters = material, dim, counters
@@ -188,6 +185,7 @@ class FiniteStrain:
         self.total_lagrangian = total_lagrangian
         self._buffers = None
         self._start = (None, None)
+        self._start_inverse = (None, None)
 
     def _workspace(self, n: int):
         """Arrays reused by every Newton iteration (memory)."""
@@ -214,7 +212,10 @@ class FiniteStrain:
         grad = op.gradients(du)
         F_inv = None
         if self.total_lagrangian:         # grad_X(du) F_n^-1 = grad_xn(du)
-            F_inv = inverse_and_det(points.F, dim)[0][:dim, :dim]
+            if self._start_inverse[0] is not points.F:      # once per step
+                self._start_inverse = (points.F, inverse_and_det(
+                    points.F, dim)[0][:dim, :dim])
+            F_inv = self._start_inverse[1]
             grad = np.einsum("abp,bcp->acp", grad, F_inv)
         dF = deformation_increment(grad)
         dF_inv, detdF = inverse_and_det(dF, dim)
@@ -271,7 +272,7 @@ class FiniteStrain:
             new.be, new.strain = self.elastic_state(b_dev, old.state)
             new.stress = tau / J
             new.volume = J * old.volume0
-            new.state = state
+            new.state = {**old.state, **state}    # variables of no model kept
             return new
         def deformation(idx):
             return np.einsum("abp,bcp->acp", dF[..., idx], points.F[..., idx])

@@ -274,13 +274,12 @@ def state_variables(materials) -> dict:
     return out
 
 
-def elastic_tensor(material, n: int, dim: int, lam=None) -> ndarray:
+def elastic_tensor(material, n: int, dim: int) -> ndarray:
     """``C_abcd = lam d_ab d_cd + mu (d_ac d_bd + d_ad d_bc)`` of every
     point, (dim, dim, dim, dim, n): the small-strain tangent (2.3) in the
-    form the point operators assemble (``lam`` overrides the material's);
-    a read-only broadcast of one tensor when the moduli are uniform."""
+    form the point operators assemble; a read-only broadcast of one tensor when the moduli are uniform."""
     eye = np.eye(dim)
-    lam = material.lam if lam is None else lam
+    lam = material.lam
     mu = material.mu
     if np.ndim(lam) == 0 and np.ndim(mu) == 0:     # one tensor for all
         C = (lam * np.einsum("ab,cd->abcd", eye, eye)

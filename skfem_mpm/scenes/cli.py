@@ -195,7 +195,7 @@ def run(args) -> int:
     from .output import (SeriesWriter, load_checkpoint, save_checkpoint,
                          write_summary)
     from .io import atomic_path
-    from .scene import build_points, run_scene
+    from .scene import build_points, run_scene, surface_loads
     from .scene_file import load_scene
 
     for name in ("checkpoint_every", "max_steps", "steps"):
@@ -217,10 +217,14 @@ def run(args) -> int:
         if args.steps:
             scene.steps = args.steps
     mesh, _ = scene.grid.build()
+    initial = build_points(scene, mesh)
     if points is None:
-        points = build_points(scene, mesh)
-        domain0 = points.domain
-    loaded = np.flatnonzero(np.abs(points.force).sum(axis=0))
+        points, domain0 = initial, initial.domain
+    # points carrying a point load or a surface load (traction, pressure)
+    loaded = np.union1d(np.flatnonzero(np.abs(initial.force).sum(axis=0)),
+                        np.concatenate([np.asarray(load.points) for load in
+                                        surface_loads(scene, initial)] + [
+                                            np.array([], dtype=np.int64)]))
     outdir.mkdir(parents=True, exist_ok=True)
     if args.resume is None:
         with atomic_path(outdir / "scene.toml") as tmp:

@@ -126,7 +126,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
                            op.active_dofs, fixed, run.dim, step)
     free = free_dofs(op.active_dofs, fixed)
-    f_ext = run.loads.external(op, points, f_new)
+    f_ext = f_dead = run.loads.external(op, points, f_new)
     G = None if run.ghost is None else run.ghost.matrix(op, points)
     t["assemble"] += time.perf_counter() - tic
     residuals = []
@@ -139,8 +139,8 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         t["update"] += time.perf_counter() - tic
         tic = time.perf_counter()
         if run.loads.follows:                   # pressure on the trial surface
-            f_ext = run.loads.external(op, points, f_new,
-                                       response.deformation)
+            f_ext = f_dead + run.loads.follower_force(
+                op, points, f_new, response.deformation)
         f_int = op.force(response.P, response.w)
         if G is not None:                       # the ghost forces balance too
             f_int += G @ du
@@ -361,10 +361,14 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         raise InvalidInputError("rhs must be one of {}, got {!r}".format(
             RHS, rhs))
     check_run_input(mesh, points, nsteps)
-    if not (isinstance(ghost, (int, float, np.number)) and ghost >= 0
+    if isinstance(ghost, bool) or not (
+            isinstance(ghost, (int, float, np.number)) and ghost >= 0
             and np.isfinite(ghost)):
         raise InvalidInputError("ghost must be a finite number >= 0, got "
                                 "{!r}".format(ghost))
+    if not isinstance(antilocking, (bool, np.bool_)):
+        raise InvalidInputError("antilocking must be True or False, got "
+                                "{!r}".format(antilocking))
     if antilocking and method in ("ugimp", "cpgimp"):
         raise InvalidInputError(
             "antilocking (mean dilatation) averages over the points of each "
@@ -383,6 +387,10 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             "force (rhs = 'residual')".format(
                 "finite deformation" if kinematics == "finite"
                 else "plasticity"))
+    if rhs == "increment" and prescribed is not None:
+        raise InvalidInputError(
+            "rhs = 'increment' maps only the load increment: prescribed "
+            "displacements would not enter the solve; use rhs = 'residual'")
     if not (isinstance(tol, (int, float, np.number)) and 0 < tol < 1):
         raise InvalidInputError("tol must lie in (0, 1), got {!r}".format(tol))
     for name, value, low in (("max_iter", max_iter, 1),
@@ -397,20 +405,22 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     for name, value in initial_state(material, points.n).items():
         points.state.setdefault(name, value)
     counters = result.counters
+    domain0 = points.domain if domain0 is None else domain0
+    external = ExternalLoads(mesh, scalar, grid,
+                             as_body_force(body_force, mesh.dim()), loads,
+                             domain0, counters, points.n,
+                             follow=kinematics == "finite",
+                             moves=method != "fem")
     locate = point_locator(mesh) if locator is None else locator
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
                         counters)
     if method in ("fem", "mpm"):
         pattern.structure()              # set-up, shared by every step
-    domain0 = points.domain if domain0 is None else domain0
     run = Run(
         mesh=mesh, dim=mesh.dim(), grid=grid, method=piece, linear=linear,
         kinematics=make_kinematics(kinematics, material, mesh.dim(), counters,
                                    total_lagrangian=method == "fem"),
-        loads=ExternalLoads(mesh, scalar, grid,
-                            as_body_force(body_force, mesh.dim()), loads,
-                            domain0, counters, points.n,
-                            follow=kinematics == "finite"),
+        loads=external,
         ghost=GhostStabilisation(mesh, grid.elem, ghost, material)
         if ghost else None,
         antilocking=bool(antilocking), D=support_dofs(supports, grid),

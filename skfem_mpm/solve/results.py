@@ -36,9 +36,10 @@ class StepRecord:
         Point positions (after the update), accumulated displacements and
         stresses at the end of the step (``None`` unless kept).
     newton_residuals
-        Finite deformation: the residual of every Newton iteration.
+        Nonlinear steps (finite deformation or plasticity): the residual of
+        every Newton iteration; ``None`` for a linear step.
     n_yielded
-        Finite deformation: points on the yield surface.
+        Nonlinear steps: points on the yield surface.
     elements
         The active elements of the step (kept with the snapshots).
     reaction_dofs, reaction_values

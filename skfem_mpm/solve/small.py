@@ -47,7 +47,10 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     points
         Initial material points; copied, not modified.
     material
-        :class:`~skfem_mpm.mechanics.materials.LinearElastic`.
+        :class:`~skfem_mpm.LinearElastic` (one linear solve per step),
+        :class:`~skfem_mpm.VonMises` or any model of the protocol of
+        :mod:`skfem_mpm.mechanics.materials` (Newton-Raphson), or a list
+        with one per body.
     supports
         Fixed (zero) grid DOFs: DOF indices, a ``DofsView`` or a callable
         taking the grid's vector ``Basis`` (its DOFs and facets cover the

@@ -10,11 +10,19 @@ the volume average over the points of its element,
 one volumetric constraint per element instead of one per point, which
 removes the locking of Q1 elements as nu -> 0.5.  The modified gradient is
 linear in the displacement, so wrapping the step's point operator is all it
-takes: stresses follow from ``grad_bar`` (of the increment, in finite
-deformation ``dF = I + grad_bar(du)``, the B-bar extension of Moran, Ortiz
-and Shih, 1990), and internal force and tangent use the same operator, so
-Newton keeps its quadratic rate.  Homogeneous deformations are unchanged
-(``theta_e = div(u)``): the patch test still passes.
+takes: stresses follow from ``grad_bar``, and internal force and tangent
+use the same operator, so Newton keeps its quadratic rate.  Homogeneous
+deformations are unchanged (``theta_e = div(u)``): the patch test still
+passes.
+
+In finite deformation the average acts on each load step's increment,
+``dF = I + grad_bar(du)`` in the step's configuration (an incremental
+mean dilatation, as material points change cells between steps), not on
+the total deformation gradient as the F-bar method of de Souza Neto et al.
+(1996) for finite elements: the answer then depends on the load path at
+the order of the increment.  Measured on a block under gravity with
+nu = 0.45 and 50% strain (finite elements, Hencky): 1 and 8 load steps
+differ by 0.4% of the displacement (4e-14 without the average).
 
 """
 import numpy as np
