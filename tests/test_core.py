@@ -465,3 +465,25 @@ def test_internal_variables_of_no_model_are_kept(kinematics, plastic):
                    body_force=[0., -10.], kinematics=kinematics)
     assert np.array_equal(res.points.state["tag"], points.state["tag"])
     assert ("equivalent_plastic_strain" in res.points.state) == plastic
+
+
+def test_materials_and_prescribed_motion_are_checked_before_any_work():
+    """A material outside the protocol, a material list that does not
+    match the bodies, and a ``prescribed`` returning the wrong shapes or
+    DOFs outside the grid: each a specific error, before the first step."""
+    from skfem_mpm import InvalidMaterialError
+    mesh, points = block_case()
+    supports = lambda b: b.get_dofs(lambda x: x[1] == 0)    # noqa: E731
+    for material, match in [({"E": 1e6}, "lacks lam, mu, principal_update"),
+                            ([LinearElastic(1e4, .3)] * 2,
+                             "2 materials are given")]:
+        with pytest.raises(InvalidMaterialError, match=match):
+            simulate(mesh, ElementQuad1(), points, material, supports,
+                     callback=pytest.fail)
+    for returned in [(np.array([0, 1]), np.array([0.])),
+                     (np.array([10 ** 6]), np.array([0.])),
+                     (np.array([0.5]), np.array([0.]))]:
+        with pytest.raises(InvalidInputError, match="prescribed"):
+            simulate(mesh, ElementQuad1(), points, LinearElastic(1e4, .3),
+                     supports, prescribed=lambda b, f0, f1: returned,
+                     callback=pytest.fail)

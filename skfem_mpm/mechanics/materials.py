@@ -250,9 +250,28 @@ def at_points(material, points) -> object:
     """The material of every point: ``material`` itself, or a
     :class:`PointMaterials` when a list of materials (one per body) is
     given."""
-    if isinstance(material, (list, tuple)):
-        return PointMaterials(material, points.body)
-    return material
+    materials = list(material) if isinstance(material, (list, tuple)) \
+        else [material]
+    for k, m in enumerate(materials):
+        missing = [name for name in ("lam", "mu", "principal_update")
+                   if not hasattr(m, name)]
+        if missing or not (is_plastic(m) or hasattr(m, "stress")):
+            raise InvalidMaterialError(
+                "material {}{!r} does not follow the material protocol (see "
+                "skfem_mpm.mechanics.materials): it lacks {}".format(
+                    "{} ".format(k) if len(materials) > 1 else "", m,
+                    ", ".join(missing or ["stress (elastic materials)"])))
+    if not isinstance(material, (list, tuple)):
+        return material
+    used = int(points.body.max()) + 1
+    if len(materials) != used:
+        raise InvalidMaterialError(
+            "{} materials are given, one per body, but the points belong to "
+            "{} bod{} (points.body from 0 to {}): the materials and the "
+            "bodies must match".format(len(materials), used,
+                                       "y" if used == 1 else "ies",
+                                       used - 1))
+    return PointMaterials(materials, points.body)
 
 
 def is_plastic(material) -> bool:

@@ -274,6 +274,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         if name is not None and (not isinstance(name, str) or not name):
             c.bad(key + ".name", "must be a non-empty string", name)
             name = None
+        elif name is not None and name in [x.name for x in supports]:
+            c.bad(key + ".name", "names another support too", name)
         supports.append(Support(boundary=boundary, at=at, components=comps,
                                 value=value, name=name))
     gravity = None

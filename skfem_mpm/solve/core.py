@@ -108,6 +108,26 @@ class Run:
         self.__dict__.update(kwargs)
 
 
+def prescribed_increments(run: Run, f_old: float, f_new: float,
+                          step: int):
+    """The prescribed grid DOFs and their increments over a step, checked:
+    integer DOFs of the grid, one finite value each."""
+    dofs, values = run.prescribed(run.grid, f_old, f_new)
+    dofs, values = np.asarray(dofs), np.asarray(values, dtype=np.float64)
+    if dofs.size == 0:
+        dofs = dofs.astype(np.int64)
+    N = run.grid.N
+    if dofs.dtype.kind not in "iu" or dofs.ndim != 1 \
+            or values.shape != dofs.shape or not np.isfinite(values).all() \
+            or (dofs.size and (dofs.min() < 0 or dofs.max() >= N)):
+        raise InvalidInputError(
+            "step {}: prescribed(basis, f_old, f_new) must return integer "
+            "grid DOFs in [0, {}) and one finite increment each, got DOFs of "
+            "dtype {} and shape {}, increments of shape {}".format(
+                step, N, dofs.dtype, dofs.shape, values.shape))
+    return dofs.astype(np.int64), values
+
+
 def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
               step: int, stabilise: bool = False):
     """One load step from the converged state ``points``, from load factor
@@ -119,8 +139,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         op = MeanDilatation(op, points.volume)
     fixed, du = run.D, np.zeros(op.N)
     if run.prescribed is not None:
-        dofs, values = run.prescribed(run.grid, f_old, f_new)
-        dofs = np.asarray(dofs, dtype=np.int64)
+        dofs, values = prescribed_increments(run, f_old, f_new, step)
         du[dofs] = values
         fixed = np.union1d(fixed, dofs)
     check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
