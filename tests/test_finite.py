@@ -322,12 +322,18 @@ def test_failed_step_is_retried_with_the_stabilised_tangent(monkeypatch):
     monkeypatch.setattr(core, "load_step", load_step)
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
     pts = seed_points(mesh, 2, region=lambda x: x[1] < 1)
-    res = solve_finite(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
-                       lambda b: b.get_dofs(lambda x: x[1] == 0),
-                       body_force=[0., -1e2])
+    args = (mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    res = solve_finite(*args, body_force=[0., -1e2], ghost=0.)
     assert attempts == [False, True]           # same increment, no cut-back
     assert res.counters["stabilised_solves"] == res.counters["linear_solves"]
     assert res.history[-1].residual <= 1e-9
+    # ghost="auto" (the default) first retries with the ghost penalty on
+    attempts.clear()
+    res = solve_finite(*args, body_force=[0., -1e2])
+    assert attempts == [False, False]
+    assert res.counters["ghost_from_step"] == 1
+    assert res.counters["stabilised_solves"] == 0
 
 
 @pytest.mark.parametrize("method, error", [("mpm", 3.09e-2),

@@ -63,10 +63,11 @@ from .results import PHASES, Result, StepRecord
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["simulate", "RHS", "STABILISATION"]
+__all__ = ["simulate", "RHS", "STABILISATION", "DEFAULT_GHOST"]
 
 RHS = ("residual", "increment")
 STABILISATION = 1e-7
+DEFAULT_GHOST = .1     # ghost="auto" in finite deformation of moving points
 
 
 def vector_element(elem: Element) -> Element:
@@ -253,16 +254,24 @@ def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
 
 def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             step: int):
-    """A load step with the exact tangent; a nonlinear one is retried once
-    with the stabilised tangent if Newton fails (zero-energy modes not
-    refused as singular can still derail it)."""
+    """A load step with the exact tangent.  When Newton fails in a
+    nonlinear step, it is retried: with the ghost penalty switched on for
+    the rest of the run if ``ghost="auto"`` holds it in reserve (points
+    giving nodes a sliver of support make Newton cycle), else once with the
+    stabilised tangent (zero-energy modes not refused as singular)."""
     try:
         return load_step(run, points, f_old, f_new, step)
     except (NewtonDivergenceError, InversionError) as err:
         if run.linear:
             raise
-        logger.warning("%s: retrying the step with the tangent stabilised "
-                       "by %.0e of its diagonal", err, STABILISATION)
+        if run.ghost is None and run.ghost_reserve is not None:
+            run.ghost = run.ghost_reserve
+            run.counters["ghost_from_step"] = step
+            logger.warning("%s; switching the ghost penalty on (gamma %g) "
+                           "for the rest of the run", err, run.ghost.gamma)
+            return attempt(run, points, f_old, f_new, step)
+        logger.warning("%s; retrying with the tangent stabilised by %.0e "
+                       "of its diagonal", err, STABILISATION)
     return load_step(run, points, f_old, f_new, step, stabilise=True)
 
 
@@ -271,7 +280,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              prescribed: Optional[Callable] = None, nsteps: int = 1,
              method: str = "mpm", kinematics: str = "small",
              rhs: str = "residual", antilocking: bool = False,
-             ghost: float = 0., tol: float = 1e-9, max_iter: int = 25,
+             ghost="auto", tol: float = 1e-9, max_iter: int = 25,
              max_cutbacks: int = 8, solver=None,
              locator: Optional[Locator] = None, keep_snapshots: bool = True,
              first_step: int = 1, domain0: Optional[ndarray] = None,
@@ -327,7 +336,13 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         against volumetric locking; ``"mpm"`` and ``"fem"``.
     ghost
         Ghost-penalty factor for partially filled cells
-        (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none.
+        (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none;
+        ``"auto"`` (default): none, but where points move in finite
+        deformation a load step whose Newton loop fails switches
+        :data:`DEFAULT_GHOST` on for the rest of the run (a bending body
+        leaves nodes a sliver of support and Newton cycles without it; runs
+        that converge without it are not changed), and
+        ``counters["ghost_from_step"]`` says from which step.
     tol, max_iter
         Tolerance on the out-of-balance force over the free DOFs relative
         to the external force (to the internal force in steps driven by
@@ -380,11 +395,15 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         raise InvalidInputError("rhs must be one of {}, got {!r}".format(
             RHS, rhs))
     check_run_input(mesh, points, nsteps)
+    reserve = isinstance(ghost, str) and ghost == "auto" and \
+        kinematics == "finite" and method != "fem"
+    if isinstance(ghost, str) and ghost == "auto":
+        ghost = 0.
     if isinstance(ghost, bool) or not (
             isinstance(ghost, (int, float, np.number)) and ghost >= 0
             and np.isfinite(ghost)):
-        raise InvalidInputError("ghost must be a finite number >= 0, got "
-                                "{!r}".format(ghost))
+        raise InvalidInputError("ghost must be 'auto' or a finite number >= "
+                                "0, got {!r}".format(ghost))
     if not isinstance(antilocking, (bool, np.bool_)):
         raise InvalidInputError("antilocking must be True or False, got "
                                 "{!r}".format(antilocking))
@@ -441,7 +460,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                                    total_lagrangian=method == "fem"),
         loads=external,
         ghost=GhostStabilisation(mesh, grid.elem, ghost, material)
-        if ghost else None,
+        if ghost else None, ghost_reserve=GhostStabilisation(
+            mesh, grid.elem, DEFAULT_GHOST, material) if reserve else None,
         antilocking=bool(antilocking), D=support_dofs(supports, grid),
         prescribed=prescribed, rhs=rhs, tol=tol, max_iter=max_iter,
         solver=get_solver(solver), counters=counters,

@@ -40,7 +40,7 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                  keep_snapshots: bool = True, first_step: int = 1,
                  domain0: Optional[ndarray] = None,
                  callback: Optional[Callable] = None, loads=(),
-                 antilocking: bool = False, ghost: float = 0.) -> Result:
+                 antilocking: bool = False, ghost="auto") -> Result:
     """Finite-deformation implicit MPM or GIMP (updated Lagrangian,
     Hencky elasticity, optional von Mises plasticity): the finite case of
     :func:`~skfem_mpm.simulate`.

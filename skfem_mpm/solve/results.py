@@ -98,7 +98,9 @@ class Result:
         ``body_force`` (body-force assemblies), ``linear_solves``,
         ``return_maps`` (stress updates with a return map),
         ``newton_iterations``, ``stabilised_solves`` (Newton solves that
-        needed the stabilised tangent: zero-energy modes).
+        needed the stabilised tangent: zero-energy modes), and
+        ``ghost_from_step`` (0, or the step from which ``ghost="auto"``
+        switched the ghost penalty on).
 
     """
     points: MaterialPoints
@@ -106,7 +108,7 @@ class Result:
     basis: Optional[MaterialPointBasis] = None
     counters: dict = field(default_factory=lambda: dict.fromkeys(
         ("locate", "body_force", "linear_solves", "return_maps",
-         "newton_iterations", "stabilised_solves"), 0))
+         "newton_iterations", "stabilised_solves", "ghost_from_step"), 0))
 
     def timings(self) -> dict:
         """Total seconds per phase over all steps."""

@@ -3,7 +3,8 @@
 A body whose boundary leaves a grid node supported only by a sliver of
 material makes the stiffness badly conditioned (a node's stiffness scales
 with the sliver's volume).  The ghost penalty adds, on every interior face
-between two active cells of which at least one is partially filled,
+between two active cells of which at least one is filled to less than
+``CUT_FILL`` (by the points' current volumes),
 
     gamma * mu * h * int_F [[dn u]] . [[dn v]] ds,
 
@@ -22,7 +23,7 @@ from numpy import ndarray
 from skfem import BilinearForm, InteriorFacetBasis, asm
 from skfem.helpers import dot, grad, mul
 
-__all__ = ["ghost_penalty", "cut_cells", "GhostStabilisation"]
+__all__ = ["ghost_penalty", "cut_cells", "GhostStabilisation", "CUT_FILL"]
 
 
 @BilinearForm
@@ -31,9 +32,15 @@ def normal_derivative_jump(u, v, w):
     return w.weight * dot(mul(grad(u), w.n), mul(grad(v), w.n))
 
 
-def cut_cells(fill: ndarray, tol: float = 1e-9) -> ndarray:
-    """Active cells whose points fill less than the cell (0 < fill < 1)."""
-    return (fill > 0) & (fill < 1 - tol)
+CUT_FILL = .5
+
+
+def cut_cells(fill: ndarray, full: float = CUT_FILL) -> ndarray:
+    """Active cells that their points fill to less than ``full`` of the
+    cell: the cells whose nodes may lack support.  A fuller cell supports
+    its nodes, and penalising it would only perturb the answer (the
+    points' current volumes fill a compressed cell to less than 1)."""
+    return (fill > 0) & (fill < full)
 
 
 def ghost_penalty(mesh, elem, fill: ndarray, mu: ndarray,
@@ -96,11 +103,20 @@ class GhostStabilisation:
                                  else elem).dx.sum(axis=1)
 
     def matrix(self, op, points):
+        """Fill and stiffness of each cell from the points it holds; a cell
+        that the step's operator makes active without holding a point (a
+        GIMP domain reaching into it) counts as cut, with the largest
+        stiffness of the points."""
         cells = op.point_elements
         n = self.mesh.nelements
         filled = np.bincount(cells, points.volume, n)
-        mu = np.bincount(cells, points.volume * np.broadcast_to(
-            self.material.mu, (points.n,)), n) / np.maximum(
-                filled, np.finfo(float).tiny)
-        return ghost_penalty(self.mesh, self.elem, filled / self.cell_volume,
-                             mu, self.gamma)
+        mu_points = np.broadcast_to(self.material.mu, (points.n,))
+        mu = np.bincount(cells, points.volume * mu_points, n) / np.maximum(
+            filled, np.finfo(float).tiny)
+        fill = filled / self.cell_volume
+        reached = np.zeros(n, dtype=bool)
+        reached[op.elements] = True
+        reached &= fill == 0
+        fill[reached] = np.finfo(float).eps        # active, nearly empty
+        mu[reached] = mu_points.max()
+        return ghost_penalty(self.mesh, self.elem, fill, mu, self.gamma)
