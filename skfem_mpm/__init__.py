@@ -8,8 +8,9 @@ conditions; this package locates points, moves them and keeps their state.
 from .quadrature.basis import MaterialPointBasis
 from .errors import (ConvergenceError, InvalidInputError, InvalidMaterialError,
                      InversionError, MPMError, NewtonDivergenceError,
-                     PointsOutsideGridError, SingularSystemError,
-                     UnsupportedElementError)
+                     NumericalError, PointsOutsideGridError,
+                     PrescribedMotionError, SingularSystemError,
+                     StepFailedError, UnsupportedElementError)
 from .quadrature.locate import locate_points, point_locator
 
 from .mechanics.materials import LinearElastic, VonMises
@@ -30,5 +31,6 @@ __all__ = [
     "UnsupportedElementError", "LinearElastic", "solve_mpm", "Result",
     "StepRecord", "VonMises", "solve_finite", "ConvergenceError",
     "NewtonDivergenceError", "InversionError", "simulate", "solve_fe",
-    "Traction", "Pressure", "GridLoad", "side_points",
+    "Traction", "Pressure", "GridLoad", "side_points", "NumericalError",
+    "PrescribedMotionError", "StepFailedError",
 ]

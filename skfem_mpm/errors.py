@@ -91,6 +91,22 @@ class InversionError(ConvergenceError):
     material)."""
 
 
+class NumericalError(ConvergenceError):
+    """Arithmetic failed in a load step (a singular point-wise inverse, an
+    overflow): the step is retried and cut back like a diverging one."""
+
+
+class PrescribedMotionError(ConvergenceError):
+    """Prescribed grid motion no longer acts on the material (the body has
+    moved away from the prescribed nodes): it would not be followed."""
+
+
+class StepFailedError(ConvergenceError):
+    """A load step raised an error that is not the package's own (in a
+    user's material, form or callback-free code path); the original is the
+    ``__cause__``, the last converged state is attached."""
+
+
 def check_finite(name: str, a: np.ndarray):
     """Raise :class:`InvalidInputError` naming the first non-finite entry."""
     bad = ~np.isfinite(a)

@@ -9,6 +9,7 @@ from skfem import (Basis, ElementQuad1, ElementVector, MeshHex, MeshLine,
 from skfem.models.elasticity import linear_elasticity
 
 from skfem_mpm import (InvalidInputError, LinearElastic, MaterialPointBasis,
+                       PointsOutsideGridError,
                        MaterialPoints, MPMError, SingularSystemError,
                        locate_points, seed_gauss_points, seed_points,
                        solve_mpm)
@@ -23,6 +24,18 @@ GRIDS = {
     2: lambda: MeshQuad.init_tensor(np.linspace(0, 2, 5), np.linspace(0, 1, 3)),
     3: lambda: MeshHex.init_tensor(*[np.linspace(0, 1, 3)] * 3),
 }
+
+
+def box_rollers(basis):
+    """A box grid fixed at its base, on rollers at its sides (the points on
+    the sides stay in the grid)."""
+    p = basis.mesh.p
+    dofs = [basis.get_dofs(lambda x: x[-1] == 0).all()]
+    for d in range(len(p) - 1):
+        dofs.append(basis.get_dofs(lambda x: (x[d] == p[d].min())
+                                   | (x[d] == p[d].max()))
+                    .nodal["u^{}".format(d + 1)])
+    return np.concatenate(dofs)
 
 
 @pytest.mark.parametrize("dim", [1, 2, 3])
@@ -41,8 +54,7 @@ def test_points_on_grid_lines_are_stable_under_tiny_perturbations(dim):
     for shift in (0., 1e-14, -1e-14):
         pts = MaterialPoints(x=np.clip(x + shift, lo, hi), volume=volume)
         res = solve_mpm(mesh, mesh.elem(), pts, LinearElastic(1e3, .3),
-                        lambda b: b.get_dofs(lambda x: x[-1] == 0),
-                        body_force=b)
+                        box_rollers, body_force=b)
         results.append(res.points.stress)
     scale = np.abs(results[0]).max()
     for other in results[1:]:
@@ -53,7 +65,7 @@ def test_points_leaving_the_grid_keep_the_last_state(tmp_path, capsys):
     scene = tmp_path / "escape.toml"
     scene.write_text("""
 [grid]
-x = [0.0, 4.0, 4]
+x = [0.0, 6.0, 6]
 [[bodies]]
 region = { x = [0.0, 4.0] }
 material = { model = "linear_elastic", E = 1e3, nu = 0.0 }
@@ -67,6 +79,8 @@ steps = 4
     out = tmp_path / "out"
     assert main(["run", str(scene), "--out", str(out), "--no-progress"]) == 1
     err = capsys.readouterr().err
+    # the update of step 2 moves points out: detected there, not when
+    # step 3 locates them
     assert "PointsOutsideGridError: step 2:" in err and "indices [" in err
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "failed"
@@ -250,9 +264,14 @@ def test_fe_parity_and_equilibrium(hx, hy, nu, bx, by):
     form = linear_elasticity(material.lam, material.mu)
     K_fe = asm(form, fe)
     assert abs(asm(form, mp) - K_fe).max() <= 1e-10 * abs(K_fe).max()
-    res = solve_mpm(mesh, ElementQuad1(), seed_points(mesh, 2), material,
-                    lambda b: b.get_dofs(lambda x: x[1] == 0),
-                    body_force=[bx, by])
+    try:
+        res = solve_mpm(mesh, ElementQuad1(), seed_points(mesh, 2), material,
+                        lambda b: b.get_dofs(lambda x: x[1] == 0),
+                        body_force=[bx, by])
+    except PointsOutsideGridError as err:    # a body filling its grid
+        assert err.step == 1 and err.state.n == seed_points(mesh, 2).n
+        assert np.array_equal(err.state.x, seed_points(mesh, 2).x)
+        return
     # cells of aspect ratio up to 20 and nu up to 0.49: the residual of the
     # assembled equilibrium sits at round-off times the condition number
     assert res.history[-1].residual < 1e-7 or (bx == by == 0)
@@ -376,3 +395,47 @@ def test_untuned_cantilevers_complete(method, per_cell):
     assert max(r.residual for r in res.history) <= 1e-9
     v = -res.points.displacement[1, tip].mean() / L
     assert abs(v / elastica_tip(np.array([alpha]))[0][0] - 1) < .06
+
+
+def test_every_failure_is_an_mpm_error_carrying_the_last_state():
+    """A user's material that raises a foreign exception, numpy's
+    arithmetic failing in a step, and prescribed motion that the material
+    has left: each an ``MPMError`` subclass with the last converged state,
+    its load factor and the history."""
+    from skfem_mpm import (NumericalError, PrescribedMotionError,
+                           StepFailedError)
+    mesh = MeshQuad.init_tensor(np.linspace(-1, 2, 7), np.linspace(0, 2, 5))
+    points = seed_points(mesh, 2, region=lambda x: (x[1] < 1) & (x[0] > 0)
+                         & (x[0] < 1))
+    base = lambda b: b.get_dofs(lambda x: x[1] == 0)       # noqa: E731
+
+    class Broken(LinearElastic):
+        plastic = True
+
+        def principal_update(self, eps, state):
+            if eps.shape[1] and np.abs(eps).max() > 1e-3:
+                raise self.error
+            return LinearElastic.principal_update(self, eps, state)
+    for error, expected in ((TypeError("a bug"), StepFailedError),
+                            (np.linalg.LinAlgError("singular"),
+                             NumericalError)):
+        material = Broken(1e3, .3)
+        object.__setattr__(material, "error", error)
+        with pytest.raises(expected) as caught:
+            simulate(mesh, ElementQuad1(), points, material, base,
+                     body_force=[0., -5.], nsteps=4, max_cutbacks=1)
+        assert caught.value.__cause__ is error or expected is NumericalError
+        assert caught.value.load_factor < 1
+        assert caught.value.state.n == points.n
+        assert len(caught.value.history) == round(
+            caught.value.load_factor * 4)
+
+    def push(b, f0, f1):             # the top pushed down 1.5 x the height
+        nodes = mesh.nodes_satisfying(lambda x: np.isclose(x[1], 1.)
+                                      & (x[0] >= 0) & (x[0] <= 1))
+        return b.nodal_dofs[1, nodes], np.full(nodes.size, -1.5 * (f1 - f0))
+    with pytest.raises(PrescribedMotionError, match="none of which") as caught:
+        simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3), base,
+                 prescribed=push, nsteps=4, kinematics="finite")
+    assert caught.value.load_factor == .5
+    assert caught.value.state.x[1].max() < 1.

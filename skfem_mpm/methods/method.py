@@ -44,16 +44,21 @@ class PointMethod:
         self._locate, self.counters = locate, counters
         self.moves = name != "fem"
         self._operator = None
+        self._located = (None, None)
 
-    def locate(self, points, step: int, timings: dict):
-        """Element and local coordinates of the points; the error carries
-        the step and the (last converged) points."""
+    def locate(self, x, step: int, timings: dict, converged):
+        """Element and local coordinates of the positions ``x`` (located
+        once: the location after a step's update serves the next step);
+        the error carries the step and the last converged points."""
+        if self._located[0] is x:
+            return self._located[1]
         tic = time.perf_counter()
         self.counters["locate"] += 1
         try:
-            return self._locate(points.x)
+            self._located = (x, self._locate(x))
+            return self._located[1]
         except PointsOutsideGridError as err:
-            err.step, err.state = step, points
+            err.step, err.state = step, converged
             raise
         finally:
             timings["locate"] += time.perf_counter() - tic
@@ -63,7 +68,7 @@ class PointMethod:
         assemble)."""
         if self._operator is not None:
             return self._operator
-        location = self.locate(points, step, timings)
+        location = self.locate(points.x, step, timings, points)
         tic = time.perf_counter()
         op = PointOperator(MaterialPointBasis(
             self.mesh, self.scalar, points, location, dofs=self.scalar_dofs),
@@ -88,7 +93,7 @@ class GimpMethod(PointMethod):
         self.gimp = gimp_operators(mesh, scalar, locate)
 
     def operator(self, points, step: int, timings: dict):
-        location = self.locate(points, step, timings)   # inside the grid
+        location = self.locate(points.x, step, timings, points)
         tic = time.perf_counter()
         op = self.gimp(points.x, points.domain)
         op.point_elements = location[0]

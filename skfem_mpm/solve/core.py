@@ -34,6 +34,7 @@ or that inverts a point is retried with a stabilised tangent, then cut back.
 """
 import logging
 import time
+from contextlib import contextmanager
 from typing import Callable, Optional, Sequence
 
 import numpy as np
@@ -44,8 +45,10 @@ from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 from skfem.quadrature import get_quadrature
 
-from ..errors import (InvalidInputError, InversionError,
-                      NewtonDivergenceError, SingularSystemError)
+from ..errors import (ConvergenceError, InvalidInputError, InversionError,
+                      MPMError, NewtonDivergenceError, NumericalError,
+                      PrescribedMotionError, SingularSystemError,
+                      StepFailedError)
 from ..mechanics.forms import as_body_force
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
 from ..mechanics.materials import at_points, initial_state, is_plastic
@@ -66,6 +69,8 @@ logger = logging.getLogger(__name__)
 __all__ = ["simulate", "RHS", "STABILISATION", "DEFAULT_GHOST"]
 
 RHS = ("residual", "increment")
+# failures of a step that a retry or a smaller load increment may cure
+STEP_FAILURES = (NewtonDivergenceError, InversionError, NumericalError)
 STABILISATION = 1e-7
 DEFAULT_GHOST = .1     # ghost="auto" in finite deformation of moving points
 
@@ -129,6 +134,26 @@ def prescribed_increments(run: Run, f_old: float, f_new: float,
     return dofs.astype(np.int64), values
 
 
+def check_prescribed_motion(run: Run, op, dofs: ndarray, values: ndarray,
+                            step: int):
+    """Prescribed motion must act on the material: when no grid DOF with a
+    non-zero prescribed increment is supported by a point in this step
+    (the body has moved away from the prescribed nodes, e.g. pushed down
+    past them), the motion would not be followed, silently.  (Increments
+    on nodes the body never reaches do no harm where others act.)"""
+    moving = dofs[values != 0.]
+    on = np.zeros(op.N, dtype=bool)
+    on[op.active_dofs] = True
+    lost = moving[~on[moving]]
+    if moving.size and lost.size == moving.size:
+        raise PrescribedMotionError(
+            "step {}: the prescribed motion acts on {} grid DOF(s), none of "
+            "which a material point supports any more, e.g. at {}: the "
+            "material has moved away from the prescribed nodes, whose motion "
+            "would not be followed".format(step, lost.size, run.grid.doflocs[
+                :, lost[:3]].T.tolist()))
+
+
 def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
               step: int, stabilise: bool = False):
     """One load step from the converged state ``points``, from load factor
@@ -143,6 +168,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         dofs, values = prescribed_increments(run, f_old, f_new, step)
         du[dofs] = values
         fixed = np.union1d(fixed, dofs)
+        check_prescribed_motion(run, op, dofs, values, step)
     check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
                            op.active_dofs, fixed, run.dim, step)
     free = free_dofs(op.active_dofs, fixed)
@@ -177,10 +203,11 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             break
         if it == run.max_iter or not np.isfinite(residuals[-1]):
             raise NewtonDivergenceError(
-                "step {}: {} did not converge in {} iterations (residuals "
-                "{})".format(step, "the equilibrium iteration" if run.linear
-                             else "Newton-Raphson", run.max_iter,
-                             ", ".join("{:.1e}".format(r) for r in residuals)))
+                "step {}: {} did not converge in {} iterations (residual "
+                "{:.1e}, smallest {:.1e}, last {:.1e})".format(
+                    step, "the equilibrium iteration" if run.linear
+                    else "Newton-Raphson", it, residuals[0], min(residuals),
+                    residuals[-1]))
         tic = time.perf_counter()
         K = op.stiffness(response.tangent(), response.w)
         if G is not None:
@@ -202,6 +229,8 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             new.domain = domains
     held = fixed[np.isin(fixed, op.active_dofs)]
     t["update"] += time.perf_counter() - tic
+    if run.method.moves:     # inside the grid (the location serves the next
+        run.method.locate(new.x, step, t, points)               # step)
     record = StepRecord(step, f_new, residuals[-1], op.nelems, free.size, t,
                         reaction_dofs=held, reaction_values=-r[held],
                         n_dofs=op.N)
@@ -239,9 +268,9 @@ def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
             if run.linear:
                 raise SingularSystemError("step {}: {}".format(step, err)) \
                     from err
-            logger.warning("step %d: %s; solving again with the tangent "
-                           "stabilised by %.0e of its diagonal", step, err,
-                           STABILISATION)
+            logger.debug("step %d: %s; solving again with the tangent "
+                         "stabilised by %.0e of its diagonal", step, err,
+                         STABILISATION)
     K.setdiag(K.diagonal() * (1. + STABILISATION))           # in place
     counters["linear_solves"] += 1
     counters["stabilised_solves"] += 1
@@ -260,8 +289,9 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     giving nodes a sliver of support make Newton cycle), else once with the
     stabilised tangent (zero-energy modes not refused as singular)."""
     try:
-        return load_step(run, points, f_old, f_new, step)
-    except (NewtonDivergenceError, InversionError) as err:
+        with numerical_failures(step):
+            return load_step(run, points, f_old, f_new, step)
+    except STEP_FAILURES as err:
         if run.linear:
             raise
         if run.ghost is None and run.ghost_reserve is not None:
@@ -272,7 +302,21 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             return attempt(run, points, f_old, f_new, step)
         logger.warning("%s; retrying with the tangent stabilised by %.0e "
                        "of its diagonal", err, STABILISATION)
-    return load_step(run, points, f_old, f_new, step, stabilise=True)
+    with numerical_failures(step):
+        return load_step(run, points, f_old, f_new, step, stabilise=True)
+
+
+@contextmanager
+def numerical_failures(step: int):
+    """numpy's and Python's arithmetic failures in a step (a singular 3x3
+    inverse of a squashed point, an overflow) as a
+    :class:`~skfem_mpm.errors.NumericalError`: a failed step like any
+    other, retried and cut back."""
+    try:
+        yield
+    except (ArithmeticError, np.linalg.LinAlgError) as err:
+        raise NumericalError("step {}: {}: {}".format(
+            step, type(err).__name__, err)) from err
 
 
 def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
@@ -477,7 +521,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         try:
             points, record, op = attempt(run, points, factor, target,
                                          step + 1)
-        except (NewtonDivergenceError, InversionError) as err:
+        except STEP_FAILURES as err:
             if run.linear or (target - factor) / 2 < smallest * (1 - 1e-9):
                 raise type(err)(
                     "{}; no convergence down to a load increment of {:.2e}: "
@@ -486,9 +530,20 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                     state=points, load_factor=factor,
                     history=result.history) from err
             increment = (target - factor) / 2
-            logger.warning("%s: cutting the load increment back to %.3e",
-                           err, increment)
+            logger.warning("step %d: cutting the load increment back to "
+                           "%.3e", step + 1, increment)
             continue
+        except MPMError as err:              # what a cut-back cannot cure
+            err.state, err.load_factor = points, factor
+            err.history = result.history
+            raise
+        except Exception as err:             # a user's material or form
+            raise StepFailedError(
+                "step {}: {}: {} (the last converged state, load factor "
+                "{:.4f}, is attached)".format(step + 1, type(err).__name__,
+                                              err, factor),
+                state=points, load_factor=factor,
+                history=result.history) from err
         step += 1
         factor = target
         if abs(factor - boundary) < 1e-12:
