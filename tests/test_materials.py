@@ -10,8 +10,9 @@ import pytest
 from skfem import ElementQuad1, MeshQuad
 
 from skfem_mpm import LinearElastic, seed_points, simulate
-from skfem_mpm.scenes.output import (SeriesWriter, load_checkpoint,
-                                     save_checkpoint)
+from skfem_mpm.scenes.checkpoint import (Checkpoint, history_rows,
+                                         load_checkpoint, save_checkpoint)
+from skfem_mpm.scenes.output import SeriesWriter
 
 
 @dataclass(frozen=True)
@@ -127,23 +128,32 @@ def test_internal_variables_survive_checkpoint_and_resume(tmp_path,
     class Stop(Exception):
         pass
 
+    history = []
     writer = SeriesWriter(tmp_path, MeshQuad.init_tensor(
         np.linspace(0, 1, 3), np.linspace(0, 1, 3)))
 
     def stop_after_three(record, points):
         writer.write(record.step, record.load_factor, points,
                      record.elements, record.u)
+        history.append(record)
         if record.step == 3:
-            save_checkpoint(tmp_path, record.step, 6, points, [record],
-                            points.domain)
+            save_checkpoint(tmp_path, Checkpoint(
+                step=3, nsteps=6, load_factor=record.load_factor,
+                increment=record.increment, points=points,
+                counters=record.counters, history=history_rows(history),
+                reactions=np.zeros((3, 0, 2)), scene_sha256="",
+                domain0=points.domain))
             raise Stop
     with pytest.raises(Stop):
         shear_run(6, kinematics, callback=stop_after_three)
-    step, nsteps, points, _, domain0 = load_checkpoint(tmp_path)
-    assert (step, nsteps) == (3, 6)
+    saved = load_checkpoint(tmp_path)
+    assert (saved.step, saved.nsteps, saved.load_factor) == (3, 6, .5)
+    points = saved.points
     assert points.state["alpha"].max() > 0
     resumed = shear_run(6, kinematics, points=points, first_step=4,
-                        domain0=domain0).points
+                        domain0=saved.domain0, load_factor=saved.load_factor,
+                        increment=saved.increment,
+                        counters=saved.counters).points
     for name in ("x", "stress", "strain", "F", "be", "volume",
                  "displacement"):
         assert np.array_equal(getattr(resumed, name), getattr(whole, name))

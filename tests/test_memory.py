@@ -38,8 +38,8 @@ def test_small_strain_memory_is_flat_over_1000_steps():
 
     per_step, result = growth_per_step(run, last=1000)
     # a Jacobian cache would add ~10 kB per step here; a history record
-    # (a few scalars and the phase timings) is under 1.5 kB
-    assert per_step < 1500
+    # (a few scalars, the phase timings and the run's counters) is under 2 kB
+    assert per_step < 2000
     # the mesh's own mapping holds only the grid basis' fixed Jacobians
     assert len(getattr(mesh._cached_mapping, "_cache", {})) <= 4
     assert np.isfinite(result.points.stress).all()
@@ -57,4 +57,4 @@ def test_finite_deformation_memory_is_flat():
                             keep_snapshots=False, callback=callback)
 
     per_step, _ = growth_per_step(run, last=200)
-    assert per_step < 2000      # record plus its Newton residual list
+    assert per_step < 2500      # record plus its Newton residual list

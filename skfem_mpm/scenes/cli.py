@@ -112,50 +112,64 @@ class StopRun(Exception):
     """Raised by the step callback to end a run early (``--max-steps``)."""
 
 
-def summarise(scene, result, seconds: float) -> dict:
-    """The numbers of a run, for ``summary.json`` and the terminal."""
+def summarise(scene, result, seconds: float, earlier=None) -> dict:
+    """The numbers of a run, for ``summary.json`` and the terminal; with
+    ``earlier`` (the :class:`~skfem_mpm.scenes.checkpoint.Checkpoint` a
+    run resumed from), over the whole run: history rows, Newton iterations
+    and reactions of the steps before the resume included."""
     from ..studies.study import case_error
+    from .checkpoint import history_rows
     pts = result.points
     history = result.history
+    names, resultant = reaction_resultants(scene)
+    rows = history_rows(history)
+    reactions = np.array([resultant(r) for r in history]).reshape(
+        len(history), len(names), pts.dim)
+    if earlier is not None:
+        rows = np.vstack([earlier.history, rows])
+        reactions = np.concatenate([earlier.reactions.reshape(
+            -1, len(names), pts.dim), reactions])
     summary = {
         "scene": scene.name, "method": scene.method,
         "kinematics": scene.kinematics, "steps": scene.steps,
-        "steps_run": len(history), "points": int(pts.n),
-        "load_factor": float(history[-1].load_factor) if history else 0.,
-        "max_residual": max((float(r.residual) for r in history),
-                            default=0.),
+        "steps_run": len(rows), "points": int(pts.n),
+        "load_factor": float(rows[-1, 1]) if len(rows) else 0.,
+        "max_residual": float(rows[:, 2].max()) if len(rows) else 0.,
         "wall_seconds": seconds, "timings": result.timings(),
         "counters": result.counters,
         "max_displacement": float(np.abs(pts.displacement).max()),
+        "reactions": {name: reactions[:, k].tolist()
+                      for k, name in enumerate(names)},
     }
-    if history and history[0].newton_residuals is not None:
-        summary["newton_iterations"] = [len(r.newton_residuals) - 1
-                                        for r in history]
-    if history:
-        summary["reactions"] = support_reactions(scene, history)
+    if len(rows) and (rows[:, 5] >= 0).any():
+        summary["newton_iterations"] = [int(max(k, 0)) for k in rows[:, 5]]
     error = case_error(scene, result)
     if np.isfinite(error):
         summary["error"] = error
     return summary
 
 
-def support_reactions(scene, history) -> dict:
-    """Per support name, the resultant reaction force (one vector of the
-    grid's dimension per step, zero in unsupported components)."""
+def reaction_resultants(scene):
+    """The support names and ``resultant(record) -> (supports, dim)``: per
+    support, the resultant reaction force of a step (zero in unsupported
+    components)."""
     from ..solve.core import grid_parts
     from .scene import scene_support_dofs, support_names
     mesh, elem = scene.grid.build()
     grid, dim = grid_parts(mesh, elem)[1], mesh.dim()
-    reactions = np.array([r.reactions for r in history])      # (steps, N)
-    out = {}
-    for name, support in zip(support_names(scene), scene.supports):
+    parts = []
+    for support in scene.supports:
         axes = [AXES.index(c) for c in support.components
                 if AXES.index(c) < dim]
-        dofs = scene_support_dofs(support, grid, dim)         # (axes, nodes)
-        total = np.zeros((len(history), dim))
-        total[:, axes] = reactions[:, dofs].sum(axis=2)
-        out[name] = total.tolist()
-    return out
+        parts.append((axes, scene_support_dofs(support, grid, dim)))
+
+    def resultant(record) -> np.ndarray:
+        reactions = record.reactions
+        out = np.zeros((len(parts), dim))
+        for k, (axes, dofs) in enumerate(parts):
+            out[k, axes] = reactions[dofs].sum(axis=1)
+        return out
+    return support_names(scene), resultant
 
 
 def plot_outputs(scene, result, outdir: Path, loaded):
@@ -192,8 +206,9 @@ def plot_outputs(scene, result, outdir: Path, loaded):
 
 
 def run(args) -> int:
-    from .output import (SeriesWriter, load_checkpoint, save_checkpoint,
-                         write_summary)
+    from .checkpoint import (Checkpoint, history_rows, load_checkpoint,
+                             save_checkpoint, scene_digest)
+    from .output import SeriesWriter, write_summary
     from .io import atomic_path
     from .scene import build_points, run_scene, surface_loads
     from .scene_file import load_scene
@@ -203,13 +218,17 @@ def run(args) -> int:
             print("skfem-mpm: --{} must be >= 0, got {}".format(
                 name.replace("_", "-"), getattr(args, name)), file=sys.stderr)
             return 2
-    first_step, points, domain0, rows = 1, None, None, None
+    earlier, points, domain0, resume = None, None, None, {}
     if args.resume is not None:
         outdir = args.resume
         source = outdir / "scene.toml"
         scene = load_scene(source)
-        step, scene.steps, points, rows, domain0 = load_checkpoint(outdir)
-        first_step = step + 1
+        earlier = load_checkpoint(outdir, scene_digest(source))
+        scene.steps, points, domain0 = earlier.nsteps, earlier.points, \
+            earlier.domain0
+        resume = dict(first_step=earlier.step + 1,
+                      load_factor=earlier.load_factor,
+                      increment=earlier.increment, counters=earlier.counters)
     else:
         outdir = args.out
         source = args.scene or EMBEDDED
@@ -225,15 +244,31 @@ def run(args) -> int:
                         np.concatenate([np.asarray(load.points) for load in
                                         surface_loads(scene, initial)] + [
                                             np.array([], dtype=np.int64)]))
+    names, resultant = reaction_resultants(scene)
     outdir.mkdir(parents=True, exist_ok=True)
     if args.resume is None:
         with atomic_path(outdir / "scene.toml") as tmp:
             shutil.copyfile(source, tmp)
+    digest = scene_digest(outdir / "scene.toml")
     series = None if args.no_series else SeriesWriter(outdir, mesh)
-    if series is not None and rows is not None:
-        series.restore([(int(r[0]), float(r[1])) for r in rows])
+    if series is not None and earlier is not None:
+        series.restore([(int(r[0]), float(r[1])) for r in earlier.history])
     progress = Progress(scene.steps, not args.no_progress)
     history = []
+
+    def checkpoint(state, factor, increment, counters):
+        """The run so far (before this invocation included)."""
+        rows = history_rows(history)
+        reactions = np.array([resultant(r) for r in history]).reshape(
+            len(history), len(names), mesh.dim())
+        if earlier is not None:
+            rows = np.vstack([earlier.history, rows])
+            reactions = np.concatenate([earlier.reactions, reactions])
+        save_checkpoint(outdir, Checkpoint(
+            step=len(rows), nsteps=scene.steps, load_factor=factor,
+            increment=increment, points=state, counters=counters,
+            history=rows, reactions=reactions, scene_sha256=digest,
+            domain0=domain0))
 
     def callback(record, pts):
         history.append(record)
@@ -241,16 +276,20 @@ def run(args) -> int:
         if series is not None:
             series.write(record.step, float(record.load_factor), pts,
                          record.elements, record.u)
-        if args.checkpoint_every and record.step % args.checkpoint_every == 0:
-            save_checkpoint(outdir, record.step, scene.steps, pts, history,
-                            domain0)
+        if record.load_factor < 1. and (
+                (args.checkpoint_every
+                 and record.step % args.checkpoint_every == 0)
+                or (args.max_steps and len(history) >= args.max_steps)):
+            checkpoint(pts, record.load_factor, record.increment,
+                       record.counters)
         if args.max_steps and len(history) >= args.max_steps \
                 and record.load_factor < 1.:
             raise StopRun(record.step)
 
     tic = time.perf_counter()
     try:
-        result = run_scene(scene, points, first_step, domain0, callback)
+        result = run_scene(scene, points, domain0=domain0, callback=callback,
+                           **resume)
     except StopRun as stop:
         print("stopped after step {}; continue with: skfem-mpm run "
               "--resume {}".format(stop.args[0], outdir))
@@ -258,19 +297,21 @@ def run(args) -> int:
     except MPMError as err:
         # keep what converged: a checkpoint of the last converged state and
         # a summary saying what failed
-        last = history[-1].step if history else first_step - 1
+        last = history[-1] if history else None
         state = getattr(err, "state", None)
         if state is not None:
-            save_checkpoint(outdir, last, scene.steps, state, history,
-                            domain0)
+            checkpoint(state, err.load_factor, last.increment if last else
+                       resume.get("increment", 1. / scene.steps),
+                       last.counters if last else resume.get("counters", {}))
         write_summary(outdir / "summary.json", {
             "scene": scene.name, "status": "failed",
             "error": "{}: {}".format(type(err).__name__, err),
-            "last_converged_step": last,
+            "last_converged_step": last.step if last else
+            resume.get("first_step", 1) - 1,
             "checkpoint": state is not None})
         raise
     seconds = time.perf_counter() - tic
-    summary = summarise(scene, result, seconds)
+    summary = summarise(scene, result, seconds, earlier)
     summary["status"] = "completed"
     write_summary(outdir / "summary.json", summary)
     plot_outputs(scene, result, outdir, loaded)

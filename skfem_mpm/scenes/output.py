@@ -1,7 +1,7 @@
 """Run output for ParaView and for scripts: a VTU time series of the points
 (all their state as point data) and of the active grid (nodal
-displacements), PVD collections, ``summary.json``, and checkpoints that
-load without pickle.  Every file is written atomically.
+displacements), PVD collections and ``summary.json`` (checkpoints:
+:mod:`skfem_mpm.scenes.checkpoint`).  Every file is written atomically.
 
 """
 import json
@@ -11,14 +11,10 @@ from typing import Optional
 import numpy as np
 from numpy import ndarray
 
-from ..errors import InvalidInputError
 from .io import atomic_path
 from ..quadrature.points import MaterialPoints
 
-__all__ = ["SeriesWriter", "write_summary", "save_checkpoint",
-           "load_checkpoint"]
-
-CHECKPOINT = "checkpoint.npz"
+__all__ = ["SeriesWriter", "write_summary", "point_cloud"]
 
 
 def _pad3(a: ndarray) -> ndarray:
@@ -109,45 +105,3 @@ def write_summary(path, summary: dict):
     """Write ``summary`` as JSON atomically."""
     with atomic_path(path) as tmp:
         Path(tmp).write_text(json.dumps(summary, indent=2, sort_keys=True))
-
-
-HISTORY_KEYS = ("step", "load_factor", "residual", "n_active_elements",
-                "n_free_dofs")
-
-
-def save_checkpoint(outdir, step: int, nsteps: int, points: MaterialPoints,
-                    history, domain0: Optional[ndarray]):
-    """Save the full state after ``step`` of ``nsteps`` (numpy arrays only,
-    no pickle)."""
-    arrays = {"step": np.array(step), "nsteps": np.array(nsteps)}
-    for name in ("x", "volume", "force", "x0", "stress", "strain",
-                 "displacement", "volume0", "F", "be", "body"):
-        arrays["points_" + name] = getattr(points, name)
-    if points.domain is not None:
-        arrays["points_domain"] = points.domain
-    for name, value in points.state.items():
-        arrays["state_" + name] = value
-    if domain0 is not None:
-        arrays["domain0"] = domain0
-    arrays["history"] = np.array([[getattr(r, k) for k in HISTORY_KEYS]
-                                  for r in history], dtype=np.float64
-                                 ).reshape(-1, len(HISTORY_KEYS))
-    with atomic_path(Path(outdir) / CHECKPOINT) as tmp:
-        with open(tmp, "wb") as f:
-            np.savez(f, **arrays)
-
-
-def load_checkpoint(outdir):
-    """Load a checkpoint: ``(step, nsteps, points, history rows,
-    domain0)``."""
-    path = Path(outdir) / CHECKPOINT
-    if not path.exists():
-        raise InvalidInputError("no checkpoint in {}".format(outdir))
-    with np.load(path, allow_pickle=False) as data:
-        fields = {k[len("points_"):]: data[k] for k in data.files
-                  if k.startswith("points_")}
-        fields["state"] = {k[len("state_"):]: data[k] for k in data.files
-                           if k.startswith("state_")}
-        domain0 = data["domain0"] if "domain0" in data.files else None
-        return (int(data["step"]), int(data["nsteps"]),
-                MaterialPoints(**fields), data["history"], domain0)

@@ -304,9 +304,10 @@ def scene_prescribed(scene: Scene, dim: int):
 
 def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
               first_step: int = 1, domain0: Optional[ndarray] = None,
-              callback: Optional[Callable] = None) -> Result:
+              callback: Optional[Callable] = None, **resume) -> Result:
     """Run a scene (from its start, or resumed from ``points`` after step
-    ``first_step - 1``).
+    ``first_step - 1``; ``resume``: ``load_factor``, ``increment`` and
+    ``counters`` as in :func:`~skfem_mpm.simulate`).
 
     Examples
     --------
@@ -338,4 +339,5 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                     antilocking=scene.antilocking, ghost=scene.ghost,
                     tol=scene.tolerance, max_iter=scene.max_iterations,
                     first_step=first_step, domain0=domain0,
-                    callback=callback, solver=scene.linear_solver)
+                    callback=callback, solver=scene.linear_solver,
+                    **resume)

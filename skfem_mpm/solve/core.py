@@ -107,6 +107,26 @@ def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int):
             "points are {}D but the mesh is {}D".format(points.dim, mesh.dim()))
 
 
+def check_resume(first_step, nsteps: int, load_factor, increment):
+    """Raise :class:`~skfem_mpm.errors.InvalidInputError` for a resume
+    state no run can be in."""
+    if isinstance(first_step, bool) or not isinstance(
+            first_step, (int, np.integer)) or first_step < 1:
+        raise InvalidInputError("first_step must be a positive integer, got "
+                                "{!r}".format(first_step))
+    for name, value, low, high in (("load_factor", load_factor, 0., 1.),
+                                   ("increment", increment, 0., 1. / nsteps)):
+        if value is not None and not (
+                isinstance(value, (int, float, np.number))
+                and not isinstance(value, bool)
+                and (low <= value < high if name == "load_factor"
+                     else low < value <= high * (1 + 1e-12))):
+            raise InvalidInputError(
+                "{} must lie in {}{}, {}{}, got {!r}".format(
+                    name, "[" if name == "load_factor" else "(", low, high,
+                    ")" if name == "load_factor" else "]", value))
+
+
 class Run:
     """What stays fixed over a run: the grid, the pieces and the settings."""
 
@@ -328,6 +348,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              max_cutbacks: int = 8, solver=None,
              locator: Optional[Locator] = None, keep_snapshots: bool = True,
              first_step: int = 1, domain0: Optional[ndarray] = None,
+             load_factor: Optional[float] = None,
+             increment: Optional[float] = None,
+             counters: Optional[dict] = None,
              callback: Optional[Callable] = None) -> Result:
     """Quasi-static implicit MPM, GIMP or FE: any method with any
     kinematics, material, stabilisation and loads.
@@ -398,9 +421,15 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         A :func:`~skfem_mpm.point_locator` of ``mesh`` to reuse; keep
         per-step grid increments, positions, displacements and stresses in
         the history; ``callback(record, points)`` after every step.
-    first_step, domain0
-        Resume: ``points`` is the state after step ``first_step - 1``, and
-        ``domain0`` the initial GIMP domains (default ``points.domain``).
+    first_step, domain0, load_factor, increment, counters
+        Resume: ``points`` is the state after step ``first_step - 1``, at
+        ``load_factor`` (default ``(first_step - 1) / nsteps``), the next
+        load increment is ``increment`` (default ``1 / nsteps``; less after
+        a cut-back), ``domain0`` the initial GIMP domains (default
+        ``points.domain``) and ``counters`` those of the run so far (a
+        ghost penalty switched on stays on).  ``StepRecord.load_factor``,
+        ``.increment`` and ``.counters`` of the last converged step are
+        what a resume needs: it then continues bit-identically.
 
     Returns
     -------
@@ -481,6 +510,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                 value, (int, np.integer)) or not low <= value <= 60:
             raise InvalidInputError("{} must be an integer in [{}, 60], got "
                                     "{!r}".format(name, low, value))
+    check_resume(first_step, nsteps, load_factor, increment)
     scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     result = Result(points=points.copy())
     points = result.points
@@ -511,8 +541,13 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         solver=get_solver(solver), counters=counters,
         keep_snapshots=keep_snapshots, domain0=domain0)
     step = int(first_step) - 1
-    factor, increment = step / nsteps, 1. / nsteps
-    smallest = increment / 2 ** max_cutbacks
+    factor = step / nsteps if load_factor is None else float(load_factor)
+    increment = 1. / nsteps if increment is None else float(increment)
+    smallest = 1. / nsteps / 2 ** max_cutbacks
+    if counters:
+        result.counters.update(counters)
+        if counters.get("ghost_from_step") and run.ghost_reserve is not None:
+            run.ghost = run.ghost_reserve
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
         target = min(factor + increment, boundary)
@@ -548,6 +583,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         factor = target
         if abs(factor - boundary) < 1e-12:
             increment = 1. / nsteps
+        record.increment, record.counters = increment, dict(counters)
         result.history.append(record)
         result.points = points
         result.basis = getattr(op, "basis", None)

@@ -48,6 +48,10 @@ class StepRecord:
         force); :attr:`reactions` expands them into a grid vector.
     n_dofs
         Number of grid DOFs (the length of ``u`` and ``reactions``).
+    increment, counters
+        The load increment the next step starts with (``1 / nsteps``, or
+        less after a cut-back) and the run's counters after this step: with
+        ``load_factor``, what a resume needs.
 
     """
     step: int
@@ -66,6 +70,8 @@ class StepRecord:
     reaction_dofs: Optional[ndarray] = None
     reaction_values: Optional[ndarray] = None
     n_dofs: int = 0
+    increment: float = 0.
+    counters: Optional[dict] = None
 
     @property
     def reactions(self) -> ndarray:

@@ -1,0 +1,220 @@
+"""Checkpoints: the whole state of a run after a converged load step, in
+one ``.npz`` of plain arrays (no pickle), written atomically and checked
+field by field when read.
+
+A checkpoint holds what a bit-identical resume needs: the points (every
+field and internal variable), the load factor reached and the next load
+increment (both differ from ``step / nsteps`` after a cut-back), the
+counters (a ghost penalty switched on stays on), the initial GIMP domains,
+one history row per converged step and the reaction resultants per support
+(so that ``summary.json`` covers the whole run across resumes), and the
+SHA-256 of the scene file it belongs to (a stale checkpoint is refused).
+
+"""
+import hashlib
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import InvalidInputError, MPMError
+from ..quadrature.points import MaterialPoints
+from .io import atomic_path
+
+__all__ = ["Checkpoint", "CheckpointError", "save_checkpoint",
+           "load_checkpoint", "history_rows", "scene_digest", "CHECKPOINT",
+           "HISTORY_KEYS"]
+
+CHECKPOINT = "checkpoint.npz"
+HISTORY_KEYS = ("step", "load_factor", "residual", "n_active_elements",
+                "n_free_dofs", "newton_iterations")
+POINT_FIELDS = ("x", "volume", "force", "x0", "stress", "strain",
+                "displacement", "volume0", "F", "be", "body", "domain")
+
+
+class CheckpointError(InvalidInputError):
+    """A checkpoint file is missing, unreadable, or one of its fields is
+    absent or impossible (named in the message)."""
+
+
+@dataclass
+class Checkpoint:
+    """The state of a run after ``step`` converged steps of ``nsteps``.
+
+    Attributes
+    ----------
+    step, nsteps
+        Converged steps (sub-steps of cut-backs included) and the scene's
+        number of load steps.
+    load_factor, increment
+        The load factor reached and the load increment the next step
+        starts with.
+    points
+        The material points.
+    counters
+        The run's counters so far.
+    history
+        One row per converged step (:data:`HISTORY_KEYS`; newton
+        iterations -1 for a linear step).
+    reactions
+        Reaction resultants, (steps, supports, dim).
+    scene_sha256
+        Digest of the scene file the run belongs to.
+    domain0
+        Initial GIMP domains, or ``None``.
+
+    """
+    step: int
+    nsteps: int
+    load_factor: float
+    increment: float
+    points: MaterialPoints
+    counters: dict
+    history: ndarray
+    reactions: ndarray
+    scene_sha256: str
+    domain0: Optional[ndarray] = None
+
+
+def scene_digest(path) -> str:
+    """SHA-256 of a scene file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def history_rows(records) -> ndarray:
+    """One row of :data:`HISTORY_KEYS` per step record."""
+    return np.array([[r.step, r.load_factor, r.residual, r.n_active_elements,
+                      r.n_free_dofs, -1 if r.newton_residuals is None
+                      else len(r.newton_residuals) - 1] for r in records],
+                    dtype=np.float64).reshape(-1, len(HISTORY_KEYS))
+
+
+def save_checkpoint(outdir, checkpoint: Checkpoint):
+    """Write ``checkpoint.npz`` in ``outdir`` atomically (arrays only)."""
+    c = checkpoint
+    arrays = {"step": np.array(c.step), "nsteps": np.array(c.nsteps),
+              "load_factor": np.array(c.load_factor),
+              "increment": np.array(c.increment),
+              "history": c.history, "reactions": c.reactions,
+              "scene_sha256": np.array(c.scene_sha256),
+              "counter_names": np.array(sorted(c.counters), dtype=str),
+              "counter_values": np.array([c.counters[k] for k in sorted(
+                  c.counters)], dtype=np.int64)}
+    for name in POINT_FIELDS:
+        value = getattr(c.points, name)
+        if value is not None:
+            arrays["points_" + name] = value
+    for name, value in c.points.state.items():
+        arrays["state_" + name] = value
+    if c.domain0 is not None:
+        arrays["domain0"] = c.domain0
+    with atomic_path(Path(outdir) / CHECKPOINT) as tmp:
+        with open(tmp, "wb") as f:
+            np.savez(f, **arrays)
+
+
+def load_checkpoint(outdir, scene_sha256: Optional[str] = None) -> Checkpoint:
+    """Read and check ``checkpoint.npz`` in ``outdir``.
+
+    Raises
+    ------
+    CheckpointError
+        Naming the file and the field, for a missing or unreadable file, a
+        missing field, a wrong type or shape, a non-finite or impossible
+        value, or (``scene_sha256`` given) a checkpoint of another scene.
+
+    """
+    path = Path(outdir) / CHECKPOINT
+    if not path.is_file():
+        raise CheckpointError("no checkpoint in {}".format(outdir))
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: data[k] for k in data.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile,
+            KeyError) as err:
+        raise CheckpointError("{}: unreadable ({}: {})".format(
+            path, type(err).__name__, err)) from None
+    return _checked(path, arrays, scene_sha256)
+
+
+def _checked(path, a: dict, scene_sha256) -> Checkpoint:
+    def bad(name, why):
+        return CheckpointError("{}: field {!r} {}".format(path, name, why))
+
+    def get(name, kind, ndim=None):
+        if name not in a:
+            raise bad(name, "is missing")
+        value = a[name]
+        if value.dtype.kind not in kind:
+            raise bad(name, "has dtype {} (expected {})".format(
+                value.dtype, {"f": "float", "i": "integer", "U": "text",
+                              "fi": "number", "if": "number"}[kind]))
+        if ndim is not None and value.ndim != ndim:
+            raise bad(name, "has {} dimension(s), expected {}".format(
+                value.ndim, ndim))
+        if value.dtype.kind == "f" and not np.isfinite(value).all():
+            raise bad(name, "holds NaN or inf")
+        return value
+    step, nsteps = int(get("step", "i", 0)), int(get("nsteps", "i", 0))
+    if nsteps < 1:
+        raise bad("nsteps", "must be >= 1, got {}".format(nsteps))
+    if step < 0:
+        raise bad("step", "must be >= 0, got {}".format(step))
+    factor = float(get("load_factor", "f", 0))
+    if not 0 <= factor < 1:
+        raise bad("load_factor", "must lie in [0, 1) (a finished run has "
+                  "nothing to resume), got {}".format(factor))
+    increment = float(get("increment", "f", 0))
+    if not 0 < increment <= 1. / nsteps * (1 + 1e-12):
+        raise bad("increment", "must lie in (0, 1/nsteps], got {}".format(
+            increment))
+    digest = str(get("scene_sha256", "U", 0))
+    if scene_sha256 is not None and digest != scene_sha256:
+        raise CheckpointError(
+            "{}: the checkpoint belongs to another scene file (SHA-256 {}..., "
+            "the scene.toml beside it has {}...): refusing a stale "
+            "checkpoint".format(path, digest[:12], scene_sha256[:12]))
+    names = get("counter_names", "U", 1)
+    values = get("counter_values", "i", 1)
+    if names.shape != values.shape:
+        raise bad("counter_values", "does not match counter_names")
+    history = get("history", "f", 2)
+    if history.shape != (step, len(HISTORY_KEYS)):
+        raise bad("history", "has shape {}, expected ({}, {})".format(
+            history.shape, step, len(HISTORY_KEYS)))
+    if step and abs(history[-1, 1] - factor) > 1e-12:
+        raise bad("load_factor", "{} differs from the last step's {}".format(
+            factor, history[-1, 1]))
+    reactions = get("reactions", "f", 3)
+    if reactions.shape[0] != step:
+        raise bad("reactions", "has {} rows for {} steps".format(
+            reactions.shape[0], step))
+    points = {}
+    for name in POINT_FIELDS:
+        key = "points_" + name
+        if key in a:
+            points[name] = get(key, "i" if name == "body" else "f")
+        elif name not in ("domain", "force"):
+            raise bad(key, "is missing")
+    if "volume0" in points and not (points["volume0"] > 0).all():
+        raise bad("points_volume0", "must be positive")
+    points["state"] = {k[len("state_"):]: get(k, "f", 1) for k in a
+                       if k.startswith("state_")}
+    try:
+        state = MaterialPoints(**points)
+    except MPMError as err:
+        raise CheckpointError("{}: points: {}".format(path, err)) from None
+    domain0 = get("domain0", "f", 2) if "domain0" in a else None
+    if domain0 is not None and domain0.shape != state.x.shape:
+        raise bad("domain0", "has shape {}, expected {}".format(
+            domain0.shape, state.x.shape))
+    return Checkpoint(step=step, nsteps=nsteps, load_factor=factor,
+                      increment=increment, points=state,
+                      counters={str(k): int(v) for k, v in zip(names,
+                                                               values)},
+                      history=history, reactions=reactions,
+                      scene_sha256=digest, domain0=domain0)
+
