@@ -118,6 +118,16 @@ def check_finite(name: str, a: np.ndarray):
                     a[tuple(where[0])]))
 
 
+def check_real(name: str, value, error=InvalidInputError) -> float:
+    """Return ``value`` as a float; raise ``error`` unless it is a real
+    number (a string such as ``"1e6"`` or a bool is not)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (int, float, np.integer, np.floating)):
+        raise error("{} must be a number, got {!r} ({})".format(
+            name, value, type(value).__name__))
+    return float(value)
+
+
 class SceneError(InvalidInputError):
     """A scene description has problems; ``problems`` lists one message per
     problem, each naming the key and the offending value."""

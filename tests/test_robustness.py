@@ -216,6 +216,16 @@ def test_mean_dilatation_passes_the_patch_test(kinematics):
     (dict(x=[[.5]], volume=[1.], domain=[[0.]]), InvalidInputError),
     (dict(x=[[.5]], volume=[1.], body=[-1]), InvalidInputError),
     (dict(x=np.zeros((4, 2)), volume=[1., 1.]), InvalidInputError),
+    (dict(x=[[.5]], volume=[1.], volume0=[0.]), InvalidInputError),
+    (dict(x=[[.5]], volume=[1.], body=[.5]), InvalidInputError),
+    (dict(x=[[.5]], volume=[1.], body=["0"]), InvalidInputError),
+    (dict(x=[[.5]], volume=[1.], F=-np.eye(3)[:, :, None]), InvalidInputError),
+    (dict(x=[[.5]], volume=[1.], F=np.diag([1., 1., 0.])[:, :, None]),
+     InvalidInputError),
+    (dict(x=[[.5]], volume=[1.], be=np.diag([1., -1., 1.])[:, :, None]),
+     InvalidInputError),
+    (dict(x=[[.5]], volume=[1.], be=(np.eye(3) + np.triu(np.ones((3, 3)), 1)
+                                     )[:, :, None]), InvalidInputError),
 ])
 def test_bad_point_state(kwargs, error):
     with pytest.raises(error):
@@ -439,3 +449,80 @@ def test_every_failure_is_an_mpm_error_carrying_the_last_state():
                  prescribed=push, nsteps=4, kinematics="finite")
     assert caught.value.load_factor == .5
     assert caught.value.state.x[1].max() < 1.
+
+
+def test_unvalidated_parameters_are_refused_before_any_work():
+    """String moduli, a NaN or outsized locator tolerance, a locator of
+    another mesh and sizes beyond the machine's memory (with an estimate)
+    are refused; none of them runs."""
+    from skfem_mpm import InvalidMaterialError, VonMises, point_locator
+    from skfem_mpm.memory import physical_memory
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    points = seed_points(mesh, 2)
+    base = lambda b: b.get_dofs(lambda x: x[1] == 0)       # noqa: E731
+    for bad in (dict(E="1e6", nu=.3), dict(E=1e6, nu="0.3"),
+                dict(E=True, nu=.3)):
+        with pytest.raises(InvalidMaterialError, match="must be a number"):
+            LinearElastic(**bad)
+    with pytest.raises(InvalidMaterialError, match="must be a number"):
+        VonMises(1e6, .3, yield_stress="10")
+    for tol in (np.nan, -1e-12, 1e-3, "1e-12"):
+        with pytest.raises(InvalidInputError, match="tol"):
+            point_locator(mesh, tol=tol)
+    other = MeshQuad.init_tensor(np.linspace(0, 2, 3), np.linspace(0, 2, 3))
+    with pytest.raises(InvalidInputError, match="another mesh"):
+        solve_mpm(mesh, ElementQuad1(), points, LinearElastic(1e3, .3), base,
+                  locator=point_locator(other))
+    with pytest.raises(InvalidInputError, match=r"10\*\*12|1000000000000 load "
+                       r"steps .* would need about [0-9.e+]+ bytes"):
+        solve_mpm(mesh, ElementQuad1(), points, LinearElastic(1e3, .3), base,
+                  nsteps=10 ** 12)
+    per_cell = int((physical_memory() / 4 / 500) ** .5) + 1
+    with pytest.raises(InvalidInputError, match="would need about"):
+        seed_points(mesh, per_cell)                # 4 cells x per_cell^2
+    with pytest.raises(InvalidInputError, match="positive integer"):
+        seed_points(mesh, 2.5)
+    grid = Grid(axes=[(0., 1., 2 ** 31), (0., 1., 2 ** 32)])
+    scene = Scene(grid=grid, bodies=[Body("b", [(0., 1.), (0., 1.)],
+                                          LinearElastic(1e3, .3))],
+                  supports=[Support(boundary="bottom")])
+    with pytest.raises(InvalidInputError, match="cells .* would need about"):
+        scene.check()
+
+
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+def test_nothing_happening_is_not_completed(kinematics):
+    """Loads that underflow on the grid and solutions that underflow are
+    refused (a zero solution would pass a relative residual test); loads
+    1e-287 of small ones (strains 4e-10, where the kinematics are linear
+    to 1e-9) still give their answer scaled, to round-off."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 1)
+    base = lambda b: b.get_dofs(lambda x: x[1] == 0)       # noqa: E731
+
+    def run(E, load):
+        return simulate(mesh, ElementQuad1(), points, LinearElastic(E, .3),
+                        base, body_force=[0., -load], kinematics=kinematics)
+    with pytest.raises(InvalidInputError, match="loads are subnormal"):
+        run(1e6, 1e-320)
+    with pytest.raises(InvalidInputError, match="solution underflows"):
+        run(1e300, 1e-300)
+    usual = run(1e6, 1e-3).points.displacement
+    tiny = run(1e6, 1e-290).points.displacement
+    assert np.abs(usual).max() > 1e-10
+    assert np.abs(tiny * 1e287 - usual).max() < 1e-8 * np.abs(usual).max()
+
+
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+def test_supports_on_every_dof_hold_the_body_still(kinematics):
+    """One behaviour in both kinematics: nothing moves and the reactions
+    carry the whole weight."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 1)
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                   lambda b: np.arange(b.N), body_force=[0., -1e3],
+                   kinematics=kinematics)
+    assert not res.points.displacement.any()
+    weight = 1e3 * points.volume.sum()
+    total = res.history[-1].reactions.reshape(-1, 2).sum(axis=0)
+    assert np.abs(total - [0., weight]).max() < 1e-12 * weight

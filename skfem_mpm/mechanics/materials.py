@@ -42,7 +42,7 @@ from numpy import ndarray
 from skfem.assembly import BilinearForm
 from skfem.models.elasticity import linear_elasticity
 
-from ..errors import InvalidMaterialError
+from ..errors import InvalidMaterialError, check_real
 
 __all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
            "is_plastic", "elastic_tensor", "state_variables",
@@ -77,12 +77,8 @@ class LinearElastic:
     state_variables = {}
 
     def __post_init__(self):
-        try:
-            E, nu = float(self.E), float(self.nu)
-        except (TypeError, ValueError):
-            raise InvalidMaterialError(
-                "E and nu must be numbers, got E = {!r}, nu = {!r}".format(
-                    self.E, self.nu)) from None
+        E = check_real("Young's modulus E", self.E, InvalidMaterialError)
+        nu = check_real("Poisson's ratio nu", self.nu, InvalidMaterialError)
         if not np.isfinite(E) or E <= 0:
             raise InvalidMaterialError(
                 "Young's modulus E must be positive and finite, got {}"
@@ -163,10 +159,9 @@ class VonMises(LinearElastic):
 
     def __post_init__(self):
         super().__post_init__()
-        if not isinstance(self.yield_stress, (int, float, np.floating,
-                                              np.integer)) \
-                or not float(self.yield_stress) > 0 \
-                or not np.isfinite(float(self.yield_stress)):
+        yield_stress = check_real("yield_stress", self.yield_stress,
+                                  InvalidMaterialError)
+        if not yield_stress > 0 or not np.isfinite(yield_stress):
             raise InvalidMaterialError(
                 "yield_stress must be positive, got {}".format(
                     self.yield_stress))

@@ -30,7 +30,7 @@ from skfem.mesh import Mesh
 from skfem.refdom import RefHex, RefLine, RefQuad, RefTet, RefTri
 
 from ..errors import (InvalidInputError, PointsOutsideGridError,
-                     UnsupportedElementError, check_finite)
+                     UnsupportedElementError, check_finite, check_real)
 from .mapping import fresh_mapping
 
 logger = logging.getLogger(__name__)
@@ -56,13 +56,15 @@ def point_locator(mesh: Mesh, method: str = "auto",
         ``"general"``.
     tol
         Relative tolerance within which a point on an element face belongs
-        to that element.
+        to that element, in [0, 1e-6] (a larger one would accept points
+        outside the grid and extrapolate the shape functions to them).
 
     Returns
     -------
     locate
         ``locate(x) -> (tind, X)`` for positions ``x`` of shape (dim, n):
-        element indices (n,) and local coordinates (dim, n).  Raises
+        element indices (n,) and local coordinates (dim, n); its ``mesh``
+        attribute is the mesh it locates on.  Raises
         :class:`~skfem_mpm.errors.PointsOutsideGridError` for points outside
         the mesh.
 
@@ -84,6 +86,9 @@ def point_locator(mesh: Mesh, method: str = "auto",
     if mesh.refdom not in (RefLine, RefQuad, RefHex, RefTri, RefTet):
         raise UnsupportedElementError(
             "cannot locate points on a {} mesh".format(type(mesh).__name__))
+    if check_real("tol", tol) != tol or not 0. <= tol <= 1e-6:
+        raise InvalidInputError("tol must lie in [0, 1e-6], got {!r}"
+                                .format(tol))
     grid = None if method == "general" else tensor_grid(mesh)
     if method == "tensor" and grid is None:
         raise UnsupportedElementError(
@@ -115,6 +120,7 @@ def point_locator(mesh: Mesh, method: str = "auto",
                 indices=missing)
         return tind, X
 
+    locate.mesh = mesh
     return locate
 
 

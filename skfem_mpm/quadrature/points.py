@@ -34,6 +34,7 @@ from skfem.quadrature import get_quadrature
 from skfem.refdom import RefLine, RefQuad, RefHex, RefTri
 
 from ..errors import InvalidInputError, UnsupportedElementError, check_finite
+from ..memory import SEED_BYTES_PER_POINT, refuse_beyond_memory
 from .locate import tensor_grid
 from .mapping import fresh_mapping
 
@@ -99,6 +100,7 @@ class MaterialPoints:
                 "volume must be positive: {} point(s) are not, first point {} "
                 "has volume {}".format(int((self.volume <= 0).sum()), i,
                                        self.volume[i]))
+        given = {"F": self.F is not None, "be": self.be is not None}
         identity = np.eye(3)[:, :, None]
         defaults = {       # made only where a value is missing
             "force": lambda: np.zeros((dim, n)), "x0": lambda: self.x,
@@ -125,11 +127,15 @@ class MaterialPoints:
             check_finite(name, value)
             setattr(self, name, value)
         self.body = np.zeros(n, dtype=np.int64) if self.body is None \
-            else np.array(self.body, dtype=np.int64)
-        if self.body.shape != (n,) or (self.body < 0).any():
-            raise InvalidInputError(
-                "body must hold one non-negative integer per point, shape "
-                "({},), got {}".format(n, self.body.shape))
+            else _body_indices(self.body, n)
+        for name, value in (("volume0", self.volume0),):
+            if (value <= 0).any():
+                i = int(np.argmax(value <= 0))
+                raise InvalidInputError(
+                    "{} must be positive: {} point(s) are not, first point {} "
+                    "has {}".format(name, int((value <= 0).sum()), i, value[i]))
+        if given["F"] or given["be"]:      # the identity needs no check
+            _check_deformation(self.F, self.be)
         if self.domain is not None and not (self.domain > 0).all():
             raise InvalidInputError("domain half-lengths must be positive")
         state = {} if self.state is None else self.state
@@ -166,6 +172,56 @@ class MaterialPoints:
         array once)."""
         return MaterialPoints(**{f.name: getattr(self, f.name)
                                  for f in fields(self)})
+
+
+def _body_indices(body, n: int) -> ndarray:
+    """``body`` as (n,) non-negative integers; fractional values, booleans
+    and strings are refused rather than truncated."""
+    body = np.asarray(body)
+    if body.shape != (n,) or not (np.issubdtype(body.dtype, np.integer)
+                                  or np.issubdtype(body.dtype, np.floating)):
+        raise InvalidInputError(
+            "body must hold one non-negative integer per point, shape ({},), "
+            "got shape {} of {}".format(n, body.shape, body.dtype))
+    if np.issubdtype(body.dtype, np.floating):
+        check_finite("body", body)
+        fractional = body != np.round(body)
+        if fractional.any():
+            i = int(np.argmax(fractional))
+            raise InvalidInputError(
+                "body indices must be integers: {} are not, first point {} "
+                "has {}".format(int(fractional.sum()), i, body[i]))
+    if (body < 0).any():
+        i = int(np.argmax(body < 0))
+        raise InvalidInputError(
+            "body indices must be non-negative, point {} has {}".format(
+                i, body[i]))
+    return body.astype(np.int64)
+
+
+def _check_deformation(F: ndarray, be: ndarray):
+    """Refuse an inverted deformation gradient (det F <= 0) and an elastic
+    left Cauchy-Green tensor that is not symmetric positive definite
+    (Sylvester's criterion on its leading minors)."""
+    det = np.linalg.det(np.moveaxis(F, -1, 0))
+    if not (det > 0).all():
+        i = int(np.argmax(~(det > 0)))
+        raise InvalidInputError(
+            "F must have a positive determinant: {} point(s) do not, first "
+            "point {} has det F = {}".format(int((~(det > 0)).sum()), i,
+                                             det[i]))
+    scale = np.abs(be).max(axis=(0, 1))
+    asymmetric = np.abs(be - be.transpose(1, 0, 2)).max(axis=(0, 1)) \
+        > 1e-10 * scale
+    minors = (be[0, 0], be[0, 0] * be[1, 1] - be[0, 1] * be[1, 0],
+              np.linalg.det(np.moveaxis(be, -1, 0)))
+    bad = asymmetric | ~((minors[0] > 0) & (minors[1] > 0) & (minors[2] > 0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise InvalidInputError(
+            "be must be symmetric positive definite: {} point(s) are not, "
+            "first point {} has be = {}".format(int(bad.sum()), i,
+                                                be[:, :, i].tolist()))
 
 
 def _subcell_centres(refdom, n: int) -> ndarray:
@@ -245,8 +301,16 @@ def seed_points(mesh: Mesh, n: int, region: Optional[Callable] = None,
     (16, 1.0)
 
     """
-    if int(n) != n or n < 1:
-        raise InvalidInputError("n must be a positive integer, got {}".format(n))
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise InvalidInputError("n must be a positive integer, got {!r}"
+                                .format(n))
+    nelements = mesh.nelements if elements is None else np.size(elements)
+    refuse_beyond_memory(
+        "seeding {} points per element and direction in {} elements".format(
+            n, nelements),
+        float(n) ** mesh.dim() * nelements * SEED_BYTES_PER_POINT,
+        "seed fewer points per element, or only where the body is "
+        "(elements=)")
     X = _subcell_centres(mesh.refdom, int(n))
     w = np.full(X.shape[1], _reference_volume(mesh.refdom) / X.shape[1])
     half = None

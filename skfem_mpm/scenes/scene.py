@@ -17,6 +17,9 @@ from skfem import ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2, \
     MeshHex, MeshLine, MeshQuad
 
 from ..errors import InvalidInputError
+from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
+                      SEED_BYTES_PER_POINT, STEP_RECORD_BYTES,
+                      refuse_beyond_memory)
 from ..mechanics.materials import LinearElastic, VonMises, is_plastic
 from ..solve.core import RHS, simulate
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
@@ -198,6 +201,7 @@ class Scene:
         if len(set(names)) < len(names):
             raise InvalidInputError("support names must differ, got {}"
                                     .format(names))
+        self.check_size()
         bodies = [b.name for b in self.bodies]
         for t in self.tractions:
             if t.body not in bodies:
@@ -207,6 +211,31 @@ class Scene:
                 raise InvalidInputError(
                     "a traction on body {!r} needs exactly one of traction "
                     "and pressure".format(t.body))
+
+
+    def check_size(self):
+        """Refuse a scene this machine's memory cannot hold: the grid, an
+        upper bound of the points (every cell its bodies' boxes reach
+        seeded) and the step history."""
+        dim = len(self.grid.axes)
+        cells = float(np.prod([float(n) for _, _, n in self.grid.axes]))
+        points = 0.
+        for body in self.bodies:
+            reached = cells
+            if not callable(body.region):
+                reached = float(np.prod([
+                    min(n, np.ceil((min(hi, b_hi) - max(lo, b_lo))
+                                   / (hi - lo) * n) + 1)
+                    for (lo, hi, n), (b_lo, b_hi) in zip(self.grid.axes,
+                                                         body.region)]))
+            points += max(reached, 0.) * float(body.points_per_cell) ** dim
+        refuse_beyond_memory(
+            "{:.3g} cells with up to {:.3g} points over {} steps".format(
+                cells, points, self.steps),
+            cells * GRID_BYTES_PER_CELL[dim] + points * (
+                SEED_BYTES_PER_POINT + RUN_BYTES_PER_POINT[dim])
+            + float(self.steps) * STEP_RECORD_BYTES,
+            "use fewer cells, points per cell or steps")
 
 
 def support_names(scene: Scene) -> List[str]:

@@ -39,12 +39,15 @@ from typing import Callable, Optional, Sequence
 
 import numpy as np
 from numpy import ndarray
+from scipy.linalg.blas import dnrm2
 from skfem import Basis
 from skfem.assembly import Dofs
 from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 from skfem.quadrature import get_quadrature
 
+from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
+                      STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..errors import (ConvergenceError, InvalidInputError, InversionError,
                       MPMError, NewtonDivergenceError, NumericalError,
                       PrescribedMotionError, SingularSystemError,
@@ -95,16 +98,29 @@ def grid_parts(mesh: Mesh, elem: Element):
             ElementPattern(grid.dofs.element_dofs, grid.N))
 
 
-def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int):
+def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int,
+                    keep_snapshots: bool = False):
     """Raise :class:`~skfem_mpm.errors.InvalidInputError` for a step count
-    that is not a positive integer or points of another dimension."""
+    that is not a positive integer, points of another dimension, or a run
+    this machine's memory cannot hold (the grid, the points and the
+    history of ``nsteps`` steps)."""
     if isinstance(nsteps, bool) or not isinstance(
             nsteps, (int, np.integer)) or nsteps < 1:
         raise InvalidInputError(
             "nsteps must be a positive integer, got {!r}".format(nsteps))
-    if points.dim != mesh.dim():
+    dim = mesh.dim()
+    if points.dim != dim:
         raise InvalidInputError(
-            "points are {}D but the mesh is {}D".format(points.dim, mesh.dim()))
+            "points are {}D but the mesh is {}D".format(points.dim, dim))
+    snapshot = 8. * (dim * mesh.nvertices + (2 * dim + 9) * points.n)
+    refuse_beyond_memory(
+        "{} load steps of {} points on {} cells".format(
+            nsteps, points.n, mesh.nelements),
+        float(nsteps) * (STEP_RECORD_BYTES + keep_snapshots * snapshot)
+        + points.n * RUN_BYTES_PER_POINT[dim]
+        + mesh.nelements * GRID_BYTES_PER_CELL[dim],
+        "use fewer load steps{}, fewer points or a coarser grid".format(
+            ", keep_snapshots=False" if keep_snapshots else ""))
 
 
 def check_resume(first_step, nsteps: int, load_factor, increment):
@@ -174,6 +190,17 @@ def check_prescribed_motion(run: Run, op, dofs: ndarray, values: ndarray,
                 :, lost[:3]].T.tolist()))
 
 
+def safe_norm(v: ndarray) -> float:
+    """The 2-norm of ``v`` without underflow or overflow of its squares
+    (forces of 1e-300 or 1e+200 N): numpy's where that is safe, BLAS's
+    scaled ``dnrm2`` otherwise."""
+    with np.errstate(over="ignore", under="ignore"):
+        norm = np.linalg.norm(v)
+    if v.size == 0 or np.finfo(float).tiny < norm < 1e150:
+        return float(norm)
+    return float(dnrm2(np.ascontiguousarray(v, dtype=np.float64)))
+
+
 def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
               step: int, stabilise: bool = False):
     """One load step from the converged state ``points``, from load factor
@@ -211,10 +238,10 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         if G is not None:                       # the ghost forces balance too
             f_int += G @ du
         r = f_ext - f_int
-        scale = np.linalg.norm(f_ext)
+        scale = safe_norm(f_ext)
         if scale == 0.:                         # driven by prescribed motion
-            scale = max(np.linalg.norm(f_int), np.finfo(float).tiny)
-        residuals.append(float(np.linalg.norm(r[free]) / scale))
+            scale = max(safe_norm(f_int), np.finfo(float).tiny)
+        residuals.append(float(safe_norm(r[free]) / scale))
         t["check"] += time.perf_counter() - tic
         logger.debug("step %d iteration %d: residual %.3e", step, it,
                      residuals[-1])
@@ -467,7 +494,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     if rhs not in RHS:
         raise InvalidInputError("rhs must be one of {}, got {!r}".format(
             RHS, rhs))
-    check_run_input(mesh, points, nsteps)
+    check_run_input(mesh, points, nsteps, keep_snapshots)
     reserve = isinstance(ghost, str) and ghost == "auto" and \
         kinematics == "finite" and method != "fem"
     if isinstance(ghost, str) and ghost == "auto":
@@ -511,6 +538,11 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             raise InvalidInputError("{} must be an integer in [{}, 60], got "
                                     "{!r}".format(name, low, value))
     check_resume(first_step, nsteps, load_factor, increment)
+    if locator is not None and getattr(locator, "mesh", None) is not mesh:
+        raise InvalidInputError(
+            "locator must be point_locator(mesh) of the mesh solved on; this "
+            "one {}".format("locates on another mesh" if hasattr(
+                locator, "mesh") else "is not a point_locator"))
     scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     result = Result(points=points.copy())
     points = result.points

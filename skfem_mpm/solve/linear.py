@@ -190,6 +190,12 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
                 "the stiffness on {} free DOFs is singular ({}): the active "
                 "grid has rigid-body modes; add supports".format(free.size,
                                                                  err)) from err
+    largest = np.abs(u[I]).max()
+    if largest < np.finfo(float).tiny and np.abs(b).max() > 0.:
+        raise InvalidInputError(
+            "the solution underflows (largest {:.1e} from forces up to {:.1e} "
+            "and a stiffness up to {:.1e}): rescale the units (e.g. kN, "
+            "MPa, mm)".format(largest, np.abs(b).max(), abs(A).max()))
     # normwise backward error of the solve
     r = np.abs(A @ u[I] - b).max()
     scale = abs(A).sum(axis=1).max() * np.abs(u[I]).max() + np.abs(b).max()

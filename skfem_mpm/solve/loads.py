@@ -231,7 +231,28 @@ class ExternalLoads:
         if self.grid_vector is not None:
             self._check_supported(op)
             f += factor * self.grid_vector
+        self._check_representable(f, load, factor)
         return f
+
+    def _check_representable(self, f: ndarray, load, factor: float):
+        """Loads whose grid forces underflow to zero or to subnormal numbers
+        would let a zero solution pass the relative equilibrium check
+        (nothing happening is not a result): refused, with the units'
+        rescaling as the cure."""
+        largest = np.abs(f).max(initial=0.)
+        given = (load is not None and load.any()) or any(
+            value.any() and not (pressure and self.follows)
+            for _, _, _, value, pressure in self.surface) or (
+            self.grid_vector is not None and self.grid_vector.any())
+        if largest >= np.finfo(float).tiny or not given or factor == 0.:
+            return
+        raise InvalidInputError(
+            "the loads {} on the grid (largest force {:.1e} at load factor "
+            "{:.3g}, below the smallest normal number {:.1e}): their "
+            "equilibrium cannot be measured; rescale the units (e.g. kN, "
+            "MPa, mm)".format("vanish" if largest == 0. else
+                              "are subnormal", largest, factor,
+                              np.finfo(float).tiny))
 
     def follower_force(self, op, points: MaterialPoints, factor: float,
                        deformation) -> ndarray:
