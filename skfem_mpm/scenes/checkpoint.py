@@ -20,12 +20,13 @@ from typing import Optional
 import numpy as np
 from numpy import ndarray
 
-from ..errors import InvalidInputError, MPMError
+from ..errors import InvalidInputError, MPMError, PointsOutsideGridError
+from ..quadrature.locate import point_locator
 from ..quadrature.points import MaterialPoints
 from .io import atomic_path
 
 __all__ = ["Checkpoint", "CheckpointError", "save_checkpoint",
-           "load_checkpoint", "history_rows", "scene_digest", "CHECKPOINT",
+           "load_checkpoint", "check_against", "history_rows", "scene_digest", "CHECKPOINT",
            "HISTORY_KEYS"]
 
 CHECKPOINT = "checkpoint.npz"
@@ -148,8 +149,9 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
         if name not in a:
             raise bad(name, "is missing")
         value = a[name]
-        if value.dtype.kind not in kind:
-            raise bad(name, "has dtype {} (expected {})".format(
+        if value.dtype.kind not in kind or (      # float32 would round
+                value.dtype.kind in "fi" and value.dtype.itemsize != 8):
+            raise bad(name, "has dtype {} (expected 64-bit {})".format(
                 value.dtype, {"f": "float", "i": "integer", "U": "text",
                               "fi": "number", "if": "number"}[kind]))
         if ndim is not None and value.ndim != ndim:
@@ -197,7 +199,7 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
         key = "points_" + name
         if key in a:
             points[name] = get(key, "i" if name == "body" else "f")
-        elif name not in ("domain", "force"):
+        elif name != "domain":
             raise bad(key, "is missing")
     if "volume0" in points and not (points["volume0"] > 0).all():
         raise bad("points_volume0", "must be positive")
@@ -208,6 +210,10 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
     except MPMError as err:
         raise CheckpointError("{}: points: {}".format(path, err)) from None
     domain0 = get("domain0", "f", 2) if "domain0" in a else None
+    if (domain0 is None) != (state.domain is None):
+        raise bad("domain0" if domain0 is None else "points_domain",
+                  "is missing (the points' domains and their initial values "
+                  "come together)")
     if domain0 is not None and domain0.shape != state.x.shape:
         raise bad("domain0", "has shape {}, expected {}".format(
             domain0.shape, state.x.shape))
@@ -218,3 +224,38 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
                       history=history, reactions=reactions,
                       scene_sha256=digest, domain0=domain0)
 
+
+
+def check_against(path, checkpoint: Checkpoint, initial: MaterialPoints,
+                  state_names, mesh):
+    """Raise :class:`CheckpointError` unless the checkpoint's points are
+    those the scene seeds (what never changes: reference positions, initial
+    volumes, bodies, initial domains), lie on the scene's grid ``mesh`` and
+    carry exactly the internal variables of the scene's materials
+    (``state_names``)."""
+    points = checkpoint.points
+
+    def bad(name, why):
+        return CheckpointError("{}: field {!r} {}".format(path, name, why))
+    if points.n != initial.n or points.dim != initial.dim:
+        raise bad("points_x", "holds {} points in {}D, the scene seeds {} "
+                  "in {}D".format(points.n, points.dim, initial.n,
+                                  initial.dim))
+    for name, value, seeded in (("points_x0", points.x0, initial.x),
+                                ("points_volume0", points.volume0,
+                                 initial.volume),
+                                ("points_body", points.body, initial.body),
+                                ("domain0", checkpoint.domain0,
+                                 initial.domain)):
+        if (value is None) != (seeded is None) or (
+                value is not None and not np.array_equal(value, seeded)):
+            raise bad(name, "differs from what the scene seeds")
+    try:
+        point_locator(mesh)(points.x)
+    except PointsOutsideGridError as err:
+        raise bad("points_x", "puts points outside the grid ({})".format(
+            err)) from None
+    if set(points.state) != set(state_names):
+        raise bad("state_*", "holds the internal variables {}, the scene's "
+                  "materials have {}".format(sorted(points.state),
+                                             sorted(state_names)))

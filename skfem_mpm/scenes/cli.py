@@ -38,6 +38,8 @@ print(s.__doc__)"` lists every key, and examples/*.toml are ready to run.
 EMBEDDED = Path(__file__).resolve().parent / "column.toml"
 AXES = "xyz"
 
+logger = logging.getLogger(__name__)
+
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -206,10 +208,12 @@ def plot_outputs(scene, result, outdir: Path, loaded):
 
 
 def run(args) -> int:
-    from .checkpoint import (Checkpoint, history_rows, load_checkpoint,
-                             save_checkpoint, scene_digest)
+    from ..mechanics.materials import state_variables
+    from .checkpoint import (CHECKPOINT, Checkpoint, check_against,
+                             history_rows, load_checkpoint, save_checkpoint,
+                             scene_digest)
     from .output import SeriesWriter, write_summary
-    from .io import atomic_path
+    from .io import atomic_path, remove_temporaries
     from .scene import build_points, run_scene, surface_loads
     from .scene_file import load_scene
 
@@ -239,6 +243,9 @@ def run(args) -> int:
     initial = build_points(scene, mesh)
     if points is None:
         points, domain0 = initial, initial.domain
+    else:
+        check_against(outdir / CHECKPOINT, earlier, initial, state_variables(
+            [body.material for body in scene.bodies]), mesh)
     # points carrying a point load or a surface load (traction, pressure)
     loaded = np.union1d(np.flatnonzero(np.abs(initial.force).sum(axis=0)),
                         np.concatenate([np.asarray(load.points) for load in
@@ -246,6 +253,8 @@ def run(args) -> int:
                                             np.array([], dtype=np.int64)]))
     names, resultant = reaction_resultants(scene)
     outdir.mkdir(parents=True, exist_ok=True)
+    if remove_temporaries(outdir):
+        logger.info("removed the partial files of a killed run in %s", outdir)
     if args.resume is None:
         with atomic_path(outdir / "scene.toml") as tmp:
             shutil.copyfile(source, tmp)

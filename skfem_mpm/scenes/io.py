@@ -4,7 +4,10 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["atomic_path"]
+__all__ = ["atomic_path", "remove_temporaries", "TEMPORARY_PREFIX"]
+
+#: temporary files start so (hidden, and told apart from a user's files)
+TEMPORARY_PREFIX = ".skfem-mpm-partial."
 
 
 @contextmanager
@@ -25,8 +28,8 @@ def atomic_path(path):
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix="." + path.stem + ".", suffix=path.suffix,
-                               dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=TEMPORARY_PREFIX + path.stem + ".",
+                               suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
         yield tmp
@@ -35,3 +38,13 @@ def atomic_path(path):
         if os.path.exists(tmp):
             os.remove(tmp)
         raise
+
+
+def remove_temporaries(outdir) -> int:
+    """Remove the temporary files a killed run left in ``outdir`` (a kill
+    skips the clean-up of :func:`atomic_path`); returns how many.  Not for
+    a folder another run is writing to."""
+    stale = list(Path(outdir).glob(TEMPORARY_PREFIX + "*"))
+    for path in stale:
+        path.unlink(missing_ok=True)
+    return len(stale)

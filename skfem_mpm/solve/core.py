@@ -548,7 +548,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     points = result.points
     for name, value in initial_state(material, points.n).items():
         points.state.setdefault(name, value)
-    counters = result.counters
+    resumed_counters, counters = dict(counters or {}), result.counters
     domain0 = points.domain if domain0 is None else domain0
     external = ExternalLoads(mesh, scalar, grid,
                              as_body_force(body_force, mesh.dim()), loads,
@@ -576,9 +576,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     factor = step / nsteps if load_factor is None else float(load_factor)
     increment = 1. / nsteps if increment is None else float(increment)
     smallest = 1. / nsteps / 2 ** max_cutbacks
-    if counters:
-        result.counters.update(counters)
-        if counters.get("ghost_from_step") and run.ghost_reserve is not None:
+    if resumed_counters:
+        counters.update(resumed_counters)
+        if counters["ghost_from_step"] and run.ghost_reserve is not None:
             run.ghost = run.ghost_reserve
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps

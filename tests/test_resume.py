@@ -1,0 +1,236 @@
+"""Nothing lost: a run interrupted anywhere (``--max-steps``, SIGKILL at
+random moments, repeatedly, across cut-backs) and resumed ends
+bit-identical to the uninterrupted run, with a summary and a series that
+cover the whole run; a checkpoint is checked field by field and against its
+scene."""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import meshio
+import numpy as np
+import pytest
+
+from skfem_mpm.scenes.checkpoint import (CHECKPOINT, CheckpointError,
+                                         load_checkpoint)
+from skfem_mpm.scenes.cli import main
+from skfem_mpm.scenes.io import TEMPORARY_PREFIX
+
+# a finite-deformation cpGIMP block sheared and squashed by a traction,
+# with at most 3 Newton iterations a step: the 3 load steps converge in 29
+# cut-back sub-steps (a load factor that is not step / nsteps)
+CUT_BACK_SCENE = """
+name = "cut-back block"
+[grid]
+x = [-0.5, 1.5, 4]
+y = [0.0, 2.0, 4]
+[[bodies]]
+name = "block"
+region = { x = [0.0, 1.0], y = [0.0, 1.0] }
+points_per_cell = 2
+material = { model = "linear_elastic", E = 1e3, nu = 0.3 }
+[[supports]]
+name = "base"
+boundary = "bottom"
+[[tractions]]
+body = "block"
+side = "top"
+traction = [30.0, -100.0]
+[solver]
+method = "cpgimp"
+kinematics = "finite"
+steps = 3
+max_iterations = 3
+"""
+
+VOLATILE = ("wall_seconds", "timings")
+
+
+@pytest.fixture(scope="module")
+def straight(tmp_path_factory):
+    """The uninterrupted run."""
+    folder = tmp_path_factory.mktemp("resume")
+    scene = folder / "scene.toml"
+    scene.write_text(CUT_BACK_SCENE)
+    out = folder / "straight"
+    assert main(["run", str(scene), "--out", str(out), "--no-progress"]) == 0
+    return scene, out
+
+
+def summary(out):
+    data = json.loads((out / "summary.json").read_text())
+    return {k: v for k, v in data.items() if k not in VOLATILE}
+
+
+def assert_same_run(a, b, resumes=None):
+    """Final points bit-identical, the summary equal (but for timings, and
+    the locate count: a resumed invocation locates its points once more,
+    ``resumes`` times if given) and the series listing every converged
+    step once."""
+    sa, sb = summary(a), summary(b)
+    la, lb = sa["counters"].pop("locate"), sb["counters"].pop("locate")
+    assert lb == la + resumes if resumes is not None else lb >= la
+    assert sa == sb
+    last = "points_{:04d}.vtu".format(sa["steps_run"])
+    pa, pb = meshio.read(a / last), meshio.read(b / last)
+    assert np.array_equal(pa.points, pb.points)
+    assert pa.point_data.keys() == pb.point_data.keys()
+    for name in pa.point_data:
+        assert np.array_equal(pa.point_data[name], pb.point_data[name]), name
+    for series in ("points.pvd", "grid.pvd"):
+        assert (a / series).read_text() == (b / series).read_text()
+    assert not list(b.glob(TEMPORARY_PREFIX + "*"))
+
+
+def test_the_scene_cuts_back(straight):
+    """The premise: more converged sub-steps than load steps."""
+    data = summary(straight[1])
+    assert data["status"] == "completed" and data["steps"] == 3
+    assert data["steps_run"] > 3 * 4
+
+
+def test_repeated_resumes_after_cut_backs_are_bit_identical(straight,
+                                                             tmp_path):
+    scene, reference = straight
+    out = tmp_path / "split"
+    assert main(["run", str(scene), "--out", str(out), "--max-steps", "5",
+                 "--checkpoint-every", "2", "--no-progress"]) == 0
+    factors = [load_checkpoint(out).load_factor]
+    resumes = 0
+    while not (out / "summary.json").exists() and resumes < 20:
+        assert main(["run", "--resume", str(out), "--max-steps", "5",
+                     "--no-progress"]) == 0
+        resumes += 1
+        if not (out / "summary.json").exists():
+            factors.append(load_checkpoint(out).load_factor)
+    # the checkpoints stood between load steps (after cut-backs)
+    assert any(abs(f * 3 - round(f * 3)) > 1e-9 for f in factors)
+    assert len(factors) >= 5
+    assert_same_run(reference, out, resumes)
+
+
+def test_sigkill_at_random_moments_then_resume_is_bit_identical(straight,
+                                                                tmp_path):
+    """SIGKILL after a random delay (fixed seed), resume (killed again at
+    random), until one invocation completes; a kill before the first
+    checkpoint starts the run again."""
+    scene, reference = straight
+    out = tmp_path / "killed"
+    rng = np.random.default_rng(20261123)
+    command = [sys.executable, "-c", "import sys; from skfem_mpm.scenes.cli "
+               "import main; sys.exit(main())"]
+    kills, returncode = 0, None
+    for attempt in range(12):
+        resumable = (out / CHECKPOINT).exists()
+        args = ["run", "--resume", str(out)] if resumable else [
+            "run", str(scene), "--out", str(out)]
+        process = subprocess.Popen(
+            command + args + ["--checkpoint-every", "1", "--no-progress"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        if attempt < 8:                      # the last attempts run through
+            try:
+                returncode = process.wait(timeout=rng.uniform(.4, 1.6))
+            except subprocess.TimeoutExpired:
+                os.kill(process.pid, signal.SIGKILL)
+                process.wait()
+                kills += 1
+                continue
+        else:
+            returncode = process.wait(timeout=120)
+        assert returncode == 0, process.stderr.read().decode()
+        break
+    assert returncode == 0 and kills >= 2
+    assert_same_run(reference, out)
+
+
+def test_stale_and_corrupted_checkpoints_are_refused(straight, tmp_path):
+    """A checkpoint of another scene, and a campaign of corruptions
+    (truncation, flipped bytes, missing fields, wrong dtypes, impossible
+    values): each refused with exit code 2 and one line naming the file,
+    never a traceback, never a run on wrong state."""
+    scene, reference = straight
+    out = tmp_path / "run"
+    assert main(["run", str(scene), "--out", str(out), "--max-steps", "4",
+                 "--no-progress"]) == 0
+    good = (out / CHECKPOINT).read_bytes()
+    text = (out / "scene.toml").read_text()
+    (out / "scene.toml").write_text(text.replace("100.0", "101.0"))
+    with pytest.raises(CheckpointError, match="another scene"):
+        load_checkpoint(out, _digest(out))
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 2
+    (out / "scene.toml").write_text(text)
+
+    with np.load(out / CHECKPOINT) as data:
+        fields = {k: data[k] for k in data.files}
+
+    def rewrite(**changes):
+        arrays = dict(fields)
+        for name, value in changes.items():
+            if value is None:
+                del arrays[name]
+            else:
+                arrays[name] = value
+        with open(out / CHECKPOINT, "wb") as f:
+            np.savez(f, **arrays)
+
+    refused = [lambda n=n: (out / CHECKPOINT).write_bytes(good[:n])
+               for n in (0, 10, len(good) // 2, len(good) - 1)]
+    refused += [lambda n=name: rewrite(**{n: None}) for name in fields]
+    n = fields["points_x"].shape[1]
+    for change in (dict(step=np.array(99)), dict(step=np.array(2.5)),
+                   dict(nsteps=np.array(3.)), dict(nsteps=np.array(0)),
+                   dict(load_factor=np.array(1.5)),
+                   dict(load_factor=np.array(np.nan)),
+                   dict(increment=np.array(0.)),
+                   dict(points_volume0=np.zeros(n)),
+                   dict(points_x=fields["points_x"].astype(np.float32)),
+                   dict(points_x=np.full_like(fields["points_x"], 1e9)),
+                   dict(points_body=np.full(n, .5)),
+                   dict(points_F=-fields["points_F"]),
+                   dict(domain0=np.array("x")),
+                   dict(history=fields["history"][:, :3]),
+                   dict(reactions=fields["reactions"][:1]),
+                   dict(counter_values=np.array(["x"] * fields[
+                       "counter_values"].size)),
+                   dict(scene_sha256=np.array(3))):
+        refused.append(lambda c=change: rewrite(**c))
+    for k, corrupt in enumerate(refused):
+        corrupt()
+        code, _ = _resume(out)
+        assert code == 2, k
+    # a flipped byte is caught by the zip's CRC-32 or its structure; one
+    # in a part nothing reads may pass, and must then change nothing
+    rng = np.random.default_rng(7)
+    passed = 0
+    for at in rng.integers(len(good), size=16):
+        flipped = bytearray(good)
+        flipped[at] ^= 0xFF
+        (out / CHECKPOINT).write_bytes(bytes(flipped))
+        code, trial = _resume(out)
+        assert code in (0, 2)
+        if code == 0:
+            passed += 1
+            assert_same_run(reference, trial)
+    assert passed <= 4
+    (out / CHECKPOINT).write_bytes(good)
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    assert_same_run(reference, out, 1)
+
+
+def _digest(out):
+    from skfem_mpm.scenes.checkpoint import scene_digest
+    return scene_digest(out / "scene.toml")
+
+
+def _resume(out):
+    """Resume a copy of ``out`` (a refused resume must leave it as it
+    was): the exit code (2 for a refusal; any exception fails the test)
+    and the copy."""
+    import shutil
+    trial = out.parent / "trial"
+    shutil.rmtree(trial, ignore_errors=True)
+    shutil.copytree(out, trial)
+    return main(["run", "--resume", str(trial), "--no-progress"]), trial
