@@ -126,6 +126,49 @@ def test_bad_scene_files_exit_2_and_write_nothing(tmp_path, capsys):
     assert main(["run", str(tmp_path / "missing.toml")]) == 2
 
 
+def test_hostile_scene_files_and_folders_get_one_line(tmp_path, capsys,
+                                                     monkeypatch):
+    """UTF-16, nesting beyond any scene, a FIFO, /dev/zero, --out that is
+    a file, a support outside the grid (refused in the first step), a full
+    disk: one line on stderr, never a traceback; what is refused writes
+    nothing."""
+    import os
+    column = (EXAMPLES / "column.toml").read_text()
+    cases = {"utf16.toml": column.encode("utf-16"),
+             "nested.toml": b"a = " + b"[" * 100000 + b"]" * 100000}
+    out = tmp_path / "out"
+    for name, raw in cases.items():
+        (tmp_path / name).write_bytes(raw)
+        assert main(["run", str(tmp_path / name), "--out", str(out)]) == 2
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    for scene in (fifo, "/dev/zero"):
+        assert main(["run", str(scene), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert [e.split(": ", 2)[-1][:20] for e in err] == [
+        "not UTF-8 text as TO", "nested too deeply to",
+        "not a regular file", "not a regular file"]
+    assert not out.exists()
+    (tmp_path / "afile").write_text("")
+    assert main(["run", "--out", str(tmp_path / "afile")]) == 2
+    assert "is not a folder" in capsys.readouterr().err
+    away = column + '\n[[supports]]\nat = [5.0, 5.0]\n'
+    (tmp_path / "away.toml").write_text(away)
+    assert main(["run", str(tmp_path / "away.toml"), "--out", str(out),
+                 "--no-progress"]) == 2
+    assert len(capsys.readouterr().err.splitlines()) == 1
+    assert not out.exists()
+
+    def full_disk(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr("meshio.write", full_disk)
+    assert main(["run", "--out", str(out), "--no-progress"]) == 1
+    assert capsys.readouterr().err.strip().splitlines() == [
+        "skfem-mpm: OSError: [Errno 28] No space left on device"]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed" and "No space" in summary["error"]
+
+
 def test_resume_is_bit_identical(tmp_path):
     scene = str(EXAMPLES / "column.toml")
     straight, split = tmp_path / "straight", tmp_path / "split"

@@ -239,6 +239,10 @@ def run(args) -> int:
         scene = load_scene(source)
         if args.steps:
             scene.steps = args.steps
+        if outdir.exists() and not outdir.is_dir():
+            raise InvalidInputError("--out {} exists and is not a folder"
+                                    .format(outdir))
+    digest = scene_digest(source)
     mesh, _ = scene.grid.build()
     initial = build_points(scene, mesh)
     if points is None:
@@ -252,13 +256,22 @@ def run(args) -> int:
                                         surface_loads(scene, initial)] + [
                                             np.array([], dtype=np.int64)]))
     names, resultant = reaction_resultants(scene)
-    outdir.mkdir(parents=True, exist_ok=True)
-    if remove_temporaries(outdir):
-        logger.info("removed the partial files of a killed run in %s", outdir)
-    if args.resume is None:
-        with atomic_path(outdir / "scene.toml") as tmp:
-            shutil.copyfile(source, tmp)
-    digest = scene_digest(outdir / "scene.toml")
+    prepared = []
+
+    def prepare():
+        """Make the output folder when there is something to keep (a
+        scene refused in its first step writes nothing)."""
+        if prepared:
+            return
+        outdir.mkdir(parents=True, exist_ok=True)
+        if remove_temporaries(outdir):
+            logger.info("removed the partial files of a killed run in %s",
+                        outdir)
+        if args.resume is None:
+            with atomic_path(outdir / "scene.toml") as tmp:
+                shutil.copyfile(source, tmp)
+        prepared.append(outdir)
+
     series = None if args.no_series else SeriesWriter(outdir, mesh)
     if series is not None and earlier is not None:
         series.restore([(int(r[0]), float(r[1])) for r in earlier.history])
@@ -267,6 +280,7 @@ def run(args) -> int:
 
     def checkpoint(state, factor, increment, counters):
         """The run so far (before this invocation included)."""
+        prepare()
         rows = history_rows(history)
         reactions = np.array([resultant(r) for r in history]).reshape(
             len(history), len(names), mesh.dim())
@@ -280,6 +294,7 @@ def run(args) -> int:
             domain0=domain0))
 
     def callback(record, pts):
+        prepare()
         history.append(record)
         progress(record)
         if series is not None:
@@ -304,8 +319,11 @@ def run(args) -> int:
               "--resume {}".format(stop.args[0], outdir))
         return 0
     except MPMError as err:
+        if isinstance(err, InvalidInputError) and not prepared:
+            raise                     # refused before anything converged
         # keep what converged: a checkpoint of the last converged state and
         # a summary saying what failed
+        prepare()
         last = history[-1] if history else None
         state = getattr(err, "state", None)
         if state is not None:
@@ -319,9 +337,20 @@ def run(args) -> int:
             resume.get("first_step", 1) - 1,
             "checkpoint": state is not None})
         raise
+    except OSError as err:    # output failed (read-only or full disk, ...)
+        try:                  # the last checkpoint stands (atomic writes)
+            write_summary(outdir / "summary.json", {
+                "scene": scene.name, "status": "failed",
+                "error": "{}: {}".format(type(err).__name__, err),
+                "last_converged_step": history[-1].step if history else
+                resume.get("first_step", 1) - 1})
+        except OSError:
+            logger.info("no summary either: %s", err)
+        raise
     seconds = time.perf_counter() - tic
     summary = summarise(scene, result, seconds, earlier)
     summary["status"] = "completed"
+    prepare()
     write_summary(outdir / "summary.json", summary)
     plot_outputs(scene, result, outdir, loaded)
     print("{}: {} {} ({} kinematics), {} points, {} load steps".format(
@@ -487,6 +516,10 @@ def main(argv=None) -> int:
         print("skfem-mpm: {}".format(err), file=sys.stderr)
         return 2
     except MPMError as err:
+        print("skfem-mpm: {}: {}".format(type(err).__name__, err),
+              file=sys.stderr)
+        return 1
+    except OSError as err:            # a read-only or full disk, ...
         print("skfem-mpm: {}: {}".format(type(err).__name__, err),
               file=sys.stderr)
         return 1

@@ -346,6 +346,10 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     return scene
 
 
+#: larger files are refused unread (a scene file is a few kB)
+MAX_SCENE_BYTES = 1 << 20
+
+
 def load_scene(path) -> Scene:
     """Read and validate a scene file.
 
@@ -361,11 +365,24 @@ def load_scene(path) -> Scene:
     """
     path = Path(path)
     try:
-        text = path.read_text()
+        if not path.is_file():       # a FIFO would block, /dev/zero not end
+            raise SceneError(["{}: not a regular file".format(path)])
+        if path.stat().st_size > MAX_SCENE_BYTES:
+            raise SceneError(["{}: {} bytes, more than a scene file's {}"
+                              .format(path, path.stat().st_size,
+                                      MAX_SCENE_BYTES)])
+        raw = path.read_bytes()
     except OSError as err:
         raise SceneError(["{}: cannot be read ({})".format(path, err)])
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise SceneError(["{}: not UTF-8 text as TOML requires ({}); save it "
+                          "as UTF-8".format(path, err)])
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise SceneError(["{}: not valid TOML: {}".format(path, err)])
+    except RecursionError:
+        raise SceneError(["{}: nested too deeply to be a scene".format(path)])
     return parse_scene(data, str(path))
