@@ -150,7 +150,8 @@ class Scene:
         ``"fem"``; any kinematics).
     ghost
         Ghost-penalty factor for partially filled cells (any method and
-        kinematics).
+        kinematics), or ``"auto"`` (the default: as in
+        :func:`~skfem_mpm.simulate`).
     rhs
         ``"residual"`` or ``"increment"`` (the seed's literal scheme,
         small-strain elastic scenes): see :func:`~skfem_mpm.simulate`.
@@ -170,7 +171,7 @@ class Scene:
     reference: Optional[str] = None
     linear_solver: str = "scipy"
     antilocking: bool = False
-    ghost: float = 0.
+    ghost: Union[float, str] = "auto"
     rhs: str = "residual"
 
     def check(self):

@@ -45,7 +45,9 @@ offending value (unknown keys, wrong types, impossible values), in a
     max_iterations = 25
     linear = "scipy"                # pypardiso pyamg auto
     antilocking = false             # mean dilatation, B-bar (mpm, fem)
-    ghost = 0.0                     # ghost penalty for cut cells
+    ghost = "auto"                  # ghost penalty for cut cells: "auto"
+                                    # (on after a failed finite step), or
+                                    # a factor (0: never)
     rhs = "residual"                # or "increment": the seed's literal
                                     # scheme (small-strain elastic scenes)
 
@@ -331,7 +333,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         linear_solver=c.choice(solver, "solver", "linear",
                                tuple(FACTORIES), "scipy"),
         antilocking=c.boolean(solver, "solver", "antilocking"),
-        ghost=c.number(solver, "solver", "ghost", 0., low=0., open_low=False),
+        ghost="auto" if solver.get("ghost", "auto") == "auto" else c.number(
+            solver, "solver", "ghost", "auto", low=0., open_low=False),
         rhs=c.choice(solver, "solver", "rhs", RHS, "residual"))
     if not c.problems:
         try:
