@@ -482,6 +482,13 @@ def test_unvalidated_parameters_are_refused_before_any_work():
         seed_points(mesh, per_cell)                # 4 cells x per_cell^2
     with pytest.raises(InvalidInputError, match="positive integer"):
         seed_points(mesh, 2.5)
+    with pytest.raises(InvalidMaterialError, match="must match"):
+        simulate(mesh, ElementQuad1(), points, [LinearElastic(1e3, .3)] * 2,
+                 base)
+    for first_step in (0, -1, 1.5):
+        with pytest.raises(InvalidInputError, match="first_step"):
+            simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+                     base, first_step=first_step)
     grid = Grid(axes=[(0., 1., 2 ** 31), (0., 1., 2 ** 32)])
     scene = Scene(grid=grid, bodies=[Body("b", [(0., 1.), (0., 1.)],
                                           LinearElastic(1e3, .3))],
