@@ -17,22 +17,7 @@ from skfem import ElementQuad1, MeshQuad
 
 from skfem_mpm import MPMError, LinearElastic, Traction, seed_points, \
     side_points, simulate
-from skfem_mpm.studies.elastica import elastica_tip
-
-
-def cantilever(h, per_cell, method):
-    L, E, alpha = 10., 1e6, 3.
-    mesh = MeshQuad.init_tensor(np.arange(0, L + 1 + 1e-9, h),
-                                np.arange(-8, 2 + 1e-9, h))
-    points = seed_points(mesh, per_cell, region=lambda x: (x[0] < L)
-                         & (x[1] > 0) & (x[1] < 1))
-    tip = np.flatnonzero(points.x[0] > points.x[0].max() - 1e-9)
-    points.force[1, tip] = -alpha * E / 12 / L ** 2 / tip.size
-    res = simulate(mesh, ElementQuad1(), points, LinearElastic(E, 0.),
-                   lambda b: b.get_dofs(lambda x: x[0] == 0), nsteps=20,
-                   method=method, kinematics="finite")
-    v = -res.points.displacement[1, tip].mean() / L
-    return res, abs(v / elastica_tip(np.array([alpha]))[0][0] - 1)
+from skfem_mpm.studies.elastica import untuned_cantilever
 
 
 def block(h, per_cell, method, traction):
@@ -56,7 +41,7 @@ def main():
             for method in ("mpm", "cpgimp"):
                 tic = time.perf_counter()
                 try:
-                    res, err = cantilever(h, per_cell, method)
+                    res, err = untuned_cantilever(h, per_cell, method)
                     row = ("completed", "{:.1e}".format(err),
                            res.counters["ghost_from_step"] or "-")
                 except MPMError as e:

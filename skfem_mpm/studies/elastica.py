@@ -12,7 +12,7 @@ import numpy as np
 from numpy import ndarray
 from scipy.integrate import solve_bvp, trapezoid
 
-__all__ = ["elastica_tip"]
+__all__ = ["elastica_tip", "untuned_cantilever"]
 
 
 def elastica_tip(alphas: ndarray, nodes: int = 401):
@@ -59,3 +59,37 @@ def elastica_tip(alphas: ndarray, nodes: int = 401):
         v.append(trapezoid(np.sin(theta), s))
         u.append(1. - trapezoid(np.cos(theta), s))
     return np.array(v), np.array(u)
+
+
+def untuned_cantilever(h: float, per_cell: int, method: str,
+                       alpha: float = 3., nsteps: int = 20):
+    """A cantilever set up as a new user would (length 10, depth 1,
+    E = 1e6, nu = 0, clamped root, the end load spread over the tip points,
+    ``P L^2 / (E I) = alpha``, a grid of spacing ``h`` around it, finite
+    deformation, every other setting the default): returns the result and
+    the relative error of the tip deflection against the elastica.
+
+    Examples
+    --------
+    >>> from skfem_mpm.studies.elastica import untuned_cantilever
+    >>> res, error = untuned_cantilever(.5, 2, "mpm", alpha=1., nsteps=4)
+    >>> round(float(error), 3)
+    0.014
+
+    """
+    from skfem import ElementQuad1, MeshQuad
+    from ..quadrature.points import seed_points
+    from ..solve.core import simulate
+    from ..mechanics.materials import LinearElastic
+    L, E = 10., 1e6
+    mesh = MeshQuad.init_tensor(np.arange(0, L + 1 + 1e-9, h),
+                                np.arange(-8, 2 + 1e-9, h))
+    points = seed_points(mesh, per_cell, region=lambda x: (x[0] < L)
+                         & (x[1] > 0) & (x[1] < 1))
+    tip = np.flatnonzero(points.x[0] > points.x[0].max() - 1e-9)
+    points.force[1, tip] = -alpha * E / 12 / L ** 2 / tip.size
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(E, 0.),
+                   lambda b: b.get_dofs(lambda x: x[0] == 0), nsteps=nsteps,
+                   method=method, kinematics="finite")
+    deflection = -res.points.displacement[1, tip].mean() / L
+    return res, abs(deflection / elastica_tip(np.array([alpha]))[0][0] - 1)
