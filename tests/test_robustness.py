@@ -523,3 +523,47 @@ def test_supports_on_every_dof_hold_the_body_still(kinematics):
     weight = 1e3 * points.volume.sum()
     total = res.history[-1].reactions.reshape(-1, 2).sum(axis=0)
     assert np.abs(total - [0., weight]).max() < 1e-12 * weight
+
+
+@settings(max_examples=40, deadline=None, derandomize=True,
+          suppress_health_check=[HealthCheck.too_slow])
+@given(method=st.sampled_from(["fem", "mpm", "ugimp", "cpgimp"]),
+       kinematics=st.sampled_from(["small", "finite"]),
+       yield_strain=st.one_of(st.none(), st.floats(1e-4, 1e-1)),
+       ghost=st.sampled_from(["auto", 0., .1]),
+       antilocking=st.booleans(),
+       per_cell=st.integers(1, 3),
+       strain=st.floats(-.1, .1), shear=st.floats(-.03, .03),
+       E=st.floats(1e-2, 1e9), nu=st.floats(-.9, .499),
+       nsteps=st.integers(1, 3),
+       tol=st.sampled_from([1e-6, 1e-9, 1e-12]))
+def test_the_public_api_gives_equilibrium_or_an_mpm_error(
+        method, kinematics, yield_strain, ghost, antilocking, per_cell,
+        strain, shear, E, nu, nsteps, tol):
+    """Any combination of method, kinematics, material, stabilisation,
+    loads (self weight and a shear traction, up to 10% and 3% strain) and
+    tolerance: a result in equilibrium (every step's residual at most
+    ``tol``), with every point inside the grid and finite fields, or an
+    ``MPMError``; nothing else."""
+    from skfem_mpm import Traction, VonMises, point_locator, side_points
+    mesh = MeshQuad.init_tensor(np.linspace(-1, 2, 7), np.linspace(0, 2, 5))
+    points = seed_points(mesh, per_cell, region=lambda x: (x[0] > 0)
+                         & (x[0] < 1) & (x[1] < 1))
+    try:
+        material = LinearElastic(E, nu) if yield_strain is None else \
+            VonMises(E, nu, yield_strain * E)
+        res = simulate(
+            mesh, ElementQuad1(), points, material,
+            lambda b: b.get_dofs(lambda x: x[1] == 0),
+            body_force=[0., strain * E], loads=[Traction(
+                side_points(points, "top"), "top", [shear * E, 0.])],
+            nsteps=nsteps, method=method, kinematics=kinematics, ghost=ghost,
+            antilocking=antilocking and method in ("fem", "mpm"), tol=tol)
+    except MPMError:
+        return
+    assert res.history[-1].load_factor == 1.
+    linear = yield_strain is None and kinematics == "small"
+    assert max(r.residual for r in res.history) <= (1e-8 if linear else tol)
+    for name in ("x", "stress", "strain", "F", "be", "volume"):
+        assert np.isfinite(getattr(res.points, name)).all(), name
+    point_locator(mesh)(res.points.x)          # raises if any is outside
