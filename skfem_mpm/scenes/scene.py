@@ -17,10 +17,10 @@ from skfem import ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2, \
     MeshHex, MeshLine, MeshQuad
 
 from ..errors import InvalidInputError
+from ..mechanics.materials import LinearElastic, VonMises, is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       SEED_BYTES_PER_POINT, STEP_RECORD_BYTES,
                       refuse_beyond_memory)
-from ..mechanics.materials import LinearElastic, VonMises, is_plastic
 from ..solve.core import RHS, simulate
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
 from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points

@@ -46,8 +46,6 @@ from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 from skfem.quadrature import get_quadrature
 
-from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
-                      STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..errors import (ConvergenceError, InvalidInputError, InversionError,
                       MPMError, NewtonDivergenceError, NumericalError,
                       PrescribedMotionError, SingularSystemError,
@@ -55,6 +53,8 @@ from ..errors import (ConvergenceError, InvalidInputError, InversionError,
 from ..mechanics.forms import as_body_force
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
 from ..mechanics.materials import at_points, initial_state, is_plastic
+from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
+                      STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..methods.assembly import ElementPattern
 from ..methods.method import METHODS, make_method
 from ..quadrature.locate import Locator, point_locator
