@@ -31,6 +31,7 @@ def test_effect_gating():
     counters = run_scene(block()).counters
     assert counters == {"locate": 4, "body_force": 0, "linear_solves": 3,
                         "return_maps": 0, "newton_iterations": 0,
+                        "line_search_trials": 0,
                         "stabilised_solves": 0, "ghost_from_step": 0}
     # FE mode never relocates the points
     fem = run_scene(block(method="fem"))

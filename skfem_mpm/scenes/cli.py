@@ -70,8 +70,9 @@ def build_parser() -> argparse.ArgumentParser:
     study = sub.add_parser(
         "study", help="error and cost over a grid of choices",
         description="Vary elements, ppc (points per cell and axis), "
-        "loadsteps, method (fem, mpm, ugimp, cpgimp) and rhs (residual, "
-        "increment: the right-hand side of linear steps); without --vary, "
+        "loadsteps, method (fem, mpm, ugimp, cpgimp), rhs (residual, "
+        "increment: the right-hand side of linear steps) and line_search "
+        "(backtracking, none); without --vary, "
         "the seed's grid: elements 4..256, ppc 2..5, loadsteps 1, 2, 20.")
     study.add_argument("scene", type=Path)
     study.add_argument("--vary", action="append", default=[],

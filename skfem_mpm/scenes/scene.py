@@ -155,6 +155,9 @@ class Scene:
     rhs
         ``"residual"`` or ``"increment"`` (the seed's literal scheme,
         small-strain elastic scenes): see :func:`~skfem_mpm.simulate`.
+    line_search
+        ``"backtracking"`` (default) or ``"none"`` (plain Newton): see
+        :func:`~skfem_mpm.simulate`.
     """
     grid: Grid
     bodies: List[Body]
@@ -173,6 +176,7 @@ class Scene:
     antilocking: bool = False
     ghost: Union[float, str] = "auto"
     rhs: str = "residual"
+    line_search: str = "backtracking"
 
     def check(self):
         """Raise :class:`~skfem_mpm.errors.InvalidInputError` for
@@ -367,7 +371,8 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                     prescribed=prescribed, rhs=scene.rhs,
                     loads=surface_loads(scene, initial),
                     antilocking=scene.antilocking, ghost=scene.ghost,
-                    tol=scene.tolerance, max_iter=scene.max_iterations,
+                    line_search=scene.line_search, tol=scene.tolerance,
+                    max_iter=scene.max_iterations,
                     first_step=first_step, domain0=domain0,
                     callback=callback, solver=scene.linear_solver,
                     **resume)

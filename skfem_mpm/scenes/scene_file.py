@@ -48,6 +48,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     ghost = "auto"                  # ghost penalty for cut cells: "auto"
                                     # (on after a failed finite step), or
                                     # a factor (0: never)
+    line_search = "backtracking"    # or "none": plain Newton
     rhs = "residual"                # or "increment": the seed's literal
                                     # scheme (small-strain elastic scenes)
 
@@ -63,6 +64,7 @@ except ImportError:                       # Python 3.10
 from ..errors import SceneError
 from ..mechanics.materials import LinearElastic, VonMises
 from ..solve.core import RHS
+from ..solve.newton import LINE_SEARCHES
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction)
 from ..solve.backends import FACTORIES
@@ -316,7 +318,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     solver = c.table(data.get("solver", {}), "solver",
                      ("method", "kinematics", "steps", "tolerance",
                       "max_iterations", "linear", "antilocking", "ghost",
-                      "rhs"))
+                      "rhs", "line_search"))
     method = c.choice(solver, "solver", "method", METHODS, "mpm")
     kinematics = c.choice(solver, "solver", "kinematics", KINEMATICS, "small")
     scene = Scene(
@@ -335,7 +337,9 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         antilocking=c.boolean(solver, "solver", "antilocking"),
         ghost="auto" if solver.get("ghost", "auto") == "auto" else c.number(
             solver, "solver", "ghost", "auto", low=0., open_low=False),
-        rhs=c.choice(solver, "solver", "rhs", RHS, "residual"))
+        rhs=c.choice(solver, "solver", "rhs", RHS, "residual"),
+        line_search=c.choice(solver, "solver", "line_search", LINE_SEARCHES,
+                             "backtracking"))
     if not c.problems:
         try:
             scene.check()

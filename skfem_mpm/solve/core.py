@@ -35,7 +35,7 @@ or that inverts a point is retried with a stabilised tangent, then cut back.
 import logging
 import time
 from contextlib import contextmanager
-from typing import Callable, Optional, Sequence
+from typing import Callable, NamedTuple, Optional, Sequence
 
 import numpy as np
 from numpy import ndarray
@@ -65,6 +65,7 @@ from .backends import get_solver
 from .linear import check_rigid_body_modes, free_dofs, solve_active, \
     support_dofs
 from .loads import ExternalLoads
+from .newton import FullStep, make_line_search
 from .results import PHASES, Result, StepRecord
 
 logger = logging.getLogger(__name__)
@@ -143,6 +144,17 @@ def check_resume(first_step, nsteps: int, load_factor, increment):
                     ")" if name == "load_factor" else "]", value))
 
 
+class Trial(NamedTuple):
+    """The out-of-balance state of one trial grid increment: the
+    kinematics' response, the out-of-balance force ``r`` (grid vector), its
+    norm over the free DOFs (``merit``) and that norm relative to the
+    external force (``residual``, the convergence measure)."""
+    response: object
+    r: ndarray
+    merit: float
+    residual: float
+
+
 class Run:
     """What stays fixed over a run: the grid, the pieces and the settings."""
 
@@ -202,9 +214,10 @@ def safe_norm(v: ndarray) -> float:
 
 
 def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
-              step: int, stabilise: bool = False):
+              step: int, stabilise: bool = False, strategy=None):
     """One load step from the converged state ``points``, from load factor
-    ``f_old`` to ``f_new``: returns the new state and the step's record."""
+    ``f_old`` to ``f_new`` (Newton steps by ``strategy``, default
+    ``run.newton``): returns the new state and the step's record."""
     t = dict.fromkeys(PHASES, 0.)
     op = run.method.operator(points, step, t)
     tic = time.perf_counter()
@@ -219,18 +232,16 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
                            op.active_dofs, fixed, run.dim, step)
     free = free_dofs(op.active_dofs, fixed)
-    f_ext = f_dead = run.loads.external(op, points, f_new)
+    f_dead = run.loads.external(op, points, f_new)
     G = None if run.ghost is None else run.ghost.matrix(op, points)
     t["assemble"] += time.perf_counter() - tic
-    residuals = []
-    for it in range(run.max_iter + 1):
+    def evaluate(du: ndarray) -> Trial:
+        """The out-of-balance state of the grid increment ``du``."""
         tic = time.perf_counter()
-        try:
-            response = run.kinematics.response(op, du, points)
-        except InversionError as err:
-            raise InversionError("step {}: {}".format(step, err)) from err
+        response = run.kinematics.response(op, du, points)
         t["update"] += time.perf_counter() - tic
         tic = time.perf_counter()
+        f_ext = f_dead
         if run.loads.follows:                   # pressure on the trial surface
             f_ext = f_dead + run.loads.follower_force(
                 op, points, f_new, response.deformation)
@@ -241,11 +252,24 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         scale = safe_norm(f_ext)
         if scale == 0.:                         # driven by prescribed motion
             scale = max(safe_norm(f_int), np.finfo(float).tiny)
-        residuals.append(float(safe_norm(r[free]) / scale))
+        merit = safe_norm(r[free])
         t["check"] += time.perf_counter() - tic
+        return Trial(response, r, merit, merit / scale)
+
+    def converged(trial: Trial) -> bool:
+        return trial.residual <= run.tol
+
+    try:
+        current = evaluate(du)
+    except InversionError as err:
+        raise InversionError("step {}: {}".format(step, err)) from err
+    residuals = []
+    search = (run.newton if strategy is None else strategy).start()
+    for it in range(run.max_iter + 1):
+        residuals.append(float(current.residual))
         logger.debug("step %d iteration %d: residual %.3e", step, it,
                      residuals[-1])
-        if residuals[-1] <= run.tol or free.size == 0 or (
+        if converged(current) or free.size == 0 or (
                 run.rhs == "increment" and it == 1):
             break
         if it == run.max_iter or not np.isfinite(residuals[-1]):
@@ -256,15 +280,26 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                     else "Newton-Raphson", it, residuals[0], min(residuals),
                     residuals[-1]))
         tic = time.perf_counter()
-        K = op.stiffness(response.tangent(), response.w)
+        K = op.stiffness(current.response.tangent(), current.response.w)
         if G is not None:
             K = K + G
+        r = current.r
         if run.rhs == "increment":
-            r = f_ext - run.loads.external(op, points, f_old)
+            r = f_dead - run.loads.external(op, points, f_old)
         t["assemble"] += time.perf_counter() - tic
         tic = time.perf_counter()
-        du = du + solve_step(run, K, r, free, step, stabilise)
+        d = solve_step(run, K, r, free, step, stabilise)
         t["solve"] += time.perf_counter() - tic
+        try:
+            du, current, extra = search(evaluate, du, d, current,
+                                        converged)
+        except NewtonDivergenceError as err:
+            raise NewtonDivergenceError("step {} iteration {}: {}".format(
+                step, it + 1, err)) from err
+        except InversionError as err:
+            raise InversionError("step {}: {}".format(step, err)) from err
+        run.counters["line_search_trials"] += extra
+    response, r = current.response, current.r
     tic = time.perf_counter()
     new = response.commit(points)
     dx = op.values(du)
@@ -331,26 +366,39 @@ def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
 def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             step: int):
     """A load step with the exact tangent.  When Newton fails in a
-    nonlinear step, it is retried: with the ghost penalty switched on for
-    the rest of the run if ``ghost="auto"`` holds it in reserve (points
-    giving nodes a sliver of support make Newton cycle), else once with the
-    stabilised tangent (zero-energy modes not refused as singular)."""
+    nonlinear step, it is retried at the same increment, one log line per
+    failed attempt: with the ghost penalty switched on for the rest of the
+    run if ``ghost="auto"`` holds it in reserve (points giving nodes a
+    sliver of support make Newton cycle: the commonest failure), then with
+    the line search (:mod:`skfem_mpm.solve.newton`; it does not change the
+    answer), then once with the stabilised tangent (zero-energy modes not
+    refused as singular)."""
     try:
         with numerical_failures(step):
             return load_step(run, points, f_old, f_new, step)
     except STEP_FAILURES as err:
         if run.linear:
             raise
-        if run.ghost is None and run.ghost_reserve is not None:
-            run.ghost = run.ghost_reserve
-            run.counters["ghost_from_step"] = step
-            logger.warning("%s; switching the ghost penalty on (gamma %g) "
-                           "for the rest of the run", err, run.ghost.gamma)
-            return attempt(run, points, f_old, f_new, step)
-        logger.warning("%s; retrying with the tangent stabilised by %.0e "
-                       "of its diagonal", err, STABILISATION)
+        failure = err
+    if run.ghost is None and run.ghost_reserve is not None:
+        run.ghost = run.ghost_reserve
+        run.counters["ghost_from_step"] = step
+        logger.warning("%s; switching the ghost penalty on (gamma %g) for "
+                       "the rest of the run", failure, run.ghost.gamma)
+        return attempt(run, points, f_old, f_new, step)
+    if run.line_search is not None:
+        logger.warning("%s; retrying with the line search", failure)
+        try:
+            with numerical_failures(step):
+                return load_step(run, points, f_old, f_new, step,
+                                 strategy=run.line_search)
+        except STEP_FAILURES as err:
+            failure = err
+    logger.warning("%s; retrying with the tangent stabilised by %.0e of its "
+                   "diagonal", failure, STABILISATION)
     with numerical_failures(step):
-        return load_step(run, points, f_old, f_new, step, stabilise=True)
+        return load_step(run, points, f_old, f_new, step, stabilise=True,
+                         strategy=run.line_search)
 
 
 @contextmanager
@@ -371,7 +419,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              prescribed: Optional[Callable] = None, nsteps: int = 1,
              method: str = "mpm", kinematics: str = "small",
              rhs: str = "residual", antilocking: bool = False,
-             ghost="auto", tol: float = 1e-9, max_iter: int = 25,
+             ghost="auto", line_search="backtracking", tol: float = 1e-9,
+             max_iter: int = 25,
              max_cutbacks: int = 8, solver=None,
              locator: Optional[Locator] = None, keep_snapshots: bool = True,
              first_step: int = 1, domain0: Optional[ndarray] = None,
@@ -437,6 +486,18 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         leaves nodes a sliver of support and Newton cycles without it; runs
         that converge without it are not changed), and
         ``counters["ghost_from_step"]`` says from which step.
+    line_search
+        Globalisation of Newton's method (:mod:`skfem_mpm.solve.newton`):
+        ``"backtracking"`` (default): Newton's full steps, shortened only
+        where one inverts a point or fails in arithmetic (plain Newton's
+        path wherever it converges), and a load step that fails so is
+        retried with Armijo backtracking on the residual (after the ghost
+        penalty of ``ghost="auto"``, before the stabilised tangent and any
+        cut-back); ``"none"``:
+        plain Newton; or a :class:`~skfem_mpm.solve.newton.Backtracking`
+        with other settings.  Linear steps solve once and take the whole
+        step.  ``counters["line_search_trials"]`` counts the shortened
+        steps evaluated.
     tol, max_iter
         Tolerance on the out-of-balance force over the free DOFs relative
         to the external force (to the internal force in steps driven by
@@ -538,6 +599,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             raise InvalidInputError("{} must be an integer in [{}, 60], got "
                                     "{!r}".format(name, low, value))
     check_resume(first_step, nsteps, load_factor, increment)
+    line_search = make_line_search(line_search)
     if locator is not None and getattr(locator, "mesh", None) is not mesh:
         raise InvalidInputError(
             "locator must be point_locator(mesh) of the mesh solved on; this "
@@ -570,6 +632,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             mesh, grid.elem, DEFAULT_GHOST, material) if reserve else None,
         antilocking=bool(antilocking), D=support_dofs(supports, grid),
         prescribed=prescribed, rhs=rhs, tol=tol, max_iter=max_iter,
+        newton=FullStep() if linear else line_search[0],
+        line_search=None if linear else line_search[1],
         solver=get_solver(solver), counters=counters,
         keep_snapshots=keep_snapshots, domain0=domain0)
     step = int(first_step) - 1

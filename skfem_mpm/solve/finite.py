@@ -40,7 +40,8 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                  keep_snapshots: bool = True, first_step: int = 1,
                  domain0: Optional[ndarray] = None,
                  callback: Optional[Callable] = None, loads=(),
-                 antilocking: bool = False, ghost="auto") -> Result:
+                 antilocking: bool = False, ghost="auto",
+                 line_search="backtracking") -> Result:
     """Finite-deformation implicit MPM or GIMP (updated Lagrangian,
     Hencky elasticity, optional von Mises plasticity): the finite case of
     :func:`~skfem_mpm.simulate`.
@@ -62,7 +63,7 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         and point domains, set by :func:`~skfem_mpm.seed_points`), or
         ``"fem"`` (total Lagrangian finite elements with the points as
         quadrature).
-    loads, antilocking, ghost
+    loads, antilocking, ghost, line_search
         As in :func:`~skfem_mpm.simulate`.
     prescribed
         Optional ``prescribed(grid_basis, f_old, f_new) -> (dofs,
@@ -112,7 +113,8 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     return simulate(mesh, elem, points, material, supports,
                     body_force=body_force, loads=loads, prescribed=prescribed,
                     nsteps=nsteps, method=method, kinematics="finite",
-                    antilocking=antilocking, ghost=ghost, tol=tol,
+                    antilocking=antilocking, ghost=ghost,
+                    line_search=line_search, tol=tol,
                     max_iter=max_iter, max_cutbacks=max_cutbacks,
                     solver=solver, locator=locator,
                     keep_snapshots=keep_snapshots, first_step=first_step,

@@ -103,8 +103,9 @@ class Result:
         How often each kind of work was done: ``locate`` (point location),
         ``body_force`` (body-force assemblies), ``linear_solves``,
         ``return_maps`` (stress updates with a return map),
-        ``newton_iterations``, ``stabilised_solves`` (Newton solves that
-        needed the stabilised tangent: zero-energy modes), and
+        ``newton_iterations``, ``line_search_trials`` (shortened Newton
+        steps evaluated by the line search), ``stabilised_solves`` (Newton
+        solves that needed the stabilised tangent: zero-energy modes), and
         ``ghost_from_step`` (0, or the step from which ``ghost="auto"``
         switched the ghost penalty on).
 
@@ -114,7 +115,8 @@ class Result:
     basis: Optional[MaterialPointBasis] = None
     counters: dict = field(default_factory=lambda: dict.fromkeys(
         ("locate", "body_force", "linear_solves", "return_maps",
-         "newton_iterations", "stabilised_solves", "ghost_from_step"), 0))
+         "newton_iterations", "line_search_trials", "stabilised_solves",
+         "ghost_from_step"), 0))
 
     def timings(self) -> dict:
         """Total seconds per phase over all steps."""

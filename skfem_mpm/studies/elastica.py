@@ -62,12 +62,13 @@ def elastica_tip(alphas: ndarray, nodes: int = 401):
 
 
 def untuned_cantilever(h: float, per_cell: int, method: str,
-                       alpha: float = 3., nsteps: int = 20):
+                       alpha: float = 3., nsteps: int = 20, **options):
     """A cantilever set up as a new user would (length 10, depth 1,
     E = 1e6, nu = 0, clamped root, the end load spread over the tip points,
     ``P L^2 / (E I) = alpha``, a grid of spacing ``h`` around it, finite
-    deformation, every other setting the default): returns the result and
-    the relative error of the tip deflection against the elastica.
+    deformation, every other setting the default unless ``options`` of
+    :func:`~skfem_mpm.simulate` say otherwise): returns the result and the
+    relative error of the tip deflection against the elastica.
 
     Examples
     --------
@@ -90,6 +91,6 @@ def untuned_cantilever(h: float, per_cell: int, method: str,
     points.force[1, tip] = -alpha * E / 12 / L ** 2 / tip.size
     res = simulate(mesh, ElementQuad1(), points, LinearElastic(E, 0.),
                    lambda b: b.get_dofs(lambda x: x[0] == 0), nsteps=nsteps,
-                   method=method, kinematics="finite")
+                   method=method, kinematics="finite", **options)
     deflection = -res.points.displacement[1, tip].mean() / L
     return res, abs(deflection / elastica_tip(np.array([alpha]))[0][0] - 1)

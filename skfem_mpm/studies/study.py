@@ -30,14 +30,17 @@ from ..errors import InvalidInputError, MPMError
 from ..scenes.io import atomic_path
 from ..scenes.scene import METHODS, Grid, Scene, run_scene
 from ..solve.core import RHS
+from ..solve.newton import LINE_SEARCHES
 from ..solve.results import PHASES
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["study", "refine", "case_error", "VARIABLES", "DEFAULT_VARY"]
 
-VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs")
-CHOICES = {"method": METHODS, "rhs": RHS}     # the variables named by words
+VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
+             "line_search")
+CHOICES = {"method": METHODS, "rhs": RHS,     # the variables named by words
+           "line_search": LINE_SEARCHES}
 DEFAULT_VARY = {"elements": [4, 8, 16, 32, 64, 128, 256],
                 "ppc": [2, 3, 4, 5], "loadsteps": [1, 2, 20]}
 
@@ -181,8 +184,9 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
         The base scene.
     vary
         Lists of values for any of ``elements``, ``ppc``, ``loadsteps``,
-        ``method`` and ``rhs`` (``"residual"``, ``"increment"``: the
-        right-hand side of linear steps, :func:`~skfem_mpm.simulate`).
+        ``method``, ``rhs`` (``"residual"``, ``"increment"``: the
+        right-hand side of linear steps, :func:`~skfem_mpm.simulate`) and
+        ``line_search`` (``"backtracking"``, ``"none"``).
     outdir
         Folder of ``study.json`` / ``study.csv`` (and the plots).
     scheduler, workers
@@ -297,7 +301,7 @@ def plot_study(rows: List[dict], outdir) -> List[Path]:
     curves = {}
     for r in ok:
         label = ", ".join("{}={}".format(k, r[k]) for k in (
-            "method", "rhs", "ppc", "loadsteps") if k in r)
+            "method", "rhs", "line_search", "ppc", "loadsteps") if k in r)
         curves.setdefault(label, []).append(r)
     if any(np.isfinite(r["error"]) for r in ok) and "elements" in ok[0]:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))

@@ -1,0 +1,272 @@
+"""Globalisation of Newton's method: how far to go along a Newton direction.
+
+The load-step core (:mod:`skfem_mpm.solve.core`) starts a search for each
+attempt at a load step (``search = strategy.start()``), computes a Newton
+direction ``d`` from the tangent in every iteration and calls
+``search(evaluate, du, d, current, accept)``, where ``evaluate`` returns the
+out-of-balance state at a trial grid increment.  The search returns the
+accepted increment and its evaluated state, which the next iteration
+reuses: a full step that is accepted costs nothing extra.  The core never
+asks which strategy it runs.
+
+:class:`Backtracking` is Armijo backtracking on the merit function
+``phi = |r|^2 / 2`` of the out-of-balance force ``r`` over the free DOFs,
+with quadratic interpolation of ``phi`` between trials (Dennis and
+Schnabel, *Numerical Methods for Unconstrained Optimization and Nonlinear
+Equations*, 1983, section 6.3), guarded by a watchdog (Chamberlain,
+Powell, Lemarechal and Pedersen, *Math. Prog. Study* 16, 1982): full
+Newton steps are taken as long as the residual falls below the best one so
+far within ``watchdog`` iterations; when it does not, or when a full step
+inverts a point or fails in arithmetic (an overshoot in finite
+deformation), the search returns to the best state and backtracks along its
+Newton direction until the residual decreases sufficiently.  With the
+consistent tangent ``K``, ``K d = r`` makes ``d`` a descent direction with
+``phi'(0) = -|r|^2``.  Where no step length down to ``min_step`` decreases
+the residual (one that jumps as points change cell within the iteration),
+the full Newton step is taken, as plain Newton would.
+
+Newton's path to a solution of a structural problem often climbs first:
+measured, a cantilever's first full step under a large tip load raises the
+residual 470-fold and plain Newton then converges in ten iterations, a
+nearly incompressible beam (nu = 0.499, B-bar) 1400-fold before converging
+in four.  A residual line search slows such steps down (the cantilever
+then needed cut-backs).  So the default (``line_search="backtracking"``,
+:func:`make_line_search`) runs a load step in two stages: first Newton's
+full steps, shortened only where a step cannot be evaluated (a point
+inverts: ``watchdog=None``), which changes nothing where plain Newton
+converges; a step that fails so is retried with the Armijo search (after
+the ghost penalty that ``ghost="auto"`` holds in reserve, before the
+stabilised tangent and any cut-back).
+:class:`FullStep` is plain Newton.
+"""
+import logging
+from typing import Callable
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import InvalidInputError, InversionError
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["Backtracking", "FullStep", "make_line_search", "LINE_SEARCHES"]
+
+LINE_SEARCHES = ("backtracking", "none")
+# what a trial step may raise that a shorter step can avoid
+TRIAL_FAILURES = (InversionError, ArithmeticError, np.linalg.LinAlgError)
+
+
+class FullStep:
+    """Plain Newton: the whole step, whatever it does to the residual."""
+
+    def __repr__(self):
+        return "FullStep()"
+
+    def start(self) -> Callable:
+        """The search of one attempt at a load step: returns ``(du + d,
+        evaluate(du + d), 0)`` (no extra evaluations)."""
+        def search(evaluate, du, d, current, accept):
+            return du + d, evaluate(du + d), 0
+        return search
+
+
+def trial_state(evaluate: Callable, du: ndarray):
+    """``(state, merit)`` of the increment ``du``; ``(None, inf)`` where the
+    trial inverts a point or fails in arithmetic."""
+    try:
+        state = evaluate(du)
+    except TRIAL_FAILURES as err:
+        logger.debug("line search: trial failed: %s", err)
+        return None, np.inf
+    return state, state.merit if np.isfinite(state.merit) else np.inf
+
+
+class Backtracking:
+    """Armijo backtracking on ``phi = |r_free|^2 / 2`` behind a watchdog.
+
+    Parameters
+    ----------
+    sufficient_decrease
+        Armijo's constant ``c``: a step length ``s`` from the best state is
+        accepted when ``phi(s) <= phi(0) (1 - 2 c s)``, or when its residual
+        already meets the step's tolerance.
+    max_trials
+        Evaluations of shortened steps at the most; when none decreases the
+        residual sufficiently, the full Newton step is taken (as plain
+        Newton would: where the residual jumps, e.g. as a point changes
+        cell during the iteration, Newton's next iterate may still land in
+        the basin of the solution).
+    shrink
+        Bounds of the factor a rejected step length is multiplied by; within
+        them, the minimiser of the quadratic through ``phi(0)``,
+        ``phi'(0)`` and ``phi(s)``.
+    watchdog
+        Full Newton steps taken from the best state before the residual
+        must have fallen below it (0: backtrack whenever a full step does
+        not decrease the residual sufficiently, the plain Armijo search;
+        ``None``: take every full step that can be evaluated, backtrack
+        from the current state only where it cannot, as where a point
+        inverts).
+    min_step
+        The shortest step length accepted: a Newton direction along which
+        only shorter steps decrease the residual makes no progress (it
+        belongs to another branch of a residual that jumps): the full step
+        is taken instead of crawling.
+
+    Examples
+    --------
+    On ``r(u) = 1 - u^3`` from ``u = 0.1`` Newton's full step overshoots to
+    ``u = 33.4`` (a residual 4e4 times larger); the watchdog lets it go
+    twice, then returns and backtracks:
+
+    >>> import numpy as np
+    >>> class State:
+    ...     def __init__(self, u):
+    ...         self.u, self.r = u, 1 - u ** 3
+    ...         self.merit = float(np.abs(self.r).max())
+    >>> search, state = Backtracking().start(), State(np.array([.1]))
+    >>> for it in range(12):
+    ...     d = state.r / (3 * state.u ** 2)
+    ...     u, state, extra = search(State, state.u, d, state,
+    ...                              lambda s: s.merit < 1e-12)
+    >>> float(state.u[0]), state.merit < 1e-12
+    (1.0, True)
+
+    """
+
+    def __init__(self, sufficient_decrease: float = 1e-4,
+                 max_trials: int = 10, shrink=(.1, .5), watchdog: int = 2,
+                 min_step: float = 1e-3):
+        low, high = shrink
+        if not (0 < sufficient_decrease < .5 and 0 < low <= high < 1
+                and 0 < min_step < 1):
+            raise InvalidInputError(
+                "Backtracking needs 0 < sufficient_decrease < 0.5, "
+                "0 < shrink[0] <= shrink[1] < 1 and 0 < min_step < 1, got "
+                "{!r}, {!r} and {!r}".format(sufficient_decrease, shrink,
+                                             min_step))
+        for name, value, high_ in (("max_trials", max_trials, 60),
+                                   ("watchdog", watchdog, 10)):
+            if name == "watchdog" and value is None:
+                continue
+            if isinstance(value, bool) or not isinstance(
+                    value, (int, np.integer)) or not (
+                        name == "watchdog" or value >= 1) \
+                    or not 0 <= value <= high_:
+                raise InvalidInputError(
+                    "{} must be an integer in [{}, {}], got {!r}".format(
+                        name, int(name == "max_trials"), high_, value))
+        self.c, self.max_trials = sufficient_decrease, int(max_trials)
+        self.shrink = (float(low), float(high))
+        self.watchdog = None if watchdog is None else int(watchdog)
+        self.min_step = float(min_step)
+
+    def __repr__(self):
+        return "Backtracking(sufficient_decrease={}, max_trials={}, " \
+            "shrink={}, watchdog={}, min_step={})".format(
+                self.c, self.max_trials, self.shrink, self.watchdog,
+                self.min_step)
+
+    def guard(self) -> "Backtracking":
+        """These settings with ``watchdog=None``: full steps, shortened
+        only where they cannot be evaluated."""
+        return Backtracking(self.c, self.max_trials, self.shrink, None,
+                            self.min_step)
+
+    def start(self) -> Callable:
+        """The search of one attempt at a load step, with its memory (the
+        best state so far, its Newton direction, the full steps taken since
+        it)."""
+        best = {}
+
+        def search(evaluate, du, d, current, accept):
+            if self.watchdog is None:
+                state, merit = trial_state(evaluate, du + d)
+                if state is not None:
+                    return du + d, state, 0
+                best.update(du=du, merit=current.merit, d=d, relaxed=0)
+                return finish(evaluate, du, d, accept, (state, merit))
+            if not best or current.merit ** 2 <= best["merit"] ** 2 * (
+                    1. - 2. * self.c):
+                best.update(du=du, merit=current.merit, d=d, relaxed=0)
+            else:
+                best["relaxed"] += 1
+            first = None
+            if best["relaxed"] < max(self.watchdog, 1):
+                state, merit = trial_state(evaluate, du + d)
+                if state is not None and (
+                        self.watchdog or accept(state) or merit ** 2 <=
+                        best["merit"] ** 2 * (1. - 2. * self.c)):
+                    return du + d, state, 0
+                if best["relaxed"] == 0:      # the full step from the best
+                    first = state, merit
+            return finish(evaluate, du, d, accept, first)
+
+        def finish(evaluate, du, d, accept, first):
+            found, trials = self.backtrack(evaluate, best, accept, first)
+            best.clear()                  # the next call starts afresh
+            if found is not None:
+                return found[0], found[1], trials
+            logger.debug("line search: no sufficient decrease down to a "
+                         "step length of %.1e; taking the full Newton step",
+                         self.min_step)
+            return du + d, evaluate(du + d), trials + 1
+        return search
+
+    def backtrack(self, evaluate, best: dict, accept, first):
+        """Shortened steps from the best state along its Newton direction
+        (the full step's ``(state, merit)`` ``first`` if already
+        evaluated): ``((du, state), trials)`` of the accepted step, or
+        ``(None, trials)`` when none down to ``min_step`` decreases the
+        residual sufficiently."""
+        du, d, merit0 = best["du"], best["d"], best["merit"]
+        phi0, slope = .5 * merit0 ** 2, -merit0 ** 2
+        low, high = self.shrink
+        s, trials = 1., 0
+        for trial in range(self.max_trials + 1):
+            if trial or first is None:
+                state, merit = trial_state(evaluate, du + s * d)
+                trials += 1
+            else:
+                state, merit = first
+            phi = .5 * merit ** 2
+            if state is not None and (accept(state) or phi <= phi0 * (
+                    1. - 2. * self.c * s)):
+                logger.debug("line search: step length %.3e after %d "
+                             "trial(s)", s, trials)
+                return (du + s * d, state), trials
+            if trial == self.max_trials or s <= self.min_step:
+                break
+            if np.isfinite(phi):
+                curvature = phi - phi0 - slope * s
+                guess = -slope * s * s / (2. * curvature) \
+                    if curvature > 0 else high * s
+                s = min(max(guess, low * s), high * s)
+            else:
+                s *= low if state is None else high
+            s = max(s, self.min_step)
+        return None, trials
+
+
+def make_line_search(line_search):
+    """The strategies of a load step's two Newton attempts for
+    ``line_search``: ``(first, retry)``.
+
+    ``"backtracking"`` (default settings) and a :class:`Backtracking` ``b``:
+    ``(b.guard(), b)`` (``(b, None)`` for ``b.watchdog = None``);
+    ``"none"``: ``(FullStep(), None)``, plain Newton.
+
+    >>> make_line_search("none")
+    (FullStep(), None)
+    """
+    if isinstance(line_search, str) and line_search == "backtracking":
+        line_search = Backtracking()
+    if isinstance(line_search, Backtracking):
+        if line_search.watchdog is None:
+            return line_search, None
+        return line_search.guard(), line_search
+    if isinstance(line_search, str) and line_search == "none":
+        return FullStep(), None
+    raise InvalidInputError(
+        "line_search must be one of {} or a Backtracking(...), got {!r}"
+        .format(LINE_SEARCHES, line_search))
