@@ -7,66 +7,71 @@ P L^2 / (E I) = 3 in 20 steps, finite deformation, reference the elastica.
 Blocks: a soft block (E = 1e3) squashed by a traction on its top (20% of E)
 or sheared (5%), base clamped, 10 steps, reference the finest grid of the
 same method (the points' mean top displacement).
+Footing: a smooth strip footing pushed 0.02 (8% of its half-width) into
+undrained von Mises soil, 10 steps of prescribed displacement of the grid
+nodes under it;
+quantity the footing pressure / c_u, reference the finest grid of the same
+method (Prandtl's collapse pressure 5.14 c_u is the limit of a plateau these
+settlements approach).
+Slope: a 45 degree undrained slope under its own weight (gamma H / c_u =
+3.3, yielding but stable), 10 steps; quantity the crest displacement,
+reference the finest grid of the same method.
+All set-ups: :mod:`skfem_mpm.studies.user_setups` and
+:func:`skfem_mpm.studies.elastica.untuned_cantilever`.
 
-Run: ``python benchmarks/user_matrix.py`` (a few minutes on 2 cores).
+Run: ``python benchmarks/user_matrix.py`` (about ten minutes on 2 cores).
 """
 import time
 
 import numpy as np
-from skfem import ElementQuad1, MeshQuad
 
-from skfem_mpm import MPMError, LinearElastic, Traction, seed_points, \
-    side_points, simulate
+from skfem_mpm import MPMError
 from skfem_mpm.studies.elastica import untuned_cantilever
+from skfem_mpm.studies.user_setups import block, footing, slope
+
+HEADER = "{:10s} {:>6s} {:>4s} {:>7s} {:>10s} {:>9s} {:>6s} {:>6s} {:>7s}"
+ROW = "{:10s} {:6.3f} {:4d} {:>7s} {:>10s} {:>9s} {:>6} {:>6} {:7.1f}"
 
 
-def block(h, per_cell, method, traction):
-    mesh = MeshQuad.init_tensor(np.arange(-.5, 2 + 1e-9, h),
-                                np.arange(0, 1.5 + 1e-9, h))
-    points = seed_points(mesh, per_cell, region=lambda x: (x[0] > 0)
-                         & (x[0] < 1) & (x[1] < 1))
-    top = side_points(points, "top")
-    res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
-                   lambda b: b.get_dofs(lambda x: x[1] == 0),
-                   loads=[Traction(top, "top", traction)], nsteps=10,
-                   method=method, kinematics="finite")
-    return res, res.points.displacement[:, top].mean(axis=1)
+def row(name, h, per_cell, method, run, reference=None):
+    """One line of the table: ``run()`` returns (result, quantity)."""
+    tic = time.perf_counter()
+    try:
+        res, quantity = run()
+        error = quantity if reference is None else np.linalg.norm(
+            np.subtract(quantity, reference)) / np.linalg.norm(reference)
+        cells = ("completed", "{:.1e}".format(error),
+                 res.counters["ghost_from_step"] or "-",
+                 res.counters["line_search_trials"])
+    except MPMError as e:
+        cells = (type(e).__name__[:10], "-", "-", "-")
+    print(ROW.format(name, h, per_cell, method, *cells,
+                     time.perf_counter() - tic), flush=True)
 
 
 def main():
-    print("{:10s} {:>5s} {:>4s} {:>7s} {:>10s} {:>9s} {:>6s} {:>7s}".format(
-        "set-up", "h", "ppc", "method", "status", "error", "ghost", "s"))
+    print(HEADER.format("set-up", "h", "ppc", "method", "status", "error",
+                        "ghost", "ls", "s"))
     for h in (.5, .25):
         for per_cell in (2, 4):
             for method in ("mpm", "cpgimp"):
-                tic = time.perf_counter()
-                try:
-                    res, err = untuned_cantilever(h, per_cell, method)
-                    row = ("completed", "{:.1e}".format(err),
-                           res.counters["ghost_from_step"] or "-")
-                except MPMError as e:
-                    row = (type(e).__name__[:10], "-", "-")
-                print("{:10s} {:5.2f} {:4d} {:>7s} {:>10s} {:>9s} {:>6} "
-                      "{:7.1f}".format("cantilever", h, per_cell, method,
-                                       *row, time.perf_counter() - tic))
-    for name, traction in (("squashed", [0., -200.]),
-                           ("sheared", [50., 0.])):
+                row("cantilever", h, per_cell, method,
+                    lambda: untuned_cantilever(h, per_cell, method))
+    cases = [("squashed", lambda h, n, m: block(h, n, m, [0., -200.]),
+              (.5, .25, .125), 1 / 16),
+             ("sheared", lambda h, n, m: block(h, n, m, [50., 0.]),
+              (.5, .25, .125), 1 / 16),
+             ("footing", footing, (.25, .125, .0625), 1 / 32),
+             ("slope", slope, (.5, .25, .125), 1 / 16)]
+    for name, setup, spacings, finest in cases:
         for method in ("mpm", "cpgimp"):
-            fine, u_fine = block(1 / 16, 2, method, traction)
-            for h in (.5, .25, .125):
+            reference = setup(finest, 2, method)[1]
+            print("{:10s} reference (h = {:.4f}, 2 ppc, {}): {}".format(
+                name, finest, method, np.round(reference, 6)), flush=True)
+            for h in spacings:
                 for per_cell in (2, 4):
-                    tic = time.perf_counter()
-                    try:
-                        res, u = block(h, per_cell, method, traction)
-                        row = ("completed", "{:.1e}".format(
-                            np.linalg.norm(u - u_fine)
-                            / np.linalg.norm(u_fine)),
-                            res.counters["ghost_from_step"] or "-")
-                    except MPMError as e:
-                        row = (type(e).__name__[:10], "-", "-")
-                    print("{:10s} {:5.3f} {:4d} {:>7s} {:>10s} {:>9s} {:>6} "
-                          "{:7.1f}".format(name, h, per_cell, method, *row,
-                                           time.perf_counter() - tic))
+                    row(name, h, per_cell, method,
+                        lambda: setup(h, per_cell, method), reference)
 
 
 if __name__ == "__main__":

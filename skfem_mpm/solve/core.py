@@ -183,23 +183,42 @@ def prescribed_increments(run: Run, f_old: float, f_new: float,
 
 
 def check_prescribed_motion(run: Run, op, dofs: ndarray, values: ndarray,
-                            step: int):
-    """Prescribed motion must act on the material: when no grid DOF with a
-    non-zero prescribed increment is supported by a point in this step
-    (the body has moved away from the prescribed nodes, e.g. pushed down
-    past them), the motion would not be followed, silently.  (Increments
-    on nodes the body never reaches do no harm where others act.)"""
+                            fixed: ndarray, step: int):
+    """Prescribed motion must act on the material it acted on.  A grid DOF
+    with a non-zero prescribed increment that carried material at the start
+    (a node of a cell holding a point's initial position) but is supported
+    by no point in this step has lost its material.  When material that
+    started in its cells now sits in cells with free DOFs, the body has
+    moved away from the prescribed nodes (a surface pushed down by more
+    than a cell below the nodes that push it) and the motion would no
+    longer be followed, silently: refused.  (Material still held by
+    prescribed or supported DOFs only, as where the whole grid's motion is
+    prescribed, is still driven; increments on nodes the body never reached
+    do no harm.)"""
     moving = dofs[values != 0.]
     on = np.zeros(op.N, dtype=bool)
     on[op.active_dofs] = True
-    lost = moving[~on[moving]]
-    if moving.size and lost.size == moving.size:
-        raise PrescribedMotionError(
-            "step {}: the prescribed motion acts on {} grid DOF(s), none of "
-            "which a material point supports any more, e.g. at {}: the "
-            "material has moved away from the prescribed nodes, whose motion "
-            "would not be followed".format(step, lost.size, run.grid.doflocs[
-                :, lost[:3]].T.tolist()))
+    lost = moving[~on[moving] & run.initially_supported[moving]]
+    if not lost.size:
+        return
+    element_dofs = run.grid.dofs.element_dofs
+    lost_mask = np.zeros(op.N, dtype=bool)
+    lost_mask[lost] = True
+    touching = lost_mask[element_dofs].any(axis=0)         # per cell
+    carried = touching[run.initial_cells]                  # per point
+    held = np.zeros(op.N, dtype=bool)
+    held[fixed] = True
+    if held[element_dofs[:, op.point_elements[carried]]].all():
+        return
+    raise PrescribedMotionError(
+        "step {}: the prescribed motion acts on {} grid DOF(s) that carried "
+        "material at the start but that no material point supports any "
+        "more, e.g. at {}, while that material has moved on into cells with "
+        "free DOFs: the material has moved away from the prescribed nodes "
+        "(by more than a cell), whose motion would not be followed; "
+        "prescribe smaller motions, or move a body of stiff points instead "
+        "of grid nodes".format(step, lost.size, run.grid.doflocs[
+            :, lost[:3]].T.tolist()))
 
 
 def safe_norm(v: ndarray) -> float:
@@ -228,7 +247,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         dofs, values = prescribed_increments(run, f_old, f_new, step)
         du[dofs] = values
         fixed = np.union1d(fixed, dofs)
-        check_prescribed_motion(run, op, dofs, values, step)
+        check_prescribed_motion(run, op, dofs, values, fixed, step)
     check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
                            op.active_dofs, fixed, run.dim, step)
     free = free_dofs(op.active_dofs, fixed)
@@ -635,7 +654,13 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         newton=FullStep() if linear else line_search[0],
         line_search=None if linear else line_search[1],
         solver=get_solver(solver), counters=counters,
-        keep_snapshots=keep_snapshots, domain0=domain0)
+        keep_snapshots=keep_snapshots, domain0=domain0,
+        initial_cells=None if prescribed is None
+        else locate(points.x0)[0])
+    if prescribed is not None:           # grid DOFs that carried material
+        run.initially_supported = np.zeros(grid.N, dtype=bool)
+        run.initially_supported[grid.dofs.element_dofs[
+            :, np.unique(run.initial_cells)]] = True
     step = int(first_step) - 1
     factor = step / nsteps if load_factor is None else float(load_factor)
     increment = 1. / nsteps if increment is None else float(increment)
