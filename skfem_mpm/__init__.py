@@ -14,6 +14,7 @@ from .errors import (ConvergenceError, InvalidInputError, InvalidMaterialError,
 from .quadrature.locate import locate_points, point_locator
 
 from .mechanics.materials import LinearElastic, VonMises
+from .mechanics.soils import DruckerPrager, MohrCoulomb
 from .quadrature.points import MaterialPoints, seed_gauss_points, seed_points
 from .solve.core import simulate
 from .solve.fe import solve_fe
@@ -32,5 +33,6 @@ __all__ = [
     "StepRecord", "VonMises", "solve_finite", "ConvergenceError",
     "NewtonDivergenceError", "InversionError", "simulate", "solve_fe",
     "Traction", "Pressure", "GridLoad", "side_points", "NumericalError",
-    "PrescribedMotionError", "StepFailedError",
+    "PrescribedMotionError", "StepFailedError", "DruckerPrager",
+    "MohrCoulomb",
 ]

@@ -17,6 +17,11 @@ offending value (unknown keys, wrong types, impossible values), in a
     points_per_cell = 2
     material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
     # or { model = "von_mises", E = .., nu = .., yield_stress = .. }
+    # or { model = "drucker_prager", E = .., nu = .., cohesion = ..,
+    #      friction_angle = .., dilation_angle = 0.0 (degrees),
+    #      hardening = 0.0, fit = "outer" | "inner" | "plane_strain" }
+    # or { model = "mohr_coulomb", E = .., nu = .., cohesion = ..,
+    #      friction_angle = .., dilation_angle = 0.0 (degrees) }
     [[supports]]
     name = "base"                   # optional: labels its reactions in
                                     # summary.json (default "support-N")
@@ -61,8 +66,9 @@ try:
 except ImportError:                       # Python 3.10
     import tomli as tomllib
 
-from ..errors import SceneError
+from ..errors import InvalidMaterialError, SceneError
 from ..mechanics.materials import LinearElastic, VonMises
+from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
 from ..solve.core import RHS
 from ..solve.newton import LINE_SEARCHES
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
@@ -185,22 +191,49 @@ def _grid(c, data):
     return Grid(axes=axes, element=element)
 
 
+MODELS = {"linear_elastic": (), "von_mises": ("yield_stress",),
+          "drucker_prager": ("cohesion", "friction_angle", "dilation_angle",
+                             "hardening", "fit"),
+          "mohr_coulomb": ("cohesion", "friction_angle", "dilation_angle")}
+REQUIRED = {"von_mises": ("yield_stress",),
+            "drucker_prager": ("cohesion", "friction_angle"),
+            "mohr_coulomb": ("cohesion", "friction_angle")}
+
+
 def _material(c, data, key):
-    data = c.table(data, key, ("model", "E", "nu", "yield_stress"),
+    keys = sorted({k for extra in MODELS.values() for k in extra})
+    data = c.table(data, key, ["model", "E", "nu"] + keys,
                    ("model", "E", "nu"))
-    model = c.choice(data, key, "model", ("linear_elastic", "von_mises"),
-                     "linear_elastic")
+    model = c.choice(data, key, "model", tuple(MODELS), "linear_elastic")
     E = c.number(data, key, "E", 1., low=0.)
     nu = c.number(data, key, "nu", 0., low=-1., high=.5)
+    for name in keys:
+        if name in data and name not in MODELS[model]:
+            c.bad(key + "." + name, "not a parameter of model = {!r}".format(
+                model), data[name])
+    for name in REQUIRED.get(model, ()):
+        if name not in data:
+            c.problems.append("{}.{}: missing ({})".format(key, name, model))
     if model == "von_mises":
-        if "yield_stress" not in data:
-            c.problems.append(key + ".yield_stress: missing (von_mises)")
-        ys = c.number(data, key, "yield_stress", 1., low=0.)
-        return VonMises(E=E, nu=nu, yield_stress=ys)
-    if "yield_stress" in data:
-        c.bad(key + ".yield_stress", "only for model = 'von_mises'",
-              data["yield_stress"])
-    return LinearElastic(E=E, nu=nu)
+        return VonMises(E=E, nu=nu, yield_stress=c.number(
+            data, key, "yield_stress", 1., low=0.))
+    if model == "linear_elastic":
+        return LinearElastic(E=E, nu=nu)
+    kwargs = dict(
+        cohesion=c.number(data, key, "cohesion", 1., low=0., open_low=False),
+        friction_angle=c.number(data, key, "friction_angle", 0., low=0.,
+                                high=90., open_low=False),
+        dilation_angle=c.number(data, key, "dilation_angle", 0., low=0.,
+                                open_low=False))
+    if model == "drucker_prager":
+        kwargs.update(hardening=c.number(data, key, "hardening", 0.),
+                      fit=c.choice(data, key, "fit", DP_FITS, "outer"))
+    try:
+        return (DruckerPrager if model == "drucker_prager"
+                else MohrCoulomb)(E=E, nu=nu, **kwargs)
+    except InvalidMaterialError as err:
+        c.problems.append("{}: {}".format(key, err))
+        return LinearElastic(E=E, nu=nu)
 
 
 def _body(c, data, k, dim):

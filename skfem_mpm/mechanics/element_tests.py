@@ -1,0 +1,192 @@
+"""Element tests: one material point on a homogeneous small-strain path.
+
+The laboratory tests of soil mechanics, driven through a material's
+``principal_update`` (the protocol of :mod:`skfem_mpm.mechanics.materials`)
+exactly as the load-step core drives it (principal frame, return map,
+consistent tangent by :func:`~skfem_mpm.mechanics.hencky.isotropic_derivative`),
+so a model can be checked against closed forms before it meets a grid.
+
+:func:`mixed_path` is the general driver: per step, the strain components
+it controls are incremented and the others are found by Newton's method so
+that their stresses keep their targets.  :func:`triaxial`,
+:func:`oedometer` and :func:`simple_shear` set it up.  Stresses are tension
+positive; compression tests take positive confining and vertical
+stresses and compress.
+"""
+from typing import NamedTuple
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import ConvergenceError, InvalidInputError
+from .hencky import isotropic_derivative, principal_frame
+from .materials import initial_state
+
+__all__ = ["mixed_path", "triaxial", "oedometer", "simple_shear", "Path"]
+
+
+class Path(NamedTuple):
+    """A path of ``nsteps + 1`` states (the initial one first): total
+    strains and stresses (3, 3, nsteps + 1), the internal variables
+    ``{name: (nsteps + 1,)}`` and whether the point yielded in each step
+    (the first entry False)."""
+    strain: ndarray
+    stress: ndarray
+    state: dict
+    yielded: ndarray
+
+    @property
+    def p(self) -> ndarray:
+        """Mean stress ``tr(sigma) / 3`` (negative in compression)."""
+        return np.einsum("iis->s", self.stress) / 3
+
+    @property
+    def q(self) -> ndarray:
+        """Von Mises equivalent stress ``sqrt(3 J2)``."""
+        s = self.stress - self.p * np.eye(3)[:, :, None]
+        return np.sqrt(1.5 * np.einsum("ijs,ijs->s", s, s))
+
+
+def update(material, eps_e: ndarray, state: dict):
+    """Stress (3, 3), elastic strain (3, 3), tangent (3, 3, 3, 3), whether
+    it yielded and the new state of one point at the trial elastic strain
+    ``eps_e``."""
+    x, vecs = principal_frame(eps_e[:, :, None], 3)
+    sig, e, D, yielded, new = material.principal_update(
+        x, {k: np.atleast_1d(v) for k, v in state.items()})
+    stress = np.einsum("Ap,aAp,bAp->ab", sig, vecs, vecs)
+    elastic = np.einsum("Ap,aAp,bAp->ab", e, vecs, vecs)
+    tangent = isotropic_derivative(x, sig, D, vecs)[..., 0]
+    return stress, elastic, tangent, bool(yielded[0]), new
+
+
+def mixed_path(material, strain_increment: ndarray, controlled: ndarray,
+               stress_target: ndarray, nsteps: int,
+               initial_stress: ndarray = None, tol: float = 1e-10,
+               max_iter: int = 30) -> Path:
+    """Drive one point: in each of ``nsteps`` steps the strain components
+    where ``controlled`` (3, 3, symmetric, bool) is True grow by
+    ``strain_increment / nsteps``; the others are solved so that their
+    stress equals ``stress_target`` (3, 3).
+
+    Parameters
+    ----------
+    material
+        A material of the protocol (its elastic law gives the initial
+        elastic strain of ``initial_stress``).
+    initial_stress
+        (3, 3) stress at the start (default zero), reached elastically.
+    tol, max_iter
+        Newton's tolerance on the stress-controlled components, relative to
+        the largest stress, and its iterations per step.
+
+    Raises
+    ------
+    ConvergenceError
+        A step's Newton iteration does not converge (a target stress the
+        material cannot carry: beyond its strength).
+    """
+    controlled = np.asarray(controlled, dtype=bool)
+    if controlled.shape != (3, 3) or (controlled != controlled.T).any():
+        raise InvalidInputError("controlled must be a symmetric (3, 3) "
+                                "boolean mask")
+    if isinstance(nsteps, bool) or not isinstance(nsteps, (int, np.integer)) \
+            or nsteps < 1:
+        raise InvalidInputError("nsteps must be a positive integer, got "
+                                "{!r}".format(nsteps))
+    unknown = [(i, j) for i in range(3) for j in range(i, 3)
+               if not controlled[i, j]]
+    sigma0 = np.zeros((3, 3)) if initial_stress is None \
+        else np.asarray(initial_stress, dtype=float)
+    # the initial elastic strain of the initial stress (linear elasticity)
+    lam, mu = material.lam, material.mu
+    eps = (sigma0 - lam / (3 * lam + 2 * mu) * np.trace(sigma0) * np.eye(3)) \
+        / (2 * mu)
+    eps_e = eps.copy()
+    state = {k: v[0] for k, v in initial_state(material, 1).items()}
+    out_strain, out_stress = [eps.copy()], [sigma0.copy()]
+    out_state = {k: [v] for k, v in state.items()}
+    out_yielded = [False]
+    d_controlled = np.where(controlled, strain_increment, 0.) / nsteps
+    target = np.asarray(stress_target, dtype=float)
+    for step in range(nsteps):
+        d = d_controlled.copy()
+        for it in range(max_iter + 1):
+            stress, elastic, T, yielded, new = update(material, eps_e + d,
+                                                      state)
+            r = np.array([stress[i, j] - target[i, j] for i, j in unknown])
+            scale = max(np.abs(stress).max(), np.abs(target).max(), 1e-300)
+            if not unknown or np.abs(r).max() <= tol * scale:
+                break
+            if it == max_iter:
+                raise ConvergenceError(
+                    "element test: step {} did not converge (stress error "
+                    "{:.1e} of {:.1e})".format(step + 1, np.abs(r).max(),
+                                               scale))
+            J = np.array([[T[i, j, k, l] + (T[i, j, l, k] if k != l else 0.)
+                           for k, l in unknown] for i, j in unknown])
+            x = np.linalg.solve(J, -r)
+            for (k, l), value in zip(unknown, x):
+                d[k, l] += value
+                if k != l:
+                    d[l, k] += value
+        eps = eps + d
+        eps_e = elastic
+        state = {k: float(np.ravel(v)[0]) for k, v in new.items()}
+        out_strain.append(eps.copy())
+        out_stress.append(stress)
+        for k, v in state.items():
+            out_state[k].append(v)
+        out_yielded.append(yielded)
+    return Path(np.stack(out_strain, axis=-1), np.stack(out_stress, axis=-1),
+                {k: np.array(v) for k, v in out_state.items()},
+                np.array(out_yielded))
+
+
+def triaxial(material, confining: float, axial_strain: float,
+             nsteps: int = 100) -> Path:
+    """Drained triaxial compression: isotropic stress ``-confining`` at
+    the start, then the axial (z) strain compressed by ``axial_strain``
+    (> 0) while the radial stresses stay at ``-confining``.
+
+    >>> from skfem_mpm import LinearElastic
+    >>> path = triaxial(LinearElastic(1e4, .25), 100., 1e-3, nsteps=2)
+    >>> round(float(path.q[-1]), 6)       # E times the axial strain
+    10.0
+    """
+    controlled = np.zeros((3, 3), dtype=bool)
+    controlled[2, 2] = True
+    controlled[[0, 0, 1, 1, 2, 2], [1, 2, 0, 2, 0, 1]] = True   # no shear
+    increment = np.zeros((3, 3))
+    increment[2, 2] = -axial_strain
+    sigma0 = -confining * np.eye(3)
+    return mixed_path(material, increment, controlled, sigma0, nsteps,
+                      sigma0)
+
+
+def oedometer(material, vertical_strain: float, nsteps: int = 100,
+              initial_stress: ndarray = None) -> Path:
+    """Oedometric (one-dimensional) compression: the vertical (z) strain
+    compressed by ``vertical_strain`` (> 0), every other strain held."""
+    increment = np.zeros((3, 3))
+    increment[2, 2] = -vertical_strain
+    return mixed_path(material, increment, np.ones((3, 3), dtype=bool),
+                      np.zeros((3, 3)), nsteps, initial_stress)
+
+
+def simple_shear(material, shear_strain: float, vertical_stress: float = 0.,
+                 nsteps: int = 100) -> Path:
+    """Simple shear in the x-y plane (y vertical) under a constant vertical
+    stress ``-vertical_stress``: the engineering shear strain ``gamma_xy``
+    grows to ``shear_strain``, ``eps_xx`` and every out-of-plane strain stay
+    zero (plane strain), ``eps_yy`` follows from the vertical stress."""
+    controlled = np.ones((3, 3), dtype=bool)
+    controlled[1, 1] = False
+    increment = np.zeros((3, 3))
+    increment[0, 1] = increment[1, 0] = shear_strain / 2
+    target = np.zeros((3, 3))
+    target[1, 1] = -vertical_stress
+    sigma0 = np.zeros((3, 3))
+    sigma0[1, 1] = -vertical_stress
+    return mixed_path(material, increment, controlled, target, nsteps,
+                      sigma0 if vertical_stress else None)

@@ -1,0 +1,257 @@
+"""Soil models (skfem_mpm/mechanics/soils.py) and element tests
+(skfem_mpm/mechanics/element_tests.py): return maps on the yield surface,
+consistent tangents, closed-form strengths, and the models in the core."""
+import numpy as np
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from skfem_mpm import (DruckerPrager, InvalidMaterialError, LinearElastic,
+                       MohrCoulomb, simulate, seed_points)
+from skfem_mpm.errors import SceneError
+from skfem_mpm.mechanics.element_tests import (mixed_path, oedometer,
+                                               simple_shear, triaxial)
+
+E, NU, C = 1e4, .3, 10.
+
+MODELS = {
+    "dp": DruckerPrager(E, NU, cohesion=C, friction_angle=30.),
+    "dp-nonassoc": DruckerPrager(E, NU, cohesion=C, friction_angle=30.,
+                                 dilation_angle=10.),
+    "dp-hardening": DruckerPrager(E, NU, cohesion=C, friction_angle=25.,
+                                  dilation_angle=25., hardening=500.,
+                                  fit="plane_strain"),
+    "dp-softening": DruckerPrager(E, NU, cohesion=C, friction_angle=20.,
+                                  dilation_angle=20., hardening=-200.,
+                                  fit="inner"),
+    "mc": MohrCoulomb(E, NU, cohesion=C, friction_angle=30.),
+    "mc-assoc": MohrCoulomb(E, NU, cohesion=C, friction_angle=30.,
+                            dilation_angle=30.),
+    "tresca": MohrCoulomb(E, NU, cohesion=C, friction_angle=0.),
+}
+
+
+def yield_function(model, tau, alpha):
+    """f of the returned principal stresses, relative to the cohesion."""
+    if isinstance(model, DruckerPrager):
+        p = tau.mean(axis=0)
+        s = tau - p
+        return (np.linalg.norm(s, axis=0) / np.sqrt(2) + model.eta * p
+                - model.xi * (model.cohesion + model.hardening * alpha)) / C
+    s = -np.sort(-tau, axis=0)
+    return (model.k * s[0] - s[2] - model.sigma_c) / C
+
+
+def random_trial(n, seed, size=3e-3):
+    rng = np.random.default_rng(seed)
+    eps = rng.normal(0., size, (3, n))
+    eps[:, :n // 10] = eps[:1, :n // 10]              # isotropic: the apex
+    eps[1, n // 10:n // 5] = eps[0, n // 10:n // 5]   # two equal: an edge
+    alpha = np.abs(rng.normal(0., 1e-3, n))
+    return eps, {"equivalent_plastic_strain": alpha}
+
+
+@pytest.mark.parametrize("name", MODELS)
+def test_return_lands_on_the_yield_surface(name):
+    """2000 trial states (isotropic ones, ones on an edge, random): the
+    returned stresses satisfy f = 0 to 1e-10 of the cohesion where the
+    point yielded and f <= 0 elsewhere; planes, edges and the apex are all
+    reached (measured residuals 1e-15 .. 3e-14)."""
+    model = MODELS[name]
+    eps, state = random_trial(2000, 1)
+    tau, eps_e, D, yielded, new = model.principal_update(eps, state)
+    f = yield_function(model, tau, new["equivalent_plastic_strain"])
+    assert yielded.sum() > 500
+    assert np.abs(f[yielded]).max() < 1e-10
+    assert f.max() < 1e-10
+    # the elastic strains give the stresses back (no lost plastic strain)
+    C_el = model.principal_stiffness()
+    assert np.abs(C_el @ eps_e - tau).max() < 1e-9 * np.abs(tau).max()
+    if not isinstance(model, DruckerPrager) and model.friction_angle > 0:
+        at_apex = yielded & (np.ptp(tau, axis=0) < 1e-9 * C)
+        assert at_apex.any()
+        assert np.allclose(tau[:, at_apex], model.sigma_c / (model.k - 1))
+    if isinstance(model, DruckerPrager):
+        apex = model.xi * (model.cohesion + model.hardening
+                           * new["equivalent_plastic_strain"]) / model.eta
+        at_apex = yielded & (np.ptp(tau, axis=0) < 1e-9 * C)
+        assert at_apex.any()
+        assert np.allclose(tau[0, at_apex], apex[at_apex])
+
+
+@pytest.mark.parametrize("name", MODELS)
+def test_consistent_tangent_matches_finite_differences(name):
+    """D = dtau/deps against central differences (h = 1e-7) to 1e-6 of E
+    (measured at most 3e-8: planes, edges and apex), at every point where
+    the return is smooth within h (forward and backward differences agree;
+    a few random states lie within h of a kink between regions)."""
+    model = MODELS[name]
+    eps, state = random_trial(1000, 2)
+    tau, _, D, yielded, _ = model.principal_update(eps, state)
+    h = 1e-7
+    for j in range(3):
+        step = np.zeros((3, 1))
+        step[j] = h
+        up = model.principal_update(eps + step, state)[0]
+        down = model.principal_update(eps - step, state)[0]
+        smooth = np.abs((up - tau) - (tau - down)).max(axis=0) / h < 1e-2 * E
+        assert smooth.mean() > .98 and smooth[yielded].sum() > 300
+        fd = (up - down) / (2 * h)
+        assert np.abs(fd - D[:, j])[:, smooth].max() < 1e-6 * E
+
+
+@settings(max_examples=200, deadline=None, derandomize=True)
+@given(name=st.sampled_from(sorted(MODELS)),
+       eps=st.lists(st.floats(-.5, .5), min_size=3, max_size=3),
+       alpha=st.floats(0., 1e-2))
+def test_random_trial_states_never_give_nan_or_leave_the_domain(
+        name, eps, alpha):
+    model = MODELS[name]
+    eps = np.array(eps)[:, None]
+    tau, eps_e, D, yielded, new = model.principal_update(
+        eps, {"equivalent_plastic_strain": np.array([alpha])})
+    for value in (tau, eps_e, D, new["equivalent_plastic_strain"]):
+        assert np.isfinite(value).all()
+    f = yield_function(model, tau, new["equivalent_plastic_strain"])
+    assert f.max() <= 1e-9 * max(1., np.abs(tau).max() / C)
+    assert new["equivalent_plastic_strain"][0] >= alpha
+
+
+def compression_strength(phi, cohesion, confining):
+    """Mohr-Coulomb's deviator at failure in triaxial compression:
+    ``q = sigma_c + (k - 1) sigma_r``."""
+    s = np.sin(np.radians(phi))
+    k = (1 + s) / (1 - s)
+    return 2 * cohesion * np.cos(np.radians(phi)) / (1 - s) \
+        + (k - 1) * confining
+
+
+@pytest.mark.parametrize("name", ["dp", "dp-nonassoc", "mc", "mc-assoc"])
+def test_triaxial_peak_is_the_analytical_strength(name):
+    """Drained triaxial compression at a confining stress of 100: the
+    plateau of q equals Mohr-Coulomb's compression strength (the outer
+    cone passes through its compression corners) to 1e-6 (measured
+    round-off); dilatancy only with a dilation angle."""
+    model = MODELS[name]
+    path = triaxial(model, 100., .05, nsteps=50)
+    q = compression_strength(30., C, 100.)
+    assert abs(path.q[-1] / q - 1) < 1e-6
+    assert path.yielded[-1] and not path.yielded[1]
+    volumetric = np.einsum("iis->s", path.strain)
+    if model.dilation_angle > 0:          # the sample expands while flowing
+        assert volumetric[-1] > volumetric[-2]
+    else:
+        assert volumetric[-1] < volumetric[-2] + 1e-12
+
+
+def test_plane_strain_fit_gives_mohr_coulomb_in_plane_strain():
+    """Plane-strain compression (the out-of-plane strain held, associated
+    flow): the plane-strain cone fails at Mohr-Coulomb's in-plane strength
+    ``k s1 - s3 = sigma_c`` to 1e-6."""
+    for phi in (20., 35.):
+        model = DruckerPrager(E, NU, cohesion=C, friction_angle=phi,
+                              dilation_angle=phi, fit="plane_strain")
+        controlled = np.ones((3, 3), dtype=bool)
+        controlled[0, 0] = False                 # x: confining stress
+        increment = np.zeros((3, 3))
+        increment[2, 2] = -.2                    # z compressed, y held
+        target = -100. * np.eye(3)
+        path = mixed_path(model, increment, controlled, target, 100,
+                          -100. * np.eye(3))
+        sx, sz = path.stress[0, 0, -1], path.stress[2, 2, -1]
+        s = np.sin(np.radians(phi))
+        k, sigma_c = (1 + s) / (1 - s), 2 * C * np.cos(np.radians(phi)) \
+            / (1 - s)
+        assert abs((k * sx - sz) / sigma_c - 1) < 1e-6
+
+
+def test_elastic_element_tests_follow_hooke():
+    """Oedometer: sigma_z = (lam + 2 mu) eps, sigma_x = lam eps; simple
+    shear: tau = mu gamma (closed forms, 1e-12)."""
+    model = LinearElastic(E, NU)
+    path = oedometer(model, 1e-3, nsteps=3)
+    assert path.stress[2, 2, -1] == pytest.approx(
+        -(model.lam + 2 * model.mu) * 1e-3, rel=1e-12)
+    assert path.stress[0, 0, -1] == pytest.approx(-model.lam * 1e-3,
+                                                  rel=1e-12)
+    shear = simple_shear(model, 2e-3, vertical_stress=50., nsteps=4)
+    assert shear.stress[0, 1, -1] == pytest.approx(model.mu * 2e-3,
+                                                   rel=1e-12)
+    assert shear.stress[1, 1, -1] == pytest.approx(-50., rel=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(cohesion=-1., friction_angle=30.), "cohesion"),
+    (dict(cohesion=1., friction_angle=90.), "friction_angle"),
+    (dict(cohesion=1., friction_angle=-5.), "friction_angle"),
+    (dict(cohesion=1., friction_angle=20., dilation_angle=25.), "dilation"),
+    (dict(cohesion=1., friction_angle=float("nan")), "friction_angle"),
+    (dict(cohesion="1", friction_angle=20.), "cohesion"),
+    (dict(cohesion=0., friction_angle=0.), "no strength"),
+])
+def test_bad_soil_parameters_are_refused(kwargs, match):
+    for model in (DruckerPrager, MohrCoulomb):
+        with pytest.raises(InvalidMaterialError, match=match):
+            model(E, NU, **kwargs)
+    with pytest.raises(InvalidMaterialError, match="fit"):
+        DruckerPrager(E, NU, cohesion=1., friction_angle=20., fit="mean")
+    with pytest.raises(InvalidMaterialError, match="softens faster"):
+        DruckerPrager(E, NU, cohesion=1., friction_angle=20., hardening=-1.)
+
+
+@pytest.mark.parametrize("name", ["dp", "mc"])
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+def test_soil_block_in_the_core_converges_quadratically(name, kinematics):
+    """A frictional block (2 x 1, base clamped) sheared by a prescribed
+    top displacement far past yield: every step converges, points yield,
+    and Newton is quadratic near convergence (log-ratio >= 1.8)."""
+    from skfem import ElementQuad1, MeshQuad
+    mesh = MeshQuad.init_tensor(np.linspace(-.5, 2.5, 13),
+                                np.linspace(0., 1.5, 7))
+    points = seed_points(mesh, 2, region=lambda x: (x[0] > 0) & (x[0] < 2)
+                         & (x[1] < 1))
+    top = np.flatnonzero(np.isclose(mesh.p[1], 1.) & (mesh.p[0] >= 0.)
+                         & (mesh.p[0] <= 2.))
+
+    def shear(b, f_old, f_new):
+        return b.nodal_dofs[0, top], np.full(top.size, .03 * (f_new - f_old))
+    res = simulate(mesh, ElementQuad1(), points, MODELS[name],
+                   lambda b: b.get_dofs(lambda x: x[1] == 0),
+                   body_force=[0., -20.], prescribed=shear, nsteps=5,
+                   kinematics=kinematics)
+    assert res.history[-1].residual <= 1e-9
+    assert res.history[-1].n_yielded > 0
+    ratios = [np.log(b) / np.log(a) for r in res.history
+              for a, b in zip(r.newton_residuals[:-1], r.newton_residuals[1:])
+              if a < 1e-2 and b > 1e-13]
+    assert ratios and max(ratios) >= 1.8
+
+
+def test_scene_files_know_the_soil_models():
+    from skfem_mpm.scenes.scene_file import parse_scene
+    base = {"grid": {"x": [0., 1., 2], "y": [0., 1., 2]},
+            "bodies": [{"region": {"x": [0., 1.], "y": [0., 1.]},
+                        "material": {}}],
+            "supports": [{"boundary": "bottom"}]}
+
+    def material(**kwargs):
+        data = dict(base)
+        data["bodies"] = [dict(base["bodies"][0], material=kwargs)]
+        return parse_scene(data).bodies[0].material
+    dp = material(model="drucker_prager", E=1e4, nu=.3, cohesion=5.,
+                  friction_angle=25., dilation_angle=5., fit="plane_strain")
+    assert dp == DruckerPrager(1e4, .3, cohesion=5., friction_angle=25.,
+                               dilation_angle=5., fit="plane_strain")
+    mc = material(model="mohr_coulomb", E=1e4, nu=.3, cohesion=5.,
+                  friction_angle=25.)
+    assert mc == MohrCoulomb(1e4, .3, cohesion=5., friction_angle=25.)
+    for bad, match in [
+            (dict(cohesion=-5., friction_angle=25.), "cohesion"),
+            (dict(cohesion=5., friction_angle=95.), "friction_angle"),
+            (dict(cohesion=5., friction_angle=25., dilation_angle=30.),
+             "dilation"),
+            (dict(cohesion=5.), "friction_angle: missing"),
+            (dict(cohesion=5., friction_angle=25., yield_stress=3.),
+             "not a parameter"),
+            (dict(cohesion=5., friction_angle=25., fit="mean"), "fit")]:
+        with pytest.raises(SceneError, match=match):
+            material(model="drucker_prager", E=1e4, nu=.3, **bad)
