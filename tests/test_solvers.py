@@ -61,12 +61,18 @@ def test_pardiso_reuses_its_analysis_over_newton_iterations():
     assert np.abs(res.points.x - reference.points.x).max() < 1e-12
 
 
-def test_pardiso_failure_is_a_singular_system_error():
+def test_pardiso_solves_indefinite_and_refuses_empty_rows():
+    """A symmetric indefinite matrix (a plastic or compressed tangent) is
+    factorised as a general one, not refused; an empty row is a
+    SingularSystemError."""
     from scipy.sparse import csr_matrix
     from skfem_mpm import SingularSystemError
     indefinite = csr_matrix(np.array([[1., 2.], [2., 1.]]))
-    with pytest.raises(SingularSystemError, match="not positive definite"):
-        get_solver("pypardiso")(indefinite, np.ones(2))
+    x = get_solver("pypardiso")(indefinite, np.ones(2))
+    assert np.allclose(x, [1 / 3, 1 / 3], rtol=1e-14)
+    with pytest.raises(SingularSystemError, match="empty row"):
+        get_solver("pypardiso")(csr_matrix(np.array([[1., 0.], [0., 0.]])),
+                                np.ones(2))
 
 
 def test_pardiso_memory_goes_with_the_solver():
@@ -79,3 +85,34 @@ def test_pardiso_memory_goes_with_the_solver():
     del pardiso
     gc.collect()
     assert not release.alive
+
+
+@pytest.mark.parametrize("name", ["pypardiso", "pyamg"])
+def test_non_symmetric_tangents_are_solved_as_such(name):
+    """A non-associated Drucker-Prager block (its tangent is not
+    symmetric) gives the same answer with each back end as with SuperLU
+    (Pardiso's positive definite mode would use the upper triangle only,
+    conjugate gradients need symmetry: both switch by themselves)."""
+    assert name in available_solvers()               # the test extra
+    from skfem_mpm import DruckerPrager, simulate
+    from skfem_mpm.solve.backends import is_symmetric
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
+    points = seed_points(mesh, 2)
+    top = np.flatnonzero(np.isclose(mesh.p[1], 1.))
+
+    def shear(b, f_old, f_new):
+        return b.nodal_dofs[0, top], np.full(top.size, .01 * (f_new - f_old))
+    material = DruckerPrager(1e4, .3, cohesion=10., friction_angle=30.,
+                             dilation_angle=5.)
+    runs = {solver: simulate(mesh, ElementQuad1(), points, material,
+                             lambda b: b.get_dofs(lambda x: x[1] == 0),
+                             body_force=[0., -20.], prescribed=shear,
+                             nsteps=2, method="fem", solver=solver)
+            for solver in ("scipy", name)}
+    assert runs["scipy"].counters["return_maps"] > 0
+    assert np.abs(runs[name].points.stress - runs["scipy"].points.stress
+                  ).max() < 1e-6 * np.abs(runs["scipy"].points.stress).max()
+    A = np.array([[2., 1.], [0., 3.]])
+    from scipy.sparse import csr_matrix
+    assert not is_symmetric(csr_matrix(A))
+    assert is_symmetric(csr_matrix(A + A.T))

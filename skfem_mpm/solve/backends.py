@@ -5,7 +5,7 @@ Each factory returns ``f(A, b, **kwargs) -> x``:
 - :func:`solver_direct_checked`: scipy's SuperLU in symmetric mode, which
   refuses singular systems (the default);
 - :func:`solver_pypardiso`: Intel MKL Pardiso through pypardiso (optional),
-  symmetric positive definite mode for elastic steps;
+  symmetric positive definite mode where the matrix is, general otherwise;
 - :func:`solver_pyamg`: smoothed-aggregation algebraic multigrid with the
   rigid-body modes as near-null space, conjugate gradients (optional), for
   systems a direct factorisation does not fit;
@@ -81,6 +81,13 @@ def solver_direct_checked(pivot_tol: float = 1e-9,
     return solver
 
 
+def is_symmetric(A, rtol: float = 1e-12) -> bool:
+    """Whether the sparse matrix ``A`` equals its transpose to ``rtol`` of
+    its largest entry (tangents of non-associated plasticity are not)."""
+    difference = abs(A - A.T)
+    return difference.nnz == 0 or difference.max() <= rtol * abs(A).max()
+
+
 def _require(module: str, extra: str):
     if importlib.util.find_spec(module) is None:
         raise InvalidInputError(
@@ -89,51 +96,60 @@ def _require(module: str, extra: str):
 
 
 def solver_pypardiso(spd: bool = True) -> Callable:
-    """MKL Pardiso via pypardiso; ``spd=True`` factorises the upper
-    triangle as symmetric positive definite (elastic steps), ``False`` as a
-    general real matrix.
+    """MKL Pardiso via pypardiso; ``spd=True`` factorises a symmetric
+    matrix's upper triangle as symmetric positive definite (elastic steps)
+    and falls back to the general real factorisation for a matrix that is
+    not symmetric (non-associated plasticity) or not positive definite;
+    ``False`` always factorises as a general real matrix.
 
     The returned solver keeps its symbolic analysis (fill-reducing ordering
     and factor structure) and redoes only the numerical factorisation while
-    successive matrices share one sparsity pattern, as the Newton iterations
-    of a load step do; ``solver.analyses`` counts the analyses.  Its MKL
-    memory is released when the solver is garbage collected (or by calling
-    ``solver.release()``).
+    successive matrices share one sparsity pattern and kind, as the Newton
+    iterations of a load step do; ``solver.analyses`` counts the analyses.
+    Its MKL memory is released when the solver is garbage collected (or by
+    calling ``solver.release()``).
 
     """
     _require("pypardiso", "pypardiso")
     import pypardiso
     from pypardiso.pardiso_wrapper import PyPardisoError
 
-    pardiso = pypardiso.PyPardisoSolver(mtype=2 if spd else 11)
-    analysed = {}
+    kinds = {True: pypardiso.PyPardisoSolver(mtype=2),
+             False: pypardiso.PyPardisoSolver(mtype=11)}
+    analysed = {True: {}, False: {}}
 
-    def solver(A, b, **kwargs):
-        matrix = triu(A, format="csr") if spd else A.tocsr()
+    def factorise_and_solve(A, b, definite):
+        pardiso, seen = kinds[definite], analysed[definite]
+        matrix = triu(A, format="csr") if definite else A.tocsr()
         matrix.sort_indices()
         if not np.diff(matrix.indptr).all():     # Pardiso would crash
             raise SingularSystemError("the stiffness has an empty row")
-        same = analysed and all(
-            np.array_equal(getattr(matrix, name), analysed[name])
-            for name in ("indptr", "indices"))
+        same = seen and all(np.array_equal(getattr(matrix, name), seen[name])
+                            for name in ("indptr", "indices"))
         if not same:
             pardiso.free_memory(everything=True)
             pardiso.set_phase(11)
             pardiso._call_pardiso(matrix, np.zeros(matrix.shape[0]))
-            analysed.update(indptr=matrix.indptr.copy(),
-                            indices=matrix.indices.copy())
+            seen.update(indptr=matrix.indptr.copy(),
+                        indices=matrix.indices.copy())
             solver.analyses += 1
         pardiso.set_phase(23)            # numerical factorisation, solve
         try:
-            x = pardiso._call_pardiso(matrix,
-                                      np.asfortranarray(b, dtype=float))
+            return pardiso._call_pardiso(matrix,
+                                         np.asfortranarray(b, dtype=float))
         except PyPardisoError as err:    # -4: zero pivot (not definite)
-            analysed.clear()
+            seen.clear()
+            if definite:
+                logger.debug("Pardiso: not positive definite (error %s); "
+                             "factorising as a general matrix", err.value)
+                return factorise_and_solve(A, b, False)
             raise SingularSystemError(
                 "Pardiso failed with error {} on {} free DOFs: the "
-                "stiffness is singular{}".format(
-                    err.value, matrix.shape[0],
-                    " or not positive definite" if spd else "")) from err
+                "stiffness is singular".format(err.value,
+                                               matrix.shape[0])) from err
+
+    def solver(A, b, **kwargs):
+        x = factorise_and_solve(A, b, spd and is_symmetric(A))
         if not np.all(np.isfinite(x)):
             raise SingularSystemError("Pardiso returned non-finite values: "
                                       "the stiffness is singular")
@@ -141,17 +157,20 @@ def solver_pypardiso(spd: bool = True) -> Callable:
 
     solver.analyses = 0
     # MKL's memory goes with the solver function (a finaliser on the Pardiso
-    # object itself would keep it alive through its own bound method)
-    solver.release = weakref.finalize(solver, pardiso.free_memory,
-                                      everything=True)
+    # objects themselves would keep them alive through their own methods)
+    solver.release = weakref.finalize(
+        solver, lambda: [k.free_memory(everything=True)
+                         for k in kinds.values()])
     return solver
 
 
 def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
-    """Smoothed-aggregation AMG preconditioned CG (pyamg), with the
-    rigid-body modes of the free DOFs as near-null space when the caller
-    provides them (``modes``).  Logs the iterations; raises
-    :class:`~skfem_mpm.errors.SingularSystemError` if it does not converge.
+    """Smoothed-aggregation AMG preconditioned CG (pyamg; GMRES for a
+    matrix that is not symmetric, as the tangents of non-associated
+    plasticity), with the rigid-body modes of the free DOFs as near-null
+    space when the caller provides them (``modes``).  Logs the iterations;
+    raises :class:`~skfem_mpm.errors.SingularSystemError` if it does not
+    converge.
     """
     _require("pyamg", "pyamg")
 
@@ -159,8 +178,8 @@ def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
         import pyamg
         ml = pyamg.smoothed_aggregation_solver(A.tocsr(), B=modes)
         residuals = []
-        x = ml.solve(b, tol=tol, maxiter=maxiter, accel="cg",
-                     residuals=residuals)
+        x = ml.solve(b, tol=tol, maxiter=maxiter, residuals=residuals,
+                     accel="cg" if is_symmetric(A) else "gmres")
         relative = residuals[-1] / max(residuals[0], np.finfo(float).tiny)
         solver.iterations.append(len(residuals) - 1)
         logger.info("pyamg: %d iterations, relative residual %.1e",
