@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from skfem_mpm import InvalidInputError, MPMError
+from skfem_mpm import InvalidInputError, InversionError, MPMError
 from skfem_mpm.errors import SceneError
 from skfem_mpm.scenes.scene import run_scene
 from skfem_mpm.scenes.scene_file import load_scene, parse_scene
@@ -65,15 +65,48 @@ def test_bad_line_search_settings_are_refused(bad):
 def test_line_search_choices():
     first, retry = make_line_search("none")
     assert isinstance(first, FullStep) and retry is None
+    assert isinstance(make_line_search(FullStep())[0], FullStep)
     first, retry = make_line_search("backtracking")
     assert first.watchdog is None and retry.watchdog == 2
-    custom = Backtracking(watchdog=0, min_step=1e-2)
-    first, retry = make_line_search(custom)
-    assert retry is custom and first.min_step == 1e-2
-    assert first.watchdog is None
-    for bad in ("armijo", None, 1, FullStep()):
+    custom = Backtracking(watchdog=0, min_step=1e-2)   # from the first attempt
+    assert make_line_search(custom) == (custom, None)
+    for bad in ("armijo", None, 1, Backtracking):
         with pytest.raises(InvalidInputError, match="line_search"):
             make_line_search(bad)
+
+
+def test_searches_count_their_extra_evaluations():
+    """``extra`` is the residual evaluations beyond one per iteration.  On
+    ``r(u) = -log(u)`` (the tangent ``1/u``): Newton's step from u = 3
+    "inverts" (u < 0) and is shortened; a step to where the residual
+    overflows is shortened too; a full step the search has already
+    rejected is not evaluated again."""
+    class State:
+        def __init__(self, u):
+            if u[0] <= 0:
+                raise InversionError("a point inverts")
+            self.r = -np.log(u)
+            self.merit = float(np.abs(self.r).max()) if u[0] < 1e3 \
+                else np.inf
+    calls = []
+
+    def evaluate(u):
+        calls.append(u[0])
+        return State(u)
+    guard = Backtracking(min_step=1e-5).guard().start()
+    for u0, d in ((3., -3 * np.log(3.)), (.5, 2e3)):
+        calls.clear()
+        u = np.array([u0])
+        new, state, extra = guard(evaluate, u, np.array([d]), State(u),
+                                  lambda s: False)
+        assert np.isfinite(state.merit) and state.merit < State(u).merit
+        assert extra == len(calls) - 1 > 0
+    calls.clear()
+    plain = Backtracking(watchdog=0).start()
+    u = np.array([3.])
+    new, state, extra = plain(evaluate, u, np.array([3.]), State(u),
+                              lambda s: False)   # not a descent direction
+    assert calls.count(6.) == 2 and extra == len(calls) - 1   # s = 1, full
 
 
 def test_scene_files_choose_the_line_search():

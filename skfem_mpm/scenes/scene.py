@@ -23,6 +23,7 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       refuse_beyond_memory)
 from ..solve.core import RHS, simulate
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
+from ..solve.newton import LINE_SEARCHES
 from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
 from ..solve.results import Result
 
@@ -195,6 +196,10 @@ class Scene:
         if self.rhs not in RHS:
             raise InvalidInputError("rhs must be one of {}, got {!r}".format(
                 RHS, self.rhs))
+        if self.line_search not in LINE_SEARCHES:
+            raise InvalidInputError("line_search must be one of {}, got "
+                                    "{!r}".format(LINE_SEARCHES,
+                                                  self.line_search))
         if self.rhs == "increment" and (self.kinematics != "small" or any(
                 is_plastic(b.material) for b in self.bodies)):
             raise InvalidInputError(

@@ -28,8 +28,11 @@ iteration's first residual is the out-of-balance force
 scheme, the load increment ``f_ext(n+1) - f_ext(n)`` (``rhs="increment"``,
 which leaves the out-of-balance force of earlier steps uncorrected: its
 residual is reported, not enforced).  A nonlinear step iterates
-Newton-Raphson with the consistent tangent; a step whose Newton loop fails
-or that inverts a point is retried with a stabilised tangent, then cut back.
+Newton-Raphson with the consistent tangent, its full steps shortened where
+one would invert a point (:mod:`skfem_mpm.solve.newton`); a step whose
+Newton loop fails is retried at the same load increment with the ghost
+penalty (``ghost="auto"``), with Armijo backtracking, with a stabilised
+tangent (also with backtracking), and only then cut back.
 
 """
 import logging
@@ -183,18 +186,18 @@ def prescribed_increments(run: Run, f_old: float, f_new: float,
 
 
 def check_prescribed_motion(run: Run, op, dofs: ndarray, values: ndarray,
-                            fixed: ndarray, step: int):
+                            step: int):
     """Prescribed motion must act on the material it acted on.  A grid DOF
     with a non-zero prescribed increment that carried material at the start
     (a node of a cell holding a point's initial position) but is supported
-    by no point in this step has lost its material.  When material that
-    started in its cells now sits in cells with free DOFs, the body has
-    moved away from the prescribed nodes (a surface pushed down by more
-    than a cell below the nodes that push it) and the motion would no
-    longer be followed, silently: refused.  (Material still held by
-    prescribed or supported DOFs only, as where the whole grid's motion is
-    prescribed, is still driven; increments on nodes the body never reached
-    do no harm.)"""
+    by no point in this step has lost its material.  When some of the
+    material that started in its cells now sits in a cell with no moving
+    prescribed DOF, the body has moved away from the prescribed nodes (a
+    surface pushed down by more than a cell below the nodes that push it)
+    and the motion would no longer be followed, silently: refused.
+    (Material that moved on to other prescribed nodes, as a corner of a
+    sheared block or a body whose whole grid motion is prescribed, is still
+    driven; increments on nodes the body never reached do no harm.)"""
     moving = dofs[values != 0.]
     on = np.zeros(op.N, dtype=bool)
     on[op.active_dofs] = True
@@ -206,18 +209,19 @@ def check_prescribed_motion(run: Run, op, dofs: ndarray, values: ndarray,
     lost_mask[lost] = True
     touching = lost_mask[element_dofs].any(axis=0)         # per cell
     carried = touching[run.initial_cells]                  # per point
-    held = np.zeros(op.N, dtype=bool)
-    held[fixed] = True
-    if held[element_dofs[:, op.point_elements[carried]]].all():
+    driven = np.zeros(op.N, dtype=bool)
+    driven[moving] = True
+    if driven[element_dofs[:, op.point_elements[carried]]].any(axis=0).all():
         return
     raise PrescribedMotionError(
         "step {}: the prescribed motion acts on {} grid DOF(s) that carried "
         "material at the start but that no material point supports any "
-        "more, e.g. at {}, while that material has moved on into cells with "
-        "free DOFs: the material has moved away from the prescribed nodes "
-        "(by more than a cell), whose motion would not be followed; "
-        "prescribe smaller motions, or move a body of stiff points instead "
-        "of grid nodes".format(step, lost.size, run.grid.doflocs[
+        "more, e.g. at {}, while that material has moved into cells no "
+        "prescribed motion reaches: the grid nodes stay where they are, the "
+        "material has moved away from them by more than a cell, and their "
+        "motion would not be followed; move the loading body as material "
+        "points (a stiff body) instead of grid nodes, or prescribe less "
+        "motion than a cell".format(step, lost.size, run.grid.doflocs[
             :, lost[:3]].T.tolist()))
 
 
@@ -247,7 +251,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         dofs, values = prescribed_increments(run, f_old, f_new, step)
         du[dofs] = values
         fixed = np.union1d(fixed, dofs)
-        check_prescribed_motion(run, op, dofs, values, fixed, step)
+        check_prescribed_motion(run, op, dofs, values, step)
     check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
                            op.active_dofs, fixed, run.dim, step)
     free = free_dofs(op.active_dofs, fixed)
@@ -312,9 +316,6 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         try:
             du, current, extra = search(evaluate, du, d, current,
                                         converged)
-        except NewtonDivergenceError as err:
-            raise NewtonDivergenceError("step {} iteration {}: {}".format(
-                step, it + 1, err)) from err
         except InversionError as err:
             raise InversionError("step {}: {}".format(step, err)) from err
         run.counters["line_search_trials"] += extra
@@ -389,9 +390,11 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     failed attempt: with the ghost penalty switched on for the rest of the
     run if ``ghost="auto"`` holds it in reserve (points giving nodes a
     sliver of support make Newton cycle: the commonest failure), then with
-    the line search (:mod:`skfem_mpm.solve.newton`; it does not change the
-    answer), then once with the stabilised tangent (zero-energy modes not
-    refused as singular)."""
+    the line search (:mod:`skfem_mpm.solve.newton`; the equilibrium it
+    converges to is the step's, though a run's path of cut-backs, and so
+    its answer, can differ), then once with the stabilised tangent
+    (zero-energy modes not refused as singular), again with the line
+    search."""
     try:
         with numerical_failures(step):
             return load_step(run, points, f_old, f_new, step)
@@ -512,11 +515,12 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         path wherever it converges), and a load step that fails so is
         retried with Armijo backtracking on the residual (after the ghost
         penalty of ``ghost="auto"``, before the stabilised tangent and any
-        cut-back); ``"none"``:
-        plain Newton; or a :class:`~skfem_mpm.solve.newton.Backtracking`
-        with other settings.  Linear steps solve once and take the whole
-        step.  ``counters["line_search_trials"]`` counts the shortened
-        steps evaluated.
+        cut-back); ``"none"`` or ``FullStep()``: plain Newton; a
+        :class:`~skfem_mpm.solve.newton.Backtracking` of one's own runs
+        from the first attempt (e.g. ``Backtracking(watchdog=0)``, Armijo
+        on every step).  Linear steps solve once and take the whole step.
+        ``counters["line_search_trials"]`` counts the residual evaluations
+        the line search added beyond one per Newton iteration.
     tol, max_iter
         Tolerance on the out-of-balance force over the free DOFs relative
         to the external force (to the internal force in steps driven by

@@ -45,7 +45,7 @@ from typing import Callable
 import numpy as np
 from numpy import ndarray
 
-from ..errors import InvalidInputError, InversionError
+from ..errors import InvalidInputError, InversionError, check_real
 
 logger = logging.getLogger(__name__)
 
@@ -72,13 +72,17 @@ class FullStep:
 
 def trial_state(evaluate: Callable, du: ndarray):
     """``(state, merit)`` of the increment ``du``; ``(None, inf)`` where the
-    trial inverts a point or fails in arithmetic."""
+    trial inverts a point, fails in arithmetic or gives a residual that is
+    not finite."""
     try:
         state = evaluate(du)
     except TRIAL_FAILURES as err:
         logger.debug("line search: trial failed: %s", err)
         return None, np.inf
-    return state, state.merit if np.isfinite(state.merit) else np.inf
+    if not np.isfinite(state.merit):          # overflow without an error
+        logger.debug("line search: trial residual is %s", state.merit)
+        return None, np.inf
+    return state, state.merit
 
 
 class Backtracking:
@@ -91,11 +95,12 @@ class Backtracking:
         accepted when ``phi(s) <= phi(0) (1 - 2 c s)``, or when its residual
         already meets the step's tolerance.
     max_trials
-        Evaluations of shortened steps at the most; when none decreases the
-        residual sufficiently, the full Newton step is taken (as plain
-        Newton would: where the residual jumps, e.g. as a point changes
-        cell during the iteration, Newton's next iterate may still land in
-        the basin of the solution).
+        Shortened steps evaluated per search at the most (besides the full
+        step); when none decreases the residual sufficiently, the full
+        Newton step is taken (evaluated once more), as plain Newton would:
+        where the residual jumps, e.g. as a point changes cell during the
+        iteration, Newton's next iterate may still land in the basin of
+        the solution.
     shrink
         Bounds of the factor a rejected step length is multiplied by; within
         them, the minimiser of the quadratic through ``phi(0)``,
@@ -137,7 +142,13 @@ class Backtracking:
     def __init__(self, sufficient_decrease: float = 1e-4,
                  max_trials: int = 10, shrink=(.1, .5), watchdog: int = 2,
                  min_step: float = 1e-3):
-        low, high = shrink
+        if isinstance(shrink, (str, bytes)) or np.shape(shrink) != (2,):
+            raise InvalidInputError("shrink must be two numbers (low, high), "
+                                    "got {!r}".format(shrink))
+        low, high = (check_real("shrink", value) for value in shrink)
+        sufficient_decrease = check_real("sufficient_decrease",
+                                         sufficient_decrease)
+        min_step = check_real("min_step", min_step)
         if not (0 < sufficient_decrease < .5 and 0 < low <= high < 1
                 and 0 < min_step < 1):
             raise InvalidInputError(
@@ -175,66 +186,79 @@ class Backtracking:
 
     def start(self) -> Callable:
         """The search of one attempt at a load step, with its memory (the
-        best state so far, its Newton direction, the full steps taken since
-        it)."""
+        best state so far, its Newton direction and the merit of its full
+        step, the full steps taken since it).  A call returns the accepted
+        increment, its state and the residual evaluations it made beyond
+        the one a plain Newton step makes."""
         best = {}
 
         def search(evaluate, du, d, current, accept):
+            count = [0]
+
+            def counted(trial):
+                count[0] += 1
+                return evaluate(trial)
+            found = step(counted, du, d, current, accept)
+            return found[0], found[1], count[0] - 1
+
+        def step(evaluate, du, d, current, accept):
             if self.watchdog is None:
                 state, merit = trial_state(evaluate, du + d)
                 if state is not None:
-                    return du + d, state, 0
+                    return du + d, state
                 best.update(du=du, merit=current.merit, d=d, relaxed=0)
-                return finish(evaluate, du, d, accept, (state, merit))
+                return finish(evaluate, du, d, accept, merit)
             if not best or current.merit ** 2 <= best["merit"] ** 2 * (
                     1. - 2. * self.c):
+                best.clear()
                 best.update(du=du, merit=current.merit, d=d, relaxed=0)
             else:
                 best["relaxed"] += 1
-            first = None
             if best["relaxed"] < max(self.watchdog, 1):
                 state, merit = trial_state(evaluate, du + d)
                 if state is not None and (
                         self.watchdog or accept(state) or merit ** 2 <=
                         best["merit"] ** 2 * (1. - 2. * self.c)):
-                    return du + d, state, 0
-                if best["relaxed"] == 0:      # the full step from the best
-                    first = state, merit
-            return finish(evaluate, du, d, accept, first)
+                    if best["relaxed"] == 0:
+                        best["full"] = merit
+                    return du + d, state
+                if best["relaxed"] == 0:
+                    best["full"] = merit
+            return finish(evaluate, du, d, accept, best.get("full"))
 
-        def finish(evaluate, du, d, accept, first):
-            found, trials = self.backtrack(evaluate, best, accept, first)
+        def finish(evaluate, du, d, accept, full):
+            found = self.backtrack(evaluate, best, accept, full)
             best.clear()                  # the next call starts afresh
             if found is not None:
-                return found[0], found[1], trials
+                return found
             logger.debug("line search: no sufficient decrease down to a "
                          "step length of %.1e; taking the full Newton step",
                          self.min_step)
-            return du + d, evaluate(du + d), trials + 1
+            # evaluated again: the trials since have overwritten the
+            # kinematics' work arrays that its state refers to
+            return du + d, evaluate(du + d)
         return search
 
-    def backtrack(self, evaluate, best: dict, accept, first):
+    def backtrack(self, evaluate, best: dict, accept, full):
         """Shortened steps from the best state along its Newton direction
-        (the full step's ``(state, merit)`` ``first`` if already
-        evaluated): ``((du, state), trials)`` of the accepted step, or
-        ``(None, trials)`` when none down to ``min_step`` decreases the
-        residual sufficiently."""
+        (``full``: the merit of its full step where already evaluated and
+        rejected): ``(du, state)`` of the accepted step, or ``None`` when
+        none down to ``min_step`` decreases the residual sufficiently."""
         du, d, merit0 = best["du"], best["d"], best["merit"]
         phi0, slope = .5 * merit0 ** 2, -merit0 ** 2
         low, high = self.shrink
-        s, trials = 1., 0
+        s = 1.
         for trial in range(self.max_trials + 1):
-            if trial or first is None:
+            if trial or full is None:
                 state, merit = trial_state(evaluate, du + s * d)
-                trials += 1
             else:
-                state, merit = first
+                state, merit = None, full
             phi = .5 * merit ** 2
             if state is not None and (accept(state) or phi <= phi0 * (
                     1. - 2. * self.c * s)):
                 logger.debug("line search: step length %.3e after %d "
-                             "trial(s)", s, trials)
-                return (du + s * d, state), trials
+                             "trial(s)", s, trial)
+                return du + s * d, state
             if trial == self.max_trials or s <= self.min_step:
                 break
             if np.isfinite(phi):
@@ -243,30 +267,31 @@ class Backtracking:
                     if curvature > 0 else high * s
                 s = min(max(guess, low * s), high * s)
             else:
-                s *= low if state is None else high
+                s *= low
             s = max(s, self.min_step)
-        return None, trials
+        return None
 
 
 def make_line_search(line_search):
     """The strategies of a load step's two Newton attempts for
     ``line_search``: ``(first, retry)``.
 
-    ``"backtracking"`` (default settings) and a :class:`Backtracking` ``b``:
-    ``(b.guard(), b)`` (``(b, None)`` for ``b.watchdog = None``);
-    ``"none"``: ``(FullStep(), None)``, plain Newton.
+    ``"backtracking"``: ``(Backtracking().guard(), Backtracking())``, full
+    steps shortened only where they cannot be evaluated, then the Armijo
+    search on a retry; ``"none"`` or a :class:`FullStep`: plain Newton,
+    ``(FullStep(), None)``; a :class:`Backtracking` of one's own runs from
+    the first attempt on, ``(b, None)``.
 
     >>> make_line_search("none")
     (FullStep(), None)
     """
     if isinstance(line_search, str) and line_search == "backtracking":
-        line_search = Backtracking()
+        return Backtracking().guard(), Backtracking()
     if isinstance(line_search, Backtracking):
-        if line_search.watchdog is None:
-            return line_search, None
-        return line_search.guard(), line_search
-    if isinstance(line_search, str) and line_search == "none":
+        return line_search, None
+    if isinstance(line_search, FullStep) or (
+            isinstance(line_search, str) and line_search == "none"):
         return FullStep(), None
     raise InvalidInputError(
-        "line_search must be one of {} or a Backtracking(...), got {!r}"
-        .format(LINE_SEARCHES, line_search))
+        "line_search must be one of {}, a Backtracking(...) or FullStep(), "
+        "got {!r}".format(LINE_SEARCHES, line_search))
