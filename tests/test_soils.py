@@ -255,3 +255,126 @@ def test_scene_files_know_the_soil_models():
             (dict(cohesion=5., friction_angle=25., fit="mean"), "fit")]:
         with pytest.raises(SceneError, match=match):
             material(model="drucker_prager", E=1e4, nu=.3, **bad)
+
+
+@pytest.mark.parametrize("name", ["elastic", "mc", "dp"])
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+def test_geostatic_layer_starts_in_equilibrium(name, kinematics):
+    """A level layer (4 x 2, gamma = 20) from the K0 state with its weight
+    in full from the first step: the stresses are gamma depth (vertical)
+    and K0 times it (horizontal) to round-off, the first residual is at
+    round-off (measured 1e-16) and nothing moves; ramping the weight up from
+    zero instead settles the layer (measured 2.9e-3)."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm.mechanics.geostatic import geostatic_stress
+    material = {"elastic": LinearElastic(E, NU), "mc": MODELS["mc"],
+                "dp": MODELS["dp"]}[name]
+    K0 = NU / (1 - NU) if name == "elastic" else 1 - np.sin(np.radians(30.))
+    mesh = MeshQuad.init_tensor(np.linspace(0, 4, 9), np.linspace(0, 2.5, 6))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 2)
+
+    def supports(b):
+        return np.concatenate([
+            b.get_dofs(lambda x: x[1] == 0).all(),
+            b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                       | np.isclose(x[0], 4.)).all("u^1")])
+    start = geostatic_stress(points, material, [0., -20.], 2., K0)
+    depth = 2. - points.x[1]
+    assert np.abs(start.stress[1, 1] + 20. * depth).max() < 1e-12 * 40
+    assert np.abs(start.stress[0, 0] - K0 * start.stress[1, 1]).max() \
+        < 1e-12 * 40
+    assert np.abs(start.stress[2, 2] - start.stress[0, 0]).max() < 1e-12
+    run = dict(body_force=[0., -20.], nsteps=2, kinematics=kinematics)
+    res = simulate(mesh, ElementQuad1(), start, material, supports,
+                   ramp_body_force=False, **run)
+    first = res.history[0].newton_residuals or [res.history[0].residual]
+    assert first[0] < 1e-12
+    assert np.abs(res.points.displacement).max() < 1e-12
+    assert np.allclose(res.points.stress, start.stress, rtol=0, atol=1e-10)
+    settled = simulate(mesh, ElementQuad1(), points, material, supports,
+                       **run)
+    assert np.abs(settled.points.displacement).max() > 1e-3
+
+
+def test_bad_geostatic_states_are_refused():
+    from skfem import MeshQuad
+    from skfem_mpm import InvalidInputError
+    from skfem_mpm.mechanics.geostatic import geostatic_stress
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
+    points = seed_points(mesh, 2)
+    sand = MohrCoulomb(E, NU, cohesion=0., friction_angle=30.)
+    # below the active ratio (1 - sin phi) / (1 + sin phi) = 1/3: no soil
+    with pytest.raises(InvalidInputError, match="outside the yield"):
+        geostatic_stress(points, sand, [0., -20.], 2., .2)
+    geostatic_stress(points, sand, [0., -20.], 2., .4)        # stands
+    for kwargs, match in [(dict(surface=1.), "above the surface"),
+                          (dict(body_force=[5., -20.]), "last axis"),
+                          (dict(body_force=[0., 20.]), "pointing down"),
+                          (dict(K0=0.), "K0"),
+                          (dict(surface=lambda x: np.ones(3)), "one finite")]:
+        args = dict(body_force=[0., -20.], surface=2., K0=.5)
+        args.update(kwargs)
+        with pytest.raises(InvalidInputError, match=match):
+            geostatic_stress(points, LinearElastic(E, NU), **args)
+    with pytest.raises(InvalidInputError, match="ramp_body_force"):
+        simulate(mesh, None, points, LinearElastic(E, NU), [],
+                 ramp_body_force="no")
+
+
+LAYER = """
+name = "layer"
+[grid]
+x = [0.0, 4.0, 8]
+y = [0.0, 2.5, 5]
+[[bodies]]
+name = "soil"
+region = { x = [0.0, 4.0], y = [0.0, 2.0] }
+geostatic = { K0 = 0.5 }
+[bodies.material]
+model = "mohr_coulomb"
+E = 1e4
+nu = 0.3
+cohesion = 5.0
+friction_angle = 30.0
+[[supports]]
+name = "base"
+boundary = "bottom"
+[[supports]]
+name = "left"
+boundary = "left"
+components = ["x"]
+[gravity]
+body_force = [0.0, -20.0]
+[solver]
+kinematics = "finite"
+steps = 2
+[[supports]]
+boundary = "right"
+components = ["x"]
+"""
+
+
+def test_scene_file_starts_a_layer_from_its_geostatic_stress(tmp_path, capsys):
+    """``geostatic = { K0 = 0.5 }``: the CLI run has nothing to do (no
+    Newton iteration, residual at round-off, nothing moves) and the
+    reactions are the closed forms, the base the weight ``gamma B H`` and
+    a side ``K0 gamma H^2 / 2`` (1e-12)."""
+    import json
+    from skfem_mpm.scenes.cli import main
+    scene = tmp_path / "layer.toml"
+    scene.write_text(LAYER)
+    assert main(["run", str(scene), "--out", str(tmp_path / "out"),
+                 "--no-progress"]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["newton_iterations"] == [0, 0]
+    assert summary["max_displacement"] == 0.
+    base = summary["reactions"]["base"][-1]
+    side = summary["reactions"]["left"][-1]
+    assert abs(base[1] - 20. * 4. * 2.) < 1e-12 * 160.
+    assert abs(side[0] - .5 * 20. * 2. ** 2 / 2) < 1e-12 * 20.
+    for bad, match in [("K0 = 0.5", "K0 = -1.0"), ("K0 = 0.5", "KO = 0.5"),
+                       ("K0 = 0.5", "K0 = 0.05")]:
+        scene.write_text(LAYER.replace(bad, match))
+        assert main(["run", str(scene), "--out", str(tmp_path / "bad"),
+                     "--no-progress"]) == 2
+        assert not (tmp_path / "bad").exists()

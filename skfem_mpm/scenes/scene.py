@@ -17,13 +17,14 @@ from skfem import ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2, \
     MeshHex, MeshLine, MeshQuad
 
 from ..errors import InvalidInputError
-from ..mechanics.materials import LinearElastic, VonMises, is_plastic
+from ..mechanics.materials import is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       SEED_BYTES_PER_POINT, STEP_RECORD_BYTES,
                       refuse_beyond_memory)
 from ..solve.core import RHS, simulate
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
 from ..solve.newton import LINE_SEARCHES
+from ..mechanics.geostatic import geostatic_stress
 from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
 from ..solve.results import Result
 
@@ -69,11 +70,17 @@ class Grid:
 @dataclass
 class Body:
     """Material points filling ``region`` (``[(lo, hi), ...]`` per axis or a
-    callable on coordinates), ``points_per_cell`` per axis."""
+    callable on coordinates), ``points_per_cell`` per axis.  With ``K0``
+    the body starts from the geostatic stress of the scene's gravity under
+    the ground height ``surface`` (default: the top of its region), and the
+    gravity then acts in full from the first step
+    (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`)."""
     name: str
     region: Union[Sequence[Tuple[float, float]], Callable]
-    material: Union[LinearElastic, VonMises]
+    material: object
     points_per_cell: int = 2
+    K0: Optional[float] = None
+    surface: Optional[float] = None
 
     def contains(self, x: ndarray) -> ndarray:
         if callable(self.region):
@@ -131,7 +138,9 @@ class Scene:
     grid, bodies, supports
         Background grid, bodies, supports.
     gravity
-        Body force per unit (initial) volume, ``None`` for none.
+        Body force per unit (initial) volume, ``None`` for none; ramped
+        over the steps, or in full from the first step where a body starts
+        from a geostatic stress (``Body.K0``).
     point_loads, tractions
         Loads at full load factor, ramped over the steps.
     method
@@ -266,6 +275,25 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
         pts.body[:] = k
         parts.append(pts)
     points = concatenate_points(parts)
+    for k, body in enumerate(scene.bodies):
+        if body.K0 is None:
+            continue
+        if scene.gravity is None:
+            raise InvalidInputError("body {!r}: a geostatic stress (K0) needs "
+                                    "gravity".format(body.name))
+        surface = body.surface
+        if surface is None:
+            if callable(body.region):
+                raise InvalidInputError(
+                    "body {!r}: give the surface of its geostatic stress (the "
+                    "region is a function)".format(body.name))
+            surface = body.region[mesh.dim() - 1][1]
+        sel = np.flatnonzero(points.body == k)
+        start = geostatic_stress(
+            MaterialPoints(x=points.x[:, sel], volume=points.volume[sel]),
+            body.material, scene.gravity, surface, body.K0)
+        for name in ("stress", "strain", "be"):
+            getattr(points, name)[..., sel] = getattr(start, name)
     for load in scene.point_loads:
         if load.where is not None:
             chosen = np.flatnonzero(load.where(points.x))
@@ -372,6 +400,8 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     prescribed = scene_prescribed(scene, mesh.dim())
     return simulate(mesh, elem, points, material, supports,
                     body_force=scene.gravity, nsteps=scene.steps,
+                    ramp_body_force=not any(b.K0 is not None
+                                            for b in scene.bodies),
                     method=scene.method, kinematics=scene.kinematics,
                     prescribed=prescribed, rhs=scene.rhs,
                     loads=surface_loads(scene, initial),

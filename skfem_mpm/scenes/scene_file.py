@@ -15,6 +15,11 @@ offending value (unknown keys, wrong types, impossible values), in a
     name = "column"
     region = { x = [0.0, 1.0], y = [0.0, 50.0] }
     points_per_cell = 2
+    geostatic = { K0 = 0.5, surface = 50.0 }   # optional: start from the
+                                    # K0 stress of the gravity (surface:
+                                    # ground height, default the region's
+                                    # top); gravity then acts in full from
+                                    # the first step
     material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
     # or { model = "von_mises", E = .., nu = .., yield_stress = .. }
     # or { model = "drucker_prager", E = .., nu = .., cohesion = ..,
@@ -239,7 +244,8 @@ def _material(c, data, key):
 def _body(c, data, k, dim):
     key = "bodies[{}]".format(k)
     data = c.table(data, key, ("name", "region", "points_per_cell",
-                               "material"), ("region", "material"))
+                               "material", "geostatic"),
+                   ("region", "material"))
     name = data.get("name", "body{}".format(k))
     if not isinstance(name, str):
         c.bad(key + ".name", "must be a string", name)
@@ -258,7 +264,14 @@ def _body(c, data, k, dim):
     ppc = c.number(data, key, "points_per_cell", 2, low=1, open_low=False,
                    integer=True)
     material = _material(c, data.get("material", {}), key + ".material")
-    return Body(name=name, region=box, material=material, points_per_cell=ppc)
+    K0 = surface = None
+    if "geostatic" in data:
+        geo = c.table(data["geostatic"], key + ".geostatic",
+                      ("K0", "surface"), ("K0",))
+        K0 = c.number(geo, key + ".geostatic", "K0", 1., low=0.)
+        surface = c.number(geo, key + ".geostatic", "surface")
+    return Body(name=name, region=box, material=material, points_per_cell=ppc,
+                K0=K0, surface=surface)
 
 
 def _name(c, data):

@@ -449,7 +449,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              load_factor: Optional[float] = None,
              increment: Optional[float] = None,
              counters: Optional[dict] = None,
-             callback: Optional[Callable] = None) -> Result:
+             callback: Optional[Callable] = None,
+             ramp_body_force: bool = True) -> Result:
     """Quasi-static implicit MPM, GIMP or FE: any method with any
     kinematics, material, stabilisation and loads.
 
@@ -474,6 +475,11 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         Body force per unit *initial* volume at full load, shape (dim,);
         ``None``: none is assembled.  Point forces at full load are
         ``points.force``.
+    ramp_body_force
+        ``True`` (default): the body force grows with the load factor like
+        every load; ``False``: it acts in full from the first step, as where
+        the points start from a geostatic stress that balances it
+        (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`).
     loads
         Further loads at full load (:mod:`skfem_mpm.solve.loads`):
         :class:`~skfem_mpm.Traction`, :class:`~skfem_mpm.Pressure` on a side
@@ -588,6 +594,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             and np.isfinite(ghost)):
         raise InvalidInputError("ghost must be 'auto' or a finite number >= "
                                 "0, got {!r}".format(ghost))
+    if not isinstance(ramp_body_force, (bool, np.bool_)):
+        raise InvalidInputError("ramp_body_force must be True or False, got "
+                                "{!r}".format(ramp_body_force))
     if not isinstance(antilocking, (bool, np.bool_)):
         raise InvalidInputError("antilocking must be True or False, got "
                                 "{!r}".format(antilocking))
@@ -639,7 +648,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                              as_body_force(body_force, mesh.dim()), loads,
                              domain0, counters, points.n,
                              follow=kinematics == "finite",
-                             moves=method != "fem")
+                             moves=method != "fem",
+                             ramp_gravity=bool(ramp_body_force))
     locate = point_locator(mesh) if locator is None else locator
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
                         counters)

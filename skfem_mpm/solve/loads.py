@@ -148,12 +148,18 @@ class ExternalLoads:
     moves
         The points move (not finite elements): surface loads act at the
         faces' current centres, otherwise at their reference ones.
+    ramp_gravity
+        The body force grows with the load factor (default); ``False``: it
+        acts in full from the first step (a geostatic initial stress
+        balances it).
 
     """
 
     def __init__(self, mesh, elem, grid, gravity, loads, domain0, counters,
-                 n_points: int, follow: bool = False, moves: bool = True):
+                 n_points: int, follow: bool = False, moves: bool = True,
+                 ramp_gravity: bool = True):
         self.mesh, self.elem, self.dim = mesh, elem, mesh.dim()
+        self.ramp_gravity = ramp_gravity
         self.gravity, self.counters, self.domain0 = gravity, counters, domain0
         self.surface, self.grid_vector, self.cell_local = [], None, None
         self._faces = (None, [])
@@ -214,12 +220,15 @@ class ExternalLoads:
         pressures that follow the surface are :meth:`follower_force`)."""
         f = np.zeros(op.N)
         load = points.force if points.force.any() else None
+        scaled = None if load is None else factor * load
         if self.gravity is not None:
             self.counters["body_force"] += 1
             weight = self.gravity[:, None] * points.volume0
             load = weight if load is None else load + weight
-        if load is not None:
-            f += op.point_force(factor * load)
+            weight = weight * (factor if self.ramp_gravity else 1.)
+            scaled = weight if scaled is None else scaled + weight
+        if scaled is not None:
+            f += op.point_force(scaled)
         for face, (idx, axis, sign, value, pressure) in zip(
                 self._faces_of(op, points), self.surface):
             if not pressure:
