@@ -5,8 +5,9 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from skfem_mpm import (DruckerPrager, InvalidMaterialError, LinearElastic,
-                       MohrCoulomb, simulate, seed_points)
+from skfem_mpm import (DruckerPrager, InvalidInputError,
+                       InvalidMaterialError, LinearElastic, MohrCoulomb,
+                       simulate, seed_points)
 from skfem_mpm.errors import SceneError
 from skfem_mpm.mechanics.element_tests import (mixed_path, oedometer,
                                                simple_shear, triaxial)
@@ -298,7 +299,6 @@ def test_geostatic_layer_starts_in_equilibrium(name, kinematics):
 
 def test_bad_geostatic_states_are_refused():
     from skfem import MeshQuad
-    from skfem_mpm import InvalidInputError
     from skfem_mpm.mechanics.geostatic import geostatic_stress
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
     points = seed_points(mesh, 2)
@@ -378,3 +378,86 @@ def test_scene_file_starts_a_layer_from_its_geostatic_stress(tmp_path, capsys):
         assert main(["run", str(scene), "--out", str(tmp_path / "bad"),
                      "--no-progress"]) == 2
         assert not (tmp_path / "bad").exists()
+
+
+def test_geostatic_scene_with_a_ramped_fill_and_the_material_top(tmp_path):
+    """A geostatic layer whose region ends inside a cell (its material's
+    top, the points' domains, is the default surface: no imbalance) under
+    an elastic fill without K0: the fill's weight is ramped (half of it in
+    step 1 of 2), the layer's is there from the start; the base carries
+    exactly what is there (1e-10)."""
+    from skfem_mpm.scenes.scene import run_scene
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    text = LAYER.replace('y = [0.0, 2.0] }', 'y = [0.0, 1.9] }').replace(
+        "[gravity]", """[[bodies]]
+name = "fill"
+region = { x = [1.0, 3.0], y = [2.0, 2.5] }
+[bodies.material]
+model = "linear_elastic"
+E = 1e4
+nu = 0.3
+[gravity]""")
+    scene = parse_scene(tomllib.loads(text.replace("y = [0.0, 2.5, 5]",
+                                                   "y = [0.0, 3.0, 6]")))
+    res = run_scene(scene)
+    layer, fill = 20. * 4. * 2., 20. * 2. * .5
+    for record, share in zip(res.history, (.5, 1.)):
+        base = record.reactions.reshape(-1, 2)[:, 1]
+        total = res.history[-1].reactions.reshape(-1, 2)[:, 1].sum()
+        assert abs(base.sum() - (layer + share * fill)) < 1e-10 * total
+    scene.rhs, scene.kinematics = "increment", "small"
+    scene.bodies[0].material = LinearElastic(E, NU)
+    with pytest.raises(InvalidInputError, match="geostatic"):
+        scene.check()
+
+
+def test_a_body_force_in_full_is_refused_with_the_increment_scheme():
+    from skfem import ElementQuad1, MeshQuad
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
+    with pytest.raises(InvalidInputError, match="increment"):
+        simulate(mesh, ElementQuad1(), seed_points(mesh, 2),
+                 LinearElastic(E, NU), lambda b: b.get_dofs(
+                     lambda x: x[1] == 0), body_force=[0., -1.],
+                 rhs="increment", ramp_body_force=False)
+    with pytest.raises(InvalidInputError, match="one bool per body"):
+        simulate(mesh, ElementQuad1(), seed_points(mesh, 2),
+                 LinearElastic(E, NU), [], ramp_body_force=[True, False])
+
+
+def test_drucker_prager_apex_and_cone_meet_continuously():
+    """Non-associated flow with hardening: along a path of growing volume
+    with a small deviator the return switches from the cone to the apex
+    without a jump in the stress or in alpha (the apex hardens by
+    xi / eta_bar times its volumetric plastic strain, as the cone does)."""
+    model = DruckerPrager(E, NU, cohesion=C, friction_angle=30.,
+                          dilation_angle=10., hardening=2000.)
+    ev = np.linspace(0., .02, 20001)
+    eps = np.vstack([ev / 3 + 5e-4, ev / 3 - 2.5e-4, ev / 3 - 2.5e-4])
+    tau, _, _, _, new = model.principal_update(
+        eps, {"equivalent_plastic_strain": np.zeros(ev.size)})
+    apex = np.ptp(tau, axis=0) < 1e-9
+    assert apex.any() and not apex.all()
+    K = E / (3 * (1 - 2 * NU))
+    assert np.abs(np.diff(tau.mean(axis=0))).max() <= 1.001 * K * (ev[1]
+                                                                   - ev[0])
+    assert np.abs(np.diff(new["equivalent_plastic_strain"])).max() < 1e-5
+
+
+def test_simple_shear_starts_oedometric_and_refuses_impossible_starts():
+    """Simple shear of a cohesionless sand under a vertical stress: from
+    the oedometric state the lateral and out-of-plane strains stay zero,
+    the shear stress reaches the closed-form strength of Mohr-Coulomb in
+    simple shear below tan(phi) times the vertical stress; a start outside
+    the yield surface is refused."""
+    sand = MohrCoulomb(E, NU, cohesion=0., friction_angle=30.)
+    path = simple_shear(sand, .05, vertical_stress=100., nsteps=100)
+    assert np.abs(path.strain[0, 0]).max() < 1e-15
+    assert np.abs(path.strain[2, 2]).max() < 1e-15
+    assert path.stress[1, 1, -1] == pytest.approx(-100., rel=1e-10)
+    ratio = path.stress[0, 1, -1] / 100.
+    assert path.yielded[-1] and 0 < ratio <= np.tan(np.radians(30.))
+    with pytest.raises(InvalidInputError, match="yield surface"):
+        mixed_path(sand, np.zeros((3, 3)), np.ones((3, 3), dtype=bool),
+                   np.zeros((3, 3)), 1, np.diag([-1., -100., -1.]))
+    with pytest.raises(InvalidInputError, match="compressive"):
+        triaxial(sand, -5., .01)

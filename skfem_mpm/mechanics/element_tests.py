@@ -27,7 +27,8 @@ __all__ = ["mixed_path", "triaxial", "oedometer", "simple_shear", "Path"]
 
 class Path(NamedTuple):
     """A path of ``nsteps + 1`` states (the initial one first): total
-    strains and stresses (3, 3, nsteps + 1), the internal variables
+    strains (including the elastic strain of the initial stress) and
+    stresses (3, 3, nsteps + 1), the internal variables
     ``{name: (nsteps + 1,)}`` and whether the point yielded in each step
     (the first entry False)."""
     strain: ndarray
@@ -104,6 +105,10 @@ def mixed_path(material, strain_increment: ndarray, controlled: ndarray,
         / (2 * mu)
     eps_e = eps.copy()
     state = {k: v[0] for k, v in initial_state(material, 1).items()}
+    if update(material, eps_e, state)[3]:
+        raise InvalidInputError(
+            "the initial stress {} lies outside the material's yield "
+            "surface".format(np.round(sigma0, 12).tolist()))
     out_strain, out_stress = [eps.copy()], [sigma0.copy()]
     out_state = {k: [v] for k, v in state.items()}
     out_yielded = [False]
@@ -154,6 +159,11 @@ def triaxial(material, confining: float, axial_strain: float,
     >>> round(float(path.q[-1]), 6)       # E times the axial strain
     10.0
     """
+    if not (confining >= 0 and axial_strain >= 0):
+        raise InvalidInputError(
+            "triaxial compression takes confining >= 0 and axial_strain >= 0 "
+            "(both compressive), got {!r} and {!r}".format(confining,
+                                                          axial_strain))
     controlled = np.zeros((3, 3), dtype=bool)
     controlled[2, 2] = True
     controlled[[0, 0, 1, 1, 2, 2], [1, 2, 0, 2, 0, 1]] = True   # no shear
@@ -177,16 +187,21 @@ def oedometer(material, vertical_strain: float, nsteps: int = 100,
 def simple_shear(material, shear_strain: float, vertical_stress: float = 0.,
                  nsteps: int = 100) -> Path:
     """Simple shear in the x-y plane (y vertical) under a constant vertical
-    stress ``-vertical_stress``: the engineering shear strain ``gamma_xy``
-    grows to ``shear_strain``, ``eps_xx`` and every out-of-plane strain stay
-    zero (plane strain), ``eps_yy`` follows from the vertical stress."""
+    stress ``-vertical_stress``, from the elastic oedometric state of that
+    stress (``sigma_xx = sigma_zz = nu / (1 - nu) sigma_yy``, no lateral
+    strain): the engineering shear strain ``gamma_xy`` grows to
+    ``shear_strain``, ``eps_xx`` and every out-of-plane strain stay zero
+    (plane strain), ``eps_yy`` follows from the vertical stress.
+    ``Path.strain`` includes the elastic strain of the initial stress."""
+    if not vertical_stress >= 0:
+        raise InvalidInputError("vertical_stress must be >= 0 (compression), "
+                                "got {!r}".format(vertical_stress))
     controlled = np.ones((3, 3), dtype=bool)
     controlled[1, 1] = False
     increment = np.zeros((3, 3))
     increment[0, 1] = increment[1, 0] = shear_strain / 2
-    target = np.zeros((3, 3))
-    target[1, 1] = -vertical_stress
-    sigma0 = np.zeros((3, 3))
-    sigma0[1, 1] = -vertical_stress
-    return mixed_path(material, increment, controlled, target, nsteps,
-                      sigma0 if vertical_stress else None)
+    lam, mu = material.lam, material.mu
+    sigma0 = -vertical_stress * np.diag([lam / (lam + 2 * mu), 1.,
+                                         lam / (lam + 2 * mu)])
+    return mixed_path(material, increment, controlled, sigma0, nsteps,
+                      sigma0)

@@ -8,8 +8,9 @@ every horizontal normal stress ``sigma_h = K0 sigma_v``; no shear.  Under a
 level surface this state is in equilibrium with the full body force, so a
 run that starts from it with the body force acting in full from the first
 step (``simulate(..., ramp_body_force=False)``) has nothing to do until
-other loads come; under a sloping surface it is not in equilibrium and the
-first steps redistribute it (a gravity switch-on is the usual alternative).
+other loads come.  Under a sloping surface it is not in equilibrium, and
+the first step must carry the whole imbalance at once (no cut-back reduces
+it): ramp the gravity up from a stress-free start there instead.
 The usual estimate for a normally consolidated soil is Jaky's
 ``K0 = 1 - sin(phi)``; an elastic layer under uniaxial strain has
 ``K0 = nu / (1 - nu)``.

@@ -21,8 +21,10 @@ one, so that a grid node touched only by such points (a tension cut-off at
 a free surface) does not make the Newton matrix exactly singular.
 
 Internal variable of both: ``equivalent_plastic_strain``, the hardening
-variable ``alpha`` (``xi * dgamma`` accumulated on the Drucker-Prager cone;
-the plastic multipliers' sum for Mohr-Coulomb).
+variable ``alpha`` (``xi * dgamma`` accumulated on the Drucker-Prager cone,
+``xi / eta_bar`` times the volumetric plastic strain at its apex; for
+Mohr-Coulomb the sum of the plastic multipliers on planes and edges, and
+the volumetric plastic strain at the apex).
 """
 from dataclasses import dataclass
 
@@ -93,10 +95,12 @@ class DruckerPrager(LinearElastic):
     ``c(alpha) = cohesion + hardening * alpha``, flow potential
     ``g = sqrt(J2) + eta_bar p`` (``eta_bar`` from the dilation angle:
     associated when it equals the friction angle).  The return to the cone
-    is closed form; trial states beyond the apex (``p`` above ``xi c / eta``,
-    a tensile state the cone cannot hold) return to the apex with a purely
+    is closed form; where it would carry the deviatoric stress through zero
+    (``sqrt(J2_trial) < G dgamma``: tensile states the cone cannot hold)
+    the state returns to the apex ``p = xi c / eta`` with a purely
     volumetric plastic strain, whatever the dilation angle (a tension
-    cut-off at the apex).
+    cut-off at the apex); ``alpha`` grows there by ``xi / eta_bar`` times
+    the volumetric plastic strain, as on the cone.
 
     Parameters
     ----------
@@ -160,9 +164,10 @@ class DruckerPrager(LinearElastic):
             raise InvalidMaterialError(
                 "hardening {} softens faster than the return map admits: "
                 "softening needs dilation, hardening >= -K eta eta_bar / xi^2 "
-                "= {:.6g} (beyond it the return to the cone overshoots the "
-                "apex and the state is not unique)".format(
-                    hardening, -K * eta * eta_bar / (xi * xi)))
+                "= {:.6g} (beyond it the return to the cone can carry the "
+                "deviatoric stress through zero below the apex pressure, "
+                "where no return exists)".format(
+                    hardening, -K * eta * eta_bar / (xi * xi) + 0.))
 
     @property
     def eta(self) -> float:
@@ -215,15 +220,18 @@ class DruckerPrager(LinearElastic):
         new_alpha = alpha + xi * dgamma
         if apex.any():
             # apex: s = 0, p = xi c(alpha) / eta, volumetric plastic strain
-            # dev with alpha += (xi / eta) dev (needs eta > 0: cohesive
-            # cones of zero friction have no apex in reach of a finite p)
+            # dev; alpha += (xi / eta_bar) dev as on the cone (where
+            # alpha = xi dgamma, dev = eta_bar dgamma), xi / eta without
+            # dilation (needs eta > 0: cohesive cones of zero friction have
+            # no apex in reach of a finite p)
             beta = xi / max(eta, np.finfo(float).tiny)
-            dev = (p - beta * cohesion) / (K + beta * beta * H)
+            growth = xi / eta_bar if eta_bar > 0 else beta
+            dev = (p - beta * cohesion) / (K + beta * growth * H)
             apex_p = p - K * dev
             new_s = np.where(apex, 0., new_s)
             new_p = np.where(apex, apex_p, new_p)
-            new_alpha = np.where(apex, alpha + beta * dev, new_alpha)
-            k_apex = K * (1 - K / (K + beta * beta * H))
+            new_alpha = np.where(apex, alpha + growth * dev, new_alpha)
+            k_apex = K * (1 - K / (K + beta * growth * H))
             D_apex = k_apex * np.ones((3, 3, 1)) \
                 + APEX_STIFFNESS * self.principal_stiffness()[:, :, None]
             D_cone = np.where(apex, D_apex, D_cone)

@@ -72,8 +72,9 @@ class Body:
     """Material points filling ``region`` (``[(lo, hi), ...]`` per axis or a
     callable on coordinates), ``points_per_cell`` per axis.  With ``K0``
     the body starts from the geostatic stress of the scene's gravity under
-    the ground height ``surface`` (default: the top of its region), and the
-    gravity then acts in full from the first step
+    the ground height ``surface`` (default: the top of its material, its
+    points' domains), and the gravity then acts on it in full from the
+    first step
     (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`)."""
     name: str
     region: Union[Sequence[Tuple[float, float]], Callable]
@@ -214,6 +215,12 @@ class Scene:
             raise InvalidInputError(
                 "rhs = 'increment' (the seed's one-solve scheme) is for "
                 "small-strain elastic scenes")
+        if self.rhs == "increment" and any(b.K0 is not None
+                                           for b in self.bodies):
+            raise InvalidInputError(
+                "rhs = 'increment' maps only load increments: the gravity of "
+                "a geostatic body (K0), in full from the first step, would "
+                "be dropped; use rhs = 'residual'")
         if not self.bodies:
             raise InvalidInputError("a scene needs at least one body")
         names = support_names(self)
@@ -281,17 +288,16 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
         if scene.gravity is None:
             raise InvalidInputError("body {!r}: a geostatic stress (K0) needs "
                                     "gravity".format(body.name))
-        surface = body.surface
-        if surface is None:
-            if callable(body.region):
-                raise InvalidInputError(
-                    "body {!r}: give the surface of its geostatic stress (the "
-                    "region is a function)".format(body.name))
-            surface = body.region[mesh.dim() - 1][1]
         sel = np.flatnonzero(points.body == k)
-        start = geostatic_stress(
-            MaterialPoints(x=points.x[:, sel], volume=points.volume[sel]),
-            body.material, scene.gravity, surface, body.K0)
+        surface = body.surface
+        if surface is None:               # the top of the material
+            surface = (points.x[-1, sel] + points.domain[-1, sel]).max()
+        try:
+            start = geostatic_stress(
+                MaterialPoints(x=points.x[:, sel], volume=points.volume[sel]),
+                body.material, scene.gravity, surface, body.K0)
+        except InvalidInputError as err:
+            raise InvalidInputError("body {!r}: {}".format(body.name, err))
         for name in ("stress", "strain", "be"):
             getattr(points, name)[..., sel] = getattr(start, name)
     for load in scene.point_loads:
@@ -400,8 +406,7 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     prescribed = scene_prescribed(scene, mesh.dim())
     return simulate(mesh, elem, points, material, supports,
                     body_force=scene.gravity, nsteps=scene.steps,
-                    ramp_body_force=not any(b.K0 is not None
-                                            for b in scene.bodies),
+                    ramp_body_force=[b.K0 is None for b in scene.bodies],
                     method=scene.method, kinematics=scene.kinematics,
                     prescribed=prescribed, rhs=scene.rhs,
                     loads=surface_loads(scene, initial),

@@ -17,9 +17,9 @@ offending value (unknown keys, wrong types, impossible values), in a
     points_per_cell = 2
     geostatic = { K0 = 0.5, surface = 50.0 }   # optional: start from the
                                     # K0 stress of the gravity (surface:
-                                    # ground height, default the region's
-                                    # top); gravity then acts in full from
-                                    # the first step
+                                    # ground height, default the top of the
+                                    # body's material); its gravity then
+                                    # acts in full from the first step
     material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
     # or { model = "von_mises", E = .., nu = .., yield_stress = .. }
     # or { model = "drucker_prager", E = .., nu = .., cohesion = ..,
@@ -224,6 +224,7 @@ def _material(c, data, key):
             data, key, "yield_stress", 1., low=0.))
     if model == "linear_elastic":
         return LinearElastic(E=E, nu=nu)
+    known = len(c.problems)
     kwargs = dict(
         cohesion=c.number(data, key, "cohesion", 1., low=0., open_low=False),
         friction_angle=c.number(data, key, "friction_angle", 0., low=0.,
@@ -233,6 +234,8 @@ def _material(c, data, key):
     if model == "drucker_prager":
         kwargs.update(hardening=c.number(data, key, "hardening", 0.),
                       fit=c.choice(data, key, "fit", DP_FITS, "outer"))
+    if len(c.problems) > known:     # no second message about a default
+        return LinearElastic(E=E, nu=nu)
     try:
         return (DruckerPrager if model == "drucker_prager"
                 else MohrCoulomb)(E=E, nu=nu, **kwargs)

@@ -117,6 +117,7 @@ def solver_pypardiso(spd: bool = True) -> Callable:
     kinds = {True: pypardiso.PyPardisoSolver(mtype=2),
              False: pypardiso.PyPardisoSolver(mtype=11)}
     analysed = {True: {}, False: {}}
+    indefinite = {}             # the pattern of a matrix that was not SPD
 
     def factorise_and_solve(A, b, definite):
         pardiso, seen = kinds[definite], analysed[definite]
@@ -138,18 +139,28 @@ def solver_pypardiso(spd: bool = True) -> Callable:
             return pardiso._call_pardiso(matrix,
                                          np.asfortranarray(b, dtype=float))
         except PyPardisoError as err:    # -4: zero pivot (not definite)
-            seen.clear()
             if definite:
                 logger.debug("Pardiso: not positive definite (error %s); "
-                             "factorising as a general matrix", err.value)
+                             "factorising as a general matrix while the "
+                             "pattern lasts", err.value)
+                indefinite.update(seen)
+                seen.clear()
                 return factorise_and_solve(A, b, False)
+            seen.clear()
             raise SingularSystemError(
                 "Pardiso failed with error {} on {} free DOFs: the "
                 "stiffness is singular".format(err.value,
                                                matrix.shape[0])) from err
 
     def solver(A, b, **kwargs):
-        x = factorise_and_solve(A, b, spd and is_symmetric(A))
+        definite = spd and is_symmetric(A)
+        if definite and indefinite:           # failed before on this pattern
+            upper = triu(A, format="csr")
+            upper.sort_indices()
+            definite = not all(np.array_equal(getattr(upper, name),
+                                              indefinite[name])
+                               for name in ("indptr", "indices"))
+        x = factorise_and_solve(A, b, definite)
         if not np.all(np.isfinite(x)):
             raise SingularSystemError("Pardiso returned non-finite values: "
                                       "the stiffness is singular")
@@ -178,16 +189,20 @@ def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
         import pyamg
         ml = pyamg.smoothed_aggregation_solver(A.tocsr(), B=modes)
         residuals = []
-        x = ml.solve(b, tol=tol, maxiter=maxiter, residuals=residuals,
+        x = ml.solve(b, tol=tol, maxiter=min(maxiter, A.shape[0]),
+                     residuals=residuals,
                      accel="cg" if is_symmetric(A) else "gmres")
         relative = residuals[-1] / max(residuals[0], np.finfo(float).tiny)
         solver.iterations.append(len(residuals) - 1)
         logger.info("pyamg: %d iterations, relative residual %.1e",
                     len(residuals) - 1, relative)
-        if not relative <= tol * 10:
+        if not relative <= tol:
             raise SingularSystemError(
                 "pyamg did not converge: relative residual {:.1e} after {} "
-                "iterations".format(relative, len(residuals) - 1))
+                "iterations (the tangent may be singular or too far from "
+                "symmetric positive definite for the iterative solver; try "
+                "solver='scipy' or 'pypardiso')".format(
+                    relative, len(residuals) - 1))
         return x
 
     solver.wants_modes = True

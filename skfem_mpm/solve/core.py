@@ -450,7 +450,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              increment: Optional[float] = None,
              counters: Optional[dict] = None,
              callback: Optional[Callable] = None,
-             ramp_body_force: bool = True) -> Result:
+             ramp_body_force=True) -> Result:
     """Quasi-static implicit MPM, GIMP or FE: any method with any
     kinematics, material, stabilisation and loads.
 
@@ -479,7 +479,10 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         ``True`` (default): the body force grows with the load factor like
         every load; ``False``: it acts in full from the first step, as where
         the points start from a geostatic stress that balances it
-        (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`).
+        (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`); or one
+        bool per body.  What it leaves out of balance at the start (a body
+        not in a geostatic state, a sloping surface) must be carried by the
+        first step whole: a cut-back does not reduce it.
     loads
         Further loads at full load (:mod:`skfem_mpm.solve.loads`):
         :class:`~skfem_mpm.Traction`, :class:`~skfem_mpm.Pressure` on a side
@@ -594,9 +597,19 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             and np.isfinite(ghost)):
         raise InvalidInputError("ghost must be 'auto' or a finite number >= "
                                 "0, got {!r}".format(ghost))
-    if not isinstance(ramp_body_force, (bool, np.bool_)):
-        raise InvalidInputError("ramp_body_force must be True or False, got "
-                                "{!r}".format(ramp_body_force))
+    ramp = np.atleast_1d(np.asarray(ramp_body_force, dtype=object))
+    if ramp.ndim != 1 or not all(isinstance(r, (bool, np.bool_))
+                                 for r in ramp) \
+            or ramp.size not in (1, int(points.body.max()) + 1):
+        raise InvalidInputError(
+            "ramp_body_force must be True, False or one bool per body ({}), "
+            "got {!r}".format(int(points.body.max()) + 1, ramp_body_force))
+    ramp = ramp.astype(bool)
+    if rhs == "increment" and not ramp.all() and body_force is not None:
+        raise InvalidInputError(
+            "rhs = 'increment' maps only load increments: a body force in "
+            "full from the first step (ramp_body_force) would be dropped; "
+            "use rhs = 'residual'")
     if not isinstance(antilocking, (bool, np.bool_)):
         raise InvalidInputError("antilocking must be True or False, got "
                                 "{!r}".format(antilocking))
@@ -649,7 +662,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                              domain0, counters, points.n,
                              follow=kinematics == "finite",
                              moves=method != "fem",
-                             ramp_gravity=bool(ramp_body_force))
+                             ramp_gravity=ramp)
     locate = point_locator(mesh) if locator is None else locator
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
                         counters)

@@ -149,17 +149,17 @@ class ExternalLoads:
         The points move (not finite elements): surface loads act at the
         faces' current centres, otherwise at their reference ones.
     ramp_gravity
-        The body force grows with the load factor (default); ``False``: it
-        acts in full from the first step (a geostatic initial stress
-        balances it).
+        Per body (or one for all): the body force grows with the load
+        factor (default), or (``False``) acts in full from the first step
+        (a geostatic initial stress balances it).
 
     """
 
     def __init__(self, mesh, elem, grid, gravity, loads, domain0, counters,
                  n_points: int, follow: bool = False, moves: bool = True,
-                 ramp_gravity: bool = True):
+                 ramp_gravity=True):
         self.mesh, self.elem, self.dim = mesh, elem, mesh.dim()
-        self.ramp_gravity = ramp_gravity
+        self.ramp_gravity = np.atleast_1d(np.asarray(ramp_gravity, bool))
         self.gravity, self.counters, self.domain0 = gravity, counters, domain0
         self.surface, self.grid_vector, self.cell_local = [], None, None
         self._faces = (None, [])
@@ -225,7 +225,9 @@ class ExternalLoads:
             self.counters["body_force"] += 1
             weight = self.gravity[:, None] * points.volume0
             load = weight if load is None else load + weight
-            weight = weight * (factor if self.ramp_gravity else 1.)
+            ramped = self.ramp_gravity[points.body] \
+                if self.ramp_gravity.size > 1 else self.ramp_gravity
+            weight = weight * np.where(ramped, factor, 1.)
             scaled = weight if scaled is None else scaled + weight
         if scaled is not None:
             f += op.point_force(scaled)
