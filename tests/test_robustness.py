@@ -435,6 +435,33 @@ def test_footing_that_leaves_its_material_is_refused():
     assert len(e.value.history) == 4
 
 
+@pytest.mark.parametrize("weight", [20., 1e-3, 1e-6])
+def test_equilibrium_of_driven_steps_is_measured_against_the_driving_forces(
+        weight):
+    """A block sheared by its top nodes under a weight of 20 .. 1e-6: the
+    residual is relative to the larger of the loads and the forces driving
+    the prescribed motion, so a tiny weight does not make the tolerance
+    unreachable (measured against the weight alone, 1e-6 failed: its
+    round-off floor was 5.7e-7 of it)."""
+    mesh = MeshQuad.init_tensor(np.linspace(-.5, 2.5, 13),
+                                np.linspace(0., 1.5, 7))
+    points = seed_points(mesh, 2, region=lambda x: (x[0] > 0) & (x[0] < 2)
+                         & (x[1] < 1))
+    top = np.flatnonzero(np.isclose(mesh.p[1], 1.) & (mesh.p[0] >= 0.)
+                         & (mesh.p[0] <= 2.))
+
+    def shear(b, f_old, f_new):
+        return b.nodal_dofs[0, top], np.full(top.size, .05 * (f_new - f_old))
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e4, .3),
+                   lambda b: b.get_dofs(lambda x: x[1] == 0),
+                   body_force=[0., -weight], prescribed=shear, nsteps=2,
+                   kinematics="finite")
+    assert [len(r.newton_residuals) for r in res.history] == [5, 5]
+    assert max(r.residual for r in res.history) < 1e-12
+    driving = res.history[-1].reactions[2 * top].sum()
+    assert abs(driving) > 100.
+
+
 @pytest.mark.parametrize("method", ["mpm", "cpgimp"])
 def test_shear_by_prescribed_top_nodes_is_followed(method):
     """A block sheared 30% by its top nodes: the trailing corner node loses

@@ -72,8 +72,9 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         are increments).
     tol
         Newton tolerance on the out-of-balance force over the free DOFs,
-        relative to the external force norm (to the internal force norm in
-        steps driven by prescribed displacements only).
+        relative to the larger of the external force and the forces that
+        drive the prescribed displacements (as in
+        :func:`~skfem_mpm.simulate`).
     max_iter, max_cutbacks
         Newton iterations per attempt, and how many times a load step may be
         halved before giving up.

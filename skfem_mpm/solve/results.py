@@ -24,7 +24,8 @@ class StepRecord:
         Step number (from 1) and the load factor reached (``step/nsteps``).
     residual
         Equilibrium check: ``|f_ext - f_int|`` over the free DOFs after the
-        stress update, relative to ``|f_ext|``.
+        stress update, relative to the larger of ``|f_ext|`` and the
+        internal force on the DOFs whose motion is prescribed.
     n_active_elements, n_free_dofs
         Size of the active grid.
     timings
