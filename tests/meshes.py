@@ -28,3 +28,22 @@ FAMILIES = {
                 ElementQuad2),
     "tri-P2": (lambda: MeshTri().refined(1), ElementTriP2),
 }
+
+
+def sheared_block(displacement: float):
+    """A 2 x 1 block of 2x2 points per cell on a grid of h = 0.25 with room
+    around it, and ``prescribed(basis, f_old, f_new)`` moving its top nodes
+    along x by ``displacement`` at full load; returns (mesh, points, top
+    node indices, prescribed)."""
+    from skfem_mpm import seed_points
+    mesh = MeshQuad.init_tensor(np.linspace(-.5, 2.5, 13),
+                                np.linspace(0., 1.5, 7))
+    points = seed_points(mesh, 2, region=lambda x: (x[0] > 0) & (x[0] < 2)
+                         & (x[1] < 1))
+    top = np.flatnonzero(np.isclose(mesh.p[1], 1.) & (mesh.p[0] >= 0.)
+                         & (mesh.p[0] <= 2.))
+
+    def prescribed(b, f_old, f_new):
+        return b.nodal_dofs[0, top], np.full(top.size,
+                                             displacement * (f_new - f_old))
+    return mesh, points, top, prescribed

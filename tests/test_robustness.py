@@ -443,15 +443,8 @@ def test_equilibrium_of_driven_steps_is_measured_against_the_driving_forces(
     the prescribed motion, so a tiny weight does not make the tolerance
     unreachable (measured against the weight alone, 1e-6 failed: its
     round-off floor was 5.7e-7 of it)."""
-    mesh = MeshQuad.init_tensor(np.linspace(-.5, 2.5, 13),
-                                np.linspace(0., 1.5, 7))
-    points = seed_points(mesh, 2, region=lambda x: (x[0] > 0) & (x[0] < 2)
-                         & (x[1] < 1))
-    top = np.flatnonzero(np.isclose(mesh.p[1], 1.) & (mesh.p[0] >= 0.)
-                         & (mesh.p[0] <= 2.))
-
-    def shear(b, f_old, f_new):
-        return b.nodal_dofs[0, top], np.full(top.size, .05 * (f_new - f_old))
+    from meshes import sheared_block
+    mesh, points, top, shear = sheared_block(.05)
     res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e4, .3),
                    lambda b: b.get_dofs(lambda x: x[1] == 0),
                    body_force=[0., -weight], prescribed=shear, nsteps=2,

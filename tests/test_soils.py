@@ -205,16 +205,9 @@ def test_soil_block_in_the_core_converges_quadratically(name, kinematics):
     """A frictional block (2 x 1, base clamped) sheared by a prescribed
     top displacement far past yield: every step converges, points yield,
     and Newton is quadratic near convergence (log-ratio >= 1.8)."""
-    from skfem import ElementQuad1, MeshQuad
-    mesh = MeshQuad.init_tensor(np.linspace(-.5, 2.5, 13),
-                                np.linspace(0., 1.5, 7))
-    points = seed_points(mesh, 2, region=lambda x: (x[0] > 0) & (x[0] < 2)
-                         & (x[1] < 1))
-    top = np.flatnonzero(np.isclose(mesh.p[1], 1.) & (mesh.p[0] >= 0.)
-                         & (mesh.p[0] <= 2.))
-
-    def shear(b, f_old, f_new):
-        return b.nodal_dofs[0, top], np.full(top.size, .03 * (f_new - f_old))
+    from skfem import ElementQuad1
+    from meshes import sheared_block
+    mesh, points, _, shear = sheared_block(.03)
     res = simulate(mesh, ElementQuad1(), points, MODELS[name],
                    lambda b: b.get_dofs(lambda x: x[1] == 0),
                    body_force=[0., -20.], prescribed=shear, nsteps=5,
