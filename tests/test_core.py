@@ -5,14 +5,12 @@ import itertools
 
 import numpy as np
 import pytest
-from skfem import (Basis, ElementQuad1, ElementVector, FacetBasis, MeshQuad,
-                   asm, condense, solve)
+from skfem import (ElementQuad1, ElementVector, FacetBasis, MeshQuad,
+                   asm)
 from skfem.helpers import dot
 from skfem.assembly import LinearForm
-from skfem.models.elasticity import linear_elasticity
 
-from skfem_mpm import (InvalidInputError, LinearElastic, MaterialPoints,
-                       Pressure, Traction, VonMises, seed_gauss_points,
+from skfem_mpm import (InvalidInputError, LinearElastic, Pressure, Traction, VonMises, seed_gauss_points,
                        seed_points, side_points, simulate)
 from skfem_mpm.quadrature.points import concatenate_points
 

@@ -49,7 +49,7 @@ from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 from skfem.quadrature import get_quadrature
 
-from ..errors import (ConvergenceError, InvalidInputError, InversionError,
+from ..errors import (InvalidInputError, InversionError,
                       MPMError, NewtonDivergenceError, NumericalError,
                       PrescribedMotionError, SingularSystemError,
                       StepFailedError)
