@@ -15,6 +15,7 @@ from .quadrature.locate import locate_points, point_locator
 
 from .mechanics.materials import LinearElastic, VonMises
 from .mechanics.soils import DruckerPrager, MohrCoulomb
+from .mechanics.cam_clay import ModifiedCamClay
 from .mechanics.geostatic import geostatic_stress
 from .quadrature.points import MaterialPoints, seed_gauss_points, seed_points
 from .solve.core import simulate
@@ -35,5 +36,5 @@ __all__ = [
     "NewtonDivergenceError", "InversionError", "simulate", "solve_fe",
     "Traction", "Pressure", "GridLoad", "side_points", "NumericalError",
     "PrescribedMotionError", "StepFailedError", "DruckerPrager",
-    "MohrCoulomb", "geostatic_stress",
+    "MohrCoulomb", "ModifiedCamClay", "geostatic_stress",
 ]

@@ -20,7 +20,7 @@ from numpy import ndarray
 
 from ..errors import ConvergenceError, InvalidInputError
 from .hencky import isotropic_derivative, principal_frame
-from .materials import initial_state
+from .materials import initial_state, inverse_elastic_law
 
 __all__ = ["mixed_path", "triaxial", "oedometer", "simple_shear", "Path"]
 
@@ -73,10 +73,11 @@ def mixed_path(material, strain_increment: ndarray, controlled: ndarray,
     Parameters
     ----------
     material
-        A material of the protocol (its elastic law gives the initial
-        elastic strain of ``initial_stress``).
+        A material of the protocol (the inverse of its elastic law gives
+        the initial elastic strain of ``initial_stress``).
     initial_stress
-        (3, 3) stress at the start (default zero), reached elastically.
+        (3, 3) stress at the start, reached elastically (default: the
+        material's stress at zero strain, zero for all but Cam clay).
     tol, max_iter
         Newton's tolerance on the stress-controlled components, relative to
         the largest stress, and its iterations per step.
@@ -97,14 +98,18 @@ def mixed_path(material, strain_increment: ndarray, controlled: ndarray,
                                 "{!r}".format(nsteps))
     unknown = [(i, j) for i in range(3) for j in range(i, 3)
                if not controlled[i, j]]
-    sigma0 = np.zeros((3, 3)) if initial_stress is None \
-        else np.asarray(initial_stress, dtype=float)
-    # the initial elastic strain of the initial stress (linear elasticity)
-    lam, mu = material.lam, material.mu
-    eps = (sigma0 - lam / (3 * lam + 2 * mu) * np.trace(sigma0) * np.eye(3)) \
-        / (2 * mu)
-    eps_e = eps.copy()
     state = {k: v[0] for k, v in initial_state(material, 1).items()}
+    if initial_stress is None:     # the material at zero strain
+        eps = np.zeros((3, 3))
+        sigma0 = update(material, eps, state)[0]
+    else:
+        # the initial elastic strain of the initial stress, by the inverse
+        # of the material's elastic law in the principal frame
+        sigma0 = np.asarray(initial_stress, dtype=float)
+        values, vectors = np.linalg.eigh(sigma0)
+        strains = inverse_elastic_law(material, values[:, None])[:, 0]
+        eps = np.einsum("A,aA,bA->ab", strains, vectors, vectors)
+    eps_e = eps.copy()
     if update(material, eps_e, state)[3]:
         raise InvalidInputError(
             "the initial stress {} lies outside the material's yield "

@@ -21,7 +21,8 @@ import numpy as np
 
 from ..errors import InvalidInputError, check_real
 from ..quadrature.points import MaterialPoints
-from .materials import at_points, initial_state, is_plastic
+from .materials import (at_points, initial_state, inverse_elastic_law,
+                        is_plastic)
 
 __all__ = ["geostatic_stress"]
 
@@ -104,15 +105,11 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
     stress[dim - 1, dim - 1] = vertical
     out = points.copy()
     materials = at_points(material, points)
-    lam = np.broadcast_to(materials.lam, (points.n,))
-    mu = np.broadcast_to(materials.mu, (points.n,))
-    trace = np.einsum("aap->p", stress)
-    strain = stress / (2 * mu)
-    for axis in range(3):
-        strain[axis, axis] -= lam / (2 * mu * (3 * lam + 2 * mu)) * trace
     # the stress axes are the coordinate axes: principal values on the
-    # diagonal; within the yield surface?
-    principal = np.einsum("aap->ap", strain)
+    # diagonal, their elastic strains by the inverse elastic law
+    principal = inverse_elastic_law(materials, np.einsum("aap->ap", stress))
+    strain = np.einsum("ap,ab->abp", principal, np.eye(3))
+    # within the yield surface?
     yielded = np.zeros(points.n, dtype=bool)
     if is_plastic(materials):
         state = initial_state(materials, points.n)

@@ -26,7 +26,12 @@ A material is an object with
   strains ``eps_e`` (3, n), the algorithmic tangent ``D = dtau/deps``
   (3, 3, n), the points that yielded (n,) and the new state;
 - ``stress(strain)`` for elastic materials: the linear law, which small
-  strain uses without any return map.
+  strain uses without any return map;
+- ``elastic_strain(tau)``: principal elastic strains (3, n) of principal
+  stresses (3, n), the inverse of the elastic law (an initial stress,
+  :func:`~skfem_mpm.geostatic_stress` and the element tests start from
+  it); optional: without it the linear law of ``lam`` and ``mu`` is
+  inverted (:func:`inverse_elastic_law`).
 
 The kinematics (:mod:`skfem_mpm.mechanics.kinematics`) turn principal
 values into tensors and consistent tangents, so a model written once works
@@ -46,7 +51,7 @@ from ..errors import InvalidMaterialError, check_real
 
 __all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
            "is_plastic", "elastic_tensor", "state_variables",
-           "initial_state"]
+           "initial_state", "inverse_elastic_law"]
 
 
 @dataclass(frozen=True)
@@ -120,6 +125,11 @@ class LinearElastic:
         """``lam 1 (x) 1 + 2 mu I`` on principal values, (3, 3)."""
         return self.lam * np.ones((3, 3)) + 2 * self.mu * np.eye(3)
 
+    def elastic_strain(self, tau: ndarray) -> ndarray:
+        """Principal elastic strains (3, n) of principal stresses (3, n):
+        the inverse of the elastic law."""
+        return np.linalg.solve(self.principal_stiffness(), tau)
+
     def stiffness_form(self) -> BilinearForm:
         """The tangent stiffness as a scikit-fem form, seed (2.20)."""
         return linear_elasticity(self.lam, self.mu)
@@ -180,8 +190,7 @@ class VonMises(LinearElastic):
                          1.)
         tau = p + ratio * s
         bulk = self.E / (3 * (1 - 2 * self.nu))
-        eps_e = np.where(yielded, np.linalg.solve(self.principal_stiffness(),
-                                                  tau), eps)
+        eps_e = np.where(yielded, self.elastic_strain(tau), eps)
         n = s / np.where(norm_s > 0, norm_s, 1.)
         dev = np.eye(3) - np.ones((3, 3)) / 3
         Dp = bulk * np.ones((3, 3, 1)) + 2 * self.mu * ratio * (
@@ -221,6 +230,15 @@ class PointMaterials:
     def stress(self, strain: ndarray) -> ndarray:
         """``2 mu eps + lam tr(eps) I`` with per-point Lame parameters."""
         return LinearElastic.stress(self, strain)
+
+    def elastic_strain(self, tau: ndarray) -> ndarray:
+        """Each body's inverse elastic law on its points."""
+        out = np.empty_like(tau)
+        for k, material in enumerate(self.materials):
+            sel = np.flatnonzero(self.body == k)
+            if sel.size:
+                out[:, sel] = inverse_elastic_law(material, tau[:, sel])
+        return out
 
     def principal_update(self, eps: ndarray, state):
         """Each body's model on its points; a body's internal variables
@@ -305,6 +323,23 @@ def elastic_tensor(material, n: int, dim: int) -> ndarray:
     return (np.einsum("ab,cd,p->abcdp", eye, eye, lam)
             + np.einsum("ac,bd,p->abcdp", eye, eye, mu)
             + np.einsum("ad,bc,p->abcdp", eye, eye, mu))
+
+
+def inverse_elastic_law(material, tau: ndarray) -> ndarray:
+    """Principal elastic strains (3, n) of principal stresses (3, n): the
+    material's ``elastic_strain`` where it has one, else the inverse of
+    the linear law of its ``lam`` and ``mu`` (scalars or one per point).
+
+    >>> import numpy as np
+    >>> inverse_elastic_law(LinearElastic(1e3, 0.), np.array([[1.], [0.], [0.]]))
+    array([[0.001],
+           [0.   ],
+           [0.   ]])
+    """
+    if hasattr(material, "elastic_strain"):
+        return material.elastic_strain(tau)
+    lam, mu = material.lam, material.mu
+    return (tau - lam / (3 * lam + 2 * mu) * tau.sum(axis=0)) / (2 * mu)
 
 
 def initial_state(material, n: int) -> dict:

@@ -236,8 +236,7 @@ class DruckerPrager(LinearElastic):
                 + APEX_STIFFNESS * self.principal_stiffness()[:, :, None]
             D_cone = np.where(apex, D_apex, D_cone)
         tau = np.where(yielded, new_s + new_p, tau)
-        eps_e = np.where(yielded, np.linalg.solve(self.principal_stiffness(),
-                                                  tau), eps)
+        eps_e = np.where(yielded, self.elastic_strain(tau), eps)
         D = np.where(yielded, D_cone, D)
         return tau, eps_e, D, yielded, {
             "equivalent_plastic_strain": np.where(yielded, new_alpha, alpha)}
@@ -387,6 +386,6 @@ class MohrCoulomb(LinearElastic):
         inverse = np.argsort(order, axis=0)
         tau = np.take_along_axis(tau, inverse, axis=0)
         D = D[inverse[:, None, :], inverse[None, :, :], np.arange(n)]
-        eps_e = np.where(yielded, np.linalg.solve(C, tau), eps)
+        eps_e = np.where(yielded, self.elastic_strain(tau), eps)
         return tau, eps_e, D, yielded, {
             "equivalent_plastic_strain": new_alpha}

@@ -27,6 +27,9 @@ offending value (unknown keys, wrong types, impossible values), in a
     #      hardening = 0.0, fit = "outer" | "inner" | "plane_strain" }
     # or { model = "mohr_coulomb", E = .., nu = .., cohesion = ..,
     #      friction_angle = .., dilation_angle = 0.0 (degrees) }
+    # or { model = "cam_clay", kappa = .., lambda = .., M = ..,
+    #      shear_modulus = .., reference_pressure = ..,
+    #      preconsolidation_pressure = .. (default: reference_pressure) }
     [[supports]]
     name = "base"                   # optional: labels its reactions in
                                     # summary.json (default "support-N")
@@ -72,6 +75,7 @@ except ImportError:                       # Python 3.10
     import tomli as tomllib
 
 from ..errors import InvalidMaterialError, SceneError
+from ..mechanics.cam_clay import ModifiedCamClay
 from ..mechanics.materials import LinearElastic, VonMises
 from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
 from ..solve.core import RHS
@@ -196,52 +200,67 @@ def _grid(c, data):
     return Grid(axes=axes, element=element)
 
 
-MODELS = {"linear_elastic": (), "von_mises": ("yield_stress",),
-          "drucker_prager": ("cohesion", "friction_angle", "dilation_angle",
-                             "hardening", "fit"),
-          "mohr_coulomb": ("cohesion", "friction_angle", "dilation_angle")}
-REQUIRED = {"von_mises": ("yield_stress",),
-            "drucker_prager": ("cohesion", "friction_angle"),
-            "mohr_coulomb": ("cohesion", "friction_angle")}
+ELASTIC = ("E", "nu")
+CAM_CLAY = ("kappa", "lambda", "M", "shear_modulus", "reference_pressure",
+            "preconsolidation_pressure")
+MODELS = {"linear_elastic": ELASTIC, "von_mises": ELASTIC + ("yield_stress",),
+          "drucker_prager": ELASTIC + ("cohesion", "friction_angle",
+                                       "dilation_angle", "hardening", "fit"),
+          "mohr_coulomb": ELASTIC + ("cohesion", "friction_angle",
+                                     "dilation_angle"),
+          "cam_clay": CAM_CLAY}
+REQUIRED = {"linear_elastic": ELASTIC, "von_mises": MODELS["von_mises"][:3],
+            "drucker_prager": ELASTIC + ("cohesion", "friction_angle"),
+            "mohr_coulomb": ELASTIC + ("cohesion", "friction_angle"),
+            "cam_clay": CAM_CLAY[:5]}
 
 
 def _material(c, data, key):
     keys = sorted({k for extra in MODELS.values() for k in extra})
-    data = c.table(data, key, ["model", "E", "nu"] + keys,
-                   ("model", "E", "nu"))
+    data = c.table(data, key, ["model"] + keys, ("model",))
     model = c.choice(data, key, "model", tuple(MODELS), "linear_elastic")
-    E = c.number(data, key, "E", 1., low=0.)
-    nu = c.number(data, key, "nu", 0., low=-1., high=.5)
     for name in keys:
         if name in data and name not in MODELS[model]:
             c.bad(key + "." + name, "not a parameter of model = {!r}".format(
                 model), data[name])
-    for name in REQUIRED.get(model, ()):
+    for name in REQUIRED[model]:
         if name not in data:
             c.problems.append("{}.{}: missing ({})".format(key, name, model))
-    if model == "von_mises":
-        return VonMises(E=E, nu=nu, yield_stress=c.number(
-            data, key, "yield_stress", 1., low=0.))
-    if model == "linear_elastic":
-        return LinearElastic(E=E, nu=nu)
     known = len(c.problems)
-    kwargs = dict(
-        cohesion=c.number(data, key, "cohesion", 1., low=0., open_low=False),
-        friction_angle=c.number(data, key, "friction_angle", 0., low=0.,
-                                high=90., open_low=False),
-        dilation_angle=c.number(data, key, "dilation_angle", 0., low=0.,
-                                open_low=False))
+    if model == "cam_clay":
+        kwargs = {("lambda_" if name == "lambda" else name):
+                  c.number(data, key, name, 1., low=0.) for name in CAM_CLAY}
+        if "preconsolidation_pressure" not in data:   # normally consolidated
+            kwargs["preconsolidation_pressure"] = kwargs["reference_pressure"]
+        build = ModifiedCamClay
+    else:
+        kwargs = dict(E=c.number(data, key, "E", 1., low=0.),
+                      nu=c.number(data, key, "nu", 0., low=-1., high=.5))
+        build = LinearElastic
+    if model == "von_mises":
+        kwargs.update(yield_stress=c.number(data, key, "yield_stress", 1.,
+                                            low=0.))
+        build = VonMises
+    if model in ("drucker_prager", "mohr_coulomb"):
+        kwargs.update(
+            cohesion=c.number(data, key, "cohesion", 1., low=0.,
+                              open_low=False),
+            friction_angle=c.number(data, key, "friction_angle", 0., low=0.,
+                                    high=90., open_low=False),
+            dilation_angle=c.number(data, key, "dilation_angle", 0., low=0.,
+                                    open_low=False))
+        build = MohrCoulomb
     if model == "drucker_prager":
         kwargs.update(hardening=c.number(data, key, "hardening", 0.),
                       fit=c.choice(data, key, "fit", DP_FITS, "outer"))
+        build = DruckerPrager
     if len(c.problems) > known:     # no second message about a default
-        return LinearElastic(E=E, nu=nu)
+        return LinearElastic(1., 0.)
     try:
-        return (DruckerPrager if model == "drucker_prager"
-                else MohrCoulomb)(E=E, nu=nu, **kwargs)
+        return build(**kwargs)
     except InvalidMaterialError as err:
         c.problems.append("{}: {}".format(key, err))
-        return LinearElastic(E=E, nu=nu)
+        return LinearElastic(1., 0.)
 
 
 def _body(c, data, k, dim):
