@@ -20,7 +20,7 @@ from numpy import ndarray
 
 from ..errors import ConvergenceError, InvalidInputError
 from .hencky import isotropic_derivative, principal_frame
-from .materials import initial_state, inverse_elastic_law
+from .materials import LinearElastic, initial_state, inverse_elastic_law
 
 __all__ = ["mixed_path", "triaxial", "oedometer", "simple_shear", "Path"]
 
@@ -201,6 +201,13 @@ def simple_shear(material, shear_strain: float, vertical_stress: float = 0.,
     if not vertical_stress >= 0:
         raise InvalidInputError("vertical_stress must be >= 0 (compression), "
                                 "got {!r}".format(vertical_stress))
+    if hasattr(material, "elastic_strain") and not isinstance(
+            material, LinearElastic):
+        raise InvalidInputError(
+            "simple_shear starts from the oedometric state of linear "
+            "elasticity; {} has its own elastic law: drive it with "
+            "mixed_path from its own initial stress".format(
+                type(material).__name__))
     controlled = np.ones((3, 3), dtype=bool)
     controlled[1, 1] = False
     increment = np.zeros((3, 3))
