@@ -23,6 +23,7 @@ from .solve.fe import solve_fe
 from .solve.finite import solve_finite
 from .solve.loads import GridLoad, Pressure, Traction, side_points
 from .solve.results import Result, StepRecord
+from .solve.rigid import RigidBody
 from .solve.small import solve_mpm
 
 __version__ = "0.1.0"
@@ -36,5 +37,5 @@ __all__ = [
     "NewtonDivergenceError", "InversionError", "simulate", "solve_fe",
     "Traction", "Pressure", "GridLoad", "side_points", "NumericalError",
     "PrescribedMotionError", "StepFailedError", "DruckerPrager",
-    "MohrCoulomb", "ModifiedCamClay", "geostatic_stress",
+    "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "RigidBody",
 ]

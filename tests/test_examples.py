@@ -117,3 +117,25 @@ def test_collapse_runs_conserves_mass_and_collapses(tmp_path):
 def test_cantilever_figure(cantilever, tmp_path):
     cantilever.visualize(tmp_path)
     assert (tmp_path / "cantilever.png").stat().st_size > 10_000
+
+
+def test_prandtl_footing_plateau_is_two_plus_pi(tmp_path):
+    """Prandtl's smooth strip footing on weightless von Mises soil: once
+    the curve reaches 97% of (2 + pi) c_u it stays within 3% of it to the
+    end (measured: highest 5.248, last 5.134, Prandtl 5.142, so 2.1%),
+    Newton stays quadratic on the yielding steps (log-ratio >= 1.8, measured
+    2.2), and the figure is written."""
+    prandtl = load("prandtl")
+    limit = 2 + np.pi
+    on = np.flatnonzero(prandtl.pressure >= .97 * limit)
+    assert on.size >= 8 and on[-1] == prandtl.pressure.size - 1
+    plateau = prandtl.pressure[on[0]:]
+    assert np.abs(plateau / limit - 1).max() < .03
+    history = prandtl.result.history
+    assert history[-1].n_yielded > 1000
+    ratios = [np.log(b) / np.log(a) for r in history
+              for a, b in zip(r.newton_residuals[:-1], r.newton_residuals[1:])
+              if a < 1e-2 and b > 1e-13]
+    assert max(ratios) >= 1.8
+    prandtl.visualize(tmp_path)
+    assert (tmp_path / "prandtl.png").stat().st_size > 10_000

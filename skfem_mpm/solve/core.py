@@ -70,6 +70,7 @@ from .linear import check_rigid_body_modes, free_dofs, solve_active, \
 from .loads import ExternalLoads
 from .newton import FullStep, make_line_search
 from .results import PHASES, Result, StepRecord
+from .rigid import check_rigid_bodies
 
 logger = logging.getLogger(__name__)
 
@@ -254,6 +255,24 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         fixed = np.union1d(fixed, dofs)
         driven = dofs[values != 0.]
         check_prescribed_motion(run, op, dofs, values, step)
+    rigid_dofs = []
+    for k, rigid in enumerate(run.rigid_bodies):
+        dofs = rigid.dofs(run.grid.dofs.element_dofs, op.point_elements,
+                          points)
+        values = rigid.increment(f_old, f_new)[dofs % run.dim]
+        clash = np.isin(dofs, fixed) & (du[dofs] != values)
+        if clash.any():
+            raise PrescribedMotionError(
+                "step {}: rigid_bodies[{}] (body {}) drives {} grid DOF(s) "
+                "that a support or another prescribed motion holds "
+                "otherwise, e.g. component {} at {}".format(
+                    step, k, rigid.body, int(clash.sum()),
+                    int(dofs[clash][0] % run.dim),
+                    run.grid.doflocs[:, dofs[clash][0]].tolist()))
+        du[dofs] = values
+        fixed = np.union1d(fixed, dofs)
+        driven = np.union1d(driven, dofs[values != 0.])
+        rigid_dofs.append(dofs)
     check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
                            op.active_dofs, fixed, run.dim, step)
     free = free_dofs(op.active_dofs, fixed)
@@ -341,6 +360,11 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     record = StepRecord(step, f_new, residuals[-1], op.nelems, free.size, t,
                         reaction_dofs=held, reaction_values=-r[held],
                         n_dofs=op.N)
+    for dofs in rigid_dofs:       # a support's DOFs keep their reactions
+        dofs = dofs[~np.isin(dofs, run.D)]
+        force = np.zeros(run.dim)
+        np.add.at(force, dofs % run.dim, -r[dofs])
+        record.rigid_forces.append(force)
     if not run.linear:
         record.newton_residuals = residuals
         record.n_yielded = int(response.yielded.sum())
@@ -455,7 +479,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              increment: Optional[float] = None,
              counters: Optional[dict] = None,
              callback: Optional[Callable] = None,
-             ramp_body_force=True) -> Result:
+             ramp_body_force=True, rigid_bodies: Sequence = ()) -> Result:
     """Quasi-static implicit MPM, GIMP or FE: any method with any
     kinematics, material, stabilisation and loads.
 
@@ -557,6 +581,13 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         ghost penalty switched on stays on).  ``StepRecord.load_factor``,
         ``.increment`` and ``.counters`` of the last converged step are
         what a resume needs: it then continues bit-identically.
+    rigid_bodies
+        :class:`~skfem_mpm.RigidBody` objects (or one): bodies of points
+        pushed by prescribed displacement through the grid nodes of the
+        cells they occupy (standard MPM or FE), which change as they move
+        (a footing that sinks by many cells); the force each needs per step
+        (supported DOFs left to their supports) is in
+        ``StepRecord.rigid_forces``.
 
     Returns
     -------
@@ -638,7 +669,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             "force (rhs = 'residual')".format(
                 "finite deformation" if kinematics == "finite"
                 else "plasticity"))
-    if rhs == "increment" and prescribed is not None:
+    rigid_bodies = check_rigid_bodies(rigid_bodies, points, mesh.dim(),
+                                      method)
+    if rhs == "increment" and (prescribed is not None or rigid_bodies):
         raise InvalidInputError(
             "rhs = 'increment' maps only the load increment: prescribed "
             "displacements would not enter the solve; use rhs = 'residual'")
@@ -684,7 +717,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         if ghost else None, ghost_reserve=GhostStabilisation(
             mesh, grid.elem, DEFAULT_GHOST, material) if reserve else None,
         antilocking=bool(antilocking), D=support_dofs(supports, grid),
-        prescribed=prescribed, rhs=rhs, tol=tol, max_iter=max_iter,
+        prescribed=prescribed, rigid_bodies=rigid_bodies, rhs=rhs, tol=tol,
+        max_iter=max_iter,
         newton=FullStep() if linear else line_search[0],
         line_search=None if linear else line_search[1],
         solver=get_solver(solver), counters=counters,

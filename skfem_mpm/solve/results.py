@@ -49,6 +49,10 @@ class StepRecord:
         force); :attr:`reactions` expands them into a grid vector.
     n_dofs
         Number of grid DOFs (the length of ``u`` and ``reactions``).
+    rigid_forces
+        One (dim,) force per rigid body (``simulate(rigid_bodies=...)``):
+        the sum of the reactions at the DOFs it drives, the force that
+        holds its motion (a footing's load).
     increment, counters
         The load increment the next step starts with (``1 / nsteps``, or
         less after a cut-back) and the run's counters after this step: with
@@ -73,6 +77,7 @@ class StepRecord:
     n_dofs: int = 0
     increment: float = 0.
     counters: Optional[dict] = None
+    rigid_forces: List[ndarray] = field(default_factory=list)
 
     @property
     def reactions(self) -> ndarray:

@@ -1,0 +1,134 @@
+"""Rigid bodies pushed by prescribed displacement: footings, piles,
+indenters that move with the material.
+
+A rigid body is a body of material points (``points.body == body``) whose
+motion is prescribed: in every load step the grid nodes of the cells that
+hold its points follow its displacement increment.  Its points then move
+rigidly, and so does the material of other bodies in those cells: contact
+is smeared over a cell, no-slip (``rough``: its points move rigidly) or
+free to slide across the motion (``smooth``: only the components along
+which the body moves are prescribed, the others follow its stiffness).  Unlike prescribed grid nodes, the pushed nodes change with
+the body, so a footing can sink through the grid by many cells (the
+large-deformation penetration problems MPM is used for; Phuong et al.,
+*Int. J. Numer. Anal. Methods Geomech.* 40, 2016; the rigid body of the
+MPM codes Anura3D and Kratos works the same way).
+
+The force that holds the motion is the sum of the reactions at the body's
+prescribed DOFs other than supported ones (internal minus external force
+there: the force applied to the grid to move it, downward when a footing
+pushes down, plus upward the weight of the points in its cells), recorded
+per step in :attr:`~skfem_mpm.StepRecord.rigid_forces`: the
+load-displacement curve of a footing.  Standard MPM (and FE) only: a GIMP
+point reaches nodes beyond its cell.
+"""
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import InvalidInputError, check_real
+
+__all__ = ["RigidBody"]
+
+
+@dataclass(frozen=True)
+class RigidBody:
+    """A body moved rigidly by prescribed displacement.
+
+    Parameters
+    ----------
+    body
+        The index of the body (``points.body``) that is rigid.  Its points
+        keep a material (a stiff elastic one): for a smooth body the
+        components across the motion are free.
+    displacement
+        Displacement (dim,) at full load, reached in proportion to the load
+        factor.
+    rough
+        ``True`` (default): every component of the pushed nodes follows
+        the body (no slip).  ``False``: only the components in which
+        ``displacement`` is non-zero.
+
+    Examples
+    --------
+    >>> RigidBody(1, [0., -.1]).increment(.25, .5).tolist()
+    [0.0, -0.025]
+    """
+    body: int
+    displacement: Sequence[float]
+    rough: bool = True
+
+    def __post_init__(self):
+        if isinstance(self.body, bool) or not isinstance(
+                self.body, (int, np.integer)) or self.body < 0:
+            raise InvalidInputError("RigidBody: body must be a body index "
+                                    ">= 0, got {!r}".format(self.body))
+        d = np.asarray([check_real("RigidBody displacement", v)
+                        for v in np.ravel(self.displacement)])
+        if d.ndim != 1 or d.size not in (1, 2, 3) or \
+                not np.isfinite(d).all() or not d.any():
+            raise InvalidInputError(
+                "RigidBody: displacement must be a finite, non-zero vector "
+                "of 1 to 3 components, got {!r}".format(self.displacement))
+        if not isinstance(self.rough, (bool, np.bool_)):
+            raise InvalidInputError("RigidBody: rough must be True or False, "
+                                    "got {!r}".format(self.rough))
+        object.__setattr__(self, "displacement", tuple(d.tolist()))
+
+    def increment(self, f_old: float, f_new: float) -> ndarray:
+        """The displacement increment from load factor ``f_old`` to
+        ``f_new``."""
+        return np.asarray(self.displacement) * (f_new - f_old)
+
+    def dofs(self, element_dofs: ndarray, point_elements: ndarray,
+             points) -> ndarray:
+        """The grid DOFs it drives in a step: those of the cells its points
+        sit in (``point_elements``, the cell of each point;
+        ``element_dofs``, the vector DOFs of each cell, component
+        ``dof % dim``), every component (rough) or the moving ones."""
+        cells = np.unique(point_elements[points.body == self.body])
+        dofs = np.unique(element_dofs[:, cells])
+        if self.rough:
+            return dofs
+        return dofs[np.asarray(self.displacement)[dofs % points.dim] != 0]
+
+
+def check_rigid_bodies(rigid_bodies, points, dim: int, method: str) -> tuple:
+    """The rigid bodies as a tuple (one :class:`RigidBody` alone is
+    welcome), checked against the points and the method: each a
+    :class:`RigidBody` of an existing body with points, with ``dim``
+    displacement components, each body rigid at most once; standard MPM
+    or FE points (a GIMP point reaches nodes beyond its cell, which its
+    rigid body would leave free)."""
+    bodies = (rigid_bodies,) if isinstance(rigid_bodies, RigidBody) \
+        else tuple(rigid_bodies or ())
+    if bodies and method not in ("mpm", "fem"):
+        raise InvalidInputError(
+            "rigid_bodies need method 'mpm' or 'fem', not {!r}: a GIMP "
+            "point's domain reaches nodes of the cells beside its own, which "
+            "the rigid body does not drive, so it would not move "
+            "rigidly".format(method))
+    seen = set()
+    for k, rigid in enumerate(bodies):
+        if not isinstance(rigid, RigidBody):
+            raise InvalidInputError(
+                "rigid_bodies[{}] must be a RigidBody, got {!r}".format(
+                    k, rigid))
+        if len(rigid.displacement) != dim:
+            raise InvalidInputError(
+                "rigid_bodies[{}]: displacement has {} components, the grid "
+                "{}".format(k, len(rigid.displacement), dim))
+        if not (points.body == rigid.body).any():
+            raise InvalidInputError(
+                "rigid_bodies[{}]: body {} has no points (points.body runs "
+                "from 0 to {})".format(k, rigid.body, int(points.body.max())))
+        if rigid.body in seen:
+            raise InvalidInputError("rigid_bodies[{}]: body {} is rigid "
+                                    "twice".format(k, rigid.body))
+        seen.add(rigid.body)
+    if bodies and len(seen) == len(np.unique(points.body)):
+        raise InvalidInputError(
+            "every body is rigid: nothing deforms (a rigid body pushes "
+            "another body)")
+    return bodies
