@@ -232,7 +232,8 @@ def test_scene_files_know_cam_clay():
                        ({"lambda": .2, "E": 1e3}, "not a parameter"),
                        ({"lambda": .2, "preconsolidation_pressure": -1.},
                         "must be > 0")]:
-        with pytest.raises(SceneError, match=match):
+        with pytest.raises(SceneError, match=match) as err:
             material(**keys, **bad)
+        assert "1 problem(s)" in str(err.value)     # no echo of a default
     with pytest.raises(InvalidInputError):
         triaxial(CLAY, -1., .1)

@@ -223,10 +223,10 @@ def _material(c, data, key):
         if name in data and name not in MODELS[model]:
             c.bad(key + "." + name, "not a parameter of model = {!r}".format(
                 model), data[name])
+    known = len(c.problems)
     for name in REQUIRED[model]:
         if name not in data:
             c.problems.append("{}.{}: missing ({})".format(key, name, model))
-    known = len(c.problems)
     if model == "cam_clay":
         kwargs = {("lambda_" if name == "lambda" else name):
                   c.number(data, key, name, 1., low=0.) for name in CAM_CLAY}
