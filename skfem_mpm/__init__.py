@@ -25,6 +25,7 @@ from .solve.loads import GridLoad, Pressure, Traction, side_points
 from .solve.results import Result, StepRecord
 from .solve.rigid import RigidBody
 from .solve.small import solve_mpm
+from .solve.strength_reduction import reduce_strength, strength_reduction
 
 __version__ = "0.1.0"
 
@@ -38,4 +39,5 @@ __all__ = [
     "Traction", "Pressure", "GridLoad", "side_points", "NumericalError",
     "PrescribedMotionError", "StepFailedError", "DruckerPrager",
     "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "RigidBody",
+    "reduce_strength", "strength_reduction",
 ]
