@@ -58,7 +58,8 @@ pressure = np.array([0.] + [-r.rigid_forces[0][1] for r in result.history]) \
 
 def visualize(outdir="."):
     from pathlib import Path
-    from skfem_mpm.scenes.plot import pyplot, save_figure
+    from skfem_mpm.scenes.plot import (draw_plastic_zone, pyplot,
+                                       save_figure)
     fig, (curve, zone) = pyplot().subplots(1, 2, figsize=(11, 4))
     curve.plot(settlements / (2 * half), pressure, "o-", ms=3,
                label="skfem-mpm, h = B/16")
@@ -68,17 +69,8 @@ def visualize(outdir="."):
     curve.set_ylabel("footing pressure / c_u (-)")
     curve.set_title("Load-settlement curve of a smooth strip footing")
     curve.legend(loc="lower right")
-    pts = result.points
-    plastic = pts.state["equivalent_plastic_strain"]
-    on = pts.body == 0
-    sc = zone.scatter(pts.x[0, on], pts.x[1, on], c=plastic[on], s=2,
-                      cmap="viridis")
-    zone.scatter(pts.x[0, ~on], pts.x[1, ~on], c="k", s=2)
-    fig.colorbar(sc, ax=zone, label="equivalent plastic strain (-)")
-    zone.set_aspect("equal")
-    zone.set_xlabel("x (m)")
-    zone.set_ylabel("y (m)")
-    zone.set_title("Plastic zone at the end (footing in black)")
+    draw_plastic_zone(fig, zone, result.points, "Plastic zone at the end "
+                      "(footing in black)", rigid=result.points.body == 1)
     fig.tight_layout()
     save_figure(fig, Path(outdir) / "prandtl.png")
 

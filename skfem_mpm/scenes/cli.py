@@ -142,20 +142,33 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
         "counters": result.counters,
         "max_displacement": float(np.abs(pts.displacement).max()),
         "reactions": {name: reactions[:, k].tolist()
-                      for k, name in enumerate(names)},
+                      for k, name in enumerate(names[:len(scene.supports)])},
     }
+    rigid = [b for b in scene.bodies if b.rigid is not None]
+    if rigid:
+        summary["rigid_bodies"] = {
+            body.name: {"displacement": (rows[:, 1:2] * np.asarray(
+                body.rigid)).tolist(),
+                "force": reactions[:, len(scene.supports) + k].tolist()}
+            for k, body in enumerate(rigid)}
     if len(rows) and (rows[:, 5] >= 0).any():
         summary["newton_iterations"] = [int(max(k, 0)) for k in rows[:, 5]]
-    error = case_error(scene, result)
+    if scene.reference == "bearing_capacity":
+        from ..studies.footing import footing_error
+        error = footing_error(scene, reactions[:, len(scene.supports)])
+    else:
+        error = case_error(scene, result)
     if np.isfinite(error):
         summary["error"] = error
     return summary
 
 
 def reaction_resultants(scene):
-    """The support names and ``resultant(record) -> (supports, dim)``: per
-    support, the resultant reaction force of a step (zero in unsupported
-    components)."""
+    """The names of the supports and the rigid bodies, and
+    ``resultant(record) -> (supports + rigid bodies, dim)``: per support,
+    the resultant reaction force of a step (zero in unsupported
+    components), then per rigid body the force that moves it
+    (:attr:`~skfem_mpm.StepRecord.rigid_forces`)."""
     from ..solve.core import grid_parts
     from .scene import scene_support_dofs, support_names
     mesh, elem = scene.grid.build()
@@ -171,14 +184,22 @@ def reaction_resultants(scene):
         out = np.zeros((len(parts), dim))
         for k, (axes, dofs) in enumerate(parts):
             out[k, axes] = reactions[dofs].sum(axis=1)
-        return out
-    return support_names(scene), resultant
+        return np.vstack([out] + [f[None] for f in record.rigid_forces])
+    return support_names(scene) + [b.name for b in scene.bodies
+                                   if b.rigid is not None], resultant
 
 
-def plot_outputs(scene, result, outdir: Path, loaded):
+#: what the error of each scene reference measures
+ERROR_LABELS = {"column": "error (2.28)", "elastica": "tip deflection error",
+                "bearing_capacity": "peak pressure error"}
+
+
+def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
     """Final configuration coloured by the vertical stress; the column's
     stress profile; a load-displacement curve when there are point
-    loads."""
+    loads; the force-displacement curves of rigid bodies (over the whole
+    run, from ``summary``), as footing pressure against settlement for a
+    bearing-capacity scene."""
     from .plot import plot_column_stress, pyplot, save_figure
     pts = result.points
     d = pts.dim - 1
@@ -206,6 +227,56 @@ def plot_outputs(scene, result, outdir: Path, loaded):
         ax.legend()
         fig.tight_layout()
         save_figure(fig, outdir / "load_displacement.png")
+    if "rigid_bodies" in summary:
+        plot_rigid_bodies(scene, summary["rigid_bodies"],
+                          outdir / "rigid_bodies.png")
+
+
+def plot_rigid_bodies(scene, curves: dict, path: Path):
+    """Force along the motion against displacement of each rigid body;
+    footing pressure over the cohesion against settlement over the footing
+    body's width, with ``N_c``, for a bearing-capacity scene."""
+    from .plot import pyplot, save_figure
+    fig, ax = pyplot().subplots(figsize=(5.5, 4))
+    if scene.reference == "bearing_capacity":
+        from ..studies.footing import (bearing_capacity_factor,
+                                       footing_pressure, soil_strength)
+        body = next(b for b in scene.bodies if b.rigid is not None)
+        c, phi = soil_strength(next(b for b in scene.bodies
+                                    if b.rigid is None).material)
+        axis = int(np.flatnonzero(body.rigid)[0])
+        width = body.region[1 - axis][1] - body.region[1 - axis][0]
+        curve = curves[body.name]
+        settlement = np.abs(np.array([0.] + [d[axis] for d in
+                                             curve["displacement"]]))
+        pressure = np.concatenate([[0.], footing_pressure(
+            scene, np.array(curve["force"]))])
+        ax.plot(settlement / width, pressure / c, "o-", ms=3,
+                label="{}, {}".format(body.name, scene.method))
+        ax.axhline(bearing_capacity_factor(phi), color="k", ls="--",
+                   label="N_c = {:.2f} (phi = {:g} deg)".format(
+                       bearing_capacity_factor(phi), phi))
+        ax.set_xlabel("settlement / width of the footing body (-)")
+        ax.set_ylabel("footing pressure / cohesion (-)")
+        ax.set_title("{}: load-settlement curve\nagainst the bearing "
+                     "capacity N_c c".format(scene.name))
+    else:
+        for name, curve in curves.items():
+            disp = np.vstack([np.zeros((1, len(curve["displacement"][0]))),
+                              curve["displacement"]])
+            force = np.vstack([np.zeros_like(disp[:1]), curve["force"]])
+            direction = disp[-1] / np.linalg.norm(disp[-1])
+            ax.plot(disp @ direction, force @ direction, "o-", ms=3,
+                    label=name)
+        ax.set_xlabel("displacement along the motion (length)")
+        ax.set_ylabel("force along the motion ({})".format(
+            "force per unit thickness" if scene.grid.dim == 2
+            else "force"))
+        ax.set_title("{}: force-displacement\nof the rigid bodies".format(
+            scene.name))
+    ax.legend(loc="lower right")
+    fig.tight_layout()
+    save_figure(fig, path)
 
 
 def run(args) -> int:
@@ -273,7 +344,7 @@ def run(args) -> int:
                 shutil.copyfile(source, tmp)
         prepared.append(outdir)
 
-    series = None if args.no_series else SeriesWriter(outdir, mesh)
+    series = None if args.no_series else SeriesWriter(outdir, mesh, points)
     if series is not None and earlier is not None:
         series.restore([(int(r[0]), float(r[1])) for r in earlier.history])
     progress = Progress(scene.steps, not args.no_progress)
@@ -353,12 +424,13 @@ def run(args) -> int:
     summary["status"] = "completed"
     prepare()
     write_summary(outdir / "summary.json", summary)
-    plot_outputs(scene, result, outdir, loaded)
+    plot_outputs(scene, result, outdir, loaded, summary)
     print("{}: {} {} ({} kinematics), {} points, {} load steps".format(
         scene.name, "resumed" if args.resume else "ran", scene.method,
         scene.kinematics, summary["points"], scene.steps))
     if "error" in summary:
-        print("  error (2.28)              {:.4e}".format(summary["error"]))
+        print("  {:26s}{:.4e}".format(ERROR_LABELS[scene.reference],
+                                      summary["error"]))
     print("  max displacement          {:.4f}".format(
         summary["max_displacement"]))
     print("  max equilibrium residual  {:.1e}".format(

@@ -66,21 +66,42 @@ def active_grid(mesh, elements: ndarray, u: Optional[ndarray]):
     return meshio.Mesh(_pad3(mesh.p), [(cell, t.T)], point_data=data)
 
 
+#: the state variable whose growth in a step marks plastic flow
+PLASTIC_STRAIN = "equivalent_plastic_strain"
+
+
 class SeriesWriter:
     """Writes ``points_NNNN.vtu`` and ``grid_NNNN.vtu`` per step and keeps
-    ``points.pvd`` / ``grid.pvd`` up to date."""
+    ``points.pvd`` / ``grid.pvd`` up to date.
 
-    def __init__(self, outdir, mesh):
+    Points of a plastic material (one with an ``equivalent_plastic_strain``)
+    also get the yield flag ``yielding``: 1 where the plastic strain grew in
+    the step (the point flowed plastically), else 0; ``points`` is the state
+    before the first step written (the start, or the checkpoint a run
+    resumes from).
+    """
+
+    def __init__(self, outdir, mesh, points: Optional[MaterialPoints] = None):
         self.outdir = Path(outdir)
         self.mesh = mesh
         self.entries = []
+        self.plastic_strain = None if points is None else \
+            points.state.get(PLASTIC_STRAIN)
 
     def write(self, step: int, time: float, points: MaterialPoints,
               elements: ndarray, u: Optional[ndarray]):
         import meshio
         names = ("points_{:04d}.vtu".format(step),
                  "grid_{:04d}.vtu".format(step))
-        for name, m in zip(names, (point_cloud(points),
+        cloud = point_cloud(points)
+        plastic = points.state.get(PLASTIC_STRAIN)
+        if plastic is not None:
+            before = self.plastic_strain if self.plastic_strain is not None \
+                and self.plastic_strain.shape == plastic.shape else 0.
+            cloud.point_data["yielding"] = (plastic > before).astype(
+                np.float64)
+            self.plastic_strain = plastic.copy()
+        for name, m in zip(names, (cloud,
                                    active_grid(self.mesh, elements, u))):
             with atomic_path(self.outdir / name) as tmp:
                 meshio.write(tmp, m, file_format="vtu")

@@ -9,7 +9,7 @@ from .io import atomic_path
 from ..solve.results import Result
 
 __all__ = ["pyplot", "save_figure", "draw_column_stress", "draw_convergence",
-           "plot_column_stress"]
+           "plot_column_stress", "draw_plastic_zone"]
 
 
 def pyplot():
@@ -25,6 +25,26 @@ def save_figure(fig, path, dpi: int = 120):
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     pyplot().close(fig)
+
+
+def draw_plastic_zone(fig, ax, points, title: str, rigid=None,
+                      size: float = 2.):
+    """Points (2D, coordinates in m) coloured by their equivalent plastic
+    strain, its top 2% clipped so the zone shows beside a singular corner;
+    the points where ``rigid`` (bool per point) holds in black."""
+    plastic = points.state["equivalent_plastic_strain"]
+    soil = np.ones(points.n, dtype=bool) if rigid is None else ~rigid
+    sc = ax.scatter(points.x[0, soil], points.x[1, soil], c=plastic[soil],
+                    s=size, cmap="viridis",
+                    vmax=np.percentile(plastic[soil], 98))
+    if rigid is not None:
+        ax.scatter(points.x[0, rigid], points.x[1, rigid], c="k", s=size)
+    fig.colorbar(sc, ax=ax, label="equivalent plastic strain (-), top 2% "
+                 "clipped")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title(title)
 
 
 def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],

@@ -27,6 +27,7 @@ from ..solve.newton import LINE_SEARCHES
 from ..mechanics.geostatic import geostatic_stress
 from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
 from ..solve.results import Result
+from ..solve.rigid import RigidBody
 
 __all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
            "build_points", "surface_loads", "support_names", "scene_support_dofs",
@@ -53,6 +54,18 @@ class Grid:
     mesh: object = None
     elem: object = None
 
+    @property
+    def dim(self) -> int:
+        """Space dimension."""
+        return self.mesh.dim() if self.mesh is not None else len(self.axes)
+
+    @property
+    def cells(self) -> float:
+        """Number of cells."""
+        if self.mesh is not None:
+            return float(self.mesh.nelements)
+        return float(np.prod([float(n) for _, _, n in self.axes]))
+
     def build(self):
         if self.mesh is not None:
             return self.mesh, self.elem
@@ -75,13 +88,18 @@ class Body:
     the ground height ``surface`` (default: the top of its material, its
     points' domains), and the gravity then acts on it in full from the
     first step
-    (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`)."""
+    (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`).  With
+    ``rigid`` (its displacement at full load, ramped over the steps) the
+    body is a rigid body pushed through the grid, ``rough`` or smooth
+    (:class:`~skfem_mpm.RigidBody`): a footing, a pile, an indenter."""
     name: str
     region: Union[Sequence[Tuple[float, float]], Callable]
     material: object
     points_per_cell: int = 2
     K0: Optional[float] = None
     surface: Optional[float] = None
+    rigid: Optional[Sequence[float]] = None
+    rough: bool = True
 
     def contains(self, x: ndarray) -> ndarray:
         if callable(self.region):
@@ -166,6 +184,12 @@ class Scene:
     rhs
         ``"residual"`` or ``"increment"`` (the seed's literal scheme,
         small-strain elastic scenes): see :func:`~skfem_mpm.simulate`.
+    reference
+        What the run's error is measured against: ``"column"`` (seed
+        2.28), ``"elastica"`` (end-loaded cantilever) or
+        ``"bearing_capacity"`` (peak pressure of a rigid footing on
+        weightless soil against ``N_c c``,
+        :mod:`skfem_mpm.studies.footing`).
     line_search
         ``"backtracking"`` (default) or ``"none"`` (plain Newton): see
         :func:`~skfem_mpm.simulate`.
@@ -223,6 +247,21 @@ class Scene:
                 "be dropped; use rhs = 'residual'")
         if not self.bodies:
             raise InvalidInputError("a scene needs at least one body")
+        rigid = [b.name for b in self.bodies if b.rigid is not None]
+        if rigid and self.method not in ("mpm", "fem"):
+            raise InvalidInputError(
+                "rigid bodies ({}) need method 'mpm' or 'fem', not {!r}: a "
+                "GIMP point reaches nodes of the cells beside its own, which "
+                "the rigid body does not drive".format(
+                    ", ".join(rigid), self.method))
+        if rigid and len(rigid) == len(self.bodies):
+            raise InvalidInputError("every body is rigid: nothing deforms")
+        if rigid and self.rhs == "increment":
+            raise InvalidInputError("rhs = 'increment' maps load increments "
+                                    "only: rigid bodies need 'residual'")
+        if self.reference == "bearing_capacity":
+            from ..studies.footing import check_footing_scene
+            check_footing_scene(self)
         names = support_names(self)
         if len(set(names)) < len(names):
             raise InvalidInputError("support names must differ, got {}"
@@ -243,12 +282,11 @@ class Scene:
         """Refuse a scene this machine's memory cannot hold: the grid, an
         upper bound of the points (every cell its bodies' boxes reach
         seeded) and the step history."""
-        dim = len(self.grid.axes)
-        cells = float(np.prod([float(n) for _, _, n in self.grid.axes]))
+        dim, cells = self.grid.dim, self.grid.cells
         points = 0.
         for body in self.bodies:
             reached = cells
-            if not callable(body.region):
+            if not callable(body.region) and self.grid.mesh is None:
                 reached = float(np.prod([
                     min(n, np.ceil((min(hi, b_hi) - max(lo, b_lo))
                                    / (hi - lo) * n) + 1)
@@ -404,6 +442,8 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     material = materials[0] if len(materials) == 1 else materials
     supports = scene_supports(scene, mesh.dim())
     prescribed = scene_prescribed(scene, mesh.dim())
+    rigid_bodies = [RigidBody(k, b.rigid, rough=b.rough)
+                    for k, b in enumerate(scene.bodies) if b.rigid is not None]
     return simulate(mesh, elem, points, material, supports,
                     body_force=scene.gravity, nsteps=scene.steps,
                     ramp_body_force=[b.K0 is None for b in scene.bodies],
@@ -415,4 +455,4 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                     max_iter=scene.max_iterations,
                     first_step=first_step, domain0=domain0,
                     callback=callback, solver=scene.linear_solver,
-                    **resume)
+                    rigid_bodies=rigid_bodies, **resume)

@@ -5,8 +5,10 @@ offending value (unknown keys, wrong types, impossible values), in a
 :class:`~skfem_mpm.errors.SceneError`.  The format, with every key::
 
     name = "column"
-    reference = "column"            # optional: "column" (seed 2.28) or
-                                    # "elastica" (end-loaded cantilever)
+    reference = "column"            # optional: "column" (seed 2.28),
+                                    # "elastica" (end-loaded cantilever) or
+                                    # "bearing_capacity" (rigid footing on
+                                    # weightless soil against N_c c)
     [grid]
     x = [0.0, 1.0, 1]               # lo, hi, cells (y, z likewise)
     y = [0.0, 50.0, 20]
@@ -20,6 +22,10 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # ground height, default the top of the
                                     # body's material); its gravity then
                                     # acts in full from the first step
+    rigid = { displacement = [0.0, -0.01], rough = true }   # optional: a
+                                    # rigid body pushed through the grid
+                                    # (a footing; rough = false: smooth),
+                                    # displacement at full load
     material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
     # or { model = "von_mises", E = .., nu = .., yield_stress = .. }
     # or { model = "drucker_prager", E = .., nu = .., cohesion = ..,
@@ -86,7 +92,7 @@ from ..solve.backends import FACTORIES
 
 __all__ = ["load_scene", "parse_scene", "REFERENCES"]
 
-REFERENCES = ("column", "elastica")
+REFERENCES = ("column", "elastica", "bearing_capacity")
 AXES = ("x", "y", "z")
 
 
@@ -266,7 +272,7 @@ def _material(c, data, key):
 def _body(c, data, k, dim):
     key = "bodies[{}]".format(k)
     data = c.table(data, key, ("name", "region", "points_per_cell",
-                               "material", "geostatic"),
+                               "material", "geostatic", "rigid"),
                    ("region", "material"))
     name = data.get("name", "body{}".format(k))
     if not isinstance(name, str):
@@ -292,8 +298,16 @@ def _body(c, data, k, dim):
                       ("K0", "surface"), ("K0",))
         K0 = c.number(geo, key + ".geostatic", "K0", 1., low=0.)
         surface = c.number(geo, key + ".geostatic", "surface")
+    rigid, rough = None, True
+    if "rigid" in data:
+        table = c.table(data["rigid"], key + ".rigid",
+                        ("displacement", "rough"), ("displacement",))
+        rigid = c.vector(table, key + ".rigid", "displacement", dim)
+        if rigid is not None and not any(rigid):
+            c.bad(key + ".rigid.displacement", "must not be zero", rigid)
+        rough = c.boolean(table, key + ".rigid", "rough", True)
     return Body(name=name, region=box, material=material, points_per_cell=ppc,
-                K0=K0, surface=surface)
+                K0=K0, surface=surface, rigid=rigid, rough=rough)
 
 
 def _name(c, data):

@@ -76,8 +76,9 @@ def configure(scene: Scene, params: dict) -> Scene:
 def case_error(scene: Scene, result) -> float:
     """The scene's error measure: ``reference = "column"`` gives seed
     (2.28); ``"elastica"`` the relative error of the loaded points' tip
-    deflection at full load against the elastica; NaN without a
-    reference."""
+    deflection at full load against the elastica; ``"bearing_capacity"``
+    the relative error of the footing's peak pressure against ``N_c c``;
+    NaN without a reference."""
     pts = result.points
     if scene.reference == "column":
         from .column import column_error
@@ -94,6 +95,10 @@ def case_error(scene: Scene, result) -> float:
         loaded = np.flatnonzero(pts.force[1])
         v = -pts.displacement[1, loaded].mean() / length
         return float(abs(v / elastica_tip([alpha])[0][0] - 1))
+    if scene.reference == "bearing_capacity":
+        from .footing import footing_error
+        return footing_error(scene, np.array(
+            [r.rigid_forces[0] for r in result.history]))
     return float("nan")
 
 

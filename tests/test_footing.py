@@ -1,0 +1,167 @@
+"""Rigid footings in scenes: scene keys, the summary's load-displacement
+curve and plot, the bearing-capacity reference and its refusals."""
+import json
+
+import meshio
+import numpy as np
+import pytest
+
+from skfem_mpm import DruckerPrager, MohrCoulomb, ModifiedCamClay, \
+    RigidBody, VonMises, simulate
+from skfem_mpm.errors import InvalidInputError, SceneError
+from skfem_mpm.scenes.cli import main
+from skfem_mpm.scenes.scene import run_scene
+from skfem_mpm.scenes.scene_file import load_scene, parse_scene
+from skfem_mpm.studies.footing import bearing_capacity_factor, soil_strength
+from skfem_mpm.studies.study import study
+
+try:
+    import tomllib
+except ImportError:                       # Python 3.10
+    import tomli as tomllib
+
+# a coarse smooth footing on von Mises soil: h = 1/8, yields in 6 steps
+FOOTING = """
+name = "coarse-footing"
+reference = "bearing_capacity"
+[grid]
+x = [0.0, 1.0, 8]
+y = [0.0, 0.625, 5]
+[[bodies]]
+name = "soil"
+region = { x = [0.0, 1.0], y = [0.0, 0.5] }
+material = { model = "von_mises", E = 1e4, nu = 0.3, yield_stress = 100.0 }
+[[bodies]]
+name = "footing"
+region = { x = [0.0, 0.25], y = [0.5, 0.625] }
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+rigid = { displacement = [0.0, -0.03], rough = false }
+[[supports]]
+boundary = "bottom"
+[[supports]]
+boundary = "left"
+components = ["x"]
+[[supports]]
+boundary = "right"
+components = ["x"]
+[solver]
+steps = 6
+antilocking = true
+"""
+
+
+def prandtl_reissner(phi_degrees):
+    """N_c from its formula, N_q = e^(pi tan phi) tan^2(45 + phi/2)."""
+    t = np.tan(np.radians(phi_degrees))
+    nq = np.exp(np.pi * t) * np.tan(np.radians(45 + phi_degrees / 2)) ** 2
+    return (nq - 1) / t
+
+
+def test_bearing_capacity_factor():
+    for phi in (5., 20., 30., 40.):
+        assert bearing_capacity_factor(phi) == pytest.approx(
+            prandtl_reissner(phi), rel=1e-14)
+    # continuous into Prandtl's 2 + pi at phi = 0 (N_c - (2 + pi) ~ phi)
+    assert bearing_capacity_factor(0.) == 2 + np.pi
+    assert abs(bearing_capacity_factor(1e-4) - (2 + np.pi)) < 1e-4
+
+
+def test_soil_strength_and_its_refusals():
+    assert soil_strength(VonMises(1e5, .3, 100.)) == (100 / np.sqrt(3), 0.)
+    mc = MohrCoulomb(1e5, .3, cohesion=5., friction_angle=25.,
+                     dilation_angle=25.)
+    assert soil_strength(mc) == (5., 25.)
+    for material, words in [
+            (DruckerPrager(1e5, .3, cohesion=5., friction_angle=25.,
+                           dilation_angle=25.), "plane_strain"),
+            (MohrCoulomb(1e5, .3, cohesion=5., friction_angle=25.),
+             "associated"),
+            (ModifiedCamClay(.01, .1, 1., 1e3, 100., 100.), "Mohr-Coulomb")]:
+        with pytest.raises(InvalidInputError, match=words):
+            soil_strength(material)
+
+
+def test_scene_footing_is_the_python_api_footing():
+    scene = parse_scene(tomllib.loads(FOOTING))
+    result = run_scene(scene)
+    mesh, elem = scene.grid.build()
+    from skfem_mpm.scenes.scene import build_points
+    points = build_points(scene, mesh)
+
+    def supports(basis):
+        return np.concatenate([
+            basis.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+            basis.get_dofs(lambda x: np.isclose(x[0], 0.)
+                           | np.isclose(x[0], 1.)).all("u^1")])
+    direct = simulate(mesh, elem, points, [b.material for b in scene.bodies],
+                      supports, nsteps=6, antilocking=True,
+                      rigid_bodies=RigidBody(1, [0., -.03], rough=False))
+    a = np.array([r.rigid_forces for r in result.history])
+    b = np.array([r.rigid_forces for r in direct.history])
+    assert np.array_equal(a, b)
+    assert (a[:, 0, 1] < 0).all() and np.abs(a[:, 0, 0]).max() < 1e-8 * \
+        np.abs(a).max()                    # smooth: no horizontal force
+    assert sum(r.n_yielded for r in result.history) > 0
+
+
+def test_footing_summary_plot_error_and_resume(tmp_path):
+    scene = tmp_path / "footing.toml"
+    scene.write_text(FOOTING)
+    straight, split = tmp_path / "straight", tmp_path / "split"
+    assert main(["run", str(scene), "--out", str(straight),
+                 "--no-progress"]) == 0
+    assert main(["run", str(scene), "--out", str(split), "--max-steps", "3",
+                 "--no-progress"]) == 0
+    assert main(["run", "--resume", str(split), "--no-progress"]) == 0
+    a = json.loads((straight / "summary.json").read_text())
+    b = json.loads((split / "summary.json").read_text())
+    assert a["rigid_bodies"] == b["rigid_bodies"] and a["error"] == b["error"]
+    curve = a["rigid_bodies"]["footing"]
+    assert np.allclose(np.array(curve["displacement"])[:, 1],
+                       -.03 * np.arange(1, 7) / 6, rtol=1e-14)
+    assert set(a["reactions"]) == {"support-1", "support-2", "support-3"}
+    # the error: peak pressure over the footing's width 0.25 against
+    # (2 + pi) c_u with c_u = 100 / sqrt(3)
+    pressure = -np.array(curve["force"])[:, 1] / .25
+    assert a["error"] == pytest.approx(abs(
+        pressure.max() / ((2 + np.pi) * 100 / np.sqrt(3)) - 1), rel=1e-12)
+    assert (straight / "rigid_bodies.png").stat().st_size > 10_000
+    # the yield flag in the VTU: plastic flow in the step, also after the
+    # resume; none in the rigid body
+    for step in (3, 4, 6):
+        a_vtu, b_vtu = (meshio.read(d / "points_{:04d}.vtu".format(step))
+                        for d in (straight, split))
+        flag = a_vtu.point_data["yielding"]
+        assert np.array_equal(flag, b_vtu.point_data["yielding"])
+        assert flag.sum() > 0 and not flag[a_vtu.point_data["body"] == 1].any()
+    grew = meshio.read(straight / "points_0006.vtu").point_data[
+        "equivalent_plastic_strain"] > meshio.read(
+            straight / "points_0005.vtu").point_data[
+                "equivalent_plastic_strain"]
+    assert np.array_equal(grew, flag == 1)
+    # the study measures the same error
+    rows = study(load_scene(scene), {"loadsteps": [6]}, tmp_path / "study",
+                 progress=False)
+    assert rows[0]["error"] == pytest.approx(a["error"], rel=1e-12)
+
+
+@pytest.mark.parametrize("change, words", [
+    (("antilocking = true", 'antilocking = false\nmethod = "cpgimp"'),
+     "need method 'mpm' or 'fem'"),
+    (("displacement = [0.0, -0.03]", "displacement = [0.0, 0.0]"),
+     "must not be zero"),
+    (("rough = false", 'rough = "no"'), "must be true or false"),
+    (('reference = "bearing_capacity"', 'reference = "bearing_capacity"\n'
+      '[gravity]\nbody_force = [0.0, -10.0]'), "weightless"),
+    (("displacement = [0.0, -0.03]", "displacement = [0.01, -0.03]"),
+     "along a grid axis"),
+    (('model = "von_mises", E = 1e4, nu = 0.3, yield_stress = 100.0',
+      'model = "drucker_prager", E = 1e4, nu = 0.3, cohesion = 5.0, '
+      'friction_angle = 20.0'), "plane_strain"),
+])
+def test_footing_scene_keys_are_checked(change, words):
+    parse_scene(tomllib.loads(FOOTING))
+    text = FOOTING.replace(*change)
+    assert text != FOOTING
+    with pytest.raises(SceneError, match=words):
+        parse_scene(tomllib.loads(text))
