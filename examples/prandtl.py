@@ -7,13 +7,14 @@ the problem (symmetry on x = 0): a footing of half-width 0.25 (width
 B = 0.5) on soil 1.25 wide and 0.75 deep (von Mises, ``yield_stress`` 100,
 E = 1e5, nu = 0.3, the mean dilatation against volumetric locking), base
 clamped, sides on rollers, a grid of spacing 1/32 with 2 x 2 points per
-cell, standard MPM in small strain.  The footing is a stiff body of points
-(a :class:`~skfem_mpm.RigidBody`) pushed down by 0.24 of a cell in 20 steps:
+cell, standard MPM in small strain.  The footing is a body of points
+(a :class:`~skfem_mpm.RigidBody`, soft: its material acts only across
+the motion, where a smooth footing must not hold the soil) pushed down by 0.24 of a cell in 20 steps:
 less than the quarter cell after which its points enter the soil's cells
 and its contact moves down a cell.  Its force per step is the
 load-displacement curve: elastic, then a plateau near ``5.14 c_u``
-(5.25 at its highest, 5.13 at the end: within 2.1%; at h = 1/16 the
-plateau peaks at 5.48, 6.7% high).
+(5.24 at its highest, 5.15 at the end: within 1.9%; at h = 1/16 the
+plateau peaks at 5.44, 5.9% high).
 
 Run ``python examples/prandtl.py [OUTDIR]`` for the curve and the plastic
 zone.
@@ -46,7 +47,7 @@ def supports(basis):
 
 
 result = simulate(mesh, ElementQuad1(), points,
-                  [soil, LinearElastic(E=1e7, nu=.3)], supports,
+                  [soil, LinearElastic(E=1e2, nu=.3)], supports,
                   rigid_bodies=[RigidBody(1, [0., -settlement], rough=False)],
                   nsteps=20, antilocking=True)
 # settlement and footing pressure in units of c_u, step by step

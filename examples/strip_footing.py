@@ -9,10 +9,10 @@ cohesion 10, phi = dilation = 20 degrees, E = 1e5, nu = 0.3; the right half
 of a footing of width 0.5 on soil 2 wide and 1 deep) run on a graded grid
 instead of its uniform one: cells of h = 1/64 near the footing (x < 0.6,
 y > 0.6), growing by 1.2 per cell outwards.  The collapse mechanism is
-first order in h (15.9 c at a uniform h = 1/32, 15.5 at 1/48:
+first order in h (15.59 c at a uniform h = 1/32, 15.30 at 1/48:
 docs/geomechanics.md), and the grading buys h = 1/64 where the mechanism
 is sharp at a fifth of the uniform grid's points.  The peak pressure lands
-3.8% above 14.83 c.
+2.6% above 14.83 c.
 
 Run ``python examples/strip_footing.py [OUTDIR]`` for the load-settlement
 curve and the plastic zone.

@@ -154,7 +154,17 @@ def test_footing_summary_plot_error_and_resume(tmp_path):
     (('reference = "bearing_capacity"', 'reference = "bearing_capacity"\n'
       '[gravity]\nbody_force = [0.0, -10.0]'), "weightless"),
     (("displacement = [0.0, -0.03]", "displacement = [0.01, -0.03]"),
-     "along a grid axis"),
+     "pushed down"),
+    (("displacement = [0.0, -0.03]", "displacement = [0.0, 0.03]"),
+     "pushed down"),
+    (("x = [0.0, 0.25], y = [0.5", "x = [0.0, 0.3], y = [0.5"),
+     "between grid lines"),
+    (("x = [0.0, 0.25], y = [0.5", "x = [0.0, 1.5], y = [0.5"),
+     "between grid lines"),
+    (('name = "soil"', 'name = "footing"'), "body names must differ"),
+    (('model = "von_mises", E = 1e4, nu = 0.3, yield_stress = 100.0',
+      'model = "mohr_coulomb", E = 1e4, nu = 0.3, cohesion = 0.0, '
+      'friction_angle = 20.0, dilation_angle = 20.0'), "without cohesion"),
     (('model = "von_mises", E = 1e4, nu = 0.3, yield_stress = 100.0',
       'model = "drucker_prager", E = 1e4, nu = 0.3, cohesion = 5.0, '
       'friction_angle = 20.0'), "plane_strain"),
@@ -165,3 +175,19 @@ def test_footing_scene_keys_are_checked(change, words):
     assert text != FOOTING
     with pytest.raises(SceneError, match=words):
         parse_scene(tomllib.loads(text))
+
+
+def test_a_failed_footing_run_keeps_its_curve(tmp_path):
+    """Non-convergence is often the collapse: the summary of a failed run
+    still holds the curve of its converged steps, and the plot."""
+    scene = tmp_path / "footing.toml"
+    scene.write_text(FOOTING.replace("steps = 6", "steps = 6\n"
+                                     "max_iterations = 2"))
+    assert main(["run", str(scene), "--out", str(tmp_path / "out"),
+                 "--no-progress"]) == 1
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    steps = summary["last_converged_step"]
+    assert steps >= 1
+    assert len(summary["rigid_bodies"]["footing"]["force"]) == steps
+    assert (tmp_path / "out" / "rigid_bodies.png").exists()

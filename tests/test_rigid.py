@@ -143,3 +143,27 @@ def test_bad_rigid_bodies_are_refused():
     # a footing pushed sideways into the roller of the symmetry line
     with pytest.raises(PrescribedMotionError, match="support"):
         run([RigidBody(1, [.01, 0.])])
+
+
+def test_a_stiff_smooth_body_is_named_in_a_warning(caplog):
+    """A smooth footing as stiff as the soil holds the soil's nodes across
+    its motion (rough in effect): said in a warning, and not for a soft
+    one."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import LinearElastic, RigidBody, seed_points, simulate
+    from skfem_mpm.quadrature.points import concatenate_points
+    mesh = MeshQuad.init_tensor(np.linspace(0., 1., 5),
+                                np.linspace(0., 1., 5))
+    soil = seed_points(mesh, 2, region=lambda x: x[1] < .75)
+    pad = seed_points(mesh, 2, region=lambda x: (x[1] > .75) & (x[0] < .5))
+    pad.body[:] = 1
+    points = concatenate_points([soil, pad])
+
+    def base(basis):
+        return basis.get_dofs(lambda x: np.isclose(x[1], 0.)).all()
+    for modulus, warned in ((1e6, True), (1e1, False)):
+        caplog.clear()
+        simulate(mesh, ElementQuad1(), points,
+                 [LinearElastic(1e4, .3), LinearElastic(modulus, .3)], base,
+                 rigid_bodies=RigidBody(1, [0., -.01], rough=False))
+        assert ("smooth rigid body 1" in caplog.text) == warned

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from skfem_mpm import (DruckerPrager, LinearElastic, MohrCoulomb,
-                       NewtonDivergenceError, PrescribedMotionError,
+                       NewtonDivergenceError, PointsOutsideGridError,
+                       PrescribedMotionError,
                        SingularSystemError, VonMises)
 from skfem_mpm.errors import InvalidInputError
 from skfem_mpm.solve.strength_reduction import (reduce_strength,
@@ -58,9 +59,10 @@ def test_bisection_brackets_the_collapse(limit):
     assert all(ok == (f <= limit) for f, ok in s.trials)
 
 
-def test_a_singular_stiffness_is_a_mechanism_too():
-    s = strength_reduction(collapsing_at(1.5, SingularSystemError), 1., 2.,
-                           1e-2)
+@pytest.mark.parametrize("error", [SingularSystemError,
+                                   PointsOutsideGridError])
+def test_a_mechanism_or_a_slide_out_of_the_grid_is_collapse_too(error):
+    s = strength_reduction(collapsing_at(1.5, error), 1., 2., 1e-2)
     assert s.converged <= 1.5 < s.failed
 
 

@@ -144,13 +144,7 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
         "reactions": {name: reactions[:, k].tolist()
                       for k, name in enumerate(names[:len(scene.supports)])},
     }
-    rigid = [b for b in scene.bodies if b.rigid is not None]
-    if rigid:
-        summary["rigid_bodies"] = {
-            body.name: {"displacement": (rows[:, 1:2] * np.asarray(
-                body.rigid)).tolist(),
-                "force": reactions[:, len(scene.supports) + k].tolist()}
-            for k, body in enumerate(rigid)}
+    summary.update(rigid_body_curves(scene, rows, reactions))
     if len(rows) and (rows[:, 5] >= 0).any():
         summary["newton_iterations"] = [int(max(k, 0)) for k in rows[:, 5]]
     if scene.reference == "bearing_capacity":
@@ -161,6 +155,21 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
     if np.isfinite(error):
         summary["error"] = error
     return summary
+
+
+def rigid_body_curves(scene, rows, reactions) -> dict:
+    """``{"rigid_bodies": {name: {"displacement", "force"}}}`` per step of
+    the history ``rows`` and the ``reactions`` (steps, supports + rigid
+    bodies, dim) of :func:`reaction_resultants`; empty without rigid
+    bodies."""
+    rigid = [b for b in scene.bodies if b.rigid is not None]
+    if not rigid:
+        return {}
+    return {"rigid_bodies": {
+        body.name: {"displacement": (rows[:, 1:2] * np.asarray(
+            body.rigid)).tolist(),
+            "force": reactions[:, len(scene.supports) + k].tolist()}
+        for k, body in enumerate(rigid)}}
 
 
 def reaction_resultants(scene):
@@ -244,11 +253,9 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
         body = next(b for b in scene.bodies if b.rigid is not None)
         c, phi = soil_strength(next(b for b in scene.bodies
                                     if b.rigid is None).material)
-        axis = int(np.flatnonzero(body.rigid)[0])
-        width = body.region[1 - axis][1] - body.region[1 - axis][0]
+        width = body.region[0][1] - body.region[0][0]
         curve = curves[body.name]
-        settlement = np.abs(np.array([0.] + [d[axis] for d in
-                                             curve["displacement"]]))
+        settlement = -np.array([0.] + [d[1] for d in curve["displacement"]])
         pressure = np.concatenate([[0.], footing_pressure(
             scene, np.array(curve["force"]))])
         ax.plot(settlement / width, pressure / c, "o-", ms=3,
@@ -256,7 +263,8 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
         ax.axhline(bearing_capacity_factor(phi), color="k", ls="--",
                    label="N_c = {:.2f} (phi = {:g} deg)".format(
                        bearing_capacity_factor(phi), phi))
-        ax.set_xlabel("settlement / width of the footing body (-)")
+        ax.set_xlabel("settlement / width of the footing body (-; half the "
+                      "footing in a half model)")
         ax.set_ylabel("footing pressure / cohesion (-)")
         ax.set_title("{}: load-settlement curve\nagainst the bearing "
                      "capacity N_c c".format(scene.name))
@@ -350,15 +358,21 @@ def run(args) -> int:
     progress = Progress(scene.steps, not args.no_progress)
     history = []
 
-    def checkpoint(state, factor, increment, counters):
-        """The run so far (before this invocation included)."""
-        prepare()
+    def so_far():
+        """History rows and reactions of the run so far (before this
+        invocation included)."""
         rows = history_rows(history)
         reactions = np.array([resultant(r) for r in history]).reshape(
             len(history), len(names), mesh.dim())
         if earlier is not None:
             rows = np.vstack([earlier.history, rows])
             reactions = np.concatenate([earlier.reactions, reactions])
+        return rows, reactions
+
+    def checkpoint(state, factor, increment, counters):
+        """Save the run so far."""
+        prepare()
+        rows, reactions = so_far()
         save_checkpoint(outdir, Checkpoint(
             step=len(rows), nsteps=scene.steps, load_factor=factor,
             increment=increment, points=state, counters=counters,
@@ -402,12 +416,18 @@ def run(args) -> int:
             checkpoint(state, err.load_factor, last.increment if last else
                        resume.get("increment", 1. / scene.steps),
                        last.counters if last else resume.get("counters", {}))
-        write_summary(outdir / "summary.json", {
+        failed = {
             "scene": scene.name, "status": "failed",
             "error": "{}: {}".format(type(err).__name__, err),
             "last_converged_step": last.step if last else
             resume.get("first_step", 1) - 1,
-            "checkpoint": state is not None})
+            "checkpoint": state is not None}
+        rows, reactions = so_far()        # the curve up to the failure
+        failed.update(rigid_body_curves(scene, rows, reactions))
+        write_summary(outdir / "summary.json", failed)
+        if "rigid_bodies" in failed and len(rows):
+            plot_rigid_bodies(scene, failed["rigid_bodies"],
+                              outdir / "rigid_bodies.png")
         raise
     except OSError as err:    # output failed (read-only or full disk, ...)
         try:                  # the last checkpoint stands (atomic writes)

@@ -247,6 +247,10 @@ class Scene:
                 "be dropped; use rhs = 'residual'")
         if not self.bodies:
             raise InvalidInputError("a scene needs at least one body")
+        bodies = [b.name for b in self.bodies]
+        if len(set(bodies)) < len(bodies):
+            raise InvalidInputError("body names must differ, got {}".format(
+                bodies))
         rigid = [b.name for b in self.bodies if b.rigid is not None]
         if rigid and self.method not in ("mpm", "fem"):
             raise InvalidInputError(

@@ -426,7 +426,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         try:
             scene.check()
         except Exception as err:
-            c.problems.append("solver: {}".format(err))
+            c.problems.append("scene: {}".format(err))
     if not supports and not c.problems:
         c.problems.append("supports: missing: without supports every body "
                           "can move freely")

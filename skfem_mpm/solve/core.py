@@ -70,7 +70,7 @@ from .linear import check_rigid_body_modes, free_dofs, solve_active, \
 from .loads import ExternalLoads
 from .newton import FullStep, make_line_search
 from .results import PHASES, Result, StepRecord
-from .rigid import check_rigid_bodies
+from .rigid import check_rigid_bodies, warn_stiff_smooth_bodies
 
 logger = logging.getLogger(__name__)
 
@@ -671,6 +671,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                 else "plasticity"))
     rigid_bodies = check_rigid_bodies(rigid_bodies, points, mesh.dim(),
                                       method)
+    warn_stiff_smooth_bodies(rigid_bodies, material, points)
     if rhs == "increment" and (prescribed is not None or rigid_bodies):
         raise InvalidInputError(
             "rhs = 'increment' maps only the load increment: prescribed "

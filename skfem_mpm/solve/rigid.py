@@ -21,6 +21,7 @@ per step in :attr:`~skfem_mpm.StepRecord.rigid_forces`: the
 load-displacement curve of a footing.  Standard MPM (and FE) only: a GIMP
 point reaches nodes beyond its cell.
 """
+import logging
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -28,6 +29,8 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError, check_real
+
+logger = logging.getLogger(__name__)
 
 __all__ = ["RigidBody"]
 
@@ -40,8 +43,11 @@ class RigidBody:
     ----------
     body
         The index of the body (``points.body``) that is rigid.  Its points
-        keep a material (a stiff elastic one): for a smooth body the
-        components across the motion are free.
+        keep a material, which acts only where the body's nodes are free:
+        nowhere for a rough body; across the motion for a smooth one, where
+        it should be soft (an elastic modulus far below the soil's, e.g. a
+        thousandth): a stiff material there holds the soil's nodes against
+        sliding and the body is rough in effect.
     displacement
         Displacement (dim,) at full load, reached in proportion to the load
         factor.
@@ -92,6 +98,28 @@ class RigidBody:
         if self.rough:
             return dofs
         return dofs[np.asarray(self.displacement)[dofs % points.dim] != 0]
+
+
+def warn_stiff_smooth_bodies(rigid_bodies, material, points):
+    """Log a warning for each smooth rigid body whose material is stiffer
+    (shear modulus) than a tenth of the softest other body's: across its
+    motion it holds the nodes it shares with them, so it is rough in
+    effect.  ``material``: the run's materials per point
+    (:class:`~skfem_mpm.mechanics.materials.PointMaterials`)."""
+    materials = getattr(material, "materials", None)
+    if materials is None:
+        return                      # one material: nothing to compare
+    rigid = {b.body for b in rigid_bodies}
+    others = [materials[k].mu for k in np.unique(points.body)
+              if k not in rigid and k < len(materials)]
+    for b in rigid_bodies:
+        if not b.rough and others and materials[b.body].mu > .1 * min(others):
+            logger.warning(
+                "smooth rigid body %d: its material (shear modulus %.3g) is "
+                "not soft beside the other bodies' (least %.3g): across the "
+                "motion it holds the nodes it shares with them and slides "
+                "no more than a rough body; give it a modulus far below "
+                "theirs", b.body, materials[b.body].mu, min(others))
 
 
 def check_rigid_bodies(rigid_bodies, points, dim: int, method: str) -> tuple:

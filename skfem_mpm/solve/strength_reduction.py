@@ -21,7 +21,7 @@ from typing import Callable
 import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, \
-    PrescribedMotionError, SingularSystemError
+    PointsOutsideGridError, PrescribedMotionError, SingularSystemError
 from .results import Result
 
 logger = logging.getLogger(__name__)
@@ -51,13 +51,10 @@ def reduce_strength(material, factor: float):
     if not (np.isfinite(factor) and factor > 0):
         raise InvalidInputError("the strength reduction factor must be "
                                 "positive, got {!r}".format(factor))
-    if isinstance(material, VonMises):
-        if getattr(material, "hardening", 0.):
-            raise InvalidInputError("strength reduction of a hardening "
-                                    "von Mises material is not offered")
+    if isinstance(material, VonMises):           # perfectly plastic
         return replace(material, yield_stress=material.yield_stress / factor)
     if isinstance(material, (MohrCoulomb, DruckerPrager)):
-        if getattr(material, "hardening", 0.):
+        if isinstance(material, DruckerPrager) and material.hardening:
             raise InvalidInputError(
                 "strength reduction of a hardening Drucker-Prager material "
                 "is not offered (which cohesion would it reduce?)")
@@ -107,9 +104,9 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
         ``run(factor) -> Result``: the problem with its strength divided by
         ``factor`` (e.g. with :func:`reduce_strength`).  A run that does not
         converge (:class:`~skfem_mpm.errors.ConvergenceError` other than a
-        prescribed-motion error, or a singular stiffness: a mechanism) is a
-        failure at that factor; any other error is the caller's and
-        propagates.
+        prescribed-motion error), whose stiffness is singular (a mechanism)
+        or whose points slide out of the grid is a failure at that factor;
+        any other error is the caller's and propagates.
     low, high
         The first bracket: ``low`` must converge; ``high`` is doubled (up
         to five times) until its run fails.
@@ -135,7 +132,8 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
             result = run(factor)
         except PrescribedMotionError:
             raise
-        except (ConvergenceError, SingularSystemError) as err:
+        except (ConvergenceError, SingularSystemError,
+                PointsOutsideGridError) as err:
             logger.info("strength reduction factor %.4f: fails (%s)",
                         factor, type(err).__name__)
             trials.append((factor, False))

@@ -76,8 +76,10 @@ def soil_strength(material) -> tuple:
 
 def check_footing_scene(scene):
     """Refuse a scene whose bearing capacity is not ``N_c c``: it needs a
-    2D grid, no gravity (weightless soil), one rigid body moving along a
-    grid axis, and the other bodies of one soil."""
+    2D grid, no gravity (weightless soil), one rigid body pushed down
+    (along -y) whose box region's edges across the motion are grid lines
+    inside the grid (the body drives whole cells: its contact width is
+    that of its cells), and the other bodies of one soil with ``c > 0``."""
     if scene.grid.dim != 2:
         raise InvalidInputError("reference 'bearing_capacity' is for 2D "
                                 "(plane-strain) scenes")
@@ -86,26 +88,44 @@ def check_footing_scene(scene):
             "reference 'bearing_capacity' is for weightless soil: the "
             "gravity adds the soil weight's share (N_gamma) to N_c c")
     rigid = [b for b in scene.bodies if b.rigid is not None]
-    if len(rigid) != 1 or np.count_nonzero(rigid[0].rigid) != 1:
+    if len(rigid) != 1 or rigid[0].rigid[0] != 0. or rigid[0].rigid[1] >= 0:
         raise InvalidInputError(
             "reference 'bearing_capacity' needs one rigid body (the footing) "
-            "moving along a grid axis")
+            "pushed down, displacement [0, -s]")
+    footing = rigid[0]
+    if callable(footing.region):
+        raise InvalidInputError(
+            "reference 'bearing_capacity' needs the footing's region as a "
+            "box (its width is the pressure's denominator)")
+    mesh, _ = scene.grid.build()
+    lines = np.unique(mesh.p[0])
+    for edge in footing.region[0]:
+        if np.abs(lines - edge).min() > 1e-9 * (1 + np.abs(lines).max()):
+            raise InvalidInputError(
+                "reference 'bearing_capacity': the footing {!r} has its edge "
+                "x = {} between grid lines (x from {} to {}): it drives the "
+                "whole cells its points are in, so its width would not be "
+                "its region's; put its edges on grid lines".format(
+                    footing.name, edge, lines.min(), lines.max()))
     strengths = {soil_strength(b.material) for b in scene.bodies
                  if b.rigid is None}
     if len(strengths) != 1:
         raise InvalidInputError(
             "reference 'bearing_capacity' needs one soil, got bodies of "
             "strengths (c, phi) {}".format(sorted(strengths)))
+    if strengths.pop()[0] <= 0.:
+        raise InvalidInputError(
+            "reference 'bearing_capacity' measures the pressure in units of "
+            "the cohesion: a soil without cohesion has no N_c c")
 
 
 def footing_pressure(scene, forces: ndarray) -> ndarray:
-    """The footing pressure per step (positive pushing) from the rigid
-    body's force per step ``forces`` (steps, dim): the force along its
-    motion over its width across the motion (the extent of its region)."""
+    """The footing pressure per step (positive pushing down) from the
+    rigid body's force per step ``forces`` (steps, 2): the downward force
+    over the width of its region."""
     body = next(b for b in scene.bodies if b.rigid is not None)
-    axis = int(np.flatnonzero(body.rigid)[0])
-    lo, hi = body.region[1 - axis]
-    return np.asarray(forces)[:, axis] * np.sign(body.rigid[axis]) / (hi - lo)
+    lo, hi = body.region[0]
+    return -np.asarray(forces)[:, 1] / (hi - lo)
 
 
 def footing_error(scene, forces: ndarray) -> float:
