@@ -435,6 +435,41 @@ def test_footing_that_leaves_its_material_is_refused():
     assert len(e.value.history) == 4
 
 
+def test_layer_lifted_from_below_yields_without_failed_attempts():
+    """A von Mises layer lifted by its base against a strip held at its
+    surface (a footing in the footing's frame): Newton's first step of a
+    driven step uses the tangent of the step's start with the prescribed
+    increments as loads, so the band of spurious yielding above the moved
+    base at the first trial does not send it astray: every step converges
+    at its first attempt, in at most 7 iterations (the tangent at the
+    first trial took 136 iterations with failed attempts for 4 steps)."""
+    from skfem_mpm import VonMises
+    h, half, width, depth = .125, .25, 1.5, 1.25
+    mesh = MeshQuad.init_tensor(np.arange(0., width + 1e-9, h),
+                                np.arange(0., depth + 2 * h + 1e-9, h))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < depth)
+
+    def supports(b):
+        return np.concatenate([
+            b.get_dofs(lambda x: np.isclose(x[1], depth)
+                       & (x[0] <= half)).all("u^2"),
+            b.get_dofs(lambda x: np.isclose(x[1], 0.)).all("u^1"),
+            b.get_dofs(lambda x: (np.isclose(x[0], 0.)
+                                  | np.isclose(x[0], width))
+                       & (x[1] > 0)).all("u^1")])
+
+    def lift(b, f_old, f_new):
+        dofs = b.get_dofs(lambda x: np.isclose(x[1], 0.)).all("u^2")
+        return dofs, np.full(dofs.size, .008 * (f_new - f_old))
+    res = simulate(mesh, ElementQuad1(), points,
+                   VonMises(E=1e5, nu=.3, yield_stress=100.), supports,
+                   prescribed=lift, nsteps=4)
+    iterations = [len(r.newton_residuals) - 1 for r in res.history]
+    assert res.counters["newton_iterations"] == sum(iterations)
+    assert max(iterations) <= 7
+    assert min(r.n_yielded for r in res.history) > 50
+
+
 @pytest.mark.parametrize("weight", [20., 1e-3, 1e-6])
 def test_equilibrium_of_driven_steps_is_measured_against_the_driving_forces(
         weight):
@@ -449,8 +484,8 @@ def test_equilibrium_of_driven_steps_is_measured_against_the_driving_forces(
                    lambda b: b.get_dofs(lambda x: x[1] == 0),
                    body_force=[0., -weight], prescribed=shear, nsteps=2,
                    kinematics="finite")
-    assert [len(r.newton_residuals) for r in res.history] == [5, 5]
-    assert max(r.residual for r in res.history) < 1e-12
+    assert [len(r.newton_residuals) for r in res.history] == [4, 4]
+    assert max(r.residual for r in res.history) < 1e-11
     driving = res.history[-1].reactions[2 * top].sum()
     assert abs(driving) > 100.
 
@@ -537,7 +572,8 @@ def test_every_failure_is_an_mpm_error_carrying_the_last_state():
                        match="no material point supports") as caught:
         simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3), base,
                  prescribed=push, nsteps=4, kinematics="finite")
-    assert caught.value.load_factor <= .5
+    assert caught.value.load_factor < 1
+    assert len(caught.value.history) == round(caught.value.load_factor * 4)
     assert caught.value.state.x[1].max() < 1.
 
 

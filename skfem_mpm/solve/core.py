@@ -306,6 +306,21 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     def converged(trial: Trial) -> bool:
         return trial.residual <= run.tol
 
+    # a nonlinear step driven by prescribed motion takes its first Newton
+    # step with the tangent of the step's start, the prescribed increments
+    # as loads (the predictor of nonlinear FE codes): the tangent at the
+    # first trial, where only the driven nodes have moved, sees a band of
+    # spurious yielding along them (a whole soil layer behind a moved base)
+    # and sends Newton astray
+    predictor = None
+    if not run.linear and driven.size:
+        start = evaluate(np.zeros(op.N))
+        tic = time.perf_counter()
+        K = op.stiffness(start.response.tangent(), start.response.w)
+        if G is not None:
+            K = K + G
+        predictor = K, start.r - K @ du
+        t["assemble"] += time.perf_counter() - tic
     try:
         current = evaluate(du)
     except InversionError as err:
@@ -327,10 +342,13 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                     else "Newton-Raphson", it, residuals[0], min(residuals),
                     residuals[-1]))
         tic = time.perf_counter()
-        K = op.stiffness(current.response.tangent(), current.response.w)
-        if G is not None:
-            K = K + G
-        r = current.r
+        if it == 0 and predictor is not None:
+            K, r = predictor
+        else:
+            K = op.stiffness(current.response.tangent(), current.response.w)
+            if G is not None:
+                K = K + G
+            r = current.r
         if run.rhs == "increment":
             r = f_dead - run.loads.external(op, points, f_old)
         t["assemble"] += time.perf_counter() - tic
