@@ -59,17 +59,14 @@ pressure = np.array([0.] + [-r.rigid_forces[0][1] for r in result.history]) \
 
 def visualize(outdir="."):
     from pathlib import Path
-    from skfem_mpm.scenes.plot import (draw_plastic_zone, pyplot,
+    from skfem_mpm.scenes.plot import (draw_footing_curve,
+                                       draw_plastic_zone, pyplot,
                                        save_figure)
     fig, (curve, zone) = pyplot().subplots(1, 2, figsize=(11, 4))
-    curve.plot(settlements / (2 * half), pressure, "o-", ms=3,
-               label="skfem-mpm, h = B/16")
-    curve.axhline(2 + np.pi, color="k", ls="--",
-                  label="Prandtl: (2 + pi) c_u")
-    curve.set_xlabel("settlement / footing width B (-)")
-    curve.set_ylabel("footing pressure / c_u (-)")
-    curve.set_title("Load-settlement curve of a smooth strip footing")
-    curve.legend(loc="lower right")
+    draw_footing_curve(curve, settlements / (2 * half), pressure,
+                       "skfem-mpm, h = B/16", 2 + np.pi,
+                       "Prandtl: (2 + pi) c_u",
+                       "Load-settlement curve of a smooth strip footing")
     draw_plastic_zone(fig, zone, result.points, "Plastic zone at the end "
                       "(footing in black)", rigid=result.points.body == 1)
     fig.tight_layout()

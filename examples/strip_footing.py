@@ -61,18 +61,16 @@ pressure = np.concatenate([[0.], footing_pressure(scene, np.array(
 
 
 def visualize(outdir="."):
-    from skfem_mpm.scenes.plot import (draw_plastic_zone, pyplot,
+    from skfem_mpm.scenes.plot import (draw_footing_curve,
+                                       draw_plastic_zone, pyplot,
                                        save_figure)
     fig, (curve, zone) = pyplot().subplots(1, 2, figsize=(11, 4))
     width = 2 * footing.region[0][1]
-    curve.plot(settlement / width, pressure, "o-", ms=3,
-               label="skfem-mpm, h = B/32 at the footing")
-    curve.axhline(nc, color="k", ls="--",
-                  label="Prandtl-Reissner N_c = {:.2f}".format(nc))
-    curve.set_xlabel("settlement / footing width B (-)")
-    curve.set_ylabel("footing pressure / cohesion (-)")
-    curve.set_title("Smooth strip footing on c-phi soil (phi = 20 deg)")
-    curve.legend(loc="lower right")
+    draw_footing_curve(curve, settlement / width, pressure,
+                       "skfem-mpm, h = B/32 at the footing", nc,
+                       "Prandtl-Reissner N_c = {:.2f}".format(nc),
+                       "Smooth strip footing on c-phi soil (phi = 20 deg)",
+                       strength="cohesion")
     draw_plastic_zone(fig, zone, result.points, "Plastic zone at the end "
                       "(footing in black)", rigid=result.points.body == 1,
                       size=1.)

@@ -141,6 +141,69 @@ def test_prandtl_footing_plateau_is_two_plus_pi(tmp_path):
     assert (tmp_path / "prandtl.png").stat().st_size > 10_000
 
 
+@pytest.fixture(scope="module")
+def penetration():
+    """The penetration example and its run at h = B/4 in 128 steps."""
+    module = load("penetration")
+    return module, module.penetrate(4, 128)
+
+
+def test_footing_penetrates_one_width_with_rising_resistance(penetration,
+                                                             tmp_path):
+    """A smooth strip footing pushed one footing width into weightless
+    undrained clay (finite deformation, the grid moving with the footing,
+    h = B/4): runs to the end in equilibrium; the pressure starts near
+    (2 + pi) c_u (measured 5.5 at the first step, B/128) and rises as the
+    footing embeds: its trend from 0.2 B on is upward (least-squares
+    slope measured 1.6 c_u per B) and the last quarter averages above
+    1.4 (2 + pi) c_u (measured 8.5); the rigid base that pushes the soil
+    carries the footing's force (weightless soil, smooth sides: to 1e-8,
+    measured 3e-10); the soil keeps its volume (plastic flow is
+    isochoric: within 1%); the figure is written."""
+    penetration, (result, depths, pressures, base) = penetration
+    assert result.history[-1].load_factor == 1.
+    assert max(r.residual for r in result.history) <= 1e-9
+    prandtl = 2 + np.pi
+    assert prandtl < pressures[1] < 1.2 * prandtl
+    later = depths >= .2
+    slope = np.polyfit(depths[later], pressures[later], 1)[0]
+    assert slope > .5
+    assert pressures[depths >= .75].mean() > 1.4 * prandtl
+    assert np.abs(base[1:] - pressures[1:]).max() < 1e-8 * pressures.max()
+    soil = result.points.body == 0
+    J = np.linalg.det(np.moveaxis(result.points.F[:, :, soil], -1, 0))
+    assert np.abs(J - 1).max() < .01
+    penetration.visualize(result, depths, pressures, tmp_path)
+    assert (tmp_path / "penetration.png").stat().st_size > 10_000
+
+
+def test_penetration_scene_file_is_the_example(penetration):
+    """examples/penetration.toml (supports on grid-line regions) is the
+    script's problem: its first 3 steps' footing reactions are the
+    script's to 1e-9."""
+    from skfem_mpm.scenes.scene import run_scene
+    from skfem_mpm.scenes.scene_file import load_scene
+    penetration, (_, _, pressures, _) = penetration
+    scene = load_scene(EXAMPLES / "penetration.toml")
+    mesh, _ = scene.grid.build()
+    under = 2 * np.flatnonzero(np.isclose(mesh.p[1], penetration.depth)
+                               & (mesh.p[0] <= penetration.half)) + 1
+    records = []
+
+    class Enough(Exception):
+        pass
+
+    def stop_after_three(record, points):
+        records.append(record)
+        if len(records) == 3:
+            raise Enough
+    with pytest.raises(Enough):
+        run_scene(scene, callback=stop_after_three)
+    footing = np.array([-r.reactions[under].sum() for r in records]) \
+        / penetration.half / penetration.cu
+    assert np.abs(footing - pressures[1:4]).max() < 1e-9 * footing.max()
+
+
 def test_strip_footing_on_c_phi_soil_reaches_n_c(tmp_path):
     """A smooth footing on weightless c-phi soil (phi = 20 degrees,
     associated, Drucker-Prager's plane-strain fit, graded grid h = B/32 at

@@ -70,7 +70,9 @@ def test_line_search_choices():
     assert first.watchdog is None and retry.watchdog == 2
     custom = Backtracking(watchdog=0, min_step=1e-2)   # from the first attempt
     assert make_line_search(custom) == (custom, None)
-    for bad in ("armijo", None, 1, Backtracking):
+    first, retry = make_line_search("armijo")        # Armijo from the first
+    assert first.watchdog == 2 and retry is None
+    for bad in ("wolfe", None, 1, Backtracking):
         with pytest.raises(InvalidInputError, match="line_search"):
             make_line_search(bad)
 
@@ -116,5 +118,7 @@ def test_scene_files_choose_the_line_search():
     data["solver"]["line_search"] = "none"
     assert parse_scene(data).line_search == "none"
     data["solver"]["line_search"] = "armijo"
+    assert parse_scene(data).line_search == "armijo"
+    data["solver"]["line_search"] = "wolfe"
     with pytest.raises(SceneError, match="line_search"):
         parse_scene(data)

@@ -127,6 +127,38 @@ def test_bad_scene_files_exit_2_and_write_nothing(tmp_path, capsys):
     assert main(["run", str(tmp_path / "missing.toml")]) == 2
 
 
+def test_supports_on_regions(tmp_path):
+    """A support on the grid nodes in a closed box (lo = hi: a grid line):
+    the nodes inside, components as asked; an inverted box, a box with
+    boundary or at too, and a box without grid nodes are refused."""
+    from skfem import Basis, ElementQuad1, ElementVector, MeshQuad
+    from skfem_mpm.scenes.scene import scene_support_dofs
+    from skfem_mpm.scenes.scene_file import parse_scene
+    from skfem_mpm.errors import InvalidInputError
+    data = {"grid": {"x": [0., 1., 4], "y": [0., 1., 4]},
+            "bodies": [{"region": {"y": [0., .5]}, "material": {
+                "model": "linear_elastic", "E": 1., "nu": .3}}],
+            "supports": [{"region": {"x": [0., .5], "y": [.5, .5]},
+                          "components": ["y"]}]}
+    scene = parse_scene(data)
+    basis = Basis(MeshQuad.init_tensor(*[np.linspace(0, 1, 5)] * 2),
+                  ElementVector(ElementQuad1()))
+    dofs = scene_support_dofs(scene.supports[0], basis, 2).ravel()
+    assert np.allclose(basis.doflocs[1, dofs], .5)
+    assert sorted(basis.doflocs[0, dofs]) == [0., .25, .5]
+    assert np.all(dofs % 2 == 1)
+    for bad, message in (({"x": [.5, 0.]}, "lo <= hi"),
+                         ({"x": [0., .5], "boundary": "left"},
+                          "exactly one of boundary, at, region")):
+        support = {"region": {"x": bad.pop("x")}, **bad}
+        with pytest.raises(SceneError, match=message):
+            parse_scene({**data, "supports": [support]})
+    empty = parse_scene({**data, "supports": [
+        {"region": {"x": [.1, .2], "y": [.1, .2]}}]})
+    with pytest.raises(InvalidInputError, match="no grid node"):
+        scene_support_dofs(empty.supports[0], basis, 2)
+
+
 def test_hostile_scene_files_and_folders_get_one_line(tmp_path, capsys,
                                                      monkeypatch):
     """UTF-16, nesting beyond any scene, a FIFO, /dev/zero, --out that is

@@ -47,6 +47,22 @@ def draw_plastic_zone(fig, ax, points, title: str, rigid=None,
     ax.set_title(title)
 
 
+def draw_footing_curve(ax, movement: np.ndarray, pressure: np.ndarray,
+                       label: str, limit: float, limit_label: str,
+                       title: str, motion: str = "settlement",
+                       strength: str = "c_u"):
+    """A footing's pressure over its strength (``strength``: its symbol)
+    against its ``motion`` over its width, with the collapse pressure
+    ``limit`` of theory as a dashed line."""
+    ax.plot(movement, pressure, "o-", ms=2 if len(movement) > 50 else 3,
+            label=label)
+    ax.axhline(limit, color="k", ls="--", label=limit_label)
+    ax.set_xlabel("{} / footing width B (-)".format(motion))
+    ax.set_ylabel("footing pressure / {} (-)".format(strength))
+    ax.set_title(title)
+    ax.legend(loc="lower right")
+
+
 def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
                        title: str = ""):
     """Vertical stress of the column's points against current height, with

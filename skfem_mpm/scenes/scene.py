@@ -111,7 +111,9 @@ class Body:
 @dataclass
 class Support:
     """Supported grid DOFs: on a named ``boundary`` of the grid, at the grid
-    node ``at`` (coordinates), or on the nodes where ``where(x)`` holds;
+    node ``at`` (coordinates), on the nodes in the closed box ``region``
+    (``[(lo, hi)]`` per axis; ``lo = hi``: a grid line), or on the nodes
+    where ``where(x)`` holds;
     ``components`` among ``"x", "y", "z"``; ``value`` (one per component)
     the displacement reached at full load, ramped over the steps (default:
     fixed).  ``name`` labels its reaction forces in ``summary.json``
@@ -122,6 +124,7 @@ class Support:
     at: Optional[Sequence[float]] = None
     value: Optional[Sequence[float]] = None
     name: Optional[str] = None
+    region: Optional[Sequence[Sequence[float]]] = None
 
 
 @dataclass
@@ -385,6 +388,15 @@ def scene_support_dofs(s: Support, basis, dim: int) -> ndarray:
             raise InvalidInputError(
                 "support at {}: no grid node there (nearest is {})".format(
                     list(s.at), p[:, distance.argmin()].tolist()))
+    elif s.region is not None:
+        box = np.asarray(s.region, float)
+        tol = 1e-9 * (1 + np.abs(p).max())
+        nodes = np.flatnonzero(np.all((p >= box[:, :1] - tol)
+                                      & (p <= box[:, 1:] + tol), axis=0))
+        if nodes.size == 0:
+            raise InvalidInputError(
+                "support in region {}: no grid node there".format(
+                    box.tolist()))
     else:
         nodes = basis.mesh.nodes_satisfying(s.where)
     return basis.nodal_dofs[comps][:, nodes]

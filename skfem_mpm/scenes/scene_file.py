@@ -44,6 +44,9 @@ offending value (unknown keys, wrong types, impossible values), in a
     value = [0.0, -0.1]             # optional: displacement at full load
     [[supports]]
     at = [0.0, 0.5]                 # or one grid node by its coordinates
+    [[supports]]
+    region = { x = [0.0, 0.25], y = [1.25, 1.25] }   # or the grid nodes in
+                                    # a closed box (lo = hi: a grid line)
     [gravity]
     body_force = [0.0, -800.0]      # per unit (initial) volume
     [[point_loads]]
@@ -67,7 +70,8 @@ offending value (unknown keys, wrong types, impossible values), in a
     ghost = "auto"                  # ghost penalty for cut cells: "auto"
                                     # (on after a failed finite step), or
                                     # a factor (0: never)
-    line_search = "backtracking"    # or "none": plain Newton
+    line_search = "backtracking"    # or "armijo" (from the first
+                                    # attempt on), "none": plain Newton
     rhs = "residual"                # or "increment": the seed's literal
                                     # scheme (small-strain elastic scenes)
 
@@ -269,6 +273,23 @@ def _material(c, data, key):
         return LinearElastic(1., 0.)
 
 
+def _box(c, data, key: str, dim: int, closed: bool = False):
+    """``[(lo, hi)] * dim`` of a region table (an axis left out: all of
+    it); ``lo < hi``, or ``lo <= hi`` when ``closed`` (a grid line)."""
+    region = c.table(data, key, AXES[:dim])
+    box = []
+    for d in range(dim):
+        v = region.get(AXES[d], [-math.inf, math.inf])
+        if not (isinstance(v, list) and len(v) == 2 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool)
+                for x in v) and (v[0] <= v[1] if closed else v[0] < v[1])):
+            c.bad("{}.{}".format(key, AXES[d]), "must be [lo, hi] with lo "
+                  "{} hi".format("<=" if closed else "<"), v)
+            v = [0., 1.]
+        box.append((float(v[0]), float(v[1])))
+    return box
+
+
 def _body(c, data, k, dim):
     key = "bodies[{}]".format(k)
     data = c.table(data, key, ("name", "region", "points_per_cell",
@@ -278,17 +299,7 @@ def _body(c, data, k, dim):
     if not isinstance(name, str):
         c.bad(key + ".name", "must be a string", name)
         name = "body{}".format(k)
-    region = c.table(data.get("region", {}), key + ".region", AXES[:dim])
-    box = []
-    for d in range(dim):
-        v = region.get(AXES[d], [-math.inf, math.inf])
-        if not (isinstance(v, list) and len(v) == 2 and all(
-                isinstance(x, (int, float)) and not isinstance(x, bool)
-                for x in v) and v[0] < v[1]):
-            c.bad("{}.region.{}".format(key, AXES[d]), "must be [lo, hi] "
-                  "with lo < hi", v)
-            v = [0., 1.]
-        box.append((float(v[0]), float(v[1])))
+    box = _box(c, data.get("region", {}), key + ".region", dim)
     ppc = c.number(data, key, "points_per_cell", 2, low=1, open_low=False,
                    integer=True)
     material = _material(c, data.get("material", {}), key + ".material")
@@ -339,14 +350,16 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     supports = []
     for k, s in enumerate(c.array(data, "supports")):
         key = "supports[{}]".format(k)
-        s = c.table(s, key, ("boundary", "at", "components", "value",
-                             "name"))
+        s = c.table(s, key, ("boundary", "at", "region", "components",
+                             "value", "name"))
         sides = [b for b, (axis, _) in BOUNDARIES.items() if axis < dim]
-        at, boundary = None, None
-        if ("boundary" in s) == ("at" in s):
-            c.bad(key, "needs exactly one of boundary, at", s)
+        at = boundary = box = None
+        if sum(k in s for k in ("boundary", "at", "region")) != 1:
+            c.bad(key, "needs exactly one of boundary, at, region", s)
         elif "at" in s:
             at = c.vector(s, key, "at", dim, [0.] * dim)
+        elif "region" in s:
+            box = _box(c, s["region"], key + ".region", dim, closed=True)
         else:
             boundary = c.choice(s, key, "boundary", sides, sides[0])
         comps = s.get("components", list(AXES[:dim]))
@@ -362,8 +375,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             name = None
         elif name is not None and name in [x.name for x in supports]:
             c.bad(key + ".name", "names another support too", name)
-        supports.append(Support(boundary=boundary, at=at, components=comps,
-                                value=value, name=name))
+        supports.append(Support(boundary=boundary, at=at, region=box,
+                                components=comps, value=value, name=name))
     gravity = None
     if "gravity" in data:
         g = c.table(data["gravity"], "gravity", ("body_force",),

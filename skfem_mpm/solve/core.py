@@ -571,7 +571,10 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         path wherever it converges), and a load step that fails so is
         retried with Armijo backtracking on the residual (after the ghost
         penalty of ``ghost="auto"``, before the stabilised tangent and any
-        cut-back); ``"none"`` or ``FullStep()``: plain Newton; a
+        cut-back); ``"armijo"``: the Armijo search from the first attempt
+        on (where full steps fail most steps anyway, as for a footing
+        sunk into perfectly plastic soil); ``"none"`` or ``FullStep()``:
+        plain Newton; a
         :class:`~skfem_mpm.solve.newton.Backtracking` of one's own runs
         from the first attempt (e.g. ``Backtracking(watchdog=0)``, Armijo
         on every step).  Linear steps solve once and take the whole step.

@@ -36,7 +36,10 @@ full steps, shortened only where a step cannot be evaluated (a point
 inverts: ``watchdog=None``), which changes nothing where plain Newton
 converges; a step that fails so is retried with the Armijo search (after
 the ghost penalty that ``ghost="auto"`` holds in reserve, before the
-stabilised tangent and any cut-back).
+stabilised tangent and any cut-back).  ``line_search="armijo"`` runs
+the Armijo search from the first attempt on, for problems where full
+steps fail most load steps anyway (a footing sunk by its width into
+perfectly plastic soil: half the Newton iterations of the default).
 :class:`FullStep` is plain Newton.
 """
 import logging
@@ -51,7 +54,7 @@ logger = logging.getLogger(__name__)
 
 __all__ = ["Backtracking", "FullStep", "make_line_search", "LINE_SEARCHES"]
 
-LINE_SEARCHES = ("backtracking", "none")
+LINE_SEARCHES = ("backtracking", "armijo", "none")
 # what a trial step may raise that a shorter step can avoid
 TRIAL_FAILURES = (InversionError, ArithmeticError, np.linalg.LinAlgError)
 
@@ -278,15 +281,20 @@ def make_line_search(line_search):
 
     ``"backtracking"``: ``(Backtracking().guard(), Backtracking())``, full
     steps shortened only where they cannot be evaluated, then the Armijo
-    search on a retry; ``"none"`` or a :class:`FullStep`: plain Newton,
-    ``(FullStep(), None)``; a :class:`Backtracking` of one's own runs from
-    the first attempt on, ``(b, None)``.
+    search on a retry; ``"armijo"``: ``(Backtracking(), None)``, the Armijo
+    search from the first attempt on, as a :class:`Backtracking` of one's
+    own, ``(b, None)``; ``"none"`` or a :class:`FullStep`: plain Newton,
+    ``(FullStep(), None)``.
 
     >>> make_line_search("none")
     (FullStep(), None)
+    >>> make_line_search("armijo")[1] is None
+    True
     """
     if isinstance(line_search, str) and line_search == "backtracking":
         return Backtracking().guard(), Backtracking()
+    if isinstance(line_search, str) and line_search == "armijo":
+        line_search = Backtracking()
     if isinstance(line_search, Backtracking):
         return line_search, None
     if isinstance(line_search, FullStep) or (

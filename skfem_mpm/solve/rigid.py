@@ -7,11 +7,15 @@ hold its points follow its displacement increment.  Its points then move
 rigidly, and so does the material of other bodies in those cells: contact
 is smeared over a cell, no-slip (``rough``: its points move rigidly) or
 free to slide across the motion (``smooth``: only the components along
-which the body moves are prescribed, the others follow its stiffness).  Unlike prescribed grid nodes, the pushed nodes change with
-the body, so a footing can sink through the grid by many cells (the
-large-deformation penetration problems MPM is used for; Phuong et al.,
-*Int. J. Numer. Anal. Methods Geomech.* 40, 2016; the rigid body of the
-MPM codes Anura3D and Kratos works the same way).
+which the body moves are prescribed, the others follow its stiffness).
+Unlike prescribed grid nodes, the pushed nodes change with the body, so a
+footing can sink through the grid by many cells (the rigid body of the MPM
+codes Anura3D and Kratos works the same way).  Its contact then sits up
+to a cell below its base and moves down a cell at a time: the force jumps
+by about 15% as the base crosses a grid line (a footing of width 8 h).
+For penetration by many cells, move the grid with the footing instead
+(the moving-mesh concept of Beuth 2012 and Phuong et al., *Int. J.
+Numer. Anal. Methods Geomech.* 40, 2016; ``examples/penetration.py``).
 
 The force that holds the motion is the sum of the reactions at the body's
 prescribed DOFs other than supported ones (internal minus external force
