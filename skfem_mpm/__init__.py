@@ -19,6 +19,7 @@ from .mechanics.cam_clay import ModifiedCamClay
 from .mechanics.geostatic import geostatic_stress
 from .quadrature.points import MaterialPoints, seed_gauss_points, seed_points
 from .solve.core import simulate
+from .solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from .solve.fe import solve_fe
 from .solve.finite import solve_finite
 from .solve.loads import GridLoad, Pressure, Traction, side_points
@@ -39,5 +40,6 @@ __all__ = [
     "Traction", "Pressure", "GridLoad", "side_points", "NumericalError",
     "PrescribedMotionError", "StepFailedError", "DruckerPrager",
     "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "RigidBody",
-    "reduce_strength", "strength_reduction",
+    "reduce_strength", "strength_reduction", "Dynamics", "Newmark",
+    "GeneralizedAlpha",
 ]

@@ -15,6 +15,9 @@ State is kept as a struct of arrays, points along the last axis:
 - ``F`` and ``be`` (3, 3, n): deformation gradient and elastic left
   Cauchy-Green tensor (finite deformation),
 - ``domain`` (dim, n) or ``None``: GIMP domain half-lengths,
+- ``velocity`` and ``acceleration`` (dim, n) or ``None``: carried by
+  implicit dynamics (:class:`~skfem_mpm.Dynamics`; ``velocity`` given is
+  the initial velocity), ``None`` in quasi-static runs,
 - ``body`` (n,) integers: which body (and material) each point belongs to,
 - ``state``: the materials' internal variables, ``{name: (n,) array}``
   (e.g. ``equivalent_plastic_strain``), set by the solvers from the
@@ -77,6 +80,8 @@ class MaterialPoints:
     domain: Optional[ndarray] = None
     body: Optional[ndarray] = None
     state: Optional[dict] = None
+    velocity: Optional[ndarray] = None
+    acceleration: Optional[ndarray] = None
 
     def __post_init__(self):
         self.x = np.array(self.x, dtype=np.float64)
@@ -112,11 +117,13 @@ class MaterialPoints:
             "be": lambda: np.repeat(identity, n, axis=2),
         }
         shapes = {"force": (dim, n), "x0": (dim, n), "displacement": (dim, n),
-                  "volume0": (n,), "domain": (dim, n)}
-        for name in list(defaults) + ["domain"]:
+                  "volume0": (n,), "domain": (dim, n), "velocity": (dim, n),
+                  "acceleration": (dim, n)}
+        optional = ("domain", "velocity", "acceleration")
+        for name in list(defaults) + list(optional):
             value = getattr(self, name)
             if value is None:
-                if name == "domain":
+                if name in optional:
                     continue
                 value = defaults[name]()
             value = np.array(value, dtype=np.float64)

@@ -65,6 +65,7 @@ from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
+from .dynamics import Dynamics, Inertia
 from .linear import check_rigid_body_modes, free_dofs, solve_active, \
     support_dofs
 from .loads import ExternalLoads
@@ -249,8 +250,9 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         op = MeanDilatation(op, points.volume)
     fixed, du = run.D, np.zeros(op.N)
     driven = np.zeros(0, dtype=np.int64)
+    s_old, s_new = run.scale(f_old), run.scale(f_new)  # the loads' scale
     if run.prescribed is not None:
-        dofs, values = prescribed_increments(run, f_old, f_new, step)
+        dofs, values = prescribed_increments(run, s_old, s_new, step)
         du[dofs] = values
         fixed = np.union1d(fixed, dofs)
         driven = dofs[values != 0.]
@@ -259,7 +261,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     for k, rigid in enumerate(run.rigid_bodies):
         dofs = rigid.dofs(run.grid.dofs.element_dofs, op.point_elements,
                           points)
-        values = rigid.increment(f_old, f_new)[dofs % run.dim]
+        values = rigid.increment(s_old, s_new)[dofs % run.dim]
         clash = np.isin(dofs, fixed) & (du[dofs] != values)
         if clash.any():
             raise PrescribedMotionError(
@@ -273,12 +275,27 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         fixed = np.union1d(fixed, dofs)
         driven = np.union1d(driven, dofs[values != 0.])
         rigid_dofs.append(dofs)
-    check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
-                           op.active_dofs, fixed, run.dim, step)
+    if run.dynamics is None:                  # the mass holds a free body
+        check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
+                               op.active_dofs, fixed, run.dim, step)
     free = free_dofs(op.active_dofs, fixed)
-    f_dead = run.loads.external(op, points, f_new)
+    f_dead = run.loads.external(op, points, s_new)
     G = None if run.ghost is None else run.ghost.matrix(op, points)
+    inertia = None
+    if run.dynamics is not None:
+        inertia, f_dead, f_int0, f_ext0 = step_inertia(
+            run, op, points, f_old, f_new, s_old, f_dead, free, G)
     t["assemble"] += time.perf_counter() - tic
+
+    def tangent(response):
+        """The step's tangent at a trial: stiffness, ghost, inertia."""
+        K = op.stiffness(response.tangent(), response.w)
+        if G is not None:
+            K = K + G
+        if inertia is not None:
+            K = (1 - inertia.alpha_f) * K + inertia.c * inertia.M
+        return K
+
     def evaluate(du: ndarray) -> Trial:
         """The out-of-balance state of the grid increment ``du``."""
         tic = time.perf_counter()
@@ -292,11 +309,17 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         f_int = op.force(response.P, response.w)
         if G is not None:                       # the ghost forces balance too
             f_int += G @ du
-        r = f_ext - f_int
         # relative to the larger of the loads and the forces that drive the
         # prescribed motion: a step driven by prescribed motion under a
-        # small weight is measured against the forces it drives
+        # small weight is measured against the forces it drives (and in
+        # dynamics against the inertia force: a free vibration)
         scale = max(safe_norm(f_ext), safe_norm(f_int[driven]))
+        if inertia is not None:     # at n+1-alpha_f, and the inertia force
+            f_int = (1 - inertia.alpha_f) * f_int + inertia.alpha_f * f_int0
+            moving = inertia.force(du)
+            f_int += moving
+            scale = max(scale, safe_norm(moving))
+        r = f_ext - f_int
         if scale == 0.:               # nothing loads or drives: the stresses
             scale = max(safe_norm(f_int), np.finfo(float).tiny)
         merit = safe_norm(r[free])
@@ -316,9 +339,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     if not run.linear and driven.size:
         start = evaluate(np.zeros(op.N))
         tic = time.perf_counter()
-        K = op.stiffness(start.response.tangent(), start.response.w)
-        if G is not None:
-            K = K + G
+        K = tangent(start.response)
         predictor = K, start.r - K @ du
         t["assemble"] += time.perf_counter() - tic
     try:
@@ -345,10 +366,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         if it == 0 and predictor is not None:
             K, r = predictor
         else:
-            K = op.stiffness(current.response.tangent(), current.response.w)
-            if G is not None:
-                K = K + G
-            r = current.r
+            K, r = tangent(current.response), current.r
         if run.rhs == "increment":
             r = f_dead - run.loads.external(op, points, f_old)
         t["assemble"] += time.perf_counter() - tic
@@ -372,12 +390,20 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         if domains is not None:
             new.domain = domains
     held = fixed[np.isin(fixed, op.active_dofs)]
+    energy = None
+    if inertia is not None:
+        energy = commit_motion(run, op, inertia, new, response, du, G,
+                               f_int0, f_ext0, f_dead)
     t["update"] += time.perf_counter() - tic
     if run.method.moves:     # inside the grid (the location serves the next
         run.method.locate(new.x, step, t, points)               # step)
     record = StepRecord(step, f_new, residuals[-1], op.nelems, free.size, t,
                         reaction_dofs=held, reaction_values=-r[held],
                         n_dofs=op.N)
+    if energy is not None:
+        record.time = f_new * run.dynamics.duration
+        record.time_step = (f_new - f_old) * run.dynamics.duration
+        record.energy = energy
     for dofs in rigid_dofs:       # a support's DOFs keep their reactions
         dofs = dofs[~np.isin(dofs, run.D)]
         force = np.zeros(run.dim)
@@ -392,6 +418,51 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         record.displacement = new.displacement.copy()
         record.stress = new.stress.copy()
     return new, record, op
+
+
+def step_inertia(run: Run, op, points: MaterialPoints, f_old: float,
+                 f_new: float, s_old: float, f_dead: ndarray,
+                 free: ndarray, G):
+    """The inertia of a time step from ``f_old`` to ``f_new`` (fractions
+    of the duration), the external force at ``n+1-alpha_f``, and the
+    internal and external forces at the step's start.  The first step of a
+    run without accelerations takes them from the balance at its start
+    (supported DOFs at rest)."""
+    dynamics = run.dynamics
+    inertia = Inertia(dynamics, op, points, run.masses,
+                      (f_new - f_old) * dynamics.duration)
+    inertia.kinetic_start = .5 * float(run.masses @ (
+        points.velocity ** 2).sum(0))
+    start = run.kinematics.response(op, np.zeros(op.N), points)
+    f_int0 = op.force(start.P, start.w)
+    f_ext0 = run.loads.external(op, points, s_old)
+    if inertia.a is None:
+        a = solve_active(inertia.M.tocsr(), f_ext0 - f_int0, free,
+                         solver=run.solver, doflocs=run.grid.doflocs)
+        inertia.a = a
+        run.counters["linear_solves"] += 1
+    alpha = inertia.alpha_f
+    return inertia, (1 - alpha) * f_dead + alpha * f_ext0, f_int0, f_ext0
+
+
+def commit_motion(run: Run, op, inertia: Inertia, new: MaterialPoints,
+                  response, du: ndarray, G, f_int0: ndarray,
+                  f_ext0: ndarray, f_dead: ndarray) -> dict:
+    """The points take the grid's new velocity and acceleration (PIC);
+    returns the step's energies: kinetic at its end, and the work of the
+    internal and external forces over it (trapezoidal rule)."""
+    a = inertia.acceleration(du)
+    v = inertia.velocity(a)
+    new.velocity, new.acceleration = op.values(v), op.values(a)
+    f_int = op.force(response.P, response.w)
+    if G is not None:
+        f_int += G @ du
+    alpha = inertia.alpha_f          # f_dead is the load at n+1-alpha_f
+    f_ext1 = f_dead if alpha == 0 else (f_dead - alpha * f_ext0) / (1 - alpha)
+    return {"kinetic_start": inertia.kinetic_start,
+            "kinetic": .5 * float(run.masses @ (new.velocity ** 2).sum(0)),
+            "internal_work": .5 * float((f_int0 + f_int) @ du),
+            "external_work": .5 * float((f_ext0 + f_ext1) @ du)}
 
 
 def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
@@ -485,7 +556,8 @@ def numerical_failures(step: int):
 
 def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              supports, body_force=None, loads: Sequence = (),
-             prescribed: Optional[Callable] = None, nsteps: int = 1,
+             prescribed: Optional[Callable] = None,
+             nsteps: Optional[int] = None,
              method: str = "mpm", kinematics: str = "small",
              rhs: str = "residual", antilocking: bool = False,
              ghost="auto", line_search="backtracking", tol: float = 1e-9,
@@ -497,9 +569,10 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              increment: Optional[float] = None,
              counters: Optional[dict] = None,
              callback: Optional[Callable] = None,
-             ramp_body_force=True, rigid_bodies: Sequence = ()) -> Result:
-    """Quasi-static implicit MPM, GIMP or FE: any method with any
-    kinematics, material, stabilisation and loads.
+             ramp_body_force=True, rigid_bodies: Sequence = (),
+             dynamics: Optional[Dynamics] = None) -> Result:
+    """Implicit MPM, GIMP or FE, quasi-static or dynamic: any method with
+    any kinematics, material, stabilisation and loads.
 
     Parameters
     ----------
@@ -609,6 +682,14 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         (a footing that sinks by many cells); the force each needs per step
         (supported DOFs left to their supports) is in
         ``StepRecord.rigid_forces``.
+    dynamics
+        ``None`` (default): quasi-static load steps, no mass, no velocity.
+        A :class:`~skfem_mpm.Dynamics`: time steps with inertia
+        (:mod:`skfem_mpm.solve.dynamics`); the load factor is then the
+        fraction of the duration, loads and prescribed motion follow
+        ``Dynamics.load(t)``, ``nsteps`` is set by the time step (giving it
+        too is refused), every record carries ``time`` and ``energy`` and
+        the points ``velocity`` and ``acceleration``.
 
     Returns
     -------
@@ -646,6 +727,21 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     if rhs not in RHS:
         raise InvalidInputError("rhs must be one of {}, got {!r}".format(
             RHS, rhs))
+    if dynamics is not None:
+        if not isinstance(dynamics, Dynamics):
+            raise InvalidInputError("dynamics must be None or Dynamics(...), "
+                                    "got {!r}".format(dynamics))
+        if nsteps is not None:
+            raise InvalidInputError(
+                "nsteps and dynamics both given: a dynamic run takes "
+                "duration / time_step = {} steps".format(dynamics.nsteps))
+        if rhs == "increment":
+            raise InvalidInputError(
+                "rhs = 'increment' maps load increments of quasi-static steps;"
+                " dynamics needs the out-of-balance force (rhs = 'residual')")
+        nsteps = dynamics.nsteps
+    elif nsteps is None:
+        nsteps = 1
     check_run_input(mesh, points, nsteps, keep_snapshots)
     reserve = isinstance(ghost, str) and ghost == "auto" and \
         kinematics == "finite" and method != "fem"
@@ -715,6 +811,16 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     result = Result(points=points.copy())
     points = result.points
+    masses = None
+    if dynamics is not None:
+        masses = dynamics.masses(points)
+        if points.velocity is None:
+            points.velocity = np.zeros_like(points.x)
+    elif points.velocity is not None or points.acceleration is not None:
+        raise InvalidInputError(
+            "the points carry a velocity or acceleration but the run is "
+            "quasi-static (dynamics=None), which would drop them; pass "
+            "dynamics=Dynamics(...) or clear them")
     for name, value in initial_state(material, points.n).items():
         points.state.setdefault(name, value)
     resumed_counters, counters = dict(counters or {}), result.counters
@@ -745,6 +851,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         line_search=None if linear else line_search[1],
         solver=get_solver(solver), counters=counters,
         keep_snapshots=keep_snapshots, domain0=domain0,
+        dynamics=dynamics, masses=masses,
+        scale=(lambda f: f) if dynamics is None
+        else (lambda f: dynamics.scale(f * dynamics.duration)),
         initial_cells=None if prescribed is None
         else locate(points.x0)[0])
     if prescribed is not None:           # grid DOFs that carried material

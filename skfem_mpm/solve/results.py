@@ -6,6 +6,7 @@ from typing import List, Optional
 import numpy as np
 from numpy import ndarray
 
+from ..errors import InvalidInputError
 from ..quadrature.basis import MaterialPointBasis
 from ..quadrature.points import MaterialPoints
 
@@ -57,6 +58,14 @@ class StepRecord:
         The load increment the next step starts with (``1 / nsteps``, or
         less after a cut-back) and the run's counters after this step: with
         ``load_factor``, what a resume needs.
+    time, time_step, energy
+        Dynamic runs (``simulate(dynamics=...)``): the time at the end of
+        the step, its length, and ``{"kinetic_start": ..., "kinetic": ...,
+        "internal_work": ..., "external_work": ...}``: the kinetic energy
+        at its start and end and the work
+        of the internal and external forces (loads; not the reactions of
+        supports or prescribed motion) over the step; ``None`` in
+        quasi-static runs.  :meth:`Result.energies` sums them.
 
     """
     step: int
@@ -78,6 +87,9 @@ class StepRecord:
     increment: float = 0.
     counters: Optional[dict] = None
     rigid_forces: List[ndarray] = field(default_factory=list)
+    time: Optional[float] = None
+    time_step: Optional[float] = None
+    energy: Optional[dict] = None
 
     @property
     def reactions(self) -> ndarray:
@@ -127,3 +139,24 @@ class Result:
     def timings(self) -> dict:
         """Total seconds per phase over all steps."""
         return {p: sum(r.timings[p] for r in self.history) for p in PHASES}
+
+    def energies(self) -> dict:
+        """Dynamic runs: arrays over time, at the start and after every
+        step, of ``time``, ``kinetic`` energy, the accumulated
+        ``internal_work`` and ``external_work`` (zero at the start), and
+        ``balance = kinetic + internal_work - external_work`` (constant
+        where nothing dissipates and supports do no work)."""
+        if not self.history or self.history[0].energy is None:
+            raise InvalidInputError("energies: only a dynamic run's result "
+                                    "(simulate(dynamics=...)) has them")
+        steps, first = self.history, self.history[0]
+        out = {"time": np.array([first.time - first.time_step]
+                                + [r.time for r in steps]),
+               "kinetic": np.array([first.energy["kinetic_start"]]
+                                   + [r.energy["kinetic"] for r in steps])}
+        for name in ("internal_work", "external_work"):
+            out[name] = np.concatenate([[0.], np.cumsum(
+                [r.energy[name] for r in steps])])
+        out["balance"] = out["kinetic"] + out["internal_work"] \
+            - out["external_work"]
+        return out
