@@ -448,12 +448,17 @@ def step_inertia(run: Run, op, points: MaterialPoints, f_old: float,
 def commit_motion(run: Run, op, inertia: Inertia, new: MaterialPoints,
                   response, du: ndarray, G, f_int0: ndarray,
                   f_ext0: ndarray, f_dead: ndarray) -> dict:
-    """The points take the grid's new velocity and acceleration (PIC);
-    returns the step's energies: kinetic at its end, and the work of the
-    internal and external forces over it (trapezoidal rule)."""
+    """The points' new velocity (FLIP / PIC blend) and acceleration from
+    the grid's; returns the step's energies: kinetic at its start and end,
+    and the work of the internal and external forces over it (trapezoidal
+    rule)."""
     a = inertia.acceleration(du)
     v = inertia.velocity(a)
-    new.velocity, new.acceleration = op.values(v), op.values(a)
+    flip = run.dynamics.flip
+    new.velocity = op.values(v) if flip == 0 else \
+        flip * (new.velocity + op.values(v - inertia.v)) \
+        + (1 - flip) * op.values(v)
+    new.acceleration = op.values(a)
     f_int = op.force(response.P, response.w)
     if G is not None:
         f_int += G @ du

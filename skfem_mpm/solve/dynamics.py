@@ -6,18 +6,28 @@ stabilisation and loads, and the inertia of the points' mass on the grid.
 
 Mass
     Every point carries the mass ``m_p = density * V0_p`` of its body.  The
-    grid's consistent mass ``M_IJ = sum_p m_p N_I(x_p) N_J(x_p)`` (the mass
-    form with the points as quadrature; ``mass="lumped"``: its row sums).
+    grid's lumped mass ``m_I = sum_p m_p N_I(x_p)`` (default, the standard
+    of MPM codes), or the consistent mass ``M_IJ = sum_p m_p N_I(x_p)
+    N_J(x_p)`` (the mass form with the points as quadrature).
 
-Mapping (the choice, documented as the issue asks)
-    PIC with the mass-weighted L2 projection: at the start of a step the
-    grid velocity and acceleration solve ``M v = sum_p N_I m_p v_p`` (the
-    consistent mass: a field the grid represents is recovered exactly, so
-    where no point changes cell, as with ``method="fem"``, the run is
-    exactly the finite-element Newmark scheme and conserves its energy);
-    after the step the points take the grid's new velocity and acceleration
-    at their positions.  With ``mass="lumped"`` the projection is the
-    standard MPM ``v_I = sum_p N_I m_p v_p / m_I``.
+Mapping
+    At the start of a step the grid velocity and acceleration are the
+    mass-weighted projections of the points' (``M v = sum_p N_I m_p
+    v_p``; lumped: the standard ``v_I = sum_p N_I m_p v_p / m_I``).  After
+    the step the points' velocity changes by the grid's change at their
+    positions, ``v_p += sum_I N_I (v_I^(n+1) - v_I^n)`` (FLIP: the update
+    of the implicit MPM literature, ``v_p += dt sum_I N_I ((1 - gamma)
+    a_I^n + gamma a_I^(n+1))``), blended with ``1 - flip`` of the PIC
+    value ``sum_I N_I v_I^(n+1)``; their acceleration is the grid's.
+    PIC alone (``flip=0``) smooths the velocity every step: a bar's
+    vibration loses 1.5% of its amplitude in 5 periods at 100 steps per
+    period, where FLIP keeps it to 0.03%.  With the consistent mass a
+    field the grid represents is recovered exactly, so where no point
+    changes cell (``method="fem"``) the run is exactly the finite-element
+    Newmark scheme and keeps its energy to round-off; but a node that a
+    point barely reaches makes that projection ill-conditioned (a
+    collapsing column fails to converge where the lumped mass runs to
+    rest).
 
 Time integration
     Newmark (``beta``, ``gamma``; default the average acceleration 1/4,
@@ -47,8 +57,8 @@ Energies
     the internal and of the external forces (loads and the reactions of
     prescribed motion) summed by the trapezoidal rule on the grid (the
     stored elastic energy for an elastic body).  For the average
-    acceleration scheme without cell crossing ``kinetic + internal -
-    external`` is constant to round-off.
+    acceleration scheme with the consistent mass and without cell crossing
+    ``kinetic + internal - external`` is constant to round-off.
 
 """
 from dataclasses import dataclass
@@ -63,7 +73,7 @@ from ..errors import InvalidInputError, SingularSystemError, check_real
 
 __all__ = ["Newmark", "GeneralizedAlpha", "Dynamics", "MASSES"]
 
-MASSES = ("consistent", "lumped")
+MASSES = ("lumped", "consistent")
 
 
 @dataclass(frozen=True)
@@ -145,10 +155,13 @@ class Dynamics:
         :class:`Newmark` (default: average acceleration) or
         :class:`GeneralizedAlpha`.
     mass
-        ``"consistent"`` (default) or ``"lumped"`` (see the module notes).
+        ``"lumped"`` (default) or ``"consistent"`` (see the module notes).
     load
         ``load(t)``: the scale of loads and prescribed motion at time ``t``
         (default: 1, in full from the start).
+    flip
+        The FLIP share of the points' velocity update, in [0, 1] (default
+        1; see the module notes).
 
     Examples
     --------
@@ -159,8 +172,9 @@ class Dynamics:
     duration: float
     density: Union[float, Sequence[float]]
     scheme: Union[Newmark, GeneralizedAlpha] = Newmark()
-    mass: str = "consistent"
+    mass: str = "lumped"
     load: Optional[Callable[[float], float]] = None
+    flip: float = 1.
 
     def __post_init__(self):
         dt = check_real("Dynamics time_step", self.time_step)
@@ -187,6 +201,10 @@ class Dynamics:
         if self.mass not in MASSES:
             raise InvalidInputError("Dynamics: mass must be one of {}, got "
                                     "{!r}".format(MASSES, self.mass))
+        flip = check_real("Dynamics flip", self.flip)
+        if not 0 <= flip <= 1:
+            raise InvalidInputError("Dynamics: flip must lie in [0, 1], got "
+                                    "{!r}".format(self.flip))
         if self.load is not None and not callable(self.load):
             raise InvalidInputError("Dynamics: load must be a function of "
                                     "time, got {!r}".format(self.load))
