@@ -105,7 +105,7 @@ def visualize(result, depths, pressures, outdir=".", label=""):
     from skfem_mpm.scenes.plot import (draw_footing_curve,
                                        draw_plastic_zone, pyplot,
                                        save_figure)
-    fig, (curve, zone) = pyplot().subplots(1, 2, figsize=(11, 4.5))
+    fig, (curve, zone) = pyplot().subplots(1, 2, figsize=(11, 5))
     draw_footing_curve(curve, depths, pressures, "skfem-mpm" + label,
                        2 + np.pi, "Prandtl, surface footing: (2 + pi) c_u",
                        "Load-penetration curve of a smooth strip footing",

@@ -147,6 +147,10 @@ def test_supports_on_regions(tmp_path):
     assert np.allclose(basis.doflocs[1, dofs], .5)
     assert sorted(basis.doflocs[0, dofs]) == [0., .25, .5]
     assert np.all(dofs % 2 == 1)
+    with pytest.raises(SceneError, match="names no axis"):
+        parse_scene({**data, "supports": [{"region": {}}]})
+    with pytest.raises(InvalidInputError, match="one \\[lo, hi\\]"):
+        scene_support_dofs(Support(region=[(0., .5)]), basis, 2)
     for bad, message in (({"x": [.5, 0.]}, "lo <= hi"),
                          ({"x": [0., .5], "boundary": "left"},
                           "exactly one of boundary, at, region")):

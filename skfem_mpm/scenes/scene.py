@@ -194,7 +194,8 @@ class Scene:
         weightless soil against ``N_c c``,
         :mod:`skfem_mpm.studies.footing`).
     line_search
-        ``"backtracking"`` (default) or ``"none"`` (plain Newton): see
+        ``"backtracking"`` (default), ``"armijo"`` (Armijo from the first
+        attempt) or ``"none"`` (plain Newton): see
         :func:`~skfem_mpm.simulate`.
     """
     grid: Grid
@@ -390,13 +391,18 @@ def scene_support_dofs(s: Support, basis, dim: int) -> ndarray:
                     list(s.at), p[:, distance.argmin()].tolist()))
     elif s.region is not None:
         box = np.asarray(s.region, float)
+        if box.shape != (dim, 2) or not (box[:, 0] <= box[:, 1]).all():
+            raise InvalidInputError(
+                "support {}: region must be one [lo, hi] with lo <= hi per "
+                "axis ({} rows; +-inf for a whole axis), got {}".format(
+                    s.name or "", dim, np.asarray(s.region).tolist()))
         tol = 1e-9 * (1 + np.abs(p).max())
         nodes = np.flatnonzero(np.all((p >= box[:, :1] - tol)
                                       & (p <= box[:, 1:] + tol), axis=0))
         if nodes.size == 0:
             raise InvalidInputError(
-                "support in region {}: no grid node there".format(
-                    box.tolist()))
+                "support {}in region {}: no grid node there".format(
+                    "{!r} ".format(s.name) if s.name else "", box.tolist()))
     else:
         nodes = basis.mesh.nodes_satisfying(s.where)
     return basis.nodal_dofs[comps][:, nodes]

@@ -360,6 +360,9 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             at = c.vector(s, key, "at", dim, [0.] * dim)
         elif "region" in s:
             box = _box(c, s["region"], key + ".region", dim, closed=True)
+            if isinstance(s["region"], dict) and not s["region"]:
+                c.bad(key + ".region", "names no axis: it would hold every "
+                      "grid node", s["region"])
         else:
             boundary = c.choice(s, key, "boundary", sides, sides[0])
         comps = s.get("components", list(AXES[:dim]))

@@ -69,7 +69,7 @@ from .dynamics import Dynamics, Inertia
 from .linear import check_rigid_body_modes, free_dofs, solve_active, \
     support_dofs
 from .loads import ExternalLoads
-from .newton import FullStep, make_line_search
+from .newton import FullStep, make_line_search, trial_state
 from .results import PHASES, Result, StepRecord
 from .rigid import check_rigid_bodies, warn_stiff_smooth_bodies
 
@@ -362,11 +362,26 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                     step, "the equilibrium iteration" if run.linear
                     else "Newton-Raphson", it, residuals[0], min(residuals),
                     residuals[-1]))
-        tic = time.perf_counter()
         if it == 0 and predictor is not None:
-            K, r = predictor
-        else:
-            K, r = tangent(current.response), current.r
+            tic = time.perf_counter()
+            d = solve_step(run, *predictor, free, step, stabilise)
+            t["solve"] += time.perf_counter() - tic
+            trial, merit = trial_state(evaluate, du + d)
+            if trial is not None and merit < current.merit:
+                du, current = du + d, trial
+                continue
+            # the predictor did not lower the residual (an over-driven
+            # cell can lead it to another branch of the equilibrium):
+            # Newton from the first trial instead, evaluated again (the
+            # predictor's trial overwrote the kinematics' work arrays)
+            logger.debug("step %d: the predictor raised the residual to "
+                         "%.3e; Newton from the first trial", step,
+                         merit / max(current.merit, 1e-300)
+                         * current.residual)
+            current = evaluate(du)
+            run.counters["line_search_trials"] += 2
+        tic = time.perf_counter()
+        K, r = tangent(current.response), current.r
         if run.rhs == "increment":
             r = f_dead - run.loads.external(op, points, f_old)
         t["assemble"] += time.perf_counter() - tic
@@ -657,7 +672,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         from the first attempt (e.g. ``Backtracking(watchdog=0)``, Armijo
         on every step).  Linear steps solve once and take the whole step.
         ``counters["line_search_trials"]`` counts the residual evaluations
-        the line search added beyond one per Newton iteration.
+        the line search added beyond one per Newton iteration (and the two
+        of a predictor step that was rejected for raising the residual).
     tol, max_iter
         Tolerance on the out-of-balance force over the free DOFs relative
         to the larger of the external force and the internal force on the

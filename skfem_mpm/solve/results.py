@@ -122,7 +122,8 @@ class Result:
         ``body_force`` (body-force assemblies), ``linear_solves``,
         ``return_maps`` (stress updates with a return map),
         ``newton_iterations``, ``line_search_trials`` (shortened Newton
-        steps evaluated by the line search), ``stabilised_solves`` (Newton
+        steps evaluated by the line search, and a rejected predictor's
+        two evaluations), ``stabilised_solves`` (Newton
         solves that needed the stabilised tangent: zero-energy modes), and
         ``ghost_from_step`` (0, or the step from which ``ghost="auto"``
         switched the ghost penalty on).
