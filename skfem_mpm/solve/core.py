@@ -68,7 +68,7 @@ from .backends import get_solver
 from .dynamics import Dynamics, Inertia
 from .linear import check_rigid_body_modes, free_dofs, solve_active, \
     support_dofs
-from .loads import ExternalLoads
+from .loads import ExternalLoads, Pressure
 from .newton import FullStep, make_line_search, trial_state
 from .results import PHASES, Result, StepRecord
 from .rigid import check_rigid_bodies, warn_stiff_smooth_bodies
@@ -284,7 +284,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     inertia = None
     if run.dynamics is not None:
         inertia, f_dead, f_int0, f_ext0 = step_inertia(
-            run, op, points, f_old, f_new, s_old, f_dead, free, G)
+            run, op, points, f_old, f_new, s_old, f_dead, free, fixed, du)
     t["assemble"] += time.perf_counter() - tic
 
     def tangent(response):
@@ -305,7 +305,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         f_ext = f_dead
         if run.loads.follows:                   # pressure on the trial surface
             f_ext = f_dead + run.loads.follower_force(
-                op, points, f_new, response.deformation)
+                op, points, s_new, response.deformation)
         f_int = op.force(response.P, response.w)
         if G is not None:                       # the ghost forces balance too
             f_int += G @ du
@@ -437,12 +437,15 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
 
 def step_inertia(run: Run, op, points: MaterialPoints, f_old: float,
                  f_new: float, s_old: float, f_dead: ndarray,
-                 free: ndarray, G):
+                 free: ndarray, fixed: ndarray, du: ndarray):
     """The inertia of a time step from ``f_old`` to ``f_new`` (fractions
     of the duration), the external force at ``n+1-alpha_f``, and the
     internal and external forces at the step's start.  The first step of a
-    run without accelerations takes them from the balance at its start
-    (supported DOFs at rest)."""
+    run without accelerations takes them from the balance at its start.
+    Grid DOFs whose motion is held (supports, prescribed motion, rigid
+    bodies: ``fixed``, their increments in ``du``) move at their prescribed
+    rate over the step, without acceleration, not at the velocity projected
+    from the points near them."""
     dynamics = run.dynamics
     inertia = Inertia(dynamics, op, points, run.masses,
                       (f_new - f_old) * dynamics.duration)
@@ -456,6 +459,8 @@ def step_inertia(run: Run, op, points: MaterialPoints, f_old: float,
                          solver=run.solver, doflocs=run.grid.doflocs)
         inertia.a = a
         run.counters["linear_solves"] += 1
+    inertia.v[fixed] = du[fixed] / inertia.dt
+    inertia.a[fixed] = 0.
     alpha = inertia.alpha_f
     return inertia, (1 - alpha) * f_dead + alpha * f_ext0, f_int0, f_ext0
 
@@ -761,6 +766,19 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                 "rhs = 'increment' maps load increments of quasi-static steps;"
                 " dynamics needs the out-of-balance force (rhs = 'residual')")
         nsteps = dynamics.nsteps
+        if any(isinstance(load, Pressure) for load in loads) and \
+                kinematics == "finite":
+            raise InvalidInputError(
+                "a follower Pressure in dynamics is not supported yet (its "
+                "force at the step's start, its alpha-weighting and its work "
+                "are not carried); use a Traction (fixed direction)")
+        if dynamics.mass == "consistent" and method != "fem":
+            raise InvalidInputError(
+                "mass = 'consistent' needs points that stay in their cells "
+                "(method = 'fem'): with moving points its projection is "
+                "ill-conditioned where a point barely reaches a node, and a "
+                "run was measured to create energy 1000-fold as points "
+                "crossed cells; use mass = 'lumped'")
     elif nsteps is None:
         nsteps = 1
     check_run_input(mesh, points, nsteps, keep_snapshots)

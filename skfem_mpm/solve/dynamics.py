@@ -27,10 +27,13 @@ Mapping
     the default blend brings it to rest (2e-6 of the peak).  With the consistent mass a
     field the grid represents is recovered exactly, so where no point
     changes cell (``method="fem"``) the run is exactly the finite-element
-    Newmark scheme and keeps its energy to round-off; but a node that a
-    point barely reaches makes that projection ill-conditioned (a
-    collapsing column fails to converge where the lumped mass runs to
-    rest).
+    Newmark scheme and keeps its energy to round-off; but where points
+    move, a node that a point barely reaches makes that projection
+    ill-conditioned (a cantilever's kinetic energy grew 1000-fold as its
+    points crossed cells), so the consistent mass is refused for methods
+    other than ``"fem"``.  Grid DOFs whose motion is held (supports,
+    prescribed motion, rigid bodies) move at their prescribed rate over a
+    step, without acceleration.
 
 Time integration
     Newmark (``beta``, ``gamma``; default the average acceleration 1/4,
@@ -57,8 +60,9 @@ Loads in time
 
 Energies
     Per step: the kinetic energy ``sum_p m_p |v_p|^2 / 2``, and the work of
-    the internal and of the external forces (loads and the reactions of
-    prescribed motion) summed by the trapezoidal rule on the grid (the
+    the internal and of the external forces (loads; not the reactions of
+    supports or prescribed motion) summed by the trapezoidal rule on the
+    grid (the
     stored elastic energy for an elastic body).  For the average
     acceleration scheme with the consistent mass and without cell crossing
     ``kinetic + internal - external`` is constant to round-off.
@@ -150,15 +154,16 @@ class Dynamics:
     Parameters
     ----------
     time_step, duration
-        The time step and the time simulated (``duration / time_step``
-        steps, the last one shorter when they do not divide).
+        The longest time step and the time simulated: ``ceil(duration /
+        time_step)`` equal steps.
     density
         Mass per unit (initial) volume: one number, or one per body.
     scheme
         :class:`Newmark` (default: average acceleration) or
         :class:`GeneralizedAlpha`.
     mass
-        ``"lumped"`` (default) or ``"consistent"`` (see the module notes).
+        ``"lumped"`` (default) or ``"consistent"`` (``method="fem"`` only;
+        see the module notes).
     load
         ``load(t)``: the scale of loads and prescribed motion at time ``t``
         (default: 1, in full from the start).
@@ -221,7 +226,9 @@ class Dynamics:
         if self.load is None:
             return 1.
         value = self.load(float(t))
-        if isinstance(value, bool) or not np.isfinite(value):
+        if isinstance(value, (bool, np.bool_)) or not isinstance(
+                value, (int, float, np.integer, np.floating)) or \
+                not np.isfinite(value):
             raise InvalidInputError("Dynamics: load({}) must be a finite "
                                     "number, got {!r}".format(t, value))
         return float(value)
