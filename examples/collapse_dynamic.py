@@ -52,8 +52,8 @@ crest = result.points.x[1].max()
 
 def visualize(outdir="."):
     from pathlib import Path
-    from skfem_mpm.scenes.plot import (draw_plastic_zone, pyplot,
-                                       save_figure)
+    from skfem_mpm.scenes.plot import (draw_energies, draw_plastic_zone,
+                                       pyplot, save_figure)
     fig, (shape, energy) = pyplot().subplots(1, 2, figsize=(12, 4.5))
     draw_plastic_zone(fig, shape, result.points,
                       "Column at rest after its collapse (t = {:.1f} s)"
@@ -63,19 +63,9 @@ def visualize(outdir="."):
     shape.set_xlim(0., 2.)
     shape.set_ylim(0., 2.2)
     shape.legend(loc="upper right")
-    t = energies["time"]
-    for name, style in (("kinetic", "-"), ("internal_work", "--"),
-                        ("external_work", ":")):
-        energy.plot(t, energies[name] / 1e3, style,
-                    label=name.replace("_", " "))
-    energy.plot(t, (energies["external_work"] - energies["internal_work"]
-                    - energies["kinetic"]) / 1e3, "-.",
-                label="numerical dissipation")
-    energy.set_xlabel("time (s)")
-    energy.set_ylabel("energy per unit thickness (kJ/m)")
-    energy.set_title("Energies of the collapse: gravity's work taken by "
-                     "plastic work")
-    energy.legend(loc="center right")
+    draw_energies(energy, energies, "Energies of the collapse: gravity's "
+                  "work taken by plastic work", unit="kJ per m thickness",
+                  scale=1e3)
     fig.tight_layout()
     save_figure(fig, Path(outdir) / "collapse_dynamic.png")
 

@@ -31,9 +31,13 @@ __all__ = ["Checkpoint", "CheckpointError", "save_checkpoint",
 
 CHECKPOINT = "checkpoint.npz"
 HISTORY_KEYS = ("step", "load_factor", "residual", "n_active_elements",
-                "n_free_dofs", "newton_iterations")
+                "n_free_dofs", "newton_iterations", "time", "time_step",
+                "kinetic_start", "kinetic", "internal_work", "external_work")
+ENERGY_KEYS = ("kinetic_start", "kinetic", "internal_work", "external_work")
 POINT_FIELDS = ("x", "volume", "force", "x0", "stress", "strain",
-                "displacement", "volume0", "F", "be", "body", "domain")
+                "displacement", "volume0", "F", "be", "body", "domain",
+                "velocity", "acceleration")
+OPTIONAL_POINT_FIELDS = ("domain", "velocity", "acceleration")
 
 
 class CheckpointError(InvalidInputError):
@@ -86,10 +90,16 @@ def scene_digest(path) -> str:
 
 
 def history_rows(records) -> ndarray:
-    """One row of :data:`HISTORY_KEYS` per step record."""
+    """One row of :data:`HISTORY_KEYS` per step record (time and time step
+    -1, energies 0 in a quasi-static run)."""
+    # time and energies: dynamic runs only (-1 and 0 in quasi-static ones)
     return np.array([[r.step, r.load_factor, r.residual, r.n_active_elements,
                       r.n_free_dofs, -1 if r.newton_residuals is None
-                      else len(r.newton_residuals) - 1] for r in records],
+                      else len(r.newton_residuals) - 1,
+                      -1 if r.time is None else r.time,
+                      -1 if r.time_step is None else r.time_step]
+                     + [0. if r.energy is None else r.energy[k]
+                        for k in ENERGY_KEYS] for r in records],
                     dtype=np.float64).reshape(-1, len(HISTORY_KEYS))
 
 
@@ -199,8 +209,12 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
         key = "points_" + name
         if key in a:
             points[name] = get(key, "i" if name == "body" else "f")
-        elif name != "domain":
+        elif name not in OPTIONAL_POINT_FIELDS:
             raise bad(key, "is missing")
+    if ("velocity" in points) != ("acceleration" in points):
+        raise bad("points_velocity" if "velocity" not in points
+                  else "points_acceleration", "is missing (a dynamic run's "
+                  "velocity and acceleration come together)")
     if "volume0" in points and not (points["volume0"] > 0).all():
         raise bad("points_volume0", "must be positive")
     points["state"] = {k[len("state_"):]: get(k, "f", 1) for k in a

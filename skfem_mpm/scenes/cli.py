@@ -134,7 +134,7 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
             -1, len(names), pts.dim), reactions])
     summary = {
         "scene": scene.name, "method": scene.method,
-        "kinematics": scene.kinematics, "steps": scene.steps,
+        "kinematics": scene.kinematics, "steps": scene.nsteps,
         "steps_run": len(rows), "points": int(pts.n),
         "load_factor": float(rows[-1, 1]) if len(rows) else 0.,
         "max_residual": float(rows[:, 2].max()) if len(rows) else 0.,
@@ -145,6 +145,8 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
                       for k, name in enumerate(names[:len(scene.supports)])},
     }
     summary.update(rigid_body_curves(scene, rows, reactions))
+    if scene.dynamics is not None and len(rows):
+        summary["energies"] = energy_curves(rows)
     if len(rows) and (rows[:, 5] >= 0).any():
         summary["newton_iterations"] = [int(max(k, 0)) for k in rows[:, 5]]
     if scene.reference == "bearing_capacity":
@@ -155,6 +157,21 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
     if np.isfinite(error):
         summary["error"] = error
     return summary
+
+
+def energy_curves(rows) -> dict:
+    """A dynamic run's energies over time from its history ``rows``: at
+    the start and after every step, ``time`` (s), ``kinetic`` energy and
+    the accumulated ``internal_work`` and ``external_work`` (J, per unit
+    thickness in 2D), as :meth:`skfem_mpm.Result.energies`."""
+    from .checkpoint import HISTORY_KEYS
+    col = {k: rows[:, HISTORY_KEYS.index(k)] for k in HISTORY_KEYS}
+    return {
+        "time": [float(col["time"][0] - col["time_step"][0])]
+        + col["time"].tolist(),
+        "kinetic": [float(col["kinetic_start"][0])] + col["kinetic"].tolist(),
+        "internal_work": [0.] + np.cumsum(col["internal_work"]).tolist(),
+        "external_work": [0.] + np.cumsum(col["external_work"]).tolist()}
 
 
 def rigid_body_curves(scene, rows, reactions) -> dict:
@@ -222,7 +239,7 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
     save_figure(fig, outdir / "final_stress.png")
     if scene.reference == "column":
         plot_column_stress([result], ["{}, {} steps".format(
-            scene.method, scene.steps)], outdir / "column_stress.png",
+            scene.method, scene.nsteps)], outdir / "column_stress.png",
             title=scene.name)
     if loaded.size and result.history[0].displacement is not None:
         fig, ax = pyplot().subplots(figsize=(5, 4))
@@ -239,6 +256,14 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
     if "rigid_bodies" in summary:
         plot_rigid_bodies(scene, summary["rigid_bodies"],
                           outdir / "rigid_bodies.png")
+    if "energies" in summary:
+        from .plot import draw_energies
+        fig, ax = pyplot().subplots(figsize=(6, 4))
+        draw_energies(ax, summary["energies"], "{}: energies over time"
+                      .format(scene.name), unit="J" if pts.dim == 3 else
+                      "J per m thickness" if pts.dim == 2 else "J per m^2")
+        fig.tight_layout()
+        save_figure(fig, outdir / "energies.png")
 
 
 def plot_rigid_bodies(scene, curves: dict, path: Path):
@@ -308,8 +333,9 @@ def run(args) -> int:
         source = outdir / "scene.toml"
         scene = load_scene(source)
         earlier = load_checkpoint(outdir, scene_digest(source))
-        scene.steps, points, domain0 = earlier.nsteps, earlier.points, \
-            earlier.domain0
+        points, domain0 = earlier.points, earlier.domain0
+        if scene.dynamics is None:
+            scene.steps = earlier.nsteps
         resume = dict(first_step=earlier.step + 1,
                       load_factor=earlier.load_factor,
                       increment=earlier.increment, counters=earlier.counters)
@@ -317,6 +343,11 @@ def run(args) -> int:
         outdir = args.out
         source = args.scene or EMBEDDED
         scene = load_scene(source)
+        if args.steps and scene.dynamics is not None:
+            raise InvalidInputError(
+                "--steps {}: a dynamic scene takes its steps from "
+                "[dynamics] (duration / time_step); change time_step "
+                "instead".format(args.steps))
         if args.steps:
             scene.steps = args.steps
         if outdir.exists() and not outdir.is_dir():
@@ -354,8 +385,9 @@ def run(args) -> int:
 
     series = None if args.no_series else SeriesWriter(outdir, mesh, points)
     if series is not None and earlier is not None:
-        series.restore([(int(r[0]), float(r[1])) for r in earlier.history])
-    progress = Progress(scene.steps, not args.no_progress)
+        series.restore([(int(r[0]), float(r[6] if scene.dynamics else r[1]))
+                        for r in earlier.history])
+    progress = Progress(scene.nsteps, not args.no_progress)
     history = []
 
     def so_far():
@@ -374,7 +406,7 @@ def run(args) -> int:
         prepare()
         rows, reactions = so_far()
         save_checkpoint(outdir, Checkpoint(
-            step=len(rows), nsteps=scene.steps, load_factor=factor,
+            step=len(rows), nsteps=scene.nsteps, load_factor=factor,
             increment=increment, points=state, counters=counters,
             history=rows, reactions=reactions, scene_sha256=digest,
             domain0=domain0))
@@ -384,8 +416,9 @@ def run(args) -> int:
         history.append(record)
         progress(record)
         if series is not None:
-            series.write(record.step, float(record.load_factor), pts,
-                         record.elements, record.u)
+            series.write(record.step, float(
+                record.load_factor if record.time is None else record.time),
+                pts, record.elements, record.u)
         if record.load_factor < 1. and (
                 (args.checkpoint_every
                  and record.step % args.checkpoint_every == 0)
@@ -414,7 +447,7 @@ def run(args) -> int:
         state = getattr(err, "state", None)
         if state is not None:
             checkpoint(state, err.load_factor, last.increment if last else
-                       resume.get("increment", 1. / scene.steps),
+                       resume.get("increment", 1. / scene.nsteps),
                        last.counters if last else resume.get("counters", {}))
         failed = {
             "scene": scene.name, "status": "failed",
@@ -445,9 +478,12 @@ def run(args) -> int:
     prepare()
     write_summary(outdir / "summary.json", summary)
     plot_outputs(scene, result, outdir, loaded, summary)
-    print("{}: {} {} ({} kinematics), {} points, {} load steps".format(
+    print("{}: {} {} ({} kinematics), {} points, {}".format(
         scene.name, "resumed" if args.resume else "ran", scene.method,
-        scene.kinematics, summary["points"], scene.steps))
+        scene.kinematics, summary["points"], "{} load steps".format(
+            scene.nsteps) if scene.dynamics is None else
+        "{} time steps to t = {:g} s".format(scene.nsteps,
+                                            scene.dynamics.duration)))
     if "error" in summary:
         print("  {:26s}{:.4e}".format(ERROR_LABELS[scene.reference],
                                       summary["error"]))

@@ -42,6 +42,9 @@ def point_cloud(points: MaterialPoints):
     }
     if points.domain is not None:
         data["domain"] = _pad3(points.domain)
+    for name in ("velocity", "acceleration"):     # dynamic runs
+        if getattr(points, name) is not None:
+            data[name] = _pad3(getattr(points, name))
     for name, value in points.state.items():     # the material's variables
         data[name if name not in data else "state_" + name] = value
     return meshio.Mesh(_pad3(points.x), [("vertex", np.arange(n)[:, None])],

@@ -63,6 +63,28 @@ def draw_footing_curve(ax, movement: np.ndarray, pressure: np.ndarray,
     ax.legend(loc="lower right")
 
 
+def draw_energies(ax, energies: dict, title: str, unit: str = "J",
+                  scale: float = 1.):
+    """A dynamic run's kinetic energy, work of the internal and external
+    forces and what the scheme and the mapping dissipated (external work
+    - internal work - kinetic energy) against time; ``energies`` as
+    :meth:`skfem_mpm.Result.energies`, divided by ``scale`` (its ``unit``,
+    e.g. ``"kJ/m"`` with 1e3 for a 2D run)."""
+    t = np.asarray(energies["time"])
+    kinetic, internal, external = (np.asarray(energies[k]) / scale for k in (
+        "kinetic", "internal_work", "external_work"))
+    for values, style, label in ((kinetic, "-", "kinetic energy"),
+                                 (internal, "--", "internal work"),
+                                 (external, ":", "external work")):
+        ax.plot(t, values, style, label=label)
+    ax.plot(t, external - internal - kinetic, "-.",
+            label="numerical dissipation")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("energy ({})".format(unit))
+    ax.set_title(title)
+    ax.legend(loc="best")
+
+
 def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
                        title: str = ""):
     """Vertical stress of the column's points against current height, with

@@ -22,6 +22,7 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       SEED_BYTES_PER_POINT, STEP_RECORD_BYTES,
                       refuse_beyond_memory)
 from ..solve.core import RHS, simulate
+from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
 from ..solve.newton import LINE_SEARCHES
 from ..mechanics.geostatic import geostatic_stress
@@ -91,7 +92,9 @@ class Body:
     (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`).  With
     ``rigid`` (its displacement at full load, ramped over the steps) the
     body is a rigid body pushed through the grid, ``rough`` or smooth
-    (:class:`~skfem_mpm.RigidBody`): a footing, a pile, an indenter."""
+    (:class:`~skfem_mpm.RigidBody`): a footing, a pile, an indenter.
+    ``density`` (mass per unit initial volume) and ``initial_velocity``
+    are for scenes with :attr:`Scene.dynamics`."""
     name: str
     region: Union[Sequence[Tuple[float, float]], Callable]
     material: object
@@ -100,6 +103,8 @@ class Body:
     surface: Optional[float] = None
     rigid: Optional[Sequence[float]] = None
     rough: bool = True
+    density: Optional[float] = None
+    initial_velocity: Optional[Sequence[float]] = None
 
     def contains(self, x: ndarray) -> ndarray:
         if callable(self.region):
@@ -152,6 +157,36 @@ class Traction:
 
 
 @dataclass
+class TimeIntegration:
+    """A scene's implicit dynamics (:class:`~skfem_mpm.Dynamics`, the
+    densities from its bodies): ``scheme`` ``"newmark"`` (``beta``,
+    ``gamma``) or ``"generalized_alpha"`` (``rho_inf``); ``load_ramp``: the
+    time over which loads and prescribed motion rise linearly to full
+    (0: in full from the start)."""
+    time_step: float
+    duration: float
+    scheme: str = "newmark"
+    beta: float = .25
+    gamma: float = .5
+    rho_inf: float = .8
+    mass: str = "lumped"
+    flip: float = .95
+    load_ramp: float = 0.
+
+    def dynamics(self, densities: Sequence[float]) -> Dynamics:
+        scheme = Newmark(self.beta, self.gamma) if self.scheme == "newmark" \
+            else GeneralizedAlpha(self.rho_inf)
+        ramp = float(self.load_ramp)
+        if not (np.isfinite(ramp) and ramp >= 0):
+            raise InvalidInputError("dynamics load_ramp must be a time >= 0, "
+                                    "got {!r}".format(self.load_ramp))
+        return Dynamics(self.time_step, self.duration, list(densities),
+                        scheme=scheme, mass=self.mass, flip=self.flip,
+                        load=None if ramp == 0 else
+                        (lambda t: min(t / ramp, 1.)))
+
+
+@dataclass
 class Scene:
     """A whole simulation.
 
@@ -173,7 +208,8 @@ class Scene:
         solve per step for elastic bodies, Newton for plastic ones) or
         ``"finite"`` (Newton per step).  Every method works with both.
     steps, tolerance, max_iterations
-        Load steps and, for finite deformation, Newton settings.
+        Load steps (default 1; :attr:`nsteps` is the count a run takes)
+        and, for finite deformation, Newton settings.
     linear_solver
         ``"scipy"``, ``"pypardiso"``, ``"pyamg"`` or ``"auto"``
         (:mod:`skfem_mpm.solve.backends`).
@@ -197,6 +233,10 @@ class Scene:
         ``"backtracking"`` (default), ``"armijo"`` (Armijo from the first
         attempt) or ``"none"`` (plain Newton): see
         :func:`~skfem_mpm.simulate`.
+    dynamics
+        ``None`` (quasi-static load steps) or a :class:`TimeIntegration`:
+        time steps with inertia; every body then needs a ``density``, and
+        ``steps`` is not used (``None``).
     """
     grid: Grid
     bodies: List[Body]
@@ -206,7 +246,7 @@ class Scene:
     tractions: List[Traction] = field(default_factory=list)
     method: str = "mpm"
     kinematics: str = "small"
-    steps: int = 1
+    steps: Optional[int] = None
     tolerance: float = 1e-9
     max_iterations: int = 25
     name: str = "scene"
@@ -216,6 +256,15 @@ class Scene:
     ghost: Union[float, str] = "auto"
     rhs: str = "residual"
     line_search: str = "backtracking"
+    dynamics: Optional[TimeIntegration] = None
+
+    @property
+    def nsteps(self) -> int:
+        """The steps a run takes: ``steps`` (default 1), or ``duration /
+        time_step`` with dynamics."""
+        if self.dynamics is not None:
+            return self.dynamics.dynamics([1.]).nsteps
+        return 1 if self.steps is None else int(self.steps)
 
     def check(self):
         """Raise :class:`~skfem_mpm.errors.InvalidInputError` for
@@ -251,6 +300,25 @@ class Scene:
                 "be dropped; use rhs = 'residual'")
         if not self.bodies:
             raise InvalidInputError("a scene needs at least one body")
+        moving = [b.name for b in self.bodies if b.density is not None
+                  or b.initial_velocity is not None]
+        if self.dynamics is None and moving:
+            raise InvalidInputError(
+                "bodies {} have a density or initial velocity but the scene "
+                "is quasi-static (no dynamics): they would be ignored".format(
+                    moving))
+        if self.dynamics is not None:
+            massless = [b.name for b in self.bodies if b.density is None]
+            if massless:
+                raise InvalidInputError(
+                    "dynamics needs a density on every body; {} have "
+                    "none".format(massless))
+            if self.steps is not None:
+                raise InvalidInputError(
+                    "a dynamic scene takes its steps from the time step "
+                    "(duration / time_step); steps = {} would be ignored"
+                    .format(self.steps))
+            self.dynamics.dynamics([b.density for b in self.bodies])
         bodies = [b.name for b in self.bodies]
         if len(set(bodies)) < len(bodies):
             raise InvalidInputError("body names must differ, got {}".format(
@@ -303,10 +371,10 @@ class Scene:
             points += max(reached, 0.) * float(body.points_per_cell) ** dim
         refuse_beyond_memory(
             "{:.3g} cells with up to {:.3g} points over {} steps".format(
-                cells, points, self.steps),
+                cells, points, self.nsteps),
             cells * GRID_BYTES_PER_CELL[dim] + points * (
                 SEED_BYTES_PER_POINT + RUN_BYTES_PER_POINT[dim])
-            + float(self.steps) * STEP_RECORD_BYTES,
+            + float(self.nsteps) * STEP_RECORD_BYTES,
             "use fewer cells, points per cell or steps")
 
 
@@ -346,6 +414,17 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
             raise InvalidInputError("body {!r}: {}".format(body.name, err))
         for name in ("stress", "strain", "be"):
             getattr(points, name)[..., sel] = getattr(start, name)
+    for k, body in enumerate(scene.bodies):
+        if body.initial_velocity is not None:
+            v = np.asarray(body.initial_velocity, float)
+            if v.shape != (points.dim,) or not np.isfinite(v).all():
+                raise InvalidInputError(
+                    "body {!r}: initial_velocity must be {} finite numbers, "
+                    "got {!r}".format(body.name, points.dim,
+                                      body.initial_velocity))
+            if points.velocity is None:
+                points.velocity = np.zeros_like(points.x)
+            points.velocity[:, points.body == k] = v[:, None]
     for load in scene.point_loads:
         if load.where is not None:
             chosen = np.flatnonzero(load.where(points.x))
@@ -466,8 +545,12 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     prescribed = scene_prescribed(scene, mesh.dim())
     rigid_bodies = [RigidBody(k, b.rigid, rough=b.rough)
                     for k, b in enumerate(scene.bodies) if b.rigid is not None]
+    dynamics = None if scene.dynamics is None else \
+        scene.dynamics.dynamics([b.density for b in scene.bodies])
     return simulate(mesh, elem, points, material, supports,
-                    body_force=scene.gravity, nsteps=scene.steps,
+                    body_force=scene.gravity,
+                    nsteps=None if dynamics else scene.nsteps,
+                    dynamics=dynamics,
                     ramp_body_force=[b.K0 is None for b in scene.bodies],
                     method=scene.method, kinematics=scene.kinematics,
                     prescribed=prescribed, rhs=scene.rhs,

@@ -59,6 +59,14 @@ offending value (unknown keys, wrong types, impossible values), in a
     traction = [0.0, -100.0]        # per initial area, fixed direction
     # or pressure = 100.0           # pushes in, follows the surface in
                                     # finite deformation
+    [dynamics]                      # optional: implicit dynamics
+    time_step = 0.01                # s (the longest; equal steps)
+    duration = 1.0                  # s
+    scheme = "newmark"              # or "generalized_alpha" (rho_inf)
+    # beta = 0.25, gamma = 0.5 (newmark); rho_inf = 0.8; mass = "lumped"
+    # or "consistent" (method fem); flip = 0.95; load_ramp = 0.0 (s over
+    # which loads rise to full; bodies then need density = .. and may
+    # have initial_velocity = [..]; [solver] steps is not used)
     [solver]
     method = "mpm"                  # fem mpm ugimp cpgimp
     kinematics = "small"            # small finite
@@ -89,9 +97,10 @@ from ..mechanics.cam_clay import ModifiedCamClay
 from ..mechanics.materials import LinearElastic, VonMises
 from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
 from ..solve.core import RHS
+from ..solve.dynamics import MASSES
 from ..solve.newton import LINE_SEARCHES
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
-                    Scene, Support, Traction)
+                    Scene, Support, Traction, TimeIntegration)
 from ..solve.backends import FACTORIES
 
 __all__ = ["load_scene", "parse_scene", "REFERENCES"]
@@ -293,7 +302,8 @@ def _box(c, data, key: str, dim: int, closed: bool = False):
 def _body(c, data, k, dim):
     key = "bodies[{}]".format(k)
     data = c.table(data, key, ("name", "region", "points_per_cell",
-                               "material", "geostatic", "rigid"),
+                               "material", "geostatic", "rigid", "density",
+                               "initial_velocity"),
                    ("region", "material"))
     name = data.get("name", "body{}".format(k))
     if not isinstance(name, str):
@@ -318,7 +328,37 @@ def _body(c, data, k, dim):
             c.bad(key + ".rigid.displacement", "must not be zero", rigid)
         rough = c.boolean(table, key + ".rigid", "rough", True)
     return Body(name=name, region=box, material=material, points_per_cell=ppc,
-                K0=K0, surface=surface, rigid=rigid, rough=rough)
+                K0=K0, surface=surface, rigid=rigid, rough=rough,
+                density=c.number(data, key, "density", low=0.),
+                initial_velocity=c.vector(data, key, "initial_velocity", dim))
+
+
+#: time-integration schemes of ``[dynamics]``
+SCHEMES = ("newmark", "generalized_alpha")
+
+
+def _dynamics(c, data) -> TimeIntegration:
+    """The ``[dynamics]`` table."""
+    key = "dynamics"
+    d = c.table(data, key, ("scheme", "time_step", "duration", "beta",
+                            "gamma", "rho_inf", "mass", "flip", "load_ramp"),
+                ("time_step", "duration"))
+    scheme = c.choice(d, key, "scheme", SCHEMES, "newmark")
+    for name, owner in (("beta", "newmark"), ("gamma", "newmark"),
+                        ("rho_inf", "generalized_alpha")):
+        if name in d and scheme != owner:
+            c.bad("{}.{}".format(key, name), "belongs to scheme {!r}, not "
+                  "{!r}: it would be ignored".format(owner, scheme), d[name])
+    return TimeIntegration(
+        time_step=c.number(d, key, "time_step", 1., low=0.),
+        duration=c.number(d, key, "duration", 1., low=0.),
+        scheme=scheme, beta=c.number(d, key, "beta", .25, low=0.),
+        gamma=c.number(d, key, "gamma", .5, low=0.),
+        rho_inf=c.number(d, key, "rho_inf", .8, low=0., open_low=False),
+        mass=c.choice(d, key, "mass", MASSES, "lumped"),
+        flip=c.number(d, key, "flip", .95, low=0., open_low=False),
+        load_ramp=c.number(d, key, "load_ramp", 0., low=0.,
+                           open_low=False))
 
 
 def _name(c, data):
@@ -339,7 +379,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     """
     c = _Checker()
     c.table(data, "", ("name", "reference", "grid", "bodies", "supports",
-                       "gravity", "point_loads", "tractions", "solver"),
+                       "gravity", "point_loads", "tractions", "solver",
+                       "dynamics"),
             ("grid", "bodies"))
     grid = _grid(c, data.get("grid", {}))
     dim = len(grid.axes)
@@ -418,13 +459,20 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                       "max_iterations", "linear", "antilocking", "ghost",
                       "rhs", "line_search"))
     method = c.choice(solver, "solver", "method", METHODS, "mpm")
+    dynamics = _dynamics(c, data["dynamics"]) if "dynamics" in data else None
+    if dynamics is not None and "steps" in solver:
+        c.bad("solver.steps", "a dynamic scene takes its steps from "
+              "[dynamics] (duration / time_step): it would be ignored",
+              solver["steps"])
     kinematics = c.choice(solver, "solver", "kinematics", KINEMATICS, "small")
     scene = Scene(
         grid=grid, bodies=bodies, supports=supports, gravity=gravity,
         point_loads=loads, tractions=tractions, method=method,
         kinematics=kinematics,
-        steps=c.number(solver, "solver", "steps", 1, low=1, open_low=False,
-                       integer=True),
+        steps=None if dynamics is not None else c.number(
+            solver, "solver", "steps", None, low=1, open_low=False,
+            integer=True),
+        dynamics=dynamics,
         tolerance=c.number(solver, "solver", "tolerance", 1e-9, low=0.),
         max_iterations=c.number(solver, "solver", "max_iterations", 25,
                                 low=1, open_low=False, integer=True),
@@ -443,7 +491,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             scene.check()
         except Exception as err:
             c.problems.append("scene: {}".format(err))
-    if not supports and not c.problems:
+    if not supports and dynamics is None and not c.problems:
         c.problems.append("supports: missing: without supports every body "
                           "can move freely")
     if c.problems:
