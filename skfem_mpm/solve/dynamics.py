@@ -24,10 +24,10 @@ Mapping
     period, pure FLIP 0.04%, the default blend (0.95) 0.11%.  Pure FLIP
     keeps velocities the grid cannot represent, which never decay: a
     collapsed column keeps 0.2% of its peak kinetic energy for good, where
-    the default blend brings it to rest (2e-6 of the peak).  With the consistent mass a
-    field the grid represents is recovered exactly, so where no point
-    changes cell (``method="fem"``) the run is exactly the finite-element
-    Newmark scheme and keeps its energy to round-off; but where points
+    the default blend brings it to rest (1e-6 of the peak).  With the
+    consistent mass a field the grid represents is recovered exactly, so
+    where no point changes cell (``method="fem"``) the run is exactly the
+    finite-element Newmark scheme and keeps its energy to round-off; but where points
     move, a node that a point barely reaches makes that projection
     ill-conditioned (a cantilever's kinetic energy grew 1000-fold as its
     points crossed cells), so the consistent mass is refused for methods
