@@ -162,7 +162,8 @@ class TimeIntegration:
     densities from its bodies): ``scheme`` ``"newmark"`` (``beta``,
     ``gamma``) or ``"generalized_alpha"`` (``rho_inf``); ``load_ramp``: the
     time over which loads and prescribed motion rise linearly to full
-    (0: in full from the start)."""
+    (0: in full from the start); ``target_iterations``: the adaptive time
+    step's Newton effort (``None``: fixed steps)."""
     time_step: float
     duration: float
     scheme: str = "newmark"
@@ -172,6 +173,7 @@ class TimeIntegration:
     mass: str = "lumped"
     flip: float = .95
     load_ramp: float = 0.
+    target_iterations: Optional[int] = None
 
     def dynamics(self, densities: Sequence[float]) -> Dynamics:
         scheme = Newmark(self.beta, self.gamma) if self.scheme == "newmark" \
@@ -182,6 +184,7 @@ class TimeIntegration:
                                     "got {!r}".format(self.load_ramp))
         return Dynamics(self.time_step, self.duration, list(densities),
                         scheme=scheme, mass=self.mass, flip=self.flip,
+                        target_iterations=self.target_iterations,
                         load=None if ramp == 0 else
                         (lambda t: min(t / ramp, 1.)))
 

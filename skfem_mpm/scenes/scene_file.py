@@ -65,8 +65,9 @@ offending value (unknown keys, wrong types, impossible values), in a
     scheme = "newmark"              # or "generalized_alpha" (rho_inf)
     # beta = 0.25, gamma = 0.5 (newmark); rho_inf = 0.8; mass = "lumped"
     # or "consistent" (method fem); flip = 0.95; load_ramp = 0.0 (s over
-    # which loads rise to full; bodies then need density = .. and may
-    # have initial_velocity = [..]; [solver] steps is not used)
+    # which loads rise to full); target_iterations = 6 (adaptive steps;
+    # bodies then need density = .. and may have initial_velocity = [..];
+    # [solver] steps is not used)
     [solver]
     method = "mpm"                  # fem mpm ugimp cpgimp
     kinematics = "small"            # small finite
@@ -341,7 +342,8 @@ def _dynamics(c, data) -> TimeIntegration:
     """The ``[dynamics]`` table."""
     key = "dynamics"
     d = c.table(data, key, ("scheme", "time_step", "duration", "beta",
-                            "gamma", "rho_inf", "mass", "flip", "load_ramp"),
+                            "gamma", "rho_inf", "mass", "flip", "load_ramp",
+                            "target_iterations"),
                 ("time_step", "duration"))
     scheme = c.choice(d, key, "scheme", SCHEMES, "newmark")
     for name, owner in (("beta", "newmark"), ("gamma", "newmark"),
@@ -358,7 +360,9 @@ def _dynamics(c, data) -> TimeIntegration:
         mass=c.choice(d, key, "mass", MASSES, "lumped"),
         flip=c.number(d, key, "flip", .95, low=0., open_low=False),
         load_ramp=c.number(d, key, "load_ramp", 0., low=0.,
-                           open_low=False))
+                           open_low=False),
+        target_iterations=c.number(d, key, "target_iterations", None, low=2,
+                                   open_low=False, integer=True))
 
 
 def _name(c, data):

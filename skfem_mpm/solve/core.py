@@ -68,7 +68,7 @@ from .backends import get_solver
 from .dynamics import Dynamics, Inertia
 from .linear import check_rigid_body_modes, free_dofs, solve_active, \
     support_dofs
-from .loads import ExternalLoads, Pressure
+from .loads import ExternalLoads
 from .newton import FullStep, make_line_search, trial_state
 from .results import PHASES, Result, StepRecord
 from .rigid import check_rigid_bodies, warn_stiff_smooth_bodies
@@ -281,10 +281,11 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     free = free_dofs(op.active_dofs, fixed)
     f_dead = run.loads.external(op, points, s_new)
     G = None if run.ghost is None else run.ghost.matrix(op, points)
-    inertia = None
+    inertia, follows = None, 1.       # follows: the follower load's weight
     if run.dynamics is not None:
         inertia, f_dead, f_int0, f_ext0 = step_inertia(
             run, op, points, f_old, f_new, s_old, f_dead, free, fixed, du)
+        follows = 1 - inertia.alpha_f
     t["assemble"] += time.perf_counter() - tic
 
     def tangent(response):
@@ -304,7 +305,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         tic = time.perf_counter()
         f_ext = f_dead
         if run.loads.follows:                   # pressure on the trial surface
-            f_ext = f_dead + run.loads.follower_force(
+            f_ext = f_dead + follows * run.loads.follower_force(
                 op, points, s_new, response.deformation)
         f_int = op.force(response.P, response.w)
         if G is not None:                       # the ghost forces balance too
@@ -407,8 +408,8 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     held = fixed[np.isin(fixed, op.active_dofs)]
     energy = None
     if inertia is not None:
-        energy = commit_motion(run, op, inertia, new, response, du, G,
-                               f_int0, f_ext0, f_dead)
+        energy = commit_motion(run, op, inertia, points, new, response, du,
+                               G, f_int0, f_ext0, f_dead, s_new)
     t["update"] += time.perf_counter() - tic
     if run.method.moves:     # inside the grid (the location serves the next
         run.method.locate(new.x, step, t, points)               # step)
@@ -454,6 +455,9 @@ def step_inertia(run: Run, op, points: MaterialPoints, f_old: float,
     start = run.kinematics.response(op, np.zeros(op.N), points)
     f_int0 = op.force(start.P, start.w)
     f_ext0 = run.loads.external(op, points, s_old)
+    if run.loads.follows:             # pressure on the start's surface
+        f_ext0 = f_ext0 + run.loads.follower_force(op, points, s_old,
+                                                   start.deformation)
     if inertia.a is None:
         a = solve_active(inertia.M.tocsr(), f_ext0 - f_int0, free,
                          solver=run.solver, doflocs=run.grid.doflocs)
@@ -465,11 +469,12 @@ def step_inertia(run: Run, op, points: MaterialPoints, f_old: float,
     return inertia, (1 - alpha) * f_dead + alpha * f_ext0, f_int0, f_ext0
 
 
-def commit_motion(run: Run, op, inertia: Inertia, new: MaterialPoints,
-                  response, du: ndarray, G, f_int0: ndarray,
-                  f_ext0: ndarray, f_dead: ndarray) -> dict:
+def commit_motion(run: Run, op, inertia: Inertia, points: MaterialPoints,
+                  new: MaterialPoints, response, du: ndarray, G,
+                  f_int0: ndarray, f_ext0: ndarray, f_dead: ndarray,
+                  s_new: float) -> dict:
     """The points' new velocity (FLIP / PIC blend) and acceleration from
-    the grid's; returns the step's energies: kinetic at its start and end,
+    the grid's (``points``: the state at the step's start); returns the step's energies: kinetic at its start and end,
     and the work of the internal and external forces over it (trapezoidal
     rule)."""
     a = inertia.acceleration(du)
@@ -484,6 +489,9 @@ def commit_motion(run: Run, op, inertia: Inertia, new: MaterialPoints,
         f_int += G @ du
     alpha = inertia.alpha_f          # f_dead is the load at n+1-alpha_f
     f_ext1 = f_dead if alpha == 0 else (f_dead - alpha * f_ext0) / (1 - alpha)
+    if run.loads.follows:             # pressure on the step's end surface
+        f_ext1 = f_ext1 + run.loads.follower_force(op, points, s_new,
+                                                   response.deformation)
     return {"kinetic_start": inertia.kinetic_start,
             "kinetic": .5 * float(run.masses @ (new.velocity ** 2).sum(0)),
             "internal_work": .5 * float((f_int0 + f_int) @ du),
@@ -766,12 +774,6 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                 "rhs = 'increment' maps load increments of quasi-static steps;"
                 " dynamics needs the out-of-balance force (rhs = 'residual')")
         nsteps = dynamics.nsteps
-        if any(isinstance(load, Pressure) for load in loads) and \
-                kinematics == "finite":
-            raise InvalidInputError(
-                "a follower Pressure in dynamics is not supported yet (its "
-                "force at the step's start, its alpha-weighting and its work "
-                "are not carried); use a Traction (fixed direction)")
         if dynamics.mass == "consistent" and method != "fem":
             raise InvalidInputError(
                 "mass = 'consistent' needs points that stay in their cells "
@@ -940,7 +942,11 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                 history=result.history) from err
         step += 1
         factor = target
-        if abs(factor - boundary) < 1e-12:
+        if dynamics is not None and dynamics.target_iterations and \
+                record.newton_residuals is not None:
+            increment = dynamics.adapt(increment, 1. / nsteps, smallest,
+                                       len(record.newton_residuals) - 1)
+        elif abs(factor - boundary) < 1e-12:
             increment = 1. / nsteps
         record.increment, record.counters = increment, dict(counters)
         result.history.append(record)

@@ -170,6 +170,14 @@ class Dynamics:
     flip
         The FLIP share of the points' velocity update, in [0, 1] (default
         0.95; see the module notes).
+    target_iterations
+        ``None`` (default): every step ``time_step`` long, cut back only
+        where Newton fails (and back to ``time_step`` at the next multiple
+        of it).  A number: the time step adapts to Newton's effort, halved
+        after a step that took more iterations, doubled (up to
+        ``time_step``) after one that took at most half as many; cut back
+        where Newton fails, as always.  Steps never straddle a multiple of
+        ``time_step``, so the output keeps its times.
 
     Examples
     --------
@@ -183,6 +191,7 @@ class Dynamics:
     mass: str = "lumped"
     load: Optional[Callable[[float], float]] = None
     flip: float = .95
+    target_iterations: Optional[int] = None
 
     def __post_init__(self):
         dt = check_real("Dynamics time_step", self.time_step)
@@ -213,6 +222,13 @@ class Dynamics:
         if not 0 <= flip <= 1:
             raise InvalidInputError("Dynamics: flip must lie in [0, 1], got "
                                     "{!r}".format(self.flip))
+        if self.target_iterations is not None and (
+                isinstance(self.target_iterations, bool) or not isinstance(
+                    self.target_iterations, (int, np.integer))
+                or not 2 <= self.target_iterations <= 50):
+            raise InvalidInputError(
+                "Dynamics: target_iterations must be None or an integer in "
+                "[2, 50], got {!r}".format(self.target_iterations))
         if self.load is not None and not callable(self.load):
             raise InvalidInputError("Dynamics: load must be a function of "
                                     "time, got {!r}".format(self.load))
@@ -220,6 +236,16 @@ class Dynamics:
     @property
     def nsteps(self) -> int:
         return max(1, int(np.ceil(self.duration / self.time_step - 1e-9)))
+
+    def adapt(self, increment: float, nominal: float, smallest: float,
+              iterations: int) -> float:
+        """The next step's increment (fraction of the duration) after one
+        that took ``iterations`` Newton iterations."""
+        if iterations > self.target_iterations:
+            return max(increment / 2, smallest)
+        if 2 * iterations <= self.target_iterations:
+            return min(2 * increment, nominal)
+        return increment
 
     def scale(self, t: float) -> float:
         """The loads' scale at time ``t``."""
