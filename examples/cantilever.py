@@ -31,9 +31,11 @@ def cantilever(h: float = .5, per_axis: int = 6, nsteps: int = 50,
     mesh = MeshQuad.init_tensor(x, y)
     points = seed_points(mesh, per_axis, region=lambda p: (p[0] < LENGTH)
                          & (p[1] > 0) & (p[1] < DEPTH))
-    tip = points.x[0] == points.x[0].max()
+    # the tip column (by tolerance: seeded coordinates differ by round-off)
+    tip = np.isclose(points.x[0], points.x[0].max(), rtol=0.,
+                     atol=1e-9 * LENGTH)
     loaded = np.flatnonzero(tip)[np.argsort(np.abs(
-        points.x[1, tip] - DEPTH / 2))[:2]]
+        points.x[1, tip] - DEPTH / 2), kind="stable")[:2]]
     points.force[1, loaded] = -LOAD / 2
 
     def supports(basis):
