@@ -41,3 +41,22 @@ def test_readme_examples_run():
     weight = 800. * large.points.volume0.sum()
     assert abs(reaction[1] / (weight + 1e3 * 4.) - 1.) < 1e-2
     assert abs(reaction[0]) < 1e-2 * reaction[1]
+
+
+def test_version_licence_and_citation_agree(capsys):
+    """``skfem-mpm --version`` prints the package's version, which is
+    pyproject's and CITATION.cff's; LICENSE is the declared BSD-3-Clause;
+    py.typed ships with the package."""
+    import skfem_mpm
+    from skfem_mpm.scenes.cli import main
+    from skfem_mpm.scenes.scene_file import tomllib
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == "skfem-mpm " + project[
+        "version"] == "skfem-mpm " + skfem_mpm.__version__
+    assert project["license"]["text"] == "BSD-3-Clause"
+    assert (ROOT / "LICENSE").read_text().startswith("BSD 3-Clause License")
+    citation = (ROOT / "CITATION.cff").read_text()
+    assert "version: {}\n".format(project["version"]) in citation
+    assert "license: BSD-3-Clause" in citation
+    assert (ROOT / "skfem_mpm" / "py.typed").exists()
