@@ -428,3 +428,19 @@ def test_pressure_from_a_scene_file_is_the_traction_in_small_strain(tmp_path):
                                              "pressure = 1.0"))
     with pytest.raises(SceneError, match="exactly one of traction, pressure"):
         load_scene(path)
+
+
+def test_output_files_are_readable_by_the_group(tmp_path):
+    """Files written atomically take the mode of any new file (0o644 under
+    the usual umask 022), not the temporary's owner-only 0o600."""
+    import os
+    mask = os.umask(0o022)
+    try:
+        out = tmp_path / "out"
+        assert main(["run", "--out", str(out), "--no-progress",
+                     "--checkpoint-every", "5"]) == 0
+        for name in ("summary.json", "points.pvd", "points_0001.vtu",
+                     "final_stress.png"):
+            assert (out / name).stat().st_mode & 0o777 == 0o644, name
+    finally:
+        os.umask(mask)

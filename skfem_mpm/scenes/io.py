@@ -13,7 +13,9 @@ TEMPORARY_PREFIX = ".skfem-mpm-partial."
 @contextmanager
 def atomic_path(path):
     """Yield a temporary file name beside ``path``; rename it to ``path``
-    only when the block completes, remove it otherwise.
+    only when the block completes, remove it otherwise.  The file gets the
+    mode of any new file (``0o666`` less the umask: readable by the group
+    and others as usual), not the owner-only mode of the temporary.
 
     Examples
     --------
@@ -33,11 +35,19 @@ def atomic_path(path):
     os.close(fd)
     try:
         yield tmp
+        os.chmod(tmp, 0o666 & ~current_umask())
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.remove(tmp)
         raise
+
+
+def current_umask() -> int:
+    """The process's umask (read by setting it and setting it back)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def remove_temporaries(outdir) -> int:
