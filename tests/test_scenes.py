@@ -444,3 +444,26 @@ def test_output_files_are_readable_by_the_group(tmp_path):
             assert (out / name).stat().st_mode & 0o777 == 0o644, name
     finally:
         os.umask(mask)
+
+
+def test_a_new_run_clears_an_earlier_runs_files(tmp_path, caplog):
+    """Run into a folder an earlier run wrote: its series files, checkpoint
+    and figures are removed first (a 4-step run's points_0004.vtu would
+    otherwise sit beside a 2-step run's series), with a warning naming
+    them; files the package does not write are kept."""
+    import logging
+    out = tmp_path / "out"
+    assert main(["run", "--out", str(out), "--no-progress", "--steps", "4",
+                 "--checkpoint-every", "1", "--max-steps", "3"]) == 0
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    assert (out / "points_0004.vtu").exists()
+    (out / "notes.txt").write_text("mine")
+    with caplog.at_level(logging.WARNING):
+        assert main(["run", "--out", str(out), "--no-progress", "--steps",
+                     "2"]) == 0
+    assert not (out / "points_0004.vtu").exists()
+    assert not (out / "checkpoint.npz").exists()
+    assert (out / "points_0002.vtu").exists()
+    assert (out / "notes.txt").read_text() == "mine"
+    assert "earlier run" in caplog.text and "checkpoint.npz" in caplog.text
+    assert (out / "points.pvd").read_text().count("<DataSet") == 2

@@ -322,7 +322,7 @@ def run(args) -> int:
                              history_rows, load_checkpoint, save_checkpoint,
                              scene_digest)
     from .output import SeriesWriter, write_summary
-    from .io import atomic_path, remove_temporaries
+    from .io import atomic_path, clear_earlier_run, remove_temporaries
     from .scene import build_points, run_scene, surface_loads
     from .scene_file import load_scene
 
@@ -383,6 +383,13 @@ def run(args) -> int:
             logger.info("removed the partial files of a killed run in %s",
                         outdir)
         if args.resume is None:
+            stale = clear_earlier_run(outdir)
+            if stale:
+                logger.warning(
+                    "removed %d file(s) of an earlier run in %s (%s%s) so "
+                    "that none is mistaken for this run's", len(stale),
+                    outdir, ", ".join(stale[:4]),
+                    ", ..." if len(stale) > 4 else "")
             with atomic_path(outdir / "scene.toml") as tmp:
                 shutil.copyfile(source, tmp)
         prepared.append(outdir)

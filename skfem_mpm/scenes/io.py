@@ -43,6 +43,24 @@ def atomic_path(path):
         raise
 
 
+#: what a run writes in its output folder (globs): an earlier run's
+#: files there are removed when a new run (not a resume) starts
+RUN_OUTPUTS = ("points_*.vtu", "grid_*.vtu", "points.pvd", "grid.pvd",
+               "checkpoint.npz", "summary.json", "final_stress.png",
+               "column_stress.png", "load_displacement.png",
+               "rigid_bodies.png", "energies.png")
+
+
+def clear_earlier_run(outdir) -> list:
+    """Remove the files an earlier run wrote in ``outdir`` (the names of
+    :data:`RUN_OUTPUTS`, nothing else); returns the names removed."""
+    removed = sorted({p.name for pattern in RUN_OUTPUTS
+                      for p in Path(outdir).glob(pattern) if p.is_file()})
+    for name in removed:
+        os.remove(Path(outdir) / name)
+    return removed
+
+
 def current_umask() -> int:
     """The process's umask (read by setting it and setting it back)."""
     mask = os.umask(0o022)
