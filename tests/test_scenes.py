@@ -467,3 +467,40 @@ def test_a_new_run_clears_an_earlier_runs_files(tmp_path, caplog):
     assert (out / "notes.txt").read_text() == "mine"
     assert "earlier run" in caplog.text and "checkpoint.npz" in caplog.text
     assert (out / "points.pvd").read_text().count("<DataSet") == 2
+
+
+def test_ctrl_c_keeps_a_checkpoint_and_one_line(tmp_path, capsys,
+                                                monkeypatch):
+    """Ctrl-C (KeyboardInterrupt) after step 2 of 4: exit code 130, one
+    line on stderr naming the resume command, summary.json with status
+    'interrupted', a checkpoint of step 2; resumed, the run ends where an
+    uninterrupted one does, bit for bit."""
+    import json
+    import meshio
+    import skfem_mpm.scenes.scene as scene_module
+    real = scene_module.run_scene
+
+    def interrupted(scene, points=None, domain0=None, callback=None,
+                    **resume):
+        def stop_after_two(record, pts):
+            callback(record, pts)
+            if record.step == 2:
+                raise KeyboardInterrupt
+        return real(scene, points, domain0=domain0, callback=stop_after_two,
+                    **resume)
+    out, whole = tmp_path / "out", tmp_path / "whole"
+    monkeypatch.setattr(scene_module, "run_scene", interrupted)
+    assert main(["run", "--out", str(out), "--no-progress", "--steps",
+                 "4"]) == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--resume {}".format(out) in err[0]
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    assert summary["last_converged_step"] == 2 and summary["checkpoint"]
+    monkeypatch.setattr(scene_module, "run_scene", real)
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    assert main(["run", "--out", str(whole), "--no-progress", "--steps",
+                 "4"]) == 0
+    a, b = (meshio.read(d / "points_0004.vtu") for d in (out, whole))
+    assert np.array_equal(a.points, b.points)
+    assert np.array_equal(a.point_data["stress"], b.point_data["stress"])

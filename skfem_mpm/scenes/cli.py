@@ -399,7 +399,7 @@ def run(args) -> int:
         series.restore([(int(r[0]), float(r[6] if scene.dynamics else r[1]))
                         for r in earlier.history])
     progress = Progress(scene.nsteps, not args.no_progress)
-    history = []
+    history, latest = [], []          # the records and the last state
 
     def so_far():
         """History rows and reactions of the run so far (before this
@@ -425,6 +425,7 @@ def run(args) -> int:
     def callback(record, pts):
         prepare()
         history.append(record)
+        latest[:] = [pts]
         progress(record)
         if series is not None:
             series.write(record.step, float(
@@ -448,6 +449,25 @@ def run(args) -> int:
         print("stopped after step {}; continue with: skfem-mpm run "
               "--resume {}".format(stop.args[0], outdir))
         return 0
+    except KeyboardInterrupt:         # Ctrl-C: keep what converged
+        last = history[-1] if history else None
+        saved = bool(last is not None and last.load_factor < 1.)
+        if saved:
+            checkpoint(latest[0], last.load_factor, last.increment,
+                       last.counters)
+        if prepared:
+            rows, reactions = so_far()
+            interrupted = {
+                "scene": scene.name, "status": "interrupted",
+                "last_converged_step": last.step if last else
+                resume.get("first_step", 1) - 1, "checkpoint": saved}
+            interrupted.update(rigid_body_curves(scene, rows, reactions))
+            write_summary(outdir / "summary.json", interrupted)
+        print("skfem-mpm: interrupted{}".format(
+            "; continue with: skfem-mpm run --resume {}".format(outdir)
+            if saved else " before a step converged: nothing to resume"),
+            file=sys.stderr)
+        return 130
     except MPMError as err:
         if isinstance(err, InvalidInputError) and not prepared:
             raise                     # refused before anything converged
