@@ -64,19 +64,19 @@ newton_iterations = max(len(r.newton_residuals) - 1 for r in result.history)
 
 def visualize(outdir="."):
     from pathlib import Path
-    from skfem_mpm.scenes.plot import pyplot, save_figure
-    fig, (ax, ay) = pyplot().subplots(1, 2, figsize=(10, 4))
+    from skfem_mpm.scenes.plot import draw_points, pyplot, save_figure
+    fig, (ax, ay) = pyplot().subplots(1, 2, figsize=(11, 4))
     ax.plot(alpha, v, "o", ms=3, label="GIMP, vertical")
     ax.plot(alpha, u, "s", ms=3, label="GIMP, horizontal")
     ax.plot(alpha, v_ref, "k-", lw=1, label="elastica")
     ax.plot(alpha, u_ref, "k--", lw=1)
-    ax.set_xlabel(r"$P L^2 / (E I)$")
-    ax.set_ylabel("tip deflection / L")
+    ax.set_xlabel(r"load $P L^2 / (E I)$ (-)")
+    ax.set_ylabel("tip deflection / L (-)")
+    ax.set_title("tip deflection against the elastica")
     ax.legend()
     pts = result.points
-    ay.scatter(pts.x[0], pts.x[1], c=pts.stress[0, 0], s=1, cmap="coolwarm")
-    ay.set_aspect("equal")
-    ay.set_title(r"final shape, $\sigma_{xx}$")
+    draw_points(fig, ay, pts, pts.stress[0, 0] / 1e3, r"$\sigma_{xx}$ (kPa)",
+                "final shape", size=1)
     fig.tight_layout()
     save_figure(fig, Path(outdir) / "cantilever.png")
 

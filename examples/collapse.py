@@ -38,21 +38,18 @@ iterations = [len(r.newton_residuals) - 1 for r in result.history]
 
 def visualize(outdir="."):
     from pathlib import Path
-    from skfem_mpm.scenes.plot import pyplot, save_figure
+    from skfem_mpm.scenes.plot import draw_points, pyplot, save_figure
+    from skfem_mpm.studies.quantities import point_values
     fig, (ax, ay) = pyplot().subplots(1, 2, figsize=(11, 3.5))
     pts = result.points
-    q = np.sqrt(1.5) * np.linalg.norm(
-        (pts.stress - np.einsum("iip->p", pts.stress) / 3 * np.eye(3)[
-            :, :, None]).reshape(9, -1), axis=0)
-    sc = ax.scatter(pts.x[0], pts.x[1], c=q, s=1, cmap="viridis")
-    fig.colorbar(sc, ax=ax, label="von Mises stress")
+    draw_points(fig, ax, pts, point_values(pts, "stress", "mises") / 1e3,
+                "von Mises stress (kPa)", "final shape", size=1)
     ax.set_xlim(0, 16)
     ax.set_ylim(0, 8)
-    ax.set_aspect("equal")
-    ax.set_title("final shape")
     ay.plot(load * 10e3, spread, "o-", ms=3)
-    ay.set_xlabel("body force")
-    ay.set_ylabel("toe displacement")
+    ay.set_xlabel("body force (N/m^3)")
+    ay.set_ylabel("toe displacement (m)")
+    ay.set_title("spreading of the block's toe under its rising weight")
     fig.tight_layout()
     save_figure(fig, Path(outdir) / "collapse.png")
 

@@ -504,3 +504,82 @@ def test_ctrl_c_keeps_a_checkpoint_and_one_line(tmp_path, capsys,
     a, b = (meshio.read(d / "points_0004.vtu") for d in (out, whole))
     assert np.array_equal(a.points, b.points)
     assert np.array_equal(a.point_data["stress"], b.point_data["stress"])
+
+
+def test_outputs_are_reported_and_bad_ones_refused(tmp_path, capsys):
+    """``[[outputs]]`` of a scene file reach ``summary.json`` and the
+    terminal with their units: on the 1D column the reaction of the base
+    is the weight rho g H and the top settles by about rho g H^2 / (2 E);
+    a quantity the scene cannot give is refused before any work, naming
+    it."""
+    from skfem_mpm.scenes.cli import EMBEDDED
+    text = EMBEDDED.read_text() + """
+[[outputs]]
+name = "top settlement"
+quantity = "displacement"
+component = "x"
+at = [50.0]
+[[outputs]]
+quantity = "reaction"
+component = "x"
+support = "support-1"
+[[outputs]]
+quantity = "stress"
+component = "xx"
+region = { x = [0.0, 10.0] }
+reduce = "min"
+"""
+    path = tmp_path / "column.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--no-progress",
+                 "--no-series"]) == 0
+    printed = capsys.readouterr().out
+    assert "top settlement" in printed and "N/m^2" in printed
+    outputs = json.loads((out / "summary.json").read_text())["outputs"]
+    weight = 800. * 50.
+    assert abs(outputs["reaction x of support-1"]["value"] - weight) < \
+        1e-9 * weight
+    settlement = -800. * 50. ** 2 / (2 * 1e6)
+    assert abs(outputs["top settlement"]["value"] / settlement - 1) < 1e-2
+    assert outputs["top settlement"]["unit"] == "m"
+    stress = outputs["min stress xx over [0..10]"]
+    assert stress["unit"] == "Pa" and stress["value"] < -.9 * weight
+    for bad, message in (
+            ('quantity = "reaction"\ncomponent = "x"\nsupport = "base"',
+             "no support 'base'"),
+            ('quantity = "stress"\ncomponent = "yy"', "no 'yy' component"),
+            ('quantity = "speed"\ncomponent = "x"', "quantity must be one"),
+            ('quantity = "displacement"\ncomponent = "x"\ncolour = 1',
+             "unknown key colour")):
+        path.write_text(EMBEDDED.read_text() + "\n[[outputs]]\n" + bad)
+        assert main(["run", str(path), "--out", str(tmp_path / "no")]) == 2
+        assert message in capsys.readouterr().err, message
+    path.write_text(EMBEDDED.read_text() + '\n[[outputs]]\nquantity = '
+                    '"displacement"\ncomponent = "x"\nat = [80.0]\n')
+    assert main(["run", str(path), "--out", str(tmp_path / "no")]) == 2
+    assert "no material point within two cells" in capsys.readouterr().err
+    assert not (tmp_path / "no" / "summary.json").exists()
+
+
+def test_progress_bar_shows_elapsed_and_remaining_time():
+    """Half the load in 10 s: 10 s elapsed, 10 s left; resumed at 0.5, a
+    quarter more in 5 s: 5 s left."""
+    import io
+    from types import SimpleNamespace
+    from skfem_mpm.scenes.cli import Progress
+    now = [0.]
+    stream = io.StringIO()
+    bar = Progress(4, "always", stream=stream, timer=lambda: now[0])
+    now[0] = 10.
+    bar(SimpleNamespace(step=2, load_factor=.5, newton_residuals=[1., 0.],
+                        residual=1e-12))
+    assert "step    2/4" in stream.getvalue()
+    assert "newton 1" in stream.getvalue()
+    assert stream.getvalue().endswith("elapsed 0:10 left 0:10")
+    resumed = Progress(4, "always", start_factor=.5, stream=stream,
+                       timer=lambda: now[0])
+    now[0] = 15.
+    resumed(SimpleNamespace(step=3, load_factor=.75, newton_residuals=None,
+                            residual=0.))
+    assert stream.getvalue().endswith("elapsed 0:05 left 0:05")

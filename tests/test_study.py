@@ -7,6 +7,8 @@ import numpy as np
 import skfem_mpm.studies.study as study_module
 from skfem_mpm.scenes.cli import EMBEDDED, main
 from skfem_mpm.scenes.scene_file import load_scene
+from skfem_mpm.studies.convergence import self_convergence
+from skfem_mpm.studies.quantities import Quantity
 from skfem_mpm.studies.study import fitted_rate, study
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
@@ -58,8 +60,8 @@ def test_interrupted_study_resumes_without_rerunning(tmp_path, monkeypatch):
     calls = []
     original = study_module.run_case
     monkeypatch.setattr(study_module, "run_case",
-                        lambda scene, params: calls.append(params) or
-                        original(scene, params))
+                        lambda scene, params, quantities: calls.append(
+                            params) or original(scene, params, quantities))
     rows = study(COLUMN, vary, tmp_path, progress=False)
     assert calls == [{"elements": 8, "ppc": 2}]
     assert [(r["elements"], r["ppc"]) for r in rows] == [(4, 1), (4, 2),
@@ -71,7 +73,8 @@ def test_study_command(tmp_path, capsys):
                  "--vary", "loadsteps=1", "--out", str(tmp_path),
                  "--no-progress"]) == 0
     out = capsys.readouterr().out
-    assert "rate loadsteps=1: 1.00" in out
+    assert "rate of the error loadsteps=1: 1.00" in out
+    assert "error: the seed chapter's error measure (2.28)" in out
     for name in ("error_vs_elements.png", "error_vs_time.png",
                  "time_vs_points.png"):
         assert (tmp_path / name).stat().st_size > 10_000
@@ -102,3 +105,139 @@ def test_study_varies_the_right_hand_side(tmp_path, capsys):
     assert main(["study", str(EMBEDDED), "--vary", "rhs=both", "--out",
                  str(tmp_path / "bad")]) == 2
     assert "rhs must be among" in capsys.readouterr().err
+
+
+def convergence_of(outdir, quantity, **choices):
+    found = json.loads((Path(outdir) / "study.json").read_text())
+    return next(c for c in found["convergence"] if c["quantity"] == quantity
+                and all(c["choices"].get(k) == v for k, v in choices.items()))
+
+
+def test_self_convergence_finds_the_closed_form_of_the_linear_column(
+        tmp_path):
+    """With one load step the column is linear and its points stay put:
+    the top displacement converges at order 2 and the stress at order 1,
+    and their Richardson extrapolations over 8..64 elements are the closed
+    forms -rho g H^2 / (2 E) and -rho g (H - y), though the study is told
+    neither: the error without a closed form is the error."""
+    from dataclasses import replace
+    scene = replace(COLUMN, reference=None)
+    rho_g, height = 800., 50.
+    E = scene.bodies[0].material.E
+    top = Quantity("displacement", "x", at=(height,), name="top")
+    middle = Quantity("stress", "xx", at=(25.,), name="stress at 25 m")
+    study(scene, {"elements": [8, 16, 32, 64], "loadsteps": [1],
+                  "method": ["mpm", "cpgimp"]}, tmp_path, progress=False,
+          quantities=[top, middle])
+    for method in ("mpm", "cpgimp"):
+        c = convergence_of(tmp_path, "top", method=method)
+        assert abs(c["order"] - 2.) < 1e-6 and c["against"] == "richardson"
+        assert abs(c["reference"] / (-rho_g * height ** 2 / (2 * E)) - 1.) \
+            < 1e-9
+        s = convergence_of(tmp_path, "stress at 25 m", method=method)
+        assert abs(s["order"] - 1.) < 1e-6
+        assert abs(s["reference"] / (-rho_g * (height - 25.)) - 1.) < 1e-9
+        assert c["unit"] == "m" and s["unit"] == "Pa"
+
+
+def test_observed_order_and_gci_of_cpgimp_on_the_moving_column(tmp_path):
+    """cpGIMP on the column in 20 load steps (points move): the top
+    displacement's observed order over 8, 16, 32 elements is that of the
+    error (2.28), ~1.6-1.8, and a run on 128 elements lands inside the
+    uncertainty (GCI) the three coarse grids claim for the extrapolation."""
+    from dataclasses import replace
+    scene = replace(COLUMN, reference=None, method="cpgimp", steps=20)
+    top = Quantity("displacement", "x", at=(50.,), name="top")
+    study(scene, {"elements": [8, 16, 32]}, tmp_path / "coarse",
+          progress=False, quantities=[top])
+    c = convergence_of(tmp_path / "coarse", "top")
+    assert 1.5 < c["order"] < 2.
+    fine = study(scene, {"elements": [128]}, tmp_path / "fine",
+                 progress=False, quantities=[top])[0]["values"]["top"]
+    assert abs(fine - c["reference"]) < c["uncertainty"]
+    assert abs(fine - c["values"][-1]) > c["uncertainty"] / 10  # not trivial
+
+
+def test_study_of_a_scene_without_reference_has_finite_errors(tmp_path,
+                                                             capsys):
+    """A scene file without a reference, quantities given by --measure:
+    the error is the first quantity's against its reference, here the
+    support's reaction, the weight on every grid to round-off, so the
+    reference is the finest case and the study says why; the second
+    quantity gets its own order and extrapolation; every figure names
+    what it shows."""
+    from skfem_mpm.scenes import plot
+    scene_file = tmp_path / "column.toml"
+    scene_file.write_text(EMBEDDED.read_text().replace(
+        'reference = "column"', ""))
+    figures = []
+    save = plot.save_figure
+
+    def keep(fig, path, **kwargs):
+        figures.append((Path(path).name, plot.figure_problems(fig),
+                        [ax.get_title() for ax in fig.axes]))
+        save(fig, path, **kwargs)
+    import pytest
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(plot, "save_figure", keep)
+        assert main(["study", str(scene_file), "--vary", "elements=4,8,16",
+                     "--vary", "loadsteps=1",
+                     "--out", str(tmp_path / "study"),
+                     "--measure", 'quantity="reaction", component="x", '
+                     'support="support-1"', "--measure",
+                     'quantity="displacement", component="magnitude", '
+                     'reduce="max", name="largest displacement"',
+                     "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "error: |value - reference| / |reference| of reaction x of " \
+        "support-1 (N/m^2)" in out
+    weight = 800. * 50.
+    c = convergence_of(tmp_path / "study", "reaction x of support-1")
+    assert c["order"] is None and "round-off" in c["why"]
+    assert np.allclose(c["values"], weight, rtol=1e-12)
+    largest = convergence_of(tmp_path / "study", "largest displacement")
+    assert abs(largest["order"] - 2.) < 1e-6
+    rows = json.loads((tmp_path / "study" / "study.json").read_text())[
+        "rows"]
+    assert all(0 <= r["error"] < 1e-12 for r in rows)
+    names = [f[0] for f in figures]
+    assert names == ["error_vs_elements.png", "error_vs_time.png",
+                     "time_vs_points.png", "quantities.png"]
+    assert all(not problems for _, problems, _ in figures), figures
+
+
+def test_default_quantity_and_errors_never_nan(tmp_path):
+    """A scene with no reference and no outputs: the largest point
+    displacement, relative errors against its Richardson extrapolation,
+    finite for every case (zero for none: the extrapolation is no case)."""
+    scene = load_scene(EXAMPLES / "block3d.toml")
+    rows = study(scene, {"elements": [2, 4, 6]}, tmp_path, progress=False)
+    found = json.loads((tmp_path / "study.json").read_text())
+    assert found["error"]["label"] == \
+        "relative error of largest point displacement"
+    c = found["convergence"][0]
+    assert c["quantity"] == "largest point displacement"
+    assert np.isfinite([c["reference"], c["uncertainty"]]).all()
+    errors = [r["error"] for r in rows]
+    assert np.isfinite(errors).all() and min(errors) > 0
+    assert c["against"] == "richardson" and c["order"] > 0
+    csv = (tmp_path / "study.csv").read_text().splitlines()[0]
+    assert "value: largest point displacement" in csv
+
+
+def test_self_convergence_cases():
+    """Richardson with unequal ratios recovers f = 1 + h^1.5 exactly; two
+    grids, round-off agreement and no positive order fall back to the
+    finest value with Roache's 3 |f1 - f2|, saying why."""
+    h = np.array([.3, .2, .1])
+    c = self_convergence(h, 1. + h ** 1.5)
+    assert abs(c.order - 1.5) < 1e-8 and abs(c.reference - 1.) < 1e-12
+    assert abs(c.uncertainty - 1.25 * (.2 ** 1.5 - .1 ** 1.5) /
+               (2 ** 1.5 - 1)) < 1e-12
+    two = self_convergence([.2, .1], [1.2, 1.1])
+    assert two.order is None and two.reference == 1.1
+    assert abs(two.uncertainty - .3) < 1e-12 and "two grids" in two.why
+    flat = self_convergence(h, [2., 2., 2. + 1e-15])
+    assert flat.order is None and "round-off" in flat.why
+    diverging = self_convergence(h, 1. + np.array([1e-3, 1e-2, 1e-1]))
+    assert diverging.order is None and "no positive order" in diverging.why

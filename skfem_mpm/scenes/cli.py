@@ -36,7 +36,6 @@ print(s.__doc__)"` lists every key, and examples/*.toml are ready to run.
 """
 
 EMBEDDED = Path(__file__).resolve().parent / "column.toml"
-AXES = "xyz"
 
 logger = logging.getLogger(__name__)
 
@@ -68,20 +67,36 @@ def build_parser() -> argparse.ArgumentParser:
                      help="write plots and summary only, no VTU series")
     compare = sub.add_parser("compare",
                              help="run FE and MPM on one scene and plot both")
-    compare.add_argument("scene", type=Path)
+    compare.add_argument("scene", type=Path, help="scene file")
     compare.add_argument("--out", type=Path,
-                         default=Path("skfem-mpm-compare"))
+                         default=Path("skfem-mpm-compare"),
+                         help="output folder (default ./skfem-mpm-compare)")
     study = sub.add_parser(
         "study", help="error and cost over a grid of choices",
         description="Vary elements, ppc (points per cell and axis), "
         "loadsteps, method (fem, mpm, ugimp, cpgimp), rhs (residual, "
         "increment: the right-hand side of linear steps) and line_search "
         "(backtracking, none); without --vary, "
-        "the seed's grid: elements 4..256, ppc 2..5, loadsteps 1, 2, 20.")
-    study.add_argument("scene", type=Path)
+        "the seed's grid: elements 4..256, ppc 2..5, loadsteps 1, 2, 20.  "
+        "Measures the scene's [[outputs]] (or --measure; default: the "
+        "largest point displacement) in every case, with the observed "
+        "order, the Richardson-extrapolated value and its uncertainty "
+        "(GCI) over the element counts; the error of a case is against the "
+        "scene's closed-form reference where it has one, else the first "
+        "quantity's against its extrapolation.")
+    study.add_argument("scene", type=Path, help="scene file")
     study.add_argument("--vary", action="append", default=[],
-                       metavar="NAME=V1,V2,...")
-    study.add_argument("--out", type=Path, default=Path("skfem-mpm-study"))
+                       metavar="NAME=V1,V2,...",
+                       help="values of one choice (repeat for more)")
+    study.add_argument("--measure", action="append", default=[],
+                       metavar="KEY=VALUE,...",
+                       help="a quantity of interest as the keys of a "
+                       "scene file's [[outputs]] table, e.g. 'quantity="
+                       "\"displacement\", component=\"y\", at=[0.5, 50.0]' "
+                       "(repeat for more; replaces the scene's outputs)")
+    study.add_argument("--out", type=Path, default=Path("skfem-mpm-study"),
+                       help="output folder (default ./skfem-mpm-study); "
+                       "a study resumes there without re-running cases")
     study.add_argument("--workers", type=int, default=0,
                        help="run on a local Dask cluster of N workers")
     study.add_argument("--scheduler", metavar="ADDRESS",
@@ -94,12 +109,35 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-class Progress:
-    """A one-line progress bar on stderr (only on a terminal)."""
+def clock(seconds: float) -> str:
+    """``m:ss`` (``h:mm:ss`` from an hour on) of a duration.
 
-    def __init__(self, total: int, enabled: bool):
+    >>> from skfem_mpm.scenes.cli import clock
+    >>> clock(75.4), clock(3725)
+    ('1:15', '1:02:05')
+    """
+    m, sec = divmod(int(round(seconds)), 60)
+    h, m = divmod(m, 60)
+    return "{}:{:02d}:{:02d}".format(h, m, sec) if h else \
+        "{}:{:02d}".format(m, sec)
+
+
+class Progress:
+    """A one-line progress bar on ``stream`` (stderr; only on a terminal
+    unless ``enabled`` is ``"always"``): step, load factor (or time) as a
+    bar, Newton iterations, residual, elapsed time and an estimate of the
+    time left, from the pace since ``start_factor`` (where a resumed run
+    began)."""
+
+    def __init__(self, total: int, enabled, start_factor: float = 0.,
+                 stream=None, timer=time.monotonic):
         self.total = total
-        self.enabled = enabled and sys.stderr.isatty()
+        self.stream = sys.stderr if stream is None else stream
+        self.enabled = enabled == "always" or (enabled and
+                                               self.stream.isatty())
+        self.start_factor = start_factor
+        self.timer = timer
+        self.started = timer()
 
     def __call__(self, record):
         if not self.enabled:
@@ -107,12 +145,18 @@ class Progress:
         done = int(30 * record.load_factor)
         newton = "" if record.newton_residuals is None else \
             " newton {}".format(len(record.newton_residuals) - 1)
-        sys.stderr.write("\rstep {:4d}/{} [{}{}]{} residual {:.1e}".format(
-            record.step, self.total, "#" * done, "." * (30 - done), newton,
-            record.residual))
+        elapsed = self.timer() - self.started
+        progressed = record.load_factor - self.start_factor
+        left = "" if progressed <= 0 else " left {}".format(clock(
+            elapsed * (1. - record.load_factor) / progressed))
+        self.stream.write("\rstep {:4d}/{} [{}{}]{} residual {:.1e} "
+                          "elapsed {}{}".format(
+                              record.step, self.total, "#" * done,
+                              "." * (30 - done), newton, record.residual,
+                              clock(elapsed), left))
         if record.load_factor >= 1.:
-            sys.stderr.write("\n")
-        sys.stderr.flush()
+            self.stream.write("\n")
+        self.stream.flush()
 
 
 class StopRun(Exception):
@@ -126,6 +170,7 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
     and reactions of the steps before the resume included."""
     from ..studies.study import case_error
     from .checkpoint import history_rows
+    from .scene import reaction_resultants
     pts = result.points
     history = result.history
     names, resultant = reaction_resultants(scene)
@@ -160,6 +205,10 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
         error = case_error(scene, result)
     if np.isfinite(error):
         summary["error"] = error
+    if scene.outputs and result.history:    # quantities at this step
+        summary["outputs"] = {q.label: {
+            "value": q.measure(scene, result), "unit": q.unit(pts.dim)}
+            for q in scene.outputs}
     return summary
 
 
@@ -181,7 +230,7 @@ def energy_curves(rows) -> dict:
 def rigid_body_curves(scene, rows, reactions) -> dict:
     """``{"rigid_bodies": {name: {"displacement", "force"}}}`` per step of
     the history ``rows`` and the ``reactions`` (steps, supports + rigid
-    bodies, dim) of :func:`reaction_resultants`; empty without rigid
+    bodies, dim) of :func:`~skfem_mpm.scenes.scene.reaction_resultants`; empty without rigid
     bodies."""
     rigid = [b for b in scene.bodies if b.rigid is not None]
     if not rigid:
@@ -193,52 +242,21 @@ def rigid_body_curves(scene, rows, reactions) -> dict:
         for k, body in enumerate(rigid)}}
 
 
-def reaction_resultants(scene):
-    """The names of the supports and the rigid bodies, and
-    ``resultant(record) -> (supports + rigid bodies, dim)``: per support,
-    the resultant reaction force of a step (zero in unsupported
-    components), then per rigid body the force that moves it
-    (:attr:`~skfem_mpm.StepRecord.rigid_forces`)."""
-    from ..solve.core import grid_parts
-    from .scene import scene_support_dofs, support_names
-    mesh, elem = scene.grid.build()
-    grid, dim = grid_parts(mesh, elem)[1], mesh.dim()
-    parts = []
-    for support in scene.supports:
-        axes = [AXES.index(c) for c in support.components
-                if AXES.index(c) < dim]
-        parts.append((axes, scene_support_dofs(support, grid, dim)))
-
-    def resultant(record) -> np.ndarray:
-        reactions = record.reactions
-        out = np.zeros((len(parts), dim))
-        for k, (axes, dofs) in enumerate(parts):
-            out[k, axes] = reactions[dofs].sum(axis=1)
-        return np.vstack([out] + [f[None] for f in record.rigid_forces])
-    return support_names(scene) + [b.name for b in scene.bodies
-                                   if b.rigid is not None], resultant
-
-
-#: what the error of each scene reference measures
-ERROR_LABELS = {"column": "error (2.28)", "elastica": "tip deflection error",
-                "bearing_capacity": "peak pressure error"}
-
-
 def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
     """Final configuration coloured by the vertical stress; the column's
     stress profile; a load-displacement curve when there are point
     loads; the force-displacement curves of rigid bodies (over the whole
     run, from ``summary``), as footing pressure against settlement for a
     bearing-capacity scene."""
-    from .plot import plot_column_stress, pyplot, save_figure
+    from .plot import (STRESS_NAMES, body_figure_size, draw_points,
+                       plot_column_stress, pyplot, save_figure)
     pts = result.points
     d = pts.dim - 1
-    fig, ax = pyplot().subplots(figsize=(5, 4))
-    y = pts.x[1] if pts.dim > 1 else np.zeros(pts.n)
-    sc = ax.scatter(pts.x[0], y, c=pts.stress[d, d], s=4, cmap="coolwarm")
-    fig.colorbar(sc, ax=ax, label="sigma_{}{}".format("xyz"[d], "xyz"[d]))
-    ax.set_aspect("equal" if pts.dim > 1 else "auto")
-    ax.set_title("{}: final configuration".format(scene.name))
+    name = STRESS_NAMES[d, d]
+    fig, ax = pyplot().subplots(figsize=(6, 4) if pts.dim == 1 else
+                                body_figure_size(pts.x[:2]))
+    draw_points(fig, ax, pts, pts.stress[d, d], "{} (Pa)".format(name),
+                "{}: {} at the final points".format(scene.name, name))
     fig.tight_layout()
     save_figure(fig, outdir / "final_stress.png")
     if scene.reference == "column":
@@ -252,9 +270,11 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
             disp = [0.] + [r.displacement[k, loaded].mean()
                            for r in result.history]
             ax.plot(disp, factor, "o-", ms=3, label="xyz"[k])
-        ax.set_xlabel("displacement of the loaded points")
-        ax.set_ylabel("load factor")
-        ax.legend()
+        ax.set_xlabel("mean displacement of the loaded points (m)")
+        ax.set_ylabel("load factor (-)")
+        ax.set_title("{}: load against displacement\nof the point-loaded "
+                     "material points".format(scene.name))
+        ax.legend(title="component")
         fig.tight_layout()
         save_figure(fig, outdir / "load_displacement.png")
     if "rigid_bodies" in summary:
@@ -305,10 +325,10 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
             direction = disp[-1] / np.linalg.norm(disp[-1])
             ax.plot(disp @ direction, force @ direction, "o-", ms=3,
                     label=name)
-        ax.set_xlabel("displacement along the motion (length)")
+        from ..studies.quantities import quantity_unit
+        ax.set_xlabel("displacement along the motion (m)")
         ax.set_ylabel("force along the motion ({})".format(
-            "force per unit thickness" if scene.grid.dim == 2
-            else "force"))
+            quantity_unit("rigid_force", scene.grid.dim)))
         ax.set_title("{}: force-displacement\nof the rigid bodies".format(
             scene.name))
     ax.legend(loc="lower right")
@@ -323,7 +343,9 @@ def run(args) -> int:
                              scene_digest)
     from .output import SeriesWriter, write_summary
     from .io import atomic_path, clear_earlier_run, remove_temporaries
-    from .scene import build_points, run_scene, surface_loads
+    from .scene import (build_points, reaction_resultants, run_scene,
+                        surface_loads)
+    from ..studies.quantities import check_quantities
     from .scene_file import load_scene
 
     for name in ("checkpoint_every", "max_steps", "steps"):
@@ -360,6 +382,7 @@ def run(args) -> int:
     digest = scene_digest(source)
     mesh, _ = scene.grid.build()
     initial = build_points(scene, mesh)
+    check_quantities(scene, scene.outputs, initial.x0)
     if points is None:
         points, domain0 = initial, initial.domain
     else:
@@ -398,7 +421,8 @@ def run(args) -> int:
     if series is not None and earlier is not None:
         series.restore([(int(r[0]), float(r[6] if scene.dynamics else r[1]))
                         for r in earlier.history])
-    progress = Progress(scene.nsteps, not args.no_progress)
+    progress = Progress(scene.nsteps, not args.no_progress,
+                        0. if earlier is None else float(earlier.load_factor))
     history, latest = [], []          # the records and the last state
 
     def so_far():
@@ -516,10 +540,14 @@ def run(args) -> int:
         "{} time steps to t = {:g} s".format(scene.nsteps,
                                             scene.dynamics.duration)))
     if "error" in summary:
-        print("  {:26s}{:.4e}".format(ERROR_LABELS[scene.reference],
-                                      summary["error"]))
-    print("  max displacement          {:.4f}".format(
+        from ..studies.study import REFERENCE_ERRORS
+        label, against, _ = REFERENCE_ERRORS[scene.reference]
+        print("  {:26s}{:.4e} (against {})".format(label, summary["error"],
+                                                   against))
+    print("  max displacement          {:.4f} m".format(
         summary["max_displacement"]))
+    for label, q in summary.get("outputs", {}).items():
+        print("  {:26s}{:.6g} {}".format(label, q["value"], q["unit"]))
     print("  max equilibrium residual  {:.1e}".format(
         summary["max_residual"]))
     total = sum(summary["timings"].values()) or 1.
@@ -538,7 +566,8 @@ def compare(args) -> int:
     import meshio
     from .io import atomic_path
     from .output import point_cloud, write_summary
-    from .plot import pyplot, save_figure
+    from .plot import (STRESS_NAMES, body_figure_size, colour_scale,
+                       draw_points, pyplot, save_figure)
     from .scene import run_scene
     from .scene_file import load_scene
 
@@ -570,27 +599,29 @@ def compare(args) -> int:
                         runs.items()}}
     write_summary(args.out / "summary.json", summary)
     d = a.dim - 1
-    component = "sigma_{0}{0}".format("xyz"[d])
-    limit = max(np.abs(p.stress[d, d]).max() for p in (a, b)) or 1.
-    fig, axes = pyplot().subplots(1, 2, figsize=(10, 4), sharey=True)
-    for ax, (method, (variant, result, seconds)) in zip(axes, runs.items()):
-        pts = result.points
+    component = STRESS_NAMES[d, d]
+    scale = colour_scale(a.stress[d, d], b.stress[d, d])
+    deformed = np.hstack([p.x0 + p.displacement for p in (a, b)])
+    fig, axes = pyplot().subplots(
+        1, 2, figsize=(12, 4) if a.dim == 1 else body_figure_size(
+            deformed[:2], panels=2), sharey=True)
+    for k, (ax, (method, (variant, result, seconds))) in enumerate(zip(
+            axes, runs.items())):
+        pts = result.points.copy()
         with atomic_path(args.out / "{}.vtu".format(method)) as tmp:
             meshio.write(tmp, point_cloud(pts), file_format="vtu")
-        x = pts.x0 + pts.displacement        # FE points stay at x0
-        y = x[1] if pts.dim > 1 else np.zeros(pts.n)
-        sc = ax.scatter(x[0], y, c=pts.stress[d, d], s=4,
-                        cmap="coolwarm", vmin=-limit, vmax=limit)
-        ax.set_title("{} ({} kinematics): {:.2f} s".format(
-            method, variant.kinematics, seconds))
-        ax.set_xlabel("x")
-        ax.set_aspect("equal" if pts.dim > 1 else "auto")
+        pts.x = pts.x0 + pts.displacement        # FE points stay at x0
+        draw_points(fig, ax, pts, pts.stress[d, d],
+                    "{} (Pa)".format(component), "{} ({} kinematics): "
+                    "{:.2f} s".format(method, variant.kinematics, seconds),
+                    scale=scale, colorbar=k == 1)
+        if a.dim == 1:
+            ax.set_ylim(scale["vmin"], scale["vmax"])
         print("{:>7}: max displacement {:.4f}, {:.3f} s".format(
             method, float(np.abs(pts.displacement).max()), seconds))
-    axes[0].set_ylabel("y" if a.dim > 1 else "")
-    fig.colorbar(sc, ax=list(axes), label=component + " (stress units)")
     fig.suptitle("{}: {} at the deformed points, one colour scale".format(
         scene.name, component))
+    fig.tight_layout(rect=(0., 0., 1., .92))
     save_figure(fig, args.out / "compare.png")
     print("  {} - fem: displacement max {:.3e} ({:.2e} relative), stress max "
           "{:.3e} ({:.2e} relative)".format(
@@ -624,15 +655,39 @@ def parse_vary(items):
     return vary
 
 
+def parse_measures(items, dim: int) -> list:
+    """``--measure`` arguments (the keys of an ``[[outputs]]`` table) as
+    :class:`~skfem_mpm.studies.quantities.Quantity` objects."""
+    from .scene_file import tomllib
+    from ..studies.quantities import parse_quantity
+    quantities = []
+    for k, item in enumerate(items):
+        try:
+            table = tomllib.loads("measure = {" + item + "}")["measure"]
+        except tomllib.TOMLDecodeError as err:
+            raise SceneError(["--measure {!r}: not TOML keys ({})".format(
+                item, err)])
+        quantities.append(parse_quantity(table, dim, "--measure {!r}"
+                                         .format(item)))
+    return quantities
+
+
 def run_study(args) -> int:
     from .scene_file import load_scene
-    from ..studies.study import VARIABLES, fitted_rate, plot_study, study
+    from ..studies.quantities import scene_quantities
+    from .plot import plot_study
+    from ..studies.study import VARIABLES, analyse, fitted_rate, study
 
     scene = load_scene(args.scene)
     vary = parse_vary(args.vary)
+    quantities = parse_measures(args.measure, len(scene.grid.axes)) or \
+        scene_quantities(scene)
     rows = study(scene, vary, args.out, scheduler=args.scheduler,
-                 workers=args.workers, progress=not args.no_progress)
+                 workers=args.workers, progress=not args.no_progress,
+                 quantities=quantities)
+    measured = analyse(scene, rows, quantities)
     keys = [k for k in VARIABLES if k in vary]
+    print("error: {}".format(measured["error"]["measures"]))
     print(" ".join("{:>9}".format(k) for k in keys) +
           " {:>10} {:>9} {:>8} {:>7}".format("error", "seconds", "points",
                                              "newton"))
@@ -649,11 +704,21 @@ def run_study(args) -> int:
             if not r["failure"]:
                 groups.setdefault(tuple(r[k] for k in others), []).append(r)
         for group, rs in groups.items():
-            print("rate {}: {:.2f}".format(
+            print("rate of the error {}: {:.2f}".format(
                 ", ".join("{}={}".format(k, v) for k, v in zip(others, group))
                 or "all", fitted_rate([r["elements"] for r in rs],
                                       [r["error"] for r in rs])))
-    for path in plot_study(rows, args.out):
+    for c in measured["convergence"]:
+        where = ", ".join("{}={}".format(k, v) for k, v in
+                          c["choices"].items())
+        found = "observed order {:.2f}, extrapolated {:.6g} +- {:.2g} {} " \
+            "(GCI)".format(c["order"], c["reference"], c["uncertainty"],
+                           c["unit"]) if c["order"] is not None else \
+            "reference {:.6g} {} (finest case: {})".format(
+                c["reference"], c["unit"], c["why"])
+        print("{}{}: {}".format(c["quantity"], " [" + where + "]" if where
+                                else "", found))
+    for path in plot_study(rows, args.out, measured):
         print("  plot {}".format(path))
     return 0
 

@@ -1,4 +1,14 @@
-"""Plots of point results (matplotlib, imported lazily, Agg backend)."""
+"""Plots of point results (matplotlib, imported lazily, Agg backend).
+
+Every figure explains itself: axes labelled with units (SI: m, Pa, N per
+m of thickness in 2D), a title saying what it shows, geometry at equal
+aspect in a figure shaped like the body, signed fields on a colour map
+centred on zero, compared panels on one colour scale, and any number of
+series in distinct styles (:func:`series_styles`).
+:func:`figure_problems` checks a figure for these (the tests run it on
+every figure the CLI and the examples write).
+
+"""
 from typing import Dict, Sequence
 
 import numpy as np
@@ -9,7 +19,17 @@ from .io import atomic_path
 from ..solve.results import Result
 
 __all__ = ["pyplot", "save_figure", "draw_column_stress", "draw_convergence",
-           "plot_column_stress", "draw_plastic_zone"]
+           "plot_column_stress", "draw_plastic_zone", "draw_points",
+           "series_styles", "colour_scale", "body_figure_size",
+           "figure_problems", "plot_study", "STRESS_NAMES"]
+
+#: the stress components' names for labels
+STRESS_NAMES = {(i, j): "sigma_" + "xyz"[i] + "xyz"[j]
+                for i in range(3) for j in range(3)}
+#: the diverging colour map of signed fields, the sequential one of others
+SIGNED_MAP, UNSIGNED_MAP = "RdBu_r", "viridis"
+MARKERS = "osD^vP*Xh<>p"
+LINESTYLES = ("-", "--", "-.", ":")
 
 
 def pyplot():
@@ -25,6 +45,153 @@ def save_figure(fig, path, dpi: int = 120):
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     pyplot().close(fig)
+
+
+def series_styles(n: int) -> list:
+    """``n`` distinct ``dict(color=, marker=, linestyle=)`` for plot
+    calls: the ten tab10 colours up to ten series, evenly spaced colours
+    of a perceptual map beyond, with markers and line styles cycling on
+    their own so that no two series look alike.
+
+    >>> from skfem_mpm.scenes.plot import series_styles
+    >>> styles = series_styles(25)
+    >>> len({(str(s["color"]), s["marker"], s["linestyle"]) for s in styles})
+    25
+    """
+    from matplotlib import colormaps
+    colours = colormaps["tab10"].colors[:n] if n <= 10 else \
+        [tuple(c) for c in colormaps["turbo"](np.linspace(.05, .95, n))]
+    return [dict(color=colours[k], marker=MARKERS[k % len(MARKERS)],
+                 linestyle=LINESTYLES[k % len(LINESTYLES)])
+            for k in range(n)]
+
+
+def colour_scale(*fields) -> dict:
+    """``dict(cmap=, vmin=, vmax=)`` shared by ``fields``: a diverging map
+    centred on zero when their values take both signs, else a sequential
+    one over their range.
+
+    >>> from skfem_mpm.scenes.plot import colour_scale
+    >>> colour_scale([-1., 3.]), colour_scale([1., 3.])["cmap"]
+    ({'cmap': 'RdBu_r', 'vmin': -3.0, 'vmax': 3.0}, 'viridis')
+    """
+    values = np.concatenate([np.ravel(f) for f in fields])
+    lo, hi = float(values.min()), float(values.max())
+    if lo < 0 < hi:
+        top = max(-lo, hi)
+        return dict(cmap=SIGNED_MAP, vmin=-top, vmax=top)
+    if lo == hi:
+        lo, hi = lo - (abs(lo) or 1.), hi + (abs(hi) or 1.)
+    return dict(cmap=UNSIGNED_MAP, vmin=lo, vmax=hi)
+
+
+def shown_axes(x: np.ndarray, volume: np.ndarray):
+    """The two coordinate axes a 2D picture of points at ``x`` (dim, n)
+    shows, and which points it shows: all in 2D; in 3D the slab one point
+    spacing thick through the middle of the body across its thinnest axis
+    (the first of equally thin ones), so no layer hides another."""
+    if x.shape[0] == 2:
+        return (0, 1), np.ones(x.shape[1], dtype=bool), ""
+    extent = x.max(axis=1) - x.min(axis=1)
+    across = int(np.argmin(extent))
+    middle = .5 * (x[across].max() + x[across].min())
+    spacing = np.cbrt(np.median(volume))
+    distance = np.abs(x[across] - middle)
+    slab = distance <= distance.min() + .5 * spacing
+    shown = tuple(d for d in range(3) if d != across)
+    return shown, slab, "slice {} = {:.3g} m".format("xyz"[across],
+                                                      x[across][slab].mean())
+
+
+def body_figure_size(x: np.ndarray, panels: int = 1, colorbar: bool = True
+                     ) -> tuple:
+    """A figure size (inches) in which ``panels`` pictures of points at
+    ``x`` (2, n) keep their shape: thin bodies get a wide, low figure and
+    tall ones a narrow, high one, within 3 to 12 inches."""
+    extent = np.ptp(x, axis=1) if x.shape[1] > 1 else np.ones(2)
+    aspect = float(np.clip(extent[1] / max(extent[0], 1e-300), .1, 10.))
+    panel = 5. / np.sqrt(aspect) if aspect > 1 else 5.
+    bar = 1.2 if colorbar else 0.
+    width = min(12., panels * max(panel, 2.5) + bar)
+    height = float(np.clip((width - bar) / panels * aspect + 1.2, 2.6, 9.))
+    return (max(width, 3.), height)
+
+
+def draw_points(fig, ax, points, values: np.ndarray, label: str, title: str,
+                scale: dict = None, colorbar: bool = True, size=None):
+    """The points in their current position coloured by ``values`` (n,),
+    labelled ``label`` (with its unit); in 1D the values against x.
+    ``scale`` (:func:`colour_scale`) defaults to the values' own; the
+    colour bar, if drawn, is as high as the axes."""
+    x = points.x
+    if x.shape[0] == 1:
+        order = np.argsort(x[0])
+        ax.plot(x[0, order], values[order], ".-", ms=3, lw=.8)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel(label)
+        ax.set_title(title)
+        return None
+    (a, b), shown, note = shown_axes(x, points.volume)
+    scale = colour_scale(values[shown]) if scale is None else scale
+    if size is None:          # marker diameter ~ 0.8 point spacing
+        box = ax.get_position()
+        width = 72. * min(box.width * fig.get_figwidth(),
+                          box.height * fig.get_figheight())
+        extent = max(np.ptp(x[a, shown]), np.ptp(x[b, shown]), 1e-300)
+        spacing = np.median(points.volume) ** (1. / x.shape[0])
+        size = float(np.clip((.8 * width * spacing / extent) ** 2, .3, 30.))
+    sc = ax.scatter(x[a, shown], x[b, shown], c=values[shown], s=size,
+                    **scale)
+    ax.set_aspect("equal")
+    ax.set_xlabel("{} (m)".format("xyz"[a]))
+    ax.set_ylabel("{} (m)".format("xyz"[b]))
+    ax.locator_params(nbins=5)
+    ax.set_title(title + (", " + note if note else ""))
+    if colorbar:
+        from mpl_toolkits.axes_grid1 import make_axes_locatable
+        bar = make_axes_locatable(ax).append_axes("right", size="5%",
+                                                  pad=.08)
+        fig.colorbar(sc, cax=bar, label=label)
+    return sc
+
+
+def figure_problems(fig) -> list:
+    """What keeps ``fig`` from explaining itself: axes with data but no x
+    or y label or no title (a figure title counts), colour bars without a
+    label, signed colour maps not centred on zero.  Empty when all is
+    well.
+
+    >>> from skfem_mpm.scenes.plot import figure_problems, pyplot
+    >>> fig, ax = pyplot().subplots()
+    >>> _ = ax.plot([0, 1], [0, 1])
+    >>> figure_problems(fig)
+    ['axes 0: no x label', 'axes 0: no y label', 'axes 0: no title']
+    >>> pyplot().close(fig)
+    """
+    problems = []
+    suptitle = fig._suptitle is not None and fig._suptitle.get_text()
+    bars = {c.colorbar.ax for ax in fig.axes for c in ax.collections
+            if getattr(c, "colorbar", None) is not None}
+    for k, ax in enumerate(fig.axes):
+        if ax in bars:
+            if not ax.get_ylabel() and not ax.get_xlabel():
+                problems.append("axes {}: colour bar without a label"
+                                .format(k))
+            continue
+        if not (ax.lines or ax.collections or ax.images or ax.patches):
+            continue
+        for name, text in (("x label", ax.get_xlabel()),
+                           ("y label", ax.get_ylabel()),
+                           ("title", ax.get_title() or suptitle)):
+            if not text:
+                problems.append("axes {}: no {}".format(k, name))
+        for c in ax.collections:
+            cmap = c.get_cmap().name if c.get_array() is not None else ""
+            if cmap == SIGNED_MAP and c.norm.vmin != -c.norm.vmax:
+                problems.append("axes {}: signed colour map from {} to {}, "
+                                "not centred".format(k, c.norm.vmin,
+                                                     c.norm.vmax))
+    return problems
 
 
 def draw_plastic_zone(fig, ax, points, title: str, rigid=None,
@@ -103,8 +270,8 @@ def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
     z = np.linspace(0., top, 200)
     ax.plot(-analytical_stress_current(z, top), z, "k:", lw=1,
             label="(2.27), current height")
-    ax.set_xlabel(r"$-\sigma_{yy}$")
-    ax.set_ylabel("height")
+    ax.set_xlabel(r"$-\sigma_{yy}$ (Pa)")
+    ax.set_ylabel("height (m)")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=6)
 
@@ -118,8 +285,8 @@ def draw_convergence(ax, nelems: np.ndarray, errors: Dict[str, np.ndarray],
                   label="{} (rate {:.2f})".format(label, rates[label]))
     ref = errors[next(iter(errors))][0] * nelems[0] / nelems
     ax.loglog(nelems, ref, "k:", lw=.8, label="slope 1")
-    ax.set_xlabel("number of elements")
-    ax.set_ylabel("error (2.28)")
+    ax.set_xlabel("number of elements (-)")
+    ax.set_ylabel("error (2.28) (-)")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=6)
 
@@ -131,3 +298,129 @@ def plot_column_stress(results: Sequence[Result], labels: Sequence[str],
     draw_column_stress(ax, results, labels, title)
     fig.tight_layout()
     save_figure(fig, path)
+
+
+def _finish(fig, ax, xlabel: str, ylabel: str, title: str, path):
+    """Label, title, legend and write one study figure."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6)
+    fig.tight_layout()
+    save_figure(fig, path)
+    return path
+
+
+def _loglog(ax, x, y, style: dict, label: str, line: bool = True):
+    """Positive ``y`` against ``x`` on log axes (an error of zero, the
+    reference case's own, has no place there)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = np.isfinite(y) & (y > 0)
+    ax.loglog(x[ok], y[ok], ms=3, lw=.8 if line else 0, label=label,
+              **style)
+
+
+def plot_study(rows: list, outdir, measured: dict) -> list:
+    """The figures of a study (:func:`~skfem_mpm.studies.study.study`;
+    ``measured`` from :func:`~skfem_mpm.studies.study.analyse`): (a) the
+    error against elements with the fitted rate per curve, (b) the error
+    against wall time with the Pareto front, (c) time per phase and load
+    step against points with fitted exponents, (d) each quantity of
+    interest against elements with its extrapolated value and GCI band.
+    Returns the files written."""
+    from pathlib import Path
+    from ..solve.results import PHASES
+    from ..studies.study import fitted_rate
+    plt = pyplot()
+    outdir = Path(outdir)
+    ok = [r for r in rows if not r.get("failure")]
+    written = []
+    label = measured["error"]["label"]
+    ylabel = "{} (-)".format(label)
+    curves = {}
+    for r in ok:
+        name = ", ".join("{}={}".format(k, r[k]) for k in (
+            "method", "rhs", "line_search", "ppc", "loadsteps") if k in r)
+        curves.setdefault(name or "all", []).append(r)
+    refined = ok and "elements" in ok[0]
+    if refined:
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        for style, (name, rs) in zip(series_styles(len(curves)),
+                                     sorted(curves.items())):
+            rs = sorted(rs, key=lambda r: r["elements"])
+            x = [r["elements"] for r in rs]
+            y = [r["error"] for r in rs]
+            _loglog(ax, x, y, style, "{} (rate {:.2f})".format(
+                name, fitted_rate(x, y)))
+        written.append(_finish(
+            fig, ax, "elements along the most refined axis (-)", ylabel,
+            "{} over grid refinement,\nagainst {}".format(
+                label, measured["error"]["against"]),
+            outdir / "error_vs_elements.png"))
+    if ok:
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        methods = sorted({r.get("method", "scene") for r in ok})
+        for style, m in zip(series_styles(len(methods)), methods):
+            rs = [r for r in ok if r.get("method", "scene") == m]
+            _loglog(ax, [r["wall_seconds"] for r in rs],
+                    [r["error"] for r in rs], style, m, line=False)
+        front, best = [], np.inf
+        for r in sorted(ok, key=lambda r: r["wall_seconds"]):
+            if 0 < r["error"] < best:
+                best = r["error"]
+                front.append((r["wall_seconds"], r["error"]))
+        if front:
+            ax.loglog(*zip(*front), "k-", lw=.8, label="Pareto front")
+        written.append(_finish(
+            fig, ax, "wall time per case (s)", ylabel,
+            "What accuracy costs: {} against wall time,\nthe error "
+            "against {}".format(label, measured["error"]["against"]),
+            outdir / "error_vs_time.png"))
+    if ok:
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        points = np.array([r["points"] for r in ok], float)
+        steps = np.array([max(r["steps_run"], 1) for r in ok], float)
+        for style, p in zip(series_styles(len(PHASES)), PHASES):
+            t = np.array([r["t_" + p] for r in ok]) / steps
+            good = t > 0
+            name = p
+            if np.unique(points[good]).size >= 2:  # an exponent needs sizes
+                slope = np.polyfit(np.log(points[good]), np.log(t[good]),
+                                   1)[0]
+                name = "{} (exponent {:.2f})".format(p, slope)
+            if good.any():
+                _loglog(ax, points[good], t[good], style, name, line=False)
+        written.append(_finish(
+            fig, ax, "material points (-)", "time per load step (s)",
+            "Cost of each phase per load step against the points",
+            outdir / "time_vs_points.png"))
+    convergence = [c for c in measured["convergence"] if c["cell_sizes"]]
+    if convergence:
+        names = list(dict.fromkeys(c["quantity"] for c in convergence))
+        fig, axes = plt.subplots(len(names), 1, squeeze=False, figsize=(
+            6.5, 3.2 * len(names)))
+        for ax, name in zip(axes[:, 0], names):
+            mine = [c for c in convergence if c["quantity"] == name]
+            for style, c in zip(series_styles(len(mine)), mine):
+                order = np.argsort(c["cell_sizes"])[::-1]
+                h = np.asarray(c["cell_sizes"])[order]
+                ax.semilogx(h, np.asarray(c["values"])[order], ms=3, lw=.8,
+                            label=", ".join("{}={}".format(k, v) for k, v
+                                            in c["choices"].items()) or
+                            "all", **style)
+                if c["order"] is not None:
+                    ax.axhline(c["reference"], color=style["color"], lw=.6,
+                               ls=":")
+                    ax.axhspan(c["reference"] - c["uncertainty"],
+                               c["reference"] + c["uncertainty"],
+                               color=style["color"], alpha=.12)
+            ax.invert_xaxis()
+            ax.set_ylabel("{} ({})".format(name, mine[0]["unit"]))
+            ax.set_xlabel("cell size (m)")
+            ax.set_title("{} over refinement\ndotted: Richardson "
+                         "extrapolation, band: GCI".format(name), fontsize=9)
+            ax.legend(fontsize=6, loc="best")
+        fig.tight_layout()
+        save_figure(fig, outdir / "quantities.png")
+        written.append(outdir / "quantities.png")
+    return written

@@ -21,7 +21,7 @@ from ..mechanics.materials import is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       SEED_BYTES_PER_POINT, STEP_RECORD_BYTES,
                       refuse_beyond_memory)
-from ..solve.core import RHS, simulate
+from ..solve.core import RHS, grid_parts, simulate
 from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
 from ..solve.newton import LINE_SEARCHES
@@ -29,9 +29,12 @@ from ..mechanics.geostatic import geostatic_stress
 from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
 from ..solve.results import Result
 from ..solve.rigid import RigidBody
+from ..studies.quantities import Quantity
 
 __all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
+           "TimeIntegration",
            "build_points", "surface_loads", "support_names", "scene_support_dofs",
+           "reaction_resultants",
            "run_scene", "METHODS", "KINEMATICS",
            "BOUNDARIES"]
 
@@ -240,6 +243,10 @@ class Scene:
         ``None`` (quasi-static load steps) or a :class:`TimeIntegration`:
         time steps with inertia; every body then needs a ``density``, and
         ``steps`` is not used (``None``).
+    outputs
+        Quantities of interest
+        (:class:`~skfem_mpm.studies.quantities.Quantity`): reported by a
+        run, measured by a study.
     """
     grid: Grid
     bodies: List[Body]
@@ -260,10 +267,11 @@ class Scene:
     rhs: str = "residual"
     line_search: str = "backtracking"
     dynamics: Optional[TimeIntegration] = None
+    outputs: List[Quantity] = field(default_factory=list)
 
     @property
     def nsteps(self) -> int:
-        """The steps a run takes: ``steps`` (default 1), or ``duration /
+        """The steps a run takes, ``steps`` (default 1), or ``duration /
         time_step`` with dynamics."""
         if self.dynamics is not None:
             return self.dynamics.dynamics([1.]).nsteps
@@ -385,6 +393,30 @@ def support_names(scene: Scene) -> List[str]:
     """The supports' names (``support-N`` where none is given)."""
     return [s.name or "support-{}".format(k + 1)
             for k, s in enumerate(scene.supports)]
+
+
+def reaction_resultants(scene):
+    """The names of the supports and the rigid bodies, and
+    ``resultant(record) -> (supports + rigid bodies, dim)``: per support,
+    the resultant reaction force of a step (zero in unsupported
+    components), then per rigid body the force that moves it
+    (:attr:`~skfem_mpm.StepRecord.rigid_forces`)."""
+    mesh, elem = scene.grid.build()
+    grid, dim = grid_parts(mesh, elem)[1], mesh.dim()
+    parts = []
+    for support in scene.supports:
+        axes = [AXES.index(c) for c in support.components
+                if AXES.index(c) < dim]
+        parts.append((axes, scene_support_dofs(support, grid, dim)))
+
+    def resultant(record) -> np.ndarray:
+        reactions = record.reactions
+        out = np.zeros((len(parts), dim))
+        for k, (axes, dofs) in enumerate(parts):
+            out[k, axes] = reactions[dofs].sum(axis=1)
+        return np.vstack([out] + [f[None] for f in record.rigid_forces])
+    return support_names(scene) + [b.name for b in scene.bodies
+                                   if b.rigid is not None], resultant
 
 
 def build_points(scene: Scene, mesh) -> MaterialPoints:

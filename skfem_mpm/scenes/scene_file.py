@@ -59,6 +59,20 @@ offending value (unknown keys, wrong types, impossible values), in a
     traction = [0.0, -100.0]        # per initial area, fixed direction
     # or pressure = 100.0           # pushes in, follows the surface in
                                     # finite deformation
+    [[outputs]]                     # optional: quantities of interest,
+                                    # in summary.json and measured by
+                                    # `skfem-mpm study` (default there:
+                                    # the largest point displacement)
+    name = "top settlement"         # optional label
+    quantity = "displacement"       # or "stress", "reaction" (support =
+                                    # its name), "rigid_force" (body = ..)
+    component = "y"                 # x y z magnitude; stress: xx yy zz xy
+                                    # xz yz mises pressure
+    at = [0.5, 50.0]                # initial position (fitted to the
+                                    # nearest points), or
+    # region = { y = [45.0, 50.0] } # points starting in a box, with
+    # reduce = "mean"               # mean (volume-weighted) max min
+                                    # max_abs; neither: all points
     [dynamics]                      # optional: implicit dynamics
     time_step = 0.01                # s (the longest; equal steps)
     duration = 1.0                  # s
@@ -93,7 +107,7 @@ try:
 except ImportError:                       # Python 3.10
     import tomli as tomllib
 
-from ..errors import InvalidMaterialError, SceneError
+from ..errors import InvalidInputError, InvalidMaterialError, SceneError
 from ..mechanics.cam_clay import ModifiedCamClay
 from ..mechanics.materials import LinearElastic, VonMises
 from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
@@ -103,6 +117,7 @@ from ..solve.newton import LINE_SEARCHES
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction, TimeIntegration)
 from ..solve.backends import FACTORIES
+from ..studies.quantities import check_quantities, parse_quantity
 
 __all__ = ["load_scene", "parse_scene", "REFERENCES"]
 
@@ -384,7 +399,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     c = _Checker()
     c.table(data, "", ("name", "reference", "grid", "bodies", "supports",
                        "gravity", "point_loads", "tractions", "solver",
-                       "dynamics"),
+                       "dynamics", "outputs"),
             ("grid", "bodies"))
     grid = _grid(c, data.get("grid", {}))
     dim = len(grid.axes)
@@ -458,6 +473,12 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             else None,
             pressure=c.number(t, key, "pressure", 0.) if "pressure" in t
             else None))
+    outputs = []
+    for k, q in enumerate(c.array(data, "outputs")):
+        try:
+            outputs.append(parse_quantity(q, dim, "outputs[{}]".format(k)))
+        except InvalidInputError as err:
+            c.problems.append(str(err))
     solver = c.table(data.get("solver", {}), "solver",
                      ("method", "kinematics", "steps", "tolerance",
                       "max_iterations", "linear", "antilocking", "ghost",
@@ -488,6 +509,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         ghost="auto" if solver.get("ghost", "auto") == "auto" else c.number(
             solver, "solver", "ghost", "auto", low=0., open_low=False),
         rhs=c.choice(solver, "solver", "rhs", RHS, "residual"),
+        outputs=outputs,
         line_search=c.choice(solver, "solver", "line_search", LINE_SEARCHES,
                              "backtracking"))
     if not c.problems:
@@ -495,6 +517,11 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             scene.check()
         except Exception as err:
             c.problems.append("scene: {}".format(err))
+    if outputs and not c.problems:
+        try:
+            check_quantities(scene, outputs)
+        except InvalidInputError as err:
+            c.problems.append("outputs: {}".format(err))
     if not supports and dynamics is None and not c.problems:
         c.problems.append("supports: missing: without supports every body "
                           "can move freely")

@@ -1,7 +1,17 @@
 """What accuracy costs in time: run a scene over a grid of choices
 (elements, points per cell, load steps, method, right-hand side), measure
-its error against the scene's reference and the time of every phase, and
-draw the trade-off.
+its quantities of interest (:mod:`~skfem_mpm.studies.quantities`) and the
+time of every phase, and draw the trade-off.
+
+The error of a case is measured against the scene's closed-form reference
+where it has one (``reference = "column"``: seed (2.28), ``"elastica"``,
+``"bearing_capacity"``), and otherwise against the study itself: the
+first quantity's relative error against its Richardson extrapolation over
+the element counts (:mod:`~skfem_mpm.studies.convergence`), or against
+the finest case where no order can be observed.  Every quantity's
+observed order, extrapolated value and uncertainty (GCI) are written to
+``study.json`` under ``"convergence"``, with what the error measures
+under ``"error"``.
 
 Cases are independent: they run serially (with a progress line) or on a
 Dask cluster (``dask.distributed``, an optional extra: a local cluster or
@@ -28,14 +38,17 @@ import numpy as np
 
 from ..errors import InvalidInputError, MPMError
 from ..scenes.io import atomic_path
-from ..scenes.scene import METHODS, Grid, Scene, run_scene
+from ..scenes.scene import METHODS, Grid, Scene, build_points, run_scene
 from ..solve.core import RHS
 from ..solve.newton import LINE_SEARCHES
 from ..solve.results import PHASES
+from .convergence import relative_errors, self_convergence
+from .quantities import check_quantities, scene_quantities
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["study", "refine", "case_error", "VARIABLES", "DEFAULT_VARY"]
+__all__ = ["study", "refine", "case_error", "analyse", "VARIABLES",
+           "DEFAULT_VARY"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
              "line_search")
@@ -71,6 +84,19 @@ def configure(scene: Scene, params: dict) -> Scene:
         if name in params:
             out = replace(out, **{name: params[name]})
     return out
+
+
+#: per scene reference: a short label and what its error measures
+REFERENCE_ERRORS = {
+    "column": ("error (2.28)", "the closed form (seed chapter)",
+               "the seed chapter's error measure (2.28): stress at the "
+               "points against the column's closed form"),
+    "elastica": ("tip deflection error", "the elastica",
+                 "relative error of the loaded points' tip deflection "
+                 "against the elastica"),
+    "bearing_capacity": ("peak pressure error", "N_c c (Prandtl-Reissner)",
+                         "relative error of the footing's peak pressure "
+                         "against N_c c (Prandtl-Reissner)")}
 
 
 def case_error(scene: Scene, result) -> float:
@@ -132,10 +158,11 @@ class PeakMemory:
         self.peak = max(self.peak, self.rss() - self.start)
 
 
-def run_case(scene: Scene, params: dict) -> dict:
-    """One case, timed inside: error, wall time, time per phase, Newton
-    iterations, DOFs, points and peak memory (growth of the resident set
-    during the case)."""
+def run_case(scene: Scene, params: dict, quantities=()) -> dict:
+    """One case, timed inside: error against the scene's reference (if it
+    has one), the ``quantities``' ``values``, wall time, time per phase,
+    Newton iterations, DOFs, points and peak memory (growth of the
+    resident set during the case)."""
     case = configure(scene, params)
     with PeakMemory() as memory:
         tic = time.perf_counter()
@@ -152,8 +179,15 @@ def run_case(scene: Scene, params: dict) -> dict:
         return row
     timings = result.timings()
     row.update({"t_" + p: timings[p] for p in PHASES})
+    if case.reference is not None:
+        row["reference_error"] = case_error(case, result)
+    try:
+        row["values"] = {q.label: q.measure(case, result)
+                         for q in quantities}
+    except MPMError as err:
+        row["failure"] = "{}: {}".format(type(err).__name__, err)
     row.update(
-        error=case_error(case, result), points=int(result.points.n),
+        points=int(result.points.n),
         dofs=int(max(r.n_free_dofs for r in result.history)),
         newton_iterations=int(result.counters["newton_iterations"]),
         steps_run=len(result.history))
@@ -165,23 +199,97 @@ def _key(params: dict) -> str:
                       sort_keys=True)
 
 
-def _write(outdir: Path, rows: List[dict], workers: int):
+def cell_size(scene: Scene, elements: int) -> float:
+    """Cell size along the scene's most refined axis with ``elements``
+    cells there (:func:`refine`)."""
+    lo, hi, _ = max(scene.grid.axes, key=lambda a: a[2])
+    return (hi - lo) / elements
+
+
+def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
+    """Errors of every finished case, without a closed form.
+
+    With ``elements`` varied, each group of cases sharing every other
+    choice gives each quantity's :func:`~.convergence.self_convergence`
+    over the cell size, and every case's relative error against its
+    reference (the Richardson extrapolation, or the finest case); without,
+    the reference is the case with the most points (then load steps)
+    among those sharing method, right-hand side and line search.  Sets
+    ``row["errors"]`` (per quantity) and ``row["error"]`` (the scene's
+    closed-form error where it has one, else the first quantity's), and
+    returns what was measured, for ``study.json``.
+    """
+    done = [r for r in rows if not r["failure"] and "values" in r]
+    refined = any("elements" in r for r in done)
+    keys = [k for k in VARIABLES if k != "elements"] if refined else \
+        list(CHOICES)
+    groups = {}
+    for r in done:
+        groups.setdefault(tuple(r.get(k) for k in keys), []).append(r)
+    convergence = []
+    for group, members in groups.items():
+        choices = {k: v for k, v in zip(keys, group) if v is not None}
+        for q in quantities:
+            values = [r["values"][q.label] for r in members]
+            if refined:
+                sizes = [cell_size(scene, r["elements"]) for r in members]
+                found = self_convergence(sizes, values).as_dict()
+            else:
+                finest = max(members, key=lambda r: (r["points"],
+                                                     r.get("loadsteps", 0)))
+                sizes = []
+                found = dict(reference=finest["values"][q.label],
+                             uncertainty=None, order=None, against="finest",
+                             why="elements not varied: the case with the "
+                             "most points (then load steps) is the "
+                             "reference", oscillatory=False)
+            for r, e in zip(members, relative_errors(values,
+                                                      found["reference"])):
+                r.setdefault("errors", {})[q.label] = float(e)
+            convergence.append(dict(
+                quantity=q.label, unit=q.unit(len(scene.grid.axes)),
+                choices=choices, cell_sizes=sizes, values=values, **found))
+    first = quantities[0].label
+    for r in done:
+        r["error"] = r["reference_error"] if scene.reference else \
+            r["errors"][first]
+    if scene.reference:
+        label, against, what = REFERENCE_ERRORS[scene.reference]
+    else:
+        label = "relative error of {}".format(first)
+        against = "its Richardson extrapolation (or the finest case)"
+        what = ("|value - reference| / |reference| of {} ({}), the "
+                "reference being its Richardson extrapolation over the "
+                "element counts, or the finest case where no order is "
+                "observed (see convergence)".format(
+                    first, quantities[0].unit(len(scene.grid.axes))))
+    return {"error": {"label": label, "against": against, "measures": what},
+            "convergence": convergence}
+
+
+def _write(outdir: Path, rows: List[dict], workers: int, measured: dict):
     with atomic_path(outdir / "study.json") as tmp:
-        Path(tmp).write_text(json.dumps({"workers": workers, "rows": rows},
-                                        indent=1))
-    columns = sorted({k for r in rows for k in r})
+        Path(tmp).write_text(json.dumps(dict(
+            workers=workers, rows=rows, **measured), indent=1))
+    flat = [{**{k: v for k, v in r.items() if k not in ("values", "errors")},
+             **{"value: " + k: v for k, v in r.get("values", {}).items()},
+             **{"error: " + k: v for k, v in r.get("errors", {}).items()}}
+            for r in rows]
+    columns = sorted({k for r in flat for k in r})
     text = io.StringIO()
     writer = csv.DictWriter(text, fieldnames=columns)
     writer.writeheader()
-    writer.writerows(rows)
+    writer.writerows(flat)
     with atomic_path(outdir / "study.csv") as tmp:
         Path(tmp).write_text(text.getvalue())
 
 
 def study(scene: Scene, vary: Dict[str, Sequence], outdir,
           scheduler: Optional[str] = None, workers: int = 0,
-          progress: bool = True) -> List[dict]:
-    """Run every combination of ``vary`` and record it in ``outdir``.
+          progress: bool = True, quantities=None) -> List[dict]:
+    """Run every combination of ``vary``, measure the quantities of
+    interest and the errors (:func:`analyse`), and record it in
+    ``outdir``.
 
     Parameters
     ----------
@@ -197,11 +305,16 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     scheduler, workers
         Dask: a scheduler address, or a local cluster of ``workers``
         processes; both unset: serial.
+    quantities
+        :class:`~skfem_mpm.studies.quantities.Quantity` list; default the
+        scene's ``outputs``, or the largest point displacement.
 
     Returns
     -------
     rows
-        One dict per case (finished ones read back on resume).
+        One dict per case (finished ones read back on resume, unless they
+        lack a value of ``quantities``: those run again), with
+        ``values`` and ``errors`` per quantity and the headline ``error``.
 
     Examples
     --------
@@ -213,6 +326,8 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     ...              "loadsteps": [1]}, tempfile.mkdtemp(), progress=False)
     >>> [round(r["error"], 6) for r in rows]
     [0.0625, 0.03125]
+    >>> [round(r["values"]["largest point displacement"], 6) for r in rows]
+    [0.984375, 0.996094]
 
     """
     for name, values in vary.items():
@@ -228,6 +343,10 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
                                         for v in values):
             raise InvalidInputError("{} must be positive integers, got {}"
                                     .format(name, list(values)))
+    quantities = list(quantities or scene_quantities(scene))
+    check_quantities(scene, quantities, build_points(
+        scene, scene.grid.build()[0]).x0)
+    labels = {q.label for q in quantities}
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     names = list(vary)
@@ -235,19 +354,21 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
              for combo in itertools.product(*(vary[n] for n in names))]
     rows = []
     if (outdir / "study.json").exists():
-        rows = json.loads((outdir / "study.json").read_text())["rows"]
+        rows = [r for r in json.loads((outdir / "study.json").read_text())[
+            "rows"] if r["failure"] or labels <= set(r.get("values", ()))]
     done = {_key(r) for r in rows}
     todo = [c for c in cases if _key(c) not in done]
     logger.info("%d cases, %d already done", len(cases), len(cases) - len(todo))
     if scheduler is None and not workers:
         for k, params in enumerate(todo):
-            rows.append(run_case(scene, params))
-            _write(outdir, rows, 1)
+            rows.append(run_case(scene, params, quantities))
+            _write(outdir, rows, 1, analyse(scene, rows, quantities))
             if progress and sys.stderr.isatty():
                 sys.stderr.write("\rcase {}/{} {}".format(k + 1, len(todo),
                                                          _key(params)))
         if progress and sys.stderr.isatty():
             sys.stderr.write("\n")
+        _write(outdir, rows, 1, analyse(scene, rows, quantities))
         return _ordered(rows, cases)
     from dask.distributed import Client, LocalCluster, as_completed
     if not logger.isEnabledFor(logging.INFO):
@@ -259,11 +380,12 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
                                dashboard_address="127.0.0.1:0")
     with Client(scheduler or cluster) as client:
         nworkers = len(client.scheduler_info()["workers"])
-        futures = [client.submit(run_case, scene, params, pure=False)
-                   for params in todo]
+        futures = [client.submit(run_case, scene, params, quantities,
+                                 pure=False) for params in todo]
         for future in as_completed(futures):
             rows.append(future.result())
-            _write(outdir, rows, nworkers)
+            _write(outdir, rows, nworkers, analyse(scene, rows, quantities))
+        _write(outdir, rows, nworkers, analyse(scene, rows, quantities))
     if cluster is not None:
         cluster.close()
     return _ordered(rows, cases)
@@ -281,73 +403,3 @@ def fitted_rate(x, y) -> float:
     if ok.sum() < 2:
         return float("nan")
     return float(-np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
-
-
-def _finish(fig, ax, xlabel: str, ylabel: str, path: Path) -> Path:
-    """Label, legend and write one study figure."""
-    from ..scenes.plot import save_figure
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.legend(fontsize=6)
-    fig.tight_layout()
-    save_figure(fig, path)
-    return path
-
-
-def plot_study(rows: List[dict], outdir) -> List[Path]:
-    """(a) error against elements with the fitted rate per curve, (b) error
-    against wall time per method with the Pareto front, (c) time per phase
-    against points with fitted exponents.  Returns the files written."""
-    from ..scenes.plot import pyplot
-    plt = pyplot()
-    outdir = Path(outdir)
-    ok = [r for r in rows if not r.get("failure")]
-    written = []
-    curves = {}
-    for r in ok:
-        label = ", ".join("{}={}".format(k, r[k]) for k in (
-            "method", "rhs", "line_search", "ppc", "loadsteps") if k in r)
-        curves.setdefault(label, []).append(r)
-    if any(np.isfinite(r["error"]) for r in ok) and "elements" in ok[0]:
-        fig, ax = plt.subplots(figsize=(6.5, 4.5))
-        for label, rs in sorted(curves.items()):
-            rs = sorted(rs, key=lambda r: r["elements"])
-            x = [r["elements"] for r in rs]
-            y = [r["error"] for r in rs]
-            ax.loglog(x, y, "o-", ms=3, lw=.8, label="{} (rate {:.2f})"
-                      .format(label or "all", fitted_rate(x, y)))
-        written.append(_finish(fig, ax, "number of elements", "error",
-                               outdir / "error_vs_elements.png"))
-    if any(np.isfinite(r["error"]) for r in ok):
-        fig, ax = plt.subplots(figsize=(6.5, 4.5))
-        methods = sorted({r.get("method", "scene") for r in ok})
-        for m in methods:
-            rs = [r for r in ok if r.get("method", "scene") == m]
-            ax.loglog([r["wall_seconds"] for r in rs],
-                      [r["error"] for r in rs], "o", ms=3, label=m)
-        front, best = [], np.inf
-        for r in sorted(ok, key=lambda r: r["wall_seconds"]):
-            if r["error"] < best:
-                best = r["error"]
-                front.append((r["wall_seconds"], r["error"]))
-        if front:
-            ax.loglog(*zip(*front), "k-", lw=.8, label="Pareto front")
-        written.append(_finish(fig, ax, "wall time per case [s]", "error",
-                               outdir / "error_vs_time.png"))
-    fig, ax = plt.subplots(figsize=(6.5, 4.5))
-    points = np.array([r["points"] for r in ok], float)
-    steps = np.array([max(r["steps_run"], 1) for r in ok], float)
-    for p in PHASES:
-        t = np.array([r["t_" + p] for r in ok]) / steps
-        good = t > 0
-        if np.unique(points[good]).size >= 2:    # an exponent needs sizes
-            slope = np.polyfit(np.log(points[good]), np.log(t[good]), 1)[0]
-            label = "{} (exponent {:.2f})".format(p, slope)
-        else:
-            label = p
-        if good.any():
-            ax.loglog(points[good], t[good], "o", ms=3, label=label)
-    written.append(_finish(fig, ax, "material points",
-                           "seconds per load step",
-                           outdir / "time_vs_points.png"))
-    return written

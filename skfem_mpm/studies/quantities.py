@@ -1,0 +1,320 @@
+"""Quantities of interest: the numbers a run is judged by.
+
+A :class:`Quantity` names one number of a finished run: a point
+displacement or stress at a place, its mean or extreme over a box of
+material points, the reaction of a named support or the force that moves
+a rigid body.  Scene files list them as ``[[outputs]]``; ``skfem-mpm
+study`` measures them in every case and ``skfem-mpm run`` reports them in
+``summary.json``.  Places and boxes refer to the points' *initial*
+positions, so a quantity follows the same material through the
+deformation and across refinements.
+
+Values are in the scene's consistent SI units: displacements in m,
+stresses in Pa, forces in N (per m of thickness in 2D, per m^2 in 1D).
+
+"""
+from dataclasses import dataclass
+from typing import Optional, Sequence, Tuple
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import InvalidInputError
+
+__all__ = ["Quantity", "QUANTITIES", "COMPONENTS", "REDUCTIONS",
+           "DEFAULT_QUANTITY", "quantity_unit", "parse_quantity",
+           "scene_quantities", "check_quantities"]
+
+#: what a quantity can measure
+QUANTITIES = ("displacement", "stress", "reaction", "rigid_force")
+#: the components of each kind of quantity
+COMPONENTS = {"displacement": ("x", "y", "z", "magnitude"),
+              "stress": ("xx", "yy", "zz", "xy", "xz", "yz", "mises",
+                         "pressure"),
+              "reaction": ("x", "y", "z", "magnitude"),
+              "rigid_force": ("x", "y", "z", "magnitude")}
+#: how the points of a box (or all points) give one number
+REDUCTIONS = ("mean", "max", "min", "max_abs")
+#: nearest points a value ``at`` a place is fitted to, per dimension
+FIT_POINTS = {1: 3, 2: 8, 3: 16}
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """One number of a finished run.
+
+    Parameters
+    ----------
+    quantity
+        ``"displacement"`` or ``"stress"`` of material points,
+        ``"reaction"`` (resultant of a support, ``support`` names it) or
+        ``"rigid_force"`` (the force moving a rigid body, ``body``).
+    component
+        ``"x"``, ``"y"``, ``"z"`` or ``"magnitude"``; for stress ``"xx"``,
+        ``"yy"``, ``"zz"``, ``"xy"``, ``"xz"``, ``"yz"``, ``"mises"`` (von
+        Mises equivalent) or ``"pressure"`` (mean pressure, positive in
+        compression).
+    at
+        For point quantities: a place (initial coordinates); the value
+        there is fitted linearly by least squares to the nearest points
+        (3, 8, 16 in 1D, 2D, 3D), so it converges like the field itself.
+    region
+        For point quantities, instead of ``at``: ``[(lo, hi)] * dim``, the
+        points whose initial position lies in the box, reduced by
+        ``reduce``.  Neither ``at`` nor ``region``: all points.
+    reduce
+        ``"mean"`` (volume-weighted), ``"max"``, ``"min"`` or
+        ``"max_abs"`` (the value of largest magnitude, sign kept).
+    support, body
+        The support's name (``support-N`` where unnamed) or the rigid
+        body's name.
+    name
+        A label for tables and plots; default from the fields.
+
+    Examples
+    --------
+    >>> from skfem_mpm.studies.quantities import Quantity
+    >>> top = Quantity("displacement", "x", at=(50.,))
+    >>> top.label, top.unit(1)
+    ('displacement x at (50)', 'm')
+
+    """
+    quantity: str
+    component: str
+    at: Optional[Tuple[float, ...]] = None
+    region: Optional[Tuple[Tuple[float, float], ...]] = None
+    reduce: str = "mean"
+    support: Optional[str] = None
+    body: Optional[str] = None
+    name: str = ""
+
+    def __post_init__(self):
+        if self.quantity not in QUANTITIES:
+            raise InvalidInputError("quantity must be one of {}, got {!r}"
+                                    .format(QUANTITIES, self.quantity))
+        if self.component not in COMPONENTS[self.quantity]:
+            raise InvalidInputError(
+                "a {} has the components {}, got {!r}".format(
+                    self.quantity, COMPONENTS[self.quantity], self.component))
+        if self.reduce not in REDUCTIONS:
+            raise InvalidInputError("reduce must be one of {}, got {!r}"
+                                    .format(REDUCTIONS, self.reduce))
+        pointwise = self.quantity in ("displacement", "stress")
+        wanted = {"at": pointwise, "region": pointwise,
+                  "support": self.quantity == "reaction",
+                  "body": self.quantity == "rigid_force"}
+        for key, allowed in wanted.items():
+            if getattr(self, key) is not None and not allowed:
+                raise InvalidInputError("a {} quantity takes no {!r}".format(
+                    self.quantity, key))
+        if self.at is not None and self.region is not None:
+            raise InvalidInputError("a quantity is taken at a place or "
+                                    "over a region, not both")
+        if self.quantity == "reaction" and self.support is None:
+            raise InvalidInputError("a reaction needs the support's name")
+        if self.quantity == "rigid_force" and self.body is None:
+            raise InvalidInputError("a rigid_force needs the body's name")
+
+    @property
+    def label(self) -> str:
+        """``name``, or a description built from the fields."""
+        if self.name:
+            return self.name
+        text = "{} {}".format(self.quantity.replace("_", " "),
+                              self.component)
+        if self.at is not None:
+            return text + " at ({})".format(", ".join(
+                "{:g}".format(v) for v in self.at))
+        if self.region is not None:
+            return "{} {} over [{}]".format(self.reduce, text, ", ".join(
+                "{:g}..{:g}".format(lo, hi) for lo, hi in self.region))
+        if self.support is not None:
+            return text + " of " + self.support
+        if self.body is not None:
+            return text + " of " + self.body
+        return "{} {} of all points".format(self.reduce, text)
+
+    def unit(self, dim: int) -> str:
+        """The quantity's unit in a scene of dimension ``dim``."""
+        return quantity_unit(self.quantity, dim)
+
+    def check(self, scene, x0: Optional[ndarray] = None):
+        """Refuse, before any work, a quantity the scene cannot give: a
+        component, support or body the scene does not have, and with the
+        initial points ``x0`` (dim, n), a place or box away from them."""
+        from ..scenes.scene import support_names
+        dim = len(scene.grid.axes)
+        if self.component in ("z", "zz", "xz", "yz") and dim < 3 or \
+                self.component in ("y", "yy", "xy") and dim < 2:
+            raise InvalidInputError("{}: a {}D scene has no {!r} component"
+                                    .format(self.label, dim, self.component))
+        for where in (self.at, self.region):
+            if where is not None and len(where) != dim:
+                raise InvalidInputError("{}: {} axes given, the scene has {}"
+                                        .format(self.label, len(where), dim))
+        if self.support is not None and \
+                self.support not in support_names(scene):
+            raise InvalidInputError("{}: no support {!r} (the scene has {})"
+                                    .format(self.label, self.support,
+                                            support_names(scene)))
+        rigid = [b.name for b in scene.bodies if b.rigid is not None]
+        if self.body is not None and self.body not in rigid:
+            raise InvalidInputError("{}: no rigid body {!r} (rigid bodies: "
+                                    "{})".format(self.label, self.body,
+                                                 rigid))
+        if x0 is None:
+            return
+        if self.at is not None:
+            at = np.asarray(self.at, float)
+            h = max((hi - lo) / n for lo, hi, n in scene.grid.axes)
+            if np.sqrt(((x0 - at[:, None]) ** 2).sum(axis=0)).min() > 2 * h:
+                raise InvalidInputError(
+                    "{}: no material point within two cells of {}".format(
+                        self.label, list(self.at)))
+        if self.region is not None and not self._in_region(x0).any():
+            raise InvalidInputError("{}: no material point starts in the "
+                                    "region".format(self.label))
+
+    def _in_region(self, x0: ndarray) -> ndarray:
+        inside = np.ones(x0.shape[1], dtype=bool)
+        for d, (lo, hi) in enumerate(self.region):
+            inside &= (x0[d] >= lo) & (x0[d] <= hi)
+        return inside
+
+    def measure(self, scene, result) -> float:
+        """The quantity of a finished run (``result`` of
+        :func:`~skfem_mpm.scenes.scene.run_scene` on ``scene``)."""
+        if self.quantity in ("reaction", "rigid_force"):
+            from ..scenes.scene import reaction_resultants
+            names, resultant = reaction_resultants(scene)
+            force = resultant(result.history[-1])[names.index(
+                self.support or self.body)]
+            return float(np.linalg.norm(force)) if \
+                self.component == "magnitude" else \
+                float(force["xyz".index(self.component)])
+        pts = result.points
+        values = point_values(pts, self.quantity, self.component)
+        if self.at is not None:
+            return fitted_value(pts.x0, values, np.asarray(self.at, float))
+        if self.region is not None:
+            inside = self._in_region(pts.x0)
+            values, volume = values[inside], pts.volume[inside]
+        else:
+            volume = pts.volume
+        if self.reduce == "mean":
+            return float(values @ volume / volume.sum())
+        if self.reduce == "max_abs":
+            return float(values[np.argmax(np.abs(values))])
+        return float(getattr(values, self.reduce)())
+
+
+def quantity_unit(quantity: str, dim: int) -> str:
+    """SI unit of a kind of quantity in a scene of dimension ``dim``."""
+    if quantity == "displacement":
+        return "m"
+    if quantity == "stress":
+        return "Pa"
+    return {1: "N/m^2", 2: "N/m", 3: "N"}[dim]
+
+
+def point_values(points, quantity: str, component: str) -> ndarray:
+    """One component of the points' displacement or stress, (n,)."""
+    if quantity == "displacement":
+        u = points.displacement
+        return np.sqrt((u ** 2).sum(axis=0)) if component == "magnitude" \
+            else u["xyz".index(component)].copy()
+    s = points.stress
+    if component == "pressure":
+        return -np.trace(s) / 3.
+    if component == "mises":
+        dev = s - np.trace(s) / 3. * np.eye(3)[:, :, None]
+        return np.sqrt(1.5 * (dev ** 2).sum(axis=(0, 1)))
+    i, j = ("xyz".index(c) for c in component)
+    return s[i, j].copy()
+
+
+def fitted_value(x0: ndarray, values: ndarray, at: ndarray) -> float:
+    """The value at ``at`` of the linear least-squares fit of ``values``
+    over the nearest points (by initial position ``x0``)."""
+    dim = x0.shape[0]
+    k = min(FIT_POINTS[dim], x0.shape[1])
+    offset = x0 - at[:, None]
+    near = np.argsort((offset ** 2).sum(axis=0), kind="stable")[:k]
+    A = np.column_stack([np.ones(k), offset[:, near].T])
+    coef = np.linalg.lstsq(A, values[near], rcond=None)[0]
+    return float(coef[0])
+
+
+def parse_quantity(table: dict, dim: int,
+                   key: str = "outputs") -> Quantity:
+    """A :class:`Quantity` from a scene file's ``[[outputs]]`` table or a
+    study's ``--measure`` (keys as the fields; ``region`` as a box table
+    ``{ x = [lo, hi], ... }``, an axis left out: all of it)."""
+    allowed = ("quantity", "component", "at", "region", "reduce", "support",
+               "body", "name")
+    if not isinstance(table, dict):
+        raise InvalidInputError("{}: must be a table, got {!r}".format(
+            key, table))
+    unknown = sorted(set(table) - set(allowed))
+    if unknown:
+        raise InvalidInputError("{}: unknown key {} (allowed: {})".format(
+            key, ", ".join(unknown), ", ".join(allowed)))
+    if "quantity" not in table or "component" not in table:
+        raise InvalidInputError("{}: needs quantity and component".format(
+            key))
+    kwargs = dict(table)
+    if "at" in kwargs:
+        at = kwargs["at"]
+        if not (isinstance(at, list) and len(at) == dim and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool)
+                for v in at)):
+            raise InvalidInputError("{}.at: must be {} numbers, got {!r}"
+                                    .format(key, dim, at))
+        kwargs["at"] = tuple(float(v) for v in at)
+    if "region" in kwargs:
+        kwargs["region"] = _region(kwargs["region"], dim, key + ".region")
+    try:
+        return Quantity(**kwargs)
+    except (InvalidInputError, TypeError) as err:
+        raise InvalidInputError("{}: {}".format(key, err))
+
+
+def _region(table, dim: int, key: str) -> Tuple[Tuple[float, float], ...]:
+    axes = "xyz"[:dim]
+    if not isinstance(table, dict) or set(table) - set(axes):
+        raise InvalidInputError("{}: must be a table of {}, got {!r}".format(
+            key, ", ".join(axes), table))
+    box = []
+    for a in axes:
+        v = table.get(a, [-np.inf, np.inf])
+        if not (isinstance(v, list) and len(v) == 2 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool)
+                for x in v) and v[0] <= v[1]):
+            raise InvalidInputError("{}.{}: must be [lo, hi] with lo <= hi, "
+                                    "got {!r}".format(key, a, v))
+        box.append((float(v[0]), float(v[1])))
+    return tuple(box)
+
+
+#: what a study measures when the scene names nothing
+DEFAULT_QUANTITY = Quantity("displacement", "magnitude", reduce="max",
+                            name="largest point displacement")
+
+
+def scene_quantities(scene) -> Sequence[Quantity]:
+    """The scene's ``outputs``, or :data:`DEFAULT_QUANTITY`."""
+    return list(scene.outputs) or [DEFAULT_QUANTITY]
+
+
+def check_quantities(scene, quantities: Sequence[Quantity],
+                     x0: Optional[ndarray] = None):
+    """:meth:`Quantity.check` every quantity (on the initial points ``x0``
+    when given), and refuse two with one label (tables and plots tell them
+    apart by it)."""
+    labels = [q.label for q in quantities]
+    twice = sorted({a for a in labels if labels.count(a) > 1})
+    if twice:
+        raise InvalidInputError("quantities named twice: {}; give them "
+                                "distinct names".format(", ".join(twice)))
+    for q in quantities:
+        q.check(scene, x0)
