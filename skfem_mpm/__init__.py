@@ -5,7 +5,7 @@ assembles forms on a :class:`MaterialPointBasis` and applies boundary
 conditions; this package locates points, moves them and keeps their state.
 
 """
-from .quadrature.basis import MaterialPointBasis
+from .quadrature.basis import MaterialPointBasis, material_point_bases
 from .errors import (ConvergenceError, InvalidInputError, InvalidMaterialError,
                      InversionError, MPMError, NewtonDivergenceError,
                      NumericalError, PointsOutsideGridError,
@@ -41,5 +41,5 @@ __all__ = [
     "PrescribedMotionError", "StepFailedError", "DruckerPrager",
     "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "RigidBody",
     "reduce_strength", "strength_reduction", "Dynamics", "Newmark",
-    "GeneralizedAlpha",
+    "GeneralizedAlpha", "material_point_bases",
 ]

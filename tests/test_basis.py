@@ -1,14 +1,18 @@
+from functools import reduce
+
 import numpy as np
 import pytest
+from scipy.sparse.linalg import MatrixRankWarning
 from skfem import (Basis, BilinearForm, ElementQuad1, ElementVector,
                    Functional, LinearForm, MeshQuad, asm, condense, solve)
-from skfem.helpers import dot
+from skfem.helpers import ddot, dot, grad
 from skfem.models.elasticity import linear_elasticity
 from skfem.models.poisson import laplace
 
+from meshes import FAMILIES
 from skfem_mpm import (InvalidInputError, LinearElastic, MaterialPointBasis,
-                       MaterialPoints,
-                       seed_gauss_points)
+                       MaterialPoints, material_point_bases,
+                       seed_gauss_points, seed_points, solve_mpm)
 
 
 def test_vector_elasticity_equals_fe_at_gauss_points(family):
@@ -26,10 +30,15 @@ def test_vector_elasticity_equals_fe_at_gauss_points(family):
     assert abs(asm(area, mp) - asm(area, fe)) < 1e-13
 
 
-def arbitrary_points(mesh, n, seed=0):
-    """Random points inside random elements, with random positive volumes."""
+def arbitrary_points(mesh, n, seed=0, clustered=False):
+    """Random points inside random elements, with random positive volumes;
+    ``clustered``: crowded into the first elements (element k with a
+    frequency falling like k^(-2/3))."""
     rng = np.random.default_rng(seed)
-    tind = rng.integers(0, mesh.nelements, n)
+    if clustered:
+        tind = (rng.random(n) ** 3 * mesh.nelements).astype(np.int64)
+    else:
+        tind = rng.integers(0, mesh.nelements, n)
     X = rng.random((mesh.dim(), n))
     if mesh.refdom.name in ("Triangular", "Tetrahedral"):
         X *= (rng.random(n) / X.sum(axis=0))[None]   # inside the simplex
@@ -88,6 +97,103 @@ def test_condense_and_solve_on_the_active_grid():
     I = np.setdiff1d(active, D)
     u = solve(*condense(K, np.zeros(basis.N), x=exact, I=I))
     assert np.abs(u[active] - exact[active]).max() < 1e-12
+
+
+def test_inactive_dofs_condense_to_the_solvers_answer():
+    """The README's body filling the lower 10 of a 12-high grid:
+    scikit-fem's condense with the supports and the inactive DOFs solves to
+    the grid displacement of solve_mpm's linear step (1e-12); with the
+    supports alone the condensed matrix keeps the inactive DOFs' empty rows
+    and scipy only warns and returns NaN."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 4, 5), np.linspace(0, 12, 13))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 10)
+    material = LinearElastic(1e6, .3)
+    basis = MaterialPointBasis(mesh, ElementVector(ElementQuad1()), points)
+    K = asm(linear_elasticity(material.lam, material.mu), basis)
+    f = asm(LinearForm(lambda v, w: -800. * v[1]), basis)
+    D = basis.get_dofs(lambda x: x[1] == 0).all()
+    inactive = basis.inactive_dofs
+    assert inactive.size == 2 * 5 * 2          # the nodes at y = 11 and 12
+    np.testing.assert_array_equal(np.union1d(basis.active_dofs, inactive),
+                                  np.arange(basis.N))
+    assert np.isin(inactive, basis.active_dofs).sum() == 0
+    u = solve(*condense(K, f, D=np.union1d(D, inactive)))
+    reference = solve_mpm(mesh, ElementQuad1(), points, material,
+                          supports=lambda b: b.get_dofs(lambda x: x[1] == 0),
+                          body_force=[0., -800.]).history[0].u
+    assert np.isfinite(u).all() and np.abs(reference).max() > 1e-3
+    assert np.abs(u - reference).max() <= 1e-12 * np.abs(reference).max()
+    A = condense(K, f, D=D)[0]
+    assert (abs(A).sum(axis=1) == 0).sum() == inactive.size
+    with pytest.warns(MatrixRankWarning):
+        singular = solve(*condense(K, f, D=D))
+    assert np.isnan(np.delete(singular, D)).all()     # every unknown
+
+
+@pytest.mark.parametrize("name", ["quad", "quad-distorted", "tri"])
+@pytest.mark.parametrize("clustered", [False, True])
+@pytest.mark.parametrize("max_padding", [0., .25])
+def test_grouped_bases_equal_the_padded_basis(name, clustered, max_padding):
+    """asm over material_point_bases equals asm over the one padded basis to
+    round-off: stiffness, a mass matrix weighted by a point field, a load
+    vector of a point stress field, a functional; point fields scattered
+    and gathered per basis; the inactive DOFs are those inactive in every
+    basis; padding stays within max_padding."""
+    make_mesh, elem = FAMILIES[name]
+    mesh = make_mesh().refined(1)
+    points = arbitrary_points(mesh, 400, seed=2, clustered=clustered)
+    elem = ElementVector(elem())
+    padded = MaterialPointBasis(mesh, elem, points)
+    bases = material_point_bases(mesh, elem, points, max_padding=max_padding)
+    counts = (padded.point_index >= 0).sum(axis=1)     # per element
+    assert len(bases) > 1 and counts.max() > 2 * counts.min()
+    np.testing.assert_array_equal(
+        np.sort(np.concatenate([b.subset for b in bases])),
+        np.arange(points.n))
+    for b in bases:
+        assert b.dx.size <= (1 + max_padding) * b.subset.size
+    assert sum(b.dx.size for b in bases) < .8 * padded.dx.size
+
+    def close(grouped, reference, rtol=1e-13):
+        assert abs(grouped - reference).max() <= rtol * abs(reference).max()
+
+    form = linear_elasticity(1.3, .7)
+    close(asm(form, bases), asm(form, padded))
+    rng = np.random.default_rng(3)
+    rho, S = rng.random(points.n), rng.random((2, 2, points.n))
+    mass = BilinearForm(lambda u, v, w: w.rho * dot(u, v))
+    force = LinearForm(lambda v, w: ddot(w.sig, grad(v)))
+    close(sum(mass.elemental(b, rho=b.quadrature_field(rho))
+              for b in bases).todefault(),
+          asm(mass, padded, rho=padded.quadrature_field(rho)))
+    close(sum(force.elemental(b, sig=b.quadrature_field(S))
+              for b in bases).todefault(),
+          asm(force, padded, sig=padded.quadrature_field(S)))
+    area = Functional(lambda w: 1. + 0. * w.x[0])
+    assert abs(asm(area, bases) - points.volume.sum()) \
+        < 1e-13 * points.volume.sum()
+    gathered = np.zeros_like(S)
+    for b in bases:
+        gathered[..., b.subset] = b.point_values(b.quadrature_field(S))
+    np.testing.assert_array_equal(gathered, S)
+    np.testing.assert_array_equal(
+        reduce(np.intersect1d, [b.inactive_dofs for b in bases]),
+        padded.inactive_dofs)
+
+
+def test_bad_grouping_input():
+    mesh = MeshQuad().refined(1)
+    pts = MaterialPoints(x=np.full((2, 3), .3), volume=np.ones(3))
+    for subset in ([2, 1], [0, 0], [0, 3], [], [[0, 1]], [0., 1.]):
+        with pytest.raises(InvalidInputError, match="subset must be sorted"):
+            MaterialPointBasis(mesh, ElementQuad1(), pts, subset=subset)
+    with pytest.raises(InvalidInputError, match="max_padding must be >= 0"):
+        material_point_bases(mesh, ElementQuad1(), pts, max_padding=-.1)
+    with pytest.raises(InvalidInputError, match="must be MaterialPoints"):
+        material_point_bases(mesh, ElementQuad1(), pts.x)
+    with pytest.raises(InvalidInputError, match="does not match 3 points"):
+        material_point_bases(mesh, ElementQuad1(), pts, location=(
+            np.zeros(2, dtype=int), np.zeros((2, 2))))
 
 
 def test_bad_basis_input():

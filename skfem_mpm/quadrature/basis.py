@@ -6,10 +6,17 @@ Only elements that hold points are active (empty elements are ignored, seed
 than the fullest one is padded with zero-weight slots, so scikit-fem sees a
 quadrature of shape (dim, n_active_elements, max_points_per_element) and
 ``asm``, forms, ``interpolate``, ``condense`` and ``solve`` work unchanged.
+Grid nodes without point support have empty rows: condense them away with
+the supports (:attr:`MaterialPointBasis.inactive_dofs`).
+
+Padding costs work where the point counts per element vary (random or
+clustered points): :func:`material_point_bases` splits the points into
+bases of elements with (about) equal counts, which scikit-fem's
+``asm(form, bases)`` sums.
 
 """
 import logging
-from typing import Optional, Tuple
+from typing import List, Optional, Tuple
 
 import numpy as np
 from numpy import ndarray
@@ -25,7 +32,7 @@ from .points import MaterialPoints
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["MaterialPointBasis"]
+__all__ = ["MaterialPointBasis", "material_point_bases"]
 
 
 class MaterialPointBasis(CellBasis):
@@ -46,12 +53,19 @@ class MaterialPointBasis(CellBasis):
         Optional scikit-fem ``Dofs`` of ``(mesh, elem)`` to reuse between
         load steps.  When given, global DOF locations (``doflocs``) are
         computed only if asked for.
+    subset
+        Optional sorted, distinct indices of the points this basis
+        integrates with (default: all); the others are left to other bases
+        (:func:`material_point_bases`).
 
     Attributes
     ----------
     point_index
         (n_active_elements, max_points_per_element) index of the point in
         each quadrature slot, -1 in padding slots.
+    subset
+        The indices of the points integrated, sorted: the order of
+        :meth:`point_values`.
 
     Examples
     --------
@@ -67,23 +81,16 @@ class MaterialPointBasis(CellBasis):
 
     def __init__(self, mesh: Mesh, elem: Element, points: MaterialPoints,
                  location: Optional[Tuple[ndarray, ndarray]] = None,
-                 dofs: Optional[Dofs] = None):
-        if not isinstance(points, MaterialPoints):
-            raise InvalidInputError(
-                "points must be MaterialPoints, got {}"
-                .format(type(points).__name__))
-        tind, X = locate_points(mesh, points.x) if location is None \
-            else location
-        if tind.shape != (points.n,) or X.shape != points.x.shape:
-            raise InvalidInputError(
-                "location (tind {}, X {}) does not match {} points of "
-                "dimension {}".format(tind.shape, X.shape, points.n,
-                                      points.dim))
-        order = np.argsort(tind, kind="stable")
+                 dofs: Optional[Dofs] = None,
+                 subset: Optional[ndarray] = None):
+        tind, X = _located(mesh, points, location)
+        self.subset = _check_subset(subset, points.n)
+        by_element = np.argsort(tind[self.subset], kind="stable")
+        order = self.subset[by_element]
         elements, start, counts = np.unique(tind[order], return_index=True,
                                             return_counts=True)
         row = np.repeat(np.arange(len(elements)), counts)
-        slot = np.arange(points.n) - np.repeat(start, counts)
+        slot = np.arange(len(order)) - np.repeat(start, counts)
         shape = (len(elements), int(counts.max()))
         Xq = np.repeat(X[:, order[start]][:, :, None], shape[1], axis=2)
         Xq[:, row, slot] = X[:, order]
@@ -91,9 +98,9 @@ class MaterialPointBasis(CellBasis):
         dx[row, slot] = points.volume[order]
         self.point_index = np.full(shape, -1, dtype=np.int64)
         self.point_index[row, slot] = order
-        # flat slot of every point, and the padding slots
-        self._slot_of_point = np.empty(points.n, dtype=np.int64)
-        self._slot_of_point[order] = row * shape[1] + slot
+        # flat slot of every point of the subset, and the padding slots
+        self._slot_of_point = np.empty(len(order), dtype=np.int64)
+        self._slot_of_point[by_element] = row * shape[1] + slot
         self._padding = np.flatnonzero(self.point_index.ravel() < 0)
         self._doflocs = None
         super().__init__(mesh, elem, mapping=fresh_mapping(mesh),
@@ -120,19 +127,175 @@ class MaterialPointBasis(CellBasis):
 
     @property
     def active_dofs(self) -> ndarray:
-        """The DOFs of the active elements: grid nodes with point support."""
+        """The DOFs of the active elements (grid nodes with point support)."""
         return distinct(self.element_dofs, self.N)
 
+    @property
+    def inactive_dofs(self) -> ndarray:
+        """The DOFs without point support, sorted; their rows and columns
+        are empty.
+
+        Condense them away with the supports, the scikit-fem way:
+        ``solve(*condense(K, f, D=np.union1d(D, basis.inactive_dofs)))``.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from skfem import MeshQuad, ElementQuad1, asm, condense, solve
+        >>> from skfem.models.poisson import laplace, unit_load
+        >>> from skfem_mpm import MaterialPointBasis, seed_points
+        >>> mesh = MeshQuad().refined(2)                  # 4 x 4 cells
+        >>> basis = MaterialPointBasis(mesh, ElementQuad1(), seed_points(
+        ...     mesh, 2, region=lambda x: x[0] < .5))     # the left half
+        >>> basis.inactive_dofs.size                      # 2 columns of 5
+        10
+        >>> D = np.union1d(basis.get_dofs().all(), basis.inactive_dofs)
+        >>> u = solve(*condense(asm(laplace, basis), asm(unit_load, basis),
+        ...                     D=D))
+        >>> bool(np.isfinite(u).all() and u.max() > 0)
+        True
+
+        """
+        unsupported = np.ones(self.N, dtype=bool)
+        unsupported[self.element_dofs] = False
+        return np.flatnonzero(unsupported)
+
     def point_values(self, field: ndarray) -> ndarray:
-        """Reorder a quadrature field (..., nelems, nqp) into point order
-        (..., n), dropping padding slots."""
+        """Reorder a quadrature field (..., nelems, nqp) into the order of
+        the points in :attr:`subset` (..., len(subset)), dropping padding
+        slots."""
         flat = field.reshape(field.shape[:-2] + (-1,))
         return np.take(flat, self._slot_of_point, axis=-1)
 
     def quadrature_field(self, values: ndarray) -> ndarray:
-        """Scatter point values (..., n) into a quadrature field
-        (..., nelems, nqp), zero in padding slots: the inverse of
-        :meth:`point_values`, for point data entering forms."""
+        """Scatter the values (..., n) of all points into a quadrature
+        field (..., nelems, nqp) of the points in :attr:`subset`, zero in
+        padding slots: the inverse of :meth:`point_values`, for point data
+        entering forms."""
         out = np.take(values, self.point_index.ravel(), axis=-1)
         out[..., self._padding] = 0.
         return out.reshape(values.shape[:-1] + self.point_index.shape)
+
+
+def _located(mesh: Mesh, points: MaterialPoints,
+             location: Optional[Tuple[ndarray, ndarray]]
+             ) -> Tuple[ndarray, ndarray]:
+    """``(tind, X)`` of the points: located on the mesh, or ``location``
+    checked against them."""
+    if not isinstance(points, MaterialPoints):
+        raise InvalidInputError("points must be MaterialPoints, got {}"
+                                .format(type(points).__name__))
+    tind, X = locate_points(mesh, points.x) if location is None \
+        else location
+    if tind.shape != (points.n,) or X.shape != points.x.shape:
+        raise InvalidInputError(
+            "location (tind {}, X {}) does not match {} points of "
+            "dimension {}".format(tind.shape, X.shape, points.n, points.dim))
+    return tind, X
+
+
+def _check_subset(subset: Optional[ndarray], n: int) -> ndarray:
+    """The point indices of a basis: all n, or ``subset`` checked to be
+    non-empty, sorted, distinct and below n."""
+    if subset is None:
+        return np.arange(n)
+    subset = np.asarray(subset)
+    if subset.ndim != 1 or subset.size == 0 \
+            or not np.issubdtype(subset.dtype, np.integer) \
+            or subset[0] < 0 or subset[-1] >= n \
+            or (np.diff(subset) <= 0).any():
+        raise InvalidInputError(
+            "subset must be sorted, distinct point indices in [0, {}), got "
+            "{}".format(n, np.array2string(subset, threshold=6)))
+    return subset.astype(np.int64, copy=False)
+
+
+def material_point_bases(mesh: Mesh, elem: Element, points: MaterialPoints,
+                         location: Optional[Tuple[ndarray, ndarray]] = None,
+                         dofs: Optional[Dofs] = None,
+                         max_padding: float = .25
+                         ) -> List[MaterialPointBasis]:
+    """Material-point bases grouping elements of (about) equal point counts.
+
+    One :class:`MaterialPointBasis` pads every element to the fullest
+    element's count; with random or clustered points most quadrature slots
+    are then empty, and ``asm`` spends its time on them.  Here the elements
+    are binned by their point counts, geometrically: within a bin the
+    largest count is at most ``1 + max_padding`` times the smallest, so
+    padding adds at most that share of slots to any element.  scikit-fem's
+    ``asm(form, bases)`` sums over the list, equal to ``asm`` on the single
+    padded basis to round-off.
+
+    Point fields entering a form are scattered per basis with
+    :meth:`MaterialPointBasis.quadrature_field` (each basis takes the
+    values of all points), the parts summed as ``asm`` sums them::
+
+        K = sum(form.elemental(b, sig=b.quadrature_field(S))
+                for b in bases).todefault()
+
+    and a quadrature field of every basis gathers back into point order
+    with :meth:`MaterialPointBasis.point_values` and
+    :attr:`MaterialPointBasis.subset`::
+
+        out[..., b.subset] = b.point_values(field)
+
+    The DOFs without point support are those inactive in every basis:
+    ``functools.reduce(np.intersect1d, [b.inactive_dofs for b in bases])``.
+
+    Parameters
+    ----------
+    mesh, elem, points, location
+        As in :class:`MaterialPointBasis`.
+    dofs
+        Optional scikit-fem ``Dofs`` of ``(mesh, elem)``; built once and
+        shared by the bases when not given.
+    max_padding
+        Largest share of padding slots in an element, >= 0; 0 groups by
+        exact point count.
+
+    Returns
+    -------
+    list of MaterialPointBasis
+        One basis per occupied bin, in order of increasing point count.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem import MeshQuad, ElementQuad1, asm, BilinearForm
+    >>> from skfem_mpm import (MaterialPointBasis, MaterialPoints,
+    ...                        material_point_bases)
+    >>> mesh = MeshQuad().refined(3)
+    >>> x = np.random.default_rng(0).random((2, 500))
+    >>> points = MaterialPoints(x=x, volume=np.full(500, 1 / 500))
+    >>> bases = material_point_bases(mesh, ElementQuad1(), points)
+    >>> padded = MaterialPointBasis(mesh, ElementQuad1(), points)
+    >>> padded.dx.size, sum(b.dx.size for b in bases)   # quadrature slots
+    (896, 527)
+    >>> mass = BilinearForm(lambda u, v, w: u * v)
+    >>> float(abs(asm(mass, bases) - asm(mass, padded)).max()) < 1e-15
+    True
+
+    """
+    if not max_padding >= 0.:
+        raise InvalidInputError("max_padding must be >= 0, got {}"
+                                .format(max_padding))
+    location = _located(mesh, points, location)
+    counts = np.bincount(location[0], minlength=mesh.nelements)
+    if max_padding > 0.:
+        # geometric bins: counts in [(1 + p)^k, (1 + p)^(k + 1)) share k
+        label = np.floor(np.log(np.maximum(counts, 1))
+                         / np.log1p(max_padding)).astype(np.int64)
+    else:
+        label = counts
+    point_label = label[location[0]]
+    order = np.argsort(point_label, kind="stable")   # ascending in a bin
+    cuts = np.flatnonzero(np.diff(point_label[order])) + 1
+    if dofs is None:
+        dofs = Dofs(mesh, elem)
+    bases = [MaterialPointBasis(mesh, elem, points, location=location,
+                                dofs=dofs, subset=subset)
+             for subset in np.split(order, cuts)]
+    logger.debug("%d material-point bases, %d quadrature slots for %d "
+                 "points", len(bases), sum(b.dx.size for b in bases),
+                 points.n)
+    return bases

@@ -62,8 +62,7 @@ def solve_fe(mesh: Mesh, elem: Element, material: LinearElastic, supports,
     --------
     >>> import numpy as np
     >>> from skfem import MeshLine, ElementLineP1
-    >>> from skfem_mpm import LinearElastic
-    >>> from skfem_mpm.solve.fe import solve_fe
+    >>> from skfem_mpm import LinearElastic, solve_fe
     >>> fe = solve_fe(MeshLine(np.linspace(0., 50., 11)), ElementLineP1(),
     ...               LinearElastic(1e6, 0.), lambda b: b.get_dofs(
     ...                   lambda x: x[0] == 0), body_force=[-800.])
