@@ -23,14 +23,14 @@ from .errors import InvalidInputError
 __all__ = ["physical_memory", "refuse_beyond_memory", "GRID_BYTES_PER_CELL",
            "SEED_BYTES_PER_POINT", "RUN_BYTES_PER_POINT", "STEP_RECORD_BYTES"]
 
-#: a scikit-fem tensor mesh with its facets, per cell (measured: 324 B for
+#: a scikit-fem tensor mesh with its facets, per cell (324 B measured for
 #: quadrilaterals, 762 B for hexahedra)
 GRID_BYTES_PER_CELL = {1: 100, 2: 300, 3: 750}
 #: seeding (the points' state and the mapping's temporaries; measured 530 B
 #: in 2D)
 SEED_BYTES_PER_POINT = 500
-#: the peak of a finite-deformation run per point (benchmarks: 1.7 to 1.9 kB
-#: in 2D, 4.5 kB in 3D)
+#: the peak of a finite-deformation run per point (1.7 to 1.9 kB in 2D in
+#: the benchmarks, 4.5 kB in 3D)
 RUN_BYTES_PER_POINT = {1: 1000, 2: 1700, 3: 4500}
 #: a step's record in the history without snapshots (scalars, timings,
 #: counters)

@@ -1,7 +1,8 @@
 """Load forms, seed (2.18) and (2.19), and tensor helpers.
 
 Plain scikit-fem ``LinearForm`` s; point data reaches them as quadrature
-fields (see :meth:`MaterialPointBasis.quadrature_field`).
+fields (see
+:meth:`~skfem_mpm.quadrature.basis.MaterialPointBasis.quadrature_field`).
 
 """
 import numpy as np

@@ -121,9 +121,10 @@ def gimp_operators(mesh: Mesh, elem: Element,
                    locate: Locator) -> Callable[[ndarray, ndarray],
                                                 SparseOperator]:
     """``operator(x, domain)`` giving the GIMP operator of points on this
-    grid: closed form for linear elements (:class:`~skfem_mpm.methods.gimp_linear.
-    LinearGimp`), Gauss sub-points (:func:`subpoint_gimp_operator`)
-    otherwise.  Set up once per run (node numbering), called every step."""
+    grid: closed form for linear elements
+    (:class:`~skfem_mpm.methods.gimp_linear.LinearGimp`), Gauss sub-points
+    (:func:`subpoint_gimp_operator`) otherwise.  Set up once per run (node
+    numbering), called every step."""
     scalar = elem.elem if isinstance(elem, ElementVector) else elem
     _grid_axes(mesh)
     if isinstance(scalar, LINEAR_ELEMENTS):

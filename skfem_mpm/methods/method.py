@@ -29,6 +29,7 @@ from .operators import PointOperator
 
 __all__ = ["METHODS", "make_method"]
 
+#: the method names (``method=``, scene key ``solver.method``)
 METHODS = ("fem", "mpm", "ugimp", "cpgimp")
 
 

@@ -30,6 +30,8 @@ __all__ = ["solver_direct_checked", "solver_pypardiso", "solver_pyamg",
            "solver_auto", "get_solver", "available_solvers",
            "AUTO_DIRECT_LIMIT"]
 
+#: DOFs up to which ``"auto"`` factorises with SuperLU when pypardiso is
+#: not installed (pyamg beyond, when installed)
 AUTO_DIRECT_LIMIT = 1_500_000
 CAUSES = ("points leave a zero-energy mode (a grid node supported by too few "
           "points) or the grid has rigid-body modes (missing supports)")

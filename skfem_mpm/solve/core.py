@@ -77,11 +77,17 @@ logger = logging.getLogger(__name__)
 
 __all__ = ["simulate", "RHS", "STABILISATION", "DEFAULT_GHOST"]
 
+#: the right-hand sides of a linear step (``rhs=``): the out-of-balance
+#: force, or the seed's literal load increment
 RHS = ("residual", "increment")
 # failures of a step that a retry or a smaller load increment may cure
 STEP_FAILURES = (NewtonDivergenceError, InversionError, NumericalError)
+#: the fraction of its diagonal added to a tangent refused as singular, or
+#: when a failed step is retried (see ``solve_step``)
 STABILISATION = 1e-7
-DEFAULT_GHOST = .1     # ghost="auto" in finite deformation of moving points
+#: the ghost penalty that ``ghost="auto"`` switches on when a
+#: finite-deformation step of moving points fails
+DEFAULT_GHOST = .1
 
 
 def vector_element(elem: Element) -> Element:

@@ -42,8 +42,9 @@ def _traces(A: ndarray, dim: int):
 
 
 class MeanDilatation:
-    """The B-bar twin of one step's :class:`~skfem_mpm.methods.operators.
-    PointOperator`: same interface, gradients ``grad_bar``.
+    """The B-bar twin of one step's
+    :class:`~skfem_mpm.methods.operators.PointOperator`: same interface,
+    gradients ``grad_bar``.
 
     Parameters
     ----------
