@@ -73,13 +73,28 @@ def test_shipped_scene_files_run_from_the_cli(name, steps, tmp_path, capsys):
                  "--steps", str(steps), "--no-progress"]) == 0
     assert "load steps" in capsys.readouterr().out
     pvd = (out / "points.pvd").read_text()
-    assert pvd.count("<DataSet") == steps
+    assert pvd.count("<DataSet") == steps + 1          # the start and steps
+    assert '<DataSet timestep="0.0" file="points_0000.vtu"/>' in pvd
     cloud = meshio.read(out / "points_{:04d}.vtu".format(steps))
-    for field in ("stress", "displacement", "volume", "F", "von_mises"):
+    for field in ("stress", "displacement", "volume", "F", "von_mises",
+                  "body"):
         assert field in cloud.point_data
     assert np.isfinite(cloud.point_data["stress"]).all()
+    start = meshio.read(out / "points_0000.vtu")
+    assert not start.point_data["displacement"].any()
+    assert np.array_equal(start.point_data["initial_position"],
+                          cloud.point_data["initial_position"])
     grid = meshio.read(out / "grid_{:04d}.vtu".format(steps))
-    assert "displacement" in grid.point_data and len(grid.cells[0]) > 0
+    assert len(grid.cells[0]) > 0
+    assert set(grid.point_data) == {"displacement_increment", "reaction"}
+    assert json.loads((out / "summary.json").read_text())["bodies"] == [
+        b.name for b in load_scene(EXAMPLES / (name + ".toml")).bodies]
+    # the reactions on the grid sum to the supports' resultants
+    summary = json.loads((out / "summary.json").read_text())
+    dim = load_scene(EXAMPLES / (name + ".toml")).grid.dim
+    total = sum(np.array(r[-1]) for r in summary["reactions"].values())
+    assert np.allclose(grid.point_data["reaction"].sum(axis=0)[:dim],
+                       total, rtol=1e-12, atol=1e-9 * np.abs(total).max())
     assert (out / "summary.json").exists()
     assert (out / "final_stress.png").stat().st_size > 5000
 
@@ -221,7 +236,8 @@ def test_resume_is_bit_identical(tmp_path):
     assert np.array_equal(a.points, b.points)
     for field in ("stress", "F", "volume", "domain"):
         assert np.array_equal(a.point_data[field], b.point_data[field])
-    assert (split / "points.pvd").read_text().count("<DataSet") == 8
+    assert (split / "points.pvd").read_text() == \
+        (straight / "points.pvd").read_text()          # 0 to 8, both
 
 
 def test_compare_draws_fe_and_mpm(tmp_path, capsys):
@@ -466,7 +482,7 @@ def test_a_new_run_clears_an_earlier_runs_files(tmp_path, caplog):
     assert (out / "points_0002.vtu").exists()
     assert (out / "notes.txt").read_text() == "mine"
     assert "earlier run" in caplog.text and "checkpoint.npz" in caplog.text
-    assert (out / "points.pvd").read_text().count("<DataSet") == 2
+    assert (out / "points.pvd").read_text().count("<DataSet") == 3
 
 
 def test_ctrl_c_keeps_a_checkpoint_and_one_line(tmp_path, capsys,

@@ -183,6 +183,7 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
             -1, len(names), pts.dim), reactions])
     summary = {
         "scene": scene.name, "method": scene.method,
+        "bodies": [b.name for b in scene.bodies],
         "kinematics": scene.kinematics, "steps": scene.nsteps,
         "steps_run": len(rows), "points": int(pts.n),
         "load_factor": float(rows[-1, 1]) if len(rows) else 0.,
@@ -421,6 +422,10 @@ def run(args) -> int:
     if series is not None and earlier is not None:
         series.restore([(int(r[0]), float(r[6] if scene.dynamics else r[1]))
                         for r in earlier.history])
+    # the start, written as step 0 with the first step's frame (so that a
+    # run refused before its first step writes nothing)
+    start = points.copy() if series is not None and earlier is None \
+        else None
     progress = Progress(scene.nsteps, not args.no_progress,
                         0. if earlier is None else float(earlier.load_factor))
     history, latest = [], []          # the records and the last state
@@ -451,10 +456,14 @@ def run(args) -> int:
         history.append(record)
         latest[:] = [pts]
         progress(record)
+        if start is not None and not series.entries:
+            from ..quadrature.locate import locate_points
+            series.write(0, 0., start, np.unique(locate_points(
+                mesh, start.x)[0]), None)
         if series is not None:
             series.write(record.step, float(
                 record.load_factor if record.time is None else record.time),
-                pts, record.elements, record.u)
+                pts, record.elements, record.u, record.reactions)
         if record.load_factor < 1. and (
                 (args.checkpoint_every
                  and record.step % args.checkpoint_every == 0)

@@ -1,7 +1,9 @@
 """Run output for ParaView and for scripts: a VTU time series of the points
-(all their state as point data) and of the active grid (nodal
-displacements), PVD collections and ``summary.json`` (checkpoints:
-:mod:`skfem_mpm.scenes.checkpoint`).  Every file is written atomically.
+(all their state as point data) and of the active grid (the step's nodal
+displacement increment and the support reactions), from step 0 (the
+start) on, PVD collections and ``summary.json`` (checkpoints:
+:mod:`skfem_mpm.scenes.checkpoint`).  Every file is written atomically;
+the fields and their units are tabled in the README.
 
 """
 import json
@@ -55,17 +57,22 @@ CELL_TYPES = {(1, 2): "line", (2, 4): "quad", (2, 3): "triangle",
               (3, 8): "hexahedron", (3, 4): "tetra"}
 
 
-def active_grid(mesh, elements: ndarray, u: Optional[ndarray]):
-    """The grid's active elements with nodal displacements."""
+def active_grid(mesh, elements: ndarray, u: Optional[ndarray],
+                reactions: Optional[ndarray] = None):
+    """The grid's active elements with the step's nodal displacement
+    increment ``u`` (``displacement_increment``) and the reactions of the
+    supports (``reaction``), vectors over the grid DOFs; zero where not
+    given (step 0)."""
     import meshio
     t = mesh.t[:, elements]
     if mesh.t.shape[0] == 8:
         t = t[[0, 2, 4, 1, 3, 6, 7, 5]]       # scikit-fem to VTK hexahedra
     cell = CELL_TYPES[(mesh.dim(), mesh.t.shape[0])]
-    data = {}
-    if u is not None:
-        data["displacement"] = _pad3(
-            u[:mesh.dim() * mesh.nvertices].reshape(-1, mesh.dim()).T)
+    nodal = mesh.dim() * mesh.nvertices
+    data = {name: np.zeros((mesh.nvertices, 3)) if v is None else _pad3(
+        v[:nodal].reshape(-1, mesh.dim()).T)
+        for name, v in (("displacement_increment", u),
+                        ("reaction", reactions))}
     return meshio.Mesh(_pad3(mesh.p), [(cell, t.T)], point_data=data)
 
 
@@ -92,7 +99,11 @@ class SeriesWriter:
             points.state.get(PLASTIC_STRAIN)
 
     def write(self, step: int, time: float, points: MaterialPoints,
-              elements: ndarray, u: Optional[ndarray]):
+              elements: ndarray, u: Optional[ndarray],
+              reactions: Optional[ndarray] = None):
+        """Step ``step`` at ``time`` (load factor, or seconds): the points,
+        and the ``elements`` of the grid with the step's increment ``u``
+        and ``reactions`` (``None`` at step 0)."""
         import meshio
         names = ("points_{:04d}.vtu".format(step),
                  "grid_{:04d}.vtu".format(step))
@@ -104,8 +115,8 @@ class SeriesWriter:
             cloud.point_data["yielding"] = (plastic > before).astype(
                 np.float64)
             self.plastic_strain = plastic.copy()
-        for name, m in zip(names, (cloud,
-                                   active_grid(self.mesh, elements, u))):
+        for name, m in zip(names, (cloud, active_grid(self.mesh, elements,
+                                                      u, reactions))):
             with atomic_path(self.outdir / name) as tmp:
                 meshio.write(tmp, m, file_format="vtu")
         self.entries.append((time, names))
@@ -120,7 +131,10 @@ class SeriesWriter:
                 Path(tmp).write_text("\n".join(lines) + "\n")
 
     def restore(self, steps):
-        """Re-register the files of steps already written (resume)."""
+        """Re-register the files of steps already written (resume), the
+        start (step 0) among them where it was written."""
+        if (self.outdir / "points_0000.vtu").exists():
+            steps = [(0, 0.)] + list(steps)
         self.entries = [(t, ("points_{:04d}.vtu".format(s),
                              "grid_{:04d}.vtu".format(s))) for s, t in steps]
 

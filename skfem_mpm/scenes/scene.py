@@ -400,20 +400,25 @@ def reaction_resultants(scene):
     ``resultant(record) -> (supports + rigid bodies, dim)``: per support,
     the resultant reaction force of a step (zero in unsupported
     components), then per rigid body the force that moves it
-    (:attr:`~skfem_mpm.StepRecord.rigid_forces`)."""
+    (:attr:`~skfem_mpm.StepRecord.rigid_forces`).  A grid DOF held by
+    several supports counts for the first of them only, so that the
+    resultants add up to the total reaction."""
     mesh, elem = scene.grid.build()
     grid, dim = grid_parts(mesh, elem)[1], mesh.dim()
     parts = []
+    claimed = np.zeros(grid.N, dtype=bool)
     for support in scene.supports:
         axes = [AXES.index(c) for c in support.components
                 if AXES.index(c) < dim]
-        parts.append((axes, scene_support_dofs(support, grid, dim)))
+        dofs = scene_support_dofs(support, grid, dim)
+        parts.append((axes, dofs, ~claimed[dofs]))
+        claimed[dofs] = True
 
     def resultant(record) -> np.ndarray:
         reactions = record.reactions
         out = np.zeros((len(parts), dim))
-        for k, (axes, dofs) in enumerate(parts):
-            out[k, axes] = reactions[dofs].sum(axis=1)
+        for k, (axes, dofs, first) in enumerate(parts):
+            out[k, axes] = (reactions[dofs] * first).sum(axis=1)
         return np.vstack([out] + [f[None] for f in record.rigid_forces])
     return support_names(scene) + [b.name for b in scene.bodies
                                    if b.rigid is not None], resultant
