@@ -15,6 +15,7 @@ displacement increment, including the geometric term; it is pulled back to
 the start-of-step configuration so that the grid operators built at the
 start of a step serve every Newton iteration.  All tensors are 3x3 (plane
 strain and 1D keep the out-of-plane components), points on the last axis.
+The scheme is Simo's (*Comput. Methods Appl. Mech. Engrg.* 99, 1992).
 
 """
 from typing import Tuple

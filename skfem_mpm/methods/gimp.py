@@ -15,6 +15,10 @@ Two domain updates: ``"ugimp"`` keeps domains fixed; ``"cpgimp"`` stretches
 them with the diagonal of the right stretch tensor ``U`` of ``F = R U``, so
 a rigid rotation leaves them unchanged.
 
+GIMP: Bardenhagen and Kober, *Comput. Model. Eng. Sci.* 5, 2004; its
+implicit, finite-deformation form (iGIMP): Charlton, Coombs and Augarde,
+*Comput. Struct.* 190, 2017 (docs/references.md).
+
 """
 import functools
 import itertools

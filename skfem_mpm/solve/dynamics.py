@@ -3,6 +3,8 @@
 With ``simulate(..., dynamics=Dynamics(time_step, duration, density))`` a
 load step is a time step: the same methods, kinematics, materials,
 stabilisation and loads, and the inertia of the points' mass on the grid.
+Schemes: Newmark (*J. Eng. Mech. Div. ASCE* 85, 1959) and the generalised-
+alpha method of Chung and Hulbert (*J. Appl. Mech.* 60, 1993).
 
 Mass
     Every point carries the mass ``m_p = density * V0_p`` of its body.  The

@@ -13,7 +13,8 @@ the jump of the normal derivative across the face, scaled to the material
 vanishes for linear fields, so patch tests still pass, and it ties a
 sliver's nodes to their neighbours: the condition number stays bounded
 whatever the sliver's size.  Facet terms are assembled by scikit-fem on
-``InteriorFacetBasis`` pairs.
+``InteriorFacetBasis`` pairs.  The ghost penalty is Burman's (*C. R.
+Acad. Sci. Paris, Ser. I* 348, 2010).
 
 """
 from typing import Optional

@@ -5,7 +5,8 @@ With arc length ``s`` in [0, 1] (units of the length L) and rotation
 ``theta(s)``, a tip force of fixed vertical direction gives
 ``theta'' + alpha cos(theta) = 0``, ``theta(0) = 0``, ``theta'(1) = 0``,
 ``alpha = P L^2 / (E I)``.  Tip deflections: ``v/L = int sin(theta) ds``
-and ``u/L = 1 - int cos(theta) ds``.
+and ``u/L = 1 - int cos(theta) ds`` (Bisshopp and Drucker, *Q. Appl.
+Math.* 3, 1945, solved here numerically).
 
 """
 import numpy as np
