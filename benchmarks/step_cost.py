@@ -12,7 +12,10 @@ basis, DOFs, stiffness pattern), the peak of the numpy/Python heap per
 point (tracemalloc: the factorisation, allocated by SuperLU or MKL, is not
 in it) and the growth of the resident set per point (factorisation
 included); then the fitted exponents of the non-solve time per step and
-per Newton iteration against the number of points, and the iterations per
+per Newton iteration against the number of points, the cost of a Newton
+iteration fitted as ``a + b * points`` (the fixed cost ``a`` in ms and the
+slope ``b`` in us per point; whole iteration and non-solve part, fitted
+to relative residuals so that every size counts), and the iterations per
 step.
 
     python benchmarks/step_cost.py [--max-points 1e6] [--solver scipy]
@@ -77,9 +80,18 @@ def run(ncells: int, method: str, kinematics: str, solver: str,
                 setup=wall - step * nsteps,
                 iteration_us=(step - per_step["solve"])
                 * nsteps / iterations / points.n * 1e6,
+                iteration_s=step * nsteps / iterations,
                 heap=heap / points.n, memory=memory.peak / points.n,
                 iterations=round(iterations / nsteps, 1),
                 amg=getattr(solver, "iterations", None))
+
+
+def fixed_and_slope(n, t):
+    """``(a, b)`` of ``t ~ a + b n`` by least squares on relative
+    residuals."""
+    n, t = np.asarray(n, float), np.asarray(t, float)
+    A = np.column_stack([np.ones_like(n), n]) / t[:, None]
+    return np.linalg.lstsq(A, np.ones_like(t), rcond=None)[0]
 
 
 def main():
@@ -130,6 +142,13 @@ def main():
                           np.log(n), np.log(t), 1)[0], np.polyfit(
                               np.log(n[big]), np.log(t[big]), 1)[0]
                           if big.sum() >= 2 else float("nan")))
+            whole = [r["iteration_s"] for r in rows]
+            nonsolve = [r["iteration_us"] * r["points"] * 1e-6 for r in rows]
+            (a, b), (c, d) = fixed_and_slope(n, whole), fixed_and_slope(
+                n, nonsolve)
+            print("per Newton iteration: {:.2f} ms + {:.2f} us/point; "
+                  "non-solve part {:.2f} ms + {:.2f} us/point".format(
+                      a * 1e3, b * 1e6, c * 1e3, d * 1e6))
             print("Newton iterations per step:", " ".join(
                 str(r["iterations"]) for r in rows))
             if rows[0]["amg"] is not None:

@@ -401,17 +401,19 @@ def reaction_resultants(scene):
     the resultant reaction force of a step (zero in unsupported
     components), then per rigid body the force that moves it
     (:attr:`~skfem_mpm.StepRecord.rigid_forces`).  A grid DOF held by
-    several supports counts for the first of them only, so that the
-    resultants add up to the total reaction."""
+    several supports counts for the last of them only (a later, more
+    particular support refines an earlier one: a wall's corner node
+    belongs to the wall listed after the base), so that the resultants
+    add up to the total reaction."""
     mesh, elem = scene.grid.build()
     grid, dim = grid_parts(mesh, elem)[1], mesh.dim()
     parts = []
     claimed = np.zeros(grid.N, dtype=bool)
-    for support in scene.supports:
+    for support in scene.supports[::-1]:
         axes = [AXES.index(c) for c in support.components
                 if AXES.index(c) < dim]
         dofs = scene_support_dofs(support, grid, dim)
-        parts.append((axes, dofs, ~claimed[dofs]))
+        parts.insert(0, (axes, dofs, ~claimed[dofs]))
         claimed[dofs] = True
 
     def resultant(record) -> np.ndarray:

@@ -36,7 +36,8 @@ offending value (unknown keys, wrong types, impossible values), in a
     # or { model = "cam_clay", kappa = .., lambda = .., M = ..,
     #      shear_modulus = .., reference_pressure = ..,
     #      preconsolidation_pressure = .. (default: reference_pressure) }
-    [[supports]]
+    [[supports]]                    # a grid DOF held by several supports
+                                    # reacts in the last one's resultant
     name = "base"                   # optional: labels its reactions in
                                     # summary.json (default "support-N")
     boundary = "bottom"             # left right bottom top back front

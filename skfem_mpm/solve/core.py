@@ -66,8 +66,8 @@ from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
 from .dynamics import Dynamics, Inertia
-from .linear import check_rigid_body_modes, free_dofs, solve_active, \
-    support_dofs
+from .linear import Condensation, check_rigid_body_modes, free_dofs, \
+    solve_active, support_dofs
 from .loads import ExternalLoads
 from .newton import FullStep, make_line_search, trial_state
 from .results import PHASES, Result, StepRecord
@@ -518,11 +518,14 @@ def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
     counters = run.counters
     if not run.linear:
         counters["newton_iterations"] += 1
+    if not (run.condensation is not None and run.condensation.fits(K, free)):
+        run.condensation = Condensation(K, free)    # new step: new map
     if not stabilise:
         counters["linear_solves"] += 1
         try:
             return solve_active(K, r, free, solver=run.solver,
-                                doflocs=run.grid.doflocs)
+                                doflocs=run.grid.doflocs,
+                                condensation=run.condensation)
         except SingularSystemError as err:
             if run.linear:
                 raise SingularSystemError("step {}: {}".format(step, err)) \
@@ -535,7 +538,8 @@ def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
     counters["stabilised_solves"] += 1
     try:
         return solve_active(K, r, free, solver=run.solver,
-                            doflocs=run.grid.doflocs)
+                            doflocs=run.grid.doflocs,
+                            condensation=run.condensation)
     except SingularSystemError as err:
         raise SingularSystemError("step {}: {}".format(step, err)) from err
 
@@ -884,6 +888,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     if method in ("fem", "mpm"):
         pattern.structure()              # set-up, shared by every step
     run = Run(
+        condensation=None,           # the free-free gather of a step's K
         mesh=mesh, dim=mesh.dim(), grid=grid, method=piece, linear=linear,
         kinematics=make_kinematics(kinematics, material, mesh.dim(), counters,
                                    total_lagrangian=method == "fem"),

@@ -4,7 +4,11 @@ turned into errors.
 Grid nodes without point support have empty rows; the system is condensed
 onto the active DOFs that are not supported, and a singular or unusable
 factorisation raises :class:`~skfem_mpm.errors.SingularSystemError` instead
-of scipy's warning followed by garbage.
+of scipy's warning followed by garbage.  The Newton iterations of a load
+step assemble into one sparsity pattern and keep their free DOFs: a
+:class:`Condensation` gathers the free-free block of each from an index
+map built once, where scikit-fem's ``condense`` would index the sparse
+matrix anew every iteration.
 
 """
 import warnings
@@ -12,7 +16,7 @@ from typing import Callable, Optional
 
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import coo_matrix, spmatrix
+from scipy.sparse import coo_matrix, csr_matrix, spmatrix
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import MatrixRankWarning
 from skfem import condense, solve
@@ -21,7 +25,7 @@ from ..errors import InvalidInputError, SingularSystemError
 from .backends import get_solver
 
 __all__ = ["support_dofs", "free_dofs", "element_adjacency",
-           "check_rigid_body_modes", "solve_active"]
+           "check_rigid_body_modes", "solve_active", "Condensation"]
 
 
 def support_dofs(supports, basis) -> ndarray:
@@ -149,19 +153,73 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
                                   " / ".join(names)))
 
 
+class Condensation:
+    """The free-free block ``K[free][:, free]`` of CSR matrices of one
+    sparsity pattern, gathered from ``K.data`` through an index map built
+    once (by indexing a matrix of entry numbers the way ``condense``
+    indexes ``K``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.sparse import random
+    >>> from skfem_mpm.solve.linear import Condensation
+    >>> K = random(6, 6, density=.5, format="csr", random_state=0)
+    >>> free = np.array([0, 2, 3, 5])
+    >>> condensed = Condensation(K, free)
+    >>> K.data *= 2.                       # a new iteration, same pattern
+    >>> bool((condensed(K) != K[free][:, free]).nnz == 0)
+    True
+
+    """
+
+    def __init__(self, K: csr_matrix, free: ndarray):
+        self.free = free
+        self.indices, self.indptr = K.indices, K.indptr
+        numbers = csr_matrix((np.arange(1., K.nnz + 1.), K.indices, K.indptr),
+                             shape=K.shape)[free][:, free]
+        self.take = numbers.data.astype(np.int64) - 1
+        self.block = (numbers.indices, numbers.indptr)
+
+    def fits(self, K, free: ndarray) -> bool:
+        """Whether ``K`` has this pattern (canonical CSR) and ``free`` is
+        these free DOFs."""
+        return free is self.free and isinstance(K, csr_matrix) \
+            and K.has_canonical_format \
+            and (K.indices is self.indices or (
+                K.indices.shape == self.indices.shape
+                and np.array_equal(K.indptr, self.indptr)
+                and np.array_equal(K.indices, self.indices)))
+
+    def __call__(self, K: csr_matrix) -> csr_matrix:
+        n = self.free.size
+        return csr_matrix((K.data[self.take], *self.block), shape=(n, n))
+
+
+def row_sums(A: csr_matrix) -> ndarray:
+    """The sums of the magnitudes of the rows of a CSR matrix."""
+    n = A.shape[0]
+    return np.bincount(np.repeat(np.arange(n), np.diff(A.indptr)),
+                       np.abs(A.data), minlength=n)
+
+
 def solve_active(K: spmatrix, f: ndarray, free: ndarray,
                  solver: Optional[Callable] = None, tol: float = 1e-10,
                  x: Optional[ndarray] = None,
-                 doflocs: Optional[ndarray] = None) -> ndarray:
-    """Solve ``K u = f`` on the DOFs ``free`` (zero elsewhere) with
-    scikit-fem's ``condense`` and ``solve``.
+                 doflocs: Optional[ndarray] = None,
+                 condensation: Optional[Condensation] = None) -> ndarray:
+    """Solve ``K u = f`` on the DOFs ``free`` (zero elsewhere), condensed
+    with scikit-fem's ``condense`` or by ``condensation``.
 
     ``solver`` is a scikit-fem solver ``f(A, b) -> x`` or a name for
     :func:`~skfem_mpm.solve.backends.get_solver`; default
     :func:`~skfem_mpm.solve.backends.solver_direct_checked`.  ``x`` holds
     prescribed values on the DOFs that are not free (zero by default).
     ``doflocs`` (dim, N) gives solvers that want them (algebraic multigrid)
-    the rigid-body modes of the free DOFs.
+    the rigid-body modes of the free DOFs.  ``condensation``, a
+    :class:`Condensation` of ``K``'s pattern and ``free``, gathers the
+    condensed matrix without indexing ``K`` (used when it fits and ``x``
+    is not given).
 
     Raises
     ------
@@ -176,7 +234,12 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
     with warnings.catch_warnings():
         warnings.simplefilter("error", MatrixRankWarning)
         try:
-            A, b, x, I = condense(K, f, x=x, I=free)
+            if x is None and condensation is not None and \
+                    condensation.fits(K, free):
+                A, b, I = condensation(K), f[free], free
+                x = np.zeros(K.shape[0])
+            else:
+                A, b, x, I = condense(K, f, x=x, I=free)
             solver = get_solver(solver)
             kwargs = {}
             if getattr(solver, "wants_modes", False) and doflocs is not None:
@@ -198,7 +261,7 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
             "MPa, mm)".format(largest, np.abs(b).max(), abs(A).max()))
     # normwise backward error of the solve
     r = np.abs(A @ u[I] - b).max()
-    scale = abs(A).sum(axis=1).max() * np.abs(u[I]).max() + np.abs(b).max()
+    scale = row_sums(A).max() * np.abs(u[I]).max() + np.abs(b).max()
     error = r / max(scale, np.finfo(float).tiny)
     if not np.all(np.isfinite(u)) or error > tol:
         raise SingularSystemError(
