@@ -567,14 +567,21 @@ reduce = "min"
             ('quantity = "stress"\ncomponent = "yy"', "no 'yy' component"),
             ('quantity = "speed"\ncomponent = "x"', "quantity must be one"),
             ('quantity = "displacement"\ncomponent = "x"\ncolour = 1',
-             "unknown key colour")):
+             "unknown key colour"),
+            ('quantity = "displacement"\ncomponent = "x"\nat = [50.0]\n'
+             'reduce = "max"', "nothing to reduce"),
+            ('quantity = "reaction"\ncomponent = "x"\nsupport = '
+             '"support-1"\nreduce = "max"', "takes no 'reduce'"),
+            ('quantity = "stress"\ncomponent = "xx"\nbody = "soil"',
+             "no body 'soil'")):
         path.write_text(EMBEDDED.read_text() + "\n[[outputs]]\n" + bad)
         assert main(["run", str(path), "--out", str(tmp_path / "no")]) == 2
         assert message in capsys.readouterr().err, message
     path.write_text(EMBEDDED.read_text() + '\n[[outputs]]\nquantity = '
-                    '"displacement"\ncomponent = "x"\nat = [80.0]\n')
+                    '"displacement"\ncomponent = "x"\nat = [51.0]\n')
     assert main(["run", str(path), "--out", str(tmp_path / "no")]) == 2
-    assert "no material point within two cells" in capsys.readouterr().err
+    assert "[51.0] lies outside the points (initial positions [0.625] to " \
+        "[49.375])" in capsys.readouterr().err
     assert not (tmp_path / "no" / "summary.json").exists()
 
 
@@ -599,3 +606,54 @@ def test_progress_bar_shows_elapsed_and_remaining_time():
     resumed(SimpleNamespace(step=3, load_factor=.75, newton_residuals=None,
                             residual=0.))
     assert stream.getvalue().endswith("elapsed 0:05 left 0:05")
+
+
+def test_a_value_at_an_interface_is_one_bodys():
+    """Two bodies stacked: ``body`` picks whose points a quantity counts,
+    so the stress at their interface is the lower body's (the weight of
+    the upper one plus its own above the place), not a mix; the 3D slice
+    of a picture shows one layer of points."""
+    from skfem_mpm.studies.quantities import Quantity
+    from skfem_mpm.scenes.plot import shown_axes
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    scene = parse_scene(tomllib.loads("""
+[grid]
+x = [0.0, 1.0, 2]
+y = [0.0, 2.0, 4]
+[[bodies]]
+name = "base"
+region = { x = [0.0, 1.0], y = [0.0, 1.0] }
+material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
+[[bodies]]
+name = "top"
+region = { x = [0.0, 1.0], y = [1.0, 2.0] }
+material = { model = "linear_elastic", E = 1e3, nu = 0.0 }
+[[supports]]
+boundary = "bottom"
+[[supports]]
+boundary = "left"
+components = ["x"]
+[[supports]]
+boundary = "right"
+components = ["x"]
+[gravity]
+body_force = [0.0, -10.0]
+"""))
+    result = run_scene(scene)
+    base = Quantity("stress", "yy", at=(.5, 1.), body="base")
+    top = Quantity("stress", "yy", at=(.5, 1.), body="top")
+    anyone = Quantity("stress", "yy", at=(.5, 1.))
+    # uniaxial strain, nu = 0, one linear step: each cell's stress is the
+    # weight above its centre, -rho g (H - y_c), constant in the cell: the
+    # base's top cells (y_c = 0.75) and the top body's lowest (1.25)
+    assert abs(base.measure(scene, result) / (-10. * (2. - .75)) - 1.) < 1e-9
+    assert abs(top.measure(scene, result) / (-10. * (2. - 1.25)) - 1.) < 1e-9
+    assert abs(anyone.measure(scene, result) / -10. - 1.) < 1e-9  # a mix
+    assert base.label == "stress yy of base at (0.5, 1)"
+    mixed = Quantity("stress", "yy", region=((0., 1.), (.75, 1.25)))
+    assert mixed.label == "mean stress yy over [0..1, 0.75..1.25]"
+    from skfem import MeshHex
+    from skfem_mpm import seed_points
+    cube = seed_points(MeshHex().refined(1), 2)
+    axes, slab, note = shown_axes(cube.x, cube.volume)
+    assert axes == (1, 2) and np.unique(cube.x[0, slab]).size == 1

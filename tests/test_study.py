@@ -241,3 +241,25 @@ def test_self_convergence_cases():
     assert flat.order is None and "round-off" in flat.why
     diverging = self_convergence(h, 1. + np.array([1e-3, 1e-2, 1e-1]))
     assert diverging.order is None and "no positive order" in diverging.why
+
+
+def test_a_box_empty_on_a_coarse_grid_fails_that_case_only(tmp_path,
+                                                          capsys):
+    """A box thinner than the coarse grid's point spacing: that case is
+    recorded as failed (no NaN anywhere in study.json), the others are
+    measured; repeated values of a choice are refused before any work."""
+    from dataclasses import replace
+    thin = Quantity("displacement", "x", region=((49., 50.),),
+                    reduce="min", name="thin")
+    rows = study(replace(COLUMN, reference=None, steps=1),
+                 {"elements": [4, 16, 32, 64]}, tmp_path, progress=False,
+                 quantities=[thin])
+    assert "no material point of this run" in rows[0]["failure"]
+    assert all(not r["failure"] for r in rows[1:])
+    text = (tmp_path / "study.json").read_text()
+    assert "NaN" not in text and json.loads(text)["convergence"][0][
+        "order"] > 0
+    assert main(["study", str(EMBEDDED), "--vary", "elements=8,8,16",
+                 "--out", str(tmp_path / "twice")]) == 2
+    assert "repeats a value" in capsys.readouterr().err
+    assert not (tmp_path / "twice").exists()

@@ -273,7 +273,7 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
             ax.plot(disp, factor, "o-", ms=3, label="xyz"[k])
         ax.set_xlabel("mean displacement of the loaded points (m)")
         ax.set_ylabel("load factor (-)")
-        ax.set_title("{}: load against displacement\nof the point-loaded "
+        ax.set_title("{}: load against displacement\nof the loaded "
                      "material points".format(scene.name))
         ax.legend(title="component")
         fig.tight_layout()
@@ -383,7 +383,7 @@ def run(args) -> int:
     digest = scene_digest(source)
     mesh, _ = scene.grid.build()
     initial = build_points(scene, mesh)
-    check_quantities(scene, scene.outputs, initial.x0)
+    check_quantities(scene, scene.outputs, initial)
     if points is None:
         points, domain0 = initial, initial.domain
     else:
@@ -541,7 +541,14 @@ def run(args) -> int:
     summary["status"] = "completed"
     prepare()
     write_summary(outdir / "summary.json", summary)
-    plot_outputs(scene, result, outdir, loaded, summary)
+    try:
+        plot_outputs(scene, result, outdir, loaded, summary)
+    except KeyboardInterrupt:
+        print("skfem-mpm: interrupted while drawing the figures; the run is "
+              "complete in {} (summary.json{})".format(
+                  outdir, "" if args.no_series else ", the VTU series"),
+              file=sys.stderr)
+        return 130
     print("{}: {} {} ({} kinematics), {} points, {}".format(
         scene.name, "resumed" if args.resume else "ran", scene.method,
         scene.kinematics, summary["points"], "{} load steps".format(
@@ -556,7 +563,8 @@ def run(args) -> int:
     print("  max displacement          {:.4f} m".format(
         summary["max_displacement"]))
     for label, q in summary.get("outputs", {}).items():
-        print("  {:26s}{:.6g} {}".format(label, q["value"], q["unit"]))
+        print("  {} {:.6g} {}".format(label.ljust(25), q["value"],
+                                      q["unit"]))
     print("  max equilibrium residual  {:.1e}".format(
         summary["max_residual"]))
     total = sum(summary["timings"].values()) or 1.
@@ -621,7 +629,7 @@ def compare(args) -> int:
             meshio.write(tmp, point_cloud(pts), file_format="vtu")
         pts.x = pts.x0 + pts.displacement        # FE points stay at x0
         draw_points(fig, ax, pts, pts.stress[d, d],
-                    "{} (Pa)".format(component), "{} ({} kinematics): "
+                    "{} (Pa)".format(component), "{} ({} kinematics),\n"
                     "{:.2f} s".format(method, variant.kinematics, seconds),
                     scale=scale, colorbar=k == 1)
         if a.dim == 1:
@@ -691,9 +699,15 @@ def run_study(args) -> int:
     vary = parse_vary(args.vary)
     quantities = parse_measures(args.measure, len(scene.grid.axes)) or \
         scene_quantities(scene)
-    rows = study(scene, vary, args.out, scheduler=args.scheduler,
-                 workers=args.workers, progress=not args.no_progress,
-                 quantities=quantities)
+    try:
+        rows = study(scene, vary, args.out, scheduler=args.scheduler,
+                     workers=args.workers, progress=not args.no_progress,
+                     quantities=quantities)
+    except KeyboardInterrupt:
+        print("skfem-mpm: study interrupted; the finished cases are in {}; "
+              "the same command resumes it".format(args.out / "study.json"),
+              file=sys.stderr)
+        return 130
     measured = analyse(scene, rows, quantities)
     keys = [k for k in VARIABLES if k in vary]
     print("error: {}".format(measured["error"]["measures"]))
@@ -713,20 +727,25 @@ def run_study(args) -> int:
             if not r["failure"]:
                 groups.setdefault(tuple(r[k] for k in others), []).append(r)
         for group, rs in groups.items():
-            print("rate of the error {}: {:.2f}".format(
+            rate = fitted_rate([r["elements"] for r in rs],
+                               [r["error"] for r in rs])
+            print("rate of the error {}: {}".format(
                 ", ".join("{}={}".format(k, v) for k, v in zip(others, group))
-                or "all", fitted_rate([r["elements"] for r in rs],
-                                      [r["error"] for r in rs])))
+                or "all", "{:.2f} (fitted to the cases with a non-zero "
+                "error)".format(rate) if np.isfinite(rate) else
+                "needs two cases with a non-zero error"))
     for c in measured["convergence"]:
         where = ", ".join("{}={}".format(k, v) for k, v in
                           c["choices"].items())
-        found = "observed order {:.2f}, extrapolated {:.6g} +- {:.2g} {} " \
-            "(GCI)".format(c["order"], c["reference"], c["uncertainty"],
+        found = "observed order {:.2f}{}, extrapolated {:.6g} +- {:.2g} {} " \
+            "(GCI)".format(c["order"], " (oscillating)" if c["oscillatory"]
+                           else "", c["reference"], c["uncertainty"],
                            c["unit"]) if c["order"] is not None else \
             "reference {:.6g} {} (finest case: {})".format(
                 c["reference"], c["unit"], c["why"])
-        print("{}{}: {}".format(c["quantity"], " [" + where + "]" if where
-                                else "", found))
+        print("{}{}: {}{}".format(c["quantity"], " [" + where + "]" if where
+                                  else "", found, "; caution: " + c["caution"]
+                                  if c["caution"] else ""))
     for path in plot_study(rows, args.out, measured):
         print("  plot {}".format(path))
     return 0

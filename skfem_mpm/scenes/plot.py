@@ -96,8 +96,8 @@ def shown_axes(x: np.ndarray, volume: np.ndarray):
     across = int(np.argmin(extent))
     middle = .5 * (x[across].max() + x[across].min())
     spacing = np.cbrt(np.median(volume))
-    distance = np.abs(x[across] - middle)
-    slab = distance <= distance.min() + .5 * spacing
+    nearest = x[across][np.argmin(np.abs(x[across] - middle))]
+    slab = np.abs(x[across] - nearest) < .5 * spacing  # one layer
     shown = tuple(d for d in range(3) if d != across)
     return shown, slab, "slice {} = {:.3g} m".format("xyz"[across],
                                                       x[across][slab].mean())
@@ -359,9 +359,9 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             outdir / "error_vs_elements.png"))
     if ok:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
-        methods = sorted({r.get("method", "scene") for r in ok})
+        methods = sorted({r.get("method", "all cases") for r in ok})
         for style, m in zip(series_styles(len(methods)), methods):
-            rs = [r for r in ok if r.get("method", "scene") == m]
+            rs = [r for r in ok if r.get("method", "all cases") == m]
             _loglog(ax, [r["wall_seconds"] for r in rs],
                     [r["error"] for r in rs], style, m, line=False)
         front, best = [], np.inf
@@ -408,17 +408,19 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
                             label=", ".join("{}={}".format(k, v) for k, v
                                             in c["choices"].items()) or
                             "all", **style)
-                if c["order"] is not None:
-                    ax.axhline(c["reference"], color=style["color"], lw=.6,
-                               ls=":")
-                    ax.axhspan(c["reference"] - c["uncertainty"],
-                               c["reference"] + c["uncertainty"],
-                               color=style["color"], alpha=.12)
+                ax.axhline(c["reference"], color=style["color"], lw=.6,
+                           ls=":", label="Richardson extrapolation, band: "
+                           "GCI" if c["order"] is not None else
+                           "finest case, band: 3 |f1 - f2| (no order)")
+                ax.axhspan(c["reference"] - c["uncertainty"],
+                           c["reference"] + c["uncertainty"],
+                           color=style["color"], alpha=.12)
             ax.invert_xaxis()
+            ax.ticklabel_format(axis="y", useOffset=False)
             ax.set_ylabel("{} ({})".format(name, mine[0]["unit"]))
-            ax.set_xlabel("cell size (m)")
-            ax.set_title("{} over refinement\ndotted: Richardson "
-                         "extrapolation, band: GCI".format(name), fontsize=9)
+            ax.set_xlabel("cell size (V/N)^(1/d) (m)")
+            ax.set_title("{} over refinement, with the reference of each "
+                         "group".format(name), fontsize=9)
             ax.legend(fontsize=6, loc="best")
         fig.tight_layout()
         save_figure(fig, outdir / "quantities.png")

@@ -71,9 +71,11 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # xz yz mises pressure
     at = [0.5, 50.0]                # initial position (fitted to the
                                     # nearest points), or
-    # region = { y = [45.0, 50.0] } # points starting in a box, with
-    # reduce = "mean"               # mean (volume-weighted) max min
-                                    # max_abs; neither: all points
+    # region = { y = [45.0, 50.0] } # points starting in a box, reduced
+    # reduce = "max"                # by mean (volume-weighted, the
+                                    # default) max min max_abs; neither at
+                                    # nor region: all points, reduced
+    # body = "column"               # optional: only this body's points
     [dynamics]                      # optional: implicit dynamics
     time_step = 0.01                # s (the longest; equal steps)
     duration = 1.0                  # s

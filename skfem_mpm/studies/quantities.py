@@ -63,11 +63,15 @@ class Quantity:
         points whose initial position lies in the box, reduced by
         ``reduce``.  Neither ``at`` nor ``region``: all points.
     reduce
-        ``"mean"`` (volume-weighted), ``"max"``, ``"min"`` or
-        ``"max_abs"`` (the value of largest magnitude, sign kept).
-    support, body
-        The support's name (``support-N`` where unnamed) or the rigid
-        body's name.
+        Over a region or all points: ``"mean"`` (volume-weighted, the
+        default), ``"max"``, ``"min"`` or ``"max_abs"`` (the value of
+        largest magnitude, sign kept); refused with ``at`` and for forces.
+    support
+        The support's name (``support-N`` where unnamed).
+    body
+        For a ``rigid_force``, the rigid body's name; for point
+        quantities, optionally the body whose points count (default: all
+        bodies), so that a value ``at`` an interface is one body's.
     name
         A label for tables and plots; default from the fields.
 
@@ -83,7 +87,7 @@ class Quantity:
     component: str
     at: Optional[Tuple[float, ...]] = None
     region: Optional[Tuple[Tuple[float, float], ...]] = None
-    reduce: str = "mean"
+    reduce: Optional[str] = None
     support: Optional[str] = None
     body: Optional[str] = None
     name: str = ""
@@ -96,13 +100,14 @@ class Quantity:
             raise InvalidInputError(
                 "a {} has the components {}, got {!r}".format(
                     self.quantity, COMPONENTS[self.quantity], self.component))
-        if self.reduce not in REDUCTIONS:
+        if self.reduce is not None and self.reduce not in REDUCTIONS:
             raise InvalidInputError("reduce must be one of {}, got {!r}"
                                     .format(REDUCTIONS, self.reduce))
         pointwise = self.quantity in ("displacement", "stress")
         wanted = {"at": pointwise, "region": pointwise,
                   "support": self.quantity == "reaction",
-                  "body": self.quantity == "rigid_force"}
+                  "body": self.quantity != "reaction",
+                  "reduce": pointwise}
         for key, allowed in wanted.items():
             if getattr(self, key) is not None and not allowed:
                 raise InvalidInputError("a {} quantity takes no {!r}".format(
@@ -110,6 +115,9 @@ class Quantity:
         if self.at is not None and self.region is not None:
             raise InvalidInputError("a quantity is taken at a place or "
                                     "over a region, not both")
+        if self.at is not None and self.reduce is not None:
+            raise InvalidInputError("a value at a place has nothing to "
+                                    "reduce: drop 'reduce' or give a region")
         if self.quantity == "reaction" and self.support is None:
             raise InvalidInputError("a reaction needs the support's name")
         if self.quantity == "rigid_force" and self.body is None:
@@ -122,26 +130,32 @@ class Quantity:
             return self.name
         text = "{} {}".format(self.quantity.replace("_", " "),
                               self.component)
-        if self.at is not None:
-            return text + " at ({})".format(", ".join(
-                "{:g}".format(v) for v in self.at))
-        if self.region is not None:
-            return "{} {} over [{}]".format(self.reduce, text, ", ".join(
-                "{:g}..{:g}".format(lo, hi) for lo, hi in self.region))
         if self.support is not None:
             return text + " of " + self.support
-        if self.body is not None:
+        if self.quantity == "rigid_force":
             return text + " of " + self.body
-        return "{} {} of all points".format(self.reduce, text)
+        of = "" if self.body is None else " of " + self.body
+        if self.at is not None:
+            return text + of + " at ({})".format(", ".join(
+                "{:g}".format(v) for v in self.at))
+        if self.region is not None:
+            return "{} {}{} over [{}]".format(
+                self.reduce or "mean", text, of, ", ".join(
+                    "{:g}..{:g}".format(lo, hi) for lo, hi in self.region))
+        return "{} {} of {}".format(self.reduce or "mean", text,
+                                    "all points" if self.body is None
+                                    else self.body)
 
     def unit(self, dim: int) -> str:
         """The quantity's unit in a scene of dimension ``dim``."""
         return quantity_unit(self.quantity, dim)
 
-    def check(self, scene, x0: Optional[ndarray] = None):
+    def check(self, scene, points=None):
         """Refuse, before any work, a quantity the scene cannot give: a
         component, support or body the scene does not have, and with the
-        initial points ``x0`` (dim, n), a place or box away from them."""
+        scene's initial :class:`~skfem_mpm.MaterialPoints`, a place
+        outside the (body's) points' extent, or a box holding none of
+        them."""
         from ..scenes.scene import support_names
         dim = len(scene.grid.axes)
         if self.component in ("z", "zz", "xz", "yz") and dim < 3 or \
@@ -157,33 +171,49 @@ class Quantity:
             raise InvalidInputError("{}: no support {!r} (the scene has {})"
                                     .format(self.label, self.support,
                                             support_names(scene)))
-        rigid = [b.name for b in scene.bodies if b.rigid is not None]
-        if self.body is not None and self.body not in rigid:
-            raise InvalidInputError("{}: no rigid body {!r} (rigid bodies: "
-                                    "{})".format(self.label, self.body,
-                                                 rigid))
-        if x0 is None:
+        bodies = [b.name for b in scene.bodies if b.rigid is not None
+                  or self.quantity != "rigid_force"]
+        if self.body is not None and self.body not in bodies:
+            raise InvalidInputError("{}: no {}body {!r} (the scene has {})"
+                                    .format(self.label, "rigid " if
+                                            self.quantity == "rigid_force"
+                                            else "", self.body, bodies))
+        if points is None or self.quantity not in ("displacement", "stress"):
             return
-        if self.at is not None:
-            at = np.asarray(self.at, float)
-            h = max((hi - lo) / n for lo, hi, n in scene.grid.axes)
-            if np.sqrt(((x0 - at[:, None]) ** 2).sum(axis=0)).min() > 2 * h:
-                raise InvalidInputError(
-                    "{}: no material point within two cells of {}".format(
-                        self.label, list(self.at)))
-        if self.region is not None and not self._in_region(x0).any():
+        chosen = self._chosen(scene, points)
+        if not chosen.any():
             raise InvalidInputError("{}: no material point starts in the "
                                     "region".format(self.label))
+        if self.at is not None:
+            x0 = points.x0[:, chosen]
+            spacing = np.median(points.volume[chosen]) ** (1. / dim)
+            at = np.asarray(self.at, float)
+            if (at < x0.min(axis=1) - spacing).any() or \
+                    (at > x0.max(axis=1) + spacing).any():
+                raise InvalidInputError(
+                    "{}: {} lies outside the {} (initial positions {} to {})"
+                    .format(self.label, list(self.at), "points" if
+                            self.body is None else "points of " + self.body,
+                            x0.min(axis=1).round(6).tolist(),
+                            x0.max(axis=1).round(6).tolist()))
 
-    def _in_region(self, x0: ndarray) -> ndarray:
-        inside = np.ones(x0.shape[1], dtype=bool)
-        for d, (lo, hi) in enumerate(self.region):
-            inside &= (x0[d] >= lo) & (x0[d] <= hi)
-        return inside
+    def _chosen(self, scene, points) -> ndarray:
+        """Which points count: those of ``body`` (all without), starting
+        in ``region`` (anywhere without)."""
+        chosen = np.ones(points.n, dtype=bool)
+        if self.body is not None:
+            names = [b.name for b in scene.bodies]
+            chosen &= points.body == names.index(self.body)
+        if self.region is not None:
+            for d, (lo, hi) in enumerate(self.region):
+                chosen &= (points.x0[d] >= lo) & (points.x0[d] <= hi)
+        return chosen
 
     def measure(self, scene, result) -> float:
         """The quantity of a finished run (``result`` of
-        :func:`~skfem_mpm.scenes.scene.run_scene` on ``scene``)."""
+        :func:`~skfem_mpm.scenes.scene.run_scene` on ``scene``); a box
+        that holds no point of this run (a coarse grid of a study) raises
+        :class:`~skfem_mpm.errors.InvalidInputError`."""
         if self.quantity in ("reaction", "rigid_force"):
             from ..scenes.scene import reaction_resultants
             names, resultant = reaction_resultants(scene)
@@ -193,19 +223,23 @@ class Quantity:
                 self.component == "magnitude" else \
                 float(force["xyz".index(self.component)])
         pts = result.points
-        values = point_values(pts, self.quantity, self.component)
+        chosen = self._chosen(scene, pts)
+        if not chosen.any():
+            raise InvalidInputError(
+                "{}: no material point of this run starts in the region "
+                "(the grid's points are too far apart for it)".format(
+                    self.label))
+        values = point_values(pts, self.quantity, self.component)[chosen]
         if self.at is not None:
-            return fitted_value(pts.x0, values, np.asarray(self.at, float))
-        if self.region is not None:
-            inside = self._in_region(pts.x0)
-            values, volume = values[inside], pts.volume[inside]
-        else:
-            volume = pts.volume
-        if self.reduce == "mean":
+            return fitted_value(pts.x0[:, chosen], values,
+                                np.asarray(self.at, float))
+        volume = pts.volume[chosen]
+        reduce = self.reduce or "mean"
+        if reduce == "mean":
             return float(values @ volume / volume.sum())
-        if self.reduce == "max_abs":
+        if reduce == "max_abs":
             return float(values[np.argmax(np.abs(values))])
-        return float(getattr(values, self.reduce)())
+        return float(getattr(values, reduce)())
 
 
 def quantity_unit(quantity: str, dim: int) -> str:
@@ -306,15 +340,14 @@ def scene_quantities(scene) -> Sequence[Quantity]:
     return list(scene.outputs) or [DEFAULT_QUANTITY]
 
 
-def check_quantities(scene, quantities: Sequence[Quantity],
-                     x0: Optional[ndarray] = None):
-    """:meth:`Quantity.check` every quantity (on the initial points ``x0``
-    when given), and refuse two with one label (tables and plots tell them
-    apart by it)."""
+def check_quantities(scene, quantities: Sequence[Quantity], points=None):
+    """:meth:`Quantity.check` every quantity (on the scene's initial
+    ``points`` when given), and refuse two with one label (tables and
+    plots tell them apart by it)."""
     labels = [q.label for q in quantities]
     twice = sorted({a for a in labels if labels.count(a) > 1})
     if twice:
         raise InvalidInputError("quantities named twice: {}; give them "
                                 "distinct names".format(", ".join(twice)))
     for q in quantities:
-        q.check(scene, x0)
+        q.check(scene, points)

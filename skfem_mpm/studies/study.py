@@ -200,10 +200,12 @@ def _key(params: dict) -> str:
 
 
 def cell_size(scene: Scene, elements: int) -> float:
-    """Cell size along the scene's most refined axis with ``elements``
-    cells there (:func:`refine`)."""
-    lo, hi, _ = max(scene.grid.axes, key=lambda a: a[2])
-    return (hi - lo) / elements
+    """The representative cell size ``(V / N)^(1/d)`` (Celik et al. 2008)
+    of the scene's grid refined to ``elements`` (:func:`refine`): the
+    rounding of the other axes' counts enters the refinement ratios."""
+    axes = refine(scene, elements).grid.axes
+    return float(np.prod([(hi - lo) / n for lo, hi, n in axes])
+                 ** (1. / len(axes)))
 
 
 def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
@@ -242,7 +244,7 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                              uncertainty=None, order=None, against="finest",
                              why="elements not varied: the case with the "
                              "most points (then load steps) is the "
-                             "reference", oscillatory=False)
+                             "reference", oscillatory=False, caution="")
             for r, e in zip(members, relative_errors(values,
                                                       found["reference"])):
                 r.setdefault("errors", {})[q.label] = float(e)
@@ -255,13 +257,21 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             r["errors"][first]
     if scene.reference:
         label, against, what = REFERENCE_ERRORS[scene.reference]
-    else:
+    elif refined:
         label = "relative error of {}".format(first)
         against = "its Richardson extrapolation (or the finest case)"
         what = ("|value - reference| / |reference| of {} ({}), the "
                 "reference being its Richardson extrapolation over the "
                 "element counts, or the finest case where no order is "
                 "observed (see convergence)".format(
+                    first, quantities[0].unit(len(scene.grid.axes))))
+    else:
+        label = "relative error of {}".format(first)
+        against = "the case with the most points"
+        what = ("|value - reference| / |reference| of {} ({}), the "
+                "reference being the case with the most points (then load "
+                "steps) among those sharing method, right-hand side and "
+                "line search: elements were not varied".format(
                     first, quantities[0].unit(len(scene.grid.axes))))
     return {"error": {"label": label, "against": against, "measures": what},
             "convergence": convergence}
@@ -343,9 +353,12 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
                                         for v in values):
             raise InvalidInputError("{} must be positive integers, got {}"
                                     .format(name, list(values)))
+        if len(set(values)) != len(values):
+            raise InvalidInputError("--vary {} repeats a value: {}".format(
+                name, list(values)))
     quantities = list(quantities or scene_quantities(scene))
     check_quantities(scene, quantities, build_points(
-        scene, scene.grid.build()[0]).x0)
+        scene, scene.grid.build()[0]))
     labels = {q.label for q in quantities}
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
