@@ -153,3 +153,24 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
     again = run()
     assert np.array_equal(again.points.x, stored.points.x)
     assert np.array_equal(again.points.stress, stored.points.stress)
+
+
+def test_rigid_body_check_runs_when_cells_or_supports_change(monkeypatch):
+    """The rigid-body check of the active grid runs at the first step and
+    again only when the active cells or the held DOFs change: once in 4
+    steps where MPM's points stay in their cells, every step for GIMP
+    (whose connectivity follows the points' supports)."""
+    import skfem_mpm.solve.core as core
+    from skfem_mpm import simulate
+    calls = []
+    check = core.check_rigid_body_modes
+    monkeypatch.setattr(core, "check_rigid_body_modes", lambda *args: (
+        calls.append(args[-1]), check(*args)))
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1.5, 7))
+    for method, expected in (("mpm", [1]), ("cpgimp", [1, 2, 3, 4])):
+        calls.clear()
+        simulate(mesh, ElementQuad1(), seed_points(
+            mesh, 2, region=lambda x: x[1] < 1.), LinearElastic(1e6, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0), body_force=[0., -1e3],
+            nsteps=4, method=method, kinematics="finite")
+        assert calls == expected, method

@@ -61,6 +61,10 @@ class AsmOperator:
 
     """
 
+    #: the grid's connectivity (rigid-body check) follows from the active
+    #: elements alone
+    connectivity_from_elements = True
+
     def __init__(self, basis: MaterialPointBasis):
         self.basis = basis
         self.dim = basis.mesh.dim()
@@ -118,6 +122,10 @@ class PointOperator:
         Scalar (nloc, nelems) and vector (dim * nloc, nelems) element DOFs.
 
     """
+
+    #: the grid's connectivity (rigid-body check) follows from the active
+    #: elements alone
+    connectivity_from_elements = True
 
     def __init__(self, basis: MaterialPointBasis,
                  pattern: Optional[ElementPattern] = None):
@@ -191,6 +199,10 @@ class SparseOperator:
         The active elements (holding part of a point's domain).
 
     """
+
+    #: the grid's connectivity follows the points' supports, not only
+    #: the active elements
+    connectivity_from_elements = False
 
     def __init__(self, S: csr_matrix, G, elements: ndarray):
         self.S, self.G = S, list(G)

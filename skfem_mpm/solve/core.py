@@ -282,8 +282,14 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         driven = np.union1d(driven, dofs[values != 0.])
         rigid_dofs.append(dofs)
     if run.dynamics is None:                  # the mass holds a free body
-        check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
-                               op.active_dofs, fixed, run.dim, step)
+        # checked again only when the active cells or the held DOFs change
+        held = (op.elements.tobytes(), fixed.tobytes()) if \
+            op.connectivity_from_elements else None
+        if held is None or held != run.held:
+            check_rigid_body_modes(op.adjacency(),
+                                   run.grid.doflocs[:, ::run.dim],
+                                   op.active_dofs, fixed, run.dim, step)
+            run.held = held
     free = free_dofs(op.active_dofs, fixed)
     f_dead = run.loads.external(op, points, s_new)
     G = None if run.ghost is None else run.ghost.matrix(op, points)
@@ -889,6 +895,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         pattern.structure()              # set-up, shared by every step
     run = Run(
         condensation=None,           # the free-free gather of a step's K
+        held=None,                   # active cells and held DOFs checked
         mesh=mesh, dim=mesh.dim(), grid=grid, method=piece, linear=linear,
         kinematics=make_kinematics(kinematics, material, mesh.dim(), counters,
                                    total_lagrangian=method == "fem"),

@@ -64,7 +64,8 @@ class MeanDilatation:
                 "(whose points span several cells)")
         self.op, self.dim = op, op.dim
         for name in ("N", "nelems", "elements", "active_dofs", "values",
-                     "point_force", "adjacency", "point_elements", "basis"):
+                     "point_force", "adjacency", "point_elements", "basis",
+                     "connectivity_from_elements"):
             setattr(self, name, getattr(op, name))
         basis = op.basis
         W = basis.quadrature_field(volume)                   # (e, slots)
