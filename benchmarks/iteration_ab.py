@@ -1,0 +1,31 @@
+"""Milliseconds per Newton iteration and phase of one checkout, for A/B
+comparisons of two commits on a machine whose speed drifts.
+
+The block of ``step_cost.py`` (``(2 ncells)^2`` points, standard MPM,
+finite deformation, 3 load steps of 3 Newton iterations), best of
+``reps`` runs per phase.  Run it alternately on two checkouts (e.g. a
+``git worktree`` of the older commit)::
+
+    python benchmarks/iteration_ab.py ROOT NCELLS REPS
+
+ROOT is the checkout whose ``skfem_mpm`` is imported.
+"""
+import sys
+
+root, ncells, reps = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
+sys.path.insert(0, root)
+sys.path.insert(0, root + "/benchmarks")
+from step_cost import block  # noqa: E402
+from skfem import ElementQuad1  # noqa: E402
+from skfem_mpm import LinearElastic, simulate  # noqa: E402
+mesh, points = block(ncells)
+best = {}
+for _ in range(reps):
+    r = simulate(mesh, ElementQuad1(), points.copy(), LinearElastic(1e6, .3),
+                 lambda b: b.get_dofs(lambda x: x[-1] == 0), body_force=[0, -1e4],
+                 nsteps=3, method="mpm", kinematics="finite", keep_snapshots=False)
+    its = r.counters["newton_iterations"]
+    t = r.timings(); t["total"] = sum(t.values())
+    for k, v in t.items():
+        best[k] = min(best.get(k, 1e9), v / its * 1e3)
+print(points.n, " ".join("{} {:.3f}".format(k, v) for k, v in best.items()), "ms/iteration")
