@@ -657,3 +657,21 @@ body_force = [0.0, -10.0]
     cube = seed_points(MeshHex().refined(1), 2)
     axes, slab, note = shown_axes(cube.x, cube.volume)
     assert axes == (1, 2) and np.unique(cube.x[0, slab]).size == 1
+
+
+def test_every_command_line_argument_has_help():
+    """``skfem-mpm --help`` and each command's ``--help`` explain every
+    argument."""
+    import argparse
+    from skfem_mpm.scenes.cli import build_parser
+    missing = []
+
+    def walk(parser, name):
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for command, sub in action.choices.items():
+                    walk(sub, command)
+            elif not action.help:
+                missing.append((name, action.dest))
+    walk(build_parser(), "skfem-mpm")
+    assert missing == []
