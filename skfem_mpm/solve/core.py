@@ -915,6 +915,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         else (lambda f: dynamics.scale(f * dynamics.duration)),
         initial_cells=None if prescribed is None
         else locate(points.x0)[0])
+    logger.info("linear solver: %s", solver if isinstance(solver, str) else
+                "scipy (SuperLU)" if solver is None else
+                getattr(solver, "__qualname__", repr(solver)))
     if prescribed is not None:           # grid DOFs that carried material
         run.initially_supported = np.zeros(grid.N, dtype=bool)
         run.initially_supported[grid.dofs.element_dofs[
