@@ -51,9 +51,20 @@ def principal_frame(b: ndarray, dim: int = 3) -> Tuple[ndarray, ndarray]:
     vecs[[0, 1, 2], [0, 1, 2]] = 1.
     if dim == 2:
         p, q, r = b[0, 0], b[1, 1], b[0, 1]
-        mean, radius = (p + q) / 2, np.hypot((p - q) / 2, r)
-        angle = .5 * np.arctan2(2 * r, p - q)
-        c, s = np.cos(angle), np.sin(angle)
+        half = (p - q) / 2
+        mean, radius = (p + q) / 2, np.hypot(half, r)
+        # the first eigenvector without trigonometry or cancellation:
+        # (half + radius, r) for half >= 0, else (r, radius - half); the
+        # sign with c >= 0, as cos of half of arctan2(2 r, p - q)
+        upper = half >= 0
+        c = np.where(upper, half + radius, r)
+        s = np.where(upper, r, radius - half)
+        length = np.hypot(c, s)
+        round_ = length == 0                    # b = mean I: any frame
+        length[round_] = 1.
+        c[round_] = 1.
+        sign = np.where(c < 0, -1., 1.) / length
+        c, s = c * sign, s * sign
         x[0], x[1] = mean + radius, mean - radius
         vecs[0, 0], vecs[1, 0], vecs[0, 1], vecs[1, 1] = c, s, -s, c
     return x, vecs
