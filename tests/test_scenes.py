@@ -675,3 +675,49 @@ def test_every_command_line_argument_has_help():
                 missing.append((name, action.dest))
     walk(build_parser(), "skfem-mpm")
     assert missing == []
+
+
+def test_a_dof_held_by_a_moving_and_a_fixed_support_reacts_in_the_moving():
+    """A piston (prescribed motion) and a fixed wall share the top corner:
+    the corner's reaction is the piston's whatever the order of the list,
+    and the resultants add up to the total reaction of the grid."""
+    from dataclasses import replace
+    from skfem_mpm.scenes.scene import reaction_resultants
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    text = """
+[grid]
+x = [0.0, 1.0, 4]
+y = [0.0, 1.0, 4]
+[[bodies]]
+region = { x = [0.0, 1.0], y = [0.0, 1.0] }
+material = { model = "linear_elastic", E = 1e4, nu = 0.3 }
+[[supports]]
+name = "base"
+boundary = "bottom"
+components = ["y"]
+[[supports]]
+name = "piston"
+boundary = "top"
+value = [0.0, -0.01]
+[[supports]]
+name = "wall"
+boundary = "right"
+components = ["x"]
+[[supports]]
+name = "axis"
+boundary = "left"
+components = ["x"]
+"""
+    scene = parse_scene(tomllib.loads(text))
+    result = run_scene(scene)
+    total = result.history[-1].reactions.reshape(-1, 2).sum(axis=0)
+    resultants = {}
+    for order in ([0, 1, 2, 3], [0, 2, 3, 1]):
+        shuffled = replace(scene, supports=[scene.supports[k] for k in order])
+        names, resultant = reaction_resultants(shuffled)
+        forces = resultant(run_scene(shuffled).history[-1])
+        assert np.allclose(forces.sum(axis=0), total, atol=1e-9)
+        resultants[tuple(order)] = dict(zip(names, forces.tolist()))
+    first, second = resultants.values()
+    for name in first:
+        assert np.allclose(first[name], second[name], atol=1e-9), name

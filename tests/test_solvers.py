@@ -118,11 +118,12 @@ def test_non_symmetric_tangents_are_solved_as_such(name):
     assert is_symmetric(csr_matrix(A + A.T))
 
 
+@pytest.mark.parametrize("method", ["mpm", "cpgimp"])
 def test_condensation_is_built_once_per_step_and_equals_condense(
-        monkeypatch):
+        monkeypatch, method):
     """Newton's iterations of a load step gather the free-free block from
-    one stored index map: the maps built equal the steps (3, with 3-4
-    iterations each), every gathered block equals scikit-fem's
+    one stored index map: for MPM the maps built equal the steps (3, with
+    3-4 iterations each), every gathered block equals scikit-fem's
     ``condense`` exactly, and the run's answer is bit-identical to the
     one condensed by scikit-fem every iteration."""
     from skfem import condense
@@ -144,15 +145,31 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
         pts = seed_points(mesh, 2, region=lambda x: x[1] < 1.)
         return solve_finite(mesh, ElementQuad1(), pts, LinearElastic(1e5, .3),
                             lambda b: b.get_dofs(lambda x: x[1] == 0),
-                            body_force=[0., -2e4], nsteps=3)
+                            body_force=[0., -2e4], nsteps=3, method=method)
     stored = run()
     iterations = stored.counters["newton_iterations"]
-    assert len(builds) == 3 and len(gathers) == iterations >= 9
+    assert iterations >= 9
+    # GIMP's sparse products are not canonical (and drop exact zeros, so
+    # their pattern may change between iterations): condensed by
+    # scikit-fem's condense, no map built
+    mapped = method == "mpm"
+    assert len(builds) == (3 if mapped else 0)
+    assert len(gathers) == (iterations if mapped else 0)
     assert all(mismatch == 0 for mismatch in gathers)
     monkeypatch.setattr(Condensation, "fits", lambda self, K, free: False)
     again = run()
     assert np.array_equal(again.points.x, stored.points.x)
     assert np.array_equal(again.points.stress, stored.points.stress)
+    # a matrix sharing the index array but not the row pointers is not it
+    from scipy.sparse import csr_matrix
+    indices = np.array([0, 1, 1, 2], np.int32)
+    K1 = csr_matrix((np.ones(4), indices, np.array([0, 2, 4, 4], np.int32)),
+                    shape=(3, 3))
+    K2 = csr_matrix((np.ones(4), indices, np.array([0, 1, 2, 4], np.int32)),
+                    shape=(3, 3))
+    K2.indices = K1.indices
+    free = np.arange(3)
+    assert not Condensation(K1, free).fits(K2, free)
 
 
 def test_rigid_body_check_runs_when_cells_or_supports_change(monkeypatch):

@@ -401,20 +401,26 @@ def reaction_resultants(scene):
     the resultant reaction force of a step (zero in unsupported
     components), then per rigid body the force that moves it
     (:attr:`~skfem_mpm.StepRecord.rigid_forces`).  A grid DOF held by
-    several supports counts for the last of them only (a later, more
-    particular support refines an earlier one: a wall's corner node
-    belongs to the wall listed after the base), so that the resultants
-    add up to the total reaction."""
+    several supports counts for one of them only, so that the resultants
+    add up to the total reaction: a support that moves (a ``value``) if
+    one holds it, since the DOF moves with it, else the last one listed (a
+    later, more particular support refines an earlier one: a wall's corner
+    node belongs to the wall listed after the base)."""
     mesh, elem = scene.grid.build()
     grid, dim = grid_parts(mesh, elem)[1], mesh.dim()
-    parts = []
+    held = [scene_support_dofs(s, grid, dim) for s in scene.supports]
+    first = sorted(range(len(held)), key=lambda k: (
+        scene.supports[k].value is None, -k))       # moving, then last
     claimed = np.zeros(grid.N, dtype=bool)
-    for support in scene.supports[::-1]:
+    mine = [None] * len(held)
+    for k in first:
+        mine[k] = ~claimed[held[k]]
+        claimed[held[k]] = True
+    parts = []
+    for support, dofs, own in zip(scene.supports, held, mine):
         axes = [AXES.index(c) for c in support.components
                 if AXES.index(c) < dim]
-        dofs = scene_support_dofs(support, grid, dim)
-        parts.insert(0, (axes, dofs, ~claimed[dofs]))
-        claimed[dofs] = True
+        parts.append((axes, dofs, own))
 
     def resultant(record) -> np.ndarray:
         reactions = record.reactions

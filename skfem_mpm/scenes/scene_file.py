@@ -37,7 +37,8 @@ offending value (unknown keys, wrong types, impossible values), in a
     #      shear_modulus = .., reference_pressure = ..,
     #      preconsolidation_pressure = .. (default: reference_pressure) }
     [[supports]]                    # a grid DOF held by several supports
-                                    # reacts in the last one's resultant
+                                    # reacts in a moving one's resultant,
+                                    # else in the last one's
     name = "base"                   # optional: labels its reactions in
                                     # summary.json (default "support-N")
     boundary = "bottom"             # left right bottom top back front

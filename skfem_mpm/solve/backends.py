@@ -94,18 +94,14 @@ def is_symmetric(A, rtol: float = 1e-12) -> bool:
 def reproducible():
     """Ask MKL for the same result in identical runs: its conditional
     numerical reproducibility (``MKL_CBWR=AUTO,STRICT``, unless the
-    environment says otherwise), which MKL reads before its first
-    computation.  Without it Pardiso's threads round differently from run
-    to run (1e-16), and a resumed run would not be bit-identical.  It costs
-    10-15% of Pardiso's time.  A warning says when MKL may have computed
-    before (pypardiso imported earlier in the process)."""
+    environment says otherwise).  Without it Pardiso's threads round
+    differently from run to run (1e-16), and a resumed run would not be
+    bit-identical; it costs 10-15% of Pardiso's time.  MKL reads the
+    setting at its first computation in the process: where MKL has
+    computed before skfem-mpm's first Pardiso solve (another library using
+    MKL), set ``MKL_CBWR=AUTO,STRICT`` in the environment instead.  The
+    variable stays set for the process and its children."""
     import os
-    import sys
-    if "MKL_CBWR" not in os.environ and "pypardiso" in sys.modules:
-        logger.warning("pypardiso was imported before skfem-mpm could ask "
-                       "MKL for reproducible results: identical runs may "
-                       "differ at round-off; set MKL_CBWR=AUTO,STRICT in "
-                       "the environment")
     os.environ.setdefault("MKL_CBWR", "AUTO,STRICT")
 
 

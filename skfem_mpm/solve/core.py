@@ -524,8 +524,10 @@ def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
     counters = run.counters
     if not run.linear:
         counters["newton_iterations"] += 1
-    if not (run.condensation is not None and run.condensation.fits(K, free)):
+    if not (run.condensation is not None and run.condensation.fits(K, free)) \
+            and getattr(K, "has_canonical_format", False):
         run.condensation = Condensation(K, free)    # new step: new map
+    # (GIMP's sparse products are not canonical: scikit-fem's condense)
     if not stabilise:
         counters["linear_solves"] += 1
         try:

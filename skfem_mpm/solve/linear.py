@@ -186,10 +186,12 @@ class Condensation:
         these free DOFs."""
         return free is self.free and isinstance(K, csr_matrix) \
             and K.has_canonical_format \
-            and (K.indices is self.indices or (
-                K.indices.shape == self.indices.shape
-                and np.array_equal(K.indptr, self.indptr)
-                and np.array_equal(K.indices, self.indices)))
+            and K.shape[0] == self.indptr.size - 1 \
+            and K.indices.shape == self.indices.shape \
+            and (K.indptr is self.indptr
+                 or np.array_equal(K.indptr, self.indptr)) \
+            and (K.indices is self.indices
+                 or np.array_equal(K.indices, self.indices))
 
     def __call__(self, K: csr_matrix) -> csr_matrix:
         n = self.free.size

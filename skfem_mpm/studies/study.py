@@ -257,22 +257,20 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             r["errors"][first]
     if scene.reference:
         label, against, what = REFERENCE_ERRORS[scene.reference]
-    elif refined:
-        label = "relative error of {}".format(first)
-        against = "its Richardson extrapolation (or the finest case)"
-        what = ("|value - reference| / |reference| of {} ({}), the "
-                "reference being its Richardson extrapolation over the "
-                "element counts, or the finest case where no order is "
-                "observed (see convergence)".format(
-                    first, quantities[0].unit(len(scene.grid.axes))))
     else:
         label = "relative error of {}".format(first)
-        against = "the case with the most points"
-        what = ("|value - reference| / |reference| of {} ({}), the "
-                "reference being the case with the most points (then load "
-                "steps) among those sharing method, right-hand side and "
-                "line search: elements were not varied".format(
-                    first, quantities[0].unit(len(scene.grid.axes))))
+        against, reference = (
+            "its Richardson extrapolation (or the finest case)",
+            "its Richardson extrapolation over the element counts, or the "
+            "finest case where no order is observed (see convergence)") \
+            if refined else (
+            "the case with the most points",
+            "the case with the most points (then load steps) among those "
+            "sharing method, right-hand side and line search: elements "
+            "were not varied")
+        what = "|value - reference| / |reference| of {} ({}), the " \
+            "reference being {}".format(
+                first, quantities[0].unit(len(scene.grid.axes)), reference)
     return {"error": {"label": label, "against": against, "measures": what},
             "convergence": convergence}
 
