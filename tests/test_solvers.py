@@ -217,3 +217,16 @@ print(all(np.array_equal(runs[0], x) for x in runs[1:]))
     out = subprocess.run([sys.executable, "-c", script], capture_output=True,
                          text=True, timeout=300, env=env)
     assert out.stdout.strip() == "True", out.stderr[-2000:]
+
+
+def test_auto_logs_the_back_end_it_chooses(caplog):
+    """``solver="auto"`` names the back end it picked for the run's systems
+    (pypardiso, installed with the test extra), once."""
+    import logging
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    with caplog.at_level(logging.INFO, logger="skfem_mpm"):
+        block(mesh, ElementQuad1(), "auto")
+        block(mesh, ElementQuad1(), "auto")
+    chosen = [r.getMessage() for r in caplog.records
+              if r.getMessage().startswith("auto: ")]
+    assert chosen == ["auto: pypardiso for 40 DOFs"] * 2    # one per run

@@ -245,12 +245,17 @@ def solver_auto() -> Callable:
     iterative = solver_pyamg() if "pyamg" in installed else None
 
     def solver(A, b, modes=None, **kwargs):
-        if iterative is not None and "pypardiso" not in installed \
-                and A.shape[0] > AUTO_DIRECT_LIMIT:
-            return iterative(A, b, modes=modes)
-        return direct(A, b)
+        amg = iterative is not None and "pypardiso" not in installed \
+            and A.shape[0] > AUTO_DIRECT_LIMIT
+        name = "pyamg" if amg else "pypardiso" if "pypardiso" in installed \
+            else "scipy (SuperLU)"
+        if name not in solver.chosen:           # logged once per back end
+            solver.chosen.append(name)
+            logger.info("auto: %s for %d DOFs", name, A.shape[0])
+        return iterative(A, b, modes=modes) if amg else direct(A, b)
 
     solver.wants_modes = iterative is not None
+    solver.chosen = []
     return solver
 
 
