@@ -314,19 +314,13 @@ def parse_quantity(table: dict, dim: int,
 
 
 def _region(table, dim: int, key: str) -> Tuple[Tuple[float, float], ...]:
-    axes = "xyz"[:dim]
-    if not isinstance(table, dict) or set(table) - set(axes):
-        raise InvalidInputError("{}: must be a table of {}, got {!r}".format(
-            key, ", ".join(axes), table))
-    box = []
-    for a in axes:
-        v = table.get(a, [-np.inf, np.inf])
-        if not (isinstance(v, list) and len(v) == 2 and all(
-                isinstance(x, (int, float)) and not isinstance(x, bool)
-                for x in v) and v[0] <= v[1]):
-            raise InvalidInputError("{}.{}: must be [lo, hi] with lo <= hi, "
-                                    "got {!r}".format(key, a, v))
-        box.append((float(v[0]), float(v[1])))
+    """A region table as a closed box, checked as scene files check
+    theirs (:mod:`skfem_mpm.scenes.scene_file`)."""
+    from ..scenes.scene_file import _Checker, _box
+    checker = _Checker()
+    box = _box(checker, table, key, dim, closed=True)
+    if checker.problems:
+        raise InvalidInputError("; ".join(checker.problems))
     return tuple(box)
 
 
