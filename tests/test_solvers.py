@@ -220,13 +220,75 @@ print(all(np.array_equal(runs[0], x) for x in runs[1:]))
 
 
 def test_auto_logs_the_back_end_it_chooses(caplog):
-    """``solver="auto"`` names the back end it picked for the run's systems
-    (pypardiso, installed with the test extra), once."""
+    """``solver="auto"`` (the default) names the back end it picked for
+    the run's systems, once per run: SuperLU for a small block, where it
+    is the faster."""
     import logging
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
     with caplog.at_level(logging.INFO, logger="skfem_mpm"):
         block(mesh, ElementQuad1(), "auto")
-        block(mesh, ElementQuad1(), "auto")
+        block(mesh, ElementQuad1(), None)
     chosen = [r.getMessage() for r in caplog.records
               if r.getMessage().startswith("auto: ")]
-    assert chosen == ["auto: pypardiso for 40 DOFs"] * 2    # one per run
+    assert chosen == ["auto: scipy (SuperLU) for 40 free DOFs"] * 2
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_auto_takes_each_back_end_from_its_size(monkeypatch, dim):
+    """With the test extra installed: SuperLU below AUTO_PARDISO_FROM free
+    DOFs, Pardiso from there, AMG-CG from AUTO_AMG_FROM (sizes lowered
+    here to the test's systems); every answer equal to SuperLU's."""
+    from scipy.sparse import diags
+    from skfem_mpm.solve import backends
+    monkeypatch.setitem(backends.AUTO_PARDISO_FROM, dim, 20)
+    monkeypatch.setitem(backends.AUTO_AMG_FROM["pypardiso"], dim, 60)
+    solver = backends.solver_auto(dim)
+    for n in (10, 30, 80):
+        A = diags([-1., 2.5, -1.], [-1, 0, 1], shape=(n, n)).tocsr()
+        b = np.linspace(1., 2., n)
+        reference = backends.solver_direct_checked()(A.tocsc(), b)
+        assert np.abs(solver(A, b) - reference).max() < 1e-9
+    assert solver.chosen == ["scipy (SuperLU)", "pypardiso", "pyamg"]
+    with pytest.raises(InvalidInputError, match="dim must be 1, 2 or 3"):
+        backends.solver_auto(4)
+
+
+def test_auto_solves_directly_what_amg_does_not_converge_on(monkeypatch):
+    """A tangent far from positive definite (CG diverges): the system goes
+    to the direct back end, which solves it."""
+    from scipy.sparse import csr_matrix
+    from skfem_mpm.solve import backends
+    monkeypatch.setitem(backends.AUTO_AMG_FROM["pypardiso"], 2, 2)
+    solver = backends.solver_auto(2)
+    A = csr_matrix(np.array([[1., 3., 0.], [3., 1., 0.], [0., 0., -2.]]))
+    x = solver(A, np.ones(3))
+    assert np.allclose(A @ x, np.ones(3), rtol=1e-13, atol=0)
+    assert solver.chosen == ["pyamg", "scipy (SuperLU)"]
+
+
+def test_pardiso_hands_singular_systems_to_the_checked_superlu():
+    """A lone point in a cell leaves a zero-energy mode.  Pardiso perturbs
+    the zero pivot and answers (with garbage along the mode); the back end
+    sees the perturbed pivot and hands the system to SuperLU's pivot
+    check: a load along the mode is refused, gravity (orthogonal to it) is
+    solved, equal to SuperLU's answer."""
+    from skfem_mpm import MaterialPoints, SingularSystemError
+    from skfem_mpm.quadrature.points import concatenate_points
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 3), np.linspace(0, 2, 3))
+    body = seed_points(mesh, 2, region=lambda x: x[1] < 1)
+    lone = MaterialPoints(x=[[.3], [1.6]], volume=[.25], domain=[[.25],
+                                                                 [.25]])
+    points = concatenate_points([body, lone])
+
+    def run(solver, force):
+        return solve_mpm(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+                         lambda b: b.get_dofs(lambda x: x[1] == 0),
+                         body_force=force, solver=solver)
+    pardiso = get_solver("pypardiso")
+    with pytest.raises(SingularSystemError, match="zero-energy mode"):
+        run(pardiso, [.5, -1.])
+    assert pardiso.handed_over == 1
+    u = run(pardiso, [0., -1.]).points.displacement
+    assert pardiso.handed_over == 2
+    reference = run("scipy", [0., -1.]).points.displacement
+    assert np.array_equal(u, reference)

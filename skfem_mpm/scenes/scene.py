@@ -217,8 +217,9 @@ class Scene:
         Load steps (default 1; :attr:`nsteps` is the count a run takes)
         and, for finite deformation, Newton settings.
     linear_solver
-        ``"scipy"``, ``"pypardiso"``, ``"pyamg"`` or ``"auto"``
-        (:mod:`skfem_mpm.solve.backends`).
+        ``"scipy"``, ``"pypardiso"``, ``"pyamg"`` or ``"auto"`` (the
+        default: the fastest installed for each system's size,
+        :mod:`skfem_mpm.solve.backends`).
     antilocking
         Mean dilatation (B-bar) against volumetric locking (``"mpm"``,
         ``"fem"``; any kinematics).
@@ -261,7 +262,7 @@ class Scene:
     max_iterations: int = 25
     name: str = "scene"
     reference: Optional[str] = None
-    linear_solver: str = "scipy"
+    linear_solver: str = "auto"
     antilocking: bool = False
     ghost: Union[float, str] = "auto"
     rhs: str = "residual"

@@ -92,7 +92,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     steps = 20
     tolerance = 1e-9
     max_iterations = 25
-    linear = "scipy"                # pypardiso pyamg auto
+    linear = "auto"                 # fastest installed; scipy pypardiso pyamg
     antilocking = false             # mean dilatation, B-bar (mpm, fem)
     ghost = "auto"                  # ghost penalty for cut cells: "auto"
                                     # (on after a failed finite step), or
@@ -508,7 +508,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         name=_name(c, data),
         reference=c.choice(data, "", "reference", REFERENCES + (None,)),
         linear_solver=c.choice(solver, "solver", "linear",
-                               tuple(FACTORIES), "scipy"),
+                               tuple(FACTORIES), "auto"),
         antilocking=c.boolean(solver, "solver", "antilocking"),
         ghost="auto" if solver.get("ghost", "auto") == "auto" else c.number(
             solver, "solver", "ghost", "auto", low=0., open_low=False),

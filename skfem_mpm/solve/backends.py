@@ -3,19 +3,29 @@
 Each factory returns ``f(A, b, **kwargs) -> x``:
 
 - :func:`solver_direct_checked`: scipy's SuperLU in symmetric mode, which
-  refuses singular systems (the default);
+  refuses singular systems;
 - :func:`solver_pypardiso`: Intel MKL Pardiso through pypardiso (optional),
   symmetric positive definite mode where the matrix is, general otherwise,
-  with MKL's reproducible mode (identical runs agree bit for bit);
+  with MKL's reproducible mode (identical runs agree bit for bit); a
+  factorisation that had to perturb a pivot (a singular matrix) is handed
+  to the checked SuperLU, which refuses it or solves it exactly;
 - :func:`solver_pyamg`: smoothed-aggregation algebraic multigrid with the
   rigid-body modes as near-null space, conjugate gradients (optional), for
   systems a direct factorisation does not fit;
-- ``"auto"``: pypardiso when installed, else SuperLU up to
-  :data:`AUTO_DIRECT_LIMIT` DOFs, pyamg beyond when installed.
+- ``"auto"`` (the default, :func:`solver_auto`): per system, the back end
+  measured fastest for its size among those installed.
+
+Measured on the block of ``benchmarks/step_cost.py`` (milliseconds per
+Newton iteration's solve, finite deformation, 2026-11-24): 2D, SuperLU /
+Pardiso 2.9 / 4.2 at 544 free DOFs, 5.1 / 5.4 at 1300, 9.5 / 7.8 at 2520,
+21 / 12 at 5100, 74 / 40 at 13000; 3D, SuperLU / Pardiso / AMG-CG 5.8 /
+5.9 / 37 at 540, 33 / 15 / 77 at 1944, 151 / 66 / 141 at 4752, 1536 /
+187 / 447 at 13872.
 
 """
 import importlib.util
 import logging
+import warnings
 import weakref
 from typing import Callable, Union
 
@@ -29,11 +39,17 @@ logger = logging.getLogger(__name__)
 
 __all__ = ["solver_direct_checked", "solver_pypardiso", "solver_pyamg",
            "solver_auto", "get_solver", "available_solvers",
-           "AUTO_DIRECT_LIMIT"]
+           "AUTO_PARDISO_FROM", "AUTO_AMG_FROM"]
 
-#: DOFs up to which ``"auto"`` factorises with SuperLU when pypardiso is
-#: not installed (pyamg beyond, when installed)
-AUTO_DIRECT_LIMIT = 1_500_000
+#: free DOFs from which ``"auto"`` takes Pardiso rather than SuperLU, per
+#: dimension of the grid (where they cost the same, measured; in 1D the
+#: tridiagonal systems factorise without fill: SuperLU at any size)
+AUTO_PARDISO_FROM = {1: float("inf"), 2: 2000, 3: 1000}
+#: free DOFs from which ``"auto"`` takes AMG-CG rather than a direct
+#: factorisation: in 3D without Pardiso (SuperLU's fill), and beyond
+#: direct factorisations' memory
+AUTO_AMG_FROM = {"scipy (SuperLU)": {1: 1_500_000, 2: 1_500_000, 3: 5000},
+                 "pypardiso": {1: 1_500_000, 2: 1_500_000, 3: 1_500_000}}
 CAUSES = ("points leave a zero-energy mode (a grid node supported by too few "
           "points) or the grid has rigid-body modes (missing supports)")
 
@@ -112,12 +128,32 @@ def _require(module: str, extra: str):
             "{})".format(extra, module, extra))
 
 
+def pardiso_solver(mtype: int):
+    """A ``pypardiso.PyPardisoSolver`` of matrix type ``mtype``.  pypardiso
+    searches the installation for MKL's library at every creation when
+    ``find_library`` does not find it (0.2 s on a pip-installed MKL); the
+    first path found is kept in ``PYPARDISO_MKL_RT`` for the process,
+    which pypardiso reads first."""
+    import os
+    import pypardiso
+    pardiso = pypardiso.PyPardisoSolver(mtype=mtype)
+    os.environ.setdefault("PYPARDISO_MKL_RT", pardiso.libmkl._name)
+    return pardiso
+
+
 def solver_pypardiso(spd: bool = True) -> Callable:
     """MKL Pardiso via pypardiso; ``spd=True`` factorises a symmetric
     matrix's upper triangle as symmetric positive definite (elastic steps)
     and falls back to the general real factorisation for a matrix that is
     not symmetric (non-associated plasticity) or not positive definite;
     ``False`` always factorises as a general real matrix.
+
+    Where the numerical factorisation perturbs a pivot (a singular matrix:
+    Pardiso replaces a zero pivot by a small one and answers with
+    arbitrary multiples of the null vector, where SuperLU refuses), the
+    system is solved again by :func:`solver_direct_checked`, which refuses
+    it or, for a load orthogonal to the singular mode, solves it;
+    ``solver.handed_over`` counts those systems.
 
     The returned solver keeps its symbolic analysis (fill-reducing ordering
     and factor structure) and redoes only the numerical factorisation while
@@ -129,15 +165,17 @@ def solver_pypardiso(spd: bool = True) -> Callable:
     """
     _require("pypardiso", "pypardiso")
     reproducible()
-    import pypardiso
     from pypardiso.pardiso_wrapper import PyPardisoError
 
-    kinds = {True: pypardiso.PyPardisoSolver(mtype=2),
-             False: pypardiso.PyPardisoSolver(mtype=11)}
+    checked = solver_direct_checked()
+    kinds = {}                  # created on first use: see pardiso_solver
     analysed = {True: {}, False: {}}
     indefinite = {}             # the pattern of a matrix that was not SPD
 
     def factorise_and_solve(A, b, definite):
+        """``(x, the Pardiso object that solved)``."""
+        if definite not in kinds:
+            kinds[definite] = pardiso_solver(2 if definite else 11)
         pardiso, seen = kinds[definite], analysed[definite]
         matrix = triu(A, format="csr") if definite else A.tocsr()
         matrix.sort_indices()
@@ -154,8 +192,8 @@ def solver_pypardiso(spd: bool = True) -> Callable:
             solver.analyses += 1
         pardiso.set_phase(23)            # numerical factorisation, solve
         try:
-            return pardiso._call_pardiso(matrix,
-                                         np.asfortranarray(b, dtype=float))
+            return pardiso._call_pardiso(
+                matrix, np.asfortranarray(b, dtype=float)), pardiso
         except PyPardisoError as err:    # -4: zero pivot (not definite)
             if definite:
                 logger.debug("Pardiso: not positive definite (error %s); "
@@ -178,13 +216,24 @@ def solver_pypardiso(spd: bool = True) -> Callable:
             definite = not all(np.array_equal(getattr(upper, name),
                                               indefinite[name])
                                for name in ("indptr", "indices"))
-        x = factorise_and_solve(A, b, definite)
+        x, pardiso = factorise_and_solve(A, b, definite)
+        perturbed = int(pardiso.iparm[13])
+        if perturbed:
+            # a zero pivot replaced by a small one: Pardiso's answer to a
+            # singular matrix (a zero-energy mode) would be garbage along
+            # the mode; SuperLU's pivot check refuses it or solves it
+            solver.handed_over += 1
+            logger.debug("Pardiso perturbed %d pivot(s) of %d free DOFs: "
+                         "solved by the checked SuperLU", perturbed,
+                         A.shape[0])
+            return checked(A, b)
         if not np.all(np.isfinite(x)):
             raise SingularSystemError("Pardiso returned non-finite values: "
                                       "the stiffness is singular")
         return x
 
     solver.analyses = 0
+    solver.handed_over = 0      # systems Pardiso perturbed, SuperLU solved
     # MKL's memory goes with the solver function (a finaliser on the Pardiso
     # objects themselves would keep them alive through their own methods)
     solver.release = weakref.finalize(
@@ -207,9 +256,15 @@ def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
         import pyamg
         ml = pyamg.smoothed_aggregation_solver(A.tocsr(), B=modes)
         residuals = []
-        x = ml.solve(b, tol=tol, maxiter=min(maxiter, A.shape[0]),
-                     residuals=residuals,
-                     accel="cg" if is_symmetric(A) else "gmres")
+        with warnings.catch_warnings(record=True) as caught:
+            # pyamg warns where CG meets an indefinite matrix: the
+            # residual check below raises instead
+            warnings.simplefilter("always")
+            x = ml.solve(b, tol=tol, maxiter=min(maxiter, A.shape[0]),
+                         residuals=residuals,
+                         accel="cg" if is_symmetric(A) else "gmres")
+        for warning in caught:
+            logger.debug("pyamg: %s", str(warning.message).strip())
         relative = residuals[-1] / max(residuals[0], np.finfo(float).tiny)
         solver.iterations.append(len(residuals) - 1)
         logger.info("pyamg: %d iterations, relative residual %.1e",
@@ -237,22 +292,55 @@ def available_solvers() -> list:
     return names
 
 
-def solver_auto() -> Callable:
-    """Pick the fastest installed back end for each system's size."""
+def solver_auto(dim: int = 2) -> Callable:
+    """The back end measured fastest for each system's size among those
+    installed, for a grid of dimension ``dim``: SuperLU below
+    :data:`AUTO_PARDISO_FROM` free DOFs, or where pypardiso is not
+    installed; Pardiso from there; AMG-CG from :data:`AUTO_AMG_FROM` when
+    pyamg is installed (in 3D from 5000 DOFs without Pardiso).  Logs each
+    back end it takes, once, with the size of the first system it took it
+    for.  A system the iterative solver does not converge on (a tangent far
+    from positive definite, a singular one) goes to the direct back end,
+    which solves it or refuses it as singular.
+
+    >>> import numpy as np
+    >>> from scipy.sparse import diags
+    >>> solver = solver_auto()
+    >>> solver(diags([2.] * 3).tocsr(), np.ones(3)).tolist()
+    [0.5, 0.5, 0.5]
+    >>> solver.chosen
+    ['scipy (SuperLU)']
+    """
+    if dim not in AUTO_PARDISO_FROM:
+        raise InvalidInputError("dim must be 1, 2 or 3, got {!r}".format(dim))
     installed = available_solvers()
-    direct = solver_pypardiso() if "pypardiso" in installed \
-        else solver_direct_checked()
+    superlu = solver_direct_checked()
+    pardiso = {}                # created for the first system of its size
+    direct_name = "pypardiso" if "pypardiso" in installed \
+        else "scipy (SuperLU)"
+    amg_from = AUTO_AMG_FROM[direct_name][dim]
     iterative = solver_pyamg() if "pyamg" in installed else None
 
-    def solver(A, b, modes=None, **kwargs):
-        amg = iterative is not None and "pypardiso" not in installed \
-            and A.shape[0] > AUTO_DIRECT_LIMIT
-        name = "pyamg" if amg else "pypardiso" if "pypardiso" in installed \
-            else "scipy (SuperLU)"
+    def log(name, n):
         if name not in solver.chosen:           # logged once per back end
             solver.chosen.append(name)
-            logger.info("auto: %s for %d DOFs", name, A.shape[0])
-        return iterative(A, b, modes=modes) if amg else direct(A, b)
+            logger.info("auto: %s for %d free DOFs", name, n)
+
+    def solver(A, b, modes=None, **kwargs):
+        n = A.shape[0]
+        if iterative is not None and n >= amg_from:
+            log("pyamg", n)
+            try:
+                return iterative(A, b, modes=modes)
+            except SingularSystemError as err:
+                logger.info("auto: %s; solving directly", err)
+        if direct_name == "pypardiso" and n >= AUTO_PARDISO_FROM[dim]:
+            log("pypardiso", n)
+            if not pardiso:
+                pardiso["solver"] = solver_pypardiso()
+            return pardiso["solver"](A, b)
+        log("scipy (SuperLU)", n)
+        return superlu(A, b)
 
     solver.wants_modes = iterative is not None
     solver.chosen = []
@@ -263,14 +351,16 @@ FACTORIES = {"scipy": solver_direct_checked, "pypardiso": solver_pypardiso,
              "pyamg": solver_pyamg, "auto": solver_auto}
 
 
-def get_solver(solver: Union[None, str, Callable]) -> Callable:
+def get_solver(solver: Union[None, str, Callable], dim: int = 2) -> Callable:
     """A solver function from a name (``"scipy"``, ``"pypardiso"``,
-    ``"pyamg"``, ``"auto"``), a function, or ``None`` (scipy)."""
+    ``"pyamg"``, ``"auto"``), a function, or ``None`` (``"auto"``);
+    ``dim``, the grid's dimension, sets the sizes at which ``"auto"``
+    changes back end."""
     if solver is None:
-        return solver_direct_checked()
+        solver = "auto"
     if callable(solver):
         return solver
     if solver not in FACTORIES:
         raise InvalidInputError("linear solver must be one of {}, got {!r}"
                                 .format(", ".join(FACTORIES), solver))
-    return FACTORIES[solver]()
+    return solver_auto(dim) if solver == "auto" else FACTORIES[solver]()

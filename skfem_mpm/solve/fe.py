@@ -79,7 +79,7 @@ def solve_fe(mesh: Mesh, elem: Element, material: LinearElastic, supports,
     f = np.zeros(basis.N) if b is None else assemble_body_force(basis, b)
     K = asm(material.stiffness_form(), basis)
     free = free_dofs(np.unique(basis.element_dofs), D)
-    u = solve_active(K, f, free, solver=solver)
+    u = solve_active(K, f, free, solver=solver, doflocs=basis.doflocs)
     grad = basis.interpolate(u).grad
     strain = full_tensor(.5 * (grad + grad.transpose(1, 0, 2, 3)))
     return FEResult(basis, u, material.stress(strain),

@@ -214,8 +214,7 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
     with scikit-fem's ``condense`` or by ``condensation``.
 
     ``solver`` is a scikit-fem solver ``f(A, b) -> x`` or a name for
-    :func:`~skfem_mpm.solve.backends.get_solver`; default
-    :func:`~skfem_mpm.solve.backends.solver_direct_checked`.  ``x`` holds
+    :func:`~skfem_mpm.solve.backends.get_solver`; default ``"auto"``.  ``x`` holds
     prescribed values on the DOFs that are not free (zero by default).
     ``doflocs`` (dim, N) gives solvers that want them (algebraic multigrid)
     the rigid-body modes of the free DOFs.  ``condensation``, a
@@ -242,7 +241,8 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
                 x = np.zeros(K.shape[0])
             else:
                 A, b, x, I = condense(K, f, x=x, I=free)
-            solver = get_solver(solver)
+            solver = get_solver(solver, 2 if doflocs is None
+                                else doflocs.shape[0])
             kwargs = {}
             if getattr(solver, "wants_modes", False) and doflocs is not None:
                 dim = doflocs.shape[0]

@@ -66,7 +66,7 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     solver
         Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name from
         :mod:`skfem_mpm.solve.backends` (``"scipy"``, ``"pypardiso"``,
-        ``"pyamg"``, ``"auto"``); default scipy's SuperLU.
+        ``"pyamg"``, ``"auto"``); default ``"auto"``.
     keep_snapshots
         Keep per-step grid displacements, point positions, displacements
         and stresses in the history.
