@@ -75,8 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
         "study", help="error and cost over a grid of choices",
         description="Vary elements, ppc (points per cell and axis), "
         "loadsteps, method (fem, mpm, ugimp, cpgimp), rhs (residual, "
-        "increment: the right-hand side of linear steps) and line_search "
-        "(backtracking, none); without --vary, "
+        "increment: the right-hand side of linear steps), line_search "
+        "(backtracking, armijo, none) and newton (full, modified: the "
+        "tangent factorised once a step); without --vary, "
         "the seed's grid: elements 4..256, ppc 2..5, loadsteps 1, 2, 20.  "
         "Measures the scene's [[outputs]] (or --measure; default: the "
         "largest point displacement) in every case, with the observed "

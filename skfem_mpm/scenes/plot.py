@@ -340,7 +340,8 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
     curves = {}
     for r in ok:
         name = ", ".join("{}={}".format(k, r[k]) for k in (
-            "method", "rhs", "line_search", "ppc", "loadsteps") if k in r)
+            "method", "rhs", "line_search", "newton", "ppc", "loadsteps")
+            if k in r)
         curves.setdefault(name or "all", []).append(r)
     refined = ok and "elements" in ok[0]
     if refined:

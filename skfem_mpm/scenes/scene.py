@@ -21,7 +21,7 @@ from ..mechanics.materials import is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       SEED_BYTES_PER_POINT, STEP_RECORD_BYTES,
                       refuse_beyond_memory)
-from ..solve.core import RHS, grid_parts, simulate
+from ..solve.core import NEWTON, RHS, grid_parts, simulate
 from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
 from ..solve.newton import LINE_SEARCHES
@@ -240,6 +240,11 @@ class Scene:
         ``"backtracking"`` (default), ``"armijo"`` (Armijo from the first
         attempt) or ``"none"`` (plain Newton): see
         :func:`~skfem_mpm.simulate`.
+    newton
+        ``"full"`` (default: the tangent factorised every Newton
+        iteration) or ``"modified"`` (a load step's first tangent
+        factorised once, refactorised where the residual falls slowly):
+        see :func:`~skfem_mpm.simulate`.
     dynamics
         ``None`` (quasi-static load steps) or a :class:`TimeIntegration`:
         time steps with inertia; every body then needs a ``density``, and
@@ -267,6 +272,7 @@ class Scene:
     ghost: Union[float, str] = "auto"
     rhs: str = "residual"
     line_search: str = "backtracking"
+    newton: str = "full"
     dynamics: Optional[TimeIntegration] = None
     outputs: List[Quantity] = field(default_factory=list)
 
@@ -295,6 +301,9 @@ class Scene:
         if self.rhs not in RHS:
             raise InvalidInputError("rhs must be one of {}, got {!r}".format(
                 RHS, self.rhs))
+        if self.newton not in NEWTON:
+            raise InvalidInputError("newton must be one of {}, got {!r}"
+                                    .format(NEWTON, self.newton))
         if self.line_search not in LINE_SEARCHES:
             raise InvalidInputError("line_search must be one of {}, got "
                                     "{!r}".format(LINE_SEARCHES,
@@ -605,7 +614,8 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                     prescribed=prescribed, rhs=scene.rhs,
                     loads=surface_loads(scene, initial),
                     antilocking=scene.antilocking, ghost=scene.ghost,
-                    line_search=scene.line_search, tol=scene.tolerance,
+                    line_search=scene.line_search, newton=scene.newton,
+                    tol=scene.tolerance,
                     max_iter=scene.max_iterations,
                     first_step=first_step, domain0=domain0,
                     callback=callback, solver=scene.linear_solver,

@@ -99,6 +99,8 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # a factor (0: never)
     line_search = "backtracking"    # or "armijo" (from the first
                                     # attempt on), "none": plain Newton
+    newton = "full"                 # or "modified": a step's first
+                                    # tangent factorised once
     rhs = "residual"                # or "increment": the seed's literal
                                     # scheme (small-strain elastic scenes)
 
@@ -115,7 +117,7 @@ from ..errors import InvalidInputError, InvalidMaterialError, SceneError
 from ..mechanics.cam_clay import ModifiedCamClay
 from ..mechanics.materials import LinearElastic, VonMises
 from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
-from ..solve.core import RHS
+from ..solve.core import NEWTON, RHS
 from ..solve.dynamics import MASSES
 from ..solve.newton import LINE_SEARCHES
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
@@ -486,7 +488,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     solver = c.table(data.get("solver", {}), "solver",
                      ("method", "kinematics", "steps", "tolerance",
                       "max_iterations", "linear", "antilocking", "ghost",
-                      "rhs", "line_search"))
+                      "rhs", "line_search", "newton"))
     method = c.choice(solver, "solver", "method", METHODS, "mpm")
     dynamics = _dynamics(c, data["dynamics"]) if "dynamics" in data else None
     if dynamics is not None and "steps" in solver:
@@ -515,7 +517,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         rhs=c.choice(solver, "solver", "rhs", RHS, "residual"),
         outputs=outputs,
         line_search=c.choice(solver, "solver", "line_search", LINE_SEARCHES,
-                             "backtracking"))
+                             "backtracking"),
+        newton=c.choice(solver, "solver", "newton", NEWTON, "full"))
     if not c.problems:
         try:
             scene.check()

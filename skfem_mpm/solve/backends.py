@@ -1,6 +1,8 @@
 """Linear solver back ends behind scikit-fem's ``solver=`` hook.
 
-Each factory returns ``f(A, b, **kwargs) -> x``:
+Each factory returns ``f(A, b, **kwargs) -> x``, with a ``factorise(A)``
+attribute returning ``solve(b)`` that reuses the factorisation (modified
+Newton, :func:`factorised`):
 
 - :func:`solver_direct_checked`: scipy's SuperLU in symmetric mode, which
   refuses singular systems;
@@ -38,7 +40,7 @@ from ..errors import InvalidInputError, SingularSystemError
 logger = logging.getLogger(__name__)
 
 __all__ = ["solver_direct_checked", "solver_pypardiso", "solver_pyamg",
-           "solver_auto", "get_solver", "available_solvers",
+           "solver_auto", "get_solver", "available_solvers", "factorised",
            "AUTO_PARDISO_FROM", "AUTO_AMG_FROM"]
 
 #: free DOFs from which ``"auto"`` takes Pardiso rather than SuperLU, per
@@ -67,8 +69,11 @@ def solver_direct_checked(pivot_tol: float = 1e-9,
     pivots, a ratio of order one.  A ratio below ``pivot_tol`` raises
     :class:`~skfem_mpm.errors.SingularSystemError`.
 
+    ``solver.factorise(A)`` returns ``solve(b)``, which reuses the
+    factorisation for any number of right-hand sides (modified Newton).
+
     """
-    def solver(A, b, **kwargs):
+    def factorise(A, **kwargs):
         A = A.tocsc()
         try:
             lu = splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=.1,
@@ -77,11 +82,18 @@ def solver_direct_checked(pivot_tol: float = 1e-9,
             raise SingularSystemError("the stiffness on {} free DOFs is "
                                       "singular ({}): {}".format(
                                           A.shape[0], err, CAUSES)) from err
-        x = lu.solve(b)
-        diagonal = np.abs(A.diagonal())
-        scale = np.abs(b).max() / max(diagonal.max(), np.finfo(float).tiny)
-        if np.all(np.isfinite(x)) and np.abs(x).max() <= growth_tol * scale:
+        diagonal = max(np.abs(A.diagonal()).max(), np.finfo(float).tiny)
+
+        def solve(b):
+            x = lu.solve(b)
+            if np.all(np.isfinite(x)) and np.abs(x).max() <= \
+                    growth_tol * np.abs(b).max() / diagonal:
+                return x
+            check_pivots(A, lu, x)
             return x
+        return solve
+
+    def check_pivots(A, lu, x):
         n = A.shape[0]
         rows, cols = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
         rows[lu.perm_r], cols[lu.perm_c] = np.arange(n), np.arange(n)
@@ -95,8 +107,11 @@ def solver_direct_checked(pivot_tol: float = 1e-9,
                 "the stiffness on {} free DOFs is singular: a pivot is {:.1e} "
                 "of its diagonal entry (below {:.0e}), at condensed DOF {}; "
                 "{}".format(n, ratio[worst], pivot_tol, cols[worst], CAUSES))
-        return x
 
+    def solver(A, b, **kwargs):
+        return factorise(A)(b)
+
+    solver.factorise = factorise
     return solver
 
 
@@ -129,7 +144,8 @@ def _require(module: str, extra: str):
 
 
 def pardiso_solver(mtype: int):
-    """A ``pypardiso.PyPardisoSolver`` of matrix type ``mtype``.  pypardiso
+    """A ``pypardiso.PyPardisoSolver`` of matrix type ``mtype`` without
+    iterative refinement.  pypardiso
     searches the installation for MKL's library at every creation when
     ``find_library`` does not find it (0.2 s on a pip-installed MKL); the
     first path found is kept in ``PYPARDISO_MKL_RT`` for the process,
@@ -138,6 +154,16 @@ def pardiso_solver(mtype: int):
     import pypardiso
     pardiso = pypardiso.PyPardisoSolver(mtype=mtype)
     os.environ.setdefault("PYPARDISO_MKL_RT", pardiso.libmkl._name)
+    # MKL's defaults (iparm(1) = 0) but for iterative refinement, which
+    # they run twice in every solve (three times its cost): here only
+    # after a perturbed pivot (iparm(8) = 0), and such a factorisation
+    # goes to SuperLU anyway; the factorisations are backward stable and
+    # solve_active checks the backward error of every solve
+    general = mtype == 11
+    for number, value in ((1, 1), (2, 2), (8, 0), (10, 13 if general else 8),
+                          (11, int(general)), (13, int(general)), (18, -1),
+                          (19, -1)):
+        pardiso.iparm[number - 1] = value
     return pardiso
 
 
@@ -159,6 +185,8 @@ def solver_pypardiso(spd: bool = True) -> Callable:
     and factor structure) and redoes only the numerical factorisation while
     successive matrices share one sparsity pattern and kind, as the Newton
     iterations of a load step do; ``solver.analyses`` counts the analyses.
+    ``solver.factorise(A)`` returns ``solve(b)``, reusing the factorisation
+    for any number of right-hand sides (modified Newton).
     Its MKL memory is released when the solver is garbage collected (or by
     calling ``solver.release()``).
 
@@ -171,9 +199,11 @@ def solver_pypardiso(spd: bool = True) -> Callable:
     kinds = {}                  # created on first use: see pardiso_solver
     analysed = {True: {}, False: {}}
     indefinite = {}             # the pattern of a matrix that was not SPD
+    factorised = {}             # per matrix type, the matrix factorised last
 
-    def factorise_and_solve(A, b, definite):
-        """``(x, the Pardiso object that solved)``."""
+    def factor(A, definite):
+        """Analyse (for a new pattern) and factorise: ``(the Pardiso
+        object, the matrix it factorised)``."""
         if definite not in kinds:
             kinds[definite] = pardiso_solver(2 if definite else 11)
         pardiso, seen = kinds[definite], analysed[definite]
@@ -183,17 +213,17 @@ def solver_pypardiso(spd: bool = True) -> Callable:
             raise SingularSystemError("the stiffness has an empty row")
         same = seen and all(np.array_equal(getattr(matrix, name), seen[name])
                             for name in ("indptr", "indices"))
+        nothing = np.zeros(matrix.shape[0])
         if not same:
             pardiso.free_memory(everything=True)
             pardiso.set_phase(11)
-            pardiso._call_pardiso(matrix, np.zeros(matrix.shape[0]))
+            pardiso._call_pardiso(matrix, nothing)
             seen.update(indptr=matrix.indptr.copy(),
                         indices=matrix.indices.copy())
             solver.analyses += 1
-        pardiso.set_phase(23)            # numerical factorisation, solve
+        pardiso.set_phase(22)            # numerical factorisation
         try:
-            return pardiso._call_pardiso(
-                matrix, np.asfortranarray(b, dtype=float)), pardiso
+            pardiso._call_pardiso(matrix, nothing)
         except PyPardisoError as err:    # -4: zero pivot (not definite)
             if definite:
                 logger.debug("Pardiso: not positive definite (error %s); "
@@ -201,14 +231,16 @@ def solver_pypardiso(spd: bool = True) -> Callable:
                              "pattern lasts", err.value)
                 indefinite.update(seen)
                 seen.clear()
-                return factorise_and_solve(A, b, False)
+                return factor(A, False)
             seen.clear()
             raise SingularSystemError(
                 "Pardiso failed with error {} on {} free DOFs: the "
                 "stiffness is singular".format(err.value,
                                                matrix.shape[0])) from err
+        factorised[pardiso.mtype] = matrix
+        return pardiso, matrix
 
-    def solver(A, b, **kwargs):
+    def factorise(A, **kwargs):
         definite = spd and is_symmetric(A)
         if definite and indefinite:           # failed before on this pattern
             upper = triu(A, format="csr")
@@ -216,7 +248,7 @@ def solver_pypardiso(spd: bool = True) -> Callable:
             definite = not all(np.array_equal(getattr(upper, name),
                                               indefinite[name])
                                for name in ("indptr", "indices"))
-        x, pardiso = factorise_and_solve(A, b, definite)
+        pardiso, matrix = factor(A, definite)
         perturbed = int(pardiso.iparm[13])
         if perturbed:
             # a zero pivot replaced by a small one: Pardiso's answer to a
@@ -226,12 +258,25 @@ def solver_pypardiso(spd: bool = True) -> Callable:
             logger.debug("Pardiso perturbed %d pivot(s) of %d free DOFs: "
                          "solved by the checked SuperLU", perturbed,
                          A.shape[0])
-            return checked(A, b)
-        if not np.all(np.isfinite(x)):
-            raise SingularSystemError("Pardiso returned non-finite values: "
-                                      "the stiffness is singular")
-        return x
+            return checked.factorise(A)
 
+        def solve(b):
+            if factorised.get(pardiso.mtype) is not matrix:
+                # another matrix of this kind was factorised since
+                return factorise(A)(b)
+            pardiso.set_phase(33)        # forward and back substitution
+            x = pardiso._call_pardiso(matrix,
+                                      np.asfortranarray(b, dtype=float))
+            if not np.all(np.isfinite(x)):
+                raise SingularSystemError("Pardiso returned non-finite "
+                                          "values: the stiffness is singular")
+            return x
+        return solve
+
+    def solver(A, b, **kwargs):
+        return factorise(A)(b)
+
+    solver.factorise = factorise
     solver.analyses = 0
     solver.handed_over = 0      # systems Pardiso perturbed, SuperLU solved
     # MKL's memory goes with the solver function (a finaliser on the Pardiso
@@ -248,39 +293,58 @@ def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
     plasticity), with the rigid-body modes of the free DOFs as near-null
     space when the caller provides them (``modes``).  Logs the iterations;
     raises :class:`~skfem_mpm.errors.SingularSystemError` if it does not
-    converge.
+    converge.  ``solver.factorise(A, modes)`` returns ``solve(b)``, which
+    reuses the hierarchy for any number of right-hand sides.
     """
     _require("pyamg", "pyamg")
 
-    def solver(A, b, modes=None, **kwargs):
+    def factorise(A, modes=None, **kwargs):
         import pyamg
-        ml = pyamg.smoothed_aggregation_solver(A.tocsr(), B=modes)
-        residuals = []
-        with warnings.catch_warnings(record=True) as caught:
-            # pyamg warns where CG meets an indefinite matrix: the
-            # residual check below raises instead
-            warnings.simplefilter("always")
-            x = ml.solve(b, tol=tol, maxiter=min(maxiter, A.shape[0]),
-                         residuals=residuals,
-                         accel="cg" if is_symmetric(A) else "gmres")
-        for warning in caught:
-            logger.debug("pyamg: %s", str(warning.message).strip())
-        relative = residuals[-1] / max(residuals[0], np.finfo(float).tiny)
-        solver.iterations.append(len(residuals) - 1)
-        logger.info("pyamg: %d iterations, relative residual %.1e",
-                    len(residuals) - 1, relative)
-        if not relative <= tol:
-            raise SingularSystemError(
-                "pyamg did not converge: relative residual {:.1e} after {} "
-                "iterations (the tangent may be singular or too far from "
-                "symmetric positive definite for the iterative solver; try "
-                "solver='scipy' or 'pypardiso')".format(
-                    relative, len(residuals) - 1))
-        return x
+        A = A.tocsr()
+        ml = pyamg.smoothed_aggregation_solver(A, B=modes)
+        accel = "cg" if is_symmetric(A) else "gmres"
 
+        def solve(b):
+            residuals = []
+            with warnings.catch_warnings(record=True) as caught:
+                # pyamg warns where CG meets an indefinite matrix: the
+                # residual check below raises instead
+                warnings.simplefilter("always")
+                x = ml.solve(b, tol=tol, maxiter=min(maxiter, A.shape[0]),
+                             residuals=residuals, accel=accel)
+            for warning in caught:
+                logger.debug("pyamg: %s", str(warning.message).strip())
+            relative = residuals[-1] / max(residuals[0], np.finfo(float).tiny)
+            solver.iterations.append(len(residuals) - 1)
+            logger.info("pyamg: %d iterations, relative residual %.1e",
+                        len(residuals) - 1, relative)
+            if not relative <= tol:
+                raise SingularSystemError(
+                    "pyamg did not converge: relative residual {:.1e} after "
+                    "{} iterations (the tangent may be singular or too far "
+                    "from symmetric positive definite for the iterative "
+                    "solver; try solver='scipy' or 'pypardiso')".format(
+                        relative, len(residuals) - 1))
+            return x
+        return solve
+
+    def solver(A, b, modes=None, **kwargs):
+        return factorise(A, modes=modes)(b)
+
+    solver.factorise = factorise
     solver.wants_modes = True
     solver.iterations = []
     return solver
+
+
+def factorised(solver: Callable, A, **kwargs) -> Callable:
+    """``solve(b)`` for the matrix ``A``: the back end's ``factorise(A)``
+    (one factorisation, any number of right-hand sides), or, for a solver
+    function without one (a scikit-fem solver of one's own), a call of
+    ``solver(A, b)`` per right-hand side."""
+    if hasattr(solver, "factorise"):
+        return solver.factorise(A, **kwargs)
+    return lambda b: solver(A, b, **kwargs)
 
 
 def available_solvers() -> list:
@@ -326,22 +390,36 @@ def solver_auto(dim: int = 2) -> Callable:
             solver.chosen.append(name)
             logger.info("auto: %s for %d free DOFs", name, n)
 
-    def solver(A, b, modes=None, **kwargs):
-        n = A.shape[0]
-        if iterative is not None and n >= amg_from:
-            log("pyamg", n)
-            try:
-                return iterative(A, b, modes=modes)
-            except SingularSystemError as err:
-                logger.info("auto: %s; solving directly", err)
-        if direct_name == "pypardiso" and n >= AUTO_PARDISO_FROM[dim]:
-            log("pypardiso", n)
+    def direct(A):
+        if direct_name == "pypardiso" and A.shape[0] >= AUTO_PARDISO_FROM[dim]:
+            log("pypardiso", A.shape[0])
             if not pardiso:
                 pardiso["solver"] = solver_pypardiso()
-            return pardiso["solver"](A, b)
-        log("scipy (SuperLU)", n)
-        return superlu(A, b)
+            return pardiso["solver"].factorise(A)
+        log("scipy (SuperLU)", A.shape[0])
+        return superlu.factorise(A)
 
+    def factorise(A, modes=None, **kwargs):
+        if iterative is None or A.shape[0] < amg_from:
+            return direct(A)
+        log("pyamg", A.shape[0])
+        chosen = {"solve": iterative.factorise(A, modes=modes)}
+
+        def solve(b):
+            try:
+                return chosen["solve"](b)
+            except SingularSystemError as err:
+                if chosen.get("direct"):
+                    raise
+                logger.info("auto: %s; solving directly", err)
+                chosen.update(solve=direct(A), direct=True)
+                return chosen["solve"](b)
+        return solve
+
+    def solver(A, b, modes=None, **kwargs):
+        return factorise(A, modes=modes)(b)
+
+    solver.factorise = factorise
     solver.wants_modes = iterative is not None
     solver.chosen = []
     return solver

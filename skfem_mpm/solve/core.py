@@ -66,8 +66,8 @@ from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
 from .dynamics import Dynamics, Inertia
-from .linear import Condensation, check_rigid_body_modes, free_dofs, \
-    solve_active, support_dofs
+from .linear import Condensation, check_rigid_body_modes, \
+    factorise_active, free_dofs, solve_active, support_dofs
 from .loads import ExternalLoads
 from .newton import FullStep, make_line_search, trial_state
 from .results import PHASES, Result, StepRecord
@@ -82,9 +82,16 @@ __all__ = ["simulate", "RHS", "STABILISATION", "DEFAULT_GHOST"]
 RHS = ("residual", "increment")
 # failures of a step that a retry or a smaller load increment may cure
 STEP_FAILURES = (NewtonDivergenceError, InversionError, NumericalError)
+#: modified Newton (``newton="modified"``) refactorises the tangent when an
+#: iteration with the factorised one reduced the residual by less than this
+#: factor (a linear rate of 0.25 reaches a tolerance of 1e-9 in 15
+#: iterations)
+MODIFIED_RATE = .25
 #: the fraction of its diagonal added to a tangent refused as singular, or
 #: when a failed step is retried (see ``solve_step``)
 STABILISATION = 1e-7
+#: Newton's tangent: refactorised every iteration, or kept over a step
+NEWTON = ("full", "modified")
 #: the ghost penalty that ``ghost="auto"`` switches on when a
 #: finite-deformation step of moving points fails
 DEFAULT_GHOST = .1
@@ -361,6 +368,9 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         raise InversionError("step {}: {}".format(step, err)) from err
     residuals = []
     search = (run.newton if strategy is None else strategy).start()
+    # modified Newton on a step's first attempt (its retries: full Newton)
+    modified = run.modified and strategy is None and not stabilise
+    frozen = None
     for it in range(run.max_iter + 1):
         residuals.append(float(current.residual))
         logger.debug("step %d iteration %d: residual %.3e", step, it,
@@ -377,7 +387,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                     residuals[-1]))
         if it == 0 and predictor is not None:
             tic = time.perf_counter()
-            d = solve_step(run, *predictor, free, step, stabilise)
+            d = solve_step(run, *predictor, free, step, stabilise)[0]
             t["solve"] += time.perf_counter() - tic
             trial, merit = trial_state(evaluate, du + d)
             if trial is not None and merit < current.merit:
@@ -393,14 +403,25 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                          * current.residual)
             current = evaluate(du)
             run.counters["line_search_trials"] += 2
-        tic = time.perf_counter()
-        K, r = tangent(current.response), current.r
+        r = current.r
         if run.rhs == "increment":
             r = f_dead - run.loads.external(op, points, f_old)
-        t["assemble"] += time.perf_counter() - tic
-        tic = time.perf_counter()
-        d = solve_step(run, K, r, free, step, stabilise)
-        t["solve"] += time.perf_counter() - tic
+        if frozen is not None and residuals[-1] <= MODIFIED_RATE * \
+                residuals[-2]:      # modified Newton: the step's tangent
+            tic = time.perf_counter()
+            d = frozen(r)
+            run.counters["newton_iterations"] += 1
+            run.counters["linear_solves"] += 1
+            t["solve"] += time.perf_counter() - tic
+        else:
+            tic = time.perf_counter()
+            K = tangent(current.response)
+            t["assemble"] += time.perf_counter() - tic
+            tic = time.perf_counter()
+            d, solve = solve_step(run, K, r, free, step, stabilise)
+            t["solve"] += time.perf_counter() - tic
+            if modified:
+                frozen = solve
         try:
             du, current, extra = search(evaluate, du, d, current,
                                         converged)
@@ -511,7 +532,7 @@ def commit_motion(run: Run, op, inertia: Inertia, points: MaterialPoints,
 
 
 def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
-               stabilise: bool) -> ndarray:
+               stabilise: bool):
     """Newton's increment with the exact tangent; in nonlinear steps with a
     stabilised one where points leave zero-energy modes on weakly supported
     nodes (a cell entered by one point): when the step is retried so
@@ -520,7 +541,9 @@ def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
     times the diagonal added to the tangent only, does not change the
     converged state; it is used only when needed because it slows Newton to
     a linear rate of about ``STABILISATION`` times the tangent's condition
-    number.  A linear step solves once, exactly, or raises."""
+    number.  A linear step solves once, exactly, or raises.  Returns the
+    increment and the factorised solve, ``solve(r) -> d``, that modified
+    Newton reuses."""
     counters = run.counters
     if not run.linear:
         counters["newton_iterations"] += 1
@@ -528,12 +551,17 @@ def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
             and getattr(K, "has_canonical_format", False):
         run.condensation = Condensation(K, free)    # new step: new map
     # (GIMP's sparse products are not canonical: scikit-fem's condense)
-    if not stabilise:
+
+    def factorise_and_solve():
         counters["linear_solves"] += 1
+        counters["factorisations"] += 1
+        solve = factorise_active(K, free, solver=run.solver,
+                                 doflocs=run.grid.doflocs,
+                                 condensation=run.condensation)
+        return solve(r), solve
+    if not stabilise:
         try:
-            return solve_active(K, r, free, solver=run.solver,
-                                doflocs=run.grid.doflocs,
-                                condensation=run.condensation)
+            return factorise_and_solve()
         except SingularSystemError as err:
             if run.linear:
                 raise SingularSystemError("step {}: {}".format(step, err)) \
@@ -542,12 +570,9 @@ def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
                          "stabilised by %.0e of its diagonal", step, err,
                          STABILISATION)
     K.setdiag(K.diagonal() * (1. + STABILISATION))           # in place
-    counters["linear_solves"] += 1
     counters["stabilised_solves"] += 1
     try:
-        return solve_active(K, r, free, solver=run.solver,
-                            doflocs=run.grid.doflocs,
-                            condensation=run.condensation)
+        return factorise_and_solve()
     except SingularSystemError as err:
         raise SingularSystemError("step {}: {}".format(step, err)) from err
 
@@ -556,7 +581,8 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             step: int):
     """A load step with the exact tangent.  When Newton fails in a
     nonlinear step, it is retried at the same increment, one log line per
-    failed attempt: with the ghost penalty switched on for the rest of the
+    failed attempt: with full Newton where the attempt was modified Newton,
+    with the ghost penalty switched on for the rest of the
     run if ``ghost="auto"`` holds it in reserve (points giving nodes a
     sliver of support make Newton cycle: the commonest failure), then with
     the line search (:mod:`skfem_mpm.solve.newton`; the equilibrium it
@@ -571,6 +597,20 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         if run.linear:
             raise
         failure = err
+    def retry(what, strategy):
+        """The step again with ``strategy``: ``(its result, None)``, or
+        ``(None, the failure)``."""
+        logger.warning("%s; retrying with %s", failure, what)
+        try:
+            with numerical_failures(step):
+                return load_step(run, points, f_old, f_new, step,
+                                 strategy=strategy), None
+        except STEP_FAILURES as err:
+            return None, err
+    if run.modified:
+        done, failure = retry("full Newton", run.newton)
+        if done:
+            return done
     if run.ghost is None and run.ghost_reserve is not None:
         run.ghost = run.ghost_reserve
         run.counters["ghost_from_step"] = step
@@ -578,13 +618,9 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                        "the rest of the run", failure, run.ghost.gamma)
         return attempt(run, points, f_old, f_new, step)
     if run.line_search is not None:
-        logger.warning("%s; retrying with the line search", failure)
-        try:
-            with numerical_failures(step):
-                return load_step(run, points, f_old, f_new, step,
-                                 strategy=run.line_search)
-        except STEP_FAILURES as err:
-            failure = err
+        done, failure = retry("the line search", run.line_search)
+        if done:
+            return done
     logger.warning("%s; retrying with the tangent stabilised by %.0e of its "
                    "diagonal", failure, STABILISATION)
     with numerical_failures(step):
@@ -621,7 +657,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              counters: Optional[dict] = None,
              callback: Optional[Callable] = None,
              ramp_body_force=True, rigid_bodies: Sequence = (),
-             dynamics: Optional[Dynamics] = None) -> Result:
+             dynamics: Optional[Dynamics] = None,
+             newton: str = "full") -> Result:
     """Implicit MPM, GIMP or FE, quasi-static or dynamic: any method with
     any kinematics, material, stabilisation and loads.
 
@@ -705,6 +742,19 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         ``counters["line_search_trials"]`` counts the residual evaluations
         the line search added beyond one per Newton iteration (and the two
         of a predictor step that was rejected for raising the residual).
+    newton
+        ``"full"`` (default): Newton-Raphson, the consistent tangent
+        assembled and factorised in every iteration (quadratic
+        convergence).  ``"modified"``: the tangent of a load step's first
+        iteration and its factorisation serve the following iterations,
+        each then costing a residual and a back substitution, and the
+        tangent is refactorised where an iteration reduced the residual by
+        less than :data:`MODIFIED_RATE`; the convergence is linear, the
+        converged state the same to the tolerance.  A step whose modified
+        iterations fail is retried with full Newton (before the line
+        search and the other retries).  Linear steps solve once either
+        way.  ``counters["factorisations"]`` counts the tangents
+        factorised.
     tol, max_iter
         Tolerance on the out-of-balance force over the free DOFs relative
         to the larger of the external force and the internal force on the
@@ -865,6 +915,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
             raise InvalidInputError("{} must be an integer in [{}, 60], got "
                                     "{!r}".format(name, low, value))
     check_resume(first_step, nsteps, load_factor, increment)
+    if not isinstance(newton, str) or newton not in NEWTON:
+        raise InvalidInputError("newton must be one of {}, got {!r}".format(
+            NEWTON, newton))
     line_search = make_line_search(line_search)
     if locator is not None and getattr(locator, "mesh", None) is not mesh:
         raise InvalidInputError(
@@ -913,6 +966,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         prescribed=prescribed, rigid_bodies=rigid_bodies, rhs=rhs, tol=tol,
         max_iter=max_iter,
         newton=FullStep() if linear else line_search[0],
+        modified=newton == "modified" and not linear,
         line_search=None if linear else line_search[1],
         solver=get_solver(solver, mesh.dim()), counters=counters,
         keep_snapshots=keep_snapshots, domain0=domain0,

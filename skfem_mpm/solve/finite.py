@@ -41,7 +41,7 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                  domain0: Optional[ndarray] = None,
                  callback: Optional[Callable] = None, loads=(),
                  antilocking: bool = False, ghost="auto",
-                 line_search="backtracking") -> Result:
+                 line_search="backtracking", newton: str = "full") -> Result:
     """Finite-deformation implicit MPM or GIMP (updated Lagrangian,
     Hencky elasticity, optional von Mises plasticity): the finite case of
     :func:`~skfem_mpm.simulate`.
@@ -63,7 +63,7 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         and point domains, set by :func:`~skfem_mpm.seed_points`), or
         ``"fem"`` (total Lagrangian finite elements with the points as
         quadrature).
-    loads, antilocking, ghost, line_search
+    loads, antilocking, ghost, line_search, newton
         As in :func:`~skfem_mpm.simulate`.
     prescribed
         Optional ``prescribed(grid_basis, f_old, f_new) -> (dofs,
@@ -115,7 +115,7 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                     body_force=body_force, loads=loads, prescribed=prescribed,
                     nsteps=nsteps, method=method, kinematics="finite",
                     antilocking=antilocking, ghost=ghost,
-                    line_search=line_search, tol=tol,
+                    line_search=line_search, newton=newton, tol=tol,
                     max_iter=max_iter, max_cutbacks=max_cutbacks,
                     solver=solver, locator=locator,
                     keep_snapshots=keep_snapshots, first_step=first_step,

@@ -12,6 +12,7 @@ matrix anew every iteration.
 
 """
 import warnings
+from contextlib import contextmanager
 from typing import Callable, Optional
 
 import numpy as np
@@ -19,13 +20,15 @@ from numpy import ndarray
 from scipy.sparse import coo_matrix, csr_matrix, spmatrix
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import MatrixRankWarning
-from skfem import condense, solve
+from skfem import condense
 
 from ..errors import InvalidInputError, SingularSystemError
+from . import backends
 from .backends import get_solver
 
 __all__ = ["support_dofs", "free_dofs", "element_adjacency",
-           "check_rigid_body_modes", "solve_active", "Condensation"]
+           "check_rigid_body_modes", "solve_active", "factorise_active",
+           "Condensation"]
 
 
 def support_dofs(supports, basis) -> ndarray:
@@ -205,6 +208,98 @@ def row_sums(A: csr_matrix) -> ndarray:
                        np.abs(A.data), minlength=n)
 
 
+def factorise_active(K: spmatrix, free: ndarray,
+                     solver: Optional[Callable] = None, tol: float = 1e-10,
+                     doflocs: Optional[ndarray] = None,
+                     condensation: Optional[Condensation] = None
+                     ) -> Callable:
+    """``solve(f) -> u``: ``K u = f`` on the DOFs ``free`` (zero
+    elsewhere) for any number of right-hand sides, ``K`` condensed and
+    factorised once (by the back end's ``factorise`` where it has one:
+    :func:`~skfem_mpm.solve.backends.factorised`).  Every solve is checked
+    as :func:`solve_active` checks its one.  Arguments as there.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.sparse import diags
+    >>> from skfem_mpm.solve.linear import factorise_active
+    >>> K = diags([-1., 2., -1.], [-1, 0, 1], shape=(4, 4)).tocsr()
+    >>> solve = factorise_active(K, np.array([1, 2]))
+    >>> solve(np.array([0., 1., 1., 0.])).tolist()
+    [0.0, 1.0, 1.0, 0.0]
+    >>> solve(np.array([0., 3., 0., 0.])).tolist()
+    [0.0, 2.0, 1.0, 0.0]
+    """
+    if free.size == 0:
+        raise SingularSystemError("no free degree of freedom: every active "
+                                  "grid DOF is supported")
+    if condensation is not None and condensation.fits(K, free):
+        A = condensation(K)
+    else:
+        A = condense(K, np.zeros(K.shape[0]), I=free)[0]
+    solve = checked_solves(A, free, K.shape[0], solver, tol, doflocs)
+    return lambda f: solve(f[free])
+
+
+def checked_solves(A: spmatrix, free: ndarray, n: int, solver, tol: float,
+                   doflocs: Optional[ndarray]) -> Callable:
+    """``solve(b, x=None) -> u`` of the condensed ``A`` (on the DOFs
+    ``free`` of ``n``), factorised once; ``u`` is ``x`` (zero by default)
+    elsewhere.  Each solve is refused where it underflows or its backward
+    error exceeds ``tol``."""
+    solver = get_solver(solver, 2 if doflocs is None else doflocs.shape[0])
+    kwargs = {}
+    if getattr(solver, "wants_modes", False) and doflocs is not None:
+        dim = doflocs.shape[0]
+        kwargs["modes"] = rigid_modes(doflocs[:, free // dim * dim],
+                                      dim)[np.arange(free.size), free % dim]
+    with singular_as_error(free.size):
+        factorised = backends.factorised(solver, A, **kwargs)
+    largest_row = []
+
+    def solve(b: ndarray, x: Optional[ndarray] = None) -> ndarray:
+        u = np.zeros(n) if x is None else x.copy()
+        with singular_as_error(free.size):
+            u[free] = factorised(b)
+        largest = np.abs(u[free]).max()
+        if largest < np.finfo(float).tiny and np.abs(b).max() > 0.:
+            raise InvalidInputError(
+                "the solution underflows (largest {:.1e} from forces up to "
+                "{:.1e} and a stiffness up to {:.1e}): rescale the units "
+                "(e.g. kN, MPa, mm)".format(largest, np.abs(b).max(),
+                                            abs(A).max()))
+        # normwise backward error of the solve
+        if not largest_row:
+            largest_row.append(row_sums(A).max())
+        r = np.abs(A @ u[free] - b).max()
+        scale = largest_row[0] * largest + np.abs(b).max()
+        error = r / max(scale, np.finfo(float).tiny)
+        if not np.all(np.isfinite(u)) or error > tol:
+            raise SingularSystemError(
+                "the stiffness on {} free DOFs is singular: the solve's "
+                "backward error is {:.2e}; the active grid probably has "
+                "rigid-body modes (missing supports)".format(free.size,
+                                                             error))
+        return u
+    return solve
+
+
+@contextmanager
+def singular_as_error(nfree: int):
+    """scipy's rank warning and a factorisation's runtime error as a
+    :class:`~skfem_mpm.errors.SingularSystemError`."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", MatrixRankWarning)
+        try:
+            yield
+        except (MatrixRankWarning, RuntimeError) as err:
+            raise SingularSystemError(
+                "the stiffness on {} free DOFs is singular ({}): the active "
+                "grid has rigid-body modes; add supports".format(
+                    nfree, err)) from err
+
+
 def solve_active(K: spmatrix, f: ndarray, free: ndarray,
                  solver: Optional[Callable] = None, tol: float = 1e-10,
                  x: Optional[ndarray] = None,
@@ -214,13 +309,13 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
     with scikit-fem's ``condense`` or by ``condensation``.
 
     ``solver`` is a scikit-fem solver ``f(A, b) -> x`` or a name for
-    :func:`~skfem_mpm.solve.backends.get_solver`; default ``"auto"``.  ``x`` holds
-    prescribed values on the DOFs that are not free (zero by default).
-    ``doflocs`` (dim, N) gives solvers that want them (algebraic multigrid)
-    the rigid-body modes of the free DOFs.  ``condensation``, a
-    :class:`Condensation` of ``K``'s pattern and ``free``, gathers the
-    condensed matrix without indexing ``K`` (used when it fits and ``x``
-    is not given).
+    :func:`~skfem_mpm.solve.backends.get_solver`; default ``"auto"``.
+    ``x`` holds prescribed values on the DOFs that are not free (zero by
+    default).  ``doflocs`` (dim, N) gives solvers that want them
+    (algebraic multigrid) the rigid-body modes of the free DOFs.
+    ``condensation``, a :class:`Condensation` of ``K``'s pattern and
+    ``free``, gathers the condensed matrix without indexing ``K`` (used
+    when it fits and ``x`` is not given).
 
     Raises
     ------
@@ -232,42 +327,8 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
     if free.size == 0:
         raise SingularSystemError("no free degree of freedom: every active "
                                   "grid DOF is supported")
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", MatrixRankWarning)
-        try:
-            if x is None and condensation is not None and \
-                    condensation.fits(K, free):
-                A, b, I = condensation(K), f[free], free
-                x = np.zeros(K.shape[0])
-            else:
-                A, b, x, I = condense(K, f, x=x, I=free)
-            solver = get_solver(solver, 2 if doflocs is None
-                                else doflocs.shape[0])
-            kwargs = {}
-            if getattr(solver, "wants_modes", False) and doflocs is not None:
-                dim = doflocs.shape[0]
-                kwargs["modes"] = rigid_modes(
-                    doflocs[:, I // dim * dim], dim)[np.arange(I.size),
-                                                     I % dim]
-            u = solve(A, b, x, I, solver=solver, **kwargs)
-        except (MatrixRankWarning, RuntimeError) as err:
-            raise SingularSystemError(
-                "the stiffness on {} free DOFs is singular ({}): the active "
-                "grid has rigid-body modes; add supports".format(free.size,
-                                                                 err)) from err
-    largest = np.abs(u[I]).max()
-    if largest < np.finfo(float).tiny and np.abs(b).max() > 0.:
-        raise InvalidInputError(
-            "the solution underflows (largest {:.1e} from forces up to {:.1e} "
-            "and a stiffness up to {:.1e}): rescale the units (e.g. kN, "
-            "MPa, mm)".format(largest, np.abs(b).max(), abs(A).max()))
-    # normwise backward error of the solve
-    r = np.abs(A @ u[I] - b).max()
-    scale = row_sums(A).max() * np.abs(u[I]).max() + np.abs(b).max()
-    error = r / max(scale, np.finfo(float).tiny)
-    if not np.all(np.isfinite(u)) or error > tol:
-        raise SingularSystemError(
-            "the stiffness on {} free DOFs is singular: the solve's backward "
-            "error is {:.2e}; the active grid probably has rigid-body modes "
-            "(missing supports)".format(free.size, error))
-    return u
+    if x is None and condensation is not None and condensation.fits(K, free):
+        A, b = condensation(K), f[free]
+    else:
+        A, b, x, _ = condense(K, f, x=x, I=free)
+    return checked_solves(A, free, K.shape[0], solver, tol, doflocs)(b, x)

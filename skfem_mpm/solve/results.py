@@ -126,7 +126,9 @@ class Result:
         two evaluations), ``stabilised_solves`` (Newton
         solves that needed the stabilised tangent: zero-energy modes), and
         ``ghost_from_step`` (0, or the step from which ``ghost="auto"``
-        switched the ghost penalty on).
+        switched the ghost penalty on), ``factorisations`` (stiffness
+        matrices factorised: one per linear solve of a load step, fewer
+        with ``newton="modified"``).
 
     """
     points: MaterialPoints
@@ -135,7 +137,7 @@ class Result:
     counters: dict = field(default_factory=lambda: dict.fromkeys(
         ("locate", "body_force", "linear_solves", "return_maps",
          "newton_iterations", "line_search_trials", "stabilised_solves",
-         "ghost_from_step"), 0))
+         "ghost_from_step", "factorisations"), 0))
 
     def timings(self) -> dict:
         """Total seconds per phase over all steps."""

@@ -30,7 +30,8 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
               prescribed: Optional[Callable] = None,
               antilocking: bool = False, ghost: float = 0., loads=(),
               rhs: str = "residual", tol: float = 1e-9,
-              max_iter: int = 25, line_search="backtracking") -> Result:
+              max_iter: int = 25, line_search="backtracking",
+              newton: str = "full") -> Result:
     """Run the implicit MPM of seed Algorithm 2.1 (small strain): the
     small-strain standard-MPM case of :func:`~skfem_mpm.simulate`.
 
@@ -74,10 +75,10 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         Move the points at the end of each step (MPM).  ``False`` keeps
         them fixed: a finite element analysis with the points as quadrature
         (``method="fem"``).
-    loads, rhs, tol, max_iter, line_search
+    loads, rhs, tol, max_iter, line_search, newton
         As in :func:`~skfem_mpm.simulate` (``rhs="increment"``: the seed's
         literal load-increment right-hand side; the line search acts in
-        the Newton iterations of plastic bodies only).
+        the Newton iterations of plastic bodies only, as ``newton``).
     first_step
         Resume: ``points`` is the state after step ``first_step - 1``.
     callback
@@ -115,6 +116,6 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
                     nsteps=nsteps, method="mpm" if update_positions else "fem",
                     kinematics="small", rhs=rhs, antilocking=antilocking,
                     ghost=ghost, tol=tol, max_iter=max_iter,
-                    line_search=line_search, solver=solver,
+                    line_search=line_search, newton=newton, solver=solver,
                     locator=locator, keep_snapshots=keep_snapshots,
                     first_step=first_step, callback=callback)

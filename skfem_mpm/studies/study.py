@@ -39,7 +39,7 @@ import numpy as np
 from ..errors import InvalidInputError, MPMError
 from ..scenes.io import atomic_path
 from ..scenes.scene import METHODS, Grid, Scene, build_points, run_scene
-from ..solve.core import RHS
+from ..solve.core import NEWTON, RHS
 from ..solve.newton import LINE_SEARCHES
 from ..solve.results import PHASES
 from .convergence import relative_errors, self_convergence
@@ -51,9 +51,9 @@ __all__ = ["study", "refine", "case_error", "analyse", "VARIABLES",
            "DEFAULT_VARY"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
-             "line_search")
+             "line_search", "newton")
 CHOICES = {"method": METHODS, "rhs": RHS,     # the variables named by words
-           "line_search": LINE_SEARCHES}
+           "line_search": LINE_SEARCHES, "newton": NEWTON}
 DEFAULT_VARY = {"elements": [4, 8, 16, 32, 64, 128, 256],
                 "ppc": [2, 3, 4, 5], "loadsteps": [1, 2, 20]}
 
@@ -306,8 +306,9 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     vary
         Lists of values for any of ``elements``, ``ppc``, ``loadsteps``,
         ``method``, ``rhs`` (``"residual"``, ``"increment"``: the
-        right-hand side of linear steps, :func:`~skfem_mpm.simulate`) and
-        ``line_search`` (``"backtracking"``, ``"none"``).
+        right-hand side of linear steps, :func:`~skfem_mpm.simulate`),
+        ``line_search`` (``"backtracking"``, ``"armijo"``, ``"none"``) and
+        ``newton`` (``"full"``, ``"modified"``).
     outdir
         Folder of ``study.json`` / ``study.csv`` (and the plots).
     scheduler, workers
