@@ -9,9 +9,9 @@ second, the share of the linear solve ("solve": condensation,
 factorisation, substitution and the backward-error check), the non-solve
 cost per point and per Newton iteration, the run's one-off set-up (grid
 basis, DOFs, stiffness pattern), the peak of the numpy/Python heap per
-point (tracemalloc: the factorisation, allocated by SuperLU or MKL, is not
-in it) and the growth of the resident set per point (factorisation
-included); then the fitted exponents of the non-solve time per step and
+point (tracemalloc, in a second run, untimed: the factorisation,
+allocated by SuperLU or MKL, is not in it) and the growth of the resident
+set per point (factorisation included); then the fitted exponents of the non-solve time per step and
 per Newton iteration against the number of points, the cost of a Newton
 iteration fitted as ``a + b * points`` (the fixed cost ``a`` in ms and the
 slope ``b`` in us per point; whole iteration and non-solve part, fitted
@@ -54,21 +54,27 @@ def block(ncells: int, dim: int = 2):
 
 def run(ncells: int, method: str, kinematics: str, solver: str,
         dim: int = 2):
+    """Times and the resident-set growth from one run, the heap peak from
+    a second one under tracemalloc (whose bookkeeping slowed the numpy
+    calls of the timed phases by up to 40% at 1e5 points)."""
     mesh, points = block(ncells, dim)
     args = (mesh, GRIDS[dim][1](), points, LinearElastic(1e6, .3),
             lambda b: b.get_dofs(lambda x: x[-1] == 0))
-    solver = get_solver(solver)
-    kwargs = dict(body_force=np.r_[np.zeros(dim - 1), -1e4],
-                  locator=point_locator(mesh), keep_snapshots=False,
-                  solver=solver)
-    tracemalloc.start()
+
+    def simulate():
+        kwargs = dict(body_force=np.r_[np.zeros(dim - 1), -1e4],
+                      locator=point_locator(mesh), keep_snapshots=False,
+                      solver=get_solver(solver, dim))
+        if kinematics == "small":
+            return solve_mpm(*args, nsteps=2, **kwargs), kwargs["solver"]
+        return solve_finite(*args, nsteps=1, method=method, **kwargs), \
+            kwargs["solver"]
     with PeakMemory() as memory:
         tic = time.perf_counter()
-        if kinematics == "small":
-            res = solve_mpm(*args, nsteps=2, **kwargs)
-        else:
-            res = solve_finite(*args, nsteps=1, method=method, **kwargs)
+        res, used = simulate()
         wall = time.perf_counter() - tic
+    tracemalloc.start()
+    simulate()
     heap = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     nsteps = len(res.history)
@@ -83,7 +89,7 @@ def run(ncells: int, method: str, kinematics: str, solver: str,
                 iteration_s=step * nsteps / iterations,
                 heap=heap / points.n, memory=memory.peak / points.n,
                 iterations=round(iterations / nsteps, 1),
-                amg=getattr(solver, "iterations", None))
+                amg=getattr(used, "iterations", None))
 
 
 def fixed_and_slope(n, t):
