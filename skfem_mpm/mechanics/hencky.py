@@ -18,7 +18,7 @@ strain and 1D keep the out-of-plane components), points on the last axis.
 The scheme is Simo's (*Comput. Methods Appl. Mech. Engrg.* 99, 1992).
 
 """
-from typing import Tuple
+from typing import NamedTuple, Tuple
 
 import numpy as np
 from numpy import ndarray
@@ -26,7 +26,8 @@ from numpy import ndarray
 from ..errors import InversionError
 from .materials import initial_state
 
-__all__ = ["hencky_update", "spatial_tangent", "pull_back",
+__all__ = ["hencky_update", "hencky_stress", "hencky_elastic_state",
+           "SpectralTangent", "spatial_tangent", "pull_back",
            "inverse_and_det"]
 
 
@@ -99,6 +100,76 @@ def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
     return T
 
 
+class SpectralTangent(NamedTuple):
+    """What the derivative of the Kirchhoff stress with respect to the
+    trial ``b`` needs, in-plane (k = dim): ``d`` = eig(b_tr) - 1 (k, n),
+    the principal stresses ``tau`` (k, n), their derivatives with respect
+    to the eigenvalues ``dtau_dx`` (k, k, n) and the principal vectors
+    ``vecs`` (k, k, n); :meth:`derivative` forms it (k, k, k, k, n)."""
+    d: ndarray
+    tau: ndarray
+    dtau_dx: ndarray
+    vecs: ndarray
+
+    @classmethod
+    def of(cls, d, tau_p, D, vecs, dim: int) -> "SpectralTangent":
+        """From the principal values of a material update: ``d`` and
+        ``tau_p`` (3, n), ``D = dtau_p / deps`` (3, 3, n) and ``vecs``
+        (3, 3, n); ``dtau/dx = D / 2x`` with ``eps = ln(x) / 2``."""
+        return cls(d[:dim], tau_p[:dim],
+                   (D / (2. * (1. + d)[None]))[:dim, :dim], vecs[:dim, :dim])
+
+    def derivative(self) -> ndarray:
+        # the derivative depends on eigenvalue differences only: those of d
+        return isotropic_derivative(self.d, self.tau, self.dtau_dx,
+                                    self.vecs)
+
+
+def principal_state(material, b_minus_identity: ndarray, dim: int, state):
+    """The principal frame of ``b_tr = I + b_minus_identity`` and the
+    material's principal update: ``(d, vecs, tau_p, eps_e, D, yielded,
+    state)`` with ``eig(b_tr) = 1 + d``."""
+    d, vecs = principal_frame(b_minus_identity, dim)
+    bad = np.flatnonzero(~(d > -1).all(axis=0))
+    if bad.size:
+        raise InversionError(
+            "the trial elastic deformation b_tr is not positive definite (a "
+            "principal stretch <= 0 or NaN) at {} point(s) of the block, "
+            "first {}".format(bad.size, bad[:5].tolist()))
+    if state is None:
+        state = initial_state(material, d.shape[1])
+    tau_p, eps_e, D, yielded, state = material.principal_update(
+        .5 * np.log1p(d), state)
+    return d, vecs, tau_p, eps_e, D, yielded, state
+
+
+def spectral_sum(values: ndarray, vecs: ndarray) -> ndarray:
+    """``sum_A values_A e_A (x) e_A`` (3, 3, n)."""
+    return np.einsum("Ap,aAp,bAp->abp", values, vecs, vecs)
+
+
+def hencky_stress(material, b_minus_identity: ndarray, dim: int = 3,
+                  state=None):
+    """The stress part of :func:`hencky_update`: ``(tau, tangent,
+    yielded, state)``, the Kirchhoff stress (3, 3, n) and the
+    :class:`SpectralTangent` from which its derivative is formed when a
+    Newton iteration needs it."""
+    d, vecs, tau_p, eps_e, D, yielded, state = principal_state(
+        material, b_minus_identity, dim, state)
+    return spectral_sum(tau_p, vecs), SpectralTangent.of(
+        d, tau_p, D, vecs, dim), yielded, state
+
+
+def hencky_elastic_state(material, b_minus_identity: ndarray,
+                         dim: int = 3, state=None):
+    """The elastic part of :func:`hencky_update`: ``(b_e, eps_e)``, the
+    updated elastic left Cauchy-Green tensor and logarithmic strain
+    (3, 3, n)."""
+    d, vecs, tau_p, eps_e, D, yielded, state = principal_state(
+        material, b_minus_identity, dim, state)
+    return spectral_sum(np.exp(2. * eps_e), vecs), spectral_sum(eps_e, vecs)
+
+
 def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None,
                   b_minus_identity=None):
     """Stress update from the trial elastic left Cauchy-Green tensor.
@@ -107,7 +178,10 @@ def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None,
     ``b_trial - I`` through ``log1p`` of its eigenvalues, and the tangent
     from their differences, so both keep their relative accuracy whatever
     the size of the strain (give ``b_minus_identity`` computed without
-    cancellation; otherwise it is ``b_trial - I``).
+    cancellation; otherwise it is ``b_trial - I``).  The load-step core
+    takes the stress (:func:`hencky_stress`, the tangent formed only for
+    the iterations that need it) and the elastic state
+    (:func:`hencky_elastic_state`, once a step has converged) apart.
 
     Parameters
     ----------
@@ -137,26 +211,11 @@ def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None,
     """
     if b_minus_identity is None:
         b_minus_identity = b_trial - np.eye(3)[:, :, None]
-    d, vecs = principal_frame(b_minus_identity, dim)  # eig(b) = 1 + d
-    bad = np.flatnonzero(~(d > -1).all(axis=0))
-    if bad.size:
-        raise InversionError(
-            "the trial elastic deformation b_tr is not positive definite (a "
-            "principal stretch <= 0 or NaN) at {} point(s) of the block, "
-            "first {}".format(bad.size, bad[:5].tolist()))
-    x = 1. + d
-    if state is None:
-        state = initial_state(material, x.shape[1])
-    tau_p, eps_e, D, yielded, state = material.principal_update(
-        .5 * np.log1p(d), state)
-    tau = np.einsum("Ap,aAp,bAp->abp", tau_p, vecs, vecs)
-    b_e = np.einsum("Ap,aAp,bAp->abp", np.exp(2. * eps_e), vecs, vecs)
-    strain = np.einsum("Ap,aAp,bAp->abp", eps_e, vecs, vecs)
-    # the derivative depends on eigenvalue differences only: those of d
-    dtau_db = isotropic_derivative(d[:dim], tau_p[:dim],
-                                   (D / (2. * x[None]))[:dim, :dim],
-                                   vecs[:dim, :dim])
-    return tau, b_e, strain, dtau_db, yielded, state
+    d, vecs, tau_p, eps_e, D, yielded, state = principal_state(
+        material, b_minus_identity, dim, state)
+    return spectral_sum(tau_p, vecs), spectral_sum(np.exp(2. * eps_e), vecs), \
+        spectral_sum(eps_e, vecs), SpectralTangent.of(
+            d, tau_p, D, vecs, dim).derivative(), yielded, state
 
 
 def spatial_tangent(dtau_db: ndarray, b_trial: ndarray,

@@ -33,8 +33,9 @@ from numpy import ndarray
 
 from ..errors import InversionError
 from .forms import full_tensor
-from .hencky import (hencky_update, inverse_and_det, isotropic_derivative,
-                     principal_frame, pull_back, spatial_tangent)
+from .hencky import (SpectralTangent, hencky_elastic_state, hencky_stress,
+                     inverse_and_det, isotropic_derivative, principal_frame,
+                     pull_back, spatial_tangent)
 from .materials import PointMaterials, elastic_tensor, is_plastic
 
 __all__ = ["SmallStrain", "FiniteStrain", "Response", "KINEMATICS",
@@ -191,11 +192,19 @@ class FiniteStrain:
         self._start_inverse = (None, None)
 
     def _workspace(self, n: int):
-        """Arrays reused by every Newton iteration (memory)."""
+        """Arrays reused by every Newton iteration (memory): ``b_tr - I``,
+        tau, the tangent, the yielded flags and the
+        :class:`~skfem_mpm.mechanics.hencky.SpectralTangent` of the
+        points."""
         if self._buffers is None or self._buffers[0].shape[-1] != n:
+            k = self.dim
             self._buffers = (np.empty((3, 3, n)), np.empty((3, 3, n)),
-                             np.empty((self.dim,) * 4 + (n,)),
-                             np.empty(n, dtype=bool))
+                             np.empty((k,) * 4 + (n,)),
+                             np.empty(n, dtype=bool),
+                             SpectralTangent(np.empty((k, n)),
+                                             np.empty((k, n)),
+                                             np.empty((k, k, n)),
+                                             np.empty((k, k, n))))
         return self._buffers
 
     def start_deviation(self, points) -> ndarray:
@@ -231,7 +240,7 @@ class FiniteStrain:
             dF_inv = dF_inv.copy()
             dF_inv[:dim, :dim] = np.einsum("abp,bcp->acp", F_inv,
                                            dF_inv[:dim, :dim])
-        b_dev, tau, dtau_db, yielded = self._workspace(points.n)
+        b_dev, tau, dtau_db, yielded, spectral = self._workspace(points.n)
         eye = np.eye(3)[:, :, None]
         start = self.start_deviation(points)
         state = {}
@@ -244,21 +253,22 @@ class FiniteStrain:
                 dF[..., block])
             b_dev[:dim, :dim, block] += G + G.transpose(1, 0, 2) \
                 + np.einsum("abp,cbp->acp", G, G)
-            tau[..., block], _, _, dtau_db[..., block], yielded[block], \
-                new = hencky_update(material_block(self.material, block),
-                                    b_dev[..., block] + eye, dim,
-                                    state_block(points.state, block),
-                                    b_dev[..., block])
+            tau[..., block], parts, yielded[block], new = hencky_stress(
+                material_block(self.material, block), b_dev[..., block],
+                dim, state_block(points.state, block))
+            for kept, value in zip(spectral, parts):
+                kept[..., block] = value
             for name, value in new.items():
                 state.setdefault(name, np.empty(points.n))[block] = value
         self.counters["return_maps"] += self.plastic
         P = np.einsum("abp,ebp->aep", tau[:dim, :dim], dF_inv[:dim, :dim])
 
         def tangent():
-            """Pulled back to the operator's configuration, written over
-            ``dtau_db`` (not needed after)."""
+            """Formed from the spectral parts (only for the iterations
+            that need it), pulled back to the operator's configuration."""
             for block in point_blocks(points.n):
-                A = spatial_tangent(dtau_db[..., block],
+                A = spatial_tangent(SpectralTangent(*(
+                    part[..., block] for part in spectral)).derivative(),
                                     b_dev[..., block] + eye,
                                     tau[..., block])
                 dtau_db[..., block] = pull_back(tau[..., block], A,
@@ -287,12 +297,10 @@ class FiniteStrain:
         converged trial state ``b_tr = I + b_dev`` (not kept during the
         iterations: memory)."""
         b_e, strain = np.empty_like(b_dev), np.empty_like(b_dev)
-        eye = np.eye(3)[:, :, None]
         for block in point_blocks(b_dev.shape[-1]):
-            _, b_e[..., block], strain[..., block], _, _, _ = hencky_update(
-                material_block(self.material, block),
-                b_dev[..., block] + eye, self.dim, state_block(state, block),
-                b_dev[..., block])
+            b_e[..., block], strain[..., block] = hencky_elastic_state(
+                material_block(self.material, block), b_dev[..., block],
+                self.dim, state_block(state, block))
         self.counters["return_maps"] += self.plastic
         return b_e, strain
 
