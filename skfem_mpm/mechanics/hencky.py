@@ -27,7 +27,7 @@ from ..errors import InversionError
 from .materials import initial_state
 
 __all__ = ["hencky_update", "hencky_stress", "hencky_elastic_state",
-           "SpectralTangent", "spatial_tangent", "pull_back",
+           "SpectralParts", "spatial_tangent", "pull_back",
            "inverse_and_det"]
 
 
@@ -100,29 +100,33 @@ def isotropic_derivative(x: ndarray, y: ndarray, dy_dx: ndarray,
     return T
 
 
-class SpectralTangent(NamedTuple):
-    """What the derivative of the Kirchhoff stress with respect to the
-    trial ``b`` needs, in-plane (k = dim): ``d`` = eig(b_tr) - 1 (k, n),
-    the principal stresses ``tau`` (k, n), their derivatives with respect
-    to the eigenvalues ``dtau_dx`` (k, k, n) and the principal vectors
-    ``vecs`` (k, k, n); :meth:`derivative` forms it (k, k, k, k, n)."""
+class SpectralParts(NamedTuple):
+    """What a Hencky update keeps of each point for later: the principal
+    frame of the trial ``b``, ``d = eig(b_tr) - 1`` (3, n) and the vectors
+    ``vecs`` (3, 3, n), and, in-plane (k = dim), the principal stresses
+    ``tau`` (k, n) and their derivatives with respect to the eigenvalues
+    ``dtau_dx`` (k, k, n).  :meth:`derivative` forms the tangent
+    (k, k, k, k, n) when a Newton iteration needs it;
+    :func:`hencky_elastic_state` the converged elastic state without a
+    second eigendecomposition."""
     d: ndarray
+    vecs: ndarray
     tau: ndarray
     dtau_dx: ndarray
-    vecs: ndarray
 
     @classmethod
-    def of(cls, d, tau_p, D, vecs, dim: int) -> "SpectralTangent":
+    def of(cls, d, tau_p, D, vecs, dim: int) -> "SpectralParts":
         """From the principal values of a material update: ``d`` and
         ``tau_p`` (3, n), ``D = dtau_p / deps`` (3, 3, n) and ``vecs``
         (3, 3, n); ``dtau/dx = D / 2x`` with ``eps = ln(x) / 2``."""
-        return cls(d[:dim], tau_p[:dim],
-                   (D / (2. * (1. + d)[None]))[:dim, :dim], vecs[:dim, :dim])
+        return cls(d, vecs, tau_p[:dim],
+                   (D / (2. * (1. + d)[None]))[:dim, :dim])
 
     def derivative(self) -> ndarray:
+        k = self.tau.shape[0]
         # the derivative depends on eigenvalue differences only: those of d
-        return isotropic_derivative(self.d, self.tau, self.dtau_dx,
-                                    self.vecs)
+        return isotropic_derivative(self.d[:k], self.tau, self.dtau_dx,
+                                    self.vecs[:k, :k])
 
 
 def principal_state(material, b_minus_identity: ndarray, dim: int, state):
@@ -150,24 +154,27 @@ def spectral_sum(values: ndarray, vecs: ndarray) -> ndarray:
 
 def hencky_stress(material, b_minus_identity: ndarray, dim: int = 3,
                   state=None):
-    """The stress part of :func:`hencky_update`: ``(tau, tangent,
+    """The stress part of :func:`hencky_update`: ``(tau, parts,
     yielded, state)``, the Kirchhoff stress (3, 3, n) and the
-    :class:`SpectralTangent` from which its derivative is formed when a
-    Newton iteration needs it."""
+    :class:`SpectralParts` from which its derivative is formed when a
+    Newton iteration needs it, and the elastic state once the step has
+    converged."""
     d, vecs, tau_p, eps_e, D, yielded, state = principal_state(
         material, b_minus_identity, dim, state)
-    return spectral_sum(tau_p, vecs), SpectralTangent.of(
+    return spectral_sum(tau_p, vecs), SpectralParts.of(
         d, tau_p, D, vecs, dim), yielded, state
 
 
-def hencky_elastic_state(material, b_minus_identity: ndarray,
-                         dim: int = 3, state=None):
-    """The elastic part of :func:`hencky_update`: ``(b_e, eps_e)``, the
-    updated elastic left Cauchy-Green tensor and logarithmic strain
-    (3, 3, n)."""
-    d, vecs, tau_p, eps_e, D, yielded, state = principal_state(
-        material, b_minus_identity, dim, state)
-    return spectral_sum(np.exp(2. * eps_e), vecs), spectral_sum(eps_e, vecs)
+def hencky_elastic_state(material, parts: SpectralParts, state=None):
+    """The elastic part of :func:`hencky_update` from the
+    :class:`SpectralParts` of a trial and the points' internal variables
+    at the start of the step: ``(b_e, eps_e)``, the updated elastic left
+    Cauchy-Green tensor and logarithmic strain (3, 3, n)."""
+    if state is None:
+        state = initial_state(material, parts.d.shape[1])
+    eps_e = material.principal_update(.5 * np.log1p(parts.d), state)[1]
+    return spectral_sum(np.exp(2. * eps_e), parts.vecs), \
+        spectral_sum(eps_e, parts.vecs)
 
 
 def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None,
@@ -214,7 +221,7 @@ def hencky_update(material, b_trial: ndarray, dim: int = 3, state=None,
     d, vecs, tau_p, eps_e, D, yielded, state = principal_state(
         material, b_minus_identity, dim, state)
     return spectral_sum(tau_p, vecs), spectral_sum(np.exp(2. * eps_e), vecs), \
-        spectral_sum(eps_e, vecs), SpectralTangent.of(
+        spectral_sum(eps_e, vecs), SpectralParts.of(
             d, tau_p, D, vecs, dim).derivative(), yielded, state
 
 

@@ -33,7 +33,7 @@ from numpy import ndarray
 
 from ..errors import InversionError
 from .forms import full_tensor
-from .hencky import (SpectralTangent, hencky_elastic_state, hencky_stress,
+from .hencky import (SpectralParts, hencky_elastic_state, hencky_stress,
                      inverse_and_det, isotropic_derivative, principal_frame,
                      pull_back, spatial_tangent)
 from .materials import PointMaterials, elastic_tensor, is_plastic
@@ -194,17 +194,17 @@ class FiniteStrain:
     def _workspace(self, n: int):
         """Arrays reused by every Newton iteration (memory): ``b_tr - I``,
         tau, the tangent, the yielded flags and the
-        :class:`~skfem_mpm.mechanics.hencky.SpectralTangent` of the
+        :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the
         points."""
         if self._buffers is None or self._buffers[0].shape[-1] != n:
             k = self.dim
             self._buffers = (np.empty((3, 3, n)), np.empty((3, 3, n)),
                              np.empty((k,) * 4 + (n,)),
                              np.empty(n, dtype=bool),
-                             SpectralTangent(np.empty((k, n)),
-                                             np.empty((k, n)),
-                                             np.empty((k, k, n)),
-                                             np.empty((k, k, n))))
+                             SpectralParts(np.empty((3, n)),
+                                           np.empty((3, 3, n)),
+                                           np.empty((k, n)),
+                                           np.empty((k, k, n))))
         return self._buffers
 
     def start_deviation(self, points) -> ndarray:
@@ -267,7 +267,7 @@ class FiniteStrain:
             """Formed from the spectral parts (only for the iterations
             that need it), pulled back to the operator's configuration."""
             for block in point_blocks(points.n):
-                A = spatial_tangent(SpectralTangent(*(
+                A = spatial_tangent(SpectralParts(*(
                     part[..., block] for part in spectral)).derivative(),
                                     b_dev[..., block] + eye,
                                     tau[..., block])
@@ -282,7 +282,7 @@ class FiniteStrain:
             if not (J > 0).all():
                 raise InversionError("det F <= 0 at {} point(s)".format(
                     int((J <= 0).sum())))
-            new.be, new.strain = self.elastic_state(b_dev, old.state)
+            new.be, new.strain = self.elastic_state(spectral, old.state)
             new.stress = tau / J
             new.volume = J * old.volume0
             new.state = {**old.state, **state}    # variables of no model kept
@@ -292,15 +292,17 @@ class FiniteStrain:
         return Response(P, points.volume0, yielded.copy(), tangent, commit,
                         deformation)
 
-    def elastic_state(self, b_dev: ndarray, state: dict):
+    def elastic_state(self, spectral: SpectralParts, state: dict):
         """Elastic left Cauchy-Green tensor and logarithmic strain of the
-        converged trial state ``b_tr = I + b_dev`` (not kept during the
+        converged trial from its spectral parts (not kept during the
         iterations: memory)."""
-        b_e, strain = np.empty_like(b_dev), np.empty_like(b_dev)
-        for block in point_blocks(b_dev.shape[-1]):
+        n = spectral.d.shape[-1]
+        b_e, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
+        for block in point_blocks(n):
             b_e[..., block], strain[..., block] = hencky_elastic_state(
-                material_block(self.material, block), b_dev[..., block],
-                self.dim, state_block(state, block))
+                material_block(self.material, block),
+                SpectralParts(*(part[..., block] for part in spectral)),
+                state_block(state, block))
         self.counters["return_maps"] += self.plastic
         return b_e, strain
 

@@ -97,11 +97,20 @@ class GhostStabilisation:
     """
 
     def __init__(self, mesh, elem, gamma: float, material):
-        from skfem import Basis
         self.mesh, self.elem, self.gamma = mesh, elem, gamma
         self.material = material
-        self.cell_volume = Basis(mesh, elem.elem if hasattr(elem, "elem")
-                                 else elem).dx.sum(axis=1)
+        self._cell_volume = None
+
+    @property
+    def cell_volume(self):
+        """The volume of every grid cell, computed on first use: the
+        reserve that ``ghost="auto"`` holds is seldom used, and the
+        grid-wide basis costs 0.1-0.3 s on a grid of 1e5 cells."""
+        if self._cell_volume is None:
+            from skfem import Basis
+            self._cell_volume = Basis(self.mesh, self.elem.elem if hasattr(
+                self.elem, "elem") else self.elem).dx.sum(axis=1)
+        return self._cell_volume
 
     def matrix(self, op, points):
         """Fill and stiffness of each cell from the points it holds; a cell
