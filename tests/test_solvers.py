@@ -300,3 +300,25 @@ def test_pardiso_hands_singular_systems_to_the_checked_superlu():
     assert pardiso.handed_over == 2
     reference = run("scipy", [0., -1.]).points.displacement
     assert np.array_equal(u, reference)
+
+
+@pytest.mark.parametrize("solver", ["pypardiso", "auto"])
+def test_pardiso_refuses_a_zero_energy_mode_it_factorises_as_definite(
+        solver):
+    """The same lone point on a 32 x 36 grid (2116 free DOFs: "auto" takes
+    Pardiso).  Factorised as positive definite, no pivot is perturbed (one
+    is at round-off) and the solution grows to 1e13; the growth sends the
+    system to SuperLU's pivot check, which refuses it, as "scipy" does."""
+    from skfem_mpm import MaterialPoints, SingularSystemError
+    from skfem_mpm.quadrature.points import concatenate_points
+    n = 32
+    mesh = MeshQuad.init_tensor(np.linspace(0, n, n + 1),
+                                np.linspace(0, n + 4, n + 5))
+    body = seed_points(mesh, 2, region=lambda x: x[1] < n)
+    lone = MaterialPoints(x=[[n // 2 + .3], [n + .6]], volume=[.25],
+                          domain=[[.25], [.25]])
+    points = concatenate_points([body, lone])
+    with pytest.raises(SingularSystemError, match="zero-energy mode"):
+        solve_mpm(mesh, ElementQuad1(), points, LinearElastic(1e5, .3),
+                  lambda b: b.get_dofs(lambda x: x[1] == 0),
+                  body_force=[300., -100.], solver=solver)

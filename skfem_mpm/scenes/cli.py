@@ -106,7 +106,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--no-progress", action="store_true",
                        help="no progress bar")
         p.add_argument("-v", "--verbose", action="store_true",
-                       help="log every load step")
+                       help="log every load step (and the linear solver "
+                       "chosen)")
     return parser
 
 
@@ -185,7 +186,8 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
     summary = {
         "scene": scene.name, "method": scene.method,
         "bodies": [b.name for b in scene.bodies],
-        "kinematics": scene.kinematics, "steps": scene.nsteps,
+        "kinematics": scene.kinematics, "newton": scene.newton,
+        "steps": scene.nsteps,
         "steps_run": len(rows), "points": int(pts.n),
         "load_factor": float(rows[-1, 1]) if len(rows) else 0.,
         "max_residual": float(rows[:, 2].max()) if len(rows) else 0.,
@@ -713,14 +715,14 @@ def run_study(args) -> int:
     keys = [k for k in VARIABLES if k in vary]
     print("error: {}".format(measured["error"]["measures"]))
     print(" ".join("{:>9}".format(k) for k in keys) +
-          " {:>10} {:>9} {:>8} {:>7}".format("error", "seconds", "points",
-                                             "newton"))
+          " {:>10} {:>9} {:>8} {:>10} {:>14}".format(
+              "error", "seconds", "points", "iterations", "factorisations"))
     for r in rows:
         print(" ".join("{:>9}".format(r[k]) for k in keys) + (
             " failed: " + r["failure"] if r["failure"] else
-            " {:>10.3e} {:>9.3f} {:>8} {:>7}".format(
+            " {:>10.3e} {:>9.3f} {:>8} {:>10} {:>14}".format(
                 r["error"], r["wall_seconds"], r["points"],
-                r["newton_iterations"])))
+                r["newton_iterations"], r.get("factorisations", "-"))))
     if "elements" in vary:
         others = [k for k in keys if k != "elements"]
         groups = {}
@@ -757,8 +759,10 @@ def main(argv=None) -> int:
         args = build_parser().parse_args(argv)
     except SystemExit as exit:
         return int(exit.code or 0)
-    logging.basicConfig(level=logging.INFO if args.verbose else
-                        logging.WARNING, format="%(name)s: %(message)s")
+    logging.basicConfig(level=logging.WARNING,
+                        format="%(name)s: %(message)s")
+    if args.verbose:    # this package's steps, not every library's notes
+        logging.getLogger("skfem_mpm").setLevel(logging.INFO)
     try:
         return {"run": run, "compare": compare,
                 "study": run_study}[args.command](args)

@@ -21,7 +21,8 @@ from ..mechanics.materials import is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       SEED_BYTES_PER_POINT, STEP_RECORD_BYTES,
                       refuse_beyond_memory)
-from ..solve.core import NEWTON, RHS, grid_parts, simulate
+from ..solve.core import ADAPTIVE_MODIFIED, NEWTON, RHS, grid_parts, \
+    simulate
 from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
 from ..solve.newton import LINE_SEARCHES
@@ -304,6 +305,9 @@ class Scene:
         if self.newton not in NEWTON:
             raise InvalidInputError("newton must be one of {}, got {!r}"
                                     .format(NEWTON, self.newton))
+        if self.newton == "modified" and self.dynamics is not None and \
+                self.dynamics.target_iterations is not None:
+            raise InvalidInputError(ADAPTIVE_MODIFIED)
         if self.line_search not in LINE_SEARCHES:
             raise InvalidInputError("line_search must be one of {}, got "
                                     "{!r}".format(LINE_SEARCHES,

@@ -176,19 +176,22 @@ def pardiso_solver(mtype: int):
     return pardiso
 
 
-def solver_pypardiso(spd: bool = True) -> Callable:
+def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
     """MKL Pardiso via pypardiso; ``spd=True`` factorises a symmetric
     matrix's upper triangle as symmetric positive definite (elastic steps)
     and falls back to the general real factorisation for a matrix that is
     not symmetric (non-associated plasticity) or not positive definite;
     ``False`` always factorises as a general real matrix.
 
-    Where the numerical factorisation perturbs a pivot (a singular matrix:
-    Pardiso replaces a zero pivot by a small one and answers with
-    arbitrary multiples of the null vector, where SuperLU refuses), the
-    system is solved again by :func:`solver_direct_checked`, which refuses
-    it or, for a load orthogonal to the singular mode, solves it;
-    ``solver.handed_over`` counts those systems.
+    A singular matrix is not refused by Pardiso: the general
+    factorisation replaces a zero pivot by a small one, the positive
+    definite one keeps a pivot at round-off, and either answers with
+    arbitrary multiples of the null vector.  So a factorisation that
+    perturbed a pivot, and a solution that grows beyond ``growth_tol``
+    times ``|b| / max|A_ii|`` (as in :func:`solver_direct_checked`), go to
+    :func:`solver_direct_checked`, which refuses the system or, for a load
+    orthogonal to the singular mode, solves it; ``solver.handed_over``
+    counts those systems.
 
     The returned solver keeps its symbolic analysis (fill-reducing ordering
     and factor structure) and redoes only the numerical factorisation while
@@ -269,17 +272,30 @@ def solver_pypardiso(spd: bool = True) -> Callable:
                          A.shape[0])
             return checked.factorise(A)
 
+        diagonal = max(np.abs(A.diagonal()).max(), np.finfo(float).tiny)
+        superlu = {}
+
         def solve(b):
+            if superlu:
+                return superlu["solve"](b)
             if factorised.get(pardiso.mtype) is not matrix:
                 # another matrix of this kind was factorised since
                 return factorise(A)(b)
             pardiso.set_phase(33)        # forward and back substitution
             x = pardiso._call_pardiso(matrix,
                                       np.asfortranarray(b, dtype=float))
-            if not np.all(np.isfinite(x)):
-                raise SingularSystemError("Pardiso returned non-finite "
-                                          "values: the stiffness is singular")
-            return x
+            if np.all(np.isfinite(x)) and np.abs(x).max() <= \
+                    growth_tol * np.abs(b).max() / diagonal:
+                return x
+            # a nearly singular matrix factorised as positive definite
+            # (no pivot perturbed, a pivot at round-off instead): SuperLU's
+            # pivot check decides, for this matrix from now on
+            solver.handed_over += 1
+            logger.debug("Pardiso's solution grew to %.1e on %d free DOFs: "
+                         "solved by the checked SuperLU",
+                         np.abs(x).max(), A.shape[0])
+            superlu["solve"] = checked.factorise(A)
+            return superlu["solve"](b)
         return solve
 
     def solver(A, b, **kwargs):

@@ -92,6 +92,12 @@ MODIFIED_RATE = .25
 STABILISATION = 1e-7
 #: Newton's tangent: refactorised every iteration, or kept over a step
 NEWTON = ("full", "modified")
+ADAPTIVE_MODIFIED = (
+    "newton='modified' with an adaptive time step (target_iterations): the "
+    "time step adapts to the Newton iterations, which modified Newton's "
+    "linear convergence multiplies, so it would keep halving (measured: 34 "
+    "steps instead of 10, and a different answer); use newton='full' or a "
+    "fixed time step")
 #: the ghost penalty that ``ghost="auto"`` switches on when a
 #: finite-deformation step of moving points fails
 DEFAULT_GHOST = .1
@@ -371,6 +377,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     # modified Newton on a step's first attempt (its retries: full Newton)
     modified = run.modified and strategy is None and not stabilise
     frozen = None
+    run.reused = False        # whether a factorisation served again
     for it in range(run.max_iter + 1):
         residuals.append(float(current.residual))
         logger.debug("step %d iteration %d: residual %.3e", step, it,
@@ -406,14 +413,25 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         r = current.r
         if run.rhs == "increment":
             r = f_dead - run.loads.external(op, points, f_old)
+        d = None
         if frozen is not None and residuals[-1] <= MODIFIED_RATE * \
                 residuals[-2]:      # modified Newton: the step's tangent
             tic = time.perf_counter()
-            d = frozen(r)
-            run.counters["newton_iterations"] += 1
-            run.counters["linear_solves"] += 1
+            try:
+                d = frozen(r)
+            except SingularSystemError as err:
+                # a pivot check that this right-hand side set off: the
+                # current tangent decides (stabilised where it must be)
+                logger.debug("step %d: %s; refactorising", step, err)
+            else:
+                run.counters["newton_iterations"] += 1
+                run.counters["linear_solves"] += 1
+                # a solver function without factorise(A) factorises anew
+                run.counters["factorisations"] += not hasattr(
+                    run.solver, "factorise")
+                run.reused = True
             t["solve"] += time.perf_counter() - tic
-        else:
+        if d is None:
             tic = time.perf_counter()
             K = tangent(current.response)
             t["assemble"] += time.perf_counter() - tic
@@ -496,6 +514,7 @@ def step_inertia(run: Run, op, points: MaterialPoints, f_old: float,
                          solver=run.solver, doflocs=run.grid.doflocs)
         inertia.a = a
         run.counters["linear_solves"] += 1
+        run.counters["factorisations"] += 1
     inertia.v[fixed] = du[fixed] / inertia.dt
     inertia.a[fixed] = 0.
     alpha = inertia.alpha_f
@@ -607,7 +626,7 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                                  strategy=strategy), None
         except STEP_FAILURES as err:
             return None, err
-    if run.modified:
+    if run.reused:      # else the attempt was full Newton's already
         done, failure = retry("full Newton", run.newton)
         if done:
             return done
@@ -753,8 +772,13 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         converged state the same to the tolerance.  A step whose modified
         iterations fail is retried with full Newton (before the line
         search and the other retries).  Linear steps solve once either
-        way.  ``counters["factorisations"]`` counts the tangents
-        factorised.
+        way.  Where a step fails with one and converges with the other
+        (a retry, ``ghost="auto"`` switching the ghost penalty on), the
+        two runs part ways.  Refused with an adaptive time step
+        (``Dynamics(target_iterations=...)``, which counts iterations).  A
+        solver function of one's own, without ``factorise(A)``, is called
+        for every iteration (the tangent is kept, not its factorisation).
+        ``counters["factorisations"]`` counts the matrices factorised.
     tol, max_iter
         Tolerance on the out-of-balance force over the free DOFs relative
         to the larger of the external force and the internal force on the
@@ -918,6 +942,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     if not isinstance(newton, str) or newton not in NEWTON:
         raise InvalidInputError("newton must be one of {}, got {!r}".format(
             NEWTON, newton))
+    if newton == "modified" and dynamics is not None and \
+            dynamics.target_iterations is not None:
+        raise InvalidInputError(ADAPTIVE_MODIFIED)
     line_search = make_line_search(line_search)
     if locator is not None and getattr(locator, "mesh", None) is not mesh:
         raise InvalidInputError(
@@ -966,7 +993,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         prescribed=prescribed, rigid_bodies=rigid_bodies, rhs=rhs, tol=tol,
         max_iter=max_iter,
         newton=FullStep() if linear else line_search[0],
-        modified=newton == "modified" and not linear,
+        modified=newton == "modified" and not linear, reused=False,
         line_search=None if linear else line_search[1],
         solver=get_solver(solver, mesh.dim()), counters=counters,
         keep_snapshots=keep_snapshots, domain0=domain0,

@@ -190,6 +190,7 @@ def run_case(scene: Scene, params: dict, quantities=()) -> dict:
         points=int(result.points.n),
         dofs=int(max(r.n_free_dofs for r in result.history)),
         newton_iterations=int(result.counters["newton_iterations"]),
+        factorisations=int(result.counters["factorisations"]),
         steps_run=len(result.history))
     return row
 
