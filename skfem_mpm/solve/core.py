@@ -789,9 +789,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name
         (``"scipy"``, ``"pypardiso"``, ``"pyamg"``, ``"auto"``); default
         ``"auto"``, the back end measured fastest for each system's size
-        among those installed (:func:`~skfem_mpm.solve.backends.
-        solver_auto`: SuperLU for small systems and where nothing else is
-        installed), logged.
+        among those installed, logged
+        (:func:`~skfem_mpm.solve.backends.solver_auto`: SuperLU for small
+        systems and where nothing else is installed).
     locator, keep_snapshots, callback
         A :func:`~skfem_mpm.point_locator` of ``mesh`` to reuse; keep
         per-step grid increments, positions, displacements and stresses in
