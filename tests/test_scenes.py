@@ -722,3 +722,16 @@ components = ["x"]
     first, second = resultants.values()
     for name in first:
         assert np.allclose(first[name], second[name], atol=1e-9), name
+
+
+def test_verbose_logs_this_package_for_its_own_call_only(tmp_path):
+    """-v sets this package's logger to INFO (not scikit-fem's notes); a
+    later call without it in the same process is quiet again."""
+    import logging
+    logger = logging.getLogger("skfem_mpm")
+    missing = str(tmp_path / "missing.toml")
+    assert main(["run", missing, "-v"]) == 2
+    assert logger.level == logging.INFO
+    assert logging.getLogger("skfem").getEffectiveLevel() > logging.INFO
+    assert main(["run", missing]) == 2
+    assert logger.level == logging.NOTSET

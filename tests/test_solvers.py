@@ -327,8 +327,11 @@ def test_pardiso_refuses_a_zero_energy_mode_it_factorises_as_definite(
 def test_amg_keeps_its_hierarchy_while_the_pattern_lasts():
     """A 3D block under its weight in two finite-deformation steps: every
     Newton iteration's tangent has one pattern, so one hierarchy serves
-    all the solves (measured: 13-14 CG iterations each, as with a fresh
-    hierarchy; solve time halved), and the answer is SuperLU's."""
+    the solves of a step (measured: 13-14 CG iterations each, as with a
+    fresh hierarchy; solve time 2.38 -> 1.45 s on a larger block), and the
+    answer is SuperLU's.  A step starts with a new one (a resumed run
+    computes the same), built from a fixed seed: two runs agree bit for
+    bit, and numpy's global generator is left where it was."""
     mesh = MeshHex.init_tensor(*[np.linspace(0, 1, 6)] * 2,
                                np.linspace(0, 1.2, 7))
     points = seed_points(mesh, 2, region=lambda x: x[2] < 1.)
@@ -339,7 +342,34 @@ def test_amg_keeps_its_hierarchy_while_the_pattern_lasts():
     result = solve_finite(*args, solver=amg, **run)
     reference = solve_finite(*args, solver="scipy", **run)
     assert len(amg.iterations) == result.counters["linear_solves"] >= 4
-    assert amg.hierarchies == 1
-    assert max(amg.iterations) <= 2 * amg.iterations[0] + 2
+    assert amg.hierarchies == 2
+    assert max(amg.iterations) <= 2 * amg.iterations[0]
     scale = np.abs(reference.points.displacement).max()
     assert np.abs(result.points.x - reference.points.x).max() < 1e-9 * scale
+    state = np.random.get_state()[1].copy()
+    again = solve_finite(*args, solver=solver_pyamg(), **run)
+    assert np.array_equal(again.points.x, result.points.x)
+    assert np.array_equal(np.random.get_state()[1], state)
+
+
+def test_amg_judges_its_solutions_by_their_true_residual():
+    """A non-associated Mohr-Coulomb block crushed in 3D: at step 3, GMRES
+    (left preconditioned) reports convergence where |b - A x| is still
+    |b|.  The back end measures the true residual, iterates on, and says
+    that pyamg did not converge (where the backward-error check had
+    blamed missing supports)."""
+    from skfem_mpm import MohrCoulomb, SingularSystemError, simulate
+    mesh = MeshHex.init_tensor(np.linspace(-.25, 1.25, 9),
+                               np.linspace(-.25, 1.25, 9),
+                               np.linspace(0, 1.5, 9))
+    points = seed_points(mesh, 2, region=lambda x: (x[2] < 1.) & np.all(
+        (x[:2] > 0) & (x[:2] < 1), axis=0))
+
+    def run(solver):
+        return simulate(mesh, ElementHex1(), points, MohrCoulomb(
+            1e6, .3, cohesion=2e4, friction_angle=30., dilation_angle=5.),
+            lambda b: b.get_dofs(lambda x: x[-1] == 0),
+            body_force=[3e4, 0., -6e4], kinematics="finite", nsteps=3,
+            solver=solver, keep_snapshots=False)
+    with pytest.raises(SingularSystemError, match="pyamg did not converge"):
+        run("pyamg")

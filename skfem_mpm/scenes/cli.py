@@ -761,8 +761,10 @@ def main(argv=None) -> int:
         return int(exit.code or 0)
     logging.basicConfig(level=logging.WARNING,
                         format="%(name)s: %(message)s")
-    if args.verbose:    # this package's steps, not every library's notes
-        logging.getLogger("skfem_mpm").setLevel(logging.INFO)
+    # -v: this package's steps, not every library's notes (and, without
+    # it, back to the root's level in a process that called main before)
+    logging.getLogger("skfem_mpm").setLevel(
+        logging.INFO if args.verbose else logging.NOTSET)
     try:
         return {"run": run, "compare": compare,
                 "study": run_study}[args.command](args)

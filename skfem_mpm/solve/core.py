@@ -263,6 +263,9 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     ``f_old`` to ``f_new`` (Newton steps by ``strategy``, default
     ``run.newton``): returns the new state and the step's record."""
     t = dict.fromkeys(PHASES, 0.)
+    # what a back end keeps from earlier steps' matrices (an AMG
+    # hierarchy) goes: a step computes the same from a checkpoint
+    getattr(run.solver, "forget", lambda: None)()
     op = run.method.operator(points, step, t)
     tic = time.perf_counter()
     if run.antilocking:
