@@ -373,3 +373,14 @@ def test_amg_judges_its_solutions_by_their_true_residual():
             solver=solver, keep_snapshots=False)
     with pytest.raises(SingularSystemError, match="pyamg did not converge"):
         run("pyamg")
+
+
+def test_a_system_without_free_dofs_is_refused():
+    from scipy.sparse import diags
+    from skfem_mpm import SingularSystemError
+    from skfem_mpm.solve.linear import factorise_active, solve_active
+    K, none = diags([2.] * 4).tocsr(), np.array([], dtype=np.int64)
+    with pytest.raises(SingularSystemError, match="no free degree"):
+        solve_active(K, np.ones(4), none)
+    with pytest.raises(SingularSystemError, match="no free degree"):
+        factorise_active(K, none)

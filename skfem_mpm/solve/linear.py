@@ -231,9 +231,6 @@ def factorise_active(K: spmatrix, free: ndarray,
     >>> solve(np.array([0., 3., 0., 0.])).tolist()
     [0.0, 2.0, 1.0, 0.0]
     """
-    if free.size == 0:
-        raise SingularSystemError("no free degree of freedom: every active "
-                                  "grid DOF is supported")
     if condensation is not None and condensation.fits(K, free):
         A = condensation(K)
     else:
@@ -248,6 +245,9 @@ def checked_solves(A: spmatrix, free: ndarray, n: int, solver, tol: float,
     ``free`` of ``n``), factorised once; ``u`` is ``x`` (zero by default)
     elsewhere.  Each solve is refused where it underflows or its backward
     error exceeds ``tol``."""
+    if free.size == 0:
+        raise SingularSystemError("no free degree of freedom: every active "
+                                  "grid DOF is supported")
     solver = get_solver(solver, 2 if doflocs is None else doflocs.shape[0])
     kwargs = {}
     if getattr(solver, "wants_modes", False) and doflocs is not None:
@@ -324,11 +324,8 @@ def solve_active(K: spmatrix, f: ndarray, free: ndarray,
         missing supports) or its solution does not satisfy it to ``tol``.
 
     """
-    if free.size == 0:
-        raise SingularSystemError("no free degree of freedom: every active "
-                                  "grid DOF is supported")
-    if x is None and condensation is not None and condensation.fits(K, free):
-        A, b = condensation(K), f[free]
-    else:
-        A, b, x, _ = condense(K, f, x=x, I=free)
+    if x is None:
+        return factorise_active(K, free, solver, tol, doflocs,
+                                condensation)(f)
+    A, b, x, _ = condense(K, f, x=x, I=free)
     return checked_solves(A, free, K.shape[0], solver, tol, doflocs)(b, x)
