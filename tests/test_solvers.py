@@ -384,3 +384,52 @@ def test_a_system_without_free_dofs_is_refused():
         solve_active(K, np.ones(4), none)
     with pytest.raises(SingularSystemError, match="no free degree"):
         factorise_active(K, none)
+
+
+def test_is_symmetric_agrees_with_the_dense_transpose():
+    """The in-place mirror comparison (kept per pattern) against the dense
+    ``A == A.T`` to the tolerance: symmetric and asymmetric values on a
+    symmetric pattern, an asymmetric pattern, a non-canonical matrix and a
+    new pattern after a cached one."""
+    from scipy.sparse import coo_matrix, csr_matrix
+    from skfem_mpm.solve.backends import is_symmetric, mirror_positions
+    rng = np.random.default_rng(3)
+
+    def dense_verdict(A, rtol=1e-12):
+        D = A.toarray()
+        return np.abs(D - D.T).max() <= rtol * np.abs(D).max()
+    S = rng.random((40, 40)) * (rng.random((40, 40)) < .2)
+    S = csr_matrix(S + S.T)
+    assert mirror_positions(S) is not None
+    for scale in (0., 1e-14, 1e-10, 1.):
+        A = S.copy()
+        A.indices, A.indptr = S.indices, S.indptr       # one kept pattern
+        A.data = A.data + scale * rng.random(A.nnz)
+        assert is_symmetric(A) == dense_verdict(A)
+    assert not is_symmetric(S[:, :39].tocsr())          # not square
+    U = csr_matrix(np.triu(S.toarray()) + np.eye(40))
+    assert mirror_positions(U) is None
+    assert not is_symmetric(U) and not dense_verdict(U)
+    coo = coo_matrix(S)
+    twice = csr_matrix((np.r_[coo.data, coo.data] / 2.,
+                        (np.r_[coo.row, coo.row], np.r_[coo.col, coo.col])),
+                       shape=S.shape)                   # duplicates
+    assert is_symmetric(twice)
+
+
+def test_upper_triangle_and_row_sums_match_scipy():
+    """The masked upper triangle equals scipy's ``triu`` (canonical CSR, a
+    non-square one and COO input); the row sums by ``reduceat`` equal the
+    dense ones with empty rows first, inside and last."""
+    from scipy.sparse import csr_matrix, triu
+    from skfem_mpm.solve.backends import upper_triangle
+    from skfem_mpm.solve.linear import row_sums
+    rng = np.random.default_rng(5)
+    D = rng.standard_normal((30, 30)) * (rng.random((30, 30)) < .3)
+    D[[0, 11, 29]] = 0.
+    for A in (csr_matrix(D), csr_matrix(D[:, :20]), csr_matrix(D).tocoo()):
+        upper = upper_triangle(A)
+        assert upper.format == "csr" and upper.has_sorted_indices
+        assert np.array_equal(upper.toarray(), triu(A).toarray())
+    assert np.allclose(row_sums(csr_matrix(D)), np.abs(D).sum(axis=1),
+                       rtol=1e-15, atol=0.)

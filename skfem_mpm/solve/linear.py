@@ -181,7 +181,8 @@ class Condensation:
         self.indices, self.indptr = K.indices, K.indptr
         numbers = csr_matrix((np.arange(1., K.nnz + 1.), K.indices, K.indptr),
                              shape=K.shape)[free][:, free]
-        self.take = numbers.data.astype(np.int64) - 1
+        self.take = numbers.data.astype(
+            np.int32 if K.nnz < 2 ** 31 else np.int64) - 1
         self.block = (numbers.indices, numbers.indptr)
 
     def fits(self, K, free: ndarray) -> bool:
@@ -203,9 +204,11 @@ class Condensation:
 
 def row_sums(A: csr_matrix) -> ndarray:
     """The sums of the magnitudes of the rows of a CSR matrix."""
-    n = A.shape[0]
-    return np.bincount(np.repeat(np.arange(n), np.diff(A.indptr)),
-                       np.abs(A.data), minlength=n)
+    sums = np.zeros(A.shape[0])
+    rows = np.flatnonzero(np.diff(A.indptr))          # reduceat: not empty
+    if rows.size:
+        sums[rows] = np.add.reduceat(np.abs(A.data), A.indptr[rows])
+    return sums
 
 
 def factorise_active(K: spmatrix, free: ndarray,
