@@ -368,8 +368,9 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     if not run.linear and driven.size:
         start = evaluate(np.zeros(op.N))
         tic = time.perf_counter()
-        K = tangent(start.response)
-        predictor = K, start.r - K @ du
+        K_start = tangent(start.response)
+        predictor = K_start, start.r - K_start @ du
+        del K_start
         t["assemble"] += time.perf_counter() - tic
     try:
         current = evaluate(du)
@@ -398,6 +399,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         if it == 0 and predictor is not None:
             tic = time.perf_counter()
             d = solve_step(run, *predictor, free, step, stabilise)[0]
+            predictor = None              # memory: freed before the tangent
             t["solve"] += time.perf_counter() - tic
             trial, merit = trial_state(evaluate, du + d)
             if trial is not None and merit < current.merit:
@@ -443,6 +445,9 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             t["solve"] += time.perf_counter() - tic
             if modified:
                 frozen = solve
+            # memory: the next tangent is assembled and factorised with
+            # neither this one nor (full Newton) its factorisation alive
+            del K, solve
         try:
             du, current, extra = search(evaluate, du, d, current,
                                         converged)
