@@ -265,3 +265,36 @@ def test_point_mapping_caches_by_identity_and_stays_bounded():
         assert np.abs(first - reference.invDF(X)).max() < 1e-14
         assert np.abs(mapping.detDF(X) - reference.detDF(X)).max() < 1e-15
     assert len(mapping._entries) == 5      # invDF and the four J: bounded
+
+
+@pytest.mark.parametrize("b, blocked", [(1, True), (2, True), (3, True),
+                                        (3, False)])
+def test_element_pattern_equals_a_coo_sum(b, blocked):
+    """Element matrices scattered through the pattern (per node pair where
+    the DOFs come in blocks of three, per entry otherwise: one or two
+    components, or three numbered apart) equal scipy's sum of duplicates,
+    in canonical CSR."""
+    from scipy.sparse import coo_matrix
+    from skfem_mpm.methods.assembly import ElementPattern
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 4))
+    nodes, n = mesh.t, mesh.nvertices
+    if blocked:
+        dofs = (b * nodes[:, None] + np.arange(b)[:, None]).reshape(
+            -1, mesh.nelements)
+    else:                          # component c of node i: DOF c n + i
+        dofs = (nodes[:, None] + n * np.arange(b)[:, None]).reshape(
+            -1, mesh.nelements)
+    pattern = ElementPattern(dofs, b * n)
+    assert pattern.block_size() == (3 if blocked and b == 3 else 1)
+    rng = np.random.default_rng(b)
+    local = rng.standard_normal((mesh.nelements,) + (dofs.shape[0],) * 2)
+    order = rng.permutation(mesh.nelements)
+    K = pattern.matrix([(order[:5], local[order[:5]]),
+                        (order[5:], local[order[5:]])])
+    rows = np.repeat(dofs.T[:, :, None], dofs.shape[0], axis=2)
+    reference = coo_matrix((local.ravel(), (rows.ravel(), np.swapaxes(
+        rows, 1, 2).ravel())), shape=K.shape).tocsr()
+    assert K.has_canonical_format
+    assert abs(K - reference).max() <= 1e-15 * abs(reference).max()
+    np.testing.assert_array_equal(K.indptr, reference.indptr)
+    np.testing.assert_array_equal(K.indices, reference.indices)
