@@ -135,9 +135,8 @@ class PointOperator:
         self.nelems = basis.nelems
         self.elements = basis.tind
         self._pattern = pattern
-        self.shape_values = np.array([np.asarray(f[0]) for f in basis.basis])
-        self.shape_gradients = np.array([f[0].grad for f in basis.basis]).transpose(
-            1, 0, 2, 3)
+        self.shape_values, gradients = basis.scalar_fields()
+        self.shape_gradients = gradients.transpose(1, 0, 2, 3)
         self.scalar_dofs = basis.element_dofs                    # scalar (nloc, e)
         self.element_dofs = (dim * self.scalar_dofs[:, None]
                              + np.arange(dim)[:, None]).reshape(
