@@ -193,13 +193,14 @@ class FiniteStrain:
 
     def _workspace(self, n: int):
         """Arrays reused by every Newton iteration (memory): ``b_tr - I``,
-        tau, the tangent, the yielded flags and the
-        :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the
-        points."""
+        tau, the yielded flags and the
+        :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the points.
+        The tangent is not among them: it lives only while the stiffness
+        is assembled, so that the factorisation (the peak of an iteration)
+        runs without it (648 bytes a point in 3D)."""
         if self._buffers is None or self._buffers[0].shape[-1] != n:
             k = self.dim
             self._buffers = (np.empty((3, 3, n)), np.empty((3, 3, n)),
-                             np.empty((k,) * 4 + (n,)),
                              np.empty(n, dtype=bool),
                              SpectralParts(np.empty((3, n)),
                                            np.empty((3, 3, n)),
@@ -240,7 +241,7 @@ class FiniteStrain:
             dF_inv = dF_inv.copy()
             dF_inv[:dim, :dim] = np.einsum("abp,bcp->acp", F_inv,
                                            dF_inv[:dim, :dim])
-        b_dev, tau, dtau_db, yielded, spectral = self._workspace(points.n)
+        b_dev, tau, yielded, spectral = self._workspace(points.n)
         eye = np.eye(3)[:, :, None]
         start = self.start_deviation(points)
         state = {}
@@ -266,6 +267,7 @@ class FiniteStrain:
         def tangent():
             """Formed from the spectral parts (only for the iterations
             that need it), pulled back to the operator's configuration."""
+            dtau_db = np.empty((dim,) * 4 + (points.n,))
             for block in point_blocks(points.n):
                 A = spatial_tangent(SpectralParts(*(
                     part[..., block] for part in spectral)).derivative(),
