@@ -415,6 +415,24 @@ def test_is_symmetric_agrees_with_the_dense_transpose():
                         (np.r_[coo.row, coo.row], np.r_[coo.col, coo.col])),
                        shape=S.shape)                   # duplicates
     assert is_symmetric(twice)
+    # an entry left at round-off where its mirror was dropped (sums of
+    # sparse products prune exact zeros): the pattern is not symmetric,
+    # the matrix is to the tolerance
+    lopsided = S.tolil()
+    lopsided[3, 30], lopsided[30, 3] = 1e-20, 0.
+    lopsided = csr_matrix(lopsided)
+    lopsided.eliminate_zeros()
+    assert mirror_positions(lopsided) is None
+    assert is_symmetric(lopsided) and dense_verdict(lopsided)
+    lopsided[3, 30] = 1.
+    assert not is_symmetric(lopsided) and not dense_verdict(lopsided)
+    # unsorted indices: sorted in place, then compared by mirrors
+    reversed_rows = csr_matrix((np.concatenate([
+        S.data[a:b][::-1] for a, b in zip(S.indptr[:-1], S.indptr[1:])]),
+        np.concatenate([S.indices[a:b][::-1] for a, b in zip(
+            S.indptr[:-1], S.indptr[1:])]), S.indptr), shape=S.shape)
+    assert not reversed_rows.has_sorted_indices
+    assert is_symmetric(reversed_rows) and reversed_rows.has_sorted_indices
 
 
 def test_upper_triangle_and_row_sums_match_scipy():
