@@ -400,7 +400,14 @@ def test_is_symmetric_agrees_with_the_dense_transpose():
         return np.abs(D - D.T).max() <= rtol * np.abs(D).max()
     S = rng.random((40, 40)) * (rng.random((40, 40)) < .2)
     S = csr_matrix(S + S.T)
-    assert mirror_positions(S) is not None
+    kept = mirror_positions(S)
+    assert kept is not None
+    # kept for matrices on the same index memory (scipy makes views of it)
+    again = csr_matrix((2. * S.data, S.indices, S.indptr), shape=S.shape)
+    assert again.indices is not S.indices and mirror_positions(again) is kept
+    other = csr_matrix(S.toarray())
+    assert mirror_positions(other) is not kept
+    np.testing.assert_array_equal(mirror_positions(other), kept)
     for scale in (0., 1e-14, 1e-10, 1.):
         A = S.copy()
         A.indices, A.indptr = S.indices, S.indptr       # one kept pattern

@@ -33,6 +33,7 @@ import weakref
 from typing import Callable, Union
 
 import numpy as np
+from numpy import ndarray
 from scipy.sparse import csr_matrix, triu
 from scipy.sparse.linalg import splu
 
@@ -196,8 +197,9 @@ def mirror_positions(A):
     """For a canonical CSR matrix ``A`` with a symmetric pattern, the index
     in ``A.data`` of the entry at the mirrored place, ``(j, i)`` for
     ``(i, j)``; None where the pattern is not symmetric.  Kept for the last
-    pattern while its index arrays live (the condensed tangents of a load
-    step share them), as 4 bytes an entry.
+    pattern while the memory of its index arrays lives (the condensed
+    tangents of a load step share it), as 4 bytes an entry; index arrays
+    changed in place would not be noticed.
 
     Examples
     --------
@@ -208,10 +210,12 @@ def mirror_positions(A):
     >>> mirror_positions(A).tolist()
     [0, 2, 1, 3]
     """
+    key = (memory_of(A.indices), memory_of(A.indptr))
     cached = MIRRORS.get("last")
-    if cached is not None and cached[0]() is A.indices \
-            and cached[1]() is A.indptr:
-        return cached[2]
+    if cached is not None and all(
+            ref() is owner and where == place
+            for (ref, where), (owner, place) in zip(cached[0], key)):
+        return cached[1]
     numbers = csr_matrix((np.arange(A.nnz, dtype=A.indices.dtype),
                           A.indices, A.indptr), shape=A.shape)
     transposed = numbers.T.tocsr()
@@ -221,11 +225,24 @@ def mirror_positions(A):
     del numbers, transposed
 
     def forget(ref):
-        if MIRRORS.get("last", (None,))[0] is ref:
+        entry = MIRRORS.get("last")
+        if entry is not None and any(ref is r for r, _ in entry[0]):
             MIRRORS.clear()
-    MIRRORS["last"] = (weakref.ref(A.indices, forget),
-                       weakref.ref(A.indptr, forget), positions)
+    MIRRORS["last"] = (tuple((weakref.ref(owner, forget), place)
+                             for owner, place in key), positions)
     return positions
+
+
+def memory_of(array: ndarray):
+    """``(owner, place)``: the array owning the memory of ``array`` and
+    where in it ``array`` lies (address, shape, strides, type), so that
+    views of one index array (scipy makes one at every matrix it builds
+    from given arrays) are known as the same."""
+    owner = array
+    while isinstance(owner.base, np.ndarray):
+        owner = owner.base
+    return owner, (array.__array_interface__["data"][0], array.shape,
+                   array.strides, array.dtype.str)
 
 
 def mkl_environment():
