@@ -298,3 +298,33 @@ def test_element_pattern_equals_a_coo_sum(b, blocked):
     assert abs(K - reference).max() <= 1e-15 * abs(reference).max()
     np.testing.assert_array_equal(K.indptr, reference.indptr)
     np.testing.assert_array_equal(K.indices, reference.indices)
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_tangent_formed_by_blocks_equals_the_whole_tangent(dim):
+    """The finite-deformation stiffness from the tangent formed block by
+    block of elements (3D's default: no tangent of all points in memory)
+    equals, bit for bit, the one from the whole tangent, with padding
+    slots (points crowded into the first elements) and yielded points."""
+    from collections import Counter
+    from skfem import ElementHex1, MeshHex
+    from skfem_mpm import VonMises
+    from skfem_mpm.mechanics.kinematics import FiniteStrain
+    from skfem_mpm.mechanics.materials import initial_state
+    from skfem_mpm.methods.operators import PointOperator
+    grid, elem = (MeshQuad, ElementQuad1) if dim == 2 else (MeshHex,
+                                                             ElementHex1)
+    mesh = grid.init_tensor(*[np.linspace(0., 1., 4)] * dim)
+    points = arbitrary_points(mesh, 150, seed=2, clustered=True)
+    op = PointOperator(MaterialPointBasis(mesh, elem(), points))
+    assert op.tangent_blocks == (dim == 3)
+    assert (op.basis.point_index < 0).any()               # padding slots
+    material = VonMises(1e3, .3, 50.)
+    points.state = initial_state(material, points.n)
+    kinematics = FiniteStrain(material, dim, Counter())
+    du = np.random.default_rng(4).standard_normal(op.N) * .02
+    response = kinematics.response(op, du, points)
+    assert response.yielded.any() and not response.yielded.all()
+    whole = op.stiffness(response.tangent(), response.w)
+    blocks = op.stiffness(response.tangent_of, response.w)
+    assert whole.nnz == blocks.nnz and (whole != blocks).nnz == 0

@@ -9,7 +9,9 @@ operator ``op``) and returns a :class:`Response` with
 - ``P`` (dim, dim, n) and ``w`` (n,): the internal force is
   ``op.force(P, w)``;
 - ``tangent()`` (dim, dim, dim, dim, n): the consistent tangent, assembled
-  as ``op.stiffness(tangent, w)``;
+  as ``op.stiffness(tangent, w)`` (finite deformation: also
+  ``tangent_of(idx)`` for the points ``idx``, which operators with
+  ``tangent_blocks`` call block by block of elements);
 - ``commit(points)``: the points' new stress, strain, deformation and
   internal variables once the step has converged (positions are the
   core's business).
@@ -77,15 +79,21 @@ class Response:
         Finite deformation: ``deformation(idx)``, the trial deformation
         gradient (3, 3, m) of points ``idx`` (follower loads); ``None`` in
         small strain.
+    tangent_of
+        ``tangent_of(idx)``: the consistent tangent (dim, dim, dim, dim,
+        m) of points ``idx`` alone, for operators that assemble it block by
+        block (``op.tangent_blocks``); ``None`` where it is formed whole.
 
     """
 
     def __init__(self, P: ndarray, w: ndarray, yielded: ndarray,
                  tangent: Callable[[], ndarray], commit: Callable,
-                 deformation: Optional[Callable] = None):
+                 deformation: Optional[Callable] = None,
+                 tangent_of: Optional[Callable] = None):
         self.P, self.w, self.yielded = P, w, yielded
         self._tangent, self._commit = tangent, commit
         self.deformation = deformation
+        self.tangent_of = tangent_of
 
     def tangent(self) -> ndarray:
         """The consistent tangent (dim, dim, dim, dim, n)."""
@@ -264,17 +272,24 @@ class FiniteStrain:
         self.counters["return_maps"] += self.plastic
         P = np.einsum("abp,ebp->aep", tau[:dim, :dim], dF_inv[:dim, :dim])
 
+        def tangent_of(idx):
+            """Formed from the spectral parts of points ``idx`` (only for
+            the iterations that need it), pulled back to the operator's
+            configuration."""
+            def at(field):        # points last and contiguous (einsum)
+                return field[..., idx] if isinstance(idx, slice) \
+                    else np.take(field, idx, axis=-1)
+            t = at(tau)
+            A = spatial_tangent(SpectralParts(*map(at, spectral)).derivative(),
+                                at(b_dev) + eye, t)
+            return pull_back(t, A, at(dF_inv), dim)[1]
+
         def tangent():
-            """Formed from the spectral parts (only for the iterations
-            that need it), pulled back to the operator's configuration."""
+            """All points' tangent (it lives only while the stiffness is
+            assembled)."""
             dtau_db = np.empty((dim,) * 4 + (points.n,))
             for block in point_blocks(points.n):
-                A = spatial_tangent(SpectralParts(*(
-                    part[..., block] for part in spectral)).derivative(),
-                                    b_dev[..., block] + eye,
-                                    tau[..., block])
-                dtau_db[..., block] = pull_back(tau[..., block], A,
-                                                dF_inv[..., block], dim)[1]
+                dtau_db[..., block] = tangent_of(block)
             return dtau_db
 
         def commit(old):
@@ -292,7 +307,7 @@ class FiniteStrain:
         def deformation(idx):
             return np.einsum("abp,bcp->acp", dF[..., idx], points.F[..., idx])
         return Response(P, points.volume0, yielded.copy(), tangent, commit,
-                        deformation)
+                        deformation, tangent_of)
 
     def elastic_state(self, spectral: SpectralParts, state: dict):
         """Elastic left Cauchy-Green tensor and logarithmic strain of the

@@ -141,8 +141,11 @@ def local_stiffness(G: ndarray, A: ndarray, w: ndarray, slots: ndarray):
     ``G`` (dim, nloc, nelems, nslots) holds the shape gradients in the
     padded layout of a material-point basis, ``A`` (dim, dim, dim, dim, n)
     and ``w`` (n,) the tangent and weight of every point, in point order
-    (A may be one tensor broadcast to all points), and ``slots`` (nelems,
-    nslots) the point in every slot (-1 in padding).
+    (A may be one tensor broadcast to all points, or a function of point
+    indices ``idx`` returning their tangents (dim, dim, dim, dim,
+    len(idx)), called once a block: no tangent of all points is then in
+    memory), and ``slots`` (nelems, nslots) the point in every slot (-1 in
+    padding).
     Yields ``(block, local)``: a slice of the elements and their matrices
     (len, nloc, nloc) in interleaved vector order (node-major); the tangent
     is gathered into the layout one block at a time, so no padded or
@@ -150,12 +153,16 @@ def local_stiffness(G: ndarray, A: ndarray, w: ndarray, slots: ndarray):
 
     """
     dim, nodes, nel = G.shape[0], G.shape[1], G.shape[2]
-    uniform = A.strides[-1] == 0          # one tensor broadcast to all points
+    formed = callable(A)                  # formed for each block's points
+    uniform = not formed and A.strides[-1] == 0   # one tensor for all
     for s in range(0, nel, CHUNK):
         e = slice(s, s + CHUNK)
         we = np.where(slots[e] < 0, 0., np.take(w, slots[e]))
-        Ae = (A[..., :1, None] if uniform
-              else np.take(A, slots[e], axis=-1)) * we  # (..., chunk, nslots)
+        if formed:
+            Ae = tangent_in_slots(A, slots[e], dim) * we
+        else:
+            Ae = (A[..., :1, None] if uniform
+                  else np.take(A, slots[e], axis=-1)) * we  # (..., k, slots)
         Ge = G[:, :, e]
         # AG_abcj = sum_d A_abcd G_dj, per element and slot
         AG = Ae[:, :, :, 0, None] * Ge[0][None, None, None]
@@ -166,6 +173,17 @@ def local_stiffness(G: ndarray, A: ndarray, w: ndarray, slots: ndarray):
         left = Ge.transpose(2, 1, 0, 3).reshape(k, nodes, -1)
         right = AG.transpose(4, 1, 5, 0, 3, 2).reshape(k, left.shape[2], -1)
         yield e, np.matmul(left, right).reshape(k, nodes * dim, nodes * dim)
+
+
+def tangent_in_slots(tangent_of, slots: ndarray, dim: int) -> ndarray:
+    """The tangents (dim, dim, dim, dim, *slots.shape) of the points in
+    ``slots`` from ``tangent_of(idx)``, zero in padding slots (-1)."""
+    real = slots >= 0
+    if real.all():
+        return tangent_of(slots.ravel()).reshape((dim,) * 4 + slots.shape)
+    out = np.zeros((dim,) * 4 + slots.shape)
+    out[..., real] = tangent_of(slots[real])
+    return out
 
 
 def local_force(G: ndarray, P: ndarray) -> ndarray:

@@ -318,7 +318,10 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
 
     def tangent(response):
         """The step's tangent at a trial: stiffness, ghost, inertia."""
-        K = op.stiffness(response.tangent(), response.w)
+        blocks = response.tangent_of is not None and getattr(
+            op, "tangent_blocks", False)       # no tangent of all points
+        K = op.stiffness(response.tangent_of if blocks
+                         else response.tangent(), response.w)
         if G is not None:
             K = K + G
         if inertia is not None:
