@@ -29,9 +29,9 @@ GRID_BYTES_PER_CELL = {1: 100, 2: 300, 3: 750}
 #: seeding (the points' state and the mapping's temporaries; measured 530 B
 #: in 2D)
 SEED_BYTES_PER_POINT = 500
-#: the peak of a finite-deformation run per point (1.7 to 1.9 kB in 2D in
-#: the benchmarks, 4.5 kB in 3D)
-RUN_BYTES_PER_POINT = {1: 1000, 2: 1700, 3: 4500}
+#: the heap peak of a run per point (1.8 to 2.0 kB in 2D in the
+#: benchmarks, 3.6 to 4.3 kB in 3D at 1.1e5 points)
+RUN_BYTES_PER_POINT = {1: 1000, 2: 1700, 3: 3300}
 #: a step's record in the history without snapshots (scalars, timings,
 #: counters)
 STEP_RECORD_BYTES = 1500
