@@ -298,6 +298,8 @@ def test_element_pattern_equals_a_coo_sum(b, blocked):
     assert abs(K - reference).max() <= 1e-15 * abs(reference).max()
     np.testing.assert_array_equal(K.indptr, reference.indptr)
     np.testing.assert_array_equal(K.indices, reference.indices)
+    empty = ElementPattern(np.zeros((dofs.shape[0], 0), dtype=int), b * n)
+    assert empty.matrix([]).nnz == 0
 
 
 @pytest.mark.parametrize("dim", [2, 3])

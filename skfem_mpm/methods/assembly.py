@@ -55,7 +55,7 @@ class ElementPattern:
         dofs, N, b = self.element_dofs, self.N, 3
         if dofs.shape[0] % b or N % b:
             return 1
-        blocks = dofs.reshape(-1, b, dofs.shape[1])
+        blocks = dofs.reshape(dofs.shape[0] // b, b, dofs.shape[1])
         return b if np.all(blocks[:, 0] % b == 0) and np.array_equal(
             blocks, blocks[:, :1] + np.arange(b)[:, None]) else 1
 

@@ -121,11 +121,11 @@ def is_symmetric(A, rtol: float = 1e-12) -> bool:
     """Whether the sparse matrix ``A`` equals its transpose to ``rtol`` of
     its largest entry (tangents of non-associated plasticity are not).
 
-    A CSR matrix whose pattern is symmetric is brought to canonical form
-    (sorted, summed duplicates) in place and compared with its mirror
-    entries, in blocks (:func:`mirror_positions`), without forming
-    ``A - A.T``: two more matrices at the peak of a factorisation, 1.8 kB
-    per point of a 3D run.
+    A CSR matrix whose pattern is symmetric is compared with its mirror
+    entries (in a canonical copy where it is not canonical: sorted,
+    duplicates summed), in blocks (:func:`mirror_positions`), without
+    forming ``A - A.T``: two more matrices at the peak of a factorisation,
+    1.8 kB per point of a 3D run.
 
     Examples
     --------
@@ -140,7 +140,8 @@ def is_symmetric(A, rtol: float = 1e-12) -> bool:
     if A.shape[0] != A.shape[1]:
         return False
     if A.format == "csr" and not A.has_canonical_format:
-        A.sum_duplicates()        # in place, as scipy's own operations do
+        A = A.copy()              # its index arrays may be another's too
+        A.sum_duplicates()
     if A.format == "csr":
         mirror = mirror_positions(A)
         if mirror is not None:
@@ -342,7 +343,8 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
             kinds[definite] = pardiso_solver(2 if definite else 11)
         pardiso, seen = kinds[definite], analysed[definite]
         matrix = upper_triangle(A) if definite else A.tocsr()
-        matrix.sort_indices()
+        if not matrix.has_sorted_indices:   # a copy: A's arrays may be shared
+            matrix = matrix.sorted_indices()
         if not np.diff(matrix.indptr).all():     # Pardiso would crash
             raise SingularSystemError("the stiffness has an empty row")
         same = seen and all(np.array_equal(getattr(matrix, name), seen[name])

@@ -181,6 +181,7 @@ class Condensation:
         self.indices, self.indptr = K.indices, K.indptr
         numbers = csr_matrix((np.arange(1., K.nnz + 1.), K.indices, K.indptr),
                              shape=K.shape)[free][:, free]
+        numbers.sort_indices()      # canonical condensed matrices (any free)
         self.take = numbers.data.astype(
             np.int32 if K.nnz < 2 ** 31 else np.int64) - 1
         self.block = (numbers.indices, numbers.indptr)
@@ -237,7 +238,8 @@ def factorise_active(K: spmatrix, free: ndarray,
     if condensation is not None and condensation.fits(K, free):
         A = condensation(K)
     else:
-        A = condense(K, np.zeros(K.shape[0]), I=free)[0]
+        A = condense(K, np.zeros(K.shape[0]), I=free)[0].tocsr()
+        A.sort_indices()      # a matrix of its own: canonical in place
     solve = checked_solves(A, free, K.shape[0], solver, tol, doflocs)
     return lambda f: solve(f[free])
 
