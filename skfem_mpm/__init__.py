@@ -10,6 +10,7 @@ from .errors import (ConvergenceError, InvalidInputError, InvalidMaterialError,
                      InversionError, MPMError, NewtonDivergenceError,
                      NumericalError, PointsOutsideGridError,
                      PrescribedMotionError, SingularSystemError,
+                     SingularTangentError,
                      StepFailedError, UnsupportedElementError)
 from .quadrature.locate import locate_points, point_locator
 
@@ -33,7 +34,7 @@ __version__ = "0.1.0"
 __all__ = [
     "MaterialPointBasis", "MaterialPoints", "seed_points", "seed_gauss_points",
     "locate_points", "point_locator", "MPMError", "InvalidInputError",
-    "InvalidMaterialError", "PointsOutsideGridError", "SingularSystemError",
+    "InvalidMaterialError", "PointsOutsideGridError", "SingularSystemError", "SingularTangentError",
     "UnsupportedElementError", "LinearElastic", "solve_mpm", "Result",
     "StepRecord", "VonMises", "solve_finite", "ConvergenceError",
     "NewtonDivergenceError", "InversionError", "simulate", "solve_fe",

@@ -101,6 +101,14 @@ class PrescribedMotionError(ConvergenceError):
     moved away from the prescribed nodes): it would not be followed."""
 
 
+class SingularTangentError(SingularSystemError, ConvergenceError):
+    """The tangent at a trial state of a nonlinear step is singular even
+    stabilised (a softening plastic zone, points leaving cells): the step
+    failed, and is retried and cut back like a diverging one.  Missing
+    supports are refused before any iteration, as a
+    :class:`SingularSystemError`."""
+
+
 class StepFailedError(ConvergenceError):
     """A load step raised an error that is not the package's own (in a
     user's material, form or callback-free code path); the original is the

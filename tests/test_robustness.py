@@ -714,3 +714,38 @@ def test_the_public_api_gives_equilibrium_or_an_mpm_error(
     for name in ("x", "stress", "strain", "F", "be", "volume"):
         assert np.isfinite(getattr(res.points, name)).all(), name
     point_locator(mesh)(res.points.x)          # raises if any is outside
+
+
+def test_a_singular_trial_tangent_is_a_failed_step_not_the_end(caplog):
+    """A trial state whose tangent is singular even stabilised (softening,
+    points leaving cells; here a solver refusing its second and third
+    systems) fails the step, which the retries take up: the run completes
+    in equilibrium.  Missing supports are still refused at once, as a
+    :class:`SingularSystemError` that is not a failed step."""
+    from scipy.sparse.linalg import spsolve
+    from skfem_mpm import SingularTangentError, simulate
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < .76)
+    calls = []
+
+    def refusing(A, b, **kwargs):       # a trial tangent and its retry
+        calls.append(A.shape[0])
+        if len(calls) in (2, 3):
+            raise SingularSystemError("a singular trial tangent")
+        return spsolve(A.tocsc(), b)
+
+    def supported(b):
+        return b.get_dofs(lambda x: x[1] == 0)
+    result = simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+                      supported, body_force=[0., -30.], nsteps=2,
+                      kinematics="finite", solver=refusing)
+    assert len(calls) > 3 and result.counters["stabilised_solves"] >= 1
+    assert "step 1: a singular trial tangent; switching the ghost" \
+        in caplog.text                         # the first retry it takes
+    assert max(record.residual for record in result.history) < 1e-8
+    with pytest.raises(SingularSystemError) as refused:
+        simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+                 lambda b: b.get_dofs(lambda x: (x[1] == 0) & (x[0] == 0)
+                                      ).all("u^2"),
+                 body_force=[0., -30.], nsteps=2, kinematics="finite")
+    assert not isinstance(refused.value, SingularTangentError)

@@ -52,6 +52,7 @@ from skfem.quadrature import get_quadrature
 from ..errors import (InvalidInputError, InversionError,
                       MPMError, NewtonDivergenceError, NumericalError,
                       PrescribedMotionError, SingularSystemError,
+                      SingularTangentError,
                       StepFailedError)
 from ..mechanics.forms import as_body_force
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
@@ -81,7 +82,8 @@ __all__ = ["simulate", "RHS", "STABILISATION", "DEFAULT_GHOST"]
 #: force, or the seed's literal load increment
 RHS = ("residual", "increment")
 # failures of a step that a retry or a smaller load increment may cure
-STEP_FAILURES = (NewtonDivergenceError, InversionError, NumericalError)
+STEP_FAILURES = (NewtonDivergenceError, InversionError, NumericalError,
+                 SingularTangentError)
 #: modified Newton (``newton="modified"``) refactorises the tangent when an
 #: iteration with the factorised one reduced the residual by less than this
 #: factor (a linear rate of 0.25 reaches a tolerance of 1e-9 in 15
@@ -604,7 +606,10 @@ def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
     try:
         return factorise_and_solve()
     except SingularSystemError as err:
-        raise SingularSystemError("step {}: {}".format(step, err)) from err
+        # a nonlinear step's trial tangent (the supports were checked
+        # before the step): a failed step, retried and cut back
+        raise (SingularSystemError if run.linear else SingularTangentError)(
+            "step {}: {}".format(step, err)) from err
 
 
 def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
@@ -838,9 +843,12 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
 
     Raises
     ------
-    NewtonDivergenceError, InversionError
+    NewtonDivergenceError, InversionError, SingularTangentError
         When a step fails at the smallest increment; ``err.state`` is the
         last converged state, ``err.load_factor`` its load factor.
+    SingularSystemError
+        Missing supports (rigid-body modes of the active grid), refused
+        before a step's iterations.
 
     Examples
     --------
