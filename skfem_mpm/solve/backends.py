@@ -425,6 +425,11 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
         return factorise(A)(b)
 
     solver.factorise = factorise
+    # a general matrix's analysis holds a scaling and matching computed from
+    # the values of the matrix it analysed (iparm(11), iparm(13)): kept
+    # within a load step only, so that a resumed run factorises as the
+    # uninterrupted one does
+    solver.forget = analysed[False].clear
     solver.analyses = 0
     solver.handed_over = 0      # systems Pardiso perturbed, SuperLU solved
     # MKL's memory goes with the solver function (a finaliser on the Pardiso
@@ -648,8 +653,12 @@ def solver_auto(dim: int = 2) -> Callable:
         return factorise(A, modes=modes)(b)
 
     solver.factorise = factorise
-    solver.forget = iterative.forget if iterative is not None else \
-        (lambda: None)
+    def forget():
+        """What the back ends keep within a load step, dropped."""
+        for kept in [iterative] + list(pardiso.values()):
+            if kept is not None:
+                kept.forget()
+    solver.forget = forget
     solver.wants_modes = iterative is not None
     solver.chosen = []
     return solver
