@@ -1,0 +1,31 @@
+"""The load-step core computes today what it computed before it was split
+into a step problem, a Newton driver and grid terms: bit for bit where the
+numerical libraries are the versions the fingerprints were taken with
+(``tests/data/core_digests.json``), to 1e-12 of every array's size where
+they are not (another numpy may round a sum differently)."""
+import json
+from pathlib import Path
+
+import pytest
+
+from digest_cases import CASES, fingerprint, versions
+
+STORED = json.loads((Path(__file__).parent / "data"
+                     / "core_digests.json").read_text())
+
+
+def test_every_stored_case_is_run():
+    assert sorted(STORED["cases"]) == sorted(CASES)
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_run_unchanged(name):
+    stored, now = STORED["cases"][name], fingerprint(CASES[name]())
+    assert sorted(now["sums"]) == sorted(stored["sums"])
+    if versions() == STORED["versions"]:
+        assert now["sha256"] == stored["sha256"], {
+            key: (now["sums"][key], stored["sums"][key])
+            for key in now["sums"] if now["sums"][key] != stored["sums"][key]}
+    for key, value in stored["sums"].items():
+        assert now["sums"][key] == pytest.approx(value, rel=1e-12,
+                                                 abs=1e-300), key
