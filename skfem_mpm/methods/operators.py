@@ -29,10 +29,10 @@ from skfem.helpers import ddot, grad
 
 from ..quadrature.basis import MaterialPointBasis
 from ..errors import InvalidInputError
+from ..graph import distinct, edge_graph, element_adjacency
 from .assembly import (ElementPattern, local_force, local_load,
                        local_stiffness)
 from ..mechanics.forms import body_force
-from ..solve.linear import edge_graph, distinct, element_adjacency
 
 __all__ = ["AsmOperator", "SparseOperator"]
 

@@ -25,7 +25,7 @@ from skfem.element import DiscreteField, Element
 from skfem.mesh import Mesh
 
 from ..errors import InvalidInputError
-from ..solve.linear import distinct
+from ..graph import distinct
 from .locate import locate_points
 from .mapping import fresh_mapping
 from .points import MaterialPoints

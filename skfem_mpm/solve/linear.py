@@ -17,18 +17,18 @@ from typing import Callable, Optional
 
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import coo_matrix, csr_matrix, spmatrix
+from scipy.sparse import csr_matrix, spmatrix
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import MatrixRankWarning
 from skfem import condense
 
 from ..errors import InvalidInputError, SingularSystemError
+from ..graph import distinct
 from . import backends
 from .backends import get_solver
 
-__all__ = ["support_dofs", "free_dofs", "element_adjacency",
-           "check_rigid_body_modes", "solve_active", "factorise_active",
-           "Condensation"]
+__all__ = ["support_dofs", "free_dofs", "check_rigid_body_modes",
+           "solve_active", "factorise_active", "Condensation"]
 
 
 def support_dofs(supports, basis) -> ndarray:
@@ -49,14 +49,6 @@ def support_dofs(supports, basis) -> ndarray:
             "support DOF indices must lie in [0, {}), got {}..{}"
             .format(basis.N, D.min(), D.max()))
     return D
-
-
-def distinct(indices: ndarray, n: int) -> ndarray:
-    """The sorted distinct entries of an index array with entries below n,
-    through a mask: linear in the size (``np.unique`` sorts)."""
-    mask = np.zeros(n, dtype=bool)
-    mask[np.ravel(indices)] = True
-    return np.flatnonzero(mask)
 
 
 def free_dofs(active: ndarray, D: ndarray) -> ndarray:
@@ -93,21 +85,6 @@ MODE_NAMES = {1: ["translation along x"],
                   "rotation about x", "rotation about y"]}
 
 
-def element_adjacency(element_dofs: ndarray, dim: int, n_nodes: int):
-    """Connectivity graph (n_nodes, n_nodes) of the nodes of vector element
-    DOFs (Nbfun, nelems): each element's nodes joined in a chain, which has
-    the connected components of the full adjacency at a fraction of its
-    size."""
-    nodes = element_dofs[::dim] // dim
-    return edge_graph(nodes[:-1].ravel(), nodes[1:].ravel(), n_nodes)
-
-
-def edge_graph(rows: ndarray, cols: ndarray, n_nodes: int):
-    """Sparse graph (n_nodes, n_nodes) with edges rows[k] -- cols[k]."""
-    return coo_matrix((np.ones(rows.size), (rows, cols)),
-                      shape=(n_nodes, n_nodes)).tocsr()
-
-
 def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
                            D: ndarray, dim: int, step=None):
     """Raise :class:`~skfem_mpm.errors.SingularSystemError` if a connected
@@ -117,7 +94,8 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
     ----------
     adjacency
         Sparse (n_nodes, n_nodes) matrix, nonzero where two scalar DOFs
-        (nodes) share a point or an active element.
+        (nodes) share a point or an active element (the graphs of
+        :mod:`skfem_mpm.graph`).
     doflocs
         Scalar DOF locations (dim, n_nodes).
     active, D
