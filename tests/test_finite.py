@@ -342,19 +342,21 @@ def test_stabilised_tangent_only_where_zero_energy_modes_need_it():
 
 
 def test_failed_step_is_retried_along_the_ladder(monkeypatch):
-    """A failed nonlinear attempt is retried at the same increment: with
-    the ghost penalty (``ghost="auto"``), with the line search, then with
-    the stabilised tangent, before any cut-back."""
+    """A failed nonlinear attempt is retried at the same increment along
+    the retry ladder (``core.RETRY_LADDER``): with the ghost penalty
+    (``ghost="auto"``), with the line search, then with the stabilised
+    tangent, before any cut-back."""
     from skfem_mpm import NewtonDivergenceError
     from skfem_mpm.solve import core
     attempts, original, failures = [], core.load_step, [0]
 
-    def load_step(*args, stabilise=False, strategy=None):
-        attempts.append("stabilised" if stabilise else "plain"
-                        if strategy is None else "line search")
+    def load_step(*args):
+        how = args[5]
+        attempts.append("stabilised" if how.stabilise else "plain"
+                        if how.search == "first" else "line search")
         if len(attempts) <= failures[0]:
             raise NewtonDivergenceError("forced failure")
-        return original(*args, stabilise=stabilise, strategy=strategy)
+        return original(*args)
     monkeypatch.setattr(core, "load_step", load_step)
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
     pts = seed_points(mesh, 2, region=lambda x: x[1] < 1)

@@ -127,7 +127,7 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
     ``condense`` exactly, and the run's answer is bit-identical to the
     one condensed by scikit-fem every iteration."""
     from skfem import condense
-    import skfem_mpm.solve.core as core
+    import skfem_mpm.solve.problem as problem
     from skfem_mpm.solve.linear import Condensation
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9), np.linspace(0, 1.2, 11))
     builds, gathers = [], []
@@ -138,7 +138,7 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
         gathers.append((A != condense(K, I=self.free, expand=False)).nnz)
         return A
     monkeypatch.setattr(Condensation, "__call__", gather)
-    monkeypatch.setattr(core, "Condensation", lambda K, free: builds.append(
+    monkeypatch.setattr(problem, "Condensation", lambda K, free: builds.append(
         free.size) or Condensation(K, free))
 
     def run():
@@ -177,11 +177,11 @@ def test_rigid_body_check_runs_when_cells_or_supports_change(monkeypatch):
     again only when the active cells or the held DOFs change: once in 4
     steps where MPM's points stay in their cells, every step for GIMP
     (whose connectivity follows the points' supports)."""
-    import skfem_mpm.solve.core as core
+    import skfem_mpm.solve.motion as motion
     from skfem_mpm import simulate
     calls = []
-    check = core.check_rigid_body_modes
-    monkeypatch.setattr(core, "check_rigid_body_modes", lambda *args: (
+    check = motion.check_rigid_body_modes
+    monkeypatch.setattr(motion, "check_rigid_body_modes", lambda *args: (
         calls.append(args[-1]), check(*args)))
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1.5, 7))
     for method, expected in (("mpm", [1]), ("cpgimp", [1, 2, 3, 4])):

@@ -1,26 +1,26 @@
 """The load-step core: one loop for every method, kinematics, material,
-stabilisation and load.
+stabilisation, load and time integrator.
 
 A load step reads like the seed's Algorithm 2.1 and its finite-deformation
-extension::
+extension, and like Tesserae.jl's implicit step::
 
-    locate the points, build the step's point operator      (method)
-    supports, prescribed motion and free DOFs               (supports)
-    map the external forces                                 (loads)
-    iterate:
-        stresses and tangent of the increment               (kinematics,
-                                                             material)
-        internal force, out-of-balance force                (+ stabilisation)
-        converged?  else assemble the tangent, solve
-    update the points: state, positions, domains            (kinematics,
-                                                             method)
+    problem = StepProblem(run, points, ...)   locate the points, build the
+                                              step's point operator, held
+                                              and free DOFs, loads, terms
+    newton(problem, ...)                      iterate to equilibrium
+    problem.commit(...)                       update the points: state,
+                                              positions, domains; record
 
 The pieces are objects the loop calls and never inspects: a method
 (:mod:`skfem_mpm.methods.method`), a kinematics
 (:mod:`skfem_mpm.mechanics.kinematics`) with its material
-(:mod:`skfem_mpm.mechanics.materials`), stabilisations (the mean
-dilatation wraps the point operator; the ghost penalty adds a matrix) and
-the loads (:mod:`skfem_mpm.solve.loads`).
+(:mod:`skfem_mpm.mechanics.materials`), operator stabilisations (the mean
+dilatation wraps the point operator), the loads
+(:mod:`skfem_mpm.solve.loads`) and grid terms
+(:class:`~skfem_mpm.protocols.GridTerm`: the ghost penalty, the follower
+pressure, inertia, a user's), listed in :data:`GRID_TERMS`; the step
+problem (:mod:`skfem_mpm.solve.problem`) and the Newton driver
+(:func:`skfem_mpm.solve.newton.newton`) are described there.
 
 A linear step (small strain, elastic) takes exactly one linear solve: the
 iteration's first residual is the out-of-balance force
@@ -30,19 +30,17 @@ which leaves the out-of-balance force of earlier steps uncorrected: its
 residual is reported, not enforced).  A nonlinear step iterates
 Newton-Raphson with the consistent tangent, its full steps shortened where
 one would invert a point (:mod:`skfem_mpm.solve.newton`); a step whose
-Newton loop fails is retried at the same load increment with the ghost
-penalty (``ghost="auto"``), with Armijo backtracking, with a stabilised
-tangent (also with backtracking), and only then cut back.
+Newton loop fails walks :data:`RETRY_LADDER` at the same load increment
+(full Newton after modified Newton, the ghost penalty of ``ghost="auto"``,
+Armijo backtracking, a stabilised tangent) and only then is cut back.
 
 """
 import logging
-import time
 from contextlib import contextmanager
 from typing import Callable, NamedTuple, Optional, Sequence
 
 import numpy as np
 from numpy import ndarray
-from scipy.linalg.blas import dnrm2
 from skfem import Basis
 from skfem.assembly import Dofs
 from skfem.element import Element, ElementVector
@@ -51,9 +49,7 @@ from skfem.quadrature import get_quadrature
 
 from ..errors import (InvalidInputError, InversionError,
                       MPMError, NewtonDivergenceError, NumericalError,
-                      PrescribedMotionError, SingularSystemError,
-                      SingularTangentError,
-                      StepFailedError)
+                      SingularTangentError, StepFailedError)
 from ..mechanics.forms import as_body_force
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
 from ..mechanics.materials import at_points, initial_state, is_plastic
@@ -61,22 +57,24 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..methods.assembly import ElementPattern
 from ..methods.method import METHODS, make_method
+from ..protocols import GridTerm
 from ..quadrature.locate import Locator, point_locator
 from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
-from .dynamics import Dynamics, Inertia
-from .linear import Condensation, check_rigid_body_modes, \
-    factorise_active, free_dofs, solve_active, support_dofs
-from .loads import ExternalLoads
-from .newton import FullStep, make_line_search, trial_state
-from .results import PHASES, Result, StepRecord
+from .dynamics import Dynamics, InertiaTerm
+from .linear import support_dofs
+from .loads import ExternalLoads, FollowerPressure
+from .newton import FullStep, make_line_search, newton as newton_driver
+from .problem import STABILISATION, StepProblem
+from .results import Result
 from .rigid import check_rigid_bodies, warn_stiff_smooth_bodies
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["simulate", "RHS", "STABILISATION", "DEFAULT_GHOST"]
+__all__ = ["simulate", "RHS", "STABILISATION", "DEFAULT_GHOST",
+           "GRID_TERMS", "RETRY_LADDER"]
 
 #: the right-hand sides of a linear step (``rhs=``): the out-of-balance
 #: force, or the seed's literal load increment
@@ -84,22 +82,13 @@ RHS = ("residual", "increment")
 # failures of a step that a retry or a smaller load increment may cure
 STEP_FAILURES = (NewtonDivergenceError, InversionError, NumericalError,
                  SingularTangentError)
-#: modified Newton (``newton="modified"``) refactorises the tangent when an
-#: iteration with the factorised one reduced the residual by less than this
-#: factor (a linear rate of 0.25 reaches a tolerance of 1e-9 in 15
-#: iterations)
-MODIFIED_RATE = .25
-#: the fraction of its diagonal added to a tangent refused as singular, or
-#: when a failed step is retried (see ``solve_step``)
-STABILISATION = 1e-7
 #: Newton's tangent: refactorised every iteration, or kept over a step
 NEWTON = ("full", "modified")
 ADAPTIVE_MODIFIED = (
     "newton='modified' with an adaptive time step (target_iterations): the "
     "time step adapts to the Newton iterations, which modified Newton's "
-    "linear convergence multiplies, so it would keep halving (measured: 34 "
-    "steps instead of 10, and a different answer); use newton='full' or a "
-    "fixed time step")
+    "linear convergence multiplies, so it would keep halving; use "
+    "newton='full' or a fixed time step")
 #: the ghost penalty that ``ghost="auto"`` switches on when a
 #: finite-deformation step of moving points fails
 DEFAULT_GHOST = .1
@@ -170,497 +159,163 @@ def check_resume(first_step, nsteps: int, load_factor, increment):
                     ")" if name == "load_factor" else "]", value))
 
 
-class Trial(NamedTuple):
-    """The out-of-balance state of one trial grid increment: the
-    kinematics' response, the out-of-balance force ``r`` (grid vector), its
-    norm over the free DOFs (``merit``) and that norm relative to the
-    external force (``residual``, the convergence measure)."""
-    response: object
-    r: ndarray
-    merit: float
-    residual: float
+class RunCache:
+    """What a run keeps from step to step to save work, never state: the
+    free-free gather map of a step's tangent (``condensation``) and the
+    active cells and held DOFs last checked for rigid-body modes
+    (``held``)."""
+
+    def __init__(self):
+        self.condensation, self.held = None, None
 
 
 class Run:
-    """What stays fixed over a run: the grid, the pieces and the settings."""
+    """What stays fixed over a run: the grid, the pieces, the grid terms
+    and the settings (keyword attributes), and :class:`RunCache`
+    (``cache``).  A term may change itself over a run (the ghost penalty
+    held in reserve is switched on by the retry ladder); nothing else
+    changes."""
 
     def __init__(self, **kwargs):
         self.__dict__.update(kwargs)
+        self.cache = RunCache()
 
 
-def prescribed_increments(run: Run, f_old: float, f_new: float,
-                          step: int):
-    """The prescribed grid DOFs and their increments over a step, checked:
-    integer DOFs of the grid, one finite value each."""
-    dofs, values = run.prescribed(run.grid, f_old, f_new)
-    dofs, values = np.asarray(dofs), np.asarray(values, dtype=np.float64)
-    if dofs.size == 0:
-        dofs = dofs.astype(np.int64)
-    N = run.grid.N
-    if dofs.dtype.kind not in "iu" or dofs.ndim != 1 \
-            or values.shape != dofs.shape or not np.isfinite(values).all() \
-            or (dofs.size and (dofs.min() < 0 or dofs.max() >= N)):
-        raise InvalidInputError(
-            "step {}: prescribed(basis, f_old, f_new) must return integer "
-            "grid DOFs in [0, {}) and one finite increment each, got DOFs of "
-            "dtype {} and shape {}, increments of shape {}".format(
-                step, N, dofs.dtype, dofs.shape, values.shape))
-    return dofs.astype(np.int64), values
+def ghost_term(run: Run) -> Optional[GridTerm]:
+    """The ghost penalty of ``ghost=gamma``, or the one ``ghost="auto"``
+    holds in reserve (:data:`DEFAULT_GHOST`)."""
+    if run.ghost:
+        return GhostStabilisation(run.mesh, run.grid.elem, run.ghost,
+                                  run.material)
+    if run.ghost_reserve:
+        return GhostStabilisation(run.mesh, run.grid.elem, DEFAULT_GHOST,
+                                  run.material, active=False)
+    return None
 
 
-def check_prescribed_motion(run: Run, op, dofs: ndarray, values: ndarray,
-                            step: int):
-    """Prescribed motion must act on the material it acted on.  A grid DOF
-    with a non-zero prescribed increment that carried material at the start
-    (a node of a cell holding a point's initial position) but is supported
-    by no point in this step has lost its material.  When some of the
-    material that started in its cells now sits in a cell with no moving
-    prescribed DOF, the body has moved away from the prescribed nodes (a
-    surface pushed down by more than a cell below the nodes that push it)
-    and the motion would no longer be followed, silently: refused.
-    (Material that moved on to other prescribed nodes, as a corner of a
-    sheared block or a body whose whole grid motion is prescribed, is still
-    driven; increments on nodes the body never reached do no harm.)"""
-    moving = dofs[values != 0.]
-    on = np.zeros(op.N, dtype=bool)
-    on[op.active_dofs] = True
-    lost = moving[~on[moving] & run.initially_supported[moving]]
-    if not lost.size:
-        return
-    element_dofs = run.grid.dofs.element_dofs
-    lost_mask = np.zeros(op.N, dtype=bool)
-    lost_mask[lost] = True
-    touching = lost_mask[element_dofs].any(axis=0)         # per cell
-    carried = touching[run.initial_cells]                  # per point
-    driven = np.zeros(op.N, dtype=bool)
-    driven[moving] = True
-    if driven[element_dofs[:, op.point_elements[carried]]].any(axis=0).all():
-        return
-    raise PrescribedMotionError(
-        "step {}: the prescribed motion acts on {} grid DOF(s) that carried "
-        "material at the start but that no material point supports any "
-        "more, e.g. at {}, while that material has moved into cells no "
-        "prescribed motion reaches: the grid nodes stay where they are, the "
-        "material has moved away from them by more than a cell, and their "
-        "motion would not be followed; move the loading body as material "
-        "points (a stiff body) instead of grid nodes, or prescribe less "
-        "motion than a cell".format(step, lost.size, run.grid.doflocs[
-            :, lost[:3]].T.tolist()))
+def follower_term(run: Run) -> Optional[GridTerm]:
+    """Pressures on the trial surface (finite deformation)."""
+    return FollowerPressure(run.loads) if run.loads.follows else None
 
 
-def safe_norm(v: ndarray) -> float:
-    """The 2-norm of ``v`` without underflow or overflow of its squares
-    (forces of 1e-300 or 1e+200 N): numpy's where that is safe, BLAS's
-    scaled ``dnrm2`` otherwise."""
-    with np.errstate(over="ignore", under="ignore"):
-        norm = np.linalg.norm(v)
-    if v.size == 0 or np.finfo(float).tiny < norm < 1e150:
-        return float(norm)
-    return float(dnrm2(np.ascontiguousarray(v, dtype=np.float64)))
+def inertia_term(run: Run) -> Optional[GridTerm]:
+    """Implicit time integration (``dynamics=``)."""
+    return None if run.dynamics is None else InertiaTerm(run.dynamics,
+                                                         run.masses)
+
+
+#: the built-in grid terms, each ``factory(run) -> GridTerm or None``, in
+#: the order their contributions are summed (a user's ``terms=`` follow)
+GRID_TERMS = (ghost_term, follower_term, inertia_term)
+
+
+def mean_dilatation(op, points):
+    """The step's point operator with mean dilatation (B-bar)."""
+    return MeanDilatation(op, points.volume)
+
+
+class Attempt(NamedTuple):
+    """One way of trying a load step: with the run's first line search
+    (``"first"``) or its retry search (``"retry"``), modified Newton
+    allowed, the tangent stabilised."""
+    search: str
+    modified: bool
+    stabilise: bool
+
+
+FIRST = Attempt("first", True, False)
 
 
 def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
-              step: int, stabilise: bool = False, strategy=None):
+              step: int, how: Attempt = FIRST, report: dict = None):
     """One load step from the converged state ``points``, from load factor
-    ``f_old`` to ``f_new`` (Newton steps by ``strategy``, default
-    ``run.newton``): returns the new state and the step's record."""
-    t = dict.fromkeys(PHASES, 0.)
-    # what a back end keeps from earlier steps' matrices (an AMG
-    # hierarchy) goes: a step computes the same from a checkpoint
-    getattr(run.solver, "forget", lambda: None)()
-    op = run.method.operator(points, step, t)
-    tic = time.perf_counter()
-    if run.antilocking:
-        op = MeanDilatation(op, points.volume)
-    fixed, du = run.D, np.zeros(op.N)
-    driven = np.zeros(0, dtype=np.int64)
-    s_old, s_new = run.scale(f_old), run.scale(f_new)  # the loads' scale
-    if run.prescribed is not None:
-        dofs, values = prescribed_increments(run, s_old, s_new, step)
-        du[dofs] = values
-        fixed = np.union1d(fixed, dofs)
-        driven = dofs[values != 0.]
-        check_prescribed_motion(run, op, dofs, values, step)
-    rigid_dofs = []
-    for k, rigid in enumerate(run.rigid_bodies):
-        dofs = rigid.dofs(run.grid.dofs.element_dofs, op.point_elements,
-                          points)
-        values = rigid.increment(s_old, s_new)[dofs % run.dim]
-        clash = np.isin(dofs, fixed) & (du[dofs] != values)
-        if clash.any():
-            raise PrescribedMotionError(
-                "step {}: rigid_bodies[{}] (body {}) drives {} grid DOF(s) "
-                "that a support or another prescribed motion holds "
-                "otherwise, e.g. component {} at {}".format(
-                    step, k, rigid.body, int(clash.sum()),
-                    int(dofs[clash][0] % run.dim),
-                    run.grid.doflocs[:, dofs[clash][0]].tolist()))
-        du[dofs] = values
-        fixed = np.union1d(fixed, dofs)
-        driven = np.union1d(driven, dofs[values != 0.])
-        rigid_dofs.append(dofs)
-    if run.dynamics is None:                  # the mass holds a free body
-        # checked again only when the active cells or the held DOFs change
-        held = (op.elements.tobytes(), fixed.tobytes()) if \
-            op.connectivity_from_elements else None
-        if held is None or held != run.held:
-            check_rigid_body_modes(op.adjacency(),
-                                   run.grid.doflocs[:, ::run.dim],
-                                   op.active_dofs, fixed, run.dim, step)
-            run.held = held
-    free = free_dofs(op.active_dofs, fixed)
-    f_dead = run.loads.external(op, points, s_new)
-    G = None if run.ghost is None else run.ghost.matrix(op, points)
-    inertia, follows = None, 1.       # follows: the follower load's weight
-    if run.dynamics is not None:
-        inertia, f_dead, f_int0, f_ext0 = step_inertia(
-            run, op, points, f_old, f_new, s_old, f_dead, free, fixed, du)
-        follows = 1 - inertia.alpha_f
-    t["assemble"] += time.perf_counter() - tic
-
-    def tangent(response):
-        """The step's tangent at a trial: stiffness, ghost, inertia."""
-        blocks = response.tangent_of is not None and getattr(
-            op, "tangent_blocks", False)       # no tangent of all points
-        K = op.stiffness(response.tangent_of if blocks
-                         else response.tangent(), response.w)
-        if G is not None:
-            K = K + G
-        if inertia is not None:
-            K = (1 - inertia.alpha_f) * K + inertia.c * inertia.M
-        return K
-
-    def evaluate(du: ndarray) -> Trial:
-        """The out-of-balance state of the grid increment ``du``."""
-        tic = time.perf_counter()
-        response = run.kinematics.response(op, du, points)
-        t["update"] += time.perf_counter() - tic
-        tic = time.perf_counter()
-        f_ext = f_dead
-        if run.loads.follows:                   # pressure on the trial surface
-            f_ext = f_dead + follows * run.loads.follower_force(
-                op, points, s_new, response.deformation)
-        f_int = op.force(response.P, response.w)
-        if G is not None:                       # the ghost forces balance too
-            f_int += G @ du
-        # relative to the larger of the loads and the forces that drive the
-        # prescribed motion: a step driven by prescribed motion under a
-        # small weight is measured against the forces it drives (and in
-        # dynamics against the inertia force: a free vibration)
-        scale = max(safe_norm(f_ext), safe_norm(f_int[driven]))
-        if inertia is not None:     # at n+1-alpha_f, and the inertia force
-            f_int = (1 - inertia.alpha_f) * f_int + inertia.alpha_f * f_int0
-            moving = inertia.force(du)
-            f_int += moving
-            scale = max(scale, safe_norm(moving))
-        r = f_ext - f_int
-        if scale == 0.:               # nothing loads or drives: the stresses
-            scale = max(safe_norm(f_int), np.finfo(float).tiny)
-        merit = safe_norm(r[free])
-        t["check"] += time.perf_counter() - tic
-        return Trial(response, r, merit, merit / scale)
-
-    def converged(trial: Trial) -> bool:
-        return trial.residual <= run.tol
-
-    # a nonlinear step driven by prescribed motion takes its first Newton
-    # step with the tangent of the step's start, the prescribed increments
-    # as loads (the predictor of nonlinear FE codes): the tangent at the
-    # first trial, where only the driven nodes have moved, sees a band of
-    # spurious yielding along them (a whole soil layer behind a moved base)
-    # and sends Newton astray
-    predictor = None
-    if not run.linear and driven.size:
-        start = evaluate(np.zeros(op.N))
-        tic = time.perf_counter()
-        K_start = tangent(start.response)
-        predictor = K_start, start.r - K_start @ du
-        del K_start
-        t["assemble"] += time.perf_counter() - tic
-    try:
-        current = evaluate(du)
-    except InversionError as err:
-        raise InversionError("step {}: {}".format(step, err)) from err
-    residuals = []
-    search = (run.newton if strategy is None else strategy).start()
-    # modified Newton on a step's first attempt (its retries: full Newton)
-    modified = run.modified and strategy is None and not stabilise
-    frozen = None
-    run.reused = False        # whether a factorisation served again
-    for it in range(run.max_iter + 1):
-        residuals.append(float(current.residual))
-        logger.debug("step %d iteration %d: residual %.3e", step, it,
-                     residuals[-1])
-        if converged(current) or free.size == 0 or (
-                run.rhs == "increment" and it == 1):
-            break
-        if it == run.max_iter or not np.isfinite(residuals[-1]):
-            raise NewtonDivergenceError(
-                "step {}: {} did not converge in {} iterations (residual "
-                "{:.1e}, smallest {:.1e}, last {:.1e})".format(
-                    step, "the equilibrium iteration" if run.linear
-                    else "Newton-Raphson", it, residuals[0], min(residuals),
-                    residuals[-1]))
-        if it == 0 and predictor is not None:
-            tic = time.perf_counter()
-            d = solve_step(run, *predictor, free, step, stabilise)[0]
-            predictor = None              # memory: freed before the tangent
-            t["solve"] += time.perf_counter() - tic
-            trial, merit = trial_state(evaluate, du + d)
-            if trial is not None and merit < current.merit:
-                du, current = du + d, trial
-                continue
-            # the predictor did not lower the residual (an over-driven
-            # cell can lead it to another branch of the equilibrium):
-            # Newton from the first trial instead, evaluated again (the
-            # predictor's trial overwrote the kinematics' work arrays)
-            logger.debug("step %d: the predictor raised the residual to "
-                         "%.3e; Newton from the first trial", step,
-                         merit / max(current.merit, 1e-300)
-                         * current.residual)
-            current = evaluate(du)
-            run.counters["line_search_trials"] += 2
-        r = current.r
-        if run.rhs == "increment":
-            r = f_dead - run.loads.external(op, points, f_old)
-        d = None
-        if frozen is not None and residuals[-1] <= MODIFIED_RATE * \
-                residuals[-2]:      # modified Newton: the step's tangent
-            tic = time.perf_counter()
-            try:
-                d = frozen(r)
-            except SingularSystemError as err:
-                # a pivot check that this right-hand side set off: the
-                # current tangent decides (stabilised where it must be)
-                logger.debug("step %d: %s; refactorising", step, err)
-            else:
-                run.counters["newton_iterations"] += 1
-                run.counters["linear_solves"] += 1
-                # a solver function without factorise(A) factorises anew
-                run.counters["factorisations"] += not hasattr(
-                    run.solver, "factorise")
-                run.reused = True
-            t["solve"] += time.perf_counter() - tic
-        if d is None:
-            tic = time.perf_counter()
-            K = tangent(current.response)
-            t["assemble"] += time.perf_counter() - tic
-            tic = time.perf_counter()
-            d, solve = solve_step(run, K, r, free, step, stabilise)
-            t["solve"] += time.perf_counter() - tic
-            if modified:
-                frozen = solve
-            # memory: the next tangent is assembled and factorised with
-            # neither this one nor (full Newton) its factorisation alive
-            del K, solve
-        try:
-            du, current, extra = search(evaluate, du, d, current,
-                                        converged)
-        except InversionError as err:
-            raise InversionError("step {}: {}".format(step, err)) from err
-        run.counters["line_search_trials"] += extra
-    response, r = current.response, current.r
-    tic = time.perf_counter()
-    new = response.commit(points)
-    dx = op.values(du)
-    new.displacement = points.displacement + dx
-    if run.method.moves:
-        new.x = points.x + dx
-        domains = run.method.domains(run.domain0, new.F)
-        if domains is not None:
-            new.domain = domains
-    held = fixed[np.isin(fixed, op.active_dofs)]
-    energy = None
-    if inertia is not None:
-        energy = commit_motion(run, op, inertia, points, new, response, du,
-                               G, f_int0, f_ext0, f_dead, s_new)
-    t["update"] += time.perf_counter() - tic
-    if run.method.moves:     # inside the grid (the location serves the next
-        run.method.locate(new.x, step, t, points)               # step)
-    record = StepRecord(step, f_new, residuals[-1], op.nelems, free.size, t,
-                        reaction_dofs=held, reaction_values=-r[held],
-                        n_dofs=op.N)
-    if energy is not None:
-        record.time = f_new * run.dynamics.duration
-        record.time_step = (f_new - f_old) * run.dynamics.duration
-        record.energy = energy
-    for dofs in rigid_dofs:       # a support's DOFs keep their reactions
-        dofs = dofs[~np.isin(dofs, run.D)]
-        force = np.zeros(run.dim)
-        np.add.at(force, dofs % run.dim, -r[dofs])
-        record.rigid_forces.append(force)
-    if not run.linear:
-        record.newton_residuals = residuals
-        record.n_yielded = int(response.yielded.sum())
-    if run.keep_snapshots:
-        record.elements = op.elements
-        record.u, record.x = du, new.x.copy()
-        record.displacement = new.displacement.copy()
-        record.stress = new.stress.copy()
-    return new, record, op
+    ``f_old`` to ``f_new``, tried ``how``: build the step problem, drive
+    Newton, commit.  Returns the new state, the step's record and its
+    point operator; ``report`` receives what the Newton driver reports."""
+    problem = StepProblem(run, points, f_old, f_new, step)
+    strategy = run.newton if how.search == "first" else \
+        run.line_search or run.newton
+    found = newton_driver(
+        problem, problem.du0, strategy.start(), max_iter=run.max_iter,
+        modified=run.modified and how.modified and not how.stabilise,
+        stabilise=how.stabilise, single_solve=run.rhs == "increment",
+        report=report)
+    new, record = problem.commit(found.trial, found.du, found.residuals)
+    return new, record, problem.op
 
 
-def step_inertia(run: Run, op, points: MaterialPoints, f_old: float,
-                 f_new: float, s_old: float, f_dead: ndarray,
-                 free: ndarray, fixed: ndarray, du: ndarray):
-    """The inertia of a time step from ``f_old`` to ``f_new`` (fractions
-    of the duration), the external force at ``n+1-alpha_f``, and the
-    internal and external forces at the step's start.  The first step of a
-    run without accelerations takes them from the balance at its start.
-    Grid DOFs whose motion is held (supports, prescribed motion, rigid
-    bodies: ``fixed``, their increments in ``du``) move at their prescribed
-    rate over the step, without acceleration, not at the velocity projected
-    from the points near them."""
-    dynamics = run.dynamics
-    inertia = Inertia(dynamics, op, points, run.masses,
-                      (f_new - f_old) * dynamics.duration)
-    inertia.kinetic_start = .5 * float(run.masses @ (
-        points.velocity ** 2).sum(0))
-    start = run.kinematics.response(op, np.zeros(op.N), points)
-    f_int0 = op.force(start.P, start.w)
-    f_ext0 = run.loads.external(op, points, s_old)
-    if run.loads.follows:             # pressure on the start's surface
-        f_ext0 = f_ext0 + run.loads.follower_force(op, points, s_old,
-                                                   start.deformation)
-    if inertia.a is None:
-        a = solve_active(inertia.M.tocsr(), f_ext0 - f_int0, free,
-                         solver=run.solver, doflocs=run.grid.doflocs)
-        inertia.a = a
-        run.counters["linear_solves"] += 1
-        run.counters["factorisations"] += 1
-    inertia.v[fixed] = du[fixed] / inertia.dt
-    inertia.a[fixed] = 0.
-    alpha = inertia.alpha_f
-    return inertia, (1 - alpha) * f_dead + alpha * f_ext0, f_int0, f_ext0
+class Rung(NamedTuple):
+    """A rung of the retry ladder: where it ``applies(run, reused)`` (the
+    failed attempt's factorisation served again: modified Newton), try the
+    step again ``how``, or (``how=None``) ``change(run, step, failure)``
+    the run and walk the ladder again from the first attempt."""
+    what: str
+    applies: Callable
+    how: Optional[Attempt]
+    change: Optional[Callable] = None
 
 
-def commit_motion(run: Run, op, inertia: Inertia, points: MaterialPoints,
-                  new: MaterialPoints, response, du: ndarray, G,
-                  f_int0: ndarray, f_ext0: ndarray, f_dead: ndarray,
-                  s_new: float) -> dict:
-    """The points' new velocity (FLIP / PIC blend) and acceleration from
-    the grid's (``points``: the state at the step's start); returns the step's energies: kinetic at its start and end,
-    and the work of the internal and external forces over it (trapezoidal
-    rule)."""
-    a = inertia.acceleration(du)
-    v = inertia.velocity(a)
-    flip = run.dynamics.flip
-    new.velocity = op.values(v) if flip == 0 else \
-        flip * (new.velocity + op.values(v - inertia.v)) \
-        + (1 - flip) * op.values(v)
-    new.acceleration = op.values(a)
-    f_int = op.force(response.P, response.w)
-    if G is not None:
-        f_int += G @ du
-    alpha = inertia.alpha_f          # f_dead is the load at n+1-alpha_f
-    f_ext1 = f_dead if alpha == 0 else (f_dead - alpha * f_ext0) / (1 - alpha)
-    if run.loads.follows:             # pressure on the step's end surface
-        f_ext1 = f_ext1 + run.loads.follower_force(op, points, s_new,
-                                                   response.deformation)
-    return {"kinetic_start": inertia.kinetic_start,
-            "kinetic": .5 * float(run.masses @ (new.velocity ** 2).sum(0)),
-            "internal_work": .5 * float((f_int0 + f_int) @ du),
-            "external_work": .5 * float((f_ext0 + f_ext1) @ du)}
+def switch_ghost_on(run: Run, step: int, failure):
+    """The reserve ghost penalty on for the rest of the run."""
+    for term in run.terms:
+        if isinstance(term, GhostStabilisation) and not term.active:
+            term.switch_on()
+            run.counters["ghost_from_step"] = step
+            logger.warning("%s; switching the ghost penalty on (gamma %g) "
+                           "for the rest of the run", failure, term.gamma)
 
 
-def solve_step(run: Run, K, r: ndarray, free: ndarray, step: int,
-               stabilise: bool):
-    """Newton's increment with the exact tangent; in nonlinear steps with a
-    stabilised one where points leave zero-energy modes on weakly supported
-    nodes (a cell entered by one point): when the step is retried so
-    (``stabilise``), or when the exact tangent is refused as singular.
-    Those modes carry no residual, so the stabilisation, ``STABILISATION``
-    times the diagonal added to the tangent only, does not change the
-    converged state; it is used only when needed because it slows Newton to
-    a linear rate of about ``STABILISATION`` times the tangent's condition
-    number.  A linear step solves once, exactly, or raises.  Returns the
-    increment and the factorised solve, ``solve(r) -> d``, that modified
-    Newton reuses."""
-    counters = run.counters
-    if not run.linear:
-        counters["newton_iterations"] += 1
-    if not (run.condensation is not None and run.condensation.fits(K, free)) \
-            and getattr(K, "has_canonical_format", False):
-        run.condensation = Condensation(K, free)    # new step: new map
-    # (GIMP's sparse products are not canonical: scikit-fem's condense)
+def ghost_in_reserve(run: Run, reused: bool) -> bool:
+    return any(isinstance(term, GhostStabilisation) and not term.active
+               for term in run.terms)
 
-    def factorise_and_solve():
-        counters["linear_solves"] += 1
-        counters["factorisations"] += 1
-        solve = factorise_active(K, free, solver=run.solver,
-                                 doflocs=run.grid.doflocs,
-                                 condensation=run.condensation)
-        return solve(r), solve
-    if not stabilise:
-        try:
-            return factorise_and_solve()
-        except SingularSystemError as err:
-            if run.linear:
-                raise SingularSystemError("step {}: {}".format(step, err)) \
-                    from err
-            logger.debug("step %d: %s; solving again with the tangent "
-                         "stabilised by %.0e of its diagonal", step, err,
-                         STABILISATION)
-    K.setdiag(K.diagonal() * (1. + STABILISATION))           # in place
-    counters["stabilised_solves"] += 1
-    try:
-        return factorise_and_solve()
-    except SingularSystemError as err:
-        # a nonlinear step's trial tangent (the supports were checked
-        # before the step): a failed step, retried and cut back
-        raise (SingularSystemError if run.linear else SingularTangentError)(
-            "step {}: {}".format(step, err)) from err
+
+#: what a failed nonlinear step tries next at the same load increment, in
+#: order, each rung logged: full Newton where modified Newton's factorisation
+#: had served again; the ghost penalty of ``ghost="auto"`` for the rest of
+#: the run (points giving nodes a sliver of support make Newton cycle: the
+#: commonest failure); the line search (:mod:`skfem_mpm.solve.newton`; the
+#: equilibrium it converges to is the step's, though a run's path of
+#: cut-backs, and so its answer, can differ); the tangent stabilised
+#: (zero-energy modes not refused as singular), with the line search.
+#: After the last, the load increment is cut back.
+RETRY_LADDER = (
+    Rung("full Newton", lambda run, reused: reused,
+         Attempt("first", False, False)),
+    Rung("the ghost penalty", ghost_in_reserve, None, switch_ghost_on),
+    Rung("the line search", lambda run, reused: run.line_search is not None,
+         Attempt("retry", False, False)),
+    Rung("the tangent stabilised by {:.0e} of its diagonal".format(
+        STABILISATION), lambda run, reused: True,
+        Attempt("retry", False, True)),
+)
 
 
 def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             step: int):
-    """A load step with the exact tangent.  When Newton fails in a
-    nonlinear step, it is retried at the same increment, one log line per
-    failed attempt: with full Newton where the attempt was modified Newton,
-    with the ghost penalty switched on for the rest of the
-    run if ``ghost="auto"`` holds it in reserve (points giving nodes a
-    sliver of support make Newton cycle: the commonest failure), then with
-    the line search (:mod:`skfem_mpm.solve.newton`; the equilibrium it
-    converges to is the step's, though a run's path of cut-backs, and so
-    its answer, can differ), then once with the stabilised tangent
-    (zero-energy modes not refused as singular), again with the line
-    search."""
-    try:
-        with numerical_failures(step):
-            return load_step(run, points, f_old, f_new, step)
-    except STEP_FAILURES as err:
-        if run.linear:
-            raise
-        failure = err
-    def retry(what, strategy):
-        """The step again with ``strategy``: ``(its result, None)``, or
-        ``(None, the failure)``."""
-        logger.warning("%s; retrying with %s", failure, what)
+    """A load step, retried along :data:`RETRY_LADDER` when Newton fails
+    in a nonlinear step; the last rung's failure is raised."""
+    how, rungs = FIRST, iter(RETRY_LADDER)
+    while True:
+        report = {}
         try:
             with numerical_failures(step):
-                return load_step(run, points, f_old, f_new, step,
-                                 strategy=strategy), None
-        except STEP_FAILURES as err:
-            return None, err
-    if run.reused:      # else the attempt was full Newton's already
-        done, failure = retry("full Newton", run.newton)
-        if done:
-            return done
-    if run.ghost is None and run.ghost_reserve is not None:
-        run.ghost = run.ghost_reserve
-        run.counters["ghost_from_step"] = step
-        logger.warning("%s; switching the ghost penalty on (gamma %g) for "
-                       "the rest of the run", failure, run.ghost.gamma)
-        return attempt(run, points, f_old, f_new, step)
-    if run.line_search is not None:
-        done, failure = retry("the line search", run.line_search)
-        if done:
-            return done
-    logger.warning("%s; retrying with the tangent stabilised by %.0e of its "
-                   "diagonal", failure, STABILISATION)
-    with numerical_failures(step):
-        return load_step(run, points, f_old, f_new, step, stabilise=True,
-                         strategy=run.line_search)
+                return load_step(run, points, f_old, f_new, step, how,
+                                 report)
+        except STEP_FAILURES as failure:
+            if run.linear:
+                raise
+            for rung in rungs:
+                if rung.applies(run, report.get("reused", False)):
+                    break
+            else:
+                raise
+            if rung.how is None:
+                rung.change(run, step, failure)
+                how, rungs = FIRST, iter(RETRY_LADDER)
+            else:
+                logger.warning("%s; retrying with %s", failure, rung.what)
+                how = rung.how
 
 
 @contextmanager
@@ -674,6 +329,80 @@ def numerical_failures(step: int):
     except (ArithmeticError, np.linalg.LinAlgError) as err:
         raise NumericalError("step {}: {}: {}".format(
             step, type(err).__name__, err)) from err
+
+
+def check_terms(terms) -> list:
+    """A user's grid terms: :class:`~skfem_mpm.protocols.GridTerm`
+    objects (or one)."""
+    terms = [terms] if isinstance(terms, GridTerm) else list(terms)
+    for k, term in enumerate(terms):
+        if not isinstance(term, GridTerm):
+            raise InvalidInputError(
+                "terms[{}] must be a GridTerm (skfem_mpm.protocols), got "
+                "{!r}".format(k, term))
+    return terms
+
+
+def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
+            increment: float, smallest: float,
+            callback: Optional[Callable]) -> Result:
+    """The load steps of ``run`` from ``step`` (done) at load factor
+    ``factor`` to the end, each of ``increment`` where it converges, cut
+    back (halved) down to ``smallest`` where it does not; the history,
+    points and basis into ``result``.  A failure raises with the last
+    converged state attached."""
+    points, dynamics = result.points, run.dynamics
+    while factor < 1. - 1e-12:
+        boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
+        target = min(factor + increment, boundary)
+        if target > boundary - 1e-12:
+            target = boundary
+        try:
+            points, record, op = attempt(run, points, factor, target,
+                                         step + 1)
+        except STEP_FAILURES as err:
+            if run.linear or (target - factor) / 2 < smallest * (1 - 1e-9):
+                raise type(err)(
+                    "{}; no convergence down to a load increment of {:.2e}: "
+                    "the last converged state (load factor {:.4f}) is "
+                    "attached".format(err, target - factor, factor),
+                    state=points, load_factor=factor,
+                    history=result.history) from err
+            increment = (target - factor) / 2
+            logger.warning("step %d: cutting the load increment back to "
+                           "%.3e", step + 1, increment)
+            continue
+        except MPMError as err:              # what a cut-back cannot cure
+            err.state, err.load_factor = points, factor
+            err.history = result.history
+            raise
+        except Exception as err:             # a user's material or form
+            raise StepFailedError(
+                "step {}: {}: {} (the last converged state, load factor "
+                "{:.4f}, is attached)".format(step + 1, type(err).__name__,
+                                              err, factor),
+                state=points, load_factor=factor,
+                history=result.history) from err
+        step += 1
+        factor = target
+        if dynamics is not None and dynamics.target_iterations and \
+                record.newton_residuals is not None:
+            increment = dynamics.adapt(increment, 1. / nsteps, smallest,
+                                       len(record.newton_residuals) - 1)
+        elif abs(factor - boundary) < 1e-12:
+            increment = 1. / nsteps
+        record.increment, record.counters = increment, dict(run.counters)
+        result.history.append(record)
+        result.points = points
+        result.basis = getattr(op, "basis", None)
+        if callback is not None:
+            callback(record, points)
+        logger.info("step %d: load factor %.4f, %s, residual %.2e", step,
+                    factor, "{} Newton iterations".format(
+                        len(record.newton_residuals) - 1) if not run.linear
+                    else "{} free DOFs".format(record.n_free_dofs),
+                    record.residual)
+    return result
 
 
 def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
@@ -693,7 +422,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              callback: Optional[Callable] = None,
              ramp_body_force=True, rigid_bodies: Sequence = (),
              dynamics: Optional[Dynamics] = None,
-             newton: str = "full") -> Result:
+             newton: str = "full", terms: Sequence = ()) -> Result:
     """Implicit MPM, GIMP or FE, quasi-static or dynamic: any method with
     any kinematics, material, stabilisation and loads.
 
@@ -836,6 +565,10 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         ``Dynamics.load(t)``, ``nsteps`` is set by the time step (giving it
         too is refused), every record carries ``time`` and ``energy`` and
         the points ``velocity`` and ``acceleration``.
+    terms
+        Grid terms of one's own (:class:`~skfem_mpm.protocols.GridTerm`,
+        or one): forces, loads and matrices added to every step's balance
+        after the built-in ones (:data:`GRID_TERMS`).
 
     Returns
     -------
@@ -999,20 +732,17 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     if method in ("fem", "mpm"):
         pattern.structure()              # set-up, shared by every step
     run = Run(
-        condensation=None,           # the free-free gather of a step's K
-        held=None,                   # active cells and held DOFs checked
         mesh=mesh, dim=mesh.dim(), grid=grid, method=piece, linear=linear,
         kinematics=make_kinematics(kinematics, material, mesh.dim(), counters,
                                    total_lagrangian=method == "fem"),
-        loads=external,
-        ghost=GhostStabilisation(mesh, grid.elem, ghost, material)
-        if ghost else None, ghost_reserve=GhostStabilisation(
-            mesh, grid.elem, DEFAULT_GHOST, material) if reserve else None,
-        antilocking=bool(antilocking), D=support_dofs(supports, grid),
+        loads=external, material=material, ghost=ghost,
+        ghost_reserve=reserve,
+        operator_wrappers=(mean_dilatation,) if antilocking else (),
+        D=support_dofs(supports, grid),
         prescribed=prescribed, rigid_bodies=rigid_bodies, rhs=rhs, tol=tol,
         max_iter=max_iter,
         newton=FullStep() if linear else line_search[0],
-        modified=newton == "modified" and not linear, reused=False,
+        modified=newton == "modified" and not linear,
         line_search=None if linear else line_search[1],
         solver=get_solver(solver, mesh.dim()), counters=counters,
         keep_snapshots=keep_snapshots, domain0=domain0,
@@ -1021,6 +751,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         else (lambda f: dynamics.scale(f * dynamics.duration)),
         initial_cells=None if prescribed is None
         else locate(points.x0)[0])
+    run.terms = [term for term in (
+        factory(run) for factory in GRID_TERMS) if term is not None]
+    run.terms += check_terms(terms)
     logger.info("linear solver: %s", solver if isinstance(solver, str) else
                 "auto" if solver is None else
                 getattr(solver, "__qualname__", repr(solver)))
@@ -1034,56 +767,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     smallest = 1. / nsteps / 2 ** max_cutbacks
     if resumed_counters:
         counters.update(resumed_counters)
-        if counters["ghost_from_step"] and run.ghost_reserve is not None:
-            run.ghost = run.ghost_reserve
-    while factor < 1. - 1e-12:
-        boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
-        target = min(factor + increment, boundary)
-        if target > boundary - 1e-12:
-            target = boundary
-        try:
-            points, record, op = attempt(run, points, factor, target,
-                                         step + 1)
-        except STEP_FAILURES as err:
-            if run.linear or (target - factor) / 2 < smallest * (1 - 1e-9):
-                raise type(err)(
-                    "{}; no convergence down to a load increment of {:.2e}: "
-                    "the last converged state (load factor {:.4f}) is "
-                    "attached".format(err, target - factor, factor),
-                    state=points, load_factor=factor,
-                    history=result.history) from err
-            increment = (target - factor) / 2
-            logger.warning("step %d: cutting the load increment back to "
-                           "%.3e", step + 1, increment)
-            continue
-        except MPMError as err:              # what a cut-back cannot cure
-            err.state, err.load_factor = points, factor
-            err.history = result.history
-            raise
-        except Exception as err:             # a user's material or form
-            raise StepFailedError(
-                "step {}: {}: {} (the last converged state, load factor "
-                "{:.4f}, is attached)".format(step + 1, type(err).__name__,
-                                              err, factor),
-                state=points, load_factor=factor,
-                history=result.history) from err
-        step += 1
-        factor = target
-        if dynamics is not None and dynamics.target_iterations and \
-                record.newton_residuals is not None:
-            increment = dynamics.adapt(increment, 1. / nsteps, smallest,
-                                       len(record.newton_residuals) - 1)
-        elif abs(factor - boundary) < 1e-12:
-            increment = 1. / nsteps
-        record.increment, record.counters = increment, dict(counters)
-        result.history.append(record)
-        result.points = points
-        result.basis = getattr(op, "basis", None)
-        if callback is not None:
-            callback(record, points)
-        logger.info("step %d: load factor %.4f, %s, residual %.2e", step,
-                    factor, "{} Newton iterations".format(
-                        len(record.newton_residuals) - 1) if not run.linear
-                    else "{} free DOFs".format(record.n_free_dofs),
-                    record.residual)
-    return result
+        if counters["ghost_from_step"]:
+            for term in run.terms:          # a switched-on ghost stays on
+                if isinstance(term, GhostStabilisation):
+                    term.switch_on()
+    return advance(run, result, nsteps, step, factor, increment, smallest,
+                   callback)

@@ -79,8 +79,12 @@ from scipy.sparse import csr_matrix, diags, kron, identity
 from scipy.sparse.linalg import splu
 
 from ..errors import InvalidInputError, SingularSystemError, check_real
+from ..protocols import GridTerm
+from .linear import solve_active
+from .problem import safe_norm
 
-__all__ = ["Newmark", "GeneralizedAlpha", "Dynamics", "MASSES"]
+__all__ = ["Newmark", "GeneralizedAlpha", "Dynamics", "MASSES",
+           "InertiaTerm"]
 
 MASSES = ("lumped", "consistent")
 
@@ -345,7 +349,104 @@ class Inertia:
         return self.v + self.dt * ((1 - self.gamma) * self.a
                                    + self.gamma * a_new)
 
-    def force(self, du: ndarray) -> ndarray:
+    def inertia_force(self, du: ndarray) -> ndarray:
         """``M a_(n+1-alpha_m)``."""
         a = (1 - self.alpha_m) * self.acceleration(du) + self.alpha_m * self.a
         return self.M @ a
+
+
+class InertiaTerm(GridTerm):
+    """Implicit time integration as a grid term: the inertia of the
+    points' mass (``masses``, per point) in each time step, Newmark's or
+    the generalised-alpha weights of the balance, and the points' new
+    velocity, acceleration and the step's energies at its end.
+
+    At a step's start (:meth:`begin_step`) the grid velocity and
+    acceleration are projected from the points (the first step of a run
+    without accelerations takes them from the balance at its start), the
+    external force becomes the load at ``n+1-alpha_f``, and grid DOFs whose
+    motion is held (supports, prescribed motion, rigid bodies) move at their
+    prescribed rate over the step, without acceleration, not at the
+    velocity projected from the points near them.
+    """
+
+    holds_free_body = True               # the mass holds a free body
+
+    def __init__(self, dynamics: Dynamics, masses: ndarray):
+        self.dynamics, self.masses = dynamics, masses
+
+    def begin_step(self, problem):
+        """The step's inertia, the internal and external forces at its
+        start, and the external force weighed to ``n+1-alpha_f``."""
+        run, op, points = problem.run, problem.op, problem.points
+        dynamics, fixed, du = self.dynamics, problem.fixed, problem.du0
+        step = StepInertia(dynamics, op, points, self.masses,
+                           (problem.f_new - problem.f_old) * dynamics.duration)
+        step.dynamics, step.masses = dynamics, self.masses
+        step.kinetic_start = .5 * float(self.masses @ (
+            points.velocity ** 2).sum(0))
+        start = run.kinematics.response(op, np.zeros(op.N), points)
+        step.f_int0 = op.force(start.P, start.w)
+        f_ext0 = run.loads.external(op, points, problem.s_old)
+        follower = problem.trial_loads(start, problem.s_old)
+        if follower is not None:          # pressure on the start's surface
+            f_ext0 = f_ext0 + follower
+        step.f_ext0 = f_ext0
+        if step.a is None:
+            step.a = solve_active(step.M.tocsr(), f_ext0 - step.f_int0,
+                                  problem.free, solver=run.solver,
+                                  doflocs=problem.grid.doflocs)
+            problem.counters["linear_solves"] += 1
+            problem.counters["factorisations"] += 1
+        step.v[fixed] = du[fixed] / step.dt
+        step.a[fixed] = 0.
+        alpha = step.alpha_f
+        problem.f_dead = (1 - alpha) * problem.f_dead + alpha * f_ext0
+        problem.load_weight = 1 - alpha
+        return step
+
+
+class StepInertia(Inertia, GridTerm):
+    """The inertia term of one time step (see :class:`InertiaTerm`)."""
+
+    def weigh(self, balance, du: ndarray):
+        """The internal force at ``n+1-alpha_f`` and the inertia force;
+        the residual is measured against the inertia force too (a free
+        vibration)."""
+        alpha = self.alpha_f
+        balance.f_int = (1 - alpha) * balance.f_int + alpha * self.f_int0
+        moving = self.inertia_force(du)
+        balance.f_int += moving
+        balance.scale = max(balance.scale, safe_norm(moving))
+
+    def weigh_matrix(self, K):
+        return (1 - self.alpha_f) * K + self.c * self.M
+
+    def commit(self, problem, trial, du: ndarray, new, record):
+        """The points' new velocity (FLIP / PIC blend) and acceleration
+        from the grid's; the step's time and energies: kinetic at its start
+        and end, and the work of the internal and external forces over it
+        (trapezoidal rule)."""
+        op, response = problem.op, trial.response
+        a = self.acceleration(du)
+        v = self.velocity(a)
+        flip = self.dynamics.flip
+        new.velocity = op.values(v) if flip == 0 else \
+            flip * (new.velocity + op.values(v - self.v)) \
+            + (1 - flip) * op.values(v)
+        new.acceleration = op.values(a)
+        f_int = problem.internal_force(du, response)
+        alpha, f_dead = self.alpha_f, problem.f_dead   # at n+1-alpha_f
+        f_ext1 = f_dead if alpha == 0 else \
+            (f_dead - alpha * self.f_ext0) / (1 - alpha)
+        follower = problem.trial_loads(response, problem.s_new)
+        if follower is not None:        # pressure on the step's end surface
+            f_ext1 = f_ext1 + follower
+        masses, duration = self.masses, self.dynamics.duration
+        record.time = problem.f_new * duration
+        record.time_step = (problem.f_new - problem.f_old) * duration
+        record.energy = {
+            "kinetic_start": self.kinetic_start,
+            "kinetic": .5 * float(masses @ (new.velocity ** 2).sum(0)),
+            "internal_work": .5 * float((self.f_int0 + f_int) @ du),
+            "external_work": .5 * float((self.f_ext0 + f_ext1) @ du)}

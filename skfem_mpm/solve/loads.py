@@ -43,6 +43,7 @@ from ..methods.operators import PointOperator
 from ..quadrature.basis import MaterialPointBasis
 from ..quadrature.locate import cell_coordinates
 from ..quadrature.points import MaterialPoints
+from ..protocols import GridTerm
 
 __all__ = ["Traction", "Pressure", "GridLoad", "SIDES", "side_points",
            "ExternalLoads"]
@@ -143,8 +144,9 @@ class ExternalLoads:
         Number of points (checks the surface loads' indices).
     follow
         Pressures follow the surface (finite deformation): ``follows`` is
-        then true when there is a pressure, and the core adds
-        :meth:`follower_force` at every iteration's trial deformation.
+        then true when there is a pressure, and the run's
+        :class:`FollowerPressure` term adds :meth:`follower_force` at
+        every iteration's trial deformation.
     moves
         The points move (not finite elements): surface loads act at the
         faces' current centres, otherwise at their reference ones.
@@ -330,3 +332,21 @@ class ExternalLoads:
             (cells, self.cell_local(centre, cells))))
         face.area = area
         return face
+
+
+class FollowerPressure(GridTerm):
+    """The pressures that follow the surface (finite deformation) as a
+    grid term: their load on each trial's deformation
+    (:meth:`ExternalLoads.follower_force`; its derivative is left out of
+    the tangent)."""
+
+    def __init__(self, loads: ExternalLoads):
+        self.loads = loads
+
+    def begin_step(self, problem):
+        self.op, self.points = problem.op, problem.points
+        return self
+
+    def load(self, response, scale: float) -> ndarray:
+        return self.loads.follower_force(self.op, self.points, scale,
+                                         response.deformation)

@@ -1,10 +1,17 @@
-"""Globalisation of Newton's method: how far to go along a Newton direction.
+"""Newton's method for a step problem, and its globalisation: how far to
+go along a Newton direction.
 
-The load-step core (:mod:`skfem_mpm.solve.core`) starts a search for each
-attempt at a load step (``search = strategy.start()``), computes a Newton
-direction ``d`` from the tangent in every iteration and calls
-``search(evaluate, du, d, current, accept)``, where ``evaluate`` returns the
-out-of-balance state at a trial grid increment.  The search returns the
+:func:`newton` drives a step problem (:class:`~skfem_mpm.solve.problem.
+StepProblem`, or anything with its ``residual``, ``tangent``, ``rhs``,
+``solve`` and ``converged``) from a start increment to equilibrium: the
+predictor of nonlinear FE codes where the step drives prescribed motion,
+full or modified Newton, a line search.  It knows nothing of MPM.
+
+The driver starts a search for each attempt at a load step (``search =
+strategy.start()``), computes a Newton direction ``d`` from the tangent in
+every iteration and calls ``search(evaluate, du, d, current, accept)``,
+where ``evaluate`` returns the out-of-balance state at a trial grid
+increment.  The search returns the
 accepted increment and its evaluated state, which the next iteration
 reuses: a full step that is accepted costs nothing extra.  The core never
 asks which strategy it runs.
@@ -43,16 +50,24 @@ perfectly plastic soil: half the Newton iterations of the default).
 :class:`FullStep` is plain Newton.
 """
 import logging
-from typing import Callable
+import time
+from typing import Callable, List, NamedTuple
 
 import numpy as np
 from numpy import ndarray
 
-from ..errors import InvalidInputError, InversionError, check_real
+from ..errors import (InvalidInputError, InversionError, NewtonDivergenceError,
+                      SingularSystemError, check_real)
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Backtracking", "FullStep", "make_line_search", "LINE_SEARCHES"]
+__all__ = ["Backtracking", "FullStep", "make_line_search", "LINE_SEARCHES",
+           "newton", "Converged", "MODIFIED_RATE"]
+
+#: modified Newton refactorises the tangent when an iteration with the
+#: factorised one reduced the residual by less than this factor (a linear
+#: rate of 0.25 reaches a tolerance of 1e-9 in 15 iterations)
+MODIFIED_RATE = .25
 
 LINE_SEARCHES = ("backtracking", "armijo", "none")
 # what a trial step may raise that a shorter step can avoid
@@ -303,3 +318,147 @@ def make_line_search(line_search):
     raise InvalidInputError(
         "line_search must be one of {}, a Backtracking(...) or FullStep(), "
         "got {!r}".format(LINE_SEARCHES, line_search))
+
+
+class Converged(NamedTuple):
+    """What :func:`newton` returns: the converged increment, its trial
+    state and the residual of every iteration."""
+    du: ndarray
+    trial: object
+    residuals: List[float]
+
+
+def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
+           modified: bool = False, stabilise: bool = False,
+           single_solve: bool = False, report: dict = None) -> Converged:
+    """Newton-Raphson on ``problem`` from the grid increment ``du``.
+
+    Parameters
+    ----------
+    problem
+        ``residual(du) -> trial`` (with ``merit``, ``residual``),
+        ``converged(trial)``, ``tangent(trial) -> K``, ``rhs(trial)``,
+        ``solve(K, r, stabilise) -> (d, factorised solve)``, ``free``
+        (the free DOFs), ``driven`` (DOFs of prescribed motion), ``linear``
+        (one exact solve makes the step), ``step``, ``counters``, ``t``.
+    search
+        The attempt's line search (``strategy.start()``).
+    max_iter
+        Iterations at the most; :class:`~skfem_mpm.errors.
+        NewtonDivergenceError` after them or at a residual not finite.
+    modified
+        Keep the first factorised tangent while each iteration cuts the
+        residual by :data:`MODIFIED_RATE` at least.
+    stabilise
+        Every solve with the stabilised tangent.
+    single_solve
+        Stop after one solve (the seed's one-solve scheme).
+    report
+        A dict that receives ``reused``: whether a factorisation served a
+        second iteration (so a failure may be modified Newton's).
+
+    A nonlinear step driven by prescribed motion takes its first Newton
+    step with the tangent of the step's start and the prescribed
+    increments as loads (the predictor of nonlinear FE codes): the tangent
+    at the first trial, where only the driven nodes have moved, sees a band
+    of spurious yielding along them (a whole soil layer behind a moved
+    base) and sends Newton astray.
+    """
+    predictor = None
+    if not problem.linear and problem.driven.size:
+        start = problem.residual(np.zeros_like(du))
+        K_start = problem.tangent(start)
+        predictor = K_start, start.r - K_start @ du
+        del K_start
+    try:
+        current = problem.residual(du)
+    except InversionError as err:
+        raise InversionError("step {}: {}".format(problem.step, err)) \
+            from err
+    residuals, frozen = [], None
+    report = {} if report is None else report
+    report["reused"] = False
+    for it in range(max_iter + 1):
+        residuals.append(float(current.residual))
+        logger.debug("step %d iteration %d: residual %.3e", problem.step, it,
+                     residuals[-1])
+        if problem.converged(current) or problem.free.size == 0 or (
+                single_solve and it == 1):
+            break
+        if it == max_iter or not np.isfinite(residuals[-1]):
+            raise NewtonDivergenceError(
+                "step {}: {} did not converge in {} iterations (residual "
+                "{:.1e}, smallest {:.1e}, last {:.1e})".format(
+                    problem.step, "the equilibrium iteration"
+                    if problem.linear else "Newton-Raphson", it,
+                    residuals[0], min(residuals), residuals[-1]))
+        if it == 0 and predictor is not None:
+            d = problem.solve(*predictor, stabilise)[0]
+            predictor = None              # memory: freed before the tangent
+            moved = predicted(problem, du, d, current)
+            if moved is not None:
+                du, current = moved
+                continue
+            current = problem.residual(du)
+        d, solve = newton_direction(problem, current, frozen, residuals,
+                                    stabilise, report)
+        if modified and solve is not None:
+            frozen = solve
+        del solve
+        try:
+            du, current, extra = search(problem.residual, du, d, current,
+                                        problem.converged)
+        except InversionError as err:
+            raise InversionError("step {}: {}".format(problem.step, err)) \
+                from err
+        problem.counters["line_search_trials"] += extra
+    return Converged(du, current, residuals)
+
+
+def predicted(problem, du: ndarray, d: ndarray, current):
+    """The predictor's increment and trial where it lowers the residual;
+    else ``None`` (an over-driven cell can lead it to another branch of the
+    equilibrium): Newton then starts from the first trial, evaluated again
+    (the predictor's trial overwrote the kinematics' work arrays)."""
+    trial, merit = trial_state(problem.residual, du + d)
+    if trial is not None and merit < current.merit:
+        return du + d, trial
+    logger.debug("step %d: the predictor raised the residual to %.3e; "
+                 "Newton from the first trial", problem.step,
+                 merit / max(current.merit, 1e-300) * current.residual)
+    problem.counters["line_search_trials"] += 2
+    return None
+
+
+def newton_direction(problem, current, frozen, residuals: list,
+                     stabilise: bool, report: dict):
+    """Newton's direction at ``current``: by the kept factorisation
+    ``frozen`` (modified Newton) where the last iteration cut the residual
+    by :data:`MODIFIED_RATE`, else by the tangent at ``current``, which is
+    assembled and factorised; returns the direction and the factorised
+    solve (``None`` where the kept one served)."""
+    r = problem.rhs(current)
+    if frozen is not None and residuals[-1] <= MODIFIED_RATE * \
+            residuals[-2]:      # modified Newton: the step's tangent
+        tic = time.perf_counter()
+        try:
+            d = frozen(r)
+        except SingularSystemError as err:
+            # a pivot check that this right-hand side set off: the
+            # current tangent decides (stabilised where it must be)
+            logger.debug("step %d: %s; refactorising", problem.step, err)
+        else:
+            counters = problem.counters
+            counters["newton_iterations"] += 1
+            counters["linear_solves"] += 1
+            # a solver function without factorise(A) factorises anew
+            counters["factorisations"] += not hasattr(problem.run.solver,
+                                                      "factorise")
+            report["reused"] = True
+            return d, None
+        finally:
+            problem.t["solve"] += time.perf_counter() - tic
+    K = problem.tangent(current)
+    # memory: the next tangent is assembled and factorised with neither
+    # this one nor (full Newton) its factorisation alive
+    return problem.solve(K, r, stabilise)

@@ -24,6 +24,8 @@ from numpy import ndarray
 from skfem import BilinearForm, InteriorFacetBasis, asm
 from skfem.helpers import dot, grad, mul
 
+from ..protocols import GridTerm
+
 __all__ = ["ghost_penalty", "cut_cells", "GhostStabilisation", "CUT_FILL"]
 
 
@@ -78,12 +80,12 @@ def ghost_penalty(mesh, elem, fill: ndarray, mu: ndarray,
                for i in (0, 1) for j in (0, 1))
 
 
-class GhostStabilisation:
-    """The ghost penalty as a piece of the load step: ``matrix(op,
-    points)`` is the step's penalty ``G`` (or ``None``), which the core adds
-    to the tangent and, times the displacement increment, to the internal
-    force, in any kinematics (``G`` is constant over a step: Newton keeps
-    its rate).
+class GhostStabilisation(GridTerm):
+    """The ghost penalty as a grid term of the load step
+    (:class:`~skfem_mpm.protocols.GridTerm`): the step's penalty ``G``
+    (:meth:`penalty`, constant over a step, so Newton keeps its rate) is
+    added to the tangent and, times the displacement increment, to the
+    internal force, in any kinematics.
 
     Parameters
     ----------
@@ -93,13 +95,36 @@ class GhostStabilisation:
         Penalty factor (dimensionless, e.g. 0.1); positive.
     material
         The points' material(s): ``mu`` per point scales the penalty.
-
+    active
+        ``False``: held in reserve, contributing nothing until
+        :meth:`switch_on` (``ghost="auto"``: the retry ladder of a failed
+        step switches it on for the rest of the run).
     """
 
-    def __init__(self, mesh, elem, gamma: float, material):
+    def __init__(self, mesh, elem, gamma: float, material,
+                 active: bool = True):
         self.mesh, self.elem, self.gamma = mesh, elem, gamma
-        self.material = material
+        self.material, self.active = material, active
         self._cell_volume = None
+        self.G = None
+
+    def switch_on(self):
+        """Contribute from the next step attempt on."""
+        self.active = True
+
+    def begin_step(self, problem):
+        """The step's penalty; ``None`` (no contribution) while in reserve
+        or where no face needs one."""
+        if not self.active:
+            return None
+        self.G = self.penalty(problem.op, problem.points)
+        return None if self.G is None else self
+
+    def force(self, du, response):
+        return self.G @ du
+
+    def matrix(self, response):
+        return self.G
 
     @property
     def cell_volume(self):
@@ -112,11 +137,12 @@ class GhostStabilisation:
                 self.elem, "elem") else self.elem).dx.sum(axis=1)
         return self._cell_volume
 
-    def matrix(self, op, points):
-        """Fill and stiffness of each cell from the points it holds; a cell
-        that the step's operator makes active without holding a point (a
-        GIMP domain reaching into it) counts as cut, with the largest
-        stiffness of the points."""
+    def penalty(self, op, points):
+        """The penalty matrix of the step of ``op`` (or ``None``): fill
+        and stiffness of each cell from the points it holds; a cell that
+        the step's operator makes active without holding a point (a GIMP
+        domain reaching into it) counts as cut, with the largest stiffness
+        of the points."""
         cells = op.point_elements
         n = self.mesh.nelements
         filled = np.bincount(cells, points.volume, n)

@@ -1,0 +1,182 @@
+"""The contracts between the pieces of the load-step core, declared once.
+
+The step problem (:mod:`skfem_mpm.solve.problem`) calls these and never
+asks which implementation it holds:
+
+- a **point operator** (:class:`PointOperator`, built per step by a
+  method, :mod:`skfem_mpm.methods`) maps grid and point quantities;
+- a **kinematics** (:class:`Kinematics`, :mod:`skfem_mpm.mechanics.
+  kinematics`) turns a trial grid increment into a :class:`Response`:
+  stresses, weights, the consistent tangent and the converged state;
+- a **material** (:class:`Material`, the protocol of
+  :mod:`skfem_mpm.mechanics.materials`) is called by the kinematics;
+- a **linear solver** is ``solve(A, b) -> x`` (scikit-fem's shape),
+  optionally with ``factorise(A) -> solve(b)`` and ``forget()``;
+- a **grid term** (:class:`GridTerm`) adds forces, loads and matrices to
+  the step's balance: the ghost penalty, the follower pressure, inertia,
+  or a term of one's own (``simulate(..., terms=[...])``).
+
+A grid term's contribution to one step comes from
+:meth:`GridTerm.begin_step`.  With ``du`` the grid increment and
+``response`` the kinematics' response to it, the step problem forms::
+
+    f_int = op.force(response) + sum(term.force(du, response))
+    f_ext = f_dead + w * sum(term.load(response, s))     # w = 1 but in
+                                                          # generalised-alpha
+    K     = op.stiffness(response) + sum(term.matrix(response))
+
+then lets each term weigh that balance in time (:meth:`GridTerm.weigh`,
+:meth:`GridTerm.weigh_matrix`: a time integrator's inertia and its
+generalised-alpha weights) and, once the step has converged, commit what
+it keeps (:meth:`GridTerm.commit`).  ``matrix`` must be the derivative of
+``force - load`` with respect to ``du`` (or a good part of it: Newton's
+rate depends on it).
+"""
+from typing import Callable, Optional, Protocol, runtime_checkable
+
+from numpy import ndarray
+
+__all__ = ["GridTerm", "Balance", "PointOperator", "Response", "Kinematics",
+           "Material", "LinearSolver"]
+
+
+class Balance:
+    """A trial's balance of forces on the grid while terms weigh it:
+    internal and external force vectors and ``scale``, the force the
+    residual is measured against."""
+
+    __slots__ = ("f_int", "f_ext", "scale")
+
+    def __init__(self, f_int: ndarray, f_ext: ndarray, scale: float):
+        self.f_int, self.f_ext, self.scale = f_int, f_ext, scale
+
+
+class GridTerm:
+    """A term of a load step's balance on the grid.
+
+    Subclass it and override what the term contributes; the defaults
+    contribute nothing.  ``problem`` is the
+    :class:`~skfem_mpm.solve.problem.StepProblem` of the step: its
+    ``op`` (the step's point operator, ``op.N`` grid DOFs), ``points``
+    (the converged state at the step's start), ``free``, ``fixed`` and
+    ``driven`` grid DOFs, ``du0`` (the prescribed increments), ``s_old``,
+    ``s_new`` (the loads' scale at the step's start and end), ``f_dead``
+    (the external force that does not depend on the trial), ``step``,
+    ``counters`` and ``grid`` (the grid's vector basis).
+
+    Examples
+    --------
+    A linear spring of stiffness ``k`` holding grid DOF ``dof``:
+
+    >>> import numpy as np
+    >>> from scipy.sparse import csr_matrix
+    >>> class Spring(GridTerm):
+    ...     def __init__(self, dof, k):
+    ...         self.dof, self.k = dof, k
+    ...     def begin_step(self, problem):
+    ...         self.N = problem.op.N
+    ...         return self
+    ...     def force(self, du, response):
+    ...         f = np.zeros(self.N)
+    ...         f[self.dof] = self.k * du[self.dof]
+    ...         return f
+    ...     def matrix(self, response):
+    ...         return csr_matrix(([self.k], ([self.dof], [self.dof])),
+    ...                           shape=(self.N, self.N))
+
+    Note that the displacement increment ``du`` is the step's: a spring
+    acting on the total displacement adds the displacement at the step's
+    start to it (``problem.points`` hold it).
+    """
+
+    #: the term's inertia holds the free body of every step (no support
+    #: needed against rigid-body motion: a time integrator)
+    holds_free_body = False
+
+    def begin_step(self, problem) -> Optional["GridTerm"]:
+        """This term's contribution to the step of ``problem`` (``self``
+        after computing the step's matrices, or another object with this
+        interface), or ``None`` where it contributes nothing."""
+        return self
+
+    def force(self, du: ndarray, response) -> Optional[ndarray]:
+        """Internal force (grid vector) of the trial increment ``du``."""
+        return None
+
+    def load(self, response, scale: float) -> Optional[ndarray]:
+        """External force (grid vector) that depends on the trial (a
+        follower load) at the loads' scale ``scale``."""
+        return None
+
+    def matrix(self, response):
+        """Addend of the step's tangent (sparse, ``N x N``) at the trial."""
+        return None
+
+    def weigh(self, balance: Balance, du: ndarray) -> None:
+        """Weigh the trial's static balance in time (a time integrator:
+        the generalised-alpha weights and the inertia force); may enlarge
+        ``balance.scale``."""
+
+    def weigh_matrix(self, K):
+        """The tangent weighed as :meth:`weigh` weighs the forces."""
+        return K
+
+    def commit(self, problem, trial, du: ndarray, new, record) -> None:
+        """After convergence: update the new state ``new`` (points) and
+        the step's ``record`` with what the term keeps."""
+
+
+@runtime_checkable
+class Response(Protocol):
+    """A kinematics' response to a trial grid increment."""
+    P: ndarray              #: stress measure the operator's force takes
+    w: ndarray              #: point weights (volumes) of the force
+    yielded: ndarray        #: per point: flowed plastically in the trial
+    tangent_of: Optional[Callable]   #: tangent by blocks of points, or None
+
+    def tangent(self) -> ndarray: ...
+    def deformation(self, idx: ndarray) -> ndarray: ...
+    def commit(self, points): ...
+
+
+@runtime_checkable
+class Kinematics(Protocol):
+    """Small strain or finite deformation (:mod:`skfem_mpm.mechanics.
+    kinematics`)."""
+
+    def response(self, op, du: ndarray, points) -> Response: ...
+
+
+@runtime_checkable
+class PointOperator(Protocol):
+    """A method's operator of one step: grid <-> points."""
+    N: int                  #: grid DOFs
+    dim: int
+    elements: ndarray       #: active cells
+    active_dofs: ndarray    #: grid DOFs some point supports
+    point_elements: ndarray  #: the cell of each point
+
+    def force(self, P: ndarray, w: ndarray) -> ndarray: ...
+    def stiffness(self, D, w: ndarray): ...
+    def values(self, u: ndarray) -> ndarray: ...
+    def point_force(self, f: ndarray) -> ndarray: ...
+
+
+@runtime_checkable
+class Material(Protocol):
+    """A constitutive model (the protocol of :mod:`skfem_mpm.mechanics.
+    materials`, which states each member's contract)."""
+    lam: object             #: Lame's first parameter (per point or one)
+    mu: object              #: shear modulus
+    plastic: bool           #: an update may involve a return map
+    state_variables: dict   #: ``{name: initial value}`` per point
+
+    def principal_update(self, eps: ndarray, state: dict): ...
+
+
+@runtime_checkable
+class LinearSolver(Protocol):
+    """``solve(A, b) -> x``; back ends may add ``factorise(A) ->
+    solve(b)`` and ``forget()`` (:mod:`skfem_mpm.solve.backends`)."""
+
+    def __call__(self, A, b, **kwargs) -> ndarray: ...

@@ -1,0 +1,130 @@
+"""The motion a load step holds: supports, prescribed grid displacements
+and rigid bodies of points, checked against the material they act on."""
+from typing import NamedTuple
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import InvalidInputError, PrescribedMotionError
+from .linear import check_rigid_body_modes
+
+__all__ = ["HeldMotion", "held_motion"]
+
+
+class HeldMotion(NamedTuple):
+    """The grid DOFs a step holds (``fixed``: supports, prescribed motion,
+    rigid bodies), the step's start increment ``du0`` (their increments,
+    zero elsewhere), the DOFs that move (``driven``) and the DOFs of each
+    rigid body (``rigid_dofs``)."""
+    fixed: ndarray
+    du0: ndarray
+    driven: ndarray
+    rigid_dofs: list
+
+
+def prescribed_increments(run, s_old: float, s_new: float, step: int):
+    """The prescribed grid DOFs and their increments over a step, checked:
+    integer DOFs of the grid, one finite value each."""
+    dofs, values = run.prescribed(run.grid, s_old, s_new)
+    dofs, values = np.asarray(dofs), np.asarray(values, dtype=np.float64)
+    if dofs.size == 0:
+        dofs = dofs.astype(np.int64)
+    N = run.grid.N
+    if dofs.dtype.kind not in "iu" or dofs.ndim != 1 \
+            or values.shape != dofs.shape or not np.isfinite(values).all() \
+            or (dofs.size and (dofs.min() < 0 or dofs.max() >= N)):
+        raise InvalidInputError(
+            "step {}: prescribed(basis, f_old, f_new) must return integer "
+            "grid DOFs in [0, {}) and one finite increment each, got DOFs of "
+            "dtype {} and shape {}, increments of shape {}".format(
+                step, N, dofs.dtype, dofs.shape, values.shape))
+    return dofs.astype(np.int64), values
+
+
+def check_prescribed_motion(run, op, dofs: ndarray, values: ndarray,
+                            step: int):
+    """Prescribed motion must act on the material it acted on.  A grid DOF
+    with a non-zero prescribed increment that carried material at the start
+    (a node of a cell holding a point's initial position) but is supported
+    by no point in this step has lost its material.  When some of the
+    material that started in its cells now sits in a cell with no moving
+    prescribed DOF, the body has moved away from the prescribed nodes (a
+    surface pushed down by more than a cell below the nodes that push it)
+    and the motion would no longer be followed, silently: refused.
+    (Material that moved on to other prescribed nodes, as a corner of a
+    sheared block or a body whose whole grid motion is prescribed, is still
+    driven; increments on nodes the body never reached do no harm.)"""
+    moving = dofs[values != 0.]
+    on = np.zeros(op.N, dtype=bool)
+    on[op.active_dofs] = True
+    lost = moving[~on[moving] & run.initially_supported[moving]]
+    if not lost.size:
+        return
+    element_dofs = run.grid.dofs.element_dofs
+    lost_mask = np.zeros(op.N, dtype=bool)
+    lost_mask[lost] = True
+    touching = lost_mask[element_dofs].any(axis=0)         # per cell
+    carried = touching[run.initial_cells]                  # per point
+    driven = np.zeros(op.N, dtype=bool)
+    driven[moving] = True
+    if driven[element_dofs[:, op.point_elements[carried]]].any(axis=0).all():
+        return
+    raise PrescribedMotionError(
+        "step {}: the prescribed motion acts on {} grid DOF(s) that carried "
+        "material at the start but that no material point supports any "
+        "more, e.g. at {}, while that material has moved into cells no "
+        "prescribed motion reaches: the grid nodes stay where they are, the "
+        "material has moved away from them by more than a cell, and their "
+        "motion would not be followed; move the loading body as material "
+        "points (a stiff body) instead of grid nodes, or prescribe less "
+        "motion than a cell".format(step, lost.size, run.grid.doflocs[
+            :, lost[:3]].T.tolist()))
+
+
+def held_motion(run, op, points, s_old: float, s_new: float,
+                step: int) -> HeldMotion:
+    """The supports, prescribed increments and rigid bodies' motion of a
+    step from load scale ``s_old`` to ``s_new``, checked: prescribed motion
+    that lost its material and rigid bodies driving held DOFs otherwise
+    are refused (:class:`~skfem_mpm.errors.PrescribedMotionError`)."""
+    fixed, du = run.D, np.zeros(op.N)
+    driven = np.zeros(0, dtype=np.int64)
+    if run.prescribed is not None:
+        dofs, values = prescribed_increments(run, s_old, s_new, step)
+        du[dofs] = values
+        fixed = np.union1d(fixed, dofs)
+        driven = dofs[values != 0.]
+        check_prescribed_motion(run, op, dofs, values, step)
+    rigid_dofs = []
+    for k, rigid in enumerate(run.rigid_bodies):
+        dofs = rigid.dofs(run.grid.dofs.element_dofs, op.point_elements,
+                          points)
+        values = rigid.increment(s_old, s_new)[dofs % run.dim]
+        clash = np.isin(dofs, fixed) & (du[dofs] != values)
+        if clash.any():
+            raise PrescribedMotionError(
+                "step {}: rigid_bodies[{}] (body {}) drives {} grid DOF(s) "
+                "that a support or another prescribed motion holds "
+                "otherwise, e.g. component {} at {}".format(
+                    step, k, rigid.body, int(clash.sum()),
+                    int(dofs[clash][0] % run.dim),
+                    run.grid.doflocs[:, dofs[clash][0]].tolist()))
+        du[dofs] = values
+        fixed = np.union1d(fixed, dofs)
+        driven = np.union1d(driven, dofs[values != 0.])
+        rigid_dofs.append(dofs)
+    return HeldMotion(fixed, du, driven, rigid_dofs)
+
+
+def check_held(run, op, fixed: ndarray, step: int):
+    """Missing supports (rigid-body modes of the active grid) refused,
+    unless a term's inertia holds the free body; checked again only when
+    the active cells or the held DOFs change (``run.cache.held``)."""
+    if any(term.holds_free_body for term in run.terms):
+        return
+    held = (op.elements.tobytes(), fixed.tobytes()) if \
+        op.connectivity_from_elements else None
+    if held is None or held != run.cache.held:
+        check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
+                               op.active_dofs, fixed, run.dim, step)
+        run.cache.held = held

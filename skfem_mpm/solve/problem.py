@@ -1,0 +1,295 @@
+"""One load or time step as a problem for a Newton driver.
+
+A :class:`StepProblem` is built from the converged state at the step's
+start: it locates the points and builds the step's point operator
+(the method), finds the supported, prescribed and free DOFs
+(:mod:`skfem_mpm.solve.motion`), maps the loads that do not depend on the
+trial (:mod:`skfem_mpm.solve.loads`) and begins the run's grid terms
+(:class:`~skfem_mpm.protocols.GridTerm`).  It then offers what a Newton
+driver (:func:`skfem_mpm.solve.newton.newton`) asks for and nothing more:
+
+- :meth:`StepProblem.residual` ``(du) -> Trial``: the kinematics'
+  response to a trial grid increment and its out-of-balance force;
+- :meth:`StepProblem.tangent` ``(trial) -> K``;
+- :meth:`StepProblem.solve` ``(K, r) -> (d, factorised solve)`` on the
+  free DOFs;
+- :meth:`StepProblem.commit` ``(trial, du) -> (new state, record)``.
+
+The problem never names a particular term, kinematics or method.
+"""
+import logging
+import time
+from typing import NamedTuple
+
+import numpy as np
+from numpy import ndarray
+from scipy.linalg.blas import dnrm2
+
+from ..errors import SingularSystemError, SingularTangentError
+from ..protocols import Balance
+from .linear import Condensation, factorise_active, free_dofs
+from .motion import check_held, held_motion
+from .results import PHASES, StepRecord
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["StepProblem", "Trial", "STABILISATION"]
+
+#: the fraction of its diagonal added to a tangent refused as singular, or
+#: when a failed step is retried so (:meth:`StepProblem.solve`)
+STABILISATION = 1e-7
+
+
+class Trial(NamedTuple):
+    """The out-of-balance state of one trial grid increment: the
+    kinematics' response, the out-of-balance force ``r`` (grid vector), its
+    norm over the free DOFs (``merit``) and that norm relative to the
+    external force (``residual``, the convergence measure)."""
+    response: object
+    r: ndarray
+    merit: float
+    residual: float
+
+
+def safe_norm(v: ndarray) -> float:
+    """The 2-norm of ``v`` without underflow or overflow of its squares
+    (forces of 1e-300 or 1e+200 N): numpy's where that is safe, BLAS's
+    scaled ``dnrm2`` otherwise."""
+    with np.errstate(over="ignore", under="ignore"):
+        norm = np.linalg.norm(v)
+    if v.size == 0 or np.finfo(float).tiny < norm < 1e150:
+        return float(norm)
+    return float(dnrm2(np.ascontiguousarray(v, dtype=np.float64)))
+
+
+class StepProblem:
+    """The load (or time) step of ``run`` from load factor ``f_old`` to
+    ``f_new`` starting from the converged state ``points``.
+
+    Attributes
+    ----------
+    op
+        The step's point operator (the method's, wrapped by the run's
+        operator stabilisations).
+    fixed, free, driven, du0
+        Held, free and moving grid DOFs; the prescribed start increment.
+    f_dead
+        The external force that does not depend on the trial (at the
+        loads' scale ``s_new``; a time integrator may weigh it in
+        :meth:`~skfem_mpm.protocols.GridTerm.begin_step`).
+    load_weight
+        Weight of the trial-dependent loads (1; a generalised-alpha
+        integrator sets ``1 - alpha_f``).
+    terms
+        The grid terms' contributions to this step.
+    t
+        Seconds per phase (:data:`~skfem_mpm.solve.results.PHASES`).
+    """
+
+    def __init__(self, run, points, f_old: float, f_new: float, step: int):
+        self.run, self.points, self.step = run, points, step
+        self.f_old, self.f_new = f_old, f_new
+        self.counters, self.grid = run.counters, run.grid
+        self.t = t = dict.fromkeys(PHASES, 0.)
+        # what a back end keeps from earlier steps' matrices (an AMG
+        # hierarchy) goes: a step computes the same from a checkpoint
+        getattr(run.solver, "forget", lambda: None)()
+        op = run.method.operator(points, step, t)
+        tic = time.perf_counter()
+        for wrap in run.operator_wrappers:
+            op = wrap(op, points)
+        self.op = op
+        self.s_old, self.s_new = run.scale(f_old), run.scale(f_new)
+        held = held_motion(run, op, points, self.s_old, self.s_new, step)
+        self.fixed, self.du0, self.driven, self.rigid_dofs = held
+        check_held(run, op, self.fixed, step)
+        self.free = free_dofs(op.active_dofs, self.fixed)
+        self.f_dead = run.loads.external(op, points, self.s_new)
+        self.load_weight = 1.
+        self.terms = []
+        for term in run.terms:             # in order: a term may use those
+            begun = term.begin_step(self)  # before it (their loads)
+            if begun is not None:
+                self.terms.append(begun)
+        t["assemble"] += time.perf_counter() - tic
+
+    @property
+    def linear(self) -> bool:
+        """One exact solve makes the step (small strain, elastic)."""
+        return self.run.linear
+
+    def internal_force(self, du: ndarray, response) -> ndarray:
+        """The static internal force of a trial: the points' stresses and
+        the terms' forces."""
+        f_int = self.op.force(response.P, response.w)
+        for term in self.terms:
+            f = term.force(du, response)
+            if f is not None:
+                f_int += f
+        return f_int
+
+    def trial_loads(self, response, scale: float):
+        """The sum of the terms' trial-dependent loads at the loads' scale
+        ``scale``, or ``None``."""
+        total = None
+        for term in self.terms:
+            f = term.load(response, scale)
+            if f is not None:
+                total = f if total is None else total + f
+        return total
+
+    def residual(self, du: ndarray) -> Trial:
+        """The out-of-balance state of the grid increment ``du``."""
+        tic = time.perf_counter()
+        response = self.run.kinematics.response(self.op, du, self.points)
+        self.t["update"] += time.perf_counter() - tic
+        tic = time.perf_counter()
+        f_ext = self.f_dead
+        for term in self.terms:          # a pressure on the trial surface
+            f = term.load(response, self.s_new)
+            if f is not None:
+                f_ext = f_ext + self.load_weight * f
+        f_int = self.internal_force(du, response)
+        # relative to the larger of the loads and the forces that drive the
+        # prescribed motion: a step driven by prescribed motion under a
+        # small weight is measured against the forces it drives (and in
+        # dynamics against the inertia force: a free vibration)
+        balance = Balance(f_int, f_ext, max(safe_norm(f_ext),
+                                            safe_norm(f_int[self.driven])))
+        for term in self.terms:
+            term.weigh(balance, du)
+        r = balance.f_ext - balance.f_int
+        scale = balance.scale
+        if scale == 0.:               # nothing loads or drives: the stresses
+            scale = max(safe_norm(balance.f_int), np.finfo(float).tiny)
+        merit = safe_norm(r[self.free])
+        self.t["check"] += time.perf_counter() - tic
+        return Trial(response, r, merit, merit / scale)
+
+    def converged(self, trial: Trial) -> bool:
+        return trial.residual <= self.run.tol
+
+    def tangent(self, trial: Trial):
+        """The step's tangent at a trial: the stiffness of the points and
+        the terms' matrices, weighed by the terms."""
+        tic = time.perf_counter()
+        response, op = trial.response, self.op
+        blocks = response.tangent_of is not None and getattr(
+            op, "tangent_blocks", False)       # no tangent of all points
+        K = op.stiffness(response.tangent_of if blocks
+                         else response.tangent(), response.w)
+        for term in self.terms:
+            G = term.matrix(response)
+            if G is not None:
+                K = K + G
+        for term in self.terms:
+            K = term.weigh_matrix(K)
+        self.t["assemble"] += time.perf_counter() - tic
+        return K
+
+    def rhs(self, trial: Trial) -> ndarray:
+        """The right-hand side of Newton's solve at ``trial``: its
+        out-of-balance force, or with ``rhs="increment"`` (the seed's
+        literal scheme) the step's load increment."""
+        if self.run.rhs == "increment":
+            return self.f_dead - self.run.loads.external(
+                self.op, self.points, self.f_old)
+        return trial.r
+
+    def solve(self, K, r: ndarray, stabilise: bool = False):
+        """Newton's increment with the exact tangent; in nonlinear steps
+        with a stabilised one where points leave zero-energy modes on
+        weakly supported nodes (a cell entered by one point): when the step
+        is retried so (``stabilise``), or when the exact tangent is refused
+        as singular.  Those modes carry no residual, so the stabilisation,
+        :data:`STABILISATION` times the diagonal added to the tangent only,
+        does not change the converged state; it is used only when needed
+        because it slows Newton to a linear rate of about
+        ``STABILISATION`` times the tangent's condition number.  A linear
+        step solves once, exactly, or raises.  Returns the increment and
+        the factorised solve, ``solve(r) -> d``, that modified Newton
+        reuses."""
+        tic = time.perf_counter()
+        try:
+            return self._solve(K, r, stabilise)
+        finally:
+            self.t["solve"] += time.perf_counter() - tic
+
+    def _solve(self, K, r: ndarray, stabilise: bool):
+        run, counters, free = self.run, self.counters, self.free
+        if not self.linear:
+            counters["newton_iterations"] += 1
+        cache = run.cache
+        if not (cache.condensation is not None
+                and cache.condensation.fits(K, free)) \
+                and getattr(K, "has_canonical_format", False):
+            cache.condensation = Condensation(K, free)  # new step: new map
+        # (GIMP's sparse products are not canonical: scikit-fem's condense)
+
+        def factorise_and_solve():
+            counters["linear_solves"] += 1
+            counters["factorisations"] += 1
+            solve = factorise_active(K, free, solver=run.solver,
+                                     doflocs=self.grid.doflocs,
+                                     condensation=cache.condensation)
+            return solve(r), solve
+        if not stabilise:
+            try:
+                return factorise_and_solve()
+            except SingularSystemError as err:
+                if self.linear:
+                    raise SingularSystemError("step {}: {}".format(
+                        self.step, err)) from err
+                logger.debug("step %d: %s; solving again with the tangent "
+                             "stabilised by %.0e of its diagonal", self.step,
+                             err, STABILISATION)
+        K.setdiag(K.diagonal() * (1. + STABILISATION))           # in place
+        counters["stabilised_solves"] += 1
+        try:
+            return factorise_and_solve()
+        except SingularSystemError as err:
+            # a nonlinear step's trial tangent (the supports were checked
+            # before the step): a failed step, retried and cut back
+            raise (SingularSystemError if self.linear
+                   else SingularTangentError)(
+                "step {}: {}".format(self.step, err)) from err
+
+    def commit(self, trial: Trial, du: ndarray, residuals: list):
+        """The converged state of ``trial`` (the grid increment ``du``) and
+        the step's record: the points' state, positions and domains, the
+        terms' commits, the reactions of held DOFs, the rigid bodies'
+        forces; the points located for the next step."""
+        run, op, points, t = self.run, self.op, self.points, self.t
+        response, r = trial.response, trial.r
+        tic = time.perf_counter()
+        new = response.commit(points)
+        dx = op.values(du)
+        new.displacement = points.displacement + dx
+        if run.method.moves:
+            new.x = points.x + dx
+            domains = run.method.domains(run.domain0, new.F)
+            if domains is not None:
+                new.domain = domains
+        held = self.fixed[np.isin(self.fixed, op.active_dofs)]
+        record = StepRecord(self.step, self.f_new, residuals[-1], op.nelems,
+                            self.free.size, t, reaction_dofs=held,
+                            reaction_values=-r[held], n_dofs=op.N)
+        for term in self.terms:
+            term.commit(self, trial, du, new, record)
+        t["update"] += time.perf_counter() - tic
+        if run.method.moves:   # inside the grid (the location serves the
+            run.method.locate(new.x, self.step, t, points)    # next step)
+        for dofs in self.rigid_dofs:  # a support's DOFs keep their reactions
+            dofs = dofs[~np.isin(dofs, run.D)]
+            force = np.zeros(run.dim)
+            np.add.at(force, dofs % run.dim, -r[dofs])
+            record.rigid_forces.append(force)
+        if not self.linear:
+            record.newton_residuals = residuals
+            record.n_yielded = int(response.yielded.sum())
+        if run.keep_snapshots:
+            record.elements = op.elements
+            record.u, record.x = du, new.x.copy()
+            record.displacement = new.displacement.copy()
+            record.stress = new.stress.copy()
+        return new, record
