@@ -19,6 +19,7 @@ from .mechanics.soils import DruckerPrager, MohrCoulomb
 from .mechanics.cam_clay import ModifiedCamClay
 from .mechanics.geostatic import geostatic_stress
 from .quadrature.points import MaterialPoints, seed_gauss_points, seed_points
+from .protocols import GridTerm
 from .solve.core import simulate
 from .solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from .solve.fe import solve_fe
@@ -32,6 +33,7 @@ from .solve.strength_reduction import reduce_strength, strength_reduction
 __version__ = "0.1.0"
 
 __all__ = [
+    "GridTerm",
     "MaterialPointBasis", "MaterialPoints", "seed_points", "seed_gauss_points",
     "locate_points", "point_locator", "MPMError", "InvalidInputError",
     "InvalidMaterialError", "PointsOutsideGridError", "SingularSystemError", "SingularTangentError",

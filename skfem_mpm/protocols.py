@@ -89,8 +89,9 @@ class GridTerm:
     start to it (``problem.points`` hold it).
     """
 
-    #: the term's inertia holds the free body of every step (no support
-    #: needed against rigid-body motion: a time integrator)
+    #: the term's matrix holds every rigid-body motion of the grid (a mass,
+    #: an elastic foundation): the check for missing supports before a
+    #: step is left out
     holds_free_body = False
 
     def begin_step(self, problem) -> Optional["GridTerm"]:

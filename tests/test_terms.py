@@ -1,0 +1,75 @@
+"""A grid term written outside the package, through the public protocol
+(:class:`skfem_mpm.GridTerm`), joins every step's balance and tangent."""
+import numpy as np
+import pytest
+from scipy.sparse import csr_matrix
+from skfem import ElementQuad1, MeshQuad
+
+from skfem_mpm import GridTerm, InvalidInputError, LinearElastic, \
+    seed_points, simulate
+
+
+class SpringBed(GridTerm):
+    """Linear springs under grid DOFs ``dofs`` (stiffness ``k`` each),
+    acting on the total displacement of the material at those nodes."""
+
+    holds_free_body = True          # the springs hold the vertical motion
+
+    def __init__(self, dofs, k):
+        self.dofs, self.k = dofs, k
+        self.u = np.zeros(dofs.size)      # total displacement so far
+
+    def begin_step(self, problem):
+        self.N = problem.op.N
+        return self
+
+    def force(self, du, response):
+        f = np.zeros(self.N)
+        f[self.dofs] = self.k * (self.u + du[self.dofs])
+        return f
+
+    def matrix(self, response):
+        return csr_matrix((self.k, (self.dofs, self.dofs)),
+                          shape=(self.N, self.N))
+
+    def commit(self, problem, trial, du, new, record):
+        self.u = self.u + du[self.dofs]
+
+
+@pytest.mark.parametrize("method", ["fem", "mpm"])
+def test_a_column_on_a_spring_bed(method):
+    """A column (width 1, height 1.5, nu = 0) with rollers on its sides
+    sits on springs of stiffness ``kappa`` per unit length of the base
+    instead of a support: in finite deformation the base sinks uniformly
+    by ``W / kappa``, the weight ``W`` = body force x area, and Newton
+    converges quadratically with the spring in the tangent."""
+    h, width, height, weight_density, kappa = .25, 1., 1.5, 2e3, 1e5
+    mesh = MeshQuad.init_tensor(np.linspace(0, width, 5),
+                                np.linspace(0, 2., 9))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < height)
+    base = np.flatnonzero(mesh.p[1] == 0)
+    tributary = np.where(np.isin(mesh.p[0, base], (0., width)), h / 2, h)
+    bed = SpringBed(2 * base + 1, kappa * tributary)
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, 0.),
+                   lambda b: b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                                        | np.isclose(x[0], width)).all("u^1"),
+                   body_force=[0., -weight_density], nsteps=2, method=method,
+                   kinematics="finite", terms=[bed])
+    W = weight_density * width * height
+    assert np.abs(bed.u / (-W / kappa) - 1).max() < 1e-9
+    spring_force = float((bed.k * bed.u).sum())
+    assert spring_force == pytest.approx(-W, rel=1e-9)
+    for record in res.history:
+        r = np.array(record.newton_residuals)
+        assert r[-1] <= 1e-9 and len(r) >= 3
+        r = r[r > 1e-13]
+        assert (r[2:] <= 10 * r[1:-1] ** 2).all(), r      # quadratic
+
+
+def test_a_term_that_is_not_one_is_refused():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    with pytest.raises(InvalidInputError, match=r"terms\[0\] must be a "
+                       "GridTerm"):
+        simulate(mesh, ElementQuad1(), seed_points(mesh, 1),
+                 LinearElastic(1e3, .3), lambda b: b.get_dofs(),
+                 terms=[object()])
