@@ -39,7 +39,7 @@ iterations = [len(r.newton_residuals) - 1 for r in result.history]
 def visualize(outdir="."):
     from pathlib import Path
     from skfem_mpm.scenes.plot import draw_points, pyplot, save_figure
-    from skfem_mpm.studies.quantities import point_values
+    from skfem_mpm.scenes.quantities import point_values
     fig, (ax, ay) = pyplot().subplots(1, 2, figsize=(11, 3.5))
     pts = result.points
     draw_points(fig, ax, pts, point_values(pts, "stress", "mises") / 1e3,

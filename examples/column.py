@@ -39,8 +39,8 @@ dim_difference = np.abs(
 
 def visualize(outdir="."):
     from pathlib import Path
-    from skfem_mpm.scenes.plot import (draw_column_stress, draw_convergence,
-                                pyplot, save_figure)
+    from skfem_mpm.scenes.plot import pyplot, save_figure
+    from skfem_mpm.studies.figures import draw_column_stress, draw_convergence
     plt = pyplot()
     fig, axes = plt.subplots(3, 2, figsize=(8, 10), sharey=True)
     for j, nel in enumerate((10, 100)):

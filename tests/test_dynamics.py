@@ -281,7 +281,7 @@ def test_dynamic_scene_file_run_and_resume(tmp_path, capsys):
     final state are the uninterrupted run's, bit for bit."""
     import json
     import meshio
-    from skfem_mpm.scenes.cli import main
+    from skfem_mpm.cli import main
     scene = tmp_path / "drop.toml"
     scene.write_text(DROP)
     full, part = tmp_path / "full", tmp_path / "part"
@@ -322,7 +322,7 @@ def test_dynamic_scene_file_run_and_resume(tmp_path, capsys):
 ])
 def test_bad_dynamic_scene_files_are_refused(tmp_path, capsys, change,
                                              message):
-    from skfem_mpm.scenes.cli import main
+    from skfem_mpm.cli import main
     scene = tmp_path / "bad.toml"
     scene.write_text(DROP.replace(*change))
     assert main(["run", str(scene), "--out", str(tmp_path / "out")]) == 2
@@ -334,7 +334,7 @@ def test_quasi_static_scene_refuses_a_density_and_steps_flag(tmp_path,
                                                              capsys):
     """A density without [dynamics] would be ignored: refused; --steps on
     a dynamic scene likewise."""
-    from skfem_mpm.scenes.cli import main
+    from skfem_mpm.cli import main
     scene = tmp_path / "s.toml"
     scene.write_text(DROP.replace("[dynamics]\ntime_step = 0.05\n"
                                   "duration = 0.5\n", ""))

@@ -9,10 +9,11 @@ import pytest
 from skfem_mpm import DruckerPrager, MohrCoulomb, ModifiedCamClay, \
     RigidBody, VonMises, simulate
 from skfem_mpm.errors import InvalidInputError, SceneError
-from skfem_mpm.scenes.cli import main
+from skfem_mpm.cli import main
 from skfem_mpm.scenes.scene import run_scene
 from skfem_mpm.scenes.scene_file import load_scene, parse_scene
-from skfem_mpm.studies.footing import bearing_capacity_factor, soil_strength
+from skfem_mpm.scenes.footing import soil_strength
+from skfem_mpm.studies.footing import bearing_capacity_factor
 from skfem_mpm.studies.study import study
 
 try:

@@ -67,7 +67,7 @@ def test_version_licence_and_citation_agree(capsys):
     pyproject's and CITATION.cff's; LICENSE is the declared BSD-3-Clause;
     py.typed ships with the package."""
     import skfem_mpm
-    from skfem_mpm.scenes.cli import main
+    from skfem_mpm.cli import main
     from skfem_mpm.scenes.scene_file import tomllib
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     assert main(["--version"]) == 0

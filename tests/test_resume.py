@@ -16,7 +16,7 @@ import pytest
 
 from skfem_mpm.scenes.checkpoint import (CHECKPOINT, CheckpointError,
                                          load_checkpoint)
-from skfem_mpm.scenes.cli import main
+from skfem_mpm.cli import main
 from skfem_mpm.scenes.io import TEMPORARY_PREFIX
 
 # a finite-deformation cpGIMP block sheared and squashed by a traction,
@@ -124,7 +124,7 @@ def test_sigkill_at_random_moments_then_resume_is_bit_identical(straight,
     scene, reference = straight
     out = tmp_path / "killed"
     rng = np.random.default_rng(20261123)
-    command = [sys.executable, "-c", "import sys; from skfem_mpm.scenes.cli "
+    command = [sys.executable, "-c", "import sys; from skfem_mpm.cli "
                "import main; sys.exit(main())"]
     kills, returncode = 0, None
     for attempt in range(12):

@@ -13,7 +13,7 @@ from skfem_mpm import (InvalidInputError, LinearElastic, MaterialPointBasis,
                        MaterialPoints, MPMError, SingularSystemError,
                        locate_points, seed_gauss_points, seed_points,
                        solve_mpm)
-from skfem_mpm.scenes.cli import main
+from skfem_mpm.cli import main
 from skfem_mpm import side_points, simulate, solve_finite
 from skfem_mpm.studies.column import (LOAD, MATERIAL, column_error, column_grid,
                               column_supports, run_column)

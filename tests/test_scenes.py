@@ -8,7 +8,7 @@ import pytest
 
 from skfem_mpm import LinearElastic, VonMises
 from skfem_mpm.errors import SceneError
-from skfem_mpm.scenes.cli import main
+from skfem_mpm.cli import main
 from skfem_mpm.scenes.scene import Body, Grid, PointLoad, Scene, Support, run_scene
 from skfem_mpm.scenes.scene_file import load_scene
 
@@ -437,7 +437,7 @@ def test_pressure_from_a_scene_file_is_the_traction_in_small_strain(tmp_path):
         stresses.append(result.points.stress)
     assert np.abs(stresses[0] - stresses[1]).max() < 1e-12 * np.abs(
         stresses[1]).max()
-    from skfem_mpm.scenes.cli import summarise
+    from skfem_mpm.cli import summarise
     assert list(summarise(load_scene(path), result, 0.)["reactions"]) == \
         ["support-1"]
     path.write_text(path.read_text().replace("traction = [0.0, -10.0]",
@@ -494,8 +494,8 @@ def test_ctrl_c_keeps_a_checkpoint_and_one_line(tmp_path, capsys,
     uninterrupted one does, bit for bit."""
     import json
     import meshio
-    import skfem_mpm.scenes.scene as scene_module
-    real = scene_module.run_scene
+    import skfem_mpm.cli as cli_module
+    real = cli_module.run_scene
 
     def interrupted(scene, points=None, domain0=None, callback=None,
                     **resume):
@@ -506,7 +506,7 @@ def test_ctrl_c_keeps_a_checkpoint_and_one_line(tmp_path, capsys,
         return real(scene, points, domain0=domain0, callback=stop_after_two,
                     **resume)
     out, whole = tmp_path / "out", tmp_path / "whole"
-    monkeypatch.setattr(scene_module, "run_scene", interrupted)
+    monkeypatch.setattr(cli_module, "run_scene", interrupted)
     assert main(["run", "--out", str(out), "--no-progress", "--steps",
                  "4"]) == 130
     err = capsys.readouterr().err.strip().splitlines()
@@ -514,7 +514,7 @@ def test_ctrl_c_keeps_a_checkpoint_and_one_line(tmp_path, capsys,
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "interrupted"
     assert summary["last_converged_step"] == 2 and summary["checkpoint"]
-    monkeypatch.setattr(scene_module, "run_scene", real)
+    monkeypatch.setattr(cli_module, "run_scene", real)
     assert main(["run", "--resume", str(out), "--no-progress"]) == 0
     assert main(["run", "--out", str(whole), "--no-progress", "--steps",
                  "4"]) == 0
@@ -529,7 +529,7 @@ def test_outputs_are_reported_and_bad_ones_refused(tmp_path, capsys):
     is the weight rho g H and the top settles by about rho g H^2 / (2 E);
     a quantity the scene cannot give is refused before any work, naming
     it."""
-    from skfem_mpm.scenes.cli import EMBEDDED
+    from skfem_mpm.cli import EMBEDDED
     text = EMBEDDED.read_text() + """
 [[outputs]]
 name = "top settlement"
@@ -591,7 +591,7 @@ def test_progress_bar_shows_elapsed_and_remaining_time():
     quarter more in 5 s: 5 s left."""
     import io
     from types import SimpleNamespace
-    from skfem_mpm.scenes.cli import Progress
+    from skfem_mpm.cli import Progress
     now = [0.]
     stream = io.StringIO()
     bar = Progress(4, "always", stream=stream, timer=lambda: now[0])
@@ -614,7 +614,7 @@ def test_a_value_at_an_interface_is_one_bodys():
     so the stress at their interface is the lower body's (the weight of
     the upper one plus its own above the place), not a mix; the 3D slice
     of a picture shows one layer of points."""
-    from skfem_mpm.studies.quantities import Quantity
+    from skfem_mpm.scenes.quantities import Quantity
     from skfem_mpm.scenes.plot import shown_axes
     from skfem_mpm.scenes.scene_file import parse_scene, tomllib
     scene = parse_scene(tomllib.loads("""
@@ -664,7 +664,7 @@ def test_every_command_line_argument_has_help():
     """``skfem-mpm --help`` and each command's ``--help`` explain every
     argument."""
     import argparse
-    from skfem_mpm.scenes.cli import build_parser
+    from skfem_mpm.cli import build_parser
     missing = []
 
     def walk(parser, name):

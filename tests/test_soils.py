@@ -353,7 +353,7 @@ def test_scene_file_starts_a_layer_from_its_geostatic_stress(tmp_path, capsys):
     reactions are the closed forms, the base the weight ``gamma B H`` and
     a side ``K0 gamma H^2 / 2`` (1e-12)."""
     import json
-    from skfem_mpm.scenes.cli import main
+    from skfem_mpm.cli import main
     scene = tmp_path / "layer.toml"
     scene.write_text(LAYER)
     assert main(["run", str(scene), "--out", str(tmp_path / "out"),

@@ -5,10 +5,10 @@ from pathlib import Path
 import numpy as np
 
 import skfem_mpm.studies.study as study_module
-from skfem_mpm.scenes.cli import EMBEDDED, main
+from skfem_mpm.cli import EMBEDDED, main
 from skfem_mpm.scenes.scene_file import load_scene
 from skfem_mpm.studies.convergence import self_convergence
-from skfem_mpm.studies.quantities import Quantity
+from skfem_mpm.scenes.quantities import Quantity
 from skfem_mpm.studies.study import fitted_rate, study
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"

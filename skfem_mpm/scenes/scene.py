@@ -9,7 +9,8 @@ mode, no domain update for standard MPM.
 
 """
 from dataclasses import dataclass, field
-from typing import Callable, List, Optional, Sequence, Tuple, Union
+from typing import (TYPE_CHECKING, Callable, List, Optional, Sequence, Tuple,
+                    Union)
 
 import numpy as np
 from numpy import ndarray
@@ -30,7 +31,10 @@ from ..mechanics.geostatic import geostatic_stress
 from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
 from ..solve.results import Result
 from ..solve.rigid import RigidBody
-from ..studies.quantities import Quantity
+from .footing import check_footing_scene
+
+if TYPE_CHECKING:         # quantities.py imports this module
+    from .quantities import Quantity
 
 __all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
            "TimeIntegration",
@@ -252,7 +256,7 @@ class Scene:
         ``steps`` is not used (``None``).
     outputs
         Quantities of interest
-        (:class:`~skfem_mpm.studies.quantities.Quantity`): reported by a
+        (:class:`~skfem_mpm.scenes.quantities.Quantity`): reported by a
         run, measured by a study.
     """
     grid: Grid
@@ -275,7 +279,7 @@ class Scene:
     line_search: str = "backtracking"
     newton: str = "full"
     dynamics: Optional[TimeIntegration] = None
-    outputs: List[Quantity] = field(default_factory=list)
+    outputs: List["Quantity"] = field(default_factory=list)
 
     @property
     def nsteps(self) -> int:
@@ -361,7 +365,6 @@ class Scene:
             raise InvalidInputError("rhs = 'increment' maps load increments "
                                     "only: rigid bodies need 'residual'")
         if self.reference == "bearing_capacity":
-            from ..studies.footing import check_footing_scene
             check_footing_scene(self)
         names = support_names(self)
         if len(set(names)) < len(names):

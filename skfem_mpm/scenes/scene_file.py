@@ -120,15 +120,18 @@ from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
 from ..solve.core import NEWTON, RHS
 from ..solve.dynamics import MASSES
 from ..solve.newton import LINE_SEARCHES
+from .quantities import Quantity, check_quantities
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction, TimeIntegration)
 from ..solve.backends import FACTORIES
-from ..studies.quantities import check_quantities, parse_quantity
 
-__all__ = ["load_scene", "parse_scene", "REFERENCES"]
+__all__ = ["load_scene", "parse_scene", "parse_quantity", "REFERENCES"]
 
 REFERENCES = ("column", "elastica", "bearing_capacity")
 AXES = ("x", "y", "z")
+# the scene shipped with the package: the seed's column, which
+# `skfem-mpm run` runs when given no scene
+EMBEDDED = Path(__file__).resolve().parent / "column.toml"
 
 
 class _Checker:
@@ -319,6 +322,51 @@ def _box(c, data, key: str, dim: int, closed: bool = False):
             v = [0., 1.]
         box.append((float(v[0]), float(v[1])))
     return box
+
+
+def parse_quantity(table: dict, dim: int,
+                   key: str = "outputs") -> Quantity:
+    """A :class:`~skfem_mpm.scenes.quantities.Quantity` from a scene
+    file's ``[[outputs]]`` table or a study's ``--measure`` (keys as the
+    fields; ``region`` as a box table ``{ x = [lo, hi], ... }``, an axis
+    left out: all of it)."""
+    allowed = ("quantity", "component", "at", "region", "reduce", "support",
+               "body", "name")
+    if not isinstance(table, dict):
+        raise InvalidInputError("{}: must be a table, got {!r}".format(
+            key, table))
+    unknown = sorted(set(table) - set(allowed))
+    if unknown:
+        raise InvalidInputError("{}: unknown key {} (allowed: {})".format(
+            key, ", ".join(unknown), ", ".join(allowed)))
+    if "quantity" not in table or "component" not in table:
+        raise InvalidInputError("{}: needs quantity and component".format(
+            key))
+    kwargs = dict(table)
+    if "at" in kwargs:
+        at = kwargs["at"]
+        if not (isinstance(at, list) and len(at) == dim and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool)
+                for v in at)):
+            raise InvalidInputError("{}.at: must be {} numbers, got {!r}"
+                                    .format(key, dim, at))
+        kwargs["at"] = tuple(float(v) for v in at)
+    if "region" in kwargs:
+        kwargs["region"] = _region(kwargs["region"], dim, key + ".region")
+    try:
+        return Quantity(**kwargs)
+    except (InvalidInputError, TypeError) as err:
+        raise InvalidInputError("{}: {}".format(key, err))
+
+
+def _region(table, dim: int, key: str) -> tuple:
+    """A quantity's region table as a closed box, checked as the boxes
+    of scene files are."""
+    checker = _Checker()
+    box = _box(checker, table, key, dim, closed=True)
+    if checker.problems:
+        raise InvalidInputError("; ".join(checker.problems))
+    return tuple(box)
 
 
 def _body(c, data, k, dim):

@@ -1,6 +1,6 @@
 """What accuracy costs in time: run a scene over a grid of choices
 (elements, points per cell, load steps, method, right-hand side), measure
-its quantities of interest (:mod:`~skfem_mpm.studies.quantities`) and the
+its quantities of interest (:mod:`~skfem_mpm.scenes.quantities`) and the
 time of every phase, and draw the trade-off.
 
 The error of a case is measured against the scene's closed-form reference
@@ -38,17 +38,17 @@ import numpy as np
 
 from ..errors import InvalidInputError, MPMError
 from ..scenes.io import atomic_path
+from ..scenes.quantities import Quantity, check_quantities
 from ..scenes.scene import METHODS, Grid, Scene, build_points, run_scene
 from ..solve.core import NEWTON, RHS
 from ..solve.newton import LINE_SEARCHES
 from ..solve.results import PHASES
 from .convergence import relative_errors, self_convergence
-from .quantities import check_quantities, scene_quantities
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["study", "refine", "case_error", "analyse", "VARIABLES",
-           "DEFAULT_VARY"]
+__all__ = ["study", "refine", "case_error", "analyse", "scene_quantities",
+           "VARIABLES", "DEFAULT_VARY", "DEFAULT_QUANTITY"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
              "line_search", "newton")
@@ -56,6 +56,14 @@ CHOICES = {"method": METHODS, "rhs": RHS,     # the variables named by words
            "line_search": LINE_SEARCHES, "newton": NEWTON}
 DEFAULT_VARY = {"elements": [4, 8, 16, 32, 64, 128, 256],
                 "ppc": [2, 3, 4, 5], "loadsteps": [1, 2, 20]}
+#: what a study measures when the scene names nothing
+DEFAULT_QUANTITY = Quantity("displacement", "magnitude", reduce="max",
+                            name="largest point displacement")
+
+
+def scene_quantities(scene) -> Sequence[Quantity]:
+    """The scene's ``outputs``, or :data:`DEFAULT_QUANTITY`."""
+    return list(scene.outputs) or [DEFAULT_QUANTITY]
 
 
 def refine(scene: Scene, elements: int) -> Scene:
@@ -316,7 +324,7 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
         Dask: a scheduler address, or a local cluster of ``workers``
         processes; both unset: serial.
     quantities
-        :class:`~skfem_mpm.studies.quantities.Quantity` list; default the
+        :class:`~skfem_mpm.scenes.quantities.Quantity` list; default the
         scene's ``outputs``, or the largest point displacement.
 
     Returns
@@ -329,8 +337,7 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     Examples
     --------
     >>> import tempfile
-    >>> from skfem_mpm.scenes.cli import EMBEDDED
-    >>> from skfem_mpm.scenes.scene_file import load_scene
+    >>> from skfem_mpm.scenes.scene_file import EMBEDDED, load_scene
     >>> from skfem_mpm.studies.study import study
     >>> rows = study(load_scene(EMBEDDED), {"elements": [4, 8],
     ...              "loadsteps": [1]}, tempfile.mkdtemp(), progress=False)

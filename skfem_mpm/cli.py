@@ -1,6 +1,9 @@
-"""Command line: ``skfem-mpm run | compare``.
+"""Command line: ``skfem-mpm run | compare | study`` (also ``python -m
+skfem_mpm.cli``).
 
-The command line prints; the library only logs.
+The package's top layer: it builds on :mod:`skfem_mpm.scenes` and
+:mod:`skfem_mpm.studies`, and no module of the package imports it.  The
+command line prints; the library only logs.
 
 """
 import argparse
@@ -8,12 +11,35 @@ import logging
 import shutil
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import InvalidInputError, MPMError, SceneError
-from ..solve.results import PHASES
+from . import __version__
+from .errors import InvalidInputError, MPMError, SceneError
+from .mechanics.materials import state_variables
+from .quadrature.locate import locate_points
+from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
+                                check_against, history_rows, load_checkpoint,
+                                save_checkpoint, scene_digest)
+from .scenes.footing import soil_strength
+from .scenes.io import atomic_path, clear_earlier_run, remove_temporaries
+from .scenes.output import SeriesWriter, point_cloud, write_summary
+from .scenes import plot  # save_figure looked up when called: tests wrap it
+from .scenes.plot import (STRESS_NAMES, body_figure_size, colour_scale,
+                          draw_energies, draw_points, pyplot)
+from .scenes.quantities import check_quantities, quantity_unit
+from .scenes.scene import (build_points, reaction_resultants, run_scene,
+                           surface_loads)
+from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
+from .solve.results import PHASES
+from .studies.figures import plot_column_stress, plot_study
+from .studies.footing import (bearing_capacity_factor, footing_error,
+                              footing_pressure)
+from .studies.study import (CHOICES, DEFAULT_VARY, REFERENCE_ERRORS,
+                            VARIABLES, analyse, case_error, fitted_rate,
+                            scene_quantities, study)
 
 DESCRIPTION = """\
 Implicit Material Point Method on scikit-fem.
@@ -35,13 +61,10 @@ Scene files are TOML; `python -c "import skfem_mpm.scenes.scene_file as s;
 print(s.__doc__)"` lists every key, and examples/*.toml are ready to run.
 """
 
-EMBEDDED = Path(__file__).resolve().parent / "column.toml"
-
 logger = logging.getLogger(__name__)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from .. import __version__
     parser = argparse.ArgumentParser(
         prog="skfem-mpm", description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -114,7 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
 def clock(seconds: float) -> str:
     """``m:ss`` (``h:mm:ss`` from an hour on) of a duration.
 
-    >>> from skfem_mpm.scenes.cli import clock
+    >>> from skfem_mpm.cli import clock
     >>> clock(75.4), clock(3725)
     ('1:15', '1:02:05')
     """
@@ -170,9 +193,6 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
     ``earlier`` (the :class:`~skfem_mpm.scenes.checkpoint.Checkpoint` a
     run resumed from), over the whole run: history rows, Newton iterations
     and reactions of the steps before the resume included."""
-    from ..studies.study import case_error
-    from .checkpoint import history_rows
-    from .scene import reaction_resultants
     pts = result.points
     history = result.history
     names, resultant = reaction_resultants(scene)
@@ -203,7 +223,6 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
     if len(rows) and (rows[:, 5] >= 0).any():
         summary["newton_iterations"] = [int(max(k, 0)) for k in rows[:, 5]]
     if scene.reference == "bearing_capacity":
-        from ..studies.footing import footing_error
         error = footing_error(scene, reactions[:, len(scene.supports)])
     else:
         error = case_error(scene, result)
@@ -221,7 +240,6 @@ def energy_curves(rows) -> dict:
     the start and after every step, ``time`` (s), ``kinetic`` energy and
     the accumulated ``internal_work`` and ``external_work`` (J, per unit
     thickness in 2D), as :meth:`skfem_mpm.Result.energies`."""
-    from .checkpoint import HISTORY_KEYS
     col = {k: rows[:, HISTORY_KEYS.index(k)] for k in HISTORY_KEYS}
     return {
         "time": [float(col["time"][0] - col["time_step"][0])]
@@ -252,8 +270,6 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
     loads; the force-displacement curves of rigid bodies (over the whole
     run, from ``summary``), as footing pressure against settlement for a
     bearing-capacity scene."""
-    from .plot import (STRESS_NAMES, body_figure_size, draw_points,
-                       plot_column_stress, pyplot, save_figure)
     pts = result.points
     d = pts.dim - 1
     name = STRESS_NAMES[d, d]
@@ -262,7 +278,7 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
     draw_points(fig, ax, pts, pts.stress[d, d], "{} (Pa)".format(name),
                 "{}: {} at the final points".format(scene.name, name))
     fig.tight_layout()
-    save_figure(fig, outdir / "final_stress.png")
+    plot.save_figure(fig, outdir / "final_stress.png")
     if scene.reference == "column":
         plot_column_stress([result], ["{}, {} steps".format(
             scene.method, scene.nsteps)], outdir / "column_stress.png",
@@ -280,29 +296,25 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
                      "material points".format(scene.name))
         ax.legend(title="component")
         fig.tight_layout()
-        save_figure(fig, outdir / "load_displacement.png")
+        plot.save_figure(fig, outdir / "load_displacement.png")
     if "rigid_bodies" in summary:
         plot_rigid_bodies(scene, summary["rigid_bodies"],
                           outdir / "rigid_bodies.png")
     if "energies" in summary:
-        from .plot import draw_energies
         fig, ax = pyplot().subplots(figsize=(6, 4))
         draw_energies(ax, summary["energies"], "{}: energies over time"
                       .format(scene.name), unit="J" if pts.dim == 3 else
                       "J per m thickness" if pts.dim == 2 else "J per m^2")
         fig.tight_layout()
-        save_figure(fig, outdir / "energies.png")
+        plot.save_figure(fig, outdir / "energies.png")
 
 
 def plot_rigid_bodies(scene, curves: dict, path: Path):
     """Force along the motion against displacement of each rigid body;
     footing pressure over the cohesion against settlement over the footing
     body's width, with ``N_c``, for a bearing-capacity scene."""
-    from .plot import pyplot, save_figure
     fig, ax = pyplot().subplots(figsize=(5.5, 4))
     if scene.reference == "bearing_capacity":
-        from ..studies.footing import (bearing_capacity_factor,
-                                       footing_pressure, soil_strength)
         body = next(b for b in scene.bodies if b.rigid is not None)
         c, phi = soil_strength(next(b for b in scene.bodies
                                     if b.rigid is None).material)
@@ -329,7 +341,6 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
             direction = disp[-1] / np.linalg.norm(disp[-1])
             ax.plot(disp @ direction, force @ direction, "o-", ms=3,
                     label=name)
-        from ..studies.quantities import quantity_unit
         ax.set_xlabel("displacement along the motion (m)")
         ax.set_ylabel("force along the motion ({})".format(
             quantity_unit("rigid_force", scene.grid.dim)))
@@ -337,21 +348,10 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
             scene.name))
     ax.legend(loc="lower right")
     fig.tight_layout()
-    save_figure(fig, path)
+    plot.save_figure(fig, path)
 
 
 def run(args) -> int:
-    from ..mechanics.materials import state_variables
-    from .checkpoint import (CHECKPOINT, Checkpoint, check_against,
-                             history_rows, load_checkpoint, save_checkpoint,
-                             scene_digest)
-    from .output import SeriesWriter, write_summary
-    from .io import atomic_path, clear_earlier_run, remove_temporaries
-    from .scene import (build_points, reaction_resultants, run_scene,
-                        surface_loads)
-    from ..studies.quantities import check_quantities
-    from .scene_file import load_scene
-
     for name in ("checkpoint_every", "max_steps", "steps"):
         if getattr(args, name) < 0:
             print("skfem-mpm: --{} must be >= 0, got {}".format(
@@ -460,7 +460,6 @@ def run(args) -> int:
         latest[:] = [pts]
         progress(record)
         if start is not None and not series.entries:
-            from ..quadrature.locate import locate_points
             series.write(0, 0., start, np.unique(locate_points(
                 mesh, start.x)[0]), None)
         if series is not None:
@@ -559,7 +558,6 @@ def run(args) -> int:
         "{} time steps to t = {:g} s".format(scene.nsteps,
                                             scene.dynamics.duration)))
     if "error" in summary:
-        from ..studies.study import REFERENCE_ERRORS
         label, against, _ = REFERENCE_ERRORS[scene.reference]
         print("  {:26s}{:.4e} (against {})".format(label, summary["error"],
                                                    against))
@@ -582,14 +580,7 @@ def compare(args) -> int:
     when the scene is FE), with the scene's kinematics, material and loads:
     like with like.  Writes both states as VTU, a figure on one colour
     scale and ``summary.json`` with their difference."""
-    from dataclasses import replace
     import meshio
-    from .io import atomic_path
-    from .output import point_cloud, write_summary
-    from .plot import (STRESS_NAMES, body_figure_size, colour_scale,
-                       draw_points, pyplot, save_figure)
-    from .scene import run_scene
-    from .scene_file import load_scene
 
     scene = load_scene(args.scene)
     runs = {}
@@ -642,7 +633,7 @@ def compare(args) -> int:
     fig.suptitle("{}: {} at the deformed points, one colour scale".format(
         scene.name, component))
     fig.tight_layout(rect=(0., 0., 1., .92))
-    save_figure(fig, args.out / "compare.png")
+    plot.save_figure(fig, args.out / "compare.png")
     print("  {} - fem: displacement max {:.3e} ({:.2e} relative), stress max "
           "{:.3e} ({:.2e} relative)".format(
               other.method, difference["displacement"]["max"],
@@ -655,7 +646,6 @@ def compare(args) -> int:
 
 def parse_vary(items):
     """``["elements=4,8", "method=mpm,cpgimp"]`` as a dict of lists."""
-    from ..studies.study import CHOICES, DEFAULT_VARY
     if not items:
         return dict(DEFAULT_VARY)
     vary = {}
@@ -677,9 +667,7 @@ def parse_vary(items):
 
 def parse_measures(items, dim: int) -> list:
     """``--measure`` arguments (the keys of an ``[[outputs]]`` table) as
-    :class:`~skfem_mpm.studies.quantities.Quantity` objects."""
-    from .scene_file import tomllib
-    from ..studies.quantities import parse_quantity
+    :class:`~skfem_mpm.scenes.quantities.Quantity` objects."""
     quantities = []
     for k, item in enumerate(items):
         try:
@@ -693,11 +681,6 @@ def parse_measures(items, dim: int) -> list:
 
 
 def run_study(args) -> int:
-    from .scene_file import load_scene
-    from ..studies.quantities import scene_quantities
-    from .plot import plot_study
-    from ..studies.study import VARIABLES, analyse, fitted_rate, study
-
     scene = load_scene(args.scene)
     vary = parse_vary(args.vary)
     quantities = parse_measures(args.measure, len(scene.grid.axes)) or \

@@ -20,10 +20,10 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError
+from .scene import reaction_resultants, support_names
 
 __all__ = ["Quantity", "QUANTITIES", "COMPONENTS", "REDUCTIONS",
-           "DEFAULT_QUANTITY", "quantity_unit", "parse_quantity",
-           "scene_quantities", "check_quantities"]
+           "quantity_unit", "check_quantities"]
 
 #: what a quantity can measure
 QUANTITIES = ("displacement", "stress", "reaction", "rigid_force")
@@ -77,7 +77,7 @@ class Quantity:
 
     Examples
     --------
-    >>> from skfem_mpm.studies.quantities import Quantity
+    >>> from skfem_mpm.scenes.quantities import Quantity
     >>> top = Quantity("displacement", "x", at=(50.,))
     >>> top.label, top.unit(1)
     ('displacement x at (50)', 'm')
@@ -156,7 +156,6 @@ class Quantity:
         scene's initial :class:`~skfem_mpm.MaterialPoints`, a place
         outside the (body's) points' extent, or a box holding none of
         them."""
-        from ..scenes.scene import support_names
         dim = len(scene.grid.axes)
         if self.component in ("z", "zz", "xz", "yz") and dim < 3 or \
                 self.component in ("y", "yy", "xy") and dim < 2:
@@ -215,7 +214,6 @@ class Quantity:
         that holds no point of this run (a coarse grid of a study) raises
         :class:`~skfem_mpm.errors.InvalidInputError`."""
         if self.quantity in ("reaction", "rigid_force"):
-            from ..scenes.scene import reaction_resultants
             names, resultant = reaction_resultants(scene)
             force = resultant(result.history[-1])[names.index(
                 self.support or self.body)]
@@ -277,61 +275,6 @@ def fitted_value(x0: ndarray, values: ndarray, at: ndarray) -> float:
     A = np.column_stack([np.ones(k), offset[:, near].T])
     coef = np.linalg.lstsq(A, values[near], rcond=None)[0]
     return float(coef[0])
-
-
-def parse_quantity(table: dict, dim: int,
-                   key: str = "outputs") -> Quantity:
-    """A :class:`Quantity` from a scene file's ``[[outputs]]`` table or a
-    study's ``--measure`` (keys as the fields; ``region`` as a box table
-    ``{ x = [lo, hi], ... }``, an axis left out: all of it)."""
-    allowed = ("quantity", "component", "at", "region", "reduce", "support",
-               "body", "name")
-    if not isinstance(table, dict):
-        raise InvalidInputError("{}: must be a table, got {!r}".format(
-            key, table))
-    unknown = sorted(set(table) - set(allowed))
-    if unknown:
-        raise InvalidInputError("{}: unknown key {} (allowed: {})".format(
-            key, ", ".join(unknown), ", ".join(allowed)))
-    if "quantity" not in table or "component" not in table:
-        raise InvalidInputError("{}: needs quantity and component".format(
-            key))
-    kwargs = dict(table)
-    if "at" in kwargs:
-        at = kwargs["at"]
-        if not (isinstance(at, list) and len(at) == dim and all(
-                isinstance(v, (int, float)) and not isinstance(v, bool)
-                for v in at)):
-            raise InvalidInputError("{}.at: must be {} numbers, got {!r}"
-                                    .format(key, dim, at))
-        kwargs["at"] = tuple(float(v) for v in at)
-    if "region" in kwargs:
-        kwargs["region"] = _region(kwargs["region"], dim, key + ".region")
-    try:
-        return Quantity(**kwargs)
-    except (InvalidInputError, TypeError) as err:
-        raise InvalidInputError("{}: {}".format(key, err))
-
-
-def _region(table, dim: int, key: str) -> Tuple[Tuple[float, float], ...]:
-    """A region table as a closed box, checked as scene files check
-    theirs (:mod:`skfem_mpm.scenes.scene_file`)."""
-    from ..scenes.scene_file import _Checker, _box
-    checker = _Checker()
-    box = _box(checker, table, key, dim, closed=True)
-    if checker.problems:
-        raise InvalidInputError("; ".join(checker.problems))
-    return tuple(box)
-
-
-#: what a study measures when the scene names nothing
-DEFAULT_QUANTITY = Quantity("displacement", "magnitude", reduce="max",
-                            name="largest point displacement")
-
-
-def scene_quantities(scene) -> Sequence[Quantity]:
-    """The scene's ``outputs``, or :data:`DEFAULT_QUANTITY`."""
-    return list(scene.outputs) or [DEFAULT_QUANTITY]
 
 
 def check_quantities(scene, quantities: Sequence[Quantity], points=None):

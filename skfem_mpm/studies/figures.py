@@ -1,0 +1,197 @@
+"""Figures of studies: the seed column's stress profile and its error over
+refinement (panels of seed Figures 2.9 and 2.10), and the figures of an
+accuracy-against-cost study (:func:`plot_study`).
+
+Drawn with the helpers of :mod:`skfem_mpm.scenes.plot` (matplotlib,
+imported lazily, Agg backend), so they explain themselves as every figure
+there does.
+
+"""
+from pathlib import Path
+from typing import Dict, Sequence
+
+import numpy as np
+
+from ..scenes import plot  # save_figure looked up when called: tests wrap it
+from ..scenes.plot import pyplot, series_styles
+from ..solve.results import PHASES, Result
+from .column import analytical_stress, analytical_stress_current, \
+    vertical_stress
+from .study import fitted_rate
+
+__all__ = ["draw_column_stress", "draw_convergence", "plot_column_stress",
+           "plot_study"]
+
+
+def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
+                       title: str = ""):
+    """Vertical stress of the column's points against current height, with
+    the linear solution at initial heights and seed (2.27) at current ones
+    (a panel of seed Figure 2.9)."""
+    for res, label in zip(results, labels):
+        pts = res.points
+        order = np.argsort(pts.x[-1])
+        ax.plot(-vertical_stress(pts)[order], pts.x[-1][order], ".-", ms=3,
+                lw=.8, label=label)
+    pts = results[0].points
+    Y = np.linspace(0., pts.x0[-1].max(), 200)
+    ax.plot(-analytical_stress(Y), Y, "k--", lw=1,
+            label=r"$\rho_0 b (L_0 - Y)$, initial height")
+    top = pts.x[-1].max()
+    z = np.linspace(0., top, 200)
+    ax.plot(-analytical_stress_current(z, top), z, "k:", lw=1,
+            label="(2.27), current height")
+    ax.set_xlabel(r"$-\sigma_{yy}$ (Pa)")
+    ax.set_ylabel("height (m)")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6)
+
+
+def draw_convergence(ax, nelems: np.ndarray, errors: Dict[str, np.ndarray],
+                     rates: Dict[str, float], title: str = ""):
+    """Error against number of elements on log-log axes, one curve per
+    label with its fitted rate (a panel of seed Figure 2.10)."""
+    for label, err in errors.items():
+        ax.loglog(nelems, err, "o-", ms=3, lw=.8,
+                  label="{} (rate {:.2f})".format(label, rates[label]))
+    ref = errors[next(iter(errors))][0] * nelems[0] / nelems
+    ax.loglog(nelems, ref, "k:", lw=.8, label="slope 1")
+    ax.set_xlabel("number of elements (-)")
+    ax.set_ylabel("error (2.28) (-)")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6)
+
+
+def plot_column_stress(results: Sequence[Result], labels: Sequence[str],
+                       path, title: str = ""):
+    """One stress-profile panel written to ``path`` (PNG)."""
+    fig, ax = pyplot().subplots(figsize=(4.5, 4.))
+    draw_column_stress(ax, results, labels, title)
+    fig.tight_layout()
+    plot.save_figure(fig, path)
+
+
+def _finish(fig, ax, xlabel: str, ylabel: str, title: str, path):
+    """Label, title, legend and write one study figure."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=6)
+    fig.tight_layout()
+    plot.save_figure(fig, path)
+    return path
+
+
+def _loglog(ax, x, y, style: dict, label: str, line: bool = True):
+    """Positive ``y`` against ``x`` on log axes (an error of zero, the
+    reference case's own, has no place there)."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = np.isfinite(y) & (y > 0)
+    ax.loglog(x[ok], y[ok], ms=3, lw=.8 if line else 0, label=label,
+              **style)
+
+
+def plot_study(rows: list, outdir, measured: dict) -> list:
+    """The figures of a study (:func:`~skfem_mpm.studies.study.study`;
+    ``measured`` from :func:`~skfem_mpm.studies.study.analyse`): (a) the
+    error against elements with the fitted rate per curve, (b) the error
+    against wall time with the Pareto front, (c) time per phase and load
+    step against points with fitted exponents, (d) each quantity of
+    interest against elements with its extrapolated value and GCI band.
+    Returns the files written."""
+    plt = pyplot()
+    outdir = Path(outdir)
+    ok = [r for r in rows if not r.get("failure")]
+    written = []
+    label = measured["error"]["label"]
+    ylabel = "{} (-)".format(label)
+    curves = {}
+    for r in ok:
+        name = ", ".join("{}={}".format(k, r[k]) for k in (
+            "method", "rhs", "line_search", "newton", "ppc", "loadsteps")
+            if k in r)
+        curves.setdefault(name or "all", []).append(r)
+    refined = ok and "elements" in ok[0]
+    if refined:
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        for style, (name, rs) in zip(series_styles(len(curves)),
+                                     sorted(curves.items())):
+            rs = sorted(rs, key=lambda r: r["elements"])
+            x = [r["elements"] for r in rs]
+            y = [r["error"] for r in rs]
+            _loglog(ax, x, y, style, "{} (rate {:.2f})".format(
+                name, fitted_rate(x, y)))
+        written.append(_finish(
+            fig, ax, "elements along the most refined axis (-)", ylabel,
+            "{} over grid refinement,\nagainst {}".format(
+                label, measured["error"]["against"]),
+            outdir / "error_vs_elements.png"))
+    if ok:
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        methods = sorted({r.get("method", "all cases") for r in ok})
+        for style, m in zip(series_styles(len(methods)), methods):
+            rs = [r for r in ok if r.get("method", "all cases") == m]
+            _loglog(ax, [r["wall_seconds"] for r in rs],
+                    [r["error"] for r in rs], style, m, line=False)
+        front, best = [], np.inf
+        for r in sorted(ok, key=lambda r: r["wall_seconds"]):
+            if 0 < r["error"] < best:
+                best = r["error"]
+                front.append((r["wall_seconds"], r["error"]))
+        if front:
+            ax.loglog(*zip(*front), "k-", lw=.8, label="Pareto front")
+        written.append(_finish(
+            fig, ax, "wall time per case (s)", ylabel,
+            "What accuracy costs: {} against wall time,\nthe error "
+            "against {}".format(label, measured["error"]["against"]),
+            outdir / "error_vs_time.png"))
+    if ok:
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        points = np.array([r["points"] for r in ok], float)
+        steps = np.array([max(r["steps_run"], 1) for r in ok], float)
+        for style, p in zip(series_styles(len(PHASES)), PHASES):
+            t = np.array([r["t_" + p] for r in ok]) / steps
+            good = t > 0
+            name = p
+            if np.unique(points[good]).size >= 2:  # an exponent needs sizes
+                slope = np.polyfit(np.log(points[good]), np.log(t[good]),
+                                   1)[0]
+                name = "{} (exponent {:.2f})".format(p, slope)
+            if good.any():
+                _loglog(ax, points[good], t[good], style, name, line=False)
+        written.append(_finish(
+            fig, ax, "material points (-)", "time per load step (s)",
+            "Cost of each phase per load step against the points",
+            outdir / "time_vs_points.png"))
+    convergence = [c for c in measured["convergence"] if c["cell_sizes"]]
+    if convergence:
+        names = list(dict.fromkeys(c["quantity"] for c in convergence))
+        fig, axes = plt.subplots(len(names), 1, squeeze=False, figsize=(
+            6.5, 3.2 * len(names)))
+        for ax, name in zip(axes[:, 0], names):
+            mine = [c for c in convergence if c["quantity"] == name]
+            for style, c in zip(series_styles(len(mine)), mine):
+                order = np.argsort(c["cell_sizes"])[::-1]
+                h = np.asarray(c["cell_sizes"])[order]
+                ax.semilogx(h, np.asarray(c["values"])[order], ms=3, lw=.8,
+                            label=", ".join("{}={}".format(k, v) for k, v
+                                            in c["choices"].items()) or
+                            "all", **style)
+                ax.axhline(c["reference"], color=style["color"], lw=.6,
+                           ls=":", label="Richardson extrapolation, band: "
+                           "GCI" if c["order"] is not None else
+                           "finest case, band: 3 |f1 - f2| (no order)")
+                ax.axhspan(c["reference"] - c["uncertainty"],
+                           c["reference"] + c["uncertainty"],
+                           color=style["color"], alpha=.12)
+            ax.invert_xaxis()
+            ax.ticklabel_format(axis="y", useOffset=False)
+            ax.set_ylabel("{} ({})".format(name, mine[0]["unit"]))
+            ax.set_xlabel("cell size (V/N)^(1/d) (m)")
+            ax.set_title("{} over refinement, with the reference of each "
+                         "group".format(name), fontsize=9)
+            ax.legend(fontsize=6, loc="best")
+        fig.tight_layout()
+        plot.save_figure(fig, outdir / "quantities.png")
+        written.append(outdir / "quantities.png")
+    return written
