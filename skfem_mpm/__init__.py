@@ -21,6 +21,9 @@ from .mechanics.geostatic import geostatic_stress
 from .quadrature.points import MaterialPoints, seed_gauss_points, seed_points
 from .protocols import GridTerm
 from .solve.core import simulate
+from .solve.newton import NewtonOptions
+from .solve.options import BodyForce, Options, Prescribed, Resume
+from .stabilisation.settings import Stabilisation
 from .solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from .solve.fe import solve_fe
 from .solve.finite import solve_finite
@@ -33,7 +36,8 @@ from .solve.strength_reduction import reduce_strength, strength_reduction
 __version__ = "0.1.0"
 
 __all__ = [
-    "GridTerm",
+    "GridTerm", "Options", "NewtonOptions", "Stabilisation", "Resume",
+    "Prescribed", "BodyForce",
     "MaterialPointBasis", "MaterialPoints", "seed_points", "seed_gauss_points",
     "locate_points", "point_locator", "MPMError", "InvalidInputError",
     "InvalidMaterialError", "PointsOutsideGridError", "SingularSystemError", "SingularTangentError",

@@ -33,6 +33,7 @@ from .scenes.quantities import check_quantities, quantity_unit
 from .scenes.scene import (build_points, reaction_resultants, run_scene,
                            surface_loads)
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
+from .solve.options import Resume
 from .solve.results import PHASES
 from .studies.figures import plot_column_stress, plot_study
 from .studies.footing import (bearing_capacity_factor, footing_error,
@@ -206,8 +207,8 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
     summary = {
         "scene": scene.name, "method": scene.method,
         "bodies": [b.name for b in scene.bodies],
-        "kinematics": scene.kinematics, "newton": scene.newton,
-        "steps": scene.nsteps,
+        "kinematics": scene.kinematics, "newton": scene.newton.newton,
+        "steps": scene.step_count,
         "steps_run": len(rows), "points": int(pts.n),
         "load_factor": float(rows[-1, 1]) if len(rows) else 0.,
         "max_residual": float(rows[:, 2].max()) if len(rows) else 0.,
@@ -281,7 +282,7 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
     plot.save_figure(fig, outdir / "final_stress.png")
     if scene.reference == "column":
         plot_column_stress([result], ["{}, {} steps".format(
-            scene.method, scene.nsteps)], outdir / "column_stress.png",
+            scene.method, scene.step_count)], outdir / "column_stress.png",
             title=scene.name)
     if loaded.size and result.history[0].displacement is not None:
         fig, ax = pyplot().subplots(figsize=(5, 4))
@@ -357,7 +358,7 @@ def run(args) -> int:
             print("skfem-mpm: --{} must be >= 0, got {}".format(
                 name.replace("_", "-"), getattr(args, name)), file=sys.stderr)
             return 2
-    earlier, points, domain0, resume = None, None, None, {}
+    earlier, points, domain0, resume = None, None, None, Resume()
     if args.resume is not None:
         outdir = args.resume
         source = outdir / "scene.toml"
@@ -365,10 +366,11 @@ def run(args) -> int:
         earlier = load_checkpoint(outdir, scene_digest(source))
         points, domain0 = earlier.points, earlier.domain0
         if scene.dynamics is None:
-            scene.steps = earlier.nsteps
-        resume = dict(first_step=earlier.step + 1,
-                      load_factor=earlier.load_factor,
-                      increment=earlier.increment, counters=earlier.counters)
+            scene.nsteps = earlier.nsteps
+        resume = Resume(first_step=earlier.step + 1,
+                        load_factor=earlier.load_factor,
+                        increment=earlier.increment, domain0=domain0,
+                        counters=earlier.counters)
     else:
         outdir = args.out
         source = args.scene or EMBEDDED
@@ -379,7 +381,7 @@ def run(args) -> int:
                 "[dynamics] (duration / time_step); change time_step "
                 "instead".format(args.steps))
         if args.steps:
-            scene.steps = args.steps
+            scene.nsteps = args.steps
         if outdir.exists() and not outdir.is_dir():
             raise InvalidInputError("--out {} exists and is not a folder"
                                     .format(outdir))
@@ -429,7 +431,7 @@ def run(args) -> int:
     # run refused before its first step writes nothing)
     start = points.copy() if series is not None and earlier is None \
         else None
-    progress = Progress(scene.nsteps, not args.no_progress,
+    progress = Progress(scene.step_count, not args.no_progress,
                         0. if earlier is None else float(earlier.load_factor))
     history, latest = [], []          # the records and the last state
 
@@ -449,7 +451,7 @@ def run(args) -> int:
         prepare()
         rows, reactions = so_far()
         save_checkpoint(outdir, Checkpoint(
-            step=len(rows), nsteps=scene.nsteps, load_factor=factor,
+            step=len(rows), nsteps=scene.step_count, load_factor=factor,
             increment=increment, points=state, counters=counters,
             history=rows, reactions=reactions, scene_sha256=digest,
             domain0=domain0))
@@ -478,8 +480,7 @@ def run(args) -> int:
 
     tic = time.perf_counter()
     try:
-        result = run_scene(scene, points, domain0=domain0, callback=callback,
-                           **resume)
+        result = run_scene(scene, points, resume=resume, callback=callback)
     except StopRun as stop:
         print("stopped after step {}; continue with: skfem-mpm run "
               "--resume {}".format(stop.args[0], outdir))
@@ -495,7 +496,7 @@ def run(args) -> int:
             interrupted = {
                 "scene": scene.name, "status": "interrupted",
                 "last_converged_step": last.step if last else
-                resume.get("first_step", 1) - 1, "checkpoint": saved}
+                resume.first_step - 1, "checkpoint": saved}
             interrupted.update(rigid_body_curves(scene, rows, reactions))
             write_summary(outdir / "summary.json", interrupted)
         print("skfem-mpm: interrupted{}".format(
@@ -513,13 +514,13 @@ def run(args) -> int:
         state = getattr(err, "state", None)
         if state is not None:
             checkpoint(state, err.load_factor, last.increment if last else
-                       resume.get("increment", 1. / scene.nsteps),
-                       last.counters if last else resume.get("counters", {}))
+                       resume.increment or 1. / scene.step_count,
+                       last.counters if last else resume.counters or {})
         failed = {
             "scene": scene.name, "status": "failed",
             "error": "{}: {}".format(type(err).__name__, err),
             "last_converged_step": last.step if last else
-            resume.get("first_step", 1) - 1,
+            resume.first_step - 1,
             "checkpoint": state is not None}
         rows, reactions = so_far()        # the curve up to the failure
         failed.update(rigid_body_curves(scene, rows, reactions))
@@ -534,7 +535,7 @@ def run(args) -> int:
                 "scene": scene.name, "status": "failed",
                 "error": "{}: {}".format(type(err).__name__, err),
                 "last_converged_step": history[-1].step if history else
-                resume.get("first_step", 1) - 1})
+                resume.first_step - 1})
         except OSError:
             logger.info("no summary either: %s", err)
         raise
@@ -554,8 +555,8 @@ def run(args) -> int:
     print("{}: {} {} ({} kinematics), {} points, {}".format(
         scene.name, "resumed" if args.resume else "ran", scene.method,
         scene.kinematics, summary["points"], "{} load steps".format(
-            scene.nsteps) if scene.dynamics is None else
-        "{} time steps to t = {:g} s".format(scene.nsteps,
+            scene.step_count) if scene.dynamics is None else
+        "{} time steps to t = {:g} s".format(scene.step_count,
                                             scene.dynamics.duration)))
     if "error" in summary:
         label, against, _ = REFERENCE_ERRORS[scene.reference]

@@ -136,6 +136,40 @@ def check_real(name: str, value, error=InvalidInputError) -> float:
     return float(value)
 
 
+def check_int(name: str, value, low: int, high: int = None,
+              error=InvalidInputError) -> int:
+    """Return ``value`` as an int; raise ``error`` unless it is an integer
+    (not a bool) in ``[low, high]`` (``high=None``: no upper bound).
+
+    >>> check_int("max_iter", 25, 1, 60)
+    25
+    >>> check_int("max_iter", 0, 1, 60)
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: max_iter must be an integer in [1, 60], got 0
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (int, np.integer)) or value < low or (
+                high is not None and value > high):
+        raise error("{} must be an integer {}, got {!r}".format(
+            name, "in [{}, {}]".format(low, high) if high is not None
+            else ">= {}".format(low), value))
+    return int(value)
+
+
+def check_choice(name: str, value, choices, error=InvalidInputError):
+    """Return ``value``; raise ``error`` unless it is one of ``choices``
+    (strings).
+
+    >>> check_choice("rhs", "residual", ("residual", "increment"))
+    'residual'
+    """
+    if not isinstance(value, str) or value not in choices:
+        raise error("{} must be one of {}, got {!r}".format(
+            name, tuple(choices), value))
+    return value
+
+
 class SceneError(InvalidInputError):
     """A scene description has problems; ``problems`` lists one message per
     problem, each naming the key and the offending value."""

@@ -6,7 +6,7 @@ import pytest
 from skfem import (Basis, ElementHex1, ElementLineP1, ElementQuad1,
                    ElementQuad2, ElementVector, MeshHex, MeshLine, MeshQuad)
 
-from skfem_mpm import (ConvergenceError, InvalidInputError, InvalidMaterialError,
+from skfem_mpm import (ConvergenceError, Stabilisation, InvalidInputError, InvalidMaterialError,
                        LinearElastic, MaterialPointBasis, MaterialPoints,
                        VonMises,
                        point_locator, seed_points, solve_finite)
@@ -399,7 +399,8 @@ def test_hard_cantilever_completes(method, error):
     scene = configure(load_scene(Path(__file__).parent.parent / "examples"
                                  / "cantilever.toml"),
                       dict(elements=46, ppc=3, method=method))
-    scene.ghost = 0.              # the stabilised retry alone (no ghost)
+    scene.stabilisation = Stabilisation(ghost=0.)   # the stabilised retry
+    # alone (no ghost)
     res = run_scene(scene)
     assert res.history[-1].load_factor == pytest.approx(1.)
     assert case_error(scene, res) == pytest.approx(error, rel=.05)

@@ -22,7 +22,7 @@ def block(method="mpm", kinematics="small", material=None, gravity=None,
                               material or LinearElastic(1e4, .3))],
                  supports=[Support(boundary="bottom")], gravity=gravity,
                  point_loads=[PointLoad(at=[2., 2.], force=[10., -50.])],
-                 method=method, kinematics=kinematics, steps=steps)
+                 method=method, kinematics=kinematics, nsteps=steps)
 
 
 def test_effect_gating():
@@ -278,7 +278,7 @@ def test_compare_is_like_with_like(kinematics, tmp_path):
 
 def test_scene_files_load():
     for path in EXAMPLES.glob("*.toml"):
-        assert load_scene(path).steps >= 1
+        assert load_scene(path).step_count >= 1
 
 
 def test_help_and_bad_options(capsys):
@@ -304,7 +304,7 @@ def test_prescribed_support_values(kinematics, method, steps):
                             Support(boundary="bottom", components=["y"]),
                             Support(where=lambda x: np.isclose(x[0], 10.),
                                     components=["x"], value=[.1])],
-                  method=method, kinematics=kinematics, steps=steps)
+                  method=method, kinematics=kinematics, nsteps=steps)
     pts = run_scene(scene).points
     stretch = (1 + .01 / steps) ** steps
     np.testing.assert_allclose(pts.displacement[0], (stretch - 1) * pts.x0[0],
@@ -341,7 +341,7 @@ body_force = [0.0, -1.0]
 [solver]
 antilocking = true
 """)
-    assert load_scene(scene).antilocking
+    assert load_scene(scene).stabilisation.antilocking
     assert main(["run", str(scene), "--out", str(tmp_path / "o"),
                  "--no-progress"]) == 0
     scene.write_text(scene.read_text().replace("antilocking = true",
@@ -497,14 +497,12 @@ def test_ctrl_c_keeps_a_checkpoint_and_one_line(tmp_path, capsys,
     import skfem_mpm.cli as cli_module
     real = cli_module.run_scene
 
-    def interrupted(scene, points=None, domain0=None, callback=None,
-                    **resume):
+    def interrupted(scene, points=None, resume=None, callback=None):
         def stop_after_two(record, pts):
             callback(record, pts)
             if record.step == 2:
                 raise KeyboardInterrupt
-        return real(scene, points, domain0=domain0, callback=stop_after_two,
-                    **resume)
+        return real(scene, points, resume=resume, callback=stop_after_two)
     out, whole = tmp_path / "out", tmp_path / "whole"
     monkeypatch.setattr(cli_module, "run_scene", interrupted)
     assert main(["run", "--out", str(out), "--no-progress", "--steps",

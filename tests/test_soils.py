@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from skfem_mpm import (DruckerPrager, InvalidInputError,
+from skfem_mpm import (DruckerPrager, NewtonOptions, InvalidInputError,
                        InvalidMaterialError, LinearElastic, MohrCoulomb,
                        simulate, seed_points)
 from skfem_mpm.errors import SceneError
@@ -398,7 +398,8 @@ nu = 0.3
         base = record.reactions.reshape(-1, 2)[:, 1]
         total = res.history[-1].reactions.reshape(-1, 2)[:, 1].sum()
         assert abs(base.sum() - (layer + share * fill)) < 1e-10 * total
-    scene.rhs, scene.kinematics = "increment", "small"
+    scene.newton = NewtonOptions(rhs="increment")
+    scene.kinematics = "small"
     scene.bodies[0].material = LinearElastic(E, NU)
     with pytest.raises(InvalidInputError, match="geostatic"):
         scene.check()

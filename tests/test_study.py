@@ -146,7 +146,7 @@ def test_observed_order_and_gci_of_cpgimp_on_the_moving_column(tmp_path):
     error (2.28), ~1.6-1.8, and a run on 128 elements lands inside the
     uncertainty (GCI) the three coarse grids claim for the extrapolation."""
     from dataclasses import replace
-    scene = replace(COLUMN, reference=None, method="cpgimp", steps=20)
+    scene = replace(COLUMN, reference=None, method="cpgimp", nsteps=20)
     top = Quantity("displacement", "x", at=(50.,), name="top")
     study(scene, {"elements": [8, 16, 32]}, tmp_path / "coarse",
           progress=False, quantities=[top])
@@ -251,7 +251,7 @@ def test_a_box_empty_on_a_coarse_grid_fails_that_case_only(tmp_path,
     from dataclasses import replace
     thin = Quantity("displacement", "x", region=((49., 50.),),
                     reduce="min", name="thin")
-    rows = study(replace(COLUMN, reference=None, steps=1),
+    rows = study(replace(COLUMN, reference=None, nsteps=1),
                  {"elements": [4, 16, 32, 64]}, tmp_path, progress=False,
                  quantities=[thin])
     assert "no material point of this run" in rows[0]["failure"]

@@ -53,8 +53,8 @@ def test_a_column_on_a_spring_bed(method):
     res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, 0.),
                    lambda b: b.get_dofs(lambda x: np.isclose(x[0], 0.)
                                         | np.isclose(x[0], width)).all("u^1"),
-                   body_force=[0., -weight_density], nsteps=2, method=method,
-                   kinematics="finite", terms=[bed])
+                   body_force=[0., -weight_density], loads=[bed], nsteps=2,
+                   method=method, kinematics="finite")
     W = weight_density * width * height
     assert np.abs(bed.u / (-W / kappa) - 1).max() < 1e-9
     spring_force = float((bed.k * bed.u).sum())
@@ -68,8 +68,9 @@ def test_a_column_on_a_spring_bed(method):
 
 def test_a_term_that_is_not_one_is_refused():
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
-    with pytest.raises(InvalidInputError, match=r"terms\[0\] must be a "
-                       "GridTerm"):
+    with pytest.raises(InvalidInputError, match="loads must be Traction, "
+                       "Pressure, GridLoad, Prescribed, RigidBody or "
+                       "GridTerm items, got object"):
         simulate(mesh, ElementQuad1(), seed_points(mesh, 1),
                  LinearElastic(1e3, .3), lambda b: b.get_dofs(),
-                 terms=[object()])
+                 loads=[object()])

@@ -17,20 +17,23 @@ from numpy import ndarray
 from skfem import ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2, \
     MeshHex, MeshLine, MeshQuad
 
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, check_choice
+from ..mechanics.geostatic import geostatic_stress
+from ..mechanics.kinematics import KINEMATICS
 from ..mechanics.materials import is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       SEED_BYTES_PER_POINT, STEP_RECORD_BYTES,
                       refuse_beyond_memory)
-from ..solve.core import ADAPTIVE_MODIFIED, NEWTON, RHS, grid_parts, \
-    simulate
-from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
+from ..methods.method import METHODS
 from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
-from ..solve.newton import LINE_SEARCHES
-from ..mechanics.geostatic import geostatic_stress
+from ..solve.core import check_combination, grid_parts, simulate
+from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
+from ..solve.newton import NewtonOptions
+from ..solve.options import BodyForce, Options, Prescribed, Resume
 from ..solve.results import Result
 from ..solve.rigid import RigidBody
+from ..stabilisation.settings import Stabilisation
 from .footing import check_footing_scene
 
 if TYPE_CHECKING:         # quantities.py imports this module
@@ -43,8 +46,6 @@ __all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
            "run_scene", "METHODS", "KINEMATICS",
            "BOUNDARIES"]
 
-METHODS = ("fem", "mpm", "ugimp", "cpgimp")
-KINEMATICS = ("small", "finite")
 AXES = "xyz"
 BOUNDARIES = {"left": (0, 0), "right": (0, 1), "bottom": (1, 0),
               "top": (1, 1), "back": (2, 0), "front": (2, 1)}
@@ -218,42 +219,32 @@ class Scene:
         ``"small"`` (the seed's incremental small-strain scheme: one linear
         solve per step for elastic bodies, Newton for plastic ones) or
         ``"finite"`` (Newton per step).  Every method works with both.
-    steps, tolerance, max_iterations
-        Load steps (default 1; :attr:`nsteps` is the count a run takes)
-        and, for finite deformation, Newton settings.
-    linear_solver
-        ``"scipy"``, ``"pypardiso"``, ``"pyamg"`` or ``"auto"`` (the
-        default: the fastest installed for each system's size,
-        :mod:`skfem_mpm.solve.backends`).
-    antilocking
-        Mean dilatation (B-bar) against volumetric locking (``"mpm"``,
-        ``"fem"``; any kinematics).
-    ghost
-        Ghost-penalty factor for partially filled cells (any method and
-        kinematics), or ``"auto"`` (the default: as in
-        :func:`~skfem_mpm.simulate`).
-    rhs
-        ``"residual"`` or ``"increment"`` (the seed's literal scheme,
-        small-strain elastic scenes): see :func:`~skfem_mpm.simulate`.
+    nsteps
+        Load steps (default 1; :attr:`step_count` is the count a run
+        takes); ``None`` with dynamics.
+    newton
+        :class:`~skfem_mpm.NewtonOptions`: tolerance, iterations, line
+        search, full or modified Newton, ``rhs`` (scene keys
+        ``solver.tolerance``, ``max_iterations``, ``line_search``,
+        ``newton``, ``rhs``).
+    stabilisation
+        :class:`~skfem_mpm.Stabilisation`: ghost penalty and mean
+        dilatation (``solver.ghost``, ``solver.antilocking``).
+    solver
+        The linear solver: ``"scipy"``, ``"pypardiso"``, ``"pyamg"`` or
+        ``"auto"`` (the default: the fastest installed for each system's
+        size, :mod:`skfem_mpm.solve.backends`; scene key
+        ``solver.linear``).
     reference
         What the run's error is measured against: ``"column"`` (seed
         2.28), ``"elastica"`` (end-loaded cantilever) or
         ``"bearing_capacity"`` (peak pressure of a rigid footing on
         weightless soil against ``N_c c``,
         :mod:`skfem_mpm.studies.footing`).
-    line_search
-        ``"backtracking"`` (default), ``"armijo"`` (Armijo from the first
-        attempt) or ``"none"`` (plain Newton): see
-        :func:`~skfem_mpm.simulate`.
-    newton
-        ``"full"`` (default: the tangent factorised every Newton
-        iteration) or ``"modified"`` (a load step's first tangent
-        factorised once, refactorised where the residual falls slowly):
-        see :func:`~skfem_mpm.simulate`.
     dynamics
         ``None`` (quasi-static load steps) or a :class:`TimeIntegration`:
         time steps with inertia; every body then needs a ``density``, and
-        ``steps`` is not used (``None``).
+        ``nsteps`` is not used (``None``).
     outputs
         Quantities of interest
         (:class:`~skfem_mpm.scenes.quantities.Quantity`): reported by a
@@ -267,66 +258,28 @@ class Scene:
     tractions: List[Traction] = field(default_factory=list)
     method: str = "mpm"
     kinematics: str = "small"
-    steps: Optional[int] = None
-    tolerance: float = 1e-9
-    max_iterations: int = 25
+    nsteps: Optional[int] = None
+    newton: NewtonOptions = field(default_factory=NewtonOptions)
+    stabilisation: Stabilisation = field(default_factory=Stabilisation)
     name: str = "scene"
     reference: Optional[str] = None
-    linear_solver: str = "auto"
-    antilocking: bool = False
-    ghost: Union[float, str] = "auto"
-    rhs: str = "residual"
-    line_search: str = "backtracking"
-    newton: str = "full"
+    solver: str = "auto"
     dynamics: Optional[TimeIntegration] = None
     outputs: List["Quantity"] = field(default_factory=list)
 
     @property
-    def nsteps(self) -> int:
-        """The steps a run takes, ``steps`` (default 1), or ``duration /
+    def step_count(self) -> int:
+        """The steps a run takes, ``nsteps`` (default 1), or ``duration /
         time_step`` with dynamics."""
         if self.dynamics is not None:
             return self.dynamics.dynamics([1.]).nsteps
-        return 1 if self.steps is None else int(self.steps)
+        return 1 if self.nsteps is None else int(self.nsteps)
 
     def check(self):
         """Raise :class:`~skfem_mpm.errors.InvalidInputError` for
         combinations no solver offers."""
-        if self.method not in METHODS:
-            raise InvalidInputError("method must be one of {}, got {!r}"
-                                    .format(METHODS, self.method))
-        if self.kinematics not in KINEMATICS:
-            raise InvalidInputError("kinematics must be one of {}, got {!r}"
-                                    .format(KINEMATICS, self.kinematics))
-        if self.antilocking and self.method in ("ugimp", "cpgimp"):
-            raise InvalidInputError(
-                "antilocking (mean dilatation) averages over the points of "
-                "each grid cell: it needs method 'mpm' or 'fem', not {!r}"
-                .format(self.method))
-        if self.rhs not in RHS:
-            raise InvalidInputError("rhs must be one of {}, got {!r}".format(
-                RHS, self.rhs))
-        if self.newton not in NEWTON:
-            raise InvalidInputError("newton must be one of {}, got {!r}"
-                                    .format(NEWTON, self.newton))
-        if self.newton == "modified" and self.dynamics is not None and \
-                self.dynamics.target_iterations is not None:
-            raise InvalidInputError(ADAPTIVE_MODIFIED)
-        if self.line_search not in LINE_SEARCHES:
-            raise InvalidInputError("line_search must be one of {}, got "
-                                    "{!r}".format(LINE_SEARCHES,
-                                                  self.line_search))
-        if self.rhs == "increment" and (self.kinematics != "small" or any(
-                is_plastic(b.material) for b in self.bodies)):
-            raise InvalidInputError(
-                "rhs = 'increment' (the seed's one-solve scheme) is for "
-                "small-strain elastic scenes")
-        if self.rhs == "increment" and any(b.K0 is not None
-                                           for b in self.bodies):
-            raise InvalidInputError(
-                "rhs = 'increment' maps only load increments: the gravity of "
-                "a geostatic body (K0), in full from the first step, would "
-                "be dropped; use rhs = 'residual'")
+        check_choice("method", self.method, METHODS)
+        check_choice("kinematics", self.kinematics, KINEMATICS)
         if not self.bodies:
             raise InvalidInputError("a scene needs at least one body")
         moving = [b.name for b in self.bodies if b.density is not None
@@ -342,12 +295,11 @@ class Scene:
                 raise InvalidInputError(
                     "dynamics needs a density on every body; {} have "
                     "none".format(massless))
-            if self.steps is not None:
+            if self.nsteps is not None:
                 raise InvalidInputError(
                     "a dynamic scene takes its steps from the time step "
                     "(duration / time_step); steps = {} would be ignored"
-                    .format(self.steps))
-            self.dynamics.dynamics([b.density for b in self.bodies])
+                    .format(self.nsteps))
         bodies = [b.name for b in self.bodies]
         if len(set(bodies)) < len(bodies):
             raise InvalidInputError("body names must differ, got {}".format(
@@ -361,9 +313,15 @@ class Scene:
                     ", ".join(rigid), self.method))
         if rigid and len(rigid) == len(self.bodies):
             raise InvalidInputError("every body is rigid: nothing deforms")
-        if rigid and self.rhs == "increment":
-            raise InvalidInputError("rhs = 'increment' maps load increments "
-                                    "only: rigid bodies need 'residual'")
+        moving = any(s.value is not None for s in self.supports)
+        check_combination(
+            self.method, self.kinematics, any(is_plastic(b.material)
+                                              for b in self.bodies),
+            self.newton, self.stabilisation, None if self.dynamics is None
+            else self.dynamics.dynamics([b.density for b in self.bodies]),
+            full_body_force=self.gravity is not None and any(
+                b.K0 is not None for b in self.bodies),
+            driven=bool(rigid) or moving)
         if self.reference == "bearing_capacity":
             check_footing_scene(self)
         names = support_names(self)
@@ -399,10 +357,10 @@ class Scene:
             points += max(reached, 0.) * float(body.points_per_cell) ** dim
         refuse_beyond_memory(
             "{:.3g} cells with up to {:.3g} points over {} steps".format(
-                cells, points, self.nsteps),
+                cells, points, self.step_count),
             cells * GRID_BYTES_PER_CELL[dim] + points * (
                 SEED_BYTES_PER_POINT + RUN_BYTES_PER_POINT[dim])
-            + float(self.nsteps) * STEP_RECORD_BYTES,
+            + float(self.step_count) * STEP_RECORD_BYTES,
             "use fewer cells, points per cell or steps")
 
 
@@ -580,11 +538,12 @@ def scene_prescribed(scene: Scene, dim: int):
 
 
 def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
-              first_step: int = 1, domain0: Optional[ndarray] = None,
-              callback: Optional[Callable] = None, **resume) -> Result:
-    """Run a scene (from its start, or resumed from ``points`` after step
-    ``first_step - 1``; ``resume``: ``load_factor``, ``increment`` and
-    ``counters`` as in :func:`~skfem_mpm.simulate`).
+              resume: Optional[Resume] = None,
+              callback: Optional[Callable] = None) -> Result:
+    """Run a scene from its start, or (``resume``, a
+    :class:`~skfem_mpm.Resume`) from ``points``, the state after step
+    ``resume.first_step - 1``; ``callback(record, points)`` after every
+    step.
 
     Examples
     --------
@@ -612,18 +571,16 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                     for k, b in enumerate(scene.bodies) if b.rigid is not None]
     dynamics = None if scene.dynamics is None else \
         scene.dynamics.dynamics([b.density for b in scene.bodies])
-    return simulate(mesh, elem, points, material, supports,
-                    body_force=scene.gravity,
-                    nsteps=None if dynamics else scene.nsteps,
-                    dynamics=dynamics,
-                    ramp_body_force=[b.K0 is None for b in scene.bodies],
+    loads = surface_loads(scene, initial) + rigid_bodies
+    if prescribed is not None:
+        loads.append(Prescribed(prescribed))
+    body_force = None if scene.gravity is None else BodyForce(
+        scene.gravity, [b.K0 is None for b in scene.bodies])
+    return simulate(mesh, elem, points, material, supports, body_force,
+                    loads, None if dynamics else scene.step_count,
                     method=scene.method, kinematics=scene.kinematics,
-                    prescribed=prescribed, rhs=scene.rhs,
-                    loads=surface_loads(scene, initial),
-                    antilocking=scene.antilocking, ghost=scene.ghost,
-                    line_search=scene.line_search, newton=scene.newton,
-                    tol=scene.tolerance,
-                    max_iter=scene.max_iterations,
-                    first_step=first_step, domain0=domain0,
-                    callback=callback, solver=scene.linear_solver,
-                    rigid_bodies=rigid_bodies, **resume)
+                    dynamics=dynamics, options=Options(
+                        newton=scene.newton,
+                        stabilisation=scene.stabilisation,
+                        solver=scene.solver, resume=resume,
+                        callback=callback))

@@ -117,13 +117,13 @@ from ..errors import InvalidInputError, InvalidMaterialError, SceneError
 from ..mechanics.cam_clay import ModifiedCamClay
 from ..mechanics.materials import LinearElastic, VonMises
 from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
-from ..solve.core import NEWTON, RHS
+from ..solve.backends import FACTORIES
 from ..solve.dynamics import MASSES
-from ..solve.newton import LINE_SEARCHES
+from ..solve.newton import LINE_SEARCHES, NEWTON, RHS, NewtonOptions
+from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction, TimeIntegration)
-from ..solve.backends import FACTORIES
 
 __all__ = ["load_scene", "parse_scene", "parse_quantity", "REFERENCES"]
 
@@ -178,6 +178,25 @@ class _Checker:
             self.bad(path, "must be < {}".format(high), value)
             return default
         return value
+
+    def option(self, kind, key, fields):
+        """``kind(**values)`` of ``fields``, ``(field, file key, value)``
+        triples: each value checked by the option object itself, its
+        problems named by the file's key; a field with a problem keeps the
+        option's default."""
+        kept = {}
+        for name, file_key, value in fields:
+            try:
+                kind(**{name: value})
+            except InvalidInputError as err:
+                self.problems.append("{}.{}: {}".format(key, file_key, err))
+            else:
+                kept[name] = value
+        try:
+            return kind(**kept)
+        except InvalidInputError as err:          # values that clash
+            self.problems.append("{}: {}".format(key, err))
+            return kind()
 
     def choice(self, data, key, name, choices, default=None):
         path = "{}.{}".format(key, name) if key else name
@@ -544,29 +563,34 @@ def parse_scene(data: dict, source: str = "") -> Scene:
               "[dynamics] (duration / time_step): it would be ignored",
               solver["steps"])
     kinematics = c.choice(solver, "solver", "kinematics", KINEMATICS, "small")
+    steps = None if dynamics is not None else c.number(
+        solver, "solver", "steps", None, low=1, open_low=False, integer=True)
+    newton = c.option(NewtonOptions, "solver", (
+        ("tol", "tolerance", c.number(solver, "solver", "tolerance", 1e-9,
+                                      low=0.)),
+        ("max_iter", "max_iterations", c.number(
+            solver, "solver", "max_iterations", 25, low=1, open_low=False,
+            integer=True)),
+        ("rhs", "rhs", c.choice(solver, "solver", "rhs", RHS, "residual")),
+        ("line_search", "line_search", c.choice(
+            solver, "solver", "line_search", LINE_SEARCHES, "backtracking")),
+        ("newton", "newton", c.choice(solver, "solver", "newton", NEWTON,
+                                      "full"))))
+    stabilisation = c.option(Stabilisation, "solver", (
+        ("antilocking", "antilocking", c.boolean(solver, "solver",
+                                                 "antilocking")),
+        ("ghost", "ghost", "auto" if solver.get("ghost", "auto") == "auto"
+         else c.number(solver, "solver", "ghost", "auto", low=0.,
+                       open_low=False))))
     scene = Scene(
         grid=grid, bodies=bodies, supports=supports, gravity=gravity,
         point_loads=loads, tractions=tractions, method=method,
-        kinematics=kinematics,
-        steps=None if dynamics is not None else c.number(
-            solver, "solver", "steps", None, low=1, open_low=False,
-            integer=True),
-        dynamics=dynamics,
-        tolerance=c.number(solver, "solver", "tolerance", 1e-9, low=0.),
-        max_iterations=c.number(solver, "solver", "max_iterations", 25,
-                                low=1, open_low=False, integer=True),
-        name=_name(c, data),
+        kinematics=kinematics, nsteps=steps, dynamics=dynamics,
+        newton=newton, stabilisation=stabilisation, name=_name(c, data),
         reference=c.choice(data, "", "reference", REFERENCES + (None,)),
-        linear_solver=c.choice(solver, "solver", "linear",
-                               tuple(FACTORIES), "auto"),
-        antilocking=c.boolean(solver, "solver", "antilocking"),
-        ghost="auto" if solver.get("ghost", "auto") == "auto" else c.number(
-            solver, "solver", "ghost", "auto", low=0., open_low=False),
-        rhs=c.choice(solver, "solver", "rhs", RHS, "residual"),
-        outputs=outputs,
-        line_search=c.choice(solver, "solver", "line_search", LINE_SEARCHES,
-                             "backtracking"),
-        newton=c.choice(solver, "solver", "newton", NEWTON, "full"))
+        solver=c.choice(solver, "solver", "linear", tuple(FACTORIES),
+                        "auto"),
+        outputs=outputs)
     if not c.problems:
         try:
             scene.check()
@@ -598,7 +622,7 @@ def load_scene(path) -> Scene:
     >>> import skfem_mpm
     >>> from skfem_mpm.scenes.scene_file import load_scene
     >>> scene = load_scene(Path(skfem_mpm.__file__).parent / "scenes" / "column.toml")
-    >>> scene.steps, scene.method
+    >>> scene.nsteps, scene.method
     (20, 'mpm')
 
     """

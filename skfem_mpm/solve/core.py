@@ -49,7 +49,7 @@ from skfem.quadrature import get_quadrature
 
 from ..errors import (InvalidInputError, InversionError,
                       MPMError, NewtonDivergenceError, NumericalError,
-                      SingularTangentError, StepFailedError)
+                      SingularTangentError, StepFailedError, check_choice)
 from ..mechanics.forms import as_body_force
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
 from ..mechanics.materials import at_points, initial_state, is_plastic
@@ -58,32 +58,30 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
 from ..methods.assembly import ElementPattern
 from ..methods.method import METHODS, make_method
 from ..protocols import GridTerm
-from ..quadrature.locate import Locator, point_locator
+from ..quadrature.locate import point_locator
 from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
+from ..stabilisation.settings import Stabilisation
 from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
 from .dynamics import Dynamics, InertiaTerm
 from .linear import support_dofs
 from .loads import ExternalLoads, FollowerPressure
-from .newton import FullStep, make_line_search, newton as newton_driver
+from .newton import FullStep, NewtonOptions, newton as newton_driver
+from .options import (BodyForce, Options, Prescribed, Resume,
+                      translate_aliases)
 from .problem import STABILISATION, StepProblem
 from .results import Result
-from .rigid import check_rigid_bodies, warn_stiff_smooth_bodies
+from .rigid import RigidBody, check_rigid_bodies, warn_stiff_smooth_bodies
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["simulate", "RHS", "STABILISATION", "DEFAULT_GHOST",
+__all__ = ["simulate", "STABILISATION", "DEFAULT_GHOST",
            "GRID_TERMS", "RETRY_LADDER"]
 
-#: the right-hand sides of a linear step (``rhs=``): the out-of-balance
-#: force, or the seed's literal load increment
-RHS = ("residual", "increment")
 # failures of a step that a retry or a smaller load increment may cure
 STEP_FAILURES = (NewtonDivergenceError, InversionError, NumericalError,
                  SingularTangentError)
-#: Newton's tangent: refactorised every iteration, or kept over a step
-NEWTON = ("full", "modified")
 ADAPTIVE_MODIFIED = (
     "newton='modified' with an adaptive time step (target_iterations): the "
     "time step adapts to the Newton iterations, which modified Newton's "
@@ -137,26 +135,6 @@ def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int,
         + mesh.nelements * GRID_BYTES_PER_CELL[dim],
         "use fewer load steps{}, fewer points or a coarser grid".format(
             ", keep_snapshots=False" if keep_snapshots else ""))
-
-
-def check_resume(first_step, nsteps: int, load_factor, increment):
-    """Raise :class:`~skfem_mpm.errors.InvalidInputError` for a resume
-    state no run can be in."""
-    if isinstance(first_step, bool) or not isinstance(
-            first_step, (int, np.integer)) or first_step < 1:
-        raise InvalidInputError("first_step must be a positive integer, got "
-                                "{!r}".format(first_step))
-    for name, value, low, high in (("load_factor", load_factor, 0., 1.),
-                                   ("increment", increment, 0., 1. / nsteps)):
-        if value is not None and not (
-                isinstance(value, (int, float, np.number))
-                and not isinstance(value, bool)
-                and (low <= value < high if name == "load_factor"
-                     else low < value <= high * (1 + 1e-12))):
-            raise InvalidInputError(
-                "{} must lie in {}{}, {}{}, got {!r}".format(
-                    name, "[" if name == "load_factor" else "(", low, high,
-                    ")" if name == "load_factor" else "]", value))
 
 
 class RunCache:
@@ -331,18 +309,6 @@ def numerical_failures(step: int):
             step, type(err).__name__, err)) from err
 
 
-def check_terms(terms) -> list:
-    """A user's grid terms: :class:`~skfem_mpm.protocols.GridTerm`
-    objects (or one)."""
-    terms = [terms] if isinstance(terms, GridTerm) else list(terms)
-    for k, term in enumerate(terms):
-        if not isinstance(term, GridTerm):
-            raise InvalidInputError(
-                "terms[{}] must be a GridTerm (skfem_mpm.protocols), got "
-                "{!r}".format(k, term))
-    return terms
-
-
 def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             increment: float, smallest: float,
             callback: Optional[Callable]) -> Result:
@@ -407,22 +373,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
 
 def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              supports, body_force=None, loads: Sequence = (),
-             prescribed: Optional[Callable] = None,
-             nsteps: Optional[int] = None,
-             method: str = "mpm", kinematics: str = "small",
-             rhs: str = "residual", antilocking: bool = False,
-             ghost="auto", line_search="backtracking", tol: float = 1e-9,
-             max_iter: int = 25,
-             max_cutbacks: int = 8, solver=None,
-             locator: Optional[Locator] = None, keep_snapshots: bool = True,
-             first_step: int = 1, domain0: Optional[ndarray] = None,
-             load_factor: Optional[float] = None,
-             increment: Optional[float] = None,
-             counters: Optional[dict] = None,
-             callback: Optional[Callable] = None,
-             ramp_body_force=True, rigid_bodies: Sequence = (),
-             dynamics: Optional[Dynamics] = None,
-             newton: str = "full", terms: Sequence = ()) -> Result:
+             nsteps: Optional[int] = None, method: str = "mpm",
+             kinematics: str = "small", dynamics: Optional[Dynamics] = None,
+             options: Optional[Options] = None, **aliases) -> Result:
     """Implicit MPM, GIMP or FE, quasi-static or dynamic: any method with
     any kinematics, material, stabilisation and loads.
 
@@ -444,119 +397,33 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         taking the grid's vector ``Basis``, e.g.
         ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.
     body_force
-        Body force per unit *initial* volume at full load, shape (dim,);
-        ``None``: none is assembled.  Point forces at full load are
-        ``points.force``.
-    ramp_body_force
-        ``True`` (default): the body force grows with the load factor like
-        every load; ``False``: it acts in full from the first step, as where
-        the points start from a geostatic stress that balances it
-        (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`); or one
-        bool per body.  What it leaves out of balance at the start (a body
-        not in a geostatic state, a sloping surface) must be carried by the
-        first step whole: a cut-back does not reduce it.
+        Body force per unit *initial* volume at full load, shape (dim,),
+        growing with the load factor like every load, or a
+        :class:`~skfem_mpm.BodyForce` that says otherwise (in full from the
+        first step, per body); ``None``: none is assembled.  Point forces
+        at full load are ``points.force``.
     loads
-        Further loads at full load (:mod:`skfem_mpm.solve.loads`):
-        :class:`~skfem_mpm.Traction`, :class:`~skfem_mpm.Pressure` on a side
-        of a body, :class:`~skfem_mpm.GridLoad` (a scikit-fem
-        ``LinearForm``).
-    prescribed
-        Optional ``prescribed(grid_basis, f_old, f_new) -> (dofs,
-        increments)``: grid displacement increments imposed over a step
-        from load factor ``f_old`` to ``f_new``.
+        Further loads at full load and what else drives the body, in any
+        order: :class:`~skfem_mpm.Traction`, :class:`~skfem_mpm.Pressure`
+        (a follower load in finite deformation) on a side of a body,
+        :class:`~skfem_mpm.GridLoad` (a scikit-fem ``LinearForm``),
+        :class:`~skfem_mpm.Prescribed` grid displacement increments,
+        :class:`~skfem_mpm.RigidBody` bodies of points pushed by prescribed
+        displacement through the grid nodes of the cells they occupy
+        (standard MPM or FE; the force each needs per step is in
+        ``StepRecord.rigid_forces``), and grid terms of one's own
+        (:class:`~skfem_mpm.GridTerm`: forces and matrices added to every
+        step's balance after the built-in ones, :data:`GRID_TERMS`).
     nsteps
-        Load steps; every load is ramped linearly.  A nonlinear step may be
-        cut back (bisected) down to ``2**-max_cutbacks`` of a step.
+        Load steps (default 1); every load is ramped linearly.  A nonlinear
+        step may be cut back (bisected) down to ``2**-max_cutbacks`` of a
+        step (:class:`~skfem_mpm.NewtonOptions`).
     method
         ``"fem"`` (points fixed: finite elements with the points as
         quadrature), ``"mpm"``, ``"ugimp"`` or ``"cpgimp"``.
     kinematics
         ``"small"`` (incremental small strain) or ``"finite"`` (updated
         Lagrangian Hencky; total Lagrangian with ``"fem"``).
-    rhs
-        Right-hand side of a linear step's solve: ``"residual"`` (the
-        out-of-balance force) or ``"increment"`` (the seed's load
-        increment; linear steps only).
-    antilocking
-        Mean dilatation (B-bar, :mod:`skfem_mpm.stabilisation.volumetric`)
-        against volumetric locking; ``"mpm"`` and ``"fem"``.
-    ghost
-        Ghost-penalty factor for partially filled cells
-        (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none;
-        ``"auto"`` (default): none, but where points move in finite
-        deformation a load step whose Newton loop fails switches
-        :data:`DEFAULT_GHOST` on for the rest of the run (a bending body
-        leaves nodes a sliver of support and Newton cycles without it; runs
-        that converge without it are not changed), and
-        ``counters["ghost_from_step"]`` says from which step.
-    line_search
-        Globalisation of Newton's method (:mod:`skfem_mpm.solve.newton`):
-        ``"backtracking"`` (default): Newton's full steps, shortened only
-        where one inverts a point or fails in arithmetic (plain Newton's
-        path wherever it converges), and a load step that fails so is
-        retried with Armijo backtracking on the residual (after the ghost
-        penalty of ``ghost="auto"``, before the stabilised tangent and any
-        cut-back); ``"armijo"``: the Armijo search from the first attempt
-        on (where full steps fail most steps anyway, as for a footing
-        sunk into perfectly plastic soil); ``"none"`` or ``FullStep()``:
-        plain Newton; a
-        :class:`~skfem_mpm.solve.newton.Backtracking` of one's own runs
-        from the first attempt (e.g. ``Backtracking(watchdog=0)``, Armijo
-        on every step).  Linear steps solve once and take the whole step.
-        ``counters["line_search_trials"]`` counts the residual evaluations
-        the line search added beyond one per Newton iteration (and the two
-        of a predictor step that was rejected for raising the residual).
-    newton
-        ``"full"`` (default): Newton-Raphson, the consistent tangent
-        assembled and factorised in every iteration (quadratic
-        convergence).  ``"modified"``: the tangent of a load step's first
-        iteration and its factorisation serve the following iterations,
-        each then costing a residual and a back substitution, and the
-        tangent is refactorised where an iteration reduced the residual by
-        less than :data:`MODIFIED_RATE`; the convergence is linear, the
-        converged state the same to the tolerance.  A step whose modified
-        iterations fail is retried with full Newton (before the line
-        search and the other retries).  Linear steps solve once either
-        way.  Where a step fails with one and converges with the other
-        (a retry, ``ghost="auto"`` switching the ghost penalty on), the
-        two runs part ways.  Refused with an adaptive time step
-        (``Dynamics(target_iterations=...)``, which counts iterations).  A
-        solver function of one's own, without ``factorise(A)``, is called
-        for every iteration (the tangent is kept, not its factorisation).
-        ``counters["factorisations"]`` counts the matrices factorised.
-    tol, max_iter
-        Tolerance on the out-of-balance force over the free DOFs relative
-        to the larger of the external force and the internal force on the
-        DOFs whose motion is prescribed (the forces that drive it: a shear
-        box under a small weight is measured against its shear force), and
-        iterations per attempt.
-    solver
-        Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name
-        (``"scipy"``, ``"pypardiso"``, ``"pyamg"``, ``"auto"``); default
-        ``"auto"``, the back end measured fastest for each system's size
-        among those installed, logged
-        (:func:`~skfem_mpm.solve.backends.solver_auto`: SuperLU for small
-        systems and where nothing else is installed).
-    locator, keep_snapshots, callback
-        A :func:`~skfem_mpm.point_locator` of ``mesh`` to reuse; keep
-        per-step grid increments, positions, displacements and stresses in
-        the history; ``callback(record, points)`` after every step.
-    first_step, domain0, load_factor, increment, counters
-        Resume: ``points`` is the state after step ``first_step - 1``, at
-        ``load_factor`` (default ``(first_step - 1) / nsteps``), the next
-        load increment is ``increment`` (default ``1 / nsteps``; less after
-        a cut-back), ``domain0`` the initial GIMP domains (default
-        ``points.domain``) and ``counters`` those of the run so far (a
-        ghost penalty switched on stays on).  ``StepRecord.load_factor``,
-        ``.increment`` and ``.counters`` of the last converged step are
-        what a resume needs: it then continues bit-identically.
-    rigid_bodies
-        :class:`~skfem_mpm.RigidBody` objects (or one): bodies of points
-        pushed by prescribed displacement through the grid nodes of the
-        cells they occupy (standard MPM or FE), which change as they move
-        (a footing that sinks by many cells); the force each needs per step
-        (supported DOFs left to their supports) is in
-        ``StepRecord.rigid_forces``.
     dynamics
         ``None`` (default): quasi-static load steps, no mass, no velocity.
         A :class:`~skfem_mpm.Dynamics`: time steps with inertia
@@ -565,10 +432,21 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         ``Dynamics.load(t)``, ``nsteps`` is set by the time step (giving it
         too is refused), every record carries ``time`` and ``energy`` and
         the points ``velocity`` and ``acceleration``.
-    terms
-        Grid terms of one's own (:class:`~skfem_mpm.protocols.GridTerm`,
-        or one): forces, loads and matrices added to every step's balance
-        after the built-in ones (:data:`GRID_TERMS`).
+    options
+        :class:`~skfem_mpm.Options`: Newton's settings
+        (:class:`~skfem_mpm.NewtonOptions`: tolerance, iterations,
+        cut-backs, line search, full or modified Newton, ``rhs``), the
+        stabilisation (:class:`~skfem_mpm.Stabilisation`: ghost penalty,
+        mean dilatation), the linear solver, a
+        :class:`~skfem_mpm.Resume`, what the run keeps and a callback.
+    **aliases
+        The keyword arguments these objects replaced (``tol``, ``ghost``,
+        ``antilocking``, ``line_search``, ``newton``, ``rhs``,
+        ``max_iter``, ``max_cutbacks``, ``solver``, ``keep_snapshots``,
+        ``callback``, ``locator``, ``first_step``, ``load_factor``,
+        ``increment``, ``domain0``, ``counters``, ``prescribed``,
+        ``rigid_bodies``, ``terms``, ``ramp_body_force``): deprecated,
+        with a :class:`DeprecationWarning`.
 
     Returns
     -------
@@ -599,177 +477,260 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     >>> res.counters["return_maps"] > 0, bool(res.history[-1].residual < 1e-9)
     (True, True)
 
+    Options as objects:
+
+    >>> from skfem_mpm import NewtonOptions, Options, Stabilisation
+    >>> res = simulate(mesh, ElementQuad1(), seed_points(mesh, 2),
+    ...                VonMises(1e4, .3, yield_stress=5.),
+    ...                lambda b: b.get_dofs(lambda x: x[1] == 0),
+    ...                body_force=[0., -10.], nsteps=2, kinematics="finite",
+    ...                options=Options(NewtonOptions(tol=1e-11),
+    ...                                Stabilisation(ghost=.1)))
+    >>> bool(res.history[-1].residual < 1e-11)
+    True
+
     """
-    if kinematics not in KINEMATICS:
-        raise InvalidInputError("kinematics must be one of {}, got {!r}"
-                                .format(KINEMATICS, kinematics))
-    if method not in METHODS:
-        raise InvalidInputError("method must be one of {}, got {!r}".format(
-            METHODS, method))
-    if rhs not in RHS:
-        raise InvalidInputError("rhs must be one of {}, got {!r}".format(
-            RHS, rhs))
-    if dynamics is not None:
-        if not isinstance(dynamics, Dynamics):
-            raise InvalidInputError("dynamics must be None or Dynamics(...), "
-                                    "got {!r}".format(dynamics))
-        if nsteps is not None:
+    options, body_force, loads = translate_aliases(
+        "simulate", options, body_force, loads, aliases)
+    case = check_case(mesh, points, material, body_force, loads, nsteps,
+                      method, kinematics, dynamics, options)
+    run, result = build_run(mesh, elem, points, supports, case, method,
+                            kinematics, dynamics, options)
+    resume = options.resume or Resume()
+    nsteps = case.nsteps
+    step = resume.first_step - 1
+    factor = step / nsteps if resume.load_factor is None \
+        else float(resume.load_factor)
+    increment = 1. / nsteps if resume.increment is None \
+        else float(resume.increment)
+    smallest = 1. / nsteps / 2 ** options.newton.max_cutbacks
+    if resume.counters:
+        run.counters.update(resume.counters)
+        if run.counters["ghost_from_step"]:
+            for term in run.terms:          # a switched-on ghost stays on
+                if isinstance(term, GhostStabilisation):
+                    term.switch_on()
+    return advance(run, result, nsteps, step, factor, increment, smallest,
+                   options.callback)
+
+
+class Case(NamedTuple):
+    """A run's input, checked: the step count, the material at the points,
+    whether steps are linear, the body force and its ramp, the loads by
+    kind."""
+    nsteps: int
+    material: object
+    linear: bool
+    gravity: Optional[ndarray]
+    ramp: ndarray
+    forces: list
+    prescribed: Optional[Callable]
+    rigid_bodies: tuple
+    terms: list
+
+
+def split_loads(loads) -> tuple:
+    """``loads`` by kind: forces (Traction, Pressure, GridLoad), the
+    prescribed motion (one :class:`~skfem_mpm.Prescribed` at most), rigid
+    bodies and grid terms."""
+    loads = [loads] if not isinstance(loads, (list, tuple)) else list(loads)
+    prescribed = [item for item in loads if isinstance(item, Prescribed)]
+    if len(prescribed) > 1:
+        raise InvalidInputError("loads hold {} Prescribed items; give one "
+                                "function for all prescribed DOFs".format(
+                                    len(prescribed)))
+    rigid = [item for item in loads if isinstance(item, RigidBody)]
+    terms = [item for item in loads if isinstance(item, GridTerm)]
+    forces = [item for item in loads if not isinstance(
+        item, (Prescribed, RigidBody, GridTerm))]
+    return (forces, prescribed[0].function if prescribed else None, rigid,
+            terms)
+
+
+def check_steps(nsteps, dynamics: Optional[Dynamics], method: str,
+                newton: NewtonOptions) -> int:
+    """The run's step count: ``nsteps`` (default 1), or the time steps of
+    ``dynamics``, whose mass and Newton settings are checked."""
+    if dynamics is None:
+        return 1 if nsteps is None else nsteps
+    if not isinstance(dynamics, Dynamics):
+        raise InvalidInputError("dynamics must be None or Dynamics(...), "
+                                "got {!r}".format(dynamics))
+    if nsteps is not None:
+        raise InvalidInputError(
+            "nsteps and dynamics both given: a dynamic run takes "
+            "duration / time_step = {} steps".format(dynamics.nsteps))
+    if dynamics.mass == "consistent" and method != "fem":
+        raise InvalidInputError(
+            "mass = 'consistent' needs points that stay in their cells "
+            "(method = 'fem'): with moving points its projection is "
+            "ill-conditioned where a point barely reaches a node, and "
+            "creates energy as points cross cells; use mass = 'lumped'")
+    return dynamics.nsteps
+
+
+def check_combination(method: str, kinematics: str, plastic: bool,
+                      newton: NewtonOptions, stabilisation: Stabilisation,
+                      dynamics: Optional[Dynamics], full_body_force: bool,
+                      driven: bool):
+    """The rules that tie a run's choices together (each option checked
+    itself on creation), for :func:`simulate` and a scene's check: mean
+    dilatation needs cells of points (not GIMP); the seed's one-solve
+    scheme (``rhs="increment"``) needs linear quasi-static steps driven by
+    ramped loads alone; modified Newton does not go with an adaptive time
+    step."""
+    if stabilisation.antilocking and method in ("ugimp", "cpgimp"):
+        raise InvalidInputError(
+            "antilocking (mean dilatation) averages over the points of each "
+            "grid cell: it needs method 'mpm' or 'fem', not {!r} (GIMP points "
+            "span several cells)".format(method))
+    if newton.rhs == "increment":
+        if dynamics is not None:
             raise InvalidInputError(
-                "nsteps and dynamics both given: a dynamic run takes "
-                "duration / time_step = {} steps".format(dynamics.nsteps))
-        if rhs == "increment":
+                "rhs = 'increment' maps load increments of quasi-static "
+                "steps; dynamics needs the out-of-balance force (rhs = "
+                "'residual')")
+        if kinematics == "finite" or plastic:
             raise InvalidInputError(
-                "rhs = 'increment' maps load increments of quasi-static steps;"
-                " dynamics needs the out-of-balance force (rhs = 'residual')")
-        nsteps = dynamics.nsteps
-        if dynamics.mass == "consistent" and method != "fem":
+                "rhs = 'increment' (the seed's one-solve scheme) is for "
+                "linear steps (small strain, elastic); {} needs the "
+                "out-of-balance force (rhs = 'residual')".format(
+                    "finite deformation" if kinematics == "finite"
+                    else "plasticity"))
+        if full_body_force:
             raise InvalidInputError(
-                "mass = 'consistent' needs points that stay in their cells "
-                "(method = 'fem'): with moving points its projection is "
-                "ill-conditioned where a point barely reaches a node, and a "
-                "run was measured to create energy 1000-fold as points "
-                "crossed cells; use mass = 'lumped'")
-    elif nsteps is None:
-        nsteps = 1
-    check_run_input(mesh, points, nsteps, keep_snapshots)
-    reserve = isinstance(ghost, str) and ghost == "auto" and \
-        kinematics == "finite" and method != "fem"
-    if isinstance(ghost, str) and ghost == "auto":
-        ghost = 0.
-    if isinstance(ghost, bool) or not (
-            isinstance(ghost, (int, float, np.number)) and ghost >= 0
-            and np.isfinite(ghost)):
-        raise InvalidInputError("ghost must be 'auto' or a finite number >= "
-                                "0, got {!r}".format(ghost))
-    ramp = np.atleast_1d(np.asarray(ramp_body_force, dtype=object))
+                "rhs = 'increment' maps only load increments: a body force "
+                "in full from the first step (ramp_body_force, a geostatic "
+                "body) would be dropped; use rhs = 'residual'")
+        if driven:
+            raise InvalidInputError(
+                "rhs = 'increment' maps only the load increment: prescribed "
+                "displacements and rigid bodies would not enter the solve; "
+                "use rhs = 'residual'")
+    if newton.newton == "modified" and dynamics is not None and \
+            dynamics.target_iterations is not None:
+        raise InvalidInputError(ADAPTIVE_MODIFIED)
+
+
+def check_body_force(body_force, points: MaterialPoints, dim: int):
+    """The body force vector (or ``None``) and its ramp per body."""
+    ramp = True
+    if isinstance(body_force, BodyForce):
+        body_force, ramp = body_force.value, body_force.ramp
+    ramp = np.atleast_1d(np.asarray(ramp, dtype=object))
     if ramp.ndim != 1 or not all(isinstance(r, (bool, np.bool_))
                                  for r in ramp) \
             or ramp.size not in (1, int(points.body.max()) + 1):
         raise InvalidInputError(
             "ramp_body_force must be True, False or one bool per body ({}), "
-            "got {!r}".format(int(points.body.max()) + 1, ramp_body_force))
-    ramp = ramp.astype(bool)
-    if rhs == "increment" and not ramp.all() and body_force is not None:
-        raise InvalidInputError(
-            "rhs = 'increment' maps only load increments: a body force in "
-            "full from the first step (ramp_body_force) would be dropped; "
-            "use rhs = 'residual'")
-    if not isinstance(antilocking, (bool, np.bool_)):
-        raise InvalidInputError("antilocking must be True or False, got "
-                                "{!r}".format(antilocking))
-    if antilocking and method in ("ugimp", "cpgimp"):
-        raise InvalidInputError(
-            "antilocking (mean dilatation) averages over the points of each "
-            "grid cell: it needs method 'mpm' or 'fem', not {!r} (GIMP points "
-            "span several cells)".format(method))
+            "got {!r}".format(int(points.body.max()) + 1, ramp.tolist()))
+    return as_body_force(body_force, dim), ramp.astype(bool)
+
+
+def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
+               loads, nsteps, method: str, kinematics: str, dynamics,
+               options: Options) -> Case:
+    """Every choice of a run checked together, before any work; returns
+    the checked :class:`Case`."""
+    check_choice("kinematics", kinematics, KINEMATICS)
+    check_choice("method", method, METHODS)
+    newton, stabilisation = options.newton, options.stabilisation
+    nsteps = check_steps(nsteps, dynamics, method, newton)
+    check_run_input(mesh, points, nsteps, options.keep_snapshots)
+    gravity, ramp = check_body_force(body_force, points, mesh.dim())
+    forces, prescribed, rigid_bodies, terms = split_loads(loads)
     if method in ("ugimp", "cpgimp") and points.domain is None:
         raise InvalidInputError(
             "method {!r} needs point domains (MaterialPoints.domain); "
             "seed_points sets them on tensor-product grids".format(method))
     material = at_points(material, points)
     linear = kinematics == "small" and not is_plastic(material)
-    if rhs == "increment" and not linear:
-        raise InvalidInputError(
-            "rhs = 'increment' (the seed's one-solve scheme) is for linear "
-            "steps (small strain, elastic); {} needs the out-of-balance "
-            "force (rhs = 'residual')".format(
-                "finite deformation" if kinematics == "finite"
-                else "plasticity"))
     rigid_bodies = check_rigid_bodies(rigid_bodies, points, mesh.dim(),
                                       method)
+    check_combination(method, kinematics, is_plastic(material), newton,
+                      stabilisation, dynamics, full_body_force=gravity is not
+                      None and not ramp.all(), driven=prescribed is not None
+                      or bool(rigid_bodies))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
-    if rhs == "increment" and (prescribed is not None or rigid_bodies):
-        raise InvalidInputError(
-            "rhs = 'increment' maps only the load increment: prescribed "
-            "displacements would not enter the solve; use rhs = 'residual'")
-    if not (isinstance(tol, (int, float, np.number)) and 0 < tol < 1):
-        raise InvalidInputError("tol must lie in (0, 1), got {!r}".format(tol))
-    for name, value, low in (("max_iter", max_iter, 1),
-                             ("max_cutbacks", max_cutbacks, 0)):
-        if isinstance(value, bool) or not isinstance(
-                value, (int, np.integer)) or not low <= value <= 60:
-            raise InvalidInputError("{} must be an integer in [{}, 60], got "
-                                    "{!r}".format(name, low, value))
-    check_resume(first_step, nsteps, load_factor, increment)
-    if not isinstance(newton, str) or newton not in NEWTON:
-        raise InvalidInputError("newton must be one of {}, got {!r}".format(
-            NEWTON, newton))
-    if newton == "modified" and dynamics is not None and \
-            dynamics.target_iterations is not None:
-        raise InvalidInputError(ADAPTIVE_MODIFIED)
-    line_search = make_line_search(line_search)
+    if options.resume is not None:
+        options.resume.check(nsteps)
+    locator = options.locator
     if locator is not None and getattr(locator, "mesh", None) is not mesh:
         raise InvalidInputError(
             "locator must be point_locator(mesh) of the mesh solved on; this "
             "one {}".format("locates on another mesh" if hasattr(
                 locator, "mesh") else "is not a point_locator"))
+    if dynamics is None and (points.velocity is not None
+                             or points.acceleration is not None):
+        raise InvalidInputError(
+            "the points carry a velocity or acceleration but the run is "
+            "quasi-static (dynamics=None), which would drop them; pass "
+            "dynamics=Dynamics(...) or clear them")
+    return Case(nsteps, material, linear, gravity, ramp, forces, prescribed,
+                rigid_bodies, terms)
+
+
+def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
+              case: Case, method: str, kinematics: str, dynamics,
+              options: Options):
+    """The run's grid, pieces and terms, and its :class:`Result` holding
+    a copy of the points (with their material's state and, in dynamics,
+    velocities)."""
     scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     result = Result(points=points.copy())
-    points = result.points
+    points, counters = result.points, result.counters
     masses = None
     if dynamics is not None:
         masses = dynamics.masses(points)
         if points.velocity is None:
             points.velocity = np.zeros_like(points.x)
-    elif points.velocity is not None or points.acceleration is not None:
-        raise InvalidInputError(
-            "the points carry a velocity or acceleration but the run is "
-            "quasi-static (dynamics=None), which would drop them; pass "
-            "dynamics=Dynamics(...) or clear them")
-    for name, value in initial_state(material, points.n).items():
+    for name, value in initial_state(case.material, points.n).items():
         points.state.setdefault(name, value)
-    resumed_counters, counters = dict(counters or {}), result.counters
-    domain0 = points.domain if domain0 is None else domain0
-    external = ExternalLoads(mesh, scalar, grid,
-                             as_body_force(body_force, mesh.dim()), loads,
+    resume = options.resume or Resume()
+    domain0 = points.domain if resume.domain0 is None else resume.domain0
+    external = ExternalLoads(mesh, scalar, grid, case.gravity, case.forces,
                              domain0, counters, points.n,
                              follow=kinematics == "finite",
-                             moves=method != "fem",
-                             ramp_gravity=ramp)
-    locate = point_locator(mesh) if locator is None else locator
+                             moves=method != "fem", ramp_gravity=case.ramp)
+    locate = point_locator(mesh) if options.locator is None \
+        else options.locator
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
                         counters)
     if method in ("fem", "mpm"):
         pattern.structure()              # set-up, shared by every step
+    newton, stabilisation = options.newton, options.stabilisation
+    first, retry = newton.strategies
+    linear = case.linear
     run = Run(
         mesh=mesh, dim=mesh.dim(), grid=grid, method=piece, linear=linear,
-        kinematics=make_kinematics(kinematics, material, mesh.dim(), counters,
-                                   total_lagrangian=method == "fem"),
-        loads=external, material=material, ghost=ghost,
-        ghost_reserve=reserve,
-        operator_wrappers=(mean_dilatation,) if antilocking else (),
-        D=support_dofs(supports, grid),
-        prescribed=prescribed, rigid_bodies=rigid_bodies, rhs=rhs, tol=tol,
-        max_iter=max_iter,
-        newton=FullStep() if linear else line_search[0],
-        modified=newton == "modified" and not linear,
-        line_search=None if linear else line_search[1],
-        solver=get_solver(solver, mesh.dim()), counters=counters,
-        keep_snapshots=keep_snapshots, domain0=domain0,
+        kinematics=make_kinematics(kinematics, case.material, mesh.dim(),
+                                   counters, total_lagrangian=method == "fem"),
+        loads=external, material=case.material,
+        ghost=stabilisation.ghost_factor(),
+        ghost_reserve=stabilisation.ghost_in_reserve(method, kinematics),
+        operator_wrappers=(mean_dilatation,) if stabilisation.antilocking
+        else (), D=support_dofs(supports, grid),
+        prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
+        rhs=newton.rhs, tol=newton.tol, max_iter=newton.max_iter,
+        newton=FullStep() if linear else first,
+        modified=newton.newton == "modified" and not linear,
+        line_search=None if linear else retry,
+        solver=get_solver(options.solver, mesh.dim()), counters=counters,
+        keep_snapshots=options.keep_snapshots, domain0=domain0,
         dynamics=dynamics, masses=masses,
         scale=(lambda f: f) if dynamics is None
         else (lambda f: dynamics.scale(f * dynamics.duration)),
-        initial_cells=None if prescribed is None
+        initial_cells=None if case.prescribed is None
         else locate(points.x0)[0])
     run.terms = [term for term in (
         factory(run) for factory in GRID_TERMS) if term is not None]
-    run.terms += check_terms(terms)
+    run.terms += case.terms
+    solver = options.solver
     logger.info("linear solver: %s", solver if isinstance(solver, str) else
                 "auto" if solver is None else
                 getattr(solver, "__qualname__", repr(solver)))
-    if prescribed is not None:           # grid DOFs that carried material
+    if case.prescribed is not None:       # grid DOFs that carried material
         run.initially_supported = np.zeros(grid.N, dtype=bool)
         run.initially_supported[grid.dofs.element_dofs[
             :, np.unique(run.initial_cells)]] = True
-    step = int(first_step) - 1
-    factor = step / nsteps if load_factor is None else float(load_factor)
-    increment = 1. / nsteps if increment is None else float(increment)
-    smallest = 1. / nsteps / 2 ** max_cutbacks
-    if resumed_counters:
-        counters.update(resumed_counters)
-        if counters["ghost_from_step"]:
-            for term in run.terms:          # a switched-on ghost stays on
-                if isinstance(term, GhostStabilisation):
-                    term.switch_on()
-    return advance(run, result, nsteps, step, factor, increment, smallest,
-                   callback)
+    return run, result

@@ -17,38 +17,30 @@ error carries the last converged state.  The loop itself is
 :mod:`skfem_mpm.solve.core`.
 
 """
-from typing import Callable, Optional
+from typing import Optional
 
-from numpy import ndarray
 from skfem.element import Element
 from skfem.mesh import Mesh
 
-from ..quadrature.locate import Locator
 from ..quadrature.points import MaterialPoints
 from .core import STABILISATION, simulate
+from .options import Options, translate_aliases
 from .results import Result
 
 __all__ = ["solve_finite", "STABILISATION"]
 
 
 def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
-                 supports, body_force=None, nsteps: int = 1,
-                 method: str = "mpm", prescribed: Optional[Callable] = None,
-                 tol: float = 1e-9, max_iter: int = 25, max_cutbacks: int = 8,
-                 locator: Optional[Locator] = None,
-                 solver: Optional[Callable] = None,
-                 keep_snapshots: bool = True, first_step: int = 1,
-                 domain0: Optional[ndarray] = None,
-                 callback: Optional[Callable] = None, loads=(),
-                 antilocking: bool = False, ghost="auto",
-                 line_search="backtracking", newton: str = "full") -> Result:
+                 supports, body_force=None, loads=(), nsteps: int = 1,
+                 method: str = "mpm", options: Optional[Options] = None,
+                 **aliases) -> Result:
     """Finite-deformation implicit MPM or GIMP (updated Lagrangian,
     Hencky elasticity, optional von Mises plasticity): the finite case of
     :func:`~skfem_mpm.simulate`.
 
     Parameters
     ----------
-    mesh, elem, points, supports, locator, solver, keep_snapshots
+    mesh, elem, points, supports
         As in :func:`~skfem_mpm.solve_mpm`.
     material
         :class:`~skfem_mpm.LinearElastic` (Hencky hyperelasticity) or
@@ -56,6 +48,9 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     body_force
         Body force per unit *initial* volume at full load (``rho0 g``), so
         the weight is conserved exactly; ``None``: none.
+    loads, options
+        As in :func:`~skfem_mpm.simulate` (the grid is reset every step, so
+        prescribed displacements are increments).
     nsteps
         Load steps (loads ramped linearly); a step may be cut back.
     method
@@ -63,26 +58,8 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         and point domains, set by :func:`~skfem_mpm.seed_points`), or
         ``"fem"`` (total Lagrangian finite elements with the points as
         quadrature).
-    loads, antilocking, ghost, line_search, newton
-        As in :func:`~skfem_mpm.simulate`.
-    prescribed
-        Optional ``prescribed(grid_basis, f_old, f_new) -> (dofs,
-        increments)``: grid displacements imposed over a step from load
-        factor ``f_old`` to ``f_new`` (the grid is reset every step, so these
-        are increments).
-    tol
-        Newton tolerance on the out-of-balance force over the free DOFs,
-        relative to the larger of the external force and the forces that
-        drive the prescribed displacements (as in
-        :func:`~skfem_mpm.simulate`).
-    max_iter, max_cutbacks
-        Newton iterations per attempt, and how many times a load step may be
-        halved before giving up.
-    first_step, domain0
-        Resume: ``points`` is the state after step ``first_step - 1``, and
-        ``domain0`` the initial GIMP domains (default ``points.domain``).
-    callback
-        Called as ``callback(record, points)`` after every converged step.
+    **aliases
+        Deprecated keyword arguments, as in :func:`~skfem_mpm.simulate`.
 
     Returns
     -------
@@ -111,12 +88,8 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     True
 
     """
-    return simulate(mesh, elem, points, material, supports,
-                    body_force=body_force, loads=loads, prescribed=prescribed,
-                    nsteps=nsteps, method=method, kinematics="finite",
-                    antilocking=antilocking, ghost=ghost,
-                    line_search=line_search, newton=newton, tol=tol,
-                    max_iter=max_iter, max_cutbacks=max_cutbacks,
-                    solver=solver, locator=locator,
-                    keep_snapshots=keep_snapshots, first_step=first_step,
-                    domain0=domain0, callback=callback)
+    options, body_force, loads = translate_aliases(
+        "solve_finite", options, body_force, loads, aliases)
+    return simulate(mesh, elem, points, material, supports, body_force,
+                    loads, nsteps, method=method, kinematics="finite",
+                    options=options)

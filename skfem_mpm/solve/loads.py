@@ -180,8 +180,9 @@ class ExternalLoads:
                     else self.grid_vector + f
             else:
                 raise InvalidInputError(
-                    "loads must be Traction, Pressure or GridLoad items, got "
-                    "{}".format(type(load).__name__))
+                    "loads must be Traction, Pressure, GridLoad, Prescribed, "
+                    "RigidBody or GridTerm items, got {}".format(
+                        type(load).__name__))
         self.moves = moves
         self.follows = follow and any(item[-1] for item in self.surface)
 

@@ -51,18 +51,27 @@ perfectly plastic soil: half the Newton iterations of the default).
 """
 import logging
 import time
-from typing import Callable, List, NamedTuple
+from dataclasses import dataclass
+from typing import Callable, List, NamedTuple, Union
 
 import numpy as np
 from numpy import ndarray
 
 from ..errors import (InvalidInputError, InversionError, NewtonDivergenceError,
-                      SingularSystemError, check_real)
+                      SingularSystemError, check_choice, check_int,
+                      check_real)
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["Backtracking", "FullStep", "make_line_search", "LINE_SEARCHES",
-           "newton", "Converged", "MODIFIED_RATE"]
+           "newton", "Converged", "MODIFIED_RATE", "NewtonOptions", "RHS",
+           "NEWTON"]
+
+#: the right-hand sides of a linear step (``rhs=``): the out-of-balance
+#: force, or the seed's literal load increment
+RHS = ("residual", "increment")
+#: Newton's tangent: refactorised every iteration, or kept over a step
+NEWTON = ("full", "modified")
 
 #: modified Newton refactorises the tangent when an iteration with the
 #: factorised one reduced the residual by less than this factor (a linear
@@ -318,6 +327,77 @@ def make_line_search(line_search):
     raise InvalidInputError(
         "line_search must be one of {}, a Backtracking(...) or FullStep(), "
         "got {!r}".format(LINE_SEARCHES, line_search))
+
+
+@dataclass(frozen=True)
+class NewtonOptions:
+    """How the load steps iterate to equilibrium; validated on creation.
+
+    Parameters
+    ----------
+    tol
+        Tolerance on the out-of-balance force over the free DOFs relative
+        to the larger of the external force and the internal force on the
+        DOFs whose motion is prescribed (the forces that drive it: a shear
+        box under a small weight is measured against its shear force), in
+        (0, 1).
+    max_iter
+        Newton iterations per attempt at a step, 1 to 60.
+    max_cutbacks
+        A nonlinear step that fails after the retry ladder is bisected,
+        down to ``2**-max_cutbacks`` of a step (0 to 60).
+    line_search
+        Globalisation: ``"backtracking"`` (default: Newton's full steps,
+        shortened only where one inverts a point; a step that fails so is
+        retried with Armijo backtracking on the residual), ``"armijo"``
+        (Armijo from the first attempt, for perfectly plastic flow where
+        full steps fail most steps), ``"none"`` or :class:`FullStep`
+        (plain Newton), or a :class:`Backtracking` of one's own (from the
+        first attempt).  Linear steps solve once.
+    newton
+        ``"full"``: the consistent tangent assembled and factorised in
+        every iteration (quadratic convergence).  ``"modified"``: a load
+        step's first factorised tangent serves its iterations and is
+        refactorised where an iteration reduced the residual by less than
+        :data:`MODIFIED_RATE` (linear convergence, the same state to the
+        tolerance); a step whose modified iterations fail is retried with
+        full Newton.  Refused with an adaptive time step.
+    rhs
+        Right-hand side of a linear step's solve: ``"residual"`` (the
+        out-of-balance force) or ``"increment"`` (the seed's literal load
+        increment; linear steps only, which leaves the out-of-balance force
+        of earlier steps uncorrected).
+
+    >>> NewtonOptions(tol=1e-10).max_iter
+    25
+    >>> NewtonOptions(newton="quasi")
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: newton must be one of ('full', 'modified'), got 'quasi'
+    """
+    tol: float = 1e-9
+    max_iter: int = 25
+    max_cutbacks: int = 8
+    line_search: Union[str, "Backtracking", FullStep] = "backtracking"
+    newton: str = "full"
+    rhs: str = "residual"
+
+    def __post_init__(self):
+        tol = check_real("tol", self.tol)
+        if not 0 < tol < 1:
+            raise InvalidInputError("tol must lie in (0, 1), got {!r}".format(
+                self.tol))
+        check_int("max_iter", self.max_iter, 1, 60)
+        check_int("max_cutbacks", self.max_cutbacks, 0, 60)
+        check_choice("newton", self.newton, NEWTON)
+        check_choice("rhs", self.rhs, RHS)
+        make_line_search(self.line_search)
+
+    @property
+    def strategies(self) -> tuple:
+        """The line searches of a step's first attempt and of its retry
+        (:func:`make_line_search`)."""
+        return make_line_search(self.line_search)
 
 
 class Converged(NamedTuple):

@@ -8,30 +8,23 @@ solve); ``rhs="increment"`` solves with the load increment instead, the
 seed's literal scheme.  The loop itself is :mod:`skfem_mpm.solve.core`.
 
 """
-from typing import Callable, Optional
+from typing import Optional
 
 from skfem.element import Element
 from skfem.mesh import Mesh
 
-from ..quadrature.locate import Locator
 from ..quadrature.points import MaterialPoints
 from .core import simulate
+from .options import Options, translate_aliases
 from .results import Result
 
 __all__ = ["solve_mpm"]
 
 
 def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
-              material, supports, body_force=None,
-              nsteps: int = 1, locator: Optional[Locator] = None,
-              solver: Optional[Callable] = None, keep_snapshots: bool = True,
-              update_positions: bool = True, first_step: int = 1,
-              callback: Optional[Callable] = None,
-              prescribed: Optional[Callable] = None,
-              antilocking: bool = False, ghost: float = 0., loads=(),
-              rhs: str = "residual", tol: float = 1e-9,
-              max_iter: int = 25, line_search="backtracking",
-              newton: str = "full") -> Result:
+              material, supports, body_force=None, loads=(),
+              nsteps: int = 1, update_positions: bool = True,
+              options: Optional[Options] = None, **aliases) -> Result:
     """Run the implicit MPM of seed Algorithm 2.1 (small strain): the
     small-strain standard-MPM case of :func:`~skfem_mpm.simulate`.
 
@@ -60,39 +53,22 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     body_force
         Body force per unit volume at full load, shape (dim,); ``None``: no
         body force is assembled.
+    loads
+        As in :func:`~skfem_mpm.simulate`: tractions, pressures, grid
+        loads, prescribed motion, rigid bodies, grid terms.
     nsteps
         Number of load steps; loads are ramped linearly.
-    locator
-        Optional :func:`~skfem_mpm.point_locator` of ``mesh`` to reuse.
-    solver
-        Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name from
-        :mod:`skfem_mpm.solve.backends` (``"scipy"``, ``"pypardiso"``,
-        ``"pyamg"``, ``"auto"``); default ``"auto"``.
-    keep_snapshots
-        Keep per-step grid displacements, point positions, displacements
-        and stresses in the history.
     update_positions
         Move the points at the end of each step (MPM).  ``False`` keeps
         them fixed: a finite element analysis with the points as quadrature
         (``method="fem"``).
-    loads, rhs, tol, max_iter, line_search, newton
-        As in :func:`~skfem_mpm.simulate` (``rhs="increment"``: the seed's
-        literal load-increment right-hand side; the line search acts in
-        the Newton iterations of plastic bodies only, as ``newton``).
-    first_step
-        Resume: ``points`` is the state after step ``first_step - 1``.
-    callback
-        Called as ``callback(record, points)`` after every step.
-    prescribed
-        Optional ``prescribed(grid_basis, f_old, f_new) -> (dofs,
-        increments)``: grid displacement increments imposed over a step
-        (as in :func:`~skfem_mpm.solve_finite`).
-    antilocking
-        Mean dilatation on the points (:mod:`skfem_mpm.stabilisation.volumetric`, a
-        B-bar method) against volumetric locking as nu approaches 0.5.
-    ghost
-        Ghost-penalty factor for partially filled cells
-        (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none.
+    options
+        :class:`~skfem_mpm.Options` as in :func:`~skfem_mpm.simulate`
+        (``NewtonOptions(rhs="increment")``: the seed's literal
+        load-increment right-hand side; the line search acts in the Newton
+        iterations of plastic bodies only, as ``newton``).
+    **aliases
+        Deprecated keyword arguments, as in :func:`~skfem_mpm.simulate`.
 
     Returns
     -------
@@ -111,11 +87,9 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     -0.9975
 
     """
-    return simulate(mesh, elem, points, material, supports,
-                    body_force=body_force, loads=loads, prescribed=prescribed,
-                    nsteps=nsteps, method="mpm" if update_positions else "fem",
-                    kinematics="small", rhs=rhs, antilocking=antilocking,
-                    ghost=ghost, tol=tol, max_iter=max_iter,
-                    line_search=line_search, newton=newton, solver=solver,
-                    locator=locator, keep_snapshots=keep_snapshots,
-                    first_step=first_step, callback=callback)
+    options, body_force, loads = translate_aliases(
+        "solve_mpm", options, body_force, loads, aliases)
+    return simulate(mesh, elem, points, material, supports, body_force,
+                    loads, nsteps,
+                    method="mpm" if update_positions else "fem",
+                    kinematics="small", options=options)

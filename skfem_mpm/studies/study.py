@@ -40,8 +40,7 @@ from ..errors import InvalidInputError, MPMError
 from ..scenes.io import atomic_path
 from ..scenes.quantities import Quantity, check_quantities
 from ..scenes.scene import METHODS, Grid, Scene, build_points, run_scene
-from ..solve.core import NEWTON, RHS
-from ..solve.newton import LINE_SEARCHES
+from ..solve.newton import LINE_SEARCHES, NEWTON, RHS
 from ..solve.results import PHASES
 from .convergence import relative_errors, self_convergence
 
@@ -87,10 +86,13 @@ def configure(scene: Scene, params: dict) -> Scene:
         out = replace(out, bodies=[replace(b, points_per_cell=int(
             params["ppc"])) for b in out.bodies])
     if "loadsteps" in params:
-        out = replace(out, steps=int(params["loadsteps"]))
-    for name in CHOICES:
-        if name in params:
-            out = replace(out, **{name: params[name]})
+        out = replace(out, nsteps=int(params["loadsteps"]))
+    if "method" in params:
+        out = replace(out, method=params["method"])
+    newton = {name: params[name] for name in ("rhs", "line_search", "newton")
+              if name in params}
+    if newton:
+        out = replace(out, newton=replace(out.newton, **newton))
     return out
 
 

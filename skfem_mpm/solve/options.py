@@ -1,0 +1,255 @@
+"""How a run is solved, resumed and recorded, as small validated objects,
+and what a run's loads may hold besides forces.
+
+:class:`Options` groups :class:`~skfem_mpm.solve.newton.NewtonOptions`,
+:class:`~skfem_mpm.stabilisation.settings.Stabilisation`, the linear
+solver, :class:`Resume` and what the run keeps.  :func:`~skfem_mpm.
+simulate` takes it as ``options=``; the keyword arguments it replaced
+(``tol=``, ``ghost=``, ``first_step=``, ...) are deprecated aliases
+(:func:`translate_aliases`).
+"""
+import warnings
+from dataclasses import dataclass, field, replace
+from typing import Callable, Optional, Sequence, Union
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import InvalidInputError, check_int
+from ..stabilisation.settings import Stabilisation
+from .newton import NewtonOptions
+from .rigid import RigidBody
+
+__all__ = ["Options", "Resume", "Prescribed", "BodyForce",
+           "translate_aliases"]
+
+
+@dataclass(frozen=True)
+class Resume:
+    """Where a run starts again: ``points`` (given to
+    :func:`~skfem_mpm.simulate`) are the state after step
+    ``first_step - 1`` at ``load_factor`` (default
+    ``(first_step - 1) / nsteps``); the next load increment is
+    ``increment`` (default ``1 / nsteps``; less after a cut-back);
+    ``domain0`` are the initial GIMP domains (default ``points.domain``)
+    and ``counters`` those of the run so far (a ghost penalty switched on
+    stays on).  :meth:`after` builds it from the last converged step's
+    record: the run then continues bit-identically.
+
+    >>> Resume(first_step=0)
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: first_step must be an integer >= 1, got 0
+    """
+    first_step: int = 1
+    load_factor: Optional[float] = None
+    increment: Optional[float] = None
+    domain0: Optional[ndarray] = None
+    counters: Optional[dict] = None
+
+    def __post_init__(self):
+        check_int("first_step", self.first_step, 1)
+
+    @classmethod
+    def after(cls, record, domain0: Optional[ndarray] = None) -> "Resume":
+        """Resume after the step of ``record`` (a
+        :class:`~skfem_mpm.StepRecord`)."""
+        return cls(first_step=record.step + 1,
+                   load_factor=record.load_factor,
+                   increment=record.increment,
+                   domain0=domain0, counters=dict(record.counters))
+
+    def check(self, nsteps: int):
+        """Raise :class:`~skfem_mpm.errors.InvalidInputError` for a state
+        no run of ``nsteps`` steps can be in."""
+        for name, value, low, high in (
+                ("load_factor", self.load_factor, 0., 1.),
+                ("increment", self.increment, 0., 1. / nsteps)):
+            if value is not None and not (
+                    isinstance(value, (int, float, np.number))
+                    and not isinstance(value, bool)
+                    and (low <= value < high if name == "load_factor"
+                         else low < value <= high * (1 + 1e-12))):
+                raise InvalidInputError(
+                    "{} must lie in {}{}, {}{}, got {!r}".format(
+                        name, "[" if name == "load_factor" else "(", low,
+                        high, ")" if name == "load_factor" else "]", value))
+
+
+@dataclass(frozen=True)
+class Prescribed:
+    """Grid displacement increments imposed over each step:
+    ``function(grid_basis, f_old, f_new) -> (dofs, increments)``, with
+    ``f_old``, ``f_new`` the loads' scale at the step's start and end (the
+    load factor; the time function's value in dynamics).  An item of
+    :func:`~skfem_mpm.simulate`'s ``loads``."""
+    function: Callable
+
+    def __post_init__(self):
+        if not callable(self.function):
+            raise InvalidInputError(
+                "Prescribed needs a function (basis, f_old, f_new) -> (dofs, "
+                "increments), got {!r}".format(self.function))
+
+
+@dataclass(frozen=True)
+class BodyForce:
+    """A body force per unit initial volume at full load, ``value`` of
+    shape (dim,), and whether it grows with the load factor (``ramp=True``,
+    the default) or acts in full from the first step (``False``: where the
+    points start from a geostatic stress that balances it), or one bool
+    per body.  What it leaves out of balance at the start must be carried
+    by the first step whole: a cut-back does not reduce it."""
+    value: Sequence[float]
+    ramp: Union[bool, Sequence[bool]] = True
+
+
+@dataclass(frozen=True)
+class Options:
+    """How a run is solved and what it keeps.
+
+    Parameters
+    ----------
+    newton
+        :class:`~skfem_mpm.solve.newton.NewtonOptions`: tolerance,
+        iterations, cut-backs, line search, full or modified Newton, the
+        right-hand side of linear steps.
+    stabilisation
+        :class:`~skfem_mpm.stabilisation.settings.Stabilisation`: ghost
+        penalty and mean dilatation.
+    solver
+        Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name
+        (``"scipy"``, ``"pypardiso"``, ``"pyamg"``, ``"auto"``); default
+        ``"auto"``, the back end measured fastest for each system's size
+        among those installed, logged
+        (:func:`~skfem_mpm.solve.backends.solver_auto`).
+    resume
+        :class:`Resume`, or ``None``: from the start.
+    keep_snapshots
+        Keep per-step grid increments, positions, displacements and
+        stresses in the history.
+    callback
+        ``callback(record, points)`` after every step.
+    locator
+        A :func:`~skfem_mpm.point_locator` of the mesh to reuse.
+
+    >>> Options(newton=NewtonOptions(tol=1e-10)).newton.tol
+    1e-10
+    >>> Options(newton={"tol": 1e-10})
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: Options.newton must be a NewtonOptions(...), got {'tol': 1e-10}
+    """
+    newton: NewtonOptions = field(default_factory=NewtonOptions)
+    stabilisation: Stabilisation = field(default_factory=Stabilisation)
+    solver: object = None
+    resume: Optional[Resume] = None
+    keep_snapshots: bool = True
+    callback: Optional[Callable] = None
+    locator: object = None
+
+    def __post_init__(self):
+        for name, kind in (("newton", NewtonOptions),
+                           ("stabilisation", Stabilisation),
+                           ("resume", Resume)):
+            value = getattr(self, name)
+            if not isinstance(value, kind) and not (
+                    name == "resume" and value is None):
+                raise InvalidInputError(
+                    "Options.{} must be a {}(...), got {!r}".format(
+                        name, kind.__name__, value))
+        if not isinstance(self.keep_snapshots, (bool, np.bool_)):
+            raise InvalidInputError("keep_snapshots must be True or False, "
+                                    "got {!r}".format(self.keep_snapshots))
+        if self.callback is not None and not callable(self.callback):
+            raise InvalidInputError("callback must be callable, got "
+                                    "{!r}".format(self.callback))
+
+
+#: the keyword arguments :func:`~skfem_mpm.simulate` took before
+#: :class:`Options`: where each now lives
+ALIASES = {
+    "tol": "newton", "max_iter": "newton", "max_cutbacks": "newton",
+    "line_search": "newton", "newton": "newton", "rhs": "newton",
+    "ghost": "stabilisation", "antilocking": "stabilisation",
+    "solver": "options", "keep_snapshots": "options",
+    "callback": "options", "locator": "options",
+    "first_step": "resume", "load_factor": "resume", "increment": "resume",
+    "domain0": "resume", "counters": "resume",
+    "prescribed": "loads", "rigid_bodies": "loads", "terms": "loads",
+    "ramp_body_force": "body_force",
+}
+
+
+def translate_aliases(function: str, options: Optional[Options],
+                      body_force, loads, aliases: dict,
+                      warn: bool = True):
+    """``(options, body_force, loads)`` with the deprecated keyword
+    arguments ``aliases`` of ``function`` moved where they now live (one
+    :class:`DeprecationWarning` naming them); an unknown keyword or one
+    given twice is refused."""
+    unknown = sorted(set(aliases) - set(ALIASES))
+    if unknown:
+        raise InvalidInputError("{}() got unexpected keyword argument(s) {}"
+                                .format(function, ", ".join(unknown)))
+    options = Options() if options is None else options
+    if not isinstance(options, Options):
+        raise InvalidInputError("options must be an Options(...), got "
+                                "{!r}".format(options))
+    if not aliases:
+        return options, body_force, loads
+    if warn:
+        warnings.warn(
+            "{}({}=...) is deprecated: use {}".format(
+                function, "=..., ".join(sorted(aliases)), ", ".join(sorted(
+                    {"options=Options({}=...)".format(ALIASES[name])
+                     if ALIASES[name] in ("newton", "stabilisation",
+                                          "resume")
+                     else "options=Options(...)" if ALIASES[name] ==
+                     "options" else "loads=[...]" if ALIASES[name] == "loads"
+                     else "body_force=BodyForce(..., ramp=...)"
+                     for name in aliases}))),
+            DeprecationWarning, stacklevel=3)
+    groups = {}
+    for name, value in aliases.items():
+        groups.setdefault(ALIASES[name], {})[name] = value
+    newton = groups.get("newton", {})
+    stabilisation = groups.get("stabilisation", {})
+    resume = groups.get("resume", {})
+    given = options
+    options = replace(
+        options, newton=replace(options.newton, **newton),
+        stabilisation=replace(options.stabilisation, **stabilisation),
+        resume=Resume(**resume) if resume else options.resume,
+        **groups.get("options", {}))
+    if resume and given.resume is not None:
+        raise InvalidInputError("{}: both options.resume and {} given"
+                                .format(function, ", ".join(resume)))
+    extra = groups.get("loads", {})
+    if extra:
+        loads = list(_items(loads))
+        if extra.get("prescribed") is not None:
+            loads.append(Prescribed(extra["prescribed"]))
+        rigid = _items(extra.get("rigid_bodies", ()))
+        for k, body in enumerate(rigid):
+            if not isinstance(body, RigidBody):
+                raise InvalidInputError(
+                    "rigid_bodies[{}] must be a RigidBody, got {!r}".format(
+                        k, body))
+        loads += rigid
+        loads += _items(extra.get("terms", ()))
+    if "ramp_body_force" in aliases:
+        if isinstance(body_force, BodyForce):
+            raise InvalidInputError("{}: both BodyForce(ramp=...) and "
+                                    "ramp_body_force given".format(function))
+        body_force = BodyForce(body_force, aliases["ramp_body_force"])
+    return options, body_force, loads
+
+
+def _items(items) -> list:
+    """``items`` as a list (one item or a sequence)."""
+    if items is None:
+        return []
+    if isinstance(items, (list, tuple)):
+        return list(items)
+    return [items]

@@ -1,0 +1,62 @@
+"""The stabilisations a run asks for, as one validated object."""
+from dataclasses import dataclass
+from typing import Union
+
+import numpy as np
+
+from ..errors import InvalidInputError
+
+__all__ = ["Stabilisation"]
+
+
+@dataclass(frozen=True)
+class Stabilisation:
+    """Stabilisations of a run; validated on creation.
+
+    Parameters
+    ----------
+    ghost
+        Ghost-penalty factor for partially filled cells
+        (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none;
+        ``"auto"`` (default): none, but where points move in finite
+        deformation a load step whose Newton loop fails switches the
+        default penalty (0.1) on for the rest of the run (a bending body
+        leaves nodes a sliver of support and Newton cycles without it; runs
+        that converge without it are not changed);
+        ``counters["ghost_from_step"]`` says from which step.
+    antilocking
+        Mean dilatation (B-bar, :mod:`skfem_mpm.stabilisation.volumetric`)
+        against volumetric locking; methods ``"mpm"`` and ``"fem"`` (GIMP
+        points span several cells: no cell average).
+
+    >>> Stabilisation(ghost=.1).antilocking
+    False
+    >>> Stabilisation(ghost=-1)
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: ghost must be 'auto' or a finite number >= 0, got -1
+    """
+    ghost: Union[str, float] = "auto"
+    antilocking: bool = False
+
+    def __post_init__(self):
+        ghost = self.ghost
+        if not (isinstance(ghost, str) and ghost == "auto") and (
+                isinstance(ghost, (bool, np.bool_)) or not (
+                    isinstance(ghost, (int, float, np.number)) and ghost >= 0
+                    and np.isfinite(ghost))):
+            raise InvalidInputError("ghost must be 'auto' or a finite number "
+                                    ">= 0, got {!r}".format(ghost))
+        if not isinstance(self.antilocking, (bool, np.bool_)):
+            raise InvalidInputError("antilocking must be True or False, got "
+                                    "{!r}".format(self.antilocking))
+
+    def ghost_factor(self) -> float:
+        """The penalty factor from the start (0 for ``"auto"``)."""
+        return 0. if isinstance(self.ghost, str) else float(self.ghost)
+
+    def ghost_in_reserve(self, method: str, kinematics: str) -> bool:
+        """``ghost="auto"`` holds the default penalty in reserve where
+        points move (not ``"fem"``) in finite deformation."""
+        return isinstance(self.ghost, str) and kinematics == "finite" \
+            and method != "fem"
