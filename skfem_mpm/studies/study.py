@@ -15,10 +15,15 @@ under ``"error"``.
 
 Cases are independent: they run serially (with a progress line) or on a
 Dask cluster (``dask.distributed``, an optional extra: a local cluster or
-``scheduler=ADDRESS``).  Timings are taken inside each case, so parallel
-execution does not distort them.  Results are appended per case, atomically,
-to ``study.json`` and ``study.csv``; an interrupted study resumes without
-re-running finished cases.
+``scheduler=ADDRESS``).  A local cluster has at most one worker per core
+(more are capped, with a warning) and each worker one thread (OpenMP,
+MKL and OpenBLAS limited to one before the worker imports numpy).  Every
+case records its wall time and its CPU time (``time.process_time`` of the
+process that ran it): workers that share cores, memory bandwidth or the
+machine with the study's own process stretch wall times, not CPU times,
+so compare CPU times across serial and parallel studies.  Results are
+appended per case, atomically, to ``study.json`` and ``study.csv``; an
+interrupted study resumes without re-running finished cases.
 
 """
 import csv
@@ -47,7 +52,7 @@ from .convergence import relative_errors, self_convergence
 logger = logging.getLogger(__name__)
 
 __all__ = ["study", "refine", "case_error", "analyse", "scene_quantities",
-           "VARIABLES", "DEFAULT_VARY", "DEFAULT_QUANTITY"]
+           "worker_count", "VARIABLES", "DEFAULT_VARY", "DEFAULT_QUANTITY"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
              "line_search", "newton")
@@ -170,21 +175,23 @@ class PeakMemory:
 
 def run_case(scene: Scene, params: dict, quantities=()) -> dict:
     """One case, timed inside: error against the scene's reference (if it
-    has one), the ``quantities``' ``values``, wall time, time per phase,
+    has one), the ``quantities``' ``values``, wall time and CPU time
+    (``time.process_time`` of this process: all its threads), time per phase,
     Newton iterations, DOFs, points and peak memory (growth of the
     resident set during the case)."""
     case = configure(scene, params)
     with PeakMemory() as memory:
-        tic = time.perf_counter()
+        tic, cpu = time.perf_counter(), time.process_time()
         try:
             result = run_scene(case)
             failure = ""
         except MPMError as err:
             result, failure = None, "{}: {}".format(type(err).__name__, err)
+        cpu = time.process_time() - cpu
         wall = time.perf_counter() - tic
     row = dict(params)
-    row.update(wall_seconds=wall, peak_mb=memory.peak / 2 ** 20,
-               failure=failure)
+    row.update(wall_seconds=wall, cpu_seconds=cpu,
+               peak_mb=memory.peak / 2 ** 20, failure=failure)
     if result is None:
         return row
     timings = result.timings()
@@ -324,7 +331,8 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
         Folder of ``study.json`` / ``study.csv`` (and the plots).
     scheduler, workers
         Dask: a scheduler address, or a local cluster of ``workers``
-        processes; both unset: serial.
+        processes (at most one per core: :func:`worker_count`; one thread
+        each); both unset: serial.
     quantities
         :class:`~skfem_mpm.scenes.quantities.Quantity` list; default the
         scene's ``outputs``, or the largest point displacement.
@@ -365,6 +373,8 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
         if len(set(values)) != len(values):
             raise InvalidInputError("--vary {} repeats a value: {}".format(
                 name, list(values)))
+    if scheduler is None and workers:
+        workers = worker_count(workers)
     quantities = list(quantities or scene_quantities(scene))
     check_quantities(scene, quantities, build_points(
         scene, scene.grid.build()[0]))
@@ -392,14 +402,22 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
             sys.stderr.write("\n")
         _write(outdir, rows, 1, analyse(scene, rows, quantities))
         return _ordered(rows, cases)
+    import dask
     from dask.distributed import Client, LocalCluster, as_completed
     if not logger.isEnabledFor(logging.INFO):
         logging.getLogger("distributed").setLevel(logging.ERROR)
     cluster = None
     if scheduler is None:
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1,
-                               processes=True, host="127.0.0.1",
-                               dashboard_address="127.0.0.1:0")
+        # set before each worker process starts, so before it imports
+        # numpy; no profiler thread taking CPU time beside the case
+        spawn = "distributed.nanny.pre-spawn-environ"
+        with dask.config.set({spawn: dict(dask.config.get(spawn, {}),
+                                          **ONE_THREAD),
+                              "distributed.worker.profile.enabled": False}):
+            cluster = LocalCluster(
+                n_workers=workers, threads_per_worker=1,
+                processes=True, host="127.0.0.1",
+                dashboard_address="127.0.0.1:0")
     with Client(scheduler or cluster) as client:
         nworkers = len(client.scheduler_info()["workers"])
         futures = [client.submit(run_case, scene, params, quantities,
@@ -411,6 +429,40 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     if cluster is not None:
         cluster.close()
     return _ordered(rows, cases)
+
+
+#: a local cluster's workers each compute on one thread
+ONE_THREAD = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1,
+              "OPENBLAS_NUM_THREADS": 1}
+
+
+def cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:                      # not on Linux
+        return os.cpu_count() or 1
+
+
+def worker_count(workers: int) -> int:
+    """``workers`` local worker processes, capped at the :func:`cores`
+    (with a warning): more workers than cores take turns on them and
+    stretch every case's wall and CPU time.
+
+    >>> from skfem_mpm.studies.study import cores, worker_count
+    >>> worker_count(1), worker_count(cores() + 1) == cores()
+    (1, True)
+    """
+    if workers < 1:
+        raise InvalidInputError("--workers must be at least 1, got {}"
+                                .format(workers))
+    available = cores()
+    if workers > available:
+        logger.warning(
+            "--workers %d capped to %d: this process may use %d cores, and "
+            "more workers than cores would share them and stretch every "
+            "case's time", workers, available, available)
+    return min(workers, available)
 
 
 def _ordered(rows: List[dict], cases: List[dict]) -> List[dict]:
