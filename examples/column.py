@@ -11,6 +11,7 @@ Run ``python examples/column.py [OUTDIR]`` to write both figures as PNG.
 """
 import numpy as np
 
+from skfem_mpm import Options
 from skfem_mpm.studies.column import column_error, run_column, vertical_stress
 
 # Figure 2.9: stress profiles, 2 points per element
@@ -21,7 +22,8 @@ profiles = {(nel, nsteps): run_column(nel, ppc=2, nsteps=nsteps)
 nelems = 2 ** np.arange(0, 10)
 errors = {
     (nsteps, ppc): np.array([
-        column_error(run_column(nel, ppc, nsteps, keep_snapshots=False).points)
+        column_error(run_column(nel, ppc, nsteps, options=Options(
+            keep_snapshots=False)).points)
         for nel in nelems])
     for nsteps in (1, 2, 20) for ppc in (2, 3, 4, 5)
 }

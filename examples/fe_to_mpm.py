@@ -21,7 +21,7 @@ Gauss points) and falls below it as the bending beam stiffens (3.7% below
 FE at full load).
 
 Added lines of code (comments, blank lines and the plot not counted):
-1 import line, 7 lines for part 2, 7 for part 3.
+1 import line, 8 lines for part 2, 7 for part 3.
 
 Run ``python examples/fe_to_mpm.py [OUTDIR]`` for the load-deflection plot.
 """
@@ -30,7 +30,8 @@ from skfem import (Basis, ElementQuad1, ElementVector, LinearForm, MeshQuad,
                    asm, condense, solve)
 from skfem.models.elasticity import lame_parameters, linear_elasticity
 
-from skfem_mpm import LinearElastic, seed_points, simulate, solve_fe
+from skfem_mpm import (LinearElastic, Options, Stabilisation, seed_points,
+                       simulate, solve_fe)
 
 # 1. scikit-fem: linear elasticity, small strain ----------------------------
 LENGTH, DEPTH, E, NU, WEIGHT = 10., 1., 1e5, .3, 25.   # m, m, kPa, -, kN/m^3
@@ -56,7 +57,8 @@ grid = MeshQuad.init_tensor(np.arange(0., LENGTH + 1.1, .25),
 mpm = simulate(grid, ElementQuad1(), points, LinearElastic(E, NU),
                supports=lambda b: b.get_dofs(lambda x: x[0] == 0.),
                body_force=[0., -WEIGHT], nsteps=10, method="cpgimp",
-               kinematics="finite", ghost=.1)
+               kinematics="finite",
+               options=Options(stabilisation=Stabilisation(ghost=.1)))
 
 # 3. FE against MPM: tip deflection of the points nearest the free end ------
 fe = solve_fe(mesh, ElementQuad1(), LinearElastic(E, NU),

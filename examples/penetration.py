@@ -43,8 +43,8 @@ import logging
 import numpy as np
 from skfem import ElementQuad1, MeshQuad
 
-from skfem_mpm import (LinearElastic, RigidBody, VonMises, seed_points,
-                       simulate)
+from skfem_mpm import (LinearElastic, NewtonOptions, Options, RigidBody,
+                       Stabilisation, VonMises, seed_points, simulate)
 from skfem_mpm.quadrature.points import concatenate_points
 
 logger = logging.getLogger(__name__)
@@ -86,9 +86,10 @@ def penetrate(cells_per_width: int = 4, nsteps: int = 128):
 
     result = simulate(mesh, ElementQuad1(), points,
                       [soil, LinearElastic(E=1e2, nu=.3)], supports,
-                      rigid_bodies=[RigidBody(1, [0., penetration])],
-                      nsteps=nsteps, kinematics="finite", antilocking=True,
-                      line_search="armijo")
+                      loads=[RigidBody(1, [0., penetration])],
+                      nsteps=nsteps, kinematics="finite", options=Options(
+                          NewtonOptions(line_search="armijo"),
+                          Stabilisation(antilocking=True)))
     under = 2 * np.flatnonzero(footing_base(mesh.p)) + 1
     depths = np.array([0.] + [r.load_factor for r in result.history]) \
         * penetration / (2 * half)

@@ -22,8 +22,8 @@ zone.
 import numpy as np
 from skfem import ElementQuad1, MeshQuad
 
-from skfem_mpm import (LinearElastic, RigidBody, VonMises, seed_points,
-                       simulate)
+from skfem_mpm import (LinearElastic, Options, RigidBody, Stabilisation,
+                       VonMises, seed_points, simulate)
 from skfem_mpm.quadrature.points import concatenate_points
 
 h, half, width, depth = 1 / 32, .25, 1.25, .75
@@ -48,8 +48,9 @@ def supports(basis):
 
 result = simulate(mesh, ElementQuad1(), points,
                   [soil, LinearElastic(E=1e2, nu=.3)], supports,
-                  rigid_bodies=[RigidBody(1, [0., -settlement], rough=False)],
-                  nsteps=20, antilocking=True)
+                  loads=[RigidBody(1, [0., -settlement], rough=False)],
+                  nsteps=20, options=Options(
+                      stabilisation=Stabilisation(antilocking=True)))
 # settlement and footing pressure in units of c_u, step by step
 settlements = np.array([0.] + [r.load_factor for r in result.history]) \
     * settlement

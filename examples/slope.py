@@ -19,7 +19,8 @@ Run ``python examples/slope.py [OUTDIR]`` for the mechanism.
 import numpy as np
 from skfem import ElementQuad1, MeshQuad
 
-from skfem_mpm import VonMises, seed_points, simulate
+from skfem_mpm import (NewtonOptions, Options, Stabilisation, VonMises,
+                       seed_points, simulate)
 from skfem_mpm.solve.strength_reduction import (reduce_strength,
                                                 strength_reduction)
 
@@ -51,7 +52,8 @@ def run(factor):
     return simulate(mesh, ElementQuad1(), points,
                     reduce_strength(clay, factor), supports,
                     body_force=[0., -unit_weight], nsteps=4,
-                    antilocking=True, max_cutbacks=0)
+                    options=Options(NewtonOptions(max_cutbacks=0),
+                                    Stabilisation(antilocking=True)))
 
 
 safety = strength_reduction(run, low=1., high=2., tolerance=.01)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from skfem_mpm import InvalidInputError, InversionError, MPMError, \
-    NewtonOptions
+    NewtonOptions, Options, Stabilisation
 from skfem_mpm.errors import SceneError
 from skfem_mpm.scenes.scene import run_scene
 from skfem_mpm.scenes.scene_file import load_scene, parse_scene
@@ -41,12 +41,15 @@ def test_armijo_retry_carries_what_plain_newton_cannot():
     within the discretisation error of the ghost-stabilised run (measured
     5.7% from the elastica)."""
     with pytest.raises(MPMError) as err:
-        untuned_cantilever(.5, 2, "mpm", ghost=0., line_search="none")
+        untuned_cantilever(.5, 2, "mpm", options=Options(
+            NewtonOptions(line_search="none"), Stabilisation(ghost=0.)))
     assert err.value.load_factor < .5
     with pytest.raises(MPMError):     # the guard alone: no better
-        untuned_cantilever(.5, 2, "mpm", ghost=0.,
-                           line_search=Backtracking(watchdog=None))
-    res, error = untuned_cantilever(.5, 2, "mpm", ghost=0.)
+        untuned_cantilever(.5, 2, "mpm", options=Options(
+            NewtonOptions(line_search=Backtracking(watchdog=None)),
+            Stabilisation(ghost=0.)))
+    res, error = untuned_cantilever(.5, 2, "mpm", options=Options(
+        stabilisation=Stabilisation(ghost=0.)))
     assert res.counters["line_search_trials"] > 0
     assert res.history[-1].load_factor == 1.
     assert max(r.residual for r in res.history) <= 1e-9

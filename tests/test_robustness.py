@@ -14,7 +14,7 @@ from skfem_mpm import (InvalidInputError, LinearElastic, MaterialPointBasis,
                        locate_points, seed_gauss_points, seed_points,
                        solve_mpm)
 from skfem_mpm.cli import main
-from skfem_mpm import side_points, simulate, solve_finite
+from skfem_mpm import Options, side_points, simulate, solve_finite
 from skfem_mpm.studies.column import (LOAD, MATERIAL, column_error, column_grid,
                               column_supports, run_column)
 from skfem_mpm.scenes.scene import Body, Grid, Scene, Support, run_scene
@@ -118,7 +118,8 @@ def test_many_load_steps_do_not_drift():
     errors = {n: column_error(r.points) for n, r in runs.items()}
     assert errors[1000] <= errors[20]
     assert max(r.residual for r in runs[1000].history) <= 1e-9
-    res = run_column(20, 2, 1000, keep_snapshots=False)
+    res = run_column(20, 2, 1000,
+                     options=Options(keep_snapshots=False))
     assert np.isfinite(res.points.stress).all()
     assert max(r.residual for r in res.history) < 1e-10
     assert column_error(res.points) < .1

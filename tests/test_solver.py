@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 from skfem import ElementQuad1, MeshQuad
 
-from skfem_mpm import (InvalidInputError, InvalidMaterialError, LinearElastic,
+from skfem_mpm import (InvalidInputError, Options, InvalidMaterialError, LinearElastic,
                        MaterialPoints, PointsOutsideGridError,
                        SingularSystemError, seed_gauss_points, seed_points,
                        solve_mpm)
@@ -56,7 +56,8 @@ def test_column_one_step_converges_at_rate_one():
 def test_column_twenty_steps_plateaus():
     """Grid crossing: with 20 load steps the error stops decreasing."""
     nel = np.array([4, 16, 64, 256])
-    err = np.array([column_error(run_column(n, 2, 20, keep_snapshots=False)
+    err = np.array([column_error(run_column(
+        n, 2, 20, options=Options(keep_snapshots=False))
                                  .points) for n in nel])
     one_step = 1 / (4 * nel)
     assert err[0] == pytest.approx(one_step[0], rel=1e-6)  # no crossing yet

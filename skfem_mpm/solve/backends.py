@@ -18,12 +18,8 @@ Newton, :func:`factorised`):
 - ``"auto"`` (the default, :func:`solver_auto`): per system, the back end
   measured fastest for its size among those installed.
 
-Measured on the block of ``benchmarks/step_cost.py`` (milliseconds per
-Newton iteration's solve, finite deformation, 2026-11-24): 2D, SuperLU /
-Pardiso 2.9 / 4.2 at 544 free DOFs, 5.1 / 5.4 at 1300, 9.5 / 7.8 at 2520,
-21 / 12 at 5100, 74 / 40 at 13000; 3D, SuperLU / Pardiso / AMG-CG 5.8 /
-5.9 / 37 at 540, 33 / 15 / 77 at 1944, 151 / 66 / 141 at 4752, 1536 /
-187 / 447 at 13872.
+The sizes from which each back end is the fastest, and what the choice
+costs, are measured in ``benchmarks/README.md`` (``benchmarks/solvers.py``).
 
 """
 import importlib.util
@@ -257,9 +253,8 @@ def mkl_environment():
       10-15% of Pardiso's time;
     - ``KMP_BLOCKTIME=0``: MKL's threads sleep as soon as a solve ends
       instead of spinning for 200 ms on the cores that the (single
-      threaded) point updates between solves share; measured on a 2-core
-      machine, spinning slowed the rest of a Newton iteration by 15%, and
-      Pardiso's own time is unchanged.
+      threaded) point updates between solves share (what spinning cost is
+      in ``benchmarks/README.md``; Pardiso's own time is unchanged).
 
     Where MKL has computed before skfem-mpm's first Pardiso solve (another
     library using MKL), set them in the environment instead."""
@@ -455,8 +450,8 @@ def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
     drops it; the load-step core calls it at every step, so that a run
     resumed at a step computes what the uninterrupted one does): a later matrix is
     solved by Krylov iterations on itself, preconditioned by the kept
-    hierarchy (measured on a 3D block at 1.4e4 DOFs: 14-15 iterations
-    either way, 0.2 s of setup saved per iteration); a hierarchy is built
+    hierarchy (``benchmarks/README.md`` has what that saves); a hierarchy
+    is built
     for it where they do not converge, and for the next matrix where they
     took more than twice the iterations of the hierarchy's own first
     solve.  ``solver.hierarchies`` counts the hierarchies built.

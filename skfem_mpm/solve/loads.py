@@ -20,13 +20,10 @@ Every load is given at full load and ramped linearly by the load factor.
   trial deformation, so the converged state carries the pressure on the
   deformed surface.  Its load stiffness is not in the tangent (which stays
   symmetric, for every linear solver): Newton then contracts at a linear
-  rate that grows with the pressure over the stiffness.  Measured on a
-  block under a follower pressure: 0.06 per iteration at ``p/E = 0.2``
-  with finite elements, 0.12 to 0.15 at ``p/E = 0.1`` with standard MPM,
-  0.43 with cpGIMP (whose weakly supported nodes are softer), which then
-  fails at ``p/E = 0.2``; a cut-back cannot help there, as the rate does
-  not depend on the step.  For pressures of a fraction of a percent of
-  ``E`` (soils, fluids on solids) the extra iterations are one or two.
+  rate that grows with the pressure over the stiffness, and not with the
+  step (a cut-back does not help; ``docs/robustness.md`` has the rates
+  measured): for pressures of a fraction of a percent of ``E`` (soils,
+  fluids on solids) the extra iterations are one or two.
 - :class:`GridLoad`: any scikit-fem ``LinearForm`` assembled on the whole
   grid with Gaussian quadrature (a load fixed in space).
 

@@ -32,12 +32,10 @@ consistent tangent ``K``, ``K d = r`` makes ``d`` a descent direction with
 the residual (one that jumps as points change cell within the iteration),
 the full Newton step is taken, as plain Newton would.
 
-Newton's path to a solution of a structural problem often climbs first:
-measured, a cantilever's first full step under a large tip load raises the
-residual 470-fold and plain Newton then converges in ten iterations, a
-nearly incompressible beam (nu = 0.499, B-bar) 1400-fold before converging
-in four.  A residual line search slows such steps down (the cantilever
-then needed cut-backs).  So the default (``line_search="backtracking"``,
+Newton's path to a solution of a structural problem often climbs first
+(a cantilever's first full step under a large tip load, a nearly
+incompressible beam: ``docs/robustness.md``), and a residual line search
+slows such steps down.  So the default (``line_search="backtracking"``,
 :func:`make_line_search`) runs a load step in two stages: first Newton's
 full steps, shortened only where a step cannot be evaluated (a point
 inverts: ``watchdog=None``), which changes nothing where plain Newton

@@ -63,12 +63,13 @@ def elastica_tip(alphas: ndarray, nodes: int = 401):
 
 
 def untuned_cantilever(h: float, per_cell: int, method: str,
-                       alpha: float = 3., nsteps: int = 20, **options):
+                       alpha: float = 3., nsteps: int = 20,
+                       options=None):
     """A cantilever set up as a new user would (length 10, depth 1,
     E = 1e6, nu = 0, clamped root, the end load spread over the tip points,
     ``P L^2 / (E I) = alpha``, a grid of spacing ``h`` around it, finite
-    deformation, every other setting the default unless ``options`` of
-    :func:`~skfem_mpm.simulate` say otherwise): returns the result and the
+    deformation, every other setting the default unless ``options`` (an
+    :class:`~skfem_mpm.Options`) say otherwise): returns the result and the
     relative error of the tip deflection against the elastica.
 
     Examples
@@ -92,6 +93,6 @@ def untuned_cantilever(h: float, per_cell: int, method: str,
     points.force[1, tip] = -alpha * E / 12 / L ** 2 / tip.size
     res = simulate(mesh, ElementQuad1(), points, LinearElastic(E, 0.),
                    lambda b: b.get_dofs(lambda x: x[0] == 0), nsteps=nsteps,
-                   method=method, kinematics="finite", **options)
+                   method=method, kinematics="finite", options=options)
     deflection = -res.points.displacement[1, tip].mean() / L
     return res, abs(deflection / elastica_tip(np.array([alpha]))[0][0] - 1)

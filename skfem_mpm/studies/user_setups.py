@@ -8,6 +8,8 @@ subset in the tests); the cantilever is
 Each returns the :class:`~skfem_mpm.Result` and the set-up's quantity of
 interest.
 """
+from typing import Optional
+
 import numpy as np
 from skfem import ElementQuad1, MeshQuad
 
@@ -15,6 +17,7 @@ from ..mechanics.materials import LinearElastic, VonMises
 from ..quadrature.points import seed_points
 from ..solve.core import simulate
 from ..solve.loads import Traction, side_points
+from ..solve.options import Options, Prescribed
 
 __all__ = ["block", "footing", "slope"]
 
@@ -25,7 +28,8 @@ def grid(x, y, h):
                                 np.arange(y[0], y[1] + 1e-9, h))
 
 
-def block(h: float, per_cell: int, method: str, traction, **options):
+def block(h: float, per_cell: int, method: str, traction,
+          options: Optional[Options] = None):
     """A soft block (1 x 1, E = 1e3, nu = 0.3) on a clamped base, loaded
     by a ``traction`` on its top in 10 steps, finite deformation: returns
     the result and the mean displacement of the top points."""
@@ -36,12 +40,12 @@ def block(h: float, per_cell: int, method: str, traction, **options):
     res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
                    lambda b: b.get_dofs(lambda x: x[1] == 0),
                    loads=[Traction(top, "top", traction)], nsteps=10,
-                   method=method, kinematics="finite", **options)
+                   method=method, kinematics="finite", options=options)
     return res, res.points.displacement[:, top].mean(axis=1)
 
 
 def footing(h: float, per_cell: int, method: str, settlement: float = .02,
-            **options):
+            options: Optional[Options] = None):
     """A smooth strip footing (half-width 0.25, on the symmetry line x = 0)
     pushed into undrained soil (2 wide, 1 deep, von Mises with
     ``yield_stress`` 100, so ``c_u = 100 / sqrt 3``, E = 1e4, nu = 0.3) by
@@ -74,13 +78,14 @@ def footing(h: float, per_cell: int, method: str, settlement: float = .02,
             f_new - f_old))
     res = simulate(mesh, ElementQuad1(), points,
                    VonMises(1e4, .3, yield_stress=100.), supports,
-                   prescribed=pushed, nsteps=10, method=method,
-                   kinematics="finite", **options)
+                   loads=[Prescribed(pushed)], nsteps=10, method=method,
+                   kinematics="finite", options=options)
     force = res.history[-1].reactions[2 * under + 1].sum()   # y at nodes
     return res, abs(force) / half / cu
 
 
-def slope(h: float, per_cell: int, method: str, **options):
+def slope(h: float, per_cell: int, method: str,
+          options: Optional[Options] = None):
     """A 45 degree slope of height 1 on a base layer 1 deep (crest at
     x = 1, toe at x = 2, the ground 4 long) under its own weight (20 per
     unit volume) in 10 steps, undrained von Mises soil with ``c_u = 6``
@@ -102,5 +107,5 @@ def slope(h: float, per_cell: int, method: str, **options):
     res = simulate(mesh, ElementQuad1(), points,
                    VonMises(1e4, .3, yield_stress=6. * np.sqrt(3.)),
                    supports, body_force=[0., -20.], nsteps=10,
-                   method=method, kinematics="finite", **options)
+                   method=method, kinematics="finite", options=options)
     return res, res.points.displacement[:, crest].mean(axis=1)
