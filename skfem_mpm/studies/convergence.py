@@ -1,41 +1,63 @@
 """Error without a closed form: self-convergence of a quantity over grid
-refinement, the observed order, Richardson extrapolation and the grid
-convergence index (GCI).
+refinement, its observed order, extrapolated value and the uncertainty of
+every grid's value.
 
-The procedure is the standard one of Roache (1998) as set out by Celik et
-al. (2008), "Procedure for estimation and reporting of uncertainty due to
-discretization in CFD applications", J. Fluids Eng. 130, 078001: from the
-three finest grids (cell sizes ``h1 < h2 < h3``, ratios ``r21 = h2/h1``,
-``r32 = h3/h2``, values ``f1, f2, f3``) the observed order ``p`` solves::
+The procedure follows Eca and Hoekstra (2014), "A procedure for the
+estimation of the numerical uncertainty of CFD calculations based on grid
+refinement studies", J. Comput. Phys. 262, 104-130, which extends the
+grid convergence index of Roache (1998) and Celik et al. (2008), J. Fluids
+Eng. 130, 078001, from three grids to all of them.  With cell sizes
+``h_i`` (``(V/N)^(1/d)``, Celik et al.) and values ``f_i``:
 
-    p ln r21 = ln|e32 / e21| + q(p),
-    q(p) = ln((r21^p - s) / (r32^p - s)),  s = sign(e32 / e21),
+1. The order is fitted by least squares over *all* grids,
+   ``f_i = f_0 + alpha h_i^p`` (``p`` in (0, 20], the best of a scan
+   refined by Levenberg-Marquardt; over three grids the fit passes through
+   them and is Celik et al.'s Richardson extrapolation).  Its standard
+   deviation is ``sigma = sqrt(sum r_i^2 / (n - 1))``, ``r_i`` the
+   residuals.
+2. The values oscillate when the differences between successive grids
+   change sign; differences within round-off are not counted.
+3. The fit is *trusted* when the values do not oscillate, the order lies
+   in the credible range ``[0.5, 2 P]`` (``P`` the method's formal order
+   for the quantity, e.g. 2 for displacements of linear elements) and
+   ``sigma`` is below the data range per grid ``(max f - min f) / (n - 1)``.
+   Then the reference is ``f_0``, each grid's error estimate is
+   ``eps_i = |alpha| h_i^p`` and its uncertainty
+   ``U_i = 1.25 eps_i + sigma + |r_i|``.
+4. An order above ``2 P`` (or a scattered fit) falls back to the fits
+   with the fixed orders 1 and 2 (the one of smaller ``sigma``, if it is
+   below the data range per grid): the reference is its ``f_0``,
+   ``U_i = 3 eps_i + sigma + |r_i|``.
+5. Otherwise -- oscillating values, an order below 0.5, no fixed-order fit,
+   two grids, values equal to round-off -- nothing is extrapolated: the
+   reference is the finest value, every grid's error estimate is the data
+   range ``Delta = max |f_i - f_j|`` and its uncertainty ``U = 3 Delta``.
 
-with ``e21 = f2 - f1``, ``e32 = f3 - f2``, solved for ``p`` in (0, 20]
-by bracketing and Brent's method, the logarithm kept with its sign (no
-positive root: the values do not converge); the extrapolated value is
-``f_ext = (r21^p f1 - f2) / (r21^p - 1)`` and the fine-grid uncertainty
-``GCI = 1.25 |f1 - f2| / (r21^p - 1)`` (absolute, in the quantity's
-unit).  Where no order can be observed (two grids, neighbours equal to
-round-off, no positive order up to 20) the reference is the finest value and the uncertainty Roache's two-grid
-``3 |f1 - f2|``, and the reason is reported.  An observed order is only
-as good as the data are asymptotic: standard MPM's grid-crossing error
-(seed 2.2.3) gives erratic orders, which the values' plot shows.
+No error or uncertainty is ever exactly zero: below round-off
+(:data:`ROUNDOFF` of the values) the data cannot tell, and that is what is
+reported.  Every result says in words why the reference was or was not
+extrapolated.  An observed order is only as good as the data are
+asymptotic: standard MPM's grid-crossing error (seed 2.2.3) gives erratic
+orders, which the values' plot shows.
 
 """
-from dataclasses import asdict, dataclass
-from typing import Optional, Sequence
+from dataclasses import asdict, dataclass, field
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-__all__ = ["SelfConvergence", "self_convergence", "relative_errors"]
+__all__ = ["SelfConvergence", "self_convergence", "from_data_range",
+           "fit_order", "fit_fixed_order", "sign_changes",
+           "relative_errors"]
 
-#: safety factors of the GCI: three grids with an observed order, or not
-SAFETY_OBSERVED, SAFETY_ASSUMED = 1.25, 3.
-#: the highest order the elements here reach (Q2 displacements): an
-#: observed order above it says the grids are not yet in the asymptotic
-#: range, and the GCI may be overconfident
-HIGHEST_FORMAL_ORDER = 3.
+#: safety factors of the uncertainty: a trusted fit, anything else
+SAFETY_TRUSTED, SAFETY_UNTRUSTED = 1.25, 3.
+#: the lowest credible order; the highest is twice the formal order
+LOWEST_CREDIBLE_ORDER = .5
+#: the fixed orders fitted when the observed one is not credible
+FIXED_ORDERS = (1., 2.)
+#: orders scanned by the least-squares fit
+ORDERS = np.geomspace(1e-3, 20., 400)
 #: differences below this fraction of the values are round-off
 ROUNDOFF = 1e-12
 
@@ -47,77 +69,184 @@ class SelfConvergence:
     Attributes
     ----------
     reference
-        The value errors are measured against: Richardson's extrapolation,
-        or the finest value where no order was observed.
+        The value errors are measured against: the extrapolation ``f_0``,
+        or the finest value where nothing was extrapolated.
     uncertainty
-        The GCI of the finest value, in the quantity's unit.
+        ``U`` of the finest value, in the quantity's unit (``None`` with
+        one grid: nothing to estimate it from).
     order
-        The observed order, ``None`` where none was observed (``why``).
+        The order the reference was extrapolated with (the observed one,
+        or a fixed 1 or 2), ``None`` where nothing was extrapolated.
     against
-        ``"richardson"`` or ``"finest"``.
+        ``"richardson"`` (extrapolated) or ``"finest"``.
     why
-        Why no order was observed ("" when one was).
+        In words, why the reference was or was not extrapolated.
     oscillatory
-        Whether the three finest values oscillate (``s = -1``).
+        Whether the differences between successive grids change sign.
     caution
-        Why the uncertainty may be overconfident ("" when no reason is
-        seen): an observed order above :data:`HIGHEST_FORMAL_ORDER`.
+        Why the uncertainty may be less reliable than a trusted fit's
+        ("" when no reason is seen): an extrapolation with a fixed order.
+    observed_order
+        The least-squares order over all grids (``None`` below three).
+    formal_order, credible_orders
+        The method's formal order ``P`` and the range ``[0.5, 2 P]``.
+    basis
+        ``"observed order"``, ``"fixed order"``, ``"data range"`` or
+        ``"one grid"``.
+    safety_factor
+        1.25 for a trusted fit, 3 otherwise.
+    data_range, standard_deviation
+        ``max |f_i - f_j|`` and the fit's ``sigma`` (``None``: no fit).
+    sign_changes
+        How often the differences between successive grids change sign.
+    errors, uncertainties
+        Per grid, in the order the values were given: the error estimate
+        (``|f_i - f_0|``, or the data range where nothing was
+        extrapolated) and ``U_i``, in the quantity's unit; never zero.
     """
     reference: float
-    uncertainty: float
+    uncertainty: Optional[float]
     order: Optional[float]
     against: str
     why: str = ""
     oscillatory: bool = False
     caution: str = ""
+    observed_order: Optional[float] = None
+    formal_order: float = 2.
+    credible_orders: Tuple[float, float] = (LOWEST_CREDIBLE_ORDER, 4.)
+    basis: str = ""
+    safety_factor: Optional[float] = None
+    data_range: float = 0.
+    standard_deviation: Optional[float] = None
+    sign_changes: int = 0
+    errors: List[Optional[float]] = field(default_factory=list)
+    uncertainties: List[Optional[float]] = field(default_factory=list)
 
     def as_dict(self) -> dict:
         return asdict(self)
 
 
-def observed_order(r21: float, r32: float, e21: float, e32: float,
-                   largest: float = 20.) -> Optional[float]:
-    """The root ``p`` in (0, ``largest``] of Celik et al.'s equation
-    ``p ln r21 = ln|e32 / e21| + q(p)``, bracketed on a grid of orders and
-    refined by Brent's method (their fixed-point iteration does not settle
-    when the two ratios differ much); None when there is none.  The
-    logarithm is taken with its sign (Celik et al. take the magnitude of
-    the right-hand side), so that values moving apart under refinement
-    (|e21| > |e32| on equal ratios) are not mistaken for convergence.
+def _projection_residuals(h: np.ndarray, f: np.ndarray, orders: np.ndarray
+                          ) -> np.ndarray:
+    """Residuals of ``f ~ f_0 + alpha h^p`` for each of ``orders`` (rows),
+    by projection of the centred values on the centred column ``h^p``
+    (stable where ``h^p`` is nearly constant)."""
+    y = f - f.mean()
+    x = h[None, :] ** orders[:, None]
+    x = x - x.mean(axis=1, keepdims=True)
+    norm = np.sqrt((x * x).sum(axis=1, keepdims=True))
+    x = np.divide(x, norm, out=np.zeros_like(x), where=norm > 0)
+    return y[None, :] - (x @ y)[:, None] * x
 
-    >>> from skfem_mpm.studies.convergence import observed_order
-    >>> h = [1 / 50, 1 / 40, 1 / 20]              # ratios 1.25 and 2
-    >>> f = [1 + .3 * x ** 1.5 for x in h]
-    >>> round(observed_order(h[1] / h[0], h[2] / h[1], f[1] - f[0],
-    ...                      f[2] - f[1]), 9)
-    1.5
+
+def fit_fixed_order(h: Sequence[float], f: Sequence[float], p: float):
+    """``(f_0, alpha, residuals)`` of ``f ~ f_0 + alpha h^p`` by least
+    squares for a given ``p``.
+
+    >>> from skfem_mpm.studies.convergence import fit_fixed_order
+    >>> f0, alpha, r = fit_fixed_order([1., 2., 4.], [4., 7., 13.], 1.)
+    >>> round(f0, 12), round(alpha, 12), bool(abs(r).max() < 1e-12)
+    (1.0, 3.0, True)
     """
-    from scipy.optimize import brentq
-    s = np.sign(e32 / e21)
-    ratio = np.log(abs(e32 / e21))
-
-    def residual(p):
-        with np.errstate(all="ignore"):
-            return p * np.log(r21) - ratio - np.log(
-                (r21 ** p - s) / (r32 ** p - s))
-    grid = np.geomspace(1e-3, largest, 400)
-    values = residual(grid)
-    ok = np.isfinite(values)
-    change = np.flatnonzero(ok[:-1] & ok[1:] & (np.sign(values[:-1])
-                                                != np.sign(values[1:])))
-    if values[ok].size and (values[ok] == 0).any():
-        return float(grid[ok][values[ok] == 0][0])
-    if not change.size:
-        return None
-    k = change[0]
-    return float(brentq(residual, grid[k], grid[k + 1], xtol=1e-14,
-                        rtol=1e-14))
+    h, f = np.asarray(h, float), np.asarray(f, float)
+    x = h ** p
+    xc = x - x.mean()
+    alpha = float(xc @ (f - f.mean()) / (xc @ xc))
+    f0 = float(f.mean() - alpha * x.mean())
+    return f0, alpha, f - f0 - alpha * x
 
 
-def self_convergence(sizes: Sequence[float], values: Sequence[float]
-                     ) -> SelfConvergence:
+def fit_order(h: Sequence[float], f: Sequence[float]):
+    """``(p, f_0, alpha, residuals)`` of ``f ~ f_0 + alpha h^p`` by least
+    squares over ``p`` in (0, 20] (at least three values): the best of
+    :data:`ORDERS`, refined by Levenberg-Marquardt on all three
+    parameters.
+
+    >>> import numpy as np
+    >>> from skfem_mpm.studies.convergence import fit_order
+    >>> h = np.array([.4, .2, .1, .05])
+    >>> p, f0, alpha, r = fit_order(h, 1. + .3 * h ** 1.5)
+    >>> round(p, 9), round(f0, 12), round(alpha, 12)
+    (1.5, 1.0, 0.3)
+    """
+    from scipy.optimize import least_squares
+    h, f = np.asarray(h, float), np.asarray(f, float)
+    scale = h.max()
+    s = h / scale
+    squares = (_projection_residuals(s, f, ORDERS) ** 2).sum(axis=1)
+    p = float(ORDERS[np.argmin(squares)])
+    f0, alpha, r = fit_fixed_order(s, f, p)
+    size = np.abs(f).max() or 1.
+
+    def residual(x):
+        return (x[0] + x[1] * s ** x[2] - f) / size
+    try:
+        with np.errstate(all="ignore"):         # trial orders may overflow
+            found = least_squares(residual, [f0, alpha, p], method="lm",
+                                  xtol=1e-15, ftol=1e-15, gtol=1e-15)
+        better = ORDERS[0] <= found.x[2] <= ORDERS[-1] and \
+            (residual(found.x) ** 2).sum() <= (r / size) @ (r / size)
+    except (ValueError, FloatingPointError):
+        better = False
+    if better:
+        p = float(found.x[2])
+        f0, alpha, r = fit_fixed_order(s, f, p)
+    return p, f0, float(alpha / scale ** p), r
+
+
+def sign_changes(values: Sequence[float], roundoff: float = 0.) -> int:
+    """How often the differences between successive values change sign,
+    differences within ``roundoff`` not counted.
+
+    >>> from skfem_mpm.studies.convergence import sign_changes
+    >>> sign_changes([1., 1.1, 1.05, 1.07]), sign_changes([3., 2., 1.5])
+    (2, 0)
+    """
+    d = np.diff(np.asarray(values, float))
+    signs = np.sign(d[np.abs(d) > roundoff])
+    return int((signs[1:] != signs[:-1]).sum())
+
+
+def _number(x: float) -> str:
+    return "{:.3g}".format(x)
+
+
+def from_data_range(values: Sequence[float], reference: int, why: str,
+                    **found) -> SelfConvergence:
+    """No extrapolation: the reference is ``values[reference]``, every
+    value's error estimate the data range ``max |f_i - f_j|`` (at least
+    round-off) and its uncertainty three times that; ``why`` (in words)
+    gains how the uncertainty was found.
+
+    >>> from skfem_mpm.studies.convergence import from_data_range
+    >>> c = from_data_range([1.2, 1.1], 1, "two grids")
+    >>> c.reference, round(c.uncertainty, 12)
+    (1.1, 0.3)
+    >>> print(c.why)
+    two grids: no extrapolation; uncertainty 3 x the data range 0.1
+    """
+    f = np.asarray(values, float)
+    spread = float(f.max() - f.min())
+    roundoff = max(ROUNDOFF * np.abs(f).max(), np.finfo(float).tiny)
+    error = max(spread, roundoff)
+    uncertainty = SAFETY_UNTRUSTED * error
+    found.setdefault("basis", "data range")
+    return SelfConvergence(
+        float(f[reference]), uncertainty, None, "finest",
+        why + ": no extrapolation; uncertainty {:g} x {}".format(
+            SAFETY_UNTRUSTED, "the data range " + _number(spread)
+            if spread >= roundoff else "round-off ({:g} of the values)"
+            .format(ROUNDOFF)),
+        safety_factor=SAFETY_UNTRUSTED, data_range=spread,
+        errors=[error] * f.size, uncertainties=[uncertainty] * f.size,
+        **found)
+
+
+def self_convergence(sizes: Sequence[float], values: Sequence[float],
+                     formal_order: float = 2.) -> SelfConvergence:
     """The convergence of ``values`` over cell ``sizes`` (any order, at
-    least one; equal sizes are not allowed).
+    least one; equal sizes are not allowed) of a method whose formal order
+    for this quantity is ``formal_order``.
 
     Examples
     --------
@@ -127,49 +256,97 @@ def self_convergence(sizes: Sequence[float], values: Sequence[float]
     >>> c = self_convergence([.4, .2, .1], [1.16, 1.04, 1.01])
     >>> round(c.order, 9), round(c.reference, 9), c.against
     (2.0, 1.0, 'richardson')
+    >>> print(c.why)  # doctest: +NORMALIZE_WHITESPACE
+    observed order 2.00 (least squares over 3 grids) within [0.5, 4],
+    values monotone: extrapolated; uncertainty 1.25 x the error estimate
+    of the fit
 
     """
     h = np.asarray(sizes, float)
     f = np.asarray(values, float)
-    order = np.argsort(h)
-    h, f = h[order], f[order]
     if np.unique(h).size != h.size:
         raise ValueError("cell sizes repeat: {}".format(list(h)))
-    if h.size == 1:
-        return SelfConvergence(float(f[0]), 0., None, "finest",
-                               "one grid: nothing to compare")
-    e21 = f[1] - f[0]
-    two_grid = SelfConvergence(float(f[0]), float(SAFETY_ASSUMED * abs(e21)),
-                               None, "finest")
-    if h.size == 2:
-        two_grid.why = "two grids: an order needs three"
-        return two_grid
+    order = np.argsort(h)
+    hs, fs = h[order], f[order]
+    n = h.size
+    lo, hi = LOWEST_CREDIBLE_ORDER, 2. * formal_order
+    credible = "[{:g}, {:g}]".format(lo, hi)
+    found = dict(formal_order=float(formal_order),
+                 credible_orders=(lo, hi))
+    finest = int(order[0])
+    if n == 1:
+        return SelfConvergence(
+            float(f[0]), None, None, "finest", "one grid: nothing to "
+            "compare, no extrapolation and no uncertainty", basis="one grid",
+            errors=[None], uncertainties=[None], **found)
     roundoff = ROUNDOFF * np.abs(f).max()
-    if abs(e21) <= roundoff:
-        two_grid.why = "the two finest grids agree to round-off"
-        return two_grid
-    e32 = f[2] - f[1]
-    if abs(e32) <= roundoff:
-        two_grid.why = "the second and third finest grids agree to " \
-            "round-off"
-        return two_grid
-    r21, r32 = h[1] / h[0], h[2] / h[1]
-    p = observed_order(r21, r32, e21, e32)
-    if p is None:
-        two_grid.why = "no positive order observed (values {})".format(
-            ", ".join("{:.6g}".format(v) for v in f[:3]))
-        two_grid.oscillatory = bool(e32 * e21 < 0)
-        return two_grid
-    gain = r21 ** p - 1
-    caution = "" if p <= HIGHEST_FORMAL_ORDER else \
-        "observed order {:.2f} is above {:g}, the highest formal order " \
-        "of the elements: the grids are probably not in the asymptotic " \
-        "range and the GCI may be overconfident".format(
-            p, HIGHEST_FORMAL_ORDER)
+    spread = float(f.max() - f.min())
+    if n == 2:
+        return from_data_range(f, finest, "two grids: an order needs "
+                               "three", **found)
+    if spread <= roundoff:
+        return from_data_range(f, finest, "the values agree to round-off",
+                               **found)
+    changes = sign_changes(fs, roundoff)
+    p, f0, alpha, r = fit_order(hs, fs)
+    sigma = float(np.sqrt(r @ r / (n - 1)))
+    per_grid = spread / (n - 1)
+    found.update(observed_order=p, oscillatory=bool(changes),
+                 sign_changes=changes, standard_deviation=sigma)
+    seen = "observed order {:.2f}".format(p) if ORDERS[0] < p < ORDERS[-1] \
+        else "observed order at the fit's limit {:g}".format(p)
+    if changes:
+        return from_data_range(
+            f, finest, "values oscillate with refinement (the differences "
+            "between successive grids change sign {} time{}); {}{}".format(
+                changes, "s" if changes > 1 else "", seen,
+                " outside " + credible if not lo <= p <= hi else
+                ", not trusted on oscillating values"), **found)
+    if p < lo:
+        return from_data_range(
+            f, finest, "{} outside {}: the values do not converge at a "
+            "credible rate".format(seen, credible), **found)
+    safety, caution = SAFETY_TRUSTED, ""
+    if p <= hi and sigma < per_grid:
+        why = "{} (least squares over {} grids) within {}, values " \
+            "monotone: extrapolated; uncertainty {:g} x the error estimate " \
+            "of the fit".format(seen, n, credible, safety)
+        if sigma > roundoff:
+            why += " + its standard deviation {}".format(_number(sigma))
+    else:
+        reason = "{} outside {}".format(seen, credible) if p > hi else \
+            "{} but its fit scatters (standard deviation {} above the data " \
+            "range per grid {})".format(seen, _number(sigma),
+                                        _number(per_grid))
+        fits = []
+        for q in FIXED_ORDERS:
+            if lo <= q <= hi:
+                q0, qa, qr = fit_fixed_order(hs, fs, q)
+                fits.append((np.sqrt(qr @ qr / (n - 1)), q, q0, qa, qr))
+        if not fits or min(fits)[0] >= per_grid:
+            return from_data_range(f, finest, reason + " and no fit of a "
+                                   "fixed order 1 or 2 is closer",
+                                   **found)
+        sigma, p, f0, alpha, r = min(fits)
+        sigma = float(sigma)
+        found["standard_deviation"] = sigma
+        safety = SAFETY_UNTRUSTED
+        why = caution = "{}: extrapolated with the fixed order {:g} (the " \
+            "closer of the fits of orders 1 and 2); uncertainty {:g} x its " \
+            "error estimate".format(reason, p, safety)
+    estimate = np.abs(alpha) * hs ** p
+    floor = max(roundoff, np.finfo(float).tiny)
+    U = np.maximum(safety * estimate + sigma + np.abs(r), floor)
+    errors = np.maximum(np.abs(fs - f0), floor)
+    back = np.empty(n, int)
+    back[order] = np.arange(n)
+    found.update(basis="observed order" if safety == SAFETY_TRUSTED else
+                 "fixed order")
     return SelfConvergence(
-        float(f[0] - e21 / gain), float(SAFETY_OBSERVED * abs(e21) / gain),
-        float(p), "richardson", oscillatory=bool(e32 * e21 < 0),
-        caution=caution)
+        float(f0), float(U[0]), float(p), "richardson", why,
+        caution=caution, safety_factor=safety, data_range=spread,
+        errors=errors[back].tolist(), uncertainties=U[back].tolist(),
+        **found)
 
 
 def relative_errors(values: Sequence[float], reference: float

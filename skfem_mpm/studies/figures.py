@@ -17,7 +17,7 @@ from ..scenes.plot import pyplot, series_styles
 from ..solve.results import PHASES, Result
 from .column import analytical_stress, analytical_stress_current, \
     vertical_stress
-from .study import fitted_rate
+from .study import VARIABLES, fitted_rate
 
 __all__ = ["draw_column_stress", "draw_convergence", "plot_column_stress",
            "plot_study"]
@@ -82,23 +82,82 @@ def _finish(fig, ax, xlabel: str, ylabel: str, title: str, path):
     return path
 
 
-def _loglog(ax, x, y, style: dict, label: str, line: bool = True):
-    """Positive ``y`` against ``x`` on log axes (an error of zero, the
-    reference case's own, has no place there)."""
-    x, y = np.asarray(x, float), np.asarray(y, float)
+def _known(values) -> np.ndarray:
+    """``values`` as floats, an unknown one (None) as NaN."""
+    return np.array([np.nan if v is None else v for v in values], float)
+
+
+def _loglog(ax, x, y, style: dict, label: str, line: bool = True,
+            bound=None):
+    """Positive ``y`` against ``x`` on log axes, with a bar up to
+    ``bound`` (each case's uncertainty: what its error may reach) where
+    one is known."""
+    x, y = _known(x), _known(y)
     ok = np.isfinite(y) & (y > 0)
     ax.loglog(x[ok], y[ok], ms=3, lw=.8 if line else 0, label=label,
               **style)
+    if bound is not None:
+        up = _known(bound)
+        bar = ok & np.isfinite(up) & (up > y)
+        if bar.any():
+            ax.errorbar(x[bar], y[bar], yerr=[np.zeros(bar.sum()),
+                                              up[bar] - y[bar]],
+                        fmt="none", ecolor=style["color"], elinewidth=.6,
+                        capsize=2)
+
+
+def _bounds(rows: list) -> list:
+    """Each case's uncertainty, the bound of its error (None against a
+    closed form)."""
+    return [r.get("uncertainty") for r in rows]
+
+
+def _bars(measured: dict) -> str:
+    """What the bars of an error plot show, for its title."""
+    return "" if measured["error"].get("closed_form", True) else \
+        ";\nbars up to each case's uncertainty"
+
+
+def _extrapolated(measured: dict, row: dict) -> bool:
+    """Whether the error of ``row``'s group has a rate: a closed form, or
+    the first quantity's reference extrapolated."""
+    if measured["error"].get("closed_form", True):
+        return True
+    mine = {k: row[k] for k in VARIABLES
+            if k != "elements" and row.get(k) is not None}
+    return next((c["against"] == "richardson" for c in
+                 measured["convergence"] if c["choices"] == mine), False)
+
+
+def _cost(r: dict) -> float:
+    """A case's CPU seconds (its wall seconds in studies from before
+    they were recorded)."""
+    return r.get("cpu_seconds", r["wall_seconds"])
+
+
+def _reference_label(c: dict) -> str:
+    """What a group's reference line and band are."""
+    if c["against"] == "richardson":
+        return "extrapolated with the {} order {:.2f}, band: its " \
+            "uncertainty ({:g} x the error estimate)".format(
+                "observed" if c.get("basis") == "observed order" else
+                "fixed", c["order"], c.get("safety_factor") or 1.25)
+    if c["uncertainty"] is None:
+        return "the only case (no uncertainty)"
+    return "finest case (no extrapolation), band: 3 x the data range"
 
 
 def plot_study(rows: list, outdir, measured: dict) -> list:
     """The figures of a study (:func:`~skfem_mpm.studies.study.study`;
     ``measured`` from :func:`~skfem_mpm.studies.study.analyse`): (a) the
-    error against elements with the fitted rate per curve, (b) the error
-    against wall time with the Pareto front, (c) time per phase and load
-    step against points with fitted exponents, (d) each quantity of
-    interest against elements with its extrapolated value and GCI band.
-    Returns the files written."""
+    error against elements with the fitted rate per curve (where its
+    reference was extrapolated or is a closed form), (b) the error
+    against CPU time with the Pareto front, both with bars up to each
+    case's uncertainty where the error has one, (c) time per phase and
+    load step against points with fitted exponents, (d) each quantity of
+    interest against the cell size with each value's uncertainty, and
+    each group's reference and its uncertainty band.  Returns the files
+    written."""
     plt = pyplot()
     outdir = Path(outdir)
     ok = [r for r in rows if not r.get("failure")]
@@ -120,30 +179,33 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             x = [r["elements"] for r in rs]
             y = [r["error"] for r in rs]
             _loglog(ax, x, y, style, "{} (rate {:.2f})".format(
-                name, fitted_rate(x, y)))
+                name, fitted_rate(x, y)) if _extrapolated(
+                    measured, rs[0]) else "{} (no extrapolation: data "
+                "range)".format(name), bound=_bounds(rs))
         written.append(_finish(
             fig, ax, "elements along the most refined axis (-)", ylabel,
-            "{} over grid refinement,\nagainst {}".format(
-                label, measured["error"]["against"]),
+            "{} over grid refinement,\nagainst {}{}".format(
+                label, measured["error"]["against"], _bars(measured)),
             outdir / "error_vs_elements.png"))
     if ok:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
         methods = sorted({r.get("method", "all cases") for r in ok})
         for style, m in zip(series_styles(len(methods)), methods):
             rs = [r for r in ok if r.get("method", "all cases") == m]
-            _loglog(ax, [r["wall_seconds"] for r in rs],
-                    [r["error"] for r in rs], style, m, line=False)
+            _loglog(ax, [_cost(r) for r in rs], [r["error"] for r in rs],
+                    style, m, line=False, bound=_bounds(rs))
         front, best = [], np.inf
-        for r in sorted(ok, key=lambda r: r["wall_seconds"]):
-            if 0 < r["error"] < best:
+        for r in sorted(ok, key=_cost):
+            if r["error"] is not None and 0 < r["error"] < best:
                 best = r["error"]
-                front.append((r["wall_seconds"], r["error"]))
+                front.append((_cost(r), r["error"]))
         if front:
             ax.loglog(*zip(*front), "k-", lw=.8, label="Pareto front")
         written.append(_finish(
-            fig, ax, "wall time per case (s)", ylabel,
-            "What accuracy costs: {} against wall time,\nthe error "
-            "against {}".format(label, measured["error"]["against"]),
+            fig, ax, "CPU time per case (s)", ylabel,
+            "What accuracy costs: {} against CPU time,\nthe error "
+            "against {}{}".format(label, measured["error"]["against"],
+                                  _bars(measured)),
             outdir / "error_vs_time.png"))
     if ok:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
@@ -173,23 +235,30 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             for style, c in zip(series_styles(len(mine)), mine):
                 order = np.argsort(c["cell_sizes"])[::-1]
                 h = np.asarray(c["cell_sizes"])[order]
-                ax.semilogx(h, np.asarray(c["values"])[order], ms=3, lw=.8,
-                            label=", ".join("{}={}".format(k, v) for k, v
-                                            in c["choices"].items()) or
-                            "all", **style)
+                f = np.asarray(c["values"])[order]
+                ax.semilogx(h, f, ms=3, lw=.8, label=", ".join(
+                    "{}={}".format(k, v) for k, v in c["choices"].items())
+                    or "all", **style)
+                bars = _known(c.get("uncertainties") or [None] * f.size)
+                bars = bars[order]
+                if np.isfinite(bars).any():
+                    ax.errorbar(h, f, yerr=np.where(np.isfinite(bars), bars,
+                                                    0.), fmt="none",
+                                ecolor=style["color"], elinewidth=.6,
+                                capsize=2)
                 ax.axhline(c["reference"], color=style["color"], lw=.6,
-                           ls=":", label="Richardson extrapolation, band: "
-                           "GCI" if c["order"] is not None else
-                           "finest case, band: 3 |f1 - f2| (no order)")
-                ax.axhspan(c["reference"] - c["uncertainty"],
-                           c["reference"] + c["uncertainty"],
-                           color=style["color"], alpha=.12)
+                           ls=":", label=_reference_label(c))
+                if c["uncertainty"] is not None:
+                    ax.axhspan(c["reference"] - c["uncertainty"],
+                               c["reference"] + c["uncertainty"],
+                               color=style["color"], alpha=.12)
             ax.invert_xaxis()
             ax.ticklabel_format(axis="y", useOffset=False)
             ax.set_ylabel("{} ({})".format(name, mine[0]["unit"]))
             ax.set_xlabel("cell size (V/N)^(1/d) (m)")
             ax.set_title("{} over refinement, with the reference of each "
-                         "group".format(name), fontsize=9)
+                         "group;\nbars and bands: uncertainties".format(name),
+                         fontsize=9)
             ax.legend(fontsize=6, loc="best")
         fig.tight_layout()
         plot.save_figure(fig, outdir / "quantities.png")

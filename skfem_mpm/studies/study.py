@@ -5,13 +5,16 @@ time of every phase, and draw the trade-off.
 
 The error of a case is measured against the scene's closed-form reference
 where it has one (``reference = "column"``: seed (2.28), ``"elastica"``,
-``"bearing_capacity"``), and otherwise against the study itself: the
-first quantity's relative error against its Richardson extrapolation over
-the element counts (:mod:`~skfem_mpm.studies.convergence`), or against
-the finest case where no order can be observed.  Every quantity's
-observed order, extrapolated value and uncertainty (GCI) are written to
-``study.json`` under ``"convergence"``, with what the error measures
-under ``"error"``.
+``"bearing_capacity"``), and otherwise against the study itself
+(:mod:`~skfem_mpm.studies.convergence`, after Eca and Hoekstra 2014): each
+quantity's order is fitted by least squares over all the element counts
+of a group of cases, and a case's error is its relative distance to the
+extrapolation where the fit is credible, else the data range of the
+group; every case's value carries an uncertainty (``uncertainties``, the
+first quantity's as ``uncertainty``), never zero.  Every quantity's
+observed order, reference, uncertainty and the reason, in words, why it
+was or was not extrapolated are written to ``study.json`` under
+``"convergence"``, with what the error measures under ``"error"``.
 
 Cases are independent: they run serially (with a progress line) or on a
 Dask cluster (``dask.distributed``, an optional extra: a local cluster or
@@ -47,12 +50,13 @@ from ..scenes.quantities import Quantity, check_quantities
 from ..scenes.scene import METHODS, Grid, Scene, build_points, run_scene
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS
 from ..solve.results import PHASES
-from .convergence import relative_errors, self_convergence
+from .convergence import from_data_range, self_convergence
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["study", "refine", "case_error", "analyse", "scene_quantities",
-           "worker_count", "VARIABLES", "DEFAULT_VARY", "DEFAULT_QUANTITY"]
+__all__ = ["study", "refine", "case_error", "analyse", "report",
+           "formal_order", "scene_quantities", "worker_count", "VARIABLES",
+           "DEFAULT_VARY", "DEFAULT_QUANTITY"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
              "line_search", "newton")
@@ -226,80 +230,206 @@ def cell_size(scene: Scene, elements: int) -> float:
                  ** (1. / len(axes)))
 
 
+def formal_order(scene: Scene, quantity: Quantity) -> int:
+    """The formal order of convergence of ``quantity`` on the scene's
+    grid: the element degree plus one for displacements and forces
+    (reactions, rigid-body forces: integrals of the stresses), the degree
+    for stresses (derivatives of the displacement).  The observed order is
+    credible from 0.5 to twice this (:mod:`~.convergence`).
+
+    >>> from skfem_mpm.scenes.quantities import Quantity
+    >>> from skfem_mpm.scenes.scene_file import EMBEDDED, load_scene
+    >>> from skfem_mpm.studies.study import formal_order
+    >>> column = load_scene(EMBEDDED)
+    >>> formal_order(column, Quantity("displacement", "x", at=(50.,)))
+    2
+    >>> formal_order(column, Quantity("stress", "xx", at=(25.,)))
+    1
+    """
+    degree = 2 if scene.grid.element == "Q2" else 1
+    return degree if quantity.quantity == "stress" else degree + 1
+
+
+def _relative(x: Optional[float], scale: float) -> float:
+    """``x / scale``, NaN for an unknown ``x`` (one case: nothing to
+    compare; written as null)."""
+    return float("nan") if x is None else float(x / scale)
+
+
+def _groups(rows: List[dict], keys: Sequence[str]):
+    """``(choices, members)`` of the ``rows`` that share the values of
+    ``keys`` (those a row has), in order of appearance."""
+    groups = {}
+    for r in rows:
+        groups.setdefault(tuple(r.get(k) for k in keys), []).append(r)
+    return [({k: v for k, v in zip(keys, group) if v is not None}, members)
+            for group, members in groups.items()]
+
+
 def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     """Errors of every finished case, without a closed form.
 
     With ``elements`` varied, each group of cases sharing every other
     choice gives each quantity's :func:`~.convergence.self_convergence`
-    over the cell size, and every case's relative error against its
-    reference (the Richardson extrapolation, or the finest case); without,
-    the reference is the case with the most points (then load steps)
-    among those sharing method, right-hand side and line search.  Sets
-    ``row["errors"]`` (per quantity) and ``row["error"]`` (the scene's
-    closed-form error where it has one, else the first quantity's), and
-    returns what was measured, for ``study.json``.
+    over the cell size (all of the group's grids, the quantity's
+    :func:`formal_order`): the reference, each case's error and
+    uncertainty (relative to the reference); without, every group
+    (sharing method, right-hand side, line search and Newton variant) is
+    judged by its data range (:func:`~.convergence.from_data_range`)
+    against the case with the most points (then load steps).  Sets
+    ``row["errors"]`` and ``row["uncertainties"]`` (per quantity),
+    ``row["error"]`` (the scene's closed-form error where it has one,
+    else the first quantity's) and ``row["uncertainty"]`` (the first
+    quantity's, ``None`` against a closed form), and returns what was
+    measured, for ``study.json``.  A group of one case has no error and
+    no uncertainty (NaN, written as null).
     """
     done = [r for r in rows if not r["failure"] and "values" in r]
     refined = any("elements" in r for r in done)
     keys = [k for k in VARIABLES if k != "elements"] if refined else \
         list(CHOICES)
-    groups = {}
-    for r in done:
-        groups.setdefault(tuple(r.get(k) for k in keys), []).append(r)
     convergence = []
-    for group, members in groups.items():
-        choices = {k: v for k, v in zip(keys, group) if v is not None}
+    for choices, members in _groups(done, keys):
         for q in quantities:
             values = [r["values"][q.label] for r in members]
             if refined:
                 sizes = [cell_size(scene, r["elements"]) for r in members]
-                found = self_convergence(sizes, values).as_dict()
+                found = self_convergence(sizes, values,
+                                         formal_order(scene, q))
             else:
-                finest = max(members, key=lambda r: (r["points"],
-                                                     r.get("loadsteps", 0)))
                 sizes = []
-                found = dict(reference=finest["values"][q.label],
-                             uncertainty=None, order=None, against="finest",
-                             why="elements not varied: the case with the "
-                             "most points (then load steps) is the "
-                             "reference", oscillatory=False, caution="")
-            for r, e in zip(members, relative_errors(values,
-                                                      found["reference"])):
-                r.setdefault("errors", {})[q.label] = float(e)
+                finest = max(range(len(members)), key=lambda k: (
+                    members[k]["points"], members[k].get("loadsteps", 0)))
+                found = from_data_range(
+                    values, finest, "elements not varied: the case with "
+                    "the most points (then load steps) is the reference")
+                if len(members) == 1:
+                    found.errors = found.uncertainties = [None]
+                    found.uncertainty = None
+            scale = abs(found.reference) or max(abs(v) for v in values) \
+                or 1.
+            for r, e, u in zip(members, found.errors, found.uncertainties):
+                r.setdefault("errors", {})[q.label] = _relative(e, scale)
+                r.setdefault("uncertainties", {})[q.label] = \
+                    _relative(u, scale)
             convergence.append(dict(
                 quantity=q.label, unit=q.unit(len(scene.grid.axes)),
-                choices=choices, cell_sizes=sizes, values=values, **found))
+                choices=choices, cell_sizes=sizes, values=values,
+                **found.as_dict()))
     first = quantities[0].label
     for r in done:
         r["error"] = r["reference_error"] if scene.reference else \
             r["errors"][first]
+        r["uncertainty"] = None if scene.reference else \
+            r["uncertainties"][first]
     if scene.reference:
         label, against, what = REFERENCE_ERRORS[scene.reference]
     else:
         label = "relative error of {}".format(first)
         against, reference = (
-            "its Richardson extrapolation (or the finest case)",
-            "its Richardson extrapolation over the element counts, or the "
-            "finest case where no order is observed (see convergence)") \
+            "its least-squares extrapolation (or the data range)",
+            "its extrapolation with the order fitted by least squares over "
+            "the element counts where that order is credible; where it is "
+            "not, the finest case, every case's error being the data range "
+            "max |f_i - f_j| / |reference| of its group (convergence: why)") \
             if refined else (
-            "the case with the most points",
+            "the data range of cases sharing method and solver",
             "the case with the most points (then load steps) among those "
-            "sharing method, right-hand side and line search: elements "
-            "were not varied")
+            "sharing method, right-hand side, line search and Newton "
+            "variant, every case's error being the data range "
+            "max |f_i - f_j| / |reference| of those cases: elements were "
+            "not varied")
         what = "|value - reference| / |reference| of {} ({}), the " \
             "reference being {}".format(
                 first, quantities[0].unit(len(scene.grid.axes)), reference)
-    return {"error": {"label": label, "against": against, "measures": what},
+    return {"error": {"label": label, "against": against, "measures": what,
+                      "closed_form": bool(scene.reference)},
             "convergence": convergence}
 
 
+def _number(x, form: str) -> str:
+    """``x`` formatted, ``-`` where it is unknown (None or NaN)."""
+    return "-" if x is None or x != x else form.format(x)
+
+
+def report(rows: List[dict], measured: dict, keys: Sequence[str]
+           ) -> List[str]:
+    """The lines of a study's summary (``skfem-mpm study`` prints them):
+    what the error measures, a table of the cases (the ``keys`` varied,
+    error, uncertainty, wall and CPU seconds, points, Newton iterations,
+    factorisations), the fitted rate of the error per group where the
+    error has one (a closed form, or a reference extrapolated with a
+    credible order), and per quantity and group its reference and
+    uncertainty with, in words, why it was or was not extrapolated."""
+    lines = ["error: {}".format(measured["error"]["measures"])]
+    lines.append(" ".join("{:>9}".format(k) for k in keys) +
+                 " {:>10} {:>11} {:>8} {:>8} {:>8} {:>10} {:>14}".format(
+                     "error", "uncertainty", "wall s", "CPU s", "points",
+                     "iterations", "factorisations"))
+    for r in rows:
+        lines.append(" ".join("{:>9}".format(r[k]) for k in keys) + (
+            " failed: " + r["failure"] if r["failure"] else
+            " {:>10} {:>11} {:>8.3f} {:>8} {:>8} {:>10} {:>14}".format(
+                _number(r.get("error"), "{:.3e}"),
+                _number(r.get("uncertainty"), "{:.3e}"), r["wall_seconds"],
+                _number(r.get("cpu_seconds"), "{:.3f}"), r["points"],
+                r["newton_iterations"], r.get("factorisations", "-"))))
+    first = measured["convergence"][0]["quantity"] \
+        if measured["convergence"] else None
+    if "elements" in keys:
+        for mine, members in _groups([r for r in rows if not r["failure"]],
+                                     [k for k in keys if k != "elements"]):
+            where = ", ".join("{}={}".format(k, v) for k, v in
+                              mine.items()) or "all"
+            found = [c for c in measured["convergence"]
+                     if c["quantity"] == first and c["choices"] == mine]
+            if not measured["error"].get("closed_form") and not (
+                    found and found[0]["against"] == "richardson"):
+                lines.append("rate of the error {}: none (no extrapolation:"
+                             " every error is the data range)".format(where))
+                continue
+            rate = fitted_rate([r["elements"] for r in members],
+                               [r["error"] for r in members])
+            lines.append("rate of the error {}: {}".format(
+                where, "{:.2f} (fitted to the cases with a non-zero "
+                "error)".format(rate) if np.isfinite(rate) else
+                "needs two cases with a non-zero error"))
+    for c in measured["convergence"]:
+        where = ", ".join("{}={}".format(k, v) for k, v in
+                          c["choices"].items())
+        lines.append("{}{}: {} {} +- {} {}: {}".format(
+            c["quantity"], " [" + where + "]" if where else "",
+            "extrapolated" if c["against"] == "richardson" else "reference",
+            _number(c["reference"], "{:.6g}"),
+            _number(c["uncertainty"], "{:.2g}"), c["unit"], c["why"]))
+    return lines
+
+
+def _known(data):
+    """``data`` with every NaN (an error nothing could estimate) as
+    ``None``: JSON's null, an empty CSV cell."""
+    if isinstance(data, dict):
+        return {k: _known(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [_known(v) for v in data]
+    if isinstance(data, float) and data != data:
+        return None
+    return data
+
+
+#: per-quantity fields of a row, and their columns in study.csv
+PER_QUANTITY = {"values": "value: ", "errors": "error: ",
+                "uncertainties": "uncertainty: "}
+
+
 def _write(outdir: Path, rows: List[dict], workers: int, measured: dict):
+    rows = _known(rows)
     with atomic_path(outdir / "study.json") as tmp:
         Path(tmp).write_text(json.dumps(dict(
-            workers=workers, rows=rows, **measured), indent=1))
-    flat = [{**{k: v for k, v in r.items() if k not in ("values", "errors")},
-             **{"value: " + k: v for k, v in r.get("values", {}).items()},
-             **{"error: " + k: v for k, v in r.get("errors", {}).items()}}
+            workers=workers, rows=rows, **_known(measured)), indent=1))
+    flat = [{**{k: v for k, v in r.items() if k not in PER_QUANTITY},
+             **{prefix + k: v for field, prefix in PER_QUANTITY.items()
+                for k, v in r.get(field, {}).items()}}
             for r in rows]
     columns = sorted({k for r in flat for k in r})
     text = io.StringIO()
@@ -471,9 +601,19 @@ def _ordered(rows: List[dict], cases: List[dict]) -> List[dict]:
 
 
 def fitted_rate(x, y) -> float:
-    """Slope of -log(y) against log(x) (finite, positive entries)."""
-    x, y = np.asarray(x, float), np.asarray(y, float)
+    """Slope of -log(y) against log(x) (finite, positive entries; None is
+    unknown), rounded to 1e-12 so that equal errors give 0, not -0.
+
+    >>> from skfem_mpm.studies.study import fitted_rate
+    >>> fitted_rate([4, 8, 16], [.1, .025, None])
+    2.0
+    >>> fitted_rate([4, 8], [.1, .1])
+    0.0
+    """
+    x = np.asarray(x, float)
+    y = np.array([np.nan if v is None else v for v in y], float)
     ok = np.isfinite(y) & (y > 0)
     if ok.sum() < 2:
         return float("nan")
-    return float(-np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0])
+    return float(np.round(-np.polyfit(np.log(x[ok]), np.log(y[ok]), 1)[0],
+                          12)) + 0.
