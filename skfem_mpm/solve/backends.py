@@ -242,6 +242,18 @@ def memory_of(array: ndarray):
                    array.strides, array.dtype.str)
 
 
+def pattern_of(A) -> dict:
+    """The sparsity pattern of a CSR matrix (copies of its index arrays)."""
+    return {"indptr": A.indptr.copy(), "indices": A.indices.copy()}
+
+
+def same_pattern(A, pattern: dict) -> bool:
+    """``A`` has the sparsity pattern ``pattern`` (:func:`pattern_of`)."""
+    return bool(pattern) and all(np.array_equal(getattr(A, name),
+                                                pattern[name])
+                                 for name in ("indptr", "indices"))
+
+
 def mkl_environment():
     """Settings MKL reads from the environment at its first computation in
     the process (each unless the environment says otherwise; they stay set
@@ -342,15 +354,13 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
             matrix = matrix.sorted_indices()
         if not np.diff(matrix.indptr).all():     # Pardiso would crash
             raise SingularSystemError("the stiffness has an empty row")
-        same = seen and all(np.array_equal(getattr(matrix, name), seen[name])
-                            for name in ("indptr", "indices"))
+        same = same_pattern(matrix, seen)
         nothing = np.zeros(matrix.shape[0])
         if not same:
             pardiso.free_memory(everything=True)
             pardiso.set_phase(11)
             pardiso._call_pardiso(matrix, nothing)
-            seen.update(indptr=matrix.indptr.copy(),
-                        indices=matrix.indices.copy())
+            seen.update(pattern_of(matrix))
             solver.analyses += 1
         pardiso.set_phase(22)            # numerical factorisation
         try:
@@ -374,10 +384,7 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
     def factorise(A, **kwargs):
         definite = spd and is_symmetric(A)
         if definite and indefinite:           # failed before on this pattern
-            upper = upper_triangle(A)
-            definite = not all(np.array_equal(getattr(upper, name),
-                                              indefinite[name])
-                               for name in ("indptr", "indices"))
+            definite = not same_pattern(upper_triangle(A), indefinite)
         pardiso, matrix = factor(A, definite)
         perturbed = int(pardiso.iparm[13])
         if perturbed:
@@ -435,6 +442,48 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
     return solver
 
 
+def amg_iterate(A, ml, accel: str, b: ndarray, reused: bool, tol: float,
+                maxiter: int):
+    """Krylov iterations on ``A`` preconditioned by the hierarchy ``ml``
+    (built on ``A`` itself, or on an earlier matrix of its pattern):
+    ``(x, relative residual, iterations)``, the residual ``|b - A x| /
+    |b|`` itself (GMRES stops on the preconditioned one: where that
+    has converged and this has not, the iterations go on once from
+    ``x``, to a tolerance smaller by the ratio of the two)."""
+    import pyamg
+    residuals, x = [], None
+    scale = max(np.linalg.norm(b), np.finfo(float).tiny)
+    goal, count = tol, 0
+    for attempt in range(2):
+        with warnings.catch_warnings(record=True) as caught:
+            # pyamg warns where CG meets an indefinite matrix: the
+            # residual check raises instead
+            warnings.simplefilter("always")
+            try:
+                residuals.clear()
+                if reused or attempt:
+                    x, _ = getattr(pyamg.krylov, accel)(
+                        A, b, x0=x, tol=goal,
+                        maxiter=min(maxiter, A.shape[0]),
+                        M=ml.aspreconditioner(), residuals=residuals)
+                else:
+                    x = ml.solve(b, tol=goal,
+                                 maxiter=min(maxiter, A.shape[0]),
+                                 residuals=residuals, accel=accel)
+            except (ValueError, ArithmeticError) as err:
+                raise SingularSystemError(
+                    "pyamg failed on {} free DOFs: {}".format(
+                        A.shape[0], err)) from err
+        for warning in caught:
+            logger.debug("pyamg: %s", str(warning.message).strip())
+        count += len(residuals) - 1
+        relative = np.linalg.norm(b - A @ x) / scale
+        if relative <= tol or not np.isfinite(relative):
+            break
+        goal = max(goal * tol / relative / 10., 1e-16)
+    return x, relative, count
+
+
 def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
     """Smoothed-aggregation AMG preconditioned CG (pyamg; GMRES for a
     matrix that is not symmetric, as the tangents of non-associated
@@ -460,46 +509,6 @@ def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
 
     kept = {}           # the last hierarchy and the pattern it was built on
 
-    def iterate(A, ml, accel, b, reused):
-        """Krylov iterations on ``A`` preconditioned by the hierarchy ``ml``
-        (built on ``A`` itself, or on an earlier matrix of its pattern):
-        ``(x, relative residual, iterations)``, the residual ``|b - A x| /
-        |b|`` itself (GMRES stops on the preconditioned one: where that
-        has converged and this has not, the iterations go on once from
-        ``x``, to a tolerance smaller by the ratio of the two)."""
-        import pyamg
-        residuals, x = [], None
-        scale = max(np.linalg.norm(b), np.finfo(float).tiny)
-        goal, count = tol, 0
-        for attempt in range(2):
-            with warnings.catch_warnings(record=True) as caught:
-                # pyamg warns where CG meets an indefinite matrix: the
-                # residual check raises instead
-                warnings.simplefilter("always")
-                try:
-                    residuals.clear()
-                    if reused or attempt:
-                        x, _ = getattr(pyamg.krylov, accel)(
-                            A, b, x0=x, tol=goal,
-                            maxiter=min(maxiter, A.shape[0]),
-                            M=ml.aspreconditioner(), residuals=residuals)
-                    else:
-                        x = ml.solve(b, tol=goal,
-                                     maxiter=min(maxiter, A.shape[0]),
-                                     residuals=residuals, accel=accel)
-                except (ValueError, ArithmeticError) as err:
-                    raise SingularSystemError(
-                        "pyamg failed on {} free DOFs: {}".format(
-                            A.shape[0], err)) from err
-            for warning in caught:
-                logger.debug("pyamg: %s", str(warning.message).strip())
-            count += len(residuals) - 1
-            relative = np.linalg.norm(b - A @ x) / scale
-            if relative <= tol or not np.isfinite(relative):
-                break
-            goal = max(goal * tol / relative / 10., 1e-16)
-        return x, relative, count
-
     def hierarchy(A, modes):
         import pyamg
         # pyamg draws from numpy's global generator: a fixed seed, and the
@@ -511,32 +520,29 @@ def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
         finally:
             np.random.set_state(state)
         kept.clear()
-        kept.update(indptr=A.indptr.copy(), indices=A.indices.copy(), ml=ml,
-                    modes=modes)
+        kept.update(pattern_of(A), ml=ml, modes=modes)
         solver.hierarchies += 1
         return ml
 
     def factorise(A, modes=None, **kwargs):
         A = A.tocsr()
         accel = "cg" if is_symmetric(A) else "gmres"
-        same = bool(kept) and np.array_equal(A.indptr, kept["indptr"]) and \
-            np.array_equal(A.indices, kept["indices"]) and (
-                modes is kept["modes"] or np.array_equal(modes,
-                                                         kept["modes"]))
+        same = same_pattern(A, kept) and (
+            modes is kept["modes"] or np.array_equal(modes, kept["modes"]))
         ml = kept["ml"] if same else hierarchy(A, modes)
         chosen = {"ml": ml, "reused": bool(same)}
 
         def solve(b):
-            x, relative, count = iterate(A, chosen["ml"], accel, b,
-                                         chosen["reused"])
+            x, relative, count = amg_iterate(A, chosen["ml"], accel, b,
+                                             chosen["reused"], tol, maxiter)
             if not relative <= tol and chosen["reused"]:
                 # the earlier hierarchy no longer serves: one for A
                 logger.debug("pyamg: the kept hierarchy did not converge "
                              "(%.1e); building one for this matrix",
                              relative)
                 chosen.update(ml=hierarchy(A, modes), reused=False)
-                x, relative, count = iterate(A, chosen["ml"], accel, b,
-                                             False)
+                x, relative, count = amg_iterate(A, chosen["ml"], accel, b,
+                                                 False, tol, maxiter)
             solver.iterations.append(count)
             logger.info("pyamg: %d iterations, relative residual %.1e",
                         count, relative)
