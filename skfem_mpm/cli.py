@@ -39,7 +39,7 @@ from .studies.figures import plot_column_stress, plot_study
 from .studies.footing import (bearing_capacity_factor, footing_error,
                               footing_pressure)
 from .studies.study import (CHOICES, DEFAULT_VARY, REFERENCE_ERRORS,
-                            VARIABLES, analyse, case_error, fitted_rate,
+                            VARIABLES, analyse, case_error, report,
                             scene_quantities, study)
 
 DESCRIPTION = """\
@@ -697,42 +697,7 @@ def run_study(args) -> int:
         return 130
     measured = analyse(scene, rows, quantities)
     keys = [k for k in VARIABLES if k in vary]
-    print("error: {}".format(measured["error"]["measures"]))
-    print(" ".join("{:>9}".format(k) for k in keys) +
-          " {:>10} {:>9} {:>8} {:>10} {:>14}".format(
-              "error", "seconds", "points", "iterations", "factorisations"))
-    for r in rows:
-        print(" ".join("{:>9}".format(r[k]) for k in keys) + (
-            " failed: " + r["failure"] if r["failure"] else
-            " {:>10.3e} {:>9.3f} {:>8} {:>10} {:>14}".format(
-                r["error"], r["wall_seconds"], r["points"],
-                r["newton_iterations"], r.get("factorisations", "-"))))
-    if "elements" in vary:
-        others = [k for k in keys if k != "elements"]
-        groups = {}
-        for r in rows:
-            if not r["failure"]:
-                groups.setdefault(tuple(r[k] for k in others), []).append(r)
-        for group, rs in groups.items():
-            rate = fitted_rate([r["elements"] for r in rs],
-                               [r["error"] for r in rs])
-            print("rate of the error {}: {}".format(
-                ", ".join("{}={}".format(k, v) for k, v in zip(others, group))
-                or "all", "{:.2f} (fitted to the cases with a non-zero "
-                "error)".format(rate) if np.isfinite(rate) else
-                "needs two cases with a non-zero error"))
-    for c in measured["convergence"]:
-        where = ", ".join("{}={}".format(k, v) for k, v in
-                          c["choices"].items())
-        found = "observed order {:.2f}{}, extrapolated {:.6g} +- {:.2g} {} " \
-            "(GCI)".format(c["order"], " (oscillating)" if c["oscillatory"]
-                           else "", c["reference"], c["uncertainty"],
-                           c["unit"]) if c["order"] is not None else \
-            "reference {:.6g} {} (finest case: {})".format(
-                c["reference"], c["unit"], c["why"])
-        print("{}{}: {}{}".format(c["quantity"], " [" + where + "]" if where
-                                  else "", found, "; caution: " + c["caution"]
-                                  if c["caution"] else ""))
+    print("\n".join(report(rows, measured, keys)))
     for path in plot_study(rows, args.out, measured):
         print("  plot {}".format(path))
     return 0

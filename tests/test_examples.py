@@ -178,6 +178,7 @@ def penetration():
     return module, module.penetrate(4, 128)
 
 
+@pytest.mark.slow
 def test_footing_penetrates_one_width_with_rising_resistance(penetration,
                                                              tmp_path):
     """A smooth strip footing pushed one footing width into weightless
@@ -234,6 +235,7 @@ def test_penetration_scene_file_is_the_example(penetration):
     assert np.abs(footing - pressures[1:4]).max() < 1e-9 * footing.max()
 
 
+@pytest.mark.slow
 def test_strip_footing_on_c_phi_soil_reaches_n_c(tmp_path):
     """A smooth footing on weightless c-phi soil (phi = 20 degrees,
     associated, Drucker-Prager's plane-strain fit, graded grid h = B/32 at
@@ -279,6 +281,7 @@ def slip_circle_safety(ground, cohesion, unit_weight, right):
                     options=dict(xatol=1e-6, fatol=1e-10)).fun
 
 
+@pytest.mark.slow
 def test_slope_factor_of_safety_by_strength_reduction(tmp_path):
     """The strength-reduction factor of safety of the 45-degree clay slope
     (h = H/16) within 5% of the limit-equilibrium slip circle computed here

@@ -5,6 +5,7 @@ import gc
 import tracemalloc
 
 import numpy as np
+import pytest
 from skfem import ElementQuad1, MeshQuad
 
 from skfem_mpm import LinearElastic, seed_points, solve_finite, solve_mpm
@@ -31,6 +32,7 @@ def growth_per_step(run, first=20, last=None):
     return (marks[last] - marks[first]) / (last - first), result
 
 
+@pytest.mark.slow
 def test_small_strain_memory_is_flat_over_1000_steps():
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9), np.linspace(0, 2, 17))
     points = seed_points(mesh, 2, region=lambda x: x[1] < 1)     # 256 points

@@ -116,6 +116,7 @@ def test_repeated_resumes_after_cut_backs_are_bit_identical(straight,
     assert_same_run(reference, out, resumes)
 
 
+@pytest.mark.slow
 def test_sigkill_at_random_moments_then_resume_is_bit_identical(straight,
                                                                 tmp_path):
     """SIGKILL after a random delay (fixed seed), resume (killed again at

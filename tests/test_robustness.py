@@ -103,6 +103,7 @@ def test_a_detached_body_is_named():
         run_scene(scene)
 
 
+@pytest.mark.slow
 def test_many_load_steps_do_not_drift():
     """1000 load steps of the seed's column.  cpGIMP with finite
     deformation: error no worse than with 20 steps (measured 9.13e-3
@@ -662,6 +663,7 @@ def test_supports_on_every_dof_hold_the_body_still(kinematics):
     assert np.abs(total - [0., weight]).max() < 1e-12 * weight
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(method=st.sampled_from(["fem", "mpm", "ugimp", "cpgimp"]),

@@ -352,6 +352,7 @@ def test_amg_keeps_its_hierarchy_while_the_pattern_lasts():
     assert np.array_equal(np.random.get_state()[1], state)
 
 
+@pytest.mark.slow
 def test_amg_judges_its_solutions_by_their_true_residual():
     """A non-associated Mohr-Coulomb block crushed in 3D: at step 3, GMRES
     (left preconditioned) reports convergence where |b - A x| is still
