@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from skfem_mpm import seed_points, solve_finite
+from skfem_mpm import Options, seed_points, solve_finite
 from skfem_mpm.studies.column import (LOAD, MATERIAL, column_error, column_grid,
                               column_supports)
 from skfem_mpm.solve.results import PHASES
@@ -43,7 +43,8 @@ def main():
             tic = time.perf_counter()
             res = solve_finite(mesh, elem, seed_points(mesh, 2), MATERIAL,
                                column_supports(2), body_force=[0., -LOAD],
-                               nsteps=20, method=method, keep_snapshots=False)
+                               nsteps=20, method=method,
+                               options=Options(keep_snapshots=False))
             row("column {} {:4d} el".format(method, 2 ** k), res,
                 time.perf_counter() - tic, column_error(res.points))
     import cantilever

@@ -8,7 +8,9 @@ finite deformation, 3 load steps of 3 Newton iterations), best of
 
     python benchmarks/iteration_ab.py ROOT NCELLS REPS
 
-ROOT is the checkout whose ``skfem_mpm`` is imported.
+ROOT is the checkout whose ``skfem_mpm`` is imported.  The run is
+written with the keyword arguments every checkout takes (``keep_snapshots=``,
+a deprecated alias since ``Options``), so that any two commits compare.
 """
 import sys
 

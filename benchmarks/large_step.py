@@ -17,7 +17,7 @@ import time
 import numpy as np
 from skfem import ElementHex1, ElementQuad1
 
-from skfem_mpm import LinearElastic, solve_finite
+from skfem_mpm import LinearElastic, Options, solve_finite
 from skfem_mpm.studies.study import PeakMemory
 from step_cost import block
 
@@ -37,7 +37,7 @@ def main():
             mesh, (ElementQuad1 if args.dim == 2 else ElementHex1)(), points,
             LinearElastic(1e6, .3), lambda b: b.get_dofs(lambda x: x[-1] == 0),
             body_force=np.r_[np.zeros(args.dim - 1), -1e4], nsteps=1,
-            keep_snapshots=False, solver=args.solver)
+            options=Options(keep_snapshots=False, solver=args.solver))
         wall = time.perf_counter() - tic
     print("free DOFs {}, wall {:.1f} s, phases {}, {} Newton iterations, "
           "residual {:.1e}".format(

@@ -23,7 +23,8 @@ import numpy as np
 from skfem import ElementQuad1, MeshQuad
 
 from skfem_mpm import (DruckerPrager, LinearElastic, ModifiedCamClay,
-                       MohrCoulomb, VonMises, seed_points, simulate)
+                       MohrCoulomb, Options, Prescribed, VonMises,
+                       seed_points, simulate)
 
 E, NU, WEIGHT = 1e4, .3, 200.
 MODELS = {
@@ -69,12 +70,13 @@ def step_cost(model, kinematics, cells=158):
     load = dict(body_force=[0., -WEIGHT])
     if isinstance(model, ModifiedCamClay):    # a lid pushed 0.4 cell down
         lid = np.flatnonzero(np.isclose(mesh.p[1], 1.))
-        load = dict(prescribed=lambda b, f_old, f_new: (
+        load = dict(loads=[Prescribed(lambda b, f_old, f_new: (
             b.nodal_dofs[1, lid],
-            np.full(lid.size, -.4 / cells * (f_new - f_old))))
+            np.full(lid.size, -.4 / cells * (f_new - f_old))))])
     tic = time.perf_counter()
     res = simulate(mesh, ElementQuad1(), points, model, supports, nsteps=2,
-                   kinematics=kinematics, keep_snapshots=False, **load)
+                   kinematics=kinematics,
+                   options=Options(keep_snapshots=False), **load)
     seconds = time.perf_counter() - tic
     timings = res.timings()
     iterations = max(res.counters["newton_iterations"],

@@ -19,7 +19,8 @@ import time
 import numpy as np
 from skfem import ElementHex1, ElementQuad1
 
-from skfem_mpm import LinearElastic, VonMises, simulate
+from skfem_mpm import (LinearElastic, NewtonOptions, Options, VonMises,
+                       simulate)
 from step_cost import block
 
 ELEMENTS = {2: ElementQuad1, 3: ElementHex1}
@@ -31,7 +32,8 @@ def run(mesh, points, material, method, newton, solver, dim):
                       lambda b: b.get_dofs(lambda x: x[-1] == 0),
                       body_force=np.r_[np.zeros(dim - 1), -1e4], nsteps=3,
                       method=method, kinematics="finite",
-                      keep_snapshots=False, newton=newton, solver=solver)
+                      options=Options(NewtonOptions(newton=newton),
+                                      keep_snapshots=False, solver=solver))
     return time.perf_counter() - tic, result
 
 

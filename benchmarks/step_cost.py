@@ -29,8 +29,8 @@ import tracemalloc
 import numpy as np
 from skfem import ElementHex1, ElementQuad1, MeshHex, MeshQuad
 
-from skfem_mpm import LinearElastic, point_locator, seed_points, solve_finite
-from skfem_mpm import solve_mpm
+from skfem_mpm import (LinearElastic, Options, point_locator, seed_points,
+                       solve_finite, solve_mpm)
 from skfem_mpm.solve.results import PHASES
 from skfem_mpm.solve.backends import get_solver
 from skfem_mpm.studies.study import PeakMemory
@@ -63,13 +63,13 @@ def run(ncells: int, method: str, kinematics: str, solver: str,
             lambda b: b.get_dofs(lambda x: x[-1] == 0))
 
     def simulate():
+        used = get_solver(solver, dim)
         kwargs = dict(body_force=np.r_[np.zeros(dim - 1), -1e4],
-                      locator=point_locator(mesh), keep_snapshots=False,
-                      solver=get_solver(solver, dim))
+                      options=Options(locator=point_locator(mesh),
+                                      keep_snapshots=False, solver=used))
         if kinematics == "small":
-            return solve_mpm(*args, nsteps=2, **kwargs), kwargs["solver"]
-        return solve_finite(*args, nsteps=1, method=method, **kwargs), \
-            kwargs["solver"]
+            return solve_mpm(*args, nsteps=2, **kwargs), used
+        return solve_finite(*args, nsteps=1, method=method, **kwargs), used
     with PeakMemory() as memory:
         tic = time.perf_counter()
         res, used = simulate()

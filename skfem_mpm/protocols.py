@@ -14,7 +14,7 @@ asks which implementation it holds:
   optionally with ``factorise(A) -> solve(b)`` and ``forget()``;
 - a **grid term** (:class:`GridTerm`) adds forces, loads and matrices to
   the step's balance: the ghost penalty, the follower pressure, inertia,
-  or a term of one's own (``simulate(..., terms=[...])``).
+  or a term of one's own (an item of ``simulate(..., loads=[...])``).
 
 A grid term's contribution to one step comes from
 :meth:`GridTerm.begin_step`.  With ``du`` the grid increment and
@@ -28,7 +28,9 @@ A grid term's contribution to one step comes from
 then lets each term weigh that balance in time (:meth:`GridTerm.weigh`,
 :meth:`GridTerm.weigh_matrix`: a time integrator's inertia and its
 generalised-alpha weights) and, once the step has converged, commit what
-it keeps (:meth:`GridTerm.commit`).  ``matrix`` must be the derivative of
+it keeps (:meth:`GridTerm.commit`).  A run begins its terms in their order,
+those that weigh the balance in time (``weighs = True``) after all others:
+an integrator's start-of-step balance sees every other term.  ``matrix`` must be the derivative of
 ``force - load`` with respect to ``du`` (or a good part of it: Newton's
 rate depends on it).
 """
@@ -73,26 +75,38 @@ class GridTerm:
     >>> class Spring(GridTerm):
     ...     def __init__(self, dof, k):
     ...         self.dof, self.k = dof, k
+    ...     def begin_run(self, points):
+    ...         self.u = 0.                # total displacement so far
     ...     def begin_step(self, problem):
     ...         self.N = problem.op.N
     ...         return self
     ...     def force(self, du, response):
     ...         f = np.zeros(self.N)
-    ...         f[self.dof] = self.k * du[self.dof]
+    ...         f[self.dof] = self.k * (self.u + du[self.dof])
     ...         return f
     ...     def matrix(self, response):
     ...         return csr_matrix(([self.k], ([self.dof], [self.dof])),
     ...                           shape=(self.N, self.N))
+    ...     def commit(self, problem, trial, du, new, record):
+    ...         self.u += du[self.dof]
 
-    Note that the displacement increment ``du`` is the step's: a spring
-    acting on the total displacement adds the displacement at the step's
-    start to it (``problem.points`` hold it).
+    The displacement increment ``du`` is the step's (the grid is reset
+    every step): the spring keeps the total in :meth:`commit`, valid while
+    the material at its node stays in the node's cells.
     """
 
     #: the term's matrix holds every rigid-body motion of the grid (a mass,
     #: an elastic foundation): the check for missing supports before a
     #: step is left out
     holds_free_body = False
+    #: the term weighs the balance in time (:meth:`weigh`): begun after
+    #: every other term of a run
+    weighs = False
+
+    def begin_run(self, points) -> None:
+        """Called once when a run starts, with its initial points: a term
+        that keeps state over the steps (a history, a total displacement)
+        starts it here, so the same term object serves run after run."""
 
     def begin_step(self, problem) -> Optional["GridTerm"]:
         """This term's contribution to the step of ``problem`` (``self``

@@ -104,6 +104,7 @@ def test_random_trial_states_never_give_nan_or_leave_the_domain(
     assert -tau.mean() > 0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model", [CLAY, OVERCONSOLIDATED])
 def test_drained_triaxial_reaches_the_critical_state(model):
     """Drained triaxial compression at the reference pressure, against the

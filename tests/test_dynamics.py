@@ -73,6 +73,7 @@ def test_block_falls_freely_until_it_lands():
     assert len(result.history) == 10
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["mpm", "cpgimp"])
 def test_bar_vibrates_at_its_first_mode(method):
     """Axial vibration of a fixed-free elastic bar in its first mode over 5
@@ -111,6 +112,7 @@ def test_bar_striking_its_support_comes_to_rest_behind_the_wave():
     assert abs(stress.mean() / (-RHO * c * V0) - 1) < .05
 
 
+@pytest.mark.slow
 def test_phase_error_of_average_acceleration_is_second_order():
     """Halving the time step divides the change of the period by 4
     (Richardson on T/25, T/50, T/100 and T/200: measured 3.97, 4.0; the
@@ -178,6 +180,7 @@ def test_generalized_alpha_dissipates_as_its_spectral_radius(rho_inf):
     assert abs(amplification_radius(scheme, 1e6) - rho_inf) < 1e-3
 
 
+@pytest.mark.slow
 def test_slow_loading_is_quasi_static():
     """A bar loaded at its tip by a force ramped over 100 periods of its
     first mode ends where the quasi-static run does (relative difference

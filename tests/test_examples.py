@@ -149,6 +149,7 @@ def test_cantilever_figure(cantilever, tmp_path):
     assert (tmp_path / "cantilever.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_prandtl_footing_plateau_is_two_plus_pi(tmp_path):
     """Prandtl's smooth strip footing on weightless von Mises soil: once
     the curve reaches 97% of (2 + pi) c_u it stays within 3% of it to the

@@ -52,6 +52,7 @@ def test_small_strain_memory_is_flat_over_1000_steps():
     assert np.isfinite(result.points.stress).all()
 
 
+@pytest.mark.slow
 def test_finite_deformation_memory_is_flat():
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9), np.linspace(0, 2, 17))
     points = seed_points(mesh, 2, region=lambda x: x[1] < 1)

@@ -34,6 +34,7 @@ def test_guard_follows_plain_newton_where_it_converges():
     assert np.array_equal(default.points.x, plain.points.x)
 
 
+@pytest.mark.slow
 def test_armijo_retry_carries_what_plain_newton_cannot():
     """The untuned cantilever on the coarse grid (h = 0.5, 2 points per
     cell, standard MPM) without the ghost penalty: plain Newton fails at 45%

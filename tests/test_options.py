@@ -120,9 +120,26 @@ def test_simulate_refuses_what_it_cannot_use():
     with pytest.raises(InvalidInputError, match="options must be an "
                        "Options"):
         simulate(*args, options=NewtonOptions())
-    with pytest.raises(InvalidInputError, match="both options.resume and "
-                       "first_step"), pytest.warns(DeprecationWarning):
-        simulate(*args, options=Options(resume=Resume()), first_step=2)
+    for given, keyword in ((Options(resume=Resume()), dict(first_step=2)),
+                           (Options(NewtonOptions(tol=1e-4)),
+                            dict(tol=1e-12)),
+                           (Options(solver="scipy"), dict(solver="pyamg")),
+                           (Options(stabilisation=Stabilisation(ghost=.1)),
+                            dict(ghost=0.))):
+        with pytest.raises(InvalidInputError, match="{} given both in "
+                           "options and as keyword".format(*keyword)), \
+                pytest.warns(DeprecationWarning):
+            simulate(*args, options=given, **keyword)
+    with pytest.raises(InvalidInputError, match="BodyForce.value must be "
+                       "finite numbers"):
+        BodyForce("abc")
+    with pytest.raises(InvalidInputError, match="Resume.first_step 5 is "
+                       "beyond the run's 2 steps"):
+        simulate(*args, nsteps=2, options=Options(resume=Resume(5)))
+    with pytest.raises(InvalidInputError, match="resuming a cpgimp run "
+                       "needs Resume.domain0"):
+        simulate(*args, nsteps=2, method="cpgimp", options=Options(
+            resume=Resume(2)))
     push = Prescribed(lambda b, f0, f1: (np.array([0]), np.zeros(1)))
     with pytest.raises(InvalidInputError, match="2 Prescribed items"):
         simulate(*args, loads=[push, push], **fail)
@@ -133,3 +150,34 @@ def test_simulate_refuses_what_it_cannot_use():
         simulate(*args, method="cpgimp", options=Options(
             stabilisation=Stabilisation(antilocking=True),
             callback=pytest.fail))
+
+
+def test_entry_points_keep_their_positional_order_and_scenes_their_types():
+    """``solve_mpm(..., body_force, nsteps)`` and ``solve_finite(...,
+    body_force, nsteps, method)`` as before the options; a scene holding a
+    string where an option object belongs is refused by name; a scene
+    file's bad Newton setting is named by its file key."""
+    from skfem_mpm.scenes.scene import Body, Grid, Scene, Support
+    from skfem_mpm.scenes.scene_file import parse_scene
+    from skfem_mpm.errors import SceneError
+    mesh, points = block()
+    args = (mesh, ElementQuad1(), points, LinearElastic(1e4, .3), bottom,
+            [0., -10.])
+    assert len(solve_mpm(*args, 3).history) == 3
+    assert len(solve_finite(*args, 2, "cpgimp").history) == 2
+    scene = Scene(grid=Grid([(0., 2., 2), (0., 2., 2)]),
+                  bodies=[Body("b", [(0., 2.), (0., 1.)],
+                               LinearElastic(1e4, .3))],
+                  supports=[Support(boundary="bottom")], newton="modified")
+    with pytest.raises(InvalidInputError, match="Scene.newton must be a "
+                       "NewtonOptions"):
+        scene.check()
+    data = {"grid": {"x": [0., 2., 2], "y": [0., 2., 2]},
+            "bodies": [{"name": "b", "box": {"x": [0., 2.], "y": [0., 1.]},
+                        "material": {"model": "linear_elastic", "E": 1e4,
+                                     "nu": .3}}],
+            "supports": [{"boundary": "bottom"}],
+            "solver": {"tolerance": 2., "max_iterations": 3}}
+    with pytest.raises(SceneError, match=r"solver.tolerance: must lie in "
+                       r"\(0, 1\), got 2"):
+        parse_scene(data)

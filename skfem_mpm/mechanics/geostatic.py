@@ -7,7 +7,8 @@ negative, ``gamma`` the unit weight, the body force per unit volume) and
 every horizontal normal stress ``sigma_h = K0 sigma_v``; no shear.  Under a
 level surface this state is in equilibrium with the full body force, so a
 run that starts from it with the body force acting in full from the first
-step (``simulate(..., ramp_body_force=False)``) has nothing to do until
+step (``simulate(..., body_force=BodyForce(g, ramp=False))``) has
+nothing to do until
 other loads come.  Under a sloping surface it is not in equilibrium, and
 the first step must carry the whole imbalance at once (no cut-back reduces
 it): ramp the gravity up from a stress-free start there instead.

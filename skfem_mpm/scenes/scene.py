@@ -280,6 +280,12 @@ class Scene:
         combinations no solver offers."""
         check_choice("method", self.method, METHODS)
         check_choice("kinematics", self.kinematics, KINEMATICS)
+        for name, kind in (("newton", NewtonOptions),
+                           ("stabilisation", Stabilisation)):
+            if not isinstance(getattr(self, name), kind):
+                raise InvalidInputError(
+                    "Scene.{} must be a {}(...), got {!r}".format(
+                        name, kind.__name__, getattr(self, name)))
         if not self.bodies:
             raise InvalidInputError("a scene needs at least one body")
         moving = [b.name for b in self.bodies if b.density is not None

@@ -189,7 +189,11 @@ class _Checker:
             try:
                 kind(**{name: value})
             except InvalidInputError as err:
-                self.problems.append("{}.{}: {}".format(key, file_key, err))
+                message = str(err)       # named by the file's key
+                if message.startswith(name + " "):
+                    message = message[len(name) + 1:]
+                self.problems.append("{}.{}: {}".format(key, file_key,
+                                                        message))
             else:
                 kept[name] = value
         try:

@@ -68,7 +68,7 @@ from .dynamics import Dynamics, InertiaTerm
 from .linear import support_dofs
 from .loads import ExternalLoads, FollowerPressure
 from .newton import FullStep, NewtonOptions, newton as newton_driver
-from .options import (BodyForce, Options, Prescribed, Resume,
+from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
                       translate_aliases)
 from .problem import STABILISATION, StepProblem
 from .results import Result
@@ -148,11 +148,11 @@ class RunCache:
 
 
 class Run:
-    """What stays fixed over a run: the grid, the pieces, the grid terms
-    and the settings (keyword attributes), and :class:`RunCache`
-    (``cache``).  A term may change itself over a run (the ghost penalty
-    held in reserve is switched on by the retry ladder); nothing else
-    changes."""
+    """A run's grid, pieces, grid terms (``terms``) and settings (keyword
+    attributes), fixed once built, and what changes over the run: the
+    counters (``counters``), the terms' own state (the ghost penalty held
+    in reserve, switched on by the retry ladder) and :class:`RunCache`
+    (``cache``)."""
 
     def __init__(self, **kwargs):
         self.__dict__.update(kwargs)
@@ -183,7 +183,8 @@ def inertia_term(run: Run) -> Optional[GridTerm]:
 
 
 #: the built-in grid terms, each ``factory(run) -> GridTerm or None``, in
-#: the order their contributions are summed (a user's ``terms=`` follow)
+#: the order their contributions are summed (a user's terms, items of
+#: ``loads``, follow; terms that weigh the balance in time come last)
 GRID_TERMS = (ghost_term, follower_term, inertia_term)
 
 
@@ -547,10 +548,9 @@ def split_loads(loads) -> tuple:
             terms)
 
 
-def check_steps(nsteps, dynamics: Optional[Dynamics], method: str,
-                newton: NewtonOptions) -> int:
+def check_steps(nsteps, dynamics: Optional[Dynamics], method: str) -> int:
     """The run's step count: ``nsteps`` (default 1), or the time steps of
-    ``dynamics``, whose mass and Newton settings are checked."""
+    ``dynamics``, whose mass is checked."""
     if dynamics is None:
         return 1 if nsteps is None else nsteps
     if not isinstance(dynamics, Dynamics):
@@ -617,14 +617,13 @@ def check_body_force(body_force, points: MaterialPoints, dim: int):
     ramp = True
     if isinstance(body_force, BodyForce):
         body_force, ramp = body_force.value, body_force.ramp
-    ramp = np.atleast_1d(np.asarray(ramp, dtype=object))
-    if ramp.ndim != 1 or not all(isinstance(r, (bool, np.bool_))
-                                 for r in ramp) \
-            or ramp.size not in (1, int(points.body.max()) + 1):
+    ramp = check_ramp(ramp)
+    if ramp.size not in (1, int(points.body.max()) + 1):
         raise InvalidInputError(
-            "ramp_body_force must be True, False or one bool per body ({}), "
-            "got {!r}".format(int(points.body.max()) + 1, ramp.tolist()))
-    return as_body_force(body_force, dim), ramp.astype(bool)
+            "BodyForce.ramp (ramp_body_force) must be True, False or one "
+            "bool per body ({}), got {!r}".format(int(points.body.max()) + 1,
+                                                  ramp.tolist()))
+    return as_body_force(body_force, dim), ramp
 
 
 def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
@@ -635,7 +634,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     check_choice("kinematics", kinematics, KINEMATICS)
     check_choice("method", method, METHODS)
     newton, stabilisation = options.newton, options.stabilisation
-    nsteps = check_steps(nsteps, dynamics, method, newton)
+    nsteps = check_steps(nsteps, dynamics, method)
     check_run_input(mesh, points, nsteps, options.keep_snapshots)
     gravity, ramp = check_body_force(body_force, points, mesh.dim())
     forces, prescribed, rigid_bodies, terms = split_loads(loads)
@@ -653,7 +652,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       or bool(rigid_bodies))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
     if options.resume is not None:
-        options.resume.check(nsteps)
+        options.resume.check(nsteps, method)
     locator = options.locator
     if locator is not None and getattr(locator, "mesh", None) is not mesh:
         raise InvalidInputError(
@@ -722,9 +721,12 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         else (lambda f: dynamics.scale(f * dynamics.duration)),
         initial_cells=None if case.prescribed is None
         else locate(points.x0)[0])
-    run.terms = [term for term in (
+    terms = [term for term in (
         factory(run) for factory in GRID_TERMS) if term is not None]
-    run.terms += case.terms
+    # those that weigh the balance in time after all others (stable)
+    run.terms = sorted(terms + case.terms, key=lambda term: term.weighs)
+    for term in run.terms:
+        term.begin_run(points)
     solver = options.solver
     logger.info("linear solver: %s", solver if isinstance(solver, str) else
                 "auto" if solver is None else

@@ -371,6 +371,7 @@ class InertiaTerm(GridTerm):
     """
 
     holds_free_body = True               # the mass holds a free body
+    weighs = True
 
     def __init__(self, dynamics: Dynamics, masses: ndarray):
         self.dynamics, self.masses = dynamics, masses
@@ -385,8 +386,9 @@ class InertiaTerm(GridTerm):
         step.dynamics, step.masses = dynamics, self.masses
         step.kinetic_start = .5 * float(self.masses @ (
             points.velocity ** 2).sum(0))
-        start = run.kinematics.response(op, np.zeros(op.N), points)
-        step.f_int0 = op.force(start.P, start.w)
+        zero = np.zeros(op.N)
+        start = run.kinematics.response(op, zero, points)
+        step.f_int0 = problem.internal_force(zero, start)
         f_ext0 = run.loads.external(op, points, problem.s_old)
         follower = problem.trial_loads(start, problem.s_old)
         if follower is not None:          # pressure on the start's surface

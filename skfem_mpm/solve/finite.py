@@ -31,9 +31,9 @@ __all__ = ["solve_finite", "STABILISATION"]
 
 
 def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
-                 supports, body_force=None, loads=(), nsteps: int = 1,
-                 method: str = "mpm", options: Optional[Options] = None,
-                 **aliases) -> Result:
+                 supports, body_force=None, nsteps: int = 1,
+                 method: str = "mpm", *, loads=(),
+                 options: Optional[Options] = None, **aliases) -> Result:
     """Finite-deformation implicit MPM or GIMP (updated Lagrangian,
     Hencky elasticity, optional von Mises plasticity): the finite case of
     :func:`~skfem_mpm.simulate`.

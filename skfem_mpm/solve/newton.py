@@ -418,7 +418,8 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         ``converged(trial)``, ``tangent(trial) -> K``, ``rhs(trial)``,
         ``solve(K, r, stabilise) -> (d, factorised solve)``, ``free``
         (the free DOFs), ``driven`` (DOFs of prescribed motion), ``linear``
-        (one exact solve makes the step), ``step``, ``counters``, ``t``.
+        (one exact solve makes the step), ``keeps_factorisations``,
+        ``step``, ``counters``, ``t``.
     search
         The attempt's line search (``strategy.start()``).
     max_iter
@@ -530,8 +531,7 @@ def newton_direction(problem, current, frozen, residuals: list,
             counters["newton_iterations"] += 1
             counters["linear_solves"] += 1
             # a solver function without factorise(A) factorises anew
-            counters["factorisations"] += not hasattr(problem.run.solver,
-                                                      "factorise")
+            counters["factorisations"] += not problem.keeps_factorisations
             report["reused"] = True
             return d, None
         finally:

@@ -34,7 +34,9 @@ class Resume:
     ``domain0`` are the initial GIMP domains (default ``points.domain``)
     and ``counters`` those of the run so far (a ghost penalty switched on
     stays on).  :meth:`after` builds it from the last converged step's
-    record: the run then continues bit-identically.
+    record and, for GIMP, the initial domains (a GIMP run resumed without
+    them is refused): the run then continues bit-identically.  What grid
+    terms of one's own keep over the steps is theirs to keep.
 
     >>> Resume(first_step=0)
     Traceback (most recent call last):
@@ -59,9 +61,20 @@ class Resume:
                    increment=record.increment,
                    domain0=domain0, counters=dict(record.counters))
 
-    def check(self, nsteps: int):
+    def check(self, nsteps: int, method: str):
         """Raise :class:`~skfem_mpm.errors.InvalidInputError` for a state
-        no run of ``nsteps`` steps can be in."""
+        no run of ``nsteps`` steps with ``method`` can be in."""
+        if self.first_step > nsteps and self.load_factor is None:
+            raise InvalidInputError(
+                "Resume.first_step {} is beyond the run's {} steps and no "
+                "load_factor says where it stands (a run with cut-backs "
+                "takes more steps): nothing would be left to run".format(
+                    self.first_step, nsteps))
+        if method in ("ugimp", "cpgimp") and self.first_step > 1 and \
+                self.domain0 is None:
+            raise InvalidInputError(
+                "resuming a {} run needs Resume.domain0, the points' initial "
+                "domains (their current ones differ)".format(method))
         for name, value, low, high in (
                 ("load_factor", self.load_factor, 0., 1.),
                 ("increment", self.increment, 0., 1. / nsteps)):
@@ -98,10 +111,36 @@ class BodyForce:
     shape (dim,), and whether it grows with the load factor (``ramp=True``,
     the default) or acts in full from the first step (``False``: where the
     points start from a geostatic stress that balances it), or one bool
-    per body.  What it leaves out of balance at the start must be carried
-    by the first step whole: a cut-back does not reduce it."""
+    per body (``value=None``: no body force).  What it leaves out of
+    balance at the start must be carried by the first step whole: a
+    cut-back does not reduce it."""
     value: Sequence[float]
     ramp: Union[bool, Sequence[bool]] = True
+
+    def __post_init__(self):
+        check_ramp(self.ramp)
+        if self.value is None:                 # none assembled
+            return
+        try:
+            value = np.asarray(self.value, dtype=np.float64)
+        except (TypeError, ValueError):
+            value = None
+        if value is None or value.ndim != 1 or not np.isfinite(value).all():
+            raise InvalidInputError(
+                "BodyForce.value must be finite numbers, one per dimension, "
+                "got {!r}".format(self.value))
+
+
+def check_ramp(ramp) -> ndarray:
+    """``ramp`` (one bool, or one per body) as a bool array, or
+    :class:`~skfem_mpm.errors.InvalidInputError`."""
+    flags = np.atleast_1d(np.asarray(ramp, dtype=object))
+    if flags.ndim != 1 or not flags.size or not all(
+            isinstance(r, (bool, np.bool_)) for r in flags):
+        raise InvalidInputError(
+            "BodyForce.ramp (ramp_body_force) must be True, False or one "
+            "bool per body, got {!r}".format(ramp))
+    return flags.astype(bool)
 
 
 @dataclass(frozen=True)
@@ -121,7 +160,7 @@ class Options:
         Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name
         (``"scipy"``, ``"pypardiso"``, ``"pyamg"``, ``"auto"``); default
         ``"auto"``, the back end measured fastest for each system's size
-        among those installed, logged
+        among those installed, logged; checked when the run starts
         (:func:`~skfem_mpm.solve.backends.solver_auto`).
     resume
         :class:`Resume`, or ``None``: from the start.
@@ -131,7 +170,8 @@ class Options:
     callback
         ``callback(record, points)`` after every step.
     locator
-        A :func:`~skfem_mpm.point_locator` of the mesh to reuse.
+        A :func:`~skfem_mpm.point_locator` of the mesh to reuse (checked
+        against the mesh when the run starts).
 
     >>> Options(newton=NewtonOptions(tol=1e-10)).newton.tol
     1e-10
@@ -186,8 +226,8 @@ def translate_aliases(function: str, options: Optional[Options],
                       warn: bool = True):
     """``(options, body_force, loads)`` with the deprecated keyword
     arguments ``aliases`` of ``function`` moved where they now live (one
-    :class:`DeprecationWarning` naming them); an unknown keyword or one
-    given twice is refused."""
+    :class:`DeprecationWarning` naming them); an unknown keyword, or one
+    whose setting ``options`` also gives (not its default), is refused."""
     unknown = sorted(set(aliases) - set(ALIASES))
     if unknown:
         raise InvalidInputError("{}() got unexpected keyword argument(s) {}"
@@ -217,14 +257,22 @@ def translate_aliases(function: str, options: Optional[Options],
     stabilisation = groups.get("stabilisation", {})
     resume = groups.get("resume", {})
     given = options
+    twice = [name for name in newton if getattr(options.newton, name)
+             != getattr(NewtonOptions(), name)] + \
+        [name for name in stabilisation if getattr(options.stabilisation,
+                                                   name)
+         != getattr(Stabilisation(), name)] + \
+        [name for name in groups.get("options", {})
+         if getattr(options, name) != getattr(Options(), name)]
+    if twice or (resume and given.resume is not None):
+        raise InvalidInputError(
+            "{}: {} given both in options and as keyword argument(s)".format(
+                function, ", ".join(sorted(twice + list(resume)))))
     options = replace(
         options, newton=replace(options.newton, **newton),
         stabilisation=replace(options.stabilisation, **stabilisation),
         resume=Resume(**resume) if resume else options.resume,
         **groups.get("options", {}))
-    if resume and given.resume is not None:
-        raise InvalidInputError("{}: both options.resume and {} given"
-                                .format(function, ", ".join(resume)))
     extra = groups.get("loads", {})
     if extra:
         loads = list(_items(loads))

@@ -118,6 +118,13 @@ class StepProblem:
         """One exact solve makes the step (small strain, elastic)."""
         return self.run.linear
 
+    @property
+    def keeps_factorisations(self) -> bool:
+        """The linear solver factorises once for many right-hand sides
+        (``factorise(A)``); a solver function without it factorises at
+        every call."""
+        return hasattr(self.run.solver, "factorise")
+
     def internal_force(self, du: ndarray, response) -> ndarray:
         """The static internal force of a trial: the points' stresses and
         the terms' forces."""
@@ -145,10 +152,9 @@ class StepProblem:
         self.t["update"] += time.perf_counter() - tic
         tic = time.perf_counter()
         f_ext = self.f_dead
-        for term in self.terms:          # a pressure on the trial surface
-            f = term.load(response, self.s_new)
-            if f is not None:
-                f_ext = f_ext + self.load_weight * f
+        follower = self.trial_loads(response, self.s_new)
+        if follower is not None:         # a pressure on the trial surface
+            f_ext = f_ext + self.load_weight * follower
         f_int = self.internal_force(du, response)
         # relative to the larger of the loads and the forces that drive the
         # prescribed motion: a step driven by prescribed motion under a

@@ -51,7 +51,7 @@ class StepRecord:
     n_dofs
         Number of grid DOFs (the length of ``u`` and ``reactions``).
     rigid_forces
-        One (dim,) force per rigid body (``simulate(rigid_bodies=...)``):
+        One (dim,) force per rigid body (``simulate(loads=[RigidBody(...)])``):
         the sum of the reactions at the DOFs it drives, the force that
         holds its motion (a footing's load).
     increment, counters

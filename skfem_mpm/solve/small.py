@@ -22,8 +22,8 @@ __all__ = ["solve_mpm"]
 
 
 def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
-              material, supports, body_force=None, loads=(),
-              nsteps: int = 1, update_positions: bool = True,
+              material, supports, body_force=None, nsteps: int = 1, *,
+              loads=(), update_positions: bool = True,
               options: Optional[Options] = None, **aliases) -> Result:
     """Run the implicit MPM of seed Algorithm 2.1 (small strain): the
     small-strain standard-MPM case of :func:`~skfem_mpm.simulate`.
@@ -90,6 +90,5 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
     options, body_force, loads = translate_aliases(
         "solve_mpm", options, body_force, loads, aliases)
     return simulate(mesh, elem, points, material, supports, body_force,
-                    loads, nsteps,
-                    method="mpm" if update_positions else "fem",
+                    loads, nsteps, method="mpm" if update_positions else "fem",
                     kinematics="small", options=options)
