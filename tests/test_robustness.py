@@ -608,7 +608,8 @@ def test_unvalidated_parameters_are_refused_before_any_work():
     per_cell = int((physical_memory() / 4 / 500) ** .5) + 1
     with pytest.raises(InvalidInputError, match="would need about"):
         seed_points(mesh, per_cell)                # 4 cells x per_cell^2
-    with pytest.raises(InvalidInputError, match="positive integer"):
+    with pytest.raises(InvalidInputError, match=r"n \(points per cell and "
+                       r"direction\) must be an integer >= 1, got 2.5"):
         seed_points(mesh, 2.5)
     with pytest.raises(InvalidMaterialError, match="must match"):
         simulate(mesh, ElementQuad1(), points, [LinearElastic(1e3, .3)] * 2,

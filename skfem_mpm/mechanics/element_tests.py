@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy import ndarray
 
-from ..errors import ConvergenceError, InvalidInputError
+from ..errors import ConvergenceError, InvalidInputError, check_int
 from .hencky import isotropic_derivative, principal_frame
 from .materials import LinearElastic, initial_state, inverse_elastic_law
 
@@ -92,10 +92,7 @@ def mixed_path(material, strain_increment: ndarray, controlled: ndarray,
     if controlled.shape != (3, 3) or (controlled != controlled.T).any():
         raise InvalidInputError("controlled must be a symmetric (3, 3) "
                                 "boolean mask")
-    if isinstance(nsteps, bool) or not isinstance(nsteps, (int, np.integer)) \
-            or nsteps < 1:
-        raise InvalidInputError("nsteps must be a positive integer, got "
-                                "{!r}".format(nsteps))
+    check_int("nsteps", nsteps, 1)
     unknown = [(i, j) for i in range(3) for j in range(i, 3)
                if not controlled[i, j]]
     state = {k: v[0] for k, v in initial_state(material, 1).items()}

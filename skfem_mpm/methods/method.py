@@ -22,7 +22,7 @@ from typing import Optional
 
 from numpy import ndarray
 
-from ..errors import InvalidInputError, PointsOutsideGridError
+from ..errors import PointsOutsideGridError, check_choice
 from ..quadrature.basis import MaterialPointBasis
 from .gimp import gimp_operators, stretched_domains
 from .operators import PointOperator
@@ -110,8 +110,6 @@ class GimpMethod(PointMethod):
 def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
                 counters: dict):
     """The method piece called ``name`` (one of :data:`METHODS`)."""
-    if name not in METHODS:
-        raise InvalidInputError("method must be one of {}, got {!r}".format(
-            METHODS, name))
+    check_choice("method", name, METHODS)
     kind = GimpMethod if name in ("ugimp", "cpgimp") else PointMethod
     return kind(name, mesh, scalar, scalar_dofs, pattern, locate, counters)

@@ -36,7 +36,8 @@ from skfem.mesh import Mesh
 from skfem.quadrature import get_quadrature
 from skfem.refdom import RefLine, RefQuad, RefHex, RefTri
 
-from ..errors import InvalidInputError, UnsupportedElementError, check_finite
+from ..errors import (InvalidInputError, UnsupportedElementError,
+                      check_finite, check_int)
 from ..memory import SEED_BYTES_PER_POINT, refuse_beyond_memory
 from .locate import tensor_grid
 from .mapping import fresh_mapping
@@ -308,9 +309,7 @@ def seed_points(mesh: Mesh, n: int, region: Optional[Callable] = None,
     (16, 1.0)
 
     """
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise InvalidInputError("n must be a positive integer, got {!r}"
-                                .format(n))
+    check_int("n (points per cell and direction)", n, 1)
     nelements = mesh.nelements if elements is None else np.size(elements)
     refuse_beyond_memory(
         "seeding {} points per element and direction in {} elements".format(

@@ -19,7 +19,7 @@ from typing import Optional, Sequence, Tuple
 import numpy as np
 from numpy import ndarray
 
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, check_choice
 from .scene import reaction_resultants, support_names
 
 __all__ = ["Quantity", "QUANTITIES", "COMPONENTS", "REDUCTIONS",
@@ -93,16 +93,13 @@ class Quantity:
     name: str = ""
 
     def __post_init__(self):
-        if self.quantity not in QUANTITIES:
-            raise InvalidInputError("quantity must be one of {}, got {!r}"
-                                    .format(QUANTITIES, self.quantity))
+        check_choice("quantity", self.quantity, QUANTITIES)
         if self.component not in COMPONENTS[self.quantity]:
             raise InvalidInputError(
                 "a {} has the components {}, got {!r}".format(
                     self.quantity, COMPONENTS[self.quantity], self.component))
-        if self.reduce is not None and self.reduce not in REDUCTIONS:
-            raise InvalidInputError("reduce must be one of {}, got {!r}"
-                                    .format(REDUCTIONS, self.reduce))
+        if self.reduce is not None:
+            check_choice("reduce", self.reduce, REDUCTIONS)
         pointwise = self.quantity in ("displacement", "stress")
         wanted = {"at": pointwise, "region": pointwise,
                   "support": self.quantity == "reaction",

@@ -33,7 +33,7 @@ from numpy import ndarray
 from scipy.sparse import csr_matrix, triu
 from scipy.sparse.linalg import splu
 
-from ..errors import InvalidInputError, SingularSystemError
+from ..errors import InvalidInputError, SingularSystemError, check_choice
 
 logger = logging.getLogger(__name__)
 
@@ -678,7 +678,5 @@ def get_solver(solver: Union[None, str, Callable], dim: int = 2) -> Callable:
         solver = "auto"
     if callable(solver):
         return solver
-    if solver not in FACTORIES:
-        raise InvalidInputError("linear solver must be one of {}, got {!r}"
-                                .format(", ".join(FACTORIES), solver))
+    check_choice("linear solver", solver, FACTORIES)
     return solver_auto(dim) if solver == "auto" else FACTORIES[solver]()

@@ -49,7 +49,8 @@ from skfem.quadrature import get_quadrature
 
 from ..errors import (InvalidInputError, InversionError,
                       MPMError, NewtonDivergenceError, NumericalError,
-                      SingularTangentError, StepFailedError, check_choice)
+                      SingularTangentError, StepFailedError, check_choice,
+                      check_int)
 from ..mechanics.forms import as_body_force
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
 from ..mechanics.materials import at_points, initial_state, is_plastic
@@ -118,10 +119,7 @@ def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int,
     that is not a positive integer, points of another dimension, or a run
     this machine's memory cannot hold (the grid, the points and the
     history of ``nsteps`` steps)."""
-    if isinstance(nsteps, bool) or not isinstance(
-            nsteps, (int, np.integer)) or nsteps < 1:
-        raise InvalidInputError(
-            "nsteps must be a positive integer, got {!r}".format(nsteps))
+    check_int("nsteps", nsteps, 1)
     dim = mesh.dim()
     if points.dim != dim:
         raise InvalidInputError(

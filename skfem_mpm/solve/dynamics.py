@@ -78,7 +78,8 @@ from numpy import ndarray
 from scipy.sparse import csr_matrix, diags, kron, identity
 from scipy.sparse.linalg import splu
 
-from ..errors import InvalidInputError, SingularSystemError, check_real
+from ..errors import (InvalidInputError, SingularSystemError, check_choice,
+                      check_real)
 from ..protocols import GridTerm
 from .linear import solve_active
 from .problem import safe_norm
@@ -221,9 +222,7 @@ class Dynamics:
             raise InvalidInputError(
                 "Dynamics: scheme must be Newmark(...) or "
                 "GeneralizedAlpha(...), got {!r}".format(self.scheme))
-        if self.mass not in MASSES:
-            raise InvalidInputError("Dynamics: mass must be one of {}, got "
-                                    "{!r}".format(MASSES, self.mass))
+        check_choice("Dynamics: mass", self.mass, MASSES)
         flip = check_real("Dynamics flip", self.flip)
         if not 0 <= flip <= 1:
             raise InvalidInputError("Dynamics: flip must lie in [0, 1], got "
