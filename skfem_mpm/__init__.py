@@ -8,7 +8,7 @@ conditions; this package locates points, moves them and keeps their state.
 from .quadrature.basis import MaterialPointBasis, material_point_bases
 from .errors import (ConvergenceError, InvalidInputError, InvalidMaterialError,
                      InversionError, MPMError, NewtonDivergenceError,
-                     NumericalError, PointsOutsideGridError,
+                     NumericalError, GridMotionError, PointsOutsideGridError,
                      PrescribedMotionError, SingularSystemError,
                      SingularTangentError,
                      StepFailedError, UnsupportedElementError)
@@ -44,7 +44,7 @@ __all__ = [
     "UnsupportedElementError", "LinearElastic", "solve_mpm", "Result",
     "StepRecord", "VonMises", "solve_finite", "ConvergenceError",
     "NewtonDivergenceError", "InversionError", "simulate", "solve_fe",
-    "Traction", "Pressure", "GridLoad", "side_points", "NumericalError",
+    "Traction", "Pressure", "GridLoad", "side_points", "NumericalError", "GridMotionError",
     "PrescribedMotionError", "StepFailedError", "DruckerPrager",
     "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "RigidBody",
     "reduce_strength", "strength_reduction", "Dynamics", "Newmark",

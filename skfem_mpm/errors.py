@@ -96,6 +96,13 @@ class NumericalError(ConvergenceError):
     overflow): the step is retried and cut back like a diverging one."""
 
 
+class GridMotionError(NumericalError):
+    """A converged step moved free grid nodes by orders of magnitude more
+    than any material point: nodes that a sliver of material supports carry
+    absurd values (the ghost penalty ties them to their neighbours).  A
+    failed step: ``ghost="auto"`` switches the penalty on and retries."""
+
+
 class PrescribedMotionError(ConvergenceError):
     """Prescribed grid motion no longer acts on the material (the body has
     moved away from the prescribed nodes): it would not be followed."""

@@ -47,7 +47,7 @@ from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 from skfem.quadrature import get_quadrature
 
-from ..errors import (InvalidInputError, InversionError,
+from ..errors import (GridMotionError, InvalidInputError, InversionError,
                       MPMError, NewtonDivergenceError, NumericalError,
                       SingularTangentError, StepFailedError, check_choice,
                       check_int)
@@ -96,6 +96,13 @@ DEFAULT_GHOST = .1
 def vector_element(elem: Element) -> Element:
     """``elem`` as a vector element (displacements have dim components)."""
     return elem if isinstance(elem, ElementVector) else ElementVector(elem)
+
+
+def cell_size(mesh: Mesh) -> float:
+    """The grid's representative cell size, ``(V / N)^(1/d)`` of its
+    bounding box."""
+    extent = np.ptp(mesh.p, axis=1)
+    return float(np.prod(extent) / mesh.nelements) ** (1. / mesh.dim())
 
 
 def grid_parts(mesh: Mesh, elem: Element):
@@ -222,14 +229,16 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
 
 
 class Rung(NamedTuple):
-    """A rung of the retry ladder: where it ``applies(run, reused)`` (the
-    failed attempt's factorisation served again: modified Newton), try the
-    step again ``how``, or (``how=None``) ``change(run, step, failure)``
-    the run and walk the ladder again from the first attempt."""
+    """A rung of the retry ladder: where it ``applies(run, failure,
+    reused)`` (``reused``: the failed attempt's factorisation served again,
+    modified Newton), try the step again ``how``, or (``how=None``)
+    ``change(run, step, failure)`` the run and walk the ladder again from
+    the first attempt; ``linear``: the rung serves linear steps too."""
     what: str
     applies: Callable
     how: Optional[Attempt]
     change: Optional[Callable] = None
+    linear: bool = False
 
 
 def switch_ghost_on(run: Run, step: int, failure):
@@ -242,9 +251,12 @@ def switch_ghost_on(run: Run, step: int, failure):
                            "for the rest of the run", failure, term.gamma)
 
 
-def ghost_in_reserve(run: Run, reused: bool) -> bool:
-    return any(isinstance(term, GhostStabilisation) and not term.active
-               for term in run.terms)
+def ghost_in_reserve(run: Run, failure, reused: bool) -> bool:
+    """A ghost penalty held in reserve (``ghost="auto"``), for any failed
+    step in finite deformation, for absurd grid motion in small strain."""
+    return (run.finite or isinstance(failure, GridMotionError)) and any(
+        isinstance(term, GhostStabilisation) and not term.active
+        for term in run.terms)
 
 
 #: what a failed nonlinear step tries next at the same load increment, in
@@ -257,13 +269,14 @@ def ghost_in_reserve(run: Run, reused: bool) -> bool:
 #: (zero-energy modes not refused as singular), with the line search.
 #: After the last, the load increment is cut back.
 RETRY_LADDER = (
-    Rung("full Newton", lambda run, reused: reused,
+    Rung("full Newton", lambda run, failure, reused: reused,
          Attempt("first", False, False)),
-    Rung("the ghost penalty", ghost_in_reserve, None, switch_ghost_on),
-    Rung("the line search", lambda run, reused: run.line_search is not None,
-         Attempt("retry", False, False)),
+    Rung("the ghost penalty", ghost_in_reserve, None, switch_ghost_on,
+         linear=True),
+    Rung("the line search", lambda run, failure, reused:
+         run.line_search is not None, Attempt("retry", False, False)),
     Rung("the tangent stabilised by {:.0e} of its diagonal".format(
-        STABILISATION), lambda run, reused: True,
+        STABILISATION), lambda run, failure, reused: True,
         Attempt("retry", False, True)),
 )
 
@@ -280,10 +293,9 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 return load_step(run, points, f_old, f_new, step, how,
                                  report)
         except STEP_FAILURES as failure:
-            if run.linear:
-                raise
             for rung in rungs:
-                if rung.applies(run, report.get("reused", False)):
+                if (rung.linear or not run.linear) and rung.applies(
+                        run, failure, report.get("reused", False)):
                     break
             else:
                 raise
@@ -700,11 +712,12 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     linear = case.linear
     run = Run(
         mesh=mesh, dim=mesh.dim(), grid=grid, method=piece, linear=linear,
+        finite=kinematics == "finite", cell_size=cell_size(mesh),
         kinematics=make_kinematics(kinematics, case.material, mesh.dim(),
                                    counters, total_lagrangian=method == "fem"),
         loads=external, material=case.material,
         ghost=stabilisation.ghost_factor(),
-        ghost_reserve=stabilisation.ghost_in_reserve(method, kinematics),
+        ghost_reserve=stabilisation.ghost_in_reserve(method),
         operator_wrappers=(mean_dilatation,) if stabilisation.antilocking
         else (), D=support_dofs(supports, grid),
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,

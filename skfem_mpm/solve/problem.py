@@ -25,7 +25,8 @@ import numpy as np
 from numpy import ndarray
 from scipy.linalg.blas import dnrm2
 
-from ..errors import SingularSystemError, SingularTangentError
+from ..errors import GridMotionError, SingularSystemError, \
+    SingularTangentError
 from ..protocols import Balance
 from .linear import Condensation, factorise_active, free_dofs
 from .motion import check_held, held_motion
@@ -38,6 +39,12 @@ __all__ = ["StepProblem", "Trial", "STABILISATION"]
 #: the fraction of its diagonal added to a tangent refused as singular, or
 #: when a failed step is retried so (:meth:`StepProblem.solve`)
 STABILISATION = 1e-7
+#: a converged step whose free grid nodes moved more than this many times
+#: the largest motion of a point (and more than a millionth of a cell)
+#: failed (:class:`~skfem_mpm.errors.GridMotionError`): well-posed steps
+#: stay below 1e3 (GIMP's barely supported corner nodes), a node supported
+#: by a sliver of material reached 1e7
+ABSURD_GRID_MOTION = 1e5
 
 
 class Trial(NamedTuple):
@@ -106,6 +113,7 @@ class StepProblem:
         self.free = free_dofs(op.active_dofs, self.fixed)
         self.f_dead = run.loads.external(op, points, self.s_new)
         self.load_weight = 1.
+        self.stabilised = False        # a solve used the stabilised tangent
         self.terms = []
         for term in run.terms:             # in order: a term may use those
             begun = term.begin_step(self)  # before it (their loads)
@@ -251,6 +259,7 @@ class StepProblem:
                              err, STABILISATION)
         K.setdiag(K.diagonal() * (1. + STABILISATION))           # in place
         counters["stabilised_solves"] += 1
+        self.stabilised = True
         try:
             return factorise_and_solve()
         except SingularSystemError as err:
@@ -260,6 +269,32 @@ class StepProblem:
                    else SingularTangentError)(
                 "step {}: {}".format(self.step, err)) from err
 
+    def check_grid_motion(self, du: ndarray, dx: ndarray):
+        """Refuse a converged grid increment ``du`` whose free nodes moved
+        :data:`ABSURD_GRID_MOTION` times more than any point did (``dx``,
+        the points' increments) and more than a millionth of a cell: the
+        equilibrium holds, but only through nodes a sliver of material
+        supports, whose values are absurd.  A step solved with the
+        stabilised tangent is not checked: its motion along zero-energy
+        modes is arbitrary by design (``docs/robustness.md``)."""
+        if self.stabilised:     # zero-energy modes: arbitrary by design
+            return
+        grid = np.abs(du[self.free]).max(initial=0.)
+        moved = np.abs(dx).max(initial=0.)
+        if grid <= ABSURD_GRID_MOTION * moved or \
+                grid <= 1e-6 * self.run.cell_size:
+            return
+        node = self.free[np.argmax(np.abs(du[self.free]))]
+        raise GridMotionError(
+            "step {}: the grid moved {:.1e} at a free node ({}) while no "
+            "point moved more than {:.1e}: nodes supported by a sliver of "
+            "material (a body edge or GIMP domain barely past a grid line) "
+            "carry absurd values; the ghost penalty ties them to their "
+            "neighbours (ghost='auto', the default, switches it on; or "
+            "Stabilisation(ghost=0.1))".format(
+                self.step, grid, self.grid.doflocs[:, node].tolist(),
+                moved))
+
     def commit(self, trial: Trial, du: ndarray, residuals: list):
         """The converged state of ``trial`` (the grid increment ``du``) and
         the step's record: the points' state, positions and domains, the
@@ -268,8 +303,9 @@ class StepProblem:
         run, op, points, t = self.run, self.op, self.points, self.t
         response, r = trial.response, trial.r
         tic = time.perf_counter()
-        new = response.commit(points)
         dx = op.values(du)
+        self.check_grid_motion(du, dx)
+        new = response.commit(points)
         new.displacement = points.displacement + dx
         if run.method.moves:
             new.x = points.x + dx

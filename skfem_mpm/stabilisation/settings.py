@@ -18,11 +18,14 @@ class Stabilisation:
     ghost
         Ghost-penalty factor for partially filled cells
         (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none;
-        ``"auto"`` (default): none, but where points move in finite
-        deformation a load step whose Newton loop fails switches the
-        default penalty (0.1) on for the rest of the run (a bending body
-        leaves nodes a sliver of support and Newton cycles without it; runs
-        that converge without it are not changed);
+        ``"auto"`` (default): none, but where points move a load step
+        that fails in finite deformation, or that moves free grid nodes
+        orders of magnitude more than any point in small strain (a node
+        supported by a sliver of material,
+        :class:`~skfem_mpm.errors.GridMotionError`), switches the default
+        penalty (0.1) on for the rest of the run (a bending body leaves
+        nodes a sliver of support and Newton cycles without it; runs that
+        converge without it are not changed);
         ``counters["ghost_from_step"]`` says from which step.
     antilocking
         Mean dilatation (B-bar, :mod:`skfem_mpm.stabilisation.volumetric`)
@@ -55,8 +58,9 @@ class Stabilisation:
         """The penalty factor from the start (0 for ``"auto"``)."""
         return 0. if isinstance(self.ghost, str) else float(self.ghost)
 
-    def ghost_in_reserve(self, method: str, kinematics: str) -> bool:
+    def ghost_in_reserve(self, method: str) -> bool:
         """``ghost="auto"`` holds the default penalty in reserve where
-        points move (not ``"fem"``) in finite deformation."""
-        return isinstance(self.ghost, str) and kinematics == "finite" \
-            and method != "fem"
+        points move (not ``"fem"``): switched on for the rest of the run
+        by a step that fails in finite deformation, or that moves grid
+        nodes absurdly in small strain."""
+        return isinstance(self.ghost, str) and method != "fem"
