@@ -519,3 +519,52 @@ def test_absurd_grid_motion_switches_the_ghost_penalty_on(method):
                        "node .* ghost penalty"):
         simulate(*args, method=method, options=Options(
             stabilisation=Stabilisation(ghost=0.)))
+
+
+def test_bad_api_input_is_named_not_a_raw_error():
+    """``supports=None``, a side name, non-integer DOFs; a scalar
+    ``GridLoad`` form on the vector grid; an element of another reference
+    domain than the mesh: each an MPMError naming what is wrong (before: a
+    bare TypeError, ValueError or numpy broadcasting error)."""
+    from skfem import ElementTriP1
+    from skfem_mpm import GridLoad, UnsupportedElementError
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    args = (mesh, ElementQuad1(), seed_points(mesh, 2),
+            LinearElastic(1e3, .3))
+    for supports, hint in ((None, "; \\[\\] for none"),
+                           ("bottom", "a side name is a scene-file key"),
+                           ([1.5, 2], "; \\[\\] for none"),
+                           (lambda b: None, "; \\[\\] for none")):
+        with pytest.raises(InvalidInputError, match="supports must be grid "
+                           "DOF indices.*" + hint):
+            simulate(*args, supports, body_force=[0., -1.])
+
+    @LinearForm
+    def scalar(v, w):
+        return 1. * v
+    with pytest.raises(InvalidInputError, match="GridLoad: the form does not "
+                       "assemble on the grid's vector basis \\(2 components"):
+        simulate(*args, lambda b: b.get_dofs(lambda x: x[1] == 0),
+                 loads=[GridLoad(scalar)])
+    with pytest.raises(UnsupportedElementError, match="ElementTriP1 does not "
+                       "fit the mesh MeshQuad1"):
+        simulate(mesh, ElementTriP1(), *args[2:],
+                 lambda b: b.get_dofs(lambda x: x[1] == 0))
+
+
+def test_a_body_far_too_soft_for_its_weight_is_named():
+    """E = 50 Pa under a weight of 2e4 N/m^3 (soil in Pa, its weight in
+    N/m^3, but E meant in kPa): the points leave the grid in the first step
+    after the retries, and the error names the cause, the elastic strain
+    |b| H / E = 785 (computed here from its formula)."""
+    from skfem_mpm import PointsOutsideGridError
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 5), np.linspace(0, 4, 9))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 2)
+    b, E, nu = 2e4, 50., .3
+    height = np.ptp(points.x0[1])
+    with pytest.raises(PointsOutsideGridError, match="strains the body by about {:.3g} "
+                       "elastically .* are the units consistent".format(
+                           b * height / E)):
+        simulate(mesh, ElementQuad1(), points, LinearElastic(E, nu),
+                 lambda b_: b_.get_dofs(lambda x: x[1] == 0),
+                 body_force=[0., -b], nsteps=2, kinematics="finite")

@@ -48,6 +48,7 @@ from skfem.mesh import Mesh
 from skfem.quadrature import get_quadrature
 
 from ..errors import (GridMotionError, InvalidInputError, InversionError,
+                      PointsOutsideGridError, UnsupportedElementError,
                       MPMError, NewtonDivergenceError, NumericalError,
                       SingularTangentError, StepFailedError, check_choice,
                       check_int)
@@ -114,8 +115,14 @@ def grid_parts(mesh: Mesh, elem: Element):
     # the basis functions it evaluates are never used, so it evaluates them
     # at one point (the centroid) of one element
     X, W = get_quadrature(mesh.refdom, 0)
-    grid = Basis(mesh, vector_element(elem), elements=np.array([0]),
-                 quadrature=(X @ W[:, None] / W.sum(), np.array([W.sum()])))
+    try:
+        grid = Basis(mesh, vector_element(elem), elements=np.array([0]),
+                     quadrature=(X @ W[:, None] / W.sum(),
+                                 np.array([W.sum()])))
+    except ValueError as err:             # another reference domain
+        raise UnsupportedElementError(
+            "the element {} does not fit the mesh {} ({})".format(
+                type(scalar).__name__, type(mesh).__name__, err)) from err
     return (scalar, grid, Dofs(mesh, scalar),
             ElementPattern(grid.dofs.element_dofs, grid.N))
 
@@ -320,6 +327,31 @@ def numerical_failures(step: int):
             step, type(err).__name__, err)) from err
 
 
+def too_soft(run: Run, points: MaterialPoints) -> str:
+    """A sentence for a failed run whose body force strains its body by
+    more than half elastically, ``|b| H / E`` with ``H`` the body's extent
+    along ``b`` and ``E`` the softest point's Young's modulus (units that
+    do not match: E in Pa against a weight in kN/m^3), or ``""``."""
+    gravity = run.loads.gravity
+    if gravity is None or not np.any(gravity):
+        return ""
+    n = points.n
+    mu = np.broadcast_to(np.asarray(run.material.mu, float), (n,))
+    lam = np.broadcast_to(np.asarray(run.material.lam, float), (n,))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        young = np.nanmin(mu * (3 * lam + 2 * mu) / (lam + mu))
+    along = gravity / np.linalg.norm(gravity)
+    height = np.ptp(along @ points.x0)
+    strain = np.linalg.norm(gravity) * height / young
+    if not strain > .5:
+        return ""
+    return ("; the body force strains the body by about {:.3g} elastically "
+            "(|b| H / E = {:.3g} x {:.3g} / {:.3g}): a body far too soft "
+            "for its load: are the units consistent (E and the body force "
+            "in the same system: Pa with N/m^3, kPa with kN/m^3)?".format(
+                strain, np.linalg.norm(gravity), height, young))
+
+
 def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             increment: float, smallest: float,
             callback: Optional[Callable]) -> Result:
@@ -342,7 +374,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                 raise type(err)(
                     "{}; no convergence down to a load increment of {:.2e}: "
                     "the last converged state (load factor {:.4f}) is "
-                    "attached".format(err, target - factor, factor),
+                    "attached{}".format(err, target - factor, factor,
+                                        too_soft(run, points)),
                     state=points, load_factor=factor,
                     history=result.history) from err
             increment = (target - factor) / 2
@@ -352,6 +385,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         except MPMError as err:              # what a cut-back cannot cure
             err.state, err.load_factor = points, factor
             err.history = result.history
+            if isinstance(err, PointsOutsideGridError):
+                err.args = (err.args[0] + too_soft(run, points),)
             raise
         except Exception as err:             # a user's material or form
             raise StepFailedError(

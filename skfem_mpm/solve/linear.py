@@ -39,11 +39,28 @@ def support_dofs(supports, basis) -> ndarray:
     returning one of those, e.g. ``lambda b: b.get_dofs("left")``.
 
     """
+    given = supports
     if callable(supports):
         supports = supports(basis)
     if not isinstance(supports, ndarray) and hasattr(supports, "all"):
         supports = supports.all()
-    D = np.unique(np.asarray(supports, dtype=np.int64).ravel())
+    try:
+        raw = np.asarray(supports)
+    except (TypeError, ValueError):
+        raw = np.asarray(None)
+    if supports is None or isinstance(supports, str) or \
+            raw.dtype.kind not in "iub" and not (
+                raw.dtype.kind == "f" and raw.size == 0):
+        raise InvalidInputError(
+            "supports must be grid DOF indices, a scikit-fem DofsView or a "
+            "function of the grid basis returning one (e.g. lambda b: "
+            "b.get_dofs(lambda x: x[1] == 0)){}, got {!r}".format(
+                " (a side name is a scene-file key)" if isinstance(
+                    supports, str) else "; [] for none", given))
+    if raw.dtype.kind == "b":
+        raise InvalidInputError("supports must be DOF indices, not a "
+                                "boolean mask (np.flatnonzero(mask))")
+    D = np.unique(raw.astype(np.int64).ravel())
     if D.size and (D.min() < 0 or D.max() >= basis.N):
         raise InvalidInputError(
             "support DOF indices must lie in [0, {}), got {}..{}"

@@ -170,8 +170,16 @@ class ExternalLoads:
                     self.cell_local = cell_coordinates(mesh)
             elif isinstance(load, GridLoad):
                 from skfem import Basis, asm
-                f = asm(load.form, Basis(mesh, grid.elem),
-                        **(load.fields or {}))
+                try:
+                    f = asm(load.form, Basis(mesh, grid.elem),
+                            **(load.fields or {}))
+                except (ValueError, TypeError, IndexError) as err:
+                    raise InvalidInputError(
+                        "GridLoad: the form does not assemble on the grid's "
+                        "vector basis ({} components per node; a load on "
+                        "displacements returns e.g. dot(f, v) or v[1], not "
+                        "a scalar v): {}: {}".format(
+                            self.dim, type(err).__name__, err)) from err
                 check_finite("GridLoad", f)
                 self.grid_vector = f if self.grid_vector is None \
                     else self.grid_vector + f
