@@ -16,6 +16,12 @@ operator ``op``) and returns a :class:`Response` with
   internal variables once the step has converged (positions are the
   core's business).
 
+An operator with ``components = 3`` in plane strain or 1D (mean
+dilatation, :mod:`skfem_mpm.stabilisation.volumetric`) has gradients with
+out-of-plane diagonal components: ``P`` is then (3, 3, n) and the tangent
+(3, 3, 3, 3, n), the strain increment and ``dF`` keep those components,
+so plane strain is computed as 3D with ``u_z = 0``.
+
 :class:`SmallStrain` is the seed's incremental small-strain scheme (points'
 volumes fixed, ``eps += sym(grad du)``; an elastic body takes Hooke's law
 and its constant tangent, a plastic one the return map on principal values
@@ -64,6 +70,13 @@ def material_block(material, block: slice):
 
 def state_block(state: dict, block: slice) -> dict:
     return {name: value[block] for name, value in state.items()}
+
+
+def components(op, dim: int) -> int:
+    """The components of the gradients, stresses and tangents the point
+    operator ``op`` exchanges: ``dim``, or 3 where its gradients have
+    out-of-plane components (mean dilatation)."""
+    return getattr(op, "components", dim)
 
 
 class Response:
@@ -126,16 +139,19 @@ class SmallStrain:
         self.plastic = is_plastic(material)
         self._elastic = None
 
-    def elastic_tangent(self, n: int) -> ndarray:
-        """Hooke's tensor of every point (a broadcast when uniform)."""
-        if self._elastic is None or self._elastic.shape[-1] != n:
-            self._elastic = elastic_tensor(self.material, n, self.dim)
+    def elastic_tangent(self, n: int, k: Optional[int] = None) -> ndarray:
+        """Hooke's tensor of every point (a broadcast when uniform), in
+        ``k`` components (default ``dim``)."""
+        k = k or self.dim
+        if self._elastic is None or self._elastic.shape[-1] != n \
+                or self._elastic.shape[0] != k:
+            self._elastic = elastic_tensor(self.material, n, k)
         return self._elastic
 
     def response(self, op, du: ndarray, points) -> Response:
         grad = op.gradients(du)
         deps = full_tensor(.5 * (grad + grad.transpose(1, 0, 2)))
-        dim = self.dim
+        k = components(op, self.dim)   # of P and the tangent
         if not self.plastic:
             stress = points.stress + self.material.stress(deps)
             strain = points.strain + deps
@@ -144,26 +160,27 @@ class SmallStrain:
                 new = copy.copy(old)
                 new.stress, new.strain = stress, strain
                 return new
-            return Response(stress[:dim, :dim], points.volume,
+            return Response(stress[:k, :k], points.volume,
                             np.zeros(points.n, dtype=bool),
-                            lambda: self.elastic_tangent(points.n), commit)
+                            lambda: self.elastic_tangent(points.n, k),
+                            commit)
         self.counters["return_maps"] += 1
-        x, vecs = principal_frame(points.strain + deps, dim)
+        x, vecs = principal_frame(points.strain + deps, self.dim)
         sig, eps_e, D, yielded, state = self.material.principal_update(
             x, points.state)
         stress = np.einsum("Ap,aAp,bAp->abp", sig, vecs, vecs)
         strain = np.einsum("Ap,aAp,bAp->abp", eps_e, vecs, vecs)
 
         def tangent():
-            return isotropic_derivative(x[:dim], sig[:dim], D[:dim, :dim],
-                                        vecs[:dim, :dim])
+            return isotropic_derivative(x[:k], sig[:k], D[:k, :k],
+                                        vecs[:k, :k])
 
         def commit(old):
             new = copy.copy(old)
             new.stress, new.strain = stress, strain
             new.state = {**old.state, **state}    # variables of no model kept
             return new
-        return Response(stress[:dim, :dim], points.volume, yielded, tangent,
+        return Response(stress[:k, :k], points.volume, yielded, tangent,
                         commit)
 
 
@@ -199,15 +216,15 @@ class FiniteStrain:
         self._start = (None, None)
         self._start_inverse = (None, None)
 
-    def _workspace(self, n: int):
+    def _workspace(self, n: int, k: int):
         """Arrays reused by every Newton iteration (memory): ``b_tr - I``,
         tau, the yielded flags and the
         :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the points.
         The tangent is not among them: it lives only while the stiffness
         is assembled, so that the factorisation (the peak of an iteration)
         runs without it (648 bytes a point in 3D)."""
-        if self._buffers is None or self._buffers[0].shape[-1] != n:
-            k = self.dim
+        if self._buffers is None or self._buffers[0].shape[-1] != n \
+                or self._buffers[3].tau.shape[0] != k:
             self._buffers = (np.empty((3, 3, n)), np.empty((3, 3, n)),
                              np.empty(n, dtype=bool),
                              SpectralParts(np.empty((3, n)),
@@ -229,14 +246,15 @@ class FiniteStrain:
         return value
 
     def response(self, op, du: ndarray, points) -> Response:
-        dim = self.dim
+        # dim: the grid's; k: the components of gradients, P and tangent
+        dim, k = self.dim, components(op, self.dim)
         grad = op.gradients(du)
         F_inv = None
         if self.total_lagrangian:         # grad_X(du) F_n^-1 = grad_xn(du)
             if self._start_inverse[0] is not points.F:      # once per step
                 self._start_inverse = (points.F, inverse_and_det(
-                    points.F, dim)[0][:dim, :dim])
-            F_inv = self._start_inverse[1]
+                    points.F, dim)[0])
+            F_inv = self._start_inverse[1][:k, :k]
             grad = np.einsum("abp,bcp->acp", grad, F_inv)
         dF = deformation_increment(grad)
         dF_inv, detdF = inverse_and_det(dF, dim)
@@ -247,9 +265,9 @@ class FiniteStrain:
                     bad.size, bad[:5].tolist(), points.x[:, bad[0]].tolist()))
         if F_inv is not None:             # gradients live at X, not x_n
             dF_inv = dF_inv.copy()
-            dF_inv[:dim, :dim] = np.einsum("abp,bcp->acp", F_inv,
-                                           dF_inv[:dim, :dim])
-        b_dev, tau, yielded, spectral = self._workspace(points.n)
+            dF_inv[:k, :k] = np.einsum("abp,bcp->acp", F_inv,
+                                       dF_inv[:k, :k])
+        b_dev, tau, yielded, spectral = self._workspace(points.n, k)
         eye = np.eye(3)[:, :, None]
         start = self.start_deviation(points)
         state = {}
@@ -260,17 +278,17 @@ class FiniteStrain:
             b_dev[..., block] = np.einsum(
                 "abp,bcp,dcp->adp", dF[..., block], start[..., block],
                 dF[..., block])
-            b_dev[:dim, :dim, block] += G + G.transpose(1, 0, 2) \
+            b_dev[:k, :k, block] += G + G.transpose(1, 0, 2) \
                 + np.einsum("abp,cbp->acp", G, G)
             tau[..., block], parts, yielded[block], new = hencky_stress(
                 material_block(self.material, block), b_dev[..., block],
-                dim, state_block(points.state, block))
+                dim, state_block(points.state, block), k)
             for kept, value in zip(spectral, parts):
                 kept[..., block] = value
             for name, value in new.items():
                 state.setdefault(name, np.empty(points.n))[block] = value
         self.counters["return_maps"] += self.plastic
-        P = np.einsum("abp,ebp->aep", tau[:dim, :dim], dF_inv[:dim, :dim])
+        P = np.einsum("abp,ebp->aep", tau[:k, :k], dF_inv[:k, :k])
 
         def tangent_of(idx):
             """Formed from the spectral parts of points ``idx`` (only for
@@ -282,12 +300,12 @@ class FiniteStrain:
             t = at(tau)
             A = spatial_tangent(SpectralParts(*map(at, spectral)).derivative(),
                                 at(b_dev) + eye, t)
-            return pull_back(t, A, at(dF_inv), dim)[1]
+            return pull_back(t, A, at(dF_inv), k)[1]
 
         def tangent():
             """All points' tangent (it lives only while the stiffness is
             assembled)."""
-            dtau_db = np.empty((dim,) * 4 + (points.n,))
+            dtau_db = np.empty((k,) * 4 + (points.n,))
             for block in point_blocks(points.n):
                 dtau_db[..., block] = tangent_of(block)
             return dtau_db
