@@ -62,3 +62,28 @@ def test_copy_is_deep():
     cp.x[0, 0] += 1.
     cp.stress[0, 0, 0] = 5.
     assert mp.x[0, 0] != cp.x[0, 0] and mp.stress[0, 0, 0] == 0.
+
+
+def test_a_box_region_reaching_outside_the_grid_is_refused():
+    """Issue 30: a box region larger than the grid was clipped without a
+    word (the points beyond it silently dropped).  A box inside the grid
+    seeds what the equivalent callable seeds; one reaching outside is
+    refused naming the axis, the box and the grid's extent; a callable
+    cannot be checked and keeps its meaning."""
+    mesh = MeshQuad.init_tensor(np.linspace(0., 2., 5), np.linspace(0., 1., 3))
+    inside = seed_points(mesh, 2, region=[(0., 1.), (0., 1.)])
+    same = seed_points(mesh, 2, region=lambda x: (x[0] > 0.) & (x[0] < 1.)
+                       & (x[1] > 0.) & (x[1] < 1.))
+    assert inside.n == 16 and np.array_equal(inside.x, same.x)
+    assert np.array_equal(inside.domain, same.domain)
+    with pytest.raises(InvalidInputError, match=r"region y = \[0.0, 1.5\] "
+                       r"reaches outside the grid's y extent \[0.0, 1.0\]"):
+        seed_points(mesh, 2, region=[(0., 1.), (0., 1.5)])
+    with pytest.raises(InvalidInputError, match=r"region x = \[-0.5, 1.0\]"):
+        seed_points(mesh, 2, region=[(-.5, 1.), (0., 1.)])
+    with pytest.raises(InvalidInputError, match="one \\[lo, hi\\] with lo < "
+                       "hi per axis"):
+        seed_points(mesh, 2, region=[(0., 1.)])
+    # an unbounded axis (a scene file's axis left out) is the whole axis
+    assert seed_points(mesh, 2, region=[(0., 1.), (-np.inf, np.inf)]).n == 16
+    assert seed_points(mesh, 2, region=lambda x: x[1] < 5.).n == 32

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from skfem_mpm import LinearElastic, VonMises
-from skfem_mpm.errors import SceneError
+from skfem_mpm.errors import InvalidInputError, SceneError
 from skfem_mpm.cli import main
 from skfem_mpm.scenes.scene import Body, Grid, PointLoad, Scene, Support, run_scene
 from skfem_mpm.scenes.scene_file import load_scene
@@ -733,3 +733,34 @@ def test_verbose_logs_this_package_for_its_own_call_only(tmp_path):
     assert logging.getLogger("skfem").getEffectiveLevel() > logging.INFO
     assert main(["run", missing]) == 2
     assert logger.level == logging.NOTSET
+
+
+def test_a_body_reaching_outside_the_grid_is_refused(tmp_path, capsys):
+    """Issue 30: a body region larger than the grid was clipped without a
+    word (the column of 60 on a grid of 50 ran as a column of 50).  A scene
+    file gets one line naming the key, the body, the axis, the box and the
+    grid's extent, and nothing is written; a Scene of the Python API is
+    refused when its points are seeded, naming the body and the axis."""
+    column = (EXAMPLES / "column.toml").read_text()
+    box = 'region = { x = [0.0, 2.5], y = [0.0, 50.0] }'
+    assert box in column
+    scene = tmp_path / "tall.toml"
+    scene.write_text(column.replace(box, box.replace("50.0]", "60.0]")))
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert "bodies[0].region.y: body 'column' reaches outside the grid, " \
+        "whose y extent is [0.0, 50.0]" in err[0]
+    assert "got [0.0, 60.0]" in err[0]
+    assert not out.exists()
+    # an axis left out is all of the grid, as before
+    scene.write_text(column.replace(box, 'region = { x = [0.0, 2.5] }'))
+    assert main(["run", str(scene), "--out", str(out), "--no-progress",
+                 "--no-series", "--steps", "1"]) == 0
+    api = block()
+    api.bodies[0].region = [(0., 2.), (-1., 2.)]
+    with pytest.raises(InvalidInputError, match=r"body 'block': region y = "
+                       r"\[-1.0, 2.0\] reaches outside the grid's y extent "
+                       r"\[0.0, 3.0\]"):
+        run_scene(api)

@@ -28,7 +28,7 @@ the total strain of an elastic body), logarithmic in finite deformation.
 
 """
 from dataclasses import dataclass, fields
-from typing import Callable, Optional
+from typing import Callable, Optional, Sequence, Union
 
 import numpy as np
 from numpy import ndarray
@@ -279,7 +279,48 @@ def _points_from_reference(mesh: Mesh, X: ndarray, w: ndarray, region,
     return MaterialPoints(x=x, volume=volume, domain=domain)
 
 
-def seed_points(mesh: Mesh, n: int, region: Optional[Callable] = None,
+AXES = "xyz"
+
+
+def in_box(x: ndarray, box) -> ndarray:
+    """Whether the points ``x`` (dim, n) lie inside the open box ``box``
+    (``[(lo, hi)]`` per axis)."""
+    return np.all([(x[d] > lo) & (x[d] < hi) for d, (lo, hi) in
+                   enumerate(box)], axis=0)
+
+
+def box_region(mesh: Mesh, box) -> Callable:
+    """The test of the box ``box`` (``[(lo, hi)]`` per axis, ``lo < hi``;
+    an infinite bound: the whole axis that way) after checking it against
+    ``mesh``: a box reaching outside the grid's extent is refused (the
+    points there would be dropped without a word)."""
+    dim = mesh.dim()
+    try:
+        box = np.asarray(box, dtype=np.float64)
+    except (TypeError, ValueError):
+        box = None
+    if box is None or box.shape != (dim, 2) or np.isnan(box).any() or not (
+            box[:, 0] < box[:, 1]).all():
+        raise InvalidInputError(
+            "a box region must be one [lo, hi] with lo < hi per axis of "
+            "the {}D grid, got {!r}".format(dim, box if box is None
+                                            else box.tolist()))
+    low, high = mesh.p.min(axis=1), mesh.p.max(axis=1)
+    slack = 1e-12 * (high - low)
+    for d, (lo, hi) in enumerate(box):
+        if -np.inf < lo < low[d] - slack[d] or \
+                np.inf > hi > high[d] + slack[d]:
+            raise InvalidInputError(
+                "region {} = [{!r}, {!r}] reaches outside the grid's {} "
+                "extent [{!r}, {!r}]: the material there would be dropped; "
+                "shrink the region or extend the grid".format(
+                    AXES[d], float(lo), float(hi), AXES[d], float(low[d]),
+                    float(high[d])))
+    return lambda x: in_box(x, box)
+
+
+def seed_points(mesh: Mesh, n: int,
+                region: Optional[Union[Callable, Sequence]] = None,
                 elements: Optional[ndarray] = None) -> MaterialPoints:
     """Seed n^d points per element at the centres of equal sub-cells.
 
@@ -296,7 +337,11 @@ def seed_points(mesh: Mesh, n: int, region: Optional[Callable] = None,
         triangles n^2 sub-triangles).
     region
         Optional callable ``region(x) -> bool array``: keep only the points
-        whose coordinates (dim, npoints) satisfy it.
+        whose coordinates (dim, npoints) satisfy it; or a box, ``[(lo,
+        hi)]`` per axis (the points strictly inside it; an infinite bound:
+        the whole axis that way), refused where it reaches outside the
+        grid (``InvalidInputError`` naming the axis, the box and the
+        grid's extent; a callable cannot be checked so).
     elements
         Optional array of element indices to seed (default: all).
 
@@ -310,6 +355,8 @@ def seed_points(mesh: Mesh, n: int, region: Optional[Callable] = None,
 
     """
     check_int("n (points per cell and direction)", n, 1)
+    if region is not None and not callable(region):
+        region = box_region(mesh, region)
     nelements = mesh.nelements if elements is None else np.size(elements)
     refuse_beyond_memory(
         "seeding {} points per element and direction in {} elements".format(

@@ -25,7 +25,8 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       SEED_BYTES_PER_POINT, STEP_RECORD_BYTES,
                       refuse_beyond_memory)
 from ..methods.method import METHODS
-from ..quadrature.points import MaterialPoints, concatenate_points, seed_points
+from ..quadrature.points import (MaterialPoints, concatenate_points, in_box,
+                                  seed_points)
 from ..solve.core import check_combination, grid_parts, simulate
 from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
@@ -118,8 +119,7 @@ class Body:
     def contains(self, x: ndarray) -> ndarray:
         if callable(self.region):
             return np.asarray(self.region(x), dtype=bool)
-        return np.all([(x[d] > lo) & (x[d] < hi)
-                       for d, (lo, hi) in enumerate(self.region)], axis=0)
+        return in_box(x, self.region)
 
 
 @dataclass
@@ -419,7 +419,9 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
     parts = []
     for k, body in enumerate(scene.bodies):
         try:
-            pts = seed_points(mesh, body.points_per_cell, region=body.contains)
+            # a box is checked against the grid (refused where it reaches
+            # outside: its points there would be dropped without a word)
+            pts = seed_points(mesh, body.points_per_cell, region=body.region)
         except InvalidInputError as err:
             raise InvalidInputError("body {!r}: {}".format(body.name, err))
         pts.body[:] = k

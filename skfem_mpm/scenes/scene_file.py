@@ -15,7 +15,9 @@ offending value (unknown keys, wrong types, impossible values), in a
     element = "Q1"                  # or "Q2" (2D)
     [[bodies]]
     name = "column"
-    region = { x = [0.0, 1.0], y = [0.0, 50.0] }
+    region = { x = [0.0, 1.0], y = [0.0, 50.0] }   # inside the grid (an
+                                    # axis left out: all of it); a region
+                                    # reaching outside the grid is refused
     points_per_cell = 2
     geostatic = { K0 = 0.5, surface = 50.0 }   # optional: start from the
                                     # K0 stress of the gravity (surface:
@@ -426,6 +428,22 @@ def _body(c, data, k, dim):
                 initial_velocity=c.vector(data, key, "initial_velocity", dim))
 
 
+def _inside_grid(c, bodies, grid):
+    """A body's region reaching outside the grid is refused: the material
+    there would be dropped without a word (an axis left out, all of the
+    grid, reaches nowhere beyond)."""
+    for k, body in enumerate(bodies):
+        for d, ((lo, hi), (g_lo, g_hi, _)) in enumerate(zip(body.region,
+                                                            grid.axes)):
+            slack = 1e-12 * (g_hi - g_lo)
+            if -math.inf < lo < g_lo - slack or math.inf > hi > g_hi + slack:
+                c.bad("bodies[{}].region.{}".format(k, AXES[d]),
+                      "body {!r} reaches outside the grid, whose {} extent "
+                      "is [{!r}, {!r}]: the material beyond it would be "
+                      "dropped; shrink the region or extend the grid".format(
+                          body.name, AXES[d], g_lo, g_hi), [lo, hi])
+
+
 #: time-integration schemes of ``[dynamics]``
 SCHEMES = ("newmark", "generalized_alpha")
 
@@ -479,9 +497,12 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                        "dynamics", "outputs"),
             ("grid", "bodies"))
     grid = _grid(c, data.get("grid", {}))
+    grid_read = not c.problems
     dim = len(grid.axes)
     bodies = [_body(c, b, k, dim) for k, b in
               enumerate(c.array(data, "bodies"))]
+    if grid_read:
+        _inside_grid(c, bodies, grid)
     if "bodies" in data and not bodies:
         c.problems.append("bodies: at least one [[bodies]] table is needed")
     supports = []
