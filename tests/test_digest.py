@@ -2,7 +2,12 @@
 into a step problem, a Newton driver and grid terms: bit for bit where the
 numerical libraries are the versions the fingerprints were taken with
 (``tests/data/core_digests.json``), to 1e-12 of every array's size where
-they are not (another numpy may round a sum differently)."""
+they are not (another numpy may round a sum differently).
+
+Re-recorded on purpose, with the commit that changed them:
+fem_finite_antilocking and mpm_finite_modified_antilocking_plastic when
+mean dilatation began to replace the volumetric part of the 3x3 gradient
+in plane strain as in 3D (displacements moved 0.6%)."""
 import json
 from pathlib import Path
 
