@@ -246,3 +246,20 @@ def test_scene_files_know_cam_clay():
         assert "1 problem(s)" in str(err.value)     # no echo of a default
     with pytest.raises(InvalidInputError):
         triaxial(CLAY, -1., .1)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(shear_modulus=1e308), r"shear_modulus = 1e\+308 is beyond 1e\+300"),
+    (dict(kappa=1e-303), r"bulk modulus p_c0 / kappa .* = 1e\+305 is beyond"),
+    (dict(preconsolidation_pressure=1e305),
+     r"bulk modulus p_c0 / kappa .* = 5e\+306 is beyond")])
+def test_cam_clay_moduli_that_overflow_are_refused(kwargs, match):
+    """Cam clay's moduli are its shear modulus and its bulk modulus
+    ``p / kappa``, largest at the preconsolidation pressure: beyond 1e300
+    (E = 1e308 ended in a NaN pivot, issue 30) they are refused by name
+    and value; 1e300 itself is accepted."""
+    base = dict(kappa=.02, lambda_=.2, M=1.2, shear_modulus=2e3,
+                reference_pressure=P0, preconsolidation_pressure=P0)
+    with pytest.raises(InvalidMaterialError, match=match):
+        ModifiedCamClay(**{**base, **kwargs})
+    assert ModifiedCamClay(**{**base, "shear_modulus": 1e300}).mu == 1e300

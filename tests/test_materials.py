@@ -166,3 +166,31 @@ def test_internal_variables_survive_checkpoint_and_resume(tmp_path,
     assert np.array_equal(resumed.state["alpha"], whole.state["alpha"])
     vtu = meshio.read(tmp_path / "points_0003.vtu")
     assert np.array_equal(vtu.point_data["alpha"], points.state["alpha"])
+
+
+@pytest.mark.parametrize("kind", ["elastic", "von_mises", "drucker_prager",
+                                  "mohr_coulomb"])
+def test_moduli_that_overflow_are_refused_by_name(kind):
+    """E = 1e308 passed the checks and ended in "a pivot is nan ...
+    missing supports" (issue 30): every material with Young's modulus
+    refuses it, naming E and its value, as it refuses a Lame parameter
+    that overflows (nu next to 0.5: lam = 3e305 for E = 1e290); E = 1e300
+    (the limit) is accepted and a body of it runs (a test divides a load
+    of 1e-300 by it)."""
+    from skfem_mpm import DruckerPrager, InvalidMaterialError, MohrCoulomb
+    from skfem_mpm.mechanics.materials import MODULUS_LIMIT, VonMises
+    build = {"elastic": LinearElastic,
+             "von_mises": lambda E, nu: VonMises(E, nu, 10.),
+             "drucker_prager": lambda E, nu: DruckerPrager(
+                 E, nu, cohesion=10., friction_angle=30.),
+             "mohr_coulomb": lambda E, nu: MohrCoulomb(
+                 E, nu, cohesion=10., friction_angle=30.)}[kind]
+    assert MODULUS_LIMIT == 1e300
+    with pytest.raises(InvalidMaterialError,
+                       match=r"Young's modulus E = 1e\+308 is beyond 1e\+300"
+                             r".*overflows"):
+        build(1e308, .3)
+    with pytest.raises(InvalidMaterialError,
+                       match=r"Lame parameter lam .* = 3\.0024e\+305"):
+        build(1e290, float(np.nextafter(.5, 0.)))
+    assert build(1e300, .3).E == 1e300

@@ -455,3 +455,39 @@ def test_simple_shear_starts_oedometric_and_refuses_impossible_starts():
                    np.zeros((3, 3)), 1, np.diag([-1., -100., -1.]))
     with pytest.raises(InvalidInputError, match="compressive"):
         triaxial(sand, -5., .01)
+
+
+@pytest.mark.parametrize("model", [DruckerPrager, MohrCoulomb])
+def test_angles_that_look_like_radians_are_refused(model):
+    """A friction angle of 0.52 (radians) was taken as 0.52 degrees without
+    a word (issue 30): an angle in (0, 1) degree is refused, the message
+    saying it is in degrees and what the value is in degrees as radians
+    (0.52 rad = 29.8, 0.17 rad = 9.7); 0 stays allowed (Tresca-like, no
+    dilation), and so does 1 degree; strength reduction still takes the
+    angles below 1 degree it derives (tan(30 deg) / 64: 0.517 degrees)."""
+    from skfem_mpm import reduce_strength
+    with pytest.raises(InvalidMaterialError,
+                       match=r"friction_angle is in degrees, got 0\.52.*"
+                             r"0\.52 rad = 29\.8 degrees"):
+        model(E, NU, cohesion=C, friction_angle=.52)
+    with pytest.raises(InvalidMaterialError,
+                       match=r"dilation_angle is in degrees, got 0\.17.*"
+                             r"= 9\.7 degrees"):
+        model(E, NU, cohesion=C, friction_angle=30., dilation_angle=.17)
+    assert model(E, NU, cohesion=C, friction_angle=0.).friction_angle == 0.
+    assert model(E, NU, cohesion=C, friction_angle=1.,
+                 dilation_angle=0.).friction_angle == 1.
+    weak = reduce_strength(model(E, NU, cohesion=C, friction_angle=30.,
+                                 dilation_angle=5.), 64.)
+    assert weak.friction_angle == pytest.approx(
+        np.degrees(np.arctan(np.tan(np.radians(30.)) / 64)), rel=1e-12)
+    assert 0. < weak.dilation_angle < weak.friction_angle < 1.
+
+
+def test_a_hardening_modulus_that_overflows_is_refused():
+    """Drucker-Prager's hardening modulus is a modulus too: 1e308 refused
+    by name (beyond the limit of 1e300)."""
+    with pytest.raises(InvalidMaterialError,
+                       match=r"hardening modulus dc/dalpha = 1e\+308 is "
+                             r"beyond 1e\+300"):
+        DruckerPrager(E, NU, cohesion=C, friction_angle=20., hardening=1e308)

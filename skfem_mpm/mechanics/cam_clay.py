@@ -39,6 +39,7 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidMaterialError, check_real
+from .materials import check_moduli
 
 __all__ = ["ModifiedCamClay"]
 
@@ -148,6 +149,13 @@ class ModifiedCamClay:
                 "{} (the state at zero strain lies within the yield "
                 "surface), got {}".format(self.reference_pressure,
                                           self.preconsolidation_pressure))
+        with np.errstate(over="ignore"):
+            check_moduli([
+                ("shear_modulus", values["shear_modulus"]),
+                ("the bulk modulus p_c0 / kappa at the preconsolidation "
+                 "pressure (p_c0 = {:.6g}, kappa = {!r})".format(
+                     values["preconsolidation_pressure"], values["kappa"]),
+                 values["preconsolidation_pressure"] / values["kappa"])])
 
     @property
     def mu(self) -> float:

@@ -51,7 +51,38 @@ from ..errors import InvalidMaterialError, check_real
 
 __all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
            "is_plastic", "elastic_tensor", "state_variables",
-           "initial_state", "inverse_elastic_law"]
+           "initial_state", "inverse_elastic_law", "check_moduli",
+           "MODULUS_LIMIT"]
+
+#: the largest modulus (Young's, Lame's, shear, bulk or hardening) a
+#: material accepts: eight orders below the float64 limit (1.8e308), room
+#: for the sums and products that assemble the stiffness (E = 1e308 gave a
+#: NaN pivot reported as missing supports; E = 1e300 still runs, its
+#: answers scaled to round-off).  Steel is 2e11 Pa (2e14 in mPa): no unit
+#: system brings a modulus near it
+MODULUS_LIMIT = 1e300
+
+
+def check_moduli(moduli) -> None:
+    """Refuse moduli that float64 arithmetic cannot carry: every
+    ``(name, value)`` of ``moduli`` finite and at most
+    :data:`MODULUS_LIMIT` in size, or an :class:`InvalidMaterialError`
+    naming the first that is not.
+
+    >>> check_moduli([("Young's modulus E", 1e308)])
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidMaterialError: Young's modulus E = 1e+308 is beyond 1e+300, the largest modulus accepted: no unit system needs one so large, and near the float64 limit (1.8e+308) the stiffness assembled from it overflows; give the moduli in larger units (MPa or GPa instead of Pa)
+    """
+    for name, value in moduli:
+        value = float(value)
+        if not (np.isfinite(value) and abs(value) <= MODULUS_LIMIT):
+            raise InvalidMaterialError(
+                "{} = {:.6g} is beyond {:.0e}, the largest modulus accepted: "
+                "no unit system needs one so large, and near the float64 "
+                "limit ({:.2g}) the stiffness assembled from it overflows; "
+                "give the moduli in larger units (MPa or GPa instead of "
+                "Pa)".format(name, value, MODULUS_LIMIT, np.finfo(float).max))
 
 
 @dataclass(frozen=True)
@@ -92,6 +123,12 @@ class LinearElastic:
             raise InvalidMaterialError(
                 "Poisson's ratio nu must lie in (-1, 0.5), got {}"
                 .format(self.nu))
+        with np.errstate(over="ignore", invalid="ignore"):
+            check_moduli([
+                ("Young's modulus E", E),
+                ("the Lame parameter lam = E nu / ((1 + nu) (1 - 2 nu)) "
+                 "(E = {:.6g}, nu = {!r})".format(E, nu), self.lam),
+                ("the shear modulus mu (E = {:.6g})".format(E), self.mu)])
 
     @property
     def lam(self) -> float:

@@ -6,7 +6,8 @@ the consistent tangent ``D = dtau/deps``), so they run in small strain and
 in finite deformation (the Hencky framework: logarithmic principal strains,
 Kirchhoff stresses) with every method.  Stresses are tension positive; the
 mean stress ``p = tr(sigma) / 3`` is negative in compression.  Angles are in
-degrees.  Elasticity is linear (:class:`~skfem_mpm.LinearElastic`).
+degrees (one in (0, 1) is refused as radians).  Elasticity is linear
+(:class:`~skfem_mpm.LinearElastic`).
 
 Formulas follow de Souza Neto, Peric and Owen, *Computational Methods for
 Plasticity*, Wiley 2008: Drucker-Prager section 8.3.3 (return to the cone
@@ -26,13 +27,15 @@ variable ``alpha`` (``xi * dgamma`` accumulated on the Drucker-Prager cone,
 Mohr-Coulomb the sum of the plastic multipliers on planes and edges, and
 the volumetric plastic strain at the apex).
 """
+import dataclasses
+import sys
 from dataclasses import dataclass
 
 import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidMaterialError, check_real
-from .materials import LinearElastic
+from .materials import LinearElastic, check_moduli
 
 __all__ = ["DruckerPrager", "MohrCoulomb", "DP_FITS"]
 
@@ -45,15 +48,47 @@ APEX_STIFFNESS = 1e-8
 DEVIATOR = np.eye(3) - np.ones((3, 3)) / 3
 
 
+def derived_by_replace(depth: int = 8) -> bool:
+    """Whether the material being checked is built by
+    ``dataclasses.replace`` from one that passed the checks: the reduced
+    angles of :func:`~skfem_mpm.reduce_strength` (``tan(phi) / F``, F up to
+    64) may lie below 1 degree."""
+    frame = sys._getframe(1)
+    for _ in range(depth):
+        frame = frame.f_back
+        if frame is None:
+            return False
+        code = frame.f_code
+        if code.co_filename == dataclasses.__file__ \
+                and code.co_name in ("replace", "_replace"):
+            return True
+    return False
+
+
+def check_degrees(name: str, angle: float):
+    """Refuse an angle in (0, 1) degree, as given in radians (a friction
+    angle of 0.52 taken as degrees is a soil without friction).  Zero stays
+    allowed (no friction: Tresca-like; no dilation)."""
+    if 0. < angle < 1.:
+        raise InvalidMaterialError(
+            "{0} is in degrees, got {1!r}: an angle in (0, 1) degree looks "
+            "like radians ({1!r} rad = {2:.1f} degrees: give {0}={2:.1f}); "
+            "0 stays allowed".format(name, angle, np.degrees(angle)))
+
+
 def check_angles(friction_angle, dilation_angle, cohesion):
     """Friction angle in [0, 90), dilation angle in [0, friction angle],
-    cohesion >= 0 (all finite), or an :class:`InvalidMaterialError`."""
+    neither in (0, 1) degree (radians, most likely), cohesion >= 0 (all
+    finite), or an :class:`InvalidMaterialError`."""
     phi = check_real("friction_angle", friction_angle, InvalidMaterialError)
     psi = check_real("dilation_angle", dilation_angle, InvalidMaterialError)
     c = check_real("cohesion", cohesion, InvalidMaterialError)
     if not (np.isfinite(phi) and 0. <= phi < 90.):
         raise InvalidMaterialError("friction_angle must lie in [0, 90) "
                                    "degrees, got {}".format(friction_angle))
+    if not derived_by_replace():
+        check_degrees("friction_angle", phi)
+        check_degrees("dilation_angle", psi)
     if not (np.isfinite(psi) and 0. <= psi <= phi):
         raise InvalidMaterialError(
             "dilation_angle must lie in [0, friction_angle = {}] degrees, "
@@ -109,7 +144,8 @@ class DruckerPrager(LinearElastic):
     cohesion
         Cohesion ``c`` at ``alpha = 0``, >= 0.
     friction_angle, dilation_angle
-        In degrees: friction in [0, 90), dilation in [0, friction].
+        In degrees: friction in [0, 90), dilation in [0, friction];
+        neither in (0, 1), refused as radians.
     hardening
         ``dc / dalpha``; negative (softening) down to
         ``-K eta eta_bar / xi^2`` (so softening needs a dilation angle): the
@@ -154,6 +190,7 @@ class DruckerPrager(LinearElastic):
         if not np.isfinite(hardening):
             raise InvalidMaterialError("hardening must be finite, got "
                                        "{}".format(self.hardening))
+        check_moduli([("the hardening modulus dc/dalpha", hardening)])
         if self.fit not in DP_FITS:
             raise InvalidMaterialError("fit must be one of {}, got {!r}"
                                        .format(DP_FITS, self.fit))
@@ -265,7 +302,8 @@ class MohrCoulomb(LinearElastic):
     cohesion
         Cohesion ``c`` >= 0.
     friction_angle, dilation_angle
-        In degrees: friction in [0, 90), dilation in [0, friction].
+        In degrees: friction in [0, 90), dilation in [0, friction];
+        neither in (0, 1), refused as radians.
 
     Examples
     --------
