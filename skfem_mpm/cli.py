@@ -9,6 +9,7 @@ command line prints; the library only logs.
 import argparse
 import logging
 import shutil
+import signal
 import sys
 import time
 from dataclasses import replace
@@ -24,7 +25,8 @@ from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
                                 check_against, history_rows, load_checkpoint,
                                 save_checkpoint, scene_digest)
 from .scenes.footing import soil_strength
-from .scenes.io import atomic_path, clear_earlier_run, remove_temporaries
+from .scenes.io import (atomic_path, clear_earlier_run,
+                        interrupts_deferred, remove_temporaries)
 from .scenes.output import SeriesWriter, point_cloud, write_summary
 from .scenes import plot  # save_figure looked up when called: tests wrap it
 from .scenes.plot import (STRESS_NAMES, body_figure_size, colour_scale,
@@ -352,24 +354,23 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
     plot.save_figure(fig, path)
 
 
-def run(args) -> int:
-    for name in ("checkpoint_every", "max_steps", "steps"):
-        if getattr(args, name) < 0:
-            print("skfem-mpm: --{} must be >= 0, got {}".format(
-                name.replace("_", "-"), getattr(args, name)), file=sys.stderr)
-            return 2
-    earlier, points, domain0, resume = None, None, None, Resume()
+def load_run(args):
+    """The scene of a run (``--resume``: the checkpoint's), its output
+    folder, the checkpoint resumed from (or ``None``), the points to start
+    from, the :class:`~skfem_mpm.Resume`, the grid and the points the
+    scene seeds.  Writes nothing."""
+    earlier, points, resume = None, None, Resume()
     if args.resume is not None:
         outdir = args.resume
         source = outdir / "scene.toml"
         scene = load_scene(source)
         earlier = load_checkpoint(outdir, scene_digest(source))
-        points, domain0 = earlier.points, earlier.domain0
+        points = earlier.points
         if scene.dynamics is None:
             scene.nsteps = earlier.nsteps
         resume = Resume(first_step=earlier.step + 1,
                         load_factor=earlier.load_factor,
-                        increment=earlier.increment, domain0=domain0,
+                        increment=earlier.increment, domain0=earlier.domain0,
                         counters=earlier.counters)
     else:
         outdir = args.out
@@ -385,15 +386,32 @@ def run(args) -> int:
         if outdir.exists() and not outdir.is_dir():
             raise InvalidInputError("--out {} exists and is not a folder"
                                     .format(outdir))
-    digest = scene_digest(source)
     mesh, _ = scene.grid.build()
     initial = build_points(scene, mesh)
     check_quantities(scene, scene.outputs, initial)
     if points is None:
-        points, domain0 = initial, initial.domain
+        points = initial
     else:
         check_against(outdir / CHECKPOINT, earlier, initial, state_variables(
             [body.material for body in scene.bodies]), mesh)
+    return scene, source, outdir, earlier, points, resume, mesh, initial
+
+
+def run(args) -> int:
+    for name in ("checkpoint_every", "max_steps", "steps"):
+        if getattr(args, name) < 0:
+            print("skfem-mpm: --{} must be >= 0, got {}".format(
+                name.replace("_", "-"), getattr(args, name)), file=sys.stderr)
+            return 2
+    try:
+        scene, source, outdir, earlier, points, resume, mesh, initial = \
+            load_run(args)
+    except KeyboardInterrupt:
+        print("skfem-mpm: interrupted while setting up the run (reading the "
+              "scene, seeding the points): nothing written", file=sys.stderr)
+        return 130
+    digest = scene_digest(source)
+    domain0 = points.domain if earlier is None else earlier.domain0
     # points carrying a point load or a surface load (traction, pressure)
     loaded = np.union1d(np.flatnonzero(np.abs(initial.force).sum(axis=0)),
                         np.concatenate([np.asarray(load.points) for load in
@@ -433,7 +451,10 @@ def run(args) -> int:
         else None
     progress = Progress(scene.step_count, not args.no_progress,
                         0. if earlier is None else float(earlier.load_factor))
-    history, latest = [], []          # the records and the last state
+    # the records and the last state of the steps written (output and
+    # all), and the step the checkpoint on disk holds
+    history, latest = [], []
+    kept = [None if earlier is None else earlier.step]
 
     def so_far():
         """History rows and reactions of the run so far (before this
@@ -447,19 +468,20 @@ def run(args) -> int:
         return rows, reactions
 
     def checkpoint(state, factor, increment, counters):
-        """Save the run so far."""
+        """Save the run so far; a Ctrl-C waits until the file is whole
+        (np.savez cut short left a zipfile traceback)."""
         prepare()
         rows, reactions = so_far()
-        save_checkpoint(outdir, Checkpoint(
-            step=len(rows), nsteps=scene.step_count, load_factor=factor,
-            increment=increment, points=state, counters=counters,
-            history=rows, reactions=reactions, scene_sha256=digest,
-            domain0=domain0))
+        with interrupts_deferred():
+            save_checkpoint(outdir, Checkpoint(
+                step=len(rows), nsteps=scene.step_count, load_factor=factor,
+                increment=increment, points=state, counters=counters,
+                history=rows, reactions=reactions, scene_sha256=digest,
+                domain0=domain0))
+            kept[0] = len(rows)
 
     def callback(record, pts):
         prepare()
-        history.append(record)
-        latest[:] = [pts]
         progress(record)
         if start is not None and not series.entries:
             series.write(0, 0., start, np.unique(locate_points(
@@ -468,6 +490,10 @@ def run(args) -> int:
             series.write(record.step, float(
                 record.load_factor if record.time is None else record.time),
                 pts, record.elements, record.u, record.reactions)
+        # the step counts once both its VTUs are written: one interrupted
+        # between them is neither checkpointed nor listed on resume
+        history.append(record)
+        latest[:] = [pts]
         if record.load_factor < 1. and (
                 (args.checkpoint_every
                  and record.step % args.checkpoint_every == 0)
@@ -486,23 +512,35 @@ def run(args) -> int:
               "--resume {}".format(stop.args[0], outdir))
         return 0
     except KeyboardInterrupt:         # Ctrl-C: keep what converged
-        last = history[-1] if history else None
-        saved = bool(last is not None and last.load_factor < 1.)
-        if saved:
-            checkpoint(latest[0], last.load_factor, last.increment,
-                       last.counters)
-        if prepared:
-            rows, reactions = so_far()
-            interrupted = {
-                "scene": scene.name, "status": "interrupted",
-                "last_converged_step": last.step if last else
-                resume.first_step - 1, "checkpoint": saved}
-            interrupted.update(rigid_body_curves(scene, rows, reactions))
-            write_summary(outdir / "summary.json", interrupted)
-        print("skfem-mpm: interrupted{}".format(
-            "; continue with: skfem-mpm run --resume {}".format(outdir)
-            if saved else " before a step converged: nothing to resume"),
-            file=sys.stderr)
+        # a second Ctrl-C does not cut the saving short
+        with interrupts_deferred(reraise=False):
+            last = history[-1] if history else None
+            cut = ""
+            if last is not None and last.load_factor < 1. and \
+                    kept[0] != last.step:
+                try:
+                    checkpoint(latest[0], last.load_factor, last.increment,
+                               last.counters)
+                except KeyboardInterrupt:   # the previous checkpoint stands
+                    cut = " while saving the checkpoint of step {}".format(
+                        last.step)
+            if prepared:
+                rows, reactions = so_far()
+                interrupted = {
+                    "scene": scene.name, "status": "interrupted",
+                    "last_converged_step": last.step if last else
+                    resume.first_step - 1, "checkpoint": kept[0] is not None,
+                    "checkpoint_step": kept[0]}
+                interrupted.update(rigid_body_curves(scene, rows, reactions))
+                write_summary(outdir / "summary.json", interrupted)
+        if kept[0] is None:
+            print("skfem-mpm: interrupted{} before a step converged: nothing "
+                  "to resume".format(cut), file=sys.stderr)
+        else:
+            print("skfem-mpm: interrupted{}; {}continue with: skfem-mpm run "
+                  "--resume {}".format(
+                      cut, "the checkpoint of step {} stands; ".format(
+                          kept[0]) if cut else "", outdir), file=sys.stderr)
         return 130
     except MPMError as err:
         if isinstance(err, InvalidInputError) and not prepared:
@@ -540,20 +578,41 @@ def run(args) -> int:
             logger.info("no summary either: %s", err)
         raise
     seconds = time.perf_counter() - tic
-    summary = summarise(scene, result, seconds, earlier)
-    summary["status"] = "completed"
-    prepare()
-    write_summary(outdir / "summary.json", summary)
-    try:
+    summary, stage = None, "writing its summary"
+
+    def completed():
+        """The summary of the completed run, written."""
+        done = summarise(scene, result, seconds, earlier)
+        done["status"] = "completed"
+        prepare()
+        write_summary(outdir / "summary.json", done)
+        return done
+    try:          # the run is complete: a Ctrl-C now gets what completed
+        with interrupts_deferred():
+            summary = completed()
+        stage = "drawing the figures"
         plot_outputs(scene, result, outdir, loaded, summary)
+        stage = "printing the report"
+        print_report(scene, summary, seconds, outdir, args.resume)
     except KeyboardInterrupt:
-        print("skfem-mpm: interrupted while drawing the figures; the run is "
-              "complete in {} (summary.json{})".format(
-                  outdir, "" if args.no_series else ", the VTU series"),
-              file=sys.stderr)
+        with interrupts_deferred(reraise=False):
+            if summary is None:
+                summary = completed()
+        print("skfem-mpm: interrupted after the run completed ({} steps), "
+              "while {}: summary.json{} complete in {}{}".format(
+                  summary["steps_run"], stage, "" if args.no_series else
+                  " and the VTU series", outdir,
+                  "" if stage == "printing the report" else
+                  "; figures missing"), file=sys.stderr)
         return 130
+    return 0
+
+
+def print_report(scene, summary: dict, seconds: float, outdir: Path,
+                 resumed) -> None:
+    """The terminal's account of a completed run."""
     print("{}: {} {} ({} kinematics), {} points, {}".format(
-        scene.name, "resumed" if args.resume else "ran", scene.method,
+        scene.name, "resumed" if resumed else "ran", scene.method,
         scene.kinematics, summary["points"], "{} load steps".format(
             scene.step_count) if scene.dynamics is None else
         "{} time steps to t = {:g} s".format(scene.step_count,
@@ -573,7 +632,6 @@ def run(args) -> int:
     print("  time {:.3f} s: ".format(seconds) + ", ".join(
         "{} {:.0%}".format(p, summary["timings"][p] / total) for p in PHASES))
     print("  output                    {}".format(outdir))
-    return 0
 
 
 def compare(args) -> int:
@@ -704,6 +762,25 @@ def run_study(args) -> int:
 
 
 def main(argv=None) -> int:
+    """The ``skfem-mpm`` command on ``argv`` (default ``sys.argv``): its
+    exit status.  A Ctrl-C gets one line and status 130 wherever it falls.
+    Run as the program (``argv`` not given), it ignores Ctrl-C once its
+    work is done: the interpreter's exit that follows (some 0.2 s) would
+    otherwise die of it without a word (status -2)."""
+    try:
+        return dispatch(argv)
+    except KeyboardInterrupt:        # outside what a command handles itself
+        print("skfem-mpm: interrupted; what was written is whole (every "
+              "file is written to a temporary name and renamed)",
+              file=sys.stderr)
+        return 130
+    finally:
+        if argv is None:
+            signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def dispatch(argv) -> int:
+    """:func:`main` but for Ctrl-C."""
     try:
         args = build_parser().parse_args(argv)
     except SystemExit as exit:

@@ -5,6 +5,7 @@ cover the whole run; a checkpoint is checked field by field and against its
 scene."""
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -276,3 +277,81 @@ def test_resume_with_pardiso_on_non_symmetric_tangents_is_bit_identical(
                  "--no-progress"]) == 0
     assert main(["run", "--resume", str(split), "--no-progress"]) == 0
     assert_same_run(straight, split, 1)
+
+
+def listed(out, series):
+    """The files a PVD collection lists, in order."""
+    return re.findall(r'file="([^"]+)"', (out / series).read_text())
+
+
+def test_ctrl_c_inside_a_steps_grid_vtu_then_resume(straight, tmp_path,
+                                                    monkeypatch, capsys):
+    """Issue 30: Ctrl-C between the points and the grid VTU of a step
+    checkpointed the step anyway, so that the resumed series lacked
+    grid_N.vtu while grid.pvd listed it.  A step counts as written only
+    once both its VTUs are: the checkpoint holds the step before, the
+    resume writes the interrupted step again, and every file either PVD
+    lists exists and equals the uninterrupted run's."""
+    scene, reference = straight
+    out = tmp_path / "cut"
+    write = meshio.write
+
+    def interrupted(path, *args, **kwargs):
+        if "grid_0004" in str(path):
+            raise KeyboardInterrupt
+        return write(path, *args, **kwargs)
+    monkeypatch.setattr(meshio, "write", interrupted)
+    assert main(["run", str(scene), "--out", str(out), "--no-progress"]) \
+        == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--resume {}".format(out) in err[0], err
+    assert (out / "points_0004.vtu").exists()            # half a step
+    assert not (out / "grid_0004.vtu").exists()
+    assert load_checkpoint(out).step == 3
+    assert summary(out)["last_converged_step"] == 3
+    monkeypatch.setattr(meshio, "write", write)
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    for series in ("points.pvd", "grid.pvd"):
+        names = listed(out, series)
+        assert names == listed(reference, series)
+        for name in names:
+            a, b = meshio.read(reference / name), meshio.read(out / name)
+            assert np.array_equal(a.points, b.points), name
+            for field in a.point_data:
+                assert np.array_equal(a.point_data[field],
+                                      b.point_data[field]), (name, field)
+    assert_same_run(reference, out, 1)
+
+
+def test_ctrl_c_while_saving_a_checkpoint_keeps_the_previous_one(
+        straight, tmp_path, monkeypatch, capsys):
+    """Issue 30: Ctrl-C during the checkpoint write once printed a zipfile
+    traceback.  Interrupted inside np.savez (and again when the
+    interruption tries to save the step), the run leaves the previous
+    checkpoint whole, no partial file, one line naming the step it
+    resumes from; the resume ends where the uninterrupted run does."""
+    scene, reference = straight
+    out = tmp_path / "cut"
+    savez, calls = np.savez, []
+
+    def interrupted(*args, **kwargs):
+        calls.append(1)
+        if len(calls) > 1:
+            raise KeyboardInterrupt
+        return savez(*args, **kwargs)
+    monkeypatch.setattr(np, "savez", interrupted)
+    assert main(["run", str(scene), "--out", str(out), "--no-progress",
+                 "--checkpoint-every", "2"]) == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    assert "while saving the checkpoint of step 4" in err[0]
+    assert "the checkpoint of step 2 stands" in err[0]
+    assert "--resume {}".format(out) in err[0]
+    monkeypatch.setattr(np, "savez", savez)
+    assert load_checkpoint(out).step == 2
+    assert not list(out.glob(TEMPORARY_PREFIX + "*"))
+    data = summary(out)
+    assert data["status"] == "interrupted" and data["checkpoint"]
+    assert data["checkpoint_step"] == 2
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    assert_same_run(reference, out, 1)

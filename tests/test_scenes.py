@@ -764,3 +764,88 @@ def test_a_body_reaching_outside_the_grid_is_refused(tmp_path, capsys):
                        r"\[-1.0, 2.0\] reaches outside the grid's y extent "
                        r"\[0.0, 3.0\]"):
         run_scene(api)
+
+
+def test_ctrl_c_while_setting_up_gets_one_line(tmp_path, capsys,
+                                              monkeypatch):
+    """Issue 30: Ctrl-C within the first second (reading the scene,
+    seeding the points) printed a raw KeyboardInterrupt.  Every command
+    prints one line and exits with 130; a run interrupted so writes
+    nothing."""
+    import skfem_mpm.cli as cli_module
+    out = tmp_path / "out"
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    for name, argv in (
+            ("build_points", ["run", "--out", str(out)]),
+            ("load_scene", ["run", "--out", str(out)]),
+            ("load_scene", ["compare", str(EXAMPLES / "column.toml"),
+                            "--out", str(out)]),
+            ("load_scene", ["study", str(EXAMPLES / "column.toml"),
+                            "--out", str(out)])):
+        with monkeypatch.context() as patch:
+            patch.setattr(cli_module, name, interrupted)
+            try:
+                code = main(argv + ["--no-progress"])
+            except KeyboardInterrupt:
+                pytest.fail("{} ({}): a raw KeyboardInterrupt".format(
+                    argv[0], name))
+        assert code == 130
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("skfem-mpm: interrupted")
+        if argv[0] == "run":
+            assert "nothing written" in err[0]
+    assert not out.exists()
+
+
+def test_ctrl_c_after_a_completed_run_gets_one_line(tmp_path, capsys,
+                                                    monkeypatch):
+    """Issue 30: Ctrl-C after a completed run (writing its summary, the
+    figures) must not pass silently nor as a traceback: the summary is
+    finished, one line says what completed, exit code 130."""
+    import skfem_mpm.cli as cli_module
+    write, calls = cli_module.write_summary, []
+
+    def interrupted(path, summary):
+        calls.append(summary["status"])
+        if len(calls) == 1:
+            raise KeyboardInterrupt
+        write(path, summary)
+    monkeypatch.setattr(cli_module, "write_summary", interrupted)
+    out = tmp_path / "out"
+    try:
+        code = main(["run", "--out", str(out), "--no-progress", "--steps",
+                     "2"])
+    except KeyboardInterrupt:
+        pytest.fail("a raw KeyboardInterrupt")
+    assert code == 130
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "after the run completed" in err[0], err
+    assert "summary.json" in err[0]
+    assert json.loads((out / "summary.json").read_text())["status"] == \
+        "completed"
+    assert not (out / "final_stress.png").exists()      # not drawn
+
+
+def test_ctrl_c_as_the_program_exits_is_never_a_silent_sigint(tmp_path):
+    """Issue 30: Ctrl-C once a run had printed its report killed the
+    interpreter's exit (some 0.2 s after the last line) silently, exit
+    status -2.  Run as the program, skfem-mpm then exits with its own
+    status (0), or 130 with one line."""
+    import signal
+    import subprocess
+    import sys
+    import time
+    process = subprocess.Popen(
+        [sys.executable, "-m", "skfem_mpm.cli", "run", "--out",
+         str(tmp_path / "out"), "--no-progress", "--no-series", "--steps",
+         "2"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    for line in process.stdout:
+        if line.strip().startswith("output"):
+            break
+    time.sleep(.02)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode in (0, 130), (process.returncode, err)
+    assert "Traceback" not in err and len(err.strip().splitlines()) <= 1

@@ -1,10 +1,13 @@
 """Output that is never left half-written."""
 import os
+import signal
 import tempfile
+import threading
 from contextlib import contextmanager
 from pathlib import Path
 
-__all__ = ["atomic_path", "remove_temporaries", "TEMPORARY_PREFIX"]
+__all__ = ["atomic_path", "remove_temporaries", "interrupts_deferred",
+           "TEMPORARY_PREFIX"]
 
 #: temporary files start so (hidden, and told apart from a user's files)
 TEMPORARY_PREFIX = ".skfem-mpm-partial."
@@ -41,6 +44,44 @@ def atomic_path(path):
         if os.path.exists(tmp):
             os.remove(tmp)
         raise
+
+
+@contextmanager
+def interrupts_deferred(reraise: bool = True):
+    """Hold Ctrl-C (SIGINT) back while the block runs, so that what it
+    writes is whole: a Ctrl-C meanwhile is raised as ``KeyboardInterrupt``
+    when the block has ended (``reraise``), or dropped (a caller that is
+    stopping anyway).  A ``KeyboardInterrupt`` raised in the block itself
+    passes as any exception does.  Outside the main thread, or where
+    SIGINT has no Python handler (ignored, default, set from C), the block
+    runs as it is.
+
+    Examples
+    --------
+    >>> import os, signal
+    >>> from skfem_mpm.scenes.io import interrupts_deferred
+    >>> try:
+    ...     with interrupts_deferred():
+    ...         os.kill(os.getpid(), signal.SIGINT)
+    ...         finished = True
+    ... except KeyboardInterrupt:
+    ...     print("interrupted after the block, finished:", finished)
+    interrupted after the block, finished: True
+
+    """
+    previous = signal.getsignal(signal.SIGINT)
+    if not callable(previous) or \
+            threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    received = []
+    signal.signal(signal.SIGINT, lambda signum, frame: received.append(1))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if received and reraise:
+        raise KeyboardInterrupt
 
 
 #: what a run writes in its output folder (globs): an earlier run's
