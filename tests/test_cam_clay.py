@@ -263,3 +263,80 @@ def test_cam_clay_moduli_that_overflow_are_refused(kwargs, match):
     with pytest.raises(InvalidMaterialError, match=match):
         ModifiedCamClay(**{**base, **kwargs})
     assert ModifiedCamClay(**{**base, "shear_modulus": 1e300}).mu == 1e300
+
+
+def test_void_ratio_parameters_give_the_strain_form_model():
+    """Cam clay from the e - ln p plane (issue 30): lambda_e = 0.25,
+    kappa_e = 0.05 at e0 = 1.5 are the strain-form lambda_ = 0.25 / 2.5,
+    kappa = 0.05 / 2.5 (built here by hand): an oedometric path to 20%
+    strain from 100 (preconsolidated to 150) has the same stresses to
+    1e-12; N (the NCL's 1 + e at p = 1) placed for p_c0 = 150 gives
+    p_c0 = 150 to 1e-12; nu = 0.25 the shear modulus 3 K (1 - 2 nu) /
+    (2 (1 + nu)) with K = p_r (1 + e0) / kappa_e.  An isotropic
+    compression through p_c0, read as void ratio e = e0 - (1 + e0) ev,
+    runs down the e - ln p lines: slope -kappa_e before yielding and
+    -lambda_e after, step by step, to 1e-6 (measured 4e-14)."""
+    from skfem_mpm.mechanics.element_tests import mixed_path
+    lambda_e, kappa_e, e0, p_c0 = .25, .05, 1.5, 1.5 * P0
+    clay = ModifiedCamClay.from_void_ratio(
+        lambda_e, kappa_e, e0, M=1.2, reference_pressure=P0,
+        preconsolidation_pressure=p_c0, shear_modulus=2e3)
+    by_hand = ModifiedCamClay(kappa=kappa_e / (1 + e0),
+                              lambda_=lambda_e / (1 + e0), M=1.2,
+                              shear_modulus=2e3, reference_pressure=P0,
+                              preconsolidation_pressure=p_c0)
+    ours, theirs = oedometer(clay, .2, nsteps=40), oedometer(by_hand, .2,
+                                                             nsteps=40)
+    assert np.abs(ours.stress - theirs.stress).max() \
+        <= 1e-12 * np.abs(theirs.stress).max()
+    assert ours.yielded.any()
+    N = (1 + e0) + lambda_e * np.log(p_c0) - kappa_e * np.log(p_c0 / P0)
+    placed = ModifiedCamClay.from_void_ratio(
+        lambda_e, kappa_e, e0, M=1.2, reference_pressure=P0, N=N, nu=.25)
+    assert placed.preconsolidation_pressure == pytest.approx(p_c0, rel=1e-12)
+    bulk = P0 * (1 + e0) / kappa_e
+    assert placed.shear_modulus == pytest.approx(
+        3 * bulk * (1 - 2 * .25) / (2 * 1.25), rel=1e-14)
+    # isotropic compression to a volume strain of 15%
+    path = mixed_path(clay, -.05 * np.eye(3), np.ones((3, 3), dtype=bool),
+                      np.zeros((3, 3)), 150)
+    p = -path.p
+    e = e0 - (1 + e0) * -np.einsum("iis->s", path.strain)
+    slope = np.diff(e) / np.diff(np.log(p))
+    plastic = path.yielded[1:] & path.yielded[:-1]      # whole steps on it
+    elastic = ~path.yielded[1:]
+    assert plastic.sum() > 100 and elastic.sum() >= 5
+    assert np.abs(slope[plastic] + lambda_e).max() < 1e-6
+    assert np.abs(slope[elastic] + kappa_e).max() < 1e-6
+    with pytest.raises(InvalidMaterialError, match="one of "
+                       "preconsolidation_pressure and N"):
+        ModifiedCamClay.from_void_ratio(lambda_e, kappa_e, e0, 1.2, P0,
+                                        shear_modulus=2e3)
+    with pytest.raises(InvalidMaterialError, match="above the normal "
+                       "compression line"):
+        ModifiedCamClay.from_void_ratio(lambda_e, kappa_e, e0, 1.2, P0,
+                                        N=2., shear_modulus=2e3)
+
+
+def test_undrained_triaxial_of_normally_consolidated_clay():
+    """Undrained (constant volume) triaxial compression of the normally
+    consolidated clay from p0 = 100 (issue 30): the effective stress path
+    stays on the ellipse whose p_c the constant volume fixes,
+    kappa ln(p'/p0) + (lambda - kappa) ln(p_c/p0) = 0 (to 1e-12 of p0^2,
+    measured 3e-15), the excess pore pressure is p0 + q/3 - p' (1e-12), and
+    at 20% axial strain the path reaches the critical state
+    p'_f = p0 (1/2)^((lambda - kappa)/lambda) = 53.59 with q = M p'_f and
+    u_f = p0 + (M/3 - 1) p'_f, each within 1e-3 (measured 2e-6)."""
+    from skfem_mpm.mechanics.element_tests import undrained_triaxial
+    undrained = undrained_triaxial(CLAY, P0, .2, nsteps=100)
+    p, q, u = -undrained.p, undrained.q, undrained.pore_pressure
+    kappa, lam, M = CLAY.kappa, CLAY.lambda_, CLAY.M
+    assert np.abs(np.einsum("iis->s", undrained.path.strain)).max() < 1e-15
+    pc = P0 * (P0 / p) ** (kappa / (lam - kappa))
+    assert np.abs(q * q - M * M * p * (pc - p)).max() < 1e-12 * P0 ** 2
+    assert np.abs(u - (P0 + q / 3 - p)).max() < 1e-12 * P0
+    assert np.all(np.diff(q) > 0) and np.all(np.diff(p) < 0)   # contracts
+    p_f = P0 * .5 ** ((lam - kappa) / lam)
+    assert p[-1] == pytest.approx(p_f, rel=1e-3)
+    assert q[-1] == pytest.approx(M * p_f, rel=1e-3)
+    assert u[-1] == pytest.approx(P0 + (M / 3 - 1) * p_f, rel=1e-3)

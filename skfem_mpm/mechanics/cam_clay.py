@@ -32,8 +32,14 @@ equations of the plastic volume and the yield condition for the elastic
 volumetric strain and the plastic multiplier by Newton's method, vectorised
 over the points, and its consistent tangent follows from their implicit
 derivative.
+
+The slopes are those of volumetric strains; a laboratory's void-ratio
+parameters (``lambda``, ``kappa`` of the ``e - ln p`` plane, ``e0``, and
+``p_c0`` or ``N``) give the model through
+:meth:`ModifiedCamClay.from_void_ratio`.
 """
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 from numpy import ndarray
@@ -69,6 +75,22 @@ def bracketed_newton(fun, lo: ndarray, hi: ndarray, x: ndarray, tol,
         step = np.where((step > lo) & (step < hi), step, .5 * (lo + hi))
         x = np.where(done, x, step)
     return x, ~done
+
+
+def check_slopes(values: dict, positive, kappa: str, lambda_: str):
+    """The ``positive`` entries of ``values`` positive and finite, the
+    slope ``values[lambda_]`` of the normal compression line above that of
+    the unloading line ``values[kappa]``, or an
+    :class:`InvalidMaterialError`."""
+    for name in positive:
+        if not (np.isfinite(values[name]) and values[name] > 0):
+            raise InvalidMaterialError("{} must be positive and finite, "
+                                       "got {}".format(name, values[name]))
+    if not (np.isfinite(values[lambda_]) and values[lambda_] > values[kappa]):
+        raise InvalidMaterialError(
+            "{} must exceed {} = {} (the normal compression line is steeper "
+            "than the unloading line), got {}".format(
+                lambda_, kappa, values[kappa], values[lambda_]))
 
 
 @dataclass(frozen=True)
@@ -130,17 +152,8 @@ class ModifiedCamClay:
                   for name in ("kappa", "lambda_", "M", "shear_modulus",
                                "reference_pressure",
                                "preconsolidation_pressure")}
-        for name in ("kappa", "M", "shear_modulus", "reference_pressure"):
-            if not (np.isfinite(values[name]) and values[name] > 0):
-                raise InvalidMaterialError("{} must be positive and finite, "
-                                           "got {}".format(name,
-                                                           values[name]))
-        if not (np.isfinite(values["lambda_"])
-                and values["lambda_"] > values["kappa"]):
-            raise InvalidMaterialError(
-                "lambda_ must exceed kappa = {} (the normal compression line "
-                "is steeper than the unloading line), got {}".format(
-                    self.kappa, self.lambda_))
+        check_slopes(values, ("kappa", "M", "shear_modulus",
+                              "reference_pressure"), "kappa", "lambda_")
         if not (np.isfinite(values["preconsolidation_pressure"])
                 and values["preconsolidation_pressure"]
                 >= values["reference_pressure"]):
@@ -156,6 +169,87 @@ class ModifiedCamClay:
                  "pressure (p_c0 = {:.6g}, kappa = {!r})".format(
                      values["preconsolidation_pressure"], values["kappa"]),
                  values["preconsolidation_pressure"] / values["kappa"])])
+
+    @classmethod
+    def from_void_ratio(cls, lambda_e: float, kappa_e: float, e0: float,
+                        M: float, reference_pressure: float, *,
+                        preconsolidation_pressure: Optional[float] = None,
+                        N: Optional[float] = None,
+                        shear_modulus: Optional[float] = None,
+                        nu: Optional[float] = None) -> "ModifiedCamClay":
+        """The model from the parameters of the ``e - ln p`` plane, as a
+        laboratory reports them: the slopes ``lambda_e`` of the normal
+        compression line and ``kappa_e`` of the unloading line in void ratio
+        against ``ln p`` (``C_c / ln 10`` and ``C_s / ln 10``), the void
+        ratio ``e0`` at the initial effective pressure
+        ``reference_pressure``, and where the soil sits: its
+        ``preconsolidation_pressure`` or ``N``, the specific volume
+        ``1 + e`` of the normal compression line at ``p = 1`` (in the
+        units of the pressures), from which
+        ``ln p_c0 = (N - (1 + e0) - kappa_e ln p_r) / (lambda_e - kappa_e)``
+        (the initial state on the unloading line through ``p_c0``).
+
+        The model speaks volumetric strains, ``ev = -de / (1 + e0)`` (small
+        strain: exactly; finite deformation: to first order in the change
+        of ``e``), so ``lambda_ = lambda_e / (1 + e0)`` and
+        ``kappa = kappa_e / (1 + e0)``.  The shear modulus is given, or
+        follows from Poisson's ratio ``nu`` and the bulk modulus at the
+        initial pressure ``K = p_r (1 + e0) / kappa_e``:
+        ``G = 3 K (1 - 2 nu) / (2 (1 + nu))``.
+
+        Examples
+        --------
+        >>> clay = ModifiedCamClay.from_void_ratio(
+        ...     lambda_e=.25, kappa_e=.05, e0=1.5, M=1.2,
+        ...     reference_pressure=100., preconsolidation_pressure=150.,
+        ...     nu=.25)
+        >>> round(clay.lambda_, 12), round(clay.kappa, 12)
+        (0.1, 0.02)
+        >>> round(clay.shear_modulus, 6)      # 3 K (1 - 2 nu) / (2 (1 + nu))
+        3000.0
+        """
+        values = {name: check_real(name, value, InvalidMaterialError)
+                  for name, value in (("lambda_e", lambda_e),
+                                      ("kappa_e", kappa_e), ("e0", e0),
+                                      ("reference_pressure",
+                                       reference_pressure))}
+        check_slopes(values, ("e0", "kappa_e", "reference_pressure"),
+                     "kappa_e", "lambda_e")
+        if (preconsolidation_pressure is None) == (N is None):
+            raise InvalidMaterialError(
+                "give one of preconsolidation_pressure and N (where the "
+                "soil sits against its normal compression line), got {}"
+                .format("both" if N is not None else "neither"))
+        if (shear_modulus is None) == (nu is None):
+            raise InvalidMaterialError(
+                "give one of shear_modulus and nu, got {}".format(
+                    "both" if nu is not None else "neither"))
+        v0, p_r = 1 + values["e0"], values["reference_pressure"]
+        lam_e, kap_e = values["lambda_e"], values["kappa_e"]
+        if N is not None:
+            N = check_real("N", N, InvalidMaterialError)
+            with np.errstate(over="ignore"):
+                preconsolidation_pressure = float(np.exp(
+                    (N - v0 - kap_e * np.log(p_r)) / (lam_e - kap_e)))
+            if not preconsolidation_pressure >= p_r:
+                raise InvalidMaterialError(
+                    "N = {} puts the initial state (e0 = {}, p = {}) above "
+                    "the normal compression line (1 + e = {:.6g} there), "
+                    "looser than normally consolidated: p_c0 = {:.6g} < p "
+                    "(raise N or lower e0)".format(
+                        N, e0, p_r, N - lam_e * np.log(p_r),
+                        preconsolidation_pressure))
+        if nu is not None:
+            nu = check_real("nu", nu, InvalidMaterialError)
+            if not (np.isfinite(nu) and -1. < nu < .5):
+                raise InvalidMaterialError(
+                    "Poisson's ratio nu must lie in (-1, 0.5), got {}"
+                    .format(nu))
+            bulk = p_r * v0 / kap_e
+            shear_modulus = 3 * bulk * (1 - 2 * nu) / (2 * (1 + nu))
+        return cls(kappa=kap_e / v0, lambda_=lam_e / v0, M=M,
+                   shear_modulus=shear_modulus, reference_pressure=p_r,
+                   preconsolidation_pressure=preconsolidation_pressure)
 
     @property
     def mu(self) -> float:

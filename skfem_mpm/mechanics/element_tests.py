@@ -8,8 +8,9 @@ so a model can be checked against closed forms before it meets a grid.
 
 :func:`mixed_path` is the general driver: per step, the strain components
 it controls are incremented and the others are found by Newton's method so
-that their stresses keep their targets.  :func:`triaxial`,
-:func:`oedometer` and :func:`simple_shear` set it up.  Stresses are tension
+that their stresses keep their targets.  :func:`triaxial` (drained),
+:func:`undrained_triaxial`, :func:`oedometer` and :func:`simple_shear` set
+it up.  Stresses are tension
 positive; compression tests take positive confining and vertical
 stresses and compress.
 """
@@ -22,7 +23,8 @@ from ..errors import ConvergenceError, InvalidInputError, check_int
 from .hencky import isotropic_derivative, principal_frame
 from .materials import LinearElastic, initial_state, inverse_elastic_law
 
-__all__ = ["mixed_path", "triaxial", "oedometer", "simple_shear", "Path"]
+__all__ = ["mixed_path", "triaxial", "undrained_triaxial", "oedometer",
+           "simple_shear", "Path", "UndrainedPath"]
 
 
 class Path(NamedTuple):
@@ -174,6 +176,60 @@ def triaxial(material, confining: float, axial_strain: float,
     sigma0 = -confining * np.eye(3)
     return mixed_path(material, increment, controlled, sigma0, nsteps,
                       sigma0)
+
+
+class UndrainedPath(NamedTuple):
+    """An undrained triaxial path: the effective stress path ``path``
+    (:class:`Path`; ``stress`` the effective stress) and the excess pore
+    pressure ``pore_pressure`` (nsteps + 1,), positive in compression: the
+    total mean pressure less the effective one, ``u = p - p'``, with the
+    total radial stress held at the confining pressure."""
+    path: Path
+    pore_pressure: ndarray
+
+    @property
+    def p(self) -> ndarray:
+        """Mean effective stress ``tr(sigma') / 3`` (negative in
+        compression, as :attr:`Path.p`)."""
+        return self.path.p
+
+    @property
+    def q(self) -> ndarray:
+        """Deviatoric stress ``sqrt(3 J2)``."""
+        return self.path.q
+
+
+def undrained_triaxial(material, confining: float, axial_strain: float,
+                       nsteps: int = 100) -> UndrainedPath:
+    """Undrained (constant volume) triaxial compression of a saturated
+    sample, pore water and grains incompressible: isotropic effective
+    stress ``-confining`` at the start, then the axial (z) strain
+    compressed by ``axial_strain`` (> 0) with the radial strains
+    ``axial_strain / 2`` (no drainage: the total volumetric strain stays
+    zero), every strain prescribed.  The cell pressure stays at
+    ``confining``, so the excess pore pressure is what the radial effective
+    stress has left, ``u = sigma'_r + confining``, which is
+    ``confining + q / 3 - p'`` (total mean pressure less the effective one).
+
+    >>> from skfem_mpm import LinearElastic
+    >>> undrained = undrained_triaxial(LinearElastic(1e4, .25), 100., 1e-3,
+    ...                                nsteps=2)
+    >>> round(float(undrained.q[-1]), 6)     # 3 G times the axial strain
+    12.0
+    >>> round(float(undrained.pore_pressure[-1]), 6)   # q / 3: p' unchanged
+    4.0
+    """
+    if not (confining >= 0 and axial_strain >= 0):
+        raise InvalidInputError(
+            "undrained triaxial compression takes confining >= 0 and "
+            "axial_strain >= 0 (both compressive), got {!r} and {!r}".format(
+                confining, axial_strain))
+    increment = np.diag([axial_strain / 2, axial_strain / 2, -axial_strain])
+    sigma0 = -confining * np.eye(3)
+    path = mixed_path(material, increment, np.ones((3, 3), dtype=bool),
+                      sigma0, nsteps, sigma0)
+    radial = .5 * (path.stress[0, 0] + path.stress[1, 1])
+    return UndrainedPath(path, radial + confining)
 
 
 def oedometer(material, vertical_strain: float, nsteps: int = 100,
