@@ -75,3 +75,18 @@ def test_refusals():
         strength_reduction(collapsing_at(1.5, PrescribedMotionError))
     with pytest.raises(InvalidInputError, match="0 < low < high"):
         strength_reduction(collapsing_at(1.5), low=2., high=1.)
+
+
+def test_reduced_angles_below_a_degree_are_not_taken_for_radians():
+    """A friction angle of 0.52 given by a user is refused as radians; the
+    same angle reached by strength reduction (30 degrees at a factor of 64:
+    atan(tan 30 / 64) = 0.517 degrees) is not."""
+    from skfem_mpm import InvalidMaterialError, MohrCoulomb, reduce_strength
+    soil = MohrCoulomb(1e4, .3, cohesion=10., friction_angle=30.,
+                       dilation_angle=30.)
+    weak = reduce_strength(soil, 64.)
+    expected = np.degrees(np.arctan(np.tan(np.radians(30.)) / 64.))
+    assert weak.friction_angle == pytest.approx(expected, rel=1e-12)
+    assert 0. < weak.friction_angle < 1.
+    with pytest.raises(InvalidMaterialError, match="looks like radians"):
+        MohrCoulomb(1e4, .3, cohesion=10., friction_angle=.52)

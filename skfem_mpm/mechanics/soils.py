@@ -27,9 +27,7 @@ variable ``alpha`` (``xi * dgamma`` accumulated on the Drucker-Prager cone,
 Mohr-Coulomb the sum of the plastic multipliers on planes and edges, and
 the volumetric plastic strain at the apex).
 """
-import dataclasses
-import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy import ndarray
@@ -48,23 +46,6 @@ APEX_STIFFNESS = 1e-8
 DEVIATOR = np.eye(3) - np.ones((3, 3)) / 3
 
 
-def derived_by_replace(depth: int = 8) -> bool:
-    """Whether the material being checked is built by
-    ``dataclasses.replace`` from one that passed the checks: the reduced
-    angles of :func:`~skfem_mpm.reduce_strength` (``tan(phi) / F``, F up to
-    64) may lie below 1 degree."""
-    frame = sys._getframe(1)
-    for _ in range(depth):
-        frame = frame.f_back
-        if frame is None:
-            return False
-        code = frame.f_code
-        if code.co_filename == dataclasses.__file__ \
-                and code.co_name in ("replace", "_replace"):
-            return True
-    return False
-
-
 def check_degrees(name: str, angle: float):
     """Refuse an angle in (0, 1) degree, as given in radians (a friction
     angle of 0.52 taken as degrees is a soil without friction).  Zero stays
@@ -76,17 +57,20 @@ def check_degrees(name: str, angle: float):
             "0 stays allowed".format(name, angle, np.degrees(angle)))
 
 
-def check_angles(friction_angle, dilation_angle, cohesion):
+def check_angles(friction_angle, dilation_angle, cohesion,
+                 radians_refused: bool = True):
     """Friction angle in [0, 90), dilation angle in [0, friction angle],
-    neither in (0, 1) degree (radians, most likely), cohesion >= 0 (all
-    finite), or an :class:`InvalidMaterialError`."""
+    neither in (0, 1) degree (radians, most likely; unless
+    ``radians_refused`` is false, as for the reduced angles of
+    :func:`~skfem_mpm.reduce_strength`, ``tan(phi) / F`` with F up to 64),
+    cohesion >= 0 (all finite), or an :class:`InvalidMaterialError`."""
     phi = check_real("friction_angle", friction_angle, InvalidMaterialError)
     psi = check_real("dilation_angle", dilation_angle, InvalidMaterialError)
     c = check_real("cohesion", cohesion, InvalidMaterialError)
     if not (np.isfinite(phi) and 0. <= phi < 90.):
         raise InvalidMaterialError("friction_angle must lie in [0, 90) "
                                    "degrees, got {}".format(friction_angle))
-    if not derived_by_replace():
+    if radians_refused:
         check_degrees("friction_angle", phi)
         check_degrees("dilation_angle", psi)
     if not (np.isfinite(psi) and 0. <= psi <= phi):
@@ -178,13 +162,17 @@ class DruckerPrager(LinearElastic):
     dilation_angle: float = 0.
     hardening: float = 0.
     fit: str = "outer"
+    #: refuse angles in (0, 1) degree as radians (``False``: a reduced
+    #: strength, :func:`~skfem_mpm.reduce_strength`)
+    radians_refused: bool = field(default=True, repr=False, compare=False)
 
     plastic = True
     state_variables = {"equivalent_plastic_strain": 0.}
 
     def __post_init__(self):
         super().__post_init__()
-        check_angles(self.friction_angle, self.dilation_angle, self.cohesion)
+        check_angles(self.friction_angle, self.dilation_angle, self.cohesion,
+                     self.radians_refused)
         hardening = check_real("hardening", self.hardening,
                                InvalidMaterialError)
         if not np.isfinite(hardening):
@@ -323,13 +311,17 @@ class MohrCoulomb(LinearElastic):
     cohesion: float = 0.
     friction_angle: float = 0.
     dilation_angle: float = 0.
+    #: refuse angles in (0, 1) degree as radians (``False``: a reduced
+    #: strength, :func:`~skfem_mpm.reduce_strength`)
+    radians_refused: bool = field(default=True, repr=False, compare=False)
 
     plastic = True
     state_variables = {"equivalent_plastic_strain": 0.}
 
     def __post_init__(self):
         super().__post_init__()
-        check_angles(self.friction_angle, self.dilation_angle, self.cohesion)
+        check_angles(self.friction_angle, self.dilation_angle, self.cohesion,
+                     self.radians_refused)
 
     @property
     def k(self) -> float:

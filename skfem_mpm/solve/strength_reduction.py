@@ -64,7 +64,8 @@ def reduce_strength(material, factor: float):
                                               / factor)))
         return replace(material, cohesion=material.cohesion / factor,
                        friction_angle=reduced(material.friction_angle),
-                       dilation_angle=reduced(material.dilation_angle))
+                       dilation_angle=reduced(material.dilation_angle),
+                       radians_refused=False)
     raise InvalidInputError(
         "strength reduction is offered for von Mises, Mohr-Coulomb and "
         "Drucker-Prager materials, got {}".format(type(material).__name__))
