@@ -32,17 +32,19 @@ from .scenes import plot  # save_figure looked up when called: tests wrap it
 from .scenes.plot import (STRESS_NAMES, body_figure_size, colour_scale,
                           draw_energies, draw_points, pyplot)
 from .scenes.quantities import check_quantities, quantity_unit
-from .scenes.scene import (build_points, reaction_resultants, run_scene,
-                           surface_loads)
+from .scenes.scene import (build_points, point_bound, reaction_resultants,
+                           run_scene, surface_loads)
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
 from .solve.options import Resume
 from .solve.results import PHASES
 from .studies.figures import plot_column_stress, plot_study
 from .studies.footing import (bearing_capacity_factor, footing_error,
                               footing_pressure)
-from .studies.study import (CHOICES, DEFAULT_VARY, REFERENCE_ERRORS,
-                            VARIABLES, analyse, case_error, report,
-                            scene_quantities, study)
+from .studies.study import (CASES_UNASKED, CHOICES, DEFAULT_VARY,
+                            REFERENCE_ERRORS, VARIABLES, analyse, case_error,
+                            case_work, cases_of, check_vary, configure,
+                            estimate, report, scene_quantities, study,
+                            worker_count)
 
 DESCRIPTION = """\
 Implicit Material Point Method on scikit-fem.
@@ -104,7 +106,10 @@ def build_parser() -> argparse.ArgumentParser:
         "increment: the right-hand side of linear steps), line_search "
         "(backtracking, armijo, none) and newton (full, modified: the "
         "tangent factorised once a step); without --vary, "
-        "the seed's grid: elements 4..256, ppc 2..5, loadsteps 1, 2, 20.  "
+        "the seed's grid: elements 4..256, ppc 2..5, loadsteps 1, 2, 20 "
+        "(84 cases: refused without --all).  Prints the number of cases "
+        "and an estimate of their time before it starts them (from the "
+        "smallest cases, run first).  "
         "Measures the scene's [[outputs]] (or --measure; default: the "
         "largest point displacement) in every case, with the observed "
         "order, the Richardson-extrapolated value and its uncertainty "
@@ -128,6 +133,11 @@ def build_parser() -> argparse.ArgumentParser:
                        help="run on a local Dask cluster of N workers")
     study.add_argument("--scheduler", metavar="ADDRESS",
                        help="run on the Dask scheduler at ADDRESS")
+    study.add_argument("--all", action="store_true",
+                       help="without --vary, run the whole default grid "
+                       "({} cases; more than {} are refused without this "
+                       "flag)".format(len(cases_of(DEFAULT_VARY)),
+                                      CASES_UNASKED))
     for p in (run, compare, study):
         p.add_argument("--no-progress", action="store_true",
                        help="no progress bar")
@@ -742,9 +752,25 @@ def parse_measures(items, dim: int) -> list:
 def run_study(args) -> int:
     scene = load_scene(args.scene)
     vary = parse_vary(args.vary)
+    check_vary(vary)
     quantities = parse_measures(args.measure, len(scene.grid.axes)) or \
         scene_quantities(scene)
+    cases = cases_of(vary)
+    if not args.vary and len(cases) > CASES_UNASKED and not args.all:
+        largest = max(cases, key=lambda c: case_work(scene, c))
+        case = configure(scene, largest)
+        print("skfem-mpm: without --vary a study runs the default grid: {} "
+              "cases ({}), the largest up to {:.3g} points over {} steps; "
+              "more than {} start only with --all: choose the cases with "
+              "--vary NAME=V1,V2,... or run all {} with --all".format(
+                  len(cases), ", ".join("{} {}".format(k, ",".join(
+                      str(v) for v in values)) for k, values in vary.items()),
+                  point_bound(case), case.step_count, CASES_UNASKED,
+                  len(cases)), file=sys.stderr)
+        return 2
     try:
+        print(announce(estimate(scene, cases, args.out, quantities),
+                       args.workers, args.scheduler), flush=True)
         rows = study(scene, vary, args.out, scheduler=args.scheduler,
                      workers=args.workers, progress=not args.no_progress,
                      quantities=quantities)
@@ -759,6 +785,35 @@ def run_study(args) -> int:
     for path in plot_study(rows, args.out, measured):
         print("  plot {}".format(path))
     return 0
+
+
+def announce(plan: dict, workers: int, scheduler) -> str:
+    """The line a study prints before it starts its cases: how many, the
+    largest, and the time :func:`~skfem_mpm.studies.study.estimate` puts
+    on them."""
+    points, steps = plan["largest"]
+    line = "study: {} case{}{}, the largest up to {:.3g} points over {} " \
+        "step{}".format(plan["cases"], "s" if plan["cases"] > 1 else "",
+                        " ({} finished before)".format(plan["done"])
+                        if plan["done"] else "", points, steps,
+                        "s" if steps > 1 else "")
+    if plan["ran"]:
+        line += "; {} run first to time them".format(plan["ran"])
+    if not plan["left"]:
+        return line
+    if plan["seconds"] is None:
+        return line + "; no estimate of the time (no case succeeded)"
+    a, b = plan["model"]
+    line += "; the {} take{} about {}".format(
+        "{} others".format(plan["left"]) if plan["left"] > 1 else
+        "other case" if plan["ran"] + plan["done"] else "case",
+        "" if plan["left"] > 1 else "s", clock(plan["seconds"]))
+    if workers and not scheduler:
+        line += " ({} on {} workers)".format(
+            clock(plan["seconds"] / worker_count(workers)),
+            worker_count(workers))
+    return line + " by a rough, linear estimate: {:.2g} s + {:.2g} s per " \
+        "point and step".format(a, b)
 
 
 def main(argv=None) -> int:

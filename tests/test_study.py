@@ -298,3 +298,51 @@ def test_a_box_empty_on_a_coarse_grid_fails_that_case_only(tmp_path,
                  "--out", str(tmp_path / "twice")]) == 2
     assert "repeats a value" in capsys.readouterr().err
     assert not (tmp_path / "twice").exists()
+
+
+def test_a_study_says_its_size_and_time_before_it_starts(tmp_path, capsys,
+                                                         monkeypatch):
+    """Issue 30: `skfem-mpm study` without --vary silently started 84
+    cases, up to 256 elements and 5x5 points per cell.  More than
+    CASES_UNASKED cases without --vary are refused (one line: how many,
+    the largest, --vary or --all), writing nothing; a study that starts
+    first prints the number of cases and an estimate of their time."""
+    import skfem_mpm.cli as cli_module
+    out = tmp_path / "default"
+    assert main(["study", str(EMBEDDED), "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    for text in ("84 cases", "the largest up to 1.28e+03 points over 20 "
+                 "steps", "more than 20 start only with --all", "--vary"):
+        assert text in err[0], text
+    assert not out.exists()
+    # the refusal and --all, on a default grid made small
+    monkeypatch.setattr(cli_module, "DEFAULT_VARY",
+                        {"elements": [4, 8, 16], "loadsteps": [1, 2]})
+    monkeypatch.setattr(cli_module, "CASES_UNASKED", 4)
+    assert main(["study", str(EMBEDDED), "--out", str(out)]) == 2
+    assert "6 cases" in capsys.readouterr().err and not out.exists()
+    study = cli_module.study
+    told = []
+
+    def starting(*args, **kwargs):        # what was printed by then
+        told.append(capsys.readouterr().out)
+        return study(*args, **kwargs)
+    monkeypatch.setattr(cli_module, "study", starting)
+    assert main(["study", str(EMBEDDED), "--out", str(out), "--all",
+                 "--no-progress"]) == 0
+    assert len(told) == 1
+    line = told[0].strip()
+    assert line.startswith("study: 6 cases, the largest up to 32 points "
+                           "over 2 steps; 2 run first to time them; the 4 "
+                           "others take about 0:0"), line
+    assert "per point and step" in line
+    assert len(json.loads((out / "study.json").read_text())["rows"]) == 6
+    capsys.readouterr()
+    # resumed: the cases finished before say the time
+    assert main(["study", str(EMBEDDED), "--out", str(out), "--all",
+                 "--no-progress", "--vary", "elements=4,8,16,32",
+                 "--vary", "loadsteps=1,2"]) == 0
+    assert told[1].startswith("study: 8 cases (6 finished before), the "
+                              "largest up to 64 points over 2 steps; the 2 "
+                              "others take about 0:0"), told[1]

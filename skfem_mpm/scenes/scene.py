@@ -44,7 +44,7 @@ __all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
            "TimeIntegration",
            "build_points", "surface_loads", "support_names", "scene_support_dofs",
            "reaction_resultants",
-           "run_scene", "METHODS", "KINEMATICS",
+           "run_scene", "point_bound", "METHODS", "KINEMATICS",
            "BOUNDARIES"]
 
 AXES = "xyz"
@@ -351,16 +351,7 @@ class Scene:
         upper bound of the points (every cell its bodies' boxes reach
         seeded) and the step history."""
         dim, cells = self.grid.dim, self.grid.cells
-        points = 0.
-        for body in self.bodies:
-            reached = cells
-            if not callable(body.region) and self.grid.mesh is None:
-                reached = float(np.prod([
-                    min(n, np.ceil((min(hi, b_hi) - max(lo, b_lo))
-                                   / (hi - lo) * n) + 1)
-                    for (lo, hi, n), (b_lo, b_hi) in zip(self.grid.axes,
-                                                         body.region)]))
-            points += max(reached, 0.) * float(body.points_per_cell) ** dim
+        points = point_bound(self)
         refuse_beyond_memory(
             "{:.3g} cells with up to {:.3g} points over {} steps".format(
                 cells, points, self.step_count),
@@ -368,6 +359,24 @@ class Scene:
                 SEED_BYTES_PER_POINT + RUN_BYTES_PER_POINT[dim])
             + float(self.step_count) * STEP_RECORD_BYTES,
             "use fewer cells, points per cell or steps")
+
+
+def point_bound(scene: Scene) -> float:
+    """An upper bound of the points the scene seeds, without seeding them:
+    every cell a body's box reaches (every cell for a callable region or
+    a ready mesh) filled with its points per cell."""
+    dim, cells = scene.grid.dim, scene.grid.cells
+    points = 0.
+    for body in scene.bodies:
+        reached = cells
+        if not callable(body.region) and scene.grid.mesh is None:
+            reached = float(np.prod([
+                min(n, np.ceil((min(hi, b_hi) - max(lo, b_lo))
+                               / (hi - lo) * n) + 1)
+                for (lo, hi, n), (b_lo, b_hi) in zip(scene.grid.axes,
+                                                     body.region)]))
+        points += max(reached, 0.) * float(body.points_per_cell) ** dim
+    return points
 
 
 def support_names(scene: Scene) -> List[str]:

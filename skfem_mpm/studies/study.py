@@ -27,6 +27,9 @@ machine with the study's own process stretch wall times, not CPU times,
 so compare CPU times across serial and parallel studies.  Results are
 appended per case, atomically, to ``study.json`` and ``study.csv``; an
 interrupted study resumes without re-running finished cases.
+:func:`estimate` puts a rough time on the cases before they start (from
+the cases finished before, or from the smallest ones, run first), which
+``skfem-mpm study`` prints.
 
 """
 import csv
@@ -47,7 +50,8 @@ import numpy as np
 from ..errors import InvalidInputError, MPMError
 from ..scenes.io import atomic_path
 from ..scenes.quantities import Quantity, check_quantities
-from ..scenes.scene import METHODS, Grid, Scene, build_points, run_scene
+from ..scenes.scene import (METHODS, Grid, Scene, build_points,
+                             point_bound, run_scene)
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS
 from ..solve.results import PHASES
 from .convergence import from_data_range, self_convergence
@@ -55,8 +59,9 @@ from .convergence import from_data_range, self_convergence
 logger = logging.getLogger(__name__)
 
 __all__ = ["study", "refine", "case_error", "analyse", "report",
-           "formal_order", "scene_quantities", "worker_count", "VARIABLES",
-           "DEFAULT_VARY", "DEFAULT_QUANTITY"]
+           "formal_order", "scene_quantities", "worker_count", "check_vary",
+           "cases_of", "estimate", "time_model", "VARIABLES",
+           "DEFAULT_VARY", "DEFAULT_QUANTITY", "CASES_UNASKED"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
              "line_search", "newton")
@@ -487,37 +492,16 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     [0.984375, 0.996094]
 
     """
-    for name, values in vary.items():
-        if name not in VARIABLES:
-            raise InvalidInputError("cannot vary {!r}: choose from {}".format(
-                name, ", ".join(VARIABLES)))
-        if not len(values):
-            raise InvalidInputError("--vary {} has no value".format(name))
-        if name in CHOICES and not set(values) <= set(CHOICES[name]):
-            raise InvalidInputError("{} must be among {}, got {}".format(
-                name, CHOICES[name], list(values)))
-        if name not in CHOICES and not all(int(v) == v and v >= 1
-                                        for v in values):
-            raise InvalidInputError("{} must be positive integers, got {}"
-                                    .format(name, list(values)))
-        if len(set(values)) != len(values):
-            raise InvalidInputError("--vary {} repeats a value: {}".format(
-                name, list(values)))
+    check_vary(vary)
     if scheduler is None and workers:
         workers = worker_count(workers)
     quantities = list(quantities or scene_quantities(scene))
     check_quantities(scene, quantities, build_points(
         scene, scene.grid.build()[0]))
-    labels = {q.label for q in quantities}
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
-    names = list(vary)
-    cases = [dict(zip(names, combo))
-             for combo in itertools.product(*(vary[n] for n in names))]
-    rows = []
-    if (outdir / "study.json").exists():
-        rows = [r for r in json.loads((outdir / "study.json").read_text())[
-            "rows"] if r["failure"] or labels <= set(r.get("values", ()))]
+    cases = cases_of(vary)
+    rows = finished_rows(outdir, quantities)
     done = {_key(r) for r in rows}
     todo = [c for c in cases if _key(c) not in done]
     logger.info("%d cases, %d already done", len(cases), len(cases) - len(todo))
@@ -559,6 +543,134 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     if cluster is not None:
         cluster.close()
     return _ordered(rows, cases)
+
+
+def check_vary(vary: Dict[str, Sequence]):
+    """Raise :class:`~skfem_mpm.errors.InvalidInputError` unless every
+    name of ``vary`` is one of :data:`VARIABLES` with distinct, possible
+    values."""
+    for name, values in vary.items():
+        if name not in VARIABLES:
+            raise InvalidInputError("cannot vary {!r}: choose from {}".format(
+                name, ", ".join(VARIABLES)))
+        if not len(values):
+            raise InvalidInputError("--vary {} has no value".format(name))
+        if name in CHOICES and not set(values) <= set(CHOICES[name]):
+            raise InvalidInputError("{} must be among {}, got {}".format(
+                name, CHOICES[name], list(values)))
+        if name not in CHOICES and not all(int(v) == v and v >= 1
+                                        for v in values):
+            raise InvalidInputError("{} must be positive integers, got {}"
+                                    .format(name, list(values)))
+        if len(set(values)) != len(values):
+            raise InvalidInputError("--vary {} repeats a value: {}".format(
+                name, list(values)))
+
+
+def cases_of(vary: Dict[str, Sequence]) -> List[dict]:
+    """Every combination of the values of ``vary``, one dict a case."""
+    names = list(vary)
+    return [dict(zip(names, combo))
+            for combo in itertools.product(*(vary[n] for n in names))]
+
+
+def finished_rows(outdir, quantities) -> List[dict]:
+    """The cases ``study.json`` in ``outdir`` holds that need not run
+    again: failed ones, and those with a value of every quantity."""
+    path = Path(outdir) / "study.json"
+    if not path.exists():
+        return []
+    labels = {q.label for q in quantities}
+    return [r for r in json.loads(path.read_text())["rows"]
+            if r["failure"] or labels <= set(r.get("values", ()))]
+
+
+#: without ``--vary``, ``skfem-mpm study`` starts more cases than this only
+#: when told to (``--all``)
+CASES_UNASKED = 20
+
+
+def case_work(scene: Scene, params: dict) -> float:
+    """The size of a case for an estimate of its time: an upper bound of
+    its points (:func:`~skfem_mpm.scenes.scene.point_bound`, seeding
+    nothing) times its steps."""
+    case = configure(scene, params)
+    return point_bound(case) * case.step_count
+
+
+def time_model(measured) -> Optional[tuple]:
+    """``(a, b)`` of ``seconds = a + b * work`` through the smallest and
+    the largest of the ``measured`` ``(work, seconds)`` pairs (a rough,
+    linear model: Newton iterations differ from case to case, and the
+    solves of large grids grow faster than their points), or ``None``
+    with nothing measured.
+
+    >>> from skfem_mpm.studies.study import time_model
+    >>> time_model([(10., .1)]), time_model([(10., .2), (110., 1.2)])
+    ((0.0, 0.01), (0.1, 0.01))
+    """
+    measured = sorted((w, t) for w, t in measured if w > 0 and t > 0)
+    if not measured:
+        return None
+    (w0, t0), (w1, t1) = measured[0], measured[-1]
+    slope = (t1 - t0) / (w1 - w0) if w1 > w0 else 0.
+    if slope <= 0:
+        return 0., t1 / w1
+    return max(t0 - slope * w0, 0.), slope
+
+
+def estimate(scene: Scene, cases: List[dict], outdir, quantities,
+             budget: float = 2.) -> dict:
+    """What a study of ``cases`` in ``outdir`` would take: ``cases``,
+    ``done`` (finished before), ``ran`` (run now to time them), ``left``,
+    the ``largest`` case's point bound and steps, the ``model`` of
+    :func:`time_model` and the ``seconds`` the ``left`` cases would take
+    by it (serially; ``None`` when nothing could be measured).  The model
+    rests on the cases finished before and, where they do not span a
+    ratio of 4 in size, on small unfinished cases run first (kept in
+    ``study.json`` like any case, never run again): the smallest that
+    succeeds (trying for ``budget`` seconds), then the largest that the first one's pace (which
+    over-estimates, start-up included) puts under ``budget`` seconds."""
+    quantities = list(quantities or scene_quantities(scene))
+    rows = {_key(r): r for r in finished_rows(outdir, quantities)}
+    work = {_key(c): case_work(scene, c) for c in cases}
+    measured = [(work[k], r["wall_seconds"]) for k, r in rows.items()
+                if k in work and not r["failure"]]
+    todo = sorted((c for c in cases if _key(c) not in rows),
+                  key=lambda c: work[_key(c)])
+
+    def spread():
+        sizes = [w for w, _ in measured]
+        return len(sizes) > 1 and max(sizes) >= 4 * min(sizes)
+
+    def run_first(params):
+        row = study(scene, {k: [v] for k, v in params.items()}, outdir,
+                    progress=False, quantities=quantities)[0]
+        todo.remove(params)
+        if not row["failure"]:
+            measured.append((work[_key(params)], row["wall_seconds"]))
+        return row
+    tic = time.perf_counter()
+    for params in list(todo):                   # the smallest that runs
+        if measured or time.perf_counter() - tic > budget:
+            break
+        run_first(params)
+    model = time_model(measured)
+    if model is not None and not spread():
+        small = min(w for w, _ in measured)
+        fits = [c for c in todo if work[_key(c)] >= 4 * small
+                and model[0] + model[1] * work[_key(c)] <= budget]
+        if fits:
+            run_first(fits[-1])
+            model = time_model(measured)
+    largest = max(cases, key=lambda c: work[_key(c)])
+    case = configure(scene, largest)
+    done = sum(_key(c) in rows for c in cases)
+    return dict(cases=len(cases), done=done,
+                ran=len(cases) - done - len(todo), left=len(todo),
+                largest=(point_bound(case), case.step_count), model=model,
+                seconds=None if model is None else sum(
+                    model[0] + model[1] * work[_key(c)] for c in todo))
 
 
 #: a local cluster's workers each compute on one thread
