@@ -161,7 +161,7 @@ def test_footing_summary_plot_error_and_resume(tmp_path):
     (("x = [0.0, 0.25], y = [0.5", "x = [0.0, 0.3], y = [0.5"),
      "between grid lines"),
     (("x = [0.0, 0.25], y = [0.5", "x = [0.0, 1.5], y = [0.5"),
-     "between grid lines"),
+     "body 'footing' reaches outside the grid"),
     (('name = "soil"', 'name = "footing"'), "body names must differ"),
     (('model = "von_mises", E = 1e4, nu = 0.3, yield_stress = 100.0',
       'model = "mohr_coulomb", E = 1e4, nu = 0.3, cohesion = 0.0, '
