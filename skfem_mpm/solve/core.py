@@ -339,7 +339,11 @@ def too_soft(run: Run, points: MaterialPoints) -> str:
     mu = np.broadcast_to(np.asarray(run.material.mu, float), (n,))
     lam = np.broadcast_to(np.asarray(run.material.lam, float), (n,))
     with np.errstate(divide="ignore", invalid="ignore"):
-        young = np.nanmin(mu * (3 * lam + 2 * mu) / (lam + mu))
+        young = mu * (3 * lam + 2 * mu) / (lam + mu)
+    young = young[np.isfinite(young) & (young > 0)]
+    if not young.size:
+        return ""
+    young = young.min()
     along = gravity / np.linalg.norm(gravity)
     height = np.ptp(along @ points.x0)
     strain = np.linalg.norm(gravity) * height / young
