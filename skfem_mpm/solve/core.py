@@ -338,7 +338,7 @@ def too_soft(run: Run, points: MaterialPoints) -> str:
     n = points.n
     mu = np.broadcast_to(np.asarray(run.material.mu, float), (n,))
     lam = np.broadcast_to(np.asarray(run.material.lam, float), (n,))
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         young = mu * (3 * lam + 2 * mu) / (lam + mu)
     young = young[np.isfinite(young) & (young > 0)]
     if not young.size:
