@@ -27,7 +27,8 @@ from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
 from .scenes.footing import soil_strength
 from .scenes.io import (atomic_path, clear_earlier_run,
                         interrupts_deferred, remove_temporaries)
-from .scenes.output import SeriesWriter, point_cloud, write_summary
+from .scenes.output import (SeriesWriter, point_cloud, von_mises,
+                             write_summary)
 from .scenes import plot  # save_figure looked up when called: tests wrap it
 from .scenes.plot import (STRESS_NAMES, body_figure_size, colour_scale,
                           draw_energies, draw_points, pyplot)
@@ -270,15 +271,28 @@ def rigid_body_curves(scene, rows, reactions) -> dict:
     rigid = [b for b in scene.bodies if b.rigid is not None]
     if not rigid:
         return {}
-    return {"rigid_bodies": {
-        body.name: {"displacement": (rows[:, 1:2] * np.asarray(
-            body.rigid)).tolist(),
-            "force": reactions[:, len(scene.supports) + k].tolist()}
-        for k, body in enumerate(rigid)}}
+    curves = {}
+    for k, body in enumerate(rigid):
+        force = reactions[:, len(scene.supports) + k]
+        displacement = rows[:, 1:2] * np.asarray(body.rigid)
+        along = np.asarray(body.rigid) / np.linalg.norm(body.rigid)
+        # the force that holds the motion points along it (a footing
+        # pushed down: downward): its largest component along the motion
+        resistance = force @ along if len(force) else np.zeros(0)
+        peak = int(np.argmax(resistance)) if len(force) else None
+        curves[body.name] = {
+            "displacement": displacement.tolist(), "force": force.tolist(),
+            "peak_force": None if peak is None else force[peak].tolist(),
+            "peak_displacement": None if peak is None
+            else displacement[peak].tolist(),
+            "final_force": force[-1].tolist() if len(force) else None}
+    return {"rigid_bodies": curves}
 
 
 def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
-    """Final configuration coloured by the vertical stress; the column's
+    """Final configuration coloured by the vertical stress and (2D, 3D) by
+    the von Mises stress; the plastic zone (equivalent plastic strain)
+    where a body yielded; the column's
     stress profile; a load-displacement curve when there are point
     loads; the force-displacement curves of rigid bodies (over the whole
     run, from ``summary``), as footing pressure against settlement for a
@@ -292,6 +306,21 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
                 "{}: {} at the final points".format(scene.name, name))
     fig.tight_layout()
     plot.save_figure(fig, outdir / "final_stress.png")
+    if pts.dim > 1:
+        fig, ax = pyplot().subplots(figsize=body_figure_size(pts.x[:2]))
+        draw_points(fig, ax, pts, von_mises(pts.stress),
+                    "von Mises stress (Pa)", "{}: von Mises stress at the "
+                    "final points".format(scene.name))
+        fig.tight_layout()
+        plot.save_figure(fig, outdir / "final_von_mises.png")
+    plastic = pts.state.get("equivalent_plastic_strain")
+    if pts.dim > 1 and plastic is not None and np.any(plastic > 0):
+        fig, ax = pyplot().subplots(figsize=body_figure_size(pts.x[:2]))
+        draw_points(fig, ax, pts, plastic, "equivalent plastic strain (-)",
+                    "{}: plastic zone at the final points (white: elastic)"
+                    .format(scene.name))
+        fig.tight_layout()
+        plot.save_figure(fig, outdir / "plastic_zone.png")
     if scene.reference == "column":
         plot_column_stress([result], ["{}, {} steps".format(
             scene.method, scene.step_count)], outdir / "column_stress.png",

@@ -127,6 +127,16 @@ def test_footing_summary_plot_error_and_resume(tmp_path):
     assert a["error"] == pytest.approx(abs(
         pressure.max() / ((2 + np.pi) * 100 / np.sqrt(3)) - 1), rel=1e-12)
     assert (straight / "rigid_bodies.png").stat().st_size > 10_000
+    # the peak resistance and where it was reached, beside the final force
+    # (the summary gave only the last before)
+    forces = np.array(curve["force"])
+    peak = int(np.argmax(-forces[:, 1]))
+    assert curve["peak_force"] == forces[peak].tolist()
+    assert curve["peak_displacement"] == curve["displacement"][peak]
+    assert curve["final_force"] == forces[-1].tolist()
+    # the plastic zone and the von Mises stress of the final state drawn
+    for name in ("plastic_zone.png", "final_von_mises.png"):
+        assert (straight / name).stat().st_size > 10_000, name
     # the yield flag in the VTU: plastic flow in the step, also after the
     # resume; none in the rigid body
     for step in (3, 4, 6):

@@ -16,7 +16,7 @@ from numpy import ndarray
 from .io import atomic_path
 from ..quadrature.points import MaterialPoints
 
-__all__ = ["SeriesWriter", "write_summary", "point_cloud"]
+__all__ = ["SeriesWriter", "write_summary", "point_cloud", "von_mises"]
 
 
 def _pad3(a: ndarray) -> ndarray:
@@ -24,6 +24,15 @@ def _pad3(a: ndarray) -> ndarray:
     out = np.zeros((a.shape[1], 3))
     out[:, :a.shape[0]] = a.T
     return out
+
+
+def von_mises(stress: ndarray) -> ndarray:
+    """The von Mises equivalent stress ``sqrt(3/2) |dev sigma|`` of
+    stresses (3, 3, n)."""
+    n = stress.shape[-1]
+    return np.sqrt(1.5) * np.linalg.norm(
+        (stress - np.einsum("iip->p", stress) / 3
+         * np.eye(3)[:, :, None]).reshape(9, n), axis=0)
 
 
 def point_cloud(points: MaterialPoints):
@@ -38,9 +47,7 @@ def point_cloud(points: MaterialPoints):
         "stress": points.stress.reshape(9, n).T,
         "strain": points.strain.reshape(9, n).T,
         "F": points.F.reshape(9, n).T,
-        "von_mises": np.sqrt(1.5) * np.linalg.norm(
-            (points.stress - np.einsum("iip->p", points.stress) / 3
-             * np.eye(3)[:, :, None]).reshape(9, n), axis=0),
+        "von_mises": von_mises(points.stress),
     }
     if points.domain is not None:
         data["domain"] = _pad3(points.domain)
