@@ -317,8 +317,8 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
     if pts.dim > 1 and plastic is not None and np.any(plastic > 0):
         fig, ax = pyplot().subplots(figsize=body_figure_size(pts.x[:2]))
         draw_points(fig, ax, pts, plastic, "equivalent plastic strain (-)",
-                    "{}: plastic zone at the final points (white: elastic)"
-                    .format(scene.name))
+                    "{}: plastic zone, equivalent plastic strain at the "
+                    "final points (0: elastic)".format(scene.name))
         fig.tight_layout()
         plot.save_figure(fig, outdir / "plastic_zone.png")
     if scene.reference == "column":
