@@ -31,7 +31,7 @@ from .scenes.output import (SeriesWriter, point_cloud, von_mises,
                              write_summary)
 from .scenes import plot  # save_figure looked up when called: tests wrap it
 from .scenes.plot import (STRESS_NAMES, body_figure_size, colour_scale,
-                          draw_energies, draw_points, pyplot)
+                          draw_energies, draw_points, mark_peak, pyplot)
 from .scenes.quantities import check_quantities, quantity_unit
 from .scenes.scene import (build_points, point_bound, reaction_resultants,
                            run_scene, surface_loads)
@@ -365,13 +365,14 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
         settlement = -np.array([0.] + [d[1] for d in curve["displacement"]])
         pressure = np.concatenate([[0.], footing_pressure(
             scene, np.array(curve["force"]))])
-        ax.plot(settlement / width, pressure / c, "o-", ms=3,
-                label="{}, {}".format(body.name, scene.method))
+        line, = ax.plot(settlement / width, pressure / c, "o-", ms=3,
+                        label="{}, {}".format(body.name, scene.method))
+        mark_peak(ax, line, settlement / width, pressure / c)
         ax.axhline(bearing_capacity_factor(phi), color="k", ls="--",
                    label="N_c = {:.2f} (phi = {:g} deg)".format(
                        bearing_capacity_factor(phi), phi))
-        ax.set_xlabel("settlement / width of the footing body (-; half the "
-                      "footing in a half model)")
+        ax.set_xlabel("settlement / width of the footing body (-)\n(half "
+                      "the footing in a half model)")
         ax.set_ylabel("footing pressure / cohesion (-)")
         ax.set_title("{}: load-settlement curve\nagainst the bearing "
                      "capacity N_c c".format(scene.name))
@@ -381,8 +382,9 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
                               curve["displacement"]])
             force = np.vstack([np.zeros_like(disp[:1]), curve["force"]])
             direction = disp[-1] / np.linalg.norm(disp[-1])
-            ax.plot(disp @ direction, force @ direction, "o-", ms=3,
-                    label=name)
+            line, = ax.plot(disp @ direction, force @ direction, "o-",
+                            ms=3, label=name)
+            mark_peak(ax, line, disp @ direction, force @ direction)
         ax.set_xlabel("displacement along the motion (m)")
         ax.set_ylabel("force along the motion ({})".format(
             quantity_unit("rigid_force", scene.grid.dim)))

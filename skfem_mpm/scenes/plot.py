@@ -15,7 +15,7 @@ from .io import atomic_path
 
 __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "series_styles", "colour_scale", "body_figure_size",
-           "figure_problems", "STRESS_NAMES"]
+           "figure_problems", "STRESS_NAMES", "mark_peak"]
 
 #: the stress components' names for labels
 STRESS_NAMES = {(i, j): "sigma_" + "xyz"[i] + "xyz"[j]
@@ -208,15 +208,26 @@ def draw_plastic_zone(fig, ax, points, title: str, rigid=None,
     ax.set_title(title)
 
 
+def mark_peak(ax, line, x: np.ndarray, y: np.ndarray):
+    """The largest ``y`` of a curve ``line`` marked, its value and the
+    final one in the legend."""
+    if len(y) > 1:
+        peak = int(np.argmax(y))
+        ax.plot(x[peak], y[peak], "^", ms=7, color=line.get_color(),
+                label="peak {:.4g}, final {:.4g}".format(y[peak], y[-1]))
+
+
 def draw_footing_curve(ax, movement: np.ndarray, pressure: np.ndarray,
                        label: str, limit: float, limit_label: str,
                        title: str, motion: str = "settlement",
                        strength: str = "c_u"):
     """A footing's pressure over its strength (``strength``: its symbol)
     against its ``motion`` over its width, with the collapse pressure
-    ``limit`` of theory as a dashed line."""
-    ax.plot(movement, pressure, "o-", ms=2 if len(movement) > 50 else 3,
-            label=label)
+    ``limit`` of theory as a dashed line, the peak marked, and the peak and
+    final values in the legend."""
+    line, = ax.plot(movement, pressure, "o-",
+                    ms=2 if len(movement) > 50 else 3, label=label)
+    mark_peak(ax, line, movement, pressure)
     ax.axhline(limit, color="k", ls="--", label=limit_label)
     ax.set_xlabel("{} / footing width B (-)".format(motion))
     ax.set_ylabel("footing pressure / {} (-)".format(strength))
