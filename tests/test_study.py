@@ -43,17 +43,25 @@ def test_study_rates_agree_with_the_core_and_gimp_tests(tmp_path):
     assert len(table) == 15 and "error" in table[0]
 
 
-def test_parallel_study_times_mean_what_serial_ones_mean(tmp_path, caplog):
+def test_parallel_study_times_mean_what_serial_ones_mean(tmp_path, caplog,
+                                                         monkeypatch):
     """A local Dask cluster asked for more workers than cores gets one
-    per core, with a warning; its workers compute on one thread each, so
-    that every case gives the serial values and errors and a CPU time
-    within 3x of the serial one (wall times are not compared: workers
-    sharing cores, or the machine, stretch them -- 2.3-6.6x in issue 30);
-    no worker at all is refused before any work."""
-    from dask.distributed import Client         # the test extra has it
-    assert Client is not None
-    # 20 steps: cases of ~40 ms, against the few ms a worker's own threads
-    # (receiving the next tasks) add to its process's CPU time
+    per core, with a warning; its worker processes are started with one
+    thread each (the BLAS thread variables set before they import numpy,
+    one Dask thread), so that their CPU seconds mean what serial ones do
+    (times are measured in benchmarks/README.md, not asserted here); every
+    case gives the serial values and errors, with a CPU time recorded; no
+    worker at all is refused before any work."""
+    import dask
+    import dask.distributed
+    from skfem_mpm.studies.study import ONE_THREAD
+    started, real = [], dask.distributed.LocalCluster
+
+    def spied(*args, **kwargs):
+        started.append((dict(dask.config.get(
+            "distributed.nanny.pre-spawn-environ", {})), kwargs))
+        return real(*args, **kwargs)
+    monkeypatch.setattr(dask.distributed, "LocalCluster", spied)
     vary = {"elements": [4, 8, 16, 32], "loadsteps": [20]}
     serial = study(COLUMN, vary, tmp_path / "serial", progress=False)
     with caplog.at_level(logging.WARNING, logger=study_module.__name__):
@@ -65,10 +73,12 @@ def test_parallel_study_times_mean_what_serial_ones_mean(tmp_path, caplog):
     workers = json.loads((tmp_path / "dask" / "study.json").read_text()
                          )["workers"]
     assert 1 <= workers <= os.cpu_count()
+    (environ, kwargs), = started
+    assert all(environ[name] == 1 for name in ONE_THREAD)
+    assert kwargs["threads_per_worker"] == 1 and kwargs["processes"]
+    assert kwargs["n_workers"] == workers
     for one, other in zip(serial, parallel):
         assert 0 < one["cpu_seconds"] and 0 < other["cpu_seconds"]
-        assert 1 / 3 < other["cpu_seconds"] / one["cpu_seconds"] < 3, (
-            one, other)
     with pytest.raises(InvalidInputError, match="at least 1"):
         study(COLUMN, vary, tmp_path / "none", workers=-1, progress=False)
     assert not (tmp_path / "none").exists()
