@@ -43,9 +43,9 @@ from .studies.footing import (bearing_capacity_factor, footing_error,
                               footing_pressure)
 from .studies.study import (CASES_UNASKED, CHOICES, DEFAULT_VARY,
                             REFERENCE_ERRORS, VARIABLES, analyse, case_error,
-                            case_work, cases_of, check_vary, configure,
-                            estimate, report, scene_quantities, study,
-                            worker_count)
+                            case_work, cases_of, check_reference, check_vary,
+                            configure, estimate, report, scene_quantities,
+                            study, worker_count)
 
 DESCRIPTION = """\
 Implicit Material Point Method on scikit-fem.
@@ -427,6 +427,7 @@ def load_run(args):
         if outdir.exists() and not outdir.is_dir():
             raise InvalidInputError("--out {} exists and is not a folder"
                                     .format(outdir))
+    check_reference(scene)
     mesh, _ = scene.grid.build()
     initial = build_points(scene, mesh)
     check_quantities(scene, scene.outputs, initial)
@@ -683,6 +684,7 @@ def compare(args) -> int:
     import meshio
 
     scene = load_scene(args.scene)
+    check_reference(scene)
     runs = {}
     for method in ("fem", scene.method if scene.method != "fem" else "mpm"):
         variant = replace(scene, method=method)
@@ -784,6 +786,7 @@ def run_study(args) -> int:
     scene = load_scene(args.scene)
     vary = parse_vary(args.vary)
     check_vary(vary)
+    check_reference(scene)
     quantities = parse_measures(args.measure, len(scene.grid.axes)) or \
         scene_quantities(scene)
     cases = cases_of(vary)

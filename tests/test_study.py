@@ -356,3 +356,53 @@ def test_a_study_says_its_size_and_time_before_it_starts(tmp_path, capsys,
     assert told[1].startswith("study: 8 cases (6 finished before), the "
                               "largest up to 64 points over 2 steps; the 2 "
                               "others take about 0:0"), told[1]
+
+
+def test_the_column_reference_measures_the_column_as_seeded(tmp_path,
+                                                           capsys):
+    """A column scene whose region leaves the vertical axis out (the
+    whole grid) was measured with L0 = the region's top, inf: 0 * inf in
+    (2.28), a RuntimeWarning and no error reported; a column on a raised
+    base was measured as if its base were at 0; without gravity the error
+    was a raw TypeError after the run.  The column's base and height are
+    now its box within the grid, and a column the closed form cannot
+    measure is refused before anything runs, in one line."""
+    import warnings
+    text = EMBEDDED.read_text()
+    box, grid = 'region = { x = [0.0, 50.0] }', "x = [0.0, 50.0, 20]"
+    assert box in text and grid in text
+    variants = {
+        "as-shipped": text,
+        "whole-axis": text.replace(box, "region = {}"),
+        "raised": text.replace(box, 'region = { x = [10.0, 60.0] }').replace(
+            grid, "x = [10.0, 60.0, 20]")}
+    errors = {}
+    for name, variant in variants.items():
+        path = tmp_path / (name + ".toml")
+        path.write_text(variant)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)
+            assert main(["run", str(path), "--out", str(tmp_path / name),
+                         "--no-progress", "--no-series", "--steps",
+                         "2"]) == 0
+        errors[name] = json.loads((tmp_path / name / "summary.json")
+                                  .read_text())["error"]
+    # the same column wherever its box is written or placed; 20 elements,
+    # 2 steps: the small-strain column's error is about h / (4 L0)
+    assert errors["whole-axis"] == errors["as-shipped"]
+    assert errors["raised"] == pytest.approx(errors["as-shipped"],
+                                             rel=1e-9)
+    assert 1e-3 < errors["as-shipped"] < .05
+    capsys.readouterr()
+    weightless = tmp_path / "weightless.toml"
+    weightless.write_text(text.replace("[gravity]\nbody_force = [-800.0]\n",
+                                       ""))
+    assert "[gravity]" not in weightless.read_text()
+    for argv in (["run", str(weightless), "--out", str(tmp_path / "w")],
+                 ["study", str(weightless), "--vary", "elements=4,8",
+                  "--out", str(tmp_path / "w")]):
+        assert main(argv + ["--no-progress"]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "reference 'column'" in err[0] and \
+            "needs gravity" in err[0], err
+    assert not (tmp_path / "w").exists()

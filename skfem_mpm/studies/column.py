@@ -12,14 +12,15 @@ import numpy as np
 from numpy import ndarray
 from skfem import ElementLineP1, ElementQuad1, MeshLine, MeshQuad
 
+from ..errors import InvalidInputError
 from ..mechanics.materials import LinearElastic
 from ..quadrature.points import MaterialPoints, seed_points
 from ..solve.results import Result
 from ..solve.small import solve_mpm
 
 __all__ = ["HEIGHT", "LOAD", "MATERIAL", "column_grid", "run_column",
-           "column_error", "analytical_stress", "analytical_stress_current",
-           "vertical_stress"]
+           "column_error", "column_extent", "analytical_stress",
+           "analytical_stress_current", "vertical_stress"]
 
 HEIGHT = 50.
 LOAD = 800.
@@ -69,19 +70,71 @@ def analytical_stress_current(z: ndarray, top: float) -> ndarray:
 
 
 def column_error(points: MaterialPoints, load: float = LOAD,
-                 height: float = HEIGHT) -> float:
+                 height: float = HEIGHT, base: float = 0.) -> float:
     """Seed (2.28): ``sum_p |sigma_a(Y_p) - sigma_p| V_p / (W L0)``.
 
     Normalised by the weight ``W = rho0 b L0 V0 / L0`` and the height: the
     sum is divided by ``rho0 b L0 V0`` with ``V0`` the total initial volume,
     which in 1D is the seed's ``W L0``.  ``V_p`` are the current volumes
-    (fixed in small strain).
+    (fixed in small strain).  ``height`` is the column's length ``L0``
+    (finite and positive), ``base`` the initial height of its base.
 
     """
-    Y = points.x0[-1]
+    if not (np.isfinite(height) and height > 0 and np.isfinite(base)):
+        raise InvalidInputError(
+            "the column's error (2.28) needs a finite height > 0 and a "
+            "finite base, got height {!r}, base {!r}".format(height, base))
+    Y = points.x0[-1] - base
     diff = np.abs(analytical_stress(Y, load, height) - vertical_stress(points))
     return float(diff @ points.volume / (load * height
                                          * points.volume0.sum()))
+
+
+def column_extent(scene) -> tuple:
+    """``(load, base, height)`` of a scene whose ``reference`` is
+    ``"column"``: the magnitude of its gravity along the last axis, the
+    bottom of its first body and the body's height, its box clipped to
+    the grid (an axis left out of a scene file's region is the whole
+    grid's, ``[-inf, inf]`` before clipping).
+
+    Raises
+    ------
+    InvalidInputError
+        When the closed form does not apply: no gravity along the last
+        axis, a body region given as a function, or a body of no height.
+
+    Examples
+    --------
+    >>> from skfem_mpm.scenes.scene_file import EMBEDDED, load_scene
+    >>> column_extent(load_scene(EMBEDDED))
+    (800.0, 0.0, 50.0)
+    """
+    gravity = None if scene.gravity is None else np.asarray(scene.gravity,
+                                                             float)
+    if gravity is None or not gravity.size or gravity[-1] == 0 or \
+            not np.isfinite(gravity[-1]):
+        raise InvalidInputError(
+            "reference 'column' measures the stress of a column under its "
+            "own weight: the scene needs gravity along its last axis, got "
+            "{}".format(None if gravity is None else gravity.tolist()))
+    body = scene.bodies[0]
+    if callable(body.region):
+        raise InvalidInputError(
+            "reference 'column': body {!r} needs a box region (its height "
+            "is the closed form's L0), not a function".format(body.name))
+    if scene.grid.mesh is not None:
+        grid = scene.grid.mesh.p[-1]
+        grid_lo, grid_hi = float(grid.min()), float(grid.max())
+    else:
+        grid_lo, grid_hi = (float(v) for v in scene.grid.axes[-1][:2])
+    lo, hi = (float(v) for v in body.region[-1])
+    base, top = max(lo, grid_lo), min(hi, grid_hi)
+    if not top > base:
+        raise InvalidInputError(
+            "reference 'column': body {!r} has no height within the grid "
+            "(from {} to {} along the last axis)".format(body.name, base,
+                                                         top))
+    return float(abs(gravity[-1])), base, top - base
 
 
 def run_column(nelems: int, ppc: int = 2, nsteps: int = 1, dim: int = 1,

@@ -58,7 +58,8 @@ from .convergence import from_data_range, self_convergence
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["study", "refine", "case_error", "analyse", "report",
+__all__ = ["study", "refine", "case_error", "check_reference", "analyse",
+           "report",
            "formal_order", "scene_quantities", "worker_count", "check_vary",
            "cases_of", "estimate", "time_model", "VARIABLES",
            "DEFAULT_VARY", "DEFAULT_QUANTITY", "CASES_UNASKED"]
@@ -123,6 +124,24 @@ REFERENCE_ERRORS = {
                          "against N_c c (Prandtl-Reissner)")}
 
 
+def check_reference(scene: Scene) -> None:
+    """Refuse, before any run, a scene whose closed-form ``reference``
+    cannot measure it: ``"column"`` without gravity along the last axis or
+    without a body of some height in the grid
+    (:func:`~skfem_mpm.studies.column.column_extent`); a bearing-capacity
+    scene is checked with the scene itself
+    (:meth:`~skfem_mpm.scenes.scene.Scene.check`).
+
+    Raises
+    ------
+    InvalidInputError
+        Saying why the reference does not apply.
+    """
+    if scene.reference == "column":
+        from .column import column_extent
+        column_extent(scene)
+
+
 def case_error(scene: Scene, result) -> float:
     """The scene's error measure: ``reference = "column"`` gives seed
     (2.28); ``"elastica"`` the relative error of the loaded points' tip
@@ -131,9 +150,9 @@ def case_error(scene: Scene, result) -> float:
     NaN without a reference."""
     pts = result.points
     if scene.reference == "column":
-        from .column import column_error
-        return column_error(pts, abs(scene.gravity[-1]),
-                            scene.bodies[0].region[-1][1])
+        from .column import column_error, column_extent
+        load, base, height = column_extent(scene)
+        return column_error(pts, load, height, base)
     if scene.reference == "elastica":
         from .elastica import elastica_tip
         body = scene.bodies[0]
@@ -493,6 +512,7 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
 
     """
     check_vary(vary)
+    check_reference(scene)
     if scheduler is None and workers:
         workers = worker_count(workers)
     quantities = list(quantities or scene_quantities(scene))
