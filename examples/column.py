@@ -3,9 +3,10 @@
 A column of height 50 (E = 1e6, nu = 0) is loaded by its own weight, ramped
 to 800 per unit volume, and shortens by about 1.  With one load step MPM is
 the finite element method with the material points as quadrature, and the
-error (2.28) falls at rate 1 as the grid is refined.  With more load steps
-the points cross element boundaries, and the error stops falling: the
-grid-crossing plateau of seed Figures 2.9 and 2.10.
+error measure (2.28) of Charlton (2018) falls at rate 1 as the grid is
+refined.  With more load steps the points cross element boundaries, and the
+error stops falling: the grid-crossing plateau of Figures 2.9 and 2.10 of
+Charlton (2018), Chapter 2 (the seed; docs/references.md).
 
 Run ``python examples/column.py [OUTDIR]`` to write both figures as PNG.
 """
@@ -42,6 +43,7 @@ dim_difference = np.abs(
 def visualize(outdir="."):
     from pathlib import Path
     from skfem_mpm.scenes.plot import pyplot, save_figure
+    from skfem_mpm.studies.column import SOURCE
     from skfem_mpm.studies.figures import draw_column_stress, draw_convergence
     plt = pyplot()
     fig, axes = plt.subplots(3, 2, figsize=(8, 10), sharey=True)
@@ -51,6 +53,9 @@ def visualize(outdir="."):
                 axes[i, j], [profiles[nel, nsteps]], ["MPM"],
                 "{} elements, 2 MPs, {} load step{}".format(
                     nel, nsteps, "s" if nsteps > 1 else ""))
+    fig.suptitle("The column under its own weight: vertical stress against "
+                 "height,\nstandard MPM (after Figure 2.9 of {})".format(
+                     SOURCE))
     fig.tight_layout()
     save_figure(fig, Path(outdir) / "column_stress_profiles.png")
 
@@ -61,6 +66,9 @@ def visualize(outdir="."):
             {"{} MPs".format(ppc): errors[nsteps, ppc] for ppc in (2, 3, 4, 5)},
             {"{} MPs".format(ppc): rates[nsteps, ppc] for ppc in (2, 3, 4, 5)},
             "{} load step{}".format(nsteps, "s" if nsteps > 1 else ""))
+    fig.suptitle("The column's error measure (2.28) against the number of "
+                 "elements, standard MPM (after Figure 2.10 of {})".format(
+                     SOURCE))
     fig.tight_layout()
     save_figure(fig, Path(outdir) / "column_convergence.png")
 

@@ -38,6 +38,7 @@ from .scenes.scene import (build_points, point_bound, reaction_resultants,
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
 from .solve.options import Resume
 from .solve.results import PHASES
+from .studies.column import SOURCE as COLUMN_SOURCE
 from .studies.figures import plot_column_stress, plot_study
 from .studies.footing import (bearing_capacity_factor, footing_error,
                               footing_pressure)
@@ -324,7 +325,8 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
     if scene.reference == "column":
         plot_column_stress([result], ["{}, {} steps".format(
             scene.method, scene.step_count)], outdir / "column_stress.png",
-            title=scene.name)
+            title="{}: vertical stress against height,\nwith the closed "
+            "forms of {}".format(scene.name, COLUMN_SOURCE))
     if loaded.size and result.history[0].displacement is not None:
         fig, ax = pyplot().subplots(figsize=(5, 4))
         factor = [0.] + [r.load_factor for r in result.history]
@@ -661,8 +663,8 @@ def print_report(scene, summary: dict, seconds: float, outdir: Path,
                                             scene.dynamics.duration)))
     if "error" in summary:
         label, against, _ = REFERENCE_ERRORS[scene.reference]
-        print("  {:26s}{:.4e} (against {})".format(label, summary["error"],
-                                                   against))
+        print("  {:26s}{:.4e} (against {})".format(label + " ",
+                                                   summary["error"], against))
     print("  max displacement          {:.4f} m".format(
         summary["max_displacement"]))
     for label, q in summary.get("outputs", {}).items():

@@ -107,7 +107,7 @@ def test_study_command(tmp_path, capsys):
                  "--no-progress"]) == 0
     out = capsys.readouterr().out
     assert "rate of the error loadsteps=1: 1.00" in out
-    assert "error: the seed chapter's error measure (2.28)" in out
+    assert "error: error measure (2.28) of Charlton (2018), Ch. 2" in out
     for name in ("error_vs_elements.png", "error_vs_time.png",
                  "time_vs_points.png"):
         assert (tmp_path / name).stat().st_size > 10_000

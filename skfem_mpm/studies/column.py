@@ -2,7 +2,8 @@
 
 Height ``L0 = 50``, ``E = 1e6``, ``nu = 0``, body force ramped to
 ``rho0 b = 800`` per unit volume (40000 in all, shortening the column by
-about 1), fixed at the base (seed 2.2.3, Figure 2.8).  In 1D the column is a
+about 1), fixed at the base (seed 2.2.3, Figure 2.8: Charlton 2018, PhD
+thesis, Durham University, Chapter 2; ``docs/references.md``).  In 1D the column is a
 line of elements; in 2D a plane-strain strip one element wide on rollers,
 which gives the same answer.
 
@@ -18,10 +19,14 @@ from ..quadrature.points import MaterialPoints, seed_points
 from ..solve.results import Result
 from ..solve.small import solve_mpm
 
-__all__ = ["HEIGHT", "LOAD", "MATERIAL", "column_grid", "run_column",
+__all__ = ["SOURCE", "HEIGHT", "LOAD", "MATERIAL", "column_grid", "run_column",
            "column_error", "column_extent", "analytical_stress",
            "analytical_stress_current", "vertical_stress"]
 
+#: how figures and messages cite the source of the column, its closed
+#: forms (2.27) and its error measure (2.28): the seed, Chapter 2 of
+#: Charlton's thesis (full citation in ``docs/references.md``)
+SOURCE = "Charlton (2018)"
 HEIGHT = 50.
 LOAD = 800.
 MATERIAL = LinearElastic(E=1e6, nu=0.)
@@ -71,7 +76,7 @@ def analytical_stress_current(z: ndarray, top: float) -> ndarray:
 
 def column_error(points: MaterialPoints, load: float = LOAD,
                  height: float = HEIGHT, base: float = 0.) -> float:
-    """Seed (2.28): ``sum_p |sigma_a(Y_p) - sigma_p| V_p / (W L0)``.
+    """The error measure (2.28) of Charlton (2018): ``sum_p |sigma_a(Y_p) - sigma_p| V_p / (W L0)``.
 
     Normalised by the weight ``W = rho0 b L0 V0 / L0`` and the height: the
     sum is divided by ``rho0 b L0 V0`` with ``V0`` the total initial volume,
@@ -82,7 +87,8 @@ def column_error(points: MaterialPoints, load: float = LOAD,
     """
     if not (np.isfinite(height) and height > 0 and np.isfinite(base)):
         raise InvalidInputError(
-            "the column's error (2.28) needs a finite height > 0 and a "
+            "the column's error measure (2.28) of " + SOURCE + " needs a "
+            "finite height > 0 and a "
             "finite base, got height {!r}, base {!r}".format(height, base))
     Y = points.x0[-1] - base
     diff = np.abs(analytical_stress(Y, load, height) - vertical_stress(points))

@@ -15,7 +15,7 @@ import numpy as np
 from ..scenes import plot  # save_figure looked up when called: tests wrap it
 from ..scenes.plot import pyplot, series_styles
 from ..solve.results import PHASES, Result
-from .column import analytical_stress, analytical_stress_current, \
+from .column import SOURCE, analytical_stress, analytical_stress_current, \
     vertical_stress
 from .study import VARIABLES, fitted_rate
 
@@ -40,7 +40,7 @@ def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
     top = pts.x[-1].max()
     z = np.linspace(0., top, 200)
     ax.plot(-analytical_stress_current(z, top), z, "k:", lw=1,
-            label="(2.27), current height")
+            label="(2.27) of {}, current height".format(SOURCE))
     ax.set_xlabel(r"$-\sigma_{yy}$ (Pa)")
     ax.set_ylabel("height (m)")
     ax.set_title(title, fontsize=9)
@@ -57,7 +57,7 @@ def draw_convergence(ax, nelems: np.ndarray, errors: Dict[str, np.ndarray],
     ref = errors[next(iter(errors))][0] * nelems[0] / nelems
     ax.loglog(nelems, ref, "k:", lw=.8, label="slope 1")
     ax.set_xlabel("number of elements (-)")
-    ax.set_ylabel("error (2.28) (-)")
+    ax.set_ylabel("error measure (2.28) of {} (-)".format(SOURCE))
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=6)
 

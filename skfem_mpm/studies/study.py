@@ -4,7 +4,8 @@ its quantities of interest (:mod:`~skfem_mpm.scenes.quantities`) and the
 time of every phase, and draw the trade-off.
 
 The error of a case is measured against the scene's closed-form reference
-where it has one (``reference = "column"``: seed (2.28), ``"elastica"``,
+where it has one (``reference = "column"``: the error measure (2.28) of
+Charlton (2018), the seed; ``"elastica"``,
 ``"bearing_capacity"``), and otherwise against the study itself
 (:mod:`~skfem_mpm.studies.convergence`, after Eca and Hoekstra 2014): each
 quantity's order is fitted by least squares over all the element counts
@@ -54,6 +55,7 @@ from ..scenes.scene import (METHODS, Grid, Scene, build_points,
                              point_bound, run_scene)
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS
 from ..solve.results import PHASES
+from .column import SOURCE, column_error, column_extent
 from .convergence import from_data_range, self_convergence
 
 logger = logging.getLogger(__name__)
@@ -113,9 +115,10 @@ def configure(scene: Scene, params: dict) -> Scene:
 
 #: per scene reference: a short label and what its error measures
 REFERENCE_ERRORS = {
-    "column": ("error (2.28)", "the closed form (seed chapter)",
-               "the seed chapter's error measure (2.28): stress at the "
-               "points against the column's closed form"),
+    "column": ("error measure (2.28) of " + SOURCE,
+               "the column's closed form, Ch. 2 of " + SOURCE,
+               "error measure (2.28) of {}, Ch. 2: stress at the points "
+               "against the column's closed form".format(SOURCE)),
     "elastica": ("tip deflection error", "the elastica",
                  "relative error of the loaded points' tip deflection "
                  "against the elastica"),
@@ -138,19 +141,17 @@ def check_reference(scene: Scene) -> None:
         Saying why the reference does not apply.
     """
     if scene.reference == "column":
-        from .column import column_extent
         column_extent(scene)
 
 
 def case_error(scene: Scene, result) -> float:
-    """The scene's error measure: ``reference = "column"`` gives seed
-    (2.28); ``"elastica"`` the relative error of the loaded points' tip
+    """The scene's error measure: ``reference = "column"`` gives the
+    error measure (2.28) of Charlton (2018); ``"elastica"`` the relative error of the loaded points' tip
     deflection at full load against the elastica; ``"bearing_capacity"``
     the relative error of the footing's peak pressure against ``N_c c``;
     NaN without a reference."""
     pts = result.points
     if scene.reference == "column":
-        from .column import column_error, column_extent
         load, base, height = column_extent(scene)
         return column_error(pts, load, height, base)
     if scene.reference == "elastica":
