@@ -40,7 +40,12 @@ def block_case(two_bodies=False):
 
 
 def materials(plastic, two_bodies):
-    soft = VonMises(1e4, .3, yield_stress=28.) if plastic \
+    """The soft body yields under the block's load in every combination,
+    below the discrete collapse load of each: with ``yield_stress = 28``
+    the least locked ones (uGIMP and cpGIMP with mean dilatation) reached
+    the collapse load of the two bodies in small strain, and the plastic
+    flow along the mechanism ran the points out of the grid."""
+    soft = VonMises(1e4, .3, yield_stress=30.) if plastic \
         else LinearElastic(1e4, .3)
     return [soft, LinearElastic(3e4, .25)] if two_bodies else soft
 
@@ -51,8 +56,8 @@ MATRIX = list(itertools.product(METHODS, KINEMATICS, (False, True),
 
 @pytest.mark.parametrize("method, kinematics, plastic, stabilisation, "
                          "two_bodies", MATRIX)
-def test_every_combination_runs_or_is_refused(method, kinematics, plastic,
-                                              stabilisation, two_bodies):
+def test_every_combination_runs(method, kinematics, plastic, stabilisation,
+                                two_bodies):
     mesh, points = block_case(two_bodies)
     material = materials(plastic, two_bodies)
     kwargs = dict(method=method, kinematics=kinematics, nsteps=2,
@@ -60,11 +65,6 @@ def test_every_combination_runs_or_is_refused(method, kinematics, plastic,
                   antilocking=stabilisation == "antilocking")
     args = (mesh, ElementQuad1(), points, material,
             lambda b: b.get_dofs(lambda x: x[1] == 0))
-    if stabilisation == "antilocking" and method in ("ugimp", "cpgimp"):
-        with pytest.raises(InvalidInputError, match="not GIMP|not 'ugimp'|"
-                           "not 'cpgimp'"):
-            simulate(*args, callback=pytest.fail, **kwargs)
-        return
     res = simulate(*args, **kwargs)
     assert [r.load_factor for r in res.history] == [.5, 1.]
     assert max(r.residual for r in res.history) <= 1e-9
@@ -100,7 +100,6 @@ def test_refusals_come_before_any_work():
             (dict(tol=0.), "tol must"),
             (dict(max_iter=-1), "max_iter"),
             (dict(max_cutbacks=10000), "max_cutbacks"),
-            (dict(method="cpgimp", antilocking=True), "mean dilatation"),
             (dict(ghost=True), "ghost must be"),
             (dict(antilocking=1), "antilocking must be True or False"),
             (dict(rhs="increment", prescribed=lambda b, f0, f1: (
