@@ -30,12 +30,15 @@ from .scenes.io import (atomic_path, clear_earlier_run,
 from .scenes.output import (SeriesWriter, point_cloud, von_mises,
                              write_summary)
 from .scenes import plot  # save_figure looked up when called: tests wrap it
-from .scenes.plot import (STRESS_NAMES, body_figure_size, colour_scale,
-                          draw_energies, draw_points, mark_peak, pyplot)
+from .scenes.plot import (STRESS_NAMES, SupportMarks, body_figure_size,
+                          colour_scale, draw_deformed_shape, draw_energies,
+                          draw_points, mark_peak, pyplot)
 from .scenes.quantities import check_quantities, quantity_unit
 from .scenes.scene import (build_points, point_bound, reaction_resultants,
-                           run_scene, surface_loads)
+                           run_scene, scene_support_dofs, support_names,
+                           surface_loads)
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
+from .solve.core import grid_parts
 from .solve.options import Resume
 from .solve.results import PHASES
 from .studies.column import SOURCE as COLUMN_SOURCE
@@ -290,8 +293,11 @@ def rigid_body_curves(scene, rows, reactions) -> dict:
     return {"rigid_bodies": curves}
 
 
-def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
-    """Final configuration coloured by the vertical stress and (2D, 3D) by
+def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
+                 initial=None):
+    """The deformed shape with the supports and rigid bodies
+    (``initial``: the points as seeded, for the undeformed outline);
+    final configuration coloured by the vertical stress and (2D, 3D) by
     the von Mises stress; the plastic zone (equivalent plastic strain)
     where a body yielded; the column's
     stress profile; a load-displacement curve when there are point
@@ -299,6 +305,9 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
     run, from ``summary``), as footing pressure against settlement for a
     bearing-capacity scene."""
     pts = result.points
+    mesh, elem = scene.grid.build()
+    plot_deformed_shape(scene, result, mesh, elem, None if initial is None
+                        else initial.domain, outdir / "deformed_shape.png")
     d = pts.dim - 1
     name = STRESS_NAMES[d, d]
     fig, ax = pyplot().subplots(figsize=(6, 4) if pts.dim == 1 else
@@ -351,6 +360,59 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict):
                       "J per m thickness" if pts.dim == 2 else "J per m^2")
         fig.tight_layout()
         plot.save_figure(fig, outdir / "energies.png")
+
+
+def support_marks(scene, mesh, elem) -> list:
+    """The scene's supports as
+    :class:`~skfem_mpm.scenes.plot.SupportMarks` on the grid ``mesh``:
+    the nodes each holds, labelled by its name, where it is and what it
+    holds (fixed, or moved by its ``value`` at full load)."""
+    grid, dim = grid_parts(mesh, elem)[1], mesh.dim()
+    node_of = np.empty(grid.N, dtype=np.int64)
+    for c in range(dim):
+        node_of[grid.nodal_dofs[c]] = np.arange(grid.nodal_dofs.shape[1])
+    marks = []
+    for name, s in zip(support_names(scene), scene.supports):
+        held = tuple("xyz".index(c) for c in s.components
+                     if "xyz".index(c) < dim)
+        dofs = scene_support_dofs(s, grid, dim)
+        where = s.boundary or ("at {}".format(list(s.at)) if s.at is not None
+                               else "region" if s.region is not None
+                               else "where(x)")
+        what = ", ".join("xyz"[c] for c in held) + (
+            " fixed" if s.value is None else " moved by {} m at full "
+            "load".format(list(s.value)))
+        marks.append(SupportMarks("{} ({}): {}".format(name, where, what),
+                                  mesh.p[:, node_of[dofs[0]]], held,
+                                  s.value is not None))
+    return marks
+
+
+def plot_deformed_shape(scene, result, mesh, elem, half, path: Path,
+                        obstacles=()):
+    """The deformed shape of a run's final state
+    (:func:`~skfem_mpm.scenes.plot.draw_deformed_shape`): the points
+    coloured by their displacement magnitude over the undeformed outline
+    (``half``: the initial points' half-widths), the supports, the rigid
+    bodies and ``obstacles`` (``[(name, polygon (k, 2))]``), to ``path``."""
+    pts = result.points
+    rigid = {b.name: pts.body == k for k, b in enumerate(scene.bodies)
+             if b.rigid is not None}
+    last = result.history[-1] if result.history else None
+    when = "" if last is None else " at t = {:.4g} s".format(last.time) \
+        if last.time is not None else " at load factor {:.4g}".format(
+            last.load_factor)
+    deformed = pts.x0 + pts.displacement
+    width, height = (7., 3.4) if pts.dim == 1 else body_figure_size(
+        np.hstack([pts.x0, deformed])[:2])
+    fig, ax = pyplot().subplots(figsize=(width, height + 1.1))
+    draw_deformed_shape(
+        fig, ax, pts, "{}: deformed shape{} (true scale),\nthe undeformed "
+        "body dashed".format(scene.name, when),
+        supports=support_marks(scene, mesh, elem), rigid=rigid,
+        obstacles=obstacles, half=half)
+    fig.tight_layout()
+    plot.save_figure(fig, path)
 
 
 def plot_rigid_bodies(scene, curves: dict, path: Path):
@@ -635,7 +697,7 @@ def run(args) -> int:
         with interrupts_deferred():
             summary = completed()
         stage = "drawing the figures"
-        plot_outputs(scene, result, outdir, loaded, summary)
+        plot_outputs(scene, result, outdir, loaded, summary, initial)
         stage = "printing the report"
         print_report(scene, summary, seconds, outdir, args.resume)
     except KeyboardInterrupt:

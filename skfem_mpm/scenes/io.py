@@ -87,7 +87,8 @@ def interrupts_deferred(reraise: bool = True):
 #: what a run writes in its output folder (globs): an earlier run's
 #: files there are removed when a new run (not a resume) starts
 RUN_OUTPUTS = ("points_*.vtu", "grid_*.vtu", "points.pvd", "grid.pvd",
-               "checkpoint.npz", "summary.json", "final_stress.png",
+               "checkpoint.npz", "summary.json", "deformed_shape.png",
+               "final_stress.png",
                "final_von_mises.png", "plastic_zone.png",
                "column_stress.png", "load_displacement.png",
                "rigid_bodies.png", "energies.png")

@@ -9,13 +9,17 @@ series in distinct styles (:func:`series_styles`).
 every figure the CLI and the examples write).
 
 """
+from typing import NamedTuple, Tuple
+
 import numpy as np
 
 from .io import atomic_path
 
 __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "series_styles", "colour_scale", "body_figure_size",
-           "figure_problems", "STRESS_NAMES", "mark_peak"]
+           "figure_problems", "STRESS_NAMES", "mark_peak", "marker_size",
+           "draw_deformed_shape", "SupportMarks", "outline",
+           "draw_supports", "side_colorbar"]
 
 #: the stress components' names for labels
 STRESS_NAMES = {(i, j): "sigma_" + "xyz"[i] + "xyz"[j]
@@ -127,13 +131,9 @@ def draw_points(fig, ax, points, values: np.ndarray, label: str, title: str,
         return None
     (a, b), shown, note = shown_axes(x, points.volume)
     scale = colour_scale(values[shown]) if scale is None else scale
-    if size is None:          # marker diameter ~ 0.8 point spacing
-        box = ax.get_position()
-        width = 72. * min(box.width * fig.get_figwidth(),
-                          box.height * fig.get_figheight())
-        extent = max(np.ptp(x[a, shown]), np.ptp(x[b, shown]), 1e-300)
-        spacing = np.median(points.volume) ** (1. / x.shape[0])
-        size = float(np.clip((.8 * width * spacing / extent) ** 2, .3, 30.))
+    if size is None:
+        size = marker_size(fig, ax, x[[a, b]][:, shown], points.volume,
+                           x.shape[0])
     sc = ax.scatter(x[a, shown], x[b, shown], c=values[shown], s=size,
                     **scale)
     ax.set_aspect("equal")
@@ -142,11 +142,28 @@ def draw_points(fig, ax, points, values: np.ndarray, label: str, title: str,
     ax.locator_params(nbins=5)
     ax.set_title(title + (", " + note if note else ""))
     if colorbar:
-        from mpl_toolkits.axes_grid1 import make_axes_locatable
-        bar = make_axes_locatable(ax).append_axes("right", size="5%",
-                                                  pad=.08)
-        fig.colorbar(sc, cax=bar, label=label)
+        side_colorbar(fig, ax, sc, label)
     return sc
+
+
+def side_colorbar(fig, ax, mappable, label: str, size: str = "5%"):
+    """A colour bar labelled ``label`` beside ``ax``, as high as it."""
+    from mpl_toolkits.axes_grid1 import make_axes_locatable
+    bar = make_axes_locatable(ax).append_axes("right", size=size, pad=.08)
+    return fig.colorbar(mappable, cax=bar, label=label)
+
+
+def marker_size(fig, ax, x: np.ndarray, volume: np.ndarray,
+                dim: int) -> float:
+    """A scatter marker size (points^2) whose diameter is about 0.8 of
+    the spacing ``median(volume) ** (1 / dim)`` of points shown at ``x``
+    (2, n) in ``ax``, within 0.3 to 30."""
+    box = ax.get_position()
+    width = 72. * min(box.width * fig.get_figwidth(),
+                      box.height * fig.get_figheight())
+    extent = max(np.ptp(x[0]), np.ptp(x[1]), 1e-300)
+    spacing = np.median(volume) ** (1. / dim)
+    return float(np.clip((.8 * width * spacing / extent) ** 2, .3, 30.))
 
 
 def figure_problems(fig) -> list:
@@ -255,3 +272,204 @@ def draw_energies(ax, energies: dict, title: str, unit: str = "J",
     ax.set_ylabel("energy ({})".format(unit))
     ax.set_title(title)
     ax.legend(loc="best")
+
+
+class SupportMarks(NamedTuple):
+    """Supported grid nodes as :func:`draw_deformed_shape` marks them:
+    ``label`` for the legend, node positions ``nodes`` (dim, m) in m, the
+    ``components`` held (axes: 0 x, 1 y, 2 z), ``moving``: a prescribed
+    motion rather than a fixed support."""
+    label: str
+    nodes: np.ndarray
+    components: Tuple[int, ...]
+    moving: bool = False
+
+
+#: a support's marker by the components it holds: rollers point along
+#: the held axis, a square holds every component
+SUPPORT_MARKERS = {(0,): ">", (1,): "^", (2,): "d", (0, 2): "p",
+                   (1, 2): "h"}
+
+
+def outline(ax, centres: np.ndarray, half: np.ndarray, pixels: int = 400,
+            **style):
+    """Draw the outline of the union of the boxes ``centres +- half`` ((2,
+    n) each, m) as contour lines (``style``: of
+    :meth:`matplotlib.axes.Axes.contour`): the boxes are painted on a
+    raster of ``pixels`` along the longer side, so the outline of any
+    body, holes and graded point sizes included, is drawn to a pixel."""
+    lo = (centres - half).min(axis=1)
+    hi = (centres + half).max(axis=1)
+    pixel = float((hi - lo).max()) / pixels
+    origin = lo - 2 * pixel
+    shape = np.ceil((hi - origin) / pixel).astype(int) + 2
+    first = np.ceil((centres - half - origin[:, None]) / pixel - .5)
+    last = np.ceil((centres + half - origin[:, None]) / pixel - .5)
+    first, last = (np.clip(v, 0, shape[:, None]).astype(int)
+                   for v in (first, last))
+    count = np.zeros(shape + 1)           # 2D difference array of boxes
+    for i, j, sign in ((first[0], first[1], 1), (last[0], first[1], -1),
+                       (first[0], last[1], -1), (last[0], last[1], 1)):
+        np.add.at(count, (i, j), sign)
+    inside = count.cumsum(axis=0).cumsum(axis=1)[:-1, :-1] > .5
+    cx, cy = (origin[k] + (np.arange(shape[k]) + .5) * pixel
+              for k in range(2))
+    return ax.contour(cx, cy, inside.T.astype(float), levels=[.5], **style)
+
+
+def draw_deformed_shape(fig, ax, points, title: str, supports=(),
+                        rigid=None, obstacles=(), half=None,
+                        coloured: bool = True):
+    """The deformed shape: the points at ``x0 + displacement`` coloured
+    by their displacement magnitude (m; a labelled colour bar) or plain
+    (``coloured=False``), the undeformed body as a faint outline, the
+    ``supports`` marked at their grid nodes, the points of rigid bodies in
+    black with their outline, and obstacles as hatched polygons, each
+    labelled in a legend below the axes.
+
+    Parameters
+    ----------
+    fig, ax
+        The figure and the axes to draw in; ``title`` is the axes' title.
+    points
+        :class:`~skfem_mpm.MaterialPoints` of the final state (2D; in 3D
+        the slab one point thick through the middle of the body, its
+        supports on the nearest grid plane; in 1D the bar before and after,
+        one above the other).
+    supports
+        :class:`SupportMarks`: one legend entry each, the marker saying
+        which components are held (``>`` x, ``^`` y, ``d`` z, a square:
+        all).
+    rigid
+        ``{name: mask}``: the points (bool per point) of each rigid body.
+    obstacles
+        ``[(name, polygon)]``: rigid obstacles' outlines, polygons (k, 2)
+        in the picture's two coordinates (x, y in 2D), m.
+    half
+        The points' initial half-widths (dim, n) for the undeformed
+        outline; default their domains, else ``volume0 ** (1/dim) / 2``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem_mpm import MaterialPoints
+    >>> from skfem_mpm.scenes.plot import (SupportMarks, draw_deformed_shape,
+    ...                                    pyplot)
+    >>> x = np.mgrid[.25:2:.5, .25:1:.5].reshape(2, -1)
+    >>> pts = MaterialPoints(x=x, volume=np.full(x.shape[1], .25))
+    >>> pts.displacement[1] = -.1 * x[0]
+    >>> fig, ax = pyplot().subplots()
+    >>> _ = draw_deformed_shape(fig, ax, pts, "a bent block", supports=[
+    ...     SupportMarks("left: x, y fixed", np.array([[0., 0.], [0., 1.]]),
+    ...                  (0, 1))], obstacles=[("wall", np.array(
+    ...         [[2.2, -.5], [2.5, -.5], [2.5, 1.], [2.2, 1.]]))])
+    >>> [t.get_text() for t in ax.get_legend().get_texts()][2:]
+    ['wall', 'left: x, y fixed']
+    >>> pyplot().close(fig)
+    """
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch, Polygon
+    dim = points.dim
+    x0 = points.x0
+    x = x0 + points.displacement              # FE points stay at x0
+    if half is None:
+        half = points.domain if points.domain is not None else np.tile(
+            .5 * points.volume0 ** (1. / dim), (dim, 1))
+    rigid = dict(rigid or {})
+    soil = ~np.any([m for m in rigid.values()], axis=0) if rigid else \
+        np.ones(points.n, dtype=bool)
+    magnitude = np.sqrt((points.displacement ** 2).sum(axis=0))
+    if dim == 1:             # the bar before (y = 1) and after (y = 0)
+        x, x0, half = (np.vstack([v, np.full_like(v, level)]) for v, level
+                       in ((x, 0.), (x0, 1.), (half, .15)))
+        (a, b), shown, note = (0, 1), np.ones(points.n, dtype=bool), ""
+    else:
+        (a, b), shown, note = shown_axes(x, points.volume)
+    grey, handles = "0.55", []
+    outline(ax, x0[[a, b]][:, shown], half[[a, b]][:, shown],
+            colors=grey, linewidths=1., linestyles="--")
+    handles.append(Line2D([], [], color=grey, ls="--",
+                          label="undeformed body (outline)"))
+    body = shown & soil
+    size = marker_size(fig, ax, x[[a, b]][:, shown], points.volume,
+                       max(dim, 1)) if dim > 1 else 6.
+    scale = colour_scale(magnitude[body]) if coloured else None
+    sc = ax.scatter(x[a, body], x[b, body], s=size, zorder=2,
+                    **(dict(c=magnitude[body], **scale) if coloured
+                       else dict(color="tab:blue")))
+    handles.append(Line2D([], [], marker="o", ls="", color="tab:blue" if
+                          not coloured else "0.3", label="material points, "
+                          "deformed" + (" (colour: |u|)" if coloured
+                                        else "")))
+    for name, mask in rigid.items():
+        mine = mask & shown
+        if not mine.any():
+            continue
+        ax.scatter(x[a, mine], x[b, mine], s=size, color="k", zorder=3)
+        outline(ax, x[[a, b]][:, mine], half[[a, b]][:, mine], colors="k",
+                linewidths=1.2)
+        handles.append(Line2D([], [], marker="o", ls="-", color="k",
+                              label="rigid body: {}".format(name)))
+    for name, polygon in obstacles:
+        ax.add_patch(Polygon(np.asarray(polygon, float), closed=True,
+                             facecolor="0.85", edgecolor="0.2", hatch="//",
+                             lw=1., zorder=1))
+        handles.append(Patch(facecolor="0.85", edgecolor="0.2", hatch="//",
+                             label=name))
+    draw_supports(ax, supports, (a, b), x[:, shown] if dim > 1 else None,
+                  handles, dim)
+    ax.set_aspect("equal")
+    ax.set_xlabel("{} (m)".format("xyz"[a]))
+    if dim == 1:
+        ax.set_yticks([0., 1.], ["deformed", "undeformed"])
+        ax.set_ylim(-.6, 1.6)
+        ax.set_aspect("auto")
+        ax.set_ylabel("configuration of the 1D bar")
+    else:
+        ax.set_ylabel("{} (m)".format("xyz"[b]))
+        ax.locator_params(nbins=5)
+    ax.set_title(title + (", " + note if note else ""))
+    if coloured:
+        side_colorbar(fig, ax, sc, "displacement magnitude |u| (m)", "4%")
+    ax.legend(handles=handles, loc="upper center", fontsize=7,
+              bbox_to_anchor=(.5, -.14), ncol=2, frameon=False)
+    return sc
+
+
+def draw_supports(ax, supports, axes: tuple, slab, handles: list,
+                  dim: int):
+    """The ``supports`` (:class:`SupportMarks`) at their nodes on the
+    picture's ``axes``, each in its own colour with a marker by the
+    components it holds, and its legend handle appended to ``handles``;
+    in 3D only the nodes on the grid plane nearest the slab of points
+    ``slab`` (3, n) drawn (a support elsewhere is named as not in the
+    slice); in 1D the nodes are marked on both bars."""
+    from matplotlib.lines import Line2D
+    a, b = axes
+    plane = None
+    if dim == 3 and supports:
+        across = 3 - a - b
+        middle = .5 * (slab[across].min() + slab[across].max())
+        levels = np.unique(np.concatenate([s.nodes[across]
+                                           for s in supports]))
+        plane = levels[np.argmin(np.abs(levels - middle))]
+    styles = series_styles(len(supports))
+    for support, style in zip(supports, styles):
+        nodes = np.asarray(support.nodes, float)
+        held = tuple(sorted(c for c in support.components if c < dim))
+        marker = "s" if len(held) == dim else SUPPORT_MARKERS.get(held, "s")
+        colour = "tab:red" if support.moving else style["color"]
+        label = support.label
+        if dim == 1:
+            nodes = np.vstack([np.repeat(nodes[0], 2),
+                               np.tile([0., 1.], nodes.shape[1])])
+        elif dim == 3:
+            on = np.isclose(nodes[3 - a - b], plane)
+            if not on.any():
+                label += " (not in this slice)"
+            nodes = nodes[:, on]
+        ax.plot(nodes[a], nodes[b], ls="", marker=marker, ms=5, color=colour,
+                markeredgecolor="k", markeredgewidth=.4, zorder=4)
+        handles.append(Line2D([], [], ls="", marker=marker, ms=5,
+                              color=colour, markeredgecolor="k",
+                              markeredgewidth=.4, label=label))

@@ -1,0 +1,97 @@
+"""The deformed-shape picture of a run (issue 30, item 3): the points at
+their final positions over the undeformed outline, with the supports, the
+rigid bodies and any obstacles drawn and named in a legend."""
+import numpy as np
+import pytest
+
+from skfem_mpm import MaterialPoints
+from skfem_mpm.cli import main
+from skfem_mpm.scenes import plot
+from test_footing import FOOTING
+
+# the coarse footing of test_footing (a smooth rigid footing on von Mises
+# clay, base fixed, sides on rollers) in 2 steps, its left support named
+FOOTING = FOOTING.replace("steps = 6", "steps = 2").replace(
+    '[[supports]]\nboundary = "left"', '[[supports]]\nname = "axis"\n'
+    'boundary = "left"')
+
+
+@pytest.fixture
+def figures(monkeypatch):
+    """The figures the command writes, by file name (checked by
+    conftest's figure_problems before they are saved)."""
+    kept, save = {}, plot.save_figure
+
+    def keep(fig, path, *args, **kwargs):
+        kept[path.name] = fig
+        legend = [ax.get_legend() for ax in fig.axes]
+        kept[path.name + ":legend"] = [t.get_text() for g in legend if g
+                                       for t in g.get_texts()]
+        save(fig, path, *args, **kwargs)
+    monkeypatch.setattr(plot, "save_figure", keep)
+    return kept
+
+
+def test_a_run_draws_its_deformed_shape_with_supports_and_rigid_bodies(
+        tmp_path, figures):
+    scene = tmp_path / "footing.toml"
+    scene.write_text(FOOTING)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--no-progress",
+                 "--no-series"]) == 0
+    assert (out / "deformed_shape.png").stat().st_size > 10_000
+    # a later run in the folder removes it with the run's other files
+    from fnmatch import fnmatch
+
+    from skfem_mpm.scenes.io import RUN_OUTPUTS
+    assert [p.name for p in out.iterdir() if p.name != "scene.toml" and
+            not any(fnmatch(p.name, g) for g in RUN_OUTPUTS)] == []
+    fig = figures["deformed_shape.png"]
+    ax, bar = fig.axes
+    assert (ax.get_xlabel(), ax.get_ylabel()) == ("x (m)", "y (m)")
+    assert ax.get_title().startswith("coarse-footing: deformed shape at "
+                                     "load factor 1")
+    assert bar.get_ylabel() == "displacement magnitude |u| (m)"
+    legend = figures["deformed_shape.png:legend"]
+    assert legend == [
+        "undeformed body (outline)",
+        "material points, deformed (colour: |u|)", "rigid body: footing",
+        "support-1 (bottom): x, y fixed", "axis (left): x fixed",
+        "support-3 (right): x fixed"]
+    # the supports at their grid nodes: 9 along the bottom, 6 up each side
+    marks = [line for line in ax.lines if line.get_marker() in ("s", ">")]
+    bottom, left, right = (np.array(m.get_data()) for m in marks)
+    assert np.allclose(bottom, [np.linspace(0., 1., 9), np.zeros(9)])
+    assert np.allclose(left, [np.zeros(6), np.linspace(0., .625, 6)])
+    assert np.allclose(right, [np.ones(6), np.linspace(0., .625, 6)])
+    # the footing's points in black, moved down by its 0.03 at full load
+    # (0.5 to 0.625 high, 2 x 2 points in each of its two cells)
+    footing = [c for c in ax.collections if c.get_offsets().shape[0] == 8
+               and c.get_array() is None]
+    assert len(footing) == 1
+    assert np.allclose(np.sort(np.unique(footing[0].get_offsets()[:, 1])),
+                       [.53125 - .03, .59375 - .03])
+
+
+def test_obstacles_are_drawn_as_named_outlines_and_plain_points():
+    """The drawing takes rigid obstacles as named polygons (k, 2), e.g.
+    the boxes and polygons of geometric obstacles; points plain
+    (coloured=False) get no colour bar."""
+    x = np.mgrid[.25:2:.5, .25:1:.5].reshape(2, -1)
+    points = MaterialPoints(x=x, volume=np.full(x.shape[1], .25))
+    points.displacement[1] = -.1 * x[0]
+    wall = np.array([[2.2, -.5], [2.5, -.5], [2.5, 1.], [2.2, 1.]])
+    floor = np.array([[-.5, -.6], [3., -.6], [3., -.4]])
+    fig, ax = plot.pyplot().subplots()
+    plot.draw_deformed_shape(fig, ax, points, "a bent block", obstacles=[
+        ("wall", wall), ("floor", floor)], coloured=False,
+        supports=[plot.SupportMarks("clamp", np.array([[0., 0.], [0., 1.]]),
+                                    (0, 1))])
+    assert fig.axes == [ax]                     # no colour bar
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "undeformed body (outline)", "material points, deformed", "wall",
+        "floor", "clamp"]
+    drawn = [p.get_xy()[:-1] for p in ax.patches]   # closed: first again
+    assert np.allclose(drawn[0], wall) and np.allclose(drawn[1], floor)
+    assert not plot.figure_problems(fig)
+    plot.pyplot().close(fig)
