@@ -6,7 +6,8 @@ conditions; this package locates points, moves them and keeps their state.
 
 """
 from .quadrature.basis import MaterialPointBasis, material_point_bases
-from .errors import (ConvergenceError, InvalidInputError, InvalidMaterialError,
+from .errors import (ContactError, ConvergenceError, InvalidInputError,
+                     InvalidMaterialError,
                      InversionError, MPMError, NewtonDivergenceError,
                      NumericalError, GridMotionError, PointsOutsideGridError,
                      PrescribedMotionError, SingularSystemError,
@@ -29,6 +30,7 @@ from .solve.fe import solve_fe
 from .solve.finite import solve_finite
 from .solve.loads import GridLoad, Pressure, Traction, side_points
 from .solve.results import Result, StepRecord
+from .solve.obstacles import Obstacle
 from .solve.rigid import RigidBody
 from .solve.small import solve_mpm
 from .solve.strength_reduction import reduce_strength, strength_reduction
@@ -48,5 +50,5 @@ __all__ = [
     "PrescribedMotionError", "StepFailedError", "DruckerPrager",
     "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "RigidBody",
     "reduce_strength", "strength_reduction", "Dynamics", "Newmark",
-    "GeneralizedAlpha", "material_point_bases",
+    "GeneralizedAlpha", "material_point_bases", "Obstacle", "ContactError",
 ]

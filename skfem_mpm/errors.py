@@ -116,6 +116,12 @@ class SingularTangentError(SingularSystemError, ConvergenceError):
     :class:`SingularSystemError`."""
 
 
+class ContactError(ConvergenceError):
+    """Contact with an obstacle did not settle within its tolerance in a
+    step (the augmented-Lagrangian updates ran out): a failed step, cut
+    back like a Newton failure."""
+
+
 class StepFailedError(ConvergenceError):
     """A load step raised an error that is not the package's own (in a
     user's material, form or callback-free code path); the original is the

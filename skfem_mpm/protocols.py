@@ -27,8 +27,11 @@ A grid term's contribution to one step comes from
 
 then lets each term weigh that balance in time (:meth:`GridTerm.weigh`,
 :meth:`GridTerm.weigh_matrix`: a time integrator's inertia and its
-generalised-alpha weights) and, once the step has converged, commit what
-it keeps (:meth:`GridTerm.commit`).  A run begins its terms in their order,
+generalised-alpha weights), once Newton has converged asks each whether
+its constraints hold (:meth:`GridTerm.settle`: contact's augmented
+Lagrangian solves the step again until they do), lets it commit
+what it keeps (:meth:`GridTerm.commit`) and, once all have, correct the
+new state's motion (:meth:`GridTerm.finish`).  A run begins its terms in their order,
 those that weigh the balance in time (``weighs = True``) after all others:
 an integrator's start-of-step balance sees every other term.  ``matrix`` must be the derivative of
 ``force - load`` with respect to ``du`` (or a good part of it: Newton's
@@ -136,9 +139,21 @@ class GridTerm:
         """The tangent weighed as :meth:`weigh` weighs the forces."""
         return K
 
+    def settle(self, problem, trial, du: ndarray) -> bool:
+        """After Newton converged to ``trial`` (increment ``du``):
+        ``True`` when the term's constraints hold; ``False`` after it
+        updated itself (an augmented-Lagrangian multiplier, a contact
+        set), and the step is solved again from ``du``."""
+        return True
+
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
         """After convergence: update the new state ``new`` (points) and
         the step's ``record`` with what the term keeps."""
+
+    def finish(self, problem, new, record) -> None:
+        """After every term's commit: correct the new state's motion
+        (contact: the velocity of material in contact across the
+        obstacle's surface, after the time integrator set it)."""
 
 
 @runtime_checkable

@@ -145,11 +145,6 @@ def test_simulate_refuses_what_it_cannot_use():
         simulate(*args, loads=[push, push], **fail)
     with pytest.raises(InvalidInputError, match="one bool per body"):
         simulate(*args, BodyForce([0., -1.], ramp=[True, False]), **fail)
-    with pytest.raises(InvalidInputError, match="mean dilatation|"
-                       "antilocking"):
-        simulate(*args, method="cpgimp", options=Options(
-            stabilisation=Stabilisation(antilocking=True),
-            callback=pytest.fail))
 
 
 def test_entry_points_keep_their_positional_order_and_scenes_their_types():

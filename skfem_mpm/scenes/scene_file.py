@@ -95,7 +95,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     tolerance = 1e-9
     max_iterations = 25
     linear = "auto"                 # fastest installed; scipy pypardiso pyamg
-    antilocking = false             # mean dilatation, B-bar (mpm, fem)
+    antilocking = false             # mean dilatation, B-bar (any method)
     ghost = "auto"                  # ghost penalty for cut cells: "auto"
                                     # (on after a failed finite step), or
                                     # a factor (0: never)

@@ -47,7 +47,8 @@ from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
 from skfem.quadrature import get_quadrature
 
-from ..errors import (GridMotionError, InvalidInputError, InversionError,
+from ..errors import (ContactError, GridMotionError, InvalidInputError,
+                      InversionError,
                       PointsOutsideGridError, UnsupportedElementError,
                       MPMError, NewtonDivergenceError, NumericalError,
                       SingularTangentError, StepFailedError, check_choice,
@@ -66,12 +67,14 @@ from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation
 from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
+from .contact import contact_term
 from .dynamics import Dynamics, InertiaTerm
 from .linear import support_dofs
 from .loads import ExternalLoads, FollowerPressure
 from .newton import FullStep, NewtonOptions, newton as newton_driver
 from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
                       translate_aliases)
+from .obstacles import check_obstacles
 from .problem import STABILISATION, StepProblem
 from .results import Result
 from .rigid import RigidBody, check_rigid_bodies, warn_stiff_smooth_bodies
@@ -83,12 +86,15 @@ __all__ = ["simulate", "STABILISATION", "DEFAULT_GHOST",
 
 # failures of a step that a retry or a smaller load increment may cure
 STEP_FAILURES = (NewtonDivergenceError, InversionError, NumericalError,
-                 SingularTangentError)
+                 SingularTangentError, ContactError)
 ADAPTIVE_MODIFIED = (
     "newton='modified' with an adaptive time step (target_iterations): the "
     "time step adapts to the Newton iterations, which modified Newton's "
     "linear convergence multiplies, so it would keep halving; use "
     "newton='full' or a fixed time step")
+#: Newton solves of one load step at the most while grid terms settle
+#: their constraints (:meth:`~skfem_mpm.protocols.GridTerm.settle`)
+SETTLE_ROUNDS = 30
 #: the ghost penalty that ``ghost="auto"`` switches on when a
 #: finite-deformation step of moving points fails
 DEFAULT_GHOST = .1
@@ -188,6 +194,16 @@ def follower_term(run: Run) -> Optional[GridTerm]:
     return FollowerPressure(run.loads) if run.loads.follows else None
 
 
+def obstacle_term(run: Run) -> Optional[GridTerm]:
+    """Contact with rigid obstacles (``obstacles=``)."""
+    if not run.obstacles:
+        return None
+    return contact_term(run.obstacles, run.cell_size, run.material,
+                        run.domain0, total_lagrangian=not run.method.moves,
+                        moves=run.method.moves,
+                        finite=run.finite, counters=run.counters)
+
+
 def inertia_term(run: Run) -> Optional[GridTerm]:
     """Implicit time integration (``dynamics=``)."""
     return None if run.dynamics is None else InertiaTerm(run.dynamics,
@@ -197,7 +213,7 @@ def inertia_term(run: Run) -> Optional[GridTerm]:
 #: the built-in grid terms, each ``factory(run) -> GridTerm or None``, in
 #: the order their contributions are summed (a user's terms, items of
 #: ``loads``, follow; terms that weigh the balance in time come last)
-GRID_TERMS = (ghost_term, follower_term, inertia_term)
+GRID_TERMS = (ghost_term, follower_term, obstacle_term, inertia_term)
 
 
 def mean_dilatation(op, points):
@@ -221,16 +237,28 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
               step: int, how: Attempt = FIRST, report: dict = None):
     """One load step from the converged state ``points``, from load factor
     ``f_old`` to ``f_new``, tried ``how``: build the step problem, drive
-    Newton, commit.  Returns the new state, the step's record and its
-    point operator; ``report`` receives what the Newton driver reports."""
+    Newton until the terms' constraints settle (:data:`SETTLE_ROUNDS` at
+    the most: contact's augmented-Lagrangian updates), commit.  Returns the
+    new state, the step's record and its point operator; ``report``
+    receives what the Newton driver reports."""
     problem = StepProblem(run, points, f_old, f_new, step)
     strategy = run.newton if how.search == "first" else \
         run.line_search or run.newton
-    found = newton_driver(
-        problem, problem.du0, strategy.start(), max_iter=run.max_iter,
-        modified=run.modified and how.modified and not how.stabilise,
-        stabilise=how.stabilise, single_solve=run.rhs == "increment",
-        report=report)
+    du = problem.du0
+    for rounds in range(SETTLE_ROUNDS):
+        found = newton_driver(
+            problem, du, strategy.start(), max_iter=run.max_iter,
+            modified=run.modified and how.modified and not how.stabilise,
+            stabilise=how.stabilise, single_solve=run.rhs == "increment",
+            report=report, predict=rounds == 0)
+        if problem.settled(found.trial, found.du):
+            break
+        du = found.du
+    else:
+        raise ContactError(
+            "step {}: contact did not settle within the obstacles' "
+            "tolerances in {} augmented-Lagrangian rounds".format(
+                step, SETTLE_ROUNDS))
     new, record = problem.commit(found.trial, found.du, found.residuals)
     return new, record, problem.op
 
@@ -425,7 +453,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              supports, body_force=None, loads: Sequence = (),
              nsteps: Optional[int] = None, method: str = "mpm",
              kinematics: str = "small", dynamics: Optional[Dynamics] = None,
-             options: Optional[Options] = None, **aliases) -> Result:
+             options: Optional[Options] = None, obstacles: Sequence = (),
+             **aliases) -> Result:
     """Implicit MPM, GIMP or FE, quasi-static or dynamic: any method with
     any kinematics, material, stabilisation and loads.
 
@@ -489,6 +518,13 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         stabilisation (:class:`~skfem_mpm.Stabilisation`: ghost penalty,
         mean dilatation), the linear solver, a
         :class:`~skfem_mpm.Resume`, what the run keeps and a callback.
+    obstacles
+        Rigid :class:`~skfem_mpm.Obstacle` s (boxes, polygons) the
+        material cannot enter, in contact at the material's surface
+        (:mod:`skfem_mpm.solve.contact`): smooth, Coulomb, rough or tied;
+        the force on each per step is ``StepRecord.obstacle_forces``.  A
+        run with obstacles is nonlinear (Newton, even small strain and
+        elastic).
     **aliases
         The keyword arguments these objects replaced (``tol``, ``ghost``,
         ``antilocking``, ``line_search``, ``newton``, ``rhs``,
@@ -543,7 +579,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     options, body_force, loads = translate_aliases(
         "simulate", options, body_force, loads, aliases)
     case = check_case(mesh, points, material, body_force, loads, nsteps,
-                      method, kinematics, dynamics, options)
+                      method, kinematics, dynamics, options, obstacles)
     run, result = build_run(mesh, elem, points, supports, case, method,
                             kinematics, dynamics, options)
     resume = options.resume or Resume()
@@ -577,6 +613,7 @@ class Case(NamedTuple):
     prescribed: Optional[Callable]
     rigid_bodies: tuple
     terms: list
+    obstacles: tuple = ()
 
 
 def split_loads(loads) -> tuple:
@@ -621,19 +658,18 @@ def check_steps(nsteps, dynamics: Optional[Dynamics], method: str) -> int:
 def check_combination(method: str, kinematics: str, plastic: bool,
                       newton: NewtonOptions, stabilisation: Stabilisation,
                       dynamics: Optional[Dynamics], full_body_force: bool,
-                      driven: bool):
+                      driven: bool, contact: bool = False):
     """The rules that tie a run's choices together (each option checked
-    itself on creation), for :func:`simulate` and a scene's check: mean
-    dilatation needs cells of points (not GIMP); the seed's one-solve
-    scheme (``rhs="increment"``) needs linear quasi-static steps driven by
-    ramped loads alone; modified Newton does not go with an adaptive time
-    step."""
-    if stabilisation.antilocking and method in ("ugimp", "cpgimp"):
-        raise InvalidInputError(
-            "antilocking (mean dilatation) averages over the points of each "
-            "grid cell: it needs method 'mpm' or 'fem', not {!r} (GIMP points "
-            "span several cells)".format(method))
+    itself on creation), for :func:`simulate` and a scene's check: the
+    seed's one-solve scheme (``rhs="increment"``) needs linear
+    quasi-static steps driven by ramped loads alone; modified Newton does
+    not go with an adaptive time step."""
     if newton.rhs == "increment":
+        if contact:
+            raise InvalidInputError(
+                "rhs = 'increment' (the seed's one-solve scheme) is for "
+                "linear steps; contact with obstacles needs the "
+                "out-of-balance force (rhs = 'residual')")
         if dynamics is not None:
             raise InvalidInputError(
                 "rhs = 'increment' maps load increments of quasi-static "
@@ -677,7 +713,7 @@ def check_body_force(body_force, points: MaterialPoints, dim: int):
 
 def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                loads, nsteps, method: str, kinematics: str, dynamics,
-               options: Options) -> Case:
+               options: Options, obstacles: Sequence = ()) -> Case:
     """Every choice of a run checked together, before any work; returns
     the checked :class:`Case`."""
     check_choice("kinematics", kinematics, KINEMATICS)
@@ -692,13 +728,16 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
             "method {!r} needs point domains (MaterialPoints.domain); "
             "seed_points sets them on tensor-product grids".format(method))
     material = at_points(material, points)
-    linear = kinematics == "small" and not is_plastic(material)
+    obstacles = check_obstacles(obstacles, mesh.dim(), np.stack(
+        [mesh.p.min(axis=1), mesh.p.max(axis=1)], axis=1))
+    linear = kinematics == "small" and not is_plastic(material) \
+        and not obstacles
     rigid_bodies = check_rigid_bodies(rigid_bodies, points, mesh.dim(),
                                       method)
     check_combination(method, kinematics, is_plastic(material), newton,
                       stabilisation, dynamics, full_body_force=gravity is not
                       None and not ramp.all(), driven=prescribed is not None
-                      or bool(rigid_bodies))
+                      or bool(rigid_bodies), contact=bool(obstacles))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
     if options.resume is not None:
         options.resume.check(nsteps, method)
@@ -715,7 +754,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
             "quasi-static (dynamics=None), which would drop them; pass "
             "dynamics=Dynamics(...) or clear them")
     return Case(nsteps, material, linear, gravity, ramp, forces, prescribed,
-                rigid_bodies, terms)
+                rigid_bodies, terms, obstacles)
 
 
 def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
@@ -760,6 +799,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         operator_wrappers=(mean_dilatation,) if stabilisation.antilocking
         else (), D=support_dofs(supports, grid),
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
+        obstacles=case.obstacles,
         rhs=newton.rhs, tol=newton.tol, max_iter=newton.max_iter,
         newton=FullStep() if linear else first,
         modified=newton.newton == "modified" and not linear,

@@ -408,7 +408,8 @@ class Converged(NamedTuple):
 
 def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
            modified: bool = False, stabilise: bool = False,
-           single_solve: bool = False, report: dict = None) -> Converged:
+           single_solve: bool = False, report: dict = None,
+           predict: bool = True) -> Converged:
     """Newton-Raphson on ``problem`` from the grid increment ``du``.
 
     Parameters
@@ -435,6 +436,10 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     report
         A dict that receives ``reused``: whether a factorisation served a
         second iteration (so a failure may be modified Newton's).
+    predict
+        Take the predictor below where prescribed motion drives the step
+        (``False``: ``du`` is already a solution's neighbour, a step
+        solved again after a term's constraint moved).
 
     A nonlinear step driven by prescribed motion takes its first Newton
     step with the tangent of the step's start and the prescribed
@@ -444,7 +449,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     base) and sends Newton astray.
     """
     predictor = None
-    if not problem.linear and problem.driven.size:
+    if predict and not problem.linear and problem.driven.size:
         start = problem.residual(np.zeros_like(du))
         K_start = problem.tangent(start)
         predictor = K_start, start.r - K_start @ du

@@ -78,6 +78,9 @@ class StepProblem:
     op
         The step's point operator (the method's, wrapped by the run's
         operator stabilisations).
+    method_op
+        The method's point operator, not wrapped: the displacement and
+        its plain gradient at the points.
     fixed, free, driven, du0
         Held, free and moving grid DOFs; the prescribed start increment.
     f_dead
@@ -102,6 +105,7 @@ class StepProblem:
         # hierarchy) goes: a step computes the same from a checkpoint
         getattr(run.solver, "forget", lambda: None)()
         op = run.method.operator(points, step, t)
+        self.method_op = op
         tic = time.perf_counter()
         for wrap in run.operator_wrappers:
             op = wrap(op, points)
@@ -182,6 +186,12 @@ class StepProblem:
 
     def converged(self, trial: Trial) -> bool:
         return trial.residual <= self.run.tol
+
+    def settled(self, trial: Trial, du: ndarray) -> bool:
+        """After Newton converged to ``trial`` (increment ``du``): whether
+        every term's constraints hold (each term asked, so each may update
+        itself for the next solve)."""
+        return all([term.settle(self, trial, du) for term in self.terms])
 
     def tangent(self, trial: Trial):
         """The step's tangent at a trial: the stiffness of the points and
@@ -318,6 +328,8 @@ class StepProblem:
                             reaction_values=-r[held], n_dofs=op.N)
         for term in self.terms:
             term.commit(self, trial, du, new, record)
+        for term in self.terms:
+            term.finish(self, new, record)
         t["update"] += time.perf_counter() - tic
         if run.method.moves:   # inside the grid (the location serves the
             run.method.locate(new.x, self.step, t, points)    # next step)

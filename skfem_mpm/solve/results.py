@@ -58,6 +58,10 @@ class StepRecord:
         The load increment the next step starts with (``1 / nsteps``, or
         less after a cut-back) and the run's counters after this step: with
         ``load_factor``, what a resume needs.
+    obstacle_forces
+        Runs with obstacles (``simulate(obstacles=...)``): the force
+        (obstacles x dim) the material exerts on each obstacle at the end
+        of the step; ``None`` without obstacles.
     time, time_step, energy
         Dynamic runs (``simulate(dynamics=...)``): the time at the end of
         the step, its length, and ``{"kinetic_start": ..., "kinetic": ...,
@@ -87,6 +91,7 @@ class StepRecord:
     increment: float = 0.
     counters: Optional[dict] = None
     rigid_forces: List[ndarray] = field(default_factory=list)
+    obstacle_forces: Optional[ndarray] = None
     time: Optional[float] = None
     time_step: Optional[float] = None
     energy: Optional[dict] = None
@@ -128,7 +133,9 @@ class Result:
         ``ghost_from_step`` (0, or the step from which ``ghost="auto"``
         switched the ghost penalty on), ``factorisations`` (stiffness
         matrices factorised: one per linear solve of a load step, fewer
-        with ``newton="modified"``).
+        with ``newton="modified"``); with obstacles ``contact_updates``
+        (augmented-Lagrangian updates of contact: each solves a step
+        again).
 
     """
     points: MaterialPoints

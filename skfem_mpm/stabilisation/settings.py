@@ -29,8 +29,9 @@ class Stabilisation:
         ``counters["ghost_from_step"]`` says from which step.
     antilocking
         Mean dilatation (B-bar, :mod:`skfem_mpm.stabilisation.volumetric`)
-        against volumetric locking; methods ``"mpm"`` and ``"fem"`` (GIMP
-        points span several cells: no cell average).
+        against volumetric locking, every method: the average over the
+        points of each cell (with GIMP over those whose centre lies in it,
+        Coombs et al. 2018).
 
     >>> Stabilisation(ghost=.1).antilocking
     False

@@ -1,0 +1,535 @@
+"""Contact of the material's surface with rigid obstacles: a grid term.
+
+The material's surface is sampled where it is, not at the grid: at the
+corners of every point's domain (its GIMP domain, or a cube of the point's
+volume), which move with the point's displacement and gradient,
+
+    x_c = x_p + r_c + u_p + grad(u)_p q_c,
+
+``r_c`` the corner's offset at the step's start (``F R_c`` of the
+reference offset ``R_c``) and ``q_c`` the offset in the configuration the
+step's gradients refer to (``r_c``, or ``R_c`` with FE, whose points and
+gradients stay in the initial configuration).
+In small strain, where the points carry no deformation gradient, the
+term keeps the accumulated displacement gradient as point state
+(``contact_grad<a><b>``) for ``F = I + grad(u)``.
+The corner displacement is linear in the grid increment through the
+step's point operator, ``u_c = J_c du``, for every method.  Interior
+corners coincide with neighbours' and never reach an obstacle while the
+surface corners are held, so every corner is a candidate and none needs
+to be marked as surface.
+
+At each corner the gap to an obstacle's surface gives, per unit area,
+the pressure of an augmented Lagrangian
+
+    p = max(0, lambda + kappa (-g)),
+
+with ``g = n . (x_c - a)`` the gap from the plane of the obstacle's face
+nearest to the corner at the step's start (outward normal ``n``), for
+the corners over the face at the step's start (contact with a face ends
+at its edges): smooth in the trial, so Newton does not hop between faces
+or across an edge at an obstacle's corner.  A corner found through
+another face after Newton takes the face nearest to it and the step is
+solved again.
+
+and, with friction, the tangential traction of a penalty regularised
+Coulomb law with a return map: the trial ``tau* = tau_n - kappa s_t``
+(``s_t`` the step's tangential slip relative to the obstacle) kept while
+``|tau*| <= mu p`` (stick), else ``mu p tau*/|tau*|`` (slip); ``"rough"``
+keeps the trial, ``"tied"`` holds the corners that touched the obstacle
+at the start, ``t = lambda - kappa (x_c - x_anchor)``, separation
+included.  The force on the material is ``A_c (p n + tau)`` with ``A_c``
+the corner's share of its domain's area facing the obstacle; the grid
+force is ``J^T`` of it and the tangent ``J^T C J`` with ``C`` the
+consistent derivative (the normal's rotation left out: exact on flat
+faces), so Newton converges quadratically once the active set is fixed.
+
+After Newton converges, :meth:`StepContact.settle` checks the penetration
+(and a tied corner's mismatch) against the obstacle's tolerance; where it
+is larger the multipliers take the converged tractions
+(``lambda <- p``, the augmented-Lagrangian update) and the step is solved
+again.  The multipliers and the friction tractions are point state
+(``contact<i>_p<c>``, ``contact<i>_t<a><c>``: obstacle i, corner c,
+component a), so checkpoints carry them and a step starts from the last
+step's tractions.  The method follows the penalty contact at GIMP domain
+corners of Bird et al. (2024) with the augmented-Lagrangian updates of
+Simo and Laursen (1992); see ``docs/references.md``.
+"""
+import itertools
+import logging
+from typing import Sequence
+
+import numpy as np
+from numpy import ndarray
+from scipy.sparse import coo_matrix, csr_matrix
+
+from ..errors import InvalidInputError
+from ..protocols import GridTerm
+from .obstacles import Obstacle
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["ObstacleContact", "corner_signs", "point_rows"]
+
+#: a corner further from every obstacle than this many cells at a step's
+#: start is left out of the step's contact (checked again after Newton)
+MARGIN_CELLS = 2.
+
+
+def corner_signs(dim: int) -> ndarray:
+    """The (dim, 2**dim) signs of a box's corners."""
+    return np.array(list(itertools.product((-1., 1.), repeat=dim))).T
+
+
+def point_rows(op, idx: ndarray):
+    """The shape values ``S`` (csr, len(idx) x scalar DOFs) and gradients
+    ``G[b]`` (same pattern) of the step's point operator ``op`` at the
+    points ``idx``."""
+    if hasattr(op, "S"):                  # per-point sparse operators
+        return op.S[idx], [g[idx] for g in op.G]
+    basis = op.basis
+    slots = basis.point_values(np.arange(basis.point_index.size).reshape(
+        basis.point_index.shape))[idx]
+    nloc = op.shape_values.shape[0]
+    values = op.shape_values.reshape(nloc, -1)[:, slots]
+    grads = op.shape_gradients.reshape(op.dim, nloc, -1)[:, :, slots]
+    dofs = op.scalar_dofs[:, slots // basis.point_index.shape[1]]
+    indptr = np.arange(0, nloc * len(idx) + 1, nloc)
+    shape = (len(idx), op.N // op.dim)
+
+    def rows(data):
+        return csr_matrix((data.T.ravel(), dofs.T.ravel(), indptr),
+                          shape=shape)
+    return rows(values), [rows(g) for g in grads]
+
+
+class ObstacleContact(GridTerm):
+    """Contact of the material with the run's obstacles (a grid term).
+
+    Parameters
+    ----------
+    obstacles
+        The run's :class:`~skfem_mpm.Obstacle` s, checked and named.
+    cell_size
+        The grid's cell size (penalty and tolerance are relative to it).
+    modulus
+        The material's largest P-wave modulus ``lam + 2 mu``.
+    domain0
+        The points' initial domain half-lengths (dim, n), or ``None``
+        (a cube of each point's initial volume).
+    total_lagrangian
+        The step's gradients refer to the initial configuration (FE).
+    moves
+        The points move with the grid (not FE).
+    finite
+        Finite deformation: the points carry ``F``; in small strain the
+        term keeps the displacement gradient.
+    counters
+        The run's counters: ``contact_updates`` counts the
+        augmented-Lagrangian updates.
+
+    """
+
+    def __init__(self, obstacles: Sequence[Obstacle], cell_size: float,
+                 modulus: float, domain0, total_lagrangian: bool,
+                 moves: bool, finite: bool, counters: dict):
+        self.obstacles = tuple(obstacles)
+        self.h, self.domain0 = cell_size, domain0
+        self.kappa = [ob.penalty * modulus / cell_size for ob in obstacles]
+        self.tol = [ob.tolerance * cell_size for ob in obstacles]
+        self.total_lagrangian, self.moves = total_lagrangian, moves
+        self.finite = finite
+        self.touching = False
+        counters.setdefault("contact_updates", 0)
+
+    def gradient_names(self, dim: int):
+        """Small strain: the point-state names of the accumulated
+        displacement gradient, ``[[name_ab]]``."""
+        return [["contact_grad{}{}".format(a, b) for b in range(dim)]
+                for a in range(dim)]
+
+    def deformation(self, points) -> ndarray:
+        """The points' deformation gradient (dim, dim, n) at a step's
+        start: theirs in finite deformation, ``I + grad(u)`` of the kept
+        gradient in small strain."""
+        dim = points.x.shape[0]
+        if self.finite:
+            return points.F[:dim, :dim]
+        return np.eye(dim)[:, :, None] + np.array(
+            [[points.state[name] for name in row]
+             for row in self.gradient_names(dim)])
+
+    @property
+    def holds_free_body(self) -> bool:
+        """Material touches an obstacle: it may hold the body (a block on
+        a floor), so the check for missing supports is left to the
+        solve."""
+        return self.touching
+
+    def state_names(self, i: int, dim: int):
+        """The point-state names of obstacle ``i``: per corner the
+        pressure multiplier and the traction's components."""
+        nc = 2 ** dim
+        return ([["contact{}_p{}".format(i, c) for c in range(nc)]]
+                + [["contact{}_t{}{}".format(i, a, c) for c in range(nc)]
+                   for a in range(dim)])
+
+    def begin_run(self, points) -> None:
+        dim, n = points.x.shape
+        half = self.domain0 if self.domain0 is not None else np.repeat(
+            (points.volume0 ** (1. / dim) / 2)[None], dim, axis=0)
+        self.half = half
+        self.R = corner_signs(dim)[:, :, None] * half[:, None, :]
+        X0 = points.x0[:, None, :] + self.R               # at load 0
+        if not self.finite:
+            for row in self.gradient_names(dim):
+                for name in row:
+                    points.state.setdefault(name, np.zeros(n))
+        self.anchor, touching = [], []
+        for i, ob in enumerate(self.obstacles):
+            for names in self.state_names(i, dim):
+                for name in names:
+                    points.state.setdefault(name, np.zeros(n))
+            phi = ob.signed_distance(X0.reshape(dim, -1))[0].reshape(-1, n)
+            near = phi <= self.tol[i]
+            touching.append(near.any())
+            if ob.friction == "tied":
+                if not near.any():
+                    raise InvalidInputError(
+                        "tied obstacle {!r} touches no material at the "
+                        "start (nearest point domain corner {:.3g} away, "
+                        "tolerance {:.3g}): nothing would be tied".format(
+                            ob.name, float(phi.min()), self.tol[i]))
+                self.anchor.append(near)
+            else:
+                self.anchor.append(None)
+                if (phi < -self.tol[i]).any():
+                    c, p = np.unravel_index(np.argmin(phi), phi.shape)
+                    raise InvalidInputError(
+                        "obstacle {!r} holds material at the start: the "
+                        "domain corner of point {} at {} is {:.3g} inside "
+                        "(tolerance {:.3g}); move the obstacle or the "
+                        "points".format(ob.name, p, X0[:, c, p].tolist(),
+                                        float(-phi[c, p]), self.tol[i]))
+        self.touching = any(touching)
+
+    def begin_step(self, problem):
+        return StepContact(self, problem)
+
+
+class StepContact(GridTerm):
+    """One step's contact with the obstacles (built by
+    :meth:`ObstacleContact.begin_step`)."""
+
+    def __init__(self, term: ObstacleContact, problem):
+        self.term, self.problem = term, problem
+        points = problem.points
+        self.dim = dim = points.x.shape[0]
+        self.op = problem.method_op
+        x = points.x if term.moves else points.x + points.displacement
+        F = term.deformation(points)
+        r = np.einsum("abp,bcp->acp", F, term.R)          # (dim, nc, n)
+        self.q = term.R if term.total_lagrangian else r
+        self.X = x[:, None, :] + r
+        self.F = F
+        self.shift = [problem.s_new * ob.displacement
+                      for ob in term.obstacles]
+        self.shift_old = [problem.s_old * ob.displacement
+                          for ob in term.obstacles]
+        self.moved = [(problem.s_new - problem.s_old) * ob.displacement
+                      for ob in term.obstacles]
+        self.state = points.state
+        self.evaluations = []
+        n = points.n
+        near = np.zeros(n, dtype=bool)
+        for i, ob in enumerate(term.obstacles):
+            phi = ob.signed_distance(self.X.reshape(dim, -1),
+                                     self.shift[i])[0].reshape(-1, n)
+            near |= (phi < MARGIN_CELLS * term.h).any(axis=0)
+            for names in term.state_names(i, dim):
+                for name in names:
+                    near |= points.state[name] != 0
+            if term.anchor[i] is not None:
+                near |= term.anchor[i].any(axis=0)
+        self.select(np.flatnonzero(near))
+
+    def select(self, idx: ndarray):
+        """Build the step's corner operators for the points ``idx``."""
+        term, dim = self.term, self.dim
+        self.idx = idx
+        nc, m = 2 ** dim, len(idx)
+        S, G = point_rows(self.op, idx)
+        counts = np.diff(S.indptr)
+        blocks = []
+        for c in range(nc):
+            data = S.data + sum(np.repeat(self.q[b, c, idx], counts)
+                                * G[b].data for b in range(dim))
+            blocks.append(data)
+        # rows (sample s = c m + j, component a) -> vector DOFs dim k + a
+        nnz = S.nnz
+        row_of = np.repeat(np.arange(m), counts)
+        rows = ((np.arange(nc)[:, None] * m + row_of) * dim)
+        rows = rows[:, :, None] + np.arange(dim)
+        cols = S.indices[None, :, None] * dim + np.arange(dim)
+        data = np.repeat(np.concatenate(blocks).reshape(nc, nnz, 1), dim,
+                         axis=2)
+        self.J = coo_matrix(
+            (data.ravel(), (rows.ravel(), np.broadcast_to(
+                cols, rows.shape).ravel())),
+            shape=(nc * m * dim, self.op.N)).tocsr()
+        self.Xs = self.X[:, :, idx].reshape(dim, -1)      # (dim, nc m)
+        self.area, self.lam, self.tau, self.anchor = [], [], [], []
+        self.face = []
+        for i, ob in enumerate(term.obstacles):
+            names = term.state_names(i, dim)
+            self.lam.append(np.concatenate([self.state[nm][idx]
+                                            for nm in names[0]]))
+            self.tau.append(np.array([np.concatenate(
+                [self.state[nm][idx] for nm in comp])
+                for comp in names[1:]]))
+            face = ob.nearest_face(self.Xs, self.shift_old[i])
+            _, normal, over = ob.face_gap(self.Xs, face, self.shift_old[i])
+            self.face.append((face, over))
+            self.area.append(self.corner_areas(normal, idx))
+            if term.anchor[i] is None:
+                self.anchor.append(None)
+            else:
+                tied = term.anchor[i][:, idx].ravel()
+                X0 = (self.problem.points.x0[:, None, idx]
+                      + term.R[:, :, idx]).reshape(dim, -1)
+                self.anchor.append((tied, X0))
+        self.evaluations = []
+
+    def corner_areas(self, normal: ndarray, idx: ndarray) -> ndarray:
+        """Each corner's share (nc m,) of its domain's area projected on
+        the plane of ``normal`` (dim, nc m): Nanson's face areas
+        ``det(F) F^-T N A0`` at the step's start, a quarter (2D: half) of
+        those facing the obstacle."""
+        dim, nc = self.dim, 2 ** self.dim
+        half = self.term.half[:, idx]
+        faces = np.array([np.prod(np.delete(2 * half, k, axis=0), axis=0)
+                          for k in range(dim)])            # (dim, m)
+        F = self.F[:, :, idx].transpose(2, 0, 1)
+        cof = np.linalg.det(F)[:, None, None] * np.linalg.inv(F).transpose(
+            0, 2, 1)                                       # J F^-T
+        vectors = cof * faces.T[:, None, :]                # (m, a, face k)
+        n = normal.reshape(dim, nc, -1)
+        projected = np.abs(np.einsum("acj,jak->ckj", n, vectors)).sum(
+            axis=1)                                        # (nc, m)
+        return (projected / 2 ** (dim - 1)).ravel()
+
+    # the trial
+
+    def evaluate(self, du: ndarray, response):
+        """Corner tractions (force on the material) and their derivative
+        blocks for the trial increment ``du``, per obstacle, cached for
+        the trial's ``response``."""
+        for resp, ev in self.evaluations:
+            if resp is response:
+                return ev
+        term, dim = self.term, self.dim
+        u = (self.J @ du).reshape(-1, dim).T               # (dim, s)
+        X = self.Xs + u
+        ev = []
+        eye = np.eye(dim)[:, :, None]
+        for i, ob in enumerate(term.obstacles):
+            kappa, area = term.kappa[i], self.area[i]
+            face, over = self.face[i]
+            gap, n, _ = ob.face_gap(X, face, self.shift[i])
+            C = np.zeros((dim, dim, X.shape[1]))
+            if self.anchor[i] is not None:
+                tied, X0 = self.anchor[i]
+                mismatch = np.where(tied, X - X0 - self.shift[i][:, None], 0.)
+                T = area * np.where(tied, self.tau[i] - kappa * mismatch, 0.)
+                C[:, :, tied] = kappa * area[tied] * eye
+                ev.append((T, C, np.abs(mismatch).max(initial=0.), None))
+                continue
+            p = np.where(over, np.maximum(0., self.lam[i] - kappa * gap), 0.)
+            active = p > 0
+            T = area * p * n
+            nn = np.einsum("as,bs->abs", n, n)
+            C[:, :, active] = (kappa * area * nn)[:, :, active]
+            tau = np.zeros_like(X)
+            if ob.friction != 0.:
+                Pt = eye - nn
+                slip = np.einsum("abs,bs->as", Pt, u - self.moved[i][:, None])
+                trial = np.einsum("abs,bs->as", Pt, self.tau[i]) \
+                    - kappa * slip
+                stick = active.copy()
+                if ob.friction != "rough":
+                    size = np.sqrt((trial ** 2).sum(axis=0))
+                    limit = ob.friction * p
+                    slide = active & (size > limit)
+                    stick &= ~slide
+                    s = np.flatnonzero(slide)
+                    t_hat = trial[:, s] / size[s]
+                    tau[:, s] = limit[s] * t_hat
+                    C[:, :, s] += area[s] * (
+                        ob.friction * kappa * np.einsum(
+                            "as,bs->abs", t_hat, n[:, s])
+                        + ob.friction * p[s] * kappa / size[s] * np.einsum(
+                            "abs,bcs->acs", eye - np.einsum(
+                                "as,bs->abs", t_hat, t_hat), Pt[:, :, s]))
+                tau[:, stick] = trial[:, stick]
+                C[:, :, stick] += kappa * area[stick] * Pt[:, :, stick]
+                T = T + area * tau
+            ev.append((T, C, float(np.max(-gap[over], initial=0.)),
+                       (p, tau)))
+        self.evaluations = (self.evaluations + [(response, ev)])[-4:]
+        return ev
+
+    def force(self, du: ndarray, response):
+        ev = self.evaluate(du, response)
+        T = sum(e[0] for e in ev)
+        return -(self.J.T @ T.T.ravel())
+
+    def matrix(self, response):
+        ev = self.evaluate(None, response)
+        dim = self.dim
+        C = sum(e[1] for e in ev)
+        active = np.flatnonzero(np.abs(C).sum(axis=(0, 1)) > 0)
+        rows = (active * dim)[None, None, :] + np.arange(dim)[:, None, None]
+        cols = (active * dim)[None, None, :] + np.arange(dim)[None, :, None]
+        shape = (self.J.shape[0],) * 2
+        blocks = coo_matrix((C[:, :, active].ravel(), (
+            np.broadcast_to(rows, C[:, :, active].shape).ravel(),
+            np.broadcast_to(cols, C[:, :, active].shape).ravel())),
+            shape=shape).tocsr()
+        return (self.J.T @ (blocks @ self.J)).tocsr()
+
+    def settle(self, problem, trial, du: ndarray) -> bool:
+        """After Newton: ``True`` when every corner's penetration (or a
+        tied corner's mismatch) is within its obstacle's tolerance; else
+        the multipliers take the converged tractions (augmented
+        Lagrangian), corners newly near an obstacle join, and the step is
+        solved again."""
+        term, dim = self.term, self.dim
+        ev = self.evaluate(du, trial.response)
+        # corners outside the step's selection that went through an obstacle
+        H = self.op.gradients(du)
+        u = self.op.values(du)[:, None, :] + np.einsum(
+            "abp,bcp->acp", H, self.q)
+        X = (self.X + u).reshape(dim, -1)
+        outside = np.ones(self.X.shape[2], dtype=bool)
+        outside[self.idx] = False
+        joined = np.zeros_like(outside)
+        for i, ob in enumerate(term.obstacles):
+            phi = ob.signed_distance(X, self.shift[i])[0].reshape(
+                -1, outside.size)
+            joined |= outside & (phi < term.tol[i]).any(axis=0)
+        if joined.any():
+            logger.debug("step %d: %d points reached an obstacle beyond the "
+                         "step's selection; solving again", problem.step,
+                         int(joined.sum()))
+            self.select(np.union1d(self.idx, np.flatnonzero(joined)))
+            return False
+        # a corner through an obstacle by a face other than its own
+        across = False
+        for i, ob in enumerate(term.obstacles):
+            if self.anchor[i] is not None:
+                continue
+            Xs = self.Xs + (self.J @ du).reshape(-1, dim).T
+            phi = ob.signed_distance(Xs, self.shift[i])[0]
+            face, over = self.face[i]
+            gap = ob.face_gap(Xs, face, self.shift[i])[0]
+            wrong = (phi < -term.tol[i]) & ~(over & (gap < -term.tol[i]))
+            if wrong.any():
+                face[wrong] = ob.nearest_face(Xs[:, wrong], self.shift[i])
+                over[wrong] = True
+                across = True
+        if across:
+            self.evaluations = []
+            logger.debug("step %d: a corner went through another face of an "
+                         "obstacle; solving again", problem.step)
+            return False
+        worst = [e[2] / tol for e, tol in zip(ev, term.tol)]
+        if max(worst, default=0.) <= 1.:
+            return True
+        for i, (T, C, violation, normal_part) in enumerate(ev):
+            if violation <= term.tol[i]:
+                continue
+            if normal_part is None:                 # tied
+                self.tau[i] = np.divide(T, self.area[i], where=self.area[i]
+                                        > 0, out=np.zeros_like(T))
+            else:
+                self.lam[i] = normal_part[0]
+        self.evaluations = []
+        problem.counters["contact_updates"] += 1
+        logger.debug("step %d: penetration %.2g of the tolerance; "
+                     "augmented-Lagrangian update", problem.step, max(worst))
+        return False
+
+    def commit(self, problem, trial, du: ndarray, new, record) -> None:
+        term, dim, idx = self.term, self.dim, self.idx
+        ev = self.evaluate(du, trial.response)
+        nc, m = 2 ** dim, len(idx)
+        new.state = dict(new.state)
+        if not term.finite:
+            H = self.op.gradients(du)
+            for a, row in enumerate(term.gradient_names(dim)):
+                for b, name in enumerate(row):
+                    new.state[name] = new.state[name] + H[a, b]
+        forces = []
+        for i, (T, C, violation, normal_part) in enumerate(ev):
+            names = term.state_names(i, dim)
+            if normal_part is None:
+                p = np.zeros(nc * m)
+                tau = np.divide(T, self.area[i], where=self.area[i] > 0,
+                                out=np.zeros_like(T))
+            else:
+                p, tau = normal_part
+            values = [p] + list(tau)
+            for comp, value in zip(names, values):
+                value = value.reshape(nc, m)
+                for c, name in enumerate(comp):
+                    column = np.zeros(new.x.shape[1])
+                    column[idx] = value[c]
+                    new.state[name] = column
+            forces.append(-T.sum(axis=1))
+        record.obstacle_forces = np.array(forces)
+        term.touching = any((e[3] is None) or (e[3][0] > 0).any() for e in ev)
+        self.committed = ev
+
+    def finish(self, problem, new, record) -> None:
+        """In dynamics, an impact is perfectly plastic along the normal:
+        a point with a corner pressed on an obstacle at the step's end
+        moves with it across its surface (velocity and acceleration),
+        tangentially as the integrator says; a tied point moves with it.
+        Without this the trapezoidal rule returns the impulse of the step
+        that stopped the material as a rebound larger than the fall (a
+        dropped block rose 1.7 times higher).  The kinetic energy of the
+        record is that of the corrected velocities (the loss shows in
+        ``Result.energies()["balance"]``)."""
+        if new.velocity is None:
+            return
+        dim, idx, nc = self.dim, self.idx, 2 ** self.dim
+        m = len(idx)
+        v, a = new.velocity[:, idx], new.acceleration[:, idx]
+        for i, (T, C, violation, normal_part) in enumerate(self.committed):
+            rate = self.moved[i] / record.time_step
+            if normal_part is None:
+                held = self.anchor[i][0].reshape(nc, m).any(axis=0)
+                v[:, held], a[:, held] = rate[:, None], 0.
+                continue
+            push = (T * (normal_part[0] > 0)).reshape(dim, nc, m).sum(1)
+            size = np.sqrt((push ** 2).sum(axis=0))
+            hit = size > 0
+            n = push[:, hit] / size[hit]
+            v[:, hit] -= ((v[:, hit] - rate[:, None]) * n).sum(0) * n
+            a[:, hit] -= (a[:, hit] * n).sum(0) * n
+        new.velocity, new.acceleration = new.velocity.copy(), \
+            new.acceleration.copy()
+        new.velocity[:, idx], new.acceleration[:, idx] = v, a
+        if record.energy is not None:
+            record.energy["kinetic"] = .5 * float(
+                problem.run.masses @ (new.velocity ** 2).sum(0))
+
+
+def contact_term(obstacles, cell_size: float, material, domain0,
+                 total_lagrangian: bool, moves: bool, finite: bool,
+                 counters: dict):
+    """The contact term of a run's obstacles."""
+    modulus = float(np.max(np.asarray(material.lam, dtype=float)
+                           + 2 * np.asarray(material.mu, dtype=float)))
+    return ObstacleContact(obstacles, cell_size, modulus, domain0,
+                           total_lagrangian, moves, finite, counters)

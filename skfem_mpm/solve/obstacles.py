@@ -1,0 +1,385 @@
+"""Obstacles: rigid geometric bodies the material cannot enter.
+
+An :class:`Obstacle` is a box (axis-aligned, 1D to 3D) or a polygon (2D)
+that moves by a prescribed displacement, ramped with the load factor (or
+following ``Dynamics.load(t)``).  Unlike a support, it need not lie on grid
+lines, and unlike a :class:`~skfem_mpm.RigidBody` of points it acts at the
+material's surface, not at the grid nodes of the cells it occupies: the
+contact term (:mod:`skfem_mpm.solve.contact`) measures the gap from the
+obstacle's surface to the corners of each point's domain.
+
+This module holds the geometry: the signed distance of positions to an
+obstacle's surface and the outward normal of its closest boundary point,
+vectorised over positions, and the checks of a set of obstacles.
+"""
+import copy
+from typing import Optional, Sequence
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import InvalidInputError, check_real
+
+__all__ = ["Obstacle", "FRICTION_KINDS"]
+
+#: the frictions other than a Coulomb coefficient: no slip while in
+#: contact, free to separate (``"rough"``); bonded, a support off the grid
+#: lines (``"tied"``)
+FRICTION_KINDS = ("rough", "tied")
+
+
+class Obstacle:
+    """A rigid obstacle: a box or a polygon, moved by a prescribed
+    displacement.
+
+    Parameters
+    ----------
+    box
+        ``[[x0, x1], [y0, y1]]`` (one pair per dimension of the grid,
+        ``x0 < x1``): an axis-aligned box.
+    polygon
+        ``[[x, y], ...]`` (2D): a simple polygon (at least 3 vertices, in
+        either orientation, not closed by repeating the first vertex).
+    displacement
+        Displacement (dim,) at full load, reached in proportion to the load
+        factor (in dynamics to ``Dynamics.load(t)``); default none.
+    friction
+        ``0.0`` (smooth, the default), a Coulomb coefficient ``mu > 0``,
+        ``"rough"`` (no slip while in contact, free to separate) or
+        ``"tied"`` (bonded to the material touching it at the start: a
+        support that need not lie on grid lines).
+    name
+        The obstacle's name in records and output (default
+        ``"obstacle<i>"`` by its position in the list).
+    penalty
+        The contact stiffness per unit area, in units of the material's
+        largest P-wave modulus (``lam + 2 mu``) over the cell size
+        (default 10): the force that starts each augmented-Lagrangian
+        solve; it changes how many augmentations a step takes, not the
+        answer.
+    tolerance
+        The penetration (and for ``"tied"`` the mismatch) allowed at a
+        converged step, as a fraction of the cell size (default 1e-3).
+
+    Examples
+    --------
+    >>> from skfem_mpm import Obstacle
+    >>> floor = Obstacle(box=[[-1., 2.], [-1., 0.]], name="floor")
+    >>> floor.dim, floor.friction
+    (2, 0.0)
+    >>> ob = Obstacle(polygon=[[0, 0], [1, 0], [0, 1]], friction=.3)
+    >>> ob.signed_distance(np.array([[.25, 1.], [.25, 1.]]))[0].round(3)
+    array([-0.25 ,  0.707])
+    """
+
+    def __init__(self, box=None, polygon=None, displacement=None,
+                 friction=0., name: Optional[str] = None,
+                 penalty: float = 10., tolerance: float = 1e-3):
+        if (box is None) == (polygon is None):
+            raise InvalidInputError("an Obstacle needs exactly one of box = "
+                                    "[[x0, x1], ...] and polygon = [[x, y], "
+                                    "...]")
+        if box is not None:
+            self.box = np.array(box, dtype=np.float64)
+            if self.box.ndim != 2 or self.box.shape[1] != 2 or \
+                    not 1 <= self.box.shape[0] <= 3:
+                raise InvalidInputError(
+                    "Obstacle box must be [[x0, x1], ...] with one pair per "
+                    "dimension (1 to 3), got shape {}".format(self.box.shape))
+            if not np.isfinite(self.box).all() or \
+                    (self.box[:, 0] >= self.box[:, 1]).any():
+                raise InvalidInputError(
+                    "Obstacle box must have finite bounds x0 < x1 in every "
+                    "dimension, got {}".format(self.box.tolist()))
+            self.dim, self.vertices = self.box.shape[0], None
+        else:
+            self.box, self.vertices = None, _checked_polygon(polygon)
+            self.dim = 2
+        self.displacement = np.zeros(self.dim) if displacement is None \
+            else np.array(displacement, dtype=np.float64)
+        if self.displacement.shape != (self.dim,) or \
+                not np.isfinite(self.displacement).all():
+            raise InvalidInputError(
+                "Obstacle displacement must be {} finite numbers, got "
+                "{!r}".format(self.dim, displacement))
+        if isinstance(friction, str):
+            if friction not in FRICTION_KINDS:
+                raise InvalidInputError(
+                    "Obstacle friction must be a coefficient >= 0, 'rough' "
+                    "or 'tied', got {!r}".format(friction))
+            self.friction = friction
+        else:
+            self.friction = check_real("Obstacle friction", friction)
+            if self.friction < 0:
+                raise InvalidInputError("Obstacle friction must be >= 0, got "
+                                        "{}".format(self.friction))
+        if name is not None and (not isinstance(name, str) or not name):
+            raise InvalidInputError("Obstacle name must be a non-empty "
+                                    "string, got {!r}".format(name))
+        self.name = name
+        self._faces = None
+        self.penalty = check_real("Obstacle penalty", penalty)
+        self.tolerance = check_real("Obstacle tolerance", tolerance)
+        if not (self.penalty > 0 and 0 < self.tolerance < .5):
+            raise InvalidInputError(
+                "Obstacle penalty must be > 0 and tolerance in (0, 0.5) "
+                "cells, got {} and {}".format(penalty, tolerance))
+
+    def __repr__(self):
+        shape = "box={}".format(self.box.tolist()) if self.box is not None \
+            else "polygon={}".format(self.vertices.T.tolist())
+        return "Obstacle({}, name={!r}, friction={!r})".format(
+            shape, self.name, self.friction)
+
+    def bounds(self, shift: ndarray) -> ndarray:
+        """The bounding box (dim, 2) shifted by ``shift``."""
+        if self.box is not None:
+            return self.box + shift[:, None]
+        return np.stack([self.vertices.min(axis=1),
+                         self.vertices.max(axis=1)], axis=1) + shift[:, None]
+
+    def outline(self, shift: Optional[ndarray] = None) -> ndarray:
+        """The outline (k, 2) of a 2D obstacle shifted by ``shift``, for
+        pictures."""
+        shift = np.zeros(self.dim) if shift is None else shift
+        if self.dim != 2:
+            raise InvalidInputError("only a 2D obstacle has an outline")
+        if self.box is not None:
+            (x0, x1), (y0, y1) = self.box + shift[:, None]
+            return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+        return (self.vertices + shift[:, None]).T
+
+    def faces(self):
+        """The faces as ``(a, n, lo, hi, axes)``: a point on each face's
+        plane (dim, k), its outward unit normal (dim, k) and its extent
+        in the plane's coordinates: for a box face ``lo``, ``hi`` (dim, k)
+        bounds of the other axes (``-inf``, ``inf`` on its own); for a
+        polygon edge the edge vector as ``hi`` (``lo`` None)."""
+        if self._faces is not None:
+            return self._faces
+        if self.box is not None:
+            dim = self.dim
+            k = np.arange(2 * dim)
+            axis, low = k % dim, k < dim
+            n = np.zeros((dim, 2 * dim))
+            n[axis, k] = np.where(low, -1., 1.)
+            a = np.zeros((dim, 2 * dim))
+            a[axis, k] = np.where(low, self.box[axis, 0], self.box[axis, 1])
+            lo = np.repeat(self.box[:, :1], 2 * dim, axis=1)
+            hi = np.repeat(self.box[:, 1:], 2 * dim, axis=1)
+            lo[axis, k], hi[axis, k] = -np.inf, np.inf
+            self._faces = (a, n, lo, hi)
+        else:
+            a = self.vertices
+            e = np.roll(a, -1, axis=1) - a
+            n = np.array([e[1], -e[0]]) / np.hypot(*e)
+            self._faces = (a, n, None, e)
+        return self._faces
+
+    def nearest_face(self, x: ndarray, shift: ndarray) -> ndarray:
+        """The face (m,) of the obstacle shifted by ``shift`` nearest to
+        each position ``x`` (dim, m): the face a point outside will touch
+        first, or the face of least depth of a point inside."""
+        x = x - shift[:, None]
+        a, n, lo, hi = self.faces()
+        if lo is not None:
+            normal = ((x[:, None, :] - a[:, :, None])
+                      * n[:, :, None]).sum(axis=0)               # (k, m)
+            off = np.maximum(lo[:, :, None] - x[:, None, :], 0.) \
+                + np.maximum(x[:, None, :] - hi[:, :, None], 0.)
+            d2 = normal ** 2 + (np.nan_to_num(off, posinf=0.) ** 2).sum(0)
+        else:
+            rel = x[:, None, :] - a[:, :, None]
+            t = np.clip((rel * hi[:, :, None]).sum(axis=0)
+                        / (hi * hi).sum(axis=0)[:, None], 0., 1.)
+            d2 = ((rel - t * hi[:, :, None]) ** 2).sum(axis=0)
+        return np.argmin(d2, axis=0)
+
+    def face_gap(self, x: ndarray, face: ndarray, shift: ndarray):
+        """The gap (m,) of each position ``x`` (dim, m) from the plane of
+        its ``face`` (m,) of the obstacle shifted by ``shift`` (negative:
+        through it), the face's outward normal (dim, m), and whether the
+        position lies over the face (its projection within the face's
+        extent): contact with a face ends at its edges."""
+        x = x - shift[:, None]
+        a, n, lo, hi = self.faces()
+        af, nf = a[:, face], n[:, face]
+        gap = ((x - af) * nf).sum(axis=0)
+        slack = 1e-9 * np.ptp(self.bounds(0 * shift), axis=1).max()
+        if lo is not None:
+            over = ((x >= lo[:, face] - slack)
+                    & (x <= hi[:, face] + slack)).all(axis=0)
+        else:
+            e = hi[:, face]
+            length = np.sqrt((e * e).sum(axis=0))
+            t = ((x - af) * e).sum(axis=0) / length
+            over = (t >= -slack) & (t <= length + slack)
+        return gap, nf, over
+
+    def signed_distance(self, x: ndarray, shift: Optional[ndarray] = None):
+        """Signed distance ``phi`` (m,) of the positions ``x`` (dim, m) to
+        the surface of the obstacle shifted by ``shift`` (negative inside:
+        the penetration is ``-phi``) and the outward unit normal (dim, m)
+        at the closest boundary point (for a position inside, the normal
+        of the face it is closest to)."""
+        x = x if shift is None else x - shift[:, None]
+        if self.box is not None:
+            return _box_distance(self.box, x)
+        return _polygon_distance(self.vertices, x)
+
+
+def _checked_polygon(polygon) -> ndarray:
+    """The vertices (2, m) of a simple polygon, counter-clockwise."""
+    v = np.array(polygon, dtype=np.float64)
+    if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3 or \
+            not np.isfinite(v).all():
+        raise InvalidInputError("Obstacle polygon must be at least 3 finite "
+                                "[x, y] vertices, got {!r}".format(polygon))
+    v = v.T
+    edges = np.roll(v, -1, axis=1) - v
+    lengths = np.hypot(*edges)
+    area = .5 * np.sum(v[0] * np.roll(v[1], -1) - np.roll(v[0], -1) * v[1])
+    scale = np.ptp(v, axis=1).max()
+    if (lengths <= 1e-12 * scale).any() or abs(area) <= 1e-12 * scale ** 2:
+        raise InvalidInputError(
+            "Obstacle polygon has repeated vertices or no area: {}".format(
+                v.T.tolist()))
+    a, b = v, np.roll(v, -1, axis=1)
+    m = v.shape[1]
+    i, j = np.triu_indices(m, 2)
+    keep = (j - i) % m != m - 1          # neighbours share a vertex
+    if _segments_cross(a[:, i[keep]], b[:, i[keep]], a[:, j[keep]],
+                       b[:, j[keep]]).any():
+        raise InvalidInputError("Obstacle polygon crosses itself: {}"
+                                .format(v.T.tolist()))
+    return v if area > 0 else v[:, ::-1].copy()
+
+
+def _cross(u: ndarray, w: ndarray) -> ndarray:
+    return u[0] * w[1] - u[1] * w[0]
+
+
+def _segments_cross(a, b, c, d) -> ndarray:
+    """Whether segments ab and cd (columns) properly intersect."""
+    d1, d2 = _cross(b - a, c - a), _cross(b - a, d - a)
+    d3, d4 = _cross(d - c, a - c), _cross(d - c, b - c)
+    return (d1 * d2 < 0) & (d3 * d4 < 0)
+
+
+def _box_distance(box: ndarray, x: ndarray):
+    lo, hi = box[:, :1], box[:, 1:]
+    below, above = lo - x, x - hi        # > 0 outside along that axis
+    outside = np.maximum(np.maximum(below, above), 0.)
+    dist = np.sqrt((outside ** 2).sum(axis=0))
+    dim, m = x.shape
+    normal = np.zeros((dim, m))
+    out = dist > 0
+    normal[:, out] = np.sign(above - below)[:, out] * outside[:, out] \
+        / dist[out]
+    # inside: the nearest face
+    depth = np.concatenate([-below, -above])       # (2 dim, m), >= 0
+    face = np.argmin(depth, axis=0)
+    inside = ~out
+    axis, side = face % dim, np.where(face < dim, -1., 1.)
+    normal[axis[inside], np.flatnonzero(inside)] = side[inside]
+    phi = np.where(out, dist, -depth[face, np.arange(m)])
+    return phi, normal
+
+
+def _polygon_distance(v: ndarray, x: ndarray):
+    a = v[:, :, None]                                   # (2, k, 1)
+    e = np.roll(v, -1, axis=1)[:, :, None] - a
+    rel = x[:, None, :] - a                             # (2, k, m)
+    t = np.clip((rel * e).sum(axis=0) / (e * e).sum(axis=0), 0., 1.)
+    gap = rel - t * e                                   # x - closest
+    d2 = (gap ** 2).sum(axis=0)
+    edge = np.argmin(d2, axis=0)
+    cols = np.arange(x.shape[1])
+    dist = np.sqrt(d2[edge, cols])
+    # inside by crossing number along +x
+    y0, y1 = a[1], a[1] + e[1]
+    straddles = (y0 > x[1]) != (y1 > x[1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        xc = a[0] + (x[1] - y0) * e[0] / e[1]
+    inside = (straddles & (x[0] < xc)).sum(axis=0) % 2 == 1
+    ek = e[:, edge, 0]
+    face = np.array([ek[1], -ek[0]]) / np.hypot(*ek)    # outward (ccw)
+    direction = gap[:, edge, cols]
+    tiny = dist <= 1e-12 * (np.ptp(v, axis=1).max())
+    with np.errstate(divide="ignore", invalid="ignore"):
+        normal = np.where(tiny, face, direction / dist)
+    normal = np.where(inside & ~tiny, -normal, normal)
+    return np.where(inside, -dist, dist), normal
+
+
+def check_obstacles(obstacles: Sequence, dim: int, mesh_bounds: ndarray):
+    """The obstacles of a run, checked and named: each a
+    :class:`Obstacle` of the grid's dimension whose swept box reaches the
+    grid, names distinct, no two overlapping at the start."""
+    if obstacles is None:
+        return ()
+    if isinstance(obstacles, Obstacle):
+        obstacles = [obstacles]
+    obstacles = list(obstacles)
+    for i, ob in enumerate(obstacles):
+        if not isinstance(ob, Obstacle):
+            raise InvalidInputError("obstacles must be Obstacle(...) items, "
+                                    "item {} is {!r}".format(i, ob))
+        if ob.dim != dim:
+            raise InvalidInputError(
+                "obstacle {!r} is {}D on a {}D grid".format(
+                    ob.name or i, ob.dim, dim))
+    named = [ob if ob.name is not None else _renamed(ob, "obstacle{}"
+                                                     .format(i))
+             for i, ob in enumerate(obstacles)]
+    names = [ob.name for ob in named]
+    if len(set(names)) != len(names):
+        raise InvalidInputError("obstacle names must differ, got {}"
+                                .format(names))
+    for ob in named:
+        swept = np.stack([np.minimum(ob.bounds(0 * ob.displacement)[:, 0],
+                                     ob.bounds(ob.displacement)[:, 0]),
+                          np.maximum(ob.bounds(0 * ob.displacement)[:, 1],
+                                     ob.bounds(ob.displacement)[:, 1])], 1)
+        if (swept[:, 1] < mesh_bounds[:, 0]).any() or \
+                (swept[:, 0] > mesh_bounds[:, 1]).any():
+            raise InvalidInputError(
+                "obstacle {!r} (bounds {}, moving by {}) never reaches the "
+                "grid (bounds {}): it could touch no material".format(
+                    ob.name, ob.bounds(0 * ob.displacement).tolist(),
+                    ob.displacement.tolist(), mesh_bounds.tolist()))
+    for i in range(len(named)):
+        for j in range(i + 1, len(named)):
+            if _overlap(named[i], named[j]):
+                raise InvalidInputError(
+                    "obstacles {!r} and {!r} overlap at the start: contact "
+                    "with each is measured alone, so material between them "
+                    "would be pushed both ways".format(named[i].name,
+                                                      named[j].name))
+    return tuple(named)
+
+
+def _renamed(ob: Obstacle, name: str) -> Obstacle:
+
+    new = copy.copy(ob)
+    new.name = name
+    return new
+
+
+def _overlap(a: Obstacle, b: Obstacle) -> bool:
+    """Whether two obstacles share interior at the start."""
+    ba, bb = a.bounds(0 * a.displacement), b.bounds(0 * b.displacement)
+    if (np.minimum(ba[:, 1], bb[:, 1]) <= np.maximum(ba[:, 0], bb[:, 0])
+            ).any():
+        return False              # bounding boxes at most touch
+    if a.box is not None and b.box is not None:
+        return True
+    pa, pb = a.outline(), b.outline()
+    inside_b = b.signed_distance(pa.T)[0] < -1e-12
+    inside_a = a.signed_distance(pb.T)[0] < -1e-12
+    if inside_a.any() or inside_b.any():
+        return True
+    ea, eb = np.roll(pa, -1, axis=0), np.roll(pb, -1, axis=0)
+    i, j = np.meshgrid(np.arange(len(pa)), np.arange(len(pb)), indexing="ij")
+    i, j = i.ravel(), j.ravel()
+    return bool(_segments_cross(pa[i].T, ea[i].T, pb[j].T, eb[j].T).any())

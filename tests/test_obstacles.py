@@ -1,0 +1,254 @@
+"""Rigid obstacles and contact at the material's surface
+(:mod:`skfem_mpm.solve.obstacles`, :mod:`skfem_mpm.solve.contact`)."""
+import numpy as np
+import pytest
+from skfem import ElementQuad1, MeshQuad
+
+from skfem_mpm import (BodyForce, Dynamics, GeneralizedAlpha,
+                       InvalidInputError, LinearElastic, Newmark,
+                       NewtonOptions, Obstacle, Options, Resume, VonMises,
+                       seed_points, simulate)
+from skfem_mpm.solve.contact import corner_signs
+
+METHODS = ("fem", "mpm", "ugimp", "cpgimp")
+
+
+def corners(points, domain0, method="mpm", dim=2):
+    """The corners (dim, 2**dim * n) of the points' initial domains
+    ``domain0``, moved by their deformation gradient (in small strain the
+    one the contact term keeps)."""
+    R = corner_signs(dim)[:, :, None] * domain0[:, None, :]
+    x = points.x + points.displacement if method == "fem" else points.x
+    F = points.F[:dim, :dim] if "contact_grad00" not in points.state else \
+        np.eye(dim)[:, :, None] + np.array(
+            [[points.state["contact_grad{}{}".format(a, b)]
+              for b in range(dim)] for a in range(dim)])
+    return (x[:, None, :] + np.einsum("abp,bcp->acp", F, R)).reshape(dim,
+                                                                      -1)
+
+
+def block_on_floor(method, kinematics, h=.25, floor_top=.05):
+    """A block of weight resting on a smooth floor that is off the grid
+    lines, held sideways at one grid line (x = 0)."""
+    mesh = MeshQuad.init_tensor(np.arange(0., 1. + 1e-9, h),
+                                np.arange(-.5, 1. + 1e-9, h))
+    pts = seed_points(mesh, 2, region=lambda x: (x[1] > 0) & (x[1] < .5))
+    # lift the block so that its lowest domain edge lies on the floor
+    low = (pts.x[1] - pts.domain[1]).min()
+    pts.x[1] += floor_top - low
+    pts.x0 = pts.x.copy()
+    floor = Obstacle(box=[[-1., 2.], [-1., floor_top]], name="floor")
+    rho_g = 2e3 * 9.81
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
+                   lambda b: b.get_dofs(lambda x: x[0] == 0).all("u^1"),
+                   body_force=[0., -rho_g], nsteps=2, method=method,
+                   kinematics=kinematics, obstacles=[floor])
+    return res, rho_g * pts.volume.sum(), floor, h, pts.domain
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("kinematics", ("small", "finite"))
+def test_a_block_on_a_smooth_floor_off_the_grid_lines(method, kinematics):
+    res, weight, floor, h, domain0 = block_on_floor(method, kinematics)
+    last = res.history[-1]
+    # the floor carries the weight to 1e-8 and holds nothing sideways
+    assert last.obstacle_forces.shape == (1, 2)
+    assert abs(last.obstacle_forces[0, 1] + weight) < 1e-8 * weight
+    assert abs(last.obstacle_forces[0, 0]) < 1e-8 * weight
+    # no domain corner below the floor by more than its tolerance
+    depth = .05 - corners(res.points, domain0, method)[1].min()
+    assert depth <= floor.tolerance * h
+    # quadratic Newton once the contact set is fixed: the last two
+    # residuals of the last solve
+    r = last.newton_residuals
+    assert r[-1] < 1e-9
+    if len(r) >= 3 and r[-2] < 1e-3:
+        assert r[-1] < 10 * r[-2] ** 1.8
+
+
+def test_a_pressed_block_is_linear_in_the_push_and_equals_the_reaction():
+    """A smooth obstacle pushed into an elastic block (FE, small strain,
+    nu = 0): uniaxial strain, force = E eps A to the penalty's share, the
+    same per step, and equal to the support's reaction."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < 1. + 1e-9)
+    E, push = 1e3, .025
+    top = Obstacle(box=[[-1, 3], [1., 1.7]], displacement=[0, -push])
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(E, 0.),
+                   lambda b: b.get_dofs(lambda x: x[1] == 0), nsteps=2,
+                   method="fem", obstacles=[top])
+    forces = np.array([r.obstacle_forces[0, 1] for r in res.history])
+    exact = E * push * np.array([.5, 1.]) * 2. / 1.    # width 2, height 1
+    assert np.allclose(forces, exact, rtol=top.tolerance * .25 / .0125)
+    # linear to the penetration allowed, k * tol of a stiffness k = E A / H
+    assert abs(forces[1] - 2 * forces[0]) <= E * 2. * top.tolerance * .25
+    for r in res.history:
+        reaction = r.reactions.reshape(-1, 2).sum(axis=0)
+        assert np.allclose(reaction, r.obstacle_forces[0], rtol=1e-10,
+                           atol=1e-10 * exact[-1])
+
+
+@pytest.mark.parametrize("scheme", (Newmark(), GeneralizedAlpha(.8)))
+def test_a_dropped_block_falls_freely_and_lands_on_the_floor(scheme):
+    """Released 0.5 above a floor obstacle: free fall to within 2% until
+    its lower edge reaches the floor at sqrt(2 * 0.5 / g), never through
+    the floor by more than the tolerance, and no rebound above its start
+    (standard MPM, finite deformation)."""
+    g, rho, h = 9.81, 1e3, .1
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 11),
+                                np.linspace(-.2, 1.2, 15))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .3) & (x[0] < .7)
+                      & (x[1] > .5) & (x[1] < .7))
+    floor = Obstacle(box=[[-1, 2], [-1, 0.]], name="floor")
+    lowest, speeds, times, forces, heights = [], [], [], [], []
+
+    def watch(record, points):
+        lowest.append(corners(points, pts.domain)[1].min())
+        speeds.append(points.velocity[1].mean())
+        times.append(record.time)
+        forces.append(record.obstacle_forces[0, 1])
+        heights.append(points.x[1].mean())
+
+    simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3), [],
+             body_force=[0, -g * rho], method="mpm", kinematics="finite",
+             dynamics=Dynamics(time_step=.01, duration=.7, density=rho,
+                               scheme=scheme), obstacles=[floor],
+             options=Options(callback=watch))
+    times, speeds, lowest = map(np.array, (times, speeds, lowest))
+    landing = np.sqrt(2 * .5 / g)
+    falling = times < landing - .01
+    assert np.allclose(speeds[falling], -g * times[falling], rtol=.02)
+    assert not np.any(np.array(forces)[falling])
+    assert forces[int(np.searchsorted(times, landing)) + 1] < 0
+    assert lowest.min() >= -floor.tolerance * h
+    assert max(heights) <= .6 + 1e-9
+
+
+def test_a_block_sticks_or_slides_by_coulomb():
+    """A block on a Coulomb floor under gravity tilted by theta (the
+    inclined plane turned level): it sticks where tan(theta) < mu and
+    slides with g (sin theta - mu cos theta) where it is larger."""
+    g, rho, mu = 9.81, 1e3, .3
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 21),
+                                np.linspace(-.2, .6, 9))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .2) & (x[0] < .6)
+                      & (x[1] > 0.) & (x[1] < .2))
+    floor = Obstacle(box=[[-1, 3], [-1, 0.]], friction=mu, name="floor")
+    for theta in (np.arctan(mu) - .1, np.arctan(mu) + .15):
+        gravity = g * rho * np.array([np.sin(theta), -np.cos(theta)])
+        # geostatic start: the weight in full from the first step
+        res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e7, .3),
+                       [], body_force=BodyForce(gravity, ramp=False),
+                       method="mpm", kinematics="finite",
+                       dynamics=Dynamics(time_step=.01, duration=.3,
+                                         density=rho), obstacles=[floor])
+        x = res.points.displacement[0].mean()
+        expected = max(0., g * (np.sin(theta) - mu * np.cos(theta)))
+        if expected == 0.:
+            assert abs(x) < 1e-3 * .5 * g * .3 ** 2
+        else:
+            assert abs(x / (.5 * expected * .3 ** 2) - 1) < .02
+            # sliding: the floor's friction is mu times its normal force
+            force = np.array([r.obstacle_forces[0] for r in res.history])
+            assert np.allclose(force[1:, 0], -mu * force[1:, 1], rtol=1e-6)
+
+
+def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
+    """A block hangs from a tied obstacle whose face lies between grid
+    lines: the obstacle carries the weight, and the block hangs where
+    the support is."""
+    h = .25
+    mesh = MeshQuad.init_tensor(np.arange(0., 1. + 1e-9, h),
+                                np.arange(-.5, 1.5 + 1e-9, h))
+    pts = seed_points(mesh, 2, region=lambda x: (x[1] > 0) & (x[1] < .5))
+    top = (pts.x[1] + pts.domain[1]).max()
+    hook = Obstacle(box=[[-1., 2.], [top, 2.]], friction="tied",
+                    name="hook")
+    rho_g = 2e3 * 9.81
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3), [],
+                   body_force=[0., -rho_g], nsteps=1, method="mpm",
+                   obstacles=[hook])
+    weight = rho_g * pts.volume.sum()
+    assert res.history[-1].obstacle_forces[0] == pytest.approx(
+        [0., -weight], abs=1e-8 * weight)
+    # hanging: the top corners stay within the tolerance of the hook
+    assert np.abs(corners(res.points, pts.domain)[1].max() - top) <= \
+        hook.tolerance * h
+
+
+def test_contact_state_resumes_bit_identically():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < 1. + 1e-9)
+    top = Obstacle(box=[[-1, 1.2], [1., 1.7]], displacement=[0, -.04],
+                   friction=.2)
+    args = (mesh, ElementQuad1(), pts, VonMises(1e3, .3, 20.),
+            lambda b: np.concatenate([b.get_dofs(lambda x: x[1] == 0).all(),
+                                      b.get_dofs(lambda x: x[0] == 0).all(
+                                          "u^1")]))
+    kept = {}
+
+    def keep(record, points):
+        if record.step == 2:
+            kept["record"], kept["points"] = record, points.copy()
+    full = simulate(*args, nsteps=4, obstacles=[top],
+                    options=Options(callback=keep))
+    part = kept["points"]
+    resumed = simulate(mesh, ElementQuad1(), part, VonMises(1e3, .3, 20.),
+                       args[-1], nsteps=4, obstacles=[top],
+                       options=Options(resume=Resume.after(
+                           kept["record"], pts.domain)))
+    assert any(np.any(v) for k, v in part.state.items()
+               if k.startswith("contact0_t"))
+    for name, value in full.points.state.items():
+        assert np.array_equal(value, resumed.points.state[name]), name
+    assert np.array_equal(full.points.x, resumed.points.x)
+    assert np.array_equal(full.history[-1].obstacle_forces,
+                          resumed.history[-1].obstacle_forces)
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda: Obstacle(), "exactly one"),
+    (lambda: Obstacle(box=[[0, 1], [1, 0]]), "x0 < x1"),
+    (lambda: Obstacle(polygon=[[0, 0], [2, 0], [0, 1], [1, 2]]),
+     "crosses itself"),
+    (lambda: Obstacle(polygon=[[0, 0], [1, 0]]), "at least 3"),
+    (lambda: Obstacle(box=[[0, 1]], friction="sticky"), "'rough'"),
+    (lambda: Obstacle(box=[[0, 1]], friction=-.1), ">= 0"),
+    (lambda: Obstacle(box=[[0, 1]], displacement=[0, 1]), "displacement"),
+    (lambda: Obstacle(box=[[0, 1]], tolerance=1.), "tolerance"),
+    (lambda: Obstacle(box=[[0, 1, 2], [0, 1, 2]]), "pair per dimension"),
+])
+def test_bad_obstacles_are_refused(make, words):
+    with pytest.raises(InvalidInputError, match=words):
+        make()
+
+
+@pytest.mark.parametrize("obstacles, words", [
+    ([Obstacle(box=[[5, 6], [5, 6]])], "never reaches the grid"),
+    ([Obstacle(box=[[0, 1], [-1, 0]]), Obstacle(polygon=[
+        [.5, -.5], [2, -.5], [2, .5]])], "overlap"),
+    ([Obstacle(box=[[0, 1], [-1, 0]], name="a"),
+      Obstacle(box=[[0, 1], [1.5, 2]], name="a")], "names must differ"),
+    ([Obstacle(box=[[0, 1], [.8, 2]], friction="tied")],
+     "touches no material"),
+    ([Obstacle(box=[[0, 1], [.3, 2]])], "holds material at the start"),
+    ([Obstacle(box=[[0, 1]])], "1D on a 2D grid"),
+    (["floor"], "Obstacle"),
+])
+def test_bad_obstacle_sets_are_refused(obstacles, words):
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+    with pytest.raises(InvalidInputError, match=words):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0),
+                 obstacles=obstacles)
+
+
+def test_the_one_solve_scheme_is_refused_with_contact():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+    with pytest.raises(InvalidInputError, match="contact"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0),
+                 obstacles=[Obstacle(box=[[0, 1], [.5, 1.]])],
+                 options=Options(NewtonOptions(rhs="increment")))
