@@ -3,20 +3,40 @@ strength reduction.
 
 The strength is divided by a trial factor ``F`` (the cohesion ``c``, the
 friction ``tan(phi)``; the yield stress of von Mises) and the problem is
-run; the factor of safety is the ``F`` at which the run stops converging:
-no equilibrium exists with the reduced strength (Zienkiewicz, Humpheson
-and Lewis, *Geotechnique* 25, 1975; Griffiths and Lane, *Geotechnique*
-49, 1999).  The factor is bracketed and bisected: each trial is a whole
-run, so its cost is that of a run times ``log2(bracket / tolerance)``.
+run; the factor of safety is the ``F`` beyond which the body no longer
+stands (Zienkiewicz, Humpheson and Lewis, *Geotechnique* 25, 1975;
+Griffiths and Lane, *Geotechnique* 49, 1999).  The factor is bracketed and
+bisected: each trial is a whole run, so its cost is that of a run times
+``log2(bracket / tolerance)``.
 
-Non-convergence is the criterion: the runs must be set up so that a
-converging problem does converge (enough load steps, ``max_cutbacks``), and
-the answer depends on them to the tolerance of the bisection.
+A trial stands when its run converges *and* its displacement stays within
+``growth`` times that of the run at ``low`` (a factor at which the body
+stands, well below collapse): a collapse criterion on the displacement
+trend over the factors.  Non-convergence alone is not enough in the
+material point method: beyond collapse the points move, the slope slumps
+and may find equilibrium again metres away, and whether a run gets there
+depends on its load steps and cut-backs.  On the 45-degree clay slope of
+``examples/slope.py`` at h = H/8 the largest displacement grows from
+0.040 m (F = 1) to 0.11-0.14 m at F = 1.61 and 0.18-0.35 m at 1.62, and
+beyond that a run either fails or finds equilibrium again some 1.1-1.8 m
+away: convergence alone gave factors of safety from 1.617 to 1.664 (2.9%
+apart, bracket 1%) with 4 to 16 load steps with or without cut-backs; the
+displacement criterion gives 1.617 with each of them
+(``tests/test_strength_reduction.py``, ``docs/geomechanics.md``).
+
+Recommended setting: ``growth = 5`` (the default; ``growth`` places the
+factor on the knee of the displacement curve: 3 and 10 moved it by about
+1% either way on that slope), ``low`` well below the factor of safety (1
+for a slope thought to stand), and runs of at least 8 load steps with a
+few cut-backs (``NewtonOptions(max_cutbacks=4)``), so that a trial below
+collapse converges rather than failing for a load step too large (with 4
+steps and no cut-backs the slope at h = H/16 failed at F = 1.55, its
+factor 1.551 where 8 or 16 steps give 1.570).
 
 """
 import logging
-from dataclasses import dataclass, replace
-from typing import Callable
+from dataclasses import dataclass, field, replace
+from typing import Callable, Optional
 
 import numpy as np
 
@@ -26,7 +46,8 @@ from .results import Result
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["reduce_strength", "strength_reduction", "SafetyFactor"]
+__all__ = ["reduce_strength", "strength_reduction", "SafetyFactor",
+           "largest_displacement"]
 
 
 def reduce_strength(material, factor: float):
@@ -71,6 +92,22 @@ def reduce_strength(material, factor: float):
         "Drucker-Prager materials, got {}".format(type(material).__name__))
 
 
+def largest_displacement(result: Result) -> float:
+    """The largest displacement magnitude among the points of ``result``
+    (m): the default measure of how far a trial has moved.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> moved = SimpleNamespace(points=SimpleNamespace(
+    ...     displacement=np.array([[3., 0.], [4., 1.]])))
+    >>> largest_displacement(moved)
+    5.0
+    """
+    d = np.asarray(result.points.displacement, float)
+    return float(np.sqrt((d ** 2).sum(axis=0)).max()) if d.size else 0.
+
+
 @dataclass
 class SafetyFactor:
     """The factor of safety, bracketed.
@@ -80,23 +117,34 @@ class SafetyFactor:
     factor
         The middle of the bracket.
     converged, failed
-        The largest factor whose run converged and the smallest whose run
-        did not.
+        The largest factor whose trial stood (its run converged and moved
+        at most ``growth`` times the run at ``low``) and the smallest
+        whose trial did not.
     trials
-        ``(factor, converged)`` of every run, in order.
+        ``(factor, stood)`` of every run, in order.
     result
         The run at ``converged`` (its displacements show the mechanism
         about to form).
+    displacements
+        The measured displacement of every trial, in the order of
+        ``trials`` (``None`` where the run failed).
+    reference
+        The displacement of the run at ``low``, the scale of ``growth``
+        (``None`` without the displacement criterion).
     """
     factor: float
     converged: float
     failed: float
     trials: list
     result: Result
+    displacements: list = field(default_factory=list)
+    reference: Optional[float] = None
 
 
 def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
-                       tolerance: float = .01) -> SafetyFactor:
+                       tolerance: float = .01, growth: Optional[float] = 5.,
+                       displacement: Callable = largest_displacement
+                       ) -> SafetyFactor:
     """Bracket and bisect the factor of safety.
 
     Parameters
@@ -109,24 +157,62 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
         or whose points slide out of the grid is a failure at that factor;
         any other error is the caller's and propagates.
     low, high
-        The first bracket: ``low`` must converge; ``high`` is doubled (up
-        to five times) until its run fails.
+        The first bracket: ``low`` must stand; ``high`` is doubled (up to
+        five times) until its trial does not.  The run at ``low`` sets the
+        scale of the displacement criterion: take it well below the factor
+        of safety.
     tolerance
         Relative width of the final bracket.
+    growth
+        The collapse criterion on the displacement trend: a trial whose run
+        converges but whose ``displacement`` exceeds ``growth`` times that
+        of the run at ``low`` has collapsed (its points slid away and found
+        equilibrium again, or are about to).  ``None``: convergence alone
+        decides, as before (the answer then depends on the load steps and
+        cut-backs of the runs; see the module's notes).  Recommended: the
+        default 5, runs of 8 or more load steps with
+        ``NewtonOptions(max_cutbacks=4)``.
+    displacement
+        ``displacement(result) -> float``: how far a trial moved (default
+        :func:`largest_displacement`, the largest point displacement).
 
     Raises
     ------
     InvalidInputError
         If the run at ``low`` already fails (the factor of safety is below
-        ``low``: the message says so, with the failure) or none up to
-        ``high * 32`` does.
+        ``low``: the message says so, with the failure), if it does not
+        move (no scale for ``growth``), or none up to ``high * 32``
+        collapses.
+
+    Examples
+    --------
+    A stand-in problem that collapses beyond 1.37 and, as a material
+    point run may, converges again far away from 1.5 to 2:
+
+    >>> from types import SimpleNamespace
+    >>> from skfem_mpm.errors import NewtonDivergenceError
+    >>> def run(factor):
+    ...     if 1.37 < factor <= 1.5 or factor > 2:
+    ...         raise NewtonDivergenceError("no equilibrium")
+    ...     moved = 0.1 if factor <= 1.37 else 3.   # slumped
+    ...     return SimpleNamespace(points=SimpleNamespace(
+    ...         displacement=np.array([[0.], [-moved]])))
+    >>> round(strength_reduction(run, tolerance=1e-3).factor, 2)
+    1.37
+    >>> round(strength_reduction(run, tolerance=1e-3, growth=None).factor, 2)
+    2.0
     """
     if not (0 < low < high) or not (0 < tolerance < 1):
         raise InvalidInputError(
             "strength_reduction needs 0 < low < high and 0 < tolerance < 1, "
             "got low {!r}, high {!r}, tolerance {!r}".format(low, high,
                                                              tolerance))
-    trials = []
+    if growth is not None and not (np.isfinite(growth) and growth > 1):
+        raise InvalidInputError(
+            "strength_reduction's growth must be a number > 1 (the "
+            "displacement, over that of the run at low, beyond which a "
+            "trial has collapsed) or None, got {!r}".format(growth))
+    trials, displacements, scale = [], [], []
 
     def attempt(factor):
         try:
@@ -138,8 +224,19 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
             logger.info("strength reduction factor %.4f: fails (%s)",
                         factor, type(err).__name__)
             trials.append((factor, False))
+            displacements.append(None)
             return None, err
-        logger.info("strength reduction factor %.4f: converges", factor)
+        moved = float(displacement(result)) if growth is not None else None
+        displacements.append(moved)
+        if scale and not moved <= growth * scale[0]:
+            logger.info("strength reduction factor %.4f: converges but "
+                        "moves %.4g, more than %g times the %.4g at %g: "
+                        "collapse", factor, moved, growth, scale[0],
+                        trials[0][0])
+            trials.append((factor, False))
+            return None, None
+        logger.info("strength reduction factor %.4f: stands (moves %s)",
+                    factor, "-" if moved is None else "{:.4g}".format(moved))
         trials.append((factor, True))
         return result, None
 
@@ -149,6 +246,14 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
             "the run fails already at the strength reduction factor {}: the "
             "factor of safety is below it (or the run cannot converge: {}: "
             "{})".format(low, type(err).__name__, err)) from err
+    if growth is not None:
+        if not (np.isfinite(displacements[0]) and displacements[0] > 0):
+            raise InvalidInputError(
+                "the run at the strength reduction factor {} moves {!r}: the "
+                "displacement criterion (growth) needs a run that moves; "
+                "pass growth=None to judge by convergence alone".format(
+                    low, displacements[0]))
+        scale.append(displacements[0])
     for _ in range(6):
         trial, _ = attempt(high)
         if trial is None:
@@ -164,4 +269,5 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
             high = middle
         else:
             low, result = middle, trial
-    return SafetyFactor(.5 * (low + high), low, high, trials, result)
+    return SafetyFactor(.5 * (low + high), low, high, trials, result,
+                        displacements, scale[0] if scale else None)
