@@ -34,7 +34,8 @@ from .scenes.plot import (STRESS_NAMES, SupportMarks, body_figure_size,
                           colour_scale, draw_deformed_shape, draw_energies,
                           draw_points, mark_peak, pyplot)
 from .scenes.quantities import check_quantities, quantity_unit
-from .scenes.scene import (build_points, point_bound, reaction_resultants,
+from .scenes.scene import (build_points, load_scale, obstacle_list,
+                           point_bound, reaction_resultants,
                            run_scene, scene_support_dofs, support_names,
                            surface_loads)
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
@@ -268,29 +269,54 @@ def energy_curves(rows) -> dict:
 
 
 def rigid_body_curves(scene, rows, reactions) -> dict:
-    """``{"rigid_bodies": {name: {"displacement", "force"}}}`` per step of
-    the history ``rows`` and the ``reactions`` (steps, supports + rigid
-    bodies, dim) of :func:`~skfem_mpm.scenes.scene.reaction_resultants`; empty without rigid
-    bodies."""
-    rigid = [b for b in scene.bodies if b.rigid is not None]
-    if not rigid:
-        return {}
+    """``{"rigid_bodies": {name: {"displacement", "force", ...}},
+    "obstacles": {name: ...}}`` per step of the history ``rows`` and the
+    ``reactions`` (steps, supports + rigid bodies + obstacles, dim) of
+    :func:`~skfem_mpm.scenes.scene.reaction_resultants`; a key only where
+    the scene has such bodies.  A rigid body's force is the one that
+    holds its motion, an obstacle's the one the material exerts on it;
+    the peak is where the force along the motion is largest (an obstacle
+    that does not move: the largest force)."""
+    rigid = [(b.name, b.rigid, 1.) for b in scene.bodies
+             if b.rigid is not None]
+    obstacles = [(o.name, o.displacement, -1.)
+                 for o in obstacle_list(scene)]
+    out, first = {}, len(scene.supports)
+    for key, items in (("rigid_bodies", rigid), ("obstacles", obstacles)):
+        if items:
+            out[key] = motion_curves(items, rows[:, 1],
+                                     load_scale(scene, rows[:, 1]),
+                                     reactions[:, first:first + len(items)])
+        first += len(items)
+    return out
+
+
+def motion_curves(items, factors, scale, forces) -> dict:
+    """Per item ``(name, displacement at full load, sign)`` its
+    displacement and force per step (``forces``: steps x items x dim; the
+    steps' load ``factors`` and the loads' ``scale``), the peak and the
+    final force; ``sign`` turns the force to the one that resists the
+    motion."""
     curves = {}
-    for k, body in enumerate(rigid):
-        force = reactions[:, len(scene.supports) + k]
-        displacement = rows[:, 1:2] * np.asarray(body.rigid)
-        along = np.asarray(body.rigid) / np.linalg.norm(body.rigid)
+    for k, (name, motion, sign) in enumerate(items):
+        force = forces[:, k]
+        displacement = scale[:, None] * np.asarray(motion)
+        size = np.linalg.norm(motion)
         # the force that holds the motion points along it (a footing
         # pushed down: downward): its largest component along the motion
-        resistance = force @ along if len(force) else np.zeros(0)
+        if size > 0:
+            resistance = sign * force @ (np.asarray(motion) / size)
+        else:                              # a fixed obstacle: the largest
+            resistance = np.linalg.norm(force, axis=1)
         peak = int(np.argmax(resistance)) if len(force) else None
-        curves[body.name] = {
+        curves[name] = {
+            "load_factor": np.asarray(factors).tolist(),
             "displacement": displacement.tolist(), "force": force.tolist(),
             "peak_force": None if peak is None else force[peak].tolist(),
             "peak_displacement": None if peak is None
             else displacement[peak].tolist(),
             "final_force": force[-1].tolist() if len(force) else None}
-    return {"rigid_bodies": curves}
+    return curves
 
 
 def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
@@ -306,8 +332,13 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
     bearing-capacity scene."""
     pts = result.points
     mesh, elem = scene.grid.build()
+    last = result.history[-1].load_factor if result.history else 0.
+    shift = load_scale(scene, [last])[0]
     plot_deformed_shape(scene, result, mesh, elem, None if initial is None
-                        else initial.domain, outdir / "deformed_shape.png")
+                        else initial.domain, outdir / "deformed_shape.png",
+                        obstacles=[(o.name, o.outline(shift * o.displacement))
+                                   for o in obstacle_list(scene)]
+                        if pts.dim == 2 else ())
     d = pts.dim - 1
     name = STRESS_NAMES[d, d]
     fig, ax = pyplot().subplots(figsize=(6, 4) if pts.dim == 1 else
@@ -353,6 +384,8 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
     if "rigid_bodies" in summary:
         plot_rigid_bodies(scene, summary["rigid_bodies"],
                           outdir / "rigid_bodies.png")
+    if "obstacles" in summary:
+        plot_obstacles(scene, summary["obstacles"], outdir / "obstacles.png")
     if "energies" in summary:
         fig, ax = pyplot().subplots(figsize=(6, 4))
         draw_energies(ax, summary["energies"], "{}: energies over time"
@@ -411,6 +444,35 @@ def plot_deformed_shape(scene, result, mesh, elem, half, path: Path,
         "body dashed".format(scene.name, when),
         supports=support_marks(scene, mesh, elem), rigid=rigid,
         obstacles=obstacles, half=half)
+    fig.tight_layout()
+    plot.save_figure(fig, path)
+
+
+def plot_obstacles(scene, curves: dict, path: Path):
+    """Per obstacle the force the material exerts on it against its
+    displacement along its motion, or against the load factor (time in
+    dynamics) where it does not move."""
+    fig, ax = pyplot().subplots(figsize=(5.5, 4))
+    moving = any(np.any(o.displacement) for o in scene.obstacles)
+    for name, curve in curves.items():
+        disp = np.vstack([np.zeros((1, len(curve["displacement"][0]))),
+                          curve["displacement"]])
+        force = np.vstack([np.zeros_like(disp[:1]), curve["force"]])
+        size = np.linalg.norm(disp[-1])
+        if moving:
+            x = disp @ (disp[-1] / size) if size > 0 else 0. * disp[:, 0]
+        else:
+            x = np.array([0.] + curve["load_factor"]) * (
+                scene.dynamics.duration if scene.dynamics else 1.)
+        magnitude = np.linalg.norm(force, axis=1)
+        line, = ax.plot(x, magnitude, "o-", ms=3, label=name)
+        mark_peak(ax, line, x, magnitude)
+    ax.set_xlabel("obstacle displacement along its motion (m)" if moving
+                  else "time (s)" if scene.dynamics else "load factor (-)")
+    ax.set_ylabel("force of the material on it, magnitude ({})".format(
+        quantity_unit("rigid_force", scene.grid.dim)))
+    ax.set_title("{}: contact force on the obstacles".format(scene.name))
+    ax.legend(loc="best")
     fig.tight_layout()
     plot.save_figure(fig, path)
 

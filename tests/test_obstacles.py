@@ -252,3 +252,70 @@ def test_the_one_solve_scheme_is_refused_with_contact():
                  lambda b: b.get_dofs(lambda x: x[1] == 0),
                  obstacles=[Obstacle(box=[[0, 1], [.5, 1.]])],
                  options=Options(NewtonOptions(rhs="increment")))
+
+
+DROP_SCENE = """
+name = "block dropped on a floor"
+[grid]
+x = [0.0, 1.0, 10]
+y = [-0.2, 1.2, 14]
+[[bodies]]
+name = "block"
+region = {{ x = [0.3, 0.7], y = [0.5, 0.7] }}
+material = {{ model = "linear_elastic", E = 1e6, nu = 0.3 }}
+density = 1000.0
+[gravity]
+body_force = [0.0, -9810.0]
+[[obstacles]]
+{obstacle}
+[dynamics]
+time_step = 0.01
+duration = {duration}
+[solver]
+kinematics = "finite"
+"""
+
+
+def test_a_scene_with_an_obstacle(tmp_path):
+    """``[[obstacles]]`` in a scene file: the floor's force per step in
+    summary.json (its peak the landing's), its picture, and the
+    obstacle drawn in the deformed shape."""
+    import json
+
+    from skfem_mpm.cli import main
+    path = tmp_path / "drop.toml"
+    path.write_text(DROP_SCENE.format(
+        obstacle='name = "floor"\nbox = { x = [-1.0, 2.0], y = [-1.0, 0.0] }',
+        duration=.4))
+    assert main(["run", str(path), "--out", str(tmp_path / "out"),
+                 "--no-progress", "--no-series"]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    floor = summary["obstacles"]["floor"]
+    assert len(floor["force"]) == summary["steps_run"] == 40
+    landing = np.sqrt(2 * .5 / 9.81)
+    times = np.array(floor["load_factor"]) * .4
+    before = times < landing - .01
+    assert not np.any(np.array(floor["force"])[before])
+    assert floor["peak_force"][1] < 0       # the block pushes it down
+    for name in ("obstacles.png", "deformed_shape.png"):
+        assert (tmp_path / "out" / name).stat().st_size > 0
+
+
+@pytest.mark.parametrize("obstacle, words", [
+    ('box = { x = [0.0, 1.0] }', r"obstacles\[0\].box: must bound"),
+    ('polygon = [[0.0, 0.0], [1.0, 0.0]]', r"obstacles\[0\]: Obstacle "
+     "polygon must be at least 3"),
+    ('box = { x = [0.0, 1.0], y = [-1.0, 0.0] }\npolygon = [[0, 0]]',
+     "exactly one of box"),
+    ('box = { x = [0.0, 1.0], y = [-1.0, 0.0] }\nfriction = "sticky"',
+     "'rough' or 'tied'"),
+    ('box = { x = [0.0, 1.0], y = [-1.0, 0.0] }\nshape = "round"',
+     r"obstacles\[0\].shape"),
+])
+def test_scene_obstacle_mistakes_are_named(tmp_path, obstacle, words):
+    from skfem_mpm.errors import SceneError
+    from skfem_mpm.scenes.scene_file import load_scene
+    path = tmp_path / "drop.toml"
+    path.write_text(DROP_SCENE.format(obstacle=obstacle, duration=.1))
+    with pytest.raises(SceneError, match=words):
+        load_scene(path)

@@ -33,6 +33,7 @@ from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
 from ..solve.newton import NewtonOptions
 from ..solve.options import BodyForce, Options, Prescribed, Resume
 from ..solve.results import Result
+from ..solve.obstacles import Obstacle
 from ..solve.rigid import RigidBody
 from ..stabilisation.settings import Stabilisation
 from .footing import check_footing_scene
@@ -249,6 +250,9 @@ class Scene:
         Quantities of interest
         (:class:`~skfem_mpm.scenes.quantities.Quantity`): reported by a
         run, measured by a study.
+    obstacles
+        Rigid :class:`~skfem_mpm.Obstacle` s the material cannot enter
+        (scene tables ``[[obstacles]]``).
     """
     grid: Grid
     bodies: List[Body]
@@ -266,6 +270,7 @@ class Scene:
     solver: str = "auto"
     dynamics: Optional[TimeIntegration] = None
     outputs: List["Quantity"] = field(default_factory=list)
+    obstacles: List[Obstacle] = field(default_factory=list)
 
     @property
     def step_count(self) -> int:
@@ -327,7 +332,7 @@ class Scene:
             else self.dynamics.dynamics([b.density for b in self.bodies]),
             full_body_force=self.gravity is not None and any(
                 b.K0 is not None for b in self.bodies),
-            driven=bool(rigid) or moving)
+            driven=bool(rigid) or moving, contact=bool(self.obstacles))
         if self.reference == "bearing_capacity":
             check_footing_scene(self)
         names = support_names(self)
@@ -386,11 +391,13 @@ def support_names(scene: Scene) -> List[str]:
 
 
 def reaction_resultants(scene):
-    """The names of the supports and the rigid bodies, and
-    ``resultant(record) -> (supports + rigid bodies, dim)``: per support,
-    the resultant reaction force of a step (zero in unsupported
-    components), then per rigid body the force that moves it
-    (:attr:`~skfem_mpm.StepRecord.rigid_forces`).  A grid DOF held by
+    """The names of the supports, the rigid bodies and the obstacles, and
+    ``resultant(record) -> (supports + rigid bodies + obstacles, dim)``:
+    per support, the resultant reaction force of a step (zero in
+    unsupported components), then per rigid body the force that moves it
+    (:attr:`~skfem_mpm.StepRecord.rigid_forces`), then per obstacle the
+    force the material exerts on it
+    (:attr:`~skfem_mpm.StepRecord.obstacle_forces`).  A grid DOF held by
     several supports counts for one of them only, so that the resultants
     add up to the total reaction: a support that moves (a ``value``) if
     one holds it, since the DOF moves with it, else the last one listed (a
@@ -417,9 +424,31 @@ def reaction_resultants(scene):
         out = np.zeros((len(parts), dim))
         for k, (axes, dofs, first) in enumerate(parts):
             out[k, axes] = (reactions[dofs] * first).sum(axis=1)
-        return np.vstack([out] + [f[None] for f in record.rigid_forces])
+        return np.vstack([out] + [f[None] for f in record.rigid_forces]
+                         + ([] if record.obstacle_forces is None
+                            else [record.obstacle_forces]))
     return support_names(scene) + [b.name for b in scene.bodies
-                                   if b.rigid is not None], resultant
+                                   if b.rigid is not None] + [
+        o.name for o in obstacle_list(scene)], resultant
+
+
+def obstacle_list(scene: Scene) -> list:
+    """The scene's obstacles, named as a run names them
+    (``obstacle<i>`` where a name is not given)."""
+    return [o if o.name is not None else o.named("obstacle{}".format(i))
+            for i, o in enumerate(scene.obstacles)]
+
+
+def load_scale(scene: Scene, factors: ndarray) -> ndarray:
+    """The loads' scale at the load factors ``factors``: the factor in
+    quasi-static scenes, the dynamics' load ramp at ``factor * duration``
+    in dynamic ones (what a rigid body's or an obstacle's displacement is
+    multiplied by)."""
+    if scene.dynamics is None:
+        return np.asarray(factors, dtype=float)
+    dynamics = scene.dynamics.dynamics([b.density for b in scene.bodies])
+    return np.array([dynamics.scale(f * dynamics.duration)
+                     for f in factors])
 
 
 def build_points(scene: Scene, mesh) -> MaterialPoints:
@@ -596,7 +625,8 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     return simulate(mesh, elem, points, material, supports, body_force,
                     loads, None if dynamics else scene.step_count,
                     method=scene.method, kinematics=scene.kinematics,
-                    dynamics=dynamics, options=Options(
+                    dynamics=dynamics, obstacles=scene.obstacles,
+                    options=Options(
                         newton=scene.newton,
                         stabilisation=scene.stabilisation,
                         solver=scene.solver, resume=resume,

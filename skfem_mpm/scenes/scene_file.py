@@ -79,6 +79,17 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # default) max min max_abs; neither at
                                     # nor region: all points, reduced
     # body = "column"               # optional: only this body's points
+    [[obstacles]]                   # optional: rigid obstacles the
+                                    # material cannot enter, in contact
+                                    # at its surface (docs/contact.md)
+    name = "floor"
+    box = { x = [-1.0, 2.0], y = [-1.0, 0.0] }   # or polygon (2D) =
+                                    # [[x, y], ...]
+    displacement = [0.0, 0.0]       # at full load (ramped; in dynamics
+                                    # with the load's ramp)
+    friction = 0.0                  # smooth; a Coulomb coefficient,
+                                    # "rough" (no slip) or "tied" (bonded)
+    # penalty = 10.0; tolerance = 1e-3 (penetration, cells)
     [dynamics]                      # optional: implicit dynamics
     time_step = 0.01                # s (the longest; equal steps)
     duration = 1.0                  # s
@@ -122,6 +133,7 @@ from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
 from ..solve.backends import FACTORIES
 from ..solve.dynamics import MASSES
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS, NewtonOptions
+from ..solve.obstacles import Obstacle
 from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
 from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
@@ -349,6 +361,41 @@ def _box(c, data, key: str, dim: int, closed: bool = False):
     return box
 
 
+def _obstacle(c, data, key: str, dim: int):
+    """An :class:`~skfem_mpm.Obstacle` of an ``[[obstacles]]`` table, or
+    ``None`` after a problem."""
+    data = c.table(data, key, ("name", "box", "polygon", "displacement",
+                               "friction", "penalty", "tolerance"))
+    if ("box" in data) == ("polygon" in data):
+        c.bad(key, "needs exactly one of box = { x = [lo, hi], ... } and "
+              "polygon = [[x, y], ...]", data)
+        return None
+    kwargs = {}
+    if "box" in data:
+        box = _box(c, data["box"], key + ".box", dim)
+        if any(math.isinf(lo) or math.isinf(hi) for lo, hi in box):
+            c.bad(key + ".box", "must bound every axis ({})".format(
+                ", ".join(AXES[:dim])), data["box"])
+            return None
+        kwargs["box"] = box
+    else:
+        kwargs["polygon"] = data["polygon"]
+    if "displacement" in data:
+        kwargs["displacement"] = c.vector(data, key, "displacement", dim)
+    friction = data.get("friction", 0.)
+    if not isinstance(friction, str):
+        friction = c.number(data, key, "friction", 0., low=0.,
+                            open_low=False)
+    for name in ("penalty", "tolerance"):
+        if name in data:
+            kwargs[name] = c.number(data, key, name, 1., low=0.)
+    try:
+        return Obstacle(friction=friction, name=data.get("name"), **kwargs)
+    except InvalidInputError as err:
+        c.problems.append("{}: {}".format(key, err))
+        return None
+
+
 def parse_quantity(table: dict, dim: int,
                    key: str = "outputs") -> Quantity:
     """A :class:`~skfem_mpm.scenes.quantities.Quantity` from a scene
@@ -494,7 +541,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     c = _Checker()
     c.table(data, "", ("name", "reference", "grid", "bodies", "supports",
                        "gravity", "point_loads", "tractions", "solver",
-                       "dynamics", "outputs"),
+                       "dynamics", "outputs", "obstacles"),
             ("grid", "bodies"))
     grid = _grid(c, data.get("grid", {}))
     grid_read = not c.problems
@@ -571,6 +618,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             else None,
             pressure=c.number(t, key, "pressure", 0.) if "pressure" in t
             else None))
+    obstacles = [_obstacle(c, o, "obstacles[{}]".format(k), dim)
+                 for k, o in enumerate(c.array(data, "obstacles"))]
     outputs = []
     for k, q in enumerate(c.array(data, "outputs")):
         try:
@@ -615,7 +664,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         reference=c.choice(data, "", "reference", REFERENCES + (None,)),
         solver=c.choice(solver, "solver", "linear", tuple(FACTORIES),
                         "auto"),
-        outputs=outputs)
+        outputs=outputs, obstacles=[o for o in obstacles if o is not None])
     if not c.problems:
         try:
             scene.check()

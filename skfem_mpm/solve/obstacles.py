@@ -131,6 +131,12 @@ class Obstacle:
         return "Obstacle({}, name={!r}, friction={!r})".format(
             shape, self.name, self.friction)
 
+    def named(self, name: str) -> "Obstacle":
+        """A copy of this obstacle called ``name``."""
+        new = copy.copy(self)
+        new.name = name
+        return new
+
     def bounds(self, shift: ndarray) -> ndarray:
         """The bounding box (dim, 2) shifted by ``shift``."""
         if self.box is not None:
@@ -329,8 +335,7 @@ def check_obstacles(obstacles: Sequence, dim: int, mesh_bounds: ndarray):
             raise InvalidInputError(
                 "obstacle {!r} is {}D on a {}D grid".format(
                     ob.name or i, ob.dim, dim))
-    named = [ob if ob.name is not None else _renamed(ob, "obstacle{}"
-                                                     .format(i))
+    named = [ob if ob.name is not None else ob.named("obstacle{}".format(i))
              for i, ob in enumerate(obstacles)]
     names = [ob.name for ob in named]
     if len(set(names)) != len(names):
@@ -357,13 +362,6 @@ def check_obstacles(obstacles: Sequence, dim: int, mesh_bounds: ndarray):
                     "would be pushed both ways".format(named[i].name,
                                                       named[j].name))
     return tuple(named)
-
-
-def _renamed(ob: Obstacle, name: str) -> Obstacle:
-
-    new = copy.copy(ob)
-    new.name = name
-    return new
 
 
 def _overlap(a: Obstacle, b: Obstacle) -> bool:
