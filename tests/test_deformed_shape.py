@@ -82,16 +82,23 @@ def test_obstacles_are_drawn_as_named_outlines_and_plain_points():
     points.displacement[1] = -.1 * x[0]
     wall = np.array([[2.2, -.5], [2.5, -.5], [2.5, 1.], [2.2, 1.]])
     floor = np.array([[-.5, -.6], [3., -.6], [3., -.4]])
+    # an Obstacle's own outline, moved by its displacement at full load
+    from skfem_mpm import Obstacle
+    lid = Obstacle(box=[[0., 2.], [1.1, 1.3]], displacement=[0., -.05],
+                   name="lid")
     fig, ax = plot.pyplot().subplots()
     plot.draw_deformed_shape(fig, ax, points, "a bent block", obstacles=[
-        ("wall", wall), ("floor", floor)], coloured=False,
+        ("wall", wall), ("floor", floor),
+        (lid.name, lid.outline(np.array([0., -.05])))], coloured=False,
         supports=[plot.SupportMarks("clamp", np.array([[0., 0.], [0., 1.]]),
                                     (0, 1))])
     assert fig.axes == [ax]                     # no colour bar
     assert [t.get_text() for t in ax.get_legend().get_texts()] == [
         "undeformed body (outline)", "material points, deformed", "wall",
-        "floor", "clamp"]
+        "floor", "lid", "clamp"]
     drawn = [p.get_xy()[:-1] for p in ax.patches]   # closed: first again
     assert np.allclose(drawn[0], wall) and np.allclose(drawn[1], floor)
+    assert np.allclose(drawn[2], [[0., 1.05], [2., 1.05], [2., 1.25],
+                                  [0., 1.25]])
     assert not plot.figure_problems(fig)
     plot.pyplot().close(fig)
