@@ -128,6 +128,7 @@ def slope_runs(nsteps, max_cutbacks):
     return run
 
 
+@pytest.mark.slow                       # about 10 s: 16 trials, 8 failing
 def test_the_factor_of_safety_does_not_depend_on_the_load_stepping():
     """Issue 30: judged by convergence alone, the slope's factor of safety
     moved with the load stepping: 1.617 with 4 load steps and no
