@@ -332,14 +332,14 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
     run, from ``summary``), as footing pressure against settlement for a
     bearing-capacity scene."""
     pts = result.points
-    mesh, elem = scene.grid.build()
-    last = result.history[-1].load_factor if result.history else 0.
-    shift = load_scale(scene, [last])[0]
-    plot_deformed_shape(scene, result, mesh, elem, None if initial is None
-                        else initial.domain, outdir / "deformed_shape.png",
-                        obstacles=[(o.name, o.outline(shift * o.displacement))
-                                   for o in obstacle_list(scene)]
-                        if pts.dim == 2 else ())
+    last = result.history[-1] if result.history else None
+    plot_deformed_shape(
+        scene, pts, "" if last is None else "at t = {:.4g} s".format(
+            last.time) if last.time is not None else
+        "at load factor {:.4g}".format(last.load_factor),
+        None if initial is None else initial.domain,
+        outdir / "deformed_shape.png", 0. if last is None else
+        last.load_factor)
     d = pts.dim - 1
     name = STRESS_NAMES[d, d]
     fig, ax = pyplot().subplots(figsize=(6, 4) if pts.dim == 1 else
@@ -422,27 +422,29 @@ def support_marks(scene, mesh, elem) -> list:
     return marks
 
 
-def plot_deformed_shape(scene, result, mesh, elem, half, path: Path,
-                        obstacles=()):
-    """The deformed shape of a run's final state
-    (:func:`~skfem_mpm.scenes.plot.draw_deformed_shape`): the points
-    coloured by their displacement magnitude over the undeformed outline
-    (``half``: the initial points' half-widths), the supports, the rigid
-    bodies and ``obstacles`` (``[(name, polygon (k, 2))]``), to ``path``."""
-    pts = result.points
+def plot_deformed_shape(scene, pts, when: str, half, path: Path,
+                        load_factor: float):
+    """The deformed shape of the points ``pts`` of a run
+    (:func:`~skfem_mpm.scenes.plot.draw_deformed_shape`), ``when`` saying
+    which state they are in the title: the points coloured by their
+    displacement magnitude over the undeformed outline (``half``: the
+    initial points' half-widths), the supports, the rigid bodies and (2D)
+    the obstacles where they are at ``load_factor`` (the run's load factor
+    in that state; with dynamics the fraction of the duration), to
+    ``path``."""
+    mesh, elem = scene.grid.build()
+    shift = load_scale(scene, [load_factor])[0]
+    obstacles = [(o.name, o.outline(shift * o.displacement))
+                 for o in obstacle_list(scene)] if pts.dim == 2 else ()
     rigid = {b.name: pts.body == k for k, b in enumerate(scene.bodies)
              if b.rigid is not None}
-    last = result.history[-1] if result.history else None
-    when = "" if last is None else " at t = {:.4g} s".format(last.time) \
-        if last.time is not None else " at load factor {:.4g}".format(
-            last.load_factor)
     deformed = pts.x0 + pts.displacement
     width, height = (7., 3.4) if pts.dim == 1 else body_figure_size(
         np.hstack([pts.x0, deformed])[:2])
     fig, ax = pyplot().subplots(figsize=(width, height + 1.1))
     draw_deformed_shape(
-        fig, ax, pts, "{}: deformed shape{} (true scale),\nthe undeformed "
-        "body dashed".format(scene.name, when),
+        fig, ax, pts, "{}: deformed shape {}\n(true scale, the undeformed "
+        "body dashed)".format(scene.name, when),
         supports=support_marks(scene, mesh, elem), rigid=rigid,
         obstacles=obstacles, half=half)
     fig.tight_layout()
@@ -735,6 +737,12 @@ def run(args) -> int:
         if "rigid_bodies" in failed and len(rows):
             plot_rigid_bodies(scene, failed["rigid_bodies"],
                               outdir / "rigid_bodies.png")
+        if state is not None:         # the picture of what failed
+            plot_deformed_shape(
+                scene, state, "at load factor {:.4g},\nthe last converged "
+                "state (the next step failed)".format(err.load_factor),
+                initial.domain,
+                outdir / "deformed_shape.png", err.load_factor)
         raise
     except OSError as err:    # output failed (read-only or full disk, ...)
         try:                  # the last checkpoint stands (atomic writes)

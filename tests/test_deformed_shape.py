@@ -1,6 +1,8 @@
 """The deformed-shape picture of a run (issue 30, item 3): the points at
 their final positions over the undeformed outline, with the supports, the
 rigid bodies and any obstacles drawn and named in a legend."""
+import json
+
 import numpy as np
 import pytest
 
@@ -71,6 +73,25 @@ def test_a_run_draws_its_deformed_shape_with_supports_and_rigid_bodies(
     assert len(footing) == 1
     assert np.allclose(np.sort(np.unique(footing[0].get_offsets()[:, 1])),
                        [.53125 - .03, .59375 - .03])
+
+
+def test_a_failed_run_draws_its_last_converged_state(tmp_path, figures):
+    """The picture of what failed: a run that stops at a step that does
+    not converge draws the state of its last converged step."""
+    scene = tmp_path / "footing.toml"
+    scene.write_text(FOOTING.replace("steps = 2", "steps = 6\n"
+                                     "max_iterations = 2"))
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--no-progress",
+                 "--no-series"]) == 1
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed"
+    title = figures["deformed_shape.png"].axes[0].get_title()
+    assert "the last converged state" in title and "failed" in title
+    # the footing moved by 0.03 times the load factor of that state
+    factor = summary["rigid_bodies"]["footing"]["displacement"][-1][1] / -.03
+    assert 0 < factor < 1
+    assert "at load factor {:.4g},".format(factor) in title
 
 
 def test_obstacles_are_drawn_as_named_outlines_and_plain_points():

@@ -391,8 +391,9 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     handles.append(Line2D([], [], color=grey, ls="--",
                           label="undeformed body (outline)"))
     body = shown & soil
+    coloured = coloured and body.any()  # a slice of rigid points: plain
     size = marker_size(fig, ax, x[[a, b]][:, shown], points.volume,
-                       max(dim, 1)) if dim > 1 else 6.
+                       dim) if dim > 1 else 6.
     scale = colour_scale(magnitude[body]) if coloured else None
     sc = ax.scatter(x[a, body], x[b, body], s=size, zorder=2,
                     **(dict(c=magnitude[body], **scale) if coloured
