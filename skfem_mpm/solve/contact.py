@@ -348,7 +348,12 @@ class StepContact(GridTerm):
             active = p > 0
             T = area * p * n
             nn = np.einsum("as,bs->abs", n, n)
-            C[:, :, active] = (kappa * area * nn)[:, :, active]
+            # touching corners (a gap within the tolerance) stiffen the
+            # tangent too: a body resting on a floor is held from the first
+            # iteration, when no corner presses yet
+            touching = over & (self.lam[i] - kappa * gap
+                               >= -kappa * term.tol[i])
+            C[:, :, touching] = (kappa * area * nn)[:, :, touching]
             tau = np.zeros_like(X)
             if ob.friction != 0.:
                 Pt = eye - nn
