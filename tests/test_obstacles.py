@@ -66,6 +66,25 @@ def test_a_block_on_a_smooth_floor_off_the_grid_lines(method, kinematics):
         assert r[-1] < 10 * r[-2] ** 1.8
 
 
+def test_a_block_barely_above_the_floor_is_held_from_the_first_solve():
+    """Corners 1e-12 of a cell above the floor (a grid line computed with
+    round-off): the step's first tangent holds the body (no stabilised
+    solve, no inverted points) and the floor carries its weight."""
+    h = .1
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 11),
+                                np.linspace(-.2, 1., 13))
+    pts = seed_points(mesh, 2, region=lambda x: (x[1] > 0) & (x[1] < .5))
+    floor = Obstacle(box=[[-1., 2.], [-1., -1e-12 * h]])
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
+                   lambda b: b.get_dofs(lambda x: x[0] == 0).all("u^1"),
+                   body_force=[0., -2e4], method="mpm", kinematics="finite",
+                   obstacles=[floor])
+    assert res.counters["stabilised_solves"] == 0
+    weight = 2e4 * pts.volume.sum()
+    assert abs(res.history[-1].obstacle_forces[0, 1] + weight) \
+        < 1e-8 * weight
+
+
 def test_a_pressed_block_is_linear_in_the_push_and_equals_the_reaction():
     """A smooth obstacle pushed into an elastic block (FE, small strain,
     nu = 0): uniaxial strain, force = E eps A to the penalty's share, the

@@ -329,6 +329,7 @@ class StepContact(GridTerm):
                 return ev
         term, dim = self.term, self.dim
         u = (self.J @ du).reshape(-1, dim).T               # (dim, s)
+        start = not du.any()
         X = self.Xs + u
         ev = []
         eye = np.eye(dim)[:, :, None]
@@ -348,12 +349,13 @@ class StepContact(GridTerm):
             active = p > 0
             T = area * p * n
             nn = np.einsum("as,bs->abs", n, n)
-            # touching corners (a gap within the tolerance) stiffen the
-            # tangent too: a body resting on a floor is held from the first
-            # iteration, when no corner presses yet
-            touching = over & (self.lam[i] - kappa * gap
-                               >= -kappa * term.tol[i])
-            C[:, :, touching] = (kappa * area * nn)[:, :, touching]
+            C[:, :, active] = (kappa * area * nn)[:, :, active]
+            if start:       # corners touching (a gap within the tolerance)
+                # stiffen the step's first tangent: a body resting on a
+                # floor is held in the first solve, when no corner presses
+                touching = over & (self.lam[i] - kappa * gap
+                                   >= -kappa * term.tol[i])
+                C[:, :, touching] = (kappa * area * nn)[:, :, touching]
             tau = np.zeros_like(X)
             if ob.friction != 0.:
                 Pt = eye - nn
