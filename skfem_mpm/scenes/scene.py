@@ -237,8 +237,8 @@ class Scene:
         size, :mod:`skfem_mpm.solve.backends`; scene key
         ``solver.linear``).
     reference
-        What the run's error is measured against: ``"column"`` (seed
-        2.28), ``"elastica"`` (end-loaded cantilever) or
+        What the run's error is measured against: ``"column"`` (error
+        measure (2.28) of Charlton 2018), ``"elastica"`` (end-loaded cantilever) or
         ``"bearing_capacity"`` (peak pressure of a rigid footing on
         weightless soil against ``N_c c``,
         :mod:`skfem_mpm.studies.footing`).

@@ -5,7 +5,8 @@ offending value (unknown keys, wrong types, impossible values), in a
 :class:`~skfem_mpm.errors.SceneError`.  The format, with every key::
 
     name = "column"
-    reference = "column"            # optional: "column" (seed 2.28),
+    reference = "column"            # optional: "column" ((2.28) of
+                                    # Charlton 2018),
                                     # "elastica" (end-loaded cantilever) or
                                     # "bearing_capacity" (rigid footing on
                                     # weightless soil against N_c c)
