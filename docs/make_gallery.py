@@ -40,8 +40,12 @@ def penetration(module, outdir):
                      ", h = B/{}".format(cells))
 
 
+def obstacles(module, outdir):
+    module.visualize(outdir, module.footing_curves())
+
+
 # examples whose visualize() is not visualize(outdir)
-SPECIAL = {"penetration": penetration}
+SPECIAL = {"penetration": penetration, "obstacles": obstacles}
 
 
 def main(names):
