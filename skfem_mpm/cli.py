@@ -40,6 +40,7 @@ from .scenes.scene import (build_points, load_scale, obstacle_list,
                            run_scene, scene_support_dofs, support_names,
                            surface_loads)
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
+from .solve.contact import contact_state_names
 from .solve.core import grid_parts
 from .solve.options import Resume
 from .solve.results import PHASES
@@ -452,18 +453,18 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
 
 
 def plot_obstacles(scene, curves: dict, path: Path):
-    """Per obstacle the force the material exerts on it against its
-    displacement along its motion, or against the load factor (time in
-    dynamics) where it does not move."""
+    """Per obstacle the magnitude of the force the material exerts on it
+    against its displacement along its motion where every obstacle moves,
+    else against the load factor (time in dynamics)."""
     fig, ax = pyplot().subplots(figsize=(5.5, 4))
-    moving = any(np.any(o.displacement) for o in scene.obstacles)
+    motion = {o.name: o.displacement for o in obstacle_list(scene)}
+    moving = all(np.any(d) for d in motion.values())
     for name, curve in curves.items():
         disp = np.vstack([np.zeros((1, len(curve["displacement"][0]))),
                           curve["displacement"]])
         force = np.vstack([np.zeros_like(disp[:1]), curve["force"]])
-        size = np.linalg.norm(disp[-1])
         if moving:
-            x = disp @ (disp[-1] / size) if size > 0 else 0. * disp[:, 0]
+            x = disp @ (motion[name] / np.linalg.norm(motion[name]))
         else:
             x = np.array([0.] + curve["load_factor"]) * (
                 scene.dynamics.duration if scene.dynamics else 1.)
@@ -563,8 +564,10 @@ def load_run(args):
     if points is None:
         points = initial
     else:
-        check_against(outdir / CHECKPOINT, earlier, initial, state_variables(
-            [body.material for body in scene.bodies]), mesh)
+        check_against(outdir / CHECKPOINT, earlier, initial, list(
+            state_variables([body.material for body in scene.bodies]))
+            + contact_state_names(len(scene.obstacles), mesh.dim(),
+                                  scene.kinematics == "finite"), mesh)
     return scene, source, outdir, earlier, points, resume, mesh, initial
 
 

@@ -66,15 +66,17 @@ def test_a_block_on_a_smooth_floor_off_the_grid_lines(method, kinematics):
         assert r[-1] < 10 * r[-2] ** 1.8
 
 
-def test_a_block_barely_above_the_floor_is_held_from_the_first_solve():
+@pytest.mark.parametrize("gap", (1e-12, .5e-3))
+def test_a_block_barely_above_the_floor_is_held_from_the_first_solve(gap):
     """Corners 1e-12 of a cell above the floor (a grid line computed with
-    round-off): the step's first tangent holds the body (no stabilised
-    solve, no inverted points) and the floor carries its weight."""
+    round-off) or half the tolerance: in contact from the start, the
+    step's first tangent holds the body (no stabilised solve, no inverted
+    points) and the floor carries its weight."""
     h = .1
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 11),
                                 np.linspace(-.2, 1., 13))
     pts = seed_points(mesh, 2, region=lambda x: (x[1] > 0) & (x[1] < .5))
-    floor = Obstacle(box=[[-1., 2.], [-1., -1e-12 * h]])
+    floor = Obstacle(box=[[-1., 2.], [-1., -gap * h]])
     res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
                    lambda b: b.get_dofs(lambda x: x[0] == 0).all("u^1"),
                    body_force=[0., -2e4], method="mpm", kinematics="finite",
@@ -107,7 +109,7 @@ def test_a_pressed_block_is_linear_in_the_push_and_equals_the_reaction():
                            atol=1e-10 * exact[-1])
 
 
-@pytest.mark.parametrize("scheme", (Newmark(), GeneralizedAlpha(.8)))
+@pytest.mark.parametrize("scheme", (Newmark(), GeneralizedAlpha(0.)))
 def test_a_dropped_block_falls_freely_and_lands_on_the_floor(scheme):
     """Released 0.5 above a floor obstacle: free fall to within 2% until
     its lower edge reaches the floor at sqrt(2 * 0.5 / g), never through
@@ -170,6 +172,32 @@ def test_a_block_sticks_or_slides_by_coulomb():
             # sliding: the floor's friction is mu times its normal force
             force = np.array([r.obstacle_forces[0] for r in res.history])
             assert np.allclose(force[1:, 0], -mu * force[1:, 1], rtol=1e-6)
+
+
+@pytest.mark.parametrize("method", ("mpm", "cpgimp"))
+def test_coulomb_friction_holds_a_block_quasi_statically(method):
+    """Gravity tilted by 12 degrees on a floor with mu = 0.3, no supports:
+    the floor alone holds the block (sticking), its force has the
+    direction of the weight, |F_t / F_n| = tan(12 deg)."""
+    mesh = MeshQuad.init_tensor(np.linspace(-.2, 2.9, 12),
+                                np.linspace(-.17, .9, 6))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .25) & (x[0] < .9)
+                      & (x[1] > 0.) & (x[1] < .5))
+    top = (pts.x - pts.domain)[1].min()
+    theta, weight = np.radians(12.), 2e3 * 9.81
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(5e6, .3), [],
+                   body_force=weight * np.array([np.sin(theta),
+                                                 -np.cos(theta)]),
+                   nsteps=3, method=method, kinematics="finite",
+                   obstacles=[Obstacle(box=[[-1, 4], [-1, top]],
+                                       friction=.3)])
+    force = res.history[-1].obstacle_forces[0]
+    assert force == pytest.approx(weight * pts.volume.sum() * np.array(
+        [np.sin(theta), -np.cos(theta)]), rel=1e-8)
+    # the bottom row does not slide: it moves by the friction penalty's
+    # regularisation and the row's own shear, under 1e-3 of a cell
+    bottom = res.points.x0[1] < top + .1
+    assert abs(res.points.displacement[0, bottom]).max() < 1e-3 * .2
 
 
 def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
@@ -263,6 +291,16 @@ def test_bad_obstacle_sets_are_refused(obstacles, words):
                  obstacles=obstacles)
 
 
+def test_generalised_alpha_weighing_forces_is_refused_with_contact():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+    with pytest.raises(InvalidInputError, match="GeneralizedAlpha"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3), [],
+                 obstacles=[Obstacle(box=[[0, 1], [.5, 1.]])],
+                 dynamics=Dynamics(.01, .1, 1e3,
+                                   scheme=GeneralizedAlpha(.8)))
+
+
 def test_the_one_solve_scheme_is_refused_with_contact():
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
     pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)
@@ -318,6 +356,16 @@ def test_a_scene_with_an_obstacle(tmp_path):
     assert floor["peak_force"][1] < 0       # the block pushes it down
     for name in ("obstacles.png", "deformed_shape.png"):
         assert (tmp_path / "out" / name).stat().st_size > 0
+    # interrupted after 20 steps and resumed: the contact state comes back
+    # from the checkpoint, the floor's forces equal the whole run's
+    split = tmp_path / "split"
+    assert main(["run", str(path), "--out", str(split), "--no-progress",
+                 "--no-series", "--checkpoint-every", "5", "--max-steps",
+                 "20"]) == 0
+    assert main(["run", "--resume", str(split), "--no-progress",
+                 "--no-series"]) == 0
+    resumed = json.loads((split / "summary.json").read_text())
+    assert resumed["obstacles"]["floor"]["force"] == floor["force"]
 
 
 @pytest.mark.parametrize("obstacle, words", [

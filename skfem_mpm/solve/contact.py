@@ -69,7 +69,8 @@ from .obstacles import Obstacle
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["ObstacleContact", "corner_signs", "point_rows"]
+__all__ = ["ObstacleContact", "corner_signs", "point_rows",
+           "contact_state_names"]
 
 #: a corner further from every obstacle than this many cells at a step's
 #: start is left out of the step's contact (checked again after Newton)
@@ -79,6 +80,33 @@ MARGIN_CELLS = 2.
 def corner_signs(dim: int) -> ndarray:
     """The (dim, 2**dim) signs of a box's corners."""
     return np.array(list(itertools.product((-1., 1.), repeat=dim))).T
+
+
+def pressure_names(i: int, dim: int):
+    """The point-state names of obstacle ``i``: per corner the pressure
+    multiplier, then per component per corner the traction."""
+    nc = 2 ** dim
+    return ([["contact{}_p{}".format(i, c) for c in range(nc)]]
+            + [["contact{}_t{}{}".format(i, a, c) for c in range(nc)]
+               for a in range(dim)])
+
+
+def gradient_names(dim: int):
+    """Small strain: the point-state names of the accumulated displacement
+    gradient, ``[[name_ab]]``."""
+    return [["contact_grad{}{}".format(a, b) for b in range(dim)]
+            for a in range(dim)]
+
+
+def contact_state_names(obstacles: int, dim: int, finite: bool) -> list:
+    """Every point-state name the contact with ``obstacles`` obstacles
+    keeps (what a checkpoint of such a run holds beside the materials'
+    variables)."""
+    names = [name for i in range(obstacles)
+             for rows in pressure_names(i, dim) for name in rows]
+    if obstacles and not finite:
+        names += [name for row in gradient_names(dim) for name in row]
+    return names
 
 
 def point_rows(op, idx: ndarray):
@@ -127,26 +155,25 @@ class ObstacleContact(GridTerm):
     counters
         The run's counters: ``contact_updates`` counts the
         augmented-Lagrangian updates.
+    initial_scale
+        The loads' scale at the run's start (1 in dynamics without a load
+        ramp: an obstacle starts displaced in full).
 
     """
 
     def __init__(self, obstacles: Sequence[Obstacle], cell_size: float,
                  modulus: float, domain0, total_lagrangian: bool,
-                 moves: bool, finite: bool, counters: dict):
+                 moves: bool, finite: bool, counters: dict,
+                 initial_scale: float = 0.):
         self.obstacles = tuple(obstacles)
         self.h, self.domain0 = cell_size, domain0
         self.kappa = [ob.penalty * modulus / cell_size for ob in obstacles]
         self.tol = [ob.tolerance * cell_size for ob in obstacles]
         self.total_lagrangian, self.moves = total_lagrangian, moves
         self.finite = finite
+        self.start = [initial_scale * ob.displacement for ob in obstacles]
         self.touching = False
         counters.setdefault("contact_updates", 0)
-
-    def gradient_names(self, dim: int):
-        """Small strain: the point-state names of the accumulated
-        displacement gradient, ``[[name_ab]]``."""
-        return [["contact_grad{}{}".format(a, b) for b in range(dim)]
-                for a in range(dim)]
 
     def deformation(self, points) -> ndarray:
         """The points' deformation gradient (dim, dim, n) at a step's
@@ -157,7 +184,7 @@ class ObstacleContact(GridTerm):
             return points.F[:dim, :dim]
         return np.eye(dim)[:, :, None] + np.array(
             [[points.state[name] for name in row]
-             for row in self.gradient_names(dim)])
+             for row in gradient_names(dim)])
 
     @property
     def holds_free_body(self) -> bool:
@@ -165,14 +192,6 @@ class ObstacleContact(GridTerm):
         a floor), so the check for missing supports is left to the
         solve."""
         return self.touching
-
-    def state_names(self, i: int, dim: int):
-        """The point-state names of obstacle ``i``: per corner the
-        pressure multiplier and the traction's components."""
-        nc = 2 ** dim
-        return ([["contact{}_p{}".format(i, c) for c in range(nc)]]
-                + [["contact{}_t{}{}".format(i, a, c) for c in range(nc)]
-                   for a in range(dim)])
 
     def begin_run(self, points) -> None:
         dim, n = points.x.shape
@@ -182,17 +201,24 @@ class ObstacleContact(GridTerm):
         self.R = corner_signs(dim)[:, :, None] * half[:, None, :]
         X0 = points.x0[:, None, :] + self.R               # at load 0
         if not self.finite:
-            for row in self.gradient_names(dim):
+            for row in gradient_names(dim):
                 for name in row:
                     points.state.setdefault(name, np.zeros(n))
-        self.anchor, touching = [], []
+        self.anchor, touching, self.closed = [], [], []
         for i, ob in enumerate(self.obstacles):
-            for names in self.state_names(i, dim):
+            for names in pressure_names(i, dim):
                 for name in names:
                     points.state.setdefault(name, np.zeros(n))
-            phi = ob.signed_distance(X0.reshape(dim, -1))[0].reshape(-1, n)
+            # where the run starts it: in dynamics without a load ramp an
+            # obstacle is displaced in full from the start
+            phi = ob.signed_distance(X0.reshape(dim, -1), self.start[i])[
+                0].reshape(-1, n)
             near = phi <= self.tol[i]
             touching.append(near.any())
+            # a corner within the tolerance of the obstacle at the start is
+            # in contact: its gap there (a floor placed with round-off, or
+            # a tolerance's width below the body) is closed for the run
+            self.closed.append(np.where(near, np.clip(phi, 0., None), 0.))
             if ob.friction == "tied":
                 if not near.any():
                     raise InvalidInputError(
@@ -229,7 +255,10 @@ class StepContact(GridTerm):
         x = points.x if term.moves else points.x + points.displacement
         F = term.deformation(points)
         r = np.einsum("abp,bcp->acp", F, term.R)          # (dim, nc, n)
-        self.q = term.R if term.total_lagrangian else r
+        # the offset the step's gradient acts on: the initial one with FE
+        # (gradients of the initial configuration) and in small strain
+        # (whose kept gradient adds the increments: F = I + sum(grad du))
+        self.q = term.R if term.total_lagrangian or not term.finite else r
         self.X = x[:, None, :] + r
         self.F = F
         self.shift = [problem.s_new * ob.displacement
@@ -246,7 +275,7 @@ class StepContact(GridTerm):
             phi = ob.signed_distance(self.X.reshape(dim, -1),
                                      self.shift[i])[0].reshape(-1, n)
             near |= (phi < MARGIN_CELLS * term.h).any(axis=0)
-            for names in term.state_names(i, dim):
+            for names in pressure_names(i, dim):
                 for name in names:
                     near |= points.state[name] != 0
             if term.anchor[i] is not None:
@@ -279,9 +308,10 @@ class StepContact(GridTerm):
             shape=(nc * m * dim, self.op.N)).tocsr()
         self.Xs = self.X[:, :, idx].reshape(dim, -1)      # (dim, nc m)
         self.area, self.lam, self.tau, self.anchor = [], [], [], []
+        self.closed = []
         self.face = []
         for i, ob in enumerate(term.obstacles):
-            names = term.state_names(i, dim)
+            names = pressure_names(i, dim)
             self.lam.append(np.concatenate([self.state[nm][idx]
                                             for nm in names[0]]))
             self.tau.append(np.array([np.concatenate(
@@ -290,6 +320,7 @@ class StepContact(GridTerm):
             face = ob.nearest_face(self.Xs, self.shift_old[i])
             _, normal, over = ob.face_gap(self.Xs, face, self.shift_old[i])
             self.face.append((face, over))
+            self.closed.append(term.closed[i][:, idx].ravel())
             self.area.append(self.corner_areas(normal, idx))
             if term.anchor[i] is None:
                 self.anchor.append(None)
@@ -337,10 +368,12 @@ class StepContact(GridTerm):
             kappa, area = term.kappa[i], self.area[i]
             face, over = self.face[i]
             gap, n, _ = ob.face_gap(X, face, self.shift[i])
+            gap = gap - self.closed[i]
             C = np.zeros((dim, dim, X.shape[1]))
             if self.anchor[i] is not None:
                 tied, X0 = self.anchor[i]
-                mismatch = np.where(tied, X - X0 - self.shift[i][:, None], 0.)
+                mismatch = np.where(tied, X - X0 - (
+                    self.shift[i] - term.start[i])[:, None], 0.)
                 T = area * np.where(tied, self.tau[i] - kappa * mismatch, 0.)
                 C[:, :, tied] = kappa * area[tied] * eye
                 ev.append((T, C, np.abs(mismatch).max(initial=0.), None))
@@ -353,9 +386,11 @@ class StepContact(GridTerm):
             if start:       # corners touching (a gap within the tolerance)
                 # stiffen the step's first tangent: a body resting on a
                 # floor is held in the first solve, when no corner presses
+                # (with friction held as sticking too)
                 touching = over & (self.lam[i] - kappa * gap
-                                   >= -kappa * term.tol[i])
-                C[:, :, touching] = (kappa * area * nn)[:, :, touching]
+                                   >= -kappa * term.tol[i]) & ~active
+                hold = nn if ob.friction == 0. else eye
+                C[:, :, touching] = (kappa * area * hold)[:, :, touching]
             tau = np.zeros_like(X)
             if ob.friction != 0.:
                 Pt = eye - nn
@@ -438,7 +473,7 @@ class StepContact(GridTerm):
             Xs = self.Xs + (self.J @ du).reshape(-1, dim).T
             phi = ob.signed_distance(Xs, self.shift[i])[0]
             face, over = self.face[i]
-            gap = ob.face_gap(Xs, face, self.shift[i])[0]
+            gap = ob.face_gap(Xs, face, self.shift[i])[0] - self.closed[i]
             wrong = (phi < -term.tol[i]) & ~(over & (gap < -term.tol[i]))
             if wrong.any():
                 face[wrong] = ob.nearest_face(Xs[:, wrong], self.shift[i])
@@ -473,12 +508,12 @@ class StepContact(GridTerm):
         new.state = dict(new.state)
         if not term.finite:
             H = self.op.gradients(du)
-            for a, row in enumerate(term.gradient_names(dim)):
+            for a, row in enumerate(gradient_names(dim)):
                 for b, name in enumerate(row):
                     new.state[name] = new.state[name] + H[a, b]
         forces = []
         for i, (T, C, violation, normal_part) in enumerate(ev):
-            names = term.state_names(i, dim)
+            names = pressure_names(i, dim)
             if normal_part is None:
                 p = np.zeros(nc * m)
                 tau = np.divide(T, self.area[i], where=self.area[i] > 0,
@@ -518,7 +553,9 @@ class StepContact(GridTerm):
                 held = self.anchor[i][0].reshape(nc, m).any(axis=0)
                 v[:, held], a[:, held] = rate[:, None], 0.
                 continue
-            push = (T * (normal_part[0] > 0)).reshape(dim, nc, m).sum(1)
+            pressed = normal_part[0] > 0                 # the normal part
+            push = ((T - self.area[i] * normal_part[1]) * pressed).reshape(
+                dim, nc, m).sum(1)
             size = np.sqrt((push ** 2).sum(axis=0))
             hit = size > 0
             n = push[:, hit] / size[hit]
@@ -534,9 +571,10 @@ class StepContact(GridTerm):
 
 def contact_term(obstacles, cell_size: float, material, domain0,
                  total_lagrangian: bool, moves: bool, finite: bool,
-                 counters: dict):
+                 counters: dict, initial_scale: float = 0.):
     """The contact term of a run's obstacles."""
     modulus = float(np.max(np.asarray(material.lam, dtype=float)
                            + 2 * np.asarray(material.mu, dtype=float)))
     return ObstacleContact(obstacles, cell_size, modulus, domain0,
-                           total_lagrangian, moves, finite, counters)
+                           total_lagrangian, moves, finite, counters,
+                           initial_scale)

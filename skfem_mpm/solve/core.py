@@ -201,7 +201,8 @@ def obstacle_term(run: Run) -> Optional[GridTerm]:
     return contact_term(run.obstacles, run.cell_size, run.material,
                         run.domain0, total_lagrangian=not run.method.moves,
                         moves=run.method.moves,
-                        finite=run.finite, counters=run.counters)
+                        finite=run.finite, counters=run.counters,
+                        initial_scale=run.scale(0.))
 
 
 def inertia_term(run: Run) -> Optional[GridTerm]:
@@ -692,6 +693,14 @@ def check_combination(method: str, kinematics: str, plastic: bool,
                 "rhs = 'increment' maps only the load increment: prescribed "
                 "displacements and rigid bodies would not enter the solve; "
                 "use rhs = 'residual'")
+    if contact and dynamics is not None and dynamics.scheme.alpha_f > 0:
+        raise InvalidInputError(
+            "contact with obstacles in dynamics needs forces at the step's "
+            "end: the generalised-alpha scheme with rho_inf = {} weighs them "
+            "at n+1-alpha_f (alpha_f = {:.3g}), so a body that has left an "
+            "obstacle is still pushed by it (a block at rest on a floor rose "
+            "17 mm); use Newmark() or GeneralizedAlpha(0.)".format(
+                dynamics.scheme.rho_inf, dynamics.scheme.alpha_f))
     if newton.newton == "modified" and dynamics is not None and \
             dynamics.target_iterations is not None:
         raise InvalidInputError(ADAPTIVE_MODIFIED)

@@ -55,11 +55,14 @@ class Obstacle:
         The contact stiffness per unit area, in units of the material's
         largest P-wave modulus (``lam + 2 mu``) over the cell size
         (default 10): the force that starts each augmented-Lagrangian
-        solve; it changes how many augmentations a step takes, not the
-        answer.
+        solve; it changes how many augmentations a step takes and the
+        answer within what the tolerance allows (a penetration up to the
+        tolerance: a force error of the body's stiffness times it).
     tolerance
         The penetration (and for ``"tied"`` the mismatch) allowed at a
         converged step, as a fraction of the cell size (default 1e-3).
+        Material within it of the obstacle at the start is in contact
+        from the start (its gap is closed).
 
     Examples
     --------
@@ -110,9 +113,10 @@ class Obstacle:
             self.friction = friction
         else:
             self.friction = check_real("Obstacle friction", friction)
-            if self.friction < 0:
-                raise InvalidInputError("Obstacle friction must be >= 0, got "
-                                        "{}".format(self.friction))
+            if not 0 <= self.friction < np.inf:
+                raise InvalidInputError("Obstacle friction must be a finite "
+                                        "number >= 0, got {}".format(
+                                            self.friction))
         if name is not None and (not isinstance(name, str) or not name):
             raise InvalidInputError("Obstacle name must be a non-empty "
                                     "string, got {!r}".format(name))
@@ -194,12 +198,15 @@ class Obstacle:
             off = np.maximum(lo[:, :, None] - x[:, None, :], 0.) \
                 + np.maximum(x[:, None, :] - hi[:, :, None], 0.)
             d2 = normal ** 2 + (np.nan_to_num(off, posinf=0.) ** 2).sum(0)
-        else:
-            rel = x[:, None, :] - a[:, :, None]
+            return np.argmin(d2, axis=0)
+
+        def nearest(y):
+            rel = y[:, None, :] - a[:, :, None]
             t = np.clip((rel * hi[:, :, None]).sum(axis=0)
                         / (hi * hi).sum(axis=0)[:, None], 0., 1.)
-            d2 = ((rel - t * hi[:, :, None]) ** 2).sum(axis=0)
-        return np.argmin(d2, axis=0)
+            return (np.argmin(((rel - t * hi[:, :, None]) ** 2).sum(axis=0),
+                              axis=0),)
+        return _by_blocks(nearest, x, a.shape[1])[0]
 
     def face_gap(self, x: ndarray, face: ndarray, shift: ndarray):
         """The gap (m,) of each position ``x`` (dim, m) from the plane of
@@ -231,7 +238,24 @@ class Obstacle:
         x = x if shift is None else x - shift[:, None]
         if self.box is not None:
             return _box_distance(self.box, x)
-        return _polygon_distance(self.vertices, x)
+        return _by_blocks(lambda y: _polygon_distance(self.vertices, y), x,
+                          self.vertices.shape[1])
+
+
+#: positions x faces per block of a polygon's distance computations
+BLOCK = 1 << 21
+
+
+def _by_blocks(compute, x: ndarray, faces: int) -> tuple:
+    """``compute(x)`` (a tuple of arrays over the positions' last axis) by
+    blocks of positions, so that no block holds more than :data:`BLOCK`
+    position-face pairs (a polygon of 256 vertices and 2e5 corners took
+    3.3 GB at once)."""
+    size = max(1, BLOCK // faces)
+    if x.shape[1] <= size:
+        return compute(x)
+    parts = [compute(x[:, k:k + size]) for k in range(0, x.shape[1], size)]
+    return tuple(np.concatenate(p, axis=-1) for p in zip(*parts))
 
 
 def _checked_polygon(polygon) -> ndarray:
@@ -373,8 +397,10 @@ def _overlap(a: Obstacle, b: Obstacle) -> bool:
     if a.box is not None and b.box is not None:
         return True
     pa, pb = a.outline(), b.outline()
-    inside_b = b.signed_distance(pa.T)[0] < -1e-12
-    inside_a = a.signed_distance(pb.T)[0] < -1e-12
+    # vertices, and the centroids (equal or nested polygons), inside the
+    # other
+    inside_b = b.signed_distance(np.vstack([pa, pa.mean(0)]).T)[0] < -1e-12
+    inside_a = a.signed_distance(np.vstack([pb, pb.mean(0)]).T)[0] < -1e-12
     if inside_a.any() or inside_b.any():
         return True
     ea, eb = np.roll(pa, -1, axis=0), np.roll(pb, -1, axis=0)
