@@ -106,6 +106,13 @@ class GridTerm:
     #: every other term of a run
     weighs = False
 
+    def held_dofs(self, op, points, scale: float) -> Optional[ndarray]:
+        """Grid DOFs the term holds as a support would, for the check of
+        missing supports before a step (``op`` the step's method operator,
+        ``points`` the state at its start, ``scale`` the loads' scale
+        there), or ``None``."""
+        return None
+
     def begin_run(self, points) -> None:
         """Called once when a run starts, with its initial points: a term
         that keeps state over the steps (a history, a total displacement)

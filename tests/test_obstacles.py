@@ -87,6 +87,28 @@ def test_a_block_barely_above_the_floor_is_held_from_the_first_solve(gap):
         < 1e-8 * weight
 
 
+def test_a_smooth_floor_alone_leaves_the_sideways_motion_free():
+    """A block on a smooth floor with nothing else: the floor holds only
+    the vertical motion, so the check for missing supports names the free
+    translation along x before any solve (the points were thrown 573 m)."""
+    from skfem_mpm import SingularSystemError
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9),
+                                np.linspace(-.25, 1.9, 10))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .5) & (x[0] < 1.5)
+                      & (x[1] > .1) & (x[1] < 1.))
+    top = (pts.x - pts.domain)[1].min()
+    with pytest.raises(SingularSystemError, match="translation along x"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3), [],
+                 body_force=[0., -20.], nsteps=2,
+                 obstacles=[Obstacle(box=[[-1., 3.], [-1., top]])])
+    # with friction the floor holds it
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3), [],
+                   body_force=[0., -20.], nsteps=2, obstacles=[Obstacle(
+                       box=[[-1., 3.], [-1., top]], friction=.5)])
+    assert res.history[-1].obstacle_forces[0] == pytest.approx(
+        [0., -20. * pts.volume.sum()], abs=1e-8 * 20. * pts.volume.sum())
+
+
 def test_a_pressed_block_is_linear_in_the_push_and_equals_the_reaction():
     """A smooth obstacle pushed into an elastic block (FE, small strain,
     nu = 0): uniaxial strain, force = E eps A to the penalty's share, the

@@ -172,7 +172,6 @@ class ObstacleContact(GridTerm):
         self.total_lagrangian, self.moves = total_lagrangian, moves
         self.finite = finite
         self.start = [initial_scale * ob.displacement for ob in obstacles]
-        self.touching = False
         counters.setdefault("contact_updates", 0)
 
     def deformation(self, points) -> ndarray:
@@ -186,12 +185,32 @@ class ObstacleContact(GridTerm):
             [[points.state[name] for name in row]
              for row in gradient_names(dim)])
 
-    @property
-    def holds_free_body(self) -> bool:
-        """Material touches an obstacle: it may hold the body (a block on
-        a floor), so the check for missing supports is left to the
-        solve."""
-        return self.touching
+    def held_dofs(self, op, points, scale: float):
+        """The grid DOFs the obstacles hold at a step's start, for the
+        check of missing supports: those of the points with a corner
+        pressed on an obstacle (or within its tolerance at the run's
+        start), along the face's axis where the face is axis-aligned and
+        smooth, in every component with friction or an oblique face."""
+        dim, n = points.x.shape
+        x = points.x if self.moves else points.x + points.displacement
+        X = x[:, None, :] + np.einsum("abp,bcp->acp",
+                                      self.deformation(points), self.R)
+        held = np.zeros((dim, n), dtype=bool)
+        for i, ob in enumerate(self.obstacles):
+            pressed = self.near[i] | np.array(
+                [points.state[name] > 0 for name in pressure_names(i, dim)[0]])
+            c, p = np.nonzero(pressed)
+            if ob.friction != 0.:
+                held[:, p] = True
+                continue
+            shift = scale * ob.displacement
+            Xc = X[:, c, p]
+            normal = ob.face_gap(Xc, ob.nearest_face(Xc, shift), shift)[1]
+            aligned = np.abs(normal) > 1 - 1e-9
+            held[:, p] |= aligned | ~aligned.any(axis=0)
+        dofs = [dim * np.unique(point_rows(op, np.flatnonzero(held[a]))[0]
+                                .indices) + a for a in range(dim)]
+        return np.concatenate(dofs)
 
     def begin_run(self, points) -> None:
         dim, n = points.x.shape
@@ -204,7 +223,7 @@ class ObstacleContact(GridTerm):
             for row in gradient_names(dim):
                 for name in row:
                     points.state.setdefault(name, np.zeros(n))
-        self.anchor, touching, self.closed = [], [], []
+        self.anchor, self.near, self.closed = [], [], []
         for i, ob in enumerate(self.obstacles):
             for names in pressure_names(i, dim):
                 for name in names:
@@ -214,7 +233,7 @@ class ObstacleContact(GridTerm):
             phi = ob.signed_distance(X0.reshape(dim, -1), self.start[i])[
                 0].reshape(-1, n)
             near = phi <= self.tol[i]
-            touching.append(near.any())
+            self.near.append(near)
             # a corner within the tolerance of the obstacle at the start is
             # in contact: its gap there (a floor placed with round-off, or
             # a tolerance's width below the body) is closed for the run
@@ -237,7 +256,6 @@ class ObstacleContact(GridTerm):
                         "(tolerance {:.3g}); move the obstacle or the "
                         "points".format(ob.name, p, X0[:, c, p].tolist(),
                                         float(-phi[c, p]), self.tol[i]))
-        self.touching = any(touching)
 
     def begin_step(self, problem):
         return StepContact(self, problem)
@@ -529,7 +547,6 @@ class StepContact(GridTerm):
                     new.state[name] = column
             forces.append(-T.sum(axis=1))
         record.obstacle_forces = np.array(forces)
-        term.touching = any((e[3] is None) or (e[3][0] > 0).any() for e in ev)
         self.committed = ev
 
     def finish(self, problem, new, record) -> None:

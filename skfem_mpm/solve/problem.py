@@ -113,7 +113,12 @@ class StepProblem:
         self.s_old, self.s_new = run.scale(f_old), run.scale(f_new)
         held = held_motion(run, op, points, self.s_old, self.s_new, step)
         self.fixed, self.du0, self.driven, self.rigid_dofs = held
-        check_held(run, op, self.fixed, step)
+        held_by_terms = [h for h in (
+            term.held_dofs(self.method_op, points, self.s_old)
+            for term in run.terms) if h is not None]
+        check_held(run, op, np.union1d(self.fixed, np.concatenate(
+            held_by_terms)).astype(self.fixed.dtype) if held_by_terms
+            else self.fixed, step)
         self.free = free_dofs(op.active_dofs, self.fixed)
         self.f_dead = run.loads.external(op, points, self.s_new)
         self.load_weight = 1.
