@@ -67,18 +67,22 @@ def series_styles(n: int) -> list:
 def colour_scale(*fields) -> dict:
     """``dict(cmap=, vmin=, vmax=)`` shared by ``fields``: a diverging map
     centred on zero when their values take both signs, else a sequential
-    one over their range.
+    one over their range; a range within round-off of the values (a
+    uniform field) is widened, so that noise is not drawn as a gradient.
 
     >>> from skfem_mpm.scenes.plot import colour_scale
     >>> colour_scale([-1., 3.]), colour_scale([1., 3.])["cmap"]
     ({'cmap': 'RdBu_r', 'vmin': -3.0, 'vmax': 3.0}, 'viridis')
+    >>> scale = colour_scale([1.475e-3, 1.475e-3 + 1e-17])
+    >>> scale["vmin"], round(scale["vmax"], 6)
+    (0.0, 0.00295)
     """
     values = np.concatenate([np.ravel(f) for f in fields])
     lo, hi = float(values.min()), float(values.max())
     if lo < 0 < hi:
         top = max(-lo, hi)
         return dict(cmap=SIGNED_MAP, vmin=-top, vmax=top)
-    if lo == hi:
+    if hi - lo <= 1e-9 * max(abs(lo), abs(hi)):
         lo, hi = lo - (abs(lo) or 1.), hi + (abs(hi) or 1.)
     return dict(cmap=UNSIGNED_MAP, vmin=lo, vmax=hi)
 
