@@ -14,7 +14,11 @@ follow the deformation (``domains``).
 - ``"ugimp"``, ``"cpgimp"``: GIMP, weights averaged over the points'
   domains (:mod:`skfem_mpm.methods.gimp`); cpGIMP stretches the domains
   with the deformation, uGIMP keeps them.  GIMP needs an axis-aligned
-  tensor-product grid and point domains: refused at set-up otherwise.
+  tensor-product grid and point domains: refused at set-up otherwise;
+- ``"bspline"``: quadratic B-splines with the grid's nodes as control
+  points (:mod:`skfem_mpm.methods.bspline`), C1 across grid lines (no
+  cell-crossing error); points move as in standard MPM.  Needs a uniformly
+  spaced axis-aligned tensor-product grid of linear elements.
 
 """
 import time
@@ -24,13 +28,14 @@ from numpy import ndarray
 
 from ..errors import PointsOutsideGridError, check_choice
 from ..quadrature.basis import MaterialPointBasis
+from .bspline import QuadraticBSpline
 from .gimp import gimp_operators, stretched_domains
 from .operators import PointOperator
 
 __all__ = ["METHODS", "make_method"]
 
 #: the method names (``method=``, scene key ``solver.method``)
-METHODS = ("fem", "mpm", "ugimp", "cpgimp")
+METHODS = ("fem", "mpm", "ugimp", "cpgimp", "bspline")
 
 
 class PointMethod:
@@ -107,9 +112,34 @@ class GimpMethod(PointMethod):
         return None
 
 
+class BSplineMethod(PointMethod):
+    """Quadratic B-spline MPM: points move as in standard MPM, the
+    operator is rebuilt every step from the splines at their positions;
+    ``point_elements`` is the cell holding each point."""
+
+    def __init__(self, name, mesh, scalar, scalar_dofs, pattern, locate,
+                 counters):
+        super().__init__(name, mesh, scalar, scalar_dofs, pattern, locate,
+                         counters)
+        self.spline = QuadraticBSpline(mesh, scalar)
+
+    def operator(self, points, step: int, timings: dict):
+        location = self.locate(points.x, step, timings, points)
+        tic = time.perf_counter()
+        op = self.spline(points.x)
+        op.point_elements = location[0]
+        timings["assemble"] += time.perf_counter() - tic
+        return op
+
+
+#: the piece of each method that is not :class:`PointMethod`
+KINDS = {"ugimp": GimpMethod, "cpgimp": GimpMethod,
+         "bspline": BSplineMethod}
+
+
 def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
                 counters: dict):
     """The method piece called ``name`` (one of :data:`METHODS`)."""
     check_choice("method", name, METHODS)
-    kind = GimpMethod if name in ("ugimp", "cpgimp") else PointMethod
+    kind = KINDS.get(name, PointMethod)
     return kind(name, mesh, scalar, scalar_dofs, pattern, locate, counters)

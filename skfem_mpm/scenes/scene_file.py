@@ -101,7 +101,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     # bodies then need density = .. and may have initial_velocity = [..];
     # [solver] steps is not used)
     [solver]
-    method = "mpm"                  # fem mpm ugimp cpgimp
+    method = "mpm"                  # fem mpm ugimp cpgimp bspline
     kinematics = "small"            # small finite
     steps = 20
     tolerance = 1e-9

@@ -1,0 +1,184 @@
+"""Quadratic B-spline MPM on axis-aligned tensor-product grids.
+
+The grid's nodes are the control points.  Along an axis of uniform
+spacing ``h`` the function of node ``i`` is the uniform quadratic
+B-spline centred on it (Steffen, Kirby and Berzins 2008), with
+``xi = (x - x_i) / h``,
+
+    N(xi) = 3/4 - xi^2              for |xi| <= 1/2,
+    N(xi) = (3/2 - |xi|)^2 / 2      for 1/2 <= |xi| <= 3/2,
+
+C1 across the grid lines (its knots are the cells' midpoints), so a point
+crossing a grid line sees no jump in the gradient: no cell-crossing
+error.  In 2D and 3D the functions are tensor products, 3^dim per point.
+
+At the grid's edges the splines centred on the ghost nodes ``x_-1`` and
+``x_n+1`` outside the grid are folded into their neighbours by linear
+extrapolation of a ghost control value, ``u_-1 = 2 u_0 - u_1``:
+
+    N_0' = N_0 + 2 N_-1,    N_1' = N_1 - N_-1      (and at x_n alike).
+
+On ``[x_0, x_0 + h/2]`` this gives the hat functions ``N_0' = 1 - t``,
+``N_1' = t`` (``t = (x - x_0) / h``), C1 at ``x_0 + h/2``, non-negative:
+the basis keeps the partition of unity and linear completeness on
+``[x_0, x_n]`` and interpolates at the edges (``N_0'(x_0) = 1``, every
+other function 0 there), so supports on the grid's boundary lines hold
+exactly what they hold in standard MPM.  An axis of one cell gets the
+linear hats.  Bing et al. (2019) modify the splines at the boundary for
+the same purpose; this construction is not claimed to be theirs
+(``docs/references.md``).
+
+Uniform spacing per axis is required (axes may differ): a graded axis is
+refused.  The grid element must be linear (``ElementLineP1``,
+``ElementQuad1``, ``ElementHex1``): its nodes are the control points and
+its DOF numbering the operator's.
+
+"""
+import numpy as np
+from numpy import ndarray
+from scipy.sparse import csr_matrix
+from skfem.element import Element
+from skfem.mesh import Mesh
+
+from ..errors import UnsupportedElementError
+from ..quadrature.locate import tensor_grid
+from .gimp_linear import LINEAR_ELEMENTS, LinearGimp
+from .operators import SparseOperator
+
+__all__ = ["QuadraticBSpline", "spline_1d", "UNIFORM"]
+
+#: relative tolerance on the spacing of a uniform axis
+UNIFORM = 1e-9
+
+
+def _spline(xi: ndarray):
+    """The uniform quadratic B-spline and its derivative at ``xi``."""
+    r = np.abs(xi)
+    inner = r <= .5
+    outer = (r > .5) & (r < 1.5)
+    value = np.where(inner, .75 - r * r, np.where(outer, (1.5 - r) ** 2 / 2,
+                                                  0.))
+    slope = np.where(inner, -2 * xi,
+                     np.where(outer, -(1.5 - r) * np.sign(xi), 0.))
+    return value, slope
+
+
+def spline_1d(t: ndarray, node: ndarray, n: int):
+    """Boundary-modified functions of nodes ``node`` of an axis of ``n``
+    cells at ``t = (x - x_0) / h`` in ``[0, n]``: values and derivatives
+    with respect to ``t``, both of the shape of ``node``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> v, d = spline_1d(np.array([0., 0.25, 1.]), np.array([[0], [1], [2]]), 4)
+    >>> v.round(6).tolist()
+    [[1.0, 0.75, 0.125], [0.0, 0.25, 0.75], [0.0, 0.0, 0.125]]
+
+    """
+    value, slope = _spline(t - node)
+    low_v, low_s = _spline(t + 1.)                 # ghost node -1
+    high_v, high_s = _spline(t - (n + 1.))         # ghost node n + 1
+    low = 2. * (node == 0) - (node == 1)
+    high = 2. * (node == n) - (node == n - 1)
+    return (value + low * low_v + high * high_v,
+            slope + low * low_s + high * high_s)
+
+
+class QuadraticBSpline:
+    """Quadratic B-spline operators of points on one grid.
+
+    Parameters
+    ----------
+    mesh
+        An axis-aligned tensor-product grid (``MeshLine``, or
+        ``MeshQuad``/``MeshHex`` from ``init_tensor``), uniformly spaced
+        along each axis.
+    elem
+        ``ElementLineP1``, ``ElementQuad1`` or ``ElementHex1`` (scalar).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem import MeshLine, ElementLineP1
+    >>> spline = QuadraticBSpline(MeshLine(np.linspace(0., 4., 5)),
+    ...                           ElementLineP1())
+    >>> op = spline(np.array([[2.25]]))
+    >>> op.S.toarray().round(6).tolist()
+    [[0.0, 0.03125, 0.6875, 0.28125, 0.0]]
+
+    """
+
+    def __init__(self, mesh: Mesh, elem: Element):
+        grid = tensor_grid(mesh)
+        if grid is None:
+            raise UnsupportedElementError(
+                "method 'bspline' needs an axis-aligned tensor-product grid "
+                "(MeshLine, or MeshQuad/MeshHex from init_tensor), got a "
+                "general {}".format(type(mesh).__name__))
+        if not isinstance(elem, LINEAR_ELEMENTS):
+            raise UnsupportedElementError(
+                "method 'bspline' takes the grid's nodes as the splines' "
+                "control points and needs a linear element (ElementLineP1, "
+                "ElementQuad1, ElementHex1), got {}".format(
+                    type(elem).__name__))
+        # the grid's axes, cells and node numbering: GIMP's closed form
+        # reads the same grid (its elements below too)
+        self.grid = LinearGimp(mesh, elem)
+        self.axes, self.shape = grid[0], grid[1]
+        for d, a in enumerate(self.axes):
+            h = np.diff(a)
+            if not np.allclose(h, h[0], rtol=UNIFORM, atol=0.):
+                raise UnsupportedElementError(
+                    "method 'bspline' needs uniform spacing along each axis; "
+                    "axis {} has spacings from {:.6g} to {:.6g}".format(
+                        d, h.min(), h.max()))
+        self.dim = len(self.axes)
+        self.h = np.array([(a[-1] - a[0]) / (len(a) - 1) for a in self.axes])
+        self.nodes, self.node_dof = self.grid.nodes, self.grid.node_dof
+        self.N = self.grid.N
+
+    def _axis(self, d: int, x: ndarray):
+        """Stencil nodes (m, n), values, derivatives along axis d (per unit
+        length) and the first and last node of every point's support."""
+        n = self.shape[d]
+        m = min(3, n + 1)
+        t = np.clip((x - self.axes[d][0]) / self.h[d], 0., n)
+        nearest = np.floor(t + .5).astype(np.int64)
+        node = np.clip(nearest - 1, 0, n + 1 - m)[None] \
+            + np.arange(m)[:, None]
+        value, slope = spline_1d(t, node, n)
+        slope = slope / self.h[d]
+        reach = (value != 0.) | (slope != 0.)
+        first = node[np.argmax(reach, axis=0), np.arange(len(t))]
+        last = node[m - 1 - np.argmax(reach[::-1], axis=0), np.arange(len(t))]
+        return node, value, slope, reach, first, last
+
+    def __call__(self, x: ndarray) -> SparseOperator:
+        """The operator of points x (dim, n); its ``elements`` are the
+        cells spanned by the points' supports (the cells whose corners all
+        carry a point's weight)."""
+        n = x.shape[1]
+        node = np.zeros((1, n), dtype=np.int64)
+        S = np.ones((1, n))
+        G = [np.ones((1, n)) for _ in range(self.dim)]
+        keep = np.ones((1, n), dtype=bool)
+        spans = []
+        for d in range(self.dim):
+            nd, value, slope, reach, first, last = self._axis(d, x[d])
+            node = (node[:, None] * self.nodes[d] + nd[None]).reshape(-1, n)
+            keep = (keep[:, None] & reach[None]).reshape(-1, n)
+            S = (S[:, None] * value[None]).reshape(-1, n)
+            for e in range(self.dim):
+                factor = slope if e == d else value
+                G[e] = (G[e][:, None] * factor[None]).reshape(-1, n)
+            spans.append((first, np.maximum(last - 1, first)))
+        indptr = np.concatenate(([0], np.cumsum(keep.sum(axis=0))))
+        cols = self.node_dof[node.T[keep.T]]
+
+        def matrix(values):
+            return csr_matrix((values.T[keep.T], cols, indptr),
+                              shape=(n, self.N))
+
+        return SparseOperator(matrix(S), [matrix(g) for g in G],
+                              self.grid._elements(spans))
