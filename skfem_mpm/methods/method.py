@@ -131,6 +131,12 @@ class BSplineMethod(PointMethod):
         timings["assemble"] += time.perf_counter() - tic
         return op
 
+    def weights_at(self, x: ndarray):
+        """The splines' operator at positions ``x`` (dim, m): where surface
+        loads act (their faces' centres), so a traction loads the nodes
+        the method's displacement field is made of."""
+        return self.spline(x)
+
 
 #: the piece of each method that is not :class:`PointMethod`
 KINDS = {"ugimp": GimpMethod, "cpgimp": GimpMethod,

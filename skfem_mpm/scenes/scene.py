@@ -215,7 +215,8 @@ class Scene:
         Loads at full load factor, ramped over the steps.
     method
         ``"fem"`` (points fixed: finite elements with the points as
-        quadrature), ``"mpm"``, ``"ugimp"`` or ``"cpgimp"``.
+        quadrature), ``"mpm"``, ``"ugimp"``, ``"cpgimp"`` or
+        ``"bspline"`` (quadratic B-splines).
     kinematics
         ``"small"`` (the seed's incremental small-strain scheme: one linear
         solve per step for elastic bodies, Newton for plastic ones) or

@@ -500,7 +500,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         step (:class:`~skfem_mpm.NewtonOptions`).
     method
         ``"fem"`` (points fixed: finite elements with the points as
-        quadrature), ``"mpm"``, ``"ugimp"`` or ``"cpgimp"``.
+        quadrature), ``"mpm"``, ``"ugimp"``, ``"cpgimp"`` or
+        ``"bspline"`` (quadratic B-spline MPM, uniform tensor grids of
+        linear elements, :mod:`skfem_mpm.methods.bspline`).
     kinematics
         ``"small"`` (incremental small strain) or ``"finite"`` (updated
         Lagrangian Hencky; total Lagrangian with ``"fem"``).
@@ -784,14 +786,15 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         points.state.setdefault(name, value)
     resume = options.resume or Resume()
     domain0 = points.domain if resume.domain0 is None else resume.domain0
-    external = ExternalLoads(mesh, scalar, grid, case.gravity, case.forces,
-                             domain0, counters, points.n,
-                             follow=kinematics == "finite",
-                             moves=method != "fem", ramp_gravity=case.ramp)
     locate = point_locator(mesh) if options.locator is None \
         else options.locator
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
                         counters)
+    external = ExternalLoads(mesh, scalar, grid, case.gravity, case.forces,
+                             domain0, counters, points.n,
+                             follow=kinematics == "finite",
+                             moves=method != "fem", ramp_gravity=case.ramp,
+                             weights=getattr(piece, "weights_at", None))
     if method in ("fem", "mpm"):
         pattern.structure()              # set-up, shared by every step
     newton, stabilisation = options.newton, options.stabilisation

@@ -54,8 +54,9 @@ def solve_finite(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     nsteps
         Load steps (loads ramped linearly); a step may be cut back.
     method
-        ``"mpm"``, ``"ugimp"`` or ``"cpgimp"`` (GIMP needs a tensor grid
-        and point domains, set by :func:`~skfem_mpm.seed_points`), or
+        ``"mpm"``, ``"ugimp"``, ``"cpgimp"`` (GIMP needs a tensor grid
+        and point domains, set by :func:`~skfem_mpm.seed_points`),
+        ``"bspline"`` (a uniform tensor grid), or
         ``"fem"`` (total Lagrangian finite elements with the points as
         quadrature).
     **aliases

@@ -151,13 +151,19 @@ class ExternalLoads:
         Per body (or one for all): the body force grows with the load
         factor (default), or (``False``) acts in full from the first step
         (a geostatic initial stress balances it).
+    weights
+        ``weights(x) -> operator``: the method's own weights of grid nodes
+        at positions ``x`` (dim, m), for the faces of surface loads, where
+        the method's displacement field is not the grid element's (B-spline
+        MPM); ``None``: the grid element's shape functions.
 
     """
 
     def __init__(self, mesh, elem, grid, gravity, loads, domain0, counters,
                  n_points: int, follow: bool = False, moves: bool = True,
-                 ramp_gravity=True):
+                 ramp_gravity=True, weights=None):
         self.mesh, self.elem, self.dim = mesh, elem, mesh.dim()
+        self.weights = weights
         self.ramp_gravity = np.atleast_1d(np.asarray(ramp_gravity, bool))
         self.gravity, self.counters, self.domain0 = gravity, counters, domain0
         self.surface, self.grid_vector, self.cell_local = [], None, None
@@ -320,7 +326,8 @@ class ExternalLoads:
 
     def _face_operator(self, op, points, idx, axis, sign, value, pressure):
         """The faces of points ``idx`` as a point operator at the faces'
-        centres in the cells holding the points, with the faces' initial
+        centres (the method's weights there, or the grid element's in the
+        cells holding the points), with the faces' initial
         areas as ``area``: at the start of the step ``x + F d0 N`` when the
         points move, in the reference configuration ``X + d0 N`` when they
         do not (finite elements, total Lagrangian)."""
@@ -332,6 +339,10 @@ class ExternalLoads:
             offset = np.zeros((self.dim, idx.size))
             offset[axis] = d0
         centre = points.x[:, idx] + sign * offset
+        if self.weights is not None:     # the method's field, not the grid's
+            face = self.weights(centre)
+            face.area = area
+            return face
         cells = op.point_elements[idx]
         face = PointOperator(MaterialPointBasis(
             self.mesh, self.elem, MaterialPoints(x=centre, volume=area),
