@@ -10,7 +10,7 @@ from skfem_mpm import (BodyForce, Dynamics, GeneralizedAlpha,
                        seed_points, simulate)
 from skfem_mpm.solve.contact import corner_signs
 
-METHODS = ("fem", "mpm", "ugimp", "cpgimp")
+METHODS = ("fem", "mpm", "ugimp", "cpgimp", "bspline")
 
 
 def corners(points, domain0, method="mpm", dim=2):
