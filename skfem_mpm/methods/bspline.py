@@ -3,7 +3,7 @@
 The grid's nodes are the control points.  Along an axis of uniform
 spacing ``h`` the function of node ``i`` is the uniform quadratic
 B-spline centred on it (Steffen, Kirby and Berzins 2008), with
-``xi = (x - x_i) / h``,
+``xi = (x - x_i) / h``::
 
     N(xi) = 3/4 - xi^2              for |xi| <= 1/2,
     N(xi) = (3/2 - |xi|)^2 / 2      for 1/2 <= |xi| <= 3/2,
@@ -14,7 +14,7 @@ error.  In 2D and 3D the functions are tensor products, 3^dim per point.
 
 At the grid's edges the splines centred on the ghost nodes ``x_-1`` and
 ``x_n+1`` outside the grid are folded into their neighbours by linear
-extrapolation of a ghost control value, ``u_-1 = 2 u_0 - u_1``:
+extrapolation of a ghost control value, ``u_-1 = 2 u_0 - u_1``::
 
     N_0' = N_0 + 2 N_-1,    N_1' = N_1 - N_-1      (and at x_n alike).
 
