@@ -113,6 +113,7 @@ def test_cantilever_newton_is_quadratic(cantilever):
                       for r in cantilever.result.history]) <= 4
 
 
+@pytest.mark.slow
 def test_cantilever_gap_at_small_loads_shrinks_with_h(cantilever):
     from skfem_mpm.studies.elastica import elastica_tip
     _, alpha, v, u = cantilever.cantilever(h=.25)

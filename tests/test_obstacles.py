@@ -167,6 +167,7 @@ def test_a_dropped_block_falls_freely_and_lands_on_the_floor(scheme):
     assert max(heights) <= .6 + 1e-9
 
 
+@pytest.mark.slow
 def test_a_block_sticks_or_slides_by_coulomb():
     """A block on a Coulomb floor under gravity tilted by theta (the
     inclined plane turned level): it sticks where tan(theta) < mu and
@@ -355,6 +356,7 @@ kinematics = "finite"
 """
 
 
+@pytest.mark.slow
 def test_a_scene_with_an_obstacle(tmp_path):
     """``[[obstacles]]`` in a scene file: the floor's force per step in
     summary.json (its peak the landing's), its picture, and the
