@@ -245,10 +245,12 @@ def test_auto_logs_the_back_end_it_chooses(caplog):
 def test_auto_takes_each_back_end_from_its_size(monkeypatch, dim):
     """With the test extra installed: SuperLU below AUTO_PARDISO_FROM free
     DOFs, Pardiso from there, AMG-CG from AUTO_AMG_FROM (sizes lowered
-    here to the test's systems); every answer equal to SuperLU's."""
+    here to the test's systems, and no system counted as banded); every
+    answer equal to SuperLU's."""
     from scipy.sparse import diags
     from skfem_mpm.solve import backends
     monkeypatch.setitem(backends.AUTO_PARDISO_FROM, dim, 20)
+    monkeypatch.setitem(backends.AUTO_SUPERLU_BANDED, dim, (0, 0))
     monkeypatch.setitem(backends.AUTO_AMG_FROM["pypardiso"], dim, 60)
     solver = backends.solver_auto(dim)
     for n in (10, 30, 80):
@@ -263,7 +265,8 @@ def test_auto_takes_each_back_end_from_its_size(monkeypatch, dim):
 
 def test_auto_solves_directly_what_amg_does_not_converge_on(monkeypatch):
     """A tangent far from positive definite (CG diverges): the system goes
-    to the direct back end, which solves it."""
+    to the direct back end, which solves it (``test_solver_choice.py``:
+    its log line)."""
     from scipy.sparse import csr_matrix
     from skfem_mpm.solve import backends
     monkeypatch.setitem(backends.AUTO_AMG_FROM["pypardiso"], 2, 2)
@@ -358,7 +361,8 @@ def test_amg_judges_its_solutions_by_their_true_residual():
     (left preconditioned) reports convergence where |b - A x| is still
     |b|.  The back end measures the true residual, iterates on, and says
     that pyamg did not converge (where the backward-error check had
-    blamed missing supports)."""
+    blamed missing supports).  (By default such a system is then solved
+    directly: ``test_solver_choice.py``.)"""
     from skfem_mpm import MohrCoulomb, SingularSystemError, simulate
     mesh = MeshHex.init_tensor(np.linspace(-.25, 1.25, 9),
                                np.linspace(-.25, 1.25, 9),
@@ -373,7 +377,7 @@ def test_amg_judges_its_solutions_by_their_true_residual():
             body_force=[3e4, 0., -6e4], kinematics="finite", nsteps=3,
             solver=solver, keep_snapshots=False)
     with pytest.raises(SingularSystemError, match="pyamg did not converge"):
-        run("pyamg")
+        run(solver_pyamg(fallback=False))
 
 
 def test_a_system_without_free_dofs_is_refused():

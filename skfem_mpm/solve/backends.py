@@ -14,12 +14,15 @@ Newton, :func:`factorised`):
   to the checked SuperLU, which refuses it or solves it exactly;
 - :func:`solver_pyamg`: smoothed-aggregation algebraic multigrid with the
   rigid-body modes as near-null space, conjugate gradients (optional), for
-  systems a direct factorisation does not fit;
+  systems a direct factorisation does not fit; a system on which it
+  stalls above its tolerance is solved directly, with a log line;
 - ``"auto"`` (the default, :func:`solver_auto`): per system, the back end
-  measured fastest for its size among those installed.
+  measured fastest for its size and structure among those installed
+  (:func:`solver_direct_auto`: SuperLU for a banded system, a thin column).
 
 The sizes from which each back end is the fastest, and what the choice
-costs, are measured in ``benchmarks/README.md`` (``benchmarks/solvers.py``).
+costs, are measured in ``benchmarks/README.md`` (``benchmarks/solvers.py``,
+``benchmarks/solver_structure.py``).
 
 """
 import importlib.util
@@ -38,13 +41,20 @@ from ..errors import InvalidInputError, SingularSystemError, check_choice
 logger = logging.getLogger(__name__)
 
 __all__ = ["solver_direct_checked", "solver_pypardiso", "solver_pyamg",
-           "solver_auto", "get_solver", "available_solvers", "factorised",
-           "AUTO_PARDISO_FROM", "AUTO_AMG_FROM"]
+           "solver_auto", "solver_direct_auto", "get_solver",
+           "available_solvers", "factorised", "rcm_bandwidth",
+           "AUTO_PARDISO_FROM", "AUTO_SUPERLU_BANDED", "AUTO_AMG_FROM"]
 
 #: free DOFs from which ``"auto"`` takes Pardiso rather than SuperLU, per
 #: dimension of the grid (where they cost the same, measured; in 1D the
 #: tridiagonal systems factorise without fill: SuperLU at any size)
 AUTO_PARDISO_FROM = {1: float("inf"), 2: 2000, 3: 1000}
+#: ``(bandwidth, free DOFs)``: below these free DOFs, a system whose
+#: bandwidth after a reverse Cuthill-McKee ordering is at most this many
+#: DOFs stays with SuperLU beyond :data:`AUTO_PARDISO_FROM`, per dimension
+#: of the grid (a 2D column one to three cells wide, a 3D column one cell
+#: across on rollers; measured in ``benchmarks/README.md``)
+AUTO_SUPERLU_BANDED = {2: (12, 30_000), 3: (8, 3000)}
 #: free DOFs from which ``"auto"`` takes AMG-CG rather than a direct
 #: factorisation: in 3D without Pardiso (SuperLU's fill), and beyond
 #: direct factorisations' memory
@@ -188,15 +198,36 @@ def upper_triangle(A) -> csr_matrix:
 
 
 MIRRORS = {}          # the last pattern's mirror positions (one entry)
+BANDS = {}            # the last pattern's bandwidth (one entry)
+
+
+def kept_for_pattern(store: dict, A, compute: Callable):
+    """``compute(A)`` for the CSR matrix ``A``, a function of its pattern
+    only, kept in ``store`` for the last pattern while the memory of its
+    index arrays lives (the condensed tangents of a load step share it);
+    index arrays changed in place would not be noticed."""
+    key = (memory_of(A.indices), memory_of(A.indptr))
+    cached = store.get("last")
+    if cached is not None and all(
+            ref() is owner and where == place
+            for (ref, where), (owner, place) in zip(cached[0], key)):
+        return cached[1]
+    value = compute(A)
+
+    def forget(ref):
+        entry = store.get("last")
+        if entry is not None and any(ref is r for r, _ in entry[0]):
+            store.clear()
+    store["last"] = (tuple((weakref.ref(owner, forget), place)
+                           for owner, place in key), value)
+    return value
 
 
 def mirror_positions(A):
     """For a canonical CSR matrix ``A`` with a symmetric pattern, the index
     in ``A.data`` of the entry at the mirrored place, ``(j, i)`` for
     ``(i, j)``; None where the pattern is not symmetric.  Kept for the last
-    pattern while the memory of its index arrays lives (the condensed
-    tangents of a load step share it), as 4 bytes an entry; index arrays
-    changed in place would not be noticed.
+    pattern (:func:`kept_for_pattern`), as 4 bytes an entry.
 
     Examples
     --------
@@ -207,27 +238,44 @@ def mirror_positions(A):
     >>> mirror_positions(A).tolist()
     [0, 2, 1, 3]
     """
-    key = (memory_of(A.indices), memory_of(A.indptr))
-    cached = MIRRORS.get("last")
-    if cached is not None and all(
-            ref() is owner and where == place
-            for (ref, where), (owner, place) in zip(cached[0], key)):
-        return cached[1]
-    numbers = csr_matrix((np.arange(A.nnz, dtype=A.indices.dtype),
-                          A.indices, A.indptr), shape=A.shape)
-    transposed = numbers.T.tocsr()
-    positions = transposed.data if (
-        np.array_equal(transposed.indptr, A.indptr)
-        and np.array_equal(transposed.indices, A.indices)) else None
-    del numbers, transposed
+    def compute(A):
+        numbers = csr_matrix((np.arange(A.nnz, dtype=A.indices.dtype),
+                              A.indices, A.indptr), shape=A.shape)
+        transposed = numbers.T.tocsr()
+        return transposed.data if (
+            np.array_equal(transposed.indptr, A.indptr)
+            and np.array_equal(transposed.indices, A.indices)) else None
+    return kept_for_pattern(MIRRORS, A, compute)
 
-    def forget(ref):
-        entry = MIRRORS.get("last")
-        if entry is not None and any(ref is r for r, _ in entry[0]):
-            MIRRORS.clear()
-    MIRRORS["last"] = (tuple((weakref.ref(owner, forget), place)
-                             for owner, place in key), positions)
-    return positions
+
+def rcm_bandwidth(A) -> int:
+    """The bandwidth of the square sparse matrix ``A`` after a reverse
+    Cuthill-McKee ordering of its pattern (taken as symmetric): the
+    largest ``|i - j|`` of an entry, in DOFs; for a CSR matrix kept for
+    the last pattern (:func:`kept_for_pattern`).  One breadth-first pass
+    over the pattern: 0.5 ms at 4e3 free DOFs, 29 ms at 1.3e5 (2D).
+
+    Examples
+    --------
+    >>> from scipy.sparse import diags
+    >>> from skfem_mpm.solve.backends import rcm_bandwidth
+    >>> rcm_bandwidth(diags([1., 2., 1.], [-1, 0, 1], shape=(50, 50)))
+    1
+    """
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    def compute(A):
+        n = A.shape[0]
+        if A.nnz == 0:
+            return 0
+        order = reverse_cuthill_mckee(A, symmetric_mode=True)
+        place = np.empty(n, dtype=np.int64)
+        place[order] = np.arange(n)
+        rows = place[np.repeat(np.arange(n), np.diff(A.indptr))]
+        return int(np.abs(rows - place[A.indices]).max())
+    if A.format != "csr":
+        return compute(A.tocsr())
+    return kept_for_pattern(BANDS, A, compute)
 
 
 def memory_of(array: ndarray):
@@ -484,28 +532,49 @@ def amg_iterate(A, ml, accel: str, b: ndarray, reused: bool, tol: float,
     return x, relative, count
 
 
-def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
+def solver_pyamg(tol: float = 1e-10, maxiter: int = 500,
+                 fallback: Union[bool, Callable] = True,
+                 dim: int = 2) -> Callable:
     """Smoothed-aggregation AMG preconditioned CG (pyamg; GMRES for a
     matrix that is not symmetric, as the tangents of non-associated
     plasticity), with the rigid-body modes of the free DOFs as near-null
-    space when the caller provides them (``modes``).  Logs the iterations;
-    raises :class:`~skfem_mpm.errors.SingularSystemError` if it does not
-    converge.  ``solver.factorise(A, modes)`` returns ``solve(b)``, which
-    reuses the hierarchy for any number of right-hand sides.
+    space when the caller provides them (``modes``).  Logs the iterations.
+    ``solver.factorise(A, modes)`` returns ``solve(b)``, which reuses the
+    hierarchy for any number of right-hand sides.
+
+    A system on which the iterations end above ``tol`` (judged by the true
+    relative residual ``|b - A x| / |b|``) or fail is solved directly:
+    conjugate gradients stall where ``tol`` lies below the round-off of an
+    ill-conditioned tangent (4.9e-8 on a 3D column of 3.3e4 points; on a
+    2D column of 1 x 16384 cells the direct solvers' own solutions leave
+    3e-8), diverge on thin columns, and cannot solve a tangent far from
+    positive definite.
+    The direct back end is the one ``"auto"`` takes for the system
+    (:func:`solver_direct_auto`, for a grid of dimension ``dim``), or
+    ``fallback``, a solver with ``factorise`` (``"auto"`` hands its own);
+    it solves the system or refuses it as singular.  One log line names
+    the residual reached and the back end, a warning where the caller
+    asked for pyamg (``fallback=True``), at INFO for ``"auto"``; the
+    further systems of the pattern are solved directly at once, until
+    ``solver.forget()`` (the rest of the load step).  ``solver.fallbacks``
+    counts the systems the iterations failed on.  ``fallback=False`` raises
+    :class:`~skfem_mpm.errors.SingularSystemError` instead.
 
     The hierarchy (the setup, about half of an AMG solve's time) is kept
     while successive matrices share one sparsity pattern and near-null
     space, as the Newton iterations of a load step do (``solver.forget()``
     drops it; the load-step core calls it at every step, so that a run
-    resumed at a step computes what the uninterrupted one does): a later matrix is
-    solved by Krylov iterations on itself, preconditioned by the kept
-    hierarchy (``benchmarks/README.md`` has what that saves); a hierarchy
-    is built
-    for it where they do not converge, and for the next matrix where they
-    took more than twice the iterations of the hierarchy's own first
-    solve.  ``solver.hierarchies`` counts the hierarchies built.
+    resumed at a step computes what the uninterrupted one does): a later
+    matrix is solved by Krylov iterations on itself, preconditioned by the
+    kept hierarchy (``benchmarks/README.md`` has what that saves); a
+    hierarchy is built for it where they do not converge, and for the next
+    matrix where they took more than twice the iterations of the
+    hierarchy's own first solve.  ``solver.hierarchies`` counts the
+    hierarchies built.
     """
     _require("pyamg", "pyamg")
+    own = fallback is True
+    direct = solver_direct_auto(dim, log=False) if own else fallback
 
     kept = {}           # the last hierarchy and the pattern it was built on
 
@@ -524,50 +593,95 @@ def solver_pyamg(tol: float = 1e-10, maxiter: int = 500) -> Callable:
         solver.hierarchies += 1
         return ml
 
+    def iterate(A, chosen, accel, b):
+        """``(x, relative residual, iterations)`` by the Krylov
+        iterations, on a hierarchy for ``A`` where the kept one does not
+        serve."""
+        x, relative, count = amg_iterate(A, chosen["ml"], accel, b,
+                                         chosen["reused"], tol, maxiter)
+        if not relative <= tol and chosen["reused"]:
+            # the earlier hierarchy no longer serves: one for A
+            logger.debug("pyamg: the kept hierarchy did not converge "
+                         "(%.1e); building one for this matrix", relative)
+            chosen.update(ml=hierarchy(A, modes=chosen["modes"]),
+                          reused=False)
+            x, relative, count = amg_iterate(A, chosen["ml"], accel, b,
+                                             False, tol, maxiter)
+        solver.iterations.append(count)
+        logger.info("pyamg: %d iterations, relative residual %.1e",
+                    count, relative)
+        if not chosen["reused"]:
+            kept.setdefault("iterations", count)
+        elif count > 2 * kept.get("iterations", count):
+            kept.clear()        # it has aged: a new one next time
+        return x, relative, count
+
+    def solve_directly(A, reached):
+        """The direct back end's ``solve(b)`` for ``A``, on which the
+        iterations reached ``reached``; logged."""
+        name = direct.choose(A) if hasattr(direct, "choose") \
+            else "the direct solver"
+        solver.fallbacks += 1
+        logger.log(logging.WARNING if own else logging.INFO,
+                   "%s did not converge on %d free DOFs (%s; tolerance "
+                   "%.0e): solved by %s instead, as are the further systems "
+                   "of this pattern in the load step",
+                   "pyamg (asked for by name)" if own else "auto: pyamg",
+                   A.shape[0], reached, tol, name)
+        kept["direct"] = True   # this pattern's next systems: directly
+        return direct.factorise(A)
+
     def factorise(A, modes=None, **kwargs):
         A = A.tocsr()
-        accel = "cg" if is_symmetric(A) else "gmres"
         same = same_pattern(A, kept) and (
             modes is kept["modes"] or np.array_equal(modes, kept["modes"]))
+        if same and kept.get("direct"):
+            logger.debug("pyamg: %d free DOFs solved directly (this pattern "
+                         "did not converge)", A.shape[0])
+            return direct.factorise(A)
+        accel = "cg" if is_symmetric(A) else "gmres"
         ml = kept["ml"] if same else hierarchy(A, modes)
-        chosen = {"ml": ml, "reused": bool(same)}
+        chosen = {"ml": ml, "reused": bool(same), "modes": modes}
 
         def solve(b):
-            x, relative, count = amg_iterate(A, chosen["ml"], accel, b,
-                                             chosen["reused"], tol, maxiter)
-            if not relative <= tol and chosen["reused"]:
-                # the earlier hierarchy no longer serves: one for A
-                logger.debug("pyamg: the kept hierarchy did not converge "
-                             "(%.1e); building one for this matrix",
-                             relative)
-                chosen.update(ml=hierarchy(A, modes), reused=False)
-                x, relative, count = amg_iterate(A, chosen["ml"], accel, b,
-                                                 False, tol, maxiter)
-            solver.iterations.append(count)
-            logger.info("pyamg: %d iterations, relative residual %.1e",
-                        count, relative)
-            if not chosen["reused"]:
-                kept.setdefault("iterations", count)
-            elif count > 2 * kept.get("iterations", count):
-                kept.clear()        # it has aged: a new one next time
-            if not relative <= tol:
+            if "direct" in chosen:
+                return chosen["direct"](b)
+            try:
+                x, relative, count = iterate(A, chosen, accel, b)
+            except SingularSystemError as err:      # pyamg's own failure
+                if not fallback:
+                    raise
+                chosen["direct"] = solve_directly(A, str(err))
+                return chosen["direct"](b)
+            if relative <= tol:
+                return x
+            if not fallback:
                 raise SingularSystemError(
                     "pyamg did not converge: relative residual {:.1e} after "
                     "{} iterations (the tangent may be singular or too far "
                     "from symmetric positive definite for the iterative "
                     "solver; try solver='scipy' or 'pypardiso')".format(
                         relative, count))
-            return x
+            chosen["direct"] = solve_directly(
+                A, "relative residual {:.1e} after {} iterations".format(
+                    relative, count))
+            return chosen["direct"](b)
         return solve
 
     def solver(A, b, modes=None, **kwargs):
         return factorise(A, modes=modes)(b)
 
+    def forget():
+        """The hierarchy, and what the own direct back end keeps, dropped."""
+        kept.clear()
+        if own:
+            direct.forget()
     solver.factorise = factorise
-    solver.forget = kept.clear
+    solver.forget = forget
     solver.wants_modes = True
     solver.iterations = []
     solver.hierarchies = 0
+    solver.fallbacks = 0
     return solver
 
 
@@ -590,16 +704,104 @@ def available_solvers() -> list:
     return names
 
 
+def solver_direct_auto(dim: int = 2, log: bool = True) -> Callable:
+    """The direct back end of ``"auto"`` for each system, for a grid of
+    dimension ``dim``: Pardiso from :data:`AUTO_PARDISO_FROM` free DOFs
+    where pypardiso is installed, but for a banded system: below the size
+    of :data:`AUTO_SUPERLU_BANDED`, one whose bandwidth after a reverse
+    Cuthill-McKee ordering (:func:`rcm_bandwidth`) is at most its
+    bandwidth there; SuperLU otherwise.  ``solver.choose(A)`` names the
+    back end for ``A``; ``solver.chosen`` lists those taken, in order, each
+    logged once (``log``) with the system it was first taken for (and its
+    bandwidth where that decided).
+
+    The decision (measured, ``benchmarks/solver_structure.py``, in
+    ``benchmarks/README.md``): the size alone took Pardiso for a thin
+    column, where SuperLU is faster, because Pardiso's analysis of each
+    new pattern (each load step where points cross cells) costs more
+    than SuperLU's whole factorisation of a narrow band.  The solve phase
+    of 4 finite-deformation steps with SuperLU takes 0.63-0.99 of
+    Pardiso's on 2D columns of bandwidth 3-12 (one to three cells wide)
+    with 2e3-1.6e4 free DOFs, 1.2-1.6 on bandwidths 16-32 (four and eight
+    cells) and 1.5-3.8 on squares (bandwidth above 100); from 3e4 DOFs
+    Pardiso's threads make up for the analysis even at bandwidth 3 (0.86-
+    1.07 per step of three solves).  In 3D only a column one cell across
+    on rollers (bandwidth 7) gains, below 3000 DOFs (0.60-0.82; at 4096
+    DOFs 0.63 and 1.13 in two measurements, 1.15-1.46 from 8192).  The
+    cells across the grid's narrowest axis would say less (a slanted
+    strip, supports on rollers) and are not the solver's to know; the
+    bandwidth of the condensed matrix is.  It costs one breadth-first
+    pass (0.4 ms at 2e3 DOFs, 5.6 ms at 3.3e4: 3% of Pardiso's time for
+    a load step of three solves on a square), computed only in the range
+    where it decides and kept for the pattern (a load step's Newton
+    iterations share one).
+
+    >>> from scipy.sparse import diags
+    >>> solver = solver_direct_auto(2)
+    >>> band = diags([-1., 2.5, -1.], [-1, 0, 1], shape=(5000, 5000))
+    >>> solver.choose(band.tocsr())           # tridiagonal: banded
+    'scipy (SuperLU)'
+    """
+    if dim not in AUTO_PARDISO_FROM:
+        raise InvalidInputError("dim must be 1, 2 or 3, got {!r}".format(dim))
+    has_pardiso = "pypardiso" in available_solvers()
+    superlu = solver_direct_checked()
+    pardiso = {}                # created for the first system it takes
+
+    def measured(A) -> bool:
+        """Whether the choice of ``A`` depends on its bandwidth."""
+        return has_pardiso and AUTO_PARDISO_FROM[dim] <= A.shape[0] < \
+            AUTO_SUPERLU_BANDED.get(dim, (0, 0))[1]
+
+    def choose(A) -> str:
+        if not has_pardiso or A.shape[0] < AUTO_PARDISO_FROM[dim]:
+            return "scipy (SuperLU)"
+        if measured(A) and rcm_bandwidth(A) <= AUTO_SUPERLU_BANDED[dim][0]:
+            return "scipy (SuperLU)"
+        return "pypardiso"
+
+    def factorise(A, **kwargs):
+        name = choose(A)
+        if name not in solver.chosen:           # logged once per back end
+            solver.chosen.append(name)
+            if log:
+                logger.info("auto: %s for %d free DOFs%s", name, A.shape[0],
+                            " (bandwidth {})".format(rcm_bandwidth(A))
+                            if measured(A) else "")
+        if name == "scipy (SuperLU)":
+            return superlu.factorise(A)
+        if not pardiso:
+            pardiso["solver"] = solver_pypardiso()
+        return pardiso["solver"].factorise(A)
+
+    def solver(A, b, **kwargs):
+        return factorise(A)(b)
+
+    def forget():
+        """What Pardiso keeps within a load step, dropped."""
+        for kept in pardiso.values():
+            kept.forget()
+    solver.factorise = factorise
+    solver.choose = choose
+    solver.forget = forget
+    solver.chosen = []
+    return solver
+
+
 def solver_auto(dim: int = 2) -> Callable:
-    """The back end measured fastest for each system's size among those
-    installed, for a grid of dimension ``dim``: SuperLU below
-    :data:`AUTO_PARDISO_FROM` free DOFs, or where pypardiso is not
-    installed; Pardiso from there; AMG-CG from :data:`AUTO_AMG_FROM` when
-    pyamg is installed (in 3D from 5000 DOFs without Pardiso).  Logs each
-    back end it takes, once, with the size of the first system it took it
-    for.  A system the iterative solver does not converge on (a tangent far
-    from positive definite, a singular one) goes to the direct back end,
-    which solves it or refuses it as singular.
+    """The back end measured fastest for each system among those
+    installed, for a grid of dimension ``dim``, by its size and, between
+    the direct ones, its structure: SuperLU below
+    :data:`AUTO_PARDISO_FROM` free DOFs, for a banded system (a thin
+    column: :data:`AUTO_SUPERLU_BANDED`) or where pypardiso is not
+    installed; Pardiso otherwise (:func:`solver_direct_auto`, which says
+    why); AMG-CG from :data:`AUTO_AMG_FROM` when pyamg is installed (in 3D
+    from 5000 DOFs without Pardiso).  Logs each back end it takes, once,
+    with the size of the first system it took it for.  A system the
+    iterative solver does not converge on (CG stalled at an
+    ill-conditioned tangent's round-off, a tangent far from positive
+    definite, a singular one) goes to the direct back end, which solves it
+    or refuses it as singular (:func:`solver_pyamg`, one INFO line).
 
     >>> import numpy as np
     >>> from scipy.sparse import diags
@@ -609,59 +811,33 @@ def solver_auto(dim: int = 2) -> Callable:
     >>> solver.chosen
     ['scipy (SuperLU)']
     """
-    if dim not in AUTO_PARDISO_FROM:
-        raise InvalidInputError("dim must be 1, 2 or 3, got {!r}".format(dim))
+    direct = solver_direct_auto(dim)
     installed = available_solvers()
-    superlu = solver_direct_checked()
-    pardiso = {}                # created for the first system of its size
-    direct_name = "pypardiso" if "pypardiso" in installed \
-        else "scipy (SuperLU)"
-    amg_from = AUTO_AMG_FROM[direct_name][dim]
-    iterative = solver_pyamg() if "pyamg" in installed else None
-
-    def log(name, n):
-        if name not in solver.chosen:           # logged once per back end
-            solver.chosen.append(name)
-            logger.info("auto: %s for %d free DOFs", name, n)
-
-    def direct(A):
-        if direct_name == "pypardiso" and A.shape[0] >= AUTO_PARDISO_FROM[dim]:
-            log("pypardiso", A.shape[0])
-            if not pardiso:
-                pardiso["solver"] = solver_pypardiso()
-            return pardiso["solver"].factorise(A)
-        log("scipy (SuperLU)", A.shape[0])
-        return superlu.factorise(A)
+    amg_from = AUTO_AMG_FROM["pypardiso" if "pypardiso" in installed
+                             else "scipy (SuperLU)"][dim]
+    iterative = solver_pyamg(fallback=direct, dim=dim) \
+        if "pyamg" in installed else None
 
     def factorise(A, modes=None, **kwargs):
         if iterative is None or A.shape[0] < amg_from:
-            return direct(A)
-        log("pyamg", A.shape[0])
-        chosen = {"solve": iterative.factorise(A, modes=modes)}
-
-        def solve(b):
-            try:
-                return chosen["solve"](b)
-            except SingularSystemError as err:
-                if chosen.get("direct"):
-                    raise
-                logger.info("auto: %s; solving directly", err)
-                chosen.update(solve=direct(A), direct=True)
-                return chosen["solve"](b)
-        return solve
+            return direct.factorise(A)
+        if "pyamg" not in solver.chosen:
+            solver.chosen.append("pyamg")
+            logger.info("auto: pyamg for %d free DOFs", A.shape[0])
+        return iterative.factorise(A, modes=modes)
 
     def solver(A, b, modes=None, **kwargs):
         return factorise(A, modes=modes)(b)
 
-    solver.factorise = factorise
     def forget():
         """What the back ends keep within a load step, dropped."""
-        for kept in [iterative] + list(pardiso.values()):
-            if kept is not None:
-                kept.forget()
+        direct.forget()
+        if iterative is not None:
+            iterative.forget()
+    solver.factorise = factorise
     solver.forget = forget
     solver.wants_modes = iterative is not None
-    solver.chosen = []
+    solver.chosen = direct.chosen       # one list: the order they came in
     return solver
 
 
@@ -673,10 +849,12 @@ def get_solver(solver: Union[None, str, Callable], dim: int = 2) -> Callable:
     """A solver function from a name (``"scipy"``, ``"pypardiso"``,
     ``"pyamg"``, ``"auto"``), a function, or ``None`` (``"auto"``);
     ``dim``, the grid's dimension, sets the sizes at which ``"auto"``
-    changes back end."""
+    changes back end (and the direct back end of pyamg's fallback)."""
     if solver is None:
         solver = "auto"
     if callable(solver):
         return solver
     check_choice("linear solver", solver, FACTORIES)
-    return solver_auto(dim) if solver == "auto" else FACTORIES[solver]()
+    if solver in ("auto", "pyamg"):     # their direct choice by dimension
+        return FACTORIES[solver](dim=dim)
+    return FACTORIES[solver]()
