@@ -410,3 +410,34 @@ def test_scene_obstacle_mistakes_are_named(tmp_path, obstacle, words):
     path.write_text(DROP_SCENE.format(obstacle=obstacle, duration=.1))
     with pytest.raises(SceneError, match=words):
         load_scene(path)
+
+
+def test_an_obstacle_force_is_a_quantity_of_interest(tmp_path):
+    """``[[outputs]] quantity = "obstacle_force"``: the force on the floor
+    at the end of a run equals its last record (a study can measure it);
+    a name the scene lacks is refused before any run."""
+    from skfem_mpm.errors import SceneError
+    from skfem_mpm.scenes.scene import run_scene
+    from skfem_mpm.scenes.scene_file import load_scene
+    text = DROP_SCENE.format(
+        obstacle='name = "floor"\nbox = { x = [-1.0, 2.0], y = [-1.0, 0.0] }',
+        duration=.33)
+    path = tmp_path / "drop.toml"
+    path.write_text(text + """
+[[outputs]]
+quantity = "obstacle_force"
+component = "y"
+obstacle = "floor"
+""")
+    scene = load_scene(path)
+    result = run_scene(scene)
+    force = scene.outputs[0].measure(scene, result)
+    assert force == result.history[-1].obstacle_forces[0, 1] < 0
+    path.write_text(text + """
+[[outputs]]
+quantity = "obstacle_force"
+component = "y"
+obstacle = "ceiling"
+""")
+    with pytest.raises(SceneError, match="no obstacle 'ceiling'"):
+        load_scene(path)

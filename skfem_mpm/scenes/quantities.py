@@ -20,19 +20,25 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError, check_choice
-from .scene import reaction_resultants, support_names
+from .scene import obstacle_list, reaction_resultants, support_names
 
 __all__ = ["Quantity", "QUANTITIES", "COMPONENTS", "REDUCTIONS",
            "quantity_unit", "check_quantities"]
 
 #: what a quantity can measure
-QUANTITIES = ("displacement", "stress", "reaction", "rigid_force")
+QUANTITIES = ("displacement", "stress", "reaction", "rigid_force",
+              "obstacle_force")
+#: the quantities that are forces of a support, a rigid body or an
+#: obstacle, and the field naming which
+FORCES = {"reaction": "support", "rigid_force": "body",
+          "obstacle_force": "obstacle"}
 #: the components of each kind of quantity
 COMPONENTS = {"displacement": ("x", "y", "z", "magnitude"),
               "stress": ("xx", "yy", "zz", "xy", "xz", "yz", "mises",
                          "pressure"),
               "reaction": ("x", "y", "z", "magnitude"),
-              "rigid_force": ("x", "y", "z", "magnitude")}
+              "rigid_force": ("x", "y", "z", "magnitude"),
+              "obstacle_force": ("x", "y", "z", "magnitude")}
 #: how the points of a box (or all points) give one number
 REDUCTIONS = ("mean", "max", "min", "max_abs")
 #: nearest points a value ``at`` a place is fitted to, per dimension
@@ -47,8 +53,10 @@ class Quantity:
     ----------
     quantity
         ``"displacement"`` or ``"stress"`` of material points,
-        ``"reaction"`` (resultant of a support, ``support`` names it) or
-        ``"rigid_force"`` (the force moving a rigid body, ``body``).
+        ``"reaction"`` (resultant of a support, ``support`` names it),
+        ``"rigid_force"`` (the force moving a rigid body, ``body``) or
+        ``"obstacle_force"`` (the force the material exerts on an
+        obstacle, ``obstacle``).
     component
         ``"x"``, ``"y"``, ``"z"`` or ``"magnitude"``; for stress ``"xx"``,
         ``"yy"``, ``"zz"``, ``"xy"``, ``"xz"``, ``"yz"``, ``"mises"`` (von
@@ -68,6 +76,9 @@ class Quantity:
         largest magnitude, sign kept); refused with ``at`` and for forces.
     support
         The support's name (``support-N`` where unnamed).
+    obstacle
+        For an ``obstacle_force``, the obstacle's name
+        (``obstacle<i>`` where unnamed).
     body
         For a ``rigid_force``, the rigid body's name; for point
         quantities, optionally the body whose points count (default: all
@@ -91,6 +102,7 @@ class Quantity:
     support: Optional[str] = None
     body: Optional[str] = None
     name: str = ""
+    obstacle: Optional[str] = None
 
     def __post_init__(self):
         check_choice("quantity", self.quantity, QUANTITIES)
@@ -103,7 +115,9 @@ class Quantity:
         pointwise = self.quantity in ("displacement", "stress")
         wanted = {"at": pointwise, "region": pointwise,
                   "support": self.quantity == "reaction",
-                  "body": self.quantity != "reaction",
+                  "body": self.quantity in ("displacement", "stress",
+                                            "rigid_force"),
+                  "obstacle": self.quantity == "obstacle_force",
                   "reduce": pointwise}
         for key, allowed in wanted.items():
             if getattr(self, key) is not None and not allowed:
@@ -119,6 +133,9 @@ class Quantity:
             raise InvalidInputError("a reaction needs the support's name")
         if self.quantity == "rigid_force" and self.body is None:
             raise InvalidInputError("a rigid_force needs the body's name")
+        if self.quantity == "obstacle_force" and self.obstacle is None:
+            raise InvalidInputError("an obstacle_force needs the obstacle's "
+                                    "name")
 
     @property
     def label(self) -> str:
@@ -129,8 +146,8 @@ class Quantity:
                               self.component)
         if self.support is not None:
             return text + " of " + self.support
-        if self.quantity == "rigid_force":
-            return text + " of " + self.body
+        if self.quantity in ("rigid_force", "obstacle_force"):
+            return text + " of " + (self.body or self.obstacle)
         of = "" if self.body is None else " of " + self.body
         if self.at is not None:
             return text + of + " at ({})".format(", ".join(
@@ -167,6 +184,12 @@ class Quantity:
             raise InvalidInputError("{}: no support {!r} (the scene has {})"
                                     .format(self.label, self.support,
                                             support_names(scene)))
+        if self.obstacle is not None and self.obstacle not in [
+                o.name for o in obstacle_list(scene)]:
+            raise InvalidInputError("{}: no obstacle {!r} (the scene has {})"
+                                    .format(self.label, self.obstacle, [
+                                        o.name for o in obstacle_list(
+                                            scene)]))
         bodies = [b.name for b in scene.bodies if b.rigid is not None
                   or self.quantity != "rigid_force"]
         if self.body is not None and self.body not in bodies:
@@ -210,10 +233,19 @@ class Quantity:
         :func:`~skfem_mpm.scenes.scene.run_scene` on ``scene``); a box
         that holds no point of this run (a coarse grid of a study) raises
         :class:`~skfem_mpm.errors.InvalidInputError`."""
-        if self.quantity in ("reaction", "rigid_force"):
+        if self.quantity in FORCES:
             names, resultant = reaction_resultants(scene)
-            force = resultant(result.history[-1])[names.index(
-                self.support or self.body)]
+            rows = resultant(result.history[-1])
+            # supports, rigid bodies and obstacles in that order: the
+            # name is looked up among its own kind
+            kinds = ([s for s in names[:len(scene.supports)]],
+                     names[len(scene.supports):len(names) - len(
+                         scene.obstacles)],
+                     names[len(names) - len(scene.obstacles):])
+            kind = list(FORCES).index(self.quantity)
+            start = sum(len(k) for k in kinds[:kind])
+            force = rows[start + kinds[kind].index(
+                getattr(self, FORCES[self.quantity]))]
             return float(np.linalg.norm(force)) if \
                 self.component == "magnitude" else \
                 float(force["xyz".index(self.component)])

@@ -71,6 +71,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     name = "top settlement"         # optional label
     quantity = "displacement"       # or "stress", "reaction" (support =
                                     # its name), "rigid_force" (body = ..)
+                                    # or "obstacle_force" (obstacle = ..)
     component = "y"                 # x y z magnitude; stress: xx yy zz xy
                                     # xz yz mises pressure
     at = [0.5, 50.0]                # initial position (fitted to the
@@ -404,7 +405,7 @@ def parse_quantity(table: dict, dim: int,
     fields; ``region`` as a box table ``{ x = [lo, hi], ... }``, an axis
     left out: all of it)."""
     allowed = ("quantity", "component", "at", "region", "reduce", "support",
-               "body", "name")
+               "body", "obstacle", "name")
     if not isinstance(table, dict):
         raise InvalidInputError("{}: must be a table, got {!r}".format(
             key, table))
