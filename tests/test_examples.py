@@ -210,6 +210,7 @@ def test_footing_penetrates_one_width_with_rising_resistance(penetration,
     assert (tmp_path / "penetration.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_penetration_scene_file_is_the_example(penetration):
     """examples/penetration.toml (supports on grid-line regions) is the
     script's problem: its first 3 steps' footing reactions are the
