@@ -57,6 +57,7 @@ Simo and Laursen (1992); see ``docs/references.md``.
 """
 import itertools
 import logging
+from weakref import WeakKeyDictionary
 from typing import Sequence
 
 import numpy as np
@@ -286,7 +287,7 @@ class StepContact(GridTerm):
         self.moved = [(problem.s_new - problem.s_old) * ob.displacement
                       for ob in term.obstacles]
         self.state = points.state
-        self.evaluations = []
+        self.evaluations = WeakKeyDictionary()
         n = points.n
         near = np.zeros(n, dtype=bool)
         for i, ob in enumerate(term.obstacles):
@@ -347,7 +348,7 @@ class StepContact(GridTerm):
                 X0 = (self.problem.points.x0[:, None, idx]
                       + term.R[:, :, idx]).reshape(dim, -1)
                 self.anchor.append((tied, X0))
-        self.evaluations = []
+        self.evaluations = WeakKeyDictionary()
 
     def corner_areas(self, normal: ndarray, idx: ndarray) -> ndarray:
         """Each corner's share (nc m,) of its domain's area projected on
@@ -373,9 +374,8 @@ class StepContact(GridTerm):
         """Corner tractions (force on the material) and their derivative
         blocks for the trial increment ``du``, per obstacle, cached for
         the trial's ``response``."""
-        for resp, ev in self.evaluations:
-            if resp is response:
-                return ev
+        if response in self.evaluations:
+            return self.evaluations[response]
         term, dim = self.term, self.dim
         u = (self.J @ du).reshape(-1, dim).T               # (dim, s)
         start = not du.any()
@@ -435,7 +435,9 @@ class StepContact(GridTerm):
                 T = T + area * tau
             ev.append((T, C, float(np.max(-gap[over], initial=0.)),
                        (p, tau)))
-        self.evaluations = (self.evaluations + [(response, ev)])[-4:]
+        # kept while the trial lives: the tangent of an accepted trial
+        # finds it however many trials a line search tried in between
+        self.evaluations[response] = ev
         return ev
 
     def force(self, du: ndarray, response):
@@ -444,7 +446,10 @@ class StepContact(GridTerm):
         return -(self.J.T @ T.T.ravel())
 
     def matrix(self, response):
-        ev = self.evaluate(None, response)
+        if response not in self.evaluations:
+            raise RuntimeError("contact: the tangent of a trial whose force "
+                               "was not evaluated")
+        ev = self.evaluations[response]
         dim = self.dim
         C = sum(e[1] for e in ev)
         active = np.flatnonzero(np.abs(C).sum(axis=(0, 1)) > 0)
@@ -498,7 +503,7 @@ class StepContact(GridTerm):
                 over[wrong] = True
                 across = True
         if across:
-            self.evaluations = []
+            self.evaluations = WeakKeyDictionary()
             logger.debug("step %d: a corner went through another face of an "
                          "obstacle; solving again", problem.step)
             return False
@@ -513,7 +518,7 @@ class StepContact(GridTerm):
                                         > 0, out=np.zeros_like(T))
             else:
                 self.lam[i] = normal_part[0]
-        self.evaluations = []
+        self.evaluations = WeakKeyDictionary()
         problem.counters["contact_updates"] += 1
         logger.debug("step %d: penetration %.2g of the tolerance; "
                      "augmented-Lagrangian update", problem.step, max(worst))
