@@ -44,6 +44,7 @@ from .forms import full_tensor
 from .hencky import (SpectralParts, hencky_elastic_state, hencky_stress,
                      inverse_and_det, isotropic_derivative, principal_frame,
                      pull_back, spatial_tangent)
+from .compiled import compiled_path
 from .materials import PointMaterials, elastic_tensor, is_plastic
 
 __all__ = ["SmallStrain", "FiniteStrain", "Response", "KINEMATICS",
@@ -96,17 +97,26 @@ class Response:
         ``tangent_of(idx)``: the consistent tangent (dim, dim, dim, dim,
         m) of points ``idx`` alone, for operators that assemble it block by
         block (``op.tangent_blocks``); ``None`` where it is formed whole.
+    force, stiffness
+        Where the compiled passes computed the response
+        (:mod:`skfem_mpm.mechanics.compiled`): ``force()``, the internal
+        force ``op.force(P, w)`` summed in the same pass, and
+        ``stiffness()``, ``op.stiffness(tangent, w)`` formed point by
+        point; ``None`` on the numpy path.
 
     """
 
     def __init__(self, P: ndarray, w: ndarray, yielded: ndarray,
                  tangent: Callable[[], ndarray], commit: Callable,
                  deformation: Optional[Callable] = None,
-                 tangent_of: Optional[Callable] = None):
+                 tangent_of: Optional[Callable] = None,
+                 force: Optional[Callable] = None,
+                 stiffness: Optional[Callable] = None):
         self.P, self.w, self.yielded = P, w, yielded
         self._tangent, self._commit = tangent, commit
         self.deformation = deformation
         self.tangent_of = tangent_of
+        self.force, self.stiffness = force, stiffness
 
     def tangent(self) -> ndarray:
         """The consistent tangent (dim, dim, dim, dim, n)."""
@@ -131,13 +141,18 @@ class SmallStrain:
         Dimension of the grid.
     counters
         The run's counters (``return_maps`` counts plastic updates).
+    kernels
+        ``"auto"``, ``"numpy"`` or ``"compiled"``
+        (:mod:`skfem_mpm.kernels`).
 
     """
 
-    def __init__(self, material, dim: int, counters: dict):
+    def __init__(self, material, dim: int, counters: dict,
+                 kernels: str = "auto"):
         self.material, self.dim, self.counters = material, dim, counters
         self.plastic = is_plastic(material)
         self._elastic = None
+        self.compiled = compiled_path(kernels, material, dim)
 
     def elastic_tangent(self, n: int, k: Optional[int] = None) -> ndarray:
         """Hooke's tensor of every point (a broadcast when uniform), in
@@ -149,31 +164,48 @@ class SmallStrain:
         return self._elastic
 
     def response(self, op, du: ndarray, points) -> Response:
+        if self.compiled is not None and self.compiled.serves(op, points):
+            return self.compiled.small_response(self, op, du, points)
         grad = op.gradients(du)
         deps = full_tensor(.5 * (grad + grad.transpose(1, 0, 2)))
         k = components(op, self.dim)   # of P and the tangent
         if not self.plastic:
-            stress = points.stress + self.material.stress(deps)
-            strain = points.strain + deps
-
-            def commit(old):
-                new = copy.copy(old)
-                new.stress, new.strain = stress, strain
-                return new
-            return Response(stress[:k, :k], points.volume,
-                            np.zeros(points.n, dtype=bool),
-                            lambda: self.elastic_tangent(points.n, k),
-                            commit)
+            return self.elastic_response(
+                points, points.stress + self.material.stress(deps),
+                points.strain + deps, k)
         self.counters["return_maps"] += 1
         x, vecs = principal_frame(points.strain + deps, self.dim)
         sig, eps_e, D, yielded, state = self.material.principal_update(
             x, points.state)
         stress = np.einsum("Ap,aAp,bAp->abp", sig, vecs, vecs)
         strain = np.einsum("Ap,aAp,bAp->abp", eps_e, vecs, vecs)
+        return self.plastic_response(points, (x[:k], sig[:k], D[:k, :k],
+                                              vecs[:k, :k]), stress, strain,
+                                     yielded, state, k)
 
+    def elastic_response(self, points, stress: ndarray, strain: ndarray,
+                         k: int, **fused) -> Response:
+        """The response of an elastic trial of ``stress`` and ``strain``
+        (3, 3, n) in ``k`` components; ``fused``: the compiled ``force``
+        and ``stiffness``."""
+        def commit(old):
+            new = copy.copy(old)
+            new.stress, new.strain = stress, strain
+            return new
+        return Response(stress[:k, :k], points.volume,
+                        np.zeros(points.n, dtype=bool),
+                        lambda: self.elastic_tangent(points.n, k), commit,
+                        **fused)
+
+    def plastic_response(self, points, principal, stress: ndarray,
+                         strain: ndarray, yielded: ndarray, state: dict,
+                         k: int, **fused) -> Response:
+        """The response of a return-mapped trial: ``principal = (x, sig,
+        D, vecs)``, the principal strains, stresses, tangent and frame in
+        the ``k`` components of the tangent; ``fused``: the compiled
+        ``force`` and ``stiffness``."""
         def tangent():
-            return isotropic_derivative(x[:k], sig[:k], D[:k, :k],
-                                        vecs[:k, :k])
+            return isotropic_derivative(*principal)
 
         def commit(old):
             new = copy.copy(old)
@@ -181,7 +213,7 @@ class SmallStrain:
             new.state = {**old.state, **state}    # variables of no model kept
             return new
         return Response(stress[:k, :k], points.volume, yielded, tangent,
-                        commit)
+                        commit, **fused)
 
 
 def deformation_increment(grad_du: ndarray) -> ndarray:
@@ -204,14 +236,18 @@ class FiniteStrain:
         The point operator stays in the initial configuration (finite
         elements): gradients of the increment are mapped through the
         start-of-step ``F``.
+    kernels
+        As in :class:`SmallStrain`.
 
     """
 
     def __init__(self, material, dim: int, counters: dict,
-                 total_lagrangian: bool = False):
+                 total_lagrangian: bool = False, kernels: str = "auto"):
         self.material, self.dim, self.counters = material, dim, counters
         self.plastic = is_plastic(material)
         self.total_lagrangian = total_lagrangian
+        self.compiled = compiled_path(kernels, material, dim,
+                                      total_lagrangian)
         self._buffers = None
         self._start = (None, None)
         self._start_inverse = (None, None)
@@ -246,6 +282,8 @@ class FiniteStrain:
         return value
 
     def response(self, op, du: ndarray, points) -> Response:
+        if self.compiled is not None and self.compiled.serves(op, points):
+            return self.compiled.finite_response(self, op, du, points)
         # dim: the grid's; k: the components of gradients, P and tangent
         dim, k = self.dim, components(op, self.dim)
         grad = op.gradients(du)
@@ -268,7 +306,6 @@ class FiniteStrain:
             dF_inv[:k, :k] = np.einsum("abp,bcp->acp", F_inv,
                                        dF_inv[:k, :k])
         b_dev, tau, yielded, spectral = self._workspace(points.n, k)
-        eye = np.eye(3)[:, :, None]
         start = self.start_deviation(points)
         state = {}
         for block in point_blocks(points.n):
@@ -289,6 +326,19 @@ class FiniteStrain:
                 state.setdefault(name, np.empty(points.n))[block] = value
         self.counters["return_maps"] += self.plastic
         P = np.einsum("abp,ebp->aep", tau[:k, :k], dF_inv[:k, :k])
+        return self.trial_response(points, dF, dF_inv, P, state, k)
+
+    def trial_response(self, points, dF: ndarray, dF_inv: ndarray,
+                       P: ndarray, state: dict, k: int,
+                       **fused) -> Response:
+        """The response of a trial whose ``b_tr - I``, Kirchhoff stress,
+        yield flags and spectral parts are in the workspace, with ``dF``,
+        its inverse (3, 3, n), ``P`` (k, k, n) and the new internal
+        variables ``state``; ``fused``: the compiled ``force`` and
+        ``stiffness``."""
+        dim = self.dim
+        b_dev, tau, yielded, spectral = self._workspace(points.n, k)
+        eye = np.eye(3)[:, :, None]
 
         def tangent_of(idx):
             """Formed from the spectral parts of points ``idx`` (only for
@@ -325,7 +375,7 @@ class FiniteStrain:
         def deformation(idx):
             return np.einsum("abp,bcp->acp", dF[..., idx], points.F[..., idx])
         return Response(P, points.volume0, yielded.copy(), tangent, commit,
-                        deformation, tangent_of)
+                        deformation, tangent_of, **fused)
 
     def elastic_state(self, spectral: SpectralParts, state: dict):
         """Elastic left Cauchy-Green tensor and logarithmic strain of the
@@ -343,8 +393,9 @@ class FiniteStrain:
 
 
 def make_kinematics(name: str, material, dim: int, counters: dict,
-                    total_lagrangian: bool = False):
-    """The kinematics piece called ``name`` (``"small"`` or ``"finite"``)."""
+                    total_lagrangian: bool = False, kernels: str = "auto"):
+    """The kinematics piece called ``name`` (``"small"`` or ``"finite"``)
+    with ``kernels`` (:mod:`skfem_mpm.kernels`)."""
     if name == "small":
-        return SmallStrain(material, dim, counters)
-    return FiniteStrain(material, dim, counters, total_lagrangian)
+        return SmallStrain(material, dim, counters, kernels)
+    return FiniteStrain(material, dim, counters, total_lagrangian, kernels)

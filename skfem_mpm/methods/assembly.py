@@ -120,7 +120,7 @@ class ElementPattern:
         """Assemble element matrices given in blocks ``(elements, local)``,
         local (len(elements), nloc, nloc): each block is added in place, so
         only one block of element matrices exists at a time."""
-        first, length, expand, indices, indptr = self.structure()
+        first, length, expand, indices = self.structure()[:4]
         data = np.zeros(len(indices))
         for elements, local in blocks:
             if expand is None:                                # per entry
@@ -131,6 +131,12 @@ class ElementPattern:
                 place += np.take(length[elements], row, axis=1) * a
                 place += c
             np.add.at(data, place.ravel(), local.ravel())
+        return self.csr(data)
+
+    def csr(self, data: ndarray) -> csr_matrix:
+        """The matrix of the pattern with entries ``data`` (in the
+        pattern's CSR order)."""
+        indices, indptr = self.structure()[3:]
         return csr_matrix((data, indices, indptr), shape=(self.N, self.N))
 
 

@@ -146,6 +146,7 @@ class PointOperator:
         # formed block by block of elements, in 3D (648 bytes a point less
         # at the same speed; in 2D its inputs cost more to gather than it)
         self.tangent_blocks = dim == 3
+        self._layout = None
 
     def _at_points(self, u: ndarray, shape_fields: ndarray) -> ndarray:
         U = u.reshape(-1, self.dim)[self.scalar_dofs]          # (nloc, e, dim)
@@ -165,6 +166,25 @@ class PointOperator:
                         -1, self.basis.mesh.nelements)
             self._pattern = ElementPattern(grid, self.N)
         return self._pattern
+
+    def kernel_layout(self):
+        """What the compiled passes (:mod:`skfem_mpm.kernels.passes`)
+        read, formed once per operator: the shape gradients points first
+        (nelems, slots, nloc, dim), the point in each slot (nelems, slots),
+        the scalar element DOFs (nelems, nloc), the grid element of each
+        active element, and the pattern's places ``(first, length,
+        per_node)`` (:meth:`~skfem_mpm.methods.assembly.ElementPattern.
+        structure`)."""
+        if self._layout is None:
+            first, length, expand = self.pattern().structure()[:3]
+            self._layout = (
+                np.ascontiguousarray(self.shape_gradients.transpose(
+                    2, 3, 1, 0)),
+                np.ascontiguousarray(self.basis.point_index, dtype=np.int64),
+                np.ascontiguousarray(self.scalar_dofs.T, dtype=np.int64),
+                np.asarray(self.elements, dtype=np.int64),
+                (first, length, expand is not None))
+        return self._layout
 
     def _scatter(self, local: ndarray) -> ndarray:
         return np.bincount(self.element_dofs.ravel(), weights=local.ravel(),

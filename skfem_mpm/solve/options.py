@@ -16,6 +16,7 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError, check_int
+from ..kernels import check_kernels
 from ..stabilisation.settings import Stabilisation
 from .newton import NewtonOptions
 from .rigid import RigidBody
@@ -172,6 +173,14 @@ class Options:
     locator
         A :func:`~skfem_mpm.point_locator` of the mesh to reuse (checked
         against the mesh when the run starts).
+    kernels
+        ``"auto"`` (default): the compiled points-first passes of a Newton
+        iteration where they cover the run (standard MPM in 2D and 3D,
+        small and finite deformation, ``LinearElastic`` and ``VonMises``)
+        and numba imports, the numpy path otherwise (logged once);
+        ``"numpy"``: the numpy path, the tested reference;
+        ``"compiled"``: the compiled passes, a run they cannot serve
+        refused before any work (:mod:`skfem_mpm.kernels`).
 
     >>> Options(newton=NewtonOptions(tol=1e-10)).newton.tol
     1e-10
@@ -187,6 +196,7 @@ class Options:
     keep_snapshots: bool = True
     callback: Optional[Callable] = None
     locator: object = None
+    kernels: str = "auto"
 
     def __post_init__(self):
         for name, kind in (("newton", NewtonOptions),
@@ -204,6 +214,7 @@ class Options:
         if self.callback is not None and not callable(self.callback):
             raise InvalidInputError("callback must be callable, got "
                                     "{!r}".format(self.callback))
+        check_kernels(self.kernels)
 
 
 #: the keyword arguments :func:`~skfem_mpm.simulate` took before

@@ -145,7 +145,8 @@ class StepProblem:
     def internal_force(self, du: ndarray, response) -> ndarray:
         """The static internal force of a trial: the points' stresses and
         the terms' forces."""
-        f_int = self.op.force(response.P, response.w)
+        f_int = self.op.force(response.P, response.w) \
+            if response.force is None else response.force()
         for term in self.terms:
             f = term.force(du, response)
             if f is not None:
@@ -205,8 +206,11 @@ class StepProblem:
         response, op = trial.response, self.op
         blocks = response.tangent_of is not None and getattr(
             op, "tangent_blocks", False)       # no tangent of all points
-        K = op.stiffness(response.tangent_of if blocks
-                         else response.tangent(), response.w)
+        if response.stiffness is not None:     # compiled, point by point
+            K = response.stiffness()
+        else:
+            K = op.stiffness(response.tangent_of if blocks
+                             else response.tangent(), response.w)
         for term in self.terms:
             G = term.matrix(response)
             if G is not None:

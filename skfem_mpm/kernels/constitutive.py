@@ -1,0 +1,194 @@
+"""Compiled per-point pieces of the constitutive update: the principal
+frame of a symmetric tensor, the return maps of the built-in models on
+principal values, and the derivative of an isotropic tensor function.
+
+Each works on one point's small arrays, written to follow the numpy
+formulas of :mod:`skfem_mpm.mechanics.hencky` and
+:mod:`skfem_mpm.mechanics.materials` operation by operation, so that the
+compiled passes (:mod:`skfem_mpm.kernels.passes`) equal the numpy path to
+round-off.  The material is a parameter vector (its kind,
+:data:`~skfem_mpm.kernels.ELASTIC` or :data:`~skfem_mpm.kernels.VON_MISES`,
+then ``lam, mu, E, nu, yield_stress``).
+"""
+import math
+
+from numba import njit
+
+from . import VON_MISES
+
+
+@njit(cache=True, error_model="numpy")
+def principal_frame(b, dim, x, v, work):
+    """Eigenvalues ``x`` (3,) and eigenvectors ``v[:, A]`` (3, 3) of the
+    symmetric ``b`` (3, 3): the in-plane pair in closed form below 3D (the
+    out-of-plane axes principal, as :func:`~skfem_mpm.mechanics.hencky.
+    principal_frame`), cyclic Jacobi rotations in 3D (``work`` (3, 3):
+    work space)."""
+    for a in range(3):
+        x[a] = b[a, a]
+        for c in range(3):
+            v[a, c] = 1. if a == c else 0.
+    if dim == 2:
+        p, q, r = b[0, 0], b[1, 1], b[0, 1]
+        half = (p - q) / 2
+        mean, radius = (p + q) / 2, math.hypot(half, r)
+        if half >= 0:
+            c, s = half + radius, r
+        else:
+            c, s = r, radius - half
+        length = math.hypot(c, s)
+        if length == 0:                         # b = mean I: any frame
+            length, c = 1., 1.
+        sign = (-1. if c < 0 else 1.) / length
+        c, s = c * sign, s * sign
+        x[0], x[1] = mean + radius, mean - radius
+        v[0, 0], v[1, 0], v[0, 1], v[1, 1] = c, s, -s, c
+    elif dim == 3:
+        for a in range(3):
+            for c in range(3):
+                work[a, c] = b[a, c]
+        jacobi(work, x, v)
+
+
+@njit(cache=True, error_model="numpy")
+def jacobi(m, x, v):
+    """Eigenpairs of the symmetric 3x3 ``m`` (overwritten) by cyclic
+    Jacobi rotations, to the last bit of the off-diagonal part, into ``x``
+    and ``v`` (set to the identity by the caller)."""
+    for _ in range(50):
+        off = m[0, 1] ** 2 + m[0, 2] ** 2 + m[1, 2] ** 2
+        scale = m[0, 0] ** 2 + m[1, 1] ** 2 + m[2, 2] ** 2
+        if off == 0. or off <= 1e-36 * scale:
+            break
+        for p, q in ((0, 1), (0, 2), (1, 2)):
+            apq = m[p, q]
+            if apq == 0.:
+                continue
+            theta = (m[q, q] - m[p, p]) / (2. * apq)
+            if abs(theta) > 1e150:
+                t = 1. / (2. * theta)
+            else:
+                t = (1. if theta >= 0 else -1.) / (
+                    abs(theta) + math.sqrt(theta * theta + 1.))
+            c = 1. / math.sqrt(t * t + 1.)
+            s = t * c
+            for k in range(3):          # columns p, q of m J
+                mkp, mkq = m[k, p], m[k, q]
+                m[k, p] = c * mkp - s * mkq
+                m[k, q] = s * mkp + c * mkq
+            for k in range(3):          # rows p, q of J^T (m J)
+                mpk, mqk = m[p, k], m[q, k]
+                m[p, k] = c * mpk - s * mqk
+                m[q, k] = s * mpk + c * mqk
+            for k in range(3):
+                vkp, vkq = v[k, p], v[k, q]
+                v[k, p] = c * vkp - s * vkq
+                v[k, q] = s * vkp + c * vkq
+    for a in range(3):
+        x[a] = m[a, a]
+
+
+@njit(cache=True, error_model="numpy")
+def principal_update(params, eps, eq, tau, eps_e, D):
+    """The return map of the material ``params`` on principal strains
+    ``eps`` (3,) with the equivalent plastic strain ``eq`` at the step's
+    start: principal stresses ``tau``, elastic strains ``eps_e`` and the
+    tangent ``D`` (3, 3) written in place; returns ``(yielded, eq)``."""
+    lam, mu = params[1], params[2]
+    trace = eps[0] + eps[1] + eps[2]
+    for a in range(3):
+        tau[a] = 2 * mu * eps[a] + lam * trace
+        eps_e[a] = eps[a]
+        for b in range(3):
+            D[a, b] = lam + (2 * mu if a == b else 0.)
+    if params[0] != VON_MISES:
+        return False, eq
+    E, nu, yield_stress = params[3], params[4], params[5]
+    p = (tau[0] + tau[1] + tau[2]) / 3
+    s0, s1, s2 = tau[0] - p, tau[1] - p, tau[2] - p
+    norm_s = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    q = math.sqrt(1.5) * norm_s
+    if not q > yield_stress * (1 + 1e-12):
+        return False, eq
+    ratio = yield_stress / q
+    s = (s0, s1, s2)
+    for a in range(3):
+        tau[a] = p + ratio * s[a]
+    trace_tau = tau[0] + tau[1] + tau[2]
+    for a in range(3):
+        eps_e[a] = (tau[a] - lam / (3 * lam + 2 * mu) * trace_tau) / (2 * mu)
+    bulk = E / (3 * (1 - 2 * nu))
+    for a in range(3):
+        for b in range(3):
+            dev = (1. if a == b else 0.) - 1. / 3
+            D[a, b] = bulk + 2 * mu * ratio * (
+                dev - (s[a] / norm_s) * (s[b] / norm_s))
+    return True, eq + (q - yield_stress) / (3 * mu)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def frame_tangent(k, x, y, dy_dx, v, Z, finite, A, theta, M, Y):
+    """The tangent ``A`` (k, k, k, k) of an isotropic update from its
+    principal values, formed in the principal frame (``k`` eigenpairs):
+    principal values ``x``, ``y`` and derivatives ``dy_dx[A, B] =
+    dy_A/dx_B`` (repeated eigenvalues: the limit ``dy_A/dx_A - dy_A/dx_B``
+    of ``(y_A - y_B) / (x_A - x_B)``), the frame ``v[:, A]`` and
+    ``Z = F^-1 v`` (``v`` without a pull-back).
+
+    In small strain (``finite`` false) ``A`` is the derivative of
+    :func:`~skfem_mpm.mechanics.hencky.isotropic_derivative`; in finite
+    deformation, with ``x = eig(b_tr) - 1`` and ``y`` the principal
+    Kirchhoff stresses, the spatial tangent ``2 dtau/db . b - delta_bc
+    tau_ad`` of :func:`~skfem_mpm.mechanics.hencky.spatial_tangent` pulled
+    back with ``F^-1`` (:func:`~skfem_mpm.mechanics.hencky.pull_back`).
+    In the frame it has the entries ``AACC`` (``a1``), ``ABAB`` (``a2``)
+    and ``ABBA`` (``a3``), ``A != B``; each is an outer product of the
+    ``M[A, B, a, e] = v_aA Z_eB``.  ``theta`` (3, 3), ``M`` (3, 3, 3, 3)
+    and ``Y`` (3, 3, 3): work space."""
+    largest = 0.
+    for P in range(k):
+        largest = max(largest, abs(x[P]))
+    for P in range(k):
+        for Q in range(k):
+            diff = x[P] - x[Q]
+            if P == Q:
+                theta[P, Q] = 0.
+            elif abs(diff) <= 1e-9 * largest:
+                theta[P, Q] = dy_dx[P, P] - dy_dx[P, Q]
+            else:
+                theta[P, Q] = (y[P] - y[Q]) / diff
+    for P in range(k):
+        for Q in range(k):
+            for a in range(k):
+                for e in range(k):
+                    M[P, Q, a, e] = v[a, P] * Z[e, Q]
+    # Y_C = sum_A a1_AC M_AA
+    for C in range(k):
+        for a in range(k):
+            for e in range(k):
+                t = 0.
+                for P in range(k):
+                    a1 = dy_dx[P, C]
+                    if finite:
+                        a1 = 2. * a1 * (1. + x[C]) - (y[P] if P == C
+                                                      else 0.)
+                    t += a1 * M[P, P, a, e]
+                Y[C, a, e] = t
+    for a in range(k):
+        for e in range(k):
+            for c in range(k):
+                for f in range(k):
+                    t = 0.
+                    for C in range(k):
+                        t += Y[C, a, e] * M[C, C, c, f]
+                    for P in range(k):
+                        for Q in range(k):
+                            if P != Q:
+                                if finite:
+                                    a2 = theta[P, Q] * (1. + x[Q])
+                                    a3 = theta[P, Q] * (1. + x[P]) - y[P]
+                                else:
+                                    a2 = a3 = .5 * theta[P, Q]
+                                t += M[P, Q, a, e] * (
+                                    a2 * M[P, Q, c, f] + a3 * M[Q, P, c, f])
+                    A[a, e, c, f] = t

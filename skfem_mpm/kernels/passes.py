@@ -1,0 +1,403 @@
+"""Compiled points-first passes of a Newton iteration of standard MPM.
+
+Each pass walks the active elements and, in each, its points (the slots of
+the material-point basis), so that a point's gradient, deformation,
+stress and tangent live in a few registers and small work arrays, and an
+element's force or stiffness is summed over its points before one scatter:
+
+- :func:`finite_residual`: gradients of the grid increment, ``dF``, its
+  inverse, ``b_tr - I``, the principal frame, the return map, the
+  Kirchhoff stress and the pulled-back stress ``P``, and the internal
+  force, in one pass;
+- :func:`small_residual`: the same in small strain (Hooke's law, or the
+  return map on principal strains);
+- :func:`stiffness`: the consistent tangent of each point from what the
+  residual pass kept (elastic, small-strain return map, or finite
+  deformation with its geometric term and pull-back), the element
+  stiffness, and its scatter straight into the CSR data of the grid's
+  :class:`~skfem_mpm.methods.assembly.ElementPattern`.
+
+Points are on the last axis of the arrays kept (the layout of the numpy
+path, whose commit and output read them); the shape gradients come points
+first, ``G[e, m, i, d]`` (element, slot, node, axis).  A pass returns a
+nonzero status where a point inverts, and the caller then lets the numpy
+path raise its error with its message.
+"""
+import math
+
+import numpy as np
+from numba import njit
+
+from .constitutive import frame_tangent, principal_frame, principal_update
+
+#: tangents the stiffness pass forms
+ELASTIC_TANGENT, RETURN_MAP_TANGENT, FINITE_TANGENT = 0, 1, 2
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def point_gradient(G, e, m, U, nloc, k, grad):
+    """``grad[a, b] = sum_i U[i, a] G[e, m, i, b]`` of the element's
+    nodal increments ``U`` (nloc, k)."""
+    for a in range(k):
+        for b in range(k):
+            t = 0.
+            for i in range(nloc):
+                t += G[e, m, i, b] * U[i, a]
+            grad[a, b] = t
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def element_increments(du, dofs, e, nloc, k, U):
+    for i in range(nloc):
+        for a in range(k):
+            U[i, a] = du[k * dofs[e, i] + a]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def add_force(G, e, m, P, w, nloc, k, fe):
+    """``fe[i, a] += sum_b w P[a, b] G[e, m, i, b]``."""
+    for i in range(nloc):
+        for a in range(k):
+            t = 0.
+            for b in range(k):
+                t += (P[a, b] * w) * G[e, m, i, b]
+            fe[i, a] += t
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def scatter_force(f, fe, dofs, e, nloc, k):
+    for i in range(nloc):
+        for a in range(k):
+            f[k * dofs[e, i] + a] += fe[i, a]
+            fe[i, a] = 0.
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
+                     dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq, k,
+                     nloc):
+    """Finite deformation (updated Lagrangian, Hencky), for ``k``
+    components and ``nloc`` nodes an element: from the grid increment
+    ``du`` and ``start = b_n - I`` (3, 3, n), every point's ``dF``,
+    ``dF^-1``, ``b_tr - I``, Kirchhoff stress ``tau`` (3, 3, n), spectral
+    parts (``d``, ``vecs``, ``y = tau_A``, ``dy_dx = dtau_A / dx_B``),
+    ``P = tau dF^-T`` (k, k, n), yield flags and equivalent plastic strain
+    ``eq``, and the internal force ``f``.  Returns 0, or 1 where ``det dF
+    <= 0``, 2 where ``b_tr`` is not positive definite."""
+    nel, nslots = slots.shape
+    U = np.empty((nloc, k))
+    fe = np.zeros((nloc, k))
+    g = np.empty((k, k))
+    F = np.empty((3, 3))
+    Fi = np.empty((3, 3))
+    b = np.empty((3, 3))
+    x = np.empty(3)
+    v = np.empty((3, 3))
+    work = np.empty((3, 3))
+    eps = np.empty(3)
+    tp = np.empty(3)
+    eps_e = np.empty(3)
+    D = np.empty((3, 3))
+    t = np.empty((3, 3))
+    Pp = np.empty((k, k))
+    for e in range(nel):
+        element_increments(du, dofs, e, nloc, k, U)
+        for m in range(nslots):
+            p = slots[e, m]
+            if p < 0:
+                continue
+            point_gradient(G, e, m, U, nloc, k, g)
+            for a in range(3):
+                for c in range(3):
+                    F[a, c] = (1. if a == c else 0.) + (
+                        g[a, c] if a < k and c < k else 0.)
+            if k == 2:
+                det = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
+                for a in range(3):
+                    for c in range(3):
+                        Fi[a, c] = 0.
+                Fi[0, 0], Fi[1, 1] = F[1, 1] / det, F[0, 0] / det
+                Fi[0, 1], Fi[1, 0] = -F[0, 1] / det, -F[1, 0] / det
+                Fi[2, 2] = 1. / F[2, 2]
+                det = det * F[2, 2]
+            else:
+                for j in range(3):
+                    j1, j2 = (j + 1) % 3, (j + 2) % 3
+                    for i in range(3):
+                        i1, i2 = (i + 1) % 3, (i + 2) % 3
+                        Fi[i, j] = F[j1, i1] * F[j2, i2] \
+                            - F[j1, i2] * F[j2, i1]
+                det = F[0, 0] * Fi[0, 0] + F[0, 1] * Fi[1, 0] \
+                    + F[0, 2] * Fi[2, 0]
+                for i in range(3):
+                    for j in range(3):
+                        Fi[i, j] /= det
+            if not det > 0:
+                return 1
+            # b_tr - I = dF (b_n - I) dF^T + g + g^T + g g^T
+            for a in range(3):
+                for c in range(3):
+                    s = 0.
+                    for i in range(3):
+                        for j in range(3):
+                            s += F[a, i] * start[i, j, p] * F[c, j]
+                    if a < k and c < k:
+                        gg = 0.
+                        for j in range(k):
+                            gg += g[a, j] * g[c, j]
+                        s += (g[a, c] + g[c, a]) + gg
+                    b[a, c] = s
+            principal_frame(b, k, x, v, work)
+            if not (x[0] > -1 and x[1] > -1 and x[2] > -1):
+                return 2
+            for a in range(3):
+                eps[a] = .5 * math.log1p(x[a])
+            yielded[p], eq[p] = principal_update(params, eps, eq0[p], tp,
+                                                 eps_e, D)
+            for a in range(3):
+                for c in range(3):
+                    s = 0.
+                    for A in range(3):
+                        s += tp[A] * v[a, A] * v[c, A]
+                    t[a, c] = s
+                    tau[a, c, p] = s
+                    b_dev[a, c, p] = b[a, c]
+                    dF[a, c, p] = F[a, c]
+                    dF_inv[a, c, p] = Fi[a, c]
+                    vecs[a, c, p] = v[a, c]
+                d[a, p] = x[a]
+            for A in range(k):
+                y[A, p] = tp[A]
+                for B in range(k):
+                    dy_dx[A, B, p] = D[A, B] / (2. * (1. + x[B]))
+            for a in range(k):
+                for c in range(k):
+                    s = 0.
+                    for j in range(k):
+                        s += t[a, j] * Fi[c, j]
+                    P[a, c, p] = s
+                    Pp[a, c] = s
+            add_force(G, e, m, Pp, w[p], nloc, k, fe)
+        scatter_force(f, fe, dofs, e, nloc, k)
+    return 0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0,
+                    f, stress, strain, x_all, vecs, y, dy_dx, yielded, eq, k,
+                    nloc):
+    """Small strain: ``eps = eps_n + sym(grad du)``; Hooke's law added to
+    the stress of an elastic material (``params[0] == ELASTIC``: the
+    spectral arrays untouched), the return map on principal strains
+    otherwise (principal strains ``x_all``, frames ``vecs``, ``y =
+    sigma_A``, ``dy_dx = D``); the internal force ``f``."""
+    nel, nslots = slots.shape
+    plastic = params[0] != 0.
+    lam, mu = params[1], params[2]
+    U = np.empty((nloc, k))
+    fe = np.zeros((nloc, k))
+    g = np.empty((k, k))
+    de = np.zeros((3, 3))
+    e3 = np.empty((3, 3))
+    x = np.empty(3)
+    v = np.empty((3, 3))
+    work = np.empty((3, 3))
+    sig = np.empty(3)
+    eps_e = np.empty(3)
+    D = np.empty((3, 3))
+    P = np.empty((k, k))
+    for e in range(nel):
+        element_increments(du, dofs, e, nloc, k, U)
+        for m in range(nslots):
+            p = slots[e, m]
+            if p < 0:
+                continue
+            point_gradient(G, e, m, U, nloc, k, g)
+            for a in range(k):
+                for c in range(k):
+                    de[a, c] = .5 * (g[a, c] + g[c, a])
+            if not plastic:
+                trace = de[0, 0] + de[1, 1] + de[2, 2]
+                for a in range(3):
+                    for c in range(3):
+                        s = 2 * mu * de[a, c]
+                        if a == c:
+                            s += lam * trace
+                        stress[a, c, p] = stress0[a, c, p] + s
+                        strain[a, c, p] = strain0[a, c, p] + de[a, c]
+            else:
+                for a in range(3):
+                    for c in range(3):
+                        e3[a, c] = strain0[a, c, p] + de[a, c]
+                principal_frame(e3, k, x, v, work)
+                yielded[p], eq[p] = principal_update(params, x, eq0[p], sig,
+                                                     eps_e, D)
+                for a in range(3):
+                    for c in range(3):
+                        s = 0.
+                        r = 0.
+                        for A in range(3):
+                            s += sig[A] * v[a, A] * v[c, A]
+                            r += eps_e[A] * v[a, A] * v[c, A]
+                        stress[a, c, p] = s
+                        strain[a, c, p] = r
+                        vecs[a, c, p] = v[a, c]
+                    x_all[a, p] = x[a]
+                for A in range(k):
+                    y[A, p] = sig[A]
+                    for B in range(k):
+                        dy_dx[A, B, p] = D[A, B]
+            for a in range(k):
+                for c in range(k):
+                    P[a, c] = stress[a, c, p]
+            add_force(G, e, m, P, w[p], nloc, k, fe)
+        scatter_force(f, fe, dofs, e, nloc, k)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def point_tangent(kind, p, k, C, x, y, dy_dx, vecs, dF_inv, A, work):
+    """The tangent ``A`` (k, k, k, k) of point ``p`` that the stiffness
+    pulls against the gradients at the step's start: ``C`` (elastic), the
+    isotropic derivative of the return map, or in finite deformation
+    ``dF^-1_eb (2 dtau/db . b_tr - delta_bc tau_ad) dF^-1_fd``
+    (:func:`~skfem_mpm.kernels.constitutive.frame_tangent`; ``work``:
+    its work arrays)."""
+    if kind == ELASTIC_TANGENT:
+        for a in range(k):
+            for b in range(k):
+                for c in range(k):
+                    for d in range(k):
+                        A[a, b, c, d] = C[a, b, c, d]
+        return
+    xp, yp, dp, vp, Z, theta, M, Y = work
+    for a in range(k):
+        xp[a] = x[a, p]
+        yp[a] = y[a, p]
+        for b in range(k):
+            dp[a, b] = dy_dx[a, b, p]
+            vp[a, b] = vecs[a, b, p]
+    for e in range(k):
+        for B in range(k):
+            if kind == FINITE_TANGENT:
+                t = 0.
+                for b in range(k):
+                    t += dF_inv[e, b, p] * vp[b, B]
+                Z[e, B] = t
+            else:
+                Z[e, B] = vp[e, B]
+    frame_tangent(k, xp, yp, dp, vp, Z, kind == FINITE_TANGENT, A, theta, M,
+                  Y)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x,
+               y, dy_dx, vecs, dF_inv, data, k, nloc):
+    """``K_(ia)(jc) = sum_p w_p A_abcd G_bi G_dj`` element by element,
+    each element's matrix added to the CSR ``data`` of the pattern whose
+    places are ``first[elements[e]]`` (one per entry; ``per_node``: one
+    per node pair, the components' places offset by ``length``, the
+    lengths of the node's rows), with the tangent ``kind`` of each
+    point."""
+    nel, nslots = slots.shape
+    nd = nloc * k
+    Ke = np.zeros((nd, nd))
+    H = np.empty((k, k, k, nloc))
+    A = np.empty((k, k, k, k))
+    work = (np.empty(k), np.empty(k), np.empty((k, k)), np.empty((k, k)),
+            np.empty((k, k)), np.empty((k, k)), np.empty((k, k, k, k)),
+            np.empty((k, k, k)))
+    for e in range(nel):
+        for m in range(nslots):
+            p = slots[e, m]
+            if p < 0:
+                continue
+            point_tangent(kind, p, k, C, x, y, dy_dx, vecs, dF_inv, A, work)
+            wp = w[p]
+            # H_aecj = w sum_f A_aecf G_jf, then K_(ia)(jc) += G_ie H_aecj
+            for a in range(k):
+                for b in range(k):
+                    for c in range(k):
+                        for j in range(nloc):
+                            s = 0.
+                            for d in range(k):
+                                s += A[a, b, c, d] * G[e, m, j, d]
+                            H[a, b, c, j] = wp * s
+            for i in range(nloc):
+                for a in range(k):
+                    for j in range(nloc):
+                        for c in range(k):
+                            s = 0.
+                            for b in range(k):
+                                s += G[e, m, i, b] * H[a, b, c, j]
+                            Ke[i * k + a, j * k + c] += s
+        el = elements[e]
+        for i in range(nloc):
+            for a in range(k):
+                for j in range(nloc):
+                    for c in range(k):
+                        if per_node:
+                            place = first[el, i * nloc + j] \
+                                + a * length[el, i] + c
+                        else:
+                            place = first[el, (i * k + a) * nd + j * k + c]
+                        data[place] += Ke[i * k + a, j * k + c]
+                        Ke[i * k + a, j * k + c] = 0.
+
+
+#: (dimension, nodes per element) of the grids the passes are compiled for
+#: (bilinear quadrilaterals, trilinear hexahedra): loops of known length
+#: that the compiler unrolls (four times faster than loops of any length),
+#: each pass compiled for one of them when first called
+SHAPES = ((2, 4), (3, 8))
+
+
+@njit(cache=True, error_model="numpy")
+def finite_residual_2d(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
+                       dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq):
+    return _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P,
+                            dF, dF_inv, b_dev, tau, d, vecs, y, dy_dx,
+                            yielded, eq, 2, 4)
+
+
+@njit(cache=True, error_model="numpy")
+def finite_residual_3d(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
+                       dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq):
+    return _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P,
+                            dF, dF_inv, b_dev, tau, d, vecs, y, dy_dx,
+                            yielded, eq, 3, 8)
+
+
+@njit(cache=True, error_model="numpy")
+def small_residual_2d(G, slots, dofs, w, du, stress0, strain0, params, eq0,
+                      f, stress, strain, x, vecs, y, dy_dx, yielded, eq):
+    _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0, f,
+                    stress, strain, x, vecs, y, dy_dx, yielded, eq, 2, 4)
+
+
+@njit(cache=True, error_model="numpy")
+def small_residual_3d(G, slots, dofs, w, du, stress0, strain0, params, eq0,
+                      f, stress, strain, x, vecs, y, dy_dx, yielded, eq):
+    _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0, f,
+                    stress, strain, x, vecs, y, dy_dx, yielded, eq, 3, 8)
+
+
+@njit(cache=True, error_model="numpy")
+def stiffness_2d(G, slots, w, elements, first, length, per_node, kind, C, x,
+                 y, dy_dx, vecs, dF_inv, data):
+    _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x, y,
+               dy_dx, vecs, dF_inv, data, 2, 4)
+
+
+@njit(cache=True, error_model="numpy")
+def stiffness_3d(G, slots, w, elements, first, length, per_node, kind, C, x,
+                 y, dy_dx, vecs, dF_inv, data):
+    _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x, y,
+               dy_dx, vecs, dF_inv, data, 3, 8)
+
+
+def passes_of(dim: int):
+    """``(finite_residual, small_residual, stiffness)`` compiled for the
+    grid of dimension ``dim`` (:data:`SHAPES`)."""
+    if dim == 2:
+        return finite_residual_2d, small_residual_2d, stiffness_2d
+    return finite_residual_3d, small_residual_3d, stiffness_3d

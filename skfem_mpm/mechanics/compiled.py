@@ -1,0 +1,206 @@
+"""The kinematics' responses from the compiled points-first passes.
+
+:func:`compiled_path` decides, when a run's kinematics piece is made,
+whether its responses may come from the compiled passes
+(:mod:`skfem_mpm.kernels.passes`): they cover standard MPM's point
+operator (``op.kernel_layout``) in 2D and 3D, small strain and finite
+deformation (updated Lagrangian), :class:`~skfem_mpm.mechanics.materials.
+LinearElastic` and :class:`~skfem_mpm.mechanics.materials.VonMises`.
+Everything else (GIMP's and B-splines' sparse operators, mean dilatation,
+the total Lagrangian scheme of ``method="fem"``, 1D, the soil models, a
+user's material, one material per body) runs on the numpy path, the
+reference the compiled passes are tested equal to.
+
+A compiled response fills the arrays the numpy path fills (stress, the
+spectral parts, ``dF`` ...), so the kinematics build it, its commit and its
+tangent on demand with their own code; it adds the internal force, summed
+in the same pass, and the stiffness, formed point by point from the kept
+parts and scattered into the CSR data of the grid's pattern.
+"""
+import logging
+from typing import Optional
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import InvalidInputError
+from ..kernels import (ELASTIC, VON_MISES, check_kernels, compiled_passes,
+                       log_once)
+from .materials import LinearElastic, VonMises, elastic_tensor
+
+__all__ = ["compiled_path", "CompiledPasses", "material_parameters"]
+
+
+def material_parameters(material) -> Optional[ndarray]:
+    """The parameter vector of the compiled return maps
+    (:mod:`skfem_mpm.kernels.constitutive`), or ``None`` for a material
+    they do not cover (only the built-in classes themselves, not
+    subclasses, which may change the law)."""
+    if type(material) is LinearElastic:
+        return np.array([ELASTIC, material.lam, material.mu, material.E,
+                         material.nu, 0.])
+    if type(material) is VonMises:
+        return np.array([VON_MISES, material.lam, material.mu, material.E,
+                         material.nu, material.yield_stress])
+    return None
+
+
+def compiled_path(kernels: str, material, dim: int,
+                  total_lagrangian: bool = False):
+    """The :class:`CompiledPasses` of a kinematics piece, or ``None`` (the
+    numpy path): with ``kernels="numpy"``; with ``"auto"`` where the
+    passes do not cover the material, dimension or scheme or numba does
+    not import (logged once); with ``"compiled"`` those are refused
+    (:class:`~skfem_mpm.errors.InvalidInputError`), before any work."""
+    if check_kernels(kernels) == "numpy":
+        return None
+    params = material_parameters(material)
+    reason = ("{}D grids".format(dim) if dim not in (2, 3)
+              else "the total Lagrangian scheme (method 'fem')"
+              if total_lagrangian
+              else "the material {}".format(type(material).__name__)
+              if params is None else None)
+    passes = None if reason else compiled_passes()
+    if reason is None and passes is not None:
+        return CompiledPasses(passes, material, params, dim,
+                              kernels == "compiled")
+    if kernels == "compiled":
+        raise InvalidInputError(
+            "kernels='compiled': the compiled passes do not serve {} (they "
+            "cover standard MPM in 2D and 3D, small and finite "
+            "deformation, LinearElastic and VonMises, with numba); use "
+            "kernels='auto' or 'numpy'".format(
+                reason or "a run without numba (it does not import)"))
+    if reason is None:                  # no numba: compiled_passes logged
+        return None
+    log_once(logging.INFO, "kernels='auto': the numpy path serves %s",
+             reason)
+    return None
+
+
+def contiguous(a: ndarray) -> ndarray:
+    """``a`` as C-contiguous float64 (a copy only where it is not): one
+    compiled signature serves every call."""
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+class CompiledPasses:
+    """The compiled responses of one kinematics piece.
+
+    Parameters
+    ----------
+    passes
+        The module :mod:`skfem_mpm.kernels.passes`.
+    material, params
+        The material and its parameter vector.
+    dim
+        The grid's dimension.
+    explicit
+        ``kernels="compiled"`` was asked for: an operator the passes do
+        not serve is logged as a warning (once), not as information.
+
+    """
+
+    def __init__(self, passes, material, params: ndarray, dim: int,
+                 explicit: bool):
+        self.passes, self.material, self.params = passes, material, params
+        self.dim, self.explicit = dim, explicit
+        self.plastic = params[0] != 0.
+        self.finite, self.small, self.assemble = passes.passes_of(dim)
+
+    def serves(self, op, points) -> bool:
+        """Whether the passes serve the point operator ``op``: standard
+        MPM's over all points, on bilinear quadrilaterals or trilinear
+        hexahedra (``passes.SHAPES``); logged once where not."""
+        layout = getattr(op, "kernel_layout", None) is not None
+        shape = (op.dim, op.scalar_dofs.shape[0]) if layout else None
+        if shape in self.passes.SHAPES and len(op.basis.subset) == points.n:
+            return True
+        log_once(logging.WARNING if self.explicit else logging.INFO,
+                 "kernels=%r: no compiled pass for the point operator %s%s; "
+                 "its responses run on the numpy path",
+                 "compiled" if self.explicit else "auto", type(op).__name__,
+                 "" if shape is None else
+                 " with {} nodes an element".format(shape[1]))
+        return False
+
+    def _state(self, points) -> ndarray:
+        if self.plastic:
+            return np.ascontiguousarray(
+                points.state["equivalent_plastic_strain"], dtype=float)
+        return np.zeros(points.n)
+
+    def _stiffness(self, op, kind: int, w: ndarray, C: ndarray,
+                   parts) -> callable:
+        """``stiffness()`` of a response: the compiled element stiffness
+        from the kept ``parts`` (x, y, dy_dx, vecs, dF_inv)."""
+        G, slots, dofs, elements, places = op.kernel_layout()
+        pattern = op.pattern()
+
+        def stiffness():
+            data = np.zeros(len(pattern.structure()[3]))
+            self.assemble(G, slots, contiguous(w), elements, *places, kind,
+                          C, *parts, data)
+            return pattern.csr(data)
+        return stiffness
+
+    def finite_response(self, kinematics, op, du: ndarray, points):
+        """The finite-deformation response (the numpy path's
+        :meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.response`)."""
+        G, slots, dofs, elements, places = op.kernel_layout()
+        n, k = points.n, self.dim
+        b_dev, tau, yielded, spectral = kinematics._workspace(n, k)
+        dF, dF_inv = np.empty((3, 3, n)), np.empty((3, 3, n))
+        P, f, eq = np.empty((k, k, n)), np.zeros(op.N), np.empty(n)
+        status = self.finite(
+            G, slots, dofs, contiguous(points.volume0), contiguous(du),
+            contiguous(kinematics.start_deviation(points)), self.params,
+            self._state(points), f, P, dF, dF_inv, b_dev, tau, spectral.d,
+            spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq)
+        if status:      # a point inverts: the numpy path's error
+            compiled, kinematics.compiled = kinematics.compiled, None
+            try:
+                return kinematics.response(op, du, points)
+            finally:
+                kinematics.compiled = compiled
+        kinematics.counters["return_maps"] += kinematics.plastic
+        state = {"equivalent_plastic_strain": eq} if self.plastic else {}
+        no_C = np.zeros((k,) * 4)
+        return kinematics.trial_response(
+            points, dF, dF_inv, P, state, k, force=f.copy,
+            stiffness=self._stiffness(
+                op, self.passes.FINITE_TANGENT, points.volume0, no_C,
+                (spectral.d, spectral.tau, spectral.dtau_dx, spectral.vecs,
+                 dF_inv)))
+
+    def small_response(self, kinematics, op, du: ndarray, points):
+        """The small-strain response (the numpy path's
+        :meth:`~skfem_mpm.mechanics.kinematics.SmallStrain.response`)."""
+        G, slots, dofs, elements, places = op.kernel_layout()
+        n, k = points.n, self.dim
+        stress, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
+        x, vecs = np.empty((3, n)), np.empty((3, 3, n))
+        y, dy_dx = np.empty((k, n)), np.empty((k, k, n))
+        yielded, eq = np.zeros(n, dtype=bool), np.empty(n)
+        f = np.zeros(op.N)
+        self.small(
+            G, slots, dofs, contiguous(points.volume), contiguous(du),
+            contiguous(points.stress), contiguous(points.strain), self.params,
+            self._state(points),
+            f, stress, strain, x, vecs, y, dy_dx, yielded, eq)
+        empty = np.empty((3, 3, 0))
+        if not self.plastic:
+            C = np.ascontiguousarray(elastic_tensor(self.material, 1, k)[
+                ..., 0])
+            return kinematics.elastic_response(
+                points, stress, strain, k, force=f.copy,
+                stiffness=self._stiffness(
+                    op, self.passes.ELASTIC_TANGENT, points.volume, C,
+                    (x, y, dy_dx, vecs, empty)))
+        kinematics.counters["return_maps"] += 1
+        return kinematics.plastic_response(
+            points, (x[:k], y, dy_dx, vecs[:k, :k]), stress, strain, yielded,
+            {"equivalent_plastic_strain": eq}, k, force=f.copy,
+            stiffness=self._stiffness(
+                op, self.passes.RETURN_MAP_TANGENT, points.volume,
+                np.zeros((k,) * 4), (x, y, dy_dx, vecs, empty)))
