@@ -127,7 +127,7 @@ def principal_update(params, eps, eq, tau, eps_e, D):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def frame_tangent(k, x, y, dy_dx, v, Z, finite, A, theta, M, Y):
+def frame_tangent(k, x, y, dy_dx, v, Z, finite, A, work):
     """The tangent ``A`` (k, k, k, k) of an isotropic update from its
     principal values, formed in the principal frame (``k`` eigenpairs):
     principal values ``x``, ``y`` and derivatives ``dy_dx[A, B] =
@@ -142,9 +142,10 @@ def frame_tangent(k, x, y, dy_dx, v, Z, finite, A, theta, M, Y):
     tau_ad`` of :func:`~skfem_mpm.mechanics.hencky.spatial_tangent` pulled
     back with ``F^-1`` (:func:`~skfem_mpm.mechanics.hencky.pull_back`).
     In the frame it has the entries ``AACC`` (``a1``), ``ABAB`` (``a2``)
-    and ``ABBA`` (``a3``), ``A != B``; each is an outer product of the
-    ``M[A, B, a, e] = v_aA Z_eB``.  ``theta`` (3, 3), ``M`` (3, 3, 3, 3)
-    and ``Y`` (3, 3, 3): work space."""
+    and ``ABBA`` (``a3``), ``A != B``, each an outer product of the
+    ``M[A, B, a, e] = v_aA Z_eB``.  ``work``: ``(a1, a2, a3, M, Y)``,
+    (3, 3) three times, (3, 3, 3, 3) and (3, 3, 3)."""
+    a1, a2, a3, M, Y = work
     largest = 0.
     for P in range(k):
         largest = max(largest, abs(x[P]))
@@ -152,27 +153,28 @@ def frame_tangent(k, x, y, dy_dx, v, Z, finite, A, theta, M, Y):
         for Q in range(k):
             diff = x[P] - x[Q]
             if P == Q:
-                theta[P, Q] = 0.
+                theta = 0.
             elif abs(diff) <= 1e-9 * largest:
-                theta[P, Q] = dy_dx[P, P] - dy_dx[P, Q]
+                theta = dy_dx[P, P] - dy_dx[P, Q]
             else:
-                theta[P, Q] = (y[P] - y[Q]) / diff
-    for P in range(k):
-        for Q in range(k):
+                theta = (y[P] - y[Q]) / diff
+            if finite:
+                a1[P, Q] = 2. * dy_dx[P, Q] * (1. + x[Q]) - (
+                    y[P] if P == Q else 0.)
+                a2[P, Q] = theta * (1. + x[Q])
+                a3[P, Q] = theta * (1. + x[P]) - (y[P] if P != Q else 0.)
+            else:
+                a1[P, Q] = dy_dx[P, Q]
+                a2[P, Q] = a3[P, Q] = .5 * theta
             for a in range(k):
                 for e in range(k):
                     M[P, Q, a, e] = v[a, P] * Z[e, Q]
-    # Y_C = sum_A a1_AC M_AA
-    for C in range(k):
+    for C in range(k):              # Y_C = sum_A a1_AC M_AA
         for a in range(k):
             for e in range(k):
                 t = 0.
                 for P in range(k):
-                    a1 = dy_dx[P, C]
-                    if finite:
-                        a1 = 2. * a1 * (1. + x[C]) - (y[P] if P == C
-                                                      else 0.)
-                    t += a1 * M[P, P, a, e]
+                    t += a1[P, C] * M[P, P, a, e]
                 Y[C, a, e] = t
     for a in range(k):
         for e in range(k):
@@ -181,14 +183,8 @@ def frame_tangent(k, x, y, dy_dx, v, Z, finite, A, theta, M, Y):
                     t = 0.
                     for C in range(k):
                         t += Y[C, a, e] * M[C, C, c, f]
-                    for P in range(k):
+                    for P in range(k):      # a2, a3 vanish on P == Q
                         for Q in range(k):
-                            if P != Q:
-                                if finite:
-                                    a2 = theta[P, Q] * (1. + x[Q])
-                                    a3 = theta[P, Q] * (1. + x[P]) - y[P]
-                                else:
-                                    a2 = a3 = .5 * theta[P, Q]
-                                t += M[P, Q, a, e] * (
-                                    a2 * M[P, Q, c, f] + a3 * M[Q, P, c, f])
+                            t += M[P, Q, a, e] * (a2[P, Q] * M[P, Q, c, f]
+                                                  + a3[P, Q] * M[Q, P, c, f])
                     A[a, e, c, f] = t

@@ -90,6 +90,7 @@ def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
     g = np.empty((k, k))
     F = np.empty((3, 3))
     Fi = np.empty((3, 3))
+    FS = np.empty((3, 3))
     b = np.empty((3, 3))
     x = np.empty(3)
     v = np.empty((3, 3))
@@ -136,11 +137,16 @@ def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
                 return 1
             # b_tr - I = dF (b_n - I) dF^T + g + g^T + g g^T
             for a in range(3):
-                for c in range(3):
+                for j in range(3):
                     s = 0.
                     for i in range(3):
-                        for j in range(3):
-                            s += F[a, i] * start[i, j, p] * F[c, j]
+                        s += F[a, i] * start[i, j, p]
+                    FS[a, j] = s
+            for a in range(3):
+                for c in range(3):
+                    s = 0.
+                    for j in range(3):
+                        s += FS[a, j] * F[c, j]
                     if a < k and c < k:
                         gg = 0.
                         for j in range(k):
@@ -269,7 +275,7 @@ def point_tangent(kind, p, k, C, x, y, dy_dx, vecs, dF_inv, A, work):
                     for d in range(k):
                         A[a, b, c, d] = C[a, b, c, d]
         return
-    xp, yp, dp, vp, Z, theta, M, Y = work
+    xp, yp, dp, vp, Z = work[:5]
     for a in range(k):
         xp[a] = x[a, p]
         yp[a] = y[a, p]
@@ -285,8 +291,7 @@ def point_tangent(kind, p, k, C, x, y, dy_dx, vecs, dF_inv, A, work):
                 Z[e, B] = t
             else:
                 Z[e, B] = vp[e, B]
-    frame_tangent(k, xp, yp, dp, vp, Z, kind == FINITE_TANGENT, A, theta, M,
-                  Y)
+    frame_tangent(k, xp, yp, dp, vp, Z, kind == FINITE_TANGENT, A, work[5:])
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -301,11 +306,11 @@ def _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x,
     nel, nslots = slots.shape
     nd = nloc * k
     Ke = np.zeros((nd, nd))
-    H = np.empty((k, k, k, nloc))
+    H = np.empty((k, k, nd))
     A = np.empty((k, k, k, k))
     work = (np.empty(k), np.empty(k), np.empty((k, k)), np.empty((k, k)),
-            np.empty((k, k)), np.empty((k, k)), np.empty((k, k, k, k)),
-            np.empty((k, k, k)))
+            np.empty((k, k)), np.empty((k, k)), np.empty((k, k)),
+            np.empty((k, k)), np.empty((k, k, k, k)), np.empty((k, k, k)))
     for e in range(nel):
         for m in range(nslots):
             p = slots[e, m]
@@ -313,23 +318,22 @@ def _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x,
                 continue
             point_tangent(kind, p, k, C, x, y, dy_dx, vecs, dF_inv, A, work)
             wp = w[p]
-            # H_aecj = w sum_f A_aecf G_jf, then K_(ia)(jc) += G_ie H_aecj
+            # H_(ab)(jc) = w sum_d A_abcd G_jd, then K_(ia)(jc) += G_ib
+            # H_(ab)(jc): a row of H added to a row of the element matrix
             for a in range(k):
                 for b in range(k):
-                    for c in range(k):
-                        for j in range(nloc):
-                            s = 0.
-                            for d in range(k):
-                                s += A[a, b, c, d] * G[e, m, j, d]
-                            H[a, b, c, j] = wp * s
-            for i in range(nloc):
-                for a in range(k):
                     for j in range(nloc):
                         for c in range(k):
                             s = 0.
-                            for b in range(k):
-                                s += G[e, m, i, b] * H[a, b, c, j]
-                            Ke[i * k + a, j * k + c] += s
+                            for d in range(k):
+                                s += A[a, b, c, d] * G[e, m, j, d]
+                            H[a, b, j * k + c] = wp * s
+            for i in range(nloc):
+                for a in range(k):
+                    for b in range(k):
+                        g = G[e, m, i, b]
+                        for jc in range(nd):
+                            Ke[i * k + a, jc] += g * H[a, b, jc]
         el = elements[e]
         for i in range(nloc):
             for a in range(k):
