@@ -28,6 +28,7 @@ __all__ = [
     "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "RigidBody",
     "reduce_strength", "strength_reduction", "Dynamics", "Newmark",
     "GeneralizedAlpha", "material_point_bases", "Obstacle", "ContactError",
+    "Contact",
 ]
 
 
@@ -60,6 +61,7 @@ def _public() -> dict:
     from .solve.loads import GridLoad, Pressure, Traction, side_points
     from .solve.results import Result, StepRecord
     from .solve.obstacles import Obstacle
+    from .solve.body_contact import Contact
     from .solve.rigid import RigidBody
     from .solve.small import solve_mpm
     from .solve.strength_reduction import reduce_strength, strength_reduction

@@ -272,19 +272,24 @@ def energy_curves(rows) -> dict:
 
 def rigid_body_curves(scene, rows, reactions) -> dict:
     """``{"rigid_bodies": {name: {"displacement", "force", ...}},
-    "obstacles": {name: ...}}`` per step of the history ``rows`` and the
-    ``reactions`` (steps, supports + rigid bodies + obstacles, dim) of
+    "obstacles": {name: ...}, "contacts": {name: ...}}`` per step of the
+    history ``rows`` and the ``reactions`` (steps, supports + rigid bodies
+    + obstacles + contacts, dim) of
     :func:`~skfem_mpm.scenes.scene.reaction_resultants`; a key only where
     the scene has such bodies.  A rigid body's force is the one that
-    holds its motion, an obstacle's the one the material exerts on it;
+    holds its motion, an obstacle's the one the material exerts on it, a
+    contact's the one its first body exerts on its second;
     the peak is where the force along the motion is largest (an obstacle
     that does not move: the largest force)."""
     rigid = [(b.name, b.rigid, 1.) for b in scene.bodies
              if b.rigid is not None]
     obstacles = [(o.name, o.displacement, -1.)
                  for o in obstacle_list(scene)]
+    contacts = [(c.name, np.zeros(scene.grid.dim), 1.)
+                for c in scene.contacts]
     out, first = {}, len(scene.supports)
-    for key, items in (("rigid_bodies", rigid), ("obstacles", obstacles)):
+    for key, items in (("rigid_bodies", rigid), ("obstacles", obstacles),
+                       ("contacts", contacts)):
         if items:
             out[key] = motion_curves(items, rows[:, 1],
                                      load_scale(scene, rows[:, 1]),
@@ -387,7 +392,13 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
         plot_rigid_bodies(scene, summary["rigid_bodies"],
                           outdir / "rigid_bodies.png")
     if "obstacles" in summary:
-        plot_obstacles(scene, summary["obstacles"], outdir / "obstacles.png")
+        plot_contact_forces(scene, summary["obstacles"], {
+            o.name: o.displacement for o in obstacle_list(scene)},
+            "obstacles", outdir / "obstacles.png")
+    if "contacts" in summary:
+        plot_contact_forces(scene, summary["contacts"], {
+            c.name: 0. for c in scene.contacts}, "contacts",
+            outdir / "contacts.png")
     if "energies" in summary:
         fig, ax = pyplot().subplots(figsize=(6, 4))
         draw_energies(ax, summary["energies"], "{}: energies over time"
@@ -452,12 +463,14 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
     plot.save_figure(fig, path)
 
 
-def plot_obstacles(scene, curves: dict, path: Path):
+def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
+                        path: Path):
     """Per obstacle the magnitude of the force the material exerts on it
-    against its displacement along its motion where every obstacle moves,
-    else against the load factor (time in dynamics)."""
+    (``what="obstacles"``), or per contact the force between its bodies
+    (``"contacts"``), against the displacement along its ``motion``
+    (name: displacement at full load) where every one moves, else against
+    the load factor (time in dynamics)."""
     fig, ax = pyplot().subplots(figsize=(5.5, 4))
-    motion = {o.name: o.displacement for o in obstacle_list(scene)}
     moving = all(np.any(d) for d in motion.values())
     for name, curve in curves.items():
         disp = np.vstack([np.zeros((1, len(curve["displacement"][0]))),
@@ -473,9 +486,13 @@ def plot_obstacles(scene, curves: dict, path: Path):
         mark_peak(ax, line, x, magnitude)
     ax.set_xlabel("obstacle displacement along its motion (m)" if moving
                   else "time (s)" if scene.dynamics else "load factor (-)")
-    ax.set_ylabel("force of the material on it, magnitude ({})".format(
+    ax.set_ylabel("{}, magnitude ({})".format(
+        "force of the material on it" if what == "obstacles" else
+        "force of the first body on the second",
         quantity_unit("rigid_force", scene.grid.dim)))
-    ax.set_title("{}: contact force on the obstacles".format(scene.name))
+    ax.set_title("{}: contact force {}".format(
+        scene.name, "on the obstacles" if what == "obstacles" else
+        "between the bodies"))
     ax.legend(loc="best")
     fig.tight_layout()
     plot.save_figure(fig, path)

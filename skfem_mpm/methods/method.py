@@ -29,6 +29,7 @@ from numpy import ndarray
 from ..errors import PointsOutsideGridError, check_choice
 from ..quadrature.basis import MaterialPointBasis
 from .bspline import QuadraticBSpline
+from .fields import FieldMethod
 from .gimp import gimp_operators, stretched_domains
 from .operators import PointOperator
 
@@ -101,10 +102,15 @@ class GimpMethod(PointMethod):
     def operator(self, points, step: int, timings: dict):
         location = self.locate(points.x, step, timings, points)
         tic = time.perf_counter()
-        op = self.gimp(points.x, points.domain)
+        op = self.sparse_operator(points.x, points.domain)
         op.point_elements = location[0]
         timings["assemble"] += time.perf_counter() - tic
         return op
+
+    def sparse_operator(self, x: ndarray, domain: ndarray):
+        """The GIMP operator of points at ``x`` with half-lengths
+        ``domain``."""
+        return self.gimp(x, domain)
 
     def domains(self, domain0: Optional[ndarray], F: ndarray):
         if self.name == "cpgimp":
@@ -126,15 +132,20 @@ class BSplineMethod(PointMethod):
     def operator(self, points, step: int, timings: dict):
         location = self.locate(points.x, step, timings, points)
         tic = time.perf_counter()
-        op = self.spline(points.x)
+        op = self.sparse_operator(points.x, points.domain)
         op.point_elements = location[0]
         timings["assemble"] += time.perf_counter() - tic
         return op
 
-    def weights_at(self, x: ndarray):
+    def sparse_operator(self, x: ndarray, domain=None):
+        """The splines' operator of points at ``x`` (domains play no
+        part)."""
+        return self.spline(x)
+
+    def weights_at(self, x: ndarray, idx: ndarray = None):
         """The splines' operator at positions ``x`` (dim, m): where surface
-        loads act (their faces' centres), so a traction loads the nodes
-        the method's displacement field is made of."""
+        loads act (their faces' centres, of points ``idx``), so a traction
+        loads the nodes the method's displacement field is made of."""
         return self.spline(x)
 
 
@@ -144,8 +155,20 @@ KINDS = {"ugimp": GimpMethod, "cpgimp": GimpMethod,
 
 
 def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
-                counters: dict):
-    """The method piece called ``name`` (one of :data:`METHODS`)."""
+                counters: dict, fields=None):
+    """The method piece called ``name`` (one of :data:`METHODS`); with
+    ``fields`` (:class:`~skfem_mpm.methods.fields.Fields`, contacts
+    between bodies), on the copies of the grid: standard MPM and FE on the
+    extended mesh (given as ``mesh``, ``scalar_dofs``, ``pattern``), the
+    others built on the grid and moved to the copies
+    (:class:`~skfem_mpm.methods.fields.FieldMethod`)."""
     check_choice("method", name, METHODS)
     kind = KINDS.get(name, PointMethod)
-    return kind(name, mesh, scalar, scalar_dofs, pattern, locate, counters)
+    if fields is None:
+        return kind(name, mesh, scalar, scalar_dofs, pattern, locate,
+                    counters)
+    if kind is PointMethod:
+        return kind(name, fields.mesh, scalar, fields.scalar_dofs,
+                    fields.pattern, fields.locate, counters)
+    return FieldMethod(kind(name, mesh, scalar, scalar_dofs, pattern, locate,
+                            counters), fields)

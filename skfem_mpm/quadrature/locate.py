@@ -134,12 +134,14 @@ def locate_points(mesh: Mesh, x: ndarray, **kwargs) -> Tuple[ndarray, ndarray]:
     return point_locator(mesh, **kwargs)(x)
 
 
-def cell_coordinates(mesh: Mesh) -> Callable[[ndarray, ndarray], ndarray]:
+def cell_coordinates(mesh: Mesh, clip: bool = True
+                     ) -> Callable[[ndarray, ndarray], ndarray]:
     """Build ``local(x, tind) -> X``: local coordinates (dim, n) of positions
     ``x`` (dim, n) in *given* elements ``tind`` (n,), clipped into the
     reference element (a position outside its element is moved to the
     nearest point of it, on tensor grids; simplices scale back onto the
-    face ``sum X = 1``).
+    face ``sum X = 1``), or with ``clip=False`` beyond it (where the
+    element's shape functions extrapolate; affine and tensor grids).
 
     Examples
     --------
@@ -165,6 +167,9 @@ def cell_coordinates(mesh: Mesh) -> Callable[[ndarray, ndarray], ndarray]:
             return newton(x, tind[:, None])[:, :, 0]
 
     simplex = mesh.refdom in (RefTri, RefTet)
+
+    if not clip:
+        return raw
 
     def local(x: ndarray, tind: ndarray) -> ndarray:
         X = np.clip(np.nan_to_num(raw(x, tind), nan=.5), 0., 1.)

@@ -33,6 +33,7 @@ from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
 from ..solve.newton import NewtonOptions
 from ..solve.options import BodyForce, Options, Prescribed, Resume
 from ..solve.results import Result
+from ..solve.body_contact import Contact, check_contacts
 from ..solve.obstacles import Obstacle
 from ..solve.rigid import RigidBody
 from ..stabilisation.settings import Stabilisation
@@ -254,6 +255,9 @@ class Scene:
     obstacles
         Rigid :class:`~skfem_mpm.Obstacle` s the material cannot enter
         (scene tables ``[[obstacles]]``).
+    contacts
+        :class:`~skfem_mpm.Contact` s between bodies, named by the bodies'
+        names (scene tables ``[[contacts]]``).
     """
     grid: Grid
     bodies: List[Body]
@@ -272,6 +276,7 @@ class Scene:
     dynamics: Optional[TimeIntegration] = None
     outputs: List["Quantity"] = field(default_factory=list)
     obstacles: List[Obstacle] = field(default_factory=list)
+    contacts: List[Contact] = field(default_factory=list)
 
     @property
     def step_count(self) -> int:
@@ -333,7 +338,10 @@ class Scene:
             else self.dynamics.dynamics([b.density for b in self.bodies]),
             full_body_force=self.gravity is not None and any(
                 b.K0 is not None for b in self.bodies),
-            driven=bool(rigid) or moving, contact=bool(self.obstacles))
+            driven=bool(rigid) or moving,
+            contact=bool(self.obstacles) or bool(self.contacts))
+        check_contacts(self.contacts, len(self.bodies),
+                       [b.name for b in self.bodies])
         if self.reference == "bearing_capacity":
             check_footing_scene(self)
         names = support_names(self)
@@ -398,7 +406,9 @@ def reaction_resultants(scene):
     unsupported components), then per rigid body the force that moves it
     (:attr:`~skfem_mpm.StepRecord.rigid_forces`), then per obstacle the
     force the material exerts on it
-    (:attr:`~skfem_mpm.StepRecord.obstacle_forces`).  A grid DOF held by
+    (:attr:`~skfem_mpm.StepRecord.obstacle_forces`), then per contact
+    between bodies the force of its first body on its second
+    (:attr:`~skfem_mpm.StepRecord.contact_forces`).  A grid DOF held by
     several supports counts for one of them only, so that the resultants
     add up to the total reaction: a support that moves (a ``value``) if
     one holds it, since the DOF moves with it, else the last one listed (a
@@ -427,10 +437,22 @@ def reaction_resultants(scene):
             out[k, axes] = (reactions[dofs] * first).sum(axis=1)
         return np.vstack([out] + [f[None] for f in record.rigid_forces]
                          + ([] if record.obstacle_forces is None
-                            else [record.obstacle_forces]))
+                            else [record.obstacle_forces])
+                         + ([] if record.contact_forces is None
+                            else [record.contact_forces]))
     return support_names(scene) + [b.name for b in scene.bodies
                                    if b.rigid is not None] + [
-        o.name for o in obstacle_list(scene)], resultant
+        o.name for o in obstacle_list(scene)] + [
+        c.name for c in scene.contacts], resultant
+
+
+def scene_contacts(scene: Scene) -> list:
+    """The scene's contacts with their bodies as indices (named
+    ``<first>-<second>`` by the bodies' names where no name is given)."""
+    names = [b.name for b in scene.bodies]
+    return [Contact(names.index(c.first), names.index(c.second),
+                    friction=c.friction, name=c.name, penalty=c.penalty,
+                    tolerance=c.tolerance) for c in scene.contacts]
 
 
 def obstacle_list(scene: Scene) -> list:
@@ -627,6 +649,7 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                     loads, None if dynamics else scene.step_count,
                     method=scene.method, kinematics=scene.kinematics,
                     dynamics=dynamics, obstacles=scene.obstacles,
+                    contacts=scene_contacts(scene),
                     options=Options(
                         newton=scene.newton,
                         stabilisation=scene.stabilisation,

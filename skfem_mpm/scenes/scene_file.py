@@ -92,6 +92,14 @@ offending value (unknown keys, wrong types, impossible values), in a
     friction = 0.0                  # smooth; a Coulomb coefficient,
                                     # "rough" (no slip) or "tied" (bonded)
     # penalty = 10.0; tolerance = 1e-3 (penetration, cells)
+    [[contacts]]                    # optional: bodies that may slide and
+                                    # separate (each pair on its own grid
+                                    # field; others stay glued)
+    first = "soil"                  # body names
+    second = "pile"
+    friction = 0.3                  # 0.0 smooth (default), a Coulomb
+                                    # coefficient or "rough" (no slip)
+    # name = "shaft"; penalty = 10.0; tolerance = 1e-3
     [dynamics]                      # optional: implicit dynamics
     time_step = 0.01                # s (the longest; equal steps)
     duration = 1.0                  # s
@@ -135,6 +143,7 @@ from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
 from ..solve.backends import FACTORIES
 from ..solve.dynamics import MASSES
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS, NewtonOptions
+from ..solve.body_contact import Contact
 from ..solve.obstacles import Obstacle
 from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
@@ -363,6 +372,33 @@ def _box(c, data, key: str, dim: int, closed: bool = False):
     return box
 
 
+def _contact(c, data, key: str, bodies: list):
+    """A :class:`~skfem_mpm.Contact` of a ``[[contacts]]`` table (body
+    names), or ``None`` after a problem."""
+    data = c.table(data, key, ("first", "second", "friction", "name",
+                               "penalty", "tolerance"), ("first", "second"))
+    if "first" not in data or "second" not in data:
+        return None
+    names = [b.name for b in bodies if b is not None]
+    for which in ("first", "second"):
+        if data[which] not in names:
+            c.bad(key + "." + which, "must name a body ({})".format(
+                ", ".join(names)), data[which])
+            return None
+    friction = data.get("friction", 0.)
+    if not isinstance(friction, str):
+        friction = c.number(data, key, "friction", 0., low=0.,
+                            open_low=False)
+    kwargs = {name: c.number(data, key, name, 1., low=0.)
+              for name in ("penalty", "tolerance") if name in data}
+    try:
+        return Contact(data["first"], data["second"], friction=friction,
+                       name=data.get("name"), **kwargs)
+    except InvalidInputError as err:
+        c.problems.append("{}: {}".format(key, err))
+        return None
+
+
 def _obstacle(c, data, key: str, dim: int):
     """An :class:`~skfem_mpm.Obstacle` of an ``[[obstacles]]`` table, or
     ``None`` after a problem."""
@@ -543,7 +579,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     c = _Checker()
     c.table(data, "", ("name", "reference", "grid", "bodies", "supports",
                        "gravity", "point_loads", "tractions", "solver",
-                       "dynamics", "outputs", "obstacles"),
+                       "dynamics", "outputs", "obstacles", "contacts"),
             ("grid", "bodies"))
     grid = _grid(c, data.get("grid", {}))
     grid_read = not c.problems
@@ -622,6 +658,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             else None))
     obstacles = [_obstacle(c, o, "obstacles[{}]".format(k), dim)
                  for k, o in enumerate(c.array(data, "obstacles"))]
+    contacts = [_contact(c, t, "contacts[{}]".format(k), bodies)
+                for k, t in enumerate(c.array(data, "contacts"))]
     outputs = []
     for k, q in enumerate(c.array(data, "outputs")):
         try:
@@ -666,7 +704,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         reference=c.choice(data, "", "reference", REFERENCES + (None,)),
         solver=c.choice(solver, "solver", "linear", tuple(FACTORIES),
                         "auto"),
-        outputs=outputs, obstacles=[o for o in obstacles if o is not None])
+        outputs=outputs, obstacles=[o for o in obstacles if o is not None],
+        contacts=[t for t in contacts if t is not None])
     if not c.problems:
         try:
             scene.check()

@@ -78,6 +78,50 @@ __all__ = ["ObstacleContact", "corner_signs", "point_rows",
 MARGIN_CELLS = 2.
 
 
+def coulomb(friction, kappa: float, p: ndarray, n: ndarray, tau: ndarray,
+            motion: ndarray):
+    """The tangential traction of a penalty regularised Coulomb law with
+    a return map, per contact (columns): the trial ``tau* = P tau -
+    kappa P motion`` (``P = I - n n``, ``tau`` the multiplier, ``motion``
+    the step's relative motion) where pressed (``p > 0``), kept while
+    ``|tau*| <= friction p`` (stick; always with ``"rough"``), else
+    ``friction p tau*/|tau*|`` (slip).  Returns the traction (dim, m),
+    its consistent derivative by ``motion`` (dim, dim, m: the normal's
+    rotation left out) and the sticking columns."""
+    dim = n.shape[0]
+    eye = np.eye(dim)[:, :, None]
+    Pt = eye - np.einsum("as,bs->abs", n, n)
+    slip = np.einsum("abs,bs->as", Pt, motion)
+    trial = np.einsum("abs,bs->as", Pt, tau) - kappa * slip
+    out, C = np.zeros_like(trial), np.zeros(Pt.shape)
+    stick = p > 0
+    if friction != "rough":
+        size = np.sqrt((trial ** 2).sum(axis=0))
+        limit = friction * p
+        slide = stick & (size > limit)
+        stick &= ~slide
+        s = np.flatnonzero(slide)
+        t_hat = trial[:, s] / size[s]
+        out[:, s] = limit[s] * t_hat
+        C[:, :, s] = friction * kappa * (
+            np.einsum("as,bs->abs", t_hat, n[:, s])
+            + p[s] / size[s] * np.einsum("abs,bcs->acs", eye - np.einsum(
+                "as,bs->abs", t_hat, t_hat), Pt[:, :, s]))
+    out[:, stick] = trial[:, stick]
+    C[:, :, stick] = kappa * Pt[:, :, stick]
+    return out, C, stick
+
+
+def block_diagonal(C: ndarray) -> csr_matrix:
+    """The (dim m, dim m) matrix of the blocks ``C`` (dim, dim, m)."""
+    dim, m = C.shape[1:]
+    rows = (np.arange(m) * dim)[None, None, :] + np.arange(dim)[:, None, None]
+    cols = (np.arange(m) * dim)[None, None, :] + np.arange(dim)[None, :, None]
+    return coo_matrix((C.ravel(), (np.broadcast_to(rows, C.shape).ravel(),
+                                   np.broadcast_to(cols, C.shape).ravel())),
+                      shape=(dim * m, dim * m)).tocsr()
+
+
 def corner_signs(dim: int) -> ndarray:
     """The (dim, 2**dim) signs of a box's corners."""
     return np.array(list(itertools.product((-1., 1.), repeat=dim))).T
@@ -411,27 +455,9 @@ class StepContact(GridTerm):
                 C[:, :, touching] = (kappa * area * hold)[:, :, touching]
             tau = np.zeros_like(X)
             if ob.friction != 0.:
-                Pt = eye - nn
-                slip = np.einsum("abs,bs->as", Pt, u - self.moved[i][:, None])
-                trial = np.einsum("abs,bs->as", Pt, self.tau[i]) \
-                    - kappa * slip
-                stick = active.copy()
-                if ob.friction != "rough":
-                    size = np.sqrt((trial ** 2).sum(axis=0))
-                    limit = ob.friction * p
-                    slide = active & (size > limit)
-                    stick &= ~slide
-                    s = np.flatnonzero(slide)
-                    t_hat = trial[:, s] / size[s]
-                    tau[:, s] = limit[s] * t_hat
-                    C[:, :, s] += area[s] * (
-                        ob.friction * kappa * np.einsum(
-                            "as,bs->abs", t_hat, n[:, s])
-                        + ob.friction * p[s] * kappa / size[s] * np.einsum(
-                            "abs,bcs->acs", eye - np.einsum(
-                                "as,bs->abs", t_hat, t_hat), Pt[:, :, s]))
-                tau[:, stick] = trial[:, stick]
-                C[:, :, stick] += kappa * area[stick] * Pt[:, :, stick]
+                tau, C_t, _ = coulomb(ob.friction, kappa, p, n, self.tau[i],
+                                      u - self.moved[i][:, None])
+                C += area * C_t
                 T = T + area * tau
             ev.append((T, C, float(np.max(-gap[over], initial=0.)),
                        (p, tau)))
@@ -449,18 +475,8 @@ class StepContact(GridTerm):
         if response not in self.evaluations:
             raise RuntimeError("contact: the tangent of a trial whose force "
                                "was not evaluated")
-        ev = self.evaluations[response]
-        dim = self.dim
-        C = sum(e[1] for e in ev)
-        active = np.flatnonzero(np.abs(C).sum(axis=(0, 1)) > 0)
-        rows = (active * dim)[None, None, :] + np.arange(dim)[:, None, None]
-        cols = (active * dim)[None, None, :] + np.arange(dim)[None, :, None]
-        shape = (self.J.shape[0],) * 2
-        blocks = coo_matrix((C[:, :, active].ravel(), (
-            np.broadcast_to(rows, C[:, :, active].shape).ravel(),
-            np.broadcast_to(cols, C[:, :, active].shape).ravel())),
-            shape=shape).tocsr()
-        return (self.J.T @ (blocks @ self.J)).tocsr()
+        C = sum(e[1] for e in self.evaluations[response])
+        return (self.J.T @ (block_diagonal(C) @ self.J)).tocsr()
 
     def settle(self, problem, trial, du: ndarray) -> bool:
         """After Newton: ``True`` when every corner's penetration (or a
@@ -591,12 +607,18 @@ class StepContact(GridTerm):
                 problem.run.masses @ (new.velocity ** 2).sum(0))
 
 
+def p_wave_modulus(material) -> float:
+    """The largest P-wave modulus ``lam + 2 mu`` of a run's materials (the
+    scale of contact penalties)."""
+    return float(np.max(np.asarray(material.lam, dtype=float)
+                        + 2 * np.asarray(material.mu, dtype=float)))
+
+
 def contact_term(obstacles, cell_size: float, material, domain0,
                  total_lagrangian: bool, moves: bool, finite: bool,
                  counters: dict, initial_scale: float = 0.):
     """The contact term of a run's obstacles."""
-    modulus = float(np.max(np.asarray(material.lam, dtype=float)
-                           + 2 * np.asarray(material.mu, dtype=float)))
-    return ObstacleContact(obstacles, cell_size, modulus, domain0,
+    return ObstacleContact(obstacles, cell_size, p_wave_modulus(material),
+                           domain0,
                            total_lagrangian, moves, finite, counters,
                            initial_scale)

@@ -61,16 +61,18 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
 from ..methods.assembly import ElementPattern
 from ..methods.method import METHODS, make_method
 from ..protocols import GridTerm
-from ..quadrature.locate import point_locator
+from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
+from ..quadrature.locate import point_locator, tensor_grid
 from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation
 from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
-from .contact import contact_term
+from .body_contact import BodyContact, check_contacts
+from .contact import contact_term, p_wave_modulus
 from .dynamics import Dynamics, InertiaTerm
 from .linear import support_dofs
-from .loads import ExternalLoads, FollowerPressure
+from .loads import ExternalLoads, FollowerPressure, GridLoad
 from .newton import FullStep, NewtonOptions, newton as newton_driver
 from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
                       translate_aliases)
@@ -131,6 +133,20 @@ def grid_parts(mesh: Mesh, elem: Element):
                 type(scalar).__name__, type(mesh).__name__, err)) from err
     return (scalar, grid, Dofs(mesh, scalar),
             ElementPattern(grid.dofs.element_dofs, grid.N))
+
+
+def grid_fields(mesh: Mesh, elem: Element, field: ndarray, locate) -> Fields:
+    """The run's :class:`~skfem_mpm.methods.fields.Fields`: copies of the
+    grid, one per field (``field``: the field of each point)."""
+    big = extended_mesh(mesh, int(field.max()) + 1)
+    scalar, _, dofs, pattern = grid_parts(big, elem)
+    if dofs.N != big.nvertices:
+        raise UnsupportedElementError(
+            "contacts between bodies need an element with DOFs at the "
+            "vertices only (linear), got {}".format(type(scalar).__name__))
+    return Fields(big, dofs, pattern,
+                  FieldLocator(locate, field, mesh.nelements), field,
+                  mesh.nvertices, mesh.nelements)
 
 
 def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int,
@@ -194,6 +210,17 @@ def follower_term(run: Run) -> Optional[GridTerm]:
     return FollowerPressure(run.loads) if run.loads.follows else None
 
 
+def body_contact_term(run: Run) -> Optional[GridTerm]:
+    """Contact between bodies on their fields (``contacts=``)."""
+    if not run.contacts:
+        return None
+    return BodyContact(run.contacts, run.body_field, run.mesh,
+                       run.grid.elem.elem, run.user_grid.mesh.nvertices,
+                       run.cell_size, p_wave_modulus(run.material),
+                       run.domain0, run.finite, run.counters,
+                       weights=getattr(run.method, "weights_at", None))
+
+
 def obstacle_term(run: Run) -> Optional[GridTerm]:
     """Contact with rigid obstacles (``obstacles=``)."""
     if not run.obstacles:
@@ -214,7 +241,8 @@ def inertia_term(run: Run) -> Optional[GridTerm]:
 #: the built-in grid terms, each ``factory(run) -> GridTerm or None``, in
 #: the order their contributions are summed (a user's terms, items of
 #: ``loads``, follow; terms that weigh the balance in time come last)
-GRID_TERMS = (ghost_term, follower_term, obstacle_term, inertia_term)
+GRID_TERMS = (ghost_term, follower_term, obstacle_term, body_contact_term,
+              inertia_term)
 
 
 def mean_dilatation(op, points):
@@ -455,7 +483,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
              nsteps: Optional[int] = None, method: str = "mpm",
              kinematics: str = "small", dynamics: Optional[Dynamics] = None,
              options: Optional[Options] = None, obstacles: Sequence = (),
-             **aliases) -> Result:
+             contacts: Sequence = (), **aliases) -> Result:
     """Implicit MPM, GIMP or FE, quasi-static or dynamic: any method with
     any kinematics, material, stabilisation and loads.
 
@@ -528,6 +556,15 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         the force on each per step is ``StepRecord.obstacle_forces``.  A
         run with obstacles is nonlinear (Newton, even small strain and
         elastic).
+    contacts
+        :class:`~skfem_mpm.Contact` s between bodies (``points.body``
+        indices): each pair of bodies in contact moves on separate grid
+        fields, coupled where their surfaces meet
+        (:mod:`skfem_mpm.solve.body_contact`): smooth, Coulomb or rough;
+        the force of each contact's first body on its second per step is
+        ``StepRecord.contact_forces``.  Bodies without a contact stay
+        glued where they meet.  Every method but ``"fem"``, on affine or
+        tensor-product grids of linear elements.
     **aliases
         The keyword arguments these objects replaced (``tol``, ``ghost``,
         ``antilocking``, ``line_search``, ``newton``, ``rhs``,
@@ -582,7 +619,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     options, body_force, loads = translate_aliases(
         "simulate", options, body_force, loads, aliases)
     case = check_case(mesh, points, material, body_force, loads, nsteps,
-                      method, kinematics, dynamics, options, obstacles)
+                      method, kinematics, dynamics, options, obstacles,
+                      contacts)
     run, result = build_run(mesh, elem, points, supports, case, method,
                             kinematics, dynamics, options)
     resume = options.resume or Resume()
@@ -617,6 +655,8 @@ class Case(NamedTuple):
     rigid_bodies: tuple
     terms: list
     obstacles: tuple = ()
+    contacts: tuple = ()
+    body_field: Optional[ndarray] = None
 
 
 def split_loads(loads) -> tuple:
@@ -722,9 +762,38 @@ def check_body_force(body_force, points: MaterialPoints, dim: int):
     return as_body_force(body_force, dim), ramp
 
 
+def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
+                        method: str, forces: list):
+    """The contacts between bodies checked (:func:`check_contacts`) and
+    the field of each body, or ``((), None)``; what they do not work with
+    yet is refused."""
+    if not contacts:
+        return (), None
+    contacts, field = check_contacts(list(contacts),
+                                     int(points.body.max()) + 1)
+    if method == "fem":
+        raise InvalidInputError(
+            "contacts between bodies need points that move with the "
+            "material (method 'mpm', 'ugimp', 'cpgimp' or 'bspline'); "
+            "'fem' keeps them where they started")
+    if not (mesh.affine or tensor_grid(mesh) is not None):
+        raise InvalidInputError(
+            "contacts between bodies need an affine or axis-aligned "
+            "tensor-product grid (the surfaces' corners extrapolate the "
+            "cells' shape functions), got a {} with curved cells".format(
+                type(mesh).__name__))
+    if any(isinstance(load, GridLoad) for load in forces):
+        raise InvalidInputError(
+            "a GridLoad acts on grid nodes, which bodies in contact do not "
+            "share (each has its own field): load the bodies with "
+            "tractions, pressures or point forces")
+    return contacts, field
+
+
 def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                loads, nsteps, method: str, kinematics: str, dynamics,
-               options: Options, obstacles: Sequence = ()) -> Case:
+               options: Options, obstacles: Sequence = (),
+               contacts: Sequence = ()) -> Case:
     """Every choice of a run checked together, before any work; returns
     the checked :class:`Case`."""
     check_choice("kinematics", kinematics, KINEMATICS)
@@ -741,14 +810,17 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     material = at_points(material, points)
     obstacles = check_obstacles(obstacles, mesh.dim(), np.stack(
         [mesh.p.min(axis=1), mesh.p.max(axis=1)], axis=1))
+    contacts, body_field = check_body_contacts(contacts, mesh, points,
+                                               method, forces)
     linear = kinematics == "small" and not is_plastic(material) \
-        and not obstacles
+        and not obstacles and not contacts
     rigid_bodies = check_rigid_bodies(rigid_bodies, points, mesh.dim(),
                                       method)
     check_combination(method, kinematics, is_plastic(material), newton,
                       stabilisation, dynamics, full_body_force=gravity is not
                       None and not ramp.all(), driven=prescribed is not None
-                      or bool(rigid_bodies), contact=bool(obstacles))
+                      or bool(rigid_bodies),
+                      contact=bool(obstacles) or bool(contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
     if options.resume is not None:
         options.resume.check(nsteps, method)
@@ -765,7 +837,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
             "quasi-static (dynamics=None), which would drop them; pass "
             "dynamics=Dynamics(...) or clear them")
     return Case(nsteps, material, linear, gravity, ramp, forces, prescribed,
-                rigid_bodies, terms, obstacles)
+                rigid_bodies, terms, obstacles, tuple(contacts), body_field)
 
 
 def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
@@ -774,9 +846,16 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     """The run's grid, pieces and terms, and its :class:`Result` holding
     a copy of the points (with their material's state and, in dynamics,
     velocities)."""
-    scalar, grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     result = Result(points=points.copy())
     points, counters = result.points, result.counters
+    locate = point_locator(mesh) if options.locator is None \
+        else options.locator
+    scalar, user_grid, scalar_dofs, pattern = grid_parts(mesh, elem)
+    grid, fields, run_locate = user_grid, None, locate
+    if case.contacts:             # a grid copy per field, supports on each
+        fields = grid_fields(mesh, elem, case.body_field[points.body],
+                             locate)
+        grid, run_locate = grid_parts(fields.mesh, elem)[1], fields.locate
     masses = None
     if dynamics is not None:
         masses = dynamics.masses(points)
@@ -786,22 +865,25 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         points.state.setdefault(name, value)
     resume = options.resume or Resume()
     domain0 = points.domain if resume.domain0 is None else resume.domain0
-    locate = point_locator(mesh) if options.locator is None \
-        else options.locator
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
-                        counters)
-    external = ExternalLoads(mesh, scalar, grid, case.gravity, case.forces,
+                        counters, fields)
+    run_mesh = mesh if fields is None else fields.mesh
+    external = ExternalLoads(run_mesh, scalar, grid, case.gravity,
+                             case.forces,
                              domain0, counters, points.n,
                              follow=kinematics == "finite",
                              moves=method != "fem", ramp_gravity=case.ramp,
                              weights=getattr(piece, "weights_at", None))
     if method in ("fem", "mpm"):
-        pattern.structure()              # set-up, shared by every step
+        piece.pattern.structure()        # set-up, shared by every step
     newton, stabilisation = options.newton, options.stabilisation
     first, retry = newton.strategies
     linear = case.linear
     run = Run(
-        mesh=mesh, dim=mesh.dim(), grid=grid, method=piece, linear=linear,
+        mesh=run_mesh, dim=mesh.dim(), grid=grid, method=piece,
+        linear=linear, user_grid=user_grid,
+        nfields=1 if fields is None else fields.count,
+        contacts=case.contacts, body_field=case.body_field,
         finite=kinematics == "finite", cell_size=cell_size(mesh),
         kinematics=make_kinematics(kinematics, case.material, mesh.dim(),
                                    counters, total_lagrangian=method == "fem"),
@@ -809,7 +891,8 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         ghost=stabilisation.ghost_factor(),
         ghost_reserve=stabilisation.ghost_in_reserve(method),
         operator_wrappers=(mean_dilatation,) if stabilisation.antilocking
-        else (), D=support_dofs(supports, grid),
+        else (), D=tile_dofs(support_dofs(supports, user_grid), user_grid.N,
+                             1 if fields is None else fields.count),
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
         obstacles=case.obstacles,
         rhs=newton.rhs, tol=newton.tol, max_iter=newton.max_iter,
@@ -822,7 +905,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         scale=(lambda f: f) if dynamics is None
         else (lambda f: dynamics.scale(f * dynamics.duration)),
         initial_cells=None if case.prescribed is None
-        else locate(points.x0)[0])
+        else run_locate(points.x0)[0])
     terms = [term for term in (
         factory(run) for factory in GRID_TERMS) if term is not None]
     # those that weigh the balance in time after all others (stable)

@@ -6,6 +6,7 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError, PrescribedMotionError
+from ..methods.fields import tile_dofs
 from .linear import check_rigid_body_modes
 
 __all__ = ["HeldMotion", "held_motion"]
@@ -25,11 +26,11 @@ class HeldMotion(NamedTuple):
 def prescribed_increments(run, s_old: float, s_new: float, step: int):
     """The prescribed grid DOFs and their increments over a step, checked:
     integer DOFs of the grid, one finite value each."""
-    dofs, values = run.prescribed(run.grid, s_old, s_new)
+    dofs, values = run.prescribed(run.user_grid, s_old, s_new)
     dofs, values = np.asarray(dofs), np.asarray(values, dtype=np.float64)
     if dofs.size == 0:
         dofs = dofs.astype(np.int64)
-    N = run.grid.N
+    N = run.user_grid.N
     if dofs.dtype.kind not in "iu" or dofs.ndim != 1 \
             or values.shape != dofs.shape or not np.isfinite(values).all() \
             or (dofs.size and (dofs.min() < 0 or dofs.max() >= N)):
@@ -38,7 +39,8 @@ def prescribed_increments(run, s_old: float, s_new: float, step: int):
             "grid DOFs in [0, {}) and one finite increment each, got DOFs of "
             "dtype {} and shape {}, increments of shape {}".format(
                 step, N, dofs.dtype, dofs.shape, values.shape))
-    return dofs.astype(np.int64), values
+    # the same motion on every field (contacts between bodies)
+    return tile_dofs(dofs, N, run.nfields), np.tile(values, run.nfields)
 
 
 def check_prescribed_motion(run, op, dofs: ndarray, values: ndarray,

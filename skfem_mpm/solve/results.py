@@ -62,6 +62,10 @@ class StepRecord:
         Runs with obstacles (``simulate(obstacles=...)``): the force
         (obstacles x dim) the material exerts on each obstacle at the end
         of the step; ``None`` without obstacles.
+    contact_forces
+        Runs with contacts between bodies (``simulate(contacts=...)``):
+        the force (contacts x dim) the first body of each contact exerts
+        on the second at the end of the step; ``None`` without contacts.
     time, time_step, energy
         Dynamic runs (``simulate(dynamics=...)``): the time at the end of
         the step, its length, and ``{"kinetic_start": ..., "kinetic": ...,
@@ -92,6 +96,7 @@ class StepRecord:
     counters: Optional[dict] = None
     rigid_forces: List[ndarray] = field(default_factory=list)
     obstacle_forces: Optional[ndarray] = None
+    contact_forces: Optional[ndarray] = None
     time: Optional[float] = None
     time_step: Optional[float] = None
     energy: Optional[dict] = None

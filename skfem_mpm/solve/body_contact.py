@@ -1,0 +1,524 @@
+"""Contact between deformable bodies: a grid term on separate fields.
+
+A :class:`Contact` puts its two bodies on separate velocity fields
+(:mod:`skfem_mpm.methods.fields`), so they no longer share the grid's
+nodes; this term couples the fields where the materials' surfaces meet.
+
+Where both fields are present (a grid node supported by points of both
+bodies), the node's normal ``n`` is the direction along which the two bodies'
+domains near the node lie farthest apart (the separating axis), among
+the line between the centroids of their points near the node (weighted by
+their shape values), each body's direction from its centroid to the node,
+and the grid axes, oriented from the first body to the second;
+the second body's surface there is the corner of its points' domains
+lowest along ``n`` (of the domains in the node's support; among equals the
+one nearest the node across ``n``), the first body's the highest one.  The
+two corners make a *pair* (distinct pairs only) with the gap
+
+    g = n . (x_B - x_A),
+
+positive while the surfaces are apart, so bodies in one cell do not
+interact until their domains meet.  The corners move with their fields,
+``x + N(x) du`` with the grid element's shape functions of the cell
+holding the point (exact for any linear field), so a uniform stress
+crosses the interface exactly.  Pressure and friction per pair are those
+of :mod:`skfem_mpm.solve.contact` (the pressure of an augmented
+Lagrangian ``p = max(0, lambda - kappa g)``, a Coulomb return map on the
+relative tangential increment ``s``, ``"rough"``: no slip) with the
+consistent tangent; the first body receives ``-(p n + tau)``.  After
+Newton converges, :meth:`StepBodyContact.settle` checks each pair's
+penetration and a sticking pair's slip against the tolerance and, where
+larger, updates the multipliers (augmented Lagrangian) and solves again:
+the converged state has no penetration and no stick slip beyond the
+tolerance.  The multipliers start from zero in every step (stateless: a
+checkpoint holds nothing of the contact).
+"""
+import logging
+from typing import Optional
+from weakref import WeakKeyDictionary
+
+import numpy as np
+from numpy import ndarray
+from scipy.sparse import coo_matrix, identity, kron
+
+from ..errors import InvalidInputError, check_real
+from ..methods.fields import body_fields
+from ..protocols import GridTerm
+from ..quadrature.locate import cell_coordinates
+from .contact import block_diagonal, corner_signs, coulomb
+from .dynamics import value_matrix
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["Contact", "check_contacts", "BodyContact"]
+
+
+class Contact:
+    """An interface between two bodies that may slide, separate and
+    touch again (bodies without one are glued where they meet).
+
+    Parameters
+    ----------
+    first, second
+        The bodies: indices of ``MaterialPoints.body``, or names of a
+        scene's bodies (resolved by the scene).
+    friction
+        ``0.`` (smooth, the default), a Coulomb coefficient, or
+        ``"rough"`` (no slip while in contact, free to separate).
+    name
+        The contact's name in outputs (``"<first>-<second>"`` by default).
+    penalty
+        Penalty of the augmented Lagrangian relative to the stiffer
+        body's P-wave modulus (times the cell size in 3D).
+    tolerance
+        The penetration and stick slip accepted, in cells.
+
+    Examples
+    --------
+    >>> from skfem_mpm import Contact
+    >>> Contact(0, 1, friction=.3)
+    Contact(0, 1, friction=0.3)
+
+    """
+
+    def __init__(self, first, second, friction=0., name: Optional[str] = None,
+                 penalty: float = 10., tolerance: float = 1e-3):
+        for which, body in (("first", first), ("second", second)):
+            if not isinstance(body, (str, int, np.integer)) or \
+                    isinstance(body, bool):
+                raise InvalidInputError(
+                    "Contact {} body must be a body index or name, got "
+                    "{!r}".format(which, body))
+        self.first, self.second = first, second
+        if isinstance(friction, str):
+            if friction != "rough":
+                raise InvalidInputError(
+                    "Contact friction must be a coefficient >= 0 or "
+                    "'rough'{}, got {!r}".format(
+                        " (bodies that stay tied are glued: declare no "
+                        "contact)" if friction == "tied" else "", friction))
+            self.friction = friction
+        else:
+            self.friction = check_real("Contact friction", friction)
+            if not 0 <= self.friction < np.inf:
+                raise InvalidInputError("Contact friction must be finite "
+                                        "and >= 0, got {}".format(friction))
+        self.penalty = check_real("Contact penalty", penalty)
+        self.tolerance = check_real("Contact tolerance", tolerance)
+        if not (0 < self.penalty < np.inf and 0 < self.tolerance < 1):
+            raise InvalidInputError(
+                "Contact penalty must be > 0 and tolerance in (0, 1) cells, "
+                "got {} and {}".format(penalty, tolerance))
+        self.name = name if name is not None else "{}-{}".format(first,
+                                                                 second)
+
+    def __repr__(self):
+        return "Contact({!r}, {!r}, friction={!r})".format(
+            self.first, self.second, self.friction)
+
+
+def check_contacts(contacts, nbodies: int, names=None):
+    """The contacts with their bodies as indices, and the field of each
+    body; refused before any work: a contact of bodies that do not exist,
+    of a body with itself, a pair declared twice, two names alike, or a
+    pair that cannot be apart (glued through a third body)."""
+    checked = []
+    for contact in contacts:
+        if not isinstance(contact, Contact):
+            raise InvalidInputError("contacts must be Contact items, got "
+                                    "{}".format(type(contact).__name__))
+        bodies = []
+        for body in (contact.first, contact.second):
+            if isinstance(body, str):
+                if names is None or body not in names:
+                    raise InvalidInputError(
+                        "contact {!r}: no body named {!r}{}".format(
+                            contact.name, body, "; bodies: {}".format(
+                                list(names)) if names else " (name bodies "
+                            "in a scene file, or give body indices)"))
+                body = list(names).index(body)
+            if not 0 <= body < nbodies:
+                raise InvalidInputError(
+                    "contact {!r}: body {} does not exist (the points hold "
+                    "bodies 0 to {})".format(contact.name, body, nbodies - 1))
+            bodies.append(int(body))
+        if bodies[0] == bodies[1]:
+            raise InvalidInputError("contact {!r}: a body cannot be in "
+                                    "contact with itself".format(contact.name))
+        checked.append((bodies[0], bodies[1], contact))
+    pairs = [frozenset(c[:2]) for c in checked]
+    if len(set(pairs)) < len(pairs):
+        raise InvalidInputError("a pair of bodies has two contacts")
+    given = [c[2].name for c in checked]
+    if len(set(given)) < len(given):
+        raise InvalidInputError("contact names must differ, got {}".format(
+            given))
+    field = body_fields([c[:2] for c in checked], nbodies)
+    between = {}
+    for a, b, contact in checked:
+        key = (field[a], field[b])
+        if key in between or key[::-1] in between:
+            raise InvalidInputError(
+                "contacts {!r} and {!r} join the same two groups of glued "
+                "bodies: declare one contact per pair of groups".format(
+                    between.get(key, between.get(key[::-1])).name,
+                    contact.name))
+        between[key] = contact
+    return checked, field
+
+
+class BodyContact(GridTerm):
+    """Contact between the run's bodies (a grid term).
+
+    Parameters
+    ----------
+    contacts
+        ``(first, second, Contact)`` from :func:`check_contacts`.
+    field
+        The field of each body.
+    mesh, elem
+        The extended mesh of the run's fields and the scalar element.
+    vertices
+        The vertices of one field (the grid's).
+    cell_size, modulus
+        The grid's cell size and the stiffest body's P-wave modulus.
+    domain0
+        The points' initial domain half-lengths (dim, n), or ``None``.
+    finite
+        Finite deformation (the domains follow ``F``).
+    counters
+        ``contact_updates`` counts the augmented-Lagrangian updates.
+    weights
+        ``weights(x, idx) -> operator``: the method's weights on the
+        fields at positions ``x`` of points ``idx`` (B-splines), or
+        ``None``: the grid element's.
+    """
+
+    def __init__(self, contacts, field: ndarray, mesh, elem, vertices: int,
+                 cell_size: float, modulus: float, domain0, finite: bool,
+                 counters: dict, weights=None):
+        self.contacts, self.field = contacts, field
+        self.mesh, self.elem, self.nv = mesh, elem, vertices
+        self.dim = dim = mesh.dim()
+        self.h, self.domain0, self.finite = cell_size, domain0, finite
+        self.kappa = [c.penalty * modulus * cell_size ** (dim - 2)
+                      for _, _, c in contacts]
+        self.tol = [c.tolerance * cell_size for _, _, c in contacts]
+        self.local = cell_coordinates(mesh, clip=False)
+        self.weights = weights
+        self.dofs = None
+        self.geometry = WeakKeyDictionary()
+        counters.setdefault("contact_updates", 0)
+
+    def begin_run(self, points) -> None:
+        dim = self.dim
+        half = self.domain0 if self.domain0 is not None else np.repeat(
+            (points.volume0 ** (1. / dim) / 2)[None], dim, axis=0)
+        self.R = corner_signs(dim)[:, :, None] * half[:, None, :]
+        self.point_field = self.field[points.body]
+
+    def corners(self, points) -> ndarray:
+        """The corners of the points' domains (dim, corners, n)."""
+        F = points.F[:self.dim, :self.dim] if self.finite else \
+            np.eye(self.dim)[:, :, None]
+        return points.x[:, None, :] + np.einsum("abp,bcp->acp", F, self.R)
+
+    def pairs(self, op, points):
+        """Per contact, the pairs of surface corners at the step's start:
+        ``(B, A, n, g0)`` (corner indices ``c n + p`` of the second and
+        first body, normals (dim, m), gaps (m,)); kept per operator."""
+        if op in self.geometry:
+            return self.geometry[op]
+        dim, nv = self.dim, self.nv
+        S = value_matrix(op).tocsc()
+        X = self.corners(points)
+        nc, n = X.shape[1:]
+        weight = points.volume
+        out = []
+        for (a, b, contact), tol in zip(self.contacts, self.tol):
+            blocks = [S[:, self.field[k] * nv:(self.field[k] + 1) * nv]
+                      .tocsr() for k in (a, b)]
+            blocks = [Sk.multiply(Sk > 0).tocsr() for Sk in blocks]
+            mass = [Sk.T @ weight for Sk in blocks]
+            shared = np.flatnonzero((mass[0] > 0) & (mass[1] > 0))
+            centre = [(Sk[:, shared].T @ (weight * points.x).T).T
+                      / m[shared] for Sk, m in zip(blocks, mass)]
+            if shared.size == 0:          # the bodies are cells apart
+                none = np.zeros(0, dtype=np.int64)
+                out.append((none, none, np.zeros((dim, 0)), np.zeros(0)))
+                continue
+            node_x = self.mesh.p[:, shared]
+            normal = self.separating_normal(
+                [Sk[:, shared] for Sk in blocks], X, centre, node_x)
+            ends = [self.extreme(Sk[:, shared], X, normal, node_x, lowest)
+                    for Sk, lowest in zip(blocks, (False, True))]
+            key = np.stack([ends[1], ends[0]])
+            _, first = np.unique(key, axis=1, return_index=True)
+            A, B, normal = ends[0][first], ends[1][first], normal[:, first]
+            XA = X.reshape(dim, -1)[:, A]
+            XB = X.reshape(dim, -1)[:, B]
+            gap = (normal * (XB - XA)).sum(axis=0)
+            if not points.displacement.any() and (gap < -tol).any():
+                i = int(np.argmin(gap))           # at the run's start
+                raise InvalidInputError(
+                    "contact {!r}: the bodies overlap at the start by {:.3g} "
+                    "(tolerance {:.3g}) at {}; place them apart or "
+                    "touching".format(contact.name, float(-gap[i]), tol,
+                                      XB[:, i].tolist()))
+            out.append((B, A, normal, gap))
+        self.geometry[op] = out
+        return out
+
+    def separating_normal(self, blocks, X, centre, node_x) -> ndarray:
+        """Per node, the direction (dim, m) along which the two bodies'
+        domain corners in its support are farthest apart (the separating
+        axis of the two local sets), among candidates that point from the
+        first body to the second: the line between their centroids, each
+        body's outward direction from its centroid to the node, their
+        sum, and the grid axes.  A body's edge or the grid's edge makes
+        the centroids' directions lean sideways; the separating one stays
+        across the surface."""
+        dim = self.dim
+        candidates = [centre[1] - centre[0], node_x - centre[0],
+                      centre[1] - node_x]
+        candidates = [c / np.maximum(np.sqrt((c ** 2).sum(axis=0)), 1e-300)
+                      for c in candidates]
+        candidates.append(candidates[1] + candidates[2])
+        for axis in range(dim):
+            for sign in (1., -1.):
+                e = np.zeros_like(node_x)
+                e[axis] = sign
+                candidates.append(e)
+        candidates = np.array([c / np.maximum(np.sqrt((c ** 2).sum(
+            axis=0)), 1e-300) for c in candidates])           # (k, dim, m)
+        entries = [self.corner_entries(Sk, X) for Sk in blocks]
+        gaps = []
+        for n in candidates:
+            low = [self.reach(node, Xc, n, lowest)
+                   for (node, _, Xc), lowest in zip(entries, (False, True))]
+            gaps.append(low[1] + low[0])
+        gaps = np.array(gaps)
+        towards = np.einsum("kam,am->km", candidates, centre[1] - centre[0])
+        gaps[towards <= 1e-9 * self.h] = -np.inf
+        best = np.argmax(gaps, axis=0)
+        return candidates[best, :, np.arange(best.size)].T
+
+    @staticmethod
+    def corner_entries(Sk, X):
+        """The (node, corner, position) of every corner of the points in
+        the nodes' supports (columns of ``Sk``)."""
+        coo = Sk.tocoo()
+        dim, nc, n = X.shape
+        corner = (np.arange(nc)[:, None] * n + coo.row[None, :]).ravel()
+        return np.tile(coo.col, nc), corner, X.reshape(dim, -1)[:, corner]
+
+    @staticmethod
+    def reach(node, Xc, normal, lowest: bool) -> ndarray:
+        """Per node, the lowest position along its normal of its corners
+        (``lowest``), or minus the highest."""
+        along = (normal[:, node] * Xc).sum(axis=0)
+        along = along if lowest else -along
+        out = np.full(normal.shape[1], np.inf)
+        np.minimum.at(out, node, along)
+        return out
+
+    def extreme(self, Sk, X, normal, node_x, lowest: bool) -> ndarray:
+        """Per node (columns of ``Sk``), the corner of the points in its
+        support lowest (or highest) along its normal, the one nearest the
+        node across the normal among equals: indices ``c n + p``."""
+        node, corner, Xc = self.corner_entries(Sk, X)
+        nn = normal[:, node]
+        along = (nn * Xc).sum(axis=0)
+        along = along if lowest else -along
+        offset = Xc - node_x[:, node]
+        across = np.sqrt(np.maximum(
+            (offset ** 2).sum(axis=0) - (nn * offset).sum(axis=0) ** 2, 0.))
+        best = np.full(normal.shape[1], np.inf)
+        np.minimum.at(best, node, along)
+        near = along <= best[node] + 1e-9 * self.h
+        order = np.lexsort((across, ~near, node))
+        head = np.r_[True, node[order][1:] != node[order][:-1]]
+        return corner[order[head]]
+
+    def rows(self, op, points, corner: ndarray):
+        """The vector rows ``J`` (dim m, N) of the corners ``c n + p``:
+        the method's weights there (B-splines), or the grid element's
+        shape functions of each point's cell evaluated at its corner
+        (beyond the cell where it reaches out)."""
+        dim, n = self.dim, points.n
+        p = corner % n
+        X = self.corners(points).reshape(dim, -1)[:, corner]
+        if self.weights is not None:
+            return kron(self.weights(X, p).S, identity(dim), format="csr")
+        cells = op.point_elements[p]
+        local = self.local(X, cells)
+        if self.dofs is None:
+            from skfem.assembly import Dofs
+            self.dofs = Dofs(self.mesh, self.elem).element_dofs
+        nloc = self.dofs.shape[0]
+        values = np.array([self.elem.lbasis(local, i)[0]
+                           for i in range(nloc)])              # (nloc, m)
+        m = corner.size
+        S = coo_matrix((values.ravel(), (np.tile(np.arange(m), nloc),
+                                         self.dofs[:, cells].ravel())),
+                       shape=(m, op.N // dim)).tocsr()
+        return kron(S, identity(dim), format="csr")
+
+    def held_dofs(self, op, points, scale: float):
+        """The DOFs of both bodies at pairs touching at the step's start
+        (within the tolerance): along the normal where it is a grid axis
+        and the contact smooth, else every component."""
+        held = []
+        for (a, b, contact), (B, A, normal, gap), tol in zip(
+                self.contacts, self.pairs(op, points), self.tol):
+            touching = gap <= tol
+            if not touching.any():
+                continue
+            aligned = np.abs(normal[:, touching]) > 1 - 1e-9
+            comps = aligned | ~aligned.any(axis=0) \
+                if contact.friction == 0. else np.ones_like(aligned)
+            for corner in (B[touching], A[touching]):
+                J = self.rows(op, points, corner).tocoo()
+                row_comp = J.row % self.dim
+                pair = J.row // self.dim
+                on = comps[row_comp, pair] & (J.data != 0)
+                held.append(np.unique(J.col[on]))
+        return np.unique(np.concatenate(held)) if held else None
+
+    def begin_step(self, problem):
+        return StepBodyContact(self, problem)
+
+
+class StepBodyContact(GridTerm):
+    """One step's contact between bodies (built by
+    :meth:`BodyContact.begin_step`)."""
+
+    def __init__(self, term: BodyContact, problem):
+        self.term, self.problem = term, problem
+        op, points = problem.method_op, problem.points
+        self.dim = dim = term.dim
+        self.parts = []
+        for (a, b, contact), (B, A, normal, gap), tol in zip(
+                term.contacts, term.pairs(op, points), term.tol):
+            D = term.rows(op, points, B) - term.rows(op, points, A)
+            m = gap.size
+            self.parts.append({"D": D, "n": normal, "gap": gap,
+                               "lam": np.zeros(m), "tau": np.zeros((dim, m)),
+                               "points": (B % points.n, A % points.n)})
+        self.evaluations = WeakKeyDictionary()
+
+    def evaluate(self, du: ndarray, response):
+        """Per contact, the pairs' tractions on the second body (dim, m),
+        the derivative blocks (dim, dim, m), the penetration and the
+        largest stick slip, cached for the trial's ``response``."""
+        if response in self.evaluations:
+            return self.evaluations[response]
+        dim, term = self.dim, self.term
+        eye = np.eye(dim)[:, :, None]
+        start = not du.any()
+        ev = []
+        for (a, b, contact), part, kappa, tol in zip(
+                term.contacts, self.parts, term.kappa, term.tol):
+            n = part["n"]
+            w = (part["D"] @ du).reshape(-1, dim).T        # relative motion
+            gap = part["gap"] + (n * w).sum(axis=0)
+            p = np.maximum(0., part["lam"] - kappa * gap)
+            active = p > 0
+            nn = np.einsum("as,bs->abs", n, n)
+            C = np.where(active, kappa * nn, 0.)
+            if start:       # touching pairs hold the step's first tangent
+                touching = ~active & (part["lam"] - kappa * gap
+                                      >= -kappa * tol)
+                hold = nn if contact.friction == 0. else \
+                    np.broadcast_to(eye, nn.shape)
+                C[:, :, touching] = (kappa * hold)[:, :, touching]
+            tau = np.zeros_like(w)
+            slip_left = 0.
+            if contact.friction != 0.:
+                tau, C_t, stick = coulomb(contact.friction, kappa, p, n,
+                                          part["tau"], w)
+                C += C_t
+                slip = w - (n * w).sum(axis=0) * n
+                slip_left = float(np.sqrt((slip[:, stick] ** 2).sum(
+                    axis=0)).max(initial=0.))
+            T = p * n + tau
+            ev.append((T, C, float(np.max(-gap, initial=0.)), slip_left,
+                       p, tau))
+        self.evaluations[response] = ev
+        return ev
+
+    def force(self, du: ndarray, response):
+        ev = self.evaluate(du, response)
+        return -sum(part["D"].T @ e[0].T.ravel()
+                    for part, e in zip(self.parts, ev))
+
+    def matrix(self, response):
+        if response not in self.evaluations:
+            raise RuntimeError("body contact: the tangent of a trial whose "
+                               "force was not evaluated")
+        return sum((part["D"].T @ (block_diagonal(e[1]) @ part["D"])).tocsr()
+                   for part, e in zip(self.parts, self.evaluations[response]))
+
+    def settle(self, problem, trial, du: ndarray) -> bool:
+        """After Newton: ``True`` when every pair's penetration and every
+        sticking pair's slip is within the contact's tolerance; else the
+        multipliers take the converged tractions (augmented Lagrangian)
+        and the step is solved again."""
+        ev = self.evaluate(du, trial.response)
+        worst = max((max(e[2], e[3]) / tol for e, tol in zip(
+            ev, self.term.tol)), default=0.)
+        if worst <= 1.:
+            return True
+        for part, e in zip(self.parts, ev):
+            part["lam"], part["tau"] = e[4], e[5]
+        self.evaluations = WeakKeyDictionary()
+        problem.counters["contact_updates"] += 1
+        logger.debug("step %d: body contact %.2g of the tolerance; "
+                     "augmented-Lagrangian update", problem.step, worst)
+        return False
+
+    def commit(self, problem, trial, du: ndarray, new, record) -> None:
+        """The force of each contact on its second body, and the
+        reactions of the fields' copies of a held DOF summed on the
+        grid's DOF."""
+        ev = self.evaluate(du, trial.response)
+        self.committed = ev
+        record.contact_forces = np.array([e[0].sum(axis=1) for e in ev])
+        N = record.n_dofs // int(self.term.field.max() + 1)
+        dofs = record.reaction_dofs % N
+        record.reaction_dofs = np.unique(dofs)
+        record.reaction_values = np.bincount(
+            np.searchsorted(record.reaction_dofs, dofs),
+            weights=record.reaction_values,
+            minlength=record.reaction_dofs.size)
+        record.n_dofs = N
+
+    def finish(self, problem, new, record) -> None:
+        """In dynamics, an impact is perfectly plastic along the normal:
+        the two points of a pressed pair leave the step with no relative
+        normal velocity or acceleration, momentum kept (each point once,
+        at its first pressed pair).  Without this a body set down on
+        another rebounds, and the contact chatters."""
+        if new.velocity is None:
+            return
+        masses = problem.run.masses
+        v, a = new.velocity.copy(), new.acceleration.copy()
+        for part, e in zip(self.parts, self.committed):
+            pressed = e[4] > 0
+            pB, pA = (p[pressed] for p in part["points"])
+            n = part["n"][:, pressed]
+            once = np.ones(pB.size, dtype=bool)   # a point's first pair
+            for p in (pB, pA):
+                first = np.zeros(pB.size, dtype=bool)
+                first[np.unique(p, return_index=True)[1]] = True
+                once &= first
+            pB, pA, n = pB[once], pA[once], n[:, once]
+            mB, mA = masses[pB], masses[pA]
+            share = np.stack([mA, -mB]) / (mA + mB)
+            for field in (v, a):
+                w = (n * (field[:, pB] - field[:, pA])).sum(axis=0)
+                field[:, pB] -= share[0] * w * n
+                field[:, pA] -= share[1] * w * n
+        new.velocity, new.acceleration = v, a
+        if record.energy is not None:
+            record.energy["kinetic"] = .5 * float(masses @ (v ** 2).sum(0))

@@ -1,0 +1,361 @@
+"""Contact between deformable bodies on separate fields
+(:mod:`skfem_mpm.solve.body_contact`, :mod:`skfem_mpm.methods.fields`)."""
+import numpy as np
+import pytest
+from skfem import ElementQuad1, ElementQuad2, MeshQuad
+
+from skfem_mpm import (BodyForce, Contact, Dynamics, GridLoad,
+                       InvalidInputError, LinearElastic, NewtonOptions,
+                       Options, Resume, Traction, UnsupportedElementError,
+                       VonMises, seed_points, simulate)
+from skfem_mpm.methods.fields import body_fields
+from skfem_mpm.quadrature.points import concatenate_points
+from skfem_mpm.solve.loads import side_points
+
+G = 9.81
+
+
+def bodies(mesh, n, boxes):
+    """Points of the boxes ``boxes`` (one body each, in order)."""
+    parts = []
+    for body, box in enumerate(boxes):
+        part = seed_points(mesh, n, region=box)
+        part.body[:] = body
+        parts.append(part)
+    return concatenate_points(parts)
+
+
+def roller_base_and_left_wall(b):
+    return np.union1d(b.get_dofs(lambda x: x[1] == 0).nodal["u^2"],
+                      b.get_dofs(lambda x: x[0] == 0).nodal["u^1"])
+
+
+def stack(interface, E_top, kinematics="small", p=10., method="mpm"):
+    """Two blocks, the lower on rollers, the upper pressed by ``p`` on its
+    top, frictionless between them."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2.5, 11))
+    pts = bodies(mesh, 2, [[(0, 1), (0, interface)],
+                           [(0, 1), (interface, 2.)]])
+    top = side_points(pts, "top")
+    return simulate(mesh, ElementQuad1(), pts,
+                    [LinearElastic(1e4, .3), LinearElastic(E_top, .3)],
+                    roller_base_and_left_wall, kinematics=kinematics,
+                    method=method, loads=[Traction(top, "top", [0., -p])],
+                    contacts=[Contact(0, 1, tolerance=1e-9)],
+                    options=Options(NewtonOptions(tol=1e-10)))
+
+
+@pytest.mark.parametrize("method, interface, E_top", [
+    ("mpm", 1., 1e4),            # on a grid line, one material
+    ("mpm", 1.125, 1e4),         # inside a cell
+    ("mpm", 1.125, 1e7),         # stiffness contrast 1e3
+    ("mpm", 1., 1e2),            # 1e-2
+    ("ugimp", 1.125, 1e7),
+    ("cpgimp", 1., 1e2),
+    ("bspline", 1.125, 1e7),
+])
+def test_a_frictionless_interface_carries_a_uniform_stress(method, interface,
+                                                           E_top):
+    """Two blocks pressed together: every point of both bodies carries
+    sigma_yy = -p and nothing else to 1e-6 of p (the interface through
+    its pairs of corners transmits the consistent nodal forces), and the
+    contact force is the load; every method."""
+    p = 10.
+    res = stack(interface, E_top, p=p, method=method)
+    s = res.points.stress
+    assert np.abs(s[1, 1] + p).max() < 1e-6 * p
+    assert np.abs(s[0, 0]).max() < 1e-6 * p
+    assert np.abs(s[0, 1]).max() < 1e-6 * p
+    assert np.allclose(res.history[-1].contact_forces[0], [0., p * 1.],
+                       rtol=1e-9, atol=1e-9 * p)
+    # the supports carry the load, summed over the fields' copies
+    assert np.isclose(res.history[-1].reactions[1::2].sum(), p, rtol=1e-9)
+
+
+def test_finite_deformation_stack():
+    """Finite deformation, the lower block ten times softer: each block's
+    Cauchy stress is the load over its current width (the blocks spread
+    by different amounts, sliding on the smooth interface)."""
+    p = 200.              # 2% strain of the softer block
+    res = stack(1.125, 1e5, kinematics="finite", p=p)
+    x, body = res.points.x + res.points.domain, res.points.body
+    for b in (0, 1):
+        width = x[0, body == b].max()
+        assert np.allclose(res.points.stress[1, 1, body == b], -p / width,
+                           rtol=1e-3)
+    assert x[0, body == 0].max() > x[0, body == 1].max() + 1e-3
+
+
+def test_bodies_apart_inside_a_cell_do_not_interact():
+    """A block a quarter cell above another, in the cell the lower one
+    reaches: in free fall (dynamics) it falls at g exactly while the gap
+    closes, no contact force; glued (no contact) the shared nodes hold
+    it."""
+    h = .25
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.arange(0, 2 + h / 2, h))
+    pts = bodies(mesh, 4, [[(0, 1), (0, 1.)], [(.25, .75), (1. + h / 4, 1.5)]])
+    dt, T = .01, .1                         # the gap closes at 0.113 s
+    args = (mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0).all())
+    kwargs = dict(body_force=BodyForce([0., -G * 1e3], ramp=False),
+                  dynamics=Dynamics(time_step=dt, duration=T, density=1e3))
+    res = simulate(*args, contacts=[Contact(0, 1)], **kwargs)
+    upper = res.points.body == 1
+    v = res.points.velocity[1, upper]
+    assert np.allclose(v, -G * T, rtol=1e-9)
+    assert all(not r.contact_forces.any() for r in res.history)
+    glued = simulate(*args, **kwargs)
+    assert np.abs(glued.points.velocity[1, upper]).mean() < .5 * G * T
+
+
+def test_a_block_slides_on_a_body_by_coulomb():
+    """A block on an elastic slab, gravity tilted by theta (the inclined
+    plane turned level), mu = 0.3 between them: it slides with
+    g (sin theta - mu cos theta) (dynamics) within 2%, the slab's
+    friction force mu times its normal force."""
+    rho, mu = 1e3, .3
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 21),
+                                np.linspace(-.2, .6, 9))
+    pts = bodies(mesh, 2, [lambda x: x[1] < 0.,
+                           lambda x: (x[0] > .2) & (x[0] < .6) & (x[1] > 0.)
+                           & (x[1] < .2)])
+    theta, T = np.arctan(mu) + .15, .3
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e7, .3),
+                   lambda b: b.get_dofs(lambda x: x[1] < -.19).all(),
+                   body_force=BodyForce(G * rho * np.array(
+                       [np.sin(theta), -np.cos(theta)]), ramp=False),
+                   kinematics="finite",
+                   dynamics=Dynamics(time_step=.01, duration=T, density=rho),
+                   contacts=[Contact(0, 1, friction=mu)])
+    block = res.points.body == 1
+    x = res.points.displacement[0, block].mean()
+    expected = G * (np.sin(theta) - mu * np.cos(theta))
+    assert abs(x / (.5 * expected * T ** 2) - 1) < .02
+    force = np.array([r.contact_forces[0] for r in res.history])
+    pressed = force[:, 1] > 0
+    # (to 1e-3: the normals of the pairs at the block's edges lean)
+    assert np.allclose(force[pressed, 0], -mu * force[pressed, 1], rtol=2e-3)
+
+
+@pytest.mark.parametrize("degrees, sticks", [(12., True), (25., False)])
+def test_friction_between_bodies_holds_a_block_quasi_statically(degrees,
+                                                                sticks):
+    """Gravity tilted on a block resting on a slab, mu = 0.3, the block
+    held by the contact alone: below arctan(mu) it sticks, the contact
+    force is its weight; above it no equilibrium exists and the run says
+    so (an MPMError carrying the last converged state)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
+    pts = bodies(mesh, 2, [[(0, 2), (0, .5)], [(.5, 1.), (.5, .75)]])
+    theta, rho = np.radians(degrees), 2e3
+    weight = G * rho * np.array([np.sin(theta), -np.cos(theta)])
+    run = dict(args=(mesh, ElementQuad1(), pts, LinearElastic(5e6, .3),
+                     lambda b: b.get_dofs(lambda x: x[1] == 0).all()),
+               kwargs=dict(body_force=weight, nsteps=2,
+                           contacts=[Contact(0, 1, friction=.3)],
+                           options=Options(NewtonOptions(max_cutbacks=2))))
+    if not sticks:
+        from skfem_mpm.errors import MPMError
+        with pytest.raises(MPMError) as err:
+            simulate(*run["args"], **run["kwargs"])
+        assert err.value.state is not None
+        return
+    res = simulate(*run["args"], **run["kwargs"])
+    block = res.points.body == 1
+    total = weight * res.points.volume0[block].sum()
+    # the slab pushes the block up and back: the force of body 0 on body 1
+    assert np.allclose(res.history[-1].contact_forces[0], -total, rtol=1e-6)
+    assert np.abs(res.points.displacement[0, block]).max() < 1e-3
+
+
+def test_three_stacked_bodies_in_contact():
+    """Three blocks, each pair in contact (three fields): the stress is
+    uniform, each interface carries the load."""
+    assert body_fields([(0, 1), (1, 2), (0, 2)], 3).tolist() == [0, 1, 2]
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2.5, 11))
+    pts = bodies(mesh, 2, [[(0, 1), (0, 1.)], [(0, 1), (1., 1.5)],
+                           [(0, 1), (1.5, 2.)]])
+    top = side_points(pts, "top")
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+                   roller_base_and_left_wall,
+                   loads=[Traction(top, "top", [0., -10.])],
+                   contacts=[Contact(0, 1, tolerance=1e-9),
+                             Contact(1, 2, tolerance=1e-9),
+                             Contact(0, 2, tolerance=1e-9)],
+                   options=Options(NewtonOptions(tol=1e-10)))
+    assert np.abs(res.points.stress[1, 1] + 10.).max() < 1e-6 * 10.
+    forces = res.history[-1].contact_forces[:, 1]
+    assert np.allclose(forces, [10., 10., 0.], atol=1e-8)
+
+
+def test_two_contacts_between_the_same_fields_are_refused():
+    """Bodies 1 and 2 glued (no contact between them), each in contact
+    with body 0: the two contacts would join the same two fields."""
+    assert body_fields([(0, 1), (0, 2)], 3).tolist() == [0, 1, 1]
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2.5, 11))
+    pts = bodies(mesh, 2, [[(0, 1), (0, 1.)], [(0, 1), (1., 1.5)],
+                           [(0, 1), (1.5, 2.)]])
+    with pytest.raises(InvalidInputError, match="one contact per pair"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+                 roller_base_and_left_wall, body_force=[0., -1.],
+                 contacts=[Contact(0, 1), Contact(0, 2)])
+
+
+def test_resume_is_bit_identical():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2.5, 11))
+    pts = bodies(mesh, 2, [[(0, 1), (0, 1.)], [(0, 1), (1., 2.)]])
+    top = side_points(pts, "top")
+    args = (mesh, ElementQuad1(), pts,
+            [VonMises(1e4, .3, 40.), LinearElastic(1e4, .3)],
+            roller_base_and_left_wall)
+    kwargs = dict(loads=[Traction(top, "top", [0., -50.])], nsteps=4,
+                  kinematics="finite",
+                  contacts=[Contact(0, 1, friction=.2)])
+    kept = {}
+
+    def keep(record, points):
+        if record.step == 2:
+            kept["record"], kept["points"] = record, points.copy()
+    full = simulate(*args, options=Options(callback=keep), **kwargs)
+    resumed = simulate(mesh, ElementQuad1(), kept["points"], *args[3:],
+                       options=Options(resume=Resume.after(
+                           kept["record"], pts.domain)), **kwargs)
+    assert np.array_equal(full.points.x, resumed.points.x)
+    assert np.array_equal(full.points.stress, resumed.points.stress)
+    assert np.array_equal(full.history[-1].contact_forces,
+                          resumed.history[-1].contact_forces)
+
+
+def two_blocks():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
+    return mesh, bodies(mesh, 2, [[(0, 1), (0, 1.)], [(0, 1), (1., 1.5)]])
+
+
+@pytest.mark.parametrize("contacts, kwargs, words", [
+    ([Contact(0, 2)], {}, "body 2 does not exist"),
+    ([Contact(1, 1)], {}, "with itself"),
+    ([Contact(0, 1), Contact(1, 0)], {}, "two contacts"),
+    ([Contact("soil", 1)], {}, "no body named 'soil'"),
+    ([Contact(0, 1)], {"method": "fem"}, "'fem' keeps them"),
+    (["0-1"], {}, "Contact items"),
+])
+def test_mistakes_are_refused(contacts, kwargs, words):
+    mesh, pts = two_blocks()
+    with pytest.raises(InvalidInputError, match=words):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                 body_force=[0., -1.], contacts=contacts, **kwargs)
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda: Contact(0, 1, friction="tied"), "glued: declare no contact"),
+    (lambda: Contact(0, 1, friction=-1.), "finite and >= 0"),
+    (lambda: Contact(0, 1, tolerance=2.), "tolerance in"),
+    (lambda: Contact(0., 1), "body index or name"),
+])
+def test_bad_contacts_are_refused(make, words):
+    with pytest.raises(InvalidInputError, match=words):
+        make()
+
+
+def test_a_pair_glued_through_a_third_body_is_refused():
+    with pytest.raises(InvalidInputError, match="glued through body 2"):
+        body_fields([(0, 1)], 3)
+
+
+def test_overlapping_bodies_and_grid_loads_are_refused():
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
+    pts = bodies(mesh, 2, [[(0, 1), (0, 1.)], [(0, 1), (.75, 1.5)]])
+    fixed = (lambda b: b.get_dofs(lambda x: x[1] == 0).all())
+    with pytest.raises(InvalidInputError, match="overlap at the start by "
+                       "0.25"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3), fixed,
+                 body_force=[0., -1.], contacts=[Contact(0, 1)])
+    mesh, pts = two_blocks()
+    from skfem import LinearForm
+    load = GridLoad(LinearForm(lambda v, w: v[1]))
+    with pytest.raises(InvalidInputError, match="GridLoad"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3), fixed,
+                 loads=[load], contacts=[Contact(0, 1)])
+    with pytest.raises(UnsupportedElementError, match="vertices only"):
+        simulate(mesh, ElementQuad2(), pts, LinearElastic(1e4, .3), fixed,
+                 body_force=[0., -1.], contacts=[Contact(0, 1)])
+
+
+@pytest.mark.parametrize("method", ("mpm", "bspline"))
+def test_uniform_stress_across_an_interface_in_3d(method):
+    from skfem import ElementHex1, MeshHex
+    mesh = MeshHex.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3),
+                               np.linspace(0, 2.5, 6))
+    pts = bodies(mesh, 2, [[(0, 1), (0, 1), (0, 1.)],
+                           [(0, 1), (0, 1), (1., 2.)]])
+    front = side_points(pts, "front")
+
+    def rollers(b):
+        return np.concatenate([b.get_dofs(lambda x: x[a] == 0).nodal[
+            "u^{}".format(a + 1)] for a in range(3)])
+    res = simulate(mesh, ElementHex1(), pts,
+                   [LinearElastic(1e4, .3), LinearElastic(1e6, .3)], rollers,
+                   method=method,
+                   loads=[Traction(front, "front", [0., 0., -10.])],
+                   contacts=[Contact(0, 1, tolerance=1e-9)],
+                   options=Options(NewtonOptions(tol=1e-10)))
+    s = res.points.stress
+    assert np.abs(s[2, 2] + 10.).max() < 1e-6 * 10.
+    assert np.abs(s[:2, :2]).max() < 1e-6 * 10.
+    assert np.allclose(res.history[-1].contact_forces[0], [0., 0., 10.],
+                       atol=1e-8)
+
+
+STACK_SCENE = """
+name = "two blocks pressed together"
+[grid]
+x = [0.0, 1.0, 4]
+y = [0.0, 2.5, 10]
+[[bodies]]
+name = "base"
+region = {{ x = [0.0, 1.0], y = [0.0, 1.0] }}
+material = {{ model = "linear_elastic", E = 1e4, nu = 0.3 }}
+[[bodies]]
+name = "block"
+region = {{ x = [0.0, 1.0], y = [1.0, 2.0] }}
+material = {{ model = "linear_elastic", E = 1e6, nu = 0.3 }}
+[[supports]]
+boundary = "bottom"
+components = ["y"]
+[[supports]]
+boundary = "left"
+components = ["x"]
+[[tractions]]
+body = "block"
+side = "top"
+traction = [0.0, -10.0]
+[[contacts]]
+{contact}
+[solver]
+steps = 2
+"""
+
+
+def test_a_scene_with_a_contact(tmp_path):
+    """``[[contacts]]`` between named bodies: the force between them per
+    step in summary.json (the load at each step) and its picture; a name
+    the scene lacks is named."""
+    import json
+
+    from skfem_mpm.cli import main
+    from skfem_mpm.errors import SceneError
+    from skfem_mpm.scenes.scene_file import load_scene
+    path = tmp_path / "stack.toml"
+    path.write_text(STACK_SCENE.format(
+        contact='first = "base"\nsecond = "block"\ntolerance = 1e-9'))
+    assert main(["run", str(path), "--out", str(tmp_path / "out"),
+                 "--no-progress", "--no-series"]) == 0
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text())
+    force = np.array(summary["contacts"]["base-block"]["force"])
+    assert np.allclose(force, [[0., 5.], [0., 10.]], atol=1e-8)
+    assert (tmp_path / "out" / "contacts.png").stat().st_size > 0
+    path.write_text(STACK_SCENE.format(
+        contact='first = "base"\nsecond = "pile"'))
+    with pytest.raises(SceneError, match=r"contacts\[0\].second: must name "
+                       "a body \\(base, block\\)"):
+        load_scene(path)
