@@ -8,8 +8,10 @@ name refused, a run the passes cannot serve refused when they are asked
 for, served by numpy (logged once) otherwise, and the package works where
 numba does not import."""
 import functools
+import json
 import logging
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,8 +26,12 @@ from skfem_mpm.mechanics.materials import initial_state
 from skfem_mpm.methods.operators import PointOperator
 from skfem_mpm.quadrature.basis import MaterialPointBasis
 from skfem_mpm.solve import core
+from digest_cases import CASES, fingerprint
 
 pytest.importorskip("numba")
+
+DIGESTS = json.loads((Path(__file__).parent / "data"
+                      / "core_digests.json").read_text())
 
 #: round-off: the paths sum in different orders, and in 3D the principal
 #: frames come from Jacobi rotations against LAPACK's
@@ -239,3 +245,15 @@ def test_numba_is_not_imported_with_the_package():
         "import sys, skfem_mpm; print('numba' in sys.modules)")],
         capture_output=True, text=True, timeout=120)
     assert done.stdout.strip() == "False", done.stderr
+
+
+@pytest.mark.parametrize("name", sorted(CASES))
+def test_the_core_digests_hold_to_round_off(name):
+    """The runs through every piece of the core (``digest_cases.py``) with
+    the default kernels, where the compiled passes serve MPM, end within
+    1e-12 of the numpy path's fingerprints."""
+    stored = DIGESTS["cases"][name]["sums"]
+    now = fingerprint(CASES[name]())["sums"]
+    assert sorted(now) == sorted(stored)
+    for key, value in stored.items():
+        assert now[key] == pytest.approx(value, rel=1e-12, abs=1e-300), key

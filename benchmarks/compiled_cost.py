@@ -1,0 +1,162 @@
+"""The compiled points-first passes against the numpy path: the cost of a
+Newton iteration per phase, its fixed part and its part per point, 2D and
+3D, on the same machine in the same hour (the two paths alternate at each
+size).
+
+The block of ``step_cost.py`` (standard MPM, finite deformation, one
+load step, ``LinearElastic(1e6, 0.3)``, the default solver), 1e3 to 1e5
+points; per size and path the best of ``--reps`` runs per phase
+(milliseconds per Newton iteration), the non-solve microseconds per point
+and iteration, and the heap peak per point (tracemalloc, a separate run);
+then each path's iteration fitted as ``a + b * points`` (whole, and its
+non-solve part).  ``--large`` adds the 1e6-point 2D step (compiled path):
+the share of its time outside the linear solve.  ``--kratos`` prints the
+seed's column (2D, one cell wide, 2x2 points a cell) at 1e3 and 4e3
+points, the case of the comparison with Kratos in issue 32.
+
+    python benchmarks/compiled_cost.py [--dim 2] [--reps 3] [--large]
+
+The path is chosen by making the run's kinematics with ``kernels=``
+(the core's factory, replaced in this process).
+"""
+import argparse
+import functools
+import time
+import tracemalloc
+
+import numpy as np
+
+from skfem_mpm import LinearElastic, Options, point_locator, simulate
+from skfem_mpm.mechanics.kinematics import make_kinematics
+from skfem_mpm.solve import core
+from skfem_mpm.solve.results import PHASES
+from step_cost import GRIDS, block, fixed_and_slope
+
+SIZES = {2: (16, 32, 50, 100, 158), 3: (5, 8, 11, 16, 24)}
+PATHS = ("numpy", "compiled")
+
+
+def use(kernels: str):
+    """Runs from now on take the path ``kernels``."""
+    core.make_kinematics = functools.partial(make_kinematics,
+                                             kernels=kernels)
+
+
+def once(mesh, elem, points, nsteps=1, body_force=None, supports=None):
+    dim = mesh.dim()
+    return simulate(
+        mesh, elem, points.copy(), LinearElastic(1e6, .3),
+        supports or (lambda b: b.get_dofs(lambda x: x[-1] == 0)),
+        body_force=np.r_[np.zeros(dim - 1), -1e4] if body_force is None
+        else body_force, nsteps=nsteps, method="mpm", kinematics="finite",
+        options=Options(keep_snapshots=False, locator=point_locator(mesh)))
+
+
+def measure(mesh, elem, points, reps: int, heap: bool, **kwargs):
+    """Milliseconds per Newton iteration per phase (best of ``reps``), and
+    the heap peak per point (bytes) where ``heap``."""
+    best = {}
+    for _ in range(reps):
+        result = once(mesh, elem, points, **kwargs)
+        its = result.counters["newton_iterations"]
+        for phase, seconds in result.timings().items():
+            best[phase] = min(best.get(phase, np.inf), seconds / its * 1e3)
+    peak = None
+    if heap:
+        tracemalloc.start()
+        once(mesh, elem, points, **kwargs)
+        peak = tracemalloc.get_traced_memory()[1] / points.n
+        tracemalloc.stop()
+    return best, its, peak
+
+
+def table(dim: int, reps: int):
+    print("\n{}D, block of step_cost.py, standard MPM, finite deformation, "
+          "1 step; ms per Newton iteration (best of {})".format(dim, reps))
+    print("{:>7} {:>9} | {} | {:>7} {:>9} {:>8} {:>4}".format(
+        "points", "path", " ".join("{:>8}".format(p) for p in PHASES),
+        "total", "us/pt/it", "heap/pt", "its"))
+    rows = {path: [] for path in PATHS}
+    elem = GRIDS[dim][1]()
+    for ncells in SIZES[dim]:
+        mesh, points = block(ncells, dim)
+        for path in PATHS:
+            use(path)
+            best, its, peak = measure(mesh, elem, points, reps,
+                                      heap=ncells == SIZES[dim][-1])
+            total = sum(best.values())
+            nonsolve = (total - best["solve"]) * 1e3 / points.n
+            rows[path].append((points.n, total, total - best["solve"]))
+            print("{:>7} {:>9} | {} | {:>7.2f} {:>9.3f} {:>8} {:>4}".format(
+                points.n, path, " ".join("{:>8.2f}".format(best[p])
+                                         for p in PHASES), total, nonsolve,
+                "-" if peak is None else "{:.0f}".format(peak), its),
+                flush=True)
+    for path in PATHS:
+        n, whole, nonsolve = map(np.array, zip(*rows[path]))
+        (a, b), (c, d) = fixed_and_slope(n, whole * 1e-3), fixed_and_slope(
+            n, nonsolve * 1e-3)
+        print("{:>9}: per Newton iteration {:.2f} ms + {:.2f} us/point; "
+              "non-solve {:.2f} ms + {:.2f} us/point".format(
+                  path, a * 1e3, b * 1e6, c * 1e3, d * 1e6))
+
+
+def kratos_column(reps: int):
+    """The seed's column at 1e3 and 4e3 points (256 and 1024 cells, 20 load
+    steps): ms per Newton iteration, both paths."""
+    from skfem_mpm import seed_points
+    from skfem_mpm.studies.column import (LOAD, column_grid,
+                                          column_supports)
+    print("\nseed's column, 2D, 20 load steps: ms per Newton iteration "
+          "(best of {})".format(reps))
+    for cells in (256, 1024):
+        mesh, elem = column_grid(cells, dim=2)
+        points = seed_points(mesh, 2)
+        line = []
+        for path in PATHS:
+            use(path)
+            best, its, _ = measure(mesh, elem, points, reps, False,
+                                   nsteps=20, body_force=[0., -LOAD],
+                                   supports=column_supports(2))
+            line.append("{} {:.3f} (solve {:.3f})".format(
+                path, sum(best.values()), best["solve"]))
+        print("{:>6} points: {}".format(points.n, "; ".join(line)),
+              flush=True)
+
+
+def large(reps: int):
+    """The 1e6-point 2D block, compiled path: seconds per phase."""
+    mesh, points = block(500, 2)
+    use("compiled")
+    best, its, _ = measure(mesh, GRIDS[2][1](), points, reps, False)
+    total = sum(best.values())
+    print("\n{} points, 2D, compiled: {:.0f} ms per Newton iteration, {} "
+          "iterations; {:.0%} outside the linear solve ({})".format(
+              points.n, total, its, 1 - best["solve"] / total, ", ".join(
+                  "{} {:.0f}".format(p, best[p]) for p in PHASES)))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--dim", type=int, nargs="+", default=[2, 3])
+    parser.add_argument("--reps", type=int, default=3)
+    parser.add_argument("--large", action="store_true")
+    parser.add_argument("--kratos", action="store_true")
+    args = parser.parse_args()
+    # untimed: numba's cached kernels and the solver's libraries load
+    mesh, points = block(4, 2)
+    for path in PATHS:
+        use(path)
+        once(mesh, GRIDS[2][1](), points)
+    tic = time.perf_counter()
+    for dim in args.dim:
+        table(dim, args.reps)
+    if args.kratos:
+        kratos_column(args.reps)
+    if args.large:
+        large(1)
+    print("\n{:.0f} s".format(time.perf_counter() - tic))
+
+
+if __name__ == "__main__":
+    main()
