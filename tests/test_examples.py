@@ -444,6 +444,32 @@ def test_obstacles_landing_and_slope(obstacles, tmp_path):
 
 
 @pytest.mark.slow
+def test_bodies_in_contact(tmp_path):
+    """With a contact the dropped block follows free fall to 1e-3 of the
+    fall until the landing time and glued it stops half a cell above the
+    slab; the block slides Coulomb's distance to 2%, glued it stays; the
+    pressed blocks carry sigma_yy = -p and no horizontal stress to 1e-3 of
+    p (the contact's default tolerance), glued more than 0.1 p."""
+    m = load("bodies_in_contact")
+    times, lowest = m.landings["contact"]
+    falling = times < m.landing_time - .01
+    fall = .5 - .5 * m.g * times[falling] ** 2
+    assert np.allclose(lowest[falling], fall, atol=1e-3 * .5)
+    assert lowest.min() < 0.           # it reached the slab
+    glued = m.landings["glued"][1]
+    assert glued.min() > .04           # held in the cell above the slab
+    times, x = m.slides["contact"]
+    assert x[-1] == pytest.approx(m.sliding(times[-1]), rel=.02)
+    assert abs(m.slides["glued"][1][-1]) < 1e-2 * x[-1]
+    stress = m.pressed["contact"]
+    assert np.abs(stress[0, 0]).max() < 1e-3 * m.p
+    assert np.abs(stress[1, 1] + m.p).max() < 1e-3 * m.p
+    assert np.abs(m.pressed["glued"][0, 0]).max() > .1 * m.p
+    m.visualize(tmp_path)
+    assert (tmp_path / "bodies_in_contact.png").stat().st_size > 10_000
+
+
+@pytest.mark.slow
 def test_obstacles_footing_on_a_fixed_grid(obstacles):
     """The smooth footing as an obstacle on a fixed grid (B = 8 h, 2
     cells in 40 steps): past 0.02 B its pressure stays within 25% of
