@@ -441,3 +441,45 @@ obstacle = "ceiling"
 """)
     with pytest.raises(SceneError, match="no obstacle 'ceiling'"):
         load_scene(path)
+
+
+@pytest.mark.slow
+def test_hertz_contact_half_width():
+    """Hertz in plane strain: a rigid cylinder (R = 1, a polygon of 720
+    sides) pressed 0.015 into an elastic half-space (a block 10 a deep and
+    wide, the half model on rollers, h = a / 10, small strain, smooth):
+    the contact half-width, measured as the last pressed domain corner
+    and as twice the root of the pressure's second moment (a^2 / 4 for
+    Hertz's semi-ellipse), is within 5% of sqrt(4 P R / (pi E*)),
+    E* = E / (1 - nu^2), P the cylinder's force (measured -3.8% and
+    -2.1%).  Hertz's relation holds for a rigid cylinder on an elastic
+    plane as for an elastic cylinder on a rigid one (the same combined
+    curvature and modulus); this way round the flat surface is what the
+    points' domains represent exactly."""
+    h, R, E, nu, size = .01, 1., 1e3, .3, 1.
+    mesh = MeshQuad.init_tensor(np.arange(0, size + h / 2, h),
+                                np.arange(0, size + 4.5 * h, h))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < size)
+    angle = np.linspace(-np.pi / 2, np.pi / 2, 721)
+    circle = np.c_[R * np.sin(angle), size + R - R * np.cos(angle)]
+    cylinder = Obstacle(polygon=np.vstack([circle, [[R, size + R + h],
+                                                    [-R, size + R + h]]]),
+                        displacement=[0., -.015], name="cylinder")
+
+    def rollers(b):
+        return np.concatenate([
+            b.get_dofs(lambda x: x[1] == 0).all(),
+            b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                       | np.isclose(x[0], size)).nodal["u^1"]])
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(E, nu), rollers,
+                   nsteps=2, obstacles=[cylinder])
+    P = 2 * res.history[-1].obstacle_forces[0, 1]       # both halves
+    expected = np.sqrt(4 * P * R / (np.pi * E / (1 - nu ** 2)))
+    assert expected / h > 9.                  # the grid resolves it
+    X = corners(res.points, pts.domain)
+    p = np.concatenate([res.points.state["contact0_p{}".format(c)]
+                        for c in range(4)])
+    x = X[0][p > 0]
+    moment = 2 * np.sqrt((p[p > 0] * x ** 2).sum() / p[p > 0].sum())
+    assert abs(x.max() / expected - 1) < .05
+    assert abs(moment / expected - 1) < .05
