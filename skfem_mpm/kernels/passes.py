@@ -95,7 +95,6 @@ def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
     b = np.empty((3, 3))
     x = np.empty(3)
     v = np.empty((3, 3))
-    work = np.empty((3, 3))
     eps = np.empty(3)
     tp = np.empty(3)
     eps_e = np.empty(3)
@@ -157,7 +156,7 @@ def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
                             gg += g[a, j] * g[c, j]
                         s += (g[a, c] + g[c, a]) + gg
                     b[a, c] = s
-            principal_frame(b, k, x, v, work)
+            principal_frame(b, k, x, v)
             if not (x[0] > -1 and x[1] > -1 and x[2] > -1):
                 status = 2
             for a in range(3):
@@ -211,7 +210,6 @@ def _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0,
     e3 = np.empty((3, 3))
     x = np.empty(3)
     v = np.empty((3, 3))
-    work = np.empty((3, 3))
     sig = np.empty(3)
     eps_e = np.empty(3)
     D = np.empty((3, 3))
@@ -239,7 +237,7 @@ def _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0,
                 for a in range(3):
                     for c in range(3):
                         e3[a, c] = strain0[a, c, p] + de[a, c]
-                principal_frame(e3, k, x, v, work)
+                principal_frame(e3, k, x, v)
                 yielded[p], eq[p] = principal_update(params, x, eq0[p], sig,
                                                      eps_e, D)
                 for a in range(3):
