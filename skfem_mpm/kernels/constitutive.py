@@ -47,59 +47,50 @@ def principal_frame(b, dim, x, v):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def rotation(app, aqq, apq):
-    """``(c, s, t)`` of the Jacobi rotation that zeroes ``apq`` (Numerical
-    Recipes' form: ``t = tan``, the new ``app - t apq``, ``aqq + t
-    apq``)."""
-    theta = (aqq - app) / (2. * apq)
-    if abs(theta) > 1e150:
-        t = 1. / (2. * theta)
-    else:
-        t = (1. if theta >= 0 else -1.) / (
-            abs(theta) + math.sqrt(theta * theta + 1.))
-    c = 1. / math.sqrt(t * t + 1.)
-    return c, t * c, t
+def rotate(app, aqq, apq, arp, arq, vp, vq):
+    """One Jacobi rotation in the plane of axes p and q (r the third),
+    zeroing ``apq`` (Numerical Recipes' form: ``t = tan``, the new ``app -
+    t apq``, ``aqq + t apq``); ``vp``, ``vq``: the frame's columns p and
+    q, tuples.  Returns the new ``(app, aqq, apq, arp, arq, vp, vq)``."""
+    if apq != 0.:
+        theta = (aqq - app) / (2. * apq)
+        if abs(theta) > 1e150:
+            t = 1. / (2. * theta)
+        else:
+            t = (1. if theta >= 0 else -1.) / (
+                abs(theta) + math.sqrt(theta * theta + 1.))
+        c = 1. / math.sqrt(t * t + 1.)
+        s = t * c
+        app, aqq, apq = app - t * apq, aqq + t * apq, 0.
+        arp, arq = c * arp - s * arq, s * arp + c * arq
+        vp, vq = ((c * vp[0] - s * vq[0], c * vp[1] - s * vq[1],
+                   c * vp[2] - s * vq[2]),
+                  (s * vp[0] + c * vq[0], s * vp[1] + c * vq[1],
+                   s * vp[2] + c * vq[2]))
+    return app, aqq, apq, arp, arq, vp, vq
 
 
 @njit(cache=True, error_model="numpy")
 def jacobi(b, x, v):
     """Eigenpairs of the symmetric 3x3 ``b`` by cyclic Jacobi rotations,
     to the last bit of the off-diagonal part, into ``x`` and ``v``; the
-    entries in scalars (registers: three times faster than in an
-    array)."""
+    entries in scalars (registers: faster than in an array)."""
     a00, a11, a22, a01, a02, a12 = b[0, 0], b[1, 1], b[2, 2], b[0, 1], \
         b[0, 2], b[1, 2]
-    v00, v01, v02, v10, v11, v12, v20, v21, v22 = \
-        1., 0., 0., 0., 1., 0., 0., 0., 1.
+    v0, v1, v2 = (1., 0., 0.), (0., 1., 0.), (0., 0., 1.)      # columns
     for _ in range(50):
         off = a01 * a01 + a02 * a02 + a12 * a12
         if off == 0. or off <= 1e-36 * (a00 * a00 + a11 * a11 + a22 * a22):
             break
-        if a01 != 0.:                                # p, q, r = 0, 1, 2
-            c, s, t = rotation(a00, a11, a01)
-            a00, a11, a01 = a00 - t * a01, a11 + t * a01, 0.
-            a02, a12 = c * a02 - s * a12, s * a02 + c * a12
-            v00, v01 = c * v00 - s * v01, s * v00 + c * v01
-            v10, v11 = c * v10 - s * v11, s * v10 + c * v11
-            v20, v21 = c * v20 - s * v21, s * v20 + c * v21
-        if a02 != 0.:                                # p, q, r = 0, 2, 1
-            c, s, t = rotation(a00, a22, a02)
-            a00, a22, a02 = a00 - t * a02, a22 + t * a02, 0.
-            a01, a12 = c * a01 - s * a12, s * a01 + c * a12
-            v00, v02 = c * v00 - s * v02, s * v00 + c * v02
-            v10, v12 = c * v10 - s * v12, s * v10 + c * v12
-            v20, v22 = c * v20 - s * v22, s * v20 + c * v22
-        if a12 != 0.:                                # p, q, r = 1, 2, 0
-            c, s, t = rotation(a11, a22, a12)
-            a11, a22, a12 = a11 - t * a12, a22 + t * a12, 0.
-            a01, a02 = c * a01 - s * a02, s * a01 + c * a02
-            v01, v02 = c * v01 - s * v02, s * v01 + c * v02
-            v11, v12 = c * v11 - s * v12, s * v11 + c * v12
-            v21, v22 = c * v21 - s * v22, s * v21 + c * v22
+        a00, a11, a01, a02, a12, v0, v1 = rotate(a00, a11, a01, a02, a12,
+                                                 v0, v1)
+        a00, a22, a02, a01, a12, v0, v2 = rotate(a00, a22, a02, a01, a12,
+                                                 v0, v2)
+        a11, a22, a12, a01, a02, v1, v2 = rotate(a11, a22, a12, a01, a02,
+                                                 v1, v2)
     x[0], x[1], x[2] = a00, a11, a22
-    v[0, 0], v[0, 1], v[0, 2] = v00, v01, v02
-    v[1, 0], v[1, 1], v[1, 2] = v10, v11, v12
-    v[2, 0], v[2, 1], v[2, 2] = v20, v21, v22
+    for a in range(3):
+        v[a, 0], v[a, 1], v[a, 2] = v0[a], v1[a], v2[a]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
