@@ -13,14 +13,22 @@ non-solve part).  ``--large`` adds the 1e6-point 2D step (compiled path):
 the share of its time outside the linear solve.  ``--kratos`` prints the
 seed's column (2D, one cell wide, 2x2 points a cell) at 1e3 and 4e3
 points, the case of the comparison with Kratos in issue 32.
+``--compile`` times the first runs of a fresh process with an empty
+kernel cache (``NUMBA_CACHE_DIR`` a new folder): what compiling costs
+once, then what loading the cached kernels costs each process.
 
     python benchmarks/compiled_cost.py [--dim 2] [--reps 3] [--large]
+        [--kratos] [--compile]
 
 The path is chosen by making the run's kinematics with ``kernels=``
 (the core's factory, replaced in this process).
 """
 import argparse
 import functools
+import os
+import subprocess
+import sys
+import tempfile
 import time
 import tracemalloc
 
@@ -136,13 +144,60 @@ def large(reps: int):
                   "{} {:.0f}".format(p, best[p]) for p in PHASES)))
 
 
+#: a fresh process's first runs, each timed: 2D and 3D, finite and small
+#: deformation, elastic and von Mises (every compiled pass)
+FIRST_RUNS = """
+import sys, time
+sys.path.insert(0, {here!r})
+import numpy as np
+from skfem_mpm import LinearElastic, VonMises, simulate
+from step_cost import GRIDS, block
+tic = time.perf_counter()
+import skfem_mpm.kernels.passes
+print("import", time.perf_counter() - tic)
+for dim in (2, 3):
+    mesh, points = block(2, dim)
+    for kinematics in ("finite", "small"):
+        for material in (LinearElastic(1e6, .3), VonMises(1e6, .3, 1e3)):
+            tic = time.perf_counter()
+            simulate(mesh, GRIDS[dim][1](), points.copy(), material,
+                     lambda b: b.get_dofs(lambda x: x[-1] == 0),
+                     body_force=np.r_[np.zeros(dim - 1), -1e4], nsteps=1,
+                     method="mpm", kinematics=kinematics)
+            print(dim, kinematics, type(material).__name__,
+                  time.perf_counter() - tic)
+"""
+
+
+def compile_times():
+    """Seconds of the first runs in a fresh process, with an empty kernel
+    cache and again with the cache it wrote."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        code = FIRST_RUNS.format(here=os.path.dirname(os.path.abspath(
+            __file__)))
+        runs = [subprocess.run([sys.executable, "-c", code], env=env,
+                               capture_output=True, text=True, check=True
+                               ).stdout.split("\n")[:-1] for _ in range(2)]
+    print("\nfirst runs of a process (seconds): empty kernel cache / cached")
+    for cold, warm in zip(*runs):
+        label = cold.rsplit(" ", 1)[0]
+        print("{:>28} {:>7.2f} {:>7.2f}".format(
+            label, float(cold.split()[-1]), float(warm.split()[-1])))
+    total = [sum(float(line.split()[-1]) for line in run) for run in runs]
+    print("{:>28} {:>7.2f} {:>7.2f}".format("total", *total))
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--dim", type=int, nargs="+", default=[2, 3])
     parser.add_argument("--reps", type=int, default=3)
     parser.add_argument("--large", action="store_true")
     parser.add_argument("--kratos", action="store_true")
+    parser.add_argument("--compile", action="store_true")
     args = parser.parse_args()
+    if args.compile:
+        compile_times()
     # untimed: numba's cached kernels and the solver's libraries load
     mesh, points = block(4, 2)
     for path in PATHS:

@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from skfem import ElementHex1, ElementQuad1, ElementQuad2, MeshHex, MeshQuad
+from skfem import (ElementHex1, ElementQuad1, ElementQuad2, ElementTriP1,
+                   MeshHex, MeshQuad, MeshTri)
 
 from skfem_mpm import (DruckerPrager, LinearElastic, Options, Resume,
                        VonMises, seed_points, simulate)
@@ -108,7 +109,7 @@ def test_a_response_equals_the_numpy_path(dim, kind, name):
 
 
 def column_run(dim, kinematics, material, kernels_used, monkeypatch,
-               nsteps=3, points=None, **kwargs):
+               nsteps=3, points=None, method="mpm", **kwargs):
     """A column (2 cells wide, 4 high, 2^dim points a cell) under its
     weight, its base fixed, on rollers at x = 0 (and y = 0), free on the
     other sides (the bottom corners yield), with ``kernels_used`` (the
@@ -128,7 +129,7 @@ def column_run(dim, kinematics, material, kernels_used, monkeypatch,
                 a + 1)] for a in range(dim - 1)])
     return simulate(mesh, GRIDS[dim][1](), points, material, supports,
                     body_force=np.r_[np.zeros(dim - 1), -1.5e3],
-                    nsteps=nsteps, method="mpm", kinematics=kinematics,
+                    nsteps=nsteps, method=method, kinematics=kinematics,
                     **kwargs)
 
 
@@ -191,25 +192,36 @@ def test_the_choice_is_checked():
 
 def test_an_operator_without_passes_runs_on_numpy_logged_once(
         monkeypatch, caplog):
-    """Quadratic elements (9 nodes) have no compiled pass: asked for
+    """cpGIMP's sparse operator has no compiled pass: asked for
     explicitly, one warning, and the numpy path's answer."""
     monkeypatch.setattr(kernels, "_LOGGED", set())
-    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
-    points = seed_points(mesh, 3)
-    material = MATERIALS["elastic"]
-    op = PointOperator(MaterialPointBasis(mesh, ElementQuad2(), points))
-    du = 1e-3 * np.random.default_rng(0).standard_normal(op.N)
-    compiled = make_kinematics("finite", material, 2, {"return_maps": 0},
-                               kernels="compiled")
     with caplog.at_level(logging.INFO, logger="skfem_mpm.kernels"):
-        for _ in range(2):
-            response = compiled.response(op, du, points)
+        result = column_run(2, "finite", MATERIALS["elastic"], "compiled",
+                            monkeypatch, nsteps=2, method="cpgimp")
     warnings = [r for r in caplog.records if r.levelno == logging.WARNING]
-    assert len(warnings) == 1 and "9 nodes" in warnings[0].getMessage()
-    assert response.force is None
-    reference = make_kinematics("finite", material, 2, {"return_maps": 0},
-                                kernels="numpy").response(op, du, points)
-    assert np.array_equal(response.P, reference.P)
+    assert len(warnings) == 1 and "SparseOperator" in \
+        warnings[0].getMessage()
+    reference = column_run(2, "finite", MATERIALS["elastic"], "numpy",
+                           monkeypatch, nsteps=2, method="cpgimp")
+    assert np.array_equal(result.points.stress, reference.points.stress)
+
+
+@pytest.mark.parametrize("elem", [ElementQuad2, ElementTriP1])
+def test_other_elements_equal_the_numpy_path(elem):
+    """The passes take any number of nodes an element: quadratic
+    quadrilaterals, linear triangles."""
+    material = MATERIALS["von_mises"]
+    mesh = (MeshTri if elem is ElementTriP1 else MeshQuad).init_tensor(
+        *[np.linspace(-.25, 1.25, 7)] * 2)
+    points = seed_points(MeshQuad.init_tensor(*[np.linspace(0, 1, 5)] * 2),
+                         2)
+    points.state.update(initial_state(material, points.n))
+    op = PointOperator(MaterialPointBasis(mesh, elem(), points))
+    du = 2e-3 * np.random.default_rng(1).standard_normal(op.N)
+    results = [evaluate(make_kinematics("finite", material, 2,
+                                        {"return_maps": 0}, kernels=k),
+                        op, du, points) for k in ("numpy", "compiled")]
+    check_equal(*results, finite=True)
 
 
 def test_without_numba_the_numpy_path_serves(monkeypatch, caplog):

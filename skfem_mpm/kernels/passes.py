@@ -5,23 +5,23 @@ the material-point basis), so that a point's gradient, deformation,
 stress and tangent live in a few registers and small work arrays, and an
 element's force or stiffness is summed over its points before one scatter:
 
-- :func:`finite_residual`: gradients of the grid increment, ``dF``, its
-  inverse, ``b_tr - I``, the principal frame, the return map, the
-  Kirchhoff stress and the pulled-back stress ``P``, and the internal
+- ``finite_residual_2d``, ``_3d``: gradients of the grid increment,
+  ``dF``, its inverse, ``b_tr - I``, the principal frame, the return map,
+  the Kirchhoff stress and the pulled-back stress ``P``, and the internal
   force, in one pass;
-- :func:`small_residual`: the same in small strain (Hooke's law, or the
-  return map on principal strains);
-- :func:`stiffness`: the consistent tangent of each point from what the
-  residual pass kept (elastic, small-strain return map, or finite
+- ``small_residual_2d``, ``_3d``: the same in small strain (Hooke's law,
+  or the return map on principal strains);
+- ``stiffness_2d``, ``_3d``: the consistent tangent of each point from
+  what the residual pass kept (elastic, small-strain return map, or finite
   deformation with its geometric term and pull-back), the element
   stiffness, and its scatter straight into the CSR data of the grid's
   :class:`~skfem_mpm.methods.assembly.ElementPattern`.
 
 Points are on the last axis of the arrays kept (the layout of the numpy
 path, whose commit and output read them); the shape gradients come points
-first, ``G[e, m, i, d]`` (element, slot, node, axis).  A pass returns a
-nonzero status where a point inverts, and the caller then lets the numpy
-path raise its error with its message.
+first, ``G[e, m, i, d]`` (element, slot, node, axis).  The finite pass
+returns a nonzero status where a point inverts, and the caller then lets
+the numpy path raise its error with its message.
 """
 import math
 
@@ -358,19 +358,12 @@ def _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x,
                         Ke[i * k + a, j * k + c] = 0.
 
 
-#: (dimension, nodes per element) of the grids the passes are compiled for
-#: (bilinear quadrilaterals, trilinear hexahedra): loops of known length
-#: that the compiler unrolls (four times faster than loops of any length),
-#: each pass compiled for one of them when first called
-SHAPES = ((2, 4), (3, 8))
-
-
 @njit(cache=True, error_model="numpy")
 def finite_residual_2d(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
                        dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq):
     return _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P,
                             dF, dF_inv, b_dev, tau, d, vecs, y, dy_dx,
-                            yielded, eq, 2, 4)
+                            yielded, eq, 2, G.shape[2])
 
 
 @njit(cache=True, error_model="numpy")
@@ -378,40 +371,45 @@ def finite_residual_3d(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
                        dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq):
     return _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P,
                             dF, dF_inv, b_dev, tau, d, vecs, y, dy_dx,
-                            yielded, eq, 3, 8)
+                            yielded, eq, 3, G.shape[2])
 
 
 @njit(cache=True, error_model="numpy")
 def small_residual_2d(G, slots, dofs, w, du, stress0, strain0, params, eq0,
                       f, stress, strain, x, vecs, y, dy_dx, yielded, eq):
     _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0, f,
-                    stress, strain, x, vecs, y, dy_dx, yielded, eq, 2, 4)
+                    stress, strain, x, vecs, y, dy_dx, yielded, eq, 2,
+                    G.shape[2])
 
 
 @njit(cache=True, error_model="numpy")
 def small_residual_3d(G, slots, dofs, w, du, stress0, strain0, params, eq0,
                       f, stress, strain, x, vecs, y, dy_dx, yielded, eq):
     _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0, f,
-                    stress, strain, x, vecs, y, dy_dx, yielded, eq, 3, 8)
+                    stress, strain, x, vecs, y, dy_dx, yielded, eq, 3,
+                    G.shape[2])
 
 
 @njit(cache=True, error_model="numpy")
 def stiffness_2d(G, slots, w, elements, first, length, per_node, kind, C, x,
                  y, dy_dx, vecs, dF_inv, data):
     _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x, y,
-               dy_dx, vecs, dF_inv, data, 2, 4)
+               dy_dx, vecs, dF_inv, data, 2, G.shape[2])
 
 
 @njit(cache=True, error_model="numpy")
 def stiffness_3d(G, slots, w, elements, first, length, per_node, kind, C, x,
                  y, dy_dx, vecs, dF_inv, data):
     _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x, y,
-               dy_dx, vecs, dF_inv, data, 3, 8)
+               dy_dx, vecs, dF_inv, data, 3, G.shape[2])
 
 
 def passes_of(dim: int):
-    """``(finite_residual, small_residual, stiffness)`` compiled for the
-    grid of dimension ``dim`` (:data:`SHAPES`)."""
+    """``(finite_residual, small_residual, stiffness)`` compiled for
+    ``dim`` components (2 or 3, known to the compiler, which unrolls the
+    loops over components: four times faster than loops of any length;
+    the nodes of an element, any number, are not); each is compiled when
+    first called."""
     if dim == 2:
         return finite_residual_2d, small_residual_2d, stiffness_2d
     return finite_residual_3d, small_residual_3d, stiffness_3d

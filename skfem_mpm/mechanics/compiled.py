@@ -3,9 +3,10 @@
 :func:`compiled_path` decides, when a run's kinematics piece is made,
 whether its responses may come from the compiled passes
 (:mod:`skfem_mpm.kernels.passes`): they cover standard MPM's point
-operator (``op.kernel_layout``) in 2D and 3D, small strain and finite
-deformation (updated Lagrangian), :class:`~skfem_mpm.mechanics.materials.
-LinearElastic` and :class:`~skfem_mpm.mechanics.materials.VonMises`.
+operator (``op.kernel_layout``, any element) in 2D and 3D, small strain
+and finite deformation (updated Lagrangian), :class:`~skfem_mpm.mechanics.
+materials.LinearElastic` and :class:`~skfem_mpm.mechanics.materials.
+VonMises`.
 Everything else (GIMP's and B-splines' sparse operators, mean dilatation,
 the total Lagrangian scheme of ``method="fem"``, 1D, the soil models, a
 user's material, one material per body) runs on the numpy path, the
@@ -110,18 +111,14 @@ class CompiledPasses:
 
     def serves(self, op, points) -> bool:
         """Whether the passes serve the point operator ``op``: standard
-        MPM's over all points, on bilinear quadrilaterals or trilinear
-        hexahedra (``passes.SHAPES``); logged once where not."""
-        layout = getattr(op, "kernel_layout", None) is not None
-        shape = (op.dim, op.scalar_dofs.shape[0]) if layout else None
-        if shape in self.passes.SHAPES and len(op.basis.subset) == points.n:
+        MPM's (any element) over all points; logged once where not."""
+        if getattr(op, "kernel_layout", None) is not None and \
+                len(op.basis.subset) == points.n:
             return True
         log_once(logging.WARNING if self.explicit else logging.INFO,
-                 "kernels=%r: no compiled pass for the point operator %s%s; "
+                 "kernels=%r: no compiled pass for the point operator %s; "
                  "its responses run on the numpy path",
-                 "compiled" if self.explicit else "auto", type(op).__name__,
-                 "" if shape is None else
-                 " with {} nodes an element".format(shape[1]))
+                 "compiled" if self.explicit else "auto", type(op).__name__)
         return False
 
     def _state(self, points) -> ndarray:
