@@ -37,7 +37,8 @@ def penetration(module, outdir):
     cells, steps = 8, 256           # the script's command-line defaults
     result, depths, pressures, _ = module.penetrate(cells, steps)
     module.visualize(result, depths, pressures, outdir,
-                     ", h = B/{}".format(cells))
+                     ", h = B/{}".format(cells),
+                     obstacle=module.penetrate_with_obstacle(cells, steps)[1:])
 
 
 def obstacles(module, outdir):
