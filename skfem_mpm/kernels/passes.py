@@ -26,7 +26,7 @@ the numpy path raise its error with its message.
 import math
 
 import numpy as np
-from numba import njit
+from numba import literally, njit
 
 from .constitutive import frame_tangent, principal_frame, principal_update
 
@@ -72,7 +72,7 @@ def scatter_force(f, fe, dofs, e, nloc, k):
             fe[i, a] = 0.
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
                      dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq, k,
                      nloc):
@@ -85,6 +85,7 @@ def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
     ``eq``, and the internal force ``f``.  Returns 0, or 1 where ``det dF
     <= 0`` (at some point), 2 where ``b_tr`` is not positive definite:
     then the arrays hold no answer."""
+    literally(k)
     nel, nslots = slots.shape
     U = np.empty((nloc, k))
     fe = np.zeros((nloc, k))
@@ -191,7 +192,7 @@ def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
     return status
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0,
                     f, stress, strain, x_all, vecs, y, dy_dx, yielded, eq, k,
                     nloc):
@@ -200,6 +201,7 @@ def _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0,
     spectral arrays untouched), the return map on principal strains
     otherwise (principal strains ``x_all``, frames ``vecs``, ``y =
     sigma_A``, ``dy_dx = D``); the internal force ``f``."""
+    literally(k)
     nel, nslots = slots.shape
     plastic = params[0] != 0.
     lam, mu = params[1], params[2]
@@ -289,7 +291,7 @@ def point_tangent(kind, p, k, x, y, dy_dx, vecs, dF_inv, A, work):
     frame_tangent(k, xp, yp, dp, vp, Z, kind == FINITE_TANGENT, A, work[5:])
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x,
                y, dy_dx, vecs, dF_inv, data, k, nloc):
     """``K_(ia)(jc) = sum_p w_p A_abcd G_bi G_dj`` element by element,
@@ -298,6 +300,7 @@ def _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x,
     per node pair, the components' places offset by ``length``, the
     lengths of the node's rows), with the tangent ``kind`` of each
     point."""
+    literally(k)
     nel, nslots = slots.shape
     nd = nloc * k
     Ke = np.zeros((nd, nd))
@@ -308,7 +311,11 @@ def _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x,
             np.empty((k, k)), np.empty((k, k, k, k)),
             np.empty((k * k, k, k)), np.empty((k * k, k, k)))
     if kind == ELASTIC_TANGENT:                     # one for all points
-        A[...] = C
+        for a in range(k):
+            for b in range(k):
+                for c in range(k):
+                    for d in range(k):
+                        A[a, b, c, d] = C[a, b, c, d]
     for e in range(nel):
         for m in range(nslots):
             p = slots[e, m]

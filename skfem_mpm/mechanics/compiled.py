@@ -187,8 +187,8 @@ class CompiledPasses:
             f, stress, strain, x, vecs, y, dy_dx, yielded, eq)
         empty = np.empty((3, 3, 0))
         if not self.plastic:
-            C = np.ascontiguousarray(elastic_tensor(self.material, 1, k)[
-                ..., 0])
+            # a writeable copy: the type of every call's C is one
+            C = elastic_tensor(self.material, 1, k)[..., 0].copy()
             return kinematics.elastic_response(
                 points, stress, strain, k, force=f.copy,
                 stiffness=self._stiffness(
