@@ -9,7 +9,7 @@ points; per size and path the best of ``--reps`` runs per phase
 (milliseconds per Newton iteration), the non-solve microseconds per point
 and iteration, and the heap peak per point (tracemalloc, a separate run);
 then each path's iteration fitted as ``a + b * points`` (whole, and its
-non-solve part).  ``--large`` adds the 1e6-point 2D step (compiled path):
+non-solve part).  ``--large`` adds the 1e6-point 2D step (both paths):
 the share of its time outside the linear solve.  ``--kratos`` prints the
 seed's column (2D, one cell wide, 2x2 points a cell) at 1e3 and 4e3
 points, the case of the comparison with Kratos in issue 32.
@@ -133,15 +133,18 @@ def kratos_column(reps: int):
 
 
 def large(reps: int):
-    """The 1e6-point 2D block, compiled path: seconds per phase."""
+    """The 1e6-point 2D block, both paths: milliseconds per phase and
+    Newton iteration, the share outside the linear solve."""
     mesh, points = block(500, 2)
-    use("compiled")
-    best, its, _ = measure(mesh, GRIDS[2][1](), points, reps, False)
-    total = sum(best.values())
-    print("\n{} points, 2D, compiled: {:.0f} ms per Newton iteration, {} "
-          "iterations; {:.0%} outside the linear solve ({})".format(
-              points.n, total, its, 1 - best["solve"] / total, ", ".join(
-                  "{} {:.0f}".format(p, best[p]) for p in PHASES)))
+    print("\n{} points, 2D, ms per Newton iteration".format(points.n))
+    for path in PATHS:
+        use(path)
+        best, its, _ = measure(mesh, GRIDS[2][1](), points, reps, False)
+        total = sum(best.values())
+        print("{:>9}: {:.0f} ms, {} iterations; {:.0%} outside the linear "
+              "solve ({})".format(path, total, its, 1 - best["solve"] / total,
+                                  ", ".join("{} {:.0f}".format(p, best[p])
+                                            for p in PHASES)), flush=True)
 
 
 #: a fresh process's first runs, each timed: 2D and 3D, finite and small
