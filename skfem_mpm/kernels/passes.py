@@ -264,6 +264,53 @@ def _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0,
         scatter_force(f, fe, dofs, e, nloc, k)
 
 
+@njit(cache=True, error_model="numpy")
+def finite_commit(dim, params, d, vecs, eq0, dF, F0, F, J, b_e, strain):
+    """The converged state of a finite-deformation trial, point by point:
+    ``F = dF F_n``, its determinant ``J`` (in-plane block times the
+    out-of-plane diagonal below 3D, as
+    :func:`~skfem_mpm.mechanics.hencky.inverse_and_det`), and from the
+    trial's principal frame (``d = eig(b_tr) - 1``, ``vecs``) and the
+    return map from ``eq0`` the elastic ``b_e = sum exp(2 eps_A) e_A e_A``
+    and strain ``sum eps_A e_A e_A``."""
+    eps = np.empty(3)
+    tp = np.empty(3)
+    eps_e = np.empty(3)
+    D = np.empty((3, 3))
+    for p in range(d.shape[1]):
+        for a in range(3):
+            for c in range(3):
+                s = 0.
+                for b in range(3):
+                    s += dF[a, b, p] * F0[b, c, p]
+                F[a, c, p] = s
+        if dim == 3:
+            J[p] = F[0, 0, p] * (F[1, 1, p] * F[2, 2, p]
+                                 - F[1, 2, p] * F[2, 1, p]) \
+                + F[0, 1, p] * (F[1, 2, p] * F[2, 0, p]
+                                - F[1, 0, p] * F[2, 2, p]) \
+                + F[0, 2, p] * (F[1, 0, p] * F[2, 1, p]
+                                - F[1, 1, p] * F[2, 0, p])
+        else:
+            J[p] = (F[0, 0, p] * F[1, 1, p] - F[0, 1, p] * F[1, 0, p]) \
+                * F[2, 2, p]
+        for a in range(3):
+            eps[a] = .5 * math.log1p(d[a, p])
+        principal_update(params, eps, eq0[p], tp, eps_e, D)
+        for A in range(3):
+            tp[A] = math.exp(2. * eps_e[A])
+        for a in range(3):
+            for c in range(3):
+                s = 0.
+                r = 0.
+                for A in range(3):
+                    e = vecs[a, A, p] * vecs[c, A, p]
+                    s += tp[A] * e
+                    r += eps_e[A] * e
+                b_e[a, c, p] = s
+                strain[a, c, p] = r
+
+
 @njit(cache=True, error_model="numpy", inline="always")
 def point_tangent(kind, p, k, x, y, dy_dx, vecs, dF_inv, A, work):
     """The tangent ``A`` (k, k, k, k) of point ``p`` that the stiffness

@@ -163,8 +163,16 @@ class CompiledPasses:
         kinematics.counters["return_maps"] += kinematics.plastic
         state = {"equivalent_plastic_strain": eq} if self.plastic else {}
         no_C = np.zeros((k,) * 4)
+
+        def converged(old):
+            F, J = np.empty((3, 3, n)), np.empty(n)
+            b_e, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
+            self.passes.finite_commit(
+                self.dim, self.params, spectral.d, spectral.vecs,
+                self._state(old), dF, contiguous(old.F), F, J, b_e, strain)
+            return F, J, b_e, strain
         return kinematics.trial_response(
-            points, dF, dF_inv, P, state, k, force=f.copy,
+            points, dF, dF_inv, P, state, k, converged, force=f.copy,
             stiffness=self._stiffness(
                 op, self.passes.FINITE_TANGENT, points.volume0, no_C,
                 (spectral.d, spectral.tau, spectral.dtau_dx, spectral.vecs,

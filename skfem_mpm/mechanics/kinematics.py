@@ -330,11 +330,13 @@ class FiniteStrain:
 
     def trial_response(self, points, dF: ndarray, dF_inv: ndarray,
                        P: ndarray, state: dict, k: int,
+                       converged: Optional[Callable] = None,
                        **fused) -> Response:
         """The response of a trial whose ``b_tr - I``, Kirchhoff stress,
         yield flags and spectral parts are in the workspace, with ``dF``,
         its inverse (3, 3, n), ``P`` (k, k, n) and the new internal
-        variables ``state``; ``fused``: the compiled ``force`` and
+        variables ``state``; ``converged(old)``: the compiled ``(F, det F,
+        b_e, eps_e)`` of the commit; ``fused``: the compiled ``force`` and
         ``stiffness``."""
         dim = self.dim
         b_dev, tau, yielded, spectral = self._workspace(points.n, k)
@@ -362,12 +364,19 @@ class FiniteStrain:
 
         def commit(old):
             new = copy.copy(old)
-            new.F = np.einsum("abp,bcp->acp", dF, old.F)
-            J = inverse_and_det(new.F, dim)[1]
+            if converged is None:
+                new.F = np.einsum("abp,bcp->acp", dF, old.F)
+                J = inverse_and_det(new.F, dim)[1]
+            else:                # compiled: F, J and the elastic state
+                new.F, J, be, strain = converged(old)
             if not (J > 0).all():
                 raise InversionError("det F <= 0 at {} point(s)".format(
                     int((J <= 0).sum())))
-            new.be, new.strain = self.elastic_state(spectral, old.state)
+            if converged is None:
+                new.be, new.strain = self.elastic_state(spectral, old.state)
+            else:
+                new.be, new.strain = be, strain
+                self.counters["return_maps"] += self.plastic
             new.stress = tau / J
             new.volume = J * old.volume0
             new.state = {**old.state, **state}    # variables of no model kept
