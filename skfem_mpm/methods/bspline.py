@@ -28,6 +28,16 @@ linear hats.  Bing et al. (2019) modify the splines at the boundary for
 the same purpose; this construction is not claimed to be theirs
 (``docs/references.md``).
 
+With point domains (boxes of half-lengths ``domain``, as GIMP's) the
+operator averages the splines over each domain instead (the splines'
+counterpart of GIMP: weights ``(1/V_p) int N_i``, gradients ``(1/V_p) int
+grad N_i``, exact for a stress constant over each domain, so the points'
+rule stays second order once their spacing leaves the knots').  Along an
+axis the average over ``[lo, hi]`` has the closed form ``(C(hi) -
+C(lo)) / (hi - lo)`` with ``C`` the antiderivative of the folded spline,
+and its gradient ``(N(hi) - N(lo)) / (hi - lo)``; a box's average is the
+product of its axes'.  Domains are clipped to the grid, as GIMP's.
+
 Uniform spacing per axis is required (axes may differ): a graded axis is
 refused.  The grid element must be linear (``ElementLineP1``,
 ``ElementQuad1``, ``ElementHex1``): its nodes are the control points and
@@ -45,10 +55,14 @@ from ..quadrature.locate import tensor_grid
 from .gimp_linear import LINEAR_ELEMENTS, LinearGimp
 from .operators import SparseOperator
 
-__all__ = ["QuadraticBSpline", "spline_1d", "UNIFORM"]
+__all__ = ["QuadraticBSpline", "spline_1d", "spline_1d_integral", "UNIFORM"]
 
 #: relative tolerance on the spacing of a uniform axis
 UNIFORM = 1e-9
+#: a domain shorter than this (in cell sizes, after clipping to the grid)
+#: takes the splines at its centre: their average to ~1e-16 (the closed
+#: form's cancellation would cost more)
+POINT_LIKE = 1e-8
 
 
 def _spline(xi: ndarray):
@@ -61,6 +75,40 @@ def _spline(xi: ndarray):
     slope = np.where(inner, -2 * xi,
                      np.where(outer, -(1.5 - r) * np.sign(xi), 0.))
     return value, slope
+
+
+def _spline_integral(xi: ndarray) -> ndarray:
+    """The antiderivative of the uniform quadratic B-spline, 0 below its
+    support and 1 above."""
+    r = np.clip(xi, -1.5, 1.5)
+    return np.where(r <= -.5, (r + 1.5) ** 3 / 6,
+                    np.where(r <= .5, .5 + .75 * r - r ** 3 / 3,
+                             1. - (1.5 - r) ** 3 / 6))
+
+
+def _folds(node: ndarray, n: int):
+    """The weights of the ghost splines -1 and n + 1 folded into nodes
+    ``node`` (``u_-1 = 2 u_0 - u_1``, and at x_n alike)."""
+    return 2. * (node == 0) - (node == 1), 2. * (node == n) - (node == n - 1)
+
+
+def spline_1d_integral(t: ndarray, node: ndarray, n: int) -> ndarray:
+    """Antiderivatives in ``t`` of the boundary-modified functions of
+    :func:`spline_1d` (the same arguments): their difference over
+    ``[lo, hi]`` is the integral of the function there.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> node = np.array([[0], [1], [2]])
+    >>> (spline_1d_integral(np.array([1.]), node, 4)
+    ...  - spline_1d_integral(np.array([0.]), node, 4)).round(6).tolist()
+    [[0.520833], [0.458333], [0.020833]]
+
+    """
+    low, high = _folds(node, n)
+    return (_spline_integral(t - node) + low * _spline_integral(t + 1.)
+            + high * _spline_integral(t - (n + 1.)))
 
 
 def spline_1d(t: ndarray, node: ndarray, n: int):
@@ -79,8 +127,7 @@ def spline_1d(t: ndarray, node: ndarray, n: int):
     value, slope = _spline(t - node)
     low_v, low_s = _spline(t + 1.)                 # ghost node -1
     high_v, high_s = _spline(t - (n + 1.))         # ghost node n + 1
-    low = 2. * (node == 0) - (node == 1)
-    high = 2. * (node == n) - (node == n - 1)
+    low, high = _folds(node, n)
     return (value + low * low_v + high * high_v,
             slope + low * low_s + high * high_s)
 
@@ -138,26 +185,43 @@ class QuadraticBSpline:
         self.nodes, self.node_dof = self.grid.nodes, self.grid.node_dof
         self.N = self.grid.N
 
-    def _axis(self, d: int, x: ndarray):
+    def _axis(self, d: int, x: ndarray, half: ndarray = None):
         """Stencil nodes (m, n), values, derivatives along axis d (per unit
-        length) and the first and last node of every point's support."""
-        n = self.shape[d]
-        m = min(3, n + 1)
-        t = np.clip((x - self.axes[d][0]) / self.h[d], 0., n)
-        nearest = np.floor(t + .5).astype(np.int64)
-        node = np.clip(nearest - 1, 0, n + 1 - m)[None] \
-            + np.arange(m)[:, None]
+        length) and the first and last node of every point's support: the
+        splines at ``x``, or averaged over ``[x - half, x + half]``."""
+        n, a0, h = self.shape[d], self.axes[d][0], self.h[d]
+        if half is None:
+            lo = hi = np.clip((x - a0) / h, 0., n)
+        else:
+            lo = np.clip((x - half - a0) / h, 0., n)
+            hi = np.clip((x + half - a0) / h, 0., n)
+        # nodes whose supports (i - 3/2, i + 3/2) meet [lo, hi]
+        first = np.floor(lo - .5).astype(np.int64)
+        m = min(int((np.ceil(hi + .5) - first).max()) + 1, n + 1)
+        node = np.clip(first, 0, n + 1 - m)[None] + np.arange(m)[:, None]
+        length = hi - lo
+        wide = length > POINT_LIKE
+        t = (lo + hi) / 2
         value, slope = spline_1d(t, node, n)
-        slope = slope / self.h[d]
+        if wide.any():
+            span = np.where(wide, length, 1.)
+            lo_v, _ = spline_1d(lo, node, n)
+            hi_v, _ = spline_1d(hi, node, n)
+            mean = (spline_1d_integral(hi, node, n)
+                    - spline_1d_integral(lo, node, n)) / span
+            value = np.where(wide, mean, value)
+            slope = np.where(wide, (hi_v - lo_v) / span, slope)
+        slope = slope / h
         reach = (value != 0.) | (slope != 0.)
-        first = node[np.argmax(reach, axis=0), np.arange(len(t))]
-        last = node[m - 1 - np.argmax(reach[::-1], axis=0), np.arange(len(t))]
+        first = node[np.argmax(reach, axis=0), np.arange(len(x))]
+        last = node[m - 1 - np.argmax(reach[::-1], axis=0), np.arange(len(x))]
         return node, value, slope, reach, first, last
 
-    def __call__(self, x: ndarray) -> SparseOperator:
-        """The operator of points x (dim, n); its ``elements`` are the
-        cells spanned by the points' supports (the cells whose corners all
-        carry a point's weight)."""
+    def __call__(self, x: ndarray, domain: ndarray = None) -> SparseOperator:
+        """The operator of points x (dim, n): the splines at the points,
+        or with ``domain`` (half-lengths, (dim, n)) averaged over their
+        boxes.  Its ``elements`` are the cells spanned by the points'
+        supports (the cells whose corners all carry a point's weight)."""
         n = x.shape[1]
         node = np.zeros((1, n), dtype=np.int64)
         S = np.ones((1, n))
@@ -165,7 +229,8 @@ class QuadraticBSpline:
         keep = np.ones((1, n), dtype=bool)
         spans = []
         for d in range(self.dim):
-            nd, value, slope, reach, first, last = self._axis(d, x[d])
+            nd, value, slope, reach, first, last = self._axis(
+                d, x[d], None if domain is None else domain[d])
             node = (node[:, None] * self.nodes[d] + nd[None]).reshape(-1, n)
             keep = (keep[:, None] & reach[None]).reshape(-1, n)
             S = (S[:, None] * value[None]).reshape(-1, n)

@@ -18,15 +18,21 @@ follow the deformation (``domains``).
 - ``"bspline"``: quadratic B-splines with the grid's nodes as control
   points (:mod:`skfem_mpm.methods.bspline`), C1 across grid lines (no
   cell-crossing error); points move as in standard MPM.  Needs a uniformly
-  spaced axis-aligned tensor-product grid of linear elements.
+  spaced axis-aligned tensor-product grid of linear elements;
+- ``"bspline-gimp"``: the same splines averaged over the points' domains
+  (as GIMP averages the grid's hats), the domains stretched as cpGIMP's:
+  no quadrature floor once the points leave the knots (``docs/bspline.md``).
+  Needs point domains: refused at its first operator otherwise.
 
 """
 import time
 from typing import Optional
 
+import numpy as np
 from numpy import ndarray
 
-from ..errors import PointsOutsideGridError, check_choice
+from ..errors import InvalidInputError, PointsOutsideGridError, \
+    check_choice
 from ..quadrature.basis import MaterialPointBasis
 from .bspline import QuadraticBSpline
 from .fields import FieldMethod
@@ -36,7 +42,7 @@ from .operators import PointOperator
 __all__ = ["METHODS", "make_method"]
 
 #: the method names (``method=``, scene key ``solver.method``)
-METHODS = ("fem", "mpm", "ugimp", "cpgimp", "bspline")
+METHODS = ("fem", "mpm", "ugimp", "cpgimp", "bspline", "bspline-gimp")
 
 
 class PointMethod:
@@ -120,38 +126,67 @@ class GimpMethod(PointMethod):
 
 class BSplineMethod(PointMethod):
     """Quadratic B-spline MPM: points move as in standard MPM, the
-    operator is rebuilt every step from the splines at their positions;
-    ``point_elements`` is the cell holding each point."""
+    operator is rebuilt every step from the splines at their positions
+    (``"bspline"``) or averaged over their domains, stretched as cpGIMP's
+    (``"bspline-gimp"``); ``point_elements`` is the cell holding each
+    point."""
 
     def __init__(self, name, mesh, scalar, scalar_dofs, pattern, locate,
                  counters):
         super().__init__(name, mesh, scalar, scalar_dofs, pattern, locate,
                          counters)
         self.spline = QuadraticBSpline(mesh, scalar)
+        self.averaged = name == "bspline-gimp"
+        self._boxes = None          # the step's points' centres and domains
 
     def operator(self, points, step: int, timings: dict):
         location = self.locate(points.x, step, timings, points)
         tic = time.perf_counter()
+        self._boxes = (points.x, points.domain)
         op = self.sparse_operator(points.x, points.domain)
         op.point_elements = location[0]
         timings["assemble"] += time.perf_counter() - tic
         return op
 
     def sparse_operator(self, x: ndarray, domain=None):
-        """The splines' operator of points at ``x`` (domains play no
-        part)."""
-        return self.spline(x)
+        """The splines' operator of points at ``x``: at the points
+        (``"bspline"``: domains play no part) or averaged over their boxes
+        of half-lengths ``domain``."""
+        if not self.averaged:
+            return self.spline(x)
+        if domain is None:
+            raise InvalidInputError(
+                "method 'bspline-gimp' averages the splines over the points' "
+                "domains and needs them (MaterialPoints.domain; seed_points "
+                "sets them on tensor-product grids); method 'bspline' "
+                "evaluates the splines at the points")
+        return self.spline(x, domain)
 
     def weights_at(self, x: ndarray, idx: ndarray = None):
         """The splines' operator at positions ``x`` (dim, m): where surface
         loads act (their faces' centres, of points ``idx``), so a traction
-        loads the nodes the method's displacement field is made of."""
-        return self.spline(x)
+        loads the nodes the method's displacement field is made of.  With
+        ``"bspline-gimp"`` averaged over each face: the domain of its point
+        in the step's operator, flat along the axis the centre is offset
+        along (at the splines' points without ``idx``: on the fields of
+        bodies in contact)."""
+        if not self.averaged or idx is None or self._boxes is None:
+            return self.spline(x)
+        centre, domain = (a[:, idx] for a in self._boxes)
+        normal = np.argmax(np.abs(x - centre) / domain, axis=0)
+        face = domain.copy()
+        face[normal, np.arange(normal.size)] = 0.
+        return self.spline(x, face)
+
+    def domains(self, domain0: Optional[ndarray], F: ndarray):
+        if self.averaged:
+            return stretched_domains(domain0, F)
+        return None
 
 
 #: the piece of each method that is not :class:`PointMethod`
 KINDS = {"ugimp": GimpMethod, "cpgimp": GimpMethod,
-         "bspline": BSplineMethod}
+         "bspline": BSplineMethod, "bspline-gimp": BSplineMethod}
 
 
 def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
