@@ -5,15 +5,17 @@ A :class:`Contact` puts its two bodies on separate velocity fields
 nodes; this term couples the fields where the materials' surfaces meet.
 
 Where both fields are present (a grid node supported by points of both
-bodies), the node's normal ``n`` is the direction along which the two bodies'
-domains near the node lie farthest apart (the separating axis), among
-the line between the centroids of their points near the node (weighted by
-their shape values), each body's direction from its centroid to the node,
-and the grid axes, oriented from the first body to the second;
-the second body's surface there is the corner of its points' domains
-lowest along ``n`` (of the domains in the node's support; among equals the
-one nearest the node across ``n``), the first body's the highest one.  The
-two corners make a *pair* (distinct pairs only) with the gap
+bodies), the node's normal ``n`` is the direction along which the two
+bodies' domain corners near the node lie farthest apart (the separating
+axis), among the line between the centroids of their points near the
+node (weighted by their shape values), each body's direction from its
+centroid to the node, and the grid axes, oriented from the first body to
+the second; only the first body's corners that face the second's across
+``n`` count (not those on a face along ``n`` beside it, as soil beside a
+pile's tip).  The second body's surface there is its corner lowest along
+``n`` nearest the node, the first body's the facing corner highest along
+``n`` nearest that one.  The two corners make a *pair* (distinct pairs
+only) with the gap
 
     g = n . (x_B - x_A),
 
@@ -26,11 +28,16 @@ of :mod:`skfem_mpm.solve.contact` (the pressure of an augmented
 Lagrangian ``p = max(0, lambda - kappa g)``, a Coulomb return map on the
 relative tangential increment ``s``, ``"rough"``: no slip) with the
 consistent tangent; the first body receives ``-(p n + tau)``.  After
-Newton converges, :meth:`StepBodyContact.settle` checks each pair's
-penetration and a sticking pair's slip against the tolerance and, where
-larger, updates the multipliers (augmented Lagrangian) and solves again:
-the converged state has no penetration and no stick slip beyond the
-tolerance.  The multipliers start from zero in every step (stateless: a
+Newton converges, :meth:`StepBodyContact.settle` looks for pairs the
+bodies, moved by the converged increment, form beyond the step's and
+penetrate (they join), checks each pair's penetration and a sticking
+pair's slip against the tolerance and, where larger, updates the
+multipliers (augmented Lagrangian) and solves again: the converged state
+has no penetration and no stick slip beyond the tolerance.  A pair that
+penetrates at a step's start by less than the tolerance is closed there
+(the corners of deformed domains, moved through each point's own
+gradient, are not quite where the grid field moved the last step's
+pairs).  The multipliers start from zero in every step (stateless: a
 checkpoint holds nothing of the contact).
 """
 import logging
@@ -39,7 +46,7 @@ from weakref import WeakKeyDictionary
 
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import coo_matrix, identity, kron
+from scipy.sparse import coo_matrix, identity, kron, vstack
 
 from ..errors import InvalidInputError, check_real
 from ..methods.fields import body_fields
@@ -167,6 +174,29 @@ def check_contacts(contacts, nbodies: int, names=None):
     return checked, field
 
 
+#: the weight of the distance across the normal against the position
+#: along it in choosing a pair's corners (:meth:`BodyContact.extreme`)
+ACROSS = .5
+
+#: corners closer than this many cells across a normal are level (the
+#: soil's side and a pile's tip stay so as both deform)
+FACING = 1e-2
+
+
+def tangents(normal: ndarray) -> list:
+    """Unit tangents (dim - 1 of them, each (dim, m)) orthogonal to the
+    unit ``normal`` (dim, m) and to each other."""
+    if normal.shape[0] == 1:
+        return []
+    if normal.shape[0] == 2:
+        return [np.stack([-normal[1], normal[0]])]
+    a = np.zeros_like(normal)
+    a[np.where(np.abs(normal[0]) < .9, 0, 1), np.arange(normal.shape[1])] = 1.
+    t = a - (a * normal).sum(axis=0) * normal
+    t /= np.sqrt((t ** 2).sum(axis=0))
+    return [t, np.cross(normal, t, axis=0)]
+
+
 class BodyContact(GridTerm):
     """Contact between the run's bodies (a grid term).
 
@@ -226,58 +256,77 @@ class BodyContact(GridTerm):
     def pairs(self, op, points):
         """Per contact, the pairs of surface corners at the step's start:
         ``(B, A, n, g0)`` (corner indices ``c n + p`` of the second and
-        first body, normals (dim, m), gaps (m,)); kept per operator."""
+        first body, normals (dim, m), gaps (m,)); kept per operator;
+        bodies that overlap at the run's start are refused."""
         if op in self.geometry:
             return self.geometry[op]
-        dim, nv = self.dim, self.nv
-        S = value_matrix(op).tocsc()
-        X = self.corners(points)
-        nc, n = X.shape[1:]
-        weight = points.volume
-        out = []
-        for (a, b, contact), tol in zip(self.contacts, self.tol):
-            blocks = [S[:, self.field[k] * nv:(self.field[k] + 1) * nv]
-                      .tocsr() for k in (a, b)]
-            blocks = [Sk.multiply(Sk > 0).tocsr() for Sk in blocks]
-            mass = [Sk.T @ weight for Sk in blocks]
-            shared = np.flatnonzero((mass[0] > 0) & (mass[1] > 0))
-            centre = [(Sk[:, shared].T @ (weight * points.x).T).T
-                      / m[shared] for Sk, m in zip(blocks, mass)]
-            if shared.size == 0:          # the bodies are cells apart
-                none = np.zeros(0, dtype=np.int64)
-                out.append((none, none, np.zeros((dim, 0)), np.zeros(0)))
-                continue
-            node_x = self.mesh.p[:, shared]
-            normal = self.separating_normal(
-                [Sk[:, shared] for Sk in blocks], X, centre, node_x)
-            ends = [self.extreme(Sk[:, shared], X, normal, node_x, lowest)
-                    for Sk, lowest in zip(blocks, (False, True))]
-            key = np.stack([ends[1], ends[0]])
-            _, first = np.unique(key, axis=1, return_index=True)
-            A, B, normal = ends[0][first], ends[1][first], normal[:, first]
-            XA = X.reshape(dim, -1)[:, A]
-            XB = X.reshape(dim, -1)[:, B]
-            gap = (normal * (XB - XA)).sum(axis=0)
+        out = self.find_pairs(value_matrix(op).tocsc(), points.x,
+                              points.volume, self.corners(points))
+        for (_, _, contact), tol, (B, A, normal, gap) in zip(
+                self.contacts, self.tol, out):
             if not points.displacement.any() and (gap < -tol).any():
                 i = int(np.argmin(gap))           # at the run's start
                 raise InvalidInputError(
                     "contact {!r}: the bodies overlap at the start by {:.3g} "
                     "(tolerance {:.3g}) at {}; place them apart or "
                     "touching".format(contact.name, float(-gap[i]), tol,
-                                      XB[:, i].tolist()))
-            out.append((B, A, normal, gap))
+                                      self.corners(points).reshape(
+                                          self.dim, -1)[:, B[i]].tolist()))
         self.geometry[op] = out
         return out
 
-    def separating_normal(self, blocks, X, centre, node_x) -> ndarray:
+    def find_pairs(self, support, x, weight, X) -> list:
+        """The pairs ``(B, A, n, g)`` of every contact for points at ``x``
+        (dim, n) of volumes ``weight``, their domains' corners at ``X``
+        (dim, corners, n), the grid nodes' supports ``support`` (points,
+        nodes of every field)."""
+        dim, nv = self.dim, self.nv
+        out = []
+        for a, b, _ in self.contacts:
+            blocks = [support[:, self.field[k] * nv:(self.field[k] + 1) * nv]
+                      .tocsr() for k in (a, b)]
+            blocks = [Sk.multiply(Sk > 0).tocsr() for Sk in blocks]
+            mass = [Sk.T @ weight for Sk in blocks]
+            shared = np.flatnonzero((mass[0] > 0) & (mass[1] > 0))
+            if shared.size == 0:          # the bodies are cells apart
+                none = np.zeros(0, dtype=np.int64)
+                out.append((none, none, np.zeros((dim, 0)), np.zeros(0)))
+                continue
+            centre = [(Sk[:, shared].T @ (weight * x).T).T
+                      / m[shared] for Sk, m in zip(blocks, mass)]
+            node_x = self.mesh.p[:, shared]
+            entries = [self.corner_entries(Sk[:, shared], X)
+                       for Sk in blocks]
+            normal = self.separating_normal(entries, centre, node_x)
+            keep = ~np.isnan(normal[0])            # nodes with a pair
+            renumber = np.cumsum(keep) - 1
+            normal, node_x = normal[:, keep], node_x[:, keep]
+            entries = [(renumber[node[keep[node]]], corner[keep[node]],
+                        Xc[:, keep[node]]) for node, corner, Xc in entries]
+            faces = self.facing(entries, normal)
+            entries[0] = tuple(e[..., faces] for e in entries[0])
+            B = self.extreme(entries[1], normal, node_x, True)
+            A = self.extreme(entries[0], normal,
+                             X.reshape(dim, -1)[:, B], False)
+            _, first = np.unique(np.stack([B, A]), axis=1,
+                                 return_index=True)
+            A, B, normal = A[first], B[first], normal[:, first]
+            gap = (normal * (X.reshape(dim, -1)[:, B]
+                             - X.reshape(dim, -1)[:, A])).sum(axis=0)
+            out.append((B, A, normal, gap))
+        return out
+
+    def separating_normal(self, entries, centre, node_x) -> ndarray:
         """Per node, the direction (dim, m) along which the two bodies'
         domain corners in its support are farthest apart (the separating
         axis of the two local sets), among candidates that point from the
         first body to the second: the line between their centroids, each
         body's outward direction from its centroid to the node, their
-        sum, and the grid axes.  A body's edge or the grid's edge makes
-        the centroids' directions lean sideways; the separating one stays
-        across the surface."""
+        sum, and the grid axes; only the first body's corners that face
+        the second's count (:meth:`facing`), and a node where none do
+        along any candidate has no pair (NaN).  A body's edge or the
+        grid's edge makes the centroids' directions lean sideways; the
+        separating one stays across the surface."""
         dim = self.dim
         candidates = [centre[1] - centre[0], node_x - centre[0],
                       centre[1] - node_x]
@@ -291,17 +340,47 @@ class BodyContact(GridTerm):
                 candidates.append(e)
         candidates = np.array([c / np.maximum(np.sqrt((c ** 2).sum(
             axis=0)), 1e-300) for c in candidates])           # (k, dim, m)
-        entries = [self.corner_entries(Sk, X) for Sk in blocks]
         gaps = []
         for n in candidates:
-            low = [self.reach(node, Xc, n, lowest)
-                   for (node, _, Xc), lowest in zip(entries, (False, True))]
-            gaps.append(low[1] + low[0])
+            faces = self.facing(entries, n)
+            gaps.append(self.reach(entries[1][0], entries[1][2], n, True)
+                        + self.reach(entries[0][0][faces],
+                                     entries[0][2][:, faces], n, False))
         gaps = np.array(gaps)
         towards = np.einsum("kam,am->km", candidates, centre[1] - centre[0])
-        gaps[towards <= 1e-9 * self.h] = -np.inf
+        gaps[(towards <= 1e-9 * self.h) | np.isinf(gaps)] = -np.inf
         best = np.argmax(gaps, axis=0)
-        return candidates[best, :, np.arange(best.size)].T
+        normal = candidates[best, :, np.arange(best.size)].T
+        normal[:, np.isinf(gaps.max(axis=0))] = np.nan
+        return normal
+
+    def facing(self, entries, normal) -> ndarray:
+        """Which corners of the first body face the second's at their
+        node: across the node's ``normal`` (per tangent direction) within
+        the range both bodies' corners there span, its ends included
+        where they are the first body's own edge, left out where the
+        first body reaches beyond the second (its corners there lie on a
+        face along the normal, beside the second body, not across); ends
+        within :data:`FACING` cells are one."""
+        (node_a, _, Xa), (node_b, _, Xb) = entries
+        m, eps = normal.shape[1], FACING * self.h
+        inside = np.ones(node_a.size, dtype=bool)
+        for t in tangents(normal):
+            ranges = []
+            for node, Xc in ((node_a, Xa), (node_b, Xb)):
+                s = (t[:, node] * Xc).sum(axis=0)
+                lo, hi = np.full(m, np.inf), np.full(m, -np.inf)
+                np.minimum.at(lo, node, s)
+                np.maximum.at(hi, node, s)
+                ranges.append((s, lo, hi))
+            (sa, lo_a, hi_a), (_, lo_b, hi_b) = ranges
+            low, high = np.maximum(lo_a, lo_b)[node_a], \
+                np.minimum(hi_a, hi_b)[node_a]
+            own_low = (lo_a >= lo_b - eps)[node_a]
+            own_high = (hi_a <= hi_b + eps)[node_a]
+            inside &= ((sa > low + eps) | (own_low & (sa >= low - eps))) \
+                & ((sa < high - eps) | (own_high & (sa <= high + eps)))
+        return inside
 
     @staticmethod
     def corner_entries(Sk, X):
@@ -315,28 +394,29 @@ class BodyContact(GridTerm):
     @staticmethod
     def reach(node, Xc, normal, lowest: bool) -> ndarray:
         """Per node, the lowest position along its normal of its corners
-        (``lowest``), or minus the highest."""
+        (``lowest``), or minus the highest (``inf`` where it has none)."""
         along = (normal[:, node] * Xc).sum(axis=0)
         along = along if lowest else -along
         out = np.full(normal.shape[1], np.inf)
         np.minimum.at(out, node, along)
         return out
 
-    def extreme(self, Sk, X, normal, node_x, lowest: bool) -> ndarray:
-        """Per node (columns of ``Sk``), the corner of the points in its
-        support lowest (or highest) along its normal, the one nearest the
-        node across the normal among equals: indices ``c n + p``."""
-        node, corner, Xc = self.corner_entries(Sk, X)
+    @staticmethod
+    def extreme(entries, normal, near, lowest: bool) -> ndarray:
+        """Per node (every node has ``entries``), the surface corner
+        lowest (or highest) along its normal near ``near`` (dim, m): the
+        least ``along + ACROSS * across``, ``across`` the distance from
+        ``near`` across the normal, so that of a surface's corners the
+        one nearest wins, and of a corner and one a domain deeper right
+        above it the surface one: indices ``c n + p``."""
+        node, corner, Xc = entries
         nn = normal[:, node]
         along = (nn * Xc).sum(axis=0)
         along = along if lowest else -along
-        offset = Xc - node_x[:, node]
+        offset = Xc - near[:, node]
         across = np.sqrt(np.maximum(
             (offset ** 2).sum(axis=0) - (nn * offset).sum(axis=0) ** 2, 0.))
-        best = np.full(normal.shape[1], np.inf)
-        np.minimum.at(best, node, along)
-        near = along <= best[node] + 1e-9 * self.h
-        order = np.lexsort((across, ~near, node))
+        order = np.lexsort((along + ACROSS * across, node))
         head = np.r_[True, node[order][1:] != node[order][:-1]]
         return corner[order[head]]
 
@@ -396,15 +476,20 @@ class StepBodyContact(GridTerm):
     def __init__(self, term: BodyContact, problem):
         self.term, self.problem = term, problem
         op, points = problem.method_op, problem.points
-        self.dim = dim = term.dim
+        self.dim = term.dim
+        self.support = support = value_matrix(op).tocsc()
+        # the points that reach a node of two fields: where bodies may
+        # meet in this step
+        fields = [support[:, k * term.nv:(k + 1) * term.nv] != 0
+                  for k in range(int(term.field.max()) + 1)]
+        reached = sum((f.sum(axis=0).A1 > 0).astype(int) for f in fields)
+        self.interface = np.unique(np.concatenate([
+            f[:, reached > 1].tocoo().row for f in fields]))
         self.parts = []
-        for (a, b, contact), (B, A, normal, gap), tol in zip(
-                term.contacts, term.pairs(op, points), term.tol):
-            D = term.rows(op, points, B) - term.rows(op, points, A)
-            m = gap.size
-            self.parts.append({"D": D, "n": normal, "gap": gap,
-                               "lam": np.zeros(m), "tau": np.zeros((dim, m)),
-                               "points": (B % points.n, A % points.n)})
+        for (B, A, normal, gap), tol in zip(term.pairs(op, points),
+                                            term.tol):
+            self.parts.append({})
+            self.add(self.parts[-1], op, points, B, A, normal, gap, tol)
         self.evaluations = WeakKeyDictionary()
 
     def evaluate(self, du: ndarray, response):
@@ -459,11 +544,71 @@ class StepBodyContact(GridTerm):
         return sum((part["D"].T @ (block_diagonal(e[1]) @ part["D"])).tocsr()
                    for part, e in zip(self.parts, self.evaluations[response]))
 
+    def join(self, du: ndarray) -> bool:
+        """Whether the bodies, their corners near a node of two fields
+        moved by the converged ``du`` as the pairs' are, meet at pairs the
+        step does not hold by more than the tolerance: those join the
+        step's pairs (their rows and gaps from the step's start)."""
+        term, problem, dim = self.term, self.problem, self.dim
+        points, op = problem.points, problem.method_op
+        X0 = term.corners(points)
+        X = X0.copy()
+        corner = (np.arange(X.shape[1])[:, None] * points.n
+                  + self.interface[None, :]).ravel()
+        X.reshape(dim, -1)[:, corner] += (term.rows(op, points, corner)
+                                          @ du).reshape(-1, dim).T
+        found = term.find_pairs(self.support, points.x + op.values(du),
+                                points.volume, X)
+        X0 = X0.reshape(dim, -1)
+        joined = False
+        for part, (B, A, normal, gap), tol in zip(self.parts, found,
+                                                  term.tol):
+            held = np.isin(B * X0.shape[1] + A, part["keys"])
+            new = (gap < -tol) & ~held
+            if not new.any():
+                continue
+            B, A, normal = B[new], A[new], normal[:, new]
+            start = (normal * (X0[:, B] - X0[:, A])).sum(axis=0)
+            self.add(part, op, points, B, A, normal, start, tol)
+            joined = True
+        if joined:
+            self.evaluations = WeakKeyDictionary()
+        return joined
+
+    def add(self, part, op, points, B, A, normal, gap, tol):
+        """Pairs ``(B, A)`` with their normals and gaps at the step's
+        start joined to a contact's ``part`` (empty at first)."""
+        term, dim, m = self.term, self.dim, gap.size
+        D = term.rows(op, points, B) - term.rows(op, points, A)
+        # a penetration within the tolerance at the step's start is
+        # closed: the corners of deformed domains, moved through each
+        # point's own gradient, are not quite where the grid field moved
+        # the last step's pairs, and the penalty would read the difference
+        # as a push (1e3 times the load at a pile's tip)
+        gap = gap - np.clip(gap, -tol, 0.)
+        corners = term.corners(points)[0].size
+        for key, value in (("D", D), ("n", normal), ("gap", gap),
+                           ("lam", np.zeros(m)), ("tau", np.zeros((dim, m))),
+                           ("keys", B * corners + A),
+                           ("points", np.stack([B % points.n,
+                                                A % points.n]))):
+            if key not in part:
+                part[key] = value
+            elif key == "D":
+                part[key] = vstack([part[key], value]).tocsr()
+            else:
+                part[key] = np.concatenate([part[key], value], axis=-1)
+
     def settle(self, problem, trial, du: ndarray) -> bool:
         """After Newton: ``True`` when every pair's penetration and every
-        sticking pair's slip is within the contact's tolerance; else the
-        multipliers take the converged tractions (augmented Lagrangian)
-        and the step is solved again."""
+        sticking pair's slip is within the contact's tolerance, and the
+        bodies meet nowhere else (:meth:`join`); else the multipliers take
+        the converged tractions (augmented Lagrangian), or the new pairs
+        join, and the step is solved again."""
+        if self.join(du):
+            logger.debug("step %d: bodies met beyond the step's pairs; "
+                         "solving again", problem.step)
+            return False
         ev = self.evaluate(du, trial.response)
         worst = max((max(e[2], e[3]) / tol for e, tol in zip(
             ev, self.term.tol)), default=0.)
