@@ -12,17 +12,18 @@ then ``lam, mu, E, nu, yield_stress``).
 """
 import math
 
-from numba import njit
+from numba import literally, njit
 
 from . import VON_MISES
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def principal_frame(b, dim, x, v):
     """Eigenvalues ``x`` (3,) and eigenvectors ``v[:, A]`` (3, 3) of the
     symmetric ``b`` (3, 3): the in-plane pair in closed form below 3D (the
     out-of-plane axes principal, as :func:`~skfem_mpm.mechanics.hencky.
     principal_frame`), cyclic Jacobi rotations in 3D."""
+    literally(dim)
     for a in range(3):
         x[a] = b[a, a]
         for c in range(3):
@@ -93,7 +94,7 @@ def jacobi(b, x, v):
         v[a, 0], v[a, 1], v[a, 2] = v0[a], v1[a], v2[a]
 
 
-@njit(cache=True, error_model="numpy", inline="always")
+@njit(cache=True, error_model="numpy")
 def principal_update(params, eps, eq, tau, eps_e, D):
     """The return map of the material ``params`` on principal strains
     ``eps`` (3,) with the equivalent plastic strain ``eq`` at the step's
