@@ -22,7 +22,8 @@ def principal_frame(b, dim, x, v):
     """Eigenvalues ``x`` (3,) and eigenvectors ``v[:, A]`` (3, 3) of the
     symmetric ``b`` (3, 3): the in-plane pair in closed form below 3D (the
     out-of-plane axes principal, as :func:`~skfem_mpm.mechanics.hencky.
-    principal_frame`), cyclic Jacobi rotations in 3D."""
+    principal_frame`), cyclic Jacobi rotations in 3D; compiled for each
+    ``dim`` (a literal)."""
     literally(dim)
     for a in range(3):
         x[a] = b[a, a]
@@ -99,8 +100,7 @@ def principal_update(params, eps, eq, tau, eps_e, D):
     """The return map of the material ``params`` on principal strains
     ``eps`` (3,) with the equivalent plastic strain ``eq`` at the step's
     start: principal stresses ``tau``, elastic strains ``eps_e`` and the
-    tangent ``D`` (3, 3) written in place; returns ``(yielded, eq)`` (one
-    exit: inlined, it runs faster)."""
+    tangent ``D`` (3, 3) written in place; returns ``(yielded, eq)``."""
     lam, mu = params[1], params[2]
     trace = eps[0] + eps[1] + eps[2]
     for a in range(3):
