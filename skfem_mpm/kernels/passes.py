@@ -415,6 +415,7 @@ def _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x,
 @njit(cache=True, error_model="numpy")
 def finite_residual_2d(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
                        dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq):
+    """The finite-deformation pass on a 2D grid (``_finite_residual``)."""
     return _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P,
                             dF, dF_inv, b_dev, tau, d, vecs, y, dy_dx,
                             yielded, eq, 2, G.shape[2])
@@ -423,6 +424,7 @@ def finite_residual_2d(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
 @njit(cache=True, error_model="numpy")
 def finite_residual_3d(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
                        dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq):
+    """The finite-deformation pass on a 3D grid (``_finite_residual``)."""
     return _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P,
                             dF, dF_inv, b_dev, tau, d, vecs, y, dy_dx,
                             yielded, eq, 3, G.shape[2])
@@ -431,6 +433,7 @@ def finite_residual_3d(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
 @njit(cache=True, error_model="numpy")
 def small_residual_2d(G, slots, dofs, w, du, stress0, strain0, params, eq0,
                       f, stress, strain, x, vecs, y, dy_dx, yielded, eq):
+    """The small-strain pass on a 2D grid (``_small_residual``)."""
     _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0, f,
                     stress, strain, x, vecs, y, dy_dx, yielded, eq, 2,
                     G.shape[2])
@@ -439,6 +442,7 @@ def small_residual_2d(G, slots, dofs, w, du, stress0, strain0, params, eq0,
 @njit(cache=True, error_model="numpy")
 def small_residual_3d(G, slots, dofs, w, du, stress0, strain0, params, eq0,
                       f, stress, strain, x, vecs, y, dy_dx, yielded, eq):
+    """The small-strain pass on a 3D grid (``_small_residual``)."""
     _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0, f,
                     stress, strain, x, vecs, y, dy_dx, yielded, eq, 3,
                     G.shape[2])
@@ -447,6 +451,7 @@ def small_residual_3d(G, slots, dofs, w, du, stress0, strain0, params, eq0,
 @njit(cache=True, error_model="numpy")
 def stiffness_2d(G, slots, w, elements, first, length, per_node, kind, C, x,
                  y, dy_dx, vecs, dF_inv, data):
+    """The stiffness pass on a 2D grid (``_stiffness``)."""
     _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x, y,
                dy_dx, vecs, dF_inv, data, 2, G.shape[2])
 
@@ -454,6 +459,7 @@ def stiffness_2d(G, slots, w, elements, first, length, per_node, kind, C, x,
 @njit(cache=True, error_model="numpy")
 def stiffness_3d(G, slots, w, elements, first, length, per_node, kind, C, x,
                  y, dy_dx, vecs, dF_inv, data):
+    """The stiffness pass on a 3D grid (``_stiffness``)."""
     _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x, y,
                dy_dx, vecs, dF_inv, data, 3, G.shape[2])
 
