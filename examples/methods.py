@@ -50,11 +50,11 @@ if __name__ == "__main__":
         print("{}: method, cell size, error, CPU s, Newton iterations, "
               "ghost from step".format(name))
         for r in rows:
-            print("  {:8s} {:8.4f} {:9.2e} {:7.2f} {:5d} {:3d}".format(
+            print("  {:12s} {:8.4f} {:9.2e} {:7.2f} {:5d} {:3d}".format(
                 r["method"], r["h"], r["error"], r["cpu_seconds"],
                 r["newton_iterations"], r["ghost_from_step"]))
         for method in METHODS:
-            print("  {:8s} order {:5.2f} in h, {:5.2f} in time".format(
+            print("  {:12s} order {:5.2f} in h, {:5.2f} in time".format(
                 method, found[name][method]["h"],
                 found[name][method]["time"]))
         for target, best in choices[name].items():

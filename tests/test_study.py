@@ -410,14 +410,16 @@ def test_the_column_reference_measures_the_column_as_seeded(tmp_path,
 
 def test_methods_side_by_side_on_the_coarse_column():
     """The column with 20 load steps at 8 elements, every method:
-    B-splines give the smallest error (measured 3.5e-3 against 2.5e-2
-    for both GIMPs, 3.1e-2 for FE and MPM); at 16 elements FE's stress
-    converges at order 1 (linear elements), standard MPM's not at all."""
+    B-splines, at the points or averaged over the domains, give the
+    smallest errors (measured 3.52e-3 and 3.55e-3 against 2.5e-2 for both
+    GIMPs, 3.1e-2 for FE and MPM); at 16 elements FE's stress converges at
+    order 1 (linear elements), standard MPM's not at all."""
     from skfem_mpm.studies.methods import METHODS, column
     coarse = {m: column(50. / 8, m)[1] for m in METHODS}
-    assert min(coarse, key=coarse.get) == "bspline"
+    splines = ("bspline", "bspline-gimp")
+    assert abs(coarse["bspline-gimp"] / coarse["bspline"] - 1) < .05
     assert all(coarse[m] > 5 * coarse["bspline"] for m in METHODS
-               if m != "bspline")
+               if m not in splines)
     assert abs(np.log2(coarse["fem"] / column(50. / 16, "fem")[1]) - 1) < .02
     assert abs(np.log2(coarse["mpm"] / column(50. / 16, "mpm")[1])) < .1
 
@@ -440,11 +442,15 @@ def test_methods_example_orders_and_choices():
     floor = [column["bspline", 50. / n] for n in (32, 64, 128, 256, 512,
                                                   1024)]
     assert max(floor) / min(floor) < 1.3
+    # averaged over the domains: no floor (measured 3.55e-3 at 8 elements
+    # to 2.2e-7 at 1024, fitted order 1.79)
+    assert m.found["column"]["bspline-gimp"]["h"] > 1.6
+    assert column["bspline-gimp", 50. / 1024] < 1e-6
     assert abs(m.found["column"]["fem"]["h"] - 1) < .02
     for method in ("fem", "ugimp", "cpgimp"):
         assert 1. < m.found["cantilever"][method]["h"] < 1.5
     cantilever = {(r["method"], r["h"]): r["error"] for r in m.cantilever}
-    for method in ("ugimp", "cpgimp", "bspline"):
+    for method in ("ugimp", "cpgimp", "bspline", "bspline-gimp"):
         assert all(cantilever[method, h] < .015 for h in (.5, .25, .125))
     assert all(cantilever["mpm", h] > .03 for h in (.5, .25, .125))
     assert m.choices["cantilever"][1e-2]["bspline"] is not None

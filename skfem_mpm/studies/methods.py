@@ -35,7 +35,7 @@ __all__ = ["METHODS", "column", "cantilever", "cantilever_reference",
            "methods_study", "orders", "cheapest", "plot_methods"]
 
 #: every method, in the order of the tables
-METHODS = ("fem", "mpm", "ugimp", "cpgimp", "bspline")
+METHODS = ("fem", "mpm", "ugimp", "cpgimp", "bspline", "bspline-gimp")
 
 
 def column(h: float, method: str, per_cell: int = 2, nsteps: int = 20):
