@@ -4,7 +4,8 @@ The block of ``step_cost.py`` (a unit square of material, 2x2 points per
 cell, in a grid two cells wider on each side: ``(2 ncells)^2`` points),
 finite deformation (Hencky), elastic, fixed base, its weight in 2 load
 steps, every setting the default; methods standard MPM, cpGIMP and
-B-splines, run in turn ``--repeat`` times (so that a machine shared with
+B-splines, at the points and averaged over their domains
+(``bspline-gimp``), run in turn ``--repeat`` times (so that a machine shared with
 other jobs slows each alike).  Prints per case the CPU and wall seconds
 per Newton iteration (the run's over its iterations, the best of the
 repeats), the wall seconds per iteration of each phase in the run of
@@ -28,7 +29,7 @@ from skfem_mpm.methods.bspline import QuadraticBSpline
 from skfem_mpm.methods.gimp_linear import LinearGimp
 from step_cost import block
 
-METHODS = ("cpgimp", "bspline", "mpm")
+METHODS = ("cpgimp", "bspline", "bspline-gimp", "mpm")
 
 
 def run(mesh, points, method):
@@ -46,8 +47,9 @@ def run(mesh, points, method):
 def operator(mesh, points, method):
     """The method's point operator at the seeded points (standard MPM's
     as GIMP's with domains of 1e-9 of their size)."""
-    if method == "bspline":
-        return QuadraticBSpline(mesh, ElementQuad1())(points.x)
+    if method.startswith("bspline"):
+        return QuadraticBSpline(mesh, ElementQuad1())(
+            points.x, points.domain if method == "bspline-gimp" else None)
     return LinearGimp(mesh, ElementQuad1())(
         points.x, points.domain * (1. if method == "cpgimp" else 1e-9))
 
@@ -61,7 +63,7 @@ def main():
     print("machine: {} {}, Python {}, numpy {}".format(
         platform.system(), platform.machine(), platform.python_version(),
         np.__version__))
-    print("{:>7} {:>7} {:>4} {:>7} {:>7} | {:>8} {:>8} {:>8} {:>8} | {:>5}"
+    print("{:>7} {:>12} {:>4} {:>7} {:>7} | {:>8} {:>8} {:>8} {:>8} | {:>5}"
           " {:>6} | {:>6}".format("points", "method", "its", "cpu/it",
                                   "wall/it", "assemble", "solve", "update",
                                   "locate", "nodes", "nnz/N", "/cpgimp"))
@@ -82,7 +84,7 @@ def main():
                 np.ones((2, 2, 2, 2, 1)), (2, 2, 2, 2, points.n)),
                 points.volume)
             per_iteration[method] = cpu / its
-            print("{:>7} {:>7} {:>4} {:>7.4f} {:>7.4f} | {:>8.4f} {:>8.4f} "
+            print("{:>7} {:>12} {:>4} {:>7.4f} {:>7.4f} | {:>8.4f} {:>8.4f} "
                   "{:>8.4f} {:>8.4f} | {:>5.2f} {:>6.1f} | {:>6.2f}".format(
                       points.n, method, its, cpu / its, wall / its,
                       t["assemble"] / its, t["solve"] / its,
