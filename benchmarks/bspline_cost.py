@@ -5,8 +5,8 @@ cell, in a grid two cells wider on each side: ``(2 ncells)^2`` points),
 finite deformation (Hencky), elastic, fixed base, its weight in 2 load
 steps, every setting the default; methods standard MPM, cpGIMP and
 B-splines, at the points and averaged over their domains
-(``bspline-gimp``), run in turn ``--repeat`` times (so that a machine shared with
-other jobs slows each alike).  Prints per case the CPU and wall seconds
+(``bspline-gimp``), run in turn ``--repeat`` times (so that a machine
+shared with other jobs slows each alike).  Prints per case the CPU and wall seconds
 per Newton iteration (the run's over its iterations, the best of the
 repeats), the wall seconds per iteration of each phase in the run of
 least CPU time (assemble: the point operator, the stresses and the
