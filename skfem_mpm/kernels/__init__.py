@@ -14,15 +14,17 @@ import logging
 
 from ..errors import InvalidInputError
 
-__all__ = ["KERNELS", "ELASTIC", "VON_MISES", "check_kernels",
+__all__ = ["KERNELS", "ELASTIC", "VON_MISES", "DRUCKER_PRAGER",
+           "check_kernels",
            "compiled_passes", "log_once"]
 
 logger = logging.getLogger(__name__)
 
 KERNELS = ("auto", "numpy", "compiled")
 #: the material kinds of the compiled return maps, first entry of their
-#: parameter vector ``(kind, lam, mu, E, nu, yield_stress)``
-ELASTIC, VON_MISES = 0., 1.
+#: parameter vector ``(kind, lam, mu, E, nu, yield_stress, cohesion, eta,
+#: xi, eta_bar, hardening, apex stiffness)``
+ELASTIC, VON_MISES, DRUCKER_PRAGER = 0., 1., 2.
 
 _LOGGED = set()
 _PASSES = []

@@ -14,7 +14,7 @@ import math
 
 from numba import literally, njit
 
-from . import VON_MISES
+from . import DRUCKER_PRAGER, VON_MISES
 
 
 @njit(cache=True, error_model="numpy")
@@ -132,7 +132,63 @@ def principal_update(params, eps, eq, tau, eps_e, D):
                     D[a, b] = bulk + 2 * mu * ratio * (
                         dev - (s[a] / norm_s) * (s[b] / norm_s))
             eq = eq + (q - yield_stress) / (3 * mu)
+    elif params[0] == DRUCKER_PRAGER:
+        yielded, eq = drucker_prager(params, tau, eps_e, D, eq)
     return yielded, eq
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def drucker_prager(params, tau, eps_e, D, alpha):
+    """The return map of :class:`~skfem_mpm.mechanics.soils.
+    DruckerPrager` (to the cone, or to its apex) from the elastic trial
+    ``tau`` and ``D``, in place as :func:`principal_update`; ``params``:
+    ``(kind, lam, mu, E, nu, -, cohesion, eta, xi, eta_bar, hardening,
+    apex stiffness)``."""
+    lam, mu, E, nu = params[1], params[2], params[3], params[4]
+    c0, eta, xi, eta_bar, H = params[6], params[7], params[8], params[9], \
+        params[10]
+    G, K = mu, E / (3 * (1 - 2 * nu))
+    p = (tau[0] + tau[1] + tau[2]) / 3
+    s = (tau[0] - p, tau[1] - p, tau[2] - p)
+    norm_s = math.sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2])
+    cohesion = c0 + H * alpha
+    f = norm_s / math.sqrt(2) + eta * p - xi * cohesion
+    scale = max(xi * abs(cohesion), abs(eta * p)) + norm_s + 2.2250738585072014e-308
+    yielded = f > 1e-12 * scale
+    if yielded:
+        A = G + K * eta * eta_bar + xi * xi * H
+        dgamma = f / A
+        if norm_s / math.sqrt(2) - G * dgamma >= 0:           # the cone
+            length = norm_s if norm_s > 0 else 1.
+            n = (s[0] / length, s[1] / length, s[2] / length)
+            new_p = p - K * eta_bar * dgamma
+            for a in range(3):
+                tau[a] = (s[a] - math.sqrt(2) * G * dgamma * n[a]) + new_p
+            for a in range(3):
+                for b in range(3):
+                    dev = (1. if a == b else 0.) - 1. / 3
+                    d_b = (math.sqrt(2) * G * n[b] + eta * K) / A
+                    dn = 2 * G * (dev - n[a] * n[b]) / length
+                    D[a, b] = (2 * G * dev - math.sqrt(2) * G * (
+                        n[a] * d_b + dgamma * dn)) + (K - K * eta_bar * d_b)
+            alpha = alpha + xi * dgamma
+        else:                                               # the apex
+            beta = xi / max(eta, 2.2250738585072014e-308)
+            growth = xi / eta_bar if eta_bar > 0 else beta
+            dev = (p - beta * cohesion) / (K + beta * growth * H)
+            for a in range(3):
+                tau[a] = 0. + (p - K * dev)
+            k_apex = K * (1 - K / (K + beta * growth * H))
+            for a in range(3):
+                for b in range(3):
+                    D[a, b] = k_apex + params[11] * (
+                        lam + (2 * mu if a == b else 0.))
+            alpha = alpha + growth * dev
+        trace_tau = tau[0] + tau[1] + tau[2]
+        for a in range(3):
+            eps_e[a] = (tau[a] - lam / (3 * lam + 2 * mu) * trace_tau) \
+                / (2 * mu)
+    return yielded, alpha
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -32,6 +32,12 @@ from .constitutive import frame_tangent, principal_frame, principal_update
 
 #: tangents the stiffness pass forms
 ELASTIC_TANGENT, RETURN_MAP_TANGENT, FINITE_TANGENT = 0, 1, 2
+#: the first 16 hex digits of the sha256 of ``kernels/__init__.py`` and
+#: ``kernels/constitutive.py``, whose code and constants the passes compile
+#: in: numba's cache keys a cached function on its own file alone, so a
+#: change there must change this file too, or the passes would run the
+#: cached old code (``tests/test_compiled.py`` checks it)
+SOURCES = "c6d75f725dce285d"
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -5,11 +5,11 @@ whether its responses may come from the compiled passes
 (:mod:`skfem_mpm.kernels.passes`): they cover standard MPM's point
 operator (``op.kernel_layout``, any element) in 2D and 3D, small strain
 and finite deformation (updated Lagrangian), :class:`~skfem_mpm.mechanics.
-materials.LinearElastic` and :class:`~skfem_mpm.mechanics.materials.
-VonMises`.
+materials.LinearElastic`, :class:`~skfem_mpm.mechanics.materials.
+VonMises` and :class:`~skfem_mpm.mechanics.soils.DruckerPrager`.
 Everything else (GIMP's and B-splines' sparse operators, mean dilatation,
-the total Lagrangian scheme of ``method="fem"``, 1D, the soil models, a
-user's material, one material per body) runs on the numpy path, the
+the total Lagrangian scheme of ``method="fem"``, 1D, Mohr-Coulomb and
+Cam clay, a user's material, one material per body) runs on the numpy path, the
 reference the compiled passes are tested equal to.
 
 A compiled response fills the arrays the numpy path fills (stress, the
@@ -25,9 +25,10 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError
-from ..kernels import (ELASTIC, VON_MISES, check_kernels, compiled_passes,
-                       log_once)
+from ..kernels import (DRUCKER_PRAGER, ELASTIC, VON_MISES, check_kernels,
+                       compiled_passes, log_once)
 from .materials import LinearElastic, VonMises, elastic_tensor
+from .soils import APEX_STIFFNESS, DruckerPrager
 
 __all__ = ["compiled_path", "CompiledPasses", "material_parameters"]
 
@@ -37,13 +38,18 @@ def material_parameters(material) -> Optional[ndarray]:
     (:mod:`skfem_mpm.kernels.constitutive`), or ``None`` for a material
     they do not cover (only the built-in classes themselves, not
     subclasses, which may change the law)."""
-    if type(material) is LinearElastic:
-        return np.array([ELASTIC, material.lam, material.mu, material.E,
-                         material.nu, 0.])
-    if type(material) is VonMises:
-        return np.array([VON_MISES, material.lam, material.mu, material.E,
-                         material.nu, material.yield_stress])
-    return None
+    kind = {LinearElastic: ELASTIC, VonMises: VON_MISES,
+            DruckerPrager: DRUCKER_PRAGER}.get(type(material))
+    if kind is None:
+        return None
+    params = np.zeros(12)
+    params[:5] = kind, material.lam, material.mu, material.E, material.nu
+    if kind == VON_MISES:
+        params[5] = material.yield_stress
+    if kind == DRUCKER_PRAGER:
+        params[6:] = (material.cohesion, material.eta, material.xi,
+                      material.eta_bar, material.hardening, APEX_STIFFNESS)
+    return params
 
 
 def compiled_path(kernels: str, material, dim: int,
@@ -69,7 +75,8 @@ def compiled_path(kernels: str, material, dim: int,
         raise InvalidInputError(
             "kernels='compiled': the compiled passes do not serve {} (they "
             "cover standard MPM in 2D and 3D, small and finite "
-            "deformation, LinearElastic and VonMises, with numba); use "
+            "deformation, LinearElastic, VonMises and DruckerPrager, with "
+            "numba); use "
             "kernels='auto' or 'numpy'".format(
                 reason or "a run without numba (it does not import)"))
     if reason is None:                  # no numba: compiled_passes logged
