@@ -24,7 +24,6 @@ The path is chosen by making the run's kinematics with ``kernels=``
 (the core's factory, replaced in this process).
 """
 import argparse
-import functools
 import os
 import subprocess
 import sys
@@ -35,8 +34,6 @@ import tracemalloc
 import numpy as np
 
 from skfem_mpm import LinearElastic, Options, point_locator, simulate
-from skfem_mpm.mechanics.kinematics import make_kinematics
-from skfem_mpm.solve import core
 from skfem_mpm.solve.results import PHASES
 from step_cost import GRIDS, block, fixed_and_slope
 
@@ -44,10 +41,12 @@ SIZES = {2: (16, 32, 50, 100, 158), 3: (5, 8, 11, 16, 24)}
 PATHS = ("numpy", "compiled")
 
 
+KERNELS = {"path": "auto"}
+
+
 def use(kernels: str):
-    """Runs from now on take the path ``kernels``."""
-    core.make_kinematics = functools.partial(make_kinematics,
-                                             kernels=kernels)
+    """Runs from now on take the path ``kernels`` (``Options.kernels``)."""
+    KERNELS["path"] = kernels
 
 
 def once(mesh, elem, points, nsteps=1, body_force=None, supports=None):
@@ -57,7 +56,8 @@ def once(mesh, elem, points, nsteps=1, body_force=None, supports=None):
         supports or (lambda b: b.get_dofs(lambda x: x[-1] == 0)),
         body_force=np.r_[np.zeros(dim - 1), -1e4] if body_force is None
         else body_force, nsteps=nsteps, method="mpm", kinematics="finite",
-        options=Options(keep_snapshots=False, locator=point_locator(mesh)))
+        options=Options(keep_snapshots=False, locator=point_locator(mesh),
+                        kernels=KERNELS["path"]))
 
 
 def measure(mesh, elem, points, reps: int, heap: bool, **kwargs):

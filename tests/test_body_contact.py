@@ -52,7 +52,6 @@ def stack(interface, E_top, kinematics="small", p=10., method="mpm"):
     ("mpm", 1., 1e2),            # 1e-2
     ("ugimp", 1.125, 1e7),
     ("cpgimp", 1., 1e2),
-    ("bspline", 1.125, 1e7),
 ])
 def test_a_frictionless_interface_carries_a_uniform_stress(method, interface,
                                                            E_top):
@@ -286,7 +285,7 @@ def test_overlapping_bodies_and_grid_loads_are_refused():
                  body_force=[0., -1.], contacts=[Contact(0, 1)])
 
 
-@pytest.mark.parametrize("method", ("mpm", "bspline"))
+@pytest.mark.parametrize("method", ("mpm", "cpgimp"))
 def test_uniform_stress_across_an_interface_in_3d(method):
     from skfem import ElementHex1, MeshHex
     mesh = MeshHex.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3),
@@ -354,7 +353,7 @@ def test_a_scene_with_a_contact(tmp_path):
     path.write_text(STACK_SCENE.format(
         contact='first = "base"\nsecond = "block"\ntolerance = 1e-9'))
     assert main(["run", str(path), "--out", str(tmp_path / "out"),
-                 "--no-progress", "--no-series"]) == 0
+                 "--no-progress"]) == 0       # the grid series on one grid
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     force = np.array(summary["contacts"]["base-block"]["force"])
     assert np.allclose(force, [[0., 5.], [0., 10.]], atol=1e-8)

@@ -7,7 +7,7 @@ bit-identical to the uninterrupted one.  The choice is checked: an unknown
 name refused, a run the passes cannot serve refused when they are asked
 for, served by numpy (logged once) otherwise, and the package works where
 numba does not import."""
-import functools
+import dataclasses
 import json
 import logging
 import sys
@@ -26,7 +26,6 @@ from skfem_mpm.mechanics.kinematics import make_kinematics
 from skfem_mpm.mechanics.materials import initial_state
 from skfem_mpm.methods.operators import PointOperator
 from skfem_mpm.quadrature.basis import MaterialPointBasis
-from skfem_mpm.solve import core
 from digest_cases import CASES, fingerprint
 
 pytest.importorskip("numba")
@@ -115,10 +114,10 @@ def column_run(dim, kinematics, material, kernels_used, monkeypatch,
                nsteps=3, points=None, method="mpm", **kwargs):
     """A column (2 cells wide, 4 high, 2^dim points a cell) under its
     weight, its base fixed, on rollers at x = 0 (and y = 0), free on the
-    other sides (the bottom corners yield), with ``kernels_used`` (the
-    kinematics made with it)."""
-    monkeypatch.setattr(core, "make_kinematics", functools.partial(
-        make_kinematics, kernels=kernels_used))
+    other sides (the bottom corners yield), with ``kernels_used``
+    (``Options.kernels``)."""
+    kwargs["options"] = dataclasses.replace(
+        kwargs.get("options", Options()), kernels=kernels_used)
     mesh = GRIDS[dim][0].init_tensor(*[np.linspace(0, 3, 4)] * (dim - 1),
                                      np.linspace(0, 5, 6))
     if points is None:

@@ -199,5 +199,6 @@ class FieldMethod:
         field = self.fields.field[idx]
         return self.fields.combine(
             ((np.flatnonzero(field == k), self.piece.weights_at(
-                x[:, field == k]) if (field == k).any() else None)
+                x[:, field == k], idx[field == k])
+              if (field == k).any() else None)
              for k in range(self.fields.count)), x.shape[1])

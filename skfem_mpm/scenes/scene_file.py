@@ -111,6 +111,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     # [solver] steps is not used)
     [solver]
     method = "mpm"                  # fem mpm ugimp cpgimp bspline
+                                    # bspline-gimp
     kinematics = "small"            # small finite
     steps = 20
     tolerance = 1e-9

@@ -222,11 +222,13 @@ class BodyContact(GridTerm):
         ``weights(x, idx) -> operator``: the method's weights on the
         fields at positions ``x`` of points ``idx`` (B-splines), or
         ``None``: the grid element's.
+    cells
+        The cells of one field (the grid's).
     """
 
     def __init__(self, contacts, field: ndarray, mesh, elem, vertices: int,
                  cell_size: float, modulus: float, domain0, finite: bool,
-                 counters: dict, weights=None):
+                 counters: dict, weights=None, cells: int = 0):
         self.contacts, self.field = contacts, field
         self.mesh, self.elem, self.nv = mesh, elem, vertices
         self.dim = dim = mesh.dim()
@@ -236,9 +238,15 @@ class BodyContact(GridTerm):
         self.tol = [c.tolerance * cell_size for _, _, c in contacts]
         self.local = cell_coordinates(mesh, clip=False)
         self.weights = weights
+        self.cells = cells
         self.dofs = None
         self.geometry = WeakKeyDictionary()
         counters.setdefault("contact_updates", 0)
+        logger.warning(
+            "contact between bodies: runs over several load steps drift "
+            "by a few percent, and a body sliding across grid nodes in "
+            "dynamics can be pushed by a sideways pair; see docs/contact.md "
+            "(Contact between bodies, not yet good enough)")
 
     def begin_run(self, points) -> None:
         dim = self.dim
@@ -324,9 +332,13 @@ class BodyContact(GridTerm):
         body's outward direction from its centroid to the node, their
         sum, and the grid axes; only the first body's corners that face
         the second's count (:meth:`facing`), and a node where none do
-        along any candidate has no pair (NaN).  A body's edge or the
-        grid's edge makes the centroids' directions lean sideways; the
-        separating one stays across the surface."""
+        along any candidate has no pair (NaN).  Gaps within
+        :data:`FACING` cells count as equal, a grid axis then preferred,
+        and of those the one nearest the centroids' line.  A body's edge
+        or the grid's edge makes the centroids' directions lean sideways
+        and shows a gap of about zero sideways where both bodies end; the
+        separating axis with these preferences stays across the
+        surface."""
         dim = self.dim
         candidates = [centre[1] - centre[0], node_x - centre[0],
                       centre[1] - node_x]
@@ -347,9 +359,18 @@ class BodyContact(GridTerm):
                         + self.reach(entries[0][0][faces],
                                      entries[0][2][:, faces], n, False))
         gaps = np.array(gaps)
-        towards = np.einsum("kam,am->km", candidates, centre[1] - centre[0])
+        line = centre[1] - centre[0]
+        towards = np.einsum("kam,am->km", candidates, line)
         gaps[(towards <= 1e-9 * self.h) | np.isinf(gaps)] = -np.inf
-        best = np.argmax(gaps, axis=0)
+        # gaps within FACING cells are alike (bodies that touch show a gap
+        # of about zero along their surface's normal and along a face
+        # they share at an edge): a grid axis is preferred (a surface
+        # seeded on a tensor grid), and of those the nearest to the line
+        # between the centroids
+        axis = np.arange(len(candidates)) >= 4
+        cos = towards / np.maximum(np.sqrt((line ** 2).sum(axis=0)), 1e-300)
+        best = np.argmax(gaps + FACING * self.h * (axis[:, None] + .5 * cos),
+                         axis=0)
         normal = candidates[best, :, np.arange(best.size)].T
         normal[:, np.isinf(gaps.max(axis=0))] = np.nan
         return normal
@@ -623,9 +644,11 @@ class StepBodyContact(GridTerm):
         return False
 
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
-        """The force of each contact on its second body, and the
-        reactions of the fields' copies of a held DOF summed on the
-        grid's DOF."""
+        """The force of each contact on its second body; the record on
+        the grid: the reactions of the fields' copies of a held DOF summed
+        on the grid's DOF, the active cells of every field, a node's
+        increment that of the lowest-numbered field with material there
+        (the fields' copies differ where bodies slide)."""
         ev = self.evaluate(du, trial.response)
         self.committed = ev
         record.contact_forces = np.array([e[0].sum(axis=1) for e in ev])
@@ -637,6 +660,13 @@ class StepBodyContact(GridTerm):
             weights=record.reaction_values,
             minlength=record.reaction_dofs.size)
         record.n_dofs = N
+        if record.elements is not None:
+            record.elements = np.unique(record.elements % self.term.cells)
+            fields = du.reshape(-1, N)                 # (fields, N)
+            active = np.zeros(du.size, dtype=bool)
+            active[problem.op.active_dofs] = True
+            first = np.argmax(active.reshape(-1, N), axis=0)
+            record.u = fields[first, np.arange(N)]
 
     def finish(self, problem, new, record) -> None:
         """In dynamics, an impact is perfectly plastic along the normal:

@@ -218,7 +218,8 @@ def body_contact_term(run: Run) -> Optional[GridTerm]:
                        run.grid.elem.elem, run.user_grid.mesh.nvertices,
                        run.cell_size, p_wave_modulus(run.material),
                        run.domain0, run.finite, run.counters,
-                       weights=getattr(run.method, "weights_at", None))
+                       weights=getattr(run.method, "weights_at", None),
+                       cells=run.user_grid.mesh.nelements)
 
 
 def obstacle_term(run: Run) -> Optional[GridTerm]:
@@ -563,7 +564,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         (:mod:`skfem_mpm.solve.body_contact`): smooth, Coulomb or rough;
         the force of each contact's first body on its second per step is
         ``StepRecord.contact_forces``.  Bodies without a contact stay
-        glued where they meet.  Every method but ``"fem"``, on affine or
+        glued where they meet.  Methods ``"mpm"``, ``"ugimp"`` and
+        ``"cpgimp"``, on affine or
         tensor-product grids of linear elements.
     **aliases
         The keyword arguments these objects replaced (``tol``, ``ghost``,
@@ -774,8 +776,15 @@ def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
     if method == "fem":
         raise InvalidInputError(
             "contacts between bodies need points that move with the "
-            "material (method 'mpm', 'ugimp', 'cpgimp' or 'bspline'); "
-            "'fem' keeps them where they started")
+            "material (method 'mpm', 'ugimp' or 'cpgimp'); 'fem' keeps "
+            "them where they started")
+    if method.startswith("bspline"):
+        raise InvalidInputError(
+            "contacts between bodies with B-splines are refused: their "
+            "supports reach nodes beyond a body's edge, where the pairs' "
+            "normals lean, so a smooth interface carried shear (half the "
+            "normal load) and Coulomb friction did not converge; use "
+            "method 'mpm', 'ugimp' or 'cpgimp'")
     if not (mesh.affine or tensor_grid(mesh) is not None):
         raise InvalidInputError(
             "contacts between bodies need an affine or axis-aligned "
@@ -803,10 +812,13 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     check_run_input(mesh, points, nsteps, options.keep_snapshots)
     gravity, ramp = check_body_force(body_force, points, mesh.dim())
     forces, prescribed, rigid_bodies, terms = split_loads(loads)
-    if method in ("ugimp", "cpgimp") and points.domain is None:
+    if method in ("ugimp", "cpgimp", "bspline-gimp") and \
+            points.domain is None:
         raise InvalidInputError(
             "method {!r} needs point domains (MaterialPoints.domain); "
-            "seed_points sets them on tensor-product grids".format(method))
+            "seed_points sets them on tensor-product grids{}".format(
+                method, "; 'bspline' (the splines at the points) needs "
+                "none" if method == "bspline-gimp" else ""))
     material = at_points(material, points)
     obstacles = check_obstacles(obstacles, mesh.dim(), np.stack(
         [mesh.p.min(axis=1), mesh.p.max(axis=1)], axis=1))
@@ -886,7 +898,8 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         contacts=case.contacts, body_field=case.body_field,
         finite=kinematics == "finite", cell_size=cell_size(mesh),
         kinematics=make_kinematics(kinematics, case.material, mesh.dim(),
-                                   counters, total_lagrangian=method == "fem"),
+                                   counters, total_lagrangian=method == "fem",
+                                   kernels=options.kernels),
         loads=external, material=case.material,
         ghost=stabilisation.ghost_factor(),
         ghost_reserve=stabilisation.ghost_in_reserve(method),

@@ -71,8 +71,8 @@ class Resume:
                 "load_factor says where it stands (a run with cut-backs "
                 "takes more steps): nothing would be left to run".format(
                     self.first_step, nsteps))
-        if method in ("ugimp", "cpgimp") and self.first_step > 1 and \
-                self.domain0 is None:
+        if method in ("ugimp", "cpgimp", "bspline-gimp") and \
+                self.first_step > 1 and self.domain0 is None:
             raise InvalidInputError(
                 "resuming a {} run needs Resume.domain0, the points' initial "
                 "domains (their current ones differ)".format(method))

@@ -335,6 +335,11 @@ class StepProblem:
         record = StepRecord(self.step, self.f_new, residuals[-1], op.nelems,
                             self.free.size, t, reaction_dofs=held,
                             reaction_values=-r[held], n_dofs=op.N)
+        if run.keep_snapshots:        # before the terms, which may add
+            record.elements = op.elements
+            record.u, record.x = du, new.x.copy()
+            record.displacement = new.displacement.copy()
+            record.stress = new.stress.copy()
         for term in self.terms:
             term.commit(self, trial, du, new, record)
         for term in self.terms:
@@ -350,9 +355,4 @@ class StepProblem:
         if not self.linear:
             record.newton_residuals = residuals
             record.n_yielded = int(response.yielded.sum())
-        if run.keep_snapshots:
-            record.elements = op.elements
-            record.u, record.x = du, new.x.copy()
-            record.displacement = new.displacement.copy()
-            record.stress = new.stress.copy()
         return new, record
