@@ -579,6 +579,7 @@ def column_errors(cells, per_cell, method="bspline-gimp", dim=1):
                                              dim).points) for n in cells])
 
 
+@pytest.mark.slow
 def test_averaged_column_converges_at_second_order_with_no_floor():
     """The seed's column, 20 steps: with 4 points per cell order 2 over
     8-256 cells (measured 4.53e-3 ... 4.09e-6, fitted 2.03, local 1.83 to

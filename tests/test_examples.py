@@ -129,6 +129,7 @@ def test_cantilever_gap_at_small_loads_shrinks_with_h(cantilever):
         assert gap_fine < .5 * gap_coarse
 
 
+@pytest.mark.slow
 def test_collapse_runs_conserves_mass_and_collapses(tmp_path):
     collapse = load("collapse")
     history = collapse.result.history

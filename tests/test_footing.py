@@ -105,6 +105,7 @@ def test_scene_footing_is_the_python_api_footing():
     assert sum(r.n_yielded for r in result.history) > 0
 
 
+@pytest.mark.slow
 def test_footing_summary_plot_error_and_resume(tmp_path):
     scene = tmp_path / "footing.toml"
     scene.write_text(FOOTING)

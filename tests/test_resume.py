@@ -152,6 +152,7 @@ def test_sigkill_at_random_moments_then_resume_is_bit_identical(straight,
     assert_same_run(reference, out)
 
 
+@pytest.mark.slow
 def test_stale_and_corrupted_checkpoints_are_refused(straight, tmp_path):
     """A checkpoint of another scene, and a campaign of corruptions
     (truncation, flipped bytes, missing fields, wrong dtypes, impossible
@@ -259,6 +260,7 @@ def non_associated_footing() -> str:
     return text
 
 
+@pytest.mark.slow
 def test_resume_with_pardiso_on_non_symmetric_tangents_is_bit_identical(
         tmp_path):
     """Pardiso analyses a general matrix anew at every load step, so that

@@ -193,6 +193,7 @@ def test_rigid_body_check_runs_when_cells_or_supports_change(monkeypatch):
         assert calls == expected, method
 
 
+@pytest.mark.slow
 def test_pypardiso_gives_identical_runs():
     """MKL's threads round differently from run to run unless asked for
     reproducible results: solver_pypardiso asks (MKL_CBWR=AUTO,STRICT),

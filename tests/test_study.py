@@ -24,6 +24,7 @@ def rates(rows, **fixed):
     return fitted_rate([r["elements"] for r in rs], [r["error"] for r in rs])
 
 
+@pytest.mark.slow
 def test_study_rates_agree_with_the_core_and_gimp_tests(tmp_path):
     rows = study(COLUMN, {"elements": [4, 8, 16, 32, 64, 128, 256],
                           "loadsteps": [1, 20]}, tmp_path / "mpm",
@@ -43,6 +44,7 @@ def test_study_rates_agree_with_the_core_and_gimp_tests(tmp_path):
     assert len(table) == 15 and "error" in table[0]
 
 
+@pytest.mark.slow
 def test_parallel_study_times_mean_what_serial_ones_mean(tmp_path, caplog,
                                                          monkeypatch):
     """A local Dask cluster asked for more workers than cores gets one
@@ -310,6 +312,7 @@ def test_a_box_empty_on_a_coarse_grid_fails_that_case_only(tmp_path,
     assert not (tmp_path / "twice").exists()
 
 
+@pytest.mark.slow
 def test_a_study_says_its_size_and_time_before_it_starts(tmp_path, capsys,
                                                          monkeypatch):
     """Issue 30: `skfem-mpm study` without --vary silently started 84
