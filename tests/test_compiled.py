@@ -110,8 +110,7 @@ def test_a_response_equals_the_numpy_path(dim, kind, name):
         start = results[0][3]
 
 
-def column_run(dim, kinematics, material, kernels_used, monkeypatch,
-               nsteps=3, points=None, method="mpm", **kwargs):
+def column_run(dim, kinematics, material, kernels_used, nsteps=3, points=None, method="mpm", **kwargs):
     """A column (2 cells wide, 4 high, 2^dim points a cell) under its
     weight, its base fixed, on rollers at x = 0 (and y = 0), free on the
     other sides (the bottom corners yield), with ``kernels_used``
@@ -138,9 +137,9 @@ def column_run(dim, kinematics, material, kernels_used, monkeypatch,
 @pytest.mark.parametrize("dim, kinematics, name", [
     (2, "finite", "von_mises"), (2, "small", "von_mises"),
     (3, "finite", "elastic")])
-def test_runs_equal_the_numpy_path(dim, kinematics, name, monkeypatch):
+def test_runs_equal_the_numpy_path(dim, kinematics, name):
     material = MATERIALS[name]
-    runs = [column_run(dim, kinematics, material, k, monkeypatch)
+    runs = [column_run(dim, kinematics, material, k)
             for k in ("numpy", "compiled")]
     assert [len(r.history) for r in runs[0:1]] == [len(runs[1].history)]
     for a, b in zip(runs[0].history, runs[1].history):
@@ -153,7 +152,7 @@ def test_runs_equal_the_numpy_path(dim, kinematics, name, monkeypatch):
         assert runs[0].history[-1].n_yielded > 0
 
 
-def test_a_resumed_compiled_run_is_bit_identical(monkeypatch):
+def test_a_resumed_compiled_run_is_bit_identical():
     """Resumed after step 2 of 4 from the state a callback saw, the
     compiled run ends where the whole compiled run does, bit for bit."""
     saved = {}
@@ -162,10 +161,10 @@ def test_a_resumed_compiled_run_is_bit_identical(monkeypatch):
         if record.step == 2:
             saved.update(record=record, state=state)
     material = MATERIALS["von_mises"]
-    whole = column_run(2, "finite", material, "compiled", monkeypatch,
-                       nsteps=4, options=Options(callback=keep))
-    rest = column_run(2, "finite", material, "compiled", monkeypatch,
-                      nsteps=4, points=saved["state"], options=Options(
+    whole = column_run(2, "finite", material, "compiled", nsteps=4,
+                       options=Options(callback=keep))
+    rest = column_run(2, "finite", material, "compiled", nsteps=4,
+                      points=saved["state"], options=Options(
                           resume=Resume.after(saved["record"])))
     assert [r.step for r in rest.history] == [3, 4]
     assert whole.history[-1].n_yielded > 0
@@ -199,12 +198,12 @@ def test_an_operator_without_passes_runs_on_numpy_logged_once(
     monkeypatch.setattr(kernels, "_LOGGED", set())
     with caplog.at_level(logging.INFO, logger="skfem_mpm.kernels"):
         result = column_run(2, "finite", MATERIALS["elastic"], "compiled",
-                            monkeypatch, nsteps=2, method="cpgimp")
+                            nsteps=2, method="cpgimp")
     warnings = [r for r in caplog.records if r.levelno == logging.WARNING]
     assert len(warnings) == 1 and "SparseOperator" in \
         warnings[0].getMessage()
     reference = column_run(2, "finite", MATERIALS["elastic"], "numpy",
-                           monkeypatch, nsteps=2, method="cpgimp")
+                           nsteps=2, method="cpgimp")
     assert np.array_equal(result.points.stress, reference.points.stress)
 
 
@@ -249,7 +248,7 @@ def test_without_numba_the_numpy_path_serves(monkeypatch, caplog):
         make_kinematics("small", MATERIALS["elastic"], 2, {},
                         kernels="compiled")
     result = column_run(2, "small", MATERIALS["elastic"], "auto",
-                        monkeypatch, nsteps=1)
+                        nsteps=1)
     assert result.history[-1].residual < 1e-10
 
 
