@@ -40,6 +40,7 @@ from .scenes.scene import (build_points, load_scale, obstacle_list,
                            run_scene, scene_support_dofs, support_names,
                            surface_loads)
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
+from .solve.body_contact import body_contact_state_names
 from .solve.contact import contact_state_names
 from .solve.core import grid_parts
 from .solve.options import Resume
@@ -585,7 +586,9 @@ def load_run(args):
         check_against(outdir / CHECKPOINT, earlier, initial, list(
             state_variables([body.material for body in scene.bodies]))
             + contact_state_names(len(scene.obstacles), mesh.dim(),
-                                  scene.kinematics == "finite"), mesh)
+                                  scene.kinematics == "finite")
+            + body_contact_state_names(len(scene.contacts), mesh.dim(),
+                                       scene.kinematics == "finite"), mesh)
     return scene, source, outdir, earlier, points, resume, mesh, initial
 
 

@@ -358,6 +358,14 @@ def test_a_scene_with_a_contact(tmp_path):
     force = np.array(summary["contacts"]["base-block"]["force"])
     assert np.allclose(force, [[0., 5.], [0., 10.]], atol=1e-8)
     assert (tmp_path / "out" / "contacts.png").stat().st_size > 0
+    # interrupted after a step and resumed from its checkpoint (the small
+    # strain gradient the contact keeps comes back): the same forces
+    split = tmp_path / "split"
+    assert main(["run", str(path), "--out", str(split), "--no-progress",
+                 "--checkpoint-every", "1", "--max-steps", "1"]) == 0
+    assert main(["run", "--resume", str(split), "--no-progress"]) == 0
+    resumed = json.loads((split / "summary.json").read_text())
+    assert resumed["contacts"]["base-block"]["force"] == force.tolist()
     path.write_text(STACK_SCENE.format(
         contact='first = "base"\nsecond = "pile"'))
     with pytest.raises(SceneError, match=r"contacts\[0\].second: must name "

@@ -37,8 +37,9 @@ has no penetration and no stick slip beyond the tolerance.  A pair that
 penetrates at a step's start by less than the tolerance is closed there
 (the corners of deformed domains, moved through each point's own
 gradient, are not quite where the grid field moved the last step's
-pairs).  The multipliers start from zero in every step (stateless: a
-checkpoint holds nothing of the contact).
+pairs).  In small strain the domains follow the displacement gradient
+the term keeps (point state ``contact_body_grad<a><b>``, which
+checkpoints carry); the multipliers start from zero in every step.
 """
 import logging
 from typing import Optional
@@ -47,6 +48,7 @@ from weakref import WeakKeyDictionary
 import numpy as np
 from numpy import ndarray
 from scipy.sparse import coo_matrix, identity, kron, vstack
+from scipy.spatial import cKDTree
 
 from ..errors import InvalidInputError, check_real
 from ..methods.fields import body_fields
@@ -57,7 +59,8 @@ from .dynamics import value_matrix
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Contact", "check_contacts", "BodyContact"]
+__all__ = ["Contact", "check_contacts", "BodyContact",
+           "body_contact_state_names"]
 
 
 class Contact:
@@ -197,6 +200,20 @@ def tangents(normal: ndarray) -> list:
     return [t, np.cross(normal, t, axis=0)]
 
 
+def gradient_state(dim: int) -> list:
+    """Small strain: the point-state names of the displacement gradient
+    the contact keeps, ``[[name_ab]]``."""
+    return [["contact_body_grad{}{}".format(a, b) for b in range(dim)]
+            for a in range(dim)]
+
+
+def body_contact_state_names(contacts: int, dim: int, finite: bool) -> list:
+    """The point-state names a run with ``contacts`` contacts between
+    bodies keeps (for a checkpoint's check)."""
+    return [name for row in gradient_state(dim) for name in row] \
+        if contacts and not finite else []
+
+
 class BodyContact(GridTerm):
     """Contact between the run's bodies (a grid term).
 
@@ -243,10 +260,11 @@ class BodyContact(GridTerm):
         self.geometry = WeakKeyDictionary()
         counters.setdefault("contact_updates", 0)
         logger.warning(
-            "contact between bodies: runs over several load steps drift "
-            "by a few percent, and a body sliding across grid nodes in "
-            "dynamics can be pushed by a sideways pair; see docs/contact.md "
-            "(Contact between bodies, not yet good enough)")
+            "contact between bodies: cpGIMP runs over several load steps "
+            "with an interface on a grid line drift by up to a tenth, and a "
+            "body sliding across grid nodes in dynamics can be stopped by a "
+            "sideways pair; see docs/contact.md (Contact between bodies, "
+            "not yet good enough)")
 
     def begin_run(self, points) -> None:
         dim = self.dim
@@ -254,11 +272,24 @@ class BodyContact(GridTerm):
             (points.volume0 ** (1. / dim) / 2)[None], dim, axis=0)
         self.R = corner_signs(dim)[:, :, None] * half[:, None, :]
         self.point_field = self.field[points.body]
+        if not self.finite:
+            for row in gradient_state(dim):
+                for name in row:
+                    points.state.setdefault(name, np.zeros(points.n))
 
     def corners(self, points) -> ndarray:
-        """The corners of the points' domains (dim, corners, n)."""
-        F = points.F[:self.dim, :self.dim] if self.finite else \
-            np.eye(self.dim)[:, :, None]
+        """The corners of the points' domains (dim, corners, n), moved by
+        the points' deformation gradient (in small strain ``I`` plus the
+        displacement gradient the term keeps, ``contact_body_grad<a><b>``:
+        a domain that did not shrink with its material would overlap the
+        other body by the strain times its size)."""
+        dim = self.dim
+        if self.finite:
+            F = points.F[:dim, :dim]
+        else:
+            F = np.eye(dim)[:, :, None] + np.array(
+                [[points.state[name] for name in row]
+                 for row in gradient_state(dim)])
         return points.x[:, None, :] + np.einsum("abp,bcp->acp", F, self.R)
 
     def pairs(self, op, points):
@@ -316,8 +347,13 @@ class BodyContact(GridTerm):
             B = self.extreme(entries[1], normal, node_x, True)
             A = self.extreme(entries[0], normal,
                              X.reshape(dim, -1)[:, B], False)
-            _, first = np.unique(np.stack([B, A]), axis=1,
-                                 return_index=True)
+            # one pair per place of the second body's corner: corners that
+            # neighbouring domains share, each moved by its own point's
+            # cell, would be two constraints on one place that disagree
+            # by round-off and lock the augmented Lagrangian
+            place = np.round(X.reshape(dim, -1)[:, B]
+                             / (FACING * self.h)).astype(np.int64)
+            _, first = np.unique(place, axis=1, return_index=True)
             A, B, normal = A[first], B[first], normal[:, first]
             gap = (normal * (X.reshape(dim, -1)[:, B]
                              - X.reshape(dim, -1)[:, A])).sum(axis=0)
@@ -584,8 +620,14 @@ class StepBodyContact(GridTerm):
         joined = False
         for part, (B, A, normal, gap), tol in zip(self.parts, found,
                                                   term.tol):
-            held = np.isin(B * X0.shape[1] + A, part["keys"])
-            new = (gap < -tol) & ~held
+            # a place where the step holds a corner already (the same
+            # corner of a neighbouring domain, or this one with another
+            # partner) is not joined again
+            new = gap < -tol
+            held = part["keys"] // X0.shape[1]
+            if new.any() and held.size:
+                apart = cKDTree(X0[:, held].T).query(X0[:, B[new]].T)[0]
+                new[new] = apart > FACING * term.h
             if not new.any():
                 continue
             B, A, normal = B[new], A[new], normal[:, new]
@@ -651,6 +693,12 @@ class StepBodyContact(GridTerm):
         (the fields' copies differ where bodies slide)."""
         ev = self.evaluate(du, trial.response)
         self.committed = ev
+        if not self.term.finite:
+            H = problem.method_op.gradients(du)
+            new.state = dict(new.state)
+            for a, row in enumerate(gradient_state(self.dim)):
+                for b, name in enumerate(row):
+                    new.state[name] = new.state[name] + H[a, b]
         record.contact_forces = np.array([e[0].sum(axis=1) for e in ev])
         N = record.n_dofs // int(self.term.field.max() + 1)
         dofs = record.reaction_dofs % N
