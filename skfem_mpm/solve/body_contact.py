@@ -181,6 +181,11 @@ def check_contacts(contacts, nbodies: int, names=None):
 #: along it in choosing a pair's corners (:meth:`BodyContact.extreme`)
 ACROSS = .5
 
+#: the cells of gap a grid axis is preferred by among the candidate
+#: normals of a node (a body's edge shows a small positive gap along a
+#: leaning direction to the other body's surface just beyond it)
+AXIS = .05
+
 #: corners closer than this many cells across a normal are level (the
 #: soil's side and a pile's tip stay so as both deform)
 FACING = 1e-2
@@ -261,10 +266,9 @@ class BodyContact(GridTerm):
         counters.setdefault("contact_updates", 0)
         logger.warning(
             "contact between bodies: cpGIMP runs over several load steps "
-            "with an interface on a grid line drift by up to a tenth, and a "
-            "body sliding across grid nodes in dynamics can be stopped by a "
-            "sideways pair; see docs/contact.md (Contact between bodies, "
-            "not yet good enough)")
+            "with an interface on a grid line drift by up to a tenth; see "
+            "docs/contact.md (Contact between bodies, not yet good enough) "
+            "for this and the cases refused")
 
     def begin_run(self, points) -> None:
         dim = self.dim
@@ -368,9 +372,9 @@ class BodyContact(GridTerm):
         body's outward direction from its centroid to the node, their
         sum, and the grid axes; only the first body's corners that face
         the second's count (:meth:`facing`), and a node where none do
-        along any candidate has no pair (NaN).  Gaps within
-        :data:`FACING` cells count as equal, a grid axis then preferred,
-        and of those the one nearest the centroids' line.  A body's edge
+        along any candidate has no pair (NaN).  A grid axis is preferred
+        by :data:`AXIS` cells of gap, and of gaps within :data:`FACING`
+        cells the one nearest the centroids' line.  A body's edge
         or the grid's edge makes the centroids' directions lean sideways
         and shows a gap of about zero sideways where both bodies end; the
         separating axis with these preferences stays across the
@@ -405,8 +409,8 @@ class BodyContact(GridTerm):
         # between the centroids
         axis = np.arange(len(candidates)) >= 4
         cos = towards / np.maximum(np.sqrt((line ** 2).sum(axis=0)), 1e-300)
-        best = np.argmax(gaps + FACING * self.h * (axis[:, None] + .5 * cos),
-                         axis=0)
+        best = np.argmax(gaps + self.h * (AXIS * axis[:, None]
+                                          + FACING * .5 * cos), axis=0)
         normal = candidates[best, :, np.arange(best.size)].T
         normal[:, np.isinf(gaps.max(axis=0))] = np.nan
         return normal
