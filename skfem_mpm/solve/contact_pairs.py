@@ -1,0 +1,231 @@
+"""The pairs of corners at which two bodies in contact meet
+(:mod:`skfem_mpm.solve.body_contact`).
+
+At every grid node where both bodies' fields have material, a normal
+from the first body to the second is chosen among candidates (the line
+between the two bodies' centroids near the node, each body's direction
+from its centroid to the node, and the grid axes) as the one along which
+the bodies' domain corners near the node lie farthest apart, counting
+only the first body's corners that face the second's across it
+(:meth:`PairFinder.separating_normal`, :meth:`PairFinder.facing`); the
+second body's surface corner nearest the node and the first body's
+facing corner nearest that one make the node's pair
+(:meth:`PairFinder.extreme`), one per place.
+"""
+import numpy as np
+from numpy import ndarray
+
+__all__ = ["PairFinder", "tangents", "ACROSS", "AXIS", "FACING"]
+
+#: the weight of the distance across the normal against the position
+#: along it in choosing a pair's corners (:meth:`PairFinder.extreme`)
+ACROSS = .5
+
+#: the cells of gap a grid axis is preferred by among the candidate
+#: normals of a node (a body's edge shows a small positive gap along a
+#: leaning direction to the other body's surface just beyond it)
+AXIS = .05
+
+#: corners closer than this many cells across a normal are level (the
+#: soil's side and a pile's tip stay so as both deform)
+FACING = 1e-2
+
+
+def tangents(normal: ndarray) -> list:
+    """Unit tangents (dim - 1 of them, each (dim, m)) orthogonal to the
+    unit ``normal`` (dim, m) and to each other."""
+    if normal.shape[0] == 1:
+        return []
+    if normal.shape[0] == 2:
+        return [np.stack([-normal[1], normal[0]])]
+    a = np.zeros_like(normal)
+    a[np.where(np.abs(normal[0]) < .9, 0, 1), np.arange(normal.shape[1])] = 1.
+    t = a - (a * normal).sum(axis=0) * normal
+    t /= np.sqrt((t ** 2).sum(axis=0))
+    return [t, np.cross(normal, t, axis=0)]
+
+
+class PairFinder:
+    """Finds the pairs of every contact of a run.
+
+    Parameters
+    ----------
+    contacts
+        ``(first, second, Contact)`` of the run.
+    field
+        The field of each body.
+    mesh
+        The extended mesh of the run's fields.
+    vertices
+        The vertices of one field (the grid's).
+    cell_size
+        The grid's cell size.
+    """
+
+    def __init__(self, contacts, field: ndarray, mesh, vertices: int,
+                 cell_size: float):
+        self.contacts, self.field, self.mesh = contacts, field, mesh
+        self.nv, self.h, self.dim = vertices, cell_size, mesh.dim()
+
+    def find_pairs(self, support, x, weight, X) -> list:
+        """The pairs ``(B, A, n, g)`` of every contact for points at ``x``
+        (dim, n) of volumes ``weight``, their domains' corners at ``X``
+        (dim, corners, n), the grid nodes' supports ``support`` (points,
+        nodes of every field)."""
+        dim, nv = self.dim, self.nv
+        out = []
+        for a, b, _ in self.contacts:
+            blocks = [support[:, self.field[k] * nv:(self.field[k] + 1) * nv]
+                      .tocsr() for k in (a, b)]
+            blocks = [Sk.multiply(Sk > 0).tocsr() for Sk in blocks]
+            mass = [Sk.T @ weight for Sk in blocks]
+            shared = np.flatnonzero((mass[0] > 0) & (mass[1] > 0))
+            if shared.size == 0:          # the bodies are cells apart
+                none = np.zeros(0, dtype=np.int64)
+                out.append((none, none, np.zeros((dim, 0)), np.zeros(0)))
+                continue
+            centre = [(Sk[:, shared].T @ (weight * x).T).T
+                      / m[shared] for Sk, m in zip(blocks, mass)]
+            node_x = self.mesh.p[:, shared]
+            entries = [self.corner_entries(Sk[:, shared], X)
+                       for Sk in blocks]
+            normal = self.separating_normal(entries, centre, node_x)
+            keep = ~np.isnan(normal[0])            # nodes with a pair
+            renumber = np.cumsum(keep) - 1
+            normal, node_x = normal[:, keep], node_x[:, keep]
+            entries = [(renumber[node[keep[node]]], corner[keep[node]],
+                        Xc[:, keep[node]]) for node, corner, Xc in entries]
+            faces = self.facing(entries, normal)
+            entries[0] = tuple(e[..., faces] for e in entries[0])
+            B = self.extreme(entries[1], normal, node_x, True)
+            A = self.extreme(entries[0], normal,
+                             X.reshape(dim, -1)[:, B], False)
+            # one pair per place of the second body's corner: corners that
+            # neighbouring domains share, each moved by its own point's
+            # cell, would be two constraints on one place that disagree
+            # by round-off and lock the augmented Lagrangian
+            place = np.round(X.reshape(dim, -1)[:, B]
+                             / (FACING * self.h)).astype(np.int64)
+            _, first = np.unique(place, axis=1, return_index=True)
+            A, B, normal = A[first], B[first], normal[:, first]
+            gap = (normal * (X.reshape(dim, -1)[:, B]
+                             - X.reshape(dim, -1)[:, A])).sum(axis=0)
+            out.append((B, A, normal, gap))
+        return out
+
+    def separating_normal(self, entries, centre, node_x) -> ndarray:
+        """Per node, the direction (dim, m) along which the two bodies'
+        domain corners in its support are farthest apart (the separating
+        axis of the two local sets), among candidates that point from the
+        first body to the second: the line between their centroids, each
+        body's outward direction from its centroid to the node, their
+        sum, and the grid axes; only the first body's corners that face
+        the second's count (:meth:`facing`), and a node where none do
+        along any candidate has no pair (NaN).  A grid axis is preferred
+        by :data:`AXIS` cells of gap, and of gaps within :data:`FACING`
+        cells the one nearest the centroids' line.  A body's edge
+        or the grid's edge makes the centroids' directions lean sideways
+        and shows a gap of about zero sideways where both bodies end; the
+        separating axis with these preferences stays across the
+        surface."""
+        dim = self.dim
+        candidates = [centre[1] - centre[0], node_x - centre[0],
+                      centre[1] - node_x]
+        candidates = [c / np.maximum(np.sqrt((c ** 2).sum(axis=0)), 1e-300)
+                      for c in candidates]
+        candidates.append(candidates[1] + candidates[2])
+        for axis in range(dim):
+            for sign in (1., -1.):
+                e = np.zeros_like(node_x)
+                e[axis] = sign
+                candidates.append(e)
+        candidates = np.array([c / np.maximum(np.sqrt((c ** 2).sum(
+            axis=0)), 1e-300) for c in candidates])           # (k, dim, m)
+        gaps = []
+        for n in candidates:
+            faces = self.facing(entries, n)
+            gaps.append(self.reach(entries[1][0], entries[1][2], n, True)
+                        + self.reach(entries[0][0][faces],
+                                     entries[0][2][:, faces], n, False))
+        gaps = np.array(gaps)
+        line = centre[1] - centre[0]
+        towards = np.einsum("kam,am->km", candidates, line)
+        gaps[(towards <= 1e-9 * self.h) | np.isinf(gaps)] = -np.inf
+        # gaps within FACING cells are alike (bodies that touch show a gap
+        # of about zero along their surface's normal and along a face
+        # they share at an edge): a grid axis is preferred (a surface
+        # seeded on a tensor grid), and of those the nearest to the line
+        # between the centroids
+        axis = np.arange(len(candidates)) >= 4
+        cos = towards / np.maximum(np.sqrt((line ** 2).sum(axis=0)), 1e-300)
+        best = np.argmax(gaps + self.h * (AXIS * axis[:, None]
+                                          + FACING * .5 * cos), axis=0)
+        normal = candidates[best, :, np.arange(best.size)].T
+        normal[:, np.isinf(gaps.max(axis=0))] = np.nan
+        return normal
+
+    def facing(self, entries, normal) -> ndarray:
+        """Which corners of the first body face the second's at their
+        node: across the node's ``normal`` (per tangent direction) within
+        the range both bodies' corners there span, its ends included
+        where they are the first body's own edge, left out where the
+        first body reaches beyond the second (its corners there lie on a
+        face along the normal, beside the second body, not across); ends
+        within :data:`FACING` cells are one."""
+        (node_a, _, Xa), (node_b, _, Xb) = entries
+        m, eps = normal.shape[1], FACING * self.h
+        inside = np.ones(node_a.size, dtype=bool)
+        for t in tangents(normal):
+            ranges = []
+            for node, Xc in ((node_a, Xa), (node_b, Xb)):
+                s = (t[:, node] * Xc).sum(axis=0)
+                lo, hi = np.full(m, np.inf), np.full(m, -np.inf)
+                np.minimum.at(lo, node, s)
+                np.maximum.at(hi, node, s)
+                ranges.append((s, lo, hi))
+            (sa, lo_a, hi_a), (_, lo_b, hi_b) = ranges
+            low, high = np.maximum(lo_a, lo_b)[node_a], \
+                np.minimum(hi_a, hi_b)[node_a]
+            own_low = (lo_a >= lo_b - eps)[node_a]
+            own_high = (hi_a <= hi_b + eps)[node_a]
+            inside &= ((sa > low + eps) | (own_low & (sa >= low - eps))) \
+                & ((sa < high - eps) | (own_high & (sa <= high + eps)))
+        return inside
+
+    @staticmethod
+    def corner_entries(Sk, X):
+        """The (node, corner, position) of every corner of the points in
+        the nodes' supports (columns of ``Sk``)."""
+        coo = Sk.tocoo()
+        dim, nc, n = X.shape
+        corner = (np.arange(nc)[:, None] * n + coo.row[None, :]).ravel()
+        return np.tile(coo.col, nc), corner, X.reshape(dim, -1)[:, corner]
+
+    @staticmethod
+    def reach(node, Xc, normal, lowest: bool) -> ndarray:
+        """Per node, the lowest position along its normal of its corners
+        (``lowest``), or minus the highest (``inf`` where it has none)."""
+        along = (normal[:, node] * Xc).sum(axis=0)
+        along = along if lowest else -along
+        out = np.full(normal.shape[1], np.inf)
+        np.minimum.at(out, node, along)
+        return out
+
+    @staticmethod
+    def extreme(entries, normal, near, lowest: bool) -> ndarray:
+        """Per node (every node has ``entries``), the surface corner
+        lowest (or highest) along its normal near ``near`` (dim, m): the
+        least ``along + ACROSS * across``, ``across`` the distance from
+        ``near`` across the normal, so that of a surface's corners the
+        one nearest wins, and of a corner and one a domain deeper right
+        above it the surface one: indices ``c n + p``."""
+        node, corner, Xc = entries
+        nn = normal[:, node]
+        along = (nn * Xc).sum(axis=0)
+        along = along if lowest else -along
+        offset = Xc - near[:, node]
+        across = np.sqrt(np.maximum(
+            (offset ** 2).sum(axis=0) - (nn * offset).sum(axis=0) ** 2, 0.))
+        order = np.lexsort((along + ACROSS * across, node))
+        head = np.r_[True, node[order][1:] != node[order][:-1]]
+        return corner[order[head]]
