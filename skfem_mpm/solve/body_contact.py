@@ -235,7 +235,8 @@ class BodyContact(GridTerm):
         self.weights = weights
         self.cells = cells
         self.dofs = None
-        self.geometry = WeakKeyDictionary()
+        self.geometry, self.supports = WeakKeyDictionary(), \
+            WeakKeyDictionary()
         self.finder = PairFinder(contacts, field, mesh, vertices, cell_size)
         counters.setdefault("contact_updates", 0)
         logger.warning(
@@ -270,6 +271,13 @@ class BodyContact(GridTerm):
                  for row in gradient_state(dim)])
         return points.x[:, None, :] + np.einsum("abp,bcp->acp", F, self.R)
 
+    def support(self, op):
+        """The grid nodes' supports of the step of ``op`` (points, nodes of
+        every field), kept per operator."""
+        if op not in self.supports:
+            self.supports[op] = value_matrix(op).tocsc()
+        return self.supports[op]
+
     def pairs(self, op, points):
         """Per contact, the pairs of surface corners at the step's start:
         ``(B, A, n, g0)`` (corner indices ``c n + p`` of the second and
@@ -277,7 +285,7 @@ class BodyContact(GridTerm):
         bodies that overlap at the run's start are refused."""
         if op in self.geometry:
             return self.geometry[op]
-        out = self.finder.find_pairs(value_matrix(op).tocsc(), points.x,
+        out = self.finder.find_pairs(self.support(op), points.x,
                                      points.volume, self.corners(points))
         for (_, _, contact), tol, (B, A, normal, gap) in zip(
                 self.contacts, self.tol, out):
@@ -349,7 +357,7 @@ class StepBodyContact(GridTerm):
         self.term, self.problem = term, problem
         op, points = problem.method_op, problem.points
         self.dim = term.dim
-        self.support = support = value_matrix(op).tocsc()
+        self.support = support = term.support(op)
         # the points that reach a node of two fields: where bodies may
         # meet in this step
         fields = [support[:, k * term.nv:(k + 1) * term.nv] != 0
