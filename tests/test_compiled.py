@@ -1,12 +1,13 @@
 """The compiled points-first passes (``kernels="compiled"``) equal the
 numpy path, the reference, to round-off: a response's stress measure,
 internal force, stiffness (the CSR data of one pattern) and committed state
-in 2D and 3D, small and finite deformation, elastic, von Mises and
-Drucker-Prager, at the start and after a step; whole runs alike; a resumed compiled run is
-bit-identical to the uninterrupted one.  The choice is checked: an unknown
-name refused, a run the passes cannot serve refused when they are asked
-for, served by numpy (logged once) otherwise, and the package works where
-numba does not import."""
+with standard MPM's and GIMP's operators, in 2D and 3D, small and finite
+deformation, elastic, von Mises and Drucker-Prager, at the start and after
+a step; whole runs alike (MPM, uGIMP, cpGIMP, B-splines); a resumed
+compiled run is bit-identical to the uninterrupted one.  The choice is
+checked: an unknown name refused, a run the passes cannot serve refused
+when they are asked for, served by numpy (logged once) otherwise, and the
+package works where numba does not import."""
 import dataclasses
 import json
 import logging
@@ -16,15 +17,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 from skfem import (ElementHex1, ElementQuad1, ElementQuad2, ElementTriP1,
-                   MeshHex, MeshQuad, MeshTri)
+                   ElementVector, MeshHex, MeshQuad, MeshTri)
 
-from skfem_mpm import (DruckerPrager, LinearElastic, MohrCoulomb, Options,
-                       Resume, VonMises, seed_points, simulate)
+from skfem_mpm import (DruckerPrager, LinearElastic, Options, Resume,
+                       Stabilisation, VonMises, seed_points, simulate)
 from skfem_mpm import kernels
 from skfem_mpm.errors import InvalidInputError
 from skfem_mpm.mechanics.kinematics import make_kinematics
 from skfem_mpm.mechanics.materials import initial_state
-from skfem_mpm.methods.operators import PointOperator
+from skfem_mpm.methods.gimp_linear import LinearGimp
+from skfem_mpm.methods.operators import AsmOperator, PointOperator
 from skfem_mpm.quadrature.basis import MaterialPointBasis
 from digest_cases import CASES, fingerprint
 
@@ -58,6 +60,28 @@ def block(dim, ncells=4):
     return mesh, points
 
 
+def operator(method, mesh, points, dim):
+    """Standard MPM's operator of ``points``, or GIMP's with the points of
+    the lower half moved by up to a fifth of a cell and their domains
+    grown by up to a quarter, so that their supports differ in size and
+    nodes (4 to 9 nodes in 2D, 8 to 27 in 3D) while the upper half's
+    cells hold points of one support each."""
+    elem = GRIDS[dim][1]()
+    if method == "mpm":
+        return PointOperator(MaterialPointBasis(mesh, elem, points))
+    rng = np.random.default_rng(dim)
+    moved = points.x[-1] < .5
+    x, domain = points.x.copy(), points.domain.copy()
+    x[:, moved] += .05 * rng.uniform(-1, 1, (dim, moved.sum()))
+    domain[:, moved] *= rng.uniform(1., 1.25, (dim, moved.sum()))
+    op = LinearGimp(mesh, elem)(x, domain)
+    groups = op.kernel_layout().groups
+    counts, runs = groups[3], groups[4]
+    assert counts.min() == 2 ** dim and counts.max() == 3 ** dim
+    assert len(runs) - 1 < .8 * points.n     # groups of several points
+    return op
+
+
 def evaluate(kinematics, op, du, points):
     response = kinematics.response(op, du, points)
     force = op.force(response.P, response.w) if response.force is None \
@@ -72,8 +96,13 @@ def check_equal(numpy_path, compiled_path, finite):
     assert r1.force is not None and r0.force is None
     assert relative(r1.P, r0.P) < TOL
     assert relative(f1, f0) < TOL
-    assert np.array_equal(K1.indices, K0.indices)
-    assert relative(K1.data, K0.data) < TOL
+    # the numpy path's entries on the compiled pattern (GIMP's sparse
+    # products come in a pattern of their own: unsorted, exact zeros out)
+    rows = np.repeat(np.arange(K1.shape[0]), np.diff(K1.indptr))
+    on = type(K1)((np.asarray(K0[rows, K1.indices]).ravel(), K1.indices,
+                   K1.indptr), shape=K1.shape)
+    assert K1.has_canonical_format and abs(K0 - on).max() == 0
+    assert relative(K1.data, on.data) < TOL
     assert np.array_equal(r1.yielded, r0.yielded)
     for name in ("stress", "strain") + (("F", "be", "volume") if finite
                                         else ()):
@@ -84,17 +113,18 @@ def check_equal(numpy_path, compiled_path, finite):
             TOL * max(np.abs(new0.state[name]).max(), 1e-30), name
 
 
+@pytest.mark.parametrize("method", ["mpm", "gimp"])
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("kind", ["small", "finite"])
 @pytest.mark.parametrize("name", sorted(MATERIALS))
-def test_a_response_equals_the_numpy_path(dim, kind, name):
+def test_a_response_equals_the_numpy_path(dim, kind, name, method):
     """Two trials in a row: from the initial state, and from the state
     the first committed (a start with stress, elastic strain, ``F`` and
-    plastic strain); the von Mises increments yield most points."""
+    plastic strain); the plastic increments yield most points."""
     material = MATERIALS[name]
     mesh, points = block(dim)
     points.state.update(initial_state(material, points.n))
-    op = PointOperator(MaterialPointBasis(mesh, GRIDS[dim][1](), points))
+    op = operator(method, mesh, points, dim)
     rng = np.random.default_rng(dim)
     counters = {"return_maps": 0}
     paths = {k: make_kinematics(kind, material, dim, counters, kernels=k)
@@ -110,18 +140,24 @@ def test_a_response_equals_the_numpy_path(dim, kind, name):
         start = results[0][3]
 
 
-def column_run(dim, kinematics, material, kernels_used, nsteps=3, points=None, method="mpm", **kwargs):
+def column(dim):
+    """The grid and points of :func:`column_run`."""
+    mesh = GRIDS[dim][0].init_tensor(*[np.linspace(0, 3, 4)] * (dim - 1),
+                                     np.linspace(0, 5, 6))
+    return mesh, seed_points(mesh, 2, region=lambda x: (x[-1] < 4) & np.all(
+        x[:-1] < 2, axis=0))
+
+
+def column_run(dim, kinematics, material, kernels_used, nsteps=3,
+               points=None, method="mpm", **kwargs):
     """A column (2 cells wide, 4 high, 2^dim points a cell) under its
     weight, its base fixed, on rollers at x = 0 (and y = 0), free on the
     other sides (the bottom corners yield), with ``kernels_used``
     (``Options.kernels``)."""
     kwargs["options"] = dataclasses.replace(
         kwargs.get("options", Options()), kernels=kernels_used)
-    mesh = GRIDS[dim][0].init_tensor(*[np.linspace(0, 3, 4)] * (dim - 1),
-                                     np.linspace(0, 5, 6))
-    if points is None:
-        points = seed_points(mesh, 2, region=lambda x: (x[-1] < 4) & np.all(
-            x[:-1] < 2, axis=0))
+    mesh, seeded = column(dim)
+    points = seeded if points is None else points
 
     def supports(basis):
         return np.concatenate(
@@ -134,16 +170,27 @@ def column_run(dim, kinematics, material, kernels_used, nsteps=3, points=None, m
                     **kwargs)
 
 
-@pytest.mark.parametrize("dim, kinematics, name", [
-    (2, "finite", "von_mises"), (2, "small", "von_mises"),
-    (3, "finite", "elastic")])
-def test_runs_equal_the_numpy_path(dim, kinematics, name):
+@pytest.mark.parametrize("dim, kinematics, name, method", [
+    (2, "finite", "von_mises", "mpm"), (2, "small", "von_mises", "mpm"),
+    (3, "finite", "elastic", "mpm"), (2, "finite", "von_mises", "cpgimp"),
+    (2, "small", "drucker_prager", "ugimp"),
+    (3, "finite", "elastic", "cpgimp"),
+    (3, "small", "von_mises", "ugimp"), (2, "finite", "von_mises", "ugimp"),
+    (2, "small", "elastic", "cpgimp"), (2, "finite", "von_mises", "bspline")])
+def test_runs_equal_the_numpy_path(dim, kinematics, name, method,
+                                   monkeypatch, caplog):
+    """Whole runs (GIMP in 3D: 2 steps, the second switches the ghost
+    penalty on), every operator served by the passes (no warning)."""
     material = MATERIALS[name]
-    runs = [column_run(dim, kinematics, material, k)
-            for k in ("numpy", "compiled")]
+    nsteps = 2 if dim == 3 and method != "mpm" else 3
+    monkeypatch.setattr(kernels, "_LOGGED", set())
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm.kernels"):
+        runs = [column_run(dim, kinematics, material, k, method=method,
+                           nsteps=nsteps) for k in ("numpy", "compiled")]
+    assert not [r for r in caplog.records if r.name == "skfem_mpm.kernels"]
     assert [len(r.history) for r in runs[0:1]] == [len(runs[1].history)]
     for a, b in zip(runs[0].history, runs[1].history):
-        assert len(a.newton_residuals) == len(b.newton_residuals)
+        assert len(a.newton_residuals or ()) == len(b.newton_residuals or ())
         assert relative(b.u, a.u) < TOL
     for field in ("x", "stress", "strain"):
         assert relative(getattr(runs[1].points, field),
@@ -152,9 +199,11 @@ def test_runs_equal_the_numpy_path(dim, kinematics, name):
         assert runs[0].history[-1].n_yielded > 0
 
 
-def test_a_resumed_compiled_run_is_bit_identical():
+@pytest.mark.parametrize("method", ["mpm", "cpgimp"])
+def test_a_resumed_compiled_run_is_bit_identical(method):
     """Resumed after step 2 of 4 from the state a callback saw, the
-    compiled run ends where the whole compiled run does, bit for bit."""
+    compiled run ends where the whole compiled run does, bit for bit
+    (cpGIMP: the domains stretched from the initial ones as well)."""
     saved = {}
 
     def keep(record, state):
@@ -162,49 +211,83 @@ def test_a_resumed_compiled_run_is_bit_identical():
             saved.update(record=record, state=state)
     material = MATERIALS["von_mises"]
     whole = column_run(2, "finite", material, "compiled", nsteps=4,
-                       options=Options(callback=keep))
+                       method=method, options=Options(callback=keep))
     rest = column_run(2, "finite", material, "compiled", nsteps=4,
-                      points=saved["state"], options=Options(
-                          resume=Resume.after(saved["record"])))
+                      method=method, points=saved["state"], options=Options(
+                          resume=Resume.after(saved["record"],
+                                              domain0=column(2)[1].domain)))
     assert [r.step for r in rest.history] == [3, 4]
     assert whole.history[-1].n_yielded > 0
-    for name in ("x", "stress", "strain", "F", "volume"):
+    for name in ("x", "stress", "strain", "F", "volume", "domain"):
         assert np.array_equal(getattr(rest.points, name),
                               getattr(whole.points, name)), name
 
 
-def test_the_choice_is_checked():
+class UserElastic(LinearElastic):
+    """A user's material (a subclass may change the law: not compiled)."""
+
+
+def test_the_choice_is_checked(monkeypatch, caplog):
     with pytest.raises(InvalidInputError, match="kernels must be one of"):
         Options(kernels="fast")
     assert Options(kernels="numpy").kernels == "numpy"
-    for material, dim, scheme, why in (
-            (MohrCoulomb(1e6, .3, 1e3, 30.), 2, False,
-             "the material MohrCoulomb"),
-            (LinearElastic(1e6, .3), 1, False, "1D grids"),
-            (LinearElastic(1e6, .3), 2, True, "total Lagrangian")):
+    monkeypatch.setattr(kernels, "_LOGGED", set())
+    for material, dim, scheme, antilocking, why in (
+            (UserElastic(1e6, .3), 2, False, False,
+             "the material UserElastic"),
+            (LinearElastic(1e6, .3), 1, False, False, "1D grids"),
+            (LinearElastic(1e6, .3), 2, True, False, "total Lagrangian"),
+            (LinearElastic(1e6, .3), 3, False, True, "mean dilatation")):
         with pytest.raises(InvalidInputError, match=why):
             make_kinematics("finite", material, dim, {}, scheme,
-                            kernels="compiled")
-        assert make_kinematics("finite", material, dim, {}, scheme
-                               ).compiled is None
+                            kernels="compiled", antilocking=antilocking)
+        with caplog.at_level(logging.INFO, logger="skfem_mpm.kernels"):
+            for _ in range(2):
+                assert make_kinematics("finite", material, dim, {}, scheme,
+                                       antilocking=antilocking
+                                       ).compiled is None
+        assert sum(why in r.getMessage() for r in caplog.records) == 1
     assert make_kinematics("small", LinearElastic(1e6, .3), 3, {}
                            ).compiled is not None
 
 
+def test_a_run_the_passes_cannot_serve_is_refused_before_any_work():
+    """Mean dilatation with ``kernels="compiled"``: refused when the run
+    is set up, no step taken; ``"auto"`` runs it on the numpy path."""
+    steps = []
+    with pytest.raises(InvalidInputError, match="mean dilatation"):
+        column_run(2, "small", MATERIALS["elastic"], "compiled", nsteps=1,
+                   method="cpgimp", options=Options(
+                       stabilisation=Stabilisation(antilocking=True),
+                       callback=lambda record, state: steps.append(record)))
+    assert steps == []
+    runs = [column_run(2, "small", MATERIALS["elastic"], k, nsteps=1,
+                       method="cpgimp", options=Options(
+                           stabilisation=Stabilisation(antilocking=True)))
+            for k in ("auto", "numpy")]
+    assert np.array_equal(runs[0].points.stress, runs[1].points.stress)
+
+
 def test_an_operator_without_passes_runs_on_numpy_logged_once(
         monkeypatch, caplog):
-    """cpGIMP's sparse operator has no compiled pass: asked for
-    explicitly, one warning, and the numpy path's answer."""
+    """scikit-fem's ``asm`` on a material-point basis (a user's operator)
+    has no compiled pass: asked for explicitly, one warning, and the
+    numpy path's answer."""
     monkeypatch.setattr(kernels, "_LOGGED", set())
+    mesh, points = block(2)
+    op = AsmOperator(MaterialPointBasis(mesh, ElementVector(ElementQuad1()),
+                                        points))
+    du = 1e-3 * np.random.default_rng(0).standard_normal(op.N)
+    material = MATERIALS["von_mises"]
+    points.state.update(initial_state(material, points.n))
     with caplog.at_level(logging.INFO, logger="skfem_mpm.kernels"):
-        result = column_run(2, "finite", MATERIALS["elastic"], "compiled",
-                            nsteps=2, method="cpgimp")
+        responses = [make_kinematics("finite", material, 2, {
+            "return_maps": 0}, kernels=k).response(op, du, points)
+            for k in ("compiled", "compiled", "numpy")]
     warnings = [r for r in caplog.records if r.levelno == logging.WARNING]
-    assert len(warnings) == 1 and "SparseOperator" in \
-        warnings[0].getMessage()
-    reference = column_run(2, "finite", MATERIALS["elastic"], "numpy",
-                           nsteps=2, method="cpgimp")
-    assert np.array_equal(result.points.stress, reference.points.stress)
+    assert len(warnings) == 1 and "AsmOperator" in warnings[0].getMessage()
+    assert responses[0].force is None
+    assert np.array_equal(responses[0].P, responses[2].P)
 
 
 @pytest.mark.parametrize("elem", [ElementQuad2, ElementTriP1])
@@ -272,15 +355,40 @@ def test_the_core_digests_hold_to_round_off(name):
         assert now[key] == pytest.approx(value, rel=1e-12, abs=1e-300), key
 
 
+def kernel_sources(root, name, seen=None):
+    """The kernel files module ``name`` imports from, and theirs."""
+    seen = set() if seen is None else seen
+    text = (root / name).read_text()
+    for line in text.splitlines():
+        words = line.split()
+        if len(words) > 1 and words[0] == "from" and words[1].startswith(
+                ".") and not words[1].startswith(".."):
+            dep = (words[1][1:] or "__init__") + ".py"
+            if dep not in seen:
+                seen.add(dep)
+                kernel_sources(root, dep, seen)
+    return seen
+
+
 def test_the_passes_change_with_what_they_compile_in():
-    """numba's cache keys each function on its own file: the passes carry
-    the hash of the files they compile in (``passes.SOURCES``), so that
-    a change there invalidates their cached code."""
+    """numba's cache keys each function on its own file: a kernel module
+    that compiles in code or constants of others carries the hash of
+    their files (``SOURCES``), so that a change there invalidates its
+    cached code."""
     import hashlib
+    import importlib
     from skfem_mpm.kernels import passes
     root = Path(passes.__file__).parent
-    digest = hashlib.sha256((root / "__init__.py").read_bytes() + (
-        root / "constitutive.py").read_bytes()).hexdigest()[:16]
-    assert passes.SOURCES == digest, (
-        "kernels/__init__.py or constitutive.py changed: set "
-        "passes.SOURCES = {!r}".format(digest))
+    checked = []
+    for path in sorted(root.glob("*.py")):
+        deps = sorted(kernel_sources(root, path.name) - {path.name})
+        if path.name == "__init__.py" or not deps:
+            continue
+        module = importlib.import_module("skfem_mpm.kernels." + path.stem)
+        digest = hashlib.sha256(b"".join(
+            (root / dep).read_bytes() for dep in deps)).hexdigest()[:16]
+        assert module.SOURCES == digest, (
+            "{} changed: set {}.SOURCES = {!r}".format(
+                ", ".join(deps), path.stem, digest))
+        checked.append(path.stem)
+    assert "passes" in checked

@@ -4,8 +4,14 @@
 (:mod:`skfem_mpm.kernels.passes`) where they cover a run and numba
 imports, the numpy path otherwise; ``"numpy"`` always takes the numpy
 path (the tested reference); ``"compiled"`` asks for the compiled passes
-and refuses, before any work, a run they cannot serve at all (numba
-missing, a material or kinematics without compiled passes).  numba is
+and refuses, before any work, a run they cannot serve (numba missing, a
+material, dimension, scheme or stabilisation without compiled passes:
+:func:`skfem_mpm.mechanics.compiled.compiled_path`).  They serve standard
+MPM's element operator and the sparse operators of uGIMP, cpGIMP and
+B-splines, in 2D and 3D, small and finite deformation (not the total
+Lagrangian scheme of ``method="fem"``), ``LinearElastic``, ``VonMises``
+and ``DruckerPrager``; not mean dilatation, Mohr-Coulomb, Cam clay, a
+user's material or one material per body.  numba is
 imported only when a run first asks for the passes, so that ``import
 skfem_mpm`` stays light; the kernels are cached on disk, so a second
 process does not compile them again.
@@ -15,7 +21,7 @@ import logging
 from ..errors import InvalidInputError
 
 __all__ = ["KERNELS", "ELASTIC", "VON_MISES", "DRUCKER_PRAGER",
-           "check_kernels",
+           "PER_ENTRY", "PER_NODE_PAIR", "BISECTION", "check_kernels",
            "compiled_passes", "log_once"]
 
 logger = logging.getLogger(__name__)
@@ -25,17 +31,23 @@ KERNELS = ("auto", "numpy", "compiled")
 #: parameter vector ``(kind, lam, mu, E, nu, yield_stress, cohesion, eta,
 #: xi, eta_bar, hardening, apex stiffness)``
 ELASTIC, VON_MISES, DRUCKER_PRAGER = 0., 1., 2.
+#: how the stiffness pass finds the CSR places of a group's entries
+#: (:class:`~skfem_mpm.methods.assembly.KernelLayout`): the element
+#: pattern's map per entry or per node pair, or bisection of the rows of
+#: the node graph
+PER_ENTRY, PER_NODE_PAIR, BISECTION = 0, 1, 2
 
 _LOGGED = set()
 _PASSES = []
 
 
 def log_once(level: int, message: str, *args) -> None:
-    """Log ``message % args`` once per process (a few fixed messages: the
-    set stays small)."""
-    if message not in _LOGGED:
-        _LOGGED.add(message)
-        logger.log(level, message, *args)
+    """Log ``message % args`` once per process (each text once: a few
+    reasons and operator kinds, so the set stays small)."""
+    text = message % args
+    if text not in _LOGGED:
+        _LOGGED.add(text)
+        logger.log(level, text)
 
 
 def check_kernels(kernels) -> str:

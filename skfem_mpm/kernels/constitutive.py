@@ -16,6 +16,11 @@ from numba import literally, njit
 
 from . import DRUCKER_PRAGER, VON_MISES
 
+#: the first 16 hex digits of the sha256 of the kernel files whose code
+#: and constants this module compiles in (as
+#: :data:`skfem_mpm.kernels.passes.SOURCES`)
+SOURCES = "43799afd056d51f6"
+
 
 @njit(cache=True, error_model="numpy")
 def principal_frame(b, dim, x, v):

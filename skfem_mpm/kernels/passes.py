@@ -1,9 +1,12 @@
-"""Compiled points-first passes of a Newton iteration of standard MPM.
+"""Compiled points-first passes of a Newton iteration.
 
-Each pass walks the active elements and, in each, its points (the slots of
-the material-point basis), so that a point's gradient, deformation,
-stress and tangent live in a few registers and small work arrays, and an
-element's force or stiffness is summed over its points before one scatter:
+Each pass walks the point operator's *groups*, points of one support (an
+element's points in standard MPM; a run of consecutive points of one row
+pattern in a sparse operator, GIMP and B-splines: the points of a cell
+whose domains lie inside it), and in each its points, so that a point's
+gradient, deformation, stress and tangent live in a few registers and
+small work arrays, and a group's increments are gathered and its force
+or stiffness summed over its points before one scatter:
 
 - ``finite_residual_2d``, ``_3d``: gradients of the grid increment,
   ``dF``, its inverse, ``b_tr - I``, the principal frame, the return map,
@@ -13,77 +16,66 @@ element's force or stiffness is summed over its points before one scatter:
   or the return map on principal strains);
 - ``stiffness_2d``, ``_3d``: the consistent tangent of each point from
   what the residual pass kept (elastic, small-strain return map, or finite
-  deformation with its geometric term and pull-back), the element
-  stiffness, and its scatter straight into the CSR data of the grid's
-  :class:`~skfem_mpm.methods.assembly.ElementPattern`.
+  deformation with its geometric term and pull-back), the group's local
+  stiffness, and its scatter straight into the CSR data of the operator's
+  pattern: through the places of the grid's
+  :class:`~skfem_mpm.methods.assembly.ElementPattern` (standard MPM), or
+  by bisection of the node's row of the supports' node graph
+  (:class:`~skfem_mpm.methods.assembly.GraphPattern`, sparse operators).
 
+The layout (:class:`~skfem_mpm.methods.assembly.KernelLayout`, leading
+arguments of every pass): shape gradients points first, ``G[q, d]``
+(entry, axis; a point's ``nloc`` entries from ``q0``), the group nodes
+``nodes`` (``node_count[r]`` of group r from ``node_start[r]``), the
+groups' first positions ``runs`` (then the number of positions), and per
+position the point ``order[s]`` and its first entry ``qstart[s]``.
 Points are on the last axis of the arrays kept (the layout of the numpy
-path, whose commit and output read them); the shape gradients come points
-first, ``G[e, m, i, d]`` (element, slot, node, axis).  The finite pass
-returns a nonzero status where a point inverts, and the caller then lets
-the numpy path raise its error with its message.
+path, whose commit and output read them).  The finite pass returns a
+nonzero status where a point inverts, and the caller then lets the numpy
+path raise its error with its message.
 """
 import math
 
 import numpy as np
 from numba import literally, njit
 
-from .constitutive import frame_tangent, principal_frame, principal_update
+from . import BISECTION, PER_NODE_PAIR
+from .constitutive import principal_frame, principal_update
+from .points import (ELASTIC_TANGENT, FINITE_TANGENT, RETURN_MAP_TANGENT,
+                     add_force, add_point_stiffness, gather, place_in_row,
+                     point_gradient,
+                     point_tangent, scatter_force, set_uniform_tangent,
+                     tangent_work)
 
-#: tangents the stiffness pass forms
-ELASTIC_TANGENT, RETURN_MAP_TANGENT, FINITE_TANGENT = 0, 1, 2
-#: the first 16 hex digits of the sha256 of ``kernels/__init__.py`` and
-#: ``kernels/constitutive.py``, whose code and constants the passes compile
-#: in: numba's cache keys a cached function on its own file alone, so a
-#: change there must change this file too, or the passes would run the
-#: cached old code (``tests/test_compiled.py`` checks it)
-SOURCES = "c6d75f725dce285d"
+#: what the callers read here (the tangents from
+#: :mod:`skfem_mpm.kernels.points`)
+__all__ = ["passes_of", "finite_commit", "ELASTIC_TANGENT",
+           "RETURN_MAP_TANGENT", "FINITE_TANGENT", "SOURCES"]
 
-
-@njit(cache=True, error_model="numpy", inline="always")
-def point_gradient(G, e, m, U, nloc, k, grad):
-    """``grad[a, b] = sum_i U[i, a] G[e, m, i, b]`` of the element's
-    nodal increments ``U`` (nloc, k)."""
-    for a in range(k):
-        for b in range(k):
-            t = 0.
-            for i in range(nloc):
-                t += G[e, m, i, b] * U[i, a]
-            grad[a, b] = t
+#: the first 16 hex digits of the sha256 of the kernel files whose code
+#: and constants the passes compile in (those they import from, and
+#: theirs, in the order of their names): numba's cache keys a cached
+#: function on its own file alone, so a change there must change this
+#: file too, or the passes would run the cached old code
+#: (``tests/test_compiled.py`` checks it)
+SOURCES = "f1df992a61c4cba9"
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def element_increments(du, dofs, e, nloc, k, U):
-    for i in range(nloc):
-        for a in range(k):
-            U[i, a] = du[k * dofs[e, i] + a]
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def add_force(G, e, m, P, w, nloc, k, fe):
-    """``fe[i, a] += sum_b w P[a, b] G[e, m, i, b]``."""
-    for i in range(nloc):
-        for a in range(k):
-            t = 0.
-            for b in range(k):
-                t += (P[a, b] * w) * G[e, m, i, b]
-            fe[i, a] += t
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def scatter_force(f, fe, dofs, e, nloc, k):
-    for i in range(nloc):
-        for a in range(k):
-            f[k * dofs[e, i] + a] += fe[i, a]
-            fe[i, a] = 0.
+def widest(node_count):
+    """The most nodes of a group."""
+    m = 0
+    for r in range(len(node_count)):
+        m = max(m, node_count[r])
+    return m
 
 
 @njit(cache=True, error_model="numpy")
-def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
-                     dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq, k,
-                     nloc):
+def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
+                     du, start, params, eq0, f, P, dF, dF_inv, b_dev, tau, d,
+                     vecs, y, dy_dx, yielded, eq, k):
     """Finite deformation (updated Lagrangian, Hencky), for ``k``
-    components and ``nloc`` nodes an element: from the grid increment
+    components: from the grid increment
     ``du`` and ``start = b_n - I`` (3, 3, n), every point's ``dF``,
     ``dF^-1``, ``b_tr - I``, Kirchhoff stress ``tau`` (3, 3, n), spectral
     parts (``d``, ``vecs``, ``y = tau_A``, ``dy_dx = dtau_A / dx_B``),
@@ -92,9 +84,9 @@ def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
     <= 0`` (at some point), 2 where ``b_tr`` is not positive definite:
     then the arrays hold no answer."""
     literally(k)
-    nel, nslots = slots.shape
-    U = np.empty((nloc, k))
-    fe = np.zeros((nloc, k))
+    nmax = widest(node_count)
+    U = np.empty((nmax, k))
+    fe = np.zeros((nmax, k))
     g = np.empty((k, k))
     F = np.empty((3, 3))
     Fi = np.empty((3, 3))
@@ -111,13 +103,12 @@ def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
     # a point that inverts sets the status, and the pass runs on (its
     # loops run faster without an early return)
     status = 0
-    for e in range(nel):
-        element_increments(du, dofs, e, nloc, k, U)
-        for m in range(nslots):
-            p = slots[e, m]
-            if p < 0:
-                continue
-            point_gradient(G, e, m, U, nloc, k, g)
+    for r in range(len(runs) - 1):
+        n0, nloc = node_start[r], node_count[r]
+        gather(du, nodes, n0, nloc, k, U)
+        for s in range(runs[r], runs[r + 1]):
+            p, q0 = order[s], qstart[s]
+            point_gradient(G, q0, U, nloc, k, g)
             for a in range(3):
                 for c in range(3):
                     F[a, c] = (1. if a == c else 0.) + (
@@ -193,26 +184,26 @@ def _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
                         s += t[a, j] * Fi[c, j]
                     P[a, c, p] = s
                     Pp[a, c] = s
-            add_force(G, e, m, Pp, w[p], nloc, k, fe)
-        scatter_force(f, fe, dofs, e, nloc, k)
+            add_force(G, q0, Pp, w[p], nloc, k, fe)
+        scatter_force(f, fe, nodes, n0, nloc, k)
     return status
 
 
 @njit(cache=True, error_model="numpy")
-def _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0,
-                    f, stress, strain, x_all, vecs, y, dy_dx, yielded, eq, k,
-                    nloc):
+def _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
+                    du, stress0, strain0, params, eq0, f, stress, strain,
+                    x_all, vecs, y, dy_dx, yielded, eq, k):
     """Small strain: ``eps = eps_n + sym(grad du)``; Hooke's law added to
     the stress of an elastic material (``params[0] == ELASTIC``: the
     spectral arrays untouched), the return map on principal strains
     otherwise (principal strains ``x_all``, frames ``vecs``, ``y =
     sigma_A``, ``dy_dx = D``); the internal force ``f``."""
     literally(k)
-    nel, nslots = slots.shape
+    nmax = widest(node_count)
     plastic = params[0] != 0.
     lam, mu = params[1], params[2]
-    U = np.empty((nloc, k))
-    fe = np.zeros((nloc, k))
+    U = np.empty((nmax, k))
+    fe = np.zeros((nmax, k))
     g = np.empty((k, k))
     de = np.zeros((3, 3))
     e3 = np.empty((3, 3))
@@ -222,13 +213,12 @@ def _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0,
     eps_e = np.empty(3)
     D = np.empty((3, 3))
     P = np.empty((k, k))
-    for e in range(nel):
-        element_increments(du, dofs, e, nloc, k, U)
-        for m in range(nslots):
-            p = slots[e, m]
-            if p < 0:
-                continue
-            point_gradient(G, e, m, U, nloc, k, g)
+    for r in range(len(runs) - 1):
+        n0, nloc = node_start[r], node_count[r]
+        gather(du, nodes, n0, nloc, k, U)
+        for s in range(runs[r], runs[r + 1]):
+            p, q0 = order[s], qstart[s]
+            point_gradient(G, q0, U, nloc, k, g)
             for a in range(k):
                 for c in range(k):
                     de[a, c] = .5 * (g[a, c] + g[c, a])
@@ -266,8 +256,129 @@ def _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0,
             for a in range(k):
                 for c in range(k):
                     P[a, c] = stress[a, c, p]
-            add_force(G, e, m, P, w[p], nloc, k, fe)
-        scatter_force(f, fe, dofs, e, nloc, k)
+            add_force(G, q0, P, w[p], nloc, k, fe)
+        scatter_force(f, fe, nodes, n0, nloc, k)
+
+
+@njit(cache=True, error_model="numpy")
+def _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
+               elements, first, length, graph_indptr, graph_indices, w, kind,
+               C, x, y, dy_dx, vecs, dF_inv, data, k):
+    """``K_(ia)(jc) = sum_p w_p A_abcd G_bi G_dj`` group by group with the
+    tangent ``kind`` of each point, each group's matrix added to the CSR
+    ``data`` of the pattern: with ``mode``
+    :data:`~skfem_mpm.kernels.PER_ENTRY` or
+    :data:`~skfem_mpm.kernels.PER_NODE_PAIR` at the places
+    ``first[elements[r]]`` of the element pattern (one per entry, or one
+    per node pair whose components' places are offset by ``length``, the
+    lengths of the node's rows), with :data:`~skfem_mpm.kernels.BISECTION`
+    at the places of the node graph ``(graph_indptr, graph_indices)`` (a
+    group's nodes ascending)."""
+    literally(k)
+    nmax = widest(node_count)
+    Ke = np.zeros((nmax * k, nmax * k))
+    H = np.empty((k, k, nmax * k))
+    A = np.empty((k, k, k, k))
+    work = tangent_work(k)
+    set_uniform_tangent(kind, C, k, A)             # one for all points
+    for r in range(len(runs) - 1):
+        n0, nloc = node_start[r], node_count[r]
+        nd = nloc * k
+        for s in range(runs[r], runs[r + 1]):
+            p = order[s]
+            if kind != ELASTIC_TANGENT:    # (no early return: 2x faster)
+                point_tangent(kind, p, k, x, y, dy_dx, vecs, dF_inv, A,
+                              work)
+            add_point_stiffness(G, qstart[s], A, w[p], nloc, k, H, Ke)
+        if mode == BISECTION:
+            for i in range(nloc):
+                lo, hi = graph_indptr[nodes[n0 + i]], \
+                    graph_indptr[nodes[n0 + i] + 1]
+                at = lo
+                for j in range(nloc):
+                    at = place_in_row(graph_indices, at, hi, nodes[n0 + j])
+                    place = k * k * lo + k * (at - lo)
+                    for a in range(k):
+                        for c in range(k):
+                            data[place + a * k * (hi - lo) + c] += \
+                                Ke[i * k + a, j * k + c]
+                            Ke[i * k + a, j * k + c] = 0.
+        else:
+            el = elements[r]
+            for i in range(nloc):
+                for a in range(k):
+                    for j in range(nloc):
+                        for c in range(k):
+                            if mode == PER_NODE_PAIR:
+                                place = first[el, i * nloc + j] \
+                                    + a * length[el, i] + c
+                            else:
+                                place = first[el, (i * k + a) * nd
+                                              + j * k + c]
+                            data[place] += Ke[i * k + a, j * k + c]
+                            Ke[i * k + a, j * k + c] = 0.
+
+
+@njit(cache=True, error_model="numpy")
+def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
+                       w, du, start, params, eq0, f, P, dF, dF_inv, b_dev,
+                       tau, d, vecs, y, dy_dx, yielded, eq):
+    """The finite-deformation pass on a 2D grid (``_finite_residual``)."""
+    return _finite_residual(G, nodes, node_start, node_count, runs, order,
+                            qstart, w, du, start, params, eq0, f, P, dF,
+                            dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
+                            eq, 2)
+
+
+@njit(cache=True, error_model="numpy")
+def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
+                       w, du, start, params, eq0, f, P, dF, dF_inv, b_dev,
+                       tau, d, vecs, y, dy_dx, yielded, eq):
+    """The finite-deformation pass on a 3D grid (``_finite_residual``)."""
+    return _finite_residual(G, nodes, node_start, node_count, runs, order,
+                            qstart, w, du, start, params, eq0, f, P, dF,
+                            dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
+                            eq, 3)
+
+
+@njit(cache=True, error_model="numpy")
+def small_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
+                      w, du, stress0, strain0, params, eq0, f, stress,
+                      strain, x, vecs, y, dy_dx, yielded, eq):
+    """The small-strain pass on a 2D grid (``_small_residual``)."""
+    _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
+                    du, stress0, strain0, params, eq0, f, stress, strain, x,
+                    vecs, y, dy_dx, yielded, eq, 2)
+
+
+@njit(cache=True, error_model="numpy")
+def small_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
+                      w, du, stress0, strain0, params, eq0, f, stress,
+                      strain, x, vecs, y, dy_dx, yielded, eq):
+    """The small-strain pass on a 3D grid (``_small_residual``)."""
+    _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
+                    du, stress0, strain0, params, eq0, f, stress, strain, x,
+                    vecs, y, dy_dx, yielded, eq, 3)
+
+
+@njit(cache=True, error_model="numpy")
+def stiffness_2d(G, nodes, node_start, node_count, runs, order, qstart, mode,
+                 elements, first, length, graph_indptr, graph_indices, w,
+                 kind, C, x, y, dy_dx, vecs, dF_inv, data):
+    """The stiffness pass on a 2D grid (``_stiffness``)."""
+    _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
+               elements, first, length, graph_indptr, graph_indices, w, kind,
+               C, x, y, dy_dx, vecs, dF_inv, data, 2)
+
+
+@njit(cache=True, error_model="numpy")
+def stiffness_3d(G, nodes, node_start, node_count, runs, order, qstart, mode,
+                 elements, first, length, graph_indptr, graph_indices, w,
+                 kind, C, x, y, dy_dx, vecs, dF_inv, data):
+    """The stiffness pass on a 3D grid (``_stiffness``)."""
+    _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
+               elements, first, length, graph_indptr, graph_indices, w, kind,
+               C, x, y, dy_dx, vecs, dF_inv, data, 3)
 
 
 @njit(cache=True, error_model="numpy")
@@ -317,165 +428,12 @@ def finite_commit(dim, params, d, vecs, eq0, dF, F0, F, J, b_e, strain):
                 strain[a, c, p] = r
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def point_tangent(kind, p, k, x, y, dy_dx, vecs, dF_inv, A, work):
-    """The tangent ``A`` (k, k, k, k) of point ``p`` that the stiffness
-    pulls against the gradients at the step's start: the isotropic
-    derivative of the return map, or in finite deformation ``dF^-1_eb
-    (2 dtau/db . b_tr - delta_bc tau_ad) dF^-1_fd``
-    (:func:`~skfem_mpm.kernels.constitutive.frame_tangent`; ``work``:
-    its work arrays)."""
-    xp, yp, dp, vp, Z = work[:5]
-    for a in range(k):
-        xp[a] = x[a, p]
-        yp[a] = y[a, p]
-        for b in range(k):
-            dp[a, b] = dy_dx[a, b, p]
-            vp[a, b] = vecs[a, b, p]
-    for e in range(k):
-        for B in range(k):
-            if kind == FINITE_TANGENT:
-                t = 0.
-                for b in range(k):
-                    t += dF_inv[e, b, p] * vp[b, B]
-                Z[e, B] = t
-            else:
-                Z[e, B] = vp[e, B]
-    frame_tangent(k, xp, yp, dp, vp, Z, kind == FINITE_TANGENT, A, work[5:])
-
-
-@njit(cache=True, error_model="numpy")
-def _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x,
-               y, dy_dx, vecs, dF_inv, data, k, nloc):
-    """``K_(ia)(jc) = sum_p w_p A_abcd G_bi G_dj`` element by element,
-    each element's matrix added to the CSR ``data`` of the pattern whose
-    places are ``first[elements[e]]`` (one per entry; ``per_node``: one
-    per node pair, the components' places offset by ``length``, the
-    lengths of the node's rows), with the tangent ``kind`` of each
-    point."""
-    literally(k)
-    nel, nslots = slots.shape
-    nd = nloc * k
-    Ke = np.zeros((nd, nd))
-    H = np.empty((k, k, nd))
-    A = np.empty((k, k, k, k))
-    work = (np.empty(k), np.empty(k), np.empty((k, k)), np.empty((k, k)),
-            np.empty((k, k)), np.empty((k, k)), np.empty((k, k)),
-            np.empty((k, k)), np.empty((k, k, k, k)),
-            np.empty((k * k, k, k)), np.empty((k * k, k, k)))
-    if kind == ELASTIC_TANGENT:                     # one for all points
-        for a in range(k):
-            for b in range(k):
-                for c in range(k):
-                    for d in range(k):
-                        A[a, b, c, d] = C[a, b, c, d]
-    for e in range(nel):
-        for m in range(nslots):
-            p = slots[e, m]
-            if p < 0:
-                continue
-            if kind != ELASTIC_TANGENT:    # (no early return: 2x faster)
-                point_tangent(kind, p, k, x, y, dy_dx, vecs, dF_inv, A,
-                              work)
-            wp = w[p]
-            # H_(ab)(jc) = w sum_d A_abcd G_jd, then K_(ia)(jc) += sum_b
-            # G_ib H_(ab)(jc): rows of H into a row of the element matrix,
-            # the sum over b written out (one load and store of the row a
-            # term: twice as fast in 3D as a loop over b)
-            for a in range(k):
-                for b in range(k):
-                    for j in range(nloc):
-                        g0, g1, g2 = G[e, m, j, 0], G[e, m, j, 1], \
-                            G[e, m, j, k - 1]
-                        for c in range(k):
-                            if k == 3:
-                                s = A[a, b, c, 0] * g0 + A[a, b, c, 1] * g1 \
-                                    + A[a, b, c, 2] * g2
-                            else:
-                                s = A[a, b, c, 0] * g0 + A[a, b, c, 1] * g1
-                            H[a, b, j * k + c] = wp * s
-            for i in range(nloc):
-                g0, g1, g2 = G[e, m, i, 0], G[e, m, i, 1], G[e, m, i, k - 1]
-                for a in range(k):
-                    row = i * k + a
-                    for jc in range(nd):
-                        if k == 3:
-                            Ke[row, jc] += g0 * H[a, 0, jc] + g1 * H[a, 1, jc] \
-                                + g2 * H[a, 2, jc]
-                        else:
-                            Ke[row, jc] += g0 * H[a, 0, jc] + g1 * H[a, 1, jc]
-        el = elements[e]
-        for i in range(nloc):
-            for a in range(k):
-                for j in range(nloc):
-                    for c in range(k):
-                        if per_node:
-                            place = first[el, i * nloc + j] \
-                                + a * length[el, i] + c
-                        else:
-                            place = first[el, (i * k + a) * nd + j * k + c]
-                        data[place] += Ke[i * k + a, j * k + c]
-                        Ke[i * k + a, j * k + c] = 0.
-
-
-@njit(cache=True, error_model="numpy")
-def finite_residual_2d(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
-                       dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq):
-    """The finite-deformation pass on a 2D grid (``_finite_residual``)."""
-    return _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P,
-                            dF, dF_inv, b_dev, tau, d, vecs, y, dy_dx,
-                            yielded, eq, 2, G.shape[2])
-
-
-@njit(cache=True, error_model="numpy")
-def finite_residual_3d(G, slots, dofs, w, du, start, params, eq0, f, P, dF,
-                       dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded, eq):
-    """The finite-deformation pass on a 3D grid (``_finite_residual``)."""
-    return _finite_residual(G, slots, dofs, w, du, start, params, eq0, f, P,
-                            dF, dF_inv, b_dev, tau, d, vecs, y, dy_dx,
-                            yielded, eq, 3, G.shape[2])
-
-
-@njit(cache=True, error_model="numpy")
-def small_residual_2d(G, slots, dofs, w, du, stress0, strain0, params, eq0,
-                      f, stress, strain, x, vecs, y, dy_dx, yielded, eq):
-    """The small-strain pass on a 2D grid (``_small_residual``)."""
-    _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0, f,
-                    stress, strain, x, vecs, y, dy_dx, yielded, eq, 2,
-                    G.shape[2])
-
-
-@njit(cache=True, error_model="numpy")
-def small_residual_3d(G, slots, dofs, w, du, stress0, strain0, params, eq0,
-                      f, stress, strain, x, vecs, y, dy_dx, yielded, eq):
-    """The small-strain pass on a 3D grid (``_small_residual``)."""
-    _small_residual(G, slots, dofs, w, du, stress0, strain0, params, eq0, f,
-                    stress, strain, x, vecs, y, dy_dx, yielded, eq, 3,
-                    G.shape[2])
-
-
-@njit(cache=True, error_model="numpy")
-def stiffness_2d(G, slots, w, elements, first, length, per_node, kind, C, x,
-                 y, dy_dx, vecs, dF_inv, data):
-    """The stiffness pass on a 2D grid (``_stiffness``)."""
-    _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x, y,
-               dy_dx, vecs, dF_inv, data, 2, G.shape[2])
-
-
-@njit(cache=True, error_model="numpy")
-def stiffness_3d(G, slots, w, elements, first, length, per_node, kind, C, x,
-                 y, dy_dx, vecs, dF_inv, data):
-    """The stiffness pass on a 3D grid (``_stiffness``)."""
-    _stiffness(G, slots, w, elements, first, length, per_node, kind, C, x, y,
-               dy_dx, vecs, dF_inv, data, 3, G.shape[2])
-
-
 def passes_of(dim: int):
     """``(finite_residual, small_residual, stiffness)`` compiled for
     ``dim`` components (2 or 3, known to the compiler, which unrolls the
     loops over components: four times faster than loops of any length;
-    the nodes of an element, any number, are not); each is compiled when
-    first called."""
+    the nodes of a group, any number, are not), for every layout; each is
+    compiled when first called."""
     if dim == 2:
         return finite_residual_2d, small_residual_2d, stiffness_2d
     return finite_residual_3d, small_residual_3d, stiffness_3d

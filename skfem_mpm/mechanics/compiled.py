@@ -2,21 +2,26 @@
 
 :func:`compiled_path` decides, when a run's kinematics piece is made,
 whether its responses may come from the compiled passes
-(:mod:`skfem_mpm.kernels.passes`): they cover standard MPM's point
-operator (``op.kernel_layout``, any element) in 2D and 3D, small strain
-and finite deformation (updated Lagrangian), :class:`~skfem_mpm.mechanics.
-materials.LinearElastic`, :class:`~skfem_mpm.mechanics.materials.
-VonMises` and :class:`~skfem_mpm.mechanics.soils.DruckerPrager`.
-Everything else (GIMP's and B-splines' sparse operators, mean dilatation,
-the total Lagrangian scheme of ``method="fem"``, 1D, Mohr-Coulomb and
-Cam clay, a user's material, one material per body) runs on the numpy path, the
-reference the compiled passes are tested equal to.
+(:mod:`skfem_mpm.kernels.passes`): they cover the point operators with
+a ``kernel_layout`` over all points, standard MPM's (any element; also
+``method="fem"`` in small strain) and the sparse operators of uGIMP,
+cpGIMP and B-splines (also on the fields of bodies in contact), in 2D and
+3D, small strain and finite deformation (updated Lagrangian),
+:class:`~skfem_mpm.mechanics.materials.LinearElastic`,
+:class:`~skfem_mpm.mechanics.materials.VonMises` and
+:class:`~skfem_mpm.mechanics.soils.DruckerPrager`.  Everything else (mean
+dilatation, the total Lagrangian scheme of ``method="fem"`` in finite
+deformation, 1D, Mohr-Coulomb and Cam clay, a user's material, one
+material per body) runs on the numpy path, the reference the compiled
+passes are tested equal to.
 
 A compiled response fills the arrays the numpy path fills (stress, the
 spectral parts, ``dF`` ...), so the kinematics build it, its commit and its
 tangent on demand with their own code; it adds the internal force, summed
 in the same pass, and the stiffness, formed point by point from the kept
-parts and scattered into the CSR data of the grid's pattern.
+parts and scattered into the CSR data of the operator's pattern (the
+grid's element pattern, or for a sparse operator the pattern of its
+supports' node graph, formed once a step).
 """
 import logging
 from typing import Optional
@@ -30,7 +35,14 @@ from ..kernels import (DRUCKER_PRAGER, ELASTIC, VON_MISES, check_kernels,
 from .materials import LinearElastic, VonMises, elastic_tensor
 from .soils import APEX_STIFFNESS, DruckerPrager
 
-__all__ = ["compiled_path", "CompiledPasses", "material_parameters"]
+__all__ = ["compiled_path", "CompiledPasses", "material_parameters",
+           "COVERAGE"]
+
+#: what the compiled passes serve (the refusal of ``kernels="compiled"``
+#: says it)
+COVERAGE = ("standard MPM, uGIMP, cpGIMP and B-splines in 2D and 3D, small "
+            "and finite deformation, LinearElastic, VonMises and "
+            "DruckerPrager")
 
 
 def material_parameters(material) -> Optional[ndarray]:
@@ -53,18 +65,30 @@ def material_parameters(material) -> Optional[ndarray]:
 
 
 def compiled_path(kernels: str, material, dim: int,
-                  total_lagrangian: bool = False):
+                  total_lagrangian: bool = False, antilocking: bool = False):
     """The :class:`CompiledPasses` of a kinematics piece, or ``None`` (the
     numpy path): with ``kernels="numpy"``; with ``"auto"`` where the
-    passes do not cover the material, dimension or scheme or numba does
-    not import (logged once); with ``"compiled"`` those are refused
-    (:class:`~skfem_mpm.errors.InvalidInputError`), before any work."""
+    passes do not cover the material, dimension, scheme or stabilisation
+    (``antilocking``: mean dilatation) or numba does not import (logged
+    once); with ``"compiled"`` those are refused
+    (:class:`~skfem_mpm.errors.InvalidInputError`), before any work.
+
+    >>> from skfem_mpm import LinearElastic
+    >>> compiled_path("compiled", LinearElastic(1e6, .3), 2,
+    ...               antilocking=True)   # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: kernels='compiled': the compiled \
+passes do not serve mean dilatation (Stabilisation(antilocking=True)); ...
+    """
     if check_kernels(kernels) == "numpy":
         return None
     params = material_parameters(material)
     reason = ("{}D grids".format(dim) if dim not in (2, 3)
               else "the total Lagrangian scheme (method 'fem')"
               if total_lagrangian
+              else "mean dilatation (Stabilisation(antilocking=True))"
+              if antilocking
               else "the material {}".format(type(material).__name__)
               if params is None else None)
     passes = None if reason else compiled_passes()
@@ -73,12 +97,10 @@ def compiled_path(kernels: str, material, dim: int,
                               kernels == "compiled")
     if kernels == "compiled":
         raise InvalidInputError(
-            "kernels='compiled': the compiled passes do not serve {} (they "
-            "cover standard MPM in 2D and 3D, small and finite "
-            "deformation, LinearElastic, VonMises and DruckerPrager, with "
-            "numba); use "
-            "kernels='auto' or 'numpy'".format(
-                reason or "a run without numba (it does not import)"))
+            "kernels='compiled': the compiled passes do not serve {}; they "
+            "cover {}, with numba: use kernels='auto' or 'numpy'".format(
+                reason or "a run without numba (it does not import)",
+                COVERAGE))
     if reason is None:                  # no numba: compiled_passes logged
         return None
     log_once(logging.INFO, "kernels='auto': the numpy path serves %s",
@@ -118,9 +140,10 @@ class CompiledPasses:
 
     def serves(self, op, points) -> bool:
         """Whether the passes serve the point operator ``op``: standard
-        MPM's (any element) over all points; logged once where not."""
+        MPM's, GIMP's or B-splines' (``op.kernel_layout``) over all
+        points; logged once where not."""
         if getattr(op, "kernel_layout", None) is not None and \
-                len(op.basis.subset) == points.n:
+                op.n_points == points.n:
             return True
         log_once(logging.WARNING if self.explicit else logging.INFO,
                  "kernels=%r: no compiled pass for the point operator %s; "
@@ -134,30 +157,28 @@ class CompiledPasses:
                 points.state["equivalent_plastic_strain"], dtype=float)
         return np.zeros(points.n)
 
-    def _stiffness(self, op, kind: int, w: ndarray, C: ndarray,
+    def _stiffness(self, layout, kind: int, w: ndarray, C: ndarray,
                    parts) -> callable:
-        """``stiffness()`` of a response: the compiled element stiffness
-        from the kept ``parts`` (x, y, dy_dx, vecs, dF_inv)."""
-        G, slots, dofs, elements, places = op.kernel_layout()
-        pattern = op.pattern()
-
+        """``stiffness()`` of a response: the compiled stiffness from the
+        kept ``parts`` (x, y, dy_dx, vecs, dF_inv) into the CSR data of
+        the operator's pattern."""
         def stiffness():
-            data = np.zeros(len(pattern.structure()[3]))
-            self.assemble(G, slots, contiguous(w), elements, *places, kind,
+            data = np.zeros(layout.pattern.nnz)
+            self.assemble(*layout.groups, *layout.places, contiguous(w), kind,
                           C, *parts, data)
-            return pattern.csr(data)
+            return layout.pattern.csr(data)
         return stiffness
 
     def finite_response(self, kinematics, op, du: ndarray, points):
         """The finite-deformation response (the numpy path's
         :meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.response`)."""
-        G, slots, dofs, elements, places = op.kernel_layout()
+        layout = op.kernel_layout()
         n, k = points.n, self.dim
         b_dev, tau, yielded, spectral = kinematics._workspace(n, k)
         dF, dF_inv = np.empty((3, 3, n)), np.empty((3, 3, n))
         P, f, eq = np.empty((k, k, n)), np.zeros(op.N), np.empty(n)
         status = self.finite(
-            G, slots, dofs, contiguous(points.volume0), contiguous(du),
+            *layout.groups, contiguous(points.volume0), contiguous(du),
             contiguous(kinematics.start_deviation(points)), self.params,
             self._state(points), f, P, dF, dF_inv, b_dev, tau, spectral.d,
             spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq)
@@ -181,14 +202,14 @@ class CompiledPasses:
         return kinematics.trial_response(
             points, dF, dF_inv, P, state, k, converged, force=f.copy,
             stiffness=self._stiffness(
-                op, self.passes.FINITE_TANGENT, points.volume0, no_C,
+                layout, self.passes.FINITE_TANGENT, points.volume0, no_C,
                 (spectral.d, spectral.tau, spectral.dtau_dx, spectral.vecs,
                  dF_inv)))
 
     def small_response(self, kinematics, op, du: ndarray, points):
         """The small-strain response (the numpy path's
         :meth:`~skfem_mpm.mechanics.kinematics.SmallStrain.response`)."""
-        G, slots, dofs, elements, places = op.kernel_layout()
+        layout = op.kernel_layout()
         n, k = points.n, self.dim
         stress, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
         x, vecs = np.empty((3, n)), np.empty((3, 3, n))
@@ -196,7 +217,7 @@ class CompiledPasses:
         yielded, eq = np.zeros(n, dtype=bool), np.empty(n)
         f = np.zeros(op.N)
         self.small(
-            G, slots, dofs, contiguous(points.volume), contiguous(du),
+            *layout.groups, contiguous(points.volume), contiguous(du),
             contiguous(points.stress), contiguous(points.strain), self.params,
             self._state(points),
             f, stress, strain, x, vecs, y, dy_dx, yielded, eq)
@@ -207,12 +228,12 @@ class CompiledPasses:
             return kinematics.elastic_response(
                 points, stress, strain, k, force=f.copy,
                 stiffness=self._stiffness(
-                    op, self.passes.ELASTIC_TANGENT, points.volume, C,
+                    layout, self.passes.ELASTIC_TANGENT, points.volume, C,
                     (x, y, dy_dx, vecs, empty)))
         kinematics.counters["return_maps"] += 1
         return kinematics.plastic_response(
             points, (x[:k], y, dy_dx, vecs[:k, :k]), stress, strain, yielded,
             {"equivalent_plastic_strain": eq}, k, force=f.copy,
             stiffness=self._stiffness(
-                op, self.passes.RETURN_MAP_TANGENT, points.volume,
+                layout, self.passes.RETURN_MAP_TANGENT, points.volume,
                 np.zeros((k,) * 4), (x, y, dy_dx, vecs, empty)))

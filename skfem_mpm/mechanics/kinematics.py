@@ -144,15 +144,20 @@ class SmallStrain:
     kernels
         ``"auto"``, ``"numpy"`` or ``"compiled"``
         (:mod:`skfem_mpm.kernels`).
+    antilocking
+        The run's operators are wrapped in mean dilatation, which the
+        compiled passes do not serve (:func:`~skfem_mpm.mechanics.
+        compiled.compiled_path`).
 
     """
 
     def __init__(self, material, dim: int, counters: dict,
-                 kernels: str = "auto"):
+                 kernels: str = "auto", antilocking: bool = False):
         self.material, self.dim, self.counters = material, dim, counters
         self.plastic = is_plastic(material)
         self._elastic = None
-        self.compiled = compiled_path(kernels, material, dim)
+        self.compiled = compiled_path(kernels, material, dim,
+                                      antilocking=antilocking)
 
     def elastic_tangent(self, n: int, k: Optional[int] = None) -> ndarray:
         """Hooke's tensor of every point (a broadcast when uniform), in
@@ -236,18 +241,19 @@ class FiniteStrain:
         The point operator stays in the initial configuration (finite
         elements): gradients of the increment are mapped through the
         start-of-step ``F``.
-    kernels
+    kernels, antilocking
         As in :class:`SmallStrain`.
 
     """
 
     def __init__(self, material, dim: int, counters: dict,
-                 total_lagrangian: bool = False, kernels: str = "auto"):
+                 total_lagrangian: bool = False, kernels: str = "auto",
+                 antilocking: bool = False):
         self.material, self.dim, self.counters = material, dim, counters
         self.plastic = is_plastic(material)
         self.total_lagrangian = total_lagrangian
         self.compiled = compiled_path(kernels, material, dim,
-                                      total_lagrangian)
+                                      total_lagrangian, antilocking)
         self._buffers = None
         self._start = (None, None)
         self._start_inverse = (None, None)
@@ -402,9 +408,12 @@ class FiniteStrain:
 
 
 def make_kinematics(name: str, material, dim: int, counters: dict,
-                    total_lagrangian: bool = False, kernels: str = "auto"):
+                    total_lagrangian: bool = False, kernels: str = "auto",
+                    antilocking: bool = False):
     """The kinematics piece called ``name`` (``"small"`` or ``"finite"``)
-    with ``kernels`` (:mod:`skfem_mpm.kernels`)."""
+    with ``kernels`` (:mod:`skfem_mpm.kernels`; ``antilocking``: the
+    operators wrapped in mean dilatation)."""
     if name == "small":
-        return SmallStrain(material, dim, counters, kernels)
-    return FiniteStrain(material, dim, counters, total_lagrangian, kernels)
+        return SmallStrain(material, dim, counters, kernels, antilocking)
+    return FiniteStrain(material, dim, counters, total_lagrangian, kernels,
+                        antilocking)

@@ -11,11 +11,14 @@ matrix carries explicit zeros on inactive DOFs, which condensing onto the
 free DOFs drops.
 
 """
+from typing import NamedTuple
+
 import numpy as np
 from numpy import ndarray
 from scipy.sparse import csr_matrix
 
-__all__ = ["ElementPattern", "local_stiffness", "local_force",
+__all__ = ["ElementPattern", "GraphPattern", "KernelLayout",
+           "block_structure", "local_stiffness", "local_force",
            "local_load"]
 
 CHUNK = 512             # elements per block (bounds the temporaries)
@@ -78,23 +81,10 @@ class ElementPattern:
             graph = (incidence.T @ incidence).tocsr()
             graph.sort_indices()
             del incidence
-            nnz = graph.nnz * b * b
-            index = np.int32 if nnz < 2 ** 31 else np.int64
+            indices, indptr = block_structure(graph, b)
             counts = np.diff(graph.indptr).astype(np.int64)
-            # DOF rows b i .. b i + b - 1 repeat node row i, each of its
-            # columns j expanded to b j .. b j + b - 1
             starts = b * b * graph.indptr[:-1].astype(np.int64)
-            indptr = np.empty(b * n + 1, dtype=index)
-            indptr[:-1] = (starts[:, None] + np.arange(b) * b
-                           * counts[:, None]).ravel()
-            indptr[-1] = nnz
-            columns = (b * graph.indices[:, None].astype(index)
-                       + np.arange(b, dtype=index)).ravel()
-            indices = np.empty(nnz, dtype=index)
-            for i in range(b):            # DOF rows of component i: alike
-                mask = np.repeat(np.arange(b * n) % b == i, b * np.repeat(
-                    counts, b))
-                indices[mask] = columns
+            index = indices.dtype
             # (row, column) keys of the node graph, ascending
             keys = np.repeat(np.arange(n, dtype=np.int64) * n,
                              counts) + graph.indices
@@ -138,6 +128,95 @@ class ElementPattern:
         pattern's CSR order)."""
         indices, indptr = self.structure()[3:]
         return csr_matrix((data, indices, indptr), shape=(self.N, self.N))
+
+    @property
+    def nnz(self) -> int:
+        """The number of entries of the pattern."""
+        return len(self.structure()[3])
+
+
+def block_structure(graph: csr_matrix, b: int):
+    """``(indices, indptr)`` of the CSR matrix of ``b`` x ``b`` blocks on
+    the node graph ``graph`` (sorted indices): row ``b i + a`` holds the
+    columns ``b j .. b j + b - 1`` of every ``j`` of node row ``i``, so
+    the entry ``(b i + a, b j + c)`` is at ``b^2 graph.indptr[i] + a b
+    count_i + b (position of j in row i) + c``.
+
+    >>> import numpy as np
+    >>> from scipy.sparse import csr_matrix
+    >>> graph = csr_matrix(np.array([[1., 1.], [1., 0.]]))
+    >>> [a.tolist() for a in block_structure(graph, 2)]
+    [[0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 0, 1], [0, 4, 8, 10, 12]]
+    """
+    n = graph.shape[0]
+    nnz = graph.nnz * b * b
+    index = np.int32 if nnz < 2 ** 31 else np.int64
+    counts = np.diff(graph.indptr).astype(np.int64)
+    # DOF rows b i .. b i + b - 1 repeat node row i, each of its columns j
+    # expanded to b j .. b j + b - 1
+    starts = b * b * graph.indptr[:-1].astype(np.int64)
+    indptr = np.empty(b * n + 1, dtype=index)
+    indptr[:-1] = (starts[:, None] + np.arange(b) * b
+                   * counts[:, None]).ravel()
+    indptr[-1] = nnz
+    columns = (b * graph.indices[:, None].astype(index)
+               + np.arange(b, dtype=index)).ravel()
+    indices = np.empty(nnz, dtype=index)
+    for i in range(b):                    # DOF rows of component i: alike
+        mask = np.repeat(np.arange(b * n) % b == i, b * np.repeat(counts, b))
+        indices[mask] = columns
+    return indices, indptr
+
+
+class GraphPattern:
+    """CSR pattern of a field of ``b`` components a node on a node graph
+    (:func:`block_structure`): the pattern of the stiffness of a sparse
+    point operator, whose points couple the nodes of their supports.
+
+    Parameters
+    ----------
+    graph
+        The node graph (csr, sorted indices).
+    b
+        Components a node.
+
+    """
+
+    def __init__(self, graph: csr_matrix, b: int):
+        self.graph, self.N = graph, b * graph.shape[0]
+        self.indices, self.indptr = block_structure(graph, b)
+
+    @property
+    def nnz(self) -> int:
+        """The number of entries of the pattern."""
+        return len(self.indices)
+
+    def csr(self, data: ndarray) -> csr_matrix:
+        """The matrix of the pattern with entries ``data`` (in the
+        pattern's CSR order)."""
+        return csr_matrix((data, self.indices, self.indptr),
+                          shape=(self.N, self.N))
+
+
+class KernelLayout(NamedTuple):
+    """What the compiled passes (:mod:`skfem_mpm.kernels.passes`) read of
+    a point operator, formed once per operator.
+
+    ``groups``: ``(G, nodes, node_start, node_count, runs, order,
+    qstart)``, the shape gradients points first (entries, dim; a point's
+    from its first entry ``qstart``), the groups of points of one support
+    (an element's points, or a run of points of one row of a sparse
+    operator: ``node_count[r]`` nodes from ``nodes[node_start[r]]``, the
+    points ``order[runs[r]:runs[r + 1]]``); ``places``: ``(mode,
+    elements, first, length, graph_indptr, graph_indices)``, how the
+    stiffness pass finds the places of a group's entries in the CSR data
+    of ``pattern`` (``nnz``, ``csr(data)``): the element pattern's map of
+    the grid element ``elements[r]`` (:data:`~skfem_mpm.kernels.
+    PER_ENTRY`, :data:`~skfem_mpm.kernels.PER_NODE_PAIR`), or bisection
+    of the node graph's rows (:data:`~skfem_mpm.kernels.BISECTION`)."""
+    groups: tuple
+    places: tuple
+    pattern: object
 
 
 def local_stiffness(G: ndarray, A: ndarray, w: ndarray, slots: ndarray):

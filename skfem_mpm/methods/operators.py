@@ -29,12 +29,17 @@ from skfem.helpers import ddot, grad
 
 from ..quadrature.basis import MaterialPointBasis
 from ..errors import InvalidInputError
+from ..kernels import BISECTION, PER_ENTRY, PER_NODE_PAIR
 from ..graph import distinct, edge_graph, element_adjacency
-from .assembly import (ElementPattern, local_force, local_load,
-                       local_stiffness)
+from .assembly import (ElementPattern, GraphPattern, KernelLayout,
+                       local_force, local_load, local_stiffness)
 from ..mechanics.forms import body_force
 
 __all__ = ["AsmOperator", "SparseOperator"]
+
+#: the arrays a layout does not use (one type for every call of a pass)
+NO_INDEX = np.zeros(0, dtype=np.int64)
+NO_PLACES = np.zeros((0, 0), dtype=np.int32)
 
 
 @BilinearForm
@@ -120,6 +125,8 @@ class PointOperator:
         (dim, nloc, nelems, slots) at the points.
     scalar_dofs, element_dofs
         Scalar (nloc, nelems) and vector (dim * nloc, nelems) element DOFs.
+    n_points
+        The points of the basis (those of its subset).
 
     """
 
@@ -134,6 +141,7 @@ class PointOperator:
         self.N = dim * basis.N
         self.nelems = basis.nelems
         self.elements = basis.tind
+        self.n_points = len(basis.subset)
         self._pattern = pattern
         self.shape_values, gradients = basis.scalar_fields()
         self.shape_gradients = gradients.transpose(1, 0, 2, 3)
@@ -167,23 +175,31 @@ class PointOperator:
             self._pattern = ElementPattern(grid, self.N)
         return self._pattern
 
-    def kernel_layout(self):
+    def kernel_layout(self) -> KernelLayout:
         """What the compiled passes (:mod:`skfem_mpm.kernels.passes`)
-        read, formed once per operator: the shape gradients points first
-        (nelems, slots, nloc, dim), the point in each slot (nelems, slots),
-        the scalar element DOFs (nelems, nloc), the grid element of each
-        active element, and the pattern's places ``(first, length,
-        per_node)`` (:meth:`~skfem_mpm.methods.assembly.ElementPattern.
-        structure`)."""
+        read, formed once per operator
+        (:class:`~skfem_mpm.methods.assembly.KernelLayout`): a group an
+        active element, its points those of its slots, their shape
+        gradients points first, the places of the grid's pattern
+        (:meth:`~skfem_mpm.methods.assembly.ElementPattern.structure`)."""
         if self._layout is None:
             first, length, expand = self.pattern().structure()[:3]
-            self._layout = (
-                np.ascontiguousarray(self.shape_gradients.transpose(
-                    2, 3, 1, 0)),
-                np.ascontiguousarray(self.basis.point_index, dtype=np.int64),
-                np.ascontiguousarray(self.scalar_dofs.T, dtype=np.int64),
-                np.asarray(self.elements, dtype=np.int64),
-                (first, length, expand is not None))
+            slots = self.basis.point_index
+            real = slots >= 0
+            nel, nloc = self.nelems, self.scalar_dofs.shape[0]
+            G = np.ascontiguousarray(self.shape_gradients.transpose(
+                2, 3, 1, 0)).reshape(-1, self.dim)
+            self._layout = KernelLayout(
+                (G, np.ascontiguousarray(self.scalar_dofs.T,
+                                         dtype=np.int64).ravel(),
+                 np.arange(nel, dtype=np.int64) * nloc,
+                 np.full(nel, nloc, dtype=np.int64),
+                 np.r_[0, np.cumsum(real.sum(axis=1))].astype(np.int64),
+                 slots[real].astype(np.int64),
+                 np.flatnonzero(real.ravel()).astype(np.int64) * nloc),
+                (PER_ENTRY if expand is None else PER_NODE_PAIR,
+                 np.asarray(self.elements, dtype=np.int64), first, length,
+                 NO_INDEX, NO_INDEX), self.pattern())
         return self._layout
 
     def _scatter(self, local: ndarray) -> ndarray:
@@ -221,6 +237,11 @@ class SparseOperator:
     elements
         The active elements (holding part of a point's domain).
 
+    Attributes
+    ----------
+    n_points
+        The points, rows of ``S``.
+
     """
 
     #: the grid's connectivity follows the points' supports, not only
@@ -235,12 +256,14 @@ class SparseOperator:
                                     "pattern")
         self.dim = len(self.G)
         self.N = self.dim * S.shape[1]
+        self.n_points = S.shape[0]
         self.elements = elements
         self.nelems = len(elements)
         support = distinct(S.indices, S.shape[1])
         self.active_dofs = (self.dim * support[:, None]
                             + np.arange(self.dim)).ravel()
         self._gradient_rows = None
+        self._layout = None
 
     def adjacency(self):
         """The nodes of each point's support joined in a chain."""
@@ -279,6 +302,49 @@ class SparseOperator:
                                  for b in range(dim)] + [[dim * S.nnz]])
         return csr_matrix((data, np.tile(S.indices * dim + component, dim),
                            indptr), shape=(dim * S.shape[0], self.N))
+
+    def kernel_layout(self) -> KernelLayout:
+        """What the compiled passes (:mod:`skfem_mpm.kernels.passes`)
+        read, formed once per operator
+        (:class:`~skfem_mpm.methods.assembly.KernelLayout`): the gradients
+        points first with each row's nodes ascending, a group the points
+        of one support (the points of a cell whose domains lie inside it),
+        the stiffness's places by bisection of the node graph of the
+        supports, on which its
+        :class:`~skfem_mpm.methods.assembly.GraphPattern` lies."""
+        if self._layout is None:
+            S, n = self.S, self.S.shape[0]
+            counts = np.diff(S.indptr)
+            row = np.repeat(np.arange(n), counts)
+            order = np.lexsort((S.indices, row))
+            nodes = S.indices[order].astype(np.int64)
+            G = np.ascontiguousarray(np.stack([g.data[order]
+                                               for g in self.G], axis=1))
+            first = S.indptr[:-1].astype(np.int64)
+            # points of one support side by side (sorted by their first
+            # and last node and count), a group each
+            padded = np.full((n, max(counts.max(initial=0), 1)), -1)
+            padded[row, np.arange(len(row)) - first[row]] = nodes
+            last = padded[np.arange(n), np.maximum(counts - 1, 0)]
+            points = np.lexsort((counts, last, padded[:, 0]))
+            padded = padded[points]
+            runs = np.flatnonzero(np.r_[n > 0, np.any(
+                padded[1:] != padded[:-1], axis=1)])
+            del padded
+            qstart = first[points]
+            incidence = csr_matrix((np.ones(len(nodes)), nodes, S.indptr),
+                                   shape=S.shape)
+            graph = (incidence.T.tocsr() @ incidence).tocsr()
+            graph.sort_indices()
+            self._layout = KernelLayout(
+                (G, nodes, qstart[runs], counts[points[runs]].astype(
+                    np.int64), np.append(runs, n).astype(np.int64),
+                 points.astype(np.int64), qstart),
+                (BISECTION, NO_INDEX, NO_PLACES, NO_PLACES,
+                 graph.indptr.astype(np.int64),
+                 graph.indices.astype(np.int64)),
+                GraphPattern(graph, self.dim))
+        return self._layout
 
     def stiffness(self, A: ndarray, w: ndarray):
         """``K_(ia)(jc) = sum_(b,d) G_b^T diag(w A_abcd) G_d``: per

@@ -175,9 +175,11 @@ class Options:
         against the mesh when the run starts).
     kernels
         ``"auto"`` (default): the compiled points-first passes of a Newton
-        iteration where they cover the run (standard MPM in 2D and 3D,
-        small and finite deformation, ``LinearElastic`` and ``VonMises``)
-        and numba imports, the numpy path otherwise (logged once);
+        iteration where they cover the run (standard MPM, uGIMP, cpGIMP
+        and B-splines in 2D and 3D, small and finite deformation,
+        ``LinearElastic``, ``VonMises`` and ``DruckerPrager``; not mean
+        dilatation) and numba imports, the numpy path otherwise (logged
+        once);
         ``"numpy"``: the numpy path, the tested reference;
         ``"compiled"``: the compiled passes, a run they cannot serve
         refused before any work (:mod:`skfem_mpm.kernels`).
