@@ -19,8 +19,9 @@ import pytest
 from skfem import (ElementHex1, ElementQuad1, ElementQuad2, ElementTriP1,
                    ElementVector, MeshHex, MeshQuad, MeshTri)
 
-from skfem_mpm import (DruckerPrager, LinearElastic, Options, Resume,
-                       Stabilisation, VonMises, seed_points, simulate)
+from skfem_mpm import (DruckerPrager, LinearElastic, MohrCoulomb, Options,
+                       Resume, Stabilisation, VonMises, seed_points,
+                       simulate)
 from skfem_mpm import kernels
 from skfem_mpm.errors import InvalidInputError
 from skfem_mpm.mechanics.kinematics import make_kinematics
@@ -42,7 +43,10 @@ MATERIALS = {"elastic": LinearElastic(1e6, .3),
              "von_mises": VonMises(1e6, .3, 2e3),
              "drucker_prager": DruckerPrager(
                  1e6, .3, cohesion=1e3, friction_angle=30.,
-                 dilation_angle=10., hardening=1e4)}
+                 dilation_angle=10., hardening=1e4),
+             "mohr_coulomb": MohrCoulomb(1e6, .3, cohesion=1e3,
+                                         friction_angle=30.,
+                                         dilation_angle=10.)}
 GRIDS = {2: (MeshQuad, ElementQuad1), 3: (MeshHex, ElementHex1)}
 
 
@@ -140,6 +144,42 @@ def test_a_response_equals_the_numpy_path(dim, kind, name, method):
         start = results[0][3]
 
 
+def test_the_mohr_coulomb_return_equals_numpy_on_every_branch():
+    """The compiled return map on principal strains, point by point,
+    against :meth:`MohrCoulomb.principal_update` on all points at once:
+    stresses, elastic strains, the tangent and the hardening variable to
+    round-off, with states returned to the plane, to both edges and to the
+    apex among them (from the returned stresses' coincident values)."""
+    from skfem_mpm.kernels.constitutive import principal_update
+    from skfem_mpm.mechanics.compiled import material_parameters
+    material = MohrCoulomb(1e4, .3, cohesion=10., friction_angle=30.,
+                           dilation_angle=10.)
+    rng = np.random.default_rng(0)
+    eps = np.hstack((3e-3 * rng.standard_normal((3, 200)), np.array([
+        [.002, .002, -.01], [.01, -.002, -.002], [.02, .02, .02],
+        [.001, -.001, 0.], [0., 0., 0.]]).T))
+    alpha = rng.uniform(0, 1e-3, eps.shape[1])
+    tau, eps_e, D, yielded, state = material.principal_update(
+        eps, {"equivalent_plastic_strain": alpha})
+    params = material_parameters(material)
+    out = [np.empty(3), np.empty(3), np.empty((3, 3))]
+    for p in range(eps.shape[1]):
+        assert principal_update(params, eps[:, p].copy(), alpha[p], *out
+                                ) == (yielded[p], pytest.approx(
+                                    state["equivalent_plastic_strain"][p],
+                                    rel=TOL, abs=1e-20))
+        for mine, theirs in zip(out, (tau, eps_e, D)):
+            assert np.abs(mine - theirs[..., p]).max() <= \
+                TOL * np.abs(theirs).max()
+    s = -np.sort(-tau, axis=0)
+    close = np.abs(np.diff(s, axis=0)) < 1e-9 * np.abs(s).max()
+    apex = close.all(axis=0) & yielded
+    branches = (~close.any(axis=0) & yielded, close[0] & ~apex,
+                close[1] & ~apex, apex)
+    assert [int(b.sum()) > 5 for b in branches] == [True] * 4
+    assert (~yielded).sum() > 5
+
+
 def column(dim):
     """The grid and points of :func:`column_run`."""
     mesh = GRIDS[dim][0].init_tensor(*[np.linspace(0, 3, 4)] * (dim - 1),
@@ -176,7 +216,9 @@ def column_run(dim, kinematics, material, kernels_used, nsteps=3,
     (2, "small", "drucker_prager", "ugimp"),
     (3, "finite", "elastic", "cpgimp"),
     (3, "small", "von_mises", "ugimp"), (2, "finite", "von_mises", "ugimp"),
-    (2, "small", "elastic", "cpgimp"), (2, "finite", "von_mises", "bspline")])
+    (2, "small", "elastic", "cpgimp"), (2, "finite", "von_mises", "bspline"),
+    (2, "finite", "mohr_coulomb", "cpgimp"),
+    (3, "small", "mohr_coulomb", "mpm")])
 def test_runs_equal_the_numpy_path(dim, kinematics, name, method,
                                    monkeypatch, caplog):
     """Whole runs (GIMP in 3D: 2 steps, the second switches the ghost
@@ -195,7 +237,7 @@ def test_runs_equal_the_numpy_path(dim, kinematics, name, method,
     for field in ("x", "stress", "strain"):
         assert relative(getattr(runs[1].points, field),
                         getattr(runs[0].points, field)) < TOL
-    if name == "von_mises":
+    if name != "elastic":
         assert runs[0].history[-1].n_yielded > 0
 
 
@@ -235,6 +277,8 @@ def test_the_choice_is_checked(monkeypatch, caplog):
     for material, dim, scheme, antilocking, why in (
             (UserElastic(1e6, .3), 2, False, False,
              "the material UserElastic"),
+            (MohrCoulomb(1e6, .3, 1e3, 0.), 2, False, False,
+             "the material MohrCoulomb without friction"),
             (LinearElastic(1e6, .3), 1, False, False, "1D grids"),
             (LinearElastic(1e6, .3), 2, True, False, "total Lagrangian"),
             (LinearElastic(1e6, .3), 3, False, True, "mean dilatation")):

@@ -7,19 +7,24 @@ formulas of :mod:`skfem_mpm.mechanics.hencky` and
 :mod:`skfem_mpm.mechanics.materials` operation by operation, so that the
 compiled passes (:mod:`skfem_mpm.kernels.passes`) equal the numpy path to
 round-off.  The material is a parameter vector (its kind,
-:data:`~skfem_mpm.kernels.ELASTIC` or :data:`~skfem_mpm.kernels.VON_MISES`,
-then ``lam, mu, E, nu, yield_stress``).
+:data:`~skfem_mpm.kernels.ELASTIC`, :data:`~skfem_mpm.kernels.VON_MISES`,
+:data:`~skfem_mpm.kernels.DRUCKER_PRAGER` or
+:data:`~skfem_mpm.kernels.MOHR_COULOMB`, then ``lam, mu, E, nu`` and the
+model's constants: :func:`~skfem_mpm.mechanics.compiled.
+material_parameters`); the soils' return maps are in
+:mod:`skfem_mpm.kernels.soils`.
 """
 import math
 
 from numba import literally, njit
 
-from . import DRUCKER_PRAGER, VON_MISES
+from . import DRUCKER_PRAGER, MOHR_COULOMB, VON_MISES
+from .soils import drucker_prager, elastic_strains, mohr_coulomb
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: and constants this module compiles in (as
 #: :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "43799afd056d51f6"
+SOURCES = "9ff157076e230df1"
 
 
 @njit(cache=True, error_model="numpy")
@@ -126,10 +131,7 @@ def principal_update(params, eps, eq, tau, eps_e, D):
             s = (s0, s1, s2)
             for a in range(3):
                 tau[a] = p + ratio * s[a]
-            trace_tau = tau[0] + tau[1] + tau[2]
-            for a in range(3):
-                eps_e[a] = (tau[a] - lam / (3 * lam + 2 * mu) * trace_tau) \
-                    / (2 * mu)
+            elastic_strains(lam, mu, tau, eps_e)
             bulk = E / (3 * (1 - 2 * nu))
             for a in range(3):
                 for b in range(3):
@@ -139,61 +141,9 @@ def principal_update(params, eps, eq, tau, eps_e, D):
             eq = eq + (q - yield_stress) / (3 * mu)
     elif params[0] == DRUCKER_PRAGER:
         yielded, eq = drucker_prager(params, tau, eps_e, D, eq)
+    elif params[0] == MOHR_COULOMB:
+        yielded, eq = mohr_coulomb(params, eps, tau, eps_e, D, eq)
     return yielded, eq
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def drucker_prager(params, tau, eps_e, D, alpha):
-    """The return map of :class:`~skfem_mpm.mechanics.soils.
-    DruckerPrager` (to the cone, or to its apex) from the elastic trial
-    ``tau`` and ``D``, in place as :func:`principal_update`; ``params``:
-    ``(kind, lam, mu, E, nu, -, cohesion, eta, xi, eta_bar, hardening,
-    apex stiffness)``."""
-    lam, mu, E, nu = params[1], params[2], params[3], params[4]
-    c0, eta, xi, eta_bar, H = params[6], params[7], params[8], params[9], \
-        params[10]
-    G, K = mu, E / (3 * (1 - 2 * nu))
-    p = (tau[0] + tau[1] + tau[2]) / 3
-    s = (tau[0] - p, tau[1] - p, tau[2] - p)
-    norm_s = math.sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2])
-    cohesion = c0 + H * alpha
-    f = norm_s / math.sqrt(2) + eta * p - xi * cohesion
-    scale = max(xi * abs(cohesion), abs(eta * p)) + norm_s + 2.2250738585072014e-308
-    yielded = f > 1e-12 * scale
-    if yielded:
-        A = G + K * eta * eta_bar + xi * xi * H
-        dgamma = f / A
-        if norm_s / math.sqrt(2) - G * dgamma >= 0:           # the cone
-            length = norm_s if norm_s > 0 else 1.
-            n = (s[0] / length, s[1] / length, s[2] / length)
-            new_p = p - K * eta_bar * dgamma
-            for a in range(3):
-                tau[a] = (s[a] - math.sqrt(2) * G * dgamma * n[a]) + new_p
-            for a in range(3):
-                for b in range(3):
-                    dev = (1. if a == b else 0.) - 1. / 3
-                    d_b = (math.sqrt(2) * G * n[b] + eta * K) / A
-                    dn = 2 * G * (dev - n[a] * n[b]) / length
-                    D[a, b] = (2 * G * dev - math.sqrt(2) * G * (
-                        n[a] * d_b + dgamma * dn)) + (K - K * eta_bar * d_b)
-            alpha = alpha + xi * dgamma
-        else:                                               # the apex
-            beta = xi / max(eta, 2.2250738585072014e-308)
-            growth = xi / eta_bar if eta_bar > 0 else beta
-            dev = (p - beta * cohesion) / (K + beta * growth * H)
-            for a in range(3):
-                tau[a] = 0. + (p - K * dev)
-            k_apex = K * (1 - K / (K + beta * growth * H))
-            for a in range(3):
-                for b in range(3):
-                    D[a, b] = k_apex + params[11] * (
-                        lam + (2 * mu if a == b else 0.))
-            alpha = alpha + growth * dev
-        trace_tau = tau[0] + tau[1] + tau[2]
-        for a in range(3):
-            eps_e[a] = (tau[a] - lam / (3 * lam + 2 * mu) * trace_tau) \
-                / (2 * mu)
-    return yielded, alpha
 
 
 @njit(cache=True, error_model="numpy", inline="always")

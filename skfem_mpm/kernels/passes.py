@@ -58,7 +58,7 @@ __all__ = ["passes_of", "finite_commit", "ELASTIC_TANGENT",
 #: function on its own file alone, so a change there must change this
 #: file too, or the passes would run the cached old code
 #: (``tests/test_compiled.py`` checks it)
-SOURCES = "f1df992a61c4cba9"
+SOURCES = "81eba8e258bb9f06"
 
 
 @njit(cache=True, error_model="numpy", inline="always")

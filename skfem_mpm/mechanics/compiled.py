@@ -8,12 +8,13 @@ a ``kernel_layout`` over all points, standard MPM's (any element; also
 cpGIMP and B-splines (also on the fields of bodies in contact), in 2D and
 3D, small strain and finite deformation (updated Lagrangian),
 :class:`~skfem_mpm.mechanics.materials.LinearElastic`,
-:class:`~skfem_mpm.mechanics.materials.VonMises` and
-:class:`~skfem_mpm.mechanics.soils.DruckerPrager`.  Everything else (mean
-dilatation, the total Lagrangian scheme of ``method="fem"`` in finite
-deformation, 1D, Mohr-Coulomb and Cam clay, a user's material, one
-material per body) runs on the numpy path, the reference the compiled
-passes are tested equal to.
+:class:`~skfem_mpm.mechanics.materials.VonMises`,
+:class:`~skfem_mpm.mechanics.soils.DruckerPrager` and
+:class:`~skfem_mpm.mechanics.soils.MohrCoulomb` (with friction).
+Everything else (mean dilatation, the total Lagrangian scheme of
+``method="fem"`` in finite deformation, 1D, Cam clay, a user's material,
+one material per body) runs on the numpy path, the reference the
+compiled passes are tested equal to.
 
 A compiled response fills the arrays the numpy path fills (stress, the
 spectral parts, ``dF`` ...), so the kinematics build it, its commit and its
@@ -30,10 +31,10 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError
-from ..kernels import (DRUCKER_PRAGER, ELASTIC, VON_MISES, check_kernels,
-                       compiled_passes, log_once)
+from ..kernels import (DRUCKER_PRAGER, ELASTIC, MOHR_COULOMB, VON_MISES,
+                       check_kernels, compiled_passes, log_once)
 from .materials import LinearElastic, VonMises, elastic_tensor
-from .soils import APEX_STIFFNESS, DruckerPrager
+from .soils import APEX_STIFFNESS, DruckerPrager, MohrCoulomb
 
 __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
            "COVERAGE"]
@@ -41,18 +42,31 @@ __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
 #: what the compiled passes serve (the refusal of ``kernels="compiled"``
 #: says it)
 COVERAGE = ("standard MPM, uGIMP, cpGIMP and B-splines in 2D and 3D, small "
-            "and finite deformation, LinearElastic, VonMises and "
-            "DruckerPrager")
+            "and finite deformation, LinearElastic, VonMises, DruckerPrager "
+            "and MohrCoulomb")
 
 
 def material_parameters(material) -> Optional[ndarray]:
     """The parameter vector of the compiled return maps
-    (:mod:`skfem_mpm.kernels.constitutive`), or ``None`` for a material
-    they do not cover (only the built-in classes themselves, not
-    subclasses, which may change the law)."""
+    (:mod:`skfem_mpm.kernels.constitutive`, :mod:`skfem_mpm.kernels.
+    soils`), or ``None`` for a material they do not cover (only the
+    built-in classes themselves, not subclasses, which may change the law;
+    not Mohr-Coulomb without friction, whose apex the numpy path refuses):
+    ``(kind, lam, mu, E, nu)``, then von Mises' ``yield_stress``;
+    Drucker-Prager's ``(-, cohesion, eta, xi, eta_bar, hardening, apex
+    stiffness)``; Mohr-Coulomb's ``(-, k, m, sigma_c, -, -, apex
+    stiffness)``.
+
+    >>> from skfem_mpm import MohrCoulomb
+    >>> mc = MohrCoulomb(1e4, .3, cohesion=10., friction_angle=30.,
+    ...                  dilation_angle=10.)
+    >>> material_parameters(mc)[[0, 6, 7, 8]].round(6).tolist()   # k, m
+    [3.0, 3.0, 1.420277, 34.641016]
+    """
     kind = {LinearElastic: ELASTIC, VonMises: VON_MISES,
-            DruckerPrager: DRUCKER_PRAGER}.get(type(material))
-    if kind is None:
+            DruckerPrager: DRUCKER_PRAGER,
+            MohrCoulomb: MOHR_COULOMB}.get(type(material))
+    if kind is None or kind == MOHR_COULOMB and not material.k > 1:
         return None
     params = np.zeros(12)
     params[:5] = kind, material.lam, material.mu, material.E, material.nu
@@ -61,7 +75,17 @@ def material_parameters(material) -> Optional[ndarray]:
     if kind == DRUCKER_PRAGER:
         params[6:] = (material.cohesion, material.eta, material.xi,
                       material.eta_bar, material.hardening, APEX_STIFFNESS)
+    if kind == MOHR_COULOMB:
+        params[6:9] = material.k, material.m, material.sigma_c
+        params[11] = APEX_STIFFNESS
     return params
+
+
+def material_name(material) -> str:
+    """The class name of ``material``, and why the passes leave it."""
+    name = type(material).__name__
+    return name + " without friction" if type(material) is MohrCoulomb \
+        else name
 
 
 def compiled_path(kernels: str, material, dim: int,
@@ -89,7 +113,7 @@ passes do not serve mean dilatation (Stabilisation(antilocking=True)); ...
               if total_lagrangian
               else "mean dilatation (Stabilisation(antilocking=True))"
               if antilocking
-              else "the material {}".format(type(material).__name__)
+              else "the material {}".format(material_name(material))
               if params is None else None)
     passes = None if reason else compiled_passes()
     if reason is None and passes is not None:
