@@ -137,18 +137,10 @@ def test_drained_triaxial_reaches_the_critical_state(model):
         assert ev[-1] < 0                                    # dilates
 
 
-def test_oedometric_block_in_the_core_matches_the_element_test():
-    """A Cam clay block confined on rollers (no free surface, so the
-    reference pressure is in equilibrium), compressed by its top grid
-    nodes past its preconsolidation: every point carries the element
-    test's stress (small strain: 1e-9 relative; finite deformation:
-    the log strain 10 ln 0.98 of the grid-node motion, Cauchy stress =
-    Kirchhoff / J) after one Newton step per load step (the predictor
-    carries the lid's motion through the block); under a weight, Newton
-    quadratic (log-ratio >= 1.8)."""
-    model = ModifiedCamClay(kappa=.02, lambda_=.2, M=1.2, shear_modulus=2e3,
-                            reference_pressure=P0,
-                            preconsolidation_pressure=1.5 * P0)
+def oedometric_block(lid: float):
+    """The grid, points, supports and lid motion of a block (1 x 1, 2 x 2
+    points a cell) on rollers at its sides and base, no free surface, its
+    lid nodes pushed down by ``lid`` over a run."""
     mesh = MeshQuad.init_tensor(np.linspace(0., 1., 3),
                                 np.linspace(0., 1.5, 4))
     points = seed_points(mesh, 2, region=lambda x: x[1] < 1)
@@ -161,7 +153,23 @@ def test_oedometric_block_in_the_core_matches_the_element_test():
                        | np.isclose(x[0], 1.)).all("u^1")])
 
     def push(b, f_old, f_new):
-        return b.nodal_dofs[1, top], np.full(top.size, -.2 * (f_new - f_old))
+        return b.nodal_dofs[1, top], np.full(top.size, -lid * (f_new - f_old))
+    return mesh, points, supports, push
+
+
+def test_oedometric_block_in_the_core_matches_the_element_test():
+    """A Cam clay block confined on rollers (no free surface, so the
+    reference pressure is in equilibrium), compressed by its top grid
+    nodes past its preconsolidation: every point carries the element
+    test's stress (small strain: 1e-9 relative; finite deformation:
+    the log strain 10 ln 0.98 of the grid-node motion, Cauchy stress =
+    Kirchhoff / J) after one Newton step per load step (the predictor
+    carries the lid's motion through the block); under a weight, Newton
+    quadratic (log-ratio >= 1.8)."""
+    model = ModifiedCamClay(kappa=.02, lambda_=.2, M=1.2, shear_modulus=2e3,
+                            reference_pressure=P0,
+                            preconsolidation_pressure=1.5 * P0)
+    mesh, points, supports, push = oedometric_block(.2)
     for kinematics in ("small", "finite"):
         res = simulate(mesh, ElementQuad1(), points, model, supports,
                        prescribed=push, nsteps=10, kinematics=kinematics)

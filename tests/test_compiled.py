@@ -19,9 +19,9 @@ import pytest
 from skfem import (ElementHex1, ElementQuad1, ElementQuad2, ElementTriP1,
                    ElementVector, MeshHex, MeshQuad, MeshTri)
 
-from skfem_mpm import (DruckerPrager, LinearElastic, MohrCoulomb, Options,
-                       Resume, Stabilisation, VonMises, seed_points,
-                       simulate)
+from skfem_mpm import (DruckerPrager, LinearElastic, ModifiedCamClay,
+                       MohrCoulomb, Options, Resume, Stabilisation, VonMises,
+                       seed_points, simulate)
 from skfem_mpm import kernels
 from skfem_mpm.errors import InvalidInputError
 from skfem_mpm.mechanics.kinematics import make_kinematics
@@ -46,7 +46,10 @@ MATERIALS = {"elastic": LinearElastic(1e6, .3),
                  dilation_angle=10., hardening=1e4),
              "mohr_coulomb": MohrCoulomb(1e6, .3, cohesion=1e3,
                                          friction_angle=30.,
-                                         dilation_angle=10.)}
+                                         dilation_angle=10.),
+             "cam_clay": ModifiedCamClay(
+                 kappa=.02, lambda_=.2, M=1.2, shear_modulus=2e3,
+                 reference_pressure=100., preconsolidation_pressure=105.)}
 GRIDS = {2: (MeshQuad, ElementQuad1), 3: (MeshHex, ElementHex1)}
 
 
@@ -164,10 +167,10 @@ def test_the_mohr_coulomb_return_equals_numpy_on_every_branch():
     params = material_parameters(material)
     out = [np.empty(3), np.empty(3), np.empty((3, 3))]
     for p in range(eps.shape[1]):
-        assert principal_update(params, eps[:, p].copy(), alpha[p], *out
-                                ) == (yielded[p], pytest.approx(
+        assert principal_update(params, eps[:, p].copy(), alpha[p], 0.,
+                                *out) == (yielded[p], pytest.approx(
                                     state["equivalent_plastic_strain"][p],
-                                    rel=TOL, abs=1e-20))
+                                    rel=TOL, abs=1e-20), 0.)
         for mine, theirs in zip(out, (tau, eps_e, D)):
             assert np.abs(mine - theirs[..., p]).max() <= \
                 TOL * np.abs(theirs).max()
@@ -178,6 +181,49 @@ def test_the_mohr_coulomb_return_equals_numpy_on_every_branch():
                 close[1] & ~apex, apex)
     assert [int(b.sum()) > 5 for b in branches] == [True] * 4
     assert (~yielded).sum() > 5
+
+
+def test_the_cam_clay_return_equals_numpy_with_its_fallback(monkeypatch):
+    """The compiled Cam clay return point by point against
+    :meth:`ModifiedCamClay.principal_update` on trial states about the
+    reference pressure and far ones (strains to -0.5, overconsolidation
+    20), some of which leave Newton's path for the bracketed solve:
+    stresses, elastic strains, tangent and both internal variables to
+    round-off; the iteration constants are the numpy path's."""
+    from skfem_mpm.kernels import cam_clay as compiled
+    from skfem_mpm.kernels.constitutive import principal_update
+    from skfem_mpm.mechanics import cam_clay
+    from skfem_mpm.mechanics.compiled import material_parameters
+    assert (compiled.RETURN_TOL, compiled.RETURN_MAX_ITER) == (
+        cam_clay.RETURN_TOL, cam_clay.RETURN_MAX_ITER)
+    bracketed = []
+    original = ModifiedCamClay._bracketed_return
+    monkeypatch.setattr(ModifiedCamClay, "_bracketed_return", lambda *args: (
+        bracketed.append(args[1].size) or original(*args)))
+    material = ModifiedCamClay(kappa=.02, lambda_=.2, M=1.2,
+                               shear_modulus=2e3, reference_pressure=100.,
+                               preconsolidation_pressure=2e3)
+    rng = np.random.default_rng(3)
+    eps = np.hstack((rng.normal(0., .02, (3, 100)) - .01,
+                     rng.uniform(-.5, .2, (3, 100))))
+    state = {"plastic_volumetric_strain": rng.normal(0., .05, 200),
+             "equivalent_plastic_strain": np.abs(rng.normal(0., .01, 200))}
+    tau, eps_e, D, yielded, new = material.principal_update(eps, state)
+    assert sum(bracketed) > 0 and 0 < yielded.mean() < 1
+    params = material_parameters(material)
+    out = [np.empty(3), np.empty(3), np.empty((3, 3))]
+    for p in range(eps.shape[1]):
+        flag, eq, ev = principal_update(
+            params, eps[:, p].copy(), state["equivalent_plastic_strain"][p],
+            state["plastic_volumetric_strain"][p], *out)
+        assert flag == yielded[p]
+        assert eq == pytest.approx(new["equivalent_plastic_strain"][p],
+                                   rel=TOL, abs=1e-20)
+        assert ev == pytest.approx(new["plastic_volumetric_strain"][p],
+                                   rel=TOL, abs=1e-20)
+        for mine, theirs in zip(out, (tau, eps_e, D)):
+            assert np.abs(mine - theirs[..., p]).max() <= \
+                TOL * np.abs(theirs).max()
 
 
 def column(dim):
@@ -239,6 +285,32 @@ def test_runs_equal_the_numpy_path(dim, kinematics, name, method,
                         getattr(runs[0].points, field)) < TOL
     if name != "elastic":
         assert runs[0].history[-1].n_yielded > 0
+
+
+@pytest.mark.parametrize("kinematics, method", [("small", "mpm"),
+                                               ("finite", "cpgimp")])
+def test_a_cam_clay_run_equals_the_numpy_path(kinematics, method):
+    """A Cam clay block confined on rollers (its reference pressure in
+    equilibrium) under its weight, its lid pushed down past the
+    preconsolidation pressure (``test_cam_clay.py``'s oedometer): both
+    internal variables, the stresses and every step's grid displacement
+    equal the numpy path's to round-off."""
+    from test_cam_clay import oedometric_block
+    material = MATERIALS["cam_clay"]
+    mesh, points, supports, push = oedometric_block(.1)
+    runs = [simulate(mesh, ElementQuad1(), points, material, supports,
+                     prescribed=push, nsteps=4, kinematics=kinematics,
+                     method=method, body_force=[0., -20.],
+                     options=Options(kernels=k))
+            for k in ("numpy", "compiled")]
+    for a, b in zip(*(r.history for r in runs)):
+        assert len(a.newton_residuals) == len(b.newton_residuals) > 2
+        assert relative(b.u, a.u) < TOL
+    assert runs[0].history[-1].n_yielded == runs[0].points.n
+    for name in ("plastic_volumetric_strain", "equivalent_plastic_strain"):
+        assert relative(runs[1].points.state[name],
+                        runs[0].points.state[name]) < TOL, name
+    assert relative(runs[1].points.stress, runs[0].points.stress) < TOL
 
 
 @pytest.mark.parametrize("method", ["mpm", "cpgimp"])

@@ -10,8 +10,8 @@ material, dimension, scheme or stabilisation without compiled passes:
 MPM's element operator and the sparse operators of uGIMP, cpGIMP and
 B-splines, in 2D and 3D, small and finite deformation (not the total
 Lagrangian scheme of ``method="fem"``), ``LinearElastic``, ``VonMises``,
-``DruckerPrager`` and ``MohrCoulomb``; not mean dilatation, Cam clay, a
-user's material or one material per body.  numba is
+``DruckerPrager``, ``MohrCoulomb`` and ``ModifiedCamClay``; not mean
+dilatation, a user's material or one material per body.  numba is
 imported only when a run first asks for the passes, so that ``import
 skfem_mpm`` stays light; the kernels are cached on disk, so a second
 process does not compile them again.
@@ -21,8 +21,8 @@ import logging
 from ..errors import InvalidInputError
 
 __all__ = ["KERNELS", "ELASTIC", "VON_MISES", "DRUCKER_PRAGER",
-           "MOHR_COULOMB", "PER_ENTRY", "PER_NODE_PAIR", "BISECTION",
-           "check_kernels", "compiled_passes", "log_once"]
+           "MOHR_COULOMB", "CAM_CLAY", "PER_ENTRY", "PER_NODE_PAIR",
+           "BISECTION", "check_kernels", "compiled_passes", "log_once"]
 
 logger = logging.getLogger(__name__)
 
@@ -31,6 +31,7 @@ KERNELS = ("auto", "numpy", "compiled")
 #: parameter vector ``(kind, lam, mu, E, nu, ...)``
 #: (:func:`skfem_mpm.mechanics.compiled.material_parameters`)
 ELASTIC, VON_MISES, DRUCKER_PRAGER, MOHR_COULOMB = 0., 1., 2., 3.
+CAM_CLAY = 4.
 #: how the stiffness pass finds the CSR places of a group's entries
 #: (:class:`~skfem_mpm.methods.assembly.KernelLayout`): the element
 #: pattern's map per entry or per node pair, or bisection of the rows of

@@ -8,23 +8,25 @@ formulas of :mod:`skfem_mpm.mechanics.hencky` and
 compiled passes (:mod:`skfem_mpm.kernels.passes`) equal the numpy path to
 round-off.  The material is a parameter vector (its kind,
 :data:`~skfem_mpm.kernels.ELASTIC`, :data:`~skfem_mpm.kernels.VON_MISES`,
-:data:`~skfem_mpm.kernels.DRUCKER_PRAGER` or
-:data:`~skfem_mpm.kernels.MOHR_COULOMB`, then ``lam, mu, E, nu`` and the
-model's constants: :func:`~skfem_mpm.mechanics.compiled.
-material_parameters`); the soils' return maps are in
-:mod:`skfem_mpm.kernels.soils`.
+:data:`~skfem_mpm.kernels.DRUCKER_PRAGER`,
+:data:`~skfem_mpm.kernels.MOHR_COULOMB` or
+:data:`~skfem_mpm.kernels.CAM_CLAY`, then ``lam, mu`` and the model's
+constants: :func:`~skfem_mpm.mechanics.compiled.material_parameters`);
+the soils' return maps are in :mod:`skfem_mpm.kernels.soils` and
+:mod:`skfem_mpm.kernels.cam_clay`.
 """
 import math
 
 from numba import literally, njit
 
-from . import DRUCKER_PRAGER, MOHR_COULOMB, VON_MISES
+from . import CAM_CLAY, DRUCKER_PRAGER, MOHR_COULOMB, VON_MISES
+from .cam_clay import cam_clay
 from .soils import drucker_prager, elastic_strains, mohr_coulomb
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: and constants this module compiles in (as
 #: :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "9ff157076e230df1"
+SOURCES = "1a3d72e85b7b596a"
 
 
 @njit(cache=True, error_model="numpy")
@@ -106,11 +108,15 @@ def jacobi(b, x, v):
 
 
 @njit(cache=True, error_model="numpy")
-def principal_update(params, eps, eq, tau, eps_e, D):
+def principal_update(params, eps, eq, ev, tau, eps_e, D):
     """The return map of the material ``params`` on principal strains
-    ``eps`` (3,) with the equivalent plastic strain ``eq`` at the step's
-    start: principal stresses ``tau``, elastic strains ``eps_e`` and the
-    tangent ``D`` (3, 3) written in place; returns ``(yielded, eq)``."""
+    ``eps`` (3,) with the internal variables at the step's start, the
+    equivalent plastic strain ``eq`` and (Cam clay) the plastic
+    volumetric strain ``ev``: principal stresses ``tau``, elastic strains
+    ``eps_e`` and the tangent ``D`` (3, 3) written in place; returns
+    ``(yielded, eq, ev)``."""
+    if params[0] == CAM_CLAY:
+        return cam_clay(params, eps, eq, ev, tau, eps_e, D)
     lam, mu = params[1], params[2]
     trace = eps[0] + eps[1] + eps[2]
     for a in range(3):
@@ -143,7 +149,7 @@ def principal_update(params, eps, eq, tau, eps_e, D):
         yielded, eq = drucker_prager(params, tau, eps_e, D, eq)
     elif params[0] == MOHR_COULOMB:
         yielded, eq = mohr_coulomb(params, eps, tau, eps_e, D, eq)
-    return yielded, eq
+    return yielded, eq, ev
 
 
 @njit(cache=True, error_model="numpy", inline="always")

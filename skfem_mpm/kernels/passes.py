@@ -58,7 +58,7 @@ __all__ = ["passes_of", "finite_commit", "ELASTIC_TANGENT",
 #: function on its own file alone, so a change there must change this
 #: file too, or the passes would run the cached old code
 #: (``tests/test_compiled.py`` checks it)
-SOURCES = "81eba8e258bb9f06"
+SOURCES = "604fc8d8edd8a050"
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -159,8 +159,8 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                 status = 2
             for a in range(3):
                 eps[a] = .5 * math.log1p(x[a])
-            yielded[p], eq[p] = principal_update(params, eps, eq0[p], tp,
-                                                 eps_e, D)
+            yielded[p], eq[0, p], eq[1, p] = principal_update(
+                params, eps, eq0[0, p], eq0[1, p], tp, eps_e, D)
             for a in range(3):
                 for c in range(3):
                     s = 0.
@@ -236,8 +236,8 @@ def _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                     for c in range(3):
                         e3[a, c] = strain0[a, c, p] + de[a, c]
                 principal_frame(e3, k, x, v)
-                yielded[p], eq[p] = principal_update(params, x, eq0[p], sig,
-                                                     eps_e, D)
+                yielded[p], eq[0, p], eq[1, p] = principal_update(
+                    params, x, eq0[0, p], eq0[1, p], sig, eps_e, D)
                 for a in range(3):
                     for c in range(3):
                         s = 0.
@@ -413,7 +413,7 @@ def finite_commit(dim, params, d, vecs, eq0, dF, F0, F, J, b_e, strain):
                 * F[2, 2, p]
         for a in range(3):
             eps[a] = .5 * math.log1p(d[a, p])
-        principal_update(params, eps, eq0[p], tp, eps_e, D)
+        principal_update(params, eps, eq0[0, p], eq0[1, p], tp, eps_e, D)
         for A in range(3):
             tp[A] = math.exp(2. * eps_e[A])
         for a in range(3):

@@ -9,12 +9,13 @@ cpGIMP and B-splines (also on the fields of bodies in contact), in 2D and
 3D, small strain and finite deformation (updated Lagrangian),
 :class:`~skfem_mpm.mechanics.materials.LinearElastic`,
 :class:`~skfem_mpm.mechanics.materials.VonMises`,
-:class:`~skfem_mpm.mechanics.soils.DruckerPrager` and
-:class:`~skfem_mpm.mechanics.soils.MohrCoulomb` (with friction).
-Everything else (mean dilatation, the total Lagrangian scheme of
-``method="fem"`` in finite deformation, 1D, Cam clay, a user's material,
-one material per body) runs on the numpy path, the reference the
-compiled passes are tested equal to.
+:class:`~skfem_mpm.mechanics.soils.DruckerPrager`,
+:class:`~skfem_mpm.mechanics.soils.MohrCoulomb` (with friction) and
+:class:`~skfem_mpm.mechanics.cam_clay.ModifiedCamClay`.  Everything else
+(mean dilatation, the total Lagrangian scheme of ``method="fem"`` in
+finite deformation, 1D, a user's material, one material per body) runs
+on the numpy path, the reference the compiled passes are tested equal
+to.
 
 A compiled response fills the arrays the numpy path fills (stress, the
 spectral parts, ``dF`` ...), so the kinematics build it, its commit and its
@@ -31,9 +32,10 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError
-from ..kernels import (DRUCKER_PRAGER, ELASTIC, MOHR_COULOMB, VON_MISES,
-                       check_kernels, compiled_passes, log_once)
+from ..kernels import (CAM_CLAY, DRUCKER_PRAGER, ELASTIC, MOHR_COULOMB,
+                       VON_MISES, check_kernels, compiled_passes, log_once)
 from .materials import LinearElastic, VonMises, elastic_tensor
+from .cam_clay import ModifiedCamClay
 from .soils import APEX_STIFFNESS, DruckerPrager, MohrCoulomb
 
 __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
@@ -42,8 +44,8 @@ __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
 #: what the compiled passes serve (the refusal of ``kernels="compiled"``
 #: says it)
 COVERAGE = ("standard MPM, uGIMP, cpGIMP and B-splines in 2D and 3D, small "
-            "and finite deformation, LinearElastic, VonMises, DruckerPrager "
-            "and MohrCoulomb")
+            "and finite deformation, LinearElastic, VonMises, DruckerPrager, "
+            "MohrCoulomb and ModifiedCamClay")
 
 
 def material_parameters(material) -> Optional[ndarray]:
@@ -55,7 +57,8 @@ def material_parameters(material) -> Optional[ndarray]:
     ``(kind, lam, mu, E, nu)``, then von Mises' ``yield_stress``;
     Drucker-Prager's ``(-, cohesion, eta, xi, eta_bar, hardening, apex
     stiffness)``; Mohr-Coulomb's ``(-, k, m, sigma_c, -, -, apex
-    stiffness)``.
+    stiffness)``; modified Cam clay's ``(kind, lam, mu, -, -, -, kappa,
+    lambda_, M, G, p_r, p_c0)``.
 
     >>> from skfem_mpm import MohrCoulomb
     >>> mc = MohrCoulomb(1e4, .3, cohesion=10., friction_angle=30.,
@@ -64,11 +67,17 @@ def material_parameters(material) -> Optional[ndarray]:
     [3.0, 3.0, 1.420277, 34.641016]
     """
     kind = {LinearElastic: ELASTIC, VonMises: VON_MISES,
-            DruckerPrager: DRUCKER_PRAGER,
-            MohrCoulomb: MOHR_COULOMB}.get(type(material))
+            DruckerPrager: DRUCKER_PRAGER, MohrCoulomb: MOHR_COULOMB,
+            ModifiedCamClay: CAM_CLAY}.get(type(material))
     if kind is None or kind == MOHR_COULOMB and not material.k > 1:
         return None
     params = np.zeros(12)
+    if kind == CAM_CLAY:
+        params[:3] = kind, material.lam, material.mu
+        params[6:] = (material.kappa, material.lambda_, material.M,
+                      material.mu, material.reference_pressure,
+                      material.preconsolidation_pressure)
+        return params
     params[:5] = kind, material.lam, material.mu, material.E, material.nu
     if kind == VON_MISES:
         params[5] = material.yield_stress
@@ -160,6 +169,12 @@ class CompiledPasses:
         self.passes, self.material, self.params = passes, material, params
         self.dim, self.explicit = dim, explicit
         self.plastic = params[0] != 0.
+        #: the internal variables the passes carry, rows of a (2, n) array
+        self.variables = (("equivalent_plastic_strain",
+                           "plastic_volumetric_strain")
+                          if params[0] == CAM_CLAY else
+                          ("equivalent_plastic_strain",) if self.plastic
+                          else ())
         self.finite, self.small, self.assemble = passes.passes_of(dim)
 
     def serves(self, op, points) -> bool:
@@ -176,10 +191,15 @@ class CompiledPasses:
         return False
 
     def _state(self, points) -> ndarray:
-        if self.plastic:
-            return np.ascontiguousarray(
-                points.state["equivalent_plastic_strain"], dtype=float)
-        return np.zeros(points.n)
+        """The internal variables of ``points``, (2, n)."""
+        state = np.zeros((2, points.n))
+        for row, name in enumerate(self.variables):
+            state[row] = points.state[name]
+        return state
+
+    def _named(self, state: ndarray) -> dict:
+        """The internal variables (2, n) by name."""
+        return {name: state[row] for row, name in enumerate(self.variables)}
 
     def _stiffness(self, layout, kind: int, w: ndarray, C: ndarray,
                    parts) -> callable:
@@ -200,7 +220,7 @@ class CompiledPasses:
         n, k = points.n, self.dim
         b_dev, tau, yielded, spectral = kinematics._workspace(n, k)
         dF, dF_inv = np.empty((3, 3, n)), np.empty((3, 3, n))
-        P, f, eq = np.empty((k, k, n)), np.zeros(op.N), np.empty(n)
+        P, f, eq = np.empty((k, k, n)), np.zeros(op.N), np.empty((2, n))
         status = self.finite(
             *layout.groups, contiguous(points.volume0), contiguous(du),
             contiguous(kinematics.start_deviation(points)), self.params,
@@ -213,7 +233,7 @@ class CompiledPasses:
             finally:
                 kinematics.compiled = compiled
         kinematics.counters["return_maps"] += kinematics.plastic
-        state = {"equivalent_plastic_strain": eq} if self.plastic else {}
+        state = self._named(eq)
         no_C = np.zeros((k,) * 4)
 
         def converged(old):
@@ -238,7 +258,7 @@ class CompiledPasses:
         stress, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
         x, vecs = np.empty((3, n)), np.empty((3, 3, n))
         y, dy_dx = np.empty((k, n)), np.empty((k, k, n))
-        yielded, eq = np.zeros(n, dtype=bool), np.empty(n)
+        yielded, eq = np.zeros(n, dtype=bool), np.empty((2, n))
         f = np.zeros(op.N)
         self.small(
             *layout.groups, contiguous(points.volume), contiguous(du),
@@ -257,7 +277,7 @@ class CompiledPasses:
         kinematics.counters["return_maps"] += 1
         return kinematics.plastic_response(
             points, (x[:k], y, dy_dx, vecs[:k, :k]), stress, strain, yielded,
-            {"equivalent_plastic_strain": eq}, k, force=f.copy,
+            self._named(eq), k, force=f.copy,
             stiffness=self._stiffness(
                 layout, self.passes.RETURN_MAP_TANGENT, points.volume,
                 np.zeros((k,) * 4), (x, y, dy_dx, vecs, empty)))

@@ -177,9 +177,9 @@ class Options:
         ``"auto"`` (default): the compiled points-first passes of a Newton
         iteration where they cover the run (standard MPM, uGIMP, cpGIMP
         and B-splines in 2D and 3D, small and finite deformation,
-        ``LinearElastic``, ``VonMises``, ``DruckerPrager`` and
-        ``MohrCoulomb``; not mean dilatation, Cam clay) and numba
-        imports, the numpy path otherwise (logged once);
+        ``LinearElastic``, ``VonMises``, ``DruckerPrager``,
+        ``MohrCoulomb`` and ``ModifiedCamClay``; not mean dilatation) and
+        numba imports, the numpy path otherwise (logged once);
         ``"numpy"``: the numpy path, the tested reference;
         ``"compiled"``: the compiled passes, a run they cannot serve
         refused before any work (:mod:`skfem_mpm.kernels`).
