@@ -16,9 +16,12 @@ points, the case of the comparison with Kratos in issue 32.
 ``--compile`` times the first runs of a fresh process with an empty
 kernel cache (``NUMBA_CACHE_DIR`` a new folder): what compiling costs
 once, then what loading the cached kernels costs each process.
+``--method cpgimp`` (or ``ugimp``, ``bspline``) runs the tables with
+that method's sparse operator instead of standard MPM's (in 3D to 3.3e4
+points: the numpy path's GIMP stiffness takes seconds beyond).
 
     python benchmarks/compiled_cost.py [--dim 2] [--reps 3] [--large]
-        [--kratos] [--compile]
+        [--kratos] [--compile] [--method mpm]
 
 The path is chosen by making the run's kinematics with ``kernels=``
 (the core's factory, replaced in this process).
@@ -41,7 +44,7 @@ SIZES = {2: (16, 32, 50, 100, 158), 3: (5, 8, 11, 16, 24)}
 PATHS = ("numpy", "compiled")
 
 
-KERNELS = {"path": "auto"}
+KERNELS = {"path": "auto", "method": "mpm"}
 
 
 def use(kernels: str):
@@ -55,7 +58,8 @@ def once(mesh, elem, points, nsteps=1, body_force=None, supports=None):
         mesh, elem, points.copy(), LinearElastic(1e6, .3),
         supports or (lambda b: b.get_dofs(lambda x: x[-1] == 0)),
         body_force=np.r_[np.zeros(dim - 1), -1e4] if body_force is None
-        else body_force, nsteps=nsteps, method="mpm", kinematics="finite",
+        else body_force, nsteps=nsteps, method=KERNELS["method"],
+        kinematics="finite",
         options=Options(keep_snapshots=False, locator=point_locator(mesh),
                         kernels=KERNELS["path"]))
 
@@ -79,19 +83,22 @@ def measure(mesh, elem, points, reps: int, heap: bool, **kwargs):
 
 
 def table(dim: int, reps: int):
-    print("\n{}D, block of step_cost.py, standard MPM, finite deformation, "
-          "1 step; ms per Newton iteration (best of {})".format(dim, reps))
+    method = KERNELS["method"]
+    print("\n{}D, block of step_cost.py, {}, finite deformation, 1 step; ms "
+          "per Newton iteration (best of {})".format(
+              dim, "standard MPM" if method == "mpm" else method, reps))
     print("{:>7} {:>9} | {} | {:>7} {:>9} {:>8} {:>4}".format(
         "points", "path", " ".join("{:>8}".format(p) for p in PHASES),
         "total", "us/pt/it", "heap/pt", "its"))
     rows = {path: [] for path in PATHS}
     elem = GRIDS[dim][1]()
-    for ncells in SIZES[dim]:
+    sizes = SIZES[dim] if method == "mpm" or dim == 2 else SIZES[dim][:4]
+    for ncells in sizes:
         mesh, points = block(ncells, dim)
         for path in PATHS:
             use(path)
             best, its, peak = measure(mesh, elem, points, reps,
-                                      heap=ncells == SIZES[dim][-1])
+                                      heap=ncells == sizes[-1])
             total = sum(best.values())
             nonsolve = (total - best["solve"]) * 1e3 / points.n
             rows[path].append((points.n, total, total - best["solve"]))
@@ -148,7 +155,8 @@ def large(reps: int):
 
 
 #: a fresh process's first runs, each timed: 2D and 3D, finite and small
-#: deformation, elastic and von Mises (every compiled pass)
+#: deformation, elastic and von Mises (every compiled pass), then cpGIMP
+#: (the same passes: nothing more to compile)
 FIRST_RUNS = """
 import sys, time
 sys.path.insert(0, {here!r})
@@ -169,6 +177,12 @@ for dim in (2, 3):
                      method="mpm", kinematics=kinematics)
             print(dim, kinematics, type(material).__name__,
                   time.perf_counter() - tic)
+mesh, points = block(2, 2)
+tic = time.perf_counter()
+simulate(mesh, GRIDS[2][1](), points.copy(), LinearElastic(1e6, .3),
+         lambda b: b.get_dofs(lambda x: x[-1] == 0), body_force=[0., -1e4],
+         nsteps=1, method="cpgimp", kinematics="finite")
+print("2 finite LinearElastic cpgimp", time.perf_counter() - tic)
 """
 
 
@@ -198,7 +212,10 @@ def main():
     parser.add_argument("--large", action="store_true")
     parser.add_argument("--kratos", action="store_true")
     parser.add_argument("--compile", action="store_true")
+    parser.add_argument("--method", default="mpm",
+                        choices=("mpm", "ugimp", "cpgimp", "bspline"))
     args = parser.parse_args()
+    KERNELS["method"] = args.method
     if args.compile:
         compile_times()
     # untimed: numba's cached kernels and the solver's libraries load

@@ -37,7 +37,9 @@ from ..mechanics.forms import body_force
 
 __all__ = ["AsmOperator", "SparseOperator"]
 
-#: the arrays a layout does not use (one type for every call of a pass)
+#: the arrays a layout does not use (one type for every call of a pass:
+#: the places' arrays C-contiguous in both layouts, so that standard MPM
+#: and the sparse operators share each compiled pass)
 NO_INDEX = np.zeros(0, dtype=np.int64)
 NO_PLACES = np.zeros((0, 0), dtype=np.int32)
 
@@ -198,8 +200,9 @@ class PointOperator:
                  slots[real].astype(np.int64),
                  np.flatnonzero(real.ravel()).astype(np.int64) * nloc),
                 (PER_ENTRY if expand is None else PER_NODE_PAIR,
-                 np.asarray(self.elements, dtype=np.int64), first, length,
-                 NO_INDEX, NO_INDEX), self.pattern())
+                 np.asarray(self.elements, dtype=np.int64), first,
+                 np.ascontiguousarray(length), NO_INDEX, NO_INDEX),
+                self.pattern())
         return self._layout
 
     def _scatter(self, local: ndarray) -> ndarray:
