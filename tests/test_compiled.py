@@ -20,8 +20,8 @@ from skfem import (ElementHex1, ElementQuad1, ElementQuad2, ElementTriP1,
                    ElementVector, MeshHex, MeshQuad, MeshTri)
 
 from skfem_mpm import (DruckerPrager, LinearElastic, ModifiedCamClay,
-                       MohrCoulomb, Options, Resume, Stabilisation, VonMises,
-                       seed_points, simulate)
+                       MohrCoulomb, Options, Prescribed, Resume,
+                       Stabilisation, VonMises, seed_points, simulate)
 from skfem_mpm import kernels
 from skfem_mpm.errors import InvalidInputError
 from skfem_mpm.mechanics.kinematics import make_kinematics
@@ -299,7 +299,7 @@ def test_a_cam_clay_run_equals_the_numpy_path(kinematics, method):
     material = MATERIALS["cam_clay"]
     mesh, points, supports, push = oedometric_block(.1)
     runs = [simulate(mesh, ElementQuad1(), points, material, supports,
-                     prescribed=push, nsteps=4, kinematics=kinematics,
+                     loads=[Prescribed(push)], nsteps=4, kinematics=kinematics,
                      method=method, body_force=[0., -20.],
                      options=Options(kernels=k))
             for k in ("numpy", "compiled")]
