@@ -246,6 +246,30 @@ def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
         hook.tolerance * h
 
 
+
+@pytest.mark.parametrize("method", ["fem", "cpgimp"])
+def test_a_step_starts_where_the_last_ended(method):
+    """A block resting on a floor (friction 0.5) under a constant weight:
+    after the first step every step starts in balance, its pressure that
+    of the last step's end (the point state keeps the multiplier: keeping
+    the pressure added the penalty's force of the penetration again, and
+    the second step started at 2.1 times the load's residual)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9),
+                                np.linspace(-.25, 1, 11))
+    pts = seed_points(mesh, 2, region=lambda x: (x[1] > 0) & (x[1] < .5)
+                      & (x[0] > .25) & (x[0] < .75))
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3), [],
+                   body_force=BodyForce([0., -2e4], ramp=False), nsteps=4,
+                   method=method, kinematics="finite",
+                   obstacles=[Obstacle(box=[[-1., 2.], [-1., 0.]],
+                                       friction=.5)])
+    first = [r.newton_residuals[0] for r in res.history]
+    assert first[0] == pytest.approx(1.)
+    assert max(first[1:]) < 2e-2
+    weight = 2e4 * pts.volume.sum()
+    for r in res.history:
+        assert r.obstacle_forces[0, 1] == pytest.approx(-weight, rel=1e-8)
+
 def test_contact_state_resumes_bit_identically():
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
     pts = seed_points(mesh, 2, region=lambda x: x[1] < 1. + 1e-9)

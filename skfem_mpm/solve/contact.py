@@ -48,10 +48,11 @@ After Newton converges, :meth:`StepContact.settle` checks the penetration
 (and a tied corner's mismatch) against the obstacle's tolerance; where it
 is larger the multipliers take the converged tractions
 (``lambda <- p``, the augmented-Lagrangian update) and the step is solved
-again.  The multipliers and the friction tractions are point state
-(``contact<i>_p<c>``, ``contact<i>_t<a><c>``: obstacle i, corner c,
-component a), so checkpoints carry them and a step starts from the last
-step's tractions.  The method follows the penalty contact at GIMP domain
+again.  The multipliers (``lambda`` where pressed) and the friction
+tractions are point state (``contact<i>_p<c>``, ``contact<i>_t<a><c>``:
+obstacle i, corner c, component a), so checkpoints carry them and a step
+starts from the last step's tractions: with the penetration it ended at,
+``lambda - kappa g`` is the last step's pressure.  The method follows the penalty contact at GIMP domain
 corners of Bird et al. (2024) with the augmented-Lagrangian updates of
 Simo and Laursen (1992); see ``docs/references.md``.
 """
@@ -242,13 +243,16 @@ class ObstacleContact(GridTerm):
                                       self.deformation(points), self.R)
         held = np.zeros((dim, n), dtype=bool)
         for i, ob in enumerate(self.obstacles):
+            shift = scale * ob.displacement
+            # a multiplier, or a penetration within the tolerance, presses
             pressed = self.near[i] | np.array(
-                [points.state[name] > 0 for name in pressure_names(i, dim)[0]])
+                [points.state[name] > 0 for name in pressure_names(i, dim)[0]]
+            ) | (ob.signed_distance(X.reshape(dim, -1), shift)[0] < 0
+                 ).reshape(-1, n)
             c, p = np.nonzero(pressed)
             if ob.friction != 0.:
                 held[:, p] = True
                 continue
-            shift = scale * ob.displacement
             Xc = X[:, c, p]
             normal = ob.face_gap(Xc, ob.nearest_face(Xc, shift), shift)[1]
             aligned = np.abs(normal) > 1 - 1e-9
@@ -310,6 +314,8 @@ class StepContact(GridTerm):
     """One step's contact with the obstacles (built by
     :meth:`ObstacleContact.begin_step`)."""
 
+    settles = True
+
     def __init__(self, term: ObstacleContact, problem):
         self.term, self.problem = term, problem
         points = problem.points
@@ -334,10 +340,13 @@ class StepContact(GridTerm):
         self.evaluations = WeakKeyDictionary()
         n = points.n
         near = np.zeros(n, dtype=bool)
+        # each point's least distance from an obstacle (at the step's end)
+        self.clearance = np.full(n, np.inf)
         for i, ob in enumerate(term.obstacles):
             phi = ob.signed_distance(self.X.reshape(dim, -1),
                                      self.shift[i])[0].reshape(-1, n)
             near |= (phi < MARGIN_CELLS * term.h).any(axis=0)
+            self.clearance = np.minimum(self.clearance, phi.min(axis=0))
             for names in pressure_names(i, dim):
                 for name in names:
                     near |= points.state[name] != 0
@@ -486,18 +495,25 @@ class StepContact(GridTerm):
         solved again."""
         term, dim = self.term, self.dim
         ev = self.evaluate(du, trial.response)
-        # corners outside the step's selection that went through an obstacle
-        H = self.op.gradients(du)
-        u = self.op.values(du)[:, None, :] + np.einsum(
-            "abp,bcp->acp", H, self.q)
-        X = (self.X + u).reshape(dim, -1)
+        # corners outside the step's selection that went through an
+        # obstacle: of the points that moved as far as their clearance
+        # (a distance changes no faster than the position)
+        H, u = self.op.gradients(du), self.op.values(du)
+        reach = np.sqrt((u ** 2).sum(axis=0)) + np.sqrt(
+            (H ** 2).sum(axis=(0, 1)) * (self.q ** 2).sum(axis=0).max(
+                axis=0))
         outside = np.ones(self.X.shape[2], dtype=bool)
         outside[self.idx] = False
+        check = np.flatnonzero(outside & (self.clearance - reach
+                                          < max(term.tol)))
+        X = (self.X[:, :, check] + u[:, None, check] + np.einsum(
+            "abp,bcp->acp", H[:, :, check], self.q[:, :, check])).reshape(
+                dim, -1)
         joined = np.zeros_like(outside)
-        for i, ob in enumerate(term.obstacles):
+        for i, ob in enumerate(term.obstacles if check.size else ()):
             phi = ob.signed_distance(X, self.shift[i])[0].reshape(
-                -1, outside.size)
-            joined |= outside & (phi < term.tol[i]).any(axis=0)
+                -1, check.size)
+            joined[check] |= (phi < term.tol[i]).any(axis=0)
         if joined.any():
             logger.debug("step %d: %d points reached an obstacle beyond the "
                          "step's selection; solving again", problem.step,
@@ -558,7 +574,11 @@ class StepContact(GridTerm):
                 tau = np.divide(T, self.area[i], where=self.area[i] > 0,
                                 out=np.zeros_like(T))
             else:
-                p, tau = normal_part
+                # the multiplier, so that the next step starts from this
+                # pressure with this penetration (the pressure would add
+                # the penalty's force of the penetration a second time)
+                p = np.where(normal_part[0] > 0, self.lam[i], 0.)
+                tau = normal_part[1]
             values = [p] + list(tau)
             for comp, value in zip(names, values):
                 value = value.reshape(nc, m)
