@@ -353,6 +353,8 @@ class StepBodyContact(GridTerm):
     """One step's contact between bodies (built by
     :meth:`BodyContact.begin_step`)."""
 
+    settles = True
+
     def __init__(self, term: BodyContact, problem):
         self.term, self.problem = term, problem
         op, points = problem.method_op, problem.points
