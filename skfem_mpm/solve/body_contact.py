@@ -47,14 +47,13 @@ from weakref import WeakKeyDictionary
 
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import coo_matrix, identity, kron, vstack
+from scipy.sparse import identity, kron, vstack
 from scipy.spatial import cKDTree
 
 from ..errors import InvalidInputError, check_real
 from ..methods.fields import body_fields
 from ..protocols import GridTerm
-from ..quadrature.locate import cell_coordinates
-from .contact import block_diagonal, corner_signs, coulomb
+from .contact import CellValues, block_diagonal, corner_signs, coulomb
 from .contact_pairs import FACING, PairFinder
 from .dynamics import value_matrix
 
@@ -225,16 +224,15 @@ class BodyContact(GridTerm):
                  cell_size: float, modulus: float, domain0, finite: bool,
                  counters: dict, weights=None, cells: int = 0):
         self.contacts, self.field = contacts, field
-        self.mesh, self.elem, self.nv = mesh, elem, vertices
+        self.nv = vertices
         self.dim = dim = mesh.dim()
         self.h, self.domain0, self.finite = cell_size, domain0, finite
         self.kappa = [c.penalty * modulus * cell_size ** (dim - 2)
                       for _, _, c in contacts]
         self.tol = [c.tolerance * cell_size for _, _, c in contacts]
-        self.local = cell_coordinates(mesh, clip=False)
+        self.cell_values = CellValues(mesh, elem)
         self.weights = weights
         self.cells = cells
-        self.dofs = None
         self.geometry, self.supports = WeakKeyDictionary(), \
             WeakKeyDictionary()
         self.finder = PairFinder(contacts, field, mesh, vertices, cell_size)
@@ -310,18 +308,7 @@ class BodyContact(GridTerm):
         X = self.corners(points).reshape(dim, -1)[:, corner]
         if self.weights is not None:
             return kron(self.weights(X, p).S, identity(dim), format="csr")
-        cells = op.point_elements[p]
-        local = self.local(X, cells)
-        if self.dofs is None:
-            from skfem.assembly import Dofs
-            self.dofs = Dofs(self.mesh, self.elem).element_dofs
-        nloc = self.dofs.shape[0]
-        values = np.array([self.elem.lbasis(local, i)[0]
-                           for i in range(nloc)])              # (nloc, m)
-        m = corner.size
-        S = coo_matrix((values.ravel(), (np.tile(np.arange(m), nloc),
-                                         self.dofs[:, cells].ravel())),
-                       shape=(m, op.N // dim)).tocsr()
+        S = self.cell_values(X, op.point_elements[p], op.N // dim)
         return kron(S, identity(dim), format="csr")
 
     def held_dofs(self, op, points, scale: float):

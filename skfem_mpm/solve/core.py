@@ -69,7 +69,7 @@ from ..stabilisation.settings import Stabilisation
 from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
 from .body_contact import BodyContact, check_contacts
-from .contact import contact_term, p_wave_modulus
+from .contact import CellValues, contact_term, p_wave_modulus
 from .dynamics import Dynamics, InertiaTerm
 from .linear import support_dofs
 from .loads import ExternalLoads, FollowerPressure, GridLoad
@@ -230,7 +230,9 @@ def obstacle_term(run: Run) -> Optional[GridTerm]:
                         run.domain0, total_lagrangian=not run.method.moves,
                         moves=run.method.moves,
                         finite=run.finite, counters=run.counters,
-                        initial_scale=run.scale(0.))
+                        initial_scale=run.scale(0.),
+                        cell_values=CellValues(run.mesh,
+                                               run.grid.elem.elem))
 
 
 def inertia_term(run: Run) -> Optional[GridTerm]:
