@@ -105,6 +105,10 @@ class GridTerm:
     #: the term weighs the balance in time (:meth:`weigh`): begun after
     #: every other term of a run
     weighs = False
+    #: the term's :meth:`settle` may have the step solved again (contact's
+    #: augmented Lagrangian): Newton keeps its last factorised tangent for
+    #: the first direction of the next solve
+    settles = False
 
     def held_dofs(self, op, points, scale: float) -> Optional[ndarray]:
         """Grid DOFs the term holds as a support would, for the check of

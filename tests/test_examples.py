@@ -491,16 +491,19 @@ def test_bodies_in_contact(tmp_path):
 @pytest.mark.slow
 def test_obstacles_footing_on_a_fixed_grid(obstacles):
     """The smooth footing as an obstacle on a fixed grid (B = 8 h, 2
-    cells in 40 steps): past 0.02 B its pressure stays within 25% of
-    (2 + pi) c_u and changes between steps by less than the rigid body of
-    points does as it crosses grid lines, under 10% (measured 9.4% in a
-    two-step dip from 5.8 to 5.3 c_u, against 19%; issue 29 asks for 3%:
-    not met)."""
+    cells in 40 steps): past 0.02 B its pressure stays within 20% of
+    (2 + pi) c_u and changes between steps by under 6%, a quarter of what
+    the rigid body of points does as it crosses grid lines (measured 5.0%
+    and 24%; 9.4% before the corners moved with their cell's polynomial;
+    issue 29 asks for 3%: not met), in at most twice the steps asked
+    (measured 67)."""
     curves = obstacles.footing_curves()
     jumps = {}
     for name, (s, q) in curves.items():
         late = s > .02
         jumps[name] = np.max(np.abs(np.diff(q[late])) / q[late][1:])
     s, q = curves["obstacle"]
-    assert jumps["obstacle"] < .1 < jumps["rigid body"]
-    assert np.all(np.abs(q[s > .02] / (2 + np.pi) - 1) < .25)
+    assert jumps["obstacle"] < .06 and 4 * jumps["obstacle"] < \
+        jumps["rigid body"]
+    assert np.all(np.abs(q[s > .02] / (2 + np.pi) - 1) < .2)
+    assert len(s) <= 80

@@ -2,22 +2,37 @@
 
 The material's surface is sampled where it is, not at the grid: at the
 corners of every point's domain (its GIMP domain, or a cube of the point's
-volume), which move with the point's displacement and gradient,
+volume).  A corner starts a step at
 
-    x_c = x_p + r_c + u_p + grad(u)_p q_c,
+    x_c = x_p + F R_c + d_c,
 
-``r_c`` the corner's offset at the step's start (``F R_c`` of the
-reference offset ``R_c``) and ``q_c`` the offset in the configuration the
-step's gradients refer to (``r_c``, or ``R_c`` with FE, whose points and
-gradients stay in the initial configuration).
-In small strain, where the points carry no deformation gradient, the
-term keeps the accumulated displacement gradient as point state
-(``contact_grad<a><b>``) for ``F = I + grad(u)``.
-The corner displacement is linear in the grid increment through the
-step's point operator, ``u_c = J_c du``, for every method.  Interior
-corners coincide with neighbours' and never reach an obstacle while the
-surface corners are held, so every corner is a candidate and none needs
-to be marked as surface.
+``R_c`` its offset in the initial domain, ``F`` the point's deformation
+gradient (in small strain, where the points carry none, ``I`` plus the
+displacement gradient the term keeps as point state ``contact_grad<a><b>``)
+and ``d_c`` the offset the term keeps for the corners it followed
+(``contact_dx<a><c>``, zero for the others).  Within the step a corner
+moves linearly in the grid increment, ``u_c = J_c du``:
+
+- with Lagrange elements (MPM, FE) by the element polynomial of its
+  point's cell, evaluated at the corner (at its initial place with FE,
+  whose field lives in the initial configuration), so that the corners a
+  neighbouring domain shares move alike in a cell, the surface stays
+  flat under a flat punch, and the rows change continuously as the
+  material moves; where the corner's next start, ``x_p + F R_c``, differs
+  from where the field moved it, the difference is kept as ``d_c``, so a
+  step starts where the last one ended (the point's own gradient, ``u_p +
+  grad(u)_p q_c``, gave corners of neighbouring points that disagreed by
+  the field's curvature, which a rigid punch met at a few of them, and
+  rows that jumped as a point crossed a cell's side: a footing's
+  pressure jumped by 10% and a rough footing's run failed);
+- with GIMP's and B-splines' smooth weights by the point's operator and
+  its gradient, ``u_c = u_p + grad(u)_p q_c`` (``q_c = F R_c`` in finite
+  deformation, ``R_c`` in small strain and with FE), which is where the
+  next step starts.
+
+Interior corners coincide with neighbours' and never reach an obstacle
+while the surface corners are held, so every corner is a candidate and
+none needs to be marked as surface.
 
 At each corner the gap to an obstacle's surface gives, per unit area,
 the pressure of an augmented Lagrangian
@@ -48,10 +63,11 @@ After Newton converges, :meth:`StepContact.settle` checks the penetration
 (and a tied corner's mismatch) against the obstacle's tolerance; where it
 is larger the multipliers take the converged tractions
 (``lambda <- p``, the augmented-Lagrangian update) and the step is solved
-again.  The multipliers and the friction tractions are point state
-(``contact<i>_p<c>``, ``contact<i>_t<a><c>``: obstacle i, corner c,
-component a), so checkpoints carry them and a step starts from the last
-step's tractions.  The method follows the penalty contact at GIMP domain
+again.  The multipliers (``lambda`` where pressed) and the friction
+tractions are point state (``contact<i>_p<c>``, ``contact<i>_t<a><c>``:
+obstacle i, corner c, component a), so checkpoints carry them and a step
+starts from the last step's tractions: with the penetration it ended at,
+``lambda - kappa g`` is the last step's pressure.  The method follows the penalty contact at GIMP domain
 corners of Bird et al. (2024) with the augmented-Lagrangian updates of
 Simo and Laursen (1992); see ``docs/references.md``.
 """
@@ -62,15 +78,16 @@ from typing import Sequence
 
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import coo_matrix, csr_matrix
+from scipy.sparse import coo_matrix, csr_matrix, identity, kron, vstack
 
 from ..errors import InvalidInputError
+from ..quadrature.locate import cell_coordinates
 from ..protocols import GridTerm
 from .obstacles import Obstacle
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["ObstacleContact", "corner_signs", "point_rows",
+__all__ = ["ObstacleContact", "CellValues", "corner_signs", "point_rows",
            "contact_state_names"]
 
 #: a corner further from every obstacle than this many cells at a step's
@@ -143,12 +160,22 @@ def gradient_names(dim: int):
             for a in range(dim)]
 
 
+def offset_names(dim: int):
+    """The point-state names of the corners' offsets from where the
+    points' deformation puts them, ``[[name_ac]]`` (component a, corner
+    c)."""
+    return [["contact_dx{}{}".format(a, c) for c in range(2 ** dim)]
+            for a in range(dim)]
+
+
 def contact_state_names(obstacles: int, dim: int, finite: bool) -> list:
     """Every point-state name the contact with ``obstacles`` obstacles
     keeps (what a checkpoint of such a run holds beside the materials'
     variables)."""
     names = [name for i in range(obstacles)
              for rows in pressure_names(i, dim) for name in rows]
+    if obstacles:
+        names += [name for row in offset_names(dim) for name in row]
     if obstacles and not finite:
         names += [name for row in gradient_names(dim) for name in row]
     return names
@@ -203,14 +230,18 @@ class ObstacleContact(GridTerm):
     initial_scale
         The loads' scale at the run's start (1 in dynamics without a load
         ramp: an obstacle starts displaced in full).
+    cell_values
+        The :class:`CellValues` of the grid (Lagrange elements: the
+        corners move with their point's cell).
 
     """
 
     def __init__(self, obstacles: Sequence[Obstacle], cell_size: float,
                  modulus: float, domain0, total_lagrangian: bool,
                  moves: bool, finite: bool, counters: dict,
-                 initial_scale: float = 0.):
+                 initial_scale: float = 0., cell_values=None):
         self.obstacles = tuple(obstacles)
+        self.cell_values = cell_values
         self.h, self.domain0 = cell_size, domain0
         self.kappa = [ob.penalty * modulus / cell_size for ob in obstacles]
         self.tol = [ob.tolerance * cell_size for ob in obstacles]
@@ -230,6 +261,20 @@ class ObstacleContact(GridTerm):
             [[points.state[name] for name in row]
              for row in gradient_names(dim)])
 
+    def corners(self, points, x: ndarray = None, F: ndarray = None
+                ) -> ndarray:
+        """The corners (dim, nc, n) of the points' domains: where the
+        points' position ``x`` and deformation ``F`` (theirs at a step's
+        start by default) put them, moved by the offsets the term keeps
+        for the corners it followed (:meth:`StepContact.commit`)."""
+        dim = points.x.shape[0]
+        if x is None:
+            x = points.x if self.moves else points.x + points.displacement
+        F = self.deformation(points) if F is None else F
+        offset = np.array([[points.state[name] for name in row]
+                           for row in offset_names(dim)])
+        return x[:, None, :] + np.einsum("abp,bcp->acp", F, self.R) + offset
+
     def held_dofs(self, op, points, scale: float):
         """The grid DOFs the obstacles hold at a step's start, for the
         check of missing supports: those of the points with a corner
@@ -237,18 +282,19 @@ class ObstacleContact(GridTerm):
         start), along the face's axis where the face is axis-aligned and
         smooth, in every component with friction or an oblique face."""
         dim, n = points.x.shape
-        x = points.x if self.moves else points.x + points.displacement
-        X = x[:, None, :] + np.einsum("abp,bcp->acp",
-                                      self.deformation(points), self.R)
+        X = self.corners(points)
         held = np.zeros((dim, n), dtype=bool)
         for i, ob in enumerate(self.obstacles):
+            shift = scale * ob.displacement
+            # a multiplier, or a penetration within the tolerance, presses
             pressed = self.near[i] | np.array(
-                [points.state[name] > 0 for name in pressure_names(i, dim)[0]])
+                [points.state[name] > 0 for name in pressure_names(i, dim)[0]]
+            ) | (ob.signed_distance(X.reshape(dim, -1), shift)[0] < 0
+                 ).reshape(-1, n)
             c, p = np.nonzero(pressed)
             if ob.friction != 0.:
                 held[:, p] = True
                 continue
-            shift = scale * ob.displacement
             Xc = X[:, c, p]
             normal = ob.face_gap(Xc, ob.nearest_face(Xc, shift), shift)[1]
             aligned = np.abs(normal) > 1 - 1e-9
@@ -264,10 +310,10 @@ class ObstacleContact(GridTerm):
         self.half = half
         self.R = corner_signs(dim)[:, :, None] * half[:, None, :]
         X0 = points.x0[:, None, :] + self.R               # at load 0
-        if not self.finite:
-            for row in gradient_names(dim):
-                for name in row:
-                    points.state.setdefault(name, np.zeros(n))
+        for row in offset_names(dim) + (
+                [] if self.finite else gradient_names(dim)):
+            for name in row:
+                points.state.setdefault(name, np.zeros(n))
         self.anchor, self.near, self.closed = [], [], []
         for i, ob in enumerate(self.obstacles):
             for names in pressure_names(i, dim):
@@ -310,6 +356,8 @@ class StepContact(GridTerm):
     """One step's contact with the obstacles (built by
     :meth:`ObstacleContact.begin_step`)."""
 
+    settles = True
+
     def __init__(self, term: ObstacleContact, problem):
         self.term, self.problem = term, problem
         points = problem.points
@@ -322,7 +370,12 @@ class StepContact(GridTerm):
         # (gradients of the initial configuration) and in small strain
         # (whose kept gradient adds the increments: F = I + sum(grad du))
         self.q = term.R if term.total_lagrangian or not term.finite else r
-        self.X = x[:, None, :] + r
+        self.X = term.corners(points, x, F)
+        # where the grid field is read for the corners: where they are,
+        # or with FE (the field of the initial configuration) where they
+        # were at the start
+        self.where = self.X if term.moves else \
+            points.x0[:, None, :] + term.R
         self.F = F
         self.shift = [problem.s_new * ob.displacement
                       for ob in term.obstacles]
@@ -334,10 +387,13 @@ class StepContact(GridTerm):
         self.evaluations = WeakKeyDictionary()
         n = points.n
         near = np.zeros(n, dtype=bool)
+        # each point's least distance from an obstacle (at the step's end)
+        self.clearance = np.full(n, np.inf)
         for i, ob in enumerate(term.obstacles):
             phi = ob.signed_distance(self.X.reshape(dim, -1),
                                      self.shift[i])[0].reshape(-1, n)
             near |= (phi < MARGIN_CELLS * term.h).any(axis=0)
+            self.clearance = np.minimum(self.clearance, phi.min(axis=0))
             for names in pressure_names(i, dim):
                 for name in names:
                     near |= points.state[name] != 0
@@ -349,26 +405,22 @@ class StepContact(GridTerm):
         """Build the step's corner operators for the points ``idx``."""
         term, dim = self.term, self.dim
         self.idx = idx
-        nc, m = 2 ** dim, len(idx)
-        S, G = point_rows(self.op, idx)
-        counts = np.diff(S.indptr)
-        blocks = []
-        for c in range(nc):
-            data = S.data + sum(np.repeat(self.q[b, c, idx], counts)
-                                * G[b].data for b in range(dim))
-            blocks.append(data)
-        # rows (sample s = c m + j, component a) -> vector DOFs dim k + a
-        nnz = S.nnz
-        row_of = np.repeat(np.arange(m), counts)
-        rows = ((np.arange(nc)[:, None] * m + row_of) * dim)
-        rows = rows[:, :, None] + np.arange(dim)
-        cols = S.indices[None, :, None] * dim + np.arange(dim)
-        data = np.repeat(np.concatenate(blocks).reshape(nc, nnz, 1), dim,
-                         axis=2)
-        self.J = coo_matrix(
-            (data.ravel(), (rows.ravel(), np.broadcast_to(
-                cols, rows.shape).ravel())),
-            shape=(nc * m * dim, self.op.N)).tocsr()
+        nc = 2 ** dim
+        if hasattr(self.op, "S"):
+            # GIMP's and B-splines' smooth weights: the point's operator
+            # and its gradient, u_c = (S + q . G) du
+            S, G = point_rows(self.op, idx)
+            counts = np.diff(S.indptr)
+            S = vstack([csr_matrix((S.data + sum(
+                np.repeat(self.q[b, c, idx], counts) * G[b].data
+                for b in range(dim)), S.indices, S.indptr), shape=S.shape)
+                for c in range(nc)])
+        else:
+            # Lagrange elements: the polynomial of the point's cell
+            S = term.cell_values(self.where[:, :, idx].reshape(dim, -1),
+                                 np.tile(self.op.point_elements[idx], nc),
+                                 self.op.N // dim)
+        self.J = kron(S, identity(dim), format="csr")
         self.Xs = self.X[:, :, idx].reshape(dim, -1)      # (dim, nc m)
         self.area, self.lam, self.tau, self.anchor = [], [], [], []
         self.closed = []
@@ -486,18 +538,25 @@ class StepContact(GridTerm):
         solved again."""
         term, dim = self.term, self.dim
         ev = self.evaluate(du, trial.response)
-        # corners outside the step's selection that went through an obstacle
-        H = self.op.gradients(du)
-        u = self.op.values(du)[:, None, :] + np.einsum(
-            "abp,bcp->acp", H, self.q)
-        X = (self.X + u).reshape(dim, -1)
+        # corners outside the step's selection that went through an
+        # obstacle: of the points that moved as far as their clearance
+        # (a distance changes no faster than the position)
+        H, u = self.op.gradients(du), self.op.values(du)
+        reach = np.sqrt((u ** 2).sum(axis=0)) + np.sqrt(
+            (H ** 2).sum(axis=(0, 1)) * (self.q ** 2).sum(axis=0).max(
+                axis=0))
         outside = np.ones(self.X.shape[2], dtype=bool)
         outside[self.idx] = False
+        check = np.flatnonzero(outside & (self.clearance - reach
+                                          < max(term.tol)))
+        X = (self.X[:, :, check] + u[:, None, check] + np.einsum(
+            "abp,bcp->acp", H[:, :, check], self.q[:, :, check])).reshape(
+                dim, -1)
         joined = np.zeros_like(outside)
-        for i, ob in enumerate(term.obstacles):
+        for i, ob in enumerate(term.obstacles if check.size else ()):
             phi = ob.signed_distance(X, self.shift[i])[0].reshape(
-                -1, outside.size)
-            joined |= outside & (phi < term.tol[i]).any(axis=0)
+                -1, check.size)
+            joined[check] |= (phi < term.tol[i]).any(axis=0)
         if joined.any():
             logger.debug("step %d: %d points reached an obstacle beyond the "
                          "step's selection; solving again", problem.step,
@@ -550,6 +609,17 @@ class StepContact(GridTerm):
             for a, row in enumerate(gradient_names(dim)):
                 for b, name in enumerate(row):
                     new.state[name] = new.state[name] + H[a, b]
+        # the corners followed: where the grid field moved them, kept as
+        # offsets from where the points' deformation puts them; the others
+        # go back there
+        for row in offset_names(dim):
+            for name in row:
+                new.state[name] = np.zeros(new.x.shape[1])
+        followed = self.Xs + (self.J @ du).reshape(-1, dim).T
+        offset = followed.reshape(dim, nc, m) - term.corners(new)[:, :, idx]
+        for a, row in enumerate(offset_names(dim)):
+            for c, name in enumerate(row):
+                new.state[name][idx] = offset[a, c]
         forces = []
         for i, (T, C, violation, normal_part) in enumerate(ev):
             names = pressure_names(i, dim)
@@ -558,7 +628,11 @@ class StepContact(GridTerm):
                 tau = np.divide(T, self.area[i], where=self.area[i] > 0,
                                 out=np.zeros_like(T))
             else:
-                p, tau = normal_part
+                # the multiplier, so that the next step starts from this
+                # pressure with this penetration (the pressure would add
+                # the penalty's force of the penetration a second time)
+                p = np.where(normal_part[0] > 0, self.lam[i], 0.)
+                tau = normal_part[1]
             values = [p] + list(tau)
             for comp, value in zip(names, values):
                 value = value.reshape(nc, m)
@@ -607,6 +681,44 @@ class StepContact(GridTerm):
                 problem.run.masses @ (new.velocity ** 2).sum(0))
 
 
+class CellValues:
+    """The grid's displacement field near points: ``values(x, cells, N)``
+    are the shape values (csr, m x ``N`` scalar DOFs) at positions ``x``
+    (dim, m) of the element's polynomial on ``cells`` (m,), the cells of
+    the points the positions belong to (a domain's corners), extrapolated
+    where a position lies beyond its point's cell: ``u(x) = S du``, exact
+    for any linear field.  The corners of one point move with one
+    polynomial, and the field they read stays the one of the cell that
+    carries their material (the cell a corner lies in may hold only a
+    sliver of it, or none).
+
+    Parameters
+    ----------
+    mesh
+        The run's grid (with a copy per field where bodies are in contact).
+    elem
+        The grid's scalar element.
+    """
+
+    def __init__(self, mesh, elem):
+        self.mesh, self.elem = mesh, elem
+        self.local = cell_coordinates(mesh, clip=False)
+        self._dofs = None
+
+    def __call__(self, x: ndarray, cells: ndarray, N: int) -> csr_matrix:
+        if self._dofs is None:
+            from skfem.assembly import Dofs
+            self._dofs = Dofs(self.mesh, self.elem).element_dofs
+        local = self.local(x, cells)
+        nloc = self._dofs.shape[0]
+        values = np.array([self.elem.lbasis(local, i)[0]
+                           for i in range(nloc)])              # (nloc, m)
+        m = x.shape[1]
+        return coo_matrix((values.ravel(), (np.tile(np.arange(m), nloc),
+                                            self._dofs[:, cells].ravel())),
+                          shape=(m, N)).tocsr()
+
+
 def p_wave_modulus(material) -> float:
     """The largest P-wave modulus ``lam + 2 mu`` of a run's materials (the
     scale of contact penalties)."""
@@ -616,9 +728,10 @@ def p_wave_modulus(material) -> float:
 
 def contact_term(obstacles, cell_size: float, material, domain0,
                  total_lagrangian: bool, moves: bool, finite: bool,
-                 counters: dict, initial_scale: float = 0.):
+                 counters: dict, initial_scale: float = 0.,
+                 cell_values=None):
     """The contact term of a run's obstacles."""
     return ObstacleContact(obstacles, cell_size, p_wave_modulus(material),
                            domain0,
                            total_lagrangian, moves, finite, counters,
-                           initial_scale)
+                           initial_scale, cell_values)

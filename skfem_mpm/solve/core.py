@@ -69,7 +69,7 @@ from ..stabilisation.settings import Stabilisation
 from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
 from .body_contact import BodyContact, check_contacts
-from .contact import contact_term, p_wave_modulus
+from .contact import CellValues, contact_term, p_wave_modulus
 from .dynamics import Dynamics, InertiaTerm
 from .linear import support_dofs
 from .loads import ExternalLoads, FollowerPressure, GridLoad
@@ -230,7 +230,9 @@ def obstacle_term(run: Run) -> Optional[GridTerm]:
                         run.domain0, total_lagrangian=not run.method.moves,
                         moves=run.method.moves,
                         finite=run.finite, counters=run.counters,
-                        initial_scale=run.scale(0.))
+                        initial_scale=run.scale(0.),
+                        cell_values=CellValues(run.mesh,
+                                               run.grid.elem.elem))
 
 
 def inertia_term(run: Run) -> Optional[GridTerm]:
@@ -274,16 +276,20 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     problem = StepProblem(run, points, f_old, f_new, step)
     strategy = run.newton if how.search == "first" else \
         run.line_search or run.newton
-    du = problem.du0
+    du, seed = problem.du0, None
+    # a term that may move its constraint after Newton (contact's
+    # augmented Lagrangian) has the step solved again from the converged
+    # increment, its first direction by the last factorised tangent
+    keep = how.modified and not how.stabilise and problem.settles
     for rounds in range(SETTLE_ROUNDS):
         found = newton_driver(
             problem, du, strategy.start(), max_iter=run.max_iter,
             modified=run.modified and how.modified and not how.stabilise,
             stabilise=how.stabilise, single_solve=run.rhs == "increment",
-            report=report, predict=rounds == 0)
+            report=report, predict=rounds == 0, keep=keep, seed=seed)
         if problem.settled(found.trial, found.du):
             break
-        du = found.du
+        du, seed = found.du, found.factorised
     else:
         raise ContactError(
             "step {}: contact did not settle within the obstacles' "

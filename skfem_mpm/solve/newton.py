@@ -50,7 +50,7 @@ perfectly plastic soil: half the Newton iterations of the default).
 import logging
 import time
 from dataclasses import dataclass
-from typing import Callable, List, NamedTuple, Union
+from typing import Callable, List, NamedTuple, Optional, Union
 
 import numpy as np
 from numpy import ndarray
@@ -400,16 +400,19 @@ class NewtonOptions:
 
 class Converged(NamedTuple):
     """What :func:`newton` returns: the converged increment, its trial
-    state and the residual of every iteration."""
+    state, the residual of every iteration and (``keep=True``) the solve
+    of the last factorised tangent, or ``None``."""
     du: ndarray
     trial: object
     residuals: List[float]
+    factorised: Optional[Callable] = None
 
 
 def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
            modified: bool = False, stabilise: bool = False,
            single_solve: bool = False, report: dict = None,
-           predict: bool = True) -> Converged:
+           predict: bool = True, keep: bool = False,
+           seed: Optional[Callable] = None) -> Converged:
     """Newton-Raphson on ``problem`` from the grid increment ``du``.
 
     Parameters
@@ -440,6 +443,14 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         Take the predictor below where prescribed motion drives the step
         (``False``: ``du`` is already a solution's neighbour, a step
         solved again after a term's constraint moved).
+    keep
+        Return the solve of the last factorised tangent (kept alive
+        between iterations, so for a problem whose terms may ask for the
+        step to be solved again).
+    seed
+        A factorised solve to take the first direction with (a
+        neighbouring tangent's: the kept one of a solve that a term's
+        constraint moved); the iterations after it are Newton's as asked.
 
     A nonlinear step driven by prescribed motion takes its first Newton
     step with the tangent of the step's start and the prescribed
@@ -459,7 +470,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     except InversionError as err:
         raise InversionError("step {}: {}".format(problem.step, err)) \
             from err
-    residuals, frozen = [], None
+    residuals, frozen, last = [], None, None
     report = {} if report is None else report
     report["reused"] = False
     for it in range(max_iter + 1):
@@ -484,11 +495,17 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                 du, current = moved
                 continue
             current = problem.residual(du)
-        d, solve = newton_direction(problem, current, frozen, residuals,
-                                    stabilise, report)
+        last = None         # memory: not alive while a tangent is formed
+        served = seed if seed is not None else frozen
+        d, solve = newton_direction(problem, current, served, residuals,
+                                    stabilise, report,
+                                    reuse=seed is not None or None)
+        seed = None
         if modified and solve is not None:
             frozen = solve
-        del solve
+        if keep:
+            last = solve if solve is not None else served
+        del solve, served
         try:
             du, current, extra = search(problem.residual, du, d, current,
                                         problem.converged)
@@ -496,7 +513,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
             raise InversionError("step {}: {}".format(problem.step, err)) \
                 from err
         problem.counters["line_search_trials"] += extra
-    return Converged(du, current, residuals)
+    return Converged(du, current, residuals, last)
 
 
 def predicted(problem, du: ndarray, d: ndarray, current):
@@ -515,15 +532,18 @@ def predicted(problem, du: ndarray, d: ndarray, current):
 
 
 def newton_direction(problem, current, frozen, residuals: list,
-                     stabilise: bool, report: dict):
+                     stabilise: bool, report: dict, reuse: bool = None):
     """Newton's direction at ``current``: by the kept factorisation
     ``frozen`` (modified Newton) where the last iteration cut the residual
-    by :data:`MODIFIED_RATE`, else by the tangent at ``current``, which is
-    assembled and factorised; returns the direction and the factorised
-    solve (``None`` where the kept one served)."""
+    by :data:`MODIFIED_RATE` (or where ``reuse`` says so: a seed), else
+    by the tangent at ``current``, which is assembled and factorised;
+    returns the direction and the factorised solve (``None`` where the
+    kept one served)."""
     r = problem.rhs(current)
-    if frozen is not None and residuals[-1] <= MODIFIED_RATE * \
-            residuals[-2]:      # modified Newton: the step's tangent
+    if reuse is None:
+        reuse = frozen is not None and residuals[-1] <= MODIFIED_RATE * \
+            residuals[-2]
+    if reuse:           # modified Newton (the step's tangent) or a seed
         tic = time.perf_counter()
         try:
             d = frozen(r)

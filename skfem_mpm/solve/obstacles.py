@@ -297,22 +297,20 @@ def _segments_cross(a, b, c, d) -> ndarray:
 
 
 def _box_distance(box: ndarray, x: ndarray):
-    lo, hi = box[:, :1], box[:, 1:]
-    below, above = lo - x, x - hi        # > 0 outside along that axis
-    outside = np.maximum(np.maximum(below, above), 0.)
-    dist = np.sqrt((outside ** 2).sum(axis=0))
-    dim, m = x.shape
-    normal = np.zeros((dim, m))
-    out = dist > 0
-    normal[:, out] = np.sign(above - below)[:, out] * outside[:, out] \
-        / dist[out]
-    # inside: the nearest face
-    depth = np.concatenate([-below, -above])       # (2 dim, m), >= 0
-    face = np.argmin(depth, axis=0)
-    inside = ~out
-    axis, side = face % dim, np.where(face < dim, -1., 1.)
-    normal[axis[inside], np.flatnonzero(inside)] = side[inside]
-    phi = np.where(out, dist, -depth[face, np.arange(m)])
+    # per axis the signed distance from the box's slab (> 0 outside it)
+    d = np.maximum(box[:, :1] - x, x - box[:, 1:])
+    out = np.maximum(d, 0.)
+    dist = np.sqrt(np.einsum("am,am->m", out, out))
+    outside = dist > 0
+    phi = np.where(outside, dist, d.max(axis=0))
+    # the outward normal: towards the position from its closest boundary
+    # point outside; inside, that of the nearest face (low faces first)
+    side = np.where(x - box[:, :1] > box[:, 1:] - x, 1., -1.)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        normal = np.where(outside, side * out / dist, 0.)
+    inside = np.flatnonzero(~outside)
+    axis = np.argmax(d[:, inside], axis=0)
+    normal[axis, inside] = side[axis, inside]
     return phi, normal
 
 

@@ -128,6 +128,8 @@ class StepProblem:
             begun = term.begin_step(self)  # before it (their loads)
             if begun is not None:
                 self.terms.append(begun)
+        self.settles = any(getattr(term, "settles", False)
+                           for term in self.terms)
         t["assemble"] += time.perf_counter() - tic
 
     @property
