@@ -275,6 +275,28 @@ class ObstacleContact(GridTerm):
                            for row in offset_names(dim)])
         return x[:, None, :] + np.einsum("abp,bcp->acp", F, self.R) + offset
 
+    @staticmethod
+    def corner_distance(ob: Obstacle, X: ndarray, x: ndarray,
+                        shift: ndarray, within: float) -> ndarray:
+        """The signed distance (nc, n) of the corners ``X`` (dim, nc, n)
+        of the points at ``x`` (dim, n) from obstacle ``ob`` shifted by
+        ``shift``, where it may be below ``within``; elsewhere a lower
+        bound above it (the distance of the point's bounding ball from
+        the obstacle's bounding box: a step measures only the points
+        near an obstacle, not the body)."""
+        dim, nc, n = X.shape
+        radius = np.sqrt(((X - x[:, None, :]) ** 2).sum(axis=0)).max(
+            axis=0)
+        bounds = ob.bounds(shift)
+        outside = np.maximum(np.maximum(bounds[:, :1] - x,
+                                        x - bounds[:, 1:]), 0.)
+        bound = np.sqrt((outside ** 2).sum(axis=0)) - radius
+        phi = np.repeat(bound[None], nc, axis=0)
+        check = np.flatnonzero(bound < within)
+        phi[:, check] = ob.signed_distance(
+            X[:, :, check].reshape(dim, -1), shift)[0].reshape(nc, -1)
+        return phi
+
     def held_dofs(self, op, points, scale: float):
         """The grid DOFs the obstacles hold at a step's start, for the
         check of missing supports: those of the points with a corner
@@ -287,10 +309,10 @@ class ObstacleContact(GridTerm):
         for i, ob in enumerate(self.obstacles):
             shift = scale * ob.displacement
             # a multiplier, or a penetration within the tolerance, presses
+            x = points.x if self.moves else points.x + points.displacement
             pressed = self.near[i] | np.array(
                 [points.state[name] > 0 for name in pressure_names(i, dim)[0]]
-            ) | (ob.signed_distance(X.reshape(dim, -1), shift)[0] < 0
-                 ).reshape(-1, n)
+            ) | (self.corner_distance(ob, X, x, shift, 0.) < 0)
             c, p = np.nonzero(pressed)
             if ob.friction != 0.:
                 held[:, p] = True
@@ -387,11 +409,12 @@ class StepContact(GridTerm):
         self.evaluations = WeakKeyDictionary()
         n = points.n
         near = np.zeros(n, dtype=bool)
-        # each point's least distance from an obstacle (at the step's end)
+        # each point's least distance from an obstacle (at the step's end;
+        # a lower bound beyond the margin)
         self.clearance = np.full(n, np.inf)
         for i, ob in enumerate(term.obstacles):
-            phi = ob.signed_distance(self.X.reshape(dim, -1),
-                                     self.shift[i])[0].reshape(-1, n)
+            phi = term.corner_distance(ob, self.X, x, self.shift[i],
+                                       MARGIN_CELLS * term.h)
             near |= (phi < MARGIN_CELLS * term.h).any(axis=0)
             self.clearance = np.minimum(self.clearance, phi.min(axis=0))
             for names in pressure_names(i, dim):
