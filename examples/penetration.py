@@ -40,13 +40,13 @@ over the last tenth (table in docs/geomechanics.md).
 pushed down by one width acts at the soil's surface wherever it is
 between grid lines (``docs/contact.md``), which a user can set up around
 a pile or two footings where no grid can follow every body.  Its curve,
-beside the moving grid's: 5.6 c_u at the first step and 8.5 over the last
-tenth at h = B/4 in 128 steps (18 s; the moving grid 5.5 and 8.4), but
-with dips of up to a quarter where soil under the footing's edge flows
-past a grid line (6.0 at 0.5 B).  At h = B/8 in 256 steps (the script's
-default) 6.85 c_u against the moving grid's 7.84 over the last tenth
-(13% lower), in 392 steps (cut-backs where plastic flow under the
-footing's edge stalls Newton; the moving grid 265).
+beside the moving grid's: 5.5 c_u at the first step and 8.5 over the last
+tenth at h = B/4 in 137 steps for 128 (12 s; the moving grid 5.5 and
+8.4), but with dips of up to a quarter where soil under the footing's
+edge flows past a grid line.  At h = B/8 in 256 steps (the script's
+default) 6.5 c_u against the moving grid's 7.8 over the last tenth (18%
+lower), in 301 steps (cut-backs where plastic flow under the footing's
+edge stalls Newton; the moving grid 265).
 
 Run ``python examples/penetration.py [OUTDIR] [CELLS_PER_WIDTH] [STEPS]``
 for the curves and the deformed soil with its plastic zone.
