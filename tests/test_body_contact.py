@@ -373,19 +373,24 @@ def test_a_scene_with_a_contact(tmp_path):
         load_scene(path)
 
 
+@pytest.mark.parametrize("interface", (.9, 1.))
 @pytest.mark.parametrize("method", ("mpm", "cpgimp"))
-def test_load_steps_do_not_change_a_linear_answer(method):
+def test_load_steps_do_not_change_a_linear_answer(method, interface):
     """Two blocks squeezed by a ram (a prescribed displacement of the top
-    nodes), small strain, linear elastic, the interface inside a cell: one
-    step or three give the glued blocks' stress to 1e-3 (measured 1e-4;
-    domains that did not follow the strain drifted by 2-6%)."""
+    nodes), small strain, linear elastic, the interface inside a cell or
+    on a grid line: one step or three give the glued blocks' stress to
+    2e-3 (measured 1e-4, and 9e-4 with cpGIMP on a grid line, whose
+    domains reach a sliver of the other body's cells on their own field,
+    held by the ghost penalty: 9% without it; domains that did not follow
+    the strain drifted by 2-6%)."""
     from skfem_mpm import Prescribed
 
     def ram(b, f_old, f_new):
         d = b.get_dofs(lambda x: x[1] == 2).nodal["u^2"]
         return d, np.full(d.size, -.01 * (f_new - f_old))
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
-    pts = bodies(mesh, 2, [[(0, 1), (0, .9)], [(0, 1), (.9, 2)]])
+    pts = bodies(mesh, 2, [[(0, 1), (0, interface)],
+                           [(0, 1), (interface, 2)]])
     mean = {}
     for steps in (1, 3):
         for contacts in ((), (Contact(0, 1, tolerance=1e-9),)):
@@ -396,7 +401,7 @@ def test_load_steps_do_not_change_a_linear_answer(method):
             mean[steps, bool(contacts)] = res.points.stress[1, 1].mean()
     glued = mean[1, False]
     for key, value in mean.items():
-        assert abs(value / glued - 1) < 1e-3, key
+        assert abs(value / glued - 1) < 2e-3, key
 
 
 def test_a_block_given_a_speed_slides_to_coulombs_stop():

@@ -238,10 +238,10 @@ class BodyContact(GridTerm):
         self.finder = PairFinder(contacts, field, mesh, vertices, cell_size)
         counters.setdefault("contact_updates", 0)
         logger.warning(
-            "contact between bodies: cpGIMP runs over several load steps "
-            "with an interface on a grid line drift by up to a tenth; see "
-            "docs/contact.md (Contact between bodies, not yet good enough) "
-            "for this and the cases refused")
+            "contact between bodies: a body wrapped round another's corner "
+            "with MPM, and landings on surfaces seeded in polygons, are not "
+            "yet reliable; see docs/contact.md (Contact between bodies, not "
+            "yet good enough) for these and the cases refused")
 
     def begin_run(self, points) -> None:
         dim = self.dim

@@ -25,8 +25,10 @@ class Stabilisation:
         :class:`~skfem_mpm.errors.GridMotionError`), switches the default
         penalty (0.1) on for the rest of the run (a bending body leaves
         nodes a sliver of support and Newton cycles without it; runs that
-        converge without it are not changed);
-        ``counters["ghost_from_step"]`` says from which step.
+        converge without it are not changed); on from the start with
+        uGIMP and cpGIMP where bodies are in contact (each body's domains
+        reach a sliver of the cells across an interface, on its own
+        field); ``counters["ghost_from_step"]`` says from which step.
     antilocking
         Mean dilatation (B-bar, :mod:`skfem_mpm.stabilisation.volumetric`)
         against volumetric locking, every method: the average over the
