@@ -250,13 +250,15 @@ def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
 
 
 
+@pytest.mark.parametrize("friction", [.5, "tied"])
 @pytest.mark.parametrize("method", ["fem", "cpgimp"])
-def test_a_step_starts_where_the_last_ended(method):
-    """A block resting on a floor (friction 0.5) under a constant weight:
-    after the first step every step starts in balance, its pressure that
-    of the last step's end (the point state keeps the multiplier: keeping
-    the pressure added the penalty's force of the penetration again, and
-    the second step started at 2.1 times the load's residual)."""
+def test_a_step_starts_where_the_last_ended(method, friction):
+    """A block resting on a floor (friction 0.5, or tied) under a constant
+    weight: after the first step every step starts in balance, its
+    traction that of the last step's end (the point state keeps the
+    multipliers: keeping the tractions added the penalty's force of the
+    penetration, or the tied mismatch, again, and the second step started
+    at 2.1 (1.5 tied) times the load's residual)."""
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9),
                                 np.linspace(-.25, 1, 11))
     pts = seed_points(mesh, 2, region=lambda x: (x[1] > 0) & (x[1] < .5)
@@ -265,7 +267,7 @@ def test_a_step_starts_where_the_last_ended(method):
                    body_force=BodyForce([0., -2e4], ramp=False), nsteps=4,
                    method=method, kinematics="finite",
                    obstacles=[Obstacle(box=[[-1., 2.], [-1., 0.]],
-                                       friction=.5)])
+                                       friction=friction)])
     first = [r.newton_residuals[0] for r in res.history]
     assert first[0] == pytest.approx(1.)
     assert max(first[1:]) < 2e-2

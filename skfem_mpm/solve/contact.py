@@ -634,22 +634,30 @@ class StepContact(GridTerm):
                     new.state[name] = new.state[name] + H[a, b]
         # the corners followed: where the grid field moved them, kept as
         # offsets from where the points' deformation puts them; the others
-        # go back there
+        # go back there, and so do a point's corners once one has drifted
+        # from its place there by a cell (in a strongly sheared cell the
+        # two part; read far beyond its cell, a corner drifting further
+        # moved faster, and a rough footing's run ended in overflow)
         for row in offset_names(dim):
             for name in row:
                 new.state[name] = np.zeros(new.x.shape[1])
         followed = self.Xs + (self.J @ du).reshape(-1, dim).T
         offset = followed.reshape(dim, nc, m) - term.corners(new)[:, :, idx]
+        drift = np.sqrt((offset ** 2).sum(axis=0)).max(axis=0)
+        apart = drift > term.h
+        if apart.any():
+            logger.debug("step %d: the corners of %d points drifted from "
+                         "their domains (up to %.3g); back on them",
+                         problem.step, int(apart.sum()), float(drift.max()))
+            offset[:, :, apart] = 0.
         for a, row in enumerate(offset_names(dim)):
             for c, name in enumerate(row):
                 new.state[name][idx] = offset[a, c]
         forces = []
         for i, (T, C, violation, normal_part) in enumerate(ev):
             names = pressure_names(i, dim)
-            if normal_part is None:
-                p = np.zeros(nc * m)
-                tau = np.divide(T, self.area[i], where=self.area[i] > 0,
-                                out=np.zeros_like(T))
+            if normal_part is None:         # tied: the multiplier too
+                p, tau = np.zeros(nc * m), self.tau[i]
             else:
                 # the multiplier, so that the next step starts from this
                 # pressure with this penetration (the pressure would add
