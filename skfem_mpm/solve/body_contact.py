@@ -313,12 +313,15 @@ class BodyContact(GridTerm):
 
     def held_dofs(self, op, points, scale: float):
         """The DOFs of both bodies at pairs touching at the step's start
-        (within the tolerance): along the normal where it is a grid axis
-        and the contact smooth, else every component."""
+        (within the tolerance, or 1e-3 of a cell where that is tighter:
+        pairs that a step held to 1e-10 of a cell start the next up to
+        6e-9 apart, where the corners of its start are): along the normal
+        where it is a grid axis and the contact smooth, else every
+        component."""
         held = []
         for (a, b, contact), (B, A, normal, gap), tol in zip(
                 self.contacts, self.pairs(op, points), self.tol):
-            touching = gap <= tol
+            touching = gap <= max(tol, 1e-3 * self.h)
             if not touching.any():
                 continue
             aligned = np.abs(normal[:, touching]) > 1 - 1e-9
