@@ -14,9 +14,10 @@ against what it must give:
   gravity tilted by theta (the inclined plane turned level): it sticks for
   ``tan(theta) < mu`` and slides ``g (sin theta - mu cos theta) t^2 / 2``
   otherwise;
-- **footing** (:func:`footing_curves`, about 40 s): a smooth strip
+- **footing** (:func:`footing_curves`, about 70 s): a smooth strip
   footing of width B = 8 h pushed 2 cells into weightless von Mises soil
-  (the half model, standard MPM, mean dilatation), once as an obstacle on
+  (the half model, standard MPM, 3 x 3 points per cell, mean dilatation),
+  once as an obstacle on
   the fixed grid and once as a :class:`~skfem_mpm.RigidBody` of points,
   against Prandtl's ``(2 + pi) c_u``: the rigid body's contact sits in the
   cells its points occupy and jumps as it crosses grid lines; the
@@ -85,17 +86,18 @@ def sliding(theta, t):
     return .5 * max(0., g * (np.sin(theta) - mu * np.cos(theta))) * t ** 2
 
 
-def footing_curves(ratio: int = 8, steps: int = 40):
+def footing_curves(ratio: int = 8, steps: int = 40, per_cell: int = 3):
     """The smooth strip footing of width B = ``ratio`` cells pushed 2 cells
-    in ``steps`` load steps, as an obstacle and as a rigid body: per
-    variant (settlement / B, pressure / c_u) at every step."""
+    in ``steps`` load steps, as an obstacle and as a rigid body, the soil
+    seeded ``per_cell`` points per cell along each axis: per variant
+    (settlement / B, pressure / c_u) at every step."""
     B, h = 1., 1. / ratio
     width, depth = 2.5 * B, 1.5 * B
     soil = VonMises(E=1e5, nu=.3, yield_stress=100.)
     cu = soil.yield_stress / np.sqrt(3.)
     grid = MeshQuad.init_tensor(np.arange(0., width + 1e-9, h),
                                 np.arange(0., depth + 3 * h + 1e-9, h))
-    ground = seed_points(grid, 2, region=lambda x: x[1] < depth)
+    ground = seed_points(grid, per_cell, region=lambda x: x[1] < depth)
 
     def supports(b):
         return np.concatenate([
