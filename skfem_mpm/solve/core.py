@@ -301,11 +301,14 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         if problem.settled(found.trial, found.du):
             break
         du, seed = found.du, found.factorised
+        found = None
     else:
         raise ContactError(
-            "step {}: contact did not settle within the obstacles' "
+            "step {}: contact did not settle within the contacts' "
             "tolerances in {} augmented-Lagrangian rounds".format(
                 step, SETTLE_ROUNDS))
+    # memory: no factorisation alive in the commit
+    seed, found = None, found._replace(factorised=None)
     new, record = problem.commit(found.trial, found.du, found.residuals)
     return new, record, problem.op
 

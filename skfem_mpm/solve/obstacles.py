@@ -304,7 +304,8 @@ def _box_distance(box: ndarray, x: ndarray):
     outside = dist > 0
     phi = np.where(outside, dist, d.max(axis=0))
     # the outward normal: towards the position from its closest boundary
-    # point outside; inside, that of the nearest face (low faces first)
+    # point outside; inside, that of the nearest face (of equally near
+    # faces the lowest axis's, its high face where the position is nearer)
     side = np.where(x - box[:, :1] > box[:, 1:] - x, 1., -1.)
     with np.errstate(divide="ignore", invalid="ignore"):
         normal = np.where(outside, side * out / dist, 0.)
