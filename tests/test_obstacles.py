@@ -251,26 +251,32 @@ def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
 
 
 @pytest.mark.parametrize("friction", [.5, "tied"])
-@pytest.mark.parametrize("method", ["fem", "cpgimp"])
-def test_a_step_starts_where_the_last_ended(method, friction):
+@pytest.mark.parametrize("method, kinematics, imbalance", [
+    ("fem", "small", 1e-10), ("fem", "finite", 2e-2),
+    ("cpgimp", "finite", 2e-2)])
+def test_a_step_starts_where_the_last_ended(method, kinematics, imbalance,
+                                            friction):
     """A block resting on a floor (friction 0.5, or tied) under a constant
     weight: after the first step every step starts in balance, its
     traction that of the last step's end (the point state keeps the
     multipliers: keeping the tractions added the penalty's force of the
     penetration, or the tied mismatch, again, and the second step started
-    at 2.1 (1.5 tied) times the load's residual)."""
+    at 2.1 (1.5 tied) times the load's residual).  FE in small strain
+    starts in balance to round-off (measured 3e-13; 6e-3 where the areas
+    followed the lateral strain); in finite deformation the areas are the
+    step's start's, and GIMP's points move, by 1e-2 at the most."""
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9),
                                 np.linspace(-.25, 1, 11))
     pts = seed_points(mesh, 2, region=lambda x: (x[1] > 0) & (x[1] < .5)
                       & (x[0] > .25) & (x[0] < .75))
     res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3), [],
                    body_force=BodyForce([0., -2e4], ramp=False), nsteps=4,
-                   method=method, kinematics="finite",
+                   method=method, kinematics=kinematics,
                    obstacles=[Obstacle(box=[[-1., 2.], [-1., 0.]],
                                        friction=friction)])
     first = [r.newton_residuals[0] for r in res.history]
     assert first[0] == pytest.approx(1.)
-    assert max(first[1:]) < 2e-2
+    assert max(first[1:]) < imbalance
     weight = 2e4 * pts.volume.sum()
     for r in res.history:
         assert r.obstacle_forces[0, 1] == pytest.approx(-weight, rel=1e-8)

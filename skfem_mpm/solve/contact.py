@@ -471,14 +471,18 @@ class StepContact(GridTerm):
 
     def corner_areas(self, normal: ndarray, idx: ndarray) -> ndarray:
         """Each corner's share (nc m,) of its domain's area projected on
-        the plane of ``normal`` (dim, nc m): Nanson's face areas
-        ``det(F) F^-T N A0`` at the step's start, a quarter (2D: half) of
-        those facing the obstacle."""
+        the plane of ``normal`` (dim, nc m): in finite deformation Nanson's
+        face areas ``det(F) F^-T N A0`` at the step's start, in small
+        strain the initial ones (a block resting on a floor under a
+        constant weight started each step 0.5% out of balance where the
+        areas followed its lateral strain), a quarter (2D: half) of those
+        facing the obstacle."""
         dim, nc = self.dim, 2 ** self.dim
         half = self.term.half[:, idx]
         faces = np.array([np.prod(np.delete(2 * half, k, axis=0), axis=0)
                           for k in range(dim)])            # (dim, m)
-        F = self.F[:, :, idx].transpose(2, 0, 1)
+        F = self.F[:, :, idx].transpose(2, 0, 1) if self.term.finite \
+            else np.broadcast_to(np.eye(dim), (len(idx), dim, dim))
         cof = np.linalg.det(F)[:, None, None] * np.linalg.inv(F).transpose(
             0, 2, 1)                                       # J F^-T
         vectors = cof * faces.T[:, None, :]                # (m, a, face k)
