@@ -14,7 +14,7 @@ against what it must give:
   gravity tilted by theta (the inclined plane turned level): it sticks for
   ``tan(theta) < mu`` and slides ``g (sin theta - mu cos theta) t^2 / 2``
   otherwise;
-- **footing** (:func:`footing_curves`, about 70 s): a smooth strip
+- **footing** (:func:`footing_curves`, about 65 s): a smooth strip
   footing of width B = 8 h pushed 2 cells into weightless von Mises soil
   (the half model, standard MPM, 3 x 3 points per cell, mean dilatation),
   once as an obstacle on

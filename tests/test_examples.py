@@ -496,7 +496,7 @@ def test_obstacles_footing_on_a_fixed_grid(obstacles):
     the rigid body of points 21% as it crosses grid lines; 9.4% with 2 x
     2 points per cell before the corners moved with their cell's
     polynomial, 5.0% after), in at most twice the steps asked (measured
-    60), and rises from 8% above (2 + pi) c_u to 25% at 0.25 B as the
+    58), and rises from 8% above (2 + pi) c_u to 25% at 0.25 B as the
     footing sinks into the soil (its early plateau: issue 29 asks for 8%,
     not met)."""
     curves = obstacles.footing_curves()
