@@ -28,6 +28,28 @@ def grid(x, y, h):
                                 np.arange(y[0], y[1] + 1e-9, h))
 
 
+def base_and_rollers(width: float):
+    """The supports of soil over ``0 <= x <= width`` on a grid from
+    ``y = 0``: the base fixed, both sides on rollers (``u^1`` fixed).
+
+    Examples
+    --------
+    >>> from skfem import Basis, ElementQuad1, ElementVector
+    >>> from skfem_mpm.studies.user_setups import base_and_rollers, grid
+    >>> basis = Basis(grid((0., 1.), (0., 1.), .5),
+    ...               ElementVector(ElementQuad1()))
+    >>> fixed = np.unique(base_and_rollers(1.)(basis))
+    >>> fixed.size        # 3 base nodes x 2, 2 more nodes x 1 a side
+    10
+    """
+    def supports(b):
+        return np.concatenate([
+            b.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+            b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                       | np.isclose(x[0], width)).all("u^1")])
+    return supports
+
+
 def block(h: float, per_cell: int, method: str, traction,
           options: Optional[Options] = None):
     """A soft block (1 x 1, E = 1e3, nu = 0.3) on a clamped base, loaded
@@ -63,13 +85,6 @@ def footing(h: float, per_cell: int, method: str, settlement: float = .02,
     half, depth, cu = .25, 1., 100. / np.sqrt(3.)
     mesh = grid((0., 2.), (0., depth + .5), h)
     points = seed_points(mesh, per_cell, region=lambda x: x[1] < depth)
-
-    def supports(b):
-        return np.concatenate([
-            b.get_dofs(lambda x: x[1] == 0).all(),
-            b.get_dofs(lambda x: np.isclose(x[0], 0.)
-                       | np.isclose(x[0], 2.)).all("u^1")])
-
     under = np.flatnonzero(np.isclose(mesh.p[1], depth)
                            & (mesh.p[0] <= half + 1e-9))
 
@@ -77,9 +92,10 @@ def footing(h: float, per_cell: int, method: str, settlement: float = .02,
         return b.nodal_dofs[1, under], np.full(under.size, -settlement * (
             f_new - f_old))
     res = simulate(mesh, ElementQuad1(), points,
-                   VonMises(1e4, .3, yield_stress=100.), supports,
-                   loads=[Prescribed(pushed)], nsteps=10, method=method,
-                   kinematics="finite", options=options)
+                   VonMises(1e4, .3, yield_stress=100.),
+                   base_and_rollers(2.), loads=[Prescribed(pushed)],
+                   nsteps=10, method=method, kinematics="finite",
+                   options=options)
     force = res.history[-1].reactions[2 * under + 1].sum()   # y at nodes
     return res, abs(force) / half / cu
 
@@ -98,14 +114,8 @@ def slope(h: float, per_cell: int, method: str,
         2. - x[0], 0., 1.))
     crest = np.flatnonzero(np.hypot(points.x[0] - 1., points.x[1] - 2.)
                            < .25)
-
-    def supports(b):
-        return np.concatenate([
-            b.get_dofs(lambda x: x[1] == 0).all(),
-            b.get_dofs(lambda x: np.isclose(x[0], 0.)
-                       | np.isclose(x[0], 4.)).all("u^1")])
     res = simulate(mesh, ElementQuad1(), points,
                    VonMises(1e4, .3, yield_stress=6. * np.sqrt(3.)),
-                   supports, body_force=[0., -20.], nsteps=10,
+                   base_and_rollers(4.), body_force=[0., -20.], nsteps=10,
                    method=method, kinematics="finite", options=options)
     return res, res.points.displacement[:, crest].mean(axis=1)
