@@ -12,7 +12,9 @@ Each example is imported as the test suite imports it (its module-level
 code computes the results) and its ``visualize`` writes its PNG files into
 ``docs/gallery/``.  ``penetration`` takes its results as arguments: it is
 run as ``python examples/penetration.py`` runs it (h = B/8, 256 steps,
-the longest: about 1.5 min of the 2 min in all).
+about 1.5 min), and ``methods`` with its footing study
+(``footing_study()``: about 15 min more on the shared 2-core machine, the
+longest; ``make_gallery.py methods`` redraws only its two figures).
 """
 import importlib.util
 import sys
@@ -45,8 +47,13 @@ def obstacles(module, outdir):
     module.visualize(outdir, module.footing_curves())
 
 
+def methods(module, outdir):
+    module.visualize(outdir, module.footing_study())
+
+
 # examples whose visualize() is not visualize(outdir)
-SPECIAL = {"penetration": penetration, "obstacles": obstacles}
+SPECIAL = {"penetration": penetration, "obstacles": obstacles,
+           "methods": methods}
 
 
 def main(names):
