@@ -13,7 +13,7 @@ code computes the results) and its ``visualize`` writes its PNG files into
 ``docs/gallery/``.  ``penetration`` takes its results as arguments: it is
 run as ``python examples/penetration.py`` runs it (h = B/8, 256 steps,
 about 1.5 min), and ``methods`` with its footing study
-(``footing_study()``: about 15 min more on the shared 2-core machine, the
+(``footing_study()``: about 12 min more on the shared 2-core machine, the
 longest; ``make_gallery.py methods`` redraws only its two figures).
 """
 import importlib.util

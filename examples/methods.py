@@ -15,8 +15,8 @@ in time, and the cheapest method for an error asked for, are what a user
 needs to choose.
 
 The column and the cantilever are computed on import (about 70 s); the
-footing only by :func:`footing_study` (about 20 min on a loaded 2-core
-machine: GIMP and the B-splines take minutes at B / h = 16).
+footing only by :func:`footing_study` (about 12 min on the shared 2-core
+machine: GIMP and the B-splines take 1-5 min each at B / h = 16).
 
 Run ``python examples/methods.py [OUTDIR]`` to print the tables and write
 ``methods.png`` and ``methods_footing.png``.
@@ -80,7 +80,8 @@ def visualize(outdir=".", footing=None):
                              .format(min(ratios), max(ratios)))
         plot_footing(footing, Path(outdir) / "methods_footing.png",
                      footing_reference())
-    plot_methods(studies, Path(outdir) / "methods.png", titles)
+    plot_methods(studies, Path(outdir) / "methods.png", titles,
+                 {"footing": "lower left"})
 
 
 def print_rows(name, rows):

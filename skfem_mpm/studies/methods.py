@@ -258,12 +258,15 @@ def cheapest(rows: List[dict], target: float) -> Dict[str, dict]:
     return found
 
 
-def plot_methods(studies: Dict[str, List[dict]], path, titles: Dict[str, str]):
+def plot_methods(studies: Dict[str, List[dict]], path, titles: Dict[str, str],
+                 places: Optional[Dict[str, str]] = None):
     """One panel per study (``titles`` by its name): each method's error
     against CPU seconds on log axes, its fitted order in the cell size in
     the legend, and in time where the method's CPU times span a factor of
     :data:`TIME_SPAN` (below it the runs' fixed costs dominate and a
-    slope says nothing); written to ``path`` (PNG)."""
+    slope says nothing); the legend where ``places`` says by the study's
+    name (a matplotlib ``loc``), else where it hides least; written to
+    ``path`` (PNG)."""
     from matplotlib.ticker import NullFormatter
     from ..scenes import plot
     from ..scenes.plot import pyplot, series_styles
@@ -285,7 +288,7 @@ def plot_methods(studies: Dict[str, List[dict]], path, titles: Dict[str, str]):
                       "each line")
         ax.set_ylabel("error (-)")
         ax.set_title(titles[name], fontsize=9)
-        ax.legend(fontsize=6)
+        ax.legend(fontsize=6, loc=(places or {}).get(name, "best"))
     fig.tight_layout()
     plot.save_figure(fig, path)
     return path
@@ -295,9 +298,10 @@ def plot_footing(rows: List[dict], path, reference: float):
     """The footing rows of :func:`methods_study` in two panels: each
     method's pressure over ``c_u`` against the settlement over B on the
     finest grid, and each method's pressure at the end against the
-    number of cells across B, both with Prandtl's ``reference`` (a limit
-    load converges from above; a method below it is unsafe); written to
-    ``path`` (PNG)."""
+    number of cells across B (the series styled alike, the legend on the
+    first), both with Prandtl's ``reference`` (a limit load converges
+    from above; a method below it is unsafe); written to ``path``
+    (PNG)."""
     from matplotlib.ticker import NullFormatter, ScalarFormatter
     from ..scenes import plot
     from ..scenes.plot import pyplot, series_styles
@@ -313,11 +317,11 @@ def plot_footing(rows: List[dict], path, reference: float):
         ends.plot([FOOTING_WIDTH / r["h"] for r in mine],
                   [r["value"] for r in mine], ms=4, lw=.8, label=method,
                   **style)
-    for ax, where in ((curves, "lower right"), (ends, "best")):
+    for ax in (curves, ends):
         ax.axhline(reference, color="k", ls="--",
                    label="Prandtl: (2 + pi) c_u")
         ax.set_ylabel("footing pressure / c_u (-)")
-        ax.legend(fontsize=7, loc=where)
+    curves.legend(fontsize=7, loc="lower right")
     curves.set_xlabel("settlement / footing width B (-)")
     curves.set_title("Smooth strip footing on the finest grid (B / h = "
                      "{:g}): load-settlement".format(
