@@ -81,7 +81,7 @@ def visualize(outdir=".", footing=None):
         plot_footing(footing, Path(outdir) / "methods_footing.png",
                      footing_reference())
     plot_methods(studies, Path(outdir) / "methods.png", titles,
-                 {"footing": "lower left"})
+                 {"footing": dict(loc="upper left", bbox_to_anchor=(1, 1))})
 
 
 def print_rows(name, rows):

@@ -259,14 +259,15 @@ def cheapest(rows: List[dict], target: float) -> Dict[str, dict]:
 
 
 def plot_methods(studies: Dict[str, List[dict]], path, titles: Dict[str, str],
-                 places: Optional[Dict[str, str]] = None):
+                 places: Optional[Dict[str, dict]] = None):
     """One panel per study (``titles`` by its name): each method's error
     against CPU seconds on log axes, its fitted order in the cell size in
     the legend, and in time where the method's CPU times span a factor of
     :data:`TIME_SPAN` (below it the runs' fixed costs dominate and a
     slope says nothing); the legend where ``places`` says by the study's
-    name (a matplotlib ``loc``), else where it hides least; written to
-    ``path`` (PNG)."""
+    name (keyword arguments of matplotlib's ``legend``: ``loc``,
+    ``bbox_to_anchor``), else where it hides least; written to ``path``
+    (PNG)."""
     from matplotlib.ticker import NullFormatter
     from ..scenes import plot
     from ..scenes.plot import pyplot, series_styles
@@ -288,7 +289,7 @@ def plot_methods(studies: Dict[str, List[dict]], path, titles: Dict[str, str],
                       "each line")
         ax.set_ylabel("error (-)")
         ax.set_title(titles[name], fontsize=9)
-        ax.legend(fontsize=6, loc=(places or {}).get(name, "best"))
+        ax.legend(fontsize=6, **(places or {}).get(name, {}))
     fig.tight_layout()
     plot.save_figure(fig, path)
     return path
