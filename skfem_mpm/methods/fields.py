@@ -181,6 +181,11 @@ class FieldMethod:
     def domains(self, domain0, F):
         return self.piece.domains(domain0, F)
 
+    def check_supports(self, op, fixed, nodal_dofs, step: int):
+        """The piece's check (contacts between bodies take GIMP, whose
+        DOFs are the field's values at the nodes: nothing to refuse)."""
+        self.piece.check_supports(op, fixed, nodal_dofs, step)
+
     def operator(self, points, step: int, timings: dict):
         location = self.locate(points.x, step, timings, points)
         tic = time.perf_counter()

@@ -95,6 +95,12 @@ class PointMethod:
     def domains(self, domain0: Optional[ndarray], F: ndarray):
         return None
 
+    def check_supports(self, op, fixed: ndarray, nodal_dofs: ndarray,
+                       step: int):
+        """Refuse held DOFs that would not hold the material where they
+        are (the grid's DOFs are the field's values at the nodes here:
+        none)."""
+
 
 class GimpMethod(PointMethod):
     """uGIMP (domains fixed) or cpGIMP (domains stretched by ``U``)."""
@@ -138,6 +144,7 @@ class BSplineMethod(PointMethod):
         self.spline = QuadraticBSpline(mesh, scalar)
         self.averaged = name == "bspline-gimp"
         self._boxes = None          # the step's points' centres and domains
+        self._inside = None         # nodes off the grid's edges
 
     def operator(self, points, step: int, timings: dict):
         location = self.locate(points.x, step, timings, points)
@@ -182,6 +189,33 @@ class BSplineMethod(PointMethod):
         if self.averaged:
             return stretched_domains(domain0, F)
         return None
+
+    def check_supports(self, op, fixed: ndarray, nodal_dofs: ndarray,
+                       step: int):
+        """Refuse held DOFs at nodes inside the grid that carry a point's
+        weight: a node is a control point, the field's value only on the
+        grid's edges, so holding one inside the grid holds no line of
+        material (a block pressed against a held interior line carried
+        11% less force than the support's reaction says it should)."""
+        held = fixed[np.isin(fixed, op.active_dofs)]
+        if held.size == 0:
+            return
+        if self._inside is None:
+            self._inside = np.ones(self.mesh.nvertices, dtype=bool)
+            self._inside[self.mesh.boundary_nodes()] = False
+        nodes = np.flatnonzero(np.isin(nodal_dofs, held).any(axis=0)
+                               & self._inside)
+        if nodes.size:
+            raise InvalidInputError(
+                "step {}: method {!r} holds DOFs at {} grid nodes inside the "
+                "grid (the first at {}) that points carry weight on: the "
+                "nodes are the splines' control points, which equal the "
+                "displacement only on the grid's edges, so a support inside "
+                "the grid does not hold the material there; make the grid "
+                "end at the support, or use a tied obstacle "
+                "(Obstacle(..., friction='tied'))".format(
+                    step, self.name, nodes.size,
+                    np.round(self.mesh.p[:, nodes[0]], 6).tolist()))
 
 
 #: the piece of each method that is not :class:`PointMethod`

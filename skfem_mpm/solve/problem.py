@@ -113,6 +113,7 @@ class StepProblem:
         self.s_old, self.s_new = run.scale(f_old), run.scale(f_new)
         held = held_motion(run, op, points, self.s_old, self.s_new, step)
         self.fixed, self.du0, self.driven, self.rigid_dofs = held
+        run.method.check_supports(op, self.fixed, self.grid.nodal_dofs, step)
         held_by_terms = [h for h in (
             term.held_dofs(self.method_op, points, self.s_old)
             for term in run.terms) if h is not None]

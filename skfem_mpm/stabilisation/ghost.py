@@ -17,6 +17,7 @@ whatever the sliver's size.  Facet terms are assembled by scikit-fem on
 Acad. Sci. Paris, Ser. I* 348, 2010).
 
 """
+import logging
 from typing import Optional
 
 import numpy as np
@@ -26,7 +27,10 @@ from skfem.helpers import dot, grad, mul
 
 from ..protocols import GridTerm
 
-__all__ = ["ghost_penalty", "cut_cells", "GhostStabilisation", "CUT_FILL"]
+__all__ = ["ghost_penalty", "cut_cells", "faces_crossed_past_supports",
+           "GhostStabilisation", "CUT_FILL"]
+
+logger = logging.getLogger(__name__)
 
 
 @BilinearForm
@@ -80,6 +84,76 @@ def ghost_penalty(mesh, elem, fill: ndarray, mu: ndarray,
                for i in (0, 1) for j in (0, 1))
 
 
+def faces_crossed_past_supports(mesh, nodal_dofs: ndarray, fixed: ndarray,
+                                point_cells: ndarray,
+                                active_cells: ndarray) -> ndarray:
+    """Faces across which points' domains reach past a support: a face of
+    an axis-aligned grid between a cell that holds points and a cell that
+    only their domains reach (no point in it), every node of the face held
+    along the face's normal.
+
+    Material pressed against a held grid line moves towards it while a
+    GIMP domain keeps its size (uGIMP; cpGIMP in small strain), so the
+    domain crosses the line by a sliver.  The nodes beyond, free and held
+    by the sliver alone, make the stress of the points touching them
+    vanish along the normal: a block pressed against a held line had a
+    column of points at zero stress beside one at 1.66 times the load.
+    The ghost penalty ties those nodes to the cells inside.
+
+    Parameters
+    ----------
+    mesh
+        The grid.
+    nodal_dofs
+        The grid's vector DOF at each node, (dim, nvertices).
+    fixed
+        Held DOFs.
+    point_cells
+        The cell holding each point.
+    active_cells
+        The cells the points' operator reaches.
+
+    Returns
+    -------
+    ndarray
+        The faces' indices.
+
+    Examples
+    --------
+    A point in the left cell of two whose domain reaches past the middle
+    line, held along x (and not, when held along y):
+
+    >>> import numpy as np
+    >>> from skfem import MeshQuad
+    >>> mesh = MeshQuad.init_tensor(np.array([0., 1., 2.]), np.array([0., 1.]))
+    >>> dofs = np.arange(2 * mesh.nvertices).reshape(-1, 2).T
+    >>> middle = np.flatnonzero(mesh.p[0] == 1.)
+    >>> faces = faces_crossed_past_supports(mesh, dofs, dofs[0, middle],
+    ...                                     np.array([0]), np.array([0, 1]))
+    >>> mesh.p[0, mesh.facets[:, faces]].ravel()      # the middle line
+    array([1., 1.])
+    >>> faces_crossed_past_supports(mesh, dofs, dofs[1, middle],
+    ...                             np.array([0]), np.array([0, 1])).size
+    0
+    """
+    nel = mesh.nelements
+    holds = np.bincount(point_cells, minlength=nel) > 0
+    reached = np.zeros(nel, dtype=bool)
+    reached[active_cells] = True
+    reached &= ~holds
+    left, right = mesh.f2t
+    inner = np.maximum(right, 0)
+    faces = np.flatnonzero((right >= 0) & (
+        (holds[left] & reached[inner]) | (reached[left] & holds[inner])))
+    if faces.size == 0:
+        return faces
+    nodes = mesh.facets[:, faces]
+    normal = np.argmin(np.ptp(mesh.p[:, nodes], axis=1), axis=0)
+    held = np.zeros(nodal_dofs.max() + 1, dtype=bool)
+    held[fixed] = True
+    return faces[held[nodal_dofs[normal, nodes]].all(axis=0)]
+
+
 class GhostStabilisation(GridTerm):
     """The ghost penalty as a grid term of the load step
     (:class:`~skfem_mpm.protocols.GridTerm`): the step's penalty ``G``
@@ -98,7 +172,9 @@ class GhostStabilisation(GridTerm):
     active
         ``False``: held in reserve, contributing nothing until
         :meth:`switch_on` (``ghost="auto"``: the retry ladder of a failed
-        step switches it on for the rest of the run).
+        step switches it on for the rest of the run, and so does a step
+        whose points' domains reach past a support,
+        :func:`faces_crossed_past_supports`).
     """
 
     def __init__(self, mesh, elem, gamma: float, material,
@@ -114,9 +190,23 @@ class GhostStabilisation(GridTerm):
 
     def begin_step(self, problem):
         """The step's penalty; ``None`` (no contribution) while in reserve
-        or where no face needs one."""
+        or where no face needs one.  In reserve, switched on for the rest
+        of the run at a step whose points' domains reach past a support."""
         if not self.active:
-            return None
+            op = problem.op
+            crossed = faces_crossed_past_supports(
+                self.mesh, problem.grid.nodal_dofs, problem.fixed,
+                op.point_elements, op.elements)
+            if crossed.size == 0:
+                return None
+            self.switch_on()
+            problem.counters["ghost_from_step"] = problem.step
+            logger.info(
+                "step %d: points' domains reach past a support at %d grid "
+                "faces (the first at %s): the ghost penalty on (gamma %g) "
+                "for the rest of the run", problem.step, crossed.size,
+                np.round(self.mesh.p[:, self.mesh.facets[:, crossed[0]]].mean(
+                    axis=1), 6).tolist(), self.gamma)
         self.G = self.penalty(problem.op, problem.points)
         return None if self.G is None else self
 

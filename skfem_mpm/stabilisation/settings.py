@@ -28,7 +28,11 @@ class Stabilisation:
         converge without it are not changed); on from the start with
         uGIMP and cpGIMP where bodies are in contact (each body's domains
         reach a sliver of the cells across an interface, on its own
-        field); ``counters["ghost_from_step"]`` says from which step.
+        field); on from a step whose points' domains reach past a
+        support (material pressed against a held grid line, uGIMP and
+        cpGIMP in small strain:
+        :func:`~skfem_mpm.stabilisation.ghost.faces_crossed_past_supports`);
+        ``counters["ghost_from_step"]`` says from which step.
     antilocking
         Mean dilatation (B-bar, :mod:`skfem_mpm.stabilisation.volumetric`)
         against volumetric locking, every method: the average over the
