@@ -19,9 +19,14 @@ once, then what loading the cached kernels costs each process.
 ``--method cpgimp`` (or ``ugimp``, ``bspline``) runs the tables with
 that method's sparse operator instead of standard MPM's (in 3D to 3.3e4
 points: the numpy path's GIMP stiffness takes seconds beyond).
+``--antilocking`` runs them with mean dilatation
+(``Stabilisation(antilocking=True)``, as the footing examples);
+``--cells`` picks the sizes (cells per side of the block: 50 and 158 are
+the 1e4 and 1e5 points of 2D, 11 and 24 of 3D).
 
     python benchmarks/compiled_cost.py [--dim 2] [--reps 3] [--large]
-        [--kratos] [--compile] [--method mpm]
+        [--kratos] [--compile] [--method mpm] [--antilocking]
+        [--cells 50 158]
 
 The path is chosen by making the run's kinematics with ``kernels=``
 (the core's factory, replaced in this process).
@@ -36,7 +41,8 @@ import tracemalloc
 
 import numpy as np
 
-from skfem_mpm import LinearElastic, Options, point_locator, simulate
+from skfem_mpm import (LinearElastic, Options, Stabilisation, point_locator,
+                       simulate)
 from skfem_mpm.solve.results import PHASES
 from step_cost import GRIDS, block, fixed_and_slope
 
@@ -44,7 +50,7 @@ SIZES = {2: (16, 32, 50, 100, 158), 3: (5, 8, 11, 16, 24)}
 PATHS = ("numpy", "compiled")
 
 
-KERNELS = {"path": "auto", "method": "mpm"}
+KERNELS = {"path": "auto", "method": "mpm", "antilocking": False}
 
 
 def use(kernels: str):
@@ -61,7 +67,8 @@ def once(mesh, elem, points, nsteps=1, body_force=None, supports=None):
         else body_force, nsteps=nsteps, method=KERNELS["method"],
         kinematics="finite",
         options=Options(keep_snapshots=False, locator=point_locator(mesh),
-                        kernels=KERNELS["path"]))
+                        kernels=KERNELS["path"], stabilisation=Stabilisation(
+                            antilocking=KERNELS["antilocking"])))
 
 
 def measure(mesh, elem, points, reps: int, heap: bool, **kwargs):
@@ -82,17 +89,19 @@ def measure(mesh, elem, points, reps: int, heap: bool, **kwargs):
     return best, its, peak
 
 
-def table(dim: int, reps: int):
+def table(dim: int, reps: int, cells=None):
     method = KERNELS["method"]
-    print("\n{}D, block of step_cost.py, {}, finite deformation, 1 step; ms "
-          "per Newton iteration (best of {})".format(
-              dim, "standard MPM" if method == "mpm" else method, reps))
+    print("\n{}D, block of step_cost.py, {}{}, finite deformation, 1 step; "
+          "ms per Newton iteration (best of {})".format(
+              dim, "standard MPM" if method == "mpm" else method,
+              ", mean dilatation" if KERNELS["antilocking"] else "", reps))
     print("{:>7} {:>9} | {} | {:>7} {:>9} {:>8} {:>4}".format(
         "points", "path", " ".join("{:>8}".format(p) for p in PHASES),
         "total", "us/pt/it", "heap/pt", "its"))
     rows = {path: [] for path in PATHS}
     elem = GRIDS[dim][1]()
-    sizes = SIZES[dim] if method == "mpm" or dim == 2 else SIZES[dim][:4]
+    sizes = cells or (SIZES[dim] if method == "mpm" or dim == 2
+                      else SIZES[dim][:4])
     for ncells in sizes:
         mesh, points = block(ncells, dim)
         for path in PATHS:
@@ -156,12 +165,14 @@ def large(reps: int):
 
 #: a fresh process's first runs, each timed: 2D and 3D, finite and small
 #: deformation, elastic and von Mises (every compiled pass), then cpGIMP
-#: (the same passes: nothing more to compile)
+#: (the same passes: nothing more to compile), then mean dilatation (its
+#: passes, 2D and 3D, finite and small deformation)
 FIRST_RUNS = """
 import sys, time
 sys.path.insert(0, {here!r})
 import numpy as np
-from skfem_mpm import LinearElastic, VonMises, simulate
+from skfem_mpm import (LinearElastic, Options, Stabilisation, VonMises,
+                       simulate)
 from step_cost import GRIDS, block
 tic = time.perf_counter()
 import skfem_mpm.kernels.passes
@@ -183,6 +194,16 @@ simulate(mesh, GRIDS[2][1](), points.copy(), LinearElastic(1e6, .3),
          lambda b: b.get_dofs(lambda x: x[-1] == 0), body_force=[0., -1e4],
          nsteps=1, method="cpgimp", kinematics="finite")
 print("2 finite LinearElastic cpgimp", time.perf_counter() - tic)
+for dim in (2, 3):
+    mesh, points = block(2, dim)
+    for kinematics in ("finite", "small"):
+        tic = time.perf_counter()
+        simulate(mesh, GRIDS[dim][1](), points.copy(), VonMises(1e6, .3, 2e4),
+                 lambda b: b.get_dofs(lambda x: x[-1] == 0),
+                 body_force=np.r_[np.zeros(dim - 1), -1e4], nsteps=1,
+                 method="mpm", kinematics=kinematics, options=Options(
+                     stabilisation=Stabilisation(antilocking=True)))
+        print(dim, kinematics, "mean dilatation", time.perf_counter() - tic)
 """
 
 
@@ -214,8 +235,10 @@ def main():
     parser.add_argument("--compile", action="store_true")
     parser.add_argument("--method", default="mpm",
                         choices=("mpm", "ugimp", "cpgimp", "bspline"))
+    parser.add_argument("--antilocking", action="store_true")
+    parser.add_argument("--cells", type=int, nargs="+")
     args = parser.parse_args()
-    KERNELS["method"] = args.method
+    KERNELS["method"], KERNELS["antilocking"] = args.method, args.antilocking
     if args.compile:
         compile_times()
     # untimed: numba's cached kernels and the solver's libraries load
@@ -225,7 +248,7 @@ def main():
         once(mesh, GRIDS[2][1](), points)
     tic = time.perf_counter()
     for dim in args.dim:
-        table(dim, args.reps)
+        table(dim, args.reps, args.cells)
     if args.kratos:
         kratos_column(args.reps)
     if args.large:

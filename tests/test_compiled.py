@@ -1,14 +1,17 @@
 """The compiled points-first passes (``kernels="compiled"``) equal the
 numpy path, the reference, to round-off: a response's stress measure,
 internal force, stiffness (the CSR data of one pattern) and committed state
-with standard MPM's and GIMP's operators, in 2D and 3D, small and finite
-deformation, elastic, von Mises and Drucker-Prager, at the start and after
-a step; whole runs alike (MPM, uGIMP, cpGIMP, B-splines); a resumed
-compiled run is bit-identical to the uninterrupted one.  The choice is
+with standard MPM's and GIMP's operators, with and without mean
+dilatation, in 2D and 3D, small and finite deformation, every material of
+the passes, at the start and after a step; whole runs alike (MPM, uGIMP,
+cpGIMP, B-splines; with mean dilatation also a footing pushed by an
+obstacle); a resumed compiled run is bit-identical to the uninterrupted
+one.  The choice is
 checked: an unknown name refused, a run the passes cannot serve refused
 when they are asked for, served by numpy (logged once) otherwise, and the
 package works where numba does not import."""
 import dataclasses
+import functools
 import json
 import logging
 import sys
@@ -21,7 +24,8 @@ from skfem import (ElementHex1, ElementQuad1, ElementQuad2, ElementTriP1,
 
 from skfem_mpm import (DruckerPrager, LinearElastic, ModifiedCamClay,
                        MohrCoulomb, Options, Prescribed, Resume,
-                       Stabilisation, VonMises, seed_points, simulate)
+                       Stabilisation, VonMises, point_locator, seed_points,
+                       simulate)
 from skfem_mpm import kernels
 from skfem_mpm.errors import InvalidInputError
 from skfem_mpm.mechanics.kinematics import make_kinematics
@@ -29,6 +33,7 @@ from skfem_mpm.mechanics.materials import initial_state
 from skfem_mpm.methods.gimp_linear import LinearGimp
 from skfem_mpm.methods.operators import AsmOperator, PointOperator
 from skfem_mpm.quadrature.basis import MaterialPointBasis
+from skfem_mpm.stabilisation.volumetric import MeanDilatation
 from digest_cases import CASES, fingerprint
 
 pytest.importorskip("numba")
@@ -72,7 +77,8 @@ def operator(method, mesh, points, dim):
     the lower half moved by up to a fifth of a cell and their domains
     grown by up to a quarter, so that their supports differ in size and
     nodes (4 to 9 nodes in 2D, 8 to 27 in 3D) while the upper half's
-    cells hold points of one support each."""
+    cells hold points of one support each (and a cell's points, those
+    whose centre lies in it, several supports)."""
     elem = GRIDS[dim][1]()
     if method == "mpm":
         return PointOperator(MaterialPointBasis(mesh, elem, points))
@@ -82,6 +88,7 @@ def operator(method, mesh, points, dim):
     x[:, moved] += .05 * rng.uniform(-1, 1, (dim, moved.sum()))
     domain[:, moved] *= rng.uniform(1., 1.25, (dim, moved.sum()))
     op = LinearGimp(mesh, elem)(x, domain)
+    op.point_elements = point_locator(mesh)(x)[0]
     groups = op.kernel_layout().groups
     counts, runs = groups[3], groups[4]
     assert counts.min() == 2 ** dim and counts.max() == 3 ** dim
@@ -124,22 +131,28 @@ def check_equal(numpy_path, compiled_path, finite):
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("kind", ["small", "finite"])
 @pytest.mark.parametrize("name", sorted(MATERIALS))
-def test_a_response_equals_the_numpy_path(dim, kind, name, method):
+@pytest.mark.parametrize("antilocking", [False, True])
+def test_a_response_equals_the_numpy_path(dim, kind, name, method,
+                                          antilocking):
     """Two trials in a row: from the initial state, and from the state
     the first committed (a start with stress, elastic strain, ``F`` and
-    plastic strain); the plastic increments yield most points."""
+    plastic strain); the plastic increments yield most points.  With mean
+    dilatation (``antilocking``) the operator is wrapped in the cell
+    averages of each trial's start, as a step wraps it."""
     material = MATERIALS[name]
     mesh, points = block(dim)
     points.state.update(initial_state(material, points.n))
     op = operator(method, mesh, points, dim)
     rng = np.random.default_rng(dim)
     counters = {"return_maps": 0}
-    paths = {k: make_kinematics(kind, material, dim, counters, kernels=k)
+    paths = {k: make_kinematics(kind, material, dim, counters, kernels=k,
+                                antilocking=antilocking)
              for k in ("numpy", "compiled")}
     start = points
     for trial in range(2):
         du = 2e-3 * rng.standard_normal(op.N)
-        results = [evaluate(paths[k], op, du, start)
+        wrapped = MeanDilatation(op, start.volume) if antilocking else op
+        results = [evaluate(paths[k], wrapped, du, start)
                    for k in ("numpy", "compiled")]
         check_equal(*results, finite=kind == "finite")
         if name != "elastic":
@@ -256,25 +269,49 @@ def column_run(dim, kinematics, material, kernels_used, nsteps=3,
                     **kwargs)
 
 
-@pytest.mark.parametrize("dim, kinematics, name, method", [
-    (2, "finite", "von_mises", "mpm"), (2, "small", "von_mises", "mpm"),
-    (3, "finite", "elastic", "mpm"), (2, "finite", "von_mises", "cpgimp"),
-    (2, "small", "drucker_prager", "ugimp"),
-    (3, "finite", "elastic", "cpgimp"),
-    (3, "small", "von_mises", "ugimp"), (2, "finite", "von_mises", "ugimp"),
-    (2, "small", "elastic", "cpgimp"), (2, "finite", "von_mises", "bspline"),
-    (2, "finite", "mohr_coulomb", "cpgimp"),
-    (3, "small", "mohr_coulomb", "mpm")])
+#: the runs' materials: those of the responses, and von Mises nearly
+#: incompressible (where mean dilatation matters)
+RUN_MATERIALS = {**MATERIALS, "incompressible": VonMises(1e6, .49, 3e3)}
+
+
+@pytest.mark.parametrize("dim, kinematics, name, method, antilocking", [
+    (2, "finite", "von_mises", "mpm", False),
+    (2, "small", "von_mises", "mpm", False),
+    (3, "finite", "elastic", "mpm", False),
+    (2, "finite", "von_mises", "cpgimp", False),
+    (2, "small", "drucker_prager", "ugimp", False),
+    (3, "finite", "elastic", "cpgimp", False),
+    (3, "small", "von_mises", "ugimp", False),
+    (2, "finite", "von_mises", "ugimp", False),
+    (2, "small", "elastic", "cpgimp", False),
+    (2, "finite", "von_mises", "bspline", False),
+    (2, "finite", "mohr_coulomb", "cpgimp", False),
+    (3, "small", "mohr_coulomb", "mpm", False),
+    (2, "small", "incompressible", "mpm", True),
+    (2, "finite", "mohr_coulomb", "mpm", True),
+    (3, "small", "mohr_coulomb", "mpm", True),
+    (3, "finite", "von_mises", "mpm", True),
+    (2, "small", "mohr_coulomb", "cpgimp", True),
+    (2, "finite", "von_mises", "ugimp", True),
+    (2, "finite", "incompressible", "cpgimp", True),
+    (2, "small", "elastic", "cpgimp", True),
+    (3, "finite", "elastic", "cpgimp", True),
+    (3, "small", "mohr_coulomb", "ugimp", True),
+    (2, "finite", "von_mises", "bspline", True)])
 def test_runs_equal_the_numpy_path(dim, kinematics, name, method,
-                                   monkeypatch, caplog):
+                                   antilocking, monkeypatch, caplog):
     """Whole runs (GIMP in 3D: 2 steps, the second switches the ghost
-    penalty on), every operator served by the passes (no warning)."""
-    material = MATERIALS[name]
+    penalty on), every operator served by the passes (no warning), with
+    and without mean dilatation."""
+    material = RUN_MATERIALS[name]
     nsteps = 2 if dim == 3 and method != "mpm" else 3
     monkeypatch.setattr(kernels, "_LOGGED", set())
     with caplog.at_level(logging.WARNING, logger="skfem_mpm.kernels"):
         runs = [column_run(dim, kinematics, material, k, method=method,
-                           nsteps=nsteps) for k in ("numpy", "compiled")]
+                           nsteps=nsteps, options=Options(
+                               stabilisation=Stabilisation(
+                                   antilocking=antilocking)))
+                for k in ("numpy", "compiled")]
     assert not [r for r in caplog.records if r.name == "skfem_mpm.kernels"]
     assert [len(r.history) for r in runs[0:1]] == [len(runs[1].history)]
     for a, b in zip(runs[0].history, runs[1].history):
@@ -313,21 +350,48 @@ def test_a_cam_clay_run_equals_the_numpy_path(kinematics, method):
     assert relative(runs[1].points.stress, runs[0].points.stress) < TOL
 
 
+@pytest.mark.parametrize("method", [
+    "mpm", pytest.param("cpgimp", marks=pytest.mark.slow)])   # 2.1 s
+def test_a_footing_with_mean_dilatation_equals_the_numpy_path(
+        method, monkeypatch):
+    """The methods study's footing (von Mises soil, small strain, mean
+    dilatation, a smooth obstacle pushed into it in 20 steps; B / h = 4),
+    as the footing examples run: the obstacle's force at every step and
+    the stresses at the end equal the numpy path's to round-off."""
+    from skfem_mpm.studies import methods
+    results = []
+    for k in ("numpy", "compiled"):
+        monkeypatch.setattr(methods, "Options",
+                            functools.partial(Options, kernels=k))
+        results.append(methods.footing(.25, method))
+    (numpy_run, q0, _), (compiled_run, q1, _) = results
+    assert q0 > 4. and abs(q1 / q0 - 1.) < TOL
+    for a, b in zip(numpy_run.history, compiled_run.history):
+        assert relative(b.obstacle_forces, a.obstacle_forces) < TOL
+    assert relative(compiled_run.points.stress,
+                    numpy_run.points.stress) < TOL
+
+
 @pytest.mark.parametrize("method", ["mpm", "cpgimp"])
-def test_a_resumed_compiled_run_is_bit_identical(method):
+@pytest.mark.parametrize("antilocking", [False, True])
+def test_a_resumed_compiled_run_is_bit_identical(method, antilocking):
     """Resumed after step 2 of 4 from the state a callback saw, the
     compiled run ends where the whole compiled run does, bit for bit
-    (cpGIMP: the domains stretched from the initial ones as well)."""
+    (cpGIMP: the domains stretched from the initial ones as well), with
+    and without mean dilatation."""
     saved = {}
 
     def keep(record, state):
         if record.step == 2:
             saved.update(record=record, state=state)
     material = MATERIALS["von_mises"]
+    stabilisation = Stabilisation(antilocking=antilocking)
     whole = column_run(2, "finite", material, "compiled", nsteps=4,
-                       method=method, options=Options(callback=keep))
+                       method=method, options=Options(
+                           callback=keep, stabilisation=stabilisation))
     rest = column_run(2, "finite", material, "compiled", nsteps=4,
                       method=method, points=saved["state"], options=Options(
+                          stabilisation=stabilisation,
                           resume=Resume.after(saved["record"],
                                               domain0=column(2)[1].domain)))
     assert [r.step for r in rest.history] == [3, 4]
@@ -352,8 +416,7 @@ def test_the_choice_is_checked(monkeypatch, caplog):
             (MohrCoulomb(1e6, .3, 1e3, 0.), 2, False, False,
              "the material MohrCoulomb without friction"),
             (LinearElastic(1e6, .3), 1, False, False, "1D grids"),
-            (LinearElastic(1e6, .3), 2, True, False, "total Lagrangian"),
-            (LinearElastic(1e6, .3), 3, False, True, "mean dilatation")):
+            (LinearElastic(1e6, .3), 2, True, True, "total Lagrangian")):
         with pytest.raises(InvalidInputError, match=why):
             make_kinematics("finite", material, dim, {}, scheme,
                             kernels="compiled", antilocking=antilocking)
@@ -363,21 +426,24 @@ def test_the_choice_is_checked(monkeypatch, caplog):
                                        antilocking=antilocking
                                        ).compiled is None
         assert sum(why in r.getMessage() for r in caplog.records) == 1
-    assert make_kinematics("small", LinearElastic(1e6, .3), 3, {}
-                           ).compiled is not None
+    for kind in ("small", "finite"):        # mean dilatation is served
+        assert make_kinematics(kind, LinearElastic(1e6, .3), 3, {},
+                               kernels="compiled", antilocking=True
+                               ).compiled is not None
 
 
 def test_a_run_the_passes_cannot_serve_is_refused_before_any_work():
-    """Mean dilatation with ``kernels="compiled"``: refused when the run
-    is set up, no step taken; ``"auto"`` runs it on the numpy path."""
+    """A user's material with ``kernels="compiled"``: refused when the
+    run is set up, no step taken; ``"auto"`` runs it on the numpy path."""
     steps = []
-    with pytest.raises(InvalidInputError, match="mean dilatation"):
-        column_run(2, "small", MATERIALS["elastic"], "compiled", nsteps=1,
+    material = UserElastic(1e6, .3)
+    with pytest.raises(InvalidInputError, match="UserElastic"):
+        column_run(2, "small", material, "compiled", nsteps=1,
                    method="cpgimp", options=Options(
                        stabilisation=Stabilisation(antilocking=True),
                        callback=lambda record, state: steps.append(record)))
     assert steps == []
-    runs = [column_run(2, "small", MATERIALS["elastic"], k, nsteps=1,
+    runs = [column_run(2, "small", material, k, nsteps=1,
                        method="cpgimp", options=Options(
                            stabilisation=Stabilisation(antilocking=True)))
             for k in ("auto", "numpy")]

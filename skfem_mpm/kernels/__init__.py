@@ -5,13 +5,14 @@
 imports, the numpy path otherwise; ``"numpy"`` always takes the numpy
 path (the tested reference); ``"compiled"`` asks for the compiled passes
 and refuses, before any work, a run they cannot serve (numba missing, a
-material, dimension, scheme or stabilisation without compiled passes:
+material, dimension or scheme without compiled passes:
 :func:`skfem_mpm.mechanics.compiled.compiled_path`).  They serve standard
 MPM's element operator and the sparse operators of uGIMP, cpGIMP and
-B-splines, in 2D and 3D, small and finite deformation (not the total
-Lagrangian scheme of ``method="fem"``), ``LinearElastic``, ``VonMises``,
-``DruckerPrager``, ``MohrCoulomb`` and ``ModifiedCamClay``; not mean
-dilatation, a user's material or one material per body.  numba is
+B-splines, with or without mean dilatation
+(:mod:`skfem_mpm.kernels.dilatation`), in 2D and 3D, small and finite
+deformation (not the total Lagrangian scheme of ``method="fem"``),
+``LinearElastic``, ``VonMises``, ``DruckerPrager``, ``MohrCoulomb`` and
+``ModifiedCamClay``; not a user's material or one material per body.  numba is
 imported only when a run first asks for the passes, so that ``import
 skfem_mpm`` stays light; the kernels are cached on disk, so a second
 process does not compile them again.

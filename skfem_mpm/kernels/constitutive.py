@@ -26,7 +26,7 @@ from .soils import drucker_prager, elastic_strains, mohr_coulomb
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: and constants this module compiles in (as
 #: :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "1a3d72e85b7b596a"
+SOURCES = "0219e3f011d6245c"
 
 
 @njit(cache=True, error_model="numpy")
@@ -153,9 +153,11 @@ def principal_update(params, eps, eq, ev, tau, eps_e, D):
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def frame_tangent(k, x, y, dy_dx, v, Z, finite, A, work):
+def frame_terms(k, x, y, dy_dx, v, Z, finite, work, coupled):
     """The tangent ``A`` (k, k, k, k) of an isotropic update from its
-    principal values, formed in the principal frame (``k`` eigenpairs):
+    principal values as the sum ``A = sum_t L_t (x) R_t`` over ``k^2``
+    terms (:func:`outer_sum`), formed in the principal frame (``k``
+    eigenpairs):
     principal values ``x``, ``y`` and derivatives ``dy_dx[A, B] =
     dy_A/dx_B`` (repeated eigenvalues: the limit ``dy_A/dx_A - dy_A/dx_B``
     of ``(y_A - y_B) / (x_A - x_B)``), the frame ``v[:, A]`` and
@@ -170,13 +172,30 @@ def frame_tangent(k, x, y, dy_dx, v, Z, finite, A, work):
     In the frame it has the entries ``AACC`` (``a1``), ``ABAB`` (``a2``)
     and ``ABBA`` (``a3``), ``A != B``, each an outer product of the
     ``M[A, B, a, e] = v_aA Z_eB``.  ``work``: ``(a1, a2, a3, M, L, R)``,
-    (k, k) three times, (k, k, k, k) and (k^2, k, k) twice."""
+    (k, k) three times, (k, k, k, k) and (k^2, k, k) twice; the terms
+    into ``L`` and ``R``.
+
+    The ``k`` diagonal terms come first, then those of the pairs of the
+    first ``coupled`` eigenpairs alone (``coupled = k``: all pairs, ``k^2``
+    terms; else ``k + coupled (coupled - 1)``): in plane strain with
+    3 components and the out-of-plane axis the third (``coupled = 2``),
+    a pair of it with an in-plane axis builds only the tangent's
+    out-of-plane shear entries (``M`` of such a pair has no in-plane
+    entry and no trace), which mean dilatation does not read
+    (:func:`~skfem_mpm.kernels.points.frame_deviatoric`)."""
     a1, a2, a3, M, L, R = work
     largest = 0.
     for P in range(k):
         largest = max(largest, abs(x[P]))
     for P in range(k):
         for Q in range(k):
+            if finite:
+                a1[P, Q] = 2. * dy_dx[P, Q] * (1. + x[Q]) - (
+                    y[P] if P == Q else 0.)
+            else:
+                a1[P, Q] = dy_dx[P, Q]
+            if P != Q and (P >= coupled or Q >= coupled):
+                continue
             diff = x[P] - x[Q]
             if P == Q:
                 theta = 0.
@@ -185,22 +204,21 @@ def frame_tangent(k, x, y, dy_dx, v, Z, finite, A, work):
             else:
                 theta = (y[P] - y[Q]) / diff
             if finite:
-                a1[P, Q] = 2. * dy_dx[P, Q] * (1. + x[Q]) - (
-                    y[P] if P == Q else 0.)
                 a2[P, Q] = theta * (1. + x[Q])
                 a3[P, Q] = theta * (1. + x[P]) - (y[P] if P != Q else 0.)
             else:
-                a1[P, Q] = dy_dx[P, Q]
                 a2[P, Q] = a3[P, Q] = .5 * theta
             for a in range(k):
                 for e in range(k):
                     M[P, Q, a, e] = v[a, P] * Z[e, Q]
-    # A = sum_t L_t (x) R_t over k^2 terms t: for each C, L = sum_A a1_AC
+    # A = sum_t L_t (x) R_t over the terms t: for each C, L = sum_A a1_AC
     # M_AA, R = M_CC; for each pair P != Q, L = M_PQ, R = a2_PQ M_PQ +
     # a3_PQ M_QP
     t = k
     for P in range(k):
         for Q in range(k):
+            if P != Q and (P >= coupled or Q >= coupled):
+                continue
             for a in range(k):
                 for e in range(k):
                     if P == Q:
@@ -215,6 +233,12 @@ def frame_tangent(k, x, y, dy_dx, v, Z, finite, A, work):
                             + a3[P, Q] * M[Q, P, a, e]
             if P != Q:
                 t += 1
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def outer_sum(L, R, k, A):
+    """``A = sum_t L_t (x) R_t`` (k, k, k, k) of the terms of
+    :func:`frame_terms`."""
     for a in range(k):
         for e in range(k):
             for c in range(k):

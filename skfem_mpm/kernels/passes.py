@@ -39,12 +39,13 @@ import math
 import numpy as np
 from numba import literally, njit
 
-from . import BISECTION, PER_NODE_PAIR
 from .constitutive import principal_frame, principal_update
 from .points import (ELASTIC_TANGENT, FINITE_TANGENT, RETURN_MAP_TANGENT,
-                     add_force, add_point_stiffness, gather, place_in_row,
-                     point_gradient,
-                     point_tangent, scatter_force, set_uniform_tangent,
+                     add_force, add_patch_rows, add_point_stiffness,
+                     deviatoric_tangent, frame_deviatoric, gather,
+                     point_frame, point_gradient, point_tangent,
+                     scatter_force, scatter_stiffness,
+                     set_uniform_tangent, shift_volume, split_mean,
                      tangent_work)
 
 #: what the callers read here (the tangents from
@@ -58,7 +59,7 @@ __all__ = ["passes_of", "finite_commit", "ELASTIC_TANGENT",
 #: function on its own file alone, so a change there must change this
 #: file too, or the passes would run the cached old code
 #: (``tests/test_compiled.py`` checks it)
-SOURCES = "604fc8d8edd8a050"
+SOURCES = "74ac1ccc48de1a4b"
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -73,21 +74,28 @@ def widest(node_count):
 @njit(cache=True, error_model="numpy")
 def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                      du, start, params, eq0, f, P, dF, dF_inv, b_dev, tau, d,
-                     vecs, y, dy_dx, yielded, eq, k):
-    """Finite deformation (updated Lagrangian, Hencky), for ``k``
-    components: from the grid increment
+                     vecs, y, dy_dx, yielded, eq, cell, theta, pressure, k):
+    """Finite deformation (updated Lagrangian, Hencky) on a grid of ``k``
+    dimensions: from the grid increment
     ``du`` and ``start = b_n - I`` (3, 3, n), every point's ``dF``,
     ``dF^-1``, ``b_tr - I``, Kirchhoff stress ``tau`` (3, 3, n), spectral
     parts (``d``, ``vecs``, ``y = tau_A``, ``dy_dx = dtau_A / dx_B``),
-    ``P = tau dF^-T`` (k, k, n), yield flags and equivalent plastic strain
-    ``eq``, and the internal force ``f``.  Returns 0, or 1 where ``det dF
-    <= 0`` (at some point), 2 where ``b_tr`` is not positive definite:
-    then the arrays hold no answer."""
+    ``P = tau dF^-T`` (m, m, n), yield flags and equivalent plastic strain
+    ``eq``, and the internal force ``f``.  With mean dilatation (``cell``
+    an array, else ``None``; ``m = 3`` components, else ``m = k``) the
+    gradients' divergence is the ``theta`` of the point's ``cell``, and
+    the force takes the
+    deviatoric part of ``P`` against the gradients, its mean, weighted,
+    summed per cell into ``pressure`` (the caller adds it against the
+    cell averages).  Returns 0, or 1 where ``det dF <= 0`` (at some
+    point), 2 where ``b_tr`` is not positive definite: then the arrays
+    hold no answer."""
     literally(k)
+    m = k if cell is None else 3
     nmax = widest(node_count)
     U = np.empty((nmax, k))
     fe = np.zeros((nmax, k))
-    g = np.empty((k, k))
+    g = np.zeros((m, m))
     F = np.empty((3, 3))
     Fi = np.empty((3, 3))
     FS = np.empty((3, 3))
@@ -99,7 +107,7 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
     eps_e = np.empty(3)
     D = np.empty((3, 3))
     t = np.empty((3, 3))
-    Pp = np.empty((k, k))
+    Pp = np.empty((m, m))
     # a point that inverts sets the status, and the pass runs on (its
     # loops run faster without an early return)
     status = 0
@@ -109,10 +117,12 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
         for s in range(runs[r], runs[r + 1]):
             p, q0 = order[s], qstart[s]
             point_gradient(G, q0, U, nloc, k, g)
+            if cell is not None:
+                shift_volume(g, theta[cell[p]], k, m)
             for a in range(3):
                 for c in range(3):
                     F[a, c] = (1. if a == c else 0.) + (
-                        g[a, c] if a < k and c < k else 0.)
+                        g[a, c] if a < m and c < m else 0.)
             if k == 2:
                 det = F[0, 0] * F[1, 1] - F[0, 1] * F[1, 0]
                 for a in range(3):
@@ -148,9 +158,9 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                     s = 0.
                     for j in range(3):
                         s += FS[a, j] * F[c, j]
-                    if a < k and c < k:
+                    if a < m and c < m:
                         gg = 0.
-                        for j in range(k):
+                        for j in range(m):
                             gg += g[a, j] * g[c, j]
                         s += (g[a, c] + g[c, a]) + gg
                     b[a, c] = s
@@ -173,17 +183,19 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                     dF_inv[a, c, p] = Fi[a, c]
                     vecs[a, c, p] = v[a, c]
                 d[a, p] = x[a]
-            for A in range(k):
+            for A in range(m):
                 y[A, p] = tp[A]
-                for B in range(k):
+                for B in range(m):
                     dy_dx[A, B, p] = D[A, B] / (2. * (1. + x[B]))
-            for a in range(k):
-                for c in range(k):
+            for a in range(m):
+                for c in range(m):
                     s = 0.
-                    for j in range(k):
+                    for j in range(m):
                         s += t[a, j] * Fi[c, j]
                     P[a, c, p] = s
                     Pp[a, c] = s
+            if cell is not None:
+                split_mean(Pp, k, w[p], cell[p], pressure)
             add_force(G, q0, Pp, w[p], nloc, k, fe)
         scatter_force(f, fe, nodes, n0, nloc, k)
     return status
@@ -192,19 +204,23 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
 @njit(cache=True, error_model="numpy")
 def _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                     du, stress0, strain0, params, eq0, f, stress, strain,
-                    x_all, vecs, y, dy_dx, yielded, eq, k):
+                    x_all, vecs, y, dy_dx, yielded, eq, cell, theta, pressure,
+                    k):
     """Small strain: ``eps = eps_n + sym(grad du)``; Hooke's law added to
     the stress of an elastic material (``params[0] == ELASTIC``: the
     spectral arrays untouched), the return map on principal strains
     otherwise (principal strains ``x_all``, frames ``vecs``, ``y =
-    sigma_A``, ``dy_dx = D``); the internal force ``f``."""
+    sigma_A``, ``dy_dx = D``, in ``m`` components); the internal force
+    ``f``; mean dilatation (``cell`` an array) as in
+    ``_finite_residual``."""
     literally(k)
+    m = k if cell is None else 3
     nmax = widest(node_count)
     plastic = params[0] != 0.
     lam, mu = params[1], params[2]
     U = np.empty((nmax, k))
     fe = np.zeros((nmax, k))
-    g = np.empty((k, k))
+    g = np.zeros((m, m))
     de = np.zeros((3, 3))
     e3 = np.empty((3, 3))
     x = np.empty(3)
@@ -212,15 +228,17 @@ def _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
     sig = np.empty(3)
     eps_e = np.empty(3)
     D = np.empty((3, 3))
-    P = np.empty((k, k))
+    P = np.empty((m, m))
     for r in range(len(runs) - 1):
         n0, nloc = node_start[r], node_count[r]
         gather(du, nodes, n0, nloc, k, U)
         for s in range(runs[r], runs[r + 1]):
             p, q0 = order[s], qstart[s]
             point_gradient(G, q0, U, nloc, k, g)
-            for a in range(k):
-                for c in range(k):
+            if cell is not None:
+                shift_volume(g, theta[cell[p]], k, m)
+            for a in range(m):
+                for c in range(m):
                     de[a, c] = .5 * (g[a, c] + g[c, a])
             if not plastic:
                 trace = de[0, 0] + de[1, 1] + de[2, 2]
@@ -249,13 +267,15 @@ def _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                         strain[a, c, p] = r
                         vecs[a, c, p] = v[a, c]
                     x_all[a, p] = x[a]
-                for A in range(k):
+                for A in range(m):
                     y[A, p] = sig[A]
-                    for B in range(k):
+                    for B in range(m):
                         dy_dx[A, B, p] = D[A, B]
-            for a in range(k):
-                for c in range(k):
+            for a in range(m):
+                for c in range(m):
                     P[a, c] = stress[a, c, p]
+            if cell is not None:
+                split_mean(P, k, w[p], cell[p], pressure)
             add_force(G, q0, P, w[p], nloc, k, fe)
         scatter_force(f, fe, nodes, n0, nloc, k)
 
@@ -263,60 +283,56 @@ def _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
 @njit(cache=True, error_model="numpy")
 def _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
                elements, first, length, graph_indptr, graph_indices, w, kind,
-               C, x, y, dy_dx, vecs, dF_inv, data, k):
+               C, x, y, dy_dx, vecs, dF_inv, data, cell, patch, h_row, h_col,
+               bulk, k):
     """``K_(ia)(jc) = sum_p w_p A_abcd G_bi G_dj`` group by group with the
     tangent ``kind`` of each point, each group's matrix added to the CSR
-    ``data`` of the pattern: with ``mode``
-    :data:`~skfem_mpm.kernels.PER_ENTRY` or
-    :data:`~skfem_mpm.kernels.PER_NODE_PAIR` at the places
-    ``first[elements[r]]`` of the element pattern (one per entry, or one
-    per node pair whose components' places are offset by ``length``, the
-    lengths of the node's rows), with :data:`~skfem_mpm.kernels.BISECTION`
-    at the places of the node graph ``(graph_indptr, graph_indices)`` (a
-    group's nodes ascending)."""
+    ``data`` of the pattern (``scatter_stiffness``: by the element
+    pattern's places, or by bisection of the node graph).  With mean
+    dilatation (``cell`` an array, else ``None``) the tangent has 3
+    components whatever ``k``, the matrix takes its deviatoric part
+    (``frame_deviatoric``, ``deviatoric_tangent``), and
+    each point adds its rows of the cell's couplings to ``h_row``,
+    ``h_col`` at its entries' ``patch`` places and ``tr12 w`` to the
+    ``bulk`` of its ``cell`` (the caller forms the couplings)."""
     literally(k)
+    m = k if cell is None else 3
     nmax = widest(node_count)
     Ke = np.zeros((nmax * k, nmax * k))
     H = np.empty((k, k, nmax * k))
-    A = np.empty((k, k, k, k))
-    work = tangent_work(k)
-    set_uniform_tangent(kind, C, k, A)             # one for all points
+    A = np.empty((m, m, m, m))
+    work = tangent_work(m)
+    deviatoric = np.empty((k, k, k, k))
+    row, column = np.empty((k, k)), np.empty((k, k))
+    traces, term_traces = np.empty((2, 3, 3)), np.empty((2, 9))
+    tr12 = 0.
+    set_uniform_tangent(kind, C, m, A)             # one for all points
+    if cell is not None:
+        if kind == ELASTIC_TANGENT:
+            tr12 = deviatoric_tangent(A, k, deviatoric, row, column, traces)
     for r in range(len(runs) - 1):
         n0, nloc = node_start[r], node_count[r]
-        nd = nloc * k
         for s in range(runs[r], runs[r + 1]):
             p = order[s]
-            if kind != ELASTIC_TANGENT:    # (no early return: 2x faster)
-                point_tangent(kind, p, k, x, y, dy_dx, vecs, dF_inv, A,
-                              work)
-            add_point_stiffness(G, qstart[s], A, w[p], nloc, k, H, Ke)
-        if mode == BISECTION:
-            for i in range(nloc):
-                lo, hi = graph_indptr[nodes[n0 + i]], \
-                    graph_indptr[nodes[n0 + i] + 1]
-                at = lo
-                for j in range(nloc):
-                    at = place_in_row(graph_indices, at, hi, nodes[n0 + j])
-                    place = k * k * lo + k * (at - lo)
-                    for a in range(k):
-                        for c in range(k):
-                            data[place + a * k * (hi - lo) + c] += \
-                                Ke[i * k + a, j * k + c]
-                            Ke[i * k + a, j * k + c] = 0.
-        else:
-            el = elements[r]
-            for i in range(nloc):
-                for a in range(k):
-                    for j in range(nloc):
-                        for c in range(k):
-                            if mode == PER_NODE_PAIR:
-                                place = first[el, i * nloc + j] \
-                                    + a * length[el, i] + c
-                            else:
-                                place = first[el, (i * k + a) * nd
-                                              + j * k + c]
-                            data[place] += Ke[i * k + a, j * k + c]
-                            Ke[i * k + a, j * k + c] = 0.
+            if cell is None:
+                if kind != ELASTIC_TANGENT:  # (no early return: 2x faster)
+                    point_tangent(kind, p, k, x, y, dy_dx, vecs, dF_inv, A,
+                                  work)
+                add_point_stiffness(G, qstart[s], A, w[p], nloc, k, H, Ke)
+            else:
+                if kind != ELASTIC_TANGENT:
+                    point_frame(kind, p, m, x, y, dy_dx, vecs, dF_inv, work,
+                                k)
+                    tr12 = frame_deviatoric(
+                        work[9], work[10], m + k * (k - 1), k, deviatoric,
+                        row, column, traces, term_traces)
+                add_point_stiffness(G, qstart[s], deviatoric, w[p], nloc, k,
+                                    H, Ke)
+                add_patch_rows(G, qstart[s], nloc, k, patch, row, column,
+                               w[p], h_row, h_col)
+                bulk[cell[p]] += tr12 * w[p]
+        scatter_stiffness(Ke, nodes, n0, nloc, k, mode, elements, r, first,
+                          length, graph_indptr, graph_indices, data)
 
 
 @njit(cache=True, error_model="numpy")
@@ -327,7 +343,7 @@ def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
                             qstart, w, du, start, params, eq0, f, P, dF,
                             dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
-                            eq, 2)
+                            eq, None, None, None, 2)
 
 
 @njit(cache=True, error_model="numpy")
@@ -338,7 +354,7 @@ def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
                             qstart, w, du, start, params, eq0, f, P, dF,
                             dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
-                            eq, 3)
+                            eq, None, None, None, 3)
 
 
 @njit(cache=True, error_model="numpy")
@@ -348,7 +364,7 @@ def small_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
     """The small-strain pass on a 2D grid (``_small_residual``)."""
     _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                     du, stress0, strain0, params, eq0, f, stress, strain, x,
-                    vecs, y, dy_dx, yielded, eq, 2)
+                    vecs, y, dy_dx, yielded, eq, None, None, None, 2)
 
 
 @njit(cache=True, error_model="numpy")
@@ -358,7 +374,7 @@ def small_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
     """The small-strain pass on a 3D grid (``_small_residual``)."""
     _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                     du, stress0, strain0, params, eq0, f, stress, strain, x,
-                    vecs, y, dy_dx, yielded, eq, 3)
+                    vecs, y, dy_dx, yielded, eq, None, None, None, 3)
 
 
 @njit(cache=True, error_model="numpy")
@@ -368,7 +384,8 @@ def stiffness_2d(G, nodes, node_start, node_count, runs, order, qstart, mode,
     """The stiffness pass on a 2D grid (``_stiffness``)."""
     _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
                elements, first, length, graph_indptr, graph_indices, w, kind,
-               C, x, y, dy_dx, vecs, dF_inv, data, 2)
+               C, x, y, dy_dx, vecs, dF_inv, data, None, None, None, None,
+               None, 2)
 
 
 @njit(cache=True, error_model="numpy")
@@ -378,7 +395,8 @@ def stiffness_3d(G, nodes, node_start, node_count, runs, order, qstart, mode,
     """The stiffness pass on a 3D grid (``_stiffness``)."""
     _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
                elements, first, length, graph_indptr, graph_indices, w, kind,
-               C, x, y, dy_dx, vecs, dF_inv, data, 3)
+               C, x, y, dy_dx, vecs, dF_inv, data, None, None, None, None,
+               None, 3)
 
 
 @njit(cache=True, error_model="numpy")

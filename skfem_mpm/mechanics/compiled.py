@@ -5,17 +5,19 @@ whether its responses may come from the compiled passes
 (:mod:`skfem_mpm.kernels.passes`): they cover the point operators with
 a ``kernel_layout`` over all points, standard MPM's (any element; also
 ``method="fem"`` in small strain) and the sparse operators of uGIMP,
-cpGIMP and B-splines (also on the fields of bodies in contact), in 2D and
-3D, small strain and finite deformation (updated Lagrangian),
-:class:`~skfem_mpm.mechanics.materials.LinearElastic`,
+cpGIMP and B-splines (also on the fields of bodies in contact), with or
+without mean dilatation (the operators wrapped in
+:class:`~skfem_mpm.stabilisation.volumetric.MeanDilatation`, whose cell
+averages have a ``kernel_layout`` too: :mod:`skfem_mpm.kernels.
+dilatation`), in 2D and 3D, small strain and finite deformation (updated
+Lagrangian), :class:`~skfem_mpm.mechanics.materials.LinearElastic`,
 :class:`~skfem_mpm.mechanics.materials.VonMises`,
 :class:`~skfem_mpm.mechanics.soils.DruckerPrager`,
 :class:`~skfem_mpm.mechanics.soils.MohrCoulomb` (with friction) and
 :class:`~skfem_mpm.mechanics.cam_clay.ModifiedCamClay`.  Everything else
-(mean dilatation, the total Lagrangian scheme of ``method="fem"`` in
-finite deformation, 1D, a user's material, one material per body) runs
-on the numpy path, the reference the compiled passes are tested equal
-to.
+(the total Lagrangian scheme of ``method="fem"`` in finite deformation,
+1D, a user's material, one material per body) runs on the numpy path,
+the reference the compiled passes are tested equal to.
 
 A compiled response fills the arrays the numpy path fills (stress, the
 spectral parts, ``dF`` ...), so the kinematics build it, its commit and its
@@ -23,7 +25,8 @@ tangent on demand with their own code; it adds the internal force, summed
 in the same pass, and the stiffness, formed point by point from the kept
 parts and scattered into the CSR data of the operator's pattern (the
 grid's element pattern, or for a sparse operator the pattern of its
-supports' node graph, formed once a step).
+supports' node graph, formed once a step; with mean dilatation the
+pattern of the cells' patches, which holds it).
 """
 import logging
 from typing import Optional
@@ -44,8 +47,9 @@ __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
 #: what the compiled passes serve (the refusal of ``kernels="compiled"``
 #: says it)
 COVERAGE = ("standard MPM, uGIMP, cpGIMP and B-splines in 2D and 3D, small "
-            "and finite deformation, LinearElastic, VonMises, DruckerPrager, "
-            "MohrCoulomb and ModifiedCamClay")
+            "and finite deformation, with or without mean dilatation, "
+            "LinearElastic, VonMises, DruckerPrager, MohrCoulomb and "
+            "ModifiedCamClay")
 
 
 def material_parameters(material) -> Optional[ndarray]:
@@ -101,18 +105,19 @@ def compiled_path(kernels: str, material, dim: int,
                   total_lagrangian: bool = False, antilocking: bool = False):
     """The :class:`CompiledPasses` of a kinematics piece, or ``None`` (the
     numpy path): with ``kernels="numpy"``; with ``"auto"`` where the
-    passes do not cover the material, dimension, scheme or stabilisation
-    (``antilocking``: mean dilatation) or numba does not import (logged
-    once); with ``"compiled"`` those are refused
+    passes do not cover the material, dimension or scheme or numba does
+    not import (logged once); with ``"compiled"`` those are refused
     (:class:`~skfem_mpm.errors.InvalidInputError`), before any work.
+    ``antilocking``: the run has mean dilatation, which the passes serve
+    as well (the kinematics pieces pass it).
 
     >>> from skfem_mpm import LinearElastic
-    >>> compiled_path("compiled", LinearElastic(1e6, .3), 2,
-    ...               antilocking=True)   # doctest: +ELLIPSIS
+    >>> compiled_path("compiled", LinearElastic(1e6, .3), 1)
+    ... # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
     skfem_mpm.errors.InvalidInputError: kernels='compiled': the compiled \
-passes do not serve mean dilatation (Stabilisation(antilocking=True)); ...
+passes do not serve 1D grids; ...
     """
     if check_kernels(kernels) == "numpy":
         return None
@@ -120,8 +125,6 @@ passes do not serve mean dilatation (Stabilisation(antilocking=True)); ...
     reason = ("{}D grids".format(dim) if dim not in (2, 3)
               else "the total Lagrangian scheme (method 'fem')"
               if total_lagrangian
-              else "mean dilatation (Stabilisation(antilocking=True))"
-              if antilocking
               else "the material {}".format(material_name(material))
               if params is None else None)
     passes = None if reason else compiled_passes()
@@ -166,6 +169,7 @@ class CompiledPasses:
 
     def __init__(self, passes, material, params: ndarray, dim: int,
                  explicit: bool):
+        from ..kernels import dilatation       # numba: imported with passes
         self.passes, self.material, self.params = passes, material, params
         self.dim, self.explicit = dim, explicit
         self.plastic = params[0] != 0.
@@ -175,20 +179,42 @@ class CompiledPasses:
                           if params[0] == CAM_CLAY else
                           ("equivalent_plastic_strain",) if self.plastic
                           else ())
-        self.finite, self.small, self.assemble = passes.passes_of(dim)
+        #: the passes without and with mean dilatation, each
+        #: ``(finite_residual, small_residual, stiffness)``
+        self.plain = passes.passes_of(dim)
+        self.averaged = dilatation.passes_of(dim)
 
     def serves(self, op, points) -> bool:
         """Whether the passes serve the point operator ``op``: standard
         MPM's, GIMP's or B-splines' (``op.kernel_layout``) over all
-        points; logged once where not."""
-        if getattr(op, "kernel_layout", None) is not None and \
-                op.n_points == points.n:
+        points, or its mean dilatation (``op.op`` such an operator, the
+        cell average ``op.average`` with a ``kernel_layout``); logged once
+        where not."""
+        average = getattr(op, "average", None)
+        method_op = op if average is None else op.op
+        if getattr(method_op, "kernel_layout", None) is not None and \
+                method_op.n_points == points.n and (
+                    average is None
+                    or getattr(average, "kernel_layout", None) is not None):
             return True
         log_once(logging.WARNING if self.explicit else logging.INFO,
                  "kernels=%r: no compiled pass for the point operator %s; "
                  "its responses run on the numpy path",
                  "compiled" if self.explicit else "auto", type(op).__name__)
         return False
+
+    def _layout(self, op):
+        """``(passes, layout, cells, m)`` of the served operator ``op``:
+        the passes, the method operator's layout, the cells' arrays of its
+        mean dilatation (none without), and the components of its
+        stresses and tangents (3 with mean dilatation, as the numpy
+        path's :class:`~skfem_mpm.stabilisation.volumetric.
+        MeanDilatation`)."""
+        average = getattr(op, "average", None)
+        if average is None:
+            return self.plain, op.kernel_layout(), None, self.dim
+        return self.averaged, op.op.kernel_layout(), \
+            average.kernel_layout(), 3
 
     def _state(self, points) -> ndarray:
         """The internal variables of ``points``, (2, n)."""
@@ -201,31 +227,35 @@ class CompiledPasses:
         """The internal variables (2, n) by name."""
         return {name: state[row] for row, name in enumerate(self.variables)}
 
-    def _stiffness(self, layout, kind: int, w: ndarray, C: ndarray,
-                   parts) -> callable:
+    def _stiffness(self, assemble, layout, cells, kind: int, w: ndarray,
+                   C: ndarray, parts) -> callable:
         """``stiffness()`` of a response: the compiled stiffness from the
         kept ``parts`` (x, y, dy_dx, vecs, dF_inv) into the CSR data of
-        the operator's pattern."""
+        the operator's pattern (with mean dilatation, of its cells')."""
+        places, pattern, extra = (layout.places, layout.pattern, ()) \
+            if cells is None else (cells.places, cells.pattern, cells.cells)
+
         def stiffness():
-            data = np.zeros(layout.pattern.nnz)
-            self.assemble(*layout.groups, *layout.places, contiguous(w), kind,
-                          C, *parts, data)
-            return layout.pattern.csr(data)
+            data = np.zeros(pattern.nnz)
+            assemble(*layout.groups, *places, contiguous(w), kind, C, *parts,
+                     data, *extra)
+            return pattern.csr(data)
         return stiffness
 
     def finite_response(self, kinematics, op, du: ndarray, points):
         """The finite-deformation response (the numpy path's
         :meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.response`)."""
-        layout = op.kernel_layout()
-        n, k = points.n, self.dim
-        b_dev, tau, yielded, spectral = kinematics._workspace(n, k)
+        (finite, _, assemble), layout, cells, m = self._layout(op)
+        n = points.n
+        b_dev, tau, yielded, spectral = kinematics._workspace(n, m)
         dF, dF_inv = np.empty((3, 3, n)), np.empty((3, 3, n))
-        P, f, eq = np.empty((k, k, n)), np.zeros(op.N), np.empty((2, n))
-        status = self.finite(
+        P, f, eq = np.empty((m, m, n)), np.zeros(op.N), np.empty((2, n))
+        status = finite(
             *layout.groups, contiguous(points.volume0), contiguous(du),
             contiguous(kinematics.start_deviation(points)), self.params,
             self._state(points), f, P, dF, dF_inv, b_dev, tau, spectral.d,
-            spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq)
+            spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq,
+            *(() if cells is None else cells.cells))
         if status:      # a point inverts: the numpy path's error
             compiled, kinematics.compiled = kinematics.compiled, None
             try:
@@ -234,7 +264,7 @@ class CompiledPasses:
                 kinematics.compiled = compiled
         kinematics.counters["return_maps"] += kinematics.plastic
         state = self._named(eq)
-        no_C = np.zeros((k,) * 4)
+        no_C = np.zeros((m,) * 4)
 
         def converged(old):
             F, J = np.empty((3, 3, n)), np.empty(n)
@@ -244,40 +274,43 @@ class CompiledPasses:
                 self._state(old), dF, contiguous(old.F), F, J, b_e, strain)
             return F, J, b_e, strain
         return kinematics.trial_response(
-            points, dF, dF_inv, P, state, k, converged, force=f.copy,
+            points, dF, dF_inv, P, state, m, converged, force=f.copy,
             stiffness=self._stiffness(
-                layout, self.passes.FINITE_TANGENT, points.volume0, no_C,
+                assemble, layout, cells, self.passes.FINITE_TANGENT,
+                points.volume0, no_C,
                 (spectral.d, spectral.tau, spectral.dtau_dx, spectral.vecs,
                  dF_inv)))
 
     def small_response(self, kinematics, op, du: ndarray, points):
         """The small-strain response (the numpy path's
         :meth:`~skfem_mpm.mechanics.kinematics.SmallStrain.response`)."""
-        layout = op.kernel_layout()
-        n, k = points.n, self.dim
+        (_, small, assemble), layout, cells, m = self._layout(op)
+        n = points.n
         stress, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
         x, vecs = np.empty((3, n)), np.empty((3, 3, n))
-        y, dy_dx = np.empty((k, n)), np.empty((k, k, n))
+        y, dy_dx = np.empty((m, n)), np.empty((m, m, n))
         yielded, eq = np.zeros(n, dtype=bool), np.empty((2, n))
         f = np.zeros(op.N)
-        self.small(
+        small(
             *layout.groups, contiguous(points.volume), contiguous(du),
             contiguous(points.stress), contiguous(points.strain), self.params,
             self._state(points),
-            f, stress, strain, x, vecs, y, dy_dx, yielded, eq)
+            f, stress, strain, x, vecs, y, dy_dx, yielded, eq,
+            *(() if cells is None else cells.cells))
         empty = np.empty((3, 3, 0))
         if not self.plastic:
             # a writeable copy: the type of every call's C is one
-            C = elastic_tensor(self.material, 1, k)[..., 0].copy()
+            C = elastic_tensor(self.material, 1, m)[..., 0].copy()
             return kinematics.elastic_response(
-                points, stress, strain, k, force=f.copy,
+                points, stress, strain, m, force=f.copy,
                 stiffness=self._stiffness(
-                    layout, self.passes.ELASTIC_TANGENT, points.volume, C,
-                    (x, y, dy_dx, vecs, empty)))
+                    assemble, layout, cells, self.passes.ELASTIC_TANGENT,
+                    points.volume, C, (x, y, dy_dx, vecs, empty)))
         kinematics.counters["return_maps"] += 1
         return kinematics.plastic_response(
-            points, (x[:k], y, dy_dx, vecs[:k, :k]), stress, strain, yielded,
-            self._named(eq), k, force=f.copy,
+            points, (x[:m], y, dy_dx, vecs[:m, :m]), stress, strain, yielded,
+            self._named(eq), m, force=f.copy,
             stiffness=self._stiffness(
-                layout, self.passes.RETURN_MAP_TANGENT, points.volume,
-                np.zeros((k,) * 4), (x, y, dy_dx, vecs, empty)))
+                assemble, layout, cells, self.passes.RETURN_MAP_TANGENT,
+                points.volume, np.zeros((m,) * 4),
+                (x, y, dy_dx, vecs, empty)))

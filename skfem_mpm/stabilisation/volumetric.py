@@ -52,15 +52,42 @@ the order of the increment.  Measured on a block under gravity with
 nu = 0.45 and 50% strain (finite elements, Hencky): 1 and 8 load steps
 differ by 0.4% of the displacement (4e-14 without the average).
 
+The compiled passes (:mod:`skfem_mpm.kernels.dilatation`) read each
+average's :class:`CellLayout`: the same averages, their force and
+couplings summed cell by cell.
+
 """
+from functools import cached_property
+from typing import NamedTuple
+
 import numpy as np
 from numpy import ndarray
 from scipy.sparse import csr_matrix, diags
 
 from ..errors import InvalidInputError
-from ..methods.operators import PointOperator, SparseOperator
+from ..kernels import BISECTION
+from ..methods.assembly import GraphPattern
+from ..methods.operators import (NO_INDEX, NO_PLACES, PointOperator,
+                                 SparseOperator)
 
-__all__ = ["MeanDilatation", "ElementAverage", "CellPatchAverage"]
+__all__ = ["MeanDilatation", "ElementAverage", "CellPatchAverage",
+           "CellLayout"]
+
+
+class CellLayout(NamedTuple):
+    """What the compiled passes of mean dilatation
+    (:mod:`skfem_mpm.kernels.dilatation`) read of a cell average, formed
+    once per step: ``cells``, ``(cell, patch, patch_start, patch_nodes,
+    b)``, the cell of every point, for every entry of the point
+    operator's layout (its shape gradients points first) the patch entry
+    of its node in its point's cell, the patches' nodes (cell c's from
+    ``patch_start[c]``, ascending) and their rows of the average (patch
+    entries, dim); the stiffness's ``places`` and ``pattern`` (as
+    :class:`~skfem_mpm.methods.assembly.KernelLayout`'s), which hold
+    every cell's patch."""
+    cells: tuple
+    places: tuple
+    pattern: object
 
 
 def _traces(A: ndarray, dim: int):
@@ -91,6 +118,27 @@ class ElementAverage:
         # averaged gradient b_e: theta_e(u) = sum_ia b_e[i, a] u_ia
         self.b = np.einsum("aiem,em->eia", op.shape_gradients, W) \
             / W.sum(axis=1)[:, None, None]
+        self._layout = None
+
+    def kernel_layout(self) -> CellLayout:
+        """The :class:`CellLayout` of the compiled passes: a cell each
+        group of the operator's layout (an element's points), its patch
+        the element's nodes, the places and pattern the operator's."""
+        if self._layout is not None:
+            return self._layout
+        layout = self.op.kernel_layout()
+        G, nodes, _, _, runs, order = layout.groups[:6]
+        nel, nloc, dim = self.b.shape
+        cell = np.empty(self.op.n_points, dtype=np.int64)
+        cell[order] = np.repeat(np.arange(nel), np.diff(runs))
+        # the layout's gradients: nloc rows a slot, the slots of an element
+        entry = np.arange(len(G))
+        patch = entry // (len(G) // max(nel, 1)) * nloc + entry % nloc
+        self._layout = CellLayout(
+            (cell, patch, np.arange(nel + 1, dtype=np.int64) * nloc, nodes,
+             np.ascontiguousarray(self.b.reshape(-1, dim))),
+            layout.places, layout.pattern)
+        return self._layout
 
     def at_points(self, u: ndarray) -> ndarray:
         """``theta_c(u)`` of every point's cell, (n,)."""
@@ -158,34 +206,81 @@ class CellPatchAverage:
         S, n = op.S, op.S.shape[0]
         _, self.cell = np.unique(op.point_elements, return_inverse=True)
         self.ncells = int(self.cell.max()) + 1 if n else 0
-        # every stored entry (p, k) of S as dim entries (p, dim k + c)
+        # the point of every stored entry of S
         self._point = np.repeat(np.arange(n), np.diff(S.indptr))
-        self._indices = (self.dim * S.indices[:, None]
-                         + np.arange(self.dim)).ravel()
-        self._indptr = self.dim * S.indptr
-        self._G = np.array([g.data for g in op.G])          # (dim, nnz)
+        # each point's weight in its cell's average
+        self._weight = volume / np.bincount(self.cell, volume,
+                                            self.ncells)[self.cell]
+        self._layout = None
+
+    # the numpy path's matrices, formed on its first call (the compiled
+    # passes form the same cell by cell, from the kernel layout)
+    @cached_property
+    def B(self) -> csr_matrix:
+        """The volume averages of the divergence rows over each patch,
+        (cells, N)."""
+        n = self.op.S.shape[0]
         eye = np.broadcast_to(np.eye(self.dim)[:, :, None],
                               (self.dim, self.dim, n))
-        # the patch sum (cells, n), and B: the volume average of the
-        # divergence rows over each patch
-        self._patch = csr_matrix((np.ones(n), (self.cell, np.arange(n))),
-                                 shape=(self.ncells, n))
-        V = np.bincount(self.cell, volume, self.ncells)
-        average = csr_matrix((volume / V[self.cell],
-                              (self.cell, np.arange(n))),
+        average = csr_matrix((self._weight, (self.cell, np.arange(n))),
                              shape=(self.ncells, n))
-        self.B = (average @ self._contracted(eye)).tocsr()
+        return (average @ self._contracted(eye)).tocsr()
+
+    @cached_property
+    def _patch(self) -> csr_matrix:
+        """The patch sum (cells, n)."""
+        n = self.op.S.shape[0]
+        return csr_matrix((np.ones(n), (self.cell, np.arange(n))),
+                          shape=(self.ncells, n))
+
+    @cached_property
+    def _entries(self):
+        """Every stored entry (p, k) of S as dim entries (p, dim k + c):
+        their columns and row pointers, and the gradients (dim, nnz)."""
+        S, dim = self.op.S, self.dim
+        return ((dim * S.indices[:, None] + np.arange(dim)).ravel(),
+                dim * S.indptr, np.array([g.data for g in self.op.G]))
+
+    def kernel_layout(self) -> CellLayout:
+        """The :class:`CellLayout` of the compiled passes: a cell's patch
+        the nodes of its points' supports, its rows of the average summed
+        from theirs, the stiffness's places by bisection of the patches'
+        node graph (which holds the supports')."""
+        if self._layout is not None:
+            return self._layout
+        S, dim = self.op.S, self.dim
+        # the layout's entries: each point's row of S, nodes ascending
+        G, nodes = self.op.kernel_layout().groups[:2]
+        keys, patch = np.unique(self.cell[self._point] * S.shape[1] + nodes,
+                                return_inverse=True)
+        patch_cell, patch_nodes = np.divmod(keys, S.shape[1])
+        patch_start = np.searchsorted(patch_cell, np.arange(self.ncells + 1))
+        weight = self._weight[self._point]
+        b = np.stack([np.bincount(patch, weight * G[:, a], len(keys))
+                      for a in range(dim)], axis=1)
+        incidence = csr_matrix((np.ones(len(keys)), patch_nodes,
+                                patch_start), shape=(self.ncells, S.shape[1]))
+        graph = (incidence.T @ incidence).tocsr()
+        graph.sort_indices()
+        self._layout = CellLayout(
+            (self.cell.astype(np.int64), patch.astype(np.int64),
+             patch_start.astype(np.int64), patch_nodes.astype(np.int64), b),
+            (BISECTION, NO_INDEX, NO_PLACES, NO_PLACES,
+             graph.indptr.astype(np.int64), graph.indices.astype(np.int64)),
+            GraphPattern(graph, dim))
+        return self._layout
 
     def _contracted(self, X: ndarray) -> csr_matrix:
         """``H[p, dim j + c] = sum_d X_cdp G_d[p, j]`` of (dim, dim, n)
         ``X``: the rows that give ``sum_p X_p : grad(u)_p`` (``X = I``: the
         divergence), (n, N); formed component by component (no (dim, dim)
         array per stored entry)."""
-        data = np.zeros((self._G.shape[1], self.dim))
+        indices, indptr, G = self._entries
+        data = np.zeros((G.shape[1], self.dim))
         for c in range(self.dim):
             for d in range(self.dim):
-                data[:, c] += X[c, d][self._point] * self._G[d]
-        return csr_matrix((data.ravel(), self._indices, self._indptr),
+                data[:, c] += X[c, d][self._point] * G[d]
+        return csr_matrix((data.ravel(), indices, indptr),
                           shape=(self.op.S.shape[0], self.op.N))
 
     def at_points(self, u: ndarray) -> ndarray:
