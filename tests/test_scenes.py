@@ -352,6 +352,51 @@ antilocking = true
         capsys.readouterr().err
 
 
+def test_kernels_from_a_scene_file(tmp_path, capsys):
+    """``solver.kernels`` picks the per-point path: a plastic block in
+    finite deformation with mean dilatation runs the same on the compiled
+    passes as on the numpy path (to round-off); a value not among the
+    choices is refused naming the key; ``"compiled"`` for a scene the
+    passes do not serve (a 1D grid) is refused when its run is set up."""
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    pytest.importorskip("numba")
+    text = COMBINATION.format(
+        material='{ model = "von_mises", E = 1e4, nu = 0.3, '
+                 'yield_stress = 20.0 }', method="cpgimp",
+        kinematics="finite", ghost=0., antilocking="true",
+        load="traction = [2.0, -10.0]")
+    assert parse_scene(tomllib.loads(text)).kernels == "auto"
+    runs = {}
+    for kernels in ("numpy", "compiled"):
+        scene = parse_scene(tomllib.loads(text + 'kernels = "{}"\n'.format(
+            kernels)))
+        assert scene.kernels == kernels
+        runs[kernels] = run_scene(scene)
+    assert runs["numpy"].history[-1].n_yielded > 0
+    assert np.abs(runs["compiled"].points.stress - runs["numpy"].points.stress
+                  ).max() < 1e-12 * np.abs(runs["numpy"].points.stress).max()
+    path = tmp_path / "fast.toml"
+    path.write_text(text + 'kernels = "fast"\n')
+    assert main(["run", str(path), "--out", str(tmp_path / "o")]) == 2
+    assert "solver.kernels: must be one of auto, numpy, compiled, got " \
+        "'fast'" in capsys.readouterr().err
+    line = parse_scene(tomllib.loads("""
+[grid]
+x = [0.0, 4.0, 4]
+[[bodies]]
+region = { x = [0.0, 2.0] }
+material = { model = "linear_elastic", E = 1e4, nu = 0.0 }
+[[supports]]
+boundary = "left"
+[gravity]
+body_force = [-1.0]
+[solver]
+kernels = "compiled"
+"""))
+    with pytest.raises(InvalidInputError, match="do not serve 1D grids"):
+        run_scene(line)
+
+
 COMBINATION = """
 name = "combination"
 [grid]

@@ -18,6 +18,7 @@ from skfem import ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2, \
     MeshHex, MeshLine, MeshQuad
 
 from ..errors import InvalidInputError, check_choice
+from ..kernels import check_kernels
 from ..mechanics.geostatic import geostatic_stress
 from ..mechanics.kinematics import KINEMATICS
 from ..mechanics.materials import is_plastic
@@ -238,6 +239,12 @@ class Scene:
         ``"auto"`` (the default: the fastest installed for each system's
         size, :mod:`skfem_mpm.solve.backends`; scene key
         ``solver.linear``).
+    kernels
+        The per-point work of a Newton iteration (``Options.kernels``,
+        :mod:`skfem_mpm.kernels`): ``"auto"`` (the default: the compiled
+        passes where they serve the scene, the numpy path otherwise),
+        ``"numpy"`` or ``"compiled"`` (a scene they cannot serve refused
+        when its run is set up); scene key ``solver.kernels``.
     reference
         What the run's error is measured against: ``"column"`` (error
         measure (2.28) of Charlton 2018), ``"elastica"`` (end-loaded cantilever) or
@@ -273,6 +280,7 @@ class Scene:
     name: str = "scene"
     reference: Optional[str] = None
     solver: str = "auto"
+    kernels: str = "auto"
     dynamics: Optional[TimeIntegration] = None
     outputs: List["Quantity"] = field(default_factory=list)
     obstacles: List[Obstacle] = field(default_factory=list)
@@ -291,6 +299,7 @@ class Scene:
         combinations no solver offers."""
         check_choice("method", self.method, METHODS)
         check_choice("kinematics", self.kinematics, KINEMATICS)
+        check_kernels(self.kernels)
         for name, kind in (("newton", NewtonOptions),
                            ("stabilisation", Stabilisation)):
             if not isinstance(getattr(self, name), kind):
@@ -653,5 +662,5 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
                     options=Options(
                         newton=scene.newton,
                         stabilisation=scene.stabilisation,
-                        solver=scene.solver, resume=resume,
-                        callback=callback))
+                        solver=scene.solver, kernels=scene.kernels,
+                        resume=resume, callback=callback))

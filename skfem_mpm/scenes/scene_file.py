@@ -117,6 +117,11 @@ offending value (unknown keys, wrong types, impossible values), in a
     tolerance = 1e-9
     max_iterations = 25
     linear = "auto"                 # fastest installed; scipy pypardiso pyamg
+    kernels = "auto"                # the per-point work: compiled passes
+                                    # where they serve the scene (numba
+                                    # installed), else numpy; "numpy" (the
+                                    # reference); "compiled" (a scene they
+                                    # cannot serve is refused)
     antilocking = false             # mean dilatation, B-bar (any method)
     ghost = "auto"                  # ghost penalty for cut cells: "auto"
                                     # (on after a failed finite step), or
@@ -138,6 +143,7 @@ except ImportError:                       # Python 3.10
     import tomli as tomllib
 
 from ..errors import InvalidInputError, InvalidMaterialError, SceneError
+from ..kernels import KERNELS
 from ..mechanics.cam_clay import ModifiedCamClay
 from ..mechanics.materials import LinearElastic, VonMises
 from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
@@ -669,8 +675,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             c.problems.append(str(err))
     solver = c.table(data.get("solver", {}), "solver",
                      ("method", "kinematics", "steps", "tolerance",
-                      "max_iterations", "linear", "antilocking", "ghost",
-                      "rhs", "line_search", "newton"))
+                      "max_iterations", "linear", "kernels", "antilocking",
+                      "ghost", "rhs", "line_search", "newton"))
     method = c.choice(solver, "solver", "method", METHODS, "mpm")
     dynamics = _dynamics(c, data["dynamics"]) if "dynamics" in data else None
     if dynamics is not None and "steps" in solver:
@@ -705,6 +711,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         reference=c.choice(data, "", "reference", REFERENCES + (None,)),
         solver=c.choice(solver, "solver", "linear", tuple(FACTORIES),
                         "auto"),
+        kernels=c.choice(solver, "solver", "kernels", KERNELS, "auto"),
         outputs=outputs, obstacles=[o for o in obstacles if o is not None],
         contacts=[t for t in contacts if t is not None])
     if not c.problems:
