@@ -285,8 +285,9 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     new state, the step's record and its point operator; ``report``
     receives what the Newton driver reports."""
     problem = StepProblem(run, points, f_old, f_new, step)
-    strategy = run.newton if how.search == "first" else \
-        run.line_search or run.newton
+    searches = how.search == "retry" or bool(
+        run.counters["line_search_from_step"])
+    strategy = run.line_search or run.newton if searches else run.newton
     du, seed = problem.du0, None
     # a term that may move its constraint after Newton (contact's
     # augmented Lagrangian) has the step solved again from the converged
@@ -336,6 +337,16 @@ def switch_ghost_on(run: Run, step: int, failure):
                            "for the rest of the run", failure, term.gamma)
 
 
+def line_search_from_now_on(run: Run, step: int):
+    """After the line search carried a step whose full Newton steps
+    failed, the later steps start with it: such a step's neighbours fail
+    the same way (perfectly plastic flow under a footing: full steps failed
+    every one of 40 steps, each after 25 iterations)."""
+    run.counters["line_search_from_step"] = step
+    logger.info("step %d: the line search carried the step where Newton's "
+                "full steps failed; the later steps start with it", step)
+
+
 def ghost_in_reserve(run: Run, failure, reused: bool) -> bool:
     """A ghost penalty held in reserve (``ghost="auto"``), for any failed
     step in finite deformation, for absurd grid motion in small strain."""
@@ -375,8 +386,12 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         report = {}
         try:
             with numerical_failures(step):
-                return load_step(run, points, f_old, f_new, step, how,
+                done = load_step(run, points, f_old, f_new, step, how,
                                  report)
+            if how.search == "retry" and run.line_search is not None and \
+                    not run.counters["line_search_from_step"]:
+                line_search_from_now_on(run, step)
+            return done
         except STEP_FAILURES as failure:
             for rung in rungs:
                 if (rung.linear or not run.linear) and rung.applies(
