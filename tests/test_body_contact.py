@@ -485,3 +485,34 @@ def test_a_block_landing_on_a_staircase_gains_no_energy():
     assert any((r.contact_forces != 0).any() for r in res.history)
     work = G * np.array(drop)            # gravity's work on the block
     assert (np.array(kinetic) <= 1.05 * work + 1e-3).all(), (kinetic, work)
+
+
+@pytest.mark.slow
+def test_a_rough_punch_on_a_plastic_stack_runs_to_its_limit_load():
+    """A rough box obstacle (half-width 0.5 on the symmetry line) pushed
+    0.05 in 10 steps into two von Mises layers 0.5 thick (c_u = 20 /
+    sqrt 3) in Coulomb contact (0.3), standard MPM: full Newton steps fail
+    once the layers yield, and the Armijo search that carries the step
+    then starts the later ones (before: 25 failed iterations at every
+    step, and the run ended at a sixth of the push after cutting back to
+    4e-4 of a step).  The punch reaches a limit load: its last three
+    forces within 5% of each other, 1-1.5 times Prandtl's (2 + pi) c_u B/2
+    on a half-space (measured 1.26: a rough punch on a finite layer)."""
+    from skfem_mpm import Obstacle
+    from skfem_mpm.studies.user_setups import base_and_rollers
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 17), np.linspace(0, 1.5, 13))
+    layers = [seed_points(mesh, 2, region=lambda x, low=low: (x[1] > low)
+                          & (x[1] < low + .5)) for low in (0., .5)]
+    layers[1].body[:] = 1
+    res = simulate(mesh, ElementQuad1(), concatenate_points(layers),
+                   VonMises(1e4, .3, 20.), base_and_rollers(2.), nsteps=10,
+                   contacts=[Contact(0, 1, friction=.3)],
+                   obstacles=[Obstacle(box=[[-1, .5], [1., 1.3]],
+                                       displacement=[0, -.05],
+                                       friction="rough")])
+    assert len(res.history) <= 12
+    assert res.counters["line_search_from_step"] > 0
+    force = np.array([r.obstacle_forces[0, 1] for r in res.history[-3:]])
+    assert np.ptp(force) < .05 * force.mean()
+    prandtl = (2 + np.pi) * 20 / np.sqrt(3) * .5
+    assert prandtl < force.mean() < 1.5 * prandtl

@@ -7,7 +7,9 @@ they are not (another numpy may round a sum differently).
 Re-recorded on purpose, with the commit that changed them:
 fem_finite_antilocking and mpm_finite_modified_antilocking_plastic when
 mean dilatation began to replace the volumetric part of the 3x3 gradient
-in plane strain as in 3D (displacements moved 0.6%)."""
+in plane strain as in 3D (displacements moved 0.6%); every case's hash
+when the counters gained ``line_search_from_step`` (a 0 more in each
+counters array, every sum unchanged to the bit)."""
 import json
 from pathlib import Path
 

@@ -72,7 +72,7 @@ def test_line_search_choices():
     assert isinstance(first, FullStep) and retry is None
     assert isinstance(make_line_search(FullStep())[0], FullStep)
     first, retry = make_line_search("backtracking")
-    assert first.watchdog is None and retry.watchdog == 2
+    assert first.watchdog is None and retry.watchdog == 0
     custom = Backtracking(watchdog=0, min_step=1e-2)   # from the first attempt
     assert make_line_search(custom) == (custom, None)
     first, retry = make_line_search("armijo")        # Armijo from the first
@@ -312,3 +312,49 @@ def test_every_factorisation_is_counted_in_dynamics():
     counters = result.counters
     assert counters["factorisations"] == counters["linear_solves"] == \
         counters["newton_iterations"] + 1
+
+
+def footing_of_nodes(line_search):
+    """A smooth strip footing of grid nodes (half-width 0.5, B/h = 4) pushed
+    0.1 B into weightless perfectly plastic von Mises soil with finite
+    elements, mean dilatation and 2 x 2 points per cell, in 6 steps: the
+    run and the pressure over c_u."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import (NewtonOptions, Options, Prescribed, Stabilisation,
+                           VonMises, seed_points, simulate)
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2.5, 11), np.linspace(0, 1.5, 7))
+    under = np.flatnonzero((mesh.p[1] == 1.5) & (mesh.p[0] <= .5))
+
+    def supports(b):
+        return np.concatenate([b.get_dofs(lambda x: x[1] == 0).all(),
+                               b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2.5)
+                                          ).all("u^1")])
+
+    def pushed(b, f_old, f_new):
+        return b.nodal_dofs[1, under], np.full(under.size,
+                                               -.1 * (f_new - f_old))
+    res = simulate(mesh, ElementQuad1(), seed_points(mesh, 2),
+                   VonMises(1e5, .3, 100.), supports, nsteps=6, method="fem",
+                   loads=[Prescribed(pushed)], options=Options(
+                       stabilisation=Stabilisation(antilocking=True),
+                       newton=NewtonOptions(line_search=line_search)))
+    force = res.history[-1].reactions[2 * under + 1].sum()
+    return res, abs(force) / .5 / (100. / np.sqrt(3.))
+
+
+def test_steps_after_one_the_line_search_carried_start_with_it():
+    """Full Newton steps fail on perfectly plastic flow under a footing at
+    every load step (25 iterations each, before: 6 failed attempts); once
+    the retry's Armijo search has carried one, the later steps start with
+    it: one failed attempt in the run, the same iterations otherwise as
+    the Armijo search from the first step on, and the same pressure to
+    1e-9."""
+    res, pressure = footing_of_nodes("backtracking")
+    plain, plain_pressure = footing_of_nodes(Backtracking(watchdog=0))
+    assert res.counters["line_search_from_step"] == 1
+    assert plain.counters["line_search_from_step"] == 0
+    assert res.counters["newton_iterations"] == \
+        plain.counters["newton_iterations"] + 25
+    assert len(res.history) == 6
+    assert abs(pressure - plain_pressure) < 1e-9 * pressure
+    assert 5 < pressure < 7                          # near 2 + pi

@@ -33,7 +33,7 @@ def test_effect_gating():
                         "return_maps": 0, "newton_iterations": 0,
                         "line_search_trials": 0,
                         "stabilised_solves": 0, "ghost_from_step": 0,
-                        "factorisations": 3}
+                        "line_search_from_step": 0, "factorisations": 3}
     # FE mode never relocates the points
     fem = run_scene(block(method="fem"))
     assert fem.counters["locate"] == 1

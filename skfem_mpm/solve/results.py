@@ -136,7 +136,9 @@ class Result:
         two evaluations), ``stabilised_solves`` (Newton
         solves that needed the stabilised tangent: zero-energy modes), and
         ``ghost_from_step`` (0, or the step from which ``ghost="auto"``
-        switched the ghost penalty on), ``factorisations`` (stiffness
+        switched the ghost penalty on), ``line_search_from_step`` (0, or
+        the step from which ``line_search="backtracking"`` starts every
+        step with the line search), ``factorisations`` (stiffness
         matrices factorised: one per linear solve of a load step, fewer
         with ``newton="modified"``); with obstacles ``contact_updates``
         (augmented-Lagrangian updates of contact: each solves a step
@@ -149,7 +151,7 @@ class Result:
     counters: dict = field(default_factory=lambda: dict.fromkeys(
         ("locate", "body_force", "linear_solves", "return_maps",
          "newton_iterations", "line_search_trials", "stabilised_solves",
-         "ghost_from_step", "factorisations"), 0))
+         "ghost_from_step", "line_search_from_step", "factorisations"), 0))
 
     def timings(self) -> dict:
         """Total seconds per phase over all steps."""
