@@ -37,6 +37,9 @@ from skfem_mpm.stabilisation.volumetric import MeanDilatation
 from digest_cases import CASES, fingerprint
 
 pytest.importorskip("numba")
+#: the passes compile once per installation (about 90 s): these tests run
+#: with the slow ones, and the others on the numpy path (tests/conftest.py)
+pytestmark = pytest.mark.slow
 
 DIGESTS = json.loads((Path(__file__).parent / "data"
                       / "core_digests.json").read_text())

@@ -352,6 +352,7 @@ antilocking = true
         capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_kernels_from_a_scene_file(tmp_path, capsys):
     """``solver.kernels`` picks the per-point path: a plastic block in
     finite deformation with mean dilatation runs the same on the compiled

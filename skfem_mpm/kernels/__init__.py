@@ -15,15 +15,21 @@ deformation (not the total Lagrangian scheme of ``method="fem"``),
 ``ModifiedCamClay``; not a user's material or one material per body.  numba is
 imported only when a run first asks for the passes, so that ``import
 skfem_mpm`` stays light; the kernels are cached on disk, so a second
-process does not compile them again.
+process does not compile them again.  The environment variable
+``SKFEM_MPM_KERNELS=numpy`` makes ``"auto"`` take the numpy path
+(:func:`auto_kernels`): a short run on a machine whose kernel cache is
+empty spares the passes' compilation (about 90 s once), and the
+README's fast test command runs so.
 """
 import logging
+import os
 
 from ..errors import InvalidInputError
 
 __all__ = ["KERNELS", "ELASTIC", "VON_MISES", "DRUCKER_PRAGER",
            "MOHR_COULOMB", "CAM_CLAY", "PER_ENTRY", "PER_NODE_PAIR",
-           "BISECTION", "check_kernels", "compiled_passes", "log_once"]
+           "BISECTION", "AUTO_VARIABLE", "check_kernels", "auto_kernels",
+           "compiled_passes", "log_once"]
 
 logger = logging.getLogger(__name__)
 
@@ -65,6 +71,28 @@ def check_kernels(kernels) -> str:
         raise InvalidInputError("kernels must be one of {}, got {!r}".format(
             ", ".join(map(repr, KERNELS)), kernels))
     return kernels
+
+
+#: the environment variable that says what ``kernels="auto"`` takes
+AUTO_VARIABLE = "SKFEM_MPM_KERNELS"
+
+
+def auto_kernels() -> str:
+    """What ``kernels="auto"`` takes: ``"numpy"`` where the environment
+    variable :data:`AUTO_VARIABLE` is ``numpy``, ``"auto"`` (the compiled
+    passes where they serve a run) where it is ``auto`` or unset; another
+    value is refused (:class:`~skfem_mpm.errors.InvalidInputError`).
+
+    >>> import os
+    >>> os.environ.get(AUTO_VARIABLE, "auto") == auto_kernels()
+    True
+    """
+    value = os.environ.get(AUTO_VARIABLE, "auto")
+    if value not in ("auto", "numpy"):
+        raise InvalidInputError(
+            "the environment variable {} must be 'auto' or 'numpy', got "
+            "{!r}".format(AUTO_VARIABLE, value))
+    return value
 
 
 def compiled_passes():

@@ -36,7 +36,8 @@ from numpy import ndarray
 
 from ..errors import InvalidInputError
 from ..kernels import (CAM_CLAY, DRUCKER_PRAGER, ELASTIC, MOHR_COULOMB,
-                       VON_MISES, check_kernels, compiled_passes, log_once)
+                       VON_MISES, auto_kernels, check_kernels,
+                       compiled_passes, log_once)
 from .materials import LinearElastic, VonMises, elastic_tensor
 from .cam_clay import ModifiedCamClay
 from .soils import APEX_STIFFNESS, DruckerPrager, MohrCoulomb
@@ -104,7 +105,9 @@ def material_name(material) -> str:
 def compiled_path(kernels: str, material, dim: int,
                   total_lagrangian: bool = False, antilocking: bool = False):
     """The :class:`CompiledPasses` of a kinematics piece, or ``None`` (the
-    numpy path): with ``kernels="numpy"``; with ``"auto"`` where the
+    numpy path): with ``kernels="numpy"``, or ``"auto"`` under
+    ``SKFEM_MPM_KERNELS=numpy`` (:func:`~skfem_mpm.kernels.auto_kernels`);
+    with ``"auto"`` where the
     passes do not cover the material, dimension or scheme or numba does
     not import (logged once); with ``"compiled"`` those are refused
     (:class:`~skfem_mpm.errors.InvalidInputError`), before any work.
@@ -119,7 +122,8 @@ def compiled_path(kernels: str, material, dim: int,
     skfem_mpm.errors.InvalidInputError: kernels='compiled': the compiled \
 passes do not serve 1D grids; ...
     """
-    if check_kernels(kernels) == "numpy":
+    if check_kernels(kernels) == "numpy" or (
+            kernels == "auto" and auto_kernels() == "numpy"):
         return None
     params = material_parameters(material)
     reason = ("{}D grids".format(dim) if dim not in (2, 3)

@@ -146,7 +146,7 @@ class SmallStrain:
         (:mod:`skfem_mpm.kernels`).
     antilocking
         The run's operators are wrapped in mean dilatation, which the
-        compiled passes do not serve (:func:`~skfem_mpm.mechanics.
+        compiled passes serve as well (:func:`~skfem_mpm.mechanics.
         compiled.compiled_path`).
 
     """

@@ -178,8 +178,9 @@ class Options:
         iteration where they cover the run (standard MPM, uGIMP, cpGIMP
         and B-splines in 2D and 3D, small and finite deformation,
         ``LinearElastic``, ``VonMises``, ``DruckerPrager``,
-        ``MohrCoulomb`` and ``ModifiedCamClay``; not mean dilatation) and
-        numba imports, the numpy path otherwise (logged once);
+        ``MohrCoulomb`` and ``ModifiedCamClay``, with or without mean
+        dilatation) and numba imports, the numpy path otherwise (logged
+        once; and under ``SKFEM_MPM_KERNELS=numpy``);
         ``"numpy"``: the numpy path, the tested reference;
         ``"compiled"``: the compiled passes, a run they cannot serve
         refused before any work (:mod:`skfem_mpm.kernels`).
