@@ -1,6 +1,7 @@
 """The composable load-step core: every method x kinematics x material x
 stabilisation runs through one loop (or is refused before any work), and
 each new combination is checked against a closed form or a twin."""
+import functools
 import itertools
 
 import numpy as np
@@ -580,15 +581,30 @@ def test_domains_that_shrink_do_not_switch_the_ghost_penalty_on():
     assert np.abs(stress - 1).max() < .05
 
 
-def test_bspline_support_inside_the_grid_is_refused():
-    """B-splines' nodes are control points, the field's values only on the
-    grid's edges: the block held on a line inside the grid carried 11% less
-    force than its support's reaction said.  Refused at the first step,
-    naming a node on the line and the way out."""
+def test_bspline_supports_inside_the_grid_or_on_part_of_an_edge_are_refused():
+    """B-splines' nodes are control points, the field's values only at the
+    grid's ends: the block held on a line inside the grid carried 11% less
+    force than its support's reaction said, and a block on a base held
+    only under it had stresses 15-19% off.  Refused at the first step,
+    naming a node and the way out; the whole edge held runs."""
     with pytest.raises(InvalidInputError, match=r"step 1: method 'bspline' "
-                       r"holds DOFs at 2 grid nodes inside the grid \(the "
-                       r"first at \[0.5, 0.1\]\).*tied obstacle"):
+                       r"holds DOFs at 4 grid nodes beside free ones .*"
+                       r"\(the first at \[0.5, 0.0\]\).*make the grid end"):
         pressed_against_a_held_line("bspline")
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
+    points = seed_points(mesh, 2, region=lambda x: x[0] < 1)
+    for under, refused in ((lambda x: x[0] <= 1, True), (None, False)):
+        def base(b, under=under):
+            return b.get_dofs(lambda x: (x[1] == 0) & (
+                True if under is None else under(x))).all()
+        run = functools.partial(
+            simulate, mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+            base, [0., -1.], nsteps=1, method="bspline")
+        if refused:
+            with pytest.raises(InvalidInputError, match="along part of"):
+                run()
+        else:
+            assert np.isfinite(run().points.stress).all()
 
 
 def test_bad_api_input_is_named_not_a_raw_error():
