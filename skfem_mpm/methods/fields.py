@@ -182,8 +182,9 @@ class FieldMethod:
         return self.piece.domains(domain0, F)
 
     def check_supports(self, op, fixed, nodal_dofs, step: int):
-        """The piece's check (contacts between bodies take GIMP, whose
-        DOFs are the field's values at the nodes: nothing to refuse)."""
+        """The piece's check (contacts between bodies refuse B-splines:
+        the pieces here are GIMP's, whose DOFs are the field's values at
+        the nodes, nothing to refuse)."""
         self.piece.check_supports(op, fixed, nodal_dofs, step)
 
     def operator(self, points, step: int, timings: dict):

@@ -124,8 +124,8 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # cannot serve is refused)
     antilocking = false             # mean dilatation, B-bar (any method)
     ghost = "auto"                  # ghost penalty for cut cells: "auto"
-                                    # (on after a failed finite step), or
-                                    # a factor (0: never)
+                                    # (on where slivers of material hold
+                                    # nodes), or a factor (0: never)
     line_search = "backtracking"    # or "armijo" (from the first
                                     # attempt on), "none": plain Newton
     newton = "full"                 # or "modified": a step's first

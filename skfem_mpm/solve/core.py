@@ -203,7 +203,8 @@ class Run:
 def ghost_term(run: Run) -> Optional[GridTerm]:
     """The ghost penalty of ``ghost=gamma``, or the one ``ghost="auto"``
     holds in reserve (:data:`DEFAULT_GHOST`; :data:`SMALL_STRAIN_GHOST` in
-    small strain without contacts), on from the start for GIMP
+    small strain, unless GIMP bodies are in contact), on from the start
+    for GIMP
     with contacts between bodies: each body's domains reach a sliver of
     the cells across an interface on a grid line, on its own field, and
     the nodes there, barely held, drew 9% of the stress of two pressed
@@ -284,6 +285,9 @@ class Attempt(NamedTuple):
 
 
 FIRST = Attempt("first", True, False)
+#: the retry with the line search (which, once it has carried a step,
+#: starts the later ones: no rung then tries it again)
+LINE_SEARCH = Attempt("retry", False, False)
 
 
 def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
@@ -297,7 +301,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     problem = StepProblem(run, points, f_old, f_new, step)
     searches = how.search == "retry" or bool(
         run.counters["line_search_from_step"])
-    strategy = run.line_search or run.newton if searches else run.newton
+    strategy = (run.line_search or run.newton) if searches else run.newton
     du, seed = problem.du0, None
     # a term that may move its constraint after Newton (contact's
     # augmented Lagrangian) has the step solved again from the converged
@@ -380,7 +384,8 @@ RETRY_LADDER = (
     Rung("the ghost penalty", ghost_in_reserve, None, switch_ghost_on,
          linear=True),
     Rung("the line search", lambda run, failure, reused:
-         run.line_search is not None, Attempt("retry", False, False)),
+         run.line_search is not None
+         and not run.counters["line_search_from_step"], LINE_SEARCH),
     Rung("the tangent stabilised by {:.0e} of its diagonal".format(
         STABILISATION), lambda run, failure, reused: True,
         Attempt("retry", False, True)),
@@ -398,8 +403,8 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             with numerical_failures(step):
                 done = load_step(run, points, f_old, f_new, step, how,
                                  report)
-            if how.search == "retry" and run.line_search is not None and \
-                    not run.counters["line_search_from_step"]:
+            if how == LINE_SEARCH and not run.counters[
+                    "line_search_from_step"]:
                 line_search_from_now_on(run, step)
             return done
         except STEP_FAILURES as failure:

@@ -48,8 +48,8 @@ they fail its neighbours too.  Perfectly plastic soil under a footing
 failed full steps at every one of 40 steps, 25 iterations each, and the
 Armijo search with the watchdog then needed cut-backs at 18 of them;
 with the plain search from the first step that failed on, the footing
-pushed by an obstacle ran in 43 steps instead of 58 and 3.3 times
-faster, and the footing of grid nodes with finite elements 2.8 times
+pushed by an obstacle ran in 43 steps instead of 58 and 3.5 times
+faster, and the footing of grid nodes with finite elements 3.8 times
 faster (``benchmarks/line_search_cost.py``).  ``line_search="armijo"``
 runs the Armijo search behind the watchdog from the first attempt on.
 :class:`FullStep` is plain Newton.
