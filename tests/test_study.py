@@ -500,15 +500,21 @@ def test_methods_example_orders_and_choices():
 
 
 @pytest.mark.slow
-def test_gimp_footing_with_the_ghost_switched_on_keeps_to_its_steps():
+def test_gimp_footing_with_the_ghost_switched_on_keeps_to_its_steps(
+        monkeypatch):
     """cpGIMP's footing at B / h = 8 (the methods study's, small strain):
     the heaving soil's domains reach a sliver of the row of cells above
     it, and at step 2 of 10 and of 40 steps the absurd motion of the
     nodes there switches ``ghost="auto"``'s penalty on.  It acts on each
     step's increment; with gamma = 0.1 the end pressure was 18.0% and
     13.6% above Prandtl's, with :data:`SMALL_STRAIN_GHOST` (1e-3) 9.1% and
-    8.8%: within 1% of each other."""
+    8.8%: within 1% of each other.  On the numpy path: whether the
+    slivers' motion passes the threshold is a matter of round-off (on the
+    compiled passes the 10-step run's does not, and ends at +5.4%)."""
+    from skfem_mpm.mechanics import kinematics
     from skfem_mpm.solve.core import SMALL_STRAIN_GHOST
+    monkeypatch.setattr(kinematics, "compiled_path",
+                        lambda *args, **kwargs: None)
     from skfem_mpm.studies.methods import footing, footing_reference
     assert SMALL_STRAIN_GHOST == 1e-3
     limit = footing_reference()

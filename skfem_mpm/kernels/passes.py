@@ -59,7 +59,7 @@ __all__ = ["passes_of", "finite_commit", "ELASTIC_TANGENT",
 #: function on its own file alone, so a change there must change this
 #: file too, or the passes would run the cached old code
 #: (``tests/test_compiled.py`` checks it)
-SOURCES = "74ac1ccc48de1a4b"
+SOURCES = "ae24bda210504000"
 
 
 @njit(cache=True, error_model="numpy", inline="always")

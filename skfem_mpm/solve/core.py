@@ -352,10 +352,12 @@ def switch_ghost_on(run: Run, step: int, failure):
 
 
 def line_search_from_now_on(run: Run, step: int):
-    """After the line search carried a step whose full Newton steps
-    failed, the later steps start with it: such a step's neighbours fail
-    the same way (perfectly plastic flow under a footing: full steps failed
-    every one of 40 steps, each after 25 iterations)."""
+    """After the line search (alone, or with the stabilised tangent)
+    carried a step whose full Newton steps failed, the later steps start
+    with it: such a step's neighbours fail the same way (perfectly plastic
+    flow under a footing: full steps failed every one of 40 steps, each
+    after 25 iterations; a cantilever's sparsely filled cells fail full
+    steps again after the stabilised tangent carried one)."""
     run.counters["line_search_from_step"] = step
     logger.info("step %d: the line search carried the step where Newton's "
                 "full steps failed; the later steps start with it", step)
@@ -403,8 +405,8 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             with numerical_failures(step):
                 done = load_step(run, points, f_old, f_new, step, how,
                                  report)
-            if how == LINE_SEARCH and not run.counters[
-                    "line_search_from_step"]:
+            if how.search == "retry" and run.line_search is not None \
+                    and not run.counters["line_search_from_step"]:
                 line_search_from_now_on(run, step)
             return done
         except STEP_FAILURES as failure:
