@@ -205,10 +205,9 @@ def ghost_term(run: Run) -> Optional[GridTerm]:
     holds in reserve (:data:`DEFAULT_GHOST`; :data:`SMALL_STRAIN_GHOST` in
     small strain, unless GIMP bodies are in contact), on from the start
     for GIMP with contacts between bodies: each body's domains reach a
-    sliver of
-    the cells across an interface on a grid line, on its own field, and
-    the nodes there, barely held, drew 9% of the stress of two pressed
-    blocks after the first step (0.2% after 6 steps with it)."""
+    sliver of the cells across an interface on a grid line, on its own
+    field, and the nodes there, barely held, drew 9% of the stress of two
+    pressed blocks after the first step (0.2% after 6 steps with it)."""
     if run.ghost:
         return GhostStabilisation(run.mesh, run.grid.elem, run.ghost,
                                   run.material)
