@@ -10,7 +10,9 @@ only the first body's corners that face the second's across it
 (:meth:`PairFinder.separating_normal`, :meth:`PairFinder.facing`); the
 second body's surface corner nearest the node and the first body's
 facing corner nearest that one make the node's pair
-(:meth:`PairFinder.extreme`), one per place.
+(:meth:`PairFinder.extreme`), one per place; after the run's start a
+pair deeper than :data:`DEEPEST` cells is none (the first body on both
+sides of the second at the node).
 """
 import numpy as np
 from numpy import ndarray
@@ -142,7 +144,8 @@ class PairFinder:
         the second's count (:meth:`facing`), and a node where none do
         along any candidate has no pair (NaN).  A grid axis is preferred
         by :data:`AXIS` cells of gap, and of gaps within :data:`FACING`
-        cells the one nearest the centroids' line.  A body's edge
+        cells the one nearest the centroids' line, the last axis (the
+        vertical) by :data:`LAST` in cosine.  A body's edge
         or the grid's edge makes the centroids' directions lean sideways
         and shows a gap of about zero sideways where both bodies end; the
         separating axis with these preferences stays across the
@@ -174,8 +177,7 @@ class PairFinder:
         # of about zero along their surface's normal and along a face
         # they share at an edge): a grid axis is preferred (a surface
         # seeded on a tensor grid), and of those the nearest to the line
-        # between the centroids
-        # and of axes alike in both (a convex corner of the second body
+        # between the centroids, and of axes alike in both (a convex corner of the second body
         # in a notch of the first: its sides are equally far), the last
         # (the vertical), mirror-symmetric: by round-off, or by a
         # penetration within the tolerance, a pile's tip corners took one

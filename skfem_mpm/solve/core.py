@@ -221,8 +221,10 @@ def ghost_term(run: Run) -> Optional[GridTerm]:
                         DEFAULT_GHOST)
         gamma = DEFAULT_GHOST if run.finite or slivers else \
             SMALL_STRAIN_GHOST
-        return GhostStabilisation(run.mesh, run.grid.elem, gamma,
-                                  run.material, active=slivers)
+        return GhostStabilisation(
+            run.mesh, run.grid.elem, gamma, run.material, active=slivers,
+            obstacles=run.obstacles if run.method.name in (
+                "ugimp", "cpgimp") else ())
     return None
 
 

@@ -86,11 +86,13 @@ def ghost_penalty(mesh, elem, fill: ndarray, mu: ndarray,
 
 def faces_crossed_past_supports(mesh, nodal_dofs: ndarray, fixed: ndarray,
                                 point_cells: ndarray,
-                                active_cells: ndarray) -> ndarray:
+                                active_cells: ndarray,
+                                blocked=None) -> ndarray:
     """Faces across which points' domains reach past a support: a face of
     an axis-aligned grid between a cell that holds points and a cell that
     only their domains reach (no point in it), every node of the face held
-    along the face's normal.
+    along the face's normal, or the cell beyond inside an obstacle
+    (``blocked``).
 
     Material pressed against a held grid line moves towards it while a
     GIMP domain keeps its size (uGIMP; cpGIMP in small strain), so the
@@ -112,6 +114,11 @@ def faces_crossed_past_supports(mesh, nodal_dofs: ndarray, fixed: ndarray,
         The cell holding each point.
     active_cells
         The cells the points' operator reaches.
+    blocked
+        ``blocked(cells) -> bool array``: which cells lie inside an
+        obstacle (material pressed on a smooth obstacle wall on a grid
+        line holds no DOF there: the points by it were at 0.48 and 1.43
+        times the stress, the wall's force 3.4% low), or ``None``.
 
     Returns
     -------
@@ -151,7 +158,11 @@ def faces_crossed_past_supports(mesh, nodal_dofs: ndarray, fixed: ndarray,
     normal = np.argmin(np.ptp(mesh.p[:, nodes], axis=1), axis=0)
     held = np.zeros(nodal_dofs.max() + 1, dtype=bool)
     held[fixed] = True
-    return faces[held[nodal_dofs[normal, nodes]].all(axis=0)]
+    past = held[nodal_dofs[normal, nodes]].all(axis=0)
+    if blocked is not None:
+        beyond = np.where(holds[left[faces]], inner[faces], left[faces])
+        past |= blocked(beyond)
+    return faces[past]
 
 
 class GhostStabilisation(GridTerm):
@@ -175,12 +186,17 @@ class GhostStabilisation(GridTerm):
         step switches it on for the rest of the run, and so does a step
         whose points' domains reach past a support,
         :func:`faces_crossed_past_supports`).
+    obstacles
+        The run's obstacles, where a step whose points' domains reach
+        into a cell inside one switches the penalty on (GIMP's domains;
+        a B-spline's support reaches the cells beside its body anyway).
     """
 
     def __init__(self, mesh, elem, gamma: float, material,
-                 active: bool = True):
+                 active: bool = True, obstacles=()):
         self.mesh, self.elem, self.gamma = mesh, elem, gamma
         self.material, self.active = material, active
+        self.obstacles = obstacles
         self._cell_volume = None
         self.G = None
 
@@ -191,12 +207,14 @@ class GhostStabilisation(GridTerm):
     def begin_step(self, problem):
         """The step's penalty; ``None`` (no contribution) while in reserve
         or where no face needs one.  In reserve, switched on for the rest
-        of the run at a step whose points' domains reach past a support."""
+        of the run at a step whose points' domains reach past a support
+        or into a cell inside an obstacle."""
         if not self.active:
             op = problem.op
             crossed = faces_crossed_past_supports(
                 self.mesh, problem.grid.nodal_dofs, problem.fixed,
-                op.point_elements, op.elements)
+                op.point_elements, op.elements,
+                self.obstacle_cells(problem))
             if crossed.size == 0:
                 return None
             self.switch_on()
@@ -209,6 +227,21 @@ class GhostStabilisation(GridTerm):
                     axis=1), 6).tolist(), self.gamma)
         self.G = self.penalty(problem.op, problem.points)
         return None if self.G is None else self
+
+    def obstacle_cells(self, problem):
+        """``cells -> bool``: whether each cell's centre lies inside one of
+        :attr:`obstacles` where the step starts; ``None`` without
+        them."""
+        obstacles = self.obstacles
+        if not obstacles:
+            return None
+
+        def blocked(cells):
+            centre = self.mesh.p[:, self.mesh.t[:, cells]].mean(axis=1)
+            return np.any([ob.signed_distance(
+                centre, problem.s_old * ob.displacement)[0] < 0
+                for ob in obstacles], axis=0)
+        return blocked
 
     def force(self, du, response):
         return self.G @ du

@@ -32,8 +32,9 @@ class Stabilisation:
         uGIMP and cpGIMP where bodies are in contact (each body's domains
         reach a sliver of the cells across an interface, on its own
         field); on from a step whose points' domains reach past a
-        support (material pressed against a held grid line, uGIMP and
-        cpGIMP in small strain:
+        support or into a cell inside an obstacle (material pressed
+        against a held grid line or an obstacle wall, uGIMP and cpGIMP
+        in small strain:
         :func:`~skfem_mpm.stabilisation.ghost.faces_crossed_past_supports`);
         ``counters["ghost_from_step"]`` says from which step.
     antilocking
