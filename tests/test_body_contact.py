@@ -516,3 +516,82 @@ def test_a_rough_punch_on_a_plastic_stack_runs_to_its_limit_load():
     assert np.ptp(force) < .05 * force.mean()
     prandtl = (2 + np.pi) * 20 / np.sqrt(3) * .5
     assert prandtl < force.mean() < 1.5 * prandtl
+
+
+def pile_in_soil(friction, penalty=10., tolerance=1e-3, nsteps=2,
+                 method="mpm"):
+    """An elastic pile two cells wide, 80 times stiffer than the soil it
+    stands in, its sides and tip on grid lines, pushed by 100 on its top;
+    returns the mean displacement (dim,) of its top's points."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.4, 15),
+                                np.linspace(0, 1.4, 15))
+    pile = [(.6, .8), (.6, 1.2)]
+    soil = seed_points(mesh, 2, region=lambda x: (x[1] < 1.) & ~(
+        (x[0] > .6) & (x[0] < .8) & (x[1] > .6)))
+    pts = concatenate_points([soil, bodies(mesh, 2, [pile])])
+    pts.body[soil.n:] = 1
+    top = np.flatnonzero((pts.body == 1) & (pts.x[1] > 1.15))
+
+    def supports(b):
+        return np.union1d(b.get_dofs(lambda x: x[1] == 0).all(),
+                          b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 1.4))
+                          .nodal["u^1"])
+
+    contacts = [] if friction is None else [
+        Contact(0, 1, friction=friction, penalty=penalty,
+                tolerance=tolerance)]
+    result = simulate(mesh, ElementQuad1(), pts,
+                      [LinearElastic(1e4, .3), LinearElastic(1e6, .2)],
+                      supports, body_force=[0., -20.], nsteps=nsteps,
+                      loads=[Traction(top, "top", [0., -100.])],
+                      contacts=contacts, method=method)
+    return result.points.displacement[:, top].mean(axis=1)
+
+
+@pytest.mark.parametrize("method", ["mpm", "cpgimp"])
+def test_a_pile_with_friction_on_grid_lines_is_pushed_in(method):
+    """A pile with Coulomb friction whose sides lie on grid lines (the
+    penalty of the stiffer body made its pairs open and close in turn:
+    the run failed at step 1); it does not tilt (the tip's corners took
+    different normals by round-off: the top moved sideways by a third of
+    its settlement; with cpGIMP, a node inside the pile paired one side
+    of it with the soil beyond the other and took the side's own pair's
+    place); the answer does not depend on the penalty, lies between a
+    frictionless pile's and one with friction 5, and that one is near the
+    glued pile's (the glued bodies share the grid's nodes)."""
+    u = pile_in_soil(.3, tolerance=1e-5, method=method)
+    assert abs(u[0]) < 1e-3 * -u[1]     # the tolerance: 2e-4 of it
+    for penalty in (1., 100.):
+        other = pile_in_soil(.3, penalty, tolerance=1e-5, method=method)
+        assert abs(other[1] / u[1] - 1) < 2e-3
+    glued, smooth, rough = (pile_in_soil(friction, method=method)[1]
+                            for friction in (None, 0., 5.))
+    assert smooth < u[1] < rough
+    assert abs(rough / glued - 1) < .05    # 3.4% (MPM), 0.7% (cpGIMP)
+
+
+@pytest.mark.slow
+def test_a_pile_that_parts_from_its_soil_fails_clearly():
+    """A frictionless pile in von Mises soil pushed past what its tip
+    carries with standard MPM: the step where no pair holds it any more
+    fails as a singular system that names the contact, with the last
+    converged state attached."""
+    from skfem_mpm import SingularSystemError
+    from skfem_mpm.studies.user_setups import base_and_rollers
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.4, 15),
+                                np.linspace(0, 1.4, 15))
+    soil = seed_points(mesh, 2, region=lambda x: (x[1] < 1.) & ~(
+        (x[0] > .6) & (x[0] < .8) & (x[1] > .6)))
+    pts = concatenate_points([soil, bodies(mesh, 2, [[(.6, .8),
+                                                       (.6, 1.2)]])])
+    pts.body[soil.n:] = 1
+    top = np.flatnonzero((pts.body == 1) & (pts.x[1] > 1.15))
+    with pytest.raises(SingularSystemError,
+                       match="parted from what held it") as err:
+        simulate(mesh, ElementQuad1(), pts,
+                 [VonMises(1e4, .3, 20.), LinearElastic(1e6, .2)],
+                 base_and_rollers(1.4), body_force=[0., -20.], nsteps=10,
+                 loads=[Traction(top, "top", [0., -100.])],
+                 contacts=[Contact(0, 1)])
+    assert err.value.load_factor >= .5
+    assert err.value.state.n == pts.n

@@ -30,16 +30,22 @@ relative tangential increment ``s``, ``"rough"``: no slip) with the
 consistent tangent; the first body receives ``-(p n + tau)``.  After
 Newton converges, :meth:`StepBodyContact.settle` looks for pairs the
 bodies, moved by the converged increment, form beyond the step's and
-penetrate (they join), checks each pair's penetration and a sticking
-pair's slip against the tolerance and, where larger, updates the
-multipliers (augmented Lagrangian) and solves again: the converged state
-has no penetration and no stick slip beyond the tolerance.  A pair that
-penetrates at a step's start by less than the tolerance is closed there
-(the corners of deformed domains, moved through each point's own
-gradient, are not quite where the grid field moved the last step's
-pairs).  In small strain the domains follow the displacement gradient
-the term keeps (point state ``contact_body_grad<a><b>``, which
-checkpoints carry); the multipliers start from zero in every step.
+penetrate (they join), checks each pair's penetration, the gap of a
+pair pressed while apart, and a sticking pair's slip against the
+tolerance and, where larger, updates the multipliers (augmented
+Lagrangian) and solves again: the converged state has no penetration, no
+pressure across a gap and no stick slip beyond the tolerance.  A pair
+that penetrates at a step's start is closed there (the corners of
+deformed domains, moved through each point's own gradient, are not quite
+where the grid field moved the last step's pairs), and its multipliers
+are the tractions the last step ended with at the second body's corner
+(point state ``contact_body<k>_p<c>`` and ``contact_body<k>_t<a><c>``:
+contact k, corner c, component a), so a step starts from the last step's
+pressure and a sticking interface keeps its shear.  The penalty ``kappa``
+is the contact's ``penalty`` times the softer body's P-wave modulus.
+In small strain the domains follow the displacement gradient the term
+keeps (point state ``contact_body_grad<a><b>``); checkpoints carry all
+of this state.
 """
 import logging
 from typing import Optional
@@ -58,6 +64,12 @@ from .contact_pairs import FACING, PairFinder
 from .dynamics import value_matrix
 
 logger = logging.getLogger(__name__)
+
+#: the penalty's force on the largest penetration (or a pressed pair's
+#: gap) a step ends with, relative to the largest pair's force (stick
+#: slip keeps to the tolerance alone: held to this too, a rough punch on
+#: plastic layers in Coulomb contact stalled at 0.44 of its push)
+SETTLED = 1e-3
 
 __all__ = ["Contact", "check_contacts", "BodyContact",
            "body_contact_state_names"]
@@ -78,8 +90,11 @@ class Contact:
     name
         The contact's name in outputs (``"<first>-<second>"`` by default).
     penalty
-        Penalty of the augmented Lagrangian relative to the stiffer
-        body's P-wave modulus (times the cell size in 3D).
+        Penalty of the augmented Lagrangian relative to the softer
+        body's P-wave modulus (each body's largest ``lam + 2 mu``; times
+        the cell size in 3D): the stiffer body's made a pile 80 times
+        stiffer than its soil a constraint 800 times stiffer than the
+        soil, whose pairs opened and closed in turn without end.
     tolerance
         The penetration and stick slip accepted, in cells.
 
@@ -184,11 +199,25 @@ def gradient_state(dim: int) -> list:
             for a in range(dim)]
 
 
+def traction_state(k: int, dim: int) -> list:
+    """The point-state names of contact ``k``'s state at the second
+    body's domain corners: per corner the pressure, the gap (where
+    pressed), then per component per corner the friction traction."""
+    nc = 2 ** dim
+    return ([["contact_body{}_p{}".format(k, c) for c in range(nc)],
+             ["contact_body{}_g{}".format(k, c) for c in range(nc)]]
+            + [["contact_body{}_t{}{}".format(k, a, c) for c in range(nc)]
+               for a in range(dim)])
+
+
 def body_contact_state_names(contacts: int, dim: int, finite: bool) -> list:
     """The point-state names a run with ``contacts`` contacts between
     bodies keeps (for a checkpoint's check)."""
-    return [name for row in gradient_state(dim) for name in row] \
-        if contacts and not finite else []
+    names = [name for k in range(contacts) for rows in traction_state(k, dim)
+             for name in rows]
+    if contacts and not finite:
+        names += [name for row in gradient_state(dim) for name in row]
+    return names
 
 
 class BodyContact(GridTerm):
@@ -204,8 +233,11 @@ class BodyContact(GridTerm):
         The extended mesh of the run's fields and the scalar element.
     vertices
         The vertices of one field (the grid's).
-    cell_size, modulus
-        The grid's cell size and the stiffest body's P-wave modulus.
+    cell_size
+        The grid's cell size.
+    material
+        The run's material at the points (``lam`` and ``mu`` per point or
+        one), whose P-wave modulus scales each contact's penalty.
     domain0
         The points' initial domain half-lengths (dim, n), or ``None``.
     finite
@@ -221,14 +253,13 @@ class BodyContact(GridTerm):
     """
 
     def __init__(self, contacts, field: ndarray, mesh, elem, vertices: int,
-                 cell_size: float, modulus: float, domain0, finite: bool,
+                 cell_size: float, material, domain0, finite: bool,
                  counters: dict, weights=None, cells: int = 0):
         self.contacts, self.field = contacts, field
         self.nv = vertices
-        self.dim = dim = mesh.dim()
+        self.dim = mesh.dim()
         self.h, self.domain0, self.finite = cell_size, domain0, finite
-        self.kappa = [c.penalty * modulus * cell_size ** (dim - 2)
-                      for _, _, c in contacts]
+        self.material = material
         self.tol = [c.tolerance * cell_size for _, _, c in contacts]
         self.cell_values = CellValues(mesh, elem)
         self.weights = weights
@@ -245,14 +276,23 @@ class BodyContact(GridTerm):
 
     def begin_run(self, points) -> None:
         dim = self.dim
+        modulus = np.broadcast_to(np.asarray(self.material.lam, float)
+                                  + 2 * np.asarray(self.material.mu, float),
+                                  (points.n,))
+        stiffest = np.full(points.body.max() + 1, -np.inf)
+        np.maximum.at(stiffest, points.body, modulus)
+        self.kappa = [c.penalty * min(stiffest[a], stiffest[b])
+                      * self.h ** (dim - 2) for a, b, c in self.contacts]
         half = self.domain0 if self.domain0 is not None else np.repeat(
             (points.volume0 ** (1. / dim) / 2)[None], dim, axis=0)
         self.R = corner_signs(dim)[:, :, None] * half[:, None, :]
         self.point_field = self.field[points.body]
+        names = [name for k in range(len(self.contacts))
+                 for rows in traction_state(k, dim) for name in rows]
         if not self.finite:
-            for row in gradient_state(dim):
-                for name in row:
-                    points.state.setdefault(name, np.zeros(points.n))
+            names += [name for row in gradient_state(dim) for name in row]
+        for name in names:
+            points.state.setdefault(name, np.zeros(points.n))
 
     def corners(self, points) -> ndarray:
         """The corners of the points' domains (dim, corners, n), moved by
@@ -283,11 +323,13 @@ class BodyContact(GridTerm):
         bodies that overlap at the run's start are refused."""
         if op in self.geometry:
             return self.geometry[op]
+        start = not points.displacement.any()
         out = self.finder.find_pairs(self.support(op), points.x,
-                                     points.volume, self.corners(points))
+                                     points.volume, self.corners(points),
+                                     start)
         for (_, _, contact), tol, (B, A, normal, gap) in zip(
                 self.contacts, self.tol, out):
-            if not points.displacement.any() and (gap < -tol).any():
+            if start and (gap < -tol).any():
                 i = int(np.argmin(gap))           # at the run's start
                 raise InvalidInputError(
                     "contact {!r}: the bodies overlap at the start by {:.3g} "
@@ -315,13 +357,17 @@ class BodyContact(GridTerm):
         """The DOFs of both bodies at pairs touching at the step's start
         (within the tolerance, or 1e-3 of a cell where that is tighter:
         pairs that a step held to 1e-10 of a cell start the next up to
-        6e-9 apart, where the corners of its start are): along the normal
+        6e-9 apart, where the corners of its start are), or pressed at the
+        last step's end (they start with its pressure): along the normal
         where it is a grid axis and the contact smooth, else every
         component."""
-        held = []
-        for (a, b, contact), (B, A, normal, gap), tol in zip(
-                self.contacts, self.pairs(op, points), self.tol):
-            touching = gap <= max(tol, 1e-3 * self.h)
+        held, n = [], points.n
+        for k, ((a, b, contact), (B, A, normal, gap), tol) in enumerate(zip(
+                self.contacts, self.pairs(op, points), self.tol)):
+            pressed = np.array([points.state[name] for name in
+                                traction_state(k, self.dim)[0]])[B // n,
+                                                                  B % n]
+            touching = (gap <= max(tol, 1e-3 * self.h)) | (pressed > 0)
             if not touching.any():
                 continue
             aligned = np.abs(normal[:, touching]) > 1 - 1e-9
@@ -358,9 +404,9 @@ class StepBodyContact(GridTerm):
         self.interface = np.unique(np.concatenate([
             f[:, reached > 1].tocoo().row for f in fields]))
         self.parts = []
-        for (B, A, normal, gap), tol in zip(term.pairs(op, points),
-                                            term.tol):
-            self.parts.append({})
+        for k, ((B, A, normal, gap), tol) in enumerate(zip(
+                term.pairs(op, points), term.tol)):
+            self.parts.append({"contact": k})
             self.add(self.parts[-1], op, points, B, A, normal, gap, tol)
         self.evaluations = WeakKeyDictionary()
 
@@ -399,8 +445,12 @@ class StepBodyContact(GridTerm):
                 slip_left = float(np.sqrt((slip[:, stick] ** 2).sum(
                     axis=0)).max(initial=0.))
             T = p * n + tau
-            ev.append((T, C, float(np.max(-gap, initial=0.)), slip_left,
-                       p, tau))
+            # the penetration, and the gap of a pair pressed while apart
+            # (a pressure carried from the last step as surfaces part)
+            violation = max(np.max(-gap, initial=0.),
+                            np.max(gap[active], initial=0.))
+            ev.append((T, C, float(violation), slip_left,
+                       p, tau, gap))
         self.evaluations[response] = ev
         return ev
 
@@ -457,7 +507,7 @@ class StepBodyContact(GridTerm):
     def add(self, part, op, points, B, A, normal, gap, tol):
         """Pairs ``(B, A)`` with their normals and gaps at the step's
         start joined to a contact's ``part`` (empty at first)."""
-        term, dim, m = self.term, self.dim, gap.size
+        term, dim = self.term, self.dim
         D = term.rows(op, points, B) - term.rows(op, points, A)
         # a penetration at the step's start is closed: the corners of
         # deformed domains, moved through each point's own gradient, are
@@ -472,10 +522,23 @@ class StepBodyContact(GridTerm):
             logger.debug("step %d: %d pairs start %.3g deep (tolerance "
                          "%.3g), closed", self.problem.step,
                          int(deep.sum()), float(-gap.min()), tol)
-        gap = np.maximum(gap, 0.)
+        # the state the last step ended with at the second body's corners,
+        # so a step starts from it: a pair pressed then starts at its
+        # pressure and penetration, with its friction traction (from
+        # zero, and closed, a pair forgave the penetration, and a sticking
+        # one the slip, the tolerance allows in every step: a pile's
+        # settlement was 40% off after 10 steps with a soft penalty)
+        n = points.n
+        last = [np.array([points.state[name] for name in row])[B // n, B % n]
+                for row in traction_state(part["contact"], dim)]
+        pressed = last[0] > 0
+        gap = np.where(pressed, last[1], np.maximum(gap, 0.))
+        lam = last[0] + term.kappa[part["contact"]] * last[1]
+        tau = np.array(last[2:])
+        tau = tau - (normal * tau).sum(axis=0) * normal
         corners = term.corners(points)[0].size
         for key, value in (("D", D), ("n", normal), ("gap", gap),
-                           ("lam", np.zeros(m)), ("tau", np.zeros((dim, m))),
+                           ("lam", lam), ("tau", tau),
                            ("keys", B * corners + A),
                            ("points", np.stack([B % points.n,
                                                 A % points.n]))):
@@ -488,8 +551,10 @@ class StepBodyContact(GridTerm):
 
     def settle(self, problem, trial, du: ndarray) -> bool:
         """After Newton: ``True`` when every pair's penetration and every
-        sticking pair's slip is within the contact's tolerance, and the
-        bodies meet nowhere else (:meth:`join`); else the multipliers take
+        sticking pair's slip is within the contact's tolerance, the
+        penalty's force on the penetration within :data:`SETTLED` of the
+        largest pair's, and the bodies meet nowhere else (:meth:`join`); else the
+        multipliers take
         the converged tractions (augmented Lagrangian), or the new pairs
         join, and the step is solved again."""
         if self.join(du):
@@ -497,8 +562,15 @@ class StepBodyContact(GridTerm):
                          "solving again", problem.step)
             return False
         ev = self.evaluate(du, trial.response)
-        worst = max((max(e[2], e[3]) / tol for e, tol in zip(
-            ev, self.term.tol)), default=0.)
+        # the tolerance in cells, and the force of the penalty on the
+        # penetration against the largest pair's (the multipliers settled:
+        # with a penalty from the softer body, a penetration within the
+        # tolerance was a quarter of a soft block's compression)
+        worst = max((max(max(e[2], e[3]) / tol, kappa * e[2]
+                         / (SETTLED * max(e[4].max(initial=0.),
+                                          np.finfo(float).tiny)))
+                     for e, tol, kappa in zip(ev, self.term.tol,
+                                              self.term.kappa)), default=0.)
         if worst <= 1.:
             return True
         for part, e in zip(self.parts, ev):
@@ -517,9 +589,33 @@ class StepBodyContact(GridTerm):
         (the fields' copies differ where bodies slide)."""
         ev = self.evaluate(du, trial.response)
         self.committed = ev
+        new.state = dict(new.state)
+        n = problem.points.n
+        X = self.term.corners(problem.points).reshape(self.dim, -1)
+        for part, e in zip(self.parts, ev):
+            # every corner of the second body at a pair's place (corners
+            # that neighbouring domains share): the next step may pair
+            # another of them there
+            B = part["keys"] // X.shape[1]
+            b = self.term.contacts[part["contact"]][1]
+            own = np.flatnonzero(problem.points.body[
+                self.interface] == b)
+            mine = (np.arange(2 ** self.dim)[:, None] * n
+                    + self.interface[own][None, :]).ravel()
+            near = cKDTree(X[:, B].T).sparse_distance_matrix(
+                cKDTree(X[:, mine].T), FACING * self.term.h,
+                output_type="coo_matrix")
+            to = np.r_[B, mine[near.col]]
+            frm = np.r_[np.arange(B.size), near.row]
+            for row, value in zip(traction_state(part["contact"], self.dim),
+                                  [e[4], np.where(e[4] > 0, e[6], 0.)]
+                                  + list(e[5])):
+                table = np.zeros((len(row), n))
+                table[to // n, to % n] = value[frm]
+                for name, column in zip(row, table):
+                    new.state[name] = column
         if not self.term.finite:
             H = problem.method_op.gradients(du)
-            new.state = dict(new.state)
             for a, row in enumerate(gradient_state(self.dim)):
                 for b, name in enumerate(row):
                     new.state[name] = new.state[name] + H[a, b]

@@ -30,6 +30,14 @@ AXIS = .05
 #: soil's side and a pile's tip stay so as both deform)
 FACING = 1e-2
 
+#: a pair deeper than this many cells after the run's start is not a
+#: contact (the first body on both sides of the second at its node)
+DEEPEST = .5
+
+#: the cosine to the centroids' line the last grid axis (the vertical) is
+#: preferred by among candidates alike in gap (about 3 degrees)
+LAST = .05
+
 
 def tangents(normal: ndarray) -> list:
     """Unit tangents (dim - 1 of them, each (dim, m)) orthogonal to the
@@ -67,11 +75,13 @@ class PairFinder:
         self.contacts, self.field, self.mesh = contacts, field, mesh
         self.nv, self.h, self.dim = vertices, cell_size, mesh.dim()
 
-    def find_pairs(self, support, x, weight, X) -> list:
+    def find_pairs(self, support, x, weight, X, start: bool = False) -> list:
         """The pairs ``(B, A, n, g)`` of every contact for points at ``x``
         (dim, n) of volumes ``weight``, their domains' corners at ``X``
         (dim, corners, n), the grid nodes' supports ``support`` (points,
-        nodes of every field)."""
+        nodes of every field); pairs deeper than :data:`DEEPEST` cells are
+        left out, except at the run's ``start`` (where they are bodies
+        that overlap, which the caller refuses)."""
         dim, nv = self.dim, self.nv
         out = []
         for a, b, _ in self.contacts:
@@ -100,6 +110,18 @@ class PairFinder:
             B = self.extreme(entries[1], normal, node_x, True)
             A = self.extreme(entries[0], normal,
                              X.reshape(dim, -1)[:, B], False)
+            gap = (normal * (X.reshape(dim, -1)[:, B]
+                             - X.reshape(dim, -1)[:, A])).sum(axis=0)
+            # a node with the first body on both sides of the second (a
+            # GIMP support two cells wide across a pile two cells wide)
+            # pairs one side of the second with the far side of the
+            # first, cells deep: no contact (kept, such a pair took the
+            # place of the side's own pair below, and a symmetric pile
+            # moved sideways by 6% of its settlement)
+            if not start:
+                real = gap > -DEEPEST * self.h
+                A, B, normal, gap = A[real], B[real], normal[:, real], \
+                    gap[real]
             # one pair per place of the second body's corner: corners that
             # neighbouring domains share, each moved by its own point's
             # cell, would be two constraints on one place that disagree
@@ -107,10 +129,7 @@ class PairFinder:
             place = np.round(X.reshape(dim, -1)[:, B]
                              / (FACING * self.h)).astype(np.int64)
             _, first = np.unique(place, axis=1, return_index=True)
-            A, B, normal = A[first], B[first], normal[:, first]
-            gap = (normal * (X.reshape(dim, -1)[:, B]
-                             - X.reshape(dim, -1)[:, A])).sum(axis=0)
-            out.append((B, A, normal, gap))
+            out.append((B[first], A[first], normal[:, first], gap[first]))
         return out
 
     def separating_normal(self, entries, centre, node_x) -> ndarray:
@@ -156,10 +175,18 @@ class PairFinder:
         # they share at an edge): a grid axis is preferred (a surface
         # seeded on a tensor grid), and of those the nearest to the line
         # between the centroids
+        # and of axes alike in both (a convex corner of the second body
+        # in a notch of the first: its sides are equally far), the last
+        # (the vertical), mirror-symmetric: by round-off, or by a
+        # penetration within the tolerance, a pile's tip corners took one
+        # a side's normal and the other the tip's, and the pile tilted
         axis = np.arange(len(candidates)) >= 4
+        last = np.arange(len(candidates)) >= len(candidates) - 2
         cos = towards / np.maximum(np.sqrt((line ** 2).sum(axis=0)), 1e-300)
-        best = np.argmax(gaps + self.h * (AXIS * axis[:, None]
-                                          + FACING * .5 * cos), axis=0)
+        score = gaps + self.h * AXIS * axis[:, None]
+        alike = score >= score.max(axis=0) - FACING * self.h
+        best = np.argmax(np.where(alike, cos + LAST * last[:, None],
+                                  -np.inf), axis=0)
         normal = candidates[best, :, np.arange(best.size)].T
         normal[:, np.isinf(gaps.max(axis=0))] = np.nan
         return normal

@@ -69,7 +69,7 @@ from ..stabilisation.settings import Stabilisation
 from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
 from .body_contact import BodyContact, check_contacts
-from .contact import CellValues, contact_term, p_wave_modulus
+from .contact import CellValues, contact_term
 from .dynamics import Dynamics, InertiaTerm
 from .linear import support_dofs
 from .loads import ExternalLoads, FollowerPressure, GridLoad
@@ -237,8 +237,8 @@ def body_contact_term(run: Run) -> Optional[GridTerm]:
         return None
     return BodyContact(run.contacts, run.body_field, run.mesh,
                        run.grid.elem.elem, run.user_grid.mesh.nvertices,
-                       run.cell_size, p_wave_modulus(run.material),
-                       run.domain0, run.finite, run.counters,
+                       run.cell_size, run.material, run.domain0, run.finite,
+                       run.counters,
                        weights=getattr(run.method, "weights_at", None),
                        cells=run.user_grid.mesh.nelements)
 

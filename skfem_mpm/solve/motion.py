@@ -5,7 +5,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy import ndarray
 
-from ..errors import InvalidInputError, PrescribedMotionError
+from ..errors import (InvalidInputError, PrescribedMotionError,
+                      SingularSystemError)
 from ..methods.fields import tile_dofs
 from .linear import check_rigid_body_modes
 
@@ -118,15 +119,29 @@ def held_motion(run, op, points, s_old: float, s_new: float,
     return HeldMotion(fixed, du, driven, rigid_dofs)
 
 
-def check_held(run, op, fixed: ndarray, step: int):
+def check_held(run, op, fixed: ndarray, step: int, by_terms: bool = False):
     """Missing supports (rigid-body modes of the active grid) refused,
     unless a term's inertia holds the free body; checked again only when
-    the active cells or the held DOFs change (``run.cache.held``)."""
+    the active cells or the held DOFs change (``run.cache.held``).
+    ``by_terms``: some of ``fixed`` are a term's (a contact's pairs
+    touching at the step's start), which the error then names."""
     if any(term.holds_free_body for term in run.terms):
         return
     held = (op.elements.tobytes(), fixed.tobytes()) if \
         op.connectivity_from_elements else None
     if held is None or held != run.cache.held:
-        check_rigid_body_modes(op.adjacency(), run.grid.doflocs[:, ::run.dim],
-                               op.active_dofs, fixed, run.dim, step)
+        try:
+            check_rigid_body_modes(op.adjacency(),
+                                   run.grid.doflocs[:, ::run.dim],
+                                   op.active_dofs, fixed, run.dim, step)
+        except SingularSystemError as err:
+            if not by_terms:
+                raise
+            raise SingularSystemError(
+                "{}; contact (with an obstacle or between bodies) holds a "
+                "body only where its pairs touch at the step's start: the "
+                "body has parted from what held it (a load beyond what the "
+                "contact carries), or one pair per grid node did not follow "
+                "both faces at a body's corner (docs/contact.md)".format(
+                    err)) from err
         run.cache.held = held

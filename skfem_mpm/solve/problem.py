@@ -119,7 +119,7 @@ class StepProblem:
             for term in run.terms) if h is not None]
         check_held(run, op, np.union1d(self.fixed, np.concatenate(
             held_by_terms)).astype(self.fixed.dtype) if held_by_terms
-            else self.fixed, step)
+            else self.fixed, step, bool(held_by_terms))
         self.free = free_dofs(op.active_dofs, self.fixed)
         self.f_dead = run.loads.external(op, points, self.s_new)
         self.load_weight = 1.
