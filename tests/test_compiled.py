@@ -148,8 +148,7 @@ def test_a_response_equals_the_numpy_path(dim, kind, name, method,
     op = operator(method, mesh, points, dim)
     rng = np.random.default_rng(dim)
     counters = {"return_maps": 0}
-    paths = {k: make_kinematics(kind, material, dim, counters, kernels=k,
-                                antilocking=antilocking)
+    paths = {k: make_kinematics(kind, material, dim, counters, kernels=k)
              for k in ("numpy", "compiled")}
     start = points
     for trial in range(2):
@@ -413,26 +412,23 @@ def test_the_choice_is_checked(monkeypatch, caplog):
         Options(kernels="fast")
     assert Options(kernels="numpy").kernels == "numpy"
     monkeypatch.setattr(kernels, "_LOGGED", set())
-    for material, dim, scheme, antilocking, why in (
-            (UserElastic(1e6, .3), 2, False, False,
-             "the material UserElastic"),
-            (MohrCoulomb(1e6, .3, 1e3, 0.), 2, False, False,
+    for material, dim, scheme, why in (
+            (UserElastic(1e6, .3), 2, False, "the material UserElastic"),
+            (MohrCoulomb(1e6, .3, 1e3, 0.), 2, False,
              "the material MohrCoulomb without friction"),
-            (LinearElastic(1e6, .3), 1, False, False, "1D grids"),
-            (LinearElastic(1e6, .3), 2, True, True, "total Lagrangian")):
+            (LinearElastic(1e6, .3), 1, False, "1D grids"),
+            (LinearElastic(1e6, .3), 2, True, "total Lagrangian")):
         with pytest.raises(InvalidInputError, match=why):
             make_kinematics("finite", material, dim, {}, scheme,
-                            kernels="compiled", antilocking=antilocking)
+                            kernels="compiled")
         with caplog.at_level(logging.INFO, logger="skfem_mpm.kernels"):
             for _ in range(2):
-                assert make_kinematics("finite", material, dim, {}, scheme,
-                                       antilocking=antilocking
+                assert make_kinematics("finite", material, dim, {}, scheme
                                        ).compiled is None
         assert sum(why in r.getMessage() for r in caplog.records) == 1
-    for kind in ("small", "finite"):        # mean dilatation is served
+    for kind in ("small", "finite"):
         assert make_kinematics(kind, LinearElastic(1e6, .3), 3, {},
-                               kernels="compiled", antilocking=True
-                               ).compiled is not None
+                               kernels="compiled").compiled is not None
 
 
 def test_a_run_the_passes_cannot_serve_is_refused_before_any_work():

@@ -103,7 +103,7 @@ def material_name(material) -> str:
 
 
 def compiled_path(kernels: str, material, dim: int,
-                  total_lagrangian: bool = False, antilocking: bool = False):
+                  total_lagrangian: bool = False):
     """The :class:`CompiledPasses` of a kinematics piece, or ``None`` (the
     numpy path): with ``kernels="numpy"``, or ``"auto"`` under
     ``SKFEM_MPM_KERNELS=numpy`` (:func:`~skfem_mpm.kernels.auto_kernels`);
@@ -111,8 +111,8 @@ def compiled_path(kernels: str, material, dim: int,
     passes do not cover the material, dimension or scheme or numba does
     not import (logged once); with ``"compiled"`` those are refused
     (:class:`~skfem_mpm.errors.InvalidInputError`), before any work.
-    ``antilocking``: the run has mean dilatation, which the passes serve
-    as well (the kinematics pieces pass it).
+    Mean dilatation needs no say here: :meth:`CompiledPasses.serves`
+    finds it on each operator.
 
     >>> from skfem_mpm import LinearElastic
     >>> compiled_path("compiled", LinearElastic(1e6, .3), 1)

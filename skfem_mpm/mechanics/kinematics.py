@@ -143,21 +143,17 @@ class SmallStrain:
         The run's counters (``return_maps`` counts plastic updates).
     kernels
         ``"auto"``, ``"numpy"`` or ``"compiled"``
-        (:mod:`skfem_mpm.kernels`).
-    antilocking
-        The run's operators are wrapped in mean dilatation, which the
-        compiled passes serve as well (:func:`~skfem_mpm.mechanics.
-        compiled.compiled_path`).
+        (:mod:`skfem_mpm.kernels`; :func:`~skfem_mpm.mechanics.compiled.
+        compiled_path`).
 
     """
 
     def __init__(self, material, dim: int, counters: dict,
-                 kernels: str = "auto", antilocking: bool = False):
+                 kernels: str = "auto"):
         self.material, self.dim, self.counters = material, dim, counters
         self.plastic = is_plastic(material)
         self._elastic = None
-        self.compiled = compiled_path(kernels, material, dim,
-                                      antilocking=antilocking)
+        self.compiled = compiled_path(kernels, material, dim)
 
     def elastic_tangent(self, n: int, k: Optional[int] = None) -> ndarray:
         """Hooke's tensor of every point (a broadcast when uniform), in
@@ -241,19 +237,18 @@ class FiniteStrain:
         The point operator stays in the initial configuration (finite
         elements): gradients of the increment are mapped through the
         start-of-step ``F``.
-    kernels, antilocking
+    kernels
         As in :class:`SmallStrain`.
 
     """
 
     def __init__(self, material, dim: int, counters: dict,
-                 total_lagrangian: bool = False, kernels: str = "auto",
-                 antilocking: bool = False):
+                 total_lagrangian: bool = False, kernels: str = "auto"):
         self.material, self.dim, self.counters = material, dim, counters
         self.plastic = is_plastic(material)
         self.total_lagrangian = total_lagrangian
         self.compiled = compiled_path(kernels, material, dim,
-                                      total_lagrangian, antilocking)
+                                      total_lagrangian)
         self._buffers = None
         self._start = (None, None)
         self._start_inverse = (None, None)
@@ -411,9 +406,10 @@ def make_kinematics(name: str, material, dim: int, counters: dict,
                     total_lagrangian: bool = False, kernels: str = "auto",
                     antilocking: bool = False):
     """The kinematics piece called ``name`` (``"small"`` or ``"finite"``)
-    with ``kernels`` (:mod:`skfem_mpm.kernels`; ``antilocking``: the
-    operators wrapped in mean dilatation)."""
+    with ``kernels`` (:mod:`skfem_mpm.kernels`).  ``antilocking`` is not
+    read (the compiled passes find mean dilatation on each operator:
+    :meth:`~skfem_mpm.mechanics.compiled.CompiledPasses.serves`); the
+    load-step core still passes it."""
     if name == "small":
-        return SmallStrain(material, dim, counters, kernels, antilocking)
-    return FiniteStrain(material, dim, counters, total_lagrangian, kernels,
-                        antilocking)
+        return SmallStrain(material, dim, counters, kernels)
+    return FiniteStrain(material, dim, counters, total_lagrangian, kernels)
