@@ -79,8 +79,9 @@ def csc_converter() -> Callable:
     """``to_csc(A)``: the CSC matrix of ``A``, entry for entry
     ``A.tocsc()``'s.  A CSR matrix on the index arrays of the last one
     converted (the condensed tangents of a load step's Newton iterations
-    share them) takes its entries through the permutation stored then:
-    0.16 ms of ``tocsc`` an iteration at 1e3 DOFs becomes 0.06.
+    share them) takes its entries through the permutation stored then
+    (on the seed's column, 22 us an iteration for ``tocsc``'s 44 at 512
+    free DOFs, 41 for 78 at 2048).
 
     >>> import numpy as np
     >>> from scipy.sparse import csr_matrix
