@@ -403,13 +403,11 @@ class FiniteStrain:
 
 
 def make_kinematics(name: str, material, dim: int, counters: dict,
-                    total_lagrangian: bool = False, kernels: str = "auto",
-                    antilocking: bool = False):
+                    total_lagrangian: bool = False, kernels: str = "auto"):
     """The kinematics piece called ``name`` (``"small"`` or ``"finite"``)
-    with ``kernels`` (:mod:`skfem_mpm.kernels`).  ``antilocking`` is not
-    read (the compiled passes find mean dilatation on each operator:
-    :meth:`~skfem_mpm.mechanics.compiled.CompiledPasses.serves`); the
-    load-step core still passes it."""
+    with ``kernels`` (:mod:`skfem_mpm.kernels`; the compiled passes find
+    mean dilatation on each operator:
+    :meth:`~skfem_mpm.mechanics.compiled.CompiledPasses.serves`)."""
     if name == "small":
         return SmallStrain(material, dim, counters, kernels)
     return FiniteStrain(material, dim, counters, total_lagrangian, kernels)

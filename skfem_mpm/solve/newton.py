@@ -460,7 +460,8 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     seed
         A factorised solve to take the first direction with (a
         neighbouring tangent's: the kept one of a solve that a term's
-        constraint moved); the iterations after it are Newton's as asked.
+        constraint moved); the iterations after it are Newton's as asked
+        (with ``modified``, the seed is the kept tangent).
 
     A nonlinear step driven by prescribed motion takes its first Newton
     step with the tangent of the step's start and the prescribed
@@ -470,6 +471,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     base) and sends Newton astray.
     """
     predictor = None
+    frozen = seed if modified else None
     if predict and not problem.linear and problem.driven.size:
         start = problem.residual(np.zeros_like(du))
         K_start = problem.tangent(start)
@@ -480,7 +482,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     except InversionError as err:
         raise InversionError("step {}: {}".format(problem.step, err)) \
             from err
-    residuals, frozen, last = [], None, None
+    residuals, last = [], None
     report = {} if report is None else report
     report["reused"] = False
     for it in range(max_iter + 1):
