@@ -548,7 +548,8 @@ def pile_in_soil(friction, penalty=10., tolerance=1e-3, nsteps=2,
     return result.points.displacement[:, top].mean(axis=1)
 
 
-@pytest.mark.parametrize("method", ["mpm", "cpgimp"])
+@pytest.mark.parametrize("method", [
+    "mpm", pytest.param("cpgimp", marks=pytest.mark.slow)])
 def test_a_pile_with_friction_on_grid_lines_is_pushed_in(method):
     """A pile with Coulomb friction whose sides lie on grid lines (the
     penalty of the stiffer body made its pairs open and close in turn:
