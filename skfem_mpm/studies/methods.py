@@ -89,8 +89,8 @@ def cantilever_reference(sizes: Sequence[float] = (.25, .125, .0625),
 #: ``c_u = 100 / sqrt 3``; stiff (``E / c_u = 1.7e4``) so that the
 #: pressure is on its plateau from a settlement of about 0.001 B on
 FOOTING_SOIL = VonMises(E=1e6, nu=.3, yield_stress=100.)
-#: the footing's width B, its settlement over B at the end (0.02, 0.04
-#: and 0.08 of a cell at B / h = 4, 8 and 16) and its load steps
+#: the footing's width B, its settlement over B at the end (0.02, 0.04,
+#: 0.08 and 0.16 of a cell at B / h = 4, 8, 16 and 32) and its load steps
 FOOTING_WIDTH, FOOTING_PUSH, FOOTING_STEPS = 1., .005, 20
 
 
@@ -110,12 +110,13 @@ def footing_reference(material=FOOTING_SOIL) -> float:
 
 
 def footing(h: float, method: str, per_cell: int = 2,
-            nsteps: int = FOOTING_STEPS):
+            nsteps: int = FOOTING_STEPS, kinematics: str = "small"):
     """Prandtl's smooth strip footing on a fixed grid of spacing ``h``: a
     rigid box (a smooth :class:`~skfem_mpm.Obstacle`) of half-width
     B / 2 on the symmetry line x = 0, pushed ``FOOTING_PUSH * B`` in
     ``nsteps`` steps into weightless soil 2.5 B wide and 1.5 B deep
-    (:data:`FOOTING_SOIL`, small strain, the mean dilatation against
+    (:data:`FOOTING_SOIL`, in ``kinematics``: ``"small"`` strain by
+    default, or ``"finite"`` deformation; the mean dilatation against
     volumetric locking), base fixed, sides on rollers, two empty rows of
     cells above.  Returns the result, the footing pressure over ``c_u``
     at the end, and the row's details: ``drift``, the pressure's relative
@@ -136,7 +137,8 @@ def footing(h: float, method: str, per_cell: int = 2,
     res = simulate(mesh, ElementQuad1(),
                    seed_points(mesh, per_cell, region=lambda x: x[1] < depth),
                    FOOTING_SOIL, base_and_rollers(2.5 * B), nsteps=nsteps,
-                   method=method, obstacles=[push], options=Options(
+                   method=method, kinematics=kinematics, obstacles=[push],
+                   options=Options(
                        stabilisation=Stabilisation(antilocking=True),
                        keep_snapshots=False))
     load = np.array([r.load_factor for r in res.history])
