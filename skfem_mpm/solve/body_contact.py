@@ -34,14 +34,16 @@ penetrate (they join), checks each pair's penetration, the gap of a
 pair pressed while apart, and a sticking pair's slip against the
 tolerance and, where larger, updates the multipliers (augmented
 Lagrangian) and solves again: the converged state has no penetration, no
-pressure across a gap and no stick slip beyond the tolerance.  A pair
-that penetrates at a step's start is closed there (the corners of
-deformed domains, moved through each point's own gradient, are not quite
-where the grid field moved the last step's pairs), and its multipliers
-are the tractions the last step ended with at the second body's corner
-(point state ``contact_body<k>_p<c>`` and ``contact_body<k>_t<a><c>``:
-contact k, corner c, component a), so a step starts from the last step's
-pressure and a sticking interface keeps its shear.  The penalty ``kappa``
+pressure across a gap and no stick slip beyond the tolerance, and the
+penalty's force on the penetration is within the tolerance of the
+largest pair's.  A pair pressed at the last step's end starts from the
+pressure, gap and friction traction it ended with at the second body's
+corner (point state ``contact_body<k>_p<c>``, ``contact_body<k>_g<c>``
+and ``contact_body<k>_t<a><c>``: contact k, corner c, component a), so a
+sticking interface keeps its shear; any other pair that penetrates at a
+step's start is closed there (the corners of deformed domains, moved
+through each point's own gradient, are not quite where the grid field
+moved the last step's pairs).  The penalty ``kappa``
 is the contact's ``penalty`` times the softer body's P-wave modulus.
 In small strain the domains follow the displacement gradient the term
 keeps (point state ``contact_body_grad<a><b>``); checkpoints carry all
@@ -64,12 +66,6 @@ from .contact_pairs import FACING, PairFinder
 from .dynamics import value_matrix
 
 logger = logging.getLogger(__name__)
-
-#: the penalty's force on the largest penetration (or a pressed pair's
-#: gap) a step ends with, relative to the largest pair's force (stick
-#: slip keeps to the tolerance alone: held to this too, a rough punch on
-#: plastic layers in Coulomb contact stalled at 0.44 of its push)
-SETTLED = 1e-3
 
 __all__ = ["Contact", "check_contacts", "BodyContact",
            "body_contact_state_names"]
@@ -96,7 +92,9 @@ class Contact:
         stiffer than its soil a constraint 800 times stiffer than the
         soil, whose pairs opened and closed in turn without end.
     tolerance
-        The penetration and stick slip accepted, in cells.
+        The penetration and stick slip accepted, in cells, and the
+        penalty's force on the penetration accepted, relative to the
+        largest pair's (the multipliers settled).
 
     Examples
     --------
@@ -412,8 +410,10 @@ class StepBodyContact(GridTerm):
 
     def evaluate(self, du: ndarray, response):
         """Per contact, the pairs' tractions on the second body (dim, m),
-        the derivative blocks (dim, dim, m), the penetration and the
-        largest stick slip, cached for the trial's ``response``."""
+        the derivative blocks (dim, dim, m), the largest penetration (or
+        gap of a pressed pair), the largest stick slip, the pressures
+        (m,), the friction tractions (dim, m) and the gaps (m,), cached
+        for the trial's ``response``."""
         if response in self.evaluations:
             return self.evaluations[response]
         dim, term = self.dim, self.term
@@ -550,11 +550,12 @@ class StepBodyContact(GridTerm):
                 part[key] = np.concatenate([part[key], value], axis=-1)
 
     def settle(self, problem, trial, du: ndarray) -> bool:
-        """After Newton: ``True`` when every pair's penetration and every
-        sticking pair's slip is within the contact's tolerance, the
-        penalty's force on the penetration within :data:`SETTLED` of the
-        largest pair's, and the bodies meet nowhere else (:meth:`join`); else the
-        multipliers take
+        """After Newton: ``True`` when the bodies meet nowhere else than at
+        the step's pairs (:meth:`join`), every pair's penetration (and a
+        pressed pair's gap) and every sticking pair's slip is within the
+        contact's tolerance in cells, and the penalty's force on the
+        deepest penetration within the tolerance of the largest pair's
+        force (the multipliers have settled); else the multipliers take
         the converged tractions (augmented Lagrangian), or the new pairs
         join, and the step is solved again."""
         if self.join(du):
@@ -562,15 +563,15 @@ class StepBodyContact(GridTerm):
                          "solving again", problem.step)
             return False
         ev = self.evaluate(du, trial.response)
-        # the tolerance in cells, and the force of the penalty on the
-        # penetration against the largest pair's (the multipliers settled:
-        # with a penalty from the softer body, a penetration within the
-        # tolerance was a quarter of a soft block's compression)
-        worst = max((max(max(e[2], e[3]) / tol, kappa * e[2]
-                         / (SETTLED * max(e[4].max(initial=0.),
-                                          np.finfo(float).tiny)))
-                     for e, tol, kappa in zip(ev, self.term.tol,
-                                              self.term.kappa)), default=0.)
+        # in cells, and relative to the largest pair's force: with a
+        # penalty from the softer body, a penetration of the tolerance in
+        # cells was a quarter of a soft block's compression; a floor of
+        # 1e-6 of the tolerance for bodies that touch and do not press
+        worst = max((max(max(e[2], e[3]) / tol, kappa * e[2] / max(
+            c.tolerance * e[4].max(initial=0.), 1e-6 * kappa * tol))
+            for e, tol, kappa, (_, _, c) in zip(
+                ev, self.term.tol, self.term.kappa, self.term.contacts)),
+            default=0.)
         if worst <= 1.:
             return True
         for part, e in zip(self.parts, ev):

@@ -177,11 +177,11 @@ class PairFinder:
         # of about zero along their surface's normal and along a face
         # they share at an edge): a grid axis is preferred (a surface
         # seeded on a tensor grid), and of those the nearest to the line
-        # between the centroids, and of axes alike in both (a convex corner of the second body
-        # in a notch of the first: its sides are equally far), the last
-        # (the vertical), mirror-symmetric: by round-off, or by a
-        # penetration within the tolerance, a pile's tip corners took one
-        # a side's normal and the other the tip's, and the pile tilted
+        # between the centroids; of axes alike in both (a convex corner
+        # of the second body in a notch of the first, its sides equally
+        # far), the last, the vertical, mirror-symmetric (by round-off,
+        # or a penetration within the tolerance, one of a pile's tip
+        # corners took a side's normal, the other the tip's: it tilted)
         axis = np.arange(len(candidates)) >= 4
         last = np.arange(len(candidates)) >= len(candidates) - 2
         cos = towards / np.maximum(np.sqrt((line ** 2).sum(axis=0)), 1e-300)

@@ -139,9 +139,10 @@ def check_held(run, op, fixed: ndarray, step: int, by_terms: bool = False):
                 raise
             raise SingularSystemError(
                 "{}; contact (with an obstacle or between bodies) holds a "
-                "body only where its pairs touch at the step's start: the "
-                "body has parted from what held it (a load beyond what the "
-                "contact carries), or one pair per grid node did not follow "
-                "both faces at a body's corner (docs/contact.md)".format(
-                    err)) from err
+                "body only where its pairs touch at the step's start, and a "
+                "smooth one only along its normals: nothing may hold the "
+                "body along that direction, or it has parted from what held "
+                "it (a load beyond what the contact carries), or one pair "
+                "per grid node did not follow both faces at a body's corner "
+                "(docs/contact.md)".format(err)) from err
         run.cache.held = held

@@ -422,7 +422,8 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
            modified: bool = False, stabilise: bool = False,
            single_solve: bool = False, report: dict = None,
            predict: bool = True, keep: bool = False,
-           seed: Optional[Callable] = None) -> Converged:
+           seed: Optional[Callable] = None,
+           tol: Optional[float] = None, response=None) -> Converged:
     """Newton-Raphson on ``problem`` from the grid increment ``du``.
 
     Parameters
@@ -457,6 +458,14 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         Return the solve of the last factorised tangent (kept alive
         between iterations, so for a problem whose terms may ask for the
         step to be solved again).
+    response
+        The kinematics' response to ``du`` where it is at hand (the last
+        trial's of a solve that a term's constraint moved): the first
+        trial is not evaluated again.
+    tol
+        Converged at this relative residual instead of the problem's own
+        test (``problem.converged``): a looser one where a term will move
+        its constraint after Newton anyway.
     seed
         A factorised solve to take the first direction with (a
         neighbouring tangent's: the kept one of a solve that a term's
@@ -472,13 +481,16 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     """
     predictor = None
     frozen = seed if modified else None
+    converged = problem.converged if tol is None else \
+        (lambda trial: trial.residual <= tol)
     if predict and not problem.linear and problem.driven.size:
         start = problem.residual(np.zeros_like(du))
         K_start = problem.tangent(start)
         predictor = K_start, start.r - K_start @ du
         del K_start
     try:
-        current = problem.residual(du)
+        current = problem.residual(du, None if predictor is not None
+                                   else response)
     except InversionError as err:
         raise InversionError("step {}: {}".format(problem.step, err)) \
             from err
@@ -489,7 +501,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         residuals.append(float(current.residual))
         logger.debug("step %d iteration %d: residual %.3e", problem.step, it,
                      residuals[-1])
-        if problem.converged(current) or problem.free.size == 0 or (
+        if converged(current) or problem.free.size == 0 or (
                 single_solve and it == 1):
             break
         if it == max_iter or not np.isfinite(residuals[-1]):
@@ -520,7 +532,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         del solve, served
         try:
             du, current, extra = search(problem.residual, du, d, current,
-                                        problem.converged)
+                                        converged)
         except InversionError as err:
             raise InversionError("step {}: {}".format(problem.step, err)) \
                 from err

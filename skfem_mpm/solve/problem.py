@@ -166,11 +166,15 @@ class StepProblem:
                 total = f if total is None else total + f
         return total
 
-    def residual(self, du: ndarray) -> Trial:
-        """The out-of-balance state of the grid increment ``du``."""
-        tic = time.perf_counter()
-        response = self.run.kinematics.response(self.op, du, self.points)
-        self.t["update"] += time.perf_counter() - tic
+    def residual(self, du: ndarray, response=None) -> Trial:
+        """The out-of-balance state of the grid increment ``du``; with the
+        kinematics' ``response`` to it where that is at hand (the last
+        trial's, whose work arrays nothing has overwritten since: a step
+        solved again after a term moved its constraint)."""
+        if response is None:
+            tic = time.perf_counter()
+            response = self.run.kinematics.response(self.op, du, self.points)
+            self.t["update"] += time.perf_counter() - tic
         tic = time.perf_counter()
         f_ext = self.f_dead
         follower = self.trial_loads(response, self.s_new)
