@@ -208,6 +208,19 @@ def traction_state(k: int, dim: int) -> list:
                for a in range(dim)])
 
 
+def corner_values(state: dict, row: list, corner: ndarray,
+                  n: int) -> ndarray:
+    """The values at the corners ``c n + p`` (``corner``) of the point
+    state named per corner c in ``row``, read corner by corner (not a
+    copy of every point's)."""
+    out = np.empty(corner.size)
+    c, p = np.divmod(corner, n)
+    for k, name in enumerate(row):
+        at = c == k
+        out[at] = state[name][p[at]]
+    return out
+
+
 def body_contact_state_names(contacts: int, dim: int, finite: bool) -> list:
     """The point-state names a run with ``contacts`` contacts between
     bodies keeps (for a checkpoint's check)."""
@@ -362,9 +375,8 @@ class BodyContact(GridTerm):
         held, n = [], points.n
         for k, ((a, b, contact), (B, A, normal, gap), tol) in enumerate(zip(
                 self.contacts, self.pairs(op, points), self.tol)):
-            pressed = np.array([points.state[name] for name in
-                                traction_state(k, self.dim)[0]])[B // n,
-                                                                  B % n]
+            pressed = corner_values(points.state,
+                                    traction_state(k, self.dim)[0], B, n)
             touching = (gap <= max(tol, 1e-3 * self.h)) | (pressed > 0)
             if not touching.any():
                 continue
@@ -529,7 +541,7 @@ class StepBodyContact(GridTerm):
         # one the slip, the tolerance allows in every step: a pile's
         # settlement was 40% off after 10 steps with a soft penalty)
         n = points.n
-        last = [np.array([points.state[name] for name in row])[B // n, B % n]
+        last = [corner_values(points.state, row, B, n)
                 for row in traction_state(part["contact"], dim)]
         pressed = last[0] > 0
         gap = np.where(pressed, last[1], np.maximum(gap, 0.))
