@@ -218,32 +218,50 @@ def tensor_grid(mesh: Mesh):
     return axes, shape, cell_to_elem
 
 
-def _axis_cells(a: ndarray, x: ndarray, tol: float) -> ndarray:
-    """Cell index of x along one axis with nodes a; -1 outside."""
+def _axis_cells(a: ndarray, tol: float) -> Callable[[ndarray], ndarray]:
+    """``cells(x)``: the cell index of positions x along one axis with
+    nodes a, -1 outside; whether the axis is uniformly spaced is decided
+    once, here (it cost half of a small block's location, every step)."""
     n = len(a) - 1
     h = np.diff(a)
-    uniform = np.allclose(h, h[0], rtol=1e-12, atol=0.)
-    if uniform:
-        s = (x - a[0]) / h[0]
-        outside = (s < -tol) | (s > n + tol)
-        i = np.floor(np.clip(s, -1., n + 1.) + tol).astype(np.int64)
+    if np.allclose(h, h[0], rtol=1e-12, atol=0.):
+        origin, step = a[0], h[0]
+
+        def cells(x: ndarray) -> ndarray:
+            s = (x - origin) / step
+            i = np.floor(np.clip(s, -1., n + 1.) + tol).astype(np.int64)
+            np.clip(i, 0, n - 1, out=i)
+            i[(s < -tol) | (s > n + tol)] = -1
+            return i
     else:
-        i = np.searchsorted(a[1:-1] - tol * h[:-1], x, side="right")
-        outside = (x < a[0] - tol * h[0]) | (x > a[-1] + tol * h[-1])
-    i = np.clip(i, 0, n - 1)
-    i[outside] = -1
-    return i
+        inner = a[1:-1] - tol * h[:-1]
+        low, high = a[0] - tol * h[0], a[-1] + tol * h[-1]
+
+        def cells(x: ndarray) -> ndarray:
+            i = np.searchsorted(inner, x, side="right")
+            np.clip(i, 0, n - 1, out=i)
+            i[(x < low) | (x > high)] = -1
+            return i
+    return cells
 
 
 def _tensor_finder(mesh: Mesh, grid, tol: float):
     axes, shape, cell_to_elem = grid
     origin, Ainv = _element_affine_maps(mesh)
+    along = [_axis_cells(a, tol) for a in axes]
+    # the cell of index (i_0, .., i_d) is cell_to_elem[sum i_k stride_k]
+    strides = np.cumprod((1,) + shape[:0:-1])[::-1]
 
     def find(x):
-        cells = [_axis_cells(a, x[d], tol) for d, a in enumerate(axes)]
-        outside = np.any([c < 0 for c in cells], axis=0)
-        cells = [np.where(outside, 0, c) for c in cells]
-        tind = cell_to_elem[np.ravel_multi_index(tuple(cells), shape)]
+        cell = np.zeros(x.shape[1], dtype=np.int64)
+        outside = np.zeros(x.shape[1], dtype=bool)
+        for d, cells in enumerate(along):
+            i = cells(x[d])
+            outside |= i < 0
+            i *= strides[d]
+            cell += i
+        cell[outside] = 0
+        tind = cell_to_elem[cell]
         X = np.einsum("ijn,jn->in", Ainv[:, :, tind], x - origin[:, tind])
         tind[outside] = -1
         return tind, X
