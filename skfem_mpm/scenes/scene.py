@@ -171,14 +171,17 @@ class Traction:
 @dataclass
 class TimeIntegration:
     """A scene's implicit dynamics (:class:`~skfem_mpm.Dynamics`, the
-    densities from its bodies): ``scheme`` ``"newmark"`` (``beta``,
-    ``gamma``) or ``"generalized_alpha"`` (``rho_inf``); ``load_ramp``: the
+    densities from its bodies): ``scheme`` ``"auto"`` (Newmark's average
+    acceleration, with obstacles or contacts the generalised-alpha scheme
+    with ``rho_inf = 0``: :func:`~skfem_mpm.solve.dynamics.scheme_for`),
+    ``"newmark"`` (``beta``, ``gamma``) or ``"generalized_alpha"``
+    (``rho_inf``); ``load_ramp``: the
     time over which loads and prescribed motion rise linearly to full
     (0: in full from the start); ``target_iterations``: the adaptive time
     step's Newton effort (``None``: fixed steps)."""
     time_step: float
     duration: float
-    scheme: str = "newmark"
+    scheme: str = "auto"
     beta: float = .25
     gamma: float = .5
     rho_inf: float = .8
@@ -188,7 +191,8 @@ class TimeIntegration:
     target_iterations: Optional[int] = None
 
     def dynamics(self, densities: Sequence[float]) -> Dynamics:
-        scheme = Newmark(self.beta, self.gamma) if self.scheme == "newmark" \
+        scheme = None if self.scheme == "auto" else Newmark(
+            self.beta, self.gamma) if self.scheme == "newmark" \
             else GeneralizedAlpha(self.rho_inf)
         ramp = float(self.load_ramp)
         if not (np.isfinite(ramp) and ramp >= 0):

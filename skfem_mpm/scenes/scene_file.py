@@ -103,7 +103,9 @@ offending value (unknown keys, wrong types, impossible values), in a
     [dynamics]                      # optional: implicit dynamics
     time_step = 0.01                # s (the longest; equal steps)
     duration = 1.0                  # s
-    scheme = "newmark"              # or "generalized_alpha" (rho_inf)
+    scheme = "auto"                 # "newmark", with obstacles or contacts
+                                    # "generalized_alpha" with rho_inf = 0;
+                                    # or "newmark", "generalized_alpha"
     # beta = 0.25, gamma = 0.5 (newmark); rho_inf = 0.8; mass = "lumped"
     # or "consistent" (method fem); flip = 0.95; load_ramp = 0.0 (s over
     # which loads rise to full); target_iterations = 6 (adaptive steps;
@@ -537,7 +539,7 @@ def _inside_grid(c, bodies, grid):
 
 
 #: time-integration schemes of ``[dynamics]``
-SCHEMES = ("newmark", "generalized_alpha")
+SCHEMES = ("auto", "newmark", "generalized_alpha")
 
 
 def _dynamics(c, data) -> TimeIntegration:
@@ -547,7 +549,7 @@ def _dynamics(c, data) -> TimeIntegration:
                             "gamma", "rho_inf", "mass", "flip", "load_ramp",
                             "target_iterations"),
                 ("time_step", "duration"))
-    scheme = c.choice(d, key, "scheme", SCHEMES, "newmark")
+    scheme = c.choice(d, key, "scheme", SCHEMES, "auto")
     for name, owner in (("beta", "newmark"), ("gamma", "newmark"),
                         ("rho_inf", "generalized_alpha")):
         if name in d and scheme != owner:

@@ -70,7 +70,7 @@ from ..stabilisation.volumetric import MeanDilatation
 from .backends import get_solver
 from .body_contact import BodyContact, check_contacts
 from .contact import CellValues, contact_term
-from .dynamics import Dynamics, InertiaTerm
+from .dynamics import Dynamics, InertiaTerm, scheme_for
 from .linear import support_dofs
 from .loads import ExternalLoads, FollowerPressure, GridLoad
 from .newton import FullStep, NewtonOptions, newton as newton_driver
@@ -693,6 +693,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     """
     options, body_force, loads = translate_aliases(
         "simulate", options, body_force, loads, aliases)
+    dynamics = scheme_for(dynamics, bool(obstacles) or bool(contacts))
     case = check_case(mesh, points, material, body_force, loads, nsteps,
                       method, kinematics, dynamics, options, obstacles,
                       contacts)
@@ -810,7 +811,8 @@ def check_combination(method: str, kinematics: str, plastic: bool,
                 "rhs = 'increment' maps only the load increment: prescribed "
                 "displacements and rigid bodies would not enter the solve; "
                 "use rhs = 'residual'")
-    if contact and dynamics is not None and dynamics.scheme.alpha_f > 0:
+    if contact and dynamics is not None and dynamics.scheme is not None \
+            and dynamics.scheme.alpha_f > 0:
         raise InvalidInputError(
             "contact with obstacles in dynamics needs forces at the step's "
             "end: the generalised-alpha scheme with rho_inf = {} weighs them "
