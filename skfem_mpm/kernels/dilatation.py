@@ -36,7 +36,7 @@ __all__ = ["passes_of", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "114271ab1ab0ad14"
+SOURCES = "d16104f91f29b227"
 
 
 @njit(cache=True, error_model="numpy", inline="always")

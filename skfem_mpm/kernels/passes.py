@@ -50,8 +50,9 @@ from .points import (ELASTIC_TANGENT, FINITE_TANGENT, RETURN_MAP_TANGENT,
 
 #: what the callers read here (the tangents from
 #: :mod:`skfem_mpm.kernels.points`)
-__all__ = ["passes_of", "finite_commit", "ELASTIC_TANGENT",
-           "RETURN_MAP_TANGENT", "FINITE_TANGENT", "SOURCES"]
+__all__ = ["passes_of", "finite_commit", "start_deviation",
+           "ELASTIC_TANGENT", "RETURN_MAP_TANGENT", "FINITE_TANGENT",
+           "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: and constants the passes compile in (those they import from, and
@@ -444,6 +445,43 @@ def finite_commit(dim, params, d, vecs, eq0, dF, F0, F, J, b_e, strain):
                     r += eps_e[A] * e
                 b_e[a, c, p] = s
                 strain[a, c, p] = r
+
+
+@njit(cache=True, error_model="numpy")
+def _start_deviation(strain, out, k):
+    """``b_n - I`` of every point on a grid of ``k`` dimensions
+    (``start_deviation``)."""
+    literally(k)
+    b = np.empty((3, 3))
+    x = np.empty(3)
+    v = np.empty((3, 3))
+    e = np.empty(3)
+    for p in range(strain.shape[2]):
+        for a in range(3):
+            for c in range(3):
+                b[a, c] = strain[a, c, p]
+        principal_frame(b, k, x, v)
+        for a in range(3):
+            e[a] = math.expm1(2. * x[a])
+        for a in range(3):
+            for c in range(3):
+                s = 0.
+                for A in range(3):
+                    s += e[A] * v[a, A] * v[c, A]
+                out[a, c, p] = s
+
+
+@njit(cache=True, error_model="numpy")
+def start_deviation(dim, strain, out):
+    """A load step's ``b_n - I = sum_A expm1(2 eps_A) e_A e_A`` (3, 3, n)
+    into ``out`` from the points' elastic logarithmic strain (3, 3, n), as
+    :meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.start_deviation`
+    (no cancellation of ``b_n - I``), point by point in the residual
+    pass's principal frame: 0.85 us a point in numpy in 3D."""
+    if dim == 2:
+        _start_deviation(strain, out, 2)
+    else:
+        _start_deviation(strain, out, 3)
 
 
 def passes_of(dim: int):

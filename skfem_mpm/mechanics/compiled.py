@@ -187,6 +187,7 @@ class CompiledPasses:
         #: ``(finite_residual, small_residual, stiffness)``
         self.plain = passes.passes_of(dim)
         self.averaged = dilatation.passes_of(dim)
+        self._start = (None, None)      # a step's strain and b_n - I
 
     def serves(self, op, points) -> bool:
         """Whether the passes serve the point operator ``op``: standard
@@ -219,6 +220,18 @@ class CompiledPasses:
             return self.plain, op.kernel_layout(), None, self.dim
         return self.averaged, op.op.kernel_layout(), \
             average.kernel_layout(), 3
+
+    def _start_deviation(self, points) -> ndarray:
+        """The compiled twin of :meth:`~skfem_mpm.mechanics.kinematics.
+        FiniteStrain.start_deviation` (``b_n - I``), once a step: for the
+        strain it was computed from."""
+        strain, value = self._start
+        if strain is not points.strain:
+            value = np.empty((3, 3, points.n))
+            self.passes.start_deviation(self.dim, contiguous(points.strain),
+                                        value)
+            self._start = (points.strain, value)
+        return value
 
     def _state(self, points) -> ndarray:
         """The internal variables of ``points``, (2, n)."""
@@ -256,7 +269,7 @@ class CompiledPasses:
         P, f, eq = np.empty((m, m, n)), np.zeros(op.N), np.empty((2, n))
         status = finite(
             *layout.groups, contiguous(points.volume0), contiguous(du),
-            contiguous(kinematics.start_deviation(points)), self.params,
+            self._start_deviation(points), self.params,
             self._state(points), f, P, dF, dF_inv, b_dev, tau, spectral.d,
             spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq,
             *(() if cells is None else cells.cells))
