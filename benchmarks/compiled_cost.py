@@ -22,11 +22,13 @@ points: the numpy path's GIMP stiffness takes seconds beyond).
 ``--antilocking`` runs them with mean dilatation
 (``Stabilisation(antilocking=True)``, as the footing examples);
 ``--cells`` picks the sizes (cells per side of the block: 50 and 158 are
-the 1e4 and 1e5 points of 2D, 11 and 24 of 3D).
+the 1e4 and 1e5 points of 2D, 11 and 24 of 3D); ``--paths compiled``
+runs one path only (an A/B of two checkouts: this script with
+``PYTHONPATH`` at each).
 
     python benchmarks/compiled_cost.py [--dim 2] [--reps 3] [--large]
         [--kratos] [--compile] [--method mpm] [--antilocking]
-        [--cells 50 158]
+        [--cells 50 158] [--paths numpy compiled]
 
 The path is chosen by making the run's kinematics with ``kernels=``
 (the core's factory, replaced in this process).
@@ -47,7 +49,8 @@ from skfem_mpm.solve.results import PHASES
 from step_cost import GRIDS, block, fixed_and_slope
 
 SIZES = {2: (16, 32, 50, 100, 158), 3: (5, 8, 11, 16, 24)}
-PATHS = ("numpy", "compiled")
+#: the paths the tables run (``--paths``)
+PATHS = ["numpy", "compiled"]
 
 
 KERNELS = {"path": "auto", "method": "mpm", "antilocking": False}
@@ -237,7 +240,10 @@ def main():
                         choices=("mpm", "ugimp", "cpgimp", "bspline"))
     parser.add_argument("--antilocking", action="store_true")
     parser.add_argument("--cells", type=int, nargs="+")
+    parser.add_argument("--paths", nargs="+", choices=("numpy", "compiled"),
+                        default=list(PATHS))
     args = parser.parse_args()
+    PATHS[:] = args.paths
     KERNELS["method"], KERNELS["antilocking"] = args.method, args.antilocking
     if args.compile:
         compile_times()
