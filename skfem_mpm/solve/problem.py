@@ -69,6 +69,39 @@ def safe_norm(v: ndarray) -> float:
     return float(dnrm2(np.ascontiguousarray(v, dtype=np.float64)))
 
 
+def add_within(K, G):
+    """``K + G`` (csr) on ``K``'s pattern where ``G``'s entries lie in it:
+    ``K``'s explicit zeros kept (scipy's sum drops them, and a direct
+    solver that saw the pattern with them analyses it again: a step with
+    a floor obstacle at 1e5 points paid a second Pardiso analysis, 0.13-
+    0.3 s, because the first tangent's zeros at rest were dropped);
+    ``K + G`` otherwise.
+
+    >>> from scipy.sparse import csr_matrix
+    >>> K = csr_matrix((np.array([1., 0., 2.]), np.array([0, 1, 1]),
+    ...                 np.array([0, 2, 3])))
+    >>> S = add_within(K, csr_matrix(np.array([[1., 0.], [0., 1.]])))
+    >>> S.nnz, S.toarray().tolist()
+    (3, [[2.0, 0.0], [0.0, 3.0]])
+    """
+    K = K.tocsr()
+    G = G.tocsr()
+    if not K.has_sorted_indices:
+        K = K.sorted_indices()
+    G.sum_duplicates()
+    ncols = np.int64(K.shape[1])
+    keys = np.repeat(np.arange(K.shape[0], dtype=np.int64),
+                     np.diff(K.indptr)) * ncols + K.indices
+    wanted = np.repeat(np.arange(G.shape[0], dtype=np.int64),
+                       np.diff(G.indptr)) * ncols + G.indices
+    at = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
+    if K.shape != G.shape or not len(keys) or (keys[at] != wanted).any():
+        return (K + G).tocsr()
+    data = K.data.copy()
+    data[at] += G.data
+    return type(K)((data, K.indices, K.indptr), shape=K.shape)
+
+
 class StepProblem:
     """The load (or time) step of ``run`` from load factor ``f_old`` to
     ``f_new`` starting from the converged state ``points``.
@@ -221,7 +254,7 @@ class StepProblem:
         for term in self.terms:
             G = term.matrix(response)
             if G is not None:
-                K = K + G
+                K = add_within(K, G)
         for term in self.terms:
             K = term.weigh_matrix(K)
         self.t["assemble"] += time.perf_counter() - tic
