@@ -563,7 +563,8 @@ def test_an_augmented_lagrangian_round_costs_one_solve_more():
     trial's material update, its first direction by the kept tangent: 4
     iterations and 3 factorisations (5 and 4 before), where the same
     block held on grid nodes takes 3 and 3; the floor carries the weight
-    to 1e-9."""
+    to 1e-9.  The step's record holds the residual of every iteration of
+    both rounds (only the last round's before)."""
     mesh = MeshQuad.init_tensor(np.linspace(0, 1.25, 11),
                                 np.linspace(-.125, 1.25, 12))
     pts = seed_points(mesh, 2, region=lambda x: (x[0] < 1) & (x[1] > 0)
@@ -582,6 +583,9 @@ def test_an_augmented_lagrangian_round_costs_one_solve_more():
               for r in (runs[True], runs[False])]
     assert runs[True].counters["contact_updates"] == 1
     assert counts == [(4, 3), (3, 3)]
+    for r in runs.values():       # an iteration each, and each round's start
+        assert len(r.history[-1].newton_residuals) == r.counters[
+            "newton_iterations"] + 1 + r.counters.get("contact_updates", 0)
     weight = 2e4 * pts.volume.sum()
     assert runs[True].history[-1].obstacle_forces[0, 1] == pytest.approx(
         -weight, rel=1e-9)

@@ -333,9 +333,11 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         # tangent (the constraint moved a little)
         du, seed = found.du, None if settled else found.factorised
         response, loose = found.trial.response, False
-        # a solve that settled at the loose residual and goes on is one
-        # solve: the step's record shows its residuals from the start
-        before = found.residuals[:-1] if settled else []
+        # the step's record shows every round's residuals in order; a
+        # solve that settled at the loose residual and goes on is one
+        # solve (its last residual is where the next one starts)
+        before = before + (found.residuals[:-1] if settled
+                           else found.residuals)
         found = None
     else:
         raise ContactError(

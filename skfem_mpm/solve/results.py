@@ -39,7 +39,9 @@ class StepRecord:
         stresses at the end of the step (``None`` unless kept).
     newton_residuals
         Nonlinear steps (finite deformation or plasticity): the residual of
-        every Newton iteration; ``None`` for a linear step.
+        every Newton iteration, with contact of every augmented-Lagrangian
+        round in order (a round after an update of the multipliers starts
+        from a larger residual); ``None`` for a linear step.
     n_yielded
         Nonlinear steps: points on the yield surface.
     elements
