@@ -308,7 +308,7 @@ def test_uniform_stress_across_an_interface_in_3d(method):
                                np.linspace(0, 2.5, 6))
     pts = bodies(mesh, 2, [[(0, 1), (0, 1), (0, 1.)],
                            [(0, 1), (0, 1), (1., 2.)]])
-    front = side_points(pts, "front")
+    top = side_points(pts, "z+")
 
     def rollers(b):
         return np.concatenate([b.get_dofs(lambda x: x[a] == 0).nodal[
@@ -316,7 +316,7 @@ def test_uniform_stress_across_an_interface_in_3d(method):
     res = simulate(mesh, ElementHex1(), pts,
                    [LinearElastic(1e4, .3), LinearElastic(1e6, .3)], rollers,
                    method=method,
-                   loads=[Traction(front, "front", [0., 0., -10.])],
+                   loads=[Traction(top, "z+", [0., 0., -10.])],
                    contacts=[Contact(0, 1, tolerance=1e-9)],
                    options=Options(NewtonOptions(tol=1e-10)))
     s = res.points.stress

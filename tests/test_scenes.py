@@ -892,3 +892,31 @@ def test_ctrl_c_as_the_program_exits_is_never_a_silent_sigint(tmp_path):
     _, err = process.communicate(timeout=60)
     assert process.returncode in (0, 130), (process.returncode, err)
     assert "Traceback" not in err and len(err.strip().splitlines()) <= 1
+
+
+@pytest.mark.parametrize("word, axis_names", [("top", "'y+' (what it means "
+                                               "in 2D) or 'z+'"),
+                                              ("back", "'z-' (what it means "
+                                               "in 2D) or 'y-'")])
+def test_a_3d_side_is_named_by_its_axis(tmp_path, word, axis_names):
+    """In 3D, where the top is +z to many users and +y in 2D, ``"top"``,
+    ``"bottom"``, ``"back"`` and ``"front"`` are refused, naming the two
+    faces meant (a traction on ``"top"`` of a z-up block went to its +y
+    side); the axis names ``"x-"`` ... ``"z+"`` load the face they name,
+    in scene files and the Python API alike."""
+    from skfem import MeshHex
+    from skfem_mpm import seed_points
+    from skfem_mpm.solve.loads import side_points
+    text = (EXAMPLES / "block3d.toml").read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace('side = "z+"', 'side = "{}"'.format(word)))
+    with pytest.raises(SceneError, match=axis_names.replace("(", r"\(")
+                       .replace(")", r"\)").replace("+", r"\+")):
+        load_scene(bad)
+    points = seed_points(MeshHex.init_tensor(*[np.linspace(0, 1, 3)] * 3),
+                         2, region=lambda x: x[2] < .5)
+    with pytest.raises(InvalidInputError, match="depend on which axis is up"):
+        side_points(points, word)
+    top = side_points(points, "z+")
+    assert np.allclose(points.x[2, top] + points.domain[2, top], .5)
+    assert top.size == 16

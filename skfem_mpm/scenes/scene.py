@@ -30,7 +30,8 @@ from ..quadrature.points import (MaterialPoints, concatenate_points, in_box,
                                   seed_points)
 from ..solve.core import check_combination, grid_parts, simulate
 from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
-from ..solve.loads import Pressure, Traction as SurfaceTraction, side_points
+from ..solve.loads import (Pressure, Traction as SurfaceTraction,
+                           side_axis, side_points)
 from ..solve.newton import NewtonOptions
 from ..solve.options import BodyForce, Options, Prescribed, Resume
 from ..solve.results import Result
@@ -47,12 +48,9 @@ __all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
            "TimeIntegration",
            "build_points", "surface_loads", "support_names", "scene_support_dofs",
            "reaction_resultants",
-           "run_scene", "point_bound", "METHODS", "KINEMATICS",
-           "BOUNDARIES"]
+           "run_scene", "point_bound", "METHODS", "KINEMATICS"]
 
 AXES = "xyz"
-BOUNDARIES = {"left": (0, 0), "right": (0, 1), "bottom": (1, 0),
-              "top": (1, 1), "back": (2, 0), "front": (2, 1)}
 
 
 @dataclass
@@ -562,8 +560,8 @@ def scene_support_dofs(s: Support, basis, dim: int) -> ndarray:
     comps = [AXES.index(c) for c in s.components if AXES.index(c) < dim]
     p = basis.mesh.p
     if s.boundary is not None:
-        axis, upper = BOUNDARIES[s.boundary]
-        value = p[axis].max() if upper else p[axis].min()
+        axis, sign = side_axis(s.boundary, dim)
+        value = p[axis].max() if sign > 0 else p[axis].min()
         nodes = basis.mesh.nodes_satisfying(
             lambda x: np.isclose(x[axis], value))
     elif s.at is not None:

@@ -44,7 +44,8 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # else in the last one's
     name = "base"                   # optional: labels its reactions in
                                     # summary.json (default "support-N")
-    boundary = "bottom"             # left right bottom top back front
+    boundary = "bottom"             # x- x+ y- y+ z- z+ by axis; left
+                                    # right (x) and, in 2D, bottom top (y)
     components = ["x", "y"]         # default: all
     value = [0.0, -0.1]             # optional: displacement at full load
     [[supports]]
@@ -154,9 +155,10 @@ from ..solve.dynamics import MASSES
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS, NewtonOptions
 from ..solve.body_contact import Contact
 from ..solve.obstacles import Obstacle
+from ..solve.loads import side_axis
 from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
-from .scene import (BOUNDARIES, KINEMATICS, METHODS, Body, Grid, PointLoad,
+from .scene import (KINEMATICS, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction, TimeIntegration)
 
 __all__ = ["load_scene", "parse_scene", "parse_quantity", "REFERENCES"]
@@ -243,6 +245,17 @@ class _Checker:
             self.bad(path, "must be one of {}".format(", ".join(choices)),
                      value)
             return default
+        return value
+
+    def side(self, data, key, name, dim):
+        """A side of the grid or a body (:func:`~skfem_mpm.solve.loads.
+        side_names`), ``"x-"`` where it is wrong."""
+        value = data.get(name, "x-")
+        try:
+            side_axis(value, dim)
+        except InvalidInputError as err:
+            self.bad("{}.{}".format(key, name), str(err), value)
+            return "x-"
         return value
 
     def boolean(self, data, key, name, default=False):
@@ -604,7 +617,6 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         key = "supports[{}]".format(k)
         s = c.table(s, key, ("boundary", "at", "region", "components",
                              "value", "name"))
-        sides = [b for b, (axis, _) in BOUNDARIES.items() if axis < dim]
         at = boundary = box = None
         if sum(k in s for k in ("boundary", "at", "region")) != 1:
             c.bad(key, "needs exactly one of boundary, at, region", s)
@@ -616,7 +628,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                 c.bad(key + ".region", "names no axis: it would hold every "
                       "grid node", s["region"])
         else:
-            boundary = c.choice(s, key, "boundary", sides, sides[0])
+            boundary = c.side(s, key, "boundary", dim)
         comps = s.get("components", list(AXES[:dim]))
         if not isinstance(comps, list) or not comps or not all(
                 x in AXES[:dim] for x in comps):
@@ -658,9 +670,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         if body is not None and body not in names:
             c.bad(key + ".body", "must name a body ({})".format(
                 ", ".join(names)), body)
-        sides = [b for b, (axis, _) in BOUNDARIES.items() if axis < dim]
         tractions.append(Traction(
-            body=body, side=c.choice(t, key, "side", sides, sides[0]),
+            body=body, side=c.side(t, key, "side", dim),
             traction=c.vector(t, key, "traction", dim) if "traction" in t
             else None,
             pressure=c.number(t, key, "pressure", 0.) if "pressure" in t

@@ -43,16 +43,60 @@ from ..quadrature.points import MaterialPoints
 from ..protocols import GridTerm
 
 __all__ = ["Traction", "Pressure", "GridLoad", "SIDES", "side_points",
-           "ExternalLoads"]
+           "side_axis", "side_names", "ExternalLoads"]
 
+#: the sides of a body or grid: ``name: (axis, sign)``; by the axis and
+#: the sign (``"x-"`` ... ``"z+"``) in every dimension, or by the words of
+#: a 2D picture
 SIDES = {"left": (0, -1), "right": (0, 1), "bottom": (1, -1),
-         "top": (1, 1), "back": (2, -1), "front": (2, 1)}
+         "top": (1, 1), "back": (2, -1), "front": (2, 1),
+         "x-": (0, -1), "x+": (0, 1), "y-": (1, -1), "y+": (1, 1),
+         "z-": (2, -1), "z+": (2, 1)}
+#: the words refused in 3D: which face is the top there depends on the axis
+#: a user takes as up (y, as in 2D, or z, as in this package's 3D examples)
+WORDS_OF_2D = ("bottom", "top", "back", "front")
+
+
+def side_names(dim: int) -> list:
+    """The side names of a ``dim``-dimensional grid.
+
+    >>> side_names(3)
+    ['left', 'right', 'x-', 'x+', 'y-', 'y+', 'z-', 'z+']
+    """
+    return [s for s, (axis, _) in SIDES.items() if axis < dim
+            and not (dim == 3 and s in WORDS_OF_2D)]
+
+
+def side_axis(side: str, dim: int) -> tuple:
+    """``(axis, sign)`` of the side named ``side`` in ``dim`` dimensions,
+    refused where it does not exist or (in 3D, ``"top"`` and the other
+    words of a 2D picture) could mean two faces.
+
+    >>> side_axis("top", 2), side_axis("z+", 3)
+    ((1, 1), (2, 1))
+    >>> side_axis("top", 3)
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: in 3D the side 'top' would depend on which axis is up: name the face by its axis, 'y+' (what it means in 2D) or 'z+'
+    """
+    if dim == 3 and side in WORDS_OF_2D:
+        axis, sign = SIDES[side]
+        end = "+" if sign > 0 else "-"
+        raise InvalidInputError(
+            "in 3D the side {!r} would depend on which axis is up: name the "
+            "face by its axis, {!r} (what it means in 2D) or {!r}".format(
+                side, "xyz"[axis] + end, "zy"[axis - 1] + end))
+    if side not in side_names(dim):
+        raise InvalidInputError("side must be one of {}, got {!r}".format(
+            side_names(dim), side))
+    return SIDES[side]
 
 
 def side_points(points: MaterialPoints, side: str,
                 select: Optional[ndarray] = None) -> ndarray:
-    """The outermost layer of points on ``side`` (``"left"``, ``"right"``,
-    ``"bottom"``, ``"top"``, ``"back"``, ``"front"``): those whose domain
+    """The outermost layer of points on ``side`` (:func:`side_names`:
+    ``"x-"`` to ``"z+"``; in 2D also ``"left"``, ``"right"``, ``"bottom"``,
+    ``"top"``, in 3D ``"left"`` and ``"right"``): those whose domain
     reaches the extreme coordinate of the selected points (``select``: a
     boolean mask or indices, default all).
 
@@ -66,7 +110,7 @@ def side_points(points: MaterialPoints, side: str,
     4
 
     """
-    axis, sign = _side(side, points.dim)
+    axis, sign = side_axis(side, points.dim)
     if points.domain is None:
         raise InvalidInputError(
             "loads on a side need point domains (MaterialPoints.domain; "
@@ -84,13 +128,6 @@ def side_points(points: MaterialPoints, side: str,
     edge = face.max() if sign > 0 else face.min()
     tol = 1e-9 * (1 + np.abs(edge))
     return mine[np.abs(face - edge) <= tol + 1e-6 * points.domain[axis, mine]]
-
-
-def _side(side: str, dim: int):
-    if side not in SIDES or SIDES[side][0] >= dim:
-        raise InvalidInputError("side must be one of {}, got {!r}".format(
-            [s for s, (a, _) in SIDES.items() if a < dim], side))
-    return SIDES[side]
 
 
 @dataclass
@@ -199,7 +236,7 @@ class ExternalLoads:
         self.follows = follow and any(item[-1] for item in self.surface)
 
     def _surface(self, load, n_points: int):
-        axis, sign = _side(load.side, self.dim)
+        axis, sign = side_axis(load.side, self.dim)
         if self.domain0 is None:
             raise InvalidInputError(
                 "{} needs point domains (MaterialPoints.domain)".format(
