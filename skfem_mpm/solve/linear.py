@@ -120,22 +120,29 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
         ``dim * k + a`` is component a of node k.
 
     """
-    nodes = distinct(active // dim, adjacency.shape[0])
-    sub = adjacency[nodes][:, nodes]
-    ncomp, label = connected_components(sub, directed=False)
-    fixed = D[np.isin(D // dim, nodes)]
-    fixed_label = label[np.searchsorted(nodes, fixed // dim)]
+    n = adjacency.shape[0]
+    nodes = distinct(active // dim, n)
+    # inactive nodes join nothing: the graph's components, read at the
+    # active nodes, are theirs (no subgraph to cut out)
+    label = connected_components(adjacency, directed=False)[1]
+    parts = distinct(label[nodes], n)
+    label = np.searchsorted(parts, label)
+    is_node = np.zeros(n, dtype=bool)
+    is_node[nodes] = True
+    fixed = D[is_node[D // dim]]
+    fixed_label = label[fixed // dim]
     where = "" if step is None else "step {}: ".format(step)
-    for c in range(ncomp):
-        members = nodes[label == c]
-        box = [doflocs[:, members].min(axis=1).round(6).tolist(),
-               doflocs[:, members].max(axis=1).round(6).tolist()]
+    def body(c):
+        members = nodes[label[nodes] == c]
+        return "{}a body on {} grid nodes (bounding box {} to {})".format(
+            where, members.size, doflocs[:, members].min(axis=1).round(
+                6).tolist(), doflocs[:, members].max(axis=1).round(6).tolist())
+    for c in range(parts.size):
         held = fixed[fixed_label == c]
         if held.size == 0:
             raise SingularSystemError(
-                "{}a body on {} grid nodes (bounding box {} to {}) touches no "
-                "supported node: it can move freely (rigid-body modes); add "
-                "supports".format(where, members.size, *box))
+                "{} touches no supported node: it can move freely (rigid-body "
+                "modes); add supports".format(body(c)))
         k, a = held // dim, held % dim
         R = rigid_modes(doflocs[:, k], dim)[np.arange(held.size), a]
         sv = np.linalg.svd(R, compute_uv=False)
@@ -145,10 +152,8 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
             free = np.abs(vt[-1]) > 1e-6
             names = [n for n, f in zip(MODE_NAMES[dim], free) if f]
             raise SingularSystemError(
-                "{}a body on {} grid nodes (bounding box {} to {}) is not held"
-                " against {}: its supports allow a rigid-body motion; add "
-                "supports".format(where, members.size, *box,
-                                  " / ".join(names)))
+                "{} is not held against {}: its supports allow a rigid-body "
+                "motion; add supports".format(body(c), " / ".join(names)))
 
 
 class Condensation:
