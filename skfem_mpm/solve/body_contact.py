@@ -12,10 +12,13 @@ node (weighted by their shape values), each body's direction from its
 centroid to the node, and the grid axes, oriented from the first body to
 the second; only the first body's corners that face the second's across
 ``n`` count (not those on a face along ``n`` beside it, as soil beside a
-pile's tip).  The second body's surface there is its corner lowest along
-``n`` nearest the node, the first body's the facing corner highest along
-``n`` nearest that one.  The two corners make a *pair* (distinct pairs
-only) with the gap
+pile's tip).  Where the bodies touch along another grid axis too (a
+body's corner in a notch of the other: a pile's tip), the node has a
+normal per face.
+The second body's surface there is its corner lowest along ``n``
+nearest the node, the first body's the facing corner highest along
+``n`` nearest that one.  The two corners make a *pair* (one per place
+of either corner and normal) with the gap
 
     g = n . (x_B - x_A),
 
@@ -38,9 +41,11 @@ pressure across a gap and no stick slip beyond the tolerance, and the
 penalty's force on the penetration is within the tolerance of the
 largest pair's.  A pair pressed at the last step's end starts from the
 pressure, gap and friction traction it ended with at the second body's
-corner (point state ``contact_body<k>_p<c>``, ``contact_body<k>_g<c>``
-and ``contact_body<k>_t<a><c>``: contact k, corner c, component a), so a
-sticking interface keeps its shear; any other pair that penetrates at a
+corner (point state ``contact_body<k>_p<a><c>``, ``_g<a><c>`` and
+``_t<a><c>``: contact k, component a, corner c; the vectors ``p n``,
+``g n`` and the traction summed over the pairs at the corner's place,
+each pair taking its own normal's part), so a sticking interface keeps
+its shear; any other pair that penetrates at a
 step's start is closed there (the corners of deformed domains, moved
 through each point's own gradient, are not quite where the grid field
 moved the last step's pairs).  The penalty ``kappa``
@@ -199,13 +204,36 @@ def gradient_state(dim: int) -> list:
 
 def traction_state(k: int, dim: int) -> list:
     """The point-state names of contact ``k``'s state at the second
-    body's domain corners: per corner the pressure, the gap (where
-    pressed), then per component per corner the friction traction."""
-    nc = 2 ** dim
-    return ([["contact_body{}_p{}".format(k, c) for c in range(nc)],
-             ["contact_body{}_g{}".format(k, c) for c in range(nc)]]
-            + [["contact_body{}_t{}{}".format(k, a, c) for c in range(nc)]
-               for a in range(dim)])
+    body's domain corners, per component a per corner c, summed over the
+    pairs at the corner's place (a body's corner in a notch of the other
+    has a pair per face, each along its own normal): the pressure vector
+    ``p n`` (``contact_body<k>_p<a><c>``), the gap vector ``g n`` where
+    pressed (``_g<a><c>``) and the friction traction (``_t<a><c>``)."""
+    return [["contact_body{}_{}{}{}".format(k, q, a, c)
+             for c in range(2 ** dim)] for q in "pgt" for a in range(dim)]
+
+
+def carried(state: dict, k: int, corner: ndarray, normal: ndarray,
+            n: int, place: ndarray):
+    """What contact ``k``'s pairs at the second body's corners
+    ``corner`` (``c n + p``) with normals ``normal`` (dim, m) start
+    from, the state the last step ended with there: the pressure and
+    the gap along each normal (m,), and the friction traction (dim, m)
+    in each pair's tangent plane, the corner's shared among the pairs at
+    one ``place`` (dim, m; integers) by the components their tangent
+    planes hold (a square pile's vertical edge in 3D: its x and y faces'
+    pairs start from half its vertical friction each)."""
+    dim = normal.shape[0]
+    rows = np.array([corner_values(state, row, corner, n)
+                     for row in traction_state(k, dim)])
+    P, G, T = rows[:dim], rows[dim:2 * dim], rows[2 * dim:]
+    group = np.unique(place, axis=1, return_inverse=True)[1].ravel()
+    holds = 1. - normal ** 2
+    total = np.zeros((dim, group.max(initial=-1) + 1))
+    np.add.at(total.T, group, holds.T)
+    tau = T * holds / np.maximum(total[:, group], 1e-300)
+    return ((normal * P).sum(axis=0), (normal * G).sum(axis=0),
+            tau - (normal * tau).sum(axis=0) * normal)
 
 
 def corner_values(state: dict, row: list, corner: ndarray,
@@ -280,10 +308,10 @@ class BodyContact(GridTerm):
         self.finder = PairFinder(contacts, field, mesh, vertices, cell_size)
         counters.setdefault("contact_updates", 0)
         logger.warning(
-            "contact between bodies: a body wrapped round another's corner "
-            "with MPM, and landings on surfaces seeded in polygons, are not "
-            "yet reliable; see docs/contact.md (Contact between bodies, not "
-            "yet good enough) for these and the cases refused")
+            "contact between bodies: GIMP piles on grids not aligned with "
+            "them, and landings on surfaces seeded in polygons, are not yet "
+            "reliable; see docs/contact.md (Contact between bodies, not yet "
+            "good enough) for these and the cases refused")
 
     def begin_run(self, points) -> None:
         dim = self.dim
@@ -319,6 +347,12 @@ class BodyContact(GridTerm):
                 [[points.state[name] for name in row]
                  for row in gradient_state(dim)])
         return points.x[:, None, :] + np.einsum("abp,bcp->acp", F, self.R)
+
+    def place(self, points, corner: ndarray) -> ndarray:
+        """The places (dim, m; integers) of the corners ``c n + p``:
+        their positions in units of :data:`FACING` cells."""
+        return self.finder.place(self.corners(points).reshape(
+            self.dim, -1)[:, corner])
 
     def support(self, op):
         """The grid nodes' supports of the step of ``op`` (points, nodes of
@@ -375,8 +409,8 @@ class BodyContact(GridTerm):
         held, n = [], points.n
         for k, ((a, b, contact), (B, A, normal, gap), tol) in enumerate(zip(
                 self.contacts, self.pairs(op, points), self.tol)):
-            pressed = corner_values(points.state,
-                                    traction_state(k, self.dim)[0], B, n)
+            pressed = carried(points.state, k, B, normal, n,
+                              self.place(points, B))[0]
             touching = (gap <= max(tol, 1e-3 * self.h)) | (pressed > 0)
             if not touching.any():
                 continue
@@ -504,7 +538,10 @@ class StepBodyContact(GridTerm):
             new = gap < -tol
             held = part["keys"] // X0.shape[1]
             if new.any() and held.size:
-                apart = cKDTree(X0[:, held].T).query(X0[:, B[new]].T)[0]
+                apart = cKDTree(np.vstack([X0[:, held], term.h * part["n"]])
+                                .T).query(np.vstack(
+                                    [X0[:, B[new]], term.h * normal[:, new]])
+                                    .T)[0]
                 new[new] = apart > FACING * term.h
             if not new.any():
                 continue
@@ -519,7 +556,7 @@ class StepBodyContact(GridTerm):
     def add(self, part, op, points, B, A, normal, gap, tol):
         """Pairs ``(B, A)`` with their normals and gaps at the step's
         start joined to a contact's ``part`` (empty at first)."""
-        term, dim = self.term, self.dim
+        term = self.term
         D = term.rows(op, points, B) - term.rows(op, points, A)
         # a penetration at the step's start is closed: the corners of
         # deformed domains, moved through each point's own gradient, are
@@ -541,13 +578,11 @@ class StepBodyContact(GridTerm):
         # one the slip, the tolerance allows in every step: a pile's
         # settlement was 40% off after 10 steps with a soft penalty)
         n = points.n
-        last = [corner_values(points.state, row, B, n)
-                for row in traction_state(part["contact"], dim)]
-        pressed = last[0] > 0
-        gap = np.where(pressed, last[1], np.maximum(gap, 0.))
-        lam = last[0] + term.kappa[part["contact"]] * last[1]
-        tau = np.array(last[2:])
-        tau = tau - (normal * tau).sum(axis=0) * normal
+        p, g, tau = carried(points.state, part["contact"], B, normal, n,
+                            term.place(points, B))
+        pressed = p > 0
+        gap = np.where(pressed, g, np.maximum(gap, 0.))
+        lam = np.where(pressed, p + term.kappa[part["contact"]] * g, 0.)
         corners = term.corners(points)[0].size
         for key, value in (("D", D), ("n", normal), ("gap", gap),
                            ("lam", lam), ("tau", tau),
@@ -618,13 +653,17 @@ class StepBodyContact(GridTerm):
             near = cKDTree(X[:, B].T).sparse_distance_matrix(
                 cKDTree(X[:, mine].T), FACING * self.term.h,
                 output_type="coo_matrix")
-            to = np.r_[B, mine[near.col]]
-            frm = np.r_[np.arange(B.size), near.row]
+            m = B.size
+            to, frm = np.divmod(np.unique(np.r_[B, mine[near.col]] * m
+                                          + np.r_[np.arange(m), near.row]),
+                                m)
+            values = np.vstack([e[4] * part["n"],
+                                np.where(e[4] > 0, e[6], 0.) * part["n"],
+                                e[5]])
             for row, value in zip(traction_state(part["contact"], self.dim),
-                                  [e[4], np.where(e[4] > 0, e[6], 0.)]
-                                  + list(e[5])):
+                                  values):
                 table = np.zeros((len(row), n))
-                table[to // n, to % n] = value[frm]
+                np.add.at(table, (to // n, to % n), value[frm])
                 for name, column in zip(row, table):
                     new.state[name] = column
         if not self.term.finite:
