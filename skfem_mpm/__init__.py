@@ -18,6 +18,7 @@ __all__ = [
     "GridTerm", "Options", "NewtonOptions", "Stabilisation", "Resume",
     "Prescribed", "BodyForce",
     "MaterialPointBasis", "MaterialPoints", "seed_points", "seed_gauss_points",
+    "concatenate_points",
     "locate_points", "point_locator", "MPMError", "InvalidInputError",
     "InvalidMaterialError", "PointsOutsideGridError", "SingularSystemError", "SingularTangentError",
     "UnsupportedElementError", "LinearElastic", "solve_mpm", "Result",
@@ -48,8 +49,8 @@ def _public() -> dict:
     from .mechanics.soils import DruckerPrager, MohrCoulomb
     from .mechanics.cam_clay import ModifiedCamClay
     from .mechanics.geostatic import geostatic_stress
-    from .quadrature.points import (MaterialPoints, seed_gauss_points,
-                                    seed_points)
+    from .quadrature.points import (MaterialPoints, concatenate_points,
+                                    seed_gauss_points, seed_points)
     from .protocols import GridTerm
     from .solve.core import simulate
     from .solve.newton import NewtonOptions

@@ -191,8 +191,8 @@ class Progress:
         if not self.enabled:
             return
         done = int(30 * record.load_factor)
-        newton = "" if record.newton_residuals is None else \
-            " newton {}".format(len(record.newton_residuals) - 1)
+        newton = "" if record.newton_iterations is None else \
+            " newton {}".format(record.newton_iterations)
         elapsed = self.timer() - self.started
         progressed = record.load_factor - self.start_factor
         left = "" if progressed <= 0 else " left {}".format(clock(

@@ -5,9 +5,10 @@ import pytest
 from skfem import ElementQuad1, ElementQuad2, MeshQuad
 
 from skfem_mpm import (BodyForce, Contact, Dynamics, GridLoad,
-                       InvalidInputError, LinearElastic, NewtonOptions,
-                       Options, Resume, Traction, UnsupportedElementError,
-                       VonMises, seed_points, simulate)
+                       InvalidInputError, LinearElastic, Newmark,
+                       NewtonOptions, Options, Resume, Traction,
+                       UnsupportedElementError, VonMises, seed_points,
+                       simulate)
 from skfem_mpm.methods.fields import body_fields
 from skfem_mpm.quadrature.points import concatenate_points
 from skfem_mpm.solve.loads import side_points
@@ -710,3 +711,36 @@ def test_blocks_side_by_side_and_the_contact_tolerance():
     assert force > .2
     assert loose.history[-1].contact_forces[0, 0] == pytest.approx(
         force, rel=1e-3)
+
+
+def test_a_block_dropped_on_a_slab_body_keeps_its_energy_by_default():
+    """A block dropped 0.5 on an elastic slab, a second body in contact
+    with it, in time steps of 0.04: with the default scheme (the
+    generalised-alpha scheme with rho_inf = 0 where a run has contact)
+    its energy, kinetic and potential, never exceeds the start's by more
+    than 2e-3 of the drop's (1.3e-3 measured over 0.8 s); with Newmark's
+    average acceleration rule the landing returns several times the
+    drop's energy (5.1 measured over 0.8 s)."""
+    g, rho = 9.81, 1e3
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 11),
+                                np.linspace(-.2, 2.2, 25))
+    pts = bodies(mesh, 2, [[(0, 1), (-.2, 0.)], [(.3, .7), (.5, .7)]])
+    m = rho * pts.volume
+    block = pts.body == 1
+    drop = g * m[block] @ (pts.x[1, block] - .1)   # to rest on the slab
+
+    def gained(scheme):
+        energy = []
+
+        def watch(record, points):
+            energy.append(.5 * m @ (points.velocity ** 2).sum(0)
+                          + g * m @ points.x[1])
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] < -.19).all(),
+                 body_force=[0, -g * rho], kinematics="finite",
+                 dynamics=Dynamics(time_step=.04, duration=.48, density=rho,
+                                   scheme=scheme),
+                 contacts=[Contact(0, 1)], options=Options(callback=watch))
+        return (max(energy) - g * m @ pts.x[1]) / drop
+    assert gained(None) < 2e-3
+    assert gained(Newmark()) > 1.

@@ -637,7 +637,7 @@ def test_progress_bar_shows_elapsed_and_remaining_time():
     stream = io.StringIO()
     bar = Progress(4, "always", stream=stream, timer=lambda: now[0])
     now[0] = 10.
-    bar(SimpleNamespace(step=2, load_factor=.5, newton_residuals=[1., 0.],
+    bar(SimpleNamespace(step=2, load_factor=.5, newton_iterations=1,
                         residual=1e-12))
     assert "step    2/4" in stream.getvalue()
     assert "newton 1" in stream.getvalue()
@@ -645,7 +645,7 @@ def test_progress_bar_shows_elapsed_and_remaining_time():
     resumed = Progress(4, "always", start_factor=.5, stream=stream,
                        timer=lambda: now[0])
     now[0] = 15.
-    resumed(SimpleNamespace(step=3, load_factor=.75, newton_residuals=None,
+    resumed(SimpleNamespace(step=3, load_factor=.75, newton_iterations=None,
                             residual=0.))
     assert stream.getvalue().endswith("elapsed 0:05 left 0:05")
 
@@ -894,10 +894,9 @@ def test_ctrl_c_as_the_program_exits_is_never_a_silent_sigint(tmp_path):
     assert "Traceback" not in err and len(err.strip().splitlines()) <= 1
 
 
-@pytest.mark.parametrize("word, axis_names", [("top", "'y+' (what it means "
-                                               "in 2D) or 'z+'"),
-                                              ("back", "'z-' (what it means "
-                                               "in 2D) or 'y-'")])
+@pytest.mark.parametrize("word, axis_names", [
+    ("top", "'y+' (as in 2D) or 'z+'"),
+    ("back", "'z-' (its meaning here until now) or 'y-'")])
 def test_a_3d_side_is_named_by_its_axis(tmp_path, word, axis_names):
     """In 3D, where the top is +z to many users and +y in 2D, ``"top"``,
     ``"bottom"``, ``"back"`` and ``"front"`` are refused, naming the two
@@ -920,3 +919,23 @@ def test_a_3d_side_is_named_by_its_axis(tmp_path, word, axis_names):
     top = side_points(points, "z+")
     assert np.allclose(points.x[2, top] + points.domain[2, top], .5)
     assert top.size == 16
+
+
+def test_a_scene_s_time_integration_is_checked(tmp_path):
+    """A scene's dynamics (Python ``TimeIntegration``) refuses a scheme it
+    does not know and a parameter of another scheme (``"Newmark"`` became
+    the generalised-alpha scheme, and ``beta`` with ``"auto"`` was
+    dropped); in 3D a support on ``"bottom"`` is refused as its traction
+    is."""
+    from skfem_mpm.scenes.scene import TimeIntegration
+    with pytest.raises(InvalidInputError, match="scheme must be one of"):
+        TimeIntegration(.01, 1., scheme="Newmark").dynamics([1e3])
+    with pytest.raises(InvalidInputError, match="belongs to scheme 'newmark'"):
+        TimeIntegration(.01, 1., scheme="auto", beta=.3).dynamics([1e3])
+    assert TimeIntegration(.01, 1., scheme="auto").dynamics(
+        [1e3]).scheme is None
+    bad = tmp_path / "bottom.toml"
+    bad.write_text((EXAMPLES / "block3d.toml").read_text().replace(
+        'boundary = "z-"', 'boundary = "bottom"'))
+    with pytest.raises(SceneError, match=r"supports\[0\].boundary: in 3D"):
+        load_scene(bad)

@@ -94,8 +94,8 @@ def history_rows(records) -> ndarray:
     -1, energies 0 in a quasi-static run)."""
     # time and energies: dynamic runs only (-1 and 0 in quasi-static ones)
     return np.array([[r.step, r.load_factor, r.residual, r.n_active_elements,
-                      r.n_free_dofs, -1 if r.newton_residuals is None
-                      else len(r.newton_residuals) - 1,
+                      r.n_free_dofs, -1 if r.newton_iterations is None
+                      else r.newton_iterations,
                       -1 if r.time is None else r.time,
                       -1 if r.time_step is None else r.time_step]
                      + [0. if r.energy is None else r.energy[k]

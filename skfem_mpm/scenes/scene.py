@@ -51,6 +51,8 @@ __all__ = ["Grid", "Body", "Support", "PointLoad", "Traction", "Scene",
            "run_scene", "point_bound", "METHODS", "KINEMATICS"]
 
 AXES = "xyz"
+#: time-integration schemes of a scene's dynamics (``[dynamics] scheme``)
+SCHEMES = ("auto", "newmark", "generalized_alpha")
 
 
 @dataclass
@@ -189,6 +191,15 @@ class TimeIntegration:
     target_iterations: Optional[int] = None
 
     def dynamics(self, densities: Sequence[float]) -> Dynamics:
+        check_choice("dynamics scheme", self.scheme, SCHEMES)
+        for name, owner, default in (("beta", "newmark", .25),
+                                     ("gamma", "newmark", .5),
+                                     ("rho_inf", "generalized_alpha", .8)):
+            if self.scheme != owner and getattr(self, name) != default:
+                raise InvalidInputError(
+                    "dynamics {} = {!r} belongs to scheme {!r}, not {!r}: it "
+                    "would be ignored".format(name, getattr(self, name),
+                                              owner, self.scheme))
         scheme = None if self.scheme == "auto" else Newmark(
             self.beta, self.gamma) if self.scheme == "newmark" \
             else GeneralizedAlpha(self.rho_inf)

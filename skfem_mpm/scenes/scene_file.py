@@ -155,10 +155,10 @@ from ..solve.dynamics import MASSES
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS, NewtonOptions
 from ..solve.body_contact import Contact
 from ..solve.obstacles import Obstacle
-from ..solve.loads import side_axis
+from ..solve.loads import WORDS_OF_2D, side_axis, side_names
 from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
-from .scene import (KINEMATICS, METHODS, Body, Grid, PointLoad,
+from .scene import (KINEMATICS, SCHEMES, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction, TimeIntegration)
 
 __all__ = ["load_scene", "parse_scene", "parse_quantity", "REFERENCES"]
@@ -251,12 +251,13 @@ class _Checker:
         """A side of the grid or a body (:func:`~skfem_mpm.solve.loads.
         side_names`), ``"x-"`` where it is wrong."""
         value = data.get(name, "x-")
-        try:
-            side_axis(value, dim)
-        except InvalidInputError as err:
-            self.bad("{}.{}".format(key, name), str(err), value)
-            return "x-"
-        return value
+        if dim == 3 and value in WORDS_OF_2D:
+            try:
+                side_axis(value, dim)              # a 3D word: the reason
+            except InvalidInputError as err:
+                self.bad("{}.{}".format(key, name), str(err), value)
+                return "x-"
+        return self.choice(data, key, name, side_names(dim), "x-")
 
     def boolean(self, data, key, name, default=False):
         value = data.get(name, default)
@@ -550,9 +551,6 @@ def _inside_grid(c, bodies, grid):
                       "dropped; shrink the region or extend the grid".format(
                           body.name, AXES[d], g_lo, g_hi), [lo, hi])
 
-
-#: time-integration schemes of ``[dynamics]``
-SCHEMES = ("auto", "newmark", "generalized_alpha")
 
 
 def _dynamics(c, data) -> TimeIntegration:

@@ -309,6 +309,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         run.counters["line_search_from_step"])
     strategy = (run.line_search or run.newton) if searches else run.newton
     du, seed, response, before = problem.du0, None, None, []
+    iterations = 0
     # a term that may move its constraint after Newton (contact's
     # augmented Lagrangian) has the step solved again from the last
     # increment, and the kinematics' response to it; the first round
@@ -324,6 +325,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             stabilise=how.stabilise, single_solve=run.rhs == "increment",
             report=report, predict=rounds == 0, keep=keep, seed=seed,
             tol=SETTLE_RESIDUAL if loose else None, response=response)
+        iterations += len(found.residuals) - 1
         settled = problem.settled(found.trial, found.du)
         if settled and (not loose or problem.converged(found.trial)):
             break
@@ -348,6 +350,8 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     seed, found = None, found._replace(factorised=None)
     new, record = problem.commit(found.trial, found.du,
                                  before + found.residuals)
+    if record.newton_residuals is not None:
+        record.newton_iterations = iterations
     return new, record, problem.op
 
 
@@ -535,9 +539,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         step += 1
         factor = target
         if dynamics is not None and dynamics.target_iterations and \
-                record.newton_residuals is not None:
+                record.newton_iterations is not None:
             increment = dynamics.adapt(increment, 1. / nsteps, smallest,
-                                       len(record.newton_residuals) - 1)
+                                       record.newton_iterations)
         elif abs(factor - boundary) < 1e-12:
             increment = 1. / nsteps
         record.increment, record.counters = increment, dict(run.counters)
@@ -548,7 +552,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             callback(record, points)
         logger.info("step %d: load factor %.4f, %s, residual %.2e", step,
                     factor, "{} Newton iterations".format(
-                        len(record.newton_residuals) - 1) if not run.linear
+                        record.newton_iterations) if not run.linear
                     else "{} free DOFs".format(record.n_free_dofs),
                     record.residual)
     return result
@@ -820,7 +824,8 @@ def check_combination(method: str, kinematics: str, plastic: bool,
             "end: the generalised-alpha scheme with rho_inf = {} weighs them "
             "at n+1-alpha_f (alpha_f = {:.3g}), so a body that has left an "
             "obstacle is still pushed by it (a block at rest on a floor rose "
-            "17 mm); use Newmark() or GeneralizedAlpha(0.)".format(
+            "17 mm); leave the scheme to its default with contact, "
+            "GeneralizedAlpha(0.) (scene files: scheme = \"auto\")".format(
                 dynamics.scheme.rho_inf, dynamics.scheme.alpha_f))
     if newton.newton == "modified" and dynamics is not None and \
             dynamics.target_iterations is not None:

@@ -83,7 +83,7 @@ from ..errors import (InvalidInputError, SingularSystemError, check_choice,
                       check_real)
 from ..protocols import GridTerm
 from .linear import solve_active
-from .problem import safe_norm
+from .problem import add_within, safe_norm
 
 logger = logging.getLogger(__name__)
 
@@ -297,8 +297,12 @@ def scheme_for(dynamics: Optional[Dynamics], contact: bool
     1.50 with 0.04, at 1.9 and 2.7 times its energy); the generalised-
     alpha scheme with ``rho_inf = 0`` weighs the forces at the step's end
     and damps what one step cannot resolve, and kept the same landings
-    within their energy (rebounds of 0.06-0.08).  Newmark asked for with
-    contact is kept, with a warning.
+    within their energy (rebounds of 0.06-0.08).  It damps the highest
+    frequencies over the whole run, contact or not: a column vibrating
+    at 20 steps per period, with an obstacle it never touched, kept 0.71
+    of its amplitude over 5 periods (1.02 with Newmark's; at 40 steps
+    per period 0.91 against 0.96).  Newmark asked for with contact is
+    kept, with a warning.
 
     >>> scheme_for(Dynamics(.1, 1., 1e3), contact=True).scheme
     GeneralizedAlpha(rho_inf=0.0)
@@ -308,6 +312,10 @@ def scheme_for(dynamics: Optional[Dynamics], contact: bool
     if dynamics is None:
         return None
     if dynamics.scheme is None:
+        if contact:
+            logger.info("dynamics with contact: the generalised-alpha "
+                        "scheme with rho_inf = 0 (the default with obstacles "
+                        "or contacts between bodies)")
         return replace(dynamics, scheme=GeneralizedAlpha(0.) if contact
                        else Newmark())
     if contact and isinstance(dynamics.scheme, Newmark):
@@ -315,8 +323,10 @@ def scheme_for(dynamics: Optional[Dynamics], contact: bool
             "Newmark's scheme with contact: an impact within a time step "
             "can return more energy than the fall (a block dropped 0.5 on "
             "a floor rebounded to twice its height with steps of 0.02); "
-            "check Result.energies(), or leave Dynamics(scheme=) to its "
-            "default with contact, GeneralizedAlpha(0.)")
+            "watch the kinetic energy less the external work "
+            "(Result.energies(); its internal_work holds the contact's "
+            "work too), or leave the scheme to its default with contact, "
+            "GeneralizedAlpha(0.) (scene files: scheme = \"auto\")")
     return dynamics
 
 
@@ -465,7 +475,7 @@ class StepInertia(Inertia, GridTerm):
         balance.scale = max(balance.scale, safe_norm(moving))
 
     def weigh_matrix(self, K):
-        return (1 - self.alpha_f) * K + self.c * self.M
+        return add_within((1 - self.alpha_f) * K, self.c * self.M)
 
     def commit(self, problem, trial, du: ndarray, new, record):
         """The points' new velocity (FLIP / PIC blend) and acceleration

@@ -77,15 +77,16 @@ def side_axis(side: str, dim: int) -> tuple:
     >>> side_axis("top", 3)
     Traceback (most recent call last):
     ...
-    skfem_mpm.errors.InvalidInputError: in 3D the side 'top' would depend on which axis is up: name the face by its axis, 'y+' (what it means in 2D) or 'z+'
+    skfem_mpm.errors.InvalidInputError: in 3D the side 'top' would depend on which axis is up: name the face by its axis, 'y+' (as in 2D) or 'z+'
     """
     if dim == 3 and side in WORDS_OF_2D:
         axis, sign = SIDES[side]
         end = "+" if sign > 0 else "-"
         raise InvalidInputError(
             "in 3D the side {!r} would depend on which axis is up: name the "
-            "face by its axis, {!r} (what it means in 2D) or {!r}".format(
-                side, "xyz"[axis] + end, "zy"[axis - 1] + end))
+            "face by its axis, {!r} ({}) or {!r}".format(
+                side, "xyz"[axis] + end, "as in 2D" if axis == 1 else
+                "its meaning here until now", "zy"[axis - 1] + end))
     if side not in side_names(dim):
         raise InvalidInputError("side must be one of {}, got {!r}".format(
             side_names(dim), side))

@@ -38,10 +38,15 @@ class StepRecord:
         Point positions (after the update), accumulated displacements and
         stresses at the end of the step (``None`` unless kept).
     newton_residuals
-        Nonlinear steps (finite deformation or plasticity): the residual of
-        every Newton iteration, with contact of every augmented-Lagrangian
-        round in order (a round after an update of the multipliers starts
-        from a larger residual); ``None`` for a linear step.
+        Nonlinear steps (finite deformation, plasticity or contact): the
+        residual of every Newton iteration, with contact of every
+        augmented-Lagrangian round in order (a round after an update of
+        the multipliers starts from a larger residual, its own first
+        entry); ``None`` for a linear step.
+    newton_iterations
+        Nonlinear steps: the Newton iterations of the step (of all its
+        rounds; ``len(newton_residuals) - 1`` without contact rounds);
+        ``None`` for a linear step.
     n_yielded
         Nonlinear steps: points on the yield surface.
     elements
@@ -89,6 +94,7 @@ class StepRecord:
     displacement: Optional[ndarray] = None
     stress: Optional[ndarray] = None
     newton_residuals: Optional[List[float]] = None
+    newton_iterations: Optional[int] = None
     n_yielded: int = 0
     elements: Optional[ndarray] = None
     reaction_dofs: Optional[ndarray] = None
