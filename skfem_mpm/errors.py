@@ -122,6 +122,13 @@ class ContactError(ConvergenceError):
     back like a Newton failure."""
 
 
+class StepTooLongError(ContactError):
+    """A load step moved bodies in contact into each other farther than
+    its contact looks (pairs cells deep at its end that were apart at its
+    start): cut back, without the retry ladder's rungs (only a shorter
+    step helps)."""
+
+
 class StepFailedError(ConvergenceError):
     """A load step raised an error that is not the package's own (in a
     user's material, form or callback-free code path); the original is the

@@ -10,9 +10,8 @@ mean dilatation began to replace the volumetric part of the 3x3 gradient
 in plane strain as in 3D (displacements moved 0.6%); every case's hash
 when the counters gained ``line_search_from_step`` (a 0 more in each
 counters array, every sum unchanged to the bit);
-dynamic_newmark_finite_pressure and ghost_auto_switched_on when the mass
-and the ghost penalty began to be added within the stiffness's pattern,
-its explicit zeros kept
+dynamic_newmark_finite_pressure when the mass began to be added within
+the stiffness's pattern, its explicit zeros kept
 (``add_within``): the direct solver orders the kept pattern otherwise,
 and the sums moved in their last bit or two (2e-16 relative)."""
 import json

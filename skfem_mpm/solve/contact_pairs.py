@@ -18,8 +18,10 @@ second at the node).
 """
 import numpy as np
 from numpy import ndarray
+from scipy.spatial import cKDTree
 
-__all__ = ["PairFinder", "tangents", "ACROSS", "AXIS", "FACING"]
+__all__ = ["PairFinder", "tangents", "inside_domains", "ACROSS", "AXIS",
+           "FACING"]
 
 #: the weight of the distance across the normal against the position
 #: along it in choosing a pair's corners (:meth:`PairFinder.extreme`)
@@ -47,6 +49,29 @@ DEEPEST = .5
 #: the cosine to the centroids' line the last grid axis (the vertical) is
 #: preferred by among candidates alike in gap (about 3 degrees)
 LAST = .05
+
+
+def inside_domains(x: ndarray, half: ndarray, inner: ndarray,
+                   outer: ndarray) -> ndarray:
+    """Which of the points ``inner`` (indices) have their centre inside
+    the box domain of one of the points ``outer``: positions ``x`` (dim,
+    n), half-lengths ``half`` (dim, n).
+
+    >>> x = np.array([[0., .3, 2.], [0., .1, 0.]])
+    >>> inside_domains(x, np.full((2, 3), .5), np.array([1, 2]),
+    ...                np.array([0])).tolist()
+    [True, False]
+    """
+    if not (inner.size and outer.size):
+        return np.zeros(inner.size, dtype=bool)
+    reach = float(half[:, outer].max())
+    near = cKDTree(x[:, outer].T).sparse_distance_matrix(
+        cKDTree(x[:, inner].T), reach, p=np.inf, output_type="ndarray")
+    o, i = outer[near["i"]], inner[near["j"]]
+    hit = (np.abs(x[:, i] - x[:, o]) < half[:, o]).all(axis=0)
+    out = np.zeros(inner.size, dtype=bool)
+    out[near["j"][hit]] = True
+    return out
 
 
 def tangents(normal: ndarray) -> list:

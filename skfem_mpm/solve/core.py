@@ -51,7 +51,8 @@ from ..errors import (ContactError, GridMotionError, InvalidInputError,
                       InversionError,
                       PointsOutsideGridError, UnsupportedElementError,
                       MPMError, NewtonDivergenceError, NumericalError,
-                      SingularTangentError, StepFailedError, check_choice,
+                      SingularTangentError, StepFailedError,
+                      StepTooLongError, check_choice,
                       check_int)
 from ..mechanics.forms import as_body_force
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
@@ -437,6 +438,8 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 line_search_from_now_on(run, step)
             return done
         except STEP_FAILURES as failure:
+            if isinstance(failure, StepTooLongError):
+                raise                       # only a shorter step helps
             for rung in rungs:
                 if (rung.linear or not run.linear) and rung.applies(
                         run, failure, report.get("reused", False)):
