@@ -139,10 +139,7 @@ def test_a_response_equals_the_numpy_path(dim, kind, name, method,
                                           antilocking):
     """Two trials in a row: from the initial state, and from the state
     the first committed (a start with stress, elastic strain, ``F`` and
-    plastic strain); the plastic increments yield most points; in finite
-    deformation also the numpy path's tangent of the compiled response
-    (from the ``b_tr - I`` and Kirchhoff stress its residual pass does not
-    keep, formed when asked for, after the commit).  With mean
+    plastic strain); the plastic increments yield most points.  With mean
     dilatation (``antilocking``) the operator is wrapped in the cell
     averages of each trial's start, as a step wraps it."""
     material = MATERIALS[name]
@@ -160,9 +157,6 @@ def test_a_response_equals_the_numpy_path(dim, kind, name, method,
         results = [evaluate(paths[k], wrapped, du, start)
                    for k in ("numpy", "compiled")]
         check_equal(*results, finite=kind == "finite")
-        if kind == "finite":  # b_tr - I and tau formed when first asked
-            assert relative(results[1][0].tangent(),
-                            results[0][0].tangent()) < TOL
         if name != "elastic":
             assert results[1][0].yielded.mean() > .5
         start = results[0][3]

@@ -11,9 +11,7 @@ or stiffness summed over its points before one scatter:
 - ``finite_residual_2d``, ``_3d``: gradients of the grid increment,
   ``dF``, its inverse, ``b_tr - I``, the principal frame, the return map,
   the Kirchhoff stress and the pulled-back stress ``P``, and the internal
-  force, in one pass, keeping what the stiffness pass and the commit read
-  (``finite_commit`` forms the Kirchhoff stress again, ``finite_trial``
-  it and ``b_tr - I`` for the numpy path's tangent);
+  force, in one pass;
 - ``small_residual_2d``, ``_3d``: the same in small strain (Hooke's law,
   or the return map on principal strains);
 - ``stiffness_2d``, ``_3d``: the consistent tangent of each point from
@@ -52,7 +50,7 @@ from .points import (ELASTIC_TANGENT, FINITE_TANGENT, RETURN_MAP_TANGENT,
 
 #: what the callers read here (the tangents from
 #: :mod:`skfem_mpm.kernels.points`)
-__all__ = ["passes_of", "finite_commit", "finite_trial", "start_deviation",
+__all__ = ["passes_of", "finite_commit", "start_deviation",
            "ELASTIC_TANGENT", "RETURN_MAP_TANGENT", "FINITE_TANGENT",
            "SOURCES"]
 
@@ -74,64 +72,17 @@ def widest(node_count):
     return m
 
 
-@njit(cache=True, error_model="numpy", inline="always")
-def frame_sum(values, v, a, c):
-    """``sum_A values_A v_aA v_cA``: entry (a, c) of the tensor of
-    principal ``values`` (3,) in the frame ``v`` (3, 3), summed in the
-    same order wherever it is formed (the stress of the residual pass
-    and of the commit agree to the bit)."""
-    s = 0.
-    for A in range(3):
-        s += values[A] * v[a, A] * v[c, A]
-    return s
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def trial_update(params, x, eq0, p, eps, tau, eps_e, D):
-    """The return map of point ``p`` from its trial's ``x = eig(b_tr) -
-    1`` (3,) and internal variables ``eq0[:, p]``: the logarithmic strains
-    into ``eps``, the principal Kirchhoff stresses into ``tau``, the
-    elastic strains into ``eps_e`` and ``D = dtau_A / deps_B``; returns
-    ``principal_update``'s (yielded, eq, ev)."""
-    for a in range(3):
-        eps[a] = .5 * math.log1p(x[a])
-    return principal_update(params, eps, eq0[0, p], eq0[1, p], tau, eps_e,
-                            D)
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def update_work():
-    """Work arrays of a point's principal frame and return map
-    (``trial_update``): ``x`` (3,), ``v`` (3, 3), ``eps``, ``tau``,
-    ``eps_e`` (3,), ``D`` (3, 3)."""
-    return np.empty(3), np.empty((3, 3)), np.empty(3), np.empty(3), \
-        np.empty(3), np.empty((3, 3))
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def load_frame(d, vecs, p, x, v):
-    """Point ``p``'s kept principal values ``d[:, p]`` and frame
-    ``vecs[:, :, p]`` into ``x`` (3,) and ``v`` (3, 3)."""
-    for a in range(3):
-        x[a] = d[a, p]
-        for c in range(3):
-            v[a, c] = vecs[a, c, p]
-
-
 @njit(cache=True, error_model="numpy")
 def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
-                     du, start, params, eq0, f, P, dF, dF_inv, d, vecs, y,
-                     dy_dx, yielded, eq, cell, theta, pressure, k):
+                     du, start, params, eq0, f, P, dF, dF_inv, b_dev, tau, d,
+                     vecs, y, dy_dx, yielded, eq, cell, theta, pressure, k):
     """Finite deformation (updated Lagrangian, Hencky) on a grid of ``k``
     dimensions: from the grid increment
     ``du`` and ``start = b_n - I`` (3, 3, n), every point's ``dF``,
-    ``dF^-1`` (3, 3, n), spectral parts (``d = eig(b_tr) - 1``, ``vecs``,
-    ``y = tau_A``, ``dy_dx = dtau_A / dx_B``), ``P = tau dF^-T`` (m, m,
-    n), yield flags and equivalent plastic strain ``eq``, and the internal
-    force ``f``: what the stiffness pass and the commit read.  Not kept
-    (a third of the pass's stores): ``b_tr - I`` and the Kirchhoff stress
-    ``tau``, which ``finite_commit`` and ``finite_trial`` form again when
-    asked for.  With mean dilatation (``cell``
+    ``dF^-1``, ``b_tr - I``, Kirchhoff stress ``tau`` (3, 3, n), spectral
+    parts (``d``, ``vecs``, ``y = tau_A``, ``dy_dx = dtau_A / dx_B``),
+    ``P = tau dF^-T`` (m, m, n), yield flags and equivalent plastic strain
+    ``eq``, and the internal force ``f``.  With mean dilatation (``cell``
     an array, else ``None``; ``m = 3`` components, else ``m = k``) the
     gradients' divergence is the ``theta`` of the point's ``cell``, and
     the force takes the
@@ -150,7 +101,12 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
     Fi = np.empty((3, 3))
     FS = np.empty((3, 3))
     b = np.empty((3, 3))
-    x, v, eps, tp, eps_e, D = update_work()
+    x = np.empty(3)
+    v = np.empty((3, 3))
+    eps = np.empty(3)
+    tp = np.empty(3)
+    eps_e = np.empty(3)
+    D = np.empty((3, 3))
     t = np.empty((3, 3))
     Pp = np.empty((m, m))
     # a point that inverts sets the status, and the pass runs on (its
@@ -212,11 +168,18 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
             principal_frame(b, k, x, v)
             if not (x[0] > -1 and x[1] > -1 and x[2] > -1):
                 status = 2
-            yielded[p], eq[0, p], eq[1, p] = trial_update(
-                params, x, eq0, p, eps, tp, eps_e, D)
+            for a in range(3):
+                eps[a] = .5 * math.log1p(x[a])
+            yielded[p], eq[0, p], eq[1, p] = principal_update(
+                params, eps, eq0[0, p], eq0[1, p], tp, eps_e, D)
             for a in range(3):
                 for c in range(3):
-                    t[a, c] = frame_sum(tp, v, a, c)
+                    s = 0.
+                    for A in range(3):
+                        s += tp[A] * v[a, A] * v[c, A]
+                    t[a, c] = s
+                    tau[a, c, p] = s
+                    b_dev[a, c, p] = b[a, c]
                     dF[a, c, p] = F[a, c]
                     dF_inv[a, c, p] = Fi[a, c]
                     vecs[a, c, p] = v[a, c]
@@ -375,24 +338,24 @@ def _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, P, dF, dF_inv, d, vecs,
-                       y, dy_dx, yielded, eq):
+                       w, du, start, params, eq0, f, P, dF, dF_inv, b_dev,
+                       tau, d, vecs, y, dy_dx, yielded, eq):
     """The finite-deformation pass on a 2D grid (``_finite_residual``)."""
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
                             qstart, w, du, start, params, eq0, f, P, dF,
-                            dF_inv, d, vecs, y, dy_dx, yielded, eq, None,
-                            None, None, 2)
+                            dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
+                            eq, None, None, None, 2)
 
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, P, dF, dF_inv, d, vecs,
-                       y, dy_dx, yielded, eq):
+                       w, du, start, params, eq0, f, P, dF, dF_inv, b_dev,
+                       tau, d, vecs, y, dy_dx, yielded, eq):
     """The finite-deformation pass on a 3D grid (``_finite_residual``)."""
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
                             qstart, w, du, start, params, eq0, f, P, dF,
-                            dF_inv, d, vecs, y, dy_dx, yielded, eq, None,
-                            None, None, 3)
+                            dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
+                            eq, None, None, None, 3)
 
 
 @njit(cache=True, error_model="numpy")
@@ -438,14 +401,18 @@ def stiffness_3d(G, nodes, node_start, node_count, runs, order, qstart, mode,
 
 
 @njit(cache=True, error_model="numpy")
-def finite_commit(dim, params, d, vecs, eq0, dF, F0, F, J, b_e, strain, tau):
+def finite_commit(dim, params, d, vecs, eq0, dF, F0, F, J, b_e, strain):
     """The converged state of a finite-deformation trial, point by point:
     ``F = dF F_n``, its determinant ``J`` (in-plane block times the
     out-of-plane diagonal below 3D, as
     :func:`~skfem_mpm.mechanics.hencky.inverse_and_det`), and from the
     trial's principal frame (``d = eig(b_tr) - 1``, ``vecs``) and the
-    return map from ``eq0`` the Kirchhoff stress ``tau``, the elastic
-    ``b_e`` and strain (``finite_trial``)."""
+    return map from ``eq0`` the elastic ``b_e = sum exp(2 eps_A) e_A e_A``
+    and strain ``sum eps_A e_A e_A``."""
+    eps = np.empty(3)
+    tp = np.empty(3)
+    eps_e = np.empty(3)
+    D = np.empty((3, 3))
     for p in range(d.shape[1]):
         for a in range(3):
             for c in range(3):
@@ -463,42 +430,21 @@ def finite_commit(dim, params, d, vecs, eq0, dF, F0, F, J, b_e, strain, tau):
         else:
             J[p] = (F[0, 0, p] * F[1, 1, p] - F[0, 1, p] * F[1, 0, p]) \
                 * F[2, 2, p]
-    finite_trial(params, d, vecs, eq0, tau, None, b_e, strain)
-
-
-@njit(cache=True, error_model="numpy")
-def finite_trial(params, d, vecs, eq0, tau, b_dev, b_e, strain):
-    """What the finite residual pass does not keep, point by point from
-    the trial's principal frame (``d = eig(b_tr) - 1``, ``vecs``) and the
-    return map from ``eq0``: the Kirchhoff stress ``tau`` (the pass's, to
-    the bit), and each unless ``None`` ``b_tr - I = sum_A d_A e_A e_A``
-    (for the numpy path's tangent of a compiled response,
-    :meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.trial_response`:
-    the pass's to round-off, formed from its frame, not from ``dF``), the
-    elastic ``b_e = sum exp(2 eps_A) e_A e_A`` and strain ``sum eps_A e_A
-    e_A`` of the commit, all (3, 3, n)."""
-    x, v, eps, tp, eps_e, D = update_work()
-    for p in range(d.shape[1]):
-        load_frame(d, vecs, p, x, v)
-        trial_update(params, x, eq0, p, eps, tp, eps_e, D)
+        for a in range(3):
+            eps[a] = .5 * math.log1p(d[a, p])
+        principal_update(params, eps, eq0[0, p], eq0[1, p], tp, eps_e, D)
+        for A in range(3):
+            tp[A] = math.exp(2. * eps_e[A])
         for a in range(3):
             for c in range(3):
-                tau[a, c, p] = frame_sum(tp, v, a, c)
-                if b_dev is not None:
-                    b_dev[a, c, p] = frame_sum(x, v, a, c)
-        if b_e is not None:
-            for A in range(3):
-                tp[A] = math.exp(2. * eps_e[A])
-            for a in range(3):
-                for c in range(3):
-                    s = 0.
-                    r = 0.
-                    for A in range(3):
-                        e = v[a, A] * v[c, A]
-                        s += tp[A] * e
-                        r += eps_e[A] * e
-                    b_e[a, c, p] = s
-                    strain[a, c, p] = r
+                s = 0.
+                r = 0.
+                for A in range(3):
+                    e = vecs[a, A, p] * vecs[c, A, p]
+                    s += tp[A] * e
+                    r += eps_e[A] * e
+                b_e[a, c, p] = s
+                strain[a, c, p] = r
 
 
 @njit(cache=True, error_model="numpy")
@@ -519,7 +465,10 @@ def _start_deviation(strain, out, k):
             e[a] = math.expm1(2. * x[a])
         for a in range(3):
             for c in range(3):
-                out[a, c, p] = frame_sum(e, v, a, c)
+                s = 0.
+                for A in range(3):
+                    s += e[A] * v[a, A] * v[c, A]
+                out[a, c, p] = s
 
 
 @njit(cache=True, error_model="numpy")

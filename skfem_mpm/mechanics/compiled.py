@@ -19,12 +19,9 @@ Lagrangian), :class:`~skfem_mpm.mechanics.materials.LinearElastic`,
 1D, a user's material, one material per body) runs on the numpy path,
 the reference the compiled passes are tested equal to.
 
-A compiled response fills the arrays the numpy path fills (the spectral
-parts, ``dF`` ...), so the kinematics build it, its commit and its tangent
-on demand with their own code (in finite deformation the Kirchhoff stress
-and ``b_tr - I`` are formed again by the commit's pass, and by
-``finite_trial`` only where the numpy path's tangent is asked for: the
-residual pass stores neither); it adds the internal force, summed
+A compiled response fills the arrays the numpy path fills (stress, the
+spectral parts, ``dF`` ...), so the kinematics build it, its commit and its
+tangent on demand with their own code; it adds the internal force, summed
 in the same pass, and the stiffness, formed point by point from the kept
 parts and scattered into the CSR data of the operator's pattern (the
 grid's element pattern, or for a sparse operator the pattern of its
@@ -270,12 +267,11 @@ class CompiledPasses:
         b_dev, tau, yielded, spectral = kinematics._workspace(n, m)
         dF, dF_inv = np.empty((3, 3, n)), np.empty((3, 3, n))
         P, f, eq = np.empty((m, m, n)), np.zeros(op.N), np.empty((2, n))
-        eq0 = self._state(points)
         status = finite(
             *layout.groups, contiguous(points.volume0), contiguous(du),
-            self._start_deviation(points), self.params, eq0, f, P, dF,
-            dF_inv, spectral.d, spectral.vecs, spectral.tau,
-            spectral.dtau_dx, yielded, eq,
+            self._start_deviation(points), self.params,
+            self._state(points), f, P, dF, dF_inv, b_dev, tau, spectral.d,
+            spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq,
             *(() if cells is None else cells.cells))
         if status:      # a point inverts: the numpy path's error
             compiled, kinematics.compiled = kinematics.compiled, None
@@ -292,15 +288,10 @@ class CompiledPasses:
             b_e, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
             self.passes.finite_commit(
                 self.dim, self.params, spectral.d, spectral.vecs,
-                self._state(old), dF, contiguous(old.F), F, J, b_e, strain,
-                tau)
+                self._state(old), dF, contiguous(old.F), F, J, b_e, strain)
             return F, J, b_e, strain
-
-        def trial():
-            self.passes.finite_trial(self.params, spectral.d, spectral.vecs,
-                                     eq0, tau, b_dev, None, None)
         return kinematics.trial_response(
-            points, dF, dF_inv, P, state, m, converged, trial, force=f.copy,
+            points, dF, dF_inv, P, state, m, converged, force=f.copy,
             stiffness=self._stiffness(
                 assemble, layout, cells, self.passes.FINITE_TANGENT,
                 points.volume0, no_C,

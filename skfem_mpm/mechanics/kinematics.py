@@ -256,9 +256,7 @@ class FiniteStrain:
     def _workspace(self, n: int, k: int):
         """Arrays reused by every Newton iteration (memory): ``b_tr - I``,
         tau, the yielded flags and the
-        :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the points
-        (of a compiled response ``b_tr - I`` and tau only once its commit
-        or tangent asks: :meth:`trial_response`).
+        :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the points.
         The tangent is not among them: it lives only while the stiffness
         is assembled, so that the factorisation (the peak of an iteration)
         runs without it (648 bytes a point in 3D)."""
@@ -334,17 +332,12 @@ class FiniteStrain:
     def trial_response(self, points, dF: ndarray, dF_inv: ndarray,
                        P: ndarray, state: dict, k: int,
                        converged: Optional[Callable] = None,
-                       trial: Optional[Callable] = None,
                        **fused) -> Response:
         """The response of a trial whose ``b_tr - I``, Kirchhoff stress,
         yield flags and spectral parts are in the workspace, with ``dF``,
         its inverse (3, 3, n), ``P`` (k, k, n) and the new internal
-        variables ``state``; the compiled path's: ``converged(old)``, the
-        ``(F, det F, b_e, eps_e)`` of the commit, the Kirchhoff stress
-        formed into the workspace on the way; ``trial()``, which forms
-        ``b_tr - I`` and the Kirchhoff stress into the workspace (the
-        residual pass keeps neither), called once before the tangent
-        reads them; ``fused``: the compiled ``force`` and
+        variables ``state``; ``converged(old)``: the compiled ``(F, det F,
+        b_e, eps_e)`` of the commit; ``fused``: the compiled ``force`` and
         ``stiffness``."""
         dim = self.dim
         b_dev, tau, yielded, spectral = self._workspace(points.n, k)
@@ -354,11 +347,6 @@ class FiniteStrain:
             """Formed from the spectral parts of points ``idx`` (only for
             the iterations that need it), pulled back to the operator's
             configuration."""
-            nonlocal trial
-            if trial is not None:          # compiled: b_tr - I and tau
-                trial, form = None, trial
-                form()
-
             def at(field):        # points last and contiguous (einsum)
                 return field[..., idx] if isinstance(idx, slice) \
                     else np.take(field, idx, axis=-1)
