@@ -772,3 +772,42 @@ def test_a_block_dropped_in_long_time_steps_does_not_pass_through_a_slab():
     assert len(res.history) > 3                  # a step was cut back
     assert min(lowest) > -.1 * h
     assert res.history[-1].time == pytest.approx(.6)
+
+
+@pytest.mark.slow
+def test_a_block_bouncing_on_a_slab_never_sinks_into_it_unpushed():
+    """A block dropped on a slab body (time steps of 0.04, h = 0.07)
+    bounces and lands again; on the second landing it came from a cell
+    above the slab, where no node was reached by both bodies at the
+    step's start, and ended 0.05 cells inside the slab with no contact
+    force.  Such a step is now cut back: the block's domains never
+    overlap the slab's by more than a hundredth of a cell."""
+    g, rho, h = 9.81, 800., .07
+    mesh = MeshQuad.init_tensor(np.arange(-.05, 1.2 + 1e-9, h),
+                                np.arange(-.31, 1.3 + 1e-9, h))
+    pts = bodies(mesh, 2, [[(.33, .71), (.565, .735)],
+                           [(-.05, 1.14), (.04, .18)]])
+    half = pts.domain.copy()
+    deepest = []
+
+    def watch(record, points):
+        # the slab's top and the block's bottom, domain by domain, at the
+        # block's points across
+        def face(body, sign):
+            k = np.flatnonzero(points.body == body)
+            return points.x[0, k], points.x[1, k] + sign * half[1, k] \
+                * points.F[1, 1, k]
+        xs, top = face(1, 1.)
+        row = np.flatnonzero(top > top.max() - .02)
+        xb, low = face(0, -1.)
+        order = np.argsort(xs[row])
+        deepest.append((np.interp(xb, xs[row][order], top[row][order])
+                        - low).max())
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [LinearElastic(5e5, .28), LinearElastic(1.5e6, .3)],
+                   lambda b: b.get_dofs(lambda x: np.isclose(x[1], .04)).all(),
+                   body_force=[0, -g * rho], kinematics="finite",
+                   dynamics=Dynamics(.04, .8, rho), contacts=[Contact(0, 1)],
+                   options=Options(callback=watch))
+    assert res.history[-1].time == pytest.approx(.8)
+    assert max(deepest) < .01 * h

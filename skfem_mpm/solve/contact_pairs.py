@@ -20,7 +20,7 @@ import numpy as np
 from numpy import ndarray
 from scipy.spatial import cKDTree
 
-__all__ = ["PairFinder", "tangents", "inside_domains", "ACROSS", "AXIS",
+__all__ = ["PairFinder", "tangents", "overlapping", "ACROSS", "AXIS",
            "FACING"]
 
 #: the weight of the distance across the normal against the position
@@ -51,24 +51,25 @@ DEEPEST = .5
 LAST = .05
 
 
-def inside_domains(x: ndarray, half: ndarray, inner: ndarray,
-                   outer: ndarray) -> ndarray:
-    """Which of the points ``inner`` (indices) have their centre inside
-    the box domain of one of the points ``outer``: positions ``x`` (dim,
-    n), half-lengths ``half`` (dim, n).
+def overlapping(x: ndarray, half: ndarray, inner: ndarray,
+                outer: ndarray, depth: float) -> ndarray:
+    """Which of the points ``inner`` (indices) have a box domain that
+    overlaps one of the points ``outer``'s by more than ``depth`` along
+    every axis: positions ``x`` (dim, n), half-lengths ``half`` (dim, n).
 
-    >>> x = np.array([[0., .3, 2.], [0., .1, 0.]])
-    >>> inside_domains(x, np.full((2, 3), .5), np.array([1, 2]),
-    ...                np.array([0])).tolist()
+    >>> x = np.array([[0., .9, 2.], [0., .1, 0.]])
+    >>> overlapping(x, np.full((2, 3), .5), np.array([1, 2]),
+    ...             np.array([0]), .05).tolist()
     [True, False]
     """
     if not (inner.size and outer.size):
         return np.zeros(inner.size, dtype=bool)
-    reach = float(half[:, outer].max())
+    reach = float(half[:, outer].max() + half[:, inner].max())
     near = cKDTree(x[:, outer].T).sparse_distance_matrix(
         cKDTree(x[:, inner].T), reach, p=np.inf, output_type="ndarray")
     o, i = outer[near["i"]], inner[near["j"]]
-    hit = (np.abs(x[:, i] - x[:, o]) < half[:, o]).all(axis=0)
+    hit = (np.abs(x[:, i] - x[:, o]) < half[:, i] + half[:, o]
+           - depth).all(axis=0)
     out = np.zeros(inner.size, dtype=bool)
     out[near["j"][hit]] = True
     return out
