@@ -448,6 +448,7 @@ class StepBodyContact(GridTerm):
         reached = sum((f.sum(axis=0).A1 > 0).astype(int) for f in fields)
         self.interface = np.unique(np.concatenate([
             f[:, reached > 1].tocoo().row for f in fields]))
+        self.apart = None    # check_passing's points apart at the start
         self.parts = []
         for k, ((B, A, normal, gap), tol) in enumerate(zip(
                 term.pairs(op, points), term.tol)):
@@ -574,24 +575,29 @@ class StepBodyContact(GridTerm):
         if not np.abs(u).max(initial=0.) > min(term.tol):
             return
         end = points.x + u
-        off = np.ones(points.n, dtype=bool)
-        off[self.interface] = False
-        for (a, b, _), tol in zip(term.contacts, term.tol):
-            first, second = (np.flatnonzero(points.body == k) for k in (a, b))
-            for inner, outer in ((second, first), (first, second)):
-                inner = inner[off[inner]]
-                entered = overlapping(end, term.half, inner, outer, tol) & ~(
-                    overlapping(points.x, term.half, inner, outer, tol))
-                if entered.any():
-                    raise StepTooLongError(
-                        "step {}: bodies {} and {} went into each other "
-                        "where the step's contact pairs do not look ({} "
-                        "points of body {} overlap the other's domains at "
-                        "its end, not at its start; it moved points by up "
-                        "to {:.3g} cells): cut back".format(
-                            self.problem.step, a, b, int(entered.sum()),
-                            points.body[inner[0]], float(np.sqrt(
-                                (u ** 2).sum(axis=0)).max() / term.h)))
+        if self.apart is None:          # the step's start, found once
+            off = np.ones(points.n, dtype=bool)
+            off[self.interface] = False
+            self.apart = []
+            for (a, b, _), tol in zip(term.contacts, term.tol):
+                first, second = (np.flatnonzero(points.body == k)
+                                 for k in (a, b))
+                for inner, outer in ((second, first), (first, second)):
+                    inner = inner[off[inner]]
+                    self.apart.append((a, b, tol, outer, inner[~overlapping(
+                        points.x, term.half, inner, outer, tol)]))
+        for a, b, tol, outer, inner in self.apart:
+            entered = overlapping(end, term.half, inner, outer, tol)
+            if entered.any():
+                raise StepTooLongError(
+                    "step {}: bodies {} and {} went into each other where "
+                    "the step's contact pairs do not look ({} points of body "
+                    "{} overlap the other's domains at its end, not at its "
+                    "start; it moved points by up to {:.3g} cells): cut "
+                    "back".format(self.problem.step, a, b,
+                                  int(entered.sum()), points.body[inner[0]],
+                                  float(np.sqrt((u ** 2).sum(axis=0)).max()
+                                        / term.h)))
 
     def add(self, part, op, points, B, A, normal, gap, tol):
         """Pairs ``(B, A)`` with their normals and gaps at the step's
