@@ -13,7 +13,11 @@ counters array, every sum unchanged to the bit);
 dynamic_newmark_finite_pressure when the mass began to be added within
 the stiffness's pattern, its explicit zeros kept
 (``add_within``): the direct solver orders the kept pattern otherwise,
-and the sums moved in their last bit or two (2e-16 relative)."""
+and the sums moved in their last bit or two (2e-16 relative);
+ghost_auto_switched_on when the retry ladder put the line search before
+the ghost penalty (which changes the step's equations): the solver now
+refuses four systems, so that the line search and its stabilised solve
+fail before the penalty is switched on, as the case is named for."""
 import json
 from pathlib import Path
 

@@ -343,9 +343,10 @@ def test_stabilised_tangent_only_where_zero_energy_modes_need_it():
 
 def test_failed_step_is_retried_along_the_ladder(monkeypatch):
     """A failed nonlinear attempt is retried at the same increment along
-    the retry ladder (``core.RETRY_LADDER``): with the ghost penalty
-    (``ghost="auto"``), with the line search, then with the stabilised
-    tangent, before any cut-back."""
+    the retry ladder (``core.RETRY_LADDER``): with the line search, with
+    the ghost penalty (``ghost="auto"``: it changes the step's equations,
+    so it comes after the line search, which keeps them), then with the
+    stabilised tangent, before any cut-back."""
     from skfem_mpm import NewtonDivergenceError
     from skfem_mpm.solve import core
     attempts, original, failures = [], core.load_step, [0]
@@ -372,12 +373,19 @@ def test_failed_step_is_retried_along_the_ladder(monkeypatch):
     assert attempts == ["plain", "line search", "stabilised"]
     assert res.counters["stabilised_solves"] == res.counters["linear_solves"]
     assert res.history[-1].residual <= 1e-9
-    # ghost="auto" (the default) first retries with the ghost penalty on
+    # ghost="auto" (the default) retries with the ghost penalty on after
+    # the line search failed, from plain Newton again
     attempts.clear()
     res = solve_finite(*args, body_force=[0., -1e2])
-    assert attempts == ["plain", "plain", "line search"]
+    assert attempts == ["plain", "line search", "plain"]
     assert res.counters["ghost_from_step"] == 1
     assert res.counters["stabilised_solves"] == 0
+    # where the line search carries the step, the penalty stays off
+    attempts.clear()
+    failures[0] = 1
+    res = solve_finite(*args, body_force=[0., -1e2])
+    assert attempts == ["plain", "line search"]
+    assert res.counters["ghost_from_step"] == 0
     # plain Newton: no line-search attempt
     attempts.clear()
     failures[0] = 1
