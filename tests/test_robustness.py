@@ -831,3 +831,23 @@ def test_plane_strain_mean_dilatation_is_3d_when_plastic(method, kinematics):
     assert (runs[0].state["equivalent_plastic_strain"] > 0).any()
     assert max(same_plane_strain(runs)) < 1e-10
 
+
+@pytest.mark.parametrize("per_cell, warned", [(2, True), (3, False)])
+def test_sparse_spline_points_under_mean_dilatation_are_warned(
+        caplog, per_cell, warned):
+    """B-splines with mean dilatation and 2 points per cell and axis gave a
+    footing's limit load 18-21% low (docs/accuracy_vs_time.md): a plastic
+    run so seeded is warned before any work, with the count it found; 3
+    points per cell and axis are not."""
+    from skfem_mpm import Stabilisation, VonMises
+    from skfem_mpm.stabilisation.volumetric import points_per_cell_axis
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    points = seed_points(mesh, per_cell, region=lambda x: x[1] < .5)
+    assert points_per_cell_axis(mesh, points) == pytest.approx(per_cell,
+                                                               rel=1e-12)
+    simulate(mesh, ElementQuad1(), points, VonMises(1e3, .3, 1e6),
+             lambda b: b.get_dofs(lambda x: x[1] == 0), nsteps=1,
+             body_force=[0., -1.], method="bspline",
+             options=Options(stabilisation=Stabilisation(antilocking=True)))
+    assert ("{:.1f} points per cell and axis".format(per_cell)
+            in caplog.text) == warned

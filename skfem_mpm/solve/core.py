@@ -68,7 +68,8 @@ from ..quadrature.locate import point_locator, tensor_grid
 from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation
-from ..stabilisation.volumetric import MeanDilatation
+from ..stabilisation.volumetric import (MeanDilatation,
+                                       warn_sparse_spline_points)
 from .backends import get_solver
 from .body_contact import BodyContact, check_contacts
 from .contact import CellValues, contact_term
@@ -941,6 +942,8 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       or bool(rigid_bodies),
                       contact=bool(obstacles) or bool(contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
+    warn_sparse_spline_points(method, mesh, points, is_plastic(material),
+                              stabilisation.antilocking)
     if options.resume is not None:
         options.resume.check(nsteps, method)
     locator = options.locator

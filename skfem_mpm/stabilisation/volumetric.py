@@ -57,6 +57,7 @@ average's :class:`CellLayout`: the same averages, their force and
 couplings summed cell by cell.
 
 """
+import logging
 from functools import cached_property
 from typing import NamedTuple
 
@@ -71,7 +72,10 @@ from ..methods.operators import (NO_INDEX, NO_PLACES, PointOperator,
                                  SparseOperator)
 
 __all__ = ["MeanDilatation", "ElementAverage", "CellPatchAverage",
-           "CellLayout"]
+           "CellLayout", "warn_sparse_spline_points", "points_per_cell_axis",
+           "SPLINE_POINTS_PER_AXIS"]
+
+logger = logging.getLogger(__name__)
 
 
 class CellLayout(NamedTuple):
@@ -416,3 +420,37 @@ class MeanDilatation:
                           for a in (R, L, tr12))
         return self.op.stiffness(deviatoric, w) \
             + self.average.couplings(R * w, L * w, tr12 * w)
+
+
+#: B-splines with mean dilatation need this many points per cell and axis
+#: for a limit load (fewer: ``warn_sparse_spline_points``)
+SPLINE_POINTS_PER_AXIS = 3
+
+
+def points_per_cell_axis(mesh, points) -> float:
+    """The points per cell and axis of a seeding, from the median cell's
+    and the median point's volume: ``(V_cell / V_point) ** (1 / dim)``
+    (2.0 for ``seed_points(mesh, 2)``)."""
+    corners = mesh.p[:, mesh.t]
+    cell = np.median(np.prod(np.ptp(corners, axis=1), axis=0))
+    return float((cell / np.median(points.volume)) ** (1. / mesh.dim()))
+
+
+def warn_sparse_spline_points(method: str, mesh, points, plastic: bool,
+                              antilocking: bool):
+    """Log a warning for a plastic run with B-splines and mean dilatation
+    whose points are seeded fewer than :data:`SPLINE_POINTS_PER_AXIS` per
+    cell and axis: in the strip-footing study (``docs/accuracy_vs_time.md``)
+    2 points per cell and axis gave limit loads 18-21% below Prandtl's
+    with ``"bspline"`` and 6-10% with ``"bspline-gimp"`` on every grid
+    (unsafe), where 3 points converge to it from above."""
+    if not (method.startswith("bspline") and plastic and antilocking):
+        return
+    per_axis = points_per_cell_axis(mesh, points)
+    if per_axis < SPLINE_POINTS_PER_AXIS - .5:
+        logger.warning(
+            "method %r with mean dilatation and %.1f points per cell and "
+            "axis: with 2, a strip footing's limit load came out 18-21%% "
+            "('bspline') and 6-10%% ('bspline-gimp') below Prandtl's on "
+            "every grid (docs/accuracy_vs_time.md); seed at least %d points "
+            "per cell and axis", method, per_axis, SPLINE_POINTS_PER_AXIS)
