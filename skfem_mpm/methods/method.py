@@ -146,10 +146,16 @@ class BSplineMethod(PointMethod):
         self._boxes = None          # the step's points' centres and domains
         self._lattice = None        # nodes' grid indices, and inverse
 
+    def locate(self, x, step: int, timings: dict, converged):
+        """:meth:`PointMethod.locate`; the step's points' centres and
+        domains are kept for :meth:`weights_at` (also where the fields of
+        bodies in contact build the operator per field)."""
+        self._boxes = (converged.x, converged.domain)
+        return super().locate(x, step, timings, converged)
+
     def operator(self, points, step: int, timings: dict):
         location = self.locate(points.x, step, timings, points)
         tic = time.perf_counter()
-        self._boxes = (points.x, points.domain)
         op = self.sparse_operator(points.x, points.domain)
         op.point_elements = location[0]
         timings["assemble"] += time.perf_counter() - tic
@@ -170,19 +176,18 @@ class BSplineMethod(PointMethod):
         return self.spline(x, domain)
 
     def weights_at(self, x: ndarray, idx: ndarray = None):
-        """The splines' operator at positions ``x`` (dim, m): where surface
-        loads act (their faces' centres, of points ``idx``), so a traction
-        loads the nodes the method's displacement field is made of.  With
-        ``"bspline-gimp"`` averaged over each face: the domain of its point
-        in the step's operator, flat along the axis the centre is offset
-        along (at the splines' points without ``idx``: on the fields of
-        bodies in contact)."""
+        """The splines' operator at positions ``x`` (dim, m) of points
+        ``idx``: where surface loads act (their faces' centres), so a
+        traction loads the nodes the method's displacement field is made
+        of, and at the corners of domains (contacts between bodies).
+        With ``"bspline-gimp"`` averaged over the part of the point's
+        domain in the step's operator that ``x`` lies on: flat along the
+        axes ``x`` is offset along from the point (a face's centre: its
+        face; a corner: the splines there)."""
         if not self.averaged or idx is None or self._boxes is None:
             return self.spline(x)
         centre, domain = (a[:, idx] for a in self._boxes)
-        normal = np.argmax(np.abs(x - centre) / domain, axis=0)
-        face = domain.copy()
-        face[normal, np.arange(normal.size)] = 0.
+        face = np.where(np.abs(x - centre) > domain / 2, 0., domain)
         return self.spline(x, face)
 
     def domains(self, domain0: Optional[ndarray], F: ndarray):
@@ -209,7 +214,9 @@ class BSplineMethod(PointMethod):
         fixed
             The step's held DOFs.
         nodal_dofs
-            The grid's vector DOF of each node, (dim, nodes).
+            The grid's vector DOF of each node, (dim, nodes); on the
+            fields of bodies in contact, of every field's copy of the
+            grid in turn (each checked as a grid of its own).
         step
             The step, for the message.
         """
@@ -227,18 +234,22 @@ class BSplineMethod(PointMethod):
             lattice[tuple(index)] = np.arange(self.mesh.nvertices)
             self._lattice = index, lattice
         index, lattice = self._lattice
-        loose = np.zeros(self.mesh.nvertices, dtype=bool)
+        nv = self.mesh.nvertices
+        loose = np.zeros(nodal_dofs.shape[1], dtype=bool)
         for a in range(nodal_dofs.shape[0]):          # component
             pinned = held[nodal_dofs[a]] & active[nodal_dofs[a]]
             free = ~held[nodal_dofs[a]] & active[nodal_dofs[a]]
             for b, size in enumerate(lattice.shape):  # along axis b
-                interior = (index[b] > 0) & (index[b] < size - 1)
+                interior = np.flatnonzero((index[b] > 0)
+                                          & (index[b] < size - 1))
                 for side in (-1, 1):
                     near = index[:, interior].copy()
                     near[b] += side
                     neighbour = lattice[tuple(near)]
-                    loose[interior] |= pinned[interior] & free[neighbour]
-        nodes = np.flatnonzero(loose)
+                    for k in range(0, nodal_dofs.shape[1], nv):  # field
+                        loose[k + interior] |= pinned[k + interior] \
+                            & free[k + neighbour]
+        nodes = np.flatnonzero(loose) % nv
         if nodes.size:
             raise InvalidInputError(
                 "step {}: method {!r} holds DOFs at {} grid nodes beside "

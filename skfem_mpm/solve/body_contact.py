@@ -60,7 +60,7 @@ from weakref import WeakKeyDictionary
 
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import identity, kron, vstack
+from scipy.sparse import csr_matrix, identity, kron, vstack
 from scipy.spatial import cKDTree
 
 from ..errors import InvalidInputError, StepTooLongError, check_real
@@ -355,11 +355,20 @@ class BodyContact(GridTerm):
         return self.finder.place(self.corners(points).reshape(
             self.dim, -1)[:, corner])
 
-    def support(self, op):
+    def support(self, op, points):
         """The grid nodes' supports of the step of ``op`` (points, nodes of
-        every field), kept per operator."""
+        every field), kept per operator: the method's, or with B-splines
+        (``weights``) the grid element's at the points, standard MPM's.
+        The splines of a point reach the nodes a row beyond its cell's,
+        where a node's corners of both bodies span the far side of the
+        other body (a pile two cells wide: its soil on both sides, read
+        as bodies overlapping at the start) and lean the centroids'
+        normals; the pairs' rows are the splines' all the same."""
         if op not in self.supports:
-            self.supports[op] = value_matrix(op).tocsc()
+            self.supports[op] = (value_matrix(op) if self.weights is None
+                                 else self.cell_values(
+                                     points.x, op.point_elements,
+                                     op.N // self.dim)).tocsc()
         return self.supports[op]
 
     def pairs(self, op, points):
@@ -370,7 +379,7 @@ class BodyContact(GridTerm):
         if op in self.geometry:
             return self.geometry[op]
         start = not points.displacement.any()
-        out = self.finder.find_pairs(self.support(op), points.x,
+        out = self.finder.find_pairs(self.support(op, points), points.x,
                                      points.volume, self.corners(points),
                                      start)
         for (_, _, contact), tol, (B, A, normal, gap) in zip(
@@ -394,6 +403,8 @@ class BodyContact(GridTerm):
         dim, n = self.dim, points.n
         p = corner % n
         X = self.corners(points).reshape(dim, -1)[:, corner]
+        if not corner.size:             # no pairs (bodies cells apart)
+            return csr_matrix((0, op.N))
         if self.weights is not None:
             return kron(self.weights(X, p).S, identity(dim), format="csr")
         S = self.cell_values(X, op.point_elements[p], op.N // dim)
@@ -440,7 +451,7 @@ class StepBodyContact(GridTerm):
         self.term, self.problem = term, problem
         op, points = problem.method_op, problem.points
         self.dim = term.dim
-        self.support = support = term.support(op)
+        self.support = support = term.support(op, points)
         # the points that reach a node of two fields: where bodies may
         # meet in this step
         fields = [support[:, k * term.nv:(k + 1) * term.nv] != 0

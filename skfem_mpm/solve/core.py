@@ -884,15 +884,8 @@ def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
     if method == "fem":
         raise InvalidInputError(
             "contacts between bodies need points that move with the "
-            "material (method 'mpm', 'ugimp' or 'cpgimp'); 'fem' keeps "
-            "them where they started")
-    if method.startswith("bspline"):
-        raise InvalidInputError(
-            "contacts between bodies with B-splines are refused: their "
-            "supports reach nodes beyond a body's edge, where the pairs' "
-            "normals lean, so a smooth interface carried shear (half the "
-            "normal load) and Coulomb friction did not converge; use "
-            "method 'mpm', 'ugimp' or 'cpgimp'")
+            "material (method 'mpm', 'ugimp', 'cpgimp', 'bspline' or "
+            "'bspline-gimp'); 'fem' keeps them where they started")
     if not (mesh.affine or tensor_grid(mesh) is not None):
         raise InvalidInputError(
             "contacts between bodies need an affine or axis-aligned "
