@@ -305,7 +305,8 @@ class BodyContact(GridTerm):
         self.cells = cells
         self.geometry, self.supports = WeakKeyDictionary(), \
             WeakKeyDictionary()
-        self.finder = PairFinder(contacts, field, mesh, vertices, cell_size)
+        self.finder = PairFinder(contacts, field, mesh, vertices, cell_size,
+                                 columns=weights is not None)
         counters.setdefault("contact_updates", 0)
         logger.warning(
             "contact between bodies: GIMP piles on grids not aligned with "
