@@ -50,7 +50,8 @@ its DOF numbering the operator's.
 """
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import csr_matrix
+from scipy.ndimage import maximum_filter
+from scipy.sparse import coo_matrix, csr_matrix
 from skfem.element import Element
 from skfem.mesh import Mesh
 
@@ -59,7 +60,8 @@ from ..quadrature.locate import tensor_grid
 from .gimp_linear import LINEAR_ELEMENTS, LinearGimp
 from .operators import SparseOperator
 
-__all__ = ["QuadraticBSpline", "spline_1d", "spline_1d_integral", "UNIFORM"]
+__all__ = ["QuadraticBSpline", "spline_1d", "spline_1d_integral", "UNIFORM",
+           "FILLED_SPAN"]
 
 #: relative tolerance on the spacing of a uniform axis
 UNIFORM = 1e-9
@@ -74,6 +76,14 @@ POINT_LIKE = 1e-8
 #: e = 1.9e-3 in ``tests/test_bspline.py``); at 0.005 the folds of the
 #: column's top made a floor of 1e-6 (docs/bspline.md)
 SLIVER_SPLINE = .0025
+#: extended B-splines: a knot span (the dual cell ``[x_j - h/2, x_j + h/2]``
+#: of a node, halved at the grid's ends) whose points' volumes fill at
+#: least this share of it makes the splines over it inner (Höllig, Reif and
+#: Wipper 2001: a spline with a filled span in its support)
+FILLED_SPAN = .75
+#: extended B-splines: the nearest array of inner nodes an outer one is
+#: extrapolated from is looked for this many nodes around it, per axis
+EXTENSION_REACH = 3
 
 
 def _spline(xi: ndarray):
@@ -287,3 +297,108 @@ class QuadraticBSpline:
 
         return SparseOperator(matrix(S), [matrix(g) for g in G],
                               self.grid._elements(spans))
+
+    def extension(self, x: ndarray, volume: ndarray, touched: ndarray):
+        """The extension of the splines (Höllig, Reif and Wipper 2001): the
+        matrix ``E`` (N, N) with which ``S E`` is the operator of the
+        extended B-splines, or ``None`` where every spline is inner.
+
+        A node is inner when a knot span in its support (the 3^dim dual
+        cells around it) is filled by points' volumes to at least
+        :data:`FILLED_SPAN`.  Every other node that points carry weight on
+        (``touched``, (N,) bool) is no degree of freedom but the bilinear
+        (trilinear) extrapolation of the nearest 2^dim array of inner
+        nodes, averaged over the arrays equally near (so a symmetric body
+        folds symmetrically): partition of unity and linear completeness
+        hold, and every spline that remains carries material over a
+        filled span, so no node is held by a sliver (the ghost penalty's
+        task) and none leaves the step when the material moves off its
+        support.  A node at a grid's end along an axis is extrapolated
+        from arrays on its end line only (a roller's or a clamp's
+        neighbours hold it as it was held).  An outer node with
+        no inner array within :data:`EXTENSION_REACH` nodes stays a
+        degree of freedom.
+
+        Parameters
+        ----------
+        x
+            The points' positions (dim, n).
+        volume
+            Their volumes (n,).
+        touched
+            Which scalar DOFs the points' splines carry weight on (N,).
+
+        Examples
+        --------
+        Points filling [0, 2] of a line of 4 cells: node 3, half a cell
+        beyond, is extrapolated from nodes 1 and 2 (``u_3 = 2 u_2 - u_1``).
+
+        >>> import numpy as np
+        >>> from skfem import MeshLine, ElementLineP1
+        >>> spline = QuadraticBSpline(MeshLine(np.linspace(0., 4., 5)),
+        ...                           ElementLineP1())
+        >>> x = np.array([[.25, .75, 1.25, 1.75]])
+        >>> touched = np.array([True, True, True, True, False])
+        >>> spline.extension(x, np.full(4, .5), touched).toarray()[3]
+        array([ 0., -1.,  2.,  0.,  0.])
+        """
+        dim, shape = self.dim, np.array(self.grid.nodes)
+        span = np.array([np.clip(np.rint((x[d] - self.axes[d][0])
+                                         / self.h[d]), 0, shape[d] - 1)
+                         for d in range(dim)], dtype=np.int64)
+        flat = np.ravel_multi_index(tuple(span), tuple(shape))
+        fill = np.bincount(flat, volume, int(np.prod(shape))).reshape(shape)
+        for d in range(dim):
+            width = np.full(shape[d], self.h[d])
+            width[[0, -1]] /= 2
+            fill /= width.reshape([-1 if e == d else 1 for e in range(dim)])
+        inner = maximum_filter(fill >= FILLED_SPAN, size=3, mode="constant")
+        lattice = np.indices(tuple(shape)).reshape(dim, -1)
+        outer = np.flatnonzero(touched[self.node_dof] & ~inner.ravel())
+        if outer.size == 0:
+            return None
+        at = lattice[:, outer]
+        corners = np.indices((2,) * dim).reshape(dim, -1)
+        offsets = np.indices((2 * EXTENSION_REACH,) * dim).reshape(dim, -1) \
+            - EXTENSION_REACH
+
+        end = (at == 0) | (at == shape[:, None] - 1)     # (dim, m)
+
+        def arrays():
+            """Each candidate array's first node, and where it is whole
+            (and, for a node at a grid end along an axis, on its end line
+            along that axis)."""
+            for offset in offsets.T:
+                first = at + offset[:, None]
+                whole = ((first >= 0) & (first < shape[:, None] - 1)
+                         & (~end | (offset[:, None] >= -1)
+                            & (offset[:, None] <= 0))).all(0)
+                for c in corners.T:
+                    node = np.minimum(first + c[:, None], shape[:, None] - 1)
+                    whole &= inner[tuple(np.maximum(node, 0))]
+                yield first, whole, ((first + .5 - at) ** 2).sum(axis=0)
+        nearest = np.full(outer.size, np.inf)
+        for first, whole, distance in arrays():
+            nearest = np.where(whole, np.minimum(nearest, distance), nearest)
+        rows, cols, vals = [], [], []
+        count = np.zeros(outer.size)
+        for first, whole, distance in arrays():
+            take = np.flatnonzero(whole & (distance <= nearest + 1e-12))
+            count[take] += 1
+            t = (at[:, take] - first[:, take]).astype(float)
+            for c in corners.T:
+                rows.append(take)
+                cols.append(np.ravel_multi_index(
+                    tuple(first[:, take] + c[:, None]), tuple(shape)))
+                vals.append(np.prod(np.where(c[:, None] == 1, t, 1 - t),
+                                    axis=0))
+        rows, cols, vals = (np.concatenate(a) for a in (rows, cols, vals))
+        keep = np.ones(int(np.prod(shape)), dtype=bool)
+        keep[outer[count > 0]] = False
+        identity = np.flatnonzero(keep)
+        dof = self.node_dof
+        return coo_matrix((np.concatenate((np.ones(identity.size),
+                                           vals / count[rows])),
+                           (dof[np.concatenate((identity, outer[rows]))],
+                            dof[np.concatenate((identity, cols))])),
+                          shape=(self.N, self.N)).tocsr()

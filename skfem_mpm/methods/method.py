@@ -30,6 +30,7 @@ from typing import Optional
 
 import numpy as np
 from numpy import ndarray
+from scipy.sparse import csr_matrix
 
 from ..errors import InvalidInputError, PointsOutsideGridError, \
     check_choice
@@ -37,7 +38,7 @@ from ..quadrature.basis import MaterialPointBasis
 from .bspline import QuadraticBSpline
 from .fields import FieldMethod
 from .gimp import gimp_operators, stretched_domains
-from .operators import PointOperator
+from .operators import PointOperator, SparseOperator
 
 __all__ = ["METHODS", "make_method"]
 
@@ -138,11 +139,13 @@ class BSplineMethod(PointMethod):
     point."""
 
     def __init__(self, name, mesh, scalar, scalar_dofs, pattern, locate,
-                 counters):
+                 counters, extended: bool = False):
         super().__init__(name, mesh, scalar, scalar_dofs, pattern, locate,
                          counters)
         self.spline = QuadraticBSpline(mesh, scalar)
         self.averaged = name == "bspline-gimp"
+        self.extended = extended
+        self._extension = None      # the step's extension (extended splines)
         self._boxes = None          # the step's points' centres and domains
         self._lattice = None        # nodes' grid indices, and inverse
 
@@ -157,6 +160,13 @@ class BSplineMethod(PointMethod):
         location = self.locate(points.x, step, timings, points)
         tic = time.perf_counter()
         op = self.sparse_operator(points.x, points.domain)
+        if self.extended:
+            touched = np.zeros(op.S.shape[1], dtype=bool)
+            touched[op.S.indices] = True
+            self._extension = E = self.spline.extension(
+                points.x, points.volume, touched)
+            if E is not None:
+                op = extended_operator(op, E)
         op.point_elements = location[0]
         timings["assemble"] += time.perf_counter() - tic
         return op
@@ -185,15 +195,43 @@ class BSplineMethod(PointMethod):
         axes ``x`` is offset along from the point (a face's centre: its
         face; a corner: the splines there)."""
         if not self.averaged or idx is None or self._boxes is None:
-            return self.spline(x)
-        centre, domain = (a[:, idx] for a in self._boxes)
-        face = np.where(np.abs(x - centre) > domain / 2, 0., domain)
-        return self.spline(x, face)
+            op = self.spline(x)
+        else:
+            centre, domain = (a[:, idx] for a in self._boxes)
+            face = np.where(np.abs(x - centre) > domain / 2, 0., domain)
+            op = self.spline(x, face)
+        E = self._extension
+        return op if E is None else extended_operator(op, E)
 
     def domains(self, domain0: Optional[ndarray], F: ndarray):
         if self.averaged:
             return stretched_domains(domain0, F)
         return None
+
+    def check_folded_supports(self, held: ndarray, nodal_dofs: ndarray,
+                              step: int):
+        """Refuse a held DOF of a node that the step's extended splines
+        fold into nodes not held alike: the material by it (filling no
+        knot span there) would no longer be held."""
+        E = self._extension
+        identity = (np.diff(E.indptr) == 1) & (E.diagonal() == 1.)
+        folded = np.flatnonzero(~identity)
+        for a in range(nodal_dofs.shape[0]):
+            held_a = held[nodal_dofs[a]]
+            rows = folded[held_a[folded]]
+            if rows.size == 0:
+                continue
+            loose = abs(E[rows]) @ (~held_a).astype(float) > 0
+            if loose.any():
+                raise InvalidInputError(
+                    "step {}: the extended splines fold {} held grid nodes "
+                    "(the first at {}, component {}) into free ones: no knot "
+                    "span by them is filled by material, and the support "
+                    "would no longer hold it; let the material reach the "
+                    "support, or leave extended_splines off".format(
+                        step, int(loose.sum()),
+                        np.round(self.mesh.p[:, rows[loose][0]], 6).tolist(),
+                        a))
 
     def check_supports(self, op, fixed: ndarray, nodal_dofs: ndarray,
                        step: int):
@@ -222,6 +260,8 @@ class BSplineMethod(PointMethod):
         """
         held = np.zeros(nodal_dofs.max() + 1, dtype=bool)
         held[fixed] = True
+        if self._extension is not None:
+            self.check_folded_supports(held, nodal_dofs, step)
         active = np.zeros_like(held)
         active[op.active_dofs] = True
         if not (held & active).any():
@@ -263,24 +303,58 @@ class BSplineMethod(PointMethod):
                     np.round(self.mesh.p[:, nodes[0]], 6).tolist()))
 
 
+def extended_operator(op: SparseOperator, E) -> SparseOperator:
+    """The operator ``S E``, ``G E`` of a spline operator ``op`` and an
+    extension ``E`` (:meth:`~skfem_mpm.methods.bspline.QuadraticBSpline.
+    extension`), on one sparsity pattern: the products' entries summed
+    over the pattern of their structure (scipy's product drops entries
+    that cancel to zero, which would part the patterns of ``S E`` and
+    ``G E``, one operator's rows)."""
+    S, N = op.S, E.shape[1]
+    counts = np.diff(E.indptr)[S.indices]
+    first = np.repeat(E.indptr[S.indices] - np.cumsum(counts) + counts,
+                      counts) + np.arange(counts.sum())
+    rows = np.repeat(np.repeat(np.arange(S.shape[0]), np.diff(S.indptr)),
+                     counts)
+    keys, place = np.unique(rows * N + E.indices[first],
+                            return_inverse=True)
+    indptr = np.concatenate(([0], np.cumsum(np.bincount(
+        keys // N, minlength=S.shape[0]))))
+    weight = E.data[first]
+
+    def product(X):
+        return csr_matrix((np.bincount(place, np.repeat(X.data, counts)
+                                       * weight, keys.size), keys % N,
+                           indptr), shape=(S.shape[0], N))
+    return SparseOperator(product(S), [product(G) for G in op.G],
+                          op.elements)
+
+
 #: the piece of each method that is not :class:`PointMethod`
 KINDS = {"ugimp": GimpMethod, "cpgimp": GimpMethod,
          "bspline": BSplineMethod, "bspline-gimp": BSplineMethod}
 
 
 def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
-                counters: dict, fields=None):
+                counters: dict, fields=None, extended: bool = False):
     """The method piece called ``name`` (one of :data:`METHODS`); with
     ``fields`` (:class:`~skfem_mpm.methods.fields.Fields`, contacts
     between bodies), on the copies of the grid: standard MPM and FE on the
     extended mesh (given as ``mesh``, ``scalar_dofs``, ``pattern``), the
     others built on the grid and moved to the copies
-    (:class:`~skfem_mpm.methods.fields.FieldMethod`)."""
+    (:class:`~skfem_mpm.methods.fields.FieldMethod`); ``extended``: the
+    splines extended (:meth:`~skfem_mpm.methods.bspline.QuadraticBSpline.
+    extension`; B-spline methods without fields only)."""
     check_choice("method", name, METHODS)
     kind = KINDS.get(name, PointMethod)
+    if extended and (kind is not BSplineMethod or fields is not None):
+        raise InvalidInputError(
+            "extended splines are for methods 'bspline' and 'bspline-gimp' "
+            "without contacts between bodies, got method {!r}{}".format(
+                name, " with contacts" if fields is not None else ""))
     if fields is None:
         return kind(name, mesh, scalar, scalar_dofs, pattern, locate,
-                    counters)
+                    counters, **({"extended": True} if extended else {}))
     if kind is PointMethod:
         return kind(name, fields.mesh, scalar, fields.scalar_dofs,
                     fields.pattern, fields.locate, counters)

@@ -245,8 +245,9 @@ class Scene:
         ``solver.tolerance``, ``max_iterations``, ``line_search``,
         ``newton``, ``rhs``).
     stabilisation
-        :class:`~skfem_mpm.Stabilisation`: ghost penalty and mean
-        dilatation (``solver.ghost``, ``solver.antilocking``).
+        :class:`~skfem_mpm.Stabilisation`: ghost penalty, mean
+        dilatation and extended B-splines (``solver.ghost``,
+        ``solver.antilocking``, ``solver.extended_splines``).
     solver
         The linear solver: ``"scipy"``, ``"pypardiso"``, ``"pyamg"`` or
         ``"auto"`` (the default: the fastest installed for each system's

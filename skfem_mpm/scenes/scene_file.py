@@ -126,6 +126,7 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # reference); "compiled" (a scene they
                                     # cannot serve is refused)
     antilocking = false             # mean dilatation, B-bar (any method)
+    extended_splines = false        # extended B-splines (bspline methods)
     ghost = "auto"                  # ghost penalty for cut cells: "auto"
                                     # (on where slivers of material hold
                                     # nodes), or a factor (0: never)
@@ -687,7 +688,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     solver = c.table(data.get("solver", {}), "solver",
                      ("method", "kinematics", "steps", "tolerance",
                       "max_iterations", "linear", "kernels", "antilocking",
-                      "ghost", "rhs", "line_search", "newton"))
+                      "extended_splines", "ghost", "rhs", "line_search",
+                      "newton"))
     method = c.choice(solver, "solver", "method", METHODS, "mpm")
     dynamics = _dynamics(c, data["dynamics"]) if "dynamics" in data else None
     if dynamics is not None and "steps" in solver:
@@ -711,6 +713,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     stabilisation = c.option(Stabilisation, "solver", (
         ("antilocking", "antilocking", c.boolean(solver, "solver",
                                                  "antilocking")),
+        ("extended_splines", "extended_splines", c.boolean(
+            solver, "solver", "extended_splines")),
         ("ghost", "ghost", "auto" if solver.get("ghost", "auto") == "auto"
          else c.number(solver, "solver", "ghost", "auto", low=0.,
                        open_low=False))))

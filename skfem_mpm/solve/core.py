@@ -856,6 +856,10 @@ def check_combination(method: str, kinematics: str, plastic: bool,
     if newton.newton == "modified" and dynamics is not None and \
             dynamics.target_iterations is not None:
         raise InvalidInputError(ADAPTIVE_MODIFIED)
+    if stabilisation.extended_splines and not method.startswith("bspline"):
+        raise InvalidInputError(
+            "extended_splines extends B-splines (methods 'bspline', "
+            "'bspline-gimp'); method {!r} has none".format(method))
 
 
 def check_body_force(body_force, points: MaterialPoints, dim: int):
@@ -925,6 +929,12 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
         [mesh.p.min(axis=1), mesh.p.max(axis=1)], axis=1))
     contacts, body_field = check_body_contacts(contacts, mesh, points,
                                                method, forces)
+    if contacts and stabilisation.extended_splines:
+        raise InvalidInputError(
+            "extended_splines with contacts between bodies is not "
+            "implemented (each body's field would need its own extension); "
+            "use the splines without it (the ghost penalty holds nodes "
+            "held by slivers)")
     linear = kinematics == "small" and not is_plastic(material) \
         and not obstacles and not contacts
     rigid_bodies = check_rigid_bodies(rigid_bodies, points, mesh.dim(),
@@ -981,7 +991,8 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     resume = options.resume or Resume()
     domain0 = points.domain if resume.domain0 is None else resume.domain0
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
-                        counters, fields)
+                        counters, fields,
+                        extended=options.stabilisation.extended_splines)
     run_mesh = mesh if fields is None else fields.mesh
     external = ExternalLoads(run_mesh, scalar, grid, case.gravity,
                              case.forces,

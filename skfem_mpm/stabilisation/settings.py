@@ -42,6 +42,17 @@ class Stabilisation:
         against volumetric locking, every method: the average over the
         points of each cell (with GIMP over those whose centre lies in it,
         Coombs et al. 2018).
+    extended_splines
+        Extended B-splines (methods ``"bspline"`` and ``"bspline-gimp"``;
+        Höllig, Reif and Wipper 2001): a spline without a knot span filled
+        by material in its support is no degree of freedom but the
+        extrapolation of the nearest inner ones
+        (:meth:`~skfem_mpm.methods.bspline.QuadraticBSpline.extension`), so
+        no node is held by a sliver and none drops out of a step as the
+        material moves off it: a bending beam converges without the ghost
+        penalty, a footing's pressure has no jump where the surface leaves
+        a row of nodes.  Refused with other methods and with contacts
+        between bodies.
 
     >>> Stabilisation(ghost=.1).antilocking
     False
@@ -52,6 +63,7 @@ class Stabilisation:
     """
     ghost: Union[str, float] = "auto"
     antilocking: bool = False
+    extended_splines: bool = False
 
     def __post_init__(self):
         ghost = self.ghost
@@ -61,9 +73,11 @@ class Stabilisation:
                     and np.isfinite(ghost))):
             raise InvalidInputError("ghost must be 'auto' or a finite number "
                                     ">= 0, got {!r}".format(ghost))
-        if not isinstance(self.antilocking, (bool, np.bool_)):
-            raise InvalidInputError("antilocking must be True or False, got "
-                                    "{!r}".format(self.antilocking))
+        for name in ("antilocking", "extended_splines"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise InvalidInputError("{} must be True or False, got "
+                                        "{!r}".format(name,
+                                                      getattr(self, name)))
 
     def ghost_factor(self) -> float:
         """The penalty factor from the start (0 for ``"auto"``)."""
