@@ -134,3 +134,44 @@ def test_a_footing_has_no_jump_where_the_surface_leaves_a_row_of_nodes():
     assert len(settlement) <= 80
     early = pressure[(settlement >= .01) & (settlement <= .03)]
     assert early.size and np.all(np.abs(early / (2 + np.pi) - 1) < .08)
+
+
+SCENE = """
+[grid]
+x = [0.0, 4.0, 8]
+y = [-1.0, 1.5, 5]
+[[bodies]]
+region = { x = [0.0, 4.0], y = [0.0, 0.9] }
+material = { model = "linear_elastic", E = 1e3, nu = 0.3 }
+[[supports]]
+boundary = "left"
+[gravity]
+body_force = [0.0, -1.0]
+[solver]
+method = "METHOD"
+ghost = 0
+extended_splines = VALUE
+"""
+
+
+def test_extended_splines_from_a_scene_file(tmp_path, capsys):
+    """``solver.extended_splines``: a B-spline cantilever with its surface
+    inside cells runs extended; a value not true or false, and the key
+    with another method, are refused naming the key."""
+    from skfem_mpm.cli import main
+    from skfem_mpm.scenes.scene_file import load_scene
+    scene = tmp_path / "beam.toml"
+    scene.write_text(SCENE.replace("METHOD", "bspline").replace(
+        "VALUE", "true"))
+    assert load_scene(scene).stabilisation.extended_splines
+    assert main(["run", str(scene), "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 0
+    scene.write_text(SCENE.replace("METHOD", "bspline").replace(
+        "VALUE", "1"))
+    assert main(["run", str(scene), "--out", str(tmp_path / "p")]) == 2
+    assert "solver.extended_splines: must be true or false" in \
+        capsys.readouterr().err
+    scene.write_text(SCENE.replace("METHOD", "mpm").replace(
+        "VALUE", "true"))
+    assert main(["run", str(scene), "--out", str(tmp_path / "q")]) == 2
+    assert "method 'mpm' has none" in capsys.readouterr().err
