@@ -162,6 +162,28 @@ def test_a_response_equals_the_numpy_path(dim, kind, name, method,
         start = results[0][3]
 
 
+def test_the_reused_increments_follow_the_operator():
+    """A compiled finite kinematics reuses its ``dF``, ``dF^-1`` and
+    frames, whose 2D pass without mean dilatation stores the in-plane
+    blocks only: responses with and without mean dilatation (whose
+    ``dF_33`` is not 1) in turn, on the same points, each equal to the
+    numpy path's, its commit too."""
+    material = MATERIALS["von_mises"]
+    mesh, points = block(2)
+    points.state.update(initial_state(material, points.n))
+    op = operator("mpm", mesh, points, 2)
+    rng = np.random.default_rng(5)
+    compiled = make_kinematics("finite", material, 2, {"return_maps": 0},
+                               kernels="compiled")
+    for antilocking in (False, True, False):
+        du = 2e-3 * rng.standard_normal(op.N)
+        wrapped = MeanDilatation(op, points.volume) if antilocking else op
+        reference = make_kinematics("finite", material, 2,
+                                    {"return_maps": 0}, kernels="numpy")
+        check_equal(evaluate(reference, wrapped, du, points),
+                    evaluate(compiled, wrapped, du, points), finite=True)
+
+
 def test_the_mohr_coulomb_return_equals_numpy_on_every_branch():
     """The compiled return map on principal strains, point by point,
     against :meth:`MohrCoulomb.principal_update` on all points at once:

@@ -36,7 +36,7 @@ __all__ = ["passes_of", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "d16104f91f29b227"
+SOURCES = "18da7b58493c66d3"
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -89,7 +89,7 @@ def add_cell_couplings(patch_start, patch_nodes, b, h_row, h_col, bulk, k,
 
 @njit(cache=True, error_model="numpy")
 def _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
-                         qstart, w, du, start, params, eq0, f, P, dF, dF_inv,
+                         qstart, w, du, start, params, eq0, f, dF, dF_inv,
                          b_dev, tau, d, vecs, y, dy_dx, yielded, eq, cell,
                          patch, patch_start, patch_nodes, b, k):
     """The finite-deformation pass with mean dilatation on a grid of
@@ -98,7 +98,7 @@ def _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
     theta = cell_dilatation(patch_start, patch_nodes, b, du, k)
     pressure = np.zeros(len(theta))
     status = _finite_residual(G, nodes, node_start, node_count, runs, order,
-                              qstart, w, du, start, params, eq0, f, P, dF,
+                              qstart, w, du, start, params, eq0, f, dF,
                               dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
                               eq, cell, theta, pressure, k)
     add_cell_force(patch_start, patch_nodes, b, pressure, k, f)
@@ -143,12 +143,12 @@ def _stiffness_bar(G, nodes, node_start, node_count, runs, order, qstart,
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, P, dF, dF_inv, b_dev, tau,
+                       w, du, start, params, eq0, f, dF, dF_inv, b_dev, tau,
                        d, vecs, y, dy_dx, yielded, eq, cell, patch,
                        patch_start, patch_nodes, b):
     """``_finite_residual_bar`` on a 2D grid."""
     return _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
-                                qstart, w, du, start, params, eq0, f, P, dF,
+                                qstart, w, du, start, params, eq0, f, dF,
                                 dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
                                 eq, cell, patch, patch_start, patch_nodes, b,
                                 2)
@@ -156,12 +156,12 @@ def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, P, dF, dF_inv, b_dev, tau,
+                       w, du, start, params, eq0, f, dF, dF_inv, b_dev, tau,
                        d, vecs, y, dy_dx, yielded, eq, cell, patch,
                        patch_start, patch_nodes, b):
     """``_finite_residual_bar`` on a 3D grid."""
     return _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
-                                qstart, w, du, start, params, eq0, f, P, dF,
+                                qstart, w, du, start, params, eq0, f, dF,
                                 dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
                                 eq, cell, patch, patch_start, patch_nodes, b,
                                 3)

@@ -10,8 +10,8 @@ or stiffness summed over its points before one scatter:
 
 - ``finite_residual_2d``, ``_3d``: gradients of the grid increment,
   ``dF``, its inverse, ``b_tr - I``, the principal frame, the return map,
-  the Kirchhoff stress and the pulled-back stress ``P``, and the internal
-  force, in one pass;
+  the Kirchhoff stress, and the internal force from the pulled-back
+  stress ``P`` (not kept: the response forms it when read), in one pass;
 - ``small_residual_2d``, ``_3d``: the same in small strain (Hooke's law,
   or the return map on principal strains);
 - ``stiffness_2d``, ``_3d``: the consistent tangent of each point from
@@ -74,21 +74,22 @@ def widest(node_count):
 
 @njit(cache=True, error_model="numpy")
 def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
-                     du, start, params, eq0, f, P, dF, dF_inv, b_dev, tau, d,
+                     du, start, params, eq0, f, dF, dF_inv, b_dev, tau, d,
                      vecs, y, dy_dx, yielded, eq, cell, theta, pressure, k):
     """Finite deformation (updated Lagrangian, Hencky) on a grid of ``k``
     dimensions: from the grid increment
     ``du`` and ``start = b_n - I`` (3, 3, n), every point's ``dF``,
     ``dF^-1``, ``b_tr - I``, Kirchhoff stress ``tau`` (3, 3, n), spectral
-    parts (``d``, ``vecs``, ``y = tau_A``, ``dy_dx = dtau_A / dx_B``),
-    ``P = tau dF^-T`` (m, m, n), yield flags and equivalent plastic strain
-    ``eq``, and the internal force ``f``.  With mean dilatation (``cell``
-    an array, else ``None``; ``m = 3`` components, else ``m = k``) the
-    gradients' divergence is the ``theta`` of the point's ``cell``, and
-    the force takes the
-    deviatoric part of ``P`` against the gradients, its mean, weighted,
-    summed per cell into ``pressure`` (the caller adds it against the
-    cell averages).  Returns 0, or 1 where ``det dF <= 0`` (at some
+    parts (``d``, ``vecs``, ``y = tau_A``, ``dy_dx = dtau_A / dx_B``;
+    of ``dF``, ``dF^-1`` and ``vecs`` only the in-plane blocks in 2D
+    without mean dilatation: the identity out of plane is the caller's),
+    yield flags and equivalent plastic strain ``eq``, and the internal
+    force ``f`` from ``P = tau dF^-T`` (not kept).  With mean dilatation
+    (``cell`` an array, else ``None``; ``m = 3`` components, else ``m =
+    k``) the gradients' divergence is the ``theta`` of the point's
+    ``cell``, and the force takes the deviatoric part of ``P`` against
+    the gradients, its mean, weighted, summed per cell into ``pressure``
+    (the caller adds it against the cell averages).  Returns 0, or 1 where ``det dF <= 0`` (at some
     point), 2 where ``b_tr`` is not positive definite: then the arrays
     hold no answer."""
     literally(k)
@@ -108,7 +109,7 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
     eps_e = np.empty(3)
     D = np.empty((3, 3))
     t = np.empty((3, 3))
-    Pp = np.empty((m, m))
+    P = np.empty((m, m))
     # a point that inverts sets the status, and the pass runs on (its
     # loops run faster without an early return)
     status = 0
@@ -180,10 +181,16 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                     t[a, c] = s
                     tau[a, c, p] = s
                     b_dev[a, c, p] = b[a, c]
+                d[a, p] = x[a]
+            # dF, dF^-1 and the frame: in 2D without mean dilatation only
+            # their in-plane blocks (the caller's arrays hold I out of
+            # plane: 12 strided stores a point, not 27)
+            e = 2 if k == 2 and cell is None else 3
+            for a in range(e):
+                for c in range(e):
                     dF[a, c, p] = F[a, c]
                     dF_inv[a, c, p] = Fi[a, c]
                     vecs[a, c, p] = v[a, c]
-                d[a, p] = x[a]
             for A in range(m):
                 y[A, p] = tp[A]
                 for B in range(m):
@@ -193,11 +200,10 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                     s = 0.
                     for j in range(m):
                         s += t[a, j] * Fi[c, j]
-                    P[a, c, p] = s
-                    Pp[a, c] = s
+                    P[a, c] = s
             if cell is not None:
-                split_mean(Pp, k, w[p], cell[p], pressure)
-            add_force(G, q0, Pp, w[p], nloc, k, fe)
+                split_mean(P, k, w[p], cell[p], pressure)
+            add_force(G, q0, P, w[p], nloc, k, fe)
         scatter_force(f, fe, nodes, n0, nloc, k)
     return status
 
@@ -338,22 +344,22 @@ def _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, P, dF, dF_inv, b_dev,
+                       w, du, start, params, eq0, f, dF, dF_inv, b_dev,
                        tau, d, vecs, y, dy_dx, yielded, eq):
     """The finite-deformation pass on a 2D grid (``_finite_residual``)."""
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
-                            qstart, w, du, start, params, eq0, f, P, dF,
+                            qstart, w, du, start, params, eq0, f, dF,
                             dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
                             eq, None, None, None, 2)
 
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, P, dF, dF_inv, b_dev,
+                       w, du, start, params, eq0, f, dF, dF_inv, b_dev,
                        tau, d, vecs, y, dy_dx, yielded, eq):
     """The finite-deformation pass on a 3D grid (``_finite_residual``)."""
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
-                            qstart, w, du, start, params, eq0, f, P, dF,
+                            qstart, w, du, start, params, eq0, f, dF,
                             dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
                             eq, None, None, None, 3)
 

@@ -43,7 +43,7 @@ from .cam_clay import ModifiedCamClay
 from .soils import APEX_STIFFNESS, DruckerPrager, MohrCoulomb
 
 __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
-           "COVERAGE"]
+           "COVERAGE", "identity_out_of_plane"]
 
 #: what the compiled passes serve (the refusal of ``kernels="compiled"``
 #: says it)
@@ -148,6 +148,15 @@ passes do not serve 1D grids; ...
     return None
 
 
+def identity_out_of_plane(n: int) -> ndarray:
+    """A (3, 3, n) array of zeros but the entries (2, 2), ones: the out
+    of plane part of a 2D point's ``dF``, ``dF^-1`` and principal frame,
+    whose in-plane blocks the passes fill."""
+    a = np.zeros((3, 3, n))
+    a[2, 2] = 1.
+    return a
+
+
 def contiguous(a: ndarray) -> ndarray:
     """``a`` as C-contiguous float64 (a copy only where it is not): one
     compiled signature serves every call."""
@@ -188,6 +197,7 @@ class CompiledPasses:
         self.plain = passes.passes_of(dim)
         self.averaged = dilatation.passes_of(dim)
         self._start = (None, None)      # a step's strain and b_n - I
+        self._increments = None         # dF and dF^-1, reused
 
     def serves(self, op, points) -> bool:
         """Whether the passes serve the point operator ``op``: standard
@@ -233,6 +243,18 @@ class CompiledPasses:
             self._start = (points.strain, value)
         return value
 
+    def _increment_arrays(self, n: int, m: int):
+        """``dF`` and ``dF^-1`` (3, 3, n) of the finite pass with ``m``
+        components, reused by every response (the latest one's, as the
+        kinematics' spectral parts), the identity out of plane set once:
+        the 2D pass without mean dilatation stores the in-plane blocks
+        only (with it, ``dF_33`` is not 1: new arrays when ``m``
+        changes)."""
+        if self._increments is None or self._increments[0] != (n, m):
+            self._increments = ((n, m),) + tuple(identity_out_of_plane(n)
+                                                 for _ in range(2))
+        return self._increments[1:]
+
     def _state(self, points) -> ndarray:
         """The internal variables of ``points``, (2, n)."""
         state = np.zeros((2, points.n))
@@ -265,12 +287,12 @@ class CompiledPasses:
         (finite, _, assemble), layout, cells, m = self._layout(op)
         n = points.n
         b_dev, tau, yielded, spectral = kinematics._workspace(n, m)
-        dF, dF_inv = np.empty((3, 3, n)), np.empty((3, 3, n))
-        P, f, eq = np.empty((m, m, n)), np.zeros(op.N), np.empty((2, n))
+        dF, dF_inv = self._increment_arrays(n, m)
+        f, eq = np.zeros(op.N), np.empty((2, n))
         status = finite(
             *layout.groups, contiguous(points.volume0), contiguous(du),
             self._start_deviation(points), self.params,
-            self._state(points), f, P, dF, dF_inv, b_dev, tau, spectral.d,
+            self._state(points), f, dF, dF_inv, b_dev, tau, spectral.d,
             spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq,
             *(() if cells is None else cells.cells))
         if status:      # a point inverts: the numpy path's error
@@ -290,6 +312,8 @@ class CompiledPasses:
                 self.dim, self.params, spectral.d, spectral.vecs,
                 self._state(old), dF, contiguous(old.F), F, J, b_e, strain)
             return F, J, b_e, strain
+        def P():            # read by no step: formed when asked for
+            return np.einsum("abp,ebp->aep", tau[:m, :m], dF_inv[:m, :m])
         return kinematics.trial_response(
             points, dF, dF_inv, P, state, m, converged, force=f.copy,
             stiffness=self._stiffness(

@@ -44,7 +44,7 @@ from .forms import full_tensor
 from .hencky import (SpectralParts, hencky_elastic_state, hencky_stress,
                      inverse_and_det, isotropic_derivative, principal_frame,
                      pull_back, spatial_tangent)
-from .compiled import compiled_path
+from .compiled import compiled_path, identity_out_of_plane
 from .materials import PointMaterials, elastic_tensor, is_plastic
 
 __all__ = ["SmallStrain", "FiniteStrain", "Response", "KINEMATICS",
@@ -86,7 +86,9 @@ class Response:
     Attributes
     ----------
     P, w
-        Stress measure and weights of the internal force.
+        Stress measure and weights of the internal force (a compiled
+        response, whose force the pass sums, forms ``P`` when it is read:
+        from its trial's arrays, while it is the latest).
     yielded
         Points on the yield surface (n,).
     deformation
@@ -106,17 +108,22 @@ class Response:
 
     """
 
-    def __init__(self, P: ndarray, w: ndarray, yielded: ndarray,
+    def __init__(self, P, w: ndarray, yielded: ndarray,
                  tangent: Callable[[], ndarray], commit: Callable,
                  deformation: Optional[Callable] = None,
                  tangent_of: Optional[Callable] = None,
                  force: Optional[Callable] = None,
                  stiffness: Optional[Callable] = None):
-        self.P, self.w, self.yielded = P, w, yielded
+        self._P, self.w, self.yielded = P, w, yielded
         self._tangent, self._commit = tangent, commit
         self.deformation = deformation
         self.tangent_of = tangent_of
         self.force, self.stiffness = force, stiffness
+
+    @property
+    def P(self) -> ndarray:
+        """The stress measure of the internal force (k, k, n)."""
+        return self._P() if callable(self._P) else self._P
 
     def tangent(self) -> ndarray:
         """The consistent tangent (dim, dim, dim, dim, n)."""
@@ -259,13 +266,15 @@ class FiniteStrain:
         :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the points.
         The tangent is not among them: it lives only while the stiffness
         is assembled, so that the factorisation (the peak of an iteration)
-        runs without it (648 bytes a point in 3D)."""
+        runs without it (648 bytes a point in 3D).  The frames' out of
+        plane part is the identity (that of every 2D frame, which the
+        compiled 2D pass then leaves)."""
         if self._buffers is None or self._buffers[0].shape[-1] != n \
                 or self._buffers[3].tau.shape[0] != k:
             self._buffers = (np.empty((3, 3, n)), np.empty((3, 3, n)),
                              np.empty(n, dtype=bool),
                              SpectralParts(np.empty((3, n)),
-                                           np.empty((3, 3, n)),
+                                           identity_out_of_plane(n),
                                            np.empty((k, n)),
                                            np.empty((k, k, n))))
         return self._buffers
@@ -330,13 +339,14 @@ class FiniteStrain:
         return self.trial_response(points, dF, dF_inv, P, state, k)
 
     def trial_response(self, points, dF: ndarray, dF_inv: ndarray,
-                       P: ndarray, state: dict, k: int,
+                       P, state: dict, k: int,
                        converged: Optional[Callable] = None,
                        **fused) -> Response:
         """The response of a trial whose ``b_tr - I``, Kirchhoff stress,
         yield flags and spectral parts are in the workspace, with ``dF``,
         its inverse (3, 3, n), ``P`` (k, k, n) and the new internal
-        variables ``state``; ``converged(old)``: the compiled ``(F, det F,
+        variables ``state`` (``P`` a function forming it, for a compiled
+        response); ``converged(old)``: the compiled ``(F, det F,
         b_e, eps_e)`` of the commit; ``fused``: the compiled ``force`` and
         ``stiffness``."""
         dim = self.dim

@@ -125,6 +125,8 @@ class MaterialPointBasis(CellBasis):
             super().__init__(mesh, elem, mapping=mapping, elements=elements,
                              quadrature=(Xq, dx), dofs=dofs,
                              disable_doflocs=dofs is not None)
+        if isinstance(mapping, PointMapping):
+            mapping.forget()        # the fields are formed: not kept
         self.dx = dx
         logger.debug("material-point basis: %d points in %d active elements "
                      "(at most %d per element)", points.n, *shape)

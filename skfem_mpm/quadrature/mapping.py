@@ -59,6 +59,12 @@ class PointMapping(MappingIsoparametric):
         return self._cached("invDF", X, tind,
                             lambda: super(PointMapping, self).invDF(X, tind))
 
+    def forget(self):
+        """Drop the cached Jacobian and inverse: a material-point basis
+        does so once its fields are formed, so that they do not live as
+        long as the basis (144 bytes a point in 3D, at the heap's peak)."""
+        self._entries.clear()
+
 
 def fresh_mapping(mesh: Mesh) -> Mapping:
     """Return a reference mapping for ``mesh`` that owns its own caches.
