@@ -359,31 +359,33 @@ class QuadraticBSpline:
             return None
         at = lattice[:, outer]
         corners = np.indices((2,) * dim).reshape(dim, -1)
-        offsets = np.indices((2 * EXTENSION_REACH,) * dim).reshape(dim, -1) \
-            - EXTENSION_REACH
-
-        end = (at == 0) | (at == shape[:, None] - 1)     # (dim, m)
-
-        def arrays():
-            """Each candidate array's first node, and where it is whole
-            (and, for a node at a grid end along an axis, on its end line
-            along that axis)."""
-            for offset in offsets.T:
-                first = at + offset[:, None]
-                whole = ((first >= 0) & (first < shape[:, None] - 1)
-                         & (~end | (offset[:, None] >= -1)
-                            & (offset[:, None] <= 0))).all(0)
-                for c in corners.T:
-                    node = np.minimum(first + c[:, None], shape[:, None] - 1)
-                    whole &= inner[tuple(np.maximum(node, 0))]
-                yield first, whole, ((first + .5 - at) ** 2).sum(axis=0)
+        # the arrays of 2^dim inner nodes, by their first node
+        whole = np.ones(tuple(shape - 1), dtype=bool)
+        for c in corners.T:
+            whole &= inner[tuple(slice(c[d], c[d] + shape[d] - 1)
+                                 for d in range(dim))]
+        end = (at == 0) | (at == shape[:, None] - 1)       # (dim, m)
+        # each candidate array (its first node at an offset from the
+        # outer node's), where it is whole (and, for a node at a grid end
+        # along an axis, on its end line), and its centre's distance
+        candidates = []
+        for offset in (np.indices((2 * EXTENSION_REACH,) * dim).reshape(
+                dim, -1) - EXTENSION_REACH).T:
+            first = at + offset[:, None]
+            ok = ((first >= 0) & (first < shape[:, None] - 1)
+                  & (~end | ((offset[:, None] >= -1)
+                             & (offset[:, None] <= 0)))).all(axis=0)
+            ok[ok] = whole[tuple(first[:, ok])]
+            if ok.any():
+                candidates.append((first, ok, ((first + .5 - at) ** 2).sum(
+                    axis=0)))
         nearest = np.full(outer.size, np.inf)
-        for first, whole, distance in arrays():
-            nearest = np.where(whole, np.minimum(nearest, distance), nearest)
+        for first, ok, distance in candidates:
+            nearest[ok] = np.minimum(nearest[ok], distance[ok])
         rows, cols, vals = [], [], []
         count = np.zeros(outer.size)
-        for first, whole, distance in arrays():
-            take = np.flatnonzero(whole & (distance <= nearest + 1e-12))
+        for first, ok, distance in candidates:
+            take = np.flatnonzero(ok & (distance <= nearest + 1e-12))
             count[take] += 1
             t = (at[:, take] - first[:, take]).astype(float)
             for c in corners.T:
@@ -392,6 +394,8 @@ class QuadraticBSpline:
                     tuple(first[:, take] + c[:, None]), tuple(shape)))
                 vals.append(np.prod(np.where(c[:, None] == 1, t, 1 - t),
                                     axis=0))
+        if not rows:
+            return None
         rows, cols, vals = (np.concatenate(a) for a in (rows, cols, vals))
         keep = np.ones(int(np.prod(shape)), dtype=bool)
         keep[outer[count > 0]] = False

@@ -214,8 +214,7 @@ class BSplineMethod(PointMethod):
         fold into nodes not held alike: the material by it (filling no
         knot span there) would no longer be held."""
         E = self._extension
-        identity = (np.diff(E.indptr) == 1) & (E.diagonal() == 1.)
-        folded = np.flatnonzero(~identity)
+        folded = folded_nodes(E)
         for a in range(nodal_dofs.shape[0]):
             held_a = held[nodal_dofs[a]]
             rows = folded[held_a[folded]]
@@ -303,29 +302,60 @@ class BSplineMethod(PointMethod):
                     np.round(self.mesh.p[:, nodes[0]], 6).tolist()))
 
 
+def folded_nodes(E) -> ndarray:
+    """The (scalar) DOFs an extension ``E`` folds: its rows that are not
+    the identity's."""
+    return np.flatnonzero((np.diff(E.indptr) != 1) | (E.diagonal() != 1.))
+
+
 def extended_operator(op: SparseOperator, E) -> SparseOperator:
     """The operator ``S E``, ``G E`` of a spline operator ``op`` and an
     extension ``E`` (:meth:`~skfem_mpm.methods.bspline.QuadraticBSpline.
-    extension`), on one sparsity pattern: the products' entries summed
-    over the pattern of their structure (scipy's product drops entries
-    that cancel to zero, which would part the patterns of ``S E`` and
-    ``G E``, one operator's rows)."""
+    extension`), on one sparsity pattern.  Only the rows of points that
+    carry weight on a folded node change: theirs take the structure of the
+    product of the two patterns (scipy's product drops entries that cancel
+    to zero, which would part the patterns of ``S E`` and ``G E``), each
+    product's entries placed in it; the other rows are kept."""
     S, N = op.S, E.shape[1]
-    counts = np.diff(E.indptr)[S.indices]
-    first = np.repeat(E.indptr[S.indices] - np.cumsum(counts) + counts,
-                      counts) + np.arange(counts.sum())
-    rows = np.repeat(np.repeat(np.arange(S.shape[0]), np.diff(S.indptr)),
-                     counts)
-    keys, place = np.unique(rows * N + E.indices[first],
-                            return_inverse=True)
-    indptr = np.concatenate(([0], np.cumsum(np.bincount(
-        keys // N, minlength=S.shape[0]))))
-    weight = E.data[first]
+    n = S.shape[0]
+    folded = np.zeros(N, dtype=bool)
+    folded[folded_nodes(E)] = True
+    row_of = np.repeat(np.arange(n), np.diff(S.indptr))
+    hit = np.zeros(n, dtype=bool)
+    hit[row_of[folded[S.indices]]] = True
+    rows = np.flatnonzero(hit)
+
+    def ones(A):
+        return csr_matrix((np.ones(A.nnz), A.indices, A.indptr),
+                          shape=A.shape)
+
+    def keys(A):
+        return np.repeat(np.arange(A.shape[0], dtype=np.int64) * N,
+                         np.diff(A.indptr)) + A.indices
+    pattern = ones(S[rows]) @ ones(E)
+    pattern.sort_indices()
+    where = keys(pattern)
+    counts = np.diff(S.indptr)
+    counts[rows] = np.diff(pattern.indptr)
+    indptr = np.concatenate(([0], np.cumsum(counts)))
+    kept = ~hit[row_of]
+    old = np.flatnonzero(kept)
+    to_old = indptr[row_of[old]] + old - S.indptr[row_of[old]]
+    sub_row = np.repeat(np.arange(rows.size), np.diff(pattern.indptr))
+    to_new = indptr[rows[sub_row]] + np.arange(pattern.nnz) \
+        - pattern.indptr[sub_row]
+    indices = np.empty(indptr[-1], dtype=S.indices.dtype)
+    indices[to_old] = S.indices[old]
+    indices[to_new] = pattern.indices
 
     def product(X):
-        return csr_matrix((np.bincount(place, np.repeat(X.data, counts)
-                                       * weight, keys.size), keys % N,
-                           indptr), shape=(S.shape[0], N))
+        XE = X[rows] @ E
+        XE.sort_indices()
+        data = np.empty(indptr[-1])
+        data[to_old] = X.data[old]
+        data[to_new] = 0.
+        data[to_new[np.searchsorted(where, keys(XE))]] = XE.data
+        return csr_matrix((data, indices, indptr), shape=(n, N))
     return SparseOperator(product(S), [product(G) for G in op.G],
                           op.elements)
 
