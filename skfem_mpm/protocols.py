@@ -144,7 +144,8 @@ class GridTerm:
     def weigh(self, balance: Balance, du: ndarray) -> None:
         """Weigh the trial's static balance in time (a time integrator:
         the generalised-alpha weights and the inertia force); may enlarge
-        ``balance.scale``."""
+        ``balance.scale`` (the inertia force; an obstacle's force, which
+        may be all that drives a body)."""
 
     def weigh_matrix(self, K):
         """The tangent weighed as :meth:`weigh` weighs the forces."""

@@ -134,6 +134,36 @@ def test_a_pressed_block_is_linear_in_the_push_and_equals_the_reaction():
                            atol=1e-10 * exact[-1])
 
 
+@pytest.mark.parametrize("friction", (0., "rough"))
+def test_a_block_squeezed_between_two_obstacles_alone_converges(friction):
+    """No load and no held DOF but one node's x (smooth) or none (rough):
+    the obstacles' force is all there is to measure the residual against
+    (before, every residual was 1.0 and the run failed at every
+    cut-back).  The two forces balance to round-off; smooth, plane strain
+    with free lateral expansion, ``F = E / (1 - nu^2) delta / H W`` to the
+    penetration the tolerance allows at both faces."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.5, 7),
+                                np.linspace(-.25, 1.25, 7))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .25) & (x[0] < .75)
+                      & (x[1] > 0.) & (x[1] < .5))
+    E, nu, push, width, height = 1e4, .3, .01, .5, .5
+    floor = Obstacle(box=[[-1., 3.], [-1., 0.]], friction=friction)
+    press = Obstacle(box=[[-1., 3.], [height, 1.]], friction=friction,
+                     displacement=[0., -push])
+    held = [] if friction == "rough" else (
+        lambda b: b.get_dofs(lambda x: np.isclose(x[0], .5)).all("u^1"))
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(E, nu), held,
+                   nsteps=2, obstacles=[floor, press])
+    forces = res.history[-1].obstacle_forces
+    assert max(r.residual for r in res.history) <= 1e-9
+    assert np.allclose(forces[0], -forces[1], rtol=0,
+                       atol=1e-10 * abs(forces[1, 1]))
+    if friction == 0.:
+        exact = E / (1 - nu ** 2) * push / height * width
+        slack = 2 * press.tolerance * .25 / push     # of the push, h = .25
+        assert abs(forces[1, 1] / exact - 1) <= slack
+
+
 @pytest.mark.parametrize("scheme", (Newmark(), GeneralizedAlpha(0.)))
 def test_a_dropped_block_falls_freely_and_lands_on_the_floor(scheme):
     """Released 0.5 above a floor obstacle: free fall to within 2% until

@@ -84,6 +84,7 @@ from ..errors import InvalidInputError
 from ..quadrature.locate import cell_coordinates
 from ..protocols import GridTerm
 from .obstacles import Obstacle
+from .problem import safe_norm
 
 logger = logging.getLogger(__name__)
 
@@ -548,7 +549,16 @@ class StepContact(GridTerm):
     def force(self, du: ndarray, response):
         ev = self.evaluate(du, response)
         T = sum(e[0] for e in ev)
-        return -(self.J.T @ T.T.ravel())
+        self.pushing = -(self.J.T @ T.T.ravel())
+        return self.pushing
+
+    def weigh(self, balance, du: ndarray):
+        """The residual is measured against the obstacles' force on the
+        grid too (the trial's, as :meth:`force` formed it), as against the
+        forces that drive prescribed motion: a body squeezed between
+        obstacles with no load and no held DOF has nothing else to be
+        measured against (every residual was 1.0, and the run failed)."""
+        balance.scale = max(balance.scale, safe_norm(self.pushing))
 
     def matrix(self, response):
         if response not in self.evaluations:
