@@ -132,6 +132,14 @@ class GridTerm:
         """Internal force (grid vector) of the trial increment ``du``."""
         return None
 
+    def start_force(self, zero: ndarray, response) -> Optional[ndarray]:
+        """Internal force (grid vector) at the step's start, ``zero`` the
+        zero increment and ``response`` the kinematics' at it: by default
+        :meth:`force` there; a term whose constraint moves over the step
+        (an obstacle's prescribed motion) says what it exerted where the
+        step starts."""
+        return self.force(zero, response)
+
     def load(self, response, scale: float) -> Optional[ndarray]:
         """External force (grid vector) that depends on the trial (a
         follower load) at the loads' scale ``scale``."""

@@ -375,6 +375,12 @@ class ObstacleContact(GridTerm):
         return StepContact(self, problem)
 
 
+class StartOfStep:
+    """The key of :meth:`StepContact.start_force`'s evaluation (a trial's
+    response keys the others): held nowhere, so the evaluation's cache
+    lets it go."""
+
+
 class StepContact(GridTerm):
     """One step's contact with the obstacles (built by
     :meth:`ObstacleContact.begin_step`)."""
@@ -551,6 +557,24 @@ class StepContact(GridTerm):
         T = sum(e[0] for e in ev)
         self.pushing = -(self.J.T @ T.T.ravel())
         return self.pushing
+
+    def start_force(self, zero: ndarray, response):
+        """The obstacles' force on the grid where the step starts: the
+        corners there, the obstacles where the last step left them (not
+        moved to the step's end: in dynamics the start's balance gives the
+        first step's acceleration and the work's trapezoidal rule, and a
+        wall starting to push a block at rest gave it an initial
+        acceleration from the penalty of the whole step's push, 36 times
+        the push's force, and 5.5 times the wall's speed)."""
+        shift, moved = self.shift, self.moved
+        self.shift = self.shift_old
+        self.moved = [np.zeros_like(m) for m in moved]
+        try:
+            ev = self.evaluate(zero, StartOfStep())
+        finally:
+            self.shift, self.moved = shift, moved
+        T = sum(e[0] for e in ev)
+        return -(self.J.T @ T.T.ravel())
 
     def weigh(self, balance, du: ndarray):
         """The residual is measured against the obstacles' force on the

@@ -441,7 +441,7 @@ class InertiaTerm(GridTerm):
             points.velocity ** 2).sum(0))
         zero = np.zeros(op.N)
         start = run.kinematics.response(op, zero, points)
-        step.f_int0 = problem.internal_force(zero, start)
+        step.f_int0 = problem.internal_force(zero, start, start=True)
         f_ext0 = run.loads.external(op, points, problem.s_old)
         follower = problem.trial_loads(start, problem.s_old)
         if follower is not None:          # pressure on the start's surface

@@ -180,13 +180,17 @@ class StepProblem:
         every call."""
         return hasattr(self.run.solver, "factorise")
 
-    def internal_force(self, du: ndarray, response) -> ndarray:
+    def internal_force(self, du: ndarray, response,
+                       start: bool = False) -> ndarray:
         """The static internal force of a trial: the points' stresses and
-        the terms' forces."""
+        the terms' forces; with ``start`` (``du`` zero) the force where the
+        step starts, each term's :meth:`~skfem_mpm.protocols.GridTerm.
+        start_force`."""
         f_int = self.op.force(response.P, response.w) \
             if response.force is None else response.force()
         for term in self.terms:
-            f = term.force(du, response)
+            f = term.start_force(du, response) if start else \
+                term.force(du, response)
             if f is not None:
                 f_int += f
         return f_int
