@@ -658,6 +658,36 @@ def test_a_moving_wall_gives_a_free_block_no_more_than_twice_its_speed(
     assert .8 * impulse[-1] < momentum[-1] < impulse[-1]
 
 
+def test_material_carried_through_a_thin_obstacle_is_cut_back():
+    """A block dropped onto a floor 0.05 thick in one time step of 0.35
+    (it would end under the floor) and a blade pushed 0.6 through a plate
+    0.1 thick in one load step: each step that carries material through
+    an obstacle is refused (``StepTooLongError``) and cut back, so the
+    block lands on the floor (its lowest domain edge within the
+    tolerance, the floor carrying it) and the plate is bent by the blade.
+    Before, both passed through with no force and no error."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.1, 12),
+                                np.linspace(-1.5, .9, 25))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .4) & (x[0] < .7)
+                      & (x[1] > .4) & (x[1] < .5))
+    floor = Obstacle(box=[[-1., 2.], [-.05, 0.]])
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(5e5, .25), [],
+                   body_force=[0., -800 * 9.81], kinematics="finite",
+                   dynamics=Dynamics(.35, .7, 800.), obstacles=[floor])
+    low = (res.points.x[1] - pts.domain[1] * res.points.F[1, 1]).min()
+    assert abs(low) <= floor.tolerance * .1 + 1e-12
+    assert res.history[-1].obstacle_forces[0, 1] < 0.
+    plate = seed_points(mesh, 2, region=lambda x: (x[1] > .4)
+                        & (x[1] < .5))
+    blade = Obstacle(box=[[.5, .6], [.6, .7]], displacement=[0., -.4])
+    res = simulate(mesh, ElementQuad1(), plate, LinearElastic(1e4, .3),
+                   lambda b: b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                                        | np.isclose(x[0], 1.1)),
+                   nsteps=1, kinematics="finite", obstacles=[blade])
+    assert res.history[-1].obstacle_forces[0, 1] > 0.
+    assert (res.points.x[1] - plate.x[1]).min() < -.2
+
+
 def test_the_default_scheme_with_contact_returns_no_energy_at_impact(caplog):
     """A block dropped 0.5 onto a floor obstacle in time steps of 0.04
     (8 steps to the floor): with the default scheme (where a run has

@@ -80,7 +80,7 @@ import numpy as np
 from numpy import ndarray
 from scipy.sparse import coo_matrix, csr_matrix, identity, kron, vstack
 
-from ..errors import InvalidInputError
+from ..errors import InvalidInputError, StepTooLongError
 from ..quadrature.locate import cell_coordinates
 from ..protocols import GridTerm
 from .obstacles import Obstacle
@@ -476,6 +476,33 @@ class StepContact(GridTerm):
                 self.anchor.append((tied, X0))
         self.evaluations = WeakKeyDictionary()
 
+    def check_passing(self, u: ndarray, H: ndarray) -> None:
+        """Refuse a step that carried material through an obstacle
+        (:class:`~skfem_mpm.errors.StepTooLongError`, cut back): a corner
+        whose path over the step, relative to the obstacle (the points'
+        motion ``u`` (dim, n) and gradient ``H``, less the obstacle's),
+        went deeper into it than its tolerance between ends that are not.
+        A block dropped onto a floor 0.05 thick in time steps of 0.2 ended
+        under it, and a blade pushed 0.6 in one load step through a plate
+        0.1 thick left it undeformed, both with no force and no error."""
+        term, dim = self.term, self.dim
+        motion = u[:, None, :] + np.einsum("abp,bcp->acp", H, self.q)
+        for i, ob in enumerate(term.obstacles):
+            d = (motion - self.moved[i][:, None, None]).reshape(dim, -1)
+            moving = np.flatnonzero((np.abs(d) > term.tol[i]).any(axis=0))
+            passed = moving[ob.passed_through(
+                self.X.reshape(dim, -1)[:, moving], d[:, moving],
+                self.shift_old[i], term.tol[i])]
+            if passed.size:
+                far = np.sqrt((d[:, passed] ** 2).sum(axis=0)).max()
+                raise StepTooLongError(
+                    "step {}: material went through obstacle {!r} within "
+                    "the step ({} domain corners, the first of point {}, "
+                    "moved across it, up to {:.3g} cells relative to it): "
+                    "cut back".format(
+                        self.problem.step, ob.name, passed.size,
+                        passed[0] % self.X.shape[2], far / term.h))
+
     def corner_areas(self, normal: ndarray, idx: ndarray) -> ndarray:
         """Each corner's share (nc m,) of its domain's area projected on
         the plane of ``normal`` (dim, nc m): in finite deformation Nanson's
@@ -603,6 +630,7 @@ class StepContact(GridTerm):
         # obstacle: of the points that moved as far as their clearance
         # (a distance changes no faster than the position)
         H, u = self.op.gradients(du), self.op.values(du)
+        self.check_passing(u, H)
         reach = np.sqrt((u ** 2).sum(axis=0)) + np.sqrt(
             (H ** 2).sum(axis=(0, 1)) * (self.q ** 2).sum(axis=0).max(
                 axis=0))
