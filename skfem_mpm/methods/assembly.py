@@ -51,6 +51,7 @@ class ElementPattern:
     def __init__(self, element_dofs: ndarray, N: int):
         self.element_dofs, self.N = element_dofs, N
         self._structure = None
+        self._canonical = None
 
     def block_size(self) -> int:
         """The ``b`` of the map: 3 where the DOFs come in blocks of three,
@@ -126,13 +127,27 @@ class ElementPattern:
     def csr(self, data: ndarray) -> csr_matrix:
         """The matrix of the pattern with entries ``data`` (in the
         pattern's CSR order)."""
-        indices, indptr = self.structure()[3:]
-        return csr_matrix((data, indices, indptr), shape=(self.N, self.N))
+        return pattern_matrix(self, data, *self.structure()[3:])
 
     @property
     def nnz(self) -> int:
         """The number of entries of the pattern."""
         return len(self.structure()[3])
+
+
+def pattern_matrix(pattern, data: ndarray, indices: ndarray,
+                   indptr: ndarray) -> csr_matrix:
+    """The N x N CSR matrix of ``pattern`` (its ``indices``, ``indptr``)
+    with entries ``data``, whether its structure is canonical (sorted, no
+    duplicates) found for the first and carried by the next: scipy checks
+    each new matrix when asked (the condensation asks at every Newton
+    iteration), 0.46 ms at 1e5 points in 2D, 2.4 ms at 1.1e5 in 3D."""
+    K = csr_matrix((data, indices, indptr), shape=(pattern.N, pattern.N))
+    if pattern._canonical is None:
+        pattern._canonical = K.has_canonical_format
+    else:
+        K.has_canonical_format = pattern._canonical
+    return K
 
 
 def block_structure(graph: csr_matrix, b: int):
@@ -185,6 +200,7 @@ class GraphPattern:
     def __init__(self, graph: csr_matrix, b: int):
         self.graph, self.N = graph, b * graph.shape[0]
         self.indices, self.indptr = block_structure(graph, b)
+        self._canonical = None
 
     @property
     def nnz(self) -> int:
@@ -194,8 +210,7 @@ class GraphPattern:
     def csr(self, data: ndarray) -> csr_matrix:
         """The matrix of the pattern with entries ``data`` (in the
         pattern's CSR order)."""
-        return csr_matrix((data, self.indices, self.indptr),
-                          shape=(self.N, self.N))
+        return pattern_matrix(self, data, self.indices, self.indptr)
 
 
 class KernelLayout(NamedTuple):
