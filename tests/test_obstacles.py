@@ -467,14 +467,19 @@ def test_a_scene_with_an_obstacle(tmp_path):
      "'rough' or 'tied'"),
     ('box = { x = [0.0, 1.0], y = [-1.0, 0.0] }\nshape = "round"',
      r"obstacles\[0\].shape"),
+    ('box = { x = [0.0, 1.0], y = [-1.0, 0.0] }\ntolerance = 0.0',
+     r"obstacles\[0\].tolerance: must be > 0.0, got 0.0"),
 ])
 def test_scene_obstacle_mistakes_are_named(tmp_path, obstacle, words):
+    """Each mistake named once, with what the file says (a value refused
+    was named a second time, with the defaults put in its place)."""
     from skfem_mpm.errors import SceneError
     from skfem_mpm.scenes.scene_file import load_scene
     path = tmp_path / "drop.toml"
     path.write_text(DROP_SCENE.format(obstacle=obstacle, duration=.1))
-    with pytest.raises(SceneError, match=words):
+    with pytest.raises(SceneError, match=words) as refused:
         load_scene(path)
+    assert str(refused.value).count("obstacles[0]") == 1
 
 
 def test_an_obstacle_force_is_a_quantity_of_interest(tmp_path):

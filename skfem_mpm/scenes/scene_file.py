@@ -428,6 +428,7 @@ def _obstacle(c, data, key: str, dim: int):
     ``None`` after a problem."""
     data = c.table(data, key, ("name", "box", "polygon", "displacement",
                                "friction", "penalty", "tolerance"))
+    found = len(c.problems)
     if ("box" in data) == ("polygon" in data):
         c.bad(key, "needs exactly one of box = { x = [lo, hi], ... } and "
               "polygon = [[x, y], ...]", data)
@@ -451,6 +452,8 @@ def _obstacle(c, data, key: str, dim: int):
     for name in ("penalty", "tolerance"):
         if name in data:
             kwargs[name] = c.number(data, key, name, 1., low=0.)
+    if len(c.problems) > found:       # named once, not again with defaults
+        return None
     try:
         return Obstacle(friction=friction, name=data.get("name"), **kwargs)
     except InvalidInputError as err:
