@@ -171,8 +171,7 @@ class Result:
         ``internal_work`` and ``external_work`` (zero at the start), and
         ``balance = kinetic + internal_work - external_work`` (constant
         where nothing dissipates and supports do no work; the internal
-        work holds the contact forces' work too, an impact's loss with
-        it)."""
+        work holds the contact forces' work too)."""
         if not self.history or self.history[0].energy is None:
             raise InvalidInputError("energies: only a dynamic run's result "
                                     "(simulate(dynamics=...)) has them")
