@@ -437,7 +437,7 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     if coloured:
         side_colorbar(fig, ax, sc, "displacement magnitude |u| (m)", "4%")
     ax.legend(handles=handles, loc="upper center", fontsize=7,
-              bbox_to_anchor=(.5, -.14), ncol=2, frameon=False)
+              bbox_to_anchor=(.5, -.2), ncol=2, frameon=False)
     return sc
 
 
