@@ -91,6 +91,12 @@ logger = logging.getLogger(__name__)
 __all__ = ["ObstacleContact", "CellValues", "corner_signs", "point_rows",
            "contact_state_names"]
 
+#: the share of the force of a penetration of the tolerance below which a
+#: step's residual is not measured (:meth:`StepContact.weigh`): a
+#: thousandth, below the loads of the tests' blocks on floors, where the
+#: tolerance's force is 4 times the weight
+RESOLVED = 1e-3
+
 #: a corner further from every obstacle than this many cells at a step's
 #: start is left out of the step's contact (checked again after Newton)
 MARGIN_CELLS = 2.
@@ -474,6 +480,9 @@ class StepContact(GridTerm):
                 X0 = (self.problem.points.x0[:, None, idx]
                       + term.R[:, :, idx]).reshape(dim, -1)
                 self.anchor.append((tied, X0))
+        self.resolution = RESOLVED * max(
+            (kappa * tol * safe_norm(area) for kappa, tol, area in zip(
+                term.kappa, term.tol, self.area)), default=0.)
         self.evaluations = WeakKeyDictionary()
 
     def check_passing(self, u: ndarray, H: ndarray) -> None:
@@ -606,10 +615,18 @@ class StepContact(GridTerm):
     def weigh(self, balance, du: ndarray):
         """The residual is measured against the obstacles' force on the
         grid too (the trial's, as :meth:`force` formed it), as against the
-        forces that drive prescribed motion: a body squeezed between
-        obstacles with no load and no held DOF has nothing else to be
-        measured against (every residual was 1.0, and the run failed)."""
-        balance.scale = max(balance.scale, safe_norm(self.pushing))
+        forces that drive prescribed motion, and at least against
+        :data:`RESOLVED` of the force a penetration of the tolerance makes
+        at the step's corners (what the contact resolves): a body squeezed
+        between obstacles
+        with no load and no held DOF has nothing else to be measured
+        against (every residual was 1.0, and the run failed), and a blade
+        that just reaches a plate at a step's end, no force in the
+        answer, had Newton cycle between a trial pressing by round-off and
+        one not pressing (residuals 1.0 and 0.69 of forces of round-off's
+        size)."""
+        balance.scale = max(balance.scale, safe_norm(self.pushing),
+                            self.resolution)
 
     def matrix(self, response):
         if response not in self.evaluations:
