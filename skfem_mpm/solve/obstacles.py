@@ -234,19 +234,29 @@ class Obstacle:
         """Whether each path ``x + t d``, ``t`` from 0 to 1 (positions
         ``x`` and motions ``d`` relative to the obstacle shifted by
         ``shift``, (dim, m)), goes deeper into the obstacle than ``depth``
-        between its ends while neither end does: material carried through
-        it within one step.  A box exactly (its slabs shrunk by
-        ``depth``); a polygon at points along the path no further apart
-        than a quarter of its smaller extent, up to :data:`PATH_SAMPLES`.
+        between its ends while neither end does, in through one face and
+        out through one facing the other way: material carried through it
+        within one step (a path around a corner of the obstacle, from one
+        face to the next, cuts the corner and is not).  A box exactly (its
+        slabs shrunk by ``depth``: in and out along one axis); a polygon
+        at points along the path no further apart than a quarter of its
+        smaller extent, up to :data:`PATH_SAMPLES` (the normals of the
+        faces nearest to the first and the last point inside opposed).
 
         Examples
         --------
         >>> import numpy as np
+        Through a plate, short of it, beside it, and around its corner
+        (from under its bottom face to beside its right one):
+
         >>> plate = Obstacle(box=[[-1., 1.], [0., .05]])
-        >>> x = np.array([[0., 0., 2.], [.3, .3, .3]])
-        >>> d = np.array([[0., 0., 0.], [-.6, -.2, -.6]])
+        >>> x = np.array([[0., 0., 2., .95], [.3, .3, .3, -.01]])
+        >>> d = np.array([[0., 0., 0., .1], [-.6, -.2, -.6, .04]])
         >>> plate.passed_through(x, d, np.zeros(2), 1e-3).tolist()
-        [True, False, False]
+        [True, False, False, False]
+        >>> Obstacle(polygon=plate.outline()).passed_through(
+        ...     x, d, np.zeros(2), 1e-3).tolist()
+        [True, False, False, False]
         """
         x = x - shift[:, None]
         bounds = self.bounds(np.zeros(self.dim))
@@ -265,20 +275,27 @@ class Obstacle:
                 t1, t2 = (low - x) / d, (high - x) / d
             still = d == 0.
             inside = (x > low) & (x < high)
-            first = np.where(still, np.where(inside, -np.inf, np.inf),
-                             np.minimum(t1, t2)).max(axis=0)
-            last = np.where(still, np.where(inside, np.inf, -np.inf),
-                            np.maximum(t1, t2)).min(axis=0)
-            passed[near] = (first < last) & (first > 0.) & (last < 1.)
+            enter = np.where(still, np.where(inside, -np.inf, np.inf),
+                             np.minimum(t1, t2))
+            leave = np.where(still, np.where(inside, np.inf, -np.inf),
+                             np.maximum(t1, t2))
+            first, last = enter.max(axis=0), leave.min(axis=0)
+            passed[near] = (first < last) & (first > 0.) & (last < 1.) & (
+                enter.argmax(axis=0) == leave.argmin(axis=0))
             return passed
         spacing = np.ptp(self.vertices, axis=1).min() / 4
         size = np.sqrt((d ** 2).sum(axis=0)).max()
         count = int(min(max(np.ceil(size / spacing), 1), PATH_SAMPLES))
         ends = [self.signed_distance(x + t * d)[0] < -depth for t in (0, 1)]
-        deep = np.zeros(x.shape[1], dtype=bool)
+        into = np.full(x.shape, np.nan)            # the first normal inside
+        out = np.full(x.shape, np.nan)             # the last
         for t in (np.arange(count) + .5) / count:
-            deep |= self.signed_distance(x + t * d)[0] < -depth
-        passed[near] = deep & ~ends[0] & ~ends[1]
+            phi, normal = self.signed_distance(x + t * d)
+            deep = phi < -depth
+            into = np.where(deep & np.isnan(into[0]), normal, into)
+            out = np.where(deep, normal, out)
+        opposed = (into * out).sum(axis=0) < -.5
+        passed[near] = opposed & ~ends[0] & ~ends[1]
         return passed
 
     def signed_distance(self, x: ndarray, shift: Optional[ndarray] = None):
