@@ -36,7 +36,7 @@ __all__ = ["passes_of", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "18da7b58493c66d3"
+SOURCES = "af978ca8eb0dc643"
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -90,8 +90,8 @@ def add_cell_couplings(patch_start, patch_nodes, b, h_row, h_col, bulk, k,
 @njit(cache=True, error_model="numpy")
 def _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
                          qstart, w, du, start, params, eq0, f, dF, dF_inv,
-                         b_dev, tau, d, vecs, y, dy_dx, yielded, eq, cell,
-                         patch, patch_start, patch_nodes, b, k):
+                         tau, d, vecs, y, dy_dx, yielded, eq, cell, patch,
+                         patch_start, patch_nodes, b, k):
     """The finite-deformation pass with mean dilatation on a grid of
     ``k`` dimensions."""
     literally(k)
@@ -99,7 +99,7 @@ def _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
     pressure = np.zeros(len(theta))
     status = _finite_residual(G, nodes, node_start, node_count, runs, order,
                               qstart, w, du, start, params, eq0, f, dF,
-                              dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
+                              dF_inv, tau, d, vecs, y, dy_dx, yielded,
                               eq, cell, theta, pressure, k)
     add_cell_force(patch_start, patch_nodes, b, pressure, k, f)
     return status
@@ -143,26 +143,26 @@ def _stiffness_bar(G, nodes, node_start, node_count, runs, order, qstart,
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, dF, dF_inv, b_dev, tau,
+                       w, du, start, params, eq0, f, dF, dF_inv, tau,
                        d, vecs, y, dy_dx, yielded, eq, cell, patch,
                        patch_start, patch_nodes, b):
     """``_finite_residual_bar`` on a 2D grid."""
     return _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
                                 qstart, w, du, start, params, eq0, f, dF,
-                                dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
+                                dF_inv, tau, d, vecs, y, dy_dx, yielded,
                                 eq, cell, patch, patch_start, patch_nodes, b,
                                 2)
 
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, dF, dF_inv, b_dev, tau,
+                       w, du, start, params, eq0, f, dF, dF_inv, tau,
                        d, vecs, y, dy_dx, yielded, eq, cell, patch,
                        patch_start, patch_nodes, b):
     """``_finite_residual_bar`` on a 3D grid."""
     return _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
                                 qstart, w, du, start, params, eq0, f, dF,
-                                dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
+                                dF_inv, tau, d, vecs, y, dy_dx, yielded,
                                 eq, cell, patch, patch_start, patch_nodes, b,
                                 3)
 

@@ -74,24 +74,25 @@ def widest(node_count):
 
 @njit(cache=True, error_model="numpy")
 def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
-                     du, start, params, eq0, f, dF, dF_inv, b_dev, tau, d,
-                     vecs, y, dy_dx, yielded, eq, cell, theta, pressure, k):
+                     du, start, params, eq0, f, dF, dF_inv, tau, d, vecs, y,
+                     dy_dx, yielded, eq, cell, theta, pressure, k):
     """Finite deformation (updated Lagrangian, Hencky) on a grid of ``k``
     dimensions: from the grid increment
     ``du`` and ``start = b_n - I`` (3, 3, n), every point's ``dF``,
-    ``dF^-1``, ``b_tr - I``, Kirchhoff stress ``tau`` (3, 3, n), spectral
-    parts (``d``, ``vecs``, ``y = tau_A``, ``dy_dx = dtau_A / dx_B``;
-    of ``dF``, ``dF^-1`` and ``vecs`` only the in-plane blocks in 2D
-    without mean dilatation: the identity out of plane is the caller's),
-    yield flags and equivalent plastic strain ``eq``, and the internal
-    force ``f`` from ``P = tau dF^-T`` (not kept).  With mean dilatation
-    (``cell`` an array, else ``None``; ``m = 3`` components, else ``m =
-    k``) the gradients' divergence is the ``theta`` of the point's
-    ``cell``, and the force takes the deviatoric part of ``P`` against
-    the gradients, its mean, weighted, summed per cell into ``pressure``
-    (the caller adds it against the cell averages).  Returns 0, or 1 where ``det dF <= 0`` (at some
-    point), 2 where ``b_tr`` is not positive definite: then the arrays
-    hold no answer."""
+    ``dF^-1``, Kirchhoff stress ``tau`` (3, 3, n), spectral parts of
+    ``b_tr - I`` (``d``, ``vecs``; not kept itself) and of the stress
+    (``y = tau_A``, ``dy_dx = dtau_A / dx_B``); of ``dF``, ``dF^-1`` and
+    ``vecs`` only the in-plane blocks in 2D without mean dilatation (the
+    identity out of plane is the caller's); yield flags and equivalent
+    plastic strain ``eq``, and the internal force ``f`` from ``P = tau
+    dF^-T`` (not kept).  With mean dilatation (``cell`` an array, else
+    ``None``; ``m = 3`` components, else ``m = k``) the gradients'
+    divergence is the ``theta`` of the point's ``cell``, and the force
+    takes the deviatoric part of ``P`` against the gradients, its mean,
+    weighted, summed per cell into ``pressure`` (the caller adds it
+    against the cell averages).  Returns 0, or 1 where ``det dF <= 0``
+    (at some point), 2 where ``b_tr`` is not positive definite: then the
+    arrays hold no answer."""
     literally(k)
     m = k if cell is None else 3
     nmax = widest(node_count)
@@ -180,7 +181,6 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                         s += tp[A] * v[a, A] * v[c, A]
                     t[a, c] = s
                     tau[a, c, p] = s
-                    b_dev[a, c, p] = b[a, c]
                 d[a, p] = x[a]
             # dF, dF^-1 and the frame: in 2D without mean dilatation only
             # their in-plane blocks (the caller's arrays hold I out of
@@ -344,24 +344,24 @@ def _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, dF, dF_inv, b_dev,
-                       tau, d, vecs, y, dy_dx, yielded, eq):
+                       w, du, start, params, eq0, f, dF, dF_inv, tau, d,
+                       vecs, y, dy_dx, yielded, eq):
     """The finite-deformation pass on a 2D grid (``_finite_residual``)."""
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
                             qstart, w, du, start, params, eq0, f, dF,
-                            dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
-                            eq, None, None, None, 2)
+                            dF_inv, tau, d, vecs, y, dy_dx, yielded, eq,
+                            None, None, None, 2)
 
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, dF, dF_inv, b_dev,
-                       tau, d, vecs, y, dy_dx, yielded, eq):
+                       w, du, start, params, eq0, f, dF, dF_inv, tau, d,
+                       vecs, y, dy_dx, yielded, eq):
     """The finite-deformation pass on a 3D grid (``_finite_residual``)."""
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
                             qstart, w, du, start, params, eq0, f, dF,
-                            dF_inv, b_dev, tau, d, vecs, y, dy_dx, yielded,
-                            eq, None, None, None, 3)
+                            dF_inv, tau, d, vecs, y, dy_dx, yielded, eq,
+                            None, None, None, 3)
 
 
 @njit(cache=True, error_model="numpy")

@@ -286,13 +286,13 @@ class CompiledPasses:
         :meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.response`)."""
         (finite, _, assemble), layout, cells, m = self._layout(op)
         n = points.n
-        b_dev, tau, yielded, spectral = kinematics._workspace(n, m)
+        tau, yielded, spectral = kinematics._workspace(n, m, False)[1:]
         dF, dF_inv = self._increment_arrays(n, m)
         f, eq = np.zeros(op.N), np.empty((2, n))
         status = finite(
             *layout.groups, contiguous(points.volume0), contiguous(du),
             self._start_deviation(points), self.params,
-            self._state(points), f, dF, dF_inv, b_dev, tau, spectral.d,
+            self._state(points), f, dF, dF_inv, tau, spectral.d,
             spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq,
             *(() if cells is None else cells.cells))
         if status:      # a point inverts: the numpy path's error
@@ -312,10 +312,12 @@ class CompiledPasses:
                 self.dim, self.params, spectral.d, spectral.vecs,
                 self._state(old), dF, contiguous(old.F), F, J, b_e, strain)
             return F, J, b_e, strain
+
         def P():            # read by no step: formed when asked for
             return np.einsum("abp,ebp->aep", tau[:m, :m], dF_inv[:m, :m])
         return kinematics.trial_response(
-            points, dF, dF_inv, P, state, m, converged, force=f.copy,
+            points, dF, dF_inv, P, state, m, converged=converged,
+            force=f.copy,
             stiffness=self._stiffness(
                 assemble, layout, cells, self.passes.FINITE_TANGENT,
                 points.volume0, no_C,

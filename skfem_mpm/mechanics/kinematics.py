@@ -260,23 +260,26 @@ class FiniteStrain:
         self._start = (None, None)
         self._start_inverse = (None, None)
 
-    def _workspace(self, n: int, k: int):
-        """Arrays reused by every Newton iteration (memory): ``b_tr - I``,
-        tau, the yielded flags and the
+    def _workspace(self, n: int, k: int, deviation: bool = True):
+        """Arrays reused by every Newton iteration (memory): ``b_tr - I``
+        (with ``deviation``: the numpy path's; the compiled passes keep
+        none), tau, the yielded flags and the
         :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the points.
         The tangent is not among them: it lives only while the stiffness
         is assembled, so that the factorisation (the peak of an iteration)
         runs without it (648 bytes a point in 3D).  The frames' out of
         plane part is the identity (that of every 2D frame, which the
         compiled 2D pass then leaves)."""
-        if self._buffers is None or self._buffers[0].shape[-1] != n \
+        if self._buffers is None or self._buffers[1].shape[-1] != n \
                 or self._buffers[3].tau.shape[0] != k:
-            self._buffers = (np.empty((3, 3, n)), np.empty((3, 3, n)),
+            self._buffers = (None, np.empty((3, 3, n)),
                              np.empty(n, dtype=bool),
                              SpectralParts(np.empty((3, n)),
                                            identity_out_of_plane(n),
                                            np.empty((k, n)),
                                            np.empty((k, k, n))))
+        if deviation and self._buffers[0] is None:
+            self._buffers = (np.empty((3, 3, n)),) + self._buffers[1:]
         return self._buffers
 
     def start_deviation(self, points) -> ndarray:
@@ -336,21 +339,23 @@ class FiniteStrain:
                 state.setdefault(name, np.empty(points.n))[block] = value
         self.counters["return_maps"] += self.plastic
         P = np.einsum("abp,ebp->aep", tau[:k, :k], dF_inv[:k, :k])
-        return self.trial_response(points, dF, dF_inv, P, state, k)
+        return self.trial_response(points, dF, dF_inv, P, state, k, b_dev)
 
     def trial_response(self, points, dF: ndarray, dF_inv: ndarray,
                        P, state: dict, k: int,
+                       b_dev: Optional[ndarray] = None,
                        converged: Optional[Callable] = None,
                        **fused) -> Response:
-        """The response of a trial whose ``b_tr - I``, Kirchhoff stress,
-        yield flags and spectral parts are in the workspace, with ``dF``,
-        its inverse (3, 3, n), ``P`` (k, k, n) and the new internal
-        variables ``state`` (``P`` a function forming it, for a compiled
-        response); ``converged(old)``: the compiled ``(F, det F,
-        b_e, eps_e)`` of the commit; ``fused``: the compiled ``force`` and
-        ``stiffness``."""
+        """The response of a trial whose Kirchhoff stress, yield flags and
+        spectral parts are in the workspace, with ``dF``, its inverse
+        (3, 3, n), ``P`` (k, k, n) and the new internal variables
+        ``state`` (``P`` a function forming it, for a compiled response);
+        ``b_dev``: ``b_tr - I`` (3, 3, n), or ``None`` (compiled) where
+        the tangent forms it from the spectral parts; ``converged(old)``:
+        the compiled ``(F, det F, b_e, eps_e)`` of the commit; ``fused``:
+        the compiled ``force`` and ``stiffness``."""
         dim = self.dim
-        b_dev, tau, yielded, spectral = self._workspace(points.n, k)
+        tau, yielded, spectral = self._workspace(points.n, k, False)[1:]
         eye = np.eye(3)[:, :, None]
 
         def tangent_of(idx):
@@ -360,9 +365,10 @@ class FiniteStrain:
             def at(field):        # points last and contiguous (einsum)
                 return field[..., idx] if isinstance(idx, slice) \
                     else np.take(field, idx, axis=-1)
-            t = at(tau)
-            A = spatial_tangent(SpectralParts(*map(at, spectral)).derivative(),
-                                at(b_dev) + eye, t)
+            t, parts = at(tau), SpectralParts(*map(at, spectral))
+            b = np.einsum("Ap,aAp,bAp->abp", parts.d, parts.vecs,
+                          parts.vecs) if b_dev is None else at(b_dev)
+            A = spatial_tangent(parts.derivative(), b + eye, t)
             return pull_back(t, A, at(dF_inv), k)[1]
 
         def tangent():
