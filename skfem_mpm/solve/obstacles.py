@@ -245,10 +245,10 @@ class Obstacle:
 
         Examples
         --------
-        >>> import numpy as np
         Through a plate, short of it, beside it, and around its corner
         (from under its bottom face to beside its right one):
 
+        >>> import numpy as np
         >>> plate = Obstacle(box=[[-1., 1.], [0., .05]])
         >>> x = np.array([[0., 0., 2., .95], [.3, .3, .3, -.01]])
         >>> d = np.array([[0., 0., 0., .1], [-.6, -.2, -.6, .04]])
