@@ -190,12 +190,20 @@ class GhostStabilisation(GridTerm):
         The run's obstacles, where a step whose points' domains reach
         into a cell inside one switches the penalty on (GIMP's domains;
         a B-spline's support reaches the cells beside its body anyway).
+    field_cells
+        With contacts between bodies, the cells of each body's field (the
+        grid's): a cell that only domains reach takes the modulus of the
+        stiffest point of its own field, not of every body (GIMP's pile,
+        80 times stiffer than its von Mises soil, settled 2.44 mm where
+        MPM's settles 7.7 and a rigid obstacle needs 7.4: the soil's
+        field's penalty had the pile's modulus; now 7.75 mm).
     """
 
     def __init__(self, mesh, elem, gamma: float, material,
-                 active: bool = True, obstacles=()):
+                 active: bool = True, obstacles=(), field_cells=None):
         self.mesh, self.elem, self.gamma = mesh, elem, gamma
         self.material, self.active = material, active
+        self.field_cells = field_cells
         self.obstacles = obstacles
         self._cell_volume = None
         self.G = None
@@ -265,7 +273,7 @@ class GhostStabilisation(GridTerm):
         and stiffness of each cell from the points it holds; a cell that
         the step's operator makes active without holding a point (a GIMP
         domain reaching into it) counts as cut, with the largest stiffness
-        of the points."""
+        of the points (of its field's points, :attr:`field_cells`)."""
         cells = op.point_elements
         n = self.mesh.nelements
         filled = np.bincount(cells, points.volume, n)
@@ -277,5 +285,11 @@ class GhostStabilisation(GridTerm):
         reached[op.elements] = True
         reached &= fill == 0
         fill[reached] = np.finfo(float).eps        # active, nearly empty
-        mu[reached] = mu_points.max()
+        if self.field_cells is None:
+            mu[reached] = mu_points.max()
+        else:                 # the stiffest point of the cell's own field
+            stiffest = np.zeros(n // self.field_cells)
+            np.maximum.at(stiffest, cells // self.field_cells, mu_points)
+            mu[reached] = stiffest[np.flatnonzero(reached)
+                                   // self.field_cells]
         return ghost_penalty(self.mesh, self.elem, fill, mu, self.gamma)
