@@ -437,11 +437,15 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
     kinds = {}                  # created on first use: see pardiso_solver
     analysed = {True: {}, False: {}}
     indefinite = {}             # the pattern of a matrix that was not SPD
-    factorised = {}             # per matrix type, the matrix factorised last
+    # per matrix type, a token of the factorisation made last (not the
+    # matrix, which lives as long as a solve of it: the 3D block of
+    # benchmarks/compiled_cost.py peaked at 3886 bytes a point, 3960 with
+    # the matrix kept here)
+    factorised = {}
 
     def factor(A, definite):
         """Analyse (for a new pattern) and factorise: ``(the Pardiso
-        object, the matrix it factorised)``."""
+        object, the matrix it factorised, the factorisation's token)``."""
         if definite not in kinds:
             kinds[definite] = pardiso_solver(2 if definite else 11)
         pardiso, seen = kinds[definite], analysed[definite]
@@ -474,14 +478,15 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
                 "Pardiso failed with error {} on {} free DOFs: the "
                 "stiffness is singular".format(err.value,
                                                matrix.shape[0])) from err
-        factorised[pardiso.mtype] = matrix
-        return pardiso, matrix
+        token = object()
+        factorised[pardiso.mtype] = token
+        return pardiso, matrix, token
 
     def factorise(A, **kwargs):
         definite = spd and is_symmetric(A)
         if definite and indefinite:           # failed before on this pattern
             definite = not same_pattern(upper_triangle(A), indefinite)
-        pardiso, matrix = factor(A, definite)
+        pardiso, matrix, token = factor(A, definite)
         perturbed = int(pardiso.iparm[13])
         if perturbed:
             # a zero pivot replaced by a small one: Pardiso's answer to a
@@ -499,7 +504,7 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
         def solve(b):
             if superlu:
                 return superlu["solve"](b)
-            if factorised.get(pardiso.mtype) is not matrix:
+            if factorised.get(pardiso.mtype) is not token:
                 # another matrix of this kind was factorised since
                 return factorise(A)(b)
             pardiso.set_phase(33)        # forward and back substitution
