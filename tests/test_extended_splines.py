@@ -81,7 +81,8 @@ def test_the_same_cantilever_fails_without_the_extension():
 
 def test_extended_splines_are_refused_where_they_cannot_serve():
     """Other methods have no splines to extend; contacts between bodies
-    would need an extension per field: refused before any work."""
+    would need an extension per field; a ghost penalty would act on
+    folded nodes: refused before any work."""
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
     points = seed_points(mesh, 2, region=lambda x: x[1] < .5)
     extended = Options(stabilisation=Stabilisation(extended_splines=True))
@@ -89,6 +90,21 @@ def test_extended_splines_are_refused_where_they_cannot_serve():
             lambda b: b.get_dofs(lambda x: x[1] == 0))
     with pytest.raises(InvalidInputError, match="method 'mpm' has none"):
         simulate(*args, body_force=[0., -1.], options=extended)
+    # the ghost penalty is assembled on the grid's nodes, which the
+    # extension folds: refused, and "auto" holds none in reserve
+    with pytest.raises(InvalidInputError, match="with a ghost penalty"):
+        simulate(*args, body_force=[0., -1.], method="bspline",
+                 options=Options(stabilisation=Stabilisation(
+                     ghost=.1, extended_splines=True)))
+    assert not extended.stabilisation.ghost_in_reserve("bspline")
+    from skfem_mpm import Contact, concatenate_points
+    top = seed_points(mesh, 2, region=lambda x: (x[1] > .5) & (x[1] < .75))
+    top.body[:] = 1
+    with pytest.raises(InvalidInputError, match="contacts between bodies"):
+        simulate(mesh, ElementQuad1(), concatenate_points([points, top]),
+                 LinearElastic(1e3, .3), args[-1], body_force=[0., -1.],
+                 method="bspline", contacts=[Contact(0, 1)],
+                 options=extended)
     with pytest.raises(InvalidInputError, match="extended_splines must be"):
         Stabilisation(extended_splines=1)
 

@@ -876,6 +876,14 @@ def check_combination(method: str, kinematics: str, plastic: bool,
         raise InvalidInputError(
             "extended_splines extends B-splines (methods 'bspline', "
             "'bspline-gimp'); method {!r} has none".format(method))
+    if stabilisation.extended_splines and stabilisation.ghost_factor() > 0:
+        raise InvalidInputError(
+            "extended_splines with a ghost penalty (ghost={}) is refused: "
+            "the penalty is assembled on the grid's nodes, which the "
+            "extension folds into others (a falling block's points moved "
+            "apart by 5e-4 of its fall); the extension holds the nodes the "
+            "penalty would, leave ghost at 'auto' or 0".format(
+                stabilisation.ghost))
 
 
 def check_body_force(body_force, points: MaterialPoints, dim: int):

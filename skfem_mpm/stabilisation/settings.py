@@ -51,8 +51,11 @@ class Stabilisation:
         no node is held by a sliver and none drops out of a step as the
         material moves off it: a bending beam converges without the ghost
         penalty, a footing's pressure has no jump where the surface leaves
-        a row of nodes.  Refused with other methods and with contacts
-        between bodies.
+        a row of nodes.  Refused with other methods, with contacts
+        between bodies and with a ghost penalty (``ghost`` a number: it
+        is assembled on the grid's nodes, which the extension folds, and
+        moved a falling block's points apart); ``ghost="auto"`` then
+        holds none in reserve.
 
     >>> Stabilisation(ghost=.1).antilocking
     False
@@ -85,7 +88,9 @@ class Stabilisation:
 
     def ghost_in_reserve(self, method: str) -> bool:
         """``ghost="auto"`` holds the default penalty in reserve where
-        points move (not ``"fem"``): switched on for the rest of the run
-        by a step that fails in finite deformation, or that moves grid
-        nodes absurdly in small strain."""
-        return isinstance(self.ghost, str) and method != "fem"
+        points move (not ``"fem"``) and the splines are not extended (the
+        extension holds what the penalty would): switched on for the rest
+        of the run by a step that fails in finite deformation, or that
+        moves grid nodes absurdly in small strain."""
+        return isinstance(self.ghost, str) and method != "fem" \
+            and not self.extended_splines
