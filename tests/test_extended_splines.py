@@ -32,9 +32,8 @@ def body_on_grid(dim, seed):
 def test_extended_operator_keeps_partition_of_unity_and_linear_fields(
         dim, seed):
     """``S E``: weights summing to 1 and linear fields reproduced, values
-    and gradients, to round-off; the outer nodes carry no weight, and
-    every node left is inner or at a grid end; the patterns of S E and
-    G E are one."""
+    and gradients, to round-off; the folded nodes carry no weight; the
+    patterns of S E and G E are one."""
     mesh, elem, x, volume = body_on_grid(dim, seed)
     spline = QuadraticBSpline(mesh, elem)
     op = spline(x)

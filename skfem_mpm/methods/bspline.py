@@ -314,8 +314,13 @@ class QuadraticBSpline:
         filled span, so no node is held by a sliver (the ghost penalty's
         task) and none leaves the step when the material moves off its
         support.  A node at a grid's end along an axis is extrapolated
-        from arrays on its end line only (a roller's or a clamp's
-        neighbours hold it as it was held).  An outer node with
+        from arrays on its end line where there are any (a roller's or a
+        clamp's neighbours hold it as it was held).  Each point's volume
+        fills the knot span its centre lies in (``np.rint``: a point on a
+        span's edge, the middle one of 3 a cell, falls on one side, and a
+        symmetric body can fold asymmetrically; spreading the volume over
+        the spans its box overlaps, tried, made Prandtl's footing's
+        largest change between steps 4.8% and 4.4% for 3.0%).  An outer node with
         no inner array within :data:`EXTENSION_REACH` nodes stays a
         degree of freedom.
 
@@ -366,19 +371,24 @@ class QuadraticBSpline:
                                  for d in range(dim))]
         end = (at == 0) | (at == shape[:, None] - 1)       # (dim, m)
         # each candidate array (its first node at an offset from the
-        # outer node's), where it is whole (and, for a node at a grid end
-        # along an axis, on its end line), and its centre's distance
+        # outer node's), where it is whole, where it lies on the end lines
+        # of a node at a grid end (preferred: a held node folds into held
+        # ones), and its centre's distance
         candidates = []
+        lined = np.zeros(outer.size, dtype=bool)   # an array on its lines
         for offset in (np.indices((2 * EXTENSION_REACH,) * dim).reshape(
                 dim, -1) - EXTENSION_REACH).T:
             first = at + offset[:, None]
-            ok = ((first >= 0) & (first < shape[:, None] - 1)
-                  & (~end | ((offset[:, None] >= -1)
-                             & (offset[:, None] <= 0)))).all(axis=0)
+            ok = ((first >= 0) & (first < shape[:, None] - 1)).all(axis=0)
             ok[ok] = whole[tuple(first[:, ok])]
+            on_lines = ok & (~end | ((offset[:, None] >= -1)
+                                     & (offset[:, None] <= 0))).all(axis=0)
+            lined |= on_lines
             if ok.any():
-                candidates.append((first, ok, ((first + .5 - at) ** 2).sum(
-                    axis=0)))
+                candidates.append((first, ok, on_lines, (
+                    (first + .5 - at) ** 2).sum(axis=0)))
+        candidates = [(first, np.where(lined, on_lines, ok), distance)
+                      for first, ok, on_lines, distance in candidates]
         nearest = np.full(outer.size, np.inf)
         for first, ok, distance in candidates:
             nearest[ok] = np.minimum(nearest[ok], distance[ok])
