@@ -190,3 +190,24 @@ def test_extended_splines_from_a_scene_file(tmp_path, capsys):
         "VALUE", "true"))
     assert main(["run", str(scene), "--out", str(tmp_path / "q")]) == 2
     assert "method 'mpm' has none" in capsys.readouterr().err
+
+
+def test_nodes_at_free_grid_ends_are_folded_too():
+    """A body 0.3 short of the grid's free ends (x = 0, 2 and y = 2): the
+    nodes on those lines carry its splines' weight without a filled knot
+    span, and no inner node lies on their lines to fold them into; they
+    are folded into the nearest whole arrays inside (before, they stayed
+    degrees of freedom held by slivers: no node folded at all)."""
+    from skfem_mpm.methods.method import folded_nodes
+    axis = np.linspace(0., 2., 9)
+    mesh = MeshQuad.init_tensor(axis, axis)
+    points = seed_points(mesh, 2, region=lambda x: (x[0] > .3)
+                         & (x[0] < 1.7) & (x[1] < 1.75))
+    spline = QuadraticBSpline(mesh, ElementQuad1())
+    op = spline(points.x)
+    touched = np.zeros(op.S.shape[1], dtype=bool)
+    touched[op.S.indices] = True
+    folded = folded_nodes(spline.extension(points.x, points.volume, touched))
+    ends = (mesh.p[0] == 0.) | (mesh.p[0] == 2.) | (mesh.p[1] == 2.)
+    assert (touched & ends).sum() > 10
+    assert np.isin(np.flatnonzero(touched & ends), folded).all()
