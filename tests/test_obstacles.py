@@ -688,6 +688,31 @@ def test_material_carried_through_a_thin_obstacle_is_cut_back():
     assert (res.points.x[1] - plate.x[1]).min() < -.2
 
 
+def test_a_path_through_a_tilted_thin_plate_is_found():
+    """A plate 0.05 thick tilted 30 degrees as a polygon: straight paths
+    through it of 0.15 to 1.2 are found (a quarter of its bounding box
+    apart, the samples of before stepped over it: none was), a path
+    sliding along its surface within the tolerance and one around its end
+    are not."""
+    c, s = np.cos(np.pi / 6), np.sin(np.pi / 6)
+    turn = np.array([[c, -s], [s, c]])
+    plate = Obstacle(polygon=(turn @ np.array(
+        [[-1., 1., 1., -1.], [-.025, -.025, .025, .025]])).T)
+    normal, along = turn[:, 1], turn[:, 0]
+    lengths = np.array([.15, .3, .6, 1.2])
+    through = plate.passed_through(-normal[:, None] * lengths / 2,
+                                   normal[:, None] * lengths, np.zeros(2),
+                                   1e-3)
+    assert through.all()
+    above = normal * (.025 + 1e-4)
+    sliding = plate.passed_through((above - .3 * along)[:, None],
+                                   .6 * along[:, None], np.zeros(2), 1e-3)
+    around = plate.passed_through((above + .9 * along)[:, None],
+                                  (.3 * along - 2 * above)[:, None],
+                                  np.zeros(2), 1e-3)
+    assert not sliding.any() and not around.any()
+
+
 def pushed_plate(mesh, height, blade, nsteps):
     """A plate across the grid between ``height`` (lo, hi), clamped at the
     grid's sides, pushed by the obstacle ``blade`` in ``nsteps`` load

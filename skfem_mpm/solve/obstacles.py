@@ -239,9 +239,9 @@ class Obstacle:
         within one step (a path around a corner of the obstacle, from one
         face to the next, cuts the corner and is not).  A box exactly (its
         slabs shrunk by ``depth``: in and out along one axis); a polygon
-        at points along the path no further apart than a quarter of its
-        smaller extent, up to :data:`PATH_SAMPLES` (the normals of the
-        faces nearest to the first and the last point inside opposed).
+        exactly too (the first and the last edge the path crosses facing
+        opposite ways, the path's middle between them deeper than
+        ``depth``).
 
         Examples
         --------
@@ -283,19 +283,20 @@ class Obstacle:
             passed[near] = (first < last) & (first > 0.) & (last < 1.) & (
                 enter.argmax(axis=0) == leave.argmin(axis=0))
             return passed
-        spacing = np.ptp(self.vertices, axis=1).min() / 4
-        size = np.sqrt((d ** 2).sum(axis=0)).max()
-        count = int(min(max(np.ceil(size / spacing), 1), PATH_SAMPLES))
-        ends = [self.signed_distance(x + t * d)[0] < -depth for t in (0, 1)]
-        into = np.full(x.shape, np.nan)            # the first normal inside
-        out = np.full(x.shape, np.nan)             # the last
-        for t in (np.arange(count) + .5) / count:
-            phi, normal = self.signed_distance(x + t * d)
-            deep = phi < -depth
-            into = np.where(deep & np.isnan(into[0]), normal, into)
-            out = np.where(deep, normal, out)
-        opposed = (into * out).sum(axis=0) < -.5
-        passed[near] = opposed & ~ends[0] & ~ends[1]
+        first, last = _by_blocks(lambda y: _edges_crossed(
+            self.vertices, y[:2], y[2:]), np.vstack((x, d)),
+            self.vertices.shape[1])
+        a, n, _, _ = self.faces()
+        crossed = np.flatnonzero(np.isfinite(first[0]))
+        opposed = (n[:, first[1, crossed].astype(int)]
+                   * n[:, last[1, crossed].astype(int)]).sum(axis=0) < -.5
+        crossed = crossed[opposed]
+        middle = x[:, crossed] + .5 * (first[0, crossed]
+                                       + last[0, crossed]) * d[:, crossed]
+        deep = self.signed_distance(middle)[0] < -depth
+        ends = [self.signed_distance(x[:, crossed] + t * d[:, crossed])[0]
+                < -depth for t in (0, 1)]
+        passed[near[crossed[deep & ~ends[0] & ~ends[1]]]] = True
         return passed
 
     def signed_distance(self, x: ndarray, shift: Optional[ndarray] = None):
@@ -310,10 +311,6 @@ class Obstacle:
         return _by_blocks(lambda y: _polygon_distance(self.vertices, y), x,
                           self.vertices.shape[1])
 
-
-#: the most points along a path :meth:`Obstacle.passed_through` looks at
-#: in a polygon
-PATH_SAMPLES = 64
 
 #: positions x faces per block of a polygon's distance computations
 BLOCK = 1 << 21
@@ -367,6 +364,27 @@ def _segments_cross(a, b, c, d) -> ndarray:
     d1, d2 = _cross(b - a, c - a), _cross(b - a, d - a)
     d3, d4 = _cross(d - c, a - c), _cross(d - c, b - c)
     return (d1 * d2 < 0) & (d3 * d4 < 0)
+
+
+def _edges_crossed(v: ndarray, x: ndarray, d: ndarray):
+    """For each path ``x + t d`` (t in [0, 1], columns) the first and the
+    last crossing of the polygon's edges ``v`` (2, k): ``(t, edge)`` rows
+    (2, m) each, ``inf`` / ``-inf`` where it crosses none."""
+    a = v[:, :, None]                                   # (2, k, 1)
+    e = np.roll(v, -1, axis=1)[:, :, None] - a
+    r = d[:, None, :]                                   # (2, 1, m)
+    rel = a - x[:, None, :]                             # (2, k, m)
+    denominator = _cross(r, e)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = _cross(rel, e) / denominator
+        u = _cross(rel, r) / denominator
+    hit = (denominator != 0) & (t > 0) & (t < 1) & (u >= 0) & (u <= 1)
+    t_in = np.where(hit, t, np.inf)
+    t_out = np.where(hit, t, -np.inf)
+    cols = np.arange(x.shape[1])
+    into, out = np.argmin(t_in, axis=0), np.argmax(t_out, axis=0)
+    return (np.array([t_in[into, cols], into]),
+            np.array([t_out[out, cols], out]))
 
 
 def _box_distance(box: ndarray, x: ndarray):
