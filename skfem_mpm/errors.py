@@ -125,8 +125,8 @@ class ContactError(ConvergenceError):
 class StepTooLongError(ContactError):
     """A load step moved bodies in contact into each other farther than
     its contact looks (pairs cells deep at its end that were apart at its
-    start): cut back, without the retry ladder's rungs (only a shorter
-    step helps)."""
+    start), or carried material through an obstacle: cut back, without
+    the retry ladder's rungs (only a shorter step helps)."""
 
 
 class StepFailedError(ConvergenceError):

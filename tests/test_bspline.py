@@ -721,3 +721,27 @@ def test_slivers_are_folded_into_their_neighbours(monkeypatch):
                  lambda b: b.get_dofs(lambda x: x[1] == 0), nsteps=2,
                  body_force=[0., -20.], method="bspline-gimp",
                  options=Options(stabilisation=Stabilisation(ghost=0.)))
+
+
+def test_a_sheared_domain_s_face_averages_along_the_face():
+    """``"bspline-gimp"``'s weights at the centre of a point's top face
+    average the splines over the face (flat along y), also where the
+    domain is sheared so that the centre lies further along x than half
+    the domain (a shear of 0.5): a uniform traction's weights are those
+    of the face's x-extent there, not of the splines at the centre (the
+    offset's test zeroed both axes at this shear, a reviewer's finding)."""
+    from skfem_mpm.methods.method import BSplineMethod
+    axis = np.linspace(0., 2., 9)
+    mesh = MeshQuad.init_tensor(axis, axis)
+    method = BSplineMethod("bspline-gimp", mesh, ElementQuad1(), None, None,
+                           None, {})
+    domain = np.array([[.0606], [.0682]])
+    centre = np.array([[1.1], [1.1]])
+    face = centre + np.array([[.0312], [.0625]])    # F = [[1, .5], [0, 1]]
+    method._boxes = (centre, domain)
+    weights = method.weights_at(face, np.array([0]), axis=1).S.toarray()
+    flat = QuadraticBSpline(mesh, ElementQuad1())(
+        face, np.array([[.0606], [0.]])).S.toarray()
+    point = QuadraticBSpline(mesh, ElementQuad1())(face).S.toarray()
+    assert np.allclose(weights, flat, rtol=0, atol=1e-15)
+    assert np.abs(weights - point).max() > 1e-5

@@ -182,9 +182,7 @@ class FieldMethod:
         return self.piece.domains(domain0, F)
 
     def check_supports(self, op, fixed, nodal_dofs, step: int):
-        """The piece's check (contacts between bodies refuse B-splines:
-        the pieces here are GIMP's, whose DOFs are the field's values at
-        the nodes, nothing to refuse)."""
+        """The piece's check, on each field's copy of the grid."""
         self.piece.check_supports(op, fixed, nodal_dofs, step)
 
     def operator(self, points, step: int, timings: dict):
@@ -199,12 +197,14 @@ class FieldMethod:
         timings["assemble"] += time.perf_counter() - tic
         return op
 
-    def _weights_at(self, x: ndarray, idx: ndarray) -> SparseOperator:
+    def _weights_at(self, x: ndarray, idx: ndarray,
+                    axis: int = None) -> SparseOperator:
         """The method's weights at positions ``x`` (dim, m) on the fields
-        of points ``idx`` (m,)."""
+        of points ``idx`` (m,): their domains' corners, or with ``axis``
+        the centres of their faces normal to it."""
         field = self.fields.field[idx]
         return self.fields.combine(
             ((np.flatnonzero(field == k), self.piece.weights_at(
-                x[:, field == k], idx[field == k])
+                x[:, field == k], idx[field == k], axis)
               if (field == k).any() else None)
              for k in range(self.fields.count)), x.shape[1])

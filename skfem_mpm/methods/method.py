@@ -185,20 +185,24 @@ class BSplineMethod(PointMethod):
                 "evaluates the splines at the points")
         return self.spline(x, domain)
 
-    def weights_at(self, x: ndarray, idx: ndarray = None):
+    def weights_at(self, x: ndarray, idx: ndarray = None,
+                   axis: int = None):
         """The splines' operator at positions ``x`` (dim, m) of points
-        ``idx``: where surface loads act (their faces' centres), so a
-        traction loads the nodes the method's displacement field is made
-        of, and at the corners of domains (contacts between bodies).
-        With ``"bspline-gimp"`` averaged over the part of the point's
-        domain in the step's operator that ``x`` lies on: flat along the
-        axes ``x`` is offset along from the point (a face's centre: its
-        face; a corner: the splines there)."""
-        if not self.averaged or idx is None or self._boxes is None:
+        ``idx``: at the centres of their faces normal to ``axis``, where
+        surface loads act, so a traction loads the nodes the method's
+        displacement field is made of, or (``axis`` None) at the corners
+        of their domains (contacts between bodies).  With
+        ``"bspline-gimp"`` a face's centre takes the average over the face
+        of the point's domain in the step's operator (flat along ``axis``:
+        a sheared domain's face centre is offset along the other axes too,
+        by more than half the domain at a shear of 0.5); a corner takes
+        the splines there."""
+        if axis is None or not self.averaged or idx is None or \
+                self._boxes is None:
             op = self.spline(x)
         else:
-            centre, domain = (a[:, idx] for a in self._boxes)
-            face = np.where(np.abs(x - centre) > domain / 2, 0., domain)
+            face = self._boxes[1][:, idx].copy()
+            face[axis] = 0.
             op = self.spline(x, face)
         E = self._extension
         return op if E is None else extended_operator(op, E)

@@ -285,8 +285,8 @@ class BodyContact(GridTerm):
         ``contact_updates`` counts the augmented-Lagrangian updates.
     weights
         ``weights(x, idx) -> operator``: the method's weights on the
-        fields at positions ``x`` of points ``idx`` (B-splines), or
-        ``None``: the grid element's.
+        fields at the domain corners ``x`` of points ``idx`` (B-splines),
+        or ``None``: the grid element's.
     cells
         The cells of one field (the grid's).
     """

@@ -190,9 +190,9 @@ class ExternalLoads:
         factor (default), or (``False``) acts in full from the first step
         (a geostatic initial stress balances it).
     weights
-        ``weights(x, idx) -> operator``: the method's own weights of grid
-        nodes at positions ``x`` (dim, m) of faces of points ``idx``, for
-        the faces of surface loads, where
+        ``weights(x, idx, axis) -> operator``: the method's own weights of
+        grid nodes at the centres ``x`` (dim, m) of the faces normal to
+        ``axis`` of points ``idx``, for the faces of surface loads, where
         the method's displacement field is not the grid element's (B-spline
         MPM); ``None``: the grid element's shape functions.
 
@@ -379,7 +379,7 @@ class ExternalLoads:
             offset[axis] = d0
         centre = points.x[:, idx] + sign * offset
         if self.weights is not None:     # the method's field, not the grid's
-            face = self.weights(centre, idx)
+            face = self.weights(centre, idx, axis)
             face.area = area
             return face
         cells = op.point_elements[idx]
