@@ -298,7 +298,8 @@ class QuadraticBSpline:
         return SparseOperator(matrix(S), [matrix(g) for g in G],
                               self.grid._elements(spans))
 
-    def extension(self, x: ndarray, volume: ndarray, touched: ndarray):
+    def extension(self, x: ndarray, volume: ndarray, touched: ndarray,
+                  held: ndarray = None):
         """The extension of the splines (Höllig, Reif and Wipper 2001): the
         matrix ``E`` (N, N) with which ``S E`` is the operator of the
         extended B-splines, or ``None`` where every spline is inner.
@@ -315,7 +316,9 @@ class QuadraticBSpline:
         task) and none leaves the step when the material moves off its
         support.  A node at a grid's end along an axis is extrapolated
         from arrays on its end line where there are any (a roller's or a
-        clamp's neighbours hold it as it was held).  Each point's volume
+        clamp's neighbours hold it as it was held); a ``held`` one only
+        from those, else it stays a degree of freedom (a clamp whose end
+        line has no inner node left as a beam bends).  Each point's volume
         fills the knot span its centre lies in (``np.rint``: a point on a
         span's edge, the middle one of 3 a cell, falls on one side, and a
         symmetric body can fold asymmetrically; spreading the volume over
@@ -332,6 +335,8 @@ class QuadraticBSpline:
             Their volumes (n,).
         touched
             Which scalar DOFs the points' splines carry weight on (N,).
+        held
+            Which scalar DOFs' nodes a support holds (N,), or ``None``.
 
         Examples
         --------
@@ -387,7 +392,10 @@ class QuadraticBSpline:
             if ok.any():
                 candidates.append((first, ok, on_lines, (
                     (first + .5 - at) ** 2).sum(axis=0)))
-        candidates = [(first, np.where(lined, on_lines, ok), distance)
+        strict = end.any(axis=0) & (False if held is None
+                                    else held[self.node_dof[outer]])
+        candidates = [(first, np.where(lined | strict, on_lines, ok),
+                       distance)
                       for first, ok, on_lines, distance in candidates]
         nearest = np.full(outer.size, np.inf)
         for first, ok, distance in candidates:

@@ -139,12 +139,12 @@ class BSplineMethod(PointMethod):
     point."""
 
     def __init__(self, name, mesh, scalar, scalar_dofs, pattern, locate,
-                 counters, extended: bool = False):
+                 counters, extended: bool = False, held: ndarray = None):
         super().__init__(name, mesh, scalar, scalar_dofs, pattern, locate,
                          counters)
         self.spline = QuadraticBSpline(mesh, scalar)
         self.averaged = name == "bspline-gimp"
-        self.extended = extended
+        self.extended, self.held = extended, held
         self._extension = None      # the step's extension (extended splines)
         self._boxes = None          # the step's points' centres and domains
         self._lattice = None        # nodes' grid indices, and inverse
@@ -164,7 +164,7 @@ class BSplineMethod(PointMethod):
             touched = np.zeros(op.S.shape[1], dtype=bool)
             touched[op.S.indices] = True
             self._extension = E = self.spline.extension(
-                points.x, points.volume, touched)
+                points.x, points.volume, touched, self.held)
             if E is not None:
                 op = extended_operator(op, E)
         op.point_elements = location[0]
@@ -370,7 +370,8 @@ KINDS = {"ugimp": GimpMethod, "cpgimp": GimpMethod,
 
 
 def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
-                counters: dict, fields=None, extended: bool = False):
+                counters: dict, fields=None, extended: bool = False,
+                held: ndarray = None):
     """The method piece called ``name`` (one of :data:`METHODS`); with
     ``fields`` (:class:`~skfem_mpm.methods.fields.Fields`, contacts
     between bodies), on the copies of the grid: standard MPM and FE on the
@@ -378,7 +379,8 @@ def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
     others built on the grid and moved to the copies
     (:class:`~skfem_mpm.methods.fields.FieldMethod`); ``extended``: the
     splines extended (:meth:`~skfem_mpm.methods.bspline.QuadraticBSpline.
-    extension`; B-spline methods without fields only)."""
+    extension`; B-spline methods without fields only), ``held`` the
+    grid's nodes a support holds (bool per node)."""
     check_choice("method", name, METHODS)
     kind = KINDS.get(name, PointMethod)
     if extended and (kind is not BSplineMethod or fields is not None):
@@ -388,7 +390,8 @@ def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
                 name, " with contacts" if fields is not None else ""))
     if fields is None:
         return kind(name, mesh, scalar, scalar_dofs, pattern, locate,
-                    counters, **({"extended": True} if extended else {}))
+                    counters, **({"extended": True, "held": held}
+                                 if extended else {}))
     if kind is PointMethod:
         return kind(name, fields.mesh, scalar, fields.scalar_dofs,
                     fields.pattern, fields.locate, counters)

@@ -1014,9 +1014,11 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         points.state.setdefault(name, value)
     resume = options.resume or Resume()
     domain0 = points.domain if resume.domain0 is None else resume.domain0
+    held = support_dofs(supports, user_grid)
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
                         counters, fields,
-                        extended=options.stabilisation.extended_splines)
+                        extended=options.stabilisation.extended_splines,
+                        held=np.isin(user_grid.nodal_dofs, held).any(axis=0))
     run_mesh = mesh if fields is None else fields.mesh
     external = ExternalLoads(run_mesh, scalar, grid, case.gravity,
                              case.forces,
@@ -1042,7 +1044,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         ghost=stabilisation.ghost_factor(),
         ghost_reserve=stabilisation.ghost_in_reserve(method),
         operator_wrappers=(mean_dilatation,) if stabilisation.antilocking
-        else (), D=tile_dofs(support_dofs(supports, user_grid), user_grid.N,
+        else (), D=tile_dofs(held, user_grid.N,
                              1 if fields is None else fields.count),
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
         obstacles=case.obstacles,
