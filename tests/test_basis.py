@@ -330,3 +330,25 @@ def test_tangent_formed_by_blocks_equals_the_whole_tangent(dim):
     whole = op.stiffness(response.tangent(), response.w)
     blocks = op.stiffness(response.tangent_of, response.w)
     assert whole.nnz == blocks.nnz and (whole != blocks).nnz == 0
+
+
+def test_an_inversion_names_the_most_inverted_point():
+    """A trial increment that inverts several points: the error names the
+    one whose ``det dF`` is least first, with its position and the value
+    (it named the lowest index, far from where the trial failed)."""
+    from collections import Counter
+    from skfem_mpm import InversionError, LinearElastic
+    from skfem_mpm.mechanics.kinematics import FiniteStrain
+    from skfem_mpm.methods.operators import PointOperator
+    mesh = MeshQuad.init_tensor(np.linspace(0., 1., 5), np.linspace(0., 1., 5))
+    points = arbitrary_points(mesh, 60, seed=3)
+    op = PointOperator(MaterialPointBasis(mesh, ElementQuad1(), points))
+    X, Y = mesh.p
+    du = np.zeros(op.N)
+    du[0::2] = -1.5 * X * (Y > .5) - 3. * X * (X > .5) * (Y > .5)
+    det = np.linalg.det(np.eye(2) + np.moveaxis(op.gradients(du), -1, 0))
+    worst = int(np.argmin(det))
+    assert (det <= 0).sum() > 1 and worst != np.flatnonzero(det <= 0)[0]
+    with pytest.raises(InversionError, match=r"the most \[{}".format(worst)):
+        FiniteStrain(LinearElastic(1e3, .3), 2, Counter()).response(
+            op, du, points)

@@ -310,10 +310,13 @@ class FiniteStrain:
         dF = deformation_increment(grad)
         dF_inv, detdF = inverse_and_det(dF, dim)
         bad = np.flatnonzero(~(detdF > 0))
-        if bad.size:
+        if bad.size:       # the most inverted first (a NaN's at the end)
+            bad = bad[np.argsort(detdF[bad], kind="stable")]
             raise InversionError(
-                "{} point(s) invert (det dF <= 0), first {} at x = {}".format(
-                    bad.size, bad[:5].tolist(), points.x[:, bad[0]].tolist()))
+                "{} point(s) invert (det dF <= 0), the most {} at x = {} "
+                "(det dF {:.3g})".format(
+                    bad.size, bad[:5].tolist(), points.x[:, bad[0]].tolist(),
+                    detdF[bad[0]]))
         if F_inv is not None:             # gradients live at X, not x_n
             dF_inv = dF_inv.copy()
             dF_inv[:k, :k] = np.einsum("abp,bcp->acp", F_inv,
