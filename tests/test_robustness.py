@@ -851,3 +851,21 @@ def test_sparse_spline_points_under_mean_dilatation_are_warned(
              options=Options(stabilisation=Stabilisation(antilocking=True)))
     assert ("{:.1f} points per cell and axis".format(per_cell)
             in caplog.text) == warned
+
+
+def test_a_traction_on_faces_inside_the_body_is_refused():
+    """Top points loaded on their "left" side: the left faces of all but
+    the first column lie inside the block (a user trial saw it taken
+    without a word); refused before any work, naming the side; on their
+    "top" side they are loaded."""
+    from skfem_mpm import Traction
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+    top = side_points(points, "top")
+    args = (mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    with pytest.raises(InvalidInputError, match="on side 'left': 7 of its 8"):
+        simulate(*args, loads=[Traction(top, "left", [0., -1.])])
+    res = simulate(*args, loads=[Traction(top, "top", [0., -1.])])
+    assert res.history[-1].reactions.reshape(-1, 2).sum(axis=0)[1] == \
+        pytest.approx(1.)

@@ -75,7 +75,8 @@ from .body_contact import BodyContact, check_contacts
 from .contact import CellValues, contact_term
 from .dynamics import Dynamics, InertiaTerm, scheme_for
 from .linear import support_dofs
-from .loads import ExternalLoads, FollowerPressure, GridLoad
+from .loads import (ExternalLoads, FollowerPressure, GridLoad,
+                    check_exposed)
 from .newton import FullStep, NewtonOptions, newton as newton_driver
 from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
                       translate_aliases)
@@ -1026,6 +1027,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
                              follow=kinematics == "finite",
                              moves=method != "fem", ramp_gravity=case.ramp,
                              weights=getattr(piece, "weights_at", None))
+    check_exposed(case.forces, points)     # the loads' indices checked
     if method in ("fem", "mpm"):
         piece.pattern.structure()        # set-up, shared by every step
     newton, stabilisation = options.newton, options.stabilisation

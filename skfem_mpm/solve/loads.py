@@ -43,7 +43,7 @@ from ..quadrature.points import MaterialPoints
 from ..protocols import GridTerm
 
 __all__ = ["Traction", "Pressure", "GridLoad", "SIDES", "side_points",
-           "side_axis", "side_names", "ExternalLoads"]
+           "side_axis", "side_names", "ExternalLoads", "check_exposed"]
 
 #: the sides of a body or grid: ``name: (axis, sign)``; by the axis and
 #: the sign (``"x-"`` ... ``"z+"``) in every dimension, or by the words of
@@ -129,6 +129,37 @@ def side_points(points: MaterialPoints, side: str,
     edge = face.max() if sign > 0 else face.min()
     tol = 1e-9 * (1 + np.abs(edge))
     return mine[np.abs(face - edge) <= tol + 1e-6 * points.domain[axis, mine]]
+
+
+def check_exposed(loads, points: MaterialPoints) -> None:
+    """Refuse a :class:`Traction` or :class:`Pressure` on points whose
+    face on its side lies inside their body: another point of the same
+    body sits right beyond it (a domain's width along the side's axis, to
+    a quarter of the domain).  Top points loaded on their ``"left"`` side
+    were taken without a word (a user trial)."""
+    surface = [load for load in loads if isinstance(load, (Traction,
+                                                           Pressure))]
+    if not surface or points.domain is None:
+        return
+    from scipy.spatial import cKDTree
+    tree = cKDTree(points.x.T)
+    for load in surface:
+        axis, sign = side_axis(load.side, points.dim)
+        idx = np.asarray(load.points, dtype=np.int64).ravel()
+        beyond = points.x[:, idx].copy()
+        beyond[axis] += sign * 2 * points.domain[axis, idx]
+        distance, nearest = tree.query(beyond.T, p=np.inf)
+        inside = idx[(distance <= .25 * points.domain[:, idx].min(axis=0))
+                     & (points.body[nearest] == points.body[idx])]
+        if inside.size:
+            raise InvalidInputError(
+                "{} on side {!r}: {} of its {} points have a point of their "
+                "body right beyond that face (the first, point {} at {}): "
+                "their {!r} faces lie inside the body; load "
+                "side_points(points, {!r}) or check the side".format(
+                    type(load).__name__, load.side, inside.size, idx.size,
+                    inside[0], np.round(points.x[:, inside[0]], 6).tolist(),
+                    load.side, load.side))
 
 
 @dataclass
