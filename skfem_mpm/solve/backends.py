@@ -61,7 +61,9 @@ AUTO_SUPERLU_BANDED = {2: (12, 30_000), 3: (8, 3000)}
 AUTO_AMG_FROM = {"scipy (SuperLU)": {1: 1_500_000, 2: 1_500_000, 3: 5000},
                  "pypardiso": {1: 1_500_000, 2: 1_500_000, 3: 1_500_000}}
 CAUSES = ("points leave a zero-energy mode (a grid node supported by too few "
-          "points) or the grid has rigid-body modes (missing supports)")
+          "points: Stabilisation(ghost=0.1) ties such nodes to their "
+          "neighbours, and with B-splines extended_splines=True folds them) "
+          "or the grid has rigid-body modes (missing supports)")
 
 
 def same_array(a: ndarray, b: ndarray) -> bool:
