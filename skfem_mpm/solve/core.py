@@ -686,9 +686,10 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         (:mod:`skfem_mpm.solve.body_contact`): smooth, Coulomb or rough;
         the force of each contact's first body on its second per step is
         ``StepRecord.contact_forces``.  Bodies without a contact stay
-        glued where they meet.  Methods ``"mpm"``, ``"ugimp"`` and
-        ``"cpgimp"``, on affine or
-        tensor-product grids of linear elements.
+        glued where they meet.  Every method whose points move
+        (``"mpm"``, ``"ugimp"``, ``"cpgimp"``, ``"bspline"``,
+        ``"bspline-gimp"``), on affine or tensor-product grids of linear
+        elements.
     **aliases
         The keyword arguments these objects replaced (``tol``, ``ghost``,
         ``antilocking``, ``line_search``, ``newton``, ``rhs``,
