@@ -51,9 +51,15 @@ and, with friction, the tangential traction of a penalty regularised
 Coulomb law with a return map: the trial ``tau* = tau_n - kappa s_t``
 (``s_t`` the step's tangential slip relative to the obstacle) kept while
 ``|tau*| <= mu p`` (stick), else ``mu p tau*/|tau*|`` (slip); ``"rough"``
-keeps the trial, ``"tied"`` holds the corners that touched the obstacle
-at the start, ``t = lambda - kappa (x_c - x_anchor)``, separation
-included.  The force on the material is ``A_c (p n + tau)`` with ``A_c``
+keeps the trial at the corners in contact at the step's start (pressed,
+or within the tolerance), whatever their pressure within Newton; one
+found apart when Newton has converged lets go and the step is solved
+again, one that comes into contact within the step slides in it and
+sticks from the next (kept wherever a trial pressed, the traction of a
+corner at a footing's edge jumped from nothing to the whole step's
+stick as its pressure passed zero, and Newton cycled); ``"tied"`` holds
+the corners that touched the obstacle at the start, ``t = lambda -
+kappa (x_c - x_anchor)``, separation included.  The force on the material is ``A_c (p n + tau)`` with ``A_c``
 the corner's share of its domain's area facing the obstacle; the grid
 force is ``J^T`` of it and the tangent ``J^T C J`` with ``C`` the
 consistent derivative (the normal's rotation left out: exact on flat
@@ -103,22 +109,24 @@ MARGIN_CELLS = 2.
 
 
 def coulomb(friction, kappa: float, p: ndarray, n: ndarray, tau: ndarray,
-            motion: ndarray):
+            motion: ndarray, held: ndarray = None):
     """The tangential traction of a penalty regularised Coulomb law with
     a return map, per contact (columns): the trial ``tau* = P tau -
     kappa P motion`` (``P = I - n n``, ``tau`` the multiplier, ``motion``
     the step's relative motion) where pressed (``p > 0``), kept while
-    ``|tau*| <= friction p`` (stick; always with ``"rough"``), else
-    ``friction p tau*/|tau*|`` (slip).  Returns the traction (dim, m),
-    its consistent derivative by ``motion`` (dim, dim, m: the normal's
-    rotation left out) and the sticking columns."""
+    ``|tau*| <= friction p`` (stick), else ``friction p tau*/|tau*|``
+    (slip).  With ``"rough"`` the trial is kept where pressed, or, when
+    ``held`` (m,) is given, where it says, whatever the pressure.
+    Returns the traction (dim, m), its consistent derivative by
+    ``motion`` (dim, dim, m: the normal's rotation left out) and the
+    sticking columns."""
     dim = n.shape[0]
     eye = np.eye(dim)[:, :, None]
     Pt = eye - np.einsum("as,bs->abs", n, n)
     slip = np.einsum("abs,bs->as", Pt, motion)
     trial = np.einsum("abs,bs->as", Pt, tau) - kappa * slip
     out, C = np.zeros_like(trial), np.zeros(Pt.shape)
-    stick = p > 0
+    stick = p > 0 if held is None else held.copy()
     if friction != "rough":
         size = np.sqrt((trial ** 2).sum(axis=0))
         limit = friction * p
@@ -461,6 +469,9 @@ class StepContact(GridTerm):
         self.area, self.lam, self.tau, self.anchor = [], [], [], []
         self.closed = []
         self.face = []
+        # rough: the corners that stick through the step (in contact at
+        # its start, less those found apart after Newton)
+        self.held = []
         for i, ob in enumerate(term.obstacles):
             names = pressure_names(i, dim)
             self.lam.append(np.concatenate([self.state[nm][idx]
@@ -473,6 +484,13 @@ class StepContact(GridTerm):
             self.face.append((face, over))
             self.closed.append(term.closed[i][:, idx].ravel())
             self.area.append(self.corner_areas(normal, idx))
+            if ob.friction == "rough":
+                gap = ob.face_gap(self.Xs, face, self.shift_old[i])[0] \
+                    - self.closed[-1]
+                self.held.append(over & ((self.lam[i] > 0)
+                                         | (gap <= term.tol[i])))
+            else:
+                self.held.append(None)
             if term.anchor[i] is None:
                 self.anchor.append(None)
             else:
@@ -578,7 +596,8 @@ class StepContact(GridTerm):
             tau = np.zeros_like(X)
             if ob.friction != 0.:
                 tau, C_t, _ = coulomb(ob.friction, kappa, p, n, self.tau[i],
-                                      u - self.moved[i][:, None])
+                                      u - self.moved[i][:, None],
+                                      self.held[i])
                 C += area * C_t
                 T = T + area * tau
             ev.append((T, C, float(np.max(-gap[over], initial=0.)),
@@ -687,6 +706,22 @@ class StepContact(GridTerm):
             self.evaluations = WeakKeyDictionary()
             logger.debug("step %d: a corner went through another face of an "
                          "obstacle; solving again", problem.step)
+            return False
+        # rough: a corner that stuck but was found apart lets go and the
+        # step is solved again (only ever released within a step: a
+        # corner pressed that did not stick slides in this step and sticks
+        # from the next)
+        released = 0
+        for i, e in enumerate(ev):
+            if self.held[i] is not None:
+                apart = self.held[i] & (e[3][0] <= 0.)
+                self.held[i] &= ~apart
+                self.tau[i][:, apart] = 0.
+                released += int(apart.sum())
+        if released:
+            self.evaluations = WeakKeyDictionary()
+            logger.debug("step %d: %d rough corners came apart; solving "
+                         "again", problem.step, released)
             return False
         worst = [e[2] / tol for e, tol in zip(ev, term.tol)]
         if max(worst, default=0.) <= 1.:

@@ -45,7 +45,9 @@ class Obstacle:
         factor (in dynamics to ``Dynamics.load(t)``); default none.
     friction
         ``0.0`` (smooth, the default), a Coulomb coefficient ``mu > 0``,
-        ``"rough"`` (no slip while in contact, free to separate) or
+        ``"rough"`` (no slip while in contact, free to separate; a part
+        of the surface that touches it within a load or time step slides
+        in that step and sticks from the next) or
         ``"tied"`` (bonded to the material touching it at the start: a
         support that need not lie on grid lines).
     name
