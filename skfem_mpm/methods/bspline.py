@@ -60,8 +60,8 @@ from ..quadrature.locate import tensor_grid
 from .gimp_linear import LINEAR_ELEMENTS, LinearGimp
 from .operators import SparseOperator
 
-__all__ = ["QuadraticBSpline", "spline_1d", "spline_1d_integral", "UNIFORM",
-           "FILLED_SPAN"]
+__all__ = ["QuadraticBSpline", "CubicBSpline", "spline_1d",
+           "spline_1d_integral", "sliver_limit", "UNIFORM", "FILLED_SPAN"]
 
 #: relative tolerance on the spacing of a uniform axis
 UNIFORM = 1e-9
@@ -86,9 +86,19 @@ FILLED_SPAN = .75
 EXTENSION_REACH = 3
 
 
-def _spline(xi: ndarray):
-    """The uniform quadratic B-spline and its derivative at ``xi``."""
+def _spline(xi: ndarray, degree: int = 2):
+    """The uniform B-spline of ``degree`` (2 or 3) centred at 0 and its
+    derivative at ``xi``."""
     r = np.abs(xi)
+    if degree == 3:
+        inner = r <= 1.
+        outer = (r > 1.) & (r < 2.)
+        value = np.where(inner, 2. / 3. - r * r + r ** 3 / 2,
+                         np.where(outer, (2. - r) ** 3 / 6, 0.))
+        slope = np.where(inner, xi * (1.5 * r - 2.),
+                         np.where(outer, -(2. - r) ** 2 / 2 * np.sign(xi),
+                                  0.))
+        return value, slope
     inner = r <= .5
     outer = (r > .5) & (r < 1.5)
     value = np.where(inner, .75 - r * r, np.where(outer, (1.5 - r) ** 2 / 2,
@@ -98,9 +108,15 @@ def _spline(xi: ndarray):
     return value, slope
 
 
-def _spline_integral(xi: ndarray) -> ndarray:
-    """The antiderivative of the uniform quadratic B-spline, 0 below its
-    support and 1 above."""
+def _spline_integral(xi: ndarray, degree: int = 2) -> ndarray:
+    """The antiderivative of the uniform B-spline of ``degree`` (2 or 3),
+    0 below its support and 1 above."""
+    if degree == 3:
+        r = np.clip(xi, -2., 2.)
+        return np.where(r <= -1., (r + 2.) ** 4 / 24,
+                        np.where(r <= 1., .5 + 2. * r / 3. - r ** 3 / 3.
+                                 + r ** 3 * np.abs(r) / 8.,
+                                 1. - (2. - r) ** 4 / 24))
     r = np.clip(xi, -1.5, 1.5)
     return np.where(r <= -.5, (r + 1.5) ** 3 / 6,
                     np.where(r <= .5, .5 + .75 * r - r ** 3 / 3,
@@ -113,7 +129,8 @@ def _folds(node: ndarray, n: int):
     return 2. * (node == 0) - (node == 1), 2. * (node == n) - (node == n - 1)
 
 
-def spline_1d_integral(t: ndarray, node: ndarray, n: int) -> ndarray:
+def spline_1d_integral(t: ndarray, node: ndarray, n: int,
+                       degree: int = 2) -> ndarray:
     """Antiderivatives in ``t`` of the boundary-modified functions of
     :func:`spline_1d` (the same arguments): their difference over
     ``[lo, hi]`` is the integral of the function there.
@@ -128,14 +145,18 @@ def spline_1d_integral(t: ndarray, node: ndarray, n: int) -> ndarray:
 
     """
     low, high = _folds(node, n)
-    return (_spline_integral(t - node) + low * _spline_integral(t + 1.)
-            + high * _spline_integral(t - (n + 1.)))
+    return (_spline_integral(t - node, degree)
+            + low * _spline_integral(t + 1., degree)
+            + high * _spline_integral(t - (n + 1.), degree))
 
 
-def spline_1d(t: ndarray, node: ndarray, n: int):
+def spline_1d(t: ndarray, node: ndarray, n: int, degree: int = 2):
     """Boundary-modified functions of nodes ``node`` of an axis of ``n``
     cells at ``t = (x - x_0) / h`` in ``[0, n]``: values and derivatives
-    with respect to ``t``, both of the shape of ``node``.
+    with respect to ``t``, both of the shape of ``node``; quadratic
+    splines, or cubic with ``degree=3`` (the ghosts folded alike: the
+    cubic spline of ghost node -1 reaches ``x_1``, none of node -2 enters
+    the grid).
 
     Examples
     --------
@@ -143,32 +164,46 @@ def spline_1d(t: ndarray, node: ndarray, n: int):
     >>> v, d = spline_1d(np.array([0., 0.25, 1.]), np.array([[0], [1], [2]]), 4)
     >>> v.round(6).tolist()
     [[1.0, 0.75, 0.125], [0.0, 0.25, 0.75], [0.0, 0.0, 0.125]]
+    >>> v, d = spline_1d(np.array([0., 1.]), np.array([[0], [1], [2]]), 4, 3)
+    >>> v.round(6).tolist()
+    [[1.0, 0.166667], [0.0, 0.666667], [0.0, 0.166667]]
 
     """
-    value, slope = _spline(t - node)
-    low_v, low_s = _spline(t + 1.)                 # ghost node -1
-    high_v, high_s = _spline(t - (n + 1.))         # ghost node n + 1
+    value, slope = _spline(t - node, degree)
+    low_v, low_s = _spline(t + 1., degree)         # ghost node -1
+    high_v, high_s = _spline(t - (n + 1.), degree)  # ghost node n + 1
     low, high = _folds(node, n)
     return (value + low * low_v + high * high_v,
             slope + low * low_s + high * high_s)
 
 
+def sliver_limit(degree: int) -> float:
+    """The sliver (in cells) below which a spline of ``degree`` is folded
+    for a point (:data:`SLIVER_SPLINE` for quadratic splines; for cubic
+    the sliver ``e`` whose averaged gradient ``e^3 / 6`` equals the
+    quadratic's ``e^2 / 2`` at :data:`SLIVER_SPLINE`)."""
+    if degree == 3:
+        return (3. * SLIVER_SPLINE ** 2) ** (1. / 3.)
+    return SLIVER_SPLINE
+
+
 def _fold_slivers(node: ndarray, value: ndarray, slope: ndarray,
-                  lo: ndarray, hi: ndarray):
+                  lo: ndarray, hi: ndarray, degree: int = 2):
     """Fold in place the first or last spline of a point's stencil (m, n)
     whose support meets its domain ``[lo, hi]`` (in cells) by less than
-    :data:`SLIVER_SPLINE` and half the domain, by linear extrapolation
+    :func:`sliver_limit` and half the domain, by linear extrapolation
     towards the point, ``u_k = 2 u_(k-1) - u_(k-2)``, as the grid's edges
     fold the ghosts: the partition of unity and linear completeness hold
     as before, and a spline reached only by slivers leaves the step."""
     cols = np.arange(node.shape[1])
-    limit = np.minimum(SLIVER_SPLINE, (hi - lo) / 2)
+    limit = np.minimum(sliver_limit(degree), (hi - lo) / 2)
+    w = (degree + 1) / 2                      # the support's half-width
     reach = (value != 0.) | (slope != 0.)
     last = node.shape[0] - 1 - np.argmax(reach[::-1], axis=0)
     first = np.argmax(reach, axis=0)
     span = last - first
-    top = (hi - (node[last, cols] - 1.5) < limit) & (span >= 2)
-    bottom = (node[first, cols] + 1.5 - lo < limit) & (span >= 2) \
+    top = (hi - (node[last, cols] - w) < limit) & (span >= 2)
+    bottom = (node[first, cols] + w - lo < limit) & (span >= 2) \
         & (~top | (span >= 4))
     for end, inward, sel in ((last, -1, np.flatnonzero(top)),
                              (first, 1, np.flatnonzero(bottom))):
@@ -204,19 +239,24 @@ class QuadraticBSpline:
 
     """
 
+    #: the splines' degree
+    degree = 2
+    #: the method whose operators these are, for messages
+    method = "bspline"
+
     def __init__(self, mesh: Mesh, elem: Element):
         grid = tensor_grid(mesh)
         if grid is None:
             raise UnsupportedElementError(
-                "method 'bspline' needs an axis-aligned tensor-product grid "
+                "method {!r} needs an axis-aligned tensor-product grid "
                 "(MeshLine, or MeshQuad/MeshHex from init_tensor), got a "
-                "general {}".format(type(mesh).__name__))
+                "general {}".format(self.method, type(mesh).__name__))
         if not isinstance(elem, LINEAR_ELEMENTS):
             raise UnsupportedElementError(
-                "method 'bspline' takes the grid's nodes as the splines' "
+                "method {!r} takes the grid's nodes as the splines' "
                 "control points and needs a linear element (ElementLineP1, "
                 "ElementQuad1, ElementHex1), got {}".format(
-                    type(elem).__name__))
+                    self.method, type(elem).__name__))
         # the grid's axes, cells and node numbering: GIMP's closed form
         # reads the same grid (its elements below too)
         self.grid = LinearGimp(mesh, elem)
@@ -225,9 +265,9 @@ class QuadraticBSpline:
             h = np.diff(a)
             if not np.allclose(h, h[0], rtol=UNIFORM, atol=0.):
                 raise UnsupportedElementError(
-                    "method 'bspline' needs uniform spacing along each axis; "
+                    "method {!r} needs uniform spacing along each axis; "
                     "axis {} has spacings from {:.6g} to {:.6g}".format(
-                        d, h.min(), h.max()))
+                        self.method, d, h.min(), h.max()))
         self.dim = len(self.axes)
         self.h = np.array([(a[-1] - a[0]) / (len(a) - 1) for a in self.axes])
         self.nodes, self.node_dof = self.grid.nodes, self.grid.node_dof
@@ -243,24 +283,25 @@ class QuadraticBSpline:
         else:
             lo = np.clip((x - half - a0) / h, 0., n)
             hi = np.clip((x + half - a0) / h, 0., n)
-        # nodes whose supports (i - 3/2, i + 3/2) meet [lo, hi]
-        first = np.floor(lo - .5).astype(np.int64)
-        m = min(int((np.ceil(hi + .5) - first).max()) + 1, n + 1)
+        # nodes whose supports (i - w, i + w) meet [lo, hi]
+        w, p = (self.degree + 1) / 2, self.degree
+        first = np.floor(lo - w).astype(np.int64) + 1
+        m = min(int((np.ceil(hi + w) - first).max()), n + 1)
         node = np.clip(first, 0, n + 1 - m)[None] + np.arange(m)[:, None]
         length = hi - lo
         wide = length > POINT_LIKE
         t = (lo + hi) / 2
-        value, slope = spline_1d(t, node, n)
+        value, slope = spline_1d(t, node, n, p)
         if wide.any():
             span = np.where(wide, length, 1.)
-            lo_v, _ = spline_1d(lo, node, n)
-            hi_v, _ = spline_1d(hi, node, n)
-            mean = (spline_1d_integral(hi, node, n)
-                    - spline_1d_integral(lo, node, n)) / span
+            lo_v, _ = spline_1d(lo, node, n, p)
+            hi_v, _ = spline_1d(hi, node, n, p)
+            mean = (spline_1d_integral(hi, node, n, p)
+                    - spline_1d_integral(lo, node, n, p)) / span
             value = np.where(wide, mean, value)
             slope = np.where(wide, (hi_v - lo_v) / span, slope)
             if m >= 3:
-                _fold_slivers(node, value, slope, lo, hi)
+                _fold_slivers(node, value, slope, lo, hi, p)
         slope = slope / h
         reach = (value != 0.) | (slope != 0.)
         first = node[np.argmax(reach, axis=0), np.arange(len(x))]
@@ -305,8 +346,9 @@ class QuadraticBSpline:
         extended B-splines, or ``None`` where every spline is inner.
 
         A node is inner when a knot span in its support (the 3^dim dual
-        cells around it) is filled by points' volumes to at least
-        :data:`FILLED_SPAN`.  Every other node that points carry weight on
+        cells around it; of cubic splines, whose knots are the nodes, the
+        4^dim cells of its support) is filled by points' volumes to at
+        least :data:`FILLED_SPAN`.  Every other node that points carry weight on
         (``touched``, (N,) bool) is no degree of freedom but the bilinear
         (trilinear) extrapolation of the nearest 2^dim array of inner
         nodes, averaged over the arrays equally near (so a symmetric body
@@ -319,7 +361,8 @@ class QuadraticBSpline:
         clamp's neighbours hold it as it was held); a ``held`` one only
         from those, else it stays a degree of freedom (a clamp whose end
         line has no inner node left as a beam bends).  Each point's volume
-        fills the knot span its centre lies in (``np.rint``: a point on a
+        fills the knot span its centre lies in (``np.rint``, cubic: the
+        cell holding it; a point on a
         span's edge, the middle one of 3 a cell, falls on one side, and a
         symmetric body can fold asymmetrically; spreading the volume over
         the spans its box overlaps, tried, made Prandtl's footing's
@@ -353,16 +396,20 @@ class QuadraticBSpline:
         array([ 0., -1.,  2.,  0.,  0.])
         """
         dim, shape = self.dim, np.array(self.grid.nodes)
-        span = np.array([np.clip(np.rint((x[d] - self.axes[d][0])
-                                         / self.h[d]), 0, shape[d] - 1)
-                         for d in range(dim)], dtype=np.int64)
+        cells = self.degree == 3   # the knot spans: cells, or dual cells
+        span = np.array([np.clip((np.floor if cells else np.rint)(
+            (x[d] - self.axes[d][0]) / self.h[d]), 0, shape[d] - 1 - cells)
+            for d in range(dim)], dtype=np.int64)
         flat = np.ravel_multi_index(tuple(span), tuple(shape))
         fill = np.bincount(flat, volume, int(np.prod(shape))).reshape(shape)
         for d in range(dim):
             width = np.full(shape[d], self.h[d])
-            width[[0, -1]] /= 2
+            if not cells:
+                width[[0, -1]] /= 2
             fill /= width.reshape([-1 if e == d else 1 for e in range(dim)])
-        inner = maximum_filter(fill >= FILLED_SPAN, size=3, mode="constant")
+        # the spans of node i's support: i - 1 .. i + 1, cubic i - 2 .. i + 1
+        inner = maximum_filter(fill >= FILLED_SPAN, size=self.degree + 1,
+                               mode="constant")
         lattice = np.indices(tuple(shape)).reshape(dim, -1)
         outer = np.flatnonzero(touched[self.node_dof] & ~inner.ravel())
         if outer.size == 0:
@@ -424,3 +471,37 @@ class QuadraticBSpline:
                            (dof[np.concatenate((identity, outer[rows]))],
                             dof[np.concatenate((identity, cols))])),
                           shape=(self.N, self.N)).tocsr()
+
+
+class CubicBSpline(QuadraticBSpline):
+    """Cubic B-spline operators of points on one grid
+    (``method="bspline3"``, ``"bspline3-gimp"``): the uniform cubic
+    B-spline centred on each node, knots at the nodes, ``xi = (x - x_i) /
+    h``::
+
+        N(xi) = 2/3 - xi^2 + |xi|^3 / 2      for |xi| <= 1,
+        N(xi) = (2 - |xi|)^3 / 6             for 1 <= |xi| <= 2,
+
+    C2, 4^dim nodes a point (5^dim averaged over domains up to a cell
+    long).  The ghost nodes ``x_-1``, ``x_n+1`` are folded as the
+    quadratic splines' (``u_-1 = 2 u_0 - u_1``; the spline of ``x_-2``
+    ends at ``x_0``): on ``[x_0, x_1]`` ``N_0' = 1 - t + t^3 / 6``, ``N_1'
+    = 2/3 - s^2 + s^3 / 3`` with ``s = 1 - t``, non-negative, the edge
+    interpolated (``N_0'(x_0) = 1``), the partition of unity and linear
+    completeness kept; quadratics are reproduced beyond the first cell
+    from each end.  The same grids as :class:`QuadraticBSpline`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem import MeshLine, ElementLineP1
+    >>> spline = CubicBSpline(MeshLine(np.linspace(0., 4., 5)),
+    ...                       ElementLineP1())
+    >>> op = spline(np.array([[2.]]))
+    >>> (op.S.toarray() * 6).round(12).tolist()
+    [[0.0, 1.0, 4.0, 1.0, 0.0]]
+
+    """
+
+    degree = 3
+    method = "bspline3"
