@@ -585,7 +585,7 @@ def newton_direction(problem, current, frozen, residuals: list,
             return d, None
         finally:
             problem.t["solve"] += time.perf_counter() - tic
-    K = problem.tangent(current)
     # memory: the next tangent is assembled and factorised with neither
-    # this one nor (full Newton) its factorisation alive
-    return problem.solve(K, r, stabilise)
+    # this one nor (full Newton) its factorisation alive; handed over, not
+    # held here, so that the solve releases it once condensed
+    return problem.solve(problem.tangent(current), r, stabilise)
