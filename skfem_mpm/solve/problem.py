@@ -28,7 +28,8 @@ from scipy.linalg.blas import dnrm2
 from ..errors import GridMotionError, SingularSystemError, \
     SingularTangentError
 from ..protocols import Balance
-from .linear import Condensation, factorise_active, free_dofs
+from .linear import Condensation, condensed, factorise_condensed, \
+    free_dofs
 from .motion import check_held, held_motion
 from .results import PHASES, StepRecord
 
@@ -287,23 +288,38 @@ class StepProblem:
         ``STABILISATION`` times the tangent's condition number.  A linear
         step solves once, exactly, or raises.  Returns the increment and
         the factorised solve, ``solve(r) -> d``, that modified Newton
-        reuses."""
+        reuses.
+
+        ``K`` is condensed onto the free DOFs first, and the whole grid's
+        matrix released (where the caller holds no reference to it: the
+        Newton driver hands the tangent over) before the condensed one is
+        factorised: 408 bytes a point less at the peak of a 3D run's heap."""
         tic = time.perf_counter()
         try:
-            return self._solve(K, r, stabilise)
+            A, n = self.condensed(K), K.shape[0]
+            del K           # memory: not alive while A is factorised
+            return self._solve(A, n, r, stabilise)
         finally:
             self.t["solve"] += time.perf_counter() - tic
 
-    def _solve(self, K, r: ndarray, stabilise: bool):
-        run, counters, free = self.run, self.counters, self.free
-        if not self.linear:
-            counters["newton_iterations"] += 1
-        cache = run.cache
+    def condensed(self, K):
+        """The free-free block of the tangent ``K`` (canonical CSR), by the
+        run's :class:`~skfem_mpm.solve.linear.Condensation` of the step's
+        pattern, made for a new one."""
+        cache, free = self.run.cache, self.free
         if not (cache.condensation is not None
                 and cache.condensation.fits(K, free)) \
                 and getattr(K, "has_canonical_format", False):
             cache.condensation = Condensation(K, free)  # new step: new map
         # (GIMP's sparse products are not canonical: scikit-fem's condense)
+        return condensed(K, free, cache.condensation)
+
+    def _solve(self, A, n: int, r: ndarray, stabilise: bool):
+        """:meth:`solve` of the condensed tangent ``A`` (of a matrix of
+        size ``n``)."""
+        run, counters, free = self.run, self.counters, self.free
+        if not self.linear:
+            counters["newton_iterations"] += 1
 
         # the grid's positions serve the rigid-body modes of an iterative
         # back end; a solver that says it solves this system directly
@@ -316,9 +332,8 @@ class StepProblem:
         def factorise_and_solve():
             counters["linear_solves"] += 1
             counters["factorisations"] += 1
-            solve = factorise_active(K, free, solver=run.solver,
-                                     doflocs=doflocs,
-                                     condensation=cache.condensation)
+            solve = factorise_condensed(A, free, n, solver=run.solver,
+                                        doflocs=doflocs)
             return solve(r), solve
         if not stabilise:
             try:
@@ -330,7 +345,7 @@ class StepProblem:
                 logger.debug("step %d: %s; solving again with the tangent "
                              "stabilised by %.0e of its diagonal", self.step,
                              err, STABILISATION)
-        K.setdiag(K.diagonal() * (1. + STABILISATION))           # in place
+        A.setdiag(A.diagonal() * (1. + STABILISATION))           # in place
         counters["stabilised_solves"] += 1
         self.stabilised = True
         try:
@@ -385,7 +400,9 @@ class StepProblem:
             domains = run.method.domains(run.domain0, new.F)
             if domains is not None:
                 new.domain = domains
-        held = self.fixed[np.isin(self.fixed, op.active_dofs)]
+        active = np.zeros(op.N, dtype=bool)       # a mask: np.isin sorts
+        active[op.active_dofs] = True
+        held = self.fixed[active[self.fixed]]
         record = StepRecord(self.step, self.f_new, residuals[-1], op.nelems,
                             self.free.size, t, reaction_dofs=held,
                             reaction_values=-r[held], n_dofs=op.N)
