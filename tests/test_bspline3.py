@@ -384,3 +384,72 @@ def test_compiled_passes_equal_the_numpy_path(method, antilocking,
         assert relative(getattr(runs[1].points, field),
                         getattr(runs[0].points, field)) < TOL
     assert runs[0].history[-1].n_yielded > 0
+
+
+def test_slivers_are_folded_into_their_neighbours():
+    """The cubic splines' sliver limit is the quadratic one's scaled so
+    that the folded spline's averaged gradient ``e^3 / 6`` equals the
+    quadratic's ``e^2 / 2`` at its limit: 0.027 cells.  A domain reaching
+    0.01 cells into a spline's support folds it (the weights still sum to
+    one and reproduce the centre), 0.05 cells keeps it.  Without the fold
+    the two glued bodies of the core's matrix with ``ghost=0`` fail at
+    their second step (a free node moved by 2.6e9 in small strain; Newton
+    diverges in finite deformation)."""
+    from skfem import ElementLineP1, MeshLine
+
+    from skfem_mpm.methods import bspline
+    limit = bspline.sliver_limit(3)
+    assert abs(limit ** 3 / 6 - bspline.SLIVER_SPLINE ** 2 / 2) < 1e-15
+    mesh = MeshLine(np.linspace(0., 6., 7))
+    spline = CubicBSpline(mesh, ElementLineP1())
+    for into, kept in ((1e-2, False), (5e-2, True)):
+        x, half = np.array([[2.75 + into]]), np.array([[.25]])
+        op = spline(x, half)           # node 5's support starts at 3
+        assert (op.S[0, 5] != 0) == kept
+        assert abs(op.S.sum() - 1) < 1e-15
+        assert abs(op.S @ mesh.p[0] - x[0]).max() < 1e-14
+
+
+@pytest.mark.slow
+def test_without_the_fold_of_slivers_glued_bodies_fail(monkeypatch):
+    """The fold's reason (previous test): without it the two glued bodies
+    of the core's matrix fail at their second step with ``ghost=0``."""
+    from skfem_mpm.errors import GridMotionError, NewtonDivergenceError
+    from skfem_mpm.methods import bspline
+    from test_core import block_case, materials
+    monkeypatch.setattr(bspline, "SLIVER_SPLINE", 0.)
+    mesh, points = block_case(True)
+    for kinematics, error in (("small", GridMotionError),
+                              ("finite", NewtonDivergenceError)):
+        with pytest.raises(error, match="step 2"):
+            simulate(mesh, ElementQuad1(), points, materials(False, True),
+                     lambda b: b.get_dofs(lambda x: x[1] == 0), nsteps=2,
+                     body_force=[0., -20.], method="bspline3-gimp",
+                     kinematics=kinematics, options=Options(
+                         stabilisation=Stabilisation(ghost=0.)))
+
+
+def test_scene_files_take_the_cubic_methods(tmp_path):
+    """``[solver] method = "bspline3"`` and ``"bspline3-gimp"`` are read
+    from scene files (the names are :data:`~skfem_mpm.methods.method.
+    METHODS`)."""
+    from skfem_mpm.scenes.scene_file import load_scene
+    from test_extended_splines import SCENE
+    scene = tmp_path / "beam.toml"
+    for method in ("bspline3", "bspline3-gimp"):
+        scene.write_text(SCENE.replace("METHOD", method).replace(
+            "VALUE", "true"))
+        assert load_scene(scene).method == method
+
+
+@pytest.mark.slow
+def test_a_scene_file_runs_with_cubic_splines(tmp_path):
+    """A cantilever with its surface inside cells, ``method =
+    "bspline3-gimp"``, extended, runs from the command line."""
+    from skfem_mpm.cli import main
+    from test_extended_splines import SCENE
+    scene = tmp_path / "beam.toml"
+    scene.write_text(SCENE.replace("METHOD", "bspline3-gimp").replace(
+        "VALUE", "true"))
+    assert main(["run", str(scene), "--out", str(tmp_path / "o"),
+                 "--no-progress"]) == 0

@@ -1,4 +1,4 @@
-"""Quadratic B-spline MPM on axis-aligned tensor-product grids.
+"""Quadratic (and cubic) B-spline MPM on axis-aligned tensor-product grids.
 
 The grid's nodes are the control points.  Along an axis of uniform
 spacing ``h`` the function of node ``i`` is the uniform quadratic
@@ -41,6 +41,11 @@ spline whose support meets a domain only by a sliver (a free surface
 moved past a knot) is folded into its neighbours for that point
 (:data:`SLIVER_SPLINE`): its stiffness would be below the others'
 round-off.
+
+The cubic splines (:class:`CubicBSpline`, ``method="bspline3"`` and
+``"bspline3-gimp"``) are the same construction one degree up: knots at
+the nodes, C2, 4^dim nodes a point, the ghosts folded alike (the spline
+of ``x_-1`` reaches ``x_1``; none of ``x_-2`` enters the grid).
 
 Uniform spacing per axis is required (axes may differ): a graded axis is
 refused.  The grid element must be linear (``ElementLineP1``,
