@@ -70,6 +70,20 @@ def test_one_dimensional_functions():
     assert np.allclose(value, [1 - t, t], atol=1e-15, rtol=0)
 
 
+def test_active_cells_are_those_spanned_by_the_supports():
+    """One point: the 3 x 3 cells whose corners carry its 4 x 4 weights
+    (the ghost penalty's cells), and no node outside them."""
+    mesh = MeshQuad.init_tensor(*AXES[:2])          # h = 0.5
+    op = CubicBSpline(mesh, ElementQuad1())(np.array([[.6], [.1]]))
+    corners = mesh.p[:, mesh.t[:, op.elements]]
+    assert set(np.unique(corners[0])) == {0., .5, 1., 1.5}
+    assert set(np.unique(corners[1])) == {-.5, 0., .5, 1.}
+    assert len(op.elements) == 9
+    nodes = mesh.p[:, op.S.indices]
+    assert set(np.unique(nodes[0])) == {0., .5, 1., 1.5}
+    assert op.S.nnz == 16
+
+
 # -- refusals ---------------------------------------------------------------
 
 
