@@ -11,7 +11,7 @@ import pytest
 from skfem import ElementQuad1, ElementQuad2, ElementTriP1, MeshQuad, MeshTri
 
 from skfem_mpm import (InvalidInputError, LinearElastic, Options,
-                       Stabilisation, UnsupportedElementError,
+                       RigidBody, Stabilisation, UnsupportedElementError,
                        seed_gauss_points, seed_points, simulate)
 from skfem_mpm.methods.bspline import CubicBSpline, spline_1d
 from skfem_mpm.studies.column import column_error
@@ -103,6 +103,13 @@ def test_refusals_name_the_cubic_method():
                  LinearElastic(1e3, .3),
                  lambda b: b.get_dofs(lambda x: x[1] == -1.),
                  body_force=[0., -1.], method="bspline3-gimp")
+    points = seed_points(mesh, 2)
+    points.body[points.x[1] > 1.5] = 1
+    with pytest.raises(InvalidInputError, match="rigid_bodies need method "
+                       "'mpm' or 'fem', not 'bspline3'"):
+        simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == -1.),
+                 rigid_bodies=[RigidBody(1, [0., -.1])], method="bspline3")
 
 
 # -- runs --------------------------------------------------------------------
