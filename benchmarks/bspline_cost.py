@@ -1,4 +1,4 @@
-"""Cost of a Newton iteration with quadratic and cubic B-splines against cpGIMP.
+"""Cost of a Newton iteration with quadratic and cubic B-splines and cpGIMP.
 
 The block of ``step_cost.py`` (a unit square of material, 2x2 points per
 cell, in a grid two cells wider on each side: ``(2 ncells)^2`` points),

@@ -353,27 +353,26 @@ class QuadraticBSpline:
         A node is inner when a knot span in its support (the 3^dim dual
         cells around it; of cubic splines, whose knots are the nodes, the
         4^dim cells of its support) is filled by points' volumes to at
-        least :data:`FILLED_SPAN`.  Every other node that points carry weight on
-        (``touched``, (N,) bool) is no degree of freedom but the bilinear
-        (trilinear) extrapolation of the nearest 2^dim array of inner
-        nodes, averaged over the arrays equally near (so a symmetric body
-        folds symmetrically): partition of unity and linear completeness
-        hold, and every spline that remains carries material over a
-        filled span, so no node is held by a sliver (the ghost penalty's
-        task) and none leaves the step when the material moves off its
-        support.  A node at a grid's end along an axis is extrapolated
-        from arrays on its end line where there are any (a roller's or a
-        clamp's neighbours hold it as it was held); a ``held`` one only
-        from those, else it stays a degree of freedom (a clamp whose end
-        line has no inner node left as a beam bends).  Each point's volume
-        fills the knot span its centre lies in (``np.rint``, cubic: the
-        cell holding it; a point on a
-        span's edge, the middle one of 3 a cell, falls on one side, and a
-        symmetric body can fold asymmetrically; spreading the volume over
-        the spans its box overlaps, tried, made Prandtl's footing's
-        largest change between steps 4.8% and 4.4% for 3.0%).  An outer node with
-        no inner array within :data:`EXTENSION_REACH` nodes stays a
-        degree of freedom.
+        least :data:`FILLED_SPAN`.  Every other node that points carry
+        weight on (``touched``, (N,) bool) is no degree of freedom but the
+        bilinear (trilinear) extrapolation of the nearest 2^dim array of
+        inner nodes, averaged over the arrays equally near (so a symmetric
+        body folds symmetrically): partition of unity and linear
+        completeness hold, and every spline that remains carries material
+        over a filled span, so no node is held by a sliver (the ghost
+        penalty's task) and none leaves the step when the material moves
+        off its support.  A node at a grid's end along an axis is
+        extrapolated from arrays on its end line where there are any (a
+        roller's or a clamp's neighbours hold it as it was held); a
+        ``held`` one only from those, else it stays a degree of freedom (a
+        clamp whose end line has no inner node left as a beam bends).  Each
+        point's volume fills the knot span its centre lies in (``np.rint``;
+        cubic: the cell holding it; a point on a span's edge, the middle
+        one of 3 a cell, falls on one side, and a symmetric body can fold
+        asymmetrically; spreading the volume over the spans its box
+        overlaps, tried, made Prandtl's footing's largest change between
+        steps 4.8% and 4.4% for 3.0%).  An outer node with no inner array
+        within :data:`EXTENSION_REACH` nodes stays a degree of freedom.
 
         Parameters
         ----------
