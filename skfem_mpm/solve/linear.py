@@ -155,6 +155,11 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
                 "motion; add supports".format(body(c), " / ".join(names)))
 
 
+#: entries of a pattern scanned at a time for those a
+#: :class:`Condensation` keeps (their positions found as 8-byte integers)
+TAKE_BLOCK = 1 << 20
+
+
 class Condensation:
     """The free-free block ``K[free][:, free]`` of CSR matrices of one
     sparsity pattern, gathered from ``K.data`` through an index map built
@@ -192,16 +197,20 @@ class Condensation:
         is_free = position >= 0
         keep = np.repeat(is_free, np.diff(K.indptr))
         keep &= is_free[K.indices]
-        take = np.flatnonzero(keep).astype(index)
+        take = np.empty(np.count_nonzero(keep), dtype=index)
+        done = 0
+        for start in range(0, keep.size, TAKE_BLOCK):  # no int64 of all
+            found = np.flatnonzero(keep[start:start + TAKE_BLOCK]) + start
+            take[done:done + found.size] = found
+            done += found.size
+        del keep
         columns = position[K.indices[take]]
         indptr = np.zeros(free.size + 1, dtype=index)
-        if np.all(free[1:] > free[:-1]):
-            counted = np.zeros(K.nnz + 1, dtype=index)
-            np.cumsum(keep, out=counted[1:])
-            indptr[1:] = counted[K.indptr[free + 1]]
+        if np.all(free[1:] > free[:-1]):      # the kept entries by row end
+            indptr[1:] = np.searchsorted(take, K.indptr[free + 1])
         else:
-            rows = position[np.repeat(np.arange(K.shape[0], dtype=index),
-                                      np.diff(K.indptr))[take]]
+            rows = position[np.searchsorted(K.indptr, take, side="right")
+                            - 1]
             order = np.lexsort((columns, rows))
             take, columns = take[order], columns[order]
             np.cumsum(np.bincount(rows, minlength=free.size), out=indptr[1:])
