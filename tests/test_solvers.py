@@ -473,6 +473,35 @@ def test_upper_triangle_and_row_sums_match_scipy():
         assert np.array_equal(upper.toarray(), triu(A).toarray())
     assert np.allclose(row_sums(csr_matrix(D)), np.abs(D).sum(axis=1),
                        rtol=1e-15, atol=0.)
+    # in blocks of rows (of one and of seven entries): the same sums, to
+    # the bit (each row reduced whole)
+    for block in (1, 7):
+        assert np.array_equal(row_sums(csr_matrix(D), block=block),
+                              row_sums(csr_matrix(D)))
+
+
+@pytest.mark.parametrize("block", [1, 5, 1 << 20])
+def test_condensation_map_equals_scipy_indexing(block, monkeypatch):
+    """The condensation's map, formed from masks a block of entries at a
+    time, gathers what scipy's ``K[free][:, free]`` (sorted) holds, entry
+    for entry and with its index arrays, for sorted and unsorted free
+    DOFs, empty rows and no free DOF at all."""
+    from scipy.sparse import csr_matrix
+    from skfem_mpm.solve import linear
+    monkeypatch.setattr(linear, "TAKE_BLOCK", block)
+    rng = np.random.default_rng(3)
+    D = rng.standard_normal((25, 25)) * (rng.random((25, 25)) < .3)
+    D[[0, 12, 24]] = 0.
+    K = csr_matrix(D)
+    for free in (np.arange(0, 25, 2), rng.permutation(25)[:15],
+                 np.array([], dtype=np.int64)):
+        condensed = linear.Condensation(K, free)(K)
+        expected = K[free][:, free]
+        expected.sort_indices()
+        assert condensed.has_canonical_format
+        for name in ("data", "indices", "indptr"):
+            assert np.array_equal(getattr(condensed, name),
+                                  getattr(expected, name))
 
 
 @pytest.mark.parametrize("name", ["scipy", "pypardiso", "pyamg"])
