@@ -479,3 +479,23 @@ def test_a_scene_file_runs_with_cubic_splines(tmp_path):
         "VALUE", "true"))
     assert main(["run", str(scene), "--out", str(tmp_path / "o"),
                  "--no-progress"]) == 0
+
+
+def test_the_averaged_cubic_splines_need_domains_before_any_work():
+    """Points without domains, and a resumed run without its initial
+    domains, are refused at set-up with ``"bspline3-gimp"`` as with the
+    other averaging methods (the first was refused only at the first
+    operator, the second not at all)."""
+    from skfem_mpm import Resume
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    pts = seed_gauss_points(mesh, 2)
+    args = (mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0).all(), [0., -1.])
+    with pytest.raises(InvalidInputError, match="method 'bspline3-gimp' "
+                       "needs point domains.*'bspline3' .* needs none"):
+        simulate(*args, method="bspline3-gimp")
+    with pytest.raises(InvalidInputError, match="resuming a bspline3-gimp "
+                       "run needs Resume.domain0"):
+        simulate(*args[:2], seed_points(mesh, 2), *args[3:], nsteps=2,
+                 method="bspline3-gimp",
+                 options=Options(resume=Resume(2)))

@@ -43,11 +43,13 @@ from .fields import FieldMethod
 from .gimp import gimp_operators, stretched_domains
 from .operators import PointOperator, SparseOperator
 
-__all__ = ["METHODS", "make_method"]
+__all__ = ["METHODS", "DOMAIN_METHODS", "make_method"]
 
 #: the method names (``method=``, scene key ``solver.method``)
 METHODS = ("fem", "mpm", "ugimp", "cpgimp", "bspline", "bspline-gimp",
            "bspline3", "bspline3-gimp")
+#: the methods that average over the points' domains (need them)
+DOMAIN_METHODS = ("ugimp", "cpgimp", "bspline-gimp", "bspline3-gimp")
 
 
 class PointMethod:

@@ -114,7 +114,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     # [solver] steps is not used)
     [solver]
     method = "mpm"                  # fem mpm ugimp cpgimp bspline
-                                    # bspline-gimp
+                                    # bspline-gimp bspline3 bspline3-gimp
     kinematics = "small"            # small finite
     steps = 20
     tolerance = 1e-9

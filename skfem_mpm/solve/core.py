@@ -61,7 +61,7 @@ from ..mechanics.materials import at_points, initial_state, is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..methods.assembly import ElementPattern
-from ..methods.method import METHODS, make_method
+from ..methods.method import DOMAIN_METHODS, METHODS, make_method
 from ..protocols import GridTerm
 from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
 from ..quadrature.locate import point_locator, tensor_grid
@@ -652,8 +652,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         ``"fem"`` (points fixed: finite elements with the points as
         quadrature), ``"mpm"``, ``"ugimp"``, ``"cpgimp"``, ``"bspline"``
         (quadratic B-spline MPM, uniform tensor grids of linear elements,
-        :mod:`skfem_mpm.methods.bspline`) or ``"bspline-gimp"`` (the
-        splines averaged over the points' domains).
+        :mod:`skfem_mpm.methods.bspline`), ``"bspline-gimp"`` (the
+        splines averaged over the points' domains), ``"bspline3"`` or
+        ``"bspline3-gimp"`` (the same with cubic splines).
     kinematics
         ``"small"`` (incremental small strain) or ``"finite"`` (updated
         Lagrangian Hencky; total Lagrangian with ``"fem"``).
@@ -688,8 +689,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         ``StepRecord.contact_forces``.  Bodies without a contact stay
         glued where they meet.  Every method whose points move
         (``"mpm"``, ``"ugimp"``, ``"cpgimp"``, ``"bspline"``,
-        ``"bspline-gimp"``), on affine or tensor-product grids of linear
-        elements.
+        ``"bspline-gimp"``, ``"bspline3-gimp"``; ``"bspline3"`` is
+        refused: ``docs/bspline.md``), on affine or tensor-product grids
+        of linear elements.
     **aliases
         The keyword arguments these objects replaced (``tol``, ``ghost``,
         ``antilocking``, ``line_search``, ``newton``, ``rhs``,
@@ -877,7 +879,8 @@ def check_combination(method: str, kinematics: str, plastic: bool,
     if stabilisation.extended_splines and not method.startswith("bspline"):
         raise InvalidInputError(
             "extended_splines extends B-splines (methods 'bspline', "
-            "'bspline-gimp'); method {!r} has none".format(method))
+            "'bspline-gimp', 'bspline3', 'bspline3-gimp'); method {!r} has "
+            "none".format(method))
     if stabilisation.extended_splines and stabilisation.ghost_factor() > 0:
         raise InvalidInputError(
             "extended_splines with a ghost penalty (ghost={}) is refused: "
@@ -914,8 +917,8 @@ def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
     if method == "fem":
         raise InvalidInputError(
             "contacts between bodies need points that move with the "
-            "material (method 'mpm', 'ugimp', 'cpgimp', 'bspline' or "
-            "'bspline-gimp'); 'fem' keeps them where they started")
+            "material (method 'mpm', 'ugimp', 'cpgimp' or a B-spline "
+            "method); 'fem' keeps them where they started")
     if not (mesh.affine or tensor_grid(mesh) is not None):
         raise InvalidInputError(
             "contacts between bodies need an affine or axis-aligned "
@@ -943,13 +946,13 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     check_run_input(mesh, points, nsteps, options.keep_snapshots)
     gravity, ramp = check_body_force(body_force, points, mesh.dim())
     forces, prescribed, rigid_bodies, terms = split_loads(loads)
-    if method in ("ugimp", "cpgimp", "bspline-gimp") and \
-            points.domain is None:
+    if method in DOMAIN_METHODS and points.domain is None:
         raise InvalidInputError(
             "method {!r} needs point domains (MaterialPoints.domain); "
             "seed_points sets them on tensor-product grids{}".format(
-                method, "; 'bspline' (the splines at the points) needs "
-                "none" if method == "bspline-gimp" else ""))
+                method, "; {!r} (the splines at the points) needs none"
+                .format(method[:-5]) if method.startswith("bspline")
+                else ""))
     material = at_points(material, points)
     obstacles = check_obstacles(obstacles, mesh.dim(), np.stack(
         [mesh.p.min(axis=1), mesh.p.max(axis=1)], axis=1))

@@ -17,6 +17,7 @@ from numpy import ndarray
 
 from ..errors import InvalidInputError, check_int
 from ..kernels import check_kernels
+from ..methods.method import DOMAIN_METHODS
 from ..stabilisation.settings import Stabilisation
 from .newton import NewtonOptions
 from .rigid import RigidBody
@@ -71,8 +72,7 @@ class Resume:
                 "load_factor says where it stands (a run with cut-backs "
                 "takes more steps): nothing would be left to run".format(
                     self.first_step, nsteps))
-        if method in ("ugimp", "cpgimp", "bspline-gimp") and \
-                self.first_step > 1 and self.domain0 is None:
+        if method in DOMAIN_METHODS and self.first_step > 1 and self.domain0 is None:
             raise InvalidInputError(
                 "resuming a {} run needs Resume.domain0, the points' initial "
                 "domains (their current ones differ)".format(method))

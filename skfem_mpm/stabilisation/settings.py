@@ -43,7 +43,7 @@ class Stabilisation:
         points of each cell (with GIMP over those whose centre lies in it,
         Coombs et al. 2018).
     extended_splines
-        Extended B-splines (methods ``"bspline"`` and ``"bspline-gimp"``;
+        Extended B-splines (the B-spline methods, quadratic and cubic;
         Höllig, Reif and Wipper 2001): a spline without a knot span filled
         by material in its support is no degree of freedom but the
         extrapolation of the nearest inner ones
