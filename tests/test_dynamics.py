@@ -375,3 +375,24 @@ def test_follower_pressure_in_dynamics_acts_as_its_traction():
     (u_t, w_t), (u_p, w_p) = runs
     assert u_t < 0 and abs(u_p / u_t - 1) < 1e-2
     assert w_t > 0 and abs(w_p / w_t - 1) < 1e-2
+
+
+def test_a_run_of_many_steps_is_announced(monkeypatch, caplog):
+    """A run whose steps left would take longer than ``LONG_RUN`` at its
+    fastest step's pace says so once, with the number of steps left
+    (``Dynamics(1e-7, 0.1)``, a million steps, went on without a word)."""
+    import logging
+    from skfem_mpm.solve import core
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    args = (mesh, ElementQuad1(), seed_points(mesh, 2),
+            LinearElastic(1e3, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0).all(), [0., -1.])
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm.solve.core"):
+        simulate(*args, dynamics=Dynamics(1e-3, 1e-2, 1.))
+    assert "steps left" not in caplog.text
+    monkeypatch.setattr(core, "LONG_RUN", 1e-9)
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm.solve.core"):
+        simulate(*args, dynamics=Dynamics(1e-3, 1e-2, 1.))
+    assert caplog.text.count("steps left") == 1
+    assert "the 9 steps left take about" in caplog.text

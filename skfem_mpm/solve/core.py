@@ -37,6 +37,7 @@ absurdly), a stabilised tangent) and only then is cut back.
 
 """
 import logging
+import time
 from contextlib import contextmanager
 from typing import Callable, NamedTuple, Optional, Sequence
 
@@ -106,6 +107,9 @@ SETTLE_ROUNDS = 30
 #: augmented-Lagrangian rounds); the solves after it go on to the
 #: tolerance
 SETTLE_RESIDUAL = 1e-3
+#: seconds: the steps left of a run that would take longer, at the pace of
+#: its fastest step so far, are announced by a warning (once)
+LONG_RUN = 600.
 #: the ghost penalty that ``ghost="auto"`` switches on when a
 #: finite-deformation step of moving points fails
 DEFAULT_GHOST = .1
@@ -535,6 +539,23 @@ def too_soft(run: Run, points: MaterialPoints) -> str:
                 strain, np.linalg.norm(gravity), height, young))
 
 
+def warn_long_run(step: int, factor: float, increment: float,
+                  seconds: float) -> bool:
+    """Log a warning (and return ``True``) when the steps left, of
+    ``increment`` from load factor ``factor``, take more than
+    :data:`LONG_RUN` seconds at ``seconds`` a step: a run asked for a
+    million time steps went on without a word."""
+    left = int(np.ceil((1. - factor) / increment - 1e-9))
+    if left < 2 or seconds * left <= LONG_RUN:
+        return False
+    logger.warning(
+        "step %d: at %.3g s a step the %d steps left take about %.3g h: "
+        "longer steps or fewer points shorten it (the scene files' runner "
+        "writes checkpoints to stop and resume)", step, seconds, left,
+        seconds * left / 3600.)
+    return True
+
+
 def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             increment: float, smallest: float,
             callback: Optional[Callable]) -> Result:
@@ -542,8 +563,12 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     ``factor`` to the end, each of ``increment`` where it converges, cut
     back (halved) down to ``smallest`` where it does not; the history,
     points and basis into ``result``.  A failure raises with the last
-    converged state attached."""
+    converged state attached.  Once, a warning where the steps left would
+    take more than :data:`LONG_RUN` seconds at the fastest step's pace
+    (:func:`warn_long_run`)."""
     points, dynamics = result.points, run.dynamics
+    fastest, warned = np.inf, False
+    clock = time.perf_counter()
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
         target = min(factor + increment, boundary)
@@ -597,6 +622,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         record.newton_iterations) if not run.linear
                     else "{} free DOFs".format(record.n_free_dofs),
                     record.residual)
+        now = time.perf_counter()
+        fastest, clock = min(fastest, now - clock), now
+        warned = warned or warn_long_run(step, factor, increment, fastest)
     return result
 
 
