@@ -68,7 +68,9 @@ def colour_scale(*fields) -> dict:
     """``dict(cmap=, vmin=, vmax=)`` shared by ``fields``: a diverging map
     centred on zero when their values take both signs, else a sequential
     one over their range; a range within round-off of the values (a
-    uniform field) is widened, so that noise is not drawn as a gradient.
+    uniform field) is widened, so that noise is not drawn as a gradient,
+    and not across zero (a field of zeros, as a magnitude where nothing
+    moved, is drawn from 0 to 1, not from -1 to 1).
 
     >>> from skfem_mpm.scenes.plot import colour_scale
     >>> colour_scale([-1., 3.]), colour_scale([1., 3.])["cmap"]
@@ -76,6 +78,9 @@ def colour_scale(*fields) -> dict:
     >>> scale = colour_scale([1.475e-3, 1.475e-3 + 1e-17])
     >>> scale["vmin"], round(scale["vmax"], 6)
     (0.0, 0.00295)
+    >>> colour_scale([0., 0.]), colour_scale([-2., -2.])
+    ({'cmap': 'viridis', 'vmin': 0.0, 'vmax': 1.0}, {'cmap': 'viridis', \
+'vmin': -4.0, 'vmax': 0.0})
     """
     values = np.concatenate([np.ravel(f) for f in fields])
     lo, hi = float(values.min()), float(values.max())
@@ -83,7 +88,10 @@ def colour_scale(*fields) -> dict:
         top = max(-lo, hi)
         return dict(cmap=SIGNED_MAP, vmin=-top, vmax=top)
     if hi - lo <= 1e-9 * max(abs(lo), abs(hi)):
-        lo, hi = lo - (abs(lo) or 1.), hi + (abs(hi) or 1.)
+        if hi > 0 or lo == 0:
+            lo, hi = max(0., lo - abs(lo)), hi + (abs(hi) or 1.)
+        else:
+            lo, hi = lo - abs(lo), min(0., hi + abs(hi))
     return dict(cmap=UNSIGNED_MAP, vmin=lo, vmax=hi)
 
 
