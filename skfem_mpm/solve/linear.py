@@ -195,17 +195,23 @@ class Condensation:
         position = np.full(K.shape[0], -1, dtype=index)
         position[free] = np.arange(free.size, dtype=index)
         is_free = position >= 0
+        # a block of entries at a time: np.take (half fancy indexing's
+        # time) makes 8-byte copies of the indices it is given
         keep = np.repeat(is_free, np.diff(K.indptr))
-        keep &= np.take(is_free, K.indices)      # np.take: half the time
+        for start in range(0, K.nnz, TAKE_BLOCK):
+            stop = start + TAKE_BLOCK
+            keep[start:stop] &= np.take(is_free, K.indices[start:stop])
         take = np.empty(np.count_nonzero(keep), dtype=index)
+        columns = np.empty_like(take)
         done = 0
-        for start in range(0, keep.size, TAKE_BLOCK):  # no int64 of all
-            found = np.flatnonzero(keep[start:start + TAKE_BLOCK])
-            np.add(found, start, out=take[done:done + found.size],
-                   casting="unsafe")                 # below 2^31 for int32
-            done += found.size
+        for start in range(0, K.nnz, TAKE_BLOCK):
+            found = np.flatnonzero(keep[start:start + TAKE_BLOCK]) + start
+            stop = done + found.size
+            np.take(position, np.take(K.indices, found),
+                    out=columns[done:stop])
+            np.copyto(take[done:stop], found, casting="unsafe")  # < 2^31
+            done = stop
         del keep
-        columns = np.take(position, np.take(K.indices, take))
         indptr = np.zeros(free.size + 1, dtype=index)
         if np.all(free[1:] > free[:-1]):      # the kept entries by row end
             indptr[1:] = np.searchsorted(take, K.indptr[free + 1])
