@@ -300,7 +300,14 @@ def factorise_active(K: spmatrix, free: ndarray,
 def condensed(K: spmatrix, free: ndarray,
               condensation: Optional[Condensation] = None) -> csr_matrix:
     """``K[free][:, free]`` as canonical CSR: by ``condensation`` where it
-    fits ``K`` and ``free``, else by scikit-fem's ``condense``."""
+    fits ``K`` and ``free``, else by scikit-fem's ``condense``.
+
+    >>> import numpy as np
+    >>> from scipy.sparse import diags
+    >>> K = diags([-1., 2., -1.], [-1, 0, 1], shape=(4, 4)).tocsr()
+    >>> condensed(K, np.array([1, 2])).toarray().tolist()
+    [[2.0, -1.0], [-1.0, 2.0]]
+    """
     if condensation is not None and condensation.fits(K, free):
         return condensation(K)
     A = condense(K, np.zeros(K.shape[0]), I=free)[0].tocsr()
@@ -314,7 +321,16 @@ def factorise_condensed(A: csr_matrix, free: ndarray, n: int,
     """:func:`factorise_active` of the condensed matrix ``A`` (the block
     of a matrix of size ``n`` on the DOFs ``free``, :func:`condensed`): a
     caller that has condensed need not keep the whole matrix alive while
-    ``A`` is factorised."""
+    ``A`` is factorised.
+
+    >>> import numpy as np
+    >>> from scipy.sparse import diags
+    >>> K = diags([-1., 2., -1.], [-1, 0, 1], shape=(4, 4)).tocsr()
+    >>> free = np.array([1, 2])
+    >>> solve = factorise_condensed(condensed(K, free), free, 4)
+    >>> solve(np.array([0., 1., 1., 0.])).tolist()
+    [0.0, 1.0, 1.0, 0.0]
+    """
     solve = checked_solves(A, free, n, solver, tol, doflocs)
     return lambda f: solve(f[free])
 
