@@ -409,15 +409,6 @@ def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
             "'bspline-gimp', 'bspline3', 'bspline3-gimp') without contacts "
             "between bodies, got method {!r}{}".format(
                 name, " with contacts" if fields is not None else ""))
-    if name == "bspline3" and fields is not None:
-        raise InvalidInputError(
-            "contacts between bodies with method 'bspline3' are refused: "
-            "the cubic splines at the points reach two rows of nodes beyond "
-            "a body's surface, barely held, and with the default ghost='auto' "
-            "two stacked blocks in frictionless contact had stresses 35% "
-            "off in the lower block (1.5% with ghost=0.1, which the check "
-            "cannot see here); use 'bspline3-gimp' (2.5%) or 'bspline' "
-            "(1.7%)")
     if fields is None:
         return kind(name, mesh, scalar, scalar_dofs, pattern, locate,
                     counters, **({"extended": True, "held": held}
