@@ -10,7 +10,7 @@ operators (:mod:`skfem_mpm.methods`) and the linear solves
 """
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import coo_matrix, csr_matrix
+from scipy.sparse import csr_matrix
 
 __all__ = ["distinct", "element_adjacency", "edge_graph"]
 
@@ -73,6 +73,11 @@ def element_adjacency(element_dofs: ndarray, dim: int,
 def edge_graph(rows: ndarray, cols: ndarray, n_nodes: int) -> csr_matrix:
     """The sparse graph with the edges ``rows[k] -- cols[k]``.
 
+    Its CSR arrays are built directly (the edges grouped by their first
+    end, a stable sort): scipy's COO to CSR conversion sums duplicates and
+    sorts each row, a graph walk needs neither (at 56 points, 120 -> 34 us
+    a step).
+
     Parameters
     ----------
     rows, cols
@@ -83,9 +88,10 @@ def edge_graph(rows: ndarray, cols: ndarray, n_nodes: int) -> csr_matrix:
     Returns
     -------
     csr_matrix
-        Sparse (n_nodes, n_nodes), nonzero at ``(rows[k], cols[k])`` (a
-        directed edge; connected components taken undirected join both
-        ends).
+        Sparse (n_nodes, n_nodes), an entry 1 at ``(rows[k], cols[k])``
+        for each k (a directed edge; connected components taken undirected
+        join both ends), in the order of the edges within a row; an edge
+        given twice is stored twice (not summed).
 
     Examples
     --------
@@ -97,5 +103,10 @@ def edge_graph(rows: ndarray, cols: ndarray, n_nodes: int) -> csr_matrix:
            [0., 0., 0., 0.]])
 
     """
-    return coo_matrix((np.ones(rows.size), (rows, cols)),
-                      shape=(n_nodes, n_nodes)).tocsr()
+    rows, cols = np.ravel(rows), np.ravel(cols)
+    index = np.int32 if max(n_nodes, rows.size) < 2 ** 31 else np.int64
+    indptr = np.zeros(n_nodes + 1, dtype=index)
+    np.cumsum(np.bincount(rows, minlength=n_nodes), out=indptr[1:])
+    indices = cols[np.argsort(rows, kind="stable")].astype(index, copy=False)
+    return csr_matrix((np.ones(rows.size), indices, indptr),
+                      shape=(n_nodes, n_nodes))
