@@ -1010,7 +1010,8 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       contact=bool(obstacles) or bool(contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
-                              stabilisation.antilocking)
+                              stabilisation.antilocking,
+                              stabilisation.extended_splines)
     if options.resume is not None:
         options.resume.check(nsteps, method)
     locator = options.locator

@@ -437,17 +437,32 @@ def points_per_cell_axis(mesh, points) -> float:
 
 
 def warn_sparse_spline_points(method: str, mesh, points, plastic: bool,
-                              antilocking: bool):
-    """Log a warning for a plastic run with B-splines and mean dilatation
-    whose points are seeded fewer than :data:`SPLINE_POINTS_PER_AXIS` per
-    cell and axis: in the strip-footing study (``docs/accuracy_vs_time.md``)
-    2 points per cell and axis gave limit loads 18-21% below Prandtl's
-    with ``"bspline"`` and 6-10% with ``"bspline-gimp"`` on every grid
-    (unsafe), where 3 points converge to it from above."""
-    if not (method.startswith("bspline") and plastic and antilocking):
+                              antilocking: bool, extended: bool = False):
+    """Log a warning for a run with B-splines whose points are seeded fewer
+    than :data:`SPLINE_POINTS_PER_AXIS` per cell and axis, where that is
+    known to go wrong: plastic with mean dilatation (in the strip-footing
+    study, ``docs/accuracy_vs_time.md``, 2 points per cell and axis gave
+    limit loads 18-21% below Prandtl's with ``"bspline"`` and 6-10% with
+    ``"bspline-gimp"`` on every grid, unsafe, where 3 points converge to
+    it from above), and any run of the cubic splines not ``extended``
+    (their Galerkin stiffness needs 4 Gauss points a cell and axis: with
+    2, an elastic cantilever two cells deep, its faces inside cells, came
+    out 4.1 (``"bspline3"``) and 2.8 (``"bspline3-gimp"``) times too
+    flexible, without a word; with 3, within 0.6%)."""
+    cubic = method.startswith("bspline3") and not extended
+    if not (method.startswith("bspline") and (cubic or plastic
+                                               and antilocking)):
         return
     per_axis = points_per_cell_axis(mesh, points)
-    if per_axis < SPLINE_POINTS_PER_AXIS - .5:
+    if per_axis < SPLINE_POINTS_PER_AXIS - .5 and cubic:
+        logger.warning(
+            "method %r with %.1f points per cell and axis: the cubic "
+            "splines' stiffness needs 4 Gauss points a cell and axis, and "
+            "with 2 an elastic cantilever two cells deep came out 2.8-4.1 "
+            "times too flexible (docs/bspline.md); seed at least %d points "
+            "per cell and axis, or use extended_splines=True or 'bspline'",
+            method, per_axis, SPLINE_POINTS_PER_AXIS)
+    elif per_axis < SPLINE_POINTS_PER_AXIS - .5:
         logger.warning(
             "method %r with mean dilatation and %.1f points per cell and "
             "axis: with 2, a strip footing's limit load came out 18-21%% "
