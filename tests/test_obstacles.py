@@ -877,3 +877,28 @@ def test_a_rough_obstacle_moving_away_lets_go():
                    nsteps=1, obstacles=[plate])
     assert np.abs(res.history[-1].obstacle_forces).max() == 0.
     assert np.abs(res.points.displacement).max() < 1e-15
+
+
+def test_a_rough_plate_closing_a_gap_within_a_step_sticks_from_contact():
+    """A rough plate 0.01 above a block (held at its base) moves down
+    0.06 and sideways 0.02: the block's top follows it sideways from the
+    moment they meet, a sixth of the way, as far as 5/6 of what it does
+    when the plate starts touching (measured 0.01440 against 5/6 x
+    0.01727), in one step as in two (0.01447).  Sticking only from the
+    next step, the one-step run slid as under a smooth plate (0, a
+    review's finding)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2., 9), np.linspace(0, 1., 5))
+
+    def sideways(gap, nsteps):
+        pts = seed_points(mesh, 2, region=lambda x: (x[1] < .5)
+                          & (x[0] > .5) & (x[0] < 1.5))
+        plate = Obstacle(box=[[-1., 3.], [.5 + gap, .75]], friction="rough",
+                         displacement=[.02, -.06])
+        res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+                       lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                       nsteps=nsteps, obstacles=[plate])
+        return res.points.displacement[0, res.points.x0[1] > .4].mean()
+    touching, closing = sideways(0., 1), sideways(.01, 1)
+    assert touching > .015
+    assert closing == pytest.approx(touching * 5 / 6, rel=.01)
+    assert closing == pytest.approx(sideways(.01, 2), rel=.01)

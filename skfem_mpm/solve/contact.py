@@ -54,8 +54,9 @@ Coulomb law with a return map: the trial ``tau* = tau_n - kappa s_t``
 keeps the trial at the corners in contact at the step's start (pressed,
 or within the tolerance), whatever their pressure within Newton; one
 found apart when Newton has converged lets go and the step is solved
-again, one that comes into contact within the step slides in it and
-sticks from the next (kept wherever a trial pressed, the traction of a
+again, one pressed that did not stick joins, sticking from where it
+met the obstacle within the step (:meth:`StepContact.rough_changes`;
+kept wherever a trial pressed, the traction of a
 corner at a footing's edge jumped from nothing to the whole step's
 stick as its pressure passed zero, and Newton cycled); ``"tied"`` holds
 the corners that touched the obstacle at the start, ``t = lambda -
@@ -469,9 +470,10 @@ class StepContact(GridTerm):
         self.area, self.lam, self.tau, self.anchor = [], [], [], []
         self.closed = []
         self.face = []
-        # rough: the corners that stick through the step (in contact at
-        # its start, less those found apart after Newton)
-        self.held = []
+        # rough: the corners that stick in the step (in contact at its
+        # start; after Newton, those found apart let go and those pressed
+        # join, each once), their gaps at the start, which changed
+        self.held, self.start_gap, self.changed = [], [], []
         for i, ob in enumerate(term.obstacles):
             names = pressure_names(i, dim)
             self.lam.append(np.concatenate([self.state[nm][idx]
@@ -489,8 +491,12 @@ class StepContact(GridTerm):
                     - self.closed[-1]
                 self.held.append(over & ((self.lam[i] > 0)
                                          | (gap <= term.tol[i])))
+                self.start_gap.append(gap)
+                self.changed.append(np.zeros(gap.size, dtype=bool))
             else:
                 self.held.append(None)
+                self.start_gap.append(None)
+                self.changed.append(None)
             if term.anchor[i] is None:
                 self.anchor.append(None)
             else:
@@ -707,21 +713,8 @@ class StepContact(GridTerm):
             logger.debug("step %d: a corner went through another face of an "
                          "obstacle; solving again", problem.step)
             return False
-        # rough: a corner that stuck but was found apart lets go and the
-        # step is solved again (only ever released within a step: a
-        # corner pressed that did not stick slides in this step and sticks
-        # from the next)
-        released = 0
-        for i, e in enumerate(ev):
-            if self.held[i] is not None:
-                apart = self.held[i] & (e[3][0] <= 0.)
-                self.held[i] &= ~apart
-                self.tau[i][:, apart] = 0.
-                released += int(apart.sum())
-        if released:
+        if self.rough_changes(ev, du):
             self.evaluations = WeakKeyDictionary()
-            logger.debug("step %d: %d rough corners came apart; solving "
-                         "again", problem.step, released)
             return False
         worst = [e[2] / tol for e, tol in zip(ev, term.tol)]
         if max(worst, default=0.) <= 1.:
@@ -739,6 +732,51 @@ class StepContact(GridTerm):
         logger.debug("step %d: penetration %.2g of the tolerance; "
                      "augmented-Lagrangian update", problem.step, max(worst))
         return False
+
+    def rough_changes(self, ev, du: ndarray) -> bool:
+        """After Newton, rough obstacles: a corner that stuck but was found
+        apart lets go; one pressed that did not stick joins, sticking from
+        where it met the obstacle within the step (its relative motion
+        scaled by its start gap over the gap's faster closing, by its own
+        straight path or by the obstacle's approach: the multiplier
+        ``kappa P`` of that motion); each corner changes once a step, so
+        the rounds end.  ``True`` when any changed (the step is
+        solved again).  Joined only at the next step, a corner touching
+        within a step slid in it: a rough plate closing a gap in one step
+        gave the smooth plate's answer."""
+        term, dim = self.term, self.dim
+        u = (self.J @ du).reshape(-1, dim).T
+        changes = 0
+        for i, ob in enumerate(term.obstacles):
+            if self.held[i] is None:
+                continue
+            p = ev[i][3][0]
+            free = ~self.changed[i]
+            apart = free & self.held[i] & (p <= 0.)
+            join = free & ~self.held[i] & (p > 0.)
+            self.tau[i][:, apart] = 0.
+            if join.any():
+                face, _ = self.face[i]
+                X = self.Xs[:, join] + u[:, join]
+                gap, n, _ = ob.face_gap(X, face[join], self.shift[i])
+                # the share of the step at contact: the start gap over
+                # the faster of its closings, the corner's straight path
+                # and the obstacle's own approach (a plate pushing a
+                # block: the block's corner meets it where it stands)
+                g0 = self.start_gap[i][join]
+                closing = np.maximum(g0 - (gap - self.closed[i][join]),
+                                     (self.moved[i][:, None] * n).sum(axis=0))
+                met = np.clip(g0 / np.maximum(closing, 1e-300), 0., 1.)
+                motion = (u[:, join] - self.moved[i][:, None]) * met
+                self.tau[i][:, join] = term.kappa[i] * (
+                    motion - (motion * n).sum(axis=0) * n)
+            self.held[i] = (self.held[i] & ~apart) | join
+            self.changed[i] |= apart | join
+            changes += int(apart.sum() + join.sum())
+        if changes:
+            logger.debug("step %d: %d rough corners came apart or joined; "
+                         "solving again", self.problem.step, changes)
+        return bool(changes)
 
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
         term, dim, idx = self.term, self.dim, self.idx

@@ -46,8 +46,8 @@ class Obstacle:
     friction
         ``0.0`` (smooth, the default), a Coulomb coefficient ``mu > 0``,
         ``"rough"`` (no slip while in contact, free to separate; a part
-        of the surface that touches it within a load or time step slides
-        in that step and sticks from the next) or
+        of the surface that touches it within a load or time step sticks
+        from where the step's straight path met it) or
         ``"tied"`` (bonded to the material touching it at the start: a
         support that need not lie on grid lines).
     name
