@@ -230,8 +230,9 @@ class Scene:
         Loads at full load factor, ramped over the steps.
     method
         ``"fem"`` (points fixed: finite elements with the points as
-        quadrature), ``"mpm"``, ``"ugimp"``, ``"cpgimp"`` or
-        ``"bspline"`` (quadratic B-splines).
+        quadrature), ``"mpm"``, ``"ugimp"``, ``"cpgimp"``, ``"bspline"``
+        (quadratic B-splines), ``"bspline-gimp"`` (averaged over the
+        points' domains), ``"bspline3"`` or ``"bspline3-gimp"`` (cubic).
     kinematics
         ``"small"`` (the seed's incremental small-strain scheme: one linear
         solve per step for elastic bodies, Newton for plastic ones) or

@@ -428,12 +428,16 @@ SPLINE_POINTS_PER_AXIS = 3
 
 
 def points_per_cell_axis(mesh, points) -> float:
-    """The points per cell and axis of a seeding, from the median cell's
-    and the median point's volume: ``(V_cell / V_point) ** (1 / dim)``
-    (2.0 for ``seed_points(mesh, 2)``)."""
+    """The points per cell and axis of a seeding, the fewest of any body,
+    from the median cell's volume and each body's median point volume:
+    ``(V_cell / V_point) ** (1 / dim)`` (2.0 for ``seed_points(mesh, 2)``;
+    a small body seeded 2 a cell beside a large one seeded 3 is 2, not
+    the median over all points' 3)."""
     corners = mesh.p[:, mesh.t]
     cell = np.median(np.prod(np.ptp(corners, axis=1), axis=0))
-    return float((cell / np.median(points.volume)) ** (1. / mesh.dim()))
+    largest = max(np.median(points.volume[points.body == b])
+                  for b in np.unique(points.body))
+    return float((cell / largest) ** (1. / mesh.dim()))
 
 
 def warn_sparse_spline_points(method: str, mesh, points, plastic: bool,
