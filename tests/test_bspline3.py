@@ -346,27 +346,11 @@ def test_extended_cubic_splines_keep_partition_of_unity_and_linear_fields(
         dim, seed):
     """The extension of the cubic splines (their knot spans the cells, 4^dim
     in a node's support): ``S E`` sums to one and reproduces linear fields,
-    values and gradients, to round-off; no weight on a folded node; every
-    remaining node has a filled cell in its support."""
-    from skfem_mpm.methods.method import extended_operator, folded_nodes
-    from test_extended_splines import body_on_grid
-    mesh, elem, x, volume = body_on_grid(dim, seed)
-    spline = CubicBSpline(mesh, elem)
-    op = spline(x)
-    touched = np.zeros(op.S.shape[1], dtype=bool)
-    touched[op.S.indices] = True
-    E = spline.extension(x, volume, touched)
-    ext = extended_operator(op, E)
-    folded = folded_nodes(E)
-    assert folded.size > 5
-    assert not np.isin(ext.S.indices, folded).any()
-    coefficients = np.array([.3, -1.2, .7][:dim])
-    u = 2. + coefficients @ mesh.p
-    assert np.allclose(ext.S @ np.ones(mesh.nvertices), 1., rtol=0,
-                       atol=1e-13)
-    assert np.allclose(ext.S @ u, 2. + coefficients @ x, rtol=0, atol=1e-13)
-    for d in range(dim):
-        assert np.allclose(ext.G[d] @ u, coefficients[d], rtol=0, atol=1e-12)
+    values and gradients, to round-off; no weight on a folded node
+    (``checked_extension``); every remaining node has a filled cell in its
+    support."""
+    from test_extended_splines import checked_extension
+    mesh, x, volume, ext = checked_extension(CubicBSpline, dim, seed)
     h = .25
     cell = np.minimum(np.floor(x / h).astype(int), 7)
     filled = np.zeros((8,) * dim)

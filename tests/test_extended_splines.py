@@ -28,14 +28,14 @@ def body_on_grid(dim, seed):
     return mesh, elem, x, points.volume
 
 
-@pytest.mark.parametrize("dim, seed", [(2, 0), (2, 1), (3, 0)])
-def test_extended_operator_keeps_partition_of_unity_and_linear_fields(
-        dim, seed):
-    """``S E``: weights summing to 1 and linear fields reproduced, values
-    and gradients, to round-off; the folded nodes carry no weight; the
-    patterns of S E and G E are one."""
+def checked_extension(kind, dim, seed):
+    """The extended operator of splines ``kind`` on :func:`body_on_grid`,
+    checked: weights summing to 1 and linear fields reproduced, values and
+    gradients, to round-off; the folded nodes carry no weight; the
+    patterns of S E and G E are one.  Returns the mesh, the points, their
+    volumes and the operator."""
     mesh, elem, x, volume = body_on_grid(dim, seed)
-    spline = QuadraticBSpline(mesh, elem)
+    spline = kind(mesh, elem)
     op = spline(x)
     touched = np.zeros(op.S.shape[1], dtype=bool)
     touched[op.S.indices] = True
@@ -53,6 +53,14 @@ def test_extended_operator_keeps_partition_of_unity_and_linear_fields(
         assert np.allclose(ext.G[d] @ u, coefficients[d], rtol=0, atol=1e-12)
         assert np.array_equal(ext.G[d].indices, ext.S.indices)
         assert np.array_equal(ext.G[d].indptr, ext.S.indptr)
+    return mesh, x, volume, ext
+
+
+@pytest.mark.parametrize("dim, seed", [(2, 0), (2, 1), (3, 0)])
+def test_extended_operator_keeps_partition_of_unity_and_linear_fields(
+        dim, seed):
+    """``S E`` of the quadratic splines (:func:`checked_extension`)."""
+    checked_extension(QuadraticBSpline, dim, seed)
 
 
 def test_a_cantilever_converges_without_the_ghost_penalty():
