@@ -111,7 +111,8 @@ def build_parser() -> argparse.ArgumentParser:
     study = sub.add_parser(
         "study", help="error and cost over a grid of choices",
         description="Vary elements, ppc (points per cell and axis), "
-        "loadsteps, method (fem, mpm, ugimp, cpgimp, bspline, bspline-gimp, bspline3, bspline3-gimp), "
+        "loadsteps, method (fem, mpm, ugimp, cpgimp, bspline, "
+        "bspline-gimp, bspline3, bspline3-gimp), "
         "rhs (residual, "
         "increment: the right-hand side of linear steps), line_search "
         "(backtracking, armijo, none) and newton (full, modified: the "

@@ -60,7 +60,8 @@ kept wherever a trial pressed, the traction of a
 corner at a footing's edge jumped from nothing to the whole step's
 stick as its pressure passed zero, and Newton cycled); ``"tied"`` holds
 the corners that touched the obstacle at the start, ``t = lambda -
-kappa (x_c - x_anchor)``, separation included.  The force on the material is ``A_c (p n + tau)`` with ``A_c``
+kappa (x_c - x_anchor)``, separation included.  The force on the
+material is ``A_c (p n + tau)`` with ``A_c``
 the corner's share of its domain's area facing the obstacle; the grid
 force is ``J^T`` of it and the tangent ``J^T C J`` with ``C`` the
 consistent derivative (the normal's rotation left out: exact on flat

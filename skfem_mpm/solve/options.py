@@ -72,7 +72,8 @@ class Resume:
                 "load_factor says where it stands (a run with cut-backs "
                 "takes more steps): nothing would be left to run".format(
                     self.first_step, nsteps))
-        if method in DOMAIN_METHODS and self.first_step > 1 and self.domain0 is None:
+        if method in DOMAIN_METHODS and self.first_step > 1 and \
+                self.domain0 is None:
             raise InvalidInputError(
                 "resuming a {} run needs Resume.domain0, the points' initial "
                 "domains (their current ones differ)".format(method))
