@@ -350,6 +350,16 @@ class BodyContact(GridTerm):
                  for row in gradient_state(dim)])
         return points.x[:, None, :] + np.einsum("abp,bcp->acp", F, self.R)
 
+    def pressed(self, points):
+        """``pressed(k, corner)``: contact ``k``'s pressure vectors
+        (dim, m) at the second body's corners ``c n + p`` where the last
+        step ended (:meth:`~skfem_mpm.solve.contact_pairs.PairFinder.
+        find_pairs`)."""
+        rows = [traction_state(k, self.dim)[:self.dim]
+                for k in range(len(self.contacts))]
+        return lambda k, corner: np.array([corner_values(
+            points.state, row, corner, points.n) for row in rows[k]])
+
     def place(self, points, corner: ndarray) -> ndarray:
         """The places (dim, m; integers) of the corners ``c n + p``:
         their positions in units of :data:`FACING` cells."""
@@ -382,7 +392,7 @@ class BodyContact(GridTerm):
         start = not points.displacement.any()
         out = self.finder.find_pairs(self.support(op, points), points.x,
                                      points.volume, self.corners(points),
-                                     start)
+                                     start, self.pressed(points))
         for (_, _, contact), tol, (B, A, normal, gap) in zip(
                 self.contacts, self.tol, out):
             if start and (gap < -tol).any():
@@ -542,7 +552,8 @@ class StepBodyContact(GridTerm):
                                           @ du).reshape(-1, dim).T
         found = term.finder.find_pairs(self.support,
                                        points.x + op.values(du),
-                                points.volume, X)
+                                       points.volume, X,
+                                       pressed=term.pressed(points))
         X0 = X0.reshape(dim, -1)
         joined = False
         for part, (B, A, normal, gap), tol in zip(self.parts, found,

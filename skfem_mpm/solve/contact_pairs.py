@@ -52,6 +52,10 @@ DEEPEST = .5
 #: preferred by among candidates alike in gap (about 3 degrees)
 LAST = .05
 
+#: the cosine to the direction a node was pressed along at the last
+#: step's end above which a candidate keeps it (with friction)
+HELD = .9
+
 #: candidate normals alike in gap whose cosines to the centroids' line
 #: differ by less than this are tied (with friction the first is taken)
 TIED = 1e-9
@@ -122,16 +126,21 @@ class PairFinder:
         self.nv, self.h, self.dim = vertices, cell_size, mesh.dim()
         self.columns = columns
 
-    def find_pairs(self, support, x, weight, X, start: bool = False) -> list:
+    def find_pairs(self, support, x, weight, X, start: bool = False,
+                   pressed=None) -> list:
         """The pairs ``(B, A, n, g)`` of every contact for points at ``x``
         (dim, n) of volumes ``weight``, their domains' corners at ``X``
         (dim, corners, n), the grid nodes' supports ``support`` (points,
         nodes of every field); pairs deeper than :data:`DEEPEST` cells are
         left out, except at the run's ``start`` (where they are bodies
-        that overlap, which the caller refuses)."""
+        that overlap, which the caller refuses).  ``pressed(k, corner)``
+        gives contact ``k``'s pressure vectors ``p n`` (dim, m) at the
+        second body's corners ``c n + p`` where the last step ended (a
+        node with friction keeps the normal it was pressed along:
+        :meth:`separating_normal`)."""
         dim, nv = self.dim, self.nv
         out = []
-        for a, b, contact in self.contacts:
+        for k, (a, b, contact) in enumerate(self.contacts):
             smooth = contact.friction == 0.
             blocks = [support[:, self.field[k] * nv:(self.field[k] + 1) * nv]
                       .tocsr() for k in (a, b)]
@@ -147,8 +156,13 @@ class PairFinder:
             node_x = self.mesh.p[:, shared]
             entries = [self.corner_entries(Sk[:, shared], X)
                        for Sk in blocks]
+            held = None
+            if pressed is not None and not smooth:
+                held = np.zeros((dim, shared.size))
+                np.add.at(held.T, entries[1][0],
+                          pressed(k, entries[1][1]).T)
             slot, normal = self.separating_normal(entries, centre, node_x,
-                                                  smooth)
+                                                  smooth, held)
             node_x = node_x[:, slot]
             entries = [self.spread(e, slot, shared.size) for e in entries]
             faces = self.facing(entries, normal)[0]
@@ -201,7 +215,8 @@ class PairFinder:
         rounded: equal where they are one place."""
         return np.round(x / (FACING * self.h)).astype(np.int64)
 
-    def separating_normal(self, entries, centre, node_x, sides: bool):
+    def separating_normal(self, entries, centre, node_x, sides: bool,
+                          held=None):
         """The normals of the nodes' pairs: the nodes (m,), indices of
         ``node_x``, and the normals (dim, m).  Per node, the direction
         along which the two bodies' domain corners in its support are
@@ -228,7 +243,16 @@ class PairFinder:
         order of the candidates, left a pile's tip unheld where its
         corners took the side's (it stopped at 0.8 of its load) and a
         square pile in 3D drifting sideways (8.7% of its settlement)
-        where its vertical edges took the x or y normal by the order."""
+        where its vertical edges took the x or y normal by the order.
+        With friction, a node whose second body's corners were pressed
+        at the last step's end (``held``, their pressure vectors summed
+        per node, dim x m) keeps the candidate nearest that direction
+        (within :data:`HELD` in cosine) while the bodies touch along it
+        (a gap up to :data:`FACING` cells): at a pile's tip the soil
+        beside it, its facing corners parted by a settlement of a
+        hundredth of a cell, showed half a cell of gap sideways, the
+        tip's nodes took the side's normal, and the pile, its tip unheld,
+        sank through the soil at 0.7 of its load with friction 0.3."""
         dim = self.dim
         candidates = [centre[1] - centre[0], node_x - centre[0],
                       centre[1] - node_x]
@@ -278,6 +302,17 @@ class PairFinder:
             # cpGIMP; their mean, tried, is no separating axis of a
             # corner in a notch: the bodies overlapped along it)
             best = np.argmax(value >= value.max(axis=0) - TIED, axis=0)
+            if held is not None:
+                size = np.sqrt((held ** 2).sum(axis=0))
+                cos_held = np.einsum("kam,am->km", candidates, held) \
+                    / np.maximum(size, 1e-300)
+                cos_held[~np.isfinite(gaps) | (gaps > FACING * self.h)] \
+                    = -np.inf
+                pick = np.argmax(cos_held, axis=0)
+                at = np.arange(pick.size)
+                keep = (cos_held[pick, at] > HELD) \
+                    & (gaps[best, at] > FACING * self.h)
+                best = np.where(keep, pick, best)
         normal = candidates[best, :, np.arange(best.size)].T
         node = np.flatnonzero(~np.isinf(gaps.max(axis=0)))
         more = sides & (alike | (np.abs(gaps) <= FACING * self.h)) \
