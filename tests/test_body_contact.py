@@ -678,9 +678,9 @@ def standing_pile(friction, method="mpm", obstacle=False):
     von Mises soil (yield stress 30, weight 20) and 0.3 above it, pushed
     by a traction of 100 on its top in 10 steps; or (``obstacle``) a
     rigid obstacle of its shape, with the same friction, pushed 0.03
-    down in 30 steps through the same soil.  Returns the run's :class:`Result`, the
-    pile's top points (or ``None``) and the load the soil carries (the
-    push and the pile's weight)."""
+    down in 30 steps through the same soil.  Returns the run's
+    :class:`Result`, the pile's top points (or ``None``) and the load
+    the soil carries (the push and the pile's weight)."""
     from skfem_mpm import Obstacle
     h, width = .125, 2.125
     mesh = MeshQuad.init_tensor(np.linspace(0, width, 18),
