@@ -508,8 +508,9 @@ class StepBodyContact(GridTerm):
             tau = np.zeros_like(w)
             slip_left = 0.
             if contact.friction != 0.:
-                tau, C_t, stick = coulomb(contact.friction, kappa, p, n,
-                                          part["tau"], w)
+                tau, C_t, stick = coulomb(
+                    contact.friction, kappa, p, n, part["tau"], w,
+                    part["held"] if contact.friction == "rough" else None)
                 C += C_t
                 slip = w - (n * w).sum(axis=0) * n
                 slip_left = float(np.sqrt((slip[:, stick] ** 2).sum(
@@ -653,8 +654,15 @@ class StepBodyContact(GridTerm):
         gap = np.where(pressed, g, np.maximum(gap, 0.))
         lam = np.where(pressed, p + term.kappa[part["contact"]] * g, 0.)
         corners = term.corners(points)[0].size
+        # rough: the pairs that stick through the step's Newton iterations
+        # are those pressed or touching at its start (:meth:`rough_changes`
+        # after Newton); a pair sticking wherever a trial pressed it made
+        # Newton cycle between two states (a rough square pile in 3D with
+        # B-splines, residuals 0.39 and 0.15 in turn, at every cut-back)
+        held = pressed | (gap <= tol)
         for key, value in (("D", D), ("n", normal), ("gap", gap),
-                           ("lam", lam), ("tau", tau),
+                           ("lam", lam), ("tau", tau), ("held", held),
+                           ("changed", np.zeros_like(held)),
                            ("keys", B * corners + A),
                            ("points", np.stack([B % points.n,
                                                 A % points.n]))):
@@ -673,12 +681,16 @@ class StepBodyContact(GridTerm):
         deepest penetration within the tolerance of the largest pair's
         force (the multipliers have settled); else the multipliers take
         the converged tractions (augmented Lagrangian), or the new pairs
-        join, and the step is solved again."""
+        join, or rough pairs let go or join (:meth:`rough_changes`), and
+        the step is solved again."""
         if self.join(du):
             logger.debug("step %d: bodies met beyond the step's pairs; "
                          "solving again", problem.step)
             return False
         ev = self.evaluate(du, trial.response)
+        if self.rough_changes(ev, du):
+            self.evaluations = WeakKeyDictionary()
+            return False
         # in cells, and relative to the largest pair's force: with a
         # penalty from the softer body, a penetration of the tolerance in
         # cells was a quarter of a soft block's compression; a floor of
@@ -697,6 +709,40 @@ class StepBodyContact(GridTerm):
         logger.debug("step %d: body contact %.2g of the tolerance; "
                      "augmented-Lagrangian update", problem.step, worst)
         return False
+
+    def rough_changes(self, ev, du: ndarray) -> bool:
+        """After Newton, rough contacts: a pair that stuck but was found
+        apart lets go; one pressed that did not stick joins, sticking
+        from where its corners met within the step (their relative motion
+        scaled by the start gap over its closing: the multiplier ``kappa
+        P`` of that motion); each pair changes once a step, so the rounds
+        end.  ``True`` when any changed (the step is solved again)."""
+        dim, changes = self.dim, 0
+        for (_, _, contact), part, e, kappa in zip(
+                self.term.contacts, self.parts, ev, self.term.kappa):
+            if contact.friction != "rough":
+                continue
+            p, gap, n = e[4], e[6], part["n"]
+            free = ~part["changed"]
+            apart = free & part["held"] & (p <= 0.)
+            join = free & ~part["held"] & (p > 0.)
+            part["tau"][:, apart] = 0.
+            if join.any():
+                w = (part["D"] @ du).reshape(-1, dim).T[:, join]
+                g0 = part["gap"][join]
+                met = np.clip(g0 / np.maximum(g0 - gap[join], 1e-300),
+                              0., 1.)
+                n = n[:, join]
+                motion = w * met
+                part["tau"][:, join] = kappa * (
+                    motion - (motion * n).sum(axis=0) * n)
+            part["held"] = (part["held"] & ~apart) | join
+            part["changed"] |= apart | join
+            changes += int(apart.sum() + join.sum())
+        if changes:
+            logger.debug("step %d: %d rough pairs came apart or joined; "
+                         "solving again", self.problem.step, changes)
+        return bool(changes)
 
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
         """The force of each contact on its second body; the record on
