@@ -902,3 +902,32 @@ def test_a_rough_plate_closing_a_gap_within_a_step_sticks_from_contact():
     assert touching > .015
     assert closing == pytest.approx(touching * 5 / 6, rel=.01)
     assert closing == pytest.approx(sideways(.01, 2), rel=.01)
+
+
+@pytest.mark.parametrize("edge, warned", [(1.2, True), (1., False),
+                                          (1.25, False)])
+def test_an_obstacle_corner_inside_a_cell_next_to_material_is_warned(
+        caplog, edge, warned):
+    """A footing whose edge lies inside a cell of the material's surface
+    is warned before any step (its pressure is as good as that cell: on
+    an untuned grid 3-26% above Prandtl's, jumping by up to 105% between
+    steps, docs/contact.md); on a grid node it is not, nor are its
+    corners away from the material (the box's left ones outside the
+    grid, its top ones a cell and more above the surface)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < 1. + 1e-9)
+    footing = Obstacle(box=[[-1, edge], [1., 1.7]], displacement=[0, -.01],
+                       name="footing")
+    with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(), nsteps=1,
+                 obstacles=[footing])
+    found = [r.getMessage() for r in caplog.records
+             if "not on a grid node" in r.getMessage()]
+    assert found == (["obstacle 'footing': its corner at [1.2, 1.0] lies "
+                      "next to the material but not on a grid node: the "
+                      "contact is resolved only to the cell it lies in (a "
+                      "footing's edge inside a cell pressed 3-26% above "
+                      "Prandtl's pressure and jumped by 6-105% between "
+                      "steps; docs/contact.md); put a grid node at it, or "
+                      "refine"] if warned else [])

@@ -13,6 +13,7 @@ obstacle's surface and the outward normal of its closest boundary point,
 vectorised over positions, and the checks of a set of obstacles.
 """
 import copy
+import itertools
 from typing import Optional, Sequence
 
 import numpy as np
@@ -149,6 +150,18 @@ class Obstacle:
             return self.box + shift[:, None]
         return np.stack([self.vertices.min(axis=1),
                          self.vertices.max(axis=1)], axis=1) + shift[:, None]
+
+    def corners(self, shift: ndarray) -> ndarray:
+        """The corners (dim, k) of the obstacle shifted by ``shift``: a
+        box's 2^dim, a polygon's vertices.
+
+        >>> Obstacle(box=[[0., 1.], [2., 3.]]).corners(np.zeros(2)).T.tolist()
+        [[0.0, 2.0], [0.0, 3.0], [1.0, 2.0], [1.0, 3.0]]
+        """
+        if self.box is None:
+            return self.vertices + shift[:, None]
+        pick = np.array(list(itertools.product((0, 1), repeat=self.dim))).T
+        return np.take_along_axis(self.box, pick, axis=1) + shift[:, None]
 
     def outline(self, shift: Optional[ndarray] = None) -> ndarray:
         """The outline (k, 2) of a 2D obstacle shifted by ``shift``, for
