@@ -7,7 +7,9 @@ The block of ``step_cost.py`` (standard MPM, finite deformation, one
 load step, ``LinearElastic(1e6, 0.3)``, the default solver), 1e3 to 1e5
 points; per size and path the best of ``--reps`` runs per phase
 (milliseconds per Newton iteration), the non-solve microseconds per point
-and iteration, and the heap peak per point (tracemalloc, a separate run);
+and iteration, and the heap peak per point (tracemalloc, a separate run:
+the run's own, the input's copy made before tracing, and "+input" with
+that copy's size added, the figure of the rounds before the ninth);
 then each path's iteration fitted as ``a + b * points`` (whole, and its
 non-solve part).  ``--large`` adds the 1e6-point 2D step (both paths):
 the share of its time outside the linear solve.  ``--kratos`` prints the
@@ -61,10 +63,13 @@ def use(kernels: str):
     KERNELS["path"] = kernels
 
 
-def once(mesh, elem, points, nsteps=1, body_force=None, supports=None):
+def once(mesh, elem, points, nsteps=1, body_force=None, supports=None,
+         copy=True):
+    """One run of ``points``: a copy of them unless ``copy`` is False
+    (the caller's own copy, made outside the traced region)."""
     dim = mesh.dim()
     return simulate(
-        mesh, elem, points.copy(), LinearElastic(1e6, .3),
+        mesh, elem, points.copy() if copy else points, LinearElastic(1e6, .3),
         supports or (lambda b: b.get_dofs(lambda x: x[-1] == 0)),
         body_force=np.r_[np.zeros(dim - 1), -1e4] if body_force is None
         else body_force, nsteps=nsteps, method=KERNELS["method"],
@@ -76,7 +81,9 @@ def once(mesh, elem, points, nsteps=1, body_force=None, supports=None):
 
 def measure(mesh, elem, points, reps: int, heap: bool, **kwargs):
     """Milliseconds per Newton iteration per phase (best of ``reps``), and
-    the heap peak per point (bytes) where ``heap``."""
+    where ``heap`` the heap peak per point (bytes): the run's own (the
+    input's copy made before tracing starts) and the input's copy's size
+    (what the caller holds beside it), else None."""
     best = {}
     for _ in range(reps):
         result = once(mesh, elem, points, **kwargs)
@@ -86,8 +93,15 @@ def measure(mesh, elem, points, reps: int, heap: bool, **kwargs):
     peak = None
     if heap:
         tracemalloc.start()
-        once(mesh, elem, points, **kwargs)
-        peak = tracemalloc.get_traced_memory()[1] / points.n
+        given = points.copy()
+        size = tracemalloc.get_traced_memory()[0]
+        tracemalloc.stop()
+        del given
+        given = points.copy()
+        tracemalloc.start()
+        once(mesh, elem, given, copy=False, **kwargs)
+        peak = (tracemalloc.get_traced_memory()[1] / points.n,
+                size / points.n)
         tracemalloc.stop()
     return best, its, peak
 
@@ -98,9 +112,9 @@ def table(dim: int, reps: int, cells=None):
           "ms per Newton iteration (best of {})".format(
               dim, "standard MPM" if method == "mpm" else method,
               ", mean dilatation" if KERNELS["antilocking"] else "", reps))
-    print("{:>7} {:>9} | {} | {:>7} {:>9} {:>8} {:>4}".format(
+    print("{:>7} {:>9} | {} | {:>7} {:>9} {:>8} {:>8} {:>4}".format(
         "points", "path", " ".join("{:>8}".format(p) for p in PHASES),
-        "total", "us/pt/it", "heap/pt", "its"))
+        "total", "us/pt/it", "heap/pt", "+input", "its"))
     rows = {path: [] for path in PATHS}
     elem = GRIDS[dim][1]()
     sizes = cells or (SIZES[dim] if method == "mpm" or dim == 2
@@ -114,11 +128,12 @@ def table(dim: int, reps: int, cells=None):
             total = sum(best.values())
             nonsolve = (total - best["solve"]) * 1e3 / points.n
             rows[path].append((points.n, total, total - best["solve"]))
-            print("{:>7} {:>9} | {} | {:>7.2f} {:>9.3f} {:>8} {:>4}".format(
-                points.n, path, " ".join("{:>8.2f}".format(best[p])
-                                         for p in PHASES), total, nonsolve,
-                "-" if peak is None else "{:.0f}".format(peak), its),
-                flush=True)
+            print("{:>7} {:>9} | {} | {:>7.2f} {:>9.3f} {:>8} {:>8} {:>4}"
+                  .format(points.n, path, " ".join(
+                      "{:>8.2f}".format(best[p]) for p in PHASES), total,
+                          nonsolve, *("-", "-") if peak is None else (
+                              "{:.0f}".format(peak[0]),
+                              "{:.0f}".format(sum(peak))), its), flush=True)
     for path in PATHS:
         n, whole, nonsolve = map(np.array, zip(*rows[path]))
         (a, b), (c, d) = fixed_and_slope(n, whole * 1e-3), fixed_and_slope(
