@@ -189,8 +189,13 @@ class PointOperator:
             slots = self.basis.point_index
             real = slots >= 0
             nel, nloc = self.nelems, self.scalar_dofs.shape[0]
-            G = np.ascontiguousarray(self.shape_gradients.transpose(
-                2, 3, 1, 0)).reshape(-1, self.dim)
+            first_points = np.ascontiguousarray(
+                self.shape_gradients.transpose(2, 3, 1, 0))
+            # one copy of the gradients: the operator's and the basis's
+            # become views of the points-first one (196 bytes a point in 3D)
+            self.shape_gradients = first_points.transpose(3, 2, 0, 1)
+            self.basis.share_gradients(first_points.transpose(2, 3, 0, 1))
+            G = first_points.reshape(-1, self.dim)
             self._layout = KernelLayout(
                 (G, np.ascontiguousarray(self.scalar_dofs.T,
                                          dtype=np.int64).ravel(),

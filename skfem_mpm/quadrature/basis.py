@@ -212,6 +212,34 @@ class MaterialPointBasis(CellBasis):
             self._scalar_fields = (values, gradients)
         return self._scalar_fields
 
+    def share_gradients(self, gradients: ndarray):
+        """Take ``gradients`` (nloc, dim, nelems, slots), equal to those of
+        :meth:`scalar_fields` but in another memory layout (a view of the
+        compiled passes' points-first array), as the basis's own: its
+        fields' gradients become views of it and the array it held is
+        released (196 bytes a point in 3D).
+
+        >>> import numpy as np
+        >>> from skfem import MeshQuad, ElementQuad1
+        >>> from skfem_mpm import MaterialPointBasis, seed_points
+        >>> basis = MaterialPointBasis(MeshQuad().refined(1), ElementQuad1(),
+        ...                            seed_points(MeshQuad().refined(1), 2))
+        >>> values, gradients = basis.scalar_fields()
+        >>> first = np.ascontiguousarray(gradients.transpose(2, 3, 0, 1))
+        >>> basis.share_gradients(first.transpose(2, 3, 0, 1))
+        >>> bool(np.shares_memory(basis.basis[0][0].grad, first))
+        True
+        """
+        values, before = self.scalar_fields()
+        if gradients.shape != before.shape:
+            raise InvalidInputError(
+                "share_gradients: gradients of shape {}, the basis's are {}"
+                .format(gradients.shape, before.shape))
+        self.basis = [(DiscreteField(values[i], gradients[i],
+                                     *f[0].astuple[2:]),)
+                      for i, f in enumerate(self.basis)]
+        self._scalar_fields = (values, gradients)
+
     def point_values(self, field: ndarray) -> ndarray:
         """Reorder a quadrature field (..., nelems, nqp) into the order of
         the points in :attr:`subset` (..., len(subset)), dropping padding
