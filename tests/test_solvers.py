@@ -126,18 +126,21 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
     one stored index map: the maps built equal the steps (3, with 3-4
     iterations each; cpGIMP's compiled stiffness on the pattern of the
     step's supports), every gathered block equals scikit-fem's
-    ``condense`` exactly, and the run's answer is bit-identical to the
-    one condensed by scikit-fem every iteration."""
+    ``condense`` exactly (the compiled path's within the tangent's own
+    data), and the run's answer is bit-identical to the one condensed by
+    scikit-fem every iteration."""
     from skfem import condense
     import skfem_mpm.solve.problem as problem
     from skfem_mpm.solve.linear import Condensation
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9), np.linspace(0, 1.2, 11))
-    builds, gathers = [], []
+    builds, gathers, consumed = [], [], []
     original_call = Condensation.__call__
 
-    def gather(self, K):
-        A = original_call(self, K)
-        gathers.append((A != condense(K, I=self.free, expand=False)).nnz)
+    def gather(self, K, consume=False):
+        expected = condense(K, I=self.free, expand=False)  # before: consumed
+        A = original_call(self, K, consume)
+        gathers.append((A != expected).nnz)
+        consumed.append(consume)
         return A
     monkeypatch.setattr(Condensation, "__call__", gather)
     monkeypatch.setattr(problem, "Condensation", lambda K, free: builds.append(
@@ -162,6 +165,10 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
     assert len(builds) == (3 if mapped else 0)
     assert len(gathers) == (iterations if mapped else 0)
     assert all(mismatch == 0 for mismatch in gathers)
+    # the compiled pass's tangents, which nothing reads after, are
+    # gathered within their own data
+    assert all(consumed) if mapped and auto_kernels() == "auto" \
+        else not any(consumed)
     monkeypatch.setattr(Condensation, "fits", lambda self, K, free: False)
     again = run()
     assert np.array_equal(again.points.x, stored.points.x)
@@ -457,20 +464,26 @@ def test_is_symmetric_agrees_with_the_dense_transpose():
     np.testing.assert_array_equal(reversed_rows.indices, indices)
 
 
-def test_upper_triangle_and_row_sums_match_scipy():
+def test_upper_triangle_and_row_sums_match_scipy(monkeypatch):
     """The masked upper triangle equals scipy's ``triu`` (canonical CSR, a
-    non-square one and COO input); the row sums by ``reduceat`` equal the
-    dense ones with empty rows first, inside and last."""
+    non-square one and COO input), its rows found a block of entries at a
+    time (of one, seven and the default); the row sums by ``reduceat``
+    equal the dense ones with empty rows first, inside and last."""
     from scipy.sparse import csr_matrix, triu
+    from skfem_mpm.solve import backends
     from skfem_mpm.solve.backends import upper_triangle
     from skfem_mpm.solve.linear import row_sums
     rng = np.random.default_rng(5)
     D = rng.standard_normal((30, 30)) * (rng.random((30, 30)) < .3)
     D[[0, 11, 29]] = 0.
-    for A in (csr_matrix(D), csr_matrix(D[:, :20]), csr_matrix(D).tocoo()):
-        upper = upper_triangle(A)
-        assert upper.format == "csr" and upper.has_sorted_indices
-        assert np.array_equal(upper.toarray(), triu(A).toarray())
+    for block in (1, 7, backends.TRIANGLE_BLOCK):
+        monkeypatch.setattr(backends, "TRIANGLE_BLOCK", block)
+        for A in (csr_matrix(D), csr_matrix(D[:, :20]),
+                  csr_matrix(D).tocoo()):
+            upper = upper_triangle(A)
+            assert upper.format == "csr" and upper.has_sorted_indices
+            assert np.array_equal(upper.toarray(), triu(A).toarray())
+            assert upper.nnz == triu(A).nnz
     assert np.allclose(row_sums(csr_matrix(D)), np.abs(D).sum(axis=1),
                        rtol=1e-15, atol=0.)
     # in blocks of rows (of one and of seven entries): the same sums, to

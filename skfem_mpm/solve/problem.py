@@ -19,6 +19,7 @@ The problem never names a particular term, kinematics or method.
 """
 import logging
 import time
+import weakref
 from typing import NamedTuple
 
 import numpy as np
@@ -160,6 +161,7 @@ class StepProblem:
         self.f_dead = run.loads.external(op, points, self.s_new)
         self.load_weight = 1.
         self.stabilised = False        # a solve used the stabilised tangent
+        self._own = None    # the last tangent made of arrays of its own
         self.terms = []
         for term in run.terms:             # in order: a term may use those
             begun = term.begin_step(self)  # before it (their loads)
@@ -253,7 +255,11 @@ class StepProblem:
         response, op = trial.response, self.op
         blocks = response.tangent_of is not None and getattr(
             op, "tangent_blocks", False)       # no tangent of all points
-        if response.stiffness is not None:     # compiled, point by point
+        # whether K is a matrix of its own, which no one else reads: the
+        # compiled pass's and add_within's are, an operator's or a term's
+        # weighing of it might not be
+        own = response.stiffness is not None
+        if own:                                # compiled, point by point
             K = response.stiffness()
         else:
             K = op.stiffness(response.tangent_of if blocks
@@ -262,8 +268,12 @@ class StepProblem:
             G = term.matrix(response)
             if G is not None:
                 K = add_within(K, G)
+                own = True
         for term in self.terms:
-            K = term.weigh_matrix(K)
+            weighed = term.weigh_matrix(K)
+            own = own and weighed is K
+            K = weighed
+        self._own = weakref.ref(K) if own else None
         self.t["assemble"] += time.perf_counter() - tic
         return K
 
@@ -293,10 +303,15 @@ class StepProblem:
         ``K`` is condensed onto the free DOFs first, and the whole grid's
         matrix released (where the caller holds no reference to it: the
         Newton driver hands the tangent over) before the condensed one is
-        factorised: 408 bytes a point less at the peak of a 3D run's heap."""
+        factorised: 408 bytes a point less at the peak of a 3D run's heap.
+        The last tangent this problem made from arrays of its own (the
+        compiled pass's) is condensed within its data (``consume``,
+        :meth:`~skfem_mpm.solve.linear.Condensation.__call__`): the Newton
+        driver does not read it again."""
         tic = time.perf_counter()
         try:
-            A, n = self.condensed(K), K.shape[0]
+            n = K.shape[0]
+            A = self.condensed(K)
             del K           # memory: not alive while A is factorised
             return self._solve(A, n, r, stabilise)
         finally:
@@ -311,8 +326,10 @@ class StepProblem:
                 and cache.condensation.fits(K, free)) \
                 and getattr(K, "has_canonical_format", False):
             cache.condensation = Condensation(K, free)  # new step: new map
+        consume = self._own is not None and self._own() is K
+        self._own = None
         # (GIMP's sparse products are not canonical: scikit-fem's condense)
-        return condensed(K, free, cache.condensation)
+        return condensed(K, free, cache.condensation, consume)
 
     def _solve(self, A, n: int, r: ndarray, stabilise: bool):
         """:meth:`solve` of the condensed tangent ``A`` (of a matrix of
