@@ -46,6 +46,12 @@ def test_tensor_and_general_paths_agree(name):
     np.testing.assert_array_equal(t1, t2)
     assert np.abs(X1 - X2).max() < 1e-12
     assert maps_back(mesh, t1, X1, x) < 1e-12
+    # the tensor path's local coordinates, a row of the inverse maps at a
+    # time, are those of all of them at once to the bit
+    from skfem_mpm.quadrature.locate import _element_affine_maps
+    origin, Ainv = _element_affine_maps(mesh)
+    np.testing.assert_array_equal(X1, np.einsum(
+        "ijn,jn->in", Ainv[:, :, t1], x - origin[:, t1]))
 
 
 def test_points_on_grid_lines_go_to_the_upper_cell():

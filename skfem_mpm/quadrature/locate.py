@@ -262,7 +262,16 @@ def _tensor_finder(mesh: Mesh, grid, tol: float):
             cell += i
         cell[outside] = 0
         tind = cell_to_elem[cell]
-        X = np.einsum("ijn,jn->in", Ainv[:, :, tind], x - origin[:, tind])
+        del cell
+        # X = Ainv (x - origin), a row of Ainv at a time: the products
+        # summed in einsum's order, without Ainv at every point (72 bytes
+        # a point in 3D, the peak of the location after a step)
+        v = x - origin[:, tind]
+        X = np.empty_like(v)
+        for i in range(len(v)):
+            X[i] = np.take(Ainv[i, 0], tind) * v[0]
+            for j in range(1, len(v)):
+                X[i] += np.take(Ainv[i, j], tind) * v[j]
         tind[outside] = -1
         return tind, X
 
