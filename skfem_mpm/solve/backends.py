@@ -429,12 +429,48 @@ def pardiso_solver(mtype: int):
     # after a perturbed pivot (iparm(8) = 0), and such a factorisation
     # goes to SuperLU anyway; the factorisations are backward stable and
     # solve_active checks the backward error of every solve
+    # iparm(35) = 1: the index arrays zero-based, as scipy's
+    # (:func:`call_pardiso`)
     general = mtype == 11
     for number, value in ((1, 1), (2, 2), (8, 0), (10, 13 if general else 8),
                           (11, int(general)), (13, int(general)), (18, -1),
-                          (19, -1)):
+                          (19, -1), (35, 1)):
         pardiso.iparm[number - 1] = value
     return pardiso
+
+
+def call_pardiso(pardiso, A, b: ndarray) -> ndarray:
+    """pypardiso's ``_call_pardiso(A, b)`` at the phase set, with the CSR
+    index arrays of ``A`` given to MKL as they are, zero-based (iparm(35)
+    = 1, :func:`pardiso_solver`): pypardiso copies both to make them
+    one-based (int32, then plus one), 130 bytes a point at the peak of a
+    3D run's factorisation.  Through pypardiso's MKL binding and state
+    (``pt``, ``perm``, ``iparm``, ``msglvl``), as its own call."""
+    import ctypes
+    from pypardiso.pardiso_wrapper import PyPardisoError
+    x = np.zeros_like(b)
+    error = ctypes.c_int32(0)
+    ints = ctypes.POINTER(ctypes.c_int32)
+    floats = ctypes.POINTER(ctypes.c_double)
+    ia = np.ascontiguousarray(A.indptr, dtype=np.int32)
+    ja = np.ascontiguousarray(A.indices, dtype=np.int32)
+    data = np.ascontiguousarray(A.data, dtype=np.float64)
+
+    def integer(value):
+        return ctypes.byref(ctypes.c_int32(value))
+    pardiso._mkl_pardiso(
+        pardiso.pt.ctypes.data_as(ctypes.POINTER(pardiso._pt_type[0])),
+        integer(1), integer(1), integer(pardiso.mtype),
+        integer(pardiso.phase), integer(A.shape[0]),
+        data.ctypes.data_as(floats), ia.ctypes.data_as(ints),
+        ja.ctypes.data_as(ints), pardiso.perm.ctypes.data_as(ints),
+        integer(1 if b.ndim == 1 else b.shape[1]),
+        pardiso.iparm.ctypes.data_as(ints), integer(pardiso.msglvl),
+        b.ctypes.data_as(floats), x.ctypes.data_as(floats),
+        ctypes.byref(error))
+    if error.value != 0:
+        raise PyPardisoError(error.value)
+    return np.ascontiguousarray(x)
 
 
 def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
@@ -494,12 +530,12 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
         if not same:
             pardiso.free_memory(everything=True)
             pardiso.set_phase(11)
-            pardiso._call_pardiso(matrix, nothing)
+            call_pardiso(pardiso, matrix, nothing)
             seen.update(pattern_of(matrix))
             solver.analyses += 1
         pardiso.set_phase(22)            # numerical factorisation
         try:
-            pardiso._call_pardiso(matrix, nothing)
+            call_pardiso(pardiso, matrix, nothing)
         except PyPardisoError as err:    # -4: zero pivot (not definite)
             if definite:
                 logger.debug("Pardiso: not positive definite (error %s); "
@@ -543,8 +579,8 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
                 # another matrix of this kind was factorised since
                 return factorise(A)(b)
             pardiso.set_phase(33)        # forward and back substitution
-            x = pardiso._call_pardiso(matrix,
-                                      np.asfortranarray(b, dtype=float))
+            x = call_pardiso(pardiso, matrix,
+                             np.asfortranarray(b, dtype=float))
             if np.all(np.isfinite(x)) and np.abs(x).max() <= \
                     growth_tol * np.abs(b).max() / diagonal:
                 return x
