@@ -235,9 +235,8 @@ class MaterialPointBasis(CellBasis):
             raise InvalidInputError(
                 "share_gradients: gradients of shape {}, the basis's are {}"
                 .format(gradients.shape, before.shape))
-        self.basis = [(DiscreteField(values[i], gradients[i],
-                                     *f[0].astuple[2:]),)
-                      for i, f in enumerate(self.basis)]
+        for i, (field,) in enumerate(self.basis):  # the basis's own fields
+            field.grad = gradients[i]  # (made anew: 20-40 us a step)
         self._scalar_fields = (values, gradients)
 
     def point_values(self, field: ndarray) -> ndarray:

@@ -245,12 +245,14 @@ class Condensation:
         """The free-free block of ``K``; with ``consume`` (``K`` is not
         read again: its owner hands it over) gathered within ``K``'s data,
         which is then shortened to the block's entries and becomes the
-        block's, where the kept entries are in ``K``'s order and ``K``
-        owns its data: no second array of entries while both are alive
-        (248 bytes a point at the peak of a 3D run's heap), the same
-        values."""
+        block's, where the kept entries are in ``K``'s order, ``K`` owns
+        its data and the block has :data:`GATHER_BLOCK` entries or more
+        (a smaller one is copied faster): no second array of entries
+        while both are alive (248 bytes a point at the peak of a 3D run's
+        heap), the same values."""
         n, take = self.free.size, self.take
-        data = whole_array(K.data) if consume and self.ascending else None
+        data = whole_array(K.data) if consume and self.ascending \
+            and take.size >= GATHER_BLOCK else None
         if data is None:
             return csr_matrix((K.data[take], *self.block), shape=(n, n))
         K.data = data               # scipy's view of it released
@@ -267,11 +269,13 @@ def whole_array(data: ndarray) -> Optional[ndarray]:
     ``data`` or a view of all of it (scipy's sparse constructors view the
     data they are given) and may be resized; else None."""
     owner = data if data.base is None else data.base
+    # a contiguous view of as many items of the owner's type starts where
+    # the owner does
     if isinstance(owner, ndarray) and owner.base is None \
             and owner.flags.owndata and owner.flags.writeable \
-            and owner.flags.c_contiguous and owner.ndim == 1 \
-            and owner.dtype == data.dtype and owner.size == data.size \
-            and owner.ctypes.data == data.ctypes.data:
+            and owner.flags.c_contiguous and data.flags.c_contiguous \
+            and owner.ndim == data.ndim == 1 \
+            and owner.dtype == data.dtype and owner.size == data.size:
         return owner
     return None
 
