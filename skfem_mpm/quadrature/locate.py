@@ -269,9 +269,9 @@ def _tensor_finder(mesh: Mesh, grid, tol: float):
         v = x - origin[:, tind]
         X = np.empty_like(v)
         for i in range(len(v)):
-            X[i] = np.take(Ainv[i, 0], tind) * v[0]
-            for j in range(1, len(v)):
-                X[i] += np.take(Ainv[i, j], tind) * v[j]
+            row = np.take(Ainv[i], tind, axis=1)
+            row *= v
+            np.add.reduce(row, axis=0, out=X[i])
         tind[outside] = -1
         return tind, X
 
