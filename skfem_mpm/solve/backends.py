@@ -26,6 +26,7 @@ costs, are measured in ``benchmarks/README.md`` (``benchmarks/solvers.py``,
 
 """
 import functools
+import hashlib
 import importlib.util
 import logging
 import warnings
@@ -363,16 +364,37 @@ def memory_of(array: ndarray):
                    array.strides, array.dtype.str)
 
 
+def pattern_digest(A) -> bytes:
+    """The SHA-256 digest of a CSR matrix's shape, index types and index
+    arrays: equal for equal patterns (of the same index types)."""
+    digest = hashlib.sha256(repr((A.shape, A.indptr.dtype.str,
+                                  A.indices.dtype.str)).encode())
+    digest.update(np.ascontiguousarray(A.indptr))
+    digest.update(np.ascontiguousarray(A.indices[:A.indptr[-1]]))
+    return digest.digest()
+
+
 def pattern_of(A) -> dict:
-    """The sparsity pattern of a CSR matrix (copies of its index arrays)."""
-    return {"indptr": A.indptr.copy(), "indices": A.indices.copy()}
+    """The sparsity pattern of a CSR matrix, as the digest of its index
+    arrays (:func:`pattern_digest`): copies of them, held by a back end
+    between iterations, were 65 bytes a point of a 3D run's heap (Pardiso's
+    analysed triangle); the digest takes 4.6 ms for 1.8e6 entries where
+    comparing them took 0.4 (a Pardiso factorisation of them about 700).
+
+    >>> from scipy.sparse import identity
+    >>> same_pattern(identity(3, format="csr"),
+    ...              pattern_of(2 * identity(3, format="csr")))
+    True
+    >>> same_pattern(identity(4, format="csr"),
+    ...              pattern_of(identity(3, format="csr")))
+    False
+    """
+    return {"digest": pattern_digest(A)}
 
 
 def same_pattern(A, pattern: dict) -> bool:
     """``A`` has the sparsity pattern ``pattern`` (:func:`pattern_of`)."""
-    return bool(pattern) and all(np.array_equal(getattr(A, name),
-                                                pattern[name])
-                                 for name in ("indptr", "indices"))
+    return bool(pattern) and pattern["digest"] == pattern_digest(A)
 
 
 def mkl_environment():
