@@ -114,6 +114,23 @@ def test_outside_points_are_named():
         point_locator(tri)(np.array([[.9], [.9001]]) + np.array([[0], [.2]]))
 
 
+def test_tensor_location_in_blocks_of_points(monkeypatch):
+    """Points located a block at a time (3 here) get the elements and
+    local coordinates of all at once, to the bit; outside ones in a later
+    block are named by their index among all."""
+    import skfem_mpm.quadrature.locate as module
+    mesh = MeshHex.init_tensor(*[np.linspace(0., 1., 4)] * 3)
+    x = random_points(mesh, 10, seed=3)
+    whole = point_locator(mesh, method="tensor")(x)
+    monkeypatch.setattr(module, "LOCATE_BLOCK", 3)
+    blocks = point_locator(mesh, method="tensor")(x)
+    for a, b in zip(whole, blocks):
+        np.testing.assert_array_equal(a, b)
+    x[:, [4, 8]] += 2.
+    with pytest.raises(PointsOutsideGridError, match=r"indices \[4, 8\]"):
+        point_locator(mesh, method="tensor")(x)
+
+
 def test_bad_locator_input():
     mesh = MeshQuad()
     locate = point_locator(mesh)

@@ -245,14 +245,25 @@ def _axis_cells(a: ndarray, tol: float) -> Callable[[ndarray], ndarray]:
     return cells
 
 
+#: points a tensor-grid location treats at a time: its temporaries (about
+#: 110 bytes a point in 3D) for all points at once were the peak of a 3D
+#: run's heap after a step (the location for the next one)
+LOCATE_BLOCK = 1 << 14
+
+
 def _tensor_finder(mesh: Mesh, grid, tol: float):
     axes, shape, cell_to_elem = grid
     origin, Ainv = _element_affine_maps(mesh)
+    # rows contiguous: np.take of a row along its elements copied a strided
+    # one whole at every call (of every block of points)
+    Ainv = np.ascontiguousarray(Ainv)
     along = [_axis_cells(a, tol) for a in axes]
     # the cell of index (i_0, .., i_d) is cell_to_elem[sum i_k stride_k]
     strides = np.cumprod((1,) + shape[:0:-1])[::-1]
 
-    def find(x):
+    def find_block(x, X):
+        """The elements of the positions ``x`` (-1 outside), their local
+        coordinates written to ``X``."""
         cell = np.zeros(x.shape[1], dtype=np.int64)
         outside = np.zeros(x.shape[1], dtype=bool)
         for d, cells in enumerate(along):
@@ -265,14 +276,24 @@ def _tensor_finder(mesh: Mesh, grid, tol: float):
         del cell
         # X = Ainv (x - origin), a row of Ainv at a time: the products
         # summed in einsum's order, without Ainv at every point (72 bytes
-        # a point in 3D, the peak of the location after a step)
+        # a point in 3D)
         v = x - origin[:, tind]
-        X = np.empty_like(v)
         for i in range(len(v)):
             row = np.take(Ainv[i], tind, axis=1)
             row *= v
             np.add.reduce(row, axis=0, out=X[i])
         tind[outside] = -1
+        return tind
+
+    def find(x):
+        X = np.empty(x.shape)
+        n = x.shape[1]
+        if n <= LOCATE_BLOCK:
+            return find_block(x, X), X
+        tind = np.empty(n, dtype=cell_to_elem.dtype)
+        for s in range(0, n, LOCATE_BLOCK):
+            tind[s:s + LOCATE_BLOCK] = find_block(
+                x[:, s:s + LOCATE_BLOCK], X[:, s:s + LOCATE_BLOCK])
         return tind, X
 
     return find
