@@ -409,6 +409,46 @@ def test_a_system_without_free_dofs_is_refused():
         factorise_active(K, none)
 
 
+def test_mirrored_blocks_and_the_symmetry_check_without_kept_mirrors(
+        monkeypatch):
+    """The mirror positions found for rows of about 7 entries at a time:
+    each entry's mirror from the dense matrix of entry numbers, every
+    entry once; a None pair last for an asymmetric pattern whose rows and
+    columns are as full (a cycle) and for one with an entry's mirror
+    missing; the symmetry check of a pattern above ``MIRRORS_KEPT``
+    entries against the dense transpose, nothing kept."""
+    from scipy.sparse import csr_matrix
+    import skfem_mpm.solve.backends as backends
+    monkeypatch.setattr(backends, "MIRROR_BLOCK", 7)
+    rng = np.random.default_rng(5)
+    S = rng.random((30, 30)) * (rng.random((30, 30)) < .3)
+    S = csr_matrix(S + S.T + np.eye(30))
+    numbers = np.zeros(S.shape, dtype=np.int64)
+    rows = np.repeat(np.arange(30), np.diff(S.indptr))
+    numbers[rows, S.indices] = np.arange(S.nnz)
+    pairs = list(backends.mirrored_blocks(S))
+    assert len(pairs) > 1
+    entries, mirrors = map(np.concatenate, zip(*pairs))
+    np.testing.assert_array_equal(np.sort(entries), np.arange(S.nnz))
+    np.testing.assert_array_equal(mirrors, numbers[S.indices, rows][entries])
+    cycle = csr_matrix(np.roll(np.eye(30), 1, axis=1) + np.eye(30))
+    lopsided = S.tolil()
+    lopsided[2, 29], lopsided[29, 2] = 1., 0.
+    lopsided = csr_matrix(lopsided)
+    lopsided.eliminate_zeros()
+    for A in (cycle, lopsided):
+        assert list(backends.mirrored_blocks(A))[-1] is None
+    monkeypatch.setattr(backends, "MIRRORS_KEPT", 7)
+    backends.MIRRORS.clear()
+    dense = S.toarray()
+    for A in (S, csr_matrix(dense + 1e-9 * np.tril(dense)), lopsided,
+              cycle):
+        D = A.toarray()
+        assert backends.is_symmetric(A) == bool(
+            np.abs(D - D.T).max() <= 1e-12 * np.abs(D).max())
+    assert not backends.MIRRORS
+
+
 def test_is_symmetric_agrees_with_the_dense_transpose():
     """The in-place mirror comparison (kept per pattern) against the dense
     ``A == A.T`` to the tolerance: symmetric and asymmetric values on a

@@ -189,8 +189,10 @@ def is_symmetric(A, rtol: float = 1e-12) -> bool:
     A CSR matrix whose pattern is symmetric is compared with its mirror
     entries (in a canonical copy where it is not canonical: sorted,
     duplicates summed), in blocks of :data:`SYMMETRY_BLOCK` entries
-    (:func:`mirror_positions`), without forming ``A - A.T``: two more
-    matrices at the peak of a factorisation, 1.8 kB per point of a 3D run.
+    (:func:`mirror_positions`; a pattern of more than
+    :data:`MIRRORS_KEPT` entries by :func:`mirrored_blocks`, its mirror
+    positions not kept), without forming ``A - A.T``: two more matrices at
+    the peak of a factorisation, 1.8 kB per point of a 3D run.
 
     Examples
     --------
@@ -208,12 +210,21 @@ def is_symmetric(A, rtol: float = 1e-12) -> bool:
         A = A.copy()              # its index arrays may be another's too
         A.sum_duplicates()
     if A.format == "csr":
-        mirror = mirror_positions(A)
-        if mirror is not None:
-            data, largest, block = A.data, 0., SYMMETRY_BLOCK
-            for s in range(0, A.nnz, block):
-                largest = max(largest, np.abs(
-                    data[s:s + block] - data[mirror[s:s + block]]).max())
+        data, largest = A.data, 0.
+        if A.nnz <= MIRRORS_KEPT:
+            mirror = mirror_positions(A)
+            pairs = [None] if mirror is None else (
+                (slice(s, s + SYMMETRY_BLOCK), mirror[s:s + SYMMETRY_BLOCK])
+                for s in range(0, A.nnz, SYMMETRY_BLOCK))
+        else:
+            pairs = mirrored_blocks(A)
+        for pair in pairs:
+            if pair is None:                 # the pattern is not symmetric
+                break
+            if pair[1].size:
+                largest = max(largest, np.abs(data[pair[0]]
+                                              - data[pair[1]]).max())
+        else:
             return bool(A.nnz == 0 or largest <= rtol * max(data.max(),
                                                             -data.min()))
     # a pattern made asymmetric by dropped zeros (sums of sparse products):
@@ -295,6 +306,69 @@ def kept_for_pattern(store: dict, A, compute: Callable):
     store["last"] = (tuple((weakref.ref(owner, forget), place)
                            for owner, place in key), value)
     return value
+
+
+#: entries of a pattern (rows of about so many) whose mirror positions
+#: :func:`mirrored_blocks` finds at a time
+MIRROR_BLOCK = 1 << 16
+#: entries of the largest pattern whose mirror positions :func:`is_symmetric`
+#: forms whole and keeps (:func:`mirror_positions`: 4 bytes an entry kept,
+#: 8 more while they are formed); a larger one's are found again at each
+#: call, a block of rows at a time (:func:`mirrored_blocks`): kept, they
+#: were 124 bytes a point at every peak of a 3D run's heap after the first
+#: factorisation (1.1e5 points), and formed whole 248 at that one, where
+#: finding them costs 50-65 ms an iteration at 3.5e6 entries (the
+#: comparison with kept ones 25-30; the iteration 2.1 s)
+MIRRORS_KEPT = 1 << 20
+
+
+def mirrored_blocks(A):
+    """For a canonical square CSR matrix ``A``, pairs ``(entries,
+    mirrors)`` of index arrays into ``A.data``: the entries of rows of
+    about :data:`MIRROR_BLOCK` entries, and those at their mirrored places
+    (``(j, i)`` for ``(i, j)``); every entry is in one pair.  A None pair
+    (the last) where the pattern turns out not to be symmetric.
+
+    The transpose of a block of rows' entry numbers places the block's
+    entries of each column after the earlier blocks' in the column's
+    mirror, the row of the same number; no array of all entries is made
+    but the check of the column counts against the rows' (ints of the
+    size of a row).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.sparse import csr_matrix
+    >>> from skfem_mpm.solve.backends import mirrored_blocks
+    >>> A = csr_matrix(np.array([[1., 2.], [3., 4.]]))
+    >>> [(e.tolist(), m.tolist()) for e, m in mirrored_blocks(A)]
+    [([0, 2, 1, 3], [0, 1, 2, 3])]
+    """
+    n, indptr, indices = A.shape[0], A.indptr, A.indices
+    # the transpose's rows are as long as A's (its columns as full)
+    if not np.array_equal(np.bincount(indices, minlength=n),
+                          np.diff(indptr)):
+        yield None
+        return
+    place = indptr[:-1].copy()        # the next place in each column's row
+    step = max(1, MIRROR_BLOCK * n // max(A.nnz, 1))
+    for first in range(0, n, step):
+        last = min(first + step, n)
+        lo, hi = indptr[first], indptr[last]
+        block = csr_matrix((np.arange(lo, hi, dtype=indices.dtype),
+                            indices[lo:hi], indptr[first:last + 1] - lo),
+                           shape=(last - first, A.shape[1])).tocsc()
+        counts = np.diff(block.indptr)
+        places = np.repeat(place - block.indptr[:-1], counts)
+        places += np.arange(block.nnz, dtype=places.dtype)
+        # the entries there have the rows as columns: the pattern is
+        # symmetric so far
+        block.indices += first
+        if not np.array_equal(indices[places], block.indices):
+            yield None
+            return
+        yield block.data, places
+        place += counts
 
 
 def mirror_positions(A):
