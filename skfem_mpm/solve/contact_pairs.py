@@ -247,8 +247,13 @@ class PairFinder:
         With friction, a node whose second body's corners were pressed
         at the last step's end (``held``, their pressure vectors summed
         per node, dim x m) keeps the candidate nearest that direction
-        (within :data:`HELD` in cosine) while the bodies touch along it
-        (a gap up to :data:`FACING` cells): at a pile's tip the soil
+        (within :data:`HELD` in cosine) where it is alike with the best
+        or the best shows the bodies apart while they touch along it (a
+        gap up to :data:`FACING` cells): at a heavily loaded pile's tip
+        corners, in a notch of the soil, the candidates alike were
+        decided by the line between the centroids, which leaned sideways
+        as the soil yielded, and with friction 0.3 the pile settled 66%
+        more than without (a user trial); at a pile's tip the soil
         beside it, its facing corners parted by a settlement of a
         hundredth of a cell, showed half a cell of gap sideways, the
         tip's nodes took the side's normal, and the pile, its tip unheld,
@@ -310,8 +315,8 @@ class PairFinder:
                     = -np.inf
                 pick = np.argmax(cos_held, axis=0)
                 at = np.arange(pick.size)
-                keep = (cos_held[pick, at] > HELD) \
-                    & (gaps[best, at] > FACING * self.h)
+                keep = (cos_held[pick, at] > HELD) & (
+                    alike[pick, at] | (gaps[best, at] > FACING * self.h))
                 best = np.where(keep, pick, best)
         normal = candidates[best, :, np.arange(best.size)].T
         node = np.flatnonzero(~np.isinf(gaps.max(axis=0)))
