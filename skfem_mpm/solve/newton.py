@@ -70,7 +70,7 @@ logger = logging.getLogger(__name__)
 
 __all__ = ["Backtracking", "FullStep", "make_line_search", "LINE_SEARCHES",
            "newton", "Converged", "MODIFIED_RATE", "NewtonOptions", "RHS",
-           "NEWTON", "STALL"]
+           "NEWTON"]
 
 #: the right-hand sides of a linear step (``rhs=``): the out-of-balance
 #: force, or the seed's literal load increment
@@ -82,13 +82,6 @@ NEWTON = ("full", "modified")
 #: factorised one reduced the residual by less than this factor (a linear
 #: rate of 0.25 reaches a tolerance of 1e-9 in 15 iterations)
 MODIFIED_RATE = .25
-
-#: an attempt whose last this many iterations found no residual below the
-#: smallest before them has stalled: it ends (the retry ladder takes the
-#: step on) rather than spend the rest of ``max_iter`` where it is (a
-#: rough footing's first attempts sat at a residual of 1.0 for 20
-#: iterations, 25 a step over its 47 steps)
-STALL = 8
 
 LINE_SEARCHES = ("backtracking", "armijo", "none")
 # what a trial step may raise that a shorter step can avoid
@@ -511,16 +504,12 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         if converged(current) or problem.free.size == 0 or (
                 single_solve and it == 1):
             break
-        stalled = it > STALL and min(residuals[-STALL:]) >= min(
-            residuals[:-STALL])
-        if it == max_iter or stalled or not np.isfinite(residuals[-1]):
+        if it == max_iter or not np.isfinite(residuals[-1]):
             raise NewtonDivergenceError(
-                "step {}: {} did not converge in {} iterations{} (residual "
+                "step {}: {} did not converge in {} iterations (residual "
                 "{:.1e}, smallest {:.1e}, last {:.1e})".format(
                     problem.step, "the equilibrium iteration"
                     if problem.linear else "Newton-Raphson", it,
-                    ", no new smallest residual in the last {}".format(
-                        STALL) if stalled and it < max_iter else "",
                     residuals[0], min(residuals), residuals[-1]))
         if it == 0 and predictor is not None:
             d = problem.solve(*predictor, stabilise)[0]
