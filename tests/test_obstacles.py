@@ -904,30 +904,54 @@ def test_a_rough_plate_closing_a_gap_within_a_step_sticks_from_contact():
     assert closing == pytest.approx(sideways(.01, 2), rel=.01)
 
 
-@pytest.mark.parametrize("edge, warned", [(1.2, True), (1., False),
-                                          (1.25, False)])
-def test_an_obstacle_corner_inside_a_cell_next_to_material_is_warned(
-        caplog, edge, warned):
-    """A footing whose edge lies inside a cell of the material's surface
-    is warned before any step (its pressure is as good as that cell: on
-    an untuned grid 3-26% above Prandtl's, jumping by up to 105% between
-    steps, docs/contact.md); on a grid node it is not, nor are its
-    corners away from the material (the box's left ones outside the
-    grid, its top ones a cell and more above the surface)."""
+@pytest.mark.parametrize("box, warned", [
+    ([[-1, 1.2], [1., 1.7]], [1.2, 1.]),      # the edge inside a cell
+    ([[-1, 1.], [1., 1.7]], None),            # on a grid line
+    ([[-1, 1.25], [1., 1.7]], None),          # on the next
+    ([[-1, 1.], [1.02, 1.7]], None),          # on a line, 0.02 above
+    ([[2., 2.2], [-.2, 1.5]], None),          # a wall on the grid's edge
+    ([[.25, .5], [1.2, 1.6]], None),          # a plate on lines above
+    ([[.3, .5], [1.2, 1.6]], [.3, 1.2])])     # one off them
+def test_an_obstacle_edge_meeting_material_inside_a_cell_is_warned(
+        caplog, box, warned):
+    """A footing whose edge meets the material's surface inside a cell is
+    warned before any step (its pressure is as good as that cell: on an
+    untuned grid 3-26% above Prandtl's, jumping by up to 105% between
+    steps, docs/contact.md); on a grid line it is not, nor is a footing
+    on a line just above the surface, a wall along the grid's edge with
+    its corners outside the grid, or a plate above the surface on grid
+    lines (a review found these warned as corners off grid nodes); one
+    off them, within a cell of the surface, is."""
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
     pts = seed_points(mesh, 2, region=lambda x: x[1] < 1. + 1e-9)
-    footing = Obstacle(box=[[-1, edge], [1., 1.7]], displacement=[0, -.01],
-                       name="footing")
+    footing = Obstacle(box=box, displacement=[0, -.01], name="footing")
     with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
         simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
                  lambda b: b.get_dofs(lambda x: x[1] == 0).all(), nsteps=1,
                  obstacles=[footing])
     found = [r.getMessage() for r in caplog.records
-             if "not on a grid node" in r.getMessage()]
-    assert found == (["obstacle 'footing': its corner at [1.2, 1.0] lies "
-                      "next to the material but not on a grid node: the "
-                      "contact is resolved only to the cell it lies in (a "
-                      "footing's edge inside a cell pressed 3-26% above "
-                      "Prandtl's pressure and jumped by 6-105% between "
-                      "steps; docs/contact.md); put a grid node at it, or "
-                      "refine"] if warned else [])
+             if "inside a grid cell" in r.getMessage()]
+    assert found == ([] if warned is None else [
+        "obstacle 'footing': its edge at {} meets the material inside a "
+        "grid cell: the contact is resolved only to the cell (a footing's "
+        "edge inside a cell pressed 3-26% above Prandtl's pressure and "
+        "jumped by 6-105% between steps; docs/contact.md); put a grid "
+        "line at it, or refine".format(warned)])
+
+
+def test_a_3d_strip_footing_off_grid_lines_is_warned(caplog):
+    """A strip footing in 3D wider than the grid (its corners outside it)
+    whose edge x = 0.6 lies inside a cell is warned: its corners are
+    clipped to the grid (a review found it missed)."""
+    from skfem import ElementHex1, MeshHex
+    g = np.linspace(0, 1, 5)
+    mesh = MeshHex.init_tensor(g, g, g)
+    pts = seed_points(mesh, 2, region=lambda x: x[2] < .5 + 1e-9)
+    footing = Obstacle(box=[[-1, .6], [-1, 2], [.5, .9]],
+                       displacement=[0, 0, -.01], name="strip")
+    with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
+        simulate(mesh, ElementHex1(), pts, LinearElastic(1e3, .3),
+                 lambda b: b.get_dofs(lambda x: x[2] == 0).all(), nsteps=1,
+                 obstacles=[footing])
+    assert sum("'strip': its edge at [0.6," in r.getMessage()
+               for r in caplog.records) == 1

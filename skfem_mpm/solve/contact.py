@@ -389,38 +389,53 @@ class ObstacleContact(GridTerm):
         self.warn_corners_off_nodes(X0)
 
     def warn_corners_off_nodes(self, X0: ndarray) -> None:
-        """Log a warning for each obstacle with a corner within a cell of
-        the material's domain corners ``X0`` (dim, corners, n) at the
-        run's start that is not on a grid node: the contact there is as
-        good as the cell it lies in.  A strip footing (B = 6.4 h and
-        6.8 h, weightless von Mises soil, 3 x 3 points a cell), its edge
-        inside a cell, pressed 3-26% above Prandtl's pressure over the
-        first 0.03 B (the cell's straight field carries soil beyond the
-        edge down with it) and jumped by 6-105% between steps as rows of
-        points crossed cells (standard MPM the most, extended B-splines
-        the least); on a grid line its edge leaves 2.9%."""
+        """Log a warning for each box obstacle whose edge meets the
+        material inside a grid cell: a corner of the box (clipped to the
+        grid) within a cell of the material's domain corners ``X0`` (dim,
+        corners, n) at the run's start, off the grid lines along the face
+        that meets the material (the axes along which that material does
+        not lie beyond the box).  The contact there is as good as the
+        cell: a strip footing (B = 6.4 h and 6.8 h, weightless von Mises
+        soil, 3 x 3 points a cell), its edge inside a cell, pressed 3-26%
+        above Prandtl's pressure over the first 0.03 B (the cell's
+        straight field carries soil beyond the edge down with it) and
+        jumped by 6-105% between steps as rows of points crossed cells;
+        with its edge on a grid line it changes by 2.9% at most."""
         if self.cell_values is None:
             return
         from scipy.spatial import cKDTree
         dim = X0.shape[0]
-        material = cKDTree(X0.reshape(dim, -1).T)
-        nodes = cKDTree(self.cell_values.mesh.p.T)
+        X0 = X0.reshape(dim, -1)
+        p = self.cell_values.mesh.p
+        low, high = p.min(axis=1), p.max(axis=1)
+        eps = 1e-6 * self.h
+        lines = [np.unique(np.round(row / eps)) * eps for row in p]
+        material = cKDTree(X0.T)
         for i, ob in enumerate(self.obstacles):
-            if ob.friction == "tied":
+            if ob.friction == "tied" or ob.box is None:
                 continue
-            corners = ob.corners(self.start[i])
-            near = material.query(corners.T)[0] <= self.h
-            off = nodes.query(corners.T)[0] > 1e-6 * self.h
-            if (near & off).any():
-                logger.warning(
-                    "obstacle %r: its corner at %s lies next to the "
-                    "material but not on a grid node: the contact is "
-                    "resolved only to the cell it lies in (a footing's "
-                    "edge inside a cell pressed 3-26%% above Prandtl's "
-                    "pressure and jumped by 6-105%% between steps; "
-                    "docs/contact.md); put a grid node at it, or refine",
-                    ob.name, np.round(corners[:, near & off][:, 0],
-                                      12).tolist())
+            box = ob.bounds(self.start[i])
+            corners = np.clip(ob.corners(self.start[i]), low[:, None],
+                              high[:, None])
+            for corner, near in zip(corners.T, material.query_ball_point(
+                    corners.T, self.h)):
+                if not near:
+                    continue
+                m = X0[:, near]
+                beyond = (m <= box[:, :1] + eps).all(axis=1) \
+                    | (m >= box[:, 1:] - eps).all(axis=1)
+                off = [np.abs(lines[a] - corner[a]).min() > eps
+                       for a in range(dim)]
+                if any(off[a] and not beyond[a] for a in range(dim)):
+                    logger.warning(
+                        "obstacle %r: its edge at %s meets the material "
+                        "inside a grid cell: the contact is resolved only "
+                        "to the cell (a footing's edge inside a cell "
+                        "pressed 3-26%% above Prandtl's pressure and "
+                        "jumped by 6-105%% between steps; docs/contact.md);"
+                        " put a grid line at it, or refine", ob.name,
+                        np.round(corner, 12).tolist())
+                    break
 
     def begin_step(self, problem):
         return StepContact(self, problem)
