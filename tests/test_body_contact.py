@@ -840,6 +840,40 @@ def test_a_heavily_loaded_square_pile_with_friction_in_3d():
     assert settled[1] < settled[0]
 
 
+def test_a_pile_with_its_sides_inside_cells_is_not_refused():
+    """A user trial's pile on a grid of h = 2/15 (its region's sides a
+    third of a cell off grid lines, its points' domains touching the
+    soil's, overlapping nowhere): it was refused as bodies overlapping at
+    the start by half a cell (the pairs' reading, formed across a cell);
+    the domains decide now, and the contact carries the head's traction
+    and the pile's weight (MPM, elastic soil, 2 steps).  Not yet upright:
+    its head moves sideways by 7% of its settlement here (the trial's
+    smooth pile in 10 steps by 1e-16, with friction 0.3 by 7%;
+    docs/contact.md)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 16),
+                                np.linspace(0, 1.6, 13))
+
+    def inside(x):
+        return (x[0] > .9) & (x[0] < 1.1) & (x[1] > .6)
+    soil = seed_points(mesh, 2, region=lambda x: (x[1] < 1.) & ~inside(x))
+    pile = seed_points(mesh, 2, region=lambda x: inside(x) & (x[1] < 1.3))
+    pts = concatenate_points([soil, pile])
+    pts.body[soil.n:] = 1
+    top = side_points(pts, "top", select=pts.body == 1)
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [LinearElastic(1e5, .3), LinearElastic(1e7, .2)],
+                   lambda b: np.union1d(
+                       b.get_dofs(lambda x: x[1] == 0).all(),
+                       b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2))
+                       .nodal["u^1"]),
+                   body_force=[0., -2e3], nsteps=2,
+                   loads=[Traction(top, "top", [0., -2e4])],
+                   contacts=[Contact(0, 1)])
+    load = 2e4 * 2 * pts.domain[0, top].sum() + 2e3 * pile.volume.sum()
+    force = res.history[-1].contact_forces[0]
+    assert force[1] == pytest.approx(load, rel=1e-9)
+
+
 def test_a_pile_that_nothing_holds_up_fails_clearly():
     """A frictionless pile hanging in its hole, its tip half a cell above
     the hole's bottom (a user's mistake): its smooth sides hold it only
