@@ -759,6 +759,38 @@ def test_the_standing_pile_settles_less_the_rougher_its_sides(method):
                                            rel=.05)
 
 
+def trial_pile(cells, soil, friction, nsteps):
+    """A user trial's pile (issue 29's fourth round): soil 1 deep on a
+    grid 2 wide of ``cells`` across (square cells), a hole 0.2 wide from
+    0.6 down in its middle, a pile 100 times stiffer than the soil's
+    E = 1e5 standing in it up to 1.3, a traction of 2e4 on its head and
+    weight 2e3 (``soil``: the soil's material; MPM, ``nsteps`` steps).
+    Returns the run, its points and the pile's load (the head's
+    traction over its width and its weight)."""
+    h = 2. / cells
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, cells + 1),
+                                np.arange(0, 1.5 + h / 2, h))
+
+    def inside(x):
+        return (x[0] > .9) & (x[0] < 1.1) & (x[1] > .6)
+    ground = seed_points(mesh, 2, region=lambda x: (x[1] < 1.) & ~inside(x))
+    pile = seed_points(mesh, 2, region=lambda x: inside(x) & (x[1] < 1.3))
+    pts = concatenate_points([ground, pile])
+    pts.body[ground.n:] = 1
+    top = side_points(pts, "top", select=pts.body == 1)
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [soil, LinearElastic(1e7, .2)],
+                   lambda b: np.union1d(
+                       b.get_dofs(lambda x: x[1] == 0).all(),
+                       b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2))
+                       .nodal["u^1"]),
+                   body_force=[0., -2e3], nsteps=nsteps,
+                   loads=[Traction(top, "top", [0., -2e4])],
+                   contacts=[Contact(0, 1, friction=friction)])
+    return res, pts, (2e4 * 2 * pts.domain[0, top].sum()
+                      + 2e3 * pile.volume.sum())
+
+
 @pytest.mark.slow
 def test_a_heavily_loaded_pile_with_friction_settles_less_than_smooth():
     """A user trial's pile on grid lines (h = 0.1, 2 x 2 points, von Mises
@@ -770,28 +802,9 @@ def test_a_heavily_loaded_pile_with_friction_settles_less_than_smooth():
     between the bodies' centroids leaning sideways.  Now a node keeps the
     normal it was pressed along among candidates alike: 4.63 cm, upright
     to 1e-16 (MPM)."""
-    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 21),
-                                np.linspace(0, 1.5, 16))
-
-    def inside(x):
-        return (x[0] > .9) & (x[0] < 1.1) & (x[1] > .6)
-    soil = seed_points(mesh, 2, region=lambda x: (x[1] < 1.) & ~inside(x))
-    pile = seed_points(mesh, 2, region=lambda x: inside(x) & (x[1] < 1.3))
-    pts = concatenate_points([soil, pile])
-    pts.body[soil.n:] = 1
-    top = side_points(pts, "top", select=pts.body == 1)
-
-    def supports(b):
-        return np.union1d(b.get_dofs(lambda x: x[1] == 0).all(),
-                          b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2))
-                          .nodal["u^1"])
     settled = []
     for friction in (0., .3):
-        res = simulate(mesh, ElementQuad1(), pts,
-                       [VonMises(1e5, .3, 1e4), LinearElastic(1e7, .2)],
-                       supports, body_force=[0., -2e3], nsteps=10,
-                       loads=[Traction(top, "top", [0., -2e4])],
-                       contacts=[Contact(0, 1, friction=friction)])
+        res, pts, _ = trial_pile(20, VonMises(1e5, .3, 1e4), friction, 10)
         u = res.points.displacement[:, pts.body == 1].mean(axis=1)
         assert abs(u[0]) < 1e-9 * -u[1]
         settled.append(-u[1])
@@ -850,26 +863,7 @@ def test_a_pile_with_its_sides_inside_cells_is_not_refused():
     its head moves sideways by 7% of its settlement here (the trial's
     smooth pile in 10 steps by 1e-16, with friction 0.3 by 7%;
     docs/contact.md)."""
-    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 16),
-                                np.linspace(0, 1.6, 13))
-
-    def inside(x):
-        return (x[0] > .9) & (x[0] < 1.1) & (x[1] > .6)
-    soil = seed_points(mesh, 2, region=lambda x: (x[1] < 1.) & ~inside(x))
-    pile = seed_points(mesh, 2, region=lambda x: inside(x) & (x[1] < 1.3))
-    pts = concatenate_points([soil, pile])
-    pts.body[soil.n:] = 1
-    top = side_points(pts, "top", select=pts.body == 1)
-    res = simulate(mesh, ElementQuad1(), pts,
-                   [LinearElastic(1e5, .3), LinearElastic(1e7, .2)],
-                   lambda b: np.union1d(
-                       b.get_dofs(lambda x: x[1] == 0).all(),
-                       b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2))
-                       .nodal["u^1"]),
-                   body_force=[0., -2e3], nsteps=2,
-                   loads=[Traction(top, "top", [0., -2e4])],
-                   contacts=[Contact(0, 1)])
-    load = 2e4 * 2 * pts.domain[0, top].sum() + 2e3 * pile.volume.sum()
+    res, _, load = trial_pile(15, LinearElastic(1e5, .3), 0., 2)
     force = res.history[-1].contact_forces[0]
     assert force[1] == pytest.approx(load, rel=1e-9)
 
