@@ -759,12 +759,13 @@ def test_the_standing_pile_settles_less_the_rougher_its_sides(method):
                                            rel=.05)
 
 
-def trial_pile(cells, soil, friction, nsteps):
+def trial_pile(cells, soil, friction, nsteps, method="mpm"):
     """A user trial's pile (issue 29's fourth round): soil 1 deep on a
     grid 2 wide of ``cells`` across (square cells), a hole 0.2 wide from
     0.6 down in its middle, a pile 100 times stiffer than the soil's
     E = 1e5 standing in it up to 1.3, a traction of 2e4 on its head and
-    weight 2e3 (``soil``: the soil's material; MPM, ``nsteps`` steps).
+    weight 2e3 (``soil``: the soil's material; ``nsteps`` steps; glued
+    where ``friction`` is None).
     Returns the run, its points and the pile's load (the head's
     traction over its width and its weight)."""
     h = 2. / cells
@@ -785,8 +786,9 @@ def trial_pile(cells, soil, friction, nsteps):
                        b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2))
                        .nodal["u^1"]),
                    body_force=[0., -2e3], nsteps=nsteps,
-                   loads=[Traction(top, "top", [0., -2e4])],
-                   contacts=[Contact(0, 1, friction=friction)])
+                   loads=[Traction(top, "top", [0., -2e4])], method=method,
+                   contacts=[] if friction is None else [
+                       Contact(0, 1, friction=friction)])
     return res, pts, (2e4 * 2 * pts.domain[0, top].sum()
                       + 2e3 * pile.volume.sum())
 
@@ -866,6 +868,21 @@ def test_a_pile_with_its_sides_inside_cells_is_not_refused():
     res, _, load = trial_pile(15, LinearElastic(1e5, .3), 0., 2)
     force = res.history[-1].contact_forces[0]
     assert force[1] == pytest.approx(load, rel=1e-9)
+
+
+def test_a_spline_traction_beyond_the_points_support_is_not_lost():
+    """The trial's pile glued in its soil with B-splines (no contact):
+    the splines at its head's face centres reach the nodes a row above
+    its points', which its points no longer reach once it has sunk (10
+    of 470 DOFs gone at the last step), and the traction's share there
+    was lost: the supports carried 8011 of the 8120 applied.  The
+    face's force now goes to the nodes that carry stiffness, and the
+    supports carry the whole load."""
+    res, pts, _ = trial_pile(20, LinearElastic(1e5, .3), None, 10,
+                             "bspline")
+    applied = 2e3 * pts.volume.sum() + 2e4 * .2
+    carried = res.history[-1].reactions.reshape(-1, 2).sum(axis=0)
+    assert carried[1] == pytest.approx(applied, rel=1e-9)
 
 
 def test_a_pile_that_nothing_holds_up_fails_clearly():

@@ -33,6 +33,7 @@ from typing import Optional, Sequence
 
 import numpy as np
 from numpy import ndarray
+from scipy.sparse import csr_matrix
 
 from ..errors import InvalidInputError, check_finite
 from ..mechanics.hencky import inverse_and_det
@@ -162,7 +163,36 @@ def check_exposed(loads, points: MaterialPoints) -> None:
                     load.side, load.side))
 
 
+
+def supported_share(S: csr_matrix, supported: ndarray) -> csr_matrix:
+    """The rows of the weights ``S`` (faces x nodes) on the ``supported``
+    nodes only, each scaled to its whole sum: a face's force goes to the
+    nodes that carry stiffness.  The splines at a face's centre reach a
+    node further than at its point, and a node no point reaches is no DOF
+    of the step: a B-spline pile's head traction lost 1.3% of itself
+    there once the pile had sunk (a user trial; its contact and the
+    supports carried 8011 of the 8120 applied, silently).
+
+    >>> S = csr_matrix(np.array([[.5, .3, .2], [0., .4, .6]]))
+    >>> supported_share(S, np.array([0, 1])).toarray().round(3).tolist()
+    [[0.625, 0.375, 0.0], [0.0, 1.0, 0.0]]
+    """
+    S = S.tocsr()
+    whole = np.asarray(S.sum(axis=1)).ravel()
+    keep = np.zeros(S.shape[1], dtype=bool)
+    keep[supported] = True
+    if keep[S.indices].all():
+        return S
+    S = S.copy()
+    S.data[~keep[S.indices]] = 0.
+    S.eliminate_zeros()
+    kept = np.asarray(S.sum(axis=1)).ravel()
+    scale = np.divide(whole, kept, out=np.zeros_like(whole), where=kept > 0)
+    return csr_matrix(S.multiply(scale[:, None]))
+
+
 @dataclass
+
 class Traction:
     """A traction (force per initial area, fixed direction) at full load
     on ``side`` of the points ``points`` (indices, e.g. from
@@ -411,6 +441,8 @@ class ExternalLoads:
         centre = points.x[:, idx] + sign * offset
         if self.weights is not None:     # the method's field, not the grid's
             face = self.weights(centre, idx, axis)
+            face.S = supported_share(face.S, op.active_dofs[::self.dim]
+                                     // self.dim)
             face.area = area
             return face
         cells = op.point_elements[idx]
