@@ -386,9 +386,9 @@ class ObstacleContact(GridTerm):
                         "(tolerance {:.3g}); move the obstacle or the "
                         "points".format(ob.name, p, X0[:, c, p].tolist(),
                                         float(-phi[c, p]), self.tol[i]))
-        self.warn_corners_off_nodes(X0)
+        self.warn_edges_inside_cells(X0)
 
-    def warn_corners_off_nodes(self, X0: ndarray) -> None:
+    def warn_edges_inside_cells(self, X0: ndarray) -> None:
         """Log a warning for each box obstacle whose edge meets the
         material inside a grid cell: a corner of the box (clipped to the
         grid) within a cell of the material's domain corners ``X0`` (dim,
