@@ -87,3 +87,28 @@ def test_a_box_region_reaching_outside_the_grid_is_refused():
     # an unbounded axis (a scene file's axis left out) is the whole axis
     assert seed_points(mesh, 2, region=[(0., 1.), (-np.inf, np.inf)]).n == 16
     assert seed_points(mesh, 2, region=lambda x: x[1] < 5.).n == 32
+
+
+def test_a_boundary_through_a_column_of_points_keeps_it_in_every_row(
+        caplog):
+    """A user trial's pile, ``.9 < x < 1.1`` on a grid of h = 2/15 with
+    2 x 2 points per cell: the points at x = 0.9 came out of the mapping
+    0.9 in some rows and 0.9 + 1 ulp in others, so the pile's side was a
+    column of teeth in the soil's (their contact then failed).  Every row
+    keeps the same columns now, and the 28 points on the boundary (a
+    column of 14 on each side) are named; a region clear of the points
+    says nothing.  3D alike."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 16), np.linspace(0, 1, 8))
+    region = lambda x: (x[0] > .9) & (x[0] < 1.1)
+    with caplog.at_level("WARNING", "skfem_mpm.quadrature.points"):
+        mp = seed_points(mesh, 2, region=region)
+    assert mp.n == np.unique(mp.x[0].round(9)).size * 7 * 2
+    assert "28 point(s) lie on the region's boundary" in caplog.text
+    hex_mesh = MeshHex.init_tensor(np.linspace(0, 2, 16), [0., .5, 1.],
+                                   [0., .5, 1.])
+    cube = seed_points(hex_mesh, 2, region=region)
+    assert cube.n == np.unique(cube.x[0].round(9)).size * 4 * 4
+    caplog.clear()
+    with caplog.at_level("WARNING", "skfem_mpm.quadrature.points"):
+        seed_points(mesh, 3, region=region)
+    assert "boundary" not in caplog.text

@@ -27,6 +27,7 @@ State is kept as a struct of arrays, points along the last axis:
 the total strain of an elastic body), logarithmic in finite deformation.
 
 """
+import logging
 from dataclasses import dataclass, fields
 from typing import Callable, Optional, Sequence, Union
 
@@ -41,6 +42,8 @@ from ..errors import (InvalidInputError, UnsupportedElementError,
 from ..memory import SEED_BYTES_PER_POINT, refuse_beyond_memory
 from .locate import tensor_grid
 from .mapping import fresh_mapping
+
+logger = logging.getLogger(__name__)
 
 __all__ = ["MaterialPoints", "seed_points", "seed_gauss_points",
            "concatenate_points"]
@@ -267,16 +270,73 @@ def _points_from_reference(mesh: Mesh, X: ndarray, w: ndarray, region,
     domain = None if half is None else np.repeat(half[:, tind], X.shape[1],
                                                  axis=1)
     if region is not None:
-        keep = np.asarray(region(x), dtype=bool)
-        if keep.shape != (x.shape[1],):
-            raise InvalidInputError(
-                "region must return one bool per point, shape ({},), got {}"
-                .format(x.shape[1], keep.shape))
+        keep = in_region(region, mesh, x, tind, X.shape[1])
         x, volume = x[:, keep], volume[keep]
         domain = None if domain is None else domain[:, keep]
     if x.shape[1] == 0:
         raise InvalidInputError("the region holds no material point")
     return MaterialPoints(x=x, volume=volume, domain=domain)
+
+
+#: the distance, relative to the grid's extent along each axis, within
+#: which a point lies on a region's boundary (:func:`in_region`)
+ON_BOUNDARY = 1e-9
+
+
+def in_region(region: Callable, mesh: Mesh, x: ndarray, tind: ndarray,
+              per_element: int) -> ndarray:
+    """Which of the points ``x`` (dim, n; ``per_element`` in each element
+    of ``tind`` in turn) the callable ``region`` keeps.
+
+    On an axis-aligned tensor grid the region is asked at positions made
+    from each element's extent and the point's place in it rounded to
+    :data:`ON_BOUNDARY`, so points in one column of cells give one
+    coordinate: the mapping's rounding differs from row to row by an ulp,
+    and a boundary through a column of points (a pile's side at a quarter
+    cell) kept it in every other row, a side of teeth that locked two
+    bodies in contact.  Points that lie on the boundary (the region's
+    answer changes within :data:`ON_BOUNDARY` of the grid's extent along
+    an axis) are kept or dropped by that rounding alone: a warning names
+    them.
+
+    >>> from skfem import MeshQuad
+    >>> mesh = MeshQuad.init_tensor(np.linspace(0, 2, 16),
+    ...                             np.linspace(0, 1, 5))
+    >>> mp = seed_points(mesh, 2, region=lambda x: x[0] > .9)
+    >>> left = mp.x[0] < 1.
+    >>> np.unique(mp.x[0, left].round(4)).tolist(), int(left.sum())
+    ([0.9667], 8)
+    """
+    dim = mesh.dim()
+    extent = mesh.p.max(axis=1) - mesh.p.min(axis=1)
+    at = x
+    if tensor_grid(mesh) is not None:
+        corners = mesh.p[:, mesh.t[:, tind]]          # (dim, corners, nel)
+        low = np.repeat(corners.min(axis=1), per_element, axis=1)
+        size = np.repeat(corners.max(axis=1), per_element, axis=1) - low
+        share = np.round((x - low) / size / ON_BOUNDARY) * ON_BOUNDARY
+        at = low + size * share
+    keep = np.asarray(region(at), dtype=bool)
+    if keep.shape != (x.shape[1],):
+        raise InvalidInputError(
+            "region must return one bool per point, shape ({},), got {}"
+            .format(x.shape[1], keep.shape))
+    tie = np.zeros(keep.size, dtype=bool)
+    for d in range(dim):
+        for side in (-1., 1.):
+            moved = at.copy()
+            moved[d] += side * ON_BOUNDARY * extent[d]
+            tie |= np.asarray(region(moved), dtype=bool) != keep
+    if tie.any():
+        logger.warning(
+            "seeding: %d point(s) lie on the region's boundary (the first "
+            "at x = %s), kept (%d) or dropped (%d) by rounding alone: the "
+            "body's side there falls between the points' sub-cells either "
+            "way; move the boundary off the points (onto grid lines or "
+            "between points) to say which", tie.sum(),
+            at[:, np.argmax(tie)].round(12).tolist(), (tie & keep).sum(),
+            (tie & ~keep).sum())
+    return keep
 
 
 AXES = "xyz"
