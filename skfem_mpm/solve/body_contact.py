@@ -461,6 +461,50 @@ class BodyContact(GridTerm):
         return StepBodyContact(self, problem)
 
 
+#: the most an augmented-Lagrangian update is stretched by
+#: (:func:`accelerated`)
+STRETCH = 20.
+
+#: the cosine between two rounds' updates above which they are one mode
+ALIGNED = .99
+
+
+def accelerated(part: dict, p: ndarray) -> ndarray:
+    """The multipliers of a contact's pairs ``part`` after a round of the
+    augmented Lagrangian that ended at pressures ``p``: ``p`` itself, or,
+    where this round's update ``p - lam`` and the last's point the same
+    way (cosine above :data:`ALIGNED`) over the same pressed pairs and
+    shrink by a steady rate ``r``, the sum of the rounds to come,
+    ``lam + (p - lam) / (1 - r)`` (Aitken's extrapolation, stretched by at
+    most :data:`STRETCH`).  A pile 100 times stiffer than its soil,
+    pressing the soil at its tip, resists the pairs' moving apart much
+    more than the penalty (from the softer body) pulls them: each round
+    closed 7% of the rest, and the step ended after 30 rounds with
+    :class:`~skfem_mpm.errors.ContactError` at every cut-back.
+
+    >>> part = {"lam": np.array([0., 0.])}
+    >>> for _ in range(3):       # rounds that close 10% of the rest each
+    ...     p = part["lam"] + .1 * (np.array([10., 5.]) - part["lam"])
+    ...     part["lam"] = accelerated(part, p)
+    >>> part["lam"].round(12).tolist()
+    [10.0, 5.0]
+    """
+    update, active = p - part["lam"], p > 0.
+    last, was = part.get("update"), part.get("active")
+    part["update"], part["active"] = update, active
+    if last is None or last.shape != update.shape or \
+            not np.array_equal(active, was):
+        return p
+    along = float(update @ last)
+    norms = float(np.sqrt((update @ update) * (last @ last)))
+    if not along > ALIGNED * norms:
+        return p
+    rate = min(along / float(last @ last), 1. - 1. / STRETCH)
+    if rate <= 0.:
+        return p
+    return np.maximum(part["lam"] + update / (1. - rate), 0.)
+
+
 class StepBodyContact(GridTerm):
     """One step's contact between bodies (built by
     :meth:`BodyContact.begin_step`)."""
@@ -712,7 +756,7 @@ class StepBodyContact(GridTerm):
         if worst <= 1.:
             return True
         for part, e in zip(self.parts, ev):
-            part["lam"], part["tau"] = e[4], e[5]
+            part["lam"], part["tau"] = accelerated(part, e[4]), e[5]
         self.evaluations = WeakKeyDictionary()
         problem.counters["contact_updates"] += 1
         logger.debug("step %d: body contact %.2g of the tolerance; "
