@@ -401,7 +401,10 @@ def seed_points(mesh: Mesh, n: int,
         hi)]`` per axis (the points strictly inside it; an infinite bound:
         the whole axis that way), refused where it reaches outside the
         grid (``InvalidInputError`` naming the axis, the box and the
-        grid's extent; a callable cannot be checked so).
+        grid's extent; a callable cannot be checked so).  On an
+        axis-aligned grid a boundary through a column of points keeps it
+        in every row or in none, and points on a boundary are named in a
+        warning (:func:`in_region`).
     elements
         Optional array of element indices to seed (default: all).
 
