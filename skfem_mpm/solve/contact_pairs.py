@@ -13,8 +13,10 @@ corner in a notch of the other: a pile's tip); per normal the second
 body's surface corner nearest the node and the first body's facing
 corner nearest that one make the node's pair (:meth:`PairFinder.extreme`;
 with B-splines, where a body ends within a cell of the node, every surface
-corner within half a cell: :meth:`PairFinder.surface`), one per place and
-normal; after the run's start a pair deeper than
+corner within half a cell: :meth:`PairFinder.surface`), one per place of
+the second body's corner and normal, and at a place of the first body's
+those nearest each other (two tip corners facing one corner are both
+kept); after the run's start a pair deeper than
 :data:`DEEPEST` cells is none (the first body on both sides of the
 second at the node).
 """
@@ -198,15 +200,29 @@ class PairFinder:
             # With friction a pair holds its corners in every direction,
             # and two at one place, holding it to two corners of the
             # other body, did not settle (a GIMP pile at a tolerance of
-            # 1e-5: 30 rounds)
-            first = np.flatnonzero(real)[np.argsort(
-                ((XB - XA) ** 2).sum(axis=0)[real], kind="stable")]
-            for corner in (XB, XA):
+            # 1e-5: 30 rounds).  Pairs as near as the nearest at a first
+            # body's place are kept with it: a pile's two tip corners, one
+            # cell apart, both face the soil's corner under the pile's
+            # middle, and the one kept by the order alone left the other
+            # unheld (the symmetric pile turned about it: cpGIMP's failed
+            # at step 3, or, its tip on a grid line, drifted sideways by
+            # 12% of its settlement)
+            distance = np.sqrt(((XB - XA) ** 2).sum(axis=0))
+            first = np.flatnonzero(real)[np.argsort(distance[real],
+                                                    kind="stable")]
+            for corner, ties in ((XB, False), (XA, True)):
                 key = np.vstack([corner, self.h * normal]) if smooth \
                     else corner
-                first = first[np.sort(np.unique(self.place(key[:, first]),
-                                                axis=1,
-                                                return_index=True)[1])]
+                index, group = np.unique(self.place(key[:, first]), axis=1,
+                                         return_index=True,
+                                         return_inverse=True)[1:]
+                keep = np.zeros(first.size, dtype=bool)
+                keep[index] = True
+                if ties:
+                    near = distance[first]
+                    keep |= near <= near[index][group.ravel()] \
+                        + FACING * self.h
+                first = first[keep]
             out.append((B[first], A[first], normal[:, first], gap[first]))
         return out
 
