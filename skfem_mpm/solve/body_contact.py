@@ -468,19 +468,27 @@ STRETCH = 20.
 #: the cosine between two rounds' updates above which they are one mode
 ALIGNED = .99
 
+#: the least rate of two rounds' updates that is extrapolated: rounds
+#: that close half of the rest or more settle without it
+SLOW = .5
+
 
 def accelerated(part: dict, p: ndarray) -> ndarray:
     """The multipliers of a contact's pairs ``part`` after a round of the
     augmented Lagrangian that ended at pressures ``p``: ``p`` itself, or,
     where this round's update ``p - lam`` and the last's point the same
     way (cosine above :data:`ALIGNED`) over the same pressed pairs and
-    shrink by a steady rate ``r``, the sum of the rounds to come,
-    ``lam + (p - lam) / (1 - r)`` (Aitken's extrapolation, stretched by at
-    most :data:`STRETCH`).  A pile 100 times stiffer than its soil,
-    pressing the soil at its tip, resists the pairs' moving apart much
-    more than the penalty (from the softer body) pulls them: each round
-    closed 7% of the rest, and the step ended after 30 rounds with
-    :class:`~skfem_mpm.errors.ContactError` at every cut-back.
+    shrink by a steady rate ``r`` between :data:`SLOW` and 1, the sum of
+    the rounds to come, ``lam + (p - lam) / (1 - r)`` (Aitken's
+    extrapolation, stretched by at most :data:`STRETCH`); updates that
+    do not shrink are not extrapolated.  A pile 100 times stiffer than
+    its soil, pressing the soil at its tip, resists the pairs' moving
+    apart much more than the penalty (from the softer body) pulls them:
+    each round closed 7% of the rest, and the step ended after 30 rounds
+    with :class:`~skfem_mpm.errors.ContactError` at every cut-back.
+    Rounds that closed 60% of the rest, stretched by 1.7, sent a block
+    landing on a staircase (dynamics, friction 0.3) on another path, in
+    314 Newton iterations where it took 179 (128 now).
 
     >>> part = {"lam": np.array([0., 0.])}
     >>> for _ in range(3):       # rounds that close 10% of the rest each
@@ -499,9 +507,10 @@ def accelerated(part: dict, p: ndarray) -> ndarray:
     norms = float(np.sqrt((update @ update) * (last @ last)))
     if not along > ALIGNED * norms:
         return p
-    rate = min(along / float(last @ last), 1. - 1. / STRETCH)
-    if rate <= 0.:
+    rate = along / float(last @ last)
+    if not SLOW <= rate < 1.:
         return p
+    rate = min(rate, 1. - 1. / STRETCH)
     return np.maximum(part["lam"] + update / (1. - rate), 0.)
 
 
@@ -791,6 +800,8 @@ class StepBodyContact(GridTerm):
                     motion - (motion * n).sum(axis=0) * n)
             part["held"] = (part["held"] & ~apart) | join
             part["changed"] |= apart | join
+            if (apart | join).any():    # another problem: not extrapolated
+                part.pop("update", None)
             changes += int(apart.sum() + join.sum())
         if changes:
             logger.debug("step %d: %d rough pairs came apart or joined; "
