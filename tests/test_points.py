@@ -104,6 +104,13 @@ def test_a_boundary_through_a_column_of_points_keeps_it_in_every_row(
         mp = seed_points(mesh, 2, region=region)
     assert mp.n == np.unique(mp.x[0].round(9)).size * 7 * 2
     assert "28 point(s) lie on the region's boundary" in caplog.text
+    # every point kept satisfies the region at its own position (a
+    # review: x > 0.7 on 5 cells kept the column at 0.7, and 5 of its
+    # points, their x an ulp from where the region was asked, did not)
+    assert region(mp.x).all()
+    coarse = MeshQuad.init_tensor(np.linspace(0, 2, 6), np.linspace(0, 1, 8))
+    right = seed_points(coarse, 2, region=lambda x: x[0] > .7)
+    assert right.n % 14 == 0 and (right.x[0] > .7).all()
     hex_mesh = MeshHex.init_tensor(np.linspace(0, 2, 16), [0., .5, 1.],
                                    [0., .5, 1.])
     cube = seed_points(hex_mesh, 2, region=region)

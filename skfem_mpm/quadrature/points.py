@@ -270,7 +270,7 @@ def _points_from_reference(mesh: Mesh, X: ndarray, w: ndarray, region,
     domain = None if half is None else np.repeat(half[:, tind], X.shape[1],
                                                  axis=1)
     if region is not None:
-        keep = in_region(region, mesh, x, tind, X.shape[1])
+        keep, x = in_region(region, mesh, x, tind, X.shape[1])
         x, volume = x[:, keep], volume[keep]
         domain = None if domain is None else domain[:, keep]
     if x.shape[1] == 0:
@@ -284,11 +284,17 @@ ON_BOUNDARY = 1e-9
 
 
 def in_region(region: Callable, mesh: Mesh, x: ndarray, tind: ndarray,
-              per_element: int) -> ndarray:
+              per_element: int):
     """Which of the points ``x`` (dim, n; ``per_element`` in each element
-    of ``tind`` in turn) the callable ``region`` keeps.
+    of ``tind`` in turn) the callable ``region`` keeps (n,), and the
+    points' positions (dim, n): ``x``, but for the points on the
+    region's boundary, which take the positions the region was asked at,
+    so that every point kept satisfies the region at its own position.
+    The region is called ``1 + 2 dim`` times and must depend on the
+    positions alone.
 
-    On an axis-aligned tensor grid the region is asked at positions made
+    On an axis-aligned tensor grid of linear cells (:func:`~skfem_mpm.
+    quadrature.locate.tensor_grid`) the region is asked at positions made
     from each element's extent and the point's place in it rounded to
     :data:`ON_BOUNDARY`, so points in one column of cells give one
     coordinate: the mapping's rounding differs from row to row by an ulp,
@@ -306,6 +312,9 @@ def in_region(region: Callable, mesh: Mesh, x: ndarray, tind: ndarray,
     >>> left = mp.x[0] < 1.
     >>> np.unique(mp.x[0, left].round(4)).tolist(), int(left.sum())
     ([0.9667], 8)
+    >>> mp = seed_points(mesh, 2, region=lambda x: x[0] < .9)
+    >>> bool((mp.x[0] < .9).all()), np.unique(mp.x[0]).size
+    (True, 14)
     """
     dim = mesh.dim()
     extent = mesh.p.max(axis=1) - mesh.p.min(axis=1)
@@ -336,7 +345,7 @@ def in_region(region: Callable, mesh: Mesh, x: ndarray, tind: ndarray,
             "between points) to say which", tie.sum(),
             at[:, np.argmax(tie)].round(12).tolist(), (tie & keep).sum(),
             (tie & ~keep).sum())
-    return keep
+    return keep, np.where(tie, at, x)
 
 
 AXES = "xyz"
@@ -402,9 +411,11 @@ def seed_points(mesh: Mesh, n: int,
         the whole axis that way), refused where it reaches outside the
         grid (``InvalidInputError`` naming the axis, the box and the
         grid's extent; a callable cannot be checked so).  On an
-        axis-aligned grid a boundary through a column of points keeps it
-        in every row or in none, and points on a boundary are named in a
-        warning (:func:`in_region`).
+        axis-aligned grid of linear cells a boundary through a column of
+        points keeps it in every row or in none, and points on a boundary
+        are named in a warning (:func:`in_region`); a callable is called
+        ``1 + 2 dim`` times and must depend on the positions alone (draw
+        random voids first and look them up by position).
     elements
         Optional array of element indices to seed (default: all).
 
