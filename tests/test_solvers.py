@@ -585,3 +585,35 @@ def test_condensation_with_unsorted_free_dofs_stays_exact(name):
                              condensation=condensation)(b)
         assert np.abs(K[free][:, free] @ u[free] - b[free]).max() \
             < 1e-8 * np.abs(b).max()
+
+
+def test_pattern_matrices_follow_their_index_arrays():
+    """A matrix of the kept pattern's index arrays takes the first one's
+    checked attributes with its own entries; other index arrays (a new
+    step's pattern, equal in size), a new shape or another dtype of entries
+    are built and checked anew: each equals scipy's constructor, entry for
+    entry, and says whether it is canonical as scipy finds it (a stale
+    pattern would give the first matrix's columns, or call an unsorted one
+    canonical)."""
+    from scipy.sparse import csc_matrix, csr_matrix
+    from skfem_mpm.methods.assembly import PatternMatrices
+    for cls in (csr_matrix, csc_matrix):
+        make = PatternMatrices(cls)
+        indptr = np.array([0, 2, 3, 4])
+        other = (3, 4) if cls is csr_matrix else (4, 3)
+        sorted_, unsorted = np.array([0, 2, 1, 2]), np.array([2, 0, 1, 2])
+        cases = [(np.arange(1., 5.), sorted_, (3, 3)),
+                 (np.arange(5., 9.), sorted_, (3, 3)),    # kept attributes
+                 (np.arange(1., 5.), unsorted, (3, 3)),   # other indices
+                 (np.arange(2., 6.), unsorted, (3, 3)),
+                 (np.arange(2., 6.), unsorted, other),    # another shape
+                 (np.arange(2, 6), unsorted, other)]      # integer entries
+        for data, indices, shape in cases:
+            M = make(data, indices, indptr, shape)
+            expected = cls((data, indices, indptr), shape=shape)
+            assert type(M) is cls and M.shape == shape
+            assert np.array_equal(M.data, data)
+            assert M.dtype == expected.dtype
+            assert np.array_equal(M.indices, indices)
+            assert M.has_canonical_format == (indices is sorted_)
+            assert (M != expected).nnz == 0

@@ -39,6 +39,7 @@ from scipy.sparse import csc_matrix, csr_matrix, triu
 from scipy.sparse.linalg import splu
 
 from ..errors import InvalidInputError, SingularSystemError, check_choice
+from ..methods.assembly import PatternMatrices
 
 logger = logging.getLogger(__name__)
 
@@ -62,6 +63,8 @@ AUTO_SUPERLU_BANDED = {2: (12, 30_000), 3: (8, 3000)}
 #: direct factorisations' memory
 AUTO_AMG_FROM = {"scipy (SuperLU)": {1: 1_500_000, 2: 1_500_000, 3: 5000},
                  "pypardiso": {1: 1_500_000, 2: 1_500_000, 3: 1_500_000}}
+#: the smallest normal float
+TINY = float(np.finfo(float).tiny)
 CAUSES = ("points leave a zero-energy mode (a grid node supported by too few "
           "points: Stabilisation(ghost=0.1) ties such nodes to their "
           "neighbours, and with B-splines extended_splines=True folds them) "
@@ -98,6 +101,7 @@ def csc_converter() -> Callable:
     [[4.0, 2.0], [0.0, 6.0]]
     """
     last = []              # one pattern: (indices, indptr, shape, csc parts)
+    matrices = PatternMatrices(csc_matrix)
 
     def to_csc(A):
         if getattr(A, "format", None) != "csr":
@@ -110,7 +114,7 @@ def csc_converter() -> Callable:
                        numbers.data.astype(np.int64), numbers.indices,
                        numbers.indptr)
         take, indices, indptr = last[3:]
-        return csc_matrix((A.data[take], indices, indptr), shape=A.shape)
+        return matrices(A.data[take], indices, indptr, A.shape)
     return to_csc
 
 
@@ -142,7 +146,7 @@ def solver_direct_checked(pivot_tol: float = 1e-9,
             raise SingularSystemError("the stiffness on {} free DOFs is "
                                       "singular ({}): {}".format(
                                           A.shape[0], err, CAUSES)) from err
-        diagonal = max(np.abs(A.diagonal()).max(), np.finfo(float).tiny)
+        diagonal = max(np.abs(A.diagonal()).max(), TINY)
 
         def solve(b):
             x = lu.solve(b)
