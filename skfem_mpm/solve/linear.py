@@ -235,8 +235,10 @@ class Condensation:
 
     def fits(self, K, free: ndarray) -> bool:
         """Whether ``K`` has this pattern (canonical CSR) and ``free`` is
-        these free DOFs."""
-        return free is self.free and isinstance(K, csr_matrix) \
+        these free DOFs: the same array, or equal (a later load step's
+        DOFs where the active cells and supports are the step's before:
+        the map serves it, and ``free`` becomes the array compared)."""
+        fits = isinstance(K, csr_matrix) \
             and K.has_canonical_format \
             and K.shape[0] == self.indptr.size - 1 \
             and K.indices.shape == self.indices.shape \
@@ -244,6 +246,13 @@ class Condensation:
                  or np.array_equal(K.indptr, self.indptr)) \
             and (K.indices is self.indices
                  or np.array_equal(K.indices, self.indices))
+        if not fits or free is self.free:
+            return fits
+        if free.dtype != self.free.dtype \
+                or not np.array_equal(free, self.free):
+            return False
+        self.free = free
+        return True
 
     def __call__(self, K: csr_matrix, consume: bool = False) -> csr_matrix:
         """The free-free block of ``K``; with ``consume`` (``K`` is not

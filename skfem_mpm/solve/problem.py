@@ -334,12 +334,13 @@ class StepProblem:
     def condensed(self, K):
         """The free-free block of the tangent ``K`` (canonical CSR), by the
         run's :class:`~skfem_mpm.solve.linear.Condensation` of the step's
-        pattern, made for a new one."""
+        pattern and free DOFs (an earlier step's where they are alike),
+        made for new ones."""
         cache, free = self.run.cache, self.free
         if not (cache.condensation is not None
                 and cache.condensation.fits(K, free)) \
                 and getattr(K, "has_canonical_format", False):
-            cache.condensation = Condensation(K, free)  # new step: new map
+            cache.condensation = Condensation(K, free)  # a new map
         consume = self._own is not None and self._own() is K
         self._own = None
         # (GIMP's sparse products are not canonical: scikit-fem's condense)
