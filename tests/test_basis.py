@@ -352,3 +352,43 @@ def test_an_inversion_names_the_most_inverted_point():
     with pytest.raises(InversionError, match=r"the most \[{}".format(worst)):
         FiniteStrain(LinearElastic(1e3, .3), 2, Counter()).response(
             op, du, points)
+
+
+@pytest.mark.slow
+def test_compiled_fields_equal_scikit_fems_to_the_bit(monkeypatch):
+    """The compiled values and gradients of the bilinear quadrilateral and
+    the trilinear hexahedron (``kernels="auto"``) are the numpy path's to
+    the bit, signs of zeros included, on distorted meshes at random
+    points of half their elements; other elements, ``SKFEM_MPM_KERNELS=
+    numpy`` and a zero Jacobian determinant (which the numpy path refuses)
+    get none."""
+    pytest.importorskip("numba")
+    from skfem import ElementHex1, ElementQuad2, MeshHex, MeshQuad
+    from skfem_mpm.quadrature.basis import _h1_fields, compiled_fields
+    from skfem_mpm.quadrature.mapping import PointMapping
+    monkeypatch.setenv("SKFEM_MPM_KERNELS", "auto")
+    rng = np.random.default_rng(0)
+    for M, elem in ((MeshQuad, ElementQuad1()), (MeshHex, ElementHex1())):
+        mesh = M().refined(3)
+        inner = (mesh.p > 0.) & (mesh.p < 1.)
+        mesh = M(mesh.p + .02 * rng.standard_normal(mesh.p.shape) * inner,
+                 mesh.t)
+        tind = rng.permutation(mesh.nelements)[:mesh.nelements // 2]
+        X = rng.random((mesh.dim(), tind.size, 5))
+        X[:, 0, 0] = 0.                               # zeros of the fields
+        fields = compiled_fields(elem, PointMapping(mesh), X, tind)
+        expected = _h1_fields(elem, elem.doflocs.shape[0],
+                              PointMapping(mesh), X, tind)
+        for got, want in zip(fields, expected):
+            assert got.shape == want.shape
+            assert np.array_equal(got, want)
+            assert np.array_equal(np.signbit(got), np.signbit(want))
+        flat = M(mesh.p * np.r_[1., np.zeros(mesh.dim() - 1)][:, None],
+                 mesh.t)                          # every determinant zero
+        assert compiled_fields(elem, PointMapping(flat), X, tind) is None
+        monkeypatch.setenv("SKFEM_MPM_KERNELS", "numpy")
+        assert compiled_fields(elem, PointMapping(mesh), X, tind) is None
+        monkeypatch.setenv("SKFEM_MPM_KERNELS", "auto")
+    mesh = MeshQuad().refined(2)
+    assert compiled_fields(ElementQuad2(), PointMapping(mesh),
+                           rng.random((2, 4, 2)), np.arange(4)) is None
