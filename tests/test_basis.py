@@ -392,3 +392,36 @@ def test_compiled_fields_equal_scikit_fems_to_the_bit(monkeypatch):
     mesh = MeshQuad().refined(2)
     assert compiled_fields(ElementQuad2(), PointMapping(mesh),
                            rng.random((2, 4, 2)), np.arange(4)) is None
+
+
+@pytest.mark.slow
+def test_compiled_slots_equal_the_numpy_layout(monkeypatch):
+    """The compiled slot layout of a basis over all points (``kernels=
+    "auto"``) is the numpy path's array for array, dtypes included: the
+    points of random cells (unsorted, one to nine a cell, empty cells
+    between) by element in a stable order, padding at each element's
+    first point; and the basis built on it is the numpy path's."""
+    pytest.importorskip("numba")
+    from skfem_mpm.kernels.basis import point_slots
+    from skfem_mpm.quadrature.basis import _slots
+    rng = np.random.default_rng(1)
+    tind = rng.choice(np.arange(0, 60, 3), size=200)
+    X = rng.random((3, 200))
+    volume = rng.random(200)
+    got = point_slots(tind, X, volume)
+    want = _slots(tind, X, volume, np.arange(200))
+    for a, b in zip(got, want):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    mesh = MeshQuad().refined(3)
+    points = seed_points(mesh, 3)
+    points.x[:, ::7] += .01                      # some cells hold fewer
+    bases = []
+    for kernels in ("auto", "numpy"):
+        monkeypatch.setenv("SKFEM_MPM_KERNELS", kernels)
+        bases.append(MaterialPointBasis(mesh, ElementQuad1(), points))
+    for name in ("tind", "X", "dx", "point_index", "_slot_of_point",
+                 "_padding"):
+        assert np.array_equal(getattr(bases[0], name),
+                              getattr(bases[1], name)), name
+    for a, b in zip(bases[0].scalar_fields(), bases[1].scalar_fields()):
+        assert np.array_equal(a, b)

@@ -133,3 +133,45 @@ def hex1_fields(p, nodes, X, values, gradients):
                                              + inv[1, a] * d[1, k]) \
                         + inv[2, a] * d[2, k]
     return 0
+
+
+@njit(cache=True, error_model="numpy")
+def point_slots(tind, X, volume):
+    """The slot layout of a material-point basis over all its points
+    (:class:`skfem_mpm.quadrature.basis.MaterialPointBasis`, the numpy
+    path's arrays entry for entry): the points by element in a stable
+    order, the active elements ascending, each element's points in its
+    first slots and the padding slots at its first point's coordinates.
+    Returns ``(elements, Xq, dx, point_index, slot_of_point, padding)``."""
+    n, dim = tind.size, X.shape[0]
+    order = np.argsort(tind, kind="mergesort")
+    nel, run, slots = 0, 0, 0
+    for j in range(n):
+        if j == 0 or tind[order[j]] != tind[order[j - 1]]:
+            nel += 1
+            run = 0
+        run += 1
+        slots = max(slots, run)
+    elements = np.empty(nel, dtype=tind.dtype)
+    Xq = np.empty((dim, nel, slots))
+    dx = np.zeros((nel, slots))
+    point_index = np.full((nel, slots), -1, dtype=np.int64)
+    slot_of_point = np.empty(n, dtype=np.int64)
+    e, s = -1, 0
+    for j in range(n):
+        p = order[j]
+        if j == 0 or tind[p] != tind[order[j - 1]]:
+            e += 1
+            s = 0
+            elements[e] = tind[p]
+            for a in range(dim):
+                for k in range(slots):
+                    Xq[a, e, k] = X[a, p]
+        for a in range(dim):
+            Xq[a, e, s] = X[a, p]
+        dx[e, s] = volume[p]
+        point_index[e, s] = p
+        slot_of_point[p] = e * slots + s
+        s += 1
+    padding = np.flatnonzero(point_index.ravel() < 0)
+    return elements, Xq, dx, point_index, slot_of_point, padding

@@ -93,25 +93,13 @@ class MaterialPointBasis(CellBasis):
                  subset: Optional[ndarray] = None):
         tind, X = _located(mesh, points, location)
         self.subset = _check_subset(subset, points.n)
-        by_element = np.argsort(tind[self.subset], kind="stable")
-        order = self.subset[by_element]
-        elements, start, counts = np.unique(tind[order], return_index=True,
-                                            return_counts=True)
-        shape = (len(elements), int(counts.max()))
-        # the flat slot (element, slot) of each point in ``order``: flat
-        # indices into the fields, not (row, slot) pairs (2.5 times faster)
-        flat = np.arange(len(order)) + np.repeat(
-            np.arange(len(elements)) * shape[1] - start, counts)
-        Xq = np.repeat(X[:, order[start]][:, :, None], shape[1], axis=2)
-        Xq.reshape(len(X), -1)[:, flat] = X[:, order]
-        dx = np.zeros(shape)
-        dx.reshape(-1)[flat] = points.volume[order]
-        self.point_index = np.full(shape, -1, dtype=np.int64)
-        self.point_index.reshape(-1)[flat] = order
-        # flat slot of every point of the subset, and the padding slots
-        self._slot_of_point = np.empty(len(order), dtype=np.int64)
-        self._slot_of_point[by_element] = flat
-        self._padding = np.flatnonzero(self.point_index.ravel() < 0)
+        kernels = _basis_kernels() if subset is None and points.n else None
+        (elements, Xq, dx, self.point_index, self._slot_of_point,
+         self._padding) = _slots(tind, X, points.volume, self.subset) \
+            if kernels is None else kernels.point_slots(
+                tind, np.ascontiguousarray(X, dtype=np.float64),
+                np.ascontiguousarray(points.volume, dtype=np.float64))
+        shape = dx.shape
         self._doflocs = None
         self._scalar_fields = None
         mapping = fresh_mapping(mesh)
@@ -300,6 +288,49 @@ def _h1_fields(elem: Element, nloc: int, mapping: PointMapping,
     return values, gradients
 
 
+def _slots(tind: ndarray, X: ndarray, volume: ndarray, subset: ndarray):
+    """``(elements, Xq, dx, point_index, slot_of_point, padding)``: the
+    points of ``subset`` grouped by element (the active ones ascending,
+    a stable order within each), in the slots of a padded (element, slot)
+    layout, the padding slots at their element's first point."""
+    by_element = np.argsort(tind[subset], kind="stable")
+    order = subset[by_element]
+    elements, start, counts = np.unique(tind[order], return_index=True,
+                                        return_counts=True)
+    shape = (len(elements), int(counts.max()))
+    # the flat slot (element, slot) of each point in ``order``: flat
+    # indices into the fields, not (row, slot) pairs (2.5 times faster)
+    flat = np.arange(len(order)) + np.repeat(
+        np.arange(len(elements)) * shape[1] - start, counts)
+    Xq = np.repeat(X[:, order[start]][:, :, None], shape[1], axis=2)
+    Xq.reshape(len(X), -1)[:, flat] = X[:, order]
+    dx = np.zeros(shape)
+    dx.reshape(-1)[flat] = volume[order]
+    point_index = np.full(shape, -1, dtype=np.int64)
+    point_index.reshape(-1)[flat] = order
+    # flat slot of every point of the subset, and the padding slots
+    slot_of_point = np.empty(len(order), dtype=np.int64)
+    slot_of_point[by_element] = flat
+    return (elements, Xq, dx, point_index, slot_of_point,
+            np.flatnonzero(point_index.ravel() < 0))
+
+
+def _basis_kernels():
+    """The compiled passes of a basis (:mod:`skfem_mpm.kernels.basis`)
+    where ``kernels="auto"`` (:func:`~skfem_mpm.kernels.auto_kernels`)
+    and numba imports; else ``None`` (the numpy path, the reference: the
+    passes give its numbers to the bit)."""
+    if auto_kernels() != "auto":
+        return None
+    if not _FIELD_KERNELS:
+        try:
+            from ..kernels import basis as kernels
+        except ImportError:             # no numba: the numpy path
+            kernels = None
+        _FIELD_KERNELS.append(kernels)
+    return _FIELD_KERNELS[0]
+
+
 def compiled_fields(elem: Element, mapping: PointMapping, X: ndarray,
                     tind: ndarray) -> Optional[Tuple[ndarray, ndarray]]:
     """:func:`_h1_fields` by a compiled pass, equal to the bit, where one
@@ -311,22 +342,15 @@ def compiled_fields(elem: Element, mapping: PointMapping, X: ndarray,
     the fields 0.37 -> 0.02 ms (the Jacobian, its inverse and the element
     function by function, some 90 numpy calls)."""
     name = COMPILED_FIELDS.get(type(elem))
-    if name is None or type(mapping.elem) is not type(elem) \
-            or auto_kernels() != "auto":
-        return None
-    if not _FIELD_KERNELS:
-        try:
-            from ..kernels import basis as kernels
-        except ImportError:             # no numba: the numpy path
-            kernels = None
-        _FIELD_KERNELS.append(kernels)
-    if _FIELD_KERNELS[0] is None:
+    kernels = _basis_kernels() if name is not None \
+        and type(mapping.elem) is type(elem) else None
+    if kernels is None:
         return None
     nloc = elem.doflocs.shape[0]
     values = np.empty((nloc,) + X.shape[1:])
     gradients = np.empty((nloc,) + X.shape)
     nodes = mapping.mesh.dofs.element_dofs[:, tind]
-    if getattr(_FIELD_KERNELS[0], name)(
+    if getattr(kernels, name)(
             np.ascontiguousarray(mapping.mesh.doflocs, dtype=np.float64),
             np.ascontiguousarray(nodes, dtype=np.int64),
             np.ascontiguousarray(X, dtype=np.float64), values, gradients):
