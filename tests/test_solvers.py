@@ -630,3 +630,31 @@ def test_pattern_matrices_follow_their_index_arrays():
             assert np.array_equal(M.indices, indices)
             assert M.has_canonical_format == (indices is sorted_)
             assert (M != expected).nnz == 0
+
+
+def test_csc_copies_give_the_diagonal_of_their_own_pattern():
+    """The diagonal of a CSC copy is read at places kept for its pattern
+    where the whole diagonal is in it, scipy's otherwise: equal to
+    scipy's for each matrix of two patterns in turn (a stale pattern's
+    places would read the other's entries) and for one without a full
+    diagonal; the row sums of a matrix without empty rows equal those
+    formed row block by row block."""
+    from scipy.sparse import csr_matrix
+    from skfem_mpm.solve.backends import csc_converter
+    from skfem_mpm.solve.linear import row_sums
+    rng = np.random.default_rng(5)
+    to_csc = csc_converter()
+    dense = [rng.standard_normal((6, 6)) * (rng.random((6, 6)) < .5)
+             + np.diag(np.arange(1., 7.)) * k for k in (1., 2., 0.)]
+    dense[2][0, 0] = 0.                           # not all of it stored
+    for D in dense + dense[::-1]:
+        A = csr_matrix(D)
+        for _ in range(2):
+            A.data *= 1.5                         # the next iteration
+            C = to_csc(A)
+            assert np.array_equal(to_csc.diagonal(C), A.diagonal())
+            assert (C != A.tocsc()).nnz == 0
+            if np.diff(A.indptr).all():
+                assert np.array_equal(row_sums(A), row_sums(A, block=1))
+    first, second = (to_csc(csr_matrix(D)) for D in dense[:2])
+    assert np.array_equal(to_csc.diagonal(first), first.diagonal())
