@@ -352,3 +352,76 @@ def test_an_inversion_names_the_most_inverted_point():
     with pytest.raises(InversionError, match=r"the most \[{}".format(worst)):
         FiniteStrain(LinearElastic(1e3, .3), 2, Counter()).response(
             op, du, points)
+
+
+@pytest.mark.slow
+def test_compiled_fields_equal_scikit_fems_to_the_bit(monkeypatch):
+    """The compiled values and gradients of the bilinear quadrilateral and
+    the trilinear hexahedron (``kernels="auto"``) are the numpy path's to
+    the bit, signs of zeros included, on distorted meshes at random
+    points of half their elements; other elements, ``SKFEM_MPM_KERNELS=
+    numpy`` and a zero Jacobian determinant (which the numpy path refuses)
+    get none."""
+    pytest.importorskip("numba")
+    from skfem import ElementHex1, ElementQuad2, MeshHex, MeshQuad
+    from skfem_mpm.quadrature.basis import _h1_fields, compiled_fields
+    from skfem_mpm.quadrature.mapping import PointMapping
+    monkeypatch.setenv("SKFEM_MPM_KERNELS", "auto")
+    rng = np.random.default_rng(0)
+    for M, elem in ((MeshQuad, ElementQuad1()), (MeshHex, ElementHex1())):
+        mesh = M().refined(3)
+        inner = (mesh.p > 0.) & (mesh.p < 1.)
+        mesh = M(mesh.p + .02 * rng.standard_normal(mesh.p.shape) * inner,
+                 mesh.t)
+        tind = rng.permutation(mesh.nelements)[:mesh.nelements // 2]
+        X = rng.random((mesh.dim(), tind.size, 5))
+        X[:, 0, 0] = 0.                               # zeros of the fields
+        fields = compiled_fields(elem, PointMapping(mesh), X, tind)
+        expected = _h1_fields(elem, elem.doflocs.shape[0],
+                              PointMapping(mesh), X, tind)
+        for got, want in zip(fields, expected):
+            assert got.shape == want.shape
+            assert np.array_equal(got, want)
+            assert np.array_equal(np.signbit(got), np.signbit(want))
+        flat = M(mesh.p * np.r_[1., np.zeros(mesh.dim() - 1)][:, None],
+                 mesh.t)                          # every determinant zero
+        assert compiled_fields(elem, PointMapping(flat), X, tind) is None
+        monkeypatch.setenv("SKFEM_MPM_KERNELS", "numpy")
+        assert compiled_fields(elem, PointMapping(mesh), X, tind) is None
+        monkeypatch.setenv("SKFEM_MPM_KERNELS", "auto")
+    mesh = MeshQuad().refined(2)
+    assert compiled_fields(ElementQuad2(), PointMapping(mesh),
+                           rng.random((2, 4, 2)), np.arange(4)) is None
+
+
+@pytest.mark.slow
+def test_compiled_slots_equal_the_numpy_layout(monkeypatch):
+    """The compiled slot layout of a basis over all points (``kernels=
+    "auto"``) is the numpy path's array for array, dtypes included: the
+    points of random cells (unsorted, one to nine a cell, empty cells
+    between) by element in a stable order, padding at each element's
+    first point; and the basis built on it is the numpy path's."""
+    pytest.importorskip("numba")
+    from skfem_mpm.kernels.basis import point_slots
+    from skfem_mpm.quadrature.basis import _slots
+    rng = np.random.default_rng(1)
+    tind = rng.choice(np.arange(0, 60, 3), size=200)
+    X = rng.random((3, 200))
+    volume = rng.random(200)
+    got = point_slots(tind, X, volume)
+    want = _slots(tind, X, volume, np.arange(200))
+    for a, b in zip(got, want):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    mesh = MeshQuad().refined(3)
+    points = seed_points(mesh, 3)
+    points.x[:, ::7] += .01                      # some cells hold fewer
+    bases = []
+    for kernels in ("auto", "numpy"):
+        monkeypatch.setenv("SKFEM_MPM_KERNELS", kernels)
+        bases.append(MaterialPointBasis(mesh, ElementQuad1(), points))
+    for name in ("tind", "X", "dx", "point_index", "_slot_of_point",
+                 "_padding"):
+        assert np.array_equal(getattr(bases[0], name),
+                              getattr(bases[1], name)), name
+    for a, b in zip(bases[0].scalar_fields(), bases[1].scalar_fields()):
+        assert np.array_equal(a, b)

@@ -358,3 +358,16 @@ def test_steps_after_one_the_line_search_carried_start_with_it():
     assert len(res.history) == 6
     assert abs(pressure - plain_pressure) < 1e-9 * pressure
     assert 5 < pressure < 7                          # near 2 + pi
+
+
+def test_the_dead_loads_norm_follows_the_array_a_step_holds():
+    """The norm of a step's dead loads is found once for each array the
+    problem holds (a time integrator replaces it in ``begin_step``): a
+    replaced ``f_dead`` is measured anew (a stale norm would keep 5)."""
+    from types import SimpleNamespace
+    from skfem_mpm.solve.problem import StepProblem
+    problem = SimpleNamespace(f_dead=np.array([3., 4.]), _kept_norm=None)
+    assert StepProblem._dead_norm(problem) == 5.
+    assert StepProblem._dead_norm(problem) == 5.
+    problem.f_dead = np.array([6., 8.])
+    assert StepProblem._dead_norm(problem) == 10.

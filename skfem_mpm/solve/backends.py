@@ -39,6 +39,7 @@ from scipy.sparse import csc_matrix, csr_matrix, triu
 from scipy.sparse.linalg import splu
 
 from ..errors import InvalidInputError, SingularSystemError, check_choice
+from ..methods.assembly import PatternMatrices
 
 logger = logging.getLogger(__name__)
 
@@ -62,6 +63,8 @@ AUTO_SUPERLU_BANDED = {2: (12, 30_000), 3: (8, 3000)}
 #: direct factorisations' memory
 AUTO_AMG_FROM = {"scipy (SuperLU)": {1: 1_500_000, 2: 1_500_000, 3: 5000},
                  "pypardiso": {1: 1_500_000, 2: 1_500_000, 3: 1_500_000}}
+#: the smallest normal float
+TINY = float(np.finfo(float).tiny)
 CAUSES = ("points leave a zero-energy mode (a grid node supported by too few "
           "points: Stabilisation(ghost=0.1) ties such nodes to their "
           "neighbours, and with B-splines extended_splines=True folds them) "
@@ -98,6 +101,7 @@ def csc_converter() -> Callable:
     [[4.0, 2.0], [0.0, 6.0]]
     """
     last = []              # one pattern: (indices, indptr, shape, csc parts)
+    matrices = PatternMatrices(csc_matrix)
 
     def to_csc(A):
         if getattr(A, "format", None) != "csr":
@@ -106,11 +110,27 @@ def csc_converter() -> Callable:
                 and same_array(last[1], A.indptr) and last[2] == A.shape):
             numbers = csr_matrix((np.arange(A.nnz, dtype=np.float64),
                                   A.indices, A.indptr), shape=A.shape).tocsc()
+            # the places of the diagonal in the CSC data, where all of it
+            # is in the pattern (else None: scipy's diagonal)
+            places = csc_matrix((np.arange(1., A.nnz + 1.), numbers.indices,
+                                 numbers.indptr), shape=A.shape).diagonal()
             last[:] = (A.indices, A.indptr, A.shape,
                        numbers.data.astype(np.int64), numbers.indices,
-                       numbers.indptr)
-        take, indices, indptr = last[3:]
-        return csc_matrix((A.data[take], indices, indptr), shape=A.shape)
+                       numbers.indptr, places.astype(np.int64) - 1
+                       if places.all() else None)
+        take, indices, indptr = last[3:6]
+        C = matrices(A.data[take], indices, indptr, A.shape)
+        last[7:] = [C.indices, C.indptr]        # scipy's views of them
+        return C
+
+    def diagonal(C):
+        """The diagonal of a matrix ``to_csc`` returned (its entries at
+        the places kept for the pattern: 7 us at 28 DOFs for scipy's)."""
+        if last and last[6] is not None and C.indices is last[7] \
+                and C.indptr is last[8]:
+            return C.data[last[6]]
+        return C.diagonal()
+    to_csc.diagonal = diagonal
     return to_csc
 
 
@@ -142,11 +162,12 @@ def solver_direct_checked(pivot_tol: float = 1e-9,
             raise SingularSystemError("the stiffness on {} free DOFs is "
                                       "singular ({}): {}".format(
                                           A.shape[0], err, CAUSES)) from err
-        diagonal = max(np.abs(A.diagonal()).max(), np.finfo(float).tiny)
+        diagonal = max(np.abs(to_csc.diagonal(A)).max(), TINY)
 
         def solve(b):
             x = lu.solve(b)
-            if np.all(np.isfinite(x)) and np.abs(x).max() <= \
+            largest = np.abs(x).max()        # not finite: inf or nan
+            if largest < np.inf and largest <= \
                     growth_tol * np.abs(b).max() / diagonal:
                 return x
             check_pivots(A, lu, x)

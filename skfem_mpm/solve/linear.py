@@ -24,8 +24,9 @@ from skfem import condense
 
 from ..errors import InvalidInputError, SingularSystemError
 from ..graph import distinct
+from ..methods.assembly import PatternMatrices
 from . import backends
-from .backends import get_solver
+from .backends import TINY, get_solver
 
 __all__ = ["support_dofs", "free_dofs", "check_rigid_body_modes",
            "solve_active", "factorise_active", "factorise_condensed",
@@ -230,11 +231,14 @@ class Condensation:
             take, columns = take[order], columns[order]
             np.cumsum(np.bincount(rows, minlength=free.size), out=indptr[1:])
         self.take, self.block = take, (columns, indptr)
+        self._matrices = PatternMatrices(csr_matrix)
 
     def fits(self, K, free: ndarray) -> bool:
         """Whether ``K`` has this pattern (canonical CSR) and ``free`` is
-        these free DOFs."""
-        return free is self.free and isinstance(K, csr_matrix) \
+        these free DOFs: the same array, or equal (a later load step's
+        DOFs where the active cells and supports are the step's before:
+        the map serves it, and ``free`` becomes the array compared)."""
+        fits = isinstance(K, csr_matrix) \
             and K.has_canonical_format \
             and K.shape[0] == self.indptr.size - 1 \
             and K.indices.shape == self.indices.shape \
@@ -242,6 +246,13 @@ class Condensation:
                  or np.array_equal(K.indptr, self.indptr)) \
             and (K.indices is self.indices
                  or np.array_equal(K.indices, self.indices))
+        if not fits or free is self.free:
+            return fits
+        if free.dtype != self.free.dtype \
+                or not np.array_equal(free, self.free):
+            return False
+        self.free = free
+        return True
 
     def __call__(self, K: csr_matrix, consume: bool = False) -> csr_matrix:
         """The free-free block of ``K``; with ``consume`` (``K`` is not
@@ -256,14 +267,14 @@ class Condensation:
         data = whole_array(K.data) if consume and self.ascending \
             and take.size >= GATHER_BLOCK else None
         if data is None:
-            return csr_matrix((K.data[take], *self.block), shape=(n, n))
+            return self._matrices(K.data[take], *self.block, (n, n))
         K.data = data               # scipy's view of it released
         for start in range(0, take.size, GATHER_BLOCK):
             # forward: take[i] >= i, so no entry is read after it is written
             stop = min(start + GATHER_BLOCK, take.size)
             data[start:stop] = np.take(data, take[start:stop])
         data.resize(take.size, refcheck=False)  # K is not read again
-        return csr_matrix((data, *self.block), shape=(n, n))
+        return self._matrices(data, *self.block, (n, n))
 
 
 def whole_array(data: ndarray) -> Optional[ndarray]:
@@ -293,8 +304,11 @@ def row_sums(A: csr_matrix, block: int = 1 << 16) -> ndarray:
     >>> row_sums(A, block=1).tolist()
     [3.0, 0.0, 7.0]
     """
-    sums = np.zeros(A.shape[0])
     indptr = A.indptr
+    if A.nnz <= block and A.shape[0] \
+            and (indptr[1:] > indptr[:-1]).all():    # no empty row
+        return np.add.reduceat(np.abs(A.data[:A.nnz]), indptr[:-1])
+    sums = np.zeros(A.shape[0])
     # each block ends at a row boundary: a row's sum is reduced as a whole
     ends = [A.shape[0]] if A.nnz <= block else np.minimum(np.maximum(
         np.unique(np.searchsorted(indptr, np.arange(
@@ -402,21 +416,22 @@ def checked_solves(A: spmatrix, free: ndarray, n: int, solver, tol: float,
     def solve(b: ndarray, x: Optional[ndarray] = None) -> ndarray:
         u = np.zeros(n) if x is None else x.copy()
         with singular_as_error(free.size):
-            u[free] = factorised(b)
-        largest = np.abs(u[free]).max()
-        if largest < np.finfo(float).tiny and np.abs(b).max() > 0.:
+            y = factorised(b)
+        u[free] = y
+        y = u[free] if x is not None else y       # as u holds it
+        largest, loads = np.abs(y).max(), np.abs(b).max()
+        if largest < TINY and loads > 0.:
             raise InvalidInputError(
                 "the solution underflows (largest {:.1e} from forces up to "
                 "{:.1e} and a stiffness up to {:.1e}): rescale the units "
-                "(e.g. kN, MPa, mm)".format(largest, np.abs(b).max(),
-                                            abs(A).max()))
+                "(e.g. kN, MPa, mm)".format(largest, loads, abs(A).max()))
         # normwise backward error of the solve
         if not largest_row:
             largest_row.append(row_sums(A).max())
-        r = np.abs(A @ u[free] - b).max()
-        scale = largest_row[0] * largest + np.abs(b).max()
-        error = r / max(scale, np.finfo(float).tiny)
-        if not np.all(np.isfinite(u)) or error > tol:
+        r = np.abs(A @ y - b).max()
+        scale = largest_row[0] * largest + loads
+        error = r / max(scale, TINY)
+        if not np.isfinite(u if x is not None else y).all() or error > tol:
             raise SingularSystemError(
                 "the stiffness on {} free DOFs is singular: the solve's "
                 "backward error is {:.2e}; the active grid probably has "

@@ -29,6 +29,7 @@ from scipy.linalg.blas import dnrm2
 from ..errors import GridMotionError, SingularSystemError, \
     SingularTangentError
 from ..protocols import Balance
+from .backends import TINY
 from .linear import Condensation, condensed, factorise_condensed, \
     free_dofs
 from .motion import check_held, held_motion
@@ -64,9 +65,11 @@ def safe_norm(v: ndarray) -> float:
     """The 2-norm of ``v`` without underflow or overflow of its squares
     (forces of 1e-300 or 1e+200 N): numpy's where that is safe, BLAS's
     scaled ``dnrm2`` otherwise."""
+    if v.size == 0:
+        return 0.
     with np.errstate(over="ignore", under="ignore"):
         norm = np.linalg.norm(v)
-    if v.size == 0 or np.finfo(float).tiny < norm < 1e150:
+    if TINY < norm < 1e150:
         return float(norm)
     return float(dnrm2(np.ascontiguousarray(v, dtype=np.float64)))
 
@@ -159,6 +162,7 @@ class StepProblem:
             else self.fixed, step, bool(held_by_terms))
         self.free = free_dofs(op.active_dofs, self.fixed)
         self.f_dead = run.loads.external(op, points, self.s_new)
+        self._kept_norm = None          # f_dead's norm (_dead_norm)
         self.load_weight = 1.
         self.stabilised = False        # a solve used the stabilised tangent
         self._own = None    # the last tangent made of arrays of its own
@@ -227,17 +231,27 @@ class StepProblem:
         # prescribed motion: a step driven by prescribed motion under a
         # small weight is measured against the forces it drives (and in
         # dynamics against the inertia force: a free vibration)
-        balance = Balance(f_int, f_ext, max(safe_norm(f_ext),
-                                            safe_norm(f_int[self.driven])))
+        balance = Balance(f_int, f_ext, max(
+            safe_norm(f_ext) if follower is not None else self._dead_norm(),
+            safe_norm(f_int[self.driven]) if self.driven.size else 0.))
         for term in self.terms:
             term.weigh(balance, du)
         r = balance.f_ext - balance.f_int
         scale = balance.scale
         if scale == 0.:               # nothing loads or drives: the stresses
-            scale = max(safe_norm(balance.f_int), np.finfo(float).tiny)
+            scale = max(safe_norm(balance.f_int), TINY)
         merit = safe_norm(r[self.free])
         self.t["check"] += time.perf_counter() - tic
         return Trial(response, r, merit, merit / scale)
+
+    def _dead_norm(self) -> float:
+        """The norm of :attr:`f_dead`, found once for each array a step
+        holds there (a term replaces it, never writes it: a time
+        integrator's weighing in ``begin_step``)."""
+        kept = self._kept_norm
+        if kept is None or kept[0] is not self.f_dead:
+            kept = self._kept_norm = (self.f_dead, safe_norm(self.f_dead))
+        return kept[1]
 
     def converged(self, trial: Trial) -> bool:
         return trial.residual <= self.run.tol
@@ -320,12 +334,13 @@ class StepProblem:
     def condensed(self, K):
         """The free-free block of the tangent ``K`` (canonical CSR), by the
         run's :class:`~skfem_mpm.solve.linear.Condensation` of the step's
-        pattern, made for a new one."""
+        pattern and free DOFs (an earlier step's where they are alike),
+        made for new ones."""
         cache, free = self.run.cache, self.free
         if not (cache.condensation is not None
                 and cache.condensation.fits(K, free)) \
                 and getattr(K, "has_canonical_format", False):
-            cache.condensation = Condensation(K, free)  # new step: new map
+            cache.condensation = Condensation(K, free)  # a new map
         consume = self._own is not None and self._own() is K
         self._own = None
         # (GIMP's sparse products are not canonical: scikit-fem's condense)

@@ -1,0 +1,177 @@
+"""Compiled fields of a material-point basis: the values and gradients of
+scikit-fem's bilinear quadrilateral (``ElementQuad1``) and trilinear
+hexahedron (``ElementHex1``) on their own isoparametric meshes, at each
+point of each element, in one pass (:func:`skfem_mpm.quadrature.basis.
+compiled_fields`).
+
+Each point's numbers are scikit-fem's, operation for operation: the
+Jacobian summed over the element's nodes from zero in node order (as
+``PointMapping._jacobian``), the inverse as ``MappingIsoparametric.invDF``
+forms it (the adjugate over the determinant), the shape functions'
+values and reference gradients by ``lbasis``'s expressions, and the
+gradients ``invDF^T dphi`` summed over the reference axes in order (as
+``_h1_fields``): equal to the bit (``tests/test_basis.py``).  A zero
+determinant returns 1 (the caller's numpy path raises scikit-fem's
+error).
+"""
+import numpy as np
+from numba import njit
+
+__all__ = ["quad1_fields", "hex1_fields"]
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def quad1_basis(i, x, y):
+    """``lbasis(X, i)`` of ``ElementQuad1`` at one point: ``(phi, dphi_x,
+    dphi_y)``."""
+    if i == 0:
+        return (1. - x) * (1. - y), -1. + y, -1. + x
+    if i == 1:
+        return x * (1. - y), 1. - y, -x
+    if i == 2:
+        return x * y, y, x
+    return (1. - x) * y, -y, 1. - x
+
+
+@njit(cache=True, error_model="numpy")
+def quad1_fields(p, nodes, X, values, gradients):
+    """Values (4, e, q) and gradients (4, 2, e, q) of ``ElementQuad1`` at
+    the reference points ``X`` (2, e, q) of the elements whose nodes
+    (4, e) have the coordinates ``p`` (2, vertices); 1 at a zero Jacobian
+    determinant, else 0."""
+    nel, nq = X.shape[1], X.shape[2]
+    d0 = np.empty(4)
+    d1 = np.empty(4)
+    for e in range(nel):
+        for q in range(nq):
+            x, y = X[0, e, q], X[1, e, q]
+            J00 = J01 = J10 = J11 = 0.
+            for k in range(4):
+                phi, d0[k], d1[k] = quad1_basis(k, x, y)
+                values[k, e, q] = phi
+                px, py = p[0, nodes[k, e]], p[1, nodes[k, e]]
+                J00 += px * d0[k]
+                J01 += px * d1[k]
+                J10 += py * d0[k]
+                J11 += py * d1[k]
+            det = J00 * J11 - J01 * J10
+            if det == 0.:
+                return 1
+            i00, i01 = J11 / det, -J01 / det
+            i10, i11 = -J10 / det, J00 / det
+            for k in range(4):
+                gradients[k, 0, e, q] = i00 * d0[k] + i10 * d1[k]
+                gradients[k, 1, e, q] = i01 * d0[k] + i11 * d1[k]
+    return 0
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def hex1_basis(i, x, y, z):
+    """``lbasis(X, i)`` of ``ElementHex1`` at one point: ``(phi, dphi_x,
+    dphi_y, dphi_z)``."""
+    if i == 0:
+        return x * y * z, y * z, x * z, x * y
+    if i == 1:
+        return x * y * (1 - z), y * (1 - z), x * (1 - z), -x * y
+    if i == 2:
+        return x * (1 - y) * z, (1 - y) * z, -x * z, x * (1 - y)
+    if i == 3:
+        return (1 - x) * y * z, -y * z, (1 - x) * z, (1 - x) * y
+    if i == 4:
+        return (x * (1 - y) * (1 - z), (1 - y) * (1 - z), -x * (1 - z),
+                -x * (1 - y))
+    if i == 5:
+        return ((1 - x) * y * (1 - z), -y * (1 - z), (1 - x) * (1 - z),
+                -(1 - x) * y)
+    if i == 6:
+        return ((1 - x) * (1 - y) * z, -(1 - y) * z, -(1 - x) * z,
+                (1 - x) * (1 - y))
+    return ((1 - x) * (1 - y) * (1 - z), -(1 - y) * (1 - z),
+            -(1 - x) * (1 - z), -(1 - x) * (1 - y))
+
+
+@njit(cache=True, error_model="numpy")
+def hex1_fields(p, nodes, X, values, gradients):
+    """:func:`quad1_fields` of ``ElementHex1``: values (8, e, q) and
+    gradients (8, 3, e, q) at ``X`` (3, e, q), nodes (8, e), ``p`` (3,
+    vertices)."""
+    nel, nq = X.shape[1], X.shape[2]
+    d = np.empty((3, 8))
+    J = np.empty((3, 3))
+    inv = np.empty((3, 3))
+    for e in range(nel):
+        for q in range(nq):
+            x, y, z = X[0, e, q], X[1, e, q], X[2, e, q]
+            J[:] = 0.
+            for k in range(8):
+                phi, d[0, k], d[1, k], d[2, k] = hex1_basis(k, x, y, z)
+                values[k, e, q] = phi
+                for a in range(3):
+                    node = p[a, nodes[k, e]]
+                    for b in range(3):
+                        J[a, b] += node * d[b, k]
+            det = (J[0, 0] * (J[1, 1] * J[2, 2] - J[1, 2] * J[2, 1]) -
+                   J[0, 1] * (J[1, 0] * J[2, 2] - J[1, 2] * J[2, 0]) +
+                   J[0, 2] * (J[1, 0] * J[2, 1] - J[1, 1] * J[2, 0]))
+            if det == 0.:
+                return 1
+            inv[0, 0] = -J[1, 2] * J[2, 1] + J[1, 1] * J[2, 2]
+            inv[1, 0] = J[1, 2] * J[2, 0] - J[1, 0] * J[2, 2]
+            inv[2, 0] = -J[1, 1] * J[2, 0] + J[1, 0] * J[2, 1]
+            inv[0, 1] = J[0, 2] * J[2, 1] - J[0, 1] * J[2, 2]
+            inv[1, 1] = -J[0, 2] * J[2, 0] + J[0, 0] * J[2, 2]
+            inv[2, 1] = J[0, 1] * J[2, 0] - J[0, 0] * J[2, 1]
+            inv[0, 2] = -J[0, 2] * J[1, 1] + J[0, 1] * J[1, 2]
+            inv[1, 2] = J[0, 2] * J[1, 0] - J[0, 0] * J[1, 2]
+            inv[2, 2] = -J[0, 1] * J[1, 0] + J[0, 0] * J[1, 1]
+            for a in range(3):
+                for b in range(3):
+                    inv[a, b] = inv[a, b] / det
+            for k in range(8):
+                for a in range(3):
+                    gradients[k, a, e, q] = (inv[0, a] * d[0, k]
+                                             + inv[1, a] * d[1, k]) \
+                        + inv[2, a] * d[2, k]
+    return 0
+
+
+@njit(cache=True, error_model="numpy")
+def point_slots(tind, X, volume):
+    """The slot layout of a material-point basis over all its points
+    (:class:`skfem_mpm.quadrature.basis.MaterialPointBasis`, the numpy
+    path's arrays entry for entry): the points by element in a stable
+    order, the active elements ascending, each element's points in its
+    first slots and the padding slots at its first point's coordinates.
+    Returns ``(elements, Xq, dx, point_index, slot_of_point, padding)``."""
+    n, dim = tind.size, X.shape[0]
+    order = np.argsort(tind, kind="mergesort")
+    nel, run, slots = 0, 0, 0
+    for j in range(n):
+        if j == 0 or tind[order[j]] != tind[order[j - 1]]:
+            nel += 1
+            run = 0
+        run += 1
+        slots = max(slots, run)
+    elements = np.empty(nel, dtype=tind.dtype)
+    Xq = np.empty((dim, nel, slots))
+    dx = np.zeros((nel, slots))
+    point_index = np.full((nel, slots), -1, dtype=np.int64)
+    slot_of_point = np.empty(n, dtype=np.int64)
+    e, s = -1, 0
+    for j in range(n):
+        p = order[j]
+        if j == 0 or tind[p] != tind[order[j - 1]]:
+            e += 1
+            s = 0
+            elements[e] = tind[p]
+            for a in range(dim):
+                for k in range(slots):
+                    Xq[a, e, k] = X[a, p]
+        for a in range(dim):
+            Xq[a, e, s] = X[a, p]
+        dx[e, s] = volume[p]
+        point_index[e, s] = p
+        slot_of_point[p] = e * slots + s
+        s += 1
+    padding = np.flatnonzero(point_index.ravel() < 0)
+    return elements, Xq, dx, point_index, slot_of_point, padding
