@@ -104,6 +104,7 @@ def test_a_boundary_through_a_column_of_points_keeps_it_in_every_row(
         mp = seed_points(mesh, 2, region=region)
     assert mp.n == np.unique(mp.x[0].round(9)).size * 7 * 2
     assert "28 point(s) lie on the region's boundary" in caplog.text
+    assert "across x: " in caplog.text and "across y" not in caplog.text
     # every point kept satisfies the region at its own position (a
     # review: x > 0.7 on 5 cells kept the column at 0.7, and 5 of its
     # points, their x an ulp from where the region was asked, did not)

@@ -330,22 +330,25 @@ def in_region(region: Callable, mesh: Mesh, x: ndarray, tind: ndarray,
         raise InvalidInputError(
             "region must return one bool per point, shape ({},), got {}"
             .format(x.shape[1], keep.shape))
-    tie = np.zeros(keep.size, dtype=bool)
+    tie = np.zeros((dim, keep.size), dtype=bool)
     for d in range(dim):
         for side in (-1., 1.):
             moved = at.copy()
             moved[d] += side * ON_BOUNDARY * extent[d]
-            tie |= np.asarray(region(moved), dtype=bool) != keep
+            tie[d] |= np.asarray(region(moved), dtype=bool) != keep
     if tie.any():
         logger.warning(
-            "seeding: %d point(s) lie on the region's boundary (the first "
-            "at x = %s), kept (%d) or dropped (%d) by rounding alone: the "
-            "body's side there falls between the points' sub-cells either "
-            "way; move the boundary off the points (onto grid lines or "
-            "between points) to say which", tie.sum(),
-            at[:, np.argmax(tie)].round(12).tolist(), (tie & keep).sum(),
-            (tie & ~keep).sum())
-    return keep, np.where(tie, at, x)
+            "seeding: %d point(s) lie on the region's boundary, kept or "
+            "dropped by rounding alone (%s): the body's side there falls "
+            "between the points' sub-cells either way; move the boundary "
+            "off the points (onto grid lines or between points) to say "
+            "which", tie.any(axis=0).sum(), "; ".join(
+                "across {}: {} kept, {} dropped, the first at {} = {:.12g}"
+                .format(AXES[d], (tie[d] & keep).sum(),
+                        (tie[d] & ~keep).sum(), AXES[d],
+                        at[d, np.argmax(tie[d])])
+                for d in range(dim) if tie[d].any()))
+    return keep, np.where(tie.any(axis=0), at, x)
 
 
 AXES = "xyz"
