@@ -398,7 +398,8 @@ def seed_points(mesh: Mesh, n: int,
 
     Each point receives the volume of its sub-cell (seed Figure 2.4), so the
     points of an element add up to the element's volume.  On axis-aligned
-    tensor-product grids each point's GIMP ``domain`` is its sub-cell.
+    tensor-product grids each point's GIMP ``domain`` is its sub-cell
+    (``domain`` holds its half-lengths).
 
     Parameters
     ----------
