@@ -309,10 +309,14 @@ class BodyContact(GridTerm):
                                  columns=weights is not None)
         counters.setdefault("contact_updates", 0)
         logger.warning(
-            "contact between bodies: GIMP piles on grids not aligned with "
-            "them, and landings on surfaces seeded in polygons, are not yet "
-            "reliable; see docs/contact.md (Contact between bodies, not yet "
-            "good enough) for these and the cases refused")
+            "contact between bodies: a body whose sides meet the other "
+            "inside grid cells may lean and settle by the grid (a pile "
+            "with one side on a grid line and the other inside a cell, "
+            "any method: sideways by up to 73% of its settlement; GIMP "
+            "piles half a cell off grid lines: up to 7%), and landings on "
+            "surfaces seeded in polygons are not yet reliable; see "
+            "docs/contact.md (Contact between bodies, not yet good "
+            "enough) for these and the cases refused")
 
     def begin_run(self, points) -> None:
         dim = self.dim
