@@ -28,7 +28,8 @@ best = {}
 for _ in range(reps):
     r = simulate(mesh, ElementQuad1(), points.copy(), LinearElastic(1e6, .3),
                  lambda b: b.get_dofs(lambda x: x[-1] == 0), body_force=[0, -1e4],
-                 nsteps=nsteps, method="mpm", kinematics="finite", keep_snapshots=False)
+                 nsteps=nsteps, method="mpm", kinematics="finite",
+                 keep_snapshots=False)
     its = r.counters["newton_iterations"]
     t = r.timings(); t["total"] = sum(t.values())
     for k, v in t.items():
