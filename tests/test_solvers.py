@@ -658,3 +658,38 @@ def test_csc_copies_give_the_diagonal_of_their_own_pattern():
                 assert np.array_equal(row_sums(A), row_sums(A, block=1))
     first, second = (to_csc(csr_matrix(D)) for D in dense[:2])
     assert np.array_equal(to_csc.diagonal(first), first.diagonal())
+
+
+@pytest.mark.slow
+def test_compiled_component_labels_are_scipys(monkeypatch):
+    """The compiled components of a node graph (``kernels="auto"``) are
+    scipy's labels, numbering included, on random graphs with isolated
+    nodes, explicit zeros (edges as scipy reads them), repeated and
+    one-way edges; and the supports' check refuses the same free body."""
+    pytest.importorskip("numba")
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+    from skfem_mpm.errors import SingularSystemError
+    from skfem_mpm.graph import edge_graph
+    from skfem_mpm.solve.linear import check_rigid_body_modes, \
+        component_labels
+    monkeypatch.setenv("SKFEM_MPM_KERNELS", "auto")
+    rng = np.random.default_rng(2)
+    for n, edges in ((1, 0), (30, 10), (60, 45), (200, 150)):
+        rows, cols = rng.integers(0, n, (2, edges))
+        graphs = [edge_graph(rows, cols, n)]
+        zeros = csr_matrix((np.zeros(edges), (rows, cols)), shape=(n, n))
+        zeros.data[:] = 0.                   # kept as stored entries
+        graphs.append(zeros)
+        for graph in graphs:
+            assert np.array_equal(
+                component_labels(graph),
+                connected_components(graph, directed=False)[1])
+    # two bars of 3 nodes, the second unsupported: refused by either
+    graph = edge_graph(np.array([0, 1, 3, 4]), np.array([1, 2, 4, 5]), 6)
+    doflocs = np.array([[0., 1., 2., 0., 1., 2.], [0., 0., 0., 1., 1., 1.]])
+    for kernels in ("auto", "numpy"):
+        monkeypatch.setenv("SKFEM_MPM_KERNELS", kernels)
+        with pytest.raises(SingularSystemError, match="on 3 grid nodes"):
+            check_rigid_body_modes(graph, doflocs, np.arange(12),
+                                   np.arange(6), 2)

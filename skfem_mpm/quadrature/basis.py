@@ -15,6 +15,7 @@ bases of elements with (about) equal counts, which scikit-fem's
 ``asm(form, bases)`` sums.
 
 """
+import importlib
 import logging
 from typing import List, Optional, Tuple
 
@@ -40,7 +41,7 @@ __all__ = ["MaterialPointBasis", "material_point_bases"]
 #: the elements whose fields a compiled pass forms on their own
 #: isoparametric mesh (:mod:`skfem_mpm.kernels.basis`), by its name
 COMPILED_FIELDS = {ElementQuad1: "quad1_fields", ElementHex1: "hex1_fields"}
-_FIELD_KERNELS = []
+_KERNELS = {}           # compiled_kernels's modules by name
 
 
 class MaterialPointBasis(CellBasis):
@@ -93,7 +94,7 @@ class MaterialPointBasis(CellBasis):
                  subset: Optional[ndarray] = None):
         tind, X = _located(mesh, points, location)
         self.subset = _check_subset(subset, points.n)
-        kernels = _basis_kernels() if subset is None and points.n else None
+        kernels = compiled_kernels() if subset is None and points.n else None
         (elements, Xq, dx, self.point_index, self._slot_of_point,
          self._padding) = _slots(tind, X, points.volume, self.subset) \
             if kernels is None else kernels.point_slots(
@@ -315,20 +316,21 @@ def _slots(tind: ndarray, X: ndarray, volume: ndarray, subset: ndarray):
             np.flatnonzero(point_index.ravel() < 0))
 
 
-def _basis_kernels():
-    """The compiled passes of a basis (:mod:`skfem_mpm.kernels.basis`)
-    where ``kernels="auto"`` (:func:`~skfem_mpm.kernels.auto_kernels`)
-    and numba imports; else ``None`` (the numpy path, the reference: the
-    passes give its numbers to the bit)."""
+def compiled_kernels(name: str = "basis"):
+    """The compiled kernels ``skfem_mpm.kernels.<name>`` (``"basis"``:
+    :mod:`skfem_mpm.kernels.basis`, ``"graph"``) where ``kernels="auto"``
+    (:func:`~skfem_mpm.kernels.auto_kernels`) and numba imports; else
+    ``None`` (the numpy path, the reference: they give its numbers to
+    the bit)."""
     if auto_kernels() != "auto":
         return None
-    if not _FIELD_KERNELS:
+    if name not in _KERNELS:
         try:
-            from ..kernels import basis as kernels
+            _KERNELS[name] = importlib.import_module(
+                "skfem_mpm.kernels." + name)
         except ImportError:             # no numba: the numpy path
-            kernels = None
-        _FIELD_KERNELS.append(kernels)
-    return _FIELD_KERNELS[0]
+            _KERNELS[name] = None
+    return _KERNELS[name]
 
 
 def compiled_fields(elem: Element, mapping: PointMapping, X: ndarray,
@@ -342,7 +344,7 @@ def compiled_fields(elem: Element, mapping: PointMapping, X: ndarray,
     the fields 0.37 -> 0.02 ms (the Jacobian, its inverse and the element
     function by function, some 90 numpy calls)."""
     name = COMPILED_FIELDS.get(type(elem))
-    kernels = _basis_kernels() if name is not None \
+    kernels = compiled_kernels() if name is not None \
         and type(mapping.elem) is type(elem) else None
     if kernels is None:
         return None
