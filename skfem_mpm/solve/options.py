@@ -184,7 +184,12 @@ class Options:
         once; and under ``SKFEM_MPM_KERNELS=numpy``);
         ``"numpy"``: the numpy path, the tested reference;
         ``"compiled"``: the compiled passes, a run they cannot serve
-        refused before any work (:mod:`skfem_mpm.kernels`).
+        refused before any work (:mod:`skfem_mpm.kernels`).  The
+        material-point basis's fields (``ElementQuad1``, ``ElementHex1``)
+        and the supports' check take compiled passes equal to the numpy
+        path's to the bit wherever numba imports, unless
+        ``SKFEM_MPM_KERNELS=numpy``: the environment decides those, not
+        this option.
 
     >>> Options(newton=NewtonOptions(tol=1e-10)).newton.tol
     1e-10
