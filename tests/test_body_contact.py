@@ -371,6 +371,7 @@ steps = 2
 """
 
 
+@pytest.mark.slow
 def test_a_scene_with_a_contact(tmp_path):
     """``[[contacts]]`` between named bodies: the force between them per
     step in summary.json (the load at each step) and its picture; a name
@@ -458,6 +459,7 @@ def test_a_block_given_a_speed_slides_to_coulombs_stop():
     assert np.abs(res.points.velocity[:, block]).max() < .02 * v0
 
 
+@pytest.mark.slow
 def test_a_block_landing_on_a_staircase_gains_no_energy():
     """A tilted block dropped 0.05 onto a slab inclined at 12 degrees,
     both seeded in polygons (staircases of domains), mu = 0.3, dynamics:

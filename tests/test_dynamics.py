@@ -275,6 +275,7 @@ kinematics = "finite"
 """
 
 
+@pytest.mark.slow
 def test_dynamic_scene_file_run_and_resume(tmp_path, capsys):
     """A scene file with [dynamics] and a body density: the block falls
     freely (kinetic energy = work of gravity to 1e-12, v = g t), the PVD

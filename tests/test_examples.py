@@ -44,6 +44,7 @@ def test_column_figure_2_9_and_dimensions(column):
     assert column.dim_difference < 1e-9
 
 
+@pytest.mark.slow
 def test_column_figures_are_written(column, tmp_path):
     column.visualize(tmp_path)
     for name in ("column_stress_profiles.png", "column_convergence.png"):

@@ -97,6 +97,7 @@ def test_the_scene_cuts_back(straight):
     assert data["counters"]["ghost_from_step"] == 1
 
 
+@pytest.mark.slow
 def test_repeated_resumes_after_cut_backs_are_bit_identical(straight,
                                                              tmp_path):
     scene, reference = straight
@@ -286,6 +287,7 @@ def listed(out, series):
     return re.findall(r'file="([^"]+)"', (out / series).read_text())
 
 
+@pytest.mark.slow
 def test_ctrl_c_inside_a_steps_grid_vtu_then_resume(straight, tmp_path,
                                                     monkeypatch, capsys):
     """Issue 30: Ctrl-C between the points and the grid VTU of a step
@@ -325,6 +327,7 @@ def test_ctrl_c_inside_a_steps_grid_vtu_then_resume(straight, tmp_path,
     assert_same_run(reference, out, 1)
 
 
+@pytest.mark.slow
 def test_ctrl_c_while_saving_a_checkpoint_keeps_the_previous_one(
         straight, tmp_path, monkeypatch, capsys):
     """Issue 30: Ctrl-C during the checkpoint write once printed a zipfile

@@ -223,6 +223,7 @@ def test_hostile_scene_files_and_folders_get_one_line(tmp_path, capsys,
     assert summary["status"] == "failed" and "No space" in summary["error"]
 
 
+@pytest.mark.slow
 def test_resume_is_bit_identical(tmp_path):
     scene = str(EXAMPLES / "column.toml")
     straight, split = tmp_path / "straight", tmp_path / "split"
@@ -506,6 +507,7 @@ def test_output_files_are_readable_by_the_group(tmp_path):
         os.umask(mask)
 
 
+@pytest.mark.slow
 def test_a_new_run_clears_an_earlier_runs_files(tmp_path, caplog):
     """Run into a folder an earlier run wrote: its series files, checkpoint
     and figures are removed first (a 4-step run's points_0004.vtu would
@@ -529,6 +531,7 @@ def test_a_new_run_clears_an_earlier_runs_files(tmp_path, caplog):
     assert (out / "points.pvd").read_text().count("<DataSet") == 3
 
 
+@pytest.mark.slow
 def test_ctrl_c_keeps_a_checkpoint_and_one_line(tmp_path, capsys,
                                                 monkeypatch):
     """Ctrl-C (KeyboardInterrupt) after step 2 of 4: exit code 130, one
@@ -778,6 +781,7 @@ def test_verbose_logs_this_package_for_its_own_call_only(tmp_path):
     assert logger.level == logging.NOTSET
 
 
+@pytest.mark.slow
 def test_a_body_reaching_outside_the_grid_is_refused(tmp_path, capsys):
     """Issue 30: a body region larger than the grid was clipped without a
     word (the column of 60 on a grid of 50 ran as a column of 50).  A scene
@@ -871,6 +875,7 @@ def test_ctrl_c_after_a_completed_run_gets_one_line(tmp_path, capsys,
     assert not (out / "final_stress.png").exists()      # not drawn
 
 
+@pytest.mark.slow
 def test_ctrl_c_as_the_program_exits_is_never_a_silent_sigint(tmp_path):
     """Issue 30: Ctrl-C once a run had printed its report killed the
     interpreter's exit (some 0.2 s after the last line) silently, exit

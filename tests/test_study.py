@@ -103,6 +103,7 @@ def test_interrupted_study_resumes_without_rerunning(tmp_path, monkeypatch):
                                                          (8, 1), (8, 2)]
 
 
+@pytest.mark.slow
 def test_study_command(tmp_path, capsys):
     assert main(["study", str(EMBEDDED), "--vary", "elements=4,8,16",
                  "--vary", "loadsteps=1", "--out", str(tmp_path),
@@ -119,6 +120,7 @@ def test_study_command(tmp_path, capsys):
     assert main(["study", str(EMBEDDED), "--vary", "method=fast"]) == 2
 
 
+@pytest.mark.slow
 def test_elastica_reference(tmp_path):
     rows = study(load_scene(EXAMPLES / "cantilever.toml"),
                  {"loadsteps": [50]}, tmp_path, progress=False)
@@ -193,6 +195,7 @@ def test_observed_order_and_gci_of_cpgimp_on_the_moving_column(tmp_path):
     assert abs(fine - c["values"][-1]) > c["uncertainty"] / 10  # not trivial
 
 
+@pytest.mark.slow
 def test_study_of_a_scene_without_reference_has_finite_errors(tmp_path,
                                                              capsys):
     """A scene file without a reference, quantities given by --measure:
@@ -361,6 +364,7 @@ def test_a_study_says_its_size_and_time_before_it_starts(tmp_path, capsys,
                               "others take about 0:0"), told[1]
 
 
+@pytest.mark.slow
 def test_the_column_reference_measures_the_column_as_seeded(tmp_path,
                                                            capsys):
     """A column scene whose region leaves the vertical axis out (the
