@@ -436,6 +436,7 @@ def test_load_steps_do_not_change_a_linear_answer(method, interface):
         assert abs(value / glued - 1) < 2e-3, key
 
 
+@pytest.mark.slow
 def test_a_block_given_a_speed_slides_to_coulombs_stop():
     """A block given 1 m/s on a slab, mu = 0.3 (dynamics): it slides
     v0^2 / (2 mu g) = 0.17 m and stops at v0 / (mu g) = 0.34 s, to 2%

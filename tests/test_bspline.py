@@ -345,6 +345,7 @@ def run_column(nelems, nsteps, method, ppc=2, dim=1):
                     options=Options(keep_snapshots=False))
 
 
+@pytest.mark.slow
 def test_column_converges_at_second_order():
     """The seed's column in finite deformation: error (2.28) against the
     closed form at 4, 8, 16 cells; with one load step second order

@@ -67,6 +67,7 @@ def test_cantilever_follows_the_elastica(cantilever):
     assert max(r.residual for r in cantilever.result.history) <= 1e-9
 
 
+@pytest.mark.slow
 def test_cantilever_example_is_its_scene_file(cantilever):
     """examples/cantilever.py and examples/cantilever.toml are one
     problem: the tip column is selected by tolerance (seeded coordinates

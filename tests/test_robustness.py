@@ -381,6 +381,7 @@ def test_ghost_penalty_tames_slivers():
     assert max(conditions) < 1e4
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("per_cell", [2, 4])
 @pytest.mark.parametrize("method", ["mpm", "cpgimp"])
 def test_untuned_cantilevers_complete(method, per_cell):
@@ -398,6 +399,7 @@ def test_untuned_cantilevers_complete(method, per_cell):
     assert error < .06
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("method", ["mpm", "cpgimp"])
 def test_untuned_footing_converges_with_the_grid(method):
     """A smooth strip footing pushed into undrained von Mises soil by grid

@@ -66,6 +66,7 @@ def test_two_bodies_with_their_own_materials():
     assert res.history[-1].residual < 1e-10
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name, steps", [("column", 5), ("cantilever", 5),
                                          ("collapse", 8), ("block3d", 2)])
 def test_shipped_scene_files_run_from_the_cli(name, steps, tmp_path, capsys):

@@ -144,6 +144,7 @@ def test_triaxial_peak_is_the_analytical_strength(name):
         assert volumetric[-1] < volumetric[-2] + 1e-12
 
 
+@pytest.mark.slow
 def test_plane_strain_fit_gives_mohr_coulomb_in_plane_strain():
     """Plane-strain compression (the out-of-plane strain held, associated
     flow): the plane-strain cone fails at Mohr-Coulomb's in-plane strength
