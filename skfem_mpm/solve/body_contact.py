@@ -91,15 +91,20 @@ class Contact:
     name
         The contact's name in outputs (``"<first>-<second>"`` by default).
     penalty
-        Penalty of the augmented Lagrangian relative to the softer
-        body's P-wave modulus (each body's largest ``lam + 2 mu``; times
-        the cell size in 3D): the stiffer body's made a pile 80 times
-        stiffer than its soil a constraint 800 times stiffer than the
-        soil, whose pairs opened and closed in turn without end.
+        The stiffness of a pair of corners, in units of the softer
+        body's P-wave modulus (its largest ``lam + 2 mu``; times the cell
+        size in 3D; default 10): it sets how many augmented-Lagrangian
+        rounds a step takes, not the converged answer (within the
+        tolerance).  Unlike an obstacle's it is not divided by the cell
+        size, and it follows the softer body: the stiffer body's made a
+        pile 80 times stiffer than its soil a constraint whose pairs
+        opened and closed in turn without end.
     tolerance
-        The penetration and stick slip accepted, in cells, and the
-        penalty's force on the penetration accepted, relative to the
-        largest pair's (the multipliers settled).
+        Three limits at a converged step (default 1e-3): the penetration
+        of every pair (and the gap of a pair still pressed) and the slip
+        of every sticking pair, in cells; and the penalty's pressure on
+        the deepest penetration, relative to the largest pair's pressure
+        (the multipliers settled).
 
     Examples
     --------
