@@ -4,6 +4,7 @@ from skfem import MeshHex, MeshLine, MeshQuad, MeshTet, MeshTri
 
 from skfem_mpm import (InvalidInputError, PointsOutsideGridError,
                        UnsupportedElementError, point_locator)
+from skfem_mpm.quadrature.locate import cell_coordinates
 from skfem_mpm.quadrature.mapping import fresh_mapping
 
 from meshes import distorted_quads
@@ -142,3 +143,30 @@ def test_bad_locator_input():
         point_locator(MeshTri(), method="tensor")
     with pytest.raises(InvalidInputError, match="method"):
         point_locator(mesh, method="fast")
+
+
+@pytest.mark.parametrize("origin, h", [(5e5, 1.), (1e3, 1e-3)])
+def test_general_path_on_small_cells_far_from_the_origin(origin, h):
+    """A distorted quad grid of cells small against their coordinates (a
+    site in projected coordinates, x = 5e5 m, 1 m cells): every point is
+    found and maps back to the round-off of its coordinates.  Newton's
+    inverse map stopped at a fixed local step of 1e-14, below what
+    round-off in x moves the local coordinates by at 5e5 m (2e-10), and
+    took 21 of 100 points as outside the grid (and, beyond a cell, gave
+    the corners of a contact's domains NaN shape values: a pile on a grid
+    of h = 0.025 failed with a residual of NaN)."""
+    mesh = MeshQuad.init_tensor(origin + h * np.arange(11.),
+                                h * np.arange(11.))
+    p = mesh.p.copy()
+    inner = (p[0] > origin) & (p[0] < origin + 10 * h) & (p[1] > 0) \
+        & (p[1] < 10 * h)
+    p[:, inner] += .1 * h * np.random.default_rng(0).uniform(
+        -1, 1, (2, inner.sum()))
+    mesh = MeshQuad(p, mesh.t)
+    x = mesh.p[:, mesh.t].mean(axis=1) + .2 * h
+    tind, X = point_locator(mesh)(x)
+    assert (tind >= 0).all()
+    assert maps_back(mesh, tind, X, x) < 1e-13 * (origin + 10 * h)
+    beyond = x + .6 * h          # extrapolated: a domain's corner
+    X = cell_coordinates(mesh, clip=False)(beyond, tind)
+    assert maps_back(mesh, tind, X, beyond) < 1e-13 * (origin + 10 * h)

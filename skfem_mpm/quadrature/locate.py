@@ -41,6 +41,11 @@ Locator = Callable[[ndarray], Tuple[ndarray, ndarray]]
 
 CHUNK = 100_000
 
+#: the round-off of positions, in units of their size, within which the
+#: inverse map's Newton steps count as converged (many ulps: the residual
+#: sums a cell's nodes times their shape values)
+RESOLUTION = 64 * np.finfo(float).eps
+
 
 def point_locator(mesh: Mesh, method: str = "auto",
                   tol: float = 1e-12) -> Locator:
@@ -342,10 +347,17 @@ def _newton_local(mesh: Mesh, maxiter: int = 30):
                 node = p[:, t[i, ta]]                 # (dim, pairs)
                 F += node * phi
                 DF += node[:, None] * dphi[None]
-            dX = np.linalg.solve(np.moveaxis(DF, (0, 1), (-2, -1)),
-                                 (target[:, active] - F).T[..., None])
-            Xnew = np.clip(Xa + dX[..., 0].T, -2., 3.)
-            moved = np.abs(Xnew - Xa).max(axis=0) > 1e-14
+            inverse = np.linalg.inv(np.moveaxis(DF, (0, 1), (-2, -1)))
+            dX = np.einsum("mij,jm->im", inverse, target[:, active] - F)
+            Xnew = np.clip(Xa + dX, -2., 3.)
+            # converged where the step is within what round-off in the
+            # positions moves the local coordinates by: cells small
+            # against their coordinates (1 m cells at x = 5e5, or 0.025
+            # at 1.1 with the corners of a contact) never stepped below
+            # a fixed 1e-14 and were taken as not inside
+            floor = RESOLUTION * np.abs(target[:, active]).max(axis=0) \
+                * np.abs(inverse).sum(axis=2).max(axis=1)
+            moved = np.abs(Xnew - Xa).max(axis=0) > np.maximum(1e-14, floor)
             X[:, active] = Xnew
             active = active[moved]
             if active.size == 0:
