@@ -148,13 +148,16 @@ def test_bad_locator_input():
 @pytest.mark.parametrize("origin, h", [(5e5, 1.), (1e3, 1e-3)])
 def test_general_path_on_small_cells_far_from_the_origin(origin, h):
     """A distorted quad grid of cells small against their coordinates (a
-    site in projected coordinates, x = 5e5 m, 1 m cells): every point is
-    found and maps back to the round-off of its coordinates.  Newton's
-    inverse map stopped at a fixed local step of 1e-14, below what
-    round-off in x moves the local coordinates by at 5e5 m (2e-10), and
-    took 21 of 100 points as outside the grid (and, beyond a cell, gave
-    the corners of a contact's domains NaN shape values: a pile on a grid
-    of h = 0.025 failed with a residual of NaN)."""
+    site in projected coordinates, x = 5e5 m, 1 m cells): every point
+    inside a cell, on a node or on a face is found and maps back to the
+    round-off of its coordinates, also beyond its cell.  Newton's inverse
+    map, in global coordinates and stopped at a fixed local step of 1e-14
+    (below what round-off in x moves the local coordinates by at 5e5 m:
+    2e-10), took 21 of 100 points inside cells as outside the grid; with
+    the step's floor at that round-off, 39 of the 341 on nodes and faces
+    (their local coordinates 1e-10 outside every element).  Beyond a cell
+    the stall gave the corners of a contact's domains NaN shape values: a
+    pile on a grid of h = 0.025 failed with a residual of NaN."""
     mesh = MeshQuad.init_tensor(origin + h * np.arange(11.),
                                 h * np.arange(11.))
     p = mesh.p.copy()
@@ -163,8 +166,9 @@ def test_general_path_on_small_cells_far_from_the_origin(origin, h):
     p[:, inner] += .1 * h * np.random.default_rng(0).uniform(
         -1, 1, (2, inner.sum()))
     mesh = MeshQuad(p, mesh.t)
-    x = mesh.p[:, mesh.t].mean(axis=1) + .2 * h
-    tind, X = point_locator(mesh)(x)
+    x = np.hstack([mesh.p[:, mesh.t].mean(axis=1) + .2 * h, mesh.p,
+                   mesh.p[:, mesh.facets].mean(axis=1)])
+    tind, X = point_locator(mesh)(x)      # inside, on nodes and faces
     assert (tind >= 0).all()
     assert maps_back(mesh, tind, X, x) < 1e-13 * (origin + 10 * h)
     beyond = x + .6 * h          # extrapolated: a domain's corner

@@ -327,7 +327,10 @@ def _affine_local(mesh: Mesh):
 
 
 def _newton_local(mesh: Mesh, maxiter: int = 30):
-    """Inverse isoparametric map by Newton iteration (no mapping caches)."""
+    """Inverse isoparametric map by Newton iteration (no mapping caches),
+    in coordinates relative to each element's first node, so that cells
+    small against their coordinates (1 m cells at x = 5e5) are inverted
+    to the round-off of their own size, not of the coordinates'."""
     elem = mesh.elem()
     p, t = mesh.doflocs, mesh.dofs.element_dofs
     dim = mesh.dim()
@@ -335,7 +338,7 @@ def _newton_local(mesh: Mesh, maxiter: int = 30):
     def local(x, cand):
         m, k = cand.shape
         tind = cand.ravel()
-        target = np.repeat(x, k, axis=1)
+        offset = np.repeat(x, k, axis=1) - p[:, t[0, tind]]
         X = np.full((dim, m * k), .5)
         active = np.arange(m * k)
         for _ in range(maxiter):
@@ -344,18 +347,17 @@ def _newton_local(mesh: Mesh, maxiter: int = 30):
             DF = np.zeros((dim,) + Xa.shape)
             for i in range(t.shape[0]):
                 phi, dphi = elem.lbasis(Xa, i)
-                node = p[:, t[i, ta]]                 # (dim, pairs)
+                node = p[:, t[i, ta]] - p[:, t[0, ta]]     # (dim, pairs)
                 F += node * phi
                 DF += node[:, None] * dphi[None]
             inverse = np.linalg.inv(np.moveaxis(DF, (0, 1), (-2, -1)))
-            dX = np.einsum("mij,jm->im", inverse, target[:, active] - F)
+            dX = np.einsum("mij,jm->im", inverse, offset[:, active] - F)
             Xnew = np.clip(Xa + dX, -2., 3.)
             # converged where the step is within what round-off in the
-            # positions moves the local coordinates by: cells small
-            # against their coordinates (1 m cells at x = 5e5, or 0.025
-            # at 1.1 with the corners of a contact) never stepped below
-            # a fixed 1e-14 and were taken as not inside
-            floor = RESOLUTION * np.abs(target[:, active]).max(axis=0) \
+            # offsets moves the local coordinates by (a fixed 1e-14 was
+            # below it where positions lie cells beyond their element:
+            # a contact's domain corners)
+            floor = RESOLUTION * np.abs(offset[:, active]).max(axis=0) \
                 * np.abs(inverse).sum(axis=2).max(axis=1)
             moved = np.abs(Xnew - Xa).max(axis=0) > np.maximum(1e-14, floor)
             X[:, active] = Xnew
