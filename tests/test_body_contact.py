@@ -1145,3 +1145,39 @@ def test_a_failure_with_b_spline_contacts_names_the_ghost_penalty():
     for quiet in (run("mpm"), run("bspline", ghost=.1),
                   run("bspline", since=2), run("bspline", contacts=())):
         assert ghost_hint(quiet) == ""
+
+
+@pytest.mark.parametrize("friction", ["rough", .3])
+def test_a_pile_inside_cells_on_a_surface_on_a_grid_line_is_held(friction):
+    """A stiff pile one cell wide, its sides half a cell off grid lines,
+    resting on the soil's surface, which lies on a grid line (h = 0.2),
+    pushed by a traction on its head: it carries the load upright.  Its
+    base's outer corners, facing the soil's corners at the ends of the
+    range both bodies share (where the soil reaches beyond the pile, as
+    beside a pile's tip), found the soil's corner under the pile's middle
+    instead and lost it to the middle corner's pair: one pair in all,
+    and the run was refused as not held against rotation.  Such a corner
+    is now paired with the soil's corner under it where the soil beyond
+    does not rise past the pile's base (a surface, not the notch round
+    a tip).  It settles 2.01e-4 against 2.72-2.76e-4 on h = 0.1 and 0.05
+    (its sides on grid lines there): the coarse grid's stiffness."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 11),
+                                np.linspace(0, 1.6, 9))
+    pts = bodies(mesh, 2, [lambda x: x[1] < 1., lambda x: (x[0] > .9)
+                           & (x[0] < 1.1) & (x[1] > 1.) & (x[1] < 1.3)])
+    head = side_points(pts, "top", select=pts.body == 1)
+
+    def supports(b):
+        return np.union1d(b.get_dofs(lambda x: x[1] == 0).all(),
+                          b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2))
+                          .nodal["u^1"])
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [LinearElastic(1e5, .3), LinearElastic(1e7, .3)],
+                   supports, loads=[Traction(head, "top", [0., -100.])],
+                   nsteps=1, contacts=[Contact(0, 1, friction=friction)])
+    load = 100. * .2
+    force = res.history[-1].contact_forces[0]
+    assert force[1] == pytest.approx(load, rel=1e-9)
+    u = res.points.displacement[:, head].mean(axis=1)
+    assert abs(u[0]) < 1e-9 * -u[1]
+    assert -u[1] == pytest.approx(2.0e-4, rel=.02)
