@@ -213,8 +213,21 @@ class PairFinder:
             # unheld (the symmetric pile turned about it: cpGIMP's failed
             # at step 3, or, its tip on a grid line, drifted sideways by
             # 12% of its settlement)
+            # with friction a corner pressed at the last step's end keeps
+            # a pair along the direction it was pressed, where it has one,
+            # before nearer ones: a pile one cell wide, its tip inside a
+            # cell, its tip corners pressed down, found the soil's side
+            # corner above them a 500th of a cell nearer than the soil's
+            # corner under the tip, paired sideways, and hung on its
+            # sides' friction (cpGIMP, friction 0.3: failed at step 2)
+            along = None
+            if pressed is not None and contact.friction != "rough" \
+                    and not smooth:
+                push = pressed(k, B)
+                size = np.sqrt((push ** 2).sum(axis=0))
+                along = (normal * push).sum(axis=0) > HELD * size
             kept = self.one_per_place(XB, XA, normal, np.flatnonzero(real),
-                                      smooth)
+                                      smooth, along)
             # a second body's corner whose pair lost its first body's
             # corner to a nearer pair, and so holds no pair at all, is
             # paired with the first body's corner across it at an end of
@@ -242,7 +255,8 @@ class PairFinder:
                 lost = lost[~self.member(
                     self.pair_places(XA2, normal, smooth)[:, lost],
                     self.pair_places(XA, normal, smooth)[:, kept])]
-                lost = self.one_per_place(XB, XA2, normal, lost, smooth)
+                lost = self.one_per_place(XB, XA2, normal, lost, smooth,
+                                          along)
                 A, gap = A2, gap2
                 kept = np.r_[kept, lost]
             out.append((B[kept], A[kept], normal[:, kept], gap[kept]))
@@ -262,14 +276,17 @@ class PairFinder:
                             return_inverse=True)[1].ravel()
         return np.isin(inverse[:keys.shape[1]], inverse[keys.shape[1]:])
 
-    def one_per_place(self, XB, XA, normal, first, smooth: bool):
+    def one_per_place(self, XB, XA, normal, first, smooth: bool,
+                      along=None):
         """Of the pairs ``first`` (indices of their corners' positions
         ``XB`` and ``XA``, dim x m), one per place of the second body's
         corner, then of the first body's (and, ``smooth``, normal), those
-        whose corners lie nearest each other, and at a first body's
-        place every pair as near as the nearest."""
+        whose corners lie nearest each other (those ``along``, where
+        given, before the others), and at a first body's place every pair
+        as near as the nearest."""
         distance = np.sqrt(((XB - XA) ** 2).sum(axis=0))
-        first = first[np.argsort(distance[first], kind="stable")]
+        first = first[np.lexsort((distance[first],)) if along is None
+                      else np.lexsort((distance[first], ~along[first]))]
         for corner, ties in ((XB, False), (XA, True)):
             places = self.pair_places(corner, normal, smooth)[:, first]
             index, group = np.unique(places, axis=1, return_index=True,
