@@ -588,8 +588,10 @@ def load_run(args):
             state_variables([body.material for body in scene.bodies]))
             + contact_state_names(len(scene.obstacles), mesh.dim(),
                                   scene.kinematics == "finite")
-            + body_contact_state_names(len(scene.contacts), mesh.dim(),
-                                       scene.kinematics == "finite"), mesh)
+            + body_contact_state_names(
+                len(scene.contacts), mesh.dim(),
+                scene.kinematics == "finite",
+                scene.method.startswith("bspline")), mesh)
     return scene, source, outdir, earlier, points, resume, mesh, initial
 
 

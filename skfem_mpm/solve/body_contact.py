@@ -51,8 +51,9 @@ through each point's own gradient, are not quite where the grid field
 moved the last step's pairs).  The penalty ``kappa``
 is the contact's ``penalty`` times the softer body's P-wave modulus.
 In small strain the domains follow the displacement gradient the term
-keeps (point state ``contact_body_grad<a><b>``); checkpoints carry all
-of this state.
+keeps (point state ``contact_body_grad<a><b>``); with B-splines each
+domain corner is moved by the splines' field there, as the pairs move it
+(``contact_body_corner<a><c>``); checkpoints carry all of this state.
 """
 import logging
 from typing import Optional
@@ -207,6 +208,14 @@ def gradient_state(dim: int) -> list:
             for a in range(dim)]
 
 
+def corner_state(dim: int) -> list:
+    """B-splines: the point-state names of the domain corners' offsets
+    from their point the contact keeps, per component a per corner c,
+    ``[[contact_body_corner<a><c>]]``."""
+    return [["contact_body_corner{}{}".format(a, c) for c in range(2 ** dim)]
+            for a in range(dim)]
+
+
 def traction_state(k: int, dim: int) -> list:
     """The point-state names of contact ``k``'s state at the second
     body's domain corners, per component a per corner c, summed over the
@@ -254,12 +263,16 @@ def corner_values(state: dict, row: list, corner: ndarray,
     return out
 
 
-def body_contact_state_names(contacts: int, dim: int, finite: bool) -> list:
+def body_contact_state_names(contacts: int, dim: int, finite: bool,
+                             splines: bool = False) -> list:
     """The point-state names a run with ``contacts`` contacts between
-    bodies keeps (for a checkpoint's check)."""
+    bodies keeps (for a checkpoint's check; ``splines``: the method's
+    weights are B-splines)."""
     names = [name for k in range(contacts) for rows in traction_state(k, dim)
              for name in rows]
-    if contacts and not finite:
+    if contacts and splines:
+        names += [name for row in corner_state(dim) for name in row]
+    elif contacts and not finite:
         names += [name for row in gradient_state(dim) for name in row]
     return names
 
@@ -339,18 +352,38 @@ class BodyContact(GridTerm):
         self.point_field = self.field[points.body]
         names = [name for k in range(len(self.contacts))
                  for rows in traction_state(k, dim) for name in rows]
-        if not self.finite:
+        if not self.finite and self.weights is None:
             names += [name for row in gradient_state(dim) for name in row]
         for name in names:
             points.state.setdefault(name, np.zeros(points.n))
+        if self.weights is not None:
+            for row, R in zip(corner_state(dim), self.R):
+                for name, offset in zip(row, R):
+                    points.state.setdefault(name, offset.copy())
 
     def corners(self, points) -> ndarray:
         """The corners of the points' domains (dim, corners, n), moved by
         the points' deformation gradient (in small strain ``I`` plus the
         displacement gradient the term keeps, ``contact_body_grad<a><b>``:
         a domain that did not shrink with its material would overlap the
-        other body by the strain times its size)."""
+        other body by the strain times its size).  With B-splines each
+        corner is moved in every step by the splines' field there, as the
+        pairs move it (point state ``contact_body_corner<a><c>``, its
+        offset from its point): moved through the point's gradient, the
+        soil's corners under a pile's edge, where the field bends, lay a
+        tenth of a cell off where the last step's pairs had held them,
+        each step's start forgave that as penetration, and the pile sank
+        through the soil's corners there (two cells wide, its tip inside
+        a cell: refused at step 8 or 10 as not held along y).  With the
+        grid element's polynomial per point's cell instead, corners that
+        neighbouring domains share move by two cells' polynomials, and
+        which of them a pair takes is decided by round-off: symmetric
+        piles leaned (tried)."""
         dim = self.dim
+        if self.weights is not None:
+            return points.x[:, None, :] + np.array(
+                [[points.state[name] for name in row]
+                 for row in corner_state(dim)])
         if self.finite:
             F = points.F[:dim, :dim]
         else:
@@ -854,9 +887,17 @@ class StepBodyContact(GridTerm):
                 np.add.at(table, (to // n, to % n), value[frm])
                 for name, column in zip(row, table):
                     new.state[name] = column
-        if not self.term.finite:
-            H = problem.method_op.gradients(du)
-            for a, row in enumerate(gradient_state(self.dim)):
+        op, dim = problem.method_op, self.dim
+        if self.term.weights is not None:
+            moved = (self.term.rows(op, problem.points, np.arange(
+                2 ** dim * n)) @ du).reshape(2 ** dim, n, dim) \
+                - op.values(du).T[None]
+            for a, row in enumerate(corner_state(dim)):
+                for c, name in enumerate(row):
+                    new.state[name] = new.state[name] + moved[c, :, a]
+        elif not self.term.finite:
+            H = op.gradients(du)
+            for a, row in enumerate(gradient_state(dim)):
                 for b, name in enumerate(row):
                     new.state[name] = new.state[name] + H[a, b]
         record.contact_forces = np.array([e[0].sum(axis=1) for e in ev])
