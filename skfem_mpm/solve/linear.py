@@ -103,23 +103,26 @@ MODE_NAMES = {1: ["translation along x"],
                   "rotation about x", "rotation about y"]}
 
 
-def component_labels(graph) -> ndarray:
+def component_labels(graph, kernels: str = "auto") -> ndarray:
     """scipy's ``connected_components(graph, directed=False)`` labels of
     a square CSR node graph, by a compiled union of its entries' ends
-    where ``kernels="auto"`` (:mod:`skfem_mpm.kernels.graph`: the same
-    labels, without scipy's validation, conversion and transpose of the
-    graph, 70-80 us a supports' check)."""
-    kernels = compiled_kernels("graph") \
+    where ``kernels`` is not the numpy path's
+    (:func:`~skfem_mpm.quadrature.basis.compiled_kernels`;
+    :mod:`skfem_mpm.kernels.graph`: the same labels, without scipy's
+    validation, conversion and transpose of the graph, 70-80 us a
+    supports' check)."""
+    passes = compiled_kernels("graph", kernels) \
         if isinstance(graph, csr_matrix) and graph.shape[0] == \
         graph.shape[1] else None
-    if kernels is None:
+    if passes is None:
         return connected_components(graph, directed=False)[1]
-    return kernels.component_labels(graph.shape[0], graph.indptr,
-                                    graph.indices)[1]
+    return passes.component_labels(graph.shape[0], graph.indptr,
+                                   graph.indices)[1]
 
 
 def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
-                           D: ndarray, dim: int, step=None):
+                           D: ndarray, dim: int, step=None,
+                           kernels: str = "auto"):
     """Raise :class:`~skfem_mpm.errors.SingularSystemError` if a connected
     part of the active grid can move rigidly.
 
@@ -134,13 +137,15 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
     active, D
         Active and supported (or prescribed) vector DOFs; vector DOF
         ``dim * k + a`` is component a of node k.
+    kernels
+        The run's ``kernels`` option (:func:`component_labels`).
 
     """
     n = adjacency.shape[0]
     nodes = distinct(active // dim, n)
     # inactive nodes join nothing: the graph's components, read at the
     # active nodes, are theirs (no subgraph to cut out)
-    label = component_labels(adjacency)
+    label = component_labels(adjacency, kernels)
     parts = distinct(label[nodes], n)
     label = np.searchsorted(parts, label)
     is_node = np.zeros(n, dtype=bool)

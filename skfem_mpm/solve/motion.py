@@ -133,7 +133,8 @@ def check_held(run, op, fixed: ndarray, step: int, by_terms: bool = False):
         try:
             check_rigid_body_modes(op.adjacency(),
                                    run.grid.doflocs[:, ::run.dim],
-                                   op.active_dofs, fixed, run.dim, step)
+                                   op.active_dofs, fixed, run.dim, step,
+                                   getattr(run.method, "kernels", "auto"))
         except SingularSystemError as err:
             if not by_terms:
                 raise
