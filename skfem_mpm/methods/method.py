@@ -37,6 +37,7 @@ from scipy.sparse import csr_matrix
 
 from ..errors import InvalidInputError, PointsOutsideGridError, \
     check_choice
+from ..kernels import check_kernels
 from ..quadrature.basis import MaterialPointBasis
 from .bspline import CubicBSpline, QuadraticBSpline
 from .fields import FieldMethod
@@ -56,6 +57,12 @@ class PointMethod:
     """Standard MPM (``moves=True``) or finite elements with the points
     as quadrature (``moves=False``: located once, operator kept).  Every
     operator carries ``point_elements``, the cell holding each point."""
+
+    #: the run's ``kernels`` option (:class:`~skfem_mpm.solve.options.
+    #: Options`): whether the material-point basis takes compiled passes
+    #: (:func:`~skfem_mpm.quadrature.basis.compiled_kernels`), and the
+    #: supports' check (:func:`~skfem_mpm.solve.motion.check_held`)
+    kernels = "auto"
 
     def __init__(self, name: str, mesh, scalar, scalar_dofs, pattern,
                  locate, counters: dict):
@@ -91,8 +98,8 @@ class PointMethod:
         location = self.locate(points.x, step, timings, points)
         tic = time.perf_counter()
         op = PointOperator(MaterialPointBasis(
-            self.mesh, self.scalar, points, location, dofs=self.scalar_dofs),
-            self.pattern)
+            self.mesh, self.scalar, points, location, dofs=self.scalar_dofs,
+            kernels=self.kernels), self.pattern)
         op.point_elements = location[0]
         if not self.moves:
             self._operator = op
@@ -391,7 +398,7 @@ KINDS = {"ugimp": GimpMethod, "cpgimp": GimpMethod,
 
 def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
                 counters: dict, fields=None, extended: bool = False,
-                held: ndarray = None):
+                held: ndarray = None, kernels: str = "auto"):
     """The method piece called ``name`` (one of :data:`METHODS`); with
     ``fields`` (:class:`~skfem_mpm.methods.fields.Fields`, contacts
     between bodies), on the copies of the grid: standard MPM and FE on the
@@ -400,7 +407,17 @@ def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
     (:class:`~skfem_mpm.methods.fields.FieldMethod`); ``extended``: the
     splines extended (:meth:`~skfem_mpm.methods.bspline.QuadraticBSpline.
     extension`; B-spline methods without fields only), ``held`` the
-    grid's nodes a support holds (bool per node)."""
+    grid's nodes a support holds (bool per node); ``kernels`` the run's
+    option (:attr:`PointMethod.kernels`)."""
+    piece = _method(name, mesh, scalar, scalar_dofs, pattern, locate,
+                    counters, fields, extended, held)
+    piece.kernels = check_kernels(kernels)
+    return piece
+
+
+def _method(name, mesh, scalar, scalar_dofs, pattern, locate, counters,
+            fields, extended, held):
+    """:func:`make_method`'s piece, before its ``kernels``."""
     check_choice("method", name, METHODS)
     kind = KINDS.get(name, PointMethod)
     if extended and (kind is not BSplineMethod or fields is not None):

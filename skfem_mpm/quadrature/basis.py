@@ -29,7 +29,7 @@ from skfem.mesh import Mesh
 
 from ..errors import InvalidInputError
 from ..graph import distinct
-from ..kernels import auto_kernels
+from ..kernels import auto_kernels, check_kernels
 from .locate import locate_points
 from .mapping import PointMapping, fresh_mapping
 from .points import MaterialPoints
@@ -66,6 +66,10 @@ class MaterialPointBasis(CellBasis):
         Optional sorted, distinct indices of the points this basis
         integrates with (default: all); the others are left to other bases
         (:func:`material_point_bases`).
+    kernels
+        ``"auto"`` (default), ``"numpy"`` or ``"compiled"``: whether the
+        slots and fields are formed by compiled passes, equal to the numpy
+        path's to the bit (:func:`compiled_kernels`).
 
     Attributes
     ----------
@@ -91,13 +95,14 @@ class MaterialPointBasis(CellBasis):
     def __init__(self, mesh: Mesh, elem: Element, points: MaterialPoints,
                  location: Optional[Tuple[ndarray, ndarray]] = None,
                  dofs: Optional[Dofs] = None,
-                 subset: Optional[ndarray] = None):
+                 subset: Optional[ndarray] = None, kernels: str = "auto"):
         tind, X = _located(mesh, points, location)
         self.subset = _check_subset(subset, points.n)
-        kernels = compiled_kernels() if subset is None and points.n else None
+        passes = compiled_kernels(kernels=kernels) \
+            if subset is None and points.n else None
         (elements, Xq, dx, self.point_index, self._slot_of_point,
          self._padding) = _slots(tind, X, points.volume, self.subset) \
-            if kernels is None else kernels.point_slots(
+            if passes is None else passes.point_slots(
                 tind, np.ascontiguousarray(X, dtype=np.float64),
                 np.ascontiguousarray(points.volume, dtype=np.float64))
         shape = dx.shape
@@ -112,7 +117,7 @@ class MaterialPointBasis(CellBasis):
                                    dofs=dofs, disable_doflocs=True)
             self.tind = mesh.normalize_elements(elements)
             self.nelems = len(self.tind)
-            fields = compiled_fields(elem, mapping, Xq, self.tind)
+            fields = compiled_fields(elem, mapping, Xq, self.tind, kernels)
             values, gradients = _h1_fields(
                 elem, self.Nbfun, mapping, Xq, self.tind) \
                 if fields is None else fields
@@ -316,13 +321,18 @@ def _slots(tind: ndarray, X: ndarray, volume: ndarray, subset: ndarray):
             np.flatnonzero(point_index.ravel() < 0))
 
 
-def compiled_kernels(name: str = "basis"):
+def compiled_kernels(name: str = "basis", kernels: str = "auto"):
     """The compiled kernels ``skfem_mpm.kernels.<name>`` (``"basis"``:
-    :mod:`skfem_mpm.kernels.basis`, ``"graph"``) where ``kernels="auto"``
-    (:func:`~skfem_mpm.kernels.auto_kernels`) and numba imports; else
-    ``None`` (the numpy path, the reference: they give its numbers to
-    the bit)."""
-    if auto_kernels() != "auto":
+    :mod:`skfem_mpm.kernels.basis`, ``"graph"``) where numba imports and
+    ``kernels`` is ``"compiled"``, or ``"auto"`` and the environment lets
+    it be (:func:`~skfem_mpm.kernels.auto_kernels`); else ``None`` (the
+    numpy path, the reference: they give its numbers to the bit).
+
+    >>> compiled_kernels(kernels="numpy") is None
+    True
+    """
+    if check_kernels(kernels) == "numpy" or (
+            kernels == "auto" and auto_kernels() != "auto"):
         return None
     if name not in _KERNELS:
         try:
@@ -334,17 +344,18 @@ def compiled_kernels(name: str = "basis"):
 
 
 def compiled_fields(elem: Element, mapping: PointMapping, X: ndarray,
-                    tind: ndarray) -> Optional[Tuple[ndarray, ndarray]]:
+                    tind: ndarray, kernels: str = "auto"
+                    ) -> Optional[Tuple[ndarray, ndarray]]:
     """:func:`_h1_fields` by a compiled pass, equal to the bit, where one
     serves: the element one of :data:`COMPILED_FIELDS`, on its own
-    isoparametric mesh (the mapping's element of its type), ``kernels=
-    "auto"`` (:func:`~skfem_mpm.kernels.auto_kernels`) and numba
+    isoparametric mesh (the mapping's element of its type), ``kernels``
+    not the numpy path's (:func:`compiled_kernels`) and numba
     importable; else (or at a zero Jacobian determinant, which the numpy
     path refuses) ``None``.  A load step's basis at 1024 points in 2D:
     the fields 0.37 -> 0.02 ms (the Jacobian, its inverse and the element
     function by function, some 90 numpy calls)."""
     name = COMPILED_FIELDS.get(type(elem))
-    kernels = compiled_kernels() if name is not None \
+    kernels = compiled_kernels(kernels=kernels) if name is not None \
         and type(mapping.elem) is type(elem) else None
     if kernels is None:
         return None

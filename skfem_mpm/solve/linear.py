@@ -96,6 +96,24 @@ def rigid_modes(xyz: ndarray, dim: int) -> ndarray:
     return modes
 
 
+def held_modes(doflocs: ndarray, held: ndarray, dim: int) -> ndarray:
+    """The rows of the held vector DOFs ``held`` in :func:`rigid_modes`
+    of their nodes, (held.size, nmodes): ``rigid_modes(doflocs[:, held //
+    dim], dim)[np.arange(held.size), held % dim]``, the same numbers
+    without the modes of every component (31 -> 12 us a supports'
+    check at 56 points)."""
+    k, a = held // dim, held % dim
+    xyz = doflocs[:, k]
+    rel = xyz - xyz.mean(axis=1, keepdims=True)
+    rel = rel / max(np.abs(rel).max(), TINY)
+    rotations = ((0, 1), (1, 2), (2, 0))[:{1: 0, 2: 1, 3: 3}[dim]]
+    R = np.zeros((held.size, dim + len(rotations)))
+    R[np.arange(held.size), a] = 1.
+    for j, (p, q) in enumerate(rotations, start=dim):
+        R[:, j] = np.where(a == p, -rel[q], np.where(a == q, rel[p], 0.))
+    return R
+
+
 MODE_NAMES = {1: ["translation along x"],
               2: ["translation along x", "translation along y", "rotation"],
               3: ["translation along x", "translation along y",
@@ -103,23 +121,40 @@ MODE_NAMES = {1: ["translation along x"],
                   "rotation about x", "rotation about y"]}
 
 
-def component_labels(graph) -> ndarray:
+def component_labels(graph, kernels: str = "auto") -> ndarray:
     """scipy's ``connected_components(graph, directed=False)`` labels of
     a square CSR node graph, by a compiled union of its entries' ends
-    where ``kernels="auto"`` (:mod:`skfem_mpm.kernels.graph`: the same
-    labels, without scipy's validation, conversion and transpose of the
-    graph, 70-80 us a supports' check)."""
-    kernels = compiled_kernels("graph") \
+    where ``kernels`` is not the numpy path's
+    (:func:`~skfem_mpm.quadrature.basis.compiled_kernels`;
+    :mod:`skfem_mpm.kernels.graph`: the same labels, without scipy's
+    validation, conversion and transpose of the graph, 70-80 us a
+    supports' check)."""
+    passes = compiled_kernels("graph", kernels) \
         if isinstance(graph, csr_matrix) and graph.shape[0] == \
         graph.shape[1] else None
-    if kernels is None:
+    if passes is None:
         return connected_components(graph, directed=False)[1]
-    return kernels.component_labels(graph.shape[0], graph.indptr,
-                                    graph.indices)[1]
+    return passes.component_labels(graph.shape[0], graph.indptr,
+                                   graph.indices)[1]
+
+
+def element_labels(element_dofs: ndarray, dim: int, n_nodes: int,
+                   kernels: str = "auto") -> Optional[ndarray]:
+    """:func:`component_labels` of :func:`~skfem_mpm.graph.
+    element_adjacency` (the chain of each element's nodes, of its vector
+    DOFs ``element_dofs``), by a compiled union of the elements' nodes
+    without the graph where ``kernels`` takes the compiled passes
+    (:mod:`skfem_mpm.kernels.graph`); else ``None`` (form the graph)."""
+    passes = compiled_kernels("graph", kernels)
+    if passes is None:
+        return None
+    nodes = np.ascontiguousarray(element_dofs[::dim] // dim, dtype=np.int64)
+    return passes.element_labels(n_nodes, nodes)[1]
 
 
 def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
-                           D: ndarray, dim: int, step=None):
+                           D: ndarray, dim: int, step=None,
+                           kernels: str = "auto"):
     """Raise :class:`~skfem_mpm.errors.SingularSystemError` if a connected
     part of the active grid can move rigidly.
 
@@ -128,19 +163,24 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
     adjacency
         Sparse (n_nodes, n_nodes) matrix, nonzero where two scalar DOFs
         (nodes) share a point or an active element (the graphs of
-        :mod:`skfem_mpm.graph`).
+        :mod:`skfem_mpm.graph`), or its component labels (n_nodes,)
+        (:func:`component_labels`, :func:`element_labels`).
     doflocs
         Scalar DOF locations (dim, n_nodes).
     active, D
         Active and supported (or prescribed) vector DOFs; vector DOF
         ``dim * k + a`` is component a of node k.
+    kernels
+        The run's ``kernels`` option (:func:`component_labels` of a
+        graph).
 
     """
-    n = adjacency.shape[0]
+    label = adjacency if isinstance(adjacency, ndarray) \
+        and adjacency.ndim == 1 else component_labels(adjacency, kernels)
+    n = len(label)
     nodes = distinct(active // dim, n)
     # inactive nodes join nothing: the graph's components, read at the
     # active nodes, are theirs (no subgraph to cut out)
-    label = component_labels(adjacency)
     parts = distinct(label[nodes], n)
     label = np.searchsorted(parts, label)
     is_node = np.zeros(n, dtype=bool)
@@ -159,8 +199,7 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
             raise SingularSystemError(
                 "{} touches no supported node: it can move freely (rigid-body "
                 "modes); add supports".format(body(c)))
-        k, a = held // dim, held % dim
-        R = rigid_modes(doflocs[:, k], dim)[np.arange(held.size), a]
+        R = held_modes(doflocs, held, dim)
         sv = np.linalg.svd(R, compute_uv=False)
         nmodes = R.shape[1]
         if held.size < nmodes or sv.min() < 1e-8 * sv.max():

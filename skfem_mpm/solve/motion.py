@@ -8,7 +8,8 @@ from numpy import ndarray
 from ..errors import (InvalidInputError, PrescribedMotionError,
                       SingularSystemError)
 from ..methods.fields import tile_dofs
-from .linear import check_rigid_body_modes
+from .linear import check_rigid_body_modes, component_labels, \
+    element_labels
 
 __all__ = ["HeldMotion", "held_motion"]
 
@@ -130,9 +131,17 @@ def check_held(run, op, fixed: ndarray, step: int, by_terms: bool = False):
     held = (op.elements.tobytes(), fixed.tobytes()) if \
         op.connectivity_from_elements else None
     if held is None or held != run.cache.held:
+        kernels = getattr(run.method, "kernels", "auto")
+        # standard MPM's graph, the chains of the active elements' nodes:
+        # its components without the graph where the compiled passes serve
+        element_dofs = getattr(op, "element_dofs", None) \
+            if op.connectivity_from_elements else None
+        labels = None if element_dofs is None else element_labels(
+            element_dofs, run.dim, op.N // run.dim, kernels)
+        if labels is None:
+            labels = component_labels(op.adjacency(), kernels)
         try:
-            check_rigid_body_modes(op.adjacency(),
-                                   run.grid.doflocs[:, ::run.dim],
+            check_rigid_body_modes(labels, run.grid.doflocs[:, ::run.dim],
                                    op.active_dofs, fixed, run.dim, step)
         except SingularSystemError as err:
             if not by_terms:

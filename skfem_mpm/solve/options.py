@@ -185,11 +185,14 @@ class Options:
         ``"numpy"``: the numpy path, the tested reference;
         ``"compiled"``: the compiled passes, a run they cannot serve
         refused before any work (:mod:`skfem_mpm.kernels`).  The
-        material-point basis's fields (``ElementQuad1``, ``ElementHex1``)
-        and the supports' check take compiled passes equal to the numpy
-        path's to the bit wherever numba imports, unless
-        ``SKFEM_MPM_KERNELS=numpy``: the environment decides those, not
-        this option.
+        material-point basis of standard MPM and FE (its slots and, for
+        ``ElementQuad1`` and ``ElementHex1``, its fields) and the supports'
+        check follow this option too, with compiled passes equal to the
+        numpy path's to the bit: ``"numpy"`` takes scikit-fem's and
+        scipy's, ``"auto"`` the compiled ones where numba imports and
+        ``SKFEM_MPM_KERNELS`` is not ``numpy``, ``"compiled"`` the
+        compiled ones where numba imports (the method piece carries the
+        option: :func:`~skfem_mpm.methods.method.make_method`).
 
     >>> Options(newton=NewtonOptions(tol=1e-10)).newton.tol
     1e-10

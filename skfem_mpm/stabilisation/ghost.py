@@ -148,6 +148,8 @@ def faces_crossed_past_supports(mesh, nodal_dofs: ndarray, fixed: ndarray,
     reached = np.zeros(nel, dtype=bool)
     reached[active_cells] = True
     reached &= ~holds
+    if not reached.any():   # standard MPM's cells: those holding points
+        return np.flatnonzero(reached)
     left, right = mesh.f2t
     inner = np.maximum(right, 0)
     faces = np.flatnonzero((right >= 0) & (

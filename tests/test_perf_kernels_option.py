@@ -1,0 +1,73 @@
+"""The ``kernels`` option chooses the material-point basis's passes and
+the supports' check's, not only the Newton iteration's: ``"numpy"`` takes
+scikit-fem's and scipy's under any environment, ``"compiled"`` the
+compiled ones under ``SKFEM_MPM_KERNELS=numpy`` (issue 32)."""
+import numpy as np
+import pytest
+from skfem import ElementQuad1, MeshQuad
+
+from skfem_mpm import point_locator, seed_points
+from skfem_mpm.methods.method import make_method
+from skfem_mpm.solve.core import grid_parts
+from skfem_mpm.solve.linear import check_rigid_body_modes
+
+numba = pytest.importorskip("numba")
+
+
+class Called(Exception):
+    """A compiled pass was called."""
+
+
+def refuse(*args, **kwargs):
+    raise Called
+
+
+@pytest.fixture
+def refused(monkeypatch):
+    """The compiled passes of the basis and of the graph replaced by one
+    that raises :class:`Called`."""
+    from skfem_mpm.kernels import basis, graph
+    for module, name in ((basis, "point_slots"), (basis, "quad1_fields"),
+                         (graph, "component_labels")):
+        monkeypatch.setattr(module, name, refuse)
+    return monkeypatch
+
+
+def operator(kernels):
+    """The step's point operator of standard MPM on a 2 x 2 grid."""
+    mesh = MeshQuad().refined(1)
+    scalar, _, dofs, pattern = grid_parts(mesh, ElementQuad1())
+    piece = make_method("mpm", mesh, scalar, dofs, pattern,
+                        point_locator(mesh), {"locate": 0},
+                        kernels=kernels)
+    points = seed_points(mesh, 2)
+    return piece.operator(points, 1, {"locate": 0., "assemble": 0.}), mesh
+
+
+@pytest.mark.parametrize("env", ["auto", "numpy"])
+def test_kernels_numpy_takes_the_numpy_basis_and_check(refused, env):
+    refused.setenv("SKFEM_MPM_KERNELS", env)
+    op, mesh = operator("numpy")
+    assert op.basis.dx.sum() == pytest.approx(1., rel=1e-14)
+    held = np.arange(2 * 3)                  # the bottom row's nodes, x y
+    check_rigid_body_modes(op.adjacency(), mesh.p, op.active_dofs, held,
+                           2, kernels="numpy")
+
+
+def test_kernels_compiled_takes_the_compiled_basis_under_numpy_env(
+        refused):
+    refused.setenv("SKFEM_MPM_KERNELS", "numpy")
+    with pytest.raises(Called):
+        operator("compiled")
+    op, mesh = operator("numpy")
+    with pytest.raises(Called):
+        check_rigid_body_modes(op.adjacency(), mesh.p, op.active_dofs,
+                               np.arange(6), 2, kernels="compiled")
+
+
+def test_kernels_auto_follows_the_environment(refused):
+    refused.setenv("SKFEM_MPM_KERNELS", "auto")
+    with pytest.raises(Called):
+        operator("auto")
+    refused.setenv("SKFEM_MPM_KERNELS", "numpy")
+    assert operator("auto")[0].basis.dx.size == 16
