@@ -196,12 +196,14 @@ class PointOperator:
             self.shape_gradients = first_points.transpose(3, 2, 0, 1)
             self.basis.share_gradients(first_points.transpose(2, 3, 0, 1))
             G = first_points.reshape(-1, self.dim)
+            runs = np.zeros(nel + 1, dtype=np.int64)   # np.r_: 12 us more
+            np.cumsum(real.sum(axis=1), out=runs[1:])
             self._layout = KernelLayout(
                 (G, np.ascontiguousarray(self.scalar_dofs.T,
                                          dtype=np.int64).ravel(),
                  np.arange(nel, dtype=np.int64) * nloc,
                  np.full(nel, nloc, dtype=np.int64),
-                 np.r_[0, np.cumsum(real.sum(axis=1))].astype(np.int64),
+                 runs,
                  slots[real].astype(np.int64),
                  np.flatnonzero(real.ravel()).astype(np.int64) * nloc),
                 (PER_ENTRY if expand is None else PER_NODE_PAIR,
