@@ -71,3 +71,18 @@ def test_kernels_auto_follows_the_environment(refused):
         operator("auto")
     refused.setenv("SKFEM_MPM_KERNELS", "numpy")
     assert operator("auto")[0].basis.dx.size == 16
+
+
+def test_simulate_hands_the_kernels_option_to_the_basis(refused):
+    """``simulate(..., options=Options(kernels="numpy"))`` builds the
+    material-point basis and checks the supports with scikit-fem's and
+    scipy's passes under ``SKFEM_MPM_KERNELS=auto`` (it handed the
+    method piece the default, and the compiled passes ran)."""
+    from skfem_mpm import LinearElastic, Options, simulate
+    refused.setenv("SKFEM_MPM_KERNELS", "auto")
+    mesh = MeshQuad().refined(2)
+    res = simulate(mesh, ElementQuad1(), seed_points(mesh, 2),
+                   LinearElastic(1e3, .3),
+                   lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                   body_force=[0., -1.], options=Options(kernels="numpy"))
+    assert res.history[-1].load_factor == 1.

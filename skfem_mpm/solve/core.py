@@ -1074,7 +1074,8 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
                         counters, fields,
                         extended=options.stabilisation.extended_splines,
-                        held=np.isin(user_grid.nodal_dofs, held).any(axis=0))
+                        held=np.isin(user_grid.nodal_dofs, held).any(axis=0),
+                        kernels=options.kernels)
     run_mesh = mesh if fields is None else fields.mesh
     external = ExternalLoads(run_mesh, scalar, grid, case.gravity,
                              case.forces,
