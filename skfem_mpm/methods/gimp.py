@@ -33,7 +33,7 @@ from skfem.mesh import Mesh
 
 from ..quadrature.basis import MaterialPointBasis
 from ..errors import UnsupportedElementError
-from .gimp_linear import LINEAR_ELEMENTS, SLIVER, LinearGimp
+from .gimp_linear import LINEAR_ELEMENTS, SLIVER, LinearGimp, ROUNDOFF
 from ..quadrature.locate import Locator, tensor_grid
 from .operators import SparseOperator
 from ..quadrature.points import MaterialPoints
@@ -89,7 +89,8 @@ def _axis_pieces(a: ndarray, lo: ndarray, hi: ndarray,
         cell = np.minimum(first + k, n - 1)
         start = np.maximum(lo, a[cell])
         end = np.where(first + k <= last, np.minimum(hi, a[cell + 1]), start)
-        sliver = end - start <= tol * (a[cell + 1] - a[cell])
+        sliver = end - start <= tol * (a[cell + 1] - a[cell]) \
+            + ROUNDOFF * np.abs(a[cell + 1])
         pieces.append((start, np.where(sliver, start, end)))
     return pieces
 

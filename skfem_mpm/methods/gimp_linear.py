@@ -33,6 +33,17 @@ __all__ = ["LinearGimp", "LINEAR_ELEMENTS"]
 
 LINEAR_ELEMENTS = (ElementLineP1, ElementQuad1, ElementHex1)
 SLIVER = 1e-12          # relative to the cell size; skfem_mpm.methods.gimp's too
+#: the round-off of positions relative to their size, added to
+#: :data:`SLIVER` (a domain's end on a grid line at x = 5e5 lies 1e-10
+#: off it, a sliver of a billionth of a cell that GIMP's pile there took
+#: for material)
+ROUNDOFF = 64 * np.finfo(float).eps
+
+
+def sliver(line: ndarray, h: ndarray) -> ndarray:
+    """The distance from a grid ``line`` within which a domain's end is
+    on it, for cells of size ``h``."""
+    return SLIVER * h + ROUNDOFF * np.abs(line)
 
 
 def _hat_terms(a: ndarray, node: ndarray, x: ndarray):
@@ -52,9 +63,10 @@ def _snap(a: ndarray, lo: ndarray, hi: ndarray):
     n = len(a) - 1
     h = np.diff(a)
     first = np.clip(np.searchsorted(a, lo, side="right") - 1, 0, n - 1)
-    lo = np.where(a[first + 1] - lo <= SLIVER * h[first], a[first + 1], lo)
+    lo = np.where(a[first + 1] - lo <= sliver(a[first + 1], h[first]),
+                  a[first + 1], lo)
     last = np.clip(np.searchsorted(a, hi, side="left") - 1, 0, n - 1)
-    hi = np.where(hi - a[last] <= SLIVER * h[last], a[last], hi)
+    hi = np.where(hi - a[last] <= sliver(a[last], h[last]), a[last], hi)
     first = np.clip(np.searchsorted(a, lo, side="right") - 1, 0, n - 1)
     last = np.clip(np.searchsorted(a, hi, side="left") - 1, 0, n - 1)
     return lo, hi, first, np.maximum(last, first)

@@ -222,6 +222,7 @@ class GhostStabilisation(GridTerm):
         self.field_cells = field_cells
         self.obstacles = obstacles
         self._cell_volume = None
+        self._faces_mesh = None
         self.G = None
 
     def switch_on(self):
@@ -314,4 +315,16 @@ class GhostStabilisation(GridTerm):
             np.maximum.at(stiffest, cells // self.field_cells, mu_points)
             mu[reached] = stiffest[np.flatnonzero(reached)
                                    // self.field_cells]
-        return ghost_penalty(self.mesh, self.elem, fill, mu, self.gamma)
+        return ghost_penalty(self.faces_mesh, self.elem, fill, mu,
+                             self.gamma)
+
+    @property
+    def faces_mesh(self):
+        """The grid moved to start at the origin, where the faces'
+        quadrature is mapped into their cells: scikit-fem inverts that
+        mapping to an absolute 1e-12, which coordinates of 1e4 and more
+        (a site's) do not reach by round-off (a GIMP pile at x + 1e4
+        failed at step 2 with the mapping's exception)."""
+        if self._faces_mesh is None:
+            self._faces_mesh = self.mesh.translated(-self.mesh.p.min(axis=1))
+        return self._faces_mesh
