@@ -955,3 +955,32 @@ def test_a_3d_strip_footing_off_grid_lines_is_warned(caplog):
                  obstacles=[footing])
     assert sum("'strip': its edge at [0.6," in r.getMessage()
                for r in caplog.records) == 1
+
+
+def press_at(c):
+    """docs/contact.md's first press (an elastic block pressed 0.05 by a
+    smooth box, 8 x 8 grid on 2 x 2, 4 steps) with the whole set-up moved
+    by ``c``: the press's force at the end."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9) + c[0],
+                                np.linspace(0, 2, 9) + c[1])
+    points = seed_points(mesh, 2, region=lambda x: x[1] - c[1] < 1.)
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+                   lambda b: b.get_dofs(lambda x: x[1] == c[1]).all(),
+                   nsteps=4, obstacles=[Obstacle(
+                       box=[[c[0] - 1., c[0] + 3.], [c[1] + 1., c[1] + 1.7]],
+                       displacement=[0., -.05])])
+    return res.history[-1].obstacle_forces[0]
+
+
+@pytest.mark.slow
+def test_an_obstacle_presses_alike_at_a_sites_coordinates():
+    """At UTM-like coordinates (y + 1e5; x + 5e5, y + 5.5e6) the press
+    carries what it carries at the origin, to 1e-9.  The gap of the
+    corners moved by a trial, a difference of coordinates, kept the
+    trial's increment only to the coordinates' round-off: Newton stalled
+    at a residual of 1.6e-6 (y + 1e5) and 9e-5 (5.5e6) and the run failed
+    at step 1.  The gap is now the step's start's plus the increment's
+    part along the face's normal."""
+    here = press_at((0., 0.))
+    for c in ((0., 1e5), (5e5, 5.5e6)):
+        assert press_at(c) == pytest.approx(here, rel=1e-9, abs=1e-9 * here[1])

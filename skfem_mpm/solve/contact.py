@@ -620,18 +620,21 @@ class StepContact(GridTerm):
         term, dim = self.term, self.dim
         u = (self.J @ du).reshape(-1, dim).T               # (dim, s)
         start = not du.any()
-        X = self.Xs + u
         ev = []
         eye = np.eye(dim)[:, :, None]
         for i, ob in enumerate(term.obstacles):
             kappa, area = term.kappa[i], self.area[i]
             face, over = self.face[i]
-            gap, n, _ = ob.face_gap(X, face, self.shift[i])
-            gap = gap - self.closed[i]
-            C = np.zeros((dim, dim, X.shape[1]))
+            # the step's start's gap plus the increment's part: the gap of
+            # the corners moved, a difference of coordinates, kept du to
+            # the round-off of the coordinates (a press at y = 3e4 stalled
+            # at a residual of 5e-7, at 5.5e6 of 1e-4)
+            gap, n, _ = ob.face_gap(self.Xs, face, self.shift[i])
+            gap = gap + (n * u).sum(axis=0) - self.closed[i]
+            C = np.zeros((dim, dim, u.shape[1]))
             if self.anchor[i] is not None:
                 tied, X0 = self.anchor[i]
-                mismatch = np.where(tied, X - X0 - (
+                mismatch = np.where(tied, (self.Xs - X0) + u - (
                     self.shift[i] - term.start[i])[:, None], 0.)
                 T = area * np.where(tied, self.tau[i] - kappa * mismatch, 0.)
                 C[:, :, tied] = kappa * area[tied] * eye
@@ -650,7 +653,7 @@ class StepContact(GridTerm):
                                    >= -kappa * term.tol[i]) & ~active
                 hold = nn if ob.friction == 0. else eye
                 C[:, :, touching] = (kappa * area * hold)[:, :, touching]
-            tau = np.zeros_like(X)
+            tau = np.zeros_like(u)
             if ob.friction != 0.:
                 tau, C_t, _ = coulomb(ob.friction, kappa, p, n, self.tau[i],
                                       u - self.moved[i][:, None],
