@@ -736,3 +736,22 @@ def test_an_obstacle_through_cell_centres_switches_the_ghost_alike():
     stress = [r.points.stress[1, 1] for r in runs]
     assert np.abs(stress[1] - stress[0]).max() < 1e-10 * np.abs(
         stress[0]).max()
+
+
+def test_a_grid_too_long_for_the_ghost_faces_mapping_is_named():
+    """On a strip 3000 cells long (h = 0.05, a grid from 0 to 150) the
+    ghost penalty's faces at its far end are beyond what scikit-fem's
+    inverse mapping (absolute tolerance 1e-12) places in their cells: the
+    error names the ghost penalty, the grid's length in cells and what
+    to do, not the mapping's bare exception."""
+    from skfem import ElementVector
+    from skfem_mpm import UnsupportedElementError
+    from skfem_mpm.stabilisation.ghost import ghost_penalty
+    mesh = MeshQuad.init_tensor(np.linspace(0, 150, 3001),
+                                np.linspace(0, .4, 5))
+    centre = mesh.p[:, mesh.t].mean(axis=1)
+    fill = np.where(centre[0] > 149., .3, 0.)
+    with pytest.raises(UnsupportedElementError,
+                       match="ghost penalty's faces.*3000 cells long"):
+        ghost_penalty(mesh, ElementVector(ElementQuad1()), fill,
+                      np.ones(mesh.nelements), .1)

@@ -28,7 +28,8 @@ def refused(monkeypatch):
     that raises :class:`Called`."""
     from skfem_mpm.kernels import basis, graph
     for module, name in ((basis, "point_slots"), (basis, "quad1_fields"),
-                         (graph, "component_labels")):
+                         (graph, "component_labels"),
+                         (graph, "element_labels")):
         monkeypatch.setattr(module, name, refuse)
     return monkeypatch
 

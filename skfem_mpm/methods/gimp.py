@@ -33,7 +33,8 @@ from skfem.mesh import Mesh
 
 from ..quadrature.basis import MaterialPointBasis
 from ..errors import UnsupportedElementError
-from .gimp_linear import LINEAR_ELEMENTS, SLIVER, LinearGimp, ROUNDOFF
+from .gimp_linear import LINEAR_ELEMENTS, LinearGimp
+from .gimp_linear import sliver as sliver_of
 from ..quadrature.locate import Locator, tensor_grid
 from .operators import SparseOperator
 from ..quadrature.points import MaterialPoints
@@ -75,12 +76,11 @@ def stretched_domains(domain0: ndarray, F: ndarray) -> ndarray:
     return domain0 * np.einsum("paa->ap", U)
 
 
-def _axis_pieces(a: ndarray, lo: ndarray, hi: ndarray,
-                 tol: float = SLIVER):
+def _axis_pieces(a: ndarray, lo: ndarray, hi: ndarray):
     """Pieces of [lo, hi] cut by grid nodes a: lists of (start, end) arrays,
     zero length where a point has fewer pieces.  A domain edge within
-    ``tol`` cell sizes of a grid line is on that line (no sliver pieces from
-    round-off)."""
+    :func:`~skfem_mpm.methods.gimp_linear.sliver` of a grid line is on
+    that line (no sliver pieces from round-off)."""
     n = len(a) - 1
     first = np.clip(np.searchsorted(a, lo, side="right") - 1, 0, n - 1)
     last = np.clip(np.searchsorted(a, hi, side="left") - 1, 0, n - 1)
@@ -89,8 +89,7 @@ def _axis_pieces(a: ndarray, lo: ndarray, hi: ndarray,
         cell = np.minimum(first + k, n - 1)
         start = np.maximum(lo, a[cell])
         end = np.where(first + k <= last, np.minimum(hi, a[cell + 1]), start)
-        sliver = end - start <= tol * (a[cell + 1] - a[cell]) \
-            + ROUNDOFF * np.abs(a[cell + 1])
+        sliver = end - start <= sliver_of(a[cell + 1], a[cell + 1] - a[cell])
         pieces.append((start, np.where(sliver, start, end)))
     return pieces
 

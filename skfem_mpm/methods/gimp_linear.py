@@ -26,24 +26,22 @@ from skfem.element import (Element, ElementHex1, ElementLineP1,
 from skfem.mesh import Mesh
 
 from ..errors import UnsupportedElementError
-from ..quadrature.locate import tensor_grid
+from ..quadrature.locate import RESOLUTION, tensor_grid
 from .operators import SparseOperator
 
 __all__ = ["LinearGimp", "LINEAR_ELEMENTS"]
 
 LINEAR_ELEMENTS = (ElementLineP1, ElementQuad1, ElementHex1)
 SLIVER = 1e-12          # relative to the cell size; skfem_mpm.methods.gimp's too
-#: the round-off of positions relative to their size, added to
-#: :data:`SLIVER` (a domain's end on a grid line at x = 5e5 lies 1e-10
-#: off it, a sliver of a billionth of a cell that GIMP's pile there took
-#: for material)
-ROUNDOFF = 64 * np.finfo(float).eps
 
 
 def sliver(line: ndarray, h: ndarray) -> ndarray:
     """The distance from a grid ``line`` within which a domain's end is
-    on it, for cells of size ``h``."""
-    return SLIVER * h + ROUNDOFF * np.abs(line)
+    on it, for cells of size ``h``: :data:`SLIVER` of the cell and the
+    round-off of the line's coordinate (a domain's end on a grid line at
+    x = 5e5 lies 1e-10 off it, a sliver of a billionth of a cell that
+    GIMP's pile there took for material)."""
+    return SLIVER * h + RESOLUTION * np.abs(line)
 
 
 def _hat_terms(a: ndarray, node: ndarray, x: ndarray):
@@ -58,8 +56,8 @@ def _hat_terms(a: ndarray, node: ndarray, x: ndarray):
 
 
 def _snap(a: ndarray, lo: ndarray, hi: ndarray):
-    """Domain ends within ``SLIVER`` cell sizes below (lo) or above (hi) a
-    grid line put on it, and the first and last cell they span."""
+    """Domain ends within :func:`sliver` of a grid line, below (lo) or
+    above (hi), put on it, and the first and last cell they span."""
     n = len(a) - 1
     h = np.diff(a)
     first = np.clip(np.searchsorted(a, lo, side="right") - 1, 0, n - 1)

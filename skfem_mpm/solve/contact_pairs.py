@@ -243,9 +243,8 @@ class PairFinder:
             # that leans by 73% of its settlement stood upright, but
             # 16% stiffer than on a grid four times finer)
             lost = np.setdiff1d(np.flatnonzero(real), kept)
-            lost = lost[~self.member(
-                self.pair_places(XB, normal, False)[:, lost],
-                self.pair_places(XB, normal, False)[:, kept])]
+            places = self.pair_places(XB, normal, False)
+            lost = lost[~self.member(places[:, lost], places[:, kept])]
             if lost.size:
                 A2 = A.copy()
                 A2[lost] = self.extreme(wide, normal, XB, False)[lost]

@@ -25,6 +25,7 @@ from numpy import ndarray
 from skfem import BilinearForm, InteriorFacetBasis, asm
 from skfem.helpers import dot, grad, mul
 
+from ..errors import UnsupportedElementError
 from ..protocols import GridTerm
 
 __all__ = ["ghost_penalty", "cut_cells", "faces_crossed_past_supports",
@@ -88,8 +89,20 @@ def ghost_penalty(mesh, elem, fill: ndarray, mu: ndarray,
         right, 0)] & (cut[left] | cut[np.maximum(right, 0)]))
     if facets.size == 0:
         return None
-    sides = [InteriorFacetBasis(mesh, elem, facets=facets, side=i)
-             for i in (0, 1)]
+    try:
+        sides = [InteriorFacetBasis(mesh, elem, facets=facets, side=i)
+                 for i in (0, 1)]
+    except Exception as err:         # scikit-fem's inverse mapping
+        extent = np.ptp(mesh.p, axis=1).max()
+        cell = np.ptp(mesh.p[:, mesh.t[:, 0]], axis=1).min()
+        raise UnsupportedElementError(
+            "the ghost penalty's faces: scikit-fem could not map their "
+            "quadrature into the cells beside them ({}) on a grid {:.0f} "
+            "cells long, whose positions carry more round-off than its "
+            "mapping's absolute tolerance; use fewer cells along the "
+            "grid, or no ghost penalty (Stabilisation(ghost=0.); with "
+            "B-splines extended_splines=True)".format(
+                err, extent / cell)) from err
     h = np.abs(sides[0].mesh_parameters())           # cell size per facet
     stiffer = np.maximum(mu[left[facets]], mu[right[facets]])
     weight = gamma * stiffer[:, None] * h
