@@ -360,3 +360,27 @@ def test_ctrl_c_while_saving_a_checkpoint_keeps_the_previous_one(
     assert data["checkpoint_step"] == 2
     assert main(["run", "--resume", str(out), "--no-progress"]) == 0
     assert_same_run(reference, out, 1)
+
+
+
+@pytest.mark.parametrize("names, dated", [
+    (["contact_body_corner{}{}".format(a, c) for a in range(2)
+      for c in range(4)], True),
+    (["contact_body_corner00", "eps_p"], False),
+])
+def test_a_checkpoint_without_the_contact_corners_says_why(names, dated):
+    """A B-spline contact's corners became point state: a checkpoint
+    written before lacks them, and the refusal says so (only where they
+    are all it lacks)."""
+    from types import SimpleNamespace
+    from skfem import MeshQuad
+    from skfem_mpm import seed_points
+    from skfem_mpm.scenes.checkpoint import check_against
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    points = seed_points(mesh, 2)
+    with pytest.raises(CheckpointError, match="'state_\\*'") as caught:
+        check_against("ckpt", SimpleNamespace(points=points,
+                                              domain0=points.domain),
+                      points, names, mesh)
+    assert ("run the scene again from its start" in str(caught.value)) \
+        == dated

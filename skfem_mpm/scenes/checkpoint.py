@@ -40,6 +40,15 @@ POINT_FIELDS = ("x", "volume", "force", "x0", "stress", "strain",
 OPTIONAL_POINT_FIELDS = ("domain", "velocity", "acceleration")
 
 
+#: what a refusal adds where a checkpoint lacks only the B-spline contact
+#: corners, point state since 2026-11-27 (a checkpoint written before
+#: cannot resume: its corners were not kept)
+CORNERS_SINCE = ("; the B-spline contact corners (contact_body_corner*) "
+                 "are point state since 2026-11-27 and a checkpoint "
+                 "written before does not hold them: run the scene again "
+                 "from its start")
+
+
 class CheckpointError(InvalidInputError):
     """A checkpoint file is missing, unreadable, or one of its fields is
     absent or impossible (named in the message)."""
@@ -270,6 +279,10 @@ def check_against(path, checkpoint: Checkpoint, initial: MaterialPoints,
         raise bad("points_x", "puts points outside the grid ({})".format(
             err)) from None
     if set(points.state) != set(state_names):
+        missing = set(state_names) - set(points.state)
         raise bad("state_*", "holds the internal variables {}, the scene's "
-                  "materials have {}".format(sorted(points.state),
-                                             sorted(state_names)))
+                  "materials have {}{}".format(
+                      sorted(points.state), sorted(state_names),
+                      CORNERS_SINCE if missing and all(
+                          name.startswith("contact_body_corner")
+                          for name in missing) else ""))
