@@ -188,6 +188,32 @@ def test_the_reused_increments_follow_the_operator():
                         results[0][0].tangent()) < TOL
 
 
+def test_the_passes_keep_points_first():
+    """What only the passes write and read between a finite trial and its
+    stiffness and commit, the spectral parts, ``dF``, ``dF^-1`` and
+    ``b_n - I``, lies points first in memory (a point's entries side by
+    side: the strides of an (n, ...) array), points last in its shape as
+    the numpy path reads it; the points' stress, strain and ``F``, which
+    the commit hands on, stay points last in memory."""
+    material = MATERIALS["von_mises"]
+    mesh, points = block(2)
+    points.state.update(initial_state(material, points.n))
+    op = operator("mpm", mesh, points, 2)
+    kinematics = make_kinematics("finite", material, 2, {"return_maps": 0},
+                                 kernels="compiled")
+    du = 2e-3 * np.random.default_rng(2).standard_normal(op.N)
+    new = evaluate(kinematics, op, du, points)[3]
+    compiled = kinematics.compiled
+    kept = (tuple(kinematics._workspace(points.n, 2, False)[3])
+            + compiled._increment_arrays(points.n, 2)
+            + (compiled._start_deviation(points),))
+    for a in kept:
+        assert a.shape[-1] == points.n
+        assert a.strides[-1] == a[..., 0].size * 8, a.strides
+    assert all((new.stress.flags.c_contiguous, new.strain.flags.c_contiguous,
+               new.F.flags.c_contiguous))
+
+
 def test_the_mohr_coulomb_return_equals_numpy_on_every_branch():
     """The compiled return map on principal strains, point by point,
     against :meth:`MohrCoulomb.principal_update` on all points at once:

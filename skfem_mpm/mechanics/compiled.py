@@ -157,6 +157,26 @@ def identity_out_of_plane(n: int) -> ndarray:
     return a
 
 
+def points_first(n: int, *shape: int) -> ndarray:
+    """An uninitialised array of shape ``shape + (n,)`` (points last, as
+    the numpy path reads it) whose points are first in memory: the view
+    of a C-contiguous ``(n,) + shape`` array.  The passes read and write
+    it through its strides, a point's entries side by side, where points
+    last would put each entry on a stream of its own (some 35 streams in
+    the finite pass): the 2D finite pass 15-20% faster at 1e5 points."""
+    return np.empty((n,) + shape).transpose(
+        tuple(range(1, len(shape) + 1)) + (0,))
+
+
+def frame_out_of_plane(n: int) -> ndarray:
+    """:func:`identity_out_of_plane`, its points first in memory
+    (:func:`points_first`)."""
+    a = points_first(n, 3, 3)
+    a[...] = 0.
+    a[2, 2] = 1.
+    return a
+
+
 def contiguous(a: ndarray) -> ndarray:
     """``a`` as C-contiguous float64 (a copy only where it is not): one
     compiled signature serves every call."""
@@ -198,6 +218,7 @@ class CompiledPasses:
         self.averaged = dilatation.passes_of(dim)
         self._start = (None, None)      # a step's strain and b_n - I
         self._increments = None         # dF and dF^-1, reused
+        self._buffers = None            # the kinematics' workspace, seeded
 
     def serves(self, op, points) -> bool:
         """Whether the passes serve the point operator ``op``: standard
@@ -237,7 +258,7 @@ class CompiledPasses:
         strain it was computed from."""
         strain, value = self._start
         if strain is not points.strain:
-            value = np.empty((3, 3, points.n))
+            value = points_first(points.n, 3, 3)
             self.passes.start_deviation(self.dim, contiguous(points.strain),
                                         value)
             self._start = (points.strain, value)
@@ -251,9 +272,28 @@ class CompiledPasses:
         only (with it, ``dF_33`` is not 1: new arrays when ``m``
         changes)."""
         if self._increments is None or self._increments[0] != (n, m):
-            self._increments = ((n, m),) + tuple(identity_out_of_plane(n)
+            self._increments = ((n, m),) + tuple(frame_out_of_plane(n)
                                                  for _ in range(2))
         return self._increments[1:]
+
+    def _workspace(self, kinematics, n: int, m: int):
+        """The kinematics' ``tau``, yielded flags and spectral parts
+        (:meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain._workspace`),
+        its spectral parts replaced, once, by arrays of the same shapes
+        whose points are first in memory (:func:`points_first`; ``tau``
+        stays as it is: the commit divides it into the points' stress,
+        which keeps its layout), so that every reader of the workspace,
+        the numpy tangent among them, reads what the passes wrote."""
+        buffers = kinematics._workspace(n, m, False)
+        if buffers is not self._buffers:
+            spectral = buffers[3]
+            if spectral.d.strides[-1] == 8:          # points last: seed
+                buffers = buffers[:3] + (spectral._make(
+                    (points_first(n, 3), frame_out_of_plane(n),
+                     points_first(n, m), points_first(n, m, m))),)
+                kinematics._buffers = buffers
+            self._buffers = buffers
+        return buffers[1:]
 
     def _state(self, points) -> ndarray:
         """The internal variables of ``points``, (2, n)."""
@@ -286,7 +326,7 @@ class CompiledPasses:
         :meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.response`)."""
         (finite, _, assemble), layout, cells, m = self._layout(op)
         n = points.n
-        tau, yielded, spectral = kinematics._workspace(n, m, False)[1:]
+        tau, yielded, spectral = self._workspace(kinematics, n, m)
         dF, dF_inv = self._increment_arrays(n, m)
         f, eq = np.zeros(op.N), np.empty((2, n))
         status = finite(
@@ -330,8 +370,8 @@ class CompiledPasses:
         (_, small, assemble), layout, cells, m = self._layout(op)
         n = points.n
         stress, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
-        x, vecs = np.empty((3, n)), np.empty((3, 3, n))
-        y, dy_dx = np.empty((m, n)), np.empty((m, m, n))
+        x, vecs = points_first(n, 3), points_first(n, 3, 3)
+        y, dy_dx = points_first(n, m), points_first(n, m, m)
         yielded, eq = np.zeros(n, dtype=bool), np.empty((2, n))
         f = np.zeros(op.N)
         small(
