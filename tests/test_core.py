@@ -524,6 +524,58 @@ def test_absurd_grid_motion_switches_the_ghost_penalty_on(method):
             stabilisation=Stabilisation(ghost=0.)))
 
 
+def thrown_cantilever(shift=(0., 0.), ghost="auto"):
+    """A user trial's small-strain uGIMP cantilever 4 x 0.5 (h = 0.25,
+    its faces 0.3 h off grid lines) pushed far beyond its range (P L^2 /
+    E I = 3) in 6 steps, the grid moved by ``shift``."""
+    h, (cx, cy) = .25, shift
+    mesh = MeshQuad.init_tensor(np.arange(0, 5 + 1e-9, h) + cx,
+                                np.arange(0, 3.5 + 1e-9, h) + cy)
+    low = 2.5 + .3 * h
+    points = seed_points(mesh, 2, region=lambda x: (x[0] - cx < 4.)
+                         & (x[1] - cy > low) & (x[1] - cy < low + .5))
+    tip = side_points(points, "right")
+    points.force[1, tip] = -3 * 1e4 * (.5 ** 3 / 12) / 16. / tip.size
+    return simulate(mesh, ElementQuad1(), points, LinearElastic(1e4, .3),
+                    lambda b: b.get_dofs(lambda x: np.abs(x[0] - cx)
+                                         < 1e-9).all(),
+                    nsteps=6, method="ugimp", kinematics="small",
+                    options=Options(stabilisation=Stabilisation(
+                        ghost=ghost))), tip
+
+
+def test_a_point_thrown_by_slivers_switches_the_ghost_penalty_on():
+    """The cantilever's third step converged (1e-12) with a point thrown
+    51.6 cells by grid nodes holding 5e-4 cells of material, the rest
+    moving at most 2.4 cells: the grid moved absurdly, but no more than
+    1e5 times the thrown point did, and the run ended with the point
+    outside the grid.  Such a step fails (``GridMotionError``, naming the
+    point): ``ghost="auto"`` switches the penalty on at step 3 and the
+    run ends with no point moved farther than the tip; with the ghost
+    penalty off the run is refused naming the slivers."""
+    from skfem_mpm import GridMotionError
+    res, tip = thrown_cantilever()
+    assert len(res.history) == 6
+    assert res.counters["ghost_from_step"] == 3
+    moved = np.sqrt((res.points.displacement ** 2).sum(axis=0))
+    assert moved.max() <= moved[tip].max()
+    with pytest.raises(GridMotionError, match="step 3: point .* moved .* "
+                       "cells through grid nodes holding less than"):
+        thrown_cantilever(ghost=0.)
+
+
+@pytest.mark.slow
+def test_a_thrown_point_is_caught_wherever_the_model_sits():
+    """The cantilever moved by 0.1234 and to a site's coordinates (5e5,
+    1e3), where it failed differently (the point outside the grid at
+    step 3; a body held by no support at step 4): each ends as at the
+    origin."""
+    reference = thrown_cantilever()[0].points.displacement
+    for shift in ((.1234, .1234), (5e5, 1e3)):
+        u = thrown_cantilever(shift)[0].points.displacement
+        assert np.abs(u - reference).max() < 1e-6 * np.abs(reference).max()
+
+
 def pressed_against_a_held_line(method, kinematics="small", wall=False,
                                 **options):
     """A block [0, L] x [0, H] pushed d into along x from its left face,

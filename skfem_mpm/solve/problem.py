@@ -48,6 +48,13 @@ STABILISATION = 1e-7
 #: stay below 1e3 (GIMP's barely supported corner nodes), a node supported
 #: by a sliver of material reached 1e7
 ABSURD_GRID_MOTION = 1e5
+#: grid nodes whose support holds less material than this many cells'
+#: volume are slivers, and a converged step whose slivers alone move a
+#: point by more than :data:`THROWN` cells failed
+#: (:meth:`StepProblem.check_thrown`)
+SLIVER_SUPPORT = 1e-3
+#: the cells a point may be moved by sliver nodes alone
+THROWN = 1.
 
 
 class Trial(NamedTuple):
@@ -415,6 +422,39 @@ class StepProblem:
                 self.step, grid, self.grid.doflocs[:, node].tolist(),
                 moved))
 
+    def check_thrown(self, du: ndarray, dx: ndarray):
+        """Refuse a converged grid increment ``du`` that moved a point
+        by more than :data:`THROWN` cells through nodes whose support
+        holds less than :data:`SLIVER_SUPPORT` cells of material (``dx``,
+        the points' increments; looked for where a point moved more than
+        :data:`THROWN` cells).  A small-strain uGIMP cantilever pushed
+        far beyond its range (a user trial, P L^2 / E I = 3) converged a
+        step to 1e-12 that threw a point 64 cells by a node of 5e-4 cells
+        of support: the absurd grid motion was not caught, as a point had
+        moved as far, and the run ended with the point outside the grid,
+        or a step later, by its position, as a body held by no support."""
+        run = self.run
+        h = run.cell_size
+        if not (run.method.moves and np.abs(dx).max(initial=0.) > THROWN * h):
+            return
+        from .dynamics import value_matrix     # (dynamics imports this)
+        S = value_matrix(self.op).tocsc()
+        support = abs(S).T @ self.points.volume / h ** self.points.dim
+        sliver = np.flatnonzero(support < SLIVER_SUPPORT)
+        moved = S[:, sliver] @ du.reshape(-1, self.points.dim)[sliver]
+        moved = np.sqrt((moved ** 2).sum(axis=1))
+        if not moved.max(initial=0.) > THROWN * h:
+            return
+        p = int(np.argmax(moved))
+        raise GridMotionError(
+            "step {}: point {} at {} moved {:.3g} cells through grid nodes "
+            "holding less than {:g} cells of material (slivers: a body edge "
+            "or GIMP domain barely past a grid line); the ghost penalty "
+            "ties them to their neighbours (ghost='auto', the default, "
+            "switches it on; or Stabilisation(ghost=0.1))".format(
+                self.step, p, self.points.x[:, p].tolist(),
+                moved[p] / h, SLIVER_SUPPORT))
+
     def commit(self, trial: Trial, du: ndarray, residuals: list):
         """The converged state of ``trial`` (the grid increment ``du``) and
         the step's record: the points' state, positions and domains, the
@@ -425,6 +465,7 @@ class StepProblem:
         tic = time.perf_counter()
         dx = op.values(du)
         self.check_grid_motion(du, dx)
+        self.check_thrown(du, dx)
         new = response.commit(points)
         new.displacement = points.displacement + dx
         if run.method.moves:
