@@ -171,8 +171,7 @@ def points_first(n: int, *shape: int) -> ndarray:
 def frame_out_of_plane(n: int) -> ndarray:
     """:func:`identity_out_of_plane`, its points first in memory
     (:func:`points_first`)."""
-    a = points_first(n, 3, 3)
-    a[...] = 0.
+    a = np.zeros((n, 3, 3)).transpose(1, 2, 0)
     a[2, 2] = 1.
     return a
 
@@ -219,6 +218,7 @@ class CompiledPasses:
         self._start = (None, None)      # a step's strain and b_n - I
         self._increments = None         # dF and dF^-1, reused
         self._buffers = None            # the kinematics' workspace, seeded
+        self._no_state = np.zeros((2, 0))
 
     def serves(self, op, points) -> bool:
         """Whether the passes serve the point operator ``op``: standard
@@ -258,7 +258,8 @@ class CompiledPasses:
         strain it was computed from."""
         strain, value = self._start
         if strain is not points.strain:
-            value = points_first(points.n, 3, 3)
+            if value is None or value.shape[-1] != points.n:
+                value = points_first(points.n, 3, 3)  # else the last step's
             self.passes.start_deviation(self.dim, contiguous(points.strain),
                                         value)
             self._start = (points.strain, value)
@@ -296,7 +297,13 @@ class CompiledPasses:
         return buffers[1:]
 
     def _state(self, points) -> ndarray:
-        """The internal variables of ``points``, (2, n)."""
+        """The internal variables of ``points``, (2, n); of a material
+        without any, zeros kept for every call (the passes only read
+        them)."""
+        if not self.variables:
+            if self._no_state.shape[1] != points.n:
+                self._no_state = np.zeros((2, points.n))
+            return self._no_state
         state = np.zeros((2, points.n))
         for row, name in enumerate(self.variables):
             state[row] = points.state[name]

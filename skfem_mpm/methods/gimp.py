@@ -33,6 +33,7 @@ from skfem.mesh import Mesh
 
 from ..quadrature.basis import MaterialPointBasis
 from ..errors import UnsupportedElementError
+from ..kernels import check_kernels
 from .gimp_linear import LINEAR_ELEMENTS, LinearGimp
 from .gimp_linear import sliver as sliver_of
 from ..quadrature.locate import Locator, tensor_grid
@@ -121,33 +122,33 @@ def _subpoints(axes, x: ndarray, domain: ndarray, order: int):
     return coords, weights / total[parent], parent
 
 
-def gimp_operators(mesh: Mesh, elem: Element,
-                   locate: Locator) -> Callable[[ndarray, ndarray],
-                                                SparseOperator]:
+def gimp_operators(mesh: Mesh, elem: Element, locate: Locator,
+                   kernels: str = "auto") -> Callable[[ndarray, ndarray],
+                                                      SparseOperator]:
     """``operator(x, domain)`` giving the GIMP operator of points on this
     grid: closed form for linear elements
     (:class:`~skfem_mpm.methods.gimp_linear.LinearGimp`), Gauss sub-points
-    (:func:`subpoint_gimp_operator`) otherwise.  Set up once per run (node
-    numbering), called every step."""
+    (:func:`subpoint_gimp_operator`, its basis by ``kernels``) otherwise.
+    Set up once per run (node numbering), called every step."""
     scalar = elem.elem if isinstance(elem, ElementVector) else elem
     _grid_axes(mesh)
     if isinstance(scalar, LINEAR_ELEMENTS):
         return LinearGimp(mesh, scalar)
     return functools.partial(subpoint_gimp_operator, mesh, scalar,
-                             locate=locate)
+                             locate=locate, kernels=check_kernels(kernels))
 
 
 def gimp_operator(mesh: Mesh, elem: Element, x: ndarray, domain: ndarray,
-                  locate: Locator) -> SparseOperator:
+                  locate: Locator, kernels: str = "auto") -> SparseOperator:
     """GIMP weights and gradients of points x with half-lengths ``domain``
     (parameters as in :func:`subpoint_gimp_operator`; see
     :func:`gimp_operators` to reuse the set-up over steps)."""
-    return gimp_operators(mesh, elem, locate)(x, domain)
+    return gimp_operators(mesh, elem, locate, kernels)(x, domain)
 
 
 def subpoint_gimp_operator(mesh: Mesh, elem: Element, x: ndarray,
-                           domain: ndarray,
-                           locate: Locator) -> SparseOperator:
+                           domain: ndarray, locate: Locator,
+                           kernels: str = "auto") -> SparseOperator:
     """GIMP weights and gradients of points x with half-lengths ``domain``
     by Gauss sub-points on every domain piece (any tensor-product element).
 
@@ -161,6 +162,11 @@ def subpoint_gimp_operator(mesh: Mesh, elem: Element, x: ndarray,
         Positions and domain half-lengths, (dim, n).
     locate
         The grid's :func:`~skfem_mpm.point_locator`.
+    kernels
+        The run's ``kernels`` option (:class:`~skfem_mpm.solve.options.
+        Options`): whether the sub-points' material-point basis takes
+        compiled passes (:func:`~skfem_mpm.quadrature.basis.
+        compiled_kernels`).
 
     Returns
     -------
@@ -174,7 +180,7 @@ def subpoint_gimp_operator(mesh: Mesh, elem: Element, x: ndarray,
     tind, X = locate(sub_x)
     basis = MaterialPointBasis(mesh, scalar,
                                MaterialPoints(x=sub_x, volume=sub_w),
-                               location=(tind, X))
+                               location=(tind, X), kernels=kernels)
     rows, cols, vals = [], [], []
     grads = [[] for _ in range(mesh.dim())]
     dofs = basis.dofs.element_dofs

@@ -36,6 +36,7 @@ from numpy import ndarray
 from scipy.sparse import csr_matrix
 
 from ..errors import InvalidInputError, check_finite
+from ..kernels import check_kernels
 from ..mechanics.hencky import inverse_and_det
 from ..methods.operators import PointOperator
 from ..quadrature.basis import MaterialPointBasis
@@ -256,14 +257,18 @@ class ExternalLoads:
         ``axis`` of points ``idx``, for the faces of surface loads, where
         the method's displacement field is not the grid element's (B-spline
         MPM); ``None``: the grid element's shape functions.
+    kernels
+        The run's ``kernels`` option (:class:`~skfem_mpm.solve.options.
+        Options`): whether the faces' material-point basis takes compiled
+        passes (:func:`~skfem_mpm.quadrature.basis.compiled_kernels`).
 
     """
 
     def __init__(self, mesh, elem, grid, gravity, loads, domain0, counters,
                  n_points: int, follow: bool = False, moves: bool = True,
-                 ramp_gravity=True, weights=None):
+                 ramp_gravity=True, weights=None, kernels: str = "auto"):
         self.mesh, self.elem, self.dim = mesh, elem, mesh.dim()
-        self.weights = weights
+        self.weights, self.kernels = weights, check_kernels(kernels)
         self.ramp_gravity = np.atleast_1d(np.asarray(ramp_gravity, bool))
         self.gravity, self.counters, self.domain0 = gravity, counters, domain0
         self.surface, self.grid_vector, self.cell_local = [], None, None
@@ -448,7 +453,7 @@ class ExternalLoads:
         cells = op.point_elements[idx]
         face = PointOperator(MaterialPointBasis(
             self.mesh, self.elem, MaterialPoints(x=centre, volume=area),
-            (cells, self.cell_local(centre, cells))))
+            (cells, self.cell_local(centre, cells)), kernels=self.kernels))
         face.area = area
         return face
 
