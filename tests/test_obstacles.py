@@ -513,6 +513,98 @@ obstacle = "ceiling"
         load_scene(path)
 
 
+def test_an_obstacle_force_is_measured_beside_a_contact(tmp_path):
+    """A scene with an obstacle and a contact between bodies: the
+    obstacle's force is looked up among the obstacles (the contacts'
+    names come last; it was looked up among the wrong names, and a user
+    trial's finished run ended in a ValueError, writing no summary)."""
+    from skfem_mpm.scenes.scene import run_scene
+    from skfem_mpm.scenes.scene_file import load_scene
+    path = tmp_path / "stack.toml"
+    path.write_text("""
+name = "stack"
+[grid]
+x = [0.0, 1.5, 15]
+y = [-0.25, 1.25, 15]
+[[bodies]]
+name = "lower"
+region = { x = [0.3, 1.2], y = [0.0, 0.3] }
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+density = 1000.0
+[[bodies]]
+name = "upper"
+region = { x = [0.5, 1.0], y = [0.5, 0.75] }
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+density = 1000.0
+[gravity]
+body_force = [0.0, -9810.0]
+[[obstacles]]
+name = "floor"
+box = { x = [-1.0, 3.0], y = [-1.0, 0.0] }
+[[obstacles]]
+name = "wall"
+box = { x = [1.4, 3.0], y = [0.05, 1.0] }
+[[contacts]]
+first = "lower"
+second = "upper"
+[[outputs]]
+quantity = "obstacle_force"
+obstacle = "floor"
+component = "y"
+[[outputs]]
+quantity = "obstacle_force"
+obstacle = "wall"
+component = "magnitude"
+[dynamics]
+time_step = 0.01
+duration = 0.02
+""")
+    scene = load_scene(path)
+    result = run_scene(scene)
+    floor = scene.outputs[0].measure(scene, result)
+    assert floor == result.history[-1].obstacle_forces[0, 1] < 0
+    assert scene.outputs[1].measure(scene, result) == 0.
+
+
+def test_a_quasi_static_scene_held_by_an_obstacle_alone_runs(tmp_path):
+    """A block on a frictional floor obstacle, no ``[[supports]]``, its
+    own weight, quasi-static: the scene runs as ``simulate`` does with
+    no supports (a user trial: refused as missing supports), the floor
+    carrying the weight; with neither supports nor obstacles it is
+    refused."""
+    from skfem_mpm.errors import SceneError
+    from skfem_mpm.scenes.scene import run_scene
+    from skfem_mpm.scenes.scene_file import load_scene
+    text = """
+name = "floor only"
+[grid]
+x = [0.0, 1.5, 15]
+y = [-0.25, 1.25, 15]
+[[bodies]]
+name = "block"
+region = { x = [0.3, 1.2], y = [0.0, 0.3] }
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+[gravity]
+body_force = [0.0, -9810.0]
+[solver]
+steps = 2
+"""
+    path = tmp_path / "floor.toml"
+    path.write_text(text + """
+[[obstacles]]
+name = "floor"
+box = { x = [-1.0, 3.0], y = [-1.0, 0.0] }
+friction = 0.3
+""")
+    result = run_scene(load_scene(path))
+    weight = 9810. * result.points.volume.sum()
+    assert result.history[-1].obstacle_forces[0] == pytest.approx(
+        [0., -weight], abs=1e-9 * weight)
+    path.write_text(text)
+    with pytest.raises(SceneError, match="without supports or obstacles"):
+        load_scene(path)
+
+
 @pytest.mark.slow
 def test_hertz_contact_half_width():
     """Hertz in plane strain: a rigid cylinder (R = 1, a polygon of 720

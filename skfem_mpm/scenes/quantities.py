@@ -236,12 +236,14 @@ class Quantity:
         if self.quantity in FORCES:
             names, resultant = reaction_resultants(scene)
             rows = resultant(result.history[-1])
-            # supports, rigid bodies and obstacles in that order: the
-            # name is looked up among its own kind
-            kinds = ([s for s in names[:len(scene.supports)]],
-                     names[len(scene.supports):len(names) - len(
-                         scene.obstacles)],
-                     names[len(names) - len(scene.obstacles):])
+            # supports, rigid bodies, obstacles and contacts in that
+            # order: the name is looked up among its own kind (with the
+            # contacts' names last, the obstacles were looked up among
+            # the wrong names, and a finished run ended in a ValueError)
+            ends = np.cumsum([len(scene.supports), len(names) - len(
+                scene.supports) - len(scene.obstacles) - len(
+                    scene.contacts), len(scene.obstacles)])
+            kinds = [names[a:b] for a, b in zip(np.r_[0, ends[:-1]], ends)]
             kind = list(FORCES).index(self.quantity)
             start = sum(len(k) for k in kinds[:kind])
             force = rows[start + kinds[kind].index(

@@ -742,9 +742,10 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             check_quantities(scene, outputs)
         except InvalidInputError as err:
             c.problems.append("outputs: {}".format(err))
-    if not supports and dynamics is None and not c.problems:
-        c.problems.append("supports: missing: without supports every body "
-                          "can move freely")
+    if not (supports or obstacles) and dynamics is None and \
+            not c.problems:
+        c.problems.append("supports: missing: without supports or "
+                          "obstacles every body can move freely")
     if c.problems:
         raise SceneError(c.problems, source)
     return scene
