@@ -87,6 +87,7 @@ from typing import Sequence
 import numpy as np
 from numpy import ndarray
 from scipy.sparse import coo_matrix, csr_matrix, identity, kron, vstack
+from scipy.spatial import cKDTree
 
 from ..errors import InvalidInputError, StepTooLongError
 from ..quadrature.locate import cell_coordinates
@@ -108,6 +109,12 @@ RESOLVED = 1e-3
 #: a corner further from every obstacle than this many cells at a step's
 #: start is left out of the step's contact (checked again after Newton)
 MARGIN_CELLS = 2.
+
+#: faces of an obstacle whose distances from a corner differ by less than
+#: this many cells are alike: the material's side decides
+#: (:meth:`~skfem_mpm.solve.obstacles.Obstacle.nearest_face`); corners
+#: closer than it are at one place (:meth:`StepContact.inward`)
+ALIKE = 1e-2
 
 
 def coulomb(friction, kappa: float, p: ndarray, n: ndarray, tau: ndarray,
@@ -460,7 +467,7 @@ class StepContact(GridTerm):
         self.op = problem.method_op
         x = points.x if term.moves else points.x + points.displacement
         F = term.deformation(points)
-        r = np.einsum("abp,bcp->acp", F, term.R)          # (dim, nc, n)
+        self.r = r = np.einsum("abp,bcp->acp", F, term.R)  # (dim, nc, n)
         # the offset the step's gradient acts on: the initial one with FE
         # (gradients of the initial configuration) and in small strain
         # (whose kept gradient adds the increments: F = I + sum(grad du))
@@ -525,6 +532,7 @@ class StepContact(GridTerm):
         # start; after Newton, those found apart let go and those pressed
         # join, each once), their gaps at the start, which changed
         self.held, self.start_gap, self.changed = [], [], []
+        inward = self.inward(idx)
         for i, ob in enumerate(term.obstacles):
             names = pressure_names(i, dim)
             self.lam.append(np.concatenate([self.state[nm][idx]
@@ -532,7 +540,8 @@ class StepContact(GridTerm):
             self.tau.append(np.array([np.concatenate(
                 [self.state[nm][idx] for nm in comp])
                 for comp in names[1:]]))
-            face = ob.nearest_face(self.Xs, self.shift_old[i])
+            face = ob.nearest_face(self.Xs, self.shift_old[i], inward,
+                                   ALIKE * term.h)
             _, normal, over = ob.face_gap(self.Xs, face, self.shift_old[i])
             self.face.append((face, over))
             self.closed.append(term.closed[i][:, idx].ravel())
@@ -559,6 +568,22 @@ class StepContact(GridTerm):
             (kappa * tol * safe_norm(area) for kappa, tol, area in zip(
                 term.kappa, term.tol, self.area)), default=0.)
         self.evaluations = WeakKeyDictionary()
+
+    def inward(self, idx: ndarray) -> ndarray:
+        """Per corner of the points ``idx`` (dim, corners m, in the order
+        of ``Xs``), the direction into the material there: the sum of
+        the offsets to their points from the corners at its place (within
+        :data:`ALIKE` cells), of every domain with a corner there (the
+        corner of two domains on a body's flat face points across it)."""
+        dim = self.dim
+        towards = -self.r[:, :, idx].reshape(dim, -1)
+        tree = cKDTree(self.Xs.T)
+        near = tree.sparse_distance_matrix(tree, ALIKE * self.term.h,
+                                           p=np.inf, output_type="ndarray")
+        other = near["i"] != near["j"]
+        out = towards.copy()
+        np.add.at(out.T, near["i"][other], towards[:, near["j"][other]].T)
+        return out
 
     def check_passing(self, u: ndarray, H: ndarray) -> None:
         """Refuse a step that carried material through an obstacle
