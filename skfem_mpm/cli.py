@@ -263,14 +263,18 @@ def energy_curves(rows) -> dict:
     """A dynamic run's energies over time from its history ``rows``: at
     the start and after every step, ``time`` (s), ``kinetic`` energy and
     the accumulated ``internal_work`` and ``external_work`` (J, per unit
-    thickness in 2D), as :meth:`skfem_mpm.Result.energies`."""
+    thickness in 2D) and ``balance``, as :meth:`skfem_mpm.Result.
+    energies`."""
     col = {k: rows[:, HISTORY_KEYS.index(k)] for k in HISTORY_KEYS}
+    kinetic = np.r_[col["kinetic_start"][0], col["kinetic"]]
+    internal = np.r_[0., np.cumsum(col["internal_work"])]
+    external = np.r_[0., np.cumsum(col["external_work"])]
     return {
         "time": [float(col["time"][0] - col["time_step"][0])]
         + col["time"].tolist(),
-        "kinetic": [float(col["kinetic_start"][0])] + col["kinetic"].tolist(),
-        "internal_work": [0.] + np.cumsum(col["internal_work"]).tolist(),
-        "external_work": [0.] + np.cumsum(col["external_work"]).tolist()}
+        "kinetic": kinetic.tolist(), "internal_work": internal.tolist(),
+        "external_work": external.tolist(),
+        "balance": (kinetic + internal - external).tolist()}
 
 
 def rigid_body_curves(scene, rows, reactions) -> dict:
@@ -288,8 +292,7 @@ def rigid_body_curves(scene, rows, reactions) -> dict:
              if b.rigid is not None]
     obstacles = [(o.name, o.displacement, -1.)
                  for o in obstacle_list(scene)]
-    contacts = [(c.name, np.zeros(scene.grid.dim), 1.)
-                for c in scene.contacts]
+    contacts = [(c.name, None, 1.) for c in scene.contacts]
     out, first = {}, len(scene.supports)
     for key, items in (("rigid_bodies", rigid), ("obstacles", obstacles),
                        ("contacts", contacts)):
@@ -306,12 +309,14 @@ def motion_curves(items, factors, scale, forces) -> dict:
     displacement and force per step (``forces``: steps x items x dim; the
     steps' load ``factors`` and the loads' ``scale``), the peak and the
     final force; ``sign`` turns the force to the one that resists the
-    motion."""
+    motion.  An item with no displacement (``None``: a contact between
+    bodies) has no displacement keys."""
     curves = {}
     for k, (name, motion, sign) in enumerate(items):
         force = forces[:, k]
-        displacement = scale[:, None] * np.asarray(motion)
-        size = np.linalg.norm(motion)
+        displacement = scale[:, None] * np.asarray(
+            np.zeros(force.shape[1]) if motion is None else motion)
+        size = 0. if motion is None else np.linalg.norm(motion)
         # the force that holds the motion points along it (a footing
         # pushed down: downward): its largest component along the motion
         if size > 0:
@@ -326,6 +331,9 @@ def motion_curves(items, factors, scale, forces) -> dict:
             "peak_displacement": None if peak is None
             else displacement[peak].tolist(),
             "final_force": force[-1].tolist() if len(force) else None}
+        if motion is None:
+            del curves[name]["displacement"], \
+                curves[name]["peak_displacement"]
     return curves
 
 
@@ -476,10 +484,11 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
     fig, ax = pyplot().subplots(figsize=(5.5, 4))
     moving = all(np.any(d) for d in motion.values())
     for name, curve in curves.items():
-        disp = np.vstack([np.zeros((1, len(curve["displacement"][0]))),
-                          curve["displacement"]])
-        force = np.vstack([np.zeros_like(disp[:1]), curve["force"]])
+        force = np.vstack([np.zeros((1, len(curve["force"][0]))),
+                           curve["force"]])
         if moving:
+            disp = np.vstack([np.zeros_like(force[:1]),
+                              curve["displacement"]])
             x = disp @ (motion[name] / np.linalg.norm(motion[name]))
         else:
             x = np.array([0.] + curve["load_factor"]) * (
@@ -489,7 +498,7 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
         mark_peak(ax, line, x, magnitude)
     ax.set_xlabel("obstacle displacement along its motion (m)" if moving
                   else "time (s)" if scene.dynamics else "load factor (-)")
-    ax.set_ylabel("{}, magnitude ({})".format(
+    ax.set_ylabel("{},\nmagnitude ({})".format(
         "force of the material on it" if what == "obstacles" else
         "force of the first body on the second",
         quantity_unit("rigid_force", scene.grid.dim)))

@@ -395,6 +395,8 @@ def test_a_scene_with_a_contact(tmp_path):
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     force = np.array(summary["contacts"]["base-block"]["force"])
     assert np.allclose(force, [[0., 5.], [0., 10.]], atol=1e-8)
+    # a contact has no displacement of its own (its entries were zeros)
+    assert "displacement" not in summary["contacts"]["base-block"]
     assert (tmp_path / "out" / "contacts.png").stat().st_size > 0
     # interrupted after a step and resumed from its checkpoint (the small
     # strain gradient the contact keeps comes back): the same forces

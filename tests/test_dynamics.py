@@ -297,6 +297,11 @@ def test_dynamic_scene_file_run_and_resume(tmp_path, capsys):
         pytest.approx(.5, abs=1e-15)
     assert abs(energies["kinetic"][-1] / energies["external_work"][-1] - 1) \
         < 1e-12
+    # the balance, as Result.energies() has it (a user trial missed it)
+    assert np.allclose(energies["balance"], np.array(energies["kinetic"])
+                       + energies["internal_work"]
+                       - np.array(energies["external_work"]), rtol=0.,
+                       atol=1e-12 * max(energies["kinetic"]))
     assert (full / "energies.png").stat().st_size > 10_000
     pvd = (full / "points.pvd").read_text()
     assert 'timestep="0.05"' in pvd and 'timestep="0.5"' in pvd
