@@ -218,7 +218,6 @@ class CompiledPasses:
         self._start = (None, None)      # a step's strain and b_n - I
         self._increments = None         # dF and dF^-1, reused
         self._buffers = None            # the kinematics' workspace, seeded
-        self._no_state = np.zeros((2, 0))
 
     def serves(self, op, points) -> bool:
         """Whether the passes serve the point operator ``op``: standard
@@ -297,13 +296,7 @@ class CompiledPasses:
         return buffers[1:]
 
     def _state(self, points) -> ndarray:
-        """The internal variables of ``points``, (2, n); of a material
-        without any, zeros kept for every call (the passes only read
-        them)."""
-        if not self.variables:
-            if self._no_state.shape[1] != points.n:
-                self._no_state = np.zeros((2, points.n))
-            return self._no_state
+        """The internal variables of ``points``, (2, n)."""
         state = np.zeros((2, points.n))
         for row, name in enumerate(self.variables):
             state[row] = points.state[name]
