@@ -1059,6 +1059,48 @@ def test_an_obstacle_edge_meeting_material_inside_a_cell_is_warned(
         "line at it, or refine".format(warned)])
 
 
+@pytest.mark.parametrize("slope, warned", [(30., 30.), (5., None),
+                                           (0., None)])
+def test_material_on_an_inclined_polygon_face_is_warned(caplog, slope,
+                                                        warned):
+    """A block seeded on a polygon incline meets it with a staircase of
+    its points' axis-aligned domains, touching at a few corners: warned
+    before any step where the face is inclined by more than 10 degrees
+    (a user trial's block on a 30 degree incline slid 17% too fast with
+    MPM and slid where friction holds it, docs/contact.md), not on a
+    level or nearly level polygon floor."""
+    th = np.radians(slope)
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 22),
+                                np.linspace(-.6, 2.2, 21))
+    t, n = np.array([np.cos(th), -np.sin(th)]), np.array([np.sin(th),
+                                                          np.cos(th)])
+    origin = np.array([0., 1.5])
+
+    def block(x):
+        r = (x - origin[:, None]).T
+        return (r @ t > .6) & (r @ t < 1.) & (r @ n > .01) & (r @ n < .2)
+    pts = seed_points(mesh, 2, region=block)
+    corners = np.hstack([pts.x + np.array([[a], [b]]) * pts.domain
+                         for a in (-1, 1) for b in (-1, 1)])
+    lift = -((corners - origin[:, None]).T @ n).min()
+    pts.x += n[:, None] * lift
+    pts.x0 += n[:, None] * lift
+    incline = Obstacle(polygon=[[-1, 1.5 + np.tan(th)],
+                                [4, 1.5 - 4 * np.tan(th)], [4, -5], [-1, -5]],
+                       friction=.3, name="incline")
+    with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e7, .3), [],
+                 body_force=BodyForce([0., -9.81e3], ramp=False),
+                 dynamics=Dynamics(.01, .01, 1e3), obstacles=[incline])
+    found = [r.getMessage() for r in caplog.records
+             if "staircase" in r.getMessage()]
+    assert len(found) == (warned is not None)
+    if found:
+        assert found[0].startswith("obstacle 'incline': the material meets "
+                                   "a face inclined by {:g} degrees".format(
+                                       warned))
+
+
 def test_a_3d_strip_footing_off_grid_lines_is_warned(caplog):
     """A strip footing in 3D wider than the grid (its corners outside it)
     whose edge x = 0.6 lies inside a cell is warned: its corners are
