@@ -123,3 +123,20 @@ def test_obstacles_are_drawn_as_named_outlines_and_plain_points():
                                   [0., 1.25]])
     assert not plot.figure_problems(fig)
     plot.pyplot().close(fig)
+
+
+@pytest.mark.parametrize("level, drawn", [(0., False), (.25, True)])
+def test_a_3d_slice_draws_only_the_supports_in_it(level, drawn):
+    """A 3D picture's slice (its layer of points at z = 0.25, spaced
+    0.1) draws a support whose nodes lie in its plane, and names one at
+    the base z = 0, farther than the points' spacing, as not in the slice
+    (a user trial's picture drew it as if in it)."""
+    nodes = np.array([[0., 1., 2.], [0., 0., 0.], [level] * 3])
+    fig, ax = plot.pyplot().subplots()
+    handles = []
+    slab = np.mgrid[.05:2:.1, .05:1:.1, .25:.3:.1].reshape(3, -1)
+    plot.draw_supports(ax, [plot.SupportMarks("base", nodes, (0, 1, 2))],
+                       (0, 1), slab, handles, 3)
+    assert (handles[0].get_label() == "base") == drawn
+    assert (len(ax.lines[0].get_xdata()) == 3) == drawn
+    plot.pyplot().close(fig)

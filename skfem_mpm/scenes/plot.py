@@ -455,8 +455,10 @@ def draw_supports(ax, supports, axes: tuple, slab, handles: list,
     picture's ``axes``, each in its own colour with a marker by the
     components it holds, and its legend handle appended to ``handles``;
     in 3D only the nodes on the grid plane nearest the slab of points
-    ``slab`` (3, n) drawn (a support elsewhere is named as not in the
-    slice); in 1D the nodes are marked on both bars."""
+    ``slab`` (3, n) drawn, where it lies within the slab's spacing of
+    points of it (a support elsewhere is named as not in the slice: a
+    base at z = 0 was drawn in a slice at z = 0.25); in 1D the nodes are
+    marked on both bars."""
     from matplotlib.lines import Line2D
     a, b = axes
     plane = None
@@ -466,6 +468,9 @@ def draw_supports(ax, supports, axes: tuple, slab, handles: list,
         levels = np.unique(np.concatenate([s.nodes[across]
                                            for s in supports]))
         plane = levels[np.argmin(np.abs(levels - middle))]
+        spread = np.diff(np.unique(slab[a]))
+        if abs(plane - middle) > spread.min(initial=np.inf):
+            plane = np.nan                   # no support in the slice
     styles = series_styles(len(supports))
     for support, style in zip(supports, styles):
         nodes = np.asarray(support.nodes, float)
