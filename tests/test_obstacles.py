@@ -606,7 +606,8 @@ friction = 0.3
 
 
 @pytest.mark.parametrize("method, edge", [("mpm", 1.25),
-                                          ("cpgimp", 1.2)])
+                                          ("cpgimp", 1.2),
+                                          ("bspline", 1.25)])
 def test_a_block_landing_over_a_smooth_step_edge_is_not_pushed(method,
                                                                edge):
     """A block dropped flat on a smooth step whose edge lies on a column

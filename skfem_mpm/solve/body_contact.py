@@ -492,21 +492,12 @@ class BodyContact(GridTerm):
         S = self.cell_values(X, op.point_elements[p], op.N // dim)
         return kron(S, identity(dim), format="csr")
 
-    def shared_rows(self, op, points, corner: ndarray, among: ndarray):
-        """The vector rows (dim m, N) of the corners ``c n + p``, each
-        averaged over the corners of the points ``among`` at its place
-        (within half of :data:`~skfem_mpm.solve.
-        contact_pairs.FACING` cells; ``among`` of the corners' body).
-        Neighbouring domains share corners, and each moves with its own
-        point's cell: one of them, taken for a pair by the order, made a
-        mirror-symmetric block landing on a slab turn (its tangent held
-        the slab's corner on the middle line by the right cell's nodes,
-        not the left's: 3.5e-8 asymmetric at the landing, 9e-3 of its
-        motion after the bounce, the same in the mirrored model).  Also
-        those corners' points (2, k: the corner's index, a point).  The
-        pair's gap stays its own corners' (the step's joins and checks
-        read single corners; the mean's, tried, took a frictional punch
-        on a plastic stack 670 Newton iterations for 416)."""
+    def companions(self, points, corner: ndarray, among: ndarray):
+        """The corners of the points ``among`` (of the corners' body) at
+        the place of each of the corners ``c n + p`` (within half of
+        :data:`~skfem_mpm.solve.contact_pairs.FACING` cells), itself
+        among them: (i, j), corner ``corner[i]`` has ``j`` (``c n + p``)
+        at its place."""
         dim, n = self.dim, points.n
         X = self.corners(points).reshape(dim, -1)
         nc = X.shape[1] // n
@@ -515,12 +506,27 @@ class BodyContact(GridTerm):
         near = cKDTree(X[:, corner].T).sparse_distance_matrix(
             cKDTree(X[:, pool].T), .5 * FACING * self.h, p=np.inf,
             output_type="ndarray")
-        i, j = near["i"], pool[near["j"]]
+        return near["i"], pool[near["j"]]
+
+    def shared_rows(self, op, points, corner: ndarray, near):
+        """The vector rows (dim m, N) of the corners ``c n + p``, each
+        averaged over the corners at its place (``near``, of
+        :meth:`companions`).  Neighbouring domains share corners, and
+        each moves with its own point's cell: one of them, taken for a
+        pair by the order, made a mirror-symmetric block landing on a
+        slab turn (its tangent held the slab's corner on the middle line
+        by the right cell's nodes, not the left's: 3.5e-8 asymmetric at
+        the landing, 9e-3 of its motion after the bounce, the same in the
+        mirrored model).  The pair's gap stays its own corners' (the
+        step's joins and checks read single corners; the mean's, tried,
+        took a frictional punch on a plastic stack 670 Newton iterations
+        for 416)."""
+        i, j = near
         count = np.bincount(i, minlength=corner.size)
         mean = csr_matrix((1. / count[i], (i, np.arange(i.size))),
                           shape=(corner.size, i.size))
-        return (kron(mean, identity(dim), format="csr")
-                @ self.rows(op, points, j), np.stack([i, j % n]))
+        return kron(mean, identity(self.dim), format="csr") \
+            @ self.rows(op, points, j)
 
     def held_dofs(self, op, points, scale: float):
         """The DOFs of both bodies at pairs touching at the step's start
@@ -787,17 +793,18 @@ class StepBodyContact(GridTerm):
         term = self.term
         first, second = term.contacts[part["contact"]][:2]
         body = points.body[self.interface]
-        JB, onB = term.shared_rows(op, points, B,
-                                   self.interface[body == second])
-        JA, onA = term.shared_rows(op, points, A,
-                                   self.interface[body == first])
-        onB[0] += part["n"].shape[1] if "n" in part else 0
-        onA[0] += part["n"].shape[1] if "n" in part else 0
+        nearB = term.companions(points, B, self.interface[body == second])
+        nearA = term.companions(points, A, self.interface[body == first])
         # with friction a pair's stick is carried per corner (its
         # traction, point state at its place): the mean's rows, tried
         # there, moved a rough pile's settlement in 20 steps by 4.6%
-        D = JB - JA if term.contacts[part["contact"]][2].friction == 0. \
+        D = term.shared_rows(op, points, B, nearB) \
+            - term.shared_rows(op, points, A, nearA) \
+            if term.contacts[part["contact"]][2].friction == 0. \
             else term.rows(op, points, B) - term.rows(op, points, A)
+        before = part["n"].shape[1] if "n" in part else 0
+        onB = np.stack([nearB[0] + before, nearB[1] % points.n])
+        onA = np.stack([nearA[0] + before, nearA[1] % points.n])
         # a penetration at the step's start is closed: the corners of
         # deformed domains, moved through each point's own gradient, are
         # not quite where the grid field moved the last step's pairs
@@ -983,12 +990,13 @@ class StepBodyContact(GridTerm):
             record.u = fields[first, np.arange(N)]
 
     def finish(self, problem, new, record) -> None:
-        """In dynamics, an impact is perfectly plastic along the normal:
-        per pressed pair, the points of each side's corners at its place
-        (:meth:`BodyContact.shared_rows`) leave the step with no relative
-        normal velocity or acceleration between the two sides' mass
-        averages, momentum kept: the reduced mass's impulse, divided by
-        the most pairs any of those points is in, each side's points
+        """In dynamics, an impact is plastic along the normal: per
+        pressed pair, the points of each side's corners at its place
+        (:meth:`BodyContact.companions`) lose the relative normal
+        velocity and acceleration between the two sides' mass averages,
+        momentum kept: the reduced mass's impulse, divided by the most
+        pairs any of those points is in (a point of several pairs takes a
+        share from each: along a flat face the whole), each side's points
         changed alike.  Without this a body set down on another
         rebounds, and the contact chatters; with the points of one corner
         taken per pair, in the pairs' order, a symmetric landing turned."""

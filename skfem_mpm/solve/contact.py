@@ -115,10 +115,13 @@ MARGIN_CELLS = 2.
 #: (:meth:`ObstacleContact.warn_inclined_faces`)
 INCLINED = 10.
 
+#: the cells within which a corner touches a face for that warning
+TOUCHING = .1
+
 #: faces of an obstacle whose distances from a corner differ by less than
 #: this many cells are alike: the material's side decides
 #: (:meth:`~skfem_mpm.solve.obstacles.Obstacle.nearest_face`); corners
-#: closer than it are at one place (:meth:`StepContact.inward`)
+#: closer than it are at one place (:meth:`StepContact.material_side`)
 ALIKE = 1e-2
 
 
@@ -403,9 +406,11 @@ class ObstacleContact(GridTerm):
 
     def warn_inclined_faces(self, X0: ndarray) -> None:
         """Log a warning for each polygon obstacle with a face inclined
-        by more than :data:`INCLINED` degrees to the grid's axes within a
-        cell of the material's domain corners ``X0`` (dim, corners, n) at
-        the run's start: the material's surface against it is a staircase
+        by more than :data:`INCLINED` degrees to the grid's axes that the
+        material's domain corners ``X0`` (dim, corners, n) touch at the
+        run's start (within :data:`TOUCHING` cells; within a cell, a disc
+        pressed on a flat block was warned by its faces beside the
+        contact): the material's surface against it is a staircase
         of the points' axis-aligned domains, touching it at a few corners.
         A block 0.4 x 0.2 seeded on a 30 degree incline (a user trial, h =
         0.14, MPM, dynamics) slid 17% faster than Coulomb's law gives with
@@ -418,7 +423,7 @@ class ObstacleContact(GridTerm):
             if ob.box is not None or ob.friction == "tied":
                 continue
             near = np.abs(ob.signed_distance(X0, self.start[i])[0]) \
-                < self.h
+                < TOUCHING * self.h
             if not near.any():
                 continue
             face = ob.nearest_face(X0[:, near], self.start[i])
@@ -573,7 +578,7 @@ class StepContact(GridTerm):
         # start; after Newton, those found apart let go and those pressed
         # join, each once), their gaps at the start, which changed
         self.held, self.start_gap, self.changed = [], [], []
-        inward = self.inward(idx)
+        self.inward = self.material_side()
         for i, ob in enumerate(term.obstacles):
             names = pressure_names(i, dim)
             self.lam.append(np.concatenate([self.state[nm][idx]
@@ -581,7 +586,7 @@ class StepContact(GridTerm):
             self.tau.append(np.array([np.concatenate(
                 [self.state[nm][idx] for nm in comp])
                 for comp in names[1:]]))
-            face = ob.nearest_face(self.Xs, self.shift_old[i], inward,
+            face = ob.nearest_face(self.Xs, self.shift_old[i], self.inward,
                                    ALIKE * term.h)
             _, normal, over = ob.face_gap(self.Xs, face, self.shift_old[i])
             self.face.append((face, over))
@@ -610,21 +615,29 @@ class StepContact(GridTerm):
                 term.kappa, term.tol, self.area)), default=0.)
         self.evaluations = WeakKeyDictionary()
 
-    def inward(self, idx: ndarray) -> ndarray:
-        """Per corner of the points ``idx`` (dim, corners m, in the order
-        of ``Xs``), the direction into the material there: the sum of
-        the offsets to their points from the corners at its place (within
+    def material_side(self):
+        """``inward(which)``: per corner ``which`` (indices of ``Xs``) the
+        direction into the material there (dim, k), the sum of the
+        offsets to their points from the corners at its place (within
         :data:`ALIKE` cells), of every domain with a corner there (the
-        corner of two domains on a body's flat face points across it)."""
-        dim = self.dim
-        towards = -self.r[:, :, idx].reshape(dim, -1)
-        tree = cKDTree(self.Xs.T)
-        near = tree.sparse_distance_matrix(tree, ALIKE * self.term.h,
-                                           p=np.inf, output_type="ndarray")
-        other = near["i"] != near["j"]
-        out = towards.copy()
-        np.add.at(out.T, near["i"][other], towards[:, near["j"][other]].T)
-        return out
+        corner of two domains on a body's flat face points across it);
+        asked only where faces of an obstacle are alike
+        (:meth:`~skfem_mpm.solve.obstacles.Obstacle.nearest_face`; all
+        of a step's corners against all cost 9 s a step at 1e5 points in
+        3D)."""
+        towards = -self.r[:, :, self.idx].reshape(self.dim, -1)
+        tree = []
+
+        def inward(which):
+            if not tree:
+                tree.append(cKDTree(self.Xs.T))
+            near = cKDTree(self.Xs[:, which].T).sparse_distance_matrix(
+                tree[0], ALIKE * self.term.h, p=np.inf,
+                output_type="ndarray")
+            out = np.zeros((self.dim, which.size))
+            np.add.at(out.T, near["i"], towards[:, near["j"]].T)
+            return out
+        return inward
 
     def check_passing(self, u: ndarray, H: ndarray) -> None:
         """Refuse a step that carried material through an obstacle
@@ -825,7 +838,10 @@ class StepContact(GridTerm):
             gap = ob.face_gap(Xs, face, self.shift[i])[0] - self.closed[i]
             wrong = (phi < -term.tol[i]) & ~(over & (gap < -term.tol[i]))
             if wrong.any():
-                face[wrong] = ob.nearest_face(Xs[:, wrong], self.shift[i])
+                wrong = np.flatnonzero(wrong)
+                face[wrong] = ob.nearest_face(
+                    Xs[:, wrong], self.shift[i],
+                    lambda which: self.inward(wrong[which]), ALIKE * term.h)
                 over[wrong] = True
                 across = True
         if across:

@@ -176,9 +176,12 @@ class PairFinder:
             entries[0] = tuple(e[..., faces] for e in entries[0])
             if self.columns:
                 slot, B = self.surface(entries, normal, node_x)
+                # the entries' nodes are the normals' so far (a node with
+                # no pair after surface() left the count short: two free
+                # B-spline blocks colliding failed with an IndexError)
+                entries[0] = self.spread(entries[0], slot, normal.shape[1])
+                wide = self.spread(wide, slot, normal.shape[1])
                 normal = normal[:, slot]
-                entries[0] = self.spread(entries[0], slot, slot.size)
-                wide = self.spread(wide, slot, slot.size)
             else:
                 B = self.extreme(entries[1], normal, node_x, True)
             XB = X.reshape(dim, -1)[:, B]

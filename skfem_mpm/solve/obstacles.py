@@ -202,17 +202,19 @@ class Obstacle:
         return self._faces
 
     def nearest_face(self, x: ndarray, shift: ndarray,
-                     inward: ndarray = None, alike: float = 0.) -> ndarray:
+                     inward=None, alike: float = 0.) -> ndarray:
         """The face (m,) of the obstacle shifted by ``shift`` nearest to
         each position ``x`` (dim, m): the face a point outside will touch
-        first, or the face of least depth of a point inside.  Given the
-        direction ``inward`` (dim, m) into the material at each position,
-        of faces within ``alike`` of the nearest the one the material
-        lies beyond (its outward normal nearest ``inward``): a corner on
-        a body's flat bottom right over a step's edge is as near the
-        step's side as its top, and the side, taken by the order of the
-        faces, pushed a block landing on a smooth step sideways (a user
-        trial: 0.39 m/s after a drop of 0.3, off the step)."""
+        first, or the face of least depth of a point inside.  Given
+        ``inward``, a function of the indices of the positions with more
+        than one face within ``alike`` of the nearest giving the
+        direction into the material at each (dim, k), of those faces the
+        one the material lies beyond (its outward normal nearest that
+        direction; of those alike in it, the nearest): a corner on a
+        body's flat bottom right over a step's edge is as near the step's
+        side as its top, and the side, taken by the order of the faces,
+        pushed a block landing on a smooth step sideways (a user trial:
+        0.39 m/s after a drop of 0.3, off the step)."""
         x = x - shift[:, None]
         a, n, lo, hi = self.faces()
         if lo is not None:
@@ -221,19 +223,16 @@ class Obstacle:
             off = np.maximum(lo[:, :, None] - x[:, None, :], 0.) \
                 + np.maximum(x[:, None, :] - hi[:, :, None], 0.)
             d2 = normal ** 2 + (np.nan_to_num(off, posinf=0.) ** 2).sum(0)
-            return _nearest(d2, n, inward, alike)
+            return _nearest(d2, n, inward, alike, np.arange(x.shape[1]))
 
-        def nearest(y, w):
-            rel = y[:, None, :] - a[:, :, None]
+        def nearest(y):         # the positions' indices in the last row
+            rel = y[:-1, None, :] - a[:, :, None]
             t = np.clip((rel * hi[:, :, None]).sum(axis=0)
                         / (hi * hi).sum(axis=0)[:, None], 0., 1.)
             return (_nearest(((rel - t * hi[:, :, None]) ** 2).sum(axis=0),
-                             n, w, alike),)
-        dim = x.shape[0]
-        return _by_blocks(lambda y: nearest(
-            y[:dim], None if inward is None else y[dim:]),
-            x if inward is None else np.vstack([x, inward]),
-            a.shape[1])[0]
+                             n, inward, alike, y[-1].astype(np.int64)),)
+        return _by_blocks(nearest, np.vstack([x, np.arange(x.shape[1])]),
+                          a.shape[1])[0]
 
     def face_gap(self, x: ndarray, face: ndarray, shift: ndarray):
         """The gap (m,) of each position ``x`` (dim, m) from the plane of
@@ -414,17 +413,27 @@ def _edges_crossed(v: ndarray, x: ndarray, d: ndarray):
             np.array([t_out[out, cols], out]))
 
 
-def _nearest(d2: ndarray, n: ndarray, inward, alike: float) -> ndarray:
+def _nearest(d2: ndarray, n: ndarray, inward, alike: float,
+             at: ndarray) -> ndarray:
     """Of the faces (k, m: squared distances ``d2``, outward normals ``n``,
-    dim x k) the nearest to each position, or, given ``inward`` (dim, m),
-    of those within ``alike`` of the nearest the one whose normal is
-    nearest ``inward`` (the order of the faces decides what is left)."""
+    dim x k) the nearest to each position (``at``: their indices), or,
+    given ``inward`` (:meth:`Obstacle.nearest_face`), where several lie
+    within ``alike`` of the nearest, the one whose normal is nearest the
+    direction into the material, then the nearest (the order of the faces
+    decides what is left)."""
+    face = np.argmin(d2, axis=0)
     if inward is None:
-        return np.argmin(d2, axis=0)
+        return face
     d = np.sqrt(d2)
-    score = np.where(d <= d.min(axis=0) + alike,
-                     np.einsum("ak,am->km", n, inward), -np.inf)
-    return np.argmax(score, axis=0)
+    best = d.min(axis=0)
+    near = d <= best + alike
+    tied = np.flatnonzero(near.sum(axis=0) > 1)
+    if tied.size:
+        score = np.einsum("ak,am->km", n, inward(at[tied])) \
+            - 1e-9 * (d[:, tied] - best[tied]) / max(alike, 1e-300)
+        face[tied] = np.argmax(np.where(near[:, tied], score, -np.inf),
+                               axis=0)
+    return face
 
 
 def _box_distance(box: ndarray, x: ndarray):

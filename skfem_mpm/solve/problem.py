@@ -429,10 +429,13 @@ class StepProblem:
         the points' increments; looked for where a point moved more than
         :data:`THROWN` cells).  A small-strain uGIMP cantilever pushed
         far beyond its range (a user trial, P L^2 / E I = 3) converged a
-        step to 1e-12 that threw a point 64 cells by a node of 5e-4 cells
+        step to 1e-12 that threw a point 52 cells by a node of 5e-4 cells
         of support: the absurd grid motion was not caught, as a point had
         moved as far, and the run ended with the point outside the grid,
-        or a step later, by its position, as a body held by no support."""
+        or a step later, by its position, as a body held by no support.
+        Unlike :meth:`check_grid_motion`, a step solved with the
+        stabilised tangent is checked too: its zero-energy modes move
+        nodes arbitrarily, but no point by cells."""
         run = self.run
         h = run.cell_size
         if not (run.method.moves and np.abs(dx).max(initial=0.) > THROWN * h):
