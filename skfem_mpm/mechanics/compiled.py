@@ -380,7 +380,11 @@ class CompiledPasses:
             self._state(points),
             f, stress, strain, x, vecs, y, dy_dx, yielded, eq,
             *(() if cells is None else cells.cells))
-        empty = np.empty((3, 3, 0))
+        # the stiffness pass reads no dF^-1 in small strain: one of two
+        # points, strided as the finite pass's, so that both call the
+        # same compiled stiffness (a contiguous one, of another type, made
+        # numba compile it again: 15 s for each of its four forms)
+        empty = points_first(2, 3, 3)
         if not self.plastic:
             # a writeable copy: the type of every call's C is one
             C = elastic_tensor(self.material, 1, m)[..., 0].copy()
