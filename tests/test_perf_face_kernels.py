@@ -79,3 +79,28 @@ def test_both_slots_give_the_same_operator_and_load():
     assert all(abs(g - h).max() == 0 for g, h in zip(a.G, b.G))
     f = top_load("numpy")
     assert np.abs(f).sum() > 0 and np.array_equal(f, top_load("compiled"))
+
+
+@pytest.mark.parametrize("method", ["cpgimp", "ugimp"])
+def test_simulate_hands_the_kernels_option_to_gimp_and_the_loads(refused,
+                                                                 method):
+    """``simulate(..., options=Options(kernels="numpy"))`` with GIMP on
+    quadratic elements and a traction builds the sub-point basis and the
+    face basis with scikit-fem's slots under ``SKFEM_MPM_KERNELS=auto``
+    (the option stopped at the method piece, and the compiled slots
+    ran); with ``"auto"`` they run (the fixture refuses them)."""
+    from skfem_mpm import LinearElastic, Options, simulate
+    refused.setenv("SKFEM_MPM_KERNELS", "auto")
+    mesh, points = block()
+    top = np.flatnonzero(points.x[1] > .8)
+
+    def run(kernels):
+        return simulate(mesh, ElementQuad2(), points, LinearElastic(1e3, .3),
+                        lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                        loads=[Traction(top, "top", [0., -1.])],
+                        method=method, options=Options(kernels=kernels))
+    assert run("numpy").history[-1].load_factor == 1.
+    with pytest.raises(Exception) as caught:
+        run("auto")
+    assert isinstance(caught.value, Called) or isinstance(
+        caught.value.__cause__, Called)

@@ -123,7 +123,20 @@ class GimpMethod(PointMethod):
                  counters):
         super().__init__(name, mesh, scalar, scalar_dofs, pattern, locate,
                          counters)
-        self.gimp = gimp_operators(mesh, scalar, locate)
+        self._grid = mesh, scalar, locate
+        self.kernels = PointMethod.kernels
+
+    @property
+    def kernels(self) -> str:
+        """The run's ``kernels`` option (:attr:`PointMethod.kernels`),
+        the sub-point basis's too (quadratic elements)."""
+        return self._kernels
+
+    @kernels.setter
+    def kernels(self, kernels: str):
+        if getattr(self, "_kernels", None) != kernels:    # set up once
+            self._kernels = kernels
+            self.gimp = gimp_operators(*self._grid, kernels=kernels)
 
     def operator(self, points, step: int, timings: dict):
         location = self.locate(points.x, step, timings, points)
@@ -412,6 +425,8 @@ def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
     piece = _method(name, mesh, scalar, scalar_dofs, pattern, locate,
                     counters, fields, extended, held)
     piece.kernels = check_kernels(kernels)
+    if isinstance(piece, FieldMethod):       # the piece it moves, too
+        piece.piece.kernels = piece.kernels
     return piece
 
 

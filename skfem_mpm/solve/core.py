@@ -1082,7 +1082,8 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
                              domain0, counters, points.n,
                              follow=kinematics == "finite",
                              moves=method != "fem", ramp_gravity=case.ramp,
-                             weights=getattr(piece, "weights_at", None))
+                             weights=getattr(piece, "weights_at", None),
+                             kernels=options.kernels)
     check_exposed(case.forces, points)     # the loads' indices checked
     if method in ("fem", "mpm"):
         piece.pattern.structure()        # set-up, shared by every step
