@@ -64,12 +64,14 @@ from numpy import ndarray
 from scipy.sparse import csr_matrix, identity, kron, vstack
 from scipy.spatial import cKDTree
 
-from ..errors import InvalidInputError, StepTooLongError, check_real
+from ..errors import (GridMotionError, InvalidInputError, StepTooLongError,
+                      check_real)
 from ..methods.fields import body_fields
 from ..protocols import GridTerm
 from .contact import CellValues, block_diagonal, corner_signs, coulomb
 from .contact_pairs import FACING, PairFinder, overlapping
 from .dynamics import value_matrix
+from .problem import SLIVER_SUPPORT
 
 logger = logging.getLogger(__name__)
 
@@ -559,6 +561,10 @@ class BodyContact(GridTerm):
         return StepBodyContact(self, problem)
 
 
+#: the cells a contact's corner may be moved by grid nodes that slivers
+#: of material hold (:meth:`StepBodyContact.check_slivers`)
+CARRIED = .1
+
 #: the points whose corners' splines are evaluated at once
 #: (:meth:`BodyContact.corner_motion`)
 CORNER_BLOCK = 1 << 13
@@ -924,12 +930,53 @@ class StepBodyContact(GridTerm):
                          "solving again", self.problem.step, changes)
         return bool(changes)
 
+    def check_slivers(self, problem, du: ndarray) -> None:
+        """B-splines: refuse a converged increment ``du`` that moved a
+        pair's corner by more than :data:`CARRIED` cells through grid nodes
+        whose support holds less than :data:`~skfem_mpm.solve.problem.
+        SLIVER_SUPPORT` cells of material (``GridMotionError``: the ghost
+        penalty of ``ghost="auto"`` ties them).  The splines of the soil's
+        corners under a pile's tip reach nodes inside the pile's hole
+        that the soil barely holds: with 3 x 3 points per cell (h = 0.054,
+        a user trial) those nodes carried the corners down with the pile,
+        0.27 cells in a step, and the pile sank through the soil, its cap
+        pushing with 0.02 where 11 a step was due, every step converged."""
+        term = self.term
+        if term.weights is None or not any(
+                part["keys"].size for part in self.parts):
+            return
+        points, dim, h = problem.points, self.dim, term.h
+        S = value_matrix(problem.op).tocsc()
+        sliver = np.flatnonzero(abs(S).T @ points.volume
+                                < SLIVER_SUPPORT * h ** dim)
+        if not sliver.size:
+            return
+        X = term.corners(points).reshape(dim, -1)
+        corner = np.unique(np.concatenate([
+            np.divmod(part["keys"], X.shape[1]) for part in self.parts],
+            axis=None))
+        moved = term.weights(X[:, corner], corner % points.n).S.tocsc()[
+            :, sliver] @ du.reshape(-1, dim)[sliver]
+        moved = np.sqrt((moved ** 2).sum(axis=1))
+        if moved.max(initial=0.) > CARRIED * h:
+            k = int(np.argmax(moved))
+            raise GridMotionError(
+                "step {}: a contact's corner at {} moved {:.3g} cells "
+                "through grid nodes holding less than {:g} cells of "
+                "material (B-splines reaching past a body's surface): "
+                "the contact does not hold there; the ghost penalty ties "
+                "them (ghost='auto', the default, switches it on; or "
+                "Stabilisation(ghost=0.1))".format(
+                    problem.step, X[:, corner[k]].tolist(),
+                    moved[k] / h, SLIVER_SUPPORT))
+
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
         """The force of each contact on its second body; the record on
         the grid: the reactions of the fields' copies of a held DOF summed
         on the grid's DOF, the active cells of every field, a node's
         increment that of the lowest-numbered field with material there
         (the fields' copies differ where bodies slide)."""
+        self.check_slivers(problem, du)
         ev = self.evaluate(du, trial.response)
         self.committed = ev
         new.state = dict(new.state)
