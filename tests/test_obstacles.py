@@ -513,6 +513,18 @@ obstacle = "ceiling"
         load_scene(path)
 
 
+#: a scene's grid and an elastic block on its floor's level (y = 0)
+BLOCK_ON_A_FLOOR = """
+name = "block on a floor"
+[grid]
+x = [0.0, 1.5, 15]
+y = [-0.25, 1.25, 15]
+[[bodies]]
+name = "block"
+region = { x = [0.3, 1.2], y = [0.0, 0.3] }
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }"""
+
+
 def test_an_obstacle_force_is_measured_beside_a_contact(tmp_path):
     """A scene with an obstacle and a contact between bodies: the
     obstacle's force is looked up among the obstacles (the contacts'
@@ -521,15 +533,7 @@ def test_an_obstacle_force_is_measured_beside_a_contact(tmp_path):
     from skfem_mpm.scenes.scene import run_scene
     from skfem_mpm.scenes.scene_file import load_scene
     path = tmp_path / "stack.toml"
-    path.write_text("""
-name = "stack"
-[grid]
-x = [0.0, 1.5, 15]
-y = [-0.25, 1.25, 15]
-[[bodies]]
-name = "lower"
-region = { x = [0.3, 1.2], y = [0.0, 0.3] }
-material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+    path.write_text(BLOCK_ON_A_FLOOR.replace("block", "lower") + """
 density = 1000.0
 [[bodies]]
 name = "upper"
@@ -575,15 +579,7 @@ def test_a_quasi_static_scene_held_by_an_obstacle_alone_runs(tmp_path):
     from skfem_mpm.errors import SceneError
     from skfem_mpm.scenes.scene import run_scene
     from skfem_mpm.scenes.scene_file import load_scene
-    text = """
-name = "floor only"
-[grid]
-x = [0.0, 1.5, 15]
-y = [-0.25, 1.25, 15]
-[[bodies]]
-name = "block"
-region = { x = [0.3, 1.2], y = [0.0, 0.3] }
-material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+    text = BLOCK_ON_A_FLOOR + """
 [gravity]
 body_force = [0.0, -9810.0]
 [solver]
