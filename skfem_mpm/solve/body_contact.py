@@ -70,7 +70,7 @@ from ..methods.fields import body_fields
 from ..protocols import GridTerm
 from .contact import CellValues, block_diagonal, corner_signs, coulomb
 from .contact_pairs import FACING, PairFinder, overlapping
-from .dynamics import value_matrix
+from .dynamics import sliver_nodes, value_matrix
 from .problem import SLIVER_SUPPORT
 
 logger = logging.getLogger(__name__)
@@ -946,9 +946,8 @@ class StepBodyContact(GridTerm):
                 part["keys"].size for part in self.parts):
             return
         points, dim, h = problem.points, self.dim, term.h
-        S = value_matrix(problem.op).tocsc()
-        sliver = np.flatnonzero(abs(S).T @ points.volume
-                                < SLIVER_SUPPORT * h ** dim)
+        sliver = sliver_nodes(value_matrix(problem.op), points.volume,
+                              SLIVER_SUPPORT * h ** dim)
         if not sliver.size:
             return
         X = term.corners(points).reshape(dim, -1)

@@ -346,6 +346,13 @@ def value_matrix(op) -> csr_matrix:
                       shape=(basis.point_index.max() + 1, op.N // op.dim))
 
 
+def sliver_nodes(S, volume: ndarray, least: float) -> ndarray:
+    """The scalar grid DOFs whose support (the points' volumes ``volume``
+    weighted by their values ``S``, :func:`value_matrix`) holds less than
+    ``least`` of material."""
+    return np.flatnonzero(abs(S).T @ volume < least)
+
+
 class Inertia:
     """The inertia of one time step on its grid: mass, the projected
     velocity and acceleration at its start, Newmark's relations."""

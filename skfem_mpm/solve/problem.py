@@ -440,11 +440,11 @@ class StepProblem:
         h = run.cell_size
         if not (run.method.moves and np.abs(dx).max(initial=0.) > THROWN * h):
             return
-        from .dynamics import value_matrix     # (dynamics imports this)
-        S = value_matrix(self.op).tocsc()
-        support = abs(S).T @ self.points.volume / h ** self.points.dim
-        sliver = np.flatnonzero(support < SLIVER_SUPPORT)
-        moved = S[:, sliver] @ du.reshape(-1, self.points.dim)[sliver]
+        from .dynamics import sliver_nodes, value_matrix  # (imports this)
+        dim, S = self.points.dim, value_matrix(self.op).tocsc()
+        sliver = sliver_nodes(S, self.points.volume,
+                              SLIVER_SUPPORT * h ** dim)
+        moved = S[:, sliver] @ du.reshape(-1, dim)[sliver]
         moved = np.sqrt((moved ** 2).sum(axis=1))
         if not moved.max(initial=0.) > THROWN * h:
             return
