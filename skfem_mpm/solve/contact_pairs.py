@@ -284,11 +284,19 @@ class PairFinder:
         ``XB`` and ``XA``, dim x m), one per place of the second body's
         corner, then of the first body's (and, ``smooth``, normal), those
         whose corners lie nearest each other (those ``along``, where
-        given, before the others), and at a first body's place every pair
-        as near as the nearest."""
+        given, before the others; of pairs of the same corners, the one
+        whose normal lies nearest the last grid axis, the vertical), and
+        at a first body's place every pair as near as the nearest.  Pairs
+        of the same two corners from different nodes are equally near,
+        and the order of the nodes took a rough footing's left bottom
+        corner along x, the right one's along y: from that step (at 0.07
+        of its width in von Mises soil, cpGIMP) the footing took a
+        sideways force of up to 4.2% of its load."""
         distance = np.sqrt(((XB - XA) ** 2).sum(axis=0))
-        first = first[np.lexsort((distance[first],)) if along is None
-                      else np.lexsort((distance[first], ~along[first]))]
+        keys = (-np.abs(normal[-1, first]), distance[first])
+        if along is not None:
+            keys += (~along[first],)
+        first = first[np.lexsort(keys)]
         for corner, ties in ((XB, False), (XA, True)):
             places = self.pair_places(corner, normal, smooth)[:, first]
             index, group = np.unique(places, axis=1, return_index=True,
