@@ -190,11 +190,13 @@ def test_the_reused_increments_follow_the_operator():
 
 def test_the_passes_keep_points_first():
     """What only the passes write and read between a finite trial and its
-    stiffness and commit, the spectral parts, ``dF``, ``dF^-1`` and
-    ``b_n - I``, lies points first in memory (a point's entries side by
-    side: the strides of an (n, ...) array), points last in its shape as
-    the numpy path reads it; the points' stress, strain and ``F``, which
-    the commit hands on, stay points last in memory."""
+    stiffness and commit, the Kirchhoff stress, the spectral parts,
+    ``dF``, ``dF^-1`` and ``b_n - I``, lies points first in memory (a
+    point's entries side by side: the strides of an (n, ...) array),
+    points last in its shape as the numpy path reads it; the kinematics'
+    workspace has it so from the compiled path, no one re-seeds it; the
+    points' stress, strain and ``F``, which the commit hands on, stay
+    points last in memory."""
     material = MATERIALS["von_mises"]
     mesh, points = block(2)
     points.state.update(initial_state(material, points.n))
@@ -204,7 +206,9 @@ def test_the_passes_keep_points_first():
     du = 2e-3 * np.random.default_rng(2).standard_normal(op.N)
     new = evaluate(kinematics, op, du, points)[3]
     compiled = kinematics.compiled
-    kept = (tuple(kinematics._workspace(points.n, 2, False)[3])
+    workspace = kinematics.workspace(points.n, 2, False)
+    assert workspace is kinematics.workspace(points.n, 2, False)
+    kept = ((workspace[1],) + tuple(workspace[3])
             + compiled._increment_arrays(points.n, 2)
             + (compiled._start_deviation(points),))
     for a in kept:

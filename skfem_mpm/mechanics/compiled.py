@@ -38,6 +38,7 @@ from ..errors import InvalidInputError
 from ..kernels import (CAM_CLAY, DRUCKER_PRAGER, ELASTIC, MOHR_COULOMB,
                        VON_MISES, auto_kernels, check_kernels,
                        compiled_passes, log_once)
+from .hencky import SpectralParts
 from .materials import LinearElastic, VonMises, elastic_tensor
 from .cam_clay import ModifiedCamClay
 from .soils import APEX_STIFFNESS, DruckerPrager, MohrCoulomb
@@ -217,7 +218,6 @@ class CompiledPasses:
         self.averaged = dilatation.passes_of(dim)
         self._start = (None, None)      # a step's strain and b_n - I
         self._increments = None         # dF and dF^-1, reused
-        self._buffers = None            # the kinematics' workspace, seeded
 
     def serves(self, op, points) -> bool:
         """Whether the passes serve the point operator ``op``: standard
@@ -276,24 +276,19 @@ class CompiledPasses:
                                                  for _ in range(2))
         return self._increments[1:]
 
-    def _workspace(self, kinematics, n: int, m: int):
-        """The kinematics' ``tau``, yielded flags and spectral parts
-        (:meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain._workspace`),
-        its spectral parts replaced, once, by arrays of the same shapes
-        whose points are first in memory (:func:`points_first`; ``tau``
-        stays as it is: the commit divides it into the points' stress,
-        which keeps its layout), so that every reader of the workspace,
-        the numpy tangent among them, reads what the passes wrote."""
-        buffers = kinematics._workspace(n, m, False)
-        if buffers is not self._buffers:
-            spectral = buffers[3]
-            if spectral.d.strides[-1] == 8:          # points last: seed
-                buffers = buffers[:3] + (spectral._make(
-                    (points_first(n, 3), frame_out_of_plane(n),
-                     points_first(n, m), points_first(n, m, m))),)
-                kinematics._buffers = buffers
-            self._buffers = buffers
-        return buffers[1:]
+    def workspace(self, n: int, m: int):
+        """The kinematics' Kirchhoff stress ``tau`` (3, 3, n) and
+        :class:`~skfem_mpm.mechanics.hencky.SpectralParts` with ``m``
+        components, as :func:`~skfem_mpm.mechanics.kinematics.
+        numpy_workspace` shapes them but points first in memory
+        (:func:`points_first`): the kinematics' workspace asks for them
+        (:meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.workspace`);
+        the passes write a point's entries side by side, every other
+        reader takes them through their shapes (the commit divides ``tau``
+        into the points' stress, points last in memory)."""
+        return points_first(n, 3, 3), SpectralParts(
+            points_first(n, 3), frame_out_of_plane(n), points_first(n, m),
+            points_first(n, m, m))
 
     def _state(self, points) -> ndarray:
         """The internal variables of ``points``, (2, n)."""
@@ -326,7 +321,7 @@ class CompiledPasses:
         :meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.response`)."""
         (finite, _, assemble), layout, cells, m = self._layout(op)
         n = points.n
-        tau, yielded, spectral = self._workspace(kinematics, n, m)
+        tau, yielded, spectral = kinematics.workspace(n, m, False)[1:]
         dF, dF_inv = self._increment_arrays(n, m)
         f, eq = np.zeros(op.N), np.empty((2, n))
         status = finite(

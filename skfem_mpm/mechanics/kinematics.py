@@ -260,11 +260,15 @@ class FiniteStrain:
         self._start = (None, None)
         self._start_inverse = (None, None)
 
-    def _workspace(self, n: int, k: int, deviation: bool = True):
+    def workspace(self, n: int, k: int, deviation: bool = True):
         """Arrays reused by every Newton iteration (memory): ``b_tr - I``
         (with ``deviation``: the numpy path's; the compiled passes keep
         none), tau, the yielded flags and the
-        :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the points.
+        :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the points;
+        tau and the spectral parts are the compiled path's where there is
+        one (:meth:`~skfem_mpm.mechanics.compiled.CompiledPasses.
+        workspace`: points first in memory), so that the passes and every
+        reader of the workspace, the numpy tangent among them, share them.
         The tangent is not among them: it lives only while the stiffness
         is assembled, so that the factorisation (the peak of an iteration)
         runs without it (648 bytes a point in 3D).  The frames' out of
@@ -272,12 +276,9 @@ class FiniteStrain:
         compiled 2D pass then leaves)."""
         if self._buffers is None or self._buffers[1].shape[-1] != n \
                 or self._buffers[3].tau.shape[0] != k:
-            self._buffers = (None, np.empty((3, 3, n)),
-                             np.empty(n, dtype=bool),
-                             SpectralParts(np.empty((3, n)),
-                                           identity_out_of_plane(n),
-                                           np.empty((k, n)),
-                                           np.empty((k, k, n))))
+            tau, parts = (numpy_workspace if self.compiled is None
+                          else self.compiled.workspace)(n, k)
+            self._buffers = (None, tau, np.empty(n, dtype=bool), parts)
         if deviation and self._buffers[0] is None:
             self._buffers = (np.empty((3, 3, n)),) + self._buffers[1:]
         return self._buffers
@@ -321,7 +322,7 @@ class FiniteStrain:
             dF_inv = dF_inv.copy()
             dF_inv[:k, :k] = np.einsum("abp,bcp->acp", F_inv,
                                        dF_inv[:k, :k])
-        b_dev, tau, yielded, spectral = self._workspace(points.n, k)
+        b_dev, tau, yielded, spectral = self.workspace(points.n, k)
         start = self.start_deviation(points)
         state = {}
         for block in point_blocks(points.n):
@@ -355,10 +356,10 @@ class FiniteStrain:
         ``state`` (``P`` a function forming it, for a compiled response);
         ``b_dev``: ``b_tr - I`` (3, 3, n), or ``None`` (compiled) where
         the tangent forms it from the spectral parts; ``converged(old)``:
-        the compiled ``(F, det F, b_e, eps_e)`` of the commit; ``fused``:
-        the compiled ``force`` and ``stiffness``."""
+        the compiled ``(F, det F, b_e, eps_e)`` of the commit;
+        ``fused``: the compiled ``force`` and ``stiffness``."""
         dim = self.dim
-        tau, yielded, spectral = self._workspace(points.n, k, False)[1:]
+        tau, yielded, spectral = self.workspace(points.n, k, False)[1:]
         eye = np.eye(3)[:, :, None]
 
         def tangent_of(idx):
@@ -397,7 +398,8 @@ class FiniteStrain:
             else:
                 new.be, new.strain = be, strain
                 self.counters["return_maps"] += self.plastic
-            new.stress = tau / J
+            # points last in memory, whatever the workspace's layout
+            new.stress = np.divide(tau, J, out=np.empty(tau.shape))
             new.volume = J * old.volume0
             new.state = {**old.state, **state}    # variables of no model kept
             return new
@@ -419,6 +421,14 @@ class FiniteStrain:
                 state_block(state, block))
         self.counters["return_maps"] += self.plastic
         return b_e, strain
+
+
+def numpy_workspace(n: int, k: int):
+    """The numpy path's tau (3, 3, n) and spectral parts of ``n`` points
+    with ``k`` components (:meth:`FiniteStrain.workspace`), points last."""
+    return np.empty((3, 3, n)), SpectralParts(
+        np.empty((3, n)), identity_out_of_plane(n), np.empty((k, n)),
+        np.empty((k, k, n)))
 
 
 def make_kinematics(name: str, material, dim: int, counters: dict,
