@@ -893,7 +893,9 @@ def test_a_pile_seeded_to_a_quarter_cell_is_pushed_to_its_load():
 @pytest.mark.parametrize("method, friction, soil", [
     ("cpgimp", 0., LinearElastic(1e5, .3)),
     ("cpgimp", "rough", LinearElastic(1e5, .3)),
-    ("mpm", .3, VonMises(1e5, .3, 1e4))])
+    ("mpm", .3, VonMises(1e5, .3, 1e4)),
+    ("bspline", 0., LinearElastic(1e5, .3)),
+    ("bspline", .3, VonMises(1e5, .3, 1e4))])
 def test_a_pile_one_cell_wide_stays_upright(method, friction, soil):
     """The trial's pile seeded straight, one cell wide, its tip inside a
     cell: its two tip corners face one soil corner under its middle, and
@@ -902,7 +904,10 @@ def test_a_pile_one_cell_wide_stays_upright(method, friction, soil):
     3, Newton's direction turning the pile's field by tens of radians;
     rough: at step 4), MPM's with friction 0.3 leaned by 2e-4 of its
     settlement in 122 iterations.  Pairs as near as the nearest at that
-    place are kept now: each reaches its load upright to round-off."""
+    place are kept now: each reaches its load upright to round-off.  The
+    B-spline pile failed at every cut-back of its first step with the
+    ghost penalty held in reserve; the retry ladder now switches it on
+    there (small strain: gamma 1e-3)."""
     res, pts, load = trial_pile(15, soil, friction, 10, method)
     assert res.history[-1].contact_forces[0, 1] == pytest.approx(
         load, rel=1e-9)

@@ -19,7 +19,8 @@ class Stabilisation:
         Ghost-penalty factor for partially filled cells
         (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none;
         ``"auto"`` (default): none, but where points move a load step
-        that fails in finite deformation, or that moves free grid nodes
+        that fails in finite deformation or with contacts between bodies
+        on B-splines, or that moves free grid nodes
         orders of magnitude more than any point in small strain (a node
         supported by a sliver of material,
         :class:`~skfem_mpm.errors.GridMotionError`), switches the default
