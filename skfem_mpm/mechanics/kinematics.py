@@ -360,19 +360,19 @@ class FiniteStrain:
         ``fused``: the compiled ``force`` and ``stiffness``."""
         dim = self.dim
         tau, yielded, spectral = self.workspace(points.n, k, False)[1:]
-        eye = np.eye(3)[:, :, None]
 
         def tangent_of(idx):
             """Formed from the spectral parts of points ``idx`` (only for
             the iterations that need it), pulled back to the operator's
             configuration."""
-            def at(field):        # points last and contiguous (einsum)
+            def at(field):        # points last in shape (einsum)
                 return field[..., idx] if isinstance(idx, slice) \
                     else np.take(field, idx, axis=-1)
             t, parts = at(tau), SpectralParts(*map(at, spectral))
             b = np.einsum("Ap,aAp,bAp->abp", parts.d, parts.vecs,
                           parts.vecs) if b_dev is None else at(b_dev)
-            A = spatial_tangent(parts.derivative(), b + eye, t)
+            b = b + np.eye(3)[:, :, None]
+            A = spatial_tangent(parts.derivative(), b, t)
             return pull_back(t, A, at(dF_inv), k)[1]
 
         def tangent():
