@@ -284,8 +284,10 @@ class CompiledPasses:
         (:func:`points_first`): the kinematics' workspace asks for them
         (:meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.workspace`);
         the passes write a point's entries side by side, every other
-        reader takes them through their shapes (the commit divides ``tau``
-        into the points' stress, points last in memory)."""
+        reader takes them through their shapes.  The commit's pass divides
+        ``tau`` into the points' stress, points last in memory (numpy's
+        division of a points-first ``tau`` into a points-last array took
+        0.19 s at 1e6 points, 0.045 s points last)."""
         return points_first(n, 3, 3), SpectralParts(
             points_first(n, 3), frame_out_of_plane(n), points_first(n, m),
             points_first(n, m, m))
@@ -343,10 +345,12 @@ class CompiledPasses:
         def converged(old):
             F, J = np.empty((3, 3, n)), np.empty(n)
             b_e, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
+            stress = np.empty((3, 3, n))
             self.passes.finite_commit(
                 self.dim, self.params, spectral.d, spectral.vecs,
-                self._state(old), dF, contiguous(old.F), F, J, b_e, strain)
-            return F, J, b_e, strain
+                self._state(old), dF, contiguous(old.F), tau, F, J, b_e,
+                strain, stress)
+            return F, J, b_e, strain, stress
 
         def P():            # read by no step: formed when asked for
             return np.einsum("abp,ebp->aep", tau[:m, :m], dF_inv[:m, :m])

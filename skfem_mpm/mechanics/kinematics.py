@@ -356,23 +356,23 @@ class FiniteStrain:
         ``state`` (``P`` a function forming it, for a compiled response);
         ``b_dev``: ``b_tr - I`` (3, 3, n), or ``None`` (compiled) where
         the tangent forms it from the spectral parts; ``converged(old)``:
-        the compiled ``(F, det F, b_e, eps_e)`` of the commit;
-        ``fused``: the compiled ``force`` and ``stiffness``."""
+        the compiled ``(F, det F, b_e, eps_e, tau / det F)`` of the
+        commit; ``fused``: the compiled ``force`` and ``stiffness``."""
         dim = self.dim
         tau, yielded, spectral = self.workspace(points.n, k, False)[1:]
-        eye = np.eye(3)[:, :, None]
 
         def tangent_of(idx):
             """Formed from the spectral parts of points ``idx`` (only for
             the iterations that need it), pulled back to the operator's
             configuration."""
-            def at(field):        # points last and contiguous (einsum)
+            def at(field):        # points last in shape (einsum)
                 return field[..., idx] if isinstance(idx, slice) \
                     else np.take(field, idx, axis=-1)
             t, parts = at(tau), SpectralParts(*map(at, spectral))
             b = np.einsum("Ap,aAp,bAp->abp", parts.d, parts.vecs,
                           parts.vecs) if b_dev is None else at(b_dev)
-            A = spatial_tangent(parts.derivative(), b + eye, t)
+            b = b + np.eye(3)[:, :, None]
+            A = spatial_tangent(parts.derivative(), b, t)
             return pull_back(t, A, at(dF_inv), k)[1]
 
         def tangent():
@@ -388,18 +388,18 @@ class FiniteStrain:
             if converged is None:
                 new.F = np.einsum("abp,bcp->acp", dF, old.F)
                 J = inverse_and_det(new.F, dim)[1]
-            else:                # compiled: F, J and the elastic state
-                new.F, J, be, strain = converged(old)
+            else:      # compiled: F, J, the elastic state and the stress
+                new.F, J, be, strain, stress = converged(old)
             if not (J > 0).all():
                 raise InversionError("det F <= 0 at {} point(s)".format(
                     int((J <= 0).sum())))
             if converged is None:
                 new.be, new.strain = self.elastic_state(spectral, old.state)
+                # points last in memory, whatever the workspace's layout
+                new.stress = np.divide(tau, J, out=np.empty(tau.shape))
             else:
-                new.be, new.strain = be, strain
+                new.be, new.strain, new.stress = be, strain, stress
                 self.counters["return_maps"] += self.plastic
-            # points last in memory, whatever the workspace's layout
-            new.stress = np.divide(tau, J, out=np.empty(tau.shape))
             new.volume = J * old.volume0
             new.state = {**old.state, **state}    # variables of no model kept
             return new
