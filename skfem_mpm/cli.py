@@ -13,6 +13,7 @@ import shutil
 import signal
 import sys
 import time
+from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
 
@@ -27,7 +28,8 @@ from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
                                 save_checkpoint, scene_digest)
 from .scenes.footing import soil_strength
 from .scenes.io import (atomic_path, clear_earlier_run,
-                        interrupts_deferred, remove_temporaries)
+                        interrupts_deferred, remove_temporaries,
+                        terminate_as_interrupt)
 from .scenes.output import (SeriesWriter, point_cloud, von_mises,
                              write_summary)
 from .scenes import plot  # save_figure looked up when called: tests wrap it
@@ -1052,8 +1054,12 @@ def dispatch(argv) -> int:
     logging.getLogger("skfem_mpm").setLevel(
         logging.INFO if args.verbose else logging.NOTSET)
     try:
-        return {"run": run, "compare": compare,
-                "study": run_study}[args.command](args)
+        # a scene's run keeps what converged when a batch system kills it
+        # (SIGTERM) as on Ctrl-C
+        with terminate_as_interrupt() if args.command == "run" \
+                else nullcontext():
+            return {"run": run, "compare": compare,
+                    "study": run_study}[args.command](args)
     except SceneError as err:
         for problem in err.problems:
             print("skfem-mpm: {}".format(problem), file=sys.stderr)

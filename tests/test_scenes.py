@@ -912,6 +912,38 @@ def test_ctrl_c_as_the_program_exits_is_never_a_silent_sigint(tmp_path):
     assert "Traceback" not in err and len(err.strip().splitlines()) <= 1
 
 
+@pytest.mark.slow
+def test_a_run_killed_by_sigterm_keeps_what_converged(tmp_path):
+    """A user trial: a run killed by a batch system (SIGTERM) left no
+    ``summary.json`` and no checkpoint of its last steps (exit status
+    -15).  It now stops as on Ctrl-C: a checkpoint of the last converged
+    step, an interrupted summary naming it, status 130."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    out = tmp_path / "out"
+    process = subprocess.Popen(
+        [sys.executable, "-m", "skfem_mpm.cli", "run", "--out", str(out),
+         "--no-progress", "--no-series", "--steps", "20000",
+         "--checkpoint-every", "5"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    start = time.monotonic()
+    while not (out / "checkpoint.npz").exists():
+        assert time.monotonic() - start < 60 and process.poll() is None
+        time.sleep(.02)
+    process.send_signal(signal.SIGTERM)
+    _, err = process.communicate(timeout=120)
+    assert process.returncode == 130, (process.returncode, err)
+    assert "Traceback" not in err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted"
+    assert summary["checkpoint"]
+    assert summary["checkpoint_step"] == summary["last_converged_step"] >= 5
+    assert os.path.exists(out / "checkpoint.npz")
+
+
 @pytest.mark.parametrize("word, axis_names", [
     ("top", "'y+' (as in 2D) or 'z+'"),
     ("back", "'z-' (its meaning here until now) or 'y-'")])

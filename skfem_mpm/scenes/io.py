@@ -46,15 +46,20 @@ def atomic_path(path):
         raise
 
 
+#: the signals that stop a run as Ctrl-C does (a batch system's kill
+#: sends SIGTERM)
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
 @contextmanager
 def interrupts_deferred(reraise: bool = True):
-    """Hold Ctrl-C (SIGINT) back while the block runs, so that what it
-    writes is whole: a Ctrl-C meanwhile is raised as ``KeyboardInterrupt``
-    when the block has ended (``reraise``), or dropped (a caller that is
-    stopping anyway).  A ``KeyboardInterrupt`` raised in the block itself
-    passes as any exception does.  Outside the main thread, or where
-    SIGINT has no Python handler (ignored, default, set from C), the block
-    runs as it is.
+    """Hold Ctrl-C (SIGINT) and SIGTERM back while the block runs, so that
+    what it writes is whole: either meanwhile is raised as
+    ``KeyboardInterrupt`` when the block has ended (``reraise``), or
+    dropped (a caller that is stopping anyway).  A ``KeyboardInterrupt``
+    raised in the block itself passes as any exception does.  Outside the
+    main thread the block runs as it is, and so it does for a signal with
+    no Python handler (ignored, default, set from C).
 
     Examples
     --------
@@ -69,19 +74,42 @@ def interrupts_deferred(reraise: bool = True):
     interrupted after the block, finished: True
 
     """
-    previous = signal.getsignal(signal.SIGINT)
-    if not callable(previous) or \
-            threading.current_thread() is not threading.main_thread():
+    if threading.current_thread() is not threading.main_thread():
         yield
         return
+    held = {signum: signal.getsignal(signum) for signum in STOP_SIGNALS}
+    held = {signum: previous for signum, previous in held.items()
+            if callable(previous)}
     received = []
-    signal.signal(signal.SIGINT, lambda signum, frame: received.append(1))
+    for signum in held:
+        signal.signal(signum, lambda signum, frame: received.append(signum))
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for signum, previous in held.items():
+            signal.signal(signum, previous)
     if received and reraise:
         raise KeyboardInterrupt
+
+
+@contextmanager
+def terminate_as_interrupt():
+    """While the block runs (in the main thread), SIGTERM raises
+    ``KeyboardInterrupt`` as Ctrl-C does, so that a run killed by a batch
+    system keeps what converged and says so (a checkpoint and an
+    interrupted ``summary.json``; before, it left neither summary nor the
+    last steps' checkpoint)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 #: what a run writes in its output folder (globs): an earlier run's

@@ -67,8 +67,9 @@ AUTO_AMG_FROM = {"scipy (SuperLU)": {1: 1_500_000, 2: 1_500_000, 3: 5000},
 TINY = float(np.finfo(float).tiny)
 CAUSES = ("points leave a zero-energy mode (a grid node supported by too few "
           "points: Stabilisation(ghost=0.1) ties such nodes to their "
-          "neighbours, and with B-splines extended_splines=True folds them) "
-          "or the grid has rigid-body modes (missing supports)")
+          "neighbours, and with B-splines and no contacts between bodies "
+          "extended_splines=True folds them) or the grid has rigid-body "
+          "modes (missing supports)")
 
 
 def same_array(a: ndarray, b: ndarray) -> bool:
