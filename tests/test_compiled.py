@@ -190,11 +190,12 @@ def test_the_reused_increments_follow_the_operator():
 
 def test_the_passes_keep_points_first():
     """What only the passes write and read between a finite trial and its
-    stiffness and commit, the Kirchhoff stress, the spectral parts,
-    ``dF``, ``dF^-1`` and ``b_n - I``, lies points first in memory (a
-    point's entries side by side: the strides of an (n, ...) array),
-    points last in its shape as the numpy path reads it; the kinematics'
-    workspace has it so from the compiled path, no one re-seeds it; the
+    stiffness and commit, the spectral parts, ``dF``, ``dF^-1`` and
+    ``b_n - I``, lies points first in memory (a point's entries side by
+    side: the strides of an (n, ...) array), points last in its shape as
+    the numpy path reads it; the kinematics' workspace has it so from the
+    compiled path (one workspace, no one re-seeds it); the Kirchhoff
+    stress, which the commit divides into the points' stress, and the
     points' stress, strain and ``F``, which the commit hands on, stay
     points last in memory."""
     material = MATERIALS["von_mises"]
@@ -208,14 +209,14 @@ def test_the_passes_keep_points_first():
     compiled = kinematics.compiled
     workspace = kinematics.workspace(points.n, 2, False)
     assert workspace is kinematics.workspace(points.n, 2, False)
-    kept = ((workspace[1],) + tuple(workspace[3])
+    kept = (tuple(workspace[3])
             + compiled._increment_arrays(points.n, 2)
             + (compiled._start_deviation(points),))
     for a in kept:
         assert a.shape[-1] == points.n
         assert a.strides[-1] == a[..., 0].size * 8, a.strides
     assert all((new.stress.flags.c_contiguous, new.strain.flags.c_contiguous,
-               new.F.flags.c_contiguous))
+               new.F.flags.c_contiguous, workspace[1].flags.c_contiguous))
 
 
 def test_the_mohr_coulomb_return_equals_numpy_on_every_branch():

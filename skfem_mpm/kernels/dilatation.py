@@ -36,7 +36,7 @@ __all__ = ["passes_of", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "d507a2ae7f6cb7ee"
+SOURCES = "af978ca8eb0dc643"
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -407,13 +407,11 @@ def stiffness_3d(G, nodes, node_start, node_count, runs, order, qstart, mode,
 
 
 @njit(cache=True, error_model="numpy")
-def finite_commit(dim, params, d, vecs, eq0, dF, F0, tau, F, J, b_e, strain,
-                  stress):
+def finite_commit(dim, params, d, vecs, eq0, dF, F0, F, J, b_e, strain):
     """The converged state of a finite-deformation trial, point by point:
     ``F = dF F_n``, its determinant ``J`` (in-plane block times the
     out-of-plane diagonal below 3D, as
-    :func:`~skfem_mpm.mechanics.hencky.inverse_and_det`), the Cauchy
-    stress ``tau / J`` from the trial's Kirchhoff stress, and from the
+    :func:`~skfem_mpm.mechanics.hencky.inverse_and_det`), and from the
     trial's principal frame (``d = eig(b_tr) - 1``, ``vecs``) and the
     return map from ``eq0`` the elastic ``b_e = sum exp(2 eps_A) e_A e_A``
     and strain ``sum eps_A e_A e_A``."""
@@ -438,9 +436,6 @@ def finite_commit(dim, params, d, vecs, eq0, dF, F0, tau, F, J, b_e, strain,
         else:
             J[p] = (F[0, 0, p] * F[1, 1, p] - F[0, 1, p] * F[1, 0, p]) \
                 * F[2, 2, p]
-        for a in range(3):
-            for c in range(3):
-                stress[a, c, p] = tau[a, c, p] / J[p]
         for a in range(3):
             eps[a] = .5 * math.log1p(d[a, p])
         principal_update(params, eps, eq0[0, p], eq0[1, p], tp, eps_e, D)

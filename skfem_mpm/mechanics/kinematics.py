@@ -267,8 +267,9 @@ class FiniteStrain:
         :class:`~skfem_mpm.mechanics.hencky.SpectralParts` of the points;
         tau and the spectral parts are the compiled path's where there is
         one (:meth:`~skfem_mpm.mechanics.compiled.CompiledPasses.
-        workspace`: points first in memory), so that the passes and every
-        reader of the workspace, the numpy tangent among them, share them.
+        workspace`: the spectral parts points first in memory), so that
+        the passes and every reader of the workspace, the numpy tangent
+        among them, share them.
         The tangent is not among them: it lives only while the stiffness
         is assembled, so that the factorisation (the peak of an iteration)
         runs without it (648 bytes a point in 3D).  The frames' out of
@@ -356,8 +357,8 @@ class FiniteStrain:
         ``state`` (``P`` a function forming it, for a compiled response);
         ``b_dev``: ``b_tr - I`` (3, 3, n), or ``None`` (compiled) where
         the tangent forms it from the spectral parts; ``converged(old)``:
-        the compiled ``(F, det F, b_e, eps_e, tau / det F)`` of the
-        commit; ``fused``: the compiled ``force`` and ``stiffness``."""
+        the compiled ``(F, det F, b_e, eps_e)`` of the commit; ``fused``:
+        the compiled ``force`` and ``stiffness``."""
         dim = self.dim
         tau, yielded, spectral = self.workspace(points.n, k, False)[1:]
 
@@ -388,18 +389,17 @@ class FiniteStrain:
             if converged is None:
                 new.F = np.einsum("abp,bcp->acp", dF, old.F)
                 J = inverse_and_det(new.F, dim)[1]
-            else:      # compiled: F, J, the elastic state and the stress
-                new.F, J, be, strain, stress = converged(old)
+            else:                # compiled: F, J and the elastic state
+                new.F, J, be, strain = converged(old)
             if not (J > 0).all():
                 raise InversionError("det F <= 0 at {} point(s)".format(
                     int((J <= 0).sum())))
             if converged is None:
                 new.be, new.strain = self.elastic_state(spectral, old.state)
-                # points last in memory, whatever the workspace's layout
-                new.stress = np.divide(tau, J, out=np.empty(tau.shape))
             else:
-                new.be, new.strain, new.stress = be, strain, stress
+                new.be, new.strain = be, strain
                 self.counters["return_maps"] += self.plastic
+            new.stress = tau / J
             new.volume = J * old.volume0
             new.state = {**old.state, **state}    # variables of no model kept
             return new
