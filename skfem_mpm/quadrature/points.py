@@ -3,7 +3,9 @@
 State is kept as a struct of arrays, points along the last axis:
 
 - ``x`` (dim, n): current positions,
-- ``x0`` (dim, n): initial positions (``Y`` in the seed's error measure),
+- ``x0`` (dim, n): initial positions (``Y`` in the seed's error measure;
+  a tied obstacle's reach is measured from them): points moved after
+  seeding (``points.x[1] += 0.3``) need ``x0`` moved alike,
 - ``volume`` (n,): volumes, fixed in small-strain MPM, ``det(F) volume0``
   in finite deformation,
 - ``volume0`` (n,): initial volumes,

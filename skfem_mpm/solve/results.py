@@ -169,9 +169,11 @@ class Result:
         """Dynamic runs: arrays over time, at the start and after every
         step, of ``time``, ``kinetic`` energy, the accumulated
         ``internal_work`` and ``external_work`` (zero at the start), and
-        ``balance = kinetic + internal_work - external_work`` (constant
-        where nothing dissipates and supports do no work; the internal
-        work holds the contact forces' work too)."""
+        ``balance = kinetic + internal_work - external_work`` (constant,
+        the initial kinetic energy, where nothing dissipates and supports
+        do no work: its fall from ``kinetic[0]`` is what the scheme and
+        impacts dissipated; the internal work holds the contact forces'
+        work too)."""
         if not self.history or self.history[0].energy is None:
             raise InvalidInputError("energies: only a dynamic run's result "
                                     "(simulate(dynamics=...)) has them")
