@@ -448,7 +448,7 @@ def test_load_steps_do_not_change_a_linear_answer(method, interface):
 def test_a_block_given_a_speed_slides_to_coulombs_stop():
     """A block given 1 m/s on a slab, mu = 0.3 (dynamics): it slides
     v0^2 / (2 mu g) = 0.17 m and stops at v0 / (mu g) = 0.34 s, to 2%
-    (measured 0.1697 against 0.1699), as its edges cross grid nodes (a
+    (measured 0.1699, Coulomb's to 1e-4), as its edges cross grid nodes (a
     pair with a leaning normal at an edge once stopped it 12% short)."""
     v0, mu, rho = 1., .3, 1e3
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 21),
@@ -1477,7 +1477,10 @@ def test_a_stiff_block_on_a_soft_one_with_free_sides_stays_uniform():
     assert np.abs(res.points.stress[1, 1] / -100. - 1).max() < .13
 
 
-@pytest.mark.parametrize("method, n", [("mpm", 3), ("cpgimp", 2)])
+@pytest.mark.parametrize("method, n", [("mpm", 3), ("cpgimp", 2), pytest.param(
+    "bspline", 2, marks=[pytest.mark.slow, pytest.mark.xfail(
+        strict=True, reason="B-splines, 2 x 2 points: a sideways force of "
+        "13% after one step (docs/contact.md)")])])
 def test_a_stiff_footing_body_settles_alike_in_1_and_10_steps(method, n):
     """A user trial's stiff footing body (half of it, E 1e3 times its
     soil's) on elastic soil, smooth, on an untuned grid: a linear problem
@@ -1507,7 +1510,10 @@ def test_a_stiff_footing_body_settles_alike_in_1_and_10_steps(method, n):
     assert settled[1] == pytest.approx(settled[0], rel=5e-3)
 
 
-@pytest.mark.parametrize("method", ("mpm", "cpgimp"))
+@pytest.mark.parametrize("method", ("mpm", "cpgimp", pytest.param(
+    "bspline", marks=[pytest.mark.slow, pytest.mark.xfail(
+        strict=True, reason="B-splines, 2 x 2 points: 1.29 mu N in the "
+        "second step (docs/contact.md)")])))
 def test_a_block_pushed_over_a_base_body_slides_at_coulomb_s_force(method):
     """A user trial's direct shear: a block on a base body (friction
     0.3, its weight in full from the start) pushed sideways by a smooth

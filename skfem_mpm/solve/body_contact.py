@@ -64,8 +64,8 @@ from numpy import ndarray
 from scipy.sparse import csr_matrix, identity, kron, vstack
 from scipy.spatial import cKDTree
 
-from ..errors import (GridMotionError, InvalidInputError, StepTooLongError,
-                      check_real)
+from ..errors import (ContactError, GridMotionError, InvalidInputError,
+                      StepTooLongError, check_real)
 from ..methods.fields import body_fields
 from ..protocols import GridTerm
 from .contact import CellValues, block_diagonal, corner_signs, coulomb
@@ -491,8 +491,15 @@ class BodyContact(GridTerm):
         the step, and a pair's force there held the body like a support
         (a weightless B-spline pile's contact force, and the soil's
         supports' reactions, exceeded its load by up to 0.7%)."""
-        return supported_share(self.weights(X, p).S,
-                               op.active_dofs[::self.dim] // self.dim)
+        S = supported_share(self.weights(X, p).S,
+                            op.active_dofs[::self.dim] // self.dim)
+        empty = np.flatnonzero(np.diff(S.indptr) == 0)
+        if empty.size:        # its pair would hold it to a fixed point
+            raise ContactError(
+                "a contact's corner at {} (of point {}) reaches no grid "
+                "node that carries material in this step".format(
+                    X[:, empty[0]].tolist(), int(p[empty[0]])))
+        return S
 
     def rows(self, op, points, corner: ndarray):
         """The vector rows ``J`` (dim m, N) of the corners ``c n + p``:
