@@ -139,9 +139,8 @@ def test_bodies_apart_inside_a_cell_do_not_interact(method):
     assert np.abs(glued.points.velocity[1, upper]).mean() < .5 * G * T
 
 
-@pytest.mark.parametrize("method", [
-    "mpm", pytest.param("bspline", marks=pytest.mark.slow),
-    pytest.param("bspline-gimp", marks=pytest.mark.slow)])
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["mpm", "bspline", "bspline-gimp"])
 def test_a_block_slides_on_a_body_by_coulomb(method):
     """A block on an elastic slab, gravity tilted by theta (the inclined
     plane turned level), mu = 0.3 between them: it slides with
@@ -172,6 +171,7 @@ def test_a_block_slides_on_a_body_by_coulomb(method):
     assert np.allclose(force[pressed, 0], -mu * force[pressed, 1], rtol=2e-3)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("degrees, sticks", [(12., True), (25., False)])
 def test_friction_between_bodies_holds_a_block_quasi_statically(degrees,
                                                                 sticks):

@@ -349,6 +349,7 @@ def test_dynamic_collapse_runs_to_rest(collapse, tmp_path):
     assert (tmp_path / "collapse_dynamic.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_time_step_adapts_to_newtons_effort(collapse):
     """The collapse with time steps of up to 0.1 s adapting to 6 Newton
     iterations: the step shrinks where the column slumps (below 0.025 s;

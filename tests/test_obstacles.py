@@ -955,6 +955,7 @@ def rough_footing(friction, nsteps=2, method="bspline"):
                                         friction=friction)]), depth
 
 
+@pytest.mark.slow
 def test_a_rough_footing_with_b_splines_converges():
     """The corners that stick to a rough obstacle are those in contact at
     the step's start (less those found apart after Newton), not those

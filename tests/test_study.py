@@ -128,6 +128,7 @@ def test_elastica_reference(tmp_path):
     assert np.isfinite(rows[0]["peak_mb"])
 
 
+@pytest.mark.slow
 def test_study_varies_the_right_hand_side(tmp_path, capsys):
     """``--vary rhs=residual,increment`` runs both schemes of linear steps
     on the column: with 20 steps on 64 elements the seed's literal scheme
@@ -470,6 +471,7 @@ def test_methods_footing_against_prandtl(tmp_path):
     assert (tmp_path / "footing.png").stat().st_size > 10_000
 
 
+@pytest.mark.slow
 def test_footing_in_finite_deformation():
     """``footing``'s ``kinematics``: standard MPM's footing at B / h = 4
     in finite deformation (updated Lagrangian Hencky) gives its small
