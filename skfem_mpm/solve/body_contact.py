@@ -362,11 +362,17 @@ class BodyContact(GridTerm):
         if self.weights is not None:
             # the domains as the points' deformation left them (a staged
             # run's points come deformed)
-            R = np.einsum("abp,bcp->acp", points.F[:dim, :dim], self.R) \
-                if self.finite else self.R
-            for row, offsets in zip(corner_state(dim), R):
+            for row, offsets in zip(corner_state(dim),
+                                    self.domain_offsets(points)):
                 for name, offset in zip(row, offsets):
                     points.state.setdefault(name, offset.copy())
+
+    def domain_offsets(self, points) -> ndarray:
+        """The corners' offsets from their points (dim, corners, n) where
+        the points' deformation puts them (finite deformation), or their
+        domains' (small strain)."""
+        return np.einsum("abp,bcp->acp", points.F[:self.dim, :self.dim],
+                         self.R) if self.finite else self.R
 
     def corners(self, points) -> ndarray:
         """The corners of the points' domains (dim, corners, n), moved by
@@ -1033,10 +1039,25 @@ class StepBodyContact(GridTerm):
                     new.state[name] = column
         op, dim = problem.method_op, self.dim
         if self.term.weights is not None:
-            moved = self.term.corner_motion(op, problem.points, du)
+            offset = np.array([[new.state[name] for name in row]
+                               for row in corner_state(dim)]) \
+                + self.term.corner_motion(op, problem.points, du)
+            # a corner moved a cell from where its domain's is goes back
+            # there: the splines of a pile head's corner reach nodes above
+            # it that its points barely hold, and a step moved it 66 cells
+            # (no pair, no force), out of the grid, where no node carries
+            # it (the next step failed)
+            domain = self.term.domain_offsets(new)
+            apart = np.sqrt(((offset - domain) ** 2).sum(axis=0)).max(
+                axis=0) > self.term.h
+            if apart.any():
+                logger.debug("step %d: the corners of %d points drifted a "
+                             "cell from their domains; back on them",
+                             problem.step, int(apart.sum()))
+                offset[:, :, apart] = domain[:, :, apart]
             for a, row in enumerate(corner_state(dim)):
                 for c, name in enumerate(row):
-                    new.state[name] = new.state[name] + moved[a, c]
+                    new.state[name] = offset[a, c]
         elif not self.term.finite:
             H = op.gradients(du)
             for a, row in enumerate(gradient_state(dim)):

@@ -394,19 +394,24 @@ class Rung(NamedTuple):
 #: what the log says when the retry ladder switches the ghost penalty on
 GHOST_CHANGES = (": it stiffens the cut cells, and a plastic limit load can "
                  "come out 8-13% higher with it (a footing, gamma 0.1; "
-                 "docs/robustness.md); B-splines need none with "
-                 "Stabilisation(extended_splines=True)")
+                 "docs/robustness.md)")
+#: and what it adds for B-splines where the extended splines serve (they
+#: are refused with contacts between bodies)
+EXTENDED_INSTEAD = "; B-splines need none with " \
+    "Stabilisation(extended_splines=True)"
 
 
 def switch_ghost_on(run: Run, step: int, failure):
     """The reserve ghost penalty on for the rest of the run."""
+    instead = EXTENDED_INSTEAD if run.method.name.startswith("bspline") \
+        and not run.contacts else ""
     for term in run.terms:
         if isinstance(term, GhostStabilisation) and not term.active:
             term.switch_on()
             run.counters["ghost_from_step"] = step
             logger.warning("%s; switching the ghost penalty on (gamma %g) "
-                           "for the rest of the run%s", failure, term.gamma,
-                           GHOST_CHANGES)
+                           "for the rest of the run%s%s", failure,
+                           term.gamma, GHOST_CHANGES, instead)
 
 
 def line_search_from_now_on(run: Run, step: int):
