@@ -175,6 +175,13 @@ class GridTerm:
         (contact: the velocity of material in contact across the
         obstacle's surface, after the time integrator set it)."""
 
+    def failure_hint(self, points) -> str:
+        """What a run's error adds from this term when its steps failed
+        down to the smallest load increment, ``points`` the last
+        converged state: a cause the term can see there (contact:
+        friction mobilised in full), as ``"; ..."``, or ``""``."""
+        return ""
+
 
 @runtime_checkable
 class Response(Protocol):

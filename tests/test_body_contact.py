@@ -1479,6 +1479,34 @@ def test_a_rough_footing_body_stays_symmetric_as_its_soil_yields():
     assert res.history[-1].n_yielded > 0
 
 
+@pytest.mark.slow
+def test_a_block_pushed_past_coulomb_s_force_on_a_body_names_friction():
+    """A user trial's block on a base body (friction 0.3, its weight in
+    full from the start) pushed by a traction ramped to 0.4 of its
+    weight: past 0.75 of the load no static equilibrium exists.  The run
+    fails there, and its error names the contact's friction, mobilised
+    in full (it named neither)."""
+    from skfem_mpm import ConvergenceError
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 16), np.linspace(0, 1.3, 8))
+    pts = bodies(mesh, 2, [lambda x: x[1] < .53,
+                           lambda x: (x[1] > .53) & (x[1] < .93)
+                           & (x[0] > .83) & (x[0] < 1.95)])
+    block = pts.body == 1
+    low, high = pts.x - pts.domain, pts.x + pts.domain
+    push = .4 * 1e4 * pts.volume[block].sum() / (
+        high[1, block].max() - low[1, block].min())
+    with pytest.raises(ConvergenceError, match="the friction of contact "
+                       "'0-1' is mobilised in full") as failed:
+        simulate(mesh, ElementQuad1(), pts,
+                 [LinearElastic(1e5, .3), LinearElastic(1e6, .3)],
+                 lambda b: b.get_dofs(lambda x: x[1] == 0),
+                 body_force=BodyForce([0., -1e4], ramp=False), nsteps=4,
+                 loads=[Traction(side_points(pts, "left", select=block),
+                                 "left", [push, 0.])],
+                 contacts=[Contact(0, 1, friction=.3)])
+    assert failed.value.load_factor == pytest.approx(.75, abs=1e-3)
+
+
 def test_a_stiff_block_on_a_soft_one_with_free_sides_stays_uniform():
     """A user trial's stack: a block 1e3 times stiffer on a soft one,
     sides free (inside a cell), a smooth interface, 10 load steps.  The

@@ -5,7 +5,7 @@ import pytest
 from skfem import ElementQuad1, MeshQuad
 
 from skfem_mpm import (BodyForce, Dynamics, GeneralizedAlpha,
-                       InvalidInputError, LinearElastic, Newmark,
+                       InvalidInputError, LinearElastic, MPMError, Newmark,
                        NewtonOptions, Obstacle, Options, Resume,
                        Stabilisation, VonMises, seed_points, simulate)
 from skfem_mpm.solve.contact import corner_signs
@@ -256,6 +256,32 @@ def test_coulomb_friction_holds_a_block_quasi_statically(method):
     assert abs(res.points.displacement[0, bottom]).max() < 1e-3 * .2
 
 
+@pytest.mark.slow
+def test_a_block_pushed_past_coulomb_s_force_names_friction():
+    """A block on a floor (mu = 0.3), its weight in full from the start,
+    pushed sideways by a traction ramped to 0.4 of its weight: past 0.75
+    of the load no static equilibrium exists.  The run fails there, and
+    its error names the obstacle's friction, mobilised in full (a user
+    trial's block ended in a Newton failure that named neither)."""
+    from skfem_mpm import ConvergenceError, Traction, side_points
+    mesh = MeshQuad.init_tensor(np.linspace(-.2, 2.9, 12),
+                                np.linspace(-.17, .9, 6))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .25) & (x[0] < .9)
+                      & (x[1] > 0.) & (x[1] < .5))
+    low, high = pts.x - pts.domain, pts.x + pts.domain
+    weight = 2e4 * pts.volume.sum()
+    push = .4 * weight / (high[1].max() - low[1].min())
+    with pytest.raises(ConvergenceError, match="the friction of obstacle "
+                       "'floor' is mobilised in full") as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(5e6, .3), [],
+                 body_force=BodyForce([0., -2e4], ramp=False), nsteps=4,
+                 loads=[Traction(side_points(pts, "left"), "left",
+                                 [push, 0.])],
+                 obstacles=[Obstacle(box=[[-1, 4], [-1, low[1].min()]],
+                                     friction=.3, name="floor")])
+    assert failed.value.load_factor == pytest.approx(.75, abs=1e-3)
+
+
 def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
     """A block hangs from a tied obstacle whose face lies between grid
     lines: the obstacle carries the weight, and the block hangs where
@@ -339,6 +365,60 @@ def test_contact_state_resumes_bit_identically():
     assert np.array_equal(full.points.x, resumed.points.x)
     assert np.array_equal(full.history[-1].obstacle_forces,
                           resumed.history[-1].obstacle_forces)
+
+
+@pytest.mark.slow
+def test_a_symmetric_wedge_takes_no_sideways_force():
+    """A user trial's smooth wedge (half-angle 30 degrees, its apex on
+    the grid line of the symmetry) pushed 0.15 (a cell) into von Mises
+    soil in 20 steps: the soil's corners under its apex, two domains'
+    at one place, both took the face first in the polygon's order, and
+    for 60% of the push the whole force lay along one face's normal, a
+    sideways force 1.73 (1 / tan 30) times the vertical one; a point's
+    centre ended 0.15 cells inside the wedge.  Each corner there now
+    takes the face on its own domain's side: no sideways force, no point
+    inside."""
+    h = 2 / 14
+    mesh = MeshQuad.init_tensor(np.linspace(-1, 1, 15),
+                                -1 + h * np.arange(12))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 0.)
+    t = np.tan(np.radians(30))
+    wedge = Obstacle(polygon=[[0., 0.], [.5 * t, .5], [-.5 * t, .5]],
+                     displacement=[0., -.15])
+    res = simulate(
+        mesh, ElementQuad1(), points, VonMises(1e5, .3, yield_stress=100.),
+        lambda b: np.concatenate([
+            b.get_dofs(lambda x: np.isclose(x[1], -1)).all(),
+            b.get_dofs(lambda x: np.isclose(np.abs(x[0]), 1)).all("u^1")]),
+        nsteps=20, obstacles=[wedge],
+        options=Options(stabilisation=Stabilisation(antilocking=True)))
+    force = np.array([r.obstacle_forces[0] for r in res.history])
+    assert res.history[-1].load_factor == 1.
+    assert (force[:, 1] > 0).all()              # the soil pushes it up
+    assert np.abs(force[:, 0]).max() < 1e-6 * np.abs(force[:, 1]).max()
+    phi = wedge.signed_distance(res.points.x, np.array([0., -.15]))[0]
+    assert phi.min() > 0.
+
+
+def test_a_polygon_s_inside_holds_at_a_vertex_s_height():
+    """A user trial's wedge, its apex put at the soil's surface as the
+    points say it (3.5e-18 above zero): the crossing test took an edge's
+    end height as its start plus its vector, a round-off from the next
+    edge's start, and every corner beside it on the surface, metres
+    away, was inside (the run refused as "0.5 inside").  The signed
+    distances are the closed form's, whatever the apex's round-off."""
+    slope = np.tan(np.radians(60))
+    x = np.array([[-1., 1., -5., -1.], [0., 0., 0., 1.7347234759768e-18]])
+    for apex in (0., 1e-17, 3.469446951953614e-18):
+        wedge = Obstacle(polygon=[[0., apex], [.5 * slope, apex + .5],
+                                  [-.5 * slope, apex + .5]])
+        phi = wedge.signed_distance(x)[0]
+        # outside, the distance to the face on the point's side (a
+        # segment from the apex)
+        end = np.array([np.sign(x[0]) * .5 * slope, np.full(4, .5)])
+        rel = x - [[0.], [apex]]
+        t = np.clip((rel * end).sum(axis=0) / (end * end).sum(axis=0), 0, 1)
+        assert np.allclose(phi, np.hypot(*(rel - t * end)), rtol=1e-12)
 
 
 @pytest.mark.parametrize("make, words", [
@@ -1057,16 +1137,19 @@ def test_an_obstacle_edge_meeting_material_inside_a_cell_is_warned(
         "line at it, or refine".format(warned)])
 
 
-@pytest.mark.parametrize("slope, warned", [(30., 30.), (5., None),
-                                           (0., None)])
+@pytest.mark.parametrize("slope, friction, warned", [
+    (30., .3, 30.), (5., .3, 5.), (5., "tied", 5.), (5., 0., None),
+    (0., .3, None)])
 def test_material_on_an_inclined_polygon_face_is_warned(caplog, slope,
-                                                        warned):
+                                                        friction, warned):
     """A block seeded on a polygon incline meets it with a staircase of
     its points' axis-aligned domains, touching at a few corners: warned
     before any step where the face is inclined by more than 10 degrees
     (a user trial's block on a 30 degree incline slid 17% too fast with
-    MPM and slid where friction holds it, docs/contact.md), not on a
-    level or nearly level polygon floor."""
+    MPM and slid where friction holds it, docs/contact.md), by more than
+    half a degree where the face holds the body (friction, tied: a block
+    on a rough 5 degree incline turned on the corner held), not on a
+    level polygon floor."""
     th = np.radians(slope)
     mesh = MeshQuad.init_tensor(np.linspace(0, 3, 22),
                                 np.linspace(-.6, 2.2, 21))
@@ -1085,11 +1168,14 @@ def test_material_on_an_inclined_polygon_face_is_warned(caplog, slope,
     pts.x0 += n[:, None] * lift
     incline = Obstacle(polygon=[[-1, 1.5 + np.tan(th)],
                                 [4, 1.5 - 4 * np.tan(th)], [4, -5], [-1, -5]],
-                       friction=.3, name="incline")
+                       friction=friction, name="incline")
     with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
-        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e7, .3), [],
-                 body_force=BodyForce([0., -9.81e3], ramp=False),
-                 dynamics=Dynamics(.01, .01, 1e3), obstacles=[incline])
+        try:        # warned before the first step, which tied may fail
+            simulate(mesh, ElementQuad1(), pts, LinearElastic(1e7, .3), [],
+                     body_force=BodyForce([0., -9.81e3], ramp=False),
+                     dynamics=Dynamics(.01, .01, 1e3), obstacles=[incline])
+        except MPMError:
+            assert friction == "tied"
     found = [r.getMessage() for r in caplog.records
              if "staircase" in r.getMessage()]
     assert len(found) == (warned is not None)

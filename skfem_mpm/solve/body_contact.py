@@ -68,7 +68,8 @@ from ..errors import (ContactError, GridMotionError, InvalidInputError,
                       StepTooLongError, check_real)
 from ..methods.fields import body_fields
 from ..protocols import GridTerm
-from .contact import CellValues, block_diagonal, corner_signs, coulomb
+from .contact import (CellValues, block_diagonal, corner_signs, coulomb,
+                      friction_hint)
 from .contact_pairs import FACING, PairFinder, overlapping
 from .dynamics import sliver_nodes, value_matrix
 from .loads import supported_share
@@ -366,6 +367,23 @@ class BodyContact(GridTerm):
                                     self.domain_offsets(points)):
                 for name, offset in zip(row, offsets):
                     points.state.setdefault(name, offset.copy())
+
+    def failure_hint(self, points) -> str:
+        """Friction mobilised in full between two bodies at the last
+        converged state ``points`` (:func:`~skfem_mpm.solve.contact.
+        friction_hint`)."""
+        out, dim = [], self.dim
+        for k, (_, _, contact) in enumerate(self.contacts):
+            rows = traction_state(k, dim)
+            if not all(name in points.state for row in rows for name in row):
+                continue
+            P, _, T = (np.sqrt(sum(np.array([points.state[name]
+                                             for name in row]) ** 2
+                                   for row in rows[q * dim:(q + 1) * dim]))
+                       for q in range(3))
+            out.append(friction_hint("contact {!r}".format(contact.name),
+                                     contact.friction, P, T))
+        return "".join(out)
 
     def domain_offsets(self, points) -> ndarray:
         """The corners' offsets from their points (dim, corners, n) where

@@ -112,8 +112,10 @@ MARGIN_CELLS = 2.
 
 #: the degrees from the grid's axes above which a polygon's face the
 #: material meets at the start is warned as met by a staircase
-#: (:meth:`ObstacleContact.warn_inclined_faces`)
+#: (:meth:`ObstacleContact.warn_inclined_faces`): smooth, and with friction
+#: (or tied), where the face holds the body on the staircase's corners
 INCLINED = 10.
+INCLINED_HOLDING = .5
 
 #: the cells within which a corner touches a face for that warning
 TOUCHING = .1
@@ -159,6 +161,38 @@ def coulomb(friction, kappa: float, p: ndarray, n: ndarray, tau: ndarray,
     out[:, stick] = trial[:, stick]
     C[:, :, stick] = kappa * Pt[:, :, stick]
     return out, C, stick
+
+
+#: the share of Coulomb's limit at which a failed run's friction counts as
+#: mobilised in full (:func:`friction_hint`)
+MOBILISED = .99
+
+
+def friction_hint(what: str, friction, normal: ndarray,
+                  tangential: ndarray) -> str:
+    """A failed run's hint where the Coulomb ``friction`` of ``what`` (a
+    contact's description) is mobilised in full at the last converged
+    state, ``normal`` and ``tangential`` the sizes of the tractions at
+    its corners (any shape), else ``""``: a block pushed by a force past
+    mu N ended in a Newton failure that named neither the contact nor
+    friction (a user trial).
+
+    >>> friction_hint("obstacle 'floor'", .3, np.array([1., 1.]),
+    ...               np.array([.3, .3]))[:47]
+    "; the friction of obstacle 'floor' is mobilised"
+    >>> friction_hint("obstacle 'floor'", .3, np.ones(2), np.full(2, .2))
+    ''
+    """
+    if isinstance(friction, str) or friction == 0.:
+        return ""
+    limit = friction * float(normal.sum())
+    if not limit > 0 or float(tangential.sum()) < MOBILISED * limit:
+        return ""
+    return ("; the friction of {} is mobilised in full at the last "
+            "converged state (its tangential force {:.3f} of mu times its "
+            "normal one): past it a quasi-static load has no equilibrium, "
+            "the body slides (dynamics follows the slide; or prescribe its "
+            "motion)".format(what, float(tangential.sum()) / limit))
 
 
 def block_diagonal(C: ndarray) -> csr_matrix:
@@ -281,6 +315,9 @@ class ObstacleContact(GridTerm):
         self.finite = finite
         self.start = [initial_scale * ob.displacement for ob in obstacles]
         counters.setdefault("contact_updates", 0)
+        #: the last committed state and its obstacles' normal and
+        #: tangential forces (:meth:`failure_hint`)
+        self.mobilisation = (None, ())
 
     def deformation(self, points) -> ndarray:
         """The points' deformation gradient (dim, dim, n) at a step's
@@ -359,6 +396,7 @@ class ObstacleContact(GridTerm):
 
     def begin_run(self, points) -> None:
         dim, n = points.x.shape
+        self.mobilisation = (None, ())
         half = self.domain0 if self.domain0 is not None else np.repeat(
             (points.volume0 ** (1. / dim) / 2)[None], dim, axis=0)
         self.half = half
@@ -406,21 +444,27 @@ class ObstacleContact(GridTerm):
 
     def warn_inclined_faces(self, X0: ndarray) -> None:
         """Log a warning for each polygon obstacle with a face inclined
-        by more than :data:`INCLINED` degrees to the grid's axes that the
-        material's domain corners ``X0`` (dim, corners, n) touch at the
-        run's start (within :data:`TOUCHING` cells; within a cell, a disc
-        pressed on a flat block was warned by its faces beside the
-        contact): the material's surface against it is a staircase
-        of the points' axis-aligned domains, touching it at a few corners.
-        A block 0.4 x 0.2 seeded on a 30 degree incline (a user trial, h =
-        0.14, MPM, dynamics) slid 17% faster than Coulomb's law gives with
-        friction 0.3, and 0.063 with 0.7, where it sticks (rocking on the
-        one corner that touched); 0.7% on h = 0.1, GIMP 2.7%."""
+        by more than :data:`INCLINED` degrees to the grid's axes (with
+        friction, or tied: :data:`INCLINED_HOLDING`) that the material's
+        domain corners ``X0`` (dim, corners, n) touch at the run's start
+        (within :data:`TOUCHING` cells; within a cell, a disc pressed on
+        a flat block was warned by its faces beside the contact): the
+        material's surface against it is a staircase of the points'
+        axis-aligned domains, touching it at a few corners.  A block 0.4 x
+        0.2 seeded on a 30 degree incline (a user trial, h = 0.14, MPM,
+        dynamics) slid 17% faster than Coulomb's law gives with friction
+        0.3, and 0.063 with 0.7, where it sticks (rocking on the one
+        corner that touched); 0.7% on h = 0.1, GIMP 2.7%.  A block 1 x
+        0.5 resting on a rough 5 degree incline (another trial, h = 0.11,
+        quasi-static) turned by the incline's angle on the one corner the
+        rough face held, moved 400 times what FE gives, its stresses off
+        by up to 1.1 rho g H, every step converged; with friction 0.5 or
+        tied it failed at its first step."""
         if X0.shape[0] != 2:
             return
         X0 = X0.reshape(2, -1)
         for i, ob in enumerate(self.obstacles):
-            if ob.box is not None or ob.friction == "tied":
+            if ob.box is not None:
                 continue
             near = np.abs(ob.signed_distance(X0, self.start[i])[0]) \
                 < TOUCHING * self.h
@@ -429,17 +473,24 @@ class ObstacleContact(GridTerm):
             face = ob.nearest_face(X0[:, near], self.start[i])
             normal = ob.faces()[1][:, np.unique(face)]
             tilt = np.degrees(np.arcsin(np.abs(normal).min(axis=0)))
-            if tilt.max() > INCLINED:
+            holding = ob.friction != 0.
+            if tilt.max() > (INCLINED_HOLDING if holding else INCLINED):
                 logger.warning(
                     "obstacle %r: the material meets a face inclined by "
                     "%.3g degrees to the grid's axes: its surface there is "
                     "a staircase of the points' domains touching at a few "
-                    "corners, and sliding and sticking come out approximate "
-                    "(a block on a 30 degree incline, 2.8 cells long, slid "
-                    "17%% too fast with MPM, 2.7%% with GIMP, and slid "
-                    "where it sticks; docs/contact.md): refine, or seed the "
-                    "body level and tilt the body force", ob.name,
-                    float(tilt.max()))
+                    "corners, %s; docs/contact.md): seed the body level "
+                    "and tilt the body force, or refine", ob.name,
+                    float(tilt.max()), "and a face that holds it (friction "
+                    "or tied) holds it at those corners: it can turn on "
+                    "them, and its stresses there are a point support's (a "
+                    "block on a rough 5 degree incline turned by 5 degrees, "
+                    "moved 400 times as far as in FE, its stresses off by "
+                    "up to 1.1 rho g H; with friction 0.5 or tied it did "
+                    "not converge" if holding else "and sliding comes out "
+                    "approximate (a block on a 30 degree incline, 2.8 "
+                    "cells long, slid 17%% too fast with MPM, 2.7%% with "
+                    "GIMP")
 
     def warn_edges_inside_cells(self, X0: ndarray) -> None:
         """Log a warning for each box obstacle whose edge meets the
@@ -489,6 +540,18 @@ class ObstacleContact(GridTerm):
                         " put a grid line at it, or refine", ob.name,
                         np.round(corner, 12).tolist())
                     break
+
+    def failure_hint(self, points) -> str:
+        """Friction mobilised in full on an obstacle at the last
+        converged state ``points`` (:func:`friction_hint`), as the step
+        that committed it measured it (the point state keeps the
+        multipliers, not the pressures)."""
+        committed, parts = self.mobilisation
+        if committed is not points:
+            return ""
+        return "".join(friction_hint("obstacle {!r}".format(ob.name),
+                                     ob.friction, *part)
+                       for ob, part in zip(self.obstacles, parts))
 
     def begin_step(self, problem):
         return StepContact(self, problem)
@@ -620,7 +683,8 @@ class StepContact(GridTerm):
         direction into the material there (dim, k), the sum of the
         offsets to their points from the corners at its place (within
         :data:`ALIKE` cells), of every domain with a corner there (the
-        corner of two domains on a body's flat face points across it);
+        corner of two domains on a body's flat face points across it),
+        and the offset to its own point (dim, k);
         asked only where faces of an obstacle are alike
         (:meth:`~skfem_mpm.solve.obstacles.Obstacle.nearest_face`; all
         of a step's corners against all cost 9 s a step at 1e5 points in
@@ -636,7 +700,7 @@ class StepContact(GridTerm):
                 output_type="ndarray")
             out = np.zeros((self.dim, which.size))
             np.add.at(out.T, near["i"], towards[:, near["j"]].T)
-            return out
+            return out, towards[:, which]
         return inward
 
     def check_passing(self, u: ndarray, H: ndarray) -> None:
@@ -966,6 +1030,13 @@ class StepContact(GridTerm):
             forces.append(-T.sum(axis=1))
         record.obstacle_forces = np.array(forces)
         self.committed = ev
+        # the normal and tangential forces' sizes, for a failure's hint
+        term.mobilisation = (new, [
+            (np.zeros(1), np.zeros(1)) if part is None else (
+                np.array([(self.area[i] * part[0]).sum()]),
+                np.array([(self.area[i] * np.sqrt((part[1] ** 2).sum(
+                    axis=0))).sum()]))
+            for i, (_, _, _, part) in enumerate(ev)])
 
     def finish(self, problem, new, record) -> None:
         """In dynamics, an impact is perfectly plastic along the normal:

@@ -312,12 +312,13 @@ class PairFinder:
         gap, and of gaps within :data:`FACING` cells those along which
         the bodies' corners overlap by :data:`SPAN` cells across (where
         any does), and of those the one nearest the centroids' line, the
-        last axis (the vertical) by :data:`LAST` in cosine.  A body's edge or the grid's edge makes the centroids'
-        directions lean sideways and shows a gap of about zero sideways
-        where both bodies end; the separating axis with these preferences
-        stays across the surface.  Where the best is a grid axis and
-        ``sides`` (a smooth contact, whose pairs hold only along their
-        normals), every other axis alike with it or along which the
+        last axis (the vertical) by :data:`LAST` in cosine.  A body's edge
+        or the grid's edge makes the centroids' directions lean sideways
+        and shows a gap of about zero sideways where both bodies end; the
+        separating axis with these preferences stays across the surface.
+        Where the best is a grid axis and ``sides`` (a smooth contact,
+        whose pairs hold only along their normals), every other axis
+        alike with it or along which the
         bodies touch (within :data:`FACING` cells), across which their
         corners overlap by more than :data:`SPAN` cells, is the normal
         of a pair of the node too:

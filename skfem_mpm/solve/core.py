@@ -616,9 +616,10 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                 raise type(err)(
                     "{}; no convergence down to a load increment of {:.2e}: "
                     "the last converged state (load factor {:.4f}) is "
-                    "attached{}{}".format(err, target - factor, factor,
-                                          too_soft(run, points),
-                                          ghost_hint(run)),
+                    "attached{}{}{}".format(
+                        err, target - factor, factor, too_soft(run, points),
+                        ghost_hint(run), "".join(
+                            term.failure_hint(points) for term in run.terms)),
                     state=points, load_factor=factor,
                     history=result.history) from err
             increment = (target - factor) / 2

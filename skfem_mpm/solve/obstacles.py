@@ -208,9 +208,11 @@ class Obstacle:
         first, or the face of least depth of a point inside.  Given
         ``inward``, a function of the indices of the positions with more
         than one face within ``alike`` of the nearest giving the
-        direction into the material at each (dim, k), of those faces the
+        direction into the material at each and the direction to each
+        position's own point (two arrays dim x k), of those faces the
         one the material lies beyond (its outward normal nearest that
-        direction; of those alike in it, the nearest): a corner on a
+        direction; of those alike in it, the nearest; then the one
+        facing the position's own point, :func:`_nearest`): a corner on a
         body's flat bottom right over a step's edge is as near the step's
         side as its top, and the side, taken by the order of the faces,
         pushed a block landing on a smooth step sideways (a user trial:
@@ -419,8 +421,13 @@ def _nearest(d2: ndarray, n: ndarray, inward, alike: float,
     dim x k) the nearest to each position (``at``: their indices), or,
     given ``inward`` (:meth:`Obstacle.nearest_face`), where several lie
     within ``alike`` of the nearest, the one whose normal is nearest the
-    direction into the material, then the nearest (the order of the faces
-    decides what is left)."""
+    direction into the material (within :data:`ACROSS_ALIKE`), then the
+    nearest, then the one whose normal is nearest the direction to the
+    position's own point (a corner of two domains right under a wedge's
+    apex: each domain's corner takes the face on its side, where the
+    order of the faces gave both the left one, and a symmetric wedge
+    pushed into soil took a sideways force 1.7 times its vertical
+    one)."""
     face = np.argmin(d2, axis=0)
     if inward is None:
         return face
@@ -429,11 +436,28 @@ def _nearest(d2: ndarray, n: ndarray, inward, alike: float,
     near = d <= best + alike
     tied = np.flatnonzero(near.sum(axis=0) > 1)
     if tied.size:
-        score = np.einsum("ak,am->km", n, inward(at[tied])) \
-            - 1e-9 * (d[:, tied] - best[tied]) / max(alike, 1e-300)
-        face[tied] = np.argmax(np.where(near[:, tied], score, -np.inf),
-                               axis=0)
+        across, own = (w / np.maximum(np.sqrt((w ** 2).sum(axis=0)), 1e-300)
+                       for w in inward(at[tied]))
+        keys = [np.einsum("ak,am->km", n, across),
+                -(d[:, tied] - best[tied]) / max(alike, 1e-300),
+                np.einsum("ak,am->km", n, own)]
+        keep = near[:, tied]
+        # alike in the direction by :data:`ACROSS_ALIKE` in cosine, in the
+        # distance by a tenth of ``alike`` (a corner pressed at a wedge's
+        # apex, the soil's deformation moving it a millionth sideways)
+        for key, within in zip(keys[:-1], (ACROSS_ALIKE, .1)):
+            key = np.where(keep, key, -np.inf)
+            keep &= key >= key.max(axis=0) - within
+        face[tied] = np.argmax(np.where(keep, keys[-1], -np.inf), axis=0)
     return face
+
+
+#: the cosine by which faces of an obstacle alike in distance from a
+#: corner are alike in facing the material too (:func:`_nearest`): the
+#: soil's surface under a wedge's apex, tilted a thousandth by the soil's
+#: deformation, gave both corners there the face it tilted towards, and
+#: a symmetric wedge a sideways force 1.7 times its vertical one
+ACROSS_ALIKE = .05
 
 
 def _box_distance(box: ndarray, x: ndarray):
@@ -465,8 +489,12 @@ def _polygon_distance(v: ndarray, x: ndarray):
     edge = np.argmin(d2, axis=0)
     cols = np.arange(x.shape[1])
     dist = np.sqrt(d2[edge, cols])
-    # inside by crossing number along +x
-    y0, y1 = a[1], a[1] + e[1]
+    # inside by crossing number along +x, each edge's end height the next
+    # edge's start itself (``a + e`` differs from it by round-off, and a
+    # point between the two at a vertex's height crossed twice or never:
+    # a wedge's apex 3.5e-18 above the soil made every corner beside it
+    # on the surface, metres away, "0.5 inside")
+    y0, y1 = a[1], np.roll(v, -1, axis=1)[1][:, None]
     straddles = (y0 > x[1]) != (y1 > x[1])
     with np.errstate(divide="ignore", invalid="ignore"):
         xc = a[0] + (x[1] - y0) * e[0] / e[1]
