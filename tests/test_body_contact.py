@@ -1479,6 +1479,17 @@ def test_a_rough_footing_body_stays_symmetric_as_its_soil_yields():
     assert res.history[-1].n_yielded > 0
 
 
+def block_on_a_base():
+    """A user trial's direct shear: a block (body 1) on a base body (2 x
+    2 points per cell, its sides inside cells): the grid, the points,
+    the block's mask and the points' domains' low and high corners."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 16), np.linspace(0, 1.3, 8))
+    pts = bodies(mesh, 2, [lambda x: x[1] < .53,
+                           lambda x: (x[1] > .53) & (x[1] < .93)
+                           & (x[0] > .83) & (x[0] < 1.95)])
+    return mesh, pts, pts.body == 1, pts.x - pts.domain, pts.x + pts.domain
+
+
 @pytest.mark.slow
 def test_a_block_pushed_past_coulomb_s_force_on_a_body_names_friction():
     """A user trial's block on a base body (friction 0.3, its weight in
@@ -1487,12 +1498,7 @@ def test_a_block_pushed_past_coulomb_s_force_on_a_body_names_friction():
     fails there, and its error names the contact's friction, mobilised
     in full (it named neither)."""
     from skfem_mpm import ConvergenceError
-    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 16), np.linspace(0, 1.3, 8))
-    pts = bodies(mesh, 2, [lambda x: x[1] < .53,
-                           lambda x: (x[1] > .53) & (x[1] < .93)
-                           & (x[0] > .83) & (x[0] < 1.95)])
-    block = pts.body == 1
-    low, high = pts.x - pts.domain, pts.x + pts.domain
+    mesh, pts, block, low, high = block_on_a_base()
     push = .4 * 1e4 * pts.volume[block].sum() / (
         high[1, block].max() - low[1, block].min())
     with pytest.raises(ConvergenceError, match="the friction of contact "
@@ -1580,12 +1586,7 @@ def test_a_block_pushed_over_a_base_body_slides_at_coulomb_s_force(
     N (2.2 in finite strain).  The log names no remedy refused with
     contacts between bodies (extended splines)."""
     from skfem_mpm import Obstacle
-    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 16), np.linspace(0, 1.3, 8))
-    pts = bodies(mesh, 2, [lambda x: x[1] < .53,
-                           lambda x: (x[1] > .53) & (x[1] < .93)
-                           & (x[0] > .83) & (x[0] < 1.95)])
-    block = pts.body == 1
-    low, high = pts.x - pts.domain, pts.x + pts.domain
+    mesh, pts, block, low, high = block_on_a_base()
     left, bottom = low[0, block].min(), low[1, block].min()
     weight = 1e4 * pts.volume[block].sum()
     res = simulate(mesh, ElementQuad1(), pts,
