@@ -142,7 +142,9 @@ def point_slots(tind, X, volume):
     path's arrays entry for entry): the points by element in a stable
     order, the active elements ascending, each element's points in its
     first slots and the padding slots at its first point's coordinates.
-    Returns ``(elements, Xq, dx, point_index, slot_of_point, padding)``."""
+    Returns ``(elements, Xq, dx, point_index, slot_of_point, padding)``
+    and the groups of :meth:`~skfem_mpm.quadrature.basis.
+    MaterialPointBasis.groups`: ``(runs, in_slots, flat)``."""
     n, dim = tind.size, X.shape[0]
     order = np.argsort(tind, kind="mergesort")
     nel, run, slots = 0, 0, 0
@@ -157,6 +159,9 @@ def point_slots(tind, X, volume):
     dx = np.zeros((nel, slots))
     point_index = np.full((nel, slots), -1, dtype=np.int64)
     slot_of_point = np.empty(n, dtype=np.int64)
+    runs = np.zeros(nel + 1, dtype=np.int64)
+    in_slots = np.empty(n, dtype=np.int64)
+    flat = np.empty(n, dtype=np.int64)
     e, s = -1, 0
     for j in range(n):
         p = order[j]
@@ -172,6 +177,10 @@ def point_slots(tind, X, volume):
         dx[e, s] = volume[p]
         point_index[e, s] = p
         slot_of_point[p] = e * slots + s
+        runs[e + 1] = j + 1
+        in_slots[j] = p
+        flat[j] = e * slots + s
         s += 1
     padding = np.flatnonzero(point_index.ravel() < 0)
-    return elements, Xq, dx, point_index, slot_of_point, padding
+    return (elements, Xq, dx, point_index, slot_of_point, padding,
+            (runs, in_slots, flat))
