@@ -250,7 +250,8 @@ def tensor_grid(mesh: Mesh):
 def _axis_cells(a: ndarray, tol: float) -> Callable[[ndarray], ndarray]:
     """``cells(x)``: the cell index of positions x along one axis with
     nodes a, -1 outside; whether the axis is uniformly spaced is decided
-    once, here (it cost half of a small block's location, every step).
+    once, here (it cost half of a small block's location, every step):
+    ``cells.uniform`` is ``(first node, spacing)``, or ``None``.
     Clipped by ``np.maximum`` and ``np.minimum``, ``np.clip``'s numbers
     without its checks (8 us a call, half of a small block's location)."""
     n = len(a) - 1
@@ -266,6 +267,7 @@ def _axis_cells(a: ndarray, tol: float) -> Callable[[ndarray], ndarray]:
             np.minimum(np.maximum(i, 0, out=i), n - 1, out=i)
             i[(s < -tol) | (s > n + tol)] = -1
             return i
+        cells.uniform = origin, step
     else:
         inner = a[1:-1] - tol * h[:-1]
         low, high = a[0] - tol * h[0], a[-1] + tol * h[-1]
@@ -275,6 +277,7 @@ def _axis_cells(a: ndarray, tol: float) -> Callable[[ndarray], ndarray]:
             np.minimum(np.maximum(i, 0, out=i), n - 1, out=i)
             i[(x < low) | (x > high)] = -1
             return i
+        cells.uniform = None
     return cells
 
 
@@ -329,10 +332,10 @@ def _tensor_finder(mesh: Mesh, grid, tol: float):
                 x[:, s:s + LOCATE_BLOCK], X[:, s:s + LOCATE_BLOCK])
         return tind, X
 
-    uniform = [_uniform(a) for a in axes]
-    if all(uniform):
-        first = np.array([a[0] for a in axes], dtype=np.float64)
-        step = np.array([a[1] - a[0] for a in axes], dtype=np.float64)
+    uniform = [cells.uniform for cells in along]
+    if all(axis is not None for axis in uniform):
+        first = np.array([axis[0] for axis in uniform], dtype=np.float64)
+        step = np.array([axis[1] for axis in uniform], dtype=np.float64)
         ncells = np.array(shape, dtype=np.int64)
         strides = np.asarray(strides, dtype=np.int64)
         origin = np.ascontiguousarray(origin, dtype=np.float64)
@@ -353,13 +356,6 @@ def _tensor_finder(mesh: Mesh, grid, tol: float):
             return None if bad else (tind, X, outside)
         find.compiled = compiled
     return find
-
-
-def _uniform(a: ndarray) -> bool:
-    """Whether the nodes ``a`` of an axis are uniformly spaced, as
-    :func:`_axis_cells` decides it."""
-    h = np.diff(a)
-    return bool(np.allclose(h, h[0], rtol=1e-12, atol=0.))
 
 
 _LOCATE_PASSES = []     # the compiled_kernels function, imported late
