@@ -428,6 +428,11 @@ def test_compiled_slots_equal_the_numpy_layout(monkeypatch):
     assert bases[0]._groups is not None and bases[1]._groups is None
     for a, b in zip(bases[0].groups(), bases[1].groups()):
         assert a.dtype == b.dtype == np.int64 and np.array_equal(a, b)
+    # handed over (the kernel layout's): forgotten, formed again if asked
+    taken = bases[0].groups(keep=False)
+    assert bases[0]._groups is None
+    for a, b in zip(taken, bases[0].groups()):
+        assert a is not b and np.array_equal(a, b)
     for a, b in zip(bases[0].scalar_fields(), bases[1].scalar_fields()):
         assert np.array_equal(a, b)
 

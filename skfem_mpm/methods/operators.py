@@ -186,8 +186,9 @@ class PointOperator:
         (:meth:`~skfem_mpm.methods.assembly.ElementPattern.structure`)."""
         if self._layout is None:
             first, length, expand = self.pattern().structure()[:3]
-            runs, in_slots, flat = self.basis.groups()
+            runs, in_slots, flat = self.basis.groups(keep=False)
             nel, nloc = self.nelems, self.scalar_dofs.shape[0]
+            flat *= nloc            # the layout's own (the basis forgot it)
             first_points = np.ascontiguousarray(
                 self.shape_gradients.transpose(2, 3, 1, 0))
             # one copy of the gradients: the operator's and the basis's
@@ -200,7 +201,7 @@ class PointOperator:
                                          dtype=np.int64).ravel(),
                  np.arange(nel, dtype=np.int64) * nloc,
                  np.full(nel, nloc, dtype=np.int64),
-                 runs, in_slots, flat * nloc),
+                 runs, in_slots, flat),
                 (PER_ENTRY if expand is None else PER_NODE_PAIR,
                  np.asarray(self.elements, dtype=np.int64), first,
                  np.ascontiguousarray(length), NO_INDEX, NO_INDEX),

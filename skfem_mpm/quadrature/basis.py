@@ -259,13 +259,15 @@ class MaterialPointBasis(CellBasis):
             field.grad = gradients[i]     # fields (made anew: 20-40 us)
         self._scalar_fields = (values, gradients)
 
-    def groups(self) -> Tuple[ndarray, ndarray, ndarray]:
+    def groups(self, keep: bool = True) -> Tuple[ndarray, ndarray, ndarray]:
         """The points element by element: ``(runs, in_slots, flat)``, the
         first of each active element's points and the end (``runs``,
         nelems + 1), the points in slot order (``point_index`` of the
         filled slots) and their flat slots (int64 each); from the compiled
         slot layout where it formed them (20 us a load step at 56 points
-        in 2D), else from :attr:`point_index`.
+        in 2D), else from :attr:`point_index`.  ``keep=False``: the caller
+        takes them over (and may write them), the basis forgets them (16
+        bytes a point kept otherwise: the 3D heap's peak).
 
         >>> from skfem import MeshQuad, ElementQuad1
         >>> from skfem_mpm import MaterialPointBasis, seed_points
@@ -281,7 +283,10 @@ class MaterialPointBasis(CellBasis):
             np.cumsum(real.sum(axis=1), out=runs[1:])
             self._groups = (runs, self.point_index[real].astype(np.int64),
                             np.flatnonzero(real.ravel()).astype(np.int64))
-        return self._groups
+        groups = self._groups
+        if not keep:
+            self._groups = None
+        return groups
 
     def point_values(self, field: ndarray) -> ndarray:
         """Reorder a quadrature field (..., nelems, nqp) into the order of
