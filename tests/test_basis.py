@@ -410,6 +410,7 @@ def test_compiled_slots_equal_the_numpy_layout(monkeypatch):
     volume = rng.random(200)
     got = point_slots(tind, X, volume)
     want = _slots(tind, X, volume, np.arange(200))
+    assert len(got) == len(want) + 1
     for a, b in zip(got, want):
         assert a.dtype == b.dtype and np.array_equal(a, b)
     mesh = MeshQuad().refined(3)
@@ -423,5 +424,43 @@ def test_compiled_slots_equal_the_numpy_layout(monkeypatch):
                  "_padding"):
         assert np.array_equal(getattr(bases[0], name),
                               getattr(bases[1], name)), name
+    # the groups the compiled layout formed are the numpy path's
+    assert bases[0]._groups is not None and bases[1]._groups is None
+    for a, b in zip(bases[0].groups(), bases[1].groups()):
+        assert a.dtype == b.dtype == np.int64 and np.array_equal(a, b)
+    # handed over (the kernel layout's): forgotten, formed again if asked
+    taken = bases[0].groups(keep=False)
+    assert bases[0]._groups is None
+    for a, b in zip(taken, bases[0].groups()):
+        assert a is not b and np.array_equal(a, b)
     for a, b in zip(bases[0].scalar_fields(), bases[1].scalar_fields()):
         assert np.array_equal(a, b)
+
+
+def test_the_fields_are_made_when_first_asked_for():
+    """A load step's basis of a scalar H1 element forms its values and
+    gradients in one pass and scikit-fem's per-function fields only when
+    ``basis`` is read (the compiled passes never read them): then views
+    of those arrays, and ``share_gradients`` before or after reaches
+    them alike."""
+    from skfem import Dofs
+    mesh = MeshQuad().refined(2)
+    points = seed_points(mesh, 2)
+    bases = [MaterialPointBasis(mesh, ElementQuad1(), points,
+                                dofs=Dofs(mesh, ElementQuad1()))
+             for _ in range(2)]
+    assert all(b._basis is None for b in bases)
+    values, gradients = bases[0].scalar_fields()
+    fields = bases[0].basis
+    assert len(fields) == 4 and bases[0]._basis is fields
+    for i, (field,) in enumerate(fields):
+        assert np.shares_memory(field, values)
+        assert np.array_equal(field.grad, gradients[i])
+    for basis in bases:                  # fields made, and not made yet
+        values, gradients = basis.scalar_fields()
+        first = np.ascontiguousarray(gradients.transpose(2, 3, 0, 1))
+        basis.share_gradients(first.transpose(2, 3, 0, 1))
+    assert bases[1]._basis is None
+    for basis in bases:
+        assert all(np.shares_memory(field.grad, basis.scalar_fields()[1])
+                   for (field,) in basis.basis)

@@ -27,7 +27,7 @@ from skfem_mpm import (DruckerPrager, LinearElastic, ModifiedCamClay,
                        Stabilisation, VonMises, point_locator, seed_points,
                        simulate)
 from skfem_mpm import kernels
-from skfem_mpm.errors import InvalidInputError
+from skfem_mpm.errors import InvalidInputError, PointsOutsideGridError
 from skfem_mpm.mechanics.kinematics import make_kinematics
 from skfem_mpm.mechanics.materials import initial_state
 from skfem_mpm.methods.gimp_linear import LinearGimp
@@ -630,3 +630,62 @@ def test_the_passes_change_with_what_they_compile_in():
                 ", ".join(deps), path.stem, digest))
         checked.append(path.stem)
     assert "passes" in checked
+
+
+@pytest.mark.parametrize("name", ["line", "quad", "hex", "quad-graded"])
+def test_the_compiled_location_equals_the_numpy_path_to_the_bit(name):
+    """``point_locator(kernels="compiled")`` on a tensor grid of uniformly
+    spaced axes gives the numpy path's elements and local coordinates to
+    the bit, signs of zeros included (a position on its element's origin:
+    ``+0.``, numpy's reduction starting at its identity), at random
+    points, on every node and within 1e-14 of one, and outside the grid
+    (the raw finder: -1 and the first cell's element's coordinates); the
+    same error for points outside and for non-finite positions; a graded
+    axis keeps the numpy path (no compiled finder)."""
+    from skfem import MeshLine
+    rng = np.random.default_rng(3)
+    axes = {"line": [np.linspace(-1., 2., 8)],
+            "quad": [np.linspace(-1., 2., 7), np.linspace(0., 1.2, 9)],
+            "hex": [np.linspace(-1., 2., 5), np.linspace(0., 1., 4),
+                    np.linspace(-.5, .5, 6)],
+            "quad-graded": [np.array([0., .1, .3, .7, 1.5]),
+                            np.linspace(0., 1., 5)]}[name]
+    dim = len(axes)
+    mesh = MeshLine(axes[0]) if dim == 1 else GRIDS[dim][0].init_tensor(
+        *axes)
+    compiled = point_locator(mesh, kernels="compiled")
+    numpy_path = point_locator(mesh, kernels="numpy")
+    lo, hi = mesh.p.min(axis=1)[:, None], mesh.p.max(axis=1)[:, None]
+    nodes = mesh.p
+    x = np.hstack((lo + (hi - lo) * rng.random((dim, 5000)), nodes,
+                   np.clip(nodes + 1e-14, lo, hi),
+                   np.clip(nodes - 1e-14, lo, hi)))
+    got, want = compiled(x), numpy_path(x)
+    assert got[0].dtype == want[0].dtype
+    assert np.array_equal(got[0], want[0])
+    assert np.array_equal(got[1], want[1])
+    assert np.array_equal(np.signbit(got[1]), np.signbit(want[1]))
+    # the raw finders, points outside included
+    from skfem_mpm.quadrature.locate import _tensor_finder, tensor_grid
+    find = _tensor_finder(mesh, tensor_grid(mesh), 1e-12)
+    if name == "quad-graded":
+        assert not hasattr(find, "compiled")
+        return
+    far = lo + (hi - lo) * (3. * rng.random((dim, 500)) - 1.)
+    tind, X, outside = find.compiled(far, "compiled")
+    expected = find(far)
+    assert outside == (expected[0] < 0).sum() > 0
+    assert np.array_equal(tind, expected[0])
+    assert np.array_equal(X, expected[1])
+    assert find.compiled(far, "numpy") is None
+    messages = []
+    for locate in (compiled, numpy_path):
+        with pytest.raises(PointsOutsideGridError) as err:
+            locate(far)
+        messages.append(str(err.value))
+        bad = x.copy()
+        bad[0, 7] = np.nan
+        with pytest.raises(InvalidInputError) as err:
+            locate(bad)
+        messages.append(str(err.value))
+    assert messages[:2] == messages[2:]

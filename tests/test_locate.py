@@ -174,3 +174,25 @@ def test_general_path_on_small_cells_far_from_the_origin(origin, h):
     beyond = x + .6 * h          # extrapolated: a domain's corner
     X = cell_coordinates(mesh, clip=False)(beyond, tind)
     assert maps_back(mesh, tind, X, beyond) < 1e-13 * (origin + 10 * h)
+
+
+def test_the_kernels_option_is_checked_and_reaches_the_locator():
+    """``point_locator(kernels=)`` takes the run's option (checked), and
+    ``locate.using(kernels)`` is the same locator with another one: on
+    the numpy path the same numbers (the compiled pass's are those to
+    the bit, ``tests/test_compiled.py``)."""
+    from skfem_mpm.quadrature.locate import using_kernels
+    mesh = TENSOR_GRIDS["quad-uniform"]
+    with pytest.raises(InvalidInputError, match="kernels must be one of"):
+        point_locator(mesh, kernels="fast")
+    locate = point_locator(mesh)
+    with pytest.raises(InvalidInputError, match="kernels must be one of"):
+        locate.using("fast")
+    x = random_points(mesh, 300)
+    numpy_path = locate.using("numpy")
+    assert numpy_path.mesh is mesh
+    assert using_kernels(locate, "auto") is locate
+    for got, want in zip(using_kernels(locate, "numpy")(x), locate(x)):
+        assert np.array_equal(got, want)
+    assert all(np.array_equal(a, b) for a, b in zip(numpy_path(x),
+                                                     locate(x)))

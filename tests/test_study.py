@@ -53,7 +53,8 @@ def test_parallel_study_times_mean_what_serial_ones_mean(tmp_path, caplog,
     one Dask thread), so that their CPU seconds mean what serial ones do
     (times are measured in benchmarks/README.md, not asserted here); every
     case gives the serial values and errors, with a CPU time recorded; no
-    worker at all is refused before any work."""
+    worker at all is refused before any work.  Each worker warms up in
+    its own process before its first case."""
     import dask
     import dask.distributed
     from skfem_mpm.studies.study import ONE_THREAD
@@ -81,6 +82,13 @@ def test_parallel_study_times_mean_what_serial_ones_mean(tmp_path, caplog,
     assert kwargs["n_workers"] == workers
     for one, other in zip(serial, parallel):
         assert 0 < one["cpu_seconds"] and 0 < other["cpu_seconds"]
+    # every worker that ran cases warmed up, once, in its own process,
+    # the warm-up's time apart from the cases' (trial 50)
+    ran = {r["process"] for r in parallel}
+    assert study_module.process_name() not in ran
+    assert sorted(w["process"] for w in parallel.warm_up) == sorted(ran)
+    assert all(w["solver"] == "auto" and w["case"]["elements"] == 4
+               and w["cpu_seconds"] > 0 for w in parallel.warm_up)
     with pytest.raises(InvalidInputError, match="at least 1"):
         study(COLUMN, vary, tmp_path / "none", workers=-1, progress=False)
     assert not (tmp_path / "none").exists()
@@ -548,3 +556,116 @@ def test_gimp_footing_with_the_ghost_switched_on_keeps_to_its_steps(
     low, high = sorted(value for _, value, _ in runs)
     assert high < 1.01 * low
     assert limit < low and high < 1.12 * limit
+
+
+TIED_CANTILEVER = """
+name = "tied cantilever"
+[grid]
+x = [-0.55, 4.55, 51]
+y = [-0.43, 0.87, 13]
+[[bodies]]
+name = "beam"
+region = { x = [0.0, 4.0], y = [0.0, 0.4] }
+points_per_cell = 2
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+[[tractions]]
+body = "beam"
+side = "right"
+traction = [0.0, -50.0]
+[[obstacles]]
+name = "clamp"
+box = { x = [-1.0, 0.0], y = [-0.5, 1.0] }
+friction = "tied"
+[solver]
+method = "cpgimp"
+steps = 1
+"""
+
+
+def test_each_process_warms_up_untimed_before_its_first_case(
+        tmp_path, monkeypatch):
+    """Trial 50: a study charged its process's one-off start to single
+    cases: numba loading the compiled kernels to the first case (0.6-1.0
+    s of CPU against 0.04-0.06 for the same case run after it), Pardiso's
+    first factorisation to the first case past 2000 free DOFs (solve
+    0.77-1.13 s against 0.014).  Now the process runs, untimed, the first
+    load step of the smallest case of each method before the first case
+    of it, and keeps the warm-ups' times apart from every case's row,
+    also over a resumed study."""
+    monkeypatch.setattr(study_module, "WARMED", {})      # a new process
+    events = []
+    first_step, run_case = study_module.first_step, study_module.run_case
+    monkeypatch.setattr(study_module, "first_step", lambda scene: (
+        events.append(("warm", scene.method, scene.solver,
+                       scene.grid.axes[0][2])) or first_step(scene)))
+    monkeypatch.setattr(study_module, "run_case", lambda scene, params, q: (
+        events.append(("case", params["method"], params["elements"]))
+        or run_case(scene, params, q)))
+    vary = {"elements": [8, 4], "method": ["mpm", "cpgimp"],
+            "loadsteps": [2]}
+    rows = study(COLUMN, vary, tmp_path, progress=False)
+    assert events == [("warm", "mpm", "auto", 4), ("case", "mpm", 8),
+                      ("warm", "cpgimp", "auto", 4), ("case", "cpgimp", 8),
+                      ("case", "mpm", 4), ("case", "cpgimp", 4)]
+    saved = json.loads((tmp_path / "study.json").read_text())
+    assert [(w["choices"], w["solver"], w["case"], w["failure"])
+            for w in saved["warm_up"]] == [
+        ({"method": m}, "auto", {"elements": 4, "method": m,
+                                 "loadsteps": 2}, "") for m in
+        ("mpm", "cpgimp")]
+    assert all(w["cpu_seconds"] > 0 and w["process"] ==
+               study_module.process_name() for w in saved["warm_up"])
+    assert rows.warm_up == saved["warm_up"]
+    assert all(r["process"] == study_module.process_name()
+               and not any("warm" in k for k in r) for r in saved["rows"])
+    line = study_module.report(rows, study_module.analyse(
+        COLUMN, rows, study_module.scene_quantities(COLUMN)),
+        ["elements", "method"])[-1]
+    assert line.startswith("warm-up: ") and "1 process, not charged to " \
+        "any case" in line, line
+    # resumed in the same process: warm, nothing more; in a new one, the
+    # warm-ups of the first session kept and the new ones added
+    events.clear()
+    vary["elements"] = [8, 4, 16]
+    rows = study(COLUMN, vary, tmp_path, progress=False)
+    assert events == [("case", "mpm", 16), ("case", "cpgimp", 16)]
+    assert rows.warm_up == saved["warm_up"]
+    monkeypatch.setattr(study_module, "WARMED", {})
+    events.clear()
+    vary["elements"] = [8, 4, 16, 32]
+    rows = study(COLUMN, vary, tmp_path, progress=False)
+    assert events == [("warm", "mpm", "auto", 4), ("case", "mpm", 32),
+                      ("warm", "cpgimp", "auto", 4), ("case", "cpgimp", 32)]
+    assert len(rows.warm_up) == 4 and rows.warm_up[:2] == saved["warm_up"]
+
+
+def test_a_warm_up_takes_the_solvers_the_case_may_take(tmp_path,
+                                                        monkeypatch):
+    """The first case past 2000 free DOFs in 2D carried Pardiso's start
+    (trial 50: 153 elements, 3172 free DOFs, solve 0.77-1.13 s against
+    0.014).  A case whose DOF bound reaches the size from which "auto"
+    takes Pardiso warms Pardiso up too, on the smallest case (a fraction
+    of the size), and the bound holds the DOFs the case takes."""
+    from skfem_mpm.solve.backends import available_solvers
+    path = tmp_path / "tied.toml"
+    path.write_text(TIED_CANTILEVER)
+    scene = load_scene(path)
+    bound = [study_module.dof_bound(study_module.refine(scene, n))
+             for n in (51, 102, 153)]
+    assert bound == [616., 1848., 3720.]
+    row = study_module.run_case(scene, {"elements": 51, "method": "mpm"})
+    assert row["dofs"] == 504 <= bound[0]      # 1620 and 3172 at 102, 153
+    pardiso = ["pypardiso"] if "pypardiso" in available_solvers() else []
+    assert [study_module.case_solvers(scene, {"elements": n})
+            for n in (51, 102, 153)] == [["auto"], ["auto"],
+                                         ["auto"] + pardiso]
+    monkeypatch.setattr(study_module, "WARMED", {})
+    ran = []
+    monkeypatch.setattr(study_module, "first_step", lambda scene: ran.append(
+        (scene.solver, scene.method, scene.grid.axes[0][2])) or "")
+    smallest = {"elements": 51, "method": "mpm"}
+    records = study_module.warm_up(scene, {"elements": 153,
+                                           "method": "mpm"}, smallest)
+    assert ran == [(s, "mpm", 51) for s in ["auto"] + pardiso]
+    assert [r["solver"] for r in records] == ["auto"] + pardiso
+    assert study_module.warm_up(scene, smallest, smallest) == []

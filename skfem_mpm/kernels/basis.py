@@ -34,10 +34,11 @@ def quad1_basis(i, x, y):
 
 
 @njit(cache=True, error_model="numpy")
-def quad1_fields(p, nodes, X, values, gradients):
+def quad1_fields(p, element_dofs, tind, X, values, gradients):
     """Values (4, e, q) and gradients (4, 2, e, q) of ``ElementQuad1`` at
-    the reference points ``X`` (2, e, q) of the elements whose nodes
-    (4, e) have the coordinates ``p`` (2, vertices); 1 at a zero Jacobian
+    the reference points ``X`` (2, e, q) of the elements ``tind`` (e,),
+    whose nodes ``element_dofs[:, tind]`` (the mesh's (4, elements)) have
+    the coordinates ``p`` (2, vertices); 1 at a zero Jacobian
     determinant, else 0."""
     nel, nq = X.shape[1], X.shape[2]
     d0 = np.empty(4)
@@ -49,7 +50,8 @@ def quad1_fields(p, nodes, X, values, gradients):
             for k in range(4):
                 phi, d0[k], d1[k] = quad1_basis(k, x, y)
                 values[k, e, q] = phi
-                px, py = p[0, nodes[k, e]], p[1, nodes[k, e]]
+                node = element_dofs[k, tind[e]]
+                px, py = p[0, node], p[1, node]
                 J00 += px * d0[k]
                 J01 += px * d1[k]
                 J10 += py * d0[k]
@@ -91,10 +93,10 @@ def hex1_basis(i, x, y, z):
 
 
 @njit(cache=True, error_model="numpy")
-def hex1_fields(p, nodes, X, values, gradients):
+def hex1_fields(p, element_dofs, tind, X, values, gradients):
     """:func:`quad1_fields` of ``ElementHex1``: values (8, e, q) and
-    gradients (8, 3, e, q) at ``X`` (3, e, q), nodes (8, e), ``p`` (3,
-    vertices)."""
+    gradients (8, 3, e, q) at ``X`` (3, e, q), the mesh's element nodes
+    (8, elements), ``p`` (3, vertices)."""
     nel, nq = X.shape[1], X.shape[2]
     d = np.empty((3, 8))
     J = np.empty((3, 3))
@@ -106,8 +108,9 @@ def hex1_fields(p, nodes, X, values, gradients):
             for k in range(8):
                 phi, d[0, k], d[1, k], d[2, k] = hex1_basis(k, x, y, z)
                 values[k, e, q] = phi
+                vertex = element_dofs[k, tind[e]]
                 for a in range(3):
-                    node = p[a, nodes[k, e]]
+                    node = p[a, vertex]
                     for b in range(3):
                         J[a, b] += node * d[b, k]
             det = (J[0, 0] * (J[1, 1] * J[2, 2] - J[1, 2] * J[2, 1]) -
@@ -142,7 +145,9 @@ def point_slots(tind, X, volume):
     path's arrays entry for entry): the points by element in a stable
     order, the active elements ascending, each element's points in its
     first slots and the padding slots at its first point's coordinates.
-    Returns ``(elements, Xq, dx, point_index, slot_of_point, padding)``."""
+    Returns ``(elements, Xq, dx, point_index, slot_of_point, padding)``
+    and the groups of :meth:`~skfem_mpm.quadrature.basis.
+    MaterialPointBasis.groups`: ``(runs, in_slots, flat)``."""
     n, dim = tind.size, X.shape[0]
     order = np.argsort(tind, kind="mergesort")
     nel, run, slots = 0, 0, 0
@@ -157,6 +162,9 @@ def point_slots(tind, X, volume):
     dx = np.zeros((nel, slots))
     point_index = np.full((nel, slots), -1, dtype=np.int64)
     slot_of_point = np.empty(n, dtype=np.int64)
+    runs = np.zeros(nel + 1, dtype=np.int64)
+    in_slots = np.empty(n, dtype=np.int64)
+    flat = np.empty(n, dtype=np.int64)
     e, s = -1, 0
     for j in range(n):
         p = order[j]
@@ -172,6 +180,10 @@ def point_slots(tind, X, volume):
         dx[e, s] = volume[p]
         point_index[e, s] = p
         slot_of_point[p] = e * slots + s
+        runs[e + 1] = j + 1
+        in_slots[j] = p
+        flat[j] = e * slots + s
         s += 1
     padding = np.flatnonzero(point_index.ravel() < 0)
-    return elements, Xq, dx, point_index, slot_of_point, padding
+    return (elements, Xq, dx, point_index, slot_of_point, padding,
+            (runs, in_slots, flat))

@@ -39,6 +39,7 @@ from ..errors import InvalidInputError, PointsOutsideGridError, \
     check_choice
 from ..kernels import check_kernels
 from ..quadrature.basis import MaterialPointBasis
+from ..quadrature.locate import using_kernels
 from .bspline import CubicBSpline, QuadraticBSpline
 from .fields import FieldMethod
 from .gimp import gimp_operators, stretched_domains
@@ -136,7 +137,10 @@ class GimpMethod(PointMethod):
     def kernels(self, kernels: str):
         if getattr(self, "_kernels", None) != kernels:    # set up once
             self._kernels = kernels
-            self.gimp = gimp_operators(*self._grid, kernels=kernels)
+            mesh, scalar, locate = self._grid
+            self.gimp = gimp_operators(mesh, scalar,
+                                       using_kernels(locate, kernels),
+                                       kernels=kernels)
 
     def operator(self, points, step: int, timings: dict):
         location = self.locate(points.x, step, timings, points)
@@ -427,6 +431,9 @@ def make_method(name: str, mesh, scalar, scalar_dofs, pattern, locate,
     piece.kernels = check_kernels(kernels)
     if isinstance(piece, FieldMethod):       # the piece it moves, too
         piece.piece.kernels = piece.kernels
+    for each in (piece, getattr(piece, "piece", None)):   # its locator
+        if isinstance(each, PointMethod):
+            each._locate = using_kernels(each._locate, piece.kernels)
     return piece
 
 

@@ -186,9 +186,9 @@ class PointOperator:
         (:meth:`~skfem_mpm.methods.assembly.ElementPattern.structure`)."""
         if self._layout is None:
             first, length, expand = self.pattern().structure()[:3]
-            slots = self.basis.point_index
-            real = slots >= 0
+            runs, in_slots, flat = self.basis.groups(keep=False)
             nel, nloc = self.nelems, self.scalar_dofs.shape[0]
+            flat *= nloc            # the layout's own (the basis forgot it)
             first_points = np.ascontiguousarray(
                 self.shape_gradients.transpose(2, 3, 1, 0))
             # one copy of the gradients: the operator's and the basis's
@@ -196,16 +196,12 @@ class PointOperator:
             self.shape_gradients = first_points.transpose(3, 2, 0, 1)
             self.basis.share_gradients(first_points.transpose(2, 3, 0, 1))
             G = first_points.reshape(-1, self.dim)
-            runs = np.zeros(nel + 1, dtype=np.int64)   # np.r_: 12 us more
-            np.cumsum(real.sum(axis=1), out=runs[1:])
             self._layout = KernelLayout(
                 (G, np.ascontiguousarray(self.scalar_dofs.T,
                                          dtype=np.int64).ravel(),
                  np.arange(nel, dtype=np.int64) * nloc,
                  np.full(nel, nloc, dtype=np.int64),
-                 runs,
-                 slots[real].astype(np.int64),
-                 np.flatnonzero(real.ravel()).astype(np.int64) * nloc),
+                 runs, in_slots, flat),
                 (PER_ENTRY if expand is None else PER_NODE_PAIR,
                  np.asarray(self.elements, dtype=np.int64), first,
                  np.ascontiguousarray(length), NO_INDEX, NO_INDEX),

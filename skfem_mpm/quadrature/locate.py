@@ -31,6 +31,7 @@ from skfem.refdom import RefHex, RefLine, RefQuad, RefTet, RefTri
 
 from ..errors import (InvalidInputError, PointsOutsideGridError,
                      UnsupportedElementError, check_finite, check_real)
+from ..kernels import check_kernels
 from .mapping import fresh_mapping
 
 logger = logging.getLogger(__name__)
@@ -48,7 +49,7 @@ RESOLUTION = 64 * np.finfo(float).eps
 
 
 def point_locator(mesh: Mesh, method: str = "auto",
-                  tol: float = 1e-12) -> Locator:
+                  tol: float = 1e-12, kernels: str = "auto") -> Locator:
     """Build a locator for ``mesh``, once per grid.
 
     Parameters
@@ -69,7 +70,8 @@ def point_locator(mesh: Mesh, method: str = "auto",
     locate
         ``locate(x) -> (tind, X)`` for positions ``x`` of shape (dim, n):
         element indices (n,) and local coordinates (dim, n); its ``mesh``
-        attribute is the mesh it locates on.  Raises
+        attribute is the mesh it locates on, ``locate.using(kernels)`` the
+        same locator with another ``kernels`` (:func:`using_kernels`).  Raises
         :class:`~skfem_mpm.errors.PointsOutsideGridError` for points outside
         the mesh.
 
@@ -105,7 +107,15 @@ def point_locator(mesh: Mesh, method: str = "auto",
         find = _general_finder(mesh, tol, _affine_local(mesh))
     else:
         find = _general_finder(mesh, tol, _newton_local(mesh))
+    return _locator(mesh, find, check_kernels(kernels))
+
+
+def _locator(mesh: Mesh, find, kernels: str) -> Locator:
+    """:func:`point_locator`'s ``locate`` of the finder ``find``, by its
+    compiled pass where it has one (``find.compiled``) and ``kernels``
+    takes it."""
     dim = mesh.dim()
+    compiled = getattr(find, "compiled", None)
 
     def locate(x: ndarray) -> Tuple[ndarray, ndarray]:
         x = np.asarray(x, dtype=np.float64)
@@ -113,20 +123,34 @@ def point_locator(mesh: Mesh, method: str = "auto",
             raise InvalidInputError(
                 "positions must have shape ({}, n) for a {}D mesh, got {}"
                 .format(dim, dim, x.shape))
-        check_finite("x", x)
-        tind, X = find(x)
-        missing = np.flatnonzero(tind < 0)
-        if missing.size:
-            raise PointsOutsideGridError(
-                "{} material point(s) lie outside the grid, indices {}{} at "
-                "x = {}".format(missing.size, missing[:10].tolist(),
-                                "..." if missing.size > 10 else "",
-                                x[:, missing[:3]].T.tolist()),
-                indices=missing)
+        found = None if compiled is None else compiled(x, kernels)
+        if found is None:
+            check_finite("x", x)
+            tind, X = find(x)
+            outside = None
+        else:
+            tind, X, outside = found
+        if outside is None or outside:
+            missing = np.flatnonzero(tind < 0)
+            if missing.size:
+                raise PointsOutsideGridError(
+                    "{} material point(s) lie outside the grid, indices {}{} "
+                    "at x = {}".format(missing.size, missing[:10].tolist(),
+                                       "..." if missing.size > 10 else "",
+                                       x[:, missing[:3]].T.tolist()),
+                    indices=missing)
         return tind, X
 
     locate.mesh = mesh
+    locate.using = lambda other: _locator(mesh, find, check_kernels(other))
     return locate
+
+
+def using_kernels(locate: Locator, kernels: str) -> Locator:
+    """``locate`` with the run's ``kernels`` option where it is a
+    :func:`point_locator` (``locate.using``), else ``locate`` itself."""
+    using = getattr(locate, "using", None)
+    return locate if using is None or kernels == "auto" else using(kernels)
 
 
 def locate_points(mesh: Mesh, x: ndarray, **kwargs) -> Tuple[ndarray, ndarray]:
@@ -226,7 +250,8 @@ def tensor_grid(mesh: Mesh):
 def _axis_cells(a: ndarray, tol: float) -> Callable[[ndarray], ndarray]:
     """``cells(x)``: the cell index of positions x along one axis with
     nodes a, -1 outside; whether the axis is uniformly spaced is decided
-    once, here (it cost half of a small block's location, every step).
+    once, here (it cost half of a small block's location, every step):
+    ``cells.uniform`` is ``(first node, spacing)``, or ``None``.
     Clipped by ``np.maximum`` and ``np.minimum``, ``np.clip``'s numbers
     without its checks (8 us a call, half of a small block's location)."""
     n = len(a) - 1
@@ -242,6 +267,7 @@ def _axis_cells(a: ndarray, tol: float) -> Callable[[ndarray], ndarray]:
             np.minimum(np.maximum(i, 0, out=i), n - 1, out=i)
             i[(s < -tol) | (s > n + tol)] = -1
             return i
+        cells.uniform = origin, step
     else:
         inner = a[1:-1] - tol * h[:-1]
         low, high = a[0] - tol * h[0], a[-1] + tol * h[-1]
@@ -251,6 +277,7 @@ def _axis_cells(a: ndarray, tol: float) -> Callable[[ndarray], ndarray]:
             np.minimum(np.maximum(i, 0, out=i), n - 1, out=i)
             i[(x < low) | (x > high)] = -1
             return i
+        cells.uniform = None
     return cells
 
 
@@ -305,7 +332,43 @@ def _tensor_finder(mesh: Mesh, grid, tol: float):
                 x[:, s:s + LOCATE_BLOCK], X[:, s:s + LOCATE_BLOCK])
         return tind, X
 
+    uniform = [cells.uniform for cells in along]
+    if all(axis is not None for axis in uniform):
+        first = np.array([axis[0] for axis in uniform], dtype=np.float64)
+        step = np.array([axis[1] for axis in uniform], dtype=np.float64)
+        ncells = np.array(shape, dtype=np.int64)
+        strides = np.asarray(strides, dtype=np.int64)
+        origin = np.ascontiguousarray(origin, dtype=np.float64)
+
+        def compiled(x, kernels):
+            """``(tind, X, outside)`` by the compiled pass where
+            ``kernels`` takes it, else (or at a non-finite position, which
+            the numpy path names) ``None``."""
+            passes = _compiled_locate(kernels)
+            if passes is None:
+                return None
+            x = np.ascontiguousarray(x)
+            tind = np.empty(x.shape[1], dtype=cell_to_elem.dtype)
+            X = np.empty(x.shape)
+            outside, bad = passes.tensor_locate(
+                x, first, step, ncells, strides, tol, cell_to_elem, origin,
+                Ainv, tind, X)
+            return None if bad else (tind, X, outside)
+        find.compiled = compiled
     return find
+
+
+_LOCATE_PASSES = []     # the compiled_kernels function, imported late
+
+
+def _compiled_locate(kernels: str):
+    """:mod:`skfem_mpm.kernels.locate` where ``kernels`` takes compiled
+    passes (:func:`~skfem_mpm.quadrature.basis.compiled_kernels`), else
+    ``None``."""
+    if not _LOCATE_PASSES:             # (basis imports this module)
+        from .basis import compiled_kernels
+        _LOCATE_PASSES.append(compiled_kernels)
+    return _LOCATE_PASSES[0]("locate", kernels)
 
 
 def _margin(refdom, X: ndarray) -> ndarray:

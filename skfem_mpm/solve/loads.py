@@ -344,9 +344,11 @@ class ExternalLoads:
             self.counters["body_force"] += 1
             weight = self.gravity[:, None] * points.volume0
             load = weight if load is None else load + weight
-            ramped = self.ramp_gravity[points.body] \
-                if self.ramp_gravity.size > 1 else self.ramp_gravity
-            weight = weight * np.where(ramped, factor, 1.)
+            ramp = self.ramp_gravity
+            # one ramp for all: the same products by a number (no mask)
+            weight = weight * (np.where(ramp[points.body], factor, 1.)
+                               if ramp.size > 1 else
+                               factor if ramp[0] else 1.)
             scaled = weight if scaled is None else scaled + weight
         if scaled is not None:
             f += op.point_force(scaled)
@@ -370,11 +372,13 @@ class ExternalLoads:
         (nothing happening is not a result): refused, with the units'
         rescaling as the cure."""
         largest = np.abs(f).max(initial=0.)
+        if largest >= np.finfo(float).tiny:
+            return
         given = (load is not None and load.any()) or any(
             value.any() and not (pressure and self.follows)
             for _, _, _, value, pressure in self.surface) or (
             self.grid_vector is not None and self.grid_vector.any())
-        if largest >= np.finfo(float).tiny or not given or factor == 0.:
+        if not given or factor == 0.:
             return
         raise InvalidInputError(
             "the loads {} on the grid (largest force {:.1e} at load factor "

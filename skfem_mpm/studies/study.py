@@ -25,7 +25,15 @@ MKL and OpenBLAS limited to one before the worker imports numpy).  Every
 case records its wall time and its CPU time (``time.process_time`` of the
 process that ran it): workers that share cores, memory bandwidth or the
 machine with the study's own process stretch wall times, not CPU times,
-so compare CPU times across serial and parallel studies.  Results are
+so compare CPU times across serial and parallel studies.  Before the
+first case of each method and solver choice, every process that runs
+cases warms up (:func:`warm_up`: the first load step of the study's
+smallest case of those choices, with each linear solver the case may
+take), untimed: a case's times are what it costs, not its process's
+one-off start (numba loading the compiled kernels from its cache,
+Pardiso's library and first factorisation: 0.6-1.5 s of CPU, 10-20 times
+a small case's); the warm-ups' times are kept apart, in ``study.json``
+under ``"warm_up"`` and in the summary's last line.  Results are
 appended per case, atomically, to ``study.json`` and ``study.csv``; an
 interrupted study resumes without re-running finished cases.
 :func:`estimate` puts a rough time on the cases before they start (from
@@ -39,6 +47,8 @@ import itertools
 import json
 import logging
 import os
+import re
+import socket
 import sys
 import threading
 import time
@@ -53,6 +63,8 @@ from ..scenes.io import atomic_path
 from ..scenes.quantities import Quantity, check_quantities
 from ..scenes.scene import (METHODS, Grid, Scene, build_points,
                              point_bound, run_scene)
+from ..solve.backends import (AUTO_AMG_FROM, AUTO_PARDISO_FROM,
+                              available_solvers)
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS
 from ..solve.results import PHASES
 from .column import SOURCE, column_error, column_extent
@@ -146,7 +158,8 @@ def check_reference(scene: Scene) -> None:
 
 def case_error(scene: Scene, result) -> float:
     """The scene's error measure: ``reference = "column"`` gives the
-    error measure (2.28) of Charlton (2018); ``"elastica"`` the relative error of the loaded points' tip
+    error measure (2.28) of Charlton (2018); ``"elastica"`` the relative
+    error of the loaded points' tip
     deflection at full load against the elastica; ``"bearing_capacity"``
     the relative error of the footing's peak pressure against ``N_c c``;
     NaN without a reference."""
@@ -205,9 +218,14 @@ class PeakMemory:
 def run_case(scene: Scene, params: dict, quantities=()) -> dict:
     """One case, timed inside: error against the scene's reference (if it
     has one), the ``quantities``' ``values``, wall time and CPU time
-    (``time.process_time`` of this process: all its threads), time per phase,
-    Newton iterations, DOFs, points and peak memory (growth of the
-    resident set during the case)."""
+    (``time.process_time`` of this process: all its threads), time per
+    phase, Newton iterations, DOFs, points and peak memory (growth of the
+    resident set during the case).  The times are those of the run
+    (:func:`~skfem_mpm.scenes.scene.run_scene`: seeding, set-up, every
+    step, everything that grows with the case), not of measuring its
+    quantities; they include what the process does the first time (numba
+    loading compiled kernels, Pardiso's start) unless it has been warmed
+    up (:func:`warm_up`, as :func:`study` does)."""
     case = configure(scene, params)
     with PeakMemory() as memory:
         tic, cpu = time.perf_counter(), time.process_time()
@@ -239,6 +257,139 @@ def run_case(scene: Scene, params: dict, quantities=()) -> dict:
         factorisations=int(result.counters["factorisations"]),
         steps_run=len(result.history))
     return row
+
+
+class _FirstStepDone(Exception):
+    """Raised by a warm-up's callback to end its run after one step."""
+
+
+#: what this process has warmed up: ``(scene, choices, solver)`` -> its
+#: record
+WARMED: Dict[tuple, dict] = {}
+
+
+def process_name() -> str:
+    """This process in a study's rows and warm-ups: host and process
+    id."""
+    return "{}:{}".format(socket.gethostname(), os.getpid())
+
+
+def scene_key(scene: Scene) -> str:
+    """The scene as text (its ``repr`` without the memory addresses of
+    functions it holds, which differ between the copies of a scene that
+    Dask workers unpickle): a process warmed up for a scene is warm for
+    every case of it, not for another scene's kinematics, materials,
+    obstacles or dimension."""
+    return re.sub(r" at 0x[0-9a-fA-F]+", "", repr(scene))
+
+
+def choices_of(params: dict) -> dict:
+    """The choices of a case that select code (method, right-hand side,
+    line search, Newton variant): cases sharing them run the same compiled
+    kernels and solver paths, whatever their grid, points and steps."""
+    return {k: params[k] for k in CHOICES if k in params}
+
+
+def dof_bound(scene: Scene) -> float:
+    """The grid DOFs a scene's bodies can take at the start, without
+    building anything: the nodes of the cells each body's box reaches
+    with one cell around it (every node of the grid for a function region
+    or a ready mesh), per body (each its own grid where bodies are in
+    contact) and times the dimension.  Whether ``"auto"`` may take
+    Pardiso or AMG for a case (:func:`case_solvers`) is judged by it."""
+    grid, dim = scene.grid, scene.grid.dim
+    if grid.mesh is not None:
+        return float(grid.mesh.nvertices * dim * len(scene.bodies))
+    degree = 2 if grid.element == "Q2" else 1
+    nodes = 0.
+    for body in scene.bodies:
+        region = [(lo, hi) for lo, hi, _ in grid.axes] \
+            if callable(body.region) else body.region
+        nodes += float(np.prod([
+            degree * min(n, np.ceil(max(min(hi, b_hi) - max(lo, b_lo), 0.)
+                                    / (hi - lo) * n) + 2) + 1
+            for (lo, hi, n), (b_lo, b_hi) in zip(grid.axes, region)]))
+    return nodes * dim
+
+
+def case_solvers(scene: Scene, params: dict) -> List[str]:
+    """The linear solvers (scene ``solver`` names) a case may run: the
+    scene's own, and where that is ``"auto"``, ``"pypardiso"`` and
+    ``"pyamg"`` too where they are installed and the case's
+    :func:`dof_bound` reaches the size from which ``"auto"`` takes them
+    (:data:`~skfem_mpm.solve.backends.AUTO_PARDISO_FROM`,
+    :data:`~skfem_mpm.solve.backends.AUTO_AMG_FROM`)."""
+    case = configure(scene, params)
+    if case.solver != "auto":
+        return [case.solver]
+    installed, dim, dofs = available_solvers(), case.grid.dim, \
+        dof_bound(case)
+    direct = "pypardiso" if "pypardiso" in installed else "scipy (SuperLU)"
+    return ["auto"] + [name for name, size in (
+        ("pypardiso", AUTO_PARDISO_FROM[dim]),
+        ("pyamg", AUTO_AMG_FROM[direct][dim]))
+        if name in installed and dofs >= size]
+
+
+def warm_up(scene: Scene, params: dict, smallest: dict) -> List[dict]:
+    """Warm this process up for a case, untimed: for each of its
+    :func:`case_solvers` not yet warmed up here with the case's
+    :func:`choices_of`, the first load step of ``smallest`` (the study's
+    smallest case with those choices; if it fails, of the case itself)
+    run with that solver.  That loads what a process does once, whatever
+    the case's size: the compiled kernels from numba's cache (numba's
+    import, about 0.7 s, and each kernel's first call), lazy imports, the
+    point finder's set-up, Pardiso's library and first factorisation
+    (0.6-1.4 s), pyamg's import (0.6 s).  Returns the records of the warm-ups
+    run: ``process`` (host and process id), ``choices``, ``solver``,
+    ``case`` (the case whose first step ran), ``wall_seconds``,
+    ``cpu_seconds`` and ``failure`` (empty, or why no candidate ran)."""
+    choices = choices_of(params)
+    records = []
+    for solver in case_solvers(scene, params):
+        key = (scene_key(scene), _key(choices), solver)
+        if key in WARMED:
+            continue
+        tic, cpu = time.perf_counter(), time.process_time()
+        failure = ""
+        for candidate in (smallest, params)[:1 + (smallest != params)]:
+            failure = first_step(replace(configure(scene, candidate),
+                                         solver=solver))
+            if not failure:
+                break
+        WARMED[key] = dict(
+            process=process_name(), choices=choices, solver=solver
+            if isinstance(solver, str) else getattr(
+                solver, "__name__", type(solver).__name__),
+            case=candidate,
+            wall_seconds=time.perf_counter() - tic,
+            cpu_seconds=time.process_time() - cpu, failure=failure)
+        records.append(WARMED[key])
+    return records
+
+
+def first_step(scene: Scene) -> str:
+    """Run the scene's first load step; ``""``, or why it failed."""
+    def stop(record, points):
+        raise _FirstStepDone
+    try:
+        run_scene(scene, callback=stop)
+    except _FirstStepDone:
+        pass
+    except MPMError as err:
+        return "{}: {}".format(type(err).__name__, err)
+    return ""
+
+
+def warm_case(scene: Scene, params: dict, quantities, smallest: dict):
+    """``(row, warm-ups)``: :func:`warm_up` for the case, then the case
+    (:func:`run_case`), whose times leave the warm-ups out; the row names
+    its ``process`` (:func:`process_name`).  What a study's process
+    (serial) or worker (Dask) runs for each case."""
+    records = warm_up(scene, params, smallest)
+    row = run_case(scene, params, quantities)
+    row["process"] = process_name()
+    return row, records
 
 
 def _key(params: dict) -> str:
@@ -427,7 +578,50 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
             "extrapolated" if c["against"] == "richardson" else "reference",
             _number(c["reference"], "{:.6g}"),
             _number(c["uncertainty"], "{:.2g}"), c["unit"], c["why"]))
+    if getattr(rows, "warm_up", None):
+        lines.append(warm_up_summary(rows.warm_up))
     return lines
+
+
+def _span(values, form: str = "{:.2f}") -> str:
+    low, high = min(values), max(values)
+    return form.format(low) if form.format(low) == form.format(high) \
+        else (form + "-" + form).format(low, high)
+
+
+def per_process(warm_ups: Sequence[dict], field: str) -> Dict[str, float]:
+    """The ``field`` (``"cpu_seconds"``, ``"wall_seconds"``) of the
+    warm-ups summed per process."""
+    total = {}
+    for r in warm_ups:
+        total[r["process"]] = total.get(r["process"], 0.) + r[field]
+    return total
+
+
+def warm_up_summary(warm_ups: Sequence[dict]) -> str:
+    """One line on a study's warm-ups (:func:`warm_up`): seconds per
+    process that ran cases, the solvers warmed up, failures.
+
+    >>> from skfem_mpm.studies.study import warm_up_summary
+    >>> warm_up_summary([dict(process="a", solver="auto", cpu_seconds=.8,
+    ...     wall_seconds=.9, failure=""), dict(process="a",
+    ...     solver="pypardiso", cpu_seconds=.5, wall_seconds=.6,
+    ...     failure="")])    # doctest: +NORMALIZE_WHITESPACE
+    'warm-up: 1.30 s CPU (1.50 s wall) per process, 1 process, not charged
+    to any case (the first load step of the smallest case of each method
+    and solver choice, solvers auto, pypardiso)'
+    """
+    cpu = per_process(warm_ups, "cpu_seconds")
+    wall = per_process(warm_ups, "wall_seconds")
+    failed = sum(bool(r["failure"]) for r in warm_ups)
+    return "warm-up: {} s CPU ({} s wall) per process, {} process{}, not " \
+        "charged to any case (the first load step of the smallest case of " \
+        "each method and solver choice, solvers {}){}".format(
+            _span(cpu.values()), _span(wall.values()), len(cpu),
+            "es" if len(cpu) > 1 else "",
+            ", ".join(sorted({r["solver"] for r in warm_ups})),
+            "; {} failed: their cases carry their process's start".format(
+                failed) if failed else "")
 
 
 def _known(data):
@@ -447,11 +641,24 @@ PER_QUANTITY = {"values": "value: ", "errors": "error: ",
                 "uncertainties": "uncertainty: "}
 
 
-def _write(outdir: Path, rows: List[dict], workers: int, measured: dict):
+class StudyRows(list):
+    """A study's rows (one dict per case), with ``warm_up``: the records
+    of the warm-ups (:func:`warm_up`) that the processes which ran its
+    cases ran before them, over every session of the study (``study.json``
+    keeps them), charged to no case."""
+
+    def __init__(self, rows=(), warm_ups=()):
+        super().__init__(rows)
+        self.warm_up = list(warm_ups)
+
+
+def _write(outdir: Path, rows: List[dict], workers: int, measured: dict,
+           warm_ups: Sequence[dict] = ()):
     rows = _known(rows)
     with atomic_path(outdir / "study.json") as tmp:
         Path(tmp).write_text(json.dumps(dict(
-            workers=workers, rows=rows, **_known(measured)), indent=1))
+            workers=workers, rows=rows, **_known(measured),
+            warm_up=_known(list(warm_ups))), indent=1))
     flat = [{**{k: v for k, v in r.items() if k not in PER_QUANTITY},
              **{prefix + k: v for field, prefix in PER_QUANTITY.items()
                 for k, v in r.get(field, {}).items()}}
@@ -467,10 +674,22 @@ def _write(outdir: Path, rows: List[dict], workers: int, measured: dict):
 
 def study(scene: Scene, vary: Dict[str, Sequence], outdir,
           scheduler: Optional[str] = None, workers: int = 0,
-          progress: bool = True, quantities=None) -> List[dict]:
+          progress: bool = True, quantities=None,
+          warm_from: Optional[List[dict]] = None) -> "StudyRows":
     """Run every combination of ``vary``, measure the quantities of
     interest and the errors (:func:`analyse`), and record it in
     ``outdir``.
+
+    Each process that runs cases (this one, or each Dask worker) warms
+    up before the first case of each method and solver choice it meets
+    (:func:`warm_up`: the first load step of the smallest case of those
+    choices, with each linear solver the case may take), untimed: a
+    case's times hold what it costs, whatever ran before it in its
+    process, and not the process's one-off start (numba's kernels loaded
+    from its cache, Pardiso's first factorisation: 0.6-1.5 s, 10-20 times
+    a small case).  The warm-ups' times are in ``study.json`` under
+    ``"warm_up"``, in the returned rows' ``warm_up`` and in
+    :func:`report`'s last line.
 
     Parameters
     ----------
@@ -491,13 +710,18 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     quantities
         :class:`~skfem_mpm.scenes.quantities.Quantity` list; default the
         scene's ``outputs``, or the largest point displacement.
+    warm_from
+        The cases whose smallest of a case's choices warms a process up
+        for it (default: those of ``vary``; :func:`estimate` gives all
+        the cases of the study it times).
 
     Returns
     -------
     rows
-        One dict per case (finished ones read back on resume, unless they
-        lack a value of ``quantities``: those run again), with
-        ``values`` and ``errors`` per quantity and the headline ``error``.
+        :class:`StudyRows`: one dict per case (finished ones read back on
+        resume, unless they lack a value of ``quantities``: those run
+        again), with ``values`` and ``errors`` per quantity and the
+        headline ``error``; its ``warm_up`` lists the warm-ups.
 
     Examples
     --------
@@ -523,20 +747,32 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     outdir.mkdir(parents=True, exist_ok=True)
     cases = cases_of(vary)
     rows = finished_rows(outdir, quantities)
+    warm_ups = finished_warm_ups(outdir)
     done = {_key(r) for r in rows}
     todo = [c for c in cases if _key(c) not in done]
-    logger.info("%d cases, %d already done", len(cases), len(cases) - len(todo))
+    logger.info("%d cases, %d already done", len(cases),
+                len(cases) - len(todo))
+    smallest = smallest_cases(scene, warm_from or cases)
+
+    def add(row, records):
+        rows.append(row)
+        warm_ups.extend(records)
+        for r in records:
+            logger.info("warm-up on %s for %s with solver %s: %.2f s CPU, "
+                        "not charged to any case", r["process"],
+                        _key(r["choices"]), r["solver"], r["cpu_seconds"])
     if scheduler is None and not workers:
         for k, params in enumerate(todo):
-            rows.append(run_case(scene, params, quantities))
-            _write(outdir, rows, 1, analyse(scene, rows, quantities))
+            add(*warm_case(scene, params, quantities, smallest(params)))
+            _write(outdir, rows, 1, analyse(scene, rows, quantities),
+                   warm_ups)
             if progress and sys.stderr.isatty():
                 sys.stderr.write("\rcase {}/{} {}".format(k + 1, len(todo),
                                                          _key(params)))
         if progress and sys.stderr.isatty():
             sys.stderr.write("\n")
-        _write(outdir, rows, 1, analyse(scene, rows, quantities))
-        return _ordered(rows, cases)
+        _write(outdir, rows, 1, analyse(scene, rows, quantities), warm_ups)
+        return StudyRows(_ordered(rows, cases), warm_ups)
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
     if not logger.isEnabledFor(logging.INFO):
@@ -555,15 +791,18 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
                 dashboard_address="127.0.0.1:0")
     with Client(scheduler or cluster) as client:
         nworkers = len(client.scheduler_info()["workers"])
-        futures = [client.submit(run_case, scene, params, quantities,
-                                 pure=False) for params in todo]
+        futures = [client.submit(warm_case, scene, params, quantities,
+                                 smallest(params), pure=False)
+                   for params in todo]
         for future in as_completed(futures):
-            rows.append(future.result())
-            _write(outdir, rows, nworkers, analyse(scene, rows, quantities))
-        _write(outdir, rows, nworkers, analyse(scene, rows, quantities))
+            add(*future.result())
+            _write(outdir, rows, nworkers, analyse(scene, rows, quantities),
+                   warm_ups)
+        _write(outdir, rows, nworkers, analyse(scene, rows, quantities),
+               warm_ups)
     if cluster is not None:
         cluster.close()
-    return _ordered(rows, cases)
+    return StudyRows(_ordered(rows, cases), warm_ups)
 
 
 def check_vary(vary: Dict[str, Sequence]):
@@ -606,6 +845,28 @@ def finished_rows(outdir, quantities) -> List[dict]:
             if r["failure"] or labels <= set(r.get("values", ()))]
 
 
+def finished_warm_ups(outdir) -> List[dict]:
+    """The warm-ups (:func:`warm_up`) ``study.json`` in ``outdir``
+    records, from the sessions that ran its cases before."""
+    path = Path(outdir) / "study.json"
+    if not path.exists():
+        return []
+    return list(json.loads(path.read_text()).get("warm_up", []))
+
+
+def smallest_cases(scene: Scene, cases: List[dict]):
+    """``smallest(params)``: of ``cases``, the smallest by
+    :func:`case_work` with the :func:`choices_of` of ``params`` (``params``
+    itself if none has them)."""
+    work = {_key(c): case_work(scene, c) for c in cases}
+
+    def smallest(params):
+        mine = [c for c in cases
+                if choices_of(c) == choices_of(params)] or [params]
+        return min(mine, key=lambda c: work.get(_key(c), 0.))
+    return smallest
+
+
 #: without ``--vary``, ``skfem-mpm study`` starts more cases than this only
 #: when told to (``--all``)
 CASES_UNASKED = 20
@@ -646,12 +907,17 @@ def estimate(scene: Scene, cases: List[dict], outdir, quantities,
     ``done`` (finished before), ``ran`` (run now to time them), ``left``,
     the ``largest`` case's point bound and steps, the ``model`` of
     :func:`time_model` and the ``seconds`` the ``left`` cases would take
-    by it (serially; ``None`` when nothing could be measured).  The model
+    by it (serially; ``None`` when nothing could be measured), and
+    ``warm_up``: the most wall seconds a process of the study spent on
+    its warm-ups (:func:`warm_up`) so far, ``None`` before any.  The model
     rests on the cases finished before and, where they do not span a
     ratio of 4 in size, on small unfinished cases run first (kept in
     ``study.json`` like any case, never run again): the smallest that
-    succeeds (trying for ``budget`` seconds), then the largest that the first one's pace (which
-    over-estimates, start-up included) puts under ``budget`` seconds."""
+    succeeds (trying for ``budget`` seconds), then the largest that the
+    first one's pace puts under ``budget`` seconds.  Like the cases'
+    times it leaves the warm-ups out: each process that runs cases adds
+    its own (for a serial study run after the estimate, in the same
+    process, only those of choices and solvers not yet warmed up)."""
     quantities = list(quantities or scene_quantities(scene))
     rows = {_key(r): r for r in finished_rows(outdir, quantities)}
     work = {_key(c): case_work(scene, c) for c in cases}
@@ -666,7 +932,8 @@ def estimate(scene: Scene, cases: List[dict], outdir, quantities,
 
     def run_first(params):
         row = study(scene, {k: [v] for k, v in params.items()}, outdir,
-                    progress=False, quantities=quantities)[0]
+                    progress=False, quantities=quantities,
+                    warm_from=cases)[0]
         todo.remove(params)
         if not row["failure"]:
             measured.append((work[_key(params)], row["wall_seconds"]))
@@ -687,11 +954,13 @@ def estimate(scene: Scene, cases: List[dict], outdir, quantities,
     largest = max(cases, key=lambda c: work[_key(c)])
     case = configure(scene, largest)
     done = sum(_key(c) in rows for c in cases)
+    warm = per_process(finished_warm_ups(outdir), "wall_seconds")
     return dict(cases=len(cases), done=done,
                 ran=len(cases) - done - len(todo), left=len(todo),
                 largest=(point_bound(case), case.step_count), model=model,
                 seconds=None if model is None else sum(
-                    model[0] + model[1] * work[_key(c)] for c in todo))
+                    model[0] + model[1] * work[_key(c)] for c in todo),
+                warm_up=max(warm.values()) if warm else None)
 
 
 #: a local cluster's workers each compute on one thread
