@@ -478,12 +478,14 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
 
 def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
                         path: Path):
-    """Per obstacle the magnitude of the force the material exerts on it
+    """Per obstacle the force the material exerts on it
     (``what="obstacles"``), or per contact the force between its bodies
-    (``"contacts"``), against the displacement along its ``motion``
-    (name: displacement at full load) where every one moves, else against
-    the load factor (time in dynamics)."""
-    fig, ax = pyplot().subplots(figsize=(5.5, 4))
+    (``"contacts"``), its magnitude (solid) and its components (dashed x,
+    dotted y, dash-dotted z: a wedge's sideways force shows), against
+    the displacement along its ``motion`` (name: displacement at full
+    load) where every one moves, else against the load factor (time in
+    dynamics)."""
+    fig, ax = pyplot().subplots(figsize=(6, 4.5))
     moving = all(np.any(d) for d in motion.values())
     for name, curve in curves.items():
         force = np.vstack([np.zeros((1, len(curve["force"][0]))),
@@ -496,18 +498,23 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
             x = np.array([0.] + curve["load_factor"]) * (
                 scene.dynamics.duration if scene.dynamics else 1.)
         magnitude = np.linalg.norm(force, axis=1)
-        line, = ax.plot(x, magnitude, "o-", ms=3, label=name)
+        line, = ax.plot(x, magnitude, "o-", ms=3,
+                        label="{}, magnitude".format(name))
         mark_peak(ax, line, x, magnitude)
+        for k, style in zip(range(force.shape[1]), ("--", ":", "-.")):
+            ax.plot(x, force[:, k], style, color=line.get_color(),
+                    label="{}, {}".format(name, "xyz"[k]))
+    ax.axhline(0., color="k", lw=.5)
     ax.set_xlabel("obstacle displacement along its motion (m)" if moving
                   else "time (s)" if scene.dynamics else "load factor (-)")
-    ax.set_ylabel("{},\nmagnitude ({})".format(
+    ax.set_ylabel("{} ({})".format(
         "force of the material on it" if what == "obstacles" else
         "force of the first body on the second",
         quantity_unit("rigid_force", scene.grid.dim)))
-    ax.set_title("{}: contact force {}".format(
+    ax.set_title("{}: contact force {},\nmagnitude and components".format(
         scene.name, "on the obstacles" if what == "obstacles" else
         "between the bodies"))
-    ax.legend(loc="best")
+    ax.legend(loc="best", fontsize="small")
     fig.tight_layout()
     plot.save_figure(fig, path)
 

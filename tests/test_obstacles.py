@@ -562,6 +562,34 @@ def test_scene_obstacle_mistakes_are_named(tmp_path, obstacle, words):
     assert str(refused.value).count("obstacles[0]") == 1
 
 
+def test_the_obstacles_picture_draws_the_force_s_components(tmp_path):
+    """``obstacles.png`` drew the force's magnitude alone, which hid a
+    wedge's sideways force (a user trial): its magnitude and each
+    component, signed, against the obstacle's displacement."""
+    from types import SimpleNamespace
+
+    from skfem_mpm.cli import plot_contact_forces
+    from skfem_mpm.scenes import plot
+    scene = SimpleNamespace(name="wedge", dynamics=None,
+                            grid=SimpleNamespace(dim=2))
+    force = [[3., 4.], [-6., 8.]]
+    curves = {"wedge": {"force": force, "load_factor": [.5, 1.],
+                        "displacement": [[0., -.05], [0., -.1]]}}
+    drawn = {}
+
+    def keep(fig, path):
+        assert not plot.figure_problems(fig)
+        drawn.update({line.get_label(): line.get_ydata()
+                      for line in fig.axes[0].get_lines()})
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(plot, "save_figure", keep)
+        plot_contact_forces(scene, curves, {"wedge": np.array([0., -.1])},
+                            "obstacles", tmp_path / "obstacles.png")
+    assert np.allclose(drawn["wedge, magnitude"], [0., 5., 10.])
+    assert np.allclose(drawn["wedge, x"], [0., 3., -6.])
+    assert np.allclose(drawn["wedge, y"], [0., 4., 8.])
+
+
 def test_an_obstacle_force_is_a_quantity_of_interest(tmp_path):
     """``[[outputs]] quantity = "obstacle_force"``: the force on the floor
     at the end of a run equals its last record (a study can measure it);
