@@ -498,7 +498,9 @@ class ObstacleContact(GridTerm):
         grid) within a cell of the material's domain corners ``X0`` (dim,
         corners, n) at the run's start, off the grid lines along the face
         that meets the material (the axes along which that material does
-        not lie beyond the box).  The contact there is as good as the
+        not lie beyond the box), where a face with material beyond it
+        touches it (within :data:`TOUCHING` cells once the obstacle has
+        moved its displacement).  The contact there is as good as the
         cell: a strip footing (B = 6.4 h and 6.8 h, weightless von Mises
         soil, 3 x 3 points a cell), its edge inside a cell, pressed 3-26%
         above Prandtl's pressure over the first 0.03 B (the cell's
@@ -526,8 +528,20 @@ class ObstacleContact(GridTerm):
                 if not near:
                     continue
                 m = X0[:, near]
-                beyond = (m <= box[:, :1] + eps).all(axis=1) \
-                    | (m >= box[:, 1:] - eps).all(axis=1)
+                below = (m <= box[:, :1] + eps).all(axis=1)
+                above = (m >= box[:, 1:] - eps).all(axis=1)
+                beyond = below | above
+                # a face with the material beyond it meets it where the
+                # gap is within TOUCHING cells once the obstacle has moved
+                # (a ram's bottom 0.25 cells above the base it slides
+                # over, its far corner, was warned)
+                closing = np.where(below, -1., 1.) * ob.displacement
+                gap = np.where(below, box[:, 0] - m.max(axis=1),
+                               m.min(axis=1) - box[:, 1])
+                meets = beyond & (gap - np.maximum(closing, 0.)
+                                  <= TOUCHING * self.h)
+                if beyond.any() and not meets.any():
+                    continue
                 off = [np.abs(lines[a] - corner[a]).min() > eps
                        for a in range(dim)]
                 if any(off[a] and not beyond[a] for a in range(dim)):
