@@ -1,7 +1,8 @@
-"""The ``kernels`` option chooses the material-point basis's passes and
-the supports' check's, not only the Newton iteration's: ``"numpy"`` takes
-scikit-fem's and scipy's under any environment, ``"compiled"`` the
-compiled ones under ``SKFEM_MPM_KERNELS=numpy`` (issue 32)."""
+"""The ``kernels`` option chooses the material-point basis's passes,
+the point location's and the supports' check's, not only the Newton
+iteration's: ``"numpy"`` takes scikit-fem's, scipy's and numpy's under
+any environment, ``"compiled"`` the compiled ones under
+``SKFEM_MPM_KERNELS=numpy`` (issue 32)."""
 import numpy as np
 import pytest
 from skfem import ElementQuad1, MeshQuad
@@ -24,12 +25,13 @@ def refuse(*args, **kwargs):
 
 @pytest.fixture
 def refused(monkeypatch):
-    """The compiled passes of the basis and of the graph replaced by one
-    that raises :class:`Called`."""
-    from skfem_mpm.kernels import basis, graph
+    """The compiled passes of the basis, of the graph and of the
+    location replaced by one that raises :class:`Called`."""
+    from skfem_mpm.kernels import basis, graph, locate
     for module, name in ((basis, "point_slots"), (basis, "quad1_fields"),
                          (graph, "component_labels"),
-                         (graph, "element_labels")):
+                         (graph, "element_labels"),
+                         (locate, "tensor_locate")):
         monkeypatch.setattr(module, name, refuse)
     return monkeypatch
 
