@@ -242,6 +242,7 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
         "max_displacement": float(np.abs(pts.displacement).max()),
         "reactions": {name: reactions[:, k].tolist()
                       for k, name in enumerate(names[:len(scene.supports)])},
+        "units": summary_units(pts.dim),
     }
     summary.update(rigid_body_curves(scene, rows, reactions))
     if scene.dynamics is not None and len(rows):
@@ -259,6 +260,19 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
             "value": q.measure(scene, result), "unit": q.unit(pts.dim)}
             for q in scene.outputs}
     return summary
+
+
+def summary_units(dim: int) -> dict:
+    """The SI units of a ``summary.json``'s numbers: its top-level ones by
+    key, and ``force`` and ``displacement`` for the per-step curves of
+    rigid bodies, obstacles and contacts (their peaks and final values
+    alike); ``outputs`` carry their own (a user trial read
+    ``max_displacement`` without one)."""
+    force = quantity_unit("rigid_force", dim)
+    return {"max_displacement": "m", "max_residual": "-",
+            "wall_seconds": "s", "load_factor": "-", "reactions": force,
+            "force": force, "displacement": "m",
+            "energies": {1: "J/m^2", 2: "J/m", 3: "J"}[dim] + " (time: s)"}
 
 
 def energy_curves(rows) -> dict:

@@ -469,6 +469,8 @@ def test_every_combination_runs_from_a_scene_file(method, kinematics, plastic,
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "completed" and summary["steps_run"] == 2
     assert summary["max_residual"] <= 1e-9
+    assert summary["units"]["max_displacement"] == "m"
+    assert summary["units"]["reactions"] == "N/m"
     assert (summary["counters"]["return_maps"] > 0) == plastic
     weight = 20. * 2. * 1.25                # body force per initial volume
     # linear steps balance to round-off; Newton steps to the residual left
