@@ -1017,8 +1017,9 @@ def run_study(args) -> int:
 
 def announce(plan: dict, workers: int, scheduler) -> str:
     """The line a study prints before it starts its cases: how many, the
-    largest, and the time :func:`~skfem_mpm.studies.study.estimate` puts
-    on them."""
+    largest, the time :func:`~skfem_mpm.studies.study.estimate` puts on
+    them, and the warm-up a process spent before its first timed case
+    (not charged to any case)."""
     points, steps = plan["largest"]
     line = "study: {} case{}{}, the largest up to {:.3g} points over {} " \
         "step{}".format(plan["cases"], "s" if plan["cases"] > 1 else "",
@@ -1027,6 +1028,9 @@ def announce(plan: dict, workers: int, scheduler) -> str:
                         "s" if steps > 1 else "")
     if plan["ran"]:
         line += "; {} run first to time them".format(plan["ran"])
+    if plan.get("warm_up") is not None:
+        line += "; warm-up {:.2g} s a process, untimed".format(
+            plan["warm_up"])
     if not plan["left"]:
         return line
     if plan["seconds"] is None:

@@ -359,8 +359,9 @@ def test_a_study_says_its_size_and_time_before_it_starts(tmp_path, capsys,
     assert len(told) == 1
     line = told[0].strip()
     assert line.startswith("study: 6 cases, the largest up to 32 points "
-                           "over 2 steps; 2 run first to time them; the 4 "
-                           "others take about 0:0"), line
+                           "over 2 steps; 2 run first to time them; "
+                           "warm-up "), line
+    assert " s a process, untimed; the 4 others take about 0:0" in line
     assert "per point and step" in line
     assert len(json.loads((out / "study.json").read_text())["rows"]) == 6
     capsys.readouterr()
@@ -369,8 +370,9 @@ def test_a_study_says_its_size_and_time_before_it_starts(tmp_path, capsys,
                  "--no-progress", "--vary", "elements=4,8,16,32",
                  "--vary", "loadsteps=1,2"]) == 0
     assert told[1].startswith("study: 8 cases (6 finished before), the "
-                              "largest up to 64 points over 2 steps; the 2 "
-                              "others take about 0:0"), told[1]
+                              "largest up to 64 points over 2 steps; "
+                              "warm-up "), told[1]
+    assert " s a process, untimed; the 2 others take about 0:0" in told[1]
 
 
 @pytest.mark.slow
