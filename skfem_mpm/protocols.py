@@ -175,11 +175,12 @@ class GridTerm:
         (contact: the velocity of material in contact across the
         obstacle's surface, after the time integrator set it)."""
 
-    def failure_hint(self, points) -> str:
+    def failure_hint(self, points, quasi_static: bool) -> str:
         """What a run's error adds from this term when its steps failed
         down to the smallest load increment, ``points`` the last
-        converged state: a cause the term can see there (contact:
-        friction mobilised in full), as ``"; ..."``, or ``""``."""
+        converged state (``quasi_static``: a run without inertia): a
+        cause the term can see there (contact: friction mobilised in
+        full in a quasi-static run), as ``"; ..."``, or ``""``."""
         return ""
 
 

@@ -1170,18 +1170,18 @@ def test_an_obstacle_edge_meeting_material_inside_a_cell_is_warned(
 
 
 @pytest.mark.parametrize("slope, friction, warned", [
-    (30., .3, 30.), (5., .3, 5.), (5., "tied", 5.), (5., 0., None),
-    (0., .3, None)])
+    (30., .3, 30.), (30., 0., 30.), (5., .3, 5.), (5., "tied", 5.),
+    (.3, "rough", .3), (5., 0., None), (0., .3, None)])
 def test_material_on_an_inclined_polygon_face_is_warned(caplog, slope,
                                                         friction, warned):
     """A block seeded on a polygon incline meets it with a staircase of
     its points' axis-aligned domains, touching at a few corners: warned
     before any step where the face is inclined by more than 10 degrees
     (a user trial's block on a 30 degree incline slid 17% too fast with
-    MPM and slid where friction holds it, docs/contact.md), by more than
-    half a degree where the face holds the body (friction, tied: a block
-    on a rough 5 degree incline turned on the corner held), not on a
-    level polygon floor."""
+    MPM and slid where friction holds it, docs/contact.md), by any angle
+    where the face holds the body (friction, tied: a block on a rough
+    incline turned by its angle on the corner held, at 5 degrees as at
+    0.1), not on a level polygon floor."""
     th = np.radians(slope)
     mesh = MeshQuad.init_tensor(np.linspace(0, 3, 22),
                                 np.linspace(-.6, 2.2, 21))
@@ -1215,6 +1215,8 @@ def test_material_on_an_inclined_polygon_face_is_warned(caplog, slope,
         assert found[0].startswith("obstacle 'incline': the material meets "
                                    "a face inclined by {:g} degrees".format(
                                        warned))
+        assert ("17% too fast" in found[0]) == (friction == 0.)
+        assert ("it can turn on them" in found[0]) == (friction != 0.)
 
 
 def test_a_3d_strip_footing_off_grid_lines_is_warned(caplog):

@@ -330,6 +330,8 @@ class BodyContact(GridTerm):
         self.finder = PairFinder(contacts, field, mesh, vertices, cell_size,
                                  columns=weights is not None)
         counters.setdefault("contact_updates", 0)
+        if weights is not None:
+            counters.setdefault("contact_corners_reset", 0)
         logger.warning(
             "contact between bodies: a body whose sides meet the other "
             "inside grid cells may lean and settle by the grid (a pile "
@@ -368,10 +370,12 @@ class BodyContact(GridTerm):
                 for name, offset in zip(row, offsets):
                     points.state.setdefault(name, offset.copy())
 
-    def failure_hint(self, points) -> str:
+    def failure_hint(self, points, quasi_static: bool) -> str:
         """Friction mobilised in full between two bodies at the last
-        converged state ``points`` (:func:`~skfem_mpm.solve.contact.
-        friction_hint`)."""
+        converged state ``points`` of a quasi-static run
+        (:func:`~skfem_mpm.solve.contact.friction_hint`)."""
+        if not quasi_static:
+            return ""
         out, dim = [], self.dim
         for k, (_, _, contact) in enumerate(self.contacts):
             rows = traction_state(k, dim)
@@ -1073,6 +1077,7 @@ class StepBodyContact(GridTerm):
                              "cell from their domains; back on them",
                              problem.step, int(apart.sum()))
                 offset[:, :, apart] = domain[:, :, apart]
+                problem.counters["contact_corners_reset"] += int(apart.sum())
             for a, row in enumerate(corner_state(dim)):
                 for c, name in enumerate(row):
                     new.state[name] = offset[a, c]

@@ -112,10 +112,13 @@ MARGIN_CELLS = 2.
 
 #: the degrees from the grid's axes above which a polygon's face the
 #: material meets at the start is warned as met by a staircase
-#: (:meth:`ObstacleContact.warn_inclined_faces`): smooth, and with friction
-#: (or tied), where the face holds the body on the staircase's corners
+#: (:meth:`ObstacleContact.warn_inclined_faces`), smooth
 INCLINED = 10.
-INCLINED_HOLDING = .5
+
+#: the same for a face that holds the body (friction, rough, tied): any
+#: tilt above round-off (a block on a rough incline turned by the
+#: incline's angle at 5, 0.6, 0.3 and 0.1 degrees alike)
+INCLINED_HOLDING = 1e-6
 
 #: the cells within which a corner touches a face for that warning
 TOUCHING = .1
@@ -445,21 +448,23 @@ class ObstacleContact(GridTerm):
     def warn_inclined_faces(self, X0: ndarray) -> None:
         """Log a warning for each polygon obstacle with a face inclined
         by more than :data:`INCLINED` degrees to the grid's axes (with
-        friction, or tied: :data:`INCLINED_HOLDING`) that the material's
-        domain corners ``X0`` (dim, corners, n) touch at the run's start
-        (within :data:`TOUCHING` cells; within a cell, a disc pressed on
-        a flat block was warned by its faces beside the contact): the
-        material's surface against it is a staircase of the points'
-        axis-aligned domains, touching it at a few corners.  A block 0.4 x
-        0.2 seeded on a 30 degree incline (a user trial, h = 0.14, MPM,
+        friction, or tied: by any, :data:`INCLINED_HOLDING`) that the
+        material's domain corners ``X0`` (dim, corners, n) touch at the
+        run's start (within :data:`TOUCHING` cells; within a cell, a disc
+        pressed on a flat block was warned by its faces beside the
+        contact): the material's surface against it is a staircase of
+        the points' axis-aligned domains, touching it at a few corners.  A
+        block 0.4 x 0.2 seeded on a 30 degree incline (a user trial, h = 0.14, MPM,
         dynamics) slid 17% faster than Coulomb's law gives with friction
         0.3, and 0.063 with 0.7, where it sticks (rocking on the one
         corner that touched); 0.7% on h = 0.1, GIMP 2.7%.  A block 1 x
         0.5 resting on a rough 5 degree incline (another trial, h = 0.11,
         quasi-static) turned by the incline's angle on the one corner the
         rough face held, moved 400 times what FE gives, its stresses off
-        by up to 1.1 rho g H, every step converged; with friction 0.5 or
-        tied it failed at its first step."""
+        by up to 1.1 rho g H, every step converged (at 0.6, 0.3 and 0.1
+        degrees alike: turned by the angle, moved 41, 22 and 8 times as
+        far as in FE); with friction 0.5 or tied it failed at its first
+        step."""
         if X0.shape[0] != 2:
             return
         X0 = X0.reshape(2, -1)
@@ -484,12 +489,13 @@ class ObstacleContact(GridTerm):
                     float(tilt.max()), "and a face that holds it (friction "
                     "or tied) holds it at those corners: it can turn on "
                     "them, and its stresses there are a point support's (a "
-                    "block on a rough 5 degree incline turned by 5 degrees, "
-                    "moved 400 times as far as in FE, its stresses off by "
+                    "block on a rough 5 degree incline turned by 5 degrees "
+                    "(at 0.1 degrees by 0.1), moved 400 times as far as in "
+                    "FE (at 0.1 degrees 8 times), its stresses off by "
                     "up to 1.1 rho g H; with friction 0.5 or tied it did "
                     "not converge" if holding else "and sliding comes out "
                     "approximate (a block on a 30 degree incline, 2.8 "
-                    "cells long, slid 17%% too fast with MPM, 2.7%% with "
+                    "cells long, slid 17% too fast with MPM, 2.7% with "
                     "GIMP")
 
     def warn_edges_inside_cells(self, X0: ndarray) -> None:
@@ -555,13 +561,14 @@ class ObstacleContact(GridTerm):
                         np.round(corner, 12).tolist())
                     break
 
-    def failure_hint(self, points) -> str:
+    def failure_hint(self, points, quasi_static: bool) -> str:
         """Friction mobilised in full on an obstacle at the last
-        converged state ``points`` (:func:`friction_hint`), as the step
-        that committed it measured it (the point state keeps the
-        multipliers, not the pressures)."""
+        converged state ``points`` of a quasi-static run
+        (:func:`friction_hint`), as the step that committed it measured
+        it (the point state keeps the multipliers, not the pressures: a
+        run resumed there whose first step fails gives no hint)."""
         committed, parts = self.mobilisation
-        if committed is not points:
+        if committed is not points or not quasi_static:
             return ""
         return "".join(friction_hint("obstacle {!r}".format(ob.name),
                                      ob.friction, *part)

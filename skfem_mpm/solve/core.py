@@ -619,7 +619,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     "attached{}{}{}".format(
                         err, target - factor, factor, too_soft(run, points),
                         ghost_hint(run), "".join(
-                            term.failure_hint(points) for term in run.terms)),
+                            term.failure_hint(points, dynamics is None)
+                            for term in run.terms)),
                     state=points, load_factor=factor,
                     history=result.history) from err
             increment = (target - factor) / 2

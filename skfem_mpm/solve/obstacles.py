@@ -415,6 +415,14 @@ def _edges_crossed(v: ndarray, x: ndarray, d: ndarray):
             np.array([t_out[out, cols], out]))
 
 
+#: the cosine by which faces of an obstacle alike in distance from a
+#: corner are alike in facing the material too (:func:`_nearest`): the
+#: soil's surface under a wedge's apex, tilted a thousandth by the soil's
+#: deformation, gave both corners there the face it tilted towards, and
+#: a symmetric wedge a sideways force 1.7 times its vertical one
+ACROSS_ALIKE = .05
+
+
 def _nearest(d2: ndarray, n: ndarray, inward, alike: float,
              at: ndarray) -> ndarray:
     """Of the faces (k, m: squared distances ``d2``, outward normals ``n``,
@@ -450,14 +458,6 @@ def _nearest(d2: ndarray, n: ndarray, inward, alike: float,
             keep &= key >= key.max(axis=0) - within
         face[tied] = np.argmax(np.where(keep, keys[-1], -np.inf), axis=0)
     return face
-
-
-#: the cosine by which faces of an obstacle alike in distance from a
-#: corner are alike in facing the material too (:func:`_nearest`): the
-#: soil's surface under a wedge's apex, tilted a thousandth by the soil's
-#: deformation, gave both corners there the face it tilted towards, and
-#: a symmetric wedge a sideways force 1.7 times its vertical one
-ACROSS_ALIKE = .05
 
 
 def _box_distance(box: ndarray, x: ndarray):
