@@ -1566,7 +1566,8 @@ def test_a_stiff_footing_body_settles_alike_in_1_and_10_steps(method, n,
     assert settled[1] == pytest.approx(settled[0], rel=tol)
 
 
-@pytest.mark.parametrize("method", ("mpm", "cpgimp", pytest.param(
+@pytest.mark.parametrize("method", ("mpm", pytest.param(
+    "cpgimp", marks=pytest.mark.slow), pytest.param(
     "bspline", marks=pytest.mark.slow)))
 def test_a_block_pushed_over_a_base_body_slides_at_coulomb_s_force(
         method, caplog):

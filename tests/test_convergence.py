@@ -30,6 +30,7 @@ def case(elements, ppc, value):
                 **{"t_" + p: 1e-4 * elements for p in PHASES})
 
 
+@pytest.mark.slow
 def test_a_noisy_study_does_not_overclaim(tmp_path):
     """Issue 30's strip load on a soft crust, as numbers: with 3 points
     per cell six settlements within 0.8% that oscillate with refinement

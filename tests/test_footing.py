@@ -189,6 +189,7 @@ def test_footing_scene_keys_are_checked(change, words):
         parse_scene(tomllib.loads(text))
 
 
+@pytest.mark.slow
 def test_a_failed_footing_run_keeps_its_curve(tmp_path):
     """Non-convergence is often the collapse: the summary of a failed run
     still holds the curve of its converged steps, and the plot."""

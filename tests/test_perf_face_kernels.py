@@ -73,6 +73,7 @@ def test_the_option_chooses_the_slots_under_any_environment(refused,
     build("auto")
 
 
+@pytest.mark.slow
 def test_both_slots_give_the_same_operator_and_load():
     a, b = gimp("numpy"), gimp("compiled")
     assert abs(a.S - b.S).max() == 0

@@ -517,7 +517,8 @@ def test_shear_by_prescribed_top_nodes_is_followed(method):
     assert .25 < moved < .3
 
 
-@pytest.mark.parametrize("method", ["mpm", "cpgimp"])
+@pytest.mark.parametrize("method", ["mpm", pytest.param(
+    "cpgimp", marks=pytest.mark.slow)])
 def test_untuned_slope_converges_with_the_grid(method):
     """A 45 degree undrained slope under its own weight, yielding but
     stable (gamma H / c_u = 3.3): complete in equilibrium on every grid,
