@@ -454,10 +454,10 @@ class ObstacleContact(GridTerm):
         pressed on a flat block was warned by its faces beside the
         contact): the material's surface against it is a staircase of
         the points' axis-aligned domains, touching it at a few corners.  A
-        block 0.4 x 0.2 seeded on a 30 degree incline (a user trial, h = 0.14, MPM,
-        dynamics) slid 17% faster than Coulomb's law gives with friction
-        0.3, and 0.063 with 0.7, where it sticks (rocking on the one
-        corner that touched); 0.7% on h = 0.1, GIMP 2.7%.  A block 1 x
+        block 0.4 x 0.2 seeded on a 30 degree incline (a user trial, h =
+        0.14, MPM, dynamics) slid 17% faster than Coulomb's law gives with
+        friction 0.3, and 0.063 with 0.7, where it sticks (rocking on the
+        one corner that touched); 0.7% on h = 0.1, GIMP 2.7%.  A block 1 x
         0.5 resting on a rough 5 degree incline (another trial, h = 0.11,
         quasi-static) turned by the incline's angle on the one corner the
         rough face held, moved 400 times what FE gives, its stresses off
