@@ -64,15 +64,14 @@ from numpy import ndarray
 from scipy.sparse import csr_matrix, identity, kron, vstack
 from scipy.spatial import cKDTree
 
-from ..errors import (ContactError, GridMotionError, InvalidInputError,
+from ..errors import (GridMotionError, InvalidInputError,
                       StepTooLongError, check_real)
 from ..methods.fields import body_fields
 from ..protocols import GridTerm
 from .contact import (CellValues, block_diagonal, corner_signs, coulomb,
-                      friction_hint)
+                      friction_hint, spline_rows)
 from .contact_pairs import FACING, PairFinder, overlapping
 from .dynamics import sliver_nodes, value_matrix
-from .loads import supported_share
 from .problem import SLIVER_SUPPORT
 
 logger = logging.getLogger(__name__)
@@ -504,30 +503,10 @@ class BodyContact(GridTerm):
         out = np.empty((dim, nc, n))
         for start in range(0, n, CORNER_BLOCK):
             p = np.arange(start, min(n, start + CORNER_BLOCK))
-            S = self.spline_rows(op, X[:, :, p].reshape(dim, -1),
-                                 np.tile(p, nc))
+            S = spline_rows(self.weights, op,
+                            X[:, :, p].reshape(dim, -1), np.tile(p, nc))
             out[:, :, p] = (S @ u).T.reshape(dim, nc, p.size)
         return out - op.values(du)[:, None, :]
-
-    def spline_rows(self, op, X: ndarray, p: ndarray) -> csr_matrix:
-        """B-splines: the weights (m, nodes) of the corners at ``X``
-        (dim, m) of points ``p`` on the nodes that carry material in the
-        step of ``op``, each row scaled to its whole sum
-        (:func:`~skfem_mpm.solve.loads.supported_share`, as a surface
-        load's).  The splines at a corner reach nodes a quarter cell
-        beyond its point's, which no point supports: those are no DOF of
-        the step, and a pair's force there held the body like a support
-        (a weightless B-spline pile's contact force, and the soil's
-        supports' reactions, exceeded its load by up to 0.7%)."""
-        S = supported_share(self.weights(X, p).S,
-                            op.active_dofs[::self.dim] // self.dim)
-        empty = np.flatnonzero(np.diff(S.indptr) == 0)
-        if empty.size:        # its pair would hold it to a fixed point
-            raise ContactError(
-                "a contact's corner at {} (of point {}) reaches no grid "
-                "node that carries material in this step".format(
-                    X[:, empty[0]].tolist(), int(p[empty[0]])))
-        return S
 
     def rows(self, op, points, corner: ndarray):
         """The vector rows ``J`` (dim m, N) of the corners ``c n + p``:
@@ -540,8 +519,8 @@ class BodyContact(GridTerm):
         if not corner.size:             # no pairs (bodies cells apart)
             return csr_matrix((0, op.N))
         if self.weights is not None:
-            return kron(self.spline_rows(op, X, p), identity(dim),
-                        format="csr")
+            return kron(spline_rows(self.weights, op, X, p),
+                        identity(dim), format="csr")
         S = self.cell_values(X, op.point_elements[p], op.N // dim)
         return kron(S, identity(dim), format="csr")
 
@@ -1005,8 +984,8 @@ class StepBodyContact(GridTerm):
         corner = np.unique(np.concatenate([
             np.divmod(part["keys"], X.shape[1]) for part in self.parts],
             axis=None))
-        moved = term.spline_rows(problem.method_op, X[:, corner],
-                                 corner % points.n).tocsc()[:, sliver] \
+        moved = spline_rows(term.weights, problem.method_op, X[:, corner],
+                            corner % points.n).tocsc()[:, sliver] \
             @ du.reshape(-1, dim)[sliver]
         moved = np.sqrt((moved ** 2).sum(axis=1))
         if moved.max(initial=0.) > CARRIED * h:

@@ -28,7 +28,19 @@ moves linearly in the grid increment, ``u_c = J_c du``:
 - with GIMP's and B-splines' smooth weights by the point's operator and
   its gradient, ``u_c = u_p + grad(u)_p q_c`` (``q_c = F R_c`` in finite
   deformation, ``R_c`` in small strain and with FE), which is where the
-  next step starts.
+  next step starts;
+- with those, where an obstacle of the run holds the material along its
+  face (friction, rough, tied), by the grid's field where the corner is
+  (kept as ``d_c`` too): the element polynomial of the cell holding the
+  corner (GIMP) or the splines there (B-splines).  A domain's two
+  corners on a face, moved by their point's value and gradient, held the
+  point's gradient along the face as well: a tied clamp came out too
+  stiff (3.3% at a tolerance of 1e-5), a block on a rough floor between
+  grid lines had B-spline stresses 9% high, and a rough footing's
+  corners slid a tenth as far as a smooth one's.  Smooth faces keep the
+  point's rows (read at the field, a uGIMP block pressed on a wall was
+  6.5% off its stress by the wall, where its point's rows hold it within
+  5%).
 
 Interior corners coincide with neighbours' and never reach an obstacle
 while the surface corners are held, so every corner is a candidate and
@@ -89,9 +101,12 @@ from numpy import ndarray
 from scipy.sparse import coo_matrix, csr_matrix, identity, kron, vstack
 from scipy.spatial import cKDTree
 
-from ..errors import InvalidInputError, StepTooLongError
-from ..quadrature.locate import cell_coordinates
+from ..errors import (ContactError, InvalidInputError,
+                      PointsOutsideGridError, StepTooLongError)
+from ..quadrature.locate import (cell_coordinates, point_locator,
+                                 using_kernels)
 from ..protocols import GridTerm
+from .loads import supported_share
 from .obstacles import Obstacle
 from .problem import safe_norm
 
@@ -272,6 +287,27 @@ def point_rows(op, idx: ndarray):
     return rows(values), [rows(g) for g in grads]
 
 
+def spline_rows(weights, op, X: ndarray, p: ndarray) -> csr_matrix:
+    """B-splines: the weights (m, nodes) ``weights(X, p)`` of the corners
+    at ``X`` (dim, m) of points ``p`` on the nodes that carry material in
+    the step of ``op``, each row scaled to its whole sum
+    (:func:`~skfem_mpm.solve.loads.supported_share`, as a surface load's).
+    The splines at a corner reach nodes a quarter cell beyond its
+    point's, which no point supports: those are no DOF of the step, and a
+    contact's force there held the body like a support (a weightless
+    B-spline pile's contact force, and the soil's supports' reactions,
+    exceeded its load by up to 0.7%)."""
+    S = supported_share(weights(X, p).S,
+                        op.active_dofs[::X.shape[0]] // X.shape[0])
+    empty = np.flatnonzero(np.diff(S.indptr) == 0)
+    if empty.size:        # its force would hold it to a fixed point
+        raise ContactError(
+            "a contact's corner at {} (of point {}) reaches no grid "
+            "node that carries material in this step".format(
+                X[:, empty[0]].tolist(), int(p[empty[0]])))
+    return S
+
+
 class ObstacleContact(GridTerm):
     """Contact of the material with the run's obstacles (a grid term).
 
@@ -301,7 +337,8 @@ class ObstacleContact(GridTerm):
         ramp: an obstacle starts displaced in full).
     cell_values
         The :class:`CellValues` of the grid (Lagrange elements: the
-        corners move with their point's cell).
+        corners move with their point's cell; with GIMP, where an
+        obstacle holds the material, with their own).
 
     """
 
@@ -311,11 +348,16 @@ class ObstacleContact(GridTerm):
                  initial_scale: float = 0., cell_values=None):
         self.obstacles = tuple(obstacles)
         self.cell_values = cell_values
+        self.locate = None      # the grid's locator (corner_cells)
+        self.splines_checked = None     # warn_splines, once a run
         self.h, self.domain0 = cell_size, domain0
         self.kappa = [ob.penalty * modulus / cell_size for ob in obstacles]
         self.tol = [ob.tolerance * cell_size for ob in obstacles]
         self.total_lagrangian, self.moves = total_lagrangian, moves
         self.finite = finite
+        #: an obstacle holds the material along its face (friction, rough,
+        #: tied): the corners read the grid's field where they are
+        self.holds = any(ob.friction != 0. for ob in self.obstacles)
         self.start = [initial_scale * ob.displacement for ob in obstacles]
         counters.setdefault("contact_updates", 0)
         #: the last committed state and its obstacles' normal and
@@ -346,6 +388,29 @@ class ObstacleContact(GridTerm):
         offset = np.array([[points.state[name] for name in row]
                            for row in offset_names(dim)])
         return x[:, None, :] + np.einsum("abp,bcp->acp", F, self.R) + offset
+
+    def corner_cells(self, run, X: ndarray, x: ndarray, cells: ndarray
+                     ) -> ndarray:
+        """The cells (m,) holding the corners ``X`` (dim, m) of the points
+        at ``x`` (dim, m) in ``cells`` (m,: the points', in their field's
+        copy of the grid), in the copy of the point's: each corner taken
+        a millionth of the way towards its point (a corner on a cell's
+        side belongs to the cell its domain covers); a corner outside
+        the grid takes its point's."""
+        if self.locate is None:
+            method = getattr(run.method, "piece", run.method)
+            self.locate = using_kernels(point_locator(run.user_grid.mesh),
+                                        method.kernels)
+        count = run.user_grid.mesh.nelements
+        inside = X - 1e-6 * (X - x)
+        found = cells % count
+        try:
+            found = self.locate(inside)[0]
+        except PointsOutsideGridError as err:
+            keep = np.ones(X.shape[1], dtype=bool)
+            keep[err.indices] = False
+            found[keep] = self.locate(inside[:, keep])[0]
+        return found + cells - cells % count
 
     @staticmethod
     def corner_distance(ob: Obstacle, X: ndarray, x: ndarray,
@@ -443,16 +508,38 @@ class ObstacleContact(GridTerm):
                         "points".format(ob.name, p, X0[:, c, p].tolist(),
                                         float(-phi[c, p]), self.tol[i]))
         self.warn_edges_inside_cells(X0)
-        self.warn_inclined_faces(X0)
+        self.tilts = self.tilts_met(X0)
+        self.warn_inclined_faces()
 
-    def warn_inclined_faces(self, X0: ndarray) -> None:
+    def tilts_met(self, X0: ndarray) -> list:
+        """Per obstacle, the largest angle in degrees to the grid's axes of
+        its polygon's faces that the material's domain corners ``X0``
+        (dim, corners, n) touch at the run's start (within
+        :data:`TOUCHING` cells; within a cell, a disc pressed on a flat
+        block was warned by its faces beside the contact); 0 for boxes,
+        in 3D and where none is touched."""
+        tilts = [0.] * len(self.obstacles)
+        if X0.shape[0] != 2:
+            return tilts
+        X0 = X0.reshape(2, -1)
+        for i, ob in enumerate(self.obstacles):
+            if ob.box is not None:
+                continue
+            near = np.abs(ob.signed_distance(X0, self.start[i])[0]) \
+                < TOUCHING * self.h
+            if near.any():
+                face = ob.nearest_face(X0[:, near], self.start[i])
+                normal = ob.faces()[1][:, np.unique(face)]
+                tilts[i] = float(np.degrees(np.arcsin(
+                    np.abs(normal).min(axis=0))).max())
+        return tilts
+
+    def warn_inclined_faces(self) -> None:
         """Log a warning for each polygon obstacle with a face inclined
         by more than :data:`INCLINED` degrees to the grid's axes (with
         friction, or tied: by any, :data:`INCLINED_HOLDING`) that the
-        material's domain corners ``X0`` (dim, corners, n) touch at the
-        run's start (within :data:`TOUCHING` cells; within a cell, a disc
-        pressed on a flat block was warned by its faces beside the
-        contact): the material's surface against it is a staircase of
+        material touches at the run's start (:meth:`tilts_met`): the
+        material's surface against it is a staircase of
         the points' axis-aligned domains, touching it at a few corners.  A
         block 0.4 x 0.2 seeded on a 30 degree incline (a user trial, h =
         0.14, MPM, dynamics) slid 17% faster than Coulomb's law gives with
@@ -465,28 +552,16 @@ class ObstacleContact(GridTerm):
         degrees alike: turned by the angle, moved 41, 22 and 8 times as
         far as in FE); with friction 0.5 or tied it failed at its first
         step."""
-        if X0.shape[0] != 2:
-            return
-        X0 = X0.reshape(2, -1)
-        for i, ob in enumerate(self.obstacles):
-            if ob.box is not None:
-                continue
-            near = np.abs(ob.signed_distance(X0, self.start[i])[0]) \
-                < TOUCHING * self.h
-            if not near.any():
-                continue
-            face = ob.nearest_face(X0[:, near], self.start[i])
-            normal = ob.faces()[1][:, np.unique(face)]
-            tilt = np.degrees(np.arcsin(np.abs(normal).min(axis=0)))
+        for ob, tilt in zip(self.obstacles, self.tilts):
             holding = ob.friction != 0.
-            if tilt.max() > (INCLINED_HOLDING if holding else INCLINED):
+            if tilt > (INCLINED_HOLDING if holding else INCLINED):
                 logger.warning(
                     "obstacle %r: the material meets a face inclined by "
                     "%.3g degrees to the grid's axes: its surface there is "
                     "a staircase of the points' domains touching at a few "
                     "corners, %s; docs/contact.md): seed the body level "
                     "and tilt the body force, or refine", ob.name,
-                    float(tilt.max()), "and a face that holds it (friction "
+                    tilt, "and a face that holds it (friction "
                     "or tied) holds it at those corners: it can turn on "
                     "them, and its stresses there are a point support's (a "
                     "block on a rough 5 degree incline turned by 5 degrees "
@@ -497,6 +572,28 @@ class ObstacleContact(GridTerm):
                     "approximate (a block on a 30 degree incline, 2.8 "
                     "cells long, slid 17% too fast with MPM, 2.7% with "
                     "GIMP")
+
+    def warn_splines(self, run) -> None:
+        """Log a warning where B-splines without the extension meet an
+        obstacle that moves: where the material's surface leaves the
+        support of a row of nodes, the nodes drop out of the step, and
+        the obstacle's force jumps (a footing pushed into weightless von
+        Mises soil, B = 8 h: by up to 19% smooth and 28% rough between
+        steps, the rough one 38% below the smooth one; extended 3-8%).
+        The remedy, ``Stabilisation(extended_splines=True)``, is named
+        where it is not refused (contacts between bodies)."""
+        piece = getattr(run.method, "piece", run.method)
+        if getattr(piece, "spline", None) is None or piece.extended or \
+                not any(ob.displacement.any() for ob in self.obstacles):
+            return
+        logger.warning(
+            "method %r meets moving obstacles without extended splines: "
+            "where the material's surface leaves the support of a row of "
+            "nodes they drop out, and an obstacle's force jumps (a footing "
+            "pushed into soil, B = 8 h: by up to 19%% smooth, 28%% rough, "
+            "between steps; docs/bspline.md)%s", piece.name,
+            "" if run.contacts else
+            "; Stabilisation(extended_splines=True) folds them (3-8%)")
 
     def warn_edges_inside_cells(self, X0: ndarray) -> None:
         """Log a warning for each box obstacle whose edge meets the
@@ -562,17 +659,30 @@ class ObstacleContact(GridTerm):
                     break
 
     def failure_hint(self, points, quasi_static: bool) -> str:
-        """Friction mobilised in full on an obstacle at the last
-        converged state ``points`` of a quasi-static run
-        (:func:`friction_hint`), as the step that committed it measured
-        it (the point state keeps the multipliers, not the pressures: a
-        run resumed there whose first step fails gives no hint)."""
-        committed, parts = self.mobilisation
-        if committed is not points or not quasi_static:
+        """A quasi-static run's hint: a smooth obstacle's inclined face
+        that the material met at the run's start (a block on it has no
+        equilibrium; a user trial's failure named neither), and friction
+        mobilised in full on an obstacle at the last converged state
+        ``points`` (:func:`friction_hint`), as the step that committed it
+        measured it (the point state keeps the multipliers, not the
+        pressures: a run resumed there whose first step fails gives no
+        friction hint)."""
+        if not quasi_static:
             return ""
-        return "".join(friction_hint("obstacle {!r}".format(ob.name),
-                                     ob.friction, *part)
-                       for ob, part in zip(self.obstacles, parts))
+        hint = "".join(
+            "; obstacle {!r} is smooth and the material met its face "
+            "inclined by {:.3g} degrees to the grid's axes: held along it "
+            "by nothing else, a body on it has no quasi-static equilibrium "
+            "(give the face friction, hold the body, or run dynamics)"
+            .format(ob.name, tilt)
+            for ob, tilt in zip(self.obstacles, self.tilts)
+            if ob.friction == 0. and tilt > INCLINED_HOLDING)
+        committed, parts = self.mobilisation
+        if committed is not points:
+            return hint
+        return hint + "".join(friction_hint("obstacle {!r}".format(ob.name),
+                                            ob.friction, *part)
+                              for ob, part in zip(self.obstacles, parts))
 
     def begin_step(self, problem):
         return StepContact(self, problem)
@@ -592,6 +702,9 @@ class StepContact(GridTerm):
 
     def __init__(self, term: ObstacleContact, problem):
         self.term, self.problem = term, problem
+        if term.splines_checked is None:
+            term.splines_checked = True
+            term.warn_splines(problem.run)
         points = problem.points
         self.dim = dim = points.x.shape[0]
         self.op = problem.method_op
@@ -639,7 +752,9 @@ class StepContact(GridTerm):
         term, dim = self.term, self.dim
         self.idx = idx
         nc = 2 ** dim
-        if hasattr(self.op, "S"):
+        where = self.where[:, :, idx].reshape(dim, -1)
+        weights = getattr(self.problem.run.method, "weights_at", None)
+        if hasattr(self.op, "S") and not term.holds:
             # GIMP's and B-splines' smooth weights: the point's operator
             # and its gradient, u_c = (S + q . G) du
             S, G = point_rows(self.op, idx)
@@ -648,11 +763,17 @@ class StepContact(GridTerm):
                 np.repeat(self.q[b, c, idx], counts) * G[b].data
                 for b in range(dim)), S.indices, S.indptr), shape=S.shape)
                 for c in range(nc)])
+        elif weights is not None:
+            # B-splines, obstacles that hold: the splines at the corners
+            S = spline_rows(weights, self.op, where, np.tile(idx, nc))
         else:
-            # Lagrange elements: the polynomial of the point's cell
-            S = term.cell_values(self.where[:, :, idx].reshape(dim, -1),
-                                 np.tile(self.op.point_elements[idx], nc),
-                                 self.op.N // dim)
+            # Lagrange elements: the polynomial of the point's cell (GIMP,
+            # obstacles that hold: of the corner's)
+            cells = np.tile(self.op.point_elements[idx], nc)
+            if hasattr(self.op, "S"):
+                cells = term.corner_cells(self.problem.run, where, np.tile(
+                    self.problem.points.x[:, idx], nc), cells)
+            S = term.cell_values(where, cells, self.op.N // dim)
         self.J = kron(S, identity(dim), format="csr")
         self.Xs = self.X[:, :, idx].reshape(dim, -1)      # (dim, nc m)
         self.area, self.lam, self.tau, self.anchor = [], [], [], []
