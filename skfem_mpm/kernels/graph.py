@@ -146,8 +146,7 @@ def _conditioned(G, margin):
     at least ``margin`` times its largest: ``G`` positive definite (its
     Cholesky factor ``L`` formed) and ``trace(G) trace(G^-1)`` (``G^-1``'s
     trace the squares of ``L^-1``'s entries), which bounds the ratio's
-    inverse from above, at most ``1 / margin`` (no LAPACK call: a
-    10-second compile)."""
+    inverse from above, at most ``1 / margin`` (no LAPACK call)."""
     m = G.shape[0]
     L = np.zeros((m, m))
     for j in range(m):
