@@ -31,6 +31,7 @@ def refused(monkeypatch):
     for module, name in ((basis, "point_slots"), (basis, "quad1_fields"),
                          (graph, "component_labels"),
                          (graph, "element_labels"),
+                         (graph, "clearly_held"),
                          (locate, "tensor_locate")):
         monkeypatch.setattr(module, name, refuse)
     return monkeypatch

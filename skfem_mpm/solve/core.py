@@ -43,11 +43,9 @@ from typing import Callable, NamedTuple, Optional, Sequence
 
 import numpy as np
 from numpy import ndarray
-from skfem import Basis
 from skfem.assembly import Dofs
 from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
-from skfem.quadrature import get_quadrature
 
 from ..errors import (ContactError, GridMotionError, InvalidInputError,
                       InversionError,
@@ -65,6 +63,7 @@ from ..methods.assembly import ElementPattern
 from ..methods.method import DOMAIN_METHODS, METHODS, make_method
 from ..protocols import GridTerm
 from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
+from ..quadrature.grid import GridBasis
 from ..quadrature.locate import point_locator, tensor_grid
 from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
@@ -147,14 +146,8 @@ def grid_parts(mesh: Mesh, elem: Element):
     basis (supports, DOF locations), the scalar ``Dofs`` for the
     material-point bases and the vector stiffness pattern."""
     scalar = elem.elem if isinstance(elem, ElementVector) else elem
-    # the grid basis serves DOFs, DOF locations and facets (all elements);
-    # the basis functions it evaluates are never used, so it evaluates them
-    # at one point (the centroid) of one element
-    X, W = get_quadrature(mesh.refdom, 0)
     try:
-        grid = Basis(mesh, vector_element(elem), elements=np.array([0]),
-                     quadrature=(X @ W[:, None] / W.sum(),
-                                 np.array([W.sum()])))
+        grid = GridBasis(mesh, vector_element(elem))
     except ValueError as err:             # another reference domain
         raise UnsupportedElementError(
             "the element {} does not fit the mesh {} ({})".format(

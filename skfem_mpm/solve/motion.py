@@ -142,7 +142,8 @@ def check_held(run, op, fixed: ndarray, step: int, by_terms: bool = False):
             labels = component_labels(op.adjacency(), kernels)
         try:
             check_rigid_body_modes(labels, run.grid.doflocs[:, ::run.dim],
-                                   op.active_dofs, fixed, run.dim, step)
+                                   op.active_dofs, fixed, run.dim, kernels,
+                                   step)
         except SingularSystemError as err:
             if not by_terms:
                 raise
