@@ -1164,6 +1164,30 @@ def rough_footing(friction, nsteps=2, method="bspline"):
 
 
 @pytest.mark.slow
+def test_material_that_runs_away_through_an_obstacle_is_named():
+    """A user trial's Hertz half-disc with B-splines (h = 0.02, a/h =
+    10, its flat top on a grid line, loaded by a traction) on a floor
+    obstacle: a point under the top moved 597 cells in one step, and the
+    error blamed the floor, which no cut-back cures.  The error now says
+    that nodes with almost no material ran away and names the remedies."""
+    from skfem_mpm import StepTooLongError, Traction, side_points
+    E, nu, R, a, h = 1e6, .3, 1., .2, .02
+    P = a ** 2 * np.pi * E / (1 - nu ** 2) / (4 * R)
+    mesh = MeshQuad.init_tensor(np.arange(0, R + .06 + 1e-9, h),
+                                np.arange(-2 * h, R + 2 * h + 1e-9, h))
+    pts = seed_points(mesh, 2, region=lambda x: (x[1] < R) & (
+        x[0] ** 2 + (x[1] - R) ** 2 < R ** 2))
+    with pytest.raises(StepTooLongError, match=r"floor.*farther than the "
+                       r"grid spans: grid nodes that carry almost no "
+                       r"material ran away.*extended_splines"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(E, nu),
+                 lambda b: b.get_dofs(lambda x: x[0] == 0).all("u^1"),
+                 loads=[Traction(side_points(pts, "top"), "top",
+                                 [0., -P / 2 / R])], nsteps=4,
+                 method="bspline", obstacles=[Obstacle(
+                     box=[[-1, 2], [-1, 0.]], name="floor")])
+
+@pytest.mark.slow
 def test_a_rough_footing_with_b_splines_converges():
     """The corners that stick to a rough obstacle are those in contact at
     the step's start (less those found apart after Newton), not those

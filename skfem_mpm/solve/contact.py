@@ -135,6 +135,14 @@ INCLINED = 10.
 #: incline's angle at 5, 0.6, 0.3 and 0.1 degrees alike)
 INCLINED_HOLDING = 1e-6
 
+#: what a step's motion farther than the grid spans says (a B-spline
+#: disc's point under its loaded top, on a grid line, moved 597 cells
+#: through the floor it stood on, and the error blamed the floor)
+RUNAWAY = (", farther than the grid spans: grid nodes that carry almost "
+           "no material ran away, the material with them (the ghost "
+           "penalty, Stabilisation(ghost=...), holds them; B-splines: "
+           "Stabilisation(extended_splines=True))")
+
 #: the cells within which a corner touches a face for that warning
 TOUCHING = .1
 
@@ -864,13 +872,15 @@ class StepContact(GridTerm):
                 self.shift_old[i], term.tol[i])]
             if passed.size:
                 far = np.sqrt((d[:, passed] ** 2).sum(axis=0)).max()
+                span = np.ptp(self.problem.run.user_grid.mesh.p, axis=1)
                 raise StepTooLongError(
                     "step {}: material went through obstacle {!r} within "
                     "the step ({} domain corners, the first of point {}, "
-                    "moved across it, up to {:.3g} cells relative to it): "
+                    "moved across it, up to {:.3g} cells relative to it{}): "
                     "cut back".format(
                         self.problem.step, ob.name, passed.size,
-                        passed[0] % self.X.shape[2], far / term.h))
+                        passed[0] % self.X.shape[2], far / term.h,
+                        RUNAWAY if far > span.max() else ""))
 
     def corner_areas(self, normal: ndarray, idx: ndarray) -> ndarray:
         """Each corner's share (nc m,) of its domain's area projected on
