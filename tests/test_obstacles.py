@@ -1295,6 +1295,26 @@ def test_an_obstacle_edge_meeting_material_inside_a_cell_is_warned(
         "line at it, or refine".format(warned)])
 
 
+@pytest.mark.parametrize("left, warned", [(.2, False), (.24, False),
+                                          (.3, True)])
+def test_a_press_wider_than_the_block_is_not_warned(caplog, left, warned):
+    """A user trial's press wider than the block it squeezes, its edge
+    0.4 cells beyond the block's side (inside a cell), was warned as an
+    edge meeting the material inside a cell: the material does not reach
+    past it (nor 0.08 cells beyond it).  Over the block it is warned."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9), np.linspace(0, 1, 9))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .25) & (x[0] < .75)
+                      & (x[1] < .5))
+    press = Obstacle(box=[[left, .8], [.5, .8]], displacement=[0, -.01],
+                     name="press")
+    with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(), nsteps=1,
+                 obstacles=[press])
+    found = [r.getMessage() for r in caplog.records
+             if "inside a grid cell" in r.getMessage()]
+    assert len(found) == warned
+
 @pytest.mark.parametrize("slope, friction, warned", [
     (30., .3, 30.), (30., 0., 30.), (5., .3, 5.), (5., "tied", 5.),
     (.3, "rough", .3), (5., 0., None), (0., .3, None)])

@@ -611,7 +611,9 @@ class ObstacleContact(GridTerm):
         that meets the material (the axes along which that material does
         not lie beyond the box), where a face with material beyond it
         touches it (within :data:`TOUCHING` cells once the obstacle has
-        moved its displacement).  The contact there is as good as the
+        moved its displacement) and reaches past the edge along that
+        face (by more than :data:`TOUCHING` cells).  The contact there is
+        as good as the
         cell: a strip footing (B = 6.4 h and 6.8 h, weightless von Mises
         soil, 3 x 3 points a cell), its edge inside a cell, pressed 3-26%
         above Prandtl's pressure over the first 0.03 B (the cell's
@@ -655,7 +657,15 @@ class ObstacleContact(GridTerm):
                     continue
                 off = [np.abs(lines[a] - corner[a]).min() > eps
                        for a in range(dim)]
-                if any(off[a] and not beyond[a] for a in range(dim)):
+                # the material reaches past the edge, outside the box (a
+                # press wider than the block, its edge 0.4 cells beyond
+                # the block's side, was warned)
+                past = [(m[a] < corner[a] - TOUCHING * self.h).any()
+                        if corner[a] <= box[a, 0] + eps else
+                        (m[a] > corner[a] + TOUCHING * self.h).any()
+                        for a in range(dim)]
+                if any(off[a] and past[a] and not beyond[a]
+                       for a in range(dim)):
                     logger.warning(
                         "obstacle %r: its edge at %s meets the material "
                         "inside a grid cell: the contact is resolved only "
