@@ -991,3 +991,88 @@ def test_a_scene_s_time_integration_is_checked(tmp_path):
         'boundary = "z-"', 'boundary = "bottom"'))
     with pytest.raises(SceneError, match=r"supports\[0\].boundary: in 3D"):
         load_scene(bad)
+
+
+# a block resting on a floor 3 m wide (the grid is 1 m), a cap on it in
+# contact, and a wall it never touches, for 3 steps of 0.01 s
+RESTING = """
+name = "resting"
+[grid]
+x = [0.0, 1.0, 4]
+y = [-0.25, 1.0, 5]
+[[bodies]]
+name = "block"
+region = { x = [0.25, 0.75], y = [0.0, 0.5] }
+density = 1000.0
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+[[bodies]]
+name = "cap"
+region = { x = [0.25, 0.75], y = [0.5, 0.75] }
+density = 1000.0
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+[[contacts]]
+first = "block"
+second = "cap"
+[gravity]
+body_force = [0.0, -9810.0]
+[[obstacles]]
+name = "floor"
+box = { x = [-1.0, 2.0], y = [-1.0, 0.0] }
+friction = 0.3
+[[obstacles]]
+name = "wall"
+box = { x = [0.9, 2.0], y = [0.2, 0.6] }
+[[outputs]]
+name = "wall force"
+quantity = "obstacle_force"
+obstacle = "wall"
+component = "x"
+[dynamics]
+time_step = 0.01
+duration = 0.03
+"""
+
+
+@pytest.fixture(scope="module")
+def resting(tmp_path_factory):
+    """The scene ``RESTING``, its result and its summary (as written)."""
+    from skfem_mpm.cli import summarise
+    from skfem_mpm.scenes.output import write_summary
+    path = tmp_path_factory.mktemp("resting") / "resting.toml"
+    path.write_text(RESTING)
+    scene = load_scene(path)
+    result = run_scene(scene)
+    write_summary(path.with_name("summary.json"),
+                  summarise(scene, result, 1.))
+    return scene, result, json.loads(
+        path.with_name("summary.json").read_text())
+
+
+def test_dynamic_force_curves_have_their_time(resting):
+    """In dynamics the obstacles' and contacts' force curves in
+    summary.json carry each step's time (s) beside the load factor, which
+    there is t / duration (a user trial found only the load factor)."""
+    summary = resting[2]
+    times = summary["energies"]["time"][1:]
+    assert np.allclose(times, [.01, .02, .03], rtol=1e-12)
+    for curve in (summary["obstacles"]["floor"], summary["obstacles"]["wall"],
+                  summary["contacts"]["block-cap"]):
+        assert curve["time"] == times
+        assert np.allclose(curve["load_factor"], np.array(times) / .03)
+    assert summary["units"]["time"] == "s"
+
+
+def test_an_untouched_obstacle_s_force_is_zero_not_minus_zero(resting,
+                                                               capsys):
+    """The wall is never touched: its force is 0 in summary.json and on
+    the terminal, not -0.0 and "-0 N/m" (the negated zero reaction)."""
+    from skfem_mpm.cli import print_report
+    scene, _, summary = resting
+    wall = summary["obstacles"]["wall"]
+    zeros = np.array(wall["force"] + [wall["final_force"],
+                                      wall["peak_force"]])
+    assert np.all(zeros == 0.) and not np.signbit(zeros).any()
+    assert not np.signbit(summary["outputs"]["wall force"]["value"])
+    print_report(scene, summary, 1., Path("out"), False)
+    assert "wall force                0 N/m\n" in capsys.readouterr().out
+
