@@ -509,7 +509,7 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
     the displacement along its ``motion`` (name: displacement at full
     load) where every one moves, else against the load factor (time in
     dynamics)."""
-    fig, ax = pyplot().subplots(figsize=(6, 4.5))
+    fig, ax = pyplot().subplots(figsize=(8.5, 4.5))
     moving = all(np.any(d) for d in motion.values())
     for name, curve in curves.items():
         force = np.vstack([np.zeros((1, len(curve["force"][0]))),
@@ -537,7 +537,10 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
     ax.set_title("{}: contact force {},\nmagnitude and components".format(
         scene.name, "on the obstacles" if what == "obstacles" else
         "between the bodies"))
-    ax.legend(loc="best", fontsize="small")
+    # beside the axes: inside, with a magnitude and its components per
+    # obstacle, even "best" covered a curve (a user trial's floor force)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.), borderaxespad=0.,
+              fontsize="small", ncol=1 + len(ax.get_lines()) // 20)
     fig.tight_layout()
     plot.save_figure(fig, path)
 

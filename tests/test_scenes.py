@@ -1076,3 +1076,63 @@ def test_an_untouched_obstacle_s_force_is_zero_not_minus_zero(resting,
     print_report(scene, summary, 1., Path("out"), False)
     assert "wall force                0 N/m\n" in capsys.readouterr().out
 
+
+def test_the_deformed_shape_shows_the_material_not_the_whole_floor(
+        resting, monkeypatch):
+    """The picture spans the block and cap (0.25..0.75 x 0..0.75) with a
+    tenth of a margin, not the floor obstacle's 3 m (a user trial's block
+    was a tenth of its picture); the floor is cut at its edge and the
+    undeformed outline is drawn over the points."""
+    from skfem_mpm.cli import plot_deformed_shape
+    from skfem_mpm.scenes import plot
+    scene, result, _ = resting
+    kept = {}
+    monkeypatch.setattr(plot, "save_figure",
+                        lambda fig, path: kept.update(fig=fig))
+    plot_deformed_shape(scene, result.points, "", None, Path("no.png"), 1.)
+    ax = kept["fig"].axes[0]
+    assert not plot.figure_problems(kept["fig"])
+    u = np.abs(result.points.displacement).max()
+    assert 0 < u < 3e-3
+    assert np.allclose(ax.get_xlim(), [.25 - .075, .75 + .075], atol=u)
+    assert np.allclose(ax.get_ylim(), [-.075, .75 + .075], atol=u)
+    floor = ax.patches[0]
+    assert floor.get_clip_on() and floor.get_xy()[:, 0].min() == -1.
+    points = max(c.get_zorder() for c in ax.collections
+                 if c.get_offsets().shape[0] == result.points.n)
+    undeformed = [c for c in ax.collections
+                  if c.get_linestyle()[0][1] is not None]
+    assert len(undeformed) == 1 and undeformed[0].get_zorder() > points
+    plot.pyplot().close(kept["fig"])
+
+
+def test_the_force_curves_legend_covers_no_curve(tmp_path, monkeypatch):
+    """``obstacles.png`` (the trial's press and floor: a magnitude rising
+    to 12800 N/m and the floor's y falling to -12800): its legend of 8
+    entries covered the floor's y curve; it lies beside the axes now."""
+    from types import SimpleNamespace
+
+    from skfem_mpm.cli import plot_contact_forces
+    from skfem_mpm.scenes import plot
+    scene = SimpleNamespace(name="press", grid=SimpleNamespace(dim=2),
+                            dynamics=SimpleNamespace(duration=1.))
+    t = np.linspace(.01, 1., 100)
+    ramp = 12800. * np.minimum(t / .5, 1.)
+    curves = {"floor": {"force": np.c_[0. * t, -ramp].tolist(),
+                        "load_factor": t.tolist(), "time": t.tolist()},
+              "press": {"force": np.c_[0. * t, .8 * ramp].tolist(),
+                        "load_factor": t.tolist(), "time": t.tolist()}}
+    kept = {}
+    monkeypatch.setattr(plot, "save_figure",
+                        lambda fig, path: kept.update(fig=fig))
+    plot_contact_forces(scene, curves, {"floor": np.zeros(2),
+                                        "press": np.array([0., -.01])},
+                        "obstacles", tmp_path / "obstacles.png")
+    fig = kept["fig"]
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    legend = ax.get_legend().get_window_extent()
+    assert len(ax.get_legend().get_texts()) == 8
+    assert not legend.overlaps(ax.get_window_extent())
+    assert legend.x1 <= fig.bbox.x1 + 1       # and inside the figure
+    plot.pyplot().close(fig)
