@@ -31,7 +31,7 @@ from .scenes.io import (atomic_path, clear_earlier_run,
                         interrupts_deferred, remove_temporaries,
                         terminate_as_interrupt)
 from .scenes.output import (SeriesWriter, point_cloud, von_mises,
-                             write_summary)
+                             without_negative_zeros, write_summary)
 from .scenes import plot  # save_figure looked up when called: tests wrap it
 from .scenes.plot import (STRESS_NAMES, SupportMarks, body_figure_size,
                           colour_scale, draw_deformed_shape, draw_energies,
@@ -242,7 +242,7 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
         "max_displacement": float(np.abs(pts.displacement).max()),
         "reactions": {name: reactions[:, k].tolist()
                       for k, name in enumerate(names[:len(scene.supports)])},
-        "units": summary_units(pts.dim),
+        "units": summary_units(pts.dim, scene.dynamics is not None),
     }
     summary.update(rigid_body_curves(scene, rows, reactions))
     if scene.dynamics is not None and len(rows):
@@ -259,20 +259,23 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
         summary["outputs"] = {q.label: {
             "value": q.measure(scene, result), "unit": q.unit(pts.dim)}
             for q in scene.outputs}
-    return summary
+    return without_negative_zeros(summary)    # no "-0 N" printed
 
 
-def summary_units(dim: int) -> dict:
+def summary_units(dim: int, dynamics: bool = False) -> dict:
     """The SI units of a ``summary.json``'s numbers: its top-level ones by
-    key, and ``force`` and ``displacement`` for the per-step curves of
-    rigid bodies, obstacles and contacts (their peaks and final values
-    alike); ``outputs`` carry their own (a user trial read
-    ``max_displacement`` without one)."""
+    key, and ``force``, ``displacement`` and (``dynamics``) ``time`` for
+    the per-step curves of rigid bodies, obstacles and contacts (their
+    peaks and final values alike); ``outputs`` carry their own (a user
+    trial read ``max_displacement`` without one)."""
     force = quantity_unit("rigid_force", dim)
-    return {"max_displacement": "m", "max_residual": "-",
-            "wall_seconds": "s", "load_factor": "-", "reactions": force,
-            "force": force, "displacement": "m",
-            "energies": {1: "J/m^2", 2: "J/m", 3: "J"}[dim] + " (time: s)"}
+    units = {"max_displacement": "m", "max_residual": "-",
+             "wall_seconds": "s", "load_factor": "-", "reactions": force,
+             "force": force, "displacement": "m",
+             "energies": {1: "J/m^2", 2: "J/m", 3: "J"}[dim] + " (time: s)"}
+    if dynamics:
+        units["time"] = "s"
+    return units
 
 
 def energy_curves(rows) -> dict:
@@ -303,30 +306,35 @@ def rigid_body_curves(scene, rows, reactions) -> dict:
     holds its motion, an obstacle's the one the material exerts on it, a
     contact's the one its first body exerts on its second;
     the peak is where the force along the motion is largest (an obstacle
-    that does not move: the largest force)."""
+    that does not move: the largest force); in dynamics each step's
+    ``time`` (s) beside its ``load_factor`` (there t / duration)."""
     rigid = [(b.name, b.rigid, 1.) for b in scene.bodies
              if b.rigid is not None]
     obstacles = [(o.name, o.displacement, -1.)
                  for o in obstacle_list(scene)]
     contacts = [(c.name, None, 1.) for c in scene.contacts]
+    times = None if scene.dynamics is None else \
+        rows[:, HISTORY_KEYS.index("time")]
     out, first = {}, len(scene.supports)
     for key, items in (("rigid_bodies", rigid), ("obstacles", obstacles),
                        ("contacts", contacts)):
         if items:
             out[key] = motion_curves(items, rows[:, 1],
                                      load_scale(scene, rows[:, 1]),
-                                     reactions[:, first:first + len(items)])
+                                     reactions[:, first:first + len(items)],
+                                     times)
         first += len(items)
     return out
 
 
-def motion_curves(items, factors, scale, forces) -> dict:
+def motion_curves(items, factors, scale, forces, times=None) -> dict:
     """Per item ``(name, displacement at full load, sign)`` its
     displacement and force per step (``forces``: steps x items x dim; the
-    steps' load ``factors`` and the loads' ``scale``), the peak and the
-    final force; ``sign`` turns the force to the one that resists the
-    motion.  An item with no displacement (``None``: a contact between
-    bodies) has no displacement keys."""
+    steps' load ``factors``, the loads' ``scale`` and, in dynamics, the
+    steps' ``times``), the peak and the final force; ``sign`` turns the
+    force to the one that resists the motion.  An item with no
+    displacement (``None``: a contact between bodies) has no displacement
+    keys."""
     curves = {}
     for k, (name, motion, sign) in enumerate(items):
         force = forces[:, k]
@@ -347,6 +355,8 @@ def motion_curves(items, factors, scale, forces) -> dict:
             "peak_displacement": None if peak is None
             else displacement[peak].tolist(),
             "final_force": force[-1].tolist() if len(force) else None}
+        if times is not None:
+            curves[name]["time"] = np.asarray(times).tolist()
         if motion is None:
             del curves[name]["displacement"], \
                 curves[name]["peak_displacement"]
@@ -499,7 +509,7 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
     the displacement along its ``motion`` (name: displacement at full
     load) where every one moves, else against the load factor (time in
     dynamics)."""
-    fig, ax = pyplot().subplots(figsize=(6, 4.5))
+    fig, ax = pyplot().subplots(figsize=(8.5, 4.5))
     moving = all(np.any(d) for d in motion.values())
     for name, curve in curves.items():
         force = np.vstack([np.zeros((1, len(curve["force"][0]))),
@@ -508,9 +518,8 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
             disp = np.vstack([np.zeros_like(force[:1]),
                               curve["displacement"]])
             x = disp @ (motion[name] / np.linalg.norm(motion[name]))
-        else:
-            x = np.array([0.] + curve["load_factor"]) * (
-                scene.dynamics.duration if scene.dynamics else 1.)
+        else:                          # in dynamics, the time
+            x = np.array([0.] + curve.get("time", curve["load_factor"]))
         magnitude = np.linalg.norm(force, axis=1)
         line, = ax.plot(x, magnitude, "o-", ms=3,
                         label="{}, magnitude".format(name))
@@ -528,7 +537,10 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
     ax.set_title("{}: contact force {},\nmagnitude and components".format(
         scene.name, "on the obstacles" if what == "obstacles" else
         "between the bodies"))
-    ax.legend(loc="best", fontsize="small")
+    # beside the axes: inside, with a magnitude and its components per
+    # obstacle, even "best" covered a curve (a user trial's floor force)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.), borderaxespad=0.,
+              fontsize="small", ncol=1 + len(ax.get_lines()) // 20)
     fig.tight_layout()
     plot.save_figure(fig, path)
 

@@ -991,3 +991,148 @@ def test_a_scene_s_time_integration_is_checked(tmp_path):
         'boundary = "z-"', 'boundary = "bottom"'))
     with pytest.raises(SceneError, match=r"supports\[0\].boundary: in 3D"):
         load_scene(bad)
+
+
+# a block resting on a floor 3 m wide (the grid is 1 m), a cap on it in
+# contact, and a wall it never touches, for 3 steps of 0.01 s
+RESTING = """
+name = "resting"
+[grid]
+x = [0.0, 1.0, 4]
+y = [-0.25, 1.0, 5]
+[[bodies]]
+name = "block"
+region = { x = [0.25, 0.75], y = [0.0, 0.5] }
+density = 1000.0
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+[[bodies]]
+name = "cap"
+region = { x = [0.25, 0.75], y = [0.5, 0.75] }
+density = 1000.0
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+[[contacts]]
+first = "block"
+second = "cap"
+[gravity]
+body_force = [0.0, -9810.0]
+[[obstacles]]
+name = "floor"
+box = { x = [-1.0, 2.0], y = [-1.0, 0.0] }
+friction = 0.3
+[[obstacles]]
+name = "wall"
+box = { x = [0.9, 2.0], y = [0.2, 0.6] }
+[[outputs]]
+name = "wall force"
+quantity = "obstacle_force"
+obstacle = "wall"
+component = "x"
+[dynamics]
+time_step = 0.01
+duration = 0.03
+"""
+
+
+@pytest.fixture(scope="module")
+def resting(tmp_path_factory):
+    """The scene ``RESTING``, its result and its summary (as written)."""
+    from skfem_mpm.cli import summarise
+    from skfem_mpm.scenes.output import write_summary
+    path = tmp_path_factory.mktemp("resting") / "resting.toml"
+    path.write_text(RESTING)
+    scene = load_scene(path)
+    result = run_scene(scene)
+    write_summary(path.with_name("summary.json"),
+                  summarise(scene, result, 1.))
+    return scene, result, json.loads(
+        path.with_name("summary.json").read_text())
+
+
+def test_dynamic_force_curves_have_their_time(resting):
+    """In dynamics the obstacles' and contacts' force curves in
+    summary.json carry each step's time (s) beside the load factor, which
+    there is t / duration (a user trial found only the load factor)."""
+    summary = resting[2]
+    times = summary["energies"]["time"][1:]
+    assert np.allclose(times, [.01, .02, .03], rtol=1e-12)
+    for curve in (summary["obstacles"]["floor"], summary["obstacles"]["wall"],
+                  summary["contacts"]["block-cap"]):
+        assert curve["time"] == times
+        assert np.allclose(curve["load_factor"], np.array(times) / .03)
+    assert summary["units"]["time"] == "s"
+
+
+def test_an_untouched_obstacle_s_force_is_zero_not_minus_zero(resting,
+                                                               capsys):
+    """The wall is never touched: its force is 0 in summary.json and on
+    the terminal, not -0.0 and "-0 N/m" (the negated zero reaction)."""
+    from skfem_mpm.cli import print_report
+    scene, _, summary = resting
+    wall = summary["obstacles"]["wall"]
+    zeros = np.array(wall["force"] + [wall["final_force"],
+                                      wall["peak_force"]])
+    assert np.all(zeros == 0.) and not np.signbit(zeros).any()
+    assert not np.signbit(summary["outputs"]["wall force"]["value"])
+    print_report(scene, summary, 1., Path("out"), False)
+    assert "wall force                0 N/m\n" in capsys.readouterr().out
+
+
+def test_the_deformed_shape_shows_the_material_not_the_whole_floor(
+        resting, monkeypatch):
+    """The picture spans the block and cap (0.25..0.75 x 0..0.75) with a
+    tenth of a margin, not the floor obstacle's 3 m (a user trial's block
+    was a tenth of its picture); the floor is cut at its edge and the
+    undeformed outline is drawn over the points."""
+    from skfem_mpm.cli import plot_deformed_shape
+    from skfem_mpm.scenes import plot
+    scene, result, _ = resting
+    kept = {}
+    monkeypatch.setattr(plot, "save_figure",
+                        lambda fig, path: kept.update(fig=fig))
+    plot_deformed_shape(scene, result.points, "", None, Path("no.png"), 1.)
+    ax = kept["fig"].axes[0]
+    assert not plot.figure_problems(kept["fig"])
+    u = np.abs(result.points.displacement).max()
+    assert 0 < u < 3e-3
+    assert np.allclose(ax.get_xlim(), [.25 - .075, .75 + .075], atol=u)
+    assert np.allclose(ax.get_ylim(), [-.075, .75 + .075], atol=u)
+    floor = ax.patches[0]
+    assert floor.get_clip_on() and floor.get_xy()[:, 0].min() == -1.
+    points = max(c.get_zorder() for c in ax.collections
+                 if c.get_offsets().shape[0] == result.points.n)
+    undeformed = [c for c in ax.collections
+                  if c.get_linestyle()[0][1] is not None]
+    assert len(undeformed) == 1 and undeformed[0].get_zorder() > points
+    plot.pyplot().close(kept["fig"])
+
+
+def test_the_force_curves_legend_covers_no_curve(tmp_path, monkeypatch):
+    """``obstacles.png`` (the trial's press and floor: a magnitude rising
+    to 12800 N/m and the floor's y falling to -12800): its legend of 8
+    entries covered the floor's y curve; it lies beside the axes now."""
+    from types import SimpleNamespace
+
+    from skfem_mpm.cli import plot_contact_forces
+    from skfem_mpm.scenes import plot
+    scene = SimpleNamespace(name="press", grid=SimpleNamespace(dim=2),
+                            dynamics=SimpleNamespace(duration=1.))
+    t = np.linspace(.01, 1., 100)
+    ramp = 12800. * np.minimum(t / .5, 1.)
+    curves = {"floor": {"force": np.c_[0. * t, -ramp].tolist(),
+                        "load_factor": t.tolist(), "time": t.tolist()},
+              "press": {"force": np.c_[0. * t, .8 * ramp].tolist(),
+                        "load_factor": t.tolist(), "time": t.tolist()}}
+    kept = {}
+    monkeypatch.setattr(plot, "save_figure",
+                        lambda fig, path: kept.update(fig=fig))
+    plot_contact_forces(scene, curves, {"floor": np.zeros(2),
+                                        "press": np.array([0., -.01])},
+                        "obstacles", tmp_path / "obstacles.png")
+    fig = kept["fig"]
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    legend = ax.get_legend().get_window_extent()
+    assert len(ax.get_legend().get_texts()) == 8
+    assert not legend.overlaps(ax.get_window_extent())
+    assert legend.x1 <= fig.bbox.x1 + 1       # and inside the figure
+    plot.pyplot().close(fig)

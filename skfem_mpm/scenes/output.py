@@ -16,7 +16,8 @@ from numpy import ndarray
 from .io import atomic_path
 from ..quadrature.points import MaterialPoints
 
-__all__ = ["SeriesWriter", "write_summary", "point_cloud", "von_mises"]
+__all__ = ["SeriesWriter", "write_summary", "point_cloud", "von_mises",
+           "without_negative_zeros"]
 
 
 def _pad3(a: ndarray) -> ndarray:
@@ -146,7 +147,26 @@ class SeriesWriter:
                              "grid_{:04d}.vtu".format(s))) for s, t in steps]
 
 
+def without_negative_zeros(value):
+    """``value`` (numbers in dicts, lists and tuples) with every ``-0.0``
+    made ``0.0``: the force on an obstacle never touched is the negated
+    zero reaction, which was written ``-0.0`` and printed ``-0 N``.
+
+    >>> from skfem_mpm.scenes.output import without_negative_zeros
+    >>> without_negative_zeros({"force": [[-0.0, -2.5]], "steps": 3})
+    {'force': [[0.0, -2.5]], 'steps': 3}
+    """
+    if isinstance(value, float):
+        return value + 0.           # -0.0 + 0.0 is 0.0, all else itself
+    if isinstance(value, dict):
+        return {k: without_negative_zeros(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(without_negative_zeros(v) for v in value)
+    return value
+
+
 def write_summary(path, summary: dict):
-    """Write ``summary`` as JSON atomically."""
+    """Write ``summary`` as JSON atomically (no ``-0.0`` in it)."""
     with atomic_path(path) as tmp:
-        Path(tmp).write_text(json.dumps(summary, indent=2, sort_keys=True))
+        Path(tmp).write_text(json.dumps(without_negative_zeros(summary),
+                                        indent=2, sort_keys=True))

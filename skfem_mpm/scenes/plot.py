@@ -19,7 +19,7 @@ __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "series_styles", "colour_scale", "body_figure_size",
            "figure_problems", "STRESS_NAMES", "mark_peak", "marker_size",
            "draw_deformed_shape", "SupportMarks", "outline",
-           "draw_supports", "side_colorbar"]
+           "draw_supports", "side_colorbar", "view_limits"]
 
 #: the stress components' names for labels
 STRESS_NAMES = {(i, j): "sigma_" + "xyz"[i] + "xyz"[j]
@@ -329,6 +329,22 @@ def outline(ax, centres: np.ndarray, half: np.ndarray, pixels: int = 400,
     return ax.contour(cx, cy, inside.T.astype(float), levels=[.5], **style)
 
 
+def view_limits(x: np.ndarray, margin: float = .1):
+    """The lower and upper corners ((2,) each, m) of a picture of the
+    places ``x`` (2, n): their box widened on every side by ``margin``
+    times its longer side (a point alone: by 1 m).
+
+    >>> import numpy as np
+    >>> from skfem_mpm.scenes.plot import view_limits
+    >>> lo, hi = view_limits(np.array([[0., .5], [0., 1.]]))
+    >>> lo.tolist(), hi.tolist()
+    ([-0.1, -0.1], [0.6, 1.1])
+    """
+    lo, hi = x.min(axis=1), x.max(axis=1)
+    pad = margin * (float((hi - lo).max()) or 10.)
+    return lo - pad, hi + pad
+
+
 def draw_deformed_shape(fig, ax, points, title: str, supports=(),
                         rigid=None, obstacles=(), half=None,
                         coloured: bool = True):
@@ -337,7 +353,12 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     (``coloured=False``), the undeformed body as a faint outline, the
     ``supports`` marked at their grid nodes, the points of rigid bodies in
     black with their outline, and obstacles as hatched polygons, each
-    labelled in a legend below the axes.
+    labelled in a legend below the axes.  The view (2D, 3D) is the
+    material, deformed and undeformed, and the supports drawn, with a
+    margin of a tenth of its size (:func:`view_limits`): obstacles are cut
+    at its edge (a floor 3 m wide under a block of 0.5 m made the block
+    a tenth of the picture), and the undeformed outline is drawn over
+    the points (their markers hid it).
 
     Parameters
     ----------
@@ -399,7 +420,7 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
         (a, b), shown, note = shown_axes(x, points.volume)
     grey, handles = "0.55", []
     outline(ax, x0[[a, b]][:, shown], half[[a, b]][:, shown],
-            colors=grey, linewidths=1., linestyles="--")
+            colors=grey, linewidths=1., linestyles="--", zorder=3.5)
     handles.append(Line2D([], [], color=grey, ls="--",
                           label="undeformed body (outline)"))
     body = shown & soil
@@ -423,14 +444,23 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
                 linewidths=1.2)
         handles.append(Line2D([], [], marker="o", ls="-", color="k",
                               label="rigid body: {}".format(name)))
+    marks = []
+    marked = draw_supports(ax, supports, (a, b), x[:, shown] if dim > 1
+                           else None, marks, dim)
+    if dim > 1:          # the material and the supports, not the obstacles
+        h = half[[a, b]][:, shown]
+        lo, hi = view_limits(np.hstack([
+            c[[a, b]][:, shown] + sign * h for c in (x0, x)
+            for sign in (-1., 1.)] + [marked]))
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
     for name, polygon in obstacles:
         ax.add_patch(Polygon(np.asarray(polygon, float), closed=True,
                              facecolor="0.85", edgecolor="0.2", hatch="//",
                              lw=1., zorder=1))
         handles.append(Patch(facecolor="0.85", edgecolor="0.2", hatch="//",
                              label=name))
-    draw_supports(ax, supports, (a, b), x[:, shown] if dim > 1 else None,
-                  handles, dim)
+    handles += marks
     ax.set_aspect("equal")
     ax.set_xlabel("{} (m)".format("xyz"[a]))
     if dim == 1:
@@ -458,7 +488,7 @@ def draw_supports(ax, supports, axes: tuple, slab, handles: list,
     ``slab`` (3, n) drawn, where it lies within the slab's spacing of
     points of it (a support elsewhere is named as not in the slice: a
     base at z = 0 was drawn in a slice at z = 0.25); in 1D the nodes are
-    marked on both bars."""
+    marked on both bars.  Returns the places marked, (2, k)."""
     from matplotlib.lines import Line2D
     a, b = axes
     plane = None
@@ -472,6 +502,7 @@ def draw_supports(ax, supports, axes: tuple, slab, handles: list,
         if abs(plane - middle) > spread.min(initial=np.inf):
             plane = np.nan                   # no support in the slice
     styles = series_styles(len(supports))
+    marked = [np.empty((2, 0))]
     for support, style in zip(supports, styles):
         nodes = np.asarray(support.nodes, float)
         held = tuple(sorted(c for c in support.components if c < dim))
@@ -488,6 +519,8 @@ def draw_supports(ax, supports, axes: tuple, slab, handles: list,
             nodes = nodes[:, on]
         ax.plot(nodes[a], nodes[b], ls="", marker=marker, ms=5, color=colour,
                 markeredgecolor="k", markeredgewidth=.4, zorder=4)
+        marked.append(nodes[[a, b]])
         handles.append(Line2D([], [], ls="", marker=marker, ms=5,
                               color=colour, markeredgecolor="k",
                               markeredgewidth=.4, label=label))
+    return np.hstack(marked)

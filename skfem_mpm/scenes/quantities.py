@@ -248,9 +248,10 @@ class Quantity:
             start = sum(len(k) for k in kinds[:kind])
             force = rows[start + kinds[kind].index(
                 getattr(self, FORCES[self.quantity]))]
+            # + 0.: an obstacle never touched has -0.0, not "-0 N"
             return float(np.linalg.norm(force)) if \
                 self.component == "magnitude" else \
-                float(force["xyz".index(self.component)])
+                float(force["xyz".index(self.component)]) + 0.
         pts = result.points
         chosen = self._chosen(scene, pts)
         if not chosen.any():

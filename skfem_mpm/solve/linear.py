@@ -187,10 +187,13 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
     label = adjacency if isinstance(adjacency, ndarray) \
         and adjacency.ndim == 1 else component_labels(adjacency, kernels)
     passes = compiled_kernels("graph", kernels)
+    # contiguous arrays: one compiled signature (the run's DOF locations,
+    # every dim-th column of the grid's, another 14 s of compiling)
     if passes is not None and passes.clearly_held(
-            label, np.asarray(active, dtype=np.int64),
-            np.asarray(D, dtype=np.int64),
-            np.asarray(doflocs, dtype=np.float64), dim, CLEARLY_HELD):
+            label, np.ascontiguousarray(active, dtype=np.int64),
+            np.ascontiguousarray(D, dtype=np.int64),
+            np.ascontiguousarray(doflocs, dtype=np.float64), dim,
+            CLEARLY_HELD):
         return
     n = len(label)
     nodes = distinct(active // dim, n)
