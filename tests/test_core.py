@@ -120,6 +120,23 @@ def test_refusals_come_before_any_work():
                  args[-1], method="ugimp")
 
 
+@pytest.mark.parametrize("method", ["mpm", "fem"])
+def test_points_moved_through_x_alone_are_refused(method):
+    """Points moved after seeding through ``x`` alone (a user trial: a
+    block moved into a floor obstacle that way was not refused, the
+    obstacles' check reading ``x0``, and the floor threw it out of the
+    grid) are refused before any work, naming ``x0``; moved with ``x0``
+    they run."""
+    mesh, points = block_case()
+    points.x[1] += .01
+    args = (mesh, ElementQuad1(), points, LinearElastic(1e4, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    with pytest.raises(InvalidInputError, match=r"point \d+ is at .* "
+                       r"\(\d+ points off\): .* need x0 moved alike"):
+        simulate(*args, method=method, callback=pytest.fail)
+    points.x0 = points.x.copy()
+    assert simulate(*args, method=method).history[-1].residual < 1e-9
+
 def homogeneous_run(H, nsteps, material, kinematics="small", method="mpm"):
     """A 1 x 1 block on a 2 x 2 grid whose boundary nodes follow
     ``x -> x + f H x`` at load factor f: homogeneous strain."""

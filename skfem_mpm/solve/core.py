@@ -948,6 +948,29 @@ def check_combination(method: str, kinematics: str, plastic: bool,
                 stabilisation.ghost))
 
 
+def check_positions(mesh: Mesh, points: MaterialPoints, method: str):
+    """Raise :class:`~skfem_mpm.errors.InvalidInputError` where the
+    points' positions do not follow from their initial ones and their
+    displacement (``x = x0 + displacement``; FE: ``x = x0``) beyond
+    round-off: points moved after seeding through ``x`` alone.  The
+    obstacles' check at the start, a tied obstacle's reach and the
+    error measure read ``x0``: a user trial's block moved into a floor
+    that way was not refused, and the floor threw it out of the grid."""
+    expected = points.x0 if method == "fem" else \
+        points.x0 + points.displacement
+    off = np.abs(points.x - expected).max(axis=0) \
+        > 1e-9 * np.ptp(mesh.p, axis=1).max()
+    if off.any():
+        worst = int(np.argmax(np.abs(points.x - expected).max(axis=0)))
+        raise InvalidInputError(
+            "point {} is at {} where its initial position and displacement "
+            "put it at {} ({} points off): points moved after seeding "
+            "need x0 moved alike (points.x0 = points.x.copy() for points "
+            "not yet displaced)".format(
+                worst, points.x[:, worst].tolist(),
+                expected[:, worst].tolist(), int(off.sum())))
+
+
 def check_body_force(body_force, points: MaterialPoints, dim: int):
     """The body force vector (or ``None``) and its ramp per body."""
     ramp = True
@@ -1001,6 +1024,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     newton, stabilisation = options.newton, options.stabilisation
     nsteps = check_steps(nsteps, dynamics, method)
     check_run_input(mesh, points, nsteps, options.keep_snapshots)
+    check_positions(mesh, points, method)
     gravity, ramp = check_body_force(body_force, points, mesh.dim())
     forces, prescribed, rigid_bodies, terms = split_loads(loads)
     if method in DOMAIN_METHODS and points.domain is None:
