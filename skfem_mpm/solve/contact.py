@@ -357,7 +357,7 @@ class ObstacleContact(GridTerm):
         self.obstacles = tuple(obstacles)
         self.cell_values = cell_values
         self.locate = None      # the grid's locator (corner_cells)
-        self.splines_checked = None     # warn_splines, once a run
+        self.splines_checked = False    # warn_splines, once a run
         self.h, self.domain0 = cell_size, domain0
         self.kappa = [ob.penalty * modulus / cell_size for ob in obstacles]
         self.tol = [ob.tolerance * cell_size for ob in obstacles]
@@ -703,6 +703,9 @@ class ObstacleContact(GridTerm):
                               for ob, part in zip(self.obstacles, parts))
 
     def begin_step(self, problem):
+        if not self.splines_checked:
+            self.splines_checked = True
+            self.warn_splines(problem.run)
         return StepContact(self, problem)
 
 
@@ -720,9 +723,6 @@ class StepContact(GridTerm):
 
     def __init__(self, term: ObstacleContact, problem):
         self.term, self.problem = term, problem
-        if term.splines_checked is None:
-            term.splines_checked = True
-            term.warn_splines(problem.run)
         points = problem.points
         self.dim = dim = points.x.shape[0]
         self.op = problem.method_op
