@@ -16,11 +16,12 @@ iterations).  Pieces nest: ``operator`` holds ``basis``,
 holds the first step's ``kernel_layout``); ``commit`` holds ``op.values``
 and the next step's ``locate``.
 
-    python benchmarks/fixed_cost.py ROOT [NCELLS] [REPS]
+    python benchmarks/fixed_cost.py ROOT [NCELLS] [REPS] [KINEMATICS]
 
 ROOT is the checkout whose ``skfem_mpm`` is imported (an A/B of two
 commits: run it on each in turn).  A piece a checkout does not have is
-left out.
+left out.  KINEMATICS: ``finite`` (the default) or ``small`` (the
+block's small-strain run, elastic as well).
 """
 import collections
 import sys
@@ -30,6 +31,7 @@ import warnings
 root = sys.argv[1]
 ncells = int(sys.argv[2]) if len(sys.argv) > 2 else 4
 reps = int(sys.argv[3]) if len(sys.argv) > 3 else 60
+kin = sys.argv[4] if len(sys.argv) > 4 else "finite"
 sys.path.insert(0, root)
 sys.path.insert(0, root + "/benchmarks")
 import numpy as np  # noqa: E402
@@ -75,6 +77,7 @@ for owner, name, label in (
         (problem.StepProblem, "__init__", "StepProblem"),
         (operators.PointOperator, "kernel_layout", "kernel_layout"),
         (kinematics.FiniteStrain, "response", "kin.response"),
+        (kinematics.SmallStrain, "response", "kin.response"),
         (problem.StepProblem, "residual", "residual"),
         (problem.StepProblem, "tangent", "tangent"),
         (problem.StepProblem, "solve", "solve"),
@@ -93,7 +96,7 @@ with warnings.catch_warnings():
                        LinearElastic(1e6, .3),
                        lambda b: b.get_dofs(lambda x: x[-1] == 0),
                        body_force=[0, -1e4], nsteps=1, method="mpm",
-                       kinematics="finite",
+                       kinematics=kin,
                        options=Options(keep_snapshots=False))
         SECONDS["simulate"] = time.perf_counter() - tic
         SECONDS["phases-nonsolve"] = sum(

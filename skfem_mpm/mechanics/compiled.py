@@ -218,6 +218,13 @@ class CompiledPasses:
         self.averaged = dilatation.passes_of(dim)
         self._start = (None, None)      # a step's strain and b_n - I
         self._increments = None         # dF and dF^-1, reused
+        self._kept_state = ((), None)   # the variables' arrays, (2, n)
+        # the stiffness pass's C with m components (dim, or 3 with mean
+        # dilatation), made once: zeros where it reads none, and Hooke's
+        # tensor of an elastic material in small strain on first use (33
+        # us, once a response before)
+        self._no_C = {m: np.zeros((m,) * 4) for m in {dim, 3}}
+        self._hooke = {}
 
     def serves(self, op, points) -> bool:
         """Whether the passes serve the point operator ``op``: standard
@@ -295,10 +302,17 @@ class CompiledPasses:
             points_first(n, m, m))
 
     def _state(self, points) -> ndarray:
-        """The internal variables of ``points``, (2, n)."""
-        state = np.zeros((2, points.n))
-        for row, name in enumerate(self.variables):
-            state[row] = points.state[name]
+        """The internal variables of ``points``, (2, n), formed once for
+        the arrays they are read from (a step's Newton iterations and its
+        commit read the same; the passes only read them)."""
+        values = [points.state[name] for name in self.variables]
+        kept, state = self._kept_state
+        if state is None or state.shape[1] != points.n or any(
+                value is not old for value, old in zip(values, kept)):
+            state = np.zeros((2, points.n))
+            for row, value in enumerate(values):
+                state[row] = value
+            self._kept_state = (values, state)
         return state
 
     def _named(self, state: ndarray) -> dict:
@@ -342,7 +356,6 @@ class CompiledPasses:
                 kinematics.compiled = compiled
         kinematics.counters["return_maps"] += kinematics.plastic
         state = self._named(eq)
-        no_C = np.zeros((m,) * 4)
 
         def converged(old):
             F, J = np.empty((3, 3, n)), np.empty(n)
@@ -359,7 +372,7 @@ class CompiledPasses:
             force=f.copy,
             stiffness=self._stiffness(
                 assemble, layout, cells, self.passes.FINITE_TANGENT,
-                points.volume0, no_C,
+                points.volume0, self._no_C[m],
                 (spectral.d, spectral.tau, spectral.dtau_dx, spectral.vecs,
                  dF_inv)))
 
@@ -385,18 +398,21 @@ class CompiledPasses:
         # numba compile it again: 15 s for each of its four forms)
         empty = points_first(2, 3, 3)
         if not self.plastic:
-            # a writeable copy: the type of every call's C is one
-            C = elastic_tensor(self.material, 1, m)[..., 0].copy()
+            if m not in self._hooke:
+                # a writeable copy: the type of every call's C is one
+                self._hooke[m] = elastic_tensor(self.material, 1,
+                                                m)[..., 0].copy()
             return kinematics.elastic_response(
                 points, stress, strain, m, force=f.copy,
                 stiffness=self._stiffness(
                     assemble, layout, cells, self.passes.ELASTIC_TANGENT,
-                    points.volume, C, (x, y, dy_dx, vecs, empty)))
+                    points.volume, self._hooke[m],
+                    (x, y, dy_dx, vecs, empty)))
         kinematics.counters["return_maps"] += 1
         return kinematics.plastic_response(
             points, (x[:m], y, dy_dx, vecs[:m, :m]), stress, strain, yielded,
             self._named(eq), m, force=f.copy,
             stiffness=self._stiffness(
                 assemble, layout, cells, self.passes.RETURN_MAP_TANGENT,
-                points.volume, np.zeros((m,) * 4),
+                points.volume, self._no_C[m],
                 (x, y, dy_dx, vecs, empty)))
