@@ -306,7 +306,7 @@ def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
 
 
 
-def tied_cantilever(method, tolerance):
+def tied_cantilever(method, tolerance, extended=False):
     """A user trial's cantilever (4 x 0.4, h = 0.1, 2 x 2 points per
     cell, E = 1e6, nu = 0.3) clamped by a tied box whose face lies inside
     a cell, a shear of 50 Pa on its tip, small strain, one step: the
@@ -322,7 +322,9 @@ def tied_cantilever(method, tolerance):
                    loads=[Traction(tip, "right", [0., -50.])], method=method,
                    obstacles=[Obstacle(box=[[face - 1., face], [-1., 1.5]],
                                        friction="tied",
-                                       tolerance=tolerance)])
+                                       tolerance=tolerance)],
+                   options=Options(stabilisation=Stabilisation(
+                       extended_splines=extended)))
     return -res.points.displacement[1, tip].mean()
 
 
@@ -332,17 +334,19 @@ def test_a_tied_clamp_with_gimp_or_b_splines_is_not_too_stiff():
     domain on the clamp's face held the point's gradient along it as
     well: the clamp was too stiff, the more so the tighter the tolerance
     (user trial: cpGIMP's deflection 0.6% below MPM's at the default
-    tolerance, 3.3% at 1e-5; B-splines' fell by 3.2% from 1e-3 to 1e-5,
-    MPM's by 0.6%, the penetration the tolerance allows).  The corners
-    of an obstacle that holds the material now read the grid's field
-    where they are: GIMP's deflection is MPM's (to 1e-7 measured), and
-    the tolerance moves B-splines' as it moves MPM's (4e-5 apart)."""
+    tolerance, 3.3% at 1e-5; extended B-splines' fell by 3.2% from 1e-3
+    to 1e-5 after 325 augmented-Lagrangian rounds, MPM's by 0.6%, the
+    penetration the tolerance allows).  The corners of an obstacle that
+    holds the material now read the grid's field where they are: GIMP's
+    deflection is MPM's (to 1e-7 measured), and the tolerance moves
+    extended B-splines' as it moves MPM's (4e-5 apart).  (B-splines
+    without the extension keep the point's rows, and are warned.)"""
     mpm = [tied_cantilever("mpm", tol) for tol in (1e-3, 1e-5)]
     for method in ("ugimp", "cpgimp"):
         assert tied_cantilever(method, 1e-5) == pytest.approx(mpm[1],
                                                               rel=1e-6)
-    ratio = tied_cantilever("bspline", 1e-5) / tied_cantilever("bspline",
-                                                               1e-3)
+    ratio = tied_cantilever("bspline", 1e-5, True) / tied_cantilever(
+        "bspline", 1e-3, True)
     assert ratio == pytest.approx(mpm[1] / mpm[0], abs=1e-3)
 
 
@@ -369,17 +373,17 @@ def test_a_3d_block_tied_with_cpgimp_at_a_tight_tolerance():
     assert settlement[1] == pytest.approx(settlement[0], rel=1e-9)
     assert iterations[1] <= iterations[0]
 
-def test_b_splines_on_a_rough_floor_between_grid_lines():
+def test_extended_b_splines_on_a_rough_floor_between_grid_lines():
     """A user trial's elastic block (2 x 2 points per cell) under gravity
     tilted by 20 degrees on a rough floor between grid lines, quadratic
-    B-splines, against the same block held on a grid line: the stresses
-    inside were 9% high (sigma_yy -507 against -465), the splines'
-    corners held by their point's gradient along the floor.  Read where
-    they are, within 2% (measured 0.7% and 0.9%; the points by the
-    floor differ by the boundary's form, as MPM's do)."""
+    B-splines extended, against the same block held on a grid line: the
+    splines' corners, held by their point's gradient along the floor,
+    put single points' sigma_yy 0.10 rho g H off (without the extension
+    the inner stresses were 9% high: warned).  Read where they are, 0.040
+    (MPM's 0.041: the boundary's form)."""
     theta = np.radians(20.)
     gravity = 2e3 * np.array([np.sin(theta), -np.cos(theta)])
-    inner = []
+    stress = []
     for base in ("floor", "grid line"):
         mesh = MeshQuad.init_tensor(np.linspace(-.3, 1.3, 13),
                                     -.25 + .1375 * np.arange(9))
@@ -397,14 +401,12 @@ def test_b_splines_on_a_rough_floor_between_grid_lines():
                 lambda x: np.isclose(x[1], low)).all()
         res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
                        supports, body_force=gravity, method="bspline",
-                       obstacles=obstacles)
-        x0 = res.points.x0
-        across = (x0[0] - x0[0].min()) / np.ptp(x0[0])
-        up = (x0[1] - low) / ((pts.x[1] + pts.domain[1]).max() - low)
-        middle = (np.abs(across - .5) < .25) & (np.abs(up - .5) < .3)
-        inner.append([res.points.stress[1, 1, middle].mean(),
-                      res.points.stress[0, 1, middle].mean()])
-    assert inner[0] == pytest.approx(inner[1], rel=.02)
+                       obstacles=obstacles, options=Options(
+                           stabilisation=Stabilisation(
+                               extended_splines=True)))
+        stress.append(res.points.stress[1, 1])
+    rho_g_H = 2e3 * .5
+    assert np.abs(stress[0] - stress[1]).max() < .06 * rho_g_H
 
 @pytest.mark.parametrize("friction", [.5, "tied"])
 @pytest.mark.parametrize("method, kinematics, imbalance", [
@@ -1194,18 +1196,19 @@ def test_a_rough_footing_with_b_splines_converges():
     pressed in each trial: the traction of one at the footing's edge
     jumped from nothing to the whole step's stick as its pressure passed
     zero, Newton cycled, and the run failed at every cut-back down to
-    2e-3 of a step.  Now the push ends with at most one step cut back
-    (the rough one's first: Newton meets singular tangents in the
-    yielding soil; the smooth one's two steps converge as asked), and
-    the corners under the footing slide a fiftieth as far as under a
-    smooth one (measured 0.007, standard MPM's 2e-3; 0.10 while the
-    splines' corners moved by their point's value and gradient:
-    neighbours' corners disagreed by the field's curvature, and the
-    flat footing pressed 4 to 8 of 13, the others slid)."""
+    2e-3 of a step.  Now both steps converge as asked, and the corners
+    under the footing slide a tenth as far as under a smooth one
+    (measured 0.12: the point splines' corners move by their point's
+    value and gradient, neighbours' corners disagree by the field's
+    curvature and the flat footing presses 4 to 8 of 13, the others
+    slide; standard MPM's corners stick to 2e-3 of the smooth slide;
+    read at the splines where they are, 0.007, but the pressure of a
+    footing pushed on fell by 61% over two steps as the surface left a
+    row of nodes: :meth:`ObstacleContact.field_rows`)."""
     slides = []
     for friction in ("rough", 0.):
         res, depth = rough_footing(friction)
-        assert len(res.history) <= (3 if friction else 2)
+        assert len(res.history) == 2
         domain0 = np.full_like(res.points.x, .25 / 6)
         X0 = (res.points.x0[:, None, :] + corner_signs(2)[:, :, None]
               * domain0[:, None, :]).reshape(2, -1)
@@ -1213,7 +1216,7 @@ def test_a_rough_footing_with_b_splines_converges():
         motion = corners(res.points, domain0, "bspline") - X0
         slides.append(np.abs(motion[0, under]).max())
     assert slides[1] > 1e-2
-    assert slides[0] < .02 * slides[1]
+    assert slides[0] < .2 * slides[1]
 
 
 def test_a_rough_obstacle_moving_away_lets_go():
@@ -1387,19 +1390,25 @@ def test_a_failure_on_a_smooth_incline_names_it():
                  body_force=[0., -2e3], obstacles=[ramp],
                  options=Options(newton=NewtonOptions(max_cutbacks=0)))
 
-@pytest.mark.parametrize("method, extended, moves, warned", [
-    ("bspline", False, True, True), ("bspline-gimp", False, True, True),
-    ("bspline", True, True, False), ("bspline", False, False, False),
-    ("mpm", False, True, False)])
-def test_b_splines_without_the_extension_by_moving_obstacles_are_warned(
-        caplog, method, extended, moves, warned):
+@pytest.mark.parametrize("method, extended, moves, friction, warned", [
+    ("bspline", False, True, 0., "moving"),
+    ("bspline-gimp", False, True, 0., "moving"),
+    ("bspline", False, False, "rough", "holds"),
+    ("bspline", False, True, .3, "moving holds"),
+    ("bspline", True, True, "rough", ""), ("bspline", False, False, 0., ""),
+    ("mpm", False, True, "rough", "")])
+def test_b_splines_without_the_extension_at_obstacles_are_warned(
+        caplog, method, extended, moves, friction, warned):
     """B-splines without the extension drop the nodes the material's
-    surface leaves, and a footing's force jumps by up to 19% (smooth) or
-    28% (rough) between steps (docs/bspline.md): warned once where an
-    obstacle moves, not with the extension, a fixed obstacle or MPM."""
+    surface leaves, and a footing's force jumps by up to 19% between
+    steps; at a face that holds the material their corners hold the
+    domains' gradient along it (a tied clamp 3% too stiff, stresses on a
+    rough floor 9% high; docs/bspline.md): warned once where an obstacle
+    moves or holds, not with the extension, a fixed smooth obstacle or
+    MPM."""
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
     pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)
-    plate = Obstacle(box=[[-1., 2.], [.5, .75]],
+    plate = Obstacle(box=[[-1., 2.], [.5, .75]], friction=friction,
                      displacement=[0., -.01 if moves else 0.])
     with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
         simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
@@ -1408,9 +1417,51 @@ def test_b_splines_without_the_extension_by_moving_obstacles_are_warned(
                      stabilisation=Stabilisation(extended_splines=extended)))
     found = [r.getMessage() for r in caplog.records
              if "without extended splines" in r.getMessage()]
-    assert len(found) == warned
+    assert len(found) == bool(warned)
     if warned:
-        assert found[0].startswith("method {!r} meets moving".format(method))
+        assert found[0].startswith("method {!r} meets obstacles".format(
+            method))
+        assert ("force jumps" in found[0]) == ("moving" in warned)
+        assert ("9% high" in found[0]) == ("holds" in warned)
+
+def test_a_held_body_failing_by_a_smooth_incline_is_not_told_so():
+    """A smooth wedge (60 degree faces) pushed into von Mises soil held on
+    its base, failing by a Newton limit of one iteration: the error does
+    not say
+    that a body on the wedge's inclined face has no equilibrium (a review
+    found it did: the hint needs nothing else to hold the material)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9), np.linspace(0, 1, 9))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+    wedge = Obstacle(polygon=[[.5, .5], [.8, .5 + .3 * np.sqrt(3)],
+                              [.2, .5 + .3 * np.sqrt(3)]],
+                     displacement=[0., -.02], name="wedge")
+    with pytest.raises(MPMError) as failed:
+        simulate(mesh, ElementQuad1(), pts,
+                 VonMises(1e4, .3, yield_stress=10.),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                 obstacles=[wedge], options=Options(newton=NewtonOptions(
+                     max_iter=1, max_cutbacks=0)))
+    assert "no convergence" in str(failed.value)
+    assert "is smooth" not in str(failed.value)
+
+
+def test_a_far_frictional_obstacle_leaves_a_smooth_one_alone():
+    """A smooth plate pressing a block (cpGIMP, held on its base): a box
+    with friction far from the material changed the plate's force by up
+    to 3.9% while the choice of the corners' rows was the run's (a
+    review); chosen per obstacle, the force is the same."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] < 1.) & (x[1] < .6))
+    top = (pts.x[1] + pts.domain[1]).max()
+    plate = Obstacle(box=[[-1., .7], [top, top + .2]],
+                     displacement=[0., -.01], name="plate")
+    far = Obstacle(box=[[1.6, 1.9], [.6, .9]], friction=.5, name="far")
+    forces = [simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+                       lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                       nsteps=4, method="cpgimp",
+                       obstacles=obstacles).history[-1].obstacle_forces[0]
+              for obstacles in ([plate], [plate, far])]
+    assert forces[1] == pytest.approx(forces[0], rel=1e-9, abs=1e-9)
 
 def test_a_3d_strip_footing_off_grid_lines_is_warned(caplog):
     """A strip footing in 3D wider than the grid (its corners outside it)

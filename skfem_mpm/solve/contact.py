@@ -29,18 +29,18 @@ moves linearly in the grid increment, ``u_c = J_c du``:
   its gradient, ``u_c = u_p + grad(u)_p q_c`` (``q_c = F R_c`` in finite
   deformation, ``R_c`` in small strain and with FE), which is where the
   next step starts;
-- with those, where an obstacle of the run holds the material along its
-  face (friction, rough, tied), by the grid's field where the corner is
-  (kept as ``d_c`` too): the element polynomial of the cell holding the
-  corner (GIMP) or the splines there (B-splines).  A domain's two
-  corners on a face, moved by their point's value and gradient, held the
-  point's gradient along the face as well: a tied clamp came out too
-  stiff (3.3% at a tolerance of 1e-5), a block on a rough floor between
-  grid lines had B-spline stresses 9% high, and a rough footing's
-  corners slid a tenth as far as a smooth one's.  Smooth faces keep the
-  point's rows (read at the field, a uGIMP block pressed on a wall was
-  6.5% off its stress by the wall, where its point's rows hold it within
-  5%).
+- with those, for an obstacle that holds the material along its face
+  (friction, rough, tied), by the grid's field where the corner is (kept
+  as ``d_c`` too, where such an obstacle holds it): the element
+  polynomial of the cell holding the corner (GIMP) or the splines there
+  (extended B-splines), :meth:`ObstacleContact.field_rows`.  A domain's
+  two corners on a face, moved by their point's value and gradient,
+  held the point's gradient along the face as well: a tied clamp came
+  out too stiff (3.3% at a tolerance of 1e-5), and a 3D tied floor took
+  3528 Newton iterations.  Smooth faces keep the point's rows (read at
+  the field, a uGIMP block pressed on a wall was 6.5% off its stress by
+  the wall, where its point's rows hold it within 5%), and so do
+  B-splines without the extension (warned).
 
 Interior corners coincide with neighbours' and never reach an obstacle
 while the surface corners are held, so every corner is a candidate and
@@ -357,15 +357,17 @@ class ObstacleContact(GridTerm):
         self.obstacles = tuple(obstacles)
         self.cell_values = cell_values
         self.locate = None      # the grid's locator (corner_cells)
-        self.splines_checked = False    # warn_splines, once a run
         self.h, self.domain0 = cell_size, domain0
         self.kappa = [ob.penalty * modulus / cell_size for ob in obstacles]
         self.tol = [ob.tolerance * cell_size for ob in obstacles]
         self.total_lagrangian, self.moves = total_lagrangian, moves
         self.finite = finite
-        #: an obstacle holds the material along its face (friction, rough,
-        #: tied): the corners read the grid's field where they are
-        self.holds = any(ob.friction != 0. for ob in self.obstacles)
+        #: per obstacle, its corners read the grid's field where they are
+        #: (it holds the material along its face: friction, rough, tied;
+        #: not with B-splines without the extension), else the point's
+        #: value and gradient (:meth:`field_rows`)
+        self.reads_field = None
+        self.unheld = False         # (begin_step) for failure_hint
         self.start = [initial_scale * ob.displacement for ob in obstacles]
         counters.setdefault("contact_updates", 0)
         #: the last committed state and its obstacles' normal and
@@ -583,25 +585,44 @@ class ObstacleContact(GridTerm):
 
     def warn_splines(self, run) -> None:
         """Log a warning where B-splines without the extension meet an
-        obstacle that moves: where the material's surface leaves the
-        support of a row of nodes, the nodes drop out of the step, and
-        the obstacle's force jumps (a footing pushed into weightless von
-        Mises soil, B = 8 h: by up to 19% smooth and 28% rough between
-        steps, the rough one 38% below the smooth one; extended 3-8%).
-        The remedy, ``Stabilisation(extended_splines=True)``, is named
-        where it is not refused (contacts between bodies)."""
+        obstacle that moves, or one that holds the material along its
+        face.  Where the material's surface leaves the support of a row
+        of nodes, the nodes drop out of the step, and a moving obstacle's
+        force jumps (a footing pushed into weightless von Mises soil, B =
+        8 h: by up to 19% between steps; extended 3-8%).  The corners of
+        a face that holds the material move by their point's value and
+        gradient (the splines' field at the surface loses those nodes
+        too: :meth:`field_rows`), and two corners of a domain on the face
+        hold its point's gradient as well (a tied clamp 3% too stiff at
+        ``tolerance=1e-5``, after 325 augmented-Lagrangian rounds; a
+        block on a rough floor between grid lines, 2 x 2 points, its
+        stresses 9% high).  The remedy,
+        ``Stabilisation(extended_splines=True)``, is named where it is not
+        refused (contacts between bodies)."""
         piece = getattr(run.method, "piece", run.method)
-        if getattr(piece, "spline", None) is None or piece.extended or \
-                not any(ob.displacement.any() for ob in self.obstacles):
+        if getattr(piece, "spline", None) is None or piece.extended:
+            return
+        moves = any(ob.displacement.any() for ob in self.obstacles)
+        holds = any(ob.friction != 0. for ob in self.obstacles)
+        if not (moves or holds):
             return
         logger.warning(
-            "method %r meets moving obstacles without extended splines: "
-            "where the material's surface leaves the support of a row of "
-            "nodes they drop out, and an obstacle's force jumps (a footing "
-            "pushed into soil, B = 8 h: by up to 19%% smooth, 28%% rough, "
-            "between steps; docs/bspline.md)%s", piece.name,
+            "method %r meets obstacles without extended splines: %s "
+            "(docs/bspline.md)%s", piece.name, "; ".join(
+                ([] if not moves else [
+                    "where the material's surface leaves the support of a "
+                    "row of nodes they drop out, and a moving obstacle's "
+                    "force jumps (a footing pushed into soil, B = 8 h: by "
+                    "up to 19% between steps)"]) +
+                ([] if not holds else [
+                    "a face that holds the material (friction, rough, tied) "
+                    "holds its domains' gradient along it too (a tied clamp "
+                    "3% too stiff at tolerance 1e-5; a block on a rough "
+                    "floor between grid lines, 2 x 2 points, its stresses "
+                    "9% high)"])),
             "" if run.contacts else
-            "; Stabilisation(extended_splines=True) folds them (3-8%)")
+            "; Stabilisation(extended_splines=True) folds those nodes and "
+            "reads the field at the corners")
 
     def warn_edges_inside_cells(self, X0: ndarray) -> None:
         """Log a warning for each box obstacle whose edge meets the
@@ -678,8 +699,10 @@ class ObstacleContact(GridTerm):
 
     def failure_hint(self, points, quasi_static: bool) -> str:
         """A quasi-static run's hint: a smooth obstacle's inclined face
-        that the material met at the run's start (a block on it has no
-        equilibrium; a user trial's failure named neither), and friction
+        that the material met at the run's start, where nothing else
+        holds the material (no supports, no prescribed motion, no other
+        obstacle that holds it: a block on it has no equilibrium; a user
+        trial's failure named neither), and friction
         mobilised in full on an obstacle at the last converged state
         ``points`` (:func:`friction_hint`), as the step that committed it
         measured it (the point state keeps the multipliers, not the
@@ -694,7 +717,7 @@ class ObstacleContact(GridTerm):
             "(give the face friction, hold the body, or run dynamics)"
             .format(ob.name, tilt)
             for ob, tilt in zip(self.obstacles, self.tilts)
-            if ob.friction == 0. and tilt > INCLINED_HOLDING)
+            if self.unheld and tilt > INCLINED_HOLDING)
         committed, parts = self.mobilisation
         if committed is not points:
             return hint
@@ -703,10 +726,30 @@ class ObstacleContact(GridTerm):
                               for ob, part in zip(self.obstacles, parts))
 
     def begin_step(self, problem):
-        if not self.splines_checked:
-            self.splines_checked = True
-            self.warn_splines(problem.run)
+        if self.reads_field is None:            # the run's first step
+            run = problem.run
+            self.reads_field = self.field_rows(run)
+            self.warn_splines(run)
+            # nothing but smooth obstacles holds the material
+            self.unheld = not (np.size(run.D) or run.prescribed is not None
+                               or any(ob.friction != 0.
+                                      for ob in self.obstacles))
         return StepContact(self, problem)
+
+    def field_rows(self, run) -> list:
+        """Per obstacle, whether its corners read the grid's field where
+        they are (GIMP's and extended B-splines' at an obstacle that
+        holds the material), else their point's value and gradient
+        (smooth faces; B-splines without the extension, whose field at
+        the surface loses the nodes the surface leaves: a rough footing's
+        pressure fell by 61% over two steps, and a 3D Coulomb floor on a
+        grid plane slipped where it holds).  Chosen per obstacle: a
+        frictional box far from the material changed a smooth plate's
+        force by 3.9% while the choice was the run's."""
+        piece = getattr(run.method, "piece", run.method)
+        plain = getattr(piece, "spline", None) is not None and \
+            not piece.extended
+        return [ob.friction != 0. and not plain for ob in self.obstacles]
 
 
 class StartOfStep:
@@ -769,30 +812,13 @@ class StepContact(GridTerm):
         """Build the step's corner operators for the points ``idx``."""
         term, dim = self.term, self.dim
         self.idx = idx
-        nc = 2 ** dim
-        where = self.where[:, :, idx].reshape(dim, -1)
-        weights = getattr(self.problem.run.method, "weights_at", None)
-        if hasattr(self.op, "S") and not term.holds:
-            # GIMP's and B-splines' smooth weights: the point's operator
-            # and its gradient, u_c = (S + q . G) du
-            S, G = point_rows(self.op, idx)
-            counts = np.diff(S.indptr)
-            S = vstack([csr_matrix((S.data + sum(
-                np.repeat(self.q[b, c, idx], counts) * G[b].data
-                for b in range(dim)), S.indices, S.indptr), shape=S.shape)
-                for c in range(nc)])
-        elif weights is not None:
-            # B-splines, obstacles that hold: the splines at the corners
-            S = spline_rows(weights, self.op, where, np.tile(idx, nc))
-        else:
-            # Lagrange elements: the polynomial of the point's cell (GIMP,
-            # obstacles that hold: of the corner's)
-            cells = np.tile(self.op.point_elements[idx], nc)
-            if hasattr(self.op, "S"):
-                cells = term.corner_cells(self.problem.run, where, np.tile(
-                    self.problem.points.x[:, idx], nc), cells)
-            S = term.cell_values(where, cells, self.op.N // dim)
-        self.J = kron(S, identity(dim), format="csr")
+        # Lagrange elements have one kind of rows (the point's cell)
+        keys = [field and hasattr(self.op, "S") for field in term.reads_field]
+        #: the kinds of rows, the field's (True) and the points' (False)
+        self.rows = {key: kron(self.corner_rows(idx, key), identity(dim),
+                               format="csr") for key in set(keys)}
+        #: per obstacle, the corners' rows (vector, dim nc m x N): u_c = J du
+        self.J = [self.rows[key] for key in keys]
         self.Xs = self.X[:, :, idx].reshape(dim, -1)      # (dim, nc m)
         self.area, self.lam, self.tau, self.anchor = [], [], [], []
         self.closed = []
@@ -837,6 +863,65 @@ class StepContact(GridTerm):
             (kappa * tol * safe_norm(area) for kappa, tol, area in zip(
                 term.kappa, term.tol, self.area)), default=0.)
         self.evaluations = WeakKeyDictionary()
+
+    def corner_rows(self, idx: ndarray, field: bool) -> csr_matrix:
+        """The scalar rows (nc m, N / dim) of the corners of the points
+        ``idx`` (corner-major): the grid's field where they are
+        (``field``) or, with GIMP and B-splines, their point's value and
+        gradient."""
+        term, dim, nc = self.term, self.dim, 2 ** self.dim
+        where = self.where[:, :, idx].reshape(dim, -1)
+        weights = getattr(self.problem.run.method, "weights_at", None)
+        if hasattr(self.op, "S") and not field:
+            # GIMP's and B-splines' smooth weights: the point's operator
+            # and its gradient, u_c = (S + q . G) du
+            S, G = point_rows(self.op, idx)
+            counts = np.diff(S.indptr)
+            return vstack([csr_matrix((S.data + sum(
+                np.repeat(self.q[b, c, idx], counts) * G[b].data
+                for b in range(dim)), S.indices, S.indptr), shape=S.shape)
+                for c in range(nc)])
+        if weights is not None:
+            # extended B-splines, obstacles that hold: the splines there
+            return spline_rows(weights, self.op, where, np.tile(idx, nc))
+        # Lagrange elements: the polynomial of the point's cell (GIMP,
+        # obstacles that hold: of the corner's)
+        cells = np.tile(self.op.point_elements[idx], nc)
+        if hasattr(self.op, "S"):
+            cells = term.corner_cells(self.problem.run, where, np.tile(
+                self.problem.points.x[:, idx], nc), cells)
+        return term.cell_values(where, cells, self.op.N // dim)
+
+    def motions(self, du: ndarray) -> list:
+        """Per obstacle, the corners' motion (dim, nc m) by ``du``."""
+        moved = {}
+        for J in self.J:
+            if id(J) not in moved:
+                moved[id(J)] = (J @ du).reshape(-1, self.dim).T
+        return [moved[id(J)] for J in self.J]
+
+    def grid_force(self, ev) -> ndarray:
+        """The obstacles' force on the grid of the corner tractions of
+        ``ev`` (:meth:`evaluate`)."""
+        return -sum(J.T @ T.T.ravel() for J, (T, *_) in zip(self.J, ev))
+
+    def followed_motion(self, du: ndarray, ev) -> ndarray:
+        """The corners' motion (dim, nc m) by ``du`` as they are followed
+        into the next step: by the rows of the obstacle they meet, where
+        obstacles read the grid's field and others their point's (a
+        corner with a traction, or tied, from one that reads the field
+        follows the field)."""
+        if len(self.rows) == 1:
+            return self.motions(du)[0]
+        point, field = ((self.rows[k] @ du).reshape(-1, self.dim).T
+                        for k in (False, True))
+        held = np.zeros(field.shape[1], dtype=bool)
+        for i, (T, *_) in enumerate(ev):
+            if self.J[i] is self.rows[True]:
+                held |= (T != 0.).any(axis=0)
+                if self.anchor[i] is not None:
+                    held |= self.anchor[i][0]
+        return np.where(held, field, point)
 
     def material_side(self):
         """``inward(which)``: per corner ``which`` (indices of ``Xs``) the
@@ -923,11 +1008,10 @@ class StepContact(GridTerm):
         if response in self.evaluations:
             return self.evaluations[response]
         term, dim = self.term, self.dim
-        u = (self.J @ du).reshape(-1, dim).T               # (dim, s)
         start = not du.any()
         ev = []
         eye = np.eye(dim)[:, :, None]
-        for i, ob in enumerate(term.obstacles):
+        for i, (ob, u) in enumerate(zip(term.obstacles, self.motions(du))):
             kappa, area = term.kappa[i], self.area[i]
             face, over = self.face[i]
             # the step's start's gap plus the increment's part: the gap of
@@ -973,9 +1057,7 @@ class StepContact(GridTerm):
         return ev
 
     def force(self, du: ndarray, response):
-        ev = self.evaluate(du, response)
-        T = sum(e[0] for e in ev)
-        self.pushing = -(self.J.T @ T.T.ravel())
+        self.pushing = self.grid_force(self.evaluate(du, response))
         return self.pushing
 
     def start_force(self, zero: ndarray, response):
@@ -993,8 +1075,7 @@ class StepContact(GridTerm):
             ev = self.evaluate(zero, StartOfStep())
         finally:
             self.shift, self.moved = shift, moved
-        T = sum(e[0] for e in ev)
-        return -(self.J.T @ T.T.ravel())
+        return self.grid_force(ev)
 
     def weigh(self, balance, du: ndarray):
         """The residual is measured against the obstacles' force on the
@@ -1016,8 +1097,11 @@ class StepContact(GridTerm):
         if response not in self.evaluations:
             raise RuntimeError("contact: the tangent of a trial whose force "
                                "was not evaluated")
-        C = sum(e[1] for e in self.evaluations[response])
-        return (self.J.T @ (block_diagonal(C) @ self.J)).tocsr()
+        blocks = {}             # summed per kind of rows
+        for J, (_, C, *_) in zip(self.J, self.evaluations[response]):
+            blocks[id(J)] = (J, blocks.get(id(J), (J, 0.))[1] + C)
+        return sum(J.T @ (block_diagonal(C) @ J)
+                   for J, C in blocks.values()).tocsr()
 
     def settle(self, problem, trial, du: ndarray) -> bool:
         """After Newton: ``True`` when every corner's penetration (or a
@@ -1055,10 +1139,10 @@ class StepContact(GridTerm):
             return False
         # a corner through an obstacle by a face other than its own
         across = False
-        for i, ob in enumerate(term.obstacles):
+        for i, (ob, u) in enumerate(zip(term.obstacles, self.motions(du))):
             if self.anchor[i] is not None:
                 continue
-            Xs = self.Xs + (self.J @ du).reshape(-1, dim).T
+            Xs = self.Xs + u
             phi = ob.signed_distance(Xs, self.shift[i])[0]
             face, over = self.face[i]
             gap = ob.face_gap(Xs, face, self.shift[i])[0] - self.closed[i]
@@ -1106,10 +1190,9 @@ class StepContact(GridTerm):
         solved again).  Joined only at the next step, a corner touching
         within a step slid in it: a rough plate closing a gap in one step
         gave the smooth plate's answer."""
-        term, dim = self.term, self.dim
-        u = (self.J @ du).reshape(-1, dim).T
+        term = self.term
         changes = 0
-        for i, ob in enumerate(term.obstacles):
+        for i, (ob, u) in enumerate(zip(term.obstacles, self.motions(du))):
             if self.held[i] is None:
                 continue
             p = ev[i][3][0]
@@ -1159,7 +1242,7 @@ class StepContact(GridTerm):
         for row in offset_names(dim):
             for name in row:
                 new.state[name] = np.zeros(new.x.shape[1])
-        followed = self.Xs + (self.J @ du).reshape(-1, dim).T
+        followed = self.Xs + self.followed_motion(du, ev)
         offset = followed.reshape(dim, nc, m) - term.corners(new)[:, :, idx]
         drift = np.sqrt((offset ** 2).sum(axis=0)).max(axis=0)
         apart = drift > term.h
