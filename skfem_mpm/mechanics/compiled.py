@@ -218,7 +218,6 @@ class CompiledPasses:
         self.averaged = dilatation.passes_of(dim)
         self._start = (None, None)      # a step's strain and b_n - I
         self._increments = None         # dF and dF^-1, reused
-        self._kept_state = ((), None)   # the variables' arrays, (2, n)
         # the stiffness pass's C with m components (dim, or 3 with mean
         # dilatation), made once: zeros where it reads none, and Hooke's
         # tensor of an elastic material in small strain on first use (33
@@ -302,17 +301,10 @@ class CompiledPasses:
             points_first(n, m, m))
 
     def _state(self, points) -> ndarray:
-        """The internal variables of ``points``, (2, n), formed once for
-        the arrays they are read from (a step's Newton iterations and its
-        commit read the same; the passes only read them)."""
-        values = [points.state[name] for name in self.variables]
-        kept, state = self._kept_state
-        if state is None or state.shape[1] != points.n or any(
-                value is not old for value, old in zip(values, kept)):
-            state = np.zeros((2, points.n))
-            for row, value in enumerate(values):
-                state[row] = value
-            self._kept_state = (values, state)
+        """The internal variables of ``points``, (2, n)."""
+        state = np.zeros((2, points.n))
+        for row, name in enumerate(self.variables):
+            state[row] = points.state[name]
         return state
 
     def _named(self, state: ndarray) -> dict:
