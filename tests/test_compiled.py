@@ -162,6 +162,36 @@ def test_a_response_equals_the_numpy_path(dim, kind, name, method,
         start = results[0][3]
 
 
+def test_hookes_tensor_is_formed_once_for_each_number_of_components(
+        monkeypatch):
+    """A compiled small-strain elastic kinematics forms Hooke's tensor of
+    the stiffness pass once for each number of components (33 us at
+    every response before, at 56 points), and its stiffness stays the
+    numpy path's: responses without and with mean dilatation (3
+    components) in turn."""
+    from skfem_mpm.mechanics import compiled as module
+    formed, original = [], module.elastic_tensor
+
+    def counted(material, n, k):
+        formed.append(k)
+        return original(material, n, k)
+    monkeypatch.setattr(module, "elastic_tensor", counted)
+    material = MATERIALS["elastic"]
+    mesh, points = block(2)
+    op = operator("mpm", mesh, points, 2)
+    rng = np.random.default_rng(7)
+    compiled = make_kinematics("small", material, 2, {"return_maps": 0},
+                               kernels="compiled")
+    reference = make_kinematics("small", material, 2, {"return_maps": 0},
+                                kernels="numpy")
+    for antilocking in (False, True, False, True):
+        du = 2e-3 * rng.standard_normal(op.N)
+        wrapped = MeanDilatation(op, points.volume) if antilocking else op
+        check_equal(*(evaluate(kinematics, wrapped, du, points)
+                      for kinematics in (reference, compiled)), False)
+    assert formed == [2, 3]
+
+
 def test_the_reused_increments_follow_the_operator():
     """A compiled finite kinematics reuses its ``dF``, ``dF^-1`` and
     frames, whose 2D pass without mean dilatation stores the in-plane
