@@ -729,6 +729,7 @@ def standing_pile(friction, method="mpm", obstacle=False):
                     contacts=[Contact(0, 1, friction=friction)]), top, load
 
 
+@pytest.mark.slow
 def test_a_pile_with_coulomb_friction_carries_its_whole_load():
     """The new user's pile with friction 0.3 (it stopped at 0.7 of its
     load with a singular tangent, and with friction 0.1 and 0.6 at 0.6

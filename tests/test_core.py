@@ -258,6 +258,7 @@ def test_fe_finite_deformation_is_mpm_at_gauss_points_and_path_independent():
     assert (fe5.x == fe5.x0).all()
 
 
+@pytest.mark.slow
 def test_ghost_penalty_in_finite_deformation_tames_slivers():
     """The small-cut case of the robustness suite in finite deformation:
     with the ghost penalty every sliver size gives the displacements of the

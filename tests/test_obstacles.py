@@ -164,6 +164,7 @@ def test_a_block_squeezed_between_two_obstacles_alone_converges(friction):
         assert abs(forces[1, 1] / exact - 1) <= slack
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scheme", (Newmark(), GeneralizedAlpha(0.)))
 def test_a_dropped_block_falls_freely_and_lands_on_the_floor(scheme):
     """Released 0.5 above a floor obstacle: free fall to within 2% until
