@@ -1260,6 +1260,17 @@ def test_a_rough_plate_closing_a_gap_within_a_step_sticks_from_contact():
     assert closing == pytest.approx(sideways(.01, 2), rel=.01)
 
 
+def edge_warnings(caplog, mesh, pts, obstacle):
+    """The warnings of an obstacle's edge inside a cell in one step of an
+    elastic body held on y = 0 against ``obstacle``."""
+    with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(), nsteps=1,
+                 obstacles=[obstacle])
+    return [r.getMessage() for r in caplog.records
+            if "inside a grid cell" in r.getMessage()]
+
+
 @pytest.mark.parametrize("box, warned", [
     ([[-1, 1.2], [1., 1.7]], [1.2, 1.]),      # the edge inside a cell
     ([[-1, 1.], [1., 1.7]], None),            # on a grid line
@@ -1285,12 +1296,7 @@ def test_an_obstacle_edge_meeting_material_inside_a_cell_is_warned(
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
     pts = seed_points(mesh, 2, region=lambda x: x[1] < 1. + 1e-9)
     footing = Obstacle(box=box, displacement=[0, -.01], name="footing")
-    with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
-        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
-                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(), nsteps=1,
-                 obstacles=[footing])
-    found = [r.getMessage() for r in caplog.records
-             if "inside a grid cell" in r.getMessage()]
+    found = edge_warnings(caplog, mesh, pts, footing)
     assert found == ([] if warned is None else [
         "obstacle 'footing': its edge at {} meets the material inside a "
         "grid cell: the contact is resolved only to the cell (a footing's "
@@ -1311,13 +1317,8 @@ def test_a_press_wider_than_the_block_is_not_warned(caplog, left, warned):
                       & (x[1] < .5))
     press = Obstacle(box=[[left, .8], [.5, .8]], displacement=[0, -.01],
                      name="press")
-    with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
-        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
-                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(), nsteps=1,
-                 obstacles=[press])
-    found = [r.getMessage() for r in caplog.records
-             if "inside a grid cell" in r.getMessage()]
-    assert len(found) == warned
+    assert len(edge_warnings(caplog, mesh, pts, press)) == warned
+
 
 @pytest.mark.parametrize("slope, friction, warned", [
     (30., .3, 30.), (30., 0., 30.), (5., .3, 5.), (5., "tied", 5.),
