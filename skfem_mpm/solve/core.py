@@ -958,10 +958,10 @@ def check_positions(mesh: Mesh, points: MaterialPoints, method: str):
     that way was not refused, and the floor threw it out of the grid."""
     expected = points.x0 if method == "fem" else \
         points.x0 + points.displacement
-    off = np.abs(points.x - expected).max(axis=0) \
-        > 1e-9 * np.ptp(mesh.p, axis=1).max()
+    gap = np.abs(points.x - expected).max(axis=0)
+    off = gap > 1e-9 * np.ptp(mesh.p, axis=1).max()
     if off.any():
-        worst = int(np.argmax(np.abs(points.x - expected).max(axis=0)))
+        worst = int(np.argmax(gap))
         raise InvalidInputError(
             "point {} is at {} where its initial position and displacement "
             "put it at {} ({} points off): points moved after seeding "
