@@ -5,8 +5,8 @@ import pytest
 from skfem import ElementQuad1, MeshQuad
 
 from skfem_mpm import (BodyForce, Dynamics, GeneralizedAlpha,
-                       InvalidInputError, LinearElastic, MPMError, Newmark,
-                       NewtonOptions, Obstacle, Options, Resume,
+                       InvalidInputError, LinearElastic, MohrCoulomb, MPMError,
+                       Newmark, NewtonOptions, Obstacle, Options, Resume,
                        Stabilisation, VonMises, seed_points, simulate)
 from skfem_mpm.solve.contact import corner_signs
 
@@ -1510,3 +1510,33 @@ def test_an_obstacle_presses_alike_at_a_sites_coordinates():
     here = press_at((0., 0.))
     for c in ((0., 1e5), (5e5, 5.5e6)):
         assert press_at(c) == pytest.approx(here, rel=1e-9, abs=1e-9 * here[1])
+
+
+def test_cohesionless_soil_stands_beside_a_coulomb_wall():
+    """Cohesionless Mohr-Coulomb soil under gravity beside a stationary
+    wall with wall friction 0.3, its face mid-cell: the run converges
+    (every cut-back failed while the first solve held the wall's corners
+    sticking with no pressure on them: the soil hung on the wall, at the
+    apex in tension at its top; a user trial), the wall's shear stays
+    within Coulomb's mu times its normal force, and the normal force is
+    the confined soil's nu / (1 - nu) of 1/2 gamma H^2 within 3%."""
+    gamma, H, nu, mu = 2e3 * 9.81, 1., .3, .3
+    mesh = MeshQuad.init_tensor(np.linspace(0., 1.5, 16),
+                                np.linspace(0., 1.2, 13))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .25) & (x[1] < H))
+
+    def supports(basis):
+        return np.concatenate([
+            basis.get_dofs(lambda x: np.isclose(x[1], 0.)).all("u^2"),
+            basis.get_dofs(lambda x: np.isclose(x[0], 1.5)).all("u^1")])
+
+    res = simulate(mesh, ElementQuad1(), pts,
+                   MohrCoulomb(2e7, nu, cohesion=0., friction_angle=30.),
+                   supports, body_force=[0., -gamma], nsteps=1,
+                   obstacles=[Obstacle(box=[[-1., .25], [-1., 2.]],
+                                       friction=mu)])
+    normal, shear = res.history[-1].obstacle_forces[0]
+    assert -normal / (.5 * gamma * H ** 2) == pytest.approx(
+        nu / (1 - nu), rel=.03)
+    # the soil settles: it pulls the wall down
+    assert 0. < -shear <= mu * -normal * (1 + 1e-9)

@@ -368,6 +368,7 @@ class ObstacleContact(GridTerm):
         #: value and gradient (:meth:`field_rows`)
         self.reads_field = None
         self.unheld = False         # (begin_step) for failure_hint
+        self.supported = False      # (begin_step)
         self.start = [initial_scale * ob.displacement for ob in obstacles]
         counters.setdefault("contact_updates", 0)
         #: the last committed state and its obstacles' normal and
@@ -730,10 +731,12 @@ class ObstacleContact(GridTerm):
             run = problem.run
             self.reads_field = self.field_rows(run)
             self.warn_splines(run)
+            #: supports or prescribed motion hold the material
+            self.supported = bool(np.size(run.D)) \
+                or run.prescribed is not None
             # nothing but smooth obstacles holds the material
-            self.unheld = not (np.size(run.D) or run.prescribed is not None
-                               or any(ob.friction != 0.
-                                      for ob in self.obstacles))
+            self.unheld = not (self.supported or any(
+                ob.friction != 0. for ob in self.obstacles))
         return StepContact(self, problem)
 
     def field_rows(self, run) -> list:
@@ -1036,11 +1039,18 @@ class StepContact(GridTerm):
             C[:, :, active] = (kappa * area * nn)[:, :, active]
             if start:       # corners touching (a gap within the tolerance)
                 # stiffen the step's first tangent: a body resting on a
-                # floor is held in the first solve, when no corner presses
-                # (with friction held as sticking too)
+                # floor is held in the first solve, when no corner presses;
+                # along the face too where it is rough, or has friction
+                # and nothing else holds the body (a block on a floor: a
+                # singular first solve without).  Touching without
+                # pressure a Coulomb face has no friction to give: soil
+                # hung on a stationary wall by that hold came out of the
+                # first solve in tension at the wall's top, at Mohr-
+                # Coulomb's apex, and every cut-back failed (user trial)
                 touching = over & (self.lam[i] - kappa * gap
                                    >= -kappa * term.tol[i]) & ~active
-                hold = nn if ob.friction == 0. else eye
+                hold = eye if ob.friction == "rough" or (
+                    ob.friction != 0. and not term.supported) else nn
                 C[:, :, touching] = (kappa * area * hold)[:, :, touching]
             tau = np.zeros_like(u)
             if ob.friction != 0.:
