@@ -283,6 +283,28 @@ def test_a_block_pushed_past_coulomb_s_force_names_friction():
     assert failed.value.load_factor == pytest.approx(.75, abs=1e-3)
 
 
+def test_a_load_past_coulomb_s_from_the_start_names_friction():
+    """A block on a floor between grid lines (mu = 0.3) under gravity
+    tilted by tan = 0.45 from the first step: no quasi-static
+    equilibrium exists, and the error says by how much the load exceeds
+    mu (0.45 / 0.3) before any step is committed (a user trial's error
+    named neither the load nor friction)."""
+    from skfem_mpm import ConvergenceError
+    mesh = MeshQuad.init_tensor(np.arange(0., 2. + 1e-9, .1),
+                                np.arange(-.2, .6 + 1e-9, .1))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .5) & (x[0] < .9)
+                      & (x[1] > .05) & (x[1] < .35))
+    tilt, mu = np.arctan(.45), .3
+    with pytest.raises(ConvergenceError) as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e7, .3), [],
+                 body_force=1e4 * np.array([np.sin(tilt), -np.cos(tilt)]),
+                 nsteps=1, obstacles=[Obstacle(
+                     box=[[-1, 3], [-1, .05]], friction=mu, name="floor")],
+                 options=Options(newton=NewtonOptions(max_cutbacks=0)))
+    assert "along the face of obstacle 'floor' with {:.3f} times mu".format(
+        np.tan(tilt) / mu) in str(failed.value)
+
+
 def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
     """A block hangs from a tied obstacle whose face lies between grid
     lines: the obstacle carries the weight, and the block hangs where

@@ -369,6 +369,9 @@ class ObstacleContact(GridTerm):
         self.reads_field = None
         self.unheld = False         # (begin_step) for failure_hint
         self.supported = False      # (begin_step)
+        #: the resultant of the last step's load where Coulomb faces alone
+        #: may hold the material (:meth:`sliding_load_hint`), else None
+        self.load = None
         self.start = [initial_scale * ob.displacement for ob in obstacles]
         counters.setdefault("contact_updates", 0)
         #: the last committed state and its obstacles' normal and
@@ -721,10 +724,45 @@ class ObstacleContact(GridTerm):
             if self.unheld and tilt > INCLINED_HOLDING)
         committed, parts = self.mobilisation
         if committed is not points:
-            return hint
+            return hint + self.sliding_load_hint(points)
         return hint + "".join(friction_hint("obstacle {!r}".format(ob.name),
                                             ob.friction, *part)
                               for ob, part in zip(self.obstacles, parts))
+
+    def sliding_load_hint(self, points) -> str:
+        """Where Coulomb faces alone hold the material and every corner
+        that touched them at the run's start lies on one plane, a hint
+        when the load of the last step tried (:attr:`load`, its
+        resultant) pushes along that plane more than mu times it presses
+        on it: no quasi-static equilibrium exists.  The hint of
+        :func:`friction_hint` needs a committed step; a block on a floor
+        under gravity tilted past mu from the start failed its first step
+        with neither hint (a user trial)."""
+        if self.load is None:
+            return ""
+        X = points.x0[:, None, :] + self.R          # where near was found
+        touched, normals = [], []
+        for i, ob in enumerate(self.obstacles):
+            if not self.near[i].any():
+                continue
+            Xc = X[:, self.near[i]]
+            normal = ob.face_gap(Xc, ob.nearest_face(Xc, self.start[i]),
+                                 self.start[i])[1]
+            touched.append(i)
+            normals.append(normal)
+        if len(touched) != 1 or np.ptp(normals[0], axis=1).max() > 1e-9:
+            return ""
+        ob, n = self.obstacles[touched[0]], normals[0][:, 0]
+        pressing = -float(self.load @ n)
+        along = float(np.linalg.norm(self.load + pressing * n))
+        if not pressing > 0 or along <= ob.friction * pressing * (1 + 1e-9):
+            return ""
+        return ("; the load pushes the material along the face of obstacle "
+                "{!r} with {:.3f} times mu times the force pressing it on "
+                "the face: past mu a quasi-static load has no equilibrium, "
+                "the body slides (dynamics follows the slide; or prescribe "
+                "its motion)".format(ob.name, along / (ob.friction *
+                                                        pressing)))
 
     def begin_step(self, problem):
         if self.reads_field is None:            # the run's first step
@@ -737,6 +775,13 @@ class ObstacleContact(GridTerm):
             # nothing but smooth obstacles holds the material
             self.unheld = not (self.supported or any(
                 ob.friction != 0. for ob in self.obstacles))
+        if not self.supported and all(
+                not isinstance(ob.friction, str) for ob in self.obstacles) \
+                and any(ob.friction > 0. for ob in self.obstacles):
+            # (sliding_load_hint) the load's resultant at the step's end
+            dofs = problem.grid.nodal_dofs
+            if dofs.size == problem.f_dead.size:
+                self.load = problem.f_dead[dofs].sum(axis=1)
         return StepContact(self, problem)
 
     def field_rows(self, run) -> list:
