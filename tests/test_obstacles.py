@@ -305,6 +305,36 @@ def test_a_load_past_coulomb_s_from_the_start_names_friction():
         np.tan(tilt) / mu) in str(failed.value)
 
 
+@pytest.mark.slow
+def test_a_singular_tangent_switches_the_reserve_ghost_penalty_on():
+    """A 3D cpGIMP cantilever (2 x 2 x 2 points per cell) clamped by a
+    tied obstacle whose face lies mid-cell, a tip traction, small strain:
+    its second step's tangent was singular, also stabilised, at every
+    cut-back (a user trial); the reserve ghost penalty (``ghost="auto"``)
+    now comes on, and the tip deflects within 10% of Timoshenko's
+    ``P L^3 / (3 E I) + P L / (k G A)``."""
+    from skfem import ElementHex1, MeshHex
+    from skfem_mpm import Traction, side_points
+    h, x0, L, b, E, nu = .1, .05, 1., .2, 1e6, .3
+    mesh = MeshHex.init_tensor(np.arange(0., 1.3 + 1e-9, h),
+                               *[np.arange(-.1, .3 + 1e-9, h)] * 2)
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > x0)
+                      & (x[0] < x0 + L) & (x[1] > 0) & (x[1] < b)
+                      & (x[2] > 0) & (x[2] < b))
+    tip = side_points(pts, "x+")
+    q = 25.
+    res = simulate(mesh, ElementHex1(), pts, LinearElastic(E, nu), [],
+                   method="cpgimp", nsteps=2,
+                   loads=[Traction(tip, "x+", [0., 0., -q])],
+                   obstacles=[Obstacle(box=[[-1, x0], [-1, 1], [-1, 1]],
+                                       friction="tied")])
+    assert res.counters["ghost_from_step"] == 2
+    P, I, G = q * b * b, b ** 4 / 12, E / (2 * (1 + nu))
+    timoshenko = P * L ** 3 / (3 * E * I) + P * L / (5 / 6 * G * b * b)
+    deflection = -res.points.displacement[2, tip].mean()
+    assert deflection == pytest.approx(timoshenko, rel=.1)
+
+
 def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
     """A block hangs from a tied obstacle whose face lies between grid
     lines: the obstacle carries the weight, and the block hangs where

@@ -446,6 +446,16 @@ def ghost_in_reserve(run: Run, failure, reused: bool) -> bool:
         and ghost_reserve_held(run)
 
 
+def ghost_for_singular(run: Run, failure, reused: bool) -> bool:
+    """The reserve ghost penalty where the stabilised tangent, too, was
+    refused as singular: zero-energy modes of nodes a few points barely
+    support that the stabilisation does not lift (a 3D cpGIMP cantilever
+    clamped by a tied obstacle mid-cell failed at every cut-back of its
+    second step, and ran with ``ghost=0.1``; a user trial)."""
+    return isinstance(failure, SingularTangentError) \
+        and ghost_reserve_held(run)
+
+
 #: what a failed nonlinear step tries next at the same load increment, in
 #: order, each rung logged: full Newton where modified Newton's factorisation
 #: had served again; the ghost penalty of ``ghost="auto"`` for the rest of
@@ -456,8 +466,9 @@ def ghost_in_reserve(run: Run, failure, reused: bool) -> bool:
 #: B-splines, the ghost penalty for the rest of the run (points giving
 #: nodes a sliver of support make Newton cycle: a bending beam's commonest
 #: failure); the tangent stabilised (zero-energy modes not
-#: refused as singular), with the line search.  After the last, the load
-#: increment is cut back.  The rungs that keep the step's equations come
+#: refused as singular), with the line search; the ghost penalty for the
+#: rest of the run where that tangent, too, was singular.  After the last,
+#: the load increment is cut back.  The rungs that keep the step's equations come
 #: before the one that changes them: with the ghost penalty before the line
 #: search, a perfectly plastic footing pushed in finite deformation (B =
 #: 16 h) had the penalty on from its first step, where the line search
@@ -475,6 +486,7 @@ RETRY_LADDER = (
     Rung("the tangent stabilised by {:.0e} of its diagonal".format(
         STABILISATION), lambda run, failure, reused: True,
         Attempt("retry", False, True)),
+    Rung("the ghost penalty", ghost_for_singular, None, switch_ghost_on),
 )
 
 
