@@ -458,22 +458,21 @@ def ghost_for_singular(run: Run, failure, reused: bool) -> bool:
 
 #: what a failed nonlinear step tries next at the same load increment, in
 #: order, each rung logged: full Newton where modified Newton's factorisation
-#: had served again; the ghost penalty of ``ghost="auto"`` for the rest of
-#: the run where grid nodes held by slivers moved absurdly; the line search
+#: had served again; the ghost penalty of ``ghost="auto"`` for the rest of the
+#: run where grid nodes held by slivers moved absurdly; the line search
 #: (:mod:`skfem_mpm.solve.newton`; the equilibrium it converges to is the
-#: step's, though a run's path of cut-backs, and so its answer, can
-#: differ); in finite deformation, or with contacts between bodies on
-#: B-splines, the ghost penalty for the rest of the run (points giving
-#: nodes a sliver of support make Newton cycle: a bending beam's commonest
-#: failure); the tangent stabilised (zero-energy modes not
-#: refused as singular), with the line search; the ghost penalty for the
-#: rest of the run where that tangent, too, was singular.  After the last,
-#: the load increment is cut back.  The rungs that keep the step's equations come
-#: before the one that changes them: with the ghost penalty before the line
-#: search, a perfectly plastic footing pushed in finite deformation (B =
-#: 16 h) had the penalty on from its first step, where the line search
-#: alone carries it, and its pressure rose to 17% above Prandtl's where it
-#: stays within 9% (``docs/robustness.md``).
+#: step's, though a run's path of cut-backs, and so its answer, can differ); in
+#: finite deformation, or with contacts between bodies on B-splines, the ghost
+#: penalty for the rest of the run (points giving nodes a sliver of support
+#: make Newton cycle: a bending beam's commonest failure); the tangent
+#: stabilised (zero-energy modes not refused as singular), with the line
+#: search; the ghost penalty for the rest of the run where that tangent, too,
+#: was singular.  After the last, the load increment is cut back.  The rungs
+#: that keep the step's equations come before the one that changes them: with
+#: the ghost penalty before the line search, a perfectly plastic footing pushed
+#: in finite deformation (B = 16 h) had the penalty on from its first step,
+#: where the line search alone carries it, and its pressure rose to 17% above
+#: Prandtl's where it stays within 9% (``docs/robustness.md``).
 RETRY_LADDER = (
     Rung("full Newton", lambda run, failure, reused: reused,
          Attempt("first", False, False)),
