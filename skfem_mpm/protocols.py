@@ -109,6 +109,12 @@ class GridTerm:
     #: augmented Lagrangian): Newton keeps its last factorised tangent for
     #: the first direction of the next solve
     settles = False
+    #: the term ties grid nodes that a sliver of material supports to a
+    #: stiff constraint (an obstacle holding the material where its
+    #: corners cut cells): a failed step switches the ghost penalty held in
+    #: reserve on, as in finite deformation
+    #: (:data:`~skfem_mpm.solve.core.RETRY_LADDER`)
+    ties_slivers = False
 
     def held_dofs(self, op, points, scale: float) -> Optional[ndarray]:
         """Grid DOFs the term holds as a support would, for the check of

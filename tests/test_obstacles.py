@@ -335,6 +335,64 @@ def test_a_singular_tangent_switches_the_reserve_ghost_penalty_on():
     assert deflection == pytest.approx(timoshenko, rel=.1)
 
 
+@pytest.mark.slow
+def test_a_3d_cpgimp_block_slipping_at_its_edges_on_a_floor_mid_cell():
+    """A 3D cpGIMP block on a Coulomb floor (mu = 0.3) whose face lies
+    mid-cell, gravity tilted by tan = 0.2: its edges slip, and the floor's
+    corners tie the nodes under it, a sliver of material holds some.  Its
+    second step failed at every cut-back (a user trial); a failed step
+    now switches the reserve ghost penalty on, and the floor carries the
+    weight to 1e-6."""
+    from skfem import ElementHex1, MeshHex
+    h, floor = .1, .05
+    mesh = MeshHex.init_tensor(np.arange(0., .8 + 1e-9, h),
+                               np.arange(0., .6 + 1e-9, h),
+                               np.arange(-.1, .4 + 1e-9, h))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .2) & (x[0] < .6)
+                      & (x[1] > .1) & (x[1] < .5) & (x[2] > floor)
+                      & (x[2] < floor + .2))
+    tilt = np.arctan(.2)
+    gravity = 9810. * np.array([np.sin(tilt), 0., -np.cos(tilt)])
+    res = simulate(mesh, ElementHex1(), pts, LinearElastic(1e7, .3), [],
+                   body_force=gravity, nsteps=2, method="cpgimp",
+                   obstacles=[Obstacle(box=[[-1, 2], [-1, 2], [-1, floor]],
+                                       friction=.3)])
+    assert res.counters["ghost_from_step"] == 2
+    weight = gravity * pts.volume.sum()
+    assert res.history[-1].obstacle_forces[0] == pytest.approx(
+        weight, abs=1e-6 * np.linalg.norm(weight))
+
+
+@pytest.mark.slow
+def test_a_step_stalled_on_zero_energy_modes_switches_the_ghost_on():
+    """A bspline-gimp cantilever (2 x 2 points per cell, small strain)
+    clamped by a tied obstacle mid-cell: in its second step the bent
+    beam's points reach new splines that they barely support, the exact
+    tangent is singular and the stabilised one converges at a linear rate
+    that stalled at 1.1e-8 (a user trial).  The reserve ghost penalty now
+    comes on, and the tip moves within 1e-3 of the one-step run's."""
+    from skfem_mpm import Traction, side_points
+    h, x0 = .125, .0625
+    mesh = MeshQuad.init_tensor(np.arange(0., 4.5 + 1e-9, h),
+                                np.arange(-.25, .75 + 1e-9, h))
+
+    def run(nsteps):
+        pts = seed_points(mesh, 2, region=lambda x: (x[0] > x0)
+                          & (x[0] < x0 + 4) & (x[1] > 0) & (x[1] < .5))
+        tip = side_points(pts, "right")
+        res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3), [],
+                       loads=[Traction(tip, "right", [0., -20.])],
+                       nsteps=nsteps, method="bspline-gimp",
+                       obstacles=[Obstacle(box=[[-1., x0], [-1., 2.]],
+                                           friction="tied")])
+        return res, res.points.displacement[1, tip].mean()
+
+    (one, deflection), (two, stepped) = run(1), run(2)
+    assert one.counters["ghost_from_step"] == 0
+    assert two.counters["ghost_from_step"] == 2
+    assert stepped == pytest.approx(deflection, rel=1e-3)
+
+
 def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
     """A block hangs from a tied obstacle whose face lies between grid
     lines: the obstacle carries the weight, and the block hangs where

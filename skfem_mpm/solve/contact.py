@@ -369,6 +369,7 @@ class ObstacleContact(GridTerm):
         self.reads_field = None
         self.unheld = False         # (begin_step) for failure_hint
         self.supported = False      # (begin_step)
+        self.ties_slivers = False   # (begin_step)
         #: the resultant of the last step's load where Coulomb faces alone
         #: may hold the material (:meth:`sliding_load_hint`), else None
         self.load = None
@@ -768,6 +769,11 @@ class ObstacleContact(GridTerm):
         if self.reads_field is None:            # the run's first step
             run = problem.run
             self.reads_field = self.field_rows(run)
+            # GIMP's and B-splines' corners reading the field where they
+            # are tie the nodes of the cells they cut, some held by a
+            # sliver of material (standard MPM's read their point's cell)
+            self.ties_slivers = any(self.reads_field) and hasattr(
+                problem.method_op, "S")
             self.warn_splines(run)
             #: supports or prescribed motion hold the material
             self.supported = bool(np.size(run.D)) \

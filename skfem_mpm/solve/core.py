@@ -330,38 +330,43 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     # points: 4 iterations and 5 material updates instead of 5 and 7)
     keep = how.modified and not how.stabilise and problem.settles
     loose = problem.settles and SETTLE_RESIDUAL > run.tol
-    for rounds in range(SETTLE_ROUNDS):
-        found = newton_driver(
-            problem, du, strategy.start(), max_iter=run.max_iter,
-            modified=run.modified and how.modified and not how.stabilise,
-            stabilise=how.stabilise, single_solve=run.rhs == "increment",
-            report=report, predict=rounds == 0, keep=keep, seed=seed,
-            tol=SETTLE_RESIDUAL if loose else None, response=response)
-        iterations += len(found.residuals) - 1
-        settled = problem.settled(found.trial, found.du)
-        if settled and (not loose or problem.converged(found.trial)):
-            break
-        # the loose round settled: on to the tolerance by Newton's own
-        # iterations (quadratic from a small residual); it did not: the
-        # round after the update takes its first direction by the kept
-        # tangent (the constraint moved a little)
-        du, seed = found.du, None if settled else found.factorised
-        response, loose = found.trial.response, False
-        # the step's record shows every round's residuals in order; a
-        # solve that settled at the loose residual and goes on is one
-        # solve (its last residual is where the next one starts)
-        before = before + (found.residuals[:-1] if settled
-                           else found.residuals)
-        found = None
-    else:
-        raise ContactError(
-            "step {}: contact did not settle within the contacts' "
-            "tolerances in {} augmented-Lagrangian rounds: each round "
-            "closes the penetration by about the body's stiffness over the "
-            "penalty's; raise the penalty (Obstacle(penalty=...), "
-            "Contact(penalty=...); 100 took a tolerance of 1e-5 in 9 rounds "
-            "where 10 took more than 30) or loosen the tolerance".format(
-                step, SETTLE_ROUNDS))
+    try:
+        for rounds in range(SETTLE_ROUNDS):
+            found = newton_driver(
+                problem, du, strategy.start(), max_iter=run.max_iter,
+                modified=run.modified and how.modified and not how.stabilise,
+                stabilise=how.stabilise, single_solve=run.rhs == "increment",
+                report=report, predict=rounds == 0, keep=keep, seed=seed,
+                tol=SETTLE_RESIDUAL if loose else None, response=response)
+            iterations += len(found.residuals) - 1
+            settled = problem.settled(found.trial, found.du)
+            if settled and (not loose or problem.converged(found.trial)):
+                break
+            # the loose round settled: on to the tolerance by Newton's own
+            # iterations (quadratic from a small residual); it did not: the
+            # round after the update takes its first direction by the kept
+            # tangent (the constraint moved a little)
+            du, seed = found.du, None if settled else found.factorised
+            response, loose = found.trial.response, False
+            # the step's record shows every round's residuals in order; a
+            # solve that settled at the loose residual and goes on is one
+            # solve (its last residual is where the next one starts)
+            before = before + (found.residuals[:-1] if settled
+                               else found.residuals)
+            found = None
+        else:
+            raise ContactError(
+                "step {}: contact did not settle within the contacts' "
+                "tolerances in {} augmented-Lagrangian rounds: each round "
+                "closes the penetration by about the body's stiffness over "
+                "the penalty's; raise the penalty (Obstacle(penalty=...), "
+                "Contact(penalty=...); 100 took a tolerance of 1e-5 in 9 "
+                "rounds where 10 took more than 30) or loosen the "
+                "tolerance".format(step, SETTLE_ROUNDS))
+    except STEP_FAILURES:
+        if report is not None:      # for the retry ladder
+            report["stabilised"] = problem.stabilised
+        raise
     # memory: no factorisation alive in the commit
     seed, found = None, found._replace(factorised=None)
     new, record = problem.commit(found.trial, found.du,
@@ -373,8 +378,9 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
 
 class Rung(NamedTuple):
     """A rung of the retry ladder: where it ``applies(run, failure,
-    reused)`` (``reused``: the failed attempt's factorisation served again,
-    modified Newton), try the step again ``how``, or (``how=None``)
+    report)`` (what the failed attempt reported: ``"reused"``, its
+    factorisation served again, modified Newton; ``"stabilised"``, a solve
+    used the stabilised tangent), try the step again ``how``, or (``how=None``)
     ``change(run, step, failure)`` the run and walk the ladder again from
     the first attempt; ``linear``: the rung serves linear steps too."""
     what: str
@@ -426,34 +432,43 @@ def ghost_reserve_held(run: Run) -> bool:
                for term in run.terms)
 
 
-def ghost_for_slivers(run: Run, failure, reused: bool) -> bool:
+def ghost_for_slivers(run: Run, failure, report: dict) -> bool:
     """The reserve ghost penalty first where the failure is diagnosed as
     grid nodes held by slivers of material (absurd grid motion,
     :class:`~skfem_mpm.errors.GridMotionError`)."""
     return isinstance(failure, GridMotionError) and ghost_reserve_held(run)
 
 
-def ghost_in_reserve(run: Run, failure, reused: bool) -> bool:
-    """The reserve ghost penalty for any failed step in finite deformation
-    or with contacts between bodies on B-splines, once the line search
-    (which keeps the step's equations) has failed too.  The splines reach
-    a row of nodes beyond a body's surface that its material barely
-    holds: a user trial's pile with friction 0.3 (3 x 3 points per cell,
-    small strain) failed at every cut-back of its second step, and runs
-    with the small-strain penalty (:data:`SMALL_STRAIN_GHOST`)."""
+def ghost_in_reserve(run: Run, failure, report: dict) -> bool:
+    """The reserve ghost penalty for any failed step in finite deformation,
+    with contacts between bodies on B-splines or with a term that ties
+    slivers (:attr:`~skfem_mpm.protocols.GridTerm.ties_slivers`), once
+    the line search (which keeps the step's equations) has failed too.
+    The splines reach a row of nodes beyond a body's surface that its
+    material barely holds: a user trial's pile with friction 0.3 (3 x 3
+    points per cell, small strain) failed at every cut-back of its second
+    step, and runs with the small-strain penalty
+    (:data:`SMALL_STRAIN_GHOST`); a 3D cpGIMP block on a Coulomb floor
+    mid-cell, slipping at its edges, failed so at its second step
+    (another), and takes 6 iterations with it."""
     return (run.finite or bool(run.contacts)
-            and run.method.name.startswith("bspline")) \
+            and run.method.name.startswith("bspline")
+            or any(term.ties_slivers for term in run.terms)) \
         and ghost_reserve_held(run)
 
 
-def ghost_for_singular(run: Run, failure, reused: bool) -> bool:
+def ghost_for_zero_energy(run: Run, failure, report: dict) -> bool:
     """The reserve ghost penalty where the stabilised tangent, too, was
-    refused as singular: zero-energy modes of nodes a few points barely
-    support that the stabilisation does not lift (a 3D cpGIMP cantilever
-    clamped by a tied obstacle mid-cell failed at every cut-back of its
-    second step, and ran with ``ghost=0.1``; a user trial)."""
-    return isinstance(failure, SingularTangentError) \
-        and ghost_reserve_held(run)
+    refused as singular, or where the failed attempt's solves needed it
+    (``report["stabilised"]``): zero-energy modes of nodes a few points
+    barely support, which the stabilisation does not lift, or lifts at
+    the price of a linear rate that stalls above the tolerance.  A 3D
+    cpGIMP cantilever clamped by a tied obstacle mid-cell failed at every
+    cut-back of its second step so, and ran with ``ghost=0.1``; a
+    bspline-gimp one (2 x 2 points per cell) stalled at 1.1e-8 there
+    (user trial 52)."""
+    return (isinstance(failure, SingularTangentError)
+            or report.get("stabilised", False)) and ghost_reserve_held(run)
 
 
 #: what a failed nonlinear step tries next at the same load increment, in
@@ -474,18 +489,18 @@ def ghost_for_singular(run: Run, failure, reused: bool) -> bool:
 #: where the line search alone carries it, and its pressure rose to 17% above
 #: Prandtl's where it stays within 9% (``docs/robustness.md``).
 RETRY_LADDER = (
-    Rung("full Newton", lambda run, failure, reused: reused,
+    Rung("full Newton", lambda run, failure, report: report["reused"],
          Attempt("first", False, False)),
     Rung("the ghost penalty", ghost_for_slivers, None, switch_ghost_on,
          linear=True),
-    Rung("the line search", lambda run, failure, reused:
+    Rung("the line search", lambda run, failure, report:
          run.line_search is not None
          and not run.counters["line_search_from_step"], LINE_SEARCH),
     Rung("the ghost penalty", ghost_in_reserve, None, switch_ghost_on),
     Rung("the tangent stabilised by {:.0e} of its diagonal".format(
-        STABILISATION), lambda run, failure, reused: True,
+        STABILISATION), lambda run, failure, report: True,
         Attempt("retry", False, True)),
-    Rung("the ghost penalty", ghost_for_singular, None, switch_ghost_on),
+    Rung("the ghost penalty", ghost_for_zero_energy, None, switch_ghost_on),
 )
 
 
@@ -509,7 +524,7 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 raise                       # only a shorter step helps
             for rung in rungs:
                 if (rung.linear or not run.linear) and rung.applies(
-                        run, failure, report.get("reused", False)):
+                        run, failure, report):
                     break
             else:
                 raise
