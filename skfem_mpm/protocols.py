@@ -31,11 +31,11 @@ generalised-alpha weights), once Newton has converged asks each whether
 its constraints hold (:meth:`GridTerm.settle`: contact's augmented
 Lagrangian solves the step again until they do), lets it commit
 what it keeps (:meth:`GridTerm.commit`) and, once all have, correct the
-new state's motion (:meth:`GridTerm.finish`).  A run begins its terms in their order,
-those that weigh the balance in time (``weighs = True``) after all others:
-an integrator's start-of-step balance sees every other term.  ``matrix`` must be the derivative of
-``force - load`` with respect to ``du`` (or a good part of it: Newton's
-rate depends on it).
+new state's motion (:meth:`GridTerm.finish`).  A run begins its terms in
+their order, those that weigh the balance in time (``weighs = True``)
+after all others: an integrator's start-of-step balance sees every other
+term.  ``matrix`` must be the derivative of ``force - load`` with respect
+to ``du`` (or a good part of it: Newton's rate depends on it).
 """
 from typing import Callable, Optional, Protocol, runtime_checkable
 
