@@ -393,6 +393,35 @@ def test_a_step_stalled_on_zero_energy_modes_switches_the_ghost_on():
     assert stepped == pytest.approx(deflection, rel=1e-3)
 
 
+@pytest.mark.slow
+def test_an_obstacle_moved_past_the_material_is_named_in_the_error():
+    """A press displaced by 40 (a typo) onto a block 0.5 tall on a
+    supported floor: contact cannot settle once the block is squeezed
+    thin (stiffer than the penalty), and the error, which said only
+    "raise the penalty" (a user trial), names the press, how far it had
+    moved against the block's extent, and its full displacement."""
+    from skfem_mpm import ContactError
+    mesh = MeshQuad.init_tensor(np.linspace(0., 1., 11),
+                                np.linspace(0., 1., 11))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .2) & (x[0] < .8)
+                      & (x[1] < .5))
+    with pytest.raises(ContactError) as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
+                 lambda b: b.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+                 nsteps=4, obstacles=[Obstacle(
+                     box=[[.1, .9], [.5, .7]], displacement=[0., -40.],
+                     name="press")])
+    moved = 40. * failed.value.load_factor
+    message = str(failed.value)
+    assert "obstacle 'press' had moved" in message
+    assert "of the material's extent along its motion (0.5; at full " \
+        "load 40)" in message
+    # it had moved past half the block (the last step tried, a cut-back
+    # beyond the last converged state)
+    assert float(message.split("had moved ")[1].split()[0]) > max(
+        moved, .25)
+
+
 def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
     """A block hangs from a tied obstacle whose face lies between grid
     lines: the obstacle carries the weight, and the block hangs where

@@ -144,6 +144,11 @@ RUNAWAY = (", farther than the grid spans: grid nodes that carry almost "
            "penalty, Stabilisation(ghost=...), holds them; B-splines: "
            "Stabilisation(extended_splines=True))")
 
+#: the share of the material's extent along an obstacle's motion past
+#: which a failed run's hint says it squeezes the material
+#: (:meth:`ObstacleContact.squeeze_hint`)
+SQUEEZED = .5
+
 #: the cells within which a corner touches a face for that warning
 TOUCHING = .1
 
@@ -371,6 +376,8 @@ class ObstacleContact(GridTerm):
         self.unheld = False         # (begin_step) for failure_hint
         self.supported = False      # (begin_step)
         self.ties_slivers = False   # (begin_step)
+        self.scale = 0.             # (begin_step) the loads' last scale
+        self.extents = []           # (begin_run)
         #: the resultant of the last step's load where Coulomb faces alone
         #: may hold the material (:meth:`sliding_load_hint`), else None
         self.load = None
@@ -525,6 +532,12 @@ class ObstacleContact(GridTerm):
                                         float(-phi[c, p]), self.tol[i]))
         self.warn_edges_inside_cells(X0)
         self.tilts = self.tilts_met(X0)
+        # (squeeze_hint) the material's extent along each obstacle's motion
+        corners = X0.reshape(dim, -1)
+        self.extents = [float(np.ptp(ob.displacement @ corners)) / norm
+                        if norm > 0 else 0. for ob, norm in zip(
+                            self.obstacles, (float(np.linalg.norm(
+                                ob.displacement)) for ob in self.obstacles))]
         self.warn_inclined_faces()
 
     def tilts_met(self, X0: ndarray) -> list:
@@ -713,10 +726,12 @@ class ObstacleContact(GridTerm):
         ``points`` (:func:`friction_hint`), as the step that committed it
         measured it (the point state keeps the multipliers, not the
         pressures: a run resumed there whose first step fails gives no
-        friction hint)."""
+        friction hint).  In any run, an obstacle moved at the failed step
+        past :data:`SQUEEZED` of the material's extent along its motion
+        (:meth:`squeeze_hint`)."""
         if not quasi_static:
-            return ""
-        hint = "".join(
+            return self.squeeze_hint()
+        hint = self.squeeze_hint() + "".join(
             "; obstacle {!r} is smooth and the material met its face "
             "inclined by {:.3g} degrees to the grid's axes: held along it "
             "by nothing else, a body on it has no quasi-static equilibrium "
@@ -730,6 +745,28 @@ class ObstacleContact(GridTerm):
         return hint + "".join(friction_hint("obstacle {!r}".format(ob.name),
                                             ob.friction, *part)
                               for ob, part in zip(self.obstacles, parts))
+
+    def squeeze_hint(self) -> str:
+        """Per obstacle moved at the last step tried (:attr:`scale` of its
+        displacement) past :data:`SQUEEZED` of the material's extent along
+        its motion at the run's start, a hint: held behind, the material
+        is squeezed thin, stiffer than the penalty, and contact cannot
+        settle (a press displaced 40 where the block is 0.5 tall, a typo,
+        failed with "raise the penalty" after the press had moved 0.43; a
+        user trial)."""
+        hint = ""
+        for ob, extent in zip(self.obstacles, self.extents):
+            moved = self.scale * float(np.linalg.norm(ob.displacement))
+            if extent > 0 and moved > SQUEEZED * extent:
+                hint += (
+                    "; obstacle {!r} had moved {:.3g} at the failed step, "
+                    "{:.0%} of the material's extent along its motion "
+                    "({:.3g}; at full load {:.3g}): material held behind "
+                    "it is squeezed thin, stiffer than the contact's "
+                    "penalty (check its displacement, or load(t))".format(
+                        ob.name, moved, moved / extent, extent,
+                        float(np.linalg.norm(ob.displacement))))
+        return hint
 
     def sliding_load_hint(self, points) -> str:
         """Where Coulomb faces alone hold the material and every corner
@@ -767,6 +804,7 @@ class ObstacleContact(GridTerm):
                                                         pressing)))
 
     def begin_step(self, problem):
+        self.scale = problem.s_new      # (squeeze_hint)
         if self.reads_field is None:            # the run's first step
             run = problem.run
             self.reads_field = self.field_rows(run)
