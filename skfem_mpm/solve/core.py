@@ -489,7 +489,8 @@ def ghost_for_zero_energy(run: Run, failure, report: dict) -> bool:
 #: where the line search alone carries it, and its pressure rose to 17% above
 #: Prandtl's where it stays within 9% (``docs/robustness.md``).
 RETRY_LADDER = (
-    Rung("full Newton", lambda run, failure, report: report["reused"],
+    Rung("full Newton", lambda run, failure, report:
+         report.get("reused", False),
          Attempt("first", False, False)),
     Rung("the ghost penalty", ghost_for_slivers, None, switch_ghost_on,
          linear=True),
