@@ -1,7 +1,8 @@
 """The eighteenth performance round (issue 32): the symmetry test of a
 tangent (:func:`~skfem_mpm.solve.backends.is_symmetric`, which picks
 Pardiso's factorisation) by one compiled pass, the numpy path's largest
-difference and answer."""
+difference and answer; its upper triangle (Pardiso's symmetric input) by
+another, the numpy path's arrays."""
 import numpy as np
 import pytest
 from scipy.sparse import csr_matrix, identity, random as sparse_random
@@ -66,3 +67,26 @@ def test_the_compiled_symmetry_test_answers_as_numpy(monkeypatch):
             monkeypatch.setenv("SKFEM_MPM_KERNELS", "numpy")
             assert compiled == is_symmetric(A, rtol)
     assert statuses == {0, 1, 2}
+
+
+def test_the_compiled_upper_triangle_is_numpys(monkeypatch):
+    """``upper_triangle`` of a canonical CSR matrix by the compiled pass
+    (``upper_entries``) is the numpy path's matrix array for array,
+    dtypes included, on every matrix of :func:`matrices`."""
+    from skfem_mpm.kernels.graph import upper_entries
+    from skfem_mpm.solve.backends import upper_triangle
+    for A in matrices():
+        A.sum_duplicates()
+        monkeypatch.delenv("SKFEM_MPM_KERNELS", raising=False)
+        got = upper_triangle(A)
+        monkeypatch.setenv("SKFEM_MPM_KERNELS", "numpy")
+        want = upper_triangle(A)
+        assert got.shape == want.shape
+        entries = upper_entries(A.indptr, A.indices, A.data)
+        for at, name in enumerate(("data", "indices", "indptr")):
+            a, b = getattr(got, name), getattr(want, name)
+            assert a.dtype == b.dtype
+            assert np.array_equal(a, b, equal_nan=True), name
+            assert np.array_equal(entries[at], b, equal_nan=True), name
+        assert np.array_equal(got.toarray(), np.triu(A.toarray()),
+                              equal_nan=True)

@@ -5,12 +5,13 @@ validation, conversion and transpose (70-80 us a check at 56 to 1024
 points in 2D), and the parts clearly held in one pass (:func:`clearly_held`:
 95 -> 15 us a check at 56 points); a matrix's largest difference from
 its transpose without mirror positions (:func:`symmetric_deviation`, for
-:func:`skfem_mpm.solve.backends.is_symmetric`)."""
+:func:`skfem_mpm.solve.backends.is_symmetric`) and its upper triangle's
+entries (:func:`upper_entries`)."""
 import numpy as np
 from numba import njit
 
 __all__ = ["component_labels", "element_labels", "clearly_held",
-           "symmetric_deviation"]
+           "symmetric_deviation", "upper_entries"]
 
 
 @njit(cache=True)
@@ -215,3 +216,30 @@ def symmetric_deviation(indptr, indices, data):
                     return 2, 0.
                 largest = d
     return 0, largest
+
+
+@njit(cache=True)
+def upper_entries(indptr, indices, data):
+    """``(data, indices, indptr)`` of the upper triangle (diagonal
+    included) of a CSR matrix, its rows' entries in their order: what
+    :func:`~skfem_mpm.solve.backends.upper_triangle`'s numpy path selects
+    by a mask, in two passes over the rows (their counts, then the
+    entries), the index arrays of the matrix's dtypes."""
+    n = indptr.size - 1
+    starts = np.zeros(n + 1, dtype=indptr.dtype)
+    for i in range(n):
+        count = 0
+        for e in range(indptr[i], indptr[i + 1]):
+            if indices[e] >= i:
+                count += 1
+        starts[i + 1] = starts[i] + count
+    kept = np.empty(starts[n], dtype=indices.dtype)
+    values = np.empty(starts[n], dtype=data.dtype)
+    k = 0
+    for i in range(n):
+        for e in range(indptr[i], indptr[i + 1]):
+            if indices[e] >= i:
+                kept[k] = indices[e]
+                values[k] = data[e]
+                k += 1
+    return values, kept, starts

@@ -279,7 +279,10 @@ def upper_triangle(A) -> csr_matrix:
     """The upper triangle of ``A`` (diagonal included) as CSR with sorted
     indices; from a canonical CSR matrix by a mask on its entries, without
     scipy's detour through COO (16 bytes an entry more at the peak of a
-    Pardiso factorisation).
+    Pardiso factorisation), or where numba imports and
+    ``SKFEM_MPM_KERNELS`` is not ``numpy`` by one compiled pass
+    (:func:`~skfem_mpm.kernels.graph.upper_entries`: the same arrays,
+    without the mask).
 
     Examples
     --------
@@ -295,6 +298,10 @@ def upper_triangle(A) -> csr_matrix:
         upper = triu(A, format="csr")
         upper.sort_indices()
         return upper
+    graph = compiled_kernels("graph")
+    if graph is not None:           # the same entries, without the mask
+        return csr_matrix(graph.upper_entries(A.indptr, A.indices, A.data),
+                          shape=A.shape)
     n, index, indptr = A.shape[0], A.indices.dtype, A.indptr
     # the entries' rows and the kept ones' count by row for rows of about
     # TRIANGLE_BLOCK entries at a time: the rows of all entries and a
