@@ -17,7 +17,8 @@ error).
 import numpy as np
 from numba import njit
 
-__all__ = ["quad1_fields", "hex1_fields"]
+__all__ = ["quad1_fields", "hex1_fields", "point_slots",
+           "point_values"]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -139,6 +140,31 @@ def hex1_fields(p, element_dofs, tind, X, values, gradients):
 
 
 @njit(cache=True, error_model="numpy")
+def by_element(tind):
+    """The stable order of the points by element, ``np.argsort(tind,
+    kind="stable")`` (the one order a stable sort gives): by counting the
+    points of each element, in one pass over them, not a merge sort (at
+    99540 points in their seeding order 0.35 against 4.5 ms, at 1e6 2.6
+    against 57); negative elements sorted as numpy does."""
+    n = tind.size
+    least, bins = 0, 0
+    for j in range(n):
+        least, bins = min(least, tind[j]), max(bins, tind[j] + 1)
+    if least < 0:
+        return np.argsort(tind, kind="mergesort")
+    start = np.zeros(bins + 1, dtype=np.int64)
+    for j in range(n):
+        start[tind[j] + 1] += 1
+    for e in range(bins):
+        start[e + 1] += start[e]
+    order = np.empty(n, dtype=np.int64)
+    for j in range(n):
+        order[start[tind[j]]] = j
+        start[tind[j]] += 1
+    return order
+
+
+@njit(cache=True, error_model="numpy")
 def point_slots(tind, X, volume):
     """The slot layout of a material-point basis over all its points
     (:class:`skfem_mpm.quadrature.basis.MaterialPointBasis`, the numpy
@@ -149,7 +175,7 @@ def point_slots(tind, X, volume):
     and the groups of :meth:`~skfem_mpm.quadrature.basis.
     MaterialPointBasis.groups`: ``(runs, in_slots, flat)``."""
     n, dim = tind.size, X.shape[0]
-    order = np.argsort(tind, kind="mergesort")
+    order = by_element(tind)
     nel, run, slots = 0, 0, 0
     for j in range(n):
         if j == 0 or tind[order[j]] != tind[order[j - 1]]:
@@ -187,3 +213,24 @@ def point_slots(tind, X, volume):
     padding = np.flatnonzero(point_index.ravel() < 0)
     return (elements, Xq, dx, point_index, slot_of_point, padding,
             (runs, in_slots, flat))
+
+
+@njit(cache=True, error_model="numpy")
+def point_values(N, dofs, u, k, slot_of_point, slots):
+    """``u``'s values at the points, (k, n): ``sum_i N[i, e, m] u[k
+    dofs[i, e] + a]`` summed from zero in node order at each point's slot
+    ``(e, m)`` (``slot_of_point``, ``slots`` a row), what
+    :meth:`~skfem_mpm.methods.operators.PointOperator.values` forms by a
+    gather, an ``einsum`` and a ``take`` (whose sum runs over the nodes as
+    the outer loop of its iterator, from zero: the same operations, equal
+    to the bit, ``tests/test_compiled.py``), in one pass."""
+    n, nloc = slot_of_point.size, N.shape[0]
+    out = np.empty((k, n))
+    for p in range(n):
+        e, m = slot_of_point[p] // slots, slot_of_point[p] % slots
+        for a in range(k):
+            s = 0.
+            for i in range(nloc):
+                s += N[i, e, m] * u[k * dofs[i, e] + a]
+            out[a, p] = s
+    return out

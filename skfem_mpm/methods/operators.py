@@ -164,7 +164,10 @@ class PointOperator:
             "...iem,iea->a...em", shape_fields, U))
 
     def values(self, u: ndarray) -> ndarray:
-        return self._at_points(u, self.shape_values)
+        values = self.basis.nodal_values(self.shape_values, self.scalar_dofs,
+                                         u, self.dim)
+        return self._at_points(u, self.shape_values) if values is None \
+            else values
 
     def gradients(self, u: ndarray) -> ndarray:
         return self._at_points(u, self.shape_gradients)

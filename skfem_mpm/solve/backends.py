@@ -40,6 +40,7 @@ from scipy.sparse.linalg import splu
 
 from ..errors import InvalidInputError, SingularSystemError, check_choice
 from ..methods.assembly import PatternMatrices
+from ..quadrature.basis import compiled_kernels
 
 logger = logging.getLogger(__name__)
 
@@ -210,7 +211,10 @@ def is_symmetric(A, rtol: float = 1e-12) -> bool:
 
     A CSR matrix whose pattern is symmetric is compared with its mirror
     entries (in a canonical copy where it is not canonical: sorted,
-    duplicates summed), in blocks of :data:`SYMMETRY_BLOCK` entries
+    duplicates summed): by one compiled pass where numba imports and
+    ``SKFEM_MPM_KERNELS`` is not ``numpy``
+    (:func:`~skfem_mpm.kernels.graph.symmetric_deviation`, the same
+    largest difference), else in blocks of :data:`SYMMETRY_BLOCK` entries
     (:func:`mirror_positions`; a pattern of more than
     :data:`MIRRORS_KEPT` entries by :func:`mirrored_blocks`, its mirror
     positions not kept), without forming ``A - A.T``: two more matrices at
@@ -231,6 +235,13 @@ def is_symmetric(A, rtol: float = 1e-12) -> bool:
     if A.format == "csr" and not A.has_canonical_format:
         A = A.copy()              # its index arrays may be another's too
         A.sum_duplicates()
+    graph = compiled_kernels("graph") if A.format == "csr" else None
+    if graph is not None:         # the same differences, in one pass
+        status, largest = graph.symmetric_deviation(A.indptr, A.indices,
+                                                    A.data)
+        if status == 0:
+            return bool(A.nnz == 0 or largest <= rtol * max(A.data.max(),
+                                                            -A.data.min()))
     if A.format == "csr":
         data, largest = A.data, 0.
         if A.nnz <= MIRRORS_KEPT:
@@ -268,7 +279,10 @@ def upper_triangle(A) -> csr_matrix:
     """The upper triangle of ``A`` (diagonal included) as CSR with sorted
     indices; from a canonical CSR matrix by a mask on its entries, without
     scipy's detour through COO (16 bytes an entry more at the peak of a
-    Pardiso factorisation).
+    Pardiso factorisation), or where numba imports and
+    ``SKFEM_MPM_KERNELS`` is not ``numpy`` by one compiled pass
+    (:func:`~skfem_mpm.kernels.graph.upper_entries`: the same arrays,
+    without the mask).
 
     Examples
     --------
@@ -284,6 +298,10 @@ def upper_triangle(A) -> csr_matrix:
         upper = triu(A, format="csr")
         upper.sort_indices()
         return upper
+    graph = compiled_kernels("graph")
+    if graph is not None:           # the same entries, without the mask
+        return csr_matrix(graph.upper_entries(A.indptr, A.indices, A.data),
+                          shape=A.shape)
     n, index, indptr = A.shape[0], A.indices.dtype, A.indptr
     # the entries' rows and the kept ones' count by row for rows of about
     # TRIANGLE_BLOCK entries at a time: the rows of all entries and a
