@@ -149,6 +149,10 @@ RUNAWAY = (", farther than the grid spans: grid nodes that carry almost "
 #: (:meth:`ObstacleContact.squeeze_hint`)
 SQUEEZED = .5
 
+#: gaps within this many machine epsilons of the corners' largest
+#: coordinate are round-off (:meth:`StepContact.evaluate`)
+ROUNDOFF = 8 * np.finfo(float).eps
+
 #: the cells within which a corner touches a face for that warning
 TOUCHING = .1
 
@@ -913,6 +917,8 @@ class StepContact(GridTerm):
         #: per obstacle, the corners' rows (vector, dim nc m x N): u_c = J du
         self.J = [self.rows[key] for key in keys]
         self.Xs = self.X[:, :, idx].reshape(dim, -1)      # (dim, nc m)
+        #: the round-off of the corners' coordinates (and so of gaps)
+        self.roundoff = ROUNDOFF * np.abs(self.Xs).max(initial=0.)
         self.area, self.lam, self.tau, self.anchor = [], [], [], []
         self.closed = []
         self.face = []
@@ -1113,6 +1119,11 @@ class StepContact(GridTerm):
             # at a residual of 5e-7, at 5.5e6 of 1e-4)
             gap, n, _ = ob.face_gap(self.Xs, face, self.shift[i])
             gap = gap + (n * u).sum(axis=0) - self.closed[i]
+            # a gap within the coordinates' round-off touches: it presses
+            # by nothing (a 3D soil touching a Coulomb wall pressed it by
+            # 1e-7 Pa of round-off, stuck to it in the first solve, and
+            # hung on it in tension)
+            gap[np.abs(gap) <= self.roundoff] = 0.
             C = np.zeros((dim, dim, u.shape[1]))
             if self.anchor[i] is not None:
                 tied, X0 = self.anchor[i]
