@@ -19,8 +19,11 @@ class Stabilisation:
         Ghost-penalty factor for partially filled cells
         (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none;
         ``"auto"`` (default): none, but where points move a load step
-        that fails in finite deformation or with contacts between bodies
-        on B-splines, or that moves free grid nodes
+        that fails in finite deformation, with contacts between bodies
+        on B-splines or with GIMP's or B-splines' obstacle corners that
+        hold the material (friction, rough, tied), whose solves needed
+        the stabilised tangent or found it singular (zero-energy modes),
+        or that moves free grid nodes
         orders of magnitude more than any point in small strain (a node
         supported by a sliver of material,
         :class:`~skfem_mpm.errors.GridMotionError`), switches the default
