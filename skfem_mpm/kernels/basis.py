@@ -223,7 +223,7 @@ def point_values(N, dofs, u, k, slot_of_point, slots):
     :meth:`~skfem_mpm.methods.operators.PointOperator.values` forms by a
     gather, an ``einsum`` and a ``take`` (whose sum runs over the nodes as
     the outer loop of its iterator, from zero: the same operations, equal
-    to the bit, ``tests/test_compiled.py``), in one pass."""
+    to the bit, ``tests/test_perf18_values.py``), in one pass."""
     n, nloc = slot_of_point.size, N.shape[0]
     out = np.empty((k, n))
     for p in range(n):
