@@ -26,8 +26,8 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       SEED_BYTES_PER_POINT, STEP_RECORD_BYTES,
                       refuse_beyond_memory)
 from ..methods.method import METHODS
-from ..quadrature.points import (MaterialPoints, concatenate_points, in_box,
-                                  seed_points)
+from ..quadrature.points import (MaterialPoints, box_region,
+                                  concatenate_points, in_box, seed_points)
 from ..solve.core import check_combination, grid_parts, simulate
 from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from ..solve.loads import (Pressure, Traction as SurfaceTraction,
@@ -107,7 +107,11 @@ class Body:
     body is a rigid body pushed through the grid, ``rough`` or smooth
     (:class:`~skfem_mpm.RigidBody`): a footing, a pile, an indenter.
     ``density`` (mass per unit initial volume) and ``initial_velocity``
-    are for scenes with :attr:`Scene.dynamics`."""
+    are for scenes with :attr:`Scene.dynamics`.  Regions of two bodies
+    may not overlap (each is seeded in full: the overlap would carry both
+    bodies' mass and stiffness), unless one ``replaces`` the other (the
+    names of the bodies whose points inside this body's region are not
+    seeded: a pile in the soil)."""
     name: str
     region: Union[Sequence[Tuple[float, float]], Callable]
     material: object
@@ -118,6 +122,7 @@ class Body:
     rough: bool = True
     density: Optional[float] = None
     initial_velocity: Optional[Sequence[float]] = None
+    replaces: Sequence[str] = ()
 
     def contains(self, x: ndarray) -> ndarray:
         if callable(self.region):
@@ -345,6 +350,13 @@ class Scene:
         if len(set(bodies)) < len(bodies):
             raise InvalidInputError("body names must differ, got {}".format(
                 bodies))
+        for b in self.bodies:
+            if isinstance(b.replaces, str) or any(
+                    name not in bodies or name == b.name
+                    for name in b.replaces):
+                raise InvalidInputError(
+                    "body {!r}: replaces must list other bodies' names "
+                    "(of {}), got {!r}".format(b.name, bodies, b.replaces))
         rigid = [b.name for b in self.bodies if b.rigid is not None]
         if rigid and self.method not in ("mpm", "fem"):
             raise InvalidInputError(
@@ -506,11 +518,13 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
         try:
             # a box is checked against the grid (refused where it reaches
             # outside: its points there would be dropped without a word)
-            pts = seed_points(mesh, body.points_per_cell, region=body.region)
+            pts = seed_points(mesh, body.points_per_cell,
+                              region=body_region(scene.bodies, k, mesh))
         except InvalidInputError as err:
             raise InvalidInputError("body {!r}: {}".format(body.name, err))
         pts.body[:] = k
         parts.append(pts)
+    check_overlaps(scene.bodies, parts)
     points = concatenate_points(parts)
     for k, body in enumerate(scene.bodies):
         if body.K0 is None:
@@ -553,6 +567,52 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
         points.force[:, chosen] += np.asarray(load.force, float)[:, None] \
             / chosen.size
     return points
+
+
+def body_region(bodies: Sequence[Body], k: int, mesh):
+    """The region seeded for body ``k``: its own, less the regions of the
+    bodies that replace it (:attr:`Body.replaces`)."""
+    body = bodies[k]
+    replacing = [b for b in bodies if body.name in b.replaces]
+    if not replacing:
+        return body.region
+    own = body.region if callable(body.region) else box_region(
+        mesh, body.region)          # (a box checked against the grid)
+    return lambda x: np.asarray(own(x), dtype=bool) & ~np.any(
+        [b.contains(x) for b in replacing], axis=0)
+
+
+def check_overlaps(bodies: Sequence[Body], parts: list):
+    """Refuse bodies whose seeded points ``parts`` lie in each other's
+    regions, and a body left without points by those that replace it (a
+    pile's region inside the soil's was seeded twice: its weight and
+    stiffness counted twice without a word; a user trial)."""
+    for i, first in enumerate(bodies):
+        for j in range(i + 1, len(bodies)):
+            second = bodies[j]
+            # the points of one in the other's region, where it does not
+            # replace the other
+            inside = [0 if a.name in bodies[b].replaces else
+                      int(np.count_nonzero(a.contains(parts[b].x)))
+                      for a, b in ((first, j), (second, i))]
+            if any(inside):
+                raise InvalidInputError(
+                    "bodies {!r} and {!r} overlap: {} points of {!r} lie in "
+                    "the region of {!r} and {} of {!r} in that of {!r} "
+                    "(each region is seeded in full: the overlap would "
+                    "carry both bodies' mass and stiffness); let the inner "
+                    "body replace the outer one (replaces = [{!r}]) or "
+                    "separate the regions".format(
+                        first.name, second.name, inside[0], second.name,
+                        first.name, inside[1], first.name, second.name,
+                        first.name if inside[0] >= inside[1]
+                        else second.name))
+    for body, part in zip(bodies, parts):
+        replacing = [b.name for b in bodies if body.name in b.replaces]
+        if part.n == 0 and replacing:
+            raise InvalidInputError(
+                "body {!r}: no point is left where {} replace it".format(
+                    body.name, replacing))
 
 
 def surface_loads(scene: Scene, points: MaterialPoints) -> list:

@@ -29,6 +29,9 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # rigid body pushed through the grid
                                     # (a footing; rough = false: smooth),
                                     # displacement at full load
+    replaces = ["soil"]             # optional: this body's region is cut
+                                    # out of those bodies' (a pile in the
+                                    # soil); regions may not overlap else
     material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
     # or { model = "von_mises", E = .., nu = .., yield_stress = .. }
     # or { model = "drucker_prager", E = .., nu = .., cohesion = ..,
@@ -510,7 +513,7 @@ def _body(c, data, k, dim):
     key = "bodies[{}]".format(k)
     data = c.table(data, key, ("name", "region", "points_per_cell",
                                "material", "geostatic", "rigid", "density",
-                               "initial_velocity"),
+                               "initial_velocity", "replaces"),
                    ("region", "material"))
     name = data.get("name", "body{}".format(k))
     if not isinstance(name, str):
@@ -534,10 +537,16 @@ def _body(c, data, k, dim):
         if rigid is not None and not any(rigid):
             c.bad(key + ".rigid.displacement", "must not be zero", rigid)
         rough = c.boolean(table, key + ".rigid", "rough", True)
+    replaces = data.get("replaces", [])
+    if not (isinstance(replaces, list)
+            and all(isinstance(r, str) for r in replaces)):
+        c.bad(key + ".replaces", "must be a list of body names", replaces)
+        replaces = []
     return Body(name=name, region=box, material=material, points_per_cell=ppc,
                 K0=K0, surface=surface, rigid=rigid, rough=rough,
                 density=c.number(data, key, "density", low=0.),
-                initial_velocity=c.vector(data, key, "initial_velocity", dim))
+                initial_velocity=c.vector(data, key, "initial_velocity", dim),
+                replaces=tuple(replaces))
 
 
 def _inside_grid(c, bodies, grid):
