@@ -736,6 +736,23 @@ def test_bad_obstacle_sets_are_refused(obstacles, words):
                  obstacles=obstacles)
 
 
+def test_an_obstacle_displaced_from_t0_says_so_when_it_holds_material():
+    """In dynamics without a load ramp an obstacle's displacement applies
+    from t = 0: a press written just above a block, displaced by 0.01,
+    starts inside it, and the refusal says so and how to ramp it (a user
+    trial's message named neither)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+    with pytest.raises(InvalidInputError, match=r"holds material at the "
+                       r"start.*starts displaced by \[0.0, -0.01\].*"
+                       "load_ramp"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0),
+                 dynamics=Dynamics(.01, .02, 1e3),
+                 obstacles=[Obstacle(box=[[0, 1], [.5, 2]],
+                                     displacement=[0., -.01])])
+
+
 def test_generalised_alpha_weighing_forces_is_refused_with_contact():
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
     pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)

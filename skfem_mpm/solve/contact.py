@@ -528,12 +528,22 @@ class ObstacleContact(GridTerm):
                 self.anchor.append(None)
                 if (phi < -self.tol[i]).any():
                     c, p = np.unravel_index(np.argmin(phi), phi.shape)
+                    # in dynamics without a load ramp the displacement
+                    # applies from t = 0: the box as written did not
+                    # overlap, and the message said neither (a user trial)
+                    moved = "" if not self.start[i].any() else (
+                        " (it starts displaced by {}: in dynamics the "
+                        "loads' scale at t = 0 moves it; a Dynamics(load="
+                        "...) from 0 at t = 0, or the scene key [dynamics] "
+                        "load_ramp, starts it where it is written)"
+                        .format(self.start[i].tolist()))
                     raise InvalidInputError(
                         "obstacle {!r} holds material at the start: the "
                         "domain corner of point {} at {} is {:.3g} inside "
-                        "(tolerance {:.3g}); move the obstacle or the "
+                        "(tolerance {:.3g}){}; move the obstacle or the "
                         "points".format(ob.name, p, X0[:, c, p].tolist(),
-                                        float(-phi[c, p]), self.tol[i]))
+                                        float(-phi[c, p]), self.tol[i],
+                                        moved))
         self.warn_edges_inside_cells(X0)
         self.tilts = self.tilts_met(X0)
         # (squeeze_hint) the material's extent along each obstacle's motion
