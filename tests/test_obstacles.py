@@ -318,6 +318,35 @@ def test_cohesionless_soil_stands_beside_a_coulomb_wall_in_3d():
     assert 0. < -shear <= mu * -normal * (1 + 1e-9)
 
 
+@pytest.mark.slow
+def test_a_failed_run_names_a_gap_to_a_stationary_obstacle():
+    """Cohesionless soil seeded beside a wall whose face lies 0.4 into a
+    cell: the points kept whole leave a gap of 0.025 (a tenth of a cell),
+    the soil's free face has no equilibrium, and the error now names the
+    gap and the wall (a trial of ours; before, it said nothing of it)."""
+    from skfem_mpm import ConvergenceError
+    h, wall = .25, .6
+    mesh = MeshQuad.init_tensor(np.arange(0., 3. + 1e-9, h),
+                                np.arange(0., 1.5 + 1e-9, h))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > wall) & (x[1] < 1.))
+    gap = (pts.x[0] - pts.domain[0]).min() - wall
+
+    def supports(basis):
+        return np.concatenate([
+            basis.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+            basis.get_dofs(lambda x: np.isclose(x[0], 3.)).all("u^1")])
+
+    with pytest.raises(ConvergenceError) as failed:
+        simulate(mesh, ElementQuad1(), pts,
+                 MohrCoulomb(5e7, .3, cohesion=0., friction_angle=35.),
+                 supports, body_force=[0., -1.8e4], nsteps=1,
+                 obstacles=[Obstacle(box=[[-1., wall], [-1., 2.]],
+                                     friction=.45, name="wall")],
+                 options=Options(newton=NewtonOptions(max_cutbacks=0)))
+    assert "the material starts {:.3g} ({:.2g} cells) short of obstacle " \
+        "'wall'".format(gap, gap / h) in str(failed.value)
+
+
 def test_a_load_past_coulomb_s_from_the_start_names_friction():
     """A block on a floor between grid lines (mu = 0.3) under gravity
     tilted by tan = 0.45 from the first step: no quasi-static

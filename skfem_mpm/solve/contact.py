@@ -382,6 +382,7 @@ class ObstacleContact(GridTerm):
         self.ties_slivers = False   # (begin_step)
         self.scale = 0.             # (begin_step) the loads' last scale
         self.extents = []           # (begin_run)
+        self.start_gaps = []        # (begin_run)
         #: the resultant of the last step's load where Coulomb faces alone
         #: may hold the material (:meth:`sliding_load_hint`), else None
         self.load = None
@@ -502,6 +503,8 @@ class ObstacleContact(GridTerm):
             for name in row:
                 points.state.setdefault(name, np.zeros(n))
         self.anchor, self.near, self.closed = [], [], []
+        #: per obstacle, the material's least distance from it at the start
+        self.start_gaps = []
         for i, ob in enumerate(self.obstacles):
             for names in pressure_names(i, dim):
                 for name in names:
@@ -512,6 +515,7 @@ class ObstacleContact(GridTerm):
                 0].reshape(-1, n)
             near = phi <= self.tol[i]
             self.near.append(near)
+            self.start_gaps.append(float(phi.min()))
             # a corner within the tolerance of the obstacle at the start is
             # in contact: its gap there (a floor placed with round-off, or
             # a tolerance's width below the body) is closed for the run
@@ -745,7 +749,7 @@ class ObstacleContact(GridTerm):
         (:meth:`squeeze_hint`)."""
         if not quasi_static:
             return self.squeeze_hint()
-        hint = self.squeeze_hint() + "".join(
+        hint = self.squeeze_hint() + self.gap_hint() + "".join(
             "; obstacle {!r} is smooth and the material met its face "
             "inclined by {:.3g} degrees to the grid's axes: held along it "
             "by nothing else, a body on it has no quasi-static equilibrium "
@@ -759,6 +763,24 @@ class ObstacleContact(GridTerm):
         return hint + "".join(friction_hint("obstacle {!r}".format(ob.name),
                                             ob.friction, *part)
                               for ob, part in zip(self.obstacles, parts))
+
+    def gap_hint(self) -> str:
+        """Per stationary obstacle that the material starts short of by
+        more than its tolerance and less than a cell, a quasi-static
+        run's hint: nothing holds the material there until it moves so
+        far (cohesionless soil seeded beside a wall, the region's edge
+        inside a cell: the points kept whole left a gap of a tenth of a
+        cell, the soil's free face had no equilibrium, and the error said
+        nothing of the wall)."""
+        return "".join(
+            "; the material starts {:.3g} ({:.2g} cells) short of "
+            "obstacle {!r}: not touching it, held by nothing there until "
+            "it moves so far (seeded points are whole: a region's edge "
+            "inside a cell leaves a gap; move the obstacle's face to the "
+            "material's surface)".format(gap, gap / self.h, ob.name)
+            for ob, gap, tol in zip(self.obstacles, self.start_gaps,
+                                    self.tol)
+            if not ob.displacement.any() and tol < gap < self.h)
 
     def squeeze_hint(self) -> str:
         """Per obstacle moved at the last step tried (:attr:`scale` of its
