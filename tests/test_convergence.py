@@ -146,3 +146,64 @@ def test_one_case_has_no_uncertainty_rather_than_zero(tmp_path):
     _write(tmp_path, rows, 1, measured)
     written = (tmp_path / "study.json").read_text()
     assert "NaN" not in written and '"uncertainty": null' in written
+
+
+FOOTING = """
+name = "footing"
+[grid]
+x = [0.0, 3.0, 30]
+y = [0.0, 2.5, 25]
+[[bodies]]
+name = "clay"
+region = { x = [0.0, 3.0], y = [0.0, 2.0] }
+material = { model = "von_mises", E = 1e7, nu = 0.3, yield_stress = 34641.0 }
+[[supports]]
+name = "base"
+boundary = "bottom"
+[[obstacles]]
+name = "footing"
+box = { x = [-0.5, 0.5], y = [2.0, 2.6] }
+displacement = [0.0, -0.05]
+friction = "rough"
+"""
+
+
+def test_grids_that_change_the_geometry_are_left_out_of_the_fit():
+    """A user trial's footing force at 15, 30 and 60 elements: at 15 the
+    grid, its y axis rounded to 12 cells, puts the soil's surface and the
+    footing's edge inside cells, and the fit over the three took that
+    other geometry for convergence (order 3.53, 55170 +- 94 N/m, where 90
+    elements gave 52731).  Now fewer than three grids share the finest
+    one's geometry: no order, no extrapolation, the data range of all;
+    with 90 elements too the three that share it are fitted and the 15
+    measured against their reference."""
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    scene = parse_scene(tomllib.loads(FOOTING))
+    force = Quantity("obstacle_force", "y", obstacle="footing",
+                     name="footing force")
+    values = {15: 65954.55271775716, 30: 56038.97848116593,
+              60: 55245.02209539046}
+    rows = [dict(elements=e, failure="", points=2 * e * e,
+                 values={"footing force": v}) for e, v in values.items()]
+    c = analyse(scene, rows, [force])["convergence"][0]
+    assert c["order"] is None and c["reference"] == values[60]
+    assert c["why"].startswith(
+        "fewer than three grids share the finest grid's geometry (other: "
+        "15 elements (body 'clay' y = 2 inside a cell, and 1 more)")
+    spread = values[15] - values[60]
+    for r in rows:                      # the data range of all three
+        assert r["errors"]["footing force"] == pytest.approx(
+            spread / values[60], rel=1e-12)
+    # with a fourth grid the three that share the geometry are fitted, and
+    # the coarse one is measured against their extrapolation
+    values[90] = 52731.29660956514
+    rows.append(dict(elements=90, failure="", points=2 * 90 * 90,
+                     values={"footing force": values[90]}))
+    c = analyse(scene, rows, [force])["convergence"][0]
+    assert c["values"] == [values[30], values[60], values[90]]
+    assert "left out of the fit, a geometry other than the finest " \
+        "grid's: 15 elements (" in c["why"]
+    error = abs(values[15] - c["reference"]) / abs(c["reference"])
+    assert rows[0]["errors"]["footing force"] == pytest.approx(error)
+    assert rows[0]["uncertainties"]["footing force"] == pytest.approx(
+        3 * error)
