@@ -445,3 +445,43 @@ def test_inverse_and_det_in_3d_as_accurate_as_lapack():
     singular = np.ones((3, 3, 1))
     inv, det = inverse_and_det(singular, 3)
     assert det[0] == 0. and not np.isfinite(inv).all()
+
+
+@pytest.mark.slow
+def test_a_collapse_past_the_limit_load_leaves_the_ghost_off(caplog):
+    """Weightless von Mises soil under a strip traction of 1.2 times
+    Prandtl's (2 + pi) c, small strain, no obstacle: past collapse the run
+    fails, its plastic flow meeting zero-energy modes on the way, and the
+    reserve ghost penalty stays off (a rung that fired on any failure of
+    the stabilised retry switched it on at step 9, with a warning that
+    limit loads rise by 8-13%; a reviewer's set-up).  The run stops where
+    it stopped before, at a load factor of 0.84 (1.01 of Prandtl's)."""
+    from skfem_mpm import (NewtonDivergenceError, NewtonOptions, Options,
+                           Traction, simulate)
+    from skfem_mpm.solve.loads import side_points
+    h, B, width, depth = .125, 1., 2.5, 1.5
+    grid = MeshQuad.init_tensor(np.arange(0., width + 1e-9, h),
+                                np.arange(0., depth + 2 * h + 1e-9, h))
+    pts = seed_points(grid, 2, region=lambda x: x[1] < depth)
+    top = side_points(pts, "top")
+    top = top[pts.x[0, top] < B / 2]
+    cu = 100. / np.sqrt(3.)
+
+    def supports(b):
+        return np.concatenate([
+            b.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+            b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                       | np.isclose(x[0], width)).all("u^1")])
+
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"), \
+            pytest.raises(NewtonDivergenceError) as failed:
+        simulate(grid, ElementQuad1(), pts,
+                 VonMises(E=1e5, nu=.3, yield_stress=100.), supports,
+                 nsteps=10, loads=[Traction(top, "top", [
+                     0., -1.2 * (2 + np.pi) * cu])],
+                 options=Options(stabilisation=Stabilisation(
+                     antilocking=True), newton=NewtonOptions(max_cutbacks=4)))
+    assert not any("switching the ghost" in r.getMessage()
+                   for r in caplog.records)
+    assert 1.2 * failed.value.load_factor == pytest.approx(1.0125,
+                                                           abs=1e-3)

@@ -331,15 +331,51 @@ class BodyContact(GridTerm):
         counters.setdefault("contact_updates", 0)
         if weights is not None:
             counters.setdefault("contact_corners_reset", 0)
-        logger.warning(
-            "contact between bodies: a body whose sides meet the other "
-            "inside grid cells may lean and settle by the grid (a pile "
-            "with one side on a grid line and the other inside a cell, "
-            "any method: sideways by up to 73% of its settlement; GIMP "
-            "piles half a cell off grid lines: up to 7%), and landings on "
-            "surfaces seeded in polygons are not yet reliable; see "
-            "docs/contact.md (Contact between bodies, not yet good "
-            "enough) for these and the cases refused")
+        #: the grid's lines per axis (:meth:`warn_sides_inside_cells`)
+        self.lines = [np.unique(mesh.p[d]) for d in range(self.dim)]
+
+    def warn_sides_inside_cells(self, points, half: ndarray) -> None:
+        """A warning where a side of a body in contact (a face of a
+        point's domain, ``half`` its half-widths, with no domain of the
+        body beside it) lies inside a grid cell: such bodies may lean and
+        settle by the grid.  Given on every contact run, it told a user
+        whose bodies' sides all lay on grid lines the same (a user
+        trial)."""
+        dim, inside = self.dim, 0
+        for k in {k for a, b, _ in self.contacts for k in (a, b)}:
+            sel = np.flatnonzero(points.body == k)
+            x, w = points.x[:, sel], half[:, sel]
+            if not np.allclose(w, w[:, :1]):    # not one lattice: say so
+                inside = 1
+                break
+            step = 2 * w[:, :1]
+            q = np.rint((x - x.min(axis=1, keepdims=True)) / step).astype(
+                np.int64) + 1
+            shape = tuple(q.max(axis=1) + 2)
+            keys = np.ravel_multi_index(tuple(q), shape)
+            for d in range(dim):
+                for sign in (-1, 1):
+                    moved = q.copy()
+                    moved[d] += sign
+                    side = ~np.isin(np.ravel_multi_index(tuple(moved),
+                                                         shape), keys)
+                    face = x[d, side] + sign * w[d, side]
+                    lines = self.lines[d]
+                    at = np.clip(np.searchsorted(lines, face), 1,
+                                 lines.size - 1)
+                    off = np.minimum(np.abs(face - lines[at - 1]),
+                                     np.abs(face - lines[at]))
+                    inside += int(np.count_nonzero(off > 1e-9 * self.h))
+        if inside:
+            logger.warning(
+                "contact between bodies: a body whose sides meet the other "
+                "inside grid cells may lean and settle by the grid (a pile "
+                "with one side on a grid line and the other inside a cell, "
+                "any method: sideways by up to 73% of its settlement; GIMP "
+                "piles half a cell off grid lines: up to 7%), and landings "
+                "on surfaces seeded in polygons are not yet reliable; see "
+                "docs/contact.md (Contact between bodies, not yet good "
+                "enough) for these and the cases refused")
 
     def begin_run(self, points) -> None:
         dim = self.dim
@@ -353,6 +389,7 @@ class BodyContact(GridTerm):
         half = self.domain0 if self.domain0 is not None else np.repeat(
             (points.volume0 ** (1. / dim) / 2)[None], dim, axis=0)
         self.half = half
+        self.warn_sides_inside_cells(points, half)
         self.R = corner_signs(dim)[:, :, None] * half[:, None, :]
         self.point_field = self.field[points.body]
         names = [name for k in range(len(self.contacts))

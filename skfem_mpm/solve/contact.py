@@ -108,6 +108,7 @@ from ..quadrature.locate import (cell_coordinates, point_locator,
                                  using_kernels)
 from ..protocols import GridTerm
 from .loads import supported_share
+from .motion import unheld_rigid_modes
 from .obstacles import Obstacle
 from .problem import safe_norm
 
@@ -378,10 +379,12 @@ class ObstacleContact(GridTerm):
         #: value and gradient (:meth:`field_rows`)
         self.reads_field = None
         self.unheld = False         # (begin_step) for failure_hint
-        self.supported = False      # (begin_step)
+        #: (begin_step) the material is held without Coulomb's tangential
+        #: hold at the first step's start (:meth:`held_without_coulomb`)
+        self.supported = False
         self.ties_slivers = False   # (begin_step)
         self.scale = 0.             # (begin_step) the loads' last scale
-        self.extents = []           # (begin_run)
+        self.ahead = []             # (begin_run) for squeeze_hint
         self.start_gaps = []        # (begin_run)
         #: the resultant of the last step's load where Coulomb faces alone
         #: may hold the material (:meth:`sliding_load_hint`), else None
@@ -462,12 +465,15 @@ class ObstacleContact(GridTerm):
             X[:, :, check].reshape(dim, -1), shift)[0].reshape(nc, -1)
         return phi
 
-    def held_dofs(self, op, points, scale: float):
+    def held_dofs(self, op, points, scale: float,
+                  coulomb_holds: bool = True):
         """The grid DOFs the obstacles hold at a step's start, for the
         check of missing supports: those of the points with a corner
         pressed on an obstacle (or within its tolerance at the run's
         start), along the face's axis where the face is axis-aligned and
-        smooth, in every component with friction or an oblique face."""
+        smooth (or has Coulomb friction and not ``coulomb_holds``), in
+        every component where it is rough or tied, has friction or is
+        oblique."""
         dim, n = points.x.shape
         X = self.corners(points)
         held = np.zeros((dim, n), dtype=bool)
@@ -479,7 +485,8 @@ class ObstacleContact(GridTerm):
                 [points.state[name] > 0 for name in pressure_names(i, dim)[0]]
             ) | (self.corner_distance(ob, X, x, shift, 0.) < 0)
             c, p = np.nonzero(pressed)
-            if ob.friction != 0.:
+            if isinstance(ob.friction, str) or (
+                    ob.friction != 0. and coulomb_holds):
                 held[:, p] = True
                 continue
             Xc = X[:, c, p]
@@ -550,12 +557,8 @@ class ObstacleContact(GridTerm):
                                         moved))
         self.warn_edges_inside_cells(X0)
         self.tilts = self.tilts_met(X0)
-        # (squeeze_hint) the material's extent along each obstacle's motion
-        corners = X0.reshape(dim, -1)
-        self.extents = [float(np.ptp(ob.displacement @ corners)) / norm
-                        if norm > 0 else 0. for ob, norm in zip(
-                            self.obstacles, (float(np.linalg.norm(
-                                ob.displacement)) for ob in self.obstacles))]
+        self.ahead = [self.material_ahead(ob, X0.reshape(dim, -1), start)
+                      for ob, start in zip(self.obstacles, self.start)]
         self.warn_inclined_faces()
 
     def tilts_met(self, X0: ndarray) -> list:
@@ -782,25 +785,48 @@ class ObstacleContact(GridTerm):
                                     self.tol)
             if not ob.displacement.any() and tol < gap < self.h)
 
+    @staticmethod
+    def material_ahead(ob: Obstacle, corners: ndarray, start: ndarray):
+        """Along the obstacle's motion, where its front is and where the
+        material's corners (dim, m) begin and end, at the run's start:
+        ``(front, near, far)``, or ``None`` where it does not move or the
+        material does not lie wholly ahead of its front (an obstacle
+        moving along its face or away from the material squeezes
+        nothing)."""
+        norm = float(np.linalg.norm(ob.displacement))
+        if norm == 0.:
+            return None
+        d = ob.displacement / norm
+        front = float((d @ ob.corners(start)).max())
+        along = d @ corners
+        if along.min() < front - 1e-9 * max(1., abs(front)):
+            return None
+        return front, float(along.min()), float(along.max())
+
     def squeeze_hint(self) -> str:
-        """Per obstacle moved at the last step tried (:attr:`scale` of its
-        displacement) past :data:`SQUEEZED` of the material's extent along
-        its motion at the run's start, a hint: held behind, the material
-        is squeezed thin, stiffer than the penalty, and contact cannot
-        settle (a press displaced 40 where the block is 0.5 tall, a typo,
-        failed with "raise the penalty" after the press had moved 0.43; a
-        user trial)."""
+        """Per obstacle whose front had moved at the last step tried
+        (:attr:`scale` of its displacement) past :data:`SQUEEZED` of the
+        material ahead of it along its motion at the run's start, a hint:
+        held behind, the material is squeezed thin, stiffer than the
+        penalty, and contact cannot settle (a press displaced 40 where the
+        block is 0.5 tall, a typo, failed with "raise the penalty" after
+        the press had moved 0.43; a user trial)."""
         hint = ""
-        for ob, extent in zip(self.obstacles, self.extents):
+        for ob, ahead in zip(self.obstacles, self.ahead):
+            if ahead is None:
+                continue
+            front, near, far = ahead
             moved = self.scale * float(np.linalg.norm(ob.displacement))
-            if extent > 0 and moved > SQUEEZED * extent:
+            depth = front + moved - near
+            if far > near and depth > SQUEEZED * (far - near):
                 hint += (
                     "; obstacle {!r} had moved {:.3g} at the failed step, "
-                    "{:.0%} of the material's extent along its motion "
-                    "({:.3g}; at full load {:.3g}): material held behind "
-                    "it is squeezed thin, stiffer than the contact's "
-                    "penalty (check its displacement, or load(t))".format(
-                        ob.name, moved, moved / extent, extent,
+                    "{:.0%} of the material's extent ahead of it along its "
+                    "motion ({:.3g}) past its near side (its full "
+                    "displacement {:.3g}): material held behind it is "
+                    "squeezed thin, stiffer than the contact's penalty "
+                    "(check its displacement, or load(t))".format(
+                        ob.name, moved, depth / (far - near), far - near,
                         float(np.linalg.norm(ob.displacement))))
         return hint
 
@@ -828,6 +854,8 @@ class ObstacleContact(GridTerm):
         if len(touched) != 1 or np.ptp(normals[0], axis=1).max() > 1e-9:
             return ""
         ob, n = self.obstacles[touched[0]], normals[0][:, 0]
+        if not ob.friction > 0.:        # a smooth face: no friction to name
+            return ""
         pressing = -float(self.load @ n)
         along = float(np.linalg.norm(self.load + pressing * n))
         if not pressing > 0 or along <= ob.friction * pressing * (1 + 1e-9):
@@ -850,12 +878,11 @@ class ObstacleContact(GridTerm):
             self.ties_slivers = any(self.reads_field) and hasattr(
                 problem.method_op, "S")
             self.warn_splines(run)
-            #: supports or prescribed motion hold the material
-            self.supported = bool(np.size(run.D)) \
-                or run.prescribed is not None
+            self.supported = self.held_without_coulomb(problem)
             # nothing but smooth obstacles holds the material
-            self.unheld = not (self.supported or any(
-                ob.friction != 0. for ob in self.obstacles))
+            self.unheld = not (np.size(run.D) or run.prescribed is not None
+                               or any(ob.friction != 0.
+                                      for ob in self.obstacles))
         if not self.supported and all(
                 not isinstance(ob.friction, str) for ob in self.obstacles) \
                 and any(ob.friction > 0. for ob in self.obstacles):
@@ -864,6 +891,27 @@ class ObstacleContact(GridTerm):
             if dofs.size == problem.f_dead.size:
                 self.load = problem.f_dead[dofs].sum(axis=1)
         return StepContact(self, problem)
+
+    def held_without_coulomb(self, problem) -> bool:
+        """Whether the material is held, every rigid-body mode of every
+        piece of it, without the tangential hold of Coulomb faces at the
+        first step's start: by supports, prescribed motion, rigid bodies,
+        the other terms, the obstacles' normals and rough and tied faces
+        (:func:`~skfem_mpm.solve.motion.unheld_rigid_modes`; a term's
+        inertia holds it in dynamics).  A block on a Coulomb floor with
+        supports elsewhere was held only along the floor's normal in the
+        first solve, which was then singular (a reviewer's set-up)."""
+        run, points, op = problem.run, problem.points, problem.method_op
+        if any(term.holds_free_body for term in run.terms):
+            return True
+        held = [problem.fixed] + [h for h in (
+            term.held_dofs(op, points, problem.s_old) for term in run.terms
+            if term is not self) if h is not None]
+        held.append(self.held_dofs(op, points, problem.s_old,
+                                   coulomb_holds=False))
+        fixed = np.unique(np.concatenate(held)).astype(problem.fixed.dtype)
+        return unheld_rigid_modes(run, problem.op, fixed,
+                                  problem.step) is None
 
     def field_rows(self, run) -> list:
         """Per obstacle, whether its corners read the grid's field where
@@ -1151,11 +1199,15 @@ class StepContact(GridTerm):
             # at a residual of 5e-7, at 5.5e6 of 1e-4)
             gap, n, _ = ob.face_gap(self.Xs, face, self.shift[i])
             gap = gap + (n * u).sum(axis=0) - self.closed[i]
-            # a gap within the coordinates' round-off touches: it presses
-            # by nothing (a 3D soil touching a Coulomb wall pressed it by
-            # 1e-7 Pa of round-off, stuck to it in the first solve, and
-            # hung on it in tension)
-            gap[np.abs(gap) <= self.roundoff] = 0.
+            if start:
+                # at the step's start a gap within the coordinates'
+                # round-off touches: it presses by nothing (a 3D soil
+                # touching a Coulomb wall pressed it by 1e-7 Pa of
+                # round-off, stuck to it in the first solve, and hung on
+                # it in tension); not later: a stiff block's penetration
+                # is below that round-off far from the origin (at 5e5,
+                # 5.5e6 m Newton cycled with its contact force dropped)
+                gap[np.abs(gap) <= self.roundoff] = 0.
             C = np.zeros((dim, dim, u.shape[1]))
             if self.anchor[i] is not None:
                 tied, X0 = self.anchor[i]

@@ -365,7 +365,8 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 "tolerance".format(step, SETTLE_ROUNDS))
     except STEP_FAILURES:
         if report is not None:      # for the retry ladder
-            report["stabilised"] = problem.stabilised
+            # the exact tangent refused as singular (not asked for)
+            report["stabilised"] = problem.stabilised and not how.stabilise
         raise
     # memory: no factorisation alive in the commit
     seed, found = None, found._replace(factorised=None)
@@ -440,35 +441,45 @@ def ghost_for_slivers(run: Run, failure, report: dict) -> bool:
 
 
 def ghost_in_reserve(run: Run, failure, report: dict) -> bool:
-    """The reserve ghost penalty for any failed step in finite deformation,
-    with contacts between bodies on B-splines or with a term that ties
-    slivers (:attr:`~skfem_mpm.protocols.GridTerm.ties_slivers`), once
-    the line search (which keeps the step's equations) has failed too.
-    The splines reach a row of nodes beyond a body's surface that its
-    material barely holds: a user trial's pile with friction 0.3 (3 x 3
-    points per cell, small strain) failed at every cut-back of its second
-    step, and runs with the small-strain penalty
-    (:data:`SMALL_STRAIN_GHOST`); a 3D cpGIMP block on a Coulomb floor
-    mid-cell, slipping at its edges, failed so at its second step
-    (another), and takes 6 iterations with it."""
+    """The reserve ghost penalty for any failed step in finite deformation
+    or with contacts between bodies on B-splines, once the line search
+    (which keeps the step's equations) has failed too.  The splines reach
+    a row of nodes beyond a body's surface that its material barely
+    holds: a user trial's pile with friction 0.3 (3 x 3 points per cell,
+    small strain) failed at every cut-back of its second step, and runs
+    with the small-strain penalty (:data:`SMALL_STRAIN_GHOST`)."""
     return (run.finite or bool(run.contacts)
-            and run.method.name.startswith("bspline")
-            or any(term.ties_slivers for term in run.terms)) \
+            and run.method.name.startswith("bspline")) \
         and ghost_reserve_held(run)
 
 
-def ghost_for_zero_energy(run: Run, failure, report: dict) -> bool:
-    """The reserve ghost penalty where the stabilised tangent, too, was
-    refused as singular, or where the failed attempt's solves needed it
-    (``report["stabilised"]``): zero-energy modes of nodes a few points
-    barely support, which the stabilisation does not lift, or lifts at
-    the price of a linear rate that stalls above the tolerance.  A 3D
-    cpGIMP cantilever clamped by a tied obstacle mid-cell failed at every
-    cut-back of its second step so, and ran with ``ghost=0.1``; a
-    bspline-gimp one (2 x 2 points per cell) stalled at 1.1e-8 there
-    (user trial 52)."""
-    return (isinstance(failure, SingularTangentError)
-            or report.get("stabilised", False)) and ghost_reserve_held(run)
+#: a Newton iteration that came within this many tolerances of
+#: equilibrium and failed has stalled (:func:`ghost_for_slivers_held`)
+STALLED = 1e3
+
+
+def ghost_for_slivers_held(run: Run, failure, report: dict) -> bool:
+    """The reserve ghost penalty, once the stabilised tangent has failed
+    too, where the step met zero-energy modes (its tangent refused as
+    singular, also stabilised; or the exact one refused in an attempt
+    that did not ask for the stabilisation, ``report["zero_energy"]``,
+    and Newton stalled within :data:`STALLED` tolerances of equilibrium
+    on the stabilisation's linear rate, ``report["smallest"]``: a
+    footing's plastic flow meets such modes too, and its cut-backs carry
+    it, 9.8% closer to Prandtl's than with the penalty) or where a term
+    ties slivers to a stiff constraint
+    (:attr:`~skfem_mpm.protocols.GridTerm.ties_slivers`).  A 3D cpGIMP
+    cantilever clamped by a tied obstacle mid-cell failed at every
+    cut-back of its second step, and ran with ``ghost=0.1``; a
+    bspline-gimp one (2 x 2 points per cell) stalled at 1.1e-8 there on
+    the stabilised tangent's linear rate; a 3D cpGIMP block on a Coulomb
+    floor mid-cell, slipping at its edges, failed at every cut-back of its
+    second step and takes 6 iterations with it (user trial 52)."""
+    stalled = report.get("zero_energy", False) and report.get(
+        "smallest", np.inf) <= STALLED * run.tol
+    return (isinstance(failure, SingularTangentError) or stalled
+            or any(term.ties_slivers for term in run.terms)) \
+        and ghost_reserve_held(run)
 
 
 #: what a failed nonlinear step tries next at the same load increment, in
@@ -481,13 +492,14 @@ def ghost_for_zero_energy(run: Run, failure, report: dict) -> bool:
 #: penalty for the rest of the run (points giving nodes a sliver of support
 #: make Newton cycle: a bending beam's commonest failure); the tangent
 #: stabilised (zero-energy modes not refused as singular), with the line
-#: search; the ghost penalty for the rest of the run where that tangent, too,
-#: was singular.  After the last, the load increment is cut back.  The rungs
-#: that keep the step's equations come before the one that changes them: with
-#: the ghost penalty before the line search, a perfectly plastic footing pushed
-#: in finite deformation (B = 16 h) had the penalty on from its first step,
-#: where the line search alone carries it, and its pressure rose to 17% above
-#: Prandtl's where it stays within 9% (``docs/robustness.md``).
+#: search; the ghost penalty for the rest of the run where the step met
+#: zero-energy modes or a term ties slivers (:func:`ghost_for_slivers_held`).
+#: After the last, the load increment is cut back.  The rungs that keep the
+#: step's equations come before the one that changes them: with the ghost
+#: penalty before the line search, a perfectly plastic footing pushed in finite
+#: deformation (B = 16 h) had the penalty on from its first step, where the
+#: line search alone carries it, and its pressure rose to 17% above Prandtl's
+#: where it stays within 9% (``docs/robustness.md``).
 RETRY_LADDER = (
     Rung("full Newton", lambda run, failure, report:
          report.get("reused", False),
@@ -501,7 +513,8 @@ RETRY_LADDER = (
     Rung("the tangent stabilised by {:.0e} of its diagonal".format(
         STABILISATION), lambda run, failure, report: True,
         Attempt("retry", False, True)),
-    Rung("the ghost penalty", ghost_for_zero_energy, None, switch_ghost_on),
+    Rung("the ghost penalty", ghost_for_slivers_held, None,
+         switch_ghost_on),
 )
 
 
@@ -510,6 +523,7 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     """A load step, retried along :data:`RETRY_LADDER` when Newton fails
     in a nonlinear step; the last rung's failure is raised."""
     how, rungs = FIRST, iter(RETRY_LADDER)
+    zero_energy = False         # an attempt met zero-energy modes
     while True:
         report = {}
         try:
@@ -523,6 +537,8 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         except STEP_FAILURES as failure:
             if isinstance(failure, StepTooLongError):
                 raise                       # only a shorter step helps
+            zero_energy |= report.get("stabilised", False)
+            report["zero_energy"] = zero_energy
             for rung in rungs:
                 if (rung.linear or not run.linear) and rung.applies(
                         run, failure, report):

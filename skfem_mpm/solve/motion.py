@@ -120,6 +120,27 @@ def held_motion(run, op, points, s_old: float, s_new: float,
     return HeldMotion(fixed, du, driven, rigid_dofs)
 
 
+def unheld_rigid_modes(run, op, fixed: ndarray, step: int):
+    """The :class:`~skfem_mpm.errors.SingularSystemError` naming a
+    rigid-body mode of a connected piece of the active grid that the
+    ``fixed`` DOFs leave free, or ``None``."""
+    kernels = getattr(run.method, "kernels", "auto")
+    # standard MPM's graph, the chains of the active elements' nodes: its
+    # components without the graph where the compiled passes serve
+    element_dofs = getattr(op, "element_dofs", None) \
+        if op.connectivity_from_elements else None
+    labels = None if element_dofs is None else element_labels(
+        element_dofs, run.dim, op.N // run.dim, kernels)
+    if labels is None:
+        labels = component_labels(op.adjacency(), kernels)
+    try:
+        check_rigid_body_modes(labels, run.grid.doflocs[:, ::run.dim],
+                               op.active_dofs, fixed, run.dim, kernels, step)
+    except SingularSystemError as err:
+        return err
+    return None
+
+
 def check_held(run, op, fixed: ndarray, step: int, by_terms: bool = False):
     """Missing supports (rigid-body modes of the active grid) refused,
     unless a term's inertia holds the free body; checked again only when
@@ -131,22 +152,10 @@ def check_held(run, op, fixed: ndarray, step: int, by_terms: bool = False):
     held = (op.elements.tobytes(), fixed.tobytes()) if \
         op.connectivity_from_elements else None
     if held is None or held != run.cache.held:
-        kernels = getattr(run.method, "kernels", "auto")
-        # standard MPM's graph, the chains of the active elements' nodes:
-        # its components without the graph where the compiled passes serve
-        element_dofs = getattr(op, "element_dofs", None) \
-            if op.connectivity_from_elements else None
-        labels = None if element_dofs is None else element_labels(
-            element_dofs, run.dim, op.N // run.dim, kernels)
-        if labels is None:
-            labels = component_labels(op.adjacency(), kernels)
-        try:
-            check_rigid_body_modes(labels, run.grid.doflocs[:, ::run.dim],
-                                   op.active_dofs, fixed, run.dim, kernels,
-                                   step)
-        except SingularSystemError as err:
+        err = unheld_rigid_modes(run, op, fixed, step)
+        if err is not None:
             if not by_terms:
-                raise
+                raise err
             raise SingularSystemError(
                 "{}; contact (with an obstacle or between bodies) holds a "
                 "body only where its pairs touch at the step's start, and a "

@@ -505,6 +505,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                 single_solve and it == 1):
             break
         if it == max_iter or not np.isfinite(residuals[-1]):
+            report["smallest"] = min(residuals)
             raise NewtonDivergenceError(
                 "step {}: {} did not converge in {} iterations (residual "
                 "{:.1e}, smallest {:.1e}, last {:.1e})".format(

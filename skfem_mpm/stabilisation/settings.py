@@ -20,10 +20,10 @@ class Stabilisation:
         (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none;
         ``"auto"`` (default): none, but where points move a load step
         that fails in finite deformation, with contacts between bodies
-        on B-splines or with GIMP's or B-splines' obstacle corners that
-        hold the material (friction, rough, tied), whose solves needed
-        the stabilised tangent or found it singular (zero-energy modes),
-        or that moves free grid nodes
+        on B-splines, or with GIMP's or B-splines' obstacle corners that
+        hold the material (friction, rough, tied), or on zero-energy modes
+        that leave the tangent singular or stall Newton (each once the
+        stabilised tangent has failed too), or that moves free grid nodes
         orders of magnitude more than any point in small strain (a node
         supported by a sliver of material,
         :class:`~skfem_mpm.errors.GridMotionError`), switches the default
