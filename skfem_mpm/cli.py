@@ -8,10 +8,13 @@ command line prints; the library only logs.
 
 """
 import argparse
+import errno
 import logging
+import os
 import shutil
 import signal
 import sys
+import tempfile
 import time
 from contextlib import nullcontext
 from dataclasses import replace
@@ -46,7 +49,7 @@ from .solve.body_contact import body_contact_state_names
 from .solve.contact import contact_state_names
 from .solve.core import grid_parts
 from .solve.options import Resume
-from .solve.results import PHASES
+from .solve.results import PHASES, Result
 from .studies.column import SOURCE as COLUMN_SOURCE
 from .studies.figures import plot_column_stress, plot_study
 from .studies.footing import (bearing_capacity_factor, footing_error,
@@ -94,14 +97,17 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", type=Path, default=Path("skfem-mpm-output"),
                      help="output folder (default ./skfem-mpm-output)")
     run.add_argument("--checkpoint-every", type=int, default=0, metavar="N",
-                     help="save the full state every N steps")
+                     help="save the full state every N steps (0, the "
+                     "default: never, but where a run stops early: "
+                     "--max-steps, Ctrl-C, a failed step)")
     run.add_argument("--resume", type=Path, metavar="DIR",
                      help="resume the run whose output folder is DIR")
-    run.add_argument("--max-steps", type=int, default=0, metavar="N",
-                     help="stop after N steps of this invocation (resume "
-                          "later with --resume)")
-    run.add_argument("--steps", type=int, default=0, metavar="N",
-                     help="override the scene's number of load steps")
+    run.add_argument("--max-steps", type=int, metavar="N",
+                     help="stop after N >= 1 steps of this invocation "
+                          "(resume later with --resume)")
+    run.add_argument("--steps", type=int, metavar="N",
+                     help="override the scene's number of load steps "
+                     "(N >= 1)")
     run.add_argument("--no-series", action="store_true",
                      help="write plots and summary only, no VTU series")
     compare = sub.add_parser("compare",
@@ -214,11 +220,16 @@ class StopRun(Exception):
     """Raised by the step callback to end a run early (``--max-steps``)."""
 
 
-def summarise(scene, result, seconds: float, earlier=None) -> dict:
+def summarise(scene, result, seconds: float, earlier=None,
+              complete: bool = True) -> dict:
     """The numbers of a run, for ``summary.json`` and the terminal; with
     ``earlier`` (the :class:`~skfem_mpm.scenes.checkpoint.Checkpoint` a
-    run resumed from), over the whole run: history rows, Newton iterations
-    and reactions of the steps before the resume included."""
+    run resumed from), over the whole run: history rows, Newton iterations,
+    reactions, wall seconds and seconds per phase of the invocations
+    before the resume included (``seconds``: this invocation's).  A run
+    not ``complete`` (failed, stopped, interrupted: ``result`` holds the
+    steps that converged) gets no ``error`` against the scene's closed
+    form, which is the full load's."""
     pts = result.points
     history = result.history
     names, resultant = reaction_resultants(scene)
@@ -237,7 +248,9 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
         "steps_run": len(rows), "points": int(pts.n),
         "load_factor": float(rows[-1, 1]) if len(rows) else 0.,
         "max_residual": float(rows[:, 2].max()) if len(rows) else 0.,
-        "wall_seconds": seconds, "timings": result.timings(),
+        "wall_seconds": seconds + (0. if earlier is None
+                                   else earlier.wall_seconds),
+        "timings": run_timings(result.history, earlier),
         "counters": result.counters,
         "max_displacement": float(np.abs(pts.displacement).max()),
         "reactions": {name: reactions[:, k].tolist()
@@ -249,7 +262,9 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
         summary["energies"] = energy_curves(rows)
     if len(rows) and (rows[:, 5] >= 0).any():
         summary["newton_iterations"] = [int(max(k, 0)) for k in rows[:, 5]]
-    if scene.reference == "bearing_capacity":
+    if not complete:
+        error = np.nan
+    elif scene.reference == "bearing_capacity":
         error = footing_error(scene, reactions[:, len(scene.supports)])
     else:
         error = case_error(scene, result)
@@ -260,6 +275,15 @@ def summarise(scene, result, seconds: float, earlier=None) -> dict:
             "value": q.measure(scene, result), "unit": q.unit(pts.dim)}
             for q in scene.outputs}
     return without_negative_zeros(summary)    # no "-0 N" printed
+
+
+def run_timings(records, earlier=None) -> dict:
+    """Seconds per phase (:data:`~skfem_mpm.solve.results.PHASES`) of the
+    step ``records``, with those of the invocations before the
+    checkpoint ``earlier`` a run resumed from."""
+    before = {} if earlier is None else earlier.timings
+    return {p: before.get(p, 0.) + sum(r.timings[p] for r in records)
+            for p in PHASES}
 
 
 def summary_units(dim: int, dynamics: bool = False) -> dict:
@@ -364,25 +388,31 @@ def motion_curves(items, factors, scale, forces, times=None) -> dict:
 
 
 def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
-                 initial=None):
+                 initial=None, when=None, load_factor=None):
     """The deformed shape with the supports and rigid bodies
-    (``initial``: the points as seeded, for the undeformed outline);
+    (``initial``: the points as seeded, for the undeformed outline;
+    ``when`` and ``load_factor``: the state the points are in, by default
+    the last step's);
     final configuration coloured by the vertical stress and (2D, 3D) by
     the von Mises stress; the plastic zone (equivalent plastic strain)
     where a body yielded; the column's
     stress profile; a load-displacement curve when there are point
     loads; the force-displacement curves of rigid bodies (over the whole
     run, from ``summary``), as footing pressure against settlement for a
-    bearing-capacity scene."""
+    bearing-capacity scene.  A run that did not complete (``summary``'s
+    ``status``) draws the same for the steps that converged, but for the
+    column's profile against the closed forms of the full load."""
     pts = result.points
     last = result.history[-1] if result.history else None
-    plot_deformed_shape(
-        scene, pts, "" if last is None else "at t = {:.4g} s".format(
-            last.time) if last.time is not None else
-        "at load factor {:.4g}".format(last.load_factor),
-        None if initial is None else initial.domain,
-        outdir / "deformed_shape.png", 0. if last is None else
-        last.load_factor)
+    if when is None:
+        when = "" if last is None else "at t = {:.4g} s".format(
+            last.time) if last.time is not None else \
+            "at load factor {:.4g}".format(last.load_factor)
+    if load_factor is None:
+        load_factor = 0. if last is None else last.load_factor
+    plot_deformed_shape(scene, pts, when,
+                        None if initial is None else initial.domain,
+                        outdir / "deformed_shape.png", load_factor)
     d = pts.dim - 1
     name = STRESS_NAMES[d, d]
     fig, ax = pyplot().subplots(figsize=(6, 4) if pts.dim == 1 else
@@ -406,12 +436,14 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
                     "final points (0: elastic)".format(scene.name))
         fig.tight_layout()
         plot.save_figure(fig, outdir / "plastic_zone.png")
-    if scene.reference == "column":
+    if scene.reference == "column" and summary.get("status") in (
+            None, "completed"):
         plot_column_stress([result], ["{}, {} steps".format(
             scene.method, scene.step_count)], outdir / "column_stress.png",
             title="{}: vertical stress against height,\nwith the closed "
             "forms of {}".format(scene.name, COLUMN_SOURCE))
-    if loaded.size and result.history[0].displacement is not None:
+    if loaded.size and result.history and \
+            result.history[0].displacement is not None:
         fig, ax = pyplot().subplots(figsize=(5, 4))
         factor = [0.] + [r.load_factor for r in result.history]
         for k in range(pts.dim):
@@ -425,6 +457,8 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
         ax.legend(title="component")
         fig.tight_layout()
         plot.save_figure(fig, outdir / "load_displacement.png")
+    if not summary.get("steps_run", 1):     # no curve to draw
+        return
     if "rigid_bodies" in summary:
         plot_rigid_bodies(scene, summary["rigid_bodies"],
                           outdir / "rigid_bodies.png")
@@ -589,6 +623,39 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
     plot.save_figure(fig, path)
 
 
+def check_folder(path: Path, option: str):
+    """Refuse, before any work, an output folder ``path`` (given as
+    ``option``) that cannot be made or written in: one that is a file, or
+    whose nearest existing folder refuses a new entry (a user trial's
+    ``--out /proc/nope`` ended the run in a raw FileNotFoundError).  Makes
+    and removes a folder there to know; leaves nothing.
+
+    >>> from pathlib import Path
+    >>> from skfem_mpm.cli import check_folder
+    >>> check_folder(Path("/proc/nope"), "--out")
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: --out /proc/nope: cannot make \
+or write the output folder: /proc refuses a new folder (No such file or \
+directory)
+    """
+    if path.exists() and not path.is_dir():
+        raise InvalidInputError("{} {}: exists and is not a folder".format(
+            option, path))
+    probe = path
+    while not probe.exists():        # the nearest folder that exists
+        probe = probe.parent
+    try:
+        if not probe.is_dir():
+            raise NotADirectoryError(errno.ENOTDIR, "not a folder")
+        os.rmdir(tempfile.mkdtemp(prefix=".skfem-mpm-probe.", dir=probe))
+    except OSError as err:
+        raise InvalidInputError(
+            "{} {}: cannot make or write the output folder: {} refuses a "
+            "new folder ({})".format(option, path, probe, err.strerror)) \
+            from None
+
+
 def load_run(args):
     """The scene of a run (``--resume``: the checkpoint's), its output
     folder, the checkpoint resumed from (or ``None``), the points to start
@@ -618,9 +685,7 @@ def load_run(args):
                 "instead".format(args.steps))
         if args.steps:
             scene.nsteps = args.steps
-        if outdir.exists() and not outdir.is_dir():
-            raise InvalidInputError("--out {} exists and is not a folder"
-                                    .format(outdir))
+    check_folder(outdir, "--out" if args.resume is None else "--resume")
     check_reference(scene)
     mesh, _ = scene.grid.build()
     initial = build_points(scene, mesh)
@@ -640,10 +705,12 @@ def load_run(args):
 
 
 def run(args) -> int:
-    for name in ("checkpoint_every", "max_steps", "steps"):
-        if getattr(args, name) < 0:
-            print("skfem-mpm: --{} must be >= 0, got {}".format(
-                name.replace("_", "-"), getattr(args, name)), file=sys.stderr)
+    for name, least in (("checkpoint_every", 0), ("max_steps", 1),
+                        ("steps", 1)):
+        if getattr(args, name) is not None and getattr(args, name) < least:
+            print("skfem-mpm: --{} must be >= {}, got {}".format(
+                name.replace("_", "-"), least, getattr(args, name)),
+                file=sys.stderr)
             return 2
     try:
         scene, source, outdir, earlier, points, resume, mesh, initial = \
@@ -719,8 +786,27 @@ def run(args) -> int:
                 step=len(rows), nsteps=scene.step_count, load_factor=factor,
                 increment=increment, points=state, counters=counters,
                 history=rows, reactions=reactions, scene_sha256=digest,
-                domain0=domain0))
+                domain0=domain0, wall_seconds=time.perf_counter() - tic + (
+                    0. if earlier is None else earlier.wall_seconds),
+                timings=run_timings(history, earlier)))
             kept[0] = len(rows)
+
+    def unfinished(status, state, **keys):
+        """The summary of a run that stopped short (``status``: failed,
+        stopped, interrupted) with the steps that converged, ``state``
+        the points of the last (``None``: as they started), and
+        ``keys`` saying where it stopped."""
+        last = history[-1] if history else None
+        partial = Result(
+            points=latest[0] if state is None and latest else
+            points if state is None else state, history=list(history),
+            counters=dict(last.counters if last else resume.counters
+                          or {}))
+        summary = summarise(scene, partial, time.perf_counter() - tic,
+                            earlier, complete=False)
+        summary.update(status=status, last_converged_step=last.step if last
+                       else resume.first_step - 1, **keys)
+        return partial, summary
 
     def callback(record, pts):
         prepare()
@@ -749,7 +835,12 @@ def run(args) -> int:
     tic = time.perf_counter()
     try:
         result = run_scene(scene, points, resume=resume, callback=callback)
-    except StopRun as stop:
+    except StopRun as stop:      # the checkpoint is written: a summary
+        partial, stopped = unfinished("stopped", None, checkpoint=True,
+                                      checkpoint_step=kept[0])
+        with interrupts_deferred():
+            write_summary(outdir / "summary.json", stopped)
+        plot_outputs(scene, partial, outdir, loaded, stopped, initial)
         print("stopped after step {}; continue with: skfem-mpm run "
               "--resume {}".format(stop.args[0], outdir))
         return 0
@@ -767,14 +858,9 @@ def run(args) -> int:
                     cut = " while saving the checkpoint of step {}".format(
                         last.step)
             if prepared:
-                rows, reactions = so_far()
-                interrupted = {
-                    "scene": scene.name, "status": "interrupted",
-                    "last_converged_step": last.step if last else
-                    resume.first_step - 1, "checkpoint": kept[0] is not None,
-                    "checkpoint_step": kept[0]}
-                interrupted.update(rigid_body_curves(scene, rows, reactions))
-                write_summary(outdir / "summary.json", interrupted)
+                write_summary(outdir / "summary.json", unfinished(
+                    "interrupted", None, checkpoint=kept[0] is not None,
+                    checkpoint_step=kept[0])[1])
         if kept[0] is None:
             print("skfem-mpm: interrupted{} before a step converged: nothing "
                   "to resume".format(cut), file=sys.stderr)
@@ -796,24 +882,16 @@ def run(args) -> int:
             checkpoint(state, err.load_factor, last.increment if last else
                        resume.increment or 1. / scene.step_count,
                        last.counters if last else resume.counters or {})
-        failed = {
-            "scene": scene.name, "status": "failed",
-            "error": "{}: {}".format(type(err).__name__, err),
-            "last_converged_step": last.step if last else
-            resume.first_step - 1,
-            "checkpoint": state is not None}
-        rows, reactions = so_far()        # the curve up to the failure
-        failed.update(rigid_body_curves(scene, rows, reactions))
+        # the summary and figures of a finished run, of the steps that
+        # converged (the curves up to the failure)
+        partial, failed = unfinished(
+            "failed", state, error="{}: {}".format(type(err).__name__, err),
+            checkpoint=state is not None)
         write_summary(outdir / "summary.json", failed)
-        if "rigid_bodies" in failed and len(rows):
-            plot_rigid_bodies(scene, failed["rigid_bodies"],
-                              outdir / "rigid_bodies.png")
-        if state is not None:         # the picture of what failed
-            plot_deformed_shape(
-                scene, state, "at load factor {:.4g},\nthe last converged "
-                "state (the next step failed)".format(err.load_factor),
-                initial.domain,
-                outdir / "deformed_shape.png", err.load_factor)
+        factor = getattr(err, "load_factor", failed["load_factor"])
+        plot_outputs(scene, partial, outdir, loaded, failed, initial,
+                     "at load factor {:.4g},\nthe last converged state "
+                     "(the next step failed)".format(factor), factor)
         raise
     except OSError as err:    # output failed (read-only or full disk, ...)
         try:                  # the last checkpoint stands (atomic writes)
@@ -877,7 +955,10 @@ def print_report(scene, summary: dict, seconds: float, outdir: Path,
     print("  max equilibrium residual  {:.1e}".format(
         summary["max_residual"]))
     total = sum(summary["timings"].values()) or 1.
-    print("  time {:.3f} s: ".format(seconds) + ", ".join(
+    print("  time {:.3f} s{}: ".format(summary["wall_seconds"], "" if
+                                       not resumed else " ({:.3f} s in "
+                                       "this invocation)".format(seconds))
+          + ", ".join(
         "{} {:.0%}".format(p, summary["timings"][p] / total) for p in PHASES))
     print("  output                    {}".format(outdir))
 
@@ -891,6 +972,14 @@ def compare(args) -> int:
 
     scene = load_scene(args.scene)
     check_reference(scene)
+    check_folder(args.out, "--out")
+    if scene.contacts:
+        raise InvalidInputError(
+            "compare runs FE beside the scene's method ({}) on the same "
+            "scene, and FE has no contacts between bodies (the scene has "
+            "{}: [[contacts]]); run the scene alone with skfem-mpm run"
+            .format(scene.method if scene.method != "fem" else "mpm",
+                    ", ".join(repr(c.name) for c in scene.contacts)))
     runs = {}
     for method in ("fem", scene.method if scene.method != "fem" else "mpm"):
         variant = replace(scene, method=method)
@@ -990,6 +1079,7 @@ def parse_measures(items, dim: int) -> list:
 
 def run_study(args) -> int:
     scene = load_scene(args.scene)
+    check_folder(args.out, "--out")
     vary = parse_vary(args.vary)
     check_vary(vary)
     check_reference(scene)

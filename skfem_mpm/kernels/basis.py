@@ -13,6 +13,11 @@ gradients ``invDF^T dphi`` summed over the reference axes in order (as
 ``_h1_fields``): equal to the bit (``tests/test_basis.py``).  A zero
 determinant returns 1 (the caller's numpy path raises scikit-fem's
 error).
+
+Beside them the basis's slot layout (:func:`point_slots`, the points
+ordered by element by counting, :func:`by_element`) and a nodal vector's
+values at the points (:func:`point_values`, what a standard MPM
+operator's ``values`` forms), equal to the numpy path's to the bit.
 """
 import numpy as np
 from numba import njit

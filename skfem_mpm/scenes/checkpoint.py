@@ -7,13 +7,16 @@ field and internal variable), the load factor reached and the next load
 increment (both differ from ``step / nsteps`` after a cut-back), the
 counters (a ghost penalty switched on stays on), the initial GIMP domains,
 one history row per converged step and the reaction resultants per support
-(so that ``summary.json`` covers the whole run across resumes), and the
-SHA-256 of the scene file it belongs to (a stale checkpoint is refused).
+(so that ``summary.json`` covers the whole run across resumes), the wall
+seconds and the seconds per phase spent on the steps it holds (so that a
+resumed run's ``wall_seconds`` and ``timings`` add its invocations up),
+and the SHA-256 of the scene file it belongs to (a stale checkpoint is
+refused).
 
 """
 import hashlib
 import zipfile
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Optional
 
@@ -38,6 +41,9 @@ POINT_FIELDS = ("x", "volume", "force", "x0", "stress", "strain",
                 "displacement", "volume0", "F", "be", "body", "domain",
                 "velocity", "acceleration")
 OPTIONAL_POINT_FIELDS = ("domain", "velocity", "acceleration")
+#: the times of the invocations so far (absent from a checkpoint written
+#: before they were kept)
+TIME_FIELDS = ("wall_seconds", "timing_names", "timing_values")
 
 
 #: what a refusal adds where a checkpoint lacks only the B-spline contact
@@ -79,6 +85,10 @@ class Checkpoint:
         Digest of the scene file the run belongs to.
     domain0
         Initial GIMP domains, or ``None``.
+    wall_seconds, timings
+        Wall seconds and seconds per phase (locate, assemble, ...) the
+        invocations spent up to this checkpoint (a checkpoint written
+        before they were kept: 0 and ``{}``).
 
     """
     step: int
@@ -91,6 +101,8 @@ class Checkpoint:
     reactions: ndarray
     scene_sha256: str
     domain0: Optional[ndarray] = None
+    wall_seconds: float = 0.
+    timings: dict = field(default_factory=dict)
 
 
 def scene_digest(path) -> str:
@@ -122,7 +134,11 @@ def save_checkpoint(outdir, checkpoint: Checkpoint):
               "scene_sha256": np.array(c.scene_sha256),
               "counter_names": np.array(sorted(c.counters), dtype=str),
               "counter_values": np.array([c.counters[k] for k in sorted(
-                  c.counters)], dtype=np.int64)}
+                  c.counters)], dtype=np.int64),
+              "wall_seconds": np.array(float(c.wall_seconds)),
+              "timing_names": np.array(sorted(c.timings), dtype=str),
+              "timing_values": np.array([c.timings[k] for k in sorted(
+                  c.timings)], dtype=np.float64)}
     for name in POINT_FIELDS:
         value = getattr(c.points, name)
         if value is not None:
@@ -154,7 +170,8 @@ def load_checkpoint(outdir, scene_sha256: Optional[str] = None) -> Checkpoint:
         with np.load(path, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
     except (OSError, ValueError, EOFError, zipfile.BadZipFile,
-            KeyError) as err:
+            KeyError, NotImplementedError) as err:   # the last: zipfile
+        # on a flipped flag bit ("compressed patched data")
         raise CheckpointError("{}: unreadable ({}: {})".format(
             path, type(err).__name__, err)) from None
     return _checked(path, arrays, scene_sha256)
@@ -202,6 +219,21 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
     values = get("counter_values", "i", 1)
     if names.shape != values.shape:
         raise bad("counter_values", "does not match counter_names")
+    wall, timings = 0., {}        # kept since 2026-11-27: all or none
+    kept = [k for k in TIME_FIELDS if k in a]
+    if kept and len(kept) < len(TIME_FIELDS):
+        raise bad(next(k for k in TIME_FIELDS if k not in a),
+                  "is missing (the run's times come together)")
+    if kept:
+        wall = float(get("wall_seconds", "f", 0))
+        phases = get("timing_names", "U", 1)
+        seconds = get("timing_values", "f", 1)
+        if phases.shape != seconds.shape:
+            raise bad("timing_values", "does not match timing_names")
+        if wall < 0 or (seconds < 0).any():
+            raise bad("wall_seconds" if wall < 0 else "timing_values",
+                      "must be >= 0")
+        timings = {str(k): float(v) for k, v in zip(phases, seconds)}
     history = get("history", "f", 2)
     if history.shape != (step, len(HISTORY_KEYS)):
         raise bad("history", "has shape {}, expected ({}, {})".format(
@@ -245,7 +277,8 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
                       counters={str(k): int(v) for k, v in zip(names,
                                                                values)},
                       history=history, reactions=reactions,
-                      scene_sha256=digest, domain0=domain0)
+                      scene_sha256=digest, domain0=domain0,
+                      wall_seconds=wall, timings=timings)
 
 
 

@@ -139,12 +139,15 @@ class SeriesWriter:
                 Path(tmp).write_text("\n".join(lines) + "\n")
 
     def restore(self, steps):
-        """Re-register the files of steps already written (resume), the
-        start (step 0) among them where it was written."""
-        if (self.outdir / "points_0000.vtu").exists():
-            steps = [(0, 0.)] + list(steps)
-        self.entries = [(t, ("points_{:04d}.vtu".format(s),
-                             "grid_{:04d}.vtu".format(s))) for s, t in steps]
+        """Re-register the files of the steps ``(step, time)`` already
+        written (resume), the start (step 0) among them: those whose two
+        files are there (an invocation with ``--no-series`` wrote none,
+        and the collections list no file that is missing)."""
+        entries = [(t, ("points_{:04d}.vtu".format(s),
+                        "grid_{:04d}.vtu".format(s)))
+                   for s, t in [(0, 0.)] + list(steps)]
+        self.entries = [(t, names) for t, names in entries if all(
+            (self.outdir / name).is_file() for name in names)]
 
 
 def without_negative_zeros(value):

@@ -19,7 +19,8 @@ __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "series_styles", "colour_scale", "body_figure_size",
            "figure_problems", "STRESS_NAMES", "mark_peak", "marker_size",
            "draw_deformed_shape", "SupportMarks", "outline",
-           "draw_supports", "side_colorbar", "view_limits"]
+           "draw_supports", "side_colorbar", "view_limits", "fit_title",
+           "significant"]
 
 #: the stress components' names for labels
 STRESS_NAMES = {(i, j): "sigma_" + "xyz"[i] + "xyz"[j]
@@ -152,10 +153,26 @@ def draw_points(fig, ax, points, values: np.ndarray, label: str, title: str,
     ax.set_xlabel("{} (m)".format("xyz"[a]))
     ax.set_ylabel("{} (m)".format("xyz"[b]))
     ax.locator_params(nbins=5)
-    ax.set_title(title + (", " + note if note else ""))
+    fit_title(fig, ax, title + (", " + note if note else ""))
     if colorbar:
         side_colorbar(fig, ax, sc, label)
     return sc
+
+
+def fit_title(fig, ax, title: str, room: float = .8):
+    """Set ``title`` on ``ax``, its lines broken at spaces where one is
+    wider than ``room`` times the figure's width (a plastic zone's title
+    ran past both edges of a figure shaped like the body)."""
+    import textwrap
+    text = ax.set_title(title)
+    width = text.get_window_extent(fig.canvas.get_renderer()).width
+    if width > room * fig.bbox.width:
+        lines = title.split("\n")
+        chars = max(20, int(max(map(len, lines)) * room * fig.bbox.width
+                            / width))
+        text.set_text("\n".join(textwrap.fill(line, chars)
+                                 for line in lines))
+    return text
 
 
 def side_colorbar(fig, ax, mappable, label: str, size: str = "5%"):
@@ -243,7 +260,21 @@ def mark_peak(ax, line, x: np.ndarray, y: np.ndarray):
     if len(y) > 1:
         peak = int(np.argmax(y))
         ax.plot(x[peak], y[peak], "^", ms=7, color=line.get_color(),
-                label="peak {:.4g}, final {:.4g}".format(y[peak], y[-1]))
+                label="peak {}, final {}".format(
+                    significant(y[peak]), significant(y[-1])))
+
+
+def significant(value: float, digits: int = 4) -> str:
+    """``value`` to ``digits`` significant digits, trailing zeros kept, so
+    that numbers side by side show the same precision (a legend read
+    "peak 7e+04, final 6.555e+04").
+
+    >>> from skfem_mpm.scenes.plot import significant
+    >>> significant(7e4), significant(65550.), significant(1000.)
+    ('7.000e+04', '6.555e+04', '1000')
+    """
+    return "{:#.{}g}".format(float(value), digits).rstrip(".").replace(
+        ".e", "e")
 
 
 def draw_footing_curve(ax, movement: np.ndarray, pressure: np.ndarray,
@@ -315,8 +346,13 @@ def outline(ax, centres: np.ndarray, half: np.ndarray, pixels: int = 400,
     pixel = float((hi - lo).max()) / pixels
     origin = lo - 2 * pixel
     shape = np.ceil((hi - origin) / pixel).astype(int) + 2
-    first = np.ceil((centres - half - origin[:, None]) / pixel - .5)
-    last = np.ceil((centres + half - origin[:, None]) / pixel - .5)
+    # a box's edges to the nearest pixel edge, rounded first to 1e-6 of a
+    # pixel: the shared edge of two touching boxes lies a round-off apart
+    # as either's, and on a pixel's middle one ceil split them by a pixel
+    # (a user trial's block on x = [-0.6, 0.6, 48]: dashed lines inside)
+    first, last = (np.ceil(np.round((centres + sign * half
+                                     - origin[:, None]) / pixel - .5, 6))
+                   for sign in (-1., 1.))
     first, last = (np.clip(v, 0, shape[:, None]).astype(int)
                    for v in (first, last))
     count = np.zeros(shape + 1)           # 2D difference array of boxes

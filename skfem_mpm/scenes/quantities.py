@@ -2,10 +2,11 @@
 
 A :class:`Quantity` names one number of a finished run: a point
 displacement or stress at a place, its mean or extreme over a box of
-material points, the reaction of a named support or the force that moves
-a rigid body.  Scene files list them as ``[[outputs]]``; ``skfem-mpm
-study`` measures them in every case and ``skfem-mpm run`` reports them in
-``summary.json``.  Places and boxes refer to the points' *initial*
+material points, the reaction of a named support, the force that moves
+a rigid body, the force of the material on an obstacle or the force
+between the bodies of a contact.  Scene files list them as
+``[[outputs]]``; ``skfem-mpm study`` measures them in every case and
+``skfem-mpm run`` reports them in ``summary.json``.  Places and boxes refer to the points' *initial*
 positions, so a quantity follows the same material through the
 deformation and across refinements.
 
@@ -27,18 +28,22 @@ __all__ = ["Quantity", "QUANTITIES", "COMPONENTS", "REDUCTIONS",
 
 #: what a quantity can measure
 QUANTITIES = ("displacement", "stress", "reaction", "rigid_force",
-              "obstacle_force")
-#: the quantities that are forces of a support, a rigid body or an
-#: obstacle, and the field naming which
+              "obstacle_force", "contact_force")
+#: the quantities that are forces of a support, a rigid body, an
+#: obstacle or a contact between bodies, and the field naming which (in
+#: the order of :func:`~skfem_mpm.scenes.scene.reaction_resultants`)
 FORCES = {"reaction": "support", "rigid_force": "body",
-          "obstacle_force": "obstacle"}
+          "obstacle_force": "obstacle", "contact_force": "contact"}
 #: the components of each kind of quantity
 COMPONENTS = {"displacement": ("x", "y", "z", "magnitude"),
               "stress": ("xx", "yy", "zz", "xy", "xz", "yz", "mises",
                          "pressure"),
               "reaction": ("x", "y", "z", "magnitude"),
               "rigid_force": ("x", "y", "z", "magnitude"),
-              "obstacle_force": ("x", "y", "z", "magnitude")}
+              "obstacle_force": ("x", "y", "z", "magnitude"),
+              "contact_force": ("x", "y", "z", "magnitude")}
+#: the dimensions a component needs: the rest exist from 1D on
+NEEDS = {"y": 2, "xy": 2, "yy": 2, "z": 3, "zz": 3, "xz": 3, "yz": 3}
 #: how the points of a box (or all points) give one number
 REDUCTIONS = ("mean", "max", "min", "max_abs")
 #: nearest points a value ``at`` a place is fitted to, per dimension
@@ -56,7 +61,9 @@ class Quantity:
         ``"reaction"`` (resultant of a support, ``support`` names it),
         ``"rigid_force"`` (the force moving a rigid body, ``body``) or
         ``"obstacle_force"`` (the force the material exerts on an
-        obstacle, ``obstacle``).
+        obstacle, ``obstacle``) or ``"contact_force"`` (the force the
+        first body of a contact between bodies exerts on the second,
+        ``contact``; :attr:`~skfem_mpm.StepRecord.contact_forces`).
     component
         ``"x"``, ``"y"``, ``"z"`` or ``"magnitude"``; for stress ``"xx"``,
         ``"yy"``, ``"zz"``, ``"xy"``, ``"xz"``, ``"yz"``, ``"mises"`` (von
@@ -78,7 +85,11 @@ class Quantity:
         The support's name (``support-N`` where unnamed).
     obstacle
         For an ``obstacle_force``, the obstacle's name
-        (``obstacle<i>`` where unnamed).
+        (``obstacle<i>`` where unnamed, ``i`` counting from 0 in the
+        order of ``[[obstacles]]``).
+    contact
+        For a ``contact_force``, the contact's name (``FIRST-SECOND``,
+        its bodies' names, where unnamed).
     body
         For a ``rigid_force``, the rigid body's name; for point
         quantities, optionally the body whose points count (default: all
@@ -103,13 +114,15 @@ class Quantity:
     body: Optional[str] = None
     name: str = ""
     obstacle: Optional[str] = None
+    contact: Optional[str] = None
 
     def __post_init__(self):
         check_choice("quantity", self.quantity, QUANTITIES)
         if self.component not in COMPONENTS[self.quantity]:
-            raise InvalidInputError(
-                "a {} has the components {}, got {!r}".format(
-                    self.quantity, COMPONENTS[self.quantity], self.component))
+            raise InvalidInputError("{} has the components {}, got {!r}"
+                                    .format(article(self.quantity),
+                                            components(self.quantity),
+                                            self.component))
         if self.reduce is not None:
             check_choice("reduce", self.reduce, REDUCTIONS)
         pointwise = self.quantity in ("displacement", "stress")
@@ -118,6 +131,7 @@ class Quantity:
                   "body": self.quantity in ("displacement", "stress",
                                             "rigid_force"),
                   "obstacle": self.quantity == "obstacle_force",
+                  "contact": self.quantity == "contact_force",
                   "reduce": pointwise}
         for key, allowed in wanted.items():
             if getattr(self, key) is not None and not allowed:
@@ -136,6 +150,9 @@ class Quantity:
         if self.quantity == "obstacle_force" and self.obstacle is None:
             raise InvalidInputError("an obstacle_force needs the obstacle's "
                                     "name")
+        if self.quantity == "contact_force" and self.contact is None:
+            raise InvalidInputError("a contact_force needs the contact's "
+                                    "name")
 
     @property
     def label(self) -> str:
@@ -146,8 +163,10 @@ class Quantity:
                               self.component)
         if self.support is not None:
             return text + " of " + self.support
-        if self.quantity in ("rigid_force", "obstacle_force"):
-            return text + " of " + (self.body or self.obstacle)
+        if self.quantity in ("rigid_force", "obstacle_force",
+                             "contact_force"):
+            return text + " of " + (self.body or self.obstacle
+                                    or self.contact)
         of = "" if self.body is None else " of " + self.body
         if self.at is not None:
             return text + of + " at ({})".format(", ".join(
@@ -171,10 +190,11 @@ class Quantity:
         outside the (body's) points' extent, or a box holding none of
         them."""
         dim = len(scene.grid.axes)
-        if self.component in ("z", "zz", "xz", "yz") and dim < 3 or \
-                self.component in ("y", "yy", "xy") and dim < 2:
-            raise InvalidInputError("{}: a {}D scene has no {!r} component"
-                                    .format(self.label, dim, self.component))
+        if NEEDS.get(self.component, 1) > dim:
+            raise InvalidInputError("{}: a {}D scene has no {!r} component "
+                                    "(it has {})".format(
+                                        self.label, dim, self.component,
+                                        components(self.quantity, dim)))
         for where in (self.at, self.region):
             if where is not None and len(where) != dim:
                 raise InvalidInputError("{}: {} axes given, the scene has {}"
@@ -190,6 +210,11 @@ class Quantity:
                                     .format(self.label, self.obstacle, [
                                         o.name for o in obstacle_list(
                                             scene)]))
+        contacts = [c.name for c in scene.contacts]
+        if self.contact is not None and self.contact not in contacts:
+            raise InvalidInputError("{}: no contact {!r} (the scene has {})"
+                                    .format(self.label, self.contact,
+                                            contacts))
         bodies = [b.name for b in scene.bodies if b.rigid is not None
                   or self.quantity != "rigid_force"]
         if self.body is not None and self.body not in bodies:
@@ -242,7 +267,8 @@ class Quantity:
             # the wrong names, and a finished run ended in a ValueError)
             ends = np.cumsum([len(scene.supports), len(names) - len(
                 scene.supports) - len(scene.obstacles) - len(
-                    scene.contacts), len(scene.obstacles)])
+                    scene.contacts), len(scene.obstacles),
+                len(scene.contacts)])
             kinds = [names[a:b] for a, b in zip(np.r_[0, ends[:-1]], ends)]
             kind = list(FORCES).index(self.quantity)
             start = sum(len(k) for k in kinds[:kind])
@@ -270,6 +296,34 @@ class Quantity:
         if reduce == "max_abs":
             return float(values[np.argmax(np.abs(values))])
         return float(getattr(values, reduce)())
+
+
+def article(quantity: str) -> str:
+    """A kind of quantity with its indefinite article.
+
+    >>> from skfem_mpm.scenes.quantities import article
+    >>> article("obstacle_force"), article("stress")
+    ('an obstacle_force', 'a stress')
+    """
+    return ("an " if quantity[0] in "aeiou" else "a ") + quantity
+
+
+def components(quantity: str, dim: int = None) -> str:
+    """The components of a kind of quantity in words: those of a scene of
+    dimension ``dim``, or (``None``) all, with the dimensions the others
+    need.
+
+    >>> from skfem_mpm.scenes.quantities import components
+    >>> components("obstacle_force", 2)
+    'x, y, magnitude'
+    >>> components("obstacle_force")
+    'x, y (2D, 3D), z (3D only), magnitude'
+    """
+    names = COMPONENTS[quantity]
+    if dim is not None:
+        return ", ".join(c for c in names if NEEDS.get(c, 1) <= dim)
+    return ", ".join(c + {1: "", 2: " (2D, 3D)", 3: " (3D only)"}[
+        NEEDS.get(c, 1)] for c in names)
 
 
 def quantity_unit(quantity: str, dim: int) -> str:
