@@ -234,6 +234,15 @@ def test_the_force_between_bodies_in_contact_is_a_quantity(tmp_path):
         Quantity("contact_force", "y")
 
 
+def test_a_scene_file_measures_the_force_between_bodies():
+    """``[[outputs]] quantity = "contact_force", contact = ...`` in a
+    scene file (its parser refused the ``contact`` key)."""
+    from skfem_mpm.scenes.scene_file import parse_quantity
+    q = parse_quantity({"quantity": "contact_force", "component": "y",
+                        "contact": "base-block"}, 2)
+    assert q == Quantity("contact_force", "y", contact="base-block")
+
+
 def test_component_messages_have_the_article_and_the_dimension(tmp_path):
     """'a obstacle_force has the components ('x', 'y', 'z',
     'magnitude')', z offered in 2D."""

@@ -119,7 +119,8 @@ RUN_OUTPUTS = ("points_*.vtu", "grid_*.vtu", "points.pvd", "grid.pvd",
                "final_stress.png",
                "final_von_mises.png", "plastic_zone.png",
                "column_stress.png", "load_displacement.png",
-               "rigid_bodies.png", "obstacles.png", "energies.png")
+               "rigid_bodies.png", "obstacles.png", "contacts.png",
+               "energies.png")
 
 
 def clear_earlier_run(outdir) -> list:

@@ -76,6 +76,7 @@ offending value (unknown keys, wrong types, impossible values), in a
     quantity = "displacement"       # or "stress", "reaction" (support =
                                     # its name), "rigid_force" (body = ..)
                                     # or "obstacle_force" (obstacle = ..)
+                                    # or "contact_force" (contact = ..)
     component = "y"                 # x y z magnitude; stress: xx yy zz xy
                                     # xz yz mises pressure
     at = [0.5, 50.0]                # initial position (fitted to the
@@ -471,7 +472,7 @@ def parse_quantity(table: dict, dim: int,
     fields; ``region`` as a box table ``{ x = [lo, hi], ... }``, an axis
     left out: all of it)."""
     allowed = ("quantity", "component", "at", "region", "reduce", "support",
-               "body", "obstacle", "name")
+               "body", "obstacle", "contact", "name")
     if not isinstance(table, dict):
         raise InvalidInputError("{}: must be a table, got {!r}".format(
             key, table))
