@@ -747,9 +747,10 @@ class ObstacleContact(GridTerm):
         ``points`` (:func:`friction_hint`), as the step that committed it
         measured it (the point state keeps the multipliers, not the
         pressures: a run resumed there whose first step fails gives no
-        friction hint).  In any run, an obstacle moved at the failed step
-        past :data:`SQUEEZED` of the material's extent along its motion
-        (:meth:`squeeze_hint`)."""
+        friction hint), and a stationary obstacle the material starts
+        short of (:meth:`gap_hint`).  In any run, an obstacle whose front
+        had moved at the failed step past :data:`SQUEEZED` of the material
+        ahead of it (:meth:`squeeze_hint`)."""
         if not quasi_static:
             return self.squeeze_hint()
         hint = self.squeeze_hint() + self.gap_hint() + "".join(
@@ -1226,8 +1227,9 @@ class StepContact(GridTerm):
                 # stiffen the step's first tangent: a body resting on a
                 # floor is held in the first solve, when no corner presses;
                 # along the face too where it is rough, or has friction
-                # and nothing else holds the body (a block on a floor: a
-                # singular first solve without).  Touching without
+                # and the material is not held without that hold
+                # (:meth:`ObstacleContact.held_without_coulomb`; a block on
+                # a floor: a singular first solve without).  Touching without
                 # pressure a Coulomb face has no friction to give: soil
                 # hung on a stationary wall by that hold came out of the
                 # first solve in tension at the wall's top, at Mohr-
