@@ -828,3 +828,24 @@ def test_a_grid_too_long_for_the_ghost_faces_mapping_is_named():
                        match="ghost penalty's faces.*3000 cells long"):
         ghost_penalty(mesh, ElementVector(ElementQuad1()), fill,
                       np.ones(mesh.nelements), .1)
+
+
+def test_quadratic_cells_with_too_few_points_are_warned(caplog):
+    """Standard MPM on Q2 cells seeded 2 x 2: 4 points give a 9-node cell
+    12 of the 15 strain states its 18 DOFs less 3 rigid-body modes need,
+    and the run ended in a singular matrix whose message blamed nodes
+    held by too few points (a user trial).  Warned before any work; 3 x 3
+    points and Q1 cells are not."""
+    import logging
+    from skfem import ElementQuad2
+    from skfem_mpm.solve.core import warn_underintegrated_cells
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        for n, elem in ((2, ElementQuad2()), (2, ElementVector(
+                ElementQuad2())), (3, ElementQuad2()), (2, ElementQuad1())):
+            warn_underintegrated_cells("mpm", mesh, elem,
+                                       seed_points(mesh, n))
+    warned = [r.getMessage() for r in caplog.records]
+    assert len(warned) == 2 and all(
+        "4 points give a cell of 9 nodes 12 of the 15 strain states" in m
+        and m.endswith("seed 3 points per cell and axis") for m in warned)

@@ -69,6 +69,7 @@ from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation
 from ..stabilisation.volumetric import (MeanDilatation,
+                                       points_per_cell_axis,
                                        warn_sparse_spline_points)
 from .backends import get_solver
 from .body_contact import BodyContact, check_contacts
@@ -849,6 +850,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     case = check_case(mesh, points, material, body_force, loads, nsteps,
                       method, kinematics, dynamics, options, obstacles,
                       contacts)
+    warn_underintegrated_cells(method, mesh, elem, points)
     run, result = build_run(mesh, elem, points, supports, case, method,
                             kinematics, dynamics, options)
     resume = options.resume or Resume()
@@ -1054,6 +1056,33 @@ def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
             "share (each has its own field): load the bodies with "
             "tractions, pressures or point forces")
     return contacts, field
+
+
+def warn_underintegrated_cells(method: str, mesh: Mesh, elem: Element,
+                               points: MaterialPoints):
+    """Log a warning where standard MPM's points, seeded on a tensor grid
+    of higher-order Lagrange cells (Q2: 9 nodes), are too few per cell to
+    give each cell's DOFs, less its rigid-body modes, as many strain
+    states: the stiffness then has zero-energy modes, and the run ended
+    in a singular matrix whose message blamed nodes held by too few
+    points (Q2 with 2 x 2 points: 12 of the 15 needed; a user trial)."""
+    dim = mesh.dim()
+    scalar = elem.elem if isinstance(elem, ElementVector) else elem
+    nodes = getattr(scalar, "doflocs", np.zeros((0, dim))).shape[0]
+    if method != "mpm" or mesh.t.shape[0] != 2 ** dim or nodes <= 2 ** dim:
+        return
+    per_axis = points_per_cell_axis(mesh, points)
+    strains = dim * (dim + 1) // 2
+    needed = dim * nodes - strains      # less the rigid-body modes
+    have = int(round(per_axis)) ** dim * strains
+    if have < needed:
+        logger.warning(
+            "element %s with %.1f points per cell and axis: %d points give "
+            "a cell of %d nodes %d of the %d strain states its DOFs need, so "
+            "the stiffness has zero-energy modes (a singular matrix); seed "
+            "%d points per cell and axis", type(scalar).__name__, per_axis,
+            int(round(per_axis)) ** dim, nodes, have, needed,
+            int(np.ceil((needed / strains) ** (1. / dim) - 1e-9)))
 
 
 def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
