@@ -111,8 +111,8 @@ class GridTerm:
     settles = False
     #: the term ties grid nodes that a sliver of material supports to a
     #: stiff constraint (an obstacle holding the material where its
-    #: corners cut cells): a failed step switches the ghost penalty held in
-    #: reserve on, as in finite deformation
+    #: corners cut cells): a step that fails also with the stabilised
+    #: tangent switches the ghost penalty held in reserve on
     #: (:data:`~skfem_mpm.solve.core.RETRY_LADDER`)
     ties_slivers = False
 

@@ -449,7 +449,8 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         Stop after one solve (the seed's one-solve scheme).
     report
         A dict that receives ``reused``: whether a factorisation served a
-        second iteration (so a failure may be modified Newton's).
+        second iteration (so a failure may be modified Newton's), and on
+        a failure ``smallest``: the smallest residual reached.
     predict
         Take the predictor below where prescribed motion drives the step
         (``False``: ``du`` is already a solution's neighbour, a step

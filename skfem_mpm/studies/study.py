@@ -550,7 +550,7 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                 r.setdefault("uncertainties", {})[q.label] = \
                     _relative(u, scale)
             for r in members:   # left out of the fit: measured against it
-                if r not in fitted:
+                if not any(r is f for f in fitted):
                     error = abs(r["values"][q.label] - found.reference)
                     r.setdefault("errors", {})[q.label] = _relative(
                         error, scale)
