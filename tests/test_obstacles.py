@@ -7,7 +7,8 @@ from skfem import ElementQuad1, MeshQuad
 from skfem_mpm import (BodyForce, Dynamics, GeneralizedAlpha,
                        InvalidInputError, LinearElastic, MohrCoulomb, MPMError,
                        Newmark, NewtonOptions, Obstacle, Options, Resume,
-                       Stabilisation, VonMises, seed_points, simulate)
+                       RigidBody, Stabilisation, VonMises, concatenate_points,
+                       seed_points, simulate)
 from skfem_mpm.solve.contact import corner_signs
 
 METHODS = ("fem", "mpm", "ugimp", "cpgimp", "bspline")
@@ -1810,3 +1811,42 @@ def test_cohesionless_soil_stands_beside_a_coulomb_wall():
         nu / (1 - nu), rel=.03)
     # the soil settles: it pulls the wall down
     assert 0. < -shear <= mu * -normal * (1 + 1e-9)
+
+
+@pytest.mark.parametrize("up, refused", [(.02, True), (-.02, False)])
+def test_a_rigid_body_pushed_into_an_obstacle_pushed_at_it_is_refused(
+        up, refused):
+    """A rigid footing (every component of its nodes prescribed) that
+    touches a press at the start, pushed up into it while the press comes
+    down, is refused before any work, naming both and how far they close
+    (0.01 + 0.02 = 0.03 here): no penalty resolves a penetration both
+    prescribe (a user trial's run failed after every cut-back with
+    "raise the penalty").  Pushed down faster than the press follows, it
+    runs."""
+    mesh = MeshQuad.init_tensor(np.linspace(0., 2., 9),
+                                np.linspace(0., 1.5, 7))
+    soil = seed_points(mesh, 2, region=lambda x: x[1] < .75)
+    foot = seed_points(mesh, 2, region=lambda x: (x[1] > .75) & (x[1] < 1.)
+                       & (x[0] > .5) & (x[0] < 1.))
+    foot.body[:] = 1
+    press = Obstacle(box=[[.4, 1.1], [1., 1.4]], displacement=[0., -.01],
+                     name="press")
+
+    def base(basis):
+        return basis.get_dofs(lambda x: np.isclose(x[1], 0.)).all()
+
+    def run():
+        return simulate(mesh, ElementQuad1(),
+                        concatenate_points([soil, foot]),
+                        [VonMises(1e6, .3, yield_stress=1e4),
+                         LinearElastic(1e6, .3)], base,
+                        rigid_bodies=[RigidBody(1, [0., up])], nsteps=2,
+                        obstacles=[press])
+    if not refused:
+        assert len(run().history) == 2
+        return
+    with pytest.raises(InvalidInputError) as err:
+        run()
+    assert ("obstacle 'press' and the rigid body of body 1 touch at the "
+            "start and their prescribed displacements close on each other "
+            "by {:.3g}".format(up + .01)) in str(err.value)

@@ -383,6 +383,7 @@ class ObstacleContact(GridTerm):
         #: hold at the first step's start (:meth:`held_without_coulomb`)
         self.supported = False
         self.ties_slivers = False   # (begin_step)
+        self.rigid_bodies = ()      # (begin_step) for prescribed_hint
         self.scale = 0.             # (begin_step) the loads' last scale
         self.ahead = []             # (begin_run) for squeeze_hint
         self.start_gaps = []        # (begin_run)
@@ -752,8 +753,9 @@ class ObstacleContact(GridTerm):
         had moved at the failed step past :data:`SQUEEZED` of the material
         ahead of it (:meth:`squeeze_hint`)."""
         if not quasi_static:
-            return self.squeeze_hint()
-        hint = self.squeeze_hint() + self.gap_hint() + "".join(
+            return self.squeeze_hint() + self.prescribed_hint(points)
+        hint = self.squeeze_hint() + self.prescribed_hint(points) + \
+            self.gap_hint() + "".join(
             "; obstacle {!r} is smooth and the material met its face "
             "inclined by {:.3g} degrees to the grid's axes: held along it "
             "by nothing else, a body on it has no quasi-static equilibrium "
@@ -767,6 +769,47 @@ class ObstacleContact(GridTerm):
         return hint + "".join(friction_hint("obstacle {!r}".format(ob.name),
                                             ob.friction, *part)
                               for ob, part in zip(self.obstacles, parts))
+
+    def closing_rigid_bodies(self, points) -> list:
+        """``(obstacle, rigid body, closing)`` per obstacle and rigid body
+        (:attr:`rigid_bodies`) that touch at the run's start and whose
+        prescribed displacements close on each other along the obstacle's
+        face normal by ``closing`` (at full load, more than the
+        obstacle's tolerance): the material between them cannot give way,
+        and no penalty resolves the penetration they prescribe."""
+        found = []
+        X = points.x0[:, None, :] + self.R          # where near was found
+        for i, ob in enumerate(self.obstacles):
+            for rigid in self.rigid_bodies:
+                mine = self.near[i] & (points.body == rigid.body)[None]
+                if not mine.any():
+                    continue
+                Xc = X[:, mine]
+                normal = ob.face_gap(Xc, ob.nearest_face(Xc, self.start[i]),
+                                     self.start[i])[1]
+                relative = np.asarray(rigid.displacement) - ob.displacement
+                closing = -float((relative @ normal).min())
+                if closing > self.tol[i]:
+                    found.append((ob, rigid, closing))
+        return found
+
+    @staticmethod
+    def closing_words(ob: Obstacle, rigid, closing: float) -> str:
+        """What :meth:`closing_rigid_bodies` found, in words."""
+        return ("obstacle {!r} and the rigid body of body {} touch at the "
+                "start and their prescribed displacements close on each "
+                "other by {:.3g} at full load: the material between them "
+                "cannot give way, and no penalty resolves a penetration "
+                "both prescribe (prescribe the motion of one of them)"
+                .format(ob.name, rigid.body, closing))
+
+    def prescribed_hint(self, points) -> str:
+        """A failed run's hint per smooth rigid body (its motion is
+        prescribed in its moving components only) that closes on an
+        obstacle (:meth:`closing_rigid_bodies`; rough ones are refused
+        at the run's start)."""
+        return "".join("; " + self.closing_words(*found)
+                       for found in self.closing_rigid_bodies(points))
 
     def gap_hint(self) -> str:
         """Per stationary obstacle that the material starts short of by
@@ -880,6 +923,14 @@ class ObstacleContact(GridTerm):
                 problem.method_op, "S")
             self.warn_splines(run)
             self.supported = self.held_without_coulomb(problem)
+            self.rigid_bodies = run.rigid_bodies
+            for found in self.closing_rigid_bodies(problem.points):
+                if found[1].rough:
+                    # every component of its nodes prescribed: a rigid
+                    # block pushed up into a press pushed down failed
+                    # after every cut-back with "raise the penalty" (a
+                    # user trial)
+                    raise InvalidInputError(self.closing_words(*found))
             # nothing but smooth obstacles holds the material
             self.unheld = not (np.size(run.D) or run.prescribed is not None
                                or any(ob.friction != 0.
