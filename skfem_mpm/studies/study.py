@@ -586,9 +586,51 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
         what = "|value - reference| / |reference| of {} ({}), the " \
             "reference being {}".format(
                 first, quantities[0].unit(len(scene.grid.axes)), reference)
+        what += "; it measures what the group's varied choices change, " \
+            "not an error its cases share (of points per cell, a " \
+            "penalty, the method): groups whose references disagree are " \
+            "named (disagreements)"
     return {"error": {"label": label, "against": against, "measures": what,
                       "closed_form": bool(scene.reference)},
-            "convergence": convergence}
+            "convergence": convergence,
+            "disagreements": [] if scene.reference else
+            disagreements(convergence)}
+
+
+def disagreements(convergence: List[dict]) -> List[dict]:
+    """Per quantity, the pairs of groups (their ``choices``) whose
+    references lie further apart than the sum of their uncertainties:
+    both converge to the one answer of the scene's problem, so at least
+    one carries an error its refinement did not remove, or claims too
+    small an uncertainty (a user trial's passive wall: cpGIMP's reference
+    77 567 +- 21 N/m and an error of 9e-5 where FE gives Rankine's
+    76 000: 2% that no column showed).  Each has the ``quantity``, both
+    ``choices``, ``references`` and ``uncertainties``, and ``apart``,
+    their distance relative to the first reference.
+
+    >>> from skfem_mpm.studies.study import disagreements
+    >>> c = [dict(quantity="F", choices={"method": m}, reference=r,
+    ...           uncertainty=u) for m, r, u in
+    ...      [("mpm", 100., 1.), ("cpgimp", 102., .5), ("fem", 100.5, 1.)]]
+    >>> [(d["choices"][1]["method"], round(d["apart"], 4))
+    ...  for d in disagreements(c)]
+    [('cpgimp', 0.02)]
+    """
+    found = []
+    for i, a in enumerate(convergence):
+        for b in convergence[i + 1:]:
+            if a["quantity"] != b["quantity"] or None in (
+                    a["uncertainty"], b["uncertainty"]):
+                continue
+            apart = abs(a["reference"] - b["reference"])
+            if apart > a["uncertainty"] + b["uncertainty"]:
+                found.append(dict(
+                    quantity=a["quantity"],
+                    choices=[a["choices"], b["choices"]],
+                    references=[a["reference"], b["reference"]],
+                    uncertainties=[a["uncertainty"], b["uncertainty"]],
+                    apart=apart / (abs(a["reference"]) or 1.)))
+    return found
 
 
 def same_geometry(scene: Scene, members: List[dict], lines: list):
@@ -671,6 +713,20 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
             "extrapolated" if c["against"] == "richardson" else "reference",
             _number(c["reference"], "{:.6g}"),
             _number(c["uncertainty"], "{:.2g}"), c["unit"], c["why"]))
+    for d in measured.get("disagreements", ()):
+        where = [", ".join("{}={}".format(k, v) for k, v in c.items())
+                 for c in d["choices"]]
+        lines.append(
+            "{} disagrees: [{}] {} +- {} against [{}] {} +- {}, {:.2%} "
+            "apart, further than their uncertainties: at least one "
+            "carries an error refining the grid did not remove (points "
+            "per cell, a penalty, the method) or claims too small an "
+            "uncertainty".format(
+                d["quantity"], where[0], _number(d["references"][0],
+                                                 "{:.6g}"),
+                _number(d["uncertainties"][0], "{:.2g}"), where[1],
+                _number(d["references"][1], "{:.6g}"),
+                _number(d["uncertainties"][1], "{:.2g}"), d["apart"]))
     if getattr(rows, "warm_up", None):
         lines.append(warm_up_summary(rows.warm_up))
     return lines
