@@ -57,8 +57,8 @@ from .studies.footing import (bearing_capacity_factor, footing_error,
 from .studies.study import (CASES_UNASKED, CHOICES, DEFAULT_VARY,
                             REFERENCE_ERRORS, VARIABLES, analyse, case_error,
                             case_work, cases_of, check_reference, check_vary,
-                            configure, estimate, report, scene_quantities,
-                            study, worker_count)
+                            clock, configure, estimate, report,
+                            scene_quantities, study, worker_count)
 
 DESCRIPTION = """\
 Implicit Material Point Method on scikit-fem.
@@ -164,19 +164,6 @@ def build_parser() -> argparse.ArgumentParser:
                        help="log every load step (and the linear solver "
                        "chosen)")
     return parser
-
-
-def clock(seconds: float) -> str:
-    """``m:ss`` (``h:mm:ss`` from an hour on) of a duration.
-
-    >>> from skfem_mpm.cli import clock
-    >>> clock(75.4), clock(3725)
-    ('1:15', '1:02:05')
-    """
-    m, sec = divmod(int(round(seconds)), 60)
-    h, m = divmod(m, 60)
-    return "{}:{:02d}:{:02d}".format(h, m, sec) if h else \
-        "{}:{:02d}".format(m, sec)
 
 
 class Progress:
@@ -1147,7 +1134,9 @@ def announce(plan: dict, workers: int, scheduler) -> str:
             clock(plan["seconds"] / worker_count(workers)),
             worker_count(workers))
     return line + " by a rough, linear estimate: {:.2g} s + {:.2g} s per " \
-        "point and step".format(a, b)
+        "point and step (low for large cases, whose Newton iterations and " \
+        "solves grow faster than their points; the progress line refits " \
+        "it as cases finish)".format(a, b)
 
 
 def main(argv=None) -> int:

@@ -721,3 +721,27 @@ def test_a_study_names_groups_whose_references_disagree():
     assert any(line.startswith("settlement disagrees: [method=mpm] ")
                and "2.00% apart" in line for line in lines), lines
     assert "not an error its cases share" in measured["error"]["measures"]
+
+
+def test_a_serial_study_s_progress_refits_the_time_left(tmp_path, caplog):
+    """After each case a serial study says the time the cases left take
+    by the time model of the cases finished (refitted: the estimate
+    before the start, from small cases, was 4 times low for a user
+    trial's largest case), computed here from the cases' own times."""
+    cases = {"elements": [4, 8, 16], "loadsteps": [1]}
+    with caplog.at_level(logging.INFO, logger="skfem_mpm.studies.study"):
+        rows = study(COLUMN, cases, tmp_path, progress=True)
+    lines = [r.getMessage() for r in caplog.records
+             if r.getMessage().startswith("case ")]
+    work = [study_module.case_work(COLUMN, dict(elements=n, loadsteps=1))
+            for n in cases["elements"]]
+    assert work[2] > work[1] > work[0]
+    # after the first case: its pace times the others' work
+    pace = rows[0]["wall_seconds"] / work[0]
+    assert lines[0] == 'case 1/3 {{"elements": 4, "loadsteps": 1}}; about ' \
+        '{} left'.format(study_module.clock(pace * (work[1] + work[2])))
+    a, b = study_module.time_model([(w, r["wall_seconds"])
+                                    for w, r in zip(work, rows[:2])])
+    assert lines[1].endswith("; about {} left".format(
+        study_module.clock(a + b * work[2])))
+    assert lines[2] == 'case 3/3 {"elements": 16, "loadsteps": 1}'
