@@ -1783,6 +1783,43 @@ def test_an_obstacle_presses_alike_at_a_sites_coordinates():
         assert press_at(c) == pytest.approx(here, rel=1e-9, abs=1e-9 * here[1])
 
 
+@pytest.mark.slow
+def test_cohesionless_soil_stands_beside_a_rough_wall():
+    """Cohesionless Mohr-Coulomb soil under gravity beside a stationary
+    rough wall, its face mid-cell: the run reaches its load in its one
+    step and equals the tied wall (no slip either way, the soil pressing
+    the wall everywhere) to 1e-9.  The soil hangs on the wall: its top
+    goes to Mohr-Coulomb's apex, whose points keep 1e-8 of their
+    stiffness, and the stabilised tangent added nothing to the nodes
+    they alone hold; every cut-back failed (docs/contact.md).  Now a
+    diagonal below 1e-3 of the median is raised to it there."""
+    gamma, H, nu = 2e3 * 9.81, 1., .3
+    mesh = MeshQuad.init_tensor(np.linspace(0., 1.5, 16),
+                                np.linspace(0., 1.2, 13))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .25) & (x[1] < H))
+
+    def supports(basis):
+        return np.concatenate([
+            basis.get_dofs(lambda x: np.isclose(x[1], 0.)).all("u^2"),
+            basis.get_dofs(lambda x: np.isclose(x[0], 1.5)).all("u^1")])
+
+    def wall(friction):
+        return simulate(mesh, ElementQuad1(), pts, MohrCoulomb(
+            2e7, nu, cohesion=0., friction_angle=30.), supports,
+            body_force=[0., -gamma], nsteps=1, obstacles=[
+                Obstacle(box=[[-1., .25], [-1., 2.]], friction=friction)])
+    rough, tied = wall("rough"), wall("tied")
+    assert len(rough.history) == 1
+    assert rough.counters["stabilised_solves"] > 0
+    force = rough.history[-1].obstacle_forces[0]
+    assert np.allclose(force, tied.history[-1].obstacle_forces[0],
+                       rtol=1e-9)
+    normal, shear = force
+    # pressed, and the settling soil pulls the wall down
+    assert normal < 0. and shear < 0.
+    assert -normal / (.5 * gamma * H ** 2) < nu / (1 - nu)
+
+
 def test_cohesionless_soil_stands_beside_a_coulomb_wall():
     """Cohesionless Mohr-Coulomb soil under gravity beside a stationary
     wall with wall friction 0.3, its face mid-cell: the run converges

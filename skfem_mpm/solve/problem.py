@@ -43,6 +43,12 @@ __all__ = ["StepProblem", "Trial", "STABILISATION"]
 #: the fraction of its diagonal added to a tangent refused as singular, or
 #: when a failed step is retried so (:meth:`StepProblem.solve`)
 STABILISATION = 1e-7
+#: and the least diagonal of such a tangent, a fraction of the median of
+#: its diagonal's sizes: points at a perfectly plastic apex keep 1e-8 of
+#: their elastic stiffness, and a share of the diagonal adds nothing to
+#: the nodes they alone hold (cohesionless soil beside a rough wall, its
+#: top at Mohr-Coulomb's apex, failed at every cut-back)
+STABILISATION_FLOOR = 1e-3
 #: a converged step whose free grid nodes moved more than this many times
 #: the largest motion of a point (and more than a millionth of a cell)
 #: failed (:class:`~skfem_mpm.errors.GridMotionError`): well-posed steps
@@ -316,9 +322,11 @@ class StepProblem:
         weakly supported nodes (a cell entered by one point): when the step
         is retried so (``stabilise``), or when the exact tangent is refused
         as singular.  Those modes carry no residual, so the stabilisation,
-        :data:`STABILISATION` times the diagonal added to the tangent only,
-        does not change the converged state; it is used only when needed
-        because it slows Newton to a linear rate of about
+        :data:`STABILISATION` times the diagonal added to the tangent only
+        (and a diagonal entry below :data:`STABILISATION_FLOOR` of the
+        median size raised to it: nodes held by points at a plastic apex
+        alone), does not change the converged state; it is used only when
+        needed because it slows Newton to a linear rate of about
         ``STABILISATION`` times the tangent's condition number.  A linear
         step solves once, exactly, or raises.  Returns the increment and
         the factorised solve, ``solve(r) -> d``, that modified Newton
@@ -387,7 +395,10 @@ class StepProblem:
                 logger.debug("step %d: %s; solving again with the tangent "
                              "stabilised by %.0e of its diagonal", self.step,
                              err, STABILISATION)
-        A.setdiag(A.diagonal() * (1. + STABILISATION))           # in place
+        d = A.diagonal()
+        floor = STABILISATION_FLOOR * np.median(np.abs(d))
+        A.setdiag(np.where(np.abs(d) < floor, floor,
+                           d * (1. + STABILISATION)))            # in place
         counters["stabilised_solves"] += 1
         self.stabilised = True
         try:
