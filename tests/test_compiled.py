@@ -3,10 +3,11 @@ numpy path, the reference, to round-off: a response's stress measure,
 internal force, stiffness (the CSR data of one pattern) and committed state
 with standard MPM's and GIMP's operators, with and without mean
 dilatation, in 2D and 3D, small and finite deformation, every material of
-the passes, at the start and after a step; whole runs alike (MPM, uGIMP,
-cpGIMP, B-splines; with mean dilatation also a footing pushed by an
-obstacle); a resumed compiled run is bit-identical to the uninterrupted
-one.  The choice is
+the passes, also one a body (``PointMaterials``), at the start and after a
+step; whole runs alike (MPM, uGIMP, cpGIMP, B-splines; with mean
+dilatation also a footing pushed by an obstacle; soil and a stiffer
+inclusion; bodies in contact); a resumed compiled run is bit-identical to
+the uninterrupted one.  The choice is
 checked: an unknown name refused, a run the passes cannot serve refused
 when they are asked for, served by numpy (logged once) otherwise, and the
 package works where numba does not import."""
@@ -22,17 +23,19 @@ import pytest
 from skfem import (ElementHex1, ElementQuad1, ElementQuad2, ElementTriP1,
                    ElementVector, MeshHex, MeshQuad, MeshTri)
 
-from skfem_mpm import (DruckerPrager, LinearElastic, ModifiedCamClay,
-                       MohrCoulomb, Options, Prescribed, Resume,
-                       Stabilisation, VonMises, point_locator, seed_points,
-                       simulate)
+from skfem_mpm import (Contact, DruckerPrager, LinearElastic,
+                       ModifiedCamClay, MohrCoulomb, NewtonOptions, Options,
+                       Prescribed, Resume, Stabilisation, Traction, VonMises,
+                       point_locator, seed_points, simulate)
 from skfem_mpm import kernels
 from skfem_mpm.errors import InvalidInputError, PointsOutsideGridError
 from skfem_mpm.mechanics.kinematics import make_kinematics
-from skfem_mpm.mechanics.materials import initial_state
+from skfem_mpm.mechanics.materials import PointMaterials, initial_state
 from skfem_mpm.methods.gimp_linear import LinearGimp
 from skfem_mpm.methods.operators import AsmOperator, PointOperator
 from skfem_mpm.quadrature.basis import MaterialPointBasis
+from skfem_mpm.quadrature.points import concatenate_points
+from skfem_mpm.solve.loads import side_points
 from skfem_mpm.stabilisation.volumetric import MeanDilatation
 from digest_cases import CASES, fingerprint
 
@@ -59,6 +62,15 @@ MATERIALS = {"elastic": LinearElastic(1e6, .3),
                  kappa=.02, lambda_=.2, M=1.2, shear_modulus=2e3,
                  reference_pressure=100., preconsolidation_pressure=105.)}
 GRIDS = {2: (MeshQuad, ElementQuad1), 3: (MeshHex, ElementHex1)}
+#: one material a body (body 0, body 1): two elastic ones, a plastic soil
+#: and a stiff elastic pile, and two plastic kinds of other internal
+#: variables (Cam clay's two, von Mises' one)
+PILE = LinearElastic(3e7, .2)
+BODIES = {"elastic+elastic": (MATERIALS["elastic"], LinearElastic(4e6, .1)),
+          "von_mises+elastic": (MATERIALS["von_mises"], PILE),
+          "mohr_coulomb+elastic": (MATERIALS["mohr_coulomb"], PILE),
+          "cam_clay+von_mises": (MATERIALS["cam_clay"],
+                                 MATERIALS["von_mises"])}
 
 
 def relative(a, b):
@@ -133,17 +145,25 @@ def check_equal(numpy_path, compiled_path, finite):
 @pytest.mark.parametrize("method", ["mpm", "gimp"])
 @pytest.mark.parametrize("dim", [2, 3])
 @pytest.mark.parametrize("kind", ["small", "finite"])
-@pytest.mark.parametrize("name", sorted(MATERIALS))
+@pytest.mark.parametrize("name", sorted(MATERIALS) + sorted(BODIES))
 @pytest.mark.parametrize("antilocking", [False, True])
 def test_a_response_equals_the_numpy_path(dim, kind, name, method,
                                           antilocking):
     """Two trials in a row: from the initial state, and from the state
     the first committed (a start with stress, elastic strain, ``F`` and
-    plastic strain); the plastic increments yield most points.  With mean
-    dilatation (``antilocking``) the operator is wrapped in the cell
-    averages of each trial's start, as a step wraps it."""
-    material = MATERIALS[name]
+    plastic strain); the plastic increments yield most points of a
+    plastic material, an elastic one's none.  With mean dilatation
+    (``antilocking``) the operator is wrapped in the cell averages of each
+    trial's start, as a step wraps it.  One material a body
+    (``PointMaterials``, ``BODIES``): every third point of body 1, so that
+    a group's points change body from one to the next, and a body's
+    internal variables stay put on the other body's points."""
     mesh, points = block(dim)
+    materials = BODIES.get(name, (MATERIALS.get(name),))
+    if name in BODIES:
+        points.body = (np.arange(points.n) % 3 == 0).astype(np.int64)
+    material = PointMaterials(materials, points.body) if name in BODIES \
+        else materials[0]
     points.state.update(initial_state(material, points.n))
     op = operator(method, mesh, points, dim)
     rng = np.random.default_rng(dim)
@@ -157,8 +177,14 @@ def test_a_response_equals_the_numpy_path(dim, kind, name, method,
         results = [evaluate(paths[k], wrapped, du, start)
                    for k in ("numpy", "compiled")]
         check_equal(*results, finite=kind == "finite")
-        if name != "elastic":
-            assert results[1][0].yielded.mean() > .5
+        yielded, new = results[1][0].yielded, results[1][3]
+        for b, each in enumerate(materials):
+            mine = points.body == b
+            assert yielded[mine].mean() > .5 if each.plastic \
+                else not yielded[mine].any()
+            for other in set(new.state) - set(each.state_variables):
+                assert np.array_equal(new.state[other][mine],
+                                      start.state[other][mine]), other
         start = results[0][3]
 
 
@@ -386,31 +412,96 @@ RUN_MATERIALS = {**MATERIALS, "incompressible": VonMises(1e6, .49, 3e3)}
     (2, "small", "elastic", "cpgimp", True),
     (3, "finite", "elastic", "cpgimp", True),
     (3, "small", "mohr_coulomb", "ugimp", True),
-    (2, "finite", "von_mises", "bspline", True)])
+    (2, "finite", "von_mises", "bspline", True),
+    (2, "small", "elastic+elastic", "mpm", False),
+    (2, "finite", "von_mises+elastic", "mpm", False),
+    (2, "small", "mohr_coulomb+elastic", "ugimp", False),
+    (2, "finite", "von_mises+elastic", "cpgimp", True),
+    (2, "small", "elastic+elastic", "cpgimp", True),
+    (3, "finite", "von_mises+elastic", "mpm", False),
+    (3, "small", "mohr_coulomb+elastic", "mpm", True)])
 def test_runs_equal_the_numpy_path(dim, kinematics, name, method,
                                    antilocking, monkeypatch, caplog):
     """Whole runs (GIMP in 3D: 2 steps, the second switches the ghost
-    penalty on), every operator served by the passes (no warning), with
-    and without mean dilatation."""
-    material = RUN_MATERIALS[name]
+    penalty on), with and without mean dilatation, on ``kernels="auto"``:
+    every operator and material served by the passes (no line that the
+    numpy path serves), also soil and a stiffer inclusion (one material a
+    body, ``BODIES``, :func:`inclusion`); the plastic ones yield."""
+    material = list(BODIES[name]) if name in BODIES else RUN_MATERIALS[name]
     nsteps = 2 if dim == 3 and method != "mpm" else 3
+    monkeypatch.setenv(kernels.AUTO_VARIABLE, "auto")   # the tests' numpy
     monkeypatch.setattr(kernels, "_LOGGED", set())
-    with caplog.at_level(logging.WARNING, logger="skfem_mpm.kernels"):
+    with caplog.at_level(logging.INFO, logger="skfem_mpm.kernels"):
         runs = [column_run(dim, kinematics, material, k, method=method,
-                           nsteps=nsteps, options=Options(
+                           nsteps=nsteps, points=inclusion(dim)
+                           if name in BODIES else None, options=Options(
                                stabilisation=Stabilisation(
                                    antilocking=antilocking)))
-                for k in ("numpy", "compiled")]
+                for k in ("numpy", "auto")]
     assert not [r for r in caplog.records if r.name == "skfem_mpm.kernels"]
+    check_runs_equal(runs)
+    assert (runs[0].history[-1].n_yielded > 0) == (
+        name not in ("elastic", "elastic+elastic"))
+
+
+def check_runs_equal(runs):
+    """The numpy path's run ``runs[0]`` and the compiled one: as many
+    steps and Newton iterations, every step's grid displacement (and
+    contact forces) and the points' positions, stresses and strains at the
+    end equal to round-off."""
     assert [len(r.history) for r in runs[0:1]] == [len(runs[1].history)]
     for a, b in zip(runs[0].history, runs[1].history):
         assert len(a.newton_residuals or ()) == len(b.newton_residuals or ())
         assert relative(b.u, a.u) < TOL
+        if a.contact_forces is not None and a.contact_forces.any():
+            assert relative(b.contact_forces, a.contact_forces) < TOL
     for field in ("x", "stress", "strain"):
         assert relative(getattr(runs[1].points, field),
                         getattr(runs[0].points, field)) < TOL
-    if name != "elastic":
-        assert runs[0].history[-1].n_yielded > 0
+
+
+def inclusion(dim):
+    """:func:`column`'s points, those of the upper half of its outer
+    quarter (x > 1.5, height > 2) body 1: a stiff inclusion bonded to the
+    soil around it (one field), whose weight yields the soil below."""
+    points = column(dim)[1]
+    points.body = ((points.x[0] > 1.5) & (points.x[-1] > 2)).astype(
+        np.int64)
+    return points
+
+
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+def test_bodies_in_contact_equal_the_numpy_path(kinematics):
+    """An elastic block ten times stiffer pressed onto Mohr-Coulomb soil
+    (confined between walls, so that it yields), a frictionless
+    ``Contact`` between them (a field each): the runs on both paths are
+    equal, the contact forces of every step too.  (A block 3000 times
+    stiffer, ``PILE``: its stresses, its modulus times strains that are
+    differences of the soil's displacements, 1.5e-12 apart, though every
+    step's displacement is within 1e-15.)"""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2.5, 11))
+    parts = [seed_points(mesh, 2, region=lambda x, lo=lo, hi=hi: (
+        x[1] > lo) & (x[1] < hi)) for lo, hi in ((0., 1.125), (1.125, 2.))]
+    parts[1].body[:] = 1
+    points = concatenate_points(parts)
+    top = side_points(points, "top")
+    soil = MohrCoulomb(1e4, .3, cohesion=1., friction_angle=10.,
+                       dilation_angle=2.)
+
+    def walls(b):
+        return np.union1d(b.get_dofs(lambda x: x[1] == 0).nodal["u^2"],
+                          b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 1))
+                          .nodal["u^1"])
+    block = LinearElastic(1e5, .2)
+    runs = [simulate(mesh, ElementQuad1(), points, [soil, block], walls,
+                     kinematics=kinematics, nsteps=2,
+                     loads=[Traction(top, "top", [0., -10.])],
+                     contacts=[Contact(0, 1)],
+                     options=Options(NewtonOptions(tol=1e-10), kernels=k))
+            for k in ("numpy", "compiled")]
+    check_runs_equal(runs)
+    assert runs[0].history[-1].contact_forces.any()
+    assert runs[0].history[-1].n_yielded > 0
 
 
 @pytest.mark.parametrize("kinematics, method", [("small", "mpm"),
@@ -461,22 +552,28 @@ def test_a_footing_with_mean_dilatation_equals_the_numpy_path(
                     numpy_run.points.stress) < TOL
 
 
-@pytest.mark.parametrize("method", ["mpm", "cpgimp"])
-@pytest.mark.parametrize("antilocking", [False, True])
-def test_a_resumed_compiled_run_is_bit_identical(method, antilocking):
+@pytest.mark.parametrize("method, antilocking, bodies", [
+    ("mpm", False, 1), ("mpm", True, 1), ("cpgimp", False, 1),
+    ("cpgimp", True, 1), ("mpm", False, 2), ("cpgimp", True, 2)])
+def test_a_resumed_compiled_run_is_bit_identical(method, antilocking,
+                                                 bodies):
     """Resumed after step 2 of 4 from the state a callback saw, the
     compiled run ends where the whole compiled run does, bit for bit
     (cpGIMP: the domains stretched from the initial ones as well), with
-    and without mean dilatation."""
+    and without mean dilatation, of one material or of von Mises soil
+    and an elastic inclusion (:func:`inclusion`)."""
     saved = {}
 
     def keep(record, state):
         if record.step == 2:
             saved.update(record=record, state=state)
-    material = MATERIALS["von_mises"]
+    material = MATERIALS["von_mises"] if bodies == 1 \
+        else list(BODIES["von_mises+elastic"])
     stabilisation = Stabilisation(antilocking=antilocking)
     whole = column_run(2, "finite", material, "compiled", nsteps=4,
-                       method=method, options=Options(
+                       method=method,
+                       points=inclusion(2) if bodies == 2 else None,
+                       options=Options(
                            callback=keep, stabilisation=stabilisation))
     rest = column_run(2, "finite", material, "compiled", nsteps=4,
                       method=method, points=saved["state"], options=Options(
@@ -498,9 +595,13 @@ def test_the_choice_is_checked(monkeypatch, caplog):
     with pytest.raises(InvalidInputError, match="kernels must be one of"):
         Options(kernels="fast")
     assert Options(kernels="numpy").kernels == "numpy"
+    monkeypatch.setenv(kernels.AUTO_VARIABLE, "auto")   # the tests' numpy
     monkeypatch.setattr(kernels, "_LOGGED", set())
     for material, dim, scheme, why in (
             (UserElastic(1e6, .3), 2, False, "the material UserElastic"),
+            (PointMaterials([LinearElastic(1e6, .3), UserElastic(1e6, .3)],
+                            [0, 1, 1]), 2, False,
+             "the material UserElastic of body 1"),
             (MohrCoulomb(1e6, .3, 1e3, 0.), 2, False,
              "the material MohrCoulomb without friction"),
             (LinearElastic(1e6, .3), 1, False, "1D grids"),
@@ -580,6 +681,7 @@ def test_without_numba_the_numpy_path_serves(monkeypatch, caplog):
     """numba made to fail on import: ``auto`` runs on numpy (logged once),
     ``compiled`` is refused before any work."""
     monkeypatch.setattr(kernels, "_PASSES", [])
+    monkeypatch.setenv(kernels.AUTO_VARIABLE, "auto")   # the tests' numpy
     monkeypatch.setattr(kernels, "_LOGGED", set())
     monkeypatch.setitem(sys.modules, "numba", None)
     for name in ("skfem_mpm.kernels.passes",

@@ -12,8 +12,9 @@ B-splines, with or without mean dilatation
 (:mod:`skfem_mpm.kernels.dilatation`), in 2D and 3D, small and finite
 deformation (not the total Lagrangian scheme of ``method="fem"``),
 ``LinearElastic``, ``VonMises``, ``DruckerPrager``, ``MohrCoulomb`` and
-``ModifiedCamClay``; not a user's material or one material per body.  numba is
-imported only when a run first asks for the passes, so that ``import
+``ModifiedCamClay``, one for all points or one per body (each point takes
+its body's parameters); not a user's material, also as one body's.  numba
+is imported only when a run first asks for the passes, so that ``import
 skfem_mpm`` stays light; the kernels are cached on disk, so a second
 process does not compile them again.  The environment variable
 ``SKFEM_MPM_KERNELS=numpy`` makes ``"auto"`` take the numpy path

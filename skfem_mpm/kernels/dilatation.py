@@ -36,7 +36,7 @@ __all__ = ["passes_of", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "af978ca8eb0dc643"
+SOURCES = "7b29acd61eb4dbc1"
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -89,16 +89,16 @@ def add_cell_couplings(patch_start, patch_nodes, b, h_row, h_col, bulk, k,
 
 @njit(cache=True, error_model="numpy")
 def _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
-                         qstart, w, du, start, params, eq0, f, dF, dF_inv,
-                         tau, d, vecs, y, dy_dx, yielded, eq, cell, patch,
-                         patch_start, patch_nodes, b, k):
+                         qstart, w, du, start, params, body, eq0, f, dF,
+                         dF_inv, tau, d, vecs, y, dy_dx, yielded, eq, cell,
+                         patch, patch_start, patch_nodes, b, k):
     """The finite-deformation pass with mean dilatation on a grid of
     ``k`` dimensions."""
     literally(k)
     theta = cell_dilatation(patch_start, patch_nodes, b, du, k)
     pressure = np.zeros(len(theta))
     status = _finite_residual(G, nodes, node_start, node_count, runs, order,
-                              qstart, w, du, start, params, eq0, f, dF,
+                              qstart, w, du, start, params, body, eq0, f, dF,
                               dF_inv, tau, d, vecs, y, dy_dx, yielded,
                               eq, cell, theta, pressure, k)
     add_cell_force(patch_start, patch_nodes, b, pressure, k, f)
@@ -107,7 +107,7 @@ def _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
 
 @njit(cache=True, error_model="numpy")
 def _small_residual_bar(G, nodes, node_start, node_count, runs, order, qstart,
-                        w, du, stress0, strain0, params, eq0, f, stress,
+                        w, du, stress0, strain0, params, body, eq0, f, stress,
                         strain, x, vecs, y, dy_dx, yielded, eq, cell, patch,
                         patch_start, patch_nodes, b, k):
     """The small-strain pass with mean dilatation on a grid of ``k``
@@ -116,15 +116,15 @@ def _small_residual_bar(G, nodes, node_start, node_count, runs, order, qstart,
     theta = cell_dilatation(patch_start, patch_nodes, b, du, k)
     pressure = np.zeros(len(theta))
     _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
-                    du, stress0, strain0, params, eq0, f, stress, strain, x,
-                    vecs, y, dy_dx, yielded, eq, cell, theta, pressure, k)
+                    du, stress0, strain0, params, body, eq0, f, stress, strain,
+                    x, vecs, y, dy_dx, yielded, eq, cell, theta, pressure, k)
     add_cell_force(patch_start, patch_nodes, b, pressure, k, f)
 
 
 @njit(cache=True, error_model="numpy")
 def _stiffness_bar(G, nodes, node_start, node_count, runs, order, qstart,
                    mode, elements, first, length, graph_indptr,
-                   graph_indices, w, kind, C, x, y, dy_dx, vecs, dF_inv,
+                   graph_indices, w, kind, C, body, x, y, dy_dx, vecs, dF_inv,
                    data, cell, patch, patch_start, patch_nodes, b, k):
     """The stiffness pass with mean dilatation on a grid of ``k``
     dimensions (``C``: the elastic tangent in 3 components)."""
@@ -134,8 +134,8 @@ def _stiffness_bar(G, nodes, node_start, node_count, runs, order, qstart,
     bulk = np.zeros(len(patch_start) - 1)
     _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
                elements, first, length, graph_indptr, graph_indices, w, kind,
-               C, x, y, dy_dx, vecs, dF_inv, data, cell, patch, h_row, h_col,
-               bulk, k)
+               C, body, x, y, dy_dx, vecs, dF_inv, data, cell, patch, h_row,
+               h_col, bulk, k)
     add_cell_couplings(patch_start, patch_nodes, b, h_row, h_col, bulk, k,
                        mode, elements, first, length, graph_indptr,
                        graph_indices, data)
@@ -143,12 +143,12 @@ def _stiffness_bar(G, nodes, node_start, node_count, runs, order, qstart,
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, dF, dF_inv, tau,
+                       w, du, start, params, body, eq0, f, dF, dF_inv, tau,
                        d, vecs, y, dy_dx, yielded, eq, cell, patch,
                        patch_start, patch_nodes, b):
     """``_finite_residual_bar`` on a 2D grid."""
     return _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
-                                qstart, w, du, start, params, eq0, f, dF,
+                                qstart, w, du, start, params, body, eq0, f, dF,
                                 dF_inv, tau, d, vecs, y, dy_dx, yielded,
                                 eq, cell, patch, patch_start, patch_nodes, b,
                                 2)
@@ -156,12 +156,12 @@ def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, dF, dF_inv, tau,
+                       w, du, start, params, body, eq0, f, dF, dF_inv, tau,
                        d, vecs, y, dy_dx, yielded, eq, cell, patch,
                        patch_start, patch_nodes, b):
     """``_finite_residual_bar`` on a 3D grid."""
     return _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
-                                qstart, w, du, start, params, eq0, f, dF,
+                                qstart, w, du, start, params, body, eq0, f, dF,
                                 dF_inv, tau, d, vecs, y, dy_dx, yielded,
                                 eq, cell, patch, patch_start, patch_nodes, b,
                                 3)
@@ -169,24 +169,24 @@ def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
 
 @njit(cache=True, error_model="numpy")
 def small_residual_2d(G, nodes, node_start, node_count, runs, order, qstart, w,
-                      du, stress0, strain0, params, eq0, f, stress, strain, x,
-                      vecs, y, dy_dx, yielded, eq, cell, patch, patch_start,
-                      patch_nodes, b):
+                      du, stress0, strain0, params, body, eq0, f, stress,
+                      strain, x, vecs, y, dy_dx, yielded, eq, cell, patch,
+                      patch_start, patch_nodes, b):
     """``_small_residual_bar`` on a 2D grid."""
     _small_residual_bar(G, nodes, node_start, node_count, runs, order, qstart,
-                        w, du, stress0, strain0, params, eq0, f, stress,
+                        w, du, stress0, strain0, params, body, eq0, f, stress,
                         strain, x, vecs, y, dy_dx, yielded, eq, cell, patch,
                         patch_start, patch_nodes, b, 2)
 
 
 @njit(cache=True, error_model="numpy")
 def small_residual_3d(G, nodes, node_start, node_count, runs, order, qstart, w,
-                      du, stress0, strain0, params, eq0, f, stress, strain, x,
-                      vecs, y, dy_dx, yielded, eq, cell, patch, patch_start,
-                      patch_nodes, b):
+                      du, stress0, strain0, params, body, eq0, f, stress,
+                      strain, x, vecs, y, dy_dx, yielded, eq, cell, patch,
+                      patch_start, patch_nodes, b):
     """``_small_residual_bar`` on a 3D grid."""
     _small_residual_bar(G, nodes, node_start, node_count, runs, order, qstart,
-                        w, du, stress0, strain0, params, eq0, f, stress,
+                        w, du, stress0, strain0, params, body, eq0, f, stress,
                         strain, x, vecs, y, dy_dx, yielded, eq, cell, patch,
                         patch_start, patch_nodes, b, 3)
 
@@ -194,24 +194,24 @@ def small_residual_3d(G, nodes, node_start, node_count, runs, order, qstart, w,
 @njit(cache=True, error_model="numpy")
 def stiffness_2d(G, nodes, node_start, node_count, runs, order, qstart, mode,
                  elements, first, length, graph_indptr, graph_indices, w, kind,
-                 C, x, y, dy_dx, vecs, dF_inv, data, cell, patch, patch_start,
-                 patch_nodes, b):
+                 C, body, x, y, dy_dx, vecs, dF_inv, data, cell, patch,
+                 patch_start, patch_nodes, b):
     """``_stiffness_bar`` on a 2D grid."""
     _stiffness_bar(G, nodes, node_start, node_count, runs, order, qstart, mode,
                    elements, first, length, graph_indptr, graph_indices, w,
-                   kind, C, x, y, dy_dx, vecs, dF_inv, data, cell, patch,
+                   kind, C, body, x, y, dy_dx, vecs, dF_inv, data, cell, patch,
                    patch_start, patch_nodes, b, 2)
 
 
 @njit(cache=True, error_model="numpy")
 def stiffness_3d(G, nodes, node_start, node_count, runs, order, qstart, mode,
                  elements, first, length, graph_indptr, graph_indices, w, kind,
-                 C, x, y, dy_dx, vecs, dF_inv, data, cell, patch, patch_start,
-                 patch_nodes, b):
+                 C, body, x, y, dy_dx, vecs, dF_inv, data, cell, patch,
+                 patch_start, patch_nodes, b):
     """``_stiffness_bar`` on a 3D grid."""
     _stiffness_bar(G, nodes, node_start, node_count, runs, order, qstart, mode,
                    elements, first, length, graph_indptr, graph_indices, w,
-                   kind, C, x, y, dy_dx, vecs, dF_inv, data, cell, patch,
+                   kind, C, body, x, y, dy_dx, vecs, dF_inv, data, cell, patch,
                    patch_start, patch_nodes, b, 3)
 
 

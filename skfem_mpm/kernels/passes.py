@@ -30,9 +30,13 @@ arguments of every pass): shape gradients points first, ``G[q, d]``
 groups' first positions ``runs`` (then the number of positions), and per
 position the point ``order[s]`` and its first entry ``qstart[s]``.
 Points are on the last axis of the arrays kept (the layout of the numpy
-path, whose commit and output read them).  The finite pass returns a
-nonzero status where a point inverts, and the caller then lets the numpy
-path raise its error with its message.
+path, whose commit and output read them).  The material: ``params``,
+one row a body (:func:`~skfem_mpm.mechanics.compiled.
+material_parameters`; one row for a run of one material), and ``body``,
+each point's row (a point follows its body's return map, and an elastic
+stiffness its body's Hooke tensor, ``C[body[p]]``).  The finite pass
+returns a nonzero status where a point inverts, and the caller then lets
+the numpy path raise its error with its message.
 """
 import math
 
@@ -60,7 +64,7 @@ __all__ = ["passes_of", "finite_commit", "start_deviation",
 #: function on its own file alone, so a change there must change this
 #: file too, or the passes would run the cached old code
 #: (``tests/test_compiled.py`` checks it)
-SOURCES = "ae24bda210504000"
+SOURCES = "7029f946ba4ada67"
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -74,8 +78,8 @@ def widest(node_count):
 
 @njit(cache=True, error_model="numpy")
 def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
-                     du, start, params, eq0, f, dF, dF_inv, tau, d, vecs, y,
-                     dy_dx, yielded, eq, cell, theta, pressure, k):
+                     du, start, params, body, eq0, f, dF, dF_inv, tau, d, vecs,
+                     y, dy_dx, yielded, eq, cell, theta, pressure, k):
     """Finite deformation (updated Lagrangian, Hencky) on a grid of ``k``
     dimensions: from the grid increment
     ``du`` and ``start = b_n - I`` (3, 3, n), every point's ``dF``,
@@ -85,12 +89,13 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
     ``vecs`` only the in-plane blocks in 2D without mean dilatation (the
     identity out of plane is the caller's); yield flags and equivalent
     plastic strain ``eq``, and the internal force ``f`` from ``P = tau
-    dF^-T`` (not kept).  With mean dilatation (``cell`` an array, else
-    ``None``; ``m = 3`` components, else ``m = k``) the gradients'
-    divergence is the ``theta`` of the point's ``cell``, and the force
-    takes the deviatoric part of ``P`` against the gradients, its mean,
-    weighted, summed per cell into ``pressure`` (the caller adds it
-    against the cell averages).  Returns 0, or 1 where ``det dF <= 0``
+    dF^-T`` (not kept); each point's material ``params[body[p]]``.
+    With mean dilatation (``cell`` an array, else ``None``; ``m = 3``
+    components, else ``m = k``) the gradients' divergence is the
+    ``theta`` of the point's ``cell``, and the force takes the
+    deviatoric part of ``P`` against the gradients, its mean, weighted,
+    summed per cell into ``pressure`` (the caller adds it against the
+    cell averages).  Returns 0, or 1 where ``det dF <= 0``
     (at some point), 2 where ``b_tr`` is not positive definite: then the
     arrays hold no answer."""
     literally(k)
@@ -173,7 +178,7 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
             for a in range(3):
                 eps[a] = .5 * math.log1p(x[a])
             yielded[p], eq[0, p], eq[1, p] = principal_update(
-                params, eps, eq0[0, p], eq0[1, p], tp, eps_e, D)
+                params[body[p]], eps, eq0[0, p], eq0[1, p], tp, eps_e, D)
             for a in range(3):
                 for c in range(3):
                     s = 0.
@@ -210,21 +215,22 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
 
 @njit(cache=True, error_model="numpy")
 def _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
-                    du, stress0, strain0, params, eq0, f, stress, strain,
+                    du, stress0, strain0, params, body, eq0, f, stress, strain,
                     x_all, vecs, y, dy_dx, yielded, eq, cell, theta, pressure,
                     k):
     """Small strain: ``eps = eps_n + sym(grad du)``; Hooke's law added to
-    the stress of an elastic material (``params[0] == ELASTIC``: the
-    spectral arrays untouched), the return map on principal strains
-    otherwise (principal strains ``x_all``, frames ``vecs``, ``y =
-    sigma_A``, ``dy_dx = D``, in ``m`` components); the internal force
-    ``f``; mean dilatation (``cell`` an array) as in
-    ``_finite_residual``."""
+    the stress where every body is elastic (``params[:, 0] == ELASTIC``:
+    the spectral arrays untouched), the return map on principal strains
+    otherwise, also on an elastic body's points (principal strains
+    ``x_all``, frames ``vecs``, ``y = sigma_A``, ``dy_dx = D``, in ``m``
+    components); the internal force ``f``; mean dilatation (``cell`` an
+    array) as in ``_finite_residual``."""
     literally(k)
     m = k if cell is None else 3
     nmax = widest(node_count)
-    plastic = params[0] != 0.
-    lam, mu = params[1], params[2]
+    plastic = False
+    for row in range(len(params)):      # any body's
+        plastic = plastic or params[row, 0] != 0.
     U = np.empty((nmax, k))
     fe = np.zeros((nmax, k))
     g = np.zeros((m, m))
@@ -248,6 +254,7 @@ def _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                 for c in range(m):
                     de[a, c] = .5 * (g[a, c] + g[c, a])
             if not plastic:
+                lam, mu = params[body[p], 1], params[body[p], 2]
                 trace = de[0, 0] + de[1, 1] + de[2, 2]
                 for a in range(3):
                     for c in range(3):
@@ -262,7 +269,7 @@ def _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                         e3[a, c] = strain0[a, c, p] + de[a, c]
                 principal_frame(e3, k, x, v)
                 yielded[p], eq[0, p], eq[1, p] = principal_update(
-                    params, x, eq0[0, p], eq0[1, p], sig, eps_e, D)
+                    params[body[p]], x, eq0[0, p], eq0[1, p], sig, eps_e, D)
                 for a in range(3):
                     for c in range(3):
                         s = 0.
@@ -290,10 +297,11 @@ def _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
 @njit(cache=True, error_model="numpy")
 def _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
                elements, first, length, graph_indptr, graph_indices, w, kind,
-               C, x, y, dy_dx, vecs, dF_inv, data, cell, patch, h_row, h_col,
-               bulk, k):
+               C, body, x, y, dy_dx, vecs, dF_inv, data, cell, patch, h_row,
+               h_col, bulk, k):
     """``K_(ia)(jc) = sum_p w_p A_abcd G_bi G_dj`` group by group with the
-    tangent ``kind`` of each point, each group's matrix added to the CSR
+    tangent ``kind`` of each point (elastic: ``C[body[p]]``, set where
+    the body changes), each group's matrix added to the CSR
     ``data`` of the pattern (``scatter_stiffness``: by the element
     pattern's places, or by bisection of the node graph).  With mean
     dilatation (``cell`` an array, else ``None``) the tangent has 3
@@ -313,14 +321,18 @@ def _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
     row, column = np.empty((k, k)), np.empty((k, k))
     traces, term_traces = np.empty((2, 3, 3)), np.empty((2, 9))
     tr12 = 0.
-    set_uniform_tangent(kind, C, m, A)             # one for all points
-    if cell is not None:
-        if kind == ELASTIC_TANGENT:
-            tr12 = deviatoric_tangent(A, k, deviatoric, row, column, traces)
+    current = -1                    # the body whose elastic tangent A is
     for r in range(len(runs) - 1):
         n0, nloc = node_start[r], node_count[r]
         for s in range(runs[r], runs[r + 1]):
             p = order[s]
+            if kind == ELASTIC_TANGENT and body[p] != current:
+                # one for all points of a body: set where the body changes
+                current = body[p]
+                set_uniform_tangent(kind, C[current], m, A)
+                if cell is not None:
+                    tr12 = deviatoric_tangent(A, k, deviatoric, row, column,
+                                              traces)
             if cell is None:
                 if kind != ELASTIC_TANGENT:  # (no early return: 2x faster)
                     point_tangent(kind, p, k, x, y, dy_dx, vecs, dF_inv, A,
@@ -344,77 +356,78 @@ def _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, dF, dF_inv, tau, d,
+                       w, du, start, params, body, eq0, f, dF, dF_inv, tau, d,
                        vecs, y, dy_dx, yielded, eq):
     """The finite-deformation pass on a 2D grid (``_finite_residual``)."""
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
-                            qstart, w, du, start, params, eq0, f, dF,
+                            qstart, w, du, start, params, body, eq0, f, dF,
                             dF_inv, tau, d, vecs, y, dy_dx, yielded, eq,
                             None, None, None, 2)
 
 
 @njit(cache=True, error_model="numpy")
 def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
-                       w, du, start, params, eq0, f, dF, dF_inv, tau, d,
+                       w, du, start, params, body, eq0, f, dF, dF_inv, tau, d,
                        vecs, y, dy_dx, yielded, eq):
     """The finite-deformation pass on a 3D grid (``_finite_residual``)."""
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
-                            qstart, w, du, start, params, eq0, f, dF,
+                            qstart, w, du, start, params, body, eq0, f, dF,
                             dF_inv, tau, d, vecs, y, dy_dx, yielded, eq,
                             None, None, None, 3)
 
 
 @njit(cache=True, error_model="numpy")
 def small_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
-                      w, du, stress0, strain0, params, eq0, f, stress,
+                      w, du, stress0, strain0, params, body, eq0, f, stress,
                       strain, x, vecs, y, dy_dx, yielded, eq):
     """The small-strain pass on a 2D grid (``_small_residual``)."""
     _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
-                    du, stress0, strain0, params, eq0, f, stress, strain, x,
-                    vecs, y, dy_dx, yielded, eq, None, None, None, 2)
+                    du, stress0, strain0, params, body, eq0, f, stress, strain,
+                    x, vecs, y, dy_dx, yielded, eq, None, None, None, 2)
 
 
 @njit(cache=True, error_model="numpy")
 def small_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
-                      w, du, stress0, strain0, params, eq0, f, stress,
+                      w, du, stress0, strain0, params, body, eq0, f, stress,
                       strain, x, vecs, y, dy_dx, yielded, eq):
     """The small-strain pass on a 3D grid (``_small_residual``)."""
     _small_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
-                    du, stress0, strain0, params, eq0, f, stress, strain, x,
-                    vecs, y, dy_dx, yielded, eq, None, None, None, 3)
+                    du, stress0, strain0, params, body, eq0, f, stress, strain,
+                    x, vecs, y, dy_dx, yielded, eq, None, None, None, 3)
 
 
 @njit(cache=True, error_model="numpy")
 def stiffness_2d(G, nodes, node_start, node_count, runs, order, qstart, mode,
                  elements, first, length, graph_indptr, graph_indices, w,
-                 kind, C, x, y, dy_dx, vecs, dF_inv, data):
+                 kind, C, body, x, y, dy_dx, vecs, dF_inv, data):
     """The stiffness pass on a 2D grid (``_stiffness``)."""
     _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
                elements, first, length, graph_indptr, graph_indices, w, kind,
-               C, x, y, dy_dx, vecs, dF_inv, data, None, None, None, None,
-               None, 2)
+               C, body, x, y, dy_dx, vecs, dF_inv, data, None, None, None,
+               None, None, 2)
 
 
 @njit(cache=True, error_model="numpy")
 def stiffness_3d(G, nodes, node_start, node_count, runs, order, qstart, mode,
                  elements, first, length, graph_indptr, graph_indices, w,
-                 kind, C, x, y, dy_dx, vecs, dF_inv, data):
+                 kind, C, body, x, y, dy_dx, vecs, dF_inv, data):
     """The stiffness pass on a 3D grid (``_stiffness``)."""
     _stiffness(G, nodes, node_start, node_count, runs, order, qstart, mode,
                elements, first, length, graph_indptr, graph_indices, w, kind,
-               C, x, y, dy_dx, vecs, dF_inv, data, None, None, None, None,
-               None, 3)
+               C, body, x, y, dy_dx, vecs, dF_inv, data, None, None, None,
+               None, None, 3)
 
 
 @njit(cache=True, error_model="numpy")
-def finite_commit(dim, params, d, vecs, eq0, dF, F0, F, J, b_e, strain):
+def finite_commit(dim, params, body, d, vecs, eq0, dF, F0, F, J, b_e,
+                  strain):
     """The converged state of a finite-deformation trial, point by point:
     ``F = dF F_n``, its determinant ``J`` (in-plane block times the
     out-of-plane diagonal below 3D, as
     :func:`~skfem_mpm.mechanics.hencky.inverse_and_det`), and from the
     trial's principal frame (``d = eig(b_tr) - 1``, ``vecs``) and the
-    return map from ``eq0`` the elastic ``b_e = sum exp(2 eps_A) e_A e_A``
-    and strain ``sum eps_A e_A e_A``."""
+    return map from ``eq0`` (``params[body[p]]``) the elastic ``b_e =
+    sum exp(2 eps_A) e_A e_A`` and strain ``sum eps_A e_A e_A``."""
     eps = np.empty(3)
     tp = np.empty(3)
     eps_e = np.empty(3)
@@ -438,7 +451,8 @@ def finite_commit(dim, params, d, vecs, eq0, dF, F0, F, J, b_e, strain):
                 * F[2, 2, p]
         for a in range(3):
             eps[a] = .5 * math.log1p(d[a, p])
-        principal_update(params, eps, eq0[0, p], eq0[1, p], tp, eps_e, D)
+        principal_update(params[body[p]], eps, eq0[0, p], eq0[1, p], tp,
+                         eps_e, D)
         for A in range(3):
             tp[A] = math.exp(2. * eps_e[A])
         for a in range(3):

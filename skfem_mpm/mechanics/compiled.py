@@ -14,10 +14,13 @@ Lagrangian), :class:`~skfem_mpm.mechanics.materials.LinearElastic`,
 :class:`~skfem_mpm.mechanics.materials.VonMises`,
 :class:`~skfem_mpm.mechanics.soils.DruckerPrager`,
 :class:`~skfem_mpm.mechanics.soils.MohrCoulomb` (with friction) and
-:class:`~skfem_mpm.mechanics.cam_clay.ModifiedCamClay`.  Everything else
-(the total Lagrangian scheme of ``method="fem"`` in finite deformation,
-1D, a user's material, one material per body) runs on the numpy path,
-the reference the compiled passes are tested equal to.
+:class:`~skfem_mpm.mechanics.cam_clay.ModifiedCamClay`, one for all
+points or one per body (:class:`~skfem_mpm.mechanics.materials.
+PointMaterials`, each body's any of these: the passes take each point's
+parameters by its body, :func:`body_parameters`).  Everything else (the
+total Lagrangian scheme of ``method="fem"`` in finite deformation, 1D, a
+user's material, also as one body's) runs on the numpy path, the
+reference the compiled passes are tested equal to.
 
 A compiled response fills the arrays the numpy path fills (stress, the
 spectral parts, ``dF`` ...), so the kinematics build it, its commit and its
@@ -39,19 +42,20 @@ from ..kernels import (CAM_CLAY, DRUCKER_PRAGER, ELASTIC, MOHR_COULOMB,
                        VON_MISES, auto_kernels, check_kernels,
                        compiled_passes, log_once)
 from .hencky import SpectralParts
-from .materials import LinearElastic, VonMises, elastic_tensor
+from .materials import (LinearElastic, PointMaterials, VonMises,
+                        elastic_tensor)
 from .cam_clay import ModifiedCamClay
 from .soils import APEX_STIFFNESS, DruckerPrager, MohrCoulomb
 
 __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
-           "COVERAGE", "identity_out_of_plane"]
+           "body_parameters", "COVERAGE", "identity_out_of_plane"]
 
 #: what the compiled passes serve (the refusal of ``kernels="compiled"``
 #: says it)
 COVERAGE = ("standard MPM, uGIMP, cpGIMP and B-splines in 2D and 3D, small "
             "and finite deformation, with or without mean dilatation, "
             "LinearElastic, VonMises, DruckerPrager, MohrCoulomb and "
-            "ModifiedCamClay")
+            "ModifiedCamClay (one for all points or one per body)")
 
 
 def material_parameters(material) -> Optional[ndarray]:
@@ -103,6 +107,37 @@ def material_name(material) -> str:
         else name
 
 
+def body_parameters(material):
+    """``(params, body, reason)``: the parameter vectors of the passes,
+    one row a body (:func:`material_parameters`), and each point's row
+    (``None``: one material, every point row 0), or ``(None, None,
+    reason)`` where the passes do not cover ``material`` (for
+    :class:`~skfem_mpm.mechanics.materials.PointMaterials`, the first
+    body's material they do not cover, by its class: the user's).
+
+    >>> from skfem_mpm import LinearElastic, VonMises
+    >>> from skfem_mpm.mechanics.materials import PointMaterials
+    >>> params, body, _ = body_parameters(PointMaterials(
+    ...     [VonMises(1e6, .3, 1e3), LinearElastic(1e8, .2)], [0, 1, 1, 0]))
+    >>> params[:, 0].tolist(), body.tolist()                  # kinds
+    ([1.0, 0.0], [0, 1, 1, 0])
+    """
+    if not isinstance(material, PointMaterials):
+        params = material_parameters(material)
+        return (None, None, "the material {}".format(
+            material_name(material))) if params is None \
+            else (params[None], None, None)
+    rows = []
+    for k, each in enumerate(material.materials):
+        params = material_parameters(each)
+        if params is None:
+            return None, None, "the material {} of body {}".format(
+                material_name(each), k)
+        rows.append(params)
+    return np.array(rows), np.ascontiguousarray(material.body,
+                                                dtype=np.int64), None
+
+
 def compiled_path(kernels: str, material, dim: int,
                   total_lagrangian: bool = False):
     """The :class:`CompiledPasses` of a kinematics piece, or ``None`` (the
@@ -126,16 +161,14 @@ passes do not serve 1D grids; ...
     if check_kernels(kernels) == "numpy" or (
             kernels == "auto" and auto_kernels() == "numpy"):
         return None
-    params = material_parameters(material)
+    params, body, reason = body_parameters(material)
     reason = ("{}D grids".format(dim) if dim not in (2, 3)
               else "the total Lagrangian scheme (method 'fem')"
-              if total_lagrangian
-              else "the material {}".format(material_name(material))
-              if params is None else None)
+              if total_lagrangian else reason)
     passes = None if reason else compiled_passes()
     if reason is None and passes is not None:
         return CompiledPasses(passes, material, params, dim,
-                              kernels == "compiled")
+                              kernels == "compiled", body)
     if kernels == "compiled":
         raise InvalidInputError(
             "kernels='compiled': the compiled passes do not serve {}; they "
@@ -191,27 +224,36 @@ class CompiledPasses:
     passes
         The module :mod:`skfem_mpm.kernels.passes`.
     material, params
-        The material and its parameter vector.
+        The material (or :class:`~skfem_mpm.mechanics.materials.
+        PointMaterials`) and its parameter vectors, one row a body
+        (:func:`body_parameters`).
     dim
         The grid's dimension.
     explicit
         ``kernels="compiled"`` was asked for: an operator the passes do
         not serve is logged as a warning (once), not as information.
+    body
+        Each point's row of ``params`` (int64), or ``None``: one material
+        (row 0 for every point).
 
     """
 
     def __init__(self, passes, material, params: ndarray, dim: int,
-                 explicit: bool):
+                 explicit: bool, body: Optional[ndarray] = None):
         from ..kernels import dilatation       # numba: imported with passes
         self.passes, self.material, self.params = passes, material, params
-        self.dim, self.explicit = dim, explicit
-        self.plastic = params[0] != 0.
+        self.dim, self.explicit, self.body = dim, explicit, body
+        kinds = params[:, 0]
+        # any body's plastic: the small pass takes the return map at every
+        # point (an elastic body's too), as the numpy path's PointMaterials
+        self.plastic = bool((kinds != 0.).any())
         #: the internal variables the passes carry, rows of a (2, n) array
         self.variables = (("equivalent_plastic_strain",
                            "plastic_volumetric_strain")
-                          if params[0] == CAM_CLAY else
+                          if (kinds == CAM_CLAY).any() else
                           ("equivalent_plastic_strain",) if self.plastic
                           else ())
+        self._row0 = np.zeros(0, dtype=np.int64)  # one material's body
         #: the passes without and with mean dilatation, each
         #: ``(finite_residual, small_residual, stiffness)``
         self.plain = passes.passes_of(dim)
@@ -219,10 +261,10 @@ class CompiledPasses:
         self._start = (None, None)      # a step's strain and b_n - I
         self._increments = None         # dF and dF^-1, reused
         # the stiffness pass's C with m components (dim, or 3 with mean
-        # dilatation), made once: zeros where it reads none, and Hooke's
-        # tensor of an elastic material in small strain on first use (33
-        # us, once a response before)
-        self._no_C = {m: np.zeros((m,) * 4) for m in {dim, 3}}
+        # dilatation), one a body, made once: zeros where it reads none,
+        # and Hooke's tensors of elastic materials in small strain on first
+        # use (33 us, once a response before)
+        self._no_C = {m: np.zeros((1,) + (m,) * 4) for m in {dim, 3}}
         self._hooke = {}
 
     def serves(self, op, points) -> bool:
@@ -233,6 +275,8 @@ class CompiledPasses:
         where not."""
         average = getattr(op, "average", None)
         method_op = op if average is None else op.op
+        if self.body is not None and self.body.size != points.n:
+            return False    # bodies of other points: numpy's error
         if getattr(method_op, "kernel_layout", None) is not None and \
                 method_op.n_points == points.n and (
                     average is None
@@ -243,6 +287,16 @@ class CompiledPasses:
                  "its responses run on the numpy path",
                  "compiled" if self.explicit else "auto", type(op).__name__)
         return False
+
+    def _bodies(self, n: int) -> ndarray:
+        """Each of ``n`` points' row of ``params``: the bodies of
+        :class:`~skfem_mpm.mechanics.materials.PointMaterials`, else
+        zeros (made once for ``n``)."""
+        if self.body is not None:
+            return self.body
+        if self._row0.size != n:
+            self._row0 = np.zeros(n, dtype=np.int64)
+        return self._row0
 
     def _layout(self, op):
         """``(passes, layout, cells, m)`` of the served operator ``op``:
@@ -312,17 +366,18 @@ class CompiledPasses:
         return {name: state[row] for row, name in enumerate(self.variables)}
 
     def _stiffness(self, assemble, layout, cells, kind: int, w: ndarray,
-                   C: ndarray, parts) -> callable:
+                   C: ndarray, body: ndarray, parts) -> callable:
         """``stiffness()`` of a response: the compiled stiffness from the
         kept ``parts`` (x, y, dy_dx, vecs, dF_inv) into the CSR data of
-        the operator's pattern (with mean dilatation, of its cells')."""
+        the operator's pattern (with mean dilatation, of its cells'); an
+        elastic tangent the ``C[body[p]]`` of each point."""
         places, pattern, extra = (layout.places, layout.pattern, ()) \
             if cells is None else (cells.places, cells.pattern, cells.cells)
 
         def stiffness():
             data = np.zeros(pattern.nnz)
-            assemble(*layout.groups, *places, contiguous(w), kind, C, *parts,
-                     data, *extra)
+            assemble(*layout.groups, *places, contiguous(w), kind, C, body,
+                     *parts, data, *extra)
             return pattern.csr(data)
         return stiffness
 
@@ -330,13 +385,13 @@ class CompiledPasses:
         """The finite-deformation response (the numpy path's
         :meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.response`)."""
         (finite, _, assemble), layout, cells, m = self._layout(op)
-        n = points.n
+        n, body = points.n, self._bodies(points.n)
         tau, yielded, spectral = kinematics.workspace(n, m, False)[1:]
         dF, dF_inv = self._increment_arrays(n, m)
         f, eq = np.zeros(op.N), np.empty((2, n))
         status = finite(
             *layout.groups, contiguous(points.volume0), contiguous(du),
-            self._start_deviation(points), self.params,
+            self._start_deviation(points), self.params, body,
             self._state(points), f, dF, dF_inv, tau, spectral.d,
             spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq,
             *(() if cells is None else cells.cells))
@@ -353,7 +408,7 @@ class CompiledPasses:
             F, J = np.empty((3, 3, n)), np.empty(n)
             b_e, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
             self.passes.finite_commit(
-                self.dim, self.params, spectral.d, spectral.vecs,
+                self.dim, self.params, body, spectral.d, spectral.vecs,
                 self._state(old), dF, contiguous(old.F), F, J, b_e, strain)
             return F, J, b_e, strain
 
@@ -364,7 +419,7 @@ class CompiledPasses:
             force=f.copy,
             stiffness=self._stiffness(
                 assemble, layout, cells, self.passes.FINITE_TANGENT,
-                points.volume0, self._no_C[m],
+                points.volume0, self._no_C[m], body,
                 (spectral.d, spectral.tau, spectral.dtau_dx, spectral.vecs,
                  dF_inv)))
 
@@ -372,7 +427,7 @@ class CompiledPasses:
         """The small-strain response (the numpy path's
         :meth:`~skfem_mpm.mechanics.kinematics.SmallStrain.response`)."""
         (_, small, assemble), layout, cells, m = self._layout(op)
-        n = points.n
+        n, body = points.n, self._bodies(points.n)
         stress, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
         x, vecs = points_first(n, 3), points_first(n, 3, 3)
         y, dy_dx = points_first(n, m), points_first(n, m, m)
@@ -381,7 +436,7 @@ class CompiledPasses:
         small(
             *layout.groups, contiguous(points.volume), contiguous(du),
             contiguous(points.stress), contiguous(points.strain), self.params,
-            self._state(points),
+            body, self._state(points),
             f, stress, strain, x, vecs, y, dy_dx, yielded, eq,
             *(() if cells is None else cells.cells))
         # the stiffness pass reads no dF^-1 in small strain: one of two
@@ -391,14 +446,17 @@ class CompiledPasses:
         empty = points_first(2, 3, 3)
         if not self.plastic:
             if m not in self._hooke:
-                # a writeable copy: the type of every call's C is one
-                self._hooke[m] = elastic_tensor(self.material, 1,
-                                                m)[..., 0].copy()
+                # one a body, (bodies, m, m, m, m) C-contiguous: the type
+                # of every call's C is one
+                self._hooke[m] = np.stack([
+                    elastic_tensor(each, 1, m)[..., 0]
+                    for each in getattr(self.material, "materials",
+                                        [self.material])])
             return kinematics.elastic_response(
                 points, stress, strain, m, force=f.copy,
                 stiffness=self._stiffness(
                     assemble, layout, cells, self.passes.ELASTIC_TANGENT,
-                    points.volume, self._hooke[m],
+                    points.volume, self._hooke[m], body,
                     (x, y, dy_dx, vecs, empty)))
         kinematics.counters["return_maps"] += 1
         return kinematics.plastic_response(
@@ -406,5 +464,5 @@ class CompiledPasses:
             self._named(eq), m, force=f.copy,
             stiffness=self._stiffness(
                 assemble, layout, cells, self.passes.RETURN_MAP_TANGENT,
-                points.volume, self._no_C[m],
+                points.volume, self._no_C[m], body,
                 (x, y, dy_dx, vecs, empty)))

@@ -244,7 +244,10 @@ class PointMaterials:
 
     Offers what the solvers use of a single material (``lam``, ``mu`` and
     ``stress`` per point, ``principal_update``) so that bodies of different
-    materials share one grid.
+    materials share one grid.  The compiled passes serve it where they
+    cover every body's material, each point taking its body's parameters
+    (:func:`~skfem_mpm.mechanics.compiled.body_parameters`); this class is
+    the numpy path, their reference.
 
     """
 
