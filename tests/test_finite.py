@@ -485,3 +485,41 @@ def test_a_collapse_past_the_limit_load_leaves_the_ghost_off(caplog):
                    for r in caplog.records)
     assert 1.2 * failed.value.load_factor == pytest.approx(1.0125,
                                                            abs=1e-3)
+
+
+def test_a_b_spline_retry_with_the_stabilised_tangent_stays_quadratic(
+        monkeypatch):
+    """A Drucker-Prager slope on B-splines whose plain and line-search
+    attempts fail (forced) is carried by the stabilised tangent in two
+    iterations, in its two steps.  With the diagonal floored at 1e-3 of
+    its median in every stabilised solve its edge nodes (down to 1e-9 of
+    the median) were stiffened: 25 iterations, a cut-back (a reviewer's);
+    the floor is the rung after it, in plastic runs."""
+    from skfem_mpm import DruckerPrager, NewtonDivergenceError, simulate
+    from skfem_mpm.solve import core
+    attempts, original = [], core.load_step
+
+    def load_step(*args):
+        how = args[5]
+        attempts.append((how.stabilise, how.floored))
+        if len(attempts) <= 2:
+            raise NewtonDivergenceError("forced failure")
+        return original(*args)
+    monkeypatch.setattr(core, "load_step", load_step)
+    mesh = MeshQuad.init_tensor(np.linspace(0., 4., 17),
+                                np.linspace(0., 2.5, 11))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < 2. - .8 * np.clip(
+        x[0] - 1.5, 0, None))
+
+    def supports(b):
+        return np.concatenate([
+            b.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+            b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                       | np.isclose(x[0], 4.)).all("u^1")])
+    res = simulate(mesh, ElementQuad1(), pts, DruckerPrager(
+        1e6, .3, cohesion=8e3, friction_angle=25.), supports,
+        body_force=[0., -2e4], nsteps=2, method="bspline")
+    assert attempts == [(False, False), (False, False), (True, False),
+                        (False, False)]
+    assert len(res.history) == 2
+    assert len(res.history[0].newton_residuals) == 3

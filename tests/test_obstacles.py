@@ -1791,8 +1791,9 @@ def test_cohesionless_soil_stands_beside_a_rough_wall():
     the wall everywhere) to 1e-9.  The soil hangs on the wall: its top
     goes to Mohr-Coulomb's apex, whose points keep 1e-8 of their
     stiffness, and the stabilised tangent added nothing to the nodes
-    they alone hold; every cut-back failed (docs/contact.md).  Now a
-    diagonal below 1e-3 of the median is raised to it there."""
+    they alone hold; every cut-back failed (docs/contact.md).  Now the
+    retry ladder tries that tangent with its diagonal entries below 1e-3
+    of the median raised to it."""
     gamma, H, nu = 2e3 * 9.81, 1., .3
     mesh = MeshQuad.init_tensor(np.linspace(0., 1.5, 16),
                                 np.linspace(0., 1.2, 13))

@@ -83,7 +83,7 @@ from .newton import FullStep, NewtonOptions, newton as newton_driver
 from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
                       translate_aliases)
 from .obstacles import check_obstacles
-from .problem import STABILISATION, StepProblem
+from .problem import STABILISATION, STABILISATION_FLOOR, StepProblem
 from .results import Result
 from .rigid import RigidBody, check_rigid_bodies, warn_stiff_smooth_bodies
 
@@ -298,10 +298,12 @@ def mean_dilatation(op, points):
 class Attempt(NamedTuple):
     """One way of trying a load step: with the run's first line search
     (``"first"``) or its retry search (``"retry"``), modified Newton
-    allowed, the tangent stabilised."""
+    allowed, the tangent stabilised, its diagonal floored
+    (:data:`~skfem_mpm.solve.problem.STABILISATION_FLOOR`)."""
     search: str
     modified: bool
     stabilise: bool
+    floored: bool = False
 
 
 FIRST = Attempt("first", True, False)
@@ -319,6 +321,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     new state, the step's record and its point operator; ``report``
     receives what the Newton driver reports."""
     problem = StepProblem(run, points, f_old, f_new, step)
+    problem.floored = how.floored
     searches = how.search == "retry" or bool(
         run.counters["line_search_from_step"])
     strategy = (run.line_search or run.newton) if searches else run.newton
@@ -515,6 +518,10 @@ RETRY_LADDER = (
     Rung("the tangent stabilised by {:.0e} of its diagonal".format(
         STABILISATION), lambda run, failure, report: True,
         Attempt("retry", False, True)),
+    Rung("the stabilised tangent's diagonal floored at {:.0e} of its "
+         "median".format(STABILISATION_FLOOR),
+         lambda run, failure, report: is_plastic(run.material),
+         Attempt("retry", False, True, True)),
     Rung("the ghost penalty", ghost_for_slivers_held, None,
          switch_ghost_on),
 )

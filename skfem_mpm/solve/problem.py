@@ -43,11 +43,17 @@ __all__ = ["StepProblem", "Trial", "STABILISATION"]
 #: the fraction of its diagonal added to a tangent refused as singular, or
 #: when a failed step is retried so (:meth:`StepProblem.solve`)
 STABILISATION = 1e-7
-#: and the least diagonal of such a tangent, a fraction of the median of
+#: and the least diagonal of such a tangent where the exact one was
+#: refused as singular, or a step is retried with it floored
+#: (:attr:`StepProblem.floored`), a fraction of the median of
 #: its diagonal's sizes: points at a perfectly plastic apex keep 1e-8 of
 #: their elastic stiffness, and a share of the diagonal adds nothing to
 #: the nodes they alone hold (cohesionless soil beside a rough wall, its
-#: top at Mohr-Coulomb's apex, failed at every cut-back)
+#: top at Mohr-Coulomb's apex, failed at every cut-back; a user trial's
+#: Mohr-Coulomb footing with standard MPM stopped at half its push).
+#: Not in the retry that stabilises every solve: B-splines' edge nodes
+#: hold diagonals down to 1e-9 of the median, and floored they slowed a
+#: retry that converged in 2 iterations past its 25 (a reviewer's slope)
 STABILISATION_FLOOR = 1e-3
 #: a converged step whose free grid nodes moved more than this many times
 #: the largest motion of a point (and more than a millionth of a cell)
@@ -181,6 +187,9 @@ class StepProblem:
         self._kept_norm = None          # f_dead's norm (_dead_norm)
         self.load_weight = 1.
         self.stabilised = False        # a solve used the stabilised tangent
+        #: the stabilised tangent's diagonal floored at
+        #: :data:`STABILISATION_FLOOR` of its median size (a retry's)
+        self.floored = False
         self._own = None    # the last tangent made of arrays of its own
         self.terms = []
         for term in run.terms:             # in order: a term may use those
@@ -323,10 +332,12 @@ class StepProblem:
         is retried so (``stabilise``), or when the exact tangent is refused
         as singular.  Those modes carry no residual, so the stabilisation,
         :data:`STABILISATION` times the diagonal added to the tangent only
-        (and a diagonal entry below :data:`STABILISATION_FLOOR` of the
-        median size raised to it: nodes held by points at a plastic apex
-        alone), does not change the converged state; it is used only when
-        needed because it slows Newton to a linear rate of about
+        (and where the exact one was refused or the step is retried
+        :attr:`floored`, a diagonal entry below
+        :data:`STABILISATION_FLOOR` of the median size raised to it: nodes
+        held by points at a plastic apex alone), does not change
+        the converged state; it is used only when needed because it slows
+        Newton to a linear rate of about
         ``STABILISATION`` times the tangent's condition number.  A linear
         step solves once, exactly, or raises.  Returns the increment and
         the factorised solve, ``solve(r) -> d``, that modified Newton
@@ -395,10 +406,11 @@ class StepProblem:
                 logger.debug("step %d: %s; solving again with the tangent "
                              "stabilised by %.0e of its diagonal", self.step,
                              err, STABILISATION)
-        d = A.diagonal()
-        floor = STABILISATION_FLOOR * np.median(np.abs(d))
-        A.setdiag(np.where(np.abs(d) < floor, floor,
-                           d * (1. + STABILISATION)))            # in place
+        d = A.diagonal() * (1. + STABILISATION)
+        if self.floored or not stabilise:       # or refused as singular
+            floor = STABILISATION_FLOOR * np.median(np.abs(d))
+            d[np.abs(d) < floor] = floor
+        A.setdiag(d)                                             # in place
         counters["stabilised_solves"] += 1
         self.stabilised = True
         try:
