@@ -29,6 +29,7 @@ from scipy.linalg.blas import dnrm2
 
 from ..errors import GridMotionError, SingularSystemError, \
     SingularTangentError
+from ..mechanics.materials import is_plastic
 from ..protocols import Balance
 from .backends import TINY
 from .linear import Condensation, condensed, factorise_condensed, \
@@ -44,7 +45,8 @@ __all__ = ["StepProblem", "Trial", "STABILISATION"]
 #: when a failed step is retried so (:meth:`StepProblem.solve`)
 STABILISATION = 1e-7
 #: and the least diagonal of such a tangent where the exact one was
-#: refused as singular, or a step is retried with it floored
+#: refused as singular in a plastic run, or a step is retried with it
+#: floored
 #: (:attr:`StepProblem.floored`), a fraction of the median of
 #: its diagonal's sizes: points at a perfectly plastic apex keep 1e-8 of
 #: their elastic stiffness, and a share of the diagonal adds nothing to
@@ -332,8 +334,8 @@ class StepProblem:
         is retried so (``stabilise``), or when the exact tangent is refused
         as singular.  Those modes carry no residual, so the stabilisation,
         :data:`STABILISATION` times the diagonal added to the tangent only
-        (and where the exact one was refused or the step is retried
-        :attr:`floored`, a diagonal entry below
+        (and where the exact one was refused in a plastic run or the step
+        is retried :attr:`floored`, a diagonal entry below
         :data:`STABILISATION_FLOOR` of the median size raised to it: nodes
         held by points at a plastic apex alone), does not change
         the converged state; it is used only when needed because it slows
@@ -407,7 +409,9 @@ class StepProblem:
                              "stabilised by %.0e of its diagonal", self.step,
                              err, STABILISATION)
         d = A.diagonal() * (1. + STABILISATION)
-        if self.floored or not stabilise:       # or refused as singular
+        # or refused as singular in a plastic run: an elastic cpGIMP
+        # cantilever's sliver nodes, floored, stalled at 1.4e-6
+        if self.floored or not stabilise and is_plastic(run.material):
             floor = STABILISATION_FLOOR * np.median(np.abs(d))
             d[np.abs(d) < floor] = floor
         A.setdiag(d)                                             # in place
