@@ -1783,33 +1783,40 @@ def test_an_obstacle_presses_alike_at_a_sites_coordinates():
         assert press_at(c) == pytest.approx(here, rel=1e-9, abs=1e-9 * here[1])
 
 
-@pytest.mark.slow
-def test_cohesionless_soil_stands_beside_a_rough_wall():
-    """Cohesionless Mohr-Coulomb soil under gravity beside a stationary
-    rough wall, its face mid-cell: the run reaches its load in its one
-    step and equals the tied wall (no slip either way, the soil pressing
-    the wall everywhere) to 1e-9.  The soil hangs on the wall: its top
-    goes to Mohr-Coulomb's apex, whose points keep 1e-8 of their
-    stiffness, and the stabilised tangent added nothing to the nodes
-    they alone hold; every cut-back failed (docs/contact.md).  Now the
-    retry ladder tries that tangent with its diagonal entries below 1e-3
-    of the median raised to it."""
-    gamma, H, nu = 2e3 * 9.81, 1., .3
+#: cohesionless soil beside a stationary wall: unit weight, height, nu
+GAMMA, HEIGHT, NU = 2e3 * 9.81, 1., .3
+
+
+def soil_beside_wall(friction):
+    """Cohesionless Mohr-Coulomb soil (c = 0, phi = 30) under gravity in
+    one load step beside a stationary wall obstacle of ``friction``, its
+    face mid-cell, on a roller base and a far roller."""
     mesh = MeshQuad.init_tensor(np.linspace(0., 1.5, 16),
                                 np.linspace(0., 1.2, 13))
-    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .25) & (x[1] < H))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .25)
+                      & (x[1] < HEIGHT))
 
     def supports(basis):
         return np.concatenate([
             basis.get_dofs(lambda x: np.isclose(x[1], 0.)).all("u^2"),
             basis.get_dofs(lambda x: np.isclose(x[0], 1.5)).all("u^1")])
+    return simulate(mesh, ElementQuad1(), pts, MohrCoulomb(
+        2e7, NU, cohesion=0., friction_angle=30.), supports,
+        body_force=[0., -GAMMA], nsteps=1, obstacles=[
+            Obstacle(box=[[-1., .25], [-1., 2.]], friction=friction)])
 
-    def wall(friction):
-        return simulate(mesh, ElementQuad1(), pts, MohrCoulomb(
-            2e7, nu, cohesion=0., friction_angle=30.), supports,
-            body_force=[0., -gamma], nsteps=1, obstacles=[
-                Obstacle(box=[[-1., .25], [-1., 2.]], friction=friction)])
-    rough, tied = wall("rough"), wall("tied")
+
+@pytest.mark.slow
+def test_cohesionless_soil_stands_beside_a_rough_wall():
+    """Cohesionless soil beside a stationary rough wall: the run reaches
+    its load in its one step and equals the tied wall (no slip either
+    way, the soil pressing the wall everywhere) to 1e-9.  The soil hangs
+    on the wall: its top goes to Mohr-Coulomb's apex, whose points keep
+    1e-8 of their stiffness, and the stabilised tangent added nothing to
+    the nodes they alone hold; every cut-back failed (docs/contact.md).
+    Now such a tangent's diagonal entries below 1e-3 of the median are
+    raised to it in plastic runs."""
+    rough, tied = soil_beside_wall("rough"), soil_beside_wall("tied")
     assert len(rough.history) == 1
     assert rough.counters["stabilised_solves"] > 0
     force = rough.history[-1].obstacle_forces[0]
@@ -1818,35 +1825,22 @@ def test_cohesionless_soil_stands_beside_a_rough_wall():
     normal, shear = force
     # pressed, and the settling soil pulls the wall down
     assert normal < 0. and shear < 0.
-    assert -normal / (.5 * gamma * H ** 2) < nu / (1 - nu)
+    assert -normal / (.5 * GAMMA * HEIGHT ** 2) < NU / (1 - NU)
 
 
 def test_cohesionless_soil_stands_beside_a_coulomb_wall():
-    """Cohesionless Mohr-Coulomb soil under gravity beside a stationary
-    wall with wall friction 0.3, its face mid-cell: the run converges
-    (every cut-back failed while the first solve held the wall's corners
-    sticking with no pressure on them: the soil hung on the wall, at the
-    apex in tension at its top; a user trial), the wall's shear stays
-    within Coulomb's mu times its normal force, and the normal force is
-    the confined soil's nu / (1 - nu) of 1/2 gamma H^2 within 3%."""
-    gamma, H, nu, mu = 2e3 * 9.81, 1., .3, .3
-    mesh = MeshQuad.init_tensor(np.linspace(0., 1.5, 16),
-                                np.linspace(0., 1.2, 13))
-    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .25) & (x[1] < H))
-
-    def supports(basis):
-        return np.concatenate([
-            basis.get_dofs(lambda x: np.isclose(x[1], 0.)).all("u^2"),
-            basis.get_dofs(lambda x: np.isclose(x[0], 1.5)).all("u^1")])
-
-    res = simulate(mesh, ElementQuad1(), pts,
-                   MohrCoulomb(2e7, nu, cohesion=0., friction_angle=30.),
-                   supports, body_force=[0., -gamma], nsteps=1,
-                   obstacles=[Obstacle(box=[[-1., .25], [-1., 2.]],
-                                       friction=mu)])
+    """Cohesionless soil beside a stationary wall with wall friction 0.3:
+    the run converges (every cut-back failed while the first solve held
+    the wall's corners sticking with no pressure on them: the soil hung
+    on the wall, at the apex in tension at its top; a user trial), the
+    wall's shear stays within Coulomb's mu times its normal force, and
+    the normal force is the confined soil's nu / (1 - nu) of
+    1/2 gamma H^2 within 3%."""
+    mu = .3
+    res = soil_beside_wall(mu)
     normal, shear = res.history[-1].obstacle_forces[0]
-    assert -normal / (.5 * gamma * H ** 2) == pytest.approx(
-        nu / (1 - nu), rel=.03)
+    assert -normal / (.5 * GAMMA * HEIGHT ** 2) == pytest.approx(
+        NU / (1 - NU), rel=.03)
     # the soil settles: it pulls the wall down
     assert 0. < -shear <= mu * -normal * (1 + 1e-9)
 
