@@ -39,15 +39,14 @@ from .results import PHASES, StepRecord
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["StepProblem", "Trial", "STABILISATION"]
+__all__ = ["StepProblem", "Trial", "STABILISATION", "STABILISATION_FLOOR"]
 
 #: the fraction of its diagonal added to a tangent refused as singular, or
 #: when a failed step is retried so (:meth:`StepProblem.solve`)
 STABILISATION = 1e-7
 #: and the least diagonal of such a tangent where the exact one was
 #: refused as singular in a plastic run, or a step is retried with it
-#: floored
-#: (:attr:`StepProblem.floored`), a fraction of the median of
+#: floored (:attr:`StepProblem.floored`), a fraction of the median of
 #: its diagonal's sizes: points at a perfectly plastic apex keep 1e-8 of
 #: their elastic stiffness, and a share of the diagonal adds nothing to
 #: the nodes they alone hold (cohesionless soil beside a rough wall, its
@@ -411,7 +410,7 @@ class StepProblem:
         d = A.diagonal() * (1. + STABILISATION)
         # or refused as singular in a plastic run: an elastic cpGIMP
         # cantilever's sliver nodes, floored, stalled at 1.4e-6
-        if self.floored or not stabilise and is_plastic(run.material):
+        if self.floored or (not stabilise and is_plastic(run.material)):
             floor = STABILISATION_FLOOR * np.median(np.abs(d))
             d[np.abs(d) < floor] = floor
         A.setdiag(d)                                             # in place
