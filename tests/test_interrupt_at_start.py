@@ -16,9 +16,12 @@ from skfem_mpm.scenes.scene_file import tomllib
 
 ROOT = Path(__file__).resolve().parent.parent
 
-#: a Ctrl-C (SIGINT to the process itself) at the first import of numpy
+#: a Ctrl-C (SIGINT to the process itself) at the first import of numpy;
+#: Python's handler is set first, as a terminal's process has it (a test
+#: run started in the background of a script inherits SIGINT ignored)
 INTERRUPT_AT_NUMPY = """\
 import os, signal, sys
+signal.signal(signal.SIGINT, signal.default_int_handler)
 
 class InterruptAtNumpy:
     def find_spec(self, name, path=None, target=None):

@@ -65,6 +65,7 @@ def interrupts_deferred(reraise: bool = True):
     --------
     >>> import os, signal
     >>> from skfem_mpm.scenes.io import interrupts_deferred
+    >>> before = signal.signal(signal.SIGINT, signal.default_int_handler)
     >>> try:
     ...     with interrupts_deferred():
     ...         os.kill(os.getpid(), signal.SIGINT)
@@ -72,6 +73,10 @@ def interrupts_deferred(reraise: bool = True):
     ... except KeyboardInterrupt:
     ...     print("interrupted after the block, finished:", finished)
     interrupted after the block, finished: True
+    >>> _ = signal.signal(signal.SIGINT, before)
+
+    (Python's own handler is set first, as it is where the process was
+    started with Ctrl-C ignored, e.g. in the background of a script.)
 
     """
     if threading.current_thread() is not threading.main_thread():
