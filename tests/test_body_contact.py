@@ -413,7 +413,8 @@ def test_a_scene_with_a_contact(tmp_path):
         load_scene(path)
 
 
-@pytest.mark.parametrize("interface", (.9, 1.))
+@pytest.mark.parametrize("interface", (
+    .9, pytest.param(1., marks=pytest.mark.slow)))
 @pytest.mark.parametrize("method", ("mpm", "cpgimp"))
 def test_load_steps_do_not_change_a_linear_answer(method, interface):
     """Two blocks squeezed by a ram (a prescribed displacement of the top

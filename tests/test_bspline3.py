@@ -109,7 +109,8 @@ def test_refusals_name_the_cubic_method():
 # -- runs --------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("method", ["bspline3", "bspline3-gimp"])
+@pytest.mark.parametrize("method", [
+    pytest.param("bspline3", marks=pytest.mark.slow), "bspline3-gimp"])
 def test_column_converges_at_second_order(method):
     """The seed's column, finite deformation, 20 load steps, 2 points per
     cell: error (2.28) at 4, 8, 16 cells falls at order 1.8-2.0

@@ -153,7 +153,9 @@ def amplification_radius(scheme, Omega):
     return np.abs(np.linalg.eigvals(np.linalg.solve(new, old))).max()
 
 
-@pytest.mark.parametrize("rho_inf", [0., .5, .8, 1.])
+@pytest.mark.parametrize("rho_inf", [
+    0., pytest.param(.5, marks=pytest.mark.slow),
+    pytest.param(.8, marks=pytest.mark.slow), 1.])
 def test_generalized_alpha_dissipates_as_its_spectral_radius(rho_inf):
     """One free DOF (a bar of one cell): the decay per step of the run's
     displacement (by linear prediction, u_(n+2) = p u_(n+1) - q u_n, so

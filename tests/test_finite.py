@@ -31,6 +31,7 @@ def columns():
     return nelems, runs
 
 
+@pytest.mark.slow
 def test_gimp_column_converges_where_mpm_plateaus(columns):
     nelems, runs = columns
     gimp = np.array([column_error(r.points) for r in runs["cpgimp"]])
@@ -50,6 +51,7 @@ def quadratic_pairs(history, below=1e-3, floor=1e-10):
             if a < below and b > floor]
 
 
+@pytest.mark.slow
 def test_newton_converges_quadratically_in_the_column(columns):
     _, runs = columns
     for method in ("mpm", "cpgimp"):

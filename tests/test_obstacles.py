@@ -1083,9 +1083,9 @@ friction = 0.3
         load_scene(path)
 
 
-@pytest.mark.parametrize("method, edge", [("mpm", 1.25),
-                                          ("cpgimp", 1.2),
-                                          ("bspline", 1.25)])
+@pytest.mark.parametrize("method, edge", [
+    ("mpm", 1.25), pytest.param("cpgimp", 1.2, marks=pytest.mark.slow),
+    pytest.param("bspline", 1.25, marks=pytest.mark.slow)])
 def test_a_block_landing_over_a_smooth_step_edge_is_not_pushed(method,
                                                                edge):
     """A block dropped flat on a smooth step whose edge lies on a column

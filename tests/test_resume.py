@@ -87,6 +87,7 @@ def assert_same_run(a, b, resumes=None):
     assert not list(b.glob(TEMPORARY_PREFIX + "*"))
 
 
+@pytest.mark.slow
 def test_the_scene_cuts_back(straight):
     """The premise: more converged sub-steps than load steps, and the
     ghost penalty switched on by a failed step (it must stay on across

@@ -257,7 +257,8 @@ def test_compare_draws_fe_and_mpm(tmp_path, capsys):
         assert meshio.read(tmp_path / (name + ".vtu")).points.shape[1] == 3
 
 
-@pytest.mark.parametrize("kinematics", ["small", "finite"])
+@pytest.mark.parametrize("kinematics", [
+    "small", pytest.param("finite", marks=pytest.mark.slow)])
 def test_compare_is_like_with_like(kinematics, tmp_path):
     """In one load step MPM's points have not moved when the step is
     solved: FE and MPM are the same computation, in either kinematics, and
