@@ -114,7 +114,8 @@ def test_finite_deformation_stack(method):
             and r[-1] < 1e-10
 
 
-@pytest.mark.parametrize("method", ("mpm", "bspline", "bspline-gimp"))
+@pytest.mark.parametrize("method", (
+    "mpm", "bspline", pytest.param("bspline-gimp", marks=pytest.mark.slow)))
 def test_bodies_apart_inside_a_cell_do_not_interact(method):
     """A block a quarter cell above another, in the cell the lower one
     reaches (and with B-splines, whose supports reach a row of nodes

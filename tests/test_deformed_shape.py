@@ -75,6 +75,7 @@ def test_a_run_draws_its_deformed_shape_with_supports_and_rigid_bodies(
                        [.53125 - .03, .59375 - .03])
 
 
+@pytest.mark.slow
 def test_a_failed_run_draws_its_last_converged_state(tmp_path, figures):
     """The picture of what failed: a run that stops at a step that does
     not converge draws the state of its last converged step."""
