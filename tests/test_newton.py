@@ -11,7 +11,8 @@ from skfem_mpm import InvalidInputError, InversionError, MPMError, \
 from skfem_mpm.errors import SceneError
 from skfem_mpm.scenes.scene import run_scene
 from skfem_mpm.scenes.scene_file import load_scene, parse_scene
-from skfem_mpm.solve.newton import Backtracking, FullStep, make_line_search
+from skfem_mpm.solve.newton import MERIT_LIMIT, Backtracking, FullStep, \
+    make_line_search
 from skfem_mpm.studies.elastica import untuned_cantilever
 
 EXAMPLES = Path(__file__).parent.parent / "examples"
@@ -114,6 +115,39 @@ def test_searches_count_their_extra_evaluations():
     new, state, extra = plain(evaluate, u, np.array([3.]), State(u),
                               lambda s: False)   # not a descent direction
     assert calls.count(6.) == 2 and extra == len(calls) - 1   # s = 1, full
+
+
+@pytest.mark.parametrize("watchdog", [None, 0, 2])
+def test_a_trial_beyond_the_merit_limit_is_rejected_as_a_nan_one(watchdog):
+    """A diverging trial's residual comes out NaN or huge depending on
+    where its arithmetic overflows first (a review's 3D run: 1e178 on the
+    numpy path where the compiled pass gave NaN; the numpy path's search
+    then raised OverflowError squaring it, and the two paths took
+    different rungs of the retry ladder).  Every search treats the two
+    alike: the same trials, the same accepted state, below the start's
+    residual (on ``r(u) = -log(u)`` from u = 0.5 along d = 2000, whose
+    full step lands where the residual is 1e178 or NaN)."""
+    outcomes = []
+    for beyond in (1e178, np.nan):
+        class State:
+            def __init__(self, u):
+                self.r = -np.log(u) if u[0] < 1e3 else np.array([beyond])
+                self.merit = float(np.abs(self.r).max())
+        calls = []
+
+        def evaluate(u):
+            calls.append(u[0])
+            return State(u)
+        search = Backtracking(min_step=1e-5, watchdog=watchdog)
+        if watchdog is None:
+            search = search.guard()
+        u = np.array([.5])
+        new, state, extra = search.start()(evaluate, u, np.array([2e3]),
+                                           State(u), lambda s: False)
+        outcomes.append((calls, new[0], state.merit))
+    assert outcomes[0] == outcomes[1]
+    assert outcomes[0][2] < -np.log(.5) and len(outcomes[0][0]) > 1
+    assert MERIT_LIMIT ** 2 < np.inf and 1e178 > MERIT_LIMIT
 
 
 def test_scene_files_choose_the_line_search():

@@ -55,6 +55,8 @@ runs the Armijo search behind the watchdog from the first attempt on.
 :class:`FullStep` is plain Newton.
 """
 import logging
+import math
+import sys
 import time
 from dataclasses import dataclass
 from typing import Callable, List, NamedTuple, Optional, Union
@@ -69,8 +71,8 @@ from ..errors import (InvalidInputError, InversionError, NewtonDivergenceError,
 logger = logging.getLogger(__name__)
 
 __all__ = ["Backtracking", "FullStep", "make_line_search", "LINE_SEARCHES",
-           "newton", "Converged", "MODIFIED_RATE", "NewtonOptions", "RHS",
-           "NEWTON"]
+           "newton", "Converged", "MODIFIED_RATE", "MERIT_LIMIT",
+           "NewtonOptions", "RHS", "NEWTON"]
 
 #: the right-hand sides of a linear step (``rhs=``): the out-of-balance
 #: force, or the seed's literal load increment
@@ -86,6 +88,13 @@ MODIFIED_RATE = .25
 LINE_SEARCHES = ("backtracking", "armijo", "none")
 # what a trial step may raise that a shorter step can avoid
 TRIAL_FAILURES = (InversionError, ArithmeticError, np.linalg.LinAlgError)
+#: the largest residual norm (``merit``) a trial may have: beyond it the
+#: line search's ``phi = merit^2 / 2`` overflows, and such a trial is
+#: rejected as one whose residual is NaN (a diverging trial gives either,
+#: depending on where its arithmetic overflows first: a numpy pass gave
+#: 1e178 where the compiled one gave NaN, and the two took different
+#: rungs of the retry ladder)
+MERIT_LIMIT = math.sqrt(sys.float_info.max)
 
 
 class FullStep:
@@ -105,13 +114,13 @@ class FullStep:
 def trial_state(evaluate: Callable, du: ndarray):
     """``(state, merit)`` of the increment ``du``; ``(None, inf)`` where the
     trial inverts a point, fails in arithmetic or gives a residual that is
-    not finite."""
+    not finite or beyond :data:`MERIT_LIMIT`."""
     try:
         state = evaluate(du)
     except TRIAL_FAILURES as err:
         logger.debug("line search: trial failed: %s", err)
         return None, np.inf
-    if not np.isfinite(state.merit):          # overflow without an error
+    if not state.merit < MERIT_LIMIT:         # overflow without an error
         logger.debug("line search: trial residual is %s", state.merit)
         return None, np.inf
     return state, state.merit
@@ -439,7 +448,8 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         The attempt's line search (``strategy.start()``).
     max_iter
         Iterations at the most; :class:`~skfem_mpm.errors.
-        NewtonDivergenceError` after them or at a residual not finite.
+        NewtonDivergenceError` after them or at a residual not finite
+        (or beyond :data:`MERIT_LIMIT`).
     modified
         Keep the first factorised tangent while each iteration cuts the
         residual by :data:`MODIFIED_RATE` at least.
@@ -505,7 +515,8 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         if converged(current) or problem.free.size == 0 or (
                 single_solve and it == 1):
             break
-        if it == max_iter or not np.isfinite(residuals[-1]):
+        if it == max_iter or not np.isfinite(residuals[-1]) or \
+                not current.merit < MERIT_LIMIT:
             report["smallest"] = min(residuals)
             raise NewtonDivergenceError(
                 "step {}: {} did not converge in {} iterations (residual "
