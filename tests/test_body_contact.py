@@ -1607,3 +1607,23 @@ def test_a_block_pushed_over_a_base_body_slides_at_coulomb_s_force(
     assert (-force[:, 0] <= .3 * weight * (1 + 1e-9)).all()
     assert -force[-1, 0] == pytest.approx(.3 * weight, rel=1e-9)
     assert "extended_splines" not in caplog.text
+
+
+@pytest.mark.parametrize("lower, upper, warned", [
+    ([(0, 2), (0, 1)], [(.3, 1.3), (1, 1.5)], False),     # sides face none
+    ([(0, 2), (0, 1.1)], [(.3, 1.3), (1.1, 1.6)], True),  # bottom in a cell
+    ([(0, .6), (0, 2)], [(.6, 1.5), (0, 1)], True)])      # side in a cell
+def test_lean_warning_only_where_a_side_in_a_cell_faces_the_other_body(
+        lower, upper, warned, caplog):
+    """A user trial: the warning that bodies meeting inside grid cells may
+    lean was given for a block lying on a slab as wide as the grid, its
+    bottom on a grid line, its sides inside cells and facing nothing.  It
+    is given where a side inside a cell faces the other body: a block
+    whose bottom lies inside a cell, a block beside a wall body meeting it
+    inside a cell."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
+    pts = bodies(mesh, 4, [lower, upper])
+    simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
+             lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+             body_force=[0., -1e3], contacts=[Contact(0, 1, "rough")])
+    assert ("may lean" in caplog.text) == warned

@@ -280,6 +280,35 @@ def body_contact_state_names(contacts: int, dim: int, finite: bool,
     return names
 
 
+def facing(x: ndarray, half: ndarray, d: int, sign: int, other: ndarray,
+           extent: float) -> ndarray:
+    """Which of the domains centred at ``x`` (dim, m), of half-widths
+    ``half`` (dim,), face a point of ``other`` (dim, q) across their side
+    ``sign`` along axis ``d``: a centre of ``other`` beyond the side
+    (within ``extent``), inside the side's extent across ``d``.
+
+    >>> import numpy as np
+    >>> x = np.array([[.5, 1.5], [.5, .5]])        # two domains in a row
+    >>> other = np.array([[.5, 3.], [-1., .5]])     # below one, and right
+    >>> facing(x, np.array([.5, .5]), 1, -1, other, 10.).tolist()
+    [True, False]
+    >>> facing(x, np.array([.5, .5]), 0, 1, other, 10.).tolist()
+    [True, True]
+    >>> facing(x, np.array([.5, .5]), 1, 1, other, 10.).tolist()
+    [False, False]
+    """
+    if not x.shape[1] or not other.shape[1]:
+        return np.zeros(x.shape[1], dtype=bool)
+    scale = np.array(half, dtype=float)
+    scale[d] = extent / 2       # along d: the centre's distance beyond
+    centre = x.copy()
+    centre[d] += sign * (half[d] + extent / 2)
+    tree = cKDTree((other / scale[:, None]).T)
+    return tree.query_ball_point((centre / scale[:, None]).T,
+                                 1. + 1e-9, p=np.inf,
+                                 return_length=True) > 0
+
+
 class BodyContact(GridTerm):
     """Contact between the run's bodies (a grid term).
 
@@ -337,12 +366,18 @@ class BodyContact(GridTerm):
     def warn_sides_inside_cells(self, points, half: ndarray) -> None:
         """A warning where a side of a body in contact (a face of a
         point's domain, ``half`` its half-widths, with no domain of the
-        body beside it) lies inside a grid cell: such bodies may lean and
-        settle by the grid.  Given on every contact run, it told a user
-        whose bodies' sides all lay on grid lines the same (a user
-        trial)."""
+        body beside it) faces a body it is in contact with and lies
+        inside a grid cell: such bodies may lean and settle by the grid.
+        Given on every contact run, it told a user whose bodies' sides all
+        lay on grid lines the same; given for every side inside a cell,
+        it told a user whose block lay on a slab of the grid's width, its
+        sides inside cells facing nothing (user trials)."""
         dim, inside = self.dim, 0
-        for k in {k for a, b, _ in self.contacts for k in (a, b)}:
+        partners = {}
+        for a, b, _ in self.contacts:
+            partners.setdefault(a, set()).add(b)
+            partners.setdefault(b, set()).add(a)
+        for k, others in partners.items():
             sel = np.flatnonzero(points.body == k)
             x, w = points.x[:, sel], half[:, sel]
             if not np.allclose(w, w[:, :1]):    # not one lattice: say so
@@ -353,6 +388,7 @@ class BodyContact(GridTerm):
                 np.int64) + 1
             shape = tuple(q.max(axis=1) + 2)
             keys = np.ravel_multi_index(tuple(q), shape)
+            partner = points.x[:, np.isin(points.body, list(others))]
             for d in range(dim):
                 for sign in (-1, 1):
                     moved = q.copy()
@@ -365,7 +401,10 @@ class BodyContact(GridTerm):
                                  lines.size - 1)
                     off = np.minimum(np.abs(face - lines[at - 1]),
                                      np.abs(face - lines[at]))
-                    inside += int(np.count_nonzero(off > 1e-9 * self.h))
+                    side = np.flatnonzero(side)[off > 1e-9 * self.h]
+                    inside += int(np.count_nonzero(facing(
+                        x[:, side], w[:, 0], d, sign, partner,
+                        lines[-1] - lines[0])))
         if inside:
             logger.warning(
                 "contact between bodies: a body whose sides meet the other "
