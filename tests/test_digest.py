@@ -22,7 +22,9 @@ cpgimp_finite_plastic_ghost_pressure, dynamic_alpha_cpgimp_ghost and
 ghost_auto_switched_on when a cell filled to exactly one half (the
 blocks' top rows, 2 x 2 points) stopped being cut or not by round-off
 in the points' volumes (it is full; sums moved by up to 3.5e-2 in a
-Newton history, 1.4e-3 in the strains)."""
+Newton history, 1.4e-3 in the strains); the five small-strain cases'
+hashes when the points began to keep their rotation
+(``state.rotation``; every other sum unchanged to the bit)."""
 import json
 from pathlib import Path
 

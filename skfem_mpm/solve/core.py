@@ -86,6 +86,7 @@ from .obstacles import check_obstacles
 from .problem import STABILISATION, STABILISATION_FLOOR, StepProblem
 from .results import Result
 from .rigid import RigidBody, check_rigid_bodies, warn_stiff_smooth_bodies
+from .rotation import SmallStrainRotation
 
 logger = logging.getLogger(__name__)
 
@@ -283,11 +284,18 @@ def inertia_term(run: Run) -> Optional[GridTerm]:
                                                          run.masses)
 
 
+def rotation_term(run: Run) -> Optional[GridTerm]:
+    """The points' rotation kept, and warned when large, in small strain
+    (:mod:`skfem_mpm.solve.rotation`)."""
+    return None if run.finite or run.dim < 2 else \
+        SmallStrainRotation(run.dim)
+
+
 #: the built-in grid terms, each ``factory(run) -> GridTerm or None``, in
 #: the order their contributions are summed (a user's terms, items of
 #: ``loads``, follow; terms that weigh the balance in time come last)
 GRID_TERMS = (ghost_term, follower_term, obstacle_term, body_contact_term,
-              inertia_term)
+              rotation_term, inertia_term)
 
 
 def mean_dilatation(op, points):

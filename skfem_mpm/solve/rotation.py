@@ -1,0 +1,105 @@
+"""The material's rotation in small strain, and the warning when it is no
+longer small.
+
+Small strain takes the symmetric part of each step's displacement
+gradient as the strain increment and adds stress increments in fixed
+axes: a body that rotates keeps its stress in the axes it had, and a
+rotation ``theta`` makes errors of the order of ``theta`` in the stress
+components (a user trial's bracket, loaded to twice its collapse load,
+converged in small strain with its arm rotated 40 degrees, and nothing
+said the answer was void).  :class:`SmallStrainRotation` keeps each
+point's rotation, the sum of its steps' infinitesimal rotations (the skew
+part of ``grad du``), as point state (``rotation`` in 2D, about the
+out-of-plane axis, counter-clockwise; ``rotation_x``, ``rotation_y``,
+``rotation_z`` in 3D, the rotation vector), and warns once a run when a
+point's rotation passes :data:`ROTATION_WARNING`, naming the point and
+pointing to finite deformation.  Finite deformation needs none of it:
+its stresses follow the material's rotation.
+
+"""
+import logging
+from typing import Optional
+
+import numpy as np
+from numpy import ndarray
+
+from ..protocols import GridTerm
+
+__all__ = ["SmallStrainRotation", "ROTATION_WARNING", "rotation_names",
+           "rotation_angle"]
+
+logger = logging.getLogger(__name__)
+
+#: a point rotated by more than this (radians, 5.7 degrees) in small strain
+#: is warned: the stress components are then wrong by about 10%
+ROTATION_WARNING = .1
+
+
+def rotation_names(dim: int) -> list:
+    """The point-state names of the rotation kept in ``dim`` dimensions:
+    the out-of-plane component in 2D, the vector's in 3D (none in 1D).
+
+    >>> rotation_names(2), rotation_names(3)
+    (['rotation'], ['rotation_x', 'rotation_y', 'rotation_z'])
+    """
+    return {1: [], 2: ["rotation"]}.get(
+        dim, ["rotation_x", "rotation_y", "rotation_z"])
+
+
+def rotation_vector(grad: ndarray, dim: int) -> ndarray:
+    """The infinitesimal rotation of displacement gradients ``grad``
+    (at least (dim, dim, n)): ``w_z = (du_y/dx - du_x/dy) / 2`` in 2D as
+    (1, n), the axial vector of the skew part in 3D as (3, n).
+
+    >>> import numpy as np
+    >>> g = np.array([[0., -.2], [.2, 0.]])[:, :, None]   # rotation by .2
+    >>> rotation_vector(g, 2)
+    array([[0.2]])
+    """
+    pairs = [(1, 0)] if dim == 2 else [(2, 1), (0, 2), (1, 0)]
+    return np.array([.5 * (grad[a, b] - grad[b, a]) for a, b in pairs])
+
+
+def rotation_angle(state: dict, dim: int) -> ndarray:
+    """Each point's rotation angle (radians) from its kept ``state``."""
+    names = rotation_names(dim)
+    return np.sqrt(sum(state[name] ** 2 for name in names))
+
+
+class SmallStrainRotation(GridTerm):
+    """The points' rotation in a small-strain run (module docstring): a
+    grid term with no force, whose commit adds each step's rotation to the
+    point state, and warns once a run when a point's rotation passes
+    :data:`ROTATION_WARNING`."""
+
+    def __init__(self, dim: int):
+        self.dim, self.names = dim, rotation_names(dim)
+        self.warned = False
+
+    def begin_run(self, points) -> None:
+        for name in self.names:
+            points.state.setdefault(name, np.zeros(points.n))
+        self.warned = False
+
+    def begin_step(self, problem) -> Optional[GridTerm]:
+        return self
+
+    def commit(self, problem, trial, du: ndarray, new, record) -> None:
+        w = rotation_vector(problem.op.gradients(du), self.dim)
+        new.state = dict(new.state)
+        for name, increment in zip(self.names, w):
+            new.state[name] = new.state[name] + increment
+        if self.warned:
+            return
+        angle = rotation_angle(new.state, self.dim)
+        p = int(np.argmax(angle))
+        if angle[p] > ROTATION_WARNING:
+            self.warned = True
+            logger.warning(
+                "step %d: small strain, and point %d at %s has rotated by "
+                "%.1f degrees: small strain keeps the stress in fixed axes, "
+                "so its components are wrong by the order of %.0f%% of the "
+                "stress there; use kinematics='finite' for rotations beyond "
+                "%.1f degrees", problem.step, p, np.round(new.x[:, p], 6).tolist(),
+                np.degrees(angle[p]), 100 * angle[p],
+                np.degrees(ROTATION_WARNING))

@@ -1,0 +1,67 @@
+"""The points' rotation in small strain (skfem_mpm/solve/rotation.py): kept
+as point state, exact on a rotation field, warned once when large."""
+import numpy as np
+import pytest
+from skfem import ElementHex1, ElementQuad1, MeshHex, MeshQuad
+
+from skfem_mpm import LinearElastic, Prescribed, seed_points, simulate
+from skfem_mpm.solve.rotation import ROTATION_WARNING, rotation_names
+
+
+def rotated(mesh, elem, axis, theta, nsteps, method="mpm",
+            kinematics="small"):
+    """A block in the middle of the grid, every node moved by the
+    infinitesimal rotation ``theta`` about ``axis`` through the grid's
+    centre, over ``nsteps`` steps: a linear field, which every method's
+    gradients reproduce exactly."""
+    dim = mesh.dim()
+    centre = mesh.p.mean(axis=1)
+    spin = np.zeros((3, 3))
+    a, b = [k for k in range(3) if k != axis]
+    spin[b, a], spin[a, b] = theta, -theta          # u = spin (x - centre)
+    spin = spin[:dim, :dim]
+
+    def motion(basis, f_old, f_new):     # DOFs node by node (u^1, u^2)
+        u = spin @ (basis.doflocs[:, ::dim] - centre[:, None])
+        return np.arange(basis.N), u.T.ravel() * (f_new - f_old)
+    pts = seed_points(mesh, 2, region=lambda x: (
+        np.abs(x - centre[:, None]) < .5).all(axis=0))
+    return simulate(mesh, elem, pts, LinearElastic(1e6, .3),
+                    lambda basis: np.zeros(0, dtype=np.int64),
+                    loads=[Prescribed(motion)], nsteps=nsteps,
+                    method=method, kinematics=kinematics)
+
+
+@pytest.mark.parametrize("method", ["mpm", "fem", "cpgimp"])
+def test_a_rotation_field_is_kept_to_round_off_and_warned_once(method,
+                                                               caplog):
+    """0.3 rad in 4 steps: every point's ``rotation`` is 0.3 to round-off,
+    and one warning names the step where it passed 0.1 rad (the second,
+    at 0.15); 0.08 rad is not warned."""
+    mesh = MeshQuad.init_tensor(*[np.linspace(0, 2, 9)] * 2)
+    res = rotated(mesh, ElementQuad1(), 2, .3, 4, method)
+    assert np.abs(res.points.state["rotation"] - .3).max() < 1e-14
+    warnings = [r for r in caplog.records if "has rotated" in r.message]
+    assert len(warnings) == 1 and "step 2:" in warnings[0].message
+    assert "by 8.6 degrees" in warnings[0].message     # 0.15 rad, not 0.3
+    caplog.clear()
+    res = rotated(mesh, ElementQuad1(), 2, .08, 4, method)
+    assert .08 < ROTATION_WARNING
+    assert np.abs(res.points.state["rotation"] - .08).max() < 1e-14
+    assert "has rotated" not in caplog.text
+
+
+def test_the_rotation_vector_in_3d():
+    mesh = MeshHex.init_tensor(*[np.linspace(0, 2, 5)] * 3)
+    res = rotated(mesh, ElementHex1(), 0, .05, 2)
+    rotation = np.array([res.points.state[name]
+                         for name in rotation_names(3)])
+    assert np.abs(rotation - np.array([[.05], [0.], [0.]])).max() < 1e-14
+
+
+def test_finite_deformation_keeps_no_rotation():
+    """Its stresses follow the material's rotation: no state, no warning
+    (the effect is simulated only where the scene calls for it)."""
+    mesh = MeshQuad.init_tensor(*[np.linspace(0, 2, 9)] * 2)
+    res = rotated(mesh, ElementQuad1(), 2, .01, 1, kinematics="finite")
+    assert "rotation" not in res.points.state
