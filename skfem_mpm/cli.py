@@ -47,6 +47,7 @@ from .scenes.scene import (build_points, load_scale, obstacle_list,
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
 from .solve.body_contact import body_contact_state_names
 from .solve.contact import contact_state_names
+from .solve.rotation import rotation_state_names
 from .solve.core import grid_parts
 from .solve.options import Resume
 from .solve.results import PHASES, Result
@@ -687,7 +688,9 @@ def load_run(args):
             + body_contact_state_names(
                 len(scene.contacts), mesh.dim(),
                 scene.kinematics == "finite",
-                scene.method.startswith("bspline")), mesh)
+                scene.method.startswith("bspline"))
+            + rotation_state_names(mesh.dim(),
+                                   scene.kinematics == "finite"), mesh)
     return scene, source, outdir, earlier, points, resume, mesh, initial
 
 

@@ -372,11 +372,12 @@ def test_ctrl_c_while_saving_a_checkpoint_keeps_the_previous_one(
     (["contact_body_corner{}{}".format(a, c) for a in range(2)
       for c in range(4)], True),
     (["contact_body_corner00", "eps_p"], False),
+    (["rotation", "contact_body_corner00"], True),
 ])
 def test_a_checkpoint_without_the_contact_corners_says_why(names, dated):
-    """A B-spline contact's corners became point state: a checkpoint
-    written before lacks them, and the refusal says so (only where they
-    are all it lacks)."""
+    """A B-spline contact's corners, and the rotation in small strain,
+    became point state: a checkpoint written before lacks them, and the
+    refusal says so (only where they are all it lacks)."""
     from types import SimpleNamespace
     from skfem import MeshQuad
     from skfem_mpm import seed_points
@@ -389,3 +390,31 @@ def test_a_checkpoint_without_the_contact_corners_says_why(names, dated):
                       points, names, mesh)
     assert ("run the scene again from its start" in str(caught.value)) \
         == dated
+
+
+@pytest.mark.slow
+def test_a_small_strain_plastic_run_resumes(tmp_path):
+    """A user trial: once small strain kept the points' rotation as point
+    state, every small-strain run's resume was refused ("holds the
+    internal variables ['equivalent_plastic_strain', 'rotation'], the
+    scene's materials have ['equivalent_plastic_strain']").  Resumed after
+    its first step it ends bit-identical to the run straight through."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(CUT_BACK_SCENE.replace(
+        '"linear_elastic", E = 1e3, nu = 0.3',
+        '"von_mises", E = 1e3, nu = 0.3, yield_stress = 150.0').replace(
+        'method = "cpgimp"\nkinematics = "finite"',
+        'method = "mpm"\nkinematics = "small"').replace(
+        "max_iterations = 3", ""))
+    straight, resumed = tmp_path / "straight", tmp_path / "resumed"
+    assert main(["run", str(scene), "--out", str(straight),
+                 "--no-progress"]) == 0
+    assert main(["run", str(scene), "--out", str(resumed), "--no-progress",
+                 "--max-steps", "1"]) == 0
+    assert main(["run", "--resume", str(resumed), "--no-progress"]) == 0
+    data = summary(straight)
+    assert data["status"] == "completed"
+    last = meshio.read(straight / "points_{:04d}.vtu".format(
+        data["steps_run"]))
+    assert np.abs(last.point_data["rotation"]).max() > 0
+    assert_same_run(straight, resumed, 1)

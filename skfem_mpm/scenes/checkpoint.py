@@ -49,10 +49,34 @@ TIME_FIELDS = ("wall_seconds", "timing_names", "timing_values")
 #: what a refusal adds where a checkpoint lacks only the B-spline contact
 #: corners, point state since 2026-11-27 (a checkpoint written before
 #: cannot resume: its corners were not kept)
-CORNERS_SINCE = ("; the B-spline contact corners (contact_body_corner*) "
-                 "are point state since 2026-11-27 and a checkpoint "
-                 "written before does not hold them: run the scene again "
-                 "from its start")
+#: point state that runs keep since checkpoints were first written,
+#: ``(prefix of the names, what they are)``: a checkpoint that lacks only
+#: such names was written before, and its refusal says so
+STATE_SINCE = (("contact_body_corner", "the B-spline contact corners "
+                "(contact_body_corner*)"),
+               ("rotation", "the points' rotation in small strain "
+                "(rotation*)"))
+
+
+def written_before(held, names) -> str:
+    """What a refusal adds where the state ``held`` lacks only names of
+    :data:`STATE_SINCE` among ``names``: ``""`` otherwise.
+
+    >>> written_before({"eps_p"}, {"eps_p", "rotation"})[:40]
+    "; the points' rotation in small strain ("
+    >>> written_before({"eps_p"}, {"eps_p", "kappa"})
+    ''
+    """
+    missing = set(names) - set(held)
+    whats = sorted({what for name in missing for prefix, what in
+                    STATE_SINCE if name.startswith(prefix)})
+    if not missing or not set(held) <= set(names) or any(
+            not name.startswith(tuple(p for p, _ in STATE_SINCE))
+            for name in missing):
+        return ""
+    return ("; {} became point state on 2026-11-27, and a checkpoint "
+            "written before lacks it: run the scene again from its "
+            "start".format(" and ".join(whats)))
 
 
 class CheckpointError(InvalidInputError):
@@ -312,11 +336,7 @@ def check_against(path, checkpoint: Checkpoint, initial: MaterialPoints,
         raise bad("points_x", "puts points outside the grid ({})".format(
             err)) from None
     if set(points.state) != set(state_names):
-        missing = set(state_names) - set(points.state)
         raise bad("state_*", "holds the internal variables {}, the scene's "
                   "materials have {}{}".format(
                       sorted(points.state), sorted(state_names),
-                      CORNERS_SINCE if missing and set(points.state)
-                      <= set(state_names) and all(
-                          name.startswith("contact_body_corner")
-                          for name in missing) else ""))
+                      written_before(points.state, state_names)))

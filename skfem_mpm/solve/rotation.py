@@ -26,7 +26,7 @@ from numpy import ndarray
 from ..protocols import GridTerm
 
 __all__ = ["SmallStrainRotation", "ROTATION_WARNING", "rotation_names",
-           "rotation_angle"]
+           "rotation_state_names", "rotation_angle"]
 
 logger = logging.getLogger(__name__)
 
@@ -44,6 +44,13 @@ def rotation_names(dim: int) -> list:
     """
     return {1: [], 2: ["rotation"]}.get(
         dim, ["rotation_x", "rotation_y", "rotation_z"])
+
+
+def rotation_state_names(dim: int, finite: bool) -> list:
+    """The point-state names a run keeps for the rotation: those of
+    :func:`rotation_names` in small strain, none in finite deformation
+    (a checkpoint's state is checked against them)."""
+    return [] if finite else rotation_names(dim)
 
 
 def rotation_vector(grad: ndarray, dim: int) -> ndarray:
@@ -100,6 +107,6 @@ class SmallStrainRotation(GridTerm):
                 "%.1f degrees: small strain keeps the stress in fixed axes, "
                 "so its components are wrong by the order of %.0f%% of the "
                 "stress there; use kinematics='finite' for rotations beyond "
-                "%.1f degrees", problem.step, p, np.round(new.x[:, p], 6).tolist(),
-                np.degrees(angle[p]), 100 * angle[p],
-                np.degrees(ROTATION_WARNING))
+                "%.1f degrees", problem.step, p,
+                np.round(new.x[:, p], 6).tolist(), np.degrees(angle[p]),
+                100 * angle[p], np.degrees(ROTATION_WARNING))
