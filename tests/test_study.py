@@ -274,6 +274,7 @@ def test_default_quantity_and_errors_never_nan(tmp_path):
     errors = [r["error"] for r in rows]
     assert np.isfinite(errors).all() and min(errors) > 0
     assert c["against"] == "finest" and c["order"] is None
+    assert [r["other_geometry"] for r in rows] == [True, True, False]
     assert c["why"].startswith(
         "fewer than three grids share the finest grid's geometry (other: "
         "2 elements (body 'block' z = 2 inside a cell)")
@@ -281,6 +282,28 @@ def test_default_quantity_and_errors_never_nan(tmp_path):
     assert np.allclose([r["uncertainty"] for r in rows], 3 * np.array(errors))
     csv = (tmp_path / "study.csv").read_text().splitlines()[0]
     assert "value: largest point displacement" in csv
+
+
+def test_the_rate_is_fitted_to_the_grids_of_one_geometry():
+    """A trial's footing study over 10, 20 and 40 elements printed "rate
+    of the error mpm: 2.95" against a closed form, the coarse grids
+    putting the soil's surface inside cells.  The rate is fitted to the
+    grids sharing the finest one's geometry and names the others: here
+    an error halving with the cell (rate 1) after a coarse grid of
+    another geometry 15 times the next one's."""
+    from skfem_mpm.studies.study import report
+    rows = [dict(elements=n, failure="", error=e, uncertainty=None,
+                 wall_seconds=1., cpu_seconds=1., points=n * n,
+                 newton_iterations=1, factorisations=1, other_geometry=o)
+            for n, e, o in ((10, .3, True), (20, .02, False),
+                            (40, .01, False), (80, .005, False))]
+    measured = {"error": {"measures": "a closed form", "closed_form": True},
+                "convergence": []}
+    line = [x for x in report(rows, measured, ["elements"])
+            if x.startswith("rate of the error")][0]
+    assert line.startswith("rate of the error all: 1.00 (")
+    assert line.endswith("geometry other than the finest one's: 10 "
+                         "elements")
 
 
 def test_self_convergence_cases():

@@ -502,6 +502,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     judged by its data range (:func:`~.convergence.from_data_range`)
     against the case with the most points (then load steps).  Sets
     ``row["errors"]`` and ``row["uncertainties"]`` (per quantity),
+    ``row["other_geometry"]`` (``elements`` varied: whether the case's
+    grid was left out of its group's fit, :func:`same_geometry`),
     ``row["error"]`` (the scene's closed-form error where it has one,
     else the first quantity's) and ``row["uncertainty"]`` (the first
     quantity's, ``None`` against a closed form), and returns what was
@@ -517,6 +519,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     for choices, members in _groups(done, keys):
         fitted, left_out = (same_geometry(scene, members, lines) if refined
                             else (members, ""))
+        for r in members if refined else ():
+            r["other_geometry"] = not any(r is f for f in fitted)
         if len(fitted) < 3:             # no order without three grids
             fitted = members
         for q in quantities:
@@ -684,7 +688,11 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
     error, uncertainty, wall and CPU seconds, points, Newton iterations,
     factorisations), the fitted rate of the error per group where the
     error has one (a closed form, or a reference extrapolated with a
-    credible order), and per quantity and group its reference and
+    credible order; fitted to the cases whose grids model the finest
+    one's geometry, the others named: a trial's footing study over 10,
+    20 and 40 elements printed a rate of 2.95 for standard MPM, its
+    coarse grids putting the soil's surface inside cells), and per
+    quantity and group its reference and
     uncertainty with, in words, why it was or was not extrapolated."""
     lines = ["error: {}".format(measured["error"]["measures"])]
     lines.append(" ".join("{:>9}".format(k) for k in keys) +
@@ -713,12 +721,18 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                 lines.append("rate of the error {}: none (no extrapolation:"
                              " every error is the data range)".format(where))
                 continue
-            rate = fitted_rate([r["elements"] for r in members],
-                               [r["error"] for r in members])
-            lines.append("rate of the error {}: {}".format(
+            kept = [r for r in members if not r.get("other_geometry")]
+            other = [str(r["elements"]) for r in members
+                     if r.get("other_geometry")]
+            rate = fitted_rate([r["elements"] for r in kept],
+                               [r["error"] for r in kept])
+            lines.append("rate of the error {}: {}{}".format(
                 where, "{:.2f} (fitted to the cases with a non-zero "
                 "error)".format(rate) if np.isfinite(rate) else
-                "needs two cases with a non-zero error"))
+                "needs two cases with a non-zero error", "; left out, "
+                "their grids modelling a geometry other than the finest "
+                "one's: {} elements".format(", ".join(other))
+                if other else ""))
     for c in measured["convergence"]:
         where = ", ".join("{}={}".format(k, v) for k, v in
                           c["choices"].items())
