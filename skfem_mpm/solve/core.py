@@ -380,6 +380,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         if report is not None:      # for the retry ladder
             # the exact tangent refused as singular (not asked for)
             report["stabilised"] = problem.stabilised and not how.stabilise
+            report["collapsed"] = problem.collapsed
         raise
     # memory: no factorisation alive in the commit
     seed, found = None, found._replace(factorised=None)
@@ -487,10 +488,20 @@ def ghost_for_slivers_held(run: Run, failure, report: dict) -> bool:
     bspline-gimp one (2 x 2 points per cell) stalled at 1.1e-8 there on
     the stabilised tangent's linear rate; a 3D cpGIMP block on a Coulomb
     floor mid-cell, slipping at its edges, failed at every cut-back of its
-    second step and takes 6 iterations with it (user trial 52)."""
+    second step and takes 6 iterations with it (user trial 52).  Also
+    where the floored tangent failed with nodes whose stiffness collapsed
+    within the step (``report["collapsed"]``, :attr:`~skfem_mpm.solve.
+    problem.StepProblem.collapsed`: held by points gone to a plastic
+    apex alone): B-splines' row of nodes beyond a body's surface, held by
+    its outermost points alone, moved freely where those points sat at
+    Mohr-Coulomb's apex (cohesionless soil hung on a wall), and the
+    points went back and forth between the apex and the cone with them;
+    a cohesionless load scales its answer, so every cut-back failed
+    alike (trial 54)."""
     stalled = report.get("zero_energy", False) and report.get(
         "smallest", np.inf) <= STALLED * run.tol
     return (isinstance(failure, SingularTangentError) or stalled
+            or report.get("collapsed", 0) > 0
             or any(term.ties_slivers for term in run.terms)) \
         and ghost_reserve_held(run)
 

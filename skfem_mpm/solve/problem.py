@@ -191,6 +191,11 @@ class StepProblem:
         #: the stabilised tangent's diagonal floored at
         #: :data:`STABILISATION_FLOOR` of its median size (a retry's)
         self.floored = False
+        #: how many free DOFs a floored solve raised to the floor that the
+        #: step's first tangent held above it: nodes whose points went to
+        #: a plastic apex within the step (the retry ladder's ghost rung)
+        self.collapsed = 0
+        self._first_diagonal = None     # of the step's first tangent
         self._own = None    # the last tangent made of arrays of its own
         self.terms = []
         for term in run.terms:             # in order: a term may use those
@@ -397,6 +402,8 @@ class StepProblem:
             solve = factorise_condensed(A, free, n, solver=run.solver,
                                         doflocs=doflocs)
             return solve(r), solve
+        if self._first_diagonal is None and not self.linear:
+            self._first_diagonal = np.abs(A.diagonal())
         if not stabilise:
             try:
                 return factorise_and_solve()
@@ -412,7 +419,11 @@ class StepProblem:
         # cantilever's sliver nodes, floored, stalled at 1.4e-6
         if self.floored or (not stabilise and is_plastic(run.material)):
             floor = STABILISATION_FLOOR * np.median(np.abs(d))
-            d[np.abs(d) < floor] = floor
+            low = np.abs(d) < floor
+            d[low] = floor
+            if self._first_diagonal is not None:
+                self.collapsed = max(self.collapsed, int(np.count_nonzero(
+                    low & (self._first_diagonal >= floor))))
         A.setdiag(d)                                             # in place
         counters["stabilised_solves"] += 1
         self.stabilised = True
