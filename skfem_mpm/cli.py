@@ -58,7 +58,7 @@ from .studies.footing import (bearing_capacity_factor, footing_error,
 from .studies.study import (CASES_UNASKED, CHOICES, DEFAULT_VARY,
                             REFERENCE_ERRORS, VARIABLES, analyse, case_error,
                             case_work, cases_of, check_reference, check_vary,
-                            clock, configure, estimate, report,
+                            clock, configure, default_vary, estimate, report,
                             scene_quantities, study, worker_count)
 
 DESCRIPTION = """\
@@ -1033,8 +1033,6 @@ def compare(args) -> int:
 
 def parse_vary(items):
     """``["elements=4,8", "method=mpm,cpgimp"]`` as a dict of lists."""
-    if not items:
-        return dict(DEFAULT_VARY)
     vary = {}
     for item in items:
         name, _, values = item.partition("=")
@@ -1070,8 +1068,8 @@ def parse_measures(items, dim: int) -> list:
 def run_study(args) -> int:
     scene = load_scene(args.scene)
     check_folder(args.out, "--out")
-    vary = parse_vary(args.vary)
-    check_vary(vary)
+    vary = parse_vary(args.vary) if args.vary else default_vary(scene)
+    check_vary(vary, scene)
     check_reference(scene)
     quantities = parse_measures(args.measure, len(scene.grid.axes)) or \
         scene_quantities(scene)

@@ -306,6 +306,48 @@ def test_the_rate_is_fitted_to_the_grids_of_one_geometry():
                          "elements")
 
 
+DYNAMIC_DROP = """
+name = "drop"
+[grid]
+x = [0.0, 1.0, 4]
+y = [0.0, 1.0, 4]
+[[bodies]]
+name = "block"
+region = { x = [0.25, 0.75], y = [0.0, 0.5] }
+points_per_cell = 2
+density = 1000.0
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+[[supports]]
+name = "base"
+boundary = "bottom"
+[gravity]
+body_force = [0.0, -9810.0]
+[dynamics]
+time_step = 0.01
+duration = 0.05
+"""
+
+
+def test_a_dynamic_scene_varies_no_load_steps(tmp_path, capsys):
+    """A dynamic scene takes its steps from its time step: a study over
+    ``loadsteps`` ran every case to a failure the scene's check gave
+    ("steps = 1 would be ignored"); it is refused before any work, and
+    the default study of a dynamic scene varies no ``loadsteps``."""
+    from skfem_mpm.studies.study import DEFAULT_VARY, default_vary
+    path = tmp_path / "drop.toml"
+    path.write_text(DYNAMIC_DROP)
+    out = tmp_path / "study"
+    assert main(["study", str(path), "--vary", "loadsteps=1,2", "--out",
+                 str(out), "--no-progress"]) == 2
+    assert "cannot vary loadsteps in a dynamic scene" in \
+        capsys.readouterr().err
+    assert not out.exists()
+    scene = load_scene(path)
+    assert sorted(default_vary(scene)) == ["elements", "ppc"]
+    assert sorted(default_vary(replace(scene, dynamics=None))) == \
+        sorted(DEFAULT_VARY)
+
+
 def test_self_convergence_cases():
     """Over three grids with unequal ratios the least-squares fit passes
     through f = 1 + h^1.5 and is Celik et al.'s Richardson extrapolation,

@@ -78,7 +78,8 @@ __all__ = ["study", "refine", "case_error", "check_reference", "analyse",
            "formal_order", "scene_quantities", "worker_count", "check_vary",
            "cases_of", "estimate", "time_model", "time_left", "clock",
            "disagreements", "VARIABLES",
-           "DEFAULT_VARY", "DEFAULT_QUANTITY", "CASES_UNASKED"]
+           "DEFAULT_VARY", "DEFAULT_QUANTITY", "CASES_UNASKED",
+           "default_vary"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
              "line_search", "newton")
@@ -917,7 +918,7 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     [0.984375, 0.996094]
 
     """
-    check_vary(vary)
+    check_vary(vary, scene)
     check_reference(scene)
     if scheduler is None and workers:
         workers = worker_count(workers)
@@ -993,10 +994,26 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     return StudyRows(_ordered(rows, cases), warm_ups)
 
 
-def check_vary(vary: Dict[str, Sequence]):
+def default_vary(scene: Scene) -> Dict[str, list]:
+    """What a study of ``scene`` varies when told nothing:
+    :data:`DEFAULT_VARY`, without ``loadsteps`` for a dynamic scene (its
+    steps are its time steps)."""
+    return {name: list(values) for name, values in DEFAULT_VARY.items()
+            if not (name == "loadsteps" and scene.dynamics is not None)}
+
+
+def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
     """Raise :class:`~skfem_mpm.errors.InvalidInputError` unless every
     name of ``vary`` is one of :data:`VARIABLES` with distinct, possible
-    values."""
+    values, and (given the ``scene``) one the scene has: a dynamic scene
+    takes its steps from its time step, and each case of ``loadsteps``
+    failed, refused by the scene's check (a user trial)."""
+    if scene is not None and scene.dynamics is not None and \
+            "loadsteps" in vary:
+        raise InvalidInputError(
+            "cannot vary loadsteps in a dynamic scene: it takes its steps "
+            "from [dynamics] (duration / time_step); vary elements, ppc or "
+            "method, and the time step in the scene itself")
     for name, values in vary.items():
         if name not in VARIABLES:
             raise InvalidInputError("cannot vary {!r}: choose from {}".format(
