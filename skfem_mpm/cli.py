@@ -653,6 +653,12 @@ def load_run(args):
     if args.resume is not None:
         outdir = args.resume
         source = outdir / "scene.toml"
+        if not source.is_file():
+            raise InvalidInputError(
+                "--resume {}: no run to resume there ({} is missing: a run "
+                "writes it once its scene is accepted, so a run refused "
+                "before it started has nothing to resume)".format(
+                    outdir, source.name))
         scene = load_scene(source)
         earlier = load_checkpoint(outdir, scene_digest(source))
         points = earlier.points

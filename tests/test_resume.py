@@ -418,3 +418,14 @@ def test_a_small_strain_plastic_run_resumes(tmp_path):
         data["steps_run"]))
     assert np.abs(last.point_data["rotation"]).max() > 0
     assert_same_run(straight, resumed, 1)
+
+
+def test_a_folder_without_a_run_says_there_is_nothing_to_resume(tmp_path,
+                                                                capsys):
+    """A user trial resumed a folder whose run had been refused before it
+    started and read "scene.toml: not a regular file"."""
+    (tmp_path / "refused").mkdir()
+    for folder in (tmp_path / "refused", tmp_path / "absent"):
+        assert main(["run", "--resume", str(folder), "--no-progress"]) == 2
+        err = capsys.readouterr().err
+        assert "no run to resume there (scene.toml is missing" in err, err
