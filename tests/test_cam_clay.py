@@ -348,3 +348,21 @@ def test_undrained_triaxial_of_normally_consolidated_clay():
     assert p[-1] == pytest.approx(p_f, rel=1e-3)
     assert q[-1] == pytest.approx(M * p_f, rel=1e-3)
     assert u[-1] == pytest.approx(P0 + (M / 3 - 1) * p_f, rel=1e-3)
+
+
+def test_a_steep_root_within_round_off_of_its_slope_is_met():
+    """Cam clay's volume solve has slopes of 900-2300 at strains of 1-35:
+    there a few ulps of x move the residual past the absolute tolerance
+    1e-14, so whether a return converged hung on the last bits of the
+    strains (the compiled path's eigenvalues, 4e-16 from numpy's, gave
+    NaN at three points where numpy's converged).  A root whose residual
+    is within 1e-14 of slope times x is met: here no float x gets the
+    residual below 1e-13."""
+    from skfem_mpm.mechanics.cam_clay import RETURN_TOL, bracketed_newton
+
+    def fun(x):                 # root 7 + 5e-17: between two floats
+        return 2000. * (x - 7.) - 1e-13, np.full_like(x, 2000.)
+    lo, hi, x = np.array([6.]), np.array([8.]), np.array([6.5])
+    root, failed = bracketed_newton(fun, hi, lo, x, RETURN_TOL)
+    assert not failed.any() and abs(root[0] - 7.) < 1e-13
+    assert abs(fun(root)[0][0]) > RETURN_TOL

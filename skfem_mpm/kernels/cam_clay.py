@@ -58,7 +58,8 @@ def volume(a, g, pr, pcn, kappa, soft):
     x, done = a, False
     for _ in range(BRACKETED_MAX_ITER):
         value, derivative = plastic_volume(x, a, g, pr, pcn, kappa, soft)
-        done = abs(value) <= tol
+        done = abs(value) <= tol or abs(value) <= RETURN_TOL * abs(
+            derivative * x)
         if done:
             break
         x, lo, hi = bracketed_step(x, value, derivative, lo, hi)
@@ -93,7 +94,8 @@ def bracketed_return(a, b, pr, pcn, kappa, soft, M2, c):
     for _ in range(BRACKETED_MAX_ITER):
         value, derivative = yield_function(g, a, b, pr, pcn, kappa, soft,
                                            M2, c)[:2]
-        done = abs(value) <= RETURN_TOL
+        done = abs(value) <= RETURN_TOL or abs(value) <= RETURN_TOL * abs(
+            derivative * g)
         if done:
             break
         g, lo, hi = bracketed_step(g, value, derivative, lo, hi)
@@ -148,7 +150,7 @@ def cam_clay(params, eps, eq, ev, tau, eps_e, D):
         dx = (-r1 * j22 + r2 * j12) / det
         dg = (-r2 * j11 + r1 * j21) / det
         dx = min(max(dx, -kappa), kappa)
-        active = not (abs(r1) <= RETURN_TOL * max(1., abs(a))
+        active = not (abs(r1) <= RETURN_TOL * max(1., abs(a), abs(j11 * x))
                       and abs(r2) <= RETURN_TOL)
         if not active:
             break

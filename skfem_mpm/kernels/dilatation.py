@@ -36,7 +36,7 @@ __all__ = ["passes_of", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "70831e7d4a4420b0"
+SOURCES = "992a8542ede17adb"
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -61,11 +61,17 @@ def bracketed_newton(fun, lo: ndarray, hi: ndarray, x: ndarray, tol,
                      max_iter: int = 200):
     """Roots of ``fun`` (values and derivatives of arrays) with
     ``fun(lo) > 0 > fun(hi)``, elementwise: Newton's steps, bisection where
-    a step leaves the bracket.  Returns the roots and where
-    ``|fun| <= tol`` was not reached."""
+    a step leaves the bracket.  Returns the roots and where neither
+    ``|fun| <= tol`` nor ``|fun| <= RETURN_TOL |fun' x|`` was reached:
+    where the slope is steep, a few tens of ulps of ``x`` move ``fun`` by
+    more than ``tol``, and whether a root passed the absolute test
+    hung on the last bits of the strains (the compiled path's eigenvalues
+    4e-16 from numpy's gave a failed return, NaN, at three points of a
+    3D Cam clay run where numpy's converged)."""
     for _ in range(max_iter):
         value, derivative = fun(x)
-        done = np.abs(value) <= tol
+        done = (np.abs(value) <= tol) | (
+            np.abs(value) <= RETURN_TOL * np.abs(derivative * x))
         if done.all():
             break
         lo = np.where(value > 0, x, lo)
@@ -378,7 +384,8 @@ class ModifiedCamClay:
             dx = (-r1 * j22 + r2 * j12) / det
             dg = (-r2 * j11 + r1 * j21) / det
             dx = np.clip(dx, -kappa, kappa)
-            active = ~((np.abs(r1) <= RETURN_TOL * np.maximum(1., np.abs(a)))
+            active = ~((np.abs(r1) <= RETURN_TOL * np.fmax(   # NaN-blind,
+                np.maximum(1., np.abs(a)), np.abs(j11 * x)))   # as max()
                        & (np.abs(r2) <= RETURN_TOL))
             if not active.any():
                 break
