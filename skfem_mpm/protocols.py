@@ -146,6 +146,17 @@ class GridTerm:
         step starts."""
         return self.force(zero, response)
 
+    def predictor(self, problem, zero: ndarray) -> Optional[tuple]:
+        """Where the term's constraint moves over the step off material it
+        held at the step's start (an obstacle moving away): ``(K, r)``,
+        the tangent at the step's start, the constraint where the last
+        step left it, and the out-of-balance force there with the
+        constraint's motion as a load, the predictor the step's Newton
+        iteration starts from (:meth:`~skfem_mpm.solve.problem.
+        StepProblem.start`); ``zero`` the zero increment.  ``None``
+        otherwise."""
+        return None
+
     def load(self, response, scale: float) -> Optional[ndarray]:
         """External force (grid vector) that depends on the trial (a
         follower load) at the loads' scale ``scale``."""

@@ -1905,3 +1905,73 @@ def test_a_rigid_body_pushed_into_an_obstacle_pushed_at_it_is_refused(
     assert ("obstacle 'press' and the rigid body of body 1 touch at the "
             "start and their prescribed displacements close on each other "
             "by {:.3g}".format(up + .01)) in str(err.value)
+
+
+# trial 53's smooth wall moving off Mohr-Coulomb backfill (c = 1 kPa, phi
+# = 30, psi = 0, K0 = 0.5, smooth base and far roller: Rankine's active
+# state in the whole backfill), 2 m wide where the trial's was 4 m, and
+# 4 mm of the wall's 20 mm in 6 steps of the trial's size
+ACTIVE_WALL = """
+name = "wall-active-mc"
+[grid]
+x = [-0.5, 2.0, 20]
+y = [0.0, 2.5, 20]
+[[bodies]]
+name = "backfill"
+region = { x = [0.0, 2.0], y = [0.0, 2.0] }
+points_per_cell = 2
+geostatic = { K0 = 0.5 }
+[bodies.material]
+model = "mohr_coulomb"
+E = 2e7
+nu = 0.3
+cohesion = 1e3
+friction_angle = 30.0
+dilation_angle = 0.0
+[[supports]]
+boundary = "bottom"
+components = ["y"]
+[[supports]]
+boundary = "right"
+components = ["x"]
+[gravity]
+body_force = [0.0, -18000.0]
+[[obstacles]]
+name = "wall"
+box = { x = [-0.5, 0.0], y = [-0.5, 3.0] }
+displacement = [-0.004, 0.0]
+[solver]
+method = "mpm"
+steps = 6
+"""
+
+
+@pytest.mark.slow
+def test_a_wall_moving_off_mohr_coulomb_backfill_gives_rankines_thrust():
+    """A smooth wall moving off Mohr-Coulomb backfill (user trial 53): the
+    run reaches its load in at most twice its 6 steps, each step's thrust
+    within 2% of Rankine's active force ``(Ka gamma H - 2 c sqrt(Ka))
+    (H - z_c) / 2``, ``z_c = 2 c / (gamma sqrt(Ka))`` (9.80 kN/m; the
+    steps give 9.66-9.71).  Each step's Newton iteration started with the
+    wall at the step's end, every corner it pressed apart, and the soil,
+    at its active limit state, free of it: the first direction sprang it
+    past the wall into yield everywhere, and the run failed at a load
+    factor of 0.17, three cut-backs a step allowed (the trial's scene at
+    0.09 after 121 steps).  Now a step whose obstacle moves off material
+    it pressed starts from the predictor of that motion."""
+    import dataclasses
+    import tomllib
+    from skfem_mpm.scenes.scene import run_scene
+    from skfem_mpm.scenes.scene_file import parse_scene
+    scene = dataclasses.replace(parse_scene(tomllib.loads(ACTIVE_WALL)),
+                                newton=NewtonOptions(max_cutbacks=3))
+    result = run_scene(scene)
+    gamma, c, H = 18e3, 1e3, 2.
+    Ka = np.tan(np.pi / 4 - np.pi / 12) ** 2
+    z_c = 2 * c / (gamma * np.sqrt(Ka))
+    rankine = (Ka * gamma * H - 2 * c * np.sqrt(Ka)) * (H - z_c) / 2
+    assert rankine == pytest.approx(9801.8, abs=.1)
+    assert result.history[-1].load_factor == pytest.approx(1.)
+    assert len(result.history) <= 12
+    thrust = np.array([-r.obstacle_forces[0, 0] for r in result.history])
+    assert np.abs(thrust / rankine - 1.).max() < .02

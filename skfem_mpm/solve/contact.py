@@ -1325,6 +1325,47 @@ class StepContact(GridTerm):
             self.shift, self.moved = shift, moved
         return self.grid_force(ev)
 
+    def predictor(self, problem, zero: ndarray):
+        """Where obstacles move off corners in contact at the step's start
+        (pressed, or touching within the tolerance): the tangent at the
+        step's start, the obstacles where the last step left them, and
+        their motion through that contact as a load, ``J^T C m`` (the
+        contact's traction follows the corners' motion relative to the
+        obstacle: moved by ``m``, the traction changes by ``C m``); the
+        predictor of nonlinear FE codes for prescribed motion
+        (:meth:`~skfem_mpm.protocols.GridTerm.predictor`).  Newton's first
+        trial, the obstacles at the step's end, finds those corners apart
+        and the material free of them: Mohr-Coulomb backfill at its
+        active limit state, held by a wall moving off it, sprang 3 times
+        the wall's motion forward, into the wall and every point onto the
+        yield surface, and the next direction moved it 1.7e3 m (user
+        trial 53: the steps were cut back to 1/128 of the 30 asked)."""
+        released = False
+        for i, (ob, moved) in enumerate(zip(self.term.obstacles,
+                                            self.moved)):
+            if self.anchor[i] is not None or not moved.any():
+                continue
+            kappa, (face, over) = self.term.kappa[i], self.face[i]
+            gap, n, _ = ob.face_gap(self.Xs, face, self.shift_old[i])
+            touching = over & (self.lam[i] - kappa * (gap - self.closed[i])
+                               >= -kappa * self.term.tol[i])
+            released |= bool((touching & (moved @ n < 0)).any())
+        if not released:
+            return None
+        shift, moved = self.shift, self.moved
+        self.shift = self.shift_old
+        self.moved = [np.zeros_like(m) for m in moved]
+        try:
+            trial = problem.residual(zero)
+            ev = self.evaluate(zero, trial.response)
+            K = problem.tangent(trial)
+        finally:
+            self.shift, self.moved = shift, moved
+            self.evaluations = WeakKeyDictionary()
+        load = sum(J.T @ np.einsum("abs,b->sa", C, m).ravel()
+                   for J, (_, C, *_), m in zip(self.J, ev, moved))
+        return K, trial.r + load
+
     def weigh(self, balance, du: ndarray):
         """The residual is measured against the obstacles' force on the
         grid too (the trial's, as :meth:`force` formed it), as against the

@@ -333,7 +333,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     searches = how.search == "retry" or bool(
         run.counters["line_search_from_step"])
     strategy = (run.line_search or run.newton) if searches else run.newton
-    du, seed, response, before = problem.du0, None, None, []
+    (du, response), seed, before = problem.start(how.stabilise), None, []
     iterations = 0
     # a term that may move its constraint after Newton (contact's
     # augmented Lagrangian) has the step solved again from the last

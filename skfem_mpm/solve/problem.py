@@ -8,6 +8,8 @@ trial (:mod:`skfem_mpm.solve.loads`) and begins the run's grid terms
 (:class:`~skfem_mpm.protocols.GridTerm`).  It then offers what a Newton
 driver (:func:`skfem_mpm.solve.newton.newton`) asks for and nothing more:
 
+- :meth:`StepProblem.start` ``() -> (du, response)``: where Newton
+  starts (a term's predictor of a constraint's motion);
 - :meth:`StepProblem.residual` ``(du) -> Trial``: the kinematics'
   response to a trial grid increment and its out-of-balance force;
 - :meth:`StepProblem.tangent` ``(trial) -> K``;
@@ -35,6 +37,7 @@ from .backends import TINY
 from .linear import Condensation, condensed, factorise_condensed, \
     free_dofs
 from .motion import check_held, held_motion
+from .newton import trial_state
 from .results import PHASES, StepRecord
 
 logger = logging.getLogger(__name__)
@@ -242,6 +245,41 @@ class StepProblem:
             if f is not None:
                 total = f if total is None else total + f
         return total
+
+    def start(self, stabilise: bool = False):
+        """Where Newton starts: ``(du, response)``, the increment and the
+        kinematics' response to it (or ``None``).  :attr:`du0`, or where
+        a term's constraint moves off material it held at the step's
+        start (an obstacle moving away), ``du0`` plus the term's
+        predictor of that motion
+        (:meth:`~skfem_mpm.protocols.GridTerm.predictor`, solved with the
+        tangent stabilised where ``stabilise``) where that lowers the
+        residual.  A step that drives prescribed motion takes the Newton
+        driver's own predictor instead."""
+        du = self.du0
+        if self.driven.size:
+            return du, None
+        for term in self.terms:
+            # (an object of a term's interface from before it had one)
+            predictor = getattr(term, "predictor", None)
+            found = None if predictor is None else predictor(self, du)
+            if found is None:
+                continue
+            try:
+                d = self.solve(*found, stabilise)[0]
+            except SingularSystemError as err:
+                logger.debug("step %d: no predictor: %s", self.step, err)
+                break
+            before = self.residual(du).merit
+            trial, merit = trial_state(self.residual, du + d)
+            logger.debug("step %d: the predictor of %s moves the grid up "
+                         "to %.3g, residual %.3g of the start's", self.step,
+                         type(term).__name__, float(np.abs(d).max()),
+                         merit / max(before, TINY))
+            if merit < before:
+                return du + d, trial.response
+            break
+        return du, None
 
     def residual(self, du: ndarray, response=None) -> Trial:
         """The out-of-balance state of the grid increment ``du``; with the
