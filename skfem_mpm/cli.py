@@ -47,7 +47,7 @@ from .scenes.scene import (build_points, load_scale, obstacle_list,
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
 from .solve.body_contact import body_contact_state_names
 from .solve.contact import contact_state_names
-from .solve.rotation import rotation_state_names
+from .solve.rotation import rotation_state_names, start_missing_rotation
 from .solve.core import grid_parts
 from .solve.options import Resume
 from .solve.results import PHASES, Result
@@ -155,8 +155,13 @@ def build_parser() -> argparse.ArgumentParser:
                        help="run on the Dask scheduler at ADDRESS")
     study.add_argument("--all", action="store_true",
                        help="without --vary, run the whole default grid "
-                       "({} cases; more than {} are refused without this "
+                       "({} cases, {} for a dynamic scene, which varies no "
+                       "load steps; more than {} are refused without this "
                        "flag)".format(len(cases_of(DEFAULT_VARY)),
+                                      len(cases_of({
+                                          k: v for k, v in
+                                          DEFAULT_VARY.items()
+                                          if k != "loadsteps"})),
                                       CASES_UNASKED))
     for p in (run, compare, study):
         p.add_argument("--no-progress", action="store_true",
@@ -687,6 +692,12 @@ def load_run(args):
     if points is None:
         points = initial
     else:
+        if start_missing_rotation(points, mesh.dim(),
+                                  scene.kinematics == "finite"):
+            logger.warning(
+                "%s was written before small-strain runs kept the points' "
+                "rotation: it is counted from this resume (step %d)",
+                outdir / CHECKPOINT, resume.first_step)
         check_against(outdir / CHECKPOINT, earlier, initial, list(
             state_variables([body.material for body in scene.bodies]))
             + contact_state_names(len(scene.obstacles), mesh.dim(),

@@ -147,7 +147,7 @@ def test_a_trial_beyond_the_merit_limit_is_rejected_as_a_nan_one(watchdog):
         outcomes.append((calls, new[0], state.merit))
     assert outcomes[0] == outcomes[1]
     assert outcomes[0][2] < -np.log(.5) and len(outcomes[0][0]) > 1
-    assert MERIT_LIMIT ** 2 < np.inf and 1e178 > MERIT_LIMIT
+    assert 1e178 > MERIT_LIMIT
 
 
 def test_scene_files_choose_the_line_search():

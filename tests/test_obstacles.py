@@ -1975,3 +1975,25 @@ def test_a_wall_moving_off_mohr_coulomb_backfill_gives_rankines_thrust():
     assert len(result.history) <= 12
     thrust = np.array([-r.obstacle_forces[0, 0] for r in result.history])
     assert np.abs(thrust / rankine - 1.).max() < .02
+
+
+@pytest.mark.parametrize("method, switched", [
+    ("bspline", True), ("bspline-gimp", True), ("mpm", False),
+    ("cpgimp", False)])
+def test_collapsed_nodes_switch_the_ghost_penalty_on_for_b_splines_only(
+        method, switched):
+    """A floored tangent that failed where nodes lost their stiffness
+    within the step switches the reserve ghost penalty on with B-splines
+    (their row of nodes beyond the surface); with standard MPM the same
+    count fired in a coarse Prandtl footing, whose force the penalty then
+    raised by 4.9% (a reviewer's find)."""
+    from types import SimpleNamespace
+    from skfem_mpm.solve.core import ghost_for_slivers_held
+    from skfem_mpm.stabilisation.ghost import GhostStabilisation
+    reserve = GhostStabilisation(None, None, .1, None, active=False)
+    run = SimpleNamespace(method=SimpleNamespace(name=method), tol=1e-9,
+                          terms=[reserve])
+    failure = RuntimeError("no convergence")
+    assert ghost_for_slivers_held(run, failure, {"collapsed": 1}) == \
+        switched
+    assert not ghost_for_slivers_held(run, failure, {"collapsed": 0})

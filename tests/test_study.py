@@ -412,7 +412,7 @@ def test_a_study_says_its_size_and_time_before_it_starts(tmp_path, capsys,
         assert text in err[0], text
     assert not out.exists()
     # the refusal and --all, on a default grid made small
-    monkeypatch.setattr(cli_module, "DEFAULT_VARY",
+    monkeypatch.setattr(study_module, "DEFAULT_VARY",
                         {"elements": [4, 8, 16], "loadsteps": [1, 2]})
     monkeypatch.setattr(cli_module, "CASES_UNASKED", 4)
     assert main(["study", str(EMBEDDED), "--out", str(out)]) == 2

@@ -53,17 +53,15 @@ TIME_FIELDS = ("wall_seconds", "timing_names", "timing_values")
 #: ``(prefix of the names, what they are)``: a checkpoint that lacks only
 #: such names was written before, and its refusal says so
 STATE_SINCE = (("contact_body_corner", "the B-spline contact corners "
-                "(contact_body_corner*)"),
-               ("rotation", "the points' rotation in small strain "
-                "(rotation*)"))
+                "(contact_body_corner*)"),)
 
 
 def written_before(held, names) -> str:
     """What a refusal adds where the state ``held`` lacks only names of
     :data:`STATE_SINCE` among ``names``: ``""`` otherwise.
 
-    >>> written_before({"eps_p"}, {"eps_p", "rotation"})[:40]
-    "; the points' rotation in small strain ("
+    >>> written_before({"eps_p"}, {"eps_p", "contact_body_corner00"})[:30]
+    '; the B-spline contact corners'
     >>> written_before({"eps_p"}, {"eps_p", "kappa"})
     ''
     """

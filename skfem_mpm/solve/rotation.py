@@ -26,7 +26,8 @@ from numpy import ndarray
 from ..protocols import GridTerm
 
 __all__ = ["SmallStrainRotation", "ROTATION_WARNING", "rotation_names",
-           "rotation_state_names", "rotation_angle"]
+           "rotation_state_names", "rotation_angle",
+           "start_missing_rotation"]
 
 logger = logging.getLogger(__name__)
 
@@ -51,6 +52,29 @@ def rotation_state_names(dim: int, finite: bool) -> list:
     :func:`rotation_names` in small strain, none in finite deformation
     (a checkpoint's state is checked against them)."""
     return [] if finite else rotation_names(dim)
+
+
+def start_missing_rotation(points, dim: int, finite: bool) -> bool:
+    """Give a resumed run's ``points`` zero rotation where their state
+    holds none of the rotation's names (a checkpoint written before the
+    rotation was kept): the rotation is a diagnostic, which the mechanics
+    never read, so the run goes on, its rotation counted from the resume.
+    Returns whether it did (the caller says so).
+
+    >>> import numpy as np
+    >>> from types import SimpleNamespace
+    >>> points = SimpleNamespace(state={}, n=3)
+    >>> start_missing_rotation(points, 2, False), sorted(points.state)
+    (True, ['rotation'])
+    >>> start_missing_rotation(points, 2, False)
+    False
+    """
+    names = rotation_state_names(dim, finite)
+    if not names or any(name in points.state for name in names):
+        return False
+    points.state = {**points.state,
+                    **{name: np.zeros(points.n) for name in names}}
+    return True
 
 
 def rotation_vector(grad: ndarray, dim: int) -> ndarray:

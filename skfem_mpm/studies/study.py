@@ -504,7 +504,9 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     against the case with the most points (then load steps).  Sets
     ``row["errors"]`` and ``row["uncertainties"]`` (per quantity),
     ``row["other_geometry"]`` (``elements`` varied: whether the case's
-    grid was left out of its group's fit, :func:`same_geometry`),
+    grid models a geometry other than the finest one's,
+    :func:`same_geometry`: left out of the fit where three grids remain,
+    and of the rate of a closed-form error always),
     ``row["error"]`` (the scene's closed-form error where it has one,
     else the first quantity's) and ``row["uncertainty"]`` (the first
     quantity's, ``None`` against a closed form), and returns what was
