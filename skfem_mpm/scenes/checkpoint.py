@@ -309,8 +309,9 @@ def check_against(path, checkpoint: Checkpoint, initial: MaterialPoints,
     """Raise :class:`CheckpointError` unless the checkpoint's points are
     those the scene seeds (what never changes: reference positions, initial
     volumes, bodies, initial domains), lie on the scene's grid ``mesh`` and
-    carry exactly the internal variables of the scene's materials
-    (``state_names``)."""
+    carry exactly the point state the scene's materials and grid terms
+    keep (``state_names``: internal variables, contact state, the
+    rotation in small strain)."""
     points = checkpoint.points
 
     def bad(name, why):
@@ -334,7 +335,7 @@ def check_against(path, checkpoint: Checkpoint, initial: MaterialPoints,
         raise bad("points_x", "puts points outside the grid ({})".format(
             err)) from None
     if set(points.state) != set(state_names):
-        raise bad("state_*", "holds the internal variables {}, the scene's "
-                  "materials have {}{}".format(
+        raise bad("state_*", "holds the point state {}, where the scene's "
+                  "materials and terms keep {}{}".format(
                       sorted(points.state), sorted(state_names),
                       written_before(points.state, state_names)))
