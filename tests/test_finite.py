@@ -396,13 +396,19 @@ def test_failed_step_is_retried_along_the_ladder(monkeypatch):
     assert attempts == ["plain", "stabilised"]
 
 
-@pytest.mark.parametrize("method, error", [
-    ("mpm", 3.09e-2), pytest.param("cpgimp", 2.39e-2,
-                                   marks=pytest.mark.slow)])
-def test_hard_cantilever_completes(method, error):
+@pytest.mark.parametrize("method, ghost_from, error", [
+    ("mpm", 0, 3.09e-2),
+    pytest.param("cpgimp", 7, 2.18e-2, marks=pytest.mark.slow)])
+def test_hard_cantilever_completes(method, ghost_from, error):
     """3x3 points per cell on the fine grid (h = 0.25): points sparsely
-    cover newly entered cells; with the exact tangent Newton fails on some
-    steps, the stabilised retry (and cut-back) carries every step."""
+    cover newly entered cells.  MPM's Newton carries every step.  With
+    cpGIMP a sliver of a domain past a grid line holds a node (step 7: it
+    moves 4e6 while no point moves half a cell), and the default
+    ``ghost="auto"`` switches the ghost penalty on there.  Without it the
+    stabilised tangent does not tame the node (at step 15 the Newton
+    direction moves it half a cell and the line search stalls near 1e-6),
+    and whether the run passes hangs on round-off: the compiled path did,
+    the numpy path stopped at a load factor of 0.28."""
     from pathlib import Path
     from skfem_mpm.scenes.scene import run_scene
     from skfem_mpm.scenes.scene_file import load_scene
@@ -410,11 +416,10 @@ def test_hard_cantilever_completes(method, error):
     scene = configure(load_scene(Path(__file__).parent.parent / "examples"
                                  / "cantilever.toml"),
                       dict(elements=46, ppc=3, method=method))
-    scene.stabilisation = Stabilisation(ghost=0.)   # the stabilised retry
-    # alone (no ghost)
     res = run_scene(scene)
     assert res.history[-1].load_factor == pytest.approx(1.)
     assert case_error(scene, res) == pytest.approx(error, rel=.05)
+    assert res.counters["ghost_from_step"] == ghost_from
 
 
 def test_inverse_and_det_in_3d_as_accurate_as_lapack():
