@@ -91,7 +91,7 @@ from ..methods.operators import (NO_INDEX, NO_PLACES, PointOperator,
 
 __all__ = ["MeanDilatation", "ElementAverage", "CellPatchAverage",
            "CellLayout", "warn_sparse_spline_points", "points_per_cell_axis",
-           "warn_total_lagrangian_dilatation", "SPLINE_POINTS_PER_AXIS"]
+           "SPLINE_POINTS_PER_AXIS"]
 
 logger = logging.getLogger(__name__)
 
@@ -569,23 +569,3 @@ def warn_sparse_spline_points(method: str, mesh, points, plastic: bool,
             "B = 8 h 14-21%% above it; seed at least %d points per cell and "
             "axis", method, per_axis, SPLINE_POINTS_PER_AXIS)
 
-
-def warn_total_lagrangian_dilatation(method: str, kinematics: str,
-                                     antilocking: bool):
-    """Log a warning for finite elements in finite deformation with mean
-    dilatation: their gradients stay in the initial configuration, where
-    the average of each increment's divergence is not its volume change
-    once the body has rotated, and the mean dilatation locks again (a
-    user trial's plane-strain cantilever at nu = 0.499, L/D = 8, its tip
-    rotated about 40 degrees: 28% too stiff against the elastica, 10% at
-    a quarter of the load, where cpGIMP stays within 1.3%).  The
-    material point methods average in each step's configuration."""
-    if method == "fem" and kinematics == "finite" and antilocking:
-        logger.warning(
-            "method 'fem' in finite deformation with mean dilatation: the "
-            "average acts on the increments' gradients in the initial "
-            "configuration, and as the body rotates it locks again (a "
-            "cantilever at nu = 0.499 rotated about 40 degrees came out "
-            "28% too stiff, where cpGIMP is within 1.3%); use an MPM "
-            "method (averaged in each step's configuration) for large "
-            "rotations of nearly incompressible material")
