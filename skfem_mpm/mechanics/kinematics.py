@@ -30,7 +30,11 @@ Lagrangian multiplicative scheme with Hencky strains
 (:mod:`skfem_mpm.mechanics.hencky`); with an operator that stays in the
 initial configuration (``method = "fem"``) it is the total Lagrangian
 scheme of finite elements: the increment's gradient is mapped through the
-start-of-step deformation gradient.
+start-of-step deformation gradient, and an operator with mean dilatation
+is put in that configuration first (``op.in_configuration(F_n, F_n^-1)``:
+the average taken of the spatial divergence,
+:meth:`~skfem_mpm.stabilisation.volumetric.MeanDilatation.
+in_configuration`).
 
 """
 import copy
@@ -301,14 +305,19 @@ class FiniteStrain:
             return self.compiled.finite_response(self, op, du, points)
         # dim: the grid's; k: the components of gradients, P and tangent
         dim, k = self.dim, components(op, self.dim)
-        grad = op.gradients(du)
         F_inv = None
         if self.total_lagrangian:         # grad_X(du) F_n^-1 = grad_xn(du)
             if self._start_inverse[0] is not points.F:      # once per step
                 self._start_inverse = (points.F, inverse_and_det(
                     points.F, dim)[0])
-            F_inv = self._start_inverse[1][:k, :k]
-            grad = np.einsum("abp,bcp->acp", grad, F_inv)
+            F_inv = self._start_inverse[1]
+            # mean dilatation averages the spatial divergence
+            getattr(op, "in_configuration", lambda *_: None)(points.F,
+                                                            F_inv)
+            F_inv = F_inv[:k, :k]
+            grad = np.einsum("abp,bcp->acp", op.gradients(du), F_inv)
+        else:
+            grad = op.gradients(du)
         dF = deformation_increment(grad)
         dF_inv, detdF = inverse_and_det(dF, dim)
         bad = np.flatnonzero(~(detdF > 0))

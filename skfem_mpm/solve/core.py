@@ -70,8 +70,7 @@ from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation
 from ..stabilisation.volumetric import (MeanDilatation,
                                        points_per_cell_axis,
-                                       warn_sparse_spline_points,
-                                       warn_total_lagrangian_dilatation)
+                                       warn_sparse_spline_points)
 from .backends import get_solver
 from .body_contact import BodyContact, check_contacts
 from .contact import CellValues, contact_term
@@ -1167,8 +1166,6 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
                               stabilisation.antilocking,
                               stabilisation.extended_splines)
-    warn_total_lagrangian_dilatation(method, kinematics,
-                                     stabilisation.antilocking)
     if options.resume is not None:
         options.resume.check(nsteps, method)
     locator = options.locator

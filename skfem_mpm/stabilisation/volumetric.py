@@ -52,6 +52,24 @@ the order of the increment.  Measured on a block under gravity with
 nu = 0.45 and 50% strain (finite elements, Hencky): 1 and 8 load steps
 differ by 0.4% of the displacement (4e-14 without the average).
 
+Finite elements in finite deformation keep their gradients in the initial
+configuration (total Lagrangian): there the kinematics put the operator
+in the step's configuration ``F_n``
+(:meth:`MeanDilatation.in_configuration`), the average is taken of the
+increment's spatial divergence ``div_x = tr(grad_X(du) F_n^-1)`` (linear
+in ``du``: ``F_n`` is fixed in the step) with the points' current
+volumes, and the shift is put back in the material frame,
+
+    grad_X_bar(du) = grad_X(du) + (theta_c - div_x) F_n / 3,
+
+so that ``grad_X_bar F_n^-1`` is the spatial increment with its
+volumetric part replaced, as the material point methods' (their
+operators live in the step's configuration).  The average of the
+material divergence ``tr(grad_X(du))`` is not the increment's volume
+change once the body has rotated: a plane-strain cantilever at nu =
+0.499, L/D = 8, its tip rotated about 40 degrees, came out 28% too stiff
+against the elastica (0.720), now 1.0016 (cpGIMP 1.0033).
+
 The compiled passes (:mod:`skfem_mpm.kernels.dilatation`) read each
 average's :class:`CellLayout`: the same averages, their force and
 couplings summed cell by cell.
@@ -59,7 +77,7 @@ couplings summed cell by cell.
 """
 import logging
 from functools import cached_property
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 from numpy import ndarray
@@ -73,7 +91,7 @@ from ..methods.operators import (NO_INDEX, NO_PLACES, PointOperator,
 
 __all__ = ["MeanDilatation", "ElementAverage", "CellPatchAverage",
            "CellLayout", "warn_sparse_spline_points", "points_per_cell_axis",
-           "warn_total_lagrangian_dilatation", "SPLINE_POINTS_PER_AXIS"]
+           "SPLINE_POINTS_PER_AXIS"]
 
 logger = logging.getLogger(__name__)
 
@@ -113,14 +131,24 @@ class ElementAverage:
         The step's point operator.
     volume
         Point volumes weighting the averages, (n,).
+    inverse
+        Where ``op``'s gradients are material ones (finite elements in
+        finite deformation): the in-plane ``F_n^-1`` (dim, dim, n) of the
+        step's start, which makes ``b_c`` the average of the spatial
+        gradients ``grad_X(N) F_n^-1``; ``None``: of ``op``'s.
 
     """
 
-    def __init__(self, op: PointOperator, volume: ndarray):
+    def __init__(self, op: PointOperator, volume: ndarray,
+                 inverse: Optional[ndarray] = None):
         self.op = op
-        W = op.basis.quadrature_field(volume)                # (e, slots)
+        field = op.basis.quadrature_field
+        W = field(volume)                                    # (e, slots)
+        G = op.shape_gradients
+        if inverse is not None:     # spatial: dN/dx_a = dN/dX_b F^-1_ba
+            G = np.einsum("biem,baem->aiem", G, field(inverse))
         # averaged gradient b_e: theta_e(u) = sum_ia b_e[i, a] u_ia
-        self.b = np.einsum("aiem,em->eia", op.shape_gradients, W) \
+        self.b = np.einsum("aiem,em->eia", G, W) \
             / W.sum(axis=1)[:, None, None]
         self._layout = None
 
@@ -372,33 +400,96 @@ class MeanDilatation:
                      "connectivity_from_elements", "basis"):
             if hasattr(op, name):
                 setattr(self, name, getattr(op, name))
+        self.volume = volume
         self.average = average(op, volume)
+        #: the step's configuration ``(F_n, F_n^-T)``, (3, 3, n) each,
+        #: where the gradients are material (:meth:`in_configuration`)
+        self.frame = None
+
+    def in_configuration(self, F: ndarray, F_inv: ndarray):
+        """Average in the configuration ``F`` (3, 3, n) of the step's
+        start, its inverse ``F_inv``: the operator's gradients are
+        material ones ``grad_X`` (finite elements in finite deformation,
+        total Lagrangian; the kinematics call it), the average that of
+        the increment's spatial divergence ``tr(grad_X(du) F_n^-1)``
+        weighted by the points' current volumes, and the shift put back
+        in the material frame, ``grad_X + (theta_c - div_x) F_n / 3``,
+        so that ``grad_bar F_n^-1 = grad_x + (theta_c - div_x) I / 3``
+        (the volumetric part of the spatial increment replaced, as the
+        material point methods' operators in the step's configuration
+        do).  Once a step (the same ``F`` again: nothing)."""
+        if self.frame is not None and self.frame[0] is F:
+            return
+        if not isinstance(self.average, ElementAverage):
+            raise InvalidInputError(
+                "mean dilatation in a material frame needs the element "
+                "average of finite elements, not {}".format(
+                    type(self.average).__name__))
+        dim = self.dim
+        self.average = ElementAverage(self.op, self.volume,
+                                      F_inv[:dim, :dim])
+        self.frame = (F, F_inv.transpose(1, 0, 2))
 
     def gradients(self, u: ndarray) -> ndarray:
         """``grad_bar(u)``, (3, 3, n): out of plane the volumetric shift
-        alone."""
+        alone (in a material frame that times ``F_n``)."""
         g = self.op.gradients(u)
-        shift = (self.average.at_points(u) - np.einsum("aap->p", g)) / 3
         if self.dim < 3:
             g = np.concatenate((g, np.zeros((3 - self.dim,) + g.shape[1:])))
             g = np.concatenate((g, np.zeros((3, 3 - self.dim, g.shape[-1]))),
                                axis=1)
+        if self.frame is not None:
+            F, R = self.frame
+            shift = (self.average.at_points(u)
+                     - np.einsum("abp,abp->p", R, g)) / 3
+            return g + F * shift
+        shift = (self.average.at_points(u) - np.einsum("aap->p", g)) / 3
         return g + np.eye(3)[:, :, None] * shift
 
     def force(self, P: ndarray, w: ndarray) -> ndarray:
         """``sum_p w_p P_p : grad_bar(N)`` of a (3, 3, n) stress ``P``:
         its in-plane deviator (with respect to the 3x3 mean) against the
-        gradients, its mean against the cell averages."""
+        gradients, its mean against the cell averages (in a material
+        frame the mean ``P : F_n / 3``, taken off along ``F_n^-T``)."""
         dim = self.dim
+        if self.frame is not None:
+            F, R = self.frame
+            mean = np.einsum("abp,abp->p", P, F) / 3
+            return self.op.force((P - R * mean)[:dim, :dim], w) \
+                + self.average.force(w * mean)
         mean = np.einsum("aap->p", P) / 3
         return self.op.force(P[:dim, :dim] - np.eye(dim)[:, :, None] * mean,
                              w) \
             + self.average.force(w * mean)
 
+    def _framed_stiffness(self, A: ndarray, w: ndarray):
+        """:meth:`stiffness` in a material frame: with ``Q = F_n``, ``R =
+        F_n^-T`` and ``grad_bar(u) = D(g) + theta_c Q / 3``, ``D(g) = g -
+        Q (R : g) / 3``, the parts ``D^T A D`` against the gradients,
+        ``Q : A : D / 3`` and ``D^T : A : Q / 3`` against the average,
+        ``Q : A : Q`` its bulk (``Q = R = I``: the traces)."""
+        dim = self.dim
+        Q, R = self.frame
+        QA = np.einsum("abp,abcdp->cdp", Q, A)
+        AQ = np.einsum("abcdp,cdp->abp", A, Q)
+        QAQ = np.einsum("abp,abp->p", QA, Q)
+        p = slice(0, dim)                                   # in-plane block
+        Q, R, QA, AQ = Q[p, p], R[p, p], QA[p, p], AQ[p, p]
+        deviatoric = A[p, p, p, p] \
+            - (np.einsum("abp,cdp->abcdp", R, QA)
+               + np.einsum("abp,cdp->abcdp", AQ, R)) / 3 \
+            + np.einsum("abp,cdp->abcdp", R, R) * QAQ / 9
+        row = (QA - R * QAQ / 3) / 3
+        column = (AQ - R * QAQ / 3) / 3
+        return self.op.stiffness(deviatoric, w) \
+            + self.average.couplings(row * w, column * w, QAQ * w)
+
     def stiffness(self, A: ndarray, w: ndarray):
         """``sum_p w_p grad_bar(N) : A_p : grad_bar(N)`` of a (3, 3, 3, 3,
         n) tangent ``A``: traces over the three components, the in-plane
         block against the gradients."""
+        if self.frame is not None:
+            return self._framed_stiffness(A, w)
         dim = self.dim
         uniform = A.strides[-1] == 0
         An = A[..., :1] if uniform else A
@@ -478,23 +569,3 @@ def warn_sparse_spline_points(method: str, mesh, points, plastic: bool,
             "B = 8 h 14-21%% above it; seed at least %d points per cell and "
             "axis", method, per_axis, SPLINE_POINTS_PER_AXIS)
 
-
-def warn_total_lagrangian_dilatation(method: str, kinematics: str,
-                                     antilocking: bool):
-    """Log a warning for finite elements in finite deformation with mean
-    dilatation: their gradients stay in the initial configuration, where
-    the average of each increment's divergence is not its volume change
-    once the body has rotated, and the mean dilatation locks again (a
-    user trial's plane-strain cantilever at nu = 0.499, L/D = 8, its tip
-    rotated about 40 degrees: 28% too stiff against the elastica, 10% at
-    a quarter of the load, where cpGIMP stays within 1.3%).  The
-    material point methods average in each step's configuration."""
-    if method == "fem" and kinematics == "finite" and antilocking:
-        logger.warning(
-            "method 'fem' in finite deformation with mean dilatation: the "
-            "average acts on the increments' gradients in the initial "
-            "configuration, and as the body rotates it locks again (a "
-            "cantilever at nu = 0.499 rotated about 40 degrees came out "
-            "28% too stiff, where cpGIMP is within 1.3%); use an MPM "
-            "method (averaged in each step's configuration) for large "
-            "rotations of nearly incompressible material")
