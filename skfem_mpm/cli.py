@@ -594,7 +594,8 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
                        bearing_capacity_factor(phi), phi))
         ax.set_xlabel("settlement / width of the footing body (-)\n(half "
                       "the footing in a half model)")
-        ax.set_ylabel("footing pressure / cohesion (-)")
+        ax.set_ylabel("footing pressure / cohesion (-)\n(the weight of "
+                      "the points in its cells taken off)")
         ax.set_title("{}: load-settlement curve\nagainst the bearing "
                      "capacity N_c c".format(scene.name))
     else:
@@ -607,8 +608,9 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
                             ms=3, label=name)
             mark_peak(ax, line, disp @ direction, force @ direction)
         ax.set_xlabel("displacement along the motion (m)")
-        ax.set_ylabel("force along the motion ({})".format(
-            quantity_unit("rigid_force", scene.grid.dim)))
+        ax.set_ylabel("force along the motion ({})\n(the weight of "
+                      "the points in its cells taken off)".format(
+                          quantity_unit("rigid_force", scene.grid.dim)))
         ax.set_title("{}: force-displacement\nof the rigid bodies".format(
             scene.name))
     ax.legend(loc="lower right")
