@@ -405,3 +405,101 @@ def test_the_dead_loads_norm_follows_the_array_a_step_holds():
     assert StepProblem._dead_norm(problem) == 5.
     problem.f_dead = np.array([6., 8.])
     assert StepProblem._dead_norm(problem) == 10.
+
+
+class StalledLinearStep:
+    """A linear step's problem for :func:`newton` whose first solve takes
+    the residual from 1 to ``floor`` and the solves after it to 1.2 times
+    that (the round-off of a nearly singular stiffness); the unknown
+    counts the solves."""
+    linear, keeps_factorisations, step = True, True, 3
+    free, driven = np.arange(1), np.zeros(0, dtype=int)
+
+    def __init__(self, floor):
+        self.residuals = [1., floor] + [1.2 * floor] * 30
+        self.counters = dict.fromkeys(
+            ("linear_solves", "newton_iterations", "factorisations",
+             "line_search_trials"), 0)
+        self.t = {"solve": 0.}
+
+    def residual(self, u, response=None):
+        from types import SimpleNamespace
+        value = self.residuals[int(u[0])]
+        return SimpleNamespace(r=np.array([value]), merit=value,
+                               residual=value, u=u[0])
+
+    def converged(self, trial):
+        return trial.residual <= 1e-9
+
+    def rhs(self, trial):
+        return trial.r
+
+    def tangent(self, trial):
+        return None
+
+    def solve(self, K, r, stabilise):
+        return np.ones(1), None
+
+
+@pytest.mark.parametrize("floor", [3e-9, 1e-4])
+def test_a_linear_step_ends_at_the_round_off_of_its_solve(floor):
+    """A linear step is solved again while its residual is above the
+    tolerance; a solve that does not halve it has met the round-off of
+    the arithmetic, and the step ends at the smallest residual where that
+    is within ``ROUNDOFF_LIMIT`` (a user's Cook's membrane at nu = 0.4999
+    stayed at 3e-9 over 24 solves and failed), and is refused above it,
+    naming the cause."""
+    from skfem_mpm.errors import NewtonDivergenceError
+    from skfem_mpm.solve.newton import ROUNDOFF_LIMIT, newton
+    problem = StalledLinearStep(floor)
+    if floor > ROUNDOFF_LIMIT:
+        with pytest.raises(NewtonDivergenceError,
+                           match="stalled at a residual of 1.0e-04"):
+            newton(problem, np.zeros(1), FullStep().start(), max_iter=25)
+        return
+    found = newton(problem, np.zeros(1), FullStep().start(), max_iter=25)
+    # the state of the first solve, two solves made
+    assert found.trial.residual == floor and found.trial.u == 1.
+    assert found.du[0] == 1. and found.residuals == [1., floor, 1.2 * floor]
+
+
+def test_cooks_membrane_at_nu_04999_ends_at_round_off(caplog):
+    """A user's Cook's membrane (plane strain, E = 250, nu = 0.4999, 64 x
+    64 finite elements with mean dilatation, one linear step): its
+    residual stays at about 3e-9 however often it is solved again, above
+    the default tolerance of 1e-9, and the run failed after 25 solves.
+    Now it ends at the second solve with a warning, its tip displacement
+    that of the run whose tolerance the first solve met (1e-8) to 1e-8."""
+    import logging
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import LinearElastic, seed_gauss_points, simulate
+    n = 64
+    unit = MeshQuad.init_tensor(*2 * (np.linspace(0., 1., n + 1),))
+    s, t = unit.p
+    mesh = MeshQuad(np.array([48 * s, 44 * s + t * (44 - 28 * s)]),
+                    unit.t)
+    points = seed_gauss_points(mesh, 2)
+    edge = np.argsort(points.x[0])[::-1][:2 * n]
+    points.force[1, edge] = 100. / edge.size
+    tip = np.argmin((points.x[0] - 48) ** 2 + (points.x[1] - 60) ** 2)
+
+    def cook(tol):
+        return simulate(
+            mesh, ElementQuad1(), points, LinearElastic(250., .4999),
+            lambda basis: basis.get_dofs(lambda x: np.isclose(x[0], 0.)),
+            nsteps=1, method="fem", options=Options(
+                stabilisation=Stabilisation(antilocking=True),
+                newton=NewtonOptions(tol=tol)))
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm.solve"):
+        default = cook(1e-9)
+    said = [r.getMessage() for r in caplog.records
+            if "round-off" in r.getMessage()]
+    assert len(said) == 1 and "stays above the tolerance 1e-09" in said[0]
+    assert default.counters["linear_solves"] == 2
+    loose = cook(1e-8)
+    assert loose.counters["linear_solves"] == 1
+    default, loose = default.history[-1], loose.history[-1]
+    assert 1e-9 < default.residual < 1e-8
+    assert default.displacement[1, tip] == pytest.approx(
+        loose.displacement[1, tip], rel=1e-8)
+    assert default.displacement[1, tip] == pytest.approx(7.59, rel=1e-3)

@@ -22,7 +22,10 @@ pressure, inertia, a user's), listed in :data:`GRID_TERMS`; the step
 problem (:mod:`skfem_mpm.solve.problem`) and the Newton driver
 (:func:`skfem_mpm.solve.newton.newton`) are described there.
 
-A linear step (small strain, elastic) takes exactly one linear solve: the
+A linear step (small strain, elastic) takes one linear solve (another
+where the residual is still above the tolerance, and none more where that
+did not halve it: the round-off of the solve,
+:data:`~skfem_mpm.solve.newton.ROUNDOFF_LIMIT`, warned): the
 iteration's first residual is the out-of-balance force
 ``f_ext(n+1) - f_int(sigma_n)`` (``rhs="residual"``) or, the seed's literal
 scheme, the load increment ``f_ext(n+1) - f_ext(n)`` (``rhs="increment"``,
@@ -208,12 +211,14 @@ class Run:
     """A run's grid, pieces, grid terms (``terms``) and settings (keyword
     attributes), fixed once built, and what changes over the run: the
     counters (``counters``), the terms' own state (the ghost penalty held
-    in reserve, switched on by the retry ladder) and :class:`RunCache`
-    (``cache``)."""
+    in reserve, switched on by the retry ladder), :class:`RunCache`
+    (``cache``) and the warnings given once a run (``warned``, their
+    keys)."""
 
     def __init__(self, **kwargs):
         self.__dict__.update(kwargs)
         self.cache = RunCache()
+        self.warned = set()
 
 
 def ghost_term(run: Run) -> Optional[GridTerm]:
@@ -381,6 +386,9 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             report["stabilised"] = problem.stabilised and not how.stabilise
             report["collapsed"] = problem.collapsed
         raise
+    if run.linear and run.rhs == "residual" and \
+            not problem.converged(found.trial):
+        warn_round_off(run, step, found.trial.residual)
     # memory: no factorisation alive in the commit
     seed, found = None, found._replace(factorised=None)
     new, record = problem.commit(found.trial, found.du,
@@ -388,6 +396,20 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     if record.newton_residuals is not None:
         record.newton_iterations = iterations
     return new, record, problem.op
+
+
+def warn_round_off(run: Run, step: int, residual: float):
+    """Say (a warning once a run, then in the log) that a linear step
+    ended at the round-off of its solve, above the tolerance
+    (:data:`~skfem_mpm.solve.newton.ROUNDOFF_LIMIT`)."""
+    first = "round_off" not in run.warned
+    run.warned.add("round_off")
+    logger.log(logging.WARNING if first else logging.INFO,
+               "step %d: the residual %.1e stays above the tolerance %.0e "
+               "at the round-off of the stiffness's solve (solved again, it "
+               "did not halve; a nearly incompressible or barely held "
+               "body): the step ends there%s", step, residual, run.tol,
+               "; said once a run" if first else "")
 
 
 class Rung(NamedTuple):
