@@ -339,6 +339,11 @@ class ModifiedCamClay:
         return x, g, failed | failed_x | ~below
 
     def principal_update(self, eps: ndarray, state):
+        """The return map to the hardening ellipse from the elastic trial
+        of principal elastic strains ``eps`` (3, n): ``(tau, eps_e, D,
+        yielded, state)`` with the consistent tangent and the updated
+        ``plastic_volumetric_strain`` and ``equivalent_plastic_strain``
+        of ``state``."""
         kappa, M2, G = self.kappa, self.M ** 2, self.mu
         soft = self.lambda_ - self.kappa
         ev_tr = -eps.sum(axis=0)

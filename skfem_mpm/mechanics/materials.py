@@ -152,7 +152,8 @@ class LinearElastic:
         """Principal stresses of principal elastic strains (3, n): Hencky
         hyperelasticity in finite deformation, Hooke's law in small strain.
         Returns ``(tau, eps_e, D, yielded, state)`` with the tangent
-        ``D = dtau/deps`` (3, 3, n); no internal variables."""
+        ``D = dtau/deps`` (3, 3, n) and an empty state: an elastic law
+        has no internal variables."""
         tau = 2 * self.mu * eps + self.lam * eps.sum(axis=0)
         D = np.broadcast_to(self.principal_stiffness()[:, :, None],
                             (3, 3, eps.shape[1]))
@@ -214,6 +215,10 @@ class VonMises(LinearElastic):
                     self.yield_stress))
 
     def principal_update(self, eps: ndarray, state):
+        """The radial return from the elastic trial of principal
+        elastic strains ``eps`` (3, n): ``(tau, eps_e, D, yielded,
+        state)`` with the consistent tangent and the updated
+        ``equivalent_plastic_strain`` of ``state``."""
         tau, _, D, _, _ = LinearElastic.principal_update(self, eps)
         p = tau.mean(axis=0)
         s = tau - p

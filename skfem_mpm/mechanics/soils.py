@@ -210,6 +210,10 @@ class DruckerPrager(LinearElastic):
         return drucker_prager_constants(self.dilation_angle, self.fit)[0]
 
     def principal_update(self, eps: ndarray, state):
+        """The return map (cone or apex) from the elastic trial of
+        principal elastic strains ``eps`` (3, n): ``(tau, eps_e, D,
+        yielded, state)`` with the consistent tangent and the updated
+        ``equivalent_plastic_strain`` of ``state``."""
         tau, _, D, _, _ = LinearElastic.principal_update(self, eps)
         G, K = self.mu, self.E / (3 * (1 - 2 * self.nu))
         eta, xi, eta_bar, H = self.eta, self.xi, self.eta_bar, self.hardening
@@ -340,6 +344,10 @@ class MohrCoulomb(LinearElastic):
             / (1 - s)
 
     def principal_update(self, eps: ndarray, state):
+        """The multi-surface return map (plane, edges, apex) from the
+        elastic trial of principal elastic strains ``eps`` (3, n): ``(tau,
+        eps_e, D, yielded, state)`` with the consistent tangent and the
+        updated ``equivalent_plastic_strain`` of ``state``."""
         n = eps.shape[1]
         order = np.argsort(-eps, axis=0)          # s1 >= s2 >= s3
         eps_sorted = np.take_along_axis(eps, order, axis=0)

@@ -344,7 +344,9 @@ class BSplineMethod(PointMethod):
                 "displacement only at the grid's ends, so a support inside "
                 "the grid, or along part of its edge, does not hold the "
                 "material there; hold a whole edge of the grid (make the "
-                "grid end at the support)".format(
+                "grid end at the support), or push or hold the material "
+                "with an Obstacle (a punch, a footing, a wall: "
+                "docs/contact.md)".format(
                     step, self.name, nodes.size,
                     np.round(self.mesh.p[:, nodes[0]], 6).tolist()))
 

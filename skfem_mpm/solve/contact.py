@@ -630,7 +630,9 @@ class ObstacleContact(GridTerm):
         face.  Where the material's surface leaves the support of a row
         of nodes, the nodes drop out of the step, and a moving obstacle's
         force jumps (a footing pushed into weightless von Mises soil, B =
-        8 h: by up to 19% between steps; extended 3-8%).  The corners of
+        8 h: by up to 19% between steps; extended 3-8%) or stalls (a
+        user's smooth punch at B = 16 h, 2 x 2 points per cell: at 0.66
+        of Prandtl's pressure for 9 of its 20 steps, extended within 6%).  The corners of
         a face that holds the material move by their point's value and
         gradient (the splines' field at the surface loses those nodes
         too: :meth:`field_rows`), and two corners of a domain on the face
@@ -653,8 +655,10 @@ class ObstacleContact(GridTerm):
                 ([] if not moves else [
                     "where the material's surface leaves the support of a "
                     "row of nodes they drop out, and a moving obstacle's "
-                    "force jumps (a footing pushed into soil, B = 8 h: by "
-                    "up to 19% between steps)"]) +
+                    "force jumps or stalls (a footing pushed into soil, B "
+                    "= 8 h: by up to 19% between steps; a punch at B = 16 "
+                    "h, 2 x 2 points per cell, stood at 0.66 of Prandtl's "
+                    "pressure for 9 of 20 steps)"]) +
                 ([] if not holds else [
                     "a face that holds the material (friction, rough, tied) "
                     "holds its domains' gradient along it too (a tied clamp "
