@@ -632,8 +632,8 @@ class ObstacleContact(GridTerm):
         force jumps (a footing pushed into weightless von Mises soil, B =
         8 h: by up to 19% between steps; extended 3-8%) or stalls (a
         user's smooth punch at B = 16 h, 2 x 2 points per cell: at 0.66
-        of Prandtl's pressure for 9 of its 20 steps, extended within 6%).  The corners of
-        a face that holds the material move by their point's value and
+        of Prandtl's pressure for 9 of its 20 steps, extended within
+        6%).  The corners of a face that holds the material move by their point's value and
         gradient (the splines' field at the surface loses those nodes
         too: :meth:`field_rows`), and two corners of a domain on the face
         hold its point's gradient as well (a tied clamp 3% too stiff at
