@@ -633,13 +633,14 @@ class ObstacleContact(GridTerm):
         8 h: by up to 19% between steps; extended 3-8%) or stalls (a
         user's smooth punch at B = 16 h, 2 x 2 points per cell: at 0.66
         of Prandtl's pressure for 9 of its 20 steps, extended within
-        6%).  The corners of a face that holds the material move by their point's value and
-        gradient (the splines' field at the surface loses those nodes
-        too: :meth:`field_rows`), and two corners of a domain on the face
-        hold its point's gradient as well (a tied clamp 3% too stiff at
-        ``tolerance=1e-5``, after 325 augmented-Lagrangian rounds, in 3D
-        9.5%; a block on a rough floor between grid lines, 2 x 2 points,
-        its stresses 9% high).  The remedy,
+        6%).  The corners of a face that holds the material move by their
+        point's value and gradient (the splines' field at the surface
+        loses those nodes too: :meth:`field_rows`), and two corners of a
+        domain on the face hold its point's gradient as well (a tied
+        clamp 3% too stiff at ``tolerance=1e-5``, after 325
+        augmented-Lagrangian rounds, in 3D 9.5%; a block on a rough floor
+        between grid lines, 2 x 2 points, its stresses 9% high).  The
+        remedy,
         ``Stabilisation(extended_splines=True)``, is named where it is not
         refused (contacts between bodies)."""
         piece = getattr(run.method, "piece", run.method)
