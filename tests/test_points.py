@@ -120,3 +120,54 @@ def test_a_boundary_through_a_column_of_points_keeps_it_in_every_row(
     with caplog.at_level("WARNING", "skfem_mpm.quadrature.points"):
         seed_points(mesh, 3, region=region)
     assert "boundary" not in caplog.text
+
+
+@pytest.mark.parametrize("top, warned", [
+    (2., False), (2.04, True), (2.03, True), (1.99, False)])
+def test_a_region_whose_side_cuts_sub_cells_is_warned(top, warned, caplog):
+    """A column meant ``top`` high on a grid of h = 0.125 with 2 x 2
+    points per cell (sub-cells 0.0625): its points fill whole sub-cells,
+    so it is seeded 2.0625 high under 2.04 (a user's column came out
+    3.1% high without a word) and 2.0 under 2.03.  A region whose volume
+    differs from the points' by more than 1% is warned, with the region's
+    volume found to a sixteenth of a sub-cell; one whose side lies on the
+    sub-cells' faces, or within 1%, is not."""
+    import logging
+    import re
+    from skfem_mpm.quadrature.points import REGION_VOLUME_WARNING
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9),
+                                np.linspace(0, 3, 25))
+    with caplog.at_level(logging.WARNING):
+        mp = seed_points(mesh, 2, region=lambda x: x[1] < top)
+    seeded = float(mp.volume.sum())
+    assert seeded == np.ceil(top / .0625 - .5) * .0625
+    said = [r.getMessage() for r in caplog.records
+            if "the region about" in r.getMessage()]
+    assert len(said) == int(warned)
+    assert warned == (abs(top / seeded - 1) > REGION_VOLUME_WARNING)
+    if warned:
+        region = float(re.search(r"the region about ([\d.]+)",
+                                 said[0]).group(1))
+        assert region == pytest.approx(top, abs=.0625 / 16)
+
+
+def test_a_disc_seeded_on_a_coarse_lattice_is_warned_with_its_volume(
+        caplog):
+    """A disc of radius 0.4 on 16 x 16 sub-cells across it loses 3.6% of
+    its area to the staircase of sub-cells: warned, the disc's area
+    (pi r^2) estimated to 0.5%; an inclined side averages out (1.35
+    seeded as 1.3477: not warned)."""
+    import logging
+    import re
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9),
+                                np.linspace(0, 3, 25))
+    with caplog.at_level(logging.WARNING):
+        seed_points(mesh, 2, region=lambda x: (x[0] - .5) ** 2
+                    + (x[1] - 1.5) ** 2 < .4 ** 2)
+        seed_points(mesh, 2, region=lambda x: x[1] < 1 + .7 * x[0])
+    said = [r.getMessage() for r in caplog.records
+            if "the region about" in r.getMessage()]
+    assert len(said) == 1
+    region = float(re.search(r"the region about ([\d.]+)",
+                             said[0]).group(1))
+    assert region == pytest.approx(np.pi * .4 ** 2, rel=5e-3)
