@@ -39,7 +39,7 @@ from scipy.sparse import csc_matrix, csr_matrix, triu
 from scipy.sparse.linalg import splu
 
 from ..errors import InvalidInputError, SingularSystemError, check_choice
-from ..methods.assembly import PatternMatrices
+from ..methods.assembly import PatternMatrices, compressed_matrix
 from ..quadrature.basis import compiled_kernels
 
 logger = logging.getLogger(__name__)
@@ -110,12 +110,14 @@ def csc_converter() -> Callable:
             return A.tocsc()
         if not (last and same_array(last[0], A.indices)
                 and same_array(last[1], A.indptr) and last[2] == A.shape):
-            numbers = csr_matrix((np.arange(A.nnz, dtype=np.float64),
-                                  A.indices, A.indptr), shape=A.shape).tocsc()
+            numbers = compressed_matrix(
+                csr_matrix, np.arange(A.nnz, dtype=np.float64), A.indices,
+                A.indptr, A.shape).tocsc()
             # the places of the diagonal in the CSC data, where all of it
             # is in the pattern (else None: scipy's diagonal)
-            places = csc_matrix((np.arange(1., A.nnz + 1.), numbers.indices,
-                                 numbers.indptr), shape=A.shape).diagonal()
+            places = compressed_matrix(
+                csc_matrix, np.arange(1., A.nnz + 1.), numbers.indices,
+                numbers.indptr, A.shape).diagonal()
             last[:] = (A.indices, A.indptr, A.shape,
                        numbers.data.astype(np.int64), numbers.indices,
                        numbers.indptr, places.astype(np.int64) - 1

@@ -1,0 +1,83 @@
+"""The compressed matrices of a known pattern made without scipy's checked
+constructor (``compressed_matrix``, ``PatternMatrices``): the same
+matrices as scipy's, and scipy's constructor where the arrays are not
+those it keeps."""
+import numpy as np
+import pytest
+from scipy.sparse import csc_matrix, csr_array, csr_matrix, random
+
+from skfem_mpm.methods.assembly import PatternMatrices, compressed_matrix
+
+
+def parts(cls, seed=0):
+    A = cls(random(37, 29, density=.2, format=cls.__name__[:3],
+                   random_state=seed))
+    return (A.data.copy(), A.indices.astype(np.int32),
+            A.indptr.astype(np.int32), A.shape)
+
+
+@pytest.mark.parametrize("cls", [csr_matrix, csc_matrix])
+def test_compressed_matrix_is_scipys(cls):
+    data, indices, indptr, shape = parts(cls)
+    ours = compressed_matrix(cls, data, indices, indptr, shape)
+    theirs = cls((data, indices, indptr), shape=shape)
+    assert type(ours) is cls
+    assert sorted(ours.__dict__) == sorted(theirs.__dict__)
+    assert ours.shape == theirs.shape == (37, 29)
+    assert all(type(n) is int for n in ours.shape)
+    for name in ("data", "indices", "indptr"):
+        a, b = getattr(ours, name), getattr(theirs, name)
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+        # views of the arrays given, as scipy's
+        assert np.shares_memory(a, b)
+    assert ours.has_canonical_format == theirs.has_canonical_format
+    assert abs(ours - theirs).max() == 0.
+    assert np.array_equal(ours.toarray(), theirs.toarray())
+
+
+def test_compressed_matrix_copies_a_small_view_as_scipy():
+    data, indices, indptr, shape = parts(csr_matrix, 1)
+    big = np.zeros(10 * data.size)
+    big[:data.size] = data
+    ours = compressed_matrix(csr_matrix, big[:data.size], indices, indptr,
+                             shape)
+    theirs = csr_matrix((big[:data.size], indices, indptr), shape=shape)
+    assert not np.shares_memory(ours.data, big)
+    assert not np.shares_memory(theirs.data, big)
+
+
+def test_first_pattern_matrix_skips_scipys_checks(monkeypatch):
+    """The first matrix of a pattern is made without scipy's
+    ``check_format`` (16 us at 56 points), its entries and canonical
+    flag as scipy's, and scipy checks arrays it would convert."""
+    calls = []
+    check = csr_matrix.check_format
+
+    def counted(self, *args, **kwargs):
+        calls.append(1)
+        return check(self, *args, **kwargs)
+    data, indices, indptr, shape = parts(csr_matrix, 2)
+    compressed_matrix(csr_matrix, data, indices, indptr, shape)  # layout
+    monkeypatch.setattr(csr_matrix, "check_format", counted)
+    make = PatternMatrices(csr_matrix)
+    A = make(data, indices, indptr, shape)
+    B = make(2. * data, indices, indptr, shape)
+    assert len(calls) == 0
+    assert A.has_canonical_format and B.has_canonical_format
+    assert np.array_equal(B.toarray(), 2. * A.toarray())
+    # int64 indices: scipy's constructor (which makes them int32)
+    C = PatternMatrices(csr_matrix)(data, indices.astype(np.int64),
+                                    indptr.astype(np.int64), shape)
+    assert len(calls) == 1 and C.indices.dtype == np.int32
+    # a bad pattern is refused as scipy refuses it
+    with pytest.raises(ValueError):
+        compressed_matrix(csr_matrix, data[:-1], indices, indptr, shape)
+    assert len(calls) == 2
+
+
+def test_array_classes_go_to_scipy():
+    data, indices, indptr, shape = parts(csr_matrix, 3)
+    A = compressed_matrix(csr_array, data, indices, indptr, shape)
+    assert type(A) is csr_array
+    assert np.array_equal(A.toarray(), csr_array(
+        (data, indices, indptr), shape=shape).toarray())
