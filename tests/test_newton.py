@@ -503,3 +503,45 @@ def test_cooks_membrane_at_nu_04999_ends_at_round_off(caplog):
     assert default.displacement[1, tip] == pytest.approx(
         loose.displacement[1, tip], rel=1e-8)
     assert default.displacement[1, tip] == pytest.approx(7.59, rel=1e-3)
+
+
+@pytest.mark.slow
+def test_newton_ends_where_its_correction_is_round_off(caplog):
+    """A user's Cook's membrane in finite deformation (second-order finite
+    elements, nu = 0.4999, 16 x 16, 5 steps): Newton converged
+    quadratically to 1.8e-9 at its first step and then asked for
+    corrections of 2e-15 of the increment, the residual staying between
+    1.5e-9 and 1.9e-9 above the default tolerance, and every cut-back
+    failed.  A correction below ``CORRECTION_ROUNDOFF`` of the increment
+    at a residual within ``ROUNDOFF_LIMIT`` ends the step (warned once):
+    the run ends where a tolerance of 1e-7 puts it, to 1e-8."""
+    import logging
+    from skfem import ElementQuad2, MeshQuad, MeshQuad2
+    from skfem_mpm import LinearElastic, seed_gauss_points, simulate
+    n = 16
+    unit = MeshQuad.init_tensor(*2 * (np.linspace(0., 1., n + 1),))
+    s, t = unit.p
+    mesh = MeshQuad2.from_mesh(MeshQuad(
+        np.array([48 * s, 44 * s + t * (44 - 28 * s)]), unit.t))
+    points = seed_gauss_points(mesh, 4)
+    right = np.isclose(points.x[0], points.x[0].max())
+    points.force[1, right] = 100. / right.sum()
+    tip = np.argmin((points.x[0] - 48) ** 2 + (points.x[1] - 60) ** 2)
+
+    def cook(tol):
+        return simulate(
+            mesh, ElementQuad2(), points, LinearElastic(250., .4999),
+            lambda basis: basis.get_dofs(lambda x: np.isclose(x[0], 0.)),
+            nsteps=5, method="fem", kinematics="finite",
+            options=Options(newton=NewtonOptions(tol=tol)))
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm.solve"):
+        default = cook(1e-9)
+    said = [r.getMessage() for r in caplog.records
+            if "round-off" in r.getMessage()]
+    assert len(said) == 1 and "Newton's correction fell below" in said[0]
+    assert len(default.history) == 5
+    assert max(r.residual for r in default.history) < 1e-8
+    loose = cook(1e-7).history[-1].displacement[1, tip]
+    assert default.history[-1].displacement[1, tip] == pytest.approx(
+        loose, rel=1e-8)
+    assert loose == pytest.approx(6.38, rel=1e-3)

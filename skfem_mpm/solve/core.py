@@ -81,7 +81,8 @@ from .dynamics import Dynamics, InertiaTerm, scheme_for
 from .linear import support_dofs
 from .loads import (ExternalLoads, FollowerPressure, GridLoad,
                     check_exposed)
-from .newton import FullStep, NewtonOptions, newton as newton_driver
+from .newton import (CORRECTION_ROUNDOFF, FullStep, NewtonOptions,
+                     newton as newton_driver)
 from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
                       translate_aliases)
 from .obstacles import check_obstacles
@@ -386,7 +387,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             report["stabilised"] = problem.stabilised and not how.stabilise
             report["collapsed"] = problem.collapsed
         raise
-    if run.linear and run.rhs == "residual" and \
+    if (not run.linear or run.rhs == "residual") and \
             not problem.converged(found.trial):
         warn_round_off(run, step, found.trial.residual)
     # memory: no factorisation alive in the commit
@@ -399,17 +400,19 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
 
 
 def warn_round_off(run: Run, step: int, residual: float):
-    """Say (a warning once a run, then in the log) that a linear step
-    ended at the round-off of its solve, above the tolerance
-    (:data:`~skfem_mpm.solve.newton.ROUNDOFF_LIMIT`)."""
+    """Say (a warning once a run, then in the log) that a step ended at
+    the round-off of its residual, above the tolerance
+    (:data:`~skfem_mpm.solve.newton.ROUNDOFF_LIMIT`,
+    :data:`~skfem_mpm.solve.newton.CORRECTION_ROUNDOFF`)."""
     first = "round_off" not in run.warned
     run.warned.add("round_off")
     logger.log(logging.WARNING if first else logging.INFO,
                "step %d: the residual %.1e stays above the tolerance %.0e "
-               "at the round-off of the stiffness's solve (solved again, it "
-               "did not halve; a nearly incompressible or barely held "
+               "at the round-off of its arithmetic (a linear solve again "
+               "did not halve it, or Newton's correction fell below %.0e "
+               "of the increment; a nearly incompressible or barely held "
                "body): the step ends there%s", step, residual, run.tol,
-               "; said once a run" if first else "")
+               CORRECTION_ROUNDOFF, "; said once a run" if first else "")
 
 
 class Rung(NamedTuple):
