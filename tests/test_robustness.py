@@ -872,3 +872,24 @@ def test_a_traction_on_faces_inside_the_body_is_refused():
     res = simulate(*args, loads=[Traction(top, "top", [0., -1.])])
     assert res.history[-1].reactions.reshape(-1, 2).sum(axis=0)[1] == \
         pytest.approx(1.)
+
+
+def test_points_leaving_the_grid_in_a_step_say_when_and_why():
+    """A load that carries points out of the grid ends the run with
+    ``PointsOutsideGridError`` naming the step and its load factors and
+    the usual causes (a user's block loaded past collapse was told only
+    that points lie outside the grid)."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import LinearElastic, PointsOutsideGridError, \
+        seed_points, simulate
+    mesh = MeshQuad.init_tensor(np.linspace(0., 3., 7),
+                                np.linspace(0., 3., 7))
+    points = seed_points(mesh, 2, region=[(1., 2.), (0., 1.)])
+    with pytest.raises(PointsOutsideGridError) as err:
+        simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+                 lambda basis: basis.get_dofs(
+                     lambda x: np.isclose(x[1], 0.)).all(),
+                 body_force=[0., 1e5], nsteps=1)
+    assert "they left it in step 1 (load factor 0 to 1)" in str(err.value)
+    assert "a load past what the body can carry" in str(err.value)
+    assert err.value.load_factor == 0.

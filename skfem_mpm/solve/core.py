@@ -726,7 +726,12 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             err.state, err.load_factor = points, factor
             err.history = result.history
             if isinstance(err, PointsOutsideGridError):
-                err.args = (err.args[0] + too_soft(run, points),)
+                err.args = (err.args[0] + too_soft(run, points) + (
+                    "; they left it in step {} (load factor {:.4g} to "
+                    "{:.4g}): a grid too tight around the body's motion, "
+                    "or a load past what the body can carry (a plastic "
+                    "body beyond its limit load, a body its supports do "
+                    "not hold)".format(step + 1, factor, target)),)
             raise
         except Exception as err:             # a user's material or form
             raise StepFailedError(
