@@ -435,6 +435,43 @@ def test_grid_load_is_the_body_force_and_refused_off_the_body():
                  loads=[GridLoad(gravity, fields)])
 
 
+def test_grid_load_on_facets_is_a_traction():
+    """``GridLoad(form, facets=...)`` assembles on those facets of the
+    grid: a shear on the right side of a block ending at a grid line is
+    the ``Traction`` on its points' side (MPM, to 1e-12), and finite
+    elements on a conforming mesh take a traction so (a user's Cook's
+    membrane had to put point forces on its last Gauss points): the
+    support carries the total to 1e-12.  Facets that select nothing or
+    are not a selection are refused before any work."""
+    from skfem_mpm import GridLoad, side_points
+    mesh = MeshQuad.init_tensor(np.linspace(0, 4, 9),
+                                np.linspace(0, 1.5, 4))
+
+    def run(points, load, method="mpm"):
+        return simulate(mesh, ElementQuad1(), points, LinearElastic(1e5, .3),
+                        lambda basis: basis.get_dofs(
+                            lambda x: np.isclose(x[0], 0.)),
+                        loads=[load], method=method)
+
+    def shear(facets):
+        return GridLoad(LinearForm(lambda v, w: v[1]), facets=facets)
+    right = shear(lambda x: np.isclose(x[0], 4.) & (x[1] < 1.))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 1.)
+    by_facets = run(points, right).points.stress
+    by_traction = run(points, Traction(side_points(points, "right"),
+                                       "right", [0., 1.])).points.stress
+    assert np.abs(by_facets - by_traction).max() < 1e-12 * \
+        np.abs(by_traction).max()
+    fe = run(seed_gauss_points(mesh, 2, region=lambda x: x[1] < 1.), right,
+             "fem").history[-1]
+    assert np.allclose(fe.reactions.reshape(-1, 2).sum(axis=0), [0., -1.],
+                       rtol=0., atol=1e-12)
+    for facets, said in (("nope", "must select facets"),
+                         (lambda x: x[0] > 9., "select no facet")):
+        with pytest.raises(InvalidInputError, match=said):
+            run(points, shear(facets))
+
+
 def test_surface_loads_in_finite_elements_stay_in_the_reference():
     """Finite elements (total Lagrangian) with B-bar under a dead traction
     on the top of a block on rollers: the state is homogeneous (every

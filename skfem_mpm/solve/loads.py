@@ -216,9 +216,45 @@ class Pressure:
 @dataclass
 class GridLoad:
     """A scikit-fem ``LinearForm`` on the grid's vector basis (full load),
-    with its keyword fields; assembled once with Gaussian quadrature."""
+    with its keyword fields; assembled once with Gaussian quadrature, over
+    the grid's cells, or with ``facets`` over those facets (a
+    ``FacetBasis``: a traction on a side of the grid; anything scikit-fem's
+    ``Mesh.normalize_facets`` takes: indices, a boundary's name, a
+    function of the facets' midpoints).  A dead load: it stays where it
+    was assembled, in finite deformation too.
+
+    A traction on the right side of a conforming mesh, as on finite
+    elements:
+
+    >>> from skfem import LinearForm, MeshQuad
+    >>> from skfem_mpm import GridLoad
+    >>> shear = GridLoad(LinearForm(lambda v, w: v[1]),
+    ...                  facets=lambda x: x[0] == 1.)
+    """
     form: object
     fields: Optional[dict] = None
+    facets: object = None
+
+
+def grid_load_basis(mesh, elem, facets):
+    """The basis a :class:`GridLoad` is assembled on: the grid's cells
+    (``facets`` ``None``) or the facets ``facets`` selects, refused where
+    it selects none or is not a selection of facets."""
+    from skfem import Basis, FacetBasis
+    if facets is None:
+        return Basis(mesh, elem)
+    try:
+        basis = FacetBasis(mesh, elem, facets=facets)
+    except (ValueError, TypeError, IndexError, KeyError) as err:
+        raise InvalidInputError(
+            "GridLoad: facets must select facets of the grid (indices, a "
+            "boundary's name, a function of the facets' midpoints), got "
+            "{!r}: {}: {}".format(facets, type(err).__name__, err)) from err
+    if basis.find.size == 0:
+        raise InvalidInputError(
+            "GridLoad: facets {!r} select no facet of the grid".format(
+                facets))
+    return basis
 
 
 class ExternalLoads:
@@ -280,10 +316,10 @@ class ExternalLoads:
                 if self.cell_local is None:
                     self.cell_local = cell_coordinates(mesh)
             elif isinstance(load, GridLoad):
-                from skfem import Basis, asm
+                from skfem import asm
+                basis = grid_load_basis(mesh, grid.elem, load.facets)
                 try:
-                    f = asm(load.form, Basis(mesh, grid.elem),
-                            **(load.fields or {}))
+                    f = asm(load.form, basis, **(load.fields or {}))
                 except (ValueError, TypeError, IndexError) as err:
                     raise InvalidInputError(
                         "GridLoad: the form does not assemble on the grid's "
