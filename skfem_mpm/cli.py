@@ -119,7 +119,9 @@ def build_parser() -> argparse.ArgumentParser:
                          help="output folder (default ./skfem-mpm-compare)")
     study = sub.add_parser(
         "study", help="error and cost over a grid of choices",
-        description="Vary elements, ppc (points per cell and axis), "
+        description="Vary elements (the cells along the grid's most "
+        "refined axis, the other axes in proportion), ppc (points per "
+        "cell and axis), "
         "loadsteps, method (fem, mpm, ugimp, cpgimp, bspline, "
         "bspline-gimp, bspline3, bspline3-gimp), "
         "rhs (residual, "
