@@ -3,7 +3,8 @@
 A :class:`Scene` names a background grid, bodies of material points with
 their materials, supports, loads and the method.  :func:`run_scene` builds
 the solver from exactly those parts: no body-force assembly without
-gravity, one linear solve per step (no Newton loop) for small-strain
+gravity, one linear solve per step (no Newton loop; another where
+round-off leaves the residual above the tolerance) for small-strain
 elasticity, no return map for elastic bodies, no point relocation in FE
 mode, no domain update for standard MPM.
 

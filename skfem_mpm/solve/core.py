@@ -22,11 +22,10 @@ pressure, inertia, a user's), listed in :data:`GRID_TERMS`; the step
 problem (:mod:`skfem_mpm.solve.problem`) and the Newton driver
 (:func:`skfem_mpm.solve.newton.newton`) are described there.
 
-A linear step (small strain, elastic) takes one linear solve (another
-where the residual is still above the tolerance, and none more where that
-did not halve it: the round-off of the solve,
-:data:`~skfem_mpm.solve.newton.ROUNDOFF_LIMIT`, warned): the
-iteration's first residual is the out-of-balance force
+A linear step (small strain, elastic) takes one linear solve (more where
+the residual is still above the tolerance, until it meets the round-off
+of the arithmetic, :data:`~skfem_mpm.solve.newton.CORRECTION_ROUNDOFF`,
+warned): the iteration's first residual is the out-of-balance force
 ``f_ext(n+1) - f_int(sigma_n)`` (``rhs="residual"``) or, the seed's literal
 scheme, the load increment ``f_ext(n+1) - f_ext(n)`` (``rhs="increment"``,
 which leaves the out-of-balance force of earlier steps uncorrected: its
@@ -408,10 +407,10 @@ def warn_round_off(run: Run, step: int, residual: float):
     run.warned.add("round_off")
     logger.log(logging.WARNING if first else logging.INFO,
                "step %d: the residual %.1e stays above the tolerance %.0e "
-               "at the round-off of its arithmetic (a linear solve again "
-               "did not halve it, or Newton's correction fell below %.0e "
-               "of the increment; a nearly incompressible or barely held "
-               "body): the step ends there%s", step, residual, run.tol,
+               "at the round-off of its arithmetic (the last iteration did "
+               "not halve it, and Newton's correction fell below %.0e of "
+               "the increment; e.g. a nearly incompressible body): the step "
+               "ends there%s", step, residual, run.tol,
                CORRECTION_ROUNDOFF, "; said once a run" if first else "")
 
 

@@ -383,9 +383,10 @@ class StepProblem:
         the converged state; it is used only when needed because it slows
         Newton to a linear rate of about
         ``STABILISATION`` times the tangent's condition number.  A linear
-        step solves once, exactly, or raises.  Returns the increment and
-        the factorised solve, ``solve(r) -> d``, that modified Newton
-        reuses.
+        step's solve is exact (solved again only where round-off leaves
+        its residual above the tolerance), or raises.  Returns the
+        increment and the factorised solve, ``solve(r) -> d``, that
+        modified Newton reuses.
 
         ``K`` is condensed onto the free DOFs first, and the whole grid's
         matrix released (where the caller holds no reference to it: the
