@@ -429,9 +429,11 @@ class Rung(NamedTuple):
 
 
 #: what the log says when the retry ladder switches the ghost penalty on
-GHOST_CHANGES = (": it stiffens the cut cells, and a plastic limit load can "
-                 "come out 8-13% higher with it (a footing, gamma 0.1; "
-                 "docs/robustness.md)")
+GHOST_CHANGES = ": it stiffens the cut cells"
+#: and what it adds for plastic bodies
+GHOST_CHANGES_PLASTIC = (", and a plastic limit load can come out 8-13% "
+                         "higher with it (a footing, gamma 0.1; "
+                         "docs/robustness.md)")
 #: and what it adds for B-splines where the extended splines serve (they
 #: are refused with contacts between bodies)
 EXTENDED_INSTEAD = "; B-splines need none with " \
@@ -442,13 +444,15 @@ def switch_ghost_on(run: Run, step: int, failure):
     """The reserve ghost penalty on for the rest of the run."""
     instead = EXTENDED_INSTEAD if run.method.name.startswith("bspline") \
         and not run.contacts else ""
+    changes = GHOST_CHANGES + (GHOST_CHANGES_PLASTIC
+                               if is_plastic(run.material) else "")
     for term in run.terms:
         if isinstance(term, GhostStabilisation) and not term.active:
             term.switch_on()
             run.counters["ghost_from_step"] = step
             logger.warning("%s; switching the ghost penalty on (gamma %g) "
                            "for the rest of the run%s%s", failure,
-                           term.gamma, GHOST_CHANGES, instead)
+                           term.gamma, changes, instead)
 
 
 def line_search_from_now_on(run: Run, step: int):
