@@ -433,3 +433,35 @@ def test_the_first_steps_set_up_is_not_taken_for_the_pace(monkeypatch,
                        options=Options(callback=slow_first))
     assert len(res.history) == 10 and .3 * 9 > core.LONG_RUN
     assert "steps left" not in caplog.text
+
+
+def test_energies_figure_draws_the_dissipation_from_the_start():
+    """``energies.png``'s numerical dissipation is the balance's fall from
+    its start (the initial kinetic energy): a block thrown at 1 m/s (40
+    J/m) that loses nothing draws zero throughout, and one whose balance
+    falls by 12 J/m draws 12 (a user trial read -40 at t = 0 and 87 for a
+    fall of 127)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from skfem_mpm.scenes.plot import draw_energies
+    t = np.linspace(0., .5, 6)
+    internal, external = 2 * t, 3 * t
+
+    def dissipation(kinetic):
+        fig, ax = plt.subplots()
+        draw_energies(ax, {"time": t, "kinetic": kinetic,
+                           "internal_work": internal,
+                           "external_work": external}, "a thrown block")
+        line, = [line for line in ax.get_lines()
+                 if line.get_label() == "numerical dissipation"]
+        plt.close(fig)
+        return line.get_ydata()
+    kept = 40. + external - internal        # the balance stays at 40
+    assert np.abs(dissipation(kept)).max() < 1e-12
+    lost = kept - 12 * t / .5
+    balance = lost + internal - external
+    assert balance[0] - balance[-1] == pytest.approx(12.)
+    assert dissipation(lost) == pytest.approx(balance[0] - balance,
+                                              abs=1e-12)
+    assert dissipation(lost)[-1] == pytest.approx(12.)
