@@ -555,3 +555,20 @@ boundary = "bottom"
                                ("", "body_force = [0.0, -29430.0]"))]
     assert np.abs(settled[0]).max() > 1e-3
     assert settled[0] == pytest.approx(settled[1], rel=1e-12, abs=1e-15)
+
+
+def test_body_force_per_body_is_checked():
+    """``body_force`` with one row per body needs as many rows as bodies,
+    each of ``dim`` finite numbers: refused before any work."""
+    from skfem_mpm import LinearElastic, seed_points, simulate
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    points = seed_points(mesh, 2)
+    points.body[points.x[0] > .5] = 1
+    for rows, said in (([[0., -1.]], "one row per body \\(2\\), got 1"),
+                       ([[0., -1.], [0., -1., 0.]], "2 components"),
+                       ([[0., -1.], [0., np.nan]], "finite")):
+        with pytest.raises(InvalidInputError, match=said):
+            simulate(mesh, ElementQuad1(), points,
+                     [LinearElastic(1e3, .3)] * 2,
+                     lambda b: b.get_dofs(lambda x: x[1] == 0), rows,
+                     callback=pytest.fail)
