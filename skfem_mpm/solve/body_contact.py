@@ -714,8 +714,8 @@ def body_loads(problem) -> ndarray:
     forces at the end of ``problem``'s step (its surface loads aside)."""
     points, loads, factor = problem.points, problem.run.loads, problem.s_new
     bodies = int(points.body.max()) + 1
-    out = np.zeros((bodies, points.dim))
-    np.add.at(out, points.body, factor * points.force.T)
+    out = factor * np.stack([np.bincount(points.body, force, bodies)
+                             for force in points.force], axis=1)
     gravity = loads.gravity
     if gravity is not None:
         ramp = np.broadcast_to(loads.ramp_gravity, (bodies,))
