@@ -217,8 +217,22 @@ def fingerprint(result) -> dict:
 
 
 def versions() -> dict:
+    """What decides the fingerprints' bits: the numerical libraries'
+    versions and the CPU features numpy detects.  The features choose
+    numpy's SIMD loops (``__cpu_dispatch__``: a sum over AVX-512 lanes
+    rounds otherwise than over AVX2's) and OpenBLAS's kernels for the
+    CPU (numpy's and scipy's bundled OpenBLAS are built for every
+    architecture and pick one as they load).  The cases are the numpy
+    path's and their systems small enough for SuperLU: neither numba nor
+    MKL (Pardiso) computes any of their numbers."""
+    try:
+        from numpy._core import _multiarray_umath as umath
+    except ImportError:                 # numpy 1
+        from numpy.core import _multiarray_umath as umath
     return {"numpy": np.__version__, "scipy": scipy.__version__,
-            "scikit-fem": skfem.__version__}
+            "scikit-fem": skfem.__version__,
+            "cpu": sorted(feature for feature, present in
+                          umath.__cpu_features__.items() if present)}
 
 
 if __name__ == "__main__":
