@@ -232,6 +232,31 @@ def test_a_block_sticks_or_slides_by_coulomb():
             assert np.allclose(force[1:, 0], -mu * force[1:, 1], rtol=1e-6)
 
 
+def test_sliding_pairs_keep_a_share_of_the_penalty_where_none_sticks():
+    """Coulomb's consistent tangent has no stiffness along a sliding
+    pair's slip: where every pressed pair of a contact slides (a
+    symmetric pile's base corners slipping outwards), nothing holds the
+    body along the face, and Newton's step along it was round-off over a
+    round-off pivot.  Those pairs keep ``SLIDING`` of the penalty along
+    their faces; beside a sticking pair they keep the consistent
+    tangent."""
+    from skfem_mpm.solve.contact import SLIDING, coulomb
+    kappa, mu = 1e6, .3
+    n = np.array([[0., 0., 0.], [1., 1., 1.]])
+    p = np.array([10., 10., 10.])
+    motion = np.array([[-1e-3, 1e-3, 0.], [0., 0., 0.]])
+    tau, C, stick = coulomb(mu, kappa, p[:2], n[:, :2], np.zeros((2, 2)),
+                            motion[:, :2])
+    assert not stick.any()
+    assert np.array_equal(tau[0], mu * p[:2] * [1., -1.])
+    assert np.allclose(C[0, 0], SLIDING * kappa, rtol=1e-15, atol=0.)
+    assert np.allclose(C[0, 1], mu * kappa * np.array([1., -1.]),
+                       rtol=1e-15, atol=0.)
+    tau, C, stick = coulomb(mu, kappa, p, n, np.zeros((2, 3)), motion)
+    assert stick.tolist() == [False, False, True]
+    assert C[0, 0].tolist() == [0., 0., kappa]
+
+
 @pytest.mark.parametrize("method", ("mpm", "cpgimp"))
 def test_coulomb_friction_holds_a_block_quasi_statically(method):
     """Gravity tilted by 12 degrees on a floor with mu = 0.3, no supports:
