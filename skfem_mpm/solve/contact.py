@@ -77,7 +77,8 @@ material is ``A_c (p n + tau)`` with ``A_c``
 the corner's share of its domain's area facing the obstacle; the grid
 force is ``J^T`` of it and the tangent ``J^T C J`` with ``C`` the
 consistent derivative (the normal's rotation left out: exact on flat
-faces), so Newton converges quadratically once the active set is fixed.
+faces), so Newton converges quadratically once the active set is fixed
+(but along faces where every pressed corner slides: :data:`SLIDING`).
 
 After Newton converges, :meth:`StepContact.settle` checks the penetration
 (and a tied corner's mismatch) against the obstacle's tolerance; where it
