@@ -1670,8 +1670,8 @@ def test_a_block_gliding_on_a_slab_body_keeps_its_speed(method):
     tolerance lets the out-of-balance force (at most ``tol`` times the
     weights) change it.  Before, with GIMP, once its edge had moved a
     cell and a half (in line with the slab's domains) the node beyond it
-    took a leaning normal: a sideways force of 0.91 of the normal one at t = 0.15, the
-    speed 0.66 (cpGIMP 0.76) at t = 0.16."""
+    took a leaning normal: a sideways force of 0.91 of the normal one at
+    t = 0.15, the speed 0.66 (cpGIMP 0.76) at t = 0.16."""
     mesh = MeshQuad.init_tensor(np.linspace(.4, 1.6, 13),
                                 np.linspace(-.2, .3, 6))
     pts = bodies(mesh, 2, [[(.4, 1.6), (-.2, 0.)], [(.6, 1.), (0., .2)]])
