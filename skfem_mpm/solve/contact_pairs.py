@@ -441,18 +441,22 @@ class PairFinder:
         where they are the first body's own edge, left out where the
         first body reaches beyond the second (its corners there lie on a
         face along the normal, beside the second body, not across); ends
-        within :data:`FACING` cells are one.  Also, per node, the least
-        width of the range over the tangents (m,).  Given the ``centres``
-        of the first body's corners' points (dim, entries) (the pairs'
-        corners, not the nodes' normals), an end where the first body
-        reaches on beyond as a floor level with the second's lowest along
-        the normal (within :data:`FLOOR` cells) is its own too, and also
-        which corners not facing are *under* the second body: of a domain
-        whose centre lies within the second body's range across the
-        normal, at an end where the first body beyond it does not rise
-        past the second body's lowest along the normal (a surface the
-        second body rests on reaches on beyond it; round a pile's tip the
-        soil beside rises: a notch)."""
+        within :data:`FACING` cells are one.  At a node where that leaves
+        no corner facing (the second body's corners one domain across, in
+        line with the first body's), the ends where the first body there
+        and beyond is level with the second's lowest, within
+        :data:`FACING` cells, face it (a floor, not a notch).  Also, per
+        node, the least width of the range over the tangents (m,).
+        Given the ``centres`` of the first body's corners' points (dim,
+        entries) (the pairs' corners, not the nodes' normals), an end
+        where the first body reaches on beyond as a floor level with the
+        second's lowest along the normal (within :data:`FLOOR` cells) is
+        its own too, and also which corners not facing are *under* the
+        second body: of a domain whose centre lies within the second
+        body's range across the normal, at an end where the first body
+        beyond it does not rise past the second body's lowest along the
+        normal (a surface the second body rests on reaches on beyond it;
+        round a pile's tip the soil beside rises: a notch)."""
         (node_a, _, Xa), (node_b, _, Xb) = entries
         m, eps = normal.shape[1], FACING * self.h
         inside = np.ones(node_a.size, dtype=bool)
@@ -524,7 +528,7 @@ class PairFinder:
             # (without, the node's grid axis saw nothing facing, a
             # leaning normal was taken, and a block gliding on a slab
             # body with GIMP was braked by a smooth contact: vx 1 to
-            # 0.456 in 0.5 s, the force 0.91 of the weight sideways)
+            # 0.456 in 0.5 s, sideways 0.91 of the normal force)
             none = np.bincount(node_a[inside], minlength=m) == 0
             inside |= on_floor & none[node_a]
         return (inside, span) if centres is None else \
