@@ -70,6 +70,7 @@ from ..quadrature.locate import point_locator, tensor_grid
 from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation
+from ..stabilisation.fbar import IncrementFbar
 from ..stabilisation.volumetric import (MeanDilatation,
                                        points_per_cell_axis,
                                        warn_sparse_spline_points)
@@ -305,6 +306,12 @@ GRID_TERMS = (ghost_term, follower_term, obstacle_term, body_contact_term,
 def mean_dilatation(op, points):
     """The step's point operator with mean dilatation (B-bar)."""
     return MeanDilatation(op, points.volume)
+
+
+def increment_fbar(op, points):
+    """The step's point operator with F-bar on the increment (finite
+    deformation, points that move: :mod:`skfem_mpm.stabilisation.fbar`)."""
+    return IncrementFbar(op, points.volume)
 
 
 class Attempt(NamedTuple):
@@ -1270,8 +1277,9 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         loads=external, material=case.material,
         ghost=stabilisation.ghost_factor(),
         ghost_reserve=stabilisation.ghost_in_reserve(method),
-        operator_wrappers=(mean_dilatation,) if stabilisation.antilocking
-        else (), D=tile_dofs(held, user_grid.N,
+        operator_wrappers=(
+            increment_fbar if kinematics == "finite" and method != "fem"
+            else mean_dilatation,) if stabilisation.antilocking else (), D=tile_dofs(held, user_grid.N,
                              1 if fields is None else fields.count),
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
         obstacles=case.obstacles,
