@@ -1279,8 +1279,9 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         ghost_reserve=stabilisation.ghost_in_reserve(method),
         operator_wrappers=(
             increment_fbar if kinematics == "finite" and method != "fem"
-            else mean_dilatation,) if stabilisation.antilocking else (), D=tile_dofs(held, user_grid.N,
-                             1 if fields is None else fields.count),
+            else mean_dilatation,) if stabilisation.antilocking else (),
+        D=tile_dofs(held, user_grid.N, 1 if fields is None
+                    else fields.count),
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
         obstacles=case.obstacles,
         rhs=newton.rhs, tol=newton.tol, max_iter=newton.max_iter,

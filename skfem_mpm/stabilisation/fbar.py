@@ -118,17 +118,23 @@ class IncrementFbar(MeanDilatation):
         dF = np.repeat(np.eye(3)[:, :, None], n, axis=2)
         dF[:dim, :dim] += g
         Fi = np.moveaxis(np.linalg.inv(np.moveaxis(dF, -1, 0)), 0, -1)
-        J = np.linalg.det(np.moveaxis(dF, -1, 0))
+        G = dF - np.eye(3)[:, :, None]
+        # J - 1 = I1 + I2 + I3 of g, and xi - 1, without the cancellation
+        # of det dF - 1 and xi dF - I at small increments
+        trace = np.einsum("aap->p", G)
+        Jm1 = trace + (trace ** 2 - np.einsum("abp,bap->p", G, G)) / 2 \
+            + np.linalg.det(np.moveaxis(G, -1, 0))
         R = Fi.transpose(1, 0, 2)
-        vJ = self.volume * J
+        vJ = self.volume * (1 + Jm1)
         average = self._spatial(self.op, vJ, np.ascontiguousarray(
             R[:dim, :dim]))
-        Jc = average.cell_sum(vJ) / average.cell_sum(self.volume)
+        Jc_m1 = average.cell_sum(self.volume * Jm1) \
+            / average.cell_sum(self.volume)
         with np.errstate(invalid="ignore", divide="ignore"):
-            xi = np.cbrt(Jc / J)
+            xi_m1 = np.expm1(np.log1p((Jc_m1 - Jm1) / (1 + Jm1)) / 3)
         self.average, self.frame = average, (dF, R)
-        self._state = (Fi, vJ / average.cell_sum(vJ), xi)
-        return dF * xi - np.eye(3)[:, :, None]
+        self._state = (Fi, vJ / average.cell_sum(vJ), 1 + xi_m1)
+        return G * (1 + xi_m1) + np.eye(3)[:, :, None] * xi_m1
 
     def force(self, P: ndarray, w: ndarray) -> ndarray:
         """``sum_p w_p P_p : d dF_bar_p / du`` at the last linearisation
@@ -151,7 +157,7 @@ class IncrementFbar(MeanDilatation):
         c) w xi m``, the point terms ``w xi [a(v) P : g(u) + a(u) P :
         g(v) + m a(v) a(u)] / 3 + w xi m T(u, v)`` and the cell's ``M_c
         (theta_c)'(u, v)``, ``T(u, v) = tr(dF^-1 g(u) dF^-1 g(v))``."""
-        dim, p = self.dim, slice(0, self.dim)
+        p = slice(0, self.dim)
         Fi, omega, xi = self._state
         dF, R = self.frame
         wx = w * xi

@@ -45,7 +45,10 @@ class Stabilisation:
         Mean dilatation (B-bar, :mod:`skfem_mpm.stabilisation.volumetric`)
         against volumetric locking, every method: the average over the
         points of each cell (with GIMP over those whose centre lies in it,
-        Coombs et al. 2018).
+        Coombs et al. 2018); in finite deformation with points that move
+        (not ``"fem"``) F-bar on each step's increment, every point of a
+        cell changing its volume by the cell's ratio
+        (:mod:`skfem_mpm.stabilisation.fbar`).
     extended_splines
         Extended B-splines (the B-spline methods, quadratic and cubic;
         Höllig, Reif and Wipper 2001): a spline without a knot span filled
