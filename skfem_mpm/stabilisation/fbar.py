@@ -114,11 +114,10 @@ class IncrementFbar(MeanDilatation):
         linearisation for :meth:`force` and :meth:`stiffness`."""
         dim = self.dim
         g = self.op.gradients(u)
-        n = g.shape[-1]
-        dF = np.repeat(np.eye(3)[:, :, None], n, axis=2)
-        dF[:dim, :dim] += g
+        G = np.zeros((3, 3, g.shape[-1]))
+        G[:dim, :dim] = g
+        dF = G + np.eye(3)[:, :, None]
         Fi = np.moveaxis(np.linalg.inv(np.moveaxis(dF, -1, 0)), 0, -1)
-        G = dF - np.eye(3)[:, :, None]
         # J - 1 = I1 + I2 + I3 of g, and xi - 1, without the cancellation
         # of det dF - 1 and xi dF - I at small increments
         trace = np.einsum("aap->p", G)
