@@ -27,11 +27,7 @@ hashes when the points began to keep their rotation
 (``state.rotation``; every other sum unchanged to the bit);
 fem_finite_antilocking when finite elements in finite deformation began
 to average the increment's spatial divergence ``tr(grad_X(du)
-F_n^-1)`` (its second step: the displacement sum moved 1.1e-4);
-mpm_finite_modified_antilocking_plastic when finite deformation with
-moving points began to take F-bar on the increment
-(:mod:`skfem_mpm.stabilisation.fbar`; displacement sum 2.0e-5, equivalent
-plastic strain 2.7e-4)."""
+F_n^-1)`` (its second step: the displacement sum moved 1.1e-4)."""
 import json
 from pathlib import Path
 

@@ -1009,6 +1009,14 @@ def check_combination(method: str, kinematics: str, plastic: bool,
     seed's one-solve scheme (``rhs="increment"``) needs linear
     quasi-static steps driven by ramped loads alone; modified Newton does
     not go with an adaptive time step."""
+    if stabilisation.antilocking == "fbar" and (
+            kinematics != "finite" or method == "fem"):
+        raise InvalidInputError(
+            "antilocking='fbar' (F-bar on each step's increment) is for "
+            "finite deformation with points that move, not {}; "
+            "antilocking=True is mean dilatation for every method and "
+            "kinematics".format("finite elements" if method == "fem"
+                                else "small strain"))
     if newton.rhs == "increment":
         if contact:
             raise InvalidInputError(
@@ -1278,7 +1286,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         ghost=stabilisation.ghost_factor(),
         ghost_reserve=stabilisation.ghost_in_reserve(method),
         operator_wrappers=(
-            increment_fbar if kinematics == "finite" and method != "fem"
+            increment_fbar if stabilisation.antilocking == "fbar"
             else mean_dilatation,) if stabilisation.antilocking else (),
         D=tile_dofs(held, user_grid.N, 1 if fields is None
                     else fields.count),

@@ -1,6 +1,6 @@
-"""F-bar on each load step's increment: mean dilatation in finite
-deformation for the methods whose points move (standard MPM, GIMP,
-B-splines; updated Lagrangian).
+"""F-bar on each load step's increment (``Stabilisation(antilocking=
+"fbar")``): mean dilatation in finite deformation for the methods whose
+points move (standard MPM, GIMP, B-splines; updated Lagrangian).
 
 The additive mean dilatation of :mod:`.volumetric`, ``dF = I + g +
 (theta_c - tr g) I / 3``, averages the *linearised* volume change of the
