@@ -46,6 +46,7 @@ import numpy as np
 from numpy import ndarray
 from scipy.sparse import csr_matrix
 
+from ..mechanics.hencky import inverse_and_det
 from .volumetric import CellPatchAverage, ElementAverage, MeanDilatation
 
 __all__ = ["IncrementFbar"]
@@ -117,7 +118,16 @@ class IncrementFbar(MeanDilatation):
         G = np.zeros((3, 3, g.shape[-1]))
         G[:dim, :dim] = g
         dF = G + np.eye(3)[:, :, None]
-        Fi = np.moveaxis(np.linalg.inv(np.moveaxis(dF, -1, 0)), 0, -1)
+        # an inverted point makes these NaN: the kinematics' InversionError
+        with np.errstate(invalid="ignore", divide="ignore"):
+            xi_m1 = self._linearise(G, dF)
+        return G * (1 + xi_m1) + np.eye(3)[:, :, None] * xi_m1
+
+    def _linearise(self, G: ndarray, dF: ndarray):
+        """The average, frame and ``(dF^-1, omega, xi)`` of the increment
+        ``dF = I + G`` (3, 3, n); returns ``xi - 1``."""
+        dim = self.dim
+        Fi = inverse_and_det(dF, dim)[0]
         # J - 1 = I1 + I2 + I3 of g, and xi - 1, without the cancellation
         # of det dF - 1 and xi dF - I at small increments
         trace = np.einsum("aap->p", G)
@@ -129,11 +139,10 @@ class IncrementFbar(MeanDilatation):
             R[:dim, :dim]))
         Jc_m1 = average.cell_sum(self.volume * Jm1) \
             / average.cell_sum(self.volume)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            xi_m1 = np.expm1(np.log1p((Jc_m1 - Jm1) / (1 + Jm1)) / 3)
+        xi_m1 = np.expm1(np.log1p((Jc_m1 - Jm1) / (1 + Jm1)) / 3)
         self.average, self.frame = average, (dF, R)
         self._state = (Fi, vJ / average.cell_sum(vJ), 1 + xi_m1)
-        return G * (1 + xi_m1) + np.eye(3)[:, :, None] * xi_m1
+        return xi_m1
 
     def force(self, P: ndarray, w: ndarray) -> ndarray:
         """``sum_p w_p P_p : d dF_bar_p / du`` at the last linearisation
