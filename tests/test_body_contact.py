@@ -1678,3 +1678,24 @@ def test_lean_warning_only_where_a_side_in_a_cell_faces_the_other_body(
              lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
              body_force=[0., -1e3], contacts=[Contact(0, 1, "rough")])
     assert ("may lean" in caplog.text) == warned
+
+
+@pytest.mark.slow
+def test_a_block_tilted_past_coulomb_from_the_start_names_its_load():
+    """The same block under its weight tilted past friction's angle
+    (tan theta = 1.2 mu) from the first step: no step converges, so no
+    friction is mobilised at a converged state, and the error named
+    neither friction nor the contact (a user trial's block on a slab).
+    Now it names the load's ratio to mu times its pressing force,
+    tan theta / mu."""
+    from skfem_mpm import ConvergenceError
+    mesh, pts, block, low, high = block_on_a_base()
+    mu, theta = .3, np.arctan(1.2 * .3)
+    with pytest.raises(ConvergenceError, match="the load on body 1 pushes "
+                       "it along its contact '0-1' with body 0 with "
+                       "{:.3f} times mu".format(np.tan(theta) / mu)):
+        simulate(mesh, ElementQuad1(), pts,
+                 [LinearElastic(1e5, .3), LinearElastic(1e6, .3)],
+                 lambda b: b.get_dofs(lambda x: x[1] == 0),
+                 body_force=1e4 * np.array([np.sin(theta), -np.cos(theta)]),
+                 nsteps=2, contacts=[Contact(0, 1, friction=mu)])

@@ -352,8 +352,16 @@ antilocking = true
     scene.write_text(scene.read_text().replace("antilocking = true",
                                                "antilocking = 1"))
     assert main(["run", str(scene), "--out", str(tmp_path / "p")]) == 2
-    assert "solver.antilocking: must be true or false" in \
+    assert 'solver.antilocking: must be true, false or "fbar"' in \
         capsys.readouterr().err
+    # F-bar on the increment: finite deformation with moving points only
+    scene.write_text(scene.read_text().replace(
+        "antilocking = 1", 'antilocking = "fbar"'))
+    assert main(["run", str(scene), "--out", str(tmp_path / "q")]) == 2
+    assert "antilocking='fbar' (F-bar on each step's increment) is for " \
+        "finite deformation" in capsys.readouterr().err
+    scene.write_text(scene.read_text() + 'kinematics = "finite"\n')
+    assert load_scene(scene).stabilisation.antilocking == "fbar"
 
 
 @pytest.mark.slow

@@ -277,6 +277,11 @@ class CompiledPasses:
         method_op = op if average is None else op.op
         if self.body is not None and self.body.size != points.n:
             return False    # bodies of other points: numpy's error
+        if not getattr(op, "compiled", True):     # F-bar on the increment
+            log_once(logging.WARNING if self.explicit else logging.INFO,
+                     "no compiled pass for %s; its responses run on the "
+                     "numpy path", type(op).__name__)
+            return False
         if getattr(method_op, "kernel_layout", None) is not None and \
                 method_op.n_points == points.n and (
                     average is None
