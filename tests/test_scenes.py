@@ -362,6 +362,16 @@ antilocking = true
         "finite deformation" in capsys.readouterr().err
     scene.write_text(scene.read_text() + 'kinematics = "finite"\n')
     assert load_scene(scene).stabilisation.antilocking == "fbar"
+    # compare's FE takes mean dilatation (it refused the scene); a study
+    # over methods with fem is refused up front (each fem case failed)
+    capsys.readouterr()
+    assert main(["compare", str(scene), "--out", str(tmp_path / "c")]) == 0
+    assert "FE takes mean dilatation (antilocking = true) where the " \
+        "scene's mpm takes F-bar on the increment" in capsys.readouterr().out
+    from skfem_mpm.studies.study import check_vary
+    with pytest.raises(InvalidInputError, match="cannot vary method over "
+                       "'fem' with antilocking='fbar'"):
+        check_vary({"method": ["mpm", "fem"]}, load_scene(scene))
 
 
 @pytest.mark.slow

@@ -53,7 +53,8 @@ __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
 #: what the compiled passes serve (the refusal of ``kernels="compiled"``
 #: says it)
 COVERAGE = ("standard MPM, uGIMP, cpGIMP and B-splines in 2D and 3D, small "
-            "and finite deformation, with or without mean dilatation, "
+            "and finite deformation, with or without mean dilatation "
+            "(antilocking=True; not F-bar, 'fbar'), "
             "LinearElastic, VonMises, DruckerPrager, MohrCoulomb and "
             "ModifiedCamClay (one for all points or one per body)")
 

@@ -51,7 +51,7 @@ class Stabilisation:
         instead, every point of a cell changing its volume by the cell's
         ratio (:mod:`skfem_mpm.stabilisation.fbar`): for nu near 0.5,
         where the additive average leaves pressures oscillating inside
-        cells (a Cook's membrane at nu = 0.4999: 10 steps uncut, 113
+        cells (a Cook's membrane at nu = 0.4999: 10 steps uncut, 111
         iterations, against 5 cut back and 528); numpy path only.
     extended_splines
         Extended B-splines (the B-spline methods, quadratic and cubic;
