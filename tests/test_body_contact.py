@@ -1444,6 +1444,57 @@ def test_a_spline_pile_pushed_by_a_cap_does_not_sink_through_its_soil():
 
 
 @pytest.mark.slow
+def test_a_pile_driven_by_a_rough_cap_passes_its_soil_s_top_row():
+    """Trial 53's pile rebuilt: two cells wide (h = B/2) in a hole of
+    von Mises soil (c_u = 10 kPa, E = 100 c_u, unit weight 20 kN/m3),
+    its tip 4 B deep, smooth contact, finite deformation, standard MPM,
+    driven 2 B by a rough cap in 10 steps.  The tip passes the top row of
+    soil points under its outer quarters, one is wrapped round its
+    corner, and the corner the tip's pressed corners' downward
+    candidates chose lay 0.5-0.8 cells above the tip: past the pairs'
+    half-cell depth, dropped, the tip held by sideways pairs; the run
+    stopped at a load factor of 0.6 at every cut-back.  Such a corner
+    takes the nearest partner within that depth now: the cap drives the
+    pile 2 B, and the tip's resistance net of the overburden stays
+    near the deep tip's ``N_c c_u`` (Skempton's strip 7.5, Meyerhof's 9)
+    past a settlement of B: measured 5.6-14.8 c_u, mean 11.8 (one step
+    dips where the tip nears a grid line)."""
+    from skfem_mpm import Obstacle
+    B, cu, gamma = .25, 1e4, 2e4
+    surface, tip, c = 7.5 * B, 3.5 * B, 5 * B      # h = B / 2
+    mesh = MeshQuad.init_tensor(np.linspace(0, 10 * B, 21),
+                                np.linspace(0, 11.5 * B, 24))
+
+    def hole(x):
+        return (np.abs(x[0] - c) < B / 2) & (x[1] > tip)
+    pts = bodies(mesh, 2, [lambda x: (x[1] < surface) & ~hole(x),
+                           lambda x: hole(x) & (x[1] < surface + 2.5 * B)])
+    head = float((pts.x[1] + pts.domain[1])[pts.body == 1].max())
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [VonMises(100 * cu, .3, np.sqrt(3) * cu),
+                    LinearElastic(1e8, .2)],
+                   lambda b: np.union1d(
+                       b.get_dofs(lambda x: np.isclose(x[1], 0)).all(),
+                       b.get_dofs(lambda x: np.isclose(x[0], 0)
+                                  | np.isclose(x[0], 10 * B))
+                       .nodal["u^1"]),
+                   body_force=[0., -gamma], kinematics="finite",
+                   nsteps=10, contacts=[Contact(0, 1)],
+                   obstacles=[Obstacle(box=[[c - B, c + B],
+                                            [head, head + B]],
+                                       displacement=[0., -2 * B],
+                                       friction="rough")])
+    assert res.history[-1].load_factor == 1.
+    weight = gamma * pts.volume[pts.body == 1].sum()
+    settled = np.array([r.load_factor * 2 * B for r in res.history])
+    q = np.array([r.obstacle_forces[0, 1] + weight for r in res.history]) \
+        / B - gamma * (surface - tip + settled)
+    half = settled >= B
+    assert 7.5 * cu < q[half].mean() < 1.5 * 9 * cu
+    assert (q[half] > .5 * 9 * cu).all()
+
+
+@pytest.mark.slow
 def test_a_rough_footing_body_stays_symmetric_as_its_soil_yields():
     """A user trial's stiff strip footing, a body in rough contact with
     von Mises soil, pushed by a rough box (cpGIMP, mean dilatation, a
@@ -1726,3 +1777,25 @@ def test_a_block_gliding_on_a_slab_body_in_3d_keeps_its_speed():
     slack = duration * tol * G * mass.sum() / mass[block].sum()
     speed = res.points.velocity[:2, block] @ mass[block] / mass[block].sum()
     assert np.abs(speed - [1., 0.]).max() <= slack
+
+
+@pytest.mark.slow
+def test_a_block_tilted_past_coulomb_from_the_start_names_its_load():
+    """The block on a base body (:func:`block_on_a_base`) under its
+    weight tilted past friction's angle
+    (tan theta = 1.2 mu) from the first step: no step converges, so no
+    friction is mobilised at a converged state, and the error named
+    neither friction nor the contact (a user trial's block on a slab).
+    Now it names the load's ratio to mu times its pressing force,
+    tan theta / mu."""
+    from skfem_mpm import ConvergenceError
+    mesh, pts, block, low, high = block_on_a_base()
+    mu, theta = .3, np.arctan(1.2 * .3)
+    with pytest.raises(ConvergenceError, match="the load on body 1 pushes "
+                       "it along its contact '0-1' with body 0 with "
+                       "{:.3f} times mu".format(np.tan(theta) / mu)):
+        simulate(mesh, ElementQuad1(), pts,
+                 [LinearElastic(1e5, .3), LinearElastic(1e6, .3)],
+                 lambda b: b.get_dofs(lambda x: x[1] == 0),
+                 body_force=1e4 * np.array([np.sin(theta), -np.cos(theta)]),
+                 nsteps=2, contacts=[Contact(0, 1, friction=mu)])

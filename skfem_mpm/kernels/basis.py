@@ -17,13 +17,16 @@ error).
 Beside them the basis's slot layout (:func:`point_slots`, the points
 ordered by element by counting, :func:`by_element`) and a nodal vector's
 values at the points (:func:`point_values`, what a standard MPM
-operator's ``values`` forms), equal to the numpy path's to the bit.
+operator's ``values`` forms), equal to the numpy path's to the bit, and
+its transpose, the point forces' nodal loads (:func:`point_loads`, what
+a standard MPM operator's ``point_force`` forms), in the order of
+numpy's ``einsum`` on a two-lane build (:func:`slot_sums`).
 """
 import numpy as np
 from numba import njit
 
 __all__ = ["quad1_fields", "hex1_fields", "point_slots",
-           "point_values"]
+           "point_values", "slot_sums", "point_loads"]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -238,4 +241,68 @@ def point_values(N, dofs, u, k, slot_of_point, slots):
             for i in range(nloc):
                 s += N[i, e, m] * u[k * dofs[i, e] + a]
             out[a, p] = s
+    return out
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def slot_sum(N, F, i, e, a, slots):
+    """``sum_m N[i, e, m] F[a, e, m]`` in the order of numpy's ``einsum``
+    over a contiguous axis into a stride-0 output on a build of two-lane
+    vectors without fused multiply-add (``sum_of_products_contig_contig_
+    outstride0_two`` on x86-64's baseline): two lane sums, of the even
+    and the odd slots, each over blocks of eight slots taken last to
+    first, then the rest in order, a lane past the end adding ``0 * 0``;
+    the lanes' sum added to zero (signs of zeros included)."""
+    even, odd = 0., 0.
+    m = 0
+    while slots - m >= 8:
+        for j in range(3, -1, -1):
+            k = m + 2 * j
+            even = N[i, e, k] * F[a, e, k] + even
+            odd = N[i, e, k + 1] * F[a, e, k + 1] + odd
+        m += 8
+    while m < slots:
+        even = N[i, e, m] * F[a, e, m] + even
+        odd = (N[i, e, m + 1] * F[a, e, m + 1] if m + 1 < slots
+               else 0. * 0.) + odd
+        m += 2
+    return 0. + (even + odd)
+
+
+@njit(cache=True, error_model="numpy")
+def slot_sums(N, F):
+    """``np.einsum("iem,aem->iae", N, F)`` of C-contiguous ``N`` (nloc,
+    e, m) and ``F`` (k, e, m), summed as :func:`slot_sum`."""
+    nloc, nel, slots = N.shape
+    k = F.shape[0]
+    out = np.empty((nloc, k, nel))
+    for i in range(nloc):
+        for a in range(k):
+            for e in range(nel):
+                out[i, a, e] = slot_sum(N, F, i, e, a, slots)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def point_loads(N, f, point_index, dofs, k, size):
+    """The nodal loads (size,) of the point forces ``f`` (k, n): ``sum_p
+    N_i(x_p) f_ap`` into DOF ``k dofs[i, e] + a``, what :meth:`~skfem_mpm.
+    methods.operators.PointOperator.point_force` forms by a gather into
+    the slots (``point_index``, -1 a padding slot: zero), an ``einsum``
+    over each element's slots (:func:`slot_sum`'s order) and a
+    ``bincount`` (the element vectors' rows ``k i + a`` in order, each
+    over the elements, added to zero in turn), in one pass."""
+    nloc, nel, slots = N.shape
+    F = np.zeros((k, nel, slots))
+    for e in range(nel):
+        for m in range(slots):
+            p = point_index[e, m]
+            if p >= 0:
+                for a in range(k):
+                    F[a, e, m] = f[a, p]
+    out = np.zeros(size)
+    for i in range(nloc):
+        for a in range(k):
+            for e in range(nel):
+                out[k * dofs[i, e] + a] += slot_sum(N, F, i, e, a, slots)
     return out

@@ -220,8 +220,11 @@ class PointOperator:
             self.shape_gradients, self.basis.quadrature_field(P * w)))
 
     def point_force(self, f: ndarray) -> ndarray:
-        return self._scatter(local_load(self.shape_values,
-                                        self.basis.quadrature_field(f)))
+        loads = self.basis.nodal_loads(self.shape_values, self.scalar_dofs,
+                                       f, self.N)
+        return self._scatter(local_load(
+            self.shape_values, self.basis.quadrature_field(f))) \
+            if loads is None else loads
 
     def stiffness(self, A: ndarray, w: ndarray):
         return self.pattern().matrix(

@@ -313,6 +313,25 @@ class MaterialPointBasis(CellBasis):
                 u, dtype=np.float64), dim, self._slot_of_point,
             self.point_index.shape[1])
 
+    def nodal_loads(self, shape_values: ndarray, scalar_dofs: ndarray,
+                    f: ndarray, size: int) -> Optional[ndarray]:
+        """The nodal loads (size,) of the point forces ``f`` (dim, n)
+        through the shape values (nloc, nelems, nqp) at the element DOFs
+        ``scalar_dofs`` (nloc, nelems), DOF ``dim k + a`` component a of
+        node k, by one compiled pass where this basis's slots came from
+        one and numpy's ``einsum`` sums as the pass does
+        (:func:`einsum_order`; :func:`~skfem_mpm.kernels.basis.
+        point_loads`: equal to the numpy path's :meth:`quadrature_field`,
+        ``einsum`` and ``bincount`` to the bit); else ``None``."""
+        if self._passes is None or shape_values.ndim != 3 \
+                or not shape_values.flags.c_contiguous \
+                or shape_values.dtype != np.float64 \
+                or not einsum_order(self._passes):
+            return None
+        return self._passes.point_loads(
+            shape_values, np.ascontiguousarray(f, dtype=np.float64),
+            self.point_index, scalar_dofs, f.shape[0], size)
+
     def quadrature_field(self, values: ndarray) -> ndarray:
         """Scatter the values (..., n) of all points into a quadrature
         field (..., nelems, nqp) of the points in :attr:`subset`, zero in
@@ -405,6 +424,33 @@ def compiled_kernels(name: str = "basis", kernels: str = "auto"):
         except ImportError:             # no numba: the numpy path
             _KERNELS[name] = None
     return _KERNELS[name]
+
+
+def einsum_order(kernels) -> bool:
+    """Whether numpy's ``einsum("iem,aem->iae")`` over C-contiguous
+    arrays sums each element's slots as
+    :func:`~skfem_mpm.kernels.basis.slot_sum` does (two lanes, no fused
+    multiply-add: x86-64's baseline build), found once (``kernels``:
+    :mod:`skfem_mpm.kernels.basis`) on slot counts 1 to 19 with signed
+    zeros; where not (another build's vector width or
+    fused products), :meth:`MaterialPointBasis.nodal_loads` leaves the
+    point forces to the numpy path."""
+    if "einsum_order" not in _KERNELS:
+        rng = np.random.default_rng(0)
+        same = True
+        for slots in range(1, 20):
+            N, F = (rng.standard_normal((k, 3, slots)) * 10. ** rng.integers(
+                -8, 8, (k, 3, slots)) for k in (4, 2))
+            F[:, 1] = -0.
+            want = np.einsum("iem,aem->iae", N, F)
+            got = kernels.slot_sums(N, F)
+            same = same and np.array_equal(got, want) and np.array_equal(
+                np.signbit(got), np.signbit(want))
+        if not same:
+            logger.info("numpy's einsum sums in another order than the "
+                        "compiled point loads: the numpy path serves them")
+        _KERNELS["einsum_order"] = same
+    return _KERNELS["einsum_order"]
 
 
 def compiled_fields(elem: Element, mapping: PointMapping, X: ndarray,

@@ -51,7 +51,8 @@ def check_footing_scene(scene):
     if scene.grid.dim != 2:
         raise InvalidInputError("reference 'bearing_capacity' is for 2D "
                                 "(plane-strain) scenes")
-    if scene.gravity is not None and any(scene.gravity):
+    weights = scene.body_forces()
+    if weights is not None and weights.any():
         raise InvalidInputError(
             "reference 'bearing_capacity' is for weightless soil: the "
             "gravity adds the soil weight's share (N_gamma) to N_c c")

@@ -298,8 +298,9 @@ def draw_footing_curve(ax, movement: np.ndarray, pressure: np.ndarray,
 def draw_energies(ax, energies: dict, title: str, unit: str = "J",
                   scale: float = 1.):
     """A dynamic run's kinetic energy, work of the internal and external
-    forces and what the scheme and the mapping dissipated (external work
-    - internal work - kinetic energy) against time; ``energies`` as
+    forces and what the scheme and the mapping dissipated (the fall of the
+    balance kinetic energy + internal work - external work from its start,
+    the initial kinetic energy) against time; ``energies`` as
     :meth:`skfem_mpm.Result.energies`, divided by ``scale`` (its ``unit``,
     e.g. ``"kJ/m"`` with 1e3 for a 2D run)."""
     t = np.asarray(energies["time"])
@@ -309,8 +310,8 @@ def draw_energies(ax, energies: dict, title: str, unit: str = "J",
                                  (internal, "--", "internal work"),
                                  (external, ":", "external work")):
         ax.plot(t, values, style, label=label)
-    ax.plot(t, external - internal - kinetic, "-.",
-            label="numerical dissipation")
+    balance = kinetic + internal - external
+    ax.plot(t, balance[0] - balance, "-.", label="numerical dissipation")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("energy ({})".format(unit))
     ax.set_title(title)

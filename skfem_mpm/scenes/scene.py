@@ -231,7 +231,9 @@ class Scene:
     gravity
         Body force per unit (initial) volume, ``None`` for none; ramped
         over the steps, or in full from the first step where a body starts
-        from a geostatic stress (``Body.K0``).
+        from a geostatic stress (``Body.K0``).  The same for every body:
+        bodies of different densities fall differently under it in
+        dynamics (warned); give ``acceleration`` instead.
     point_loads, tractions
         Loads at full load factor, ramped over the steps.
     method
@@ -286,6 +288,11 @@ class Scene:
     contacts
         :class:`~skfem_mpm.Contact` s between bodies, named by the bodies'
         names (scene tables ``[[contacts]]``).
+    acceleration
+        Gravitational acceleration instead of ``gravity``: each body's
+        body force is its ``density`` times it (every body then needs a
+        density, quasi-static scenes too; a rigid body without one is
+        weightless).
     """
     grid: Grid
     bodies: List[Body]
@@ -306,6 +313,19 @@ class Scene:
     outputs: List["Quantity"] = field(default_factory=list)
     obstacles: List[Obstacle] = field(default_factory=list)
     contacts: List[Contact] = field(default_factory=list)
+    acceleration: Optional[Sequence[float]] = None
+
+    def body_forces(self) -> Optional[ndarray]:
+        """Each body's body force per unit initial volume (bodies, dim):
+        :attr:`gravity` for every body, or the body's density times
+        :attr:`acceleration`; ``None`` without either."""
+        if self.acceleration is not None:
+            # a rigid body without a density: driven, weightless
+            return np.array([(b.density or 0.) * np.asarray(
+                self.acceleration, float) for b in self.bodies])
+        if self.gravity is None:
+            return None
+        return np.tile(np.asarray(self.gravity, float), (len(self.bodies), 1))
 
     @property
     def step_count(self) -> int:
@@ -329,13 +349,42 @@ class Scene:
                         name, kind.__name__, getattr(self, name)))
         if not self.bodies:
             raise InvalidInputError("a scene needs at least one body")
-        moving = [b.name for b in self.bodies if b.density is not None
-                  or b.initial_velocity is not None]
+        if self.acceleration is not None:
+            if self.gravity is not None:
+                raise InvalidInputError(
+                    "gravity is a body force per unit volume or an "
+                    "acceleration (times each body's density), not both")
+            try:
+                g = np.asarray(self.acceleration, dtype=float)
+            except (TypeError, ValueError):
+                g = None
+            if g is None or g.shape != (self.grid.dim,) or \
+                    not np.isfinite(g).all():
+                raise InvalidInputError(
+                    "acceleration must be {} finite numbers, got {!r}".format(
+                        self.grid.dim, self.acceleration))
+            unweighed = [b.name for b in self.bodies
+                         if b.density is None and b.rigid is None]
+            if unweighed:
+                raise InvalidInputError(
+                    "a gravitational acceleration needs a density on every "
+                    "body that is not rigid; {} have none".format(unweighed))
+            bad = [(b.name, b.density) for b in self.bodies
+                   if b.density is not None and not (
+                       isinstance(b.density, (int, float, np.integer,
+                                              np.floating))
+                       and 0 < b.density < np.inf)]
+            if bad:
+                raise InvalidInputError(
+                    "densities must be finite and positive, got {}".format(
+                        bad))
+        moving = [b.name for b in self.bodies if b.initial_velocity is not None
+                  or b.density is not None and self.acceleration is None]
         if self.dynamics is None and moving:
             raise InvalidInputError(
                 "bodies {} have a density or initial velocity but the scene "
-                "is quasi-static (no dynamics): they would be ignored".format(
-                    moving))
+                "is quasi-static (no dynamics) and its gravity no "
+                "acceleration: they would be ignored".format(moving))
         if self.dynamics is not None:
             massless = [b.name for b in self.bodies if b.density is None]
             if massless:
@@ -373,7 +422,7 @@ class Scene:
                                               for b in self.bodies),
             self.newton, self.stabilisation, None if self.dynamics is None
             else self.dynamics.dynamics([b.density for b in self.bodies]),
-            full_body_force=self.gravity is not None and any(
+            full_body_force=self.body_forces() is not None and any(
                 b.K0 is not None for b in self.bodies),
             driven=bool(rigid) or moving,
             contact=bool(self.obstacles) or bool(self.contacts))
@@ -527,10 +576,11 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
         parts.append(pts)
     check_overlaps(scene.bodies, parts)
     points = concatenate_points(parts)
+    weights = scene.body_forces()
     for k, body in enumerate(scene.bodies):
         if body.K0 is None:
             continue
-        if scene.gravity is None:
+        if weights is None:
             raise InvalidInputError("body {!r}: a geostatic stress (K0) needs "
                                     "gravity".format(body.name))
         sel = np.flatnonzero(points.body == k)
@@ -540,7 +590,7 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
         try:
             start = geostatic_stress(
                 MaterialPoints(x=points.x[:, sel], volume=points.volume[sel]),
-                body.material, scene.gravity, surface, body.K0)
+                body.material, weights[k], surface, body.K0)
         except InvalidInputError as err:
             raise InvalidInputError("body {!r}: {}".format(body.name, err))
         for name in ("stress", "strain", "be"):
@@ -728,8 +778,10 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     loads = surface_loads(scene, initial) + rigid_bodies
     if prescribed is not None:
         loads.append(Prescribed(prescribed))
-    body_force = None if scene.gravity is None else BodyForce(
-        scene.gravity, [b.K0 is None for b in scene.bodies])
+    weights = scene.body_forces()
+    body_force = None if weights is None else BodyForce(
+        weights if scene.acceleration is not None else scene.gravity,
+        [b.K0 is None for b in scene.bodies])
     return simulate(mesh, elem, points, material, supports, body_force,
                     loads, None if dynamics else scene.step_count,
                     method=scene.method, kinematics=scene.kinematics,

@@ -57,7 +57,9 @@ offending value (unknown keys, wrong types, impossible values), in a
     region = { x = [0.0, 0.25], y = [1.25, 1.25] }   # or the grid nodes in
                                     # a closed box (lo = hi: a grid line)
     [gravity]
-    body_force = [0.0, -800.0]      # per unit (initial) volume
+    body_force = [0.0, -800.0]      # per unit (initial) volume, every body
+    # or acceleration = [0.0, -9.81]: times each body's density (bodies
+    # of different densities; every body then needs density = ..)
     [[point_loads]]
     at = [10.0, 0.5]
     force = [0.0, -1e5]
@@ -129,7 +131,9 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # installed), else numpy; "numpy" (the
                                     # reference); "compiled" (a scene they
                                     # cannot serve is refused)
-    antilocking = false             # mean dilatation, B-bar (any method)
+    antilocking = false             # mean dilatation, B-bar (any method);
+                                    # "fbar": F-bar on each increment
+                                    # (finite, moving points; nu ~ 0.5)
     extended_splines = false        # extended B-splines (bspline methods)
     ghost = "auto"                  # ghost penalty for cut cells: "auto"
                                     # (on where slivers of material hold
@@ -263,6 +267,14 @@ class _Checker:
                 self.bad("{}.{}".format(key, name), str(err), value)
                 return "x-"
         return self.choice(data, key, name, side_names(dim), "x-")
+
+    def antilocking(self, solver):
+        value = solver.get("antilocking", False)
+        if not isinstance(value, bool) and value != "fbar":
+            self.bad("solver.antilocking", 'must be true, false or "fbar"',
+                     value)
+            return False
+        return value
 
     def boolean(self, data, key, name, default=False):
         value = data.get(name, default)
@@ -656,11 +668,18 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             c.bad(key + ".name", "names another support too", name)
         supports.append(Support(boundary=boundary, at=at, region=box,
                                 components=comps, value=value, name=name))
-    gravity = None
+    gravity = acceleration = None
     if "gravity" in data:
-        g = c.table(data["gravity"], "gravity", ("body_force",),
-                    ("body_force",))
-        gravity = c.vector(g, "gravity", "body_force", dim)
+        g = c.table(data["gravity"], "gravity",
+                    ("body_force", "acceleration"), ())
+        if ("body_force" in g) == ("acceleration" in g):
+            c.bad("gravity", "needs body_force (per unit volume) or "
+                  "acceleration (times each body's density), one of them",
+                  sorted(g))
+        elif "body_force" in g:
+            gravity = c.vector(g, "gravity", "body_force", dim)
+        else:
+            acceleration = c.vector(g, "gravity", "acceleration", dim)
     loads = []
     for k, p in enumerate(c.array(data, "point_loads")):
         key = "point_loads[{}]".format(k)
@@ -724,8 +743,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         ("newton", "newton", c.choice(solver, "solver", "newton", NEWTON,
                                       "full"))))
     stabilisation = c.option(Stabilisation, "solver", (
-        ("antilocking", "antilocking", c.boolean(solver, "solver",
-                                                 "antilocking")),
+        ("antilocking", "antilocking", c.antilocking(solver)),
         ("extended_splines", "extended_splines", c.boolean(
             solver, "solver", "extended_splines")),
         ("ghost", "ghost", "auto" if solver.get("ghost", "auto") == "auto"
@@ -733,6 +751,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                        open_low=False))))
     scene = Scene(
         grid=grid, bodies=bodies, supports=supports, gravity=gravity,
+        acceleration=acceleration,
         point_loads=loads, tractions=tractions, method=method,
         kinematics=kinematics, nsteps=steps, dynamics=dynamics,
         newton=newton, stabilisation=stabilisation, name=_name(c, data),

@@ -362,6 +362,9 @@ class BodyContact(GridTerm):
             counters.setdefault("contact_corners_reset", 0)
         #: the grid's lines per axis (:meth:`warn_sides_inside_cells`)
         self.lines = [np.unique(mesh.p[d]) for d in range(self.dim)]
+        #: per body, the resultant of its body force and point forces at
+        #: the last step tried (:meth:`sliding_load_hint`)
+        self.loads = None
 
     def warn_sides_inside_cells(self, points, half: ndarray) -> None:
         """A warning where a side of a body in contact (a face of a
@@ -461,8 +464,46 @@ class BodyContact(GridTerm):
                                    for row in rows[q * dim:(q + 1) * dim]))
                        for q in range(3))
             out.append(friction_hint("contact {!r}".format(contact.name),
-                                     contact.friction, P, T))
+                                     contact.friction, P, T)
+                       or self.sliding_load_hint(k))
         return "".join(out)
+
+    def sliding_load_hint(self, k: int) -> str:
+        """Where every pair of contact ``k`` at the last step tried had
+        one normal (a flat interface), a hint when the load on one of its
+        bodies (its body force and point forces, :attr:`loads`) pushes it
+        along the interface more than mu times it presses it on the
+        other: held by that contact alone, it has no quasi-static
+        equilibrium.  :func:`~skfem_mpm.solve.contact.friction_hint`
+        needs a committed step; a block on a slab under gravity tilted
+        past mu failed its first step with neither (a user trial)."""
+        a, b, contact = self.contacts[k]
+        found = [pairs[k][2] for pairs in self.geometry.values()]
+        if self.loads is None or not found or isinstance(
+                contact.friction, str) or not contact.friction > 0.:
+            return ""
+        normal = found[-1]
+        if not normal.size or np.ptp(normal, axis=1).max() > 1e-9:
+            return ""
+        n = normal[:, 0]                    # from the first to the second
+        for body, towards, named in (
+                (b, n, (contact.second, contact.first)),
+                (a, -n, (contact.first, contact.second))):
+            load = self.loads[body]
+            pressing = -float(load @ towards)
+            along = float(np.linalg.norm(load + pressing * towards))
+            if pressing > 0 and along > contact.friction * pressing * (
+                    1 + 1e-9):
+                return ("; the load on body {!r} pushes it along its "
+                        "contact {!r} with body {!r} with {:.3f} times mu "
+                        "times the "
+                        "force pressing it on the interface: held by that "
+                        "contact alone it has no quasi-static equilibrium "
+                        "past mu, it slides (dynamics follows the slide; or "
+                        "prescribe its motion)".format(
+                            named[0], contact.name, named[1],
+                            along / (contact.friction * pressing)))
+        return ""
 
     def domain_offsets(self, points) -> ndarray:
         """The corners' offsets from their points (dim, corners, n) where
@@ -664,7 +705,24 @@ class BodyContact(GridTerm):
         return np.unique(np.concatenate(held)) if held else None
 
     def begin_step(self, problem):
+        self.loads = body_loads(problem)
         return StepBodyContact(self, problem)
+
+
+def body_loads(problem) -> ndarray:
+    """Per body (bodies, dim), the resultant of its body force and point
+    forces at the end of ``problem``'s step (its surface loads aside)."""
+    points, loads, factor = problem.points, problem.run.loads, problem.s_new
+    bodies = int(points.body.max()) + 1
+    out = factor * np.stack([np.bincount(points.body, force, bodies)
+                             for force in points.force], axis=1)
+    gravity = loads.gravity
+    if gravity is not None:
+        ramp = np.broadcast_to(loads.ramp_gravity, (bodies,))
+        volume = np.bincount(points.body, points.volume0, bodies)
+        rows = np.broadcast_to(gravity, (bodies, points.dim))
+        out += np.where(ramp, factor, 1.)[:, None] * volume[:, None] * rows
+    return out
 
 
 #: the cells a contact's corner may be moved by grid nodes that slivers

@@ -243,7 +243,14 @@ def block_diagonal(C: ndarray) -> csr_matrix:
 
 
 def corner_signs(dim: int) -> ndarray:
-    """The (dim, 2**dim) signs of a box's corners."""
+    """The (dim, 2**dim) signs of a box's corners, the last axis's
+    alternating fastest (corner ``c``'s side along axis ``a`` is + where
+    bit ``dim - 1 - a`` of ``c`` is set).
+
+    >>> corner_signs(2)
+    array([[-1., -1.,  1.,  1.],
+           [-1.,  1., -1.,  1.]])
+    """
     return np.array(list(itertools.product((-1., 1.), repeat=dim))).T
 
 

@@ -70,6 +70,7 @@ from ..quadrature.locate import point_locator, tensor_grid
 from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation
+from ..stabilisation.fbar import IncrementFbar
 from ..stabilisation.volumetric import (MeanDilatation,
                                        points_per_cell_axis,
                                        warn_sparse_spline_points)
@@ -305,6 +306,12 @@ GRID_TERMS = (ghost_term, follower_term, obstacle_term, body_contact_term,
 def mean_dilatation(op, points):
     """The step's point operator with mean dilatation (B-bar)."""
     return MeanDilatation(op, points.volume)
+
+
+def increment_fbar(op, points):
+    """The step's point operator with F-bar on the increment (finite
+    deformation, points that move: :mod:`skfem_mpm.stabilisation.fbar`)."""
+    return IncrementFbar(op, points.volume)
 
 
 class Attempt(NamedTuple):
@@ -633,6 +640,8 @@ def too_soft(run: Run, points: MaterialPoints) -> str:
     gravity = run.loads.gravity
     if gravity is None or not np.any(gravity):
         return ""
+    if gravity.ndim == 2:                       # per body: the heaviest
+        gravity = gravity[np.argmax(np.linalg.norm(gravity, axis=1))]
     n = points.n
     mu = np.broadcast_to(np.asarray(run.material.mu, float), (n,))
     lam = np.broadcast_to(np.asarray(run.material.lam, float), (n,))
@@ -798,11 +807,13 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         taking the grid's vector ``Basis``, e.g.
         ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.
     body_force
-        Body force per unit *initial* volume at full load, shape (dim,),
-        growing with the load factor like every load, or a
-        :class:`~skfem_mpm.BodyForce` that says otherwise (in full from the
-        first step, per body); ``None``: none is assembled.  Point forces
-        at full load are ``points.force``.
+        Body force per unit *initial* volume at full load, shape (dim,), or
+        one row per body (bodies, dim) (gravity on bodies of different
+        densities: density x g each; one vector for such bodies in
+        dynamics is warned), growing with the load factor like every load,
+        or a :class:`~skfem_mpm.BodyForce` that says otherwise (in full
+        from the first step, per body); ``None``: none is assembled.  Point
+        forces at full load are ``points.force``.
     loads
         Further loads at full load and what else drives the body, in any
         order: :class:`~skfem_mpm.Traction`, :class:`~skfem_mpm.Pressure`
@@ -1006,6 +1017,14 @@ def check_combination(method: str, kinematics: str, plastic: bool,
     seed's one-solve scheme (``rhs="increment"``) needs linear
     quasi-static steps driven by ramped loads alone; modified Newton does
     not go with an adaptive time step."""
+    if stabilisation.antilocking == "fbar" and (
+            kinematics != "finite" or method == "fem"):
+        raise InvalidInputError(
+            "antilocking='fbar' (F-bar on each step's increment) is for "
+            "finite deformation with points that move, not {}; "
+            "antilocking=True is mean dilatation for every method and "
+            "kinematics".format("finite elements" if method == "fem"
+                                else "small strain"))
     if newton.rhs == "increment":
         if contact:
             raise InvalidInputError(
@@ -1085,18 +1104,48 @@ def check_positions(mesh: Mesh, points: MaterialPoints, method: str):
                 expected[:, worst].tolist(), int(off.sum())))
 
 
-def check_body_force(body_force, points: MaterialPoints, dim: int):
-    """The body force vector (or ``None``) and its ramp per body."""
+def check_body_force(body_force, points: MaterialPoints, dim: int,
+                     dynamics: Optional[Dynamics] = None):
+    """The body force, one vector (dim,) for every body or one per body
+    (bodies, dim), or ``None``, and its ramp per body.  One vector for
+    bodies of different densities in dynamics is warned: a force per unit
+    volume accelerates them differently."""
     ramp = True
     if isinstance(body_force, BodyForce):
         body_force, ramp = body_force.value, body_force.ramp
     ramp = check_ramp(ramp)
-    if ramp.size not in (1, int(points.body.max()) + 1):
+    bodies = int(points.body.max()) + 1
+    if ramp.size not in (1, bodies):
         raise InvalidInputError(
             "BodyForce.ramp (ramp_body_force) must be True, False or one "
-            "bool per body ({}), got {!r}".format(int(points.body.max()) + 1,
-                                                  ramp.tolist()))
-    return as_body_force(body_force, dim), ramp
+            "bool per body ({}), got {!r}".format(bodies, ramp.tolist()))
+    if body_force is None or not any(
+            np.ndim(row) for row in np.atleast_1d(np.asarray(
+                body_force, dtype=object))):
+        gravity = as_body_force(body_force, dim)
+        if gravity is not None and dynamics is not None and bodies > 1:
+            warn_one_body_force(gravity, dynamics.density)
+        return gravity, ramp
+    if len(body_force) != bodies:
+        raise InvalidInputError(
+            "body_force per body needs one row per body ({}), got {}".format(
+                bodies, len(body_force)))
+    return np.stack([as_body_force(row, dim) for row in body_force]), ramp
+
+
+def warn_one_body_force(gravity: ndarray, density):
+    """Warn where one body force per unit volume acts on bodies of
+    different densities (a dynamic run's gravity)."""
+    rho = np.ravel(np.asarray(density, dtype=float))
+    if not np.any(gravity) or rho.size < 2 or np.ptp(rho) == 0.:
+        return
+    logger.warning(
+        "one body_force %s per unit volume on bodies of densities %s: "
+        "their accelerations differ (%s); for gravity give one row per body, "
+        "density x g (a scene's [gravity] acceleration)",
+        np.array2string(gravity, precision=4),
+        np.array2string(rho, precision=4),
+        np.array2string(np.linalg.norm(gravity) / rho, precision=4))
 
 
 def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
@@ -1163,10 +1212,16 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     check_choice("kinematics", kinematics, KINEMATICS)
     check_choice("method", method, METHODS)
     newton, stabilisation = options.newton, options.stabilisation
+    if options.kernels == "compiled" and stabilisation.antilocking == "fbar":
+        raise InvalidInputError(
+            "kernels='compiled': the compiled passes do not serve F-bar on "
+            "the increment (antilocking='fbar'); use kernels='auto' or "
+            "'numpy'")
     nsteps = check_steps(nsteps, dynamics, method)
     check_run_input(mesh, points, nsteps, options.keep_snapshots)
     check_positions(mesh, points, method)
-    gravity, ramp = check_body_force(body_force, points, mesh.dim())
+    gravity, ramp = check_body_force(body_force, points, mesh.dim(),
+                                     dynamics)
     forces, prescribed, rigid_bodies, terms = split_loads(loads)
     if method in DOMAIN_METHODS and points.domain is None:
         raise InvalidInputError(
@@ -1274,9 +1329,11 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         loads=external, material=case.material,
         ghost=stabilisation.ghost_factor(),
         ghost_reserve=stabilisation.ghost_in_reserve(method),
-        operator_wrappers=(mean_dilatation,) if stabilisation.antilocking
-        else (), D=tile_dofs(held, user_grid.N,
-                             1 if fields is None else fields.count),
+        operator_wrappers=(
+            increment_fbar if stabilisation.antilocking == "fbar"
+            else mean_dilatation,) if stabilisation.antilocking else (),
+        D=tile_dofs(held, user_grid.N, 1 if fields is None
+                    else fields.count),
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
         obstacles=case.obstacles,
         rhs=newton.rhs, tol=newton.tol, max_iter=newton.max_iter,

@@ -266,7 +266,8 @@ class ExternalLoads:
     mesh, elem, grid
         The grid, its scalar element and vector grid basis.
     gravity
-        Body force per unit initial volume, (dim,), or ``None``.
+        Body force per unit initial volume, (dim,) or one row per body
+        (bodies, dim), or ``None``.
     loads
         :class:`Traction`, :class:`Pressure` and :class:`GridLoad` items.
     domain0
@@ -378,7 +379,8 @@ class ExternalLoads:
         scaled = None if load is None else factor * load
         if self.gravity is not None:
             self.counters["body_force"] += 1
-            weight = self.gravity[:, None] * points.volume0
+            weight = (self.gravity[:, None] if self.gravity.ndim == 1
+                      else self.gravity[points.body].T) * points.volume0
             load = weight if load is None else load + weight
             ramp = self.ramp_gravity
             # one ramp for all: the same products by a number (no mask)

@@ -110,7 +110,9 @@ class Prescribed:
 @dataclass(frozen=True)
 class BodyForce:
     """A body force per unit initial volume at full load, ``value`` of
-    shape (dim,), and whether it grows with the load factor (``ramp=True``,
+    shape (dim,) or one row per body (bodies, dim) (gravity on bodies of
+    different densities), and whether it grows with the load factor
+    (``ramp=True``,
     the default) or acts in full from the first step (``False``: where the
     points start from a geostatic stress that balances it), or one bool
     per body (``value=None``: no body force).  What it leaves out of
@@ -127,10 +129,11 @@ class BodyForce:
             value = np.asarray(self.value, dtype=np.float64)
         except (TypeError, ValueError):
             value = None
-        if value is None or value.ndim != 1 or not np.isfinite(value).all():
+        if value is None or value.ndim not in (1, 2) or \
+                not np.isfinite(value).all():
             raise InvalidInputError(
-                "BodyForce.value must be finite numbers, one per dimension, "
-                "got {!r}".format(self.value))
+                "BodyForce.value must be finite numbers, one per dimension "
+                "(or one row of them per body), got {!r}".format(self.value))
 
 
 def check_ramp(ramp) -> ndarray:

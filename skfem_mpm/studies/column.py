@@ -115,8 +115,8 @@ def column_extent(scene) -> tuple:
     >>> column_extent(load_scene(EMBEDDED))
     (800.0, 0.0, 50.0)
     """
-    gravity = None if scene.gravity is None else np.asarray(scene.gravity,
-                                                             float)
+    weights = scene.body_forces()
+    gravity = None if weights is None else weights[0]
     if gravity is None or not gravity.size or gravity[-1] == 0 or \
             not np.isfinite(gravity[-1]):
         raise InvalidInputError(
