@@ -234,7 +234,7 @@ def summarise(scene, result, seconds: float, earlier=None,
     if earlier is not None:
         rows = np.vstack([earlier.history, rows])
         reactions = np.concatenate([earlier.reactions.reshape(
-            -1, len(names), pts.dim), reactions])
+            len(earlier.history), len(names), pts.dim), reactions])
     summary = {
         "scene": scene.name, "method": scene.method,
         "bodies": [b.name for b in scene.bodies],
@@ -994,6 +994,13 @@ def compare(args) -> int:
     runs = {}
     for method in ("fem", scene.method if scene.method != "fem" else "mpm"):
         variant = replace(scene, method=method)
+        if method == "fem" and scene.stabilisation.antilocking == "fbar":
+            # F-bar on the increment is for moving points
+            print("FE takes mean dilatation (antilocking = true) where the "
+                  "scene's {} takes F-bar on the increment".format(
+                      scene.method))
+            variant = replace(variant, stabilisation=replace(
+                scene.stabilisation, antilocking=True))
         tic = time.perf_counter()
         result = run_scene(variant)
         runs[method] = (variant, result, time.perf_counter() - tic)

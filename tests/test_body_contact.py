@@ -1444,6 +1444,57 @@ def test_a_spline_pile_pushed_by_a_cap_does_not_sink_through_its_soil():
 
 
 @pytest.mark.slow
+def test_a_pile_driven_by_a_rough_cap_passes_its_soil_s_top_row():
+    """Trial 53's pile rebuilt: two cells wide (h = B/2) in a hole of
+    von Mises soil (c_u = 10 kPa, E = 100 c_u, unit weight 20 kN/m3),
+    its tip 4 B deep, smooth contact, finite deformation, standard MPM,
+    driven 2 B by a rough cap in 10 steps.  The tip passes the top row of
+    soil points under its outer quarters, one is wrapped round its
+    corner, and the corner the tip's pressed corners' downward
+    candidates chose lay 0.5-0.8 cells above the tip: past the pairs'
+    half-cell depth, dropped, the tip held by sideways pairs; the run
+    stopped at a load factor of 0.6 at every cut-back.  Such a corner
+    takes the nearest partner within that depth now: the cap drives the
+    pile 2 B, and the tip's resistance net of the overburden stays
+    near the deep tip's ``N_c c_u`` (Skempton's strip 7.5, Meyerhof's 9)
+    past a settlement of B: measured 5.6-14.8 c_u, mean 11.8 (one step
+    dips where the tip nears a grid line)."""
+    from skfem_mpm import Obstacle
+    B, cu, gamma = .25, 1e4, 2e4
+    surface, tip, c = 7.5 * B, 3.5 * B, 5 * B      # h = B / 2
+    mesh = MeshQuad.init_tensor(np.linspace(0, 10 * B, 21),
+                                np.linspace(0, 11.5 * B, 24))
+
+    def hole(x):
+        return (np.abs(x[0] - c) < B / 2) & (x[1] > tip)
+    pts = bodies(mesh, 2, [lambda x: (x[1] < surface) & ~hole(x),
+                           lambda x: hole(x) & (x[1] < surface + 2.5 * B)])
+    head = float((pts.x[1] + pts.domain[1])[pts.body == 1].max())
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [VonMises(100 * cu, .3, np.sqrt(3) * cu),
+                    LinearElastic(1e8, .2)],
+                   lambda b: np.union1d(
+                       b.get_dofs(lambda x: np.isclose(x[1], 0)).all(),
+                       b.get_dofs(lambda x: np.isclose(x[0], 0)
+                                  | np.isclose(x[0], 10 * B))
+                       .nodal["u^1"]),
+                   body_force=[0., -gamma], kinematics="finite",
+                   nsteps=10, contacts=[Contact(0, 1)],
+                   obstacles=[Obstacle(box=[[c - B, c + B],
+                                            [head, head + B]],
+                                       displacement=[0., -2 * B],
+                                       friction="rough")])
+    assert res.history[-1].load_factor == 1.
+    weight = gamma * pts.volume[pts.body == 1].sum()
+    settled = np.array([r.load_factor * 2 * B for r in res.history])
+    q = np.array([r.obstacle_forces[0, 1] + weight for r in res.history]) \
+        / B - gamma * (surface - tip + settled)
+    half = settled >= B
+    assert 7.5 * cu < q[half].mean() < 1.5 * 9 * cu
+    assert (q[half] > .5 * 9 * cu).all()
+
+
+@pytest.mark.slow
 def test_a_rough_footing_body_stays_symmetric_as_its_soil_yields():
     """A user trial's stiff strip footing, a body in rough contact with
     von Mises soil, pushed by a rough box (cpGIMP, mean dilatation, a
@@ -1629,9 +1680,109 @@ def test_lean_warning_only_where_a_side_in_a_cell_faces_the_other_body(
     assert ("may lean" in caplog.text) == warned
 
 
+def test_a_node_beyond_a_block_s_edge_in_line_with_its_floor_is_level():
+    """The node beyond a block's edge on a slab (GIMP supports, h = 0.1):
+    the block's corners there span one domain across, its ends at the
+    slab's corners, and the slab reaches beyond both ends (at the left a
+    sliver of its domain in the node's support).  Its normal is the
+    vertical, smooth and with friction: the slab's corners at the ends
+    are a floor under the block, not a side beside it.  Before, no corner
+    lay between the ends, the vertical faced nothing, and the node took
+    a leaning normal (-0.45, 0.89) (a user trial's block gliding on a
+    slab body)."""
+    from skfem_mpm.solve.contact_pairs import PairFinder
+    h = .1
+    mesh = MeshQuad.init_tensor(np.arange(0, 2 + h / 2, h),
+                                np.arange(-.3, .4, h))
+    finder = PairFinder([], None, mesh, mesh.p.shape[1], h)
+
+    def corners(xs, ys):
+        X = np.array(np.meshgrid(xs, ys)).reshape(2, -1)
+        return np.zeros(X.shape[1], dtype=int), np.arange(X.shape[1]), X
+
+    entries = [corners(1.05 + .05 * np.arange(6), [-.1, -.05, 0.]),
+               corners([1.1, 1.15], [0., .05, .1])]
+    centre = [np.array([[1.175], [-.05]]), np.array([[1.125], [.05]])]
+    for smooth in (True, False):
+        slot, normal = finder.separating_normal(
+            entries, centre, np.array([[1.2], [0.]]), smooth)
+        assert slot.tolist() == [0]
+        assert normal[:, 0].tolist() == [0., 1.]
+
+
+@pytest.mark.parametrize("method", ("ugimp", pytest.param(
+    "cpgimp", marks=pytest.mark.slow)))
+def test_a_block_gliding_on_a_slab_body_keeps_its_speed(method):
+    """A user trial: a block (0.4 x 0.2, E = 1e6) given 1 m/s on a level
+    elastic slab body (E = 5e6, held on its bottom), smooth contact,
+    gravity, finite deformation, dynamics (h = 0.1, 2 x 2 points).
+    Nothing acts on it along the slab: every step's contact force is
+    vertical, and its momentum's speed stays 1 within what Newton's
+    tolerance lets the out-of-balance force (at most ``tol`` times the
+    weights) change it.  Before, with GIMP, once its edge had moved a
+    cell and a half (in line with the slab's domains) the node beyond it
+    took a leaning normal: a sideways force of 0.91 of the normal one at
+    t = 0.15, the speed 0.66 (cpGIMP 0.76) at t = 0.16."""
+    mesh = MeshQuad.init_tensor(np.linspace(.4, 1.6, 13),
+                                np.linspace(-.2, .3, 6))
+    pts = bodies(mesh, 2, [[(.4, 1.6), (-.2, 0.)], [(.6, 1.), (0., .2)]])
+    block = pts.body == 1
+    pts.velocity = np.zeros((2, pts.n))
+    pts.velocity[0, block] = 1.
+    rho, duration, tol = 1e3, .16, NewtonOptions().tol
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [LinearElastic(5e6, .3), LinearElastic(1e6, .25)],
+                   lambda b: b.get_dofs(lambda x: x[1] == -.2).all(),
+                   body_force=[0., -G * rho], kinematics="finite",
+                   method=method, contacts=[Contact(0, 1)],
+                   dynamics=Dynamics(time_step=.01, duration=duration,
+                                     density=rho))
+    force = np.array([r.contact_forces[0] for r in res.history])
+    assert (force[:, 1] > 0).all()
+    assert np.abs(force[:, 0]).max() <= 1e-12 * force[:, 1].max()
+    mass = rho * res.points.volume0
+    slack = duration * tol * G * mass.sum() / mass[block].sum()
+    speed = mass[block] @ res.points.velocity[0, block] / mass[block].sum()
+    assert abs(speed - 1.) <= slack
+
+
+@pytest.mark.slow
+def test_a_block_gliding_on_a_slab_body_in_3d_keeps_its_speed():
+    """The gliding block in 3D (0.4 x 0.4 x 0.2 on a slab two cells
+    thick, h = 0.2, cpGIMP, 0.5 s): no sideways force, and its speed
+    stays 1 along x (and 0 across) within Newton's tolerance as above.
+    Before, it moved at 0.371 at the end, the sideways force up to 0.98
+    of the largest normal one."""
+    from skfem import ElementHex1, MeshHex
+    mesh = MeshHex.init_tensor(np.linspace(0, 1.6, 9),
+                               np.linspace(0, .8, 5),
+                               np.linspace(-.4, .4, 5))
+    pts = bodies(mesh, 2, [lambda x: x[2] < 0., lambda x: (x[0] > .4)
+                           & (x[0] < .8) & (x[1] > .2) & (x[1] < .6)
+                           & (x[2] > 0.) & (x[2] < .2)])
+    block = pts.body == 1
+    pts.velocity = np.zeros((3, pts.n))
+    pts.velocity[0, block] = 1.
+    rho, duration, tol = 1e3, .5, NewtonOptions().tol
+    res = simulate(mesh, ElementHex1(), pts,
+                   [LinearElastic(5e6, .3), LinearElastic(1e6, .25)],
+                   lambda b: b.get_dofs(lambda x: x[2] == -.4).all(),
+                   body_force=[0., 0., -G * rho], kinematics="finite",
+                   method="cpgimp", contacts=[Contact(0, 1)],
+                   dynamics=Dynamics(time_step=.01, duration=duration,
+                                     density=rho))
+    force = np.array([r.contact_forces[0] for r in res.history])
+    assert np.abs(force[:, :2]).max() <= 1e-12 * force[:, 2].max()
+    mass = rho * res.points.volume0
+    slack = duration * tol * G * mass.sum() / mass[block].sum()
+    speed = res.points.velocity[:2, block] @ mass[block] / mass[block].sum()
+    assert np.abs(speed - [1., 0.]).max() <= slack
+
+
 @pytest.mark.slow
 def test_a_block_tilted_past_coulomb_from_the_start_names_its_load():
-    """The same block under its weight tilted past friction's angle
+    """The block on a base body (:func:`block_on_a_base`) under its
+    weight tilted past friction's angle
     (tan theta = 1.2 mu) from the first step: no step converges, so no
     friction is mobilised at a converged state, and the error named
     neither friction nor the contact (a user trial's block on a slab).

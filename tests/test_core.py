@@ -105,7 +105,7 @@ def test_refusals_come_before_any_work():
             (dict(max_iter=-1), "max_iter"),
             (dict(max_cutbacks=10000), "max_cutbacks"),
             (dict(ghost=True), "ghost must be"),
-            (dict(antilocking=1), "antilocking must be True or False"),
+            (dict(antilocking=1), "antilocking must be True, False or"),
             (dict(rhs="increment", prescribed=lambda b, f0, f1: (
                 np.array([0]), np.array([0.]))), "prescribed displacements"),
             (dict(loads=[Pressure(np.array([0]), "top", [1., 2.])]),

@@ -572,3 +572,56 @@ def test_body_force_per_body_is_checked():
                      [LinearElastic(1e3, .3)] * 2,
                      lambda b: b.get_dofs(lambda x: x[1] == 0), rows,
                      callback=pytest.fail)
+
+
+def test_a_scene_without_supports_resumes(tmp_path):
+    """Two blocks falling freely (no supports, rigid bodies, obstacles or
+    contacts: no reaction to record) stopped after 2 of 4 steps and
+    resumed: the resumed run completes, its last state the uninterrupted
+    run's (a reviewer's resume failed reshaping the empty reactions)."""
+    import json
+    from skfem_mpm.cli import main
+    scene = tmp_path / "fall.toml"
+    scene.write_text(TWO_DENSITIES.format(
+        gravity="acceleration = [0.0, -9.81]"))
+    full, part = tmp_path / "full", tmp_path / "part"
+    assert main(["run", str(scene), "--out", str(full), "--no-progress"]) == 0
+    assert main(["run", str(scene), "--out", str(part), "--no-progress",
+                 "--max-steps", "2"]) == 0
+    assert main(["run", "--resume", str(part), "--no-progress"]) == 0
+    done = [json.loads((out / "summary.json").read_text())
+            for out in (full, part)]
+    assert done[1]["steps_run"] == done[0]["steps_run"] == 4
+    assert done[1]["load_factor"] == done[0]["load_factor"] == 1.
+
+
+def test_gravity_acceleration_checks_its_scene():
+    """A scene's ``acceleration`` is checked before any work: its length
+    and values, every deformable body's density (finite, positive: a
+    density of -3000 ran with gravity reversed); a rigid body needs none
+    (it is driven: weightless)."""
+    from skfem_mpm import LinearElastic
+    from skfem_mpm.scenes.scene import Body, Grid, Scene, Support
+    grid = Grid(axes=[(0., 1., 4), (0., 1., 4)])
+
+    def scene(density, acceleration=(0., -9.81), rigid=False):
+        return Scene(grid=grid, bodies=[Body(
+            "block", [(0, 1), (0, .5)], LinearElastic(1e6, .3),
+            density=density)] + ([Body(
+                "footing", [(.25, .75), (.5, .75)], LinearElastic(1e6, .3),
+                rigid=[0., -.01])] if rigid else []),
+            supports=[Support(boundary="bottom")],
+            acceleration=acceleration)
+    for args, said in (((-3000.,), "densities must be finite and positive"),
+                       ((np.nan,), "densities must be finite and positive"),
+                       ((None,), r"density on every body that is not "
+                                 r"rigid; \['block'\]"),
+                       ((3000., (0., -9.81, 0.)),
+                        "acceleration must be 2 finite numbers"),
+                       ((3000., "down"),
+                        "acceleration must be 2 finite numbers")):
+        with pytest.raises(InvalidInputError, match=said):
+            scene(*args).check()
+    rigid = scene(3000., rigid=True)
+    rigid.check()
+    assert rigid.body_forces().tolist() == [[0., -3000. * 9.81], [0., 0.]]

@@ -92,8 +92,8 @@ def test_resume_after_a_record_continues_bit_identically():
     (lambda: NewtonOptions(rhs="load"), "rhs must be one of"),
     (lambda: Stabilisation(ghost=np.inf), "ghost must be 'auto' or a "
      "finite number"),
-    (lambda: Stabilisation(antilocking="yes"), "antilocking must be True "
-     "or False"),
+    (lambda: Stabilisation(antilocking="yes"), "antilocking must be True, "
+     "False or 'fbar'"),
     (lambda: Resume(first_step=0), "first_step must be an integer >= 1"),
     (lambda: Options(newton=NewtonOptions, ), "Options.newton must be a "
      "NewtonOptions"),

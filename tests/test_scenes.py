@@ -352,8 +352,26 @@ antilocking = true
     scene.write_text(scene.read_text().replace("antilocking = true",
                                                "antilocking = 1"))
     assert main(["run", str(scene), "--out", str(tmp_path / "p")]) == 2
-    assert "solver.antilocking: must be true or false" in \
+    assert 'solver.antilocking: must be true, false or "fbar"' in \
         capsys.readouterr().err
+    # F-bar on the increment: finite deformation with moving points only
+    scene.write_text(scene.read_text().replace(
+        "antilocking = 1", 'antilocking = "fbar"'))
+    assert main(["run", str(scene), "--out", str(tmp_path / "q")]) == 2
+    assert "antilocking='fbar' (F-bar on each step's increment) is for " \
+        "finite deformation" in capsys.readouterr().err
+    scene.write_text(scene.read_text() + 'kinematics = "finite"\n')
+    assert load_scene(scene).stabilisation.antilocking == "fbar"
+    # compare's FE takes mean dilatation (it refused the scene); a study
+    # over methods with fem is refused up front (each fem case failed)
+    capsys.readouterr()
+    assert main(["compare", str(scene), "--out", str(tmp_path / "c")]) == 0
+    assert "FE takes mean dilatation (antilocking = true) where the " \
+        "scene's mpm takes F-bar on the increment" in capsys.readouterr().out
+    from skfem_mpm.studies.study import check_vary
+    with pytest.raises(InvalidInputError, match="cannot vary method over "
+                       "'fem' with antilocking='fbar'"):
+        check_vary({"method": ["mpm", "fem"]}, load_scene(scene))
 
 
 @pytest.mark.slow

@@ -53,7 +53,8 @@ __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
 #: what the compiled passes serve (the refusal of ``kernels="compiled"``
 #: says it)
 COVERAGE = ("standard MPM, uGIMP, cpGIMP and B-splines in 2D and 3D, small "
-            "and finite deformation, with or without mean dilatation, "
+            "and finite deformation, with or without mean dilatation "
+            "(antilocking=True; not F-bar, 'fbar'), "
             "LinearElastic, VonMises, DruckerPrager, MohrCoulomb and "
             "ModifiedCamClay (one for all points or one per body)")
 
@@ -277,6 +278,11 @@ class CompiledPasses:
         method_op = op if average is None else op.op
         if self.body is not None and self.body.size != points.n:
             return False    # bodies of other points: numpy's error
+        if not getattr(op, "compiled", True):     # F-bar on the increment
+            log_once(logging.WARNING if self.explicit else logging.INFO,
+                     "no compiled pass for %s; its responses run on the "
+                     "numpy path", type(op).__name__)
+            return False
         if getattr(method_op, "kernel_layout", None) is not None and \
                 method_op.n_points == points.n and (
                     average is None

@@ -291,7 +291,8 @@ class Scene:
     acceleration
         Gravitational acceleration instead of ``gravity``: each body's
         body force is its ``density`` times it (every body then needs a
-        density, quasi-static scenes too).
+        density, quasi-static scenes too; a rigid body without one is
+        weightless).
     """
     grid: Grid
     bodies: List[Body]
@@ -319,8 +320,9 @@ class Scene:
         :attr:`gravity` for every body, or the body's density times
         :attr:`acceleration`; ``None`` without either."""
         if self.acceleration is not None:
-            return np.array([b.density * np.asarray(self.acceleration, float)
-                             for b in self.bodies])
+            # a rigid body without a density: driven, weightless
+            return np.array([(b.density or 0.) * np.asarray(
+                self.acceleration, float) for b in self.bodies])
         if self.gravity is None:
             return None
         return np.tile(np.asarray(self.gravity, float), (len(self.bodies), 1))
@@ -352,11 +354,30 @@ class Scene:
                 raise InvalidInputError(
                     "gravity is a body force per unit volume or an "
                     "acceleration (times each body's density), not both")
-            unweighed = [b.name for b in self.bodies if b.density is None]
+            try:
+                g = np.asarray(self.acceleration, dtype=float)
+            except (TypeError, ValueError):
+                g = None
+            if g is None or g.shape != (self.grid.dim,) or \
+                    not np.isfinite(g).all():
+                raise InvalidInputError(
+                    "acceleration must be {} finite numbers, got {!r}".format(
+                        self.grid.dim, self.acceleration))
+            unweighed = [b.name for b in self.bodies
+                         if b.density is None and b.rigid is None]
             if unweighed:
                 raise InvalidInputError(
                     "a gravitational acceleration needs a density on every "
-                    "body; {} have none".format(unweighed))
+                    "body that is not rigid; {} have none".format(unweighed))
+            bad = [(b.name, b.density) for b in self.bodies
+                   if b.density is not None and not (
+                       isinstance(b.density, (int, float, np.integer,
+                                              np.floating))
+                       and 0 < b.density < np.inf)]
+            if bad:
+                raise InvalidInputError(
+                    "densities must be finite and positive, got {}".format(
+                        bad))
         moving = [b.name for b in self.bodies if b.initial_velocity is not None
                   or b.density is not None and self.acceleration is None]
         if self.dynamics is None and moving:

@@ -131,7 +131,9 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # installed), else numpy; "numpy" (the
                                     # reference); "compiled" (a scene they
                                     # cannot serve is refused)
-    antilocking = false             # mean dilatation, B-bar (any method)
+    antilocking = false             # mean dilatation, B-bar (any method);
+                                    # "fbar": F-bar on each increment
+                                    # (finite, moving points; nu ~ 0.5)
     extended_splines = false        # extended B-splines (bspline methods)
     ghost = "auto"                  # ghost penalty for cut cells: "auto"
                                     # (on where slivers of material hold
@@ -265,6 +267,14 @@ class _Checker:
                 self.bad("{}.{}".format(key, name), str(err), value)
                 return "x-"
         return self.choice(data, key, name, side_names(dim), "x-")
+
+    def antilocking(self, solver):
+        value = solver.get("antilocking", False)
+        if not isinstance(value, bool) and value != "fbar":
+            self.bad("solver.antilocking", 'must be true, false or "fbar"',
+                     value)
+            return False
+        return value
 
     def boolean(self, data, key, name, default=False):
         value = data.get(name, default)
@@ -733,8 +743,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         ("newton", "newton", c.choice(solver, "solver", "newton", NEWTON,
                                       "full"))))
     stabilisation = c.option(Stabilisation, "solver", (
-        ("antilocking", "antilocking", c.boolean(solver, "solver",
-                                                 "antilocking")),
+        ("antilocking", "antilocking", c.antilocking(solver)),
         ("extended_splines", "extended_splines", c.boolean(
             solver, "solver", "extended_splines")),
         ("ghost", "ghost", "auto" if solver.get("ghost", "auto") == "auto"

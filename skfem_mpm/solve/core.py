@@ -70,6 +70,7 @@ from ..quadrature.locate import point_locator, tensor_grid
 from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation
+from ..stabilisation.fbar import IncrementFbar
 from ..stabilisation.volumetric import (MeanDilatation,
                                        points_per_cell_axis,
                                        warn_sparse_spline_points)
@@ -305,6 +306,12 @@ GRID_TERMS = (ghost_term, follower_term, obstacle_term, body_contact_term,
 def mean_dilatation(op, points):
     """The step's point operator with mean dilatation (B-bar)."""
     return MeanDilatation(op, points.volume)
+
+
+def increment_fbar(op, points):
+    """The step's point operator with F-bar on the increment (finite
+    deformation, points that move: :mod:`skfem_mpm.stabilisation.fbar`)."""
+    return IncrementFbar(op, points.volume)
 
 
 class Attempt(NamedTuple):
@@ -1010,6 +1017,14 @@ def check_combination(method: str, kinematics: str, plastic: bool,
     seed's one-solve scheme (``rhs="increment"``) needs linear
     quasi-static steps driven by ramped loads alone; modified Newton does
     not go with an adaptive time step."""
+    if stabilisation.antilocking == "fbar" and (
+            kinematics != "finite" or method == "fem"):
+        raise InvalidInputError(
+            "antilocking='fbar' (F-bar on each step's increment) is for "
+            "finite deformation with points that move, not {}; "
+            "antilocking=True is mean dilatation for every method and "
+            "kinematics".format("finite elements" if method == "fem"
+                                else "small strain"))
     if newton.rhs == "increment":
         if contact:
             raise InvalidInputError(
@@ -1197,6 +1212,11 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     check_choice("kinematics", kinematics, KINEMATICS)
     check_choice("method", method, METHODS)
     newton, stabilisation = options.newton, options.stabilisation
+    if options.kernels == "compiled" and stabilisation.antilocking == "fbar":
+        raise InvalidInputError(
+            "kernels='compiled': the compiled passes do not serve F-bar on "
+            "the increment (antilocking='fbar'); use kernels='auto' or "
+            "'numpy'")
     nsteps = check_steps(nsteps, dynamics, method)
     check_run_input(mesh, points, nsteps, options.keep_snapshots)
     check_positions(mesh, points, method)
@@ -1309,9 +1329,11 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         loads=external, material=case.material,
         ghost=stabilisation.ghost_factor(),
         ghost_reserve=stabilisation.ghost_in_reserve(method),
-        operator_wrappers=(mean_dilatation,) if stabilisation.antilocking
-        else (), D=tile_dofs(held, user_grid.N,
-                             1 if fields is None else fields.count),
+        operator_wrappers=(
+            increment_fbar if stabilisation.antilocking == "fbar"
+            else mean_dilatation,) if stabilisation.antilocking else (),
+        D=tile_dofs(held, user_grid.N, 1 if fields is None
+                    else fields.count),
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
         obstacles=case.obstacles,
         rhs=newton.rhs, tol=newton.tol, max_iter=newton.max_iter,

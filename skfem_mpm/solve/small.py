@@ -51,8 +51,8 @@ def solve_mpm(mesh: Mesh, elem: Element, points: MaterialPoints,
         whole grid), e.g.
         ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.
     body_force
-        Body force per unit volume at full load, shape (dim,); ``None``: no
-        body force is assembled.
+        Body force per unit volume at full load, shape (dim,) or one row
+        per body (bodies, dim); ``None``: no body force is assembled.
     loads
         As in :func:`~skfem_mpm.simulate`: tractions, pressures, grid
         loads, prescribed motion, rigid bodies, grid terms.

@@ -43,6 +43,11 @@ nu = 0.45.  The operator therefore exchanges (3, 3, n) gradients and
 stresses and (3, 3, 3, 3, n) tangents (``components = 3``), whose
 out-of-plane parts the kinematics supply.
 
+In finite deformation with points that move, ``antilocking="fbar"``
+takes the multiplicative form of this average on each step's increment,
+F-bar (:class:`~skfem_mpm.stabilisation.fbar.IncrementFbar`, a
+subclass), instead of the additive form below.
+
 In finite deformation the average acts on each load step's increment,
 ``dF = I + grad_bar(du)`` in the step's configuration (an incremental
 mean dilatation, as material points change cells between steps), not on

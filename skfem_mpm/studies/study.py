@@ -1016,6 +1016,12 @@ def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
             "cannot vary loadsteps in a dynamic scene: it takes its steps "
             "from [dynamics] (duration / time_step); vary elements, ppc or "
             "method, and the time step in the scene itself")
+    if scene is not None and scene.stabilisation.antilocking == "fbar" \
+            and "fem" in vary.get("method", ()):
+        raise InvalidInputError(
+            "cannot vary method over 'fem' with antilocking='fbar': F-bar on "
+            "the increment is for points that move (each fem case would "
+            "be refused); leave 'fem' out, or take antilocking = true")
     for name, values in vary.items():
         if name not in VARIABLES:
             raise InvalidInputError("cannot vary {!r}: choose from {}".format(
