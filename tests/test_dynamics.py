@@ -528,7 +528,8 @@ def test_gravity_as_an_acceleration_on_bodies_of_different_densities(
             ("acceleration = [0.0, -1.0]\n[[bodies]]\nname = 'third'\n"
              "region = { x = [0.25, 0.75], y = [0.25, 0.5] }\nmaterial = "
              "{ model = 'linear_elastic', E = 1e6, nu = 0.3 }",
-             r"needs a density on every body; \['third'\] have none")):
+             r"needs a density on every body that is not rigid; "
+             r"\['third'\] have none")):
         with pytest.raises(InvalidInputError, match=said):
             parse_scene(tomllib.loads(TWO_DENSITIES.format(
                 gravity=gravity)))
