@@ -5,6 +5,14 @@ from skfem import (ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2,
                    MeshQuad, MeshTet, MeshTri)
 
 
+def cooks_membrane(n: int) -> MeshQuad:
+    """Cook's membrane, the trapezoid (0, 0), (48, 44), (48, 60), (0, 44),
+    as n x n quadrilaterals."""
+    unit = MeshQuad.init_tensor(*2 * (np.linspace(0., 1., n + 1),))
+    s, t = unit.p
+    return MeshQuad(np.array([48 * s, 44 * s + t * (44 - 28 * s)]), unit.t)
+
+
 def distorted_quads():
     """A quadrilateral mesh with non-parallelogram (bilinear) elements."""
     mesh = MeshQuad().refined(2)

@@ -80,10 +80,8 @@ def cook(method, n, nsteps, antilocking="fbar"):
     (the tip rises about 7), 2 x 2 points a cell in the trapezoid.
     Returns the result and the point nearest the tip (48, 60)."""
     if method == "fem":
-        unit = MeshQuad.init_tensor(*2 * (np.linspace(0., 1., n + 1),))
-        s, t = unit.p
-        mesh = MeshQuad(np.array([48 * s, 44 * s + t * (44 - 28 * s)]),
-                        unit.t)
+        from meshes import cooks_membrane
+        mesh = cooks_membrane(n)
         points = seed_gauss_points(mesh, 2)
         edge = np.argsort(points.x[0])[::-1][:2 * n]
     else:

@@ -476,13 +476,11 @@ def test_cooks_membrane_at_nu_04999_ends_at_round_off(caplog):
     increment) with a warning, its tip displacement
     that of the run whose tolerance the first solve met (1e-8) to 1e-8."""
     import logging
-    from skfem import ElementQuad1, MeshQuad
+    from skfem import ElementQuad1
     from skfem_mpm import LinearElastic, seed_gauss_points, simulate
+    from meshes import cooks_membrane
     n = 64
-    unit = MeshQuad.init_tensor(*2 * (np.linspace(0., 1., n + 1),))
-    s, t = unit.p
-    mesh = MeshQuad(np.array([48 * s, 44 * s + t * (44 - 28 * s)]),
-                    unit.t)
+    mesh = cooks_membrane(n)
     points = seed_gauss_points(mesh, 2)
     edge = np.argsort(points.x[0])[::-1][:2 * n]
     points.force[1, edge] = 100. / edge.size
@@ -521,13 +519,10 @@ def test_newton_ends_where_its_correction_is_round_off(caplog):
     at a residual within ``ROUNDOFF_LIMIT`` ends the step (warned once):
     the run ends where a tolerance of 1e-7 puts it, to 1e-8."""
     import logging
-    from skfem import ElementQuad2, MeshQuad, MeshQuad2
+    from skfem import ElementQuad2, MeshQuad2
     from skfem_mpm import LinearElastic, seed_gauss_points, simulate
-    n = 16
-    unit = MeshQuad.init_tensor(*2 * (np.linspace(0., 1., n + 1),))
-    s, t = unit.p
-    mesh = MeshQuad2.from_mesh(MeshQuad(
-        np.array([48 * s, 44 * s + t * (44 - 28 * s)]), unit.t))
+    from meshes import cooks_membrane
+    mesh = MeshQuad2.from_mesh(cooks_membrane(16))
     points = seed_gauss_points(mesh, 4)
     right = np.isclose(points.x[0], points.x[0].max())
     points.force[1, right] = 100. / right.sum()
