@@ -28,7 +28,8 @@ from skfem_mpm import (Contact, DruckerPrager, LinearElastic,
                        Prescribed, Resume, Stabilisation, Traction, VonMises,
                        point_locator, seed_points, simulate)
 from skfem_mpm import kernels
-from skfem_mpm.errors import InvalidInputError, PointsOutsideGridError
+from skfem_mpm.errors import (InvalidInputError, InversionError,
+                              PointsOutsideGridError)
 from skfem_mpm.mechanics.kinematics import make_kinematics
 from skfem_mpm.mechanics.materials import PointMaterials, initial_state
 from skfem_mpm.methods.gimp_linear import LinearGimp
@@ -36,6 +37,7 @@ from skfem_mpm.methods.operators import AsmOperator, PointOperator
 from skfem_mpm.quadrature.basis import MaterialPointBasis
 from skfem_mpm.quadrature.points import concatenate_points
 from skfem_mpm.solve.loads import side_points
+from skfem_mpm.stabilisation.fbar import IncrementFbar
 from skfem_mpm.stabilisation.volumetric import MeanDilatation
 from digest_cases import CASES, fingerprint
 
@@ -148,9 +150,10 @@ def check_equal(numpy_path, compiled_path, finite):
 
 @pytest.mark.parametrize("method", ["mpm", "gimp"])
 @pytest.mark.parametrize("dim", [2, 3])
-@pytest.mark.parametrize("kind", ["small", "finite"])
 @pytest.mark.parametrize("name", sorted(MATERIALS) + sorted(BODIES))
-@pytest.mark.parametrize("antilocking", [False, True])
+@pytest.mark.parametrize("kind, antilocking", [
+    ("small", False), ("finite", False), ("small", True), ("finite", True),
+    ("finite", "fbar")])
 def test_a_response_equals_the_numpy_path(dim, kind, name, method,
                                           antilocking):
     """Two trials in a row: from the initial state, and from the state
@@ -158,7 +161,12 @@ def test_a_response_equals_the_numpy_path(dim, kind, name, method,
     plastic strain); the plastic increments yield most points of a
     plastic material, an elastic one's none.  With mean dilatation
     (``antilocking``) the operator is wrapped in the cell averages of each
-    trial's start, as a step wraps it.  One material a body
+    trial's start, as a step wraps it; with F-bar on the increment
+    (``"fbar"``, finite deformation: :class:`~skfem_mpm.stabilisation.
+    fbar.IncrementFbar`, the passes of :mod:`skfem_mpm.kernels.fbar`;
+    before, the numpy path served it, no compiled force) in its scaled
+    increments, the force and the stiffness's framed material part and
+    geometric part.  One material a body
     (``PointMaterials``, ``BODIES``): every third point of body 1, so that
     a group's points change body from one to the next, and a body's
     internal variables stay put on the other body's points."""
@@ -177,7 +185,8 @@ def test_a_response_equals_the_numpy_path(dim, kind, name, method,
     start = points
     for trial in range(2):
         du = 2e-3 * rng.standard_normal(op.N)
-        wrapped = MeanDilatation(op, start.volume) if antilocking else op
+        wrapped = IncrementFbar(op, start.volume) if antilocking == "fbar" \
+            else MeanDilatation(op, start.volume) if antilocking else op
         results = [evaluate(paths[k], wrapped, du, start)
                    for k in ("numpy", "compiled")]
         check_equal(*results, finite=kind == "finite")
@@ -570,14 +579,17 @@ def test_a_footing_with_mean_dilatation_equals_the_numpy_path(
 
 @pytest.mark.parametrize("method, antilocking, bodies", [
     ("mpm", False, 1), ("mpm", True, 1), ("cpgimp", False, 1),
-    ("cpgimp", True, 1), ("mpm", False, 2), ("cpgimp", True, 2)])
+    ("cpgimp", True, 1), ("mpm", False, 2), ("cpgimp", True, 2),
+    ("mpm", "fbar", 1), ("cpgimp", "fbar", 2), ("bspline", "fbar", 1)])
 def test_a_resumed_compiled_run_is_bit_identical(method, antilocking,
                                                  bodies):
     """Resumed after step 2 of 4 from the state a callback saw, the
     compiled run ends where the whole compiled run does, bit for bit
     (cpGIMP: the domains stretched from the initial ones as well), with
-    and without mean dilatation, of one material or of von Mises soil
-    and an elastic inclusion (:func:`inclusion`)."""
+    and without mean dilatation (additive, or F-bar on the increment,
+    ``"fbar"``, which ``kernels="compiled"`` refused before), of one
+    material or of von Mises soil and an elastic inclusion
+    (:func:`inclusion`)."""
     saved = {}
 
     def keep(record, state):
@@ -596,11 +608,102 @@ def test_a_resumed_compiled_run_is_bit_identical(method, antilocking,
                           stabilisation=stabilisation,
                           resume=Resume.after(saved["record"],
                                               domain0=column(2)[1].domain)))
-    assert [r.step for r in rest.history] == [3, 4]
+    # F-bar cuts a step of the von Mises column back (docs/robustness.md)
+    assert [r.step for r in rest.history] == [
+        r.step for r in whole.history[2:]] == (
+            [3, 4] if antilocking != "fbar" or method != "mpm"
+            else [3, 4, 5])
     assert whole.history[-1].n_yielded > 0
     for name in ("x", "stress", "strain", "F", "volume", "domain"):
         assert np.array_equal(getattr(rest.points, name),
                               getattr(whole.points, name)), name
+
+
+def confined_block(dim, lid):
+    """:func:`test_cam_clay.oedometric_block` in ``dim`` dimensions, its
+    grid the block (1 x 1, 2 x 2 cells, 2^dim points a cell: B-splines
+    hold and push whole edges of the grid), on rollers at its sides and
+    base, its lid nodes pushed down by ``lid`` over a run."""
+    mesh = GRIDS[dim][0].init_tensor(*[np.linspace(0., 1., 3)] * dim)
+    points = seed_points(mesh, 2)
+    top = np.flatnonzero(np.isclose(mesh.p[-1], 1.))
+
+    def supports(b):
+        return np.concatenate([b.get_dofs(lambda x: x[-1] == 0).all(
+            "u^{}".format(dim))] + [b.get_dofs(
+                lambda x, a=a: np.isclose(x[a], 0.) | np.isclose(x[a], 1.)
+            ).all("u^{}".format(a + 1)) for a in range(dim - 1)])
+
+    def push(b, f_old, f_new):
+        return b.nodal_dofs[dim - 1, top], np.full(top.size,
+                                                   -lid * (f_new - f_old))
+    return mesh, points, supports, push
+
+
+#: the F-bar runs' materials: Drucker-Prager's cohesion 0.3 of the
+#: responses' (with 1e3 the 2D column stays elastic)
+FBAR_RUN_MATERIALS = {**MATERIALS, "drucker_prager": DruckerPrager(
+    1e6, .3, cohesion=300., friction_angle=30., dilation_angle=10.,
+    hardening=1e4)}
+
+
+@pytest.mark.parametrize("method", ["mpm", "ugimp", "cpgimp", "bspline"])
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("name", sorted(MATERIALS))
+def test_fbar_runs_equal_the_numpy_path(dim, name, method, monkeypatch,
+                                        caplog):
+    """Whole runs with F-bar on the increment on ``kernels="auto"``, every
+    method, dimension and material of the passes: served by them (no
+    line that the numpy path serves; before, ``IncrementFbar`` was
+    logged as having no compiled pass), equal to the numpy path's (every
+    step's Newton iterations and grid displacement, the points at the
+    end).  The column of :func:`column_run` (3 steps; GIMP and B-splines
+    in 3D, 2), the plastic ones yielding; Cam clay, too soft for the
+    column's weight, a confined block (:func:`confined_block`) pushed
+    past its preconsolidation pressure under its weight."""
+    stabilisation = Stabilisation(antilocking="fbar")
+    monkeypatch.setenv(kernels.AUTO_VARIABLE, "auto")   # the tests' numpy
+    monkeypatch.setattr(kernels, "_LOGGED", set())
+    material = FBAR_RUN_MATERIALS[name]
+    with caplog.at_level(logging.INFO, logger="skfem_mpm.kernels"):
+        if name == "cam_clay":
+            mesh, points, supports, push = confined_block(dim, .1)
+            runs = [simulate(mesh, GRIDS[dim][1](), points, material,
+                             supports, loads=[Prescribed(push)], nsteps=3,
+                             kinematics="finite", method=method,
+                             body_force=np.r_[np.zeros(dim - 1), -20.],
+                             options=Options(kernels=k,
+                                             stabilisation=stabilisation))
+                    for k in ("numpy", "auto")]
+        else:
+            nsteps = 2 if dim == 3 and method != "mpm" else 3
+            runs = [column_run(dim, "finite", material, k, method=method,
+                               nsteps=nsteps, options=Options(
+                                   stabilisation=stabilisation))
+                    for k in ("numpy", "auto")]
+    assert not [r for r in caplog.records if r.name == "skfem_mpm.kernels"]
+    check_runs_equal(runs)
+    assert (runs[0].history[-1].n_yielded > 0) == (name != "elastic")
+
+
+def test_an_inverted_fbar_increment_is_an_inversion_error():
+    """An increment that turns points inside out under F-bar on the
+    compiled path: the pass's status hands it to the numpy path, which
+    raises :class:`~skfem_mpm.errors.InversionError` (as it does
+    alone, ``test_fbar.py``), not NaN stresses."""
+    mesh, points = block(2)
+    op = operator("mpm", mesh, points, 2)
+    kin = make_kinematics("finite", MATERIALS["elastic"], 2,
+                          {"return_maps": 0}, kernels="compiled")
+    u = np.zeros((mesh.p.shape[1], 2))
+    for s in (-1., -1.5):                  # u_x = s x: det dF = 1 + s
+        u[:, 0] = s * mesh.p[0]
+        with pytest.raises(InversionError):
+            kin.response(IncrementFbar(op, points.volume), u.ravel(),
+                         points)
+    u[:, 0] = -.5 * mesh.p[0]
+    assert kin.response(IncrementFbar(op, points.volume), u.ravel(),
+                        points).force is not None
 
 
 class UserElastic(LinearElastic):

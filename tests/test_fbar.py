@@ -173,14 +173,6 @@ def test_fbar_is_refused_where_points_do_not_move_or_strains_are_small():
                          stabilisation=Stabilisation(antilocking="fbar")))
     with pytest.raises(InvalidInputError, match="True, False or 'fbar'"):
         Stabilisation(antilocking="bbar")
-    # the compiled passes do not serve it: asked for by name, refused
-    with pytest.raises(InvalidInputError, match="kernels='compiled': the "
-                       "compiled passes do not serve F-bar"):
-        simulate(mesh, ElementQuad1(), points, LinearElastic(1., .3),
-                 lambda b: b.get_dofs(lambda x: x[1] < 0.),
-                 kinematics="finite", callback=pytest.fail,
-                 options=Options(kernels="compiled", stabilisation=(
-                     Stabilisation(antilocking="fbar"))))
 
 
 def test_an_inverted_increment_is_an_inversion_error():

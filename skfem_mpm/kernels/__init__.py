@@ -9,7 +9,8 @@ material, dimension or scheme without compiled passes:
 :func:`skfem_mpm.mechanics.compiled.compiled_path`).  They serve standard
 MPM's element operator and the sparse operators of uGIMP, cpGIMP and
 B-splines, with or without mean dilatation
-(:mod:`skfem_mpm.kernels.dilatation`), in 2D and 3D, small and finite
+(:mod:`skfem_mpm.kernels.dilatation`; F-bar on the increment in finite
+deformation, :mod:`skfem_mpm.kernels.fbar`), in 2D and 3D, small and finite
 deformation (not the total Lagrangian scheme of ``method="fem"``),
 ``LinearElastic``, ``VonMises``, ``DruckerPrager``, ``MohrCoulomb`` and
 ``ModifiedCamClay``, one for all points or one per body (each point takes

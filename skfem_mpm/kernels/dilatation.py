@@ -36,7 +36,7 @@ __all__ = ["passes_of", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "992a8542ede17adb"
+SOURCES = "659bd68972fb5184"
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -100,7 +100,7 @@ def _finite_residual_bar(G, nodes, node_start, node_count, runs, order,
     status = _finite_residual(G, nodes, node_start, node_count, runs, order,
                               qstart, w, du, start, params, body, eq0, f, dF,
                               dF_inv, tau, d, vecs, y, dy_dx, yielded,
-                              eq, cell, theta, pressure, k)
+                              eq, cell, theta, pressure, None, k)
     add_cell_force(patch_start, patch_nodes, b, pressure, k, f)
     return status
 

@@ -46,11 +46,11 @@ from numba import literally, njit
 from .constitutive import principal_frame, principal_update
 from .points import (ELASTIC_TANGENT, FINITE_TANGENT, RETURN_MAP_TANGENT,
                      add_force, add_patch_rows, add_point_stiffness,
-                     deviatoric_tangent, frame_deviatoric, gather,
-                     point_frame, point_gradient, point_tangent,
-                     scatter_force, scatter_stiffness,
-                     set_uniform_tangent, shift_volume, split_mean,
-                     tangent_work)
+                     add_spatial_rows, deviatoric_tangent, frame_deviatoric,
+                     gather, point_frame, point_gradient, point_tangent,
+                     scale_increment, scatter_force, scatter_stiffness,
+                     set_uniform_tangent, shift_volume, split_framed,
+                     split_mean, tangent_work)
 
 #: what the callers read here (the tangents from
 #: :mod:`skfem_mpm.kernels.points`)
@@ -64,7 +64,7 @@ __all__ = ["passes_of", "finite_commit", "start_deviation",
 #: function on its own file alone, so a change there must change this
 #: file too, or the passes would run the cached old code
 #: (``tests/test_compiled.py`` checks it)
-SOURCES = "27d77f19e089a535"
+SOURCES = "94521bd2b7e516db"
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -79,7 +79,8 @@ def widest(node_count):
 @njit(cache=True, error_model="numpy")
 def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                      du, start, params, body, eq0, f, dF, dF_inv, tau, d, vecs,
-                     y, dy_dx, yielded, eq, cell, theta, pressure, k):
+                     y, dy_dx, yielded, eq, cell, theta, pressure, fbar,
+                     k):
     """Finite deformation (updated Lagrangian, Hencky) on a grid of ``k``
     dimensions: from the grid increment
     ``du`` and ``start = b_n - I`` (3, 3, n), every point's ``dF``,
@@ -95,8 +96,12 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
     ``theta`` of the point's ``cell``, and the force takes the
     deviatoric part of ``P`` against the gradients, its mean, weighted,
     summed per cell into ``pressure`` (the caller adds it against the
-    cell averages).  Returns 0, or 1 where ``det dF <= 0``
-    (at some point), 2 where ``b_tr`` is not positive definite: then the
+    cell averages).  F-bar on the increment (``fbar`` a tuple
+    ``(xi - 1, omega, patch, b)``, else ``None``; with ``cell``): each
+    point's increment scaled by its ``xi`` (``scale_increment``), the
+    force split in its frame ``(dF, dF^-T)`` and the spatial average's
+    rows summed into ``b`` (``split_framed``, ``add_spatial_rows``).
+    Returns 0, or 1 where ``det dF <= 0`` (at some point), 2 where ``b_tr`` is not positive definite: then the
     arrays hold no answer."""
     literally(k)
     m = k if cell is None else 3
@@ -120,6 +125,7 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
     D = np.empty((3, 3))
     t = np.empty((3, 3))
     P = np.empty((m, m))
+    Q = np.empty((3, 3))            # F-bar: the unscaled dF
     # a point that inverts sets the status, and the pass runs on (its
     # loops run faster without an early return)
     status = 0
@@ -129,7 +135,9 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
         for s in range(runs[r], runs[r + 1]):
             p, q0 = order[s], qstart[s]
             point_gradient(G, q0, U, nloc, k, g)
-            if cell is not None:
+            if fbar is not None:
+                scale_increment(g, fbar[0][p], k, Q)
+            elif cell is not None:
                 shift_volume(g, theta[cell[p]], k, m)
             for a in range(3):
                 for c in range(3):
@@ -212,7 +220,12 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
                     for j in range(m):
                         s += t[a, j] * Fi[c, j]
                     P[a, c] = s
-            if cell is not None:
+            if fbar is not None:
+                split_framed(P, Q, Fi, 1. + fbar[0][p], k, w[p], cell[p],
+                             pressure)
+                add_spatial_rows(G, q0, nloc, k, fbar[2], Fi,
+                                 (1. + fbar[0][p]) * fbar[1][p], fbar[3])
+            elif cell is not None:
                 split_mean(P, k, w[p], cell[p], pressure)
             add_force(G, q0, P, w[p], nloc, k, fe)
         scatter_force(f, fe, nodes, n0, nloc, k)
@@ -375,7 +388,7 @@ def finite_residual_2d(G, nodes, node_start, node_count, runs, order, qstart,
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
                             qstart, w, du, start, params, body, eq0, f, dF,
                             dF_inv, tau, d, vecs, y, dy_dx, yielded, eq,
-                            None, None, None, 2)
+                            None, None, None, None, 2)
 
 
 @njit(cache=True, error_model="numpy")
@@ -386,7 +399,7 @@ def finite_residual_3d(G, nodes, node_start, node_count, runs, order, qstart,
     return _finite_residual(G, nodes, node_start, node_count, runs, order,
                             qstart, w, du, start, params, body, eq0, f, dF,
                             dF_inv, tau, d, vecs, y, dy_dx, yielded, eq,
-                            None, None, None, 3)
+                            None, None, None, None, 3)
 
 
 @njit(cache=True, error_model="numpy")

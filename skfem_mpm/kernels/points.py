@@ -5,7 +5,9 @@ its consistent tangent and its part of a local stiffness, the place of a
 node pair in a CSR pattern and the scatter of a local stiffness; with mean
 dilatation (:mod:`skfem_mpm.kernels.dilatation`) the volumetric shift of
 a gradient, the deviatoric part of a tangent and a point's rows of its
-cell's couplings.
+cell's couplings; with F-bar on the increment (:mod:`skfem_mpm.kernels.
+fbar`) the scaled increment, the force's split in the frame ``(dF,
+dF^-T)`` and a point's rows of its cell's spatial average.
 
 A point's shape gradients are the rows ``q0 .. q0 + nloc`` of the
 layout's ``G`` (entries, k).  The constitutive update itself is written
@@ -22,7 +24,7 @@ from .constitutive import frame_terms, outer_sum
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "6c2cbf8073318189"
+SOURCES = "e3f1f747716a87f6"
 #: tangents the stiffness pass forms
 ELASTIC_TANGENT, RETURN_MAP_TANGENT, FINITE_TANGENT = 0, 1, 2
 
@@ -334,3 +336,57 @@ def add_patch_rows(G, q0, nloc, k, patch, row, column, wp, h_row, h_col):
                 s2 += (column[a, b] * wp) * G[q, b]
             h_row[at, a] += s1
             h_col[at, a] += s2
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def scale_increment(g, xi_m1, k, Q):
+    """F-bar on the increment: ``Q = dF = I + g`` (3, 3) of the gradient
+    ``g`` (its ``k`` in-plane components; out of plane zero), and ``g``
+    made ``dF_bar - I = xi g + (xi - 1) I`` (3, 3), ``xi - 1 = xi_m1``,
+    as :meth:`~skfem_mpm.stabilisation.fbar.IncrementFbar.gradients`."""
+    for a in range(3):
+        for c in range(3):
+            gac = g[a, c] if a < k and c < k else 0.
+            Q[a, c] = (1. if a == c else 0.) + gac
+            g[a, c] = gac * (1. + xi_m1) + (xi_m1 if a == c else 0.)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def framed_mean(P, Q):
+    """``P : Q / 3`` of two (3, 3) tensors: the mean of the stress
+    measure ``P`` in the frame of ``Q = dF`` (F-bar)."""
+    s = 0.
+    for a in range(3):
+        for b in range(3):
+            s += P[a, b] * Q[a, b]
+    return s / 3
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def split_framed(P, Q, Fi, xi, k, wp, c, pressure):
+    """F-bar: the stress measure ``P`` (3, 3) split in the frame ``(Q,
+    R)``, ``Q = dF``, ``R = dF^-T = xi dF_bar^-T`` (``Fi``: ``dF_bar^-1``):
+    its mean ``m = P : Q / 3``, times ``wp xi`` added to ``pressure[c]``,
+    and in-plane ``P`` made ``xi (P - R m)`` (the force's weights ``wp
+    xi``: :meth:`~skfem_mpm.stabilisation.fbar.IncrementFbar.force`)."""
+    mean = framed_mean(P, Q)
+    for a in range(k):
+        for b in range(k):
+            P[a, b] = (P[a, b] - xi * Fi[b, a] * mean) * xi
+    pressure[c] += wp * xi * mean
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def add_spatial_rows(G, q0, nloc, k, patch, Fi, scale, b):
+    """F-bar: a point's part of its cell's spatial average ``theta_c(u) =
+    sum_p omega_p R_p : grad(u)_p``: ``b[patch[q], a] += scale sum_d
+    Fi[d, a] G[q, d]`` over its entries (``scale = omega xi``, ``R = xi
+    Fi^T``)."""
+    for i in range(nloc):
+        q = q0 + i
+        at = patch[q]
+        for a in range(k):
+            s = 0.
+            for d in range(k):
+                s += Fi[d, a] * G[q, d]
+            b[at, a] += scale * s

@@ -9,7 +9,10 @@ cpGIMP and B-splines (also on the fields of bodies in contact), with or
 without mean dilatation (the operators wrapped in
 :class:`~skfem_mpm.stabilisation.volumetric.MeanDilatation`, whose cell
 averages have a ``kernel_layout`` too: :mod:`skfem_mpm.kernels.
-dilatation`), in 2D and 3D, small strain and finite deformation (updated
+dilatation`; in finite deformation also F-bar on the increment,
+:class:`~skfem_mpm.stabilisation.fbar.IncrementFbar`, whose cells'
+layout is that of its additive average: :mod:`skfem_mpm.kernels.fbar`),
+in 2D and 3D, small strain and finite deformation (updated
 Lagrangian), :class:`~skfem_mpm.mechanics.materials.LinearElastic`,
 :class:`~skfem_mpm.mechanics.materials.VonMises`,
 :class:`~skfem_mpm.mechanics.soils.DruckerPrager`,
@@ -54,7 +57,7 @@ __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
 #: says it)
 COVERAGE = ("standard MPM, uGIMP, cpGIMP and B-splines in 2D and 3D, small "
             "and finite deformation, with or without mean dilatation "
-            "(antilocking=True; not F-bar, 'fbar'), "
+            "(antilocking=True) or F-bar on the increment ('fbar'), "
             "LinearElastic, VonMises, DruckerPrager, MohrCoulomb and "
             "ModifiedCamClay (one for all points or one per body)")
 
@@ -241,7 +244,8 @@ class CompiledPasses:
 
     def __init__(self, passes, material, params: ndarray, dim: int,
                  explicit: bool, body: Optional[ndarray] = None):
-        from ..kernels import dilatation       # numba: imported with passes
+        # numba: imported with passes
+        from ..kernels import dilatation, fbar
         self.passes, self.material, self.params = passes, material, params
         self.dim, self.explicit, self.body = dim, explicit, body
         kinds = params[:, 0]
@@ -259,6 +263,8 @@ class CompiledPasses:
         #: ``(finite_residual, small_residual, stiffness)``
         self.plain = passes.passes_of(dim)
         self.averaged = dilatation.passes_of(dim)
+        #: with F-bar on the increment, ``(finite_residual, stiffness)``
+        self.fbar = fbar.passes_of(dim)
         self._start = (None, None)      # a step's strain and b_n - I
         self._increments = None         # dF and dF^-1, reused
         # the stiffness pass's C with m components (dim, or 3 with mean
@@ -278,11 +284,6 @@ class CompiledPasses:
         method_op = op if average is None else op.op
         if self.body is not None and self.body.size != points.n:
             return False    # bodies of other points: numpy's error
-        if not getattr(op, "compiled", True):     # F-bar on the increment
-            log_once(logging.WARNING if self.explicit else logging.INFO,
-                     "no compiled pass for %s; its responses run on the "
-                     "numpy path", type(op).__name__)
-            return False
         if getattr(method_op, "kernel_layout", None) is not None and \
                 method_op.n_points == points.n and (
                     average is None
@@ -387,10 +388,33 @@ class CompiledPasses:
             return pattern.csr(data)
         return stiffness
 
+    def _fbar_arrays(self, op, points):
+        """F-bar on the increment (:mod:`skfem_mpm.kernels.fbar`): the
+        passes, the method operator's layout, the cells' layout, and the
+        trailing arguments of its residual pass: the cells' ``(cell,
+        patch, patch_start, patch_nodes)``, the volumes of the averages
+        and the arrays the residual fills for the stiffness, ``(xi - 1,
+        omega, b, M_c)``."""
+        layout, cells = op.op.kernel_layout(), op.cell_layout()
+        cell, patch, patch_start, patch_nodes = cells.cells[:4]
+        n = points.n
+        kept = (np.empty(n), np.empty(n),
+                np.zeros((len(patch_nodes), self.dim)),
+                np.zeros(len(patch_start) - 1))
+        return self.fbar, layout, cells, \
+            cells.cells[:4] + (contiguous(op.volume),) + kept
+
     def finite_response(self, kinematics, op, du: ndarray, points):
         """The finite-deformation response (the numpy path's
         :meth:`~skfem_mpm.mechanics.kinematics.FiniteStrain.response`)."""
-        (finite, _, assemble), layout, cells, m = self._layout(op)
+        fbar = getattr(op, "cell_layout", None) is not None
+        if fbar:
+            (finite, assemble), layout, cells, trailing = \
+                self._fbar_arrays(op, points)
+            m = 3
+        else:
+            (finite, _, assemble), layout, cells, m = self._layout(op)
+            trailing = () if cells is None else cells.cells
         n, body = points.n, self._bodies(points.n)
         tau, yielded, spectral = kinematics.workspace(n, m, False)[1:]
         dF, dF_inv = self._increment_arrays(n, m)
@@ -400,7 +424,7 @@ class CompiledPasses:
             self._start_deviation(points), self.params, body,
             self._state(points), f, dF, dF_inv, tau, spectral.d,
             spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq,
-            *(() if cells is None else cells.cells))
+            *trailing)
         if status:      # a point inverts: the numpy path's error
             compiled, kinematics.compiled = kinematics.compiled, None
             try:
@@ -420,18 +444,42 @@ class CompiledPasses:
 
         def P():            # read by no step: formed when asked for
             return np.einsum("abp,ebp->aep", tau[:m, :m], dF_inv[:m, :m])
+        parts = (spectral.d, spectral.tau, spectral.dtau_dx, spectral.vecs,
+                 dF_inv)
+        if fbar:
+            stiffness = self._fbar_stiffness(
+                assemble, layout, cells, points.volume0,
+                parts + (dF, tau), trailing[:4] + trailing[5:])
+        else:
+            stiffness = self._stiffness(
+                assemble, layout, cells, self.passes.FINITE_TANGENT,
+                points.volume0, self._no_C[m], body, parts)
         return kinematics.trial_response(
             points, dF, dF_inv, P, state, m, converged=converged,
-            force=f.copy,
-            stiffness=self._stiffness(
-                assemble, layout, cells, self.passes.FINITE_TANGENT,
-                points.volume0, self._no_C[m], body,
-                (spectral.d, spectral.tau, spectral.dtau_dx, spectral.vecs,
-                 dF_inv)))
+            force=f.copy, stiffness=stiffness)
+
+    @staticmethod
+    def _fbar_stiffness(assemble, layout, cells, w: ndarray, parts,
+                        trailing) -> callable:
+        """``stiffness()`` of an F-bar response: the compiled stiffness
+        (:mod:`skfem_mpm.kernels.fbar`) from the kept ``parts`` (x, y,
+        dy_dx, vecs, dF_inv, dF, tau) and what its residual pass filled
+        (``trailing``: the cells' arrays, then ``(xi - 1, omega, b,
+        M_c)``), into the CSR data of the cells' pattern."""
+        def stiffness():
+            data = np.zeros(cells.pattern.nnz)
+            assemble(*layout.groups, *cells.places, contiguous(w), *parts,
+                     data, *trailing)
+            return cells.pattern.csr(data)
+        return stiffness
 
     def small_response(self, kinematics, op, du: ndarray, points):
         """The small-strain response (the numpy path's
         :meth:`~skfem_mpm.mechanics.kinematics.SmallStrain.response`)."""
+        if getattr(op, "cell_layout", None) is not None:
+            raise InvalidInputError(
+                "F-bar on the increment (antilocking='fbar') is for finite "
+                "deformation, not small strain")
         (_, small, assemble), layout, cells, m = self._layout(op)
         n, body = points.n, self._bodies(points.n)
         stress, strain = np.empty((3, 3, n)), np.empty((3, 3, n))

@@ -1212,11 +1212,6 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     check_choice("kinematics", kinematics, KINEMATICS)
     check_choice("method", method, METHODS)
     newton, stabilisation = options.newton, options.stabilisation
-    if options.kernels == "compiled" and stabilisation.antilocking == "fbar":
-        raise InvalidInputError(
-            "kernels='compiled': the compiled passes do not serve F-bar on "
-            "the increment (antilocking='fbar'); use kernels='auto' or "
-            "'numpy'")
     nsteps = check_steps(nsteps, dynamics, method)
     check_run_input(mesh, points, nsteps, options.keep_snapshots)
     check_positions(mesh, points, method)

@@ -36,9 +36,11 @@ against finite differences of the force).
 
 The operator keeps the linearisation of the last increment whose
 gradients it formed (the kinematics form the force and the tangent of
-the latest trial, as their work arrays do).  The compiled passes serve
-the additive mean dilatation only: with this operator the responses run
-on the numpy path (:attr:`IncrementFbar.compiled`).
+the latest trial, as their work arrays do).  The compiled passes
+(:mod:`skfem_mpm.kernels.fbar`) form the same force and tangent point by
+point and cell by cell (:meth:`IncrementFbar.cell_layout`), equal to
+this numpy path to round-off; it stays the reference, and serves a
+user's material.
 """
 from functools import cached_property
 
@@ -100,15 +102,21 @@ class IncrementFbar(MeanDilatation):
 
     """
 
-    #: the compiled passes do not serve it (the numpy path runs)
-    compiled = False
-
     def __init__(self, op, volume: ndarray):
         super().__init__(op, volume)
+        self._cells = self.average      # of the volumes at the step's start
         self._spatial = SpatialElementAverage \
             if isinstance(self.average, ElementAverage) \
             else SpatialPatchAverage
         self._state = self._P = None
+
+    def cell_layout(self):
+        """The :class:`~skfem_mpm.stabilisation.volumetric.CellLayout` of
+        the compiled passes (:mod:`skfem_mpm.kernels.fbar`): the cells,
+        patches and pattern of the additive average (whose rows ``b``
+        they do not read: they sum the spatial average's each
+        iteration)."""
+        return self._cells.kernel_layout()
 
     def gradients(self, u: ndarray) -> ndarray:
         """``dF_bar - I`` (3, 3, n) of the increment ``u``; keeps its
