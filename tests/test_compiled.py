@@ -706,6 +706,20 @@ def test_an_inverted_fbar_increment_is_an_inversion_error():
                         points).force is not None
 
 
+def test_fbar_in_small_strain_is_refused_by_the_passes():
+    """F-bar on the increment in small strain, past the run's check (a
+    kinematics piece called directly): the compiled small-strain pass
+    refuses it, naming finite deformation (before, the numpy path ran
+    it: F-bar's ``dF_bar - I`` taken as a small strain)."""
+    mesh, points = block(2)
+    op = operator("mpm", mesh, points, 2)
+    kin = make_kinematics("small", MATERIALS["elastic"], 2,
+                          {"return_maps": 0}, kernels="compiled")
+    with pytest.raises(InvalidInputError, match="finite deformation"):
+        kin.response(IncrementFbar(op, points.volume), np.zeros(op.N),
+                     points)
+
+
 class UserElastic(LinearElastic):
     """A user's material (a subclass may change the law: not compiled)."""
 
