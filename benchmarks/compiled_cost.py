@@ -22,14 +22,16 @@ once, then what loading the cached kernels costs each process.
 that method's sparse operator instead of standard MPM's (in 3D to 3.3e4
 points: the numpy path's GIMP stiffness takes seconds beyond).
 ``--antilocking`` runs them with mean dilatation
-(``Stabilisation(antilocking=True)``, as the footing examples);
+(``Stabilisation(antilocking=True)``, as the footing examples),
+``--antilocking fbar`` with F-bar on the increment
+(``antilocking="fbar"``, :mod:`skfem_mpm.kernels.fbar`);
 ``--cells`` picks the sizes (cells per side of the block: 50 and 158 are
 the 1e4 and 1e5 points of 2D, 11 and 24 of 3D); ``--paths compiled``
 runs one path only (an A/B of two checkouts: this script with
 ``PYTHONPATH`` at each).
 
     python benchmarks/compiled_cost.py [--dim 2] [--reps 3] [--large]
-        [--kratos] [--compile] [--method mpm] [--antilocking]
+        [--kratos] [--compile] [--method mpm] [--antilocking [fbar]]
         [--cells 50 158] [--paths numpy compiled]
 
 The path is chosen by making the run's kinematics with ``kernels=``
@@ -111,7 +113,8 @@ def table(dim: int, reps: int, cells=None):
     print("\n{}D, block of step_cost.py, {}{}, finite deformation, 1 step; "
           "ms per Newton iteration (best of {})".format(
               dim, "standard MPM" if method == "mpm" else method,
-              ", mean dilatation" if KERNELS["antilocking"] else "", reps))
+              {True: ", mean dilatation", "fbar": ", F-bar on the "
+               "increment"}.get(KERNELS["antilocking"], ""), reps))
     print("{:>7} {:>9} | {} | {:>7} {:>9} {:>8} {:>8} {:>4}".format(
         "points", "path", " ".join("{:>8}".format(p) for p in PHASES),
         "total", "us/pt/it", "heap/pt", "+input", "its"))
@@ -253,7 +256,8 @@ def main():
     parser.add_argument("--compile", action="store_true")
     parser.add_argument("--method", default="mpm",
                         choices=("mpm", "ugimp", "cpgimp", "bspline"))
-    parser.add_argument("--antilocking", action="store_true")
+    parser.add_argument("--antilocking", nargs="?", const=True,
+                        default=False, choices=("fbar",))
     parser.add_argument("--cells", type=int, nargs="+")
     parser.add_argument("--paths", nargs="+", choices=("numpy", "compiled"),
                         default=list(PATHS))
