@@ -36,7 +36,7 @@ __all__ = ["passes_of", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "659bd68972fb5184"
+SOURCES = "ccec0e9bf2ad1f31"
 
 
 @njit(cache=True, error_model="numpy", inline="always")

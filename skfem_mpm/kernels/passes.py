@@ -101,8 +101,8 @@ def _finite_residual(G, nodes, node_start, node_count, runs, order, qstart, w,
     point's increment scaled by its ``xi`` (``scale_increment``), the
     force split in its frame ``(dF, dF^-T)`` and the spatial average's
     rows summed into ``b`` (``split_framed``, ``add_spatial_rows``).
-    Returns 0, or 1 where ``det dF <= 0`` (at some point), 2 where ``b_tr`` is not positive definite: then the
-    arrays hold no answer."""
+    Returns 0, or 1 where ``det dF <= 0`` (at some point), 2 where
+    ``b_tr`` is not positive definite: then the arrays hold no answer."""
     literally(k)
     m = k if cell is None else 3
     nmax = widest(node_count)
