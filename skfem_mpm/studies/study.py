@@ -599,7 +599,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             "penalty, the method): groups whose references disagree are " \
             "named (disagreements)"
     return {"error": {"label": label, "against": against, "measures": what,
-                      "closed_form": bool(scene.reference)},
+                      "closed_form": bool(scene.reference),
+                      "quantity": None if scene.reference else first},
             "convergence": convergence,
             "disagreements": [] if scene.reference else
             disagreements(convergence)}
