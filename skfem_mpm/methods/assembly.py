@@ -17,8 +17,8 @@ import numpy as np
 from numpy import ndarray
 from scipy.sparse import csc_matrix, csr_matrix
 
-__all__ = ["assembled_in_pattern", "ElementPattern", "GraphPattern", "KernelLayout",
-           "PatternMatrices", "block_structure", "local_stiffness",
+__all__ = ["assembled_in_pattern", "ElementPattern", "GraphPattern",
+           "KernelLayout", "PatternMatrices", "block_structure", "local_stiffness",
            "local_force", "local_load"]
 
 CHUNK = 512             # elements per block (bounds the temporaries)
