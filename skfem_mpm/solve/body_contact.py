@@ -711,7 +711,9 @@ class BodyContact(GridTerm):
         a field's copy of a node only where its bodies' material (the
         points' domains, as :meth:`corners` has them) lies on the support
         next to the node, within :data:`SUPPORT_NEAREST` cells as near as
-        the nearest material of any field there (the distance, along the
+        the nearest material of any field there, where that lies within
+        :data:`SUPPORT_NEAREST` cells of it (else every copy holds, as
+        the glued fields would; the distance, along the
         farthest axis, to the node or to a grid edge from it to a node
         held in the same component: a body whose side lies on a held
         wall from half a cell above a node is held there, as glued).  A
@@ -740,8 +742,10 @@ class BodyContact(GridTerm):
                                     return_inverse=True)
             node = node.ravel()
             distance = self.support_distances(nodes, lo, hi, fields)
-            held[on] = distance[field[on], node] <= distance.min(
-                axis=0)[node] + SUPPORT_NEAREST * self.h
+            nearest = distance.min(axis=0)[node]
+            held[on] = (nearest > SUPPORT_NEAREST * self.h) | (
+                distance[field[on], node] <= nearest
+                + SUPPORT_NEAREST * self.h)
         if self.weights is not None and not held.all():
             # grid neighbours of one field and component
             i, j = cKDTree(where.T).query_pairs(
@@ -761,7 +765,8 @@ class BodyContact(GridTerm):
         held ``nodes`` (dim, m) and the grid edges between two of them to
         the nearest domain ``[lo, hi]`` (dim, n) of a point of the field's
         bodies, per node the least of its own and its edges' (fields, m;
-        ``inf`` where no domain lies within 3 cells)."""
+        ``inf`` where no domain lies within twice :data:`SUPPORT_NEAREST`
+        cells, all that :meth:`held_supports` reads)."""
         m, h = nodes.shape[1], self.h
         i, j = cKDTree(nodes.T).query_pairs(h * (1 + 1e-6),
                                             output_type="ndarray").T
@@ -779,10 +784,9 @@ class BodyContact(GridTerm):
             sel = np.flatnonzero(self.point_field == k)
             if not sel.size:
                 continue
-            # any method's weights reach at most 2 cells past a domain
             near = cKDTree(centre[:, sel].T).sparse_distance_matrix(
-                tree, half[:, sel].max() + size.max() + 3 * h, p=np.inf,
-                output_type="ndarray")
+                tree, half[:, sel].max() + size.max()
+                + 2 * SUPPORT_NEAREST * h, p=np.inf, output_type="ndarray")
             p, f = sel[near["i"]], near["j"]
             apart = np.maximum(np.abs(at[:, f] - centre[:, p]) - half[:, p]
                                - size[:, f], 0.).max(axis=0)

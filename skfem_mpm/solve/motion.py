@@ -96,13 +96,12 @@ def held_motion(run, op, points, s_old: float, s_new: float,
     that lost its material and rigid bodies driving held DOFs otherwise
     are refused (:class:`~skfem_mpm.errors.PrescribedMotionError`)."""
     fixed, du = run.D, np.zeros(op.N)
-    for term in run.terms:      # contact between bodies: per field
-        keep = getattr(term, "held_supports", None)
-        if keep is not None:
-            active = np.zeros(op.N, dtype=bool)
-            active[op.active_dofs] = True
-            fixed = keep(points, fixed, run.grid.doflocs[:, fixed],
-                         run.grid.N, active)
+    active = np.zeros(op.N, dtype=bool)
+    active[op.active_dofs] = True
+    for term in run.terms:
+        fixed = term.held_supports(points, fixed,
+                                   run.grid.doflocs[:, fixed], run.grid.N,
+                                   active)
     driven = np.zeros(0, dtype=np.int64)
     if run.prescribed is not None:
         dofs, values = prescribed_increments(run, s_old, s_new, step)
