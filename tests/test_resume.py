@@ -392,6 +392,19 @@ def test_a_checkpoint_without_the_contact_corners_says_why(names, dated):
 
 
 @pytest.mark.slow
+def straight_and_resumed(scene):
+    """Run the scene file ``scene`` straight through, and again stopped
+    after its first step and resumed: the two output folders (beside the
+    scene)."""
+    straight, resumed = scene.parent / "straight", scene.parent / "resumed"
+    assert main(["run", str(scene), "--out", str(straight),
+                 "--no-progress"]) == 0
+    assert main(["run", str(scene), "--out", str(resumed), "--no-progress",
+                 "--max-steps", "1"]) == 0
+    assert main(["run", "--resume", str(resumed), "--no-progress"]) == 0
+    return straight, resumed
+
+
 def test_a_small_strain_plastic_run_resumes(tmp_path):
     """A user trial: once small strain kept the points' rotation as point
     state, every small-strain run's resume was refused ("holds the
@@ -405,12 +418,7 @@ def test_a_small_strain_plastic_run_resumes(tmp_path):
         'method = "cpgimp"\nkinematics = "finite"',
         'method = "mpm"\nkinematics = "small"').replace(
         "max_iterations = 3", ""))
-    straight, resumed = tmp_path / "straight", tmp_path / "resumed"
-    assert main(["run", str(scene), "--out", str(straight),
-                 "--no-progress"]) == 0
-    assert main(["run", str(scene), "--out", str(resumed), "--no-progress",
-                 "--max-steps", "1"]) == 0
-    assert main(["run", "--resume", str(resumed), "--no-progress"]) == 0
+    straight, resumed = straight_and_resumed(scene)
     data = summary(straight)
     assert data["status"] == "completed"
     last = meshio.read(straight / "points_{:04d}.vtu".format(
