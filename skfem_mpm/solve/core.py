@@ -805,7 +805,10 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     supports
         Fixed (zero) grid DOFs: DOF indices, a ``DofsView`` or a callable
         taking the grid's vector ``Basis``, e.g.
-        ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.
+        ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.  With contacts
+        between bodies a support holds each body's copy of a node only
+        where that body lies on it
+        (:meth:`~skfem_mpm.solve.body_contact.BodyContact.held_supports`).
     body_force
         Body force per unit *initial* volume at full load, shape (dim,), or
         one row per body (bodies, dim) (gravity on bodies of different
