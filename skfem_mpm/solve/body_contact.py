@@ -371,7 +371,10 @@ class BodyContact(GridTerm):
         point's domain, ``half`` its half-widths, with no domain of the
         body beside it) faces a body it is in contact with and lies
         inside a grid cell: such bodies may lean and settle by the grid.
-        Given on every contact run, it told a user whose bodies' sides all
+        Judged on the points' initial positions, so a run resumed where
+        its bodies have moved says what its first invocation said (a user
+        trial's resumed run warned where the first had not).  Given on
+        every contact run, it told a user whose bodies' sides all
         lay on grid lines the same; given for every side inside a cell,
         it told a user whose block lay on a slab of the grid's width, its
         sides inside cells facing nothing (user trials)."""
@@ -382,7 +385,7 @@ class BodyContact(GridTerm):
             partners.setdefault(b, set()).add(a)
         for k, others in partners.items():
             sel = np.flatnonzero(points.body == k)
-            x, w = points.x[:, sel], half[:, sel]
+            x, w = points.x0[:, sel], half[:, sel]
             if not np.allclose(w, w[:, :1]):    # not one lattice: say so
                 inside = 1
                 break
@@ -391,7 +394,7 @@ class BodyContact(GridTerm):
                 np.int64) + 1
             shape = tuple(q.max(axis=1) + 2)
             keys = np.ravel_multi_index(tuple(q), shape)
-            partner = points.x[:, np.isin(points.body, list(others))]
+            partner = points.x0[:, np.isin(points.body, list(others))]
             for d in range(dim):
                 for sign in (-1, 1):
                     moved = q.copy()
