@@ -123,6 +123,16 @@ class GridTerm:
         there), or ``None``."""
         return None
 
+    def held_supports(self, points, dofs: ndarray, where: ndarray,
+                      N: int, active: ndarray) -> ndarray:
+        """Of the supports' DOFs ``dofs`` (at the positions ``where``, dim
+        x m; ``N`` DOFs in all, ``active`` the mask of those the points
+        reach), those that hold in the step from ``points``: all of them,
+        unless the term puts bodies on fields of their own (a contact
+        between bodies holds a body's copy of a node only where the body
+        lies on the support)."""
+        return dofs
+
     def begin_run(self, points) -> None:
         """Called once when a run starts, with its initial points: a term
         that keeps state over the steps (a history, a total displacement)

@@ -236,6 +236,21 @@ def test_two_contacts_between_the_same_fields_are_refused():
                  contacts=[Contact(0, 1), Contact(0, 2)])
 
 
+def full_and_resumed(args, kwargs, after):
+    """The run of ``simulate(*args, **kwargs)`` whole, and resumed after
+    step ``after`` from its points and record there."""
+    kept = {}
+
+    def keep(record, points):
+        if record.step == after:
+            kept["record"], kept["points"] = record, points.copy()
+    full = simulate(*args, options=Options(callback=keep), **kwargs)
+    resumed = simulate(*args[:2], kept["points"], *args[3:],
+                       options=Options(resume=Resume.after(
+                           kept["record"], args[2].domain)), **kwargs)
+    return full, resumed
+
+
 @pytest.mark.parametrize("method", [
     "mpm", pytest.param("bspline", marks=pytest.mark.slow)])
 def test_resume_is_bit_identical(method):
@@ -251,15 +266,7 @@ def test_resume_is_bit_identical(method):
     kwargs = dict(loads=[Traction(top, "top", [0., -50.])], nsteps=4,
                   kinematics="finite", method=method,
                   contacts=[Contact(0, 1, friction=.2)])
-    kept = {}
-
-    def keep(record, points):
-        if record.step == 2:
-            kept["record"], kept["points"] = record, points.copy()
-    full = simulate(*args, options=Options(callback=keep), **kwargs)
-    resumed = simulate(mesh, ElementQuad1(), kept["points"], *args[3:],
-                       options=Options(resume=Resume.after(
-                           kept["record"], pts.domain)), **kwargs)
+    full, resumed = full_and_resumed(args, kwargs, 2)
     assert np.array_equal(full.points.x, resumed.points.x)
     assert np.array_equal(full.points.stress, resumed.points.stress)
     assert np.array_equal(full.history[-1].contact_forces,

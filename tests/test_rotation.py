@@ -1,5 +1,6 @@
 """The points' rotation in small strain (skfem_mpm/solve/rotation.py): kept
-as point state, exact on a rotation field, warned once when large."""
+as point state, exact on a rotation field, warned when large and as it
+grows."""
 import numpy as np
 import pytest
 from skfem import ElementHex1, ElementQuad1, MeshHex, MeshQuad
@@ -33,17 +34,22 @@ def rotated(mesh, elem, axis, theta, nsteps, method="mpm",
 
 
 @pytest.mark.parametrize("method", ["mpm", "fem", "cpgimp"])
-def test_a_rotation_field_is_kept_to_round_off_and_warned_once(method,
-                                                               caplog):
-    """0.3 rad in 4 steps: every point's ``rotation`` is 0.3 to round-off,
-    and one warning names the step where it passed 0.1 rad (the second,
-    at 0.15); 0.08 rad is not warned."""
+def test_a_rotation_field_is_kept_to_round_off_and_warned_as_it_grows(
+        method, caplog):
+    """0.3 rad in 4 steps: every point's ``rotation`` is 0.3 to round-off;
+    a warning names the step where it passed 0.1 rad (the second, at
+    0.15), another where it passed twice that (the third, at 0.225), none
+    at the fourth (0.3, below 0.4); 0.08 rad is not warned (a user trial
+    was warned at 5.9 degrees of a rotation that reached 18.7)."""
     mesh = MeshQuad.init_tensor(*[np.linspace(0, 2, 9)] * 2)
     res = rotated(mesh, ElementQuad1(), 2, .3, 4, method)
     assert np.abs(res.points.state["rotation"] - .3).max() < 1e-14
-    warnings = [r for r in caplog.records if "has rotated" in r.message]
-    assert len(warnings) == 1 and "step 2:" in warnings[0].message
-    assert "by 8.6 degrees" in warnings[0].message     # 0.15 rad, not 0.3
+    warnings = [r.message for r in caplog.records
+                if "has rotated" in r.message]
+    assert len(warnings) == 2, warnings
+    for said, step, angle in zip(warnings, (2, 3), (.15, .225)):
+        assert said.startswith("step {}:".format(step))
+        assert "by {:.1f} degrees".format(np.degrees(angle)) in said
     caplog.clear()
     res = rotated(mesh, ElementQuad1(), 2, .08, 4, method)
     assert .08 < ROTATION_WARNING

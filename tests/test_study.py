@@ -789,6 +789,80 @@ def test_a_study_names_groups_whose_references_disagree():
     assert "not an error its cases share" in measured["error"]["measures"]
 
 
+def test_the_error_plots_draw_where_the_groups_references_disagree(
+        tmp_path, monkeypatch):
+    """error_vs_time.png drew B-splines' cases at 0.2% on the Pareto
+    front, where the methods' own references lay 1.4% apart (a user
+    trial): each case's error is against its group's reference.  Both
+    error plots draw the widest distance of the error's quantity, here
+    the 2% between mpm's and cpgimp's references, as a line."""
+    import skfem_mpm.studies.figures as figures
+    quantity = Quantity("displacement", "magnitude", reduce="max",
+                        name="settlement")
+    rows = [dict(method=m, elements=n, points=4 * n, failure="",
+                 values={"settlement": v * (1. + .5 / n ** 2)},
+                 wall_seconds=.1 * n, cpu_seconds=.1 * n,
+                 newton_iterations=2, factorisations=2, steps_run=1,
+                 **{"t_" + p: .01 * n for p in figures.PHASES})
+            for m, v in (("mpm", 1.), ("cpgimp", 1.02))
+            for n in (4, 8, 16)]
+    measured = study_module.analyse(replace(COLUMN, reference=None), rows,
+                                    [quantity])
+    apart = abs(1.02 - 1.) / 1.
+    drawn = {}
+    finish = figures._finish
+    monkeypatch.setattr(figures, "_finish", lambda fig, ax, *a: drawn.update(
+        {a[-1].name: [(line.get_label(), line.get_ydata()[0]) for line
+                      in ax.get_lines() if "apart" in line.get_label()]})
+        or finish(fig, ax, *a))
+    figures.plot_study(rows, tmp_path, measured)
+    for name in ("error_vs_elements.png", "error_vs_time.png"):
+        (label, level), = drawn[name]
+        assert level == pytest.approx(apart, rel=1e-6)
+        assert label.startswith("groups' references 2.00% apart"), label
+    measured["disagreements"] = []
+    drawn.clear()
+    figures.plot_study(rows, tmp_path, measured)
+    assert drawn["error_vs_time.png"] == []
+
+
+def test_a_group_keeps_its_colour_in_every_study_figure(tmp_path,
+                                                        monkeypatch):
+    """A user trial's study drew mpm blue and fem orange in
+    quantities.png, the other way round in error_vs_time.png.  Each
+    group (here the method) has one colour in all three figures that
+    draw groups, whatever order the cases came in."""
+    import skfem_mpm.studies.figures as figures
+    quantity = Quantity("displacement", "magnitude", reduce="max",
+                        name="settlement")
+    rows = [dict(method=m, elements=n, points=4 * n, failure="",
+                 values={"settlement": v * (1. + .5 / n ** 2)},
+                 wall_seconds=.1 * n, cpu_seconds=.1 * n,
+                 newton_iterations=2, factorisations=2, steps_run=1,
+                 **{"t_" + p: .01 * n for p in figures.PHASES})
+            for m, v in (("mpm", 1.), ("fem", 1.001)) for n in (4, 8, 16)]
+    measured = study_module.analyse(replace(COLUMN, reference=None), rows,
+                                    [quantity])
+    colours = {}
+    save = figures.plot.save_figure
+
+    def seen(fig, path):
+        for line in fig.axes[0].get_lines():
+            for m in ("mpm", "fem"):
+                if "method=" + m in line.get_label():
+                    colours.setdefault(m, {})[Path(path).name] = \
+                        tuple(np.atleast_1d(line.get_color()))
+        return save(fig, path)
+    monkeypatch.setattr(figures.plot, "save_figure", seen)
+    figures.plot_study(rows, tmp_path, measured)
+    for m in ("mpm", "fem"):
+        assert sorted(colours[m]) == ["error_vs_elements.png",
+                                      "error_vs_time.png", "quantities.png"]
+        assert len(set(colours[m].values())) == 1, colours
+    assert colours["mpm"]["quantities.png"] != \
+        colours["fem"]["quantities.png"]
+
+
 def test_a_serial_study_s_progress_refits_the_time_left(tmp_path, caplog):
     """After each case a serial study says the time the cases left take
     by the time model of the cases finished (refitted: the estimate

@@ -17,8 +17,8 @@ import numpy as np
 from numpy import ndarray
 from scipy.sparse import csc_matrix, csr_matrix
 
-__all__ = ["ElementPattern", "GraphPattern", "KernelLayout",
-           "PatternMatrices", "block_structure", "local_stiffness",
+__all__ = ["assembled_in_pattern", "ElementPattern", "GraphPattern",
+           "KernelLayout", "PatternMatrices", "block_structure", "local_stiffness",
            "local_force", "local_load"]
 
 CHUNK = 512             # elements per block (bounds the temporaries)
@@ -246,6 +246,26 @@ class ElementPattern:
     def nnz(self) -> int:
         """The number of entries of the pattern."""
         return len(self.structure()[3])
+
+
+def assembled_in_pattern(form, basis, **fields) -> csr_matrix:
+    """The bilinear ``form`` on ``basis`` as scikit-fem's ``asm``, with
+    every element entry kept: ``asm`` drops the entries that come out
+    exactly zero, and which ones do depends on the CPU's vector loops,
+    so the pattern, and the solver ``"auto"`` chooses from it
+    (:func:`~skfem_mpm.solve.backends.rcm_bandwidth`), would too.
+
+    Examples
+    --------
+    >>> from skfem import Basis, BilinearForm, ElementQuad1, MeshQuad, asm
+    >>> basis = Basis(MeshQuad().refined(2), ElementQuad1())  # 5 x 5 nodes
+    >>> nothing = BilinearForm(lambda u, v, w: 0. * u * v)
+    >>> asm(nothing, basis).nnz, assembled_in_pattern(nothing, basis).nnz
+    (0, 169)
+    """
+    coo = form.coo_data(basis, **fields)
+    return csr_matrix((coo.data, (coo.indices[0], coo.indices[1])),
+                      shape=coo.shape)
 
 
 def pattern_matrix(pattern, data: ndarray, indices: ndarray,

@@ -12,6 +12,7 @@ import numpy as np
 from ..errors import InvalidInputError
 from ..mechanics.materials import VonMises
 from ..mechanics.soils import DruckerPrager, MohrCoulomb
+from .regions import region_shape
 
 __all__ = ["soil_strength", "check_footing_scene"]
 
@@ -65,7 +66,9 @@ def check_footing_scene(scene):
     if callable(footing.region):
         raise InvalidInputError(
             "reference 'bearing_capacity' needs the footing's region as a "
-            "box (its width is the pressure's denominator)")
+            "box, region = {{ x = [lo, hi], y = [lo, hi] }} (its width is "
+            "the pressure's denominator), not a {}".format(
+                region_shape(footing.region)))
     mesh, _ = scene.grid.build()
     lines = np.unique(mesh.p[0])
     for edge in footing.region[0]:

@@ -41,6 +41,7 @@ from ..solve.obstacles import Obstacle
 from ..solve.rigid import RigidBody
 from ..stabilisation.settings import Stabilisation
 from .footing import check_footing_scene
+from .regions import bounding_box, check_shape
 
 if TYPE_CHECKING:         # quantities.py imports this module
     from .quantities import Quantity
@@ -97,7 +98,9 @@ class Grid:
 
 @dataclass
 class Body:
-    """Material points filling ``region`` (``[(lo, hi), ...]`` per axis or a
+    """Material points filling ``region`` (``[(lo, hi), ...]`` per axis, a
+    :class:`~skfem_mpm.scenes.regions.Polygon` (2D), a
+    :class:`~skfem_mpm.scenes.regions.Ball` (a disc in 2D) or another
     callable on coordinates), ``points_per_cell`` per axis.  With ``K0``
     the body starts from the geostatic stress of the scene's gravity under
     the ground height ``surface`` (default: the top of its material, its
@@ -463,18 +466,20 @@ class Scene:
 
 def point_bound(scene: Scene) -> float:
     """An upper bound of the points the scene seeds, without seeding them:
-    every cell a body's box reaches (every cell for a callable region or
-    a ready mesh) filled with its points per cell."""
+    every cell a body's box (a polygon's or ball's bounding box) reaches
+    (every cell for another callable region or a ready mesh) filled with
+    its points per cell."""
     dim, cells = scene.grid.dim, scene.grid.cells
     points = 0.
     for body in scene.bodies:
         reached = cells
-        if not callable(body.region) and scene.grid.mesh is None:
+        box = bounding_box(body.region)
+        if box is not None and scene.grid.mesh is None:
             reached = float(np.prod([
                 min(n, np.ceil((min(hi, b_hi) - max(lo, b_lo))
                                / (hi - lo) * n) + 1)
                 for (lo, hi, n), (b_lo, b_hi) in zip(scene.grid.axes,
-                                                     body.region)]))
+                                                     box)]))
         points += max(reached, 0.) * float(body.points_per_cell) ** dim
     return points
 
@@ -566,8 +571,10 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
     parts = []
     for k, body in enumerate(scene.bodies):
         try:
-            # a box is checked against the grid (refused where it reaches
-            # outside: its points there would be dropped without a word)
+            # a box, polygon or ball is checked against the grid (refused
+            # where it reaches outside: its points there would be dropped
+            # without a word)
+            check_shape(body.region, mesh)
             pts = seed_points(mesh, body.points_per_cell,
                               region=body_region(scene.bodies, k, mesh))
         except InvalidInputError as err:

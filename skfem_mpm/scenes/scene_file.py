@@ -19,6 +19,12 @@ offending value (unknown keys, wrong types, impossible values), in a
     region = { x = [0.0, 1.0], y = [0.0, 50.0] }   # inside the grid (an
                                     # axis left out: all of it); a region
                                     # reaching outside the grid is refused
+    # or region = { polygon = [[0.0, 0.0], [1.0, 0.0], [0.5, 2.0]] } (2D;
+    #    3 or more vertices, either orientation, not crossing itself)
+    # or region = { centre = [0.5, 25.0], radius = 0.5 } (a disc in 2D, a
+    #    ball in 3D); either is seeded as a callable region (the points
+    #    whose sub-cells' centres lie inside; their volume differing from
+    #    the shape's by more than 1% is warned)
     points_per_cell = 2
     geostatic = { K0 = 0.5, surface = 50.0 }   # optional: start from the
                                     # K0 stress of the gravity (surface:
@@ -167,6 +173,7 @@ from ..solve.obstacles import Obstacle
 from ..solve.loads import WORDS_OF_2D, side_axis, side_names
 from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
+from .regions import Ball, Polygon, outside_grid, region_shape
 from .scene import (KINEMATICS, SCHEMES, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction, TimeIntegration)
 
@@ -532,7 +539,7 @@ def _body(c, data, k, dim):
     if not isinstance(name, str):
         c.bad(key + ".name", "must be a string", name)
         name = "body{}".format(k)
-    box = _box(c, data.get("region", {}), key + ".region", dim)
+    box = _body_region(c, data.get("region", {}), key + ".region", dim)
     ppc = c.number(data, key, "points_per_cell", 2, low=1, open_low=False,
                    integer=True)
     material = _material(c, data.get("material", {}), key + ".material")
@@ -562,20 +569,66 @@ def _body(c, data, k, dim):
                 replaces=tuple(replaces))
 
 
+def _body_region(c, data, key: str, dim: int):
+    """A body's region table: a box ``{ x = [lo, hi], ... }`` (an axis
+    left out: all of it), ``{ polygon = [[x, y], ...] }`` (2D) or
+    ``{ centre = [..], radius = r }`` (a disc in 2D, a ball in 3D)."""
+    if not isinstance(data, dict) or not (
+            {"polygon", "centre", "radius"} & set(data)):
+        return _box(c, data, key, dim)
+    c.table(data, key, AXES[:dim] + ("polygon", "centre", "radius"))
+    shapes = [words for words, keys in (
+        ("a box (x, y, z)", set(AXES) & set(data)),
+        ("a polygon", {"polygon"} & set(data)),
+        ("a disc or ball (centre, radius)", {"centre", "radius"}
+         & set(data))) if keys]
+    if len(shapes) > 1:
+        c.bad(key, "must be one shape, got the keys of {}".format(
+            " and ".join(shapes)), sorted(data))
+        return [(0., 1.)] * dim
+    found = len(c.problems)
+    try:
+        if "polygon" in data:
+            if dim != 2:
+                c.bad(key + ".polygon", "is a 2D region, the grid is {}D "
+                      "(give a box or centre and radius)".format(dim),
+                      data["polygon"])
+            else:
+                return Polygon(data["polygon"], key + ".polygon")
+        else:
+            centre = c.vector(data, key, "centre", dim)
+            radius = c.number(data, key, "radius", low=0.)
+            for name in ("centre", "radius"):
+                if name not in data:
+                    c.problems.append("{}.{}: missing (a {} needs centre "
+                                      "and radius)".format(
+                                          key, name, "disc" if dim == 2
+                                          else "ball"))
+            if len(c.problems) == found:
+                return Ball(centre, radius, key)
+    except InvalidInputError as err:
+        c.problems.append(str(err))
+    return [(0., 1.)] * dim
+
+
 def _inside_grid(c, bodies, grid):
     """A body's region reaching outside the grid is refused: the material
     there would be dropped without a word (an axis left out, all of the
-    grid, reaches nowhere beyond)."""
+    grid, reaches nowhere beyond; a polygon or disc by its bounding
+    box)."""
+    low, high = ([a[i] for a in grid.axes] for i in (0, 1))
     for k, body in enumerate(bodies):
-        for d, ((lo, hi), (g_lo, g_hi, _)) in enumerate(zip(body.region,
-                                                            grid.axes)):
-            slack = 1e-12 * (g_hi - g_lo)
-            if -math.inf < lo < g_lo - slack or math.inf > hi > g_hi + slack:
-                c.bad("bodies[{}].region.{}".format(k, AXES[d]),
-                      "body {!r} reaches outside the grid, whose {} extent "
-                      "is [{!r}, {!r}]: the material beyond it would be "
-                      "dropped; shrink the region or extend the grid".format(
-                          body.name, AXES[d], g_lo, g_hi), [lo, hi])
+        shape = region_shape(body.region)
+        what = "" if shape == "box" else " (a {})".format(shape)
+        for d, lo, hi in outside_grid(body.region, low, high):
+            c.bad("bodies[{}].region{}".format(
+                k, "." + AXES[d] if shape == "box" else ""),
+                "body {!r}{} reaches outside the grid, whose {} extent "
+                "is [{!r}, {!r}]: the material beyond it would be "
+                "dropped; shrink the region or extend the grid".format(
+                    body.name, what,
+                    AXES[d], low[d], high[d]),
+                [lo, hi] if shape == "box" else {AXES[d]: [lo, hi]})
 
 
 

@@ -371,7 +371,10 @@ class BodyContact(GridTerm):
         point's domain, ``half`` its half-widths, with no domain of the
         body beside it) faces a body it is in contact with and lies
         inside a grid cell: such bodies may lean and settle by the grid.
-        Given on every contact run, it told a user whose bodies' sides all
+        Judged on the points' initial positions, so a run resumed where
+        its bodies have moved says what its first invocation said (a user
+        trial's resumed run warned where the first had not).  Given on
+        every contact run, it told a user whose bodies' sides all
         lay on grid lines the same; given for every side inside a cell,
         it told a user whose block lay on a slab of the grid's width, its
         sides inside cells facing nothing (user trials)."""
@@ -382,7 +385,7 @@ class BodyContact(GridTerm):
             partners.setdefault(b, set()).add(a)
         for k, others in partners.items():
             sel = np.flatnonzero(points.body == k)
-            x, w = points.x[:, sel], half[:, sel]
+            x, w = points.x0[:, sel], half[:, sel]
             if not np.allclose(w, w[:, :1]):    # not one lattice: say so
                 inside = 1
                 break
@@ -391,7 +394,7 @@ class BodyContact(GridTerm):
                 np.int64) + 1
             shape = tuple(q.max(axis=1) + 2)
             keys = np.ravel_multi_index(tuple(q), shape)
-            partner = points.x[:, np.isin(points.body, list(others))]
+            partner = points.x0[:, np.isin(points.body, list(others))]
             for d in range(dim):
                 for sign in (-1, 1):
                     moved = q.copy()
@@ -704,6 +707,98 @@ class BodyContact(GridTerm):
                 held.append(np.unique(J.col[on]))
         return np.unique(np.concatenate(held)) if held else None
 
+    def held_supports(self, points, dofs: ndarray, where: ndarray,
+                      N: int, active: ndarray) -> ndarray:
+        """The supports' DOFs ``dofs`` (of every field's copy of the grid,
+        ``N`` DOFs in all; at the positions ``where``, dim x m) that hold:
+        a field's copy of a node only where its bodies' material (the
+        points' domains, as :meth:`corners` has them) lies on the support
+        next to the node, within :data:`SUPPORT_NEAREST` cells as near as
+        the nearest material of any field there, where that lies within
+        :data:`SUPPORT_NEAREST` cells of it (else every copy holds, as
+        the glued fields would; the distance, along the
+        farthest axis, to the node or to a grid edge from it to a node
+        held in the same component: a body whose side lies on a held
+        wall from half a cell above a node is held there, as glued).  A
+        support is the boundary of the material on it: a block sliding
+        on a slab one cell thick that the supports held underneath got
+        its own copy of their nodes once its domains reached the slab's
+        cells (a penetration within the tolerance; B-splines from the
+        start), and was held there: smooth contact, its vx fell from 1
+        to 0 in 0.5 s.  With B-splines a copy the points carry weight on
+        (``active``, a mask of the DOFs) beside a held one of its field
+        is held too, in turn (the splines' control points hold a body
+        only along a whole edge)."""
+        if not dofs.size:
+            return dofs
+        dim = self.dim
+        fields = int(self.field.max()) + 1
+        field, component = dofs // (N // fields), dofs % dim
+        X = self.corners(points)
+        lo, hi = X.min(axis=1), X.max(axis=1)
+        held = np.zeros(dofs.size, dtype=bool)
+        for c in range(dim):
+            on = np.flatnonzero(component == c)
+            if not on.size:
+                continue
+            nodes, node = np.unique(where[:, on], axis=1,
+                                    return_inverse=True)
+            node = node.ravel()
+            distance = self.support_distances(nodes, lo, hi, fields)
+            nearest = distance.min(axis=0)[node]
+            held[on] = (nearest > SUPPORT_NEAREST * self.h) | (
+                distance[field[on], node] <= nearest
+                + SUPPORT_NEAREST * self.h)
+        if self.weights is not None and not held.all():
+            # grid neighbours of one field and component
+            i, j = cKDTree(where.T).query_pairs(
+                self.h * (1 + 1e-6), output_type="ndarray").T
+            same = (field[i] == field[j]) & (component[i] == component[j])
+            i, j = np.r_[i[same], j[same]], np.r_[j[same], i[same]]
+            while True:
+                more = ~held[i] & held[j] & active[dofs[i]]
+                if not more.any():
+                    break
+                held[i[more]] = True
+        return dofs[held]
+
+    def support_distances(self, nodes: ndarray, lo: ndarray, hi: ndarray,
+                          fields: int) -> ndarray:
+        """Per field, the distance (along the farthest axis) from the
+        held ``nodes`` (dim, m) and the grid edges between two of them to
+        the nearest domain ``[lo, hi]`` (dim, n) of a point of the field's
+        bodies, per node the least of its own and its edges' (fields, m;
+        ``inf`` where no domain lies within twice :data:`SUPPORT_NEAREST`
+        cells, all that :meth:`held_supports` reads)."""
+        m, h = nodes.shape[1], self.h
+        i, j = cKDTree(nodes.T).query_pairs(h * (1 + 1e-6),
+                                            output_type="ndarray").T
+        edge = (np.abs(nodes[:, i] - nodes[:, j]) > 1e-9 * h).sum(
+            axis=0) == 1
+        i, j = i[edge], j[edge]
+        low = np.hstack([nodes, np.minimum(nodes[:, i], nodes[:, j])])
+        high = np.hstack([nodes, np.maximum(nodes[:, i], nodes[:, j])])
+        ends = [np.r_[np.arange(m), i], np.r_[np.arange(m), j]]
+        at, size = (low + high) / 2, (high - low) / 2
+        centre, half = (lo + hi) / 2, (hi - lo) / 2
+        tree = cKDTree(at.T)
+        distance = np.full((fields, m), np.inf)
+        for k in range(fields):
+            sel = np.flatnonzero(self.point_field == k)
+            if not sel.size:
+                continue
+            near = cKDTree(centre[:, sel].T).sparse_distance_matrix(
+                tree, half[:, sel].max() + size.max()
+                + 2 * SUPPORT_NEAREST * h, p=np.inf, output_type="ndarray")
+            p, f = sel[near["i"]], near["j"]
+            apart = np.maximum(np.abs(at[:, f] - centre[:, p]) - half[:, p]
+                               - size[:, f], 0.).max(axis=0)
+            facet = np.full(at.shape[1], np.inf)
+            np.minimum.at(facet, f, apart)
+            for end in ends:
+                np.minimum.at(distance[k], end, facet)
+        return distance
+
     def begin_step(self, problem):
         self.loads = body_loads(problem)
         return StepBodyContact(self, problem)
@@ -724,6 +819,11 @@ def body_loads(problem) -> ndarray:
         out += np.where(ramp, factor, 1.)[:, None] * volume[:, None] * rows
     return out
 
+
+#: the cells a body's material may lie farther from a support's node than
+#: the nearest material there and still be held by it
+#: (:meth:`BodyContact.held_supports`)
+SUPPORT_NEAREST = .25
 
 #: the cells a contact's corner may be moved by grid nodes that slivers
 #: of material hold (:meth:`StepBodyContact.check_slivers`)

@@ -7,9 +7,11 @@ between the two bodies' centroids near the node, each body's direction
 from its centroid to the node, and the grid axes) as the one along which
 the bodies' domain corners near the node lie farthest apart, counting
 only the first body's corners that face the second's across it
-(:meth:`PairFinder.separating_normal`, :meth:`PairFinder.facing`), and
-every other grid axis along which the bodies touch there too (a body's
-corner in a notch of the other: a pile's tip); per normal the second
+(:meth:`PairFinder.separating_normal`, :meth:`PairFinder.facing`), or
+a grid axis across which both bodies' corners there are level faces
+(:meth:`PairFinder.level`), and every other grid axis along which the
+bodies touch there too (a body's corner in a notch of the other: a
+pile's tip); per normal the second
 body's surface corner nearest the node and the first body's corner
 nearest that one, facing it or under it where the first body reaches on
 beyond the second as a surface, make the node's pair
@@ -55,6 +57,11 @@ SPAN = .1
 #: (:meth:`PairFinder.facing`: the soil beside a sinking footing, a
 #: hundredth of a cell; the soil round a pile's tip, cells)
 FLOOR = .1
+
+#: the cells along a grid axis within which a body's corners at a node
+#: are level, a face across the axis (:meth:`PairFinder.level`: a block's
+#: bottom and the slab under it; a slab dented by a landing block)
+LEVEL = .1
 
 #: a pair deeper than this many cells after the run's start is not a
 #: contact (the first body on both sides of the second at its node)
@@ -337,6 +344,16 @@ class PairFinder:
         or the grid's edge makes the centroids' directions lean sideways
         and shows a gap of about zero sideways where both bodies end; the
         separating axis with these preferences stays across the surface.
+        Where both bodies' corners are level faces across a grid axis
+        (:meth:`level`) that meet or overlap across it, that axis is the
+        normal whatever the other candidates' gaps (of several, those
+        across which they overlap by :data:`SPAN` cells, where any do, of
+        those the largest gap, of those alike the vertical): beyond a
+        block's edge lifted or sunk a fraction of a cell off a level
+        slab, the leaning directions show the bodies farther apart, to
+        the slab's corners beside the edge, and where its edge is in line
+        with the slab's domains the corners meet edge to edge, x (or y)
+        and the vertical alike.
         Where the best is a grid axis and ``sides`` (a smooth contact,
         whose pairs hold only along their normals), every other axis
         alike with it or along which the
@@ -411,6 +428,37 @@ class PairFinder:
         alike &= wide | ~wide.any(axis=0)
         value = np.where(alike, cos + LAST * last[:, None], -np.inf)
         best = np.argmax(value, axis=0)
+        # where both bodies' corners are level faces across a grid axis
+        # (by LEVEL cells) that meet or overlap across it, that axis: of
+        # several, those across which they overlap by SPAN cells (where
+        # any do; in 3D, at a node behind a landing block's edge, its
+        # side and the slab's top, overlapping by the penetration, 0.016
+        # cells, showed 0.15 cells of gap along x), of those the largest
+        # gap (the least penetration), of those alike the vertical.
+        # A block's edge lifted a fifth of a cell off a slab
+        # body (bouncing) showed a larger gap, 0.20 cells against 0.11,
+        # along the block's direction from its centroid there to the
+        # node beyond its edge, to a slab corner beside the edge, and a
+        # smooth contact pushed it sideways (Ft/Fn -2.3; 1 m/s reversed
+        # to -0.56); in 3D, the block's edge in line with the slab's
+        # domains at a node (the bodies' corners there meeting edge to
+        # edge), x and the vertical alike, the centroids' line took x
+        # (Ft/Fn 5.4; 0.46)
+        spans = np.array(spans)
+        flat = np.array([self.level(entries, n) if a else
+                         np.zeros(node_x.shape[1], dtype=bool)
+                         for n, a in zip(candidates, axis)])
+        flat &= np.isfinite(gaps) & (spans > -FACING * self.h)
+        on = flat.any(axis=0)
+        flat_wide = flat & (spans > SPAN * self.h)
+        flat &= flat_wide | ~flat_wide.any(axis=0)
+        flat &= score >= np.where(flat, score, -np.inf).max(axis=0) \
+            - FACING * self.h
+        best = np.where(on, np.argmax(np.where(
+            flat, cos + 2. * last[:, None], -np.inf), axis=0), best)
+        # and the candidates alike with it are those level axes (a second
+        # face of such a node, below, is one along which the bodies touch)
+        alike = np.where(on, flat, alike)
         if not sides:
             # with friction a node has one normal: of candidates alike
             # to TIED (a square pile's vertical edge in a notch of the
@@ -419,7 +467,8 @@ class PairFinder:
             # sideways by 0.12% of its settlement with MPM, 2.0% with
             # cpGIMP; their mean, tried, is no separating axis of a
             # corner in a notch: the bodies overlapped along it)
-            best = np.argmax(value >= value.max(axis=0) - TIED, axis=0)
+            best = np.where(on, best, np.argmax(
+                value >= value.max(axis=0) - TIED, axis=0))
             if held is not None:
                 size = np.sqrt((held ** 2).sum(axis=0))
                 cos_held = np.einsum("kam,am->km", candidates, held) \
@@ -440,6 +489,46 @@ class PairFinder:
         k, extra = np.nonzero(more)
         return np.r_[node, extra], np.c_[normal[:, node],
                                          candidates[k, :, extra].T]
+
+    def level(self, entries, normal) -> ndarray:
+        """Per node (m,), whether both bodies' corners there are level
+        faces across its ``normal`` (dim, m), the first body's facing the
+        second's: each body's corners within :data:`LEVEL` cells of its
+        extreme along the normal towards the other (the first body's
+        highest, the second's lowest) reach both ends of its corners'
+        range across it, and none of its corners beyond the other body's
+        range across (by :data:`FACING` cells) lies past that extreme by
+        more than :data:`LEVEL` cells (a notch round a pile's tip, a
+        step beside a block, an inclined surface's staircase of corners,
+        a bump: not level)."""
+        m, eps, tol = normal.shape[1], FACING * self.h, LEVEL * self.h
+        out = np.ones(m, dtype=bool)
+        ts = tangents(normal)
+        for own, other, sign in ((0, 1, 1.), (1, 0, -1.)):
+            node, _, Xc = entries[own]
+            along = sign * (normal[:, node] * Xc).sum(axis=0)
+            top = np.full(m, -np.inf)
+            np.maximum.at(top, node, along)
+            band = along >= top[node] - tol
+            shadow = np.ones(node.size, dtype=bool)
+            for t in ts:
+                s = (t[:, node] * Xc).sum(axis=0)
+                s_o = (t[:, entries[other][0]] * entries[other][2]).sum(
+                    axis=0)
+                ranges = []
+                for at, values in ((node, s), (node[band], s[band]),
+                                   (entries[other][0], s_o)):
+                    lo, hi = np.full(m, np.inf), np.full(m, -np.inf)
+                    np.minimum.at(lo, at, values)
+                    np.maximum.at(hi, at, values)
+                    ranges.append((lo, hi))
+                (lo, hi), (lo_band, hi_band), (lo_o, hi_o) = ranges
+                out &= (lo_band <= lo + eps) & (hi_band >= hi - eps)
+                shadow &= (s >= lo_o[node] - eps) & (s <= hi_o[node] + eps)
+            top_in = np.full(m, -np.inf)
+            np.maximum.at(top_in, node[shadow], along[shadow])
+            out &= top <= top_in + tol
+        return out
 
     @staticmethod
     def spread(entries, slot, m: int):

@@ -69,7 +69,7 @@ from ..quadrature.grid import GridBasis
 from ..quadrature.locate import point_locator, tensor_grid
 from ..quadrature.points import MaterialPoints
 from ..stabilisation.ghost import GhostStabilisation
-from ..stabilisation.settings import Stabilisation
+from ..stabilisation.settings import Stabilisation, warn_volumetric_locking
 from ..stabilisation.fbar import IncrementFbar
 from ..stabilisation.volumetric import (MeanDilatation,
                                        points_per_cell_axis,
@@ -805,7 +805,10 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     supports
         Fixed (zero) grid DOFs: DOF indices, a ``DofsView`` or a callable
         taking the grid's vector ``Basis``, e.g.
-        ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.
+        ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.  With contacts
+        between bodies a support holds each body's copy of a node only
+        where that body lies on it
+        (:meth:`~skfem_mpm.solve.body_contact.BodyContact.held_supports`).
     body_force
         Body force per unit *initial* volume at full load, shape (dim,), or
         one row per body (bodies, dim) (gravity on bodies of different
@@ -1023,8 +1026,11 @@ def check_combination(method: str, kinematics: str, plastic: bool,
             "antilocking='fbar' (F-bar on each step's increment) is for "
             "finite deformation with points that move, not {}; "
             "antilocking=True is mean dilatation for every method and "
-            "kinematics".format("finite elements" if method == "fem"
-                                else "small strain"))
+            "kinematics{}".format(
+                "finite elements" if method == "fem" else "small strain",
+                " (near nu = 0.5 in finite deformation its answer stiffens "
+                "with the step size: take more, smaller steps)"
+                if method == "fem" else ""))
     if newton.rhs == "increment":
         if contact:
             raise InvalidInputError(
@@ -1246,6 +1252,8 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       or bool(rigid_bodies),
                       contact=bool(obstacles) or bool(contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
+    warn_volumetric_locking(getattr(material, "materials", [material]),
+                            stabilisation.antilocking, kinematics, method)
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
                               stabilisation.antilocking,
                               stabilisation.extended_splines)

@@ -9,11 +9,12 @@ from typing import Callable, Optional
 
 import numpy as np
 from numpy import ndarray
-from skfem import Basis, asm
+from skfem import Basis
 from skfem.element import Element
 from skfem.mesh import Mesh
 
 from ..mechanics.forms import as_body_force, assemble_body_force, full_tensor
+from ..methods.assembly import assembled_in_pattern
 from .linear import free_dofs, solve_active, support_dofs
 from ..mechanics.materials import LinearElastic
 from .core import vector_element
@@ -77,7 +78,7 @@ def solve_fe(mesh: Mesh, elem: Element, material: LinearElastic, supports,
     D = support_dofs(supports, basis)
     b = as_body_force(body_force, mesh.dim())
     f = np.zeros(basis.N) if b is None else assemble_body_force(basis, b)
-    K = asm(material.stiffness_form(), basis)
+    K = assembled_in_pattern(material.stiffness_form(), basis)
     free = free_dofs(np.unique(basis.element_dofs), D)
     u = solve_active(K, f, free, solver=solver, doflocs=basis.doflocs)
     grad = basis.interpolate(u).grad

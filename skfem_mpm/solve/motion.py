@@ -88,10 +88,20 @@ def check_prescribed_motion(run, op, dofs: ndarray, values: ndarray,
 def held_motion(run, op, points, s_old: float, s_new: float,
                 step: int) -> HeldMotion:
     """The supports, prescribed increments and rigid bodies' motion of a
-    step from load scale ``s_old`` to ``s_new``, checked: prescribed motion
+    step from load scale ``s_old`` to ``s_new``, checked (a term's
+    ``held_supports`` chooses the supports' DOFs that hold: a contact
+    between bodies holds a field's copy of a node only where its bodies
+    lie on the support, :meth:`~skfem_mpm.solve.body_contact.BodyContact.
+    held_supports`): prescribed motion
     that lost its material and rigid bodies driving held DOFs otherwise
     are refused (:class:`~skfem_mpm.errors.PrescribedMotionError`)."""
     fixed, du = run.D, np.zeros(op.N)
+    active = np.zeros(op.N, dtype=bool)
+    active[op.active_dofs] = True
+    for term in run.terms:
+        fixed = term.held_supports(points, fixed,
+                                   run.grid.doflocs[:, fixed], run.grid.N,
+                                   active)
     driven = np.zeros(0, dtype=np.int64)
     if run.prescribed is not None:
         dofs, values = prescribed_increments(run, s_old, s_new, step)

@@ -356,13 +356,14 @@ def _by_blocks(compute, x: ndarray, faces: int) -> tuple:
     return tuple(np.concatenate(p, axis=-1) for p in zip(*parts))
 
 
-def _checked_polygon(polygon) -> ndarray:
-    """The vertices (2, m) of a simple polygon, counter-clockwise."""
+def _checked_polygon(polygon, what: str = "Obstacle polygon") -> ndarray:
+    """The vertices (2, m) of a simple polygon, counter-clockwise; its
+    problems named as ``what`` (a body's region uses it too)."""
     v = np.array(polygon, dtype=np.float64)
     if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3 or \
             not np.isfinite(v).all():
-        raise InvalidInputError("Obstacle polygon must be at least 3 finite "
-                                "[x, y] vertices, got {!r}".format(polygon))
+        raise InvalidInputError("{} must be at least 3 finite [x, y] "
+                                "vertices, got {!r}".format(what, polygon))
     v = v.T
     edges = np.roll(v, -1, axis=1) - v
     lengths = np.hypot(*edges)
@@ -370,16 +371,16 @@ def _checked_polygon(polygon) -> ndarray:
     scale = np.ptp(v, axis=1).max()
     if (lengths <= 1e-12 * scale).any() or abs(area) <= 1e-12 * scale ** 2:
         raise InvalidInputError(
-            "Obstacle polygon has repeated vertices or no area: {}".format(
-                v.T.tolist()))
+            "{} has repeated vertices or no area: {}".format(
+                what, v.T.tolist()))
     a, b = v, np.roll(v, -1, axis=1)
     m = v.shape[1]
     i, j = np.triu_indices(m, 2)
     keep = (j - i) % m != m - 1          # neighbours share a vertex
     if _segments_cross(a[:, i[keep]], b[:, i[keep]], a[:, j[keep]],
                        b[:, j[keep]]).any():
-        raise InvalidInputError("Obstacle polygon crosses itself: {}"
-                                .format(v.T.tolist()))
+        raise InvalidInputError("{} crosses itself: {}".format(
+            what, v.T.tolist()))
     return v if area > 0 else v[:, ::-1].copy()
 
 

@@ -16,6 +16,7 @@ from skfem import ElementLineP1, ElementQuad1, MeshLine, MeshQuad
 from ..errors import InvalidInputError
 from ..mechanics.materials import LinearElastic
 from ..quadrature.points import MaterialPoints, seed_points
+from ..scenes.regions import region_shape
 from ..solve.results import Result
 from ..solve.small import solve_mpm
 
@@ -126,8 +127,9 @@ def column_extent(scene) -> tuple:
     body = scene.bodies[0]
     if callable(body.region):
         raise InvalidInputError(
-            "reference 'column': body {!r} needs a box region (its height "
-            "is the closed form's L0), not a function".format(body.name))
+            "reference 'column': body {!r} needs a box region, region = "
+            "{{ y = [lo, hi] }} (its height is the closed form's L0), not "
+            "a {}".format(body.name, region_shape(body.region)))
     if scene.grid.mesh is not None:
         grid = scene.grid.mesh.p[-1]
         grid_lo, grid_hi = float(grid.min()), float(grid.max())

@@ -129,6 +129,31 @@ def _extrapolated(measured: dict, row: dict) -> bool:
                  measured["convergence"] if c["choices"] == mine), False)
 
 
+def _disagreement(ax, measured: dict) -> None:
+    """Where groups' references of the error's quantity disagree
+    (:func:`~skfem_mpm.studies.study.disagreements`), a line at the
+    widest distance: each case's error is measured against its own
+    group's reference, so an error below the line does not show that the
+    case is that close to the problem's answer (a user trial's study
+    drew B-splines at 0.2% where the methods' references lay 1.4%
+    apart)."""
+    apart = [d["apart"] for d in measured.get("disagreements", ())
+             if d["quantity"] == measured["error"].get("quantity")]
+    if apart:
+        ax.axhline(max(apart), color="0.3", ls="--", lw=.8, label=(
+            "groups' references {:.2%} apart: errors are against each "
+            "group's own,\nso the answer is not shown to be closer than "
+            "this".format(max(apart))))
+
+
+def _group_name(choices: dict) -> str:
+    """The name of a study's group of cases (a row or a convergence
+    group's ``choices``): its choices but the elements, in one order."""
+    return ", ".join("{}={}".format(k, choices[k]) for k in (
+        "method", "rhs", "line_search", "newton", "ppc", "loadsteps")
+        if choices.get(k) is not None) or "all"
+
+
 def _cost(r: dict) -> float:
     """A case's CPU seconds (its wall seconds in studies from before
     they were recorded)."""
@@ -164,17 +189,19 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
     written = []
     label = measured["error"]["label"]
     ylabel = "{} (-)".format(label)
+    refined = ok and "elements" in ok[0]
+    # a group keeps its style in every figure (a user trial read mpm and
+    # fem in swapped colours from one figure to the next): the curves of
+    # a refinement, else the methods
     curves = {}
     for r in ok:
-        name = ", ".join("{}={}".format(k, r[k]) for k in (
-            "method", "rhs", "line_search", "newton", "ppc", "loadsteps")
-            if k in r)
-        curves.setdefault(name or "all", []).append(r)
-    refined = ok and "elements" in ok[0]
+        curves.setdefault(_group_name(r) if refined else r.get(
+            "method", "all cases"), []).append(r)
+    styles = dict(zip(sorted(curves), series_styles(len(curves))))
     if refined:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
-        for style, (name, rs) in zip(series_styles(len(curves)),
-                                     sorted(curves.items())):
+        for name, rs in sorted(curves.items()):
+            style = styles[name]
             rs = sorted(rs, key=lambda r: r["elements"])
             x = [r["elements"] for r in rs]
             y = [r["error"] for r in rs]
@@ -182,6 +209,7 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
                 name, fitted_rate(x, y)) if _extrapolated(
                     measured, rs[0]) else "{} (no extrapolation: data "
                 "range)".format(name), bound=_bounds(rs))
+        _disagreement(ax, measured)
         written.append(_finish(
             fig, ax, "elements along the most refined axis (-)", ylabel,
             "{} over grid refinement,\nagainst {}{}".format(
@@ -189,11 +217,9 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             outdir / "error_vs_elements.png"))
     if ok:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
-        methods = sorted({r.get("method", "all cases") for r in ok})
-        for style, m in zip(series_styles(len(methods)), methods):
-            rs = [r for r in ok if r.get("method", "all cases") == m]
+        for name, rs in sorted(curves.items()):
             _loglog(ax, [_cost(r) for r in rs], [r["error"] for r in rs],
-                    style, m, line=False, bound=_bounds(rs))
+                    styles[name], name, line=False, bound=_bounds(rs))
         front, best = [], np.inf
         for r in sorted(ok, key=_cost):
             if r["error"] is not None and 0 < r["error"] < best:
@@ -201,6 +227,7 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
                 front.append((_cost(r), r["error"]))
         if front:
             ax.loglog(*zip(*front), "k-", lw=.8, label="Pareto front")
+        _disagreement(ax, measured)
         written.append(_finish(
             fig, ax, "CPU time per case (s)", ylabel,
             "What accuracy costs: {} against CPU time,\nthe error "
@@ -232,7 +259,8 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             6.5, 3.2 * len(names)))
         for ax, name in zip(axes[:, 0], names):
             mine = [c for c in convergence if c["quantity"] == name]
-            for style, c in zip(series_styles(len(mine)), mine):
+            for c in mine:
+                style = styles[_group_name(c["choices"])]
                 order = np.argsort(c["cell_sizes"])[::-1]
                 h = np.asarray(c["cell_sizes"])[order]
                 f = np.asarray(c["values"])[order]

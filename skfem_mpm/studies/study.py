@@ -61,6 +61,7 @@ import numpy as np
 from ..errors import InvalidInputError, MPMError
 from ..scenes.io import atomic_path
 from ..scenes.quantities import Quantity, check_quantities
+from ..scenes.regions import Polygon, bounding_box, region_shape
 from ..scenes.scene import (METHODS, Grid, Scene, build_points,
                              point_bound, run_scene, support_names)
 from ..solve.backends import (AUTO_AMG_FROM, AUTO_PARDISO_FROM,
@@ -146,7 +147,9 @@ def check_reference(scene: Scene) -> None:
     """Refuse, before any run, a scene whose closed-form ``reference``
     cannot measure it: ``"column"`` without gravity along the last axis or
     without a body of some height in the grid
-    (:func:`~skfem_mpm.studies.column.column_extent`); a bearing-capacity
+    (:func:`~skfem_mpm.studies.column.column_extent`); ``"elastica"``
+    whose first body (the beam: its length and depth enter the load
+    parameter) is not a box; a bearing-capacity
     scene is checked with the scene itself
     (:meth:`~skfem_mpm.scenes.scene.Scene.check`).
 
@@ -157,6 +160,14 @@ def check_reference(scene: Scene) -> None:
     """
     if scene.reference == "column":
         column_extent(scene)
+    if scene.reference == "elastica":
+        shape = region_shape(scene.bodies[0].region)
+        if shape != "box":
+            raise InvalidInputError(
+                "reference 'elastica': body {!r} (the beam) needs a box "
+                "region, region = {{ x = [lo, hi], y = [lo, hi] }} (its "
+                "length and depth enter the load parameter), not a "
+                "{}".format(scene.bodies[0].name, shape))
 
 
 def case_error(scene: Scene, result) -> float:
@@ -295,9 +306,10 @@ def choices_of(params: dict) -> dict:
 
 def dof_bound(scene: Scene) -> float:
     """The grid DOFs a scene's bodies can take at the start, without
-    building anything: the nodes of the cells each body's box reaches
-    with one cell around it (every node of the grid for a function region
-    or a ready mesh), per body (each its own grid where bodies are in
+    building anything: the nodes of the cells each body's box (a
+    polygon's or disc's bounding box) reaches with one cell around it
+    (every node of the grid for another function region or a ready
+    mesh), per body (each its own grid where bodies are in
     contact) and times the dimension.  Whether ``"auto"`` may take
     Pardiso or AMG for a case (:func:`case_solvers`) is judged by it."""
     grid, dim = scene.grid, scene.grid.dim
@@ -306,8 +318,9 @@ def dof_bound(scene: Scene) -> float:
     degree = 2 if grid.element == "Q2" else 1
     nodes = 0.
     for body in scene.bodies:
-        region = [(lo, hi) for lo, hi, _ in grid.axes] \
-            if callable(body.region) else body.region
+        region = bounding_box(body.region)
+        if region is None:
+            region = [(lo, hi) for lo, hi, _ in grid.axes]
         nodes += float(np.prod([
             degree * min(n, np.ceil(max(min(hi, b_hi) - max(lo, b_lo), 0.)
                                     / (hi - lo) * n) + 2) + 1
@@ -412,8 +425,10 @@ def cell_size(scene: Scene, elements: int) -> float:
 def feature_lines(scene: Scene) -> list:
     """The coordinates ``(axis, value, what)``, each once, where the
     scene's geometry has a face inside the grid: the bounds of its
-    bodies' boxes, of its obstacles' boxes and polygons' vertices at the
-    start, of its supports' boxes and points."""
+    bodies' boxes and their polygons' vertices, of its obstacles' boxes
+    and polygons' vertices at the start, of its supports' boxes and
+    points (a disc or ball has none: its side, curved, lies on no grid
+    line)."""
     axes = scene.grid.axes
     found = []
 
@@ -423,7 +438,11 @@ def feature_lines(scene: Scene) -> list:
                      if lo < v < hi and not any(
                          (a, x) == (axis, v) for a, x, _ in found))
     for body in scene.bodies:
-        if not callable(body.region):
+        if isinstance(body.region, Polygon):
+            for d in range(len(axes)):
+                add(d, body.region.vertices[d], "body {!r}".format(
+                    body.name))
+        elif not callable(body.region):
             for d, bounds in enumerate(body.region):
                 add(d, bounds, "body {!r}".format(body.name))
     for ob in scene.obstacles:
@@ -599,7 +618,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             "penalty, the method): groups whose references disagree are " \
             "named (disagreements)"
     return {"error": {"label": label, "against": against, "measures": what,
-                      "closed_form": bool(scene.reference)},
+                      "closed_form": bool(scene.reference),
+                      "quantity": None if scene.reference else first},
             "convergence": convergence,
             "disagreements": [] if scene.reference else
             disagreements(convergence)}
