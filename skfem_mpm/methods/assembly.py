@@ -18,8 +18,8 @@ from numpy import ndarray
 from scipy.sparse import csc_matrix, csr_matrix
 
 __all__ = ["assembled_in_pattern", "ElementPattern", "GraphPattern",
-           "KernelLayout", "PatternMatrices", "block_structure", "local_stiffness",
-           "local_force", "local_load"]
+           "KernelLayout", "PatternMatrices", "block_structure",
+           "local_stiffness", "local_force", "local_load"]
 
 CHUNK = 512             # elements per block (bounds the temporaries)
 #: the attributes of the matrices scipy's checked constructor makes from
