@@ -789,6 +789,22 @@ def test_a_study_names_groups_whose_references_disagree():
     assert "not an error its cases share" in measured["error"]["measures"]
 
 
+def refined_study(limits: dict):
+    """Rows of a study over 4, 8 and 16 elements per method of ``limits``
+    (the value each converges to, at the rate 2) and their analysis."""
+    from skfem_mpm.studies.figures import PHASES
+    quantity = Quantity("displacement", "magnitude", reduce="max",
+                        name="settlement")
+    rows = [dict(method=m, elements=n, points=4 * n, failure="",
+                 values={"settlement": v * (1. + .5 / n ** 2)},
+                 wall_seconds=.1 * n, cpu_seconds=.1 * n,
+                 newton_iterations=2, factorisations=2, steps_run=1,
+                 **{"t_" + p: .01 * n for p in PHASES})
+            for m, v in limits.items() for n in (4, 8, 16)]
+    return rows, study_module.analyse(replace(COLUMN, reference=None),
+                                      rows, [quantity])
+
+
 def test_the_error_plots_draw_where_the_groups_references_disagree(
         tmp_path, monkeypatch):
     """error_vs_time.png drew B-splines' cases at 0.2% on the Pareto
@@ -797,17 +813,7 @@ def test_the_error_plots_draw_where_the_groups_references_disagree(
     error plots draw the widest distance of the error's quantity, here
     the 2% between mpm's and cpgimp's references, as a line."""
     import skfem_mpm.studies.figures as figures
-    quantity = Quantity("displacement", "magnitude", reduce="max",
-                        name="settlement")
-    rows = [dict(method=m, elements=n, points=4 * n, failure="",
-                 values={"settlement": v * (1. + .5 / n ** 2)},
-                 wall_seconds=.1 * n, cpu_seconds=.1 * n,
-                 newton_iterations=2, factorisations=2, steps_run=1,
-                 **{"t_" + p: .01 * n for p in figures.PHASES})
-            for m, v in (("mpm", 1.), ("cpgimp", 1.02))
-            for n in (4, 8, 16)]
-    measured = study_module.analyse(replace(COLUMN, reference=None), rows,
-                                    [quantity])
+    rows, measured = refined_study({"mpm": 1., "cpgimp": 1.02})
     apart = abs(1.02 - 1.) / 1.
     drawn = {}
     finish = figures._finish
@@ -833,16 +839,7 @@ def test_a_group_keeps_its_colour_in_every_study_figure(tmp_path,
     group (here the method) has one colour in all three figures that
     draw groups, whatever order the cases came in."""
     import skfem_mpm.studies.figures as figures
-    quantity = Quantity("displacement", "magnitude", reduce="max",
-                        name="settlement")
-    rows = [dict(method=m, elements=n, points=4 * n, failure="",
-                 values={"settlement": v * (1. + .5 / n ** 2)},
-                 wall_seconds=.1 * n, cpu_seconds=.1 * n,
-                 newton_iterations=2, factorisations=2, steps_run=1,
-                 **{"t_" + p: .01 * n for p in figures.PHASES})
-            for m, v in (("mpm", 1.), ("fem", 1.001)) for n in (4, 8, 16)]
-    measured = study_module.analyse(replace(COLUMN, reference=None), rows,
-                                    [quantity])
+    rows, measured = refined_study({"mpm": 1., "fem": 1.001})
     colours = {}
     save = figures.plot.save_figure
 
