@@ -10,11 +10,12 @@ from skfem_mpm.solve.rotation import ROTATION_WARNING, rotation_names
 
 
 def rotated(mesh, elem, axis, theta, nsteps, method="mpm",
-            kinematics="small"):
+            kinematics="small", points=None, **options):
     """A block in the middle of the grid, every node moved by the
     infinitesimal rotation ``theta`` about ``axis`` through the grid's
     centre, over ``nsteps`` steps: a linear field, which every method's
-    gradients reproduce exactly."""
+    gradients reproduce exactly (``points``: the state to go on from;
+    ``options``: ``simulate``'s keywords)."""
     dim = mesh.dim()
     centre = mesh.p.mean(axis=1)
     spin = np.zeros((3, 3))
@@ -26,11 +27,12 @@ def rotated(mesh, elem, axis, theta, nsteps, method="mpm",
         u = spin @ (basis.doflocs[:, ::dim] - centre[:, None])
         return np.arange(basis.N), u.T.ravel() * (f_new - f_old)
     pts = seed_points(mesh, 2, region=lambda x: (
-        np.abs(x - centre[:, None]) < .5).all(axis=0))
+        np.abs(x - centre[:, None]) < .5).all(axis=0)) if points is None \
+        else points
     return simulate(mesh, elem, pts, LinearElastic(1e6, .3),
                     lambda basis: np.zeros(0, dtype=np.int64),
                     loads=[Prescribed(motion)], nsteps=nsteps,
-                    method=method, kinematics=kinematics)
+                    method=method, kinematics=kinematics, **options)
 
 
 @pytest.mark.parametrize("method", ["mpm", "fem", "cpgimp"])
@@ -71,3 +73,28 @@ def test_finite_deformation_keeps_no_rotation():
     mesh = MeshQuad.init_tensor(*[np.linspace(0, 2, 9)] * 2)
     res = rotated(mesh, ElementQuad1(), 2, .01, 1, kinematics="finite")
     assert "rotation" not in res.points.state
+
+
+def test_a_resumed_run_warns_where_the_whole_run_does(caplog):
+    """0.3 rad in 6 steps (0.05 a step): the whole run warns at steps 3
+    (0.15 rad) and 5 (0.25); resumed after step 3, whose points carry
+    0.15 rad, it warned again at step 4 (a reviewer's), as if nothing had
+    been said; now at step 5 alone."""
+    import copy
+    from skfem_mpm import Options, Resume
+    mesh = MeshQuad.init_tensor(*[np.linspace(0, 2, 9)] * 2)
+    saved = {}
+
+    def keep(record, state):
+        if record.step == 3:
+            saved["record"], saved["points"] = record, copy.deepcopy(state)
+    rotated(mesh, ElementQuad1(), 2, .3, 6, callback=keep)
+    steps = [r.message.split(":")[0] for r in caplog.records
+             if "has rotated" in r.message]
+    assert steps == ["step 3", "step 5"]
+    caplog.clear()
+    rotated(mesh, ElementQuad1(), 2, .3, 6, points=saved["points"],
+            options=Options(resume=Resume.after(saved["record"])))
+    steps = [r.message.split(":")[0] for r in caplog.records
+             if "has rotated" in r.message]
+    assert steps == ["step 5"]

@@ -99,6 +99,12 @@ def test_a_disc_and_a_polygon_are_read():
     ("{ polygon = [[0.1, 0.1], [0.9, 0.1]] }", "",
      r"bodies\[0\]\.region\.polygon must be at least 3 finite \[x, y\] "
      "vertices"),
+    ("{ polygon = [[0.1, 0.1], [0.6], [0.6, 0.6]] }", "",      # ragged
+     r"bodies\[0\]\.region\.polygon must be at least 3 finite \[x, y\] "
+     "vertices"),
+    ('{ polygon = [[0.1, 0.1], ["a", 0.5], [0.6, 0.6]] }', "",
+     r"bodies\[0\]\.region\.polygon must be at least 3 finite \[x, y\] "
+     "vertices"),
     ("{ polygon = [[0.1, 0.1], [0.9, 0.8], [0.9, 0.1], [0.2, 0.9]] }", "",
      r"bodies\[0\]\.region\.polygon crosses itself"),
     ("{ polygon = [[0.1, 0.1], [0.5, 0.1], [0.9, 0.1]] }", "",
@@ -112,9 +118,9 @@ def test_a_disc_and_a_polygon_are_read():
      "radius\\)"),
     ("{ centre = [0.5, 0.5], radius = 0.3, y = [0.0, 1.0] }", "",
      r"bodies\[0\]\.region: must be one shape, got the keys of a box"),
-    ("{ centre = [0.5, 0.5], radius = 0.625 }", "",
+    ("{ centre = [0.5, 0.375], radius = 0.5 }", "",
      r"bodies\[0\]\.region: body 'b' \(a disc\) reaches outside the grid, "
-     r"whose x extent is \[0\.0, 1\.0\].*got \{'x': \[-0\.125, 1\.125\]"),
+     r"whose y extent is \[0\.0, 1\.0\].*got \{'y': \[-0\.125, 0\.875\]"),
     ("{ polygon = [[0.1, 0.1], [0.9, 0.1], [0.5, 1.5]] }", "",
      r"bodies\[0\]\.region: body 'b' \(a polygon\) reaches outside the "
      r"grid, whose y extent is \[0\.0, 1\.0\].*got \{'y': \[0\.1, 1\.5\]"),
@@ -124,8 +130,12 @@ def test_a_disc_and_a_polygon_are_read():
     ("{ centre = [0.5, 0.5], radius = 0.3 }", "z = [0.0, 1.0, 4]",
      r"bodies\[0\]\.region\.centre: must be a list of 3 finite numbers")])
 def test_bad_regions_are_refused_naming_the_key(region, z, message):
-    with pytest.raises(SceneError, match=message):
+    """Each bad region is one problem, named by its key (a ragged polygon
+    raised numpy's ValueError; every refused shape also "reached outside
+    the grid" as the box that stood in for it: reviewers)."""
+    with pytest.raises(SceneError, match=message) as refused:
         scene(BASE, Z=z, REGION=region)
+    assert len(refused.value.problems) == 1, refused.value.problems
 
 
 def test_the_python_api_refuses_a_shape_outside_or_of_another_dimension():

@@ -23,7 +23,7 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError
-from ..solve.obstacles import _by_blocks, _checked_polygon, _polygon_distance
+from ..solve.obstacles import by_blocks, checked_polygon, polygon_distance
 
 __all__ = ["Polygon", "Ball", "region_shape", "bounding_box",
            "outside_grid", "check_shape"]
@@ -39,11 +39,11 @@ class Polygon:
     dim = 2
 
     def __init__(self, vertices, what: str = "polygon"):
-        self.vertices = _checked_polygon(vertices, what)   # (2, m), ccw
+        self.vertices = checked_polygon(vertices, what)   # (2, m), ccw
 
     def __call__(self, x: ndarray) -> ndarray:
         x = np.asarray(x, dtype=np.float64)
-        phi = _by_blocks(lambda y: _polygon_distance(self.vertices, y), x,
+        phi = by_blocks(lambda y: polygon_distance(self.vertices, y), x,
                          self.vertices.shape[1])[0]
         return phi < 0.
 

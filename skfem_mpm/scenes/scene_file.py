@@ -585,7 +585,7 @@ def _body_region(c, data, key: str, dim: int):
     if len(shapes) > 1:
         c.bad(key, "must be one shape, got the keys of {}".format(
             " and ".join(shapes)), sorted(data))
-        return [(0., 1.)] * dim
+        return NO_REGION * dim
     found = len(c.problems)
     try:
         if "polygon" in data:
@@ -608,7 +608,13 @@ def _body_region(c, data, key: str, dim: int):
                 return Ball(centre, radius, key)
     except InvalidInputError as err:
         c.problems.append(str(err))
-    return [(0., 1.)] * dim
+    return NO_REGION * dim
+
+
+#: a refused shape's stand-in: the whole grid, which no later check of the
+#: scene refuses again (a reviewer: every bad disc also "reached outside
+#: the grid" as the box [0, 1] it was replaced by)
+NO_REGION = [(-math.inf, math.inf)]
 
 
 def _inside_grid(c, bodies, grid):

@@ -99,7 +99,7 @@ class Obstacle:
                     "dimension, got {}".format(self.box.tolist()))
             self.dim, self.vertices = self.box.shape[0], None
         else:
-            self.box, self.vertices = None, _checked_polygon(polygon)
+            self.box, self.vertices = None, checked_polygon(polygon)
             self.dim = 2
         self.displacement = np.zeros(self.dim) if displacement is None \
             else np.array(displacement, dtype=np.float64)
@@ -233,7 +233,7 @@ class Obstacle:
                         / (hi * hi).sum(axis=0)[:, None], 0., 1.)
             return (_nearest(((rel - t * hi[:, :, None]) ** 2).sum(axis=0),
                              n, inward, alike, y[-1].astype(np.int64)),)
-        return _by_blocks(nearest, np.vstack([x, np.arange(x.shape[1])]),
+        return by_blocks(nearest, np.vstack([x, np.arange(x.shape[1])]),
                           a.shape[1])[0]
 
     def face_gap(self, x: ndarray, face: ndarray, shift: ndarray):
@@ -311,7 +311,7 @@ class Obstacle:
             passed[near] = (first < last) & (first > 0.) & (last < 1.) & (
                 enter.argmax(axis=0) == leave.argmin(axis=0))
             return passed
-        first, last = _by_blocks(lambda y: _edges_crossed(
+        first, last = by_blocks(lambda y: _edges_crossed(
             self.vertices, y[:2], y[2:]), np.vstack((x, d)),
             self.vertices.shape[1])
         a, n, _, _ = self.faces()
@@ -336,7 +336,7 @@ class Obstacle:
         x = x if shift is None else x - shift[:, None]
         if self.box is not None:
             return _box_distance(self.box, x)
-        return _by_blocks(lambda y: _polygon_distance(self.vertices, y), x,
+        return by_blocks(lambda y: polygon_distance(self.vertices, y), x,
                           self.vertices.shape[1])
 
 
@@ -344,7 +344,7 @@ class Obstacle:
 BLOCK = 1 << 21
 
 
-def _by_blocks(compute, x: ndarray, faces: int) -> tuple:
+def by_blocks(compute, x: ndarray, faces: int) -> tuple:
     """``compute(x)`` (a tuple of arrays over the positions' last axis) by
     blocks of positions, so that no block holds more than :data:`BLOCK`
     position-face pairs (a polygon of 256 vertices and 2e5 corners took
@@ -356,10 +356,13 @@ def _by_blocks(compute, x: ndarray, faces: int) -> tuple:
     return tuple(np.concatenate(p, axis=-1) for p in zip(*parts))
 
 
-def _checked_polygon(polygon, what: str = "Obstacle polygon") -> ndarray:
+def checked_polygon(polygon, what: str = "Obstacle polygon") -> ndarray:
     """The vertices (2, m) of a simple polygon, counter-clockwise; its
     problems named as ``what`` (a body's region uses it too)."""
-    v = np.array(polygon, dtype=np.float64)
+    try:
+        v = np.array(polygon, dtype=np.float64)
+    except (TypeError, ValueError):     # ragged, or not numbers
+        v = np.zeros((0, 2))
     if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3 or \
             not np.isfinite(v).all():
         raise InvalidInputError("{} must be at least 3 finite [x, y] "
@@ -480,7 +483,10 @@ def _box_distance(box: ndarray, x: ndarray):
     return phi, normal
 
 
-def _polygon_distance(v: ndarray, x: ndarray):
+def polygon_distance(v: ndarray, x: ndarray):
+    """The signed distance of the positions ``x`` (2, m) from the simple
+    polygon of counter-clockwise vertices ``v`` (2, k), negative inside,
+    and the unit normals (2, m) pointing out of it."""
     a = v[:, :, None]                                   # (2, k, 1)
     e = np.roll(v, -1, axis=1)[:, :, None] - a
     rel = x[:, None, :] - a                             # (2, k, m)

@@ -112,7 +112,12 @@ class SmallStrainRotation(GridTerm):
     def begin_run(self, points) -> None:
         for name in self.names:
             points.state.setdefault(name, np.zeros(points.n))
+        # a resumed run's points carry their rotation: the level it
+        # passed was warned by the invocation before (a reviewer's)
+        largest = rotation_angle(points.state, self.dim).max(initial=0.)
         self.level = ROTATION_WARNING
+        while self.level < largest:
+            self.level *= 2.
 
     def begin_step(self, problem) -> Optional[GridTerm]:
         return self
