@@ -9,6 +9,7 @@ from skfem import Basis, ElementQuad1, ElementVector, MeshQuad
 from skfem_mpm import (Contact, Dynamics, LinearElastic, Obstacle,
                        Prescribed, RigidBody, seed_points, simulate)
 from skfem_mpm.quadrature.points import concatenate_points
+from test_body_contact import full_and_resumed
 
 GAMMA = 9810.          # weight per unit volume (density 1000, g 9.81)
 H = .1
@@ -37,7 +38,7 @@ def base(b):
     return b.get_dofs(lambda x: np.isclose(x[1], 0.)).all()
 
 
-def pushed_beside(method, scale, dynamics=None):
+def pushed_beside(method, scale, dynamics=None, resume=None):
     """Block A (0.4-0.8 x 0-0.4, its foot 0.4-0.7 below 0.1) pressed down
     by its top nodes (0.4 <= x <= 0.8, y = 0.4) by ``scale`` MOVE; block
     B beside it (0.81-1.2 x 0-0.4: a tenth of a cell apart, in A's
@@ -55,10 +56,13 @@ def pushed_beside(method, scale, dynamics=None):
                                   left=.8 + .1 * H)])
     timing = dict(nsteps=4) if dynamics is None else dict(
         dynamics=dynamics)
-    return pts, simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
-                         base, body_force=[0., -GAMMA], method=method,
-                         loads=[Prescribed(ram)], contacts=[Contact(0, 1)],
-                         **timing)
+    args = (mesh, ElementQuad1(), pts, LinearElastic(1e6, .3), base)
+    kwargs = dict(body_force=[0., -GAMMA], method=method,
+                  loads=[Prescribed(ram)], contacts=[Contact(0, 1)],
+                  **timing)
+    if resume is not None:
+        return full_and_resumed(args, kwargs, resume)
+    return pts, simulate(*args, **kwargs)
 
 
 @pytest.mark.parametrize("method", ("mpm", "ugimp", "cpgimp"))
@@ -99,6 +103,16 @@ def test_in_dynamics_too():
     b = pts.body == 1
     moved = res.points.displacement[:, b] - still.points.displacement[:, b]
     assert np.abs(moved).max() < 1e-10 * MOVE
+
+
+def test_resume_is_bit_identical():
+    """Resumed after step 2 of 4, the pushed blocks end where the whole
+    run leaves them, to the bit (which copies move is found from the
+    points at each step's start)."""
+    full, resumed = pushed_beside("ugimp", 1., resume=2)
+    assert np.array_equal(full.points.x, resumed.points.x)
+    assert np.array_equal(full.history[-1].reaction_values,
+                          resumed.history[-1].reaction_values)
 
 
 @pytest.mark.parametrize("way", ([-MOVE, 0.], [0., -MOVE]))
