@@ -1,0 +1,58 @@
+"""Newton on a nearly incompressible perfectly plastic footing pushed by a
+smooth obstacle: GIMP's iterations against standard MPM's (new-user trial
+58, finding 7; ``docs/robustness.md``)."""
+import numpy as np
+import pytest
+from skfem import ElementQuad1, MeshQuad
+
+from skfem_mpm import (Obstacle, Options, Stabilisation, VonMises,
+                       seed_points, simulate)
+
+NSTEPS = 6
+
+
+def small_footing(method: str):
+    """A smooth strip punch (half model, B / 2 = 0.5) pushed 0.015 into
+    weightless von Mises soil (E = 1e5, nu = 0.49, yield stress 100),
+    h = 1/8, 2 x 2 points a cell (456), mean dilatation, 6 steps."""
+    h, half = 1 / 8, .5
+    top = 1.25 - h / 2
+    mesh = MeshQuad.init_tensor(np.arange(0, 1.5 + 1e-9, h),
+                                np.arange(0, 1.25 + h / 2 + 1e-9, h))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < top)
+    punch = Obstacle(box=[[-1., half], [top, top + .3]],
+                     displacement=[0., -.015])
+
+    def supports(b):
+        return np.union1d(b.get_dofs(lambda x: x[1] == 0).all(),
+                          b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 1.5)
+                                     ).all("u^1"))
+    return simulate(mesh, ElementQuad1(), points,
+                    VonMises(1e5, .49, yield_stress=100.), supports,
+                    nsteps=NSTEPS, method=method, obstacles=[punch],
+                    options=Options(stabilisation=Stabilisation(
+                        antilocking=True)))
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "needs a change in solve/contact.py, which another helper's file "
+    "holds: the penalty in units of E / (1 - nu^2) instead of lam + 2 mu "
+    "(88 iterations, no cut-back), or smooth faces read at the grid's "
+    "field (92); now 469 iterations and 5 cut-backs (MPM 86)"))
+def test_gimp_footing_iterates_as_mpm():
+    """cpGIMP's corners moved by their point's value and gradient,
+    ``u_p + grad(u)_p q_c``, disagree between neighbours by the field's
+    curvature, and the penalty, 10 (lam + 2 mu) / h, is 510 times the
+    shear modulus over h at nu = 0.49: under the flat punch the pressed
+    corners fell from 31 to 15 within a step's iterations, the iterates
+    went on to yield every point, and with the perfectly plastic
+    tangent's deviatoric part scaled by ``yield / q_trial`` Newton's
+    corrections grew from 8e-3 to 1e13 (MPM's stay below 3e-3).  The
+    tangent is consistent all the while (central differences within
+    1e-9 where no corner or point switches).  cpGIMP should take at most
+    2 times MPM's iterations, with no cut-back."""
+    mpm, gimp = small_footing("mpm"), small_footing("cpgimp")
+    assert len(mpm.history) == NSTEPS
+    assert len(gimp.history) == NSTEPS
+    assert gimp.counters["newton_iterations"] <= \
+        2 * mpm.counters["newton_iterations"]
