@@ -108,7 +108,7 @@ def test_a_disc_and_a_polygon_are_read():
     ("{ polygon = [[0.1, 0.1], [0.9, 0.8], [0.9, 0.1], [0.2, 0.9]] }", "",
      r"bodies\[0\]\.region\.polygon crosses itself"),
     ("{ polygon = [[0.1, 0.1], [0.5, 0.1], [0.9, 0.1]] }", "",
-     r"bodies\[0\]\.region\.polygon has repeated vertices or no area"),
+     r"bodies\[0\]\.region\.polygon has no area"),
     ("{ centre = [0.5, 0.5], radius = 0.0 }", "",
      r"bodies\[0\]\.region\.radius: must be > 0"),
     ("{ centre = [0.5, 0.5], radius = -0.1 }", "",
