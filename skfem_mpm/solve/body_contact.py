@@ -708,12 +708,15 @@ class BodyContact(GridTerm):
         return np.unique(np.concatenate(held)) if held else None
 
     def held_supports(self, points, dofs: ndarray, where: ndarray,
-                      N: int, active: ndarray) -> ndarray:
+                      N: int, active: ndarray,
+                      within: float = None) -> ndarray:
         """The supports' DOFs ``dofs`` (of every field's copy of the grid,
         ``N`` DOFs in all; at the positions ``where``, dim x m) that hold:
         a field's copy of a node only where its bodies' material (the
         points' domains, as :meth:`corners` has them) lies on the support
-        next to the node, within :data:`SUPPORT_NEAREST` cells as near as
+        next to the node, within ``within`` cells (default
+        :data:`SUPPORT_NEAREST`; prescribed motion's
+        :data:`~skfem_mpm.solve.motion.MOVED_NEAREST`) as near as
         the nearest material of any field there, where that lies within
         :data:`SUPPORT_NEAREST` cells of it (else every copy holds, as
         the glued fields would; the distance, along the
@@ -747,8 +750,8 @@ class BodyContact(GridTerm):
             distance = self.support_distances(nodes, lo, hi, fields)
             nearest = distance.min(axis=0)[node]
             held[on] = (nearest > SUPPORT_NEAREST * self.h) | (
-                distance[field[on], node] <= nearest
-                + SUPPORT_NEAREST * self.h)
+                distance[field[on], node] <= nearest + self.h * (
+                    SUPPORT_NEAREST if within is None else within))
         if self.weights is not None and not held.all():
             # grid neighbours of one field and component
             i, j = cKDTree(where.T).query_pairs(
