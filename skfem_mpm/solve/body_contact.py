@@ -379,6 +379,7 @@ class BodyContact(GridTerm):
         it told a user whose block lay on a slab of the grid's width, its
         sides inside cells facing nothing (user trials)."""
         dim, inside = self.dim, 0
+        stairs = []               # (body, partner bodies, axis, levels)
         partners = {}
         for a, b, _ in self.contacts:
             partners.setdefault(a, set()).add(b)
@@ -402,6 +403,11 @@ class BodyContact(GridTerm):
                     side = ~np.isin(np.ravel_multi_index(tuple(moved),
                                                          shape), keys)
                     face = x[d, side] + sign * w[d, side]
+                    levels = np.unique(np.rint(face[facing(
+                        x[:, side], w[:, 0], d, sign, partner,
+                        self.lines[d][-1] - self.lines[d][0])] / step[d]))
+                    if levels.size >= STAIRS:
+                        stairs.append((k, sorted(others), d, levels.size))
                     lines = self.lines[d]
                     at = np.clip(np.searchsorted(lines, face), 1,
                                  lines.size - 1)
@@ -411,6 +417,19 @@ class BodyContact(GridTerm):
                     inside += int(np.count_nonzero(facing(
                         x[:, side], w[:, 0], d, sign, partner,
                         lines[-1] - lines[0])))
+        for k, others, d, levels in stairs[:1]:
+            logger.warning(
+                "contact between bodies: body %d's surface facing body %s "
+                "is a staircase across axis %d (its domains' faces at %d "
+                "levels: an inclined or curved surface seeded on the "
+                "points' lattice): contact acts on the steps' faces, so the "
+                "bodies do not slide along the slope (a frictionless block "
+                "on a body's 20 degree slope slid 3%% of g sin(theta) t^2 / "
+                "2) and the pressure follows the steps; for sliding, tilt "
+                "gravity so that the interface lies along grid lines, or "
+                "make the inclined body an Obstacle polygon "
+                "(docs/contact.md)", k, ", ".join(map(str, others)), d,
+                levels)
         if inside:
             logger.warning(
                 "contact between bodies: a body whose sides meet the other "
@@ -826,6 +845,12 @@ def body_loads(problem) -> ndarray:
         out += np.where(ramp, factor, 1.)[:, None] * volume[:, None] * rows
     return out
 
+
+#: the levels of a body's faces towards a body it is in contact with,
+#: across one axis, from which its surface is a staircase (an incline or
+#: a curve seeded on the points' lattice, not a step):
+#: :meth:`BodyContact.warn_sides_inside_cells`
+STAIRS = 3
 
 #: the cells a body's material may lie farther from a support's node than
 #: the nearest material there and still be held by it
