@@ -125,7 +125,8 @@ def test_bodies_apart_inside_a_cell_do_not_interact(method):
     at g exactly while the gap closes, no contact force; glued (no
     contact) the shared nodes hold it."""
     h = .25
-    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.arange(0, 2 + h / 2, h))
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5),
+                                np.arange(0, 2 + h / 2, h))
     pts = bodies(mesh, 4, [[(0, 1), (0, 1.)], [(.25, .75), (1. + h / 4, 1.5)]])
     dt, T = .01, .1                         # the gap closes at 0.113 s
     args = (mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
