@@ -182,9 +182,9 @@ def test_the_seeded_area_is_the_shapes_or_warned(region, grid, ppc, warned,
         exact = shoelace(tomllib.loads("p = " + region)["p"]["polygon"])
     with caplog.at_level(logging.WARNING):
         seeded = build_points(s, s.grid.build()[0]).volume.sum()
-    said = [float(re.search(r"the region about ([\d.]+)", r.getMessage()
+    said = [float(re.search(r"the region's about ([\d.]+)", r.getMessage()
                             ).group(1)) for r in caplog.records
-            if "the region about" in r.getMessage()]
+            if "the region's about" in r.getMessage()]
     off = abs(seeded / exact - 1)
     assert (off > .012) == warned and (off < .008) == (not warned)
     assert bool(said) == warned
