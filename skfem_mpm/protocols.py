@@ -124,13 +124,16 @@ class GridTerm:
         return None
 
     def held_supports(self, points, dofs: ndarray, where: ndarray,
-                      N: int, active: ndarray) -> ndarray:
+                      N: int, active: ndarray,
+                      within: Optional[float] = None) -> ndarray:
         """Of the supports' DOFs ``dofs`` (at the positions ``where``, dim
         x m; ``N`` DOFs in all, ``active`` the mask of those the points
         reach), those that hold in the step from ``points``: all of them,
         unless the term puts bodies on fields of their own (a contact
         between bodies holds a body's copy of a node only where the body
-        lies on the support)."""
+        lies on the support, within ``within`` cells of the nearest
+        material there: ``None`` the term's own margin for supports, a
+        number for the nodes of prescribed motion)."""
         return dofs
 
     def begin_run(self, points) -> None:

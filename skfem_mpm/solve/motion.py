@@ -13,6 +13,14 @@ from .linear import check_rigid_body_modes, component_labels, \
 
 __all__ = ["HeldMotion", "held_motion"]
 
+#: the cells a body's material may lie farther from a node that prescribed
+#: motion moves than the nearest material there and still be moved by it
+#: (the contacts' default tolerance: touching).  A block beside the
+#: pushed one, 0.1 and 0.2 cells apart, was dragged by half the motion
+#: within the supports' quarter cell
+#: (:data:`~skfem_mpm.solve.body_contact.SUPPORT_NEAREST`)
+MOVED_NEAREST = 1e-3
+
 
 class HeldMotion(NamedTuple):
     """The grid DOFs a step holds (``fixed``: supports, prescribed motion,
@@ -41,7 +49,8 @@ def prescribed_increments(run, s_old: float, s_new: float, step: int):
             "grid DOFs in [0, {}) and one finite increment each, got DOFs of "
             "dtype {} and shape {}, increments of shape {}".format(
                 step, N, dofs.dtype, dofs.shape, values.shape))
-    # the same motion on every field (contacts between bodies)
+    # the same motion on every field's copy (contacts between bodies), of
+    # which :func:`held_motion` keeps those its bodies lie on
     return tile_dofs(dofs, N, run.nfields), np.tile(values, run.nfields)
 
 
@@ -89,22 +98,32 @@ def held_motion(run, op, points, s_old: float, s_new: float,
                 step: int) -> HeldMotion:
     """The supports, prescribed increments and rigid bodies' motion of a
     step from load scale ``s_old`` to ``s_new``, checked (a term's
-    ``held_supports`` chooses the supports' DOFs that hold: a contact
-    between bodies holds a field's copy of a node only where its bodies
-    lie on the support, :meth:`~skfem_mpm.solve.body_contact.BodyContact.
-    held_supports`): prescribed motion
+    ``held_supports`` chooses the supports' and the prescribed motion's
+    DOFs that hold: a contact between bodies holds a field's copy of a
+    node only where its bodies lie on the support or the moved nodes,
+    :meth:`~skfem_mpm.solve.body_contact.BodyContact.held_supports`; a
+    rigid body drives the nodes of its points' cells, on its own field
+    only): prescribed motion
     that lost its material and rigid bodies driving held DOFs otherwise
     are refused (:class:`~skfem_mpm.errors.PrescribedMotionError`)."""
-    fixed, du = run.D, np.zeros(op.N)
+    du = np.zeros(op.N)
     active = np.zeros(op.N, dtype=bool)
     active[op.active_dofs] = True
-    for term in run.terms:
-        fixed = term.held_supports(points, fixed,
-                                   run.grid.doflocs[:, fixed], run.grid.N,
-                                   active)
+
+    def held(dofs, **within):
+        for term in run.terms:
+            dofs = term.held_supports(points, dofs,
+                                      run.grid.doflocs[:, dofs], run.grid.N,
+                                      active, **within)
+        return dofs
+    fixed = held(run.D)
     driven = np.zeros(0, dtype=np.int64)
     if run.prescribed is not None:
         dofs, values = prescribed_increments(run, s_old, s_new, step)
+        # a body's copy moved only where its material lies on the nodes
+        # (the supports' rule, touching): not a body beside the one pushed
+        on = np.isin(dofs, held(dofs, within=MOVED_NEAREST))
+        dofs, values = dofs[on], values[on]
         du[dofs] = values
         fixed = np.union1d(fixed, dofs)
         driven = dofs[values != 0.]
