@@ -1,17 +1,23 @@
-"""Cost of contact with an obstacle: a step with a floor obstacle against
-the same step with the floor as grid-line supports.
+"""Cost of contact: a step with a floor obstacle against the same step
+with the floor as grid-line supports, or (``--bodies``) a step with two
+bodies in contact against the same bodies glued.
 
 A unit square of material, 2x2 points per cell, on a Q1 grid with a row
 of cells below it; body force, one load step of finite deformation
 (standard MPM, Newton).  ``supports``: the grid nodes of the line y = 0
 held; ``obstacle``: a smooth floor box below y = 0; both hold x on x = 0
 (symmetry; the floor carries the weight through contact at the
-material's surface).
+material's surface).  ``--bodies``: the square cut at y = 0.5 into two
+bodies of the same material, the lower held by the grid nodes of y = 0;
+glued (one grid field, the default) against ``Contact(0, 1)`` smooth
+(a field per body where both are present; the upper body rests on the
+lower through contact at the points' surfaces).
 Per size: seconds of the step (all phases, best of ``--repeat``), Newton
 iterations, contact's augmented-Lagrangian rounds, seconds per Newton
 iteration, and the ratio of the obstacle step to the supported one.
 
     python benchmarks/contact_cost.py [--sizes 32 100 224] [--repeat 2]
+        [--bodies]
 """
 import argparse
 import platform
@@ -20,31 +26,41 @@ import time
 import numpy as np
 from skfem import ElementQuad1, MeshQuad
 
-from skfem_mpm import (LinearElastic, Obstacle, Options, Stabilisation,
-                       seed_points, simulate)
+from skfem_mpm import (Contact, LinearElastic, Obstacle, Options,
+                       Stabilisation, seed_points, simulate)
 
 
-def run(cells: int, floor: bool):
+def run(cells: int, floor: bool, bodies: bool = False):
+    """One step's (points, seconds, Newton iterations, contact rounds):
+    ``floor`` the contact case (an obstacle floor, or with ``bodies`` two
+    bodies in contact), else its reference (supports, or glued)."""
     h = 1. / cells
     mesh = MeshQuad.init_tensor(np.linspace(0., 1. + 2 * h, cells + 3),
                                 np.linspace(-h, 1. + 2 * h, cells + 4))
     points = seed_points(mesh, 2, region=lambda x: (x[0] < 1.)
                          & (x[1] > 0.) & (x[1] < 1.))
+    points.body[:] = points.x[1] > .5
 
     def axis(b):                      # symmetry: x held on x = 0
         return b.get_dofs(lambda x: x[0] == 0).all("u^1")
-    if floor:
+
+    def base(b):
+        return np.concatenate([axis(b), b.get_dofs(
+            lambda x: np.isclose(x[1], 0.)).all()])
+    obstacles, contacts = [], []
+    if bodies:
+        supports = base
+        contacts = [Contact(0, 1)] if floor else []
+    elif floor:
         supports = axis
         obstacles = [Obstacle(box=[[-1., 2.], [-1., 0.]], name="floor")]
     else:
-        def supports(b):
-            return np.concatenate([axis(b), b.get_dofs(
-                lambda x: np.isclose(x[1], 0.)).all()])
-        obstacles = []
+        supports = base
     tic = time.perf_counter()
     result = simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
                       supports, body_force=[0., -2e4], nsteps=1,
                       method="mpm", kinematics="finite", obstacles=obstacles,
+                      contacts=contacts,
                       options=Options(stabilisation=Stabilisation(ghost=0.)))
     seconds = time.perf_counter() - tic
     return (points.n, seconds, result.counters["newton_iterations"],
@@ -56,17 +72,22 @@ def main():
     parser.add_argument("--sizes", type=int, nargs="+",
                         default=[32, 100, 224])
     parser.add_argument("--repeat", type=int, default=2)
+    parser.add_argument("--bodies", action="store_true",
+                        help="two bodies in contact against glued")
     args = parser.parse_args()
     print("machine: {} {}, Python {}".format(platform.system(),
                                              platform.machine(),
                                              platform.python_version()))
     print("{:>8} {:>9} {:>9} {:>6} {:>6} {:>10} {:>10} {:>7} {:>7}".format(
-        "points", "s sup.", "s obst.", "it", "it", "s/it sup.",
-        "s/it obst.", "rounds", "ratio"))
+        "points", *(("s glued", "s cont.", "it", "it", "s/it glued",
+                     "s/it cont.") if args.bodies else
+                    ("s sup.", "s obst.", "it", "it", "s/it sup.",
+                     "s/it obst.")), "rounds", "ratio"))
     for cells in args.sizes:
         best = {}
         for floor in (False, True):
-            runs = [run(cells, floor) for _ in range(args.repeat)]
+            runs = [run(cells, floor, args.bodies)
+                    for _ in range(args.repeat)]
             best[floor] = min(runs, key=lambda r: r[1])
         n, t0, it0, _ = best[False]
         _, t1, it1, rounds = best[True]

@@ -1,5 +1,7 @@
 """Contact between deformable bodies on separate fields
 (:mod:`skfem_mpm.solve.body_contact`, :mod:`skfem_mpm.methods.fields`)."""
+import re
+
 import numpy as np
 import pytest
 from scipy.spatial import cKDTree
@@ -123,7 +125,8 @@ def test_bodies_apart_inside_a_cell_do_not_interact(method):
     at g exactly while the gap closes, no contact force; glued (no
     contact) the shared nodes hold it."""
     h = .25
-    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.arange(0, 2 + h / 2, h))
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5),
+                                np.arange(0, 2 + h / 2, h))
     pts = bodies(mesh, 4, [[(0, 1), (0, 1.)], [(.25, .75), (1. + h / 4, 1.5)]])
     dt, T = .01, .1                         # the gap closes at 0.113 s
     args = (mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
@@ -1685,6 +1688,41 @@ def test_lean_warning_only_where_a_side_in_a_cell_faces_the_other_body(
              lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
              body_force=[0., -1e3], contacts=[Contact(0, 1, "rough")])
     assert ("may lean" in caplog.text) == warned
+
+
+@pytest.mark.parametrize("slope, warned", [(np.tan(np.radians(20.)), True),
+                                           (0., False)])
+def test_a_body_s_inclined_surface_is_warned_as_a_staircase(slope, warned,
+                                                             caplog):
+    """A user trial: a block seeded on a slab body's 20 degree slope did
+    not slide, without friction (3% of g sin(theta) t^2 / 2): both
+    surfaces are staircases of the points' domains, and contact acts on
+    the steps' faces.  That is warned, naming the bodies and the levels
+    (at least ``STAIRS``); a block on a level slab, a step and a pile are
+    not (the warnings of the tests above and below)."""
+    from skfem_mpm.solve.body_contact import STAIRS
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 21), np.linspace(0, 1.4,
+                                                                   15))
+    slab = seed_points(mesh, 3, region=lambda x: x[1] < .2 + slope * x[0])
+    o = np.array([.5, .2 + slope * .5])
+    along = np.array([1., slope]) / np.hypot(1., slope)
+    normal = np.array([-along[1], along[0]])
+
+    def block(x):
+        s, m = along @ (x - o[:, None]), normal @ (x - o[:, None])
+        return (m > 0) & (m < .2) & (s > 0) & (s < .4)
+    upper = seed_points(mesh, 3, region=block)
+    upper.body[:] = 1
+    simulate(mesh, ElementQuad1(), concatenate_points([slab, upper]),
+             LinearElastic(1e7, .3),
+             lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+             body_force=[0., -2e4], contacts=[Contact(0, 1)],
+             dynamics=Dynamics(.01, .01, 2e3))
+    found = re.search(r"staircase across axis \d \(its domains' faces at "
+                      r"(\d+) levels", caplog.text)
+    assert bool(found) == warned
+    if warned:
+        assert int(found.group(1)) >= STAIRS
 
 
 def test_a_node_beyond_a_block_s_edge_in_line_with_its_floor_is_level():

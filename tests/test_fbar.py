@@ -192,6 +192,27 @@ def test_an_inverted_increment_is_an_inversion_error():
             kin.response(bar, u.ravel(), points)
 
 
+@pytest.mark.parametrize("fbar", [False, True])
+def test_an_overflowing_increment_is_an_inversion_error_saying_so(fbar):
+    """A diverging Newton trial (grid displacements of 1e200: its
+    gradients overflow) raises the kinematics' :class:`InversionError`
+    naming the trial's largest displacement, without numpy's overflow
+    warnings (trial 58: 17 of them, and "det dF nan" unexplained)."""
+    import warnings
+    from skfem_mpm.errors import InversionError
+    mesh, points = block(2)
+    op = operator("mpm", mesh, points, 2)
+    kin = FiniteStrain(LinearElastic(1e3, .3), 2, Counter(), kernels="numpy")
+    u = 1e200 * np.random.default_rng(2).uniform(-1, 1, op.N)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        with pytest.raises(InversionError) as err:
+            kin.response(IncrementFbar(op, points.volume) if fbar else op,
+                         u, points)
+    assert "not finite, the trial's largest grid displacement increment " \
+        "{:.3g}".format(np.abs(u).max()) in str(err.value)
+
+
 def test_fbar_force_has_the_round_off_of_the_additive_average():
     """At increments of 1e-4 (nu = 0.499: pressures 400 times the
     deviatoric stresses) the force's departure from its linearisation

@@ -808,6 +808,12 @@ def test_a_polygon_s_inside_holds_at_a_vertex_s_height():
     (lambda: Obstacle(box=[[0, 1], [1, 0]]), "x0 < x1"),
     (lambda: Obstacle(polygon=[[0, 0], [2, 0], [0, 1], [1, 2]]),
      "crosses itself"),
+    # a symmetric bow-tie: its signed area is zero
+    (lambda: Obstacle(polygon=[[0, 0], [1, 1], [1, 0], [0, 1]]),
+     "crosses itself"),
+    (lambda: Obstacle(polygon=[[0, 0], [1, 0], [1, 0], [0, 1]]),
+     "repeated vertices"),
+    (lambda: Obstacle(polygon=[[0, 0], [1, 0], [2, 0]]), "has no area"),
     (lambda: Obstacle(polygon=[[0, 0], [1, 0]]), "at least 3"),
     (lambda: Obstacle(box=[[0, 1]], friction="sticky"), "'rough'"),
     (lambda: Obstacle(box=[[0, 1]], friction=-.1), ">= 0"),

@@ -142,13 +142,17 @@ def test_a_region_whose_side_cuts_sub_cells_is_warned(top, warned, caplog):
     seeded = float(mp.volume.sum())
     assert seeded == np.ceil(top / .0625 - .5) * .0625
     said = [r.getMessage() for r in caplog.records
-            if "the region about" in r.getMessage()]
+            if "against the region's about" in r.getMessage()]
     assert len(said) == int(warned)
     assert warned == (abs(top / seeded - 1) > REGION_VOLUME_WARNING)
     if warned:
-        region = float(re.search(r"the region about ([\d.]+)",
-                                 said[0]).group(1))
+        found = re.search(r"([+-][\d.]+)% against the region's about "
+                          r"([\d.]+)", said[0])
+        region = float(found.group(2))
         assert region == pytest.approx(top, abs=.0625 / 16)
+        # the points' excess over the region (a user read it backwards)
+        assert float(found.group(1)) == pytest.approx(
+            100 * (seeded / region - 1), abs=.051)
 
 
 @pytest.mark.parametrize("shape, n, exact", [
@@ -184,9 +188,9 @@ def test_curved_and_inclined_regions_are_warned_by_their_volume(
         exact = region(np.array([X.ravel(), Y.ravel()])).mean() * 16
     with caplog.at_level(logging.WARNING):
         seeded = float(seed_points(mesh, n, region=region).volume.sum())
-    said = [float(re.search(r"the region about ([\d.]+)", r.getMessage()
+    said = [float(re.search(r"the region's about ([\d.]+)", r.getMessage()
                             ).group(1)) for r in caplog.records
-            if "the region about" in r.getMessage()]
+            if "against the region's about" in r.getMessage()]
     off = abs(seeded / exact - 1)
     assert off > .012 or off < .008
     assert bool(said) == (off > .012)

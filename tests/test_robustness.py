@@ -902,3 +902,25 @@ def test_points_leaving_the_grid_in_a_step_say_when_and_why():
     assert "they left it in step 1 (load factor 0 to 1)" in str(err.value)
     assert "a load past what the body can carry" in str(err.value)
     assert err.value.load_factor == 0.
+
+
+def test_points_leaving_the_grid_in_dynamics_say_at_what_time():
+    """In dynamics the step is named by its times, not by fractions of the
+    duration called load factors (trial 59: "load factor 0.1055 to
+    0.1094" for a run of time steps of 5 s): a block launched upwards
+    by a body force leaves the grid in the second step, from t = 0.5 to
+    1 of a duration of 2."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import Dynamics, LinearElastic, PointsOutsideGridError, \
+        seed_points, simulate
+    mesh = MeshQuad.init_tensor(np.linspace(0., 3., 7),
+                                np.linspace(0., 3., 7))
+    points = seed_points(mesh, 2, region=[(1., 2.), (1., 2.)])
+    with pytest.raises(PointsOutsideGridError) as err:
+        simulate(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+                 lambda basis: basis.get_dofs(lambda x: x[1] < 0.).all(),
+                 body_force=[0., 8.], dynamics=Dynamics(.5, 2., 1.))
+    step = err.value.history[-1].step + 1
+    assert "they left it in step {} (time {:.4g} to {:.4g})".format(
+        step, .5 * (step - 1), .5 * step) in str(err.value)
+    assert "load factor" not in str(err.value)

@@ -319,15 +319,18 @@ class FiniteStrain:
         else:
             grad = op.gradients(du)
         dF = deformation_increment(grad)
-        dF_inv, detdF = inverse_and_det(dF, dim)
+        with np.errstate(over="ignore", invalid="ignore"):  # refused below
+            dF_inv, detdF = inverse_and_det(dF, dim)
         bad = np.flatnonzero(~(detdF > 0))
         if bad.size:       # the most inverted first (a NaN's at the end)
             bad = bad[np.argsort(detdF[bad], kind="stable")]
             raise InversionError(
                 "{} point(s) invert (det dF <= 0), the most {} at x = {} "
-                "(det dF {:.3g})".format(
+                "(det dF {:.3g}{})".format(
                     bad.size, bad[:5].tolist(), points.x[:, bad[0]].tolist(),
-                    detdF[bad[0]]))
+                    detdF[bad[0]], "" if np.isfinite(detdF[bad[0]]) else
+                    ": not finite, the trial's largest grid displacement "
+                    "increment {:.3g}".format(np.abs(du).max())))
         if F_inv is not None:             # gradients live at X, not x_n
             dF_inv = dF_inv.copy()
             dF_inv[:k, :k] = np.einsum("abp,bcp->acp", F_inv,

@@ -428,12 +428,13 @@ def warn_region_volume(region: Callable, x: ndarray, half: ndarray,
     change = gained - lost
     if abs(change) > REGION_VOLUME_WARNING * total:
         logger.warning(
-            "seeding: the points hold a volume of %.6g and the region about "
-            "%.6g (%+.1f%%): a body's side lies at its outermost sub-cells' "
-            "faces, and the region's sides cut the sub-cells; put the "
-            "region's sides on the sub-cells' faces (multiples of the cell "
-            "size over the points per cell) or seed more points per cell",
-            total, total + change, 100 * change / total)
+            "seeding: the points hold a volume of %.6g, %+.1f%% against "
+            "the region's about %.6g: a body's side lies at its outermost "
+            "sub-cells' faces, and the region's sides cut the sub-cells; "
+            "put the region's sides on the sub-cells' faces (multiples of "
+            "the cell size over the points per cell) or seed more points "
+            "per cell",
+            total, -100 * change / (total + change), total + change)
 
 
 def region_share(region: Callable, centre: ndarray, size: ndarray):

@@ -555,13 +555,14 @@ def pardiso_solver(mtype: int):
     """A ``pypardiso.PyPardisoSolver`` of matrix type ``mtype`` without
     iterative refinement.  pypardiso
     searches the installation for MKL's library at every creation when
-    ``find_library`` does not find it (0.2 s on a pip-installed MKL); the
-    first path found is kept in ``PYPARDISO_MKL_RT`` for the process,
-    which pypardiso reads first."""
+    ``find_library`` does not find it (0.2-1 s on a pip-installed MKL,
+    a search its import has made once for its own solver ``pypardiso.ps``):
+    that path is kept in ``PYPARDISO_MKL_RT`` for the process, which
+    pypardiso reads first."""
     import os
     import pypardiso
+    os.environ.setdefault("PYPARDISO_MKL_RT", pypardiso.ps.libmkl._name)
     pardiso = pypardiso.PyPardisoSolver(mtype=mtype)
-    os.environ.setdefault("PYPARDISO_MKL_RT", pardiso.libmkl._name)
     # MKL's defaults (iparm(1) = 0) but for iterative refinement, which
     # they run twice in every solve (three times its cost): here only
     # after a perturbed pivot (iparm(8) = 0), and such a factorisation

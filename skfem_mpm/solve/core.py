@@ -694,6 +694,31 @@ def ghost_hint(run: Run) -> str:
             "friction in 3D failed so, and converged with it)")
 
 
+def progress(run: Run, factor: float) -> str:
+    """Where a run stands at ``factor`` for its messages: the load factor,
+    or in dynamics the time (``factor`` the fraction of the duration: a
+    user's dynamic run that left the grid was said to have done so at
+    "load factor 0.1055").
+
+    >>> from types import SimpleNamespace
+    >>> progress(SimpleNamespace(dynamics=None), .25)
+    'load factor 0.25'
+    >>> progress(SimpleNamespace(dynamics=SimpleNamespace(duration=2.)), .25)
+    'time 0.5'
+    """
+    if run.dynamics is None:
+        return "load factor {:.4g}".format(factor)
+    return "time {:.4g}".format(factor * run.dynamics.duration)
+
+
+def span(run: Run, increment: float) -> str:
+    """A load increment, or in dynamics the time step, of ``increment``
+    (a fraction of the load or of the duration) for a run's messages."""
+    if run.dynamics is None:
+        return "a load increment of {:.2e}".format(increment)
+    return "a time step of {:.2e}".format(increment * run.dynamics.duration)
+
+
 def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             increment: float, smallest: float,
             callback: Optional[Callable]) -> Result:
@@ -721,10 +746,10 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         except STEP_FAILURES as err:
             if run.linear or (target - factor) / 2 < smallest * (1 - 1e-9):
                 raise type(err)(
-                    "{}; no convergence down to a load increment of {:.2e}: "
-                    "the last converged state (load factor {:.4f}) is "
-                    "attached{}{}{}".format(
-                        err, target - factor, factor, too_soft(run, points),
+                    "{}; no convergence down to {}: the last converged "
+                    "state ({}) is attached{}{}{}".format(
+                        err, span(run, target - factor),
+                        progress(run, factor), too_soft(run, points),
                         ghost_hint(run), "".join(
                             term.failure_hint(points, dynamics is None)
                             for term in run.terms)),
@@ -739,11 +764,12 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             err.history = result.history
             if isinstance(err, PointsOutsideGridError):
                 err.args = (err.args[0] + too_soft(run, points) + (
-                    "; they left it in step {} (load factor {:.4g} to "
-                    "{:.4g}): a grid too tight around the body's motion, "
-                    "or a load past what the body can carry (a plastic "
-                    "body beyond its limit load, a body its supports do "
-                    "not hold)".format(step + 1, factor, target)),)
+                    "; they left it in step {} ({} to {}): a grid too "
+                    "tight around the body's motion, or a load past what "
+                    "the body can carry (a plastic body beyond its limit "
+                    "load, a body its supports do not hold)".format(
+                        step + 1, progress(run, factor),
+                        progress(run, target).split()[-1])),)
             raise
         except Exception as err:             # a user's material or form
             raise StepFailedError(

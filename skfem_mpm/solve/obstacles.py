@@ -372,10 +372,9 @@ def checked_polygon(polygon, what: str = "Obstacle polygon") -> ndarray:
     lengths = np.hypot(*edges)
     area = .5 * np.sum(v[0] * np.roll(v[1], -1) - np.roll(v[0], -1) * v[1])
     scale = np.ptp(v, axis=1).max()
-    if (lengths <= 1e-12 * scale).any() or abs(area) <= 1e-12 * scale ** 2:
-        raise InvalidInputError(
-            "{} has repeated vertices or no area: {}".format(
-                what, v.T.tolist()))
+    if (lengths <= 1e-12 * scale).any():
+        raise InvalidInputError("{} has repeated vertices: {}".format(
+            what, v.T.tolist()))
     a, b = v, np.roll(v, -1, axis=1)
     m = v.shape[1]
     i, j = np.triu_indices(m, 2)
@@ -383,6 +382,9 @@ def checked_polygon(polygon, what: str = "Obstacle polygon") -> ndarray:
     if _segments_cross(a[:, i[keep]], b[:, i[keep]], a[:, j[keep]],
                        b[:, j[keep]]).any():
         raise InvalidInputError("{} crosses itself: {}".format(
+            what, v.T.tolist()))
+    if abs(area) <= 1e-12 * scale ** 2:    # its vertices on one line
+        raise InvalidInputError("{} has no area: {}".format(
             what, v.T.tolist()))
     return v if area > 0 else v[:, ::-1].copy()
 

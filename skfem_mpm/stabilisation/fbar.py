@@ -126,8 +126,9 @@ class IncrementFbar(MeanDilatation):
         G = np.zeros((3, 3, g.shape[-1]))
         G[:dim, :dim] = g
         dF = G + np.eye(3)[:, :, None]
-        # an inverted point makes these NaN: the kinematics' InversionError
-        with np.errstate(invalid="ignore", divide="ignore"):
+        # an inverted point or an overflowing trial (a diverging Newton
+        # direction) makes these NaN: the kinematics' InversionError
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             xi_m1 = self._linearise(G, dF)
         return G * (1 + xi_m1) + np.eye(3)[:, :, None] * xi_m1
 
