@@ -12,11 +12,14 @@ nothing to do until
 other loads come.  Under a sloping surface it is not in equilibrium, and
 the first step must carry the whole imbalance at once (no cut-back reduces
 it): ramp the gravity up from a stress-free start there instead.
+Layered ground (one body force and K0 per body): each body carries the
+weight of the bodies above it in its column, exact for horizontal layers
+under a level surface; layers that are not horizontal are refused.
 The usual estimate for a normally consolidated soil is Jaky's
 ``K0 = 1 - sin(phi)``; an elastic layer under uniaxial strain has
 ``K0 = nu / (1 - nu)``.
 """
-from typing import Callable, Union
+from typing import Callable, Sequence, Union
 
 import numpy as np
 
@@ -29,11 +32,20 @@ __all__ = ["geostatic_stress"]
 
 
 def geostatic_stress(points: MaterialPoints, material, body_force,
-                     surface: Union[float, Callable], K0: float
+                     surface: Union[None, float, Callable, Sequence], K0
                      ) -> MaterialPoints:
     """The points with the geostatic stress of ``body_force`` under
     ``surface`` (a height, or a function of the positions (dim, n)
     returning the ground height above each point), reached elastically.
+
+    Layered ground: with one row of ``body_force`` per body (the points'
+    ``body``), each body's vertical stress continues the stress of the
+    body above it in its column, ``sigma_v = -(gamma_k (top_k - y) +
+    sum_above gamma_i t_i)``; ``surface`` is the ground over the bodies
+    that have none above them.  Exact equilibrium for horizontal layers
+    under a level surface; layers that are not horizontal (heights that
+    interleave, a top or bottom that is not level, a body over part of
+    another only) are refused, naming the bodies.
 
     Parameters
     ----------
@@ -45,10 +57,16 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
         surface.
     body_force
         Body force per unit volume, (dim,), along the last axis and
-        pointing down (negative).
-    surface, K0
-        Ground height and the ratio of horizontal to vertical stress
-        (> 0).
+        pointing down (negative); or one row per body, (nbodies, dim),
+        for layers.
+    surface
+        Ground height (a number or a callable); with layers also ``None``
+        (the top of each uppermost body's material, its points' domains)
+        or one entry per body: ``None`` continues the layers above (the
+        default), a height starts that body alone from it (its own
+        weight up to there, ignoring the bodies above).
+    K0
+        Ratio of horizontal to vertical stress (> 0), or one per body.
 
     Returns
     -------
@@ -61,9 +79,9 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
     ------
     InvalidInputError
         A body force not along the last axis, a point above the surface, a
-        non-positive ``K0``, or a state outside the material's yield
-        surface (the message names the count and the first point: a ``K0``
-        nearer 1 may fit).
+        non-positive ``K0``, layers that are not horizontal, or a state
+        outside the material's yield surface (the message names the count
+        and the first point: a ``K0`` nearer 1 may fit).
 
     Examples
     --------
@@ -76,30 +94,46 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
     >>> pts.stress[1, 1].tolist(), np.round(pts.stress[0, 0], 6).tolist()
     ([-30.0, -10.0], [-10.0, -3.333333])
 
+    Sand (18) 1 thick over clay (20): the clay continues the sand's 18.
+
+    >>> pts = seed_points(mesh, 1)
+    >>> pts.body[:] = [0, 1]
+    >>> pts = geostatic_stress(pts, LinearElastic(1e4, .25),
+    ...                        [[0., -20.], [0., -18.]], None, [.5, 1 / 3])
+    >>> pts.stress[1, 1].tolist(), pts.stress[0, 0].tolist()
+    ([-28.0, -9.0], [-14.0, -3.0])
+
     """
     dim = points.dim
     b = np.asarray(body_force, dtype=float)
-    if b.shape != (dim,) or not np.isfinite(b).all() or b[-1] >= 0 \
-            or b[:-1].any():
+    layered = b.ndim == 2 or np.ndim(K0) == 1 or (
+        surface is not None and not callable(surface)
+        and np.ndim(surface) == 1) or surface is None
+    body = np.zeros(points.n, dtype=int) if points.body is None \
+        else np.asarray(points.body, dtype=int)
+    nb = int(body.max()) + 1
+    rows = b if b.ndim == 2 else np.broadcast_to(b, (nb,) + b.shape)
+    present = np.unique(body)
+    if rows.ndim != 2 or rows.shape[0] < nb or rows.shape[1] != dim \
+            or not np.isfinite(rows[present]).all() \
+            or (rows[present, -1] >= 0).any() or rows[present, :-1].any():
         raise InvalidInputError(
-            "body_force must be ({},) along the last axis and pointing down "
-            "(negative), got {!r}".format(dim, body_force))
-    K0 = check_real("K0", K0)
-    if not (np.isfinite(K0) and K0 > 0):
-        raise InvalidInputError("K0 must be positive, got {}".format(K0))
-    top = surface(points.x) if callable(surface) else np.full(
-        points.n, check_real("surface", surface))
-    top = np.asarray(top, dtype=float)
-    if top.shape != (points.n,) or not np.isfinite(top).all():
-        raise InvalidInputError("surface must give one finite height per "
-                                "point, got shape {}".format(top.shape))
-    depth = top - points.x[-1]
-    if (depth < 0).any():
-        i = int(np.argmin(depth))
-        raise InvalidInputError(
-            "{} point(s) lie above the surface, first {} at {}".format(
-                int((depth < 0).sum()), i, points.x[:, i].tolist()))
-    vertical = b[-1] * depth                      # compression negative
+            "body_force must be ({},) or one such row per body ({} bodies), "
+            "along the last axis and pointing down (negative), got "
+            "{!r}".format(dim, nb, body_force))
+    ratios = np.array([check_real("K0", k) for k in np.ravel(K0)]) \
+        if np.ndim(K0) == 1 else np.full(nb, check_real("K0", K0))
+    if ratios.shape[0] < nb or not (np.isfinite(ratios[present])
+                                    & (ratios[present] > 0)).all():
+        raise InvalidInputError("K0 must be positive, one per body ({}), got "
+                                "{!r}".format(nb, K0))
+    if layered:
+        vertical = layered_vertical(points, body, rows[:, -1], surface)
+    else:
+        top = surface(points.x) if callable(surface) else np.full(
+            points.n, check_real("surface", surface))
+        vertical = rows[0, -1] * ground_depth(points, top)
+    K0 = ratios[body]
     stress = np.zeros((3, 3, points.n))
     for axis in range(3):
         stress[axis, axis] = K0 * vertical
@@ -122,10 +156,114 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
             "the geostatic state (K0 = {}) lies outside the yield surface at "
             "{} point(s), first {} at {} (vertical stress {:.4g}): the soil "
             "cannot stand so; choose K0 nearer 1 or a stronger "
-            "material".format(K0, int(yielded.sum()), i,
+            "material".format(K0[i], int(yielded.sum()), i,
                               points.x[:, i].tolist(), vertical[i]))
     out.stress, out.strain = stress, strain
     out.be = np.zeros((3, 3, points.n))
     for axis in range(3):
         out.be[axis, axis] = np.exp(2 * strain[axis, axis])
     return out
+
+
+def ground_depth(points: MaterialPoints, top) -> np.ndarray:
+    """Depth of every point below the ground heights ``top`` (n,), checked
+    finite and not negative."""
+    top = np.asarray(top, dtype=float)
+    if top.shape != (points.n,) or not np.isfinite(top).all():
+        raise InvalidInputError("surface must give one finite height per "
+                                "point, got shape {}".format(top.shape))
+    depth = top - points.x[-1]
+    if (depth < 0).any():
+        i = int(np.argmin(depth))
+        raise InvalidInputError(
+            "{} point(s) lie above the surface, first {} at {}".format(
+                int((depth < 0).sum()), i, points.x[:, i].tolist()))
+    return depth
+
+
+def layered_vertical(points: MaterialPoints, body, weights,
+                     surface) -> np.ndarray:
+    """Vertical stress of horizontal layers (the bodies, unit weights
+    ``-weights``): each body continues the stress of the body directly
+    above it at their interface; the bodies with none above start from
+    ``surface`` (see :func:`geostatic_stress`)."""
+    dim, n = points.x.shape
+    domain = np.zeros_like(points.x) if points.domain is None \
+        else points.domain
+    present = np.unique(body)
+    nb = int(body.max()) + 1
+    if surface is not None and not callable(surface) \
+            and np.ndim(surface) == 1:
+        own = list(surface)
+        if len(own) < nb:
+            raise InvalidInputError("surface must give one entry per body "
+                                    "({}), got {!r}".format(nb, surface))
+        own = [None if h is None else check_real("surface", h) for h in own]
+        ground = None
+    else:
+        own = [None] * nb
+        ground = None if surface is None else surface(points.x) \
+            if callable(surface) else np.full(n, check_real("surface",
+                                                            surface))
+    lo, hi = points.x - domain, points.x + domain
+    box = {k: (lo[:, body == k].min(axis=1), hi[:, body == k].max(axis=1))
+           for k in present}
+    size = np.ptp(np.concatenate([lo, hi], axis=1), axis=1).max()
+    tol = 1e-9 * size
+    above = {}                        # body -> the body directly above it
+    for k in present:
+        for j in present:
+            if j == k or own[k] is not None:      # k alone: nothing above
+                continue
+            (lk, hk), (lj, hj) = box[k], box[j]
+            if ((lj[:-1] >= hk[:-1] - tol) | (lk[:-1] >= hj[:-1] - tol)).any():
+                continue                               # side by side
+            if lj[-1] < hk[-1] - tol:                  # j not above k
+                if lk[-1] < hj[-1] - tol:
+                    raise InvalidInputError(
+                        "bodies {} and {} are not horizontal layers (their "
+                        "heights interleave in the same columns): give "
+                        "each its surface or start from zero".format(k, j))
+                continue
+            if (lj[:-1] > lk[:-1] + tol).any() or \
+                    (hj[:-1] < hk[:-1] - tol).any():
+                raise InvalidInputError(
+                    "body {} lies over part of body {} only: the layers "
+                    "must cover each other (horizontal layers)".format(j, k))
+            if k not in above or lj[-1] < box[above[k]][0][-1]:
+                above[k] = j
+    for k, j in above.items():                # level faces at interfaces
+        for face, sel, top in ((hi, body == k, True), (lo, body == j, False)):
+            cols, where = np.unique(np.round(points.x[:-1, sel] / tol),
+                                    axis=1, return_inverse=True)
+            ends = np.full(cols.shape[1], -np.inf if top else np.inf)
+            (np.maximum if top else np.minimum).at(
+                ends, where.ravel(), face[-1, sel])
+            if np.ptp(ends) > tol:
+                raise InvalidInputError(
+                    "the interface of bodies {} (above) and {} is not level "
+                    "(heights {:.6g} to {:.6g}): horizontal layers only; "
+                    "give each its surface or start from zero".format(
+                        j, k, ends.min(), ends.max()))
+
+    def at(k, idx, y):
+        """Vertical stress of body ``k`` in the columns of the points
+        ``idx`` at the heights ``y``."""
+        if own[k] is not None:
+            top = np.full(idx.size, own[k])
+        elif k in above:
+            j = above[k]
+            return weights[k] * (box[k][1][-1] - y) + at(
+                j, idx, np.full(idx.size, box[j][0][-1]))
+        else:
+            top = np.full(idx.size, box[k][1][-1]) if ground is None \
+                else ground[idx]
+        return weights[k] * ground_depth(MaterialPoints(
+            x=np.vstack([points.x[:-1, idx], y]),
+            volume=np.ones(idx.size)), top)
+
+    vertical = np.zeros(n)
+    for k in present:
+        sel = np.flatnonzero(body == k)
+        vertical[sel] = at(k, sel, points.x[-1, sel])
+    return vertical

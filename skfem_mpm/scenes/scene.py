@@ -102,11 +102,13 @@ class Body:
     :class:`~skfem_mpm.scenes.regions.Polygon` (2D), a
     :class:`~skfem_mpm.scenes.regions.Ball` (a disc in 2D) or another
     callable on coordinates), ``points_per_cell`` per axis.  With ``K0``
-    the body starts from the geostatic stress of the scene's gravity under
-    the ground height ``surface`` (default: the top of its material, its
-    points' domains), and the gravity then acts on it in full from the
-    first step
-    (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`).  With
+    the body starts from the geostatic stress of the scene's gravity, and
+    the gravity then acts on it in full from the first step
+    (:func:`~skfem_mpm.mechanics.geostatic.geostatic_stress`): by default
+    it carries the weight of the bodies with ``K0`` above it (horizontal
+    layers; others are refused), the uppermost under the top of its
+    material (its points' domains); a ``surface`` (ground height) starts
+    the body alone from it, its own weight up to there.  With
     ``rigid`` (its displacement at full load, ramped over the steps) the
     body is a rigid body pushed through the grid, ``rough`` or smooth
     (:class:`~skfem_mpm.RigidBody`): a footing, a pile, an indenter.
@@ -584,22 +586,26 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
     check_overlaps(scene.bodies, parts)
     points = concatenate_points(parts)
     weights = scene.body_forces()
-    for k, body in enumerate(scene.bodies):
-        if body.K0 is None:
-            continue
-        if weights is None:
-            raise InvalidInputError("body {!r}: a geostatic stress (K0) needs "
-                                    "gravity".format(body.name))
-        sel = np.flatnonzero(points.body == k)
-        surface = body.surface
-        if surface is None:               # the top of the material
-            surface = (points.x[-1, sel] + points.domain[-1, sel]).max()
+    geostatic = [k for k, b in enumerate(scene.bodies) if b.K0 is not None]
+    if geostatic and weights is None:
+        raise InvalidInputError("body {!r}: a geostatic stress (K0) needs "
+                                "gravity".format(
+                                    scene.bodies[geostatic[0]].name))
+    if geostatic:                 # the layers together: each continues
+        sel = np.flatnonzero(np.isin(points.body, geostatic))   # the above
         try:
             start = geostatic_stress(
-                MaterialPoints(x=points.x[:, sel], volume=points.volume[sel]),
-                body.material, weights[k], surface, body.K0)
+                MaterialPoints(x=points.x[:, sel], volume=points.volume[sel],
+                               domain=points.domain[:, sel],
+                               body=points.body[sel]),
+                [b.material for b in scene.bodies[:max(geostatic) + 1]],
+                weights,
+                [b.surface for b in scene.bodies],
+                [1. if b.K0 is None else b.K0 for b in scene.bodies])
         except InvalidInputError as err:
-            raise InvalidInputError("body {!r}: {}".format(body.name, err))
+            raise InvalidInputError("geostatic start: {} (bodies {})".format(
+                err, ", ".join("{} {!r}".format(k, scene.bodies[k].name)
+                               for k in geostatic)))
         for name in ("stress", "strain", "be"):
             getattr(points, name)[..., sel] = getattr(start, name)
     for k, body in enumerate(scene.bodies):

@@ -27,10 +27,13 @@ offending value (unknown keys, wrong types, impossible values), in a
     #    the shape's by more than 1% is warned)
     points_per_cell = 2
     geostatic = { K0 = 0.5, surface = 50.0 }   # optional: start from the
-                                    # K0 stress of the gravity (surface:
-                                    # ground height, default the top of the
-                                    # body's material); its gravity then
-                                    # acts in full from the first step
+                                    # K0 stress of the gravity; by default
+                                    # under the geostatic bodies above it
+                                    # (horizontal layers), or the top of
+                                    # its material; surface: a ground
+                                    # height, this body's weight alone up
+                                    # to it; its gravity then acts in full
+                                    # from the first step
     rigid = { displacement = [0.0, -0.01], rough = true }   # optional: a
                                     # rigid body pushed through the grid
                                     # (a footing; rough = false: smooth),

@@ -1,0 +1,120 @@
+"""Layered geostatic start: each layer carries the layers above it."""
+import numpy as np
+import pytest
+
+from skfem_mpm import InvalidInputError, LinearElastic, seed_points
+from skfem_mpm.mechanics.geostatic import geostatic_stress
+
+# trial 59's two layers: sand (density 1.8, K0 0.47) 0.8 thick over clay
+# (density 2.0, K0 0.6) 1.2 thick, gravity 10
+LAYERS = """
+name = "layers"
+[grid]
+x = [0.0, 3.0, 23]
+y = [0.0, 2.4, 18]
+[[bodies]]
+name = "sand"
+region = { x = [0.0, 3.0], y = [1.2, 2.0] }
+points_per_cell = 2
+density = 1.8
+material = { model = "mohr_coulomb", E = 2e4, nu = 0.3, cohesion = 2.0, \
+friction_angle = 32.0, dilation_angle = 0.0 }
+geostatic = { K0 = 0.47 }
+[[bodies]]
+name = "clay"
+region = { x = [0.0, 3.0], y = [0.0, 1.2] }
+points_per_cell = 2
+density = 2.0
+material = { model = "mohr_coulomb", E = 1e4, nu = 0.35, cohesion = 15.0, \
+friction_angle = 20.0 }
+geostatic = { K0 = 0.6 }
+[[supports]]
+name = "base"
+boundary = "bottom"
+[[supports]]
+name = "left"
+boundary = "left"
+components = ["x"]
+[[supports]]
+name = "right"
+boundary = "right"
+components = ["x"]
+[gravity]
+acceleration = [0.0, -10.0]
+[solver]
+method = "mpm"
+kinematics = "small"
+steps = 1
+"""
+
+
+def overburden(y, top, interface, gamma_sand, gamma_clay):
+    """Vertical stress of the two layers at the heights ``y``."""
+    return np.where(y > interface, -gamma_sand * (top - y),
+                    -(gamma_sand * (top - interface)
+                      + gamma_clay * (interface - y)))
+
+
+@pytest.mark.parametrize("method", ["mpm", "fem", "cpgimp"])
+def test_scene_clay_carries_the_sand(method):
+    """The clay's top points start at -(18 x 0.8 + 20 d) = -15.07 (they
+    started at -0.67, their own layer's weight only), every point at its
+    overburden and K0 of its layer (1e-10); one step from it with the
+    weight in full: residual and displacements at round-off."""
+    from skfem_mpm.scenes.scene import build_points, run_scene
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    scene = parse_scene(tomllib.loads(LAYERS.replace(
+        'method = "mpm"', 'method = "{}"'.format(method))))
+    mesh, _ = scene.grid.build()
+    points = build_points(scene, mesh)
+    top, interface = (points.x[1] + points.domain[1]).max(), 1.2
+    y = points.x[1]
+    expected = overburden(y, top, interface, 18., 20.)
+    clay = points.body == 1
+    upper = clay & (y == y[clay].max())
+    assert abs(top - 2.) < 1e-12
+    assert np.abs(points.stress[1, 1, upper] - (
+        -(18. * .8 + 20. * (1.2 - y[upper])))).max() < 1e-10 * 15.
+    assert np.abs(points.stress[1, 1] - expected).max() \
+        < 1e-10 * np.abs(expected).max()
+    for k, K0 in enumerate((.47, .6)):
+        on = points.body == k
+        assert np.abs(points.stress[0, 0, on]
+                      - K0 * points.stress[1, 1, on]).max() < 1e-10 * 40
+    res = run_scene(scene)
+    first = res.history[0].newton_residuals or [res.history[0].residual]
+    assert first[0] < 1e-12
+    assert np.abs(res.points.displacement).max() < 1e-12
+
+
+def test_python_layers_match_the_overburden():
+    """``geostatic_stress`` with one body-force row and K0 per body: the
+    same overburden (1e-10); a ``None`` surface entry continues the
+    layers, a height starts that body alone."""
+    from skfem import MeshQuad
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 5), np.linspace(0, 3, 7))
+    points = seed_points(mesh, 2)
+    points.body[:] = points.x[1] > 1.       # clay 0 below 1, sand 1 above
+    materials = [LinearElastic(1e4, .35), LinearElastic(2e4, .3)]
+    rows = [[0., -20.], [0., -18.]]
+    out = geostatic_stress(points, materials, rows, None, [.6, .47])
+    expected = overburden(points.x[1], 3., 1., 18., 20.)
+    assert np.abs(out.stress[1, 1] - expected).max() < 1e-10 * 56.
+    # sand under 0.5 of sand-weight surcharge (surface 3.5): clay follows
+    out = geostatic_stress(points, materials, rows, 3.5, [.6, .47])
+    assert np.abs(out.stress[1, 1] - overburden(
+        points.x[1], 3.5, 1., 18., 20.)).max() < 1e-10 * 56.
+    alone = geostatic_stress(points, materials, rows, [1.4, None],
+                             [.6, .47])
+    clay = points.body == 0
+    assert np.abs(alone.stress[1, 1, clay]
+                  + 20. * (1.4 - points.x[1, clay])).max() < 1e-10 * 28.
+    # a sloping interface or a layer over part of another: refused
+    points.body[:] = points.x[1] > 1. + .2 * points.x[0]
+    with pytest.raises(InvalidInputError, match="not horizontal"):
+        geostatic_stress(points, materials, rows, None, [.6, .47])
+    points = seed_points(mesh, 2, region=lambda x: (x[1] < 1.)
+                         | (x[0] < 1.))
+    points.body[:] = points.x[1] > 1.
+    with pytest.raises(InvalidInputError, match="over part"):
+        geostatic_stress(points, materials, rows, None, [.6, .47])
