@@ -90,7 +90,8 @@ def test_scene_clay_carries_the_sand(method):
 def test_python_layers_match_the_overburden():
     """``geostatic_stress`` with one body-force row and K0 per body: the
     same overburden (1e-10); a ``None`` surface entry continues the
-    layers, a height starts that body alone."""
+    layers, a height starts that body alone; layers not horizontal (a
+    sloping interface, a body over part of another, a gap) refused."""
     from skfem import MeshQuad
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 5), np.linspace(0, 3, 7))
     points = seed_points(mesh, 2)
@@ -117,4 +118,9 @@ def test_python_layers_match_the_overburden():
                          | (x[0] < 1.))
     points.body[:] = points.x[1] > 1.
     with pytest.raises(InvalidInputError, match="over part"):
+        geostatic_stress(points, materials, rows, None, [.6, .47])
+    points = seed_points(mesh, 2, region=lambda x: (x[1] < 1.)
+                         | (x[1] > 1.5))
+    points.body[:] = points.x[1] > 1.
+    with pytest.raises(InvalidInputError, match="gap"):
         geostatic_stress(points, materials, rows, None, [.6, .47])

@@ -45,7 +45,7 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
     that have none above them.  Exact equilibrium for horizontal layers
     under a level surface; layers that are not horizontal (heights that
     interleave, a top or bottom that is not level, a body over part of
-    another only) are refused, naming the bodies.
+    another only, a gap) are refused, naming the bodies.
 
     Parameters
     ----------
@@ -154,9 +154,9 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
         i = int(np.flatnonzero(yielded)[0])
         raise InvalidInputError(
             "the geostatic state (K0 = {}) lies outside the yield surface at "
-            "{} point(s), first {} at {} (vertical stress {:.4g}): the soil "
-            "cannot stand so; choose K0 nearer 1 or a stronger "
-            "material".format(K0[i], int(yielded.sum()), i,
+            "{} point(s), first {} (body {}) at {} (vertical stress {:.4g}): "
+            "the soil cannot stand so; choose K0 nearer 1 or a stronger "
+            "material".format(K0[i], int(yielded.sum()), i, body[i],
                               points.x[:, i].tolist(), vertical[i]))
     out.stress, out.strain = stress, strain
     out.be = np.zeros((3, 3, points.n))
@@ -233,6 +233,11 @@ def layered_vertical(points: MaterialPoints, body, weights,
             if k not in above or lj[-1] < box[above[k]][0][-1]:
                 above[k] = j
     for k, j in above.items():                # level faces at interfaces
+        if box[j][0][-1] > box[k][1][-1] + tol:
+            raise InvalidInputError(
+                "body {} lies above body {} with a gap ({:.6g} to {:.6g}): "
+                "the layers must touch".format(j, k, box[k][1][-1],
+                                               box[j][0][-1]))
         for face, sel, top in ((hi, body == k, True), (lo, body == j, False)):
             cols, where = np.unique(np.round(points.x[:-1, sel] / tol),
                                     axis=1, return_inverse=True)
