@@ -124,3 +124,29 @@ def test_python_layers_match_the_overburden():
     points.body[:] = points.x[1] > 1.
     with pytest.raises(InvalidInputError, match="gap"):
         geostatic_stress(points, materials, rows, None, [.6, .47])
+
+
+def test_scene_pile_in_layers_is_refused_unless_each_starts_alone():
+    """A pile with K0 cut into the layers: the soil under it would carry
+    its weight, which no layer sum gives: refused naming the bodies; with
+    a surface each (every body alone, as before) it starts."""
+    from skfem_mpm.scenes.scene import build_points
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    pile = """[[bodies]]
+name = "pile"
+region = { x = [1.2, 1.6], y = [0.4, 2.0] }
+replaces = ["sand", "clay"]
+density = 2.4
+material = { model = "linear_elastic", E = 1e6, nu = 0.2 }
+geostatic = { K0 = 0.5 }
+[[supports]]"""
+    text = LAYERS.replace("[[supports]]", pile, 1)
+    scene = parse_scene(tomllib.loads(text))
+    with pytest.raises(InvalidInputError, match="interleave.*'pile'"):
+        build_points(scene, scene.grid.build()[0])
+    for k, height in enumerate((2., 1.2, 2.)):
+        scene.bodies[k].surface = height
+    points = build_points(scene, scene.grid.build()[0])
+    clay = points.body == 1
+    assert np.abs(points.stress[1, 1, clay]
+                  + 20. * (1.2 - points.x[1, clay])).max() < 1e-10 * 24.

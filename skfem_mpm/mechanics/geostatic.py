@@ -30,6 +30,9 @@ from .materials import (at_points, initial_state, inverse_elastic_law,
 
 __all__ = ["geostatic_stress"]
 
+ALONE = ("give every one of them a surface (each then starts alone, under "
+         "its own weight) or start them without K0")
+
 
 def geostatic_stress(points: MaterialPoints, material, body_force,
                      surface: Union[None, float, Callable, Sequence], K0
@@ -222,22 +225,23 @@ def layered_vertical(points: MaterialPoints, body, weights,
                 if lk[-1] < hj[-1] - tol:
                     raise InvalidInputError(
                         "bodies {} and {} are not horizontal layers (their "
-                        "heights interleave in the same columns): give "
-                        "each its surface or start from zero".format(k, j))
+                        "heights interleave in the same columns): "
+                        "{}".format(k, j, ALONE))
                 continue
             if (lj[:-1] > lk[:-1] + tol).any() or \
                     (hj[:-1] < hk[:-1] - tol).any():
                 raise InvalidInputError(
                     "body {} lies over part of body {} only: the layers "
-                    "must cover each other (horizontal layers)".format(j, k))
+                    "must cover each other (horizontal layers); "
+                    "{}".format(j, k, ALONE))
             if k not in above or lj[-1] < box[above[k]][0][-1]:
                 above[k] = j
     for k, j in above.items():                # level faces at interfaces
         if box[j][0][-1] > box[k][1][-1] + tol:
             raise InvalidInputError(
                 "body {} lies above body {} with a gap ({:.6g} to {:.6g}): "
-                "the layers must touch".format(j, k, box[k][1][-1],
-                                               box[j][0][-1]))
+                "the layers must touch; {}".format(
+                    j, k, box[k][1][-1], box[j][0][-1], ALONE))
         for face, sel, top in ((hi, body == k, True), (lo, body == j, False)):
             cols, where = np.unique(np.round(points.x[:-1, sel] / tol),
                                     axis=1, return_inverse=True)
@@ -248,8 +252,7 @@ def layered_vertical(points: MaterialPoints, body, weights,
                 raise InvalidInputError(
                     "the interface of bodies {} (above) and {} is not level "
                     "(heights {:.6g} to {:.6g}): horizontal layers only; "
-                    "give each its surface or start from zero".format(
-                        j, k, ends.min(), ends.max()))
+                    "{}".format(j, k, ends.min(), ends.max(), ALONE))
 
     def at(k, idx, y):
         """Vertical stress of body ``k`` in the columns of the points
