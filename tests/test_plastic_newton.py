@@ -34,6 +34,7 @@ def small_footing(method: str):
                         antilocking=True)))
 
 
+@pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason=(
     "needs a change in solve/contact.py, which another helper's file "
     "holds: the penalty in units of E / (1 - nu^2) instead of lam + 2 mu "

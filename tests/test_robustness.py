@@ -924,3 +924,31 @@ def test_points_leaving_the_grid_in_dynamics_say_at_what_time():
     assert "they left it in step {} (time {:.4g} to {:.4g})".format(
         step, .5 * (step - 1), .5 * step) in str(err.value)
     assert "load factor" not in str(err.value)
+
+
+def test_a_user_material_failing_in_dynamics_names_the_time():
+    """A user material that raises in a dynamic run: the error attaches
+    the last converged state and names its time (it said "load factor
+    0.2500" at t = 0.5 of a duration of 2; the review of trial 59's
+    fixes)."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import Dynamics, LinearElastic, StepFailedError, \
+        seed_points, simulate
+
+    class Breaking(LinearElastic):
+        calls = 0
+
+        def stress(self, *args, **kwargs):
+            Breaking.calls += 1
+            if Breaking.calls > 3:
+                raise ValueError("user material broke")
+            return super().stress(*args, **kwargs)
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 7), np.linspace(0, 3, 7))
+    points = seed_points(mesh, 2, region=[(1., 2.), (0., 1.)])
+    with pytest.raises(StepFailedError) as err:
+        simulate(mesh, ElementQuad1(), points, Breaking(1e3, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                 body_force=[0., -8.], dynamics=Dynamics(.5, 2., 1.))
+    done = len(err.value.history)
+    assert "(the last converged state, time {:.4g}, is attached)".format(
+        .5 * done) in str(err.value)

@@ -321,7 +321,8 @@ class FiniteStrain:
         dF = deformation_increment(grad)
         with np.errstate(over="ignore", invalid="ignore"):  # refused below
             dF_inv, detdF = inverse_and_det(dF, dim)
-        bad = np.flatnonzero(~(detdF > 0))
+        # an overflowing trial's det may be +inf: refused as NaN is
+        bad = np.flatnonzero(~(np.isfinite(detdF) & (detdF > 0)))
         if bad.size:       # the most inverted first (a NaN's at the end)
             bad = bad[np.argsort(detdF[bad], kind="stable")]
             raise InversionError(

@@ -756,8 +756,10 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     state=points, load_factor=factor,
                     history=result.history) from err
             increment = (target - factor) / 2
-            logger.warning("step %d: cutting the load increment back to "
-                           "%.3e", step + 1, increment)
+            logger.warning("step %d: cutting the %s back to %.3e",
+                           step + 1, "load increment" if dynamics is None
+                           else "time step", increment if dynamics is None
+                           else increment * dynamics.duration)
             continue
         except MPMError as err:              # what a cut-back cannot cure
             err.state, err.load_factor = points, factor
@@ -773,9 +775,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             raise
         except Exception as err:             # a user's material or form
             raise StepFailedError(
-                "step {}: {}: {} (the last converged state, load factor "
-                "{:.4f}, is attached)".format(step + 1, type(err).__name__,
-                                              err, factor),
+                "step {}: {}: {} (the last converged state, {}, is "
+                "attached)".format(step + 1, type(err).__name__, err,
+                                   progress(run, factor)),
                 state=points, load_factor=factor,
                 history=result.history) from err
         step += 1
