@@ -406,8 +406,14 @@ class BodyContact(GridTerm):
                     levels = np.unique(np.rint(face[facing(
                         x[:, side], w[:, 0], d, sign, partner,
                         self.lines[d][-1] - self.lines[d][0])] / step[d]))
-                    if levels.size >= STAIRS:
-                        stairs.append((k, sorted(others), d, levels.size))
+                    # consecutive levels, one domain apart: a staircase,
+                    # not footings at several depths (the review)
+                    steps = np.flatnonzero(np.diff(np.r_[0, np.diff(
+                        levels) == 1, 0].astype(int)))
+                    flight = int((steps[1::2] - steps[::2]).max(
+                        initial=0)) + 1
+                    if flight >= STAIRS:
+                        stairs.append((k, sorted(others), d, flight))
                     lines = self.lines[d]
                     at = np.clip(np.searchsorted(lines, face), 1,
                                  lines.size - 1)
@@ -421,8 +427,8 @@ class BodyContact(GridTerm):
             logger.warning(
                 "contact between bodies: body %d's surface facing body %s "
                 "is a staircase across axis %d (its domains' faces at %d "
-                "levels: an inclined or curved surface seeded on the "
-                "points' lattice): contact acts on the steps' faces, so the "
+                "consecutive levels: an inclined or curved surface seeded on "
+                "the points' lattice): contact acts on the steps' faces, so the "
                 "bodies do not slide along the slope (a frictionless block "
                 "on a body's 20 degree slope slid 3%% of g sin(theta) t^2 / "
                 "2) and the pressure follows the steps; for sliding, tilt "
@@ -846,9 +852,10 @@ def body_loads(problem) -> ndarray:
     return out
 
 
-#: the levels of a body's faces towards a body it is in contact with,
-#: across one axis, from which its surface is a staircase (an incline or
-#: a curve seeded on the points' lattice, not a step):
+#: the consecutive levels (one domain apart) of a body's faces towards a
+#: body it is in contact with, across one axis, from which its surface is
+#: a staircase (an incline or a curve seeded on the points' lattice, not a
+#: step, nor footings at several depths):
 #: :meth:`BodyContact.warn_sides_inside_cells`
 STAIRS = 3
 
