@@ -431,8 +431,8 @@ class BodyContact(GridTerm):
                 "the points' lattice): contact acts on the steps' faces, so "
                 "the bodies do not slide along the slope (a frictionless "
                 "block on a body's 20 degree slope slid 3%% of g sin(theta) "
-                "t^2 / 2) and the pressure follows the steps; for sliding, tilt "
-                "gravity so that the interface lies along grid lines, or "
+                "t^2 / 2) and the pressure follows the steps; for sliding, "
+                "tilt gravity so that the interface lies along grid lines, or "
                 "make the inclined body an Obstacle polygon "
                 "(docs/contact.md)", k, ", ".join(map(str, others)), d,
                 levels)
