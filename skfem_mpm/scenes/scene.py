@@ -147,7 +147,10 @@ class Support:
     ``components`` among ``"x", "y", "z"``; ``value`` (one per component)
     the displacement reached at full load, ramped over the steps (default:
     fixed).  ``name`` labels its reaction forces in ``summary.json``
-    (default ``support-N``, N counting from 1)."""
+    (default ``support-N``, N counting from 1).  ``bodies``, with a
+    ``value`` in a scene with contacts: the names of the bodies whose
+    grid field it moves (:class:`~skfem_mpm.Prescribed`'s ``bodies``;
+    every moving support names the same)."""
     boundary: Optional[str] = None
     where: Optional[Callable] = None
     components: Sequence[str] = ("x", "y", "z")
@@ -155,6 +158,7 @@ class Support:
     value: Optional[Sequence[float]] = None
     name: Optional[str] = None
     region: Union[None, Sequence[Sequence[float]], Polygon, Ball] = None
+    bodies: Optional[Sequence[str]] = None
 
 
 @dataclass
@@ -747,6 +751,29 @@ def scene_supports(scene: Scene, dim: int):
     return supports
 
 
+def moved_bodies(scene: Scene):
+    """The body numbers the moving supports name (``None``: none names
+    any), checked: every moving support names the same bodies, and they
+    exist."""
+    named = {tuple(s.bodies) if s.bodies is not None else None
+             for s in scene.supports if s.value is not None}
+    if named == {None} or not named:
+        return None
+    if len(named) > 1:
+        raise InvalidInputError(
+            "the moving supports name different bodies ({}): one motion "
+            "moves the same bodies' fields; name the same in each".format(
+                ", ".join(map(str, sorted(named, key=str)))))
+    names = [b.name for b in scene.bodies]
+    bodies = named.pop()
+    for name in bodies:
+        if name not in names:
+            raise InvalidInputError(
+                "a moving support's bodies name {!r}, which is no body "
+                "(the scene has {})".format(name, names))
+    return [names.index(name) for name in bodies]
+
+
 def scene_prescribed(scene: Scene, dim: int):
     """Supports with values as ``prescribed(basis, f_old, f_new)``, or
     ``None``."""
@@ -801,7 +828,7 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
         scene.dynamics.dynamics([b.density for b in scene.bodies])
     loads = surface_loads(scene, initial) + rigid_bodies
     if prescribed is not None:
-        loads.append(Prescribed(prescribed))
+        loads.append(Prescribed(prescribed, bodies=moved_bodies(scene)))
     weights = scene.body_forces()
     body_force = None if weights is None else BodyForce(
         weights if scene.acceleration is not None else scene.gravity,

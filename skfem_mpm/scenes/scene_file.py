@@ -60,6 +60,10 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # right (x) and, in 2D, bottom top (y)
     components = ["x", "y"]         # default: all
     value = [0.0, -0.1]             # optional: displacement at full load
+    # bodies = ["block"]            # with value and [[contacts]]: the
+                                    # bodies whose field it moves (every
+                                    # moving support the same; default:
+                                    # the body nearest each node, warned)
     [[supports]]
     at = [0.0, 0.5]                 # or one grid node by its coordinates
     [[supports]]
@@ -706,7 +710,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     for k, s in enumerate(c.array(data, "supports")):
         key = "supports[{}]".format(k)
         s = c.table(s, key, ("boundary", "at", "region", "components",
-                             "value", "name"))
+                             "value", "name", "bodies"))
         at = boundary = box = None
         if sum(k in s for k in ("boundary", "at", "region")) != 1:
             c.bad(key, "needs exactly one of boundary, at, region", s)
@@ -733,8 +737,16 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             name = None
         elif name is not None and name in [x.name for x in supports]:
             c.bad(key + ".name", "names another support too", name)
+        moved = s.get("bodies")
+        if moved is not None and (value is None or not isinstance(
+                moved, list) or not moved or not all(
+                    isinstance(b, str) for b in moved)):
+            c.bad(key + ".bodies", "must be a list of body names, with a "
+                  "value (the bodies a moving support moves)", moved)
+            moved = None
         supports.append(Support(boundary=boundary, at=at, region=box,
-                                components=comps, value=value, name=name))
+                                components=comps, value=value, name=name,
+                                bodies=moved))
     gravity = acceleration = None
     if "gravity" in data:
         g = c.table(data["gravity"], "gravity",
