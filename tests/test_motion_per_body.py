@@ -69,6 +69,18 @@ def pushed_beside(method, scale, dynamics=None, resume=None, top=.4,
     return pts, simulate(*args, **kwargs)
 
 
+def b_s_base(record) -> float:
+    """The vertical reaction of the base's nodes under block B (x > 0.75)
+    of :func:`pushed_beside`'s grid at a step's end."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 21),
+                                np.linspace(0, 1, 11))
+    x = Basis(mesh, ElementVector(ElementQuad1())).doflocs[
+        :, record.reaction_dofs]
+    under = (record.reaction_dofs % 2 == 1) & np.isclose(x[1], 0.) & (
+        x[0] > .75)
+    return record.reaction_values[under].sum()
+
+
 @pytest.mark.parametrize("method", ("mpm", "ugimp", "cpgimp"))
 def test_a_block_beside_a_pushed_one_feels_nothing(method):
     """Every field's copy of the pushed nodes was moved: B, a tenth of a
@@ -86,15 +98,8 @@ def test_a_block_beside_a_pushed_one_feels_nothing(method):
     r = res.history[-1]
     assert not r.contact_forces.any()               # apart all along
     if method == "mpm":
-        mesh = MeshQuad.init_tensor(np.linspace(0, 2, 21),
-                                    np.linspace(0, 1, 11))
-        x = Basis(mesh, ElementVector(ElementQuad1())).doflocs[
-            :, r.reaction_dofs]
-        under = (r.reaction_dofs % 2 == 1) & np.isclose(x[1], 0.) & (
-            x[0] > .75)
-        weight = GAMMA * pts.volume[b].sum()
-        assert r.reaction_values[under].sum() == pytest.approx(weight,
-                                                               rel=1e-8)
+        assert b_s_base(r) == pytest.approx(GAMMA * pts.volume[b].sum(),
+                                            rel=1e-8)
 
 
 def test_in_dynamics_too():
@@ -145,14 +150,7 @@ def test_the_pushed_body_named_drags_nothing_beside_it(method, caplog):
         1, a]
     assert pressed.min() < -.5 * MOVE                # A is pushed
     if method == "mpm":
-        r = res.history[-1]
-        mesh = MeshQuad.init_tensor(np.linspace(0, 2, 21),
-                                    np.linspace(0, 1, 11))
-        x = Basis(mesh, ElementVector(ElementQuad1())).doflocs[
-            :, r.reaction_dofs]
-        under = (r.reaction_dofs % 2 == 1) & np.isclose(x[1], 0.) & (
-            x[0] > .75)
-        assert r.reaction_values[under].sum() == pytest.approx(
+        assert b_s_base(res.history[-1]) == pytest.approx(
             GAMMA * pts.volume[b].sum(), rel=1e-8)
 
 

@@ -427,8 +427,8 @@ def feature_lines(scene: Scene) -> list:
     scene's geometry has a face inside the grid: the bounds of its
     bodies' boxes and their polygons' vertices, of its obstacles' boxes
     and polygons' vertices at the start, of its supports' boxes,
-    polygons and points (a disc or ball has none: its side, curved, lies on no grid
-    line)."""
+    polygons and points (a disc or ball has none: its side, curved, lies
+    on no grid line)."""
     axes = scene.grid.axes
     found = []
 
