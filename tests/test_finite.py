@@ -396,19 +396,33 @@ def test_failed_step_is_retried_along_the_ladder(monkeypatch):
     assert attempts == ["plain", "stabilised"]
 
 
-@pytest.mark.parametrize("method, ghost_from, error", [
-    ("mpm", 0, 3.09e-2),
-    pytest.param("cpgimp", 7, 2.18e-2, marks=pytest.mark.slow)])
-def test_hard_cantilever_completes(method, ghost_from, error):
+@pytest.mark.parametrize("method, ghost_from, error, ghost_error", [
+    ("mpm", None, 3.09e-2, 2.87e-2),
+    pytest.param("cpgimp", 7, 2.18e-2, None, marks=pytest.mark.slow)])
+def test_hard_cantilever_completes(method, ghost_from, error, ghost_error):
     """3x3 points per cell on the fine grid (h = 0.25): points sparsely
-    cover newly entered cells.  MPM's Newton carries every step.  With
-    cpGIMP a sliver of a domain past a grid line holds a node (step 7: it
-    moves 4e6 while no point moves half a cell), and the default
-    ``ghost="auto"`` switches the ghost penalty on there.  Without it the
-    stabilised tangent does not tame the node (at step 15 the Newton
-    direction moves it half a cell and the line search stalls near 1e-6),
-    and whether the run passes hangs on round-off: the compiled path did,
-    the numpy path stopped at a load factor of 0.28."""
+    cover newly entered cells.  With cpGIMP a sliver of a domain past a
+    grid line holds a node (step 7: it moves 4e6 while no point moves half
+    a cell), and the default ``ghost="auto"`` switches the ghost penalty
+    on there.  Without it the stabilised tangent does not tame the node
+    (at step 15 the Newton direction moves it half a cell and the line
+    search stalls near 1e-6), and whether the run passes hangs on
+    round-off: the compiled path did, the numpy path stopped at a load
+    factor of 0.28.
+
+    With MPM, whether the penalty comes on hangs on round-off too, and
+    the test takes either branch (``ghost_from=None``), each with its
+    answer.  The beam's corner points end up alone in cells, holding
+    nodes by shape functions of 1e-2 to 7e-4: the tangent's smallest
+    eigenvalue is 5e-13 of its largest (step 5), its eigenvector on those
+    nodes, so a round-off difference in the tangent (3.7e-11) moves a
+    corner point by 1.2e-4.  Where such a node later holds the point by
+    7e-4, the line search stalls (step 32: 25 iterations from 1.4e-4 to
+    5.2e-5) and the penalty comes on.  Of 30 runs, 15 on each path with
+    the initial positions scaled by 1 + p (p = 0 or 2e-16 to 1e-11), 24
+    ran without the penalty (error 3.090e-2), 6 switched it on at step 12
+    or 32 (2.847e-2, 2.869e-2; on from the start: 2.868e-2, both paths
+    within 1e-13)."""
     from pathlib import Path
     from skfem_mpm.scenes.scene import run_scene
     from skfem_mpm.scenes.scene_file import load_scene
@@ -418,8 +432,11 @@ def test_hard_cantilever_completes(method, ghost_from, error):
                       dict(elements=46, ppc=3, method=method))
     res = run_scene(scene)
     assert res.history[-1].load_factor == pytest.approx(1.)
-    assert case_error(scene, res) == pytest.approx(error, rel=.05)
-    assert res.counters["ghost_from_step"] == ghost_from
+    ghost = res.counters["ghost_from_step"]
+    if ghost_from is not None:
+        assert ghost == ghost_from
+    assert case_error(scene, res) == pytest.approx(
+        ghost_error if ghost and ghost_error else error, rel=.05)
 
 
 def test_inverse_and_det_in_3d_as_accurate_as_lapack():
