@@ -719,6 +719,35 @@ def test_a_step_starts_where_the_last_ended(method, kinematics, imbalance,
     for r in res.history:
         assert r.obstacle_forces[0, 1] == pytest.approx(-weight, rel=1e-8)
 
+@pytest.mark.parametrize("friction", [.5, "rough"])
+@pytest.mark.parametrize("penalty, tolerance", [(10., 1e-4), (1., 1e-3)])
+def test_the_floor_carries_the_weight_for_any_penalty(friction, penalty,
+                                                      tolerance):
+    """GIMP, a block resting on a Coulomb or rough floor on a grid line:
+    the obstacle's recorded force is the weight to round-off, whatever
+    the penalty and tolerance.  The augmented-Lagrangian updates put
+    the pressed corners within 1.5e-6 of the floor, some below it, in
+    the empty cell under the block, which their domains do not reach:
+    their force on that cell's lower nodes, no DOF of the step, was in
+    the record but in no balance (1.15e-7 of the weight at penalty 10
+    and tolerance 1e-4 cells; the step converged to 3e-16)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 9),
+                                np.linspace(-.25, 1, 11))
+    pts = seed_points(mesh, 2, region=lambda x: (x[1] > 0) & (x[1] < .5)
+                      & (x[0] > .25) & (x[0] < .75))
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3), [],
+                   body_force=BodyForce([0., -2e4], ramp=False), nsteps=3,
+                   method="cpgimp", kinematics="finite",
+                   obstacles=[Obstacle(box=[[-1., 2.], [-1., 0.]],
+                                       friction=friction, penalty=penalty,
+                                       tolerance=tolerance)])
+    weight = 2e4 * pts.volume.sum()
+    assert res.counters["contact_updates"] > 0
+    for r in res.history:
+        assert r.obstacle_forces[0] == pytest.approx([0., -weight],
+                                                     rel=1e-13, abs=1e-12)
+
+
 def test_contact_state_resumes_bit_identically():
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
     pts = seed_points(mesh, 2, region=lambda x: x[1] < 1. + 1e-9)

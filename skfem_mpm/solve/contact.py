@@ -331,18 +331,24 @@ def point_rows(op, idx: ndarray):
     return rows(values), [rows(g) for g in grads]
 
 
-def spline_rows(weights, op, X: ndarray, p: ndarray) -> csr_matrix:
-    """B-splines: the weights (m, nodes) ``weights(X, p)`` of the corners
-    at ``X`` (dim, m) of points ``p`` on the nodes that carry material in
-    the step of ``op``, each row scaled to its whole sum
-    (:func:`~skfem_mpm.solve.loads.supported_share`, as a surface load's).
-    The splines at a corner reach nodes a quarter cell beyond its
-    point's, which no point supports: those are no DOF of the step, and a
-    contact's force there held the body like a support (a weightless
-    B-spline pile's contact force, and the soil's supports' reactions,
-    exceeded its load by up to 0.7%)."""
-    S = supported_share(weights(X, p).S,
-                        op.active_dofs[::X.shape[0]] // X.shape[0])
+def supported_rows(S: csr_matrix, op, X: ndarray, p: ndarray
+                   ) -> csr_matrix:
+    """The weights ``S`` (m, nodes) of the corners at ``X`` (dim, m) of
+    points ``p`` on the nodes that carry material in the step of ``op``,
+    each row scaled to its whole sum
+    (:func:`~skfem_mpm.solve.loads.supported_share`, as a surface
+    load's).  A node no point supports is no DOF of the step: a
+    contact's force there is in no balance, and held the body like a
+    support.  B-splines' at a corner reach nodes a quarter cell beyond
+    its point's (a weightless B-spline pile's contact force, and the
+    soil's supports' reactions, exceeded its load by up to 0.7%).  A
+    GIMP corner pressed 1.5e-6 into the empty cell under a block, which
+    its domain does not reach, put its depth over the cell's height of
+    its force on that cell's lower nodes: a floor's recorded force
+    exceeded the block's weight by 1.5e-7 of it, the step converged to
+    4e-16."""
+    dim = X.shape[0]
+    S = supported_share(S, np.unique(op.active_dofs // dim))
     empty = np.flatnonzero(np.diff(S.indptr) == 0)
     if empty.size:        # its force would hold it to a fixed point
         raise ContactError(
@@ -350,6 +356,12 @@ def spline_rows(weights, op, X: ndarray, p: ndarray) -> csr_matrix:
             "node that carries material in this step".format(
                 X[:, empty[0]].tolist(), int(p[empty[0]])))
     return S
+
+
+def spline_rows(weights, op, X: ndarray, p: ndarray) -> csr_matrix:
+    """B-splines: :func:`supported_rows` of the weights ``weights(X, p)``
+    (m, nodes) of the corners at ``X`` (dim, m) of points ``p``."""
+    return supported_rows(weights(X, p).S, op, X, p)
 
 
 class ObstacleContact(GridTerm):
@@ -1146,12 +1158,16 @@ class StepContact(GridTerm):
             # extended B-splines, obstacles that hold: the splines there
             return spline_rows(weights, self.op, where, np.tile(idx, nc))
         # Lagrange elements: the polynomial of the point's cell (GIMP,
-        # obstacles that hold: of the corner's)
+        # obstacles that hold: of the corner's, on its nodes that carry
+        # material)
         cells = np.tile(self.op.point_elements[idx], nc)
-        if hasattr(self.op, "S"):
-            cells = term.corner_cells(self.problem.run, where, np.tile(
-                self.problem.points.x[:, idx], nc), cells)
-        return term.cell_values(where, cells, self.op.N // dim)
+        if not hasattr(self.op, "S"):
+            return term.cell_values(where, cells, self.op.N // dim)
+        cells = term.corner_cells(self.problem.run, where, np.tile(
+            self.problem.points.x[:, idx], nc), cells)
+        return supported_rows(term.cell_values(where, cells,
+                                               self.op.N // dim),
+                              self.op, where, np.tile(idx, nc))
 
     def motions(self, du: ndarray) -> list:
         """Per obstacle, the corners' motion (dim, nc m) by ``du``."""
