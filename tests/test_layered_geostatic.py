@@ -150,3 +150,29 @@ geostatic = { K0 = 0.5 }
     clay = points.body == 1
     assert np.abs(points.stress[1, 1, clay]
                   + 20. * (1.2 - points.x[1, clay])).max() < 1e-10 * 24.
+
+
+@pytest.mark.parametrize("surface", [7., [7.], lambda x: 7. + 0. * x[0]])
+def test_a_surface_above_the_material_is_warned(surface, caplog):
+    """Trial 59 gave the region's top, 7.0, as the surface where the
+    points' domains of an untuned grid end below it: the start carried
+    soil that is not there and the first step moved the body, without a
+    word.  Warned now, naming the gap; none where the surface is the
+    material's top (given or left out)."""
+    from skfem import MeshQuad
+    mesh = MeshQuad.init_tensor(np.linspace(0., 6., 12),
+                                np.linspace(0., 8., 16))
+    points = seed_points(mesh, 3, region=lambda x: x[1] < 7.)
+    top = (points.x[1] + points.domain[1]).max()
+    gap = 7. - top
+    assert gap > 1e-2                  # the grid is untuned: a real gap
+    material = LinearElastic(1e4, .3)
+    with caplog.at_level("WARNING"):
+        geostatic_stress(points, material, [0., -18.], surface, .5)
+    assert "surface lies up to {:.4g} above".format(gap) in caplog.text
+    assert "({:.4g}) with no load".format(18. * gap) in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING"):
+        for level in (None, top, [top]):
+            geostatic_stress(points, material, [0., -18.], level, .5)
+    assert caplog.text == ""

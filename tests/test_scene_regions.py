@@ -290,3 +290,20 @@ def test_a_scene_with_a_polygon_body_resumes_bit_identically(tmp_path):
     path.write_text(SLOPE.replace("KINEMATICS", "finite").replace(
         "STEPS", "3"))
     assert_same_run(*straight_and_resumed(path), 1)
+
+
+def test_feature_lines_of_supports_on_polygons_and_discs():
+    """A support on a polygon's nodes adds its vertices as feature lines
+    (a disc none); a polygon support ended the study's grid check in a
+    TypeError (it iterated the region as a box)."""
+    from skfem_mpm.scenes.regions import Ball, Polygon
+    from skfem_mpm.scenes.scene import Support
+    from skfem_mpm.studies.study import feature_lines
+    s = scene(SLOPE, KINEMATICS="small", STEPS=1)
+    before = feature_lines(s)
+    s.supports.append(Support(region=Polygon([[.3, 0.], [.7, 0.],
+                                              [.7, .2]]), name="wedge"))
+    s.supports.append(Support(region=Ball([1., .1], .05), name="disc"))
+    added = feature_lines(s)[len(before):]
+    assert added == [(0, .3, "support 'wedge'"), (0, .7, "support 'wedge'"),
+                     (1, .2, "support 'wedge'")]

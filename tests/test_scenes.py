@@ -1158,3 +1158,52 @@ def test_the_force_curves_legend_covers_no_curve(tmp_path, monkeypatch):
     assert not legend.overlaps(ax.get_window_extent())
     assert legend.x1 <= fig.bbox.x1 + 1       # and inside the figure
     plot.pyplot().close(fig)
+
+
+def test_supports_and_outputs_on_polygons_and_discs():
+    """A support's and an output's region may be a polygon or a disc (a
+    body's region keys; before, boxes only): the grid nodes in the
+    triangle, on its sides too, the points starting in it, chosen here by
+    the triangle's inequalities; a polygon on a 3D grid is refused."""
+    from skfem import Basis, ElementQuad1, ElementVector, MeshQuad
+    from skfem_mpm.scenes.quantities import Quantity
+    from skfem_mpm.scenes.regions import Ball
+    from skfem_mpm.scenes.scene import run_scene, scene_support_dofs
+    from skfem_mpm.scenes.scene_file import parse_quantity, parse_scene
+    triangle = [[0., 0.], [1., 0.], [1., 1.]]            # y <= x
+    data = {"grid": {"x": [0., 1., 4], "y": [0., 1., 4]},
+            "bodies": [{"region": {"y": [0., .5]}, "material": {
+                "model": "linear_elastic", "E": 1e3, "nu": .3}}],
+            "supports": [{"region": {"polygon": triangle},
+                          "components": ["y"]},
+                         {"region": {"x": [0., 0.]}, "components": ["x"]}],
+            "gravity": {"body_force": [0., -10.]}}
+    scene = parse_scene(data)
+    basis = Basis(MeshQuad.init_tensor(*[np.linspace(0, 1, 5)] * 2),
+                  ElementVector(ElementQuad1()))
+    dofs = scene_support_dofs(scene.supports[0], basis, 2).ravel()
+    x, y = basis.doflocs[:, dofs]
+    nodes = basis.doflocs[:, ::2]
+    assert np.all(dofs % 2 == 1)
+    assert dofs.size == np.count_nonzero(nodes[1] <= nodes[0]) == 15
+    assert np.all(y <= x)
+    disc = scene_support_dofs(Support(region=Ball([0., 0.], .3)), basis, 2)
+    assert sorted(map(tuple, basis.doflocs[:, disc.ravel()].T.tolist())) \
+        == [(0., 0.), (0., 0.), (0., .25), (0., .25), (.25, 0.), (.25, 0.)]
+    with pytest.raises(SceneError, match="2D region, the grid is 3D"):
+        parse_scene({**data, "grid": {**data["grid"], "z": [0., 1., 2]},
+                     "supports": [{"region": {"polygon": triangle}}]})
+    result = run_scene(scene)
+    wedge = parse_quantity({"quantity": "stress", "component": "yy",
+                            "region": {"polygon": triangle}}, 2)
+    wedge.check(scene, result.points)
+    x0, stress = result.points.x0, result.points.stress[1, 1]
+    inside = x0[1] <= x0[0]
+    volume = result.points.volume[inside]
+    assert 0 < inside.sum() < result.points.n
+    assert wedge.measure(scene, result) == pytest.approx(
+        stress[inside] @ volume / volume.sum(), rel=1e-12)
+    assert "over Polygon(" in wedge.label
+    ball = Quantity("stress", "yy", region=Ball([0., 0., 0.], 1.))
+    with pytest.raises(InvalidInputError, match="3 axes given"):
+        ball.check(scene, result.points)

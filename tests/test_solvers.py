@@ -87,6 +87,25 @@ def test_pardiso_memory_goes_with_the_solver():
     assert not release.alive
 
 
+def test_pardiso_keeps_the_library_pypardiso_loaded(monkeypatch):
+    """The MKL library pypardiso's import found is handed to every
+    solver (``PYPARDISO_MKL_RT``: each creation searched the
+    installation again, 0.42 s a process); a pypardiso that no longer
+    names it there still gives working solvers, searching as before."""
+    import os
+    import pypardiso
+    from scipy.sparse import identity
+    from skfem_mpm.solve.backends import pardiso_solver
+    monkeypatch.delenv("PYPARDISO_MKL_RT", raising=False)
+    pardiso_solver(11)
+    assert os.environ["PYPARDISO_MKL_RT"] == pypardiso.ps.libmkl._name
+    monkeypatch.delenv("PYPARDISO_MKL_RT")
+    monkeypatch.setattr(pypardiso, "ps", None)       # a later release
+    x = get_solver("pypardiso")(identity(3, format="csr"), np.ones(3))
+    assert np.array_equal(x, np.ones(3))
+    assert "PYPARDISO_MKL_RT" not in os.environ
+
+
 @pytest.mark.parametrize("name", ["pypardiso", "pyamg"])
 def test_non_symmetric_tangents_are_solved_as_such(name):
     """A non-associated Drucker-Prager block (its tangent is not

@@ -15,12 +15,13 @@ stresses in Pa, forces in N (per m of thickness in 2D, per m^2 in 1D).
 
 """
 from dataclasses import dataclass
-from typing import Optional, Sequence, Tuple
+from typing import Optional, Sequence, Tuple, Union
 
 import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError, check_choice
+from .regions import Ball, Polygon, closed_region
 from .scene import obstacle_list, reaction_resultants, support_names
 
 __all__ = ["Quantity", "QUANTITIES", "COMPONENTS", "REDUCTIONS",
@@ -74,9 +75,11 @@ class Quantity:
         there is fitted linearly by least squares to the nearest points
         (3, 8, 16 in 1D, 2D, 3D), so it converges like the field itself.
     region
-        For point quantities, instead of ``at``: ``[(lo, hi)] * dim``, the
-        points whose initial position lies in the box, reduced by
-        ``reduce``.  Neither ``at`` nor ``region``: all points.
+        For point quantities, instead of ``at``: ``[(lo, hi)] * dim``, a
+        :class:`~skfem_mpm.scenes.regions.Polygon` (2D) or a
+        :class:`~skfem_mpm.scenes.regions.Ball`; the points whose initial
+        position lies in it (sides included), reduced by ``reduce``.
+        Neither ``at`` nor ``region``: all points.
     reduce
         Over a region or all points: ``"mean"`` (volume-weighted, the
         default), ``"max"``, ``"min"`` or ``"max_abs"`` (the value of
@@ -108,7 +111,8 @@ class Quantity:
     quantity: str
     component: str
     at: Optional[Tuple[float, ...]] = None
-    region: Optional[Tuple[Tuple[float, float], ...]] = None
+    region: Union[None, Tuple[Tuple[float, float], ...], Polygon,
+                  Ball] = None
     reduce: Optional[str] = None
     support: Optional[str] = None
     body: Optional[str] = None
@@ -171,6 +175,9 @@ class Quantity:
         if self.at is not None:
             return text + of + " at ({})".format(", ".join(
                 "{:g}".format(v) for v in self.at))
+        if isinstance(self.region, (Polygon, Ball)):
+            return "{} {}{} over {!r}".format(self.reduce or "mean", text,
+                                              of, self.region)
         if self.region is not None:
             return "{} {}{} over [{}]".format(
                 self.reduce or "mean", text, of, ", ".join(
@@ -196,9 +203,11 @@ class Quantity:
                                         self.label, dim, self.component,
                                         components(self.quantity, dim)))
         for where in (self.at, self.region):
-            if where is not None and len(where) != dim:
+            axes = getattr(where, "dim", None) or (where is not None
+                                                   and len(where))
+            if where is not None and axes != dim:
                 raise InvalidInputError("{}: {} axes given, the scene has {}"
-                                        .format(self.label, len(where), dim))
+                                        .format(self.label, axes, dim))
         if self.support is not None and \
                 self.support not in support_names(scene):
             raise InvalidInputError("{}: no support {!r} (the scene has {})"
@@ -249,8 +258,7 @@ class Quantity:
             names = [b.name for b in scene.bodies]
             chosen &= points.body == names.index(self.body)
         if self.region is not None:
-            for d, (lo, hi) in enumerate(self.region):
-                chosen &= (points.x0[d] >= lo) & (points.x0[d] <= hi)
+            chosen &= closed_region(self.region, points.x0)
         return chosen
 
     def measure(self, scene, result) -> float:

@@ -26,7 +26,7 @@ from ..errors import InvalidInputError
 from ..solve.obstacles import by_blocks, checked_polygon, polygon_distance
 
 __all__ = ["Polygon", "Ball", "region_shape", "bounding_box",
-           "outside_grid", "check_shape"]
+           "outside_grid", "check_shape", "closed_region"]
 
 
 class Polygon:
@@ -42,10 +42,14 @@ class Polygon:
         self.vertices = checked_polygon(vertices, what)   # (2, m), ccw
 
     def __call__(self, x: ndarray) -> ndarray:
+        return self.distance(x) < 0.
+
+    def distance(self, x: ndarray) -> ndarray:
+        """The signed distance of the positions ``x`` (2, n) from the
+        sides, negative inside."""
         x = np.asarray(x, dtype=np.float64)
-        phi = by_blocks(lambda y: polygon_distance(self.vertices, y), x,
+        return by_blocks(lambda y: polygon_distance(self.vertices, y), x,
                          self.vertices.shape[1])[0]
-        return phi < 0.
 
     def bounds(self) -> ndarray:
         """The bounding box (2, 2): ``[lo, hi]`` per axis."""
@@ -85,9 +89,14 @@ class Ball:
         self.dim = self.centre.size
 
     def __call__(self, x: ndarray) -> ndarray:
-        x = np.asarray(x, dtype=np.float64)
-        d = x - self.centre[:, None]
+        d = np.asarray(x, dtype=np.float64) - self.centre[:, None]
         return np.einsum("am,am->m", d, d) < self.radius ** 2
+
+    def distance(self, x: ndarray) -> ndarray:
+        """The signed distance of the positions ``x`` (dim, n) from the
+        sphere, negative inside."""
+        d = np.asarray(x, dtype=np.float64) - self.centre[:, None]
+        return np.sqrt(np.einsum("am,am->m", d, d)) - self.radius
 
     def bounds(self) -> ndarray:
         """The bounding box (dim, 2): ``[lo, hi]`` per axis."""
@@ -163,3 +172,21 @@ def check_shape(region, mesh):
             "dropped; shrink the region or extend the grid".format(
                 shape, region, "xyz"[d], float(low[d]), float(high[d]),
                 lo, hi))
+
+
+def closed_region(region, x: ndarray, tol: float = 0.) -> ndarray:
+    """Which of the positions ``x`` (dim, n) lie in ``region`` or on its
+    boundary (within ``tol``): a box ``[(lo, hi)]`` per axis (``lo <=
+    hi``), a :class:`Polygon` or a :class:`Ball`, as the grid nodes of a
+    support's region and the points of an output's are chosen.
+
+    >>> x = np.array([[0., 1., 2.], [0., 1., 0.]])
+    >>> closed_region([(0., 1.), (0., 1.)], x).tolist()
+    [True, True, False]
+    >>> closed_region(Polygon([[0, 0], [2, 0], [0, 2]]), x).tolist()
+    [True, True, True]
+    """
+    if isinstance(region, (Polygon, Ball)):
+        return region.distance(x) <= tol
+    return np.all([(x[d] >= lo - tol) & (x[d] <= hi + tol)
+                   for d, (lo, hi) in enumerate(region)], axis=0)

@@ -41,7 +41,7 @@ from ..solve.obstacles import Obstacle
 from ..solve.rigid import RigidBody
 from ..stabilisation.settings import Stabilisation
 from .footing import check_footing_scene
-from .regions import bounding_box, check_shape
+from .regions import Ball, Polygon, bounding_box, check_shape, closed_region
 
 if TYPE_CHECKING:         # quantities.py imports this module
     from .quantities import Quantity
@@ -140,19 +140,25 @@ class Body:
 class Support:
     """Supported grid DOFs: on a named ``boundary`` of the grid, at the grid
     node ``at`` (coordinates), on the nodes in the closed box ``region``
-    (``[(lo, hi)]`` per axis; ``lo = hi``: a grid line), or on the nodes
-    where ``where(x)`` holds;
+    (``[(lo, hi)]`` per axis; ``lo = hi``: a grid line) or in a
+    :class:`~skfem_mpm.scenes.regions.Polygon` or
+    :class:`~skfem_mpm.scenes.regions.Ball` ``region``, sides included,
+    or on the nodes where ``where(x)`` holds;
     ``components`` among ``"x", "y", "z"``; ``value`` (one per component)
     the displacement reached at full load, ramped over the steps (default:
     fixed).  ``name`` labels its reaction forces in ``summary.json``
-    (default ``support-N``, N counting from 1)."""
+    (default ``support-N``, N counting from 1).  ``bodies``, with a
+    ``value`` in a scene with contacts: the names of the bodies whose
+    grid field it moves (:class:`~skfem_mpm.Prescribed`'s ``bodies``;
+    every moving support names the same)."""
     boundary: Optional[str] = None
     where: Optional[Callable] = None
     components: Sequence[str] = ("x", "y", "z")
     at: Optional[Sequence[float]] = None
     value: Optional[Sequence[float]] = None
     name: Optional[str] = None
-    region: Optional[Sequence[Sequence[float]]] = None
+    region: Union[None, Sequence[Sequence[float]], Polygon, Ball] = None
+    bodies: Optional[Sequence[str]] = None
 
 
 @dataclass
@@ -709,19 +715,28 @@ def scene_support_dofs(s: Support, basis, dim: int) -> ndarray:
                 "support at {}: no grid node there (nearest is {})".format(
                     list(s.at), p[:, distance.argmin()].tolist()))
     elif s.region is not None:
-        box = np.asarray(s.region, float)
-        if box.shape != (dim, 2) or not (box[:, 0] <= box[:, 1]).all():
-            raise InvalidInputError(
-                "support {}: region must be one [lo, hi] with lo <= hi per "
-                "axis ({} rows; +-inf for a whole axis), got {}".format(
-                    s.name or "", dim, np.asarray(s.region).tolist()))
+        if isinstance(s.region, (Polygon, Ball)):
+            if s.region.dim != dim:
+                raise InvalidInputError(
+                    "support {}: a {}D region {!r} on a {}D grid".format(
+                        s.name or "", s.region.dim, s.region, dim))
+            region = s.region
+        else:
+            region = np.asarray(s.region, float)
+            if region.shape != (dim, 2) or \
+                    not (region[:, 0] <= region[:, 1]).all():
+                raise InvalidInputError(
+                    "support {}: region must be one [lo, hi] with lo <= hi "
+                    "per axis ({} rows; +-inf for a whole axis), a Polygon "
+                    "or a Ball, got {}".format(s.name or "", dim, np.asarray(
+                        s.region).tolist()))
         tol = 1e-9 * (1 + np.abs(p).max())
-        nodes = np.flatnonzero(np.all((p >= box[:, :1] - tol)
-                                      & (p <= box[:, 1:] + tol), axis=0))
+        nodes = np.flatnonzero(closed_region(region, p, tol))
         if nodes.size == 0:
             raise InvalidInputError(
                 "support {}in region {}: no grid node there".format(
-                    "{!r} ".format(s.name) if s.name else "", box.tolist()))
+                    "{!r} ".format(s.name) if s.name else "", region.tolist()
+                    if isinstance(region, np.ndarray) else region))
     else:
         nodes = basis.mesh.nodes_satisfying(s.where)
     return basis.nodal_dofs[comps][:, nodes]
@@ -734,6 +749,29 @@ def scene_supports(scene: Scene, dim: int):
                 if s.value is None]
         return np.concatenate(dofs) if dofs else np.array([], dtype=np.int64)
     return supports
+
+
+def moved_bodies(scene: Scene):
+    """The body numbers the moving supports name (``None``: none names
+    any), checked: every moving support names the same bodies, and they
+    exist."""
+    named = {tuple(s.bodies) if s.bodies is not None else None
+             for s in scene.supports if s.value is not None}
+    if named == {None} or not named:
+        return None
+    if len(named) > 1:
+        raise InvalidInputError(
+            "the moving supports name different bodies ({}): one motion "
+            "moves the same bodies' fields; name the same in each".format(
+                ", ".join(map(str, sorted(named, key=str)))))
+    names = [b.name for b in scene.bodies]
+    bodies = named.pop()
+    for name in bodies:
+        if name not in names:
+            raise InvalidInputError(
+                "a moving support's bodies name {!r}, which is no body "
+                "(the scene has {})".format(name, names))
+    return [names.index(name) for name in bodies]
 
 
 def scene_prescribed(scene: Scene, dim: int):
@@ -790,7 +828,7 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
         scene.dynamics.dynamics([b.density for b in scene.bodies])
     loads = surface_loads(scene, initial) + rigid_bodies
     if prescribed is not None:
-        loads.append(Prescribed(prescribed))
+        loads.append(Prescribed(prescribed, bodies=moved_bodies(scene)))
     weights = scene.body_forces()
     body_force = None if weights is None else BodyForce(
         weights if scene.acceleration is not None else scene.gravity,

@@ -60,11 +60,17 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # right (x) and, in 2D, bottom top (y)
     components = ["x", "y"]         # default: all
     value = [0.0, -0.1]             # optional: displacement at full load
+    # bodies = ["block"]            # with value and [[contacts]]: the
+                                    # bodies whose field it moves (every
+                                    # moving support the same; default:
+                                    # the body nearest each node, warned)
     [[supports]]
     at = [0.0, 0.5]                 # or one grid node by its coordinates
     [[supports]]
     region = { x = [0.0, 0.25], y = [1.25, 1.25] }   # or the grid nodes in
-                                    # a closed box (lo = hi: a grid line)
+                                    # a closed box (lo = hi: a grid line),
+                                    # a polygon or a disc, sides included
+                                    # (the bodies' region keys)
     [gravity]
     body_force = [0.0, -800.0]      # per unit (initial) volume, every body
     # or acceleration = [0.0, -9.81]: times each body's density (bodies
@@ -92,8 +98,9 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # xz yz mises pressure
     at = [0.5, 50.0]                # initial position (fitted to the
                                     # nearest points), or
-    # region = { y = [45.0, 50.0] } # points starting in a box, reduced
-    # reduce = "max"                # by mean (volume-weighted, the
+    # region = { y = [45.0, 50.0] } # points starting in a box (or a
+                                    # polygon or disc), sides included
+    # reduce = "max"                # reduced by mean (volume-weighted, the
                                     # default) max min max_abs; neither at
                                     # nor region: all points, reduced
     # body = "column"               # optional: only this body's points
@@ -492,7 +499,7 @@ def parse_quantity(table: dict, dim: int,
     """A :class:`~skfem_mpm.scenes.quantities.Quantity` from a scene
     file's ``[[outputs]]`` table or a study's ``--measure`` (keys as the
     fields; ``region`` as a box table ``{ x = [lo, hi], ... }``, an axis
-    left out: all of it)."""
+    left out: all of it, or a polygon or disc as a body's)."""
     allowed = ("quantity", "component", "at", "region", "reduce", "support",
                "body", "obstacle", "contact", "name")
     if not isinstance(table, dict):
@@ -522,14 +529,14 @@ def parse_quantity(table: dict, dim: int,
         raise InvalidInputError("{}: {}".format(key, err))
 
 
-def _region(table, dim: int, key: str) -> tuple:
-    """A quantity's region table as a closed box, checked as the boxes
-    of scene files are."""
+def _region(table, dim: int, key: str):
+    """A quantity's region table: a closed box, a polygon or a disc (a
+    ball), checked as the regions of scene files are."""
     checker = _Checker()
-    box = _box(checker, table, key, dim, closed=True)
+    region = _body_region(checker, table, key, dim, closed=True)
     if checker.problems:
         raise InvalidInputError("; ".join(checker.problems))
-    return tuple(box)
+    return tuple(region) if isinstance(region, list) else region
 
 
 def _body(c, data, k, dim):
@@ -572,13 +579,14 @@ def _body(c, data, k, dim):
                 replaces=tuple(replaces))
 
 
-def _body_region(c, data, key: str, dim: int):
-    """A body's region table: a box ``{ x = [lo, hi], ... }`` (an axis
-    left out: all of it), ``{ polygon = [[x, y], ...] }`` (2D) or
-    ``{ centre = [..], radius = r }`` (a disc in 2D, a ball in 3D)."""
+def _body_region(c, data, key: str, dim: int, closed: bool = False):
+    """A region table: a box ``{ x = [lo, hi], ... }`` (an axis left out:
+    all of it; ``lo <= hi`` when ``closed``, as a support's and an
+    output's), ``{ polygon = [[x, y], ...] }`` (2D) or ``{ centre = [..],
+    radius = r }`` (a disc in 2D, a ball in 3D)."""
     if not isinstance(data, dict) or not (
             {"polygon", "centre", "radius"} & set(data)):
-        return _box(c, data, key, dim)
+        return _box(c, data, key, dim, closed)
     c.table(data, key, AXES[:dim] + ("polygon", "centre", "radius"))
     shapes = [words for words, keys in (
         ("a box (x, y, z)", set(AXES) & set(data)),
@@ -702,14 +710,15 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     for k, s in enumerate(c.array(data, "supports")):
         key = "supports[{}]".format(k)
         s = c.table(s, key, ("boundary", "at", "region", "components",
-                             "value", "name"))
+                             "value", "name", "bodies"))
         at = boundary = box = None
         if sum(k in s for k in ("boundary", "at", "region")) != 1:
             c.bad(key, "needs exactly one of boundary, at, region", s)
         elif "at" in s:
             at = c.vector(s, key, "at", dim, [0.] * dim)
         elif "region" in s:
-            box = _box(c, s["region"], key + ".region", dim, closed=True)
+            box = _body_region(c, s["region"], key + ".region", dim,
+                               closed=True)
             if isinstance(s["region"], dict) and not s["region"]:
                 c.bad(key + ".region", "names no axis: it would hold every "
                       "grid node", s["region"])
@@ -728,8 +737,16 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             name = None
         elif name is not None and name in [x.name for x in supports]:
             c.bad(key + ".name", "names another support too", name)
+        moved = s.get("bodies")
+        if moved is not None and (value is None or not isinstance(
+                moved, list) or not moved or not all(
+                    isinstance(b, str) for b in moved)):
+            c.bad(key + ".bodies", "must be a list of body names, with a "
+                  "value (the bodies a moving support moves)", moved)
+            moved = None
         supports.append(Support(boundary=boundary, at=at, region=box,
-                                components=comps, value=value, name=name))
+                                components=comps, value=value, name=name,
+                                bodies=moved))
     gravity = acceleration = None
     if "gravity" in data:
         g = c.table(data["gravity"], "gravity",

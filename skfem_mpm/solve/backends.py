@@ -558,10 +558,14 @@ def pardiso_solver(mtype: int):
     ``find_library`` does not find it (0.2-1 s on a pip-installed MKL,
     a search its import has made once for its own solver ``pypardiso.ps``):
     that path is kept in ``PYPARDISO_MKL_RT`` for the process, which
-    pypardiso reads first."""
+    pypardiso reads first (where a pypardiso release no longer names it
+    there, each creation searches as before)."""
     import os
     import pypardiso
-    os.environ.setdefault("PYPARDISO_MKL_RT", pypardiso.ps.libmkl._name)
+    found = getattr(getattr(getattr(pypardiso, "ps", None), "libmkl", None),
+                    "_name", None)
+    if isinstance(found, str) and found:  # what ctypes loaded it from
+        os.environ.setdefault("PYPARDISO_MKL_RT", found)
     pardiso = pypardiso.PyPardisoSolver(mtype=mtype)
     # MKL's defaults (iparm(1) = 0) but for iterative refinement, which
     # they run twice in every solve (three times its cost): here only

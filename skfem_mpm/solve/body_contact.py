@@ -403,9 +403,10 @@ class BodyContact(GridTerm):
                     side = ~np.isin(np.ravel_multi_index(tuple(moved),
                                                          shape), keys)
                     face = x[d, side] + sign * w[d, side]
-                    levels = np.unique(np.rint(face[facing(
-                        x[:, side], w[:, 0], d, sign, partner,
-                        self.lines[d][-1] - self.lines[d][0])] / step[d]))
+                    lines = self.lines[d]
+                    faces = facing(x[:, side], w[:, 0], d, sign, partner,
+                                   lines[-1] - lines[0])
+                    levels = np.unique(np.rint(face[faces] / step[d]))
                     # consecutive levels, one domain apart: a staircase,
                     # not footings at several depths (the review)
                     steps = np.flatnonzero(np.diff(np.r_[0, np.diff(
@@ -414,15 +415,12 @@ class BodyContact(GridTerm):
                         initial=0)) + 1
                     if flight >= STAIRS:
                         stairs.append((k, sorted(others), d, flight))
-                    lines = self.lines[d]
                     at = np.clip(np.searchsorted(lines, face), 1,
                                  lines.size - 1)
                     off = np.minimum(np.abs(face - lines[at - 1]),
                                      np.abs(face - lines[at]))
-                    side = np.flatnonzero(side)[off > 1e-9 * self.h]
-                    inside += int(np.count_nonzero(facing(
-                        x[:, side], w[:, 0], d, sign, partner,
-                        lines[-1] - lines[0])))
+                    inside += int(np.count_nonzero(faces
+                                                   & (off > 1e-9 * self.h)))
         for k, others, d, levels in stairs[:1]:
             logger.warning(
                 "contact between bodies: body %d's surface facing body %s "

@@ -998,11 +998,13 @@ class Case(NamedTuple):
     obstacles: tuple = ()
     contacts: tuple = ()
     body_field: Optional[ndarray] = None
+    prescribed_bodies: Optional[tuple] = None
 
 
 def split_loads(loads) -> tuple:
     """``loads`` by kind: forces (Traction, Pressure, GridLoad), the
-    prescribed motion (one :class:`~skfem_mpm.Prescribed` at most), rigid
+    prescribed motion (one :class:`~skfem_mpm.Prescribed` at most, or
+    ``None``), rigid
     bodies and grid terms."""
     loads = [loads] if not isinstance(loads, (list, tuple)) else list(loads)
     prescribed = [item for item in loads if isinstance(item, Prescribed)]
@@ -1014,8 +1016,7 @@ def split_loads(loads) -> tuple:
     terms = [item for item in loads if isinstance(item, GridTerm)]
     forces = [item for item in loads if not isinstance(
         item, (Prescribed, RigidBody, GridTerm))]
-    return (forces, prescribed[0].function if prescribed else None, rigid,
-            terms)
+    return (forces, prescribed[0] if prescribed else None, rigid, terms)
 
 
 def check_steps(nsteps, dynamics: Optional[Dynamics], method: str) -> int:
@@ -1182,6 +1183,27 @@ def warn_one_body_force(gravity: ndarray, density):
         np.array2string(np.linalg.norm(gravity) / rho, precision=4))
 
 
+def check_prescribed_bodies(prescribed, points: MaterialPoints,
+                            contacts) -> Optional[tuple]:
+    """The bodies a :class:`~skfem_mpm.Prescribed` motion names, checked
+    against the points' bodies and the contacts (``None``: not named)."""
+    if prescribed is None or prescribed.bodies is None:
+        return None
+    present = np.unique(points.body)
+    missing = [b for b in prescribed.bodies if b not in present]
+    if missing:
+        raise InvalidInputError(
+            "Prescribed(bodies={}) names body {} that no point belongs to "
+            "(the points' bodies: {})".format(list(prescribed.bodies),
+                                              missing[0], present.tolist()))
+    if not contacts:
+        raise InvalidInputError(
+            "Prescribed(bodies=...) chooses among the grid fields of bodies "
+            "in contact, and this run has no contacts (its bodies share one "
+            "field: the motion moves them all); leave bodies out")
+    return prescribed.bodies
+
+
 def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
                         method: str, forces: list):
     """The contacts between bodies checked (:func:`check_contacts`) and
@@ -1264,6 +1286,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
         [mesh.p.min(axis=1), mesh.p.max(axis=1)], axis=1))
     contacts, body_field = check_body_contacts(contacts, mesh, points,
                                                method, forces)
+    moved_bodies = check_prescribed_bodies(prescribed, points, contacts)
     if contacts and stabilisation.extended_splines:
         raise InvalidInputError(
             "extended_splines with contacts between bodies is not "
@@ -1299,8 +1322,10 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
             "the points carry a velocity or acceleration but the run is "
             "quasi-static (dynamics=None), which would drop them; pass "
             "dynamics=Dynamics(...) or clear them")
-    return Case(nsteps, material, linear, gravity, ramp, forces, prescribed,
-                rigid_bodies, terms, obstacles, tuple(contacts), body_field)
+    return Case(nsteps, material, linear, gravity, ramp, forces,
+                None if prescribed is None else prescribed.function,
+                rigid_bodies, terms, obstacles, tuple(contacts), body_field,
+                moved_bodies)
 
 
 def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
@@ -1366,6 +1391,8 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         D=tile_dofs(held, user_grid.N, 1 if fields is None
                     else fields.count),
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
+        prescribed_fields=None if case.prescribed_bodies is None
+        else np.unique(case.body_field[list(case.prescribed_bodies)]),
         obstacles=case.obstacles,
         rhs=newton.rhs, tol=newton.tol, max_iter=newton.max_iter,
         newton=FullStep() if linear else first,

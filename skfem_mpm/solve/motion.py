@@ -1,5 +1,6 @@
 """The motion a load step holds: supports, prescribed grid displacements
 and rigid bodies of points, checked against the material they act on."""
+import logging
 from typing import NamedTuple
 
 import numpy as np
@@ -13,6 +14,8 @@ from .linear import check_rigid_body_modes, component_labels, \
     element_labels
 
 __all__ = ["HeldMotion", "held_motion"]
+
+logger = logging.getLogger(__name__)
 
 #: the cells a body's material may lie farther from a node that prescribed
 #: motion moves than the nearest material there and still be moved by it
@@ -95,6 +98,37 @@ def check_prescribed_motion(run, op, dofs: ndarray, values: ndarray,
             :, lost[:3]].T.tolist()))
 
 
+def warn_chosen_copies(run, dofs: ndarray, values: ndarray, on: ndarray,
+                       active: ndarray, step: int) -> None:
+    """A warning, once a run, where prescribed motion moved one body's
+    copy of a node and not another's that carries material there (the
+    rule chose between bodies in contact by their distance to the node:
+    a body beside the pushed one was dragged by 0.66 of the motion where
+    the pushed one's top lay half a cell below the moved nodes, and a
+    pushed body settling below them lost their motion)."""
+    if "prescribed bodies" in run.warned:
+        return
+    nodes = dofs % run.user_grid.N
+    dropped = ~on & active[dofs] & (values != 0.) & np.isin(nodes,
+                                                            nodes[on])
+    if not dropped.any():
+        return
+    run.warned.add("prescribed bodies")
+    i = int(np.flatnonzero(dropped)[0])
+    fields = np.unique(dofs[nodes == nodes[i]] // run.user_grid.N)
+    bodies = [np.flatnonzero(np.isin(run.body_field, [k])).tolist()
+              for k in fields]
+    logger.warning(
+        "step %d: prescribed motion moves grid nodes that carry the "
+        "material of bodies in contact, e.g. at %s (the bodies %s, on "
+        "fields of their own): it moves a body's copy of a node where the "
+        "body's material is nearest the node, which can drag a body beside "
+        "the pushed one or drop the motion of a pushed body that settles "
+        "below the nodes; name the bodies it moves: Prescribed(..., "
+        "bodies=[...])", step, run.user_grid.doflocs[:, nodes[i]].tolist(),
+        " and ".join(map(str, bodies)))
+
+
 def held_motion(run, op, points, s_old: float, s_new: float,
                 step: int) -> HeldMotion:
     """The supports, prescribed increments and rigid bodies' motion of a
@@ -126,9 +160,15 @@ def held_motion(run, op, points, s_old: float, s_new: float,
     driven = np.zeros(0, dtype=np.int64)
     if run.prescribed is not None:
         dofs, values = prescribed_increments(run, s_old, s_new, step)
-        # a body's copy moved only where its material lies on the nodes
-        # (the supports' rule, touching): not a body beside the one pushed
-        on = np.isin(dofs, held(dofs, within=MOVED_NEAREST))
+        if run.prescribed_fields is not None:      # the bodies named
+            on = np.isin(dofs // run.user_grid.N, run.prescribed_fields)
+        else:
+            # a body's copy moved only where its material lies on the
+            # nodes (the supports' rule, touching): not a body beside the
+            # one pushed
+            on = np.isin(dofs, held(dofs, within=MOVED_NEAREST))
+            if choosing:
+                warn_chosen_copies(run, dofs, values, on, active, step)
         dofs, values = dofs[on], values[on]
         du[dofs] = values
         fixed = np.union1d(fixed, dofs)

@@ -97,14 +97,34 @@ class Prescribed:
     ``function(grid_basis, f_old, f_new) -> (dofs, increments)``, with
     ``f_old``, ``f_new`` the loads' scale at the step's start and end (the
     load factor; the time function's value in dynamics).  An item of
-    :func:`~skfem_mpm.simulate`'s ``loads``."""
+    :func:`~skfem_mpm.simulate`'s ``loads``.
+
+    ``bodies``: with contacts between bodies (a grid field per body), the
+    bodies (the points' ``body`` numbers) whose copies of the nodes the
+    motion moves, bodies glued to them with them; the others meet them
+    through the contacts.  Without it, a body's copy of a node is moved
+    where its material is nearest the node, with a warning where that
+    chose between bodies whose material the node carries.  Refused in a
+    run without contacts (one field: every body moves)."""
     function: Callable
+    bodies: Optional[Sequence[int]] = None
 
     def __post_init__(self):
         if not callable(self.function):
             raise InvalidInputError(
                 "Prescribed needs a function (basis, f_old, f_new) -> (dofs, "
                 "increments), got {!r}".format(self.function))
+        if self.bodies is not None:
+            try:
+                bodies = tuple(sorted({check_int("Prescribed bodies", b, 0)
+                                       for b in self.bodies}))
+            except TypeError:
+                bodies = ()
+            if not bodies:
+                raise InvalidInputError(
+                    "Prescribed bodies must be body numbers (>= 0), at "
+                    "least one, got {!r}".format(self.bodies))
+            object.__setattr__(self, "bodies", bodies)
 
 
 @dataclass(frozen=True)

@@ -61,7 +61,7 @@ import numpy as np
 from ..errors import InvalidInputError, MPMError
 from ..scenes.io import atomic_path
 from ..scenes.quantities import Quantity, check_quantities
-from ..scenes.regions import Polygon, bounding_box, region_shape
+from ..scenes.regions import Ball, Polygon, bounding_box, region_shape
 from ..scenes.scene import (METHODS, Grid, Scene, build_points,
                              point_bound, run_scene, support_names)
 from ..solve.backends import (AUTO_AMG_FROM, AUTO_PARDISO_FROM,
@@ -426,9 +426,9 @@ def feature_lines(scene: Scene) -> list:
     """The coordinates ``(axis, value, what)``, each once, where the
     scene's geometry has a face inside the grid: the bounds of its
     bodies' boxes and their polygons' vertices, of its obstacles' boxes
-    and polygons' vertices at the start, of its supports' boxes and
-    points (a disc or ball has none: its side, curved, lies on no grid
-    line)."""
+    and polygons' vertices at the start, of its supports' boxes,
+    polygons and points (a disc or ball has none: its side, curved, lies
+    on no grid line)."""
     axes = scene.grid.axes
     found = []
 
@@ -450,7 +450,11 @@ def feature_lines(scene: Scene) -> list:
         for d in range(len(axes)):
             add(d, corners[d], "obstacle {!r}".format(ob.name))
     for name, support in zip(support_names(scene), scene.supports):
-        for d, bounds in enumerate(support.region or ()):
+        region = support.region
+        for d, bounds in enumerate(
+                region.vertices if isinstance(region, Polygon)
+                else () if region is None or isinstance(region, Ball)
+                else region):
             add(d, bounds, "support {!r}".format(name))
         for d, value in enumerate(support.at or ()):
             add(d, value, "support {!r}".format(name))
