@@ -568,6 +568,79 @@ def test_an_obstacle_moved_past_the_material_is_named_in_the_error():
         moved, .25)
 
 
+def wall_against_held_base(method, held_x, caplog):
+    """A smooth wall box pushed 1e-3 sideways (one step) against a block
+    1.25 x 0.5 (E = 1e4, nu = 0.3, h = 0.125) from its left side down to
+    its base, the block's right side held in x and its base in y, and
+    (``held_x``) in x too.  Returns the run's records and the warnings
+    that name the wall."""
+    from skfem_mpm import ContactError
+    h, push = .125, 1e-3
+    mesh = MeshQuad.init_tensor(np.arange(0, 1.5 + 1e-9, h),
+                                np.arange(0, .75 + 1e-9, h))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .25) & (x[1] < .5))
+
+    def supports(b):
+        base = b.get_dofs(lambda x: x[1] == 0)
+        return np.union1d(base.all() if held_x else base.nodal["u^2"],
+                          b.get_dofs(lambda x: x[0] == 1.5).nodal["u^1"])
+    wall = Obstacle(box=[[0., .25], [0., .75]], displacement=[push, 0.],
+                    name="wall")
+    with caplog.at_level("WARNING", logger="skfem_mpm"):
+        try:
+            history = simulate(mesh, ElementQuad1(), pts,
+                               LinearElastic(1e4, .3), supports, nsteps=1,
+                               obstacles=[wall], method=method).history
+        except ContactError as err:
+            history = err
+    return history, [r.getMessage() for r in caplog.records
+                     if "'wall' pushes" in r.getMessage()]
+
+
+def held_share(text: str) -> float:
+    """The share of an obstacle's force on held nodes in a message."""
+    return float(text.split("pushes ")[1].split("%")[0]) / 100
+
+
+def test_a_wall_pushed_into_a_held_corner_is_named(caplog):
+    """Trial 60: a wall pushed into soil down to a base held in every
+    component met 9.7 times Rankine's passive force, the base's corner
+    node taking it, without a word.  Standard MPM: the lowest corners
+    beside the wall read only the held corner node, the penetration
+    cannot close, and the error (which said "raise the penalty") names
+    the wall, the share of its force on held nodes (98%) and the node.
+    The base sliding (held in y only): no such word, and the wall's
+    force is the plane-strain block's, E / (1 - nu^2) push / L times its
+    height, to 2% (the penetration tolerance's share)."""
+    from skfem_mpm import ContactError
+    failed, _ = wall_against_held_base("mpm", True, caplog)
+    assert isinstance(failed, ContactError)
+    message = str(failed)
+    assert "obstacle 'wall' pushes" in message
+    assert held_share(message) > .9
+    assert "(the most at the node [0.25, 0.0])" in message
+    caplog.clear()
+    history, words = wall_against_held_base("mpm", False, caplog)
+    assert words == []
+    E, nu, push, length, height = 1e4, .3, 1e-3, 1.25, .5
+    assert -history[-1].obstacle_forces[0, 0] == pytest.approx(
+        E / (1 - nu ** 2) * push / length * height, rel=.02)
+
+
+def test_a_wall_pushed_into_a_held_corner_is_warned_where_it_converges(
+        caplog):
+    """cpGIMP's corners there read free nodes too: the step converges
+    (after cut-backs), with a force 400 times the sliding base's (the
+    test: over 100), and a warning, once, names the wall and its share
+    on held nodes (70%)."""
+    history, words = wall_against_held_base("cpgimp", True, caplog)
+    sliding = wall_against_held_base("cpgimp", False, caplog)[0]
+    assert history[-1].load_factor == 1.
+    assert history[-1].obstacle_forces[0, 0] < 100 * \
+        sliding[-1].obstacle_forces[0, 0]
+    assert len(words) == 1 and held_share(words[0]) > .5
+
+
 def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
     """A block hangs from a tied obstacle whose face lies between grid
     lines: the obstacle carries the weight, and the block hangs where
