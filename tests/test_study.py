@@ -977,6 +977,27 @@ def test_a_fit_over_cases_all_ending_with_the_ghost_penalty_is_flagged():
     assert mixed_stabilisation(measured) == []
 
 
+def test_mixed_ghost_over_load_steps_is_said_of_the_data_range():
+    """Load steps varied, not elements (the cantilever over 10, 20 and 40
+    steps: the penalty on from steps 9, 3 and 2): no order is fitted, and
+    the warning says the data range holds the switch (it said "its order
+    and extrapolation are fitted")."""
+    from skfem_mpm.studies.study import analyse, mixed_stabilisation
+    top = Quantity("displacement", "x", at=(50.,), name="top")
+    rows = [dict(loadsteps=n, failure="", ghost_from_step=s,
+                 wall_seconds=1., cpu_seconds=1., points=32,
+                 newton_iterations=1, factorisations=1,
+                 values={"top": 1. + 1. / n})
+            for n, s in zip((10, 20, 40), (9, 3, 2))]
+    measured = analyse(replace(COLUMN, reference=None), rows, [top])
+    warning, = mixed_stabilisation(measured)
+    assert "the data range of the cases, which holds what the switch " \
+        "changes" in warning
+    assert "fitted" not in warning
+    assert rows[0]["relative_errors"]["top"] == pytest.approx(
+        (1.1 - 1.025) / 1.025, rel=1e-12)
+
+
 def test_study_json_names_relative_and_absolute_errors(tmp_path, caplog):
     """Trial 60: ``convergence[].errors`` were absolute (m) and each
     row's ``errors`` relative, under one word.  Rows carry

@@ -918,7 +918,10 @@ def mixed_stabilisation(measured: dict) -> List[str]:
         found.add(key)
         where = ", ".join("{}={}".format(k, v)
                           for k, v in c["choices"].items()) or "all"
-        if c.get("stabilisation_left_out"):
+        if not c["cell_sizes"]:         # elements not varied
+            what = "the errors are the data range of the cases, which " \
+                "holds what the switch changes"
+        elif c.get("stabilisation_left_out"):
             what = "some cases end with it and some without, different " \
                 "discretisations: no order or extrapolation is fitted " \
                 "across them ({})".format(
