@@ -58,7 +58,7 @@ def test_a_noisy_study_does_not_overclaim(tmp_path):
         assert c["oscillatory"] and "no extrapolation" in c["why"]
         assert "uncertainty 3 x the data range" in c["why"]
         assert 0 < c["uncertainty"] and all(u > 0 for u in
-                                            c["uncertainties"])
+                                            c["absolute_uncertainties"])
     assert abs(groups[3]["reference"] / groups[2]["reference"] - 1) < .01
     assert "outside [0.5, 4]" in groups[3]["why"]
     text = "\n".join(report(rows, measured, ["elements", "ppc"]))
@@ -192,7 +192,7 @@ def test_grids_that_change_the_geometry_are_left_out_of_the_fit():
         "15 elements (body 'clay' y = 2 inside a cell, and 1 more)")
     spread = values[15] - values[60]
     for r in rows:                      # the data range of all three
-        assert r["errors"]["footing force"] == pytest.approx(
+        assert r["relative_errors"]["footing force"] == pytest.approx(
             spread / values[60], rel=1e-12)
     # with a fourth grid the three that share the geometry are fitted, and
     # the coarse one is measured against their extrapolation
@@ -204,6 +204,7 @@ def test_grids_that_change_the_geometry_are_left_out_of_the_fit():
     assert "left out of the fit, a geometry other than the finest " \
         "grid's: 15 elements (" in c["why"]
     error = abs(values[15] - c["reference"]) / abs(c["reference"])
-    assert rows[0]["errors"]["footing force"] == pytest.approx(error)
-    assert rows[0]["uncertainties"]["footing force"] == pytest.approx(
-        3 * error)
+    assert rows[0]["relative_errors"]["footing force"] == \
+        pytest.approx(error)
+    assert rows[0]["relative_uncertainties"]["footing force"] == \
+        pytest.approx(3 * error)

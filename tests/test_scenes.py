@@ -1207,3 +1207,23 @@ def test_supports_and_outputs_on_polygons_and_discs():
     ball = Quantity("stress", "yy", region=Ball([0., 0., 0.], 1.))
     with pytest.raises(InvalidInputError, match="3 axes given"):
         ball.check(scene, result.points)
+
+
+def test_max_displacement_is_the_largest_magnitude(tmp_path):
+    """``summary.json``'s ``max_displacement`` is the largest
+    displacement magnitude of the final points (a trial's sliding block
+    read 0.0634, its largest component, where the largest displacement
+    was 0.0717): the block pushed sideways and down as much."""
+    text = COMBINATION.format(
+        material='{ model = "linear_elastic", E = 1e4, nu = 0.3 }',
+        method="mpm", kinematics="small", ghost=0., antilocking="false",
+        load="traction = [20.0, -20.0]")
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    assert main(["run", str(path), "--out", str(out), "--no-progress"]) == 0
+    u = meshio.read(out / "points_0002.vtu").point_data["displacement"]
+    summary = json.loads((out / "summary.json").read_text())
+    largest = np.sqrt((u ** 2).sum(axis=1)).max()
+    assert summary["max_displacement"] == pytest.approx(largest, rel=1e-12)
+    assert summary["max_displacement"] > 1.1 * np.abs(u).max()

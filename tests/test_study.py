@@ -882,3 +882,219 @@ def test_a_serial_study_s_progress_refits_the_time_left(tmp_path, caplog):
     assert lines[1].endswith("; about {} left".format(
         study_module.clock(a + b * work[2])))
     assert lines[2] == 'case 3/3 {"elements": 16, "loadsteps": 1}'
+
+
+def ghost_rows(steps, off=(), elements=(8, 16, 32, 64)):
+    """Rows of a study of the column (no closed form) whose top value
+    converges as ``1 + (h / L)^2`` (``h`` the cell size, ``L`` = 50 the
+    column's height), each case's ghost penalty on from ``steps``, the
+    cases ``off`` 1% off that."""
+    top = Quantity("displacement", "x", at=(50.,), name="top")
+    rows = [dict(elements=n, failure="", ghost_from_step=s,
+                 wall_seconds=1., cpu_seconds=1., points=2 * n,
+                 newton_iterations=1, factorisations=1, values={
+                     "top": (1. + (study_module.cell_size(COLUMN, n)
+                                   / 50.) ** 2) * (1.01 if n in off
+                                                   else 1.)})
+            for n, s in zip(elements, steps)]
+    return rows, top
+
+
+def test_a_fit_never_spans_cases_with_and_without_the_ghost_penalty():
+    """Trial 60: cpGIMP's cantilever sagging under its weight over 56,
+    112 and 224 elements, ``ghost="auto"`` switching the penalty on from
+    steps 2 and 7 on the coarse grids and never on the fine one: the
+    study fitted the order 0.85 and -1.7236 +- 0.0063 m across the two
+    discretisations, 0.0078 from the -1.71582 that every grid gives with
+    the penalty fixed, and said nothing.  Here the coarsest of four
+    grids ends with the penalty (1% off the others' ``1 + (h / L)^2``):
+    it is left out of the fit, which finds the order 2 and the reference
+    1 of the others (fitted over all four before: order 2.80, reference
+    1.00029 +- 0.00034); over three grids (the trial's 2, 7, never)
+    nothing is extrapolated; each is said in words, in study.json's
+    fields and in a warning with the remedy."""
+    from skfem_mpm.studies.study import analyse, report
+    scene = replace(COLUMN, reference=None)
+    rows, top = ghost_rows([2, 0, 0, 0], off=(8,))
+    measured = analyse(scene, rows, [top])
+    c = measured["convergence"][0]
+    assert c["order"] == pytest.approx(2., abs=1e-6)
+    assert c["reference"] == pytest.approx(1., abs=1e-9)
+    assert c["ghost_from_step"] == [0, 0, 0]
+    assert c["stabilisation_left_out"]
+    assert c["mixed_stabilisation"] == (
+        "8 elements: on from step 2; 16 elements: never on; 32 elements: "
+        "never on; 64 elements: never on")
+    assert [r["other_stabilisation"] for r in rows] == [True] + [False] * 3
+    coarse = rows[0]["values"]["top"]
+    assert rows[0]["error"] == pytest.approx(coarse - 1., rel=1e-6)
+    lines = report(rows, measured, ["elements"])
+    rate = [x for x in lines if x.startswith("rate of the error")][0]
+    assert rate.startswith("rate of the error all: 2.00 (")
+    assert rate.endswith("the ghost penalty switched on otherwise than "
+                         "on the finest grid: 8 elements")
+    warning = [x for x in lines if x.startswith("WARNING")]
+    assert len(warning) == 1 and "[solver] ghost = 0.1" in warning[0]
+    assert "some cases end with it and some without" in warning[0]
+    # the trial's pattern: three grids, two of them switched on
+    rows, top = ghost_rows([2, 7, 0], off=(16, 32), elements=(16, 32, 64))
+    c = analyse(scene, rows, [top])["convergence"][0]
+    values = c["values"]
+    assert c["against"] == "finest" and c["order"] is None
+    assert c["uncertainty"] == pytest.approx(3 * np.ptp(values), rel=1e-12)
+    assert c["why"].startswith(
+        "fewer than three grids share the finest grid's ghost penalty "
+        "(ghost=\"auto\": 16 elements: on from step 2; 32 elements: on "
+        "from step 7; 64 elements: never on)")
+
+
+def test_a_fit_over_cases_all_ending_with_the_ghost_penalty_is_flagged():
+    """Every case ends with the penalty, switched on at different steps
+    (the sag at 14, 28 and 56 elements: steps 2, 5 and 6; their ends 0,
+    5.8e-4 and 9.5e-5 m from the penalty on from the start, the
+    extrapolation 2e-4 from its, within its +- 0.014): fitted (order 2,
+    reference 1 here), and said (nothing before): the words,
+    ``mixed_stabilisation``, and the warning that the steps before the
+    switch differ."""
+    from skfem_mpm.studies.study import analyse, mixed_stabilisation
+    rows, top = ghost_rows([2, 5, 6], elements=(16, 32, 64))
+    measured = analyse(replace(COLUMN, reference=None), rows, [top])
+    c = measured["convergence"][0]
+    assert c["order"] == pytest.approx(2., abs=1e-6)
+    assert c["reference"] == pytest.approx(1., abs=1e-9)
+    assert not c["stabilisation_left_out"]
+    assert c["why"].endswith(
+        "fitted over grids whose ghost penalty switched on at different "
+        "steps (ghost=\"auto\"): 16 elements: on from step 2; 32 "
+        "elements: on from step 5; 64 elements: on from step 6")
+    assert all(r["mixed_stabilisation"] and not r["other_stabilisation"]
+               for r in rows)
+    warning, = mixed_stabilisation(measured)
+    assert "every case ends with it" in warning
+    rows, top = ghost_rows([3, 3, 3], elements=(16, 32, 64))
+    measured = analyse(replace(COLUMN, reference=None), rows, [top])
+    assert measured["convergence"][0]["mixed_stabilisation"] == ""
+    assert mixed_stabilisation(measured) == []
+
+
+def test_mixed_ghost_over_load_steps_is_said_of_the_data_range():
+    """Load steps varied, not elements (the cantilever over 10, 20 and 40
+    steps: the penalty on from steps 9, 3 and 2): no order is fitted, and
+    the warning says the data range holds the switch (it said "its order
+    and extrapolation are fitted")."""
+    from skfem_mpm.studies.study import analyse, mixed_stabilisation
+    top = Quantity("displacement", "x", at=(50.,), name="top")
+    rows = [dict(loadsteps=n, failure="", ghost_from_step=s,
+                 wall_seconds=1., cpu_seconds=1., points=32,
+                 newton_iterations=1, factorisations=1,
+                 values={"top": 1. + 1. / n})
+            for n, s in zip((10, 20, 40), (9, 3, 2))]
+    measured = analyse(replace(COLUMN, reference=None), rows, [top])
+    warning, = mixed_stabilisation(measured)
+    assert "the data range of the cases, which holds what the switch " \
+        "changes" in warning
+    assert "fitted" not in warning
+    assert rows[0]["relative_errors"]["top"] == pytest.approx(
+        (1.1 - 1.025) / 1.025, rel=1e-12)
+
+
+def test_study_json_names_relative_and_absolute_errors(tmp_path, caplog):
+    """Trial 60: ``convergence[].errors`` were absolute (m) and each
+    row's ``errors`` relative, under one word.  Rows carry
+    ``relative_errors`` and ``relative_uncertainties`` (and the CSV
+    ``relative error: ...``), convergence groups ``absolute_errors`` and
+    ``absolute_uncertainties``: ``absolute = relative x |reference|``;
+    rows record ``ghost_from_step`` and ``line_search_from_step`` (the
+    column: 0, never).  A study.json of the old names resumes: the old
+    fields are dropped, and cases without ``ghost_from_step`` are
+    warned of as unknown."""
+    scene = replace(COLUMN, reference=None)
+    vary = {"elements": [4, 8, 16], "loadsteps": [1]}
+    rows = study(scene, vary, tmp_path, progress=False)
+    saved = json.loads((tmp_path / "study.json").read_text())
+    c = saved["convergence"][0]
+    label = c["quantity"]
+    assert "errors" not in c and "uncertainties" not in c
+    for r, e, u in zip(saved["rows"], c["absolute_errors"],
+                       c["absolute_uncertainties"]):
+        assert "errors" not in r and "uncertainties" not in r
+        assert r["relative_errors"][label] * abs(c["reference"]) == \
+            pytest.approx(e, rel=1e-12)
+        assert r["relative_uncertainties"][label] * abs(c["reference"]) \
+            == pytest.approx(u, rel=1e-12)
+        assert r["ghost_from_step"] == 0 == r["line_search_from_step"]
+    header = (tmp_path / "study.csv").read_text().splitlines()[0].split(",")
+    assert "relative error: " + label in header
+    assert "error: " + label not in header
+    assert "ghost_from_step" in header
+    for r in saved["rows"]:             # as an older study wrote them
+        r["errors"] = r.pop("relative_errors")
+        r["uncertainties"] = r.pop("relative_uncertainties")
+        del r["ghost_from_step"]
+    (tmp_path / "study.json").write_text(json.dumps(saved))
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        again = study(scene, vary, tmp_path, progress=False)
+    assert [r["error"] for r in again] == [r["error"] for r in rows]
+    resumed = json.loads((tmp_path / "study.json").read_text())["rows"]
+    assert all("errors" not in r and "relative_errors" in r
+               for r in resumed)
+    assert "3 cases read back from study.json, run before it recorded " \
+        "ghost_from_step" in caplog.text
+
+
+SAG = """
+name = "sag"
+[grid]
+x = [0.0, 7.0, 14]
+y = [-3.5, 1.0, 9]
+[[bodies]]
+name = "beam"
+region = { x = [0.0, 6.0], y = [0.0, 0.5] }
+points_per_cell = 3
+material = { model = "linear_elastic", E = 1e6, nu = 0.25 }
+[[supports]]
+name = "root"
+boundary = "left"
+[gravity]
+body_force = [0.0, -250.0]
+[[outputs]]
+name = "tip deflection"
+quantity = "displacement"
+component = "y"
+at = [6.0, 0.25]
+[solver]
+method = "cpgimp"
+kinematics = "finite"
+steps = 20
+"""
+
+
+@pytest.mark.slow
+def test_a_study_records_when_the_ghost_penalty_switched_on(tmp_path,
+                                                            capsys, caplog):
+    """Trial 60's cantilever sagging under its weight (cpGIMP, finite
+    deformation), on 14, 28 and 56 elements: ``ghost="auto"`` switches
+    the penalty on from steps 2, 5 and 6.  The rows record it (study.json
+    and study.csv), the summary and the log say it with the remedy, and
+    the order 2.31 and -1.71888 +- 0.014 m are fitted over them (every
+    case ends with the penalty; fixed at 0.1 from the start: 2.29 and
+    -1.7191 +- 0.015)."""
+    scene_file = tmp_path / "sag.toml"
+    scene_file.write_text(SAG)
+    assert main(["study", str(scene_file), "--vary", "elements=14,28,56",
+                 "--out", str(tmp_path / "study"), "--no-progress"]) == 0
+    out = capsys.readouterr()
+    saved = json.loads((tmp_path / "study" / "study.json").read_text())
+    assert [r["ghost_from_step"] for r in saved["rows"]] == [2, 5, 6]
+    c = saved["convergence"][0]
+    assert c["ghost_from_step"] == [2, 5, 6]
+    assert c["mixed_stabilisation"] == (
+        "14 elements: on from step 2; 28 elements: on from step 5; 56 "
+        "elements: on from step 6")
+    assert c["order"] == pytest.approx(2.31, abs=.01)
+    assert c["reference"] == pytest.approx(-1.71888, abs=1e-4)
+    assert "WARNING: mixed stabilisation [all]: ghost=\"auto\" switched " \
+        "the ghost penalty on otherwise" in out.out
+    assert "mixed stabilisation [all]" in caplog.text
+    header = (tmp_path / "study" / "study.csv").read_text().splitlines()[0]
+    assert "ghost_from_step" in header.split(",")

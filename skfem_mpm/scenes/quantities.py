@@ -73,7 +73,10 @@ class Quantity:
     at
         For point quantities: a place (initial coordinates); the value
         there is fitted linearly by least squares to the nearest points
-        (3, 8, 16 in 1D, 2D, 3D), so it converges like the field itself.
+        (3, 8, 16 in 1D, 2D, 3D), so it converges like the field itself;
+        a place beyond the points (on the body's surface: the points lie
+        inside it) is extrapolated, so a beam's tip deflection ``at`` its
+        end face exceeds every point's.
     region
         For point quantities, instead of ``at``: ``[(lo, hi)] * dim``, a
         :class:`~skfem_mpm.scenes.regions.Polygon` (2D) or a

@@ -96,8 +96,9 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # or "contact_force" (contact = ..)
     component = "y"                 # x y z magnitude; stress: xx yy zz xy
                                     # xz yz mises pressure
-    at = [0.5, 50.0]                # initial position (fitted to the
-                                    # nearest points), or
+    at = [0.5, 50.0]                # initial position (a linear fit to
+                                    # the nearest points, extrapolated
+                                    # beyond them, e.g. on a surface), or
     # region = { y = [45.0, 50.0] } # points starting in a box (or a
                                     # polygon or disc), sides included
     # reduce = "max"                # reduced by mean (volume-weighted, the

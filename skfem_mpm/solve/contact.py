@@ -151,6 +151,12 @@ RUNAWAY = (", farther than the grid spans: grid nodes that carry almost "
 #: (:meth:`ObstacleContact.squeeze_hint`)
 SQUEEZED = .5
 
+#: the share of an obstacle's force on the grid acting on DOFs a support
+#: holds past which it is warned once a run (and named in a failure's
+#: hint): it goes straight into the support's reaction
+#: (:meth:`StepContact.held_shares`)
+HELD_SHARE = .2
+
 #: gaps within this many machine epsilons of the corners' largest
 #: coordinate are round-off (:meth:`StepContact.evaluate`)
 ROUNDOFF = 8 * np.finfo(float).eps
@@ -331,18 +337,39 @@ def point_rows(op, idx: ndarray):
     return rows(values), [rows(g) for g in grads]
 
 
-def spline_rows(weights, op, X: ndarray, p: ndarray) -> csr_matrix:
-    """B-splines: the weights (m, nodes) ``weights(X, p)`` of the corners
-    at ``X`` (dim, m) of points ``p`` on the nodes that carry material in
-    the step of ``op``, each row scaled to its whole sum
-    (:func:`~skfem_mpm.solve.loads.supported_share`, as a surface load's).
-    The splines at a corner reach nodes a quarter cell beyond its
-    point's, which no point supports: those are no DOF of the step, and a
-    contact's force there held the body like a support (a weightless
-    B-spline pile's contact force, and the soil's supports' reactions,
-    exceeded its load by up to 0.7%)."""
-    S = supported_share(weights(X, p).S,
-                        op.active_dofs[::X.shape[0]] // X.shape[0])
+def held_words(name: str, share: float, where: ndarray) -> str:
+    """An obstacle pushing ``share`` of its force on the grid into DOFs a
+    support holds (the largest at the node ``where``), in words."""
+    return ("obstacle {!r} pushes {:.0%} of its force on the grid into "
+            "nodes a support holds (the most at the node {}): that force "
+            "goes straight into the support's reaction, not through the "
+            "material (a wall pushed 1e-3 against a block whose base was "
+            "held in every component met 400 times the force it meets "
+            "where the base slides; with standard MPM contact did not "
+            "settle); end the obstacle a cell short of the support, or "
+            "hold the support in the components the obstacle does not "
+            "push".format(
+                name, share, np.round(where, 12).tolist()))
+
+
+def supported_rows(S: csr_matrix, op, X: ndarray, p: ndarray
+                   ) -> csr_matrix:
+    """The weights ``S`` (m, nodes) of the corners at ``X`` (dim, m) of
+    points ``p`` on the nodes that carry material in the step of ``op``,
+    each row scaled to its whole sum
+    (:func:`~skfem_mpm.solve.loads.supported_share`, as a surface
+    load's).  A node no point supports is no DOF of the step: a
+    contact's force there is in no balance, and held the body like a
+    support.  B-splines' at a corner reach nodes a quarter cell beyond
+    its point's (a weightless B-spline pile's contact force, and the
+    soil's supports' reactions, exceeded its load by up to 0.7%).  A
+    GIMP corner pressed 1.5e-6 into the empty cell under a block, which
+    its domain does not reach, put its depth over the cell's height of
+    its force on that cell's lower nodes: a floor's recorded force
+    exceeded the block's weight by 1.5e-7 of it, the step converged to
+    4e-16."""
+    dim = X.shape[0]
+    S = supported_share(S, np.unique(op.active_dofs // dim))
     empty = np.flatnonzero(np.diff(S.indptr) == 0)
     if empty.size:        # its force would hold it to a fixed point
         raise ContactError(
@@ -350,6 +377,12 @@ def spline_rows(weights, op, X: ndarray, p: ndarray) -> csr_matrix:
             "node that carries material in this step".format(
                 X[:, empty[0]].tolist(), int(p[empty[0]])))
     return S
+
+
+def spline_rows(weights, op, X: ndarray, p: ndarray) -> csr_matrix:
+    """B-splines: :func:`supported_rows` of the weights ``weights(X, p)``
+    (m, nodes) of the corners at ``X`` (dim, m) of points ``p``."""
+    return supported_rows(weights(X, p).S, op, X, p)
 
 
 class ObstacleContact(GridTerm):
@@ -362,7 +395,8 @@ class ObstacleContact(GridTerm):
     cell_size
         The grid's cell size (penalty and tolerance are relative to it).
     modulus
-        The material's largest P-wave modulus ``lam + 2 mu``.
+        The materials' largest indentation modulus ``E / (1 - nu^2)``
+        (:func:`contact_modulus`).
     domain0
         The points' initial domain half-lengths (dim, n), or ``None``
         (a cube of each point's initial volume).
@@ -411,6 +445,9 @@ class ObstacleContact(GridTerm):
         self.rigid_bodies = ()      # (begin_step) for prescribed_hint
         self.scale = 0.             # (begin_step) the loads' last scale
         self.ahead = []             # (begin_run) for squeeze_hint
+        #: per obstacle, (share, where) of its force on held DOFs in the
+        #: last step's last solve (:meth:`StepContact.held_shares`)
+        self.held = []
         self.start_gaps = []        # (begin_run)
         #: the resultant of the last step's load where Coulomb faces alone
         #: may hold the material (:meth:`sliding_load_hint`), else None
@@ -783,9 +820,10 @@ class ObstacleContact(GridTerm):
         had moved at the failed step past :data:`SQUEEZED` of the material
         ahead of it (:meth:`squeeze_hint`)."""
         if not quasi_static:
-            return self.squeeze_hint() + self.prescribed_hint(points)
+            return self.squeeze_hint() + self.prescribed_hint(points) + \
+                self.held_hint()
         hint = self.squeeze_hint() + self.prescribed_hint(points) + \
-            self.gap_hint() + "".join(
+            self.held_hint() + self.gap_hint() + "".join(
             "; obstacle {!r} is smooth and the material met its face "
             "inclined by {:.3g} degrees to the grid's axes: held along it "
             "by nothing else, a body on it has no quasi-static equilibrium "
@@ -840,6 +878,16 @@ class ObstacleContact(GridTerm):
         at the run's start)."""
         return "".join("; " + self.closing_words(*found)
                        for found in self.closing_rigid_bodies(points))
+
+    def held_hint(self) -> str:
+        """Per obstacle that pushed, in the failed step's last solve, more
+        than :data:`HELD_SHARE` of its force on the grid into DOFs a
+        support holds, a hint: there the penetration cannot close (a
+        wall pushed into soil down to a fully held base: "raise the
+        penalty", and contact never settled)."""
+        return "".join("; " + held_words(ob.name, *found)
+                       for ob, found in zip(self.obstacles, self.held)
+                       if found[0] > HELD_SHARE)
 
     def gap_hint(self) -> str:
         """Per stationary obstacle that the material starts short of by
@@ -1146,12 +1194,16 @@ class StepContact(GridTerm):
             # extended B-splines, obstacles that hold: the splines there
             return spline_rows(weights, self.op, where, np.tile(idx, nc))
         # Lagrange elements: the polynomial of the point's cell (GIMP,
-        # obstacles that hold: of the corner's)
+        # obstacles that hold: of the corner's, on its nodes that carry
+        # material)
         cells = np.tile(self.op.point_elements[idx], nc)
-        if hasattr(self.op, "S"):
-            cells = term.corner_cells(self.problem.run, where, np.tile(
-                self.problem.points.x[:, idx], nc), cells)
-        return term.cell_values(where, cells, self.op.N // dim)
+        if not hasattr(self.op, "S"):
+            return term.cell_values(where, cells, self.op.N // dim)
+        cells = term.corner_cells(self.problem.run, where, np.tile(
+            self.problem.points.x[:, idx], nc), cells)
+        return supported_rows(term.cell_values(where, cells,
+                                               self.op.N // dim),
+                              self.op, where, np.tile(idx, nc))
 
     def motions(self, du: ndarray) -> list:
         """Per obstacle, the corners' motion (dim, nc m) by ``du``."""
@@ -1160,6 +1212,24 @@ class StepContact(GridTerm):
             if id(J) not in moved:
                 moved[id(J)] = (J @ du).reshape(-1, self.dim).T
         return [moved[id(J)] for J in self.J]
+
+    def held_shares(self, ev) -> list:
+        """Per obstacle, ``(share, where)``: the share of its force on the
+        grid by the corner tractions of ``ev`` (:meth:`evaluate`; the
+        sum of the nodal forces' sizes) that acts on DOFs a support
+        holds, and the node where the largest of those acts."""
+        D = np.asarray(self.problem.run.D, dtype=np.int64)
+        doflocs = self.problem.grid.doflocs
+        found = []
+        for J, (T, *_) in zip(self.J, ev):
+            f = np.abs(J.T @ T.T.ravel())
+            total = f.sum()
+            if not D.size or total == 0.:
+                found.append((0., None))
+                continue
+            worst = D[np.argmax(f[D])] % doflocs.shape[1]
+            found.append((f[D].sum() / total, doflocs[:, worst]))
+        return found
 
     def grid_force(self, ev) -> ndarray:
         """The obstacles' force on the grid of the corner tractions of
@@ -1481,6 +1551,7 @@ class StepContact(GridTerm):
         if self.rough_changes(ev, du):
             self.evaluations = WeakKeyDictionary()
             return False
+        term.held = self.held_shares(ev)
         worst = [e[2] / tol for e, tol in zip(ev, term.tol)]
         if max(worst, default=0.) <= 1.:
             return True
@@ -1594,6 +1665,13 @@ class StepContact(GridTerm):
             forces.append(-T.sum(axis=1))
         record.obstacle_forces = np.array(forces)
         self.committed = ev
+        run = problem.run
+        for ob, found in zip(term.obstacles, self.held_shares(ev)):
+            if found[0] > HELD_SHARE and ("held", ob.name) not in \
+                    run.warned:
+                run.warned.add(("held", ob.name))
+                logger.warning("step %d: %s", problem.step,
+                               held_words(ob.name, *found))
         # the normal and tangential forces' sizes, for a failure's hint
         term.mobilisation = (new, [
             (np.zeros(1), np.zeros(1)) if part is None else (
@@ -1677,11 +1755,23 @@ class CellValues:
                           shape=(m, N)).tocsr()
 
 
-def p_wave_modulus(material) -> float:
-    """The largest P-wave modulus ``lam + 2 mu`` of a run's materials (the
-    scale of contact penalties)."""
-    return float(np.max(np.asarray(material.lam, dtype=float)
-                        + 2 * np.asarray(material.mu, dtype=float)))
+def contact_modulus(material) -> float:
+    """The largest indentation modulus ``E / (1 - nu^2)`` of a run's
+    materials, ``4 mu (lam + mu) / (lam + 2 mu)`` of their elastic
+    constants ``lam`` and ``mu`` (a material without ``E`` and ``nu``,
+    Cam clay, a user's: of its ``lam`` and ``mu``), the scale of the
+    obstacles' penalties, in 2D (plane strain) and 3D alike: the
+    modulus that sets a rigid punch's force on an elastic half space
+    (a circular punch's stiffness is ``2 a E / (1 - nu^2)``), from 2
+    to 4 ``mu`` as ``nu`` goes from 0 to 1/2.  The P-wave modulus
+    ``lam + 2 mu`` it replaced grows without bound there (51 ``mu`` at
+    ``nu = 0.49``, 13 times this): a rigid strip punched into such von
+    Mises soil with GIMP had its pressed corners change from 31 to 15
+    within a step, and Newton took 1177 iterations where it takes 251
+    now (docs/robustness.md)."""
+    lam = np.asarray(material.lam, dtype=float)
+    mu = np.asarray(material.mu, dtype=float)
+    return float(np.max(4 * mu * (lam + mu) / (lam + 2 * mu)))
 
 
 def contact_term(obstacles, cell_size: float, material, domain0,
@@ -1689,7 +1779,7 @@ def contact_term(obstacles, cell_size: float, material, domain0,
                  counters: dict, initial_scale: float = 0.,
                  cell_values=None):
     """The contact term of a run's obstacles."""
-    return ObstacleContact(obstacles, cell_size, p_wave_modulus(material),
+    return ObstacleContact(obstacles, cell_size, contact_modulus(material),
                            domain0,
                            total_lagrangian, moves, finite, counters,
                            initial_scale, cell_values)

@@ -56,7 +56,9 @@ class Obstacle:
         ``"obstacle<i>"`` by its position in the list).
     penalty
         The contact stiffness per unit area, in units of the material's
-        largest P-wave modulus (``lam + 2 mu``) over the cell size
+        largest indentation modulus ``E / (1 - nu^2)`` (of a material
+        without ``E`` and ``nu``: ``4 mu (lam + mu) / (lam + 2 mu)`` of
+        its elastic constants) over the cell size
         (default 10): the force that starts each augmented-Lagrangian
         solve; it changes how many augmentations a step takes and the
         answer within what the tolerance allows (a penetration up to the

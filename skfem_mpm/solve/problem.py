@@ -21,7 +21,6 @@ The problem never names a particular term, kinematics or method.
 """
 import logging
 import math
-import time
 import weakref
 from typing import NamedTuple
 
@@ -29,6 +28,7 @@ import numpy as np
 from numpy import ndarray
 from scipy.linalg.blas import dnrm2
 
+from ..kernels import run_clock
 from ..errors import GridMotionError, SingularSystemError, \
     SingularTangentError
 from ..mechanics.materials import is_plastic
@@ -172,7 +172,7 @@ class StepProblem:
         getattr(run.solver, "forget", lambda: None)()
         op = run.method.operator(points, step, t)
         self.method_op = op
-        tic = time.perf_counter()
+        tic = run_clock()
         for wrap in run.operator_wrappers:
             op = wrap(op, points)
         self.op = op
@@ -207,7 +207,7 @@ class StepProblem:
                 self.terms.append(begun)
         self.settles = any(getattr(term, "settles", False)
                            for term in self.terms)
-        t["assemble"] += time.perf_counter() - tic
+        t["assemble"] += run_clock() - tic
 
     @property
     def linear(self) -> bool:
@@ -287,10 +287,10 @@ class StepProblem:
         trial's, whose work arrays nothing has overwritten since: a step
         solved again after a term moved its constraint)."""
         if response is None:
-            tic = time.perf_counter()
+            tic = run_clock()
             response = self.run.kinematics.response(self.op, du, self.points)
-            self.t["update"] += time.perf_counter() - tic
-        tic = time.perf_counter()
+            self.t["update"] += run_clock() - tic
+        tic = run_clock()
         f_ext = self.f_dead
         follower = self.trial_loads(response, self.s_new)
         if follower is not None:         # a pressure on the trial surface
@@ -310,7 +310,7 @@ class StepProblem:
         if scale == 0.:               # nothing loads or drives: the stresses
             scale = max(safe_norm(balance.f_int), TINY)
         merit = safe_norm(r[self.free])
-        self.t["check"] += time.perf_counter() - tic
+        self.t["check"] += run_clock() - tic
         return Trial(response, r, merit, merit / scale)
 
     def _dead_norm(self) -> float:
@@ -334,7 +334,7 @@ class StepProblem:
     def tangent(self, trial: Trial):
         """The step's tangent at a trial: the stiffness of the points and
         the terms' matrices, weighed by the terms."""
-        tic = time.perf_counter()
+        tic = run_clock()
         response, op = trial.response, self.op
         blocks = response.tangent_of is not None and getattr(
             op, "tangent_blocks", False)       # no tangent of all points
@@ -357,7 +357,7 @@ class StepProblem:
             own = own and weighed is K
             K = weighed
         self._own = weakref.ref(K) if own else None
-        self.t["assemble"] += time.perf_counter() - tic
+        self.t["assemble"] += run_clock() - tic
         return K
 
     def rhs(self, trial: Trial) -> ndarray:
@@ -396,14 +396,14 @@ class StepProblem:
         compiled pass's) is condensed within its data (``consume``,
         :meth:`~skfem_mpm.solve.linear.Condensation.__call__`): the Newton
         driver does not read it again."""
-        tic = time.perf_counter()
+        tic = run_clock()
         try:
             n = K.shape[0]
             A = self.condensed(K)
             del K           # memory: not alive while A is factorised
             return self._solve(A, n, r, stabilise)
         finally:
-            self.t["solve"] += time.perf_counter() - tic
+            self.t["solve"] += run_clock() - tic
 
     def condensed(self, K):
         """The free-free block of the tangent ``K`` (canonical CSR), by the
@@ -544,7 +544,7 @@ class StepProblem:
         forces; the points located for the next step."""
         run, op, points, t = self.run, self.op, self.points, self.t
         response, r = trial.response, trial.r
-        tic = time.perf_counter()
+        tic = run_clock()
         dx = op.values(du)
         self.check_grid_motion(du, dx)
         self.check_thrown(du, dx)
@@ -570,7 +570,7 @@ class StepProblem:
             term.commit(self, trial, du, new, record)
         for term in self.terms:
             term.finish(self, new, record)
-        t["update"] += time.perf_counter() - tic
+        t["update"] += run_clock() - tic
         if run.method.moves:   # inside the grid (the location serves the
             run.method.locate(new.x, self.step, t, points)    # next step)
         for dofs in self.rigid_dofs:  # a support's DOFs keep their reactions

@@ -267,7 +267,8 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
                 ax.semilogx(h, f, ms=3, lw=.8, label=", ".join(
                     "{}={}".format(k, v) for k, v in c["choices"].items())
                     or "all", **style)
-                bars = _known(c.get("uncertainties") or [None] * f.size)
+                bars = _known(c.get("absolute_uncertainties")
+                              or [None] * f.size)
                 bars = bars[order]
                 if np.isfinite(bars).any():
                     ax.errorbar(h, f, yerr=np.where(np.isfinite(bars), bars,

@@ -11,8 +11,12 @@ Charlton (2018), the seed; ``"elastica"``,
 quantity's order is fitted by least squares over all the element counts
 of a group of cases, and a case's error is its relative distance to the
 extrapolation where the fit is credible, else the data range of the
-group; every case's value carries an uncertainty (``uncertainties``, the
-first quantity's as ``uncertainty``), never zero.  Every quantity's
+group; every case's value carries an uncertainty (``relative_errors``
+and ``relative_uncertainties`` per quantity, the first quantity's as
+``error`` and ``uncertainty``), never zero.  Cases whose runs switched
+the ghost penalty of ``ghost="auto"`` on at different steps solve
+different discretisations: no order is fitted across them, and the
+study says so (:func:`same_stabilisation`).  Every quantity's
 observed order, reference, uncertainty and the reason, in words, why it
 was or was not extrapolated are written to ``study.json`` under
 ``"convergence"``, with what the error measures under ``"error"``.
@@ -66,6 +70,7 @@ from ..scenes.scene import (METHODS, Grid, Scene, build_points,
                              point_bound, run_scene, support_names)
 from ..solve.backends import (AUTO_AMG_FROM, AUTO_PARDISO_FROM,
                               available_solvers)
+from ..solve.core import DEFAULT_GHOST, SMALL_STRAIN_GHOST
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS
 from ..solve.results import PHASES
 from .column import SOURCE, column_error, column_extent
@@ -229,12 +234,23 @@ class PeakMemory:
         self.peak = max(self.peak, self.rss() - self.start)
 
 
+#: the run's counters of what it switched on by itself that a study's
+#: rows record (:func:`run_case`), 0 where it never did: the ghost penalty
+#: of ``ghost="auto"`` (it changes the equations, so cases that differ in
+#: it solve different discretisations: :func:`same_stabilisation`), and
+#: the line search that later steps start with (it keeps each step's
+#: equations: recorded, not compared)
+SWITCHES = ("ghost_from_step", "line_search_from_step")
+
+
 def run_case(scene: Scene, params: dict, quantities=()) -> dict:
     """One case, timed inside: error against the scene's reference (if it
     has one), the ``quantities``' ``values``, wall time and CPU time
     (``time.process_time`` of this process: all its threads), time per
-    phase, Newton iterations, DOFs, points and peak memory (growth of the
-    resident set during the case).  The times are those of the run
+    phase, Newton iterations, DOFs, points, peak memory (growth of the
+    resident set during the case) and the step from which the run
+    switched on what it switches on by itself (:data:`SWITCHES`, 0:
+    never).  The times are those of the run
     (:func:`~skfem_mpm.scenes.scene.run_scene`: seeding, set-up, every
     step, everything that grows with the case), not of measuring its
     quantities; they include what the process does the first time (numba
@@ -269,7 +285,8 @@ def run_case(scene: Scene, params: dict, quantities=()) -> dict:
         dofs=int(max(r.n_free_dofs for r in result.history)),
         newton_iterations=int(result.counters["newton_iterations"]),
         factorisations=int(result.counters["factorisations"]),
-        steps_run=len(result.history))
+        steps_run=len(result.history),
+        **{name: int(result.counters.get(name, 0)) for name in SWITCHES})
     return row
 
 
@@ -517,7 +534,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     With ``elements`` varied, each group of cases sharing every other
     choice gives each quantity's :func:`~.convergence.self_convergence`
     over the cell size (the group's grids that share the finest one's
-    geometry, :func:`same_geometry`; the others measured against its
+    geometry, :func:`same_geometry`, and the finest one's ghost penalty,
+    :func:`same_stabilisation`; the others measured against its
     reference, three times their error their uncertainty; with fewer than
     three such grids the data range of all; the quantity's
     :func:`formal_order`): the reference, each case's error and
@@ -525,16 +543,24 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     (sharing method, right-hand side, line search and Newton variant) is
     judged by its data range (:func:`~.convergence.from_data_range`)
     against the case with the most points (then load steps).  Sets
-    ``row["errors"]`` and ``row["uncertainties"]`` (per quantity),
+    ``row["relative_errors"]`` and ``row["relative_uncertainties"]`` (per
+    quantity, relative to its reference),
     ``row["other_geometry"]`` (``elements`` varied: whether the case's
     grid models a geometry other than the finest one's,
     :func:`same_geometry`: left out of the fit where three grids remain,
     and of the rate of a closed-form error always),
+    ``row["other_stabilisation"]`` (whether the ghost penalty switched on
+    otherwise than in the group's finest case: left out alike),
     ``row["error"]`` (the scene's closed-form error where it has one,
     else the first quantity's) and ``row["uncertainty"]`` (the first
     quantity's, ``None`` against a closed form), and returns what was
-    measured, for ``study.json``.  A group of one case has no error and
-    no uncertainty (NaN, written as null).
+    measured, for ``study.json``: per quantity and group its
+    ``convergence`` (:class:`~.convergence.SelfConvergence`'s fields, in
+    the quantity's unit, its per-case lists as ``absolute_errors`` and
+    ``absolute_uncertainties``; ``ghost_from_step`` of the cases fitted;
+    ``mixed_stabilisation``, the words of :func:`same_stabilisation`).
+    A group of one case has no error and no uncertainty (NaN, written as
+    null).
     """
     done = [r for r in rows if not r["failure"] and "values" in r]
     refined = any("elements" in r for r in done)
@@ -545,18 +571,27 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     for choices, members in _groups(done, keys):
         fitted, left_out = (same_geometry(scene, members, lines) if refined
                             else (members, ""))
-        for r in members if refined else ():
-            r["other_geometry"] = not any(r is f for f in fitted)
+        alike, mixed = same_stabilisation(members, refined, choices)
+        for r in members:
+            if refined:
+                r["other_geometry"] = not any(r is f for f in fitted)
+            r["other_stabilisation"] = not any(r is a for a in alike)
+            r["mixed_stabilisation"] = bool(mixed)
+        fitted = [r for r in fitted if any(r is a for a in alike)]
         if len(fitted) < 3:             # no order without three grids
             fitted = members
+        ends = len(alike) < len(members)    # on at the end or not
+        others = " and ".join(words for words in (
+            "geometry (other: {})".format(left_out) if left_out else "",
+            "ghost penalty (ghost=\"auto\": {})".format(mixed) if ends
+            else "") if words)
         for q in quantities:
             values = [r["values"][q.label] for r in fitted]
-            if refined and fitted is members and left_out:
+            if refined and fitted is members and others:
                 sizes = [cell_size(scene, r["elements"]) for r in fitted]
                 found = from_data_range(
                     values, int(np.argmin(sizes)), "fewer than three grids "
-                    "share the finest grid's geometry (other: {})".format(
-                        left_out))
+                    "share the finest grid's " + others)
             elif refined:
                 sizes = [cell_size(scene, r["elements"]) for r in fitted]
                 found = self_convergence(sizes, values,
@@ -564,6 +599,12 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                 if left_out:
                     found.why += "; left out of the fit, a geometry other " \
                         "than the finest grid's: " + left_out
+                if mixed:
+                    found.why += "; {} (ghost=\"auto\"): {}".format(
+                        "left out of the fit, the ghost penalty on at the "
+                        "end otherwise than on the finest grid" if ends
+                        else "fitted over grids whose ghost penalty "
+                        "switched on at different steps", mixed)
             else:
                 sizes = []
                 finest = max(range(len(members)), key=lambda k: (
@@ -574,29 +615,39 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                 if len(members) == 1:
                     found.errors = found.uncertainties = [None]
                     found.uncertainty = None
+                if mixed:
+                    found.why += "; the range mixes cases whose ghost " \
+                        "penalty switched on otherwise (ghost=\"auto\"): " \
+                        + mixed
             scale = abs(found.reference) or max(abs(v) for v in values) \
                 or 1.
             for r, e, u in zip(fitted, found.errors, found.uncertainties):
-                r.setdefault("errors", {})[q.label] = _relative(e, scale)
-                r.setdefault("uncertainties", {})[q.label] = \
+                r.setdefault("relative_errors", {})[q.label] = _relative(
+                    e, scale)
+                r.setdefault("relative_uncertainties", {})[q.label] = \
                     _relative(u, scale)
             for r in members:   # left out of the fit: measured against it
                 if not any(r is f for f in fitted):
                     error = abs(r["values"][q.label] - found.reference)
-                    r.setdefault("errors", {})[q.label] = _relative(
-                        error, scale)
-                    r.setdefault("uncertainties", {})[q.label] = _relative(
-                        SAFETY_UNTRUSTED * error, scale)
+                    r.setdefault("relative_errors", {})[q.label] = \
+                        _relative(error, scale)
+                    r.setdefault("relative_uncertainties", {})[q.label] = \
+                        _relative(SAFETY_UNTRUSTED * error, scale)
+            found = found.as_dict()
+            found["absolute_errors"] = found.pop("errors")
+            found["absolute_uncertainties"] = found.pop("uncertainties")
             convergence.append(dict(
                 quantity=q.label, unit=q.unit(len(scene.grid.axes)),
                 choices=choices, cell_sizes=sizes, values=values,
-                **found.as_dict()))
+                ghost_from_step=[r.get("ghost_from_step") for r in fitted],
+                mixed_stabilisation=mixed, stabilisation_left_out=ends,
+                **found))
     first = quantities[0].label
     for r in done:
         r["error"] = r["reference_error"] if scene.reference else \
-            r["errors"][first]
+            r["relative_errors"][first]
         r["uncertainty"] = None if scene.reference else \
-            r["uncertainties"][first]
+            r["relative_uncertainties"][first]
     if scene.reference:
         label, against, what = REFERENCE_ERRORS[scene.reference]
     else:
@@ -678,6 +729,57 @@ def disagreements(convergence: List[dict]) -> List[dict]:
     return found
 
 
+def _size(r: dict, refined: bool) -> tuple:
+    """How fine a case of a group is: its elements, or without
+    ``elements`` varied its points (then load steps)."""
+    return (r["elements"],) if refined else (r["points"],
+                                             r.get("loadsteps", 0))
+
+
+def _ghost_words(step) -> str:
+    return "never on" if not step else "on from step {}".format(step)
+
+
+def same_stabilisation(members: List[dict], refined: bool, choices: dict):
+    """``(alike, words)``: the cases of a group of ``members`` (sharing
+    ``choices``) that end with the ghost penalty on where the finest
+    case (:func:`_size`) does, off where it is never on there (a row's
+    ``ghost_from_step``, :data:`SWITCHES`: ``ghost="auto"`` switches it
+    on for the rest of a run), and the words naming every case of the
+    group with the step its penalty switched on from, where any differ
+    ("" where none does; a case of a study from before the rows recorded
+    it is taken as alike).
+
+    The penalty changes the equations: cases that end with it and cases
+    without solve different discretisations, and an order fitted across
+    them measures the switch, not the grid: a trial's cantilever sagging
+    under its weight (cpGIMP, finite deformation, 56, 112 and 224
+    elements, the penalty on from steps 2 and 7 on the coarse grids and
+    never on the fine one) was fitted the order 0.85 and
+    -1.7236 +- 0.0063 m, 0.0078 from the -1.71582 +- 0.00024 that every
+    grid gives with ``ghost = 0.1`` (FE: -1.71581); such cases are left
+    out of the fit (:func:`analyse`).  Cases that all end with it,
+    switched on at different steps, differ in the steps before: named
+    in the words, not left out (the cantilever at 14, 28 and 56
+    elements, on from steps 2, 5 and 6: the ends moved by 0, 5.8e-4 and
+    9.5e-5 m against the penalty on from the start, the extrapolation
+    by 2e-4 of its +- 0.014; left out, the data range would have given
+    +- 0.82)."""
+    step = max(members, key=lambda r: _size(r, refined)).get(
+        "ghost_from_step")
+    alike = [r for r in members if r.get("ghost_from_step") is None
+             or step is None or bool(r["ghost_from_step"]) == bool(step)]
+    steps = {r.get("ghost_from_step") for r in members} - {None}
+    if len(steps) < 2:
+        return alike, ""
+    return alike, "; ".join("{}: {}".format(
+        "{} elements".format(r["elements"]) if refined else " ".join(
+            "{}={}".format(k, r[k]) for k in VARIABLES
+            if k in r and k not in choices),
+        _ghost_words(r.get("ghost_from_step")))
+        for r in sorted(members, key=lambda r: _size(r, refined)))
+
+
 def same_geometry(scene: Scene, members: List[dict], lines: list):
     """The cases of a group of ``members`` (varied ``elements``) whose grids
     put every feature line (:func:`feature_lines`) that the finest one has
@@ -748,18 +850,23 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                 lines.append("rate of the error {}: none (no extrapolation:"
                              " every error is the data range)".format(where))
                 continue
-            kept = [r for r in members if not r.get("other_geometry")]
+            kept = [r for r in members if not r.get("other_geometry")
+                    and not r.get("other_stabilisation")]
             other = [str(r["elements"]) for r in members
                      if r.get("other_geometry")]
+            ghost = [str(r["elements"]) for r in members
+                     if r.get("other_stabilisation")]
             rate = fitted_rate([r["elements"] for r in kept],
                                [r["error"] for r in kept])
-            lines.append("rate of the error {}: {}{}".format(
+            lines.append("rate of the error {}: {}{}{}".format(
                 where, "{:.2f} (fitted to the cases with a non-zero "
                 "error)".format(rate) if np.isfinite(rate) else
                 "needs two cases with a non-zero error", "; left out, "
                 "their grids modelling a geometry other than the finest "
                 "one's: {} elements".format(", ".join(other))
-                if other else ""))
+                if other else "", "; left out, the ghost penalty switched "
+                "on otherwise than on the finest grid: {} elements".format(
+                    ", ".join(ghost)) if ghost else ""))
     for c in measured["convergence"]:
         where = ", ".join("{}={}".format(k, v) for k, v in
                           c["choices"].items())
@@ -768,6 +875,7 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
             "extrapolated" if c["against"] == "richardson" else "reference",
             _number(c["reference"], "{:.6g}"),
             _number(c["uncertainty"], "{:.2g}"), c["unit"], c["why"]))
+    lines.extend(mixed_stabilisation(measured))
     pairs = measured.get("disagreements", ())
     for d in sorted(pairs, key=lambda d: -d["apart"])[:SHOWN_PAIRS]:
         where = [", ".join("{}={}".format(k, v) for k, v in c.items())
@@ -788,6 +896,52 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                      "disagreements)".format(len(pairs) - SHOWN_PAIRS))
     if getattr(rows, "warm_up", None):
         lines.append(warm_up_summary(rows.warm_up))
+    return lines
+
+
+def mixed_stabilisation(measured: dict) -> List[str]:
+    """A warning per group of cases (``choices``) whose runs switched the
+    ghost penalty of ``ghost="auto"`` on at different steps, or in some
+    and not in others (convergence ``mixed_stabilisation``,
+    :func:`same_stabilisation`), with the remedy: the penalty fixed in
+    the scene.  Cases that end with it and cases without solve different
+    discretisations: no order or extrapolation is fitted across them
+    (``stabilisation_left_out``: the reference is that of the cases
+    alike, or the data range of all); cases that all end with it are
+    fitted, the steps before the switch differing between them.
+    :func:`report` prints them and :func:`study` logs them."""
+    found, lines = set(), []
+    for c in measured.get("convergence", ()):
+        key = json.dumps(c["choices"], sort_keys=True)
+        if not c.get("mixed_stabilisation") or key in found:
+            continue
+        found.add(key)
+        where = ", ".join("{}={}".format(k, v)
+                          for k, v in c["choices"].items()) or "all"
+        if not c["cell_sizes"]:         # elements not varied
+            what = "the errors are the data range of the cases, which " \
+                "holds what the switch changes"
+        elif c.get("stabilisation_left_out"):
+            what = "some cases end with it and some without, different " \
+                "discretisations: no order or extrapolation is fitted " \
+                "across them ({})".format(
+                    "fitted to the cases alike, the others measured "
+                    "against it" if c["against"] == "richardson" else
+                    "the errors are the data range of all, which holds "
+                    "the switch")
+        else:
+            what = "every case ends with it and its order and " \
+                "extrapolation are fitted, but the steps before the " \
+                "switch differ between the cases, and what that changes " \
+                "counts as the grid's"
+        lines.append(
+            "WARNING: mixed stabilisation [{}]: ghost=\"auto\" switched "
+            "the ghost penalty on otherwise from case to case ({}): {}; "
+            "for a study, fix the penalty in the scene ([solver] ghost = "
+            "{:g} in finite deformation, {:g} in small strain: what "
+            "\"auto\" switches on) so that every case runs with it from "
+            "the start".format(where, c["mixed_stabilisation"], what,
+                               DEFAULT_GHOST, SMALL_STRAIN_GHOST))
     return lines
 
 
@@ -845,8 +999,11 @@ def _known(data):
 
 
 #: per-quantity fields of a row, and their columns in study.csv
-PER_QUANTITY = {"values": "value: ", "errors": "error: ",
-                "uncertainties": "uncertainty: "}
+PER_QUANTITY = {"values": "value: ", "relative_errors": "relative error: ",
+                "relative_uncertainties": "relative uncertainty: "}
+#: a row's per-quantity fields before they said what they are (read back
+#: from an older study.json: :func:`analyse` computes them again)
+OLD_PER_QUANTITY = ("errors", "uncertainties")
 
 
 class StudyRows(list):
@@ -928,8 +1085,10 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     rows
         :class:`StudyRows`: one dict per case (finished ones read back on
         resume, unless they lack a value of ``quantities``: those run
-        again), with ``values`` and ``errors`` per quantity and the
-        headline ``error``; its ``warm_up`` lists the warm-ups.
+        again), with ``values`` and ``relative_errors`` per quantity and
+        the headline ``error``; its ``warm_up`` lists the warm-ups.
+        Groups whose cases switched the ghost penalty on otherwise are
+        warned (:func:`mixed_stabilisation`).
 
     Examples
     --------
@@ -986,7 +1145,8 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
                     logger.info(line)
         if progress and sys.stderr.isatty():
             sys.stderr.write("\n")
-        _write(outdir, rows, 1, analyse(scene, rows, quantities), warm_ups)
+        _write(outdir, rows, 1, warn_mixed(analyse(scene, rows, quantities),
+                                           rows), warm_ups)
         return StudyRows(_ordered(rows, cases), warm_ups)
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
@@ -1013,11 +1173,29 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
             add(*future.result())
             _write(outdir, rows, nworkers, analyse(scene, rows, quantities),
                    warm_ups)
-        _write(outdir, rows, nworkers, analyse(scene, rows, quantities),
-               warm_ups)
+        _write(outdir, rows, nworkers, warn_mixed(analyse(
+            scene, rows, quantities), rows), warm_ups)
     if cluster is not None:
         cluster.close()
     return StudyRows(_ordered(rows, cases), warm_ups)
+
+
+def warn_mixed(measured: dict, rows: List[dict]) -> dict:
+    """Log :func:`mixed_stabilisation`'s warnings, and one where cases
+    read back from an older ``study.json`` do not say whether the ghost
+    penalty switched on in them; returns ``measured``."""
+    for line in mixed_stabilisation(measured):
+        logger.warning("%s", line[len("WARNING: "):])
+    unknown = [r for r in rows if not r["failure"]
+               and "ghost_from_step" not in r]
+    if unknown:
+        logger.warning(
+            "%d case%s read back from study.json, run before it recorded "
+            "ghost_from_step: whether ghost=\"auto\" switched the ghost "
+            "penalty on in them is unknown and not compared; a study in a "
+            "new --out folder records it", len(unknown),
+            "s" if len(unknown) > 1 else "")
+    return measured
 
 
 def default_vary(scene: Scene) -> Dict[str, list]:
@@ -1078,8 +1256,12 @@ def finished_rows(outdir, quantities) -> List[dict]:
     if not path.exists():
         return []
     labels = {q.label for q in quantities}
-    return [r for r in json.loads(path.read_text())["rows"]
+    rows = [r for r in json.loads(path.read_text())["rows"]
             if r["failure"] or labels <= set(r.get("values", ()))]
+    for r in rows:
+        for name in OLD_PER_QUANTITY:
+            r.pop(name, None)
+    return rows
 
 
 def finished_warm_ups(outdir) -> List[dict]:
