@@ -449,6 +449,30 @@ def test_a_load_past_coulomb_s_from_the_start_names_friction():
         np.tan(tilt) / mu) in str(failed.value)
 
 
+def test_a_block_on_an_oblique_coulomb_face_past_mu_names_friction():
+    """Trial 60: a block touching a 25 degree incline (a polygon, mu =
+    0.3 < tan 25 degrees) at its lower corner, nothing else holding it:
+    no quasi-static equilibrium, and the error was Newton's alone (an
+    oblique face counts as holding every component in the check of
+    missing supports, which kept the load from the hint).  Now it names
+    friction, tan(25 degrees) / 0.3 times mu."""
+    from skfem_mpm import ConvergenceError
+    tan, mu = np.tan(np.radians(25.)), .3
+    mesh = MeshQuad.init_tensor(np.arange(0., 2. + 1e-9, .1),
+                                np.arange(-.5, 1.5 + 1e-9, .1))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .4) & (x[0] < .8)
+                      & (x[1] > .5) & (x[1] < .7))
+    plane = Obstacle(polygon=[[-1., .5 + 1.4 * tan], [3., .5 - 2.6 * tan],
+                              [3., -3.], [-1., -3.]], friction=mu,
+                     name="incline")
+    with pytest.raises(ConvergenceError) as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e5, .3), [],
+                 body_force=[0., -20.], nsteps=1, obstacles=[plane],
+                 options=Options(newton=NewtonOptions(max_cutbacks=0)))
+    assert "along the face of obstacle 'incline' with {:.3f} times " \
+        "mu".format(tan / mu) in str(failed.value)
+
+
 @pytest.mark.slow
 def test_a_singular_tangent_switches_the_reserve_ghost_penalty_on():
     """A 3D cpGIMP cantilever (2 x 2 x 2 points per cell) clamped by a

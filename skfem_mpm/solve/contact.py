@@ -438,6 +438,7 @@ class ObstacleContact(GridTerm):
         #: value and gradient (:meth:`field_rows`)
         self.reads_field = None
         self.unheld = False         # (begin_step) for failure_hint
+        self.obstacles_alone = False    # (begin_step) sliding_load_hint
         #: (begin_step) the material is held without Coulomb's tangential
         #: hold at the first step's start (:meth:`held_without_coulomb`)
         self.supported = False
@@ -1009,11 +1010,16 @@ class ObstacleContact(GridTerm):
                     # after every cut-back with "raise the penalty" (a
                     # user trial)
                     raise InvalidInputError(self.closing_words(*found))
+            # nothing but obstacles holds the material (an oblique face's
+            # normal counts as holding every component in ``supported``)
+            self.obstacles_alone = not (
+                np.size(run.D) or run.prescribed is not None
+                or run.rigid_bodies
+                or any(term.holds_free_body for term in run.terms))
             # nothing but smooth obstacles holds the material
-            self.unheld = not (np.size(run.D) or run.prescribed is not None
-                               or any(ob.friction != 0.
-                                      for ob in self.obstacles))
-        if not self.supported and all(
+            self.unheld = self.obstacles_alone and not any(
+                ob.friction != 0. for ob in self.obstacles)
+        if (not self.supported or self.obstacles_alone) and all(
                 not isinstance(ob.friction, str) for ob in self.obstacles) \
                 and any(ob.friction > 0. for ob in self.obstacles):
             # (sliding_load_hint) the load's resultant at the step's end
