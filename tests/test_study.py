@@ -996,6 +996,19 @@ def test_mixed_ghost_over_load_steps_is_said_of_the_data_range():
     assert "fitted" not in warning
     assert rows[0]["relative_errors"]["top"] == pytest.approx(
         (1.1 - 1.025) / 1.025, rel=1e-12)
+    # four cases, the penalty on in the coarsest only, in a Dask
+    # completion order: the reference is the finest (40 steps), the
+    # data range all four's (an IndexError, or 1.1 for the reference)
+    rows = [dict(loadsteps=n, failure="", ghost_from_step=s,
+                 wall_seconds=1., cpu_seconds=1., points=32,
+                 newton_iterations=1, factorisations=1,
+                 values={"top": 1. + 1. / n})
+            for n, s in zip((5, 40, 10, 20), (2, 0, 0, 0))]
+    measured = analyse(replace(COLUMN, reference=None), rows, [top])
+    assert measured["convergence"][0]["reference"] == 1.025
+    assert rows[1]["relative_errors"]["top"] == pytest.approx(
+        (1.2 - 1.025) / 1.025, rel=1e-12)
+    assert not any(r["other_stabilisation"] for r in rows)
 
 
 def test_study_json_names_relative_and_absolute_errors(tmp_path, caplog):

@@ -30,6 +30,7 @@ first logged at INFO) and left out of every time the package measures
 """
 import logging
 import os
+import threading
 import time
 
 from ..errors import InvalidInputError
@@ -37,7 +38,8 @@ from ..errors import InvalidInputError
 __all__ = ["KERNELS", "ELASTIC", "VON_MISES", "DRUCKER_PRAGER",
            "MOHR_COULOMB", "CAM_CLAY", "PER_ENTRY", "PER_NODE_PAIR",
            "BISECTION", "AUTO_VARIABLE", "check_kernels", "auto_kernels",
-           "compiled_passes", "log_once", "compile_seconds", "run_clock"]
+           "compiled_passes", "log_once", "compile_seconds", "run_clock",
+           "time_compilation"]
 
 logger = logging.getLogger(__name__)
 
@@ -55,7 +57,9 @@ PER_ENTRY, PER_NODE_PAIR, BISECTION = 0, 1, 2
 
 _LOGGED = set()
 _PASSES = []
-_COMPILING = [0.]     # seconds numba has compiled in this process
+_TIMED = []           # numba's compilations timed (time_compilation)
+#: per thread (its ident), the seconds numba has compiled in it
+_COMPILING = {}
 
 
 def log_once(level: int, message: str, *args) -> None:
@@ -121,30 +125,36 @@ def compiled_passes():
 
 
 def compile_seconds() -> float:
-    """The seconds numba has spent compiling in this process (0 before
-    the compiled passes are first asked for; a kernel loaded from the
+    """The seconds numba has spent compiling in the calling thread (from
+    the first compiled kernel asked for on; a kernel loaded from the
     disk cache compiles nothing)."""
-    return _COMPILING[0]
+    return _COMPILING.get(threading.get_ident(), 0.)
 
 
 def run_clock() -> float:
     """``time.perf_counter()`` less :func:`compile_seconds`: the clock of
     every time a run measures (its phases, ``wall_seconds``), so that
     the kernels' compilation, once per installation, is counted in none
-    of them.
+    of them (a thread's own: another thread compiling meanwhile is not
+    subtracted).
 
     >>> tic = run_clock()
     >>> 0. <= run_clock() - tic < 1.
     True
     """
-    return time.perf_counter() - _COMPILING[0]
+    return time.perf_counter() - compile_seconds()
 
 
 def time_compilation() -> None:
     """Add the seconds of numba's outermost compilations to
-    :func:`compile_seconds` from now on (its ``numba:compile`` events;
-    a function compiled inside another's compilation counts once), and
-    log the first at INFO."""
+    :func:`compile_seconds` of the compiling thread from now on (its
+    ``numba:compile`` events; a function compiled inside another's
+    compilation counts once, and numba's compiler lock lets one thread
+    compile at a time), and log the first at INFO.  Registered once,
+    when the first compiled kernels are imported."""
+    if _TIMED:
+        return
+    _TIMED.append(True)
     from numba.core import event
 
     class CompileTimer(event.Listener):
@@ -162,6 +172,8 @@ def time_compilation() -> None:
         def on_end(self, _):
             self.depth -= 1
             if self.depth == 0:
-                _COMPILING[0] += time.perf_counter() - self.tic
+                thread = threading.get_ident()
+                _COMPILING[thread] = _COMPILING.get(thread, 0.) + (
+                    time.perf_counter() - self.tic)
 
     event.register("numba:compile", CompileTimer())

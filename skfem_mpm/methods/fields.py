@@ -15,13 +15,13 @@ Bodies glued to each other share a field: the fields are the groups of
 bodies connected by pairs *without* a declared contact
 (:func:`body_fields`).
 """
-import time
 from typing import NamedTuple
 
 import numpy as np
 from numpy import ndarray
 from scipy.sparse import csr_matrix
 
+from ..kernels import run_clock
 from ..errors import InvalidInputError
 from .operators import SparseOperator
 
@@ -187,14 +187,14 @@ class FieldMethod:
 
     def operator(self, points, step: int, timings: dict):
         location = self.locate(points.x, step, timings, points)
-        tic = time.perf_counter()
+        tic = run_clock()
         domain = points.domain
         op = self.fields.combine(
             ((idx, self.piece.sparse_operator(
                 points.x[:, idx], None if domain is None else domain[:, idx])
               if idx.size else None) for idx in self.members), points.n)
         op.point_elements = location[0]
-        timings["assemble"] += time.perf_counter() - tic
+        timings["assemble"] += run_clock() - tic
         return op
 
     def _weights_at(self, x: ndarray, idx: ndarray,

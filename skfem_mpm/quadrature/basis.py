@@ -29,7 +29,7 @@ from skfem.mesh import Mesh
 
 from ..errors import InvalidInputError
 from ..graph import distinct
-from ..kernels import auto_kernels, check_kernels
+from ..kernels import auto_kernels, check_kernels, time_compilation
 from .locate import locate_points
 from .mapping import PointMapping, fresh_mapping
 from .points import MaterialPoints
@@ -423,6 +423,8 @@ def compiled_kernels(name: str = "basis", kernels: str = "auto"):
                 "skfem_mpm.kernels." + name)
         except ImportError:             # no numba: the numpy path
             _KERNELS[name] = None
+        else:
+            time_compilation()
     return _KERNELS[name]
 
 

@@ -447,8 +447,8 @@ class ObstacleContact(GridTerm):
         self.scale = 0.             # (begin_step) the loads' last scale
         self.ahead = []             # (begin_run) for squeeze_hint
         #: per obstacle, (share, where) of its force on held DOFs in the
-        #: last step's last solve (:meth:`StepContact.held_shares`)
-        self.held = []
+        #: step's last solve (:meth:`StepContact.held_shares`)
+        self.held_share = []
         self.start_gaps = []        # (begin_run)
         #: the resultant of the last step's load where Coulomb faces alone
         #: may hold the material (:meth:`sliding_load_hint`), else None
@@ -887,7 +887,8 @@ class ObstacleContact(GridTerm):
         wall pushed into soil down to a fully held base: "raise the
         penalty", and contact never settled)."""
         return "".join("; " + held_words(ob.name, *found)
-                       for ob, found in zip(self.obstacles, self.held)
+                       for ob, found in zip(self.obstacles,
+                                            self.held_share)
                        if found[0] > HELD_SHARE)
 
     def gap_hint(self) -> str:
@@ -992,6 +993,7 @@ class ObstacleContact(GridTerm):
 
     def begin_step(self, problem):
         self.scale = problem.s_new      # (squeeze_hint)
+        self.held_share = []            # (held_hint) this step's
         if self.reads_field is None:            # the run's first step
             run = problem.run
             self.reads_field = self.field_rows(run)
@@ -1222,10 +1224,10 @@ class StepContact(GridTerm):
     def held_shares(self, ev) -> list:
         """Per obstacle, ``(share, where)``: the share of its force on the
         grid by the corner tractions of ``ev`` (:meth:`evaluate`; the
-        sum of the nodal forces' sizes) that acts on DOFs a support
-        holds, and the node where the largest of those acts."""
-        D = np.asarray(self.problem.run.D, dtype=np.int64)
-        doflocs = self.problem.grid.doflocs
+        sum of the nodal forces' sizes) that acts on DOFs the step holds
+        (supports, prescribed motion, rigid bodies), and the node where
+        the largest of those acts."""
+        D = np.asarray(self.problem.fixed, dtype=np.int64)
         found = []
         for J, (T, *_) in zip(self.J, ev):
             f = np.abs(J.T @ T.T.ravel())
@@ -1233,8 +1235,8 @@ class StepContact(GridTerm):
             if not D.size or total == 0.:
                 found.append((0., None))
                 continue
-            worst = D[np.argmax(f[D])] % doflocs.shape[1]
-            found.append((f[D].sum() / total, doflocs[:, worst]))
+            found.append((f[D].sum() / total, self.problem.grid.doflocs[
+                :, D[np.argmax(f[D])]]))
         return found
 
     def grid_force(self, ev) -> ndarray:
@@ -1557,7 +1559,7 @@ class StepContact(GridTerm):
         if self.rough_changes(ev, du):
             self.evaluations = WeakKeyDictionary()
             return False
-        term.held = self.held_shares(ev)
+        term.held_share = self.held_shares(ev)
         worst = [e[2] / tol for e, tol in zip(ev, term.tol)]
         if max(worst, default=0.) <= 1.:
             return True

@@ -575,12 +575,16 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
         for r in members:
             if refined:
                 r["other_geometry"] = not any(r is f for f in fitted)
-            r["other_stabilisation"] = not any(r is a for a in alike)
+            # (elements not varied: the data range of all holds it)
+            r["other_stabilisation"] = refined and not any(
+                r is a for a in alike)
             r["mixed_stabilisation"] = bool(mixed)
-        fitted = [r for r in fitted if any(r is a for a in alike)]
+        if refined:
+            fitted = [r for r in fitted if any(r is a for a in alike)]
         if len(fitted) < 3:             # no order without three grids
             fitted = members
-        ends = len(alike) < len(members)    # on at the end or not
+        # on at the end or not, grids left out for it
+        ends = refined and len(alike) < len(members)
         others = " and ".join(words for words in (
             "geometry (other: {})".format(left_out) if left_out else "",
             "ghost penalty (ghost=\"auto\": {})".format(mixed) if ends
