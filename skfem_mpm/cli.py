@@ -483,9 +483,6 @@ def support_marks(scene, mesh, elem) -> list:
     the nodes each holds, labelled by its name, where it is and what it
     holds (fixed, or moved by its ``value`` at full load)."""
     grid, dim = grid_parts(mesh, elem)[1], mesh.dim()
-    node_of = np.empty(grid.N, dtype=np.int64)
-    for c in range(dim):
-        node_of[grid.nodal_dofs[c]] = np.arange(grid.nodal_dofs.shape[1])
     marks = []
     for name, s in zip(support_names(scene), scene.supports):
         held = tuple("xyz".index(c) for c in s.components
@@ -498,7 +495,7 @@ def support_marks(scene, mesh, elem) -> list:
             " fixed" if s.value is None else " moved by {} m at full "
             "load".format(list(s.value)))
         marks.append(SupportMarks("{} ({}): {}".format(name, where, what),
-                                  mesh.p[:, node_of[dofs[0]]], held,
+                                  grid.doflocs[:, dofs[0]], held,
                                   s.value is not None))
     return marks
 
