@@ -967,12 +967,17 @@ def print_report(scene, summary: dict, seconds: float, outdir: Path,
                                       q["unit"]))
     print("  max equilibrium residual  {:.1e}".format(
         summary["max_residual"]))
-    total = sum(summary["timings"].values()) or 1.
+    # shares of the run's time: the steps' phases, and the rest (seeding,
+    # set-up, output, checkpoints; a trial read the phases' shares of
+    # their own sum, 53-60% of the time, as the time's)
+    wall = summary["wall_seconds"] or 1.
+    rest = max(wall - sum(summary["timings"].values()), 0.)
     print("  time {:.3f} s{}: ".format(summary["wall_seconds"], "" if
                                        not resumed else " ({:.3f} s in "
                                        "this invocation)".format(seconds))
           + ", ".join(
-        "{} {:.0%}".format(p, summary["timings"][p] / total) for p in PHASES))
+        "{} {:.0%}".format(p, summary["timings"][p] / wall) for p in PHASES)
+          + ", set-up and output {:.0%}".format(rest / wall))
     if summary.get("compile_seconds"):
         print("  compiling the kernels     {:.1f} s (once per installation; "
               "not in the time)".format(summary["compile_seconds"]))

@@ -1210,11 +1210,13 @@ def test_supports_and_outputs_on_polygons_and_discs():
         ball.check(scene, result.points)
 
 
-def test_max_displacement_is_the_largest_magnitude(tmp_path):
+def test_max_displacement_is_the_largest_magnitude(tmp_path, capsys):
     """``summary.json``'s ``max_displacement`` is the largest
     displacement magnitude of the final points (a trial's sliding block
     read 0.0634, its largest component, where the largest displacement
-    was 0.0717): the block pushed sideways and down as much."""
+    was 0.0717): the block pushed sideways and down as much.  The time's
+    shares add up to the time, the rest named (a trial read the phases'
+    shares of their sum, 53-60% of the time, as the time's)."""
     text = COMBINATION.format(
         material='{ model = "linear_elastic", E = 1e4, nu = 0.3 }',
         method="mpm", kinematics="small", ghost=0., antilocking="false",
@@ -1228,6 +1230,14 @@ def test_max_displacement_is_the_largest_magnitude(tmp_path):
     largest = np.sqrt((u ** 2).sum(axis=1)).max()
     assert summary["max_displacement"] == pytest.approx(largest, rel=1e-12)
     assert summary["max_displacement"] > 1.1 * np.abs(u).max()
+    line, = [x for x in capsys.readouterr().out.splitlines()
+             if x.startswith("  time ")]
+    shares = [float(w.rstrip("%,")) for w in line.split() if w.endswith(
+        ("%", "%,"))]
+    assert len(shares) == 6 and "set-up and output" in line
+    assert abs(sum(shares) - 100.) <= 3.
+    rest = 1 - sum(summary["timings"].values()) / summary["wall_seconds"]
+    assert shares[-1] == pytest.approx(100 * rest, abs=.51)
 
 
 @pytest.mark.parametrize("element", ["Q1", "Q2"])
