@@ -1280,3 +1280,35 @@ def test_a_support_holds_every_dof_at_its_places(element, tmp_path):
     tip = np.argmin(result.points.displacement[1])
     assert result.points.displacement[1, tip] == pytest.approx(
         reference.points.displacement[1, tip], rel=1e-10)
+
+
+@pytest.mark.parametrize("method, right, warned", [
+    ("mpm", 3.0, True), ("mpm", 2.0, False), ("bspline", 3.0, True),
+    ("bspline", 2.5, False)])
+def test_a_support_beyond_the_material_s_reach_is_warned(method, right,
+                                                        warned, tmp_path,
+                                                        caplog):
+    """Trial 61: a roller on the grid's right side, two cells beyond the
+    soil's end, held nothing: the soil's face was free, Newton failed at
+    the first step (Mohr-Coulomb) or the wall met no resistance (elastic)
+    without a word.  A block 1.5 long on a grid of cells 0.5: a support
+    on x = ``right`` is warned where it lies past the method's reach
+    (MPM: a cell beyond the domains, 3.0 warned, 2.0 not; B-splines: two
+    cells from the points, 3.0 warned, 2.5 not); the base never."""
+    text = ('name = "reach"\n[grid]\nx = [0.0, {0}, {1}]\n'
+            'y = [0.0, 1.0, 2]\n[[bodies]]\nname = "block"\n'
+            'region = {{ x = [0.0, 1.5], y = [0.0, 0.5] }}\n'
+            'material = {{ model = "linear_elastic", E = 1e4, nu = 0.3 }}\n'
+            '[[supports]]\nname = "base"\nboundary = "bottom"\n'
+            '[[supports]]\nname = "far"\nboundary = "right"\n'
+            'components = ["x"]\n[gravity]\nbody_force = [0.0, -10.0]\n'
+            '[solver]\nmethod = "{2}"\nsteps = 1\n'.format(
+                right, int(round(right / .5)), method))
+    path = tmp_path / "reach.toml"
+    path.write_text(text)
+    with caplog.at_level("WARNING", logger="skfem_mpm"):
+        run_scene(load_scene(path))
+    words = [r.getMessage() for r in caplog.records
+             if "holds no node" in r.getMessage()]
+    assert len(words) == warned
+    assert all(w.startswith("support 'far' ") for w in words)

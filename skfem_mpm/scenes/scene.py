@@ -9,6 +9,7 @@ elasticity, no return map for elastic bodies, no point relocation in FE
 mode, no domain update for standard MPM.
 
 """
+import logging
 from dataclasses import dataclass, field
 from typing import (TYPE_CHECKING, Callable, List, Optional, Sequence, Tuple,
                     Union)
@@ -29,7 +30,8 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
 from ..methods.method import METHODS
 from ..quadrature.points import (MaterialPoints, box_region,
                                   concatenate_points, in_box, seed_points)
-from ..solve.core import check_combination, grid_parts, simulate
+from ..solve.core import (cell_size, check_combination, grid_parts,
+                          simulate)
 from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from ..solve.loads import (Pressure, Traction as SurfaceTraction,
                            side_axis, side_points)
@@ -42,6 +44,8 @@ from ..solve.rigid import RigidBody
 from ..stabilisation.settings import Stabilisation
 from .footing import check_footing_scene
 from .regions import Ball, Polygon, bounding_box, check_shape, closed_region
+
+logger = logging.getLogger(__name__)
 
 if TYPE_CHECKING:         # quantities.py imports this module
     from .quantities import Quantity
@@ -759,6 +763,41 @@ def scene_support_dofs(s: Support, basis, dim: int) -> ndarray:
     return first[nodes] + np.array(comps, dtype=np.int64)[:, None]
 
 
+#: how far, in cells, a method's shape functions reach a node from the
+#: material (standard MPM and GIMP: the cells the domains meet; the
+#: B-splines: their support), past which a support holds nothing
+SUPPORT_REACH = {"bspline": 2, "bspline-gimp": 2, "bspline3": 2,
+                 "bspline3-gimp": 2}
+
+
+def warn_unreached_supports(scene: Scene, mesh, elem,
+                            points: MaterialPoints):
+    """Log a warning per support whose every node lies farther from the
+    material at the start (its points' domains) than the method's shape
+    functions reach (:data:`SUPPORT_REACH`, else one cell, in the grid's
+    cell size): it holds nothing.  A trial's far roller on a grid line
+    half a metre (two cells) beyond the soil's end left the soil's face
+    free: Newton failed at the first step with nothing said, and with
+    elastic soil the wall pushing it met no resistance."""
+    from scipy.spatial import cKDTree
+    dim = mesh.dim()
+    grid = grid_parts(mesh, elem)[1]
+    h = cell_size(mesh)
+    reach = SUPPORT_REACH.get(scene.method, 1) + np.abs(
+        points.domain).max(initial=0.) / h
+    tree = cKDTree((points.x / h).T)
+    for name, support in zip(support_names(scene), scene.supports):
+        dofs = scene_support_dofs(support, grid, dim)[0]
+        distance = tree.query((grid.doflocs[:, dofs] / h).T, p=np.inf)[0]
+        if dofs.size and distance.min() > reach:
+            logger.warning(
+                "support %r holds no node the material reaches at the start "
+                "(its nearest node is %.3g cells from the nearest point, "
+                "%s reaches %.3g): it holds nothing, and nothing there "
+                "resists (move it to the material, or extend the material "
+                "to it)", name, distance.min(), scene.method, reach)
+
+
 def scene_supports(scene: Scene, dim: int):
     """The fixed supports as a callable on the grid basis."""
     def supports(basis):
@@ -835,6 +874,8 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     initial = build_points(scene, mesh)
     if points is None:
         points = initial
+    if resume is None or resume.first_step == 1:      # from the start
+        warn_unreached_supports(scene, mesh, elem, points)
     materials = [b.material for b in scene.bodies]
     material = materials[0] if len(materials) == 1 else materials
     supports = scene_supports(scene, mesh.dim())
