@@ -979,8 +979,9 @@ def print_report(scene, summary: dict, seconds: float, outdir: Path,
         "{} {:.0%}".format(p, summary["timings"][p] / wall) for p in PHASES)
           + ", set-up and output {:.0%}".format(rest / wall))
     if summary.get("compile_seconds"):
-        print("  compiling the kernels     {:.1f} s (once per installation; "
-              "not in the time)".format(summary["compile_seconds"]))
+        print("  kernels compiled, loaded  {:.1f} s (compiled once per "
+              "installation, loaded once per process; not in the time)"
+              .format(summary["compile_seconds"]))
     print("  output                    {}".format(outdir))
 
 

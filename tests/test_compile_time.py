@@ -73,7 +73,8 @@ def test_another_thread_s_compilation_is_not_subtracted():
 def test_the_basis_kernels_time_their_compilation_too():
     """The locator's and basis's kernels (imported without the passes,
     in a fresh process) register the timer: a user's locator compiled
-    1.42 s that no count held."""
+    1.42 s that no count held; their import (numba's, about 0.5 s, which
+    a cached run booked to its first locate) counts as loading."""
     import subprocess
     import sys
     out = subprocess.run([sys.executable, "-c", (
@@ -81,6 +82,6 @@ def test_the_basis_kernels_time_their_compilation_too():
         "from skfem_mpm.quadrature.basis import compiled_kernels\n"
         "assert not kernels._PASSES\n"
         "print(compiled_kernels('graph', 'compiled') is not None, "
-        "bool(kernels._TIMED))")], capture_output=True, text=True,
-        check=True)
-    assert out.stdout.split() == ["True", "True"]
+        "bool(kernels._TIMED), kernels.compile_seconds() > 0.)")],
+        capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["True", "True", "True"]

@@ -17,6 +17,7 @@ bases of elements with (about) equal counts, which scikit-fem's
 """
 import importlib
 import logging
+import time
 from typing import List, Optional, Tuple
 
 import numpy as np
@@ -418,13 +419,14 @@ def compiled_kernels(name: str = "basis", kernels: str = "auto"):
             kernels == "auto" and auto_kernels() != "auto"):
         return None
     if name not in _KERNELS:
+        tic = time.perf_counter()
         try:
             _KERNELS[name] = importlib.import_module(
                 "skfem_mpm.kernels." + name)
         except ImportError:             # no numba: the numpy path
             _KERNELS[name] = None
         else:
-            time_compilation()
+            time_compilation(time.perf_counter() - tic)
     return _KERNELS[name]
 
 
