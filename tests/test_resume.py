@@ -48,7 +48,7 @@ steps = 3
 max_iterations = 3
 """
 
-VOLATILE = ("wall_seconds", "timings")
+VOLATILE = ("wall_seconds", "timings", "compile_seconds")
 
 
 @pytest.fixture(scope="module")
