@@ -817,8 +817,14 @@ def test_without_numba_the_numpy_path_serves(monkeypatch, caplog):
     monkeypatch.setenv(kernels.AUTO_VARIABLE, "auto")   # the tests' numpy
     monkeypatch.setattr(kernels, "_LOGGED", set())
     monkeypatch.setitem(sys.modules, "numba", None)
+    # the grid's kernels another test imported, dropped too (this test
+    # failed after one that had: their numba cache's loader imports numba)
+    from skfem_mpm.quadrature import basis
+    monkeypatch.setattr(basis, "_KERNELS", {})
     for name in ("skfem_mpm.kernels.passes",
-                 "skfem_mpm.kernels.constitutive"):
+                 "skfem_mpm.kernels.constitutive",
+                 "skfem_mpm.kernels.basis", "skfem_mpm.kernels.locate",
+                 "skfem_mpm.kernels.graph"):
         monkeypatch.delitem(sys.modules, name, raising=False)
     monkeypatch.delattr(kernels, "passes", raising=False)
     monkeypatch.delattr(kernels, "constitutive", raising=False)

@@ -15,9 +15,7 @@ bases of elements with (about) equal counts, which scikit-fem's
 ``asm(form, bases)`` sums.
 
 """
-import importlib
 import logging
-import time
 from typing import List, Optional, Tuple
 
 import numpy as np
@@ -30,7 +28,7 @@ from skfem.mesh import Mesh
 
 from ..errors import InvalidInputError
 from ..graph import distinct
-from ..kernels import auto_kernels, check_kernels, time_compilation
+from ..kernels import auto_kernels, check_kernels, import_timed
 from .locate import locate_points
 from .mapping import PointMapping, fresh_mapping
 from .points import MaterialPoints
@@ -419,14 +417,10 @@ def compiled_kernels(name: str = "basis", kernels: str = "auto"):
             kernels == "auto" and auto_kernels() != "auto"):
         return None
     if name not in _KERNELS:
-        tic = time.perf_counter()
         try:
-            _KERNELS[name] = importlib.import_module(
-                "skfem_mpm.kernels." + name)
+            _KERNELS[name] = import_timed("skfem_mpm.kernels." + name)
         except ImportError:             # no numba: the numpy path
             _KERNELS[name] = None
-        else:
-            time_compilation(time.perf_counter() - tic)
     return _KERNELS[name]
 
 

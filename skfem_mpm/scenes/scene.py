@@ -787,9 +787,12 @@ def warn_unreached_supports(scene: Scene, mesh, elem,
         points.domain).max(initial=0.) / h
     tree = cKDTree((points.x / h).T)
     for name, support in zip(support_names(scene), scene.supports):
-        dofs = scene_support_dofs(support, grid, dim)[0]
-        distance = tree.query((grid.doflocs[:, dofs] / h).T, p=np.inf)[0]
-        if dofs.size and distance.min() > reach:
+        dofs = scene_support_dofs(support, grid, dim)
+        if not dofs.size:
+            continue
+        distance = tree.query((grid.doflocs[:, dofs[0]] / h).T,
+                              p=np.inf)[0]
+        if distance.min() > reach:
             logger.warning(
                 "support %r holds no node the material reaches at the start "
                 "(its nearest node is %.3g cells from the nearest point, "

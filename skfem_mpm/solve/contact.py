@@ -1674,7 +1674,9 @@ class StepContact(GridTerm):
         record.obstacle_forces = np.array(forces)
         self.committed = ev
         run = problem.run
-        for ob, found in zip(term.obstacles, self.held_shares(ev)):
+        # (the last settle's, of this evaluation, where it ran)
+        for ob, found in zip(term.obstacles,
+                             term.held_share or self.held_shares(ev)):
             if found[0] > HELD_SHARE and ("held", ob.name) not in \
                     run.warned:
                 run.warned.add(("held", ob.name))
