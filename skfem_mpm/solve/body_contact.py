@@ -369,6 +369,7 @@ class BodyContact(GridTerm):
         self.geometry, self.supports = WeakKeyDictionary(), \
             WeakKeyDictionary()
         self.kept_corners = None     # :meth:`corners`, the last
+        self.interfaces = WeakKeyDictionary()    # :meth:`interface`
         self.finder = PairFinder(contacts, field, mesh, vertices, cell_size,
                                  columns=weights is not None)
         counters.setdefault("contact_updates", 0)
@@ -630,6 +631,27 @@ class BodyContact(GridTerm):
                                      op.N // self.dim)).tocsc()
         return self.supports[op]
 
+    def interface(self, op, points):
+        """The points that reach a node of two fields (where bodies may
+        meet in the step of ``op``) and their supports alone (points,
+        nodes of every field; the others' rows empty): every support of
+        a node of two fields, all that a search for pairs reads (0.1 s a
+        search at 1e5 points with every point's); kept per operator."""
+        if op not in self.interfaces:
+            support = self.support(op, points)
+            fields = [support[:, k * self.nv:(k + 1) * self.nv] != 0
+                      for k in range(int(self.field.max()) + 1)]
+            reached = sum((f.sum(axis=0).A1 > 0).astype(int)
+                          for f in fields)
+            rows = np.unique(np.concatenate([
+                f[:, reached > 1].tocoo().row for f in fields]))
+            on = np.zeros(points.n)
+            on[rows] = 1.
+            near = (diags(on) @ support).tocsc()
+            near.eliminate_zeros()
+            self.interfaces[op] = rows, near
+        return self.interfaces[op]
+
     def pairs(self, op, points):
         """Per contact, the pairs of surface corners at the step's start:
         ``(B, A, n, g0)`` (corner indices ``c n + p`` of the second and
@@ -647,7 +669,8 @@ class BodyContact(GridTerm):
                         np.flatnonzero(points.body == b),
                         np.flatnonzero(points.body == a), tol).any()
             for (a, b, _), tol in zip(self.contacts, self.tol))
-        out = self.finder.find_pairs(self.support(op, points), points.x,
+        out = self.finder.find_pairs(self.interface(op, points)[1],
+                                     points.x,
                                      points.volume, self.corners(points),
                                      start, self.pressed(points))
         for (_, _, contact), tol, (B, A, normal, gap) in zip(
@@ -995,21 +1018,7 @@ class StepBodyContact(GridTerm):
         self.term, self.problem = term, problem
         op, points = problem.method_op, problem.points
         self.dim = term.dim
-        self.support = support = term.support(op, points)
-        # the points that reach a node of two fields: where bodies may
-        # meet in this step
-        fields = [support[:, k * term.nv:(k + 1) * term.nv] != 0
-                  for k in range(int(term.field.max()) + 1)]
-        reached = sum((f.sum(axis=0).A1 > 0).astype(int) for f in fields)
-        self.interface = np.unique(np.concatenate([
-            f[:, reached > 1].tocoo().row for f in fields]))
-        # the supports of the interface's points alone: every support of
-        # a node of two fields, all that a search for pairs reads
-        # (:meth:`join`: 0.1 s a search at 1e5 points with all of them)
-        on = np.zeros(points.n)
-        on[self.interface] = 1.
-        self.interface_support = (diags(on) @ support).tocsc()
-        self.interface_support.eliminate_zeros()
+        self.interface, self.interface_support = term.interface(op, points)
         self.interface_rows = None      # :meth:`join`'s, once a step
         self.apart = None    # check_passing's points apart at the start
         self.parts = []
