@@ -22,7 +22,7 @@ The problem never names a particular term, kinematics or method.
 import logging
 import math
 import weakref
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 from numpy import ndarray
@@ -100,14 +100,15 @@ def safe_norm(v: ndarray) -> float:
     return float(dnrm2(np.ascontiguousarray(v, dtype=np.float64)))
 
 
-def add_union(K, G):
+def add_union(K, G, kept: Optional[dict] = None):
     """``K + G`` (csr, both canonical) on the union of their patterns,
     every explicit zero of both kept (scipy's sum drops them): the sum's
     pattern is the same at rest as later, so a direct solver analyses
     it once (contact between bodies at 1e5 points: two Pardiso analyses
     a step, 0.2 s).  Each entry's sum is scipy's (``K_ij + G_ij``).  The
-    places of ``K``'s and ``G``'s entries in the union are kept for the
-    last pair of patterns (a step's tangents share them).
+    places of ``K``'s and ``G``'s entries in the union are kept in
+    ``kept`` (a step's, whose tangents share them) for the last pair of
+    patterns.
 
     >>> from scipy.sparse import csr_matrix
     >>> K = csr_matrix((np.array([1., 0., 2.]), np.array([0, 1, 1]),
@@ -118,32 +119,29 @@ def add_union(K, G):
     >>> S.nnz, S.toarray().tolist()
     (4, [[1.0, 0.0], [1.0, 2.0]])
     """
-    kept = UNION.get("last")
-    if kept is None or kept[0]() is not K.indptr or \
-            kept[1]() is not K.indices or not (
-                np.array_equal(kept[2], G.indptr)
-                and np.array_equal(kept[3], G.indices)):
+    kept = {} if kept is None else kept
+    last = kept.get("union")
+    if last is None or last[0]() is not K.indptr or \
+            last[1]() is not K.indices or not (
+                np.array_equal(last[2], G.indptr)
+                and np.array_equal(last[3], G.indices)):
         # 1: K's entry alone, 2: G's alone, 3: both (never zero)
         S = type(K)((np.ones(K.nnz), K.indices, K.indptr),
                     shape=K.shape) + type(G)(
             (np.full(G.nnz, 2.), G.indices, G.indptr), shape=G.shape)
         S.sort_indices()
-        kept = (weakref.ref(K.indptr), weakref.ref(K.indices),
+        last = (weakref.ref(K.indptr), weakref.ref(K.indices),
                 G.indptr.copy(), G.indices.copy(), S.indices, S.indptr,
                 np.flatnonzero(S.data != 2.), np.flatnonzero(S.data > 1.))
-        UNION["last"] = kept
-    indices, indptr, at_K, at_G = kept[4:]
+        kept["union"] = last
+    indices, indptr, at_K, at_G = last[4:]
     data = np.zeros(indices.size)
     data[at_K] = K.data
     data[at_G] += G.data
     return type(K)((data, indices, indptr), shape=K.shape)
 
 
-#: :func:`add_union`'s places for the last pair of patterns
-UNION = {}
-
-
-def add_within(K, G):
+def add_within(K, G, kept: Optional[dict] = None):
     """``K + G`` (csr) on ``K``'s pattern where ``G``'s entries lie in it,
     ``K``'s explicit zeros kept (scipy's sum drops them, and a direct
     solver that saw the pattern with them analyses it again: a step with
@@ -179,7 +177,7 @@ def add_within(K, G):
     wanted = below * ncols + G.indices
     at = np.minimum(np.searchsorted(keys, wanted), max(len(keys) - 1, 0))
     if not len(keys) or (keys[at] != wanted).any():
-        return add_union(K, G)
+        return add_union(K, G, kept)
     data = K.data.copy()
     data[pos[at]] += G.data
     return type(K)((data, K.indices, K.indptr), shape=K.shape)
@@ -250,6 +248,7 @@ class StepProblem:
         self.collapsed = 0
         self._first_diagonal = None     # of the step's first tangent
         self._own = None    # the last tangent made of arrays of its own
+        self._union = {}        # add_within's places of a pattern union
         self.terms = []
         for term in run.terms:             # in order: a term may use those
             begun = term.begin_step(self)  # before it (their loads)
@@ -400,7 +399,7 @@ class StepProblem:
         for term in self.terms:
             G = term.matrix(response)
             if G is not None:
-                K = add_within(K, G)
+                K = add_within(K, G, self._union)
                 own = True
         for term in self.terms:
             weighed = term.weigh_matrix(K)
