@@ -694,6 +694,13 @@ def ghost_hint(run: Run) -> str:
             "friction in 3D failed so, and converged with it)")
 
 
+def seeded_hint(run: Run) -> str:
+    """The run's start's :func:`underintegrated_cells` sentence for a
+    failed run's error, or ``""``."""
+    return "; the run started so: " + run.underintegrated \
+        if run.underintegrated else ""
+
+
 def progress(run: Run, factor: float) -> str:
     """Where a run stands at ``factor`` for its messages: the load factor,
     or in dynamics the time (``factor`` the fraction of the duration: a
@@ -750,7 +757,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     "state ({}) is attached{}{}{}".format(
                         err, span(run, target - factor),
                         progress(run, factor), too_soft(run, points),
-                        ghost_hint(run), "".join(
+                        ghost_hint(run) + seeded_hint(run), "".join(
                             term.failure_hint(points, dynamics is None)
                             for term in run.terms)),
                     state=points, load_factor=factor,
@@ -961,9 +968,12 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     case = check_case(mesh, points, material, body_force, loads, nsteps,
                       method, kinematics, dynamics, options, obstacles,
                       contacts)
-    warn_underintegrated_cells(method, mesh, elem, points)
+    underintegrated = underintegrated_cells(method, mesh, elem, points)
+    if underintegrated:
+        logger.warning(underintegrated)
     run, result = build_run(mesh, elem, points, supports, case, method,
                             kinematics, dynamics, options)
+    run.underintegrated = underintegrated
     resume = options.resume or Resume()
     nsteps = case.nsteps
     step = resume.first_step - 1
@@ -1232,31 +1242,37 @@ def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
     return contacts, field
 
 
-def warn_underintegrated_cells(method: str, mesh: Mesh, elem: Element,
-                               points: MaterialPoints):
-    """Log a warning where standard MPM's points, seeded on a tensor grid
-    of higher-order Lagrange cells (Q2: 9 nodes), are too few per cell to
+def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
+                          points: MaterialPoints) -> str:
+    """Where standard MPM's points, seeded on a tensor grid of
+    higher-order Lagrange cells (Q2: 9 nodes), are too few per cell to
     give each cell's DOFs, less its rigid-body modes, as many strain
-    states: the stiffness then has zero-energy modes, and the run ended
-    in a singular matrix whose message blamed nodes held by too few
-    points (Q2 with 2 x 2 points: 12 of the 15 needed; a user trial)."""
+    states, a sentence saying so, else ``""``: the stiffness then has
+    zero-energy modes; in small strain the run ended in a singular matrix
+    whose message blamed nodes held by too few points, in finite
+    deformation Newton failed down to the smallest increment with no word
+    of the cause (Q2 with 2 x 2 points: 12 of the 15 needed; user
+    trials).  Logged as a warning at the run's start and added to a
+    failed run's error."""
     dim = mesh.dim()
     scalar = elem.elem if isinstance(elem, ElementVector) else elem
     nodes = getattr(scalar, "doflocs", np.zeros((0, dim))).shape[0]
     if method != "mpm" or mesh.t.shape[0] != 2 ** dim or nodes <= 2 ** dim:
-        return
+        return ""
     per_axis = points_per_cell_axis(mesh, points)
     strains = dim * (dim + 1) // 2
     needed = dim * nodes - strains      # less the rigid-body modes
     have = int(round(per_axis)) ** dim * strains
-    if have < needed:
-        logger.warning(
-            "element %s with %.1f points per cell and axis: %d points give "
-            "a cell of %d nodes %d of the %d strain states its DOFs need, so "
-            "the stiffness has zero-energy modes (a singular matrix); seed "
-            "%d points per cell and axis", type(scalar).__name__, per_axis,
-            int(round(per_axis)) ** dim, nodes, have, needed,
-            int(np.ceil((needed / strains) ** (1. / dim) - 1e-9)))
+    if have >= needed:
+        return ""
+    return (
+        "element {} with {:.1f} points per cell and axis: {} points give "
+        "a cell of {} nodes {} of the {} strain states its DOFs need, so "
+        "the stiffness has zero-energy modes (a singular matrix); seed "
+        "{} points per cell and axis".format(
+            type(scalar).__name__, per_axis, int(round(per_axis)) ** dim,
+            nodes, have, needed,
+            int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))))
 
 
 def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
