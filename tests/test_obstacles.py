@@ -618,7 +618,7 @@ def wall_against_held_base(method, held_x, caplog):
         except ContactError as err:
             history = err
     return history, [r.getMessage() for r in caplog.records
-                     if "'wall' pushes" in r.getMessage()]
+                     if ": obstacle 'wall' pushes" in r.getMessage()]
 
 
 def held_share(text: str) -> float:
@@ -631,8 +631,9 @@ def test_a_wall_pushed_into_a_held_corner_is_named(caplog):
     component met 9.7 times Rankine's passive force, the base's corner
     node taking it, without a word.  Standard MPM: the lowest corners
     beside the wall read only the held corner node, the penetration
-    cannot close, and the error (which said "raise the penalty") names
-    the wall, the share of its force on held nodes (98%) and the node.
+    cannot close, and the error names the wall, the share of its force
+    on held nodes (98%) and the node, first and once (it had advised "raise
+    the penalty" first).
     The base sliding (held in y only): no such word, and the wall's
     force is the plane-strain block's, E / (1 - nu^2) push / L times its
     height, to 2% (the penetration tolerance's share)."""
@@ -643,6 +644,12 @@ def test_a_wall_pushed_into_a_held_corner_is_named(caplog):
     assert "obstacle 'wall' pushes" in message
     assert held_share(message) > .9
     assert "(the most at the node [0.25, 0.0])" in message
+    # the cause, not a stiffer penalty, leads the unsettled step's error,
+    # said once (trial 61: "raise the penalty" came first)
+    assert message.split("rounds", 1)[1].startswith("; obstacle 'wall' "
+                                                    "pushes")
+    assert "raise the penalty" not in message
+    assert message.count("obstacle 'wall' pushes") == 1
     caplog.clear()
     history, words = wall_against_held_base("mpm", False, caplog)
     assert words == []
@@ -656,8 +663,12 @@ def test_a_wall_pushed_into_a_held_corner_is_warned_where_it_converges(
     """cpGIMP's corners there read free nodes too: the step converges
     (after cut-backs), with a force 400 times the sliding base's (the
     test: over 100), and a warning, once, names the wall and its share
-    on held nodes (70%)."""
+    on held nodes (70%); the lines of the cut-backs before it name the
+    same cause (they advised "raise the penalty")."""
     history, words = wall_against_held_base("cpgimp", True, caplog)
+    # the cut-backs' lines on the way name the cause, not the penalty
+    assert "rounds; obstacle 'wall' pushes" in caplog.text
+    assert "raise the penalty" not in caplog.text
     sliding = wall_against_held_base("cpgimp", False, caplog)[0]
     assert history[-1].load_factor == 1.
     assert history[-1].obstacle_forces[0, 0] < 100 * \

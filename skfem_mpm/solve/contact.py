@@ -449,6 +449,7 @@ class ObstacleContact(GridTerm):
         #: per obstacle, (share, where) of its force on held DOFs in the
         #: step's last solve (:meth:`StepContact.held_shares`)
         self.held_share = []
+        self.held_told = False
         self.start_gaps = []        # (begin_run)
         #: the resultant of the last step's load where Coulomb faces alone
         #: may hold the material (:meth:`sliding_load_hint`), else None
@@ -820,11 +821,11 @@ class ObstacleContact(GridTerm):
         short of (:meth:`gap_hint`).  In any run, an obstacle whose front
         had moved at the failed step past :data:`SQUEEZED` of the material
         ahead of it (:meth:`squeeze_hint`)."""
+        held = "" if self.held_told else self.held_hint()
         if not quasi_static:
-            return self.squeeze_hint() + self.prescribed_hint(points) + \
-                self.held_hint()
+            return self.squeeze_hint() + self.prescribed_hint(points) + held
         hint = self.squeeze_hint() + self.prescribed_hint(points) + \
-            self.held_hint() + self.gap_hint() + "".join(
+            held + self.gap_hint() + "".join(
             "; obstacle {!r} is smooth and the material met its face "
             "inclined by {:.3g} degrees to the grid's axes: held along it "
             "by nothing else, a body on it has no quasi-static equilibrium "
@@ -994,6 +995,7 @@ class ObstacleContact(GridTerm):
     def begin_step(self, problem):
         self.scale = problem.s_new      # (squeeze_hint)
         self.held_share = []            # (held_hint) this step's
+        self.held_told = False          # (unsettled_hint) said so
         if self.reads_field is None:            # the run's first step
             run = problem.run
             self.reads_field = self.field_rows(run)
@@ -1499,6 +1501,14 @@ class StepContact(GridTerm):
             blocks[id(J)] = (J, blocks.get(id(J), (J, 0.))[1] + C)
         return sum(J.T @ (block_diagonal(C) @ J)
                    for J, C in blocks.values()).tocsr()
+
+    def unsettled_hint(self) -> str:
+        """:meth:`ObstacleContact.held_hint`: where an obstacle pushes
+        held DOFs its penetration cannot close, and no penalty helps (a
+        failed run's error then does not repeat it)."""
+        words = self.term.held_hint()
+        self.term.held_told = bool(words)
+        return words
 
     def settle(self, problem, trial, du: ndarray) -> bool:
         """After Newton: ``True`` when every corner's penetration (or a

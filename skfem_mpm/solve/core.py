@@ -381,12 +381,14 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         else:
             raise ContactError(
                 "step {}: contact did not settle within the contacts' "
-                "tolerances in {} augmented-Lagrangian rounds: each round "
-                "closes the penetration by about the body's stiffness over "
-                "the penalty's; raise the penalty (Obstacle(penalty=...), "
-                "Contact(penalty=...); 100 took a tolerance of 1e-5 in 9 "
-                "rounds where 10 took more than 30) or loosen the "
-                "tolerance".format(step, SETTLE_ROUNDS))
+                "tolerances in {} augmented-Lagrangian rounds{}".format(
+                    step, SETTLE_ROUNDS, "".join(
+                        term.unsettled_hint() for term in problem.terms)
+                    or ": each round closes the penetration by about the "
+                    "body's stiffness over the penalty's; raise the "
+                    "penalty (Obstacle(penalty=...), Contact(penalty=...);"
+                    " 100 took a tolerance of 1e-5 in 9 rounds where 10 "
+                    "took more than 30) or loosen the tolerance"))
     except STEP_FAILURES:
         if report is not None:      # for the retry ladder
             # the exact tangent refused as singular (not asked for)
