@@ -665,13 +665,35 @@ def too_soft(run: Run, points: MaterialPoints) -> str:
                 strain, np.linalg.norm(gravity), height, young))
 
 
-def warn_long_run(step: int, factor: float, increment: float,
-                  seconds: float) -> bool:
-    """Log a warning (and return ``True``) when the steps left, of
-    ``increment`` from load factor ``factor``, take more than
-    :data:`LONG_RUN` seconds at ``seconds`` a step: a run asked for a
-    million time steps went on without a word."""
-    left = int(np.ceil((1. - factor) / increment - 1e-9))
+def steps_left(factor: float, increment: float, nsteps: int,
+               adaptive: bool) -> int:
+    """The steps a run at load factor ``factor`` (or fraction of its
+    duration) has left: to the next of its ``nsteps`` steps' ends at the
+    current ``increment``, after it at a whole step's (a cut-back's
+    increment lasts to the step's end: a trial's run cut back to a 64th
+    was announced to take 1275 steps and 1.13 h where 30 were left), or,
+    ``adaptive`` (the time step chosen by Newton's iterations), all at
+    ``increment``.
+
+    >>> steps_left(.25, 1 / 64, 4, False)      # 16 to 0.5, then 2
+    18
+    >>> steps_left(.25, 1 / 64, 4, True)
+    48
+    >>> steps_left(.5, .25, 4, False)
+    2
+    """
+    if adaptive:
+        return int(np.ceil((1. - factor) / increment - 1e-9))
+    boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
+    return int(np.ceil((boundary - factor) / increment - 1e-9)) + \
+        int(round((1. - boundary) * nsteps))
+
+
+def warn_long_run(step: int, left: int, seconds: float) -> bool:
+    """Log a warning (and return ``True``) when the ``left`` steps
+    (:func:`steps_left`) take more than :data:`LONG_RUN` seconds at
+    ``seconds`` a step: a run asked for a million time steps went on
+    without a word."""
     if left < 2 or seconds * left <= LONG_RUN:
         return False
     logger.warning(
@@ -742,6 +764,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     analysis), and a trial's dynamic run of 69 s was announced at step 1
     to take 0.846 h."""
     points, dynamics = result.points, run.dynamics
+    adaptive = dynamics is not None and bool(dynamics.target_iterations)
     fastest, warned, timed = np.inf, False, False
     started = run_clock()
     while factor < 1. - 1e-12:
@@ -791,8 +814,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                 history=result.history) from err
         step += 1
         factor = target
-        if dynamics is not None and dynamics.target_iterations and \
-                record.newton_iterations is not None:
+        if adaptive and record.newton_iterations is not None:
             increment = dynamics.adapt(increment, 1. / nsteps, smallest,
                                        record.newton_iterations)
         elif abs(factor - boundary) < 1e-12:
@@ -811,8 +833,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         now = run_clock()
         if timed:       # the invocation's first step carries its set-up
             fastest = min(fastest, now - started)
-            warned = warned or warn_long_run(step, factor, increment,
-                                             fastest)
+            warned = warned or warn_long_run(step, steps_left(
+                factor, increment, nsteps, adaptive), fastest)
         started, timed = now, True
     return result
 
