@@ -821,7 +821,8 @@ class ObstacleContact(GridTerm):
         short of (:meth:`gap_hint`).  In any run, an obstacle whose front
         had moved at the failed step past :data:`SQUEEZED` of the material
         ahead of it (:meth:`squeeze_hint`)."""
-        held = "" if self.held_told else self.held_hint()
+        held = ("" if self.held_told else self.held_hint()) + \
+            self.turning_hint()
         if not quasi_static:
             return self.squeeze_hint() + self.prescribed_hint(points) + held
         hint = self.squeeze_hint() + self.prescribed_hint(points) + \
@@ -891,6 +892,21 @@ class ObstacleContact(GridTerm):
                        for ob, found in zip(self.obstacles,
                                             self.held_share)
                        if found[0] > HELD_SHARE)
+
+    def turning_hint(self) -> str:
+        """Per obstacle that holds the material (friction, tied) on a face
+        inclined by more than :data:`INCLINED_HOLDING` that the material
+        met at the run's start, a failed run's hint: the run's start
+        warned of it (:meth:`warn_inclined_faces`), and the error did not
+        say it (a block on one corner of a 25 degree incline, friction
+        0.6, failed Newton at its first step in finite deformation)."""
+        return "".join(
+            "; obstacle {!r} holds the material at a few corners of its "
+            "staircase on a face inclined by {:.3g} degrees, on which it "
+            "can turn (seed the body level and tilt the body force, or "
+            "refine)".format(ob.name, tilt)
+            for ob, tilt in zip(self.obstacles, self.tilts)
+            if ob.friction != 0. and tilt > INCLINED_HOLDING)
 
     def gap_hint(self) -> str:
         """Per stationary obstacle that the material starts short of by
