@@ -904,6 +904,33 @@ def test_quadratic_cells_with_too_few_points_are_warned():
         and m.endswith("seed 3 points per cell and axis") for m in warned)
 
 
+def test_antilocking_on_quadratic_cells_with_plasticity_is_refused():
+    """Standard MPM with mean dilatation on Q2 cells and von Mises soil:
+    a user trial's strip footing came out 17-26% under Prandtl's limit
+    load and softened, without a word: refused before any work, naming
+    the cells, the method and the remedies.  Finite elements, an elastic
+    body, Q1 cells, or no antilocking: not refused (they run)."""
+    from skfem import ElementQuad2
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    soil = VonMises(1e4, .3, yield_stress=5.)
+
+    def run(elem, material, method="mpm", antilocking=True):
+        return simulate(mesh, elem, seed_points(mesh, 3), material,
+                        lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                        body_force=[0., -1.], nsteps=1, method=method,
+                        options=Options(stabilisation=Stabilisation(
+                            antilocking=antilocking)))
+    with pytest.raises(InvalidInputError, match=r"antilocking on "
+                       r"ElementQuad2 cells \(9 nodes\) with method 'mpm' "
+                       r"and a plastic material is refused: .*17-26% below "
+                       r"Prandtl's limit load"):
+        run(ElementQuad2(), soil)
+    for args in ((ElementQuad2(), soil, "fem"),
+                 (ElementQuad2(), LinearElastic(1e4, .3)),
+                 (ElementQuad1(), soil), (ElementQuad2(), soil, "mpm", False)):
+        assert run(*args).history[-1].load_factor == 1.
+
+
 def test_quadratic_cells_with_too_few_points_are_named_when_newton_fails(
         caplog):
     """In finite deformation a Q2 cantilever seeded 2 x 2 failed Newton
