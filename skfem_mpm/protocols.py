@@ -196,6 +196,12 @@ class GridTerm:
         set), and the step is solved again from ``du``."""
         return True
 
+    def unsettled_hint(self) -> str:
+        """Why the term's constraints did not settle in a step's rounds of
+        :meth:`settle`, as the last solve saw it, as ``"; ..."``, or
+        ``""`` (the step's error then advises a stiffer penalty)."""
+        return ""
+
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
         """After convergence: update the new state ``new`` (points) and
         the step's ``record`` with what the term keeps."""

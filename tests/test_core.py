@@ -11,7 +11,9 @@ from skfem import (ElementQuad1, ElementVector, FacetBasis, MeshQuad,
 from skfem.helpers import dot
 from skfem.assembly import LinearForm
 
-from skfem_mpm import (InvalidInputError, NewtonOptions, Options, LinearElastic, Pressure, Traction, VonMises, seed_gauss_points,
+from skfem_mpm import (InvalidInputError, NewtonDivergenceError,
+                       NewtonOptions, Options, LinearElastic, Pressure,
+                       Traction, VonMises, seed_gauss_points,
                        Stabilisation, seed_points, side_points, simulate)
 from skfem_mpm.quadrature.points import concatenate_points
 
@@ -882,22 +884,76 @@ def test_a_grid_too_long_for_the_ghost_faces_mapping_is_named():
                       np.ones(mesh.nelements), .1)
 
 
-def test_quadratic_cells_with_too_few_points_are_warned(caplog):
+def test_quadratic_cells_with_too_few_points_are_warned():
     """Standard MPM on Q2 cells seeded 2 x 2: 4 points give a 9-node cell
     12 of the 15 strain states its 18 DOFs less 3 rigid-body modes need,
     and the run ended in a singular matrix whose message blamed nodes
     held by too few points (a user trial).  Warned before any work; 3 x 3
     points and Q1 cells are not."""
-    import logging
     from skfem import ElementQuad2
-    from skfem_mpm.solve.core import warn_underintegrated_cells
+    from skfem_mpm.solve.core import underintegrated_cells
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
-    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
-        for n, elem in ((2, ElementQuad2()), (2, ElementVector(
-                ElementQuad2())), (3, ElementQuad2()), (2, ElementQuad1())):
-            warn_underintegrated_cells("mpm", mesh, elem,
-                                       seed_points(mesh, n))
-    warned = [r.getMessage() for r in caplog.records]
+    warned = [underintegrated_cells("mpm", mesh, elem, seed_points(mesh, n))
+              for n, elem in ((2, ElementQuad2()), (2, ElementVector(
+                  ElementQuad2())), (3, ElementQuad2()),
+                  (2, ElementQuad1()))]
+    assert warned[2:] == ["", ""]
+    warned = warned[:2]
     assert len(warned) == 2 and all(
         "4 points give a cell of 9 nodes 12 of the 15 strain states" in m
         and m.endswith("seed 3 points per cell and axis") for m in warned)
+
+
+def test_antilocking_on_quadratic_cells_with_plasticity_is_refused():
+    """Standard MPM with mean dilatation on Q2 cells and von Mises soil:
+    a user trial's strip footing came out 17-26% under Prandtl's limit
+    load and softened, without a word: refused before any work, naming
+    the cells, the method and the remedies.  Finite elements, an elastic
+    body, Q1 cells, or no antilocking: not refused (they run)."""
+    from skfem import ElementQuad2
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    soil = VonMises(1e4, .3, yield_stress=5.)
+
+    def run(elem, material, method="mpm", antilocking=True):
+        return simulate(mesh, elem, seed_points(mesh, 3), material,
+                        lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                        body_force=[0., -1.], nsteps=1, method=method,
+                        options=Options(stabilisation=Stabilisation(
+                            antilocking=antilocking)))
+    with pytest.raises(InvalidInputError, match=r"antilocking on "
+                       r"ElementQuad2 cells \(9 nodes\) with method 'mpm' "
+                       r"and a plastic material is refused: .*17-26% below "
+                       r"Prandtl's limit load"):
+        run(ElementQuad2(), soil)
+    for args in ((ElementQuad2(), soil, "fem"),
+                 (ElementQuad2(), LinearElastic(1e4, .3)),
+                 (ElementQuad1(), soil), (ElementQuad2(), soil, "mpm", False)):
+        assert run(*args).history[-1].load_factor == 1.
+
+
+def test_quadratic_cells_with_too_few_points_are_named_when_newton_fails(
+        caplog):
+    """In finite deformation a Q2 cantilever seeded 2 x 2 failed Newton
+    down to its smallest increment with no word of the cause (small
+    strain says "singular"; a user trial): the failed run's error now
+    says how it was seeded, as the warning at its start did.  Seeded
+    3 x 3, the same run completes, unwarned."""
+    from skfem import ElementQuad2
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 7), np.linspace(-2, 1, 7))
+
+    def run(n):
+        beam = seed_points(mesh, n, region=lambda x: (x[0] < 2.5) & (
+            x[1] > 0) & (x[1] < .5))
+        return simulate(mesh, ElementQuad2(), beam, LinearElastic(1e6, .3),
+                        lambda b: b.get_dofs(lambda x: x[0] < 1e-9),
+                        body_force=[0., -1e4], nsteps=4, kinematics="finite",
+                        options=Options(NewtonOptions(max_cutbacks=1,
+                                                      max_iter=10)))
+    assert run(3).history[-1].load_factor == 1.
+    assert "strain states" not in caplog.text
+    with pytest.raises(NewtonDivergenceError,
+                       match="the run started so: element ElementQuad2 with "
+                       "2.0 points per cell and axis: 4 points give a cell "
+                       "of 9 nodes 12 of the 15 strain states"):
+        run(2)
+    assert caplog.text.count("12 of the 15 strain states") == 1

@@ -407,6 +407,37 @@ def test_a_run_of_many_steps_is_announced(monkeypatch, caplog):
     assert "the 8 steps left take about" in caplog.text
 
 
+def test_a_cut_back_step_is_not_taken_for_the_rest_of_the_run(monkeypatch,
+                                                             caplog):
+    """A cut-back increment lasts to the end of its step, not the run's: a
+    trial's run cut back to a 64th of its increment was announced to take
+    1275 steps (1.13 h) where 30 were left.  Here the first of 4 load
+    steps, cut back twice to 1/16, is announced at its second sixteenth
+    with 2 sixteenths and 3 steps left (14 before)."""
+    import logging
+    from skfem_mpm import NewtonDivergenceError
+    from skfem_mpm.solve import core
+    monkeypatch.setattr(core, "LONG_RUN", 1e-9)
+    attempt, failed = core.attempt, []
+
+    def failing_twice(run, points, f_old, f_new, step):
+        if len(failed) < 2:
+            failed.append(f_new)
+            raise NewtonDivergenceError("made to fail")
+        return attempt(run, points, f_old, f_new, step)
+    monkeypatch.setattr(core, "attempt", failing_twice)
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm.solve.core"):
+        res = simulate(mesh, ElementQuad1(), seed_points(mesh, 2),
+                       LinearElastic(1e3, .3),
+                       lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                       [0., -1.], nsteps=4, kinematics="finite")
+    assert failed == [.25, .125]
+    assert [r.load_factor for r in res.history][:3] == [.0625, .125, .1875]
+    assert "step 2: at" in caplog.text
+    assert "the 5 steps left take about" in caplog.text
+
+
 def test_the_first_steps_set_up_is_not_taken_for_the_pace(monkeypatch,
                                                           caplog):
     """A user trial's dynamic run of 69 s was announced at its first step

@@ -1,5 +1,7 @@
 """Rigid obstacles and contact at the material's surface
 (:mod:`skfem_mpm.solve.obstacles`, :mod:`skfem_mpm.solve.contact`)."""
+import re
+
 import numpy as np
 import pytest
 from skfem import ElementQuad1, MeshQuad
@@ -618,7 +620,7 @@ def wall_against_held_base(method, held_x, caplog):
         except ContactError as err:
             history = err
     return history, [r.getMessage() for r in caplog.records
-                     if "'wall' pushes" in r.getMessage()]
+                     if ": obstacle 'wall' pushes" in r.getMessage()]
 
 
 def held_share(text: str) -> float:
@@ -631,8 +633,9 @@ def test_a_wall_pushed_into_a_held_corner_is_named(caplog):
     component met 9.7 times Rankine's passive force, the base's corner
     node taking it, without a word.  Standard MPM: the lowest corners
     beside the wall read only the held corner node, the penetration
-    cannot close, and the error (which said "raise the penalty") names
-    the wall, the share of its force on held nodes (98%) and the node.
+    cannot close, and the error names the wall, the share of its force
+    on held nodes (98%) and the node, first and once (it had advised "raise
+    the penalty" first).
     The base sliding (held in y only): no such word, and the wall's
     force is the plane-strain block's, E / (1 - nu^2) push / L times its
     height, to 2% (the penetration tolerance's share)."""
@@ -643,6 +646,12 @@ def test_a_wall_pushed_into_a_held_corner_is_named(caplog):
     assert "obstacle 'wall' pushes" in message
     assert held_share(message) > .9
     assert "(the most at the node [0.25, 0.0])" in message
+    # the cause, not a stiffer penalty, leads the unsettled step's error,
+    # said once (trial 61: "raise the penalty" came first)
+    assert message.split("rounds", 1)[1].startswith("; obstacle 'wall' "
+                                                    "pushes")
+    assert "raise the penalty" not in message
+    assert message.count("obstacle 'wall' pushes") == 1
     caplog.clear()
     history, words = wall_against_held_base("mpm", False, caplog)
     assert words == []
@@ -656,8 +665,12 @@ def test_a_wall_pushed_into_a_held_corner_is_warned_where_it_converges(
     """cpGIMP's corners there read free nodes too: the step converges
     (after cut-backs), with a force 400 times the sliding base's (the
     test: over 100), and a warning, once, names the wall and its share
-    on held nodes (70%)."""
+    on held nodes (70%); the lines of the cut-backs before it name the
+    same cause (they advised "raise the penalty")."""
     history, words = wall_against_held_base("cpgimp", True, caplog)
+    # the cut-backs' lines on the way name the cause, not the penalty
+    assert "rounds; obstacle 'wall' pushes" in caplog.text
+    assert "raise the penalty" not in caplog.text
     sliding = wall_against_held_base("cpgimp", False, caplog)[0]
     assert history[-1].load_factor == 1.
     assert history[-1].obstacle_forces[0, 0] < 100 * \
@@ -1815,10 +1828,10 @@ def test_material_on_an_inclined_polygon_face_is_warned(caplog, slope,
         assert ("it can turn on them" in found[0]) == (friction != 0.)
 
 
-def test_a_failure_on_a_smooth_incline_names_it():
-    """A block resting on a smooth 20 degree incline, quasi-static, has
-    no equilibrium: the run fails, and its error now says why (a user
-    trial's named neither the obstacle nor the incline)."""
+def block_on_incline(friction):
+    """A block 1 x 0.5 resting on a 20 degree polygon incline of
+    ``friction`` under its weight, quasi-static, no cut-back: the run's
+    error."""
     th = np.radians(20.)
     R = np.array([[np.cos(th), np.sin(th)], [-np.sin(th), np.cos(th)]])
     mesh = MeshQuad.init_tensor(np.linspace(-.5, 1.3, 17),
@@ -1829,13 +1842,36 @@ def test_a_failure_on_a_smooth_incline_names_it():
     low = min((R @ (pts.x + np.array([[a], [b]]) * pts.domain))[1].min()
               for a in (-1, 1) for b in (-1, 1))
     ramp = Obstacle(polygon=(R.T @ np.array([[-3, low], [4, low], [4, -3],
-                                             [-3, -3]]).T).T, name="ramp")
-    with pytest.raises(MPMError, match=r"obstacle 'ramp' is smooth and the "
-                       r"material met its face inclined by 20 degrees.*no "
-                       r"quasi-static equilibrium"):
+                                             [-3, -3]]).T).T, name="ramp",
+                    friction=friction)
+    with pytest.raises(MPMError) as failed:
         simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3), [],
                  body_force=[0., -2e3], obstacles=[ramp],
                  options=Options(newton=NewtonOptions(max_cutbacks=0)))
+    return str(failed.value)
+
+
+def test_a_failure_on_a_smooth_incline_names_it():
+    """A block resting on a smooth 20 degree incline, quasi-static, has
+    no equilibrium: the run fails, and its error now says why (a user
+    trial's named neither the obstacle nor the incline)."""
+    assert re.search(r"obstacle 'ramp' is smooth and the material met its "
+                     r"face inclined by 20 degrees.*no quasi-static "
+                     r"equilibrium", block_on_incline(0.))
+
+
+def test_a_failure_on_a_holding_incline_names_its_corners():
+    """With friction 0.6 (over tan 20 degrees, so it would stick) the
+    block's staircase rests on the incline at a few corners and turns on
+    them: the run fails, warned at its start, and its error now says so
+    too (trial 60: a block on one corner of a 25 degree incline failed
+    Newton with no word of it)."""
+    message = block_on_incline(.6)
+    assert "obstacle 'ramp' holds the material at a few corners of its " \
+        "staircase on a face inclined by 20 degrees, on which it can " \
+        "turn (seed the body level and tilt the body force" in message
+    assert "is smooth" not in message
+
 
 @pytest.mark.parametrize("method, extended, moves, friction, warned", [
     ("bspline", False, True, 0., "moving"),

@@ -168,6 +168,12 @@ def test_supports_on_regions(tmp_path):
     assert np.all(dofs % 2 == 1)
     with pytest.raises(SceneError, match="names no axis"):
         parse_scene({**data, "supports": [{"region": {}}]})
+    # a value per component held, and the message says so (trial 62: "a
+    # list of 1 finite numbers" for a value of two with components y)
+    with pytest.raises(SceneError, match=r"value: must be a list of 1 "
+                       r"finite numbers, one per component held \(y\)"):
+        parse_scene({**data, "supports": [{**data["supports"][0],
+                                           "value": [0., -.015]}]})
     with pytest.raises(InvalidInputError, match="one \\[lo, hi\\]"):
         scene_support_dofs(Support(region=[(0., .5)]), basis, 2)
     for bad, message in (({"x": [.5, 0.]}, "lo <= hi"),

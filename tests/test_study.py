@@ -948,6 +948,23 @@ def test_a_fit_never_spans_cases_with_and_without_the_ghost_penalty():
         "from step 7; 64 elements: never on)")
 
 
+def test_mixed_stabilisation_is_logged_once_a_study(tmp_path, monkeypatch,
+                                                    caplog):
+    """A serial study logged its mixed-stabilisation warning after the
+    estimate's timing cases (each a study of its own, reading back the
+    cases before it), again at its end, and printed it in the report (a
+    user trial: three times).  Logged once now, at the study's end."""
+    from skfem_mpm.studies.study import cases_of, estimate, study
+    monkeypatch.setattr(study_module, "mixed_stabilisation",
+                        lambda measured: ["WARNING: mixed, marked"])
+    vary = {"elements": [4, 8, 16], "loadsteps": [1]}
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        plan = estimate(COLUMN, cases_of(vary), tmp_path, None)
+        study(COLUMN, vary, tmp_path, progress=False)
+    assert plan["ran"] == 2
+    assert caplog.text.count("mixed, marked") == 1
+
+
 def test_a_fit_over_cases_all_ending_with_the_ghost_penalty_is_flagged():
     """Every case ends with the penalty, switched on at different steps
     (the sag at 14, 28 and 56 elements: steps 2, 5 and 6; their ends 0,

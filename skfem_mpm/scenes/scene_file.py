@@ -302,7 +302,9 @@ class _Checker:
             return default
         return value
 
-    def vector(self, data, key, name, length, default=None):
+    def vector(self, data, key, name, length, default=None, why=""):
+        """``data[name]``, a list of ``length`` finite numbers (``why``:
+        what sets the length, for the message), else ``default``."""
         path = "{}.{}".format(key, name) if key else name
         if name not in data:
             return default
@@ -310,8 +312,8 @@ class _Checker:
         if not isinstance(value, list) or len(value) != length or not all(
                 isinstance(v, (int, float)) and not isinstance(v, bool)
                 and math.isfinite(v) for v in value):
-            self.bad(path, "must be a list of {} finite numbers".format(
-                length), value)
+            self.bad(path, "must be a list of {} finite numbers{}".format(
+                length, why), value)
             return default
         return [float(v) for v in value]
 
@@ -731,7 +733,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             c.bad(key + ".components", "must be a list of {}".format(
                 ", ".join(AXES[:dim])), comps)
             comps = list(AXES[:dim])
-        value = c.vector(s, key, "value", len(comps))
+        value = c.vector(s, key, "value", len(comps), why=", one per "
+                         "component held ({})".format(", ".join(comps)))
         name = s.get("name")
         if name is not None and (not isinstance(name, str) or not name):
             c.bad(key + ".name", "must be a non-empty string", name)

@@ -449,6 +449,7 @@ class ObstacleContact(GridTerm):
         #: per obstacle, (share, where) of its force on held DOFs in the
         #: step's last solve (:meth:`StepContact.held_shares`)
         self.held_share = []
+        self.held_told = False
         self.start_gaps = []        # (begin_run)
         #: the resultant of the last step's load where Coulomb faces alone
         #: may hold the material (:meth:`sliding_load_hint`), else None
@@ -722,7 +723,9 @@ class ObstacleContact(GridTerm):
                     "force jumps or stalls (a footing pushed into soil, B "
                     "= 8 h: by up to 19% between steps; a punch at B = 16 "
                     "h, 2 x 2 points per cell, stood at 0.66 of Prandtl's "
-                    "pressure for 9 of 20 steps)"]) +
+                    "pressure for 9 of 20 steps), and the stresses under it "
+                    "scatter (a block pressed 0.5%, 2 x 2 points per cell: "
+                    "-74 to -40 where -55 is uniform; extended 0.1%)"]) +
                 ([] if not holds else [
                     "a face that holds the material (friction, rough, tied) "
                     "holds its domains' gradient along it too (a tied clamp "
@@ -820,11 +823,12 @@ class ObstacleContact(GridTerm):
         short of (:meth:`gap_hint`).  In any run, an obstacle whose front
         had moved at the failed step past :data:`SQUEEZED` of the material
         ahead of it (:meth:`squeeze_hint`)."""
+        held = ("" if self.held_told else self.held_hint()) + \
+            self.turning_hint()
         if not quasi_static:
-            return self.squeeze_hint() + self.prescribed_hint(points) + \
-                self.held_hint()
+            return self.squeeze_hint() + self.prescribed_hint(points) + held
         hint = self.squeeze_hint() + self.prescribed_hint(points) + \
-            self.held_hint() + self.gap_hint() + "".join(
+            held + self.gap_hint() + "".join(
             "; obstacle {!r} is smooth and the material met its face "
             "inclined by {:.3g} degrees to the grid's axes: held along it "
             "by nothing else, a body on it has no quasi-static equilibrium "
@@ -890,6 +894,21 @@ class ObstacleContact(GridTerm):
                        for ob, found in zip(self.obstacles,
                                             self.held_share)
                        if found[0] > HELD_SHARE)
+
+    def turning_hint(self) -> str:
+        """Per obstacle that holds the material (friction, tied) on a face
+        inclined by more than :data:`INCLINED_HOLDING` that the material
+        met at the run's start, a failed run's hint: the run's start
+        warned of it (:meth:`warn_inclined_faces`), and the error did not
+        say it (a block on one corner of a 25 degree incline, friction
+        0.6, failed Newton at its first step in finite deformation)."""
+        return "".join(
+            "; obstacle {!r} holds the material at a few corners of its "
+            "staircase on a face inclined by {:.3g} degrees, on which it "
+            "can turn (seed the body level and tilt the body force, or "
+            "refine)".format(ob.name, tilt)
+            for ob, tilt in zip(self.obstacles, self.tilts)
+            if ob.friction != 0. and tilt > INCLINED_HOLDING)
 
     def gap_hint(self) -> str:
         """Per stationary obstacle that the material starts short of by
@@ -994,6 +1013,7 @@ class ObstacleContact(GridTerm):
     def begin_step(self, problem):
         self.scale = problem.s_new      # (squeeze_hint)
         self.held_share = []            # (held_hint) this step's
+        self.held_told = False          # (unsettled_hint) said so
         if self.reads_field is None:            # the run's first step
             run = problem.run
             self.reads_field = self.field_rows(run)
@@ -1499,6 +1519,14 @@ class StepContact(GridTerm):
             blocks[id(J)] = (J, blocks.get(id(J), (J, 0.))[1] + C)
         return sum(J.T @ (block_diagonal(C) @ J)
                    for J, C in blocks.values()).tocsr()
+
+    def unsettled_hint(self) -> str:
+        """:meth:`ObstacleContact.held_hint`: where an obstacle pushes
+        held DOFs its penetration cannot close, and no penalty helps (a
+        failed run's error then does not repeat it)."""
+        words = self.term.held_hint()
+        self.term.held_told = bool(words)
+        return words
 
     def settle(self, problem, trial, du: ndarray) -> bool:
         """After Newton: ``True`` when every corner's penetration (or a

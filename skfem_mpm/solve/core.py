@@ -381,12 +381,14 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
         else:
             raise ContactError(
                 "step {}: contact did not settle within the contacts' "
-                "tolerances in {} augmented-Lagrangian rounds: each round "
-                "closes the penetration by about the body's stiffness over "
-                "the penalty's; raise the penalty (Obstacle(penalty=...), "
-                "Contact(penalty=...); 100 took a tolerance of 1e-5 in 9 "
-                "rounds where 10 took more than 30) or loosen the "
-                "tolerance".format(step, SETTLE_ROUNDS))
+                "tolerances in {} augmented-Lagrangian rounds{}".format(
+                    step, SETTLE_ROUNDS, "".join(
+                        term.unsettled_hint() for term in problem.terms)
+                    or ": each round closes the penetration by about the "
+                    "body's stiffness over the penalty's; raise the "
+                    "penalty (Obstacle(penalty=...), Contact(penalty=...);"
+                    " 100 took a tolerance of 1e-5 in 9 rounds where 10 "
+                    "took more than 30) or loosen the tolerance"))
     except STEP_FAILURES:
         if report is not None:      # for the retry ladder
             # the exact tangent refused as singular (not asked for)
@@ -444,7 +446,10 @@ GHOST_CHANGES_PLASTIC = (", and a plastic limit load can come out 8-13% "
 #: and what it adds for B-splines where the extended splines serve (they
 #: are refused with contacts between bodies)
 EXTENDED_INSTEAD = "; B-splines need none with " \
-    "Stabilisation(extended_splines=True)"
+    "Stabilisation(extended_splines=True), and without it the stresses " \
+    "of nodes so barely held go wrong (a block compressed 10% in 20 " \
+    "steps, its top inside a cell, switched on at step 17: -2.0 p to " \
+    "+0.6 p where -0.96 p is uniform; extended within 1.2%)"
 
 
 def switch_ghost_on(run: Run, step: int, failure):
@@ -663,13 +668,35 @@ def too_soft(run: Run, points: MaterialPoints) -> str:
                 strain, np.linalg.norm(gravity), height, young))
 
 
-def warn_long_run(step: int, factor: float, increment: float,
-                  seconds: float) -> bool:
-    """Log a warning (and return ``True``) when the steps left, of
-    ``increment`` from load factor ``factor``, take more than
-    :data:`LONG_RUN` seconds at ``seconds`` a step: a run asked for a
-    million time steps went on without a word."""
-    left = int(np.ceil((1. - factor) / increment - 1e-9))
+def steps_left(factor: float, increment: float, nsteps: int,
+               adaptive: bool) -> int:
+    """The steps a run at load factor ``factor`` (or fraction of its
+    duration) has left: to the next of its ``nsteps`` steps' ends at the
+    current ``increment``, after it at a whole step's (a cut-back's
+    increment lasts to the step's end: a trial's run cut back to a 64th
+    was announced to take 1275 steps and 1.13 h where 30 were left), or,
+    ``adaptive`` (the time step chosen by Newton's iterations), all at
+    ``increment``.
+
+    >>> steps_left(.25, 1 / 64, 4, False)      # 16 to 0.5, then 2
+    18
+    >>> steps_left(.25, 1 / 64, 4, True)
+    48
+    >>> steps_left(.5, .25, 4, False)
+    2
+    """
+    if adaptive:
+        return int(np.ceil((1. - factor) / increment - 1e-9))
+    boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
+    return int(np.ceil((boundary - factor) / increment - 1e-9)) + \
+        int(round((1. - boundary) * nsteps))
+
+
+def warn_long_run(step: int, left: int, seconds: float) -> bool:
+    """Log a warning (and return ``True``) when the ``left`` steps
+    (:func:`steps_left`) take more than :data:`LONG_RUN` seconds at
+    ``seconds`` a step: a run asked for a million time steps went on
+    without a word."""
     if left < 2 or seconds * left <= LONG_RUN:
         return False
     logger.warning(
@@ -692,6 +719,38 @@ def ghost_hint(run: Run) -> str:
             "body's splines reach beyond its surface are barely held: "
             "Stabilisation(ghost=0.1) holds them (a square pile with "
             "friction in 3D failed so, and converged with it)")
+
+
+def check_higher_order_antilocking(method: str, elem: Element, mesh: Mesh,
+                                   material, antilocking) -> None:
+    """Refuse mean dilatation (or F-bar) on higher-order Lagrange cells
+    (Q2: 9 nodes) with points that move and a plastic material: a user
+    trial's smooth strip footing on weightless von Mises soil (B/h = 6,
+    3 x 3 points a cell, small strain) carried 17% below Prandtl's
+    ``(2 + pi) c`` at its peak and fell to 26% below, the tangent
+    singular in 19 solves; finite elements on the same grid 4.6% below,
+    standard MPM on Q2 without it 6.9% above, on Q1 with it 8.7% above.
+    One volumetric constraint per cell is not what 9 nodes need under
+    the points' quadrature; elastic bodies are not refused (a press
+    within 0.2%)."""
+    scalar, nodes = cell_nodes(elem, mesh)
+    if not antilocking or method == "fem" or not is_plastic(material) \
+            or nodes <= mesh.t.shape[0]:
+        return
+    raise InvalidInputError(
+        "antilocking on {} cells ({} nodes) with method {!r} and a plastic "
+        "material is refused: a smooth strip footing on von Mises soil "
+        "came out 17-26% below Prandtl's limit load and softened (finite "
+        "elements 4.6% below): take bilinear cells (Q1) with antilocking, "
+        "or these cells without it, or method 'fem'".format(
+            type(scalar).__name__, nodes, method))
+
+
+def seeded_hint(run: Run) -> str:
+    """The run's start's :func:`underintegrated_cells` sentence for a
+    failed run's error, or ``""``."""
+    return "; the run started so: " + run.underintegrated \
+        if run.underintegrated else ""
 
 
 def progress(run: Run, factor: float) -> str:
@@ -733,6 +792,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     analysis), and a trial's dynamic run of 69 s was announced at step 1
     to take 0.846 h."""
     points, dynamics = result.points, run.dynamics
+    adaptive = dynamics is not None and bool(dynamics.target_iterations)
     fastest, warned, timed = np.inf, False, False
     started = run_clock()
     while factor < 1. - 1e-12:
@@ -750,7 +810,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     "state ({}) is attached{}{}{}".format(
                         err, span(run, target - factor),
                         progress(run, factor), too_soft(run, points),
-                        ghost_hint(run), "".join(
+                        ghost_hint(run) + seeded_hint(run), "".join(
                             term.failure_hint(points, dynamics is None)
                             for term in run.terms)),
                     state=points, load_factor=factor,
@@ -782,8 +842,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                 history=result.history) from err
         step += 1
         factor = target
-        if dynamics is not None and dynamics.target_iterations and \
-                record.newton_iterations is not None:
+        if adaptive and record.newton_iterations is not None:
             increment = dynamics.adapt(increment, 1. / nsteps, smallest,
                                        record.newton_iterations)
         elif abs(factor - boundary) < 1e-12:
@@ -802,8 +861,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         now = run_clock()
         if timed:       # the invocation's first step carries its set-up
             fastest = min(fastest, now - started)
-            warned = warned or warn_long_run(step, factor, increment,
-                                             fastest)
+            warned = warned or warn_long_run(step, steps_left(
+                factor, increment, nsteps, adaptive), fastest)
         started, timed = now, True
     return result
 
@@ -961,9 +1020,14 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     case = check_case(mesh, points, material, body_force, loads, nsteps,
                       method, kinematics, dynamics, options, obstacles,
                       contacts)
-    warn_underintegrated_cells(method, mesh, elem, points)
+    check_higher_order_antilocking(method, elem, mesh, case.material,
+                                   options.stabilisation.antilocking)
+    underintegrated = underintegrated_cells(method, mesh, elem, points)
+    if underintegrated:
+        logger.warning(underintegrated)
     run, result = build_run(mesh, elem, points, supports, case, method,
                             kinematics, dynamics, options)
+    run.underintegrated = underintegrated
     resume = options.resume or Resume()
     nsteps = case.nsteps
     step = resume.first_step - 1
@@ -1232,31 +1296,44 @@ def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
     return contacts, field
 
 
-def warn_underintegrated_cells(method: str, mesh: Mesh, elem: Element,
-                               points: MaterialPoints):
-    """Log a warning where standard MPM's points, seeded on a tensor grid
-    of higher-order Lagrange cells (Q2: 9 nodes), are too few per cell to
-    give each cell's DOFs, less its rigid-body modes, as many strain
-    states: the stiffness then has zero-energy modes, and the run ended
-    in a singular matrix whose message blamed nodes held by too few
-    points (Q2 with 2 x 2 points: 12 of the 15 needed; a user trial)."""
-    dim = mesh.dim()
+def cell_nodes(elem: Element, mesh: Mesh) -> tuple:
+    """The scalar element of ``elem`` and its number of nodes a cell (0
+    where it does not say)."""
     scalar = elem.elem if isinstance(elem, ElementVector) else elem
-    nodes = getattr(scalar, "doflocs", np.zeros((0, dim))).shape[0]
+    return scalar, getattr(scalar, "doflocs",
+                           np.zeros((0, mesh.dim()))).shape[0]
+
+
+def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
+                          points: MaterialPoints) -> str:
+    """Where standard MPM's points, seeded on a tensor grid of
+    higher-order Lagrange cells (Q2: 9 nodes), are too few per cell to
+    give each cell's DOFs, less its rigid-body modes, as many strain
+    states, a sentence saying so, else ``""``: the stiffness then has
+    zero-energy modes; in small strain the run ended in a singular matrix
+    whose message blamed nodes held by too few points, in finite
+    deformation Newton failed down to the smallest increment with no word
+    of the cause (Q2 with 2 x 2 points: 12 of the 15 needed; user
+    trials).  Logged as a warning at the run's start and added to a
+    failed run's error."""
+    dim = mesh.dim()
+    scalar, nodes = cell_nodes(elem, mesh)
     if method != "mpm" or mesh.t.shape[0] != 2 ** dim or nodes <= 2 ** dim:
-        return
+        return ""
     per_axis = points_per_cell_axis(mesh, points)
     strains = dim * (dim + 1) // 2
     needed = dim * nodes - strains      # less the rigid-body modes
     have = int(round(per_axis)) ** dim * strains
-    if have < needed:
-        logger.warning(
-            "element %s with %.1f points per cell and axis: %d points give "
-            "a cell of %d nodes %d of the %d strain states its DOFs need, so "
-            "the stiffness has zero-energy modes (a singular matrix); seed "
-            "%d points per cell and axis", type(scalar).__name__, per_axis,
-            int(round(per_axis)) ** dim, nodes, have, needed,
-            int(np.ceil((needed / strains) ** (1. / dim) - 1e-9)))
+    if have >= needed:
+        return ""
+    return (
+        "element {} with {:.1f} points per cell and axis: {} points give "
+        "a cell of {} nodes {} of the {} strain states its DOFs need, so "
+        "the stiffness has zero-energy modes (a singular matrix); seed "
+        "{} points per cell and axis".format(
+            type(scalar).__name__, per_axis, int(round(per_axis)) ** dim,
+            nodes, have, needed,
+            int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))))
 
 
 def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,

@@ -64,6 +64,10 @@ class Stabilisation:
         where the additive average leaves pressures oscillating inside
         cells (a Cook's membrane at nu = 0.4999: 10 steps uncut, 111
         iterations, against 5 cut back and 528); numpy path only.
+        Refused on higher-order Lagrange cells (Q2) with points that move
+        and a plastic material (a footing came out 17-26% under Prandtl's
+        limit load: :func:`~skfem_mpm.solve.core.
+        check_higher_order_antilocking`).
     extended_splines
         Extended B-splines (the B-spline methods, quadratic and cubic;
         Höllig, Reif and Wipper 2001): a spline without a knot span filled

@@ -1044,7 +1044,8 @@ def _write(outdir: Path, rows: List[dict], workers: int, measured: dict,
 def study(scene: Scene, vary: Dict[str, Sequence], outdir,
           scheduler: Optional[str] = None, workers: int = 0,
           progress: bool = True, quantities=None,
-          warm_from: Optional[List[dict]] = None) -> "StudyRows":
+          warm_from: Optional[List[dict]] = None,
+          warn: bool = True) -> "StudyRows":
     """Run every combination of ``vary``, measure the quantities of
     interest and the errors (:func:`analyse`), and record it in
     ``outdir``.
@@ -1083,6 +1084,10 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
         The cases whose smallest of a case's choices warms a process up
         for it (default: those of ``vary``; :func:`estimate` gives all
         the cases of the study it times).
+    warn
+        Log the warnings of :func:`warn_mixed` at the end (:func:`estimate`
+        runs its timing cases without: the study after them warns, and a
+        serial study's warning was logged twice before its report).
 
     Returns
     -------
@@ -1150,7 +1155,7 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
         if progress and sys.stderr.isatty():
             sys.stderr.write("\n")
         _write(outdir, rows, 1, warn_mixed(analyse(scene, rows, quantities),
-                                           rows), warm_ups)
+                                           rows, warn), warm_ups)
         return StudyRows(_ordered(rows, cases), warm_ups)
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
@@ -1178,16 +1183,19 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
             _write(outdir, rows, nworkers, analyse(scene, rows, quantities),
                    warm_ups)
         _write(outdir, rows, nworkers, warn_mixed(analyse(
-            scene, rows, quantities), rows), warm_ups)
+            scene, rows, quantities), rows, warn), warm_ups)
     if cluster is not None:
         cluster.close()
     return StudyRows(_ordered(rows, cases), warm_ups)
 
 
-def warn_mixed(measured: dict, rows: List[dict]) -> dict:
-    """Log :func:`mixed_stabilisation`'s warnings, and one where cases
-    read back from an older ``study.json`` do not say whether the ghost
-    penalty switched on in them; returns ``measured``."""
+def warn_mixed(measured: dict, rows: List[dict], warn: bool = True
+               ) -> dict:
+    """Log (if ``warn``) :func:`mixed_stabilisation`'s warnings, and one
+    where cases read back from an older ``study.json`` do not say whether
+    the ghost penalty switched on in them; returns ``measured``."""
+    if not warn:
+        return measured
     for line in mixed_stabilisation(measured):
         logger.warning("%s", line[len("WARNING: "):])
     unknown = [r for r in rows if not r["failure"]
@@ -1394,7 +1402,7 @@ def estimate(scene: Scene, cases: List[dict], outdir, quantities,
     def run_first(params):
         row = study(scene, {k: [v] for k, v in params.items()}, outdir,
                     progress=False, quantities=quantities,
-                    warm_from=cases)[0]
+                    warm_from=cases, warn=False)[0]
         todo.remove(params)
         if not row["failure"]:
             measured.append((work[_key(params)], row["wall_seconds"]))
