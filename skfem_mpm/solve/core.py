@@ -832,6 +832,10 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     "load, a body its supports do not hold)".format(
                         step + 1, progress(run, factor),
                         progress(run, target).split()[-1])),)
+            if err.args and isinstance(err.args[0], str):
+                # a singular stiffness of cells seeded too thinly blamed
+                # nodes held by too few points (small strain, Q2 2 x 2)
+                err.args = (err.args[0] + seeded_hint(run),) + err.args[1:]
             raise
         except Exception as err:             # a user's material or form
             raise StepFailedError(
