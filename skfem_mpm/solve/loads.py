@@ -11,7 +11,12 @@ Every load is given at full load and ramped linearly by the load factor.
   (``MaterialPoints.domain``), whose centre ``x + F (d0 n0)`` is the load's
   point of application, mapped with the shape functions of the cell that
   holds the point (with two points per cell along the side, this
-  integrates a uniform traction exactly, as finite elements do).  A face
+  integrates a uniform traction exactly, as finite elements do), or with
+  the method's weights there (B-splines: at the face's centre with
+  ``"bspline"``, averaged over the face with ``"bspline-gimp"``; with
+  the splines at the points a uniform traction gives a uniform stress
+  only at 2 or 4 points a cell, whose rule integrates the splines'
+  gradients exactly: ``docs/bspline.md``).  A face
   centre that has left the point's cell is taken at the nearest point of
   that cell: the force goes to nodes the step's points support (a cell
   without points has no stiffness to carry it) and its resultant is kept.  A traction is a dead load per initial
