@@ -199,7 +199,9 @@ class GridTerm:
     def unsettled_hint(self) -> str:
         """Why the term's constraints did not settle in a step's rounds of
         :meth:`settle`, as the last solve saw it, as ``"; ..."``, or
-        ``""`` (the step's error then advises a stiffer penalty)."""
+        ``""`` (the step's error then advises a stiffer penalty).  A term
+        may note that it said so, to keep it out of :meth:`failure_hint`
+        (obstacles: the held-support words)."""
         return ""
 
     def commit(self, problem, trial, du: ndarray, new, record) -> None:

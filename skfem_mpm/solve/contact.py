@@ -896,9 +896,9 @@ class ObstacleContact(GridTerm):
                        if found[0] > HELD_SHARE)
 
     def turning_hint(self) -> str:
-        """Per obstacle that holds the material (friction, tied) on a face
-        inclined by more than :data:`INCLINED_HOLDING` that the material
-        met at the run's start, a failed run's hint: the run's start
+        """Per obstacle that holds the material (friction, rough, tied) on a
+        face inclined by more than :data:`INCLINED_HOLDING` that the
+        material met at the run's start, a failed run's hint: the run's start
         warned of it (:meth:`warn_inclined_faces`), and the error did not
         say it (a block on one corner of a 25 degree incline, friction
         0.6, failed Newton at its first step in finite deformation)."""
