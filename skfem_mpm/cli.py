@@ -30,7 +30,7 @@ from .quadrature.locate import locate_points
 from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
                                 check_against, history_rows, load_checkpoint,
                                 save_checkpoint, scene_digest)
-from .scenes.footing import soil_strength
+from .scenes.footing import scene_footing, soil_strength
 from .scenes.io import (atomic_path, clear_earlier_run,
                         interrupts_deferred, remove_temporaries,
                         terminate_as_interrupt)
@@ -262,7 +262,8 @@ def summarise(scene, result, seconds: float, earlier=None,
     if not complete:
         error = np.nan
     elif scene.reference == "bearing_capacity":
-        error = footing_error(scene, reactions[:, len(scene.supports)])
+        error = footing_error(scene,
+                              reactions[:, scene_footing(scene).column])
     else:
         error = case_error(scene, result)
     if np.isfinite(error):
@@ -464,6 +465,10 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
         plot_contact_forces(scene, summary["obstacles"], {
             o.name: o.displacement for o in obstacle_list(scene)},
             "obstacles", outdir / "obstacles.png")
+        if scene.reference == "bearing_capacity" and \
+                scene_footing(scene).kind == "obstacles":
+            plot_bearing_capacity(scene, summary["obstacles"],
+                                  outdir / "bearing_capacity.png")
     if "contacts" in summary:
         plot_contact_forces(scene, summary["contacts"], {
             c.name: 0. for c in scene.contacts}, "contacts",
@@ -575,46 +580,62 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
 
 
 def plot_rigid_bodies(scene, curves: dict, path: Path):
-    """Force along the motion against displacement of each rigid body;
-    footing pressure over the cohesion against settlement over the footing
-    body's width, with ``N_c``, for a bearing-capacity scene."""
+    """Force along the motion against displacement of each rigid body (a
+    bearing-capacity scene's rigid footing: :func:`plot_bearing_capacity`
+    instead)."""
+    if scene.reference == "bearing_capacity" and \
+            scene_footing(scene).kind == "rigid_bodies":
+        plot_bearing_capacity(scene, curves, path)
+        return
     fig, ax = pyplot().subplots(figsize=(5.5, 4))
-    if scene.reference == "bearing_capacity":
-        body = next(b for b in scene.bodies if b.rigid is not None)
-        c, phi = soil_strength(next(b for b in scene.bodies
-                                    if b.rigid is None).material)
-        width = body.region[0][1] - body.region[0][0]
-        curve = curves[body.name]
-        settlement = -np.array([0.] + [d[1] for d in curve["displacement"]])
-        pressure = np.concatenate([[0.], footing_pressure(
-            scene, np.array(curve["force"]))])
-        line, = ax.plot(settlement / width, pressure / c, "o-", ms=3,
-                        label="{}, {}".format(body.name, scene.method))
-        mark_peak(ax, line, settlement / width, pressure / c)
-        ax.axhline(bearing_capacity_factor(phi), color="k", ls="--",
-                   label="N_c = {:.2f} (phi = {:g} deg)".format(
-                       bearing_capacity_factor(phi), phi))
-        ax.set_xlabel("settlement / width of the footing body (-)\n(half "
-                      "the footing in a half model)")
-        ax.set_ylabel("footing pressure / cohesion (-)\n(the weight of "
-                      "the points in its cells taken off)")
-        ax.set_title("{}: load-settlement curve\nagainst the bearing "
-                     "capacity N_c c".format(scene.name))
-    else:
-        for name, curve in curves.items():
-            disp = np.vstack([np.zeros((1, len(curve["displacement"][0]))),
-                              curve["displacement"]])
-            force = np.vstack([np.zeros_like(disp[:1]), curve["force"]])
-            direction = disp[-1] / np.linalg.norm(disp[-1])
-            line, = ax.plot(disp @ direction, force @ direction, "o-",
-                            ms=3, label=name)
-            mark_peak(ax, line, disp @ direction, force @ direction)
-        ax.set_xlabel("displacement along the motion (m)")
-        ax.set_ylabel("force along the motion ({})\n(the weight of "
-                      "the points in its cells taken off)".format(
-                          quantity_unit("rigid_force", scene.grid.dim)))
-        ax.set_title("{}: force-displacement\nof the rigid bodies".format(
-            scene.name))
+    for name, curve in curves.items():
+        disp = np.vstack([np.zeros((1, len(curve["displacement"][0]))),
+                          curve["displacement"]])
+        force = np.vstack([np.zeros_like(disp[:1]), curve["force"]])
+        direction = disp[-1] / np.linalg.norm(disp[-1])
+        line, = ax.plot(disp @ direction, force @ direction, "o-",
+                        ms=3, label=name)
+        mark_peak(ax, line, disp @ direction, force @ direction)
+    ax.set_xlabel("displacement along the motion (m)")
+    ax.set_ylabel("force along the motion ({})\n(the weight of "
+                  "the points in its cells taken off)".format(
+                      quantity_unit("rigid_force", scene.grid.dim)))
+    ax.set_title("{}: force-displacement\nof the rigid bodies".format(
+        scene.name))
+    ax.legend(loc="lower right")
+    fig.tight_layout()
+    plot.save_figure(fig, path)
+
+
+def plot_bearing_capacity(scene, curves: dict, path: Path):
+    """A bearing-capacity scene's footing pressure over the cohesion
+    against its settlement over its width, with ``N_c``, from the
+    ``curves`` of its kind (rigid bodies or obstacles; the footing:
+    :func:`~skfem_mpm.scenes.footing.scene_footing`)."""
+    footing = scene_footing(scene)
+    fig, ax = pyplot().subplots(figsize=(5.5, 4))
+    c, phi = soil_strength(next(b for b in scene.bodies
+                                if b.rigid is None).material)
+    curve = curves[footing.name]
+    settlement = -np.array([0.] + [d[1] for d in curve["displacement"]])
+    pressure = np.concatenate([[0.], footing_pressure(
+        scene, np.array(curve["force"]))])
+    x = settlement / footing.width
+    line, = ax.plot(x, pressure / c, "o-", ms=3, label="{}, {}".format(
+        footing.name, scene.method))
+    mark_peak(ax, line, x, pressure / c)
+    ax.axhline(bearing_capacity_factor(phi), color="k", ls="--",
+               label="N_c = {:.2f} (phi = {:g} deg)".format(
+                   bearing_capacity_factor(phi), phi))
+    ax.set_xlabel("settlement / width of the footing {} (-)\n(half "
+                  "the footing in a half model)".format(
+                      "body" if footing.kind == "rigid_bodies"
+                      else "inside the grid"))
+    ax.set_ylabel("footing pressure / cohesion (-){}".format(
+        "\n(the weight of the points in its cells taken off)"
+        if footing.kind == "rigid_bodies" else ""))
+    ax.set_title("{}: load-settlement curve\nagainst the bearing "
+                 "capacity N_c c".format(scene.name))
     ax.legend(loc="lower right")
     fig.tight_layout()
     plot.save_figure(fig, path)

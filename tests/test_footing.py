@@ -204,3 +204,62 @@ def test_a_failed_footing_run_keeps_its_curve(tmp_path):
     assert steps >= 1
     assert len(summary["rigid_bodies"]["footing"]["force"]) == steps
     assert (tmp_path / "out" / "rigid_bodies.png").exists()
+
+
+# the footing as a smooth box obstacle (contact at the soil's surface, its
+# edges anywhere): half model, the box reaching past the symmetry line
+PUNCH = FOOTING.replace('''[[bodies]]
+name = "footing"
+region = { x = [0.0, 0.25], y = [0.5, 0.625] }
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+rigid = { displacement = [0.0, -0.03], rough = false }
+''', '''[[obstacles]]
+name = "punch"
+box = { x = [-0.5, 0.3], y = [0.5, 1.0] }
+displacement = [0.0, -0.03]
+''').replace("steps = 6", "steps = 4")
+
+
+def test_a_bearing_capacity_footing_may_be_a_box_obstacle(tmp_path):
+    """A trial's smooth punch (a box obstacle, its edge between grid
+    lines, reaching past the symmetry line) was refused as a footing:
+    'needs one rigid body'.  Its pressure is the material's force on it
+    over its width inside the grid (0.3 here), in the summary's error,
+    the picture and the study alike."""
+    assert PUNCH != FOOTING and "rigid" not in PUNCH
+    scene = tmp_path / "punch.toml"
+    scene.write_text(PUNCH)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out),
+                 "--no-progress"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    force = np.array(summary["obstacles"]["punch"]["force"])
+    assert force.shape == (4, 2) and (force[:, 1] > 0).all()
+    pressure = force[:, 1] / .3
+    assert summary["error"] == pytest.approx(abs(
+        pressure.max() / ((2 + np.pi) * 100 / np.sqrt(3)) - 1), rel=1e-12)
+    for name in ("bearing_capacity.png", "obstacles.png"):
+        assert (out / name).stat().st_size > 10_000, name
+    rows = study(load_scene(scene), {"loadsteps": [4]}, tmp_path / "study",
+                 progress=False)
+    assert rows[0]["error"] == pytest.approx(summary["error"], rel=1e-12)
+
+
+@pytest.mark.parametrize("change, words", [
+    (("box = { x = [-0.5, 0.3], y = [0.5, 1.0] }",
+      "polygon = [[0.0, 0.5], [0.3, 0.5], [0.3, 1.0], [0.0, 1.0]]"),
+     "'punch' as a box"),
+    (("displacement = [0.0, -0.03]", "displacement = [0.01, -0.03]"),
+     r"one footing pushed down.*obstacle 'punch' \[0.01, -0.03\]"),
+    (("displacement = [0.0, -0.03]\n", "displacement = [0.0, -0.03]\n"
+      '[[obstacles]]\nname = "second"\nbox = { x = [0.6, 0.8], '
+      "y = [0.5, 1.0] }\ndisplacement = [0.0, -0.01]\n"),
+     "one footing pushed down.*'punch'.*'second'"),
+    (("box = { x = [-0.5, 0.3]", "box = { x = [-0.5, -0.1]"),
+     "outside the grid"),
+])
+def test_obstacle_footing_refusals(change, words):
+    text = PUNCH.replace(*change)
+    assert text != PUNCH
+    with pytest.raises(SceneError, match=words):
+        parse_scene(tomllib.loads(text))

@@ -3,10 +3,13 @@ its collapse load to be ``N_c c``, checked with the scene before any work.
 
 A rigid strip footing pushed into a weightless, cohesive-frictional soil
 of associated flow, in plane strain: the closed form ``N_c`` and the error
-against it are in :mod:`skfem_mpm.studies.footing`; here are the checks
-and the soil's strength ``(c, phi)`` they and the closed form read.
+against it are in :mod:`skfem_mpm.studies.footing`; here are the checks,
+the footing (:func:`scene_footing`: a rigid body or a box obstacle) and
+the soil's strength ``(c, phi)`` they and the closed form read.
 
 """
+from typing import NamedTuple
+
 import numpy as np
 
 from ..errors import InvalidInputError
@@ -14,7 +17,7 @@ from ..mechanics.materials import VonMises
 from ..mechanics.soils import DruckerPrager, MohrCoulomb
 from .regions import region_shape
 
-__all__ = ["soil_strength", "check_footing_scene"]
+__all__ = ["soil_strength", "Footing", "scene_footing", "check_footing_scene"]
 
 
 def soil_strength(material) -> tuple:
@@ -43,12 +46,90 @@ def soil_strength(material) -> tuple:
             type(material).__name__))
 
 
+class Footing(NamedTuple):
+    """The footing of a bearing-capacity scene (:func:`scene_footing`)."""
+    #: ``"rigid_bodies"`` or ``"obstacles"`` (its ``summary.json`` key)
+    kind: str
+    #: its name there
+    name: str
+    #: its column among the reactions of
+    #: :func:`~skfem_mpm.scenes.scene.reaction_resultants`
+    column: int
+    #: the pressure's denominator: a rigid body's region's width, a box
+    #: obstacle's width inside the grid (half the footing in a half model)
+    width: float
+    #: the soil's push on it is ``sign`` times its force there (a rigid
+    #: body's holds its motion, down; an obstacle's is the material's)
+    sign: float
+
+
+def scene_footing(scene) -> Footing:
+    """The footing of a bearing-capacity scene: its one rigid body or
+    moving obstacle, pushed down (``displacement = [0, -s]``).  A rigid
+    body is a box region whose edges across the motion are grid lines
+    inside the grid (it drives the whole cells its points are in: its
+    contact width is that of its cells); an obstacle is a box, its width
+    the part inside the grid (a half model's box may reach past the
+    symmetry line); anything else is refused."""
+    from .scene import obstacle_list
+    rigid = [b for b in scene.bodies if b.rigid is not None]
+    obstacles = [(k, o) for k, o in enumerate(obstacle_list(scene))
+                 if np.any(o.displacement)]
+    motions = [np.asarray(b.rigid, dtype=float) for b in rigid] + \
+        [o.displacement for _, o in obstacles]
+    if len(motions) != 1 or motions[0][0] != 0. or motions[0][1] >= 0:
+        raise InvalidInputError(
+            "reference 'bearing_capacity' needs one footing pushed down, "
+            "displacement [0, -s]: one rigid body or one moving box "
+            "obstacle, got {}".format(", ".join(
+                ["rigid body {!r} {}".format(b.name, list(b.rigid))
+                 for b in rigid] + ["obstacle {!r} {}".format(
+                     o.name, o.displacement.tolist())
+                     for _, o in obstacles]) or "none"))
+    mesh, _ = scene.grid.build()
+    lines = np.unique(mesh.p[0])
+    first = len(scene.supports)
+    if obstacles:
+        k, obstacle = obstacles[0]
+        if obstacle.box is None:
+            raise InvalidInputError(
+                "reference 'bearing_capacity' needs the footing obstacle "
+                "{!r} as a box (its width is the pressure's denominator), "
+                "not a polygon".format(obstacle.name))
+        lo, hi = np.clip(obstacle.box[0], lines[0], lines[-1])
+        if hi <= lo:
+            raise InvalidInputError(
+                "reference 'bearing_capacity': the footing obstacle {!r} "
+                "(x from {} to {}) is outside the grid (x from {} to {})"
+                .format(obstacle.name, *obstacle.box[0], lines[0],
+                        lines[-1]))
+        return Footing("obstacles", obstacle.name,
+                       first + len(rigid) + k, float(hi - lo), 1.)
+    footing = rigid[0]
+    if callable(footing.region):
+        raise InvalidInputError(
+            "reference 'bearing_capacity' needs the footing's region as a "
+            "box, region = {{ x = [lo, hi], y = [lo, hi] }} (its width is "
+            "the pressure's denominator), not a {}".format(
+                region_shape(footing.region)))
+    for edge in footing.region[0]:
+        if np.abs(lines - edge).min() > 1e-9 * (1 + np.abs(lines).max()):
+            raise InvalidInputError(
+                "reference 'bearing_capacity': the footing {!r} has its edge "
+                "x = {} between grid lines (x from {} to {}): it drives the "
+                "whole cells its points are in, so its width would not be "
+                "its region's; put its edges on grid lines (or make the "
+                "footing a box obstacle: contact at the soil's surface)"
+                .format(footing.name, edge, lines.min(), lines.max()))
+    lo, hi = footing.region[0]
+    return Footing("rigid_bodies", footing.name, first, float(hi - lo), -1.)
+
+
 def check_footing_scene(scene):
     """Refuse a scene whose bearing capacity is not ``N_c c``: it needs a
-    2D grid, no gravity (weightless soil), one rigid body pushed down
-    (along -y) whose box region's edges across the motion are grid lines
-    inside the grid (the body drives whole cells: its contact width is
-    that of its cells), and the other bodies of one soil with ``c > 0``."""
+    2D grid, no gravity (weightless soil), one footing pushed down
+    (:func:`scene_footing`), and the other bodies of one soil with
+    ``c > 0``."""
     if scene.grid.dim != 2:
         raise InvalidInputError("reference 'bearing_capacity' is for 2D "
                                 "(plane-strain) scenes")
@@ -57,28 +138,7 @@ def check_footing_scene(scene):
         raise InvalidInputError(
             "reference 'bearing_capacity' is for weightless soil: the "
             "gravity adds the soil weight's share (N_gamma) to N_c c")
-    rigid = [b for b in scene.bodies if b.rigid is not None]
-    if len(rigid) != 1 or rigid[0].rigid[0] != 0. or rigid[0].rigid[1] >= 0:
-        raise InvalidInputError(
-            "reference 'bearing_capacity' needs one rigid body (the footing) "
-            "pushed down, displacement [0, -s]")
-    footing = rigid[0]
-    if callable(footing.region):
-        raise InvalidInputError(
-            "reference 'bearing_capacity' needs the footing's region as a "
-            "box, region = {{ x = [lo, hi], y = [lo, hi] }} (its width is "
-            "the pressure's denominator), not a {}".format(
-                region_shape(footing.region)))
-    mesh, _ = scene.grid.build()
-    lines = np.unique(mesh.p[0])
-    for edge in footing.region[0]:
-        if np.abs(lines - edge).min() > 1e-9 * (1 + np.abs(lines).max()):
-            raise InvalidInputError(
-                "reference 'bearing_capacity': the footing {!r} has its edge "
-                "x = {} between grid lines (x from {} to {}): it drives the "
-                "whole cells its points are in, so its width would not be "
-                "its region's; put its edges on grid lines".format(
-                    footing.name, edge, lines.min(), lines.max()))
+    scene_footing(scene)
     strengths = {soil_strength(b.material) for b in scene.bodies
                  if b.rigid is None}
     if len(strengths) != 1:

@@ -286,8 +286,8 @@ class Scene:
     reference
         What the run's error is measured against: ``"column"`` (error
         measure (2.28) of Charlton 2018), ``"elastica"`` (end-loaded cantilever) or
-        ``"bearing_capacity"`` (peak pressure of a rigid footing on
-        weightless soil against ``N_c c``,
+        ``"bearing_capacity"`` (peak pressure of a footing, a rigid body
+        or a box obstacle, on weightless soil against ``N_c c``,
         :mod:`skfem_mpm.studies.footing`).
     dynamics
         ``None`` (quasi-static load steps) or a :class:`TimeIntegration`:

@@ -8,8 +8,9 @@ offending value (unknown keys, wrong types, impossible values), in a
     reference = "column"            # optional: "column" ((2.28) of
                                     # Charlton 2018),
                                     # "elastica" (end-loaded cantilever) or
-                                    # "bearing_capacity" (rigid footing on
-                                    # weightless soil against N_c c)
+                                    # "bearing_capacity" (a footing, rigid
+                                    # body or box obstacle, on weightless
+                                    # soil against N_c c)
     [grid]
     x = [0.0, 1.0, 1]               # lo, hi, cells (y, z likewise)
     y = [0.0, 50.0, 20]
