@@ -2212,3 +2212,25 @@ def test_collapsed_nodes_switch_the_ghost_penalty_on_for_b_splines_only(
     assert ghost_for_slivers_held(run, failure, {"collapsed": 1}) == \
         switched
     assert not ghost_for_slivers_held(run, failure, {"collapsed": 0})
+
+
+def test_an_unsettled_step_names_each_term_s_cause():
+    """A step whose contact did not settle: the causes its unsettled terms
+    name, and the penalty's advice where one names none (a reviewer's
+    find: an obstacle's held-support words replaced the advice for a
+    contact between bodies that failed in the same step); a term that
+    settled adds nothing (its held words were given whenever another
+    term failed)."""
+    from types import SimpleNamespace
+    from skfem_mpm.solve.core import unsettled_words
+    held = SimpleNamespace(unsettled_hint=lambda: "; obstacle 'wall' "
+                           "pushes 98% of its force into held DOFs")
+    silent = SimpleNamespace(unsettled_hint=lambda: "")
+    both = unsettled_words(SimpleNamespace(unsettled=[held, silent]))
+    assert both.startswith("; obstacle 'wall' pushes")
+    assert "; elsewhere each round closes the penetration" in both
+    assert "raise the penalty" in both
+    alone = unsettled_words(SimpleNamespace(unsettled=[held]))
+    assert "raise the penalty" not in alone
+    assert unsettled_words(SimpleNamespace(unsettled=[silent])).startswith(
+        ": each round closes the penetration")

@@ -382,13 +382,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             raise ContactError(
                 "step {}: contact did not settle within the contacts' "
                 "tolerances in {} augmented-Lagrangian rounds{}".format(
-                    step, SETTLE_ROUNDS, "".join(
-                        term.unsettled_hint() for term in problem.terms)
-                    or ": each round closes the penetration by about the "
-                    "body's stiffness over the penalty's; raise the "
-                    "penalty (Obstacle(penalty=...), Contact(penalty=...);"
-                    " 100 took a tolerance of 1e-5 in 9 rounds where 10 "
-                    "took more than 30) or loosen the tolerance"))
+                    step, SETTLE_ROUNDS, unsettled_words(problem)))
     except STEP_FAILURES:
         if report is not None:      # for the retry ladder
             # the exact tangent refused as singular (not asked for)
@@ -405,6 +399,22 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     if record.newton_residuals is not None:
         record.newton_iterations = iterations
     return new, record, problem.op
+
+
+def unsettled_words(problem) -> str:
+    """Why a step's contact did not settle: the causes its unsettled
+    terms name (:meth:`~skfem_mpm.protocols.GridTerm.unsettled_hint`),
+    and, where one of them names none, the penalty's advice (an obstacle
+    pushing held DOFs named its cause, and a contact between bodies
+    failing in the same step was left without a word)."""
+    hints = [term.unsettled_hint() for term in problem.unsettled]
+    return "".join(hints) + (
+        "" if all(hints) else
+        "{}each round closes the penetration by about the body's "
+        "stiffness over the penalty's; raise the penalty (Obstacle("
+        "penalty=...), Contact(penalty=...); 100 took a tolerance of 1e-5 "
+        "in 9 rounds where 10 took more than 30) or loosen the tolerance"
+        .format("; elsewhere " if any(hints) else ": "))
 
 
 def warn_round_off(run: Run, step: int, residual: float):

@@ -246,6 +246,7 @@ class StepProblem:
         #: step's first tangent held above it: nodes whose points went to
         #: a plastic apex within the step (the retry ladder's ghost rung)
         self.collapsed = 0
+        self.unsettled = []     # (settled) the terms that did not settle
         self._first_diagonal = None     # of the step's first tangent
         self._own = None    # the last tangent made of arrays of its own
         self._union = {}        # add_within's places of a pattern union
@@ -377,8 +378,11 @@ class StepProblem:
     def settled(self, trial: Trial, du: ndarray) -> bool:
         """After Newton converged to ``trial`` (increment ``du``): whether
         every term's constraints hold (each term asked, so each may update
-        itself for the next solve)."""
-        return all([term.settle(self, trial, du) for term in self.terms])
+        itself for the next solve); :attr:`unsettled` keeps the terms
+        whose constraints did not (for the step's error)."""
+        self.unsettled = [term for term in self.terms
+                          if not term.settle(self, trial, du)]
+        return not self.unsettled
 
     def tangent(self, trial: Trial):
         """The step's tangent at a trial: the stiffness of the points and
