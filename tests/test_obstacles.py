@@ -594,6 +594,33 @@ def test_an_obstacle_moved_past_the_material_is_named_in_the_error():
         moved, .25)
 
 
+def test_points_squeezed_out_of_the_grid_name_the_obstacle():
+    """A press driven 0.6 down onto a block 0.5 tall on a held base
+    (elastic, finite deformation): the points squeezed out sideways left
+    the grid, and the error blamed the grid or a plastic limit load
+    alone (a user trial); it now also names the press and how far it had
+    moved past the block's top against the block's height."""
+    from skfem_mpm import PointsOutsideGridError
+    mesh = MeshQuad.init_tensor(np.linspace(0., 1., 11),
+                                np.linspace(0., 1., 11))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .2) & (x[0] < .8)
+                      & (x[1] < .5))
+    with pytest.raises(PointsOutsideGridError) as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
+                 lambda b: b.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+                 nsteps=8, kinematics="finite", obstacles=[Obstacle(
+                     box=[[0., 1.], [.5, .7]], displacement=[0., -.6],
+                     name="press")])
+    message = str(failed.value)
+    assert "a grid too tight around the body's motion" in message
+    moved = float(message.split("obstacle 'press' had moved ")[1].split()[0])
+    # the step tried last ended past the last converged state, at most a
+    # step past it (a cut-back's)
+    factor = failed.value.load_factor
+    assert .6 * factor < moved <= .6 * (factor + 1 / 8) + 1e-3
+    assert moved > .5 * .5 and "(its full displacement 0.6)" in message
+
+
 def wall_against_held_base(method, held_x, caplog):
     """A smooth wall box pushed 1e-3 sideways (one step) against a block
     1.25 x 0.5 (E = 1e4, nu = 0.3, h = 0.125) from its left side down to

@@ -839,9 +839,11 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     "; they left it in step {} ({} to {}): a grid too "
                     "tight around the body's motion, or a load past what "
                     "the body can carry (a plastic body beyond its limit "
-                    "load, a body its supports do not hold)".format(
+                    "load, a body its supports do not hold){}".format(
                         step + 1, progress(run, factor),
-                        progress(run, target).split()[-1])),)
+                        progress(run, target).split()[-1], "".join(
+                            term.failure_hint(points, dynamics is None)
+                            for term in run.terms))),)
             if err.args and isinstance(err.args[0], str):
                 # a singular stiffness of cells seeded too thinly blamed
                 # nodes held by too few points (small strain, Q2 2 x 2)
