@@ -747,17 +747,23 @@ def check_higher_order_antilocking(method: str, elem: Element, mesh: Mesh,
     one constraint (the cell mean) against the 8 DOFs a 9-node cell
     adds (constraint ratio 8, 2 being ideal in 2D; Q1's is 2) leaves
     the pointwise divergence free wherever its cell mean is zero, so a
-    collapse mechanism need not be isochoric and dissipates less than
-    any admissible one.  The footing's last increment had a divergence
+    collapse mechanism need not be isochoric and can dissipate less
+    than an admissible one.  The footing's last increment had a divergence
     of 0.70 (FE) and 0.95 (MPM) of its deviatoric rate at the yielding
-    points, its cell means 0.001 (Q1: 0.25).  Finite elements converge
+    points, its cell means 0.001 (Q1 with it: 0.25).  Finite elements converge
     from below at first order (B/h = 4, 6, 8, 12: -6.5, -4.7, -3.6,
     -2.5%); the points, moving with those modes at fixed volumes, took
     up to 16% pointwise volume change at a settlement of 0.015 B (cell
     means 0.3%), and MPM went further below on finer grids (peaks -10,
     -13, -17, -22%).  Projecting the divergence on linear functions per
     cell (3 constraints, as the 9/3 element; a numpy-only trial, not
-    offered) gave +0.4% (FE) and +1.0% (MPM) at B/h = 6, flat."""
+    offered) gave +0.4% (FE) and +1.0% (MPM) at B/h = 6, flat.  The
+    same relaxation shows elastically where the strain varies across a
+    cell: pure bending's volumetric strain, linear across the depth, is
+    free, so a beam one Q2 cell deep bends with the shear modulus
+    instead of ``E / (1 - nu^2)``, ``2 / (1 - nu)`` times too flexible
+    (a cantilever under its weight, L = 10 D, 3 x 3 points: 2.83 at
+    nu = 0.3 against 2.86; 2 cells deep +17%, 4 cells +4%)."""
     scalar, nodes = cell_nodes(elem, mesh)
     if not antilocking or method == "fem" or not is_plastic(material) \
             or nodes <= mesh.t.shape[0]:
