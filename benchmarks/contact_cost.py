@@ -15,9 +15,12 @@ lower through contact at the points' surfaces).
 Per size: seconds of the step (all phases, best of ``--repeat``), Newton
 iterations, contact's augmented-Lagrangian rounds, seconds per Newton
 iteration, and the ratio of the obstacle step to the supported one.
+With ``--steps N`` the weight is ramped in N steps and each run prints
+every step's wall seconds (from the step callback: the first carries
+the run's set-up), Newton iterations and the rounds so far.
 
     python benchmarks/contact_cost.py [--sizes 32 100 224] [--repeat 2]
-        [--bodies]
+        [--bodies] [--steps N]
 """
 import argparse
 import platform
@@ -30,10 +33,12 @@ from skfem_mpm import (Contact, LinearElastic, Obstacle, Options,
                        Stabilisation, seed_points, simulate)
 
 
-def run(cells: int, floor: bool, bodies: bool = False):
-    """One step's (points, seconds, Newton iterations, contact rounds):
-    ``floor`` the contact case (an obstacle floor, or with ``bodies`` two
-    bodies in contact), else its reference (supports, or glued)."""
+def run(cells: int, floor: bool, bodies: bool = False, nsteps: int = 1):
+    """One run's (points, seconds, Newton iterations, contact rounds, and
+    per step its seconds, Newton iterations and the rounds so far) in
+    ``nsteps`` steps: ``floor`` the contact case (an obstacle floor, or
+    with ``bodies`` two bodies in contact), else its reference
+    (supports, or glued)."""
     h = 1. / cells
     mesh = MeshQuad.init_tensor(np.linspace(0., 1. + 2 * h, cells + 3),
                                 np.linspace(-h, 1. + 2 * h, cells + 4))
@@ -56,15 +61,19 @@ def run(cells: int, floor: bool, bodies: bool = False):
         obstacles = [Obstacle(box=[[-1., 2.], [-1., 0.]], name="floor")]
     else:
         supports = base
-    tic = time.perf_counter()
+    stamps = [time.perf_counter()]
     result = simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
-                      supports, body_force=[0., -2e4], nsteps=1,
+                      supports, body_force=[0., -2e4], nsteps=nsteps,
                       method="mpm", kinematics="finite", obstacles=obstacles,
                       contacts=contacts,
-                      options=Options(stabilisation=Stabilisation(ghost=0.)))
-    seconds = time.perf_counter() - tic
+                      options=Options(stabilisation=Stabilisation(ghost=0.),
+                                      callback=lambda record, points:
+                                      stamps.append(time.perf_counter())))
+    seconds = time.perf_counter() - stamps[0]
+    steps = [(t, r.newton_iterations, r.counters.get("contact_updates", 0))
+             for t, r in zip(np.diff(stamps), result.history)]
     return (points.n, seconds, result.counters["newton_iterations"],
-            result.counters.get("contact_updates", 0))
+            result.counters.get("contact_updates", 0), steps)
 
 
 def main():
@@ -74,6 +83,8 @@ def main():
     parser.add_argument("--repeat", type=int, default=2)
     parser.add_argument("--bodies", action="store_true",
                         help="two bodies in contact against glued")
+    parser.add_argument("--steps", type=int, default=1,
+                        help="load steps (> 1: each step's seconds)")
     args = parser.parse_args()
     print("machine: {} {}, Python {}".format(platform.system(),
                                              platform.machine(),
@@ -86,11 +97,16 @@ def main():
     for cells in args.sizes:
         best = {}
         for floor in (False, True):
-            runs = [run(cells, floor, args.bodies)
+            runs = [run(cells, floor, args.bodies, args.steps)
                     for _ in range(args.repeat)]
             best[floor] = min(runs, key=lambda r: r[1])
-        n, t0, it0, _ = best[False]
-        _, t1, it1, rounds = best[True]
+            if args.steps > 1:
+                print("  {} steps: {}".format(
+                    "contact" if floor else "reference", ", ".join(
+                        "{:.3f} s {} it {} rounds".format(*step)
+                        for step in best[floor][4])))
+        n, t0, it0, _, _ = best[False]
+        _, t1, it1, rounds, _ = best[True]
         print("{:>8} {:>9.3f} {:>9.3f} {:>6} {:>6} {:>10.4f} {:>10.4f} "
               "{:>7} {:>7.2f}".format(n, t0, t1, it0, it1, t0 / it0,
                                       t1 / it1, rounds, t1 / t0))

@@ -1288,7 +1288,9 @@ class StepBodyContact(GridTerm):
         force (the multipliers have settled); else the multipliers take
         the converged tractions (augmented Lagrangian), or the new pairs
         join, or rough pairs let go or join (:meth:`rough_changes`), and
-        the step is solved again."""
+        the step is solved again (from a fresh tangent where pairs joined
+        or changed: :attr:`reshaped`)."""
+        self.reshaped = True
         if self.join(du):
             logger.debug("step %d: bodies met beyond the step's pairs; "
                          "solving again", problem.step)
@@ -1308,6 +1310,7 @@ class StepBodyContact(GridTerm):
             default=0.)
         if worst <= 1.:
             return True
+        self.reshaped = False
         for part, e in zip(self.parts, ev):
             part["lam"], part["tau"] = accelerated(part, e[4]), e[5]
         self.evaluations = WeakKeyDictionary()

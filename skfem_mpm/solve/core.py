@@ -369,8 +369,12 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             # the loose round settled: on to the tolerance by Newton's own
             # iterations (quadratic from a small residual); it did not: the
             # round after the update takes its first direction by the kept
-            # tangent (the constraint moved a little)
-            du, seed = found.du, None if settled else found.factorised
+            # tangent (the constraint moved a little), unless a term changed
+            # its constraints (two bodies' pairs joined at a step's end: the
+            # kept tangent, blind to them, sent the residual from 9 to 937
+            # and the step took 25 iterations where it takes 9)
+            du, seed = found.du, None if settled or problem.reshaped \
+                else found.factorised
             response, loose = found.trial.response, False
             # the step's record shows every round's residuals in order; a
             # solve that settled at the loose residual and goes on is one

@@ -247,6 +247,7 @@ class StepProblem:
         #: a plastic apex within the step (the retry ladder's ghost rung)
         self.collapsed = 0
         self.unsettled = []     # (settled) the terms that did not settle
+        self.reshaped = False   # (settled) and changed their constraints
         self._first_diagonal = None     # of the step's first tangent
         self._own = None    # the last tangent made of arrays of its own
         self._union = {}        # add_within's places of a pattern union
@@ -382,6 +383,8 @@ class StepProblem:
         whose constraints did not (for the step's error)."""
         self.unsettled = [term for term in self.terms
                           if not term.settle(self, trial, du)]
+        self.reshaped = any(getattr(term, "reshaped", False)
+                            for term in self.unsettled)
         return not self.unsettled
 
     def tangent(self, trial: Trial):
