@@ -904,12 +904,14 @@ def test_quadratic_cells_with_too_few_points_are_warned():
         and m.endswith("seed 3 points per cell and axis") for m in warned)
 
 
-def test_antilocking_on_quadratic_cells_with_plasticity_is_refused():
+def test_antilocking_on_quadratic_cells_with_plasticity_is_refused(caplog):
     """Standard MPM with mean dilatation on Q2 cells and von Mises soil:
     a user trial's strip footing came out 17-26% under Prandtl's limit
     load and softened, without a word: refused before any work, naming
     the cells, the method and the remedies.  Finite elements, an elastic
-    body, Q1 cells, or no antilocking: not refused (they run)."""
+    body, Q1 cells, or no antilocking: not refused (they run); the first
+    two, on Q2 cells, are warned of (a cantilever one Q2 cell deep with
+    it is 2 / (1 - nu) too flexible, FE's footing below Prandtl's)."""
     from skfem import ElementQuad2
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
     soil = VonMises(1e4, .3, yield_stress=5.)
@@ -925,10 +927,18 @@ def test_antilocking_on_quadratic_cells_with_plasticity_is_refused():
                        r"and a plastic material is refused: .*17-26% below "
                        r"Prandtl's limit load"):
         run(ElementQuad2(), soil)
-    for args in ((ElementQuad2(), soil, "fem"),
-                 (ElementQuad2(), LinearElastic(1e4, .3)),
-                 (ElementQuad1(), soil), (ElementQuad2(), soil, "mpm", False)):
-        assert run(*args).history[-1].load_factor == 1.
+    for warned, args in ((True, (ElementQuad2(), soil, "fem")),
+                         (True, (ElementQuad2(), LinearElastic(1e4, .3))),
+                         (False, (ElementQuad1(), soil)),
+                         (False, (ElementQuad2(), soil, "mpm", False))):
+        caplog.clear()
+        with caplog.at_level("WARNING", logger="skfem_mpm"):
+            assert run(*args).history[-1].load_factor == 1.
+        words = [r.getMessage() for r in caplog.records
+                 if "one mean-dilatation constraint a cell" in
+                 r.getMessage()]
+        assert len(words) == int(warned), args
+        assert not warned or "ElementQuad2 cells (9 nodes)" in words[0]
 
 
 def q2_cantilever(n, kinematics="finite"):
