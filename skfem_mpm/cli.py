@@ -630,7 +630,7 @@ def plot_bearing_capacity(scene, curves: dict, path: Path):
     ax.set_xlabel("settlement / width of the footing {} (-)\n(half "
                   "the footing in a half model)".format(
                       "body" if footing.kind == "rigid_bodies"
-                      else "inside the grid"))
+                      else "over the soil"))
     ax.set_ylabel("footing pressure / cohesion (-){}".format(
         "\n(the weight of the points in its cells taken off)"
         if footing.kind == "rigid_bodies" else ""))

@@ -109,9 +109,10 @@ class GridTerm:
     #: augmented Lagrangian): Newton keeps its last factorised tangent for
     #: the first direction of the next solve
     settles = False
-    #: set by :meth:`settle` when it changed the term's constraints, not
-    #: only their multipliers (contact pairs joined, a rough pair let go):
-    #: the next solve starts from a fresh tangent, not the kept one
+    #: read after a :meth:`settle` that returned ``False``, which sets it
+    #: on that call: ``True`` where it changed the term's constraints, not
+    #: only their multipliers (contact pairs joined, a rough pair let go),
+    #: and the next solve starts from a fresh tangent, not the kept one
     reshaped = False
     #: the term ties grid nodes that a sliver of material supports to a
     #: stiff constraint (an obstacle holding the material where its

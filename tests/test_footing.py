@@ -207,7 +207,7 @@ def test_a_failed_footing_run_keeps_its_curve(tmp_path):
 
 
 # the footing as a smooth box obstacle (contact at the soil's surface, its
-# edges anywhere): half model, the box reaching past the symmetry line
+# edge on a grid line): half model, the box reaching past the symmetry line
 PUNCH = FOOTING.replace('''[[bodies]]
 name = "footing"
 region = { x = [0.0, 0.25], y = [0.5, 0.625] }
@@ -215,17 +215,16 @@ material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
 rigid = { displacement = [0.0, -0.03], rough = false }
 ''', '''[[obstacles]]
 name = "punch"
-box = { x = [-0.5, 0.3], y = [0.5, 1.0] }
+box = { x = [-0.5, 0.25], y = [0.5, 1.0] }
 displacement = [0.0, -0.03]
 ''').replace("steps = 6", "steps = 4")
 
 
 def test_a_bearing_capacity_footing_may_be_a_box_obstacle(tmp_path):
-    """A trial's smooth punch (a box obstacle, its edge between grid
-    lines, reaching past the symmetry line) was refused as a footing:
-    'needs one rigid body'.  Its pressure is the material's force on it
-    over its width inside the grid (0.3 here), in the summary's error,
-    the picture and the study alike."""
+    """A trial's smooth punch (a box obstacle reaching past the symmetry
+    line) was refused as a footing: 'needs one rigid body'.  Its pressure
+    is the material's force on it over its width over the soil (0.25
+    here), in the summary's error, the picture and the study alike."""
     assert PUNCH != FOOTING and "rigid" not in PUNCH
     scene = tmp_path / "punch.toml"
     scene.write_text(PUNCH)
@@ -235,7 +234,7 @@ def test_a_bearing_capacity_footing_may_be_a_box_obstacle(tmp_path):
     summary = json.loads((out / "summary.json").read_text())
     force = np.array(summary["obstacles"]["punch"]["force"])
     assert force.shape == (4, 2) and (force[:, 1] > 0).all()
-    pressure = force[:, 1] / .3
+    pressure = force[:, 1] / .25
     assert summary["error"] == pytest.approx(abs(
         pressure.max() / ((2 + np.pi) * 100 / np.sqrt(3)) - 1), rel=1e-12)
     for name in ("bearing_capacity.png", "obstacles.png"):
@@ -246,7 +245,7 @@ def test_a_bearing_capacity_footing_may_be_a_box_obstacle(tmp_path):
 
 
 @pytest.mark.parametrize("change, words", [
-    (("box = { x = [-0.5, 0.3], y = [0.5, 1.0] }",
+    (("box = { x = [-0.5, 0.25], y = [0.5, 1.0] }",
       "polygon = [[0.0, 0.5], [0.3, 0.5], [0.3, 1.0], [0.0, 1.0]]"),
      "'punch' as a box"),
     (("displacement = [0.0, -0.03]", "displacement = [0.01, -0.03]"),
@@ -255,11 +254,25 @@ def test_a_bearing_capacity_footing_may_be_a_box_obstacle(tmp_path):
       '[[obstacles]]\nname = "second"\nbox = { x = [0.6, 0.8], '
       "y = [0.5, 1.0] }\ndisplacement = [0.0, -0.01]\n"),
      "one footing pushed down.*'punch'.*'second'"),
-    (("box = { x = [-0.5, 0.3]", "box = { x = [-0.5, -0.1]"),
-     "outside the grid"),
+    (("box = { x = [-0.5, 0.25]", "box = { x = [-0.5, -0.1]"),
+     r"over no soil \(x from 0.0 to 1.0\)"),
+    (("box = { x = [-0.5, 0.25]", "box = { x = [-0.5, 1.5]"),
+     "covers the soil's whole surface"),
 ])
 def test_obstacle_footing_refusals(change, words):
     text = PUNCH.replace(*change)
     assert text != PUNCH
     with pytest.raises(SceneError, match=words):
         parse_scene(tomllib.loads(text))
+
+
+def test_an_obstacle_footing_s_width_is_over_the_soil():
+    """A reviewer's find: the width was the box's part inside the grid, so
+    a grid reaching a cell past the soil's symmetry line (x = 0) made the
+    same punch 0.5 wide where it presses 0.25 of soil (the error 0.47
+    where it is 0.03)."""
+    from skfem_mpm.scenes.footing import scene_footing
+    shifted = PUNCH.replace("x = [0.0, 1.0, 8]", "x = [-0.25, 1.0, 10]")
+    assert shifted != PUNCH
+    for text in (PUNCH, shifted):
+        assert scene_footing(parse_scene(tomllib.loads(text))).width == .25

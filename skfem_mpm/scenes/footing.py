@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import InvalidInputError
 from ..mechanics.materials import VonMises
 from ..mechanics.soils import DruckerPrager, MohrCoulomb
-from .regions import region_shape
+from .regions import bounding_box, region_shape
 
 __all__ = ["soil_strength", "Footing", "scene_footing", "check_footing_scene"]
 
@@ -56,7 +56,7 @@ class Footing(NamedTuple):
     #: :func:`~skfem_mpm.scenes.scene.reaction_resultants`
     column: int
     #: the pressure's denominator: a rigid body's region's width, a box
-    #: obstacle's width inside the grid (half the footing in a half model)
+    #: obstacle's width over the soil (half the footing in a half model)
     width: float
     #: the soil's push on it is ``sign`` times its force there (a rigid
     #: body's holds its motion, down; an obstacle's is the material's)
@@ -69,8 +69,10 @@ def scene_footing(scene) -> Footing:
     body is a box region whose edges across the motion are grid lines
     inside the grid (it drives the whole cells its points are in: its
     contact width is that of its cells); an obstacle is a box, its width
-    the part inside the grid (a half model's box may reach past the
-    symmetry line); anything else is refused."""
+    the part over the soil (the soil bodies' regions' x-extent, the
+    grid's for a region that is a plain function: a half model's box may
+    reach past the symmetry line), which must leave soil surface free
+    beside it; anything else is refused."""
     from .scene import obstacle_list
     rigid = [b for b in scene.bodies if b.rigid is not None]
     obstacles = [(k, o) for k, o in enumerate(obstacle_list(scene))
@@ -96,13 +98,20 @@ def scene_footing(scene) -> Footing:
                 "reference 'bearing_capacity' needs the footing obstacle "
                 "{!r} as a box (its width is the pressure's denominator), "
                 "not a polygon".format(obstacle.name))
-        lo, hi = np.clip(obstacle.box[0], lines[0], lines[-1])
+        soil = soil_extent(scene, lines[0], lines[-1])
+        lo, hi = np.clip(obstacle.box[0], *soil)
         if hi <= lo:
             raise InvalidInputError(
                 "reference 'bearing_capacity': the footing obstacle {!r} "
-                "(x from {} to {}) is outside the grid (x from {} to {})"
-                .format(obstacle.name, *obstacle.box[0], lines[0],
-                        lines[-1]))
+                "(x from {} to {}) is over no soil (x from {} to {})"
+                .format(obstacle.name, *obstacle.box[0], *soil))
+        if obstacle.box[0][0] <= soil[0] and obstacle.box[0][1] >= soil[1]:
+            raise InvalidInputError(
+                "reference 'bearing_capacity': the footing obstacle {!r} "
+                "(x from {} to {}) covers the soil's whole surface (x from "
+                "{} to {}): no free surface beside it, so no collapse "
+                "mechanism and no N_c c".format(
+                    obstacle.name, *obstacle.box[0], *soil))
         return Footing("obstacles", obstacle.name,
                        first + len(rigid) + k, float(hi - lo), 1.)
     footing = rigid[0]
@@ -118,11 +127,23 @@ def scene_footing(scene) -> Footing:
                 "reference 'bearing_capacity': the footing {!r} has its edge "
                 "x = {} between grid lines (x from {} to {}): it drives the "
                 "whole cells its points are in, so its width would not be "
-                "its region's; put its edges on grid lines (or make the "
-                "footing a box obstacle: contact at the soil's surface)"
-                .format(footing.name, edge, lines.min(), lines.max()))
+                "its region's; put its edges on grid lines".format(
+                    footing.name, edge, lines.min(), lines.max()))
     lo, hi = footing.region[0]
     return Footing("rigid_bodies", footing.name, first, float(hi - lo), -1.)
+
+
+def soil_extent(scene, low: float, high: float) -> tuple:
+    """The x-extent of a footing scene's soil (its bodies that are not
+    rigid): the union of their regions' bounding boxes, within the grid's
+    ``low`` to ``high`` (the grid's where a region is a plain function,
+    whose extent is not known before seeding)."""
+    boxes = [bounding_box(b.region) for b in scene.bodies
+             if b.rigid is None]
+    if any(box is None for box in boxes) or not boxes:
+        return float(low), float(high)
+    return (float(max(low, min(box[0][0] for box in boxes))),
+            float(min(high, max(box[0][1] for box in boxes))))
 
 
 def check_footing_scene(scene):

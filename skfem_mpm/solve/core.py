@@ -796,6 +796,14 @@ def check_higher_order_antilocking(method: str, elem: Element, mesh: Mesh,
         "bilinear cells (Q1) with it", type(scalar).__name__, nodes)
 
 
+def terms_hint(run: Run, points) -> str:
+    """What the run's grid terms see of a failure at the last converged
+    state ``points`` (:meth:`~skfem_mpm.protocols.GridTerm.failure_hint`),
+    for a failed run's error."""
+    return "".join(term.failure_hint(points, run.dynamics is None)
+                   for term in run.terms)
+
+
 def seeded_hint(run: Run) -> str:
     """The run's start's :func:`underintegrated_cells` sentence for a
     failed run's error, or ``""``."""
@@ -860,9 +868,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     "state ({}) is attached{}{}{}".format(
                         err, span(run, target - factor),
                         progress(run, factor), too_soft(run, points),
-                        ghost_hint(run) + seeded_hint(run), "".join(
-                            term.failure_hint(points, dynamics is None)
-                            for term in run.terms)),
+                        ghost_hint(run) + seeded_hint(run),
+                        terms_hint(run, points)),
                     state=points, load_factor=factor,
                     history=result.history) from err
             increment = (target - factor) / 2
@@ -881,9 +888,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     "the body can carry (a plastic body beyond its limit "
                     "load, a body its supports do not hold){}".format(
                         step + 1, progress(run, factor),
-                        progress(run, target).split()[-1], "".join(
-                            term.failure_hint(points, dynamics is None)
-                            for term in run.terms))),)
+                        progress(run, target).split()[-1],
+                        terms_hint(run, points))),)
             if err.args and isinstance(err.args[0], str):
                 # a singular stiffness of cells seeded too thinly blamed
                 # nodes held by too few points (small strain, Q2 2 x 2)
