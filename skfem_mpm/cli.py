@@ -444,15 +444,21 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
     if loaded.size and result.history and \
             result.history[0].displacement is not None:
         fig, ax = pyplot().subplots(figsize=(5, 4))
-        factor = [0.] + [r.load_factor for r in result.history]
+        # in dynamics the load factor is t / duration: against time (a
+        # user trial's step load read as a load cycled)
+        dynamic = scene.dynamics is not None
+        factor = [0.] + [r.time if dynamic else r.load_factor
+                         for r in result.history]
         for k in range(pts.dim):
             disp = [0.] + [r.displacement[k, loaded].mean()
                            for r in result.history]
             ax.plot(disp, factor, "o-", ms=3, label="xyz"[k])
         ax.set_xlabel("mean displacement of the loaded points (m)")
-        ax.set_ylabel("load factor (-)")
-        ax.set_title("{}: load against displacement\nof the loaded "
-                     "material points".format(scene.name))
+        ax.set_ylabel("time (s)" if dynamic else "load factor (-)")
+        ax.set_title("{}: {} against displacement\nof the loaded "
+                     "material points".format(
+                         scene.name, "time" if dynamic else "load"))
+        ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 3))
         ax.legend(title="component")
         fig.tight_layout()
         plot.save_figure(fig, outdir / "load_displacement.png")

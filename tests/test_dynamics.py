@@ -657,3 +657,46 @@ def test_gravity_acceleration_checks_its_scene():
     rigid = scene(3000., rigid=True)
     rigid.check()
     assert rigid.body_forces().tolist() == [[0., -3000. * 9.81], [0., 0.]]
+
+
+def test_a_dynamic_scene_s_loaded_points_are_drawn_against_time(
+        tmp_path, monkeypatch):
+    """``load_displacement.png`` of a dynamic scene drew its points'
+    displacement against the load factor, there t / duration: a user
+    trial's step load, held constant, read as a load cycled.  It is drawn
+    against time (s), to the steps' times."""
+    from skfem_mpm.cli import main
+    from skfem_mpm.scenes import plot
+    drawn = {}
+
+    def save(fig, path, dpi=120):
+        if path.name == "load_displacement.png":
+            ax = fig.axes[0]
+            drawn[path.name] = (ax.get_ylabel(), ax.lines[0].get_ydata())
+        plot.pyplot().close(fig)
+    monkeypatch.setattr(plot, "save_figure", save)
+    scene = tmp_path / "bar.toml"
+    scene.write_text("""
+name = "bar"
+[grid]
+x = [0.0, 0.5, 2]
+y = [0.0, 1.0, 4]
+[[bodies]]
+name = "bar"
+region = { x = [0.0, 0.25], y = [0.0, 1.0] }
+material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
+density = 1000.0
+[[supports]]
+boundary = "bottom"
+[[point_loads]]
+at = [0.125, 1.0]
+force = [0.0, -10.0]
+[dynamics]
+time_step = 0.01
+duration = 0.04
+""")
+    assert main(["run", str(scene), "--out", str(tmp_path / "out"),
+                 "--no-progress"]) == 0
+    label, times = drawn["load_displacement.png"]
+    assert label == "time (s)"
+    assert np.allclose(times, [0., .01, .02, .03, .04], atol=1e-12)

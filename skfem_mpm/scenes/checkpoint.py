@@ -187,7 +187,11 @@ def load_checkpoint(outdir, scene_sha256: Optional[str] = None) -> Checkpoint:
     """
     path = Path(outdir) / CHECKPOINT
     if not path.is_file():
-        raise CheckpointError("no checkpoint in {}".format(outdir))
+        raise CheckpointError(
+            "no checkpoint in {} (a run writes one every N steps with "
+            "--checkpoint-every N, at --max-steps, on Ctrl-C and on a "
+            "failure: a run killed without --checkpoint-every cannot "
+            "resume)".format(outdir))
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}

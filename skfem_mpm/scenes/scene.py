@@ -219,8 +219,9 @@ class TimeIntegration:
             if self.scheme != owner and getattr(self, name) != default:
                 raise InvalidInputError(
                     "dynamics {} = {!r} belongs to scheme {!r}, not {!r}: it "
-                    "would be ignored".format(name, getattr(self, name),
-                                              owner, self.scheme))
+                    "would be ignored (set scheme = {!r})".format(
+                        name, getattr(self, name), owner, self.scheme,
+                        owner))
         scheme = None if self.scheme == "auto" else Newmark(
             self.beta, self.gamma) if self.scheme == "newmark" \
             else GeneralizedAlpha(self.rho_inf)

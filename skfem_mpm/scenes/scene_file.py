@@ -665,7 +665,8 @@ def _dynamics(c, data) -> TimeIntegration:
                         ("rho_inf", "generalized_alpha")):
         if name in d and scheme != owner:
             c.bad("{}.{}".format(key, name), "belongs to scheme {!r}, not "
-                  "{!r}: it would be ignored".format(owner, scheme), d[name])
+                  "{!r}: it would be ignored (set scheme = {!r})".format(
+                      owner, scheme, owner), d[name])
     return TimeIntegration(
         time_step=c.number(d, key, "time_step", 1., low=0.),
         duration=c.number(d, key, "duration", 1., low=0.),
