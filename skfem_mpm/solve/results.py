@@ -30,7 +30,8 @@ class StepRecord:
     n_active_elements, n_free_dofs
         Size of the active grid.
     timings
-        Seconds per phase: locate, assemble, solve, update, check.
+        Seconds per phase: locate, assemble, solve, update, check (the
+        balance, and the grid terms' settle checks: contact's rounds).
     u
         Grid displacement increment of the step (``None`` unless
         snapshots are kept).
