@@ -563,6 +563,18 @@ def test_a_step_stalled_on_zero_energy_modes_switches_the_ghost_on():
     assert stepped == pytest.approx(deflection, rel=1e-3)
 
 
+def pressed_block(press: Obstacle, **kwargs):
+    """A block 0.6 x 0.5 (E = 1e6, nu = 0.3) on a base held in every
+    component, 2 x 2 points in cells of 0.1, pressed by ``press``."""
+    mesh = MeshQuad.init_tensor(np.linspace(0., 1., 11),
+                                np.linspace(0., 1., 11))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .2) & (x[0] < .8)
+                      & (x[1] < .5))
+    return simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
+                    lambda b: b.get_dofs(lambda x: np.isclose(x[1], 0.))
+                    .all(), obstacles=[press], **kwargs)
+
+
 @pytest.mark.slow
 def test_an_obstacle_moved_past_the_material_is_named_in_the_error():
     """A press displaced by 40 (a typo) onto a block 0.5 tall on a
@@ -573,16 +585,10 @@ def test_an_obstacle_moved_past_the_material_is_named_in_the_error():
     displacement.  (A press moving along its face or away from the
     material, or from afar by less, squeezes nothing: no such hint.)"""
     from skfem_mpm import ContactError
-    mesh = MeshQuad.init_tensor(np.linspace(0., 1., 11),
-                                np.linspace(0., 1., 11))
-    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .2) & (x[0] < .8)
-                      & (x[1] < .5))
     with pytest.raises(ContactError) as failed:
-        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
-                 lambda b: b.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
-                 nsteps=4, obstacles=[Obstacle(
-                     box=[[.1, .9], [.5, .7]], displacement=[0., -40.],
-                     name="press")])
+        pressed_block(Obstacle(box=[[.1, .9], [.5, .7]],
+                               displacement=[0., -40.], name="press"),
+                      nsteps=4)
     moved = 40. * failed.value.load_factor
     message = str(failed.value)
     assert "obstacle 'press' had moved" in message
@@ -601,16 +607,10 @@ def test_points_squeezed_out_of_the_grid_name_the_obstacle():
     alone (a user trial); it now also names the press and how far it had
     moved past the block's top against the block's height."""
     from skfem_mpm import PointsOutsideGridError
-    mesh = MeshQuad.init_tensor(np.linspace(0., 1., 11),
-                                np.linspace(0., 1., 11))
-    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .2) & (x[0] < .8)
-                      & (x[1] < .5))
     with pytest.raises(PointsOutsideGridError) as failed:
-        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
-                 lambda b: b.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
-                 nsteps=8, kinematics="finite", obstacles=[Obstacle(
-                     box=[[0., 1.], [.5, .7]], displacement=[0., -.6],
-                     name="press")])
+        pressed_block(Obstacle(box=[[0., 1.], [.5, .7]],
+                               displacement=[0., -.6], name="press"),
+                      nsteps=8, kinematics="finite")
     message = str(failed.value)
     assert "a grid too tight around the body's motion" in message
     moved = float(message.split("obstacle 'press' had moved ")[1].split()[0])
