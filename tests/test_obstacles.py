@@ -2261,6 +2261,9 @@ def test_an_unsettled_step_names_each_term_s_cause():
     assert "raise the penalty" not in alone
     assert unsettled_words(SimpleNamespace(unsettled=[silent])).startswith(
         ": each round closes the penetration")
+    # the last round settled short of the tolerance: no term to name
+    assert unsettled_words(SimpleNamespace(unsettled=[])).startswith(
+        ": each round closes the penetration")
 
 
 def test_the_settle_checks_are_timed_as_check(monkeypatch):

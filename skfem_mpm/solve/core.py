@@ -413,7 +413,7 @@ def unsettled_words(problem) -> str:
     failing in the same step was left without a word)."""
     hints = [term.unsettled_hint() for term in problem.unsettled]
     return "".join(hints) + (
-        "" if all(hints) else
+        "" if hints and all(hints) else
         "{}each round closes the penetration by about the body's "
         "stiffness over the penalty's; raise the penalty (Obstacle("
         "penalty=...), Contact(penalty=...); 100 took a tolerance of 1e-5 "
