@@ -725,3 +725,50 @@ def test_compiled_component_labels_are_scipys(monkeypatch):
         with pytest.raises(SingularSystemError, match="on 3 grid nodes"):
             check_rigid_body_modes(graph, doflocs, np.arange(12),
                                    np.arange(6), 2)
+
+
+@pytest.mark.parametrize("consume", [False, True])
+def test_condensation_map_is_kept_as_runs(consume, monkeypatch):
+    """The condensation's map of a 3D grid's pattern (27 neighbours of 3
+    DOFs a node; the bottom nodes held, the nodes beyond a box inactive)
+    is kept as runs of consecutive entries, not as a position an entry (4
+    bytes a kept entry: 121 bytes a point at the peak of a 3D run's heap),
+    and is built without a mask of all the pattern's entries (1 byte an
+    entry, 59 bytes a point there): the map holds under half a byte a kept
+    entry, the build's temporaries stay within its blocks' (under 48 bytes
+    an entry of a block), and the block gathered is scipy's, entry for
+    entry, copied or within the tangent's data."""
+    import tracemalloc
+    from scipy.sparse import diags, kron
+    from skfem_mpm.solve import linear
+    block = 1 << 12
+    monkeypatch.setattr(linear, "TAKE_BLOCK", block)
+    m = 12
+    T = diags([1., 1., 1.], [-1, 0, 1], shape=(m, m))
+    K = kron(kron(kron(T, T), T), np.ones((3, 3))).tocsr()
+    K.sort_indices()
+    K.data = np.random.default_rng(5).standard_normal(K.nnz)
+    z, y, x = np.unravel_index(np.arange(m ** 3), (m, m, m))
+    nodes = np.flatnonzero((z > 0) & (z < 9) & (y < 9) & (x < 9))
+    free = (3 * nodes[:, None] + np.arange(3)).ravel()
+    expected = K[free][:, free]
+    expected.sort_indices()
+    kept = expected.nnz
+    assert kept > linear.GATHER_BLOCK        # the map kept as runs only
+    tracemalloc.start()
+    before = tracemalloc.get_traced_memory()[0]
+    tracemalloc.reset_peak()
+    condensation = linear.Condensation(K, free)
+    held, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    columns, indptr = condensation.block
+    kept_arrays = columns.nbytes + indptr.nbytes
+    map_bytes = held - before - kept_arrays
+    assert map_bytes <= kept / 2
+    assert peak - held <= 48 * block
+    assert condensation.take is None
+    assert sum(a.nbytes for a in condensation.runs) <= kept / 2
+    condensed = condensation(K.copy() if consume else K, consume)
+    for name in ("data", "indices", "indptr"):
+        assert np.array_equal(getattr(condensed, name),
+                              getattr(expected, name))
