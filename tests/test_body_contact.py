@@ -1941,3 +1941,25 @@ def test_a_contact_step_computes_the_domains_corners_once():
     finally:
         BodyContact.corners = corners
     assert len(seen) == 1
+
+
+def test_a_pressed_pair_starts_its_step_at_the_pressure_it_is_rising_to():
+    """A step starts a pressed pair's multiplier ahead, by the rate its
+    pressure rose at in the last step: from the last step's pressure the
+    step's added pressure was all on the penalty, and each step took two
+    augmented-Lagrangian updates (its first round 500 times the
+    tolerance off).  Four steps of the halves' weight (elastic, finite
+    strain): one update a step after the first, and the end where the
+    same weight in one step puts it (a hyperelastic body's path does not
+    matter), within the contact's tolerance."""
+    opts = Options(stabilisation=Stabilisation(ghost=0.))
+    res = stacked_halves(nsteps=4, options=opts)
+    updates = np.diff([0] + [r.counters["contact_updates"]
+                             for r in res.history])
+    assert updates[0] == 2 and (updates[1:] <= 1).all()
+    one = stacked_halves(options=opts)
+    h = .125
+    assert np.abs(res.points.displacement
+                  - one.points.displacement).max() < 1e-3 * h
+    assert np.allclose(res.history[-1].contact_forces, [[0., 2e4 * .5]],
+                       rtol=1e-10)

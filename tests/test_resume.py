@@ -372,11 +372,14 @@ def test_ctrl_c_while_saving_a_checkpoint_keeps_the_previous_one(
     (["contact_body_corner{}{}".format(a, c) for a in range(2)
       for c in range(4)], True),
     (["contact_body_corner00", "eps_p"], False),
+    (["contact_body1_r{}{}".format(a, c) for a in range(2)
+      for c in range(4)], True),
+    (["contact_body1_r00", "contact_body1_p00"], False),
 ])
 def test_a_checkpoint_without_the_contact_corners_says_why(names, dated):
-    """A B-spline contact's corners became point state: a checkpoint
-    written before lacks them, and the refusal says so (only where they
-    are all it lacks)."""
+    """A B-spline contact's corners and the pressures' rates between
+    bodies became point state: a checkpoint written before lacks them,
+    and the refusal says so (only where they are all it lacks)."""
     from types import SimpleNamespace
     from skfem import MeshQuad
     from skfem_mpm import seed_points

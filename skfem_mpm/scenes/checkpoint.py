@@ -15,6 +15,7 @@ refused).
 
 """
 import hashlib
+import re
 import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,14 +47,13 @@ OPTIONAL_POINT_FIELDS = ("domain", "velocity", "acceleration")
 TIME_FIELDS = ("wall_seconds", "timing_names", "timing_values")
 
 
-#: what a refusal adds where a checkpoint lacks only the B-spline contact
-#: corners, point state since 2026-11-27 (a checkpoint written before
-#: cannot resume: its corners were not kept)
 #: point state that runs keep since checkpoints were first written,
-#: ``(prefix of the names, what they are)``: a checkpoint that lacks only
-#: such names was written before, and its refusal says so
-STATE_SINCE = (("contact_body_corner", "the B-spline contact corners "
-                "(contact_body_corner*)"),)
+#: ``(pattern of the names, what they are, since when)``: a checkpoint
+#: that lacks only such names was written before, and its refusal says so
+STATE_SINCE = ((r"contact_body_corner\d+", "the B-spline contact corners "
+                "(contact_body_corner*)", "2026-11-27"),
+               (r"contact_body\d+_r\d+", "the rates of the pressures "
+                "between bodies (contact_body<k>_r*)", "2026-11-28"))
 
 
 def written_before(held, names) -> str:
@@ -62,19 +62,21 @@ def written_before(held, names) -> str:
 
     >>> written_before({"eps_p"}, {"eps_p", "contact_body_corner00"})[:30]
     '; the B-spline contact corners'
+    >>> written_before({"eps_p"}, {"eps_p", "contact_body0_r00"})[:44]
+    '; the rates of the pressures between bodies '
     >>> written_before({"eps_p"}, {"eps_p", "kappa"})
     ''
     """
     missing = set(names) - set(held)
-    whats = sorted({what for name in missing for prefix, what in
-                    STATE_SINCE if name.startswith(prefix)})
-    if not missing or not set(held) <= set(names) or any(
-            not name.startswith(tuple(p for p, _ in STATE_SINCE))
-            for name in missing):
+    since = [{(what, date) for pattern, what, date in STATE_SINCE
+              if re.fullmatch(pattern, name)} for name in missing]
+    if not missing or not set(held) <= set(names) or not all(since):
         return ""
-    return ("; {} became point state on 2026-11-27, and a checkpoint "
-            "written before lacks it: run the scene again from its "
-            "start".format(" and ".join(whats)))
+    whats = sorted(set().union(*since))
+    return "; {}, and a checkpoint written before lacks it: run the scene " \
+        "again from its start".format(" and ".join(
+            "{} became point state on {}".format(what, date)
+            for what, date in whats))
 
 
 class CheckpointError(InvalidInputError):

@@ -45,7 +45,9 @@ corner (point state ``contact_body<k>_p<a><c>``, ``_g<a><c>`` and
 ``_t<a><c>``: contact k, component a, corner c; the vectors ``p n``,
 ``g n`` and the traction summed over the pairs at the corner's place,
 each pair taking its own normal's part), so a sticking interface keeps
-its shear; any other pair that penetrates at a
+its shear, and its pressure ahead by the rate it rose at in the last
+step (``_r<a><c>``, per unit of the load factor; zero after a step
+whose pairs changed); any other pair that penetrates at a
 step's start is closed there (the corners of deformed domains, moved
 through each point's own gradient, are not quite where the grid field
 moved the last step's pairs).  The penalty ``kappa``
@@ -225,32 +227,37 @@ def traction_state(k: int, dim: int) -> list:
     pairs at the corner's place (a body's corner in a notch of the other
     has a pair per face, each along its own normal): the pressure vector
     ``p n`` (``contact_body<k>_p<a><c>``), the gap vector ``g n`` where
-    pressed (``_g<a><c>``) and the friction traction (``_t<a><c>``)."""
+    pressed (``_g<a><c>``), the friction traction (``_t<a><c>``) and the
+    pressure's rate over the step, its change per unit of the load
+    factor (or of ``t / duration`` in dynamics) along the normal
+    (``_r<a><c>``)."""
     return [["contact_body{}_{}{}{}".format(k, q, a, c)
-             for c in range(2 ** dim)] for q in "pgt" for a in range(dim)]
+             for c in range(2 ** dim)] for q in "pgtr" for a in range(dim)]
 
 
 def carried(state: dict, k: int, corner: ndarray, normal: ndarray,
             n: int, place: ndarray):
     """What contact ``k``'s pairs at the second body's corners
     ``corner`` (``c n + p``) with normals ``normal`` (dim, m) start
-    from, the state the last step ended with there: the pressure and
-    the gap along each normal (m,), and the friction traction (dim, m)
-    in each pair's tangent plane, the corner's shared among the pairs at
-    one ``place`` (dim, m; integers) by the components their tangent
-    planes hold (a square pile's vertical edge in 3D: its x and y faces'
-    pairs start from half its vertical friction each)."""
+    from, the state the last step ended with there: the pressure, the
+    gap and the pressure's rate along each normal (m,), and the friction
+    traction (dim, m) in each pair's tangent plane, the corner's shared
+    among the pairs at one ``place`` (dim, m; integers) by the
+    components their tangent planes hold (a square pile's vertical edge
+    in 3D: its x and y faces' pairs start from half its vertical
+    friction each)."""
     dim = normal.shape[0]
     rows = np.array([corner_values(state, row, corner, n)
                      for row in traction_state(k, dim)])
-    P, G, T = rows[:dim], rows[dim:2 * dim], rows[2 * dim:]
+    P, G, T, R = (rows[q * dim:(q + 1) * dim] for q in range(4))
     group = np.unique(place, axis=1, return_inverse=True)[1].ravel()
     holds = 1. - normal ** 2
     total = np.zeros((dim, group.max(initial=-1) + 1))
     np.add.at(total.T, group, holds.T)
     tau = T * holds / np.maximum(total[:, group], 1e-300)
     return ((normal * P).sum(axis=0), (normal * G).sum(axis=0),
-            tau - (normal * tau).sum(axis=0) * normal)
+            tau - (normal * tau).sum(axis=0) * normal,
+            (normal * R).sum(axis=0))
 
 
 def corner_values(state: dict, row: list, corner: ndarray,
@@ -1253,11 +1260,24 @@ class StepBodyContact(GridTerm):
         # one the slip, the tolerance allows in every step: a pile's
         # settlement was 40% off after 10 steps with a soft penalty)
         n = points.n
-        p, g, tau = carried(points.state, part["contact"], B, normal, n,
-                            term.place(points, B))
+        p, g, tau, rate = carried(points.state, part["contact"], B,
+                                  normal, n, term.place(points, B))
         pressed = p > 0
         gap = np.where(pressed, g, np.maximum(gap, 0.))
-        lam = np.where(pressed, p + term.kappa[part["contact"]] * g, 0.)
+        start = np.where(pressed, p, 0.)
+        # the pressure the step is expected to end at, by the last step's
+        # rate (zero after a step whose pairs changed): from the last
+        # step's pressure, the step's added pressure was all on the
+        # penalty, and its first round ended 500 times the tolerance off
+        # (a round more in every step of two elastic blocks); a pile
+        # driven through its soil, whose pairs join and start deep in
+        # most steps, went a path 30% stiffer with a rate everywhere
+        problem = self.problem
+        ahead = np.maximum(start + np.where(deep, 0., rate) * (
+            problem.f_new - problem.f_old), 0.)
+        lam = np.where(pressed, ahead + term.kappa[part["contact"]] * g, 0.)
+        part["steady"] = part.get("steady", True) and not deep.any() \
+            and before == 0
         corners = term.corners(points)[0].size
         # rough: the pairs that stick through the step's Newton iterations
         # are those pressed or touching at its start (:meth:`rough_changes`
@@ -1267,6 +1287,7 @@ class StepBodyContact(GridTerm):
         held = pressed | (gap <= tol)
         for key, value in (("D", D), ("n", normal), ("gap", gap),
                            ("lam", lam), ("tau", tau), ("held", held),
+                           ("start", start),
                            ("changed", np.zeros_like(held)),
                            ("keys", B * corners + A),
                            ("sides", np.hstack([onB, onA])),
@@ -1335,6 +1356,7 @@ class StepBodyContact(GridTerm):
             free = ~part["changed"]
             apart = free & part["held"] & (p <= 0.)
             join = free & ~part["held"] & (p > 0.)
+            part["steady"] &= not (apart.any() or join.any())
             part["tau"][:, apart] = 0.
             if join.any():
                 w = (part["D"] @ du).reshape(-1, dim).T[:, join]
@@ -1424,9 +1446,13 @@ class StepBodyContact(GridTerm):
             to, frm = np.divmod(np.unique(np.r_[B, mine[near.col]] * m
                                           + np.r_[np.arange(m), near.row]),
                                 m)
+            step = problem.f_new - problem.f_old
+            rate = (e[4] - part["start"]) / step \
+                if step > 0 and part["steady"] else np.zeros_like(e[4])
             values = np.vstack([e[4] * part["n"],
                                 np.where(e[4] > 0, e[6], 0.) * part["n"],
-                                e[5]])
+                                e[5], np.where(e[4] > 0, rate, 0.)
+                                * part["n"]])
             for row, value in zip(traction_state(part["contact"], self.dim),
                                   values):
                 table = np.zeros((len(row), n))
