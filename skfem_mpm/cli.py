@@ -978,12 +978,16 @@ def run(args) -> int:
 def print_report(scene, summary: dict, seconds: float, outdir: Path,
                  resumed) -> None:
     """The terminal's account of a completed run."""
+    # the steps taken, cut-backs' included (a trial's run printed the 1
+    # step planned where it took 22)
+    steps = "{} {} steps{}".format(
+        summary["steps_run"], "load" if scene.dynamics is None else "time",
+        "" if summary["steps_run"] == scene.step_count else
+        " ({} planned, cut back)".format(scene.step_count))
     print("{}: {} {} ({} kinematics), {} points, {}".format(
         scene.name, "resumed" if resumed else "ran", scene.method,
-        scene.kinematics, summary["points"], "{} load steps".format(
-            scene.step_count) if scene.dynamics is None else
-        "{} time steps to t = {:g} s".format(scene.step_count,
-                                            scene.dynamics.duration)))
+        scene.kinematics, summary["points"], steps if scene.dynamics is None
+        else "{} to t = {:g} s".format(steps, scene.dynamics.duration)))
     if "error" in summary:
         label, against, _ = REFERENCE_ERRORS[scene.reference]
         print("  {:26s}{:.4e} (against {})".format(label + " ",

@@ -508,3 +508,16 @@ def test_a_resumed_contact_run_warns_as_its_first_invocation(tmp_path,
     assert fell == pytest.approx(9.81 * .05 ** 2 / 2, rel=.05)
     assert_same_run(straight, resumed)
 
+
+def test_the_report_counts_the_steps_taken(tmp_path, capsys):
+    """The terminal's report names the steps taken, cut-backs' included,
+    and the steps planned (a trial's run printed "1 time steps" where it
+    had taken 22)."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(CUT_BACK_SCENE)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--no-progress"]) == 0
+    taken = json.loads((out / "summary.json").read_text())["steps_run"]
+    assert taken > 3
+    assert ", {} load steps (3 planned, cut back)\n".format(taken) in \
+        capsys.readouterr().out
