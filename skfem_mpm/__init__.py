@@ -29,7 +29,7 @@ __all__ = [
     "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "RigidBody",
     "reduce_strength", "strength_reduction", "Dynamics", "Newmark",
     "GeneralizedAlpha", "material_point_bases", "Obstacle", "ContactError",
-    "StepTooLongError",
+    "StepTooLongError", "HeldSupportError",
     "Contact",
 ]
 
@@ -43,7 +43,7 @@ def _public() -> dict:
                          NumericalError, PointsOutsideGridError,
                          PrescribedMotionError, SingularSystemError,
                          SingularTangentError, StepFailedError,
-                         StepTooLongError,
+                         StepTooLongError, HeldSupportError,
                          UnsupportedElementError)
     from .quadrature.locate import locate_points, point_locator
 

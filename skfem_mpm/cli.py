@@ -50,7 +50,7 @@ from .solve.body_contact import body_contact_state_names
 from .solve.contact import contact_state_names
 from .solve.rotation import rotation_state_names, start_missing_rotation
 from .solve.core import grid_parts
-from .solve.options import Resume
+from .solve.options import Resume, resumed_counters
 from .solve.results import PHASES, Result
 from .solve.strength_reduction import largest_displacement
 from .studies.column import SOURCE as COLUMN_SOURCE
@@ -703,7 +703,7 @@ def load_run(args):
         resume = Resume(first_step=earlier.step + 1,
                         load_factor=earlier.load_factor,
                         increment=earlier.increment, domain0=earlier.domain0,
-                        counters=earlier.counters)
+                        counters=resumed_counters(earlier.counters))
     else:
         outdir = args.out
         source = args.scene or EMBEDDED
@@ -838,8 +838,8 @@ def run(args) -> int:
         partial = Result(
             points=latest[0] if state is None and latest else
             points if state is None else state, history=list(history),
-            counters=dict(last.counters if last else resume.counters
-                          or {}))
+            counters=dict(last.counters if last else
+                          earlier.counters if earlier else {}))
         summary = summarise(scene, partial, run_clock() - tic,
                             earlier, complete=False)
         summary.update(status=status, last_converged_step=last.step if last
@@ -920,7 +920,8 @@ def run(args) -> int:
         if state is not None:
             checkpoint(state, err.load_factor, last.increment if last else
                        resume.increment or 1. / scene.step_count,
-                       last.counters if last else resume.counters or {})
+                       last.counters if last else
+                       earlier.counters if earlier else {})
         # the summary and figures of a finished run, of the steps that
         # converged (the curves up to the failure)
         partial, failed = unfinished(
@@ -977,12 +978,16 @@ def run(args) -> int:
 def print_report(scene, summary: dict, seconds: float, outdir: Path,
                  resumed) -> None:
     """The terminal's account of a completed run."""
+    # the steps taken, cut-backs' included (a trial's run printed the 1
+    # step planned where it took 22)
+    steps = "{} {} steps{}".format(
+        summary["steps_run"], "load" if scene.dynamics is None else "time",
+        "" if summary["steps_run"] == scene.step_count else
+        " ({} planned, cut back)".format(scene.step_count))
     print("{}: {} {} ({} kinematics), {} points, {}".format(
         scene.name, "resumed" if resumed else "ran", scene.method,
-        scene.kinematics, summary["points"], "{} load steps".format(
-            scene.step_count) if scene.dynamics is None else
-        "{} time steps to t = {:g} s".format(scene.step_count,
-                                            scene.dynamics.duration)))
+        scene.kinematics, summary["points"], steps if scene.dynamics is None
+        else "{} to t = {:g} s".format(steps, scene.dynamics.duration)))
     if "error" in summary:
         label, against, _ = REFERENCE_ERRORS[scene.reference]
         print("  {:26s}{:.4e} (against {})".format(label + " ",

@@ -129,6 +129,17 @@ class StepTooLongError(ContactError):
     the retry ladder's rungs (only a shorter step helps)."""
 
 
+class HeldSupportError(ContactError):
+    """Contact with an obstacle did not settle in a step where the
+    obstacle pushes more than a fifth of its force on the grid into
+    nodes a support holds (:data:`~skfem_mpm.solve.contact.HELD_SHARE`;
+    a wall pushed against a block down to a base held in every
+    component): cut back like other contact failures, and the run stops
+    once the step has failed at a few halvings of its increment, the
+    cause unchanged (only the supports or the obstacle's extent remove
+    it; :data:`~skfem_mpm.solve.core.HELD_HALVINGS`)."""
+
+
 class StepFailedError(ConvergenceError):
     """A load step raised an error that is not the package's own (in a
     user's material, form or callback-free code path); the original is the

@@ -206,7 +206,9 @@ class GridTerm:
         :meth:`settle`, as the last solve saw it, as ``"; ..."``, or
         ``""`` (the step's error then advises a stiffer penalty).  A term
         may note that it said so, to keep it out of :meth:`failure_hint`
-        (obstacles: the held-support words)."""
+        (obstacles: the held-support words), and set ``held_cause`` to
+        ``True`` where the cause is a support (the step's error is then
+        a :class:`~skfem_mpm.errors.HeldSupportError`)."""
         return ""
 
     def commit(self, problem, trial, du: ndarray, new, record) -> None:

@@ -243,6 +243,8 @@ def test_quasi_static_runs_do_no_dynamics_work():
             (lambda: Dynamics(0., 1., 1.), "positive time_step"),
             (lambda: Dynamics(.1, float("nan"), 1.), "positive time_step"),
             (lambda: Dynamics(.1, 1., -1.), "density"),
+            (lambda: Dynamics(1., .5, 1.), "time_step 1.0 s is longer than "
+             "the duration 0.5 s"),
             (lambda: Dynamics(.1, 1., 1., scheme="newmark"), "scheme"),
             (lambda: Dynamics(.1, 1., 1., mass="diagonal"), "mass"),
             (lambda: Dynamics(.1, 1., 1., load=2.), "load"),
@@ -329,6 +331,8 @@ def test_dynamic_scene_file_run_and_resume(tmp_path, capsys):
     (("duration = 0.5", "duration = 0.5\nrho_inf = 0.5"), "rho_inf"),
     (("duration = 0.5", "duration = 0.5\nscheme = \"euler\""), "scheme"),
     (("duration = 0.5", "duration = -1.0"), "duration"),
+    (("time_step = 0.05", "time_step = 5.0"), "time_step 5.0 s is longer "
+     "than the duration 0.5 s"),
     (("density = 1000.0", "density = 1000.0\ninitial_velocity = [1.0]"),
      "initial_velocity"),
 ])

@@ -705,6 +705,43 @@ def test_a_wall_pushed_into_a_held_corner_is_warned_where_it_converges(
     assert len(words) == 1 and held_share(words[0]) > .5
 
 
+def test_a_wall_pushed_into_a_held_base_stops_the_run_early():
+    """Trial 63: a wall box pushed 0.02 in -x against a block 1 x 0.5
+    (E = 1e4, nu = 0.3, cpGIMP, finite deformation, 4 steps, h = 0.125)
+    down to its base held in every component pushed 88% of its force
+    into the base's nodes at every increment, and its contact settled
+    only cut back to 1/128 of a step: 159 steps, to a wall force 12
+    times the sliding base's (in 3D 135 steps, then a failure after
+    557 s).  The step now stops the run at its first step, failed at
+    each of HELD_HALVINGS halvings of its increment, with a
+    HeldSupportError naming the wall, its share on held nodes and the
+    last increment tried, the (initial) state attached."""
+    from skfem_mpm import ContactError, HeldSupportError
+    from skfem_mpm.solve.core import HELD_HALVINGS
+    h, nsteps = .125, 4
+    mesh = MeshQuad.init_tensor(np.arange(0, 1 + 1e-9, h),
+                                np.arange(0, .75 + 1e-9, h))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+
+    def supports(b):
+        return np.union1d(b.get_dofs(lambda x: x[1] == 0).all(),
+                          b.get_dofs(lambda x: x[0] == 0).nodal["u^1"])
+    wall = Obstacle(box=[[1., 1.3], [-.1, .8]], displacement=[-.02, 0.],
+                    name="wall")
+    with pytest.raises(HeldSupportError) as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+                 supports, nsteps=nsteps, obstacles=[wall],
+                 method="cpgimp", kinematics="finite")
+    assert isinstance(failed.value, ContactError)
+    assert failed.value.load_factor == 0. and failed.value.history == []
+    assert failed.value.state.n == pts.n
+    message = str(failed.value)
+    assert held_share(message) > .8
+    assert "failed so at {} halvings of the step, down to a load " \
+        "increment of {:.2e}".format(
+            HELD_HALVINGS, 1 / nsteps / 2 ** HELD_HALVINGS) in message
+
+
 def test_a_tied_obstacle_is_a_support_off_the_grid_lines():
     """A block hangs from a tied obstacle whose face lies between grid
     lines: the obstacle carries the weight, and the block hangs where

@@ -1526,6 +1526,8 @@ class StepContact(GridTerm):
         failed run's error then does not repeat it)."""
         words = self.term.held_hint()
         self.term.held_told = bool(words)
+        # the step failed by this cause: its error is a HeldSupportError
+        self.held_cause = bool(words)
         return words
 
     def settle(self, problem, trial, du: ndarray) -> bool:

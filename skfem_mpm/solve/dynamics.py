@@ -165,7 +165,9 @@ class Dynamics:
     ----------
     time_step, duration
         The longest time step and the time simulated: ``ceil(duration /
-        time_step)`` equal steps.
+        time_step)`` equal steps.  A ``time_step`` longer than the
+        ``duration`` is refused (one step of the duration would be taken:
+        a typo, most likely).
     density
         Mass per unit (initial) volume: one number, or one per body.
     scheme
@@ -215,6 +217,12 @@ class Dynamics:
             raise InvalidInputError(
                 "Dynamics needs a positive time_step and duration, got {!r} "
                 "and {!r}".format(self.time_step, self.duration))
+        if dt > T * (1 + 1e-12):
+            raise InvalidInputError(
+                "Dynamics: time_step {!r} s is longer than the duration {!r} "
+                "s: the run would take one step of {!r} s (ceil(duration / "
+                "time_step) equal steps); give a time_step <= duration"
+                .format(self.time_step, self.duration, self.duration))
         if T / dt > 1e7:
             raise InvalidInputError(
                 "Dynamics: duration / time_step = {:.3g} steps; at most 1e7"

@@ -23,7 +23,7 @@ from .newton import NewtonOptions
 from .rigid import RigidBody
 
 __all__ = ["Options", "Resume", "Prescribed", "BodyForce",
-           "translate_aliases"]
+           "resumed_counters", "translate_aliases"]
 
 
 @dataclass(frozen=True)
@@ -34,11 +34,12 @@ class Resume:
     ``(first_step - 1) / nsteps``); the next load increment is
     ``increment`` (default ``1 / nsteps``; less after a cut-back);
     ``domain0`` are the initial GIMP domains (default ``points.domain``)
-    and ``counters`` those of the run so far (a ghost penalty switched on
-    stays on).  :meth:`after` builds it from the last converged step's
-    record and, for GIMP, the initial domains (a GIMP run resumed without
-    them is refused): the run then continues bit-identically.  What grid
-    terms of one's own keep over the steps is theirs to keep.
+    and ``counters`` those the run goes on from (a ghost penalty switched
+    on stays on): :func:`resumed_counters` of the step's.  :meth:`after`
+    builds it from the last converged step's record and, for GIMP, the
+    initial domains (a GIMP run resumed without them is refused): the run
+    then continues bit-identically, its counters too.  What grid terms of
+    one's own keep over the steps is theirs to keep.
 
     >>> Resume(first_step=0)
     Traceback (most recent call last):
@@ -61,7 +62,8 @@ class Resume:
         return cls(first_step=record.step + 1,
                    load_factor=record.load_factor,
                    increment=record.increment,
-                   domain0=domain0, counters=dict(record.counters))
+                   domain0=domain0,
+                   counters=resumed_counters(record.counters))
 
     def check(self, nsteps: int, method: str):
         """Raise :class:`~skfem_mpm.errors.InvalidInputError` for a state
@@ -89,6 +91,22 @@ class Resume:
                     "{} must lie in {}{}, {}{}, got {!r}".format(
                         name, "[" if name == "load_factor" else "(", low,
                         high, ")" if name == "load_factor" else "]", value))
+
+
+def resumed_counters(counters: dict) -> dict:
+    """The counters a run resumed after a step goes on from: the step's
+    ``counters``, but for the location of its points, which the step
+    counted (``locate``) and the resumed run repeats (it counted once more
+    per resume, 14 instead of 13 in a 12-step run).  Counters count the
+    run's work along its converged steps, work repeated on resume once.
+
+    >>> resumed_counters({"locate": 3, "newton_iterations": 7})
+    {'locate': 2, 'newton_iterations': 7}
+    """
+    kept = dict(counters)
+    if kept.get("locate", 0) > 0:
+        kept["locate"] -= 1
+    return kept
 
 
 @dataclass(frozen=True)
