@@ -727,6 +727,20 @@ def test_compiled_component_labels_are_scipys(monkeypatch):
                                    np.arange(6), 2)
 
 
+def grid_tangent(m: int, box: int):
+    """A 3D grid's tangent pattern (``m`` nodes a side, 27 neighbours of 3
+    DOFs a node; random entries) and its free DOFs: the nodes of a box of
+    ``box`` a side, the bottom ones held."""
+    from scipy.sparse import diags, kron
+    T = diags([1., 1., 1.], [-1, 0, 1], shape=(m, m))
+    K = kron(kron(kron(T, T), T), np.ones((3, 3))).tocsr()
+    K.sort_indices()
+    K.data = np.random.default_rng(5).standard_normal(K.nnz)
+    z, y, x = np.unravel_index(np.arange(m ** 3), (m, m, m))
+    nodes = np.flatnonzero((z > 0) & (z < box) & (y < box) & (x < box))
+    return K, (3 * nodes[:, None] + np.arange(3)).ravel()
+
+
 @pytest.mark.parametrize("consume", [False, True])
 def test_condensation_map_is_kept_as_runs(consume, monkeypatch):
     """The condensation's map of a 3D grid's pattern (27 neighbours of 3
@@ -739,18 +753,10 @@ def test_condensation_map_is_kept_as_runs(consume, monkeypatch):
     an entry of a block), and the block gathered is scipy's, entry for
     entry, copied or within the tangent's data."""
     import tracemalloc
-    from scipy.sparse import diags, kron
     from skfem_mpm.solve import linear
     block = 1 << 12
     monkeypatch.setattr(linear, "TAKE_BLOCK", block)
-    m = 12
-    T = diags([1., 1., 1.], [-1, 0, 1], shape=(m, m))
-    K = kron(kron(kron(T, T), T), np.ones((3, 3))).tocsr()
-    K.sort_indices()
-    K.data = np.random.default_rng(5).standard_normal(K.nnz)
-    z, y, x = np.unravel_index(np.arange(m ** 3), (m, m, m))
-    nodes = np.flatnonzero((z > 0) & (z < 9) & (y < 9) & (x < 9))
-    free = (3 * nodes[:, None] + np.arange(3)).ravel()
+    K, free = grid_tangent(12, 9)
     expected = K[free][:, free]
     expected.sort_indices()
     kept = expected.nnz
@@ -772,3 +778,82 @@ def test_condensation_map_is_kept_as_runs(consume, monkeypatch):
     for name in ("data", "indices", "indptr"):
         assert np.array_equal(getattr(condensed, name),
                               getattr(expected, name))
+
+
+def condensation_cases():
+    """``(K, free)`` for :class:`Condensation`: a 3D grid's box (maps
+    of many runs, ascending), its free DOFs shuffled, a short map (one
+    node), no free DOF, every DOF free, and a random pattern."""
+    from scipy.sparse import random
+    K, free = grid_tangent(7, 5)
+    shuffled = np.random.default_rng(3).permutation(free)
+    R = random(40, 40, density=.3, format="csr", random_state=1)
+    R.sort_indices()
+    return [(K, free), (K, shuffled), (K, free[:3]),
+            (K, np.zeros(0, dtype=free.dtype)), (K, np.arange(K.shape[0])),
+            (R, np.array([0, 3, 4, 5, 9, 20, 21, 39]))]
+
+
+@pytest.mark.parametrize("gather_block", [1, 1 << 14])
+@pytest.mark.parametrize("case", range(6))
+def test_compiled_condensation_is_the_numpy_paths(case, gather_block,
+                                                  monkeypatch):
+    """The compiled condensation (its map built in one pass over the rows,
+    gathered a run at a time: :func:`~skfem_mpm.kernels.graph.
+    condensation_runs`, :func:`~skfem_mpm.kernels.graph.gather_runs`)
+    gives the numpy path's map and blocks, bit for bit, copied and
+    within the tangent's data, and scipy's block: grids, shuffled free
+    DOFs, short and empty maps (every map gathered by its runs where
+    ``GATHER_BLOCK`` is 1)."""
+    pytest.importorskip("numba")
+    from skfem_mpm.solve import linear
+    monkeypatch.setattr(linear, "GATHER_BLOCK", gather_block)
+    K, free = condensation_cases()[case]
+    expected = K[free][:, free]
+    expected.sort_indices()
+    made = [linear.Condensation(K, free, kernels)
+            for kernels in ("numpy", "compiled")]
+    assert made[0].graph is None and made[1].graph is not None
+    for a, b in zip(*(c.runs + c.block for c in made)):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    assert (made[0].take is None) == (made[1].take is None) \
+        == (expected.nnz >= gather_block)
+    if expected.nnz == 0:                  # no runs: nothing gathered
+        out = np.full(1, np.pi)
+        made[1].graph.gather_runs(*made[1].runs, K.data, out)
+        assert made[1].runs[1].size == 0 and out[0] == np.pi
+    for consume in (False, True):
+        for condensation in made:
+            condensed = condensation(K.copy(), consume)
+            for name in ("data", "indices", "indptr"):
+                assert np.array_equal(getattr(condensed, name),
+                                      getattr(expected, name))
+
+
+@pytest.mark.parametrize("consume", [False, True])
+def test_compiled_gather_forms_no_positions(consume):
+    """The compiled gather copies a run at a time: beyond the block's
+    entries it allocates under 4 kB (the numpy path's 2^14 positions
+    expanded from the runs, 128 kB and their copies, were 4 ms a gather of
+    5.3e5 kept entries against 1.6-2.1 for positions kept whole), copied
+    or within the tangent's data (then its entries' new array where numpy
+    shortens it), and the block is the numpy path's."""
+    pytest.importorskip("numba")
+    import tracemalloc
+    from skfem_mpm.solve import linear
+    K, free = grid_tangent(12, 6)  # 3e4 kept entries: 240 kB, as 2 blocks
+    want = linear.Condensation(K, free, "numpy")(K)
+    condensation = linear.Condensation(K, free, "compiled")
+    condensation(K.copy(), consume)                 # compiled, warm
+    tangent = K.copy()
+    tracemalloc.start()
+    before = tracemalloc.get_traced_memory()[0]
+    tracemalloc.reset_peak()
+    condensed = condensation(tangent if consume else K, consume)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert condensation.take is None and want.nnz > linear.GATHER_BLOCK
+    # (shortened within the tangent's data, numpy's realloc is traced as
+    # the entries' new array)
+    assert peak - before - condensed.data.nbytes < 4096
+    assert np.array_equal(condensed.data, want.data)

@@ -230,14 +230,15 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
 
 
 #: entries of a pattern (rows of about so many) scanned at a time for
-#: those a :class:`Condensation` keeps: its masks, 8-byte positions and
-#: the copies ``np.take`` makes of indices.  2 ** 20 entries' were the
-#: peak of a 3D run's heap while the map was built (155 bytes a point at
-#: 1.1e5 points), 2 ** 16 with a mask of all entries 60 bytes a point at
-#: 3.3e4 points
+#: those a :class:`Condensation` keeps on the numpy path: its masks,
+#: 8-byte positions and the copies ``np.take`` makes of indices.  2 ** 20
+#: entries' were the peak of a 3D run's heap while the map was built (155
+#: bytes a point at 1.1e5 points), 2 ** 16 with a mask of all entries 60
+#: bytes a point at 3.3e4 points
 TAKE_BLOCK = 1 << 14
-#: entries a :class:`Condensation` gathers at a time (their values and
-#: their 8-byte positions, expanded from the map's runs: 320 kB); a map
+#: entries a :class:`Condensation` gathers at a time on the numpy path
+#: (their values and their 8-byte positions, expanded from the map's
+#: runs: 320 kB; the compiled path copies a run at a time); a map
 #: of fewer entries keeps their positions whole (:attr:`Condensation.
 #: take`) and gathers them by one fancy indexing
 GATHER_BLOCK = 1 << 14
@@ -254,7 +255,25 @@ class Condensation:
     free nodes of a row side by side), expanded to positions a block of
     :data:`GATHER_BLOCK` entries at a time; a map of fewer entries also
     as the positions (:attr:`take`).  Kept whole, the positions were 121
-    bytes a point at the peak of a 3D run's heap (3.3e4 points).
+    bytes a point at the peak of a 3D run's heap (3.3e4 points).  Where
+    ``kernels`` takes the compiled kernels, the map is built in one pass
+    over the rows and gathered a run at a time, no positions formed
+    (:func:`~skfem_mpm.kernels.graph.condensation_runs`,
+    :func:`~skfem_mpm.kernels.graph.gather_runs`: the same arrays; at
+    5.3e5 kept entries the gather 1.0-1.7 ms against the numpy path's
+    2.9-4.9 and 2.1-2.8 for positions kept whole, the build 2.1-4.4
+    against 12-21).
+
+    Parameters
+    ----------
+    K
+        A canonical CSR matrix (sorted indices, no duplicates): the
+        pattern.
+    free
+        The free DOFs (rows and columns kept).
+    kernels
+        ``"auto"``, ``"numpy"`` or ``"compiled"``
+        (:func:`~skfem_mpm.quadrature.basis.compiled_kernels`).
 
     Examples
     --------
@@ -270,7 +289,8 @@ class Condensation:
 
     """
 
-    def __init__(self, K: csr_matrix, free: ndarray):
+    def __init__(self, K: csr_matrix, free: ndarray,
+                 kernels: str = "auto"):
         if not (isinstance(K, csr_matrix) and K.has_canonical_format):
             raise InvalidInputError("a Condensation needs a canonical CSR "
                                     "matrix (sorted indices, no duplicates)")
@@ -285,6 +305,47 @@ class Condensation:
         index = np.int32 if K.nnz < 2 ** 31 - 1 else np.int64
         position = np.full(K.shape[0], -1, dtype=index)
         position[free] = np.arange(free.size, dtype=index)
+        #: the compiled kernels of the map's build and gather
+        #: (:func:`~skfem_mpm.kernels.graph.condensation_runs`,
+        #: :func:`~skfem_mpm.kernels.graph.gather_runs`), or None
+        self.graph = graph = compiled_kernels("graph", kernels)
+        if graph is not None:                # the same arrays, one pass
+            columns, bounds, shift = graph.condensation_runs(
+                K.indptr, K.indices, position)
+        else:
+            columns, bounds, shift = self._runs_by_blocks(K, position)
+        done = int(bounds[-1])
+        #: the map as runs ``(bounds, shift)``: the kept entries ``bounds[r]
+        #: <= i < bounds[r + 1]`` are ``K.data[i + shift[r]]``
+        self.runs = (bounds, shift)
+        indptr = np.zeros(free.size + 1, dtype=index)
+        #: the kept entries in the tangent's order (the map ascending):
+        #: they can be gathered within its data (:meth:`__call__`)
+        self.ascending = bool(np.all(free[1:] > free[:-1]))
+        if self.ascending:                    # the kept entries by row end
+            indptr[1:] = self._kept_before(K.indptr[free + 1])
+        else:
+            take = self._sources(0, done)
+            rows = position[np.searchsorted(K.indptr, take, side="right")
+                            - 1]
+            order = np.lexsort((columns, rows))
+            take, columns = take[order], columns[order]
+            np.cumsum(np.bincount(rows, minlength=free.size), out=indptr[1:])
+            self.runs = runs_of(take, index)
+        #: the map's positions where it has fewer than :data:`GATHER_BLOCK`
+        #: entries, else None (expanded from :attr:`runs` a block at a time)
+        self.take = self._sources(0, done) if done < GATHER_BLOCK else None
+        self.block = (columns, indptr)
+        self._matrices = PatternMatrices(csr_matrix)
+
+    @staticmethod
+    def _runs_by_blocks(K: csr_matrix, position: ndarray) -> tuple:
+        """``(columns, bounds, shift)`` of the kept entries (those in rows
+        and columns ``position`` numbers) in ``K``'s order, found for
+        blocks of rows of about :data:`TAKE_BLOCK` entries in two passes
+        (count, then fill): the numpy path of
+        :func:`~skfem_mpm.kernels.graph.condensation_runs`."""
+        index = position.dtype
         is_free = position >= 0
         indptr, nrows = K.indptr, K.shape[0]
         step = max(1, TAKE_BLOCK * nrows // max(K.nnz, 1))
@@ -320,29 +381,8 @@ class Condensation:
         bounds[-1] = done
         if starts:
             np.concatenate(starts, out=bounds[:-1], casting="unsafe")
-        #: the map as runs ``(bounds, shift)``: the kept entries ``bounds[r]
-        #: <= i < bounds[r + 1]`` are ``K.data[i + shift[r]]``
-        self.runs = (bounds, np.concatenate(shifts).astype(index)
-                     if shifts else np.zeros(0, dtype=index))
-        indptr = np.zeros(free.size + 1, dtype=index)
-        #: the kept entries in the tangent's order (the map ascending):
-        #: they can be gathered within its data (:meth:`__call__`)
-        self.ascending = bool(np.all(free[1:] > free[:-1]))
-        if self.ascending:                    # the kept entries by row end
-            indptr[1:] = self._kept_before(K.indptr[free + 1])
-        else:
-            take = self._sources(0, done)
-            rows = position[np.searchsorted(K.indptr, take, side="right")
-                            - 1]
-            order = np.lexsort((columns, rows))
-            take, columns = take[order], columns[order]
-            np.cumsum(np.bincount(rows, minlength=free.size), out=indptr[1:])
-            self.runs = runs_of(take, index)
-        #: the map's positions where it has fewer than :data:`GATHER_BLOCK`
-        #: entries, else None (expanded from :attr:`runs` a block at a time)
-        self.take = self._sources(0, done) if done < GATHER_BLOCK else None
-        self.block = (columns, indptr)
-        self._matrices = PatternMatrices(csr_matrix)
+        return columns, bounds, (np.concatenate(shifts).astype(index)
+                                 if shifts else np.zeros(0, dtype=index))
 
     def _sources(self, start: int, stop: int) -> ndarray:
         """The positions in ``K.data`` of the kept entries ``start`` to
@@ -400,19 +440,26 @@ class Condensation:
         if take is not None:                 # a small map: one indexing
             return self._matrices(K.data[take], *self.block, (n, n))
         data = whole_array(K.data) if consume and self.ascending else None
+        bounds, shift, graph = *self.runs, self.graph
         if data is None:
             data = np.empty(size)
-            for start in range(0, size, GATHER_BLOCK):
-                stop = min(start + GATHER_BLOCK, size)
-                np.take(K.data, self._sources(start, stop),
-                        out=data[start:stop])
+            if graph is not None:            # a copy a run, no positions
+                graph.gather_runs(bounds, shift, K.data, data)
+            else:
+                for start in range(0, size, GATHER_BLOCK):
+                    stop = min(start + GATHER_BLOCK, size)
+                    np.take(K.data, self._sources(start, stop),
+                            out=data[start:stop])
             return self._matrices(data, *self.block, (n, n))
         K.data = data               # scipy's view of it released
-        for start in range(0, size, GATHER_BLOCK):
-            # forward: the sources lie at or after the places they fill,
-            # so no entry is read after it is written
-            stop = min(start + GATHER_BLOCK, size)
-            data[start:stop] = np.take(data, self._sources(start, stop))
+        # forward: the sources lie at or after the places they fill, so
+        # no entry is read after it is written
+        if graph is not None:
+            graph.gather_runs(bounds, shift, data, data)
+        else:
+            for start in range(0, size, GATHER_BLOCK):
+                stop = min(start + GATHER_BLOCK, size)
+                data[start:stop] = np.take(data, self._sources(start, stop))
         data.resize(size, refcheck=False)  # K is not read again
         return self._matrices(data, *self.block, (n, n))
 
