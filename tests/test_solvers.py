@@ -138,7 +138,8 @@ def test_non_symmetric_tangents_are_solved_as_such(name):
 
 
 @pytest.mark.parametrize("method, kernels", [
-    ("mpm", "auto"), ("cpgimp", "auto"), ("cpgimp", "numpy")])
+    ("mpm", "auto"), ("mpm", "numpy"), ("cpgimp", "auto"),
+    ("cpgimp", "numpy")])
 def test_condensation_is_built_once_per_step_and_equals_condense(
         monkeypatch, method, kernels):
     """Newton's iterations of a load step gather the free-free block from
@@ -148,8 +149,9 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
     3 with cpGIMP's compiled stiffness on the pattern of the step's
     supports), every gathered block equals scikit-fem's ``condense``
     exactly (the compiled path's within the tangent's own data; a map kept
-    past a change would not), and the run's answer is bit-identical to the
-    one condensed by scikit-fem every iteration."""
+    past a change would not), the maps are of the run's kernel path
+    (``kernels="numpy"``: the numpy path's), and the run's answer is
+    bit-identical to the one condensed by scikit-fem every iteration."""
     from skfem import condense
     import skfem_mpm.solve.problem as problem
     from skfem_mpm.solve import linear
@@ -176,8 +178,13 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
     monkeypatch.setattr(problem.StepProblem, "condensed", condensed)
     # gathered within the tangent's data from 7 entries, 7 at a time
     monkeypatch.setattr(linear, "GATHER_BLOCK", 7)
-    monkeypatch.setattr(problem, "Condensation", lambda K, free: builds.append(
-        free.size) or Condensation(K, free))
+    made = []
+
+    def build(K, free, kernels):
+        made.append(Condensation(K, free, kernels))
+        builds.append(free.size)
+        return made[-1]
+    monkeypatch.setattr(problem, "Condensation", build)
 
     def run():
         pts = seed_points(mesh, 2, region=lambda x: x[1] < 1.)
@@ -201,10 +208,12 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
     assert len(consumed) == (iterations if mapped else 0)
     assert len(gathers) == iterations
     assert all(mismatch == 0 for mismatch in gathers)
+    # the maps of the run's kernel path (compiled where numba imports)
+    compiled = kernels == "auto" and auto_kernels() == "auto"
+    assert all((c.graph is not None) == compiled for c in made)
     # the compiled pass's tangents, which nothing reads after, are
     # gathered within their own data
-    assert all(consumed) if mapped and auto_kernels() == "auto" \
-        else not any(consumed)
+    assert all(consumed) if mapped and compiled else not any(consumed)
     monkeypatch.setattr(Condensation, "fits", lambda self, K, free: False)
     again = run()
     assert np.array_equal(again.points.x, stored.points.x)
