@@ -1789,6 +1789,30 @@ def test_a_rough_plate_closing_a_gap_within_a_step_sticks_from_contact():
     assert closing == pytest.approx(sideways(.01, 2), rel=.01)
 
 
+def test_a_solve_after_corners_stick_starts_from_a_fresh_tangent():
+    """The rough plate of the test above closing its gap in one step:
+    once the corners stick (the step is solved again with them held),
+    the next solve starts from the tangent of the changed constraints,
+    not the kept one (modified Newton's) blind to them.  The block is
+    linear elastic, so each of the step's solves takes one iteration
+    to the round-off: 3 iterations for its 3 solves; with the kept
+    tangent the solve after the sticking took 3 (residuals 0.99, 1.02,
+    1.18, 1e-15), 5 in all."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2., 9), np.linspace(0, 1., 5))
+    pts = seed_points(mesh, 2, region=lambda x: (x[1] < .5)
+                      & (x[0] > .5) & (x[0] < 1.5))
+    plate = Obstacle(box=[[-1., 3.], [.51, .75]], friction="rough",
+                     displacement=[.02, -.06])
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+                   lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                   nsteps=1, obstacles=[plate])
+    # the solves: contact, the corners stuck, the multipliers' update;
+    # each its first residual and its last
+    residuals = np.array(res.history[0].newton_residuals)
+    assert res.history[0].newton_iterations == 3
+    assert residuals.size == 6 and residuals[1::2].max() < 1e-12
+
+
 def edge_warnings(caplog, mesh, pts, obstacle):
     """The warnings of an obstacle's edge inside a cell in one step of an
     elastic body held on y = 0 against ``obstacle``."""
