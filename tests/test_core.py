@@ -3,6 +3,8 @@ stabilisation runs through one loop (or is refused before any work), and
 each new combination is checked against a closed form or a twin."""
 import functools
 import itertools
+import logging
+import re
 
 import numpy as np
 import pytest
@@ -803,6 +805,63 @@ def test_a_body_far_too_soft_for_its_weight_is_named():
         simulate(mesh, ElementQuad1(), points, LinearElastic(E, nu),
                  lambda b_: b_.get_dofs(lambda x: x[1] == 0),
                  body_force=[0., -b], nsteps=2, kinematics="finite")
+
+
+def tresca_footing(load, antilocking, nsteps):
+    """Weightless Tresca soil (c = 10, E = 1e4, nu = 0.3) 2 x 1 on a grid
+    of h = 1/8, a traction ``load`` times Prandtl's ``(2 + pi) c`` on a
+    strip of half-width 0.25 at its top-left (the left side a symmetry
+    line), ``nsteps`` steps of at most two cut-backs each."""
+    c = 10.
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 17),
+                                np.linspace(0, 1.25, 11))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 1.)
+    top = side_points(points, "top")
+    top = top[points.x[0, top] < .25]
+    return simulate(
+        mesh, ElementQuad1(), points,
+        VonMises(E=1e4, nu=.3, yield_stress=np.sqrt(3) * c),
+        lambda b: np.union1d(
+            b.get_dofs(lambda x: x[1] == 0).all(),
+            b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2)).nodal["u^1"]),
+        loads=[Traction(top, "top", [0., -load * (2 + np.pi) * c])],
+        nsteps=nsteps, options=Options(
+            stabilisation=Stabilisation(antilocking=antilocking),
+            newton=NewtonOptions(max_cutbacks=2)))
+
+
+def test_a_footing_loaded_past_its_limit_load_is_said_to_collapse():
+    """Twice Prandtl's load on a Tresca footing with anti-locking: the
+    run fails past the collapse, its last converged load within 10% of
+    Prandtl's on this coarse grid, and the error says the body yields
+    towards a collapse, its last step moving it at least
+    ``COLLAPSE_SOFTENING`` times as far per load as the first (a
+    trial's overload ended with "no convergence" and no more)."""
+    from skfem_mpm.solve.core import COLLAPSE_SOFTENING
+    with pytest.raises(NewtonDivergenceError, match="yields towards a "
+                       "collapse") as failure:
+        tresca_footing(2., True, 4)
+    err = failure.value
+    assert .9 < 2 * err.load_factor < 1.1
+    said = re.search(r"moved the body ([\d.]+) times as far per load "
+                     r"increment as the first", str(err))
+    assert float(said.group(1)) >= COLLAPSE_SOFTENING
+    assert "at least load factor {:.4g}".format(err.load_factor) in str(err)
+
+
+def test_a_footing_of_isochoric_flow_without_antilocking_is_warned(caplog):
+    """The same footing without anti-locking carries twice Prandtl's load
+    with every step converged (its cells lock where von Mises flows at
+    constant volume, although nu = 0.3), and the run says so at the
+    start."""
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        res = tresca_footing(2., False, 4)
+    assert res.history[-1].load_factor == 1.
+    said = [r.getMessage() for r in caplog.records
+            if "without anti-locking" in r.getMessage()]
+    assert len(said) == 1 and said[0].startswith(
+        "a plastic flow that keeps the volume (VonMises) without "
+        "anti-locking"), said
 
 
 def shifted_cantilever(shift, ghost):

@@ -189,6 +189,44 @@ def test_the_additive_average_at_nu_04999_stiffens_with_the_step(caplog):
         and said[0].endswith("take more, smaller steps"), said
 
 
+@pytest.mark.parametrize("material, antilocking, dim, said", [
+    ("VonMises", False, 2, True), ("VonMises", False, 3, True),
+    ("VonMises", False, 1, False), ("VonMises", True, 2, False),
+    ("VonMises", "fbar", 3, False), ("MohrCoulomb0", False, 2, True),
+    ("DruckerPrager0", False, 3, True), ("MohrCoulomb10", False, 2, False),
+    ("DruckerPrager10", False, 2, False), ("ModifiedCamClay", False, 2,
+                                           False)])
+def test_plastic_flow_at_constant_volume_is_warned_where_it_locks(
+        material, antilocking, dim, said, caplog):
+    """A body whose plastic flow keeps the volume (von Mises, a soil of
+    dilation angle 0) locks where it flows unless anti-locking is on, in
+    2D and 3D (the footing of ``tests/test_core.py`` carried twice
+    Prandtl's load); a dilating soil and Cam clay are not warned."""
+    from skfem_mpm import (DruckerPrager, ModifiedCamClay, MohrCoulomb,
+                           VonMises)
+    from skfem_mpm.stabilisation.settings import warn_volumetric_locking
+    made = {"VonMises": VonMises(1e4, .3, yield_stress=10.),
+            "ModifiedCamClay": ModifiedCamClay(
+                kappa=.02, lambda_=.2, M=1.2, shear_modulus=1e4,
+                reference_pressure=100., preconsolidation_pressure=200.)}
+    for angle in (0, 10):
+        made["MohrCoulomb{}".format(angle)] = MohrCoulomb(
+            1e4, .3, cohesion=10., friction_angle=30., dilation_angle=angle)
+        made["DruckerPrager{}".format(angle)] = DruckerPrager(
+            1e4, .3, cohesion=10., friction_angle=30., dilation_angle=angle)
+    with caplog.at_level(logging.WARNING,
+                         logger="skfem_mpm.stabilisation.settings"):
+        warn_volumetric_locking([LinearElastic(1., .3), made[material]],
+                                antilocking, "small", "mpm", dim)
+    messages = [r.getMessage() for r in caplog.records]
+    if not said:
+        assert messages == []
+    else:
+        assert len(messages) == 1 and messages[0].startswith(
+            "a plastic flow that keeps the volume ({}) without "
+            "anti-locking".format(type(made[material]).__name__)), messages
+
+
 @pytest.mark.parametrize("nu, antilocking, kinematics, method, said", [
     (.4999, False, "small", "fem", "Stabilisation(antilocking=True) (mean "
      "dilatation)"),
@@ -210,7 +248,7 @@ def test_nearly_incompressible_bodies_are_warned_where_they_lock(
                          logger="skfem_mpm.stabilisation.settings"):
         warn_volumetric_locking([LinearElastic(1., .3),
                                  LinearElastic(1., nu)], antilocking,
-                                kinematics, method)
+                                kinematics, method, 2)
     messages = [r.getMessage() for r in caplog.records]
     if said is None:
         assert messages == []

@@ -31,7 +31,10 @@ A material is an object with
   stresses (3, n), the inverse of the elastic law (an initial stress,
   :func:`~skfem_mpm.geostatic_stress` and the element tests start from
   it); optional: without it the linear law of ``lam`` and ``mu`` is
-  inverted (:func:`inverse_elastic_law`).
+  inverted (:func:`inverse_elastic_law`);
+- ``isochoric_flow``: optional, ``True`` where the plastic flow keeps the
+  volume (von Mises, a soil without dilation), for the warning of
+  volumetric locking of a run without anti-locking.
 
 The kinematics (:mod:`skfem_mpm.mechanics.kinematics`) turn principal
 values into tensors and consistent tangents, so a model written once works
@@ -203,6 +206,9 @@ class VonMises(LinearElastic):
     yield_stress: float
 
     plastic = True
+    #: its plastic flow keeps the volume (:func:`~skfem_mpm.stabilisation.
+    #: settings.warn_volumetric_locking`)
+    isochoric_flow = True
     state_variables = {"equivalent_plastic_strain": 0.}
 
     def __post_init__(self):

@@ -195,6 +195,11 @@ class DruckerPrager(LinearElastic):
                     hardening, -K * eta * eta_bar / (xi * xi) + 0.))
 
     @property
+    def isochoric_flow(self) -> bool:
+        """Whether its plastic flow keeps the volume: no dilation."""
+        return self.dilation_angle == 0
+
+    @property
     def eta(self) -> float:
         """Friction coefficient of the cone."""
         return drucker_prager_constants(self.friction_angle, self.fit)[0]
@@ -326,6 +331,11 @@ class MohrCoulomb(LinearElastic):
         super().__post_init__()
         check_angles(self.friction_angle, self.dilation_angle, self.cohesion,
                      self.radians_refused)
+
+    @property
+    def isochoric_flow(self) -> bool:
+        """Whether its plastic flow keeps the volume: no dilation."""
+        return self.dilation_angle == 0
 
     @property
     def k(self) -> float:

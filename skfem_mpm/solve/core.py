@@ -133,6 +133,10 @@ SLIVER_METHODS = ("ugimp", "cpgimp", "bspline3", "bspline3-gimp")
 #: seconds: the steps left of a run that would take longer, at the pace of
 #: its fastest step so far, are announced by a warning (once)
 LONG_RUN = 600.
+#: how many times as far per load increment as its first step the last
+#: converged step of a failed load-controlled plastic run moved the body
+#: for the error to call it a collapse (:func:`collapse_hint`)
+COLLAPSE_SOFTENING = 5.
 #: the ghost penalty that ``ghost="auto"`` switches on when a
 #: finite-deformation step of moving points fails
 DEFAULT_GHOST = .1
@@ -705,6 +709,40 @@ def too_soft(run: Run, points: MaterialPoints) -> str:
                 strain, np.linalg.norm(gravity), height, young))
 
 
+def largest_displacement(points: MaterialPoints) -> float:
+    """The largest of the points' accumulated displacements' lengths."""
+    return float(np.sqrt((points.displacement ** 2).sum(axis=0)).max(
+        initial=0.))
+
+
+def collapse_hint(run: Run, reach: list) -> str:
+    """A sentence for a failed quasi-static run of a plastic body whose
+    loads are forces, not displacements, where the last converged step
+    moved the body :data:`COLLAPSE_SOFTENING` times or more as far per
+    load increment as its first step did (``reach``: the load factor and
+    the points' largest displacement after each converged step, from the
+    call's start), or ``""``: the body yields towards a collapse, and a
+    load past its limit load has no equilibrium (a user's footing loaded
+    past Prandtl's load ended with "no convergence" and no more)."""
+    driven = run.prescribed is not None or run.rigid_bodies or any(
+        np.any(ob.displacement) for ob in run.obstacles or ())
+    if run.dynamics is not None or not is_plastic(run.material) or driven \
+            or len(reach) < 3:
+        return ""
+    (f0, u0), (f1, u1) = reach[:2]
+    (f2, u2), (f3, u3) = reach[-2:]
+    first, last = (u1 - u0) / (f1 - f0), (u3 - u2) / (f3 - f2)
+    if not last >= COLLAPSE_SOFTENING * first > 0:
+        return ""
+    return ("; the last converged step moved the body {:.3g} times as far "
+            "per load increment as the first (the points' largest "
+            "displacement): it yields towards a collapse, past whose "
+            "limit load (at least load factor {:.4g}) no equilibrium "
+            "exists: a smaller load, or a displacement prescribed instead "
+            "(an Obstacle, a rigid body), follows the collapse".format(
+                last / first, f3))
+
+
 def steps_left(factor: float, increment: float, nsteps: int,
                adaptive: bool) -> int:
     """The steps a run at load factor ``factor`` (or fraction of its
@@ -877,6 +915,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     fastest, warned, timed = np.inf, False, False
     started = run_clock()
     held = 0            # the step's failed attempts, all HeldSupportError
+    reach = [(factor, largest_displacement(points))]   # for collapse_hint
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
         target = min(factor + increment, boundary)
@@ -898,7 +937,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         "to {}: a shorter step does not remove the "
                         "cause".format(
                             HELD_HALVINGS, span(run, target - factor)),
-                        progress(run, factor), too_soft(run, points),
+                        progress(run, factor), too_soft(run, points)
+                        + collapse_hint(run, reach),
                         ghost_hint(run) + seeded_hint(run),
                         terms_hint(run, points)),
                     state=points, load_factor=factor,
@@ -943,6 +983,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         record.increment, record.counters = increment, dict(run.counters)
         result.history.append(record)
         result.points = points
+        reach.append((factor, largest_displacement(points)))
         result.basis = getattr(op, "basis", None)
         if callback is not None:
             callback(record, points)
@@ -1474,7 +1515,8 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       contact=bool(obstacles) or bool(contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
     warn_volumetric_locking(getattr(material, "materials", [material]),
-                            stabilisation.antilocking, kinematics, method)
+                            stabilisation.antilocking, kinematics, method,
+                            mesh.dim())
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
                               stabilisation.antilocking,
                               stabilisation.extended_splines)

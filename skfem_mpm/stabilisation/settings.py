@@ -129,27 +129,40 @@ class Stabilisation:
 
 
 def warn_volumetric_locking(materials: Sequence, antilocking,
-                            kinematics: str, method: str) -> None:
+                            kinematics: str, method: str, dim: int) -> None:
     """Log a warning where a body's Poisson's ratio (``nu`` of its
-    material, where it has one) is near 0.5 and the run's anti-locking
-    leaves it stiff: none from :data:`LOCKING_NU` (a user trial's
-    plane-strain cantilever at nu = 0.4999 deflected 0.019 of beam
-    theory, a strip punch reached 13 times Prandtl's load, each
-    converged without a word), or the additive mean dilatation in finite
-    deformation from :data:`ADDITIVE_NU`, whose answer depends on the
-    step size there (the cantilever at nu = 0.4999, 10 steps: 0.91 of
-    the elastica with FE and cpGIMP, 0.84 with B-splines; 40 steps: FE
-    0.997)."""
+    material, where it has one) is near 0.5 or its plastic flow keeps the
+    volume (``isochoric_flow``: von Mises, a soil without dilation; in 2D
+    and 3D) and the run's anti-locking leaves it stiff: none from
+    :data:`LOCKING_NU` (a user trial's plane-strain cantilever at nu =
+    0.4999 deflected 0.019 of beam theory, a strip punch reached 13 times
+    Prandtl's load; a Tresca strip footing at nu = 0.3 carried 1.4 times
+    it, 7.2 c where anti-locking stops at 5.2 c; each converged without a
+    word), or the additive mean dilatation in finite deformation from
+    :data:`ADDITIVE_NU`, whose answer depends on the step size there (the
+    cantilever at nu = 0.4999, 10 steps: 0.91 of the elastica with FE and
+    cpGIMP, 0.84 with B-splines; 40 steps: FE 0.997)."""
     nus = [getattr(m, "nu", None) for m in materials]
     nu = max((float(v) for v in nus if v is not None), default=0.)
+    isochoric = dim > 1 and any(getattr(m, "plastic", False) and getattr(
+        m, "isochoric_flow", False) for m in materials)
+    fbar = "; 'fbar' in finite deformation" if kinematics == "finite" and \
+        method != "fem" else ""
     if antilocking is False and nu >= LOCKING_NU:
         logger.warning(
             "nu = %g without anti-locking: the cells lock, so displacements "
             "come out small and limit loads high, with every step converged "
             "(a cantilever at nu = 0.4999 bent 0.019 of beam theory); use "
-            "Stabilisation(antilocking=True) (mean dilatation%s)", nu,
-            "; 'fbar' in finite deformation" if kinematics == "finite" and
-            method != "fem" else "")
+            "Stabilisation(antilocking=True) (mean dilatation%s)", nu, fbar)
+    elif antilocking is False and isochoric:
+        logger.warning(
+            "a plastic flow that keeps the volume (%s) without "
+            "anti-locking: where it flows the cells lock, so limit loads "
+            "come out high, with every step converged (a Tresca strip "
+            "footing carried 1.4 times Prandtl's load, 7.2 c); use "
+            "Stabilisation(antilocking=True) (mean dilatation%s)",
+            ", ".join(sorted({type(m).__name__ for m in materials if getattr(
+                m, "isochoric_flow", False)})), fbar)
     elif antilocking is True and kinematics == "finite" and \
             nu >= ADDITIVE_NU:
         logger.warning(
