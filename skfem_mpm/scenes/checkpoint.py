@@ -53,7 +53,9 @@ TIME_FIELDS = ("wall_seconds", "timing_names", "timing_values")
 STATE_SINCE = ((r"contact_body_corner\d+", "the B-spline contact corners "
                 "(contact_body_corner*)", "2026-11-27"),
                (r"contact_body\d+_r\d+", "the rates of the pressures "
-                "between bodies (contact_body<k>_r*)", "2026-11-28"))
+                "between bodies (contact_body<k>_r*)", "2026-11-28"),
+               (r"contact_start_dx\d+", "the obstacles' corners at a run's "
+                "start (contact_start_dx*)", "2026-11-28"))
 
 
 def written_before(held, names) -> str:

@@ -80,9 +80,11 @@ consistent derivative (the normal's rotation left out: exact on flat
 faces), so Newton converges quadratically once the active set is fixed
 (but along faces where every pressed corner slides: :data:`SLIDING`).
 
-After Newton converges, :meth:`StepContact.settle` checks the penetration
-(and a tied corner's mismatch) against the obstacle's tolerance; where it
-is larger the multipliers take the converged tractions
+After Newton converges, :meth:`StepContact.settle` checks the penetration,
+the gap of a corner still pressed (its multiplier left from a push the
+obstacle draws back from) and a tied corner's mismatch against the
+obstacle's tolerance; where one is larger the multipliers take the
+converged tractions
 (``lambda <- p``, the augmented-Lagrangian update) and the step is solved
 again.  The multipliers (``lambda`` where pressed) and the friction
 tractions are point state (``contact<i>_p<c>``, ``contact<i>_t<a><c>``:
@@ -302,6 +304,16 @@ def offset_names(dim: int):
             for a in range(dim)]
 
 
+def start_names(dim: int):
+    """The point-state names of the corners' offsets at the run's start
+    from where its points' initial positions put them, ``x0 + R``, which
+    a staged run's start (its points loaded by an earlier run) and a run
+    resumed within it read, ``[[name_ac]]``: zero where a run starts
+    from the points' initial positions."""
+    return [["contact_start_dx{}{}".format(a, c) for c in range(2 ** dim)]
+            for a in range(dim)]
+
+
 def contact_state_names(obstacles: int, dim: int, finite: bool) -> list:
     """Every point-state name the contact with ``obstacles`` obstacles
     keeps (what a checkpoint of such a run holds beside the materials'
@@ -309,7 +321,8 @@ def contact_state_names(obstacles: int, dim: int, finite: bool) -> list:
     names = [name for i in range(obstacles)
              for rows in pressure_names(i, dim) for name in rows]
     if obstacles:
-        names += [name for row in offset_names(dim) for name in row]
+        names += [name for rows in (offset_names(dim), start_names(dim))
+                  for row in rows for name in row]
     if obstacles and not finite:
         names += [name for row in gradient_names(dim) for name in row]
     return names
@@ -413,6 +426,10 @@ class ObstacleContact(GridTerm):
     initial_scale
         The loads' scale at the run's start (1 in dynamics without a load
         ramp: an obstacle starts displaced in full).
+    resumed
+        The run resumes another (its points' corners at that run's start
+        are theirs, :func:`start_names`); else it starts where its points
+        are, loaded by an earlier run or not.
     cell_values
         The :class:`CellValues` of the grid (Lagrange elements: the
         corners move with their point's cell; with GIMP, where an
@@ -423,8 +440,10 @@ class ObstacleContact(GridTerm):
     def __init__(self, obstacles: Sequence[Obstacle], cell_size: float,
                  modulus: float, domain0, total_lagrangian: bool,
                  moves: bool, finite: bool, counters: dict,
-                 initial_scale: float = 0., cell_values=None):
+                 initial_scale: float = 0., cell_values=None,
+                 resumed: bool = False):
         self.obstacles = tuple(obstacles)
+        self.resumed = resumed
         self.cell_values = cell_values
         self.locate = None      # the grid's locator (corner_cells)
         self.h, self.domain0 = cell_size, domain0
@@ -569,11 +588,20 @@ class ObstacleContact(GridTerm):
             (points.volume0 ** (1. / dim) / 2)[None], dim, axis=0)
         self.half = half
         self.R = corner_signs(dim)[:, :, None] * half[:, None, :]
-        X0 = points.x0[:, None, :] + self.R               # at load 0
-        for row in offset_names(dim) + (
+        for row in offset_names(dim) + start_names(dim) + (
                 [] if self.finite else gradient_names(dim)):
             for name in row:
                 points.state.setdefault(name, np.zeros(n))
+        if not self.resumed:
+            # a staged run starts where an earlier run left its points
+            # (it was refused by a corner's initial place inside the
+            # obstacle it had pushed, and started its contact there: a
+            # user trial); a run from the initial positions keeps zeros
+            offset = self.corners(points) - (points.x0[:, None, :] + self.R)
+            for a, row in enumerate(start_names(dim)):
+                for c, name in enumerate(row):
+                    points.state[name] = offset[a, c]
+        X0 = self.start_corners(points)
         self.anchor, self.near, self.closed = [], [], []
         #: per obstacle, the material's least distance from it at the start
         self.start_gaps = []
@@ -625,6 +653,15 @@ class ObstacleContact(GridTerm):
         self.ahead = [self.material_ahead(ob, X0.reshape(dim, -1), start)
                       for ob, start in zip(self.obstacles, self.start)]
         self.warn_inclined_faces()
+
+    def start_corners(self, points, idx=slice(None)) -> ndarray:
+        """The corners (dim, nc, m) of the points ``idx`` at the run's
+        start (at the start of the run a resumed run resumes), where the
+        contact's gaps at the start were measured."""
+        dim = points.x.shape[0]
+        offset = np.array([[points.state[name][idx] for name in row]
+                           for row in start_names(dim)])
+        return points.x0[:, None, idx] + self.R[:, :, idx] + offset
 
     def tilts_met(self, X0: ndarray) -> list:
         """Per obstacle, the largest angle in degrees to the grid's axes of
@@ -851,7 +888,7 @@ class ObstacleContact(GridTerm):
         obstacle's tolerance): the material between them cannot give way,
         and no penalty resolves the penetration they prescribe."""
         found = []
-        X = points.x0[:, None, :] + self.R          # where near was found
+        X = self.start_corners(points)          # where near was found
         for i, ob in enumerate(self.obstacles):
             for rigid in self.rigid_bodies:
                 mine = self.near[i] & (points.body == rigid.body)[None]
@@ -984,7 +1021,7 @@ class ObstacleContact(GridTerm):
         with neither hint (a user trial)."""
         if self.load is None:
             return ""
-        X = points.x0[:, None, :] + self.R          # where near was found
+        X = self.start_corners(points)          # where near was found
         touched, normals = [], []
         for i, ob in enumerate(self.obstacles):
             if not self.near[i].any():
@@ -1193,8 +1230,8 @@ class StepContact(GridTerm):
                 self.anchor.append(None)
             else:
                 tied = term.anchor[i][:, idx].ravel()
-                X0 = (self.problem.points.x0[:, None, idx]
-                      + term.R[:, :, idx]).reshape(dim, -1)
+                X0 = term.start_corners(self.problem.points, idx).reshape(
+                    dim, -1)
                 self.anchor.append((tied, X0))
         self.resolution = RESOLVED * max(
             (kappa * tol * safe_norm(area) for kappa, tol, area in zip(
@@ -1425,8 +1462,12 @@ class StepContact(GridTerm):
                                       self.held[i])
                 C += area * C_t
                 T = T + area * tau
-            ev.append((T, C, float(np.max(-gap[over], initial=0.)),
-                       (p, tau)))
+            # the penetration, or a gap a pressure holds across (a
+            # multiplier kept from a push as the obstacle draws back: a
+            # staged lift pressed with 2.4% of the push's force across a
+            # gap of twice the tolerance)
+            ev.append((T, C, float(np.max(np.where(
+                p > 0, np.abs(gap), -gap)[over], initial=0.)), (p, tau)))
         # kept while the trial lives: the tangent of an accepted trial
         # finds it however many trials a line search tried in between
         self.evaluations[response] = ev
@@ -1531,8 +1572,9 @@ class StepContact(GridTerm):
         return words
 
     def settle(self, problem, trial, du: ndarray) -> bool:
-        """After Newton: ``True`` when every corner's penetration (or a
-        tied corner's mismatch) is within its obstacle's tolerance; else
+        """After Newton: ``True`` when every corner's penetration (the
+        gap of one pressed, a tied corner's mismatch) is within its
+        obstacle's tolerance; else
         the multipliers take the converged tractions (augmented
         Lagrangian), corners newly near an obstacle join, and the step is
         solved again."""
@@ -1819,9 +1861,9 @@ def contact_modulus(material) -> float:
 def contact_term(obstacles, cell_size: float, material, domain0,
                  total_lagrangian: bool, moves: bool, finite: bool,
                  counters: dict, initial_scale: float = 0.,
-                 cell_values=None):
+                 cell_values=None, resumed: bool = False):
     """The contact term of a run's obstacles."""
     return ObstacleContact(obstacles, cell_size, contact_modulus(material),
                            domain0,
                            total_lagrangian, moves, finite, counters,
-                           initial_scale, cell_values)
+                           initial_scale, cell_values, resumed)

@@ -294,7 +294,8 @@ def obstacle_term(run: Run) -> Optional[GridTerm]:
                         finite=run.finite, counters=run.counters,
                         initial_scale=run.scale(0.),
                         cell_values=CellValues(run.mesh,
-                                               run.grid.elem.elem))
+                                               run.grid.elem.elem),
+                        resumed=run.resumed)
 
 
 def inertia_term(run: Run) -> Optional[GridTerm]:
@@ -1612,6 +1613,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         line_search=None if linear else retry,
         solver=get_solver(options.solver, mesh.dim()), counters=counters,
         keep_snapshots=options.keep_snapshots, domain0=domain0,
+        resumed=options.resume is not None,
         dynamics=dynamics, masses=masses,
         scale=(lambda f: f) if dynamics is None
         else (lambda f: dynamics.scale(f * dynamics.duration)),
