@@ -47,7 +47,8 @@ corner (point state ``contact_body<k>_p<a><c>``, ``_g<a><c>`` and
 each pair taking its own normal's part), so a sticking interface keeps
 its shear, and its pressure ahead by the rate it rose at in the last
 step (``_r<a><c>``, per unit of the load factor; zero after a step
-whose pairs changed); any other pair that penetrates at a
+whose pairs changed, and not in a run's first step), a Coulomb pair's
+friction traction scaled alike; any other pair that penetrates at a
 step's start is closed there (the corners of deformed domains, moved
 through each point's own gradient, are not quite where the grid field
 moved the last step's pairs).  The penalty ``kappa``
@@ -1272,9 +1273,19 @@ class StepBodyContact(GridTerm):
         # (a round more in every step of two elastic blocks); a pile
         # driven through its soil, whose pairs join and start deep in
         # most steps, went a path 30% stiffer with a rate everywhere
+        # (not in a run's first step: a rate carried in a staged run's
+        # points is another run's); a Coulomb pair's friction traction
+        # scaled alike (kept as it was over a pressure predicted to fall,
+        # it lay outside the cone, and Newton cycled between stick and
+        # slip: a sideways load easing off in dynamics was cut back)
         problem = self.problem
-        ahead = np.maximum(start + np.where(deep, 0., rate) * (
-            problem.f_new - problem.f_old), 0.)
+        ahead = start if problem.f_old <= 0. else np.maximum(
+            start + np.where(deep, 0., rate) * (problem.f_new
+                                                - problem.f_old), 0.)
+        friction = term.contacts[part["contact"]][2].friction
+        if friction != "rough":
+            tau = tau * np.where(start > 0, ahead / np.maximum(start, 1e-300),
+                                 1.)
         lam = np.where(pressed, ahead + term.kappa[part["contact"]] * g, 0.)
         part["steady"] = part.get("steady", True) and not deep.any() \
             and before == 0
@@ -1447,7 +1458,14 @@ class StepBodyContact(GridTerm):
                                           + np.r_[np.arange(m), near.row]),
                                 m)
             step = problem.f_new - problem.f_old
-            rate = (e[4] - part["start"]) / step \
+            # of the pairs pressed at the step's start, or of every pair in
+            # a quasi-static run's first step under loads all ramped (from
+            # nothing, in proportion): a pair an impact pressed within the
+            # step would be predicted at twice the impact's pressure
+            counted = (part["start"] > 0) | (
+                problem.f_old <= 0. and problem.run.dynamics is None
+                and bool(np.all(problem.run.loads.ramp_gravity)))
+            rate = np.where(counted, e[4] - part["start"], 0.) / step \
                 if step > 0 and part["steady"] else np.zeros_like(e[4])
             values = np.vstack([e[4] * part["n"],
                                 np.where(e[4] > 0, e[6], 0.) * part["n"],
