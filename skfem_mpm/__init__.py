@@ -29,7 +29,7 @@ __all__ = [
     "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "RigidBody",
     "reduce_strength", "strength_reduction", "Dynamics", "Newmark",
     "GeneralizedAlpha", "material_point_bases", "Obstacle", "ContactError",
-    "StepTooLongError", "HeldSupportError",
+    "StepTooLongError", "HeldSupportError", "UnsettledContactError",
     "Contact",
 ]
 
@@ -44,6 +44,7 @@ def _public() -> dict:
                          PrescribedMotionError, SingularSystemError,
                          SingularTangentError, StepFailedError,
                          StepTooLongError, HeldSupportError,
+                         UnsettledContactError,
                          UnsupportedElementError)
     from .quadrature.locate import locate_points, point_locator
 

@@ -138,7 +138,8 @@ def test_non_symmetric_tangents_are_solved_as_such(name):
 
 
 @pytest.mark.parametrize("method, kernels", [
-    ("mpm", "auto"), ("cpgimp", "auto"), ("cpgimp", "numpy")])
+    ("mpm", "auto"), ("mpm", "numpy"), ("cpgimp", "auto"),
+    ("cpgimp", "numpy")])
 def test_condensation_is_built_once_per_step_and_equals_condense(
         monkeypatch, method, kernels):
     """Newton's iterations of a load step gather the free-free block from
@@ -148,8 +149,9 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
     3 with cpGIMP's compiled stiffness on the pattern of the step's
     supports), every gathered block equals scikit-fem's ``condense``
     exactly (the compiled path's within the tangent's own data; a map kept
-    past a change would not), and the run's answer is bit-identical to the
-    one condensed by scikit-fem every iteration."""
+    past a change would not), the maps are of the run's kernel path
+    (``kernels="numpy"``: the numpy path's), and the run's answer is
+    bit-identical to the one condensed by scikit-fem every iteration."""
     from skfem import condense
     import skfem_mpm.solve.problem as problem
     from skfem_mpm.solve import linear
@@ -176,8 +178,13 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
     monkeypatch.setattr(problem.StepProblem, "condensed", condensed)
     # gathered within the tangent's data from 7 entries, 7 at a time
     monkeypatch.setattr(linear, "GATHER_BLOCK", 7)
-    monkeypatch.setattr(problem, "Condensation", lambda K, free: builds.append(
-        free.size) or Condensation(K, free))
+    made = []
+
+    def build(K, free, kernels):
+        made.append(Condensation(K, free, kernels))
+        builds.append(free.size)
+        return made[-1]
+    monkeypatch.setattr(problem, "Condensation", build)
 
     def run():
         pts = seed_points(mesh, 2, region=lambda x: x[1] < 1.)
@@ -201,10 +208,12 @@ def test_condensation_is_built_once_per_step_and_equals_condense(
     assert len(consumed) == (iterations if mapped else 0)
     assert len(gathers) == iterations
     assert all(mismatch == 0 for mismatch in gathers)
+    # the maps of the run's kernel path (compiled where numba imports)
+    compiled = kernels == "auto" and auto_kernels() == "auto"
+    assert all((c.graph is not None) == compiled for c in made)
     # the compiled pass's tangents, which nothing reads after, are
     # gathered within their own data
-    assert all(consumed) if mapped and auto_kernels() == "auto" \
-        else not any(consumed)
+    assert all(consumed) if mapped and compiled else not any(consumed)
     monkeypatch.setattr(Condensation, "fits", lambda self, K, free: False)
     again = run()
     assert np.array_equal(again.points.x, stored.points.x)
@@ -725,3 +734,135 @@ def test_compiled_component_labels_are_scipys(monkeypatch):
         with pytest.raises(SingularSystemError, match="on 3 grid nodes"):
             check_rigid_body_modes(graph, doflocs, np.arange(12),
                                    np.arange(6), 2)
+
+
+def grid_tangent(m: int, box: int):
+    """A 3D grid's tangent pattern (``m`` nodes a side, 27 neighbours of 3
+    DOFs a node; random entries) and its free DOFs: the nodes of a box of
+    ``box`` a side, the bottom ones held."""
+    from scipy.sparse import diags, kron
+    T = diags([1., 1., 1.], [-1, 0, 1], shape=(m, m))
+    K = kron(kron(kron(T, T), T), np.ones((3, 3))).tocsr()
+    K.sort_indices()
+    K.data = np.random.default_rng(5).standard_normal(K.nnz)
+    z, y, x = np.unravel_index(np.arange(m ** 3), (m, m, m))
+    nodes = np.flatnonzero((z > 0) & (z < box) & (y < box) & (x < box))
+    return K, (3 * nodes[:, None] + np.arange(3)).ravel()
+
+
+@pytest.mark.parametrize("consume", [False, True])
+def test_condensation_map_is_kept_as_runs(consume, monkeypatch):
+    """The condensation's map of a 3D grid's pattern (27 neighbours of 3
+    DOFs a node; the bottom nodes held, the nodes beyond a box inactive)
+    is kept as runs of consecutive entries, not as a position an entry (4
+    bytes a kept entry: 121 bytes a point at the peak of a 3D run's heap),
+    and is built without a mask of all the pattern's entries (1 byte an
+    entry, 59 bytes a point there): the map holds under half a byte a kept
+    entry, the build's temporaries stay within its blocks' (under 48 bytes
+    an entry of a block), and the block gathered is scipy's, entry for
+    entry, copied or within the tangent's data."""
+    import tracemalloc
+    from skfem_mpm.solve import linear
+    block = 1 << 12
+    monkeypatch.setattr(linear, "TAKE_BLOCK", block)
+    K, free = grid_tangent(12, 9)
+    expected = K[free][:, free]
+    expected.sort_indices()
+    kept = expected.nnz
+    assert kept > linear.GATHER_BLOCK        # the map kept as runs only
+    tracemalloc.start()
+    before = tracemalloc.get_traced_memory()[0]
+    tracemalloc.reset_peak()
+    condensation = linear.Condensation(K, free)
+    held, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    columns, indptr = condensation.block
+    kept_arrays = columns.nbytes + indptr.nbytes
+    map_bytes = held - before - kept_arrays
+    assert map_bytes <= kept / 2
+    assert peak - held <= 48 * block
+    assert condensation.take is None
+    assert sum(a.nbytes for a in condensation.runs) <= kept / 2
+    condensed = condensation(K.copy() if consume else K, consume)
+    for name in ("data", "indices", "indptr"):
+        assert np.array_equal(getattr(condensed, name),
+                              getattr(expected, name))
+
+
+def condensation_cases():
+    """``(K, free)`` for :class:`Condensation`: a 3D grid's box (maps
+    of many runs, ascending), its free DOFs shuffled, a short map (one
+    node), no free DOF, every DOF free, and a random pattern."""
+    from scipy.sparse import random
+    K, free = grid_tangent(7, 5)
+    shuffled = np.random.default_rng(3).permutation(free)
+    R = random(40, 40, density=.3, format="csr", random_state=1)
+    R.sort_indices()
+    return [(K, free), (K, shuffled), (K, free[:3]),
+            (K, np.zeros(0, dtype=free.dtype)), (K, np.arange(K.shape[0])),
+            (R, np.array([0, 3, 4, 5, 9, 20, 21, 39]))]
+
+
+@pytest.mark.parametrize("gather_block", [1, 1 << 14])
+@pytest.mark.parametrize("case", range(6))
+def test_compiled_condensation_is_the_numpy_paths(case, gather_block,
+                                                  monkeypatch):
+    """The compiled condensation (its map built in one pass over the rows,
+    gathered a run at a time: :func:`~skfem_mpm.kernels.graph.
+    condensation_runs`, :func:`~skfem_mpm.kernels.graph.gather_runs`)
+    gives the numpy path's map and blocks, bit for bit, copied and
+    within the tangent's data, and scipy's block: grids, shuffled free
+    DOFs, short and empty maps (every map gathered by its runs where
+    ``GATHER_BLOCK`` is 1)."""
+    pytest.importorskip("numba")
+    from skfem_mpm.solve import linear
+    monkeypatch.setattr(linear, "GATHER_BLOCK", gather_block)
+    K, free = condensation_cases()[case]
+    expected = K[free][:, free]
+    expected.sort_indices()
+    made = [linear.Condensation(K, free, kernels)
+            for kernels in ("numpy", "compiled")]
+    assert made[0].graph is None and made[1].graph is not None
+    for a, b in zip(*(c.runs + c.block for c in made)):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    assert (made[0].take is None) == (made[1].take is None) \
+        == (expected.nnz >= gather_block)
+    if expected.nnz == 0:                  # no runs: nothing gathered
+        out = np.full(1, np.pi)
+        made[1].graph.gather_runs(*made[1].runs, K.data, out)
+        assert made[1].runs[1].size == 0 and out[0] == np.pi
+    for consume in (False, True):
+        for condensation in made:
+            condensed = condensation(K.copy(), consume)
+            for name in ("data", "indices", "indptr"):
+                assert np.array_equal(getattr(condensed, name),
+                                      getattr(expected, name))
+
+
+@pytest.mark.parametrize("consume", [False, True])
+def test_compiled_gather_forms_no_positions(consume):
+    """The compiled gather copies a run at a time: beyond the block's
+    entries it allocates under 4 kB (the numpy path's 2^14 positions
+    expanded from the runs, 128 kB and their copies, were 4 ms a gather of
+    5.3e5 kept entries against 1.6-2.1 for positions kept whole), copied
+    or within the tangent's data (then its entries' new array where numpy
+    shortens it), and the block is the numpy path's."""
+    pytest.importorskip("numba")
+    import tracemalloc
+    from skfem_mpm.solve import linear
+    K, free = grid_tangent(12, 6)  # 3e4 kept entries: 240 kB, as 2 blocks
+    want = linear.Condensation(K, free, "numpy")(K)
+    condensation = linear.Condensation(K, free, "compiled")
+    condensation(K.copy(), consume)                 # compiled, warm
+    tangent = K.copy()
+    tracemalloc.start()
+    before = tracemalloc.get_traced_memory()[0]
+    tracemalloc.reset_peak()
+    condensed = condensation(tangent if consume else K, consume)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert condensation.take is None and want.nnz > linear.GATHER_BLOCK
+    # (shortened within the tangent's data, numpy's realloc is traced as
+    # the entries' new array)
+    assert peak - before - condensed.data.nbytes < 4096
+    assert np.array_equal(condensed.data, want.data)

@@ -6,12 +6,15 @@ points in 2D), and the parts clearly held in one pass (:func:`clearly_held`:
 95 -> 15 us a check at 56 points); a matrix's largest difference from
 its transpose without mirror positions (:func:`symmetric_deviation`, for
 :func:`skfem_mpm.solve.backends.is_symmetric`) and its upper triangle's
-entries (:func:`upper_entries`)."""
+entries (:func:`upper_entries`); a condensation's map as runs of
+consecutive entries (:func:`condensation_runs`) and the gather over them
+(:func:`gather_runs`, for :class:`skfem_mpm.solve.linear.Condensation`)."""
 import numpy as np
 from numba import njit
 
 __all__ = ["component_labels", "element_labels", "clearly_held",
-           "symmetric_deviation", "upper_entries"]
+           "symmetric_deviation", "upper_entries", "condensation_runs",
+           "gather_runs"]
 
 
 @njit(cache=True)
@@ -243,3 +246,57 @@ def upper_entries(indptr, indices, data):
                 values[k] = data[e]
                 k += 1
     return values, kept, starts
+
+
+@njit(cache=True)
+def condensation_runs(indptr, indices, position):
+    """``(columns, bounds, shift)`` of the entries of a CSR pattern in
+    free rows and columns (``position``: a row's or column's number among
+    the free ones, -1 where held), in the pattern's order: their columns
+    renumbered, and the maximal runs of consecutive entries
+    (:attr:`skfem_mpm.solve.linear.Condensation.runs`: the kept entries
+    ``bounds[r] <= k < bounds[r + 1]`` are the pattern's ``k + shift[r]``),
+    of ``position``'s dtype.  What the numpy path finds for blocks of rows,
+    in two passes over the rows (the counts, then the entries), without
+    its masks, positions and the runs' lists."""
+    n = indptr.size - 1
+    kept, runs, after = 0, 0, -1
+    for i in range(n):
+        if position[i] >= 0:
+            for e in range(indptr[i], indptr[i + 1]):
+                if position[indices[e]] >= 0:
+                    if e != after:
+                        runs += 1
+                    kept += 1
+                    after = e + 1
+    columns = np.empty(kept, dtype=position.dtype)
+    bounds = np.empty(runs + 1, dtype=position.dtype)
+    shift = np.empty(runs, dtype=position.dtype)
+    k, r, after = 0, 0, -1
+    for i in range(n):
+        if position[i] >= 0:
+            for e in range(indptr[i], indptr[i + 1]):
+                c = position[indices[e]]
+                if c >= 0:
+                    if e != after:
+                        bounds[r] = k
+                        shift[r] = e - k
+                        r += 1
+                    columns[k] = c
+                    k += 1
+                    after = e + 1
+    bounds[runs] = kept
+    return columns, bounds, shift
+
+
+@njit(cache=True)
+def gather_runs(bounds, shift, source, out):
+    """``out[k] = source[k + shift[r]]`` for the kept entries ``bounds[r]
+    <= k < bounds[r + 1]`` of each run ``r`` (a condensation's map,
+    :func:`condensation_runs`), a run at a time in order: no positions
+    formed.  ``out`` may be ``source`` where every shift is >= 0 (each
+    entry read at or after the place it fills, before it is written)."""
+    for r in range(shift.size):
+        s = shift[r]
+        for k in range(bounds[r], bounds[r + 1]):
+            out[k] = source[k + s]

@@ -35,8 +35,9 @@ _LAYOUTS = {}       # cls -> the maxprint of its matrices, or None: another
 def _viewed(x: ndarray) -> ndarray:
     """What scipy's constructor keeps of an array it is given: a view of
     all of it, copied where it views less than half its base
-    (``prune``)."""
-    if x.base is not None and x.size < x.base.size // 2:
+    (``prune``); an array numba made (its base is numba's memory record,
+    not an array) is all of its memory."""
+    if isinstance(x.base, ndarray) and x.size < x.base.size // 2:
         return x.copy()
     return x.view()
 

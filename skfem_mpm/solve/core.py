@@ -54,8 +54,8 @@ from ..errors import (ContactError, GridMotionError, HeldSupportError,
                       PointsOutsideGridError, UnsupportedElementError,
                       MPMError, NewtonDivergenceError, NumericalError,
                       SingularTangentError, StepFailedError,
-                      StepTooLongError, check_choice,
-                      check_int)
+                      StepTooLongError, UnsettledContactError,
+                      check_choice, check_int)
 from ..mechanics.forms import as_body_force
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
 from ..mechanics.materials import at_points, initial_state, is_plastic
@@ -396,7 +396,7 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             words = unsettled_words(problem)
             raise (HeldSupportError if any(
                 getattr(term, "held_cause", False)
-                for term in problem.unsettled) else ContactError)(
+                for term in problem.unsettled) else UnsettledContactError)(
                 "step {}: contact did not settle within the contacts' "
                 "tolerances in {} augmented-Lagrangian rounds{}".format(
                     step, SETTLE_ROUNDS, words))
@@ -619,7 +619,11 @@ RETRY_LADDER = (
 def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             step: int):
     """A load step, retried along :data:`RETRY_LADDER` when Newton fails
-    in a nonlinear step; the last rung's failure is raised."""
+    in a nonlinear step; the last rung's failure is raised.  Contact that
+    did not settle (:class:`~skfem_mpm.errors.UnsettledContactError`)
+    takes only the rungs that change the step's equations (the ghost
+    penalty): the others solve each of its rounds to the same
+    equilibrium."""
     how, rungs = FIRST, iter(RETRY_LADDER)
     zero_energy = False         # an attempt met zero-energy modes
     while True:
@@ -638,10 +642,16 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             zero_energy |= report.get("stabilised", False)
             report["zero_energy"] = zero_energy
             for rung in rungs:
-                if (rung.linear or not run.linear) and rung.applies(
-                        run, failure, report):
+                if (rung.linear or not run.linear) and (
+                        rung.how is None or not isinstance(
+                            failure, UnsettledContactError)) and \
+                        rung.applies(run, failure, report):
                     break
             else:
+                if isinstance(failure, UnsettledContactError):
+                    logger.warning("%s; not retried (the retry ladder's "
+                                   "other rungs solve each round to the "
+                                   "same equilibrium)", failure)
                 raise
             if rung.how is None:
                 rung.change(run, step, failure)

@@ -229,14 +229,19 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
                 "motion; add supports".format(body(c), " / ".join(names)))
 
 
-#: entries of a pattern scanned at a time for those a
-#: :class:`Condensation` keeps (their positions found as 8-byte integers):
-#: 2 ** 20 entries' were the peak of a 3D run's heap while the map was
-#: built (155 bytes a point at 1.1e5 points)
-TAKE_BLOCK = 1 << 16
-#: entries a :class:`Condensation` gathers at a time within a tangent's
-#: data (their values and 8-byte positions: 1 MB)
-GATHER_BLOCK = 1 << 16
+#: entries of a pattern (rows of about so many) scanned at a time for
+#: those a :class:`Condensation` keeps on the numpy path: its masks,
+#: 8-byte positions and the copies ``np.take`` makes of indices.  2 ** 20
+#: entries' were the peak of a 3D run's heap while the map was built (155
+#: bytes a point at 1.1e5 points), 2 ** 16 with a mask of all entries 60
+#: bytes a point at 3.3e4 points
+TAKE_BLOCK = 1 << 14
+#: entries a :class:`Condensation` gathers at a time on the numpy path
+#: (their values and their 8-byte positions, expanded from the map's
+#: runs: 320 kB; the compiled path copies a run at a time); a map
+#: of fewer entries keeps their positions whole (:attr:`Condensation.
+#: take`) and gathers them by one fancy indexing
+GATHER_BLOCK = 1 << 14
 
 
 class Condensation:
@@ -244,6 +249,31 @@ class Condensation:
     sparsity pattern, gathered from ``K.data`` through an index map built
     once (by indexing a matrix of entry numbers the way ``condense``
     indexes ``K``).
+
+    The map is kept as runs of consecutive entries of ``K.data``
+    (:attr:`runs`: a 3D grid's kept entries come some 28 to a run, the
+    free nodes of a row side by side), expanded to positions a block of
+    :data:`GATHER_BLOCK` entries at a time; a map of fewer entries also
+    as the positions (:attr:`take`).  Kept whole, the positions were 121
+    bytes a point at the peak of a 3D run's heap (3.3e4 points).  Where
+    ``kernels`` takes the compiled kernels, the map is built in one pass
+    over the rows and gathered a run at a time, no positions formed
+    (:func:`~skfem_mpm.kernels.graph.condensation_runs`,
+    :func:`~skfem_mpm.kernels.graph.gather_runs`: the same arrays; at
+    5.3e5 kept entries the gather 1.0-1.7 ms against the numpy path's
+    2.9-4.9 and 2.1-2.8 for positions kept whole, the build 2.1-4.4
+    against 12-21).
+
+    Parameters
+    ----------
+    K
+        A canonical CSR matrix (sorted indices, no duplicates): the
+        pattern.
+    free
+        The free DOFs (rows and columns kept).
+    kernels
+        ``"auto"``, ``"numpy"`` or ``"compiled"``
+        (:func:`~skfem_mpm.quadrature.basis.compiled_kernels`).
 
     Examples
     --------
@@ -259,52 +289,122 @@ class Condensation:
 
     """
 
-    def __init__(self, K: csr_matrix, free: ndarray):
+    def __init__(self, K: csr_matrix, free: ndarray,
+                 kernels: str = "auto"):
         if not (isinstance(K, csr_matrix) and K.has_canonical_format):
             raise InvalidInputError("a Condensation needs a canonical CSR "
                                     "matrix (sorted indices, no duplicates)")
         self.free = free
         self.indices, self.indptr = K.indices, K.indptr
         # the entries in free rows and columns, without scipy's two fancy
-        # indexings of K (0.3 ms at 56 points) or a matrix of entry
-        # numbers (the peak of a 3D run's heap): for sorted free DOFs in
-        # K's order, canonical as it is (the free DOFs are renumbered in
-        # their order); else sorted by row and column as renumbered
+        # indexings of K (0.3 ms at 56 points), a matrix of entry numbers
+        # or a mask of all entries (each the peak of a 3D run's heap in
+        # turn): for sorted free DOFs in K's order, canonical as it is (the
+        # free DOFs are renumbered in their order); else sorted by row and
+        # column as renumbered
         index = np.int32 if K.nnz < 2 ** 31 - 1 else np.int64
         position = np.full(K.shape[0], -1, dtype=index)
         position[free] = np.arange(free.size, dtype=index)
-        is_free = position >= 0
-        # a block of entries at a time: np.take (half fancy indexing's
-        # time) makes 8-byte copies of the indices it is given
-        keep = np.repeat(is_free, np.diff(K.indptr))
-        for start in range(0, K.nnz, TAKE_BLOCK):
-            stop = start + TAKE_BLOCK
-            keep[start:stop] &= np.take(is_free, K.indices[start:stop])
-        take = np.empty(np.count_nonzero(keep), dtype=index)
-        columns = np.empty_like(take)
-        done = 0
-        for start in range(0, K.nnz, TAKE_BLOCK):
-            found = np.flatnonzero(keep[start:start + TAKE_BLOCK]) + start
-            stop = done + found.size
-            np.take(position, np.take(K.indices, found),
-                    out=columns[done:stop])
-            np.copyto(take[done:stop], found, casting="unsafe")  # < 2^31
-            done = stop
-        del keep
+        #: the compiled kernels of the map's build and gather
+        #: (:func:`~skfem_mpm.kernels.graph.condensation_runs`,
+        #: :func:`~skfem_mpm.kernels.graph.gather_runs`), or None
+        self.graph = graph = compiled_kernels("graph", kernels)
+        if graph is not None:                # the same arrays, one pass
+            columns, bounds, shift = graph.condensation_runs(
+                K.indptr, K.indices, position)
+        else:
+            columns, bounds, shift = self._runs_by_blocks(K, position)
+        done = int(bounds[-1])
+        #: the map as runs ``(bounds, shift)``: the kept entries ``bounds[r]
+        #: <= i < bounds[r + 1]`` are ``K.data[i + shift[r]]``
+        self.runs = (bounds, shift)
         indptr = np.zeros(free.size + 1, dtype=index)
-        #: the kept entries in the tangent's order (``take`` ascending):
+        #: the kept entries in the tangent's order (the map ascending):
         #: they can be gathered within its data (:meth:`__call__`)
         self.ascending = bool(np.all(free[1:] > free[:-1]))
         if self.ascending:                    # the kept entries by row end
-            indptr[1:] = np.searchsorted(take, K.indptr[free + 1])
+            indptr[1:] = self._kept_before(K.indptr[free + 1])
         else:
+            take = self._sources(0, done)
             rows = position[np.searchsorted(K.indptr, take, side="right")
                             - 1]
             order = np.lexsort((columns, rows))
             take, columns = take[order], columns[order]
             np.cumsum(np.bincount(rows, minlength=free.size), out=indptr[1:])
-        self.take, self.block = take, (columns, indptr)
+            self.runs = runs_of(take, index)
+        #: the map's positions where it has fewer than :data:`GATHER_BLOCK`
+        #: entries, else None (expanded from :attr:`runs` a block at a time)
+        self.take = self._sources(0, done) if done < GATHER_BLOCK else None
+        self.block = (columns, indptr)
         self._matrices = PatternMatrices(csr_matrix)
+
+    @staticmethod
+    def _runs_by_blocks(K: csr_matrix, position: ndarray) -> tuple:
+        """``(columns, bounds, shift)`` of the kept entries (those in rows
+        and columns ``position`` numbers) in ``K``'s order, found for
+        blocks of rows of about :data:`TAKE_BLOCK` entries in two passes
+        (count, then fill): the numpy path of
+        :func:`~skfem_mpm.kernels.graph.condensation_runs`."""
+        index = position.dtype
+        is_free = position >= 0
+        indptr, nrows = K.indptr, K.shape[0]
+        step = max(1, TAKE_BLOCK * nrows // max(K.nnz, 1))
+
+        def kept(first):
+            """The kept entries of the rows from ``first`` (a block)."""
+            last = min(first + step, nrows)
+            lo, hi = indptr[first], indptr[last]
+            mask = np.repeat(is_free[first:last], np.diff(
+                indptr[first:last + 1]))
+            mask &= np.take(is_free, K.indices[lo:hi])
+            return np.flatnonzero(mask) + lo
+
+        blocks = range(0, nrows, step)
+        columns = np.empty(sum(kept(first).size for first in blocks),
+                           dtype=index)
+        starts, shifts, done, after = [], [], 0, -1
+        for first in blocks:                 # a second pass: no list of
+            found = kept(first)              # blocks beside the columns
+            if found.size == 0:
+                continue
+            stop = done + found.size
+            np.take(position, np.take(K.indices, found),
+                    out=columns[done:stop])
+            # the runs of consecutive entries, one carried over the block
+            begin = np.flatnonzero(found[1:] != found[:-1] + 1) + 1
+            if found[0] != after:
+                begin = np.r_[0, begin]
+            starts.append(begin + done)
+            shifts.append(found[begin] - begin - done)
+            done, after = stop, found[-1] + 1
+        bounds = np.empty(sum(map(len, starts)) + 1, dtype=index)
+        bounds[-1] = done
+        if starts:
+            np.concatenate(starts, out=bounds[:-1], casting="unsafe")
+        return columns, bounds, (np.concatenate(shifts).astype(index)
+                                 if shifts else np.zeros(0, dtype=index))
+
+    def _sources(self, start: int, stop: int) -> ndarray:
+        """The positions in ``K.data`` of the kept entries ``start`` to
+        ``stop`` (:attr:`runs` expanded), as ``np.intp``."""
+        bounds, shift = self.runs
+        first = np.searchsorted(bounds, start, side="right") - 1
+        last = np.searchsorted(bounds, stop, side="left")
+        sources = np.arange(start, stop)
+        sources += np.repeat(shift[first:last], np.diff(np.clip(
+            bounds[first:last + 1], start, stop)))
+        return sources
+
+    def _kept_before(self, ends: ndarray) -> ndarray:
+        """How many kept entries lie before each position ``ends`` of
+        ``K.data`` (the map ascending)."""
+        bounds, shift = self.runs
+        if shift.size == 0:
+            return np.zeros(ends.shape, dtype=bounds.dtype)
+        begins = bounds[:-1] + shift              # the runs in K.data
+        run = np.maximum(np.searchsorted(begins, ends, side="right") - 1, 0)
+        return bounds[run] + np.clip(ends - begins[run], 0, np.diff(
+            bounds)[run])
 
     def fits(self, K, free: ndarray) -> bool:
         """Whether ``K`` has this pattern (canonical CSR) and ``free`` is
@@ -336,18 +436,48 @@ class Condensation:
         (a smaller one is copied faster): no second array of entries
         while both are alive (248 bytes a point at the peak of a 3D run's
         heap), the same values."""
-        n, take = self.free.size, self.take
-        data = whole_array(K.data) if consume and self.ascending \
-            and take.size >= GATHER_BLOCK else None
-        if data is None:
+        n, take, size = self.free.size, self.take, int(self.runs[0][-1])
+        if take is not None:                 # a small map: one indexing
             return self._matrices(K.data[take], *self.block, (n, n))
+        data = whole_array(K.data) if consume and self.ascending else None
+        bounds, shift, graph = *self.runs, self.graph
+        if data is None:
+            data = np.empty(size)
+            if graph is not None:            # a copy a run, no positions
+                graph.gather_runs(bounds, shift, K.data, data)
+            else:
+                for start in range(0, size, GATHER_BLOCK):
+                    stop = min(start + GATHER_BLOCK, size)
+                    np.take(K.data, self._sources(start, stop),
+                            out=data[start:stop])
+            return self._matrices(data, *self.block, (n, n))
         K.data = data               # scipy's view of it released
-        for start in range(0, take.size, GATHER_BLOCK):
-            # forward: take[i] >= i, so no entry is read after it is written
-            stop = min(start + GATHER_BLOCK, take.size)
-            data[start:stop] = np.take(data, take[start:stop])
-        data.resize(take.size, refcheck=False)  # K is not read again
+        # forward: the sources lie at or after the places they fill, so
+        # no entry is read after it is written
+        if graph is not None:
+            graph.gather_runs(bounds, shift, data, data)
+        else:
+            for start in range(0, size, GATHER_BLOCK):
+                stop = min(start + GATHER_BLOCK, size)
+                data[start:stop] = np.take(data, self._sources(start, stop))
+        data.resize(size, refcheck=False)  # K is not read again
         return self._matrices(data, *self.block, (n, n))
+
+
+def runs_of(take: ndarray, index) -> tuple:
+    """``(bounds, shift)`` of :attr:`Condensation.runs` for the positions
+    ``take``, as ``index`` integers: its runs of consecutive positions.
+
+    >>> import numpy as np
+    >>> bounds, shift = runs_of(np.array([3, 4, 5, 9, 2]), np.int32)
+    >>> bounds.tolist(), shift.tolist()
+    ([0, 3, 4, 5], [3, 6, -2])
+    """
+    begin = np.flatnonzero(take[1:] != take[:-1] + 1) + 1
+    if take.size:
+        begin = np.r_[0, begin]
+    return (np.r_[begin, take.size].astype(index),
+            (take[begin] - begin).astype(index))
 
 
 def whole_array(data: ndarray) -> Optional[ndarray]:

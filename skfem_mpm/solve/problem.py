@@ -475,7 +475,9 @@ class StepProblem:
         if not (cache.condensation is not None
                 and cache.condensation.fits(K, free)) \
                 and getattr(K, "has_canonical_format", False):
-            cache.condensation = Condensation(K, free)  # a new map
+            method = getattr(self.run.method, "piece", self.run.method)
+            cache.condensation = Condensation(       # a new map, of the
+                K, free, getattr(method, "kernels", "auto"))  # run's path
         consume = self._own is not None and self._own() is K
         self._own = None
         # (GIMP's sparse products are not canonical: scikit-fem's condense)
