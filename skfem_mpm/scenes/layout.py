@@ -1,8 +1,9 @@
 """Figures whose text can be read: tick labels that do not overlap,
 titles clear of other text, and everything inside the figure
 (:func:`settle_layout`, which :func:`~skfem_mpm.scenes.plot.save_figure`
-applies to every figure), and the check of it (:func:`layout_problems`,
-which the tests apply to every figure written).
+applies to every figure, measuring the text without drawing it), and the
+check of it (:func:`layout_problems`, which the tests apply to every
+figure written, as it is drawn to be saved).
 
 """
 import numpy as np
@@ -25,10 +26,12 @@ def overlapping(boxes) -> bool:
     return not apart.all()
 
 
-def tick_boxes(fig, axis) -> list:
+def tick_boxes(fig, axis, renderer=None) -> list:
     """The window extents of the visible, non-empty tick labels of
-    ``axis`` (an x or y axis; the figure drawn)."""
-    renderer = fig.canvas.get_renderer()
+    ``axis`` (an x or y axis) as last laid out (by a draw, or
+    ``axis.get_tightbbox``), measured with ``renderer`` (default the
+    canvas's)."""
+    renderer = renderer or fig.canvas.get_renderer()
     lo, hi = sorted(axis.get_view_interval())
     return [t.get_window_extent(renderer)
             for tick in axis.get_major_ticks() for t in (tick.label1,
@@ -38,40 +41,40 @@ def tick_boxes(fig, axis) -> list:
             <= hi + 1e-9 * (hi - lo)]
 
 
-def thin_ticks(fig) -> bool:
+def thin_ticks(fig, renderer) -> bool:
     """Fewer major ticks (:class:`matplotlib.ticker.MaxNLocator`) on
     every axis of ``fig`` whose tick labels overlap (a bar 0.1 m wide
     read "0.0406" for 0.04 and 0.06, a curve's axis in m
     "-0.00200.00175..."), down to 2, then an x axis's labels upright;
-    whether any changed."""
+    whether any changed.  The figure laid out once before (e.g. by
+    ``fig.get_tightbbox(renderer)``); each try lays out only its own
+    axis (``axis.get_tightbbox``), not the whole figure."""
     from matplotlib.ticker import MaxNLocator
     changed = False
-    fig.canvas.draw()
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
             if axis.get_scale() != "linear" or \
-                    not overlapping(tick_boxes(fig, axis)):
+                    not overlapping(tick_boxes(fig, axis, renderer)):
                 continue
             changed = True
             for nbins in (4, 3, 2):
                 axis.set_major_locator(MaxNLocator(nbins=nbins))
-                fig.canvas.draw()
-                if not overlapping(tick_boxes(fig, axis)):
+                axis.get_tightbbox(renderer)
+                if not overlapping(tick_boxes(fig, axis, renderer)):
                     break
             else:
                 if axis is ax.xaxis:
                     ax.tick_params(axis="x", labelrotation=90)
-                    fig.canvas.draw()
+                    axis.get_tightbbox(renderer)
     return changed
 
 
-def raise_titles(fig) -> bool:
+def raise_titles(fig, renderer) -> bool:
     """Raise each axes' title above the other axes' labels and offsets it
     overlaps (a colour bar's label longer than its bar reached into a 3D
-    slice's title); whether any moved."""
+    slice's title); whether any moved.  The figure laid out before, as
+    for :func:`thin_ticks`."""
     import matplotlib
-    fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
     moved = False
     for ax in fig.axes:
         if not ax.get_title():
@@ -92,15 +95,23 @@ def raise_titles(fig) -> bool:
 
 
 def settle_layout(fig):
-    """Thin overlapping tick labels (:func:`thin_ticks`) and grow ``fig``
-    until all its text lies inside (a wide body's deformed shape lost its
-    title's top and its legend's last line, a tall one its title's and
-    legend's sides), laid out again (``tight_layout``) at each change."""
-    if thin_ticks(fig) | raise_titles(fig):
+    """Thin overlapping tick labels (:func:`thin_ticks`), raise titles
+    over other text (:func:`raise_titles`) and grow ``fig`` until all its
+    text lies inside (a wide body's deformed shape lost its title's top
+    and its legend's last line, a tall one its title's and legend's
+    sides), laid out again (``tight_layout``) where anything changed.
+
+    Measured without drawing: the text is laid out by the figure's tight
+    bounding box (the ticks, labels, titles and legends placed, nothing
+    rendered), once for a figure that needs no change, and once more
+    after each change of its size (at most four).
+    """
+    renderer = fig.canvas.get_renderer()
+    box = fig.get_tightbbox(renderer)                       # inches
+    if thin_ticks(fig, renderer) | raise_titles(fig, renderer):
         fig.tight_layout()
+        box = fig.get_tightbbox(renderer)
     for _ in range(4):
-        fig.canvas.draw()
-        box = fig.get_tightbbox(fig.canvas.get_renderer())   # inches
         width, height = fig.get_size_inches()
         grow = (max(0., -box.x0) + max(0., box.x1 - width),
                 max(0., -box.y0) + max(0., box.y1 - height))
@@ -109,13 +120,19 @@ def settle_layout(fig):
         fig.set_size_inches(width + grow[0] + .1 * (grow[0] > 0),
                             height + grow[1] + .1 * (grow[1] > 0))
         fig.tight_layout()
+        renderer = fig.canvas.get_renderer()
+        box = fig.get_tightbbox(renderer)
 
 
-def layout_problems(fig) -> list:
+def layout_problems(fig, renderer=None) -> list:
     """Text of ``fig`` that cannot be read: titles, axis and tick labels,
     colour bars' offsets and legends that leave the figure, tick labels
     of one axis that overlap, and titles overlapping other text (a colour
     bar's "1e-5" over a tall bar's title).  Empty when all is well.
+
+    ``renderer``: that of a draw of ``fig`` just made (a ``draw_event``'s,
+    e.g. while the figure is saved: the text as saved, at the saving
+    resolution); default: ``fig`` drawn first, without rendering.
 
     >>> from skfem_mpm.scenes.plot import (layout_problems, pyplot,
     ...                                    settle_layout)
@@ -128,8 +145,9 @@ def layout_problems(fig) -> list:
     []
     >>> pyplot().close(fig)
     """
-    fig.canvas.draw()
-    renderer = fig.canvas.get_renderer()
+    if renderer is None:
+        fig.draw_without_rendering()
+        renderer = fig.canvas.get_renderer()
     whole = fig.bbox
     problems = []
 
@@ -159,7 +177,7 @@ def layout_problems(fig) -> list:
                 problems.append("axes {}: {} leaves the figure".format(
                     k, name))
         for name, axis in (("x", ax.xaxis), ("y", ax.yaxis)):
-            boxes = tick_boxes(fig, axis)
+            boxes = tick_boxes(fig, axis, renderer)
             if overlapping(boxes):
                 problems.append("axes {}: {} tick labels overlap".format(
                     k, name))
