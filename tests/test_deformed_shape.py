@@ -237,3 +237,29 @@ def test_a_tall_thin_bodys_figures_keep_their_text_inside(tmp_path,
     bar = fig.axes[1]
     assert not bar.yaxis.get_offset_text().get_text()
     assert any("e-05" in t.get_text() for t in bar.get_yticklabels())
+
+
+def test_a_figure_is_laid_out_without_drawing_and_saved_in_one_draw(
+        tmp_path):
+    """``save_figure`` settles a figure's layout by measuring its text,
+    not by drawing it (the layout of 8ff829d drew a figure whole for each
+    tick-thinning try and for each check of its titles and size: 3 to 9
+    draws a figure), and saves it in one draw (a ``tight_layout`` left a
+    place-holder layout engine for which ``savefig`` drew it twice)."""
+    from matplotlib.ticker import MaxNLocator
+    fig, ax = plot.pyplot().subplots(figsize=(1.5, 3.))
+    ax.plot([0., .1], [0., 1.])
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=10))  # 0.00 0.01 ...
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title("a title wider than the figure of one and a half inches")
+    fig.tight_layout()
+    drawn = []
+    fig.canvas.mpl_connect("draw_event", lambda event: drawn.append(1))
+    assert plot.layout_problems(fig) and len(drawn) == 1
+    plot.settle_layout(fig)
+    assert len(drawn) == 1                      # laid out, not drawn
+    assert fig.get_size_inches()[0] > 1.5 and \
+        ax.xaxis.get_major_locator()._nbins <= 4  # grown, ticks thinned
+    plot.save_figure(fig, tmp_path / "thin.png")
+    assert len(drawn) == 2                      # saved in one draw

@@ -44,8 +44,14 @@ def pyplot():
 
 def save_figure(fig, path, dpi: int = 120):
     """Write ``fig`` to ``path`` (PNG) atomically and close it, laid out
-    so that its text can be read (:func:`settle_layout`)."""
+    so that its text can be read (:func:`settle_layout`), drawn once: the
+    place-holder a ``tight_layout`` leaves as the figure's layout engine
+    is dropped (``savefig`` drew a figure with one a second time, without
+    rendering, to run the engine, which does nothing)."""
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
     settle_layout(fig)
+    if isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
+        fig.set_layout_engine(None)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     pyplot().close(fig)
