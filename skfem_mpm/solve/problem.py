@@ -475,9 +475,8 @@ class StepProblem:
         if not (cache.condensation is not None
                 and cache.condensation.fits(K, free)) \
                 and getattr(K, "has_canonical_format", False):
-            method = getattr(self.run.method, "piece", self.run.method)
             cache.condensation = Condensation(       # a new map, of the
-                K, free, getattr(method, "kernels", "auto"))  # run's path
+                K, free, getattr(self.run.method, "kernels", "auto"))
         consume = self._own is not None and self._own() is K
         self._own = None
         # (GIMP's sparse products are not canonical: scikit-fem's condense)
