@@ -517,25 +517,38 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
     (:func:`~skfem_mpm.scenes.plot.draw_deformed_shape`), ``when`` saying
     which state they are in the title: the points coloured by their
     displacement magnitude over the undeformed outline (``half``: the
-    initial points' half-widths), the supports, the rigid bodies and (2D)
-    the obstacles where they are at ``load_factor`` (the run's load factor
+    initial points' half-widths), the supports, the rigid bodies and the
+    obstacles where they are at ``load_factor`` (the run's load factor
     in that state; with dynamics the fraction of the duration), to
-    ``path``."""
+    ``path``; in 3D a vertical slice through the obstacles
+    (:func:`~skfem_mpm.scenes.plot.slice_plane`), their sections drawn."""
     mesh, elem = scene.grid.build()
     shift = load_scale(scene, [load_factor])[0]
-    obstacles = [(o.name, o.outline(shift * o.displacement))
-                 for o in obstacle_list(scene)] if pts.dim == 2 else ()
     rigid = {b.name: pts.body == k for k, b in enumerate(scene.bodies)
              if b.rigid is not None}
     deformed = pts.x0 + pts.displacement
+    plane, moved = None, [(o.name, o.box + shift * o.displacement[:, None]
+                           if o.box is not None else None, o.displacement)
+                          for o in obstacle_list(scene)]
+    if pts.dim == 2:
+        obstacles = [(o.name, o.outline(shift * o.displacement))
+                     for o in obstacle_list(scene)]
+    elif pts.dim == 3:                  # boxes: a vertical slice through
+        plane = plot.slice_plane(deformed, [b for _, b, _ in moved],
+                                 [d for _, _, d in moved])
+        axes = tuple(k for k in range(3) if k != plane[0])
+        obstacles = [(name, plot.box_section(box, plane, axes))
+                     for name, box, _ in moved]
+    else:
+        obstacles = ()
     width, height = (7., 3.4) if pts.dim == 1 else body_figure_size(
-        np.hstack([pts.x0, deformed])[:2])
+        np.hstack([pts.x0, deformed])[[0, 1] if plane is None else list(axes)])
     fig, ax = pyplot().subplots(figsize=(width, height + 1.1))
     draw_deformed_shape(
         fig, ax, pts, "{}: deformed shape {}\n(true scale, the undeformed "
         "body dashed)".format(scene.name, when),
         supports=support_marks(scene, mesh, elem), rigid=rigid,
-        obstacles=obstacles, half=half)
+        obstacles=obstacles, half=half, plane=plane)
     fig.tight_layout()
     plot.save_figure(fig, path)
 

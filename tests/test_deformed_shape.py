@@ -141,3 +141,125 @@ def test_a_3d_slice_draws_only_the_supports_in_it(level, drawn):
     assert (handles[0].get_label() == "base") == drawn
     assert (len(ax.lines[0].get_xdata()) == 3) == drawn
     plot.pyplot().close(fig)
+
+
+def test_a_3d_slice_through_a_deformed_block_draws_the_faces_it_crosses():
+    """A face support crosses every slice: drawn in one of deformed points
+    (their coordinates a round-off apart made the spacing test read
+    "not in this slice" for the faces of a user trial's block)."""
+    rng = np.random.default_rng(0)
+    slab = np.mgrid[.05:1:.1, .05:.5:.1, .45:.5:.1].reshape(3, -1)
+    slab = slab + 1e-9 * rng.standard_normal(slab.shape)
+    y, z = np.mgrid[0:1.01:.25, 0:.51:.25].reshape(2, -1)
+    left = np.vstack([np.zeros_like(y), y, z])        # the x- face
+    fig, ax = plot.pyplot().subplots()
+    handles = []
+    plot.draw_supports(ax, [plot.SupportMarks("left", left, (0,))],
+                       (0, 1), slab, handles, 3)
+    assert handles[0].get_label() == "left"
+    assert len(ax.lines[0].get_xdata()) == 5            # y = 0 .. 1
+    plot.pyplot().close(fig)
+
+
+def test_a_3d_picture_slices_through_the_obstacles():
+    """The trial's block (1 x 1 x 0.5 m, base and faces x-, y- held) under
+    a punch (x, y in [0.3, 0.7]) and beside a wall pushing in -x: the
+    picture is the vertical slice across y through the punch's middle
+    (a horizontal one at z = 0.27 missed it), the punch's and the wall's
+    sections drawn, the x- face drawn, the y- face not in the slice."""
+    x = np.mgrid[.0625:1:.125, .0625:1:.125, .0625:.5:.125].reshape(3, -1)
+    points = MaterialPoints(x=x, volume=np.full(x.shape[1], .125 ** 3))
+    punch = np.array([[.3, .7], [.3, .7], [.5, .7]])
+    wall = np.array([[1., 1.3], [-.1, 1.1], [-.1, .8]])
+    plane = plot.slice_plane(x, [punch, wall], [[0., 0., -.03],
+                                                 [-.02, 0., 0.]])
+    assert plane == (1, .5)
+    y, z = np.mgrid[0:1.01:.25, 0:.51:.25].reshape(2, -1)
+    x_, z_ = np.mgrid[0:1.01:.25, 0:.51:.25].reshape(2, -1)
+    supports = [plot.SupportMarks("left", np.vstack([0 * y, y, z]), (0,)),
+                plot.SupportMarks("front", np.vstack([x_, 0 * x_, z_]),
+                                  (1,))]
+    fig, ax = plot.pyplot().subplots()
+    plot.draw_deformed_shape(
+        fig, ax, points, "punch", supports=supports, plane=plane,
+        obstacles=[(name, plot.box_section(box, plane, (0, 2)))
+                   for name, box in (("punch", punch), ("wall", wall))])
+    assert ax.get_xlabel() == "x (m)" and ax.get_ylabel() == "z (m)"
+    assert "slice y = 0.438 m" in ax.get_title()   # the layer nearest
+    assert np.allclose(ax.patches[0].get_xy()[:-1],
+                       [[.3, .5], [.7, .5], [.7, .7], [.3, .7]])
+    assert [t.get_text() for t in ax.get_legend().get_texts()][2:] == [
+        "punch", "wall", "left", "front (not in this slice)"]
+    plot.pyplot().close(fig)
+
+
+# a tall, thin bar (0.1 x 1 m) under a step traction, 10 time steps: its
+# deformed shape's displacements below 1e-4 m (a colour bar's "1e-5"
+# factor over the title), a stress picture 0.1 m wide (x ticks 0.04, 0.06
+# overlapping)
+BAR = """
+name = "bar step load"
+[grid]
+x = [0.0, 0.1, 1]
+y = [0.0, 1.2, 48]
+[[bodies]]
+name = "bar"
+region = { y = [0.0, 1.0] }
+points_per_cell = 2
+density = 1000.0
+material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
+[[supports]]
+name = "base"
+boundary = "bottom"
+[[tractions]]
+body = "bar"
+side = "top"
+traction = [0.0, -40.0]
+[dynamics]
+time_step = 0.0012649
+duration = 0.012649
+[solver]
+method = "cpgimp"
+"""
+
+
+def test_a_tall_thin_bodys_figures_keep_their_text_inside(tmp_path,
+                                                          figures):
+    """Every figure of the bar keeps its titles, labels, legends and tick
+    labels inside and apart (conftest's layout_problems, before each is
+    saved; the trial's bar lost both sides of its title and legend, drew
+    "1e-5" over the title and overlapped 0.04 and 0.06)."""
+    scene = tmp_path / "bar.toml"
+    scene.write_text(BAR)
+    assert main(["run", str(scene), "--out", str(tmp_path / "out"),
+                 "--no-progress", "--no-series"]) == 0
+    fig = figures["deformed_shape.png"]
+    bar = fig.axes[1]
+    assert not bar.yaxis.get_offset_text().get_text()
+    assert any("e-05" in t.get_text() for t in bar.get_yticklabels())
+
+
+def test_a_figure_is_laid_out_without_drawing_and_saved_in_one_draw(
+        tmp_path):
+    """``save_figure`` settles a figure's layout by measuring its text,
+    not by drawing it (the layout of 8ff829d drew a figure whole for each
+    tick-thinning try and for each check of its titles and size: 3 to 9
+    draws a figure), and saves it in one draw (a ``tight_layout`` left a
+    place-holder layout engine for which ``savefig`` drew it twice)."""
+    from matplotlib.ticker import MaxNLocator
+    fig, ax = plot.pyplot().subplots(figsize=(1.5, 3.))
+    ax.plot([0., .1], [0., 1.])
+    ax.xaxis.set_major_locator(MaxNLocator(nbins=10))  # 0.00 0.01 ...
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.set_title("a title wider than the figure of one and a half inches")
+    fig.tight_layout()
+    drawn = []
+    fig.canvas.mpl_connect("draw_event", lambda event: drawn.append(1))
+    assert plot.layout_problems(fig) and len(drawn) == 1
+    plot.settle_layout(fig)
+    assert len(drawn) == 1                      # laid out, not drawn
+    assert fig.get_size_inches()[0] > 1.5 and \
+        ax.xaxis.get_major_locator()._nbins <= 4  # grown, ticks thinned
+    plot.save_figure(fig, tmp_path / "thin.png")
+    assert len(drawn) == 2                      # saved in one draw

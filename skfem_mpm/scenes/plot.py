@@ -14,13 +14,16 @@ from typing import NamedTuple, Tuple
 import numpy as np
 
 from .io import atomic_path
+from .layout import layout_problems, settle_layout, thin_ticks
 
 __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "series_styles", "colour_scale", "body_figure_size",
            "figure_problems", "STRESS_NAMES", "mark_peak", "marker_size",
            "draw_deformed_shape", "SupportMarks", "outline",
            "draw_supports", "side_colorbar", "view_limits", "fit_title",
-           "significant"]
+           "significant", "layout_problems", "thin_ticks",
+           "settle_layout", "slice_plane",
+           "box_section"]
 
 #: the stress components' names for labels
 STRESS_NAMES = {(i, j): "sigma_" + "xyz"[i] + "xyz"[j]
@@ -40,7 +43,15 @@ def pyplot():
 
 
 def save_figure(fig, path, dpi: int = 120):
-    """Write ``fig`` to ``path`` (PNG) atomically and close it."""
+    """Write ``fig`` to ``path`` (PNG) atomically and close it, laid out
+    so that its text can be read (:func:`settle_layout`), drawn once: the
+    place-holder a ``tight_layout`` leaves as the figure's layout engine
+    is dropped (``savefig`` drew a figure with one a second time, without
+    rendering, to run the engine, which does nothing)."""
+    from matplotlib.layout_engine import PlaceHolderLayoutEngine
+    settle_layout(fig)
+    if isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
+        fig.set_layout_engine(None)
     with atomic_path(path) as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     pyplot().close(fig)
@@ -96,22 +107,75 @@ def colour_scale(*fields) -> dict:
     return dict(cmap=UNSIGNED_MAP, vmin=lo, vmax=hi)
 
 
-def shown_axes(x: np.ndarray, volume: np.ndarray):
+def shown_axes(x: np.ndarray, volume: np.ndarray, plane=None):
     """The two coordinate axes a 2D picture of points at ``x`` (dim, n)
     shows, and which points it shows: all in 2D; in 3D the slab one point
-    spacing thick through the middle of the body across its thinnest axis
-    (the first of equally thin ones), so no layer hides another."""
+    spacing thick across the axis ``plane[0]`` at the layer nearest
+    ``plane[1]`` (m; default: through the middle of the body across its
+    thinnest axis, the first of equally thin ones), so no layer hides
+    another; and the title's note saying where the slice is."""
     if x.shape[0] == 2:
         return (0, 1), np.ones(x.shape[1], dtype=bool), ""
-    extent = x.max(axis=1) - x.min(axis=1)
-    across = int(np.argmin(extent))
-    middle = .5 * (x[across].max() + x[across].min())
+    if plane is None:
+        extent = x.max(axis=1) - x.min(axis=1)
+        across = int(np.argmin(extent))
+        middle = .5 * (x[across].max() + x[across].min())
+    else:
+        across, middle = int(plane[0]), float(plane[1])
     spacing = np.cbrt(np.median(volume))
     nearest = x[across][np.argmin(np.abs(x[across] - middle))]
     slab = np.abs(x[across] - nearest) < .5 * spacing  # one layer
     shown = tuple(d for d in range(3) if d != across)
     return shown, slab, "slice {} = {:.3g} m".format("xyz"[across],
                                                       x[across][slab].mean())
+
+
+def slice_plane(x: np.ndarray, boxes=(), motions=()) -> tuple:
+    """``(axis, position)`` of the vertical slice (across x or y; z is up)
+    a picture of a 3D body of points at ``x`` (3, n) shows: through the
+    middle of the obstacles' ``boxes`` ((3, 2) each, m) that reach the
+    body (the body's own middle without), across the horizontal axis
+    along which they move least (``motions``: their displacements), else
+    the body's thinner one, else y (a front view).  A horizontal slice
+    through the middle of a block missed the punch pressed on its top.
+
+    >>> import numpy as np
+    >>> from skfem_mpm.scenes.plot import slice_plane
+    >>> x = np.mgrid[.05:1:.1, .05:1:.1, .05:.5:.1].reshape(3, -1)
+    >>> punch = np.array([[.3, .7], [.3, .5], [.5, .7]])
+    >>> wall = np.array([[1., 1.3], [-.1, 1.1], [-.1, .8]])
+    >>> slice_plane(x, [punch, wall], [[0, 0, -.03], [-.02, 0, 0]])
+    (1, 0.4)
+    """
+    lo, hi = x.min(axis=1), x.max(axis=1)
+    pad = .1 * float((hi - lo).max())     # the points' centres: the body
+    near = [(np.asarray(b, float), np.abs(np.ravel(m)))   # reaches beyond
+            for b, m in zip(boxes, motions)
+            if (np.asarray(b)[:, 0] <= hi + pad).all()
+            and (np.asarray(b)[:, 1] >= lo - pad).all()]
+    moving = np.sum([m[:2] for _, m in near], axis=0) if near else \
+        np.zeros(2)
+    extent = hi[:2] - lo[:2]
+    across = min((1, 0), key=lambda k: (moving[k], extent[k]))
+    if not near:
+        return across, round(float(.5 * (lo[across] + hi[across])), 12)
+    # each box's part within the body; their common part if any
+    parts = np.array([[max(b[across, 0], lo[across]),
+                       min(b[across, 1], hi[across])] for b, _ in near])
+    first, last = parts[:, 0].max(), parts[:, 1].min()
+    at = .5 * (first + last) if first <= last else parts.mean()
+    return across, round(float(at), 12)
+
+
+def box_section(box: np.ndarray, plane: tuple, axes: tuple):
+    """The section of the box ``box`` (3, 2; m) by the plane ``plane``
+    (``(axis, position)``) as a polygon (4, 2) in the picture's ``axes``,
+    ``None`` where the plane misses it."""
+    across, at = plane
+    if not box[across, 0] <= at <= box[across, 1]:
+        return None
+    (x0, x1), (y0, y1) = box[list(axes)]
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
 
 def body_figure_size(x: np.ndarray, panels: int = 1, colorbar: bool = True
@@ -176,10 +240,18 @@ def fit_title(fig, ax, title: str, room: float = .8):
 
 
 def side_colorbar(fig, ax, mappable, label: str, size: str = "5%"):
-    """A colour bar labelled ``label`` beside ``ax``, as high as it."""
+    """A colour bar labelled ``label`` beside ``ax``, as high as it; its
+    tick labels carry their own powers of ten (``8e-05``), as a common
+    factor ("1e-5") is drawn above the bar, over the title of a tall
+    figure."""
+    from matplotlib.ticker import FuncFormatter
     from mpl_toolkits.axes_grid1 import make_axes_locatable
     bar = make_axes_locatable(ax).append_axes("right", size=size, pad=.08)
-    return fig.colorbar(mappable, cax=bar, label=label)
+    colorbar = fig.colorbar(mappable, cax=bar, label=label)
+    top = max(abs(colorbar.vmin), abs(colorbar.vmax))
+    if 0 < top < 1e-3 or top >= 1e5:
+        colorbar.formatter = FuncFormatter(lambda v, _: "{:.3g}".format(v))
+    return colorbar
 
 
 def marker_size(fig, ax, x: np.ndarray, volume: np.ndarray,
@@ -384,7 +456,7 @@ def view_limits(x: np.ndarray, margin: float = .1):
 
 def draw_deformed_shape(fig, ax, points, title: str, supports=(),
                         rigid=None, obstacles=(), half=None,
-                        coloured: bool = True):
+                        coloured: bool = True, plane=None):
     """The deformed shape: the points at ``x0 + displacement`` coloured
     by their displacement magnitude (m; a labelled colour bar) or plain
     (``coloured=False``), the undeformed body as a faint outline, the
@@ -403,9 +475,9 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
         The figure and the axes to draw in; ``title`` is the axes' title.
     points
         :class:`~skfem_mpm.MaterialPoints` of the final state (2D; in 3D
-        the slab one point thick through the middle of the body, its
-        supports on the nearest grid plane; in 1D the bar before and after,
-        one above the other).
+        the slab one point thick at ``plane`` (:func:`shown_axes`; default
+        through the middle of the body), its supports on the nearest grid
+        plane; in 1D the bar before and after, one above the other).
     supports
         :class:`SupportMarks`: one legend entry each, the marker saying
         which components are held (``>`` x, ``^`` y, ``d`` z, a square:
@@ -414,7 +486,9 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
         ``{name: mask}``: the points (bool per point) of each rigid body.
     obstacles
         ``[(name, polygon)]``: rigid obstacles' outlines, polygons (k, 2)
-        in the picture's two coordinates (x, y in 2D), m.
+        in the picture's two coordinates (x, y in 2D; in 3D their sections
+        by the slice, :func:`box_section`), m; ``None``: named as not in
+        the slice.
     half
         The points' initial half-widths (dim, n) for the undeformed
         outline; default their domains, else ``volume0 ** (1/dim) / 2``.
@@ -454,7 +528,7 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
                        in ((x, 0.), (x0, 1.), (half, .15)))
         (a, b), shown, note = (0, 1), np.ones(points.n, dtype=bool), ""
     else:
-        (a, b), shown, note = shown_axes(x, points.volume)
+        (a, b), shown, note = shown_axes(x, points.volume, plane)
     grey, handles = "0.55", []
     outline(ax, x0[[a, b]][:, shown], half[[a, b]][:, shown],
             colors=grey, linewidths=1., linestyles="--", zorder=3.5)
@@ -483,7 +557,8 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
                               label="rigid body: {}".format(name)))
     marks = []
     marked = draw_supports(ax, supports, (a, b), x[:, shown] if dim > 1
-                           else None, marks, dim)
+                           else None, marks, dim,
+                           np.median(points.volume) ** (1. / dim))
     if dim > 1:          # the material and the supports, not the obstacles
         h = half[[a, b]][:, shown]
         lo, hi = view_limits(np.hstack([
@@ -492,11 +567,13 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
     for name, polygon in obstacles:
-        ax.add_patch(Polygon(np.asarray(polygon, float), closed=True,
-                             facecolor="0.85", edgecolor="0.2", hatch="//",
-                             lw=1., zorder=1))
+        if polygon is not None:
+            ax.add_patch(Polygon(np.asarray(polygon, float), closed=True,
+                                 facecolor="0.85", edgecolor="0.2",
+                                 hatch="//", lw=1., zorder=1))
         handles.append(Patch(facecolor="0.85", edgecolor="0.2", hatch="//",
-                             label=name))
+                             label=name if polygon is not None else
+                             name + " (not in this slice)"))
     handles += marks
     ax.set_aspect("equal")
     ax.set_xlabel("{} (m)".format("xyz"[a]))
@@ -508,24 +585,31 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     else:
         ax.set_ylabel("{} (m)".format("xyz"[b]))
         ax.locator_params(nbins=5)
-    ax.set_title(title + (", " + note if note else ""))
+    fit_title(fig, ax, title + (", " + note if note else ""))
     if coloured:
         side_colorbar(fig, ax, sc, "displacement magnitude |u| (m)", "4%")
-    ax.legend(handles=handles, loc="upper center", fontsize=7,
-              bbox_to_anchor=(.5, -.2), ncol=2, frameon=False)
+    legend = ax.legend(handles=handles, loc="upper center", fontsize=7,
+                       bbox_to_anchor=(.5, -.2), ncol=2, frameon=False)
+    if legend.get_window_extent(fig.canvas.get_renderer()).width > \
+            .95 * fig.bbox.width:      # a tall, thin body's narrow figure
+        ax.legend(handles=handles, loc="upper center", fontsize=7,
+                  bbox_to_anchor=(.5, -.2), ncol=1, frameon=False)
     return sc
 
 
 def draw_supports(ax, supports, axes: tuple, slab, handles: list,
-                  dim: int):
+                  dim: int, spacing: float = None):
     """The ``supports`` (:class:`SupportMarks`) at their nodes on the
     picture's ``axes``, each in its own colour with a marker by the
     components it holds, and its legend handle appended to ``handles``;
     in 3D only the nodes on the grid plane nearest the slab of points
-    ``slab`` (3, n) drawn, where it lies within the slab's spacing of
-    points of it (a support elsewhere is named as not in the slice: a
-    base at z = 0 was drawn in a slice at z = 0.25); in 1D the nodes are
-    marked on both bars.  Returns the places marked, (2, k)."""
+    ``slab`` (3, n) drawn, where it lies within the points' ``spacing``
+    (default: the slab's, from its area and count) of its middle (a
+    support elsewhere is named as not in the slice: a base at z = 0 was
+    drawn in a slice at z = 0.25; a face the slice crosses is drawn,
+    where the spacing of deformed points, a round-off apart, named the
+    faces of a block as not in every slice); in 1D the nodes are marked
+    on both bars.  Returns the places marked, (2, k)."""
     from matplotlib.lines import Line2D
     a, b = axes
     plane = None
@@ -535,8 +619,10 @@ def draw_supports(ax, supports, axes: tuple, slab, handles: list,
         levels = np.unique(np.concatenate([s.nodes[across]
                                            for s in supports]))
         plane = levels[np.argmin(np.abs(levels - middle))]
-        spread = np.diff(np.unique(slab[a]))
-        if abs(plane - middle) > spread.min(initial=np.inf):
+        if spacing is None:
+            spacing = np.sqrt(np.ptp(slab[a]) * np.ptp(slab[b])
+                              / max(slab.shape[1], 1))
+        if abs(plane - middle) > spacing:
             plane = np.nan                   # no support in the slice
     styles = series_styles(len(supports))
     marked = [np.empty((2, 0))]
