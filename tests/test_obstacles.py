@@ -563,6 +563,16 @@ def test_a_step_stalled_on_zero_energy_modes_switches_the_ghost_on():
     assert stepped == pytest.approx(deflection, rel=1e-3)
 
 
+def assert_same_end(full, resumed):
+    """Assert that the ``resumed`` run ended bit for bit as ``full``: the
+    points' state and positions and the obstacles' last forces."""
+    for name, value in full.points.state.items():
+        assert np.array_equal(value, resumed.points.state[name]), name
+    assert np.array_equal(full.points.x, resumed.points.x)
+    assert np.array_equal(full.history[-1].obstacle_forces,
+                          resumed.history[-1].obstacle_forces)
+
+
 def pressed_block(press: Obstacle, **kwargs):
     """A block 0.6 x 0.5 (E = 1e6, nu = 0.3) on a base held in every
     component, 2 x 2 points in cells of 0.1, pressed by ``press``."""
@@ -969,11 +979,7 @@ def test_contact_state_resumes_bit_identically():
                            kept["record"], pts.domain)))
     assert any(np.any(v) for k, v in part.state.items()
                if k.startswith("contact0_t"))
-    for name, value in full.points.state.items():
-        assert np.array_equal(value, resumed.points.state[name]), name
-    assert np.array_equal(full.points.x, resumed.points.x)
-    assert np.array_equal(full.history[-1].obstacle_forces,
-                          resumed.history[-1].obstacle_forces)
+    assert_same_end(full, resumed)
 
 
 @pytest.mark.slow
@@ -2393,11 +2399,7 @@ def test_a_staged_run_starts_against_the_obstacle_where_the_first_left_it(
     resumed = simulate(*args, kept["points"], *rest, obstacles=[up],
                        options=Options(resume=Resume.after(
                            kept["record"], pts.domain)), **kwargs)
-    for name, value in lifted.points.state.items():
-        assert np.array_equal(value, resumed.points.state[name]), name
-    assert np.array_equal(lifted.points.x, resumed.points.x)
-    assert np.array_equal(lifted.history[-1].obstacle_forces,
-                          resumed.history[-1].obstacle_forces)
+    assert_same_end(lifted, resumed)
 
 
 @pytest.mark.slow
