@@ -1707,7 +1707,10 @@ def test_material_that_runs_away_through_an_obstacle_is_named():
     10, its flat top on a grid line, loaded by a traction) on a floor
     obstacle: a point under the top moved 597 cells in one step, and the
     error blamed the floor, which no cut-back cures.  The error now says
-    that nodes with almost no material ran away and names the remedies."""
+    that nodes with almost no material ran away and names the remedies.
+    In 2 steps: in 1, 3 and 4 the run now converges to the load (the
+    settles release a pressure held across an open gap, which changed
+    the path; in 4 the ghost penalty switches on at step 3)."""
     from skfem_mpm import StepTooLongError, Traction, side_points
     E, nu, R, a, h = 1e6, .3, 1., .2, .02
     P = a ** 2 * np.pi * E / (1 - nu ** 2) / (4 * R)
@@ -1721,7 +1724,7 @@ def test_material_that_runs_away_through_an_obstacle_is_named():
         simulate(mesh, ElementQuad1(), pts, LinearElastic(E, nu),
                  lambda b: b.get_dofs(lambda x: x[0] == 0).all("u^1"),
                  loads=[Traction(side_points(pts, "top"), "top",
-                                 [0., -P / 2 / R])], nsteps=4,
+                                 [0., -P / 2 / R])], nsteps=2,
                  method="bspline", obstacles=[Obstacle(
                      box=[[-1, 2], [-1, 0.]], name="floor")])
 
