@@ -28,7 +28,10 @@ def base(b):
     return b.get_dofs(lambda x: np.isclose(x[1], -.1)).all()
 
 
-@pytest.mark.parametrize("method", ("ugimp", "cpgimp", "mpm", "bspline"))
+@pytest.mark.parametrize("method", [
+    pytest.param("ugimp", marks=pytest.mark.slow),
+    pytest.param("cpgimp", marks=pytest.mark.slow), "mpm",
+    pytest.param("bspline", marks=pytest.mark.slow)])
 def test_a_block_glides_on_a_held_slab(method):
     """An elastic block given vx = 1 on an elastic slab one cell thick
     whose base the supports hold, smooth contact, gravity, dynamics: the

@@ -610,6 +610,7 @@ def test_body_force_per_body_is_checked():
                      callback=pytest.fail)
 
 
+@pytest.mark.slow
 def test_a_scene_without_supports_resumes(tmp_path):
     """Two blocks falling freely (no supports, rigid bodies, obstacles or
     contacts: no reaction to record) stopped after 2 of 4 steps and

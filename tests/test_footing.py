@@ -220,6 +220,7 @@ displacement = [0.0, -0.03]
 ''').replace("steps = 6", "steps = 4")
 
 
+@pytest.mark.slow
 def test_a_bearing_capacity_footing_may_be_a_box_obstacle(tmp_path):
     """A trial's smooth punch (a box obstacle reaching past the symmetry
     line) was refused as a footing: 'needs one rigid body'.  Its pressure

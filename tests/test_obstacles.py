@@ -697,6 +697,7 @@ def test_a_wall_pushed_into_a_held_corner_is_named(caplog):
         E / (1 - nu ** 2) * push / length * height, rel=.02)
 
 
+@pytest.mark.slow
 def test_a_wall_pushed_into_a_held_corner_is_warned_where_it_converges(
         caplog):
     """cpGIMP's corners there read free nodes too: the step converges

@@ -407,6 +407,7 @@ def straight_and_resumed(scene):
     return straight, resumed
 
 
+@pytest.mark.slow
 def test_a_small_strain_plastic_run_resumes(tmp_path):
     """A user trial: once small strain kept the points' rotation as point
     state, every small-strain run's resume was refused ("holds the
@@ -491,6 +492,7 @@ duration = 0.1
 """
 
 
+@pytest.mark.slow
 def test_a_resumed_contact_run_warns_as_its_first_invocation(tmp_path,
                                                              caplog):
     """Trial 57: the warning that bodies meeting inside grid cells may

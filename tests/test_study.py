@@ -805,6 +805,7 @@ def refined_study(limits: dict):
                                       rows, [quantity])
 
 
+@pytest.mark.slow
 def test_the_error_plots_draw_where_the_groups_references_disagree(
         tmp_path, monkeypatch):
     """error_vs_time.png drew B-splines' cases at 0.2% on the Pareto
