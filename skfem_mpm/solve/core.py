@@ -716,6 +716,15 @@ def largest_displacement(points: MaterialPoints) -> float:
         initial=0.))
 
 
+def may_collapse(run: Run) -> bool:
+    """Whether a failure of ``run`` may be a collapse that
+    :func:`collapse_hint` names: a quasi-static run of a plastic body
+    whose loads are forces, not prescribed displacements."""
+    driven = run.prescribed is not None or bool(run.rigid_bodies) or any(
+        np.any(ob.displacement) for ob in run.obstacles or ())
+    return run.dynamics is None and is_plastic(run.material) and not driven
+
+
 def collapse_hint(run: Run, reach: list) -> str:
     """A sentence for a failed quasi-static run of a plastic body whose
     loads are forces, not displacements, where the last converged step
@@ -725,10 +734,7 @@ def collapse_hint(run: Run, reach: list) -> str:
     call's start), or ``""``: the body yields towards a collapse, and a
     load past its limit load has no equilibrium (a user's footing loaded
     past Prandtl's load ended with "no convergence" and no more)."""
-    driven = run.prescribed is not None or run.rigid_bodies or any(
-        np.any(ob.displacement) for ob in run.obstacles or ())
-    if run.dynamics is not None or not is_plastic(run.material) or driven \
-            or len(reach) < 3:
+    if not may_collapse(run) or len(reach) < 3:
         return ""
     (f0, u0), (f1, u1) = reach[:2]
     (f2, u2), (f3, u3) = reach[-2:]
@@ -916,7 +922,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     fastest, warned, timed = np.inf, False, False
     started = run_clock()
     held = 0            # the step's failed attempts, all HeldSupportError
-    reach = [(factor, largest_displacement(points))]   # for collapse_hint
+    watch = may_collapse(run)               # (collapse_hint)
+    reach = [(factor, largest_displacement(points))] if watch else []
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
         target = min(factor + increment, boundary)
@@ -984,7 +991,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         record.increment, record.counters = increment, dict(run.counters)
         result.history.append(record)
         result.points = points
-        reach.append((factor, largest_displacement(points)))
+        if watch:
+            reach.append((factor, largest_displacement(points)))
         result.basis = getattr(op, "basis", None)
         if callback is not None:
             callback(record, points)
