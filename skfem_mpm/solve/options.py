@@ -33,7 +33,9 @@ class Resume:
     ``first_step - 1`` at ``load_factor`` (default
     ``(first_step - 1) / nsteps``); the next load increment is
     ``increment`` (default ``1 / nsteps``; less after a cut-back);
-    ``domain0`` are the initial GIMP domains (default ``points.domain``)
+    ``domain0`` are the initial GIMP domains (default: ``points.domain``
+    unstretched by their ``F``; :attr:`~skfem_mpm.Result.domain0` of
+    the run resumed)
     and ``counters`` those the run goes on from (a ghost penalty switched
     on stays on): :func:`resumed_counters` of the step's.  :meth:`after`
     builds it from the last converged step's record and, for GIMP, the

@@ -152,11 +152,18 @@ class Result:
         with ``newton="modified"``); with obstacles ``contact_updates``
         (augmented-Lagrangian updates of contact: each solves a step
         again).
+    domain0
+        GIMP and averaged splines: the domains' half-lengths (dim, n) the
+        run's deformation stretches (cpGIMP) from, the initial ones, also
+        for a run from points an earlier run deformed (recovered from
+        their domains and ``F``): what :meth:`~skfem_mpm.Resume.after`
+        takes to resume it; ``None`` without domains.
 
     """
     points: MaterialPoints
     history: List[StepRecord] = field(default_factory=list)
     basis: Optional[MaterialPointBasis] = None
+    domain0: Optional[ndarray] = None
     counters: dict = field(default_factory=lambda: dict.fromkeys(
         ("locate", "body_force", "linear_solves", "return_maps",
          "newton_iterations", "line_search_trials", "stabilised_solves",
