@@ -811,8 +811,12 @@ class ObstacleContact(GridTerm):
                 if not near:
                     continue
                 m = X0[:, near]
-                below = (m <= box[:, :1] + eps).all(axis=1)
-                above = (m >= box[:, 1:] - eps).all(axis=1)
+                # within the tolerance inside: pressed on it (a staged
+                # run's start was warned of the box's corner where it left
+                # the grid, its face inside a cell, a user trial)
+                inside = eps + self.tol[i]
+                below = (m <= box[:, :1] + inside).all(axis=1)
+                above = (m >= box[:, 1:] - inside).all(axis=1)
                 beyond = below | above
                 # a face with the material beyond it meets it where the
                 # gap is within TOUCHING cells once the obstacle has moved
