@@ -838,8 +838,8 @@ def test_a_footing_loaded_past_its_limit_load_is_said_to_collapse():
     ``COLLAPSE_SOFTENING`` times as far per load as the first (a
     trial's overload ended with "no convergence" and no more)."""
     from skfem_mpm.solve.core import COLLAPSE_SOFTENING
-    with pytest.raises(NewtonDivergenceError, match="yields towards a "
-                       "collapse") as failure:
+    with pytest.raises(NewtonDivergenceError, match="may be yielding "
+                       "towards a collapse") as failure:
         tresca_footing(2., True, 4)
     err = failure.value
     assert .9 < 2 * err.load_factor < 1.1

@@ -2410,6 +2410,11 @@ def test_a_staged_run_starts_against_the_obstacle_where_the_first_left_it(
                        options=Options(resume=Resume.after(
                            kept["record"], pts.domain)), **kwargs)
     assert_same_end(lifted, resumed)
+    # a Resume from the first step is no resume (the command line gives
+    # one to every run; a reviewer's trace)
+    fresh = simulate(*args, loaded.points, *rest, obstacles=[up],
+                     options=Options(resume=Resume()), **kwargs)
+    assert_same_end(lifted, fresh)
 
 
 @pytest.mark.slow

@@ -743,10 +743,11 @@ def collapse_hint(run: Run, reach: list) -> str:
         return ""
     return ("; the last converged step moved the body {:.3g} times as far "
             "per load increment as the first (the points' largest "
-            "displacement): it yields towards a collapse, past whose "
-            "limit load (at least load factor {:.4g}) no equilibrium "
-            "exists: a smaller load, or a displacement prescribed instead "
-            "(an Obstacle, a rigid body), follows the collapse".format(
+            "displacement): it may be yielding towards a collapse, past "
+            "whose limit load (at least load factor {:.4g}) no "
+            "equilibrium exists: a smaller load, or a displacement "
+            "prescribed instead (an Obstacle, a rigid body), follows the "
+            "collapse".format(
                 last / first, f3))
 
 
@@ -946,7 +947,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         "cause".format(
                             HELD_HALVINGS, span(run, target - factor)),
                         progress(run, factor), too_soft(run, points)
-                        + collapse_hint(run, reach),
+                        + (collapse_hint(run, reach) if isinstance(
+                            err, NewtonDivergenceError) else ""),
                         ghost_hint(run) + seeded_hint(run),
                         terms_hint(run, points)),
                     state=points, load_factor=factor,
@@ -1165,6 +1167,10 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                       contacts)
     check_higher_order_antilocking(method, elem, mesh, case.material,
                                    options.stabilisation.antilocking)
+    warn_volumetric_locking(
+        getattr(case.material, "materials", [case.material]),
+        options.stabilisation.antilocking, kinematics, method, mesh.dim(),
+        higher_order=cell_nodes(elem, mesh)[1] > mesh.t.shape[0])
     underintegrated = underintegrated_cells(method, mesh, elem, points)
     if underintegrated:
         logger.warning(underintegrated)
@@ -1523,9 +1529,6 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       or bool(rigid_bodies),
                       contact=bool(obstacles) or bool(contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
-    warn_volumetric_locking(getattr(material, "materials", [material]),
-                            stabilisation.antilocking, kinematics, method,
-                            mesh.dim())
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
                               stabilisation.antilocking,
                               stabilisation.extended_splines)
@@ -1637,7 +1640,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         line_search=None if linear else retry,
         solver=get_solver(options.solver, mesh.dim()), counters=counters,
         keep_snapshots=options.keep_snapshots, domain0=domain0,
-        resumed=options.resume is not None,
+        resumed=resume.first_step > 1 or resume.load_factor is not None,
         dynamics=dynamics, masses=masses,
         scale=(lambda f: f) if dynamics is None
         else (lambda f: dynamics.scale(f * dynamics.duration)),
