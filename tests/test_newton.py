@@ -379,12 +379,13 @@ def footing_of_nodes(line_search):
 def test_steps_after_one_the_line_search_carried_start_with_it():
     """Full Newton steps fail on perfectly plastic flow under a footing at
     every load step (25 iterations each, before: 6 failed attempts); once
-    the retry's Armijo search has carried one, the later steps start with
-    it: one failed attempt in the run, the same iterations otherwise as
-    the Armijo search from the first step on, and the same pressure to
-    1e-9."""
+    the retry's search (Armijo's, with the energy's slope) has carried
+    one, the later steps start with it: one failed attempt in the run,
+    the same iterations otherwise as that search from the first step on,
+    and the same pressure to 1e-9."""
     res, pressure = footing_of_nodes("backtracking")
-    plain, plain_pressure = footing_of_nodes(Backtracking(watchdog=0))
+    plain, plain_pressure = footing_of_nodes(
+        Backtracking(watchdog=0, slope=True))
     assert res.counters["line_search_from_step"] == 1
     assert plain.counters["line_search_from_step"] == 0
     assert res.counters["newton_iterations"] == \
@@ -545,3 +546,31 @@ def test_newton_ends_where_its_correction_is_round_off(caplog):
     assert default.history[-1].displacement[1, tip] == pytest.approx(
         loose, rel=1e-8)
     assert loose == pytest.approx(6.38, rel=1e-3)
+
+
+def test_slope_search_steps_to_the_energys_minimum():
+    """``r(u) = tanh(3 - u)`` from ``u = 0``: Newton's full step goes to
+    u = 101 (``|r|`` = 1, past the energy's minimum: ``d r < 0``); the
+    search on the slope ``d . r`` takes the step length where it has
+    fallen to ``SLOPE_RATIO`` of its start's, 4 iterations (10 residuals)
+    where Armijo's on ``|r|^2`` takes 6 (15)."""
+    class State:
+        def __init__(self, u):
+            self.u, self.r = u, np.tanh(3 - u)
+            self.merit = float(np.abs(self.r).max())
+
+    def run(search):
+        state, evaluations = State(np.zeros(1)), 0
+        for it in range(40):
+            if state.merit < 1e-12:
+                return it, evaluations, float(state.u[0])
+            d = state.r / (1 - np.tanh(3 - state.u) ** 2)
+            _, state, extra = search(State, state.u, d, state,
+                                     lambda s: s.merit < 1e-12)
+            evaluations += 1 + extra
+    assert run(Backtracking(watchdog=0, slope=True).start()) == \
+        (4, 10, pytest.approx(3.))
+    assert run(Backtracking(watchdog=0).start()) == (6, 15, pytest.approx(3.))
+    assert "slope=True" in repr(Backtracking(slope=True))
+    with pytest.raises(InvalidInputError):
+        Backtracking(slope="yes")
