@@ -95,6 +95,40 @@ def test_a_tight_tolerance_holds_over_steps(method):
                                                        rel=1e-6)
 
 
+@pytest.mark.parametrize("ghost", ("auto", 0.))
+def test_cpgimp_domains_past_a_grid_line_keep_a_stress_uniform(ghost):
+    """Two blocks pressed together across a smooth contact on a grid line
+    with cpGIMP in three steps (strain 2e-2): after the first, the upper
+    body's lowest domains reach a sliver (0.014 cells) of the cell row
+    below on its own field.  The stress stays -p to twice the strain,
+    ghost penalty or not (measured 0.018 and 0.027, the blocks glued
+    0.017), the contact force the load.  The pairs' corners moved with
+    their points' cell's polynomial, extrapolated there, pushed the
+    nodes above the grid line while the domains' internal force reached
+    those below: 0.31 of p off, 1.0 without the ghost penalty."""
+    h, E, nu, p = .125, 2e6, .25, 4e4
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2 * h, 3),
+                                np.linspace(0, 12 * h, 13))
+    pts = bodies(mesh, 3, [[(0, 2 * h), (0, 6 * h)],
+                           [(0, 2 * h), (6 * h, 10 * h)]])
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(E, nu),
+                   roller_base_and_left_wall, nsteps=3, method="cpgimp",
+                   loads=[Traction(side_points(pts, "top"), "top",
+                                   [0., -p])],
+                   contacts=[Contact(0, 1)],
+                   options=Options(stabilisation=Stabilisation(ghost=ghost)))
+    strain = p * (1 - nu ** 2) / E                  # plane strain
+    s = res.points.stress
+    upper = res.points.body == 1
+    # the upper body's lowest domains past the grid line y = 6 h
+    reach = res.points.x[1, upper] - res.points.domain[1, upper]
+    assert 6 * h - reach.min() > .05 * h
+    assert np.abs(s[1, 1] / p + 1).max() < 2 * strain
+    assert np.abs(s[0, 0] / p).max() < strain
+    assert np.allclose(res.history[-1].contact_forces[0], [0., 2 * h * p],
+                       rtol=1e-6)
+
+
 @pytest.mark.parametrize("method", ("mpm", "bspline", "bspline-gimp"))
 def test_finite_deformation_stack(method):
     """Finite deformation, the lower block ten times softer: each block's
@@ -431,10 +465,11 @@ def test_load_steps_do_not_change_a_linear_answer(method, interface):
     """Two blocks squeezed by a ram (a prescribed displacement of the top
     nodes), small strain, linear elastic, the interface inside a cell or
     on a grid line: one step or three give the glued blocks' stress to
-    2e-3 (measured 1e-4, and 9e-4 with cpGIMP on a grid line, whose
-    domains reach a sliver of the other body's cells on their own field,
-    held by the ghost penalty: 9% without it; domains that did not follow
-    the strain drifted by 2-6%)."""
+    2e-4 (measured 6.8e-5; with cpGIMP on a grid line, whose domains
+    reach a sliver of the cells across it on their own field, 8.9e-4
+    and 9% without the ghost penalty while the pairs' corners moved
+    with their points' cells there, extrapolated; domains that did not
+    follow the strain drifted by 2-6%)."""
     from skfem_mpm import Prescribed
 
     def ram(b, f_old, f_new):
@@ -453,7 +488,7 @@ def test_load_steps_do_not_change_a_linear_answer(method, interface):
             mean[steps, bool(contacts)] = res.points.stress[1, 1].mean()
     glued = mean[1, False]
     for key, value in mean.items():
-        assert abs(value / glued - 1) < 2e-3, key
+        assert abs(value / glued - 1) < 2e-4, key
 
 
 @pytest.mark.slow

@@ -24,9 +24,12 @@ of either corner and normal) with the gap
 
 positive while the surfaces are apart, so bodies in one cell do not
 interact until their domains meet.  The corners move with their fields,
-``x + N(x) du`` with the grid element's shape functions of the cell
-holding the point (exact for any linear field), so a uniform stress
-crosses the interface exactly.  Pressure and friction per pair are those
+``x + N(x) du`` with the grid element's shape functions of the cell a
+corner lies in where its point's domain holds material there (a sliver
+past a grid line), else of the cell holding the point (exact for any
+linear field, and reaching the nodes the domains' internal force
+reaches), so a uniform stress crosses the interface exactly.
+Pressure and friction per pair are those
 of :mod:`skfem_mpm.solve.contact` (the pressure of an augmented
 Lagrangian ``p = max(0, lambda - kappa g)``, a Coulomb return map on the
 relative tangential increment ``s``, ``"rough"``: no slip) with the
@@ -68,9 +71,11 @@ from scipy.sparse import csr_matrix, diags, identity, kron, vstack
 from scipy.spatial import cKDTree
 
 from ..errors import (GridMotionError, InvalidInputError,
+                      PointsOutsideGridError,
                       StepTooLongError, check_real)
 from ..methods.fields import body_fields
 from ..protocols import GridTerm
+from ..quadrature.locate import point_locator
 from .contact import (CellValues, block_diagonal, corner_signs, coulomb,
                       friction_hint, spline_rows)
 from .contact_pairs import FACING, PairFinder, overlapping
@@ -377,6 +382,7 @@ class BodyContact(GridTerm):
         self.geometry, self.supports = WeakKeyDictionary(), \
             WeakKeyDictionary()
         self.kept_corners = None     # :meth:`corners`, the last
+        self.grid_locate = None      # :meth:`corner_cells`
         self.interfaces = WeakKeyDictionary()    # :meth:`interface`
         self.finder = PairFinder(contacts, field, mesh, vertices, cell_size,
                                  columns=weights is not None)
@@ -714,8 +720,8 @@ class BodyContact(GridTerm):
     def rows(self, op, points, corner: ndarray):
         """The vector rows ``J`` (dim m, N) of the corners ``c n + p``:
         the method's weights there (B-splines), or the grid element's
-        shape functions of each point's cell evaluated at its corner
-        (beyond the cell where it reaches out)."""
+        shape functions at the corner of the cell of
+        :meth:`corner_cells`."""
         dim, n = self.dim, points.n
         p = corner % n
         X = self.corners(points).reshape(dim, -1)[:, corner]
@@ -724,8 +730,66 @@ class BodyContact(GridTerm):
         if self.weights is not None:
             return kron(spline_rows(self.weights, op, X, p),
                         identity(dim), format="csr")
-        S = self.cell_values(X, op.point_elements[p], op.N // dim)
+        S = self.cell_values(X, self.corner_cells(op, points, X, p),
+                             op.N // dim)
         return kron(S, identity(dim), format="csr")
+
+    def corner_cells(self, op, points, X: ndarray, p: ndarray) -> ndarray:
+        """The cells (of the extended mesh) whose polynomials move the
+        corners ``X`` (dim, m) of the points ``p`` (m,): the cell on the
+        point's field that a corner lies in, where the point's weights
+        reach all its nodes (its domain holds material there, if only a
+        sliver), else the point's own (extrapolated: a corner beyond the
+        material the point's domain holds); a corner within :data:`PULL`
+        of its distance to the point from a cell's face is the point's
+        side of it, and one beyond the grid's bounding box is moved onto
+        it (the domains are clipped to the grid: a side's corners on
+        the polynomial of the cell below the grid line, as the others').
+
+        cpGIMP's internal force of a uniform stress on a field's node is
+        the stress on the node's shape function along the surface of its
+        points' domains, as the cells the surface lies in have it; the
+        contact's force on a body's corner must reach the nodes alike.
+        With the point's cell's polynomial extrapolated to a corner in
+        the cell below (a body pressed onto another, its domains a
+        sliver past a grid line: 0.014 of a cell), the pressure went to
+        the nodes above, the internal force to those below, which
+        nothing else held: a uniform compression across a smooth
+        contact, exact in one step, was 32% off in three (the ghost
+        penalty's default), 100% without the ghost penalty.
+        """
+        cells = op.point_elements[p]
+        if self.grid_locate is None:
+            grid = type(self.cell_values.mesh)(
+                self.cell_values.mesh.p[:, :self.nv],
+                self.cell_values.mesh.t[:, :self.cells], sort_t=False)
+            self.grid_locate = point_locator(grid)
+        mesh = self.grid_locate.mesh
+        inward = np.clip(X + PULL * (points.x[:, p] - X),
+                         mesh.p.min(axis=1)[:, None],
+                         mesh.p.max(axis=1)[:, None])
+        found = np.full(p.size, -1, dtype=np.int64)
+        inside = np.ones(p.size, dtype=bool)
+        while inside.any():
+            try:
+                found[inside] = self.grid_locate(inward[:, inside])[0]
+                break
+            except PointsOutsideGridError as error:   # keep the point's
+                if error.indices is None:
+                    break
+                inside[np.flatnonzero(inside)[error.indices]] = False
+        other = np.flatnonzero((found >= 0) & (
+            found + self.point_field[p] * self.cells != cells))
+        if not other.size:
+            return cells
+        moved = found[other] + self.point_field[p[other]] * self.cells
+        dofs = self.cell_values.dofs[:, moved]          # (nodes, m)
+        reach = self.support(op, points)[
+            np.broadcast_to(p[other], dofs.shape).ravel(), dofs.ravel()]
+        held = (np.asarray(reach).reshape(dofs.shape) != 0).all(axis=0)
+        cells = cells.copy()
+        cells[other[held]] = moved[held]
+        return cells
 
     def companions(self, points, corner: ndarray, among: ndarray):
         """The corners of the points ``among`` (of the corners' body) at
@@ -926,6 +990,11 @@ SUPPORT_NEAREST = .25
 #: looks only at the points near the other body at the step's start (a
 #: step moving points farther looks at every point)
 PASSING_NEAR = 2.
+
+#: the fraction of its distance to its point by which a domain corner is
+#: moved towards it to find the cell it lies in (a corner on a grid line
+#: lies in its point's cell): :meth:`BodyContact.corner_cells`
+PULL = 1e-9
 
 #: the cells a contact's corner may be moved by grid nodes that slivers
 #: of material hold (:meth:`StepBodyContact.check_slivers`)

@@ -1829,17 +1829,23 @@ class CellValues:
         self.local = cell_coordinates(mesh, clip=False)
         self._dofs = None
 
-    def __call__(self, x: ndarray, cells: ndarray, N: int) -> csr_matrix:
+    @property
+    def dofs(self) -> ndarray:
+        """The scalar DOFs of each cell (local nodes, cells)."""
         if self._dofs is None:
             from skfem.assembly import Dofs
             self._dofs = Dofs(self.mesh, self.elem).element_dofs
+        return self._dofs
+
+    def __call__(self, x: ndarray, cells: ndarray, N: int) -> csr_matrix:
+        dofs = self.dofs
         local = self.local(x, cells)
-        nloc = self._dofs.shape[0]
+        nloc = dofs.shape[0]
         values = np.array([self.elem.lbasis(local, i)[0]
                            for i in range(nloc)])              # (nloc, m)
         m = x.shape[1]
         return coo_matrix((values.ravel(), (np.tile(np.arange(m), nloc),
-                                            self._dofs[:, cells].ravel())),
+                                            dofs[:, cells].ravel())),
                           shape=(m, N)).tocsr()
 
 
