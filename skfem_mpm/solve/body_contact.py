@@ -993,8 +993,10 @@ PASSING_NEAR = 2.
 
 #: the fraction of its distance to its point by which a domain corner is
 #: moved towards it to find the cell it lies in (a corner on a grid line
-#: lies in its point's cell): :meth:`BodyContact.corner_cells`
-PULL = 1e-9
+#: lies in its point's cell): :meth:`BodyContact.corner_cells`; an
+#: obstacle's corners that hold are found alike
+#: (:meth:`~skfem_mpm.solve.contact.ObstacleContact.corner_cells`)
+PULL = 1e-6
 
 #: the cells a contact's corner may be moved by grid nodes that slivers
 #: of material hold (:meth:`StepBodyContact.check_slivers`)
