@@ -451,6 +451,67 @@ def test_a_load_past_coulomb_s_from_the_start_names_friction():
         np.tan(tilt) / mu) in str(failed.value)
 
 
+def block_on_tilted_floor(loads=(), ramp=True, max_cutbacks=8):
+    """The error and the logged cut-backs of a block on a Coulomb floor
+    (mu = 0.3) under gravity tilted 0.15 rad past arctan(mu), held by
+    the floor alone, quasi-static (the slope of examples/obstacles.py)."""
+    import logging
+    from skfem_mpm import ConvergenceError
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 21),
+                                np.linspace(-.2, .6, 9))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > .2) & (x[0] < .6)
+                      & (x[1] > 0.) & (x[1] < .2))
+    mu = .3
+    theta = np.arctan(mu) + .15
+    weight = 9.81e3 * np.array([np.sin(theta), -np.cos(theta)])
+    logged = []
+    handler = logging.Handler()
+    handler.emit = lambda record: logged.append(record.getMessage())
+    log = logging.getLogger("skfem_mpm.solve.core")
+    log.addHandler(handler)
+    try:
+        with pytest.raises(ConvergenceError) as failed:
+            simulate(mesh, ElementQuad1(), pts, LinearElastic(1e7, .3),
+                     [], loads=[load(pts) for load in loads],
+                     body_force=BodyForce(weight, ramp=ramp), nsteps=4,
+                     obstacles=[Obstacle(box=[[-1, 3], [-1, 0.]],
+                                         friction=mu, name="floor")],
+                     options=Options(newton=NewtonOptions(
+                         max_cutbacks=max_cutbacks)))
+    finally:
+        log.removeHandler(handler)
+    return failed.value, [m for m in logged if "cutting the load" in m], \
+        np.tan(theta) / mu
+
+
+def test_a_load_past_mu_in_proportion_is_not_cut_back():
+    """Gravity tilted past mu on a block held by a Coulomb floor alone:
+    no load factor has an equilibrium, and the run stops at its first
+    step's failure, the last converged state attached, naming the load
+    against mu, where it cut the step back 9 times in vain (2.3 s, now
+    0.6 s; a user trial)."""
+    error, cut_backs, ratio = block_on_tilted_floor()
+    assert not cut_backs
+    assert error.load_factor == 0. and error.state is not None
+    message = str(error)
+    assert "not cut back: the loads grow in proportion" in message
+    assert "along the face of obstacle 'floor' with {:.3f} times " \
+        "mu".format(ratio) in message
+
+
+def test_a_load_past_mu_not_in_proportion_is_cut_back():
+    """The same block, its weight in full from the first step and a
+    traction on its top ramped (loads not in proportion: a shorter step
+    changes how they lean) is cut back as any failed step."""
+    from skfem_mpm import Traction, side_points
+    error, cut_backs, _ = block_on_tilted_floor(
+        loads=[lambda p: Traction(side_points(p, "top"), "top", [0., -1.])],
+        ramp=False, max_cutbacks=1)
+    assert len(cut_backs) == 1
+    assert "not cut back" not in str(error)
+    assert "no convergence down to" in str(error)
+
+
 def test_a_block_on_an_oblique_coulomb_face_past_mu_names_friction():
     """Trial 60: a block touching a 25 degree incline (a polygon, mu =
     0.3 < tan 25 degrees) at its lower corner, nothing else holding it:

@@ -751,6 +751,21 @@ def collapse_hint(run: Run, reach: list) -> str:
                 last / first, f3))
 
 
+def no_equilibrium(run: Run, points: MaterialPoints) -> bool:
+    """Whether a failed step of ``run`` from the converged state
+    ``points`` is one that no shorter step can take: quasi-static, loads
+    that grow in proportion (:meth:`~skfem_mpm.solve.loads.ExternalLoads.
+    proportional`, no term's load that follows the trial) and a term that
+    sees the load unbalanced at every load factor
+    (:meth:`~skfem_mpm.protocols.GridTerm.no_equilibrium`; a block on a
+    Coulomb slope past mu cut its first step back 9 times in 23 s, a
+    user trial)."""
+    return run.dynamics is None and not run.linear and \
+        run.loads.proportional(points) and all(
+            type(term).load is GridTerm.load for term in run.terms) and \
+        any(term.no_equilibrium(points) for term in run.terms)
+
+
 def steps_left(factor: float, increment: float, nsteps: int,
                adaptive: bool) -> int:
     """The steps a run at load factor ``factor`` (or fraction of its
@@ -935,12 +950,16 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                                          step + 1)
         except STEP_FAILURES as err:
             held = held + 1 if isinstance(err, HeldSupportError) else 0
+            unbalanced = no_equilibrium(run, points)
             if run.linear or (target - factor) / 2 < smallest * (1 - 1e-9) \
-                    or held > HELD_HALVINGS:
+                    or held > HELD_HALVINGS or unbalanced:
                 raise type(err)(
                     "{}; {}: the last converged state ({}) is attached"
                     "{}{}{}".format(
-                        err, "no convergence down to {}".format(span(
+                        err, "not cut back: the loads grow in proportion, "
+                        "and a shorter step has no equilibrium either"
+                        if unbalanced else
+                        "no convergence down to {}".format(span(
                             run, target - factor)) if held <= HELD_HALVINGS
                         else "failed so at {} halvings of the step, down "
                         "to {}: a shorter step does not remove the "
