@@ -833,8 +833,8 @@ def tresca_footing(load, antilocking, nsteps):
 def test_a_footing_loaded_past_its_limit_load_is_said_to_collapse():
     """Twice Prandtl's load on a Tresca footing with anti-locking: the
     run fails past the collapse, its last converged load within 10% of
-    Prandtl's on this coarse grid, and the error says the body yields
-    towards a collapse, its last step moving it at least
+    Prandtl's on this coarse grid, and the error says the body may be
+    yielding towards a collapse, its last step moving it at least
     ``COLLAPSE_SOFTENING`` times as far per load as the first (a
     trial's overload ended with "no convergence" and no more)."""
     from skfem_mpm.solve.core import COLLAPSE_SOFTENING

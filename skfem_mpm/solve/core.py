@@ -731,9 +731,11 @@ def collapse_hint(run: Run, reach: list) -> str:
     moved the body :data:`COLLAPSE_SOFTENING` times or more as far per
     load increment as its first step did (``reach``: the load factor and
     the points' largest displacement after each converged step, from the
-    call's start), or ``""``: the body yields towards a collapse, and a
-    load past its limit load has no equilibrium (a user's footing loaded
-    past Prandtl's load ended with "no convergence" and no more)."""
+    call's start), or ``""``: the body may be yielding towards a
+    collapse, past whose limit load no equilibrium exists (a hardening
+    material softens so too, with no limit load: hence "may"; a user's
+    footing loaded past Prandtl's load ended with "no convergence" and no
+    more)."""
     if not may_collapse(run) or len(reach) < 3:
         return ""
     (f0, u0), (f1, u1) = reach[:2]
