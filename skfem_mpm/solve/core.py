@@ -729,28 +729,28 @@ def collapse_hint(run: Run, reach: list) -> str:
     """A sentence for a failed quasi-static run of a plastic body whose
     loads are forces, not displacements, where the last converged step
     moved the body :data:`COLLAPSE_SOFTENING` times or more as far per
-    load increment as its first step did (``reach``: the load factor and
-    the points' largest displacement after each converged step, from the
-    call's start), or ``""``: the body may be yielding towards a
-    collapse, past whose limit load no equilibrium exists (a hardening
-    material softens so too, with no limit load: hence "may"; a user's
-    footing loaded past Prandtl's load ended with "no convergence" and no
-    more)."""
+    load increment as its stiffest step before did (``reach``: the load
+    factor and the points' largest displacement after each converged
+    step, from the call's start; the stiffest, not the first: a body
+    force in full from the first step moves the body in it), or ``""``:
+    the body may be yielding towards a collapse, past whose limit load
+    no equilibrium exists (a hardening material softens so too, with no
+    limit load: hence "may"; a user's footing loaded past Prandtl's load
+    ended with "no convergence" and no more)."""
     if not may_collapse(run) or len(reach) < 3:
         return ""
-    (f0, u0), (f1, u1) = reach[:2]
-    (f2, u2), (f3, u3) = reach[-2:]
-    first, last = (u1 - u0) / (f1 - f0), (u3 - u2) / (f3 - f2)
-    if not last >= COLLAPSE_SOFTENING * first > 0:
+    f, u = np.array(reach).T
+    rates = np.diff(u) / np.diff(f)
+    stiffest = rates[:-1][rates[:-1] > 0].min(initial=np.inf)
+    if not rates[-1] >= COLLAPSE_SOFTENING * stiffest:
         return ""
     return ("; the last converged step moved the body {:.3g} times as far "
-            "per load increment as the first (the points' largest "
-            "displacement): it may be yielding towards a collapse, past "
-            "whose limit load (at least load factor {:.4g}) no "
+            "per load increment as the stiffest step before (the points' "
+            "largest displacement): it may be yielding towards a collapse, "
+            "past whose limit load (at least load factor {:.4g}) no "
             "equilibrium exists: a smaller load, or a displacement "
             "prescribed instead (an Obstacle, a rigid body), follows the "
-            "collapse".format(
-                last / first, f3))
+            "collapse".format(rates[-1] / stiffest, f[-1]))
 
 
 def no_equilibrium(run: Run, points: MaterialPoints) -> bool:
