@@ -249,13 +249,57 @@ def test_a_block_held_by_a_contact_alone_past_mu_is_not_cut_back():
     is cut back as before, and not said to have no equilibrium."""
     message, cut_backs = tilted_block_on_slab(held=False)
     assert not cut_backs
-    assert "not cut back: the loads grow in proportion" in message
+    assert "not cut back: the loads keep their direction" in message
     assert "the load on body 1 pushes it along its contact '0-1' with " \
         "body 0 with {:.3f} times mu".format(
             np.tan(np.radians(25.)) / .3) in message
     message, cut_backs = tilted_block_on_slab(held=True)
     assert len(cut_backs) == 1 and "not cut back" not in message
     assert "pushes it along" not in message
+
+
+def test_a_block_past_mu_towards_a_lip_of_its_slab_is_cut_back():
+    """The block on a slab at 25 degrees, the slab rising in a lip 0.3
+    downhill of it (beyond the interface's pairs, which are flat): the
+    block may slide onto the lip and rest, so a failed step (Newton
+    limited to 6 iterations) is cut back, not stopped as having no
+    equilibrium (a review's set-up)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 17), np.linspace(0, 1, 9))
+    pts = bodies(mesh, 2, [
+        lambda x: (x[1] < .5) | ((x[0] > 1.3) & (x[0] < 1.5)
+                                 & (x[1] < .75)),
+        [(.5, 1.), (.5, .75)]])
+    theta = np.radians(25.)
+    weight = G * 2e3 * np.array([np.sin(theta), -np.cos(theta)])
+    with pytest.raises(MPMError) as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(5e6, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                 body_force=weight, contacts=[Contact(0, 1, friction=.3)],
+                 options=Options(NewtonOptions(max_iter=6, max_cutbacks=1)))
+    assert "not cut back" not in str(failed.value)
+    assert "no convergence down to" in str(failed.value)
+
+
+def test_a_block_past_mu_a_traction_holds_back_is_cut_back():
+    """The block on a slab at 25 degrees (1.554 mu) held back by a
+    traction on its downhill side (ramped, 2000 N/m: the load along the
+    interface 0.80 mu of the force pressing it), finite deformation,
+    Newton limited to two iterations: the contact's load leaves surface
+    loads out, so such a body is not judged, and its failed step is cut
+    back and converges (a review: the run stopped, "no equilibrium")."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
+    pts = bodies(mesh, 2, [[(0, 2), (0, .5)], [(.5, 1.), (.5, .75)]])
+    theta = np.radians(25.)
+    weight = G * 2e3 * np.array([np.sin(theta), -np.cos(theta)])
+    right = side_points(pts, "right", pts.body == 1)
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(7e4, .3),
+                   lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                   body_force=weight, kinematics="finite",
+                   loads=[Traction(right, "right", [-2e3, 0.])],
+                   contacts=[Contact(0, 1, friction=.3)],
+                   options=Options(NewtonOptions(max_iter=2)))
+    assert res.history[-1].load_factor == 1.
+    assert len(res.history) > 1         # cut back: the one step asked split
 
 
 def test_three_stacked_bodies_in_contact():

@@ -1015,12 +1015,14 @@ class ObstacleContact(GridTerm):
         return hint
 
     def no_equilibrium(self, points) -> bool:
-        """Where nothing but obstacles holds the material (no support, no
-        prescribed motion, no rigid body): whether the load of the last
-        step tried slides it off its one Coulomb face
-        (:meth:`sliding_load_hint`; the resultant of the whole body, so
-        the balance of the material as one)."""
-        return self.obstacles_alone and bool(self.sliding_load_hint(points))
+        """Where nothing but one convex obstacle holds the material (no
+        support, no prescribed motion, no rigid body, no other obstacle it
+        may slide into: a wall 0.05 downhill of a block caught it, a
+        review): whether the load of the last step tried slides it off
+        its one Coulomb face (:meth:`sliding_load_hint`; the resultant of
+        the whole body, so the balance of the material as one)."""
+        return self.obstacles_alone and len(self.obstacles) == 1 and \
+            self.obstacles[0].convex and bool(self.sliding_load_hint(points))
 
     def sliding_load_hint(self, points) -> str:
         """Where Coulomb faces alone hold the material and every corner

@@ -133,9 +133,9 @@ SLIVER_METHODS = ("ugimp", "cpgimp", "bspline3", "bspline3-gimp")
 #: seconds: the steps left of a run that would take longer, at the pace of
 #: its fastest step so far, are announced by a warning (once)
 LONG_RUN = 600.
-#: how many times as far per load increment as its first step the last
-#: converged step of a failed load-controlled plastic run moved the body
-#: for the error to call it a collapse (:func:`collapse_hint`)
+#: how many times as far per load increment as its stiffest step before
+#: the last converged step of a failed load-controlled plastic run moved
+#: the body for the error to call it a collapse (:func:`collapse_hint`)
 COLLAPSE_SOFTENING = 5.
 #: the ghost penalty that ``ghost="auto"`` switches on when a
 #: finite-deformation step of moving points fails
@@ -761,9 +761,11 @@ def no_equilibrium(run: Run, points: MaterialPoints) -> bool:
     sees the load unbalanced at every load factor
     (:meth:`~skfem_mpm.protocols.GridTerm.no_equilibrium`; a block on a
     Coulomb slope past mu cut its first step back 9 times in 23 s, a
-    user trial)."""
+    user trial).  Not with grid terms of a user's (``loads``), which
+    may hold the material or load it in ways the built-in terms cannot
+    judge."""
     return run.dynamics is None and not run.linear and \
-        run.loads.proportional(points) and all(
+        not run.user_terms and run.loads.proportional(points) and all(
             type(term).load is GridTerm.load for term in run.terms) and \
         any(term.no_equilibrium(points) for term in run.terms)
 
@@ -958,8 +960,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                 raise type(err)(
                     "{}; {}: the last converged state ({}) is attached"
                     "{}{}{}".format(
-                        err, "not cut back: the loads grow in proportion, "
-                        "and a shorter step has no equilibrium either"
+                        err, "not cut back: the loads keep their direction "
+                        "at every load factor, so a shorter step has no "
+                        "equilibrium either"
                         if unbalanced else
                         "no convergence down to {}".format(span(
                             run, target - factor)) if held <= HELD_HALVINGS
@@ -1654,7 +1657,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
         prescribed_fields=None if case.prescribed_bodies is None
         else np.unique(case.body_field[list(case.prescribed_bodies)]),
-        obstacles=case.obstacles,
+        obstacles=case.obstacles, user_terms=tuple(case.terms),
         rhs=newton.rhs, tol=newton.tol, max_iter=newton.max_iter,
         newton=FullStep() if linear else first,
         modified=newton.newton == "modified" and not linear,
