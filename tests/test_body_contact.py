@@ -1,5 +1,6 @@
 """Contact between deformable bodies on separate fields
 (:mod:`skfem_mpm.solve.body_contact`, :mod:`skfem_mpm.methods.fields`)."""
+import logging
 import re
 
 import numpy as np
@@ -206,12 +207,11 @@ def test_friction_between_bodies_holds_a_block_quasi_statically(degrees,
     assert np.abs(res.points.displacement[0, block]).max() < 1e-3
 
 
-def tilted_block_on_slab(held: bool):
+def tilted_block_on_slab(caplog, held: bool):
     """The error and logged cut-backs of the block on a slab (mu = 0.3)
     under gravity tilted 25 degrees, quasi-static; ``held``: the block's
     left side also on a support in x, in finite deformation with Newton
     given one iteration, so that the step fails all the same."""
-    import logging
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
     pts = bodies(mesh, 2, [[(0, 2), (0, .5)], [(.5, 1.), (.5, .75)]])
     theta, rho = np.radians(25.), 2e3
@@ -221,12 +221,8 @@ def tilted_block_on_slab(held: bool):
         base = b.get_dofs(lambda x: x[1] == 0).all()
         side = b.get_dofs(lambda x: (x[0] == .5) & (x[1] > .6)).all("u^1")
         return np.concatenate([base, side]) if held else base
-    logged = []
-    handler = logging.Handler()
-    handler.emit = lambda record: logged.append(record.getMessage())
-    log = logging.getLogger("skfem_mpm.solve.core")
-    log.addHandler(handler)
-    try:
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm.solve.core"):
         with pytest.raises(MPMError) as failed:
             simulate(mesh, ElementQuad1(), pts, LinearElastic(5e6, .3),
                      supports, body_force=weight, nsteps=2,
@@ -235,25 +231,24 @@ def tilted_block_on_slab(held: bool):
                      options=Options(NewtonOptions(
                          max_iter=1 if held else 25,
                          max_cutbacks=1 if held else 8)))
-    finally:
-        log.removeHandler(handler)
-    return str(failed.value), [m for m in logged if "cutting the" in m]
+    return str(failed.value), [r.getMessage() for r in caplog.records
+                               if "cutting the" in r.getMessage()]
 
 
-def test_a_block_held_by_a_contact_alone_past_mu_is_not_cut_back():
+def test_a_block_held_by_a_contact_alone_past_mu_is_not_cut_back(caplog):
     """The block on a slab under gravity tilted past mu (tan 25 degrees
     = 1.554 mu), held by the contact alone: no load factor has an
     equilibrium, and the run stops at its first failure where it cut the
     step back 8 times in vain (2.1 s, now 0.5 s; trial 64's obstacle
     case alike).  Held also by a support (failing by a Newton limit), it
     is cut back as before, and not said to have no equilibrium."""
-    message, cut_backs = tilted_block_on_slab(held=False)
+    message, cut_backs = tilted_block_on_slab(caplog, held=False)
     assert not cut_backs
     assert "not cut back: the loads keep their direction" in message
     assert "the load on body 1 pushes it along its contact '0-1' with " \
         "body 0 with {:.3f} times mu".format(
             np.tan(np.radians(25.)) / .3) in message
-    message, cut_backs = tilted_block_on_slab(held=True)
+    message, cut_backs = tilted_block_on_slab(caplog, held=True)
     assert len(cut_backs) == 1 and "not cut back" not in message
     assert "pushes it along" not in message
 
