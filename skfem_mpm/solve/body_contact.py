@@ -392,8 +392,9 @@ class BodyContact(GridTerm):
         #: the grid's lines per axis (:meth:`warn_sides_inside_cells`)
         self.lines = [np.unique(mesh.p[d]) for d in range(self.dim)]
         #: per body, the resultant of its body force and point forces at
-        #: the last step tried (:meth:`sliding_load_hint`)
-        self.loads = None
+        #: the last step tried (:meth:`sliding_load_hint`), and whether
+        #: its contact alone may hold it (:meth:`held_by_contact_alone`)
+        self.loads, self.alone = None, None
 
     def warn_sides_inside_cells(self, points, half: ndarray) -> None:
         """A warning where a side of a body in contact (a face of a
@@ -534,33 +535,93 @@ class BodyContact(GridTerm):
         equilibrium.  :func:`~skfem_mpm.solve.contact.friction_hint`
         needs a committed step; a block on a slab under gravity tilted
         past mu failed its first step with neither (a user trial)."""
+        found = self.sliding_body(k)
+        if found is None:
+            return ""
+        named, ratio = found[3:]
+        return ("; the load on body {!r} pushes it along its contact {!r} "
+                "with body {!r} with {:.3f} times mu times the force "
+                "pressing it on the interface: held by that contact alone "
+                "it has no quasi-static equilibrium past mu, it slides "
+                "(dynamics follows the slide; or prescribe its "
+                "motion)".format(named[0], self.contacts[k][2].name,
+                                 named[1], ratio))
+
+    def sliding_body(self, k: int) -> Optional[tuple]:
+        """The body of contact ``k`` its load slides along the interface
+        (:meth:`sliding_load_hint`), nothing else holding it
+        (:meth:`held_by_contact_alone`): ``(body, the other body, the
+        interface's normal towards the body, (its name, the other's), the
+        load's ratio to mu times the force pressing it)``, or ``None`` (a
+        block also held by a support was told it had no equilibrium, a
+        review)."""
         a, b, contact = self.contacts[k]
         found = [pairs[k][2] for pairs in self.geometry.values()]
         if self.loads is None or not found or isinstance(
                 contact.friction, str) or not contact.friction > 0.:
-            return ""
+            return None
         normal = found[-1]
         if not normal.size or np.ptp(normal, axis=1).max() > 1e-9:
-            return ""
+            return None
         n = normal[:, 0]                    # from the first to the second
-        for body, towards, named in (
-                (b, n, (contact.second, contact.first)),
-                (a, -n, (contact.first, contact.second))):
+        for body, other, towards, named in (
+                (b, a, n, (contact.second, contact.first)),
+                (a, b, -n, (contact.first, contact.second))):
+            if not self.alone[body]:
+                continue
             load = self.loads[body]
             pressing = -float(load @ towards)
             along = float(np.linalg.norm(load + pressing * towards))
             if pressing > 0 and along > contact.friction * pressing * (
                     1 + 1e-9):
-                return ("; the load on body {!r} pushes it along its "
-                        "contact {!r} with body {!r} with {:.3f} times mu "
-                        "times the "
-                        "force pressing it on the interface: held by that "
-                        "contact alone it has no quasi-static equilibrium "
-                        "past mu, it slides (dynamics follows the slide; or "
-                        "prescribe its motion)".format(
-                            named[0], contact.name, named[1],
-                            along / (contact.friction * pressing)))
-        return ""
+                return (body, other, towards, named,
+                        along / (contact.friction * pressing))
+        return None
+
+    def no_equilibrium(self, points) -> bool:
+        """Whether the load of the last step tried slides a body along
+        its contact that nothing else holds (:meth:`sliding_body`), the
+        other body lying wholly on its side of the interface's plane (no
+        lip or wall of it that the sliding body may meet), ``points``
+        the last converged state."""
+        for k in range(len(self.contacts)):
+            found = self.sliding_body(k)
+            if found is None:
+                continue
+            body, other, towards = found[:3]
+            level = np.einsum("d,dcn->cn", towards, self.corners(points))
+            if level[:, points.body == other].max() <= \
+                    level[:, points.body == body].min() + self.tol[k]:
+                return True
+        return False
+
+    def held_by_contact_alone(self, problem) -> ndarray:
+        """Per body, whether one contact alone can hold it in the step of
+        ``problem``: the body is in one contact, alone on its field, whose
+        copy of the grid holds no support where material is, in a run with
+        no prescribed motion, rigid body, obstacle, term that holds a free
+        body or of a user's, and no surface load (:attr:`loads` has the
+        body forces and point forces alone)."""
+        run, op = problem.run, problem.op
+        bodies = self.field.size
+        if run.prescribed is not None or run.rigid_bodies or \
+                run.obstacles or any(term.holds_free_body
+                                     for term in run.terms) or \
+                run.user_terms or run.loads.surface or \
+                run.loads.grid_vector is not None:
+            # (surface loads: not in :attr:`loads`; a traction holding a
+            # block back up its slope was left out, a review)
+            return np.zeros(bodies, dtype=bool)
+        active = np.zeros(op.N, dtype=bool)
+        active[op.active_dofs] = True
+        fixed = problem.fixed[active[problem.fixed]]
+        fields = int(self.field.max()) + 1
+        held = np.zeros(fields, dtype=bool)
+        held[fixed // (op.N // fields)] = True
+        contacts = np.bincount([body for a, b, _ in self.contacts
+                                for body in (a, b)], minlength=bodies)
+        return (contacts == 1) & ~held[self.field] & (
+            np.bincount(self.field, minlength=fields)[self.field] == 1)
 
     def domain_offsets(self, points) -> ndarray:
         """The corners' offsets from their points (dim, corners, n) where
@@ -955,6 +1016,7 @@ class BodyContact(GridTerm):
 
     def begin_step(self, problem):
         self.loads = body_loads(problem)
+        self.alone = self.held_by_contact_alone(problem)
         return StepBodyContact(self, problem)
 
 

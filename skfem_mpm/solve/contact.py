@@ -1014,6 +1014,16 @@ class ObstacleContact(GridTerm):
                         float(np.linalg.norm(ob.displacement))))
         return hint
 
+    def no_equilibrium(self, points) -> bool:
+        """Where nothing but one convex obstacle holds the material (no
+        support, no prescribed motion, no rigid body, no other obstacle it
+        may slide into: a wall 0.05 downhill of a block caught it, a
+        review): whether the load of the last step tried slides it off
+        its one Coulomb face (:meth:`sliding_load_hint`; the resultant of
+        the whole body, so the balance of the material as one)."""
+        return self.obstacles_alone and len(self.obstacles) == 1 and \
+            self.obstacles[0].convex and bool(self.sliding_load_hint(points))
+
     def sliding_load_hint(self, points) -> str:
         """Where Coulomb faces alone hold the material and every corner
         that touched them at the run's start lies on one plane, a hint
