@@ -561,7 +561,9 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
     dotted y, dash-dotted z: a wedge's sideways force shows), against
     the displacement along its ``motion`` (name: displacement at full
     load) where every one moves, else against the load factor (time in
-    dynamics)."""
+    dynamics).  A component equal to the magnitude at every step is not
+    drawn under it, where it could not be seen (a user trial read the
+    pressed blocks' y as missing): the magnitude's label names it."""
     fig, ax = pyplot().subplots(figsize=(8.5, 4.5))
     moving = all(np.any(d) for d in motion.values())
     for name, curve in curves.items():
@@ -574,12 +576,17 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
         else:                          # in dynamics, the time
             x = np.array([0.] + curve.get("time", curve["load_factor"]))
         magnitude = np.linalg.norm(force, axis=1)
+        same = [np.allclose(force[:, k], magnitude, rtol=1e-9, atol=0.)
+                for k in range(force.shape[1])]
         line, = ax.plot(x, magnitude, "o-", ms=3,
-                        label="{}, magnitude".format(name))
+                        label="{}, magnitude{}".format(name, "".join(
+                            " (= {})".format("xyz"[k])
+                            for k in np.flatnonzero(same))))
         mark_peak(ax, line, x, magnitude)
         for k, style in zip(range(force.shape[1]), ("--", ":", "-.")):
-            ax.plot(x, force[:, k], style, color=line.get_color(),
-                    label="{}, {}".format(name, "xyz"[k]))
+            if not same[k]:
+                ax.plot(x, force[:, k], style, color=line.get_color(),
+                        label="{}, {}".format(name, "xyz"[k]))
     ax.axhline(0., color="k", lw=.5)
     ax.set_xlabel("obstacle displacement along its motion (m)" if moving
                   else "time (s)" if scene.dynamics else "load factor (-)")

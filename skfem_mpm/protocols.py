@@ -220,6 +220,15 @@ class GridTerm:
         (contact: the velocity of material in contact across the
         obstacle's surface, after the time integrator set it)."""
 
+    def no_equilibrium(self, points) -> bool:
+        """Whether the term sees, at a failed step of a quasi-static run
+        from the converged state ``points``, a load that no load factor
+        balances (contact: a body held by one Coulomb face alone, pushed
+        along it past mu): a run whose loads grow in proportion then
+        stops without cutting the step back, which cannot help, and
+        :meth:`failure_hint` says why."""
+        return False
+
     def failure_hint(self, points, quasi_static: bool) -> str:
         """What a run's error adds from this term when its steps failed
         down to the smallest load increment, ``points`` the last

@@ -1,5 +1,6 @@
 """Contact between deformable bodies on separate fields
 (:mod:`skfem_mpm.solve.body_contact`, :mod:`skfem_mpm.methods.fields`)."""
+import logging
 import re
 
 import numpy as np
@@ -7,7 +8,7 @@ import pytest
 from scipy.spatial import cKDTree
 from skfem import ElementQuad1, ElementQuad2, MeshQuad
 
-from skfem_mpm import (BodyForce, Contact, Dynamics, GridLoad,
+from skfem_mpm import (BodyForce, Contact, Dynamics, GridLoad, MPMError,
                        InvalidInputError, LinearElastic, Newmark,
                        NewtonOptions, Options, Resume, Stabilisation,
                        Traction,
@@ -93,6 +94,40 @@ def test_a_tight_tolerance_holds_over_steps(method):
     for r in res.history:
         assert r.contact_forces[0, 1] == pytest.approx(p * r.load_factor,
                                                        rel=1e-6)
+
+
+@pytest.mark.parametrize("ghost", ("auto", 0.))
+def test_cpgimp_domains_past_a_grid_line_keep_a_stress_uniform(ghost):
+    """Two blocks pressed together across a smooth contact on a grid line
+    with cpGIMP in three steps (strain 2e-2): after the first, the upper
+    body's lowest domains reach a sliver (0.014 cells) of the cell row
+    below on its own field.  The stress stays -p to twice the strain,
+    ghost penalty or not (measured 0.018 and 0.027, the blocks glued
+    0.017), the contact force the load.  The pairs' corners moved with
+    their points' cell's polynomial, extrapolated there, pushed the
+    nodes above the grid line while the domains' internal force reached
+    those below: 0.31 of p off, 1.0 without the ghost penalty."""
+    h, E, nu, p = .125, 2e6, .25, 4e4
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2 * h, 3),
+                                np.linspace(0, 12 * h, 13))
+    pts = bodies(mesh, 3, [[(0, 2 * h), (0, 6 * h)],
+                           [(0, 2 * h), (6 * h, 10 * h)]])
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(E, nu),
+                   roller_base_and_left_wall, nsteps=3, method="cpgimp",
+                   loads=[Traction(side_points(pts, "top"), "top",
+                                   [0., -p])],
+                   contacts=[Contact(0, 1)],
+                   options=Options(stabilisation=Stabilisation(ghost=ghost)))
+    strain = p * (1 - nu ** 2) / E                  # plane strain
+    s = res.points.stress
+    upper = res.points.body == 1
+    # the upper body's lowest domains past the grid line y = 6 h
+    reach = res.points.x[1, upper] - res.points.domain[1, upper]
+    assert 6 * h - reach.min() > .05 * h
+    assert np.abs(s[1, 1] / p + 1).max() < 2 * strain
+    assert np.abs(s[0, 0] / p).max() < strain
+    assert np.allclose(res.history[-1].contact_forces[0], [0., 2 * h * p],
+                       rtol=1e-6)
 
 
 @pytest.mark.parametrize("method", ("mpm", "bspline", "bspline-gimp"))
@@ -204,6 +239,96 @@ def test_friction_between_bodies_holds_a_block_quasi_statically(degrees,
     # the slab pushes the block up and back: the force of body 0 on body 1
     assert np.allclose(res.history[-1].contact_forces[0], -total, rtol=1e-6)
     assert np.abs(res.points.displacement[0, block]).max() < 1e-3
+
+
+def tilted_block_on_slab(caplog, held: bool):
+    """The error and logged cut-backs of the block on a slab (mu = 0.3)
+    under gravity tilted 25 degrees, quasi-static; ``held``: the block's
+    left side also on a support in x, in finite deformation with Newton
+    given one iteration, so that the step fails all the same."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
+    pts = bodies(mesh, 2, [[(0, 2), (0, .5)], [(.5, 1.), (.5, .75)]])
+    theta, rho = np.radians(25.), 2e3
+    weight = G * rho * np.array([np.sin(theta), -np.cos(theta)])
+
+    def supports(b):
+        base = b.get_dofs(lambda x: x[1] == 0).all()
+        side = b.get_dofs(lambda x: (x[0] == .5) & (x[1] > .6)).all("u^1")
+        return np.concatenate([base, side]) if held else base
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm.solve.core"):
+        with pytest.raises(MPMError) as failed:
+            simulate(mesh, ElementQuad1(), pts, LinearElastic(5e6, .3),
+                     supports, body_force=weight, nsteps=2,
+                     kinematics="finite" if held else "small",
+                     contacts=[Contact(0, 1, friction=.3)],
+                     options=Options(NewtonOptions(
+                         max_iter=1 if held else 25,
+                         max_cutbacks=1 if held else 8)))
+    return str(failed.value), [r.getMessage() for r in caplog.records
+                               if "cutting the" in r.getMessage()]
+
+
+def test_a_block_held_by_a_contact_alone_past_mu_is_not_cut_back(caplog):
+    """The block on a slab under gravity tilted past mu (tan 25 degrees
+    = 1.554 mu), held by the contact alone: no load factor has an
+    equilibrium, and the run stops at its first failure where it cut the
+    step back 8 times in vain (2.1 s, now 0.5 s; trial 64's obstacle
+    case alike).  Held also by a support (failing by a Newton limit), it
+    is cut back as before, and not said to have no equilibrium."""
+    message, cut_backs = tilted_block_on_slab(caplog, held=False)
+    assert not cut_backs
+    assert "not cut back: the loads keep their direction" in message
+    assert "the load on body 1 pushes it along its contact '0-1' with " \
+        "body 0 with {:.3f} times mu".format(
+            np.tan(np.radians(25.)) / .3) in message
+    message, cut_backs = tilted_block_on_slab(caplog, held=True)
+    assert len(cut_backs) == 1 and "not cut back" not in message
+    assert "pushes it along" not in message
+
+
+def test_a_block_past_mu_towards_a_lip_of_its_slab_is_cut_back():
+    """The block on a slab at 25 degrees, the slab rising in a lip 0.3
+    downhill of it (beyond the interface's pairs, which are flat): the
+    block may slide onto the lip and rest, so a failed step (Newton
+    limited to 6 iterations) is cut back, not stopped as having no
+    equilibrium (a review's set-up)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 17), np.linspace(0, 1, 9))
+    pts = bodies(mesh, 2, [
+        lambda x: (x[1] < .5) | ((x[0] > 1.3) & (x[0] < 1.5)
+                                 & (x[1] < .75)),
+        [(.5, 1.), (.5, .75)]])
+    theta = np.radians(25.)
+    weight = G * 2e3 * np.array([np.sin(theta), -np.cos(theta)])
+    with pytest.raises(MPMError) as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(5e6, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                 body_force=weight, contacts=[Contact(0, 1, friction=.3)],
+                 options=Options(NewtonOptions(max_iter=6, max_cutbacks=1)))
+    assert "not cut back" not in str(failed.value)
+    assert "no convergence down to" in str(failed.value)
+
+
+def test_a_block_past_mu_a_traction_holds_back_is_cut_back():
+    """The block on a slab at 25 degrees (1.554 mu) held back by a
+    traction on its downhill side (ramped, 2000 N/m: the load along the
+    interface 0.80 mu of the force pressing it), finite deformation,
+    Newton limited to two iterations: the contact's load leaves surface
+    loads out, so such a body is not judged, and its failed step is cut
+    back and converges (a review: the run stopped, "no equilibrium")."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
+    pts = bodies(mesh, 2, [[(0, 2), (0, .5)], [(.5, 1.), (.5, .75)]])
+    theta = np.radians(25.)
+    weight = G * 2e3 * np.array([np.sin(theta), -np.cos(theta)])
+    right = side_points(pts, "right", pts.body == 1)
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(7e4, .3),
+                   lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                   body_force=weight, kinematics="finite",
+                   loads=[Traction(right, "right", [-2e3, 0.])],
+                   contacts=[Contact(0, 1, friction=.3)],
+                   options=Options(NewtonOptions(max_iter=2)))
+    assert res.history[-1].load_factor == 1.
+    assert len(res.history) > 1         # cut back: the one step asked split
 
 
 def test_three_stacked_bodies_in_contact():
@@ -431,10 +556,11 @@ def test_load_steps_do_not_change_a_linear_answer(method, interface):
     """Two blocks squeezed by a ram (a prescribed displacement of the top
     nodes), small strain, linear elastic, the interface inside a cell or
     on a grid line: one step or three give the glued blocks' stress to
-    2e-3 (measured 1e-4, and 9e-4 with cpGIMP on a grid line, whose
-    domains reach a sliver of the other body's cells on their own field,
-    held by the ghost penalty: 9% without it; domains that did not follow
-    the strain drifted by 2-6%)."""
+    2e-4 (measured 6.8e-5; with cpGIMP on a grid line, whose domains
+    reach a sliver of the cells across it on their own field, 8.9e-4
+    and 9% without the ghost penalty while the pairs' corners moved
+    with their points' cells there, extrapolated; domains that did not
+    follow the strain drifted by 2-6%)."""
     from skfem_mpm import Prescribed
 
     def ram(b, f_old, f_new):
@@ -453,7 +579,7 @@ def test_load_steps_do_not_change_a_linear_answer(method, interface):
             mean[steps, bool(contacts)] = res.points.stress[1, 1].mean()
     glued = mean[1, False]
     for key, value in mean.items():
-        assert abs(value / glued - 1) < 2e-3, key
+        assert abs(value / glued - 1) < 2e-4, key
 
 
 @pytest.mark.slow

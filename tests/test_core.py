@@ -833,10 +833,10 @@ def tresca_footing(load, antilocking, nsteps):
 def test_a_footing_loaded_past_its_limit_load_is_said_to_collapse():
     """Twice Prandtl's load on a Tresca footing with anti-locking: the
     run fails past the collapse, its last converged load within 10% of
-    Prandtl's on this coarse grid, and the error says the body yields
-    towards a collapse, its last step moving it at least
-    ``COLLAPSE_SOFTENING`` times as far per load as the first (a
-    trial's overload ended with "no convergence" and no more)."""
+    Prandtl's on this coarse grid, and the error says the body may be
+    yielding towards a collapse, its last step moving it at least
+    ``COLLAPSE_SOFTENING`` times as far per load as its stiffest step
+    (a trial's overload ended with "no convergence" and no more)."""
     from skfem_mpm.solve.core import COLLAPSE_SOFTENING
     with pytest.raises(NewtonDivergenceError, match="may be yielding "
                        "towards a collapse") as failure:
@@ -844,9 +844,29 @@ def test_a_footing_loaded_past_its_limit_load_is_said_to_collapse():
     err = failure.value
     assert .9 < 2 * err.load_factor < 1.1
     said = re.search(r"moved the body ([\d.]+) times as far per load "
-                     r"increment as the first", str(err))
+                     r"increment as the stiffest step before", str(err))
     assert float(said.group(1)) >= COLLAPSE_SOFTENING
     assert "at least load factor {:.4g}".format(err.load_factor) in str(err)
+
+
+def test_the_collapse_hint_measures_against_the_stiffest_step():
+    """A body force in full from the first step moves the body in it: a
+    first step of 1.0 over a load increment of 0.25, then 0.01, 0.02 and
+    0.1 a step.  The last step moves it 10 times as far as the stiffest
+    (the second), and the hint says so; measured against the first (a
+    review), it saw no softening at all.  Of two steps, the second moving
+    the body as far as the first is no collapse, six times as far is."""
+    from skfem_mpm import VonMises
+    from skfem_mpm.solve.core import Run, collapse_hint
+    run = Run(prescribed=None, rigid_bodies=(), obstacles=(), dynamics=None,
+              material=VonMises(1e4, .3, yield_stress=10.))
+    reach = [(0., 0.), (.25, 1.), (.5, 1.01), (.75, 1.03), (1., 1.13)]
+    said = collapse_hint(run, reach)
+    assert "moved the body 10 times as far per load increment as the " \
+        "stiffest step before" in said
+    assert "at least load factor 1" in said
+    assert collapse_hint(run, [(0., 0.), (.5, .01), (1., .02)]) == ""
+    assert collapse_hint(run, [(0., 0.), (.5, .01), (1., .07)]) != ""
 
 
 def test_a_footing_of_isochoric_flow_without_antilocking_is_warned(caplog):

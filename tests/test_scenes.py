@@ -1138,7 +1138,9 @@ def test_the_deformed_shape_shows_the_material_not_the_whole_floor(
 def test_the_force_curves_legend_covers_no_curve(tmp_path, monkeypatch):
     """``obstacles.png`` (the trial's press and floor: a magnitude rising
     to 12800 N/m and the floor's y falling to -12800): its legend of 8
-    entries covered the floor's y curve; it lies beside the axes now."""
+    entries covered the floor's y curve; it lies beside the axes now.
+    The press's y, equal to its magnitude, is not drawn under it (a user
+    trial read it as missing)."""
     from types import SimpleNamespace
 
     from skfem_mpm.cli import plot_contact_forces
@@ -1161,7 +1163,10 @@ def test_the_force_curves_legend_covers_no_curve(tmp_path, monkeypatch):
     ax = fig.axes[0]
     fig.canvas.draw()
     legend = ax.get_legend().get_window_extent()
-    assert len(ax.get_legend().get_texts()) == 8
+    # the press's y equals its magnitude: named in its label, not drawn
+    assert len(ax.get_legend().get_texts()) == 7
+    assert "press, magnitude (= y)" in [
+        t.get_text() for t in ax.get_legend().get_texts()]
     assert not legend.overlaps(ax.get_window_extent())
     assert legend.x1 <= fig.bbox.x1 + 1       # and inside the figure
     plot.pyplot().close(fig)

@@ -1014,6 +1014,16 @@ class ObstacleContact(GridTerm):
                         float(np.linalg.norm(ob.displacement))))
         return hint
 
+    def no_equilibrium(self, points) -> bool:
+        """Where nothing but one convex obstacle holds the material (no
+        support, no prescribed motion, no rigid body, no other obstacle it
+        may slide into: a wall 0.05 downhill of a block caught it, a
+        review): whether the load of the last step tried slides it off
+        its one Coulomb face (:meth:`sliding_load_hint`; the resultant of
+        the whole body, so the balance of the material as one)."""
+        return self.obstacles_alone and len(self.obstacles) == 1 and \
+            self.obstacles[0].convex and bool(self.sliding_load_hint(points))
+
     def sliding_load_hint(self, points) -> str:
         """Where Coulomb faces alone hold the material and every corner
         that touched them at the run's start lies on one plane, a hint
@@ -1829,17 +1839,23 @@ class CellValues:
         self.local = cell_coordinates(mesh, clip=False)
         self._dofs = None
 
-    def __call__(self, x: ndarray, cells: ndarray, N: int) -> csr_matrix:
+    @property
+    def dofs(self) -> ndarray:
+        """The scalar DOFs of each cell (local nodes, cells)."""
         if self._dofs is None:
             from skfem.assembly import Dofs
             self._dofs = Dofs(self.mesh, self.elem).element_dofs
+        return self._dofs
+
+    def __call__(self, x: ndarray, cells: ndarray, N: int) -> csr_matrix:
+        dofs = self.dofs
         local = self.local(x, cells)
-        nloc = self._dofs.shape[0]
+        nloc = dofs.shape[0]
         values = np.array([self.elem.lbasis(local, i)[0]
                            for i in range(nloc)])              # (nloc, m)
         m = x.shape[1]
         return coo_matrix((values.ravel(), (np.tile(np.arange(m), nloc),
-                                            self._dofs[:, cells].ravel())),
+                                            dofs[:, cells].ravel())),
                           shape=(m, N)).tocsr()
 
 

@@ -133,9 +133,9 @@ SLIVER_METHODS = ("ugimp", "cpgimp", "bspline3", "bspline3-gimp")
 #: seconds: the steps left of a run that would take longer, at the pace of
 #: its fastest step so far, are announced by a warning (once)
 LONG_RUN = 600.
-#: how many times as far per load increment as its first step the last
-#: converged step of a failed load-controlled plastic run moved the body
-#: for the error to call it a collapse (:func:`collapse_hint`)
+#: how many times as far per load increment as its stiffest step before
+#: the last converged step of a failed load-controlled plastic run moved
+#: the body for the error to call it a collapse (:func:`collapse_hint`)
 COLLAPSE_SOFTENING = 5.
 #: the ghost penalty that ``ghost="auto"`` switches on when a
 #: finite-deformation step of moving points fails
@@ -729,26 +729,45 @@ def collapse_hint(run: Run, reach: list) -> str:
     """A sentence for a failed quasi-static run of a plastic body whose
     loads are forces, not displacements, where the last converged step
     moved the body :data:`COLLAPSE_SOFTENING` times or more as far per
-    load increment as its first step did (``reach``: the load factor and
-    the points' largest displacement after each converged step, from the
-    call's start), or ``""``: the body yields towards a collapse, and a
-    load past its limit load has no equilibrium (a user's footing loaded
-    past Prandtl's load ended with "no convergence" and no more)."""
+    load increment as its stiffest step before did (``reach``: the load
+    factor and the points' largest displacement after each converged
+    step, from the call's start; the stiffest, not the first: a body
+    force in full from the first step moves the body in it), or ``""``:
+    the body may be yielding towards a collapse, past whose limit load
+    no equilibrium exists (a hardening material softens so too, with no
+    limit load: hence "may"; a user's footing loaded past Prandtl's load
+    ended with "no convergence" and no more)."""
     if not may_collapse(run) or len(reach) < 3:
         return ""
-    (f0, u0), (f1, u1) = reach[:2]
-    (f2, u2), (f3, u3) = reach[-2:]
-    first, last = (u1 - u0) / (f1 - f0), (u3 - u2) / (f3 - f2)
-    if not last >= COLLAPSE_SOFTENING * first > 0:
+    f, u = np.array(reach).T
+    rates = np.diff(u) / np.diff(f)
+    stiffest = rates[:-1][rates[:-1] > 0].min(initial=np.inf)
+    if not rates[-1] >= COLLAPSE_SOFTENING * stiffest:
         return ""
     return ("; the last converged step moved the body {:.3g} times as far "
-            "per load increment as the first (the points' largest "
-            "displacement): it may be yielding towards a collapse, past "
-            "whose limit load (at least load factor {:.4g}) no "
+            "per load increment as the stiffest step before (the points' "
+            "largest displacement): it may be yielding towards a collapse, "
+            "past whose limit load (at least load factor {:.4g}) no "
             "equilibrium exists: a smaller load, or a displacement "
             "prescribed instead (an Obstacle, a rigid body), follows the "
-            "collapse".format(
-                last / first, f3))
+            "collapse".format(rates[-1] / stiffest, f[-1]))
+
+
+def no_equilibrium(run: Run, points: MaterialPoints) -> bool:
+    """Whether a failed step of ``run`` from the converged state
+    ``points`` is one that no shorter step can take: quasi-static, loads
+    that grow in proportion (:meth:`~skfem_mpm.solve.loads.ExternalLoads.
+    proportional`, no term's load that follows the trial) and a term that
+    sees the load unbalanced at every load factor
+    (:meth:`~skfem_mpm.protocols.GridTerm.no_equilibrium`; a block on a
+    Coulomb slope past mu cut its first step back 9 times in 23 s, a
+    user trial).  Not with grid terms of a user's (``loads``), which
+    may hold the material or load it in ways the built-in terms cannot
+    judge."""
+    return run.dynamics is None and not run.linear and \
+        not run.user_terms and run.loads.proportional(points) and all(
+            type(term).load is GridTerm.load for term in run.terms) and \
+        any(term.no_equilibrium(points) for term in run.terms)
 
 
 def steps_left(factor: float, increment: float, nsteps: int,
@@ -935,12 +954,17 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                                          step + 1)
         except STEP_FAILURES as err:
             held = held + 1 if isinstance(err, HeldSupportError) else 0
+            unbalanced = no_equilibrium(run, points)
             if run.linear or (target - factor) / 2 < smallest * (1 - 1e-9) \
-                    or held > HELD_HALVINGS:
+                    or held > HELD_HALVINGS or unbalanced:
                 raise type(err)(
                     "{}; {}: the last converged state ({}) is attached"
                     "{}{}{}".format(
-                        err, "no convergence down to {}".format(span(
+                        err, "not cut back: the loads keep their direction "
+                        "at every load factor, so a shorter step has no "
+                        "equilibrium either"
+                        if unbalanced else
+                        "no convergence down to {}".format(span(
                             run, target - factor)) if held <= HELD_HALVINGS
                         else "failed so at {} halvings of the step, down "
                         "to {}: a shorter step does not remove the "
@@ -1633,7 +1657,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         prescribed=case.prescribed, rigid_bodies=case.rigid_bodies,
         prescribed_fields=None if case.prescribed_bodies is None
         else np.unique(case.body_field[list(case.prescribed_bodies)]),
-        obstacles=case.obstacles,
+        obstacles=case.obstacles, user_terms=tuple(case.terms),
         rhs=newton.rhs, tol=newton.tol, max_iter=newton.max_iter,
         newton=FullStep() if linear else first,
         modified=newton.newton == "modified" and not linear,

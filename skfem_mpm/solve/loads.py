@@ -409,6 +409,17 @@ class ExternalLoads:
         self._check_representable(f, load, factor)
         return f
 
+    def proportional(self, points: MaterialPoints) -> bool:
+        """Whether :meth:`external` from the state ``points`` is one
+        vector scaled by a number at every load factor: every load grows
+        with the load factor, or a body force acting in full from the
+        first step is the only load (then a shorter step bears all of
+        it).  Loads that follow the surface are left to their term."""
+        if self.gravity is None or self.ramp_gravity.all():
+            return True
+        return not (self.ramp_gravity.any() or self.surface
+                    or self.grid_vector is not None or points.force.any())
+
     def _check_representable(self, f: ndarray, load, factor: float):
         """Loads whose grid forces underflow to zero or to subnormal numbers
         would let a zero solution pass the relative equilibrium check

@@ -463,7 +463,10 @@ class NewtonOptions:
         Newton iterations per attempt at a step, 1 to 60.
     max_cutbacks
         A nonlinear step that fails after the retry ladder is bisected,
-        down to ``2**-max_cutbacks`` of a step (0 to 60).
+        down to ``2**-max_cutbacks`` of a step (0 to 60); not where a
+        shorter step cannot help (contact with a support that holds the
+        material's way, a quasi-static load that no load factor
+        balances: :func:`~skfem_mpm.solve.core.no_equilibrium`).
     line_search
         Globalisation: ``"backtracking"`` (default: Newton's full steps,
         shortened only where one inverts a point; a step that fails so is

@@ -165,6 +165,21 @@ class Obstacle:
         pick = np.array(list(itertools.product((0, 1), repeat=self.dim))).T
         return np.take_along_axis(self.box, pick, axis=1) + shift[:, None]
 
+    @property
+    def convex(self) -> bool:
+        """Whether the obstacle is convex (a box; a polygon turning one
+        way at every vertex): material on one face cannot meet another.
+
+        >>> Obstacle(polygon=[[0, 0], [2, 0], [2, 1], [1, .2],
+        ...                   [0, 1]]).convex
+        False
+        """
+        if self.box is not None:
+            return True
+        edge = np.diff(self.vertices, axis=1, append=self.vertices[:, :1])
+        turn = _cross(edge, np.roll(edge, -1, axis=1))
+        return bool((turn >= 0).all() or (turn <= 0).all())
+
     def outline(self, shift: Optional[ndarray] = None) -> ndarray:
         """The outline (k, 2) of a 2D obstacle shifted by ``shift``, for
         pictures."""

@@ -134,10 +134,11 @@ def warn_volumetric_locking(materials: Sequence, antilocking,
     """Log a warning where a body's Poisson's ratio (``nu`` of its
     material, where it has one) is near 0.5 or its plastic flow keeps the
     volume (``isochoric_flow``: von Mises, a soil without dilation; in 2D
-    and 3D, on bilinear or trilinear cells: ``higher_order`` ones lock
-    little, MPM's footing on Q2 6.9% above Prandtl's load, and refuse
-    anti-locking with plasticity) and the run's anti-locking leaves it
-    stiff: none from
+    and 3D) on bilinear or trilinear cells (``higher_order`` ones lock
+    little: a Q2 cantilever at nu = 0.4999 bent 0.95 and 0.97 of beam
+    theory two and four cells deep, MPM's footing on Q2 came 6.9% above
+    Prandtl's load; and they refuse anti-locking with plasticity) and
+    the run's anti-locking leaves it stiff: none from
     :data:`LOCKING_NU` (a user trial's plane-strain cantilever at nu =
     0.4999 deflected 0.019 of beam theory, a strip punch reached 13 times
     Prandtl's load; a Tresca strip footing at nu = 0.3 carried 1.4 times
@@ -148,18 +149,18 @@ def warn_volumetric_locking(materials: Sequence, antilocking,
     cpGIMP, 0.84 with B-splines; 40 steps: FE 0.997)."""
     nus = [getattr(m, "nu", None) for m in materials]
     nu = max((float(v) for v in nus if v is not None), default=0.)
-    isochoric = dim > 1 and not higher_order and any(
+    isochoric = dim > 1 and any(
         getattr(m, "plastic", False) and getattr(m, "isochoric_flow", False)
         for m in materials)
     fbar = "; 'fbar' in finite deformation" if kinematics == "finite" and \
         method != "fem" else ""
-    if antilocking is False and nu >= LOCKING_NU:
+    if antilocking is False and nu >= LOCKING_NU and not higher_order:
         logger.warning(
             "nu = %g without anti-locking: the cells lock, so displacements "
             "come out small and limit loads high, with every step converged "
             "(a cantilever at nu = 0.4999 bent 0.019 of beam theory); use "
             "Stabilisation(antilocking=True) (mean dilatation%s)", nu, fbar)
-    elif antilocking is False and isochoric:
+    elif antilocking is False and isochoric and not higher_order:
         logger.warning(
             "a plastic flow that keeps the volume (%s) without "
             "anti-locking: where it flows the cells lock, so limit loads "
