@@ -608,11 +608,10 @@ def test_a_resumed_compiled_run_is_bit_identical(method, antilocking,
                           stabilisation=stabilisation,
                           resume=Resume.after(saved["record"],
                                               domain0=column(2)[1].domain)))
-    # F-bar cuts a step of the von Mises column back (docs/robustness.md)
+    # (F-bar cut a step of the von Mises column back before the retry's
+    # search on the energy's slope; docs/robustness.md)
     assert [r.step for r in rest.history] == [
-        r.step for r in whole.history[2:]] == (
-            [3, 4] if antilocking != "fbar" or method != "mpm"
-            else [3, 4, 5])
+        r.step for r in whole.history[2:]] == [3, 4]
     assert whole.history[-1].n_yielded > 0
     for name in ("x", "stress", "strain", "F", "volume", "domain"):
         assert np.array_equal(getattr(rest.points, name),
