@@ -224,9 +224,10 @@ class GridTerm:
         """Whether the term sees, at a failed step of a quasi-static run
         from the converged state ``points``, a load that no load factor
         balances (contact: a body held by one Coulomb face alone, pushed
-        along it past mu): a run whose loads grow in proportion then
-        stops without cutting the step back, which cannot help, and
-        :meth:`failure_hint` says why."""
+        along it past mu): a run whose loads keep their direction at
+        every load factor then stops without cutting the step back, which
+        cannot help, and :meth:`failure_hint` says why.  Say ``True`` only
+        where nothing the term cannot see may hold the material."""
         return False
 
     def failure_hint(self, points, quasi_static: bool) -> str:
