@@ -987,7 +987,13 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         except MPMError as err:              # what a cut-back cannot cure
             err.state, err.load_factor = points, factor
             err.history = result.history
-            if isinstance(err, PointsOutsideGridError):
+            if isinstance(err, PointsOutsideGridError) and err.at_start:
+                err.args = (err.args[0] + "; they lie outside it where "
+                            "the step starts{}: seed the points inside the "
+                            "grid, or make the grid cover them".format(
+                                ", as given to the run" if step == 0
+                                and factor == 0. else ""),)
+            elif isinstance(err, PointsOutsideGridError):
                 err.args = (err.args[0] + too_soft(run, points) + (
                     "; they left it in step {} ({} to {}): a grid too "
                     "tight around the body's motion, or a load past what "
