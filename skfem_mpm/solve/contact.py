@@ -290,6 +290,49 @@ def corner_signs(dim: int) -> ndarray:
     return np.array(list(itertools.product((-1., 1.), repeat=dim))).T
 
 
+def linear_gimp(method):
+    """The closed-form GIMP weights of a run's ``method`` (one grid;
+    :class:`~skfem_mpm.methods.gimp_linear.LinearGimp`, linear
+    elements), or ``None``."""
+    gimp = getattr(getattr(method, "piece", method), "gimp", None)
+    return gimp if isinstance(gimp, LinearGimp) else None
+
+
+def side_rows(gimp: LinearGimp, x: ndarray, half: ndarray, sign: ndarray,
+              normal: ndarray):
+    """GIMP's weights of the corners ``sign`` (dim, m; +-1 per axis) of
+    the domains ``x``, ``half`` (dim, m) that lie on their domain's side
+    facing an axis-aligned face of normal ``normal`` (dim, m; the face's,
+    towards the domain): ``(facing, rows)``, the indices of those corners
+    and their scalar rows (facing, ``gimp.N``) on ``gimp``'s grid, the
+    weights of that side as a box of zero thickness (the hat functions
+    along the normal at the side, their average along it) and their
+    gradient towards the corner (``rows`` ``None`` where none faces).
+
+    cpGIMP's internal force of a uniform stress on a node is the stress
+    on the node's weight over the surface of its points' domains: a
+    pressure on the side moved through these rows reaches the nodes
+    alike (:meth:`StepContact.face_rows`,
+    :meth:`~skfem_mpm.solve.body_contact.BodyContact.rows`)."""
+    dim, m = x.shape
+    k = np.abs(normal).argmax(axis=0)
+    j = np.arange(m)
+    facing = np.flatnonzero((np.abs(normal[k, j]) >= 1. - FACE_ALIGNED)
+                            & (sign[k, j] * normal[k, j] < 0.))
+    if not facing.size:
+        return facing, None
+    k, f = k[facing], np.arange(facing.size)
+    half = half[:, facing].copy()
+    side = x[:, facing].copy()
+    side[k, f] += sign[k, facing] * half[k, f]
+    q = sign[:, facing] * half          # the side's corner
+    half[k, f] = 0.
+    q[k, f] = 0.
+    op = gimp(side, half)
+    return facing, (op.S + sum(diags(q[b]) @ op.G[b]
+                               for b in range(dim))).tocsr()
+
+
 def pressure_names(i: int, dim: int):
     """The point-state names of obstacle ``i``: per corner the pressure
     multiplier, then per component per corner the traction."""
@@ -1321,30 +1364,18 @@ class StepContact(GridTerm):
         (0.51 of p without the ghost penalty, 0.03 to 0.06 with it;
         ``docs/contact.md``)."""
         dim, nc, m = self.dim, 2 ** self.dim, len(idx)
-        run = self.problem.run
-        gimp = getattr(getattr(run.method, "piece", run.method), "gimp",
-                       None)
-        if not isinstance(gimp, LinearGimp) or not hasattr(self.op, "S") \
+        gimp = linear_gimp(self.problem.run.method)
+        if gimp is None or not hasattr(self.op, "S") \
                 or self.op.N // dim != gimp.N:
             return None
-        k = np.abs(normal).argmax(axis=0)
-        j = np.arange(nc * m)
-        sign = np.repeat(corner_signs(dim), m, axis=1)     # (dim, nc m)
-        facing = np.flatnonzero(
-            (np.abs(normal[k, j]) >= 1. - FACE_ALIGNED)
-            & (sign[k, j] * normal[k, j] < 0.))
+        points = self.problem.points
+        p = np.tile(idx, nc)
+        facing, face = side_rows(gimp, points.x[:, p], points.domain[:, p],
+                                 np.repeat(corner_signs(dim), m, axis=1),
+                                 normal)
         if not facing.size:
             return None
-        points, k = self.problem.points, k[facing]
-        p, f = np.tile(idx, nc)[facing], np.arange(facing.size)
-        half = points.domain[:, p].copy()
-        side = points.x[:, p].copy()
-        side[k, f] += sign[k, facing] * half[k, f]
-        q = sign[:, facing] * half          # the side's corner
-        half[k, f] = 0.
-        q[k, f] = 0.
-        op = gimp(side, half)
-        face = op.S + sum(diags(q[b]) @ op.G[b] for b in range(dim))
+        f = np.arange(facing.size)
         point = self.corner_rows(idx, False)
         keep = np.ones(nc * m)
         keep[facing] = 0.
