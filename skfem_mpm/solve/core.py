@@ -76,7 +76,7 @@ from ..stabilisation.volumetric import (MeanDilatation,
                                        warn_sparse_spline_points)
 from .backends import get_solver
 from .body_contact import BodyContact, check_contacts
-from .contact import CellValues, contact_term
+from .contact import CellValues, contact_term, linear_gimp
 from .dynamics import Dynamics, InertiaTerm, scheme_for
 from .linear import support_dofs
 from .loads import (ExternalLoads, FollowerPressure, GridLoad,
@@ -281,7 +281,8 @@ def body_contact_term(run: Run) -> Optional[GridTerm]:
                        run.cell_size, run.material, run.domain0, run.finite,
                        run.counters,
                        weights=getattr(run.method, "weights_at", None),
-                       cells=run.user_grid.mesh.nelements)
+                       cells=run.user_grid.mesh.nelements,
+                       gimp=linear_gimp(run.method))
 
 
 def obstacle_term(run: Run) -> Optional[GridTerm]:
