@@ -640,7 +640,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             found["absolute_errors"] = found.pop("errors")
             found["absolute_uncertainties"] = found.pop("uncertainties")
             convergence.append(dict(
-                quantity=q.label, unit=q.unit(len(scene.grid.axes)),
+                quantity=q.label,
+                unit=q.unit(len(scene.grid.axes), scene.units),
                 choices=choices, cell_sizes=sizes, values=values,
                 ghost_from_step=[r.get("ghost_from_step") for r in fitted],
                 mixed_stabilisation=mixed, stabilisation_left_out=ends,
@@ -670,7 +671,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             "not varied")
         what = "|value - reference| / |reference| of {} ({}), the " \
             "reference being {}".format(
-                first, quantities[0].unit(len(scene.grid.axes)), reference)
+                first, quantities[0].unit(
+                    len(scene.grid.axes), scene.units), reference)
         what += "; it measures what the group's varied choices change, " \
             "not an error its cases share (of points per cell, a " \
             "penalty, the method): groups whose references disagree are " \
