@@ -110,6 +110,7 @@ from ..errors import (ContactError, InvalidInputError,
 from ..quadrature.locate import (cell_coordinates, point_locator,
                                  using_kernels)
 from ..protocols import GridTerm
+from ..spelling import setting
 from .loads import supported_share
 from .motion import unheld_rigid_modes
 from .obstacles import Obstacle
@@ -145,8 +146,8 @@ INCLINED_HOLDING = 1e-6
 #: through the floor it stood on, and the error blamed the floor)
 RUNAWAY = (", farther than the grid spans: grid nodes that carry almost "
            "no material ran away, the material with them (the ghost "
-           "penalty, Stabilisation(ghost=...), holds them; B-splines: "
-           "Stabilisation(extended_splines=True))")
+           "penalty holds them, {}; B-splines: {})".format(
+               setting("ghost", 0.1), setting("extended_splines", True)))
 
 #: the share of the material's extent along an obstacle's motion past
 #: which a failed run's hint says it squeezes the material
@@ -770,8 +771,8 @@ class ObstacleContact(GridTerm):
                     "a rough floor between grid lines, 2 x 2 points, its "
                     "stresses 9% high)"])),
             "" if run.contacts else
-            "; Stabilisation(extended_splines=True) folds those nodes and "
-            "reads the field at the corners")
+            "; {} folds those nodes and reads the field at the "
+            "corners".format(setting("extended_splines", True)))
 
     def warn_edges_inside_cells(self, X0: ndarray) -> None:
         """Log a warning for each box obstacle whose edge meets the

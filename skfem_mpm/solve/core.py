@@ -68,6 +68,7 @@ from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
 from ..quadrature.grid import GridBasis
 from ..quadrature.locate import point_locator, tensor_grid
 from ..quadrature.points import MaterialPoints
+from ..spelling import setting
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation, warn_volumetric_locking
 from ..stabilisation.fbar import IncrementFbar
@@ -477,8 +478,8 @@ GHOST_CHANGES_PLASTIC = (", and a plastic limit load can come out 8-13% "
                          "docs/robustness.md)")
 #: and what it adds for B-splines where the extended splines serve (they
 #: are refused with contacts between bodies)
-EXTENDED_INSTEAD = "; B-splines need none with " \
-    "Stabilisation(extended_splines=True), and without it the stresses " \
+EXTENDED_INSTEAD = "; B-splines need none with " + setting(
+    "extended_splines", True) + ", and without it the stresses " \
     "of nodes so barely held go wrong (a block compressed 10% in 20 " \
     "steps, its top inside a cell, switched on at step 17: -2.0 p to " \
     "+0.6 p where -0.96 p is uniform; extended within 1.2%)"
@@ -820,8 +821,8 @@ def ghost_hint(run: Run) -> str:
         return ""
     return ("; with contacts between bodies on B-splines the nodes a "
             "body's splines reach beyond its surface are barely held: "
-            "Stabilisation(ghost=0.1) holds them (a square pile with "
-            "friction in 3D failed so, and converged with it)")
+            "{} holds them (a square pile with friction in 3D failed "
+            "so, and converged with it)".format(setting("ghost", 0.1)))
 
 
 def check_higher_order_antilocking(method: str, elem: Element, mesh: Mesh,
