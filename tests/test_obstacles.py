@@ -1319,7 +1319,7 @@ def test_the_obstacles_picture_draws_the_force_s_components(tmp_path):
     from skfem_mpm.cli import plot_contact_forces
     from skfem_mpm.scenes import plot
     scene = SimpleNamespace(name="wedge", dynamics=None,
-                            grid=SimpleNamespace(dim=2))
+                            grid=SimpleNamespace(dim=2), units="SI")
     force = [[3., 4.], [-6., 8.]]
     curves = {"wedge": {"force": force, "load_factor": [.5, 1.],
                         "displacement": [[0., -.05], [0., -.1]]}}
