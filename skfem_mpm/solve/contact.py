@@ -111,7 +111,7 @@ from scipy.spatial import cKDTree
 
 from ..errors import (ContactError, InvalidInputError,
                       PointsOutsideGridError, StepTooLongError)
-from ..methods.gimp_linear import LinearGimp
+from ..methods.gimp_linear import LinearGimp, snap_to_lines
 from ..quadrature.locate import (cell_coordinates, point_locator,
                                  using_kernels)
 from ..protocols import GridTerm
@@ -1302,12 +1302,12 @@ class StepContact(GridTerm):
         """GIMP (linear elements, one field), a smooth obstacle: the
         vector rows (dim nc m, N) of the corners of the points ``idx``,
         those on their domain's side facing an axis-aligned face of
-        normal ``normal`` (dim, nc m) by GIMP's weights of that side of
-        the domain, a box of zero thickness (the hat functions along the
-        normal at the side, the average along it, and its gradient
-        towards the corner), the others by their point's rows; ``None``
-        where no corner faces such a face, or the method has no such
-        weights.
+        normal ``normal`` (dim, nc m), of a domain that spans a grid line
+        along that normal, by GIMP's weights of that side of the domain,
+        a box of zero thickness (the hat functions along the normal at
+        the side, the average along it, and its gradient towards the
+        corner), the others by their point's rows; ``None`` where no
+        corner is such, or the method has no such weights.
 
         cpGIMP's internal force of a uniform stress on a node is the
         stress on the node's weight over the surface of its points'
@@ -1336,7 +1336,22 @@ class StepContact(GridTerm):
         if not facing.size:
             return None
         points, k = self.problem.points, k[facing]
-        p, f = np.tile(idx, nc)[facing], np.arange(facing.size)
+        p = np.tile(idx, nc)[facing]
+        # only domains that span a grid line along the face's normal: one
+        # within a cell keeps its point's rows (a cpGIMP footing's soil
+        # on a grid line: with the side's rows there too, its pressure
+        # at B / h = 8 rose from 5.42 to 5.57 c, above the coarse grid's)
+        spans = np.zeros(facing.size, dtype=bool)
+        for d, a in enumerate(gimp.axes):
+            on = k == d
+            x, r = points.x[d, p[on]], points.domain[d, p[on]]
+            first, last = snap_to_lines(a, np.clip(x - r, a[0], a[-1]),
+                                        np.clip(x + r, a[0], a[-1]))[2:]
+            spans[on] = last > first
+        facing, k, p = facing[spans], k[spans], p[spans]
+        if not facing.size:
+            return None
+        f = np.arange(facing.size)
         half = points.domain[:, p].copy()
         side = points.x[:, p].copy()
         side[k, f] += sign[k, facing] * half[k, f]
