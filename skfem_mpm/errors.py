@@ -38,6 +38,9 @@ class PointsOutsideGridError(MPMError):
         The load step in which they left it (``None`` outside a run).
     state
         The last converged :class:`~skfem_mpm.MaterialPoints` (in a run).
+    at_start
+        Whether they lay outside the grid where the step started (in a
+        run's first step: as given), not moved out by the step.
 
     """
 
@@ -46,6 +49,7 @@ class PointsOutsideGridError(MPMError):
         self.indices = indices
         self.step = step
         self.state = state
+        self.at_start = False
 
     def __str__(self):
         text = super().__str__()

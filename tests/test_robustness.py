@@ -904,6 +904,64 @@ def test_points_leaving_the_grid_in_a_step_say_when_and_why():
     assert err.value.load_factor == 0.
 
 
+@pytest.mark.parametrize("method", ["mpm", "cpgimp"])
+def test_points_outside_the_grid_as_given_are_not_said_to_leave_it(method):
+    """A point given outside the grid: the error says so, not that a
+    load carried it out in step 1 (trial 68, a point at x = 5.5 on a
+    grid 4 wide was told "they left it in step 1 ... a grid too tight
+    around the body's motion, or a load past what the body can
+    carry")."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import LinearElastic, PointsOutsideGridError, \
+        seed_points, simulate
+    mesh = MeshQuad.init_tensor(np.linspace(0., 4., 5),
+                                np.linspace(0., 12., 13))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 10.)
+    points.x[0, 3] = points.x0[0, 3] = 5.5
+    with pytest.raises(PointsOutsideGridError) as err:
+        simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                 lambda basis: basis.get_dofs(lambda x: x[1] == 0.),
+                 body_force=[0., -800.], nsteps=2, method=method)
+    assert err.value.at_start and list(err.value.indices) == [3]
+    assert "where the step starts, as given to the run" in str(err.value)
+    assert "left it" not in str(err.value)
+
+
+def test_a_support_selecting_no_dof_beside_others_is_warned(caplog):
+    """A supports function whose roller misses the grid (``x == 46`` on a
+    grid ending at 45, trial 68's slope) held nothing without a word:
+    the body's side went free and the run blamed the soil.  A selection
+    of no DOF beside selections that hold is warned, naming the grid's
+    extent; supports that hold nothing at all are a dynamic run's own
+    and not warned (the supports' check refuses them in statics)."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import LinearElastic, seed_points, simulate
+    mesh = MeshQuad.init_tensor(np.linspace(0., 4., 5),
+                                np.linspace(0., 4., 5))
+    points = seed_points(mesh, 2, region=[(0., 4.), (0., 2.)])
+
+    def supports(basis):
+        return np.concatenate([
+            basis.get_dofs(lambda x: x[1] == 0.).all(),
+            basis.get_dofs(lambda x: x[0] == 5.).all("u^1")])
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        res = simulate(mesh, ElementQuad1(), points,
+                       LinearElastic(1e6, .3), supports,
+                       body_force=[0., -1e3])
+    assert res.history[-1].residual < 1e-10
+    warned = [r.getMessage() for r in caplog.records
+              if "selected no grid DOF" in r.getMessage()]
+    assert warned == ["supports: get_dofs(<lambda>) selected no grid DOF "
+                      "(the grid spans x 0 to 4, y 0 to 4): that part of "
+                      "the supports holds nothing"]
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                 lambda basis: basis.get_dofs(lambda x: x[1] == 0.),
+                 body_force=[0., -1e3])
+    assert "selected no grid DOF" not in caplog.text
+
+
 def test_points_leaving_the_grid_in_dynamics_say_at_what_time():
     """In dynamics the step is named by its times, not by fractions of the
     duration called load factors (trial 59: "load factor 0.1055 to

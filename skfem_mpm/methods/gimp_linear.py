@@ -55,7 +55,7 @@ def _hat_terms(a: ndarray, node: ndarray, x: ndarray):
     return tl / hl - tr / hr, tl * tl / (2 * hl) + tr - tr * tr / (2 * hr)
 
 
-def _snap(a: ndarray, lo: ndarray, hi: ndarray):
+def snap_to_lines(a: ndarray, lo: ndarray, hi: ndarray):
     """Domain ends within :func:`sliver` of a grid line, below (lo) or
     above (hi), put on it, and the first and last cell they span."""
     n = len(a) - 1
@@ -114,23 +114,36 @@ class LinearGimp:
                        for a in self.axes]
 
     def __call__(self, x: ndarray, domain: ndarray) -> SparseOperator:
-        """The operator of points x (dim, n) with half-lengths domain."""
+        """The operator of points x (dim, n) with half-lengths domain;
+        along an axis where a half-length is zero the hat functions at
+        the point, with no gradient (a face of a domain:
+        :meth:`~skfem_mpm.solve.contact.StepContact.face_rows`)."""
         n = x.shape[1]
         nodes, weights, grads, cells = [], [], [], []
         for d, a in enumerate(self.axes):
-            lo, hi, first, last = _snap(a, np.clip(x[d] - domain[d], a[0],
-                                                   a[-1]),
-                                        np.clip(x[d] + domain[d], a[0],
-                                                a[-1]))
+            lo, hi, first, last = snap_to_lines(
+                a, np.clip(x[d] - domain[d], a[0], a[-1]),
+                np.clip(x[d] + domain[d], a[0], a[-1]))
+            # a zero half-length: the hat at x (within a sliver of a grid
+            # line: on it), no gradient along the axis
+            flat = domain[d] == 0
+            if flat.any():
+                at = snap_to_lines(a, np.clip(x[d], a[0], a[-1]),
+                                   np.clip(x[d], a[0], a[-1]))[0]
+                lo, hi = np.where(flat, at, lo), np.where(flat, at, hi)
+                cell = np.clip(np.searchsorted(a, at, side="right") - 1, 0,
+                               len(a) - 2)
+                first = np.where(flat, cell, first)
+                last = np.where(flat, cell, last)
             m = min(int((last - first).max()) + 2, len(a))
             node = (np.minimum(first, len(a) - m)[None]
                     + np.arange(m)[:, None])                      # (m, n)
             N_hi, Phi_hi = _hat_terms(self.padded[d], node, hi)
             N_lo, Phi_lo = _hat_terms(self.padded[d], node, lo)
-            length = hi - lo
+            length = np.where(flat, 1., hi - lo)
             nodes.append(node)
-            weights.append((Phi_hi - Phi_lo) / length)
-            grads.append((N_hi - N_lo) / length)
+            weights.append(np.where(flat, N_hi, (Phi_hi - Phi_lo) / length))
+            grads.append(np.where(flat, 0., (N_hi - N_lo) / length))
             cells.append((first, last))
         # tensor products over the axes: (m_1 * ... * m_dim, n)
         node = np.zeros((1, n), dtype=np.int64)

@@ -86,6 +86,7 @@ class PointMethod:
             return self._located[1]
         except PointsOutsideGridError as err:
             err.step, err.state = step, converged
+            err.at_start = x is converged.x
             raise
         finally:
             timings["locate"] += run_clock() - tic

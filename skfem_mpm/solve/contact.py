@@ -28,7 +28,10 @@ moves linearly in the grid increment, ``u_c = J_c du``:
 - with GIMP's and B-splines' smooth weights by the point's operator and
   its gradient, ``u_c = u_p + grad(u)_p q_c`` (``q_c = F R_c`` in finite
   deformation, ``R_c`` in small strain and with FE), which is where the
-  next step starts;
+  next step starts; but with GIMP on linear cells a corner on its
+  domain's side facing a smooth axis-aligned face by GIMP's weights of
+  that side (:meth:`StepContact.face_rows`), followed as ``d_c`` where
+  pressed;
 - with those, for an obstacle that holds the material along its face
   (friction, rough, tied), by the grid's field where the corner is (kept
   as ``d_c`` too, where such an obstacle holds it): the element
@@ -102,11 +105,13 @@ from typing import Sequence
 
 import numpy as np
 from numpy import ndarray
-from scipy.sparse import coo_matrix, csr_matrix, identity, kron, vstack
+from scipy.sparse import (coo_matrix, csr_matrix, diags, identity, kron,
+                          vstack)
 from scipy.spatial import cKDTree
 
 from ..errors import (ContactError, InvalidInputError,
                       PointsOutsideGridError, StepTooLongError)
+from ..methods.gimp_linear import LinearGimp, snap_to_lines
 from ..quadrature.locate import (cell_coordinates, point_locator,
                                  using_kernels)
 from ..protocols import GridTerm
@@ -187,6 +192,11 @@ TOUCHING = .1
 #: (:meth:`~skfem_mpm.solve.obstacles.Obstacle.nearest_face`); corners
 #: closer than it are at one place (:meth:`StepContact.material_side`)
 ALIKE = 1e-2
+
+#: a face's normal within this of a grid axis is along it: the corners
+#: facing it move with GIMP's weights of their domain's side
+#: (:meth:`StepContact.face_rows`)
+FACE_ALIGNED = 1e-9
 
 
 def coulomb(friction, kappa: float, p: ndarray, n: ndarray, tau: ndarray,
@@ -1230,6 +1240,10 @@ class StepContact(GridTerm):
             self.face.append((face, over))
             self.closed.append(term.closed[i][:, idx].ravel())
             self.area.append(self.corner_areas(normal, idx))
+            if not term.reads_field[i] and self.J[i] is self.rows.get(False):
+                face_rows = self.face_rows(idx, normal)
+                if face_rows is not None:
+                    self.J[i] = face_rows
             if ob.friction == "rough":
                 gap = ob.face_gap(self.Xs, face, self.shift_old[i])[0] \
                     - self.closed[-1]
@@ -1285,6 +1299,77 @@ class StepContact(GridTerm):
                                                self.op.N // dim),
                               self.op, where, np.tile(idx, nc))
 
+    def face_rows(self, idx: ndarray, normal: ndarray):
+        """GIMP (linear elements, one field), a smooth obstacle: the
+        vector rows (dim nc m, N) of the corners of the points ``idx``,
+        those on their domain's side facing an axis-aligned face of
+        normal ``normal`` (dim, nc m), of a domain that spans a grid line
+        along that normal, by GIMP's weights of that side of the domain,
+        a box of zero thickness (the hat functions along the normal at
+        the side, the average along it, and its gradient towards the
+        corner), the others by their point's rows; ``None`` where no
+        corner is such, or the method has no such weights.
+
+        cpGIMP's internal force of a uniform stress on a node is the
+        stress on the node's weight over the surface of its points'
+        domains, the hat at the side along the normal; a pressure
+        through rows that extrapolate the point's average weight by its
+        average gradient, ``S + q G``, puts on a node below a grid line
+        that a domain reaches by a sliver ``e`` the weight ``e / 2h``
+        where the internal force has ``e / h``.  That node carries
+        almost no material (stiffness of order ``(e/h)^2``): the
+        mismatch moved it until the domains' stress was half off
+        (0.51 of p without the ghost penalty, 0.03 to 0.06 with it;
+        ``docs/contact.md``)."""
+        dim, nc, m = self.dim, 2 ** self.dim, len(idx)
+        run = self.problem.run
+        gimp = getattr(getattr(run.method, "piece", run.method), "gimp",
+                       None)
+        if not isinstance(gimp, LinearGimp) or not hasattr(self.op, "S") \
+                or self.op.N // dim != gimp.N:
+            return None
+        k = np.abs(normal).argmax(axis=0)
+        j = np.arange(nc * m)
+        sign = np.repeat(corner_signs(dim), m, axis=1)     # (dim, nc m)
+        facing = np.flatnonzero(
+            (np.abs(normal[k, j]) >= 1. - FACE_ALIGNED)
+            & (sign[k, j] * normal[k, j] < 0.))
+        if not facing.size:
+            return None
+        points, k = self.problem.points, k[facing]
+        p = np.tile(idx, nc)[facing]
+        # only domains that span a grid line along the face's normal: one
+        # within a cell keeps its point's rows (a cpGIMP footing's soil
+        # on a grid line: with the side's rows there too, its pressure
+        # at B / h = 8 rose from 5.42 to 5.57 c, above the coarse grid's)
+        spans = np.zeros(facing.size, dtype=bool)
+        for d, a in enumerate(gimp.axes):
+            on = k == d
+            x, r = points.x[d, p[on]], points.domain[d, p[on]]
+            first, last = snap_to_lines(a, np.clip(x - r, a[0], a[-1]),
+                                        np.clip(x + r, a[0], a[-1]))[2:]
+            spans[on] = last > first
+        facing, k, p = facing[spans], k[spans], p[spans]
+        if not facing.size:
+            return None
+        f = np.arange(facing.size)
+        half = points.domain[:, p].copy()
+        side = points.x[:, p].copy()
+        side[k, f] += sign[k, facing] * half[k, f]
+        q = sign[:, facing] * half          # the side's corner
+        half[k, f] = 0.
+        q[k, f] = 0.
+        op = gimp(side, half)
+        face = op.S + sum(diags(q[b]) @ op.G[b] for b in range(dim))
+        point = self.corner_rows(idx, False)
+        keep = np.ones(nc * m)
+        keep[facing] = 0.
+        scatter = csr_matrix((np.ones(facing.size), (facing, f)),
+                             shape=(nc * m, facing.size))
+        rows = (diags(keep) @ point + scatter @ face).tocsr()
+        rows.eliminate_zeros()
+        return kron(rows, identity(dim), format="csr")
+
     def motions(self, du: ndarray) -> list:
         """Per obstacle, the corners' motion (dim, nc m) by ``du``."""
         moved = {}
@@ -1322,17 +1407,16 @@ class StepContact(GridTerm):
         obstacles read the grid's field and others their point's (a
         corner with a traction, or tied, from one that reads the field
         follows the field)."""
-        if len(self.rows) == 1:
-            return self.motions(du)[0]
-        point, field = ((self.rows[k] @ du).reshape(-1, self.dim).T
-                        for k in (False, True))
-        held = np.zeros(field.shape[1], dtype=bool)
+        motions = self.motions(du)
+        base = self.rows.get(False, self.rows.get(True))
+        motion = (base @ du).reshape(-1, self.dim).T
         for i, (T, *_) in enumerate(ev):
-            if self.J[i] is self.rows[True]:
-                held |= (T != 0.).any(axis=0)
+            if self.J[i] is not base:
+                held = (T != 0.).any(axis=0)
                 if self.anchor[i] is not None:
                     held |= self.anchor[i][0]
-        return np.where(held, field, point)
+                motion = np.where(held, motions[i], motion)
+        return motion
 
     def material_side(self):
         """``inward(which)``: per corner ``which`` (indices of ``Xs``) the

@@ -11,6 +11,7 @@ map built once, where scikit-fem's ``condense`` would index the sparse
 matrix anew every iteration.
 
 """
+import logging
 import warnings
 from contextlib import contextmanager
 from typing import Callable, Optional
@@ -29,6 +30,8 @@ from ..quadrature.basis import compiled_kernels
 from . import backends
 from .backends import TINY, get_solver
 
+logger = logging.getLogger(__name__)
+
 __all__ = ["support_dofs", "free_dofs", "check_rigid_body_modes",
            "solve_active", "factorise_active", "factorise_condensed",
            "condensed", "Condensation"]
@@ -44,7 +47,19 @@ def support_dofs(supports, basis) -> ndarray:
     """
     given = supports
     if callable(supports):
-        supports = supports(basis)
+        watched = SupportBasis(basis)
+        supports = supports(watched)
+        # a part of supports that hold elsewhere (no support at all is a
+        # dynamic run's own, or the supports' check's error)
+        empty = watched.empty if len(watched.empty) < watched.calls else []
+        for selection in empty:
+            logger.warning(
+                "supports: get_dofs(%s) selected no grid DOF (the grid "
+                "spans %s): that part of the supports holds nothing",
+                selection, ", ".join(
+                    "{} {:.6g} to {:.6g}".format(axis, lo, hi)
+                    for axis, lo, hi in zip("xyz", basis.mesh.p.min(axis=1),
+                                            basis.mesh.p.max(axis=1))))
     if not isinstance(supports, ndarray) and hasattr(supports, "all"):
         supports = supports.all()
     try:
@@ -69,6 +84,44 @@ def support_dofs(supports, basis) -> ndarray:
             "support DOF indices must lie in [0, {}), got {}..{}"
             .format(basis.N, D.min(), D.max()))
     return D
+
+
+class SupportBasis:
+    """The grid basis as a supports function sees it: the basis itself
+    but that it counts the ``get_dofs`` calls (:attr:`calls`) and notes
+    in :attr:`empty` the description of each call's arguments that
+    selected no DOF: a side missed by a predicate (``x[0] == 46`` on a
+    grid ending at 45) would hold nothing without a word.
+
+    Examples
+    --------
+    >>> from skfem import Basis, ElementQuad1, MeshQuad
+    >>> watched = SupportBasis(Basis(MeshQuad(), ElementQuad1()))
+    >>> watched.get_dofs(lambda x: x[0] == 0.).flatten().tolist()
+    [0, 3]
+    >>> watched.get_dofs(lambda x: x[0] == 2.).flatten().size, watched.empty
+    (0, ['<lambda>'])
+    >>> int(watched.N)         # the rest is the basis
+    4
+    """
+
+    def __init__(self, basis):
+        self._basis = basis
+        self.empty = []
+        self.calls = 0
+
+    def __getattr__(self, name):
+        return getattr(self._basis, name)
+
+    def get_dofs(self, *args, **kwargs):
+        dofs = self._basis.get_dofs(*args, **kwargs)
+        self.calls += 1
+        if dofs.flatten().size == 0:
+            self.empty.append(", ".join(
+                [getattr(a, "__name__", repr(a)) for a in args]
+                + ["{}={}".format(k, getattr(v, "__name__", repr(v)))
+                   for k, v in kwargs.items()]))
+        return dofs
 
 
 def free_dofs(active: ndarray, D: ndarray) -> ndarray:
