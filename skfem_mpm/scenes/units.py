@@ -60,7 +60,7 @@ def check_units(system: str) -> str:
     Traceback (most recent call last):
     ...
     skfem_mpm.errors.InvalidInputError: units must be one of \
-['SI', 'kN-m'], got 'kPa'
+('SI', 'kN-m'), got 'kPa'
     """
     check_choice("units", system, SYSTEMS)
     return system
