@@ -46,6 +46,7 @@ from .scenes.scene import (build_points, load_scale, obstacle_list,
                            run_scene, scene_support_dofs, support_names,
                            surface_loads)
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
+from .scenes.units import unit
 from .solve.body_contact import body_contact_state_names
 from .solve.contact import contact_state_names
 from .solve.rotation import rotation_state_names, start_missing_rotation
@@ -252,7 +253,8 @@ def summarise(scene, result, seconds: float, earlier=None,
         "max_displacement": largest_displacement(result),
         "reactions": {name: reactions[:, k].tolist()
                       for k, name in enumerate(names[:len(scene.supports)])},
-        "units": summary_units(pts.dim, scene.dynamics is not None),
+        "units": summary_units(pts.dim, scene.dynamics is not None,
+                               scene.units),
     }
     summary.update(rigid_body_curves(scene, rows, reactions))
     if scene.dynamics is not None and len(rows):
@@ -270,7 +272,8 @@ def summarise(scene, result, seconds: float, earlier=None,
         summary["error"] = error
     if scene.outputs and result.history:    # quantities at this step
         summary["outputs"] = {q.label: {
-            "value": q.measure(scene, result), "unit": q.unit(pts.dim)}
+            "value": q.measure(scene, result),
+            "unit": q.unit(pts.dim, scene.units)}
             for q in scene.outputs}
     return without_negative_zeros(summary)    # no "-0 N" printed
 
@@ -284,20 +287,30 @@ def run_timings(records, earlier=None) -> dict:
             for p in PHASES}
 
 
-def summary_units(dim: int, dynamics: bool = False) -> dict:
-    """The SI units of a ``summary.json``'s numbers: its top-level ones by
-    key, and ``force``, ``displacement`` and (``dynamics``) ``time`` for
-    the per-step curves of rigid bodies, obstacles and contacts (their
-    peaks and final values alike); ``outputs`` carry their own (a user
-    trial read ``max_displacement`` without one)."""
-    force = quantity_unit("rigid_force", dim)
-    units = {"max_displacement": "m", "max_residual": "-",
-             "wall_seconds": "s", "compile_seconds": "s",
-             "load_factor": "-", "reactions": force,
-             "force": force, "displacement": "m",
-             "energies": {1: "J/m^2", 2: "J/m", 3: "J"}[dim] + " (time: s)"}
+def summary_units(dim: int, dynamics: bool = False,
+                  system: str = "SI") -> dict:
+    """The units of a ``summary.json``'s numbers in the scene's units
+    ``system`` (:mod:`~skfem_mpm.scenes.units`, named under ``system``):
+    its top-level ones by key, and ``force``, ``displacement`` and
+    (``dynamics``) ``time`` for the per-step curves of rigid bodies,
+    obstacles and contacts (their peaks and final values alike);
+    ``outputs`` carry their own (a user trial read ``max_displacement``
+    without one).
+
+    >>> from skfem_mpm.cli import summary_units
+    >>> summary_units(2, system="kN-m")["reactions"]
+    'kN/m'
+    """
+    force, length, time = (unit(k, system, dim) for k in (
+        "force", "length", "time"))
+    units = {"system": system, "max_displacement": length,
+             "max_residual": "-", "wall_seconds": "s",
+             "compile_seconds": "s", "load_factor": "-",
+             "reactions": force, "force": force, "displacement": length,
+             "energies": "{} (time: {})".format(
+                 unit("energy", system, dim), time)}
     if dynamics:
-        units["time"] = "s"
+        units["time"] = time
     return units
 
 
@@ -414,16 +427,19 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
                         outdir / "deformed_shape.png", load_factor)
     d = pts.dim - 1
     name = STRESS_NAMES[d, d]
+    stress = unit("stress", scene.units)
     fig, ax = pyplot().subplots(figsize=(6, 4) if pts.dim == 1 else
                                 body_figure_size(pts.x[:2]))
-    draw_points(fig, ax, pts, pts.stress[d, d], "{} (Pa)".format(name),
+    draw_points(fig, ax, pts, pts.stress[d, d],
+                "{} ({})".format(name, stress),
                 "{}: {} at the final points".format(scene.name, name))
     fig.tight_layout()
     plot.save_figure(fig, outdir / "final_stress.png")
     if pts.dim > 1:
         fig, ax = pyplot().subplots(figsize=body_figure_size(pts.x[:2]))
         draw_points(fig, ax, pts, von_mises(pts.stress),
-                    "von Mises stress (Pa)", "{}: von Mises stress at the "
+                    "von Mises stress ({})".format(stress),
+                    "{}: von Mises stress at the "
                     "final points".format(scene.name))
         fig.tight_layout()
         plot.save_figure(fig, outdir / "final_von_mises.png")
@@ -440,7 +456,8 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
         plot_column_stress([result], ["{}, {} steps".format(
             scene.method, scene.step_count)], outdir / "column_stress.png",
             title="{}: vertical stress against height,\nwith the closed "
-            "forms of {}".format(scene.name, COLUMN_SOURCE))
+            "forms of {}".format(scene.name, COLUMN_SOURCE),
+            unit=stress)
     if loaded.size and result.history and \
             result.history[0].displacement is not None:
         fig, ax = pyplot().subplots(figsize=(5, 4))
@@ -453,8 +470,10 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
             disp = [0.] + [r.displacement[k, loaded].mean()
                            for r in result.history]
             ax.plot(disp, factor, "o-", ms=3, label="xyz"[k])
-        ax.set_xlabel("mean displacement of the loaded points (m)")
-        ax.set_ylabel("time (s)" if dynamic else "load factor (-)")
+        ax.set_xlabel("mean displacement of the loaded points ({})"
+                      .format(unit("length", scene.units)))
+        ax.set_ylabel("time ({})".format(unit("time", scene.units))
+                      if dynamic else "load factor (-)")
         ax.set_title("{}: {} against displacement\nof the loaded "
                      "material points".format(
                          scene.name, "time" if dynamic else "load"))
@@ -482,8 +501,8 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
     if "energies" in summary:
         fig, ax = pyplot().subplots(figsize=(6, 4))
         draw_energies(ax, summary["energies"], "{}: energies over time"
-                      .format(scene.name), unit="J" if pts.dim == 3 else
-                      "J per m thickness" if pts.dim == 2 else "J per m^2")
+                      .format(scene.name),
+                      unit=unit("energy", scene.units, pts.dim))
         fig.tight_layout()
         plot.save_figure(fig, outdir / "energies.png")
 
@@ -588,12 +607,14 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
                 ax.plot(x, force[:, k], style, color=line.get_color(),
                         label="{}, {}".format(name, "xyz"[k]))
     ax.axhline(0., color="k", lw=.5)
-    ax.set_xlabel("obstacle displacement along its motion (m)" if moving
-                  else "time (s)" if scene.dynamics else "load factor (-)")
+    ax.set_xlabel("obstacle displacement along its motion ({})".format(
+        unit("length", scene.units)) if moving else "time ({})".format(
+            unit("time", scene.units)) if scene.dynamics else
+        "load factor (-)")
     ax.set_ylabel("{} ({})".format(
         "force of the material on it" if what == "obstacles" else
         "force of the first body on the second",
-        quantity_unit("rigid_force", scene.grid.dim)))
+        quantity_unit("rigid_force", scene.grid.dim, scene.units)))
     ax.set_title("{}: contact force {},\nmagnitude and components".format(
         scene.name, "on the obstacles" if what == "obstacles" else
         "between the bodies"))
@@ -622,10 +643,12 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
         line, = ax.plot(disp @ direction, force @ direction, "o-",
                         ms=3, label=name)
         mark_peak(ax, line, disp @ direction, force @ direction)
-    ax.set_xlabel("displacement along the motion (m)")
+    ax.set_xlabel("displacement along the motion ({})".format(
+        unit("length", scene.units)))
     ax.set_ylabel("force along the motion ({})\n(the weight of "
                   "the points in its cells taken off)".format(
-                      quantity_unit("rigid_force", scene.grid.dim)))
+                      quantity_unit("rigid_force", scene.grid.dim,
+                                    scene.units)))
     ax.set_title("{}: force-displacement\nof the rigid bodies".format(
         scene.name))
     ax.legend(loc="lower right")
@@ -1100,8 +1123,9 @@ def compare(args) -> int:
         with atomic_path(args.out / "{}.vtu".format(method)) as tmp:
             meshio.write(tmp, point_cloud(pts), file_format="vtu")
         pts.x = pts.x0 + pts.displacement        # FE points stay at x0
-        draw_points(fig, ax, pts, pts.stress[d, d],
-                    "{} (Pa)".format(component), "{} ({} kinematics),\n"
+        draw_points(fig, ax, pts, pts.stress[d, d], "{} ({})".format(
+                        component, unit("stress", scene.units)),
+                    "{} ({} kinematics),\n"
                     "{:.2f} s".format(method, variant.kinematics, seconds),
                     scale=scale, colorbar=k == 1)
         if a.dim == 1:

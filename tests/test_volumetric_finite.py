@@ -276,10 +276,11 @@ def test_plastic_flow_at_constant_volume_on_q2_cells_is_not_warned(caplog):
 
 
 @pytest.mark.parametrize("nu, antilocking, kinematics, method, said", [
-    (.4999, False, "small", "fem", "Stabilisation(antilocking=True) (mean "
-     "dilatation)"),
+    (.4999, False, "small", "fem", "use mean dilatation: Stabilisation("
+     "antilocking=True); scene file: [solver] antilocking = true"),
     (.49, False, "finite", "mpm", "'fbar' in finite deformation"),
-    (.4999, True, "finite", "cpgimp", "use antilocking='fbar'"),
+    (.4999, True, "finite", "cpgimp", "Stabilisation(antilocking='fbar'); "
+     "scene file: [solver] antilocking = \"fbar\""),
     (.4999, True, "finite", "fem", "take more, smaller steps"),
     (.489, False, "small", "mpm", None),
     (.498, True, "finite", "mpm", None),

@@ -55,7 +55,7 @@ def _hat_terms(a: ndarray, node: ndarray, x: ndarray):
     return tl / hl - tr / hr, tl * tl / (2 * hl) + tr - tr * tr / (2 * hr)
 
 
-def _snap(a: ndarray, lo: ndarray, hi: ndarray):
+def snap_to_lines(a: ndarray, lo: ndarray, hi: ndarray):
     """Domain ends within :func:`sliver` of a grid line, below (lo) or
     above (hi), put on it, and the first and last cell they span."""
     n = len(a) - 1
@@ -121,16 +121,15 @@ class LinearGimp:
         n = x.shape[1]
         nodes, weights, grads, cells = [], [], [], []
         for d, a in enumerate(self.axes):
-            lo, hi, first, last = _snap(a, np.clip(x[d] - domain[d], a[0],
-                                                   a[-1]),
-                                        np.clip(x[d] + domain[d], a[0],
-                                                a[-1]))
+            lo, hi, first, last = snap_to_lines(
+                a, np.clip(x[d] - domain[d], a[0], a[-1]),
+                np.clip(x[d] + domain[d], a[0], a[-1]))
             # a zero half-length: the hat at x (within a sliver of a grid
             # line: on it), no gradient along the axis
             flat = domain[d] == 0
             if flat.any():
-                at = _snap(a, np.clip(x[d], a[0], a[-1]),
-                           np.clip(x[d], a[0], a[-1]))[0]
+                at = snap_to_lines(a, np.clip(x[d], a[0], a[-1]),
+                                   np.clip(x[d], a[0], a[-1]))[0]
                 lo, hi = np.where(flat, at, lo), np.where(flat, at, hi)
                 cell = np.clip(np.searchsorted(a, at, side="right") - 1, 0,
                                len(a) - 2)

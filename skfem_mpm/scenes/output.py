@@ -3,7 +3,9 @@
 displacement increment and the support reactions), from step 0 (the
 start) on, PVD collections and ``summary.json`` (checkpoints:
 :mod:`skfem_mpm.scenes.checkpoint`).  Every file is written atomically;
-the fields and their units are tabled in the README.
+the fields and their units are tabled in the README (the units the
+scene's numbers are in, :mod:`~skfem_mpm.scenes.units`: SI, or kN and kPa
+with ``units = "kN-m"``).
 
 """
 import json

@@ -1,7 +1,9 @@
 """Plots of point results (matplotlib, imported lazily, Agg backend).
 
-Every figure explains itself: axes labelled with units (SI: m, Pa, N per
-m of thickness in 2D), a title saying what it shows, geometry at equal
+Every figure explains itself: axes labelled with units (the scene's,
+:mod:`~skfem_mpm.scenes.units`: the caller names a stress's or a
+force's; lengths and times, in m and s in every system, are labelled
+here), a title saying what it shows, geometry at equal
 aspect in a figure shaped like the body, signed fields on a colour map
 centred on zero, compared panels on one colour scale, and any number of
 series in distinct styles (:func:`series_styles`).
@@ -15,6 +17,11 @@ import numpy as np
 
 from .io import atomic_path
 from .layout import layout_problems, settle_layout, thin_ticks
+from .units import SHARED, unit
+
+assert "length" in SHARED and "time" in SHARED   # no system needed here
+#: the units of lengths and times in every system (a figure's axes)
+LENGTH, TIME = unit("length"), unit("time")
 
 __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "series_styles", "colour_scale", "body_figure_size",
@@ -202,7 +209,7 @@ def draw_points(fig, ax, points, values: np.ndarray, label: str, title: str,
     if x.shape[0] == 1:
         order = np.argsort(x[0])
         ax.plot(x[0, order], values[order], ".-", ms=3, lw=.8)
-        ax.set_xlabel("x (m)")
+        ax.set_xlabel("x ({})".format(LENGTH))
         ax.set_ylabel(label)
         ax.set_title(title)
         return None
@@ -214,8 +221,8 @@ def draw_points(fig, ax, points, values: np.ndarray, label: str, title: str,
     sc = ax.scatter(x[a, shown], x[b, shown], c=values[shown], s=size,
                     **scale)
     ax.set_aspect("equal")
-    ax.set_xlabel("{} (m)".format("xyz"[a]))
-    ax.set_ylabel("{} (m)".format("xyz"[b]))
+    ax.set_xlabel("{} ({})".format("xyz"[a], LENGTH))
+    ax.set_ylabel("{} ({})".format("xyz"[b], LENGTH))
     ax.locator_params(nbins=5)
     fit_title(fig, ax, title + (", " + note if note else ""))
     if colorbar:
@@ -321,8 +328,8 @@ def draw_plastic_zone(fig, ax, points, title: str, rigid=None,
     fig.colorbar(sc, ax=ax, label="equivalent plastic strain (-), top 2% "
                  "clipped")
     ax.set_aspect("equal")
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
+    ax.set_xlabel("x ({})".format(LENGTH))
+    ax.set_ylabel("y ({})".format(LENGTH))
     ax.set_title(title)
 
 
@@ -384,7 +391,7 @@ def draw_energies(ax, energies: dict, title: str, unit: str = "J",
         ax.plot(t, values, style, label=label)
     balance = kinetic + internal - external
     ax.plot(t, balance[0] - balance, "-.", label="numerical dissipation")
-    ax.set_xlabel("time (s)")
+    ax.set_xlabel("time ({})".format(TIME))
     ax.set_ylabel("energy ({})".format(unit))
     ax.set_title(title)
     ax.legend(loc="best")
@@ -576,18 +583,19 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
                              name + " (not in this slice)"))
     handles += marks
     ax.set_aspect("equal")
-    ax.set_xlabel("{} (m)".format("xyz"[a]))
+    ax.set_xlabel("{} ({})".format("xyz"[a], LENGTH))
     if dim == 1:
         ax.set_yticks([0., 1.], ["deformed", "undeformed"])
         ax.set_ylim(-.6, 1.6)
         ax.set_aspect("auto")
         ax.set_ylabel("configuration of the 1D bar")
     else:
-        ax.set_ylabel("{} (m)".format("xyz"[b]))
+        ax.set_ylabel("{} ({})".format("xyz"[b], LENGTH))
         ax.locator_params(nbins=5)
     fit_title(fig, ax, title + (", " + note if note else ""))
     if coloured:
-        side_colorbar(fig, ax, sc, "displacement magnitude |u| (m)", "4%")
+        side_colorbar(fig, ax, sc, "displacement magnitude |u| ({})"
+                      .format(LENGTH), "4%")
     legend = ax.legend(handles=handles, loc="upper center", fontsize=7,
                        bbox_to_anchor=(.5, -.2), ncol=2, frameon=False)
     if legend.get_window_extent(fig.canvas.get_renderer()).width > \

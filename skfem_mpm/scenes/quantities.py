@@ -10,8 +10,9 @@ between the bodies of a contact.  Scene files list them as
 positions, so a quantity follows the same material through the
 deformation and across refinements.
 
-Values are in the scene's consistent SI units: displacements in m,
-stresses in Pa, forces in N (per m of thickness in 2D, per m^2 in 1D).
+Values are in the scene's consistent units (:mod:`~skfem_mpm.scenes.units`;
+SI by default): displacements in m, stresses in Pa, forces in N (per m of
+thickness in 2D, per m^2 in 1D); with ``units = "kN-m"`` in kPa and kN.
 
 """
 from dataclasses import dataclass
@@ -23,6 +24,7 @@ from numpy import ndarray
 from ..errors import InvalidInputError, check_choice
 from .regions import Ball, Polygon, closed_region
 from .scene import obstacle_list, reaction_resultants, support_names
+from .units import unit
 
 __all__ = ["Quantity", "QUANTITIES", "COMPONENTS", "REDUCTIONS",
            "quantity_unit", "check_quantities"]
@@ -189,9 +191,11 @@ class Quantity:
                                     "all points" if self.body is None
                                     else self.body)
 
-    def unit(self, dim: int) -> str:
-        """The quantity's unit in a scene of dimension ``dim``."""
-        return quantity_unit(self.quantity, dim)
+    def unit(self, dim: int, system: str = "SI") -> str:
+        """The quantity's unit in a scene of dimension ``dim`` whose
+        numbers are in the units ``system``
+        (:data:`~skfem_mpm.scenes.units.SYSTEMS`)."""
+        return quantity_unit(self.quantity, dim, system)
 
     def check(self, scene, points=None):
         """Refuse, before any work, a quantity the scene cannot give: a
@@ -337,13 +341,17 @@ def components(quantity: str, dim: int = None) -> str:
         NEEDS.get(c, 1)] for c in names)
 
 
-def quantity_unit(quantity: str, dim: int) -> str:
-    """SI unit of a kind of quantity in a scene of dimension ``dim``."""
-    if quantity == "displacement":
-        return "m"
-    if quantity == "stress":
-        return "Pa"
-    return {1: "N/m^2", 2: "N/m", 3: "N"}[dim]
+def quantity_unit(quantity: str, dim: int, system: str = "SI") -> str:
+    """The unit of a kind of quantity in a scene of dimension ``dim``
+    whose numbers are in the units ``system``.
+
+    >>> from skfem_mpm.scenes.quantities import quantity_unit
+    >>> quantity_unit("reaction", 2), quantity_unit("stress", 2, "kN-m")
+    ('N/m', 'kPa')
+    """
+    kind = {"displacement": "length", "stress": "stress"}.get(quantity,
+                                                              "force")
+    return unit(kind, system, dim)
 
 
 def point_values(points, quantity: str, component: str) -> ndarray:

@@ -44,6 +44,7 @@ from ..solve.rigid import RigidBody
 from ..stabilisation.settings import Stabilisation
 from .footing import check_footing_scene
 from .regions import Ball, Polygon, bounding_box, check_shape, closed_region
+from .units import check_units
 
 logger = logging.getLogger(__name__)
 
@@ -309,6 +310,10 @@ class Scene:
         body force is its ``density`` times it (every body then needs a
         density, quasi-static scenes too; a rigid body without one is
         weightless).
+    units
+        The units system the scene's numbers are in, ``"SI"`` (the
+        default) or ``"kN-m"`` (kN, kPa, kN/m^3, t): labels only, its
+        output's (:mod:`~skfem_mpm.scenes.units`); nothing is converted.
     """
     grid: Grid
     bodies: List[Body]
@@ -330,6 +335,7 @@ class Scene:
     obstacles: List[Obstacle] = field(default_factory=list)
     contacts: List[Contact] = field(default_factory=list)
     acceleration: Optional[Sequence[float]] = None
+    units: str = "SI"
 
     def body_forces(self) -> Optional[ndarray]:
         """Each body's body force per unit initial volume (bodies, dim):
@@ -357,6 +363,7 @@ class Scene:
         check_choice("method", self.method, METHODS)
         check_choice("kinematics", self.kinematics, KINEMATICS)
         check_kernels(self.kernels)
+        check_units(self.units)
         for name, kind in (("newton", NewtonOptions),
                            ("stabilisation", Stabilisation)):
             if not isinstance(getattr(self, name), kind):

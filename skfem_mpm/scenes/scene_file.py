@@ -5,6 +5,10 @@ offending value (unknown keys, wrong types, impossible values), in a
 :class:`~skfem_mpm.errors.SceneError`.  The format, with every key::
 
     name = "column"
+    units = "SI"                    # optional: what the numbers are in,
+                                    # for the output's labels only: "SI"
+                                    # (m, N, Pa, kg, s) or "kN-m" (m, kN,
+                                    # kPa, kN/m^3, t, s); nothing converted
     reference = "column"            # optional: "column" ((2.28) of
                                     # Charlton 2018),
                                     # "elastica" (end-loaded cantilever) or
@@ -186,6 +190,7 @@ from ..solve.loads import WORDS_OF_2D, side_axis, side_names
 from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
 from .regions import Ball, Polygon, outside_grid, region_shape
+from .units import SYSTEMS
 from .scene import (KINEMATICS, SCHEMES, METHODS, Body, Grid, PointLoad,
                     Scene, Support, Traction, TimeIntegration)
 
@@ -698,9 +703,10 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         Listing every problem found.
     """
     c = _Checker()
-    c.table(data, "", ("name", "reference", "grid", "bodies", "supports",
-                       "gravity", "point_loads", "tractions", "solver",
-                       "dynamics", "outputs", "obstacles", "contacts"),
+    c.table(data, "", ("name", "units", "reference", "grid", "bodies",
+                       "supports", "gravity", "point_loads", "tractions",
+                       "solver", "dynamics", "outputs", "obstacles",
+                       "contacts"),
             ("grid", "bodies"))
     grid = _grid(c, data.get("grid", {}))
     grid_read = not c.problems
@@ -845,7 +851,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                         "auto"),
         kernels=c.choice(solver, "solver", "kernels", KERNELS, "auto"),
         outputs=outputs, obstacles=[o for o in obstacles if o is not None],
-        contacts=[t for t in contacts if t is not None])
+        contacts=[t for t in contacts if t is not None],
+        units=c.choice(data, "", "units", SYSTEMS, "SI"))
     if not c.problems:
         try:
             scene.check()

@@ -41,6 +41,7 @@ from scipy.sparse.linalg import splu
 from ..errors import InvalidInputError, SingularSystemError, check_choice
 from ..methods.assembly import PatternMatrices, compressed_matrix
 from ..quadrature.basis import compiled_kernels
+from ..spelling import setting
 
 logger = logging.getLogger(__name__)
 
@@ -67,10 +68,10 @@ AUTO_AMG_FROM = {"scipy (SuperLU)": {1: 1_500_000, 2: 1_500_000, 3: 5000},
 #: the smallest normal float
 TINY = float(np.finfo(float).tiny)
 CAUSES = ("points leave a zero-energy mode (a grid node supported by too few "
-          "points: Stabilisation(ghost=0.1) ties such nodes to their "
-          "neighbours, and with B-splines and no contacts between bodies "
-          "extended_splines=True folds them) or the grid has rigid-body "
-          "modes (missing supports)")
+          "points: {} ties such nodes to their neighbours, and with "
+          "B-splines and no contacts between bodies extended_splines = "
+          "true folds them) or the grid has rigid-body modes (missing "
+          "supports)".format(setting("ghost", 0.1)))
 
 
 def same_array(a: ndarray, b: ndarray) -> bool:

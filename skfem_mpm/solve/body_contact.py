@@ -79,6 +79,7 @@ from ..errors import (GridMotionError, InvalidInputError,
 from ..methods.fields import body_fields
 from ..protocols import GridTerm
 from ..quadrature.locate import point_locator
+from ..spelling import setting
 from .contact import (CellValues, block_diagonal, corner_signs, coulomb,
                       friction_hint, side_rows, spline_rows)
 from .contact_pairs import FACING, PairFinder, overlapping
@@ -1615,9 +1616,9 @@ class StepBodyContact(GridTerm):
                 "material (B-splines reaching past a body's surface): "
                 "the contact does not hold there; the ghost penalty ties "
                 "them (ghost='auto', the default, switches it on; or "
-                "Stabilisation(ghost=0.1))".format(
+                "{})".format(
                     problem.step, X[:, corner[k]].tolist(),
-                    moved[k] / h, SLIVER_SUPPORT))
+                    moved[k] / h, SLIVER_SUPPORT, setting("ghost", 0.1)))
 
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
         """The force of each contact on its second body; the record on

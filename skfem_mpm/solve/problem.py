@@ -33,6 +33,7 @@ from ..errors import GridMotionError, SingularSystemError, \
     SingularTangentError
 from ..mechanics.materials import is_plastic
 from ..protocols import Balance
+from ..spelling import setting
 from .backends import TINY
 from .linear import Condensation, condensed, factorise_condensed, \
     free_dofs
@@ -559,9 +560,9 @@ class StepProblem:
             "material (a body edge or GIMP domain barely past a grid line) "
             "carry absurd values; the ghost penalty ties them to their "
             "neighbours (ghost='auto', the default, switches it on; or "
-            "Stabilisation(ghost=0.1))".format(
+            "{})".format(
                 self.step, grid, self.grid.doflocs[:, node].tolist(),
-                moved))
+                moved, setting("ghost", 0.1)))
 
     def check_thrown(self, du: ndarray, dx: ndarray):
         """Refuse a converged grid increment ``du`` that moved a point
@@ -595,9 +596,9 @@ class StepProblem:
             "holding less than {:g} cells of material (slivers: a body edge "
             "or GIMP domain barely past a grid line); the ghost penalty "
             "ties them to their neighbours (ghost='auto', the default, "
-            "switches it on; or Stabilisation(ghost=0.1))".format(
+            "switches it on; or {})".format(
                 self.step, p, self.points.x[:, p].tolist(),
-                moved[p] / h, SLIVER_SUPPORT))
+                moved[p] / h, SLIVER_SUPPORT, setting("ghost", 0.1)))
 
     def commit(self, trial: Trial, du: ndarray, residuals: list):
         """The converged state of ``trial`` (the grid increment ``du``) and

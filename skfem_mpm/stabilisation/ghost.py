@@ -27,6 +27,7 @@ from skfem.helpers import dot, grad, mul
 
 from ..errors import UnsupportedElementError
 from ..protocols import GridTerm
+from ..spelling import setting
 
 __all__ = ["ghost_penalty", "cut_cells", "faces_crossed_past_supports",
            "GhostStabilisation", "CUT_FILL"]
@@ -100,9 +101,9 @@ def ghost_penalty(mesh, elem, fill: ndarray, mu: ndarray,
             "quadrature into the cells beside them ({}) on a grid {:.0f} "
             "cells long, whose positions carry more round-off than its "
             "mapping's absolute tolerance; use fewer cells along the "
-            "grid, or no ghost penalty (Stabilisation(ghost=0.); with "
-            "B-splines extended_splines=True)".format(
-                err, extent / cell)) from err
+            "grid, or no ghost penalty ({}; with B-splines "
+            "extended_splines = true)".format(
+                err, extent / cell, setting("ghost", 0.))) from err
     h = np.abs(sides[0].mesh_parameters())           # cell size per facet
     stiffer = np.maximum(mu[left[facets]], mu[right[facets]])
     weight = gamma * stiffer[:, None] * h

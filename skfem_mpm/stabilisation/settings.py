@@ -6,6 +6,7 @@ from typing import Sequence, Union
 import numpy as np
 
 from ..errors import InvalidInputError
+from ..spelling import setting
 
 __all__ = ["Stabilisation", "warn_volumetric_locking"]
 
@@ -18,6 +19,8 @@ LOCKING_NU = .49
 #: Poisson's ratio from which the additive mean dilatation in finite
 #: deformation is warned of its step-size dependence
 ADDITIVE_NU = .499
+#: the setting the locking warnings advise, for Python and scene files
+ANTILOCKING = setting("antilocking", True)
 
 
 @dataclass(frozen=True)
@@ -38,9 +41,9 @@ class Stabilisation:
         orders of magnitude more than any point in small strain (a node
         supported by a sliver of material,
         :class:`~skfem_mpm.errors.GridMotionError`), switches the default
-        penalty (0.1; 1e-3 in small strain unless GIMP bodies are in
-        contact:
-        :data:`~skfem_mpm.solve.core.SMALL_STRAIN_GHOST`) on for the rest
+        penalty (0.1; 1e-3 in small strain and for plastic bodies unless
+        GIMP bodies are in contact:
+        :data:`~skfem_mpm.solve.core.LIGHT_GHOST`) on for the rest
         of the run (a bending body leaves
         nodes a sliver of support and Newton cycles without it; runs that
         converge without it are not changed); on from the start with
@@ -152,23 +155,23 @@ def warn_volumetric_locking(materials: Sequence, antilocking,
     isochoric = dim > 1 and any(
         getattr(m, "plastic", False) and getattr(m, "isochoric_flow", False)
         for m in materials)
-    fbar = "; 'fbar' in finite deformation" if kinematics == "finite" and \
+    fbar = " (or 'fbar' in finite deformation)" if kinematics == "finite" and \
         method != "fem" else ""
     if antilocking is False and nu >= LOCKING_NU and not higher_order:
         logger.warning(
             "nu = %g without anti-locking: the cells lock, so displacements "
             "come out small and limit loads high, with every step converged "
             "(a cantilever at nu = 0.4999 bent 0.019 of beam theory); use "
-            "Stabilisation(antilocking=True) (mean dilatation%s)", nu, fbar)
+            "mean dilatation%s: %s", nu, fbar, ANTILOCKING)
     elif antilocking is False and isochoric and not higher_order:
         logger.warning(
             "a plastic flow that keeps the volume (%s) without "
             "anti-locking: where it flows the cells lock, so limit loads "
             "come out high, with every step converged (a Tresca strip "
             "footing carried 1.4 times Prandtl's load, 7.2 c); use "
-            "Stabilisation(antilocking=True) (mean dilatation%s)",
+            "mean dilatation%s: %s",
             ", ".join(sorted({type(m).__name__ for m in materials if getattr(
-                m, "isochoric_flow", False)})), fbar)
+                m, "isochoric_flow", False)})), fbar, ANTILOCKING)
     elif antilocking is True and kinematics == "finite" and \
             nu >= ADDITIVE_NU:
         logger.warning(
@@ -178,4 +181,5 @@ def warn_volumetric_locking(materials: Sequence, antilocking,
             "cantilever at nu = 0.4999: 0.84-0.91 of the elastica in 10 "
             "steps, FE 0.997 in 40); %s", nu,
             "take more, smaller steps" if method == "fem" else
-            "use antilocking='fbar' (F-bar on the increment)")
+            "use F-bar on the increment: " + setting("antilocking",
+                                                     "fbar"))

@@ -24,10 +24,11 @@ __all__ = ["draw_column_stress", "draw_convergence", "plot_column_stress",
 
 
 def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
-                       title: str = ""):
+                       title: str = "", unit: str = "Pa"):
     """Vertical stress of the column's points against current height, with
     the linear solution at initial heights and seed (2.27) at current ones
-    (a panel of seed Figure 2.9)."""
+    (a panel of seed Figure 2.9); ``unit``: the stress's
+    (:func:`~skfem_mpm.scenes.units.unit`)."""
     for res, label in zip(results, labels):
         pts = res.points
         order = np.argsort(pts.x[-1])
@@ -41,7 +42,7 @@ def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
     z = np.linspace(0., top, 200)
     ax.plot(-analytical_stress_current(z, top), z, "k:", lw=1,
             label="(2.27) of {}, current height".format(SOURCE))
-    ax.set_xlabel(r"$-\sigma_{yy}$ (Pa)")
+    ax.set_xlabel(r"$-\sigma_{yy}$ (" + unit + ")")
     ax.set_ylabel("height (m)")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=6)
@@ -63,10 +64,11 @@ def draw_convergence(ax, nelems: np.ndarray, errors: Dict[str, np.ndarray],
 
 
 def plot_column_stress(results: Sequence[Result], labels: Sequence[str],
-                       path, title: str = ""):
-    """One stress-profile panel written to ``path`` (PNG)."""
+                       path, title: str = "", unit: str = "Pa"):
+    """One stress-profile panel written to ``path`` (PNG), the stress in
+    ``unit``."""
     fig, ax = pyplot().subplots(figsize=(4.5, 4.))
-    draw_column_stress(ax, results, labels, title)
+    draw_column_stress(ax, results, labels, title, unit)
     fig.tight_layout()
     plot.save_figure(fig, path)
 

@@ -70,7 +70,7 @@ from ..scenes.scene import (METHODS, Grid, Scene, build_points,
                              point_bound, run_scene, support_names)
 from ..solve.backends import (AUTO_AMG_FROM, AUTO_PARDISO_FROM,
                               available_solvers)
-from ..solve.core import DEFAULT_GHOST, SMALL_STRAIN_GHOST
+from ..solve.core import DEFAULT_GHOST, LIGHT_GHOST
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS
 from ..solve.results import PHASES
 from .column import SOURCE, column_error, column_extent
@@ -640,7 +640,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             found["absolute_errors"] = found.pop("errors")
             found["absolute_uncertainties"] = found.pop("uncertainties")
             convergence.append(dict(
-                quantity=q.label, unit=q.unit(len(scene.grid.axes)),
+                quantity=q.label,
+                unit=q.unit(len(scene.grid.axes), scene.units),
                 choices=choices, cell_sizes=sizes, values=values,
                 ghost_from_step=[r.get("ghost_from_step") for r in fitted],
                 mixed_stabilisation=mixed, stabilisation_left_out=ends,
@@ -670,7 +671,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             "not varied")
         what = "|value - reference| / |reference| of {} ({}), the " \
             "reference being {}".format(
-                first, quantities[0].unit(len(scene.grid.axes)), reference)
+                first, quantities[0].unit(
+                    len(scene.grid.axes), scene.units), reference)
         what += "; it measures what the group's varied choices change, " \
             "not an error its cases share (of points per cell, a " \
             "penalty, the method): groups whose references disagree are " \
@@ -941,10 +943,10 @@ def mixed_stabilisation(measured: dict) -> List[str]:
             "WARNING: mixed stabilisation [{}]: ghost=\"auto\" switched "
             "the ghost penalty on otherwise from case to case ({}): {}; "
             "for a study, fix the penalty in the scene ([solver] ghost = "
-            "{:g} in finite deformation, {:g} in small strain: what "
-            "\"auto\" switches on) so that every case runs with it from "
-            "the start".format(where, c["mixed_stabilisation"], what,
-                               DEFAULT_GHOST, SMALL_STRAIN_GHOST))
+            "{:g} in finite deformation of an elastic body, {:g} in small "
+            "strain or for a plastic one: what \"auto\" switches on) so "
+            "that every case runs with it from the start".format(where, c["mixed_stabilisation"], what,
+                               DEFAULT_GHOST, LIGHT_GHOST))
     return lines
 
 

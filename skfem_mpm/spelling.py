@@ -1,0 +1,47 @@
+"""How a message names a setting: in Python and in a scene file.
+
+A warning or error that advises a setting reaches Python users and scene
+files' users alike (a trial's scene run was told to "use
+Stabilisation(antilocking=True)"); :func:`setting` spells it for both,
+from one table of the option objects' fields and their scene keys.
+
+>>> from skfem_mpm.spelling import setting
+>>> setting("antilocking", True)
+'Stabilisation(antilocking=True); scene file: [solver] antilocking = true'
+"""
+__all__ = ["SCENE_KEYS", "setting"]
+
+#: per option field, the option object that holds it and its scene key
+#: as ``(table, key)``
+SCENE_KEYS = {
+    "antilocking": ("Stabilisation", ("solver", "antilocking")),
+    "ghost": ("Stabilisation", ("solver", "ghost")),
+    "extended_splines": ("Stabilisation", ("solver", "extended_splines")),
+    "tol": ("NewtonOptions", ("solver", "tolerance")),
+    "max_iter": ("NewtonOptions", ("solver", "max_iterations")),
+    "line_search": ("NewtonOptions", ("solver", "line_search")),
+    "newton": ("NewtonOptions", ("solver", "newton")),
+    "rhs": ("NewtonOptions", ("solver", "rhs")),
+    "kernels": ("Options", ("solver", "kernels")),
+}
+
+
+def _toml(value) -> str:
+    """``value`` as a TOML value: ``true``, ``"fbar"``, ``0.1``."""
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, str):
+        return '"{}"'.format(value)
+    return repr(value)
+
+
+def setting(field: str, value) -> str:
+    """The option ``field`` set to ``value``, spelled for Python and for a
+    scene file (a field of :data:`SCENE_KEYS`).
+
+    >>> setting("ghost", 0.1)
+    'Stabilisation(ghost=0.1); scene file: [solver] ghost = 0.1'
+    """
+    owner, (table, key) = SCENE_KEYS[field]
+    return "{}({}={!r}); scene file: [{}] {} = {}".format(
+        owner, field, value, table, key, _toml(value))
