@@ -300,12 +300,12 @@ def linear_gimp(method):
 
 
 def side_rows(gimp: LinearGimp, x: ndarray, half: ndarray, sign: ndarray,
-              normal: ndarray):
+              normal: ndarray, spanning: bool = False):
     """GIMP's weights of the corners ``sign`` (dim, m; +-1 per axis) of
     the domains ``x``, ``half`` (dim, m) that lie on their domain's side
     facing an axis-aligned face of normal ``normal`` (dim, m; the face's,
-    towards the domain), of a domain that spans a grid line along that
-    normal: ``(facing, rows)``, the indices of those corners
+    towards the domain), where ``spanning`` only of a domain that spans
+    a grid line along that normal: ``(facing, rows)``, the indices of those corners
     and their scalar rows (facing, ``gimp.N``) on ``gimp``'s grid, the
     weights of that side as a box of zero thickness (the hat functions
     along the normal at the side, their average along it) and their
@@ -321,12 +321,14 @@ def side_rows(gimp: LinearGimp, x: ndarray, half: ndarray, sign: ndarray,
     j = np.arange(m)
     facing = np.flatnonzero((np.abs(normal[k, j]) >= 1. - FACE_ALIGNED)
                             & (sign[k, j] * normal[k, j] < 0.))
-    # only domains that span a grid line along the face's normal: one
-    # within a cell keeps its point's rows (a cpGIMP footing's soil on a
-    # grid line: with the side's rows there too, its pressure at B / h =
-    # 8 rose from 5.42 to 5.57 c, above the coarse grid's)
-    spans = np.zeros(facing.size, dtype=bool)
-    for d, a in enumerate(gimp.axes):
+    # an obstacle's: only domains that span a grid line along the face's
+    # normal, one within a cell keeps its point's rows (a cpGIMP footing's
+    # soil on a grid line: with the side's rows there too, its pressure
+    # at B / h = 8 rose from 5.42 to 5.57 c, above the coarse grid's);
+    # between bodies every one (both sides' rows alike: the lower block's
+    # within its cells too, or pressed blocks are off the glued ones)
+    spans = np.full(facing.size, not spanning)
+    for d, a in enumerate(gimp.axes if spanning else ()):
         on = k[facing] == d
         c = facing[on]
         first, last = snap_to_lines(
@@ -1387,7 +1389,7 @@ class StepContact(GridTerm):
         p = np.tile(idx, nc)
         facing, face = side_rows(gimp, points.x[:, p], points.domain[:, p],
                                  np.repeat(corner_signs(dim), m, axis=1),
-                                 normal)
+                                 normal, spanning=True)
         if not facing.size:
             return None
         f = np.arange(facing.size)
