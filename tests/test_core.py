@@ -583,7 +583,7 @@ def test_absurd_grid_motion_switches_the_ghost_penalty_on(method, plastic,
     # a plastic limit load only for a plastic body
     assert "switching the ghost penalty on" in caplog.text
     assert "stiffens the cut cells" in caplog.text
-    assert ("plastic limit load can come out a few per cent higher"
+    assert ("plastic limit load can come out 8-13% higher"
             in caplog.text) == plastic
     assert res.counters["return_maps"] > 0 if plastic \
         else res.counters["return_maps"] == 0

@@ -625,16 +625,16 @@ def test_gimp_footing_with_the_ghost_switched_on_keeps_to_its_steps(
     it, and at step 2 of 10 and of 40 steps the absurd motion of the
     nodes there switches ``ghost="auto"``'s penalty on.  It acts on each
     step's increment; with gamma = 0.1 the end pressure was 18.0% and
-    13.6% above Prandtl's, with :data:`LIGHT_GHOST` (1e-3) 9.1% and
+    13.6% above Prandtl's, with :data:`SMALL_STRAIN_GHOST` (1e-3) 9.1% and
     8.8%: within 1% of each other.  On the numpy path: whether the
     slivers' motion passes the threshold is a matter of round-off (on the
     compiled passes the 10-step run's does not, and ends at +5.4%)."""
     from skfem_mpm.mechanics import kinematics
-    from skfem_mpm.solve.core import LIGHT_GHOST
+    from skfem_mpm.solve.core import SMALL_STRAIN_GHOST
     monkeypatch.setattr(kinematics, "compiled_path",
                         lambda *args, **kwargs: None)
     from skfem_mpm.studies.methods import footing, footing_reference
-    assert LIGHT_GHOST == 1e-3
+    assert SMALL_STRAIN_GHOST == 1e-3
     limit = footing_reference()
     runs = [footing(.125, "cpgimp", nsteps=n) for n in (10, 40)]
     assert [res.counters["ghost_from_step"] for res, _, _ in runs] == [2, 2]

@@ -95,7 +95,7 @@ from .rotation import SmallStrainRotation
 logger = logging.getLogger(__name__)
 
 __all__ = ["simulate", "STABILISATION", "DEFAULT_GHOST",
-           "LIGHT_GHOST", "GRID_TERMS", "RETRY_LADDER"]
+           "SMALL_STRAIN_GHOST", "GRID_TERMS", "RETRY_LADDER"]
 
 # failures of a step that a retry or a smaller load increment may cure
 STEP_FAILURES = (NewtonDivergenceError, InversionError, NumericalError,
@@ -139,18 +139,15 @@ LONG_RUN = 600.
 #: the body for the error to call it a collapse (:func:`collapse_hint`)
 COLLAPSE_SOFTENING = 5.
 #: the ghost penalty that ``ghost="auto"`` switches on when a
-#: finite-deformation step of an elastic body's moving points fails
+#: finite-deformation step of moving points fails
 DEFAULT_GHOST = .1
 #: the ghost penalty that ``ghost="auto"`` switches on in small strain
-#: (absurd grid motion, domains past a support) and for plastic bodies:
-#: in small strain it only has to tie nodes that slivers hold, and it
-#: acts on each step's increment, so its force grows with the step: a
-#: GIMP footing's pressure over Prandtl's was +18% and +13.6% with 0.1
-#: switched on at step 2 of 10 and of 40 steps, +9.1% and +8.8% with 1e-3
-#: (+5.4% where it never switched on); in finite deformation 0.1 raised a
-#: cpGIMP footing's pressure by 22% at the step it switched on (trial 67),
-#: 1e-3 by 2.3%
-LIGHT_GHOST = 1e-3
+#: (absurd grid motion, domains past a support): there it only has to tie
+#: nodes that slivers hold, and it acts on each step's increment, so its
+#: force grows with the step: a GIMP footing's pressure over Prandtl's
+#: was +18% and +13.6% with 0.1 switched on at step 2 of 10 and of 40
+#: steps, +9.1% and +8.8% with 1e-3 (+5.4% where it never switched on)
+SMALL_STRAIN_GHOST = 1e-3
 
 
 def vector_element(elem: Element) -> Element:
@@ -242,9 +239,8 @@ class Run:
 
 def ghost_term(run: Run) -> Optional[GridTerm]:
     """The ghost penalty of ``ghost=gamma``, or the one ``ghost="auto"``
-    holds in reserve (:data:`DEFAULT_GHOST`; :data:`LIGHT_GHOST` in
-    small strain and for plastic bodies, unless such bodies are in
-    contact), on from the start
+    holds in reserve (:data:`DEFAULT_GHOST`; :data:`SMALL_STRAIN_GHOST` in
+    small strain, unless such bodies are in contact), on from the start
     for GIMP and the cubic splines with contacts between bodies
     (:data:`SLIVER_METHODS`): each body's domains reach a sliver of the
     cells across an interface on a grid line, on its own field, and the
@@ -263,8 +259,8 @@ def ghost_term(run: Run) -> Optional[GridTerm]:
             logger.info("contact between bodies with %s: the ghost penalty "
                         "on from the start (gamma %g)", run.method.name,
                         DEFAULT_GHOST)
-        gamma = DEFAULT_GHOST if run.finite and not is_plastic(
-            run.material) or slivers else LIGHT_GHOST
+        gamma = DEFAULT_GHOST if run.finite or slivers else \
+            SMALL_STRAIN_GHOST
         return GhostStabilisation(
             run.mesh, run.grid.elem, gamma, run.material, active=slivers,
             obstacles=run.obstacles if run.method.name in (
@@ -478,9 +474,9 @@ class Rung(NamedTuple):
 #: what the log says when the retry ladder switches the ghost penalty on
 GHOST_CHANGES = ": it stiffens the cut cells"
 #: and what it adds for plastic bodies
-GHOST_CHANGES_PLASTIC = (", and a plastic limit load can come out a few "
-                         "per cent higher with it (a footing, gamma 1e-3: "
-                         "2-4%; docs/robustness.md)")
+GHOST_CHANGES_PLASTIC = (", and a plastic limit load can come out 8-13% "
+                         "higher with it (a footing, gamma 0.1; "
+                         "docs/robustness.md)")
 #: and what it adds for B-splines where the extended splines serve (they
 #: are refused with contacts between bodies)
 EXTENDED_INSTEAD = "; B-splines need none with " + setting(
@@ -538,7 +534,7 @@ def ghost_in_reserve(run: Run, failure, report: dict) -> bool:
     a row of nodes beyond a body's surface that its material barely
     holds: a user trial's pile with friction 0.3 (3 x 3 points per cell,
     small strain) failed at every cut-back of its second step, and runs
-    with the small-strain penalty (:data:`LIGHT_GHOST`)."""
+    with the small-strain penalty (:data:`SMALL_STRAIN_GHOST`)."""
     return (run.finite or bool(run.contacts)
             and run.method.name.startswith("bspline")) \
         and ghost_reserve_held(run)

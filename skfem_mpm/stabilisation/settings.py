@@ -41,9 +41,9 @@ class Stabilisation:
         orders of magnitude more than any point in small strain (a node
         supported by a sliver of material,
         :class:`~skfem_mpm.errors.GridMotionError`), switches the default
-        penalty (0.1; 1e-3 in small strain and for plastic bodies unless
-        GIMP bodies are in contact:
-        :data:`~skfem_mpm.solve.core.LIGHT_GHOST`) on for the rest
+        penalty (0.1; 1e-3 in small strain unless GIMP bodies are in
+        contact:
+        :data:`~skfem_mpm.solve.core.SMALL_STRAIN_GHOST`) on for the rest
         of the run (a bending body leaves
         nodes a sliver of support and Newton cycles without it; runs that
         converge without it are not changed); on from the start with

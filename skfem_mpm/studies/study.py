@@ -70,7 +70,7 @@ from ..scenes.scene import (METHODS, Grid, Scene, build_points,
                              point_bound, run_scene, support_names)
 from ..solve.backends import (AUTO_AMG_FROM, AUTO_PARDISO_FROM,
                               available_solvers)
-from ..solve.core import DEFAULT_GHOST, LIGHT_GHOST
+from ..solve.core import DEFAULT_GHOST, SMALL_STRAIN_GHOST
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS
 from ..solve.results import PHASES
 from .column import SOURCE, column_error, column_extent
@@ -943,10 +943,10 @@ def mixed_stabilisation(measured: dict) -> List[str]:
             "WARNING: mixed stabilisation [{}]: ghost=\"auto\" switched "
             "the ghost penalty on otherwise from case to case ({}): {}; "
             "for a study, fix the penalty in the scene ([solver] ghost = "
-            "{:g} in finite deformation of an elastic body, {:g} in small "
-            "strain or for a plastic one: what \"auto\" switches on) so "
-            "that every case runs with it from the start".format(where, c["mixed_stabilisation"], what,
-                               DEFAULT_GHOST, LIGHT_GHOST))
+            "{:g} in finite deformation, {:g} in small strain: what "
+            "\"auto\" switches on) so that every case runs with it from "
+            "the start".format(where, c["mixed_stabilisation"], what,
+                               DEFAULT_GHOST, SMALL_STRAIN_GHOST))
     return lines
 
 
