@@ -305,9 +305,9 @@ def side_rows(gimp: LinearGimp, x: ndarray, half: ndarray, sign: ndarray,
     the domains ``x``, ``half`` (dim, m) that lie on their domain's side
     facing an axis-aligned face of normal ``normal`` (dim, m; the face's,
     towards the domain), where ``spanning`` only of a domain that spans
-    a grid line along that normal: ``(facing, rows)``, the indices of those corners
-    and their scalar rows (facing, ``gimp.N``) on ``gimp``'s grid, the
-    weights of that side as a box of zero thickness (the hat functions
+    a grid line along that normal: ``(facing, rows)``, the indices of
+    those corners and their scalar rows (facing, ``gimp.N``) on
+    ``gimp``'s grid, the weights of that side as a box of zero thickness (the hat functions
     along the normal at the side, their average along it) and their
     gradient towards the corner (``rows`` ``None`` where none faces).
 
