@@ -35,7 +35,8 @@ class PointsOutsideGridError(MPMError):
     indices
         Indices of the points outside the grid.
     step
-        The load step in which they left it (``None`` outside a run).
+        The load step in which they left it, or at whose start they lay
+        outside (:attr:`at_start`; ``None`` outside a run).
     state
         The last converged :class:`~skfem_mpm.MaterialPoints` (in a run).
     at_start

@@ -951,15 +951,25 @@ def test_a_support_selecting_no_dof_beside_others_is_warned(caplog):
     assert res.history[-1].residual < 1e-10
     warned = [r.getMessage() for r in caplog.records
               if "selected no grid DOF" in r.getMessage()]
-    assert warned == ["supports: get_dofs(<lambda>) selected no grid DOF "
-                      "(the grid spans x 0 to 4, y 0 to 4): that part of "
-                      "the supports holds nothing"]
+    assert warned == ["supports: get_dofs call 2 (<lambda>) selected no "
+                      "grid DOF (the grid spans x 0 to 4, y 0 to 4): that "
+                      "part of the supports holds nothing"]
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
         simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
                  lambda basis: basis.get_dofs(lambda x: x[1] == 0.),
                  body_force=[0., -1e3])
     assert "selected no grid DOF" not in caplog.text
+    # the function receives the basis itself: its type, and scikit-fem's
+    # get_dofs of a dict of sides (a dict, not DOFs), as before
+    from skfem import CellBasis
+
+    def by_type_and_dict(basis):
+        assert isinstance(basis, CellBasis)
+        return basis.get_dofs({"base": lambda x: x[1] == 0.})["base"]
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                   by_type_and_dict, body_force=[0., -1e3])
+    assert res.history[-1].residual < 1e-10
 
 
 def test_points_leaving_the_grid_in_dynamics_say_at_what_time():

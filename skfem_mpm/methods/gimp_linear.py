@@ -124,8 +124,8 @@ class LinearGimp:
             lo, hi, first, last = snap_to_lines(
                 a, np.clip(x[d] - domain[d], a[0], a[-1]),
                 np.clip(x[d] + domain[d], a[0], a[-1]))
-            # a zero half-length: the hat at x (within a sliver of a grid
-            # line: on it), no gradient along the axis
+            # a zero half-length: the hat at x (within a sliver below a
+            # grid line: on it), no gradient along the axis
             flat = domain[d] == 0
             if flat.any():
                 at = snap_to_lines(a, np.clip(x[d], a[0], a[-1]),

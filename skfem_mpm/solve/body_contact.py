@@ -30,8 +30,8 @@ past a grid line), else of the cell holding the point (exact for any
 linear field, and reaching the nodes the domains' internal force
 reaches), so a uniform stress crosses the interface exactly; with GIMP
 on linear cells at a smooth contact, a corner on its domain's side
-facing the other body across a grid axis with GIMP's weights of that
-side (:meth:`BodyContact.rows`).
+facing the other body across a grid axis moves with GIMP's weights of
+that side (:meth:`BodyContact.rows`).
 Pressure and friction per pair are those
 of :mod:`skfem_mpm.solve.contact` (the pressure of an augmented
 Lagrangian ``p = max(0, lambda - kappa g)``, a Coulomb return map on the
@@ -371,9 +371,10 @@ class BodyContact(GridTerm):
         The cells of one field (the grid's).
     gimp
         GIMP's closed-form weights on one field's grid (linear elements;
-        :func:`~skfem_mpm.solve.contact.linear_gimp`), or ``None``: the
-        corners of a pair along a grid axis on the side of their domain
-        facing the other body move with them (:meth:`rows`).
+        :func:`~skfem_mpm.solve.contact.linear_gimp`): the corners of a
+        pair along a grid axis on the side of their domain facing the
+        other body move with them (:meth:`rows`); or ``None``: with the
+        grid element's shape functions.
     """
 
     def __init__(self, contacts, field: ndarray, mesh, elem, vertices: int,

@@ -28,10 +28,11 @@ moves linearly in the grid increment, ``u_c = J_c du``:
 - with GIMP's and B-splines' smooth weights by the point's operator and
   its gradient, ``u_c = u_p + grad(u)_p q_c`` (``q_c = F R_c`` in finite
   deformation, ``R_c`` in small strain and with FE), which is where the
-  next step starts; but with GIMP on linear cells a corner on its
-  domain's side facing a smooth axis-aligned face by GIMP's weights of
-  that side (:meth:`StepContact.face_rows`), followed as ``d_c`` where
-  pressed;
+  next step starts; but with GIMP on linear cells and one field, a
+  corner on its domain's side facing a smooth axis-aligned face, of a
+  domain that spans a grid line along the face's normal, by GIMP's
+  weights of that side (:meth:`StepContact.face_rows`), followed as
+  ``d_c`` where pressed;
 - with those, for an obstacle that holds the material along its face
   (friction, rough, tied), by the grid's field where the corner is (kept
   as ``d_c`` too, where such an obstacle holds it): the element
@@ -1435,10 +1436,10 @@ class StepContact(GridTerm):
 
     def followed_motion(self, du: ndarray, ev) -> ndarray:
         """The corners' motion (dim, nc m) by ``du`` as they are followed
-        into the next step: by the rows of the obstacle they meet, where
-        obstacles read the grid's field and others their point's (a
-        corner with a traction, or tied, from one that reads the field
-        follows the field)."""
+        into the next step: by the rows of the obstacle they meet where
+        those are not the point's (an obstacle that reads the grid's
+        field, or a smooth one's side rows, :meth:`face_rows`) and the
+        corner is pressed (or tied), else by their point's."""
         motions = self.motions(du)
         base = self.rows.get(False, self.rows.get(True))
         motion = (base @ du).reshape(-1, self.dim).T

@@ -47,14 +47,14 @@ def support_dofs(supports, basis) -> ndarray:
     """
     given = supports
     if callable(supports):
-        watched = SupportBasis(basis)
-        supports = supports(watched)
+        with SupportSelections(basis) as watched:
+            supports = supports(basis)
         # a part of supports that hold elsewhere (no support at all is a
         # dynamic run's own, or the supports' check's error)
         empty = watched.empty if len(watched.empty) < watched.calls else []
         for selection in empty:
             logger.warning(
-                "supports: get_dofs(%s) selected no grid DOF (the grid "
+                "supports: get_dofs %s selected no grid DOF (the grid "
                 "spans %s): that part of the supports holds nothing",
                 selection, ", ".join(
                     "{} {:.6g} to {:.6g}".format(axis, lo, hi)
@@ -86,42 +86,50 @@ def support_dofs(supports, basis) -> ndarray:
     return D
 
 
-class SupportBasis:
-    """The grid basis as a supports function sees it: the basis itself
-    but that it counts the ``get_dofs`` calls (:attr:`calls`) and notes
-    in :attr:`empty` the description of each call's arguments that
-    selected no DOF: a side missed by a predicate (``x[0] == 46`` on a
-    grid ending at 45) would hold nothing without a word.
+class SupportSelections:
+    """While in use (a context manager), each ``get_dofs`` call on
+    ``basis`` is counted (:attr:`calls`) and each that selects no DOF
+    noted in :attr:`empty` (its place among the calls and its
+    arguments): a side missed by a predicate (``x[0] == 46`` on a grid
+    ending at 45) would hold nothing without a word.  The basis itself
+    is what a supports function receives (its type, every attribute).
 
     Examples
     --------
     >>> from skfem import Basis, ElementQuad1, MeshQuad
-    >>> watched = SupportBasis(Basis(MeshQuad(), ElementQuad1()))
-    >>> watched.get_dofs(lambda x: x[0] == 0.).flatten().tolist()
-    [0, 3]
-    >>> watched.get_dofs(lambda x: x[0] == 2.).flatten().size, watched.empty
-    (0, ['<lambda>'])
-    >>> int(watched.N)         # the rest is the basis
-    4
+    >>> basis = Basis(MeshQuad(), ElementQuad1())
+    >>> with SupportSelections(basis) as watched:
+    ...     held = basis.get_dofs(lambda x: x[0] == 0.).flatten().tolist()
+    ...     none = basis.get_dofs(lambda x: x[0] == 2.).flatten().size
+    >>> held, none, watched.calls, watched.empty
+    ([0, 3], 0, 2, ['call 2 (<lambda>)'])
+    >>> "get_dofs" in vars(basis)         # the basis as it was
+    False
     """
 
     def __init__(self, basis):
-        self._basis = basis
+        self.basis = basis
         self.empty = []
         self.calls = 0
 
-    def __getattr__(self, name):
-        return getattr(self._basis, name)
+    def __enter__(self):
+        get_dofs = self.basis.get_dofs
 
-    def get_dofs(self, *args, **kwargs):
-        dofs = self._basis.get_dofs(*args, **kwargs)
-        self.calls += 1
-        if dofs.flatten().size == 0:
-            self.empty.append(", ".join(
-                [getattr(a, "__name__", repr(a)) for a in args]
-                + ["{}={}".format(k, getattr(v, "__name__", repr(v)))
-                   for k, v in kwargs.items()]))
-        return dofs
+        def watched(*args, **kwargs):
+            dofs = get_dofs(*args, **kwargs)
+            self.calls += 1
+            if hasattr(dofs, "flatten") and dofs.flatten().size == 0:
+                self.empty.append("call {} ({})".format(self.calls, ", ".join(
+                    [getattr(a, "__name__", repr(a)) for a in args]
+                    + ["{}={}".format(k, getattr(v, "__name__", repr(v)))
+                       for k, v in kwargs.items()])))
+            return dofs
+        self.basis.get_dofs = watched
+        return self
+
+    def __exit__(self, *exc):
+        vars(self.basis).pop("get_dofs", None)
+        return False
 
 
 def free_dofs(active: ndarray, D: ndarray) -> ndarray:
