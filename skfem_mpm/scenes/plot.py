@@ -17,11 +17,10 @@ import numpy as np
 
 from .io import atomic_path
 from .layout import layout_problems, settle_layout, thin_ticks
-from .units import SHARED, unit
+from .units import shared_unit
 
-assert "length" in SHARED and "time" in SHARED   # no system needed here
 #: the units of lengths and times in every system (a figure's axes)
-LENGTH, TIME = unit("length"), unit("time")
+LENGTH, TIME = shared_unit("length"), shared_unit("time")
 
 __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "series_styles", "colour_scale", "body_figure_size",

@@ -27,7 +27,8 @@ t/m^3 (with ``acceleration`` in m/s^2).
 """
 from ..errors import check_choice
 
-__all__ = ["UNITS", "SYSTEMS", "SHARED", "unit", "check_units"]
+__all__ = ["UNITS", "SYSTEMS", "SHARED", "unit", "shared_unit",
+           "check_units"]
 
 #: per system, the unit of each kind of quantity (forces and energies
 #: of a 3D scene; :func:`unit` gives those of 1D and 2D)
@@ -84,3 +85,21 @@ def unit(kind: str, system: str = "SI", dim: int = 3) -> str:
     if kind in PER_THICKNESS and dim < 3:
         text += {1: "/m^2", 2: "/m"}[dim]
     return text
+
+
+def shared_unit(kind: str) -> str:
+    """The unit of a ``kind`` of quantity that every system gives alike
+    (one of :data:`SHARED`: a label that needs no system), else raise
+    :class:`ValueError`.
+
+    >>> from skfem_mpm.scenes.units import shared_unit
+    >>> shared_unit("length")
+    'm'
+    >>> shared_unit("stress")
+    Traceback (most recent call last):
+    ...
+    ValueError: 'stress' differs between unit systems
+    """
+    if kind not in SHARED:
+        raise ValueError("{!r} differs between unit systems".format(kind))
+    return UNITS["SI"][kind]

@@ -1272,8 +1272,9 @@ class StepContact(GridTerm):
         # Lagrange elements have one kind of rows (the point's cell)
         keys = [field and hasattr(self.op, "S") for field in term.reads_field]
         #: the kinds of rows, the field's (True) and the points' (False)
-        self.rows = {key: kron(self.corner_rows(idx, key), identity(dim),
-                               format="csr") for key in set(keys)}
+        scalar = {key: self.corner_rows(idx, key) for key in set(keys)}
+        self.rows = {key: kron(rows, identity(dim), format="csr")
+                     for key, rows in scalar.items()}
         #: per obstacle, the corners' rows (vector, dim nc m x N): u_c = J du
         self.J = [self.rows[key] for key in keys]
         self.Xs = self.X[:, :, idx].reshape(dim, -1)      # (dim, nc m)
@@ -1301,7 +1302,7 @@ class StepContact(GridTerm):
             self.closed.append(term.closed[i][:, idx].ravel())
             self.area.append(self.corner_areas(normal, idx))
             if not term.reads_field[i] and self.J[i] is self.rows.get(False):
-                face_rows = self.face_rows(idx, normal)
+                face_rows = self.face_rows(idx, normal, scalar[False])
                 if face_rows is not None:
                     self.J[i] = face_rows
             if ob.friction == "rough":
@@ -1359,7 +1360,8 @@ class StepContact(GridTerm):
                                                self.op.N // dim),
                               self.op, where, np.tile(idx, nc))
 
-    def face_rows(self, idx: ndarray, normal: ndarray):
+    def face_rows(self, idx: ndarray, normal: ndarray,
+                  point: csr_matrix):
         """GIMP (linear elements, one field), a smooth obstacle: the
         vector rows (dim nc m, N) of the corners of the points ``idx``,
         those on their domain's side facing an axis-aligned face of
@@ -1367,8 +1369,9 @@ class StepContact(GridTerm):
         along that normal, by GIMP's weights of that side of the domain,
         a box of zero thickness (the hat functions along the normal at
         the side, the average along it, and its gradient towards the
-        corner), the others by their point's rows; ``None`` where no
-        corner is such, or the method has no such weights.
+        corner), the others by their point's rows ``point`` (scalar, nc
+        m x N / dim, :meth:`corner_rows`); ``None`` where no corner is
+        such, or the method has no such weights.
 
         cpGIMP's internal force of a uniform stress on a node is the
         stress on the node's weight over the surface of its points'
@@ -1394,7 +1397,6 @@ class StepContact(GridTerm):
         if not facing.size:
             return None
         f = np.arange(facing.size)
-        point = self.corner_rows(idx, False)
         keep = np.ones(nc * m)
         keep[facing] = 0.
         scatter = csr_matrix((np.ones(facing.size), (facing, f)),
@@ -1442,7 +1444,10 @@ class StepContact(GridTerm):
         corner is pressed (or tied), else by their point's."""
         motions = self.motions(du)
         base = self.rows.get(False, self.rows.get(True))
-        motion = (base @ du).reshape(-1, self.dim).T
+        motion = next((moved for J, moved in zip(self.J, motions)
+                       if J is base), None)
+        if motion is None:
+            motion = (base @ du).reshape(-1, self.dim).T
         for i, (T, *_) in enumerate(ev):
             if self.J[i] is not base:
                 held = (T != 0.).any(axis=0)

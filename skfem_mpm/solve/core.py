@@ -1300,9 +1300,10 @@ def check_combination(method: str, kinematics: str, plastic: bool,
         raise InvalidInputError(
             "antilocking='fbar' (F-bar on each step's increment) is for "
             "finite deformation with points that move, not {}; "
-            "antilocking=True is mean dilatation for every method and "
+            "mean dilatation ({}) is for every method and "
             "kinematics{}".format(
                 "finite elements" if method == "fem" else "small strain",
+                setting("antilocking", True),
                 " (near nu = 0.5 in finite deformation its answer stiffens "
                 "with the step size: take more, smaller steps)"
                 if method == "fem" else ""))

@@ -93,6 +93,7 @@ from ..kernels import BISECTION
 from ..methods.assembly import GraphPattern
 from ..methods.operators import (NO_INDEX, NO_PLACES, PointOperator,
                                  SparseOperator)
+from ..spelling import setting
 
 __all__ = ["MeanDilatation", "ElementAverage", "CellPatchAverage",
            "CellLayout", "warn_sparse_spline_points", "points_per_cell_axis",
@@ -562,8 +563,9 @@ def warn_sparse_spline_points(method: str, mesh, points, plastic: bool,
             "splines' stiffness needs 4 Gauss points a cell and axis, and "
             "with 2 an elastic cantilever two cells deep came out 2.8-4.1 "
             "times too flexible (docs/bspline.md); seed at least %d points "
-            "per cell and axis, or use extended_splines=True or 'bspline'",
-            method, per_axis, SPLINE_POINTS_PER_AXIS)
+            "per cell and axis, or use %s or 'bspline'",
+            method, per_axis, SPLINE_POINTS_PER_AXIS,
+            setting("extended_splines", True))
     elif per_axis < SPLINE_POINTS_PER_AXIS - .5:
         logger.warning(
             "method %r with mean dilatation and %.1f points per cell and "
