@@ -869,6 +869,34 @@ def test_the_collapse_hint_measures_against_the_stiffest_step():
     assert collapse_hint(run, [(0., 0.), (.5, .01), (1., .07)]) != ""
 
 
+def test_a_free_cohesionless_column_is_said_to_have_no_equilibrium():
+    """A column of Mohr-Coulomb soil without cohesion standing free under
+    gravity has no equilibrium at any load factor: its first step fails
+    at every cut-back, and the error says why (a user trial's ended with
+    "no convergence" and no more); with cohesion it stands."""
+    from skfem_mpm import MohrCoulomb
+    mesh = MeshQuad.init_tensor(np.arange(0., 4.01, .25),
+                                np.arange(0., 2.51, .25))
+    points = seed_points(mesh, 2, region=lambda x: (x[0] < 1.)
+                         & (x[1] < 2.))
+
+    def column(cohesion):
+        return simulate(
+            mesh, ElementQuad1(), points.copy(),
+            MohrCoulomb(5e6, .3, cohesion=cohesion, friction_angle=30.),
+            lambda b: np.concatenate([
+                b.get_dofs(lambda x: x[1] == 0.).all(),
+                b.get_dofs(lambda x: x[0] == 0.).all("u^1")]),
+            body_force=[0., -2e4], kinematics="finite", nsteps=5)
+    with pytest.raises(NewtonDivergenceError, match="no load step "
+                       "converged from the start") as failure:
+        column(0.)
+    assert failure.value.load_factor == 0.
+    assert "its cohesion is 0" in str(failure.value)
+    stands = column(5e3)
+    assert stands.history[-1].load_factor == 1.
+
+
 def test_a_footing_of_isochoric_flow_without_antilocking_is_warned(caplog):
     """The same footing without anti-locking carries twice Prandtl's load
     with every step converged (its cells lock where von Mises flows at

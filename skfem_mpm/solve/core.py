@@ -738,8 +738,23 @@ def collapse_hint(run: Run, reach: list) -> str:
     the body may be yielding towards a collapse, past whose limit load
     no equilibrium exists (a hardening material softens so too, with no
     limit load: hence "may"; a user's footing loaded past Prandtl's load
-    ended with "no convergence" and no more)."""
-    if not may_collapse(run) or len(reach) < 3:
+    ended with "no convergence" and no more).  Where no step converged
+    from the run's start, the body may have no equilibrium at any load
+    factor (a free column of cohesionless soil failed its first step at
+    every cut-back with no word of why, a user trial)."""
+    if not may_collapse(run):
+        return ""
+    if len(reach) == 1 and reach[0][0] == 0.:
+        cohesion = getattr(run.material, "cohesion", None)
+        return ("; no load step converged from the start: a plastic body "
+                "loaded by forces may have no equilibrium at any load "
+                "factor, a limit load of zero ({}a face steeper than the "
+                "friction angle of soil without cohesion, a body its "
+                "supports do not hold): no shorter step helps; support or "
+                "strengthen it, or follow the collapse in dynamics "
+                "(Dynamics)".format("its cohesion is 0; "
+                                    if cohesion == 0 else ""))
+    if len(reach) < 3:
         return ""
     f, u = np.array(reach).T
     rates = np.diff(u) / np.diff(f)
