@@ -53,7 +53,8 @@ from ..errors import (ContactError, GridMotionError, HeldSupportError,
                       InvalidInputError, InversionError,
                       PointsOutsideGridError, UnsupportedElementError,
                       MPMError, NewtonDivergenceError, NumericalError,
-                      SingularTangentError, StepFailedError,
+                      SingularSystemError, SingularTangentError,
+                      StepFailedError,
                       StepTooLongError, UnsettledContactError,
                       check_choice, check_int)
 from ..mechanics.forms import as_body_force
@@ -1010,6 +1011,10 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                             "grid, or make the grid cover them".format(
                                 ", as given to the run" if step == 0
                                 and factor == 0. else ""),)
+            elif isinstance(err, SingularSystemError):
+                err.args = (err.args[0] + "".join(
+                    term.unheld_hint() for term in run.terms),) \
+                    + err.args[1:]
             elif isinstance(err, PointsOutsideGridError):
                 err.args = (err.args[0] + too_soft(run, points) + (
                     "; they left it in step {} ({} to {}): a grid too "
