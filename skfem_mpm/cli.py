@@ -9,6 +9,7 @@ command line prints; the library only logs.
 """
 import argparse
 import errno
+import json
 import logging
 import os
 import shutil
@@ -101,11 +102,12 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", type=Path, default=Path("skfem-mpm-output"),
                      help="output folder (default ./skfem-mpm-output)")
     run.add_argument("--checkpoint-every", type=int, default=0, metavar="N",
-                     help="save the full state every N steps (0, the "
-                     "default: never, but where a run stops early: "
-                     "--max-steps, Ctrl-C, a failed step)")
+                     help="save the full state every N steps and at "
+                     "the end (0, the default: never, but where a run "
+                     "stops early: --max-steps, Ctrl-C, a failed step)")
     run.add_argument("--resume", type=Path, metavar="DIR",
-                     help="resume the run whose output folder is DIR")
+                     help="resume the run whose output folder is DIR "
+                     "(a completed run: nothing to do, exit 0)")
     run.add_argument("--max-steps", type=int, metavar="N",
                      help="stop after N >= 1 steps of this invocation "
                           "(resume later with --resume)")
@@ -216,6 +218,21 @@ class Progress:
 
 class StopRun(Exception):
     """Raised by the step callback to end a run early (``--max-steps``)."""
+
+
+class RunComplete(Exception):
+    """Raised by :func:`load_run` where ``--resume`` names a run that
+    completed: nothing to do (the message says so)."""
+
+
+def completed_before(outdir: Path) -> bool:
+    """Whether ``summary.json`` in ``outdir`` says its run completed
+    (unreadable or absent: ``False``)."""
+    try:
+        return json.loads((outdir / "summary.json").read_text())[
+            "status"] == "completed"
+    except (OSError, ValueError, KeyError, TypeError):
+        return False
 
 
 def summarise(scene, result, seconds: float, earlier=None,
@@ -739,7 +756,19 @@ def load_run(args):
                 "before it started has nothing to resume)".format(
                     outdir, source.name))
         scene = load_scene(source)
+        if not (outdir / CHECKPOINT).is_file() and completed_before(outdir):
+            raise RunComplete(
+                "{}: the run in {} is complete (summary.json; it kept no "
+                "checkpoint): nothing to resume, every output left as it "
+                "was".format(scene.name, outdir))
         earlier = load_checkpoint(outdir, scene_digest(source))
+        if earlier.complete:      # a trial's resume ran its steps again
+            raise RunComplete(
+                "{}: the run in {} is complete (its checkpoint holds step "
+                "{}, the end of its {} {} steps): nothing to resume, every "
+                "output left as it was".format(
+                    scene.name, outdir, earlier.step, earlier.nsteps,
+                    "load" if scene.dynamics is None else "time"))
         points = earlier.points
         if scene.dynamics is None:
             scene.nsteps = earlier.nsteps
@@ -800,6 +829,9 @@ def run(args) -> int:
         print("skfem-mpm: interrupted while setting up the run (reading the "
               "scene, seeding the points): nothing written", file=sys.stderr)
         return 130
+    except RunComplete as done:
+        print(done.args[0])
+        return 0
     digest = scene_digest(source)
     domain0 = points.domain if earlier is None else earlier.domain0
     # points carrying a point load or a surface load (traction, pressure)
@@ -1002,6 +1034,13 @@ def run(args) -> int:
             summary = completed()
         stage = "drawing the figures"
         plot_outputs(scene, result, outdir, loaded, summary, initial)
+        # a run that keeps checkpoints ends with one at its end, once
+        # every output is written: its resume has nothing to do (a
+        # trial's stood at step 15 of 20, and the resume ran 16-20 again)
+        stage = "writing its last checkpoint"
+        if history and (args.checkpoint_every or kept[0] is not None):
+            checkpoint(latest[0], history[-1].load_factor,
+                       history[-1].increment, history[-1].counters)
         stage = "printing the report"
         print_report(scene, summary, seconds, outdir, args.resume)
     except KeyboardInterrupt:
@@ -1012,8 +1051,9 @@ def run(args) -> int:
               "while {}: summary.json{} complete in {}{}".format(
                   summary["steps_run"], stage, "" if args.no_series else
                   " and the VTU series", outdir,
-                  "" if stage == "printing the report" else
-                  "; figures missing"), file=sys.stderr)
+                  "; figures missing" if stage in (
+                      "writing its summary", "drawing the figures")
+                  else ""), file=sys.stderr)
         return 130
     return 0
 

@@ -523,3 +523,58 @@ def test_the_report_counts_the_steps_taken(tmp_path, capsys):
     assert taken > 3
     assert ", {} load steps (3 planned, cut back)\n".format(taken) in \
         capsys.readouterr().out
+
+
+def outputs(out):
+    """Every file of ``out``: its bytes and modification time."""
+    return {p.name: (p.read_bytes(), p.stat().st_mtime_ns)
+            for p in sorted(out.iterdir())}
+
+
+def test_a_completed_run_s_resume_does_nothing(tmp_path, capsys):
+    """A user trial: a run with --checkpoint-every 5 over 20 steps left its
+    checkpoint at step 15 (load factor 0.75), and ``--resume`` of the
+    completed run computed steps 16-20 again, saying nothing of it.  A
+    run that keeps checkpoints ends with one at its end; the resume of a
+    completed run, with a checkpoint or without one, says so, exit 0,
+    and leaves every output as it was."""
+    out, bare = tmp_path / "out", tmp_path / "bare"
+    assert main(["run", "--out", str(out), "--steps", "3",
+                 "--checkpoint-every", "2", "--no-progress"]) == 0
+    assert main(["run", "--out", str(bare), "--steps", "2",
+                 "--no-progress"]) == 0
+    end = load_checkpoint(out)
+    assert (end.step, end.load_factor) == (3, 1.) and end.complete
+    assert not (bare / CHECKPOINT).exists()
+    capsys.readouterr()
+    for folder, why in ((out, "its checkpoint holds step 3, the end of "
+                         "its 3 load steps"), (bare, "summary.json; it "
+                                              "kept no checkpoint")):
+        before = outputs(folder)
+        assert main(["run", "--resume", str(folder), "--no-progress"]) == 0
+        printed = capsys.readouterr()
+        assert printed.out == "column: the run in {} is complete ({}): " \
+            "nothing to resume, every output left as it was\n".format(
+                folder, why)
+        assert printed.err == ""
+        assert outputs(folder) == before
+
+
+def test_a_stopped_run_resumed_to_its_end_ends_with_its_checkpoint(
+        tmp_path, capsys):
+    """``--max-steps`` stops at a checkpoint as before; the resume that
+    completes the run writes one at the end, and the next resume has
+    nothing to do."""
+    out = tmp_path / "out"
+    assert main(["run", "--out", str(out), "--steps", "2", "--max-steps",
+                 "1", "--no-progress"]) == 0
+    stopped = load_checkpoint(out)
+    assert (stopped.step, stopped.load_factor) == (1, .5)
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    assert "resumed" in capsys.readouterr().out
+    end = load_checkpoint(out)
+    assert (end.step, end.load_factor) == (2, 1.)
+    assert end.complete and not stopped.complete
+    assert end.history.shape[0] == 2 and end.reactions.shape[0] == 2
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    assert "is complete" in capsys.readouterr().out

@@ -11,7 +11,10 @@ one history row per converged step and the reaction resultants per support
 seconds and the seconds per phase spent on the steps it holds (so that a
 resumed run's ``wall_seconds`` and ``timings`` add its invocations up),
 and the SHA-256 of the scene file it belongs to (a stale checkpoint is
-refused).
+refused).  A run that kept checkpoints ends with one at its last step,
+load factor 1 (:attr:`Checkpoint.complete`): resuming it has nothing to
+do (a trial's completed run left its checkpoint at step 15 of 20, and
+``--resume`` computed steps 16-20 again).
 
 """
 import hashlib
@@ -130,6 +133,12 @@ class Checkpoint:
     wall_seconds: float = 0.
     timings: dict = field(default_factory=dict)
 
+    @property
+    def complete(self) -> bool:
+        """Whether the run reached its end (load factor 1, as the
+        solver's loop counts it): a resume has nothing to do."""
+        return self.load_factor > 1. - 1e-12
+
 
 def scene_digest(path) -> str:
     """SHA-256 of a scene file's bytes."""
@@ -192,10 +201,10 @@ def load_checkpoint(outdir, scene_sha256: Optional[str] = None) -> Checkpoint:
     path = Path(outdir) / CHECKPOINT
     if not path.is_file():
         raise CheckpointError(
-            "no checkpoint in {} (a run writes one every N steps with "
-            "--checkpoint-every N, at --max-steps, on Ctrl-C and on a "
-            "failure: a run killed without --checkpoint-every cannot "
-            "resume)".format(outdir))
+            "no checkpoint in {} (a run writes one every N steps and at "
+            "its end with --checkpoint-every N, at --max-steps, on Ctrl-C "
+            "and on a failure: a run killed without --checkpoint-every "
+            "cannot resume)".format(outdir))
     try:
         with np.load(path, allow_pickle=False) as data:
             arrays = {k: data[k] for k in data.files}
@@ -232,9 +241,9 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
     if step < 0:
         raise bad("step", "must be >= 0, got {}".format(step))
     factor = float(get("load_factor", "f", 0))
-    if not 0 <= factor < 1:
-        raise bad("load_factor", "must lie in [0, 1) (a finished run has "
-                  "nothing to resume), got {}".format(factor))
+    if not 0 <= factor <= 1:      # 1: the run's end (completed)
+        raise bad("load_factor", "must lie in [0, 1], got {}".format(
+            factor))
     increment = float(get("increment", "f", 0))
     if not 0 < increment <= 1. / nsteps * (1 + 1e-12):
         raise bad("increment", "must lie in (0, 1/nsteps], got {}".format(
