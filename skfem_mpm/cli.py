@@ -535,9 +535,11 @@ def support_marks(scene, mesh, elem) -> list:
         held = tuple("xyz".index(c) for c in s.components
                      if "xyz".index(c) < dim)
         dofs = scene_support_dofs(s, grid, dim)
-        where = s.boundary or ("at {}".format(list(s.at)) if s.at is not None
-                               else "region" if s.region is not None
-                               else "where(x)")
+        sides = [s.boundary] if isinstance(s.boundary, str) \
+            else s.boundary
+        where = " + ".join(sides) if sides else (
+            "at {}".format(list(s.at)) if s.at is not None
+            else "region" if s.region is not None else "where(x)")
         what = ", ".join("xyz"[c] for c in held) + (
             " fixed" if s.value is None else " moved by {} m at full "
             "load".format(list(s.value)))

@@ -188,6 +188,53 @@ def test_supports_on_regions(tmp_path):
         scene_support_dofs(empty.supports[0], basis, 2)
 
 
+def test_a_support_on_a_list_of_sides_holds_their_union():
+    """Trial 70: ``boundary = ["left", "right"]`` was refused as not a
+    side's name.  A list holds the union of its sides (a corner node
+    once; 3D words refused in each), each name checked as one is, and a
+    side listed twice (in either spelling) or an empty list refused."""
+    from skfem import Basis, ElementQuad1, ElementVector, MeshQuad
+    from skfem_mpm.cli import support_marks
+    from skfem_mpm.scenes.scene import scene_support_dofs
+    from skfem_mpm.scenes.scene_file import parse_scene
+    data = {"grid": {"x": [0., 1., 4], "y": [0., 1., 4]},
+            "bodies": [{"region": {"y": [0., .5]}, "material": {
+                "model": "linear_elastic", "E": 1., "nu": .3}}],
+            "supports": [{"boundary": ["left", "y-"],
+                          "components": ["x"], "name": "walls"}]}
+    scene = parse_scene(data)
+    assert scene.supports[0].boundary == ["left", "y-"]
+    basis = Basis(MeshQuad.init_tensor(*[np.linspace(0, 1, 5)] * 2),
+                  ElementVector(ElementQuad1()))
+    dofs = scene_support_dofs(scene.supports[0], basis, 2).ravel()
+    x, y = basis.doflocs[:, dofs]
+    assert dofs.size == 9 == np.unique(dofs).size and np.all(dofs % 2 == 0)
+    assert np.all((x == 0.) | (y == 0.))
+    alone = [scene_support_dofs(Support(boundary=side, components=["x"]),
+                                basis, 2).ravel() for side in ("x-", "y-")]
+    assert set(dofs) == set(np.concatenate(alone))
+    assert parse_scene({**data, "supports": [{"boundary": ["top"]}]}
+                       ).supports[0].boundary == "top"
+    mesh = MeshQuad.init_tensor(*[np.linspace(0, 1, 5)] * 2)
+    assert support_marks(scene, mesh, ElementQuad1())[0].label.startswith(
+        "walls (left + y-): x fixed")
+    for sides, message in (
+            (["left", "x-"], r"boundary: names a side twice \('left' and "
+             r"'x-'\): list each side once"),
+            (["top", "top"], r"names a side twice \('top'\)"),
+            (["left", "north"], r"boundary\[1\]: must be one of left"),
+            ([], "boundary: names no side"),
+            ("north", "boundary: must be one of left")):
+        with pytest.raises(SceneError, match=message):
+            parse_scene({**data, "supports": [{"boundary": sides}]})
+    data3 = {**data, "grid": {**data["grid"], "z": [0., 1., 4]},
+             "bodies": [{"region": {"y": [0., .5]}, "material": {
+                 "model": "linear_elastic", "E": 1., "nu": .3}}]}
+    with pytest.raises(SceneError, match=r"boundary\[1\]: in 3D the side "
+                       "'top'"):
+        parse_scene({**data3, "supports": [{"boundary": ["x-", "top"]}]})
+
+
 def test_hostile_scene_files_and_folders_get_one_line(tmp_path, capsys,
                                                      monkeypatch):
     """UTF-16, nesting beyond any scene, a FIFO, /dev/zero, --out that is

@@ -143,9 +143,10 @@ class Body:
 
 @dataclass
 class Support:
-    """Supported grid DOFs: on a named ``boundary`` of the grid, at the grid
-    node ``at`` (coordinates), on the nodes in the closed box ``region``
-    (``[(lo, hi)]`` per axis; ``lo = hi``: a grid line) or in a
+    """Supported grid DOFs: on a named ``boundary`` of the grid (or a
+    sequence of names: their union), at the grid node ``at``
+    (coordinates), on the nodes in the closed box ``region`` (``[(lo,
+    hi)]`` per axis; ``lo = hi``: a grid line) or in a
     :class:`~skfem_mpm.scenes.regions.Polygon` or
     :class:`~skfem_mpm.scenes.regions.Ball` ``region``, sides included,
     or on the nodes where ``where(x)`` holds;
@@ -156,7 +157,7 @@ class Support:
     ``value`` in a scene with contacts: the names of the bodies whose
     grid field it moves (:class:`~skfem_mpm.Prescribed`'s ``bodies``;
     every moving support names the same)."""
-    boundary: Optional[str] = None
+    boundary: Union[None, str, Sequence[str]] = None
     where: Optional[Callable] = None
     components: Sequence[str] = ("x", "y", "z")
     at: Optional[Sequence[float]] = None
@@ -733,9 +734,17 @@ def scene_support_dofs(s: Support, basis, dim: int) -> ndarray:
     first = dof_places(basis, dim)
     p = basis.doflocs[:, first]
     if s.boundary is not None:
-        axis, sign = side_axis(s.boundary, dim)
-        value = p[axis].max() if sign > 0 else p[axis].min()
-        nodes = np.flatnonzero(np.isclose(p[axis], value))
+        sides = [s.boundary] if isinstance(s.boundary, str) \
+            else list(s.boundary)
+        if not sides:
+            raise InvalidInputError("support {}: boundary names no side"
+                                    .format(s.name or ""))
+        held = np.zeros(p.shape[1], dtype=bool)
+        for side in sides:            # a list: the union of its sides
+            axis, sign = side_axis(side, dim)
+            value = p[axis].max() if sign > 0 else p[axis].min()
+            held |= np.isclose(p[axis], value)
+        nodes = np.flatnonzero(held)
     elif s.at is not None:
         distance = np.linalg.norm(p - np.asarray(s.at, float)[:, None], axis=0)
         nodes = np.flatnonzero(distance <= 1e-9 * (1 + np.abs(p).max()))

@@ -63,6 +63,8 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # summary.json (default "support-N")
     boundary = "bottom"             # x- x+ y- y+ z- z+ by axis; left
                                     # right (x) and, in 2D, bottom top (y)
+    # boundary = ["left", "right"]  # or a list: their union, one support
+                                    # (one reaction resultant)
     components = ["x", "y"]         # default: all
     value = [0.0, -0.1]             # optional: displacement at full load
     # bodies = ["block"]            # with value and [[contacts]]: the
@@ -588,6 +590,37 @@ def _body(c, data, k, dim):
                 replaces=tuple(replaces))
 
 
+def _support_sides(c, s: dict, key: str, dim: int):
+    """A support's ``boundary``: one side's name, or a list of them (the
+    union of those sides, each checked as one name is; a side named twice,
+    in either spelling, refused).  A trial's ``boundary = ["left",
+    "right"]`` was refused as not a side's name."""
+    names = s["boundary"]
+    if not isinstance(names, list):
+        return c.side(s, key, "boundary", dim)
+    if not names:
+        c.bad(key + ".boundary", "names no side: give a side's name or a "
+              "list of them", names)
+        return "x-"
+    sides = [c.side({"boundary[{}]".format(k): name}, key,
+                    "boundary[{}]".format(k), dim)
+             for k, name in enumerate(names)]
+    if len(sides) == len(names) and all(
+            a == b for a, b in zip(sides, names)):    # each one valid
+        places = [side_axis(name, dim) for name in sides]
+        twice = [(places.index(p), k) for k, p in enumerate(places)
+                 if places.index(p) < k]
+        if twice:
+            first, again = twice[0]
+            c.bad(key + ".boundary", "names a side twice ({}): list each "
+                  "side once (the support holds their union)".format(
+                      "{!r}".format(sides[first]) if sides[first]
+                      == sides[again] else "{!r} and {!r}".format(
+                          sides[first], sides[again])), names)
+            return sides[0]
+    return sides if len(sides) > 1 else sides[0]
+
+
 def _body_region(c, data, key: str, dim: int, closed: bool = False):
     """A region table: a box ``{ x = [lo, hi], ... }`` (an axis left out:
     all of it; ``lo <= hi`` when ``closed``, as a support's and an
@@ -734,7 +767,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                 c.bad(key + ".region", "names no axis: it would hold every "
                       "grid node", s["region"])
         else:
-            boundary = c.side(s, key, "boundary", dim)
+            boundary = _support_sides(c, s, key, dim)
         comps = s.get("components", list(AXES[:dim]))
         if not isinstance(comps, list) or not comps or not all(
                 x in AXES[:dim] for x in comps):
