@@ -102,9 +102,10 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", type=Path, default=Path("skfem-mpm-output"),
                      help="output folder (default ./skfem-mpm-output)")
     run.add_argument("--checkpoint-every", type=int, default=0, metavar="N",
-                     help="save the full state every N steps and at "
-                     "the end (0, the default: never, but where a run "
-                     "stops early: --max-steps, Ctrl-C, a failed step)")
+                     help="save the full state every N steps (0, the "
+                     "default: never, but where a run stops early: "
+                     "--max-steps, Ctrl-C, a failed step) and at the "
+                     "run's end")
     run.add_argument("--resume", type=Path, metavar="DIR",
                      help="resume the run whose output folder is DIR "
                      "(a completed run: nothing to do, exit 0)")
