@@ -767,11 +767,13 @@ def load_run(args):
         earlier = load_checkpoint(outdir, scene_digest(source))
         if earlier.complete:      # a trial's resume ran its steps again
             raise RunComplete(
-                "{}: the run in {} is complete (its checkpoint holds step "
-                "{}, the end of its {} {} steps): nothing to resume, every "
-                "output left as it was".format(
-                    scene.name, outdir, earlier.step, earlier.nsteps,
-                    "load" if scene.dynamics is None else "time"))
+                "{}: the run in {} is complete (its checkpoint holds its "
+                "end, {} {} steps{}): nothing to resume, every output left "
+                "as it was".format(
+                    scene.name, outdir, earlier.step,
+                    "load" if scene.dynamics is None else "time",
+                    "" if earlier.step == earlier.nsteps else
+                    ", {} planned".format(earlier.nsteps)))
         points = earlier.points
         if scene.dynamics is None:
             scene.nsteps = earlier.nsteps

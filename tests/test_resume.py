@@ -547,8 +547,8 @@ def test_a_completed_run_s_resume_does_nothing(tmp_path, capsys):
     assert (end.step, end.load_factor) == (3, 1.) and end.complete
     assert not (bare / CHECKPOINT).exists()
     capsys.readouterr()
-    for folder, why in ((out, "its checkpoint holds step 3, the end of "
-                         "its 3 load steps"), (bare, "summary.json; it "
+    for folder, why in ((out, "its checkpoint holds its end, 3 load "
+                         "steps"), (bare, "summary.json; it "
                                               "kept no checkpoint")):
         before = outputs(folder)
         assert main(["run", "--resume", str(folder), "--no-progress"]) == 0
