@@ -1335,16 +1335,21 @@ class StepContact(GridTerm):
         self.carriers = self.sliver_carriers()
 
     def sliver_carriers(self) -> list:
-        """The corners' rows (vector, per kind of rows) on the grid DOFs
-        of nodes that slivers of material hold (support below
+        """The rows (vector) of the corners that read the grid's field
+        where they are (GIMP's and extended B-splines' at obstacles that
+        hold the material, :meth:`ObstacleContact.field_rows`) on the
+        grid DOFs of nodes that slivers of material hold (support below
         :data:`~skfem_mpm.solve.problem.SLIVER_SUPPORT` cells), where
         the run holds the ghost penalty in reserve (``ghost="auto"``, not
-        yet on) and the method has slivers (GIMP, B-splines); else
-        ``[]``: :meth:`check_carried`."""
+        yet on); else ``[]``: :meth:`check_carried`.  The points' rows
+        (smooth faces) weigh those nodes as the material does; B-splines'
+        material running away through a smooth floor keeps its error
+        (``StepTooLongError``, :data:`RUNAWAY`)."""
         from ..stabilisation.ghost import GhostStabilisation
         from .dynamics import sliver_nodes, value_matrix  # (imports this)
         run, dim = self.problem.run, self.dim
-        if not hasattr(self.op, "S") or not any(
+        field = self.rows.get(True)
+        if field is None or not hasattr(self.op, "S") or not any(
                 isinstance(t, GhostStabilisation) and not t.active
                 for t in run.terms):
             return []
@@ -1354,8 +1359,7 @@ class StepContact(GridTerm):
         if not sliver.size:
             return []
         dofs = (dim * sliver[:, None] + np.arange(dim)).ravel()
-        kinds = {id(J): J for J in self.J}
-        return [(J[:, dofs], dofs) for J in kinds.values()]
+        return [(field[:, dofs], dofs)]
 
     def check_carried(self, du: ndarray) -> None:
         """Refuse a trial increment ``du`` that moves a corner by more
