@@ -1369,16 +1369,16 @@ class StepContact(GridTerm):
         first rung after full Newton).  A 3D cpGIMP block on a Coulomb
         floor (h = 0.1, 2 x 2 x 2 points a cell) spread past its grid
         lines by 8e-5 in its first step: the nodes beyond, held by
-        domains' slivers (material stiffness 1e-21 of the median), were
-        read by the corners with the field's weight there (7e-9), ten
-        orders above the material's; a sliding corner's traction along
-        its slip, which no stiffness balances there, moved them 8e6 in
-        Newton's first direction and corners 0.5 cells through the
-        floor; Newton cycled between stick-slip states and the step took
-        113 iterations (line search, stabilised tangent) before the
-        penalty's rung, which solved it in 2; a rough floor converged
-        with those nodes at 1.9e6 (refused after Newton, the same
-        rung)."""
+        domains' slivers (the points' weights 2e-15, material stiffness
+        1e-21 of the median), were read by the corners with the field's
+        weight there (7e-9); a sliding corner's traction along its slip,
+        which no stiffness balances there, moved them 8e6 in Newton's
+        first direction, and corners by up to 13 cells (a pressed one
+        0.5 cells through the floor); Newton cycled between stick-slip
+        states, and the step took 113 iterations (line search, stabilised
+        tangent) before the penalty's rung, which solved it in 2.  A
+        rough floor converged with those nodes at 1.9e6 (refused after
+        Newton, the same rung)."""
         for rows, dofs in self.carriers:
             moved = (rows @ du[dofs]).reshape(-1, self.dim)
             moved = np.sqrt((moved ** 2).sum(axis=1))
