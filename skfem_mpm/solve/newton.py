@@ -131,6 +131,10 @@ CORRECTION_ROUNDOFF = 1e-12
 #: 0.53 an iteration and failed at 2.1e-9 after 25, with no word why)
 LINEAR_ITERATIONS = 5
 LINEAR_RATES = (.02, .9)
+#: seconds into a Newton loop after which each iteration's residual is
+#: logged at INFO, not DEBUG: a trial's 3D step of 22 s said nothing
+#: until it ended
+SLOW_ITERATIONS = 5.
 
 
 class FullStep:
@@ -622,10 +626,12 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     residuals, last = [], None
     report = {} if report is None else report
     report["reused"] = False
+    started = run_clock()
     for it in range(max_iter + 1):
         residuals.append(float(current.residual))
-        logger.debug("step %d iteration %d: residual %.3e", problem.step, it,
-                     residuals[-1])
+        logger.log(logging.INFO if run_clock() - started > SLOW_ITERATIONS
+                   else logging.DEBUG, "step %d iteration %d: residual %.3e",
+                   problem.step, it, residuals[-1])
         if converged(current) or problem.free.size == 0 or (
                 single_solve and it == 1):
             break
