@@ -638,16 +638,17 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         if it == max_iter or not np.isfinite(residuals[-1]) or \
                 not current.merit < MERIT_LIMIT:
             report["smallest"] = min(residuals)
+            run = getattr(problem, "run", None)    # (a problem of tests)
+            limit = getattr(run, "tol", None) if tol is None else tol
             raise NewtonDivergenceError(
                 "step {}: {} did not converge in {} iterations (residual "
-                "first {:.1e}, smallest {:.1e}, last {:.1e}; tolerance "
-                "{:.1e}){}".format(
+                "first {:.1e}, smallest {:.1e}, last {:.1e}{}){}".format(
                     problem.step, "the equilibrium iteration"
                     if problem.linear else "Newton-Raphson", it,
                     residuals[0], min(residuals), residuals[-1],
-                    problem.run.tol if tol is None else tol,
-                    "" if modified or report["reused"] else
-                    linear_hint(residuals, problem.run.material)))
+                    "" if limit is None else "; tolerance {:.1e}".format(
+                        limit), "" if modified or report["reused"] else
+                    linear_hint(residuals, getattr(run, "material", None))))
         if it == 0 and predictor is not None:
             d = problem.solve(*predictor, stabilise)[0]
             predictor = None              # memory: freed before the tangent
@@ -713,9 +714,9 @@ def linear_hint(residuals: List[float], material) -> str:
     rate = linear_rate(residuals)
     if rate is None:
         return ""
-    users = [type(m).__name__ for m in getattr(material, "materials",
-                                                [material])
-             if not type(m).__module__.startswith("skfem_mpm.")]
+    users = [] if material is None else [
+        type(m).__name__ for m in getattr(material, "materials", [material])
+        if not type(m).__module__.startswith("skfem_mpm.")]
     return ("; the residual fell by about {:.2g} an iteration over the "
             "last {}: a linear rate (Newton's with the exact derivative is "
             "quadratic){}".format(
