@@ -2203,6 +2203,53 @@ def test_b_splines_without_the_extension_at_obstacles_are_warned(
         assert ("force jumps" in found[0]) == ("moving" in warned)
         assert ("9% high" in found[0]) == ("holds" in warned)
 
+def test_b_splines_at_obstacles_with_contacts_are_told_what_serves(caplog):
+    """With contacts between bodies the extended splines are refused, so
+    the warning of B-splines at a moving obstacle names the methods that
+    serve instead (a trial's block pushed along a slab by a wall put
+    tension under its pressure with 'bspline'; the warning had named no
+    remedy, the docs the refused one)."""
+    from skfem_mpm import Contact
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+    pts.body[:] = pts.x[1] > .25
+    plate = Obstacle(box=[[-1., 2.], [.5, .75]], displacement=[0., -.01])
+    with caplog.at_level("WARNING", logger="skfem_mpm.solve.contact"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
+                 lambda b: np.concatenate([
+                     b.get_dofs(lambda x: x[1] == 0.).all(),
+                     b.get_dofs(lambda x: x[0] == 0.).all("u^1")]),
+                 nsteps=1, method="bspline", obstacles=[plate],
+                 contacts=[Contact(0, 1)])
+    found = [r.getMessage() for r in caplog.records
+             if "without extended splines" in r.getMessage()]
+    assert len(found) == 1
+    assert "with contacts between bodies, which refuse the extended " \
+        "splines, 'bspline-gimp', cpGIMP or standard MPM" in found[0]
+    assert "extended_splines=True" not in found[0]
+
+
+def test_a_body_seeded_short_of_its_floor_is_told_the_gap():
+    """A block seeded from a region 0.03 above a floor obstacle meant to
+    hold it: its points' domains start 0.02 above the floor (seeded
+    points are whole), so nothing holds it, and the error names the
+    floor and the gap (a trial's said only "touches no supported node"
+    or "not held against translation along y")."""
+    from skfem_mpm import SingularSystemError
+    mesh = MeshQuad.init_tensor(np.linspace(-.2, .8, 11),
+                                np.linspace(-.2, .6, 9))
+    pts = seed_points(mesh, 2, region=[(.1, .5), (.03, .23)])
+    floor = Obstacle(box=[[-1., 2.], [-1., .03]], name="floor",
+                     friction="rough")
+    with pytest.raises(SingularSystemError) as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3), [],
+                 body_force=[0., -1e4], obstacles=[floor])
+    gap = (pts.x[1] - pts.domain[1]).min() - .03
+    assert np.isclose(gap, .02)
+    assert "the material starts {:.3g} ({:.2g} cells) short of obstacle " \
+        "'floor'".format(gap, gap / .1) in str(failed.value)
+
+
 def test_a_held_body_failing_by_a_smooth_incline_is_not_told_so():
     """A smooth wedge (60 degree faces) pushed into von Mises soil held on
     its base, failing by a Newton limit of one iteration: the error does
