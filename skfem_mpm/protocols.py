@@ -238,6 +238,14 @@ class GridTerm:
         full in a quasi-static run), as ``"; ..."``, or ``""``."""
         return ""
 
+    def unheld_hint(self) -> str:
+        """What a run's error adds from this term where a step's supports
+        leave a body free (:class:`~skfem_mpm.errors.SingularSystemError`
+        at its start): a cause the term can see (contact: the material
+        starting short of a stationary obstacle that was to hold it), as
+        ``"; ..."``, or ``""``."""
+        return ""
+
 
 @runtime_checkable
 class Response(Protocol):

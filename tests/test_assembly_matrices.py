@@ -81,3 +81,40 @@ def test_array_classes_go_to_scipy():
     assert type(A) is csr_array
     assert np.array_equal(A.toarray(), csr_array(
         (data, indices, indptr), shape=shape).toarray())
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_a_tangent_and_a_contact_term_sum_on_their_patterns_union(seed):
+    """``add_within`` / ``add_union`` (a tangent plus a term's matrix of
+    a few rows, beyond its pattern where contact couples two fields):
+    scipy's sum entry for entry, on the union of both patterns with every
+    explicit zero kept, each row's columns in order; the union's places
+    kept for the pattern pair serve the next sum of other values."""
+    from skfem_mpm.solve.problem import add_union, add_within
+    rng = np.random.default_rng(seed)
+    n, m = rng.integers(1, 25, size=2)
+    K = csr_matrix(random(n, m, density=rng.uniform(0., .6),
+                          random_state=rng))
+    K.data[rng.random(K.nnz) < .2] = 0.
+    few = np.zeros((n, 1))
+    few[rng.choice(n, size=rng.integers(0, n + 1), replace=False)] = 1.
+    G = csr_matrix(random(n, m, density=rng.uniform(0., .6),
+                          random_state=rng).toarray() * few)
+    G.data[rng.random(G.nnz) < .2] = 0.
+    kept = {}
+
+    def pattern(A):
+        return {(i, j) for i in range(A.shape[0])
+                for j in A.indices[A.indptr[i]:A.indptr[i + 1]]}
+    for values in range(2):
+        if values:
+            K.data[:] = rng.standard_normal(K.nnz)
+            G.data[:] = rng.standard_normal(G.nnz)
+        S = add_union(K, G, kept)
+        assert np.array_equal(S.toarray(), (K + G).toarray())
+        assert pattern(S) == pattern(K) | pattern(G)
+        assert S.nnz == len(pattern(S)) and S.has_sorted_indices
+        W = add_within(K, G)
+        assert np.array_equal(W.toarray(), (K + G).toarray())
+        assert pattern(W) == pattern(S) if pattern(G) - pattern(K) \
+            else pattern(W) == pattern(K)
