@@ -2637,6 +2637,30 @@ def test_a_staged_run_keeps_the_pressure_a_multiplier_held_across_a_gap():
         force, rel=1e-12)
 
 
+def test_a_staged_footing_edge_inside_a_cell_is_not_told_to_move(caplog):
+    """A footing (its edge on a grid line, its face on the block's
+    surface, a grid line) pushes an elastic block 0.02 down; a staged
+    run lifts it from there, its edge now inside a cell.  The warning
+    says an earlier run moved the material there and names a grid of
+    the run's own or refinement, not the grid line at the edge it asked
+    for (a user trial's footing could not have one)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < 1. + 1e-9)
+    args = (mesh, ElementQuad1())
+    rest = (LinearElastic(1e3, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    caplog.clear()
+    pushed = simulate(*args, pts, *rest, nsteps=2, obstacles=[Obstacle(
+        box=[[-1, .5], [1., 1.7]], displacement=[0, -.02])])
+    assert "inside a grid cell" not in caplog.text
+    simulate(*args, pushed.points, *rest, nsteps=1, obstacles=[Obstacle(
+        box=[[-1, .5], [.98, 1.68]], displacement=[0, .02])])
+    assert "its edge at [0.5, 0.98] meets the material inside a grid " \
+        "cell" in caplog.text
+    assert "an earlier run moved the material there" in caplog.text
+    assert "put a grid line at it" not in caplog.text
+
+
 @pytest.mark.slow
 def test_a_lifted_plate_leaves_the_stress_grid_crossing_leaves():
     """An elastic layer (h = 1/16) pressed by a smooth plate 0.32 cells
