@@ -123,16 +123,22 @@ def build_parser() -> argparse.ArgumentParser:
     study = sub.add_parser(
         "study", help="error and cost over a grid of choices",
         description="Vary elements (the cells along the grid's most "
-        "refined axis, the other axes in proportion), ppc (points per "
-        "cell and axis), "
+        "refined axis, the other axes in proportion: a value that does "
+        "not scale every axis to whole cells is refused before any work, "
+        "naming the axis, the count it would need and the values that "
+        "keep whole cells), ppc (points per cell and axis), "
         "loadsteps, method (fem, mpm, ugimp, cpgimp, bspline, "
         "bspline-gimp, bspline3, bspline3-gimp), "
         "rhs (residual, "
         "increment: the right-hand side of linear steps), line_search "
         "(backtracking, armijo, none) and newton (full, modified: the "
         "tangent factorised once a step); without --vary, "
-        "the seed's grid: elements 4..256, ppc 2..5, loadsteps 1, 2, 20 "
-        "(84 cases: refused without --all).  Prints the number of cases "
+        "the seed's grid: elements 4..256 doubling (where those do not "
+        "scale the scene's grid to whole cells, the doubling series from "
+        "the least value from 4 that does, up to 256, three at least: "
+        "23, 46, 92, 184 on 22 x 23 cells), ppc 2..5, loadsteps 1, 2, 20 "
+        "(up to 84 cases: refused without --all).  Prints the number of "
+        "cases "
         "and an estimate of their time before it starts them (from the "
         "smallest cases, run first).  "
         "Measures the scene's [[outputs]] (or --measure; default: the "
@@ -160,7 +166,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="run on the Dask scheduler at ADDRESS")
     study.add_argument("--all", action="store_true",
                        help="without --vary, run the whole default grid "
-                       "({} cases, {} for a dynamic scene, which varies no "
+                       "(up to {} cases, {} for a dynamic scene, which "
+                       "varies no "
                        "load steps; more than {} are refused without this "
                        "flag)".format(len(cases_of(DEFAULT_VARY)),
                                       len(cases_of({

@@ -411,6 +411,37 @@ def test_a_run_of_many_steps_is_announced(monkeypatch, caplog):
     assert "the 8 steps left take about" in caplog.text
 
 
+def test_each_step_says_what_is_left_and_slow_iterations_report(
+        monkeypatch, caplog):
+    """At INFO each step says where the run stands, its seconds and the
+    steps left with their time at the fastest step's pace; a Newton loop
+    running longer than ``SLOW_ITERATIONS`` logs each iteration's
+    residual at INFO (a trial's 3D step of 22 s said nothing until it
+    ended)."""
+    import logging
+    from skfem_mpm.solve import newton
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    args = (mesh, ElementQuad1(), seed_points(mesh, 2),
+            LinearElastic(1e3, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0).all(), [0., -1.])
+    with caplog.at_level(logging.INFO, logger="skfem_mpm.solve"):
+        simulate(*args, nsteps=4, kinematics="finite")
+    steps = [r.getMessage() for r in caplog.records
+             if "step(s) left" in r.getMessage()]
+    assert [m.split(",")[0] for m in steps] == [
+        "step {}: load factor {:g}".format(k, k / 4) for k in (1, 2, 3, 4)]
+    assert [m.split("; ")[1].split(" step(s)")[0] for m in steps] == \
+        ["3", "2", "1", "0"]
+    assert "at the fastest step's pace" not in steps[0] + steps[3]
+    assert "at the fastest step's pace" in steps[1]
+    assert "iteration 1: residual" not in caplog.text
+    monkeypatch.setattr(newton, "SLOW_ITERATIONS", -1.)
+    caplog.clear()
+    with caplog.at_level(logging.INFO, logger="skfem_mpm.solve"):
+        simulate(*args, nsteps=1, kinematics="finite")
+    assert "step 1 iteration 1: residual" in caplog.text
+
+
 def test_a_cut_back_step_is_not_taken_for_the_rest_of_the_run(monkeypatch,
                                                              caplog):
     """A cut-back increment lasts to the end of its step, not the run's: a

@@ -2,6 +2,7 @@
 with linear isotropic hardening) runs through the core in small strain and
 finite deformation, against the closed form; its internal variable is
 carried through checkpoints (resume bit-identical) and into the VTU."""
+import re
 from dataclasses import dataclass
 
 import meshio
@@ -194,3 +195,73 @@ def test_moduli_that_overflow_are_refused_by_name(kind):
                        match=r"Lame parameter lam .* = 3\.0024e\+305"):
         build(1e290, float(np.nextafter(.5, 0.)))
     assert build(1e300, .3).E == 1e300
+
+
+@dataclass(frozen=True)
+class ElasticTangentVonMises(HardeningVonMises):
+    """The same stresses with the elastic tangent past yield: a tangent
+    that is not their derivative (a user trial's mistake)."""
+
+    def principal_update(self, eps, state):
+        tau, eps_e, _, yielded, new = super().principal_update(eps, state)
+        return tau, eps_e, np.broadcast_to(self.principal_stiffness()[
+            :, :, None], (3, 3, eps.shape[1])).copy(), yielded, new
+
+
+def test_tangent_error_tells_a_derivative_from_an_elastic_tangent():
+    """``tangent_error``: the radial return's consistent tangent equals
+    central differences of its stresses to 1e-6 at elastic and plastic
+    trial states; the elastic tangent past yield is off by more than a
+    tenth (the hardening modulus is a fifth of the shear modulus)."""
+    from skfem_mpm.mechanics.element_tests import tangent_error
+    rng = np.random.default_rng(0)
+    eps = rng.uniform(-3e-3, 3e-3, (3, 400))
+    state = {"alpha": rng.uniform(0., 1e-3, 400)}
+    yielded = MATERIAL.principal_update(eps, state)[3]
+    assert 100 < yielded.sum() < 390
+    good = tangent_error(MATERIAL, eps, state)
+    assert np.isfinite(good).mean() > .98
+    assert np.nanmax(good) < 1e-6
+    wrong = tangent_error(ElasticTangentVonMises(1e4, .3, yield_stress=10.,
+                                                 H=2e3), eps, state)
+    assert np.nanmax(wrong[~yielded]) < 1e-6
+    assert np.nanmin(wrong[yielded]) > .1
+
+
+def test_a_linear_rate_of_a_user_material_is_named_in_the_error():
+    """Simple shear past yield with the elastic tangent: Newton converges
+    linearly and fails its iterations; the error gives the rate and names
+    the user's material and ``tangent_error`` (a trial's failed with "no
+    convergence" and no more).  With the consistent tangent the steps
+    converge in at most 5 iterations, at no linear rate."""
+    from skfem_mpm import (NewtonDivergenceError, NewtonOptions, Options,
+                           Prescribed)
+    from skfem_mpm.solve.newton import LINEAR_RATES, linear_rate
+    options = Options(newton=NewtonOptions(max_iter=12, max_cutbacks=0))
+    wrong = ElasticTangentVonMises(1e4, .3, yield_stress=10., H=2e3)
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+
+    def prescribed(basis, f_old, f_new):     # the top slides, sides free
+        nodes = np.flatnonzero((mesh.p[1] == 0.) | (mesh.p[1] == 1.))
+        du = np.zeros((2, nodes.size))
+        du[0] = (f_new - f_old) * GAMMA * mesh.p[1, nodes]
+        return basis.nodal_dofs[:, nodes].T.ravel(), du.T.ravel()
+    points = seed_points(mesh, 2)
+    with pytest.raises(NewtonDivergenceError) as failed:
+        simulate(mesh, ElementQuad1(), points.copy(), wrong,
+                 np.array([], dtype=np.int64), loads=[Prescribed(prescribed)],
+                 nsteps=2, options=options)
+    found = re.search(r"fell by about ([\d.]+) an iteration over the last "
+                      r"5: a linear rate", str(failed.value))
+    assert found and LINEAR_RATES[0] < float(found.group(1)) \
+        < LINEAR_RATES[1]
+    assert "the tangent D of ElasticTangentVonMises's principal_update " \
+        "may not be the derivative of its stress (check it with " \
+        "skfem_mpm.mechanics.element_tests.tangent_error" \
+        in str(failed.value)
+    good = simulate(mesh, ElementQuad1(), points.copy(), MATERIAL,
+                    np.array([], dtype=np.int64),
+                    loads=[Prescribed(prescribed)], nsteps=2,
+                    options=options)
+    assert max(len(r.newton_residuals) - 1 for r in good.history) <= 5
+    assert not any(linear_rate(r.newton_residuals) for r in good.history)

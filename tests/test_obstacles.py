@@ -677,6 +677,53 @@ def test_a_3d_cpgimp_block_slipping_at_its_edges_on_a_floor_mid_cell():
         weight, abs=1e-6 * np.linalg.norm(weight))
 
 
+def test_a_3d_cpgimp_block_resting_on_a_coulomb_floor_converges_at_once():
+    """A 3D cpGIMP block (2 x 2 x 2 points a cell) on a Coulomb floor
+    (mu 0.3) whose face lies mid-cell, gravity and a traction on its top,
+    no sideways load (trial 69): its first step spreads its domains past
+    the grid lines by 8e-5, and the nodes beyond, slivers, are read by
+    the floor's corners, whose edges slide.  Its second step took 118
+    Newton iterations (the line search and the stabilised tangent failed
+    before the ghost penalty's rung); a trial moving a corner by slivers
+    now goes to that rung at once, as standard MPM's 7 iterations.  The
+    floor carries the weight and the traction, 640."""
+    from skfem import ElementHex1, MeshHex
+    from skfem_mpm import Traction, side_points
+    h = .1
+    mesh = MeshHex.init_tensor(np.arange(-.2, .81, h),
+                               np.arange(-.2, .81, h),
+                               np.arange(-.2, .61, h))
+    pts = seed_points(mesh, 2, region=[(.1, .5), (.1, .5), (.03, .23)])
+    floor = float((pts.x[2] - pts.domain[2]).min())         # 0.05
+    res = simulate(mesh, ElementHex1(), pts, LinearElastic(1e6, .3), [],
+                   body_force=[0, 0, -1e4], nsteps=2, method="cpgimp",
+                   loads=[Traction(side_points(pts, "z+"), "z+",
+                                   [0., 0., -2e3])],
+                   obstacles=[Obstacle(box=[[-1, 2], [-1, 2], [-1, floor]],
+                                       friction=.3)])
+    assert res.counters["newton_iterations"] <= 10
+    assert not res.counters["line_search_trials"]
+    assert not res.counters["stabilised_solves"]
+    assert res.counters["ghost_from_step"] == 2
+    load = 1e4 * pts.volume.sum() + 2e3 * .4 * .4
+    assert res.history[-1].obstacle_forces[0] == pytest.approx(
+        [0., 0., -load], abs=1e-9 * load)
+
+
+def test_sliver_nodes_leave_the_operator_as_it_is():
+    """:func:`~skfem_mpm.solve.dynamics.sliver_nodes` leaves a matrix
+    with duplicate entries as it is (``abs`` summed them in place, and a
+    GIMP operator's values lost the pattern its gradients share)."""
+    from scipy.sparse import csr_matrix
+    from skfem_mpm.solve.dynamics import sliver_nodes
+    S = csr_matrix((np.array([.5, .25, .25, 1e-6]), np.array([0, 1, 1, 2]),
+                    np.array([0, 3, 4])), shape=(2, 3))
+    data, indices = S.data.copy(), S.indices.copy()
+    assert sliver_nodes(S, np.array([1., 2.]), 1e-3).tolist() == [2]
+    assert S.data.tolist() == data.tolist()
+    assert S.indices.tolist() == indices.tolist()
+
+
 @pytest.mark.slow
 def test_a_step_stalled_on_zero_energy_modes_switches_the_ghost_on():
     """A bspline-gimp cantilever (2 x 2 points per cell, small strain)

@@ -225,18 +225,20 @@ def test_a_slope_of_soil_carries_its_weight_to_the_base(kinematics):
 
 
 def test_a_study_refines_a_scene_with_a_polygon_body(tmp_path):
-    """The polygon's vertices are feature lines (its top, y = 1; its toe
-    and crest, x = 0.5625 and 1.5625, lie inside cells of every grid
-    here): the grid of 6 elements (y cells of 0.375) puts the top inside
-    a cell and models another geometry; 8 and 16 do not."""
+    """The polygon's vertices are feature lines: its toe and crest, x =
+    0.5625 and 1.5625, lie inside cells of the grids of 8 and 16
+    elements (cells of 0.25 and 0.125), which model another geometry,
+    and on grid lines of 32 (its top, y = 1, on every grid here; 6
+    elements, 4.5 cells along y, are refused: the study's grids keep
+    whole cells, and rounding them had put the top inside a cell)."""
     from skfem_mpm.studies.study import feature_lines, study
     s = scene(SLOPE, KINEMATICS="small", STEPS=1)
     assert feature_lines(s) == [(0, .5625, "body 'soil'"),
                                 (0, 1.5625, "body 'soil'"),
                                 (1, 1., "body 'soil'")]
-    rows = study(s, {"elements": [6, 8, 16]}, tmp_path, progress=False)
+    rows = study(s, {"elements": [8, 16, 32]}, tmp_path, progress=False)
     assert [r["failure"] for r in rows] == ["", "", ""]
-    assert [r["other_geometry"] for r in rows] == [True, False, False]
+    assert [r["other_geometry"] for r in rows] == [True, True, False]
     # the points of each case hold the trapezoid seeded on its grid: the
     # base reaction is its weight (the largest displacement is measured)
     assert all(np.isfinite(r["values"]["largest point displacement"])

@@ -257,15 +257,22 @@ def test_study_of_a_scene_without_reference_has_finite_errors(tmp_path,
 
 def test_default_quantity_and_errors_never_nan(tmp_path):
     """A scene with no reference and no outputs: the largest point
-    displacement, which oscillates over 2, 4, 6 elements (3.79, 3.07,
-    3.58 mm): the block's top, z = 2, lies inside a cell of the 2- and
-    4-element grids, another geometry, so nothing is extrapolated
-    (Celik et al.'s three-grid formula took the order 0.63 from them to
-    5.10 mm): every case's error is the data range, finite and never
-    zero, with three times that as uncertainty."""
-    scene = load_scene(EXAMPLES / "block3d.toml")
-    rows = study(scene, {"elements": [2, 4, 6]}, tmp_path, progress=False)
-    found = json.loads((tmp_path / "study.json").read_text())
+    displacement.  The example's block (its top at z = 2 on a grid of
+    cells of 0.5) over 2, 4, 6 elements oscillated (3.79, 3.07, 3.58
+    mm; Celik et al.'s three-grid formula took the order 0.63 from them
+    to 5.10 mm), 2 and 4 not scaling its grid to whole cells; now the
+    block, 2.5 high, over 3, 6, 12 elements (5.02, 5.40, 5.61 mm): its
+    top lies inside a cell of the 3-element grid (cells of 1), another
+    geometry, so nothing is extrapolated: every case's error is the data
+    range, finite and never zero, with three times that as
+    uncertainty."""
+    text = (EXAMPLES / "block3d.toml").read_text()
+    path = tmp_path / "block.toml"
+    path.write_text(text.replace("z = [0.0, 2.0] }", "z = [0.0, 2.5] }"))
+    scene = load_scene(path)
+    out = tmp_path / "study"
+    rows = study(scene, {"elements": [3, 6, 12]}, out, progress=False)
+    found = json.loads((out / "study.json").read_text())
     assert found["error"]["label"] == \
         "relative error of largest point displacement"
     c = found["convergence"][0]
@@ -274,13 +281,13 @@ def test_default_quantity_and_errors_never_nan(tmp_path):
     errors = [r["error"] for r in rows]
     assert np.isfinite(errors).all() and min(errors) > 0
     assert c["against"] == "finest" and c["order"] is None
-    assert [r["other_geometry"] for r in rows] == [True, True, False]
+    assert [r["other_geometry"] for r in rows] == [True, False, False]
     assert c["why"].startswith(
         "fewer than three grids share the finest grid's geometry (other: "
-        "2 elements (body 'block' z = 2 inside a cell)")
+        "3 elements (body 'block' z = 2.5 inside a cell)")
     assert np.allclose(errors, np.ptp(c["values"]) / c["reference"])
     assert np.allclose([r["uncertainty"] for r in rows], 3 * np.array(errors))
-    csv = (tmp_path / "study.csv").read_text().splitlines()[0]
+    csv = (out / "study.csv").read_text().splitlines()[0]
     assert "value: largest point displacement" in csv
 
 
@@ -346,6 +353,95 @@ def test_a_dynamic_scene_varies_no_load_steps(tmp_path, capsys):
     assert sorted(default_vary(scene)) == ["elements", "ppc"]
     assert sorted(default_vary(replace(scene, dynamics=None))) == \
         sorted(DEFAULT_VARY)
+
+
+# a trial's footing scene: cells of 0.125 on both axes, y = 0 (the soil's
+# base, the floor obstacle's top) a grid line
+FLOOR_FOOTING = """
+name = "footing"
+[grid]
+x = [0.0, 2.5, 20]
+y = [-0.125, 1.0, 9]
+[[bodies]]
+name = "soil"
+region = { x = [0.0, 2.5], y = [0.0, 0.75] }
+material = { model = "linear_elastic", E = 2e4, nu = 0.3 }
+[[supports]]
+boundary = "left"
+components = ["x"]
+[gravity]
+body_force = [0.0, -18.0]
+[[obstacles]]
+name = "floor"
+box = { x = [-1.0, 3.5], y = [-1.0, 0.0] }
+friction = "rough"
+"""
+
+
+def test_elements_that_do_not_scale_the_grid_to_whole_cells_are_refused(
+        tmp_path, capsys):
+    """A trial's study of 10, 20, 40, 80 elements on 20 x 9 cells rounded
+    the 4.5 cells along y at 10 to 4 (cells 0.25 x 0.281, y = 0 inside a
+    cell): every case of 10 failed (the soil not held along y; the floor
+    holding material at the start), with no word about the grid.  Such a
+    value is refused before any work, naming the axis, the count it
+    would need and the values that keep whole cells."""
+    from skfem_mpm.studies.study import check_vary, refine
+    path = tmp_path / "footing.toml"
+    path.write_text(FLOOR_FOOTING)
+    scene = load_scene(path)
+    words = [r"elements = 10 does not scale the grid's 20 x 9 cells in "
+             r"proportion: it needs 4\.5 cells along y \(9 x 10 / 20\); "
+             r"rounding would make the cells 0\.25 x 0\.2812 against the "
+             r"scene's 0\.125 x 0\.125, and put body 'soil' y = 0 inside "
+             r"a cell \(and 1 more line\)",
+             r"The values that keep whole cells along every axis are the "
+             r"multiples of 20 \(20, 40, 60, 80, \.\.\.\)"]
+    with pytest.raises(InvalidInputError, match=words[0] + r".*" + words[1]):
+        check_vary({"elements": [10, 20, 40, 80], "ppc": [2, 3]}, scene)
+    with pytest.raises(InvalidInputError, match=r"elements = 30 does not "
+                       r"either"):
+        check_vary({"elements": [10, 20, 30]}, scene)
+    with pytest.raises(InvalidInputError, match=words[0]):
+        refine(scene, 10)
+    out = tmp_path / "study"
+    assert main(["study", str(path), "--vary", "elements=10,20,40,80",
+                 "--vary", "ppc=2,3", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert re.search(words[0], err) and re.search(words[1], err), err
+    assert not out.exists()
+
+
+def test_elements_that_scale_the_grid_exactly_refine_it_untouched(
+        tmp_path):
+    """Values that scale every axis to whole cells refine the grid in
+    proportion, the cells keeping the scene's shape; the default study
+    takes such values: 4 to 256 (doubling) where those do, else the
+    doubling series of whole cells: 20, 40, 80, 160 on the trial's 20 x 9
+    cells, 23, 46, 92, 184 on the cantilever's 22 x 23, every shipped
+    example's default passing the check (on the old code 4 to 256 rounded
+    the cantilever's cells at every count and put its faces inside
+    cells)."""
+    from skfem_mpm.studies.study import (check_vary, default_vary, refine,
+                                         whole_cells_step)
+    path = tmp_path / "footing.toml"
+    path.write_text(FLOOR_FOOTING)
+    scene = load_scene(path)
+    check_vary({"elements": [20, 40, 80, 160], "ppc": [2, 3]}, scene)
+    assert refine(scene, 20).grid.axes == scene.grid.axes
+    assert refine(scene, 40).grid.axes == [(0., 2.5, 40), (-.125, 1., 18)]
+    assert whole_cells_step(scene) == 20
+    assert default_vary(scene)["elements"] == [20, 40, 80, 160]
+    defaults = {}
+    for example in sorted(EXAMPLES.glob("*.toml")):
+        s = load_scene(example)
+        vary = default_vary(s)
+        check_vary(vary, s)
+        defaults[example.stem] = vary["elements"]
+    assert defaults["cantilever"] == [23, 46, 92, 184]
+    assert defaults["column"] == [4, 8, 16, 32, 64, 128, 256]
+    assert defaults["strip_footing"] == [32, 64, 128, 256]
+    assert defaults["block3d"] == [6, 12, 24, 48, 96, 192]
 
 
 def test_self_convergence_cases():

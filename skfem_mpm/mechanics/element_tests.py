@@ -10,11 +10,12 @@ so a model can be checked against closed forms before it meets a grid.
 it controls are incremented and the others are found by Newton's method so
 that their stresses keep their targets.  :func:`triaxial` (drained),
 :func:`undrained_triaxial`, :func:`oedometer` and :func:`simple_shear` set
-it up.  Stresses are tension
+it up; :func:`tangent_error` checks a model's tangent against finite
+differences of its stress update.  Stresses are tension
 positive; compression tests take positive confining and vertical
 stresses and compress.
 """
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 from numpy import ndarray
@@ -24,7 +25,10 @@ from .hencky import isotropic_derivative, principal_frame
 from .materials import LinearElastic, initial_state, inverse_elastic_law
 
 __all__ = ["mixed_path", "triaxial", "undrained_triaxial", "oedometer",
-           "simple_shear", "Path", "UndrainedPath"]
+           "simple_shear", "tangent_error", "Path", "UndrainedPath"]
+
+#: the smallest tangent entry :func:`tangent_error` divides by
+TINY = 1e-300
 
 
 class Path(NamedTuple):
@@ -270,3 +274,61 @@ def simple_shear(material, shear_strain: float, vertical_stress: float = 0.,
                                          lam / (lam + 2 * mu)])
     return mixed_path(material, increment, controlled, sigma0, nsteps,
                       sigma0)
+
+
+def tangent_error(material, eps: ndarray, state: Optional[dict] = None,
+                  h: float = 1e-7) -> ndarray:
+    """How far a material's algorithmic tangent is from the derivative of
+    its stress update, per trial state: ``max |D - dtau/deps| / max |D|``
+    of ``principal_update(eps, state)``'s ``D`` against central
+    differences of its principal stresses ``tau`` (steps ``h`` of each
+    trial principal strain); ``nan`` where the update is not smooth
+    within ``h`` (the forward and backward differences differ by more
+    than 1e-2 of ``max |D|``: a kink between regions of the return map).
+
+    Newton's method converges quadratically only with the derivative: a
+    tangent off by more than round-off (the shipped models: below 1e-6)
+    slows it to a linear rate, and a failed load step whose residual fell
+    linearly says so.
+
+    Parameters
+    ----------
+    material
+        A material of the protocol of :mod:`skfem_mpm.mechanics.materials`
+        (``principal_update``).
+    eps
+        Trial elastic principal strains, (3, n) (or (3,)).
+    state
+        The internal variables at the start of the step, ``{name: (n,)}``
+        (default: their initial values).
+    h
+        The finite-difference step of the strains.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem_mpm import VonMises
+    >>> from skfem_mpm.mechanics.element_tests import tangent_error
+    >>> eps = np.array([[1e-3, 4e-3], [-2e-3, -1e-3], [0., 0.]])
+    >>> bool((tangent_error(VonMises(1e4, .3, yield_stress=20.), eps)
+    ...       < 1e-6).all())
+    True
+    """
+    eps = np.asarray(eps, dtype=float)
+    eps = eps.reshape(3, -1)
+    n = eps.shape[1]
+    state = initial_state(material, n) if state is None else state
+    tau, _, D = material.principal_update(eps, state)[:3]
+    scale = np.maximum(np.abs(D).max(axis=(0, 1)), TINY)
+    error = np.zeros(n)
+    smooth = np.ones(n, dtype=bool)
+    for j in range(3):
+        step = np.zeros((3, 1))
+        step[j] = h
+        up = material.principal_update(eps + step, state)[0]
+        down = material.principal_update(eps - step, state)[0]
+        smooth &= np.abs((up - tau) - (tau - down)).max(axis=0) / h \
+            <= 1e-2 * scale
+        error = np.maximum(error, np.abs((up - down) / (2 * h)
+                                         - D[:, j]).max(axis=0) / scale)
+    return np.where(smooth, error, np.nan)

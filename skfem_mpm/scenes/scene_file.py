@@ -17,7 +17,10 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # soil against N_c c)
     [grid]
     x = [0.0, 1.0, 1]               # lo, hi, cells (y, z likewise)
-    y = [0.0, 50.0, 20]
+    y = [0.0, 50.0, 20]             # (`skfem-mpm study` scales every
+                                    # axis's cells in proportion: its
+                                    # elements must keep whole cells, the
+                                    # multiples of max(cells) / gcd(cells))
     element = "Q1"                  # or "Q2" (2D)
     [[bodies]]
     name = "column"

@@ -110,7 +110,7 @@ from scipy.sparse import (coo_matrix, csr_matrix, diags, identity, kron,
                           vstack)
 from scipy.spatial import cKDTree
 
-from ..errors import (ContactError, InvalidInputError,
+from ..errors import (ContactError, GridMotionError, InvalidInputError,
                       PointsOutsideGridError, StepTooLongError)
 from ..methods.gimp_linear import LinearGimp, snap_to_lines
 from ..quadrature.locate import (cell_coordinates, point_locator,
@@ -120,7 +120,7 @@ from ..spelling import setting
 from .loads import supported_share
 from .motion import unheld_rigid_modes
 from .obstacles import Obstacle
-from .problem import safe_norm
+from .problem import SLIVER_SUPPORT, safe_norm
 
 logger = logging.getLogger(__name__)
 
@@ -204,6 +204,11 @@ TOUCHING = .1
 STAGED_EDGE = ("an earlier run moved the material there, off the grid's "
                "lines: give this run a grid with a line at the edge (a "
                "staged run may take a grid of its own), or refine")
+
+#: the cells a trial may move a corner by grid nodes that slivers of
+#: material hold (:meth:`StepContact.check_carried`): beyond it the
+#: contact's state there follows those nodes' absurd values
+CARRIED = .1
 
 #: faces of an obstacle whose distances from a corner differ by less than
 #: this many cells are alike: the material's side decides
@@ -1373,6 +1378,69 @@ class StepContact(GridTerm):
             (kappa * tol * safe_norm(area) for kappa, tol, area in zip(
                 term.kappa, term.tol, self.area)), default=0.)
         self.evaluations = WeakKeyDictionary()
+        self.carriers = self.sliver_carriers()
+
+    def sliver_carriers(self) -> list:
+        """The rows (vector) of the corners that read the grid's field
+        where they are (GIMP's and extended B-splines' at obstacles that
+        hold the material, :meth:`ObstacleContact.field_rows`) on the
+        grid DOFs of nodes that slivers of material hold (support below
+        :data:`~skfem_mpm.solve.problem.SLIVER_SUPPORT` cells), where
+        the run holds the ghost penalty in reserve (``ghost="auto"``, not
+        yet on); else ``[]``: :meth:`check_carried`.  The points' rows
+        (smooth faces) weigh those nodes as the material does; B-splines'
+        material running away through a smooth floor keeps its error
+        (``StepTooLongError``, :data:`RUNAWAY`)."""
+        from ..stabilisation.ghost import GhostStabilisation
+        from .dynamics import sliver_nodes, value_matrix  # (imports this)
+        run, dim = self.problem.run, self.dim
+        field = self.rows.get(True)
+        if field is None or not hasattr(self.op, "S") or not any(
+                isinstance(t, GhostStabilisation) and not t.active
+                for t in run.terms):
+            return []
+        sliver = sliver_nodes(value_matrix(self.op),
+                              self.problem.points.volume,
+                              SLIVER_SUPPORT * self.term.h ** dim)
+        if not sliver.size:
+            return []
+        dofs = (dim * sliver[:, None] + np.arange(dim)).ravel()
+        return [(field[:, dofs], dofs)]
+
+    def check_carried(self, du: ndarray) -> None:
+        """Refuse a trial increment ``du`` that moves a corner by more
+        than :data:`CARRIED` cells through grid nodes that slivers of
+        material hold (:meth:`sliver_carriers`; ``GridMotionError``: the
+        ghost penalty of ``ghost="auto"`` ties them, the retry ladder's
+        first rung after full Newton).  A 3D cpGIMP block on a Coulomb
+        floor (h = 0.1, 2 x 2 x 2 points a cell) spread past its grid
+        lines by 8e-5 in its first step: the nodes beyond, held by
+        domains' slivers (the points' weights 2e-15, material stiffness
+        1e-21 of the median), were read by the corners with the field's
+        weight there (7e-9); a sliding corner's traction along its slip,
+        which no stiffness balances there, moved them 8e6 in Newton's
+        first direction, and corners by up to 13 cells (a pressed one
+        0.5 cells through the floor); Newton cycled between stick-slip
+        states, and the step took 113 iterations (line search, stabilised
+        tangent) before the penalty's rung, which solved it in 2.  A
+        rough floor converged with those nodes at 1.9e6 (refused after
+        Newton, the same rung)."""
+        for rows, dofs in self.carriers:
+            moved = (rows @ du[dofs]).reshape(-1, self.dim)
+            moved = np.sqrt((moved ** 2).sum(axis=1))
+            h = self.term.h
+            if moved.max(initial=0.) > CARRIED * h:
+                k = int(np.argmax(moved))
+                raise GridMotionError(
+                    "step {}: a trial moved the contact's corner at {} by "
+                    "{:.3g} cells through grid nodes holding less than {:g} "
+                    "cells of material (slivers: a GIMP domain barely past "
+                    "a grid line); the ghost penalty ties them "
+                    "(ghost='auto', the default, switches it on; or "
+                    "{})".format(self.problem.step,
+                                 np.round(self.Xs[:, k], 12).tolist(),
+                                 moved[k] / h, SLIVER_SUPPORT,
+                                 setting("ghost", 0.1)))
 
     def corner_rows(self, idx: ndarray, field: bool) -> csr_matrix:
         """The scalar rows (nc m, N / dim) of the corners of the points
@@ -1588,6 +1656,8 @@ class StepContact(GridTerm):
             return self.evaluations[response]
         term, dim = self.term, self.dim
         start = not du.any()
+        if not start:
+            self.check_carried(du)
         ev = []
         eye = np.eye(dim)[:, :, None]
         for i, (ob, u) in enumerate(zip(term.obstacles, self.motions(du))):

@@ -1051,16 +1051,20 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         result.basis = getattr(op, "basis", None)
         if callback is not None:
             callback(record, points)
-        logger.info("step %d: load factor %.4f, %s, residual %.2e", step,
-                    factor, "{} Newton iterations".format(
-                        record.newton_iterations) if not run.linear
-                    else "{} free DOFs".format(record.n_free_dofs),
-                    record.residual)
         now = run_clock()
+        left = steps_left(factor, increment, nsteps, adaptive)
         if timed:       # the invocation's first step carries its set-up
             fastest = min(fastest, now - started)
-            warned = warned or warn_long_run(step, steps_left(
-                factor, increment, nsteps, adaptive), fastest)
+        logger.info("step %d: %s, %s, residual %.2e, %.3g s; %d step(s) "
+                    "left%s", step, progress(run, factor),
+                    "{} Newton iterations".format(record.newton_iterations)
+                    if not run.linear else "{} free DOFs".format(
+                        record.n_free_dofs), record.residual, now - started,
+                    left, "" if not (timed and left) else
+                    ", about {:.3g} s at the fastest step's pace".format(
+                        fastest * left))
+        if timed:
+            warned = warned or warn_long_run(step, left, fastest)
         started, timed = now, True
     return result
 

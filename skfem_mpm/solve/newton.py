@@ -123,6 +123,18 @@ ROUNDOFF_LIMIT = 1e-6
 #: made large by a rigid translation, its residual falling from 6.6e-5 to
 #: 4.9e-8) halves its residual and goes on
 CORRECTION_ROUNDOFF = 1e-12
+#: a failed Newton loop whose last :data:`LINEAR_ITERATIONS` residuals
+#: each fell by a factor within :data:`LINEAR_RATES` converged linearly
+#: (:func:`linear_rate`): its error says so, and where a user's material
+#: took part, that its tangent may not be its stress's derivative (a
+#: trial's material returning the elastic tangent past its knee fell by
+#: 0.53 an iteration and failed at 2.1e-9 after 25, with no word why)
+LINEAR_ITERATIONS = 5
+LINEAR_RATES = (.02, .9)
+#: seconds into a Newton loop after which each iteration's residual is
+#: logged at INFO, not DEBUG: a trial's 3D step of 22 s said nothing
+#: until it ended
+SLOW_ITERATIONS = 5.
 
 
 class FullStep:
@@ -614,22 +626,29 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     residuals, last = [], None
     report = {} if report is None else report
     report["reused"] = False
+    started = run_clock()
     for it in range(max_iter + 1):
         residuals.append(float(current.residual))
-        logger.debug("step %d iteration %d: residual %.3e", problem.step, it,
-                     residuals[-1])
+        logger.log(logging.INFO if run_clock() - started > SLOW_ITERATIONS
+                   else logging.DEBUG, "step %d iteration %d: residual %.3e",
+                   problem.step, it, residuals[-1])
         if converged(current) or problem.free.size == 0 or (
                 single_solve and it == 1):
             break
         if it == max_iter or not np.isfinite(residuals[-1]) or \
                 not current.merit < MERIT_LIMIT:
             report["smallest"] = min(residuals)
+            run = getattr(problem, "run", None)    # (a problem of tests)
+            limit = getattr(run, "tol", None) if tol is None else tol
             raise NewtonDivergenceError(
                 "step {}: {} did not converge in {} iterations (residual "
-                "{:.1e}, smallest {:.1e}, last {:.1e})".format(
+                "first {:.1e}, smallest {:.1e}, last {:.1e}{}){}".format(
                     problem.step, "the equilibrium iteration"
                     if problem.linear else "Newton-Raphson", it,
-                    residuals[0], min(residuals), residuals[-1]))
+                    residuals[0], min(residuals), residuals[-1],
+                    "" if limit is None else "; tolerance {:.1e}".format(
+                        limit), "" if modified or report["reused"] else
+                    linear_hint(residuals, getattr(run, "material", None))))
         if it == 0 and predictor is not None:
             d = problem.solve(*predictor, stabilise)[0]
             predictor = None              # memory: freed before the tangent
@@ -663,6 +682,49 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                 from err
         problem.counters["line_search_trials"] += extra
     return Converged(du, current, residuals, last)
+
+
+def linear_rate(residuals: List[float]) -> Optional[float]:
+    """The factor by which each of the last :data:`LINEAR_ITERATIONS`
+    ``residuals`` fell (their geometric mean) where each fell by a factor
+    within :data:`LINEAR_RATES`: a linear rate, where Newton's with the
+    derivative is quadratic; else ``None``.
+
+    >>> linear_rate([1., .1, .05, .025, .0125, .00625, .003125])
+    0.5
+    >>> linear_rate([1., 1e-2, 1e-5, 1e-11]) is None
+    True
+    """
+    last = np.asarray(residuals[-LINEAR_ITERATIONS - 1:], dtype=float)
+    if last.size <= LINEAR_ITERATIONS or not (last > 0).all():
+        return None
+    ratios = last[1:] / last[:-1]
+    lo, hi = LINEAR_RATES
+    if not ((ratios > lo) & (ratios < hi)).all():
+        return None
+    return float(np.exp(np.log(ratios).mean()))
+
+
+def linear_hint(residuals: List[float], material) -> str:
+    """What a failed Newton loop's error adds where its ``residuals``
+    fell at a linear rate (:func:`linear_rate`): that rate, and where
+    ``material`` (or one of several bodies') is a user's (defined outside
+    this package), that its tangent may not be the derivative of its
+    stress update; else ``""``."""
+    rate = linear_rate(residuals)
+    if rate is None:
+        return ""
+    users = [] if material is None else [
+        type(m).__name__ for m in getattr(material, "materials", [material])
+        if not type(m).__module__.startswith("skfem_mpm.")]
+    return ("; the residual fell by about {:.2g} an iteration over the "
+            "last {}: a linear rate (Newton's with the exact derivative is "
+            "quadratic){}".format(
+                rate, LINEAR_ITERATIONS, "" if not users else
+                ": the tangent D of {}'s principal_update may not be the "
+                "derivative of its stress (check it with skfem_mpm."
+                "mechanics.element_tests.tangent_error; docs/materials.md)"
+                .format(" and ".join(sorted(set(users))))))
 
 
 def predicted(problem, du: ndarray, d: ndarray, current):

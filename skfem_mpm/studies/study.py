@@ -50,6 +50,7 @@ import io
 import itertools
 import json
 import logging
+import math
 import os
 import re
 import socket
@@ -85,7 +86,8 @@ __all__ = ["study", "refine", "case_error", "check_reference", "analyse",
            "cases_of", "estimate", "time_model", "time_left", "clock",
            "disagreements", "VARIABLES",
            "DEFAULT_VARY", "DEFAULT_QUANTITY", "CASES_UNASKED",
-           "default_vary"]
+           "default_vary", "default_elements", "whole_cells_step",
+           "not_whole"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
              "line_search", "newton")
@@ -103,14 +105,115 @@ def scene_quantities(scene) -> Sequence[Quantity]:
     return list(scene.outputs) or [DEFAULT_QUANTITY]
 
 
-def refine(scene: Scene, elements: int) -> Scene:
-    """The scene on a grid with ``elements`` cells along its most refined
-    axis; other axes scale in proportion, axes one cell across stay so."""
-    axes = list(scene.grid.axes)
+def whole_cells_step(scene: Scene) -> int:
+    """The least ``elements`` that scales every axis of the scene's grid
+    to whole cells in proportion (:func:`refine`): ``ref / gcd`` of the
+    cell counts above one (``ref`` the largest); the values that do are
+    its multiples.
+
+    >>> from skfem_mpm.scenes.scene_file import EMBEDDED, load_scene
+    >>> whole_cells_step(load_scene(EMBEDDED))        # 1 x 20 cells
+    1
+    """
+    counts = [n for _, _, n in scene.grid.axes if n > 1]
+    return max(counts) // math.gcd(*counts) if counts else 1
+
+
+def _counts(scene: Scene, elements: int) -> list:
+    """Each axis's cell count scaled to ``elements`` along the most
+    refined one, unrounded (an axis one cell across stays so)."""
+    ref = max(n for _, _, n in scene.grid.axes)
+    return [n if n == 1 else n * elements / ref
+            for _, _, n in scene.grid.axes]
+
+
+def _rounded(scene: Scene, elements: int) -> Scene:
+    """The scene on the grid of :func:`refine` with each count rounded:
+    the grid an older study ran a case of ``elements`` on, which did not
+    scale the axes to whole cells (for :func:`cell_size` and
+    :func:`off_grid_lines` of its recorded rows)."""
+    new = [(lo, hi, max(1, round(n))) for (lo, hi, _), n in zip(
+        scene.grid.axes, _counts(scene, elements))]
+    return replace(scene, grid=Grid(axes=new, element=scene.grid.element))
+
+
+def not_whole(scene: Scene, values: Sequence[int]) -> str:
+    """Why the ``elements`` of ``values`` that do not scale every axis of
+    the scene's grid to whole cells cannot refine it, in words ("" where
+    all do): the first such value's axis, the count it would need and
+    what rounding it would do (the cells' sizes, a feature line of the
+    scene moved inside a cell), and the values that keep whole cells.
+
+    >>> from skfem_mpm.scenes.scene import Grid, Scene
+    >>> from skfem_mpm.studies.study import not_whole
+    >>> scene = Scene(grid=Grid(axes=[(0., 2.5, 20), (-0.125, 1., 9)]),
+    ...               bodies=[])
+    >>> why = not_whole(scene, [10, 20, 40])
+    >>> print(why)    # doctest: +ELLIPSIS +NORMALIZE_WHITESPACE
+    elements = 10 does not scale the grid's 20 x 9 cells in proportion:
+    it needs 4.5 cells along y (9 x 10 / 20); ... the multiples of 20
+    (20, 40, 60, 80, ...)
+    """
+    bad = [e for e in values if any(
+        n != int(n) for n in _counts(scene, int(e)))]
+    if not bad:
+        return ""
+    axes = scene.grid.axes
     counts = [n for _, _, n in axes]
     ref = max(counts)
-    new = [(lo, hi, n if n == 1 else max(1, round(n * elements / ref)))
-           for lo, hi, n in axes]
+    e = int(bad[0])
+    scaled = _counts(scene, e)
+    axis = next(d for d, n in enumerate(scaled) if n != int(n))
+    rounded = _rounded(scene, e)
+    sizes = " x ".join("{:.4g}".format((hi - lo) / n)
+                       for lo, hi, n in rounded.grid.axes)
+    lines = feature_lines(scene)
+    off = _off_lines(rounded.grid.axes, [
+        line for line in lines
+        if line not in _off_lines(scene.grid.axes, lines)])
+    moved = "" if not off else ", and put {} {} = {:g} inside a cell{}" \
+        .format(off[0][2], "xyz"[off[0][0]], off[0][1],
+                "" if len(off) == 1 else " (and {} more line{})".format(
+                    len(off) - 1, "s" if len(off) > 2 else ""))
+    step = whole_cells_step(scene)
+    return ("elements = {} does not scale the grid's {} cells in "
+            "proportion: it needs {:.4g} cells along {} ({} x {} / {}); "
+            "rounding would make the cells {} against the scene's {}{}"
+            "{}.  The values that keep whole cells along every axis are "
+            "the multiples of {} ({}, ...)".format(
+                e, " x ".join(str(n) for n in counts), scaled[axis],
+                "xyz"[axis], counts[axis], e, ref, sizes, " x ".join(
+                    "{:.4g}".format((hi - lo) / n) for lo, hi, n in axes),
+                moved, "" if len(bad) == 1 else "; elements = {} {} not "
+                "either".format(", ".join(str(v) for v in bad[1:]),
+                                "does" if len(bad) == 2 else "do"),
+                step, ", ".join(str(step * k) for k in range(1, 5))))
+
+
+def refine(scene: Scene, elements: int) -> Scene:
+    """The scene on a grid with ``elements`` cells along its most refined
+    axis, the other axes in proportion (axes one cell across stay so):
+    the same cells' shape and the same grid lines at the scene's faces
+    as on its own grid, coarser or finer.
+
+    Raises
+    ------
+    InvalidInputError
+        Where ``elements`` does not scale some axis to whole cells
+        (:func:`not_whole`: the axis, the count it would need, the values
+        that keep whole cells, the multiples of :func:`whole_cells_step`).
+        Rounding the count, as this did before, changed the cells' shape
+        and moved the scene's faces off the grid lines: a trial's floor
+        obstacle, its top at y = 0 on a grid of 20 x 9 cells of 0.125
+        from y = -0.125, at 10 elements (4.5 cells along y, rounded to
+        4: cells 0.25 x 0.281) held the soil at the start or not at
+        all, and every case failed with no word about the grid.
+    """
+    why = not_whole(scene, [elements])
+    if why:
+        raise InvalidInputError(why)
+    new = [(lo, hi, int(n)) for (lo, hi, _), n in zip(
+        scene.grid.axes, _counts(scene, elements))]
     return replace(scene, grid=Grid(axes=new, element=scene.grid.element))
 
 
@@ -431,9 +534,10 @@ def _key(params: dict) -> str:
 
 def cell_size(scene: Scene, elements: int) -> float:
     """The representative cell size ``(V / N)^(1/d)`` (Celik et al. 2008)
-    of the scene's grid refined to ``elements`` (:func:`refine`): the
-    rounding of the other axes' counts enters the refinement ratios."""
-    axes = refine(scene, elements).grid.axes
+    of the scene's grid refined to ``elements`` (:func:`refine`; for a
+    row of an older study whose ``elements`` did not scale every axis to
+    whole cells, the grid it ran on, the counts rounded)."""
+    axes = _rounded(scene, elements).grid.axes
     return float(np.prod([(hi - lo) / n for lo, hi, n in axes])
                  ** (1. / len(axes)))
 
@@ -479,9 +583,14 @@ def feature_lines(scene: Scene) -> list:
 
 def off_grid_lines(scene: Scene, elements: int, lines: list) -> list:
     """Of the feature ``lines`` (:func:`feature_lines`), those that the
-    scene's grid refined to ``elements`` (:func:`refine`) puts inside a
-    cell."""
-    axes = refine(scene, elements).grid.axes
+    scene's grid refined to ``elements`` (:func:`refine`; rounded as in
+    :func:`cell_size` for an older study's row) puts inside a cell."""
+    return _off_lines(_rounded(scene, elements).grid.axes, lines)
+
+
+def _off_lines(axes, lines: list) -> list:
+    """Of the feature ``lines``, those inside a cell of the grid of
+    ``axes``."""
     off = []
     for axis, value, what in lines:
         lo, hi, n = axes[axis]
@@ -1213,10 +1322,39 @@ def warn_mixed(measured: dict, rows: List[dict], warn: bool = True
 
 def default_vary(scene: Scene) -> Dict[str, list]:
     """What a study of ``scene`` varies when told nothing:
-    :data:`DEFAULT_VARY`, without ``loadsteps`` for a dynamic scene (its
-    steps are its time steps)."""
-    return {name: list(values) for name, values in DEFAULT_VARY.items()
+    :data:`DEFAULT_VARY`, with the ``elements`` of
+    :func:`default_elements` and without ``loadsteps`` for a dynamic
+    scene (its steps are its time steps)."""
+    vary = {name: list(values) for name, values in DEFAULT_VARY.items()
             if not (name == "loadsteps" and scene.dynamics is not None)}
+    if "elements" in vary:
+        vary["elements"] = default_elements(scene)
+    return vary
+
+
+def default_elements(scene: Scene) -> List[int]:
+    """The ``elements`` a default study of ``scene`` runs: those of
+    :data:`DEFAULT_VARY` (4 to 256, doubling) where they scale every axis
+    of its grid to whole cells (:func:`refine`), else the doubling series
+    from the least multiple of :func:`whole_cells_step` from 4 up to 256,
+    three values at least: 23, 46, 92, 184 on the 22 x 23 cells of
+    ``examples/cantilever.toml`` (4 to 256 rounded its cells to other
+    shapes and put the beam's faces inside cells on every grid).
+
+    >>> from skfem_mpm.scenes.scene import Grid, Scene
+    >>> grid = Grid(axes=[(0., 11., 22), (-9.5, 2., 23)])
+    >>> default_elements(Scene(grid=grid, bodies=[]))
+    [23, 46, 92, 184]
+    """
+    values = DEFAULT_VARY["elements"]
+    step = whole_cells_step(scene)
+    if all(v % step == 0 for v in values):
+        return list(values)
+    first, last = min(values), max(values)
+    out = [step * -(-first // step)]
+    while out[-1] * 2 <= last or len(out) < 3:
+        out.append(out[-1] * 2)
+    return out
 
 
 def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
@@ -1224,7 +1362,9 @@ def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
     name of ``vary`` is one of :data:`VARIABLES` with distinct, possible
     values, and (given the ``scene``) one the scene has: a dynamic scene
     takes its steps from its time step, and each case of ``loadsteps``
-    failed, refused by the scene's check (a user trial)."""
+    failed, refused by the scene's check (a user trial); ``elements``
+    that do not scale every axis of its grid to whole cells are refused
+    with :func:`not_whole`'s words (:func:`refine`)."""
     if scene is not None and scene.dynamics is not None and \
             "loadsteps" in vary:
         raise InvalidInputError(
@@ -1253,6 +1393,10 @@ def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
         if len(set(values)) != len(values):
             raise InvalidInputError("--vary {} repeats a value: {}".format(
                 name, list(values)))
+    if scene is not None and "elements" in vary:
+        why = not_whole(scene, [int(v) for v in vary["elements"]])
+        if why:
+            raise InvalidInputError(why)
 
 
 def cases_of(vary: Dict[str, Sequence]) -> List[dict]:
