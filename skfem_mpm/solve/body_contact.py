@@ -73,15 +73,14 @@ from numpy import ndarray
 from scipy.sparse import csr_matrix, diags, identity, kron, vstack
 from scipy.spatial import cKDTree
 
-from ..errors import (GridMotionError, InvalidInputError,
-                      PointsOutsideGridError,
+from ..errors import (InvalidInputError, PointsOutsideGridError,
                       StepTooLongError, check_real)
 from ..methods.fields import body_fields
 from ..protocols import GridTerm
 from ..quadrature.locate import point_locator
-from ..spelling import setting
-from .contact import (CellValues, block_diagonal, corner_signs, coulomb,
-                      friction_hint, side_rows, spline_rows)
+from .contact import (CellValues, block_diagonal, check_carried_corners,
+                      corner_signs, coulomb, friction_hint, side_rows,
+                      spline_rows)
 from .contact_pairs import FACING, PairFinder, overlapping
 from .dynamics import sliver_nodes, value_matrix
 from .problem import SLIVER_SUPPORT
@@ -1115,10 +1114,6 @@ PASSING_NEAR = 2.
 #: (:meth:`~skfem_mpm.solve.contact.ObstacleContact.corner_cells`)
 PULL = 1e-6
 
-#: the cells a contact's corner may be moved by grid nodes that slivers
-#: of material hold (:meth:`StepBodyContact.check_slivers`)
-CARRIED = .1
-
 #: the points whose corners' splines are evaluated at once
 #: (:meth:`BodyContact.corner_motion`)
 CORNER_BLOCK = 1 << 13
@@ -1583,9 +1578,10 @@ class StepBodyContact(GridTerm):
 
     def check_slivers(self, problem, du: ndarray) -> None:
         """B-splines: refuse a converged increment ``du`` that moved a
-        pair's corner by more than :data:`CARRIED` cells through grid nodes
-        whose support holds less than :data:`~skfem_mpm.solve.problem.
-        SLIVER_SUPPORT` cells of material (``GridMotionError``: the ghost
+        pair's corner by more than :data:`~skfem_mpm.solve.contact.CARRIED`
+        cells through grid nodes whose support holds less than
+        :data:`~skfem_mpm.solve.problem.SLIVER_SUPPORT` cells of material
+        (:func:`~skfem_mpm.solve.contact.check_carried_corners`: the ghost
         penalty of ``ghost="auto"`` ties them).  The splines of the soil's
         corners under a pile's tip reach nodes inside the pile's hole
         that the soil barely holds: with 3 x 3 points per cell (h = 0.054,
@@ -1608,18 +1604,9 @@ class StepBodyContact(GridTerm):
         moved = spline_rows(term.weights, problem.method_op, X[:, corner],
                             corner % points.n).tocsc()[:, sliver] \
             @ du.reshape(-1, dim)[sliver]
-        moved = np.sqrt((moved ** 2).sum(axis=1))
-        if moved.max(initial=0.) > CARRIED * h:
-            k = int(np.argmax(moved))
-            raise GridMotionError(
-                "step {}: a contact's corner at {} moved {:.3g} cells "
-                "through grid nodes holding less than {:g} cells of "
-                "material (B-splines reaching past a body's surface): "
-                "the contact does not hold there; the ghost penalty ties "
-                "them (ghost='auto', the default, switches it on; or "
-                "{})".format(
-                    problem.step, X[:, corner[k]].tolist(),
-                    moved[k] / h, SLIVER_SUPPORT, setting("ghost", 0.1)))
+        check_carried_corners(np.sqrt((moved ** 2).sum(axis=1)),
+                              X[:, corner], h, problem.step,
+                              "B-splines reaching past a body's surface")
 
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
         """The force of each contact on its second body; the record on

@@ -205,9 +205,9 @@ STAGED_EDGE = ("an earlier run moved the material there, off the grid's "
                "lines: give this run a grid with a line at the edge (a "
                "staged run may take a grid of its own), or refine")
 
-#: the cells a trial may move a corner by grid nodes that slivers of
-#: material hold (:meth:`StepContact.check_carried`): beyond it the
-#: contact's state there follows those nodes' absurd values
+#: the cells a trial may move a contact's corner by grid nodes that
+#: slivers of material hold (:func:`check_carried_corners`): beyond it
+#: the contact's state there follows those nodes' absurd values
 CARRIED = .1
 
 #: faces of an obstacle whose distances from a corner differ by less than
@@ -489,6 +489,26 @@ def spline_rows(weights, op, X: ndarray, p: ndarray) -> csr_matrix:
     """B-splines: :func:`supported_rows` of the weights ``weights(X, p)``
     (m, nodes) of the corners at ``X`` (dim, m) of points ``p``."""
     return supported_rows(weights(X, p).S, op, X, p)
+
+
+def check_carried_corners(moved: ndarray, where: ndarray, h: float,
+                          step: int, slivers: str) -> None:
+    """Refuse a trial that moved a contact's corner (distances ``moved``
+    (m,), the corners at ``where`` (dim, m)) by more than :data:`CARRIED`
+    cells (of size ``h``) through grid nodes that slivers of material
+    hold (``slivers``: what they are) with
+    :class:`~skfem_mpm.errors.GridMotionError`, which the retry ladder
+    answers with the ghost penalty's rung."""
+    if not moved.max(initial=0.) > CARRIED * h:
+        return
+    k = int(np.argmax(moved))
+    raise GridMotionError(
+        "step {}: a contact's corner at {} moved {:.3g} cells through grid "
+        "nodes holding less than {:g} cells of material ({}): the contact "
+        "does not hold there; the ghost penalty ties them (ghost='auto', "
+        "the default, switches it on; or {})".format(
+            step, np.round(where[:, k], 12).tolist(), moved[k] / h,
+            SLIVER_SUPPORT, slivers, setting("ghost", 0.1)))
 
 
 class ObstacleContact(GridTerm):
@@ -1427,20 +1447,9 @@ class StepContact(GridTerm):
         Newton, the same rung)."""
         for rows, dofs in self.carriers:
             moved = (rows @ du[dofs]).reshape(-1, self.dim)
-            moved = np.sqrt((moved ** 2).sum(axis=1))
-            h = self.term.h
-            if moved.max(initial=0.) > CARRIED * h:
-                k = int(np.argmax(moved))
-                raise GridMotionError(
-                    "step {}: a trial moved the contact's corner at {} by "
-                    "{:.3g} cells through grid nodes holding less than {:g} "
-                    "cells of material (slivers: a GIMP domain barely past "
-                    "a grid line); the ghost penalty ties them "
-                    "(ghost='auto', the default, switches it on; or "
-                    "{})".format(self.problem.step,
-                                 np.round(self.Xs[:, k], 12).tolist(),
-                                 moved[k] / h, SLIVER_SUPPORT,
-                                 setting("ghost", 0.1)))
+            check_carried_corners(np.sqrt((moved ** 2).sum(axis=1)),
+                                  self.Xs, self.term.h, self.problem.step,
+                                  "a GIMP domain barely past a grid line")
 
     def corner_rows(self, idx: ndarray, field: bool) -> csr_matrix:
         """The scalar rows (nc m, N / dim) of the corners of the points
