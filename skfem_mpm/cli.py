@@ -104,8 +104,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--checkpoint-every", type=int, default=0, metavar="N",
                      help="save the full state every N steps (0, the "
                      "default: never, but where a run stops early: "
-                     "--max-steps, Ctrl-C, a failed step) and at the "
-                     "run's end")
+                     "--max-steps, Ctrl-C, a failed step), and at the "
+                     "run's end where it saved any")
     run.add_argument("--resume", type=Path, metavar="DIR",
                      help="resume the run whose output folder is DIR "
                      "(a completed run: nothing to do, exit 0)")
@@ -766,14 +766,11 @@ def load_run(args):
                 "before it started has nothing to resume)".format(
                     outdir, source.name))
         scene = load_scene(source)
-        if not (outdir / CHECKPOINT).is_file() and completed_before(outdir):
-            raise RunComplete(
-                "{}: the run in {} is complete (summary.json; it kept no "
-                "checkpoint): nothing to resume, every output left as it "
-                "was".format(scene.name, outdir))
-        earlier = load_checkpoint(outdir, scene_digest(source))
-        if earlier.complete:      # a trial's resume ran its steps again
-            raise RunComplete(
+        kept = (outdir / CHECKPOINT).is_file()
+        earlier = load_checkpoint(outdir, scene_digest(source)) if kept \
+            else None
+        if earlier is not None and earlier.complete:   # a trial's resume
+            raise RunComplete(                          # ran them again
                 "{}: the run in {} is complete (its checkpoint holds its "
                 "end, {} {} steps{}): nothing to resume, every output left "
                 "as it was".format(
@@ -781,6 +778,14 @@ def load_run(args):
                     "load" if scene.dynamics is None else "time",
                     "" if earlier.step == earlier.nsteps else
                     ", {} planned".format(earlier.nsteps)))
+        if completed_before(outdir):    # a checkpoint short of its end was
+            raise RunComplete(         # left before runs ended on one
+                "{}: the run in {} is complete (summary.json; {}): nothing "
+                "to resume, every output left as it was".format(
+                    scene.name, outdir, "its checkpoint is an earlier "
+                    "step's" if kept else "it kept no checkpoint"))
+        if earlier is None:             # the error of a missing one
+            earlier = load_checkpoint(outdir, scene_digest(source))
         points = earlier.points
         if scene.dynamics is None:
             scene.nsteps = earlier.nsteps

@@ -558,6 +558,20 @@ def test_a_completed_run_s_resume_does_nothing(tmp_path, capsys):
                 folder, why)
         assert printed.err == ""
         assert outputs(folder) == before
+    # a folder of the versions before, its checkpoint short of the end of
+    # a completed run (summary.json says so): not run again either
+    old = tmp_path / "old"
+    assert main(["run", "--out", str(old), "--steps", "2", "--max-steps",
+                 "1", "--no-progress"]) == 0
+    summary = json.loads((old / "summary.json").read_text())
+    summary["status"] = "completed"
+    (old / "summary.json").write_text(json.dumps(summary))
+    before = outputs(old)
+    capsys.readouterr()
+    assert main(["run", "--resume", str(old), "--no-progress"]) == 0
+    assert "is complete (summary.json; its checkpoint is an earlier " \
+        "step's)" in capsys.readouterr().out
+    assert outputs(old) == before
 
 
 def test_a_stopped_run_resumed_to_its_end_ends_with_its_checkpoint(

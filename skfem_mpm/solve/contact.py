@@ -155,16 +155,38 @@ RUNAWAY = (", farther than the grid spans: grid nodes that carry almost "
            "penalty holds them, {}; B-splines: {})".format(
                setting("ghost", 0.1), setting("extended_splines", True)))
 
-#: the remedy :meth:`ObstacleContact.warn_splines` names where
-#: contacts between bodies refuse the extended splines (a user trial's
-#: block pushed 2 cells along a slab by a wall, mu = 0.3, 20 steps)
-CONTACTS_REMEDY = (
-    "; with contacts between bodies, which refuse the extended splines, "
-    "'bspline-gimp', cpGIMP or standard MPM scatter less (a block pushed "
-    "2 cells along a slab, mu = 0.3: sigma_yy from -2.40 p to +0.18 p "
-    "with 'bspline' at 2 x 2 points a cell, -2.04 p to -0.58 p at 3 x 3, "
-    "-1.56 p to -0.45 p with 'bspline-gimp', -1.53 p to -0.72 p with "
-    "cpGIMP, where a beam's linear pressure gives -1.45 p to -0.55 p)")
+#: what :func:`contacts_remedy` measured (a user trial's block pushed 2
+#: cells along a slab by a wall, mu = 0.3, 20 steps; the methods that
+#: scatter less, each with its range)
+CONTACTS_MEASURED = (
+    "a block pushed 2 cells along a slab, mu = 0.3: sigma_yy from -2.40 p "
+    "to +0.18 p with 'bspline' at 2 x 2 points a cell, -2.04 p to -0.58 p "
+    "at 3 x 3, {}, where a beam's linear pressure gives -1.45 p to "
+    "-0.55 p")
+#: the methods that scatter less there, with their ranges
+CONTACTS_SERVE = (("'bspline-gimp'", "-1.56 p to -0.45 p"),
+                  ("cpGIMP", "-1.53 p to -0.72 p"),
+                  ("standard MPM", "-1.59 p to -0.78 p"))
+
+
+def contacts_remedy(method: str) -> str:
+    """The remedy :meth:`ObstacleContact.warn_splines` names for the
+    B-spline ``method`` where contacts between bodies refuse the extended
+    splines: the methods of :data:`CONTACTS_SERVE` other than
+    ``method``.
+
+    >>> "with 'bspline-gimp'" in contacts_remedy("bspline")
+    True
+    >>> "'bspline-gimp'" in contacts_remedy("bspline-gimp")
+    False
+    """
+    serve = [(name, span) for name, span in CONTACTS_SERVE
+             if name.strip("'") != method]
+    return ("; with contacts between bodies, which refuse the extended "
+            "splines, {} scatter less ({})".format(
+                ", ".join(n for n, _ in serve[:-1]) + " or " + serve[-1][0],
+                CONTACTS_MEASURED.format(", ".join(
+                    "{} with {}".format(span, name) for name, span in serve))))
 
 #: the share of the material's extent along an obstacle's motion past
 #: which a failed run's hint says it squeezes the material
@@ -870,7 +892,7 @@ class ObstacleContact(GridTerm):
         between grid lines, 2 x 2 points, its stresses 9% high).  The
         remedy, ``Stabilisation(extended_splines=True)``, is named where
         it is not refused; with contacts between bodies, where it is,
-        the methods that scatter less (:data:`CONTACTS_REMEDY`)."""
+        the methods that scatter less (:func:`contacts_remedy`)."""
         piece = getattr(run.method, "piece", run.method)
         if getattr(piece, "spline", None) is None or piece.extended:
             return
@@ -896,7 +918,7 @@ class ObstacleContact(GridTerm):
                     "3% too stiff at tolerance 1e-5, in 3D 9.5%; a block on "
                     "a rough floor between grid lines, 2 x 2 points, its "
                     "stresses 9% high)"])),
-            CONTACTS_REMEDY if run.contacts else
+            contacts_remedy(piece.name) if run.contacts else
             "; {} folds those nodes and reads the field at the "
             "corners".format(setting("extended_splines", True)))
 
@@ -1401,16 +1423,19 @@ class StepContact(GridTerm):
         self.carriers = self.sliver_carriers()
 
     def sliver_carriers(self) -> list:
-        """The rows (vector) of the corners that read the grid's field
-        where they are (GIMP's and extended B-splines' at obstacles that
-        hold the material, :meth:`ObstacleContact.field_rows`) on the
-        grid DOFs of nodes that slivers of material hold (support below
-        :data:`~skfem_mpm.solve.problem.SLIVER_SUPPORT` cells), where
-        the run holds the ghost penalty in reserve (``ghost="auto"``, not
-        yet on); else ``[]``: :meth:`check_carried`.  The points' rows
-        (smooth faces) weigh those nodes as the material does; B-splines'
-        material running away through a smooth floor keeps its error
-        (``StepTooLongError``, :data:`RUNAWAY`)."""
+        """The field's rows (vector) of the step's corners where an
+        obstacle reads the grid's field at its corners (GIMP's and
+        extended B-splines' at obstacles that hold the material,
+        :meth:`ObstacleContact.field_rows`; the rows of every corner of
+        the step's points, those facing another, smooth obstacle too) on
+        the grid DOFs of nodes that slivers of material hold (support
+        below :data:`~skfem_mpm.solve.problem.SLIVER_SUPPORT` cells),
+        where the run holds the ghost penalty in reserve
+        (``ghost="auto"``, not yet on); else ``[]``:
+        :meth:`check_carried`.  The points' rows (smooth faces) weigh
+        those nodes as the material does: B-splines' material running
+        away through a smooth floor, no obstacle holding, keeps its
+        error (``StepTooLongError``, :data:`RUNAWAY`)."""
         from ..stabilisation.ghost import GhostStabilisation
         from .dynamics import sliver_nodes, value_matrix  # (imports this)
         run, dim = self.problem.run, self.dim

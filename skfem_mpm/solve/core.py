@@ -634,8 +634,9 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     equilibrium."""
     how, rungs = FIRST, iter(RETRY_LADDER)
     zero_energy = False         # an attempt met zero-energy modes
+    linear = ""     # an attempt's words of a linear rate (newton's report)
     while True:
-        report = {}
+        report = {"linear": linear}
         try:
             with numerical_failures(step):
                 done = load_step(run, points, f_old, f_new, step, how,
@@ -649,6 +650,7 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 raise                       # only a shorter step helps
             zero_energy |= report.get("stabilised", False)
             report["zero_energy"] = zero_energy
+            linear = report.get("linear", "")
             for rung in rungs:
                 if (rung.linear or not run.linear) and (
                         rung.how is None or not isinstance(
@@ -751,9 +753,8 @@ def collapse_hint(run: Run, reach: list) -> str:
                 "loaded by forces may have no equilibrium at any load "
                 "factor, a limit load of zero ({}a face steeper than the "
                 "friction angle of soil without cohesion, a body its "
-                "supports do not hold): no shorter step helps; support or "
-                "strengthen it, or follow the collapse in dynamics "
-                "(Dynamics)".format("its cohesion is 0; "
+                "supports do not hold): support or strengthen it, or "
+                "follow the collapse in dynamics (Dynamics)".format("its cohesion is 0; "
                                     if cohesion == 0 else ""))
     if len(reach) < 3:
         return ""

@@ -365,7 +365,8 @@ def sliver_nodes(S, volume: ndarray, least: float) -> ndarray:
     ``S`` shares its pattern with its gradients' (a contact's corner rows
     ``S + q G`` add their data): a 3D cpGIMP block on a floor took a
     first Newton step 160 times worse after it."""
-    return np.flatnonzero(abs(csr_matrix(S, copy=True)).T @ volume < least)
+    weights = type(S)((np.abs(S.data), S.indices, S.indptr), shape=S.shape)
+    return np.flatnonzero(weights.T @ volume < least)
 
 
 class Inertia:

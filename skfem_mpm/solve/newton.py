@@ -647,8 +647,10 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                     if problem.linear else "Newton-Raphson", it,
                     residuals[0], min(residuals), residuals[-1],
                     "" if limit is None else "; tolerance {:.1e}".format(
-                        limit), "" if modified or report["reused"] else
-                    linear_hint(residuals, getattr(run, "material", None))))
+                        limit), linear_words(
+                            residuals, getattr(run, "material", None),
+                            stabilise, modified or report["reused"],
+                            report)))
         if it == 0 and predictor is not None:
             d = problem.solve(*predictor, stabilise)[0]
             predictor = None              # memory: freed before the tangent
@@ -705,19 +707,40 @@ def linear_rate(residuals: List[float]) -> Optional[float]:
     return float(np.exp(np.log(ratios).mean()))
 
 
+def linear_words(residuals: List[float], material, stabilised: bool,
+                 kept: bool, report: dict) -> str:
+    """What a failed Newton loop's error adds of its rate: with the
+    exact tangent, every iteration's (not ``kept``: modified Newton, a
+    kept factorisation, converge linearly by design), the words of
+    :func:`linear_hint`, kept in ``report["linear"]`` for the step's
+    later attempts; with the tangent ``stabilised`` (whose own rate is
+    linear: a floored diagonal slowed a retry past 25 iterations), an
+    earlier attempt's words where it had any, else ``""``."""
+    if kept:
+        return ""
+    if stabilised:
+        earlier = report.get("linear", "")
+        return earlier and "; the attempt with the exact tangent: " + \
+            earlier
+    words = linear_hint(residuals, material)
+    if words:
+        report["linear"] = words
+    return words and "; " + words
+
+
 def linear_hint(residuals: List[float], material) -> str:
-    """What a failed Newton loop's error adds where its ``residuals``
-    fell at a linear rate (:func:`linear_rate`): that rate, and where
-    ``material`` (or one of several bodies') is a user's (defined outside
-    this package), that its tangent may not be the derivative of its
-    stress update; else ``""``."""
+    """Where a failed Newton loop's ``residuals`` fell at a linear rate
+    (:func:`linear_rate`), that rate in words, and where ``material`` (or
+    one of several bodies') is a user's (defined outside this package),
+    that its tangent may not be the derivative of its stress update;
+    else ``""``."""
     rate = linear_rate(residuals)
     if rate is None:
         return ""
     users = [] if material is None else [
         type(m).__name__ for m in getattr(material, "materials", [material])
         if not type(m).__module__.startswith("skfem_mpm.")]
-    return ("; the residual fell by about {:.2g} an iteration over the "
+    return ("the residual fell by about {:.2g} an iteration over the "
             "last {}: a linear rate (Newton's with the exact derivative is "
             "quadratic){}".format(
                 rate, LINEAR_ITERATIONS, "" if not users else
