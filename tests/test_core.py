@@ -889,10 +889,10 @@ def test_a_free_cohesionless_column_is_said_to_have_no_equilibrium():
                 b.get_dofs(lambda x: x[0] == 0.).all("u^1")]),
             body_force=[0., -2e4], kinematics="finite", nsteps=5)
     with pytest.raises(NewtonDivergenceError, match="no load step "
-                       "converged from the start") as failure:
+                       "converged from the start, and its cohesion is "
+                       "0") as failure:
         column(0.)
     assert failure.value.load_factor == 0.
-    assert "its cohesion is 0" in str(failure.value)
     stands = column(5e3)
     assert stands.history[-1].load_factor == 1.
 

@@ -2252,7 +2252,16 @@ def test_a_body_seeded_short_of_its_floor_is_told_the_gap():
     gap = (pts.x[1] - pts.domain[1]).min() - .03
     assert np.isclose(gap, .02)
     assert "the material starts {:.3g} ({:.2g} cells) short of obstacle " \
-        "'floor'".format(gap, gap / .1) in str(failed.value)
+        "'floor', the nearest".format(gap, gap / .1) in str(failed.value)
+    # a cell and more short of it (a trial's error said nothing of it)
+    far = Obstacle(box=[[-1., 2.], [-1., -.12]], name="floor",
+                   friction="rough")
+    with pytest.raises(SingularSystemError) as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3), [],
+                 body_force=[0., -1e4], obstacles=[far])
+    assert "the material starts {:.3g} ({:.2g} cells) short of obstacle " \
+        "'floor', the nearest".format(gap + .15, (gap + .15) / .1) \
+        in str(failed.value)
 
 
 def test_a_held_body_failing_by_a_smooth_incline_is_not_told_so():

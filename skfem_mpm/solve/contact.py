@@ -224,8 +224,9 @@ TOUCHING = .1
 #: that warning's advice where an earlier run moved the material there
 #: (a staged run's start: a footing lifted from where a push left it)
 STAGED_EDGE = ("an earlier run moved the material there, off the grid's "
-               "lines: give this run a grid with a line at the edge (a "
-               "staged run may take a grid of its own), or refine")
+               "lines: push the earlier run by whole cells, or refine its "
+               "grid (a grid of this run's own puts the points' stresses "
+               "out of balance on it: docs/contact.md)")
 
 #: the cells a trial may move a contact's corner by grid nodes that
 #: slivers of material hold (:func:`check_carried_corners`): beyond it
@@ -1109,11 +1110,23 @@ class ObstacleContact(GridTerm):
             if ob.friction != 0. and tilt > INCLINED_HOLDING)
 
     def unheld_hint(self) -> str:
-        """The material starting short of a stationary obstacle
-        (:meth:`gap_hint`): a trial's block seeded 0.02 above the floor
-        meant to hold it ended in "not held against translation along
-        y", the obstacle unnamed."""
-        return self.gap_hint()
+        """The material starting short of the nearest stationary obstacle
+        by more than its tolerance, and by how much (a trial's block
+        seeded 0.02 above the floor meant to hold it ended in "not held
+        against translation along y", the obstacle unnamed; a cell and
+        more above it, in "touches no supported node")."""
+        short = [(gap, ob.name) for ob, gap, tol in zip(
+            self.obstacles, self.start_gaps, self.tol)
+            if not ob.displacement.any() and gap > tol]
+        if not short:
+            return ""
+        gap, name = min(short)
+        return ("; the material starts {:.3g} ({:.2g} cells) short of "
+                "obstacle {!r}, the nearest stationary one: not touching "
+                "it, held by nothing there (seeded points are whole: a "
+                "region's edge inside a cell leaves a gap; move the "
+                "obstacle's face to the material's surface)".format(
+                    gap, gap / self.h, name))
 
     def gap_hint(self) -> str:
         """Per stationary obstacle that the material starts short of by

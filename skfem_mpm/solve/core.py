@@ -742,20 +742,22 @@ def collapse_hint(run: Run, reach: list) -> str:
     no equilibrium exists (a hardening material softens so too, with no
     limit load: hence "may"; a user's footing loaded past Prandtl's load
     ended with "no convergence" and no more).  Where no step converged
-    from the run's start, the body may have no equilibrium at any load
-    factor (a free column of cohesionless soil failed its first step at
-    every cut-back with no word of why, a user trial)."""
+    from the run's start and the material has no cohesion, the body may
+    have no equilibrium at any load factor (a free column of cohesionless
+    soil failed its first step at every cut-back with no word of why, a
+    user trial; not said of soil with cohesion: a staged run's second
+    stage, out of balance at its start on a grid of its own, was told
+    so, untrue)."""
     if not may_collapse(run):
         return ""
-    if len(reach) == 1 and reach[0][0] == 0.:
-        cohesion = getattr(run.material, "cohesion", None)
-        return ("; no load step converged from the start: a plastic body "
-                "loaded by forces may have no equilibrium at any load "
-                "factor, a limit load of zero ({}a face steeper than the "
-                "friction angle of soil without cohesion, a body its "
+    cohesion = getattr(run.material, "cohesion", None)
+    if len(reach) == 1 and reach[0][0] == 0. and cohesion == 0:
+        return ("; no load step converged from the start, and its "
+                "cohesion is 0: soil without cohesion loaded by forces may "
+                "have no equilibrium at any load factor, a limit load of "
+                "zero (a face steeper than its friction angle, a body its "
                 "supports do not hold): support or strengthen it, or "
-                "follow the collapse in dynamics (Dynamics)".format("its cohesion is 0; "
-                                    if cohesion == 0 else ""))
+                "follow the collapse in dynamics (Dynamics)")
     if len(reach) < 3:
         return ""
     f, u = np.array(reach).T
@@ -960,7 +962,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     points, dynamics = result.points, run.dynamics
     adaptive = dynamics is not None and bool(dynamics.target_iterations)
     fastest, warned, timed = np.inf, False, False
-    started = run_clock()
+    started = begun = run_clock()
+    first = factor              # the call's start (the pace's)
     held = 0            # the step's failed attempts, all HeldSupportError
     watch = may_collapse(run)               # (collapse_hint)
     reach = [(factor, largest_displacement(points))] if watch else []
@@ -1061,9 +1064,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     "{} Newton iterations".format(record.newton_iterations)
                     if not run.linear else "{} free DOFs".format(
                         record.n_free_dofs), record.residual, now - started,
-                    left, "" if not (timed and left) else
-                    ", about {:.3g} s at the fastest step's pace".format(
-                        fastest * left))
+                    left, "" if not left else ", about {:.3g} s at the "
+                    "pace so far".format((now - begun) * (1. - factor)
+                                         / (factor - first)))
         if timed:
             warned = warned or warn_long_run(step, left, fastest)
         started, timed = now, True

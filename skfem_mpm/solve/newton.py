@@ -642,11 +642,11 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
             limit = getattr(run, "tol", None) if tol is None else tol
             raise NewtonDivergenceError(
                 "step {}: {} did not converge in {} iterations (residual "
-                "first {:.1e}, smallest {:.1e}, last {:.1e}{}){}".format(
+                "first {:.3g}, smallest {:.3g}, last {:.3g}{}){}".format(
                     problem.step, "the equilibrium iteration"
                     if problem.linear else "Newton-Raphson", it,
                     residuals[0], min(residuals), residuals[-1],
-                    "" if limit is None else "; tolerance {:.1e}".format(
+                    "" if limit is None else "; tolerance {:.3g}".format(
                         limit), linear_words(
                             residuals, getattr(run, "material", None),
                             stabilise, modified or report["reused"],
