@@ -478,7 +478,10 @@ class NewtonOptions:
         down to ``2**-max_cutbacks`` of a step (0 to 60); not where a
         shorter step cannot help (contact with a support that holds the
         material's way, a quasi-static load that no load factor
-        balances: :func:`~skfem_mpm.solve.core.no_equilibrium`).
+        balances: :func:`~skfem_mpm.solve.core.no_equilibrium`).  The
+        increment doubles back (up to a whole step) after two sub-steps
+        in a row that took at most half ``max_iter`` Newton iterations
+        (:func:`~skfem_mpm.solve.core.grown_increment`).
     line_search
         Globalisation: ``"backtracking"`` (default: Newton's full steps,
         shortened only where one inverts a point; a step that fails so is
