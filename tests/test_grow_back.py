@@ -152,6 +152,7 @@ steps = 4
 """
 
 
+@pytest.mark.slow
 def test_resumes_from_checkpoints_across_a_grow_back_are_bit_identical(
         monkeypatch, tmp_path):
     """The scene runner stopped every 3 sub-steps (``--max-steps``) and
