@@ -136,7 +136,7 @@ SLIVER_METHODS = ("ugimp", "cpgimp", "bspline3", "bspline3-gimp")
 #: ``GROWTH`` after ``EASY_STEPS`` sub-steps in a row that each converged in
 #: at most ``EASY_SHARE`` of ``max_iter`` Newton iterations
 #: (:func:`easy_sub_step`).  Doubling undoes a halving: the increments stay
-#: ``1 / nsteps`` over powers of two, exact binary fractions.  Two
+#: a whole step's halvings, the sizes a cut-back had tried.  Two
 #: sub-steps, not one (Abaqus's rule too): a grown increment that fails
 #: costs the retry ladder's rungs and a cut-back, several times
 #: ``max_iter`` iterations.  Half of ``max_iter``, as the adaptive time
