@@ -256,6 +256,16 @@ def test_a_thrown_projectile_follows_its_parabola():
     assert error < 1e-13 and iterations == [1] * 4
 
 
+def test_generalized_alpha_with_contact_between_bodies_names_them():
+    """The generalised-alpha scheme with ``alpha_f > 0`` is refused with
+    contact; a run whose contact is between bodies is told so, not about
+    obstacles it does not have."""
+    with pytest.raises(InvalidInputError, match="contact between bodies "
+                       "in dynamics needs forces at the step's end.*left "
+                       "another body"):
+        thrown_blocks("apart", contact=True, scheme=GeneralizedAlpha(.5))
+
+
 @pytest.mark.slow
 def test_slow_loading_is_quasi_static():
     """A bar loaded at its tip by a force ramped over 100 periods of its

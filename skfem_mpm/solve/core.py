@@ -1316,15 +1316,37 @@ def check_steps(nsteps, dynamics: Optional[Dynamics], method: str) -> int:
     return dynamics.nsteps
 
 
+#: how the rules name a run's contact: with obstacles, between bodies, both
+CONTACT_NAMES = ("contact with obstacles", "contact between bodies",
+                 "contact with obstacles and between bodies")
+#: what a body leaves in each of them
+CONTACT_PARTNERS = ("an obstacle", "another body",
+                    "an obstacle or another body")
+
+
+def contact_named(obstacles, contacts) -> str:
+    """The name of a run's contact (:data:`CONTACT_NAMES`), ``""`` for
+    none.
+
+    >>> contact_named([], [object()])
+    'contact between bodies'
+    """
+    if not obstacles and not contacts:
+        return ""
+    return CONTACT_NAMES[2 if obstacles and contacts else 1 if contacts
+                         else 0]
+
+
 def check_combination(method: str, kinematics: str, plastic: bool,
                       newton: NewtonOptions, stabilisation: Stabilisation,
                       dynamics: Optional[Dynamics], full_body_force: bool,
-                      driven: bool, contact: bool = False):
+                      driven: bool, contact: str = ""):
     """The rules that tie a run's choices together (each option checked
     itself on creation), for :func:`simulate` and a scene's check: the
     seed's one-solve scheme (``rhs="increment"``) needs linear
     quasi-static steps driven by ramped loads alone; modified Newton does
-    not go with an adaptive time step."""
+    not go with an adaptive time step.  ``contact``: the run's contact,
+    as :func:`contact_named` names it (``""``: none)."""
     if stabilisation.antilocking == "fbar" and (
             kinematics != "finite" or method == "fem"):
         raise InvalidInputError(
@@ -1341,8 +1363,8 @@ def check_combination(method: str, kinematics: str, plastic: bool,
         if contact:
             raise InvalidInputError(
                 "rhs = 'increment' (the seed's one-solve scheme) is for "
-                "linear steps; contact with obstacles needs the "
-                "out-of-balance force (rhs = 'residual')")
+                "linear steps; {} needs the out-of-balance force (rhs = "
+                "'residual')".format(contact))
         if dynamics is not None:
             raise InvalidInputError(
                 "rhs = 'increment' maps load increments of quasi-static "
@@ -1368,13 +1390,14 @@ def check_combination(method: str, kinematics: str, plastic: bool,
     if contact and dynamics is not None and dynamics.scheme is not None \
             and dynamics.scheme.alpha_f > 0:
         raise InvalidInputError(
-            "contact with obstacles in dynamics needs forces at the step's "
-            "end: the generalised-alpha scheme with rho_inf = {} weighs them "
-            "at n+1-alpha_f (alpha_f = {:.3g}), so a body that has left an "
-            "obstacle is still pushed by it (a block at rest on a floor rose "
-            "17 mm); leave the scheme to its default with contact, "
+            "{} in dynamics needs forces at the step's end: the "
+            "generalised-alpha scheme with rho_inf = {} weighs them at "
+            "n+1-alpha_f (alpha_f = {:.3g}), so a body that has left {} is "
+            "still pushed by it (a block at rest on a floor rose 17 mm); "
+            "leave the scheme to its default with contact, "
             "GeneralizedAlpha(0.) (scene files: scheme = \"auto\")".format(
-                dynamics.scheme.rho_inf, dynamics.scheme.alpha_f))
+                contact, dynamics.scheme.rho_inf, dynamics.scheme.alpha_f,
+                CONTACT_PARTNERS[CONTACT_NAMES.index(contact)]))
     if newton.newton == "modified" and dynamics is not None and \
             dynamics.target_iterations is not None:
         raise InvalidInputError(ADAPTIVE_MODIFIED)
@@ -1591,7 +1614,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       stabilisation, dynamics, full_body_force=gravity is not
                       None and not ramp.all(), driven=prescribed is not None
                       or bool(rigid_bodies),
-                      contact=bool(obstacles) or bool(contacts))
+                      contact=contact_named(obstacles, contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
                               stabilisation.antilocking,
