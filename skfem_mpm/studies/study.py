@@ -1349,6 +1349,8 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
 
     >>> from skfem_mpm.studies.study import report
     >>> lines = report(rows, rows.measured, ["elements", "loadsteps"])
+    >>> rows.warm_ups is rows.warm_up   # the warm-ups, under either name
+    True
     >>> print("\\n".join(lines[1:5]))  # doctest: +ELLIPSIS
     value: largest point displacement (m) of each case
      elements loadsteps        value      error uncertainty   wall s ...
