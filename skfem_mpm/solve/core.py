@@ -163,10 +163,11 @@ def cell_size(mesh: Mesh) -> float:
     return float(np.prod(extent) / mesh.nelements) ** (1. / mesh.dim())
 
 
-def grid_parts(mesh: Mesh, elem: Element):
+def grid_parts(mesh: Mesh, elem: Element, copies: int = 1):
     """What a run keeps of the grid: the scalar element, the vector grid
     basis (supports, DOF locations), the scalar ``Dofs`` for the
-    material-point bases and the vector stiffness pattern."""
+    material-point bases and the vector stiffness pattern (of ``copies``
+    copies of a grid: :func:`~skfem_mpm.methods.fields.extended_mesh`)."""
     scalar = elem.elem if isinstance(elem, ElementVector) else elem
     try:
         grid = GridBasis(mesh, vector_element(elem))
@@ -175,21 +176,22 @@ def grid_parts(mesh: Mesh, elem: Element):
             "the element {} does not fit the mesh {} ({})".format(
                 type(scalar).__name__, type(mesh).__name__, err)) from err
     return (scalar, grid, Dofs(mesh, scalar),
-            ElementPattern(grid.dofs.element_dofs, grid.N))
+            ElementPattern(grid.dofs.element_dofs, grid.N, copies))
 
 
 def grid_fields(mesh: Mesh, elem: Element, field: ndarray, locate) -> Fields:
     """The run's :class:`~skfem_mpm.methods.fields.Fields`: copies of the
     grid, one per field (``field``: the field of each point)."""
     big = extended_mesh(mesh, int(field.max()) + 1)
-    scalar, _, dofs, pattern = grid_parts(big, elem)
+    scalar, grid, dofs, pattern = grid_parts(big, elem,
+                                             int(field.max()) + 1)
     if dofs.N != big.nvertices:
         raise UnsupportedElementError(
             "contacts between bodies need an element with DOFs at the "
             "vertices only (linear), got {}".format(type(scalar).__name__))
     return Fields(big, dofs, pattern,
                   FieldLocator(locate, field, mesh.nelements), field,
-                  mesh.nvertices, mesh.nelements)
+                  mesh.nvertices, mesh.nelements, grid)
 
 
 def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int,
@@ -1643,7 +1645,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     if case.contacts:             # a grid copy per field, supports on each
         fields = grid_fields(mesh, elem, case.body_field[points.body],
                              locate)
-        grid, run_locate = grid_parts(fields.mesh, elem)[1], fields.locate
+        grid, run_locate = fields.grid, fields.locate
     masses = None
     if dynamics is not None:
         masses = dynamics.masses(points)
