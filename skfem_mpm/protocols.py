@@ -187,8 +187,8 @@ class GridTerm:
     def weigh(self, balance: Balance, du: ndarray) -> None:
         """Weigh the trial's static balance in time (a time integrator:
         the generalised-alpha weights and the inertia force); may enlarge
-        ``balance.scale`` (the inertia force; an obstacle's force, which
-        may be all that drives a body)."""
+        ``balance.scale`` (the inertia force and the momentum's rate; an
+        obstacle's force, which may be all that drives a body)."""
 
     def weigh_matrix(self, K):
         """The tangent weighed as :meth:`weigh` weighs the forces."""

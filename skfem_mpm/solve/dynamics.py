@@ -433,6 +433,21 @@ class Inertia:
         a = (1 - self.alpha_m) * self.acceleration(du) + self.alpha_m * self.a
         return self.M @ a
 
+    def start_forces(self, free: ndarray) -> float:
+        """The largest of the forces of the step's start that its balance
+        sums over the ``free`` DOFs: the momentum's rate ``(1 - alpha_m)
+        M v_n / (beta dt)``, the start's acceleration's terms
+        ``(1 - alpha_m) (1/2 - beta) / beta M a_n`` and ``alpha_m M a_n``,
+        and the internal force :attr:`f_int0` (set before).  A body in
+        free flight has no load and no acceleration: its residual is the
+        round-off of these terms' cancellation, and measured against the
+        inertia force alone (round-off itself) it stayed at 1."""
+        dt, b, am = self.dt, self.beta, self.alpha_m
+        weight = max(am, (1 - am) * abs(.5 - b) / b)
+        return max((1 - am) / (b * dt) * safe_norm((self.M @ self.v)[free]),
+                   weight * safe_norm((self.M @ self.a)[free]),
+                   safe_norm(self.f_int0[free]))
+
 
 class InertiaTerm(GridTerm):
     """Implicit time integration as a grid term: the inertia of the
@@ -481,6 +496,7 @@ class InertiaTerm(GridTerm):
             problem.counters["factorisations"] += 1
         step.v[fixed] = du[fixed] / step.dt
         step.a[fixed] = 0.
+        step.reference = step.start_forces(problem.free)
         alpha = step.alpha_f
         problem.f_dead = (1 - alpha) * problem.f_dead + alpha * f_ext0
         problem.load_weight = 1 - alpha
@@ -493,12 +509,14 @@ class StepInertia(Inertia, GridTerm):
     def weigh(self, balance, du: ndarray):
         """The internal force at ``n+1-alpha_f`` and the inertia force;
         the residual is measured against the inertia force too (a free
-        vibration)."""
+        vibration), and against the forces of the step's start that the
+        balance sums (:meth:`start_forces`: a body in free flight)."""
         alpha = self.alpha_f
         balance.f_int = (1 - alpha) * balance.f_int + alpha * self.f_int0
         moving = self.inertia_force(du)
         balance.f_int += moving
-        balance.scale = max(balance.scale, safe_norm(moving))
+        balance.scale = max(balance.scale, safe_norm(moving),
+                            self.reference)
 
     def weigh_matrix(self, K):
         return add_within((1 - self.alpha_f) * K, self.c * self.M)
