@@ -22,6 +22,7 @@ SCENE_KEYS = {
     "line_search": ("NewtonOptions", ("solver", "line_search")),
     "newton": ("NewtonOptions", ("solver", "newton")),
     "rhs": ("NewtonOptions", ("solver", "rhs")),
+    "grow_back": ("NewtonOptions", ("solver", "grow_back")),
     "kernels": ("Options", ("solver", "kernels")),
 }
 

@@ -268,9 +268,9 @@ class Scene:
         takes); ``None`` with dynamics.
     newton
         :class:`~skfem_mpm.NewtonOptions`: tolerance, iterations, line
-        search, full or modified Newton, ``rhs`` (scene keys
-        ``solver.tolerance``, ``max_iterations``, ``line_search``,
-        ``newton``, ``rhs``).
+        search, full or modified Newton, ``rhs``, ``grow_back`` (scene
+        keys ``solver.tolerance``, ``max_iterations``, ``line_search``,
+        ``newton``, ``rhs``, ``grow_back``).
     stabilisation
         :class:`~skfem_mpm.Stabilisation`: ghost penalty, mean
         dilatation and extended B-splines (``solver.ghost``,

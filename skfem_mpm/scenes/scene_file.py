@@ -171,6 +171,11 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # tangent factorised once
     rhs = "residual"                # or "increment": the seed's literal
                                     # scheme (small-strain elastic scenes)
+    grow_back = false               # true: a cut-back's increment doubles
+                                    # after two easy sub-steps (fewer
+                                    # sub-steps; its path may fail where
+                                    # the default's completes:
+                                    # NewtonOptions)
 
 """
 import math
@@ -848,7 +853,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                      ("method", "kinematics", "steps", "tolerance",
                       "max_iterations", "linear", "kernels", "antilocking",
                       "extended_splines", "ghost", "rhs", "line_search",
-                      "newton"))
+                      "newton", "grow_back"))
     method = c.choice(solver, "solver", "method", METHODS, "mpm")
     dynamics = _dynamics(c, data["dynamics"]) if "dynamics" in data else None
     if dynamics is not None and "steps" in solver:
@@ -868,7 +873,9 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         ("line_search", "line_search", c.choice(
             solver, "solver", "line_search", LINE_SEARCHES, "backtracking")),
         ("newton", "newton", c.choice(solver, "solver", "newton", NEWTON,
-                                      "full"))))
+                                      "full")),
+        ("grow_back", "grow_back", c.boolean(solver, "solver",
+                                             "grow_back"))))
     stabilisation = c.option(Stabilisation, "solver", (
         ("antilocking", "antilocking", c.antilocking(solver)),
         ("extended_splines", "extended_splines", c.boolean(

@@ -132,11 +132,12 @@ HELD_HALVINGS = 4
 #: failed at 2.5% of its load, 3.91 mm with it against the quadratic
 #: splines' 3.98)
 SLIVER_METHODS = ("ugimp", "cpgimp", "bspline3", "bspline3-gimp")
-#: a cut-back's increment grows back (:func:`grown_increment`) by
-#: ``GROWTH`` after ``EASY_STEPS`` sub-steps in a row that each converged in
-#: at most ``EASY_SHARE`` of ``max_iter`` Newton iterations
-#: (:func:`easy_sub_step`).  Doubling undoes a halving: the increments stay
-#: a whole step's halvings, the sizes a cut-back had tried.  Two
+#: with ``NewtonOptions(grow_back=True)`` a cut-back's increment grows
+#: back (:func:`grown_increment`) by ``GROWTH`` after ``EASY_STEPS``
+#: sub-steps in a row that each converged in at most ``EASY_SHARE`` of
+#: ``max_iter`` Newton iterations (:func:`easy_sub_step`).  Doubling
+#: undoes a halving: the increments stay a whole step's halvings, the
+#: sizes a cut-back had tried.  Two
 #: sub-steps, not one (Abaqus's rule too): a grown increment that fails
 #: costs the retry ladder's rungs and a cut-back, several times
 #: ``max_iter`` iterations.  Half of ``max_iter``, as the adaptive time
@@ -144,13 +145,16 @@ SLIVER_METHODS = ("ugimp", "cpgimp", "bspline3", "bspline3-gimp")
 #: (:meth:`~skfem_mpm.Dynamics.adapt`): a trial's footing on Mohr-Coulomb
 #: soil (``max_iter`` 25) took 12 to 29 iterations at its hard sub-steps
 #: and whole steps, 7 to 12 at the 128 sub-steps of 3.9e-4 it crawled
-#: after 7 cut-backs (Abaqus's fixed 5 would never have grown them)
+#: after 7 cut-backs (Abaqus's fixed 5 would never have grown them).
+#: Without it, a run's first ``EASY_STEPS`` such sub-steps in a row are
+#: logged once with the option's name (its path may fail where the
+#: crawl completes: that footing, later, at 0.86)
 EASY_STEPS = 2
 EASY_SHARE = .5
 GROWTH = 2.
 #: the counter of a run's easy sub-steps in a row at a cut-back's increment
-#: (:func:`grown_increment`), there from its first cut-back: the counters
-#: carry it through a resume
+#: (:func:`grown_increment`), there from its first cut-back with
+#: ``grow_back`` (never without): the counters carry it through a resume
 EASY = "easy_sub_steps"
 #: seconds: the steps left of a run that would take longer, at the pace of
 #: its fastest step so far, are announced by a warning (once)
@@ -850,12 +854,13 @@ def steps_left(factor: float, increment: float, nsteps: int,
                adaptive: bool) -> int:
     """The steps a run at load factor ``factor`` (or fraction of its
     duration) has left: to the next of its ``nsteps`` steps' ends at the
-    current ``increment``, after it at a whole step's (a trial's run cut
-    back to a 64th was announced to take 1275 steps and 1.13 h where 30
-    were left), or, ``adaptive`` (the time step chosen by Newton's
-    iterations), all at ``increment``.  An upper bound after a cut-back:
-    the increment grows back after easy sub-steps (:func:`grown_increment`)
-    and no guess is made of when.
+    current ``increment`` (a cut-back's lasts to the step's end), after
+    it at a whole step's (a trial's run cut back to a 64th was announced
+    to take 1275 steps and 1.13 h where 30 were left), or, ``adaptive``
+    (the time step chosen by Newton's iterations), all at ``increment``.
+    With ``NewtonOptions(grow_back=True)`` an upper bound after a
+    cut-back: its increment grows back after easy sub-steps
+    (:func:`grown_increment`) and no guess is made of when.
 
     >>> steps_left(.25, 1 / 64, 4, False)      # 16 to 0.5, then 2
     18
@@ -1022,6 +1027,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     held = 0            # the step's failed attempts, all HeldSupportError
     watch = may_collapse(run)               # (collapse_hint)
     easy_iterations = int(EASY_SHARE * run.max_iter)
+    easy = 0            # easy sub-steps in a row, grow_back off (the hint)
     reach = [(factor, largest_displacement(points))] if watch else []
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
@@ -1056,8 +1062,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         terms_hint(run, points)),
                     state=points, load_factor=factor,
                     history=result.history) from err
-            increment = (target - factor) / 2
-            if not adaptive:
+            increment, easy = (target - factor) / 2, 0
+            if run.grow_back and not adaptive:
                 run.counters[EASY] = 0
             logger.warning("step %d: cutting the %s back to %.3e",
                            step + 1, "load increment" if dynamics is None
@@ -1104,9 +1110,26 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             increment = dynamics.adapt(increment, 1. / nsteps, smallest,
                                        record.newton_iterations)
         elif abs(factor - boundary) < 1e-12:
-            increment = 1. / nsteps
+            increment, easy = 1. / nsteps, 0
             if EASY in run.counters:
                 run.counters[EASY] = 0
+        elif increment < (1. - 1e-9) / nsteps and not run.grow_back:
+            easy = easy + 1 if easy_sub_step(record.newton_iterations,
+                                             run.max_iter) else 0
+            if easy >= EASY_STEPS and EASY not in run.warned:
+                run.warned.add(EASY)
+                logger.info(
+                    "step %d: the %s stays cut back to %.3e to the load "
+                    "step's end, though %d sub-steps in a row converged "
+                    "in at most %d Newton iterations; to double it after "
+                    "two such sub-steps: %s (fewer sub-steps where the "
+                    "rest of a step is easy, a trial's 128 took 13, but "
+                    "the changed load path can fail where this one "
+                    "completes: two of the package's test runs did)",
+                    step, "load increment"
+                    if dynamics is None else "time step", increment
+                    if dynamics is None else increment * dynamics.duration,
+                    easy, easy_iterations, setting("grow_back", True))
         elif increment < (1. - 1e-9) / nsteps:   # a cut-back's: grows back
             easy = run.counters.get(EASY, 0) + 1 if easy_sub_step(
                 record.newton_iterations, run.max_iter) else 0
@@ -1793,6 +1816,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         else np.unique(case.body_field[list(case.prescribed_bodies)]),
         obstacles=case.obstacles, user_terms=tuple(case.terms),
         rhs=newton.rhs, tol=newton.tol, max_iter=newton.max_iter,
+        grow_back=newton.grow_back,
         newton=FullStep() if linear else first,
         modified=newton.newton == "modified" and not linear,
         line_search=None if linear else retry,

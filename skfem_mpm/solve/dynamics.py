@@ -189,9 +189,10 @@ class Dynamics:
         1.0 for a study of the time step.
     target_iterations
         ``None`` (default): every step ``time_step`` long, cut back only
-        where Newton fails, doubled back after two steps in a row that
-        took at most half ``max_iter`` Newton iterations
-        (:func:`~skfem_mpm.solve.core.grown_increment`), and back to
+        where Newton fails (with ``NewtonOptions(grow_back=True)``
+        doubled back after two steps in a row that took at most half
+        ``max_iter`` Newton iterations,
+        :func:`~skfem_mpm.solve.core.grown_increment`), and back to
         ``time_step`` at the next multiple of it.  A number: the time
         step adapts to Newton's effort, halved after a step that took
         more iterations, doubled (up to ``time_step``) after one that took

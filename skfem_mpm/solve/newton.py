@@ -478,10 +478,9 @@ class NewtonOptions:
         down to ``2**-max_cutbacks`` of a step (0 to 60); not where a
         shorter step cannot help (contact with a support that holds the
         material's way, a quasi-static load that no load factor
-        balances: :func:`~skfem_mpm.solve.core.no_equilibrium`).  The
-        increment doubles back (up to a whole step) after two sub-steps
-        in a row that took at most half ``max_iter`` Newton iterations
-        (:func:`~skfem_mpm.solve.core.grown_increment`).
+        balances: :func:`~skfem_mpm.solve.core.no_equilibrium`).  A
+        cut-back's increment lasts to the load step's end (a time step's
+        to the next multiple of ``time_step``) unless ``grow_back``.
     line_search
         Globalisation: ``"backtracking"`` (default: Newton's full steps,
         shortened only where one inverts a point; a step that fails so is
@@ -505,6 +504,19 @@ class NewtonOptions:
         out-of-balance force) or ``"increment"`` (the seed's literal load
         increment; linear steps only, which leaves the out-of-balance force
         of earlier steps uncorrected).
+    grow_back
+        ``False`` (default): as above.  ``True``: a cut-back's increment
+        doubles back (up to a whole step) after two sub-steps in a row
+        that took at most half ``max_iter`` Newton iterations
+        (:func:`~skfem_mpm.solve.core.grown_increment`; fixed time steps
+        too; ``counters["easy_sub_steps"]``).  A trade-off, so not the
+        default: a trial's footing that crawled 128 sub-steps of 3.9e-4
+        to the end of a step after 7 cut-backs takes 13 to 17, but the
+        changed load path can fail where the crawl completes: that
+        Mohr-Coulomb footing later fails at a load factor of 0.86 and an
+        untuned cantilever (``test_newton.py``) at 0.55, both complete
+        without it.  Without it a run says once (at INFO) where a
+        cut-back's increment went on easily.
 
     >>> NewtonOptions(tol=1e-10).max_iter
     25
@@ -519,6 +531,7 @@ class NewtonOptions:
     line_search: Union[str, "Backtracking", FullStep] = "backtracking"
     newton: str = "full"
     rhs: str = "residual"
+    grow_back: bool = False
 
     def __post_init__(self):
         tol = check_real("tol", self.tol)
@@ -529,6 +542,9 @@ class NewtonOptions:
         check_int("max_cutbacks", self.max_cutbacks, 0, 60)
         check_choice("newton", self.newton, NEWTON)
         check_choice("rhs", self.rhs, RHS)
+        if not isinstance(self.grow_back, (bool, np.bool_)):
+            raise InvalidInputError("grow_back must be True or False, got "
+                                    "{!r}".format(self.grow_back))
         make_line_search(self.line_search)
 
     @property
