@@ -1,10 +1,13 @@
-"""A cut-back's increment grows back once the hard part is past
+"""With ``NewtonOptions(grow_back=True)`` a cut-back's increment grows
+back once the hard part is past
 (:func:`~skfem_mpm.solve.core.grown_increment`): a trial's footing cut
 back 7 times and crawled 128 sub-steps of 3.9e-4 to the end of its step
 of 0.05, in 7 to 12 Newton iterations each.  Here a hard stretch of a
 128th of a step (attempts over it fail, as Newton did there) makes the
 second of 4 load steps cut back 7 times; the rest of the step is easy.
-A resumed run goes on from the count of easy sub-steps, bit for bit."""
+A resumed run goes on from the count of easy sub-steps, bit for bit.
+By default (its changed load path failed two runs that complete without
+it) the increment stays cut back, as before, and a run says so once."""
 import json
 import logging
 
@@ -12,13 +15,15 @@ import numpy as np
 import pytest
 from skfem import ElementQuad1, MeshQuad
 
-from skfem_mpm import (LinearElastic, NewtonDivergenceError, Options,
-                       Resume, seed_points, simulate)
+from skfem_mpm import (LinearElastic, NewtonDivergenceError, NewtonOptions,
+                       Options, Resume, seed_points, simulate)
 from skfem_mpm.cli import main
 from skfem_mpm.scenes.checkpoint import load_checkpoint
 from skfem_mpm.solve import core
 
 NSTEPS = 4
+#: the option on
+GROW = Options(NewtonOptions(grow_back=True))
 #: the hard stretch: from the second step's start, a 128th of a step
 HARD, WIDTH = .25, .25 / 128
 
@@ -56,7 +61,8 @@ def test_a_cut_back_increment_grows_back_after_easy_sub_steps(monkeypatch,
     the 128 sub-steps' 4.1e-4 (``test_a_hard_sub_step_...``)."""
     failed = hard_stretch(monkeypatch)
     with caplog.at_level(logging.INFO, logger="skfem_mpm.solve.core"):
-        res = simulate(*block(), nsteps=NSTEPS, kinematics="finite")
+        res = simulate(*block(), nsteps=NSTEPS, kinematics="finite",
+                       options=GROW)
     assert len(failed) == 7
     second = [r for r in res.history if .25 < r.load_factor <= .5]
     assert len(second) == 13 and len(res.history) == 16
@@ -76,15 +82,80 @@ def test_a_cut_back_increment_grows_back_after_easy_sub_steps(monkeypatch,
     assert np.abs(res.points.x - uncut.points.x).max() < 3.5e-4 * moved
 
 
+
+#: the default's crawl on main before grow-back (``numpy`` kernels and
+#: compiled alike): the sums of the final points' arrays
+CRAWL = {"x": 15.799865457171904, "stress": -594.6395844878734,
+         "F": 47.7716009376998, "volume": 0.9856081017528092}
+
+
+def test_the_default_crawls_as_before_and_says_so_once(monkeypatch,
+                                                       caplog):
+    """Without ``grow_back`` the increment stays cut back to the step's
+    end, 128 sub-steps of a 128th (131 in all), the run the package made
+    before grow-back (its sums as recorded then, to the digests' 1e-12;
+    the same bits as ``grow_back=False`` given), and no
+    ``easy_sub_steps`` counter; one INFO line, at the second easy
+    sub-step, names the option in Python and in a scene file."""
+    hard_stretch(monkeypatch)
+    with caplog.at_level(logging.INFO, logger="skfem_mpm.solve.core"):
+        res = simulate(*block(), nsteps=NSTEPS, kinematics="finite")
+    second = [r for r in res.history if .25 < r.load_factor <= .5]
+    assert len(second) == 128 and len(res.history) == 131
+    assert np.allclose(np.diff([.25] + [r.load_factor for r in second]),
+                       WIDTH, rtol=1e-9, atol=0)
+    assert all(r.increment == WIDTH for r in second[:-1])
+    assert all("easy_sub_steps" not in r.counters for r in res.history)
+    assert "easy_sub_steps" not in res.counters
+    for name, value in CRAWL.items():
+        assert abs(getattr(res.points, name).sum() - value) <= \
+            1e-12 * abs(value), name
+    assert "growing" not in caplog.text
+    hints = [r for r in caplog.records if "stays cut back" in r.getMessage()]
+    assert len(hints) == 1 and hints[0].levelno == logging.INFO
+    assert hints[0].getMessage().startswith(
+        "step 3: the load increment stays cut back to 1.953e-03 to the "
+        "load step's end, though 2 sub-steps in a row converged in at "
+        "most 12 Newton iterations; to double it after two such "
+        "sub-steps: NewtonOptions(grow_back=True); scene file: [solver] "
+        "grow_back = true (")
+    off = simulate(*block(), nsteps=NSTEPS, kinematics="finite",
+                   options=Options(NewtonOptions(grow_back=False)))
+    for name in ("x", "stress", "F", "volume"):
+        assert np.array_equal(getattr(off.points, name),
+                              getattr(res.points, name)), name
+    assert off.counters == res.counters
+
+
+def test_grow_back_must_be_a_bool():
+    """``NewtonOptions(grow_back=...)`` refuses what is not True or False
+    (a string, 1), and the scene key likewise, named by the key."""
+    from skfem_mpm import InvalidInputError
+    for value in ("yes", 1, None):
+        with pytest.raises(InvalidInputError,
+                           match="grow_back must be True or False"):
+            NewtonOptions(grow_back=value)
+    assert NewtonOptions(grow_back=np.bool_(True)).grow_back
+    from skfem_mpm.errors import SceneError
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    assert parse_scene(tomllib.loads(SCENE)).newton.grow_back is True
+    assert parse_scene(tomllib.loads(SCENE.replace(
+        "grow_back = true\n", ""))).newton.grow_back is False
+    with pytest.raises(SceneError, match="solver.grow_back: must be true "
+                       "or false"):
+        parse_scene(tomllib.loads(SCENE.replace("grow_back = true",
+                                                'grow_back = "yes"')))
+
+
 def test_a_hard_sub_step_starts_the_count_again(monkeypatch):
     """A sub-step of more than half ``max_iter`` iterations is not easy:
     with ``max_iter`` 3 (these sub-steps take 2 or 3) the increment stays
     cut back to the step's end, 128 sub-steps, as before grow-back; the
     run ends 4.1e-4 of the largest motion from an uncut run's."""
-    from skfem_mpm import NewtonOptions
     hard_stretch(monkeypatch)
     res = simulate(*block(), nsteps=NSTEPS, kinematics="finite",
-                   options=Options(NewtonOptions(max_iter=3)))
+                   options=Options(NewtonOptions(max_iter=3,
+                                                 grow_back=True)))
     second = [r for r in res.history if .25 < r.load_factor <= .5]
     assert min(r.newton_iterations for r in second) == 2
     assert len(second) == 128
@@ -107,13 +178,13 @@ def test_a_resume_between_easy_sub_steps_is_bit_identical(monkeypatch):
         if record.counters.get("easy_sub_steps") == 1 and not saved:
             saved.update(record=record, state=state)
     whole = simulate(*block(), nsteps=NSTEPS, kinematics="finite",
-                     options=Options(callback=keep))
+                     options=Options(GROW.newton, callback=keep))
     record = saved["record"]
     assert record.load_factor == HARD + WIDTH
     mesh, elem, _, material, supports, force = block()
     rest = simulate(mesh, elem, saved["state"], material, supports, force,
                     nsteps=NSTEPS, kinematics="finite", options=Options(
-                        resume=Resume.after(record)))
+                        GROW.newton, resume=Resume.after(record)))
     assert [r.load_factor for r in rest.history] == \
         [r.load_factor for r in whole.history[record.step:]]
     for name in ("x", "stress", "F", "volume"):
@@ -122,9 +193,9 @@ def test_a_resume_between_easy_sub_steps_is_bit_identical(monkeypatch):
     assert rest.counters == whole.counters
     forgot = simulate(mesh, elem, saved["state"], material, supports, force,
                       nsteps=NSTEPS, kinematics="finite", options=Options(
-                          resume=Resume(record.step + 1,
-                                        record.load_factor,
-                                        record.increment)))
+                          GROW.newton, resume=Resume(record.step + 1,
+                                                     record.load_factor,
+                                                     record.increment)))
     assert len(forgot.history) == len(rest.history) + 1
 
 
@@ -149,15 +220,16 @@ traction = [10.0, -50.0]
 method = "mpm"
 kinematics = "finite"
 steps = 4
+grow_back = true
 """
 
 
 @pytest.mark.slow
 def test_resumes_from_checkpoints_across_a_grow_back_are_bit_identical(
         monkeypatch, tmp_path):
-    """The scene runner stopped every 3 sub-steps (``--max-steps``) and
-    resumed from its checkpoint, through the cut-backs and every
-    grow-back: the same summary (counters, ``easy_sub_steps`` too) and
+    """The scene runner (``[solver] grow_back = true``) stopped every 3
+    sub-steps (``--max-steps``) and resumed from its checkpoint, through
+    the cut-backs and every grow-back: the same summary (counters, ``easy_sub_steps`` too) and
     final points as the run straight through; checkpoints stood at easy
     counts of 0 and 1."""
     import meshio
