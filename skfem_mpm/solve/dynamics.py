@@ -65,7 +65,9 @@ Energies
     the internal and of the external forces (loads; not the reactions of
     supports or prescribed motion) summed by the trapezoidal rule on the
     grid (the
-    stored elastic energy for an elastic body).  For the average
+    stored elastic energy for an elastic body); a term that says so
+    (contact between bodies) from its force where the last step ended,
+    not its force at the step's start.  For the average
     acceleration scheme with the consistent mass and without cell crossing
     ``kinetic + internal - external`` is constant to round-off.
 
