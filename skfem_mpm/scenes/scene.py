@@ -638,7 +638,7 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
             if points.velocity is None:
                 points.velocity = np.zeros_like(points.x)
             points.velocity[:, points.body == k] = v[:, None]
-    for load in scene.point_loads:
+    for k, load in enumerate(scene.point_loads):
         if load.where is not None:
             chosen = np.flatnonzero(load.where(points.x))
             if chosen.size == 0:
@@ -647,9 +647,42 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
             distance = np.linalg.norm(points.x - np.asarray(
                 load.at, float)[:, None], axis=0)
             chosen = np.argsort(distance, kind="stable")[:load.count]
+            check_point_load(k, load, mesh, points, chosen[0])
         points.force[:, chosen] += np.asarray(load.force, float)[:, None] \
             / chosen.size
     return points
+
+
+def check_point_load(k: int, load: PointLoad, mesh,
+                     points: MaterialPoints, nearest: int):
+    """Refuse point load ``k`` (``point_loads[k]``) at a position outside
+    the grid, or farther than the grid's widest cell from the nearest
+    material point (``nearest``): the force would go to the nearest
+    points, wherever they are (a load at x = 50 on a 12 m grid, and one
+    4.5 m above the soil, were applied to the nearest points without a
+    word; a user trial)."""
+    at = np.asarray(load.at, float)
+    low, high = mesh.p.min(axis=1), mesh.p.max(axis=1)
+    tol = 1e-9 * (high - low)
+    out = [d for d in range(at.size)
+           if not low[d] - tol[d] <= at[d] <= high[d] + tol[d]]
+    name = "point_loads[{}] at {}".format(k, at.tolist())
+    if out:
+        raise InvalidInputError(
+            "{} lies outside the grid ({}): move the load onto the "
+            "material or extend the grid".format(name, ", ".join(
+                "{} from {:g} to {:g}".format("xyz"[d], low[d], high[d])
+                for d in range(at.size))))
+    corners = mesh.p[:, mesh.t]
+    cell = float((corners.max(axis=1) - corners.min(axis=1)).max())
+    gap = float(np.linalg.norm(points.x[:, nearest] - at))
+    if gap > cell:
+        raise InvalidInputError(
+            "{} is {:.4g} from the nearest material point (point {} at {}), "
+            "more than a cell ({:.4g}): its force would act there; move "
+            "the load onto the material".format(
+                name, gap, nearest,
+                np.round(points.x[:, nearest], 6).tolist(), cell))
 
 
 def body_region(bodies: Sequence[Body], k: int, mesh):

@@ -89,6 +89,8 @@ offending value (unknown keys, wrong types, impossible values), in a
     at = [10.0, 0.5]
     force = [0.0, -1e5]
     points = 2                      # shared by the nearest points
+                                    # (at: on the grid, within a cell
+                                    # of a material point)
     [[tractions]]
     body = "column"
     side = "top"

@@ -1,0 +1,47 @@
+"""What a new user's trial (73) found in a scene's input and a run's
+words: point loads off the grid or in the air applied to the nearest
+points, a traction on a held side lost in the reaction without a word,
+a collapse message claiming a bound the discretisation cannot give,
+repeated warnings, and figures that misled."""
+import logging
+
+import numpy as np
+import pytest
+
+from skfem_mpm import LinearElastic
+from skfem_mpm.errors import InvalidInputError
+from skfem_mpm.scenes.scene import (Body, Grid, PointLoad, Scene, Support,
+                                    build_points)
+
+# a 2 m x 1 m elastic block on a 4 m x 2 m grid of 0.5 m cells
+GRID = Grid([(0., 4., 8), (0., 2., 4)])
+
+
+def block(**kwargs):
+    return Scene(grid=GRID,
+                 bodies=[Body("block", [(0., 2.), (0., 1.)],
+                              LinearElastic(1e4, .3))],
+                 supports=[Support(name="base", boundary="bottom")],
+                 **kwargs)
+
+
+@pytest.mark.parametrize("at, words", [
+    ([50., .5], "point_loads[1] at [50.0, 0.5] lies outside the grid "
+                "(x from 0 to 4, y from 0 to 2)"),
+    ([1., 1.8], "point_loads[1] at [1.0, 1.8] is 0.9334 from the nearest "
+                "material point (point 15 at [0.875, 0.875]), more than "
+                "a cell (0.5)")])
+def test_a_point_load_off_the_grid_or_the_material_is_refused(at, words):
+    """Both were applied to the nearest points (the trial's at [50, 6] on
+    a 12 m grid changed the base reaction 1396.9 -> 1407.3; exit 0)."""
+    scene = block(point_loads=[PointLoad(at=[2., 1.], force=[0., -1.]),
+                               PointLoad(at=at, force=[0., -1.])])
+    mesh, _ = scene.grid.build()
+    with pytest.raises(InvalidInputError) as err:
+        build_points(scene, mesh)
+    assert words in str(err.value)
+    # at the material's corner, on its surface or 0.3 above it (0.44
+    # from the nearest point): taken
+    for at in ([2., 1.], [1., 1.], [1., 1.3], [0., 0.]):
+        scene.point_loads[1].at = at
+        build_points(scene, mesh)
