@@ -11,7 +11,7 @@ import pytest
 from skfem_mpm import LinearElastic
 from skfem_mpm.errors import InvalidInputError
 from skfem_mpm.scenes.scene import (Body, Grid, PointLoad, Scene, Support,
-                                    build_points)
+                                    Traction, build_points, run_scene)
 
 # a 2 m x 1 m elastic block on a 4 m x 2 m grid of 0.5 m cells
 GRID = Grid([(0., 4., 8), (0., 2., 4)])
@@ -45,3 +45,26 @@ def test_a_point_load_off_the_grid_or_the_material_is_refused(at, words):
     for at in ([2., 1.], [1., 1.], [1., 1.3], [0., 0.]):
         scene.point_loads[1].at = at
         build_points(scene, mesh)
+
+
+def test_a_traction_on_a_side_held_in_its_direction_is_told(caplog):
+    """The trial's traction [10, 0] on the soil's left side, which rollers
+    on the grid's left side hold in x, went into their reaction: the run
+    changed by nothing and said nothing."""
+    scene = block(nsteps=1)
+    scene.supports.append(Support(name="sides", boundary="left",
+                                  components=["x"]))
+    scene.tractions = [Traction("block", "left", traction=[10., 0.]),
+                       Traction("block", "left", traction=[0., 10.]),
+                       Traction("block", "right", pressure=10.)]
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        run_scene(scene)
+    # the shear on the left side (its corner node held in y by the base)
+    # and the pressure on the free right side: not told
+    words = [r.getMessage() for r in caplog.records
+             if "tractions[" in r.getMessage()]
+    assert words == [
+        "tractions[0] (traction on body 'block', side 'left'): 100% of its "
+        "x force acts on grid nodes that supports 'sides', 'base' hold in "
+        "x: it goes into their reaction and loads nothing (load a side the "
+        "supports leave free in x, or hold that side otherwise)"]

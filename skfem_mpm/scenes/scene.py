@@ -851,6 +851,67 @@ def warn_unreached_supports(scene: Scene, mesh, elem,
                 "to it)", name, distance.min(), scene.method, reach)
 
 
+def warn_held_tractions(scene: Scene, mesh, elem, points: MaterialPoints):
+    """Log a warning per traction or pressure and direction whose force
+    goes, half or more of it, to grid DOFs the supports hold in that
+    direction (its faces' centres mapped with the grid's shape
+    functions, ``points``: the initial ones): that part goes into the
+    supports' reaction and loads nothing.  A trial's traction [10, 0] on
+    the soil's left side, held in x by rollers on the grid's left side,
+    changed nothing and was not told."""
+    if not scene.tractions or not scene.supports:
+        return
+    from skfem import Basis
+    dim = mesh.dim()
+    scalar, grid = grid_parts(mesh, elem)[:2]
+    basis = Basis(mesh, scalar)
+    names = support_names(scene)
+    held = []                 # per support, per component: places held
+    for support in scene.supports:
+        dofs = scene_support_dofs(support, grid, dim).ravel()
+        held.append([dofs[dofs % dim == c] // dim for c in range(dim)])
+    bodies = [b.name for b in scene.bodies]
+    for k, t in enumerate(scene.tractions):
+        axis, sign = side_axis(t.side, dim)
+        layer = side_points(points, t.side,
+                            points.body == bodies.index(t.body))
+        centre = points.x[:, layer].copy()
+        centre[axis] += sign * points.domain[axis, layer]
+        area = np.prod(np.delete(2 * points.domain[:, layer], axis, 0),
+                       axis=0)
+        force = basis.probes(centre).T @ area       # per unit traction
+        if t.traction is None:
+            value = np.zeros(dim)
+            value[axis] = -sign * float(t.pressure)
+        else:
+            value = np.asarray(t.traction, float)
+        for c in np.flatnonzero(value):
+            shares = []
+            for name, places in zip(names, held):
+                if places[c].size:
+                    shares.append((force[places[c]].sum() / force.sum(),
+                                   name, places[c]))
+            if not shares:
+                continue
+            every = np.unique(np.concatenate([p for *_, p in shares]))
+            share = force[every].sum() / force.sum()
+            if share < .5:
+                continue
+            holding = [name for part, name, _ in sorted(
+                shares, key=lambda item: -item[0]) if part > 0]
+            logger.warning(
+                "tractions[%d] (%s on body %r, side %r): %.0f%% of its %s "
+                "force acts on grid nodes that support%s %s hold%s in %s: "
+                "it goes into %s reaction and loads nothing (load a side "
+                "the supports leave free in %s, or hold that side "
+                "otherwise)", k, "traction" if t.pressure is None
+                else "pressure", t.body, t.side, 100 * share, "xyz"[c],
+                "s" if len(holding) > 1 else "",
+                ", ".join(repr(n) for n in holding),
+                "" if len(holding) > 1 else "s", "xyz"[c],
+                "their" if len(holding) > 1 else "its", "xyz"[c])
+
+
 def scene_supports(scene: Scene, dim: int):
     """The fixed supports as a callable on the grid basis."""
     def supports(basis):
@@ -929,6 +990,7 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
         points = initial
     if resume is None or resume.first_step == 1:      # from the start
         warn_unreached_supports(scene, mesh, elem, points)
+        warn_held_tractions(scene, mesh, elem, initial)
     materials = [b.material for b in scene.bodies]
     material = materials[0] if len(materials) == 1 else materials
     supports = scene_supports(scene, mesh.dim())
