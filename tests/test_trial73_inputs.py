@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from skfem_mpm import LinearElastic
-from skfem_mpm.errors import InvalidInputError
+from skfem_mpm.errors import InvalidInputError, NewtonDivergenceError
 from skfem_mpm.scenes.scene import (Body, Grid, PointLoad, Scene, Support,
                                     Traction, build_points, run_scene)
+from skfem_mpm.scenes.scene_file import load_scene
 
 # a 2 m x 1 m elastic block on a 4 m x 2 m grid of 0.5 m cells
 GRID = Grid([(0., 4., 8), (0., 2., 4)])
@@ -68,3 +69,47 @@ def test_a_traction_on_a_side_held_in_its_direction_is_told(caplog):
         "x force acts on grid nodes that supports 'sides', 'base' hold in "
         "x: it goes into their reaction and loads nothing (load a side the "
         "supports leave free in x, or hold that side otherwise)"]
+
+
+# a von Mises block under its weight pressed by an obstacle, two Newton
+# iterations a step: the first round of a step with contact (to the loose
+# residual before the contact's update) fails, and the run cuts back
+# until it stops
+PRESSED = """
+name = "pressed block"
+[grid]
+x = [0.0, 2.0, 4]
+y = [0.0, 2.0, 4]
+[[bodies]]
+name = "block"
+region = { x = [0.0, 1.0], y = [0.0, 1.0] }
+points_per_cell = 2
+material = { model = "von_mises", E = 1e6, nu = 0.3, yield_stress = 5e3 }
+[[supports]]
+name = "base"
+boundary = "bottom"
+[gravity]
+body_force = [0.0, -18000.0]
+[[obstacles]]
+box = { x = [0.0, 0.5], y = [1.0, 1.5] }
+displacement = [0.0, -0.01]
+[solver]
+steps = 4
+max_iterations = 2
+"""
+
+
+def test_a_retry_says_which_tolerance_it_missed(tmp_path, caplog):
+    """A trial's obstacle run logged "tolerance 0.001" where its scene's
+    was 1e-9: the first round's (SETTLE_RESIDUAL), not said so."""
+    from skfem_mpm.solve.core import SETTLE_RESIDUAL
+    path = tmp_path / "pressed.toml"
+    path.write_text(PRESSED)
+    with caplog.at_level(logging.INFO, logger="skfem_mpm"), \
+            pytest.raises(NewtonDivergenceError):
+        run_scene(load_scene(path))
+    retries = [r.getMessage() for r in caplog.records
+               if "retrying" in r.getMessage()]
+    assert retries and SETTLE_RESIDUAL == 1e-3
+    assert "; tolerance 0.001 for the first round, before the contact's " \
+        "update; the run's own is 1e-09)" in retries[0]
