@@ -968,7 +968,8 @@ def run(args) -> int:
 
     tic, compiled = run_clock(), compile_seconds()
     try:
-        result = run_scene(scene, points, resume=resume, callback=callback)
+        result = run_scene(scene, points, resume=resume, callback=callback,
+                           initial=initial)
     except StopRun as stop:      # the checkpoint is written: a summary
         partial, stopped = unfinished("stopped", None, checkpoint=True,
                                       checkpoint_step=kept[0])

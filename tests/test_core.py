@@ -1069,7 +1069,7 @@ def q2_cantilever(n, kinematics="finite"):
 
 
 #: what a failed run's error says of a Q2 cantilever seeded 2 x 2
-SEEDED_2X2 = ("the run started so: element ElementQuad2 with 2.0 points "
+SEEDED_2X2 = ("the run started so: element ElementQuad2 with 2 points "
               "per cell and axis: 4 points give a cell of 9 nodes 12 of "
               "the 15 strain states")
 

@@ -8,7 +8,8 @@ import logging
 import numpy as np
 import pytest
 
-from skfem_mpm import LinearElastic
+from skfem_mpm import LinearElastic, seed_points
+from skfem_mpm.cli import main
 from skfem_mpm.errors import InvalidInputError, NewtonDivergenceError
 from skfem_mpm.scenes.scene import (Body, Grid, PointLoad, Scene, Support,
                                     Traction, build_points, run_scene)
@@ -113,3 +114,67 @@ def test_a_retry_says_which_tolerance_it_missed(tmp_path, caplog):
     assert retries and SETTLE_RESIDUAL == 1e-3
     assert "; tolerance 0.001 for the first round, before the contact's " \
         "update; the run's own is 1e-09)" in retries[0]
+
+
+# a polygon whose slope (0, 0)-(1, 1) runs through the points of the
+# cells it crosses (2 a cell and axis): the seeding warns of them
+POLYGON = """
+name = "wedge"
+[grid]
+x = [0.0, 4.0, 8]
+y = [0.0, 2.0, 4]
+[[bodies]]
+name = "soil"
+region = { polygon = [[0.0, 0.0], [4.0, 0.0], [4.0, 1.0], [1.0, 1.0]] }
+material = { model = "linear_elastic", E = 1e4, nu = 0.3 }
+[[supports]]
+boundary = "bottom"
+[gravity]
+body_force = [0.0, -10.0]
+[solver]
+steps = 1
+"""
+
+
+def test_a_run_says_its_seeding_warning_once(tmp_path, caplog):
+    """The command line seeded the scene twice, once to set up, once in
+    run_scene: each seeding warning came twice."""
+    path = tmp_path / "wedge.toml"
+    path.write_text(POLYGON)
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        assert main(["run", str(path), "--out", str(tmp_path / "out"),
+                     "--no-progress", "--no-series"]) == 0
+    seeding = [r.getMessage() for r in caplog.records
+               if r.getMessage().startswith("seeding:")]
+    # the points on the slope, and the volume it cuts: each once
+    assert len(seeding) == 2 and len(set(seeding)) == 2
+    assert "4 point(s) lie on the region's boundary" in seeding[0]
+
+
+def test_a_strength_reduction_says_each_warning_once(caplog):
+    """A trial's B-spline slope with 2 points per cell and axis heard the
+    sparse-points warning once per trial (8 times, of "2.0 points per
+    cell"): once a strength reduction now, of 2 points."""
+    from types import SimpleNamespace
+    from skfem import MeshQuad
+    from skfem_mpm.solve.strength_reduction import strength_reduction
+    from skfem_mpm.stabilisation.volumetric import warn_sparse_spline_points
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+
+    def run(factor):          # warns as a B-spline run does at its start
+        warn_sparse_spline_points("bspline", mesh, points, True, True)
+        if factor > 1.37:
+            raise NewtonDivergenceError("no equilibrium")
+        return SimpleNamespace(points=SimpleNamespace(
+            displacement=np.array([[0.], [-.1]])))
+
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        safety = strength_reduction(run, tolerance=1e-3)
+    assert len(safety.trials) > 8
+    warned = [r.getMessage() for r in caplog.records]
+    assert len(warned) == 1
+    assert "mean dilatation and 2 points per cell and axis" in warned[0]
+    # the filter is gone after the call: the next warning is said
+    warn_sparse_spline_points("bspline", mesh, points, True, True)
+    assert len(caplog.records) == 2

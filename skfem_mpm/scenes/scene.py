@@ -964,11 +964,15 @@ def scene_prescribed(scene: Scene, dim: int):
 
 def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
               resume: Optional[Resume] = None,
-              callback: Optional[Callable] = None) -> Result:
+              callback: Optional[Callable] = None,
+              initial: Optional[MaterialPoints] = None) -> Result:
     """Run a scene from its start, or (``resume``, a
     :class:`~skfem_mpm.Resume`) from ``points``, the state after step
     ``resume.first_step - 1``; ``callback(record, points)`` after every
-    step.
+    step.  ``initial``: the scene's points at its start
+    (:func:`build_points`) where the caller has seeded them already (not
+    seeded again: the command line's runs said each seeding warning
+    twice).
 
     Examples
     --------
@@ -985,7 +989,8 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     """
     scene.check()
     mesh, elem = scene.grid.build()
-    initial = build_points(scene, mesh)
+    if initial is None:
+        initial = build_points(scene, mesh)
     if points is None:
         points = initial
     if resume is None or resume.first_step == 1:      # from the start

@@ -73,7 +73,7 @@ from ..spelling import setting
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation, warn_volumetric_locking
 from ..stabilisation.fbar import IncrementFbar
-from ..stabilisation.volumetric import (MeanDilatation,
+from ..stabilisation.volumetric import (MeanDilatation, per_axis_words,
                                        points_per_cell_axis,
                                        warn_sparse_spline_points)
 from .backends import get_solver
@@ -1545,11 +1545,12 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     if have >= needed:
         return ""
     return (
-        "element {} with {:.1f} points per cell and axis: {} points give "
+        "element {} with {} points per cell and axis: {} points give "
         "a cell of {} nodes {} of the {} strain states its DOFs need, so "
         "the stiffness has zero-energy modes (a singular matrix); seed "
         "{} points per cell and axis".format(
-            type(scalar).__name__, per_axis, int(round(per_axis)) ** dim,
+            type(scalar).__name__, per_axis_words(per_axis),
+            int(round(per_axis)) ** dim,
             nodes, have, needed,
             int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))))
 
