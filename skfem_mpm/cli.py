@@ -597,7 +597,8 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
         fig, ax, pts, "{}: deformed shape {}\n(true scale, the undeformed "
         "body dashed)".format(scene.name, when),
         supports=support_marks(scene, mesh, elem), rigid=rigid,
-        obstacles=obstacles, half=half, plane=plane)
+        obstacles=obstacles, half=half, plane=plane,
+        cell=float(np.ptp(mesh.p[:, mesh.t], axis=1).max()))
     fig.tight_layout()
     plot.save_figure(fig, path)
 

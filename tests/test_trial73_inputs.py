@@ -178,3 +178,30 @@ def test_a_strength_reduction_says_each_warning_once(caplog):
     # the filter is gone after the call: the next warning is said
     warn_sparse_spline_points("bspline", mesh, points, True, True)
     assert len(caplog.records) == 2
+
+
+def test_the_deformed_shape_marks_supports_where_material_is(tmp_path,
+                                                             monkeypatch):
+    """The trial's rollers on the grid's sides were drawn up to the grid's
+    top, 2 m above the soil: now at the nodes that carry material, the
+    wedge's right side 0 to 1 m high (nodes 0, 0.5, 1; the points' top
+    row at 0.875), not to the grid's 2 m."""
+    from skfem_mpm.scenes import plot
+    kept, save = {}, plot.save_figure
+
+    def keep(fig, path, *args, **kwargs):
+        kept[path.name] = fig
+        save(fig, path, *args, **kwargs)
+    monkeypatch.setattr(plot, "save_figure", keep)
+    path = tmp_path / "wedge.toml"
+    path.write_text(POLYGON + '[[supports]]\nname = "wall"\n'
+                    'boundary = "right"\ncomponents = ["x"]\n')
+    assert main(["run", str(path), "--out", str(tmp_path / "out"),
+                 "--no-progress", "--no-series"]) == 0
+    ax = kept["deformed_shape.png"].axes[0]
+    wall, = [line for line in ax.lines if line.get_marker() == ">"]
+    assert np.allclose(np.array(wall.get_data()), [[4.] * 3, [0., .5, 1.]])
+    base, = [line for line in ax.lines if line.get_marker() == "s"]
+    assert np.allclose(base.get_xdata(), np.linspace(0., 4., 9))
+    # the view: the material and its supports, not the grid's empty top
+    assert ax.get_ylim()[1] < 1.6
