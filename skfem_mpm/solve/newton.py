@@ -694,8 +694,9 @@ def tolerance_words(tol: Optional[float], own: Optional[float]) -> str:
 
     >>> tolerance_words(None, 1e-9)
     '; tolerance 1e-09'
-    >>> tolerance_words(1e-3, 1e-9)
-    "; tolerance 0.001 for the first round, before the contact's update; the run's own is 1e-09"
+    >>> print(tolerance_words(1e-3, 1e-9).replace(", ", ",\n"))
+    ; tolerance 0.001 for the first round,
+    before the contact's update; the run's own is 1e-09
     """
     if tol is None:
         return "" if own is None else "; tolerance {:.3g}".format(own)
