@@ -694,8 +694,9 @@ def tolerance_words(tol: Optional[float], own: Optional[float]) -> str:
 
     >>> tolerance_words(None, 1e-9)
     '; tolerance 1e-09'
-    >>> print(tolerance_words(1e-3, 1e-9).replace(", ", ",\n"))
-    ; tolerance 0.001 for the first round,
+    >>> for part in tolerance_words(1e-3, 1e-9).split(", "):
+    ...     print(part)
+    ; tolerance 0.001 for the first round
     before the contact's update; the run's own is 1e-09
     """
     if tol is None:
