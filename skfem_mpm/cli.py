@@ -236,14 +236,35 @@ class RunComplete(Exception):
     completed: nothing to do (the message says so)."""
 
 
+#: ``summary.json``'s ``figures`` of a completed run interrupted while
+#: drawing its figures (a later ``--resume`` said only that it was
+#: complete)
+FIGURES_MISSING = "missing: the run was interrupted while drawing them"
+
+
 def completed_before(outdir: Path) -> bool:
     """Whether ``summary.json`` in ``outdir`` says its run completed
     (unreadable or absent: ``False``)."""
+    return summary_of(outdir).get("status") == "completed"
+
+
+def summary_of(outdir: Path) -> dict:
+    """``summary.json`` in ``outdir`` (unreadable or absent: empty)."""
     try:
-        return json.loads((outdir / "summary.json").read_text())[
-            "status"] == "completed"
-    except (OSError, ValueError, KeyError, TypeError):
-        return False
+        summary = json.loads((outdir / "summary.json").read_text())
+    except (OSError, ValueError):
+        return {}
+    return summary if isinstance(summary, dict) else {}
+
+
+def figures_note(outdir: Path) -> str:
+    """The words of a completed run's resume on its figures: ``""``, or
+    where its ``summary.json`` says they are missing, that running the
+    scene again draws them."""
+    if summary_of(outdir).get("figures") != FIGURES_MISSING:
+        return ""
+    return ("; its figures are missing (the run was interrupted while "
+            "drawing them): run the scene again to draw them")
 
 
 def summarise(scene, result, seconds: float, earlier=None,
@@ -777,17 +798,19 @@ def load_run(args):
             raise RunComplete(                          # ran them again
                 "{}: the run in {} is complete (its checkpoint holds its "
                 "end, {} {} steps{}): nothing to resume, every output left "
-                "as it was".format(
+                "as it was{}".format(
                     scene.name, outdir, earlier.step,
                     "load" if scene.dynamics is None else "time",
                     "" if earlier.step == earlier.nsteps else
-                    ", {} planned".format(earlier.nsteps)))
+                    ", {} planned".format(earlier.nsteps),
+                    figures_note(outdir)))
         if completed_before(outdir):    # a checkpoint short of its end was
             raise RunComplete(         # left before runs ended on one
                 "{}: the run in {} is complete (summary.json; {}): nothing "
-                "to resume, every output left as it was".format(
+                "to resume, every output left as it was{}".format(
                     scene.name, outdir, "its checkpoint is an earlier "
-                    "step's" if kept else "it kept no checkpoint"))
+                    "step's" if kept else "it kept no checkpoint",
+                    figures_note(outdir)))
         if earlier is None:             # the error of a missing one
             earlier = load_checkpoint(outdir, scene_digest(source))
         points = earlier.points
@@ -1069,6 +1092,10 @@ def run(args) -> int:
         with interrupts_deferred(reraise=False):
             if summary is None:
                 summary = completed()
+            if stage in ("writing its summary", "drawing the figures"):
+                # said again by a later --resume, which has none to draw
+                summary["figures"] = FIGURES_MISSING
+                write_summary(outdir / "summary.json", summary)
         print("skfem-mpm: interrupted after the run completed ({} steps), "
               "while {}: summary.json{} complete in {}{}".format(
                   summary["steps_run"], stage, "" if args.no_series else

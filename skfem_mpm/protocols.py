@@ -120,6 +120,12 @@ class GridTerm:
     #: tangent switches the ghost penalty held in reserve on
     #: (:data:`~skfem_mpm.solve.core.RETRY_LADDER`)
     ties_slivers = False
+    #: in dynamics, the work of the term's force over a step is booked
+    #: from the force the last step ended with, not the term's
+    #: :meth:`start_force` (contact: the pairs' pressures the step starts
+    #: from are Newton's predictor, and pairs made anew start without
+    #: theirs)
+    works_from_last_end = False
 
     def held_dofs(self, op, points, scale: float) -> Optional[ndarray]:
         """Grid DOFs the term holds as a support would, for the check of
@@ -187,8 +193,8 @@ class GridTerm:
     def weigh(self, balance: Balance, du: ndarray) -> None:
         """Weigh the trial's static balance in time (a time integrator:
         the generalised-alpha weights and the inertia force); may enlarge
-        ``balance.scale`` (the inertia force; an obstacle's force, which
-        may be all that drives a body)."""
+        ``balance.scale`` (the inertia force and the momentum's rate; an
+        obstacle's force, which may be all that drives a body)."""
 
     def weigh_matrix(self, K):
         """The tangent weighed as :meth:`weigh` weighs the forces."""

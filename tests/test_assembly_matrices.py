@@ -118,3 +118,34 @@ def test_a_tangent_and_a_contact_term_sum_on_their_patterns_union(seed):
         assert np.array_equal(W.toarray(), (K + G).toarray())
         assert pattern(W) == pattern(S) if pattern(G) - pattern(K) \
             else pattern(W) == pattern(K)
+
+
+@pytest.mark.parametrize("dim, copies", [(2, 2), (2, 3), (3, 2)])
+def test_the_pattern_of_grid_copies_is_tiled_from_one_copy(dim, copies):
+    """The grid fields of contact between bodies (``copies`` copies of a
+    grid, :func:`~skfem_mpm.methods.fields.extended_mesh`) take their
+    stiffness pattern from one copy's, tiled (0.2 s at 1e5 points in 2D
+    for the pattern of both, 0.1 s for one): every array of it equal to
+    the pattern found from all copies' elements, dtypes alike; element
+    DOFs that are not copies find it from them all."""
+    from skfem import (ElementHex1, ElementQuad1, ElementVector, MeshHex,
+                       MeshQuad)
+    from skfem_mpm.methods.assembly import ElementPattern
+    from skfem_mpm.methods.fields import extended_mesh
+    from skfem_mpm.solve.core import grid_parts
+    mesh, elem = (MeshQuad.init_tensor(np.linspace(0, 1, 9),
+                                       np.linspace(0, 1, 6)), ElementQuad1()) \
+        if dim == 2 else (MeshHex.init_tensor(*[np.linspace(0, 1, 4)] * 3),
+                          ElementHex1())
+    big = extended_mesh(mesh, copies)
+    tiled = grid_parts(big, ElementVector(elem), copies)[3]
+    whole = grid_parts(big, ElementVector(elem))[3]
+    assert tiled.tiled() is not None and whole.copies == 1
+    a, b = tiled.structure(), whole.structure()
+    assert (a[2] is None) == (b[2] is None) == (dim == 2)
+    for x, y in zip(a[:2] + a[3:] + (a[2] or ()),
+                    b[:2] + b[3:] + (b[2] or ())):
+        assert x.dtype == y.dtype and np.array_equal(x, y)
+    mixed = ElementPattern(whole.element_dofs[:, ::-1], whole.N, copies)
+    assert mixed.tiled() is None
+    assert np.array_equal(mixed.structure()[3], b[3])

@@ -574,6 +574,35 @@ def test_a_completed_run_s_resume_does_nothing(tmp_path, capsys):
     assert outputs(old) == before
 
 
+def test_a_completed_run_interrupted_in_its_figures_says_so_at_resume(
+        tmp_path, capsys, monkeypatch):
+    """A completed run interrupted while drawing its figures said
+    "figures missing" once, and a later ``--resume`` said only that the
+    run was complete: its summary says the figures are missing, and so
+    does the resume, which draws none (exit 0)."""
+    import skfem_mpm.cli as cli
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(cli, "plot_outputs", interrupted)
+    out = tmp_path / "out"
+    assert main(["run", "--out", str(out), "--steps", "2",
+                 "--no-progress"]) == 130
+    assert "while drawing the figures" in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["status"], summary["figures"]) == (
+        "completed", cli.FIGURES_MISSING)
+    monkeypatch.undo()
+    before = outputs(out)
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    assert capsys.readouterr().out == (
+        "column: the run in {} is complete (summary.json; it kept no "
+        "checkpoint): nothing to resume, every output left as it was; its "
+        "figures are missing (the run was interrupted while drawing them): "
+        "run the scene again to draw them\n".format(out))
+    assert outputs(out) == before
+
+
 def test_a_stopped_run_resumed_to_its_end_ends_with_its_checkpoint(
         tmp_path, capsys):
     """``--max-steps`` stops at a checkpoint as before; the resume that

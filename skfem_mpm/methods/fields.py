@@ -126,7 +126,8 @@ class FieldLocator:
 class Fields(NamedTuple):
     """A run's fields: the extended ``mesh``, its scalar DOFs and vector
     stiffness pattern, the locator of the run's points on it, the field
-    of each point (``field``), and one field's vertices and cells."""
+    of each point (``field``), one field's vertices and cells, and the
+    vector grid basis of the extended mesh."""
     mesh: object
     scalar_dofs: object
     pattern: object
@@ -134,6 +135,7 @@ class Fields(NamedTuple):
     field: ndarray
     vertices: int
     cells: int
+    grid: object = None
 
     @property
     def count(self) -> int:

@@ -30,8 +30,8 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
 from ..methods.method import METHODS
 from ..quadrature.points import (MaterialPoints, box_region,
                                   concatenate_points, in_box, seed_points)
-from ..solve.core import (cell_size, check_combination, grid_parts,
-                          simulate)
+from ..solve.core import (cell_size, check_combination, contact_named,
+                          grid_parts, simulate)
 from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from ..solve.loads import (Pressure, Traction as SurfaceTraction,
                            side_axis, side_points)
@@ -449,7 +449,7 @@ class Scene:
             full_body_force=self.body_forces() is not None and any(
                 b.K0 is not None for b in self.bodies),
             driven=bool(rigid) or moving,
-            contact=bool(self.obstacles) or bool(self.contacts))
+            contact=contact_named(self.obstacles, self.contacts))
         check_contacts(self.contacts, len(self.bodies),
                        [b.name for b in self.bodies])
         if self.reference == "bearing_capacity":

@@ -1204,6 +1204,7 @@ class StepBodyContact(GridTerm):
     :meth:`BodyContact.begin_step`)."""
 
     settles = True
+    works_from_last_end = True
 
     def __init__(self, term: BodyContact, problem):
         self.term, self.problem = term, problem

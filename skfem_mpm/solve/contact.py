@@ -239,6 +239,19 @@ CARRIED = .1
 #: closer than it are at one place (:meth:`StepContact.material_side`)
 ALIKE = 1e-2
 
+#: a step's augmented-Lagrangian updates past which, where the last
+#: cut the penetration by less than :data:`SLOW_UPDATE`, the run is
+#: told once that its contact converges slowly and what takes fewer
+#: (:meth:`StepContact.tell_slow_updates`)
+SLOW_UPDATES = 8
+#: the share of the penetration an update leaves that is slow
+SLOW_UPDATE = .9
+#: what a larger penalty did where the updates were slow (trial 72's
+#: cpGIMP disc squeezed by a plate, R/h = 40)
+SLOW_MEASURED = ("a cpGIMP disc squeezed by a plate: 61 updates and 102 "
+                 "Newton iterations at the default penalty 10, 6 and 48 at "
+                 "100, the force 1e-4 apart")
+
 #: a face's normal within this of a grid axis is along it: the corners
 #: facing it move with GIMP's weights of their domain's side
 #: (:meth:`StepContact.face_rows`)
@@ -1354,6 +1367,9 @@ class StepContact(GridTerm):
                       for ob in term.obstacles]
         self.state = points.state
         self.evaluations = WeakKeyDictionary()
+        #: the worst penetration (in tolerances) at each of the step's
+        #: augmented-Lagrangian updates
+        self.updates = []
         n = points.n
         near = np.zeros(n, dtype=bool)
         # each point's least distance from an obstacle (at the step's end;
@@ -1949,7 +1965,33 @@ class StepContact(GridTerm):
         problem.counters["contact_updates"] += 1
         logger.debug("step %d: penetration %.2g of the tolerance; "
                      "augmented-Lagrangian update", problem.step, max(worst))
+        self.updates.append(max(worst))
+        self.tell_slow_updates()
         return False
+
+    def tell_slow_updates(self) -> None:
+        """Warn once a run where a step's augmented-Lagrangian updates
+        pass :data:`SLOW_UPDATES` and the last left more than
+        :data:`SLOW_UPDATE` of the penetration: the corners' penetration
+        follows their neighbours' more than their own pressure (GIMP's
+        corners on a curved face: each update raised a corner's
+        multiplier by the penalty's force of a penetration that fell by
+        1-4%; one pressing across a gap let go by as little), and each
+        update takes a solve.  A larger penalty takes fewer
+        (:data:`SLOW_MEASURED`)."""
+        run, done = self.problem.run, self.updates
+        if len(done) <= SLOW_UPDATES or done[-1] <= SLOW_UPDATE * done[-2] \
+                or ("slow updates",) in run.warned:
+            return
+        run.warned.add(("slow updates",))
+        logger.warning(
+            "step %d: the contact's penetration still %.2g of the tolerance "
+            "after %d augmented-Lagrangian updates, the last cutting it by "
+            "%.1f%%: its corners' gaps follow their neighbours' more than "
+            "their own pressure, and each update takes a solve; a larger "
+            "Obstacle penalty takes fewer (%s)", self.problem.step,
+            done[-1], len(done), 100 * (1 - done[-1] / done[-2]),
+            SLOW_MEASURED)
 
     def rough_changes(self, ev, du: ndarray) -> bool:
         """After Newton, rough obstacles: a corner that stuck but was found

@@ -163,10 +163,11 @@ def cell_size(mesh: Mesh) -> float:
     return float(np.prod(extent) / mesh.nelements) ** (1. / mesh.dim())
 
 
-def grid_parts(mesh: Mesh, elem: Element):
+def grid_parts(mesh: Mesh, elem: Element, copies: int = 1):
     """What a run keeps of the grid: the scalar element, the vector grid
     basis (supports, DOF locations), the scalar ``Dofs`` for the
-    material-point bases and the vector stiffness pattern."""
+    material-point bases and the vector stiffness pattern (of ``copies``
+    copies of a grid: :func:`~skfem_mpm.methods.fields.extended_mesh`)."""
     scalar = elem.elem if isinstance(elem, ElementVector) else elem
     try:
         grid = GridBasis(mesh, vector_element(elem))
@@ -175,21 +176,22 @@ def grid_parts(mesh: Mesh, elem: Element):
             "the element {} does not fit the mesh {} ({})".format(
                 type(scalar).__name__, type(mesh).__name__, err)) from err
     return (scalar, grid, Dofs(mesh, scalar),
-            ElementPattern(grid.dofs.element_dofs, grid.N))
+            ElementPattern(grid.dofs.element_dofs, grid.N, copies))
 
 
 def grid_fields(mesh: Mesh, elem: Element, field: ndarray, locate) -> Fields:
     """The run's :class:`~skfem_mpm.methods.fields.Fields`: copies of the
     grid, one per field (``field``: the field of each point)."""
     big = extended_mesh(mesh, int(field.max()) + 1)
-    scalar, _, dofs, pattern = grid_parts(big, elem)
+    scalar, grid, dofs, pattern = grid_parts(big, elem,
+                                             int(field.max()) + 1)
     if dofs.N != big.nvertices:
         raise UnsupportedElementError(
             "contacts between bodies need an element with DOFs at the "
             "vertices only (linear), got {}".format(type(scalar).__name__))
     return Fields(big, dofs, pattern,
                   FieldLocator(locate, field, mesh.nelements), field,
-                  mesh.nvertices, mesh.nelements)
+                  mesh.nvertices, mesh.nelements, grid)
 
 
 def check_run_input(mesh: Mesh, points: MaterialPoints, nsteps: int,
@@ -1321,15 +1323,37 @@ def check_steps(nsteps, dynamics: Optional[Dynamics], method: str) -> int:
     return dynamics.nsteps
 
 
+#: how the rules name a run's contact: with obstacles, between bodies, both
+CONTACT_NAMES = ("contact with obstacles", "contact between bodies",
+                 "contact with obstacles and between bodies")
+#: what a body leaves in each of them
+CONTACT_PARTNERS = ("an obstacle", "another body",
+                    "an obstacle or another body")
+
+
+def contact_named(obstacles, contacts) -> str:
+    """The name of a run's contact (:data:`CONTACT_NAMES`), ``""`` for
+    none.
+
+    >>> contact_named([], [object()])
+    'contact between bodies'
+    """
+    if not obstacles and not contacts:
+        return ""
+    return CONTACT_NAMES[2 if obstacles and contacts else 1 if contacts
+                         else 0]
+
+
 def check_combination(method: str, kinematics: str, plastic: bool,
                       newton: NewtonOptions, stabilisation: Stabilisation,
                       dynamics: Optional[Dynamics], full_body_force: bool,
-                      driven: bool, contact: bool = False):
+                      driven: bool, contact: str = ""):
     """The rules that tie a run's choices together (each option checked
     itself on creation), for :func:`simulate` and a scene's check: the
     seed's one-solve scheme (``rhs="increment"``) needs linear
     quasi-static steps driven by ramped loads alone; modified Newton does
-    not go with an adaptive time step."""
+    not go with an adaptive time step.  ``contact``: the run's contact,
+    as :func:`contact_named` names it (``""``: none)."""
     if stabilisation.antilocking == "fbar" and (
             kinematics != "finite" or method == "fem"):
         raise InvalidInputError(
@@ -1346,8 +1370,8 @@ def check_combination(method: str, kinematics: str, plastic: bool,
         if contact:
             raise InvalidInputError(
                 "rhs = 'increment' (the seed's one-solve scheme) is for "
-                "linear steps; contact with obstacles needs the "
-                "out-of-balance force (rhs = 'residual')")
+                "linear steps; {} needs the out-of-balance force (rhs = "
+                "'residual')".format(contact))
         if dynamics is not None:
             raise InvalidInputError(
                 "rhs = 'increment' maps load increments of quasi-static "
@@ -1373,13 +1397,14 @@ def check_combination(method: str, kinematics: str, plastic: bool,
     if contact and dynamics is not None and dynamics.scheme is not None \
             and dynamics.scheme.alpha_f > 0:
         raise InvalidInputError(
-            "contact with obstacles in dynamics needs forces at the step's "
-            "end: the generalised-alpha scheme with rho_inf = {} weighs them "
-            "at n+1-alpha_f (alpha_f = {:.3g}), so a body that has left an "
-            "obstacle is still pushed by it (a block at rest on a floor rose "
-            "17 mm); leave the scheme to its default with contact, "
+            "{} in dynamics needs forces at the step's end: the "
+            "generalised-alpha scheme with rho_inf = {} weighs them at "
+            "n+1-alpha_f (alpha_f = {:.3g}), so a body that has left {} is "
+            "still pushed by it (a block at rest on a floor rose 17 mm); "
+            "leave the scheme to its default with contact, "
             "GeneralizedAlpha(0.) (scene files: scheme = \"auto\")".format(
-                dynamics.scheme.rho_inf, dynamics.scheme.alpha_f))
+                contact, dynamics.scheme.rho_inf, dynamics.scheme.alpha_f,
+                CONTACT_PARTNERS[CONTACT_NAMES.index(contact)]))
     if newton.newton == "modified" and dynamics is not None and \
             dynamics.target_iterations is not None:
         raise InvalidInputError(ADAPTIVE_MODIFIED)
@@ -1597,7 +1622,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       stabilisation, dynamics, full_body_force=gravity is not
                       None and not ramp.all(), driven=prescribed is not None
                       or bool(rigid_bodies),
-                      contact=bool(obstacles) or bool(contacts))
+                      contact=contact_named(obstacles, contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
                               stabilisation.antilocking,
@@ -1651,7 +1676,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     if case.contacts:             # a grid copy per field, supports on each
         fields = grid_fields(mesh, elem, case.body_field[points.body],
                              locate)
-        grid, run_locate = grid_parts(fields.mesh, elem)[1], fields.locate
+        grid, run_locate = fields.grid, fields.locate
     masses = None
     if dynamics is not None:
         masses = dynamics.masses(points)

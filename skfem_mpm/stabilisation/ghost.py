@@ -276,12 +276,18 @@ class GhostStabilisation(GridTerm):
 
     def obstacle_cells(self, problem):
         """``cells -> bool``: whether each cell's centre lies inside one of
-        :attr:`obstacles` where the step starts (by more than :data:`TIE`
-        of the cell's size: a centre on an obstacle's surface, a floor's
-        top half-way up a row of cells, was inside or not by round-off,
-        and a GIMP block resting on it switched the penalty on or not by
-        where the model sat: 16% in its stresses); ``None`` without
-        them."""
+        :attr:`obstacles` where the step starts or where it ends (by more
+        than :data:`TIE` of the cell's size: a centre on an obstacle's
+        surface, a floor's top half-way up a row of cells, was inside or
+        not by round-off, and a GIMP block resting on it switched the
+        penalty on or not by where the model sat: 16% in its stresses);
+        ``None`` without them.  Where it ends too: a plate pushed onto a
+        cpGIMP disc (R/h = 40) covered such a cell within its second step,
+        whose corners pressed the node beyond, held by a sliver (Newton's
+        first direction moved it 2.0, the disc's size, then 1.4e5); the
+        step cycled at a residual of 1.0 through 25 iterations and the
+        line search's 30 (60 s, where MPM takes 7), and the penalty came
+        on at step 4 (now at step 2: 30 iterations, 1.5 s)."""
         obstacles = self.obstacles
         if not obstacles:
             return None
@@ -291,8 +297,9 @@ class GhostStabilisation(GridTerm):
             centre = corners.mean(axis=1)
             size = np.ptp(corners, axis=1).max(axis=0)
             return np.any([ob.signed_distance(
-                centre, problem.s_old * ob.displacement)[0] < -TIE * size
-                for ob in obstacles], axis=0)
+                centre, s * ob.displacement)[0] < -TIE * size
+                for ob in obstacles
+                for s in {problem.s_old, problem.s_new}], axis=0)
         return blocked
 
     def force(self, du, response):

@@ -30,12 +30,16 @@ Eng. 130, 078001, from three grids to all of them.  With cell sizes
    ``U_i = 3 eps_i + sigma + |r_i|``.
 5. Otherwise -- oscillating values, an order below 0.5, no fixed-order fit,
    two grids, values equal to round-off -- nothing is extrapolated: the
-   reference is the finest value, every grid's error estimate is the data
-   range ``Delta = max |f_i - f_j|`` and its uncertainty ``U = 3 Delta``.
+   reference is the finest value, its uncertainty ``U = 3 Delta`` with
+   the data range ``Delta = max |f_i - f_j|`` and its own error unknown
+   (``None``, at most ``U``); every other grid's error estimate is its
+   distance to the finest ``|f_i - f_finest|``, its uncertainty that
+   plus ``3 Delta`` (:func:`from_data_range`).
 
 No error or uncertainty is ever exactly zero: below round-off
 (:data:`ROUNDOFF` of the values) the data cannot tell, and that is what is
-reported.  Every result says in words why the reference was or was not
+reported; only the finest case's error where nothing was extrapolated is
+unknown.  Every result says in words why the reference was or was not
 extrapolated.  An observed order is only as good as the data are
 asymptotic: standard MPM's grid-crossing error (seed 2.2.3) gives erratic
 orders, which the values' plot shows.
@@ -101,8 +105,9 @@ class SelfConvergence:
         How often the differences between successive grids change sign.
     errors, uncertainties
         Per grid, in the order the values were given: the error estimate
-        (``|f_i - f_0|``, or the data range where nothing was
-        extrapolated) and ``U_i``, in the quantity's unit; never zero.
+        (``|f_i - f_0|``; where nothing was extrapolated the distance to
+        the finest value, the finest's own ``None``: unknown, at most its
+        uncertainty) and ``U_i``, in the quantity's unit; never zero.
     """
     reference: float
     uncertainty: Optional[float]
@@ -213,33 +218,53 @@ def _number(x: float) -> str:
 
 def from_data_range(values: Sequence[float], reference: int, why: str,
                     **found) -> SelfConvergence:
-    """No extrapolation: the reference is ``values[reference]``, every
-    value's error estimate the data range ``max |f_i - f_j|`` (at least
-    round-off) and its uncertainty three times that; ``why`` (in words)
-    gains how the uncertainty was found.
+    """No extrapolation: the reference is ``values[reference]`` (the
+    finest case), its uncertainty three times the data range
+    ``Delta = max |f_i - f_j|`` (at least round-off) and its own error
+    unknown (``None``: at most that uncertainty); every other value's
+    error estimate is its distance to the reference ``|f_i - f_ref|``
+    (at least round-off), its uncertainty that plus the reference's
+    ``3 Delta`` (its distance to the answer is at most its distance to
+    the reference plus the reference's).  ``why`` (in words) gains how
+    the uncertainty was found.
+
+    A grid three times further from the finest than another shows an
+    error three times larger (a user trial's footing force at 24, 36 and
+    48 elements, no credible order: every case had been given the same
+    error, the data range, and the plots drew the coarsest grid as
+    accurate as the finest).
 
     >>> from skfem_mpm.studies.convergence import from_data_range
-    >>> c = from_data_range([1.2, 1.1], 1, "two grids")
+    >>> c = from_data_range([1.4, 1.2, 1.1], 2, "no order")
     >>> c.reference, round(c.uncertainty, 12)
-    (1.1, 0.3)
-    >>> print(c.why)
-    two grids: no extrapolation; uncertainty 3 x the data range 0.1
+    (1.1, 0.9)
+    >>> [e if e is None else round(e, 12) for e in c.errors]
+    [0.3, 0.1, None]
+    >>> [round(u, 12) for u in c.uncertainties]
+    [1.2, 1.0, 0.9]
+    >>> print(c.why)  # doctest: +NORMALIZE_WHITESPACE
+    no order: no extrapolation; uncertainty 3 x the data range 0.3; each
+    other case's error its distance to the finest case, its uncertainty
+    that plus the finest's
     """
     f = np.asarray(values, float)
     spread = float(f.max() - f.min())
     roundoff = max(ROUNDOFF * np.abs(f).max(), np.finfo(float).tiny)
-    error = max(spread, roundoff)
-    uncertainty = SAFETY_UNTRUSTED * error
+    uncertainty = SAFETY_UNTRUSTED * max(spread, roundoff)
+    errors = [None if i == reference else
+              max(float(abs(v - f[reference])), roundoff)
+              for i, v in enumerate(f)]
     found.setdefault("basis", "data range")
     return SelfConvergence(
         float(f[reference]), uncertainty, None, "finest",
-        why + ": no extrapolation; uncertainty {:g} x {}".format(
+        why + ": no extrapolation; uncertainty {:g} x {}; each other "
+        "case's error its distance to the finest case, its uncertainty "
+        "that plus the finest's".format(
             SAFETY_UNTRUSTED, "the data range " + _number(spread)
             if spread >= roundoff else "round-off ({:g} of the values)"
             .format(ROUNDOFF)),
-        safety_factor=SAFETY_UNTRUSTED, data_range=spread,
-        errors=[error] * f.size, uncertainties=[uncertainty] * f.size,
-        **found)
+        safety_factor=SAFETY_UNTRUSTED, data_range=spread, errors=errors,
+        uncertainties=[uncertainty + (e or 0.) for e in errors], **found)
 
 
 def self_convergence(sizes: Sequence[float], values: Sequence[float],

@@ -19,8 +19,8 @@ from .column import SOURCE, analytical_stress, analytical_stress_current, \
     vertical_stress
 from .study import VARIABLES, fitted_rate
 
-__all__ = ["draw_column_stress", "draw_convergence", "plot_column_stress",
-           "plot_study"]
+__all__ = ["draw_column_stress", "draw_convergence", "pareto_front",
+           "plot_column_stress", "plot_study"]
 
 
 def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
@@ -108,6 +108,29 @@ def _loglog(ax, x, y, style: dict, label: str, line: bool = True,
                         capsize=2)
 
 
+#: the legend's words for a case drawn at its uncertainty
+UNKNOWN_ERROR = "finest case, no extrapolation: its error unknown,\n" \
+    "drawn at its uncertainty (at most that)"
+
+
+def _unknown(ax, x, rows: list, style: dict, named: bool) -> bool:
+    """Draw the ``rows`` whose error is unknown but bounded (the finest
+    case of a group where nothing was extrapolated) at their uncertainty
+    against ``x``, as open triangles pointing down (the error is at most
+    that), named in the legend unless ``named`` already; returns whether
+    the legend now names them."""
+    x = _known(x)
+    error = _known([r.get("error") for r in rows])
+    up = _known(_bounds(rows))
+    drawn = ~np.isfinite(error) & np.isfinite(up) & (up > 0)
+    if not drawn.any():
+        return named
+    ax.loglog(x[drawn], up[drawn], "v", ms=6, mfc="none", lw=0,
+              color=style["color"], gid="unknown error",
+              label=None if named else UNKNOWN_ERROR)
+    return True
+
+
 def _bounds(rows: list) -> list:
     """Each case's uncertainty, the bound of its error (None against a
     closed form)."""
@@ -174,13 +197,35 @@ def _reference_label(c: dict) -> str:
     return "finest case (no extrapolation), band: 3 x the data range"
 
 
+def pareto_front(rows: list) -> list:
+    """``(CPU seconds, error)`` of the cases no other case beats in both
+    (:func:`_cost`), cheapest first; cases of unknown error (None, NaN)
+    are left out.
+
+    >>> from skfem_mpm.studies.figures import pareto_front
+    >>> pareto_front([dict(cpu_seconds=t, wall_seconds=t, error=e)
+    ...               for t, e in ((1., .1), (2., .2), (3., .05),
+    ...                            (4., None))])
+    [(1.0, 0.1), (3.0, 0.05)]
+    """
+    front, best = [], np.inf
+    for r in sorted(rows, key=_cost):
+        error = r.get("error")
+        if error is not None and 0 < error < best:
+            best = error
+            front.append((_cost(r), error))
+    return front
+
+
 def plot_study(rows: list, outdir, measured: dict) -> list:
     """The figures of a study (:func:`~skfem_mpm.studies.study.study`;
     ``measured`` from :func:`~skfem_mpm.studies.study.analyse`): (a) the
     error against elements with the fitted rate per curve (where its
     reference was extrapolated or is a closed form), (b) the error
     against CPU time with the Pareto front, both with bars up to each
-    case's uncertainty where the error has one, (c) time per phase and
+    case's uncertainty where the error has one (a case whose error is
+    unknown, the finest of a group where nothing was extrapolated, drawn
+    at its uncertainty), (c) time per phase and
     load step against points with fitted exponents, (d) each quantity of
     interest against the cell size with each value's uncertainty, and
     each group's reference and its uncertainty band.  Returns the files
@@ -202,6 +247,7 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
     styles = dict(zip(sorted(curves), series_styles(len(curves))))
     if refined:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        named = False
         for name, rs in sorted(curves.items()):
             style = styles[name]
             rs = sorted(rs, key=lambda r: r["elements"])
@@ -209,8 +255,9 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             y = [r["error"] for r in rs]
             _loglog(ax, x, y, style, "{} (rate {:.2f})".format(
                 name, fitted_rate(x, y)) if _extrapolated(
-                    measured, rs[0]) else "{} (no extrapolation: data "
-                "range)".format(name), bound=_bounds(rs))
+                    measured, rs[0]) else "{} (no extrapolation: distance "
+                "to the finest case)".format(name), bound=_bounds(rs))
+            named = _unknown(ax, x, rs, style, named)
         _disagreement(ax, measured)
         written.append(_finish(
             fig, ax, "elements along the most refined axis (-)", ylabel,
@@ -219,16 +266,20 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             outdir / "error_vs_elements.png"))
     if ok:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        named = False
         for name, rs in sorted(curves.items()):
             _loglog(ax, [_cost(r) for r in rs], [r["error"] for r in rs],
                     styles[name], name, line=False, bound=_bounds(rs))
-        front, best = [], np.inf
-        for r in sorted(ok, key=_cost):
-            if r["error"] is not None and 0 < r["error"] < best:
-                best = r["error"]
-                front.append((_cost(r), r["error"]))
-        if front:
-            ax.loglog(*zip(*front), "k-", lw=.8, label="Pareto front")
+            named = _unknown(ax, [_cost(r) for r in rs], rs, styles[name],
+                             named)
+        front = pareto_front(ok)
+        if len(front) > 1:
+            ax.loglog(*zip(*front), "k-", lw=.8, label="Pareto front (cases "
+                      "of known error)")
+        elif front:             # a line of one point draws nothing
+            ax.loglog(*zip(*front), "ko", ms=8, mfc="none", lw=0,
+                      label="Pareto front: one case, the cheapest of "
+                      "least known error")
         _disagreement(ax, measured)
         written.append(_finish(
             fig, ax, "CPU time per case (s)", ylabel,

@@ -10,9 +10,11 @@ Charlton (2018), the seed; ``"elastica"``,
 (:mod:`~skfem_mpm.studies.convergence`, after Eca and Hoekstra 2014): each
 quantity's order is fitted by least squares over all the element counts
 of a group of cases, and a case's error is its relative distance to the
-extrapolation where the fit is credible, else the data range of the
-group; every case's value carries an uncertainty (``relative_errors``
-and ``relative_uncertainties`` per quantity, the first quantity's as
+extrapolation where the fit is credible, else its relative distance to
+the group's finest case (whose own error is unknown, at most its
+uncertainty: three times the group's data range); every case's value
+carries an uncertainty (``relative_errors`` and
+``relative_uncertainties`` per quantity, the first quantity's as
 ``error`` and ``uncertainty``), never zero.  Cases whose runs switched
 the ghost penalty of ``ghost="auto"`` on at different steps solve
 different discretisations: no order is fitted across them, and the
@@ -720,12 +722,14 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     geometry, :func:`same_geometry`, and the finest one's ghost penalty,
     :func:`same_stabilisation`; the others measured against its
     reference, three times their error their uncertainty; with fewer than
-    three such grids the data range of all; the quantity's
+    three such grids no extrapolation over all,
+    :func:`~.convergence.from_data_range`; the quantity's
     :func:`formal_order`): the reference, each case's error and
     uncertainty (relative to the reference); without, every group
     (sharing method, right-hand side, line search and Newton variant) is
-    judged by its data range (:func:`~.convergence.from_data_range`)
-    against the case with the most points (then load steps).  Sets
+    judged by :func:`~.convergence.from_data_range` against the case
+    with the most points (then load steps): each other case's error its
+    distance to that case.  Sets
     ``row["relative_errors"]`` and ``row["relative_uncertainties"]`` (per
     quantity, relative to its reference),
     ``row["other_geometry"]`` (``elements`` varied: whether the case's
@@ -743,7 +747,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     ``absolute_uncertainties``; ``ghost_from_step`` of the cases fitted;
     ``mixed_stabilisation``, the words of :func:`same_stabilisation`).
     A group of one case has no error and no uncertainty (NaN, written as
-    null).
+    null); the finest case of a group where nothing was extrapolated has
+    no error (unknown: at most its uncertainty).
     """
     done = [r for r in rows if not r["failure"] and "values" in r]
     refined = any("elements" in r for r in done)
@@ -841,18 +846,24 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     else:
         label = "relative error of {}".format(first)
         against, reference = (
-            "its least-squares extrapolation (or the data range)",
+            "its least-squares extrapolation (or the finest case)",
             "its extrapolation with the order fitted by least squares over "
             "the element counts where that order is credible; where it is "
-            "not, the finest case, every case's error being the data range "
-            "max |f_i - f_j| / |reference| of its group (convergence: why)") \
+            "not, the finest case, every other case's error being its "
+            "distance to it, |f_i - f_finest| / |reference|, and its "
+            "uncertainty that plus the finest's 3 x the data range "
+            "max |f_i - f_j| / |reference| of the group; the finest's own "
+            "error is unknown (-), at most its uncertainty "
+            "(convergence: why)") \
             if refined else (
-            "the data range of cases sharing method and solver",
+            "the finest case of those sharing method and solver",
             "the case with the most points (then load steps) among those "
             "sharing method, right-hand side, line search and Newton "
-            "variant, every case's error being the data range "
-            "max |f_i - f_j| / |reference| of those cases: elements were "
-            "not varied")
+            "variant, every other case's error being its distance to it, "
+            "|f_i - f_finest| / |reference|, and its uncertainty that plus "
+            "the finest's 3 x the data range max |f_i - f_j| / |reference| "
+            "of those cases; the finest's own error is unknown (-), at "
+            "most its uncertainty: elements were not varied")
         what = "|value - reference| / |reference| of {} ({}), the " \
             "reference being {}".format(
                 first, quantities[0].unit(
@@ -1004,30 +1015,51 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
            ) -> List[str]:
     """The lines of a study's summary (``skfem-mpm study`` prints them):
     what the error measures, a table of the cases (the ``keys`` varied,
-    error, uncertainty, wall and CPU seconds, points, Newton iterations,
-    factorisations), the fitted rate of the error per group where the
-    error has one (a closed form, or a reference extrapolated with a
-    credible order; fitted to the cases whose grids model the finest
-    one's geometry, the others named: a trial's footing study over 10,
-    20 and 40 elements printed a rate of 2.95 for standard MPM, its
-    coarse grids putting the soil's surface inside cells), and per
-    quantity and group its reference and
-    uncertainty with, in words, why it was or was not extrapolated."""
+    the first quantity's value, error, uncertainty, wall and CPU seconds,
+    points, Newton iterations, factorisations), the fitted rate of the
+    error per group where the error has one (a closed form, or a
+    reference extrapolated with a credible order; fitted to the cases
+    whose grids model the finest one's geometry, the others named: a
+    trial's footing study over 10, 20 and 40 elements printed a rate of
+    2.95 for standard MPM, its coarse grids putting the soil's surface
+    inside cells), and per quantity and group its reference and
+    uncertainty with, in words, why it was or was not extrapolated.
+
+    Parameters
+    ----------
+    rows
+        The cases: what :func:`study` returns, or ``study.json``'s
+        ``"rows"``.
+    measured
+        What :func:`analyse` found over them (``rows.measured`` of what
+        :func:`study` returns; ``study.json`` holds its fields beside
+        the rows: ``"error"``, ``"convergence"``, ``"disagreements"``).
+    keys
+        The names varied (``"elements"``, ``"ppc"``, ...), shown as the
+        table's first columns in this order; a group's rate is fitted
+        over ``"elements"`` where it is one of them.
+
+    :func:`study`'s docstring shows it from Python."""
     lines = ["error: {}".format(measured["error"]["measures"])]
+    first = measured["convergence"][0]["quantity"] \
+        if measured["convergence"] else None
+    if first is not None:
+        lines.append("value: {} ({}) of each case".format(
+            first, measured["convergence"][0]["unit"]))
     lines.append(" ".join("{:>9}".format(k) for k in keys) +
-                 " {:>10} {:>11} {:>8} {:>8} {:>8} {:>10} {:>14}".format(
-                     "error", "uncertainty", "wall s", "CPU s", "points",
-                     "iterations", "factorisations"))
+                 " {:>12} {:>10} {:>11} {:>8} {:>8} {:>8} {:>10} {:>14}"
+                 .format("value", "error", "uncertainty", "wall s", "CPU s",
+                         "points", "iterations", "factorisations"))
     for r in rows:
         lines.append(" ".join("{:>9}".format(r[k]) for k in keys) + (
             " failed: " + r["failure"] if r["failure"] else
-            " {:>10} {:>11} {:>8.3f} {:>8} {:>8} {:>10} {:>14}".format(
+            " {:>12} {:>10} {:>11} {:>8.3f} {:>8} {:>8} {:>10} {:>14}"
+            .format(
+                _number(r.get("values", {}).get(first), "{:.6g}"),
                 _number(r.get("error"), "{:.3e}"),
                 _number(r.get("uncertainty"), "{:.3e}"), r["wall_seconds"],
                 _number(r.get("cpu_seconds"), "{:.3f}"), r["points"],
                 r["newton_iterations"], r.get("factorisations", "-"))))
-    first = measured["convergence"][0]["quantity"] \
-        if measured["convergence"] else None
     if "elements" in keys:
         for mine, members in _groups([r for r in rows if not r["failure"]],
                                      [k for k in keys if k != "elements"]):
@@ -1038,7 +1070,8 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
             if not measured["error"].get("closed_form") and not (
                     found and found[0]["against"] == "richardson"):
                 lines.append("rate of the error {}: none (no extrapolation:"
-                             " every error is the data range)".format(where))
+                             " the errors are distances to the finest "
+                             "case)".format(where))
                 continue
             kept = [r for r in members if not r.get("other_geometry")
                     and not r.get("other_stabilisation")]
@@ -1109,16 +1142,16 @@ def mixed_stabilisation(measured: dict) -> List[str]:
         where = ", ".join("{}={}".format(k, v)
                           for k, v in c["choices"].items()) or "all"
         if not c["cell_sizes"]:         # elements not varied
-            what = "the errors are the data range of the cases, which " \
-                "holds what the switch changes"
+            what = "the uncertainties rest on the data range of the " \
+                "cases, which holds what the switch changes"
         elif c.get("stabilisation_left_out"):
             what = "some cases end with it and some without, different " \
                 "discretisations: no order or extrapolation is fitted " \
                 "across them ({})".format(
                     "fitted to the cases alike, the others measured "
                     "against it" if c["against"] == "richardson" else
-                    "the errors are the data range of all, which holds "
-                    "the switch")
+                    "the uncertainties rest on the data range of all, "
+                    "which holds the switch")
         else:
             what = "every case ends with it and its order and " \
                 "extrapolation are fitted, but the steps before the " \
@@ -1197,14 +1230,27 @@ OLD_PER_QUANTITY = ("errors", "uncertainties")
 
 
 class StudyRows(list):
-    """A study's rows (one dict per case), with ``warm_up``: the records
-    of the warm-ups (:func:`warm_up`) that the processes which ran its
-    cases ran before them, over every session of the study (``study.json``
-    keeps them), charged to no case."""
+    """A study's rows (one dict per case), as :func:`study` returns them.
 
-    def __init__(self, rows=(), warm_ups=()):
+    ``StudyRows(rows, warm_ups, measured)`` keeps ``warm_ups`` as the
+    attribute ``warm_up`` (also readable as ``warm_ups``): the records of
+    the warm-ups (:func:`warm_up`) that the processes which ran its cases
+    ran before them, over every session of the study (``study.json``
+    keeps them under ``"warm_up"``), charged to no case; and ``measured``
+    as ``measured``: what :func:`analyse` found over the rows (what the
+    error measures, each quantity's convergence per group, the
+    disagreements; ``study.json`` holds it beside the rows), the second
+    argument of :func:`report`."""
+
+    def __init__(self, rows=(), warm_ups=(), measured=None):
         super().__init__(rows)
         self.warm_up = list(warm_ups)
+        self.measured = measured
+
+    @property
+    def warm_ups(self) -> list:
+        """The same list as ``warm_up``."""
+        return self.warm_up
 
 
 def _write(outdir: Path, rows: List[dict], workers: int, measured: dict,
@@ -1297,6 +1343,20 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     >>> [round(r["values"]["largest point displacement"], 6) for r in rows]
     [0.984375, 0.996094]
 
+    It prints nothing: the summary ``skfem-mpm study`` prints is
+    :func:`report`'s lines, of the rows, what was measured over them
+    (``rows.measured``) and the names varied, the table's first columns:
+
+    >>> from skfem_mpm.studies.study import report
+    >>> lines = report(rows, rows.measured, ["elements", "loadsteps"])
+    >>> rows.warm_ups is rows.warm_up   # the warm-ups, under either name
+    True
+    >>> print("\\n".join(lines[1:5]))  # doctest: +ELLIPSIS
+    value: largest point displacement (m) of each case
+     elements loadsteps        value      error uncertainty   wall s ...
+            4         1     0.984375  6.250e-02           -    ...
+            8         1     0.996094  3.125e-02           -    ...
+
     """
     check_vary(vary, scene)
     check_reference(scene)
@@ -1340,9 +1400,9 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
                     logger.info(line)
         if progress and sys.stderr.isatty():
             sys.stderr.write("\n")
-        _write(outdir, rows, 1, warn_mixed(analyse(scene, rows, quantities),
-                                           rows, warn), warm_ups)
-        return StudyRows(_ordered(rows, cases), warm_ups)
+        measured = warn_mixed(analyse(scene, rows, quantities), rows, warn)
+        _write(outdir, rows, 1, measured, warm_ups)
+        return StudyRows(_ordered(rows, cases), warm_ups, measured)
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
     if not logger.isEnabledFor(logging.INFO):
@@ -1368,11 +1428,12 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
             add(*future.result())
             _write(outdir, rows, nworkers, analyse(scene, rows, quantities),
                    warm_ups)
-        _write(outdir, rows, nworkers, warn_mixed(analyse(
-            scene, rows, quantities), rows, warn), warm_ups)
+        measured = warn_mixed(analyse(scene, rows, quantities), rows,
+                              warn)
+        _write(outdir, rows, nworkers, measured, warm_ups)
     if cluster is not None:
         cluster.close()
-    return StudyRows(_ordered(rows, cases), warm_ups)
+    return StudyRows(_ordered(rows, cases), warm_ups, measured)
 
 
 def warn_mixed(measured: dict, rows: List[dict], warn: bool = True
