@@ -618,7 +618,8 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
         fig, ax, pts, "{}: deformed shape {}\n(true scale, the undeformed "
         "body dashed)".format(scene.name, when),
         supports=support_marks(scene, mesh, elem), rigid=rigid,
-        obstacles=obstacles, half=half, plane=plane)
+        obstacles=obstacles, half=half, plane=plane,
+        cell=float(np.ptp(mesh.p[:, mesh.t], axis=1).max()))
     fig.tight_layout()
     plot.save_figure(fig, path)
 
@@ -991,7 +992,8 @@ def run(args) -> int:
 
     tic, compiled = run_clock(), compile_seconds()
     try:
-        result = run_scene(scene, points, resume=resume, callback=callback)
+        result = run_scene(scene, points, resume=resume, callback=callback,
+                           initial=initial)
     except StopRun as stop:      # the checkpoint is written: a summary
         partial, stopped = unfinished("stopped", None, checkpoint=True,
                                       checkpoint_step=kept[0])

@@ -9,7 +9,7 @@ from one table of the option objects' fields and their scene keys.
 >>> setting("antilocking", True)
 'Stabilisation(antilocking=True); scene file: [solver] antilocking = true'
 """
-__all__ = ["SCENE_KEYS", "setting"]
+__all__ = ["SCENE_KEYS", "PARAMETER_KEYS", "setting", "parameter"]
 
 #: per option field, the option object that holds it and its scene key
 #: as ``(table, key)``
@@ -25,6 +25,10 @@ SCENE_KEYS = {
     "grow_back": ("NewtonOptions", ("solver", "grow_back")),
     "kernels": ("Options", ("solver", "kernels")),
 }
+
+#: per material parameter whose scene key differs (a Python keyword), the
+#: scene key
+PARAMETER_KEYS = {"lambda_": "lambda"}
 
 
 def _toml(value) -> str:
@@ -46,3 +50,14 @@ def setting(field: str, value) -> str:
     owner, (table, key) = SCENE_KEYS[field]
     return "{}({}={!r}); scene file: [{}] {} = {}".format(
         owner, field, value, table, key, _toml(value))
+
+
+def parameter(name: str) -> str:
+    """A material parameter's name, with its scene key where that differs
+    (a trial's scene, which wrote ``lambda``, was told of ``lambda_``).
+
+    >>> parameter("lambda_"), parameter("kappa")
+    ('lambda_ (scene file: lambda)', 'kappa')
+    """
+    key = PARAMETER_KEYS.get(name)
+    return name if key is None else "{} (scene file: {})".format(name, key)

@@ -217,7 +217,8 @@ def test_geostatic_cam_clay_layer_starts_at_its_stress():
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    (dict(kappa=0.), "kappa"), (dict(lambda_=.01), "lambda_ must exceed"),
+    (dict(kappa=0.), "kappa"),
+    (dict(lambda_=.01), r"lambda_ \(scene file: lambda\) must exceed"),
     (dict(M=-1.), "M must be positive"),
     (dict(shear_modulus=float("nan")), "shear_modulus"),
     (dict(preconsolidation_pressure=50.), "preconsolidation_pressure"),
@@ -244,7 +245,10 @@ def test_scene_files_know_cam_clay():
     assert material(**keys, **{"lambda": .2}) == CLAY
     assert material(**keys, **{"lambda": .2},
                     preconsolidation_pressure=6 * P0) == OVERCONSOLIDATED
-    for bad, match in [({"lambda": .01}, "lambda_ must exceed"),
+    # both spellings: the scene's user wrote lambda (a trial was told
+    # of lambda_ alone)
+    for bad, match in [({"lambda": .01},
+                        r"lambda_ \(scene file: lambda\) must exceed"),
                        ({}, "lambda: missing"),
                        ({"lambda": .2, "E": 1e3}, "not a parameter"),
                        ({"lambda": .2, "preconsolidation_pressure": -1.},

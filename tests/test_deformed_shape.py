@@ -60,12 +60,16 @@ def test_a_run_draws_its_deformed_shape_with_supports_and_rigid_bodies(
         "material points, deformed (colour: |u|)", "rigid body: footing",
         "support-1 (bottom): x, y fixed", "axis (left): x fixed",
         "support-3 (right): x fixed"]
-    # the supports at their grid nodes: 9 along the bottom, 6 up each side
+    # the supports at their grid nodes that carry material: 9 along the
+    # bottom, 6 up the left side (the footing's points by its top node),
+    # 5 up the right, the soil's 0.5 m (its top node, 0.125 above the
+    # soil, holds nothing: a trial's rollers were drawn up the grid's
+    # whole side)
     marks = [line for line in ax.lines if line.get_marker() in ("s", ">")]
     bottom, left, right = (np.array(m.get_data()) for m in marks)
     assert np.allclose(bottom, [np.linspace(0., 1., 9), np.zeros(9)])
     assert np.allclose(left, [np.zeros(6), np.linspace(0., .625, 6)])
-    assert np.allclose(right, [np.ones(6), np.linspace(0., .625, 6)])
+    assert np.allclose(right, [np.ones(5), np.linspace(0., .5, 5)])
     # the footing's points in black, moved down by its 0.03 at full load
     # (0.5 to 0.625 high, 2 x 2 points in each of its two cells)
     footing = [c for c in ax.collections if c.get_offsets().shape[0] == 8

@@ -861,7 +861,8 @@ def test_sparse_spline_points_under_mean_dilatation_are_warned(
              lambda b: b.get_dofs(lambda x: x[1] == 0), nsteps=1,
              body_force=[0., -1.], method="bspline",
              options=Options(stabilisation=Stabilisation(antilocking=True)))
-    assert ("{:.1f} points per cell and axis".format(per_cell)
+    assert ("mean dilatation and {} points per cell and axis".format(
+        per_cell)
             in caplog.text) == warned
 
 

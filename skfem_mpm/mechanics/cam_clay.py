@@ -45,6 +45,7 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidMaterialError, check_real
+from ..spelling import parameter
 from .materials import check_moduli
 
 __all__ = ["ModifiedCamClay"]
@@ -96,7 +97,7 @@ def check_slopes(values: dict, positive, kappa: str, lambda_: str):
         raise InvalidMaterialError(
             "{} must exceed {} = {} (the normal compression line is steeper "
             "than the unloading line), got {}".format(
-                lambda_, kappa, values[kappa], values[lambda_]))
+                parameter(lambda_), kappa, values[kappa], values[lambda_]))
 
 
 @dataclass(frozen=True)

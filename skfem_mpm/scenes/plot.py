@@ -26,7 +26,8 @@ __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "series_styles", "colour_scale", "body_figure_size",
            "figure_problems", "STRESS_NAMES", "mark_peak", "marker_size",
            "draw_deformed_shape", "SupportMarks", "outline",
-           "draw_supports", "side_colorbar", "view_limits", "fit_title",
+           "draw_supports", "material_nodes", "side_colorbar",
+           "view_limits", "fit_title",
            "significant", "layout_problems", "thin_ticks",
            "settle_layout", "slice_plane",
            "box_section"]
@@ -462,7 +463,8 @@ def view_limits(x: np.ndarray, margin: float = .1):
 
 def draw_deformed_shape(fig, ax, points, title: str, supports=(),
                         rigid=None, obstacles=(), half=None,
-                        coloured: bool = True, plane=None):
+                        coloured: bool = True, plane=None,
+                        cell: float = None):
     """The deformed shape: the points at ``x0 + displacement`` coloured
     by their displacement magnitude (m; a labelled colour bar) or plain
     (``coloured=False``), the undeformed body as a faint outline, the
@@ -498,6 +500,12 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     half
         The points' initial half-widths (dim, n) for the undeformed
         outline; default their domains, else ``volume0 ** (1/dim) / 2``.
+    cell
+        The grid's cell width: the supports marked only at the nodes
+        that carry material, a deformed point closer than ``cell`` along
+        every axis (:func:`material_nodes`; a trial's rollers were drawn
+        up the grid's whole side, above the soil); ``None``: at every
+        node they hold.
 
     Examples
     --------
@@ -562,6 +570,9 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
         handles.append(Line2D([], [], marker="o", ls="-", color="k",
                               label="rigid body: {}".format(name)))
     marks = []
+    if cell is not None:
+        supports = [material_nodes(s, points.x0 + points.displacement, cell)
+                    for s in supports]
     marked = draw_supports(ax, supports, (a, b), x[:, shown] if dim > 1
                            else None, marks, dim,
                            np.median(points.volume) ** (1. / dim))
@@ -602,6 +613,29 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
         ax.legend(handles=handles, loc="upper center", fontsize=7,
                   bbox_to_anchor=(.5, -.2), ncol=1, frameon=False)
     return sc
+
+
+def material_nodes(support: SupportMarks, x: np.ndarray, cell: float
+                   ) -> SupportMarks:
+    """``support`` at those of its nodes that carry material: a point of
+    ``x`` (dim, n) closer than ``cell`` along every axis (in a cell the
+    node belongs to); none: its label says so.
+
+    >>> import numpy as np
+    >>> side = SupportMarks("left", np.array([[0., 0., 0.], [0., 1., 2.]]),
+    ...                     (0,))
+    >>> material_nodes(side, np.array([[.25], [.75]]), 1.).nodes.tolist()
+    [[0.0, 0.0], [0.0, 1.0]]
+    """
+    from scipy.spatial import cKDTree
+    nodes = np.asarray(support.nodes, float)
+    if not nodes.size or not x.size:
+        return support
+    distance = cKDTree(x.T).query(nodes.T, p=np.inf)[0]
+    near = distance < cell * (1 - 1e-9)
+    label = support.label if near.any() else \
+        support.label + " (no node by the material)"
+    return support._replace(label=label, nodes=nodes[:, near])
 
 
 def draw_supports(ax, supports, axes: tuple, slab, handles: list,

@@ -638,7 +638,7 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
             if points.velocity is None:
                 points.velocity = np.zeros_like(points.x)
             points.velocity[:, points.body == k] = v[:, None]
-    for load in scene.point_loads:
+    for k, load in enumerate(scene.point_loads):
         if load.where is not None:
             chosen = np.flatnonzero(load.where(points.x))
             if chosen.size == 0:
@@ -647,9 +647,42 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
             distance = np.linalg.norm(points.x - np.asarray(
                 load.at, float)[:, None], axis=0)
             chosen = np.argsort(distance, kind="stable")[:load.count]
+            check_point_load(k, load, mesh, points, chosen[0])
         points.force[:, chosen] += np.asarray(load.force, float)[:, None] \
             / chosen.size
     return points
+
+
+def check_point_load(k: int, load: PointLoad, mesh,
+                     points: MaterialPoints, nearest: int):
+    """Refuse point load ``k`` (``point_loads[k]``) at a position outside
+    the grid, or farther than the grid's widest cell from the nearest
+    material point (``nearest``): the force would go to the nearest
+    points, wherever they are (a load at x = 50 on a 12 m grid, and one
+    4.5 m above the soil, were applied to the nearest points without a
+    word; a user trial)."""
+    at = np.asarray(load.at, float)
+    low, high = mesh.p.min(axis=1), mesh.p.max(axis=1)
+    tol = 1e-9 * (high - low)
+    out = [d for d in range(at.size)
+           if not low[d] - tol[d] <= at[d] <= high[d] + tol[d]]
+    name = "point_loads[{}] at {}".format(k, at.tolist())
+    if out:
+        raise InvalidInputError(
+            "{} lies outside the grid ({}): move the load onto the "
+            "material or extend the grid".format(name, ", ".join(
+                "{} from {:g} to {:g}".format("xyz"[d], low[d], high[d])
+                for d in range(at.size))))
+    corners = mesh.p[:, mesh.t]
+    cell = float((corners.max(axis=1) - corners.min(axis=1)).max())
+    gap = float(np.linalg.norm(points.x[:, nearest] - at))
+    if gap > cell:
+        raise InvalidInputError(
+            "{} is {:.4g} from the nearest material point (point {} at {}), "
+            "more than a cell ({:.4g}): its force would act there; move "
+            "the load onto the material".format(
+                name, gap, nearest,
+                np.round(points.x[:, nearest], 6).tolist(), cell))
 
 
 def body_region(bodies: Sequence[Body], k: int, mesh):
@@ -818,6 +851,67 @@ def warn_unreached_supports(scene: Scene, mesh, elem,
                 "to it)", name, distance.min(), scene.method, reach)
 
 
+def warn_held_tractions(scene: Scene, mesh, elem, points: MaterialPoints):
+    """Log a warning per traction or pressure and direction whose force
+    goes, half or more of it, to grid DOFs the supports hold in that
+    direction (its faces' centres mapped with the grid's shape
+    functions, ``points``: the initial ones): that part goes into the
+    supports' reaction and loads nothing.  A trial's traction [10, 0] on
+    the soil's left side, held in x by rollers on the grid's left side,
+    changed nothing and was not told."""
+    if not scene.tractions or not scene.supports:
+        return
+    from skfem import Basis
+    dim = mesh.dim()
+    scalar, grid = grid_parts(mesh, elem)[:2]
+    basis = Basis(mesh, scalar)
+    names = support_names(scene)
+    held = []                 # per support, per component: places held
+    for support in scene.supports:
+        dofs = scene_support_dofs(support, grid, dim).ravel()
+        held.append([dofs[dofs % dim == c] // dim for c in range(dim)])
+    bodies = [b.name for b in scene.bodies]
+    for k, t in enumerate(scene.tractions):
+        axis, sign = side_axis(t.side, dim)
+        layer = side_points(points, t.side,
+                            points.body == bodies.index(t.body))
+        centre = points.x[:, layer].copy()
+        centre[axis] += sign * points.domain[axis, layer]
+        area = np.prod(np.delete(2 * points.domain[:, layer], axis, 0),
+                       axis=0)
+        force = basis.probes(centre).T @ area       # per unit traction
+        if t.traction is None:
+            value = np.zeros(dim)
+            value[axis] = -sign * float(t.pressure)
+        else:
+            value = np.asarray(t.traction, float)
+        for c in np.flatnonzero(value):
+            shares = []
+            for name, places in zip(names, held):
+                if places[c].size:
+                    shares.append((force[places[c]].sum() / force.sum(),
+                                   name, places[c]))
+            if not shares:
+                continue
+            every = np.unique(np.concatenate([p for *_, p in shares]))
+            share = force[every].sum() / force.sum()
+            if share < .5:
+                continue
+            holding = [name for part, name, _ in sorted(
+                shares, key=lambda item: -item[0]) if part > 0]
+            logger.warning(
+                "tractions[%d] (%s on body %r, side %r): %.0f%% of its %s "
+                "force acts on grid nodes that support%s %s hold%s in %s: "
+                "it goes into %s reaction and loads nothing (load a side "
+                "the supports leave free in %s, or hold that side "
+                "otherwise)", k, "traction" if t.pressure is None
+                else "pressure", t.body, t.side, 100 * share, "xyz"[c],
+                "s" if len(holding) > 1 else "",
+                ", ".join(repr(n) for n in holding),
+                "" if len(holding) > 1 else "s", "xyz"[c],
+                "their" if len(holding) > 1 else "its", "xyz"[c])
+
+
 def scene_supports(scene: Scene, dim: int):
     """The fixed supports as a callable on the grid basis."""
     def supports(basis):
@@ -870,11 +964,15 @@ def scene_prescribed(scene: Scene, dim: int):
 
 def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
               resume: Optional[Resume] = None,
-              callback: Optional[Callable] = None) -> Result:
+              callback: Optional[Callable] = None,
+              initial: Optional[MaterialPoints] = None) -> Result:
     """Run a scene from its start, or (``resume``, a
     :class:`~skfem_mpm.Resume`) from ``points``, the state after step
     ``resume.first_step - 1``; ``callback(record, points)`` after every
-    step.
+    step.  ``initial``: the scene's points at its start
+    (:func:`build_points`) where the caller has seeded them already (not
+    seeded again: the command line's runs said each seeding warning
+    twice).
 
     Examples
     --------
@@ -891,11 +989,13 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
     """
     scene.check()
     mesh, elem = scene.grid.build()
-    initial = build_points(scene, mesh)
+    if initial is None:
+        initial = build_points(scene, mesh)
     if points is None:
         points = initial
     if resume is None or resume.first_step == 1:      # from the start
         warn_unreached_supports(scene, mesh, elem, points)
+        warn_held_tractions(scene, mesh, elem, initial)
     materials = [b.material for b in scene.bodies]
     material = materials[0] if len(materials) == 1 else materials
     supports = scene_supports(scene, mesh.dim())

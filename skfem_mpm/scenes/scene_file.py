@@ -89,6 +89,8 @@ offending value (unknown keys, wrong types, impossible values), in a
     at = [10.0, 0.5]
     force = [0.0, -1e5]
     points = 2                      # shared by the nearest points
+                                    # (at: on the grid, within a cell
+                                    # of a material point)
     [[tractions]]
     body = "column"
     side = "top"
@@ -197,6 +199,7 @@ from ..solve.newton import LINE_SEARCHES, NEWTON, RHS, NewtonOptions
 from ..solve.body_contact import Contact
 from ..solve.obstacles import Obstacle
 from ..solve.loads import WORDS_OF_2D, side_axis, side_names
+from ..spelling import PARAMETER_KEYS
 from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
 from .regions import Ball, Polygon, outside_grid, region_shape
@@ -396,8 +399,10 @@ def _material(c, data, key):
         if name not in data:
             c.problems.append("{}.{}: missing ({})".format(key, name, model))
     if model == "cam_clay":
-        kwargs = {("lambda_" if name == "lambda" else name):
-                  c.number(data, key, name, 1., low=0.) for name in CAM_CLAY}
+        python = {k: name for name, k in PARAMETER_KEYS.items()}
+        kwargs = {python.get(name, name): c.number(data, key, name, 1.,
+                                                   low=0.)
+                  for name in CAM_CLAY}
         if "preconsolidation_pressure" not in data:   # normally consolidated
             kwargs["preconsolidation_pressure"] = kwargs["reference_pressure"]
         build = ModifiedCamClay

@@ -73,7 +73,7 @@ from ..spelling import setting
 from ..stabilisation.ghost import GhostStabilisation
 from ..stabilisation.settings import Stabilisation, warn_volumetric_locking
 from ..stabilisation.fbar import IncrementFbar
-from ..stabilisation.volumetric import (MeanDilatation,
+from ..stabilisation.volumetric import (MeanDilatation, per_axis_words,
                                        points_per_cell_axis,
                                        warn_sparse_spline_points)
 from .backends import get_solver
@@ -767,7 +767,12 @@ def collapse_hint(run: Run, reach: list) -> str:
     the body may be yielding towards a collapse, past whose limit load
     no equilibrium exists (a hardening material softens so too, with no
     limit load: hence "may"; a user's footing loaded past Prandtl's load
-    ended with "no convergence" and no more).  Where no step converged
+    ended with "no convergence" and no more).  The last converged load
+    factor is what the discretisation carried, no bound of the body's
+    limit load: coarse grids overestimate it (a trial's 6 m vertical cut
+    converged to 0.5437 of its weight, where the upper bound 4c/gamma
+    tan(45 + phi/2) of its height allows 0.476; the words said "at least
+    load factor 0.5437").  Where no step converged
     from the run's start and the material has no cohesion, the body may
     have no equilibrium at any load factor (a free column of cohesionless
     soil failed its first step at every cut-back with no word of why, a
@@ -793,11 +798,13 @@ def collapse_hint(run: Run, reach: list) -> str:
         return ""
     return ("; the last converged step moved the body {:.3g} times as far "
             "per load increment as the stiffest step before (the points' "
-            "largest displacement): it may be yielding towards a collapse, "
-            "past whose limit load (at least load factor {:.4g}) no "
-            "equilibrium exists: a smaller load, or a displacement "
-            "prescribed instead (an Obstacle, a rigid body), follows the "
-            "collapse".format(rates[-1] / stiffest, f[-1]))
+            "largest displacement): it may be yielding towards a "
+            "collapse: this discretisation carried load factor {:.4g}; "
+            "the body's limit load, which coarse grids overestimate, may "
+            "be lower (a finer grid tells), and past it no equilibrium "
+            "exists: a smaller load, or a displacement prescribed instead "
+            "(an Obstacle, a rigid body), follows the collapse".format(
+                rates[-1] / stiffest, f[-1]))
 
 
 def no_equilibrium(run: Run, points: MaterialPoints) -> bool:
@@ -1657,11 +1664,12 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     if have >= needed:
         return ""
     return (
-        "element {} with {:.1f} points per cell and axis: {} points give "
+        "element {} with {} points per cell and axis: {} points give "
         "a cell of {} nodes {} of the {} strain states its DOFs need, so "
         "the stiffness has zero-energy modes (a singular matrix); seed "
         "{} points per cell and axis".format(
-            type(scalar).__name__, per_axis, int(round(per_axis)) ** dim,
+            type(scalar).__name__, per_axis_words(per_axis),
+            int(round(per_axis)) ** dim,
             nodes, have, needed,
             int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))))
 

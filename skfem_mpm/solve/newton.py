@@ -658,15 +658,14 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                 not current.merit < MERIT_LIMIT:
             report["smallest"] = min(residuals)
             run = getattr(problem, "run", None)    # (a problem of tests)
-            limit = getattr(run, "tol", None) if tol is None else tol
             raise NewtonDivergenceError(
                 "step {}: {} did not converge in {} iterations (residual "
                 "first {:.3g}, smallest {:.3g}, last {:.3g}{}){}".format(
                     problem.step, "the equilibrium iteration"
                     if problem.linear else "Newton-Raphson", it,
                     residuals[0], min(residuals), residuals[-1],
-                    "" if limit is None else "; tolerance {:.3g}".format(
-                        limit), linear_words(
+                    tolerance_words(tol, getattr(run, "tol", None)),
+                    linear_words(
                             residuals, getattr(run, "material", None),
                             stabilise, modified or report["reused"],
                             report)))
@@ -703,6 +702,27 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                 from err
         problem.counters["line_search_trials"] += extra
     return Converged(du, current, residuals, last)
+
+
+def tolerance_words(tol: Optional[float], own: Optional[float]) -> str:
+    """The tolerance a failed solve aimed at: the run's own, or ``tol``,
+    the looser one of a first round before a term's constraint settles
+    (contact's augmented-Lagrangian update), said so with the run's (a
+    trial's obstacle run said "tolerance 0.001" where its scene's was
+    1e-9, and no more).
+
+    >>> tolerance_words(None, 1e-9)
+    '; tolerance 1e-09'
+    >>> for part in tolerance_words(1e-3, 1e-9).split(", "):
+    ...     print(part)
+    ; tolerance 0.001 for the first round
+    before the contact's update; the run's own is 1e-09
+    """
+    if tol is None:
+        return "" if own is None else "; tolerance {:.3g}".format(own)
+    return "; tolerance {:.3g} for the first round, before the " \
+        "contact's update{}".format(tol, "" if own is None else
+                                    "; the run's own is {:.3g}".format(own))
 
 
 def linear_rate(residuals: List[float]) -> Optional[float]:

@@ -42,6 +42,7 @@ import numpy as np
 
 from ..errors import ConvergenceError, InvalidInputError, \
     PointsOutsideGridError, PrescribedMotionError, SingularSystemError
+from ..repeats import OnceEach, warnings_once
 from .results import Result
 
 logger = logging.getLogger(__name__)
@@ -212,9 +213,20 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
             "strength_reduction's growth must be a number > 1 (the "
             "displacement, over that of the run at low, beyond which a "
             "trial has collapsed) or None, got {!r}".format(growth))
+    with warnings_once() as once:      # each trial's warnings: once
+        return bisect(run, low, high, tolerance, growth, displacement,
+                      once)
+
+
+def bisect(run: Callable, low: float, high: float, tolerance: float,
+           growth: Optional[float], displacement: Callable, once: OnceEach
+           ) -> SafetyFactor:
+    """:func:`strength_reduction`'s bracket and bisection, its arguments
+    checked; ``once`` filters the trials' repeated warnings."""
     trials, displacements, scale = [], [], []
 
     def attempt(factor):
+        once.cover()
         try:
             result = run(factor)
         except PrescribedMotionError:

@@ -97,7 +97,7 @@ from ..spelling import setting
 
 __all__ = ["MeanDilatation", "ElementAverage", "CellPatchAverage",
            "CellLayout", "warn_sparse_spline_points", "points_per_cell_axis",
-           "SPLINE_POINTS_PER_AXIS"]
+           "per_axis_words", "SPLINE_POINTS_PER_AXIS"]
 
 logger = logging.getLogger(__name__)
 
@@ -537,6 +537,16 @@ def points_per_cell_axis(mesh, points) -> float:
     return float((cell / largest) ** (1. / mesh.dim()))
 
 
+def per_axis_words(per_axis: float) -> str:
+    """Points per cell and axis to a tenth, whole counts as integers (a
+    trial was told of "2.0 points per cell").
+
+    >>> per_axis_words(2.0000001), per_axis_words(2.52)
+    ('2', '2.5')
+    """
+    return "{:g}".format(round(per_axis, 1))
+
+
 def warn_sparse_spline_points(method: str, mesh, points, plastic: bool,
                               antilocking: bool, extended: bool = False):
     """Log a warning for a run with B-splines whose points are seeded fewer
@@ -559,20 +569,21 @@ def warn_sparse_spline_points(method: str, mesh, points, plastic: bool,
     per_axis = points_per_cell_axis(mesh, points)
     if per_axis < SPLINE_POINTS_PER_AXIS - .5 and cubic:
         logger.warning(
-            "method %r with %.1f points per cell and axis: the cubic "
+            "method %r with %s points per cell and axis: the cubic "
             "splines' stiffness needs 4 Gauss points a cell and axis, and "
             "with 2 an elastic cantilever two cells deep came out 2.8-4.1 "
             "times too flexible (docs/bspline.md); seed at least %d points "
             "per cell and axis, or use %s or 'bspline'",
-            method, per_axis, SPLINE_POINTS_PER_AXIS,
+            method, per_axis_words(per_axis), SPLINE_POINTS_PER_AXIS,
             setting("extended_splines", True))
     elif per_axis < SPLINE_POINTS_PER_AXIS - .5:
         logger.warning(
-            "method %r with mean dilatation and %.1f points per cell and "
+            "method %r with mean dilatation and %s points per cell and "
             "axis: with 2, a strip footing's limit load came out 18-21%% "
             "('bspline') and 6-10%% ('bspline-gimp') below Prandtl's on "
             "every grid of a study pushing it 0.005 B "
             "(docs/accuracy_vs_time.md), and a user's pushed 0.08 B at "
             "B = 8 h 14-21%% above it; seed at least %d points per cell and "
-            "axis", method, per_axis, SPLINE_POINTS_PER_AXIS)
+            "axis", method, per_axis_words(per_axis),
+            SPLINE_POINTS_PER_AXIS)
 
