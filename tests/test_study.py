@@ -1296,3 +1296,20 @@ def test_a_study_records_when_the_ghost_penalty_switched_on(tmp_path,
     assert "mixed stabilisation [all]" in caplog.text
     header = (tmp_path / "study" / "study.csv").read_text().splitlines()[0]
     assert "ghost_from_step" in header.split(",")
+
+
+def test_a_serial_study_says_each_seeding_warning_once(tmp_path, caplog):
+    """Each case of a study seeds its points, and so do the quantities'
+    check and the warm-ups: a trial's study of a polygon slope (12 cases)
+    said the polygon's seeding warnings 14 times, the same words for
+    cases on one grid.  Each text is said once: one per grid here (16
+    and 32 elements, two methods each), where it was said per case."""
+    from test_scene_regions import SLOPE, scene
+    s = scene(SLOPE, KINEMATICS="small", STEPS=1)
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        rows = study(s, {"elements": [16, 32], "method": ["mpm", "cpgimp"]},
+                     tmp_path, progress=False)
+    assert [r["failure"] for r in rows] == ["", "", "", ""]
+    seeding = [r.getMessage() for r in caplog.records
+               if r.getMessage().startswith("seeding: the points hold")]
+    assert len(seeding) == len(set(seeding)) == 2, seeding

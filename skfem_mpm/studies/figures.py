@@ -309,7 +309,7 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
     if convergence:
         names = list(dict.fromkeys(c["quantity"] for c in convergence))
         fig, axes = plt.subplots(len(names), 1, squeeze=False, figsize=(
-            6.5, 3.2 * len(names)))
+            10., 3.2 * len(names)))
         for ax, name in zip(axes[:, 0], names):
             mine = [c for c in convergence if c["quantity"] == name]
             for c in mine:
@@ -341,7 +341,9 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             ax.set_title("{} over refinement, with the reference of each "
                          "group;\nbars and bands: uncertainties".format(name),
                          fontsize=9)
-            ax.legend(fontsize=6, loc="best")
+            # beside the panel: inside, a group's entries and references
+            # covered the lower panel's data (a user trial)
+            ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.))
         fig.tight_layout()
         plot.save_figure(fig, outdir / "quantities.png")
         written.append(outdir / "quantities.png")
