@@ -157,13 +157,14 @@ def test_a_failed_run_leaves_what_a_finished_one_does(scene, tmp_path,
     import skfem_mpm.cli as cli
     real = cli.run_scene
 
-    def failing(scene, points, resume, callback):
+    def failing(scene, points, resume, callback, **kwargs):
         def fail_after_two(record, pts):
             callback(record, pts)
             if record.step == 2:
                 raise NewtonDivergenceError("step 3 diverged", state=pts,
                                             load_factor=record.load_factor)
-        return real(scene, points, resume=resume, callback=fail_after_two)
+        return real(scene, points, resume=resume, callback=fail_after_two,
+                    **kwargs)
     monkeypatch.setattr(cli, "run_scene", failing)
     out = tmp_path / "out"
     assert main(["run", str(scene), "--out", str(out), "--no-series",

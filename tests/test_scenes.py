@@ -634,12 +634,14 @@ def test_ctrl_c_keeps_a_checkpoint_and_one_line(tmp_path, capsys,
     import skfem_mpm.cli as cli_module
     real = cli_module.run_scene
 
-    def interrupted(scene, points=None, resume=None, callback=None):
+    def interrupted(scene, points=None, resume=None, callback=None,
+                    **kwargs):
         def stop_after_two(record, pts):
             callback(record, pts)
             if record.step == 2:
                 raise KeyboardInterrupt
-        return real(scene, points, resume=resume, callback=stop_after_two)
+        return real(scene, points, resume=resume, callback=stop_after_two,
+                    **kwargs)
     out, whole = tmp_path / "out", tmp_path / "whole"
     monkeypatch.setattr(cli_module, "run_scene", interrupted)
     assert main(["run", "--out", str(out), "--no-progress", "--steps",
