@@ -47,13 +47,18 @@ __all__ = ["GridTerm", "Balance", "PointOperator", "Response", "Kinematics",
 
 class Balance:
     """A trial's balance of forces on the grid while terms weigh it:
-    internal and external force vectors and ``scale``, the force the
-    residual is measured against."""
+    internal and external force vectors, ``scale``, the force the
+    residual is measured against, and ``floor``, the round-off of the
+    forces the balance sums: a residual norm at or below it is converged
+    whatever the tolerance (the residual is measured against the larger
+    of ``scale`` and ``floor / tol``)."""
 
-    __slots__ = ("f_int", "f_ext", "scale")
+    __slots__ = ("f_int", "f_ext", "scale", "floor")
 
-    def __init__(self, f_int: ndarray, f_ext: ndarray, scale: float):
+    def __init__(self, f_int: ndarray, f_ext: ndarray, scale: float,
+                 floor: float = 0.):
         self.f_int, self.f_ext, self.scale = f_int, f_ext, scale
+        self.floor = floor
 
 
 class GridTerm:
@@ -193,8 +198,9 @@ class GridTerm:
     def weigh(self, balance: Balance, du: ndarray) -> None:
         """Weigh the trial's static balance in time (a time integrator:
         the generalised-alpha weights and the inertia force); may enlarge
-        ``balance.scale`` (the inertia force and the momentum's rate; an
-        obstacle's force, which may be all that drives a body)."""
+        ``balance.scale`` (the inertia force; an obstacle's force, which
+        may be all that drives a body) and ``balance.floor`` (the
+        round-off of the momentum's rate that the balance sums)."""
 
     def weigh_matrix(self, K):
         """The tangent weighed as :meth:`weigh` weighs the forces."""

@@ -34,11 +34,7 @@ hashes when the points began to keep their rotation
 (``state.rotation``; every other sum unchanged to the bit);
 fem_finite_antilocking when finite elements in finite deformation began
 to average the increment's spatial divergence ``tr(grad_X(du)
-F_n^-1)`` (its second step: the displacement sum moved 1.1e-4);
-dynamic_newmark_finite_pressure when a time step's residual began to be
-measured against the momentum's rate too (a body in free flight): its
-second and third steps' Newton residuals, relative to a larger force,
-moved by up to 3e-4 of their sums, its arrays by 1 ulp (stress)."""
+F_n^-1)`` (its second step: the displacement sum moved 1.1e-4)."""
 import json
 from pathlib import Path
 

@@ -406,6 +406,9 @@ class StepProblem:
             term.weigh(balance, du)
         r = balance.f_ext - balance.f_int
         scale = balance.scale
+        if balance.floor > 0.:        # a residual at the round-off of the
+            # forces the balance sums is converged (a body in free flight)
+            scale = max(scale, balance.floor / self.run.tol)
         if scale == 0.:               # nothing loads or drives: the stresses
             scale = max(safe_norm(balance.f_int), TINY)
         merit = safe_norm(r[self.free])

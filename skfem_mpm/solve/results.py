@@ -27,10 +27,11 @@ class StepRecord:
         Equilibrium check: ``|f_ext - f_int|`` over the free DOFs after the
         stress update, relative to the larger of ``|f_ext|`` and the
         internal force on the DOFs whose motion is prescribed; in
-        dynamics also of the inertia force and the forces of the step's
-        start its balance sums (the momentum's rate ``M v / (beta dt)``,
-        the terms of ``M a``, the internal force): a body in free flight,
-        with no load, converges to round-off.
+        dynamics also of the inertia force, and of ``ROUNDOFF / tol``
+        (``ROUNDOFF = 1e-12``) times the forces of the step's start its
+        balance sums (the momentum's rate ``M v / (beta dt)``, the terms
+        of ``M a``, the internal force): a residual at their round-off is
+        converged (a body in free flight, with no load).
     n_active_elements, n_free_dofs
         Size of the active grid.
     timings
