@@ -52,7 +52,7 @@ from .solve.body_contact import body_contact_state_names
 from .solve.contact import contact_state_names
 from .solve.rotation import rotation_state_names, start_missing_rotation
 from .solve.core import grid_parts
-from .solve.options import Resume, resumed_counters
+from .solve.options import Resume, end_force_of, resumed_counters
 from .solve.results import PHASES, Result
 from .solve.strength_reduction import largest_displacement
 from .studies.column import SOURCE as COLUMN_SOURCE
@@ -819,7 +819,8 @@ def load_run(args):
         resume = Resume(first_step=earlier.step + 1,
                         load_factor=earlier.load_factor,
                         increment=earlier.increment, domain0=earlier.domain0,
-                        counters=resumed_counters(earlier.counters))
+                        counters=resumed_counters(earlier.counters),
+                        end_force=earlier.end_force)
     else:
         outdir = args.out
         source = args.scene or EMBEDDED
@@ -938,6 +939,10 @@ def run(args) -> int:
         (np.savez cut short left a zipfile traceback)."""
         prepare()
         rows, reactions = so_far()
+        # where the last step converged ended (a contact's force in
+        # dynamics: the next step books its work from it)
+        end_force = end_force_of(history[-1]) if history \
+            else resume.end_force
         with interrupts_deferred():
             save_checkpoint(outdir, Checkpoint(
                 step=len(rows), nsteps=scene.step_count, load_factor=factor,
@@ -945,7 +950,8 @@ def run(args) -> int:
                 history=rows, reactions=reactions, scene_sha256=digest,
                 domain0=domain0, wall_seconds=run_clock() - tic + (
                     0. if earlier is None else earlier.wall_seconds),
-                timings=run_timings(history, earlier)))
+                timings=run_timings(history, earlier),
+                end_force=end_force))
             kept[0] = len(rows)
 
     def unfinished(status, state, **keys):

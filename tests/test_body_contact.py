@@ -683,6 +683,53 @@ def test_a_sliding_block_books_the_work_of_friction():
     assert abs(coarse_later) < 1e-3 and abs(fine_later) < 1e-3
 
 
+def colliding_blocks():
+    """Two blocks 0.2 wide, 0.02 apart, the left one at 2 m/s (a
+    reviewer's case): the mesh, the points and the run's keywords."""
+    mesh = MeshQuad.init_tensor(np.arange(0, 1.2 + 1e-9, .05),
+                                np.arange(0, .4 + 1e-9, .05))
+    pts = bodies(mesh, 2, [[(.1, .3), (.1, .3)], [(.32, .52), (.1, .3)]])
+    pts.velocity = np.zeros((2, pts.n))
+    pts.velocity[0, pts.body == 0] = 2.
+    return mesh, pts, dict(
+        material=LinearElastic(1e6, .3), supports=[],
+        kinematics="finite", contacts=[Contact(0, 1)],
+        dynamics=Dynamics(time_step=.002, duration=.03, density=1000.))
+
+
+def test_a_resumed_collision_books_the_contact_s_work_as_its_run():
+    """Two blocks colliding, resumed with ``Resume.after(record)`` after
+    steps in contact: every energy of every step after, and the points,
+    are the straight run's to the bit.  The contact's force where the
+    last step ended, which the next books its work from, lived only in
+    the run: the resumed first step booked it from its start force
+    (internal work 6.6264 for 6.6571 after step 8)."""
+    mesh, pts, kw = colliding_blocks()
+    kept = {}
+
+    def keep(record, points):
+        kept[record.step] = (points.copy(), record)
+    straight = simulate(mesh, ElementQuad1(), pts.copy(),
+                        options=Options(callback=keep), **kw)
+    for k in (8, 11):
+        points, record = kept[k]
+        assert record.end_force is not None       # in contact
+        resumed = simulate(mesh, ElementQuad1(), points.copy(),
+                           options=Options(resume=Resume.after(record)),
+                           **kw)
+        assert [r.energy for r in resumed.history] == \
+            [r.energy for r in straight.history[k:]]
+        assert np.array_equal(resumed.points.x, straight.points.x)
+        assert np.array_equal(resumed.points.stress, straight.points.stress)
+    with pytest.raises(InvalidInputError, match="end_force holds 3 "
+                       "entries"):
+        simulate(mesh, ElementQuad1(), points.copy(), options=Options(
+            resume=Resume(first_step=12, load_factor=record.load_factor,
+                          end_force=np.zeros(3))), **kw)
+    with pytest.raises(InvalidInputError, match="finite 1D float array"):
+        Resume(first_step=2, end_force=np.array([np.nan]))
+
+
 @pytest.mark.slow
 def test_a_block_landing_on_a_staircase_gains_no_energy():
     """A tilted block dropped 0.05 onto a slab inclined at 12 degrees,

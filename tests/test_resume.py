@@ -15,8 +15,8 @@ import meshio
 import numpy as np
 import pytest
 
-from skfem_mpm.scenes.checkpoint import (CHECKPOINT, CheckpointError,
-                                         load_checkpoint)
+from skfem_mpm.scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS,
+                                         CheckpointError, load_checkpoint)
 from skfem_mpm.cli import main
 from skfem_mpm.scenes.io import TEMPORARY_PREFIX
 
@@ -509,6 +509,58 @@ def test_a_resumed_contact_run_warns_as_its_first_invocation(tmp_path,
     fell = -first.point_data["displacement"][:, 1].min()
     assert fell == pytest.approx(9.81 * .05 ** 2 / 2, rel=.05)
     assert_same_run(straight, resumed)
+
+
+COLLIDING_BLOCKS = """
+name = "two blocks colliding"
+[grid]
+x = [0.0, 1.2, 24]
+y = [0.0, 0.4, 8]
+[[bodies]]
+name = "left"
+region = { x = [0.1, 0.3], y = [0.1, 0.3] }
+density = 1000.0
+initial_velocity = [2.0, 0.0]
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+[[bodies]]
+name = "right"
+region = { x = [0.32, 0.52], y = [0.1, 0.3] }
+density = 1000.0
+material = { model = "linear_elastic", E = 1e6, nu = 0.3 }
+[[contacts]]
+first = "left"
+second = "right"
+[dynamics]
+time_step = 0.002
+duration = 0.03
+"""
+
+
+def test_a_collision_resumed_in_contact_books_its_energies_as_straight(
+        tmp_path):
+    """Two blocks colliding, stopped after step 8 (in contact) and
+    resumed: the energies of every step are the straight run's to the
+    bit.  The checkpoint carries the contact's force where step 8 ended,
+    which step 9 books the contact's work from; without it the resumed
+    step 9's internal work was booked from its start force."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(COLLIDING_BLOCKS)
+    straight, resumed = tmp_path / "straight", tmp_path / "resumed"
+    assert main(["run", str(scene), "--out", str(straight),
+                 "--no-progress", "--checkpoint-every", "100"]) == 0
+    assert main(["run", str(scene), "--out", str(resumed), "--no-progress",
+                 "--max-steps", "8"]) == 0
+    assert np.abs(load_checkpoint(resumed).end_force).max() > 0
+    assert main(["run", "--resume", str(resumed), "--no-progress"]) == 0
+    assert_same_run(straight, resumed)
+    a, b = load_checkpoint(straight), load_checkpoint(resumed)
+    assert a.history.shape == (15, len(HISTORY_KEYS))
+    assert np.array_equal(a.history, b.history)
+    data = dict(np.load(straight / CHECKPOINT))
+    data["end_force"] = np.full(3, np.nan)
+    np.savez(straight / CHECKPOINT, **data)
+    with pytest.raises(CheckpointError, match="'end_force' holds NaN"):
+        load_checkpoint(straight)
 
 
 def test_the_report_counts_the_steps_taken(tmp_path, capsys):

@@ -10,11 +10,13 @@ one history row per converged step and the reaction resultants per support
 (so that ``summary.json`` covers the whole run across resumes), the wall
 seconds and the seconds per phase spent on the steps it holds (so that a
 resumed run's ``wall_seconds`` and ``timings`` add its invocations up),
-and the SHA-256 of the scene file it belongs to (a stale checkpoint is
-refused).  A run that kept checkpoints ends with one at its last step,
-load factor 1 (:attr:`Checkpoint.complete`): resuming it has nothing to
-do (a trial's completed run left its checkpoint at step 15 of 20, and
-``--resume`` computed steps 16-20 again).
+the force of a contact between bodies where a dynamic run's last step
+ended (its next step books the contact's work from it), and the SHA-256
+of the scene file it belongs to (a stale checkpoint is refused).  A run
+that kept checkpoints ends with one at its last step, load factor 1
+(:attr:`Checkpoint.complete`): resuming it has nothing to do (a trial's
+completed run left its checkpoint at step 15 of 20, and ``--resume``
+computed steps 16-20 again).
 
 """
 import hashlib
@@ -118,6 +120,10 @@ class Checkpoint:
         Wall seconds and seconds per phase (locate, assemble, ...) the
         invocations spent up to this checkpoint (a checkpoint written
         before they were kept: 0 and ``{}``).
+    end_force
+        Dynamic runs with contact between bodies: the contact's force
+        where the last step ended, a grid vector
+        (:attr:`~skfem_mpm.Resume.end_force`), or ``None``.
 
     """
     step: int
@@ -132,6 +138,7 @@ class Checkpoint:
     domain0: Optional[ndarray] = None
     wall_seconds: float = 0.
     timings: dict = field(default_factory=dict)
+    end_force: Optional[ndarray] = None
 
     @property
     def complete(self) -> bool:
@@ -182,6 +189,8 @@ def save_checkpoint(outdir, checkpoint: Checkpoint):
         arrays["state_" + name] = value
     if c.domain0 is not None:
         arrays["domain0"] = c.domain0
+    if c.end_force is not None:
+        arrays["end_force"] = c.end_force
     with atomic_path(Path(outdir) / CHECKPOINT) as tmp:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
@@ -311,13 +320,20 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
     if domain0 is not None and domain0.shape != state.x.shape:
         raise bad("domain0", "has shape {}, expected {}".format(
             domain0.shape, state.x.shape))
+    end_force = get("end_force", "f", 1) if "end_force" in a else None
+    if end_force is not None and (state.velocity is None or step == 0):
+        raise bad("end_force", "is a dynamic run's after a step, and this "
+                  "checkpoint's {}".format("points have no velocity"
+                                          if state.velocity is None
+                                          else "step is 0"))
     return Checkpoint(step=step, nsteps=nsteps, load_factor=factor,
                       increment=increment, points=state,
                       counters={str(k): int(v) for k, v in zip(names,
                                                                values)},
                       history=history, reactions=reactions,
                       scene_sha256=digest, domain0=domain0,
-                      wall_seconds=wall, timings=timings)
+                      wall_seconds=wall, timings=timings,
+                      end_force=end_force)
 
 
 

@@ -1842,6 +1842,14 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     run.terms = sorted(terms + case.terms, key=lambda term: term.weighs)
     for term in run.terms:
         term.begin_run(points)
+    if resume.end_force is not None:
+        inertia = [term for term in run.terms
+                   if isinstance(term, InertiaTerm)]
+        if not inertia:
+            raise InvalidInputError(
+                "Resume.end_force is given to a quasi-static run: it is "
+                "the contact's force where a dynamic run's step ended")
+        inertia[0].resume(resume.end_force)
     solver = options.solver
     logger.info("linear solver: %s", solver if isinstance(solver, str) else
                 "auto" if solver is None else

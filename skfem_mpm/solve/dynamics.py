@@ -492,9 +492,19 @@ class InertiaTerm(GridTerm):
         #: step's end (:attr:`~skfem_mpm.protocols.GridTerm.
         #: works_from_last_end`) where the last step ended
         self.last_end = None
+        self.resumed = False
 
     def begin_run(self, points) -> None:
-        self.last_end = None
+        self.last_end, self.resumed = None, False
+
+    def resume(self, end_force: Optional[ndarray]) -> None:
+        """Go on from a step whose record's :attr:`~skfem_mpm.StepRecord.
+        end_force` (dense) is ``end_force``: the work of the next step
+        is booked as the run's own would have been (a run resumed without
+        it booked its first step's from the start force: 6.626 for 6.657
+        of internal work, two blocks in contact)."""
+        self.last_end = end_force
+        self.resumed = end_force is not None
 
     def begin_step(self, problem):
         """The step's inertia, the internal and external forces at its
@@ -517,6 +527,12 @@ class InertiaTerm(GridTerm):
         step.owner, step.f_work0 = self, step.f_int0
         ends = [term for term in problem.terms
                 if getattr(term, "works_from_last_end", False)]
+        if self.resumed and self.last_end.size != zero.size:
+            raise InvalidInputError(
+                "Resume.end_force holds {} entries, the run's grid {} DOFs: "
+                "it is not this run's (Resume.after(record) of its last "
+                "step gives it)".format(self.last_end.size, zero.size))
+        self.resumed = False
         if ends and self.last_end is not None \
                 and self.last_end.size == zero.size:
             f = [term.start_force(zero, start) for term in ends]
@@ -586,6 +602,10 @@ class StepInertia(Inertia, GridTerm):
                 if getattr(term, "works_from_last_end", False)]
         ends = [f for f in ends if f is not None]
         self.owner.last_end = sum(ends) if ends else None
+        # kept with the record (its nonzero entries: the contact's DOFs),
+        # so that a run resumed after this step books as this one does
+        record.end_force = None if not ends else \
+            csr_matrix(self.owner.last_end[None])
         masses, duration = self.masses, self.dynamics.duration
         record.time = problem.f_new * duration
         record.time_step = (problem.f_new - problem.f_old) * duration

@@ -37,11 +37,15 @@ class Resume:
     unstretched by their ``F``; :attr:`~skfem_mpm.Result.domain0` of
     the run resumed)
     and ``counters`` those the run goes on from (a ghost penalty switched
-    on stays on): :func:`resumed_counters` of the step's.  :meth:`after`
-    builds it from the last converged step's record and, for GIMP, the
-    initial domains (a GIMP run resumed without them is refused): the run
-    then continues bit-identically, its counters too.  What grid terms of
-    one's own keep over the steps is theirs to keep.
+    on stays on): :func:`resumed_counters` of the step's; ``end_force``
+    (dynamics with contact between bodies) the contact's force where
+    that step ended, a dense grid vector, which the next step books the
+    contact's work from (:attr:`~skfem_mpm.StepRecord.end_force`).
+    :meth:`after` builds it from the last converged step's record and,
+    for GIMP, the initial domains (a GIMP run resumed without them is
+    refused): the run then continues bit-identically, its counters and
+    energies too.  What grid terms of one's own keep over the steps is
+    theirs to keep.
 
     >>> Resume(first_step=0)
     Traceback (most recent call last):
@@ -53,9 +57,21 @@ class Resume:
     increment: Optional[float] = None
     domain0: Optional[ndarray] = None
     counters: Optional[dict] = None
+    end_force: Optional[ndarray] = None
 
     def __post_init__(self):
         check_int("first_step", self.first_step, 1)
+        force = self.end_force
+        if force is not None and not (
+                isinstance(force, np.ndarray) and force.ndim == 1
+                and force.dtype.kind == "f"
+                and np.isfinite(force).all()):
+            raise InvalidInputError(
+                "Resume.end_force must be None or a finite 1D float array "
+                "(a grid vector: Resume.after(record) gives it), got "
+                "{!r}".format(force if not isinstance(force, np.ndarray)
+                              else "an array of shape {} and dtype "
+                              "{}".format(force.shape, force.dtype)))
 
     @classmethod
     def after(cls, record, domain0: Optional[ndarray] = None) -> "Resume":
@@ -65,7 +81,8 @@ class Resume:
                    load_factor=record.load_factor,
                    increment=record.increment,
                    domain0=domain0,
-                   counters=resumed_counters(record.counters))
+                   counters=resumed_counters(record.counters),
+                   end_force=end_force_of(record))
 
     def check(self, nsteps: int, method: str):
         """Raise :class:`~skfem_mpm.errors.InvalidInputError` for a state
@@ -93,6 +110,15 @@ class Resume:
                     "{} must lie in {}{}, {}{}, got {!r}".format(
                         name, "[" if name == "load_factor" else "(", low,
                         high, ")" if name == "load_factor" else "]", value))
+
+
+def end_force_of(record) -> Optional[ndarray]:
+    """A step record's :attr:`~skfem_mpm.StepRecord.end_force` as a dense
+    grid vector (``None`` without one: a record of a run without
+    contact between bodies in dynamics, or of before it was kept)."""
+    force = getattr(record, "end_force", None)
+    return None if force is None else \
+        np.asarray(force.toarray(), dtype=np.float64).ravel()
 
 
 def resumed_counters(counters: dict) -> dict:

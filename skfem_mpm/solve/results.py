@@ -87,6 +87,12 @@ class StepRecord:
         of the internal and external forces (loads; not the reactions of
         supports or prescribed motion) over the step; ``None`` in
         quasi-static runs.  :meth:`Result.energies` sums them.
+    end_force
+        Dynamic runs with contact between bodies: the contact's force
+        (a sparse 1 x N row of the step's grid DOFs) where the step
+        ended, which the next step books the contact's work from; what
+        a resume needs too (:meth:`~skfem_mpm.Resume.after`).  ``None``
+        otherwise.
 
     """
     step: int
@@ -114,6 +120,7 @@ class StepRecord:
     time: Optional[float] = None
     time_step: Optional[float] = None
     energy: Optional[dict] = None
+    end_force: Optional[object] = None
 
     @property
     def reactions(self) -> ndarray:
