@@ -289,7 +289,7 @@ def test_default_quantity_and_errors_never_nan(tmp_path):
     assert c["against"] == "finest" and c["order"] is None
     assert [r["other_geometry"] for r in rows] == [True, False, False]
     assert c["why"].startswith(
-        "fewer than three grids share the finest grid's geometry (other: "
+        "fewer than three grids share the scene's geometry (other: "
         "3 elements (body 'block' z = 2.5 inside a cell)")
     f = np.array(c["values"])
     assert np.allclose(errors[:2], abs(f[:2] - f[2]) / f[2], rtol=1e-12)
@@ -469,10 +469,32 @@ def test_elements_that_all_move_the_scene_s_faces_off_its_lines_are_refused(
     assert re.search(words, capsys.readouterr().err)
     assert not out.exists()
     assert default_vary(scene)["elements"] == [6, 12, 24, 48, 96, 192]
+    # values that each lose another face are told so, face by face (the
+    # first value's had been said lost on every grid: a review)
+    from skfem_mpm.scenes.scene import Body, Grid, Scene
+    from skfem_mpm.studies.study import lost_lines
+    two = Scene(grid=Grid(axes=[(0., 1., 12), (0., 1., 12)]), bodies=[
+        Body(name="soil", region=[[0., .5], [0., 1. / 3.]], material=None)])
+    assert geometry_step(two) == 6
+    assert lost_lines(two, [2, 3]).startswith(
+        "elements = 2, 3 each put inside a cell a face (2: body 'soil' y = "
+        "0.333333; 3: body 'soil' x = 0.5), where the scene's own grid")
+    assert lost_lines(two, [2, 4]).startswith(
+        "elements = 2, 4 put body 'soil' y = 0.333333 inside a cell on "
+        "every grid")
     rows = study(scene, {"elements": [6, 12, 16]}, tmp_path / "some",
                  progress=False)
     assert [r["failure"] for r in rows] == ["", "", ""]
     assert [r["other_geometry"] for r in rows] == [False, False, True]
+    # the reference: the finest grid that keeps the scene's geometry (12),
+    # not the finest (16), which another geometry's (a review)
+    c = rows.measured["convergence"][0]
+    label = c["quantity"]
+    assert c["reference"] == rows[1]["values"][label] != \
+        rows[2]["values"][label]
+    assert c["why"].startswith("fewer than three grids share the scene's "
+                               "geometry (other: 16 elements (body 'soil' "
+                               "y = 1 inside a cell)")
 
 
 def test_elements_that_scale_the_grid_exactly_refine_it_untouched(

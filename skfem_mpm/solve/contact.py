@@ -366,9 +366,10 @@ def side_rows(gimp: LinearGimp, x: ndarray, half: ndarray, sign: ndarray,
     towards the domain), where ``spanning`` only of a domain that spans
     a grid line along that normal: ``(facing, rows)``, the indices of
     those corners and their scalar rows (facing, ``gimp.N``) on
-    ``gimp``'s grid, the weights of that side as a box of zero thickness (the hat functions
-    along the normal at the side, their average along it) and their
-    gradient towards the corner (``rows`` ``None`` where none faces).
+    ``gimp``'s grid, the weights of that side as a box of zero
+    thickness (the hat functions along the normal at the side, their
+    average along it) and their gradient towards the corner (``rows``
+    ``None`` where none faces).
 
     cpGIMP's internal force of a uniform stress on a node is the stress
     on the node's weight over the surface of its points' domains: a
@@ -1986,11 +1987,12 @@ class StepContact(GridTerm):
         run.warned.add(("slow updates",))
         logger.warning(
             "step %d: the contact's penetration still %.2g of the tolerance "
-            "after %d augmented-Lagrangian updates, the last cutting it by "
+            "after %d augmented-Lagrangian updates, the last %s it by "
             "%.1f%%: its corners' gaps follow their neighbours' more than "
             "their own pressure, and each update takes a solve; a larger "
             "Obstacle penalty takes fewer (%s)", self.problem.step,
-            done[-1], len(done), 100 * (1 - done[-1] / done[-2]),
+            done[-1], len(done), "cutting" if done[-1] <= done[-2] else
+            "raising", 100 * abs(1 - done[-1] / done[-2]),
             SLOW_MEASURED)
 
     def rough_changes(self, ev, du: ndarray) -> bool:

@@ -78,7 +78,7 @@ from ..solve.core import DEFAULT_GHOST, SMALL_STRAIN_GHOST
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS
 from ..solve.results import PHASES
 from .column import SOURCE, column_error, column_extent
-from .convergence import (ROUNDOFF, SAFETY_UNTRUSTED, from_data_range,
+from .convergence import (ROUNDOFF, from_data_range,
                           self_convergence)
 
 logger = logging.getLogger(__name__)
@@ -90,7 +90,7 @@ __all__ = ["study", "refine", "case_error", "check_reference", "analyse",
            "disagreements", "VARIABLES",
            "DEFAULT_VARY", "DEFAULT_QUANTITY", "CASES_UNASKED",
            "default_vary", "default_elements", "whole_cells_step",
-           "not_whole", "geometry_step", "lost_lines"]
+           "not_whole", "geometry_step", "lost_lines", "own_lines"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
              "line_search", "newton")
@@ -130,9 +130,9 @@ def geometry_step(scene: Scene) -> int:
     from an axis's start of the scene's ``n`` is ``k elements / ref``
     cells from it on the grid of ``elements`` (``ref`` the largest
     count), a whole number for the multiples of ``ref / gcd(k, ref)``.
-    A trial's soil top on a line of the scene's 12 cells a side, a third
-    of the way up, lay inside cells on grids of 4, 8, 16 and 32 elements
-    (an error of 2.7e-2 where 12, 24 and 48 gave 5.9e-6).
+    A trial's soil top on a line of the scene's 12 cells a side, 8 cells
+    up, lay inside cells on grids of 4, 8, 16 and 32 elements (an error
+    of 2.7e-2 where 12, 24 and 48 gave 5.9e-6).
 
     >>> from skfem_mpm.scenes.scene import Body, Grid, Scene
     >>> grid = Grid(axes=[(0., 1., 12), (0., 1.5, 12)])
@@ -145,10 +145,7 @@ def geometry_step(scene: Scene) -> int:
     axes = scene.grid.axes
     ref = max(n for _, _, n in axes)
     step = whole_cells_step(scene)
-    lines = feature_lines(scene)
-    for axis, value, _ in lines:
-        if (axis, value, _) in _off_lines(axes, lines):
-            continue
+    for axis, value, _ in own_lines(scene):
         lo, hi, n = axes[axis]
         k = int(round((value - lo) / (hi - lo) * n))
         step = step * (ref // math.gcd(k, ref)) // math.gcd(
@@ -179,22 +176,34 @@ def lost_lines(scene: Scene, values: Sequence[int]) -> str:
     if any(int(v) % step == 0 for v in values):
         return ""
     axes = scene.grid.axes
-    lines = feature_lines(scene)
-    kept = [line for line in lines if line not in _off_lines(axes, lines)]
-    off = off_grid_lines(scene, int(values[0]), kept)
-    axis, value, what = off[0] if off else next(
-        line for v in values for line in off_grid_lines(scene, int(v),
-                                                        kept))
-    return ("elements = {} put {} {} = {:g} inside a cell on every grid, "
-            "where the scene's own grid of {} cells has it on a grid "
-            "line: each case would model another geometry (bodies are "
-            "seeded by cells, supports and obstacles meet them "
-            "elsewhere), and the study's error and cost would not be "
+    kept = own_lines(scene)
+    lost = [off_grid_lines(scene, int(v), kept) for v in values]
+    common = [line for line in lost[0]
+              if all(line in off for off in lost[1:])]
+
+    def face(line):
+        return "{} {} = {:g}".format(line[2], "xyz"[line[0]], line[1])
+    where = "put {} inside a cell on every grid".format(face(common[0])) \
+        if common else "each put inside a cell a face ({})".format("; ".join(
+            "{}: {}".format(int(v), face(off[0]))
+            for v, off in zip(values, lost)))
+    return ("elements = {} {}, where the scene's own grid of {} cells has "
+            "it on a grid line: each case would model another geometry "
+            "(bodies are seeded by cells, supports and obstacles meet "
+            "them elsewhere), and the study's error and cost would not be "
             "the scene's.  The values that keep every such line on a "
             "grid line are the multiples of {} ({}, ...)".format(
-                ", ".join(str(int(v)) for v in values), what,
-                "xyz"[axis], value, " x ".join(str(n) for _, _, n in axes),
+                ", ".join(str(int(v)) for v in values), where,
+                " x ".join(str(n) for _, _, n in axes),
                 step, ", ".join(str(step * k) for k in range(1, 5))))
+
+
+def own_lines(scene: Scene) -> list:
+    """The feature lines (:func:`feature_lines`) that the scene's own grid
+    has on grid lines: the geometry a study's grids keep."""
+    lines = feature_lines(scene)
+    off = _off_lines(scene.grid.axes, lines)
+    return [line for line in lines if line not in off]
 
 
 def _counts(scene: Scene, elements: int) -> list:
@@ -245,10 +254,7 @@ def not_whole(scene: Scene, values: Sequence[int]) -> str:
     rounded = _rounded(scene, e)
     sizes = " x ".join("{:.4g}".format((hi - lo) / n)
                        for lo, hi, n in rounded.grid.axes)
-    lines = feature_lines(scene)
-    off = _off_lines(rounded.grid.axes, [
-        line for line in lines
-        if line not in _off_lines(scene.grid.axes, lines)])
+    off = _off_lines(rounded.grid.axes, own_lines(scene))
     moved = "" if not off else ", and put {} {} = {:g} inside a cell{}" \
         .format(off[0][2], "xyz"[off[0][0]], off[0][1],
                 "" if len(off) == 1 else " (and {} more line{})".format(
@@ -770,28 +776,34 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             r["mixed_stabilisation"] = bool(mixed)
         if refined:
             fitted = [r for r in fitted if any(r is a for a in alike)]
+        kept = [k for k, r in enumerate(members)
+                if any(r is f for f in fitted)]
         if len(fitted) < 3:             # no order without three grids
             fitted = members
         # on at the end or not, grids left out for it
         ends = refined and len(alike) < len(members)
         others = " and ".join(words for words in (
-            "geometry (other: {})".format(left_out) if left_out else "",
-            "ghost penalty (ghost=\"auto\": {})".format(mixed) if ends
-            else "") if words)
+            "the scene's geometry (other: {})".format(left_out) if left_out
+            else "", "the finest grid's ghost penalty (ghost=\"auto\": {})"
+            .format(mixed) if ends else "") if words)
         for q in quantities:
             values = [r["values"][q.label] for r in fitted]
             if refined and fitted is members and others:
                 sizes = [cell_size(scene, r["elements"]) for r in fitted]
+                # the reference: the finest grid of the scene's geometry
+                # and stabilisation (a finest grid of another geometry,
+                # left out, had been the reference of those that keep it)
                 found = from_data_range(
-                    values, int(np.argmin(sizes)), "fewer than three grids "
-                    "share the finest grid's " + others)
+                    values, min(kept or range(len(members)),
+                                key=lambda k: sizes[k]),
+                    "fewer than three grids share " + others)
             elif refined:
                 sizes = [cell_size(scene, r["elements"]) for r in fitted]
                 found = self_convergence(sizes, values,
                                          formal_order(scene, q))
                 if left_out:
                     found.why += "; left out of the fit, a geometry other " \
-                        "than the finest grid's: " + left_out
+                        "than the scene's: " + left_out
                 if mixed:
                     found.why += "; {} (ghost=\"auto\"): {}".format(
                         "left out of the fit, the ghost penalty on at the "
@@ -821,11 +833,15 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                     _relative(u, scale)
             for r in members:   # left out of the fit: measured against it
                 if not any(r is f for f in fitted):
-                    error = abs(r["values"][q.label] - found.reference)
+                    # its distance to the reference, its uncertainty that
+                    # plus the reference's (from_data_range's rule: three
+                    # times the distance was zero where the two agreed)
+                    error = max(abs(r["values"][q.label] - found.reference),
+                                ROUNDOFF * abs(found.reference))
                     r.setdefault("relative_errors", {})[q.label] = \
                         _relative(error, scale)
                     r.setdefault("relative_uncertainties", {})[q.label] = \
-                        _relative(SAFETY_UNTRUSTED * error, scale)
+                        _relative(error + (found.uncertainty or 0.), scale)
             found = found.as_dict()
             found["absolute_errors"] = found.pop("errors")
             found["absolute_uncertainties"] = found.pop("uncertainties")
@@ -991,9 +1007,10 @@ def same_geometry(scene: Scene, members: List[dict], lines: list):
     elements, the 15 such, fitted an order 3.53 and an uncertainty of
     94 N/m that 90 elements missed by 27 times (a user trial)."""
     finest = max(members, key=lambda r: r["elements"])
-    kept_lines = [line for line in lines if line not in off_grid_lines(
-        scene, finest["elements"], lines) or line not in _off_lines(
-            scene.grid.axes, lines)]
+    off_finest, own = off_grid_lines(scene, finest["elements"], lines), \
+        own_lines(scene)
+    kept_lines = [line for line in lines
+                  if line not in off_finest or line in own]
     fitted, words = [], []
     for r in members:
         off = off_grid_lines(scene, r["elements"], kept_lines)
