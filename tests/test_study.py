@@ -1335,3 +1335,18 @@ def test_a_serial_study_says_each_seeding_warning_once(tmp_path, caplog):
     seeding = [r.getMessage() for r in caplog.records
                if r.getMessage().startswith("seeding: the points hold")]
     assert len(seeding) == len(set(seeding)) == 2, seeding
+
+
+def test_a_study_whose_cases_all_failed_does_not_say_elements_were_fixed(
+        tmp_path):
+    """A trial's study of 8, 16, 32 and 64 elements, every case failed,
+    said its error's reference was chosen as where "elements were not
+    varied"."""
+    from skfem_mpm.studies.study import DEFAULT_QUANTITY, analyse
+    path = tmp_path / "third.toml"
+    path.write_text(THIRD_UP)
+    rows = [dict(elements=e, failure="NewtonDivergenceError: step 1",
+                 points=0) for e in (12, 24)]
+    words = analyse(load_scene(path), rows, [DEFAULT_QUANTITY])["error"]
+    assert "elements were not varied" not in words["measures"]
+    assert "where that order is credible" in words["measures"]

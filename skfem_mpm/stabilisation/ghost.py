@@ -266,7 +266,8 @@ class GhostStabilisation(GridTerm):
             self.switch_on()
             problem.counters["ghost_from_step"] = problem.step
             logger.info(
-                "step %d: points' domains reach past a support at %d grid "
+                "step %d: points' domains reach past a support or into a "
+                "cell an obstacle covers at %d grid "
                 "faces (the first at %s): the ghost penalty on (gamma %g) "
                 "for the rest of the run", problem.step, crossed.size,
                 np.round(self.mesh.p[:, self.mesh.facets[:, crossed[0]]].mean(

@@ -758,7 +758,7 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     no error (unknown: at most its uncertainty).
     """
     done = [r for r in rows if not r["failure"] and "values" in r]
-    refined = any("elements" in r for r in done)
+    refined = any("elements" in r for r in rows)   # all failed: varied
     keys = [k for k in VARIABLES if k != "elements"] if refined else \
         list(CHOICES)
     convergence = []
