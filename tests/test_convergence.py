@@ -31,6 +31,16 @@ def case(elements, ppc, value):
 
 
 @pytest.mark.slow
+def drawn_figures(rows, outdir, measured) -> dict:
+    """The study's figures by file name, drawn and not written."""
+    figures = {}
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(plot, "save_figure", lambda fig, path, **kw:
+                      figures.update({path.name: fig}))
+        plot_study(rows, outdir, measured)
+    return figures
+
+
 def test_a_noisy_study_does_not_overclaim(tmp_path):
     """Issue 30's strip load on a soft crust, as numbers: with 3 points
     per cell six settlements within 0.8% that oscillate with refinement
@@ -72,11 +82,7 @@ def test_a_noisy_study_does_not_overclaim(tmp_path):
     assert "value: settlement (m)" in text.splitlines()[1]
     assert "uncertainty" in text.splitlines()[2]
     assert "CPU s" in text.splitlines()[2]
-    figures = {}
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(plot, "save_figure", lambda fig, path, **kw:
-                      figures.update({path.name: fig}))
-        plot_study(rows, tmp_path, measured)
+    figures = drawn_figures(rows, tmp_path, measured)
     for name in ("error_vs_elements.png", "error_vs_time.png"):
         ax = figures[name].axes[0]
         drawn = sum(len(line.get_xdata()) for line in ax.lines
@@ -295,11 +301,7 @@ def test_without_a_credible_order_coarser_grids_show_larger_errors(
     _write(tmp_path, rows, 1, measured)
     found = (tmp_path / "study.json").read_text()
     assert '"error": null' in found
-    figures = {}
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(plot, "save_figure", lambda fig, path, **kw:
-                      figures.update({path.name: fig}))
-        plot_study(rows, tmp_path, measured)
+    figures = drawn_figures(rows, tmp_path, measured)
     for name in ("error_vs_elements.png", "error_vs_time.png"):
         ax = figures[name].axes[0]
         unknown = [line for line in ax.lines

@@ -14,6 +14,7 @@ from skfem_mpm.errors import InvalidInputError, NewtonDivergenceError
 from skfem_mpm.scenes.scene import (Body, Grid, PointLoad, Scene, Support,
                                     Traction, build_points, run_scene)
 from skfem_mpm.scenes.scene_file import load_scene
+from test_cli_trial53 import PRESSED as PRESSED_RUN
 
 # a 2 m x 1 m elastic block on a 4 m x 2 m grid of 0.5 m cells
 GRID = Grid([(0., 4., 8), (0., 2., 4)])
@@ -76,28 +77,8 @@ def test_a_traction_on_a_side_held_in_its_direction_is_told(caplog):
 # iterations a step: the first round of a step with contact (to the loose
 # residual before the contact's update) fails, and the run cuts back
 # until it stops
-PRESSED = """
-name = "pressed block"
-[grid]
-x = [0.0, 2.0, 4]
-y = [0.0, 2.0, 4]
-[[bodies]]
-name = "block"
-region = { x = [0.0, 1.0], y = [0.0, 1.0] }
-points_per_cell = 2
-material = { model = "von_mises", E = 1e6, nu = 0.3, yield_stress = 5e3 }
-[[supports]]
-name = "base"
-boundary = "bottom"
-[gravity]
-body_force = [0.0, -18000.0]
-[[obstacles]]
-box = { x = [0.0, 0.5], y = [1.0, 1.5] }
-displacement = [0.0, -0.01]
-[solver]
-steps = 4
-max_iterations = 2
-"""
+PRESSED = PRESSED_RUN.replace('method = "mpm"\nsteps = 4',
+                              "steps = 4\nmax_iterations = 2")
 
 
 def test_a_retry_says_which_tolerance_it_missed(tmp_path, caplog):
