@@ -129,7 +129,8 @@ class GridTerm:
     #: from the force the last step ended with, not the term's
     #: :meth:`start_force` (contact: the pairs' pressures the step starts
     #: from are Newton's predictor, and pairs made anew start without
-    #: theirs); that force is kept with the step's record and carried
+    #: theirs; an obstacle's corner put back on its point can start
+    #: inside it); that force is kept with the step's record and carried
     #: through a resume (:attr:`~skfem_mpm.StepRecord.end_force`)
     works_from_last_end = False
 
