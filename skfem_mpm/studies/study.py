@@ -1042,6 +1042,7 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
     2.95 for standard MPM, its coarse grids putting the soil's surface
     inside cells), and per quantity and group its reference and
     uncertainty with, in words, why it was or was not extrapolated.
+    :func:`study`'s docstring shows it from Python.
 
     Parameters
     ----------
@@ -1056,8 +1057,7 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
         The names varied (``"elements"``, ``"ppc"``, ...), shown as the
         table's first columns in this order; a group's rate is fitted
         over ``"elements"`` where it is one of them.
-
-    :func:`study`'s docstring shows it from Python."""
+    """
     lines = ["error: {}".format(measured["error"]["measures"])]
     first = measured["convergence"][0]["quantity"] \
         if measured["convergence"] else None
