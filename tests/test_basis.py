@@ -469,3 +469,30 @@ def test_the_fields_are_made_when_first_asked_for():
     for basis in bases:
         assert all(np.shares_memory(field.grad, basis.scalar_fields()[1])
                    for (field,) in basis.basis)
+
+
+@pytest.mark.parametrize("elem", ["ElementQuad1", "ElementQuad2"])
+def test_operator_slivers_are_the_value_matrix_ones(elem):
+    """A step's sliver nodes found from the operator's shape values
+    (:func:`~skfem_mpm.solve.dynamics.operator_slivers`, no value matrix
+    formed) are the value matrix's (:func:`~skfem_mpm.solve.dynamics.
+    sliver_nodes`), negative shape values (quadratic elements) by their
+    size: points clustered in one corner leave the far nodes empty, and
+    a point's tiny volume makes its nodes slivers."""
+    import skfem
+    from skfem_mpm.methods.operators import PointOperator
+    from skfem_mpm.solve.dynamics import (operator_slivers, sliver_nodes,
+                                          value_matrix)
+    mesh = MeshQuad.init_tensor(*[np.linspace(0., 1., 5)] * 2)
+    points = arbitrary_points(mesh, 60, seed=3, clustered=True)
+    volume = np.full(points.n, 1e-2)
+    volume[np.argmax(points.x[0] + points.x[1])] = 1e-9
+    op = PointOperator(MaterialPointBasis(mesh, getattr(skfem, elem)(),
+                                          points))
+    assert (op.basis.point_index < 0).any()               # padding slots
+    assert (op.shape_values < 0).any() == (elem == "ElementQuad2")
+    least = 1e-3 / 16
+    expected = sliver_nodes(value_matrix(op), volume, least)
+    found = operator_slivers(op, volume, least)
+    assert 0 < expected.size < op.N // 2
+    assert found.tolist() == expected.tolist()

@@ -82,7 +82,7 @@ from .contact import (CellValues, block_diagonal, check_carried_corners,
                       corner_signs, coulomb, friction_hint, side_rows,
                       spline_rows)
 from .contact_pairs import FACING, PairFinder, overlapping
-from .dynamics import sliver_nodes, value_matrix
+from .dynamics import operator_slivers, value_matrix
 from .problem import SLIVER_SUPPORT
 
 logger = logging.getLogger(__name__)
@@ -1594,8 +1594,8 @@ class StepBodyContact(GridTerm):
                 part["keys"].size for part in self.parts):
             return
         points, dim, h = problem.points, self.dim, term.h
-        sliver = sliver_nodes(value_matrix(problem.op), points.volume,
-                              SLIVER_SUPPORT * h ** dim)
+        sliver = operator_slivers(problem.op, points.volume,
+                                  SLIVER_SUPPORT * h ** dim)
         if not sliver.size:
             return
         X = term.corners(points).reshape(dim, -1)

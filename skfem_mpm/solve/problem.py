@@ -632,12 +632,17 @@ class StepProblem:
         h = run.cell_size
         if not (run.method.moves and np.abs(dx).max(initial=0.) > THROWN * h):
             return
-        from .dynamics import sliver_nodes, value_matrix  # (imports this)
-        dim, S = self.points.dim, value_matrix(self.op).tocsc()
-        sliver = sliver_nodes(S, self.points.volume,
-                              SLIVER_SUPPORT * h ** dim)
-        moved = S[:, sliver] @ du.reshape(-1, dim)[sliver]
-        moved = np.sqrt((moved ** 2).sum(axis=1))
+        from .dynamics import operator_slivers  # (imports this)
+        dim = self.points.dim
+        sliver = operator_slivers(self.op, self.points.volume,
+                                  SLIVER_SUPPORT * h ** dim)
+        if not sliver.size:
+            return
+        # the points' motion by the slivers' values alone (at 1e6 points
+        # the value matrix and its columns took 0.17 s a step)
+        alone = np.zeros_like(du).reshape(-1, dim)
+        alone[sliver] = du.reshape(-1, dim)[sliver]
+        moved = np.sqrt((self.op.values(alone.ravel()) ** 2).sum(axis=0))
         if not moved.max(initial=0.) > THROWN * h:
             return
         p = int(np.argmax(moved))
