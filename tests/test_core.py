@@ -1096,3 +1096,78 @@ def test_quadratic_cells_with_too_few_points_are_named_when_singular():
     from skfem_mpm.errors import SingularSystemError
     with pytest.raises(SingularSystemError, match=SEEDED_2X2):
         q2_cantilever(2, "small")
+
+
+@pytest.mark.parametrize("method", ["ugimp", "cpgimp"])
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+@pytest.mark.parametrize("dim", [2, 3])
+def test_a_traction_on_domains_past_a_grid_line(method, kinematics, dim):
+    """A block stretched by a traction on its right face, on a grid line
+    at the start, in two steps: after the first the loaded domains reach
+    a thousandth of a cell past the line, into empty cells.  GIMP's faces
+    load the nodes the domains reach (mapped by the grid's shape
+    functions in the points' cells, the node beyond got nothing, its
+    balance took the loaded column's stress to 0 and the column beside
+    it carried 200 for 100): the stress uniform within the lateral
+    contraction's change of area (plane strain and 3D: 0.05%)."""
+    from skfem import ElementHex1, MeshHex
+    from skfem_mpm import Options, Stabilisation
+    axes = [np.linspace(0., 3., 7)] + [np.linspace(0., 1.5, 4)] * (dim - 1)
+    mesh, elem = (MeshQuad, ElementQuad1) if dim == 2 else (MeshHex,
+                                                            ElementHex1)
+    mesh = mesh.init_tensor(*axes)
+    points = seed_points(mesh.init_tensor(*axes), 2, region=lambda x: (
+        x[0] < 2.) & np.all(x[1:] < 1., axis=0))
+
+    def rollers(b):
+        return np.concatenate([b.get_dofs(lambda x: np.isclose(x[d], 0.))
+                               .all("u^{}".format(d + 1))
+                               for d in range(dim)])
+    t = np.zeros(dim)
+    t[0] = 100.
+    res = simulate(mesh, elem(), points, LinearElastic(1e5, .3), rollers,
+                   loads=[Traction(side_points(points, "right"), "right",
+                                   t)], nsteps=2, method=method,
+                   kinematics=kinematics, options=Options(
+                       stabilisation=Stabilisation(ghost=0.)))
+    moved = res.points.x[0] + res.points.domain[0]
+    assert moved.max() > 2. + 5e-4                 # past the grid line
+    assert np.abs(res.points.stress[0, 0] / 100. - 1.).max() < 2e-3
+
+
+def test_cpgimp_compresses_a_column_homogeneously():
+    """A column on rollers (plane strain, finite deformation) compressed
+    by a dead traction on its top to a logarithmic strain of -0.357 in 20
+    steps, 2 points a cell: cpGIMP's domains stay the column's cells'
+    halves and its top face loads the nodes they reach, so every step's
+    displacement is the homogeneous one to Newton's tolerance (1e-11 of
+    a displacement of 1.2; the top's faces
+    mapped by the grid's shape functions in the points' cells, the
+    displacement was 1.4e-3 off at step 2, 0.46 at step 18, and the run
+    left the grid before the full load).  The strain of each load factor
+    from the plane-strain Hencky law ``tau_yy = E' eps`` with the Cauchy
+    stress ``tau / J`` and the dead load ``T J / lambda_x`` per current
+    area: ``E' eps exp(-eps) = f T``."""
+    from scipy.optimize import brentq
+    E, nu, h = 1e6, .3, .25
+    Ep = E / (1 - nu ** 2)
+    T = Ep * np.log(.7) / .7
+    mesh = MeshQuad.init_tensor(np.arange(0., 2. + h / 2, h),
+                                np.arange(0., 5. + h / 2, h))
+    points = seed_points(mesh, 2, region=[(0., 1.), (0., 4.)])
+    x0 = points.x.copy()
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(E, nu),
+                   lambda b: np.concatenate([
+                       b.get_dofs(lambda x: np.isclose(x[0], 0)).all("u^1"),
+                       b.get_dofs(lambda x: np.isclose(x[1], 0)).all("u^2")]),
+                   loads=[Traction(side_points(points, "top"), "top",
+                                   [0., T])], nsteps=20, method="cpgimp",
+                   kinematics="finite",
+                   options=Options(keep_snapshots=True))
+    assert len(res.history) == 20
+    for record in res.history:
+        eps = brentq(lambda e: Ep * e * np.exp(-e) - record.load_factor * T,
+                     -1., 0.)
+        exact = np.array([np.expm1(-nu / (1 - nu) * eps) * x0[0],
+                          np.expm1(eps) * x0[1]])
+        assert np.abs(record.displacement - exact).max() < 1e-9

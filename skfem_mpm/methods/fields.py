@@ -175,6 +175,8 @@ class FieldMethod:
                         for k in range(fields.count)]
         if hasattr(piece, "weights_at"):
             self.weights_at = self._weights_at
+        if hasattr(piece, "face_weights"):
+            self.face_weights = self._face_weights
 
     def locate(self, x, step: int, timings: dict, converged):
         tind, X = self.piece.locate(x, step, timings, converged)
@@ -204,9 +206,21 @@ class FieldMethod:
         """The method's weights at positions ``x`` (dim, m) on the fields
         of points ``idx`` (m,): their domains' corners, or with ``axis``
         the centres of their faces normal to it."""
+        return self._per_field(self.piece.weights_at, x, idx, axis)
+
+    def _face_weights(self, x: ndarray, idx: ndarray,
+                      axis: int) -> SparseOperator:
+        """The method's weights at the centres ``x`` (dim, m) of the
+        faces normal to ``axis`` of points ``idx`` (m,), on their fields
+        (surface loads)."""
+        return self._per_field(self.piece.face_weights, x, idx, axis)
+
+    def _per_field(self, weights, x: ndarray, idx: ndarray, axis):
+        """``weights(x, idx, axis)`` of each field's points, on its copy
+        of the grid."""
         field = self.fields.field[idx]
         return self.fields.combine(
-            ((np.flatnonzero(field == k), self.piece.weights_at(
+            ((np.flatnonzero(field == k), weights(
                 x[:, field == k], idx[field == k], axis)
               if (field == k).any() else None)
              for k in range(self.fields.count)), x.shape[1])

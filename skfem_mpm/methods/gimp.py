@@ -97,16 +97,22 @@ def _axis_pieces(a: ndarray, lo: ndarray, hi: ndarray):
 
 def _subpoints(axes, x: ndarray, domain: ndarray, order: int):
     """Gauss sub-points of every domain piece: positions (dim, m), weights
-    (m,) summing to one per point, and the parent point of each."""
+    (m,) summing to one per point, and the parent point of each.  Along
+    an axis where a half-length is zero (a face of a domain, where a
+    surface load acts) the point itself, its weight whole."""
     dim, n = x.shape
     xi, wg = leggauss(order)
     per_axis = []
     for d, a in enumerate(axes):
         lo = np.clip(x[d] - domain[d], a[0], a[-1])
         hi = np.clip(x[d] + domain[d], a[0], a[-1])
+        flat = domain[d] == 0
+        # (faces all on grid lines have no piece: the point itself)
+        pieces = _axis_pieces(a, lo, hi) or [(lo, hi)]
         per_axis.append([((s + e) / 2 + (e - s) / 2 * xi[:, None],
-                          (e - s)[None] * wg[:, None] / 2)
-                         for s, e in _axis_pieces(a, lo, hi)])
+                          np.where(flat, float(k == 0), e - s)[None]
+                          * wg[:, None] / 2)
+                         for k, (s, e) in enumerate(pieces)])
     coords, weights, parent = [], [], []
     for combo in itertools.product(*per_axis):
         for gauss in itertools.product(range(order), repeat=dim):

@@ -1794,7 +1794,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
                              domain0, counters, points.n,
                              follow=kinematics == "finite",
                              moves=method != "fem", ramp_gravity=case.ramp,
-                             weights=getattr(piece, "weights_at", None),
+                             weights=getattr(piece, "face_weights", None),
                              kernels=options.kernels)
     check_exposed(case.forces, points)     # the loads' indices checked
     if method in ("fem", "mpm"):

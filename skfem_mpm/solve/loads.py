@@ -298,7 +298,9 @@ class ExternalLoads:
         grid nodes at the centres ``x`` (dim, m) of the faces normal to
         ``axis`` of points ``idx``, for the faces of surface loads, where
         the method's displacement field is not the grid element's (B-spline
-        MPM); ``None``: the grid element's shape functions.
+        MPM) or the points' domains reach past their cells (GIMP: the
+        faces of the domains); ``None``: the grid element's shape
+        functions in the points' cells (standard MPM).
     kernels
         The run's ``kernels`` option (:class:`~skfem_mpm.solve.options.
         Options`): whether the faces' material-point basis takes compiled
@@ -489,7 +491,8 @@ class ExternalLoads:
 
     def _face_operator(self, op, points, idx, axis, sign, value, pressure):
         """The faces of points ``idx`` as a point operator at the faces'
-        centres (the method's weights there, or the grid element's in the
+        centres (the method's weights there: B-splines', GIMP's of the
+        domains' faces; or standard MPM's, the grid element's in the
         cells holding the points), with the faces' initial
         areas as ``area``: at the start of the step ``x + F d0 N`` when the
         points move, in the reference configuration ``X + d0 N`` when they
