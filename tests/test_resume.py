@@ -227,6 +227,12 @@ def test_stale_and_corrupted_checkpoints_are_refused(straight, tmp_path):
             passed += 1
             assert_same_run(reference, trial)
     assert passed <= 4
+    # a field of Python objects (pickled): refused in the package's words,
+    # not numpy's advice to load it unsafely if one trusts the file
+    rewrite(points_x=np.array([None, 1], dtype=object))
+    with pytest.raises(CheckpointError, match="holds pickled") as caught:
+        load_checkpoint(out, _digest(out))
+    assert "allow_pickle" not in str(caught.value)
     (out / CHECKPOINT).write_bytes(good)
     assert main(["run", "--resume", str(out), "--no-progress"]) == 0
     assert_same_run(reference, out)

@@ -1023,3 +1023,65 @@ def test_a_user_material_failing_in_dynamics_names_the_time():
     done = len(err.value.history)
     assert "(the last converged state, time {:.4g}, is attached)".format(
         .5 * done) in str(err.value)
+
+
+def test_rollers_holding_vertices_alone_are_warned(caplog):
+    """Rollers written with ``get_dofs(...).nodal["u^1"]`` on Q2 cells
+    hold the vertices and leave the midside nodes between them free: a
+    trial's patch test (traction 100 on a block on rollers) gave a
+    stress between -150 and 234 and no word.  Warned, naming the
+    component, the count and a facet; with ``.all("u^1")`` the same block
+    takes the uniform stress to round-off, unwarned; on Q1 cells (no
+    DOF between the vertices) ``.nodal`` holds every DOF, unwarned."""
+    from skfem import ElementQuad2
+    from skfem_mpm import Traction
+
+    def run(elem, pick):
+        mesh = MeshQuad.init_tensor(np.linspace(0, 2, 5),
+                                    np.linspace(0, 1, 3))
+        points = seed_points(mesh, 3)
+
+        def rollers(b):
+            return np.concatenate([
+                pick(b.get_dofs(lambda x: np.isclose(x[d], 0.)),
+                     "u^{}".format(d + 1)) for d in range(2)])
+        return simulate(mesh, elem, points, LinearElastic(1e5, .3),
+                        rollers, loads=[Traction(side_points(
+                            points, "right"), "right", [100., 0.])])
+
+    def vertices(dofs, name):
+        return np.asarray(dofs.nodal[name])
+
+    def every(dofs, name):
+        return dofs.all(name)
+    for elem, pick, warned, exact in ((ElementQuad2(), vertices, True,
+                                       False),
+                                      (ElementQuad2(), every, False, True),
+                                      (ElementQuad1(), vertices, False,
+                                       True)):
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+            s = run(elem, pick).points.stress[0, 0]
+        words = [r.getMessage() for r in caplog.records
+                 if "held at every vertex" in r.getMessage()]
+        assert (np.abs(s - 100.).max() < 1e-9) == exact
+        assert len(words) == 2 * warned
+        if warned:
+            assert words[0].startswith(
+                "supports: u^1 is held at every vertex of 2 facet(s) of "
+                "the grid but not at their own DOFs (ElementQuad2's nodes")
+            assert "e.g. the facet of [0.0, 0.0], [0.0, 0.5]" in words[0]
+
+
+def test_a_supports_function_returning_none_is_named():
+    """A supports function that forgot its ``return`` was refused as
+    "got <function ...>", as if the function itself were wrong: the
+    error says what it returned."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+
+    def forgot(basis):
+        basis.get_dofs(lambda x: x[1] == 0.)
+    with pytest.raises(InvalidInputError, match=r"got <function .*forgot"
+                       r".*>, which returned None"):
+        simulate(mesh, ElementQuad1(), seed_points(mesh, 2),
+                 LinearElastic(1e5, .3), forgot, body_force=[0., -1.])

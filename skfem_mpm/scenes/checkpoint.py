@@ -220,6 +220,11 @@ def load_checkpoint(outdir, scene_sha256: Optional[str] = None) -> Checkpoint:
     except (OSError, ValueError, EOFError, zipfile.BadZipFile,
             KeyError, NotImplementedError) as err:   # the last: zipfile
         # on a flipped flag bit ("compressed patched data")
+        if "pickle" in str(err):       # numpy's advice to trust it: not ours
+            raise CheckpointError(
+                "{}: unreadable: it holds pickled (object) data, which no "
+                "checkpoint of skfem-mpm does (not loaded: it is not this "
+                "package's file, or it is damaged)".format(path)) from None
         raise CheckpointError("{}: unreadable ({}: {})".format(
             path, type(err).__name__, err)) from None
     return _checked(path, arrays, scene_sha256)

@@ -72,9 +72,11 @@ def support_dofs(supports, basis) -> ndarray:
         raise InvalidInputError(
             "supports must be grid DOF indices, a scikit-fem DofsView or a "
             "function of the grid basis returning one (e.g. lambda b: "
-            "b.get_dofs(lambda x: x[1] == 0)){}, got {!r}".format(
+            "b.get_dofs(lambda x: x[1] == 0)){}, got {}".format(
                 " (a side name is a scene-file key)" if isinstance(
-                    supports, str) else "; [] for none", given))
+                    supports, str) else "; [] for none",
+                "{!r}, which returned {!r}".format(given, supports)
+                if callable(given) else repr(given)))
     if raw.dtype.kind == "b":
         raise InvalidInputError("supports must be DOF indices, not a "
                                 "boolean mask (np.flatnonzero(mask))")
@@ -83,7 +85,43 @@ def support_dofs(supports, basis) -> ndarray:
         raise InvalidInputError(
             "support DOF indices must lie in [0, {}), got {}..{}"
             .format(basis.N, D.min(), D.max()))
+    warn_ends_held_alone(D, basis)
     return D
+
+
+def warn_ends_held_alone(D: ndarray, basis) -> None:
+    """Warn where the held DOFs ``D`` of the grid's vector ``basis`` hold
+    a component at every vertex of an edge or facet but not at its own
+    DOFs (the midside nodes of ``ElementQuad2``):
+    ``get_dofs(...).nodal`` selects the vertices alone, and rollers so
+    written on Q2 cells left their midside nodes free (a patch test's
+    uniform stress of 100 came out between -150 and 234, a user trial)."""
+    dim, mesh = basis.mesh.dim(), basis.mesh
+    held = np.zeros(basis.N, dtype=bool)
+    held[D] = True
+    nodal = basis.nodal_dofs
+    places = [("facet", mesh.facets, basis.facet_dofs)]
+    if dim == 3:
+        places.append(("edge", mesh.edges, basis.edge_dofs))
+    for place, vertices, dofs in places:
+        for c in range(dim):
+            own = dofs[c::dim]
+            if not own.size:
+                continue
+            ends = held[nodal[c::dim][:, vertices]].all(axis=(0, 1))
+            free = ends & ~held[own].all(axis=0)
+            if free.any():
+                logger.warning(
+                    "supports: u^%d is held at every vertex of %d %s(s) "
+                    "of the grid but not at their own DOFs (%s's nodes "
+                    "between the vertices; get_dofs(...).nodal selects "
+                    "the vertices alone, .all(\"u^%d\") every DOF), e.g. "
+                    "the %s of %s: the support holds only its vertices",
+                    c + 1, int(free.sum()), place,
+                    type(getattr(basis.elem, "elem", basis.elem)).__name__,
+                    c + 1, place, ", ".join(
+                        str(mesh.p[:, v].tolist()) for v in
+                        vertices[:, np.flatnonzero(free)[0]]))
 
 
 class SupportSelections:
