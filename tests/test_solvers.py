@@ -866,3 +866,44 @@ def test_compiled_gather_forms_no_positions(consume):
     # the entries' new array)
     assert peak - before - condensed.data.nbytes < 4096
     assert np.array_equal(condensed.data, want.data)
+
+
+def test_pardiso_beyond_the_hand_over_fill_refines_and_says_so(caplog):
+    """A perturbed factorisation whose factor is beyond ``handover_fill``
+    nonzeros is not handed to SuperLU (whose pivoting took 56-79 s a
+    factorisation on a 3D footing's collapsing tangent of 12152 DOFs, at
+    DEBUG only): Pardiso solves it with iterative refinement and refuses a
+    solution that grows; each kind of hand-over is said once at INFO."""
+    import logging
+    from skfem_mpm import MaterialPoints, SingularSystemError
+    from skfem_mpm.quadrature.points import concatenate_points
+    from skfem_mpm.solve.backends import solver_pypardiso
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 3), np.linspace(0, 2, 3))
+    body = seed_points(mesh, 2, region=lambda x: x[1] < 1)
+    lone = MaterialPoints(x=[[.3], [1.6]], volume=[.25], domain=[[.25],
+                                                                 [.25]])
+    points = concatenate_points([body, lone])
+
+    def run(solver, force):
+        return solve_mpm(mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+                         lambda b: b.get_dofs(lambda x: x[1] == 0),
+                         body_force=force, solver=solver)
+    refined = solver_pypardiso(handover_fill=0)
+    with caplog.at_level(logging.INFO, logger="skfem_mpm.solve.backends"):
+        for _ in range(2):
+            with pytest.raises(SingularSystemError, match="zero-energy"):
+                run(refined, [.5, -1.])
+    assert refined.handed_over == 2
+    said = [r for r in caplog.records if r.levelno == logging.INFO
+            and "Pardiso" in r.getMessage()]
+    assert len(said) == 1                   # once, then at DEBUG
+    if refined.refined:                     # a pivot perturbed (the build)
+        assert "iterative refinement" in said[0].getMessage()
+    caplog.clear()
+    superlu = get_solver("pypardiso")
+    with caplog.at_level(logging.INFO, logger="skfem_mpm.solve.backends"):
+        with pytest.raises(SingularSystemError, match="zero-energy"):
+            run(superlu, [.5, -1.])
+    assert superlu.refined == 0
+    assert any("checked SuperLU" in r.getMessage() and r.levelno ==
+               logging.INFO for r in caplog.records)

@@ -65,6 +65,17 @@ AUTO_SUPERLU_BANDED = {2: (12, 30_000), 3: (8, 3000)}
 #: direct factorisations' memory
 AUTO_AMG_FROM = {"scipy (SuperLU)": {1: 1_500_000, 2: 1_500_000, 3: 5000},
                  "pypardiso": {1: 1_500_000, 2: 1_500_000, 3: 1_500_000}}
+#: nonzeros of Pardiso's factor (its analysis, iparm(18)) up to which a
+#: factorisation that perturbed a pivot goes to the checked SuperLU; beyond,
+#: Pardiso solves it with iterative refinement and the growth check.
+#: Measured on 2 cores (elastic stiffness of a cube): SuperLU takes 0.3 s
+#: at a fill of 2.5e6 (4752 DOFs), 2.0 s at 1.1e7 (13872 DOFs); on an
+#: indefinite tangent its threshold pivoting grows the
+#: fill past the estimate: a 3D footing's collapsing step of 12152 DOFs
+#: (Pardiso's fill about 1e7) took 56-79 s a factorisation, 400 s silent
+HANDOVER_FILL = 3_000_000
+#: iterative refinement steps of a Pardiso solve after a perturbed pivot
+REFINEMENT_STEPS = 3
 #: the smallest normal float
 TINY = float(np.finfo(float).tiny)
 CAUSES = ("points leave a zero-energy mode (a grid node supported by too few "
@@ -617,7 +628,8 @@ def call_pardiso(pardiso, A, b: ndarray) -> ndarray:
     return np.ascontiguousarray(x)
 
 
-def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
+def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12,
+                     handover_fill: int = HANDOVER_FILL) -> Callable:
     """MKL Pardiso via pypardiso; ``spd=True`` factorises a symmetric
     matrix's upper triangle as symmetric positive definite (elastic steps)
     and falls back to the general real factorisation for a matrix that is
@@ -632,7 +644,14 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
     times ``|b| / max|A_ii|`` (as in :func:`solver_direct_checked`), go to
     :func:`solver_direct_checked`, which refuses the system or, for a load
     orthogonal to the singular mode, solves it; ``solver.handed_over``
-    counts those systems.
+    counts those systems, each kind said once at INFO.  A perturbed
+    factorisation whose factor holds more than ``handover_fill`` nonzeros
+    (:data:`HANDOVER_FILL`: SuperLU's pivoting took minutes on a 3D
+    tangent of 12152 DOFs) is solved by Pardiso itself with
+    :data:`REFINEMENT_STEPS` of iterative refinement, a solution that grows
+    as above refused as singular (a failed Newton iteration: the step's
+    stabilised tangent, retries and cut-backs follow); the caller checks
+    every solve's backward error; ``solver.refined`` counts those.
 
     The returned solver keeps its symbolic analysis (fill-reducing ordering
     and factor structure) and redoes only the numerical factorisation while
@@ -649,6 +668,12 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
     from pypardiso.pardiso_wrapper import PyPardisoError
 
     checked = solver_direct_checked()
+    said_already = set()
+
+    def said(level, what, *args):
+        """Log once a solver at ``level``, then at DEBUG."""
+        logger.log(logging.DEBUG if what in said_already else level, *args)
+        said_already.add(what)
     kinds = {}                  # created on first use: see pardiso_solver
     analysed = {True: {}, False: {}}
     indefinite = {}             # the pattern of a matrix that was not SPD
@@ -703,15 +728,32 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
             definite = not same_pattern(upper_triangle(A), indefinite)
         pardiso, matrix, token = factor(A, definite)
         perturbed = int(pardiso.iparm[13])
+        fill = int(pardiso.iparm[17])
+        refine = bool(perturbed) and fill > handover_fill
         if perturbed:
             # a zero pivot replaced by a small one: Pardiso's answer to a
             # singular matrix (a zero-energy mode) would be garbage along
-            # the mode; SuperLU's pivot check refuses it or solves it
+            # the mode; SuperLU's pivot check refuses it or solves it, where
+            # its factorisation is affordable (HANDOVER_FILL); beyond,
+            # Pardiso's own with iterative refinement, a solution that
+            # grows refused as singular (the step's retries act), and the
+            # backward error checked by the caller (solve_active)
             solver.handed_over += 1
-            logger.debug("Pardiso perturbed %d pivot(s) of %d free DOFs: "
-                         "solved by the checked SuperLU", perturbed,
-                         A.shape[0])
-            return checked.factorise(A)
+            if refine:
+                solver.refined += 1
+            said(logging.INFO, "refined" if refine else "superlu",
+                 "Pardiso perturbed %d pivot(s) of %d free DOFs (a "
+                 "zero-energy mode or a tangent that lost its stiffness): "
+                 "%s (said once; %d system(s) so far)", perturbed,
+                 A.shape[0], "its factor of {:.1e} nonzeros is beyond "
+                 "{:.0e} (HANDOVER_FILL), where SuperLU's check can take "
+                 "minutes: solved by Pardiso with iterative refinement, a "
+                 "solution that grows refused as singular".format(
+                     fill, handover_fill) if refine else
+                 "solved by the checked SuperLU, which refuses a singular "
+                 "system", solver.handed_over)
+            if not refine:
+                return checked.factorise(A)
 
         diagonal = max(np.abs(A.diagonal()).max(), np.finfo(float).tiny)
         superlu = {}
@@ -723,18 +765,31 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
                 # another matrix of this kind was factorised since
                 return factorise(A)(b)
             pardiso.set_phase(33)        # forward and back substitution
-            x = call_pardiso(pardiso, matrix,
-                             np.asfortranarray(b, dtype=float))
+            pardiso.iparm[7] = REFINEMENT_STEPS if refine else 0
+            try:
+                x = call_pardiso(pardiso, matrix,
+                                 np.asfortranarray(b, dtype=float))
+            finally:
+                pardiso.iparm[7] = 0
             if np.all(np.isfinite(x)) and np.abs(x).max() <= \
                     growth_tol * np.abs(b).max() / diagonal:
                 return x
+            if refine or fill > handover_fill:
+                raise SingularSystemError(
+                    "the stiffness on {} free DOFs is singular: Pardiso "
+                    "perturbed {} pivot(s) and the solution grew to {:.1e} "
+                    "(beyond {:.0e} of the loads over the diagonal); {}"
+                    .format(A.shape[0], perturbed, np.abs(x).max(),
+                            growth_tol, CAUSES))
             # a nearly singular matrix factorised as positive definite
             # (no pivot perturbed, a pivot at round-off instead): SuperLU's
             # pivot check decides, for this matrix from now on
             solver.handed_over += 1
-            logger.debug("Pardiso's solution grew to %.1e on %d free DOFs: "
-                         "solved by the checked SuperLU",
-                         np.abs(x).max(), A.shape[0])
+            said(logging.INFO, "grew",
+                 "Pardiso's solution grew to %.1e on %d free DOFs: solved "
+                 "by the checked SuperLU, which refuses a singular system "
+                 "(said once; %d system(s) so far)", np.abs(x).max(),
+                 A.shape[0], solver.handed_over)
             superlu["solve"] = checked.factorise(A)
             return superlu["solve"](b)
         return solve
@@ -750,6 +805,7 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12) -> Callable:
     solver.forget = analysed[False].clear
     solver.analyses = 0
     solver.handed_over = 0      # systems Pardiso perturbed, SuperLU solved
+    solver.refined = 0          # of those, solved by Pardiso (refined)
     # MKL's memory goes with the solver function (a finaliser on the Pardiso
     # objects themselves would keep them alive through their own methods)
     solver.release = weakref.finalize(
