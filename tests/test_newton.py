@@ -388,8 +388,10 @@ def test_steps_after_one_the_line_search_carried_start_with_it():
         Backtracking(watchdog=0, slope=True))
     assert res.counters["line_search_from_step"] == 1
     assert plain.counters["line_search_from_step"] == 0
+    # the failed full steps stop where Newton went astray: 13 iterations
+    # (its residuals flat above twice their smallest), not 25
     assert res.counters["newton_iterations"] == \
-        plain.counters["newton_iterations"] + 25
+        plain.counters["newton_iterations"] + 13
     assert len(res.history) == 6
     assert abs(pressure - plain_pressure) < 1e-9 * pressure
     assert 5 < pressure < 7                          # near 2 + pi
@@ -574,3 +576,22 @@ def test_slope_search_steps_to_the_energys_minimum():
     assert "slope=True" in repr(Backtracking(slope=True))
     with pytest.raises(InvalidInputError):
         Backtracking(slope="yes")
+
+
+@pytest.mark.parametrize("residuals, words, asked", [
+    ([1., 1e-4, 1.1e-4] + [1e-4] * 30, "stalled at 0.0001", 8),
+    ([.99, .52, .36, .35, .48, .87] + [1.] * 30, "went astray", 10)])
+def test_a_stalled_or_astray_newton_loop_fails_early(residuals, words,
+                                                     asked):
+    """Newton fails once its last five residuals stay within 5% of each
+    other (a c-phi footing sat at 1.59e-6 for 20 iterations of every
+    attempt) or all above twice the smallest before them, flat (a 3D footing
+    at its collapse sat at 1.000 from iteration 6 to 25, minutes an
+    iteration), its error saying so, not after max_iter = 25."""
+    from skfem_mpm.errors import NewtonDivergenceError
+    from skfem_mpm.solve.newton import newton
+    problem = StalledStep(residuals, 1e-6)
+    with pytest.raises(NewtonDivergenceError, match=words) as caught:
+        newton(problem, np.ones(1), FullStep().start(), max_iter=25)
+    assert len(residuals) - len(list(problem.residuals)) == asked
+    assert caught.value.stalled == (1e-4 if "stalled" in words else None)

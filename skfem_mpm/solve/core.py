@@ -98,6 +98,10 @@ logger = logging.getLogger(__name__)
 __all__ = ["simulate", "STABILISATION", "DEFAULT_GHOST",
            "SMALL_STRAIN_GHOST", "GRID_TERMS", "RETRY_LADDER"]
 
+#: the factor within which the stalled residuals of a step's attempts at
+#: an increment and at half of it count as one floor (:func:`stall_floor`)
+STALL_CHANGE = 1.5
+
 # failures of a step that a retry or a smaller load increment may cure
 STEP_FAILURES = (NewtonDivergenceError, InversionError, NumericalError,
                  SingularTangentError, ContactError)
@@ -660,6 +664,7 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     equilibrium."""
     how, rungs = FIRST, iter(RETRY_LADDER)
     zero_energy = False         # an attempt met zero-energy modes
+    stalls = []     # each failed attempt's stalled residual (or None)
     linear = ""     # an attempt's words of a linear rate (newton's report)
     while True:
         report = {"linear": linear}
@@ -676,6 +681,8 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 raise                       # only a shorter step helps
             zero_energy |= report.get("stabilised", False)
             report["zero_energy"] = zero_energy
+            stalls.append(getattr(failure, "stalled", None))
+            failure.stalls = list(stalls)
             linear = report.get("linear", "")
             for rung in rungs:
                 if (rung.linear or not run.linear) and (
@@ -695,6 +702,72 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             else:
                 logger.warning("%s; retrying with %s", failure, rung.what)
                 how = rung.how
+
+
+def stall_floor(stalls, before, increment: float) -> str:
+    """Words for a step whose attempts (``stalls``: each one's stalled
+    residual, or ``None``) stalled where they stalled at the increment
+    ``before`` (``(increment, stalls)`` of the failure before it, twice
+    this ``increment``), the same attempts, within a factor
+    :data:`STALL_CHANGE`: a floor of
+    the residual that a shorter step does not lower, so not cut back
+    again (with ``ghost="auto"`` the reserve penalty is switched on for
+    the step instead: it ties thinly held nodes to their neighbours); else
+    ``""``.  A trial's c-phi footing stalled at 1.53e-6-1.59e-6 (tolerance
+    1e-9) with increments from 3.3e-2 down to 1.3e-4, 8 cut-backs and 3
+    minutes, then said "did not converge": its residual sat at two nodes
+    one heaved point held beside the footing; with ``ghost=0.1`` it ran
+    past that step.
+
+    >>> stall_floor([None, 9.5e-6], (.02, [None, 9.46e-6]), .01)[:40]
+    'not cut back further: the attempts stall'
+    >>> stall_floor([1.59e-6, None], (.02, [1.58e-6, 9.46e-6]), .01)
+    ''
+    >>> stall_floor([1e-7, 9.5e-6], (.02, [1.58e-6, 9.46e-6]), .01)
+    ''
+    """
+    if not stalls or before is None or not before[1] or [
+            level is None for level in stalls] != [
+                level is None for level in before[1]]:
+        return ""
+    pairs = [(a, b) for a, b in zip(stalls, before[1]) if a is not None]
+    if not pairs or not all(max(a, b) <= STALL_CHANGE * min(a, b)
+                            for a, b in pairs):
+        return ""
+    return ("not cut back further: the attempts stalled at the same "
+            "residuals (smallest {:.3g}) at increments {:.3g} and {:.3g}: a "
+            "floor of the residual that a shorter step does not lower, not "
+            "a divergence.  Its likely cause is a force the tangent cannot "
+            "balance at round-off of the step's forces or at nodes that "
+            "points at a yield surface's apex or corner hold alone (their "
+            "stress fixed whatever the nodes do); remedies: a tolerance "
+            "above the floor (tol), the ghost penalty (ghost) on thinly "
+            "held nodes, or a finer seeding".format(
+                min(a for a, _ in pairs), before[0], increment))
+
+
+def iterations_words(record) -> str:
+    """The Newton iterations of a step's ``record`` in words; with the
+    rounds of a term's update (contact's augmented Lagrangian), those and
+    the residuals too: each round's start with its own first one, no
+    iteration, so a step of 9 iterations in 2 rounds records 11 residuals
+    (a trial read 10 iterations off them where the log said 9).
+
+    >>> from types import SimpleNamespace as S
+    >>> iterations_words(S(newton_iterations=9, newton_residuals=[1.] * 11))
+    '9 Newton iterations in 2 rounds, 11 residuals'
+    >>> iterations_words(S(newton_iterations=7, newton_residuals=[1.] * 8))
+    '7 Newton iterations'
+    """
+    words = "{} Newton iterations".format(record.newton_iterations)
+    residuals = record.newton_residuals
+    if residuals is None or record.newton_iterations is None:
+        return words
+    rounds = len(residuals) - record.newton_iterations
+    if rounds <= 1:
+        return words
+    return words + " in {} rounds, {} residuals".format(rounds,
+                                                         len(residuals))
 
 
 @contextmanager
@@ -1036,6 +1109,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     easy_iterations = int(EASY_SHARE * run.max_iter)
     easy = 0            # easy sub-steps in a row, grow_back off (the hint)
     reach = [(factor, largest_displacement(points))] if watch else []
+    stalled_at = None   # the last failed increment and its attempts' stalls
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
         target = min(factor + increment, boundary)
@@ -1047,15 +1121,25 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         except STEP_FAILURES as err:
             held = held + 1 if isinstance(err, HeldSupportError) else 0
             unbalanced = no_equilibrium(run, points)
+            floor = stall_floor(getattr(err, "stalls", None), stalled_at,
+                                target - factor)
+            stalled_at = (target - factor, getattr(err, "stalls", None))
+            if floor and ghost_reserve_held(run) and not unbalanced:
+                # the floor at thinly held nodes: the ghost penalty ties
+                # them to their neighbours (the step again, as long)
+                switch_ghost_on(run, step + 1, "{}; {}".format(
+                    err, floor.split(".  ")[0]))
+                stalled_at = None
+                continue
             if run.linear or (target - factor) / 2 < smallest * (1 - 1e-9) \
-                    or held > HELD_HALVINGS or unbalanced:
+                    or held > HELD_HALVINGS or unbalanced or floor:
                 raise type(err)(
                     "{}; {}: the last converged state ({}) is attached"
                     "{}{}{}".format(
                         err, "not cut back: the loads keep their direction "
                         "at every load factor, so a shorter step has no "
                         "equilibrium either"
-                        if unbalanced else
+                        if unbalanced else floor if floor else
                         "no convergence down to {}".format(span(
                             run, target - factor)) if held <= HELD_HALVINGS
                         else "failed so at {} halvings of the step, down "
@@ -1152,6 +1236,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             increment = grown
         record.increment, record.counters = increment, dict(run.counters)
         result.history.append(record)
+        stalled_at = None
         result.points = points
         if watch:
             reach.append((factor, largest_displacement(points)))
@@ -1164,9 +1249,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             fastest = min(fastest, now - started)
         logger.info("step %d: %s, %s, residual %.2e, %.3g s; %d step(s) "
                     "left%s", step, progress(run, factor),
-                    "{} Newton iterations".format(record.newton_iterations)
-                    if not run.linear else "{} free DOFs".format(
-                        record.n_free_dofs), record.residual, now - started,
+                    iterations_words(record) if not run.linear else
+                    "{} free DOFs".format(record.n_free_dofs),
+                    record.residual, now - started,
                     left, "" if not left else ", about {:.3g} s at the "
                     "pace so far".format((now - begun) * (1. - factor)
                                          / (factor - first)))

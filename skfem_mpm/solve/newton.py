@@ -131,6 +131,23 @@ CORRECTION_ROUNDOFF = 1e-12
 #: 0.53 an iteration and failed at 2.1e-9 after 25, with no word why)
 LINEAR_ITERATIONS = 5
 LINEAR_RATES = (.02, .9)
+#: a Newton loop whose last :data:`STALL_ITERATIONS` residuals stay
+#: within a factor :data:`STALL_SPREAD` of each other has stalled, and one
+#: whose last :data:`STALL_ITERATIONS` all lie above :data:`ASTRAY_FACTOR`
+#: times the smallest before them, flat from the second, has gone astray:
+#: either fails then, not
+#: after ``max_iter`` (:func:`stalled`).  A trial's 3D footing at its
+#: collapse sat at a relative residual of 1.000 from iteration 6 to 25,
+#: its tangents ever more singular (Pardiso perturbed 2, 12, then 6464
+#: pivots of 12152), minutes an iteration; a c-phi footing sat at 1.59e-6
+#: for 20 iterations of every attempt and cut-back
+STALL_ITERATIONS = 5
+STALL_SPREAD = 1.05
+#: the largest relative residual counted as a stall (a floor near
+#: equilibrium); Newton sitting higher goes on (a body far too soft for its
+#: weight sat at 0.96 and found its way out to another failure)
+STALL_LEVEL = 1e-3
+ASTRAY_FACTOR = 2.
 #: seconds into a Newton loop after which each iteration's residual is
 #: logged at INFO, not DEBUG: a trial's 3D step of 22 s said nothing
 #: until it ended
@@ -654,21 +671,29 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         if converged(current) or problem.free.size == 0 or (
                 single_solve and it == 1):
             break
+        stuck = stalled(residuals)
         if it == max_iter or not np.isfinite(residuals[-1]) or \
-                not current.merit < MERIT_LIMIT:
+                not current.merit < MERIT_LIMIT or stuck:
             report["smallest"] = min(residuals)
+            if stuck and stuck[0] == "stalled":
+                report["stalled"] = stuck[1]
             run = getattr(problem, "run", None)    # (a problem of tests)
-            raise NewtonDivergenceError(
+            error = NewtonDivergenceError(
                 "step {}: {} did not converge in {} iterations (residual "
-                "first {:.3g}, smallest {:.3g}, last {:.3g}{}){}".format(
+                "first {:.3g}, smallest {:.3g}, last {:.3g}{}){}{}".format(
                     problem.step, "the equilibrium iteration"
                     if problem.linear else "Newton-Raphson", it,
                     residuals[0], min(residuals), residuals[-1],
                     tolerance_words(tol, getattr(run, "tol", None)),
-                    linear_words(
+                    stall_words(stuck) + residual_place(problem, current)
+                    if stuck and stuck[0] == "stalled" else
+                    stall_words(stuck),
+                    "" if stuck else linear_words(
                             residuals, getattr(run, "material", None),
                             stabilise, modified or report["reused"],
                             report)))
+            error.stalled = report.get("stalled")
+            raise error
         if it == 0 and predictor is not None:
             d = problem.solve(*predictor, stabilise)[0]
             predictor = None              # memory: freed before the tangent
@@ -702,6 +727,72 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                 from err
         problem.counters["line_search_trials"] += extra
     return Converged(du, current, residuals, last)
+
+
+def stalled(residuals: List[float]) -> Optional[tuple]:
+    """``("stalled", level)`` where the last :data:`STALL_ITERATIONS`
+    ``residuals`` lie within a factor :data:`STALL_SPREAD` of each other
+    (``level``, their smallest) and below :data:`STALL_LEVEL`,
+    ``("astray", smallest)`` where they all
+    lie above :data:`ASTRAY_FACTOR` times the smallest before them, the
+    last but one on, flat (within :data:`STALL_SPREAD`: a Newton loop
+    that overshot and comes back down goes on, a cantilever's first full
+    step raised its residual 470-fold and converged); else ``None``.
+
+    >>> stalled([1e-3, 2e-5, 1.59e-6, 1.59e-6, 1.6e-6, 1.59e-6, 1.59e-6])
+    ('stalled', 1.59e-06)
+    >>> stalled([.99, .52, .36, .35, .48, .87, 1., 1., 1., 1.])[0]
+    'astray'
+    >>> stalled([1., .1, .01, .001, 1e-4, 1e-5]) is None
+    True
+    """
+    last = np.asarray(residuals[-STALL_ITERATIONS:], dtype=float)
+    if len(residuals) <= STALL_ITERATIONS or not np.isfinite(last).all():
+        return None
+    if 0. < last.min() and last.max() <= STALL_SPREAD * last.min() and \
+            last.max() <= STALL_LEVEL:
+        return "stalled", float(last.min())
+    before = min(residuals[:-STALL_ITERATIONS])
+    flat = last[1:].min() > 0. and last[1:].max() <= \
+        STALL_SPREAD * last[1:].min()
+    if last.min() > ASTRAY_FACTOR * before and flat:
+        return "astray", float(before)
+    return None
+
+
+def stall_words(stuck: Optional[tuple]) -> str:
+    """What a Newton loop :func:`stalled` at says of it, or ``""``."""
+    if not stuck:
+        return ""
+    if stuck[0] == "stalled":
+        return ("; stopped early: the residual stalled at {:.3g} over the "
+                "last {} iterations (within a factor {:g}): a floor of the "
+                "residual, not a divergence".format(
+                    stuck[1], STALL_ITERATIONS, STALL_SPREAD))
+    return ("; stopped early: the last {} residuals all stayed above {:g} "
+            "times the smallest, {:.3g}: Newton went astray (a tangent "
+            "that lost its stiffness, the body collapsing?)".format(
+                STALL_ITERATIONS, ASTRAY_FACTOR, stuck[1]))
+
+
+def residual_place(problem, current) -> str:
+    """Where a stalled residual sits: the share of its square at the grid
+    node of its largest entry, and where that node is (a c-phi footing's
+    stalled at two nodes one point held, beside the footing's edge), or
+    ``""`` where the problem has no grid positions."""
+    free = getattr(problem, "free", None)
+    doflocs = getattr(getattr(problem, "grid", None), "doflocs", None)
+    if free is None or doflocs is None or not free.size:
+        return ""
+    r = np.asarray(current.r)[free]
+    total = float(r @ r)
+    if not total > 0.:
+        return ""
+    top = free[int(np.argmax(np.abs(r)))]
+    node = np.all(doflocs[:, free] == doflocs[:, top][:, None], axis=0)
+    return ", {:.0%} of it at the grid node at [{}]".format(
+        float(r[node] @ r[node]) / total,
+        ", ".join("{:.4g}".format(c) for c in doflocs[:, top]))
 
 
 def tolerance_words(tol: Optional[float], own: Optional[float]) -> str:
