@@ -165,6 +165,7 @@ class FullStep:
         evaluate(du + d), 0)`` (no extra evaluations)."""
         def search(evaluate, du, d, current, accept):
             return du + d, evaluate(du + d), 0
+        search.full_steps = True        # (:func:`stalled`: astray)
         return search
 
 
@@ -307,6 +308,10 @@ class Backtracking:
                 return evaluate(trial)
             found = step(counted, du, d, current, accept)
             return found[0], found[1], count[0] - 1
+        # full steps (the guard): a residual that rises and stays up went
+        # astray (:func:`stalled`); a search's may rise on the energy's
+        # slope (a stiff pile's way back to its elastic far field)
+        search.full_steps = self.watchdog is None
 
         def step(evaluate, du, d, current, accept):
             if self.watchdog is None:
@@ -671,7 +676,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         if converged(current) or problem.free.size == 0 or (
                 single_solve and it == 1):
             break
-        stuck = stalled(residuals)
+        stuck = stalled(residuals, getattr(search, "full_steps", False))
         if it == max_iter or not np.isfinite(residuals[-1]) or \
                 not current.merit < MERIT_LIMIT or stuck:
             report["smallest"] = min(residuals)
@@ -729,11 +734,13 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     return Converged(du, current, residuals, last)
 
 
-def stalled(residuals: List[float]) -> Optional[tuple]:
+def stalled(residuals: List[float],
+            full_steps: bool = True) -> Optional[tuple]:
     """``("stalled", level)`` where the last :data:`STALL_ITERATIONS`
     ``residuals`` lie within a factor :data:`STALL_SPREAD` of each other
     (``level``, their smallest) and below :data:`STALL_LEVEL`,
-    ``("astray", smallest)`` where they all
+    ``("astray", smallest)`` (``full_steps``: Newton's whole steps,
+    no search that may raise the residual on purpose) where they all
     lie above :data:`ASTRAY_FACTOR` times the smallest before them, the
     last but one on, flat (within :data:`STALL_SPREAD`: a Newton loop
     that overshot and comes back down goes on, a cantilever's first full
@@ -755,7 +762,7 @@ def stalled(residuals: List[float]) -> Optional[tuple]:
     before = min(residuals[:-STALL_ITERATIONS])
     flat = last[1:].min() > 0. and last[1:].max() <= \
         STALL_SPREAD * last[1:].min()
-    if last.min() > ASTRAY_FACTOR * before and flat:
+    if full_steps and last.min() > ASTRAY_FACTOR * before and flat:
         return "astray", float(before)
     return None
 
