@@ -9,7 +9,9 @@ level surface this state is in equilibrium with the full body force, so a
 run that starts from it with the body force acting in full from the first
 step (``simulate(..., body_force=BodyForce(g, ramp=False))``) has
 nothing to do until
-other loads come.  Under a sloping surface it is not in equilibrium, and
+other loads come (an overburden as a traction the stress includes acts
+in full too: ``Traction(..., ramp=False)``).  Under a sloping surface it
+is not in equilibrium, and
 the first step must carry the whole imbalance at once (no cut-back reduces
 it): ramp the gravity up from a stress-free start there instead.
 Layered ground (one body force and K0 per body): each body carries the
