@@ -104,12 +104,17 @@ offending value (unknown keys, wrong types, impossible values), in a
     [[outputs]]                     # optional: quantities of interest,
                                     # in summary.json and measured by
                                     # `skfem-mpm study` (default there:
-                                    # the largest point displacement)
+                                    # the largest point displacement; a
+                                    # footing scene's peak footing
+                                    # pressure)
     name = "top settlement"         # optional label
     quantity = "displacement"       # or "stress", "reaction" (support =
                                     # its name), "rigid_force" (body = ..)
                                     # or "obstacle_force" (obstacle = ..)
                                     # or "contact_force" (contact = ..)
+                                    # or "footing_pressure" (component
+                                    # "peak"; reference
+                                    # "bearing_capacity")
     component = "y"                 # x y z magnitude; stress: xx yy zz xy
                                     # xz yz mises pressure
     at = [0.5, 50.0]                # initial position (a linear fit to
