@@ -88,7 +88,8 @@ __all__ = ["study", "refine", "case_error", "check_reference", "analyse",
            "formal_order", "scene_quantities", "worker_count", "check_vary",
            "cases_of", "estimate", "time_model", "time_left", "clock",
            "disagreements", "VARIABLES",
-           "DEFAULT_VARY", "DEFAULT_QUANTITY", "FOOTING_QUANTITY", "CASES_UNASKED",
+           "DEFAULT_VARY", "DEFAULT_QUANTITY", "FOOTING_QUANTITY",
+           "CASES_UNASKED",
            "default_vary", "default_elements", "whole_cells_step",
            "not_whole", "geometry_step", "lost_lines", "own_lines"]
 
