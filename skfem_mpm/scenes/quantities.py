@@ -292,7 +292,7 @@ class Quantity:
         that holds no point of this run (a coarse grid of a study) raises
         :class:`~skfem_mpm.errors.InvalidInputError`."""
         if self.quantity == "footing_pressure":
-            from ..studies.footing import footing_forces, footing_pressure
+            from .footing import footing_forces, footing_pressure
             pressure = footing_pressure(scene, footing_forces(
                 scene, result.history))
             return float(pressure.max()) if pressure.size else float("nan")
