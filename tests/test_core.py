@@ -1135,6 +1135,33 @@ def test_a_traction_on_domains_past_a_grid_line(method, kinematics, dim):
     assert np.abs(res.points.stress[0, 0] / 100. - 1.).max() < 2e-3
 
 
+@pytest.mark.parametrize("method", ["ugimp", "cpgimp"])
+@pytest.mark.parametrize("load", ["traction", "pressure"])
+def test_a_left_face_s_load_on_domains_past_a_grid_line(method, load):
+    """The same on a left face (finite deformation): the block on [1, 3]
+    held by rollers on its right, pulled to the left by a traction or a
+    pressure of -100 that follows the surface; its loaded domains reach
+    into the empty cell beyond x = 1 after the first step (before: the
+    stress between -1.6 and 203)."""
+    from skfem_mpm import Options, Stabilisation
+    mesh = MeshQuad.init_tensor(np.linspace(0., 3., 7),
+                                np.linspace(0., 1.5, 4))
+    points = seed_points(mesh, 2, region=[(1., 3.), (0., 1.)])
+    left = side_points(points, "left")
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e5, .3),
+                   lambda b: np.concatenate([
+                       b.get_dofs(lambda x: np.isclose(x[0], 3.)).all("u^1"),
+                       b.get_dofs(lambda x: np.isclose(x[1], 0.)).all("u^2")]),
+                   loads=[Traction(left, "left", [-100., 0.])
+                          if load == "traction" else
+                          Pressure(left, "left", -100.)], nsteps=2,
+                   method=method, kinematics="finite",
+                   options=Options(stabilisation=Stabilisation(ghost=0.)))
+    moved = res.points.x[0] - res.points.domain[0]
+    assert moved.min() < 1. - 5e-4                 # past the grid line
+    assert np.abs(res.points.stress[0, 0] / 100. - 1.).max() < 2e-3
+
+
 def test_cpgimp_compresses_a_column_homogeneously():
     """A column on rollers (plane strain, finite deformation) compressed
     by a dead traction on its top to a logarithmic strain of -0.357 in 20

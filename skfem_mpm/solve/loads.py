@@ -13,17 +13,20 @@ geostatic stress under its weight, a sample at its confining pressure).
 - :class:`Traction` and :class:`Pressure` act on one side of a body: each
   point of the outermost layer on that side carries the face of its domain
   (``MaterialPoints.domain``), whose centre ``x + F (d0 n0)`` is the load's
-  point of application, mapped with the shape functions of the cell that
-  holds the point (with two points per cell along the side, this
-  integrates a uniform traction exactly, as finite elements do), or with
-  the method's weights there (B-splines: at the face's centre with
-  ``"bspline"``, averaged over the face with ``"bspline-gimp"``; with
-  the splines at the points a uniform traction gives a uniform stress
-  only at 2 or 4 points a cell, whose rule integrates the splines'
-  gradients exactly: ``docs/bspline.md``).  A face
-  centre that has left the point's cell is taken at the nearest point of
-  that cell: the force goes to nodes the step's points support (a cell
-  without points has no stiffness to carry it) and its resultant is kept.  A traction is a dead load per initial
+  point of application.  Standard MPM maps it with the shape functions of
+  the cell that holds the point (with two points per cell along the side,
+  this integrates a uniform traction exactly, as finite elements do); a
+  face centre that has left the point's cell is taken at the nearest
+  point of that cell: the force goes to nodes the step's points support
+  (a cell without points has no stiffness to carry it) and its resultant
+  is kept.  GIMP loads the face of the point's domain in the step's
+  operator (its centre ``x +- domain`` along the side's axis) by GIMP's
+  weights averaged over it, the nodes the domain's internal force
+  reaches (a domain past a grid line included).  B-splines take the
+  splines at the face's centre (``"bspline"``) or averaged over the face
+  (``"bspline-gimp"``; with the splines at the points a uniform traction
+  gives a uniform stress only at 2 or 4 points a cell, whose rule
+  integrates the splines' gradients exactly: ``docs/bspline.md``).  A traction is a dead load per initial
   area; a pressure follows the surface in finite deformation: its force
   ``-p J F^-T N A0`` (Nanson's formula) is evaluated at every iteration's
   trial deformation, so the converged state carries the pressure on the
@@ -322,13 +325,14 @@ class ExternalLoads:
         factor (default), or (``False``) acts in full from the first step
         (a geostatic initial stress balances it).
     weights
-        ``weights(x, idx, axis) -> operator``: the method's own weights of
-        grid nodes at the centres ``x`` (dim, m) of the faces normal to
-        ``axis`` of points ``idx``, for the faces of surface loads, where
-        the method's displacement field is not the grid element's (B-spline
-        MPM) or the points' domains reach past their cells (GIMP: the
-        faces of the domains); ``None``: the grid element's shape
-        functions in the points' cells (standard MPM).
+        ``weights(x, idx, axis, sign) -> operator``: the method's own
+        weights of grid nodes on the faces normal to ``axis`` on the side
+        ``sign`` (+1 or -1) of points ``idx``, whose material's centres are
+        ``x`` (dim, m), for surface loads, where the method's displacement
+        field is not the grid element's (B-spline MPM: at ``x``) or the
+        points' domains reach past their cells (GIMP: the faces of the
+        domains); ``None``: the grid element's shape functions in the
+        points' cells (standard MPM).
     kernels
         The run's ``kernels`` option (:class:`~skfem_mpm.solve.options.
         Options`): whether the faces' material-point basis takes compiled
@@ -561,7 +565,7 @@ class ExternalLoads:
             offset[axis] = d0
         centre = points.x[:, idx] + sign * offset
         if self.weights is not None:     # the method's field, not the grid's
-            face = self.weights(centre, idx, axis)
+            face = self.weights(centre, idx, axis, sign)
             face.S = supported_share(face.S, op.active_dofs[::self.dim]
                                      // self.dim)
             face.area = area
