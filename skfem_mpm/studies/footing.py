@@ -24,11 +24,8 @@ scene (:mod:`skfem_mpm.scenes.footing`).
 import numpy as np
 from numpy import ndarray
 
-from ..scenes.footing import (footing_forces, footing_pressure,  # noqa
-                              soil_strength)
+from ..scenes.footing import footing_pressure, soil_strength
 
-# footing_pressure, footing_forces: with the scene's footing
-# (skfem_mpm.scenes.footing, which the quantities measure), imported here
 __all__ = ["bearing_capacity_factor", "footing_error"]
 
 

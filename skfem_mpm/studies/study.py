@@ -396,7 +396,8 @@ def case_error(scene: Scene, result) -> float:
         v = -pts.displacement[1, loaded].mean() / length
         return float(abs(v / elastica_tip([alpha])[0][0] - 1))
     if scene.reference == "bearing_capacity":
-        from .footing import footing_error, footing_forces
+        from ..scenes.footing import footing_forces
+        from .footing import footing_error
         return footing_error(scene, footing_forces(scene, result.history))
     return float("nan")
 
