@@ -1397,6 +1397,17 @@ def test_a_footing_scene_s_study_measures_its_peak_pressure():
     assert abs(peak / (10 * (2 + np.pi)) - 1) == pytest.approx(
         row["reference_error"], rel=1e-6)
     assert peak == pytest.approx(60.18, abs=.01)
+    # the closed form's number is said (a trial read the table's errors
+    # against the self-convergence's reference, which its words described)
+    measured = study_module.analyse(scene, [row], quantities)
+    assert measured["error"]["measures"].endswith(
+        "against N_c c (Prandtl-Reissner) = {:.6g} Pa".format(
+            10 * (2 + np.pi)))
+    lines = study_module.report([row], measured, ["elements"])
+    assert [x for x in lines if x.startswith("peak footing pressure: its "
+                                            "own convergence (the table's "
+                                            "errors are against the "
+                                            "closed form), reference")]
     assert study_module.scene_quantities(COLUMN) == [
         study_module.DEFAULT_QUANTITY]
     with pytest.raises(InvalidInputError, match="peak footing pressure: "

@@ -47,12 +47,16 @@ def bearing_capacity_factor(friction_angle: float) -> float:
     return float((nq - 1) / np.tan(phi))
 
 
-def footing_error(scene, forces: ndarray) -> float:
-    """Relative error of the peak footing pressure against ``N_c c``."""
+def limit_pressure(scene) -> float:
+    """``N_c c`` of a footing scene's soil (its first deformable body)."""
     soil = next(b for b in scene.bodies if b.rigid is None).material
     c, phi = soil_strength(soil)
+    return bearing_capacity_factor(phi) * c
+
+
+def footing_error(scene, forces: ndarray) -> float:
+    """Relative error of the peak footing pressure against ``N_c c``."""
     pressure = footing_pressure(scene, forces)
     if pressure.size == 0:
         return float("nan")
-    return float(abs(pressure.max() / (bearing_capacity_factor(phi) * c)
-                     - 1))
+    return float(abs(pressure.max() / limit_pressure(scene) - 1))

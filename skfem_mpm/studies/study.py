@@ -872,6 +872,11 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             r["relative_uncertainties"][first]
     if scene.reference:
         label, against, what = REFERENCE_ERRORS[scene.reference]
+        if scene.reference == "bearing_capacity":  # the number itself
+            from ..scenes.units import unit
+            from .footing import limit_pressure
+            what += " = {:.6g} {}".format(limit_pressure(scene), unit(
+                "stress", scene.units))
     else:
         label = "relative error of {}".format(first)
         against, reference = (
@@ -1129,8 +1134,11 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
     for c in measured["convergence"]:
         where = ", ".join("{}={}".format(k, v) for k, v in
                           c["choices"].items())
-        lines.append("{}{}: {} {} +- {} {}: {}".format(
+        lines.append("{}{}: {}{} {} +- {} {}: {}".format(
             c["quantity"], " [" + where + "]" if where else "",
+            "its own convergence (the table's errors are against the "
+            "closed form), " if measured["error"].get("closed_form")
+            else "",
             "extrapolated" if c["against"] == "richardson" else "reference",
             _number(c["reference"], "{:.6g}"),
             _number(c["uncertainty"], "{:.2g}"), c["unit"], c["why"]))
