@@ -404,6 +404,29 @@ def test_follower_pressure_turns_with_the_surface():
         [0., 5. * area], abs=1e-6)
 
 
+@pytest.mark.parametrize("method", ["fem", "cpgimp"])
+def test_a_block_under_a_large_follower_pressure(method):
+    """A block (finite deformation, rollers) compressed by a pressure of
+    0.2 E that follows its right face, in 4 steps: the Cauchy stress is
+    the pressure at every point, and Newton, whose tangent leaves the
+    load's stiffness out, contracts at 0.05 an iteration (7 iterations a
+    step at the most) with cpGIMP as with finite elements (before its
+    faces loaded the nodes its domains reach: 0.27, and a failure at
+    step 4 after every cut-back)."""
+    E, p = 1e4, 2e3
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 13), np.linspace(0, 1.5, 7))
+    points = seed_points(mesh, 2, region=[(0., 2.), (0., 1.)])
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(E, .3),
+                   lambda b: np.concatenate([
+                       b.get_dofs(lambda x: np.isclose(x[0], 0)).all("u^1"),
+                       b.get_dofs(lambda x: np.isclose(x[1], 0)).all("u^2")]),
+                   loads=[Pressure(side_points(points, "right"), "right",
+                                   p)], nsteps=4, method=method,
+                   kinematics="finite")
+    assert max(r.newton_iterations for r in res.history) <= 7
+    assert np.abs(res.points.stress[0, 0] / p + 1.).max() < 1e-8
+
+
 def test_seed_right_hand_sides_on_the_column():
     """The seed's literal scheme (load increment as right-hand side) and
     the out-of-balance force differ in their grid-crossing error on the
