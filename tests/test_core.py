@@ -404,6 +404,29 @@ def test_follower_pressure_turns_with_the_surface():
         [0., 5. * area], abs=1e-6)
 
 
+@pytest.mark.parametrize("method", ["fem", "cpgimp"])
+def test_a_block_under_a_large_follower_pressure(method):
+    """A block (finite deformation, rollers) compressed by a pressure of
+    0.2 E that follows its right face, in 4 steps: the Cauchy stress is
+    the pressure at every point, and Newton, whose tangent leaves the
+    load's stiffness out, contracts at 0.05 an iteration (7 iterations a
+    step at the most) with cpGIMP as with finite elements (before its
+    faces loaded the nodes its domains reach: 0.27, and a failure at
+    step 4 after every cut-back)."""
+    E, p = 1e4, 2e3
+    mesh = MeshQuad.init_tensor(np.linspace(0, 3, 13), np.linspace(0, 1.5, 7))
+    points = seed_points(mesh, 2, region=[(0., 2.), (0., 1.)])
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(E, .3),
+                   lambda b: np.concatenate([
+                       b.get_dofs(lambda x: np.isclose(x[0], 0)).all("u^1"),
+                       b.get_dofs(lambda x: np.isclose(x[1], 0)).all("u^2")]),
+                   loads=[Pressure(side_points(points, "right"), "right",
+                                   p)], nsteps=4, method=method,
+                   kinematics="finite")
+    assert max(r.newton_iterations for r in res.history) <= 7
+    assert np.abs(res.points.stress[0, 0] / p + 1.).max() < 1e-8
+
+
 def test_seed_right_hand_sides_on_the_column():
     """The seed's literal scheme (load increment as right-hand side) and
     the out-of-balance force differ in their grid-crossing error on the
@@ -1132,6 +1155,33 @@ def test_a_traction_on_domains_past_a_grid_line(method, kinematics, dim):
                        stabilisation=Stabilisation(ghost=0.)))
     moved = res.points.x[0] + res.points.domain[0]
     assert moved.max() > 2. + 5e-4                 # past the grid line
+    assert np.abs(res.points.stress[0, 0] / 100. - 1.).max() < 2e-3
+
+
+@pytest.mark.parametrize("method", ["ugimp", "cpgimp"])
+@pytest.mark.parametrize("load", ["traction", "pressure"])
+def test_a_left_face_s_load_on_domains_past_a_grid_line(method, load):
+    """The same on a left face (finite deformation): the block on [1, 3]
+    held by rollers on its right, pulled to the left by a traction or a
+    pressure of -100 that follows the surface; its loaded domains reach
+    into the empty cell beyond x = 1 after the first step (before: the
+    stress between -1.6 and 203)."""
+    from skfem_mpm import Options, Stabilisation
+    mesh = MeshQuad.init_tensor(np.linspace(0., 3., 7),
+                                np.linspace(0., 1.5, 4))
+    points = seed_points(mesh, 2, region=[(1., 3.), (0., 1.)])
+    left = side_points(points, "left")
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(1e5, .3),
+                   lambda b: np.concatenate([
+                       b.get_dofs(lambda x: np.isclose(x[0], 3.)).all("u^1"),
+                       b.get_dofs(lambda x: np.isclose(x[1], 0.)).all("u^2")]),
+                   loads=[Traction(left, "left", [-100., 0.])
+                          if load == "traction" else
+                          Pressure(left, "left", -100.)], nsteps=2,
+                   method=method, kinematics="finite",
+                   options=Options(stabilisation=Stabilisation(ghost=0.)))
+    moved = res.points.x[0] - res.points.domain[0]
+    assert moved.min() < 1. - 5e-4                 # past the grid line
     assert np.abs(res.points.stress[0, 0] / 100. - 1.).max() < 2e-3
 
 

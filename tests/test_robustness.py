@@ -1085,3 +1085,45 @@ def test_a_supports_function_returning_none_is_named():
                        r".*>, which returned None"):
         simulate(mesh, ElementQuad1(), seed_points(mesh, 2),
                  LinearElastic(1e5, .3), forgot, body_force=[0., -1.])
+
+
+def test_grid_nodes_pushed_off_the_material_s_face_are_warned(caplog):
+    """A block's top pushed down by its grid nodes (prescribed motion, 30
+    steps, h = 0.25): by 0.03 (0.12 cells) the lateral stress is 0 as
+    uniaxial stress has it; by 0.15 (0.6 cells) the face has left the
+    nodes' line (it moved 0.118), the motion reaches it through the top
+    cells, and the lateral stress scatters (-727 to 375) with no word.
+    Warned once a run beyond a quarter of a cell, naming the plane, the
+    motion and the obstacle; the same nodes moved sideways (a shear
+    box's top, along their plane) are not warned."""
+    from skfem_mpm import Prescribed
+    mesh = MeshQuad.init_tensor(np.linspace(-.5, 1.5, 9),
+                                np.linspace(0, 1.5, 7))
+
+    def run(push, component):
+        points = seed_points(mesh, 2, [(0., 1.), (0., 1.)])
+
+        def top(b, f0, f1):
+            dofs = b.get_dofs(lambda x: np.isclose(x[1], 1.)).all(
+                "u^{}".format(component + 1))
+            return dofs, np.full(dofs.size, -push * (f1 - f0))
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+            res = simulate(mesh, ElementQuad1(), points,
+                           LinearElastic(1e4, .3), lambda b: np.concatenate([
+                               b.get_dofs(lambda x: x[0] == 0).all("u^1"),
+                               b.get_dofs(lambda x: x[1] == 0).all("u^2")]),
+                           loads=[Prescribed(top)], nsteps=30, method="mpm",
+                           kinematics="finite")
+        words = [r.getMessage() for r in caplog.records
+                 if "the material's face leaves it" in r.getMessage()]
+        return np.abs(res.points.stress[0, 0]).max(), words
+    lateral, words = run(.03, 1)
+    assert lateral < 1e-6 and words == []
+    lateral, words = run(.15, 1)
+    assert lateral > 100. and len(words) == 1
+    assert words[0].startswith(
+        "step 1: prescribed motion at full load moves the grid nodes on the "
+        "plane y = 1 by up to 0.15 along y (0.6 cells)")
+    assert "push with a rigid Obstacle" in words[0]
+    assert run(.15, 0)[1] == []

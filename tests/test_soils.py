@@ -492,3 +492,31 @@ def test_a_hardening_modulus_that_overflows_is_refused():
                        match=r"hardening modulus dc/dalpha = 1e\+308 is "
                              r"beyond 1e\+300"):
         DruckerPrager(E, NU, cohesion=C, friction_angle=20., hardening=1e308)
+
+
+def test_a_weightless_geostatic_start_is_stress_free():
+    """Zero weight (one staged script running a weightless case too; a
+    user trial was refused with "pointing down (negative), got [0.0,
+    -0.0]"): the stress is zero whatever K0, and the run under the zero
+    body force in full does nothing; Cam clay, with no stress-free state,
+    refuses it in its own words."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import BodyForce, ModifiedCamClay
+    from skfem_mpm.mechanics.geostatic import geostatic_stress
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
+    points = seed_points(mesh, 2)
+    for material in (LinearElastic(E, NU), MohrCoulomb(
+            E, NU, cohesion=0., friction_angle=30.)):
+        start = geostatic_stress(points, material, [0., -0.], 2., .5)
+        assert not start.stress.any() and not start.strain.any()
+        assert np.array_equal(start.be, np.broadcast_to(
+            np.eye(3)[:, :, None], start.be.shape))
+    result = simulate(mesh, ElementQuad1(), start, LinearElastic(E, NU),
+                      lambda b: b.get_dofs(lambda x: x[1] == 0.).all(),
+                      nsteps=1, body_force=BodyForce([0., 0.], ramp=False))
+    assert not np.abs(result.history[-1].displacement).any()
+    clay = ModifiedCamClay(kappa=.01, lambda_=.1, M=1., shear_modulus=3e3,
+                           reference_pressure=100.,
+                           preconsolidation_pressure=100.)
+    with pytest.raises(InvalidMaterialError, match="compressive mean"):
+        geostatic_stress(points, clay, [0., 0.], 2., .5)

@@ -1350,3 +1350,88 @@ def test_a_study_whose_cases_all_failed_does_not_say_elements_were_fixed(
     words = analyse(load_scene(path), rows, [DEFAULT_QUANTITY])["error"]
     assert "elements were not varied" not in words["measures"]
     assert "where that order is credible" in words["measures"]
+
+
+FOOTING_SCENE = """
+name = "footing"
+reference = "bearing_capacity"
+[grid]
+x = [0.0, 2.0, 16]
+y = [0.0, 1.5, 12]
+[[bodies]]
+name = "soil"
+region = { x = [0.0, 2.0], y = [0.0, 1.25] }
+points_per_cell = 2
+material = { model = "von_mises", E = 1e4, nu = 0.3, yield_stress = 17.320508 }
+[[obstacles]]
+name = "footing"
+box = { x = [-1.0, 0.5], y = [1.25, 1.5] }
+displacement = [0.0, -0.03]
+[[supports]]
+boundary = "bottom"
+[[supports]]
+boundary = ["left", "right"]
+components = ["x"]
+[solver]
+steps = 20
+antilocking = true
+"""
+
+
+def test_a_footing_scene_s_study_measures_its_peak_pressure():
+    """A user trial's footing scene (weightless Tresca soil, c_u = 10, a
+    smooth box pushed 0.03): its study showed only the largest point
+    displacement, about the prescribed push, whose convergence is noise.
+    By default it now measures the peak footing pressure, whose relative
+    distance to ``N_c c_u = (2 + pi) 10`` is the case's error (60.18 at
+    8 elements, 17.05%); a scene that is no footing's refuses it."""
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    from skfem_mpm.studies.study import FOOTING_QUANTITY, run_case
+    scene = parse_scene(tomllib.loads(FOOTING_SCENE))
+    quantities = study_module.scene_quantities(scene)
+    assert quantities == [FOOTING_QUANTITY]
+    assert quantities[0].label == "peak footing pressure"
+    assert quantities[0].unit(2) == "Pa"
+    row = run_case(scene, {"elements": 8}, quantities)
+    peak = row["values"]["peak footing pressure"]
+    assert abs(peak / (10 * (2 + np.pi)) - 1) == pytest.approx(
+        row["reference_error"], rel=1e-6)
+    assert peak == pytest.approx(60.18, abs=.01)
+    # the closed form's number is said (a trial read the table's errors
+    # against the self-convergence's reference, which its words described)
+    measured = study_module.analyse(scene, [row], quantities)
+    assert measured["error"]["measures"].endswith(
+        "against N_c c (Prandtl-Reissner) = {:.6g} Pa".format(
+            10 * (2 + np.pi)))
+    lines = study_module.report([row], measured, ["elements"])
+    assert [x for x in lines if x.startswith("peak footing pressure: its "
+                                            "own convergence (the table's "
+                                            "errors are against the "
+                                            "closed form), reference")]
+    assert study_module.scene_quantities(COLUMN) == [
+        study_module.DEFAULT_QUANTITY]
+    with pytest.raises(InvalidInputError, match="peak footing pressure: "
+                       "a footing scene's"):
+        FOOTING_QUANTITY.check(COLUMN)
+
+
+def test_a_rate_over_errors_that_do_not_fall_is_none():
+    """The trial's footing study: errors 17.1%, 8.2%, 9.2% at 8, 16, 32
+    elements printed "rate of the error all: 0.44" without a word; a
+    slope over errors that do not fall with every refinement is no
+    rate."""
+    from skfem_mpm.studies.study import not_falling, report
+    rows = [dict(elements=n, failure="", error=e, uncertainty=None,
+                 wall_seconds=1., cpu_seconds=1., points=n * n,
+                 newton_iterations=1, factorisations=1)
+            for n, e in ((8, .1705), (16, .0817), (32, .0924))]
+    measured = {"error": {"measures": "a closed form", "closed_form": True},
+                "convergence": []}
+    line = [x for x in report(rows, measured, ["elements"])
+            if x.startswith("rate of the error")][0]
+    assert line.startswith("rate of the error all: none: the errors do not "
+                           "fall with every refinement (errors 1.71e-01, "
+                           "8.17e-02, 9.24e-02 at 8, 16, 32 elements; a "
+                           "slope fitted to them, 0.44, would be no rate")
+    assert not_falling([8, 16, 32], [.1705, .0817, .0409]) == ""
+    assert not_falling([32, 8, 16], [.0924, .1705, .0817])

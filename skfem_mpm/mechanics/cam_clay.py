@@ -17,7 +17,9 @@ the effective mean pressure ``p = -tr(tau) / 3`` and the volumetric strain
   strain with a constant shear modulus ``G``.  ``p_r`` is the pressure at
   zero elastic strain: a body of this soil whose points start without
   strain carries ``p_r`` all round (there is no stress-free state; give
-  boundary pressures, or start from :func:`~skfem_mpm.geostatic_stress`).
+  boundary pressures that act in full from the first step,
+  ``Pressure(..., ramp=False)``, or start from
+  :func:`~skfem_mpm.geostatic_stress`).
 - Yield surface, the ellipse ``f = q^2 / M^2 + p (p - p_c)``, associated
   flow; ``M`` the slope of the critical state line.
 - Hardening: ``p_c = p_c0 exp(ev_p / (lambda_ - kappa))`` with the plastic

@@ -9,7 +9,9 @@ level surface this state is in equilibrium with the full body force, so a
 run that starts from it with the body force acting in full from the first
 step (``simulate(..., body_force=BodyForce(g, ramp=False))``) has
 nothing to do until
-other loads come.  Under a sloping surface it is not in equilibrium, and
+other loads come (an overburden as a traction the stress includes acts
+in full too: ``Traction(..., ramp=False)``).  Under a sloping surface it
+is not in equilibrium, and
 the first step must carry the whole imbalance at once (no cut-back reduces
 it): ramp the gravity up from a stress-free start there instead.
 Layered ground (one body force and K0 per body): each body carries the
@@ -64,7 +66,10 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
     body_force
         Body force per unit volume, (dim,), along the last axis and
         pointing down (negative); or one row per body, (nbodies, dim),
-        for layers.
+        for layers.  Zero (a weightless body, so that one script runs a
+        case without weight too): the stress is zero (``K0`` then acts on
+        nothing), refused by a material with no stress-free state (Cam
+        clay's elastic law at zero pressure).
     surface
         Ground height (a number or a callable); with layers also ``None``
         (the top of each uppermost body's material, its points' domains)
@@ -122,11 +127,12 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
     present = np.unique(body)
     if rows.ndim != 2 or rows.shape[0] < nb or rows.shape[1] != dim \
             or not np.isfinite(rows[present]).all() \
-            or (rows[present, -1] >= 0).any() or rows[present, :-1].any():
+            or (rows[present, -1] > 0).any() or rows[present, :-1].any():
         raise InvalidInputError(
             "body_force must be ({},) or one such row per body ({} bodies), "
-            "along the last axis and pointing down (negative), got "
-            "{!r}".format(dim, nb, body_force))
+            "along the last axis and pointing down (negative) or zero (a "
+            "weightless body: no stress), got {!r}".format(
+                dim, nb, body_force))
     ratios = np.array([check_real("K0", k) for k in np.ravel(K0)]) \
         if np.ndim(K0) == 1 else np.full(nb, check_real("K0", K0))
     if ratios.shape[0] < nb or not (np.isfinite(ratios[present])

@@ -208,19 +208,19 @@ class FieldMethod:
         the centres of their faces normal to it."""
         return self._per_field(self.piece.weights_at, x, idx, axis)
 
-    def _face_weights(self, x: ndarray, idx: ndarray,
-                      axis: int) -> SparseOperator:
-        """The method's weights at the centres ``x`` (dim, m) of the
-        faces normal to ``axis`` of points ``idx`` (m,), on their fields
-        (surface loads)."""
-        return self._per_field(self.piece.face_weights, x, idx, axis)
+    def _face_weights(self, x: ndarray, idx: ndarray, axis: int,
+                      sign: int) -> SparseOperator:
+        """The method's weights of the faces normal to ``axis`` on the
+        side ``sign`` of points ``idx`` (m,), their centres ``x`` (dim,
+        m), on their fields (surface loads)."""
+        return self._per_field(self.piece.face_weights, x, idx, axis, sign)
 
-    def _per_field(self, weights, x: ndarray, idx: ndarray, axis):
-        """``weights(x, idx, axis)`` of each field's points, on its copy
+    def _per_field(self, weights, x: ndarray, idx: ndarray, *args):
+        """``weights(x, idx, *args)`` of each field's points, on its copy
         of the grid."""
         field = self.fields.field[idx]
         return self.fields.combine(
             ((np.flatnonzero(field == k), weights(
-                x[:, field == k], idx[field == k], axis)
+                x[:, field == k], idx[field == k], *args)
               if (field == k).any() else None)
              for k in range(self.fields.count)), x.shape[1])

@@ -125,6 +125,7 @@ class GimpMethod(PointMethod):
         super().__init__(name, mesh, scalar, scalar_dofs, pattern, locate,
                          counters)
         self._grid = mesh, scalar, locate
+        self._boxes = None          # the step's points' centres and domains
         self.kernels = PointMethod.kernels
 
     @property
@@ -162,25 +163,28 @@ class GimpMethod(PointMethod):
         ``domain``."""
         return self.gimp(x, domain)
 
-    def face_weights(self, x: ndarray, idx: ndarray, axis: int):
-        """The GIMP weights of the faces normal to ``axis`` of points
-        ``idx`` on the side of ``x`` (dim, m), the material's faces'
-        centres: the faces of their domains in the step's operator (flat
-        along ``axis``), where surface loads act, so a traction loads the
-        nodes the domains reach as their internal force does.  The grid
+    def face_weights(self, x: ndarray, idx: ndarray, axis: int,
+                     sign: int):
+        """The GIMP weights of the faces normal to ``axis`` on the side
+        ``sign`` (+1 or -1) of points ``idx`` (``x``, the material's faces'
+        centres, unused): the faces of their domains in the step's
+        operator (flat along ``axis``), where surface loads act, so a
+        traction loads the nodes the domains reach as their internal force
+        does (the side the load's, not the material face's: a domain's box
+        does not turn with a body turned past a right angle).  The grid
         element's shape functions in the point's cell, extrapolated to a
         face a thousandth of a cell past a grid line, put nothing on the
         node beyond, where the domain's sliver did: that node's balance
         took the stress of the loaded column of points to zero, and the
         column beside it carried twice the load (a GIMP block stretched in
-        two steps; cpGIMP's column compressed by 30% went 0.57 off its
-        homogeneous displacement and stopped).  The domain's face, not
+        two steps; cpGIMP's column compressed by 30% went 0.46 off its
+        homogeneous displacement at step 18 and left the grid).  The domain's face, not
         the material's (``x + F d0``, beyond uGIMP's fixed domain when
         stretched): there the stretched block's loaded column was 7% off."""
         centre, domain = self._boxes
         face = domain[:, idx].copy()
         at = centre[:, idx].copy()
-        at[axis] += np.sign(x[axis] - at[axis]) * face[axis]
+        at[axis] += sign * face[axis]
         face[axis] = 0.
         return self.gimp(at, face)
 
@@ -279,9 +283,11 @@ class BSplineMethod(PointMethod):
                                       self.held)
         return op if E is None else extended_operator(op, E)
 
-    def face_weights(self, x: ndarray, idx: ndarray, axis: int):
-        """:meth:`weights_at` the centres of the faces normal to ``axis``
-        of points ``idx`` (surface loads)."""
+    def face_weights(self, x: ndarray, idx: ndarray, axis: int,
+                     sign: int):
+        """:meth:`weights_at` the centres ``x`` of the faces normal to
+        ``axis`` of points ``idx`` (surface loads; ``sign``, their side,
+        is where ``x`` lies)."""
         return self.weights_at(x, idx, axis)
 
     def domains(self, domain0: Optional[ndarray], F: ndarray):

@@ -220,7 +220,8 @@ def load_checkpoint(outdir, scene_sha256: Optional[str] = None) -> Checkpoint:
     except (OSError, ValueError, EOFError, zipfile.BadZipFile,
             KeyError, NotImplementedError) as err:   # the last: zipfile
         # on a flipped flag bit ("compressed patched data")
-        if "pickle" in str(err):       # numpy's advice to trust it: not ours
+        if isinstance(err, ValueError) and "allow_pickle" in str(err):
+            # numpy's advice to load it unsafely if one trusts it: not ours
             raise CheckpointError(
                 "{}: unreadable: it holds pickled (object) data, which no "
                 "checkpoint of skfem-mpm does (not loaded: it is not this "

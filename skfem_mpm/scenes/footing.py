@@ -11,13 +11,15 @@ the soil's strength ``(c, phi)`` they and the closed form read.
 from typing import NamedTuple
 
 import numpy as np
+from numpy import ndarray
 
 from ..errors import InvalidInputError
 from ..mechanics.materials import VonMises
 from ..mechanics.soils import DruckerPrager, MohrCoulomb
 from .regions import bounding_box, region_shape
 
-__all__ = ["soil_strength", "Footing", "scene_footing", "check_footing_scene"]
+__all__ = ["soil_strength", "Footing", "scene_footing", "check_footing_scene",
+           "footing_pressure", "footing_forces"]
 
 
 def soil_strength(material) -> tuple:
@@ -170,3 +172,24 @@ def check_footing_scene(scene):
         raise InvalidInputError(
             "reference 'bearing_capacity' measures the pressure in units of "
             "the cohesion: a soil without cohesion has no N_c c")
+
+
+def footing_pressure(scene, forces: ndarray) -> ndarray:
+    """The footing pressure per step (positive pushing down) from the
+    footing's force per step ``forces`` (steps, 2; a rigid body's that
+    holds its motion, or an obstacle's from the material,
+    :func:`footing_forces`): the soil's push up on it over its width
+    (:func:`~skfem_mpm.scenes.footing.scene_footing`)."""
+    footing = scene_footing(scene)
+    return footing.sign * np.asarray(forces)[:, 1] / footing.width
+
+
+def footing_forces(scene, history) -> ndarray:
+    """The footing's force per step of the records ``history`` (steps,
+    2), as :func:`footing_pressure` reads it."""
+    footing = scene_footing(scene)
+    if footing.kind == "rigid_bodies":
+        return np.array([r.rigid_forces[0] for r in history])
+    k = footing.column - len(scene.supports) - sum(
+        b.rigid is not None for b in scene.bodies)
+    return np.array([r.obstacle_forces[k] for r in history])

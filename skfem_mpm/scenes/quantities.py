@@ -3,8 +3,12 @@
 A :class:`Quantity` names one number of a finished run: a point
 displacement or stress at a place, its mean or extreme over a box of
 material points, the reaction of a named support, the force that moves
-a rigid body, the force of the material on an obstacle or the force
-between the bodies of a contact.  Scene files list them as
+a rigid body, the force of the material on an obstacle, the force
+between the bodies of a contact, or a footing scene's peak bearing
+pressure (``footing_pressure``, ``"peak"``: the largest over the run of
+the soil's push on the footing over its width, what the reference
+``"bearing_capacity"`` judges; a study of such a scene measures it by
+default).  Scene files list them as
 ``[[outputs]]``; ``skfem-mpm study`` measures them in every case and
 ``skfem-mpm run`` reports them in ``summary.json``.  Places and boxes refer to the points' *initial*
 positions, so a quantity follows the same material through the
@@ -31,7 +35,7 @@ __all__ = ["Quantity", "QUANTITIES", "COMPONENTS", "REDUCTIONS",
 
 #: what a quantity can measure
 QUANTITIES = ("displacement", "stress", "reaction", "rigid_force",
-              "obstacle_force", "contact_force")
+              "obstacle_force", "contact_force", "footing_pressure")
 #: the quantities that are forces of a support, a rigid body, an
 #: obstacle or a contact between bodies, and the field naming which (in
 #: the order of :func:`~skfem_mpm.scenes.scene.reaction_resultants`)
@@ -44,7 +48,8 @@ COMPONENTS = {"displacement": ("x", "y", "z", "magnitude"),
               "reaction": ("x", "y", "z", "magnitude"),
               "rigid_force": ("x", "y", "z", "magnitude"),
               "obstacle_force": ("x", "y", "z", "magnitude"),
-              "contact_force": ("x", "y", "z", "magnitude")}
+              "contact_force": ("x", "y", "z", "magnitude"),
+              "footing_pressure": ("peak",)}
 #: the dimensions a component needs: the rest exist from 1D on
 NEEDS = {"y": 2, "xy": 2, "yy": 2, "z": 3, "zz": 3, "xz": 3, "yz": 3}
 #: how the points of a box (or all points) give one number
@@ -66,12 +71,16 @@ class Quantity:
         ``"obstacle_force"`` (the force the material exerts on an
         obstacle, ``obstacle``) or ``"contact_force"`` (the force the
         first body of a contact between bodies exerts on the second,
-        ``contact``; :attr:`~skfem_mpm.StepRecord.contact_forces`).
+        ``contact``; :attr:`~skfem_mpm.StepRecord.contact_forces`), or
+        ``"footing_pressure"`` (a bearing-capacity scene's footing,
+        :func:`~skfem_mpm.scenes.footing.scene_footing`: the soil's push
+        on it over its width, positive pushing down).
     component
         ``"x"``, ``"y"``, ``"z"`` or ``"magnitude"``; for stress ``"xx"``,
         ``"yy"``, ``"zz"``, ``"xy"``, ``"xz"``, ``"yz"``, ``"mises"`` (von
         Mises equivalent) or ``"pressure"`` (mean pressure, positive in
-        compression).
+        compression); for ``footing_pressure`` ``"peak"`` (the
+        largest of the run's steps).
     at
         For point quantities: a place (initial coordinates); the value
         there is fitted linearly by least squares to the nearest points
@@ -176,6 +185,8 @@ class Quantity:
                              "contact_force"):
             return text + " of " + (self.body or self.obstacle
                                     or self.contact)
+        if self.quantity == "footing_pressure":
+            return "peak footing pressure"
         of = "" if self.body is None else " of " + self.body
         if self.at is not None:
             return text + of + " at ({})".format(", ".join(
@@ -238,6 +249,13 @@ class Quantity:
                                     .format(self.label, "rigid " if
                                             self.quantity == "rigid_force"
                                             else "", self.body, bodies))
+        if self.quantity == "footing_pressure":
+            from .footing import scene_footing
+            try:
+                scene_footing(scene)
+            except InvalidInputError as err:
+                raise InvalidInputError("{}: a footing scene's: {}".format(
+                    self.label, err)) from err
         if points is None or self.quantity not in ("displacement", "stress"):
             return
         chosen = self._chosen(scene, points)
@@ -273,6 +291,11 @@ class Quantity:
         :func:`~skfem_mpm.scenes.scene.run_scene` on ``scene``); a box
         that holds no point of this run (a coarse grid of a study) raises
         :class:`~skfem_mpm.errors.InvalidInputError`."""
+        if self.quantity == "footing_pressure":
+            from .footing import footing_forces, footing_pressure
+            pressure = footing_pressure(scene, footing_forces(
+                scene, result.history))
+            return float(pressure.max()) if pressure.size else float("nan")
         if self.quantity in FORCES:
             names, resultant = reaction_resultants(scene)
             rows = resultant(result.history[-1])
@@ -349,8 +372,8 @@ def quantity_unit(quantity: str, dim: int, system: str = "SI") -> str:
     >>> quantity_unit("reaction", 2), quantity_unit("stress", 2, "kN-m")
     ('N/m', 'kPa')
     """
-    kind = {"displacement": "length", "stress": "stress"}.get(quantity,
-                                                              "force")
+    kind = {"displacement": "length", "stress": "stress",
+            "footing_pressure": "stress"}.get(quantity, "force")
     return unit(kind, system, dim)
 
 

@@ -184,11 +184,14 @@ class Traction:
     deformation) on one ``side`` of a body: the faces of its outermost
     layer of points there (:class:`skfem_mpm.Traction`,
     :class:`skfem_mpm.Pressure`).  Give exactly one of ``traction`` and
-    ``pressure``."""
+    ``pressure``; ``ramp``: it grows with the load factor (default) or
+    (``False``) acts in full from the first step (a confining pressure
+    the body's initial stress balances)."""
     body: str
     side: str
     traction: Optional[Sequence[float]] = None
     pressure: Optional[float] = None
+    ramp: bool = True
 
 
 @dataclass
@@ -253,7 +256,8 @@ class Scene:
         bodies of different densities fall differently under it in
         dynamics (warned); give ``acceleration`` instead.
     point_loads, tractions
-        Loads at full load factor, ramped over the steps.
+        Loads at full load factor, ramped over the steps (a traction or
+        pressure with ``ramp=False``: in full from the first step).
     method
         ``"fem"`` (points fixed: finite elements with the points as
         quadrature), ``"mpm"``, ``"ugimp"``, ``"cpgimp"``, ``"bspline"``
@@ -447,7 +451,10 @@ class Scene:
             self.newton, self.stabilisation, None if self.dynamics is None
             else self.dynamics.dynamics([b.density for b in self.bodies]),
             full_body_force=self.body_forces() is not None and any(
-                b.K0 is not None for b in self.bodies),
+                b.K0 is not None for b in self.bodies) or " and ".join(
+                    sorted({"a pressure" if t.traction is None else
+                            "a traction" for t in self.tractions
+                            if t.ramp is False}, reverse=True)),
             driven=bool(rigid) or moving,
             contact=contact_named(self.obstacles, self.contacts))
         check_contacts(self.contacts, len(self.bodies),
@@ -739,8 +746,9 @@ def surface_loads(scene: Scene, points: MaterialPoints) -> list:
     for t in scene.tractions:
         layer = side_points(points, t.side,
                             points.body == names.index(t.body))
-        loads.append(Pressure(layer, t.side, t.pressure) if t.traction is None
-                     else SurfaceTraction(layer, t.side, t.traction))
+        loads.append(Pressure(layer, t.side, t.pressure, t.ramp)
+                     if t.traction is None else
+                     SurfaceTraction(layer, t.side, t.traction, t.ramp))
     return loads
 
 

@@ -97,15 +97,24 @@ offending value (unknown keys, wrong types, impossible values), in a
     traction = [0.0, -100.0]        # per initial area, fixed direction
     # or pressure = 100.0           # pushes in, follows the surface in
                                     # finite deformation
+    # ramp = false                  # in full from the first step (a
+                                    # confining pressure the body's
+                                    # initial stress balances); default
+                                    # true: grows with the load factor
     [[outputs]]                     # optional: quantities of interest,
                                     # in summary.json and measured by
                                     # `skfem-mpm study` (default there:
-                                    # the largest point displacement)
+                                    # the largest point displacement; a
+                                    # footing scene's peak footing
+                                    # pressure)
     name = "top settlement"         # optional label
     quantity = "displacement"       # or "stress", "reaction" (support =
                                     # its name), "rigid_force" (body = ..)
                                     # or "obstacle_force" (obstacle = ..)
                                     # or "contact_force" (contact = ..)
+                                    # or "footing_pressure" (component
+                                    # "peak"; reference
+                                    # "bearing_capacity")
     component = "y"                 # x y z magnitude; stress: xx yy zz xy
                                     # xz yz mises pressure
     at = [0.5, 50.0]                # initial position (a linear fit to
@@ -830,8 +839,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
     names = [b.name for b in bodies]
     for k, t in enumerate(c.array(data, "tractions")):
         key = "tractions[{}]".format(k)
-        t = c.table(t, key, ("body", "side", "traction", "pressure"),
-                    ("body", "side"))
+        t = c.table(t, key, ("body", "side", "traction", "pressure",
+                             "ramp"), ("body", "side"))
         if ("traction" in t) == ("pressure" in t):
             c.bad(key, "needs exactly one of traction, pressure", t)
         body = t.get("body")
@@ -843,7 +852,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             traction=c.vector(t, key, "traction", dim) if "traction" in t
             else None,
             pressure=c.number(t, key, "pressure", 0.) if "pressure" in t
-            else None))
+            else None, ramp=c.boolean(t, key, "ramp", True)))
     obstacles = [_obstacle(c, o, "obstacles[{}]".format(k), dim)
                  for k, o in enumerate(c.array(data, "obstacles"))]
     contacts = [_contact(c, t, "contacts[{}]".format(k), bodies)

@@ -1645,7 +1645,7 @@ class StepBodyContact(GridTerm):
             # step would be predicted at twice the impact's pressure
             counted = (part["start"] > 0) | (
                 problem.f_old <= 0. and problem.run.dynamics is None
-                and bool(np.all(problem.run.loads.ramp_gravity)))
+                and problem.run.loads.all_ramped)
             rate = np.where(counted, e[4] - part["start"], 0.) / step \
                 if step > 0 and part["steady"] else np.zeros_like(e[4])
             values = np.vstack([e[4] * part["n"],

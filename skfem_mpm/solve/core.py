@@ -81,8 +81,8 @@ from .body_contact import BodyContact, check_contacts
 from .contact import CellValues, contact_term, linear_gimp
 from .dynamics import Dynamics, InertiaTerm, scheme_for
 from .linear import support_dofs
-from .loads import (ExternalLoads, FollowerPressure, GridLoad,
-                    check_exposed)
+from .loads import (ExternalLoads, FollowerPressure, GridLoad, Pressure,
+                    Traction, check_exposed)
 from .newton import (CORRECTION_ROUNDOFF, FullStep, NewtonOptions,
                      newton as newton_driver)
 from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
@@ -1565,9 +1565,12 @@ def check_combination(method: str, kinematics: str, plastic: bool,
                     else "plasticity"))
         if full_body_force:
             raise InvalidInputError(
-                "rhs = 'increment' maps only load increments: a body force "
-                "in full from the first step (ramp_body_force, a geostatic "
-                "body) would be dropped; use rhs = 'residual'")
+                "rhs = 'increment' maps only load increments: {} in full "
+                "from the first step ({}) would be dropped; use rhs = "
+                "'residual'".format(*(
+                    ("a body force", "ramp_body_force, a geostatic body")
+                    if full_body_force is True else
+                    (full_body_force, "ramp=False"))))
         if driven:
             raise InvalidInputError(
                 "rhs = 'increment' maps only the load increment: prescribed "
@@ -1759,6 +1762,16 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
             int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))))
 
 
+def surface_in_full(forces) -> str:
+    """The tractions and pressures among ``forces`` that act in full from
+    the first step (``ramp=False``), in words (``""``: none)."""
+    kinds = [type(load).__name__.lower() for load in forces
+             if isinstance(load, (Traction, Pressure))
+             and load.ramp is False]
+    return " and ".join("a " + kind for kind in sorted(set(kinds),
+                                                       reverse=True))
+
+
 def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                loads, nsteps, method: str, kinematics: str, dynamics,
                options: Options, obstacles: Sequence = (),
@@ -1799,7 +1812,8 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                                       method)
     check_combination(method, kinematics, is_plastic(material), newton,
                       stabilisation, dynamics, full_body_force=gravity is not
-                      None and not ramp.all(), driven=prescribed is not None
+                      None and not ramp.all() or surface_in_full(forces),
+                      driven=prescribed is not None
                       or bool(rigid_bodies),
                       contact=contact_named(obstacles, contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)

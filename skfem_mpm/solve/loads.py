@@ -2,24 +2,31 @@
 forces (seed (2.18), (2.19)), tractions and pressure on a body's surface,
 and user ``LinearForm`` s on the grid.
 
-Every load is given at full load and ramped linearly by the load factor.
+Every load is given at full load and ramped linearly by the load factor,
+except a body force (``BodyForce(..., ramp=False)``) and a traction or
+pressure (``ramp=False``) that act in full from the first step: the loads
+a body starting from a stress in equilibrium with them carries (a
+geostatic stress under its weight, a sample at its confining pressure).
 
 - Body force per unit *initial* volume and point forces are mapped with
   the step's point operator (standard MPM, FE or GIMP weights).
 - :class:`Traction` and :class:`Pressure` act on one side of a body: each
   point of the outermost layer on that side carries the face of its domain
   (``MaterialPoints.domain``), whose centre ``x + F (d0 n0)`` is the load's
-  point of application, mapped with the shape functions of the cell that
-  holds the point (with two points per cell along the side, this
-  integrates a uniform traction exactly, as finite elements do), or with
-  the method's weights there (B-splines: at the face's centre with
-  ``"bspline"``, averaged over the face with ``"bspline-gimp"``; with
-  the splines at the points a uniform traction gives a uniform stress
-  only at 2 or 4 points a cell, whose rule integrates the splines'
-  gradients exactly: ``docs/bspline.md``).  A face
-  centre that has left the point's cell is taken at the nearest point of
-  that cell: the force goes to nodes the step's points support (a cell
-  without points has no stiffness to carry it) and its resultant is kept.  A traction is a dead load per initial
+  point of application.  Standard MPM maps it with the shape functions of
+  the cell that holds the point (with two points per cell along the side,
+  this integrates a uniform traction exactly, as finite elements do); a
+  face centre that has left the point's cell is taken at the nearest
+  point of that cell: the force goes to nodes the step's points support
+  (a cell without points has no stiffness to carry it) and its resultant
+  is kept.  GIMP loads the face of the point's domain in the step's
+  operator (its centre ``x +- domain`` along the side's axis) by GIMP's
+  weights averaged over it, the nodes the domain's internal force
+  reaches (a domain past a grid line included).  B-splines take the
+  splines at the face's centre (``"bspline"``) or averaged over the face
+  (``"bspline-gimp"``; with the splines at the points a uniform traction
+  gives a uniform stress only at 2 or 4 points a cell, whose rule
+  integrates the splines' gradients exactly: ``docs/bspline.md``).  A traction is a dead load per initial
   area; a pressure follows the surface in finite deformation: its force
   ``-p J F^-T N A0`` (Nanson's formula) is evaluated at every iteration's
   trial deformation, so the converged state carries the pressure on the
@@ -170,6 +177,17 @@ def check_exposed(loads, points: MaterialPoints) -> None:
 
 
 
+def check_load_ramp(load) -> bool:
+    """A :class:`Traction`'s or :class:`Pressure`'s ``ramp`` as a bool, or
+    :class:`~skfem_mpm.errors.InvalidInputError`."""
+    if not isinstance(load.ramp, (bool, np.bool_)):
+        raise InvalidInputError(
+            "{}.ramp must be True (grows with the load factor) or False "
+            "(in full from the first step), got {!r}".format(
+                type(load).__name__, load.ramp))
+    return bool(load.ramp)
+
+
 def supported_share(S: csr_matrix, supported: ndarray) -> csr_matrix:
     """The rows of the weights ``S`` (faces x nodes) on the ``supported``
     nodes only, each scaled to its whole sum: a face's force goes to the
@@ -202,20 +220,33 @@ def supported_share(S: csr_matrix, supported: ndarray) -> csr_matrix:
 class Traction:
     """A traction (force per initial area, fixed direction) at full load
     on ``side`` of the points ``points`` (indices, e.g. from
-    :func:`side_points`)."""
+    :func:`side_points`); it grows with the load factor (``ramp=True``,
+    the default) or acts in full from the first step (``False``: where
+    the points start from a stress that balances it, e.g. a confining
+    pressure)."""
     points: ndarray
     side: str
     traction: Sequence[float]
+    ramp: bool = True
 
 
 @dataclass
 class Pressure:
     """A pressure at full load (positive pushes into the body) on ``side``
     of the points ``points``; it follows the surface in finite
-    deformation."""
+    deformation.  It grows with the load factor (``ramp=True``, the
+    default) or acts in full from the first step (``False``: a confining
+    pressure the points' initial stress balances, as in a triaxial
+    test's cell).
+
+    >>> import numpy as np
+    >>> Pressure(np.arange(4), "right", 100., ramp=False).ramp
+    False
+    """
     points: ndarray
     side: str
     pressure: float
+    ramp: bool = True
 
 
 @dataclass
@@ -294,13 +325,14 @@ class ExternalLoads:
         factor (default), or (``False``) acts in full from the first step
         (a geostatic initial stress balances it).
     weights
-        ``weights(x, idx, axis) -> operator``: the method's own weights of
-        grid nodes at the centres ``x`` (dim, m) of the faces normal to
-        ``axis`` of points ``idx``, for the faces of surface loads, where
-        the method's displacement field is not the grid element's (B-spline
-        MPM) or the points' domains reach past their cells (GIMP: the
-        faces of the domains); ``None``: the grid element's shape
-        functions in the points' cells (standard MPM).
+        ``weights(x, idx, axis, sign) -> operator``: the method's own
+        weights of grid nodes on the faces normal to ``axis`` on the side
+        ``sign`` (+1 or -1) of points ``idx``, whose material's centres are
+        ``x`` (dim, m), for surface loads, where the method's displacement
+        field is not the grid element's (B-spline MPM: at ``x``) or the
+        points' domains reach past their cells (GIMP: the faces of the
+        domains); ``None``: the grid element's shape functions in the
+        points' cells (standard MPM).
     kernels
         The run's ``kernels`` option (:class:`~skfem_mpm.solve.options.
         Options`): whether the faces' material-point basis takes compiled
@@ -316,11 +348,13 @@ class ExternalLoads:
         self.ramp_gravity = np.atleast_1d(np.asarray(ramp_gravity, bool))
         self.gravity, self.counters, self.domain0 = gravity, counters, domain0
         self.surface, self.grid_vector, self.cell_local = [], None, None
+        self.surface_ramp = []       # per surface load: grows with factor
         self._faces = (None, [])
         self.grid, self.doflocs = grid, None
         for load in loads:
             if isinstance(load, (Traction, Pressure)):
                 self.surface.append(self._surface(load, n_points))
+                self.surface_ramp.append(check_load_ramp(load))
                 if self.cell_local is None:
                     self.cell_local = cell_coordinates(mesh)
             elif isinstance(load, GridLoad):
@@ -397,30 +431,55 @@ class ExternalLoads:
             scaled = weight if scaled is None else scaled + weight
         if scaled is not None:
             f += op.point_force(scaled)
-        for face, (idx, axis, sign, value, pressure) in zip(
-                self._faces_of(op, points), self.surface):
+        for face, (idx, axis, sign, value, pressure), ramp in zip(
+                self._faces_of(op, points), self.surface, self.surface_ramp):
+            scale = factor if ramp else 1.
             if not pressure:
-                f += factor * face.point_force(value[:, None] * face.area)[
+                f += scale * face.point_force(value[:, None] * face.area)[
                     :op.N]
             elif not self.follows:
-                f += factor * self._pressure(face, points.F[:, :, idx], axis,
-                                             sign, value, op.N)
+                f += scale * self._pressure(face, points.F[:, :, idx], axis,
+                                            sign, value, op.N)
         if self.grid_vector is not None:
             self._check_supported(op)
             f += factor * self.grid_vector
         self._check_representable(f, load, factor)
         return f
 
+    @property
+    def all_ramped(self) -> bool:
+        """Whether every load grows with the load factor from nothing (no
+        body force, traction or pressure in full from the first step)."""
+        return bool((self.gravity is None or self.ramp_gravity.all())
+                    and all(self.surface_ramp))
+
+    def in_full(self) -> str:
+        """The loads that act in full from the first step, in words
+        (``""``: none)."""
+        words = []
+        if self.gravity is not None and not self.ramp_gravity.all():
+            words.append("a body force")
+        for (_, _, _, _, pressure), ramp in zip(self.surface,
+                                                self.surface_ramp):
+            name = "a pressure" if pressure else "a traction"
+            if not ramp and name not in words:
+                words.append(name)
+        return " and ".join(words)
+
     def proportional(self, points: MaterialPoints) -> bool:
         """Whether :meth:`external` from the state ``points`` is one
         vector scaled by a number at every load factor: every load grows
-        with the load factor, or a body force acting in full from the
-        first step is the only load (then a shorter step bears all of
-        it).  Loads that follow the surface are left to their term."""
-        if self.gravity is None or self.ramp_gravity.all():
+        with the load factor, or every load acts in full from the first
+        step (a body force, tractions, pressures: then a shorter step
+        bears all of it).  Loads that follow the surface are left to
+        their term, but their share in full or ramped counts."""
+        ramps = list(self.surface_ramp)
+        if self.gravity is not None:
+            ramps += self.ramp_gravity.tolist()
+        if all(ramps):
             return True
-        return not (self.ramp_gravity.any() or self.surface
-                    or self.grid_vector is not None or points.force.any())
+        return not (any(ramps) or self.grid_vector is not None
+                    or points.force.any())
 
     def _check_representable(self, f: ndarray, load, factor: float):
         """Loads whose grid forces underflow to zero or to subnormal numbers
@@ -450,11 +509,11 @@ class ExternalLoads:
         the trial deformation: ``deformation(idx)`` is the deformation
         gradient (3, 3, m) of points ``idx`` (every iteration)."""
         f = np.zeros(op.N)
-        for face, (idx, axis, sign, value, pressure) in zip(
-                self._faces_of(op, points), self.surface):
+        for face, (idx, axis, sign, value, pressure), ramp in zip(
+                self._faces_of(op, points), self.surface, self.surface_ramp):
             if pressure:
-                f += factor * self._pressure(face, deformation(idx), axis,
-                                             sign, value, op.N)
+                f += (factor if ramp else 1.) * self._pressure(
+                    face, deformation(idx), axis, sign, value, op.N)
         return f
 
     def _pressure(self, face, F, axis, sign, value, N) -> ndarray:
@@ -506,7 +565,7 @@ class ExternalLoads:
             offset[axis] = d0
         centre = points.x[:, idx] + sign * offset
         if self.weights is not None:     # the method's field, not the grid's
-            face = self.weights(centre, idx, axis)
+            face = self.weights(centre, idx, axis, sign)
             face.S = supported_share(face.S, op.active_dofs[::self.dim]
                                      // self.dim)
             face.area = area

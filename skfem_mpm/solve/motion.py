@@ -98,6 +98,53 @@ def check_prescribed_motion(run, op, dofs: ndarray, values: ndarray,
             :, lost[:3]].T.tolist()))
 
 
+#: the cells by which grid nodes that prescribed motion moves along the
+#: normal of the plane they lie on may move before a run warns that the
+#: material's face leaves them (:func:`warn_faces_left`)
+FACE_LEFT = .25
+
+
+def warn_faces_left(run, step: int) -> None:
+    """A warning, once a run whose points move, where prescribed motion
+    at full load moves grid nodes that lie on one plane normal to the
+    motion (a sample's top pushed down, a footing's nodes) by more than
+    :data:`FACE_LEFT` cells: the nodes stay on their grid line while the
+    material's face leaves it, and their motion then reaches the
+    material through the cell's shape functions, not as a platen on its
+    face (a block's top pushed 0.15, 0.6 cells, by its grid nodes moved
+    0.118 with standard MPM, 0.132 with cpGIMP, and its lateral stress
+    scattered from -727 to 375 and -519 to 250 where it is 0, a user
+    trial; pushed 0.12 cells, 0 and within 12; the
+    error of :func:`check_prescribed_motion` comes only once the face
+    has left the nodes' cells).  Motion along the plane (a shear box's
+    top) keeps the face on the line and is not warned."""
+    if "faces left" in run.warned or not run.method.moves:
+        return
+    run.warned.add("faces left")
+    dofs, values = run.prescribed(run.user_grid, 0., 1.)
+    dofs = np.asarray(dofs, dtype=np.int64)
+    values = np.abs(np.asarray(values, dtype=np.float64))
+    places = run.user_grid.doflocs[:, dofs]
+    dim, h = run.dim, run.cell_size
+    for c in range(dim):
+        along = (dofs % dim == c) & (values > 0.)
+        if not along.any() or np.ptp(places[c, along]) > 1e-9 * h:
+            continue
+        moved = float(values[along].max())
+        if moved > FACE_LEFT * h:
+            logger.warning(
+                "step %d: prescribed motion at full load moves the grid "
+                "nodes on the plane %s = %.6g by up to %.3g along %s "
+                "(%.2g cells): the nodes stay on their grid line while "
+                "the material's face leaves it, and their motion then "
+                "reaches the material through the cells' shape "
+                "functions, not as a platen on its face (the stress near "
+                "it scatters); beyond %g of a cell push with a rigid "
+                "Obstacle (docs/contact.md)", step, "xyz"[c],
+                float(places[c, along][0]), moved, "xyz"[c], moved / h,
+                FACE_LEFT)
+
+
 def warn_chosen_copies(run, dofs: ndarray, values: ndarray, on: ndarray,
                        active: ndarray, step: int) -> None:
     """A warning, once a run, where prescribed motion moved one body's
@@ -174,6 +221,7 @@ def held_motion(run, op, points, s_old: float, s_new: float,
         fixed = np.union1d(fixed, dofs)
         driven = dofs[values != 0.]
         check_prescribed_motion(run, op, dofs, values, step)
+        warn_faces_left(run, step)
     rigid_dofs = []
     for k, rigid in enumerate(run.rigid_bodies):
         dofs = rigid.dofs(run.grid.dofs.element_dofs, op.point_elements,

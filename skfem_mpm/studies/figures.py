@@ -17,7 +17,7 @@ from ..scenes.plot import pyplot, series_styles
 from ..solve.results import PHASES, Result
 from .column import SOURCE, analytical_stress, analytical_stress_current, \
     vertical_stress
-from .study import VARIABLES, fitted_rate
+from .study import VARIABLES, fitted_rate, not_falling
 
 __all__ = ["draw_column_stress", "draw_convergence", "pareto_front",
            "plot_column_stress", "plot_study"]
@@ -253,8 +253,10 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             rs = sorted(rs, key=lambda r: r["elements"])
             x = [r["elements"] for r in rs]
             y = [r["error"] for r in rs]
-            _loglog(ax, x, y, style, "{} (rate {:.2f})".format(
-                name, fitted_rate(x, y)) if _extrapolated(
+            _loglog(ax, x, y, style, "{} ({})".format(
+                name, "errors not falling: no rate" if not_falling(x, y)
+                else "rate {:.2f}".format(fitted_rate(x, y)))
+                if _extrapolated(
                     measured, rs[0]) else "{} (no extrapolation: distance "
                 "to the finest case)".format(name), bound=_bounds(rs))
             named = _unknown(ax, x, rs, style, named)

@@ -24,10 +24,9 @@ scene (:mod:`skfem_mpm.scenes.footing`).
 import numpy as np
 from numpy import ndarray
 
-from ..scenes.footing import scene_footing, soil_strength
+from ..scenes.footing import footing_pressure, soil_strength
 
-__all__ = ["bearing_capacity_factor", "footing_pressure", "footing_forces",
-           "footing_error"]
+__all__ = ["bearing_capacity_factor", "footing_error"]
 
 
 def bearing_capacity_factor(friction_angle: float) -> float:
@@ -48,33 +47,16 @@ def bearing_capacity_factor(friction_angle: float) -> float:
     return float((nq - 1) / np.tan(phi))
 
 
-def footing_pressure(scene, forces: ndarray) -> ndarray:
-    """The footing pressure per step (positive pushing down) from the
-    footing's force per step ``forces`` (steps, 2; a rigid body's that
-    holds its motion, or an obstacle's from the material,
-    :func:`footing_forces`): the soil's push up on it over its width
-    (:func:`~skfem_mpm.scenes.footing.scene_footing`)."""
-    footing = scene_footing(scene)
-    return footing.sign * np.asarray(forces)[:, 1] / footing.width
-
-
-def footing_forces(scene, history) -> ndarray:
-    """The footing's force per step of the records ``history`` (steps,
-    2), as :func:`footing_pressure` reads it."""
-    footing = scene_footing(scene)
-    if footing.kind == "rigid_bodies":
-        return np.array([r.rigid_forces[0] for r in history])
-    k = footing.column - len(scene.supports) - sum(
-        b.rigid is not None for b in scene.bodies)
-    return np.array([r.obstacle_forces[k] for r in history])
+def limit_pressure(scene) -> float:
+    """``N_c c`` of a footing scene's soil (its first deformable body)."""
+    soil = next(b for b in scene.bodies if b.rigid is None).material
+    c, phi = soil_strength(soil)
+    return bearing_capacity_factor(phi) * c
 
 
 def footing_error(scene, forces: ndarray) -> float:
     """Relative error of the peak footing pressure against ``N_c c``."""
-    soil = next(b for b in scene.bodies if b.rigid is None).material
-    c, phi = soil_strength(soil)
     pressure = footing_pressure(scene, forces)
     if pressure.size == 0:
         return float("nan")
-    return float(abs(pressure.max() / (bearing_capacity_factor(phi) * c)
-                     - 1))
+    return float(abs(pressure.max() / limit_pressure(scene) - 1))

@@ -88,7 +88,8 @@ __all__ = ["study", "refine", "case_error", "check_reference", "analyse",
            "formal_order", "scene_quantities", "worker_count", "check_vary",
            "cases_of", "estimate", "time_model", "time_left", "clock",
            "disagreements", "VARIABLES",
-           "DEFAULT_VARY", "DEFAULT_QUANTITY", "CASES_UNASKED",
+           "DEFAULT_VARY", "DEFAULT_QUANTITY", "FOOTING_QUANTITY",
+           "CASES_UNASKED",
            "default_vary", "default_elements", "whole_cells_step",
            "not_whole", "geometry_step", "lost_lines", "own_lines"]
 
@@ -101,11 +102,21 @@ DEFAULT_VARY = {"elements": [4, 8, 16, 32, 64, 128, 256],
 #: what a study measures when the scene names nothing
 DEFAULT_QUANTITY = Quantity("displacement", "magnitude", reduce="max",
                             name="largest point displacement")
+#: what a study of a footing scene (``reference = "bearing_capacity"``)
+#: measures when it names nothing: the quantity its reference judges
+FOOTING_QUANTITY = Quantity("footing_pressure", "peak")
 
 
 def scene_quantities(scene) -> Sequence[Quantity]:
-    """The scene's ``outputs``, or :data:`DEFAULT_QUANTITY`."""
-    return list(scene.outputs) or [DEFAULT_QUANTITY]
+    """The scene's ``outputs``, or by default the peak footing pressure
+    of a footing scene (:data:`FOOTING_QUANTITY`: its largest point
+    displacement is about the footing's prescribed push, whose
+    convergence says nothing; a user trial) and the largest point
+    displacement (:data:`DEFAULT_QUANTITY`) of any other."""
+    if scene.outputs:
+        return list(scene.outputs)
+    return [FOOTING_QUANTITY if scene.reference == "bearing_capacity"
+            else DEFAULT_QUANTITY]
 
 
 def whole_cells_step(scene: Scene) -> int:
@@ -385,7 +396,8 @@ def case_error(scene: Scene, result) -> float:
         v = -pts.displacement[1, loaded].mean() / length
         return float(abs(v / elastica_tip([alpha])[0][0] - 1))
     if scene.reference == "bearing_capacity":
-        from .footing import footing_error, footing_forces
+        from ..scenes.footing import footing_forces
+        from .footing import footing_error
         return footing_error(scene, footing_forces(scene, result.history))
     return float("nan")
 
@@ -860,6 +872,11 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             r["relative_uncertainties"][first]
     if scene.reference:
         label, against, what = REFERENCE_ERRORS[scene.reference]
+        if scene.reference == "bearing_capacity":  # the number itself
+            from ..scenes.units import unit
+            from .footing import limit_pressure
+            what += " = {:.6g} {}".format(limit_pressure(scene), unit(
+                "stress", scene.units))
     else:
         label = "relative error of {}".format(first)
         against, reference = (
@@ -1099,8 +1116,14 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                      if r.get("other_stabilisation")]
             rate = fitted_rate([r["elements"] for r in kept],
                                [r["error"] for r in kept])
+            rising = not_falling([r["elements"] for r in kept],
+                                 [r["error"] for r in kept])
             lines.append("rate of the error {}: {}{}{}".format(
-                where, "{:.2f} (fitted to the cases with a non-zero "
+                where, "none: the errors do not fall with every "
+                "refinement ({}; a slope fitted to them, {:.2f}, would "
+                "be no rate: the grids are not in the asymptotic range, "
+                "or the error is noise)".format(rising, rate) if rising
+                else "{:.2f} (fitted to the cases with a non-zero "
                 "error)".format(rate) if np.isfinite(rate) else
                 "needs two cases with a non-zero error", "; left out, "
                 "their grids modelling a geometry other than the finest "
@@ -1111,8 +1134,11 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
     for c in measured["convergence"]:
         where = ", ".join("{}={}".format(k, v) for k, v in
                           c["choices"].items())
-        lines.append("{}{}: {} {} +- {} {}: {}".format(
+        lines.append("{}{}: {}{} {} +- {} {}: {}".format(
             c["quantity"], " [" + where + "]" if where else "",
+            "its own convergence (the table's errors are against the "
+            "closed form), " if measured["error"].get("closed_form")
+            else "",
             "extrapolated" if c["against"] == "richardson" else "reference",
             _number(c["reference"], "{:.6g}"),
             _number(c["uncertainty"], "{:.2g}"), c["unit"], c["why"]))
@@ -1333,7 +1359,8 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
         each); both unset: serial.
     quantities
         :class:`~skfem_mpm.scenes.quantities.Quantity` list; default the
-        scene's ``outputs``, or the largest point displacement.
+        scene's ``outputs``, or the largest point displacement (a
+        footing scene's: its peak footing pressure).
     warm_from
         The cases whose smallest of a case's choices warms a process up
         for it (default: those of ``vary``; :func:`estimate` gives all
@@ -1787,6 +1814,31 @@ def worker_count(workers: int) -> int:
 def _ordered(rows: List[dict], cases: List[dict]) -> List[dict]:
     by_key = {_key(r): r for r in rows}
     return [by_key[_key(c)] for c in cases if _key(c) in by_key]
+
+
+def not_falling(x, y) -> str:
+    """Where the errors ``y`` (finite, positive entries; others left out)
+    do not fall as ``x`` grows, in words (the pairs of elements and
+    errors, in order of ``x``), else ``""``: a rate fitted over them is
+    no rate (a user trial's footing: 17.1%, 8.2%, 9.2% at 8, 16 and 32
+    elements printed "rate of the error all: 0.44").
+
+    >>> from skfem_mpm.studies.study import not_falling
+    >>> not_falling([8, 16, 32], [.171, .0817, .0924])
+    'errors 1.71e-01, 8.17e-02, 9.24e-02 at 8, 16, 32 elements'
+    >>> not_falling([4, 8, 16], [.1, .025, None])
+    ''
+    """
+    x = np.asarray(x, float)
+    y = np.array([np.nan if v is None else v for v in y], float)
+    ok = np.isfinite(y) & (y > 0)
+    order = np.argsort(x[ok], kind="stable")
+    xs, ys = x[ok][order], y[ok][order]
+    if ys.size < 2 or (np.diff(ys) < 0).all():
+        return ""
+    return "errors {} at {} elements".format(
+        ", ".join("{:.2e}".format(v) for v in ys),
+        ", ".join("{:g}".format(v) for v in xs))
 
 
 def fitted_rate(x, y) -> float:
