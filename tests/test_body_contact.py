@@ -1133,6 +1133,66 @@ def test_a_heavily_loaded_square_pile_with_friction_in_3d():
     assert settled[1] < settled[0]
 
 
+def quarter_pile_pushed(friction, nsteps, push):
+    """A user trial's square pile in 3D (trial 76: a quarter model, h =
+    0.125, the pile two cells wide and 1 long, stiff, in K0 = 0.5 Tresca
+    soil, c_u = 20, unit weight 18), pushed by ``push`` down in
+    ``nsteps`` steps by a rough cap obstacle: the cap's force per step."""
+    from skfem import ElementHex1, MeshHex
+    from skfem_mpm import Obstacle, geostatic_stress
+    h, W, H, a, L = .125, 1.25, 1.5, .25, 1.
+    x = np.arange(0, W + 1e-9, h)
+    mesh = MeshHex.init_tensor(x, x, np.arange(0, H + 4 * h + 1e-9, h))
+
+    def inside(p):
+        return (p[0] < a) & (p[1] < a)
+    soil = VonMises(1e4, 1 / 3, np.sqrt(3) * 20.)
+    ground = seed_points(mesh, 2, region=lambda p: (p[2] < H)
+                         & ~(inside(p) & (p[2] > H - L)))
+    ground = geostatic_stress(ground, soil, [0., 0., -18.], H, .5)
+    pile = seed_points(mesh, 2, region=lambda p: inside(p)
+                       & (p[2] > H - L) & (p[2] < H + 2 * h))
+    pile.body[:] = 1
+    pts = concatenate_points([ground, pile])
+
+    def supports(b):
+        return np.concatenate([b.get_dofs(lambda p: p[2] == 0).all()] + [
+            b.get_dofs(lambda p, d=d: np.isclose(p[d], 0.)
+                       | np.isclose(p[d], W)).all("u^{}".format(d + 1))
+            for d in (0, 1)])
+    res = simulate(mesh, ElementHex1(), pts, [soil, LinearElastic(1e6, .2)],
+                   supports, body_force=BodyForce([[0., 0., -18.],
+                                                   [0., 0., 0.]],
+                                                  ramp=False),
+                   nsteps=nsteps, contacts=[Contact(0, 1, friction=friction)],
+                   options=Options(stabilisation=Stabilisation(
+                       antilocking=True)),
+                   obstacles=[Obstacle(box=[[-1., a], [-1., a],
+                                            [H + 2 * h, H + 3 * h]],
+                                       displacement=[0., 0., -push],
+                                       friction="rough")])
+    return np.array([r.obstacle_forces[0][2] for r in res.history])
+
+
+@pytest.mark.slow
+def test_a_square_pile_with_friction_keeps_its_tip_held():
+    """The trial's pile with friction 0.3 pushed 5 mm a step: its cap's
+    force fell from 13.4 to 5.8 at step 3, below the smooth pile's 13.9
+    (a pile with friction cannot carry less): its tip's edge corner,
+    pressed down with two thirds of the tip's force, took at the node of
+    the soil's notch the side's normal (the soil's corners there level
+    faces across x, overlapping the pile's by half a domain, against a
+    gap of -1.5e-3 cells down), paired sideways with a soil corner under
+    the tip, and the tip sank through the soil unheld.  Now it keeps the
+    normal it was pressed along, no worse a separating axis: 14.4 against
+    13.9, the difference about mu times the sides' normal force
+    (0.3 x 1.6 = 0.49)."""
+    smooth = quarter_pile_pushed(0., 3, .015)
+    rough = quarter_pile_pushed(.3, 3, .015)
+    assert smooth[-1] < rough[-1] < smooth[-1] + .3 * (.5 * 18. * .5) \
+        * 2 * .25, (rough, smooth)      # mu K0 gamma z at L / 2, 2 a L
+
+
 def test_a_pile_seeded_to_a_quarter_cell_is_pushed_to_its_load():
     """A user trial's pile on a grid of h = 2/15, its region's sides
     (0.9, 1.1) through columns of points: seeded with teeth (the rows
