@@ -494,7 +494,7 @@ def test_a_hardening_modulus_that_overflows_is_refused():
         DruckerPrager(E, NU, cohesion=C, friction_angle=20., hardening=1e308)
 
 
-def test_a_weightless_geostatic_start_is_stress_free():
+def test_a_weightless_geostatic_start_is_stress_free(caplog):
     """Zero weight (one staged script running a weightless case too; a
     user trial was refused with "pointing down (negative), got [0.0,
     -0.0]"): the stress is zero whatever K0, and the run under the zero
@@ -520,3 +520,13 @@ def test_a_weightless_geostatic_start_is_stress_free():
                            preconsolidation_pressure=100.)
     with pytest.raises(InvalidMaterialError, match="compressive mean"):
         geostatic_stress(points, clay, [0., 0.], 2., .5)
+    # a surface above the material: no soil's weight is missing (a review
+    # found the warning that the stress starts at the weight of 0.5 of
+    # soil that is not there, given for a zero stress)
+    lower = seed_points(mesh, 2, region=lambda x: x[1] < 1.5)
+    with caplog.at_level("WARNING", logger="skfem_mpm"):
+        geostatic_stress(lower, LinearElastic(E, NU), [0., 0.], 2., .5)
+        geostatic_stress(lower, LinearElastic(E, NU), [0., -1.], 2., .5)
+    warned = [r for r in caplog.records
+              if "geostatic start" in r.getMessage()]
+    assert len(warned) == 1          # the weight's, not the weightless

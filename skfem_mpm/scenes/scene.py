@@ -34,7 +34,7 @@ from ..solve.core import (cell_size, check_combination, contact_named,
                           grid_parts, simulate)
 from ..solve.dynamics import Dynamics, GeneralizedAlpha, Newmark
 from ..solve.loads import (Pressure, Traction as SurfaceTraction,
-                           side_axis, side_points)
+                           in_full_words, side_axis, side_points)
 from ..solve.newton import NewtonOptions
 from ..solve.options import BodyForce, Options, Prescribed, Resume
 from ..solve.results import Result
@@ -451,10 +451,9 @@ class Scene:
             self.newton, self.stabilisation, None if self.dynamics is None
             else self.dynamics.dynamics([b.density for b in self.bodies]),
             full_body_force=self.body_forces() is not None and any(
-                b.K0 is not None for b in self.bodies) or " and ".join(
-                    sorted({"a pressure" if t.traction is None else
-                            "a traction" for t in self.tractions
-                            if t.ramp is False}, reverse=True)),
+                b.K0 is not None for b in self.bodies) or in_full_words(
+                    [t.traction is None for t in self.tractions
+                     if not t.ramp]),
             driven=bool(rigid) or moving,
             contact=contact_named(self.obstacles, self.contacts))
         check_contacts(self.contacts, len(self.bodies),

@@ -580,10 +580,11 @@ def pardiso_solver(mtype: int):
         os.environ.setdefault("PYPARDISO_MKL_RT", found)
     pardiso = pypardiso.PyPardisoSolver(mtype=mtype)
     # MKL's defaults (iparm(1) = 0) but for iterative refinement, which
-    # they run twice in every solve (three times its cost): here only
-    # after a perturbed pivot (iparm(8) = 0), and such a factorisation
-    # goes to SuperLU anyway; the factorisations are backward stable and
-    # solve_active checks the backward error of every solve
+    # they run twice in every solve (three times its cost): none here
+    # (iparm(8) = 0); a factorisation that perturbed a pivot goes to
+    # SuperLU, or beyond HANDOVER_FILL is solved with refinement set per
+    # solve; the factorisations are backward stable and solve_active
+    # checks the backward error of every solve
     # iparm(35) = 1: the index arrays zero-based, as scipy's
     # (:func:`call_pardiso`)
     general = mtype == 11
@@ -775,12 +776,19 @@ def solver_pypardiso(spd: bool = True, growth_tol: float = 1e12,
                     growth_tol * np.abs(b).max() / diagonal:
                 return x
             if refine or fill > handover_fill:
+                # (no pivot perturbed, but a factor beyond HANDOVER_FILL:
+                # refused as well, where SuperLU's check can take minutes)
                 raise SingularSystemError(
-                    "the stiffness on {} free DOFs is singular: Pardiso "
-                    "perturbed {} pivot(s) and the solution grew to {:.1e} "
-                    "(beyond {:.0e} of the loads over the diagonal); {}"
-                    .format(A.shape[0], perturbed, np.abs(x).max(),
-                            growth_tol, CAUSES))
+                    "the stiffness on {} free DOFs is singular: {} the "
+                    "solution grew to {:.1e}, beyond {:.0e} times the "
+                    "loads' {:.1e} over the largest diagonal entry {:.1e}; "
+                    "{}".format(
+                        A.shape[0], "Pardiso perturbed {} pivot(s) and"
+                        .format(perturbed) if refine else "its factor of "
+                        "{:.1e} nonzeros is beyond {:.0e} (HANDOVER_FILL, "
+                        "SuperLU's check not tried) and".format(
+                            fill, handover_fill), np.abs(x).max(),
+                        growth_tol, np.abs(b).max(), diagonal, CAUSES))
             # a nearly singular matrix factorised as positive definite
             # (no pivot perturbed, a pivot at round-off instead): SuperLU's
             # pivot check decides, for this matrix from now on

@@ -82,7 +82,7 @@ from .contact import CellValues, contact_term, linear_gimp
 from .dynamics import Dynamics, InertiaTerm, scheme_for
 from .linear import support_dofs
 from .loads import (ExternalLoads, FollowerPressure, GridLoad, Pressure,
-                    Traction, check_exposed)
+                    Traction, check_exposed, check_load_ramp, in_full_words)
 from .newton import (CORRECTION_ROUNDOFF, FullStep, NewtonOptions,
                      newton as newton_driver)
 from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
@@ -706,9 +706,10 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
 
 def stall_floor(stalls, before, increment: float) -> str:
     """Words for a step whose attempts (``stalls``: each one's stalled
-    residual, or ``None``) stalled where they stalled at the increment
-    ``before`` (``(increment, stalls)`` of the failure before it, twice
-    this ``increment``), the same attempts, within a factor
+    residual, or ``None``) stalled where they stalled at the longer
+    increment of ``before`` (``(increment, stalls)`` of the failure
+    before it, cut back to this ``increment``), the same attempts, within
+    a factor
     :data:`STALL_CHANGE`: a floor of
     the residual that a shorter step does not lower, so not cut back
     again (with ``ghost="auto"`` the reserve penalty is switched on for
@@ -726,7 +727,8 @@ def stall_floor(stalls, before, increment: float) -> str:
     >>> stall_floor([1e-7, 9.5e-6], (.02, [1.58e-6, 9.46e-6]), .01)
     ''
     """
-    if not stalls or before is None or not before[1] or [
+    if not stalls or before is None or not before[1] or \
+            not before[0] > increment or [
             level is None for level in stalls] != [
                 level is None for level in before[1]]:
         return ""
@@ -1764,12 +1766,10 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
 
 def surface_in_full(forces) -> str:
     """The tractions and pressures among ``forces`` that act in full from
-    the first step (``ramp=False``), in words (``""``: none)."""
-    kinds = [type(load).__name__.lower() for load in forces
-             if isinstance(load, (Traction, Pressure))
-             and load.ramp is False]
-    return " and ".join("a " + kind for kind in sorted(set(kinds),
-                                                       reverse=True))
+    the first step (``ramp=False``, checked), in words (``""``: none)."""
+    return in_full_words([isinstance(load, Pressure) for load in forces
+                          if isinstance(load, (Traction, Pressure))
+                          and not check_load_ramp(load)])
 
 
 def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,

@@ -188,6 +188,18 @@ def check_load_ramp(load) -> bool:
     return bool(load.ramp)
 
 
+def in_full_words(pressures: Sequence[bool]) -> str:
+    """The surface loads acting in full from the first step, one flag per
+    load (``True``: a pressure, ``False``: a traction), in words (``""``:
+    none).
+
+    >>> in_full_words([False, True, False])
+    'a traction and a pressure'
+    """
+    return " and ".join("a " + kind for kind in sorted(
+        {"pressure" if p else "traction" for p in pressures}, reverse=True))
+
+
 def supported_share(S: csr_matrix, supported: ndarray) -> csr_matrix:
     """The rows of the weights ``S`` (faces x nodes) on the ``supported``
     nodes only, each scaled to its whole sum: a face's force goes to the
@@ -452,19 +464,6 @@ class ExternalLoads:
         body force, traction or pressure in full from the first step)."""
         return bool((self.gravity is None or self.ramp_gravity.all())
                     and all(self.surface_ramp))
-
-    def in_full(self) -> str:
-        """The loads that act in full from the first step, in words
-        (``""``: none)."""
-        words = []
-        if self.gravity is not None and not self.ramp_gravity.all():
-            words.append("a body force")
-        for (_, _, _, _, pressure), ramp in zip(self.surface,
-                                                self.surface_ramp):
-            name = "a pressure" if pressure else "a traction"
-            if not ramp and name not in words:
-                words.append(name)
-        return " and ".join(words)
 
     def proportional(self, points: MaterialPoints) -> bool:
         """Whether :meth:`external` from the state ``points`` is one

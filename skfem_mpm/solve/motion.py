@@ -117,7 +117,10 @@ def warn_faces_left(run, step: int) -> None:
     trial; pushed 0.12 cells, 0 and within 12; the
     error of :func:`check_prescribed_motion` comes only once the face
     has left the nodes' cells).  Motion along the plane (a shear box's
-    top) keeps the face on the line and is not warned."""
+    top) keeps the face on the line and is not warned; nor are nodes
+    moved along an axis that do not all lie on one plane across it (a
+    sample pushed from both ends), nor motion that returns by full load
+    (read from ``prescribed(basis, 0, 1)``, called once more for it)."""
     if "faces left" in run.warned or not run.method.moves:
         return
     run.warned.add("faces left")
