@@ -267,3 +267,27 @@ def test_a_figure_is_laid_out_without_drawing_and_saved_in_one_draw(
         ax.xaxis.get_major_locator()._nbins <= 4  # grown, ticks thinned
     plot.save_figure(fig, tmp_path / "thin.png")
     assert len(drawn) == 2                      # saved in one draw
+
+
+def test_tick_labels_touching_at_one_resolution_are_thinned(tmp_path):
+    """A resumed run's load-displacement curve (x from -0.064 to 0.138):
+    its ten x labels "-0.075" .. "0.150" touched at the figure's own
+    resolution, where the layout measured them apart, and overlapped once
+    saved at 120 dpi (conftest's check of the saved draw).  Labels within
+    a pixel of each other are thinned."""
+    fig, ax = plot.pyplot().subplots(figsize=(5, 4))
+    factor = [0., .5833, .6667, .75]
+    ax.plot([0., .09461, .11120, .12897], factor, "o-", ms=3, label="x")
+    ax.plot([0., -.04266, -.04875, -.05497], factor, "o-", ms=3, label="y")
+    ax.set_xlabel("mean displacement of the loaded points (m)")
+    ax.set_ylabel("load factor (-)")
+    ax.set_title("cut-back block: load against displacement\nof the loaded "
+                 "material points")
+    ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 3))
+    ax.legend(title="component")
+    fig.tight_layout()
+    fig.get_tightbbox(fig.canvas.get_renderer())
+    assert len(ax.get_xticklabels()) == 10      # "-0.075" .. "0.150"
+    plot.save_figure(fig, tmp_path / "load_displacement.png")  # checked
+    assert len([t for t in ax.get_xticks()
+                if -.0642 <= t <= .1382]) < 8
