@@ -514,19 +514,27 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
         # in dynamics the load factor is t / duration: against time (a
         # user trial's step load read as a load cycled)
         dynamic = scene.dynamics is not None
-        factor = [0.] + [r.time if dynamic else r.load_factor
-                         for r in result.history]
-        for k in range(pts.dim):
-            disp = [0.] + [r.displacement[k, loaded].mean()
+        # a resumed run holds the steps since its resume alone (the
+        # checkpoint keeps no point's displacement per step): drawn from
+        # there, not from a start at rest it does not know (a line from
+        # (0, 0) to the resume's first step was drawn)
+        first = result.history[0].step
+        origin = [] if first > 1 else [0.]
+        factor = origin + [r.time if dynamic else r.load_factor
                            for r in result.history]
+        for k in range(pts.dim):
+            disp = origin + [r.displacement[k, loaded].mean()
+                             for r in result.history]
             ax.plot(disp, factor, "o-", ms=3, label="xyz"[k])
         ax.set_xlabel("mean displacement of the loaded points ({})"
                       .format(unit("length", scene.units)))
         ax.set_ylabel("time ({})".format(unit("time", scene.units))
                       if dynamic else "load factor (-)")
         ax.set_title("{}: {} against displacement\nof the loaded "
-                     "material points".format(
-                         scene.name, "time" if dynamic else "load"))
+                     "material points{}".format(
+                         scene.name, "time" if dynamic else "load",
+                         "" if first == 1 else ", steps {} to {} (resumed)"
+                         .format(first, result.history[-1].step)))
         ax.ticklabel_format(axis="x", style="sci", scilimits=(-3, 3))
         ax.legend(title="component")
         fig.tight_layout()

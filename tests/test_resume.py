@@ -679,3 +679,35 @@ def test_a_stopped_run_resumed_to_its_end_ends_with_its_checkpoint(
     assert end.history.shape[0] == 2 and end.reactions.shape[0] == 2
     assert main(["run", "--resume", str(out), "--no-progress"]) == 0
     assert "is complete" in capsys.readouterr().out
+
+
+def test_a_resumed_run_s_load_displacement_curve_starts_at_its_resume(
+        tmp_path, monkeypatch):
+    """A resumed run holds the steps since its resume alone: its
+    ``load_displacement.png`` drew a line from (0, 0) to the resume's
+    first step (a third invocation's: to load factor 0.58 and 0.095 m),
+    a path the body never took.  It draws the steps it holds, from the first, and its title
+    says which."""
+    from skfem_mpm.scenes import plot
+    drawn = {}
+    save = plot.save_figure
+
+    def keep(fig, path, *args, **kwargs):
+        if path.name == "load_displacement.png":
+            ax = fig.axes[0]
+            drawn[path.parent.name] = (ax.get_title(),
+                                       ax.lines[0].get_ydata().tolist())
+        save(fig, path, *args, **kwargs)
+    monkeypatch.setattr(plot, "save_figure", keep)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(CUT_BACK_SCENE)
+    out = tmp_path / "split"
+    assert main(["run", str(scene), "--out", str(out), "--max-steps", "3",
+                 "--no-progress"]) == 0
+    title, factors = drawn.pop("split")
+    assert factors[0] == 0. and "resumed" not in title
+    assert main(["run", "--resume", str(out), "--max-steps", "3",
+                 "--no-progress"]) == 0
+    title, factors = drawn.pop("split")
+    assert len(factors) == 3 and factors[0] > 0.
+    assert title.endswith("material points, steps 4 to 6 (resumed)")
