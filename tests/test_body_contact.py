@@ -1098,8 +1098,11 @@ def test_a_heavily_loaded_square_pile_with_friction_in_3d():
     2e3, 5 steps, cpGIMP): with friction 0.3 it settled 0.120 against
     0.035 smooth and drifted sideways by 3% of that (27 s), its edges'
     nodes taking the side's normals where the tip's were alike; now
-    0.034, upright to 2e-7 (within the contact's tolerance, 1e-3 of a
-    cell: 6e-3 of the settlement), in 62 Newton iterations (6 s)."""
+    0.034, upright to 1e-5 of the settlement (the contact's tolerance,
+    1e-3 of a cell, is 6e-3 of it), in 62 Newton iterations (6 s).  The
+    drift left is round-off's: 2.5e-8 on the compiled path, 1.0e-7 on
+    numpy's since the head's traction loads its domains' faces (the
+    edges' pairs with friction take x before y, one normal a node)."""
     from skfem import ElementHex1, MeshHex
     t = np.linspace(0, 1.2, 7)
     mesh = MeshHex.init_tensor(t, t, t)
@@ -1128,7 +1131,7 @@ def test_a_heavily_loaded_square_pile_with_friction_in_3d():
                        method="cpgimp",
                        contacts=[Contact(0, 1, friction=friction)])
         u = res.points.displacement[:, pts.body == 1].mean(axis=1)
-        assert np.abs(u[:2]).max() < 1e-6 * -u[2]
+        assert np.abs(u[:2]).max() < 1e-5 * -u[2]
         settled.append(-u[2])
     assert settled[1] < settled[0]
 
