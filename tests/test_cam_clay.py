@@ -370,3 +370,14 @@ def test_a_steep_root_within_round_off_of_its_slope_is_met():
     root, failed = bracketed_newton(fun, hi, lo, x, RETURN_TOL)
     assert not failed.any() and abs(root[0] - 7.) < 1e-13
     assert abs(fun(root)[0][0]) > RETURN_TOL
+
+
+def test_normally_consolidated_is_the_python_default_too():
+    """Scene files took a missing preconsolidation pressure as the
+    reference pressure (normally consolidated); Python required it (a
+    user trial): it defaults alike."""
+    given = dict(kappa=.01, lambda_=.1, M=1., shear_modulus=3e3,
+                 reference_pressure=100.)
+    clay = ModifiedCamClay(**given)
+    assert clay.preconsolidation_pressure == 100.
+    assert clay == ModifiedCamClay(**given, preconsolidation_pressure=100.)

@@ -1127,3 +1127,23 @@ def test_grid_nodes_pushed_off_the_material_s_face_are_warned(caplog):
         "plane y = 1 by up to 0.15 along y (0.6 cells)")
     assert "push with a rigid Obstacle" in words[0]
     assert run(.15, 0)[1] == []
+
+
+def test_a_prescribed_motion_may_give_one_number_for_all_its_dofs():
+    """``Prescribed`` refused one increment for all its DOFs ("increments
+    of shape ()", a user trial): one number moves every DOF by it, as an
+    array of it does, to the bit."""
+    from skfem_mpm import Prescribed
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1.5, 4))
+
+    def run(one):
+        def top(b, f0, f1):
+            dofs = b.get_dofs(lambda x: np.isclose(x[1], 1.)).all("u^2")
+            push = -.01 * (f1 - f0)
+            return dofs, push if one else np.full(dofs.size, push)
+        return simulate(mesh, ElementQuad1(), seed_points(
+            mesh, 2, [(0., 1.), (0., 1.)]), LinearElastic(1e4, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+            loads=[Prescribed(top)], nsteps=2).points.stress
+    assert np.array_equal(run(True), run(False))
+    assert np.abs(run(True)).max() > 0.

@@ -124,8 +124,9 @@ class ModifiedCamClay:
         Effective mean pressure ``p_r`` > 0 at zero elastic strain.
     preconsolidation_pressure
         Initial ``p_c0`` >= ``reference_pressure``: the largest pressure
-        the soil has carried (``p_c0 = p_r``: normally consolidated at
-        ``p_r``; the ratio is the isotropic overconsolidation ratio).
+        the soil has carried (``p_c0 = p_r``, the default: normally
+        consolidated at ``p_r``, as scene files take it; the ratio is the
+        isotropic overconsolidation ratio).
 
     Examples
     --------
@@ -149,13 +150,16 @@ class ModifiedCamClay:
     M: float
     shear_modulus: float
     reference_pressure: float
-    preconsolidation_pressure: float
+    preconsolidation_pressure: Optional[float] = None
 
     plastic = True
     state_variables = {"plastic_volumetric_strain": 0.,
                        "equivalent_plastic_strain": 0.}
 
     def __post_init__(self):
+        if self.preconsolidation_pressure is None:    # normally consolidated
+            object.__setattr__(self, "preconsolidation_pressure",
+                               self.reference_pressure)
         values = {name: check_real(name, getattr(self, name),
                                    InvalidMaterialError)
                   for name in ("kappa", "lambda_", "M", "shear_modulus",

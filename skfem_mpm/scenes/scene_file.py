@@ -409,11 +409,12 @@ def _material(c, data, key):
             c.problems.append("{}.{}: missing ({})".format(key, name, model))
     if model == "cam_clay":
         python = {k: name for name, k in PARAMETER_KEYS.items()}
+        # (without a preconsolidation pressure: the model's default,
+        # normally consolidated at the reference pressure)
         kwargs = {python.get(name, name): c.number(data, key, name, 1.,
                                                    low=0.)
-                  for name in CAM_CLAY}
-        if "preconsolidation_pressure" not in data:   # normally consolidated
-            kwargs["preconsolidation_pressure"] = kwargs["reference_pressure"]
+                  for name in CAM_CLAY if name in REQUIRED[model]
+                  or name in data}
         build = ModifiedCamClay
     else:
         kwargs = dict(E=c.number(data, key, "E", 1., low=0.),

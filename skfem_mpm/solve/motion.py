@@ -44,6 +44,8 @@ def prescribed_increments(run, s_old: float, s_new: float, step: int):
     dofs, values = np.asarray(dofs), np.asarray(values, dtype=np.float64)
     if dofs.size == 0:
         dofs = dofs.astype(np.int64)
+    if values.ndim == 0 and dofs.ndim == 1:      # one number for all
+        values = np.full(dofs.shape, float(values))
     N = run.user_grid.N
     if dofs.dtype.kind not in "iu" or dofs.ndim != 1 \
             or values.shape != dofs.shape or not np.isfinite(values).all() \
@@ -126,7 +128,8 @@ def warn_faces_left(run, step: int) -> None:
     run.warned.add("faces left")
     dofs, values = run.prescribed(run.user_grid, 0., 1.)
     dofs = np.asarray(dofs, dtype=np.int64)
-    values = np.abs(np.asarray(values, dtype=np.float64))
+    values = np.abs(np.broadcast_to(np.asarray(values, dtype=np.float64),
+                                    dofs.shape))
     places = run.user_grid.doflocs[:, dofs]
     dim, h = run.dim, run.cell_size
     for c in range(dim):

@@ -142,8 +142,12 @@ class Prescribed:
     """Grid displacement increments imposed over each step:
     ``function(grid_basis, f_old, f_new) -> (dofs, increments)``, with
     ``f_old``, ``f_new`` the loads' scale at the step's start and end (the
-    load factor; the time function's value in dynamics).  An item of
-    :func:`~skfem_mpm.simulate`'s ``loads``.
+    load factor; the time function's value in dynamics), ``increments``
+    one per DOF or one number for all.  An item of
+    :func:`~skfem_mpm.simulate`'s ``loads``; a run reads the motion at
+    full load once more (``function(grid_basis, 0, 1)``) to warn of grid
+    nodes pushed off the material's face
+    (:func:`~skfem_mpm.solve.motion.warn_faces_left`).
 
     ``bodies``: with contacts between bodies (a grid field per body), the
     bodies (the points' ``body`` numbers) whose copies of the nodes the
