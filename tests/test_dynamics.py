@@ -890,3 +890,31 @@ def test_energy_created_by_an_impact_step_is_warned(caplog):
         assert "step {} (time".format(step) in caplog.text
     if least >= 0:
         assert not told
+
+
+def test_ramp_in_dynamics_follows_the_load_in_time():
+    """Trial 78: ``ramp`` seemed ignored in dynamics.  ``Dynamics.load(t)``
+    is the load factor: ``ramp=True`` follows it, ``ramp=False`` keeps
+    the load in full; without it the two are alike, as documented."""
+    from skfem_mpm import Traction, side_points
+    from skfem_mpm.solve.loads import Traction as T
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.2, 13),
+                                np.linspace(0, .2, 3))
+    tip = {}
+    for load in (None, lambda t: t / .01):
+        for ramp in (True, False):
+            pts = seed_points(mesh, 2, region=lambda x: x[0] < 1.)
+            r = simulate(
+                mesh, ElementQuad1(), pts, LinearElastic(1e6, 0.),
+                lambda b: b.get_dofs(lambda x: np.isclose(x[0], 0.)).all(),
+                loads=[Traction(side_points(pts, "right"), "right",
+                                [1e3, 0.], ramp=ramp)],
+                body_force=BodyForce([0, -1e3], ramp=ramp),
+                dynamics=Dynamics(1e-3, 3e-3, 1e3, load=load))
+            tip[load is None, ramp] = r.history[-1].displacement[0].max()
+    assert tip[True, True] == pytest.approx(tip[True, False], rel=1e-12)
+    assert tip[False, False] == pytest.approx(tip[True, True], rel=1e-12)
+    assert tip[False, True] < .3 * tip[False, False]
+    for doc in (T.__doc__, BodyForce.__doc__, Dynamics.__doc__):
+        assert "Dynamics.load(t)" in " ".join(doc.split()) or \
+            "ramp=True`` (the default) follows" in " ".join(doc.split())

@@ -196,7 +196,9 @@ class Dynamics:
         see the module notes).
     load
         ``load(t)``: the scale of loads and prescribed motion at time ``t``
-        (default: 1, in full from the start).
+        (default: 1, in full from the start): the load factor that a
+        load's ``ramp=True`` (the default) follows and ``ramp=False``
+        does not (in full from the start); without it the two are alike.
     flip
         The FLIP share of the points' velocity update, in [0, 1] (default
         0.95; see the module notes).  The rest, PIC, damps once a step:

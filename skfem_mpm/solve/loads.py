@@ -235,7 +235,9 @@ class Traction:
     :func:`side_points`); it grows with the load factor (``ramp=True``,
     the default) or acts in full from the first step (``False``: where
     the points start from a stress that balances it, e.g. a confining
-    pressure)."""
+    pressure).  In dynamics the load factor is ``Dynamics.load(t)``,
+    1 by default: both act in full from ``t = 0`` unless a ``load(t)`` is
+    given, which ``ramp=False`` does not follow."""
     points: ndarray
     side: str
     traction: Sequence[float]
@@ -249,7 +251,7 @@ class Pressure:
     deformation.  It grows with the load factor (``ramp=True``, the
     default) or acts in full from the first step (``False``: a confining
     pressure the points' initial stress balances, as in a triaxial
-    test's cell).
+    test's cell); in dynamics as a :class:`Traction`'s.
 
     >>> import numpy as np
     >>> Pressure(np.arange(4), "right", 100., ramp=False).ramp

@@ -185,7 +185,10 @@ class BodyForce:
     (``ramp=True``,
     the default) or acts in full from the first step (``False``: where the
     points start from a geostatic stress that balances it), or one bool
-    per body (``value=None``: no body force).  What it leaves out of
+    per body (``value=None``: no body force).  In dynamics the load factor
+    is ``Dynamics.load(t)``, 1 by default (gravity in full from ``t =
+    0``, either way); ``ramp=False`` does not follow a ``load(t)``.
+    What it leaves out of
     balance at the start must be carried by the first step whole: a
     cut-back does not reduce it."""
     value: Sequence[float]
