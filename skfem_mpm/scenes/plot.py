@@ -374,14 +374,20 @@ def draw_footing_curve(ax, movement: np.ndarray, pressure: np.ndarray,
     ax.legend(loc="lower right")
 
 
+#: the label of :func:`draw_energies`' fall of the balance
+DISSIPATION = "numerical dissipation (scheme, mapping, impacts)"
+
+
 def draw_energies(ax, energies: dict, title: str, unit: str = "J",
                   scale: float = 1.):
     """A dynamic run's kinetic energy, work of the internal and external
-    forces and what the scheme and the mapping dissipated (the fall of the
-    balance kinetic energy + internal work - external work from its start,
-    the initial kinetic energy) against time; ``energies`` as
-    :meth:`skfem_mpm.Result.energies`, divided by ``scale`` (its ``unit``,
-    e.g. ``"kJ/m"`` with 1e3 for a 2D run)."""
+    forces and what the scheme, the mapping and impacts dissipated (the
+    fall of the balance kinetic energy + internal work - external work
+    from its start, the initial kinetic energy: an impact's loss within
+    its steps too, as a user trial's block dropped on an incline showed;
+    plastic and friction work are in the internal work) against time;
+    ``energies`` as :meth:`skfem_mpm.Result.energies`, divided by
+    ``scale`` (its ``unit``, e.g. ``"kJ/m"`` with 1e3 for a 2D run)."""
     t = np.asarray(energies["time"])
     kinetic, internal, external = (np.asarray(energies[k]) / scale for k in (
         "kinetic", "internal_work", "external_work"))
@@ -390,7 +396,7 @@ def draw_energies(ax, energies: dict, title: str, unit: str = "J",
                                  (external, ":", "external work")):
         ax.plot(t, values, style, label=label)
     balance = kinetic + internal - external
-    ax.plot(t, balance[0] - balance, "-.", label="numerical dissipation")
+    ax.plot(t, balance[0] - balance, "-.", label=DISSIPATION)
     ax.set_xlabel("time ({})".format(TIME))
     ax.set_ylabel("energy ({})".format(unit))
     ax.set_title(title)

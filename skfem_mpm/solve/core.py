@@ -882,6 +882,27 @@ def collapse_hint(run: Run, reach: list) -> str:
                 rates[-1] / stiffest, f[-1]))
 
 
+def left_grid_cause(run: Run, points: MaterialPoints,
+                    increment: float) -> str:
+    """The cause, besides a tight grid, of points leaving the grid in a
+    step of ``increment`` (a share of the run): quasi-static, a load past
+    what the body can carry; in dynamics the points' motion in a time
+    step, their velocity times it (trial 78: a thrown elastic block was
+    told of limit loads and supports)."""
+    dynamics = run.dynamics
+    if dynamics is None or points.velocity is None:
+        return ("a load past what the body can carry (a plastic body "
+                "beyond its limit load, a body its supports do not hold)")
+    dt = increment * dynamics.duration
+    speed = float(np.sqrt((points.velocity ** 2).sum(axis=0)).max(
+        initial=0.))
+    return ("the body's motion carrying it off: a point moves its velocity "
+            "times the time step ({:.3g} m/s x {:.3g} s = {:.3g} cells a "
+            "step at the fastest where the step started): the grid must "
+            "cover where the body goes (a thrown or falling body, a "
+            "rebound)".format(speed, dt, speed * dt / run.cell_size))
+
+
 def no_equilibrium(run: Run, points: MaterialPoints) -> bool:
     """Whether a failed step of ``run`` from the converged state
     ``points`` is one that no shorter step can take: quasi-static, loads
@@ -1179,11 +1200,10 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             elif isinstance(err, PointsOutsideGridError):
                 err.args = (err.args[0] + too_soft(run, points) + (
                     "; they left it in step {} ({} to {}): a grid too "
-                    "tight around the body's motion, or a load past what "
-                    "the body can carry (a plastic body beyond its limit "
-                    "load, a body its supports do not hold){}".format(
+                    "tight around the body's motion, or {}{}".format(
                         step + 1, progress(run, factor),
                         progress(run, target).split()[-1],
+                        left_grid_cause(run, points, target - factor),
                         terms_hint(run, points))),)
             if err.args and isinstance(err.args[0], str):
                 # a singular stiffness of cells seeded too thinly blamed
