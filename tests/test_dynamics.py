@@ -907,38 +907,43 @@ def test_an_impact_step_through_a_barely_held_node_is_retried(caplog):
 
 
 def test_energy_created_is_warned_naming_the_step(caplog):
-    """A run from unstressed points whose internal work goes below zero
-    gave back more than was done on it: warned once, naming the step
-    (the balance would book it as a loss)."""
+    """A run from unstressed points whose kinetic energy exceeds its
+    start's and the external work since created energy (which the
+    balance books as a loss): warned once, naming the step; not an
+    impact whose coarse step books negative internal work but loses
+    energy, nor a run whose moving obstacle does work on the body."""
     import logging
     from types import SimpleNamespace
     from skfem_mpm.solve.dynamics import CreatedEnergy
-    check, problem = CreatedEnergy(), SimpleNamespace(terms=[])
-    # (internal work, external work, kinetic energy at start, end): an
-    # impact whose coarse step books -54.8 J of internal work but loses
-    # kinetic energy (a block dropped on a floor, dt = 0.04), then trial
-    # 78's steps 7-9 (its impact step gained 37.5 J from nothing)
-    works = [(0., 330., 0., 330.), (-54.8, 51., 330., 20.),
-             (1.41, 2.57, 7.80, 8.19), (-90.09, -.90, 8.19, 45.68),
+    run = SimpleNamespace(prescribed=None, rigid_bodies=(), obstacles=())
+    moving = SimpleNamespace(run=SimpleNamespace(
+        prescribed=None, rigid_bodies=(), obstacles=[SimpleNamespace(
+            displacement=np.array([1., 0.]))]))
+
+    def told(rows, problem=SimpleNamespace(run=run), first=7):
+        """(internal work, external work, kinetic energy at the start
+        and the end) of each step from ``first``."""
+        check = CreatedEnergy()
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+            for step, (internal, external, start, kinetic) in enumerate(
+                    rows, first):
+                check.check(problem, SimpleNamespace(
+                    step=step, time=step / 100, energy=dict(
+                        internal_work=internal, external_work=external,
+                        kinetic=kinetic, kinetic_start=start)))
+        return caplog.text
+    # trial 78: steps 1-7 (gravity's 10.37 J), its impact step and the next
+    trial = [(1.41, 10.37, 0., 8.19), (-90.09, -.90, 8.19, 45.68),
              (-41.84, -2.24, 45.68, 56.88)]
-    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
-        for step, (internal, external, start, kinetic) in enumerate(
-                works, 6):
-            check.check(problem, SimpleNamespace(
-                step=step, time=step / 100, energy=dict(
-                    internal_work=internal, external_work=external,
-                    kinetic=kinetic, kinetic_start=start)))
-    assert caplog.text.count("created energy") == 1
-    assert "step 9 (time 0.09)" in caplog.text
-    moving = SimpleNamespace(terms=[SimpleNamespace(obstacles=[
-        SimpleNamespace(displacement=np.array([1., 0.]))])])
-    check = CreatedEnergy()
-    caplog.clear()
-    for internal in (-1., -2.):
-        check.check(moving, SimpleNamespace(step=1, time=.1, energy=dict(
-            internal_work=internal, external_work=0., kinetic=1.,
-            kinetic_start=0.)))
-    assert "created energy" not in caplog.text
+    words = told(trial)
+    assert words.count("created energy") == 1
+    assert "step 8 (time 0.08)" in words and "by 36.2" in words
+    # a block landing on a floor in steps of 0.04: -54.8 J of internal
+    # work in its landing step, and energy lost
+    assert "created" not in told([(0., 330., 0., 330.),
+                                  (-54.8, 51., 330., 20.)])
+    assert "created" not in told(trial, moving)
 
 
 def test_ramp_in_dynamics_follows_the_load_in_time():

@@ -197,10 +197,10 @@ class Result:
         the initial kinetic energy, where nothing dissipates and supports
         do no work: its fall from ``kinetic[0]`` is what the scheme and
         impacts dissipated; the internal work holds the contact forces'
-        work too).  A step that created energy (from unstressed points:
-        more kinetic energy than the external work and the internal work
-        done before) is warned, naming it: its fall of the balance is no
-        loss (:class:`~skfem_mpm.solve.dynamics.CreatedEnergy`)."""
+        work too).  A run that created energy (from unstressed points: a
+        kinetic energy beyond its start's and the external work since) is
+        warned, naming the step: its fall of the balance is no loss
+        (:class:`~skfem_mpm.solve.dynamics.CreatedEnergy`)."""
         if not self.history or self.history[0].energy is None:
             raise InvalidInputError("energies: only a dynamic run's result "
                                     "(simulate(dynamics=...)) has them")
