@@ -229,6 +229,8 @@ class GhostStabilisation(GridTerm):
         field's penalty had the pile's modulus; now 7.75 mm).
     """
 
+    holds_slivers = True
+
     def __init__(self, mesh, elem, gamma: float, material,
                  active: bool = True, obstacles=(), field_cells=None):
         self.mesh, self.elem, self.gamma = mesh, elem, gamma
