@@ -1,6 +1,7 @@
-"""Command line: ``skfem-mpm run | compare | study`` (also ``python -m
-skfem_mpm``; the command's entry point is :mod:`skfem_mpm.__main__`, which
-imports this module inside its Ctrl-C handler).
+"""Command line: ``skfem-mpm run | compare | study | safety`` (also
+``python -m skfem_mpm``; the command's entry point is
+:mod:`skfem_mpm.__main__`, which imports this module inside its Ctrl-C
+handler).
 
 The package's top layer: it builds on :mod:`skfem_mpm.scenes` and
 :mod:`skfem_mpm.studies`, and no module of the package imports it.  The
