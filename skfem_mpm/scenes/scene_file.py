@@ -208,7 +208,7 @@ from ..solve.newton import LINE_SEARCHES, NEWTON, RHS, NewtonOptions
 from ..solve.body_contact import Contact
 from ..solve.obstacles import Obstacle
 from ..solve.loads import WORDS_OF_2D, side_axis, side_names
-from ..spelling import PARAMETER_KEYS
+from ..spelling import PARAMETER_KEYS, did_you_mean
 from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
 from .regions import Ball, Polygon, outside_grid, region_shape
@@ -240,9 +240,11 @@ class _Checker:
             return {}
         for k in data:
             if k not in allowed:
-                self.bad("{}.{}".format(key, k) if key else k,
-                         "unknown key (allowed: {})".format(", ".join(allowed)),
-                         data[k])
+                self.problems.append("{}: unknown key (allowed: {}), got "
+                                     "{!r}{}".format(
+                                         "{}.{}".format(key, k) if key else k,
+                                         ", ".join(allowed), data[k],
+                                         did_you_mean(k, allowed)))
         for k in required:
             if k not in data:
                 self.problems.append("{}: missing".format(
@@ -297,8 +299,9 @@ class _Checker:
         path = "{}.{}".format(key, name) if key else name
         value = data.get(name, default)
         if value not in choices:
-            self.bad(path, "must be one of {}".format(", ".join(choices)),
-                     value)
+            self.bad(path, "must be one of {}".format(", ".join(
+                v for v in choices if v is not None)), value)
+            self.problems[-1] += did_you_mean(value, choices)
             return default
         return value
 
@@ -396,13 +399,26 @@ REQUIRED = {"linear_elastic": ELASTIC, "von_mises": MODELS["von_mises"][:3],
 
 
 def _material(c, data, key):
-    keys = sorted({k for extra in MODELS.values() for k in extra})
-    data = c.table(data, key, ["model"] + keys, ("model",))
-    model = c.choice(data, key, "model", tuple(MODELS), "linear_elastic")
-    for name in keys:
-        if name in data and name not in MODELS[model]:
-            c.bad(key + "." + name, "not a parameter of model = {!r}".format(
-                model), data[name])
+    model = data.get("model") if isinstance(data, dict) else None
+    if model not in MODELS:
+        # which keys a material takes depends on its model: of a model
+        # left out or misspelt, that alone
+        if not isinstance(data, dict):
+            c.bad(key, "must be a table", data)
+        elif "model" not in data:
+            c.problems.append("{}.model: missing (one of {})".format(
+                key, ", ".join(MODELS)))
+        else:
+            c.choice(data, key, "model", tuple(MODELS))
+        return LinearElastic(1., 0.)
+    allowed = ("model",) + MODELS[model]
+    others = {k for extra in MODELS.values() for k in extra} - set(allowed)
+    for name in data:
+        if name in others:
+            c.bad(key + "." + name, "not a parameter of model = {!r} (its "
+                  "keys: {})".format(model, ", ".join(allowed)), data[name])
+    c.table({k: v for k, v in data.items() if k not in others}, key,
+            allowed)
     known = len(c.problems)
     for name in REQUIRED[model]:
         if name not in data:

@@ -1,0 +1,89 @@
+"""What a scene file's errors say (trial 79): the file named on every
+line, a misspelt model said alone, a misspelt key's nearest key, a
+material's own keys."""
+from skfem_mpm.cli import main
+from skfem_mpm.errors import SceneError
+from skfem_mpm.scenes.scene_file import parse_scene
+import pytest
+
+SCENE = """
+[grid]
+x = [0.0, 3.0, 6]
+y = [0.0, 1.5, 3]
+[[bodies]]
+region = {{ x = [0.0, 3.0], y = [0.0, 1.0] }}
+material = {{ {} }}
+[[supports]]
+boundary = "bottom"
+[solver]
+steps = 1
+"""
+MC = ('model = "mohr_coulomb", E = 2e4, nu = 0.3, cohesion = 10.0, '
+      'friction_angle = 20.0, dilation_angle = 20.0')
+
+
+def problems(material):
+    import tomllib
+    with pytest.raises(SceneError) as err:
+        parse_scene(tomllib.loads(SCENE.format(material)))
+    return err.value.problems
+
+
+def test_every_line_names_the_file_once(tmp_path, capsys):
+    """``bodies[0].material.E: must be > 0.0`` named no file; a TOML
+    syntax error, which did, is not named twice."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SCENE.format(MC.replace("2e4", "0.0")))
+    assert main(["run", str(scene), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert err == ["skfem-mpm: {}: bodies[0].material.E: must be > 0.0, "
+                   "got 0.0".format(scene)]
+    scene.write_text("[grid\n")
+    assert main(["run", str(scene), "--out", str(tmp_path / "o")]) == 2
+    err, = capsys.readouterr().err.splitlines()
+    assert err.startswith("skfem-mpm: {}: not valid TOML".format(scene))
+
+
+def test_a_misspelt_model_is_said_alone():
+    """``model = "mohr-coulomb"`` was followed by three ``not a parameter
+    of model = 'linear_elastic'``, a model the file never named."""
+    assert problems(MC.replace("mohr_coulomb", "mohr-coulomb")) == [
+        "bodies[0].material.model: must be one of linear_elastic, "
+        "von_mises, drucker_prager, mohr_coulomb, cam_clay, got "
+        "'mohr-coulomb'; did you mean 'mohr_coulomb'?"]
+    assert problems(MC.replace('model = "mohr_coulomb", ', "")) == [
+        "bodies[0].material.model: missing (one of linear_elastic, "
+        "von_mises, drucker_prager, mohr_coulomb, cam_clay)"]
+
+
+def test_a_misspelt_key_gets_the_models_own_keys_and_the_nearest():
+    """``friction_angel`` listed every model's keys (kappa, lambda,
+    yield_stress, ...) and no guess."""
+    first, second = problems(MC.replace("friction_angle", "friction_angel"))
+    assert first == (
+        "bodies[0].material.friction_angel: unknown key (allowed: model, E, "
+        "nu, cohesion, friction_angle, dilation_angle), got 20.0; did you "
+        "mean 'friction_angle'?")
+    assert second == "bodies[0].material.friction_angle: missing " \
+        "(mohr_coulomb)"
+    # another model's key: said so, with this model's keys
+    assert problems(MC + ", yield_stress = 1.0") == [
+        "bodies[0].material.yield_stress: not a parameter of model = "
+        "'mohr_coulomb' (its keys: model, E, nu, cohesion, friction_angle, "
+        "dilation_angle), got 1.0"]
+    # no key near: no guess
+    colour, = problems(MC + ", colour = 1.0")
+    assert colour.endswith("got 1.0")
+
+
+def test_a_misspelt_reference_is_refused_not_a_traceback():
+    """``reference = "colum"`` raised TypeError (None among the choices
+    joined)."""
+    import tomllib
+    data = tomllib.loads('reference = "colum"\n' + SCENE.format(MC))
+    with pytest.raises(SceneError) as err:
+        parse_scene(data)
+    assert err.value.problems == [
+        "reference: must be one of column, elastica, bearing_capacity, got "
+        "'colum'; did you mean 'column'?"]
+
