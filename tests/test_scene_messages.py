@@ -1,6 +1,6 @@
 """What a scene file's errors say (trial 79): the file named on every
 line, a misspelt model said alone, a misspelt key's nearest key, a
-material's own keys."""
+material's own keys; the study's advice on the ghost penalty."""
 from skfem_mpm.cli import main
 from skfem_mpm.errors import SceneError
 from skfem_mpm.scenes.scene_file import parse_scene
@@ -87,3 +87,17 @@ def test_a_misspelt_reference_is_refused_not_a_traceback():
         "reference: must be one of column, elastica, bearing_capacity, got "
         "'colum'; did you mean 'column'?"]
 
+
+def test_mixed_ghost_advice_says_on_not_off():
+    """"fix the penalty in the scene" led a user to ghost = 0, where the
+    cases that had switched it on failed."""
+    from skfem_mpm.studies.study import mixed_stabilisation
+    measured = {"convergence": [dict(
+        choices={}, cell_sizes=[],
+        mixed_stabilisation="12 elements: on from step 16; 48 elements: "
+        "never on")]}
+    warning, = mixed_stabilisation(measured)
+    assert "switch the penalty on in the scene for every case from the " \
+        "start ([solver] ghost = 0.001 in small strain, 0.1 in finite " \
+        "deformation" in warning
+    assert "not off (ghost = 0)" in warning
