@@ -101,3 +101,27 @@ def test_mixed_ghost_advice_says_on_not_off():
         "start ([solver] ghost = 0.001 in small strain, 0.1 in finite " \
         "deformation" in warning
     assert "not off (ghost = 0)" in warning
+
+
+def test_geostatic_K0_defaults_to_jaky_for_soils():
+    """``geostatic = { }`` was refused, ``K0: missing``: of a Mohr-Coulomb
+    or Drucker-Prager soil it is Jaky's 1 - sin(phi), 1 - sin(20 deg) =
+    0.65798; other models have no friction angle, and are told so."""
+    import math
+    import tomllib
+    text = SCENE.replace("material =", "geostatic = {{ }}\nmaterial =")
+    for material in (MC, MC.replace("mohr_coulomb", "drucker_prager")):
+        scene = parse_scene(tomllib.loads(text.format(material)))
+        assert scene.bodies[0].K0 == pytest.approx(
+            1 - math.sin(math.radians(20.)), rel=1e-12)
+        assert scene.bodies[0].K0 == pytest.approx(0.65798, abs=1e-5)
+    given = text.replace("{{ }}", "{{ K0 = 0.5 }}")
+    assert parse_scene(tomllib.loads(given.format(MC))).bodies[0].K0 == .5
+    with pytest.raises(SceneError) as err:
+        parse_scene(tomllib.loads(text.format(
+            'model = "linear_elastic", E = 1e4, nu = 0.3')))
+    assert err.value.problems == [
+        "bodies[0].geostatic.K0: missing: Jaky's 1 - sin(phi), the default "
+        "of mohr_coulomb and drucker_prager soils, needs a friction angle, "
+        "which model = 'linear_elastic' has not; an elastic layer under "
+        "uniaxial strain has nu / (1 - nu)"]

@@ -35,7 +35,10 @@ offending value (unknown keys, wrong types, impossible values), in a
     #    the shape's by more than 1% is warned)
     points_per_cell = 2
     geostatic = { K0 = 0.5, surface = 50.0 }   # optional: start from the
-                                    # K0 stress of the gravity; by default
+                                    # K0 stress of the gravity (K0 left
+                                    # out: Jaky's 1 - sin(phi) of a
+                                    # mohr_coulomb or drucker_prager
+                                    # soil, required of others); by default
                                     # under the geostatic bodies above it
                                     # (horizontal layers), or the top of
                                     # its material; surface: a ground
@@ -606,9 +609,12 @@ def _body(c, data, k, dim):
     K0 = surface = None
     if "geostatic" in data:
         geo = c.table(data["geostatic"], key + ".geostatic",
-                      ("K0", "surface"), ("K0",))
+                      ("K0", "surface"))
         K0 = c.number(geo, key + ".geostatic", "K0", 1., low=0.)
         surface = c.number(geo, key + ".geostatic", "surface")
+        if "K0" not in geo and isinstance(geo, dict):
+            K0 = _jaky(c, data.get("material"), material,
+                       key + ".geostatic.K0")
     rigid, rough = None, True
     if "rigid" in data:
         table = c.table(data["rigid"], key + ".rigid",
@@ -627,6 +633,24 @@ def _body(c, data, k, dim):
                 density=c.number(data, key, "density", low=0.),
                 initial_velocity=c.vector(data, key, "initial_velocity", dim),
                 replaces=tuple(replaces))
+
+
+def _jaky(c, table, material, key: str) -> float:
+    """A geostatic body's ``K0`` left out: Jaky's ``1 - sin(phi)`` of a
+    Mohr-Coulomb or Drucker-Prager soil's friction angle (a normally
+    consolidated soil's), else refused with the reason."""
+    model = table.get("model") if isinstance(table, dict) else None
+    if model in ("mohr_coulomb", "drucker_prager"):
+        phi = getattr(material, "friction_angle", 0.)  # 0: refused anyway
+        return 1. - math.sin(math.radians(phi))
+    if model in MODELS:         # (a model misspelt or left out is said)
+        c.problems.append(
+            "{}: missing: Jaky's 1 - sin(phi), the default of mohr_coulomb "
+            "and drucker_prager soils, needs a friction angle, which model "
+            "= {!r} has not{}".format(key, model, "" if model == "cam_clay"
+                                      else "; an elastic layer under "
+                                      "uniaxial strain has nu / (1 - nu)"))
+    return 1.
 
 
 def _support_sides(c, s: dict, key: str, dim: int):
