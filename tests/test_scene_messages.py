@@ -125,3 +125,56 @@ def test_geostatic_K0_defaults_to_jaky_for_soils():
         "of mohr_coulomb and drucker_prager soils, needs a friction angle, "
         "which model = 'linear_elastic' has not; an elastic layer under "
         "uniaxial strain has nu / (1 - nu)"]
+
+
+PUSHED = """
+[grid]
+x = [0.0, 2.0, 4]
+y = [0.0, 1.5, 3]
+[[bodies]]
+name = "soil"
+region = { x = [0.0, 2.0], y = [0.0, 1.0] }
+material = { model = "linear_elastic", E = 1e4, nu = 0.3 }
+[[supports]]
+name = "base"
+boundary = "bottom"
+[gravity]
+body_force = [0.0, -20.0]
+%s
+[[obstacles]]
+name = "footing"
+box = { x = [-0.5, 0.5], y = [1.0, 1.5] }
+displacement = [0.0, -0.001]
+[solver]
+steps = 2
+"""
+
+
+def test_gravity_ramped_with_a_push_is_warned_or_in_full(caplog):
+    """Without ``geostatic`` the gravity grows with the load factor
+    together with an obstacle's push: said once at the start (trial 79's
+    footing: 179 kPa at 0.012 m against 200 from a geostatic start);
+    ``[gravity] ramp = false`` puts the whole weight, 20 x 2 x 1 = 40,
+    on the base from step 1 (half of it ramped)."""
+    import logging
+    import tomllib
+    from skfem_mpm.scenes.scene import reaction_resultants, run_scene
+    bases = {}
+    for ramp in ("", "ramp = false"):
+        scene = parse_scene(tomllib.loads(PUSHED % ramp))
+        assert scene.gravity_ramp is (ramp == "")
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, "skfem_mpm"):
+            result = run_scene(scene)
+        said = [r.getMessage() for r in caplog.records
+                if "grows with the load factor" in r.getMessage()]
+        assert len(said) == (1 if ramp == "" else 0)
+        names, resultant = reaction_resultants(scene)
+        first = result.history[0]
+        base = resultant(first)[names.index("base")][1]
+        footing = resultant(first)[names.index("footing")][1]
+        bases[ramp] = base - footing       # the base carries the push too
+    assert said == [] and bases["ramp = false"] == pytest.approx(40., 1e-6)
+    assert bases[""] == pytest.approx(20., rel=1e-6)
+    with pytest.raises(SceneError, match="gravity.ramp: must be true or"):
+        parse_scene(tomllib.loads(PUSHED % 'ramp = "no"'))

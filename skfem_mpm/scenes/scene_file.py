@@ -88,6 +88,14 @@ offending value (unknown keys, wrong types, impossible values), in a
     body_force = [0.0, -800.0]      # per unit (initial) volume, every body
     # or acceleration = [0.0, -9.81]: times each body's density (bodies
     # of different densities; every body then needs density = ..)
+    ramp = true                     # optional: on bodies without
+                                    # geostatic the gravity grows with the
+                                    # load factor, together with the other
+                                    # loads and the obstacles', rigid
+                                    # bodies' and supports' displacements
+                                    # (a footing pushed at step 1 into soil
+                                    # of 1/steps of its weight: warned);
+                                    # false: in full from the first step
     [[point_loads]]
     at = [10.0, 0.5]
     force = [0.0, -1e5]
@@ -856,9 +864,14 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                                 components=comps, value=value, name=name,
                                 bodies=moved))
     gravity = acceleration = None
+    gravity_ramp = True
     if "gravity" in data:
         g = c.table(data["gravity"], "gravity",
-                    ("body_force", "acceleration"), ())
+                    ("body_force", "acceleration", "ramp"), ())
+        gravity_ramp = c.boolean(g, "gravity", "ramp", True)
+        if not gravity_ramp and "dynamics" in data:
+            c.bad("gravity.ramp", "a dynamic scene's loads follow "
+                  "[dynamics] load_ramp", False)
         if ("body_force" in g) == ("acceleration" in g):
             c.bad("gravity", "needs body_force (per unit volume) or "
                   "acceleration (times each body's density), one of them",
@@ -950,7 +963,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         kernels=c.choice(solver, "solver", "kernels", KERNELS, "auto"),
         outputs=outputs, obstacles=[o for o in obstacles if o is not None],
         contacts=[t for t in contacts if t is not None],
-        units=c.choice(data, "", "units", SYSTEMS, "SI"))
+        units=c.choice(data, "", "units", SYSTEMS, "SI"),
+        gravity_ramp=gravity_ramp)
     if not c.problems:
         try:
             scene.check()
