@@ -1783,7 +1783,9 @@ def dispatch(argv) -> int:
             return {"run": run, "compare": compare, "study": run_study,
                     "safety": run_safety}[args.command](args)
     except SceneError as err:
-        for problem in err.problems:
+        for problem in err.problems:       # each naming the file once
+            if err.source and not problem.startswith(err.source):
+                problem = "{}: {}".format(err.source, problem)
             print("skfem-mpm: {}".format(problem), file=sys.stderr)
         return 2
     except InvalidInputError as err:
