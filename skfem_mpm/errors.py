@@ -221,6 +221,7 @@ class SceneError(InvalidInputError):
 
     def __init__(self, problems, source=""):
         self.problems = list(problems)
+        self.source = source          # the file, where one was read
         super().__init__("{}{} problem(s):\n".format(
             source + ": " if source else "", len(self.problems))
             + "\n".join(self.problems))

@@ -282,7 +282,9 @@ class QuadraticBSpline:
     #: the method whose operators these are, for messages
     method = "bspline"
 
-    def __init__(self, mesh: Mesh, elem: Element):
+    def __init__(self, mesh: Mesh, elem: Element, method: str = None):
+        if method is not None:         # "bspline-gimp" says its own name
+            self.method = method
         grid = tensor_grid(mesh)
         if grid is None:
             raise UnsupportedElementError(
@@ -304,8 +306,9 @@ class QuadraticBSpline:
             if not np.allclose(h, h[0], rtol=UNIFORM, atol=0.):
                 raise UnsupportedElementError(
                     "method {!r} needs uniform spacing along each axis; "
-                    "axis {} has spacings from {:.6g} to {:.6g}".format(
-                        self.method, d, h.min(), h.max()))
+                    "axis {} has spacings from {:.6g} to {:.6g}: on a graded "
+                    "grid use 'cpgimp' or 'ugimp' (GIMP takes one), 'mpm' "
+                    "or 'fem'".format(self.method, d, h.min(), h.max()))
         self.dim = len(self.axes)
         self.h = np.array([(a[-1] - a[0]) / (len(a) - 1) for a in self.axes])
         self.nodes, self.node_dof = self.grid.nodes, self.grid.node_dof

@@ -1802,6 +1802,14 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     gravity, ramp = check_body_force(body_force, points, mesh.dim(),
                                      dynamics)
     forces, prescribed, rigid_bodies, terms = split_loads(loads)
+    if method not in ("fem", "mpm") and tensor_grid(mesh) is None:
+        raise UnsupportedElementError(
+            "method {!r} needs an axis-aligned tensor-product grid "
+            "(MeshLine, or MeshQuad/MeshHex from init_tensor), got a "
+            "general {}: GIMP's and the B-splines' weights are written per "
+            "grid axis; triangles, tetrahedra and quadrilaterals off a "
+            "grid take method 'mpm' or 'fem'".format(
+                method, type(mesh).__name__))
     if method in DOMAIN_METHODS and points.domain is None:
         raise InvalidInputError(
             "method {!r} needs point domains (MaterialPoints.domain); "

@@ -1204,11 +1204,13 @@ def mixed_stabilisation(measured: dict) -> List[str]:
         lines.append(
             "WARNING: mixed stabilisation [{}]: ghost=\"auto\" switched "
             "the ghost penalty on otherwise from case to case ({}): {}; "
-            "for a study, fix the penalty in the scene ([solver] ghost = "
-            "{:g} in finite deformation, {:g} in small strain: what "
-            "\"auto\" switches on) so that every case runs with it from "
-            "the start".format(where, c["mixed_stabilisation"], what,
-                               DEFAULT_GHOST, SMALL_STRAIN_GHOST))
+            "for a study, switch the penalty on in the scene for every "
+            "case from the start ([solver] ghost = {:g} in small strain, "
+            "{:g} in finite deformation: what \"auto\" switches on), not "
+            "off (ghost = 0): \"auto\" switched it on where a step failed "
+            "without it, and those cases would fail".format(
+                where, c["mixed_stabilisation"], what, SMALL_STRAIN_GHOST,
+                DEFAULT_GHOST))
     return lines
 
 
