@@ -238,22 +238,34 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: where the progress stream is not a terminal (a log file), a line is
+#: written at most this often (seconds), and at the end of a run that
+#: wrote one: a trial's 3D run redirected to a log showed no progress in
+#: its 31 s
+LINE_INTERVAL = 10.
+
+
 class Progress:
-    """A one-line progress bar on ``stream`` (stderr; only on a terminal
-    unless ``enabled`` is ``"always"``): step, load factor (or time) as a
-    bar, Newton iterations, residual, elapsed time and an estimate of the
-    time left, from the pace since ``start_factor`` (where a resumed run
-    began)."""
+    """Progress on ``stream`` (stderr): on a terminal (or ``enabled`` is
+    ``"always"``) a one-line bar redrawn in place, elsewhere (a log file)
+    a line at most every :data:`LINE_INTERVAL` seconds and one at the
+    end of a run that wrote one; each with the step, the load factor (or
+    time) as a bar, Newton iterations, residual, elapsed time and an
+    estimate of the time left, from the pace since ``start_factor``
+    (where a resumed run began)."""
 
     def __init__(self, total: int, enabled, start_factor: float = 0.,
                  stream=None, timer=time.monotonic):
         self.total = total
         self.stream = sys.stderr if stream is None else stream
-        self.enabled = enabled == "always" or (enabled and
-                                               self.stream.isatty())
+        self.enabled = bool(enabled)
+        self.bar = enabled == "always" or (
+            self.enabled and self.stream.isatty())
         self.start_factor = start_factor
         self.timer = timer
-        self.started = timer()
+        self.started = self.written = timer()
+        self.drawn = False      # a bar is on its line, not ended
+        self.lines = 0          # lines written (not a terminal)
 
     def __call__(self, record):
         if not self.enabled:
@@ -261,18 +273,33 @@ class Progress:
         done = int(30 * record.load_factor)
         newton = "" if record.newton_iterations is None else \
             " newton {}".format(record.newton_iterations)
-        elapsed = self.timer() - self.started
+        now = self.timer()
+        elapsed = now - self.started
         progressed = record.load_factor - self.start_factor
         left = "" if progressed <= 0 else " left {}".format(clock(
             elapsed * (1. - record.load_factor) / progressed))
-        self.stream.write("\rstep {:4d}/{} [{}{}]{} residual {:.1e} "
-                          "elapsed {}{}".format(
-                              record.step, self.total, "#" * done,
-                              "." * (30 - done), newton, record.residual,
-                              clock(elapsed), left))
-        if record.load_factor >= 1.:
-            self.stream.write("\n")
+        words = "step {:4d}/{} [{}{}]{} residual {:.1e} elapsed {}{}".format(
+            record.step, self.total, "#" * done, "." * (30 - done), newton,
+            record.residual, clock(elapsed), left)
+        last = record.load_factor >= 1.
+        if self.bar:
+            self.stream.write("\r" + words)
+            self.drawn = not last
+            if last:
+                self.stream.write("\n")
+        elif now - self.written >= LINE_INTERVAL or last and self.lines:
+            self.stream.write(words + "\n")
+            self.written, self.lines = now, self.lines + 1
+        else:
+            return
         self.stream.flush()
+
+    def end(self):
+        """End a bar left on its line (a run that stopped early)."""
+        if self.drawn:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.drawn = False
 
 
 class StopRun(Exception):
@@ -1057,6 +1084,7 @@ def run(args) -> int:
         result = run_scene(scene, points, resume=resume, callback=callback,
                            initial=initial)
     except StopRun as stop:      # the checkpoint is written: a summary
+        progress.end()
         partial, stopped = unfinished("stopped", None, checkpoint=True,
                                       checkpoint_step=kept[0])
         with interrupts_deferred():
@@ -1066,6 +1094,7 @@ def run(args) -> int:
               "--resume {}".format(stop.args[0], outdir))
         return 0
     except KeyboardInterrupt:         # Ctrl-C: keep what converged
+        progress.end()
         # a second Ctrl-C does not cut the saving short
         with interrupts_deferred(reraise=False):
             last = history[-1] if history else None
@@ -1092,6 +1121,7 @@ def run(args) -> int:
                           kept[0]) if cut else "", outdir), file=sys.stderr)
         return 130
     except MPMError as err:
+        progress.end()
         if isinstance(err, InvalidInputError) and not prepared:
             raise                     # refused before anything converged
         # keep what converged: a checkpoint of the last converged state and
@@ -1579,8 +1609,7 @@ def run_safety(args) -> int:
                 PointsOutsideGridError) as err:
             record.update(error=type(err).__name__,
                           seconds=run_clock() - tic)
-            if progress.enabled:
-                progress.stream.write("\n")
+            progress.end()
             print("  F = {:.4f}: not converged ({}), {:.1f} s{}".format(
                 factor, type(err).__name__, record["seconds"],
                 notes_said(notes)), flush=True)
