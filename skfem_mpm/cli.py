@@ -1600,7 +1600,9 @@ def run_safety(args) -> int:
                   "largest_displacement": None}
         trials.append(record)
         try:
-            with quiet_logs(not args.verbose) as notes:
+            # the first trial's warnings said (the scene's own, once),
+            # the later ones' counted
+            with quiet_logs(not args.verbose and len(trials) > 1) as notes:
                 result = run_scene(variant(factor), initial=initial,
                                    callback=lambda r, _: progress(r))
         except PrescribedMotionError:
@@ -1638,10 +1640,10 @@ def run_safety(args) -> int:
     except InvalidInputError as err:
         # the bracket failed (not a run refused): keep what the trials said
         if trials and "seconds" in trials[-1]:
-            write_safety(args.out, scene, options, trials, None,
+            write_safety(args.out, scene, reduced, options, trials, None,
                          run_clock() - tic, "{}".format(err))
         raise
-    summary = write_safety(args.out, scene, options, trials, found,
+    summary = write_safety(args.out, scene, reduced, options, trials, found,
                            run_clock() - tic)
     print("  {:>8s}  {:9s}  {}".format("F", "outcome",
                                         "largest displacement ({})".format(
@@ -1676,10 +1678,12 @@ def run_safety(args) -> int:
     return 0
 
 
-def write_safety(outdir: Path, scene, options: dict, trials: list, found,
-                 seconds: float, error: str = None) -> dict:
+def write_safety(outdir: Path, scene, reduced: list, options: dict,
+                 trials: list, found, seconds: float,
+                 error: str = None) -> dict:
     """``safety.json`` and ``safety.png`` of a strength reduction in
-    ``outdir``: the ``options``, every one of the ``trials`` (the records
+    ``outdir``: the bodies ``reduced`` (indices, :func:`reduced_bodies`),
+    the ``options``, every one of the ``trials`` (the records
     of the CLI's runs, in order) with its outcome, and the factor of
     safety ``found`` (a :class:`~skfem_mpm.SafetyFactor`; ``None`` where
     the bracket failed, ``error`` saying why)."""
@@ -1695,9 +1699,7 @@ def write_safety(outdir: Path, scene, options: dict, trials: list, found,
     summary = {
         "scene": scene.name, "status": "completed" if found else "failed",
         "method": scene.method, "steps": scene.step_count,
-        "reduced_bodies": [b.name for b in scene.bodies
-                           if b.rigid is None and
-                           type(b.material) is not LinearElastic],
+        "reduced_bodies": [scene.bodies[k].name for k in reduced],
         "low": options["low"], "high": options["high"],
         "tolerance": options["tolerance"], "growth": options["growth"],
         "criterion": "a trial stands when its run converges and its "

@@ -54,6 +54,12 @@ def test_a_misspelt_model_is_said_alone():
     assert problems(MC.replace('model = "mohr_coulomb", ', "")) == [
         "bodies[0].material.model: missing (one of linear_elastic, "
         "von_mises, drucker_prager, mohr_coulomb, cam_clay)"]
+    # not a string (a reviewer's: a list or table raised TypeError, as a
+    # dict's key)
+    for model in ('["mohr_coulomb"]', "{a = 1}"):
+        said, = problems(MC.replace('"mohr_coulomb"', model))
+        assert said.startswith("bodies[0].material.model: must be one of "
+                               "linear_elastic,")
 
 
 def test_a_misspelt_key_gets_the_models_own_keys_and_the_nearest():

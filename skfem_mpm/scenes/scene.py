@@ -891,8 +891,8 @@ def warn_ramped_gravity(scene: Scene):
         n = scene.step_count
         logger.warning(
             "the gravity on %s grows with the load factor while %s "
-            "pushes: the push at step k of %d meets soil of k/%d of its "
-            "weight (1/%d at step 1), not the full weight; start the soil "
+            "pushes: the push at step k of %d meets them at k/%d of their "
+            "weight (1/%d at step 1), not the full weight; start a soil "
             "from its weight with geostatic = { } in its [[bodies]] (K0 "
             "by default Jaky's 1 - sin(phi) of a mohr_coulomb or "
             "drucker_prager soil; Python: geostatic_stress), or put it on "

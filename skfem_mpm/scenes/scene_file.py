@@ -411,7 +411,7 @@ REQUIRED = {"linear_elastic": ELASTIC, "von_mises": MODELS["von_mises"][:3],
 
 def _material(c, data, key):
     model = data.get("model") if isinstance(data, dict) else None
-    if model not in MODELS:
+    if not isinstance(model, str) or model not in MODELS:
         # which keys a material takes depends on its model: of a model
         # left out or misspelt, that alone
         if not isinstance(data, dict):
@@ -648,6 +648,7 @@ def _jaky(c, table, material, key: str) -> float:
     Mohr-Coulomb or Drucker-Prager soil's friction angle (a normally
     consolidated soil's), else refused with the reason."""
     model = table.get("model") if isinstance(table, dict) else None
+    model = model if isinstance(model, str) else None
     if model in ("mohr_coulomb", "drucker_prager"):
         phi = getattr(material, "friction_angle", 0.)  # 0: refused anyway
         return 1. - math.sin(math.radians(phi))

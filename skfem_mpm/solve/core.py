@@ -1157,6 +1157,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         "at every load factor, so a shorter step has no "
                         "equilibrium either"
                         if unbalanced else floor if floor else
+                        "not cut back: a linear step's shorter one solves "
+                        "the same equations, scaled" if run.linear else
                         "no convergence down to {}".format(span(
                             run, target - factor)) if held <= HELD_HALVINGS
                         else "failed so at {} halvings of the step, down "
@@ -1166,7 +1168,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         progress(run, factor), too_soft(run, points)
                         + (collapse_hint(run, reach) if isinstance(
                             err, NewtonDivergenceError) else ""),
-                        ghost_hint(run) + seeded_hint(run),
+                        ghost_hint(run) + seeded_hint(run) + (
+                            "".join(term.unheld_hint() for term in run.terms)
+                            if isinstance(err, SingularSystemError) else ""),
                         terms_hint(run, points)),
                     state=points, load_factor=factor,
                     history=result.history) from err

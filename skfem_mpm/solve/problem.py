@@ -647,8 +647,8 @@ class StepProblem:
         solve a step, no Newton iteration to fail) a cpGIMP cantilever's
         tip corner turned by 100 and then 187 degrees where the beam
         turned by 5, its stress wrong by 170%, until a step's stiffness
-        was singular (the gradients are not checked where a term holds
-        the slivers: the ghost penalty).  Unlike
+        was singular (the gradients are not checked once a term holds
+        the slivers: the ghost penalty switched on).  Unlike
         :meth:`check_grid_motion`, a step solved with the stabilised
         tangent is checked too: its zero-energy modes move nodes
         arbitrarily, but no point by cells."""
@@ -659,7 +659,7 @@ class StepProblem:
         far = np.abs(dx).max(initial=0.) > THROWN * h
         limit = np.inf      # the gradient refused (small strain)
         if not run.finite and self.points.n and not any(
-                term.holds_slivers for term in self.terms):
+                term.holds_slivers for term in run.terms):
             turned = np.sqrt((self.op.gradients(du) ** 2).sum(axis=(0, 1)))
             median = float(np.median(turned))
             if turned.max() > max(THROWN_GRADIENT,
@@ -685,8 +685,20 @@ class StepProblem:
         alone[held] = 0.
         moved = np.sqrt((self.op.values(alone) ** 2).sum(axis=0)) / h \
             if far else np.zeros(0)
-        gradient = np.sqrt((self.op.gradients(alone) ** 2).sum(
-            axis=(0, 1))) if limit < np.inf else np.zeros(0)
+        gradient = np.zeros(0)
+        if limit < np.inf:
+            # the slivers' share of the gradient relative to the point's
+            # own motion, sum_i grad N_i (du_i - dx_p): a point that
+            # translates beside a sliver node is not turned (without it,
+            # a stiff block sliding past a grid line by 3e-4 cells had a
+            # "gradient" of its motion over h there, 0.25)
+            ones = np.zeros_like(du).reshape(-1, dim)
+            ones[sliver] = 1.
+            ones = ones.ravel()
+            ones[held] = 0.
+            share = self.op.gradients(alone) \
+                - dx[:, None] * self.op.gradients(ones)
+            gradient = np.sqrt((share ** 2).sum(axis=(0, 1)))
         if moved.max(initial=0.) > THROWN:
             p = int(np.argmax(moved))
             what = "moved {:.3g} cells".format(moved[p])
@@ -697,6 +709,7 @@ class StepProblem:
                         gradient[p], median))
         else:
             return
+        from .core import DEFAULT_GHOST, SMALL_STRAIN_GHOST  # (imports this)
         raise GridMotionError(
             "step {}: point {} at {} {} through grid nodes "
             "holding less than {:g} cells of material (slivers: a body edge "
@@ -704,7 +717,8 @@ class StepProblem:
             "ties them to their neighbours (ghost='auto', the default, "
             "switches it on; or {})".format(
                 self.step, p, self.points.x[:, p].tolist(), what,
-                SLIVER_SUPPORT, setting("ghost", 0.1)))
+                SLIVER_SUPPORT, setting("ghost", DEFAULT_GHOST if run.finite
+                                        else SMALL_STRAIN_GHOST)))
 
     def commit(self, trial: Trial, du: ndarray, residuals: list):
         """The converged state of ``trial`` (the grid increment ``du``) and

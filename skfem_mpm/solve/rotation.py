@@ -7,7 +7,7 @@ axes: a body that rotates keeps its stress in the axes it had, and a
 rotation ``theta`` makes errors of the order of ``theta`` in the stress
 components (a user trial's bracket, loaded to twice its collapse load,
 converged in small strain with its arm rotated 40 degrees, and nothing
-said the answer was void).  :class:`SmallStrainRotation` keeps each
+said the answer was void).  :class:`SmallStrainRange` keeps each
 point's rotation, the sum of its steps' infinitesimal rotations (the skew
 part of ``grad du``), as point state (``rotation`` in 2D, about the
 out-of-plane axis, counter-clockwise; ``rotation_x``, ``rotation_y``,
@@ -20,8 +20,9 @@ its stresses follow the material's rotation.
 
 Small strain also takes the strain as linear in the displacement and the
 points' volumes as fixed: a column compressed by 10% in small strain
-(cpGIMP) had its stress from 0.88 to 1.00 of the load's, at 30% from
-0.74 (a user trial's at 50% settled 0.34 of its height, unsaid).
+(cpGIMP, 10 steps) had its stress from 0.88 to 1.00 of the load's, at
+30% from 0.74 (in 20 steps 0.71; a user trial's at 50% settled 0.34 of
+its height, unsaid).
 :class:`SmallStrainRange` warns when a point's (elastic) strain passes
 :data:`STRAIN_WARNING` in a principal direction, and again each time the
 largest passes twice the level it last passed.

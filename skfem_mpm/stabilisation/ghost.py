@@ -229,7 +229,10 @@ class GhostStabilisation(GridTerm):
         field's penalty had the pile's modulus; now 7.75 mm).
     """
 
-    holds_slivers = True
+    @property
+    def holds_slivers(self) -> bool:
+        """On, the penalty ties the slivers' nodes to their neighbours."""
+        return self.active
 
     def __init__(self, mesh, elem, gamma: float, material,
                  active: bool = True, obstacles=(), field_cells=None):
