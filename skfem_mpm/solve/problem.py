@@ -696,8 +696,9 @@ class StepProblem:
             ones[sliver] = 1.
             ones = ones.ravel()
             ones[held] = 0.
-            share = self.op.gradients(alone) \
-                - dx[:, None] * self.op.gradients(ones)
+            # (an operator of mean dilatation gives 3 x 3 gradients)
+            share = self.op.gradients(alone)[:dim, :dim] \
+                - dx[:, None] * self.op.gradients(ones)[:dim, :dim]
             gradient = np.sqrt((share ** 2).sum(axis=(0, 1)))
         if moved.max(initial=0.) > THROWN:
             p = int(np.argmax(moved))
