@@ -1565,7 +1565,10 @@ def run_safety(args) -> int:
     scene = load_scene(args.scene)
     if options["steps"] is not None:
         scene.nsteps = options["steps"]
-    reduced = reduced_bodies(scene)
+    try:
+        reduced = reduced_bodies(scene)
+    except SceneError as err:       # the file named, as the scene's own
+        raise SceneError(err.problems, str(args.scene)) from None
     check_folder(args.out, "--out")
     check_reference(scene)
     mesh, _ = scene.grid.build()
@@ -1626,6 +1629,15 @@ def run_safety(args) -> int:
                   or not first else " ({:.2f} x F = {:g}'s)".format(
                       moved / first, trials[0]["factor"]),
                   record["seconds"], notes_said(notes)), flush=True)
+        if len(trials) == 1 and len(result.history) > scene.step_count:
+            # a trial's --low above the factor (1.5 for 1.44) collapsed in
+            # cut-backs, and its motion set the scale of --growth: the
+            # factor came out 15% high
+            print("  the run at --low = {:g} was cut back ({} steps for "
+                  "{}): it may be near or past collapse, and its motion "
+                  "sets the scale of --growth; a lower --low is "
+                  "sounder".format(factor, len(result.history),
+                                   scene.step_count), flush=True)
         return result
 
     tic = run_clock()

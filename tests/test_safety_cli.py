@@ -144,7 +144,7 @@ def test_a_scene_without_strength_to_reduce_is_refused(tmp_path, capsys,
         'model = "cam_clay", kappa = 0.02, lambda = 0.1, M = 1.0, '
         'shear_modulus = 5e3, reference_pressure = 100.0'))
     assert main(["safety", str(scene), "--out", str(tmp_path / "o")]) == 2
-    assert "bodies[0] (clay): " in capsys.readouterr().err
+    assert "{}: bodies[0] (clay): ".format(scene) in capsys.readouterr().err
     text = SLOPE.replace("[[bodies]]", "[[bodies]]\ndensity = 2.0").replace(
         "steps = 8\n", "")
     scene.write_text(text + "[dynamics]\ntime_step = 0.1\n"

@@ -1400,3 +1400,41 @@ def test_a_support_beyond_the_material_s_reach_is_warned(method, right,
              if "holds no node" in r.getMessage()]
     assert len(words) == warned
     assert all(w.startswith("support 'far' ") for w in words)
+
+
+@pytest.mark.parametrize("method", ["fem", "mpm"])
+def test_a_scene_on_triangles_runs(method):
+    """A scene's grid given as a scikit-fem mesh of triangles (points
+    without domains): the start's check of supports that reach no
+    material raised TypeError on the missing domains (a user trial's);
+    the column under its weight runs, its base reaction the weight."""
+    import tomllib
+    from dataclasses import replace
+    from skfem import ElementTriP1, MeshTri
+    from skfem_mpm.scenes.scene import Grid, run_scene
+    from skfem_mpm.scenes.scene_file import parse_scene
+    scene = parse_scene(tomllib.loads("""
+[grid]
+x = [0.0, 1.0, 4]
+y = [0.0, 4.0, 16]
+[[bodies]]
+region = { x = [0.0, 1.0], y = [0.0, 3.0] }
+material = { model = "linear_elastic", E = 1e5, nu = 0.0 }
+[[supports]]
+boundary = "bottom"
+[[supports]]
+boundary = "left"
+components = ["x"]
+[[supports]]
+boundary = "right"
+components = ["x"]
+[gravity]
+body_force = [0.0, -10.0]
+[solver]
+steps = 2
+"""))
+    mesh = MeshTri.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 4, 17))
+    res = run_scene(replace(scene, grid=Grid(mesh=mesh, elem=ElementTriP1()),
+                            method=method))
+    assert res.history[-1].reactions.reshape(-1, 2)[:, 1].sum() == \
+        pytest.approx(10. * 3., rel=1e-9)

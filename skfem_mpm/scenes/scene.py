@@ -849,8 +849,10 @@ def warn_unreached_supports(scene: Scene, mesh, elem,
     dim = mesh.dim()
     grid = grid_parts(mesh, elem)[1]
     h = cell_size(mesh)
-    reach = SUPPORT_REACH.get(scene.method, 1) + np.abs(
-        points.domain).max(initial=0.) / h
+    # (points without domains, seeded on triangles: their own places)
+    reach = SUPPORT_REACH.get(scene.method, 1) + (0. if points.domain is None
+                                                   else np.abs(points.domain)
+                                                   .max(initial=0.) / h)
     tree = cKDTree((points.x / h).T)
     for name, support in zip(support_names(scene), scene.supports):
         dofs = scene_support_dofs(support, grid, dim)
