@@ -1,6 +1,7 @@
-"""Command line: ``skfem-mpm run | compare | study`` (also ``python -m
-skfem_mpm``; the command's entry point is :mod:`skfem_mpm.__main__`, which
-imports this module inside its Ctrl-C handler).
+"""Command line: ``skfem-mpm run | compare | study | safety`` (also
+``python -m skfem_mpm``; the command's entry point is
+:mod:`skfem_mpm.__main__`, which imports this module inside its Ctrl-C
+handler).
 
 The package's top layer: it builds on :mod:`skfem_mpm.scenes` and
 :mod:`skfem_mpm.studies`, and no module of the package imports it.  The
@@ -25,8 +26,10 @@ import numpy as np
 
 from . import __version__
 from .kernels import compile_seconds, run_clock
-from .errors import InvalidInputError, MPMError, SceneError
-from .mechanics.materials import state_variables
+from .errors import (ConvergenceError, InvalidInputError, MPMError,
+                     PointsOutsideGridError, PrescribedMotionError,
+                     SceneError, SingularSystemError)
+from .mechanics.materials import LinearElastic, state_variables
 from .quadrature.locate import locate_points
 from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
                                 check_against, history_rows, load_checkpoint,
@@ -40,7 +43,8 @@ from .scenes.output import (SeriesWriter, point_cloud, von_mises,
 from .scenes import plot  # save_figure looked up when called: tests wrap it
 from .scenes.plot import (STRESS_NAMES, SupportMarks, body_figure_size,
                           colour_scale, draw_deformed_shape, draw_energies,
-                          draw_points, mark_peak, pyplot)
+                          draw_plastic_zone, draw_points, mark_peak,
+                          pyplot)
 from .scenes.quantities import check_quantities, quantity_unit
 from .scenes.scene import (build_points, load_scale, obstacle_list,
                            point_bound, reaction_resultants,
@@ -54,7 +58,9 @@ from .solve.rotation import rotation_state_names, start_missing_rotation
 from .solve.core import grid_parts
 from .solve.options import Resume, end_force_of, resumed_counters
 from .solve.results import PHASES, Result
-from .solve.strength_reduction import largest_displacement
+from .solve.strength_reduction import (largest_displacement,
+                                       reduce_strength,
+                                       strength_reduction)
 from .studies.column import SOURCE as COLUMN_SOURCE
 from .studies.figures import plot_column_stress, plot_study
 from .studies.footing import (bearing_capacity_factor, footing_error,
@@ -80,6 +86,9 @@ Implicit Material Point Method on scikit-fem.
   skfem-mpm study SCENE.toml --vary elements=4,8,16 --vary ppc=2,3
                                       accuracy against cost over a grid of
                                       choices (--workers N: local Dask)
+  skfem-mpm safety SCENE.toml         the factor of safety by strength
+                                      reduction (--low, --high,
+                                      --tolerance, --growth)
 
 Scene files are TOML; `python -c "import skfem_mpm.scenes.scene_file as s;
 print(s.__doc__)"` lists every key, and examples/*.toml are ready to run.
@@ -182,7 +191,45 @@ def build_parser() -> argparse.ArgumentParser:
                                           DEFAULT_VARY.items()
                                           if k != "loadsteps"})),
                                       CASES_UNASKED))
-    for p in (run, compare, study):
+    safety = sub.add_parser(
+        "safety", help="the factor of safety by strength reduction",
+        description="The factor of safety of a static scene by strength "
+        "reduction (skfem_mpm.strength_reduction): the scene is run with "
+        "the strength of its bodies divided by trial factors F (c / F and "
+        "tan(phi) / F for Mohr-Coulomb and Drucker-Prager, the dilation "
+        "angle likewise; the yield stress / F for von Mises; linear "
+        "elastic bodies and rigid bodies unchanged), bracketed from "
+        "--low and --high (doubled until a trial collapses) and bisected "
+        "to --tolerance.  A trial stands when its run converges and its "
+        "largest point displacement is at most --growth times that of "
+        "the run at --low; it collapses otherwise.  Prints a line per "
+        "trial; writes safety.json (every trial, the factor and its "
+        "bracket), safety.png (largest displacement against F) and "
+        "mechanism.png (the plastic zone of the last trial that stood) "
+        "to --out.  Recommended: --low well below the factor (1 for a "
+        "slope thought to stand), 8 or more load steps.")
+    safety.add_argument("scene", type=Path, help="scene file")
+    safety.add_argument("--out", type=Path,
+                        default=Path("skfem-mpm-safety"),
+                        help="output folder (default ./skfem-mpm-safety)")
+    safety.add_argument("--low", default="1", metavar="F",
+                        help="first factor, one at which the scene stands "
+                        "(its run sets the scale of --growth; default 1)")
+    safety.add_argument("--high", default="2", metavar="F",
+                        help="first guess of a factor at which it "
+                        "collapses, > --low (doubled up to 5 times until "
+                        "a trial collapses; default 2)")
+    safety.add_argument("--tolerance", default="0.01", metavar="T",
+                        help="relative width of the final bracket, "
+                        "0 < T < 1 (default 0.01)")
+    safety.add_argument("--growth", default="5", metavar="G",
+                        help="a trial that converges but moves more than "
+                        "G times the run at --low has collapsed (G > 1; "
+                        "default 5); 'none': convergence alone decides")
+    safety.add_argument("--steps", default=None, metavar="N",
+                        help="override the scene's number of load steps "
+                        "(N >= 1; 8 or more recommended)")
+    for p in (run, compare, study, safety):
         p.add_argument("--no-progress", action="store_true",
                        help="no progress bar")
         p.add_argument("-v", "--verbose", action="store_true",
@@ -191,22 +238,34 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: where the progress stream is not a terminal (a log file), a line is
+#: written at most this often (seconds), and at the end of a run that
+#: wrote one: a trial's 3D run redirected to a log showed no progress in
+#: its 31 s
+LINE_INTERVAL = 10.
+
+
 class Progress:
-    """A one-line progress bar on ``stream`` (stderr; only on a terminal
-    unless ``enabled`` is ``"always"``): step, load factor (or time) as a
-    bar, Newton iterations, residual, elapsed time and an estimate of the
-    time left, from the pace since ``start_factor`` (where a resumed run
-    began)."""
+    """Progress on ``stream`` (stderr): on a terminal (or ``enabled`` is
+    ``"always"``) a one-line bar redrawn in place, elsewhere (a log file)
+    a line at most every :data:`LINE_INTERVAL` seconds and one at the
+    end of a run that wrote one; each with the step, the load factor (or
+    time) as a bar, Newton iterations, residual, elapsed time and an
+    estimate of the time left, from the pace since ``start_factor``
+    (where a resumed run began)."""
 
     def __init__(self, total: int, enabled, start_factor: float = 0.,
                  stream=None, timer=time.monotonic):
         self.total = total
         self.stream = sys.stderr if stream is None else stream
-        self.enabled = enabled == "always" or (enabled and
-                                               self.stream.isatty())
+        self.enabled = bool(enabled)
+        self.bar = enabled == "always" or (
+            self.enabled and self.stream.isatty())
         self.start_factor = start_factor
         self.timer = timer
-        self.started = timer()
+        self.started = self.written = timer()
+        self.drawn = False      # a bar is on its line, not ended
+        self.lines = 0          # lines written (not a terminal)
 
     def __call__(self, record):
         if not self.enabled:
@@ -214,18 +273,33 @@ class Progress:
         done = int(30 * record.load_factor)
         newton = "" if record.newton_iterations is None else \
             " newton {}".format(record.newton_iterations)
-        elapsed = self.timer() - self.started
+        now = self.timer()
+        elapsed = now - self.started
         progressed = record.load_factor - self.start_factor
         left = "" if progressed <= 0 else " left {}".format(clock(
             elapsed * (1. - record.load_factor) / progressed))
-        self.stream.write("\rstep {:4d}/{} [{}{}]{} residual {:.1e} "
-                          "elapsed {}{}".format(
-                              record.step, self.total, "#" * done,
-                              "." * (30 - done), newton, record.residual,
-                              clock(elapsed), left))
-        if record.load_factor >= 1.:
-            self.stream.write("\n")
+        words = "step {:4d}/{} [{}{}]{} residual {:.1e} elapsed {}{}".format(
+            record.step, self.total, "#" * done, "." * (30 - done), newton,
+            record.residual, clock(elapsed), left)
+        last = record.load_factor >= 1.
+        if self.bar:
+            self.stream.write("\r" + words)
+            self.drawn = not last
+            if last:
+                self.stream.write("\n")
+        elif now - self.written >= LINE_INTERVAL or last and self.lines:
+            self.stream.write(words + "\n")
+            self.written, self.lines = now, self.lines + 1
+        else:
+            return
         self.stream.flush()
+
+    def end(self):
+        """End a bar left on its line (a run that stopped early)."""
+        if self.drawn:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.drawn = False
 
 
 class StopRun(Exception):
@@ -1010,6 +1084,7 @@ def run(args) -> int:
         result = run_scene(scene, points, resume=resume, callback=callback,
                            initial=initial)
     except StopRun as stop:      # the checkpoint is written: a summary
+        progress.end()
         partial, stopped = unfinished("stopped", None, checkpoint=True,
                                       checkpoint_step=kept[0])
         with interrupts_deferred():
@@ -1019,6 +1094,7 @@ def run(args) -> int:
               "--resume {}".format(stop.args[0], outdir))
         return 0
     except KeyboardInterrupt:         # Ctrl-C: keep what converged
+        progress.end()
         # a second Ctrl-C does not cut the saving short
         with interrupts_deferred(reraise=False):
             last = history[-1] if history else None
@@ -1045,6 +1121,7 @@ def run(args) -> int:
                           kept[0]) if cut else "", outdir), file=sys.stderr)
         return 130
     except MPMError as err:
+        progress.end()
         if isinstance(err, InvalidInputError) and not prepared:
             raise                     # refused before anything converged
         # keep what converged: a checkpoint of the last converged state and
@@ -1359,6 +1436,358 @@ def announce(plan: dict, workers: int, scheduler) -> str:
         "it as cases finish)".format(a, b)
 
 
+#: the outcomes of a strength reduction trial in ``safety.json``
+#: ("converged": not judged, where the bracket failed)
+OUTCOMES = ("stands", "collapses", "fails", "converged")
+
+
+def safety_options(args) -> dict:
+    """``skfem-mpm safety``'s numbers from ``args``, checked before any
+    work: every problem, one line each, in a
+    :class:`~skfem_mpm.errors.SceneError`.
+
+    >>> from types import SimpleNamespace
+    >>> from skfem_mpm.cli import safety_options
+    >>> safety_options(SimpleNamespace(low="1", high="2", tolerance=".01",
+    ...                                growth="none", steps=None))
+    {'low': 1.0, 'high': 2.0, 'tolerance': 0.01, 'growth': None, 'steps': None}
+    """
+    problems, out = [], {}
+
+    def number(name, text, test, wanted, kind=float):
+        try:
+            value = kind(text)
+        except (TypeError, ValueError):
+            value = None
+        if value is None or not np.isfinite(value) or not test(value):
+            problems.append("--{} must be {}, got {!r}".format(
+                name, wanted, text))
+            return None
+        return value
+
+    out["low"] = number("low", args.low, lambda v: v > 0,
+                        "a number > 0 (a factor at which the scene stands)")
+    out["high"] = number("high", args.high, lambda v: v > 0,
+                         "a number > --low (a first guess of a factor at "
+                         "which the scene collapses)")
+    if None not in (out["low"], out["high"]) and \
+            not out["high"] > out["low"]:
+        problems.append("--high must be > --low, got --low {!r} and --high "
+                        "{!r}".format(args.low, args.high))
+    out["tolerance"] = number("tolerance", args.tolerance,
+                              lambda v: 0 < v < 1, "a number between 0 and "
+                              "1 (the final bracket's relative width)")
+    if str(args.growth).strip().lower() == "none":
+        out["growth"] = None
+    else:
+        out["growth"] = number("growth", args.growth, lambda v: v > 1,
+                               "a number > 1 (the displacement, over the "
+                               "run at --low's, beyond which a trial has "
+                               "collapsed) or 'none'")
+    out["steps"] = None if args.steps is None else number(
+        "steps", args.steps, lambda v: v >= 1, "an integer >= 1", int)
+    if problems:
+        raise SceneError(problems)
+    return out
+
+
+def reduced_bodies(scene) -> list:
+    """The indices of the bodies of ``scene`` whose strength a strength
+    reduction divides (every body but the rigid and the linear elastic
+    ones), refusing a scene it cannot take: a dynamic one, a body of a
+    material without a strength to reduce (Cam clay, hardening
+    Drucker-Prager: :func:`~skfem_mpm.reduce_strength` says why), a scene
+    with no body to reduce."""
+    if scene.dynamics is not None:
+        raise InvalidInputError(
+            "skfem-mpm safety runs a static scene under its loads: the "
+            "scene has [dynamics] (remove it to find the factor of safety)")
+    problems, reduced = [], []
+    for k, body in enumerate(scene.bodies):
+        if body.rigid is not None or type(body.material) is LinearElastic:
+            continue
+        try:
+            reduce_strength(body.material, 1.)
+        except InvalidInputError as err:
+            problems.append("bodies[{}] ({}): {}".format(k, body.name, err))
+            continue
+        reduced.append(k)
+    if problems:
+        raise SceneError(problems)
+    if not reduced:
+        raise InvalidInputError(
+            "skfem-mpm safety divides the strength of von Mises, "
+            "Mohr-Coulomb and Drucker-Prager bodies: the scene has none "
+            "({})".format(", ".join("{} {}".format(
+                b.name, "rigid" if b.rigid is not None else
+                type(b.material).__name__) for b in scene.bodies)))
+    return reduced
+
+
+class quiet_logs:
+    """Within it, where ``quiet``, the package's log records (warnings:
+    Newton's retries and cut-backs, a trial past collapse has dozens) are
+    counted rather than printed: ``notes``, a list, gets each record's
+    logger name."""
+
+    def __init__(self, quiet: bool):
+        self.quiet, self.notes = quiet, []
+        self.logger = logging.getLogger("skfem_mpm")
+
+    def __enter__(self):
+        if self.quiet:
+            self.handler = logging.Handler()
+            self.handler.emit = lambda r: self.notes.append(r.name)
+            self.logger.addHandler(self.handler)
+            self.propagate, self.logger.propagate = self.logger.propagate, \
+                False
+        return self.notes
+
+    def __exit__(self, *exc):
+        if self.quiet:
+            self.logger.removeHandler(self.handler)
+            self.logger.propagate = self.propagate
+        return False
+
+
+def notes_said(notes: list) -> str:
+    """The words of a trial line on the log ``notes`` it kept quiet."""
+    return "" if not notes else "; {} solver warning{} (-v prints " \
+        "them)".format(len(notes), "s" if len(notes) > 1 else "")
+
+
+def run_safety(args) -> int:
+    """``skfem-mpm safety``: the factor of safety of a scene by
+    :func:`~skfem_mpm.solve.strength_reduction.strength_reduction`, a
+    line per trial, ``safety.json``, ``safety.png`` and
+    ``mechanism.png`` in ``--out``."""
+    options = safety_options(args)
+    scene = load_scene(args.scene)
+    if options["steps"] is not None:
+        scene.nsteps = options["steps"]
+    try:
+        reduced = reduced_bodies(scene)
+    except SceneError as err:       # the file named, as the scene's own
+        raise SceneError(err.problems, str(args.scene)) from None
+    check_folder(args.out, "--out")
+    check_reference(scene)
+    mesh, _ = scene.grid.build()
+    initial = build_points(scene, mesh)
+    check_quantities(scene, scene.outputs, initial)
+    length = unit("length", scene.units)
+    kept = [b.name for k, b in enumerate(scene.bodies) if k not in reduced]
+    print("{}: strength reduction of {} ({} load steps, {}); bracket from "
+          "{:g} to {:g}, tolerance {:g}, {}".format(
+              scene.name, ", ".join(scene.bodies[k].name for k in reduced),
+              scene.step_count, scene.method, options["low"],
+              options["high"], options["tolerance"],
+              "collapse beyond {:g} times the displacement at F = {:g}"
+              .format(options["growth"], options["low"])
+              if options["growth"] is not None else
+              "collapse where a run fails (--growth none)")
+          + ("; unchanged: {}".format(", ".join(kept)) if kept else ""),
+          flush=True)
+    trials = []
+
+    def variant(factor):
+        """The scene with its bodies' strength divided by ``factor``."""
+        return replace(scene, bodies=[
+            replace(b, material=reduce_strength(b.material, factor))
+            if k in reduced else b for k, b in enumerate(scene.bodies)])
+
+    def trial(factor):
+        """A run at ``factor``, its line printed and its record kept."""
+        progress = Progress(scene.step_count, not args.no_progress)
+        tic = run_clock()
+        record = {"factor": factor, "converged": False, "error": None,
+                  "largest_displacement": None}
+        trials.append(record)
+        try:
+            # the first trial's warnings said (the scene's own, once),
+            # the later ones' counted
+            with quiet_logs(not args.verbose and len(trials) > 1) as notes:
+                result = run_scene(variant(factor), initial=initial,
+                                   callback=lambda r, _: progress(r))
+        except PrescribedMotionError:
+            raise
+        except (ConvergenceError, SingularSystemError,
+                PointsOutsideGridError) as err:
+            record.update(error=type(err).__name__,
+                          seconds=run_clock() - tic)
+            progress.end()
+            print("  F = {:.4f}: not converged ({}), {:.1f} s{}".format(
+                factor, type(err).__name__, record["seconds"],
+                notes_said(notes)), flush=True)
+            raise
+        moved = largest_displacement(result)
+        record.update(converged=True, largest_displacement=moved,
+                      seconds=run_clock() - tic)
+        first = trials[0]["largest_displacement"]
+        print("  F = {:.4f}: converged, largest displacement {:.4g} {}{}, "
+              "{:.1f} s{}".format(
+                  factor, moved, length, "" if len(trials) == 1
+                  or not first else " ({:.2f} x F = {:g}'s)".format(
+                      moved / first, trials[0]["factor"]),
+                  record["seconds"], notes_said(notes)), flush=True)
+        if len(trials) == 1 and len(result.history) > scene.step_count:
+            # a trial's --low above the factor (1.5 for 1.44) collapsed in
+            # cut-backs, and its motion set the scale of --growth: the
+            # factor came out 15% high
+            print("  the run at --low = {:g} was cut back ({} steps for "
+                  "{}): it may be near or past collapse, and its motion "
+                  "sets the scale of --growth; a lower --low is "
+                  "sounder".format(factor, len(result.history),
+                                   scene.step_count), flush=True)
+        return result
+
+    tic = run_clock()
+    try:
+        found = strength_reduction(trial, options["low"], options["high"],
+                                   options["tolerance"], options["growth"])
+    except KeyboardInterrupt:
+        print("skfem-mpm: strength reduction interrupted after {} "
+              "trial(s): nothing written".format(len(trials)),
+              file=sys.stderr)
+        return 130
+    except InvalidInputError as err:
+        # the bracket failed (not a run refused): keep what the trials said
+        if trials and "seconds" in trials[-1]:
+            write_safety(args.out, scene, reduced, options, trials, None,
+                         run_clock() - tic, "{}".format(err))
+        raise
+    summary = write_safety(args.out, scene, reduced, options, trials, found,
+                           run_clock() - tic)
+    print("  {:>8s}  {:9s}  {}".format("F", "outcome",
+                                        "largest displacement ({})".format(
+                                            length)))
+    for t in summary["trials"]:
+        print("  {:8.4f}  {:9s}  {}".format(
+            t["factor"], t["outcome"], "-" if t["largest_displacement"]
+            is None else "{:.4g}".format(t["largest_displacement"])))
+    print("{}: factor of safety {:.3f} (bracket {:.4f} .. {:.4f}, {} "
+          "runs, {})".format(scene.name, found.factor, found.converged,
+                             found.failed, len(trials),
+                             clock(summary["wall_seconds"])))
+    width, height = body_figure_size(found.result.points.x[:2])
+    # room for the colour bar's label (two lines) beside a low slope
+    fig, ax = pyplot().subplots(figsize=(max(width, 8.), max(height, 4.5)))
+    if found.result.points.dim == 2 and "equivalent_plastic_strain" in \
+            found.result.points.state:
+        draw_plastic_zone(fig, ax, found.result.points, "{}: plastic zone "
+                          "at F = {:.4f}, the last trial that stood\n"
+                          "(factor of safety {:.3f})".format(
+                              scene.name, found.converged,
+                              found.factor))
+        ax.set_xlabel("x ({})".format(length))
+        ax.set_ylabel("y ({})".format(length))
+        fig.tight_layout()
+        plot.save_figure(fig, args.out / "mechanism.png")
+        print("  plot {}".format(args.out / "mechanism.png"))
+    else:
+        pyplot().close(fig)
+    print("  plot {}\n  output {}".format(args.out / "safety.png",
+                                          args.out / "safety.json"))
+    return 0
+
+
+def write_safety(outdir: Path, scene, reduced: list, options: dict,
+                 trials: list, found, seconds: float,
+                 error: str = None) -> dict:
+    """``safety.json`` and ``safety.png`` of a strength reduction in
+    ``outdir``: the bodies ``reduced`` (indices, :func:`reduced_bodies`),
+    the ``options``, every one of the ``trials`` (the records
+    of the CLI's runs, in order) with its outcome, and the factor of
+    safety ``found`` (a :class:`~skfem_mpm.SafetyFactor`; ``None`` where
+    the bracket failed, ``error`` saying why)."""
+    outdir.mkdir(parents=True, exist_ok=True)
+    length = unit("length", scene.units)
+    stood = [] if found is None else [s for _, s in found.trials]
+    rows = []
+    for k, t in enumerate(trials):
+        outcome = "fails" if not t["converged"] else \
+            "converged" if found is None else \
+            "stands" if stood[k] else "collapses"
+        rows.append(dict(t, outcome=outcome))
+    summary = {
+        "scene": scene.name, "status": "completed" if found else "failed",
+        "method": scene.method, "steps": scene.step_count,
+        "reduced_bodies": [scene.bodies[k].name for k in reduced],
+        "low": options["low"], "high": options["high"],
+        "tolerance": options["tolerance"], "growth": options["growth"],
+        "criterion": "a trial stands when its run converges and its "
+        "largest point displacement is at most growth times that of the "
+        "run at low (growth null: when its run converges)",
+        "factor_of_safety": None if found is None else found.factor,
+        "bracket": None if found is None else [found.converged,
+                                               found.failed],
+        "reference_displacement": None if found is None else
+        found.reference,
+        "trials": rows, "wall_seconds": seconds,
+        "units": {"factor_of_safety": "-", "factor": "-",
+                  "largest_displacement": length,
+                  "reference_displacement": length, "seconds": "s",
+                  "wall_seconds": "s", "system": scene.units}}
+    if error is not None:
+        summary["error"] = error
+    write_summary(outdir / "safety.json", summary)
+    plot_safety(summary, outdir / "safety.png")
+    return summary
+
+
+def plot_safety(summary: dict, path: Path):
+    """The largest displacement of every trial against its factor F
+    (``safety.json``'s ``summary``), by outcome, the runs that failed
+    marked along the top, the collapse threshold and the factor of safety
+    with its bracket."""
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    length = summary["units"]["largest_displacement"]
+    trials = summary["trials"]
+    for outcome, label, style in (
+            ("stands", "stands", dict(marker="o", color="tab:blue")),
+            ("collapses", "converged, moved too far: collapse",
+             dict(marker="s", color="tab:red", mfc="none")),
+            ("converged", "converged (not judged: no factor found)",
+             dict(marker="o", color="tab:gray"))):
+        got = [t for t in trials if t["outcome"] == outcome]
+        if got:
+            ax.plot([t["factor"] for t in got],
+                    [t["largest_displacement"] for t in got], ls="",
+                    ms=7, label=label, **style)
+    failed = [t["factor"] for t in trials if t["outcome"] == "fails"]
+    if failed:
+        ax.plot(failed, [.97] * len(failed), "x", color="k", ms=8,
+                transform=ax.get_xaxis_transform(),
+                label="run failed (no displacement)")
+    moved = [t["largest_displacement"] for t in trials
+             if t["largest_displacement"] is not None]
+    if summary["growth"] is not None and moved:
+        ax.axhline(summary["growth"] * moved[0], color="tab:red", ls="--",
+                   lw=1., label="collapse threshold: {:g} x the run at "
+                   "F = {:g}".format(summary["growth"], summary["low"]))
+    if summary["factor_of_safety"] is not None:
+        lo, hi = summary["bracket"]
+        ax.axvspan(lo, hi, color="tab:green", alpha=.25, lw=0)
+        ax.axvline(summary["factor_of_safety"], color="tab:green",
+                   label="factor of safety {:.3f} (bracket {:.4f} .. "
+                   "{:.4f})".format(summary["factor_of_safety"], lo, hi))
+    if moved and min(moved) > 0:
+        ax.set_yscale("log")
+    ax.set_xlabel("trial factor F (-): the strength divided by F (c / F, "
+                  "tan(phi) / F; von Mises: yield stress / F)")
+    ax.set_ylabel("largest point displacement ({})".format(length))
+    ax.set_title("{}: strength reduction, the largest displacement\n"
+                 "against the trial factor F{}".format(
+                     summary["scene"], "" if summary["factor_of_safety"]
+                     is not None else " (no factor found)"))
+    ax.grid(True, which="both", alpha=.3)
+    # beside the axes, where it covers no trial
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.), borderaxespad=0.,
+              fontsize="small")
+    fig.tight_layout()
+    plot.save_figure(fig, path)
+
+
 def main(argv=None) -> int:
     """The ``skfem-mpm`` command on ``argv`` (default ``sys.argv``): its
     exit status.  A Ctrl-C gets one line and status 130 wherever it falls.
@@ -1394,10 +1823,12 @@ def dispatch(argv) -> int:
         # (SIGTERM) as on Ctrl-C
         with terminate_as_interrupt() if args.command == "run" \
                 else nullcontext():
-            return {"run": run, "compare": compare,
-                    "study": run_study}[args.command](args)
+            return {"run": run, "compare": compare, "study": run_study,
+                    "safety": run_safety}[args.command](args)
     except SceneError as err:
-        for problem in err.problems:
+        for problem in err.problems:       # each naming the file once
+            if err.source and not problem.startswith(err.source):
+                problem = "{}: {}".format(err.source, problem)
             print("skfem-mpm: {}".format(problem), file=sys.stderr)
         return 2
     except InvalidInputError as err:

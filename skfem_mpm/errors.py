@@ -116,9 +116,11 @@ class PrescribedMotionError(ConvergenceError):
 class SingularTangentError(SingularSystemError, ConvergenceError):
     """The tangent at a trial state of a nonlinear step is singular even
     stabilised (a softening plastic zone, points leaving cells): the step
-    failed, and is retried and cut back like a diverging one.  Missing
-    supports are refused before any iteration, as a
-    :class:`SingularSystemError`."""
+    failed, and is retried and cut back like a diverging one; or a linear
+    step's stiffness after the first step is (points that moved left a
+    node a sliver of support): retried with the ghost penalty of
+    ``ghost="auto"``, not cut back.  Missing supports are refused before
+    any iteration, as a :class:`SingularSystemError`."""
 
 
 class ContactError(ConvergenceError):
@@ -221,6 +223,7 @@ class SceneError(InvalidInputError):
 
     def __init__(self, problems, source=""):
         self.problems = list(problems)
+        self.source = source          # the file, where one was read
         super().__init__("{}{} problem(s):\n".format(
             source + ": " if source else "", len(self.problems))
             + "\n".join(self.problems))

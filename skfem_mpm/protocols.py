@@ -125,6 +125,12 @@ class GridTerm:
     #: tangent switches the ghost penalty held in reserve on
     #: (:data:`~skfem_mpm.solve.core.RETRY_LADDER`)
     ties_slivers = False
+    #: the term ties grid nodes that a sliver of material supports to
+    #: their neighbours (the ghost penalty): their values follow the
+    #: material's, and a small-strain step's gradients through them are
+    #: not checked (:meth:`~skfem_mpm.solve.problem.StepProblem.
+    #: check_thrown`)
+    holds_slivers = False
     #: in dynamics, the work of the term's force over a step is booked
     #: from the force the last step ended with, not the term's
     #: :meth:`start_force` (contact: the pairs' pressures the step starts

@@ -9,7 +9,8 @@ from one table of the option objects' fields and their scene keys.
 >>> setting("antilocking", True)
 'Stabilisation(antilocking=True); scene file: [solver] antilocking = true'
 """
-__all__ = ["SCENE_KEYS", "PARAMETER_KEYS", "setting", "parameter"]
+__all__ = ["SCENE_KEYS", "PARAMETER_KEYS", "setting", "parameter",
+           "did_you_mean"]
 
 #: per option field, the option object that holds it and its scene key
 #: as ``(table, key)``
@@ -61,3 +62,25 @@ def parameter(name: str) -> str:
     """
     key = PARAMETER_KEYS.get(name)
     return name if key is None else "{} (scene file: {})".format(name, key)
+
+
+def did_you_mean(word, choices) -> str:
+    """``"; did you mean 'x'?"`` with the choice nearest to a misspelt
+    ``word`` (difflib's ratio 0.6 at least, a key's case and dashes
+    aside), else ``""``: for messages that refuse a key or a name.
+
+    >>> did_you_mean("friction_angel", ["cohesion", "friction_angle"])
+    "; did you mean 'friction_angle'?"
+    >>> did_you_mean("mohr-coulomb", ["linear_elastic", "mohr_coulomb"])
+    "; did you mean 'mohr_coulomb'?"
+    >>> did_you_mean("colour", ["x", "y", "element"])
+    ''
+    """
+    import difflib
+    if not isinstance(word, str):
+        return ""
+    choices = [c for c in choices if isinstance(c, str)]
+    plain = {c.lower().replace("-", "_"): c for c in choices}
+    found = difflib.get_close_matches(word.lower().replace("-", "_"),
+                                      list(plain), n=1)
+    return "; did you mean {!r}?".format(plain[found[0]]) if found else ""

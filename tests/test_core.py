@@ -676,6 +676,108 @@ def test_a_thrown_point_is_caught_wherever_the_model_sits():
         assert np.abs(u - reference).max() < 1e-6 * np.abs(reference).max()
 
 
+def tip_loaded_cantilever(method, alpha, ghost="auto"):
+    """A user trial's elastic cantilever 10 x 1 in small strain (E = 1e6,
+    nu = 0.3), clamped at x = 0 on a grid of h = 0.25 reaching a cell
+    past its tip, 2 x 2 points per cell, a tip traction of P L^2 / E I =
+    ``alpha`` (plane strain) in 10 steps: the run and the tip's
+    deflection over L."""
+    E, nu, L, D, h = 1e6, .3, 10., 1., .25
+    mesh = MeshQuad.init_tensor(np.arange(0, L + 1 + h / 2, h),
+                                np.arange(-7., 2. + h / 2, h))
+    points = seed_points(mesh, 2, region=lambda x: (x[0] < L)
+                         & (x[1] > 0) & (x[1] < D))
+    P = alpha * E / (1 - nu ** 2) * D ** 3 / 12 / L ** 2
+    tip = side_points(points, "right")
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(E, nu),
+                   lambda b: b.get_dofs(lambda x: x[0] == 0).all(),
+                   loads=[Traction(tip, "right", [0., -P / D])], nsteps=10,
+                   method=method, kinematics="small",
+                   options=Options(stabilisation=Stabilisation(
+                       ghost=ghost)))
+    return res, -res.points.displacement[1, tip].mean() / L
+
+
+@pytest.mark.parametrize("alpha, step", [(.1, 8), (.3, 6)])
+def test_a_point_turned_by_slivers_switches_the_ghost_penalty_on(
+        alpha, step):
+    """Elastic in small strain, one linear solve a step: the cpGIMP
+    cantilever's tip corner (its domain barely past the grid line x =
+    10) had its displacement gradient changed by 1.7 in step 6 at
+    alpha = 0.3 (the median point's 0.016) through a node beyond the tip,
+    its rotation 100 degrees and then 187 where the beam's tip turns by
+    alpha / 2 rad, until step 10's stiffness was singular; at alpha = 0.1
+    the slivers' share (relative to the point's own motion) 0.44 in step
+    8, the corner 24 degrees where the beam turns 2.9.  Such a step fails
+    (``GridMotionError``, naming the point), ``ghost="auto"`` switches the
+    penalty on, and no point turns farther than 2.5 times the tip's
+    rotation of beam theory (before: 21 and 8.4 times); the deflection is
+    the elastica's to 1%.  With the penalty off the run is refused naming
+    the point."""
+    from skfem_mpm import GridMotionError
+    from skfem_mpm.studies.elastica import elastica_tip
+    res, deflection = tip_loaded_cantilever("cpgimp", alpha)
+    assert len(res.history) == 10
+    assert res.counters["ghost_from_step"] == step
+    assert np.abs(res.points.state["rotation"]).max() < 2.5 * alpha / 2
+    reference = elastica_tip(np.array([alpha]))[0][0]
+    assert abs(deflection / reference - 1) < .01
+    with pytest.raises(GridMotionError, match="step {}: point .* "
+                       "displacement gradient changed by .* in small "
+                       "strain".format(step)):
+        tip_loaded_cantilever("cpgimp", alpha, ghost=0.)
+
+
+def test_a_linear_step_s_singular_stiffness_switches_the_ghost_on():
+    """Standard MPM's cantilever at alpha = 1: step 5's stiffness was
+    singular (a node its moving points had left a sliver of), the
+    supports checked before the solve, and the elastic run (no Newton
+    iteration to fail) ended there.  The reserve ghost penalty goes on
+    at step 5 and the run completes; with the penalty off the step is
+    refused as singular, its last converged state attached."""
+    from skfem_mpm import SingularSystemError
+    res, deflection = tip_loaded_cantilever("mpm", 1.)
+    assert len(res.history) == 10
+    assert res.counters["ghost_from_step"] == 5
+    assert 0 < deflection < 1. / 3      # below linear theory's alpha / 3
+    with pytest.raises(SingularSystemError, match="step 5: .* singular.*"
+                       "not cut back: a linear step's shorter one") \
+            as failure:
+        tip_loaded_cantilever("mpm", 1., ghost=0.)
+    assert failure.value.load_factor == pytest.approx(.4)
+
+
+@pytest.mark.parametrize("ghost", ["auto", 0.])
+def test_a_block_sliding_past_a_grid_line_is_not_turned(ghost):
+    """A reviewer's: a stiff block (E = 1e7) on a soft layer (E = 1e3),
+    pushed 0.5002 cells in 2 small-strain steps, its right column landing
+    3e-4 cells past the grid line x = 6: the gradient through the sliver
+    nodes there, taken without the points' own motion, was the block's
+    translation over h (0.25) and refused the step, also after the ghost
+    penalty went on.  The slivers' share relative to each point's motion
+    is what turns it: the run completes with the penalty off, the block
+    moved rigidly (its strain below 1e-3)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 10, 11), np.linspace(0, 5, 6))
+    points = seed_points(mesh, 2, region=lambda x: (x[0] < 6.)
+                         & (x[1] < 3.))
+    stiff = points.x[1] > 1.
+    points.body[stiff] = 1
+
+    def push(b, f_old, f_new):
+        dofs = b.get_dofs(lambda x: x[0] == 0).all("u^1")
+        return dofs, np.full(dofs.size, .5002 * (f_new - f_old))
+    from skfem_mpm import Prescribed
+    res = simulate(mesh, ElementQuad1(), points,
+                   [LinearElastic(1e3, .3), LinearElastic(1e7, .3)],
+                   lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                   loads=[Prescribed(push)], nsteps=2, method="mpm",
+                   kinematics="small", options=Options(
+                       stabilisation=Stabilisation(ghost=ghost)))
+    assert res.counters["ghost_from_step"] == 0
+    assert np.abs(res.points.strain[..., stiff]).max() < 1e-3
+    assert res.points.x[0, stiff].max() > 6.25
+
+
 def pressed_against_a_held_line(method, kinematics="small", wall=False,
                                 **options):
     """A block [0, L] x [0, H] pushed d into along x from its left face,

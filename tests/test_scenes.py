@@ -746,6 +746,33 @@ def test_progress_bar_shows_elapsed_and_remaining_time():
     assert stream.getvalue().endswith("elapsed 0:05 left 0:05")
 
 
+def test_progress_to_a_log_file_is_a_line_every_interval():
+    """Not a terminal (a log file; a trial's 3D run redirected to one
+    showed no progress in its 31 s): no bar redrawn in place, a line at
+    most every LINE_INTERVAL seconds and one at the end of a run that
+    wrote one; a run shorter than the interval writes nothing."""
+    import io
+    from types import SimpleNamespace
+    from skfem_mpm.cli import LINE_INTERVAL, Progress
+    now = [0.]
+    stream = io.StringIO()
+    log = Progress(4, True, stream=stream, timer=lambda: now[0])
+    for step, at in zip((1, 2, 3, 4), (.4, 1.1, 1.2, 1.3)):
+        now[0] = at * LINE_INTERVAL
+        log(SimpleNamespace(step=step, load_factor=step / 4,
+                            newton_iterations=2, residual=1e-12))
+    lines = stream.getvalue().split("\n")
+    assert "\r" not in stream.getvalue() and lines[-1] == ""
+    assert [line.split("/")[0] for line in lines[:-1]] == [
+        "step    2", "step    4"]
+    short = io.StringIO()
+    log = Progress(2, True, stream=short, timer=lambda: 0.)
+    for step in (1, 2):
+        log(SimpleNamespace(step=step, load_factor=step / 2,
+                            newton_iterations=2, residual=1e-12))
+    assert short.getvalue() == ""
+
+
 def test_a_value_at_an_interface_is_one_bodys():
     """Two bodies stacked: ``body`` picks whose points a quantity counts,
     so the stress at their interface is the lower body's (the weight of
@@ -1373,3 +1400,41 @@ def test_a_support_beyond_the_material_s_reach_is_warned(method, right,
              if "holds no node" in r.getMessage()]
     assert len(words) == warned
     assert all(w.startswith("support 'far' ") for w in words)
+
+
+@pytest.mark.parametrize("method", ["fem", "mpm"])
+def test_a_scene_on_triangles_runs(method):
+    """A scene's grid given as a scikit-fem mesh of triangles (points
+    without domains): the start's check of supports that reach no
+    material raised TypeError on the missing domains (a user trial's);
+    the column under its weight runs, its base reaction the weight."""
+    import tomllib
+    from dataclasses import replace
+    from skfem import ElementTriP1, MeshTri
+    from skfem_mpm.scenes.scene import Grid, run_scene
+    from skfem_mpm.scenes.scene_file import parse_scene
+    scene = parse_scene(tomllib.loads("""
+[grid]
+x = [0.0, 1.0, 4]
+y = [0.0, 4.0, 16]
+[[bodies]]
+region = { x = [0.0, 1.0], y = [0.0, 3.0] }
+material = { model = "linear_elastic", E = 1e5, nu = 0.0 }
+[[supports]]
+boundary = "bottom"
+[[supports]]
+boundary = "left"
+components = ["x"]
+[[supports]]
+boundary = "right"
+components = ["x"]
+[gravity]
+body_force = [0.0, -10.0]
+[solver]
+steps = 2
+"""))
+    mesh = MeshTri.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 4, 17))
+    res = run_scene(replace(scene, grid=Grid(mesh=mesh, elem=ElementTriP1()),
+                            method=method))
+    assert res.history[-1].reactions.reshape(-1, 2)[:, 1].sum() == \
+        pytest.approx(10. * 3., rel=1e-9)

@@ -1118,7 +1118,8 @@ def test_a_fit_never_spans_cases_with_and_without_the_ghost_penalty():
     assert rate.endswith("the ghost penalty switched on otherwise than "
                          "on the finest grid: 8 elements")
     warning = [x for x in lines if x.startswith("WARNING")]
-    assert len(warning) == 1 and "[solver] ghost = 0.1" in warning[0]
+    assert len(warning) == 1 and "[solver] ghost = 0.001 in small " \
+        "strain, 0.1 in finite deformation" in warning[0]
     assert "some cases end with it and some without" in warning[0]
     # the trial's pattern: three grids, two of them switched on
     rows, top = ghost_rows([2, 7, 0], off=(16, 32), elements=(16, 32, 64))
@@ -1435,3 +1436,31 @@ def test_a_rate_over_errors_that_do_not_fall_is_none():
                            "slope fitted to them, 0.44, would be no rate")
     assert not_falling([8, 16, 32], [.1705, .0817, .0409]) == ""
     assert not_falling([32, 8, 16], [.0924, .1705, .0817])
+
+
+def test_a_rate_over_errors_that_level_off_says_so():
+    """A user trial's averaged splines on the column: 8.3e-3 ... 1.06e-4
+    at 48 and 1.03e-4 at 96 elements printed only "rate 1.57"; the last
+    refinement's local rate (0.04 here, computed below from the errors)
+    below half the fitted one is said with the line's rate; errors that
+    keep their rate are not."""
+    from skfem_mpm.studies.study import fitted_rate, report
+    elements = [6, 12, 24, 48, 96]
+
+    def line(errors):
+        rows = [dict(elements=n, failure="", error=e, uncertainty=None,
+                     wall_seconds=1., cpu_seconds=1., points=n * n,
+                     newton_iterations=1, factorisations=1)
+                for n, e in zip(elements, errors)]
+        measured = {"error": {"measures": "a closed form",
+                              "closed_form": True}, "convergence": []}
+        return [x for x in report(rows, measured, ["elements"])
+                if x.startswith("rate of the error")][0]
+    levelling = [8.1e-3, 2.4e-3, 8.3e-4, 1.06e-4, 1.03e-4]
+    last = np.log(1.06e-4 / 1.03e-4) / np.log(2)
+    said = line(levelling)
+    assert said.startswith("rate of the error all: {:.2f}".format(
+        fitted_rate(elements, levelling)))
+    assert "the last refinement (48 to 96 elements) has a local rate of " \
+        "{:.2f} (errors 1.060e-04 to 1.030e-04)".format(last) in said
+    assert "last refinement" not in line([1e-2 / 4 ** k for k in range(5)])

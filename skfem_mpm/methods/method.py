@@ -206,7 +206,7 @@ class BSplineMethod(PointMethod):
         super().__init__(name, mesh, scalar, scalar_dofs, pattern, locate,
                          counters)
         self.spline = (CubicBSpline if name.startswith("bspline3")
-                       else QuadraticBSpline)(mesh, scalar)
+                       else QuadraticBSpline)(mesh, scalar, name)
         self.averaged = name.endswith("-gimp")
         self.extended, self.held = extended, held
         self._extension = None      # the step's extension (extended splines)
@@ -248,7 +248,8 @@ class BSplineMethod(PointMethod):
                 "method {!r} averages the splines over the points' domains "
                 "and needs them (MaterialPoints.domain; seed_points sets "
                 "them on tensor-product grids); method {!r} evaluates the "
-                "splines at the points".format(self.name, self.spline.method))
+                "splines at the points".format(self.name,
+                                               self.name[:-len("-gimp")]))
         return self.spline(x, domain)
 
     def weights_at(self, x: ndarray, idx: ndarray = None,

@@ -35,7 +35,10 @@ offending value (unknown keys, wrong types, impossible values), in a
     #    the shape's by more than 1% is warned)
     points_per_cell = 2
     geostatic = { K0 = 0.5, surface = 50.0 }   # optional: start from the
-                                    # K0 stress of the gravity; by default
+                                    # K0 stress of the gravity (K0 left
+                                    # out: Jaky's 1 - sin(phi) of a
+                                    # mohr_coulomb or drucker_prager
+                                    # soil, required of others); by default
                                     # under the geostatic bodies above it
                                     # (horizontal layers), or the top of
                                     # its material; surface: a ground
@@ -85,6 +88,14 @@ offending value (unknown keys, wrong types, impossible values), in a
     body_force = [0.0, -800.0]      # per unit (initial) volume, every body
     # or acceleration = [0.0, -9.81]: times each body's density (bodies
     # of different densities; every body then needs density = ..)
+    ramp = true                     # optional: on bodies without
+                                    # geostatic the gravity grows with the
+                                    # load factor, together with the other
+                                    # loads and the obstacles', rigid
+                                    # bodies' and supports' displacements
+                                    # (a footing pushed at step 1 into soil
+                                    # of 1/steps of its weight: warned);
+                                    # false: in full from the first step
     [[point_loads]]
     at = [10.0, 0.5]
     force = [0.0, -1e5]
@@ -208,7 +219,7 @@ from ..solve.newton import LINE_SEARCHES, NEWTON, RHS, NewtonOptions
 from ..solve.body_contact import Contact
 from ..solve.obstacles import Obstacle
 from ..solve.loads import WORDS_OF_2D, side_axis, side_names
-from ..spelling import PARAMETER_KEYS
+from ..spelling import PARAMETER_KEYS, did_you_mean
 from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
 from .regions import Ball, Polygon, outside_grid, region_shape
@@ -240,9 +251,11 @@ class _Checker:
             return {}
         for k in data:
             if k not in allowed:
-                self.bad("{}.{}".format(key, k) if key else k,
-                         "unknown key (allowed: {})".format(", ".join(allowed)),
-                         data[k])
+                self.problems.append("{}: unknown key (allowed: {}), got "
+                                     "{!r}{}".format(
+                                         "{}.{}".format(key, k) if key else k,
+                                         ", ".join(allowed), data[k],
+                                         did_you_mean(k, allowed)))
         for k in required:
             if k not in data:
                 self.problems.append("{}: missing".format(
@@ -297,8 +310,9 @@ class _Checker:
         path = "{}.{}".format(key, name) if key else name
         value = data.get(name, default)
         if value not in choices:
-            self.bad(path, "must be one of {}".format(", ".join(choices)),
-                     value)
+            self.bad(path, "must be one of {}".format(", ".join(
+                v for v in choices if v is not None)), value)
+            self.problems[-1] += did_you_mean(value, choices)
             return default
         return value
 
@@ -396,13 +410,26 @@ REQUIRED = {"linear_elastic": ELASTIC, "von_mises": MODELS["von_mises"][:3],
 
 
 def _material(c, data, key):
-    keys = sorted({k for extra in MODELS.values() for k in extra})
-    data = c.table(data, key, ["model"] + keys, ("model",))
-    model = c.choice(data, key, "model", tuple(MODELS), "linear_elastic")
-    for name in keys:
-        if name in data and name not in MODELS[model]:
-            c.bad(key + "." + name, "not a parameter of model = {!r}".format(
-                model), data[name])
+    model = data.get("model") if isinstance(data, dict) else None
+    if not isinstance(model, str) or model not in MODELS:
+        # which keys a material takes depends on its model: of a model
+        # left out or misspelt, that alone
+        if not isinstance(data, dict):
+            c.bad(key, "must be a table", data)
+        elif "model" not in data:
+            c.problems.append("{}.model: missing (one of {})".format(
+                key, ", ".join(MODELS)))
+        else:
+            c.choice(data, key, "model", tuple(MODELS))
+        return LinearElastic(1., 0.)
+    allowed = ("model",) + MODELS[model]
+    others = {k for extra in MODELS.values() for k in extra} - set(allowed)
+    for name in data:
+        if name in others:
+            c.bad(key + "." + name, "not a parameter of model = {!r} (its "
+                  "keys: {})".format(model, ", ".join(allowed)), data[name])
+    c.table({k: v for k, v in data.items() if k not in others}, key,
+            allowed)
     known = len(c.problems)
     for name in REQUIRED[model]:
         if name not in data:
@@ -590,9 +617,12 @@ def _body(c, data, k, dim):
     K0 = surface = None
     if "geostatic" in data:
         geo = c.table(data["geostatic"], key + ".geostatic",
-                      ("K0", "surface"), ("K0",))
+                      ("K0", "surface"))
         K0 = c.number(geo, key + ".geostatic", "K0", 1., low=0.)
         surface = c.number(geo, key + ".geostatic", "surface")
+        if "K0" not in geo and isinstance(geo, dict):
+            K0 = _jaky(c, data.get("material"), material,
+                       key + ".geostatic.K0")
     rigid, rough = None, True
     if "rigid" in data:
         table = c.table(data["rigid"], key + ".rigid",
@@ -611,6 +641,25 @@ def _body(c, data, k, dim):
                 density=c.number(data, key, "density", low=0.),
                 initial_velocity=c.vector(data, key, "initial_velocity", dim),
                 replaces=tuple(replaces))
+
+
+def _jaky(c, table, material, key: str) -> float:
+    """A geostatic body's ``K0`` left out: Jaky's ``1 - sin(phi)`` of a
+    Mohr-Coulomb or Drucker-Prager soil's friction angle (a normally
+    consolidated soil's), else refused with the reason."""
+    model = table.get("model") if isinstance(table, dict) else None
+    model = model if isinstance(model, str) else None
+    if model in ("mohr_coulomb", "drucker_prager"):
+        phi = getattr(material, "friction_angle", 0.)  # 0: refused anyway
+        return 1. - math.sin(math.radians(phi))
+    if model in MODELS:         # (a model misspelt or left out is said)
+        c.problems.append(
+            "{}: missing: Jaky's 1 - sin(phi), the default of mohr_coulomb "
+            "and drucker_prager soils, needs a friction angle, which model "
+            "= {!r} has not{}".format(key, model, "" if model == "cam_clay"
+                                      else "; an elastic layer under "
+                                      "uniaxial strain has nu / (1 - nu)"))
+    return 1.
 
 
 def _support_sides(c, s: dict, key: str, dim: int):
@@ -816,9 +865,14 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                                 components=comps, value=value, name=name,
                                 bodies=moved))
     gravity = acceleration = None
+    gravity_ramp = True
     if "gravity" in data:
         g = c.table(data["gravity"], "gravity",
-                    ("body_force", "acceleration"), ())
+                    ("body_force", "acceleration", "ramp"), ())
+        gravity_ramp = c.boolean(g, "gravity", "ramp", True)
+        if not gravity_ramp and "dynamics" in data:
+            c.bad("gravity.ramp", "a dynamic scene's loads follow "
+                  "[dynamics] load_ramp", False)
         if ("body_force" in g) == ("acceleration" in g):
             c.bad("gravity", "needs body_force (per unit volume) or "
                   "acceleration (times each body's density), one of them",
@@ -910,7 +964,8 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         kernels=c.choice(solver, "solver", "kernels", KERNELS, "auto"),
         outputs=outputs, obstacles=[o for o in obstacles if o is not None],
         contacts=[t for t in contacts if t is not None],
-        units=c.choice(data, "", "units", SYSTEMS, "SI"))
+        units=c.choice(data, "", "units", SYSTEMS, "SI"),
+        gravity_ramp=gravity_ramp)
     if not c.problems:
         try:
             scene.check()

@@ -63,6 +63,7 @@ from ..mechanics.materials import at_points, initial_state, is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..methods.assembly import ElementPattern
+from ..methods.bspline import warn_loaded_point_splines
 from ..methods.method import DOMAIN_METHODS, METHODS, make_method
 from ..protocols import GridTerm
 from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
@@ -91,7 +92,8 @@ from .obstacles import check_obstacles
 from .problem import STABILISATION, STABILISATION_FLOOR, StepProblem
 from .results import Result
 from .rigid import RigidBody, check_rigid_bodies, warn_stiff_smooth_bodies
-from .rotation import SmallStrainRotation
+from .rotation import SmallStrainRange
+from .fixed_domains import FixedDomainsRange
 
 logger = logging.getLogger(__name__)
 
@@ -341,14 +343,22 @@ def rotation_term(run: Run) -> Optional[GridTerm]:
     """The points' rotation kept, and warned when large, in small strain
     (:mod:`skfem_mpm.solve.rotation`)."""
     return None if run.finite or run.dim < 2 else \
-        SmallStrainRotation(run.dim)
+        SmallStrainRange(run.dim)
+
+
+def fixed_domains_term(run: Run) -> Optional[GridTerm]:
+    """uGIMP's fixed domains warned when the points' volumes have left
+    them, in finite deformation (:mod:`skfem_mpm.solve.fixed_domains`)."""
+    piece = getattr(run.method, "piece", run.method)
+    return FixedDomainsRange() if run.finite and piece.name == "ugimp" \
+        else None
 
 
 #: the built-in grid terms, each ``factory(run) -> GridTerm or None``, in
 #: the order their contributions are summed (a user's terms, items of
 #: ``loads``, follow; terms that weigh the balance in time come last)
 GRID_TERMS = (ghost_term, follower_term, obstacle_term, body_contact_term,
-              rotation_term, inertia_term)
+              rotation_term, fixed_domains_term, inertia_term)
 
 
 def mean_dilatation(op, points):
@@ -554,8 +564,13 @@ def ghost_reserve_held(run: Run) -> bool:
 def ghost_for_slivers(run: Run, failure, report: dict) -> bool:
     """The reserve ghost penalty first where the failure is diagnosed as
     grid nodes held by slivers of material (absurd grid motion,
-    :class:`~skfem_mpm.errors.GridMotionError`)."""
-    return isinstance(failure, GridMotionError) and ghost_reserve_held(run)
+    :class:`~skfem_mpm.errors.GridMotionError`), or where a linear step
+    after the first met a singular stiffness (its supports checked before
+    the solve: a user trial's elastic cantilever of standard MPM in small
+    strain at P L^2 / E I = 1 ended so at step 5)."""
+    return (isinstance(failure, GridMotionError) or run.linear and
+            isinstance(failure, SingularTangentError)) \
+        and ghost_reserve_held(run)
 
 
 def ghost_in_reserve(run: Run, failure, report: dict) -> bool:
@@ -1163,6 +1178,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         "at every load factor, so a shorter step has no "
                         "equilibrium either"
                         if unbalanced else floor if floor else
+                        "not cut back: a linear step's shorter one solves "
+                        "the same equations, scaled" if run.linear else
                         "no convergence down to {}".format(span(
                             run, target - factor)) if held <= HELD_HALVINGS
                         else "failed so at {} halvings of the step, down "
@@ -1172,7 +1189,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         progress(run, factor), too_soft(run, points)
                         + (collapse_hint(run, reach) if isinstance(
                             err, NewtonDivergenceError) else ""),
-                        ghost_hint(run) + seeded_hint(run),
+                        ghost_hint(run) + seeded_hint(run) + (
+                            "".join(term.unheld_hint() for term in run.terms)
+                            if isinstance(err, SingularSystemError) else ""),
                         terms_hint(run, points)),
                     state=points, load_factor=factor,
                     history=result.history) from err
@@ -1807,6 +1826,14 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     gravity, ramp = check_body_force(body_force, points, mesh.dim(),
                                      dynamics)
     forces, prescribed, rigid_bodies, terms = split_loads(loads)
+    if method not in ("fem", "mpm") and tensor_grid(mesh) is None:
+        raise UnsupportedElementError(
+            "method {!r} needs an axis-aligned tensor-product grid "
+            "(MeshLine, or MeshQuad/MeshHex from init_tensor), got a "
+            "general {}: GIMP's and the B-splines' weights are written per "
+            "grid axis; triangles, tetrahedra and quadrilaterals off a "
+            "grid take method 'mpm' or 'fem'".format(
+                method, type(mesh).__name__))
     if method in DOMAIN_METHODS and points.domain is None:
         raise InvalidInputError(
             "method {!r} needs point domains (MaterialPoints.domain); "
@@ -1840,6 +1867,8 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
                               stabilisation.antilocking,
                               stabilisation.extended_splines)
+    if any(isinstance(load, (Traction, Pressure)) for load in forces):
+        warn_loaded_point_splines(method, stabilisation.extended_splines)
     if options.resume is not None:
         options.resume.check(nsteps, method)
     locator = options.locator

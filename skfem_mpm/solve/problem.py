@@ -73,6 +73,16 @@ ABSURD_GRID_MOTION = 1e5
 SLIVER_SUPPORT = 1e-3
 #: the cells a point may be moved by sliver nodes alone
 THROWN = 1.
+#: the displacement gradient a small-strain step may give a point through
+#: sliver nodes alone, and its ratio to the median point's gradient
+#: (:meth:`StepProblem.check_thrown`): small strain is void beyond it, and
+#: a user trial's cpGIMP cantilever (elastic, one linear solve a step) had
+#: its tip corner's point turned by 100 degrees in a step by a node beyond
+#: the tip its domain barely reached (a gradient of 1.7 by that node, the
+#: median point's 0.016; at a third of that load 0.10 and 0.45 in two
+#: steps, the median 0.005, the corner turned 24 degrees where the beam
+#: turned 3)
+THROWN_GRADIENT, THROWN_GRADIENT_RATIO = .1, 10.
 
 
 class Trial(NamedTuple):
@@ -560,9 +570,14 @@ class StepProblem:
             try:
                 return factorise_and_solve()
             except SingularSystemError as err:
+                # a linear step's supports were checked before the solve:
+                # after the first step, a failed step (the moved points
+                # left nodes a sliver of support; a cut-back cannot cure
+                # it, the reserve ghost penalty can)
                 if self.linear:
-                    raise SingularSystemError("step {}: {}".format(
-                        self.step, err)) from err
+                    raise (SingularTangentError if self.step > 1
+                           else SingularSystemError)("step {}: {}".format(
+                               self.step, err)) from err
                 logger.debug("step %d: %s; solving again with the tangent "
                              "stabilised by %.0e of its diagonal", self.step,
                              err, STABILISATION)
@@ -616,21 +631,41 @@ class StepProblem:
 
     def check_thrown(self, du: ndarray, dx: ndarray):
         """Refuse a converged grid increment ``du`` that moved a point
-        by more than :data:`THROWN` cells through nodes whose support
-        holds less than :data:`SLIVER_SUPPORT` cells of material (``dx``,
-        the points' increments; looked for where a point moved more than
-        :data:`THROWN` cells).  A small-strain uGIMP cantilever pushed
-        far beyond its range (a user trial, P L^2 / E I = 3) converged a
-        step to 1e-12 that threw a point 52 cells by a node of 5e-4 cells
-        of support: the absurd grid motion was not caught, as a point had
-        moved as far, and the run ended with the point outside the grid,
-        or a step later, by its position, as a body held by no support.
-        Unlike :meth:`check_grid_motion`, a step solved with the
-        stabilised tangent is checked too: its zero-energy modes move
-        nodes arbitrarily, but no point by cells."""
+        by more than :data:`THROWN` cells, or in small strain changed its
+        displacement gradient by more than :data:`THROWN_GRADIENT`, through
+        nodes whose support holds less than :data:`SLIVER_SUPPORT` cells
+        of material (``dx``, the points' increments; looked for where a
+        point moved more than :data:`THROWN` cells, or a gradient changed
+        by more than :data:`THROWN_GRADIENT` and
+        :data:`THROWN_GRADIENT_RATIO` times the median point's).  A small-strain uGIMP
+        cantilever pushed far beyond its range (a user trial, P L^2 / E I
+        = 3) converged a step to 1e-12 that threw a point 52 cells by a
+        node of 5e-4 cells of support: the absurd grid motion was not
+        caught, as a point had moved as far, and the run ended with the
+        point outside the grid, or a step later, by its position, as a
+        body held by no support.  Elastic and in small strain (one linear
+        solve a step, no Newton iteration to fail) a cpGIMP cantilever's
+        tip corner turned by 100 and then 187 degrees where the beam
+        turned by 5, its stress wrong by 170%, until a step's stiffness
+        was singular (the gradients are not checked once a term holds
+        the slivers: the ghost penalty switched on).  Unlike
+        :meth:`check_grid_motion`, a step solved with the stabilised
+        tangent is checked too: its zero-energy modes move nodes
+        arbitrarily, but no point by cells."""
         run = self.run
         h = run.cell_size
-        if not (run.method.moves and np.abs(dx).max(initial=0.) > THROWN * h):
+        if not run.method.moves:
+            return
+        far = np.abs(dx).max(initial=0.) > THROWN * h
+        limit = np.inf      # the gradient refused (small strain)
+        if not run.finite and self.points.n and not any(
+                term.holds_slivers for term in run.terms):
+            turned = np.sqrt((self.op.gradients(du) ** 2).sum(axis=(0, 1)))
+            median = float(np.median(turned))
+            if turned.max() > max(THROWN_GRADIENT,
+                                  THROWN_GRADIENT_RATIO * median):
+                limit = max(THROWN_GRADIENT, THROWN_GRADIENT_RATIO * median)
+        if not far and limit == np.inf:
             return
         from .dynamics import operator_slivers  # (imports this)
         dim = self.points.dim
@@ -638,22 +673,53 @@ class StepProblem:
                                   SLIVER_SUPPORT * h ** dim)
         if not sliver.size:
             return
-        # the points' motion by the slivers' values alone (at 1e6 points
-        # the value matrix and its columns took 0.17 s a step)
+        # the points' motion by the slivers' free values alone (at 1e6
+        # points the value matrix and its columns took 0.17 s a step; a
+        # rigid body's prescribed nodes are not absurd however little
+        # material they hold)
         alone = np.zeros_like(du).reshape(-1, dim)
         alone[sliver] = du.reshape(-1, dim)[sliver]
-        moved = np.sqrt((self.op.values(alone.ravel()) ** 2).sum(axis=0))
-        if not moved.max(initial=0.) > THROWN * h:
+        alone = alone.ravel()
+        held = np.ones(du.size, dtype=bool)
+        held[self.free] = False
+        alone[held] = 0.
+        moved = np.sqrt((self.op.values(alone) ** 2).sum(axis=0)) / h \
+            if far else np.zeros(0)
+        gradient = np.zeros(0)
+        if limit < np.inf:
+            # the slivers' share of the gradient relative to the point's
+            # own motion, sum_i grad N_i (du_i - dx_p): a point that
+            # translates beside a sliver node is not turned (without it,
+            # a stiff block sliding past a grid line by 3e-4 cells had a
+            # "gradient" of its motion over h there, 0.25)
+            ones = np.zeros_like(du).reshape(-1, dim)
+            ones[sliver] = 1.
+            ones = ones.ravel()
+            ones[held] = 0.
+            # (an operator of mean dilatation gives 3 x 3 gradients)
+            share = self.op.gradients(alone)[:dim, :dim] \
+                - dx[:, None] * self.op.gradients(ones)[:dim, :dim]
+            gradient = np.sqrt((share ** 2).sum(axis=(0, 1)))
+        if moved.max(initial=0.) > THROWN:
+            p = int(np.argmax(moved))
+            what = "moved {:.3g} cells".format(moved[p])
+        elif gradient.max(initial=0.) > limit:
+            p = int(np.argmax(gradient))
+            what = ("had its displacement gradient changed by {:.3g} in "
+                    "small strain (the median point's by {:.2g})".format(
+                        gradient[p], median))
+        else:
             return
-        p = int(np.argmax(moved))
+        from .core import DEFAULT_GHOST, SMALL_STRAIN_GHOST  # (imports this)
         raise GridMotionError(
-            "step {}: point {} at {} moved {:.3g} cells through grid nodes "
+            "step {}: point {} at {} {} through grid nodes "
             "holding less than {:g} cells of material (slivers: a body edge "
             "or GIMP domain barely past a grid line); the ghost penalty "
             "ties them to their neighbours (ghost='auto', the default, "
             "switches it on; or {})".format(
-                self.step, p, self.points.x[:, p].tolist(),
-                moved[p] / h, SLIVER_SUPPORT, setting("ghost", 0.1)))
+                self.step, p, self.points.x[:, p].tolist(), what,
+                SLIVER_SUPPORT, setting("ghost", DEFAULT_GHOST if run.finite
+                                        else SMALL_STRAIN_GHOST)))
 
     def commit(self, trial: Trial, du: ndarray, residuals: list):
         """The converged state of ``trial`` (the grid increment ``du``) and

@@ -229,6 +229,11 @@ class GhostStabilisation(GridTerm):
         field's penalty had the pile's modulus; now 7.75 mm).
     """
 
+    @property
+    def holds_slivers(self) -> bool:
+        """On, the penalty ties the slivers' nodes to their neighbours."""
+        return self.active
+
     def __init__(self, mesh, elem, gamma: float, material,
                  active: bool = True, obstacles=(), field_cells=None):
         self.mesh, self.elem, self.gamma = mesh, elem, gamma

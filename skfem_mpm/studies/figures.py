@@ -17,7 +17,7 @@ from ..scenes.plot import pyplot, series_styles
 from ..solve.results import PHASES, Result
 from .column import SOURCE, analytical_stress, analytical_stress_current, \
     vertical_stress
-from .study import VARIABLES, fitted_rate, not_falling
+from .study import VARIABLES, fitted_rate, levelling_off, not_falling
 
 __all__ = ["draw_column_stress", "draw_convergence", "pareto_front",
            "plot_column_stress", "plot_study"]
@@ -255,7 +255,9 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             y = [r["error"] for r in rs]
             _loglog(ax, x, y, style, "{} ({})".format(
                 name, "errors not falling: no rate" if not_falling(x, y)
-                else "rate {:.2f}".format(fitted_rate(x, y)))
+                else "rate {:.2f}{}".format(fitted_rate(x, y), (
+                    ", levelling off" if levelling_off(
+                        x, y, fitted_rate(x, y)) else "")))
                 if _extrapolated(
                     measured, rs[0]) else "{} (no extrapolation: distance "
                 "to the finest case)".format(name), bound=_bounds(rs))

@@ -1,0 +1,154 @@
+"""``skfem-mpm safety``: the factor of safety by strength reduction from
+the command line (a user trial rewrote c and tan(phi) per trial F and ran
+the CLI by hand), on the Python ``strength_reduction``."""
+import json
+
+import numpy as np
+import pytest
+
+from skfem_mpm.cli import main
+
+#: the 45-degree clay slope of examples/slope.py at h = H/4 (10 m high,
+#: c_u = 86.6 / sqrt(3) = 50 kPa, 20 kN/m^3), its toe off the points'
+#: sub-cell centres
+SLOPE = """\
+name = "clay-slope"
+units = "kN-m"
+[grid]
+x = [0.0, 35.0, 14]
+y = [0.0, 12.5, 5]
+[[bodies]]
+name = "clay"
+region = { polygon = [[10.3, 0], [35, 0], [35, 10], [20.3, 10]] }
+points_per_cell = 2
+material = { model = "von_mises", E = 2e4, nu = 0.3, yield_stress = 86.6 }
+[[supports]]
+boundary = "bottom"
+[[supports]]
+boundary = "right"
+components = ["x"]
+[gravity]
+body_force = [0.0, -20.0]
+[solver]
+steps = 8
+antilocking = true
+"""
+
+
+def python_factor(high, tolerance):
+    """The same slope through the Python API (``simulate`` on a seeded
+    mesh, as examples/slope.py), its factor of safety."""
+    from skfem import ElementQuad1, MeshQuad
+
+    from skfem_mpm import (NewtonOptions, Options, Stabilisation, VonMises,
+                           reduce_strength, seed_points, simulate,
+                           strength_reduction)
+    mesh = MeshQuad.init_tensor(np.linspace(0., 35., 15),
+                                np.linspace(0., 12.5, 6))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < np.clip(
+        x[0] - 10.3, 0., 10.))
+    clay = VonMises(E=2e4, nu=.3, yield_stress=86.6)
+
+    def supports(basis):
+        return np.concatenate([
+            basis.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+            basis.get_dofs(lambda x: np.isclose(x[0], 35.)).all("u^1")])
+
+    def run(factor):
+        return simulate(mesh, ElementQuad1(), points,
+                        reduce_strength(clay, factor), supports,
+                        body_force=[0., -20.], nsteps=8,
+                        options=Options(NewtonOptions(),
+                                        Stabilisation(antilocking=True)))
+    return strength_reduction(run, 1., high, tolerance)
+
+
+def test_the_command_finds_the_python_factor(tmp_path, capsys):
+    """The CLI on the scene gives the factor of the Python
+    ``strength_reduction`` on the same slope built in Python, to the
+    bisection's tolerance; its summary holds every trial, in order, and
+    the bracket; a line per trial is printed."""
+    scene = tmp_path / "slope.toml"
+    scene.write_text(SLOPE)
+    out = tmp_path / "out"
+    assert main(["safety", str(scene), "--out", str(out), "--high", "1.8",
+                 "--tolerance", "0.05", "--no-progress"]) == 0
+    printed = capsys.readouterr().out
+    summary = json.loads((out / "safety.json").read_text())
+    found = python_factor(1.8, .05)
+    assert abs(summary["factor_of_safety"] - found.factor) <= \
+        .05 * found.converged, (summary["factor_of_safety"], found.factor)
+    assert summary["bracket"][1] - summary["bracket"][0] <= \
+        .05 * summary["bracket"][0]
+    trials = summary["trials"]
+    assert [t["factor"] for t in trials] == [f for f, _ in found.trials]
+    assert [t["outcome"] == "stands" for t in trials] == \
+        [s for _, s in found.trials]
+    for t in trials:
+        assert t["outcome"] in ("stands", "collapses", "fails")
+        assert (t["largest_displacement"] is None) == (not t["converged"])
+        assert t["seconds"] >= 0
+        assert "F = {:.4f}: {}".format(t["factor"], "converged" if
+                                       t["converged"] else "not converged"
+                                       ) in printed
+    assert summary["units"]["largest_displacement"] == "m"
+    assert (out / "safety.png").stat().st_size > 0
+    assert (out / "mechanism.png").stat().st_size > 0
+    assert "factor of safety {:.3f}".format(
+        summary["factor_of_safety"]) in printed
+
+
+@pytest.mark.parametrize("option, words", [
+    (["--low", "0"], "--low must be a number > 0"),
+    (["--low", "abc"], "--low must be a number > 0"),
+    (["--high", "0.5"], "--high must be > --low"),
+    (["--tolerance", "1.5"], "--tolerance must be a number between 0 and 1"),
+    (["--growth", "1"], "--growth must be a number > 1"),
+    (["--growth", "nan"], "--growth must be a number > 1"),
+    (["--steps", "0"], "--steps must be an integer >= 1"),
+])
+def test_bad_options_are_refused_before_any_work(tmp_path, capsys,
+                                                 monkeypatch, option, words):
+    """Each bad option gets a line naming it, status 2, no run, nothing
+    written (the scene is not even read)."""
+    import skfem_mpm.cli as cli
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("ran")
+    monkeypatch.setattr(cli, "run_scene", no_run)
+    out = tmp_path / "out"
+    assert main(["safety", str(tmp_path / "missing.toml"), "--out",
+                 str(out)] + option) == 2
+    assert words in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_a_scene_without_strength_to_reduce_is_refused(tmp_path, capsys,
+                                                       monkeypatch):
+    """A scene of linear elastic bodies alone, or with Cam clay, is
+    refused before any run, naming the bodies; a dynamic one too."""
+    import skfem_mpm.cli as cli
+
+    def no_run(*args, **kwargs):
+        raise AssertionError("ran")
+    monkeypatch.setattr(cli, "run_scene", no_run)
+    scene = tmp_path / "elastic.toml"
+    scene.write_text(SLOPE.replace(
+        'model = "von_mises"', 'model = "linear_elastic"').replace(
+            ", yield_stress = 86.6", ""))
+    assert main(["safety", str(scene), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "the scene has none (clay LinearElastic)" in err
+    scene.write_text(SLOPE.replace(
+        'model = "von_mises", E = 2e4, nu = 0.3, yield_stress = 86.6',
+        'model = "cam_clay", kappa = 0.02, lambda = 0.1, M = 1.0, '
+        'shear_modulus = 5e3, reference_pressure = 100.0'))
+    assert main(["safety", str(scene), "--out", str(tmp_path / "o")]) == 2
+    assert "{}: bodies[0] (clay): ".format(scene) in capsys.readouterr().err
+    text = SLOPE.replace("[[bodies]]", "[[bodies]]\ndensity = 2.0").replace(
+        "steps = 8\n", "")
+    scene.write_text(text + "[dynamics]\ntime_step = 0.1\n"
+                     "duration = 1.0\n")
+    assert main(["safety", str(scene), "--out", str(tmp_path / "o")]) == 2
+    assert "static scene" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
