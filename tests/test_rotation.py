@@ -53,6 +53,9 @@ def test_a_rotation_field_is_kept_to_round_off_and_warned_as_it_grows(
     for said, step, angle in zip(warnings, (2, 3), (.15, .225)):
         assert said.startswith("step {}:".format(step))
         assert "by {:.1f} degrees".format(np.degrees(angle)) in said
+        # every point turns alike: not a lone point's (a footing's edge)
+        assert "({0} of {0} points beyond the warning level)".format(
+            res.points.n) in said
     caplog.clear()
     res = rotated(mesh, ElementQuad1(), 2, .08, 4, method)
     assert .08 < ROTATION_WARNING

@@ -132,6 +132,19 @@ def largest_strain(strain: ndarray) -> ndarray:
     return largest
 
 
+def beyond(values: ndarray, level: float) -> str:
+    """How many of ``values`` pass ``level``, in words: whether the
+    warning's point is alone (a footing's edge, where the shipped
+    examples' points turn by 6-12 degrees) or one of many.
+
+    >>> import numpy as np
+    >>> beyond(np.array([.05, .2, .3, .01]), .1)
+    '2 of 4 points beyond the warning level'
+    """
+    return "{} of {} points beyond the warning level".format(
+        int(np.count_nonzero(values > level)), values.size)
+
+
 class SmallStrainRange(GridTerm):
     """The points' rotation and strain in a small-strain run (module
     docstring): a grid term with no force, whose commit adds each step's
@@ -173,12 +186,13 @@ class SmallStrainRange(GridTerm):
                 self.level *= 2.
             logger.warning(
                 "step %d: small strain, and point %d at %s has rotated by "
-                "%.1f degrees: small strain keeps the stress in fixed axes, "
-                "so its components are wrong by the order of %.0f%% of the "
-                "stress there; use kinematics='finite' for rotations beyond "
-                "%.1f degrees", problem.step, p,
+                "%.1f degrees (%s): small strain keeps the stress in fixed "
+                "axes, so its components are wrong by the order of %.0f%% "
+                "of the stress there; use kinematics='finite' for rotations "
+                "beyond %.1f degrees", problem.step, p,
                 np.round(new.x[:, p], 6).tolist(), np.degrees(angle[p]),
-                100 * angle[p], np.degrees(ROTATION_WARNING))
+                beyond(angle, ROTATION_WARNING), 100 * angle[p],
+                np.degrees(ROTATION_WARNING))
         strain = largest_strain(new.strain)
         p = int(np.argmax(strain)) if strain.size else 0
         if strain.size and strain[p] > self.strain:
@@ -186,9 +200,10 @@ class SmallStrainRange(GridTerm):
                 self.strain *= 2.
             logger.warning(
                 "step %d: small strain, and point %d at %s is strained by "
-                "%.1f%%: small strain takes the strain as linear in the "
+                "%.1f%% (%s): small strain takes the strain as linear in the "
                 "displacement and the points' volumes as fixed, so the "
                 "stresses are wrong by the order of the strain; use "
                 "kinematics='finite' for strains beyond %.0f%%",
                 problem.step, p, np.round(new.x[:, p], 6).tolist(),
-                100 * strain[p], 100 * STRAIN_WARNING)
+                100 * strain[p], beyond(strain, STRAIN_WARNING),
+                100 * STRAIN_WARNING)
