@@ -308,6 +308,7 @@ class StepProblem:
         self.reshaped = False   # (settled) and changed their constraints
         self._first_diagonal = None     # of the step's first tangent
         self._own = None    # the last tangent made of arrays of its own
+        self._gradients = None  # (du, its gradients): increment_gradients
         self._union = {}        # add_within's places of a pattern union
         self.terms = []
         for term in run.terms:             # in order: a term may use those
@@ -629,6 +630,15 @@ class StepProblem:
                 self.step, grid, self.grid.doflocs[:, node].tolist(),
                 moved, setting("ghost", 0.1)))
 
+    def increment_gradients(self, du: ndarray) -> ndarray:
+        """The points' gradients of the converged increment ``du``, found
+        once for the step's checks and terms (the small-strain checks of
+        slivers and the rotation's term read the same)."""
+        kept = self._gradients
+        if kept is None or kept[0] is not du:
+            kept = self._gradients = (du, self.op.gradients(du))
+        return kept[1]
+
     def check_thrown(self, du: ndarray, dx: ndarray):
         """Refuse a converged grid increment ``du`` that moved a point
         by more than :data:`THROWN` cells, or in small strain changed its
@@ -660,7 +670,8 @@ class StepProblem:
         limit = np.inf      # the gradient refused (small strain)
         if not run.finite and self.points.n and not any(
                 term.holds_slivers for term in run.terms):
-            turned = np.sqrt((self.op.gradients(du) ** 2).sum(axis=(0, 1)))
+            turned = np.sqrt((self.increment_gradients(du) ** 2).sum(
+                axis=(0, 1)))
             median = float(np.median(turned))
             if turned.max() > max(THROWN_GRADIENT,
                                   THROWN_GRADIENT_RATIO * median):

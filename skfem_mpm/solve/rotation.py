@@ -175,7 +175,7 @@ class SmallStrainRange(GridTerm):
         return self
 
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
-        w = rotation_vector(problem.op.gradients(du), self.dim)
+        w = rotation_vector(problem.increment_gradients(du), self.dim)
         new.state = dict(new.state)
         for name, increment in zip(self.names, w):
             new.state[name] = new.state[name] + increment
