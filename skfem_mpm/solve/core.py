@@ -1169,7 +1169,10 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     err, floor.split(".  ")[0]))
                 stalled_at = None
                 continue
-            if run.linear or (target - factor) / 2 < smallest * (1 - 1e-9) \
+            # a linear quasi-static step cut back solves the same
+            # equations, scaled; a time step's change with it
+            unscaled = run.linear and dynamics is None
+            if unscaled or (target - factor) / 2 < smallest * (1 - 1e-9) \
                     or held > HELD_HALVINGS or unbalanced or floor:
                 raise type(err)(
                     "{}; {}: the last converged state ({}) is attached"
@@ -1179,7 +1182,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         "equilibrium either"
                         if unbalanced else floor if floor else
                         "not cut back: a linear step's shorter one solves "
-                        "the same equations, scaled" if run.linear else
+                        "the same equations, scaled" if unscaled else
                         "no convergence down to {}".format(span(
                             run, target - factor)) if held <= HELD_HALVINGS
                         else "failed so at {} halvings of the step, down "

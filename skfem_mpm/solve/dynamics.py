@@ -623,54 +623,67 @@ class StepInertia(Inertia, GridTerm):
         return add_within((1 - self.alpha_f) * K, self.c * self.M)
 
     def settle(self, problem, trial, du: ndarray) -> bool:
-        """Refuse a converged step whose grid node moved more than
-        :data:`NODE_AHEAD` cells beyond every point its support holds
+        """Refuse a converged step (its other terms settled:
+        :meth:`~skfem_mpm.solve.problem.StepProblem.settled`) whose free
+        grid node's motion differs by more than :data:`NODE_AHEAD` cells
+        from that of every point its support holds
         (:class:`~skfem_mpm.errors.GridMotionError`, which the retry
-        ladder answers with the ghost penalty's rung).  A node's motion
-        interpolates its points'; a cell's worth more is a strain of
+        ladder answers with the ghost penalty's rung; not checked once
+        the penalty holds the slivers).  A node's motion interpolates its
+        points'; a cell's worth apart from all of them is a strain of
         order one in a time step, through a node that little material
         holds: trial 78's MPM block dropped on a 35 degree incline
         (friction 0.3, dt = 0.01) converged its impact step with a node
         holding 0.014 cells of material (0.08% of the block's mass) moved
         0.31 m (6 cells) while no point near it moved 0.05 m; the block
-        rebounded at 0.85 m/s with 50 J of kinetic energy from 10 J of
-        gravity's work.  The ghost penalty's retry landed it (rebound
-        0.16 m/s at most, 1.5 J).  Nodes holding less than :data:`~skfem_mpm.
-        solve.problem.SLIVER_SUPPORT` cells of material are left to the
-        checks of slivers."""
-        if not problem.run.method.moves:
+        rebounded at 0.85 m/s at that step (46 J of kinetic energy from
+        10 J of gravity's work; 1.04 m/s and 60 J later).  The ghost
+        penalty's retry landed it (rebound at most 0.16 m/s, kinetic
+        energy at most 2.2 J by step 10).  Nodes holding less than
+        :data:`~skfem_mpm.solve.problem.SLIVER_SUPPORT` cells of material
+        are left to the checks of slivers, and nodes with a held or
+        prescribed DOF are not checked (a rigid body's are not absurd)."""
+        run = problem.run
+        if not run.method.moves or any(term.holds_slivers
+                                       for term in run.terms):
             return True
-        dim, h = self.dim, problem.run.cell_size
+        dim, h = self.dim, run.cell_size
         nodes = du.reshape(-1, dim)
-        grid = np.sqrt((nodes ** 2).sum(axis=1))
-        if not grid.max(initial=0.) > NODE_AHEAD * h:
-            return True
+        if not np.sqrt((nodes ** 2).sum(axis=1)).max(initial=0.) \
+                > NODE_AHEAD * h:
+            return True         # no node moved a cell: none can be apart
         dx = problem.op.values(du)
-        moved = np.sqrt((dx ** 2).sum(axis=0))
-        S = self.S.tocsc(copy=True)
-        support = type(S)((np.abs(S.data), S.indices, S.indptr),
-                          shape=S.shape).T @ problem.points.volume
-        S.data = moved[S.indices]            # each entry: its point's
-        reach = np.asarray(S.max(axis=0).todense()).ravel()
-        # slivers' values barely reach a point (:meth:`~skfem_mpm.solve.
-        # problem.StepProblem.check_thrown` weighs them): a cpGIMP
-        # block's node of 2.5e-9 cells moved 70 cells in trial 78's step
-        held = (np.diff(S.indptr) > 0) & (support >= SLIVER_SUPPORT
-                                          * h ** dim)
-        ahead = np.where(held, grid[:reach.size] - reach, 0.)
+        S = self.S.tocsc()
+        support = abs(S).T @ problem.points.volume
+        free = np.zeros(du.size, dtype=bool)
+        free[problem.free] = True
+        checked = free.reshape(-1, dim).all(axis=1) & (
+            support >= SLIVER_SUPPORT * h ** dim)
+        # each entry (point p, node i) of the step's values: |du_i - dx_p|
+        # (slivers' values barely reach a point: :meth:`~skfem_mpm.solve.
+        # problem.StepProblem.check_thrown` weighs them; a cpGIMP block's
+        # node of 2.5e-9 cells moved 70 cells in trial 78's step)
+        column = np.repeat(np.arange(S.shape[1]), np.diff(S.indptr))
+        apart = np.sqrt(((nodes[column] - dx[:, S.indices].T) ** 2).sum(
+            axis=1))
+        ahead = np.zeros(S.shape[1])
+        filled = np.flatnonzero(np.diff(S.indptr) > 0)
+        ahead[filled] = np.minimum.reduceat(apart, S.indptr[filled])
+        ahead[~checked] = 0.
         if not ahead.max(initial=0.) > NODE_AHEAD * h:
             return True
         node = int(np.argmax(ahead))
         raise GridMotionError(
             "step {}: a grid node at {} moved {:.3g} cells, {:.3g} cells "
-            "beyond every point it holds (the material it holds: {:.3g} "
-            "cells): a node barely supported carries an absurd value, "
-            "and the step's energy with it; the ghost penalty ties it to "
-            "its neighbours (ghost='auto', the default, switches it on; "
-            "or a shorter time step)".format(
+            "apart from every point it holds (the material it holds: "
+            "{:.3g} cells): a node barely supported carries an absurd "
+            "value, and the step's energy with it; the ghost penalty ties "
+            "it to its neighbours (ghost='auto', the default, switches it "
+            "on; or a shorter time step)".format(
                 problem.step, np.round(problem.grid.doflocs[
-                    :, dim * node], 6).tolist(), grid[node] / h,
-                ahead[node] / h, support[node] / h ** dim))
+                    :, dim * node], 6).tolist(),
+                np.sqrt((nodes[node] ** 2).sum()) / h, ahead[node] / h,
+                support[node] / h ** dim))
 
     def commit(self, problem, trial, du: ndarray, new, record):
         """The points' new velocity (FLIP / PIC blend) and acceleration

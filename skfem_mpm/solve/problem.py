@@ -441,14 +441,20 @@ class StepProblem:
     def settled(self, trial: Trial, du: ndarray) -> bool:
         """After Newton converged to ``trial`` (increment ``du``): whether
         every term's constraints hold (each term asked, so each may update
-        itself for the next solve); :attr:`unsettled` keeps the terms
+        itself for the next solve; those that weigh the balance in time
+        once the others hold); :attr:`unsettled` keeps the terms
         whose constraints did not (for the step's error).  Timed as
         ``check`` (a 3D contact run's 736 rounds of pair searches and
         settle checks were in no phase: its time line said 81% "set-up
         and output")."""
         tic = run_clock()
-        self.unsettled = [term for term in self.terms
-                          if not term.settle(self, trial, du)]
+        # the terms that weigh the balance in time (inertia) check a step
+        # the others have settled, not one of a round's
+        self.unsettled = [term for term in self.terms if not term.weighs
+                          and not term.settle(self, trial, du)]
+        if not self.unsettled:
+            self.unsettled = [term for term in self.terms if term.weighs
+                              and not term.settle(self, trial, du)]
         self.t["check"] += run_clock() - tic
         self.reshaped = any(getattr(term, "reshaped", False)
                             for term in self.unsettled)
@@ -628,7 +634,15 @@ class StepProblem:
             "neighbours (ghost='auto', the default, switches it on; or "
             "{})".format(
                 self.step, grid, self.grid.doflocs[:, node].tolist(),
-                moved, setting("ghost", 0.1)))
+                moved, self.ghost_setting()))
+
+    def ghost_setting(self) -> str:
+        """The ghost penalty a run would switch on, as an option to set:
+        finite deformation's, or small strain's (which ``ghost="auto"``
+        holds in reserve there)."""
+        from .core import DEFAULT_GHOST, SMALL_STRAIN_GHOST  # (imports this)
+        return setting("ghost", DEFAULT_GHOST if self.run.finite
+                       else SMALL_STRAIN_GHOST)
 
     def increment_gradients(self, du: ndarray) -> ndarray:
         """The points' gradients of the converged increment ``du``, found
@@ -721,7 +735,6 @@ class StepProblem:
                         gradient[p], median))
         else:
             return
-        from .core import DEFAULT_GHOST, SMALL_STRAIN_GHOST  # (imports this)
         raise GridMotionError(
             "step {}: point {} at {} {} through grid nodes "
             "holding less than {:g} cells of material (slivers: a body edge "
@@ -729,8 +742,7 @@ class StepProblem:
             "ties them to their neighbours (ghost='auto', the default, "
             "switches it on; or {})".format(
                 self.step, p, self.points.x[:, p].tolist(), what,
-                SLIVER_SUPPORT, setting("ghost", DEFAULT_GHOST if run.finite
-                                        else SMALL_STRAIN_GHOST)))
+                SLIVER_SUPPORT, self.ghost_setting()))
 
     def commit(self, trial: Trial, du: ndarray, residuals: list):
         """The converged state of ``trial`` (the grid increment ``du``) and
