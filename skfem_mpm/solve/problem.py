@@ -450,11 +450,12 @@ class StepProblem:
         tic = run_clock()
         # the terms that weigh the balance in time (inertia) check a step
         # the others have settled, not one of a round's
-        self.unsettled = [term for term in self.terms if not term.weighs
-                          and not term.settle(self, trial, du)]
+        weighs = [getattr(term, "weighs", False) for term in self.terms]
+        self.unsettled = [term for term, last in zip(self.terms, weighs)
+                          if not last and not term.settle(self, trial, du)]
         if not self.unsettled:
-            self.unsettled = [term for term in self.terms if term.weighs
-                              and not term.settle(self, trial, du)]
+            self.unsettled = [term for term, last in zip(self.terms, weighs)
+                              if last and not term.settle(self, trial, du)]
         self.t["check"] += run_clock() - tic
         self.reshaped = any(getattr(term, "reshaped", False)
                             for term in self.unsettled)
