@@ -112,7 +112,8 @@ def warn_loaded_point_splines(method: str, extended: bool) -> None:
     in small strain 0.49 to 1.53 at 10%, 0.90 to 1.05 at 1%, 0.998 to
     1.0004 at 0.1%: warned whatever the load, which the run cannot know
     before it moves the face.  Extended, 0.95 to 1.10 (cubic 1.04 with
-    3 x 3 points per cell, 0.88 to 1.07 with 2 x 2); averaged (``"bspline-gimp"``) uniform to 1e-4."""
+    3 x 3 points per cell, 0.88 to 1.07 with 2 x 2); averaged
+    (``"bspline-gimp"``) uniform to 1e-4."""
     if method not in ("bspline", "bspline3") or extended:
         return
     logger.warning(

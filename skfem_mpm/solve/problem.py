@@ -662,13 +662,13 @@ class StepProblem:
         of material (``dx``, the points' increments; looked for where a
         point moved more than :data:`THROWN` cells, or a gradient changed
         by more than :data:`THROWN_GRADIENT` and
-        :data:`THROWN_GRADIENT_RATIO` times the median point's).  A small-strain uGIMP
-        cantilever pushed far beyond its range (a user trial, P L^2 / E I
-        = 3) converged a step to 1e-12 that threw a point 52 cells by a
-        node of 5e-4 cells of support: the absurd grid motion was not
-        caught, as a point had moved as far, and the run ended with the
-        point outside the grid, or a step later, by its position, as a
-        body held by no support.  Elastic and in small strain (one linear
+        :data:`THROWN_GRADIENT_RATIO` times the median point's).  A
+        small-strain uGIMP cantilever pushed far beyond its range (a user
+        trial, P L^2 / E I = 3) converged a step to 1e-12 that threw a
+        point 52 cells by a node of 5e-4 cells of support: the absurd
+        grid motion was not caught, as a point had moved as far, and the
+        run ended with the point outside the grid, or a step later, by its
+        position, as a body held by no support.  Elastic and in small strain (one linear
         solve a step, no Newton iteration to fail) a cpGIMP cantilever's
         tip corner turned by 100 and then 187 degrees where the beam
         turned by 5, its stress wrong by 170%, until a step's stiffness
