@@ -668,12 +668,12 @@ class StepProblem:
         point 52 cells by a node of 5e-4 cells of support: the absurd
         grid motion was not caught, as a point had moved as far, and the
         run ended with the point outside the grid, or a step later, by its
-        position, as a body held by no support.  Elastic and in small strain (one linear
-        solve a step, no Newton iteration to fail) a cpGIMP cantilever's
-        tip corner turned by 100 and then 187 degrees where the beam
-        turned by 5, its stress wrong by 170%, until a step's stiffness
-        was singular (the gradients are not checked once a term holds
-        the slivers: the ghost penalty switched on).  Unlike
+        position, as a body held by no support.  Elastic and in small
+        strain (one linear solve a step, no Newton iteration to fail) a
+        cpGIMP cantilever's tip corner turned by 100 and then 187 degrees
+        where the beam turned by 5, its stress wrong by 170%, until a
+        step's stiffness was singular (the gradients are not checked once
+        a term holds the slivers: the ghost penalty switched on).  Unlike
         :meth:`check_grid_motion`, a step solved with the stabilised
         tangent is checked too: its zero-energy modes move nodes
         arbitrarily, but no point by cells."""
