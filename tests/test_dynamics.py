@@ -1025,3 +1025,37 @@ def test_a_thrown_body_leaving_the_grid_is_told_of_its_motion():
     words = str(err.value)
     assert "limit load" not in words and "supports" not in words
     assert "10 m/s x 0.01 s = 1 cells a step" in words
+
+
+def test_a_time_step_of_many_periods_is_warned(caplog):
+    """A user trial's bar (1 x 0.1, E = 1e6, rho = 1e3, clamped) under an
+    end traction applied at once: one step of 10 s, 85 times the period
+    of the motion it excites (0.117 s by Rayleigh's quotient of its
+    displacement; the first mode's 4 L / c = 0.126 s), came out twice the
+    static displacement, as the trapezoidal rule does, without a word;
+    warned, with the period; a step of a twentieth of it is not."""
+    from skfem_mpm import Traction, side_points
+    mesh = MeshQuad.init_tensor(np.arange(0., 1.3, .07),
+                                np.arange(-.037, .2, .05))
+    E, rho = 1e6, 1e3
+
+    def bar(dt, duration):
+        points = seed_points(mesh, 2, region=lambda x: (x[0] < 1.)
+                             & (x[1] > 0) & (x[1] < .1))
+        return simulate(
+            mesh, ElementQuad1(), points, LinearElastic(E, 0.),
+            lambda b: b.get_dofs(lambda x: np.isclose(x[0], 0.)).all(),
+            loads=[Traction(side_points(points, "right"), "right",
+                            [1e3, 0.], ramp=False)],
+            kinematics="finite", dynamics=Dynamics(dt, duration, rho)), points
+    res, points = bar(10., 10.)
+    tip = res.points.x[0].max() - points.x[0].max()
+    assert tip == pytest.approx(2 * 1e3 / E * 1., rel=2e-3)
+    said = [r.message for r in caplog.records if "Rayleigh" in r.message]
+    assert len(said) == 1 and said[0].startswith("step 1: the time step "
+                                                 "10 s is ")
+    period = float(said[0].split("about ")[1].split(" s")[0])
+    assert .9 * 4 / np.sqrt(E / rho) < period < 4 / np.sqrt(E / rho)
+    caplog.clear()
+    bar(.005, .01)
+    assert "Rayleigh" not in caplog.text
