@@ -36,7 +36,9 @@ class StepRecord:
         Size of the active grid.
     timings
         Seconds per phase: locate, assemble, solve, update, check (the
-        balance, and the grid terms' settle checks: contact's rounds).
+        balance, and the grid terms' settle checks: contact's rounds),
+        with those of the failed attempts before it (the retry ladder's,
+        and a cut-back's before its sub-step).
     u
         Grid displacement increment of the step (``None`` unless
         snapshots are kept).
