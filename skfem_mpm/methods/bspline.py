@@ -70,7 +70,7 @@ from .operators import SparseOperator
 
 __all__ = ["QuadraticBSpline", "CubicBSpline", "spline_1d",
            "spline_1d_integral", "sliver_limit", "UNIFORM", "FILLED_SPAN",
-           "warn_loaded_point_splines"]
+           "warn_loaded_point_splines", "check_uniform_axes"]
 
 logger = logging.getLogger(__name__)
 
@@ -95,6 +95,22 @@ FILLED_SPAN = .75
 #: extended B-splines: the nearest array of inner nodes an outer one is
 #: extrapolated from is looked for this many nodes around it, per axis
 EXTENSION_REACH = 3
+
+
+def check_uniform_axes(method: str, axes) -> None:
+    """Refuse a grid whose ``axes`` (the node coordinates along each) are
+    not uniformly spaced, for B-spline ``method``: before a run's
+    warnings (a user trial's graded grid was warned of its surface load
+    and its points per cell, then refused), and as the splines are
+    built."""
+    for d, a in enumerate(axes):
+        h = np.diff(a)
+        if not np.allclose(h, h[0], rtol=UNIFORM, atol=0.):
+            raise UnsupportedElementError(
+                "method {!r} needs uniform spacing along each axis; axis {} "
+                "has spacings from {:.6g} to {:.6g}: on a graded grid use "
+                "'cpgimp' or 'ugimp' (GIMP takes one), 'mpm' or "
+                "'fem'".format(method, d, h.min(), h.max()))
 
 
 def warn_loaded_point_splines(method: str, extended: bool) -> None:
@@ -307,14 +323,7 @@ class QuadraticBSpline:
         # reads the same grid (its elements below too)
         self.grid = LinearGimp(mesh, elem)
         self.axes, self.shape = grid[0], grid[1]
-        for d, a in enumerate(self.axes):
-            h = np.diff(a)
-            if not np.allclose(h, h[0], rtol=UNIFORM, atol=0.):
-                raise UnsupportedElementError(
-                    "method {!r} needs uniform spacing along each axis; "
-                    "axis {} has spacings from {:.6g} to {:.6g}: on a graded "
-                    "grid use 'cpgimp' or 'ugimp' (GIMP takes one), 'mpm' "
-                    "or 'fem'".format(self.method, d, h.min(), h.max()))
+        check_uniform_axes(self.method, self.axes)
         self.dim = len(self.axes)
         self.h = np.array([(a[-1] - a[0]) / (len(a) - 1) for a in self.axes])
         self.nodes, self.node_dof = self.grid.nodes, self.grid.node_dof

@@ -63,7 +63,7 @@ from ..mechanics.materials import at_points, initial_state, is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..methods.assembly import ElementPattern
-from ..methods.bspline import warn_loaded_point_splines
+from ..methods.bspline import check_uniform_axes, warn_loaded_point_splines
 from ..methods.method import DOMAIN_METHODS, METHODS, make_method
 from ..protocols import GridTerm
 from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
@@ -1859,6 +1859,8 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
             "grid axis; triangles, tetrahedra and quadrilaterals off a "
             "grid take method 'mpm' or 'fem'".format(
                 method, type(mesh).__name__))
+    if method.startswith("bspline"):
+        check_uniform_axes(method, tensor_grid(mesh)[0])
     if method in DOMAIN_METHODS and points.domain is None:
         raise InvalidInputError(
             "method {!r} needs point domains (MaterialPoints.domain); "
