@@ -873,9 +873,12 @@ class BodyContact(GridTerm):
         """
         cells = op.point_elements[p]
         if self.grid_locate is None:
+            # (contiguous copies: scikit-fem warns of the slices' layout
+            # beyond 1000 vertices, a user trial's 3D run at every start)
             grid = type(self.cell_values.mesh)(
-                self.cell_values.mesh.p[:, :self.nv],
-                self.cell_values.mesh.t[:, :self.cells], sort_t=False)
+                np.ascontiguousarray(self.cell_values.mesh.p[:, :self.nv]),
+                np.ascontiguousarray(self.cell_values.mesh.t[:, :self.cells]),
+                sort_t=False)
             self.grid_locate = point_locator(grid)
         mesh = self.grid_locate.mesh
         inward = np.clip(X + PULL * (points.x[:, p] - X),
