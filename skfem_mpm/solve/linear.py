@@ -61,6 +61,7 @@ def support_dofs(supports, basis) -> ndarray:
                     for axis, lo, hi in zip("xyz", basis.mesh.p.min(axis=1),
                                             basis.mesh.p.max(axis=1))))
     if not isinstance(supports, ndarray) and hasattr(supports, "all"):
+        check_view_basis(supports, basis)
         supports = supports.all()
     try:
         raw = np.asarray(supports)
@@ -87,6 +88,35 @@ def support_dofs(supports, basis) -> ndarray:
             .format(basis.N, D.min(), D.max()))
     warn_ends_held_alone(D, basis)
     return D
+
+
+def check_view_basis(view, basis) -> None:
+    """Refuse a scikit-fem ``DofsView`` of a basis other than the grid's
+    vector ``basis``: the indices of a scalar ``Basis(mesh,
+    ElementQuad1())`` number one DOF per node and, read as the vector
+    basis's, hold other DOFs (a user trial: a cantilever's supports so
+    written gave deflections 100 times too large, unsaid)."""
+    dofs = getattr(view, "obj", None)
+    own = getattr(dofs, "element", None)
+    if own is None:
+        return
+    grid = basis.elem
+    same = list(own.dofnames) == list(grid.dofnames) and \
+        getattr(dofs, "N", basis.N) == basis.N
+    scalar = getattr(grid, "elem", grid)
+    if same or basis.mesh.dim() == 1 and type(own) is type(scalar) \
+            and getattr(dofs, "N", None) == basis.N:
+        return                     # 1D: the scalar DOFs are the vector's
+    raise InvalidInputError(
+        "supports: the DofsView comes from a basis of {} ({} DOFs), not "
+        "the grid's displacement basis of ElementVector({}) ({} DOFs, "
+        "u^1 .. u^{} at each node): its indices would hold other DOFs; "
+        "pass a function of the grid basis, e.g. lambda b: b.get_dofs("
+        "lambda x: x[1] == 0), or take the DOFs from Basis(mesh, "
+        "ElementVector({}()))".format(
+            type(own).__name__, getattr(dofs, "N", "?"),
+            type(scalar).__name__, basis.N, basis.mesh.dim(),
+            type(scalar).__name__))
 
 
 def warn_ends_held_alone(D: ndarray, basis) -> None:
