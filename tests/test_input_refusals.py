@@ -48,3 +48,12 @@ def test_supports_of_the_vector_basis_still_serve():
     held = support_dofs(Basis(line, ElementLineP1()).get_dofs(
         lambda x: x[0] == 0), GridBasis(line, ElementVector(ElementLineP1())))
     assert held.tolist() == [0]
+
+
+def test_quadp2_on_few_points_runs_as_quad2():
+    """trial 85: 'LinAlgError: SVD did not converge', the supports'
+    check reading the NaN places of ElementQuadP's facet DOFs."""
+    qp = run(ElementQuadP(2))
+    q2 = run(ElementQuad2())
+    assert np.allclose(qp.points.displacement, q2.points.displacement,
+                       rtol=1e-8, atol=1e-12)

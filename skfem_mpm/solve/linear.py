@@ -333,10 +333,15 @@ def check_rigid_body_modes(adjacency, doflocs: ndarray, active: ndarray,
     is_node = np.zeros(n, dtype=bool)
     is_node[nodes] = True
     fixed = D[is_node[D // dim]]
+    # DOFs without a place (ElementQuadP's facet modes, NaN in doflocs)
+    # hold no rigid motion that their cell's vertices do not: the check
+    # reads the placed ones (NaN made numpy's SVD fail, a user trial)
+    fixed = fixed[np.isfinite(doflocs[:, fixed // dim]).all(axis=0)]
     fixed_label = label[fixed // dim]
     where = "" if step is None else "step {}: ".format(step)
     def body(c):
         members = nodes[label[nodes] == c]
+        members = members[np.isfinite(doflocs[:, members]).all(axis=0)]
         return "{}a body on {} grid nodes (bounding box {} to {})".format(
             where, members.size, doflocs[:, members].min(axis=1).round(
                 6).tolist(), doflocs[:, members].max(axis=1).round(6).tolist())
