@@ -50,6 +50,78 @@ def test_supports_of_the_vector_basis_still_serve():
     assert held.tolist() == [0]
 
 
+def hanging_grid():
+    """One coarse cell beside four fine ones, vertex 8 at (1, 0.5)."""
+    p = np.array([[0, 1, 1, 0, 1.5, 2, 2, 1.5, 1, 2, 1.5],
+                  [0, 0, 1, 1, 0, 0, .5, .5, .5, 1, 1]])
+    t = np.array([[0, 1, 2, 3], [1, 4, 7, 8], [4, 5, 6, 7], [8, 7, 10, 2],
+                  [7, 6, 9, 10]]).T
+    return MeshQuad(p, t)
+
+
+def test_a_grid_with_a_hanging_node_is_refused():
+    mesh = hanging_grid()
+    with pytest.raises(InvalidInputError,
+                       match=r"not conforming.*\[1\.0, 0\.5\] hangs"):
+        simulate(mesh, ElementQuad1(), seed_points(mesh, 2),
+                 LinearElastic(1e4, .3),
+                 lambda b: b.get_dofs(lambda x: x[0] == 0),
+                 body_force=[0., -1.])
+
+
+def hole(mesh, centre, radius):
+    c = mesh.p[:, mesh.t].mean(axis=1)
+    return mesh.remove_elements(np.flatnonzero(
+        np.linalg.norm(c - np.asarray(centre)[:, None], axis=0) < radius))
+
+
+@pytest.mark.parametrize("mesh", [
+    MeshTri.init_tensor(np.linspace(0, 1, 9) ** 2, np.linspace(0, 1, 7)),
+    MeshTri.init_sqsymmetric().refined(3),
+    MeshTri().refined(2).refined(np.arange(3)).refined(np.arange(5)),
+    MeshQuad.init_refdom().refined(3),
+    MeshQuad(MeshQuad().refined(3).p + .01 * np.sin(
+        7 * MeshQuad().refined(3).p[::-1]), MeshQuad().refined(3).t),
+    MeshHex(MeshHex().refined(2).p + .01 * np.sin(
+        7 * MeshHex().refined(2).p[::-1]), MeshHex().refined(2).t),
+    MeshTet().refined(2), MeshTet.init_ball(1),
+    MeshLine(np.linspace(0, 1, 5) ** 2),
+    hole(MeshQuad.init_tensor(*[np.linspace(0, 4, 9)] * 2), [2, 2], 1.),
+    hole(MeshTri.init_tensor(*[np.linspace(0, 4, 9)] * 2), [2, 2], 1.),
+    hole(MeshHex.init_tensor(*[np.linspace(0, 4, 7)] * 3), [2, 2, 2], 1.),
+    hole(MeshTet.init_tensor(*[np.linspace(0, 4, 5)] * 3), [2, 2, 2], 1.),
+])
+def test_scikit_fems_own_grids_are_conforming(mesh):
+    check_conforming(mesh)
+
+
+def test_a_hexahedral_grid_with_a_hanging_node_is_refused():
+    c = MeshHex.init_tensor([0, 1], [0, 1], [0, 1])
+    f = MeshHex.init_tensor([1, 1.5, 2], [0, .5, 1], [0, .5, 1])
+    p, inv = np.unique(np.hstack([c.p, f.p]).round(12), axis=1,
+                       return_inverse=True)
+    t = inv.ravel()[np.hstack([c.t, f.t + c.nvertices])]
+    with pytest.raises(InvalidInputError,
+                       match=r"\[1\.0, 0\.5, 0\.5\] hangs"):
+        check_conforming(MeshHex(p, t))
+
+
+def test_an_element_of_other_cells_is_refused_before_warnings(caplog):
+    with caplog.at_level(logging.WARNING):
+        with pytest.raises(UnsupportedElementError,
+                           match="RefHex, the mesh's RefQuad"):
+            run(ElementHex1())
+    assert not caplog.records
+
+
+def test_an_hdiv_element_is_no_displacement_element(caplog):
+    with caplog.at_level(logging.WARNING):
+        with pytest.raises(UnsupportedElementError,
+                           match=r"H\(div\) element.*not a displacement"):
+            run(ElementQuadRT0())
+    assert not caplog.records
+
+
 def test_quadp2_on_few_points_runs_as_quad2():
     """trial 85: 'LinAlgError: SVD did not converge', the supports'
     check reading the NaN places of ElementQuadP's facet DOFs."""

@@ -81,6 +81,7 @@ from .backends import get_solver
 from .body_contact import BodyContact, check_contacts
 from .contact import CellValues, contact_term, linear_gimp
 from .dynamics import Dynamics, InertiaTerm, scheme_for
+from .grid_checks import check_grid
 from .linear import support_dofs
 from .loads import (ExternalLoads, FollowerPressure, GridLoad, Pressure,
                     Traction, check_exposed, check_load_ramp, in_full_words)
@@ -1480,6 +1481,7 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     case = check_case(mesh, points, material, body_force, loads, nsteps,
                       method, kinematics, dynamics, options, obstacles,
                       contacts)
+    check_grid(mesh, elem)
     check_higher_order_antilocking(method, elem, mesh, case.material,
                                    options.stabilisation.antilocking)
     warn_volumetric_locking(
