@@ -129,3 +129,11 @@ def test_quadp2_on_few_points_runs_as_quad2():
     q2 = run(ElementQuad2())
     assert np.allclose(qp.points.displacement, q2.points.displacement,
                        rtol=1e-8, atol=1e-12)
+
+
+def test_cam_clay_m_of_three_or_more_is_refused():
+    clay = dict(kappa=.02, lambda_=.2, shear_modulus=2e3,
+                reference_pressure=100.)
+    ModifiedCamClay(M=2.9, **clay)
+    with pytest.raises(InvalidMaterialError, match=r"M must be < 3"):
+        ModifiedCamClay(M=3.5, **clay)

@@ -116,8 +116,9 @@ class ModifiedCamClay:
     lambda_
         Slope of the normal compression line, > ``kappa``.
     M
-        Slope of the critical state line ``q = M p``, > 0 (from a critical
-        state friction angle: ``M = 6 sin(phi) / (3 - sin(phi))``).
+        Slope of the critical state line ``q = M p``, in (0, 3) (from a
+        critical state friction angle: ``M = 6 sin(phi) / (3 - sin(phi))``,
+        3 at 90 degrees).
     shear_modulus
         Constant shear modulus ``G`` > 0.
     reference_pressure
@@ -167,6 +168,14 @@ class ModifiedCamClay:
                                "preconsolidation_pressure")}
         check_slopes(values, ("kappa", "M", "shear_modulus",
                               "reference_pressure"), "kappa", "lambda_")
+        if values["M"] >= 3.:
+            raise InvalidMaterialError(
+                "M must be < 3, got {}: M = 6 sin(phi) / (3 - sin(phi)) of "
+                "the critical state friction angle phi (q = sqrt(3 J2)) is "
+                "3 at phi = 90 degrees; with M >= 3 a drained triaxial "
+                "compression (q = 3 p) never reaches the critical state "
+                "and hardens without limit (a user trial: M = 3.5, q up "
+                "to 881)".format(values["M"]))
         if not (np.isfinite(values["preconsolidation_pressure"])
                 and values["preconsolidation_pressure"]
                 >= values["reference_pressure"]):
