@@ -137,3 +137,12 @@ def test_cam_clay_m_of_three_or_more_is_refused():
     ModifiedCamClay(M=2.9, **clay)
     with pytest.raises(InvalidMaterialError, match=r"M must be < 3"):
         ModifiedCamClay(M=3.5, **clay)
+
+
+def test_joining_points_of_other_state_variables_names_them():
+    a = seed_points(GRID, 1, region=lambda x: x[0] < 1)
+    b = seed_points(GRID, 1, region=lambda x: x[0] > 1)
+    a.state["plastic_volumetric_strain"] = np.zeros(a.n)
+    with pytest.raises(InvalidInputError,
+                       match=r"part 1 lacks plastic_volumetric_strain"):
+        concatenate_points([a, b])

@@ -602,11 +602,20 @@ def concatenate_points(parts) -> MaterialPoints:
     """
     parts = list(parts)
     kwargs = {}
-    names = set(parts[0].state)
-    if any(set(p.state) != names for p in parts):
+    names = set().union(*(p.state for p in parts))
+    lacking = [(k, sorted(names - set(p.state)))
+               for k, p in enumerate(parts) if names - set(p.state)]
+    if lacking:
+        k, missing = lacking[0]
         raise InvalidInputError(
-            "cannot join point sets with different state variables: {}"
-            .format([sorted(p.state) for p in parts]))
+            "cannot join point sets with different state variables: part "
+            "{} lacks {} (the parts have {}); give every part the same "
+            "ones, e.g. parts[{}].state[{!r}] = np.zeros(parts[{}].n) for "
+            "the material's initial value, or set them on the joined "
+            "points (a run gives variables missing from points.state "
+            "their material's initial values)".format(
+                k, ", ".join(missing), [sorted(p.state) for p in parts],
+                k, missing[0], k))
     kwargs["state"] = {name: np.concatenate([p.state[name] for p in parts])
                        for name in names}
     for f in fields(MaterialPoints):
