@@ -28,8 +28,8 @@ import numpy as np
 
 from ..errors import InvalidInputError, check_real
 from ..quadrature.points import MaterialPoints
-from .materials import (at_points, initial_state, inverse_elastic_law,
-                        is_plastic)
+from .initial_stress import elastic_state
+from .materials import at_points
 
 __all__ = ["geostatic_stress"]
 
@@ -153,29 +153,12 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
         stress[axis, axis] = K0 * vertical
     stress[dim - 1, dim - 1] = vertical
     out = points.copy()
-    materials = at_points(material, points)
-    # the stress axes are the coordinate axes: principal values on the
-    # diagonal, their elastic strains by the inverse elastic law
-    principal = inverse_elastic_law(materials, np.einsum("aap->ap", stress))
-    strain = np.einsum("ap,ab->abp", principal, np.eye(3))
-    # within the yield surface?
-    yielded = np.zeros(points.n, dtype=bool)
-    if is_plastic(materials):
-        state = initial_state(materials, points.n)
-        state.update(points.state or {})
-        yielded = materials.principal_update(principal, state)[3]
-    if yielded.any():
-        i = int(np.flatnonzero(yielded)[0])
-        raise InvalidInputError(
-            "the geostatic state (K0 = {}) lies outside the yield surface at "
-            "{} point(s), first {} (body {}) at {} (vertical stress {:.4g}): "
-            "the soil cannot stand so; choose K0 nearer 1 or a stronger "
-            "material".format(K0[i], int(yielded.sum()), i, body[i],
-                              points.x[:, i].tolist(), vertical[i]))
-    out.stress, out.strain = stress, strain
-    out.be = np.zeros((3, 3, points.n))
-    for axis in range(3):
-        out.be[axis, axis] = np.exp(2 * strain[axis, axis])
+    strain, be = elastic_state(
+        at_points(material, points), stress, out, np.arange(points.n),
+        "the geostatic state (K0 = {})".format(
+            np.unique(K0).tolist() if np.ptp(K0) else float(K0[0])),
+        "choose K0 nearer 1" if np.any(K0 != 1.) else "")
+    out.stress, out.strain, out.be = stress, strain, be
     return out
 
 
