@@ -186,10 +186,12 @@ def warn_overburden(points: MaterialPoints, idx: np.ndarray, top,
     no load to balance it.  A trial's surface given as the region's top,
     0.067 above the domains of an untuned grid, started 1.2 kPa out of
     balance and moved the soil 4.6e-4 m in the first step."""
-    if gamma == 0.:          # weightless: no stress, nothing out of balance
+    if gamma == 0. or points.domain is None:
+        # weightless: no stress, nothing out of balance; points without
+        # domains (Gauss points) do not say where their material ends (a
+        # trial's top Gauss point, 0.106 below the body's top, was warned)
         return
-    domain = np.zeros_like(points.x) if points.domain is None \
-        else points.domain
+    domain = points.domain
     x = points.x[:, idx]
     face = x[-1] + domain[-1, idx]
     size = np.ptp(points.x, axis=1).max() + 2 * np.abs(domain).max()
@@ -204,14 +206,15 @@ def warn_overburden(points: MaterialPoints, idx: np.ndarray, top,
     if gap.size and gap[i] > 1e-6 * size:
         logger.warning(
             "geostatic start: the surface lies up to %.4g above the top of "
-            "%s material (its points' domains end at %.6g below x = %s), "
+            "%s material (in the column at x = %s its points' domains end "
+            "at %.6g), "
             "so the stress there starts at the weight of %.4g of soil that "
             "is not there (%.4g) with no load to balance it, and the first "
             "step moves the body; leave the surface out (None: the "
             "material's top) or apply that overburden as a surface "
-            "traction", gap[i], what, ends[where[i]],
+            "traction", gap[i], what,
             "[{}]".format(", ".join("{:.4g}".format(c) for c in x[:-1, i])),
-            gap[i],
+            ends[where[i]], gap[i],
             gamma * gap[i])
 
 
