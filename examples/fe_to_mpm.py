@@ -72,7 +72,7 @@ fe_tip = -basis.interpolator(fe.u)(points.x[:, tip])[1].mean()
 
 def visualize(outdir="."):
     from pathlib import Path
-    from skfem_mpm.scenes.plot import pyplot, save_figure
+    from skfem_mpm.scenes.plot import draw_points, pyplot, save_figure
     fig, (ax, ay) = pyplot().subplots(1, 2, figsize=(11, 4))
     ax.plot([0., WEIGHT], [0., fe_tip], "k-", lw=1,
             label="FE, small strain (linear)")
@@ -82,16 +82,14 @@ def visualize(outdir="."):
     ax.set_ylabel("tip deflection [m]")
     ax.set_title("Cantilever under its own weight: FE and MPM")
     ax.legend()
-    pts = mpm.points
-    shown = ay.scatter(pts.x[0], pts.x[1], c=pts.stress[0, 0], s=4,
-                       cmap="coolwarm")
-    fig.colorbar(shown, ax=ay, label=r"$\sigma_{xx}$ [kPa]")
+    # the points coloured by sigma_xx on a map centred on zero (tension
+    # red, compression blue), its colour bar beside the axes
+    draw_points(fig, ay, mpm.points, mpm.points.stress[0, 0],
+                r"$\sigma_{xx}$ [kPa]", "Deformed beam at full weight")
     x_fe = mesh.p + u[basis.nodal_dofs]
     ay.plot(x_fe[0], x_fe[1], "k.", ms=2, label="FE nodes, small strain")
-    ay.set_aspect("equal")
     ay.set_xlabel("x [m]")
     ay.set_ylabel("y [m]")
-    ay.set_title("Deformed beam at full weight")
     ay.legend(loc="lower left")
     fig.tight_layout()
     save_figure(fig, Path(outdir) / "fe_to_mpm.png")

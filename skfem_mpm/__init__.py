@@ -26,7 +26,8 @@ __all__ = [
     "NewtonDivergenceError", "InversionError", "simulate", "solve_fe",
     "Traction", "Pressure", "GridLoad", "side_points", "NumericalError", "GridMotionError",
     "PrescribedMotionError", "StepFailedError", "DruckerPrager",
-    "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "RigidBody",
+    "MohrCoulomb", "ModifiedCamClay", "geostatic_stress", "initial_stress",
+    "RigidBody",
     "reduce_strength", "strength_reduction", "Dynamics", "Newmark",
     "GeneralizedAlpha", "material_point_bases", "Obstacle", "ContactError",
     "StepTooLongError", "HeldSupportError", "UnsettledContactError",
@@ -52,6 +53,7 @@ def _public() -> dict:
     from .mechanics.soils import DruckerPrager, MohrCoulomb
     from .mechanics.cam_clay import ModifiedCamClay
     from .mechanics.geostatic import geostatic_stress
+    from .mechanics.initial_stress import initial_stress
     from .quadrature.points import (MaterialPoints, concatenate_points,
                                     seed_gauss_points, seed_points)
     from .protocols import GridTerm

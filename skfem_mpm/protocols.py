@@ -80,6 +80,7 @@ class GridTerm:
 
     >>> import numpy as np
     >>> from scipy.sparse import csr_matrix
+    >>> from skfem_mpm import GridTerm
     >>> class Spring(GridTerm):
     ...     def __init__(self, dof, k):
     ...         self.dof, self.k = dof, k

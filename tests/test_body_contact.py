@@ -10,8 +10,8 @@ from skfem import ElementQuad1, ElementQuad2, MeshQuad
 
 from skfem_mpm import (BodyForce, Contact, Dynamics, GridLoad, MPMError,
                        InvalidInputError, LinearElastic, Newmark,
-                       NewtonOptions, Options, Resume, Stabilisation,
-                       Traction,
+                       NewtonOptions, Options, Pressure, Resume,
+                       Stabilisation, Traction,
                        UnsupportedElementError, VonMises, seed_points,
                        simulate)
 from skfem_mpm.methods.fields import body_fields
@@ -324,6 +324,37 @@ def test_a_block_held_by_a_contact_alone_past_mu_is_not_cut_back(caplog):
     message, cut_backs = tilted_block_on_slab(caplog, held=True)
     assert len(cut_backs) == 1 and "not cut back" not in message
     assert "pushes it along" not in message
+
+
+@pytest.mark.parametrize("finite", [False, True])
+@pytest.mark.parametrize("load", [Traction, Pressure])
+def test_a_surface_load_shearing_a_block_past_mu_names_its_ratio(load,
+                                                                 finite):
+    """The block (0.5 x 0.25) on a slab (mu = 0.3) under its weight, its
+    left side pushed along the slab by a traction or a pressure of 5 kPa:
+    the load's ratio to mu times the weight is 5e3 x 0.25 / (0.3 x 2e3 g
+    x 0.125) = 1.70 and no step has an equilibrium.  The error said
+    nothing of friction after 8 cut-backs (a user trial: the hint summed
+    body forces and point forces alone); now it names the ratio, and the
+    step is not cut back (but for a pressure that follows the surface:
+    its direction may change with the load factor)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
+    pts = bodies(mesh, 2, [[(0, 2), (0, .5)], [(.5, 1.), (.5, .75)]])
+    rho, mu, push = 2e3, .3, 5e3
+    left = side_points(pts, "left", pts.body == 1)
+    with pytest.raises(MPMError) as failed:
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(5e6, .3),
+                 lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
+                 body_force=[0., -G * rho], nsteps=2,
+                 kinematics="finite" if finite else "small",
+                 loads=[load(left, "left", [push, 0.] if load is Traction
+                             else push)],
+                 contacts=[Contact(0, 1, friction=mu)])
+    ratio = push * .25 / (mu * rho * G * .5 * .25)
+    assert ("not cut back: the loads keep their direction" in
+            str(failed.value)) is not (finite and load is Pressure)
+    assert "the load on body 1 pushes it along its contact '0-1' with " \
+        "body 0 with {:.3f} times mu".format(ratio) in str(failed.value)
 
 
 def test_a_block_past_mu_towards_a_lip_of_its_slab_is_cut_back():

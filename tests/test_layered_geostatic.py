@@ -176,3 +176,20 @@ def test_a_surface_above_the_material_is_warned(surface, caplog):
         for level in (None, top, [top]):
             geostatic_stress(points, material, [0., -18.], level, .5)
     assert caplog.text == ""
+
+
+def test_gauss_points_reaching_the_surface_are_not_warned(caplog):
+    """Gauss points have no domains, so their material's top is not
+    known: a body of height 2 with the surface at 2 was warned that the
+    surface lay 0.106 above its material (the top Gauss point's height;
+    a user trial)."""
+    from skfem import MeshQuad
+    from skfem_mpm import seed_gauss_points
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 5), np.linspace(0, 2, 5))
+    points = seed_gauss_points(mesh, 2)
+    assert 2. - points.x[1].max() > .1
+    with caplog.at_level("WARNING"):
+        start = geostatic_stress(points, LinearElastic(1e4, .3), [0., -10.],
+                                 2., 3 / 7)
+    assert caplog.text == ""
+    assert np.allclose(start.stress[1, 1], -10. * (2. - points.x[1]))

@@ -580,14 +580,18 @@ def test_slope_search_steps_to_the_energys_minimum():
 
 @pytest.mark.parametrize("residuals, words, asked", [
     ([1., 1e-4, 1.1e-4] + [1e-4] * 30, "stalled at 0.0001", 8),
-    ([.99, .52, .36, .35, .48, .87] + [1.] * 30, "went astray", 10)])
+    ([.99, .52, .36, .35, .48, .87] + [1.] * 30, "went astray", 10),
+    ([.997, .821] + [1.] * 30, "last 10 residuals all stayed within a "
+     "factor 1.05 of 1: Newton made no progress", 12)])
 def test_a_stalled_or_astray_newton_loop_fails_early(residuals, words,
                                                      asked):
     """Newton fails once its last five residuals stay within 5% of each
     other (a c-phi footing sat at 1.59e-6 for 20 iterations of every
     attempt) or all above twice the smallest before them, flat (a 3D footing
     at its collapse sat at 1.000 from iteration 6 to 25, minutes an
-    iteration), its error saying so, not after max_iter = 25."""
+    iteration), or its last ten within 5% of each other at any level (a 3D
+    footing with mean dilatation sat at 1.000 after a smallest of 0.821),
+    its error saying so, not after max_iter = 25."""
     from skfem_mpm.errors import NewtonDivergenceError
     from skfem_mpm.solve.newton import newton
     problem = StalledStep(residuals, 1e-6)
@@ -595,3 +599,24 @@ def test_a_stalled_or_astray_newton_loop_fails_early(residuals, words,
         newton(problem, np.ones(1), FullStep().start(), max_iter=25)
     assert len(residuals) - len(list(problem.residuals)) == asked
     assert caught.value.stalled == (1e-4 if "stalled" in words else None)
+
+
+def test_a_line_search_flat_far_from_equilibrium_fails_early():
+    """A line search's residuals flat within 5% for ten iterations far
+    above the tolerance (a 3D footing with mean dilatation sat at 1.000
+    from iteration 6 to 25 of its line search, 2.5 s an iteration, where
+    the ladder's next rung converged in 11) fail there; one that falls
+    below them goes on."""
+    from skfem_mpm.errors import NewtonDivergenceError
+    from skfem_mpm.solve.newton import newton
+
+    def search(evaluate, du, d, current, accept):    # (not full steps)
+        return du + d, evaluate(du + d), 0
+    problem = StalledStep([.997, .821] + [1.] * 30, 1e-6)
+    with pytest.raises(NewtonDivergenceError, match="Newton made no "
+                       "progress"):
+        newton(problem, np.ones(1), search, max_iter=25)
+    assert len(list(problem.residuals)) == 20
+    problem = StalledStep([.997, .821] + [1.] * 9 + [.9, 1e-10], 1e-6)
+    newton(problem, np.ones(1), search, max_iter=25)
+    assert not list(problem.residuals)

@@ -147,6 +147,7 @@ class DruckerPrager(LinearElastic):
     A trial state far outside the cone lands on it:
 
     >>> import numpy as np
+    >>> from skfem_mpm import DruckerPrager
     >>> dp = DruckerPrager(1e4, .3, cohesion=10., friction_angle=30.)
     >>> tau, _, _, yielded, _ = dp.principal_update(
     ...     np.array([[.002], [.002], [-.01]]),
@@ -308,6 +309,7 @@ class MohrCoulomb(LinearElastic):
     of the two planes that meet there, ``k s1 - s3 = sigma_c``:
 
     >>> import numpy as np
+    >>> from skfem_mpm import MohrCoulomb
     >>> mc = MohrCoulomb(1e4, .3, cohesion=10., friction_angle=30.)
     >>> tau, _, _, yielded, _ = mc.principal_update(
     ...     np.array([[.002], [.002], [-.01]]),

@@ -402,8 +402,8 @@ class BodyContact(GridTerm):
             counters.setdefault("contact_corners_reset", 0)
         #: the grid's lines per axis (:meth:`warn_sides_inside_cells`)
         self.lines = [np.unique(mesh.p[d]) for d in range(self.dim)]
-        #: per body, the resultant of its body force and point forces at
-        #: the last step tried (:meth:`sliding_load_hint`), and whether
+        #: per body, the resultant of its body force, point forces and
+        #: surface loads at the last step tried (:meth:`sliding_load_hint`), and whether
         #: its contact alone may hold it (:meth:`held_by_contact_alone`)
         self.loads, self.alone = None, None
 
@@ -540,7 +540,8 @@ class BodyContact(GridTerm):
     def sliding_load_hint(self, k: int) -> str:
         """Where every pair of contact ``k`` at the last step tried had
         one normal (a flat interface), a hint when the load on one of its
-        bodies (its body force and point forces, :attr:`loads`) pushes it
+        bodies (its body force, point forces and surface loads,
+        :attr:`loads`) pushes it
         along the interface more than mu times it presses it on the
         other: held by that contact alone, it has no quasi-static
         equilibrium.  :func:`~skfem_mpm.solve.contact.friction_hint`
@@ -611,17 +612,15 @@ class BodyContact(GridTerm):
         ``problem``: the body is in one contact, alone on its field, whose
         copy of the grid holds no support where material is, in a run with
         no prescribed motion, rigid body, obstacle, term that holds a free
-        body or of a user's, and no surface load (:attr:`loads` has the
-        body forces and point forces alone)."""
+        body or of a user's, and no grid load (:attr:`loads` has the body
+        forces, point forces and surface loads alone)."""
         run, op = problem.run, problem.op
         bodies = self.field.size
         if run.prescribed is not None or run.rigid_bodies or \
                 run.obstacles or any(term.holds_free_body
                                      for term in run.terms) or \
-                run.user_terms or run.loads.surface or \
-                run.loads.grid_vector is not None:
-            # (surface loads: not in :attr:`loads`; a traction holding a
-            # block back up its slope was left out, a review)
+                run.user_terms or run.loads.grid_vector is not None:
+            # (a grid load belongs to no body: not in :attr:`loads`)
             return np.zeros(bodies, dtype=bool)
         active = np.zeros(op.N, dtype=bool)
         active[op.active_dofs] = True
@@ -1078,8 +1077,10 @@ class BodyContact(GridTerm):
 
 
 def body_loads(problem) -> ndarray:
-    """Per body (bodies, dim), the resultant of its body force and point
-    forces at the end of ``problem``'s step (its surface loads aside)."""
+    """Per body (bodies, dim), the resultant of its body force, point
+    forces and surface loads at the end of ``problem``'s step (a
+    traction that shears a block along its slab past mu named no
+    friction: a user trial)."""
     points, loads, factor = problem.points, problem.run.loads, problem.s_new
     bodies = int(points.body.max()) + 1
     out = factor * np.stack([np.bincount(points.body, force, bodies)
@@ -1090,6 +1091,8 @@ def body_loads(problem) -> ndarray:
         volume = np.bincount(points.body, points.volume0, bodies)
         rows = np.broadcast_to(gravity, (bodies, points.dim))
         out += np.where(ramp, factor, 1.)[:, None] * volume[:, None] * rows
+    if loads.surface:
+        out += loads.surface_resultants(points, factor, bodies)
     return out
 
 

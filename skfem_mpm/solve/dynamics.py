@@ -121,6 +121,7 @@ class Newmark:
     """Newmark's scheme; default the average acceleration (trapezoidal)
     rule, unconditionally stable and free of numerical dissipation.
 
+    >>> from skfem_mpm import Newmark
     >>> Newmark().alpha_m, Newmark().alpha_f
     (0.0, 0.0)
     """
@@ -150,6 +151,7 @@ class GeneralizedAlpha:
     """The generalised-alpha scheme (Chung and Hulbert 1993) with spectral
     radius ``rho_inf`` at infinite frequency.
 
+    >>> from skfem_mpm import GeneralizedAlpha
     >>> s = GeneralizedAlpha(.5)
     >>> round(s.alpha_m, 6), round(s.alpha_f, 6), round(s.gamma, 6)
     (0.0, 0.333333, 0.833333)
@@ -227,6 +229,7 @@ class Dynamics:
 
     Examples
     --------
+    >>> from skfem_mpm import Dynamics
     >>> Dynamics(1e-3, 1e-2, 2000.).nsteps
     10
     """

@@ -517,6 +517,27 @@ class ExternalLoads:
                     face, deformation(idx), axis, sign, value, op.N)
         return f
 
+    def surface_resultants(self, points: MaterialPoints, factor: float,
+                           bodies: int) -> ndarray:
+        """Per body (bodies, dim), the resultant of the surface loads at
+        load factor ``factor``: tractions on their faces' initial areas,
+        pressures on the faces the points' deformation gradients give
+        (Nanson's formula, as :meth:`_pressure`), whether they follow the
+        surface or not."""
+        out = np.zeros((bodies, self.dim))
+        for (idx, axis, sign, value, pressure), ramp in zip(
+                self.surface, self.surface_ramp):
+            area = points.volume0[idx] / (2 * self.domain0[axis, idx])
+            if pressure:
+                F_inv, J = inverse_and_det(points.F[:, :, idx], self.dim)
+                force = -value * sign * J * F_inv[axis, :self.dim] * area
+            else:
+                force = value[:, None] * area
+            out += (factor if ramp else 1.) * np.stack(
+                [np.bincount(points.body[idx], row, bodies)
+                 for row in force], axis=1)
+        return out
+
     def _pressure(self, face, F, axis, sign, value, N) -> ndarray:
         """``-p J F^-T N A0`` (Nanson's formula) on the faces."""
         F_inv, J = inverse_and_det(F, self.dim)

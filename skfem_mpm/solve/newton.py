@@ -140,8 +140,14 @@ LINEAR_RATES = (.02, .9)
 #: collapse sat at a relative residual of 1.000 from iteration 6 to 25,
 #: its tangents ever more singular (Pardiso perturbed 2, 12, then 6464
 #: pivots of 12152), minutes an iteration; a c-phi footing sat at 1.59e-6
-#: for 20 iterations of every attempt and cut-back
+#: for 20 iterations of every attempt and cut-back.  A loop whose last
+#: :data:`FLAT_ITERATIONS` residuals stay within :data:`STALL_SPREAD` of
+#: each other at any level has made no progress: a trial's 3D footing
+#: with mean dilatation sat at 1.000 from iteration 6 to 25 of its line
+#: search (its smallest 0.82, so not astray), 2.5 s an iteration, and the
+#: ladder's stabilised tangent then converged in 11
 STALL_ITERATIONS = 5
+FLAT_ITERATIONS = 10
 STALL_SPREAD = 1.05
 #: the largest relative residual counted as a stall (a floor near
 #: equilibrium); Newton sitting higher goes on (a body far too soft for its
@@ -744,13 +750,20 @@ def stalled(residuals: List[float],
     lie above :data:`ASTRAY_FACTOR` times the smallest before them, the
     last but one on, flat (within :data:`STALL_SPREAD`: a Newton loop
     that overshot and comes back down goes on, a cantilever's first full
-    step raised its residual 470-fold and converged); else ``None``.
+    step raised its residual 470-fold and converged), ``("flat", level)``
+    where the last :data:`FLAT_ITERATIONS` lie within :data:`STALL_SPREAD`
+    of each other above :data:`STALL_LEVEL` (a search's too); else
+    ``None``.
 
     >>> stalled([1e-3, 2e-5, 1.59e-6, 1.59e-6, 1.6e-6, 1.59e-6, 1.59e-6])
     ('stalled', 1.59e-06)
     >>> stalled([.99, .52, .36, .35, .48, .87, 1., 1., 1., 1.])[0]
     'astray'
     >>> stalled([1., .1, .01, .001, 1e-4, 1e-5]) is None
+    True
+    >>> stalled([.99, .82] + [1.] * 10)
+    ('flat', 1.0)
+    >>> stalled([.99, .82] + [1.] * 9) is None
     True
     """
     last = np.asarray(residuals[-STALL_ITERATIONS:], dtype=float)
@@ -764,6 +777,10 @@ def stalled(residuals: List[float],
         STALL_SPREAD * last[1:].min()
     if full_steps and last.min() > ASTRAY_FACTOR * before and flat:
         return "astray", float(before)
+    level = np.asarray(residuals[-FLAT_ITERATIONS:], dtype=float)
+    if len(residuals) >= FLAT_ITERATIONS and \
+            level.min() > 0. and level.max() <= STALL_SPREAD * level.min():
+        return "flat", float(level.min())
     return None
 
 
@@ -776,6 +793,11 @@ def stall_words(stuck: Optional[tuple]) -> str:
                 "last {} iterations (within a factor {:g}): a floor of the "
                 "residual, not a divergence".format(
                     stuck[1], STALL_ITERATIONS, STALL_SPREAD))
+    if stuck[0] == "flat":
+        return ("; stopped early: the last {} residuals all stayed within "
+                "a factor {:g} of {:.3g}: Newton made no progress (a tangent "
+                "that lost its stiffness, the body collapsing?)".format(
+                    FLAT_ITERATIONS, STALL_SPREAD, stuck[1]))
     return ("; stopped early: the last {} residuals all stayed above {:g} "
             "times the smallest, {:.3g}: Newton went astray (a tangent "
             "that lost its stiffness, the body collapsing?)".format(

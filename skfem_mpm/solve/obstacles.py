@@ -71,6 +71,7 @@ class Obstacle:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from skfem_mpm import Obstacle
     >>> floor = Obstacle(box=[[-1., 2.], [-1., 0.]], name="floor")
     >>> floor.dim, floor.friction
@@ -157,6 +158,8 @@ class Obstacle:
         """The corners (dim, k) of the obstacle shifted by ``shift``: a
         box's 2^dim, a polygon's vertices.
 
+        >>> import numpy as np
+        >>> from skfem_mpm import Obstacle
         >>> Obstacle(box=[[0., 1.], [2., 3.]]).corners(np.zeros(2)).T.tolist()
         [[0.0, 2.0], [0.0, 3.0], [1.0, 2.0], [1.0, 3.0]]
         """
@@ -170,6 +173,7 @@ class Obstacle:
         """Whether the obstacle is convex (a box; a polygon turning one
         way at every vertex): material on one face cannot meet another.
 
+        >>> from skfem_mpm import Obstacle
         >>> Obstacle(polygon=[[0, 0], [2, 0], [2, 1], [1, .2],
         ...                   [0, 1]]).convex
         False
@@ -294,6 +298,7 @@ class Obstacle:
         (from under its bottom face to beside its right one):
 
         >>> import numpy as np
+        >>> from skfem_mpm import Obstacle
         >>> plate = Obstacle(box=[[-1., 1.], [0., .05]])
         >>> x = np.array([[0., 0., 2., .95], [.3, .3, .3, -.01]])
         >>> d = np.array([[0., 0., 0., .1], [-.6, -.2, -.6, .04]])

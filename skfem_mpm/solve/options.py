@@ -47,6 +47,7 @@ class Resume:
     energies too.  What grid terms of one's own keep over the steps is
     theirs to keep.
 
+    >>> from skfem_mpm import Resume
     >>> Resume(first_step=0)
     Traceback (most recent call last):
     ...
@@ -270,6 +271,7 @@ class Options:
         compiled ones where numba imports (the method piece carries the
         option: :func:`~skfem_mpm.methods.method.make_method`).
 
+    >>> from skfem_mpm import NewtonOptions, Options
     >>> Options(newton=NewtonOptions(tol=1e-10)).newton.tol
     1e-10
     >>> Options(newton={"tol": 1e-10})

@@ -295,6 +295,9 @@ class StepProblem:
         self.free = free_dofs(op.active_dofs, self.fixed)
         self.f_dead = run.loads.external(op, points, self.s_new)
         self._kept_norm = None          # f_dead's norm (_dead_norm)
+        #: the internal force's norm at the step's first trial (its start,
+        #: :attr:`du0`): the scale of a step that nothing loads or drives
+        self.start_force = None
         self.load_weight = 1.
         self.stabilised = False        # a solve used the stabilised tangent
         #: the stabilised tangent's diagonal floored at
@@ -420,8 +423,13 @@ class StepProblem:
         if balance.floor > 0.:        # a residual at the round-off of the
             # forces the balance sums is converged (a body in free flight)
             scale = max(scale, balance.floor / self.run.tol)
+        if self.start_force is None:
+            self.start_force = safe_norm(balance.f_int)
         if scale == 0.:               # nothing loads or drives: the stresses
-            scale = max(safe_norm(balance.f_int), TINY)
+            # at the step's start and now (an initial stress unloaded to
+            # none: measured against its own vanishing forces, the round-
+            # off of a converged step was 0.93 of them, a user trial)
+            scale = max(safe_norm(balance.f_int), self.start_force, TINY)
         merit = safe_norm(r[self.free])
         self.t["check"] += run_clock() - tic
         return Trial(response, r, merit, merit / scale)

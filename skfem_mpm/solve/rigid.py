@@ -62,6 +62,7 @@ class RigidBody:
 
     Examples
     --------
+    >>> from skfem_mpm import RigidBody
     >>> RigidBody(1, [0., -.1]).increment(.25, .5).tolist()
     [0.0, -0.025]
     """

@@ -59,7 +59,8 @@ def reduce_strength(material, factor: float):
 
     Examples
     --------
-    >>> from skfem_mpm import MohrCoulomb
+    >>> import numpy as np
+    >>> from skfem_mpm import MohrCoulomb, reduce_strength
     >>> soil = MohrCoulomb(1e4, .3, cohesion=10., friction_angle=30.,
     ...                    dilation_angle=30.)
     >>> weak = reduce_strength(soil, 2.)
@@ -191,7 +192,8 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
     point run may, converges again far away from 1.5 to 2:
 
     >>> from types import SimpleNamespace
-    >>> from skfem_mpm.errors import NewtonDivergenceError
+    >>> import numpy as np
+    >>> from skfem_mpm import NewtonDivergenceError, strength_reduction
     >>> def run(factor):
     ...     if 1.37 < factor <= 1.5 or factor > 2:
     ...         raise NewtonDivergenceError("no equilibrium")

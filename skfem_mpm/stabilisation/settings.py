@@ -86,6 +86,7 @@ class Stabilisation:
         moved a falling block's points apart); ``ghost="auto"`` then
         holds none in reserve.
 
+    >>> from skfem_mpm import Stabilisation
     >>> Stabilisation(ghost=.1).antilocking
     False
     >>> Stabilisation(ghost=-1)

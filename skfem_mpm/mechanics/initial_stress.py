@@ -1,0 +1,167 @@
+"""Initial stress: the elastic state that holds a given stress.
+
+A run reads a point's stress from its elastic state where the stress is
+not the state itself: a plastic material in small strain from the elastic
+strain ``strain``, every material in finite deformation from the elastic
+left Cauchy-Green tensor ``be``.  A stress set by hand (carried over from
+another code, or from finite elements, :func:`~skfem_mpm.solve_fe`)
+needs that state too: :func:`initial_stress` gives it, through the
+material's inverse elastic law, and refuses a stress the material's yield
+surface does not hold.  :func:`~skfem_mpm.simulate` calls it on points
+whose stress was set alone (their ``strain`` zero and ``be`` the
+identity), so such a stress is never dropped.
+"""
+import logging
+from typing import Optional
+
+import numpy as np
+from numpy import ndarray
+
+from ..errors import InvalidInputError
+from ..quadrature.points import MaterialPoints
+from .materials import (PointMaterials, at_points, initial_state,
+                        inverse_elastic_law, is_plastic)
+
+__all__ = ["initial_stress"]
+
+logger = logging.getLogger(__name__)
+
+
+def initial_stress(points: MaterialPoints, material,
+                   stress: Optional[ndarray] = None) -> MaterialPoints:
+    """The points with the Cauchy stress ``stress`` (3, 3, n; default
+    their own ``stress``) and the elastic state that holds it: the elastic
+    strain ``strain`` and ``be`` of the material's inverse elastic law
+    (the Kirchhoff stress ``det(F) stress`` in finite deformation).
+
+    Parameters
+    ----------
+    points
+        The material points (copied, not modified); their internal
+        variables (``state``, the material's initial values where absent)
+        place the yield surface.
+    material
+        The material, or one per body (the points' ``body``).
+    stress
+        Symmetric (3, 3, n) stresses, compression negative; ``None``: the
+        points' own.
+
+    Returns
+    -------
+    MaterialPoints
+        With ``stress``, ``strain`` and ``be``; all else unchanged.
+
+    Raises
+    ------
+    InvalidInputError
+        A stress of the wrong shape, not symmetric or not finite, or one
+        outside the material's yield surface (the message names the count
+        and the first point), or with no elastic state (Cam clay at a mean
+        pressure that is not compressive).
+
+    Examples
+    --------
+    A stress from elsewhere on a Mohr-Coulomb soil, which reads its
+    stress from the elastic strain:
+
+    >>> import numpy as np
+    >>> from skfem import MeshQuad
+    >>> from skfem_mpm import MohrCoulomb, initial_stress, seed_points
+    >>> pts = seed_points(MeshQuad(), 1)
+    >>> soil = MohrCoulomb(1e4, .25, cohesion=5., friction_angle=30.)
+    >>> given = np.diag([-50., -100., -50.])[:, :, None]
+    >>> pts = initial_stress(pts, soil, given)
+    >>> np.round(pts.strain[1, 1] * 1e4, 6).tolist()
+    [-75.0]
+
+    """
+    n = points.n
+    sigma = np.array(points.stress if stress is None else stress,
+                     dtype=np.float64)
+    if sigma.shape != (3, 3, n) or not np.isfinite(sigma).all():
+        raise InvalidInputError(
+            "initial_stress: stress must be (3, 3, {}) finite numbers, got "
+            "{}".format(n, sigma.shape))
+    scale = np.abs(sigma).max(initial=0.)
+    if np.abs(sigma - sigma.transpose(1, 0, 2)).max(initial=0.) > \
+            1e-12 * scale:
+        raise InvalidInputError("initial_stress: the stress must be "
+                                "symmetric (sigma_ij = sigma_ji)")
+    out = points.copy()
+    strain, be = elastic_state(at_points(material, points), sigma, out,
+                               np.arange(n), "initial_stress")
+    out.stress, out.strain, out.be = sigma, strain, be
+    return out
+
+
+def elastic_state(materials, sigma: ndarray, points: MaterialPoints,
+                  idx: ndarray, who: str, advice: str = "") -> tuple:
+    """``(strain, be)`` (3, 3, m) of the Cauchy stresses ``sigma`` (3, 3,
+    m) of the points ``idx`` (their ``F`` and ``state``) by the inverse
+    elastic law of ``materials`` (at those points); a stress outside the
+    yield surface is refused, the error starting with ``who`` and ending
+    with ``advice`` (what may fit)."""
+    n = idx.size
+    J = np.linalg.det(points.F[:, :, idx].transpose(2, 0, 1))
+    tau = sigma * J
+    if not np.any(tau - np.einsum("aap->ap", tau)[:, None, :]
+                  * np.eye(3)[:, :, None]):
+        values = np.einsum("aap->ap", tau)        # on the axes: exact
+        vectors = np.repeat(np.eye(3)[:, :, None], n, axis=2)
+    else:
+        values, vectors = np.linalg.eigh(tau.transpose(2, 0, 1))
+        values, vectors = values.T, vectors.transpose(1, 2, 0)
+    principal = inverse_elastic_law(materials, values)
+    if is_plastic(materials):
+        state = initial_state(materials, n)
+        state.update({k: v[idx] for k, v in (points.state or {}).items()})
+        yielded = materials.principal_update(principal, state)[3]
+        if yielded.any():
+            k = int(np.flatnonzero(yielded)[0])
+            i = int(idx[k])
+            model = materials.materials[points.body[i]] if isinstance(
+                materials, PointMaterials) else materials
+            raise InvalidInputError(
+                "{}: the stress lies outside the yield surface at {} "
+                "point(s), first {} (body {}) at {} (principal stresses "
+                "{}): the material cannot hold it elastically; {}{}".format(
+                    who, int(yielded.sum()), i, int(points.body[i]),
+                    points.x[:, i].tolist(),
+                    np.round(values[:, k] / J[k], 6).tolist(),
+                    advice + " or " if advice else "",
+                    "a larger preconsolidation_pressure (or each point's "
+                    "plastic_volumetric_strain)" if hasattr(
+                        model, "preconsolidation") else
+                    "a stronger material"))
+    strain = np.einsum("ap,bap,cap->bcp", principal, vectors, vectors)
+    be = np.einsum("ap,bap,cap->bcp", np.exp(2 * principal), vectors,
+                   vectors)
+    return strain, be
+
+
+def derive_elastic_state(points: MaterialPoints, material) -> None:
+    """Give the points whose stress was set alone (a stress, the elastic
+    strain zero and ``be`` the identity) the elastic state that holds it
+    (:func:`elastic_state`), in place, saying so at INFO: a run reads a
+    plastic material's stress in small strain and every material's in
+    finite deformation from that state, and dropped a stress set by hand
+    without a word (user trials: a Mohr-Coulomb soil's -200 became 0,
+    Cam clay's went back to its reference pressure, and finite
+    deformation unloaded a column carried over from finite elements)."""
+    alone = np.any(points.stress.reshape(9, -1), axis=0) & ~np.any(
+        points.strain.reshape(9, -1), axis=0) & ~np.any(
+        (points.be - np.eye(3)[:, :, None]).reshape(9, -1), axis=0)
+    if not alone.any():
+        return
+    idx = np.flatnonzero(alone)
+    materials = at_points(material, points)
+    if isinstance(materials, PointMaterials):   # these points' materials
+        materials = materials.take(idx)
+    strain, be = elastic_state(materials, points.stress[:, :, idx], points,
+                               idx, "the points' stress (set without its "
+                               "elastic strain)")
+    points.strain[:, :, idx], points.be[:, :, idx] = strain, be
+    logger.info("%d of %d points have a stress set without its elastic "
+                "strain: their strain and be are the stress's by the "
+                "material's inverse elastic law (initial_stress)",
+                idx.size, points.n)

@@ -1,0 +1,53 @@
+"""Every public docstring example runs as a user copies it: in a clean
+namespace, with nothing but its own imports (trial 85: 35 of 149 examples
+of the package's public names failed so, nearly all a NameError for the
+name documented or for ``np``, while ``pytest --doctest-modules`` passed
+them with the module's own names at hand)."""
+import doctest
+
+import pytest
+
+import skfem_mpm
+
+# the examples in modules edited on other branches at the time of this
+# test (trial 85); they need their own imports too, and are expected to
+# fail until they have them
+NOT_YET = {
+    "geostatic_stress": "mechanics/geostatic.py: geostatic_stress",
+    "NewtonOptions": "solve/newton.py: NewtonOptions",
+    "Pressure": "solve/loads.py: Pressure",
+    "ModifiedCamClay": "mechanics/cam_clay.py: ModifiedCamClay and "
+                       "ModifiedCamClay.from_void_ratio",
+}
+
+
+def doctests(name):
+    """The docstring tests of a public name and of its methods, each to
+    run in an empty namespace."""
+    finder = doctest.DocTestFinder(recurse=True, exclude_empty=True)
+    return [test for test in finder.find(getattr(skfem_mpm, name), name,
+                                         globs={})
+            if test.examples]
+
+
+DOCUMENTED = [name for name in skfem_mpm.__all__ if doctests(name)]
+
+
+def test_some_public_names_have_examples():
+    assert len(DOCUMENTED) >= 20, DOCUMENTED
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param(name, marks=pytest.mark.xfail(
+        reason=f"edited elsewhere: {NOT_YET[name]}", strict=False))
+    if name in NOT_YET else name
+    for name in DOCUMENTED])
+def test_example_runs_in_a_clean_namespace(name):
+    runner = doctest.DocTestRunner(
+        optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    report = []
+    for test in doctests(name):
+        assert set(test.globs) <= {"__name__"}
+        runner.run(test, out=report.append, clear_globs=True)
+    result = runner.summarize(verbose=False)
+    assert result.failed == 0, "".join(report)
