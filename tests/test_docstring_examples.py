@@ -9,18 +9,6 @@ import pytest
 
 import skfem_mpm
 
-# the examples in modules edited on other branches at the time of this
-# test (trial 85); they need their own imports too, and are expected to
-# fail until they have them
-NOT_YET = {
-    "geostatic_stress": "mechanics/geostatic.py: geostatic_stress",
-    "NewtonOptions": "solve/newton.py: NewtonOptions",
-    "Pressure": "solve/loads.py: Pressure",
-    "ModifiedCamClay": "mechanics/cam_clay.py: ModifiedCamClay and "
-                       "ModifiedCamClay.from_void_ratio",
-}
-
-
 def doctests(name):
     """The docstring tests of a public name and of its methods, each to
     run in an empty namespace."""
@@ -37,11 +25,7 @@ def test_some_public_names_have_examples():
     assert len(DOCUMENTED) >= 20, DOCUMENTED
 
 
-@pytest.mark.parametrize("name", [
-    pytest.param(name, marks=pytest.mark.xfail(
-        reason=f"edited elsewhere: {NOT_YET[name]}", strict=False))
-    if name in NOT_YET else name
-    for name in DOCUMENTED])
+@pytest.mark.parametrize("name", DOCUMENTED)
 def test_example_runs_in_a_clean_namespace(name):
     runner = doctest.DocTestRunner(
         optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)

@@ -135,6 +135,7 @@ class ModifiedCamClay:
     normal compression line: the volume shrinks by ``lambda_ ln(p / p_c0)``.
 
     >>> import numpy as np
+    >>> from skfem_mpm import ModifiedCamClay
     >>> clay = ModifiedCamClay(kappa=.01, lambda_=.1, M=1., shear_modulus=1e3,
     ...                        reference_pressure=100.,
     ...                        preconsolidation_pressure=100.)
@@ -221,6 +222,7 @@ class ModifiedCamClay:
 
         Examples
         --------
+        >>> from skfem_mpm import ModifiedCamClay
         >>> clay = ModifiedCamClay.from_void_ratio(
         ...     lambda_e=.25, kappa_e=.05, e0=1.5, M=1.2,
         ...     reference_pressure=100., preconsolidation_pressure=150.,

@@ -98,7 +98,7 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
     --------
     >>> import numpy as np
     >>> from skfem import MeshQuad
-    >>> from skfem_mpm import LinearElastic, seed_points
+    >>> from skfem_mpm import LinearElastic, geostatic_stress, seed_points
     >>> mesh = MeshQuad.init_tensor(np.linspace(0, 1, 2), np.linspace(0, 2, 3))
     >>> pts = geostatic_stress(seed_points(mesh, 1), LinearElastic(1e4, .25),
     ...                        [0., -20.], surface=2., K0=1 / 3)

@@ -254,6 +254,7 @@ class Pressure:
     test's cell); in dynamics as a :class:`Traction`'s.
 
     >>> import numpy as np
+    >>> from skfem_mpm import Pressure
     >>> Pressure(np.arange(4), "right", 100., ramp=False).ramp
     False
     """

@@ -546,6 +546,7 @@ class NewtonOptions:
         without it.  Without it a run says once (at INFO) where a
         cut-back's increment went on easily.
 
+    >>> from skfem_mpm import NewtonOptions
     >>> NewtonOptions(tol=1e-10).max_iter
     25
     >>> NewtonOptions(newton="quasi")
