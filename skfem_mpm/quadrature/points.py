@@ -385,7 +385,9 @@ def warn_region_volume(region: Callable, x: ndarray, half: ndarray,
     sub-cells' faces, so a region whose side cuts sub-cells gains or
     loses up to half a sub-cell there (a user's column meant 2 high came
     out 2.0625 high, its top settlement 5.9% off the intended column's).
-    The region's volume is estimated on the sub-cells its side may cut:
+    The region's volume is its own where it knows it (a polygon's or a
+    ball's ``volume`` within the grid, :func:`exact_volume`), else
+    estimated on the sub-cells its side may cut:
     the points with a neighbour along an axis outside the region, and
     their neighbours (along the axes and diagonals, inside the grid's
     box) outside it, each sampled at :data:`SIDE_SAMPLES` places per
@@ -425,16 +427,34 @@ def warn_region_volume(region: Callable, x: ndarray, half: ndarray,
     lost = share @ (1. - region_share(region, at, size))
     gained = near_share[chosen] @ region_share(
         region, near[:, chosen], near_size[:, chosen])
-    change = gained - lost
+    change, about = gained - lost, " about"
+    exact = exact_volume(region, box)
+    if exact is not None:         # a polygon's or a ball's, in the grid
+        change, about = exact - total, ""
     if abs(change) > REGION_VOLUME_WARNING * total:
         logger.warning(
             "seeding: the points hold a volume of %.6g, %+.1f%% against "
-            "the region's about %.6g: a body's side lies at its outermost "
+            "the region's%s %.6g: a body's side lies at its outermost "
             "sub-cells' faces, and the region's sides cut the sub-cells; "
             "put the region's sides on the sub-cells' faces (multiples of "
             "the cell size over the points per cell) or seed more points "
             "per cell",
-            total, -100 * change / (total + change), total + change)
+            total, -100 * change / (total + change), about,
+            total + change)
+
+
+def exact_volume(region, box: ndarray):
+    """The volume of ``region`` where it knows it (a polygon's shoelace
+    area, a ball's: their ``volume``) and lies within the grid's ``box``
+    (dim, 2), else ``None`` (a polygon (0,2),(10,2),(6,6),(0,6) of area 32
+    was warned as "about 31.9375", its sides sampled)."""
+    volume, bounds = getattr(region, "volume", None), getattr(
+        region, "bounds", None)
+    if not isinstance(volume, float) or bounds is None:
+        return None
+    lo, hi = np.asarray(bounds(), dtype=np.float64).T
+    inside = np.all(lo >= box[:, 0]) and np.all(hi <= box[:, 1])
+    return volume if inside else None
 
 
 def region_share(region: Callable, centre: ndarray, size: ndarray):
