@@ -674,12 +674,16 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
     obstacles where they are at ``load_factor`` (the run's load factor
     in that state; with dynamics the fraction of the duration), to
     ``path``; in 3D a vertical slice through the obstacles
-    (:func:`~skfem_mpm.scenes.plot.slice_plane`), their sections drawn."""
+    (:func:`~skfem_mpm.scenes.plot.slice_plane`), their sections drawn;
+    small displacements exaggerated, the title saying by how much
+    (:func:`~skfem_mpm.scenes.plot.displacement_scale`)."""
     mesh, elem = scene.grid.build()
-    shift = load_scale(scene, [load_factor])[0]
+    # small displacements exaggerated, the obstacles' motion with them
+    scale = plot.displacement_scale(pts.x0, pts.displacement)
+    shift = scale * load_scale(scene, [load_factor])[0]
     rigid = {b.name: pts.body == k for k, b in enumerate(scene.bodies)
              if b.rigid is not None}
-    deformed = pts.x0 + pts.displacement
+    deformed = pts.x0 + scale * pts.displacement
     plane, moved = None, [(o.name, o.box + shift * o.displacement[:, None]
                            if o.box is not None else None, o.displacement)
                           for o in obstacle_list(scene)]
@@ -698,11 +702,11 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
         np.hstack([pts.x0, deformed])[[0, 1] if plane is None else list(axes)])
     fig, ax = pyplot().subplots(figsize=(width, height + 1.1))
     draw_deformed_shape(
-        fig, ax, pts, "{}: deformed shape {}\n(true scale, the undeformed "
-        "body dashed)".format(scene.name, when),
+        fig, ax, pts, "{}: deformed shape {}\n({}, the undeformed "
+        "body dashed)".format(scene.name, when, plot.scale_note(scale)),
         supports=support_marks(scene, mesh, elem), rigid=rigid,
         obstacles=obstacles, half=half, plane=plane,
-        cell=float(np.ptp(mesh.p[:, mesh.t], axis=1).max()))
+        cell=float(np.ptp(mesh.p[:, mesh.t], axis=1).max()), scale=scale)
     fig.tight_layout()
     plot.save_figure(fig, path)
 
@@ -736,11 +740,12 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
                         label="{}, magnitude{}".format(name, "".join(
                             " (= {})".format("xyz"[k])
                             for k in np.flatnonzero(same))))
-        mark_peak(ax, line, x, magnitude)
+        mark_peak(ax, line, x, magnitude, "magnitude")
         for k, style in zip(range(force.shape[1]), ("--", ":", "-.")):
-            if not same[k]:
+            if not same[k]:      # its final value as the terminal says it
                 ax.plot(x, force[:, k], style, color=line.get_color(),
-                        label="{}, {}".format(name, "xyz"[k]))
+                        label="{}, {}: final {}".format(
+                            name, "xyz"[k], plot.significant(force[-1, k])))
     ax.axhline(0., color="k", lw=.5)
     ax.set_xlabel("obstacle displacement along its motion ({})".format(
         unit("length", scene.units)) if moving else "time ({})".format(

@@ -9,7 +9,7 @@ figure written, as it is drawn to be saved).
 import numpy as np
 
 __all__ = ["settle_layout", "layout_problems", "thin_ticks",
-           "raise_titles", "overlapping"]
+           "raise_titles", "overlapping", "panel_problems"]
 
 
 def overlapping(boxes) -> bool:
@@ -144,11 +144,52 @@ def settle_layout(fig):
         box = fig.get_tightbbox(renderer)
 
 
+def panel_problems(fig, renderer) -> list:
+    """Colour bars longer than the axes they belong to (trial 87: beside
+    a low slope drawn at equal aspect, twice its height), and pictures
+    at equal aspect side by side in a row of subplots with different
+    heights (trial 87: ``compare``'s panel with the colour bar was drawn
+    smaller than the other, its title lower), by more than 2 pixels and
+    2%; as laid out by a draw with ``renderer``."""
+    problems, index = [], {ax: k for k, ax in enumerate(fig.axes)}
+    for ax in fig.axes:
+        for mappable in ax.collections + ax.images:
+            bar = getattr(mappable, "colorbar", None)
+            if bar is None or bar.ax not in index:
+                continue
+            along = 3 if bar.orientation == "vertical" else 2
+            own, its = (np.array(a.get_window_extent(renderer).bounds)
+                        [along] for a in (bar.ax, ax))
+            if own > 1.02 * its + 2.:
+                problems.append("axes {}: colour bar {:.0f} pixels long "
+                                "beside axes {} of {:.0f}".format(
+                                    index[bar.ax], own, index[ax], its))
+    rows = {}
+    for ax in fig.axes:
+        spec = ax.get_subplotspec() if hasattr(ax, "get_subplotspec") \
+            else None
+        if spec is not None and ax.get_aspect() == 1. and \
+                ax.get_visible() and ax.axison:
+            rows.setdefault((id(spec.get_gridspec()), spec.rowspan.start,
+                             spec.rowspan.stop), []).append(ax)
+    for row in rows.values():
+        boxes = [ax.get_window_extent(renderer) for ax in row]
+        heights = [b.height for b in boxes]
+        if max(heights) - min(heights) > max(2., .02 * max(heights)):
+            problems.append("axes {}: panels of one row {} pixels high"
+                            .format(", ".join(str(index[ax]) for ax in row),
+                                    " and ".join("{:.0f}".format(h)
+                                                 for h in heights)))
+    return problems
+
+
 def layout_problems(fig, renderer=None) -> list:
     """Text of ``fig`` that cannot be read: titles, axis and tick labels,
     colour bars' offsets and legends that leave the figure, tick labels
-    of one axis that overlap, and titles overlapping other text (a colour
-    bar's "1e-5" over a tall bar's title).  Empty when all is well.
+    of one axis that overlap, titles overlapping other text (a colour
+    bar's "1e-5" over a tall bar's title), and colour bars longer than
+    their axes and panels of a row of different heights
+    (:func:`panel_problems`).  Empty when all is well.
 
     ``renderer``: that of a draw of ``fig`` just made (a ``draw_event``'s,
     e.g. while the figure is saved: the text as saved, at the saving
@@ -206,6 +247,7 @@ def layout_problems(fig, renderer=None) -> list:
                    for b in boxes):
                 problems.append("axes {}: {} tick labels leave the figure"
                                 .format(k, name))
+    problems += panel_problems(fig, renderer)
     others = [(k, extent(t)) for k, ax in enumerate(fig.axes)
               for t in (ax.xaxis.offsetText, ax.yaxis.offsetText,
                         ax.xaxis.label, ax.yaxis.label)]

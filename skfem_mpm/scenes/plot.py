@@ -30,7 +30,8 @@ __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "view_limits", "fit_title",
            "significant", "layout_problems", "thin_ticks",
            "settle_layout", "slice_plane",
-           "box_section"]
+           "box_section", "displacement_scale", "scale_note",
+           "obstacle_view"]
 
 #: the stress components' names for labels
 STRESS_NAMES = {(i, j): "sigma_" + "xyz"[i] + "xyz"[j]
@@ -204,7 +205,12 @@ def draw_points(fig, ax, points, values: np.ndarray, label: str, title: str,
     """The points in their current position coloured by ``values`` (n,),
     labelled ``label`` (with its unit); in 1D the values against x.
     ``scale`` (:func:`colour_scale`) defaults to the values' own; the
-    colour bar, if drawn, is as high as the axes."""
+    colour bar, if drawn, is as high as the axes; without it
+    (``colorbar=False``, a panel beside one with it) its room is kept
+    empty, so that panels side by side keep one size and their titles one
+    height.  Each panel reads alone: its tick labels are shown with its
+    axis labels, also on axes that share them (trial 87: the right panel
+    of ``compare`` kept "y (m)" without its numbers)."""
     x = points.x
     if x.shape[0] == 1:
         order = np.argsort(x[0])
@@ -224,9 +230,14 @@ def draw_points(fig, ax, points, values: np.ndarray, label: str, title: str,
     ax.set_xlabel("{} ({})".format("xyz"[a], LENGTH))
     ax.set_ylabel("{} ({})".format("xyz"[b], LENGTH))
     ax.locator_params(nbins=5)
+    ax.tick_params(labelleft=True, labelbottom=True)
     fit_title(fig, ax, title + (", " + note if note else ""))
     if colorbar:
         side_colorbar(fig, ax, sc, label)
+    else:                    # the bar's room, empty (:func:`side_colorbar`)
+        from mpl_toolkits.axes_grid1 import make_axes_locatable
+        make_axes_locatable(ax).append_axes("right", size="5%",
+                                            pad=.08).set_axis_off()
     return sc
 
 
@@ -263,15 +274,26 @@ def side_colorbar(fig, ax, mappable, label: str, size: str = "5%"):
 
 def marker_size(fig, ax, x: np.ndarray, volume: np.ndarray,
                 dim: int) -> float:
-    """A scatter marker size (points^2) whose diameter is about 0.8 of
-    the spacing ``median(volume) ** (1 / dim)`` of points shown at ``x``
-    (2, n) in ``ax``, within 0.3 to 30."""
+    """A scatter marker size (points^2) for points at ``x`` (2, n) drawn
+    at equal aspect in ``ax`` (their box and a margin of a tenth of its
+    longer side each way): spaced ``median(volume) ** (1 / dim)``, their
+    diameter is about 0.8 of the spacing where that is at least
+    :data:`DOT_SPACING` points, within 0.3 to 30; closer, 1.3 of it, so
+    that neighbours overlap (trial 87: 96 x 48 points drawn 2.3 points
+    apart left white lines a pixel wide between the rows, a moire)."""
     box = ax.get_position()
-    width = 72. * min(box.width * fig.get_figwidth(),
-                      box.height * fig.get_figheight())
-    extent = max(np.ptp(x[0]), np.ptp(x[1]), 1e-300)
-    spacing = np.median(volume) ** (1. / dim)
-    return float(np.clip((.8 * width * spacing / extent) ** 2, .3, 30.))
+    extent = np.maximum(np.ptp(x, axis=1), 1e-300)
+    shown = extent + .2 * extent.max()
+    scale = 72. * min(box.width * fig.get_figwidth() / shown[0],
+                      box.height * fig.get_figheight() / shown[1])
+    spacing = scale * np.median(volume) ** (1. / dim)        # points
+    if spacing < DOT_SPACING:
+        return float(max((1.3 * spacing) ** 2, .3))
+    return float(np.clip((.8 * spacing) ** 2, .3, 30.))
+
+
+#: the spacing (points) below which :func:`marker_size`'s markers overlap
+DOT_SPACING = 4.
 
 
 def figure_problems(fig) -> list:
@@ -325,22 +347,39 @@ def draw_plastic_zone(fig, ax, points, title: str, rigid=None,
                     vmax=np.percentile(plastic[soil], 98))
     if rigid is not None:
         ax.scatter(points.x[0, rigid], points.x[1, rigid], c="k", s=size)
-    fig.colorbar(sc, ax=ax, label="equivalent plastic strain (-), top 2% "
-                 "clipped")
     ax.set_aspect("equal")
     ax.set_xlabel("x ({})".format(LENGTH))
     ax.set_ylabel("y ({})".format(LENGTH))
     ax.set_title(title)
+    # beside the axes and as high (trial 87: ``fig.colorbar(ax=ax)`` kept
+    # the axes' box, and beside a low slope drawn at equal aspect the
+    # bar was twice the plot's height)
+    side_colorbar(fig, ax, sc, "equivalent plastic strain (-),\n"
+                  "top 2% clipped")
 
 
-def mark_peak(ax, line, x: np.ndarray, y: np.ndarray):
+def mark_peak(ax, line, x: np.ndarray, y: np.ndarray, what: str = ""):
     """The largest ``y`` of a curve ``line`` marked, its value and the
-    final one in the legend."""
+    final one in the legend, after ``what`` the curve shows where given
+    (trial 87: "peak 180.5, final 180.5" beside a footing's force, whose
+    y component the terminal said was 179.369, was its magnitude).
+
+    >>> import numpy as np
+    >>> from skfem_mpm.scenes.plot import mark_peak, pyplot
+    >>> fig, ax = pyplot().subplots()
+    >>> line, = ax.plot([0., 1., 2.], [0., 3., 2.])
+    >>> mark_peak(ax, line, np.array([0., 1., 2.]),
+    ...           np.array([0., 3., 2.]), "magnitude")
+    >>> ax.get_lines()[-1].get_label()
+    'magnitude: peak 3.000, final 2.000'
+    >>> pyplot().close(fig)
+    """
     if len(y) > 1:
         peak = int(np.argmax(y))
         ax.plot(x[peak], y[peak], "^", ms=7, color=line.get_color(),
-                label="peak {}, final {}".format(
-                    significant(y[peak]), significant(y[-1])))
+                label="{}peak {}, final {}".format(
+                    what + ": " if what else "", significant(y[peak]),
+                    significant(y[-1])))
 
 
 def significant(value: float, digits: int = 4) -> str:
@@ -467,10 +506,57 @@ def view_limits(x: np.ndarray, margin: float = .1):
     return lo - pad, hi + pad
 
 
+#: a largest displacement below this share of the body's longer side is
+#: drawn exaggerated (:func:`displacement_scale`), to about
+#: :data:`EXAGGERATED_SHARE` of it
+VISIBLE_SHARE, EXAGGERATED_SHARE = .01, .05
+
+
+def displacement_scale(x0: np.ndarray, displacement: np.ndarray) -> float:
+    """The factor a deformed shape multiplies the ``displacement`` (dim,
+    n) of points at ``x0`` by: 1 (true scale) where the largest is at
+    least :data:`VISIBLE_SHARE` of the body's longer side, else the
+    largest of 1, 2, 5 times a power of ten that draws it at most
+    :data:`EXAGGERATED_SHARE` of that side (trial 87: a slope's 1 cm on
+    a section 16 m wide was invisible at true scale).
+
+    >>> import numpy as np
+    >>> from skfem_mpm.scenes.plot import displacement_scale
+    >>> x0 = np.array([[0., 16.], [0., 6.]])
+    >>> displacement_scale(x0, np.array([[0., 0.], [0., -.0107]]))
+    50.0
+    >>> displacement_scale(x0, np.array([[0., .2], [0., 0.]]))
+    1.0
+    """
+    size = float(np.ptp(x0, axis=1).max()) if x0.shape[1] > 1 else 0.
+    largest = float(np.sqrt((displacement ** 2).sum(axis=0)).max(
+        initial=0.))
+    if not largest > 0. or not size > 0. or \
+            largest >= VISIBLE_SHARE * size:
+        return 1.
+    wanted = EXAGGERATED_SHARE * size / largest
+    power = 10. ** np.floor(np.log10(wanted))
+    return float(max(m for m in (1., 2., 5., 10.) if m * power <= wanted
+                     * (1 + 1e-12)) * power)
+
+
+def scale_note(scale: float) -> str:
+    """How a deformed shape drawn at ``scale`` (:func:`displacement_scale`)
+    is drawn, for its title: ``"true scale"`` or ``"displacements x
+    50"``."""
+    return "true scale" if scale == 1. else \
+        "displacements x {:g}".format(scale)
+
+
+#: an obstacle reaching out of a deformed shape's view by at most this
+#: share of the view's longer side widens it (:func:`draw_deformed_shape`)
+OBSTACLE_REACH = .25
+
+
 def draw_deformed_shape(fig, ax, points, title: str, supports=(),
                         rigid=None, obstacles=(), half=None,
                         coloured: bool = True, plane=None,
-                        cell: float = None):
+                        cell: float = None, scale: float = 1.):
     """The deformed shape: the points at ``x0 + displacement`` coloured
     by their displacement magnitude (m; a labelled colour bar) or plain
     (``coloured=False``), the undeformed body as a faint outline, the
@@ -478,10 +564,14 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     black with their outline, and obstacles as hatched polygons, each
     labelled in a legend below the axes.  The view (2D, 3D) is the
     material, deformed and undeformed, and the supports drawn, with a
-    margin of a tenth of its size (:func:`view_limits`): obstacles are cut
-    at its edge (a floor 3 m wide under a block of 0.5 m made the block
-    a tenth of the picture), and the undeformed outline is drawn over
-    the points (their markers hid it).
+    margin of a tenth of its size (:func:`view_limits`), widened to hold
+    the obstacles that reach out of it by at most
+    :data:`OBSTACLE_REACH` of its size (trial 87: a footing's box was cut
+    at the top); larger ones are cut at its edge (a floor 3 m wide under
+    a block of 0.5 m made the block a tenth of the picture), and the
+    undeformed outline is drawn over the points (their markers hid it).
+    The displacements are drawn times ``scale`` (:func:`displacement_scale`
+    chooses it; the title says it, :func:`scale_note`).
 
     Parameters
     ----------
@@ -501,8 +591,9 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     obstacles
         ``[(name, polygon)]``: rigid obstacles' outlines, polygons (k, 2)
         in the picture's two coordinates (x, y in 2D; in 3D their sections
-        by the slice, :func:`box_section`), m; ``None``: named as not in
-        the slice.
+        by the slice, :func:`box_section`), m, where they are drawn (moved
+        ``scale`` times their motion); ``None``: named as not in the
+        slice.
     half
         The points' initial half-widths (dim, n) for the undeformed
         outline; default their domains, else ``volume0 ** (1/dim) / 2``.
@@ -535,7 +626,7 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     from matplotlib.patches import Patch, Polygon
     dim = points.dim
     x0 = points.x0
-    x = x0 + points.displacement              # FE points stay at x0
+    x = x0 + scale * points.displacement      # FE points stay at x0
     if half is None:
         half = points.domain if points.domain is not None else np.tile(
             .5 * points.volume0 ** (1. / dim), (dim, 1))
@@ -587,6 +678,8 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
         lo, hi = view_limits(np.hstack([
             c[[a, b]][:, shown] + sign * h for c in (x0, x)
             for sign in (-1., 1.)] + [marked]))
+        lo, hi = obstacle_view(lo, hi, [p for _, p in obstacles
+                                        if p is not None])
         ax.set_xlim(lo[0], hi[0])
         ax.set_ylim(lo[1], hi[1])
     for name, polygon in obstacles:
@@ -619,6 +712,36 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
         ax.legend(handles=handles, loc="upper center", fontsize=7,
                   bbox_to_anchor=(.5, -.2), ncol=1, frameon=False)
     return sc
+
+
+def obstacle_view(lo: np.ndarray, hi: np.ndarray, polygons) -> tuple:
+    """The view ``lo``, ``hi`` ((2,) each, m) widened on each side to
+    hold the ``polygons`` ((k, 2) each, m) that overlap it and reach out
+    of it there by at most :data:`OBSTACLE_REACH` of its longer side,
+    with a margin of a fiftieth of it.
+
+    >>> import numpy as np
+    >>> from skfem_mpm.scenes.plot import obstacle_view
+    >>> box = np.array([[-.5, 1.45], [.5, 1.45], [.5, 1.95], [-.5, 1.95]])
+    >>> lo, hi = obstacle_view(np.array([-.3, -.3]), np.array([3.3, 1.8]),
+    ...                        [box])
+    >>> lo.tolist(), [round(v, 4) for v in hi]
+    ([-0.3, -0.3], [3.3, 2.022])
+    """
+    lo, hi = np.array(lo, float), np.array(hi, float)
+    size = float((hi - lo).max())
+    reach, margin = OBSTACLE_REACH * size, .02 * size
+    for polygon in polygons:
+        p = np.asarray(polygon, float)
+        first, last = p.min(axis=0), p.max(axis=0)
+        if np.any(first > hi) or np.any(last < lo):
+            continue                               # outside the view
+        for d in range(2):
+            if hi[d] < last[d] <= hi[d] + reach:
+                hi[d] = last[d] + margin
+            if lo[d] - reach <= first[d] < lo[d]:
+                lo[d] = first[d] - margin
+    return lo, hi
 
 
 def material_nodes(support: SupportMarks, x: np.ndarray, cell: float
