@@ -706,7 +706,8 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
         "body dashed)".format(scene.name, when, plot.scale_note(scale)),
         supports=support_marks(scene, mesh, elem), rigid=rigid,
         obstacles=obstacles, half=half, plane=plane,
-        cell=float(np.ptp(mesh.p[:, mesh.t], axis=1).max()), scale=scale)
+        cell=float(np.ptp(mesh.p[:, mesh.t], axis=1).max()), scale=scale,
+        loads=plot.scene_load_marks(scene, pts, scale))
     fig.tight_layout()
     plot.save_figure(fig, path)
 

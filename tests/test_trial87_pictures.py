@@ -213,3 +213,50 @@ def test_the_peak_marked_is_the_magnitude_and_the_components_say_theirs(
         labels
     assert "footing, x: final {}".format(plot.significant(19.99)) in labels
     plot.pyplot().close(kept["fig"])
+
+
+def test_tractions_and_point_loads_are_drawn_as_arrows(tmp_path, figures):
+    """Trial 87: the deformed shape drew no load.  A traction on a block's
+    left side and a point load on its top right: arrows onto the loaded
+    points, each named in the legend with its value and unit."""
+    scene = tmp_path / "block.toml"
+    scene.write_text("""
+name = "pushed"
+units = "kN-m"
+[grid]
+x = [0.0, 2.0, 8]
+y = [0.0, 1.0, 4]
+[[bodies]]
+name = "block"
+region = { x = [0.5, 1.5], y = [0.0, 0.75] }
+points_per_cell = 2
+material = { model = "linear_elastic", E = 1e4, nu = 0.3 }
+[[tractions]]
+body = "block"
+side = "left"
+traction = [8.0, 0.0]
+[[point_loads]]
+at = [1.4, 0.7]
+force = [0.0, -3.0]
+[[supports]]
+name = "base"
+boundary = "bottom"
+[solver]
+method = "mpm"
+steps = 1
+""")
+    assert main(["run", str(scene), "--out", str(tmp_path / "o"),
+                 "--no-progress", "--no-series"]) == 0
+    fig = figures["deformed_shape.png"]
+    ax = fig.axes[0]
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert "traction (8, 0) kPa on block (left)" in labels
+    assert "point loads, (0, -3) in all (kN/m)" in labels
+    from matplotlib.quiver import Quiver
+    arrows = [c for c in ax.collections if isinstance(c, Quiver)]
+    assert len(arrows) == 2
+    left, load = arrows
+    # the left side's layer: 0.75 high at 8 points per metre, pushed +x
+    assert left.N == round(.75 * 8) and np.all(left.U > 0)
+    assert np.all(left.V == 0)
+    assert load.N == 1 and load.U[0] == 0 and load.V[0] < 0

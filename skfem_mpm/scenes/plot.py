@@ -31,7 +31,7 @@ __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "significant", "layout_problems", "thin_ticks",
            "settle_layout", "slice_plane",
            "box_section", "displacement_scale", "scale_note",
-           "obstacle_view"]
+           "obstacle_view", "LoadMarks", "scene_load_marks", "draw_loads"]
 
 #: the stress components' names for labels
 STRESS_NAMES = {(i, j): "sigma_" + "xyz"[i] + "xyz"[j]
@@ -453,6 +453,87 @@ class SupportMarks(NamedTuple):
     moving: bool = False
 
 
+class LoadMarks(NamedTuple):
+    """Loads as :func:`draw_deformed_shape` draws them: ``label`` for the
+    legend, the places ``at`` (dim, k; m) they act on and the
+    ``direction`` (dim, k) of each: an arrow onto each place."""
+    label: str
+    at: np.ndarray
+    direction: np.ndarray
+
+
+def scene_load_marks(scene, points, scale: float = 1.) -> list:
+    """A scene's tractions and pressures (at the outermost layer of their
+    body's initial points on their side) and point loads (at the points that
+    carry them) as :class:`LoadMarks`, at the points drawn (``x0 +
+    scale * displacement`` of ``points``), labelled with their values at
+    full load in the scene's ``units``."""
+    from ..solve.loads import side_axis, side_points
+    from .units import unit
+    x = points.x0 + scale * points.displacement
+    names = [b.name for b in scene.bodies]
+    marks = []
+    tractions = scene.tractions if points.domain is not None else ()
+    initial = points.copy() if tractions else None
+    if initial is not None:      # the layer the load was put on
+        initial.x = points.x0.copy()
+    for t in tractions:
+        layer = side_points(initial, t.side,
+                            points.body == names.index(t.body))
+        if t.traction is None:
+            axis, sign = side_axis(t.side, points.dim)
+            direction = np.zeros(points.dim)
+            direction[axis] = -sign * float(t.pressure)
+            what = "pressure {:g}".format(float(t.pressure))
+        else:
+            direction = np.asarray(t.traction, float)
+            what = "traction ({})".format(", ".join(
+                "{:g}".format(v) for v in direction))
+        marks.append(LoadMarks("{} {} on {} ({})".format(
+            what, unit("stress", scene.units), t.body, t.side),
+            x[:, layer], np.repeat(direction[:, None], layer.size, axis=1)))
+    force = getattr(points, "force", None)
+    loaded = np.flatnonzero(np.any(force != 0., axis=0)) \
+        if force is not None and scene.point_loads else np.zeros(0, int)
+    if loaded.size:
+        total = force[:, loaded].sum(axis=1)
+        marks.append(LoadMarks("point loads, {} in all ({})".format(
+            "({})".format(", ".join("{:.4g}".format(v) for v in total)),
+            unit("force", scene.units, points.dim)), x[:, loaded],
+            force[:, loaded]))
+    return marks
+
+
+def draw_loads(ax, loads, axes: tuple, length: float, handles: list,
+               most: int = 12) -> np.ndarray:
+    """Arrows of ``length`` (m) pushing onto the places of the ``loads``
+    (:class:`LoadMarks`; 2D), at most ``most`` of each, evenly chosen,
+    one legend handle each appended to ``handles``; returns the arrows'
+    tails (2, k) for the view."""
+    from matplotlib.lines import Line2D
+    a, b = axes
+    tails = [np.empty((2, 0))]
+    for load in loads:
+        at = np.asarray(load.at, float)[[a, b]]
+        direction = np.asarray(load.direction, float)[[a, b]]
+        size = np.linalg.norm(direction, axis=0)
+        keep = np.flatnonzero(size > 0.)
+        if not keep.size:
+            continue
+        order = keep[np.lexsort(at[::-1, keep])]
+        chosen = order[np.unique(np.linspace(0, order.size - 1, min(
+            most, order.size)).round().astype(int))]
+        unit = direction[:, chosen] / size[chosen]
+        tail = at[:, chosen] - length * unit
+        ax.quiver(tail[0], tail[1], length * unit[0], length * unit[1],
+                  angles="xy", scale_units="xy", scale=1., color="C3",
+                  width=.004, zorder=5)
+        tails.append(tail)
+        handles.append(Line2D([], [], ls="", marker=r"$\rightarrow$",
+                              ms=10, color="C3", label=load.label))
+    return np.hstack(tails)
+
+
 #: a support's marker by the components it holds: rollers point along
 #: the held axis, a square holds every component
 SUPPORT_MARKERS = {(0,): ">", (1,): "^", (2,): "d", (0, 2): "p",
@@ -556,7 +637,8 @@ OBSTACLE_REACH = .25
 def draw_deformed_shape(fig, ax, points, title: str, supports=(),
                         rigid=None, obstacles=(), half=None,
                         coloured: bool = True, plane=None,
-                        cell: float = None, scale: float = 1.):
+                        cell: float = None, scale: float = 1.,
+                        loads=()):
     """The deformed shape: the points at ``x0 + displacement`` coloured
     by their displacement magnitude (m; a labelled colour bar) or plain
     (``coloured=False``), the undeformed body as a faint outline, the
@@ -597,6 +679,9 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     half
         The points' initial half-widths (dim, n) for the undeformed
         outline; default their domains, else ``volume0 ** (1/dim) / 2``.
+    loads
+        :class:`LoadMarks` (2D): arrows onto the places they act on
+        (:func:`draw_loads`), named in the legend.
     cell
         The grid's cell width: the supports marked only at the nodes
         that carry material, a deformed point closer than ``cell`` along
@@ -673,6 +758,10 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     marked = draw_supports(ax, supports, (a, b), x[:, shown] if dim > 1
                            else None, marks, dim,
                            np.median(points.volume) ** (1. / dim))
+    if dim == 2 and loads:
+        extent = np.ptp(np.hstack([x0, x]), axis=1).max()
+        marked = np.hstack([marked, draw_loads(ax, loads, (a, b),
+                                               .08 * extent, marks)])
     if dim > 1:          # the material and the supports, not the obstacles
         h = half[[a, b]][:, shown]
         lo, hi = view_limits(np.hstack([
