@@ -1417,8 +1417,11 @@ def test_the_obstacles_picture_draws_the_force_s_components(tmp_path):
         plot_contact_forces(scene, curves, {"wedge": np.array([0., -.1])},
                             "obstacles", tmp_path / "obstacles.png")
     assert np.allclose(drawn["wedge, magnitude"], [0., 5., 10.])
-    assert np.allclose(drawn["wedge, x"], [0., 3., -6.])
-    assert np.allclose(drawn["wedge, y"], [0., 4., 8.])
+    # each component's final value in its label (trial 87)
+    assert np.allclose(drawn["wedge, x: final {}".format(
+        plot.significant(-6.))], [0., 3., -6.])
+    assert np.allclose(drawn["wedge, y: final {}".format(
+        plot.significant(8.))], [0., 4., 8.])
 
 
 def test_an_obstacle_force_is_a_quantity_of_interest(tmp_path):

@@ -1199,6 +1199,9 @@ def test_the_deformed_shape_shows_the_material_not_the_whole_floor(
     assert not plot.figure_problems(kept["fig"])
     u = np.abs(result.points.displacement).max()
     assert 0 < u < 3e-3
+    # drawn exaggerated (trial 87): the view follows the points drawn
+    u *= 1.2 * plot.displacement_scale(result.points.x0,
+                                       result.points.displacement)
     assert np.allclose(ax.get_xlim(), [.25 - .075, .75 + .075], atol=u)
     assert np.allclose(ax.get_ylim(), [-.075, .75 + .075], atol=u)
     floor = ax.patches[0]
