@@ -108,7 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a scene (default: the column)")
     run.add_argument("scene", nargs="?", type=Path,
                      help="scene file (default: the embedded column)")
-    run.add_argument("--out", type=Path, default=Path("skfem-mpm-output"),
+    run.add_argument("--out", type=Path, default=None,
                      help="output folder (default ./skfem-mpm-output)")
     run.add_argument("--checkpoint-every", type=int, default=0, metavar="N",
                      help="save the full state every N steps (0, the "
@@ -117,13 +117,16 @@ def build_parser() -> argparse.ArgumentParser:
                      "run's end where it saved any")
     run.add_argument("--resume", type=Path, metavar="DIR",
                      help="resume the run whose output folder is DIR "
-                     "(a completed run: nothing to do, exit 0)")
+                     "(a completed run: nothing to do, exit 0); it "
+                     "continues that run bit for bit, so a scene file "
+                     "other than the run's, --steps other than its own "
+                     "and --out elsewhere are refused")
     run.add_argument("--max-steps", type=int, metavar="N",
                      help="stop after N >= 1 steps of this invocation "
                           "(resume later with --resume)")
     run.add_argument("--steps", type=int, metavar="N",
                      help="override the scene's number of load steps "
-                     "(N >= 1)")
+                     "(N >= 1; not with --resume)")
     run.add_argument("--no-series", action="store_true",
                      help="write plots and summary only, no VTU series")
     compare = sub.add_parser("compare",
@@ -278,8 +281,13 @@ class Progress:
         progressed = record.load_factor - self.start_factor
         left = "" if progressed <= 0 else " left {}".format(clock(
             elapsed * (1. - record.load_factor) / progressed))
-        words = "step {:4d}/{} [{}{}]{} residual {:.1e} elapsed {}{}".format(
-            record.step, self.total, "#" * done, "." * (30 - done), newton,
+        # past the steps planned (cut-backs), the count is not a share:
+        # a trial read "step   43/40"; the bar is the load factor's
+        count = "{:4d}/{}".format(record.step, self.total) \
+            if record.step <= self.total else "{:4d} ({} planned)".format(
+                record.step, self.total)
+        words = "step {} [{}{}]{} residual {:.1e} elapsed {}{}".format(
+            count, "#" * done, "." * (30 - done), newton,
             record.residual, clock(elapsed), left)
         last = record.load_factor >= 1.
         if self.bar:
@@ -858,6 +866,32 @@ directory)
             from None
 
 
+def refuse_changes(args, source: Path):
+    """Refuse, with ``--resume``, what would make the resumed run another
+    than the one in its folder (a user trial's ``run slope.toml --resume
+    DIR --steps 5`` resumed DIR's footing in its own 20 steps without a
+    word): a scene file whose content is not that of ``source``, the
+    folder's ``scene.toml``, and ``--out`` naming another folder."""
+    if args.scene is not None:
+        try:
+            same = args.scene.read_bytes() == source.read_bytes()
+        except OSError as err:
+            raise InvalidInputError("{}: cannot read it ({})".format(
+                args.scene, err.strerror)) from None
+        if not same:
+            raise InvalidInputError(
+                "{} with --resume {}: it is not the scene the run there "
+                "was started with ({}), and a resume continues that run "
+                "bit for bit; leave the scene file out to resume it, or "
+                "run {} anew with --out".format(
+                    args.scene, args.resume, source, args.scene))
+    if args.out is not None and \
+            args.out.resolve() != args.resume.resolve():
+        raise InvalidInputError(
+            "--out {} with --resume {}: a resumed run writes to its own "
+            "folder; leave --out out".format(args.out, args.resume))
+
+
 def load_run(args):
     """The scene of a run (``--resume``: the checkpoint's), its output
     folder, the checkpoint resumed from (or ``None``), the points to start
@@ -873,10 +907,18 @@ def load_run(args):
                 "writes it once its scene is accepted, so a run refused "
                 "before it started has nothing to resume)".format(
                     outdir, source.name))
+        refuse_changes(args, source)
         scene = load_scene(source)
         kept = (outdir / CHECKPOINT).is_file()
         earlier = load_checkpoint(outdir, scene_digest(source)) if kept \
             else None
+        planned = scene.step_count if earlier is None else earlier.nsteps
+        if args.steps and args.steps != planned:
+            raise InvalidInputError(
+                "--steps {} with --resume {}: the run there was planned in "
+                "{} steps, and a resume continues it bit for bit; leave "
+                "--steps out, or run the scene anew with --out".format(
+                    args.steps, outdir, planned))
         if earlier is not None and earlier.complete:   # a trial's resume
             raise RunComplete(                          # ran them again
                 "{}: the run in {} is complete (its checkpoint holds its "
@@ -905,7 +947,7 @@ def load_run(args):
                         counters=resumed_counters(earlier.counters),
                         end_force=earlier.end_force)
     else:
-        outdir = args.out
+        outdir = Path("skfem-mpm-output") if args.out is None else args.out
         source = args.scene or EMBEDDED
         scene = load_scene(source)
         if args.steps and scene.dynamics is not None:
