@@ -325,6 +325,11 @@ class RunComplete(Exception):
 FIGURES_MISSING = "missing: the run was interrupted while drawing them"
 
 
+#: ``summary.json``'s ``figures`` of an interrupted run whose figures of
+#: the steps done were not drawn (a second interrupt stopped them)
+FIGURES_INTERRUPTED = "missing: a second interrupt stopped their drawing"
+
+
 def completed_before(outdir: Path) -> bool:
     """Whether ``summary.json`` in ``outdir`` says its run completed
     (unreadable or absent: ``False``)."""
@@ -1149,17 +1154,40 @@ def run(args) -> int:
                 except KeyboardInterrupt:   # the previous checkpoint stands
                     cut = " while saving the checkpoint of step {}".format(
                         last.step)
+            partial = interrupted = None
             if prepared:
-                write_summary(outdir / "summary.json", unfinished(
+                partial, interrupted = unfinished(
                     "interrupted", None, checkpoint=kept[0] is not None,
-                    checkpoint_step=kept[0])[1])
-        if kept[0] is None:
-            print("skfem-mpm: interrupted{} before a step converged: nothing "
-                  "to resume".format(cut), file=sys.stderr)
+                    checkpoint_step=kept[0])
+                if history:     # said unless the figures are drawn
+                    interrupted["figures"] = FIGURES_INTERRUPTED
+                write_summary(outdir / "summary.json", interrupted)
+        if history and interrupted is not None:
+            # the figures of the steps done, as --max-steps draws them (a
+            # trial's SIGTERM left none); a second Ctrl-C stops them, and
+            # the summary keeps saying so
+            try:
+                plot_outputs(scene, partial, outdir, loaded, interrupted,
+                             initial)
+                del interrupted["figures"]
+                with interrupts_deferred(reraise=False):
+                    write_summary(outdir / "summary.json", interrupted)
+                drawn = "; figures of steps 1 to {} drawn".format(
+                    history[-1].step)
+            except KeyboardInterrupt:
+                drawn = "; figures not drawn (interrupted again)"
+            except Exception as err:      # the run's end is said anyway
+                drawn = "; figures not drawn ({}: {})".format(
+                    type(err).__name__, err)
         else:
-            print("skfem-mpm: interrupted{}; {}continue with: skfem-mpm run "
-                  "--resume {}".format(
-                      cut, "the checkpoint of step {} stands; ".format(
+            drawn = ""
+        if kept[0] is None:
+            print("skfem-mpm: interrupted{}{} before a step converged: "
+                  "nothing to resume".format(cut, drawn), file=sys.stderr)
+        else:
+            print("skfem-mpm: interrupted{}{}; {}continue with: skfem-mpm "
+                  "run --resume {}".format(
+                      cut, drawn, "the checkpoint of step {} stands; ".format(
                           kept[0]) if cut else "", outdir), file=sys.stderr)
         return 130
     except MPMError as err:
@@ -1241,6 +1269,38 @@ def run(args) -> int:
     return 0
 
 
+#: ``summary.json``'s keys of forces per body, the words of each kind and
+#: the sign of its force (docs/contact.md)
+FORCE_KINDS = (
+    ("rigid_bodies", "rigid body", "the force that holds its motion"),
+    ("obstacles", "obstacle", "the force the material exerts on it"),
+    ("contacts", "contact", "the force its first body exerts on its "
+     "second"))
+
+
+def force_lines(summary: dict) -> list:
+    """The report's lines of the final force of each rigid body, obstacle
+    and contact in ``summary``, with the sign it has (a trial's rigid
+    footing printed none, an obstacle's only as an ``[[outputs]]``).
+
+    >>> from skfem_mpm.cli import force_lines
+    >>> force_lines({"units": {"force": "kN/m"}, "obstacles": {
+    ...     "plate": {"final_force": [0.0, 12.5]}}})
+    ['  obstacle plate final force (0, 12.5) kN/m: the force the \
+material exerts on it']
+    """
+    lines = []
+    for key, kind, sign in FORCE_KINDS:
+        for name, curves in summary.get(key, {}).items():
+            force = curves.get("final_force")
+            if force is None:
+                continue
+            lines.append("  {} {} final force ({}) {}: {}".format(
+                kind, name, ", ".join("{:.6g}".format(f) for f in force),
+                summary["units"]["force"], sign))
+    return lines
+
+
 def print_report(scene, summary: dict, seconds: float, outdir: Path,
                  resumed) -> None:
     """The terminal's account of a completed run."""
@@ -1263,6 +1323,8 @@ def print_report(scene, summary: dict, seconds: float, outdir: Path,
     for label, q in summary.get("outputs", {}).items():
         print("  {} {:.6g} {}".format(label.ljust(25), q["value"],
                                       q["unit"]))
+    for line in force_lines(summary):
+        print(line)
     print("  max equilibrium residual  {:.1e}".format(
         summary["max_residual"]))
     # shares of the run's time: the steps' phases, and the rest (seeding,

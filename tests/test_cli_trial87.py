@@ -89,3 +89,83 @@ def test_progress_past_the_planned_steps_says_planned():
                         residual=1e-12))
     assert "step   43 (40 planned) [" in stream.getvalue()
     assert "43/40" not in stream.getvalue()
+
+
+def test_the_report_prints_each_obstacle_s_final_force(scene, tmp_path,
+                                                       capsys,
+                                                       monkeypatch):
+    """A rigid footing's run printed no force, an obstacle's only as an
+    ``[[outputs]]``: the report prints each one's final force, its unit
+    and its sign convention, as summary.json has it."""
+    import skfem_mpm.cli as cli
+    monkeypatch.setattr(cli, "plot_outputs", lambda *args, **kwargs: None)
+    out = tmp_path / "out"
+    scene.write_text(PRESSED.replace("-0.01]", "-0.05]"))
+    assert main(["run", str(scene), "--out", str(out), "--no-series",
+                 "--no-progress"]) == 0
+    force = json.loads((out / "summary.json").read_text())[
+        "obstacles"]["obstacle0"]["final_force"]
+    assert force[1] > 0         # the block pushes the plate up
+    assert "  obstacle obstacle0 final force ({:.6g}, {:.6g}) N/m: the " \
+        "force the material exerts on it\n".format(*force) in \
+        capsys.readouterr().out
+
+
+def test_a_rigid_body_s_force_is_the_one_holding_its_motion():
+    from skfem_mpm.cli import force_lines
+    summary = {"units": {"force": "kN/m"},
+               "rigid_bodies": {"footing": {"final_force": [-1.5, -188.]}},
+               "contacts": {"a-b": {"final_force": [0., 3.]}}}
+    assert force_lines(summary) == [
+        "  rigid body footing final force (-1.5, -188) kN/m: the force "
+        "that holds its motion",
+        "  contact a-b final force (0, 3) kN/m: the force its first body "
+        "exerts on its second"]
+
+
+def interrupted_after(step, monkeypatch):
+    """``run_scene`` interrupted (Ctrl-C, SIGTERM) once ``step`` is
+    done."""
+    import skfem_mpm.cli as cli
+    real = cli.run_scene
+
+    def interrupted(scene, points, resume, callback, **kwargs):
+        def stop(record, pts):
+            callback(record, pts)
+            if record.step == step:
+                raise KeyboardInterrupt
+        return real(scene, points, resume=resume, callback=stop, **kwargs)
+    monkeypatch.setattr(cli, "run_scene", interrupted)
+
+
+def test_an_interrupted_run_draws_the_figures_of_its_steps(
+        scene, tmp_path, monkeypatch, capsys):
+    """A SIGTERM left summary, checkpoint and series but no PNG, where
+    ``--max-steps`` draws them."""
+    interrupted_after(2, monkeypatch)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--no-series",
+                 "--no-progress"]) == 130
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and "figures" not in summary
+    assert {"deformed_shape.png", "final_stress.png"} <= {
+        p.name for p in out.iterdir()}
+    assert "interrupted; figures of steps 1 to 2 drawn; continue with" in \
+        capsys.readouterr().err
+
+
+def test_a_second_interrupt_in_the_figures_is_said(scene, tmp_path,
+                                                   monkeypatch, capsys):
+    import skfem_mpm.cli as cli
+    interrupted_after(2, monkeypatch)
+
+    def drawing(*args, **kwargs):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(cli, "plot_outputs", drawing)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--no-series",
+                 "--no-progress"]) == 130
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["figures"] == cli.FIGURES_INTERRUPTED
+    assert "figures not drawn (interrupted again)" in \
+        capsys.readouterr().err
