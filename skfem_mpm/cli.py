@@ -1039,9 +1039,27 @@ def run(args) -> int:
         prepared.append(outdir)
 
     series = None if args.no_series else SeriesWriter(outdir, mesh, points)
+    # what a resume's series lacks, said in the log and summary.json (a
+    # trial's resume after --no-series began its series at step 8 without
+    # a word)
+    notes = {}
     if series is not None and earlier is not None:
         series.restore([(int(r[0]), float(r[6] if scene.dynamics else r[1]))
                         for r in earlier.history])
+        missing = len(earlier.history) + 1 - len(series.entries)
+        if missing:
+            notes["series_note"] = (
+                "the VTU series lacks {} of the {} states before step {} "
+                "(the start, step 0, counted; an invocation with "
+                "--no-series writes none): points.pvd and grid.pvd list "
+                "the steps written".format(missing, len(earlier.history)
+                                           + 1, earlier.step + 1))
+    elif earlier is not None and (outdir / "points.pvd").is_file():
+        notes["series_note"] = (
+            "the VTU series stops at step {}: the resume from there ran "
+            "with --no-series".format(earlier.step))
+    if notes:
+        logger.warning("%s: %s", outdir, notes["series_note"])
     # the start, written as step 0 with the first step's frame (so that a
     # run refused before its first step writes nothing)
     start = points.copy() if series is not None and earlier is None \
@@ -1097,6 +1115,7 @@ def run(args) -> int:
                           earlier.counters if earlier else {}))
         summary = summarise(scene, partial, run_clock() - tic,
                             earlier, complete=False)
+        summary.update(notes)
         summary.update(status=status, last_converged_step=last.step if last
                        else resume.first_step - 1,
                        compile_seconds=compile_seconds() - compiled, **keys)
@@ -1231,6 +1250,7 @@ def run(args) -> int:
     def completed():
         """The summary of the completed run, written."""
         done = summarise(scene, result, seconds, earlier)
+        done.update(notes)
         done.update(status="completed",
                     compile_seconds=compile_seconds() - compiled)
         prepare()

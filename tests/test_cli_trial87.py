@@ -169,3 +169,26 @@ def test_a_second_interrupt_in_the_figures_is_said(scene, tmp_path,
     assert summary["figures"] == cli.FIGURES_INTERRUPTED
     assert "figures not drawn (interrupted again)" in \
         capsys.readouterr().err
+
+
+@pytest.mark.parametrize("first,then", ((["--no-series"], []),
+                                        ([], ["--no-series"])))
+def test_a_series_broken_by_no_series_is_said(scene, tmp_path, monkeypatch,
+                                               caplog, first, then):
+    """A resume after ``--no-series`` began the series at step 8 without a
+    word (and one with it ended the series early): the log and
+    summary.json say so."""
+    import skfem_mpm.cli as cli
+    monkeypatch.setattr(cli, "plot_outputs", lambda *args, **kwargs: None)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out), "--max-steps", "2",
+                 "--no-progress"] + first) == 0
+    assert main(["run", "--resume", str(out), "--no-progress"] + then) == 0
+    note = json.loads((out / "summary.json").read_text())["series_note"]
+    assert note in caplog.text
+    if first:
+        # steps 0, 1 and 2 before the resume at step 3
+        assert note.startswith("the VTU series lacks 3 of the 3 states "
+                               "before step 3")
+    else:
+        assert note.startswith("the VTU series stops at step 2")
