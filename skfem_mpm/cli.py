@@ -865,6 +865,10 @@ directory)
             raise NotADirectoryError(errno.ENOTDIR, "not a folder")
         os.rmdir(tempfile.mkdtemp(prefix=".skfem-mpm-probe.", dir=probe))
     except OSError as err:
+        if probe == path:     # a trial's read-only folder "refused a new
+            raise InvalidInputError(     # folder": it refuses new files
+                "{} {}: cannot write in the output folder ({})".format(
+                    option, path, err.strerror)) from None
         raise InvalidInputError(
             "{} {}: cannot make or write the output folder: {} refuses a "
             "new folder ({})".format(option, path, probe, err.strerror)) \

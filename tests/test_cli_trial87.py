@@ -192,3 +192,33 @@ def test_a_series_broken_by_no_series_is_said(scene, tmp_path, monkeypatch,
                                "before step 3")
     else:
         assert note.startswith("the VTU series stops at step 2")
+
+
+def test_a_bad_friction_is_named_by_its_key(scene, tmp_path, capsys):
+    """``obstacles[0]: Obstacle friction must be ...`` named no key."""
+    scene.write_text(PRESSED.replace(
+        "displacement = [0.0, -0.01]",
+        'displacement = [0.0, -0.01]\nfriction = "rogh"'))
+    assert main(["run", str(scene), "--out", str(tmp_path / "out"),
+                 "--no-progress"]) == 2
+    assert "obstacles[0].friction: must be a coefficient >= 0, 'rough' " \
+        "or 'tied', got 'rogh'" in capsys.readouterr().err
+
+
+def test_an_unwritable_existing_folder_is_said_so(scene, tmp_path, capsys,
+                                                 monkeypatch):
+    """An existing folder made read-only "refused a new folder"; it
+    refuses the run's files (the probe is refused as root is not by a
+    mode, so it is made to fail)."""
+    import errno
+    import skfem_mpm.cli as cli
+
+    def refused(*args, **kwargs):
+        raise PermissionError(errno.EACCES, "Permission denied")
+    monkeypatch.setattr(cli.tempfile, "mkdtemp", refused)
+    out = tmp_path / "ro"
+    out.mkdir()
+    assert main(["run", str(scene), "--out", str(out),
+                 "--no-progress"]) == 2
+    assert capsys.readouterr().err == "skfem-mpm: --out {}: cannot write " \
+        "in the output folder (Permission denied)\n".format(out)
