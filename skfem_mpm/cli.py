@@ -1796,6 +1796,7 @@ def run_safety(args) -> int:
           "runs, {})".format(scene.name, found.factor, found.converged,
                              found.failed, len(trials),
                              clock(summary["wall_seconds"])))
+    print(safety_set_by(summary)[1])
     width, height = body_figure_size(found.result.points.x[:2])
     # room for the colour bar's label (two lines) beside a low slope
     fig, ax = pyplot().subplots(figsize=(max(width, 8.), max(height, 4.5)))
@@ -1816,6 +1817,33 @@ def run_safety(args) -> int:
     print("  plot {}\n  output {}".format(args.out / "safety.png",
                                           args.out / "safety.json"))
     return 0
+
+
+def safety_set_by(summary: dict) -> tuple:
+    """What set the factor of safety of ``safety.json``'s ``summary``:
+    ``"growth"`` (the trial above it converged, its displacement past
+    ``growth`` times the reference's) or ``"convergence"`` (it did not
+    converge), and the words that say so and how to judge it (a trial
+    read a factor set by ``--growth 5``, every run converged, as a
+    collapse)."""
+    upper = [t for t in summary["trials"]
+             if t["factor"] == summary["bracket"][1]][-1]
+    if not upper["converged"]:
+        return "convergence", (
+            "  set by convergence: the run at F = {:.4f} did not "
+            "converge".format(upper["factor"]))
+    failed = sum(not t["converged"] for t in summary["trials"])
+    return "growth", (
+        "  set by --growth {:g}: at F = {:.4f} the run converged, its "
+        "largest displacement {:.2f} times that at F = {:g} ({}); judge "
+        "it on safety.png: a steep rise of the displacement at the factor "
+        "is a mechanism, a gentle one makes the factor follow --growth "
+        "(run again with another --growth to see how far it moves)"
+        .format(summary["growth"], upper["factor"],
+                upper["largest_displacement"]
+                / summary["reference_displacement"], summary["low"],
+                "no trial failed to converge" if not failed else
+                "{} trial(s) failed to converge".format(failed)))
 
 
 def write_safety(outdir: Path, scene, reduced: list, options: dict,
@@ -1857,6 +1885,8 @@ def write_safety(outdir: Path, scene, reduced: list, options: dict,
                   "wall_seconds": "s", "system": scene.units}}
     if error is not None:
         summary["error"] = error
+    if found is not None:
+        summary["set_by"] = safety_set_by(summary)[0]
     write_summary(outdir / "safety.json", summary)
     plot_safety(summary, outdir / "safety.png")
     return summary

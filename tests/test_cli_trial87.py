@@ -222,3 +222,26 @@ def test_an_unwritable_existing_folder_is_said_so(scene, tmp_path, capsys,
                  "--no-progress"]) == 2
     assert capsys.readouterr().err == "skfem-mpm: --out {}: cannot write " \
         "in the output folder (Permission denied)\n".format(out)
+
+
+def test_a_factor_set_by_growth_says_so():
+    """trial87's slope: every trial converged, the factor set by
+    ``--growth 5`` (5.69 times F = 1's at 1.8125); the printed result
+    read as a collapse."""
+    from skfem_mpm.cli import safety_set_by
+    reference = .01065
+    trials = [dict(factor=f, converged=True, largest_displacement=d)
+              for f, d in ((1., reference), (2., .1669), (1.5, .01175),
+                           (1.75, .0364), (1.875, .08292),
+                           (1.8125, .06056))]
+    summary = dict(trials=trials, bracket=[1.75, 1.8125], growth=5.,
+                   low=1., reference_displacement=reference)
+    kind, words = safety_set_by(summary)
+    assert kind == "growth"
+    assert "set by --growth 5: at F = 1.8125 the run converged, its " \
+        "largest displacement {:.2f} times that at F = 1 (no trial failed " \
+        "to converge)".format(.06056 / reference) in words
+    trials[-1].update(converged=False, largest_displacement=None)
+    assert safety_set_by(summary) == ("convergence", "  set by "
+                                      "convergence: the run at F = 1.8125 "
+                                      "did not converge")
