@@ -430,7 +430,8 @@ def summary_units(dim: int, dynamics: bool = False,
     ``system`` (:mod:`~skfem_mpm.scenes.units`, named under ``system``):
     its top-level ones by key, and ``force``, ``displacement`` and
     (``dynamics``) ``time`` for the per-step curves of rigid bodies,
-    obstacles and contacts (their peaks and final values alike);
+    obstacles and contacts (their peaks and final values alike) and the
+    ``energies``;
     ``outputs`` carry their own (a user trial read ``max_displacement``
     without one).
 
@@ -443,11 +444,11 @@ def summary_units(dim: int, dynamics: bool = False,
     units = {"system": system, "max_displacement": length,
              "max_residual": "-", "wall_seconds": "s",
              "compile_seconds": "s", "load_factor": "-",
-             "reactions": force, "force": force, "displacement": length,
-             "energies": "{} (time: {})".format(
-                 unit("energy", system, dim), time)}
-    if dynamics:
-        units["time"] = time
+             "reactions": force, "force": force, "displacement": length}
+    if dynamics:      # a static run has no energies (a trial read its
+        units["time"] = time        # unit as though it had)
+        units["energies"] = "{} (time: {})".format(
+            unit("energy", system, dim), time)
     return units
 
 
@@ -1417,7 +1418,12 @@ def compare(args) -> int:
                                 "field's largest magnitude)".format(
                                     other.method),
                "runs": {m: summarise(v, r, s) for m, (v, r, s) in
-                        runs.items()}}
+                        runs.items()},
+               # the differences' (a trial found none; each run's
+               # summary has its own)
+               "units": {"system": scene.units, "max_relative": "-",
+                         "displacement": unit("length", scene.units, a.dim),
+                         "stress": unit("stress", scene.units, a.dim)}}
     write_summary(args.out / "summary.json", summary)
     d = a.dim - 1
     component = STRESS_NAMES[d, d]

@@ -245,3 +245,28 @@ def test_a_factor_set_by_growth_says_so():
     assert safety_set_by(summary) == ("convergence", "  set by "
                                       "convergence: the run at F = 1.8125 "
                                       "did not converge")
+
+
+def test_a_static_run_s_units_name_no_energies():
+    """A static run's summary.json gave ``units.energies`` for energies
+    it does not have."""
+    from skfem_mpm.cli import summary_units
+    from skfem_mpm.scenes.units import unit
+    assert "energies" not in summary_units(2, system="kN-m")
+    assert summary_units(2, True, "kN-m")["energies"] == \
+        "{} (time: s)".format(unit("energy", "kN-m", 2))
+
+
+def test_compare_s_summary_has_the_units_of_its_differences(tmp_path):
+    """compare's summary.json gave its differences without units."""
+    from skfem_mpm.scenes.units import unit
+    path = tmp_path / "block.toml"
+    path.write_text(PRESSED.replace("steps = 4", "steps = 1").replace(
+        'name = "pressed block"', 'name = "pressed block"\nunits = "kN-m"'))
+    out = tmp_path / "cmp"
+    assert main(["compare", str(path), "--out", str(out)]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["units"] == {
+        "system": "kN-m", "max_relative": "-",
+        "displacement": unit("length", "kN-m", 2),
+        "stress": unit("stress", "kN-m", 2)}
