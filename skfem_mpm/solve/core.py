@@ -67,6 +67,7 @@ from ..methods.assembly import ElementPattern
 from ..methods.bspline import check_uniform_axes, warn_loaded_point_splines
 from ..methods.method import DOMAIN_METHODS, METHODS, make_method
 from ..protocols import GridTerm
+from ..methods.gimp import single_point_domains
 from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
 from ..quadrature.grid import GridBasis
 from ..quadrature.locate import point_locator, tensor_grid
@@ -345,10 +346,10 @@ def inertia_term(run: Run) -> Optional[GridTerm]:
 
 
 def rotation_term(run: Run) -> Optional[GridTerm]:
-    """The points' rotation kept, and warned when large, in small strain
-    (:mod:`skfem_mpm.solve.rotation`)."""
-    return None if run.finite or run.dim < 2 else \
-        SmallStrainRange(run.dim)
+    """The points' rotation kept, and warned when large, and their strain
+    warned when large, in small strain (:mod:`skfem_mpm.solve.rotation`;
+    in 1D the strain alone)."""
+    return None if run.finite else SmallStrainRange(run.dim)
 
 
 def fixed_domains_term(run: Run) -> Optional[GridTerm]:
@@ -1518,6 +1519,9 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         options.stabilisation.antilocking, kinematics, method, mesh.dim(),
         higher_order=cell_nodes(elem, mesh)[1] > mesh.t.shape[0])
     underintegrated = underintegrated_cells(method, mesh, elem, points)
+    if method in ("ugimp", "cpgimp"):
+        underintegrated = single_point_domains(
+            method, points_per_cell_axis(mesh, points), case.nsteps)
     if underintegrated:
         logger.warning(underintegrated)
     run, result = build_run(mesh, elem, points, supports, case, method,

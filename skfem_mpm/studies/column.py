@@ -70,9 +70,18 @@ def analytical_stress(Y: ndarray, load: float = LOAD,
 
 def analytical_stress_current(z: ndarray, top: float) -> ndarray:
     """Seed (2.27): the stress at current height z of a column of current
-    height ``top`` (finite-deformation solution, compression negative)."""
+    height ``top`` (finite-deformation solution, compression negative),
+    ``E (sqrt(2 rho0 b / E (top - z) + 1) - 1)`` with the body force
+    ``rho0 b = -LOAD`` pointing down: at the base of the column of current
+    height ``L0 - LOAD L0^2 / (2 E)`` (49 of 50) it carries the weight
+    ``-LOAD L0``.
+
+    >>> from skfem_mpm.studies.column import analytical_stress_current
+    >>> round(float(analytical_stress_current(0., 49.)), 6)
+    -40000.0
+    """
     E = MATERIAL.E
-    return -E * (np.sqrt(2 * LOAD / E * (top - z) + 1) - 1)
+    return E * (np.sqrt(1 - 2 * LOAD / E * (top - z)) - 1)
 
 
 def column_error(points: MaterialPoints, load: float = LOAD,
