@@ -108,7 +108,7 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a scene (default: the column)")
     run.add_argument("scene", nargs="?", type=Path,
                      help="scene file (default: the embedded column)")
-    run.add_argument("--out", type=Path, default=Path("skfem-mpm-output"),
+    run.add_argument("--out", type=Path, default=None,
                      help="output folder (default ./skfem-mpm-output)")
     run.add_argument("--checkpoint-every", type=int, default=0, metavar="N",
                      help="save the full state every N steps (0, the "
@@ -117,13 +117,16 @@ def build_parser() -> argparse.ArgumentParser:
                      "run's end where it saved any")
     run.add_argument("--resume", type=Path, metavar="DIR",
                      help="resume the run whose output folder is DIR "
-                     "(a completed run: nothing to do, exit 0)")
+                     "(a completed run: nothing to do, exit 0); it "
+                     "continues that run bit for bit, so a scene file "
+                     "other than the run's, --steps other than its own "
+                     "and --out elsewhere are refused")
     run.add_argument("--max-steps", type=int, metavar="N",
                      help="stop after N >= 1 steps of this invocation "
                           "(resume later with --resume)")
     run.add_argument("--steps", type=int, metavar="N",
                      help="override the scene's number of load steps "
-                     "(N >= 1)")
+                     "(N >= 1; not with --resume)")
     run.add_argument("--no-series", action="store_true",
                      help="write plots and summary only, no VTU series")
     compare = sub.add_parser("compare",
@@ -278,8 +281,13 @@ class Progress:
         progressed = record.load_factor - self.start_factor
         left = "" if progressed <= 0 else " left {}".format(clock(
             elapsed * (1. - record.load_factor) / progressed))
-        words = "step {:4d}/{} [{}{}]{} residual {:.1e} elapsed {}{}".format(
-            record.step, self.total, "#" * done, "." * (30 - done), newton,
+        # past the steps planned (cut-backs), the count is not a share:
+        # a trial read "step   43/40"; the bar is the load factor's
+        count = "{:4d}/{}".format(record.step, self.total) \
+            if record.step <= self.total else "{:4d} ({} planned)".format(
+                record.step, self.total)
+        words = "step {} [{}{}]{} residual {:.1e} elapsed {}{}".format(
+            count, "#" * done, "." * (30 - done), newton,
             record.residual, clock(elapsed), left)
         last = record.load_factor >= 1.
         if self.bar:
@@ -315,6 +323,11 @@ class RunComplete(Exception):
 #: drawing its figures (a later ``--resume`` said only that it was
 #: complete)
 FIGURES_MISSING = "missing: the run was interrupted while drawing them"
+
+
+#: ``summary.json``'s ``figures`` of an interrupted run whose figures of
+#: the steps done were not drawn (a second interrupt stopped them)
+FIGURES_INTERRUPTED = "missing: a second interrupt stopped their drawing"
 
 
 def completed_before(outdir: Path) -> bool:
@@ -417,7 +430,8 @@ def summary_units(dim: int, dynamics: bool = False,
     ``system`` (:mod:`~skfem_mpm.scenes.units`, named under ``system``):
     its top-level ones by key, and ``force``, ``displacement`` and
     (``dynamics``) ``time`` for the per-step curves of rigid bodies,
-    obstacles and contacts (their peaks and final values alike);
+    obstacles and contacts (their peaks and final values alike) and the
+    ``energies``;
     ``outputs`` carry their own (a user trial read ``max_displacement``
     without one).
 
@@ -430,11 +444,11 @@ def summary_units(dim: int, dynamics: bool = False,
     units = {"system": system, "max_displacement": length,
              "max_residual": "-", "wall_seconds": "s",
              "compile_seconds": "s", "load_factor": "-",
-             "reactions": force, "force": force, "displacement": length,
-             "energies": "{} (time: {})".format(
-                 unit("energy", system, dim), time)}
-    if dynamics:
-        units["time"] = time
+             "reactions": force, "force": force, "displacement": length}
+    if dynamics:      # a static run has no energies (a trial read its
+        units["time"] = time        # unit as though it had)
+        units["energies"] = "{} (time: {})".format(
+            unit("energy", system, dim), time)
     return units
 
 
@@ -858,10 +872,40 @@ directory)
             raise NotADirectoryError(errno.ENOTDIR, "not a folder")
         os.rmdir(tempfile.mkdtemp(prefix=".skfem-mpm-probe.", dir=probe))
     except OSError as err:
+        if probe == path:     # a trial's read-only folder "refused a new
+            raise InvalidInputError(     # folder": it refuses new files
+                "{} {}: cannot write in the output folder ({})".format(
+                    option, path, err.strerror)) from None
         raise InvalidInputError(
             "{} {}: cannot make or write the output folder: {} refuses a "
             "new folder ({})".format(option, path, probe, err.strerror)) \
             from None
+
+
+def refuse_changes(args, source: Path):
+    """Refuse, with ``--resume``, what would make the resumed run another
+    than the one in its folder (a user trial's ``run slope.toml --resume
+    DIR --steps 5`` resumed DIR's footing in its own 20 steps without a
+    word): a scene file whose content is not that of ``source``, the
+    folder's ``scene.toml``, and ``--out`` naming another folder."""
+    if args.scene is not None:
+        try:
+            same = args.scene.read_bytes() == source.read_bytes()
+        except OSError as err:
+            raise InvalidInputError("{}: cannot read it ({})".format(
+                args.scene, err.strerror)) from None
+        if not same:
+            raise InvalidInputError(
+                "{} with --resume {}: it is not the scene the run there "
+                "was started with ({}), and a resume continues that run "
+                "bit for bit; leave the scene file out to resume it, or "
+                "run {} anew with --out".format(
+                    args.scene, args.resume, source, args.scene))
+    if args.out is not None and \
+            args.out.resolve() != args.resume.resolve():
+        raise InvalidInputError(
+            "--out {} with --resume {}: a resumed run writes to its own "
+            "folder; leave --out out".format(args.out, args.resume))
 
 
 def load_run(args):
@@ -879,10 +923,18 @@ def load_run(args):
                 "writes it once its scene is accepted, so a run refused "
                 "before it started has nothing to resume)".format(
                     outdir, source.name))
+        refuse_changes(args, source)
         scene = load_scene(source)
         kept = (outdir / CHECKPOINT).is_file()
         earlier = load_checkpoint(outdir, scene_digest(source)) if kept \
             else None
+        planned = scene.step_count if earlier is None else earlier.nsteps
+        if args.steps and args.steps != planned:
+            raise InvalidInputError(
+                "--steps {} with --resume {}: the run there was planned in "
+                "{} steps, and a resume continues it bit for bit; leave "
+                "--steps out, or run the scene anew with --out".format(
+                    args.steps, outdir, planned))
         if earlier is not None and earlier.complete:   # a trial's resume
             raise RunComplete(                          # ran them again
                 "{}: the run in {} is complete (its checkpoint holds its "
@@ -911,7 +963,7 @@ def load_run(args):
                         counters=resumed_counters(earlier.counters),
                         end_force=earlier.end_force)
     else:
-        outdir = args.out
+        outdir = Path("skfem-mpm-output") if args.out is None else args.out
         source = args.scene or EMBEDDED
         scene = load_scene(source)
         if args.steps and scene.dynamics is not None:
@@ -998,9 +1050,27 @@ def run(args) -> int:
         prepared.append(outdir)
 
     series = None if args.no_series else SeriesWriter(outdir, mesh, points)
+    # what a resume's series lacks, said in the log and summary.json (a
+    # trial's resume after --no-series began its series at step 8 without
+    # a word)
+    notes = {}
     if series is not None and earlier is not None:
         series.restore([(int(r[0]), float(r[6] if scene.dynamics else r[1]))
                         for r in earlier.history])
+        missing = len(earlier.history) + 1 - len(series.entries)
+        if missing:
+            notes["series_note"] = (
+                "the VTU series lacks {} of the {} states before step {} "
+                "(the start, step 0, counted; an invocation with "
+                "--no-series writes none): points.pvd and grid.pvd list "
+                "the steps written".format(missing, len(earlier.history)
+                                           + 1, earlier.step + 1))
+    elif earlier is not None and (outdir / "points.pvd").is_file():
+        notes["series_note"] = (
+            "the VTU series stops at step {}: the resume from there ran "
+            "with --no-series".format(earlier.step))
+    if notes:
+        logger.warning("%s: %s", outdir, notes["series_note"])
     # the start, written as step 0 with the first step's frame (so that a
     # run refused before its first step writes nothing)
     start = points.copy() if series is not None and earlier is None \
@@ -1056,6 +1126,7 @@ def run(args) -> int:
                           earlier.counters if earlier else {}))
         summary = summarise(scene, partial, run_clock() - tic,
                             earlier, complete=False)
+        summary.update(notes)
         summary.update(status=status, last_converged_step=last.step if last
                        else resume.first_step - 1,
                        compile_seconds=compile_seconds() - compiled, **keys)
@@ -1113,17 +1184,40 @@ def run(args) -> int:
                 except KeyboardInterrupt:   # the previous checkpoint stands
                     cut = " while saving the checkpoint of step {}".format(
                         last.step)
+            partial = interrupted = None
             if prepared:
-                write_summary(outdir / "summary.json", unfinished(
+                partial, interrupted = unfinished(
                     "interrupted", None, checkpoint=kept[0] is not None,
-                    checkpoint_step=kept[0])[1])
-        if kept[0] is None:
-            print("skfem-mpm: interrupted{} before a step converged: nothing "
-                  "to resume".format(cut), file=sys.stderr)
+                    checkpoint_step=kept[0])
+                if history:     # said unless the figures are drawn
+                    interrupted["figures"] = FIGURES_INTERRUPTED
+                write_summary(outdir / "summary.json", interrupted)
+        if history and interrupted is not None:
+            # the figures of the steps done, as --max-steps draws them (a
+            # trial's SIGTERM left none); a second Ctrl-C stops them, and
+            # the summary keeps saying so
+            try:
+                plot_outputs(scene, partial, outdir, loaded, interrupted,
+                             initial)
+                del interrupted["figures"]
+                with interrupts_deferred(reraise=False):
+                    write_summary(outdir / "summary.json", interrupted)
+                drawn = "; figures of steps 1 to {} drawn".format(
+                    history[-1].step)
+            except KeyboardInterrupt:
+                drawn = "; figures not drawn (interrupted again)"
+            except Exception as err:      # the run's end is said anyway
+                drawn = "; figures not drawn ({}: {})".format(
+                    type(err).__name__, err)
         else:
-            print("skfem-mpm: interrupted{}; {}continue with: skfem-mpm run "
-                  "--resume {}".format(
-                      cut, "the checkpoint of step {} stands; ".format(
+            drawn = ""
+        if kept[0] is None:
+            print("skfem-mpm: interrupted{}{} before a step converged: "
+                  "nothing to resume".format(cut, drawn), file=sys.stderr)
+        else:
+            print("skfem-mpm: interrupted{}{}; {}continue with: skfem-mpm "
+                  "run --resume {}".format(
+                      cut, drawn, "the checkpoint of step {} stands; ".format(
                           kept[0]) if cut else "", outdir), file=sys.stderr)
         return 130
     except MPMError as err:
@@ -1167,6 +1261,7 @@ def run(args) -> int:
     def completed():
         """The summary of the completed run, written."""
         done = summarise(scene, result, seconds, earlier)
+        done.update(notes)
         done.update(status="completed",
                     compile_seconds=compile_seconds() - compiled)
         prepare()
@@ -1205,6 +1300,38 @@ def run(args) -> int:
     return 0
 
 
+#: ``summary.json``'s keys of forces per body, the words of each kind and
+#: the sign of its force (docs/contact.md)
+FORCE_KINDS = (
+    ("rigid_bodies", "rigid body", "the force that holds its motion"),
+    ("obstacles", "obstacle", "the force the material exerts on it"),
+    ("contacts", "contact", "the force its first body exerts on its "
+     "second"))
+
+
+def force_lines(summary: dict) -> list:
+    """The report's lines of the final force of each rigid body, obstacle
+    and contact in ``summary``, with the sign it has (a trial's rigid
+    footing printed none, an obstacle's only as an ``[[outputs]]``).
+
+    >>> from skfem_mpm.cli import force_lines
+    >>> force_lines({"units": {"force": "kN/m"}, "obstacles": {
+    ...     "plate": {"final_force": [0.0, 12.5]}}})
+    ['  obstacle plate final force (0, 12.5) kN/m: the force the \
+material exerts on it']
+    """
+    lines = []
+    for key, kind, sign in FORCE_KINDS:
+        for name, curves in summary.get(key, {}).items():
+            force = curves.get("final_force")
+            if force is None:
+                continue
+            lines.append("  {} {} final force ({}) {}: {}".format(
+                kind, name, ", ".join("{:.6g}".format(f) for f in force),
+                summary["units"]["force"], sign))
+    return lines
+
+
 def print_report(scene, summary: dict, seconds: float, outdir: Path,
                  resumed) -> None:
     """The terminal's account of a completed run."""
@@ -1227,6 +1354,8 @@ def print_report(scene, summary: dict, seconds: float, outdir: Path,
     for label, q in summary.get("outputs", {}).items():
         print("  {} {:.6g} {}".format(label.ljust(25), q["value"],
                                       q["unit"]))
+    for line in force_lines(summary):
+        print(line)
     print("  max equilibrium residual  {:.1e}".format(
         summary["max_residual"]))
     # shares of the run's time: the steps' phases, and the rest (seeding,
@@ -1295,7 +1424,12 @@ def compare(args) -> int:
                                 "field's largest magnitude)".format(
                                     other.method),
                "runs": {m: summarise(v, r, s) for m, (v, r, s) in
-                        runs.items()}}
+                        runs.items()},
+               # the differences' (a trial found none; each run's
+               # summary has its own)
+               "units": {"system": scene.units, "max_relative": "-",
+                         "displacement": unit("length", scene.units, a.dim),
+                         "stress": unit("stress", scene.units, a.dim)}}
     write_summary(args.out / "summary.json", summary)
     d = a.dim - 1
     component = STRESS_NAMES[d, d]
@@ -1674,6 +1808,7 @@ def run_safety(args) -> int:
           "runs, {})".format(scene.name, found.factor, found.converged,
                              found.failed, len(trials),
                              clock(summary["wall_seconds"])))
+    print(safety_set_by(summary)[1])
     width, height = body_figure_size(found.result.points.x[:2])
     # room for the colour bar's label (two lines) beside a low slope
     fig, ax = pyplot().subplots(figsize=(max(width, 8.), max(height, 4.5)))
@@ -1694,6 +1829,33 @@ def run_safety(args) -> int:
     print("  plot {}\n  output {}".format(args.out / "safety.png",
                                           args.out / "safety.json"))
     return 0
+
+
+def safety_set_by(summary: dict) -> tuple:
+    """What set the factor of safety of ``safety.json``'s ``summary``:
+    ``"growth"`` (the trial above it converged, its displacement past
+    ``growth`` times the reference's) or ``"convergence"`` (it did not
+    converge), and the words that say so and how to judge it (a trial
+    read a factor set by ``--growth 5``, every run converged, as a
+    collapse)."""
+    upper = [t for t in summary["trials"]
+             if t["factor"] == summary["bracket"][1]][-1]
+    if not upper["converged"]:
+        return "convergence", (
+            "  set by convergence: the run at F = {:.4f} did not "
+            "converge".format(upper["factor"]))
+    failed = sum(not t["converged"] for t in summary["trials"])
+    return "growth", (
+        "  set by --growth {:g}: at F = {:.4f} the run converged, its "
+        "largest displacement {:.2f} times that at F = {:g} ({}); judge "
+        "it on safety.png: a steep rise of the displacement at the factor "
+        "is a mechanism, a gentle one makes the factor follow --growth "
+        "(run again with another --growth to see how far it moves)"
+        .format(summary["growth"], upper["factor"],
+                upper["largest_displacement"]
+                / summary["reference_displacement"], summary["low"],
+                "no trial failed to converge" if not failed else
+                "{} trial(s) failed to converge".format(failed)))
 
 
 def write_safety(outdir: Path, scene, reduced: list, options: dict,
@@ -1735,6 +1897,8 @@ def write_safety(outdir: Path, scene, reduced: list, options: dict,
                   "wall_seconds": "s", "system": scene.units}}
     if error is not None:
         summary["error"] = error
+    if found is not None:
+        summary["set_by"] = safety_set_by(summary)[0]
     write_summary(outdir / "safety.json", summary)
     plot_safety(summary, outdir / "safety.png")
     return summary

@@ -315,3 +315,36 @@ def test_without_a_credible_order_coarser_grids_show_larger_errors(
     front, = [line for line in ax.lines
               if line.get_label().startswith("Pareto")]
     assert list(front.get_ydata()) == pytest.approx(errors[:2])
+
+
+def test_a_drift_away_from_the_answer_is_not_extrapolated():
+    """Trial 86: standard MPM on a 2D column one cell wide in 20 load
+    steps, the largest displacement over 8..128 elements (one cell across:
+    the cell size h = sqrt(V / N) shrinks by sqrt 2 a doubling) drifts
+    away from cpGIMP's 0.962018 m; the least-squares order over all five
+    grids, 0.85, lay within [0.5, 4] and the study printed "extrapolated
+    1.02581 +- 0.022 m", an interval that excludes the answer.  The
+    local orders of the triplets (computed here from the values) are not
+    stable: nothing is extrapolated, said "not credible" with the orders,
+    and the finest value's uncertainty (3 x the data range) reaches
+    cpGIMP's answer."""
+    elements = np.array([8, 16, 32, 64, 128])
+    h = np.sqrt(2.5 * 50. / elements)
+    values = [0.9699480701596779, 0.9832164078965663, 0.9952792448839264,
+              1.0027763577289073, 1.0082703598237324]
+    found = self_convergence(h, values)
+    assert .5 <= found.observed_order <= 4.      # the old rule's range
+    assert found.against == "finest" and found.order is None
+    from skfem_mpm.studies.convergence import local_orders
+    d = np.diff(values)                           # coarse to fine
+    expected = np.log(d[:-1] / d[1:]) / np.log(np.sqrt(2.))
+    assert local_orders(h[::-1], values[::-1]) == pytest.approx(
+        expected[::-1], rel=1e-8)
+    assert "not credible: the local orders of successive triplets of " \
+        "grids, {} (finest first)".format(", ".join(
+            "{:.2f}".format(p) for p in expected[::-1])) in found.why
+    assert abs(found.reference - 0.962018) < found.uncertainty
+    # an exact power law over as many grids keeps its extrapolation
+    exact = self_convergence(h, 1. + .01 * h ** 1.5)
+    assert exact.against == "richardson" and \
+        abs(exact.order - 1.5) < 1e-6

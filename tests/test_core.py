@@ -440,6 +440,40 @@ def test_seed_right_hand_sides_on_the_column():
     assert 1e-3 < errors["increment"] < 1e-2 < errors["residual"] < 5e-2
 
 
+def test_the_increment_scheme_warns_of_its_imbalance(caplog):
+    """Trial 86: with the seed's one-solve scheme the column's
+    out-of-balance force at the end grows with refinement (20 steps, 2
+    points: 1.0 times the load at 16 elements, 5.9 at 64, 22.9 at 256),
+    and no run said so.  A run ending above IMBALANCE times the external
+    force (IMBALANCE, 1: above the external force) now logs a warning
+    naming it (the last step's residual); one below it, and the residual
+    scheme, do not."""
+    from skfem_mpm.studies.column import run_column
+    IMBALANCE = 1.
+    found = {}
+    for elements, rhs in ((8, "increment"), (64, "increment"),
+                          (256, "increment"), (64, "residual")):
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="skfem_mpm.solve.core"):
+            result = run_column(elements, 2, nsteps=20, options=Options(
+                NewtonOptions(rhs=rhs)))
+        said = [r.getMessage() for r in caplog.records
+                if "out-of-balance force" in r.getMessage()]
+        found[elements, rhs] = result.history[-1].residual, said
+    residual, said = found[8, "increment"]
+    assert residual < IMBALANCE and not said
+    assert found[64, "increment"][0] < found[256, "increment"][0]
+    for elements in (64, 256):
+        residual, said = found[elements, "increment"]
+        assert residual > IMBALANCE
+        assert len(said) == 1 and "ends with an out-of-balance force " \
+            "{:.3g} times the external force".format(residual) in said[0]
+        assert "NewtonOptions(rhs='residual')" in said[0]
+    assert not found[64, "residual"][1]
+    from skfem_mpm.solve import core
+    assert core.IMBALANCE == IMBALANCE
+
+
 def test_grid_load_is_the_body_force_and_refused_off_the_body():
     """A ``LinearForm`` of the body force on the grid equals ``body_force``
     with the points at the Gauss points (finite elements, to 1e-12); a

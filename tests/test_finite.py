@@ -24,6 +24,28 @@ def run_column(nelems, method, nsteps=20):
                         nsteps=nsteps, method=method, keep_snapshots=False)
 
 
+def test_the_current_heights_closed_form_converges_at_rate_one():
+    """Seed (2.27), the stress at the current heights z of the column of
+    current height L0 - b L0^2 / (2 E): the weight b L0 at its base, and
+    one finite-deformation step of MPM (16, 64 elements) approaches it at
+    rate 1 (a trial: its sign flipped inside the root, it gave -38460 at
+    the base, and the error against it stayed at 1.25e-2)."""
+    from skfem_mpm.studies.column import analytical_stress_current
+    top = HEIGHT - LOAD * HEIGHT ** 2 / (2 * MATERIAL.E)
+    assert analytical_stress_current(np.array(0.), top) == pytest.approx(
+        -LOAD * HEIGHT, rel=1e-12)
+    assert analytical_stress_current(np.array(top), top) == 0.
+    errors = []
+    for nelems in (16, 64):
+        res = run_column(nelems, "mpm", nsteps=1)
+        p = res.points
+        exact = analytical_stress_current(p.x[1], top)
+        errors.append(np.abs(exact - p.stress[1, 1]) @ p.volume
+                      / (LOAD * HEIGHT * p.volume0.sum()))
+    assert np.log(errors[0] / errors[1]) / np.log(4.) > .9
+    assert errors[1] < 5e-3
+
+
 @pytest.fixture(scope="module")
 def columns():
     nelems = np.array([4, 8, 16, 32, 64, 128, 256])

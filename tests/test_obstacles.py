@@ -1370,12 +1370,13 @@ def test_a_scene_with_an_obstacle(tmp_path):
 
 @pytest.mark.parametrize("obstacle, words", [
     ('box = { x = [0.0, 1.0] }', r"obstacles\[0\].box: must bound"),
-    ('polygon = [[0.0, 0.0], [1.0, 0.0]]', r"obstacles\[0\]: Obstacle "
-     "polygon must be at least 3"),
+    ('polygon = [[0.0, 0.0], [1.0, 0.0]]', r"obstacles\[0\].polygon: "
+     "must be at least 3"),
     ('box = { x = [0.0, 1.0], y = [-1.0, 0.0] }\npolygon = [[0, 0]]',
      "exactly one of box"),
     ('box = { x = [0.0, 1.0], y = [-1.0, 0.0] }\nfriction = "sticky"',
-     "'rough' or 'tied'"),
+     r"obstacles\[0\].friction: must be a coefficient >= 0, 'rough' or "
+     "'tied'"),
     ('box = { x = [0.0, 1.0], y = [-1.0, 0.0] }\nshape = "round"',
      r"obstacles\[0\].shape"),
     ('box = { x = [0.0, 1.0], y = [-1.0, 0.0] }\ntolerance = 0.0',

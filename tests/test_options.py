@@ -182,3 +182,19 @@ def test_entry_points_keep_their_positional_order_and_scenes_their_types():
     with pytest.raises(SceneError, match=r"solver.tolerance: must lie in "
                        r"\(0, 1\), got 2"):
         parse_scene(data)
+
+
+def test_a_deprecated_keyword_names_its_new_field():
+    """Trial 86: simulate(..., rhs=...) said "use
+    options=Options(newton=...)" without the field's name; now
+    options=Options(newton=NewtonOptions(rhs=...))."""
+    import warnings
+    from skfem_mpm.solve.options import translate_aliases
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        translate_aliases("simulate", None, None, None,
+                          {"rhs": "increment", "ghost": .1})
+    assert [str(w.message) for w in caught] == [
+        "simulate(ghost=..., rhs=...) is deprecated: use "
+        "options=Options(newton=NewtonOptions(rhs=...)), "
+        "options=Options(stabilisation=Stabilisation(ghost=...))"]

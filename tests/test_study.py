@@ -1464,3 +1464,40 @@ def test_a_rate_over_errors_that_level_off_says_so():
     assert "the last refinement (48 to 96 elements) has a local rate of " \
         "{:.2f} (errors 1.060e-04 to 1.030e-04)".format(last) in said
     assert "last refinement" not in line([1e-2 / 4 ** k for k in range(5)])
+
+
+def test_a_rate_says_what_it_was_fitted_on_and_its_spread():
+    """Trial 86: cpGIMP on a 2D column, errors (2.28) at 8..128
+    elements, printed "rate 1.70 (fitted to the cases with a non-zero
+    error)" with no range, though its local rates run 1.41 to 2.03, and an
+    uncertainty column of "-" unexplained.  Now the line names the
+    elements fitted, the slope's standard error and the local rates with
+    their range (computed here from the errors); the error line says why
+    a closed form's error has no uncertainty."""
+    from skfem_mpm.studies.study import report
+    elements = np.array([8, 16, 32, 64, 128])
+    errors = np.array([0.025014383804709155, 0.009423291771136908,
+                       0.002300250758060052, 0.0007837122262530735,
+                       0.00023774740746196276])
+    rows = [dict(elements=int(n), failure="", error=e, uncertainty=None,
+                 wall_seconds=1., cpu_seconds=1., points=4 * n,
+                 newton_iterations=1, factorisations=1)
+            for n, e in zip(elements, errors)]
+    measured = {"error": {"measures": "a closed form", "closed_form": True},
+                "convergence": []}
+    lines = report(rows, measured, ["elements"])
+    assert "uncertainty -: against a closed form the error is measured, " \
+        "not estimated" in lines[0]
+    line = [x for x in lines if x.startswith("rate of the error")][0]
+    x, y = np.log(elements), np.log(errors)
+    slope, cut = np.polyfit(x, y, 1)
+    r = y - slope * x - cut
+    standard = np.sqrt(r @ r / 3 / ((x - x.mean()) @ (x - x.mean())))
+    local = -np.diff(y) / np.diff(x)
+    assert line == (
+        "rate of the error all: {:.2f} (least squares over 8, 16, 32, 64, "
+        "128 elements, the cases with a non-zero error; standard error "
+        "{:.2f}; local rates {} (range {:.2f}-{:.2f}))".format(
+            -slope, standard, ", ".join("{:.2f}".format(v) for v in local),
+            local.min(), local.max()))
+    assert "local rates 1.41, 2.03, 1.55, 1.72" in line

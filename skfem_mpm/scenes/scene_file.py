@@ -513,8 +513,25 @@ def _contact(c, data, key: str, bodies: list):
         return Contact(data["first"], data["second"], friction=friction,
                        name=data.get("name"), **kwargs)
     except InvalidInputError as err:
-        c.problems.append("{}: {}".format(key, err))
+        c.problems.append(keyed(key, "Contact", err, data))
         return None
+
+
+def keyed(key: str, kind: str, err, data: dict) -> str:
+    """The problem of the table ``key`` whose class ``kind`` refused it
+    with ``err``, "``kind`` FIELD must ...": named by its key where FIELD
+    is one of ``data``'s (a trial read ``obstacles[0]: Obstacle friction
+    must be ...``).
+
+    >>> from skfem_mpm.scenes.scene_file import keyed
+    >>> keyed("obstacles[0]", "Obstacle", "Obstacle friction must be "
+    ...       "'rough' or 'tied', got 'rogh'", {"friction": "rogh"})
+    "obstacles[0].friction: must be 'rough' or 'tied', got 'rogh'"
+    """
+    words = str(err).split(" ", 2)
+    if len(words) == 3 and words[0] == kind and words[1] in data:
+        return "{}.{}: {}".format(key, words[1], words[2])
+    return "{}: {}".format(key, err)
 
 
 def _obstacle(c, data, key: str, dim: int):
@@ -551,7 +568,7 @@ def _obstacle(c, data, key: str, dim: int):
     try:
         return Obstacle(friction=friction, name=data.get("name"), **kwargs)
     except InvalidInputError as err:
-        c.problems.append("{}: {}".format(key, err))
+        c.problems.append(keyed(key, "Obstacle", err, data))
         return None
 
 

@@ -322,6 +322,11 @@ ALIASES = {
 }
 
 
+#: the class of each group of :data:`ALIASES` an :class:`Options` field
+GROUP_CLASSES = {"newton": "NewtonOptions", "stabilisation": "Stabilisation",
+                 "resume": "Resume"}
+
+
 def translate_aliases(function: str, options: Optional[Options],
                       body_force, loads, aliases: dict,
                       warn: bool = True):
@@ -340,16 +345,23 @@ def translate_aliases(function: str, options: Optional[Options],
     if not aliases:
         return options, body_force, loads
     if warn:
+        # each group's class and the fields given (a trial read "use
+        # options=Options(newton=...)" for rhs= without the field's name)
+        fields = {}
+        for name in aliases:
+            fields.setdefault(ALIASES[name], set()).add(name)
         warnings.warn(
             "{}({}=...) is deprecated: use {}".format(
                 function, "=..., ".join(sorted(aliases)), ", ".join(sorted(
-                    {"options=Options({}=...)".format(ALIASES[name])
-                     if ALIASES[name] in ("newton", "stabilisation",
-                                          "resume")
-                     else "options=Options(...)" if ALIASES[name] ==
-                     "options" else "loads=[...]" if ALIASES[name] == "loads"
+                    {"options=Options({}={}({}=...))".format(
+                        group, GROUP_CLASSES[group],
+                        "=..., ".join(sorted(names)))
+                     if group in GROUP_CLASSES
+                     else "options=Options({}=...)".format(
+                         "=..., ".join(sorted(names))) if group ==
+                     "options" else "loads=[...]" if group == "loads"
                      else "body_force=BodyForce(..., ramp=...)"
-                     for name in aliases}))),
+                     for group, names in fields.items()}))),
             DeprecationWarning, stacklevel=3)
     groups = {}
     for name, value in aliases.items():

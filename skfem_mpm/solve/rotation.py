@@ -102,7 +102,11 @@ def rotation_vector(grad: ndarray, dim: int) -> ndarray:
     >>> g = np.array([[0., -.2], [.2, 0.]])[:, :, None]   # rotation by .2
     >>> rotation_vector(g, 2)
     array([[0.2]])
+    >>> rotation_vector(np.zeros((1, 1, 3)), 1).shape    # none in 1D
+    (0, 3)
     """
+    if dim == 1:
+        return np.zeros((0, grad.shape[-1]))
     pairs = [(1, 0)] if dim == 2 else [(2, 1), (0, 2), (1, 0)]
     return np.array([.5 * (grad[a, b] - grad[b, a]) for a, b in pairs])
 
@@ -150,7 +154,9 @@ class SmallStrainRange(GridTerm):
     docstring): a grid term with no force, whose commit adds each step's
     rotation to the point state, and warns when a point's rotation passes
     :data:`ROTATION_WARNING`, or its strain :data:`STRAIN_WARNING`, then
-    2, 4, 8... times it."""
+    2, 4, 8... times it (in 1D, where nothing rotates, the strain alone:
+    a lecturer's column strained by 20% settled 10.0 against finite
+    deformation's 7.3, unsaid)."""
 
     def __init__(self, dim: int):
         self.dim, self.names = dim, rotation_names(dim)
@@ -162,7 +168,8 @@ class SmallStrainRange(GridTerm):
             points.state.setdefault(name, np.zeros(points.n))
         # a resumed run's points carry their rotation: the level it
         # passed was warned by the invocation before (a reviewer's)
-        largest = rotation_angle(points.state, self.dim).max(initial=0.)
+        largest = rotation_angle(points.state, self.dim).max(
+            initial=0.) if self.names else 0.
         self.level = ROTATION_WARNING
         while self.level < largest:
             self.level *= 2.
@@ -179,9 +186,10 @@ class SmallStrainRange(GridTerm):
         new.state = dict(new.state)
         for name, increment in zip(self.names, w):
             new.state[name] = new.state[name] + increment
-        angle = rotation_angle(new.state, self.dim)
-        p = int(np.argmax(angle))
-        if angle[p] > self.level:
+        angle = rotation_angle(new.state, self.dim) if self.names else \
+            np.zeros(new.n)
+        p = int(np.argmax(angle)) if angle.size else 0
+        if angle.size and angle[p] > self.level:
             while self.level < angle[p]:
                 self.level *= 2.
             logger.warning(

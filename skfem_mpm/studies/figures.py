@@ -38,7 +38,9 @@ def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
     Y = np.linspace(0., pts.x0[-1].max(), 200)
     ax.plot(-analytical_stress(Y), Y, "k--", lw=1,
             label=r"$\rho_0 b (L_0 - Y)$, initial height")
-    top = pts.x[-1].max()
+    # the material's current top: the top point's domain above it (its
+    # height, 1.25 of a cell of 5, put the curve's zero at 47.5 for 49)
+    top = (pts.x[-1] + (0. if pts.domain is None else pts.domain[-1])).max()
     z = np.linspace(0., top, 200)
     ax.plot(-analytical_stress_current(z, top), z, "k:", lw=1,
             label="(2.27) of {}, current height".format(SOURCE))
