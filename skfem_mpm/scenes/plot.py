@@ -814,8 +814,8 @@ def obstacle_view(lo: np.ndarray, hi: np.ndarray, polygons) -> tuple:
     >>> box = np.array([[-.5, 1.45], [.5, 1.45], [.5, 1.95], [-.5, 1.95]])
     >>> lo, hi = obstacle_view(np.array([-.3, -.3]), np.array([3.3, 1.8]),
     ...                        [box])
-    >>> lo.tolist(), [round(v, 4) for v in hi]
-    ([-0.3, -0.3], [3.3, 2.022])
+    >>> [round(float(v), 4) for v in lo], [round(float(v), 4) for v in hi]
+    ([-0.572, -0.3], [3.3, 2.022])
     """
     lo, hi = np.array(lo, float), np.array(hi, float)
     size = float((hi - lo).max())
