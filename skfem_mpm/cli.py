@@ -928,13 +928,6 @@ def load_run(args):
         kept = (outdir / CHECKPOINT).is_file()
         earlier = load_checkpoint(outdir, scene_digest(source)) if kept \
             else None
-        planned = scene.step_count if earlier is None else earlier.nsteps
-        if args.steps and args.steps != planned:
-            raise InvalidInputError(
-                "--steps {} with --resume {}: the run there was planned in "
-                "{} steps, and a resume continues it bit for bit; leave "
-                "--steps out, or run the scene anew with --out".format(
-                    args.steps, outdir, planned))
         if earlier is not None and earlier.complete:   # a trial's resume
             raise RunComplete(                          # ran them again
                 "{}: the run in {} is complete (its checkpoint holds its "
@@ -954,6 +947,14 @@ def load_run(args):
                     figures_note(outdir)))
         if earlier is None:             # the error of a missing one
             earlier = load_checkpoint(outdir, scene_digest(source))
+        # the checkpoint's count: scene.toml keeps no --steps given to the
+        # run (a review's run started with --steps 5 was told 20)
+        if args.steps and args.steps != earlier.nsteps:
+            raise InvalidInputError(
+                "--steps {} with --resume {}: the run there was planned in "
+                "{} steps, and a resume continues it bit for bit; leave "
+                "--steps out, or run the scene anew with --out".format(
+                    args.steps, outdir, earlier.nsteps))
         points = earlier.points
         if scene.dynamics is None:
             scene.nsteps = earlier.nsteps

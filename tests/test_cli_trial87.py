@@ -76,6 +76,33 @@ def test_resume_refuses_other_steps_and_another_out(stopped, tmp_path,
                  "--max-steps", "1"]) == 0
 
 
+def test_resume_takes_the_steps_the_run_was_started_with(
+        scene, tmp_path, monkeypatch, capsys):
+    """A run completed with ``--steps 6`` (its scene says 4; no checkpoint
+    kept) resumed with ``--steps 6`` is complete, nothing to do: it was
+    refused as "planned in 4 steps" (scene.toml keeps no ``--steps``; a
+    review).  One stopped after its first step resumes with 6 and is
+    refused with 4, naming 6 (the checkpoint's count)."""
+    import skfem_mpm.cli as cli
+    monkeypatch.setattr(cli, "plot_outputs", lambda *args, **kwargs: None)
+    done = tmp_path / "done"
+    assert main(["run", str(scene), "--out", str(done), "--steps", "6",
+                 "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["run", "--resume", str(done), "--steps", "6",
+                 "--no-progress"]) == 0
+    assert "is complete" in capsys.readouterr().out
+    out = tmp_path / "six"
+    assert main(["run", str(scene), "--out", str(out), "--steps", "6",
+                 "--max-steps", "1", "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["run", "--resume", str(out), "--steps", "4",
+                 "--no-progress"]) == 2
+    assert "the run there was planned in 6 steps" in capsys.readouterr().err
+    assert main(["run", "--resume", str(out), "--steps", "6",
+                 "--max-steps", "1", "--no-progress"]) == 0
+
+
 def test_progress_past_the_planned_steps_says_planned():
     """After cut-backs a trial's bar read ``step   43/40``."""
     import io

@@ -132,3 +132,34 @@ def test_a_stress_from_finite_elements_unloads_to_nothing(nsteps):
     assert np.abs(res.points.displacement + spring).max() <= 1e-10 * scale
     assert np.abs(res.points.stress).max() <= 1e-10 * np.abs(
         pts.stress).max()
+
+
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+def test_a_stress_on_stretched_points_is_kept_by_either_kinematics(
+        kinematics):
+    """Points stretched by F_xx = 1.1 (from a finite stage) given -100 all
+    round by ``initial_stress`` for the kinematics to come: small strain
+    reads the strain of the stress, finite deformation that of the
+    Kirchhoff stress 1.1 x -100, and either keeps -100 through a step
+    nothing loads (a review: small strain read back -110, the strain of
+    the Kirchhoff stress)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    pts = seed_points(mesh, 2)
+    pts.F[0, 0] = 1.1
+    soil = MohrCoulomb(E, NU, cohesion=5., friction_angle=30.)
+    pts = initial_stress(pts, soil, -100. * np.eye(3)[:, :, None]
+                         * np.ones(pts.n), kinematics)
+    J = 1.1 if kinematics == "finite" else 1.
+    assert np.abs(pts.strain - hooke_inverse(J * pts.stress)).max() \
+        <= 1e-15
+
+    def rollers(b):
+        return np.concatenate([
+            b.get_dofs(lambda x: np.isclose(x[0], 0) | np.isclose(x[0], 1))
+            .nodal["u^1"],
+            b.get_dofs(lambda x: np.isclose(x[1], 0) | np.isclose(x[1], 1))
+            .nodal["u^2"]])
+    res = simulate(mesh, ElementQuad1(), pts, soil, rollers,
+                   body_force=None, nsteps=1, kinematics=kinematics)
+    assert np.abs(res.points.stress + 100. * np.eye(3)[:, :, None]).max() \
+        <= 1e-9 * 100.

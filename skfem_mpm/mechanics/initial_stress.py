@@ -1,9 +1,10 @@
 """Initial stress: the elastic state that holds a given stress.
 
-A run reads a point's stress from its elastic state where the stress is
-not the state itself: a plastic material in small strain from the elastic
-strain ``strain``, every material in finite deformation from the elastic
-left Cauchy-Green tensor ``be``.  A stress set by hand (carried over from
+A run reads a point's stress from its elastic strain ``strain`` where
+the stress is not the state itself: a plastic material in small strain,
+every material in finite deformation (the logarithmic strain of the
+Kirchhoff stress ``det(F) stress``; ``be`` is its exponential).  A stress
+set by hand (carried over from
 another code, or from finite elements, :func:`~skfem_mpm.solve_fe`)
 needs that state too: :func:`initial_stress` gives it, through the
 material's inverse elastic law, and refuses a stress the material's yield
@@ -28,11 +29,14 @@ logger = logging.getLogger(__name__)
 
 
 def initial_stress(points: MaterialPoints, material,
-                   stress: Optional[ndarray] = None) -> MaterialPoints:
+                   stress: Optional[ndarray] = None,
+                   kinematics: str = "small") -> MaterialPoints:
     """The points with the Cauchy stress ``stress`` (3, 3, n; default
-    their own ``stress``) and the elastic state that holds it: the elastic
-    strain ``strain`` and ``be`` of the material's inverse elastic law
-    (the Kirchhoff stress ``det(F) stress`` in finite deformation).
+    their own ``stress``) and the elastic state that holds it, by the
+    material's inverse elastic law: the elastic strain ``strain`` and
+    ``be`` of the stress (small strain), or of the Kirchhoff stress
+    ``det(F) stress`` (finite deformation; the same where ``F`` is the
+    identity).
 
     Parameters
     ----------
@@ -45,6 +49,11 @@ def initial_stress(points: MaterialPoints, material,
     stress
         Symmetric (3, 3, n) stresses, compression negative; ``None``: the
         points' own.
+    kinematics
+        The run's to come, ``"small"`` or ``"finite"``: which elastic
+        strain holds the stress where ``F`` is not the identity (points of
+        an earlier finite stage: a review's, ``det F = 1.1``, read back
+        -110 for -100 in small strain from the Kirchhoff stress's).
 
     Returns
     -------
@@ -87,31 +96,40 @@ def initial_stress(points: MaterialPoints, material,
             1e-12 * scale:
         raise InvalidInputError("initial_stress: the stress must be "
                                 "symmetric (sigma_ij = sigma_ji)")
+    if kinematics not in ("small", "finite"):
+        raise InvalidInputError("initial_stress: kinematics must be "
+                                "'small' or 'finite', got {!r}".format(
+                                    kinematics))
     out = points.copy()
     strain, be = elastic_state(at_points(material, points), sigma, out,
-                               np.arange(n), "initial_stress")
+                               np.arange(n), "initial_stress",
+                               finite=kinematics == "finite")
     out.stress, out.strain, out.be = sigma, strain, be
     return out
 
 
 def elastic_state(materials, sigma: ndarray, points: MaterialPoints,
-                  idx: ndarray, who: str, advice: str = "") -> tuple:
+                  idx: ndarray, who: str, advice: str = "",
+                  finite: bool = False) -> tuple:
     """``(strain, be)`` (3, 3, m) of the Cauchy stresses ``sigma`` (3, 3,
     m) of the points ``idx`` (their ``F`` and ``state``) by the inverse
-    elastic law of ``materials`` (at those points); a stress outside the
-    yield surface is refused, the error starting with ``who`` and ending
-    with ``advice`` (what may fit)."""
+    elastic law of ``materials`` (at those points): of the stress itself,
+    or (``finite``) of the Kirchhoff stress ``det(F) sigma``, which finite
+    deformation reads; a stress outside the yield surface is refused, the
+    error starting with ``who`` and ending with ``advice`` (what may
+    fit)."""
     n = idx.size
-    J = np.linalg.det(points.F[:, :, idx].transpose(2, 0, 1))
-    tau = sigma * J
-    if not np.any(tau - np.einsum("aap->ap", tau)[:, None, :]
+    J = np.linalg.det(points.F[:, :, idx].transpose(2, 0, 1)) if finite \
+        else np.ones(n)
+    if not np.any(sigma - np.einsum("aap->ap", sigma)[:, None, :]
                   * np.eye(3)[:, :, None]):
-        values = np.einsum("aap->ap", tau)        # on the axes: exact
+        values = np.einsum("aap->ap", sigma)        # on the axes: exact
         vectors = np.repeat(np.eye(3)[:, :, None], n, axis=2)
     else:
-        values, vectors = np.linalg.eigh(tau.transpose(2, 0, 1))
+        values, vectors = np.linalg.eigh(sigma.transpose(2, 0, 1))
         values, vectors = values.T, vectors.transpose(1, 2, 0)
-    principal = inverse_elastic_law(materials, values)
+    # the Kirchhoff stress J sigma has the same axes
+    principal = inverse_elastic_law(materials, values * J)
     if is_plastic(materials):
         state = initial_state(materials, n)
         state.update({k: v[idx] for k, v in (points.state or {}).items()})
@@ -127,7 +145,7 @@ def elastic_state(materials, sigma: ndarray, points: MaterialPoints,
                 "{}): the material cannot hold it elastically; {}{}".format(
                     who, int(yielded.sum()), i, int(points.body[i]),
                     points.x[:, i].tolist(),
-                    np.round(values[:, k] / J[k], 6).tolist(),
+                    np.round(values[:, k], 6).tolist(),
                     advice + " or " if advice else "",
                     "a larger preconsolidation_pressure (or each point's "
                     "plastic_volumetric_strain)" if hasattr(
@@ -139,10 +157,12 @@ def elastic_state(materials, sigma: ndarray, points: MaterialPoints,
     return strain, be
 
 
-def derive_elastic_state(points: MaterialPoints, material) -> None:
+def derive_elastic_state(points: MaterialPoints, material,
+                         finite: bool) -> None:
     """Give the points whose stress was set alone (a stress, the elastic
     strain zero and ``be`` the identity) the elastic state that holds it
-    (:func:`elastic_state`), in place, saying so at INFO: a run reads a
+    (:func:`elastic_state`; of the Kirchhoff stress where ``finite``), in
+    place, saying so at INFO: a run reads a
     plastic material's stress in small strain and every material's in
     finite deformation from that state, and dropped a stress set by hand
     without a word (user trials: a Mohr-Coulomb soil's -200 became 0,
@@ -159,7 +179,7 @@ def derive_elastic_state(points: MaterialPoints, material) -> None:
         materials = materials.take(idx)
     strain, be = elastic_state(materials, points.stress[:, :, idx], points,
                                idx, "the points' stress (set without its "
-                               "elastic strain)")
+                               "elastic strain)", finite=finite)
     points.strain[:, :, idx], points.be[:, :, idx] = strain, be
     logger.info("%d of %d points have a stress set without its elastic "
                 "strain: their strain and be are the stress's by the "

@@ -77,7 +77,8 @@ def single_point_domains(method: str, per_axis: float, nsteps: int) -> str:
         "each averages the strains of two cells, so a grid displacement "
         "of alternate nodes strains next to no point (a zero-energy mode: "
         "a 1D column settling 1.3 cells in 20 steps had its top points "
-        "zig-zag, 38% too far, or in small strain a singular stiffness); "
+        "zig-zag, up to 64% too far, or in small strain a singular "
+        "stiffness); "
         "seed 2 points per cell and axis".format(method))
 
 

@@ -1988,7 +1988,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
             points.velocity = np.zeros_like(points.x)
     for name, value in initial_state(case.material, points.n).items():
         points.state.setdefault(name, value)
-    derive_elastic_state(points, case.material)
+    derive_elastic_state(points, case.material, kinematics == "finite")
     resume = options.resume or Resume()
     held = support_dofs(supports, user_grid)
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,

@@ -753,8 +753,8 @@ def stalled(residuals: List[float],
     that overshot and comes back down goes on, a cantilever's first full
     step raised its residual 470-fold and converged), ``("flat", level)``
     where the last :data:`FLAT_ITERATIONS` lie within :data:`STALL_SPREAD`
-    of each other above :data:`STALL_LEVEL` (a search's too); else
-    ``None``.
+    of each other (a search's too; below :data:`STALL_LEVEL` they have
+    stalled first); else ``None``.
 
     >>> stalled([1e-3, 2e-5, 1.59e-6, 1.59e-6, 1.6e-6, 1.59e-6, 1.59e-6])
     ('stalled', 1.59e-06)

@@ -66,7 +66,8 @@ class Stabilisation:
         ratio (:mod:`skfem_mpm.stabilisation.fbar`): for nu near 0.5,
         where the additive average leaves pressures oscillating inside
         cells (a Cook's membrane at nu = 0.4999: 10 steps uncut, 111
-        iterations, against 5 cut back and 528); numpy path only.
+        iterations, against 5 cut back and 528); compiled passes too
+        (:mod:`skfem_mpm.kernels.fbar`).
         Refused on higher-order Lagrange cells (Q2) with points that move
         and a plastic material (a footing came out 17-26% under Prandtl's
         limit load: :func:`~skfem_mpm.solve.core.

@@ -281,6 +281,12 @@ def unstable_orders(sizes, values, lowest: float = LOWEST_CREDIBLE_ORDER
     (finest first), are not stable (below 0.5; apart by more than a factor
     2): the values are not in the asymptotic range (their differences do
     not shrink geometrically)
+    >>> print(unstable_orders([1, 2, 4, 8], [1., 1.01, 1., 1.02]))
+    ... # doctest: +NORMALIZE_WHITESPACE
+    the local orders of successive triplets of grids, nan, nan (finest
+    first), are not stable (a triplet's differences change sign or
+    vanish): the values are not in the asymptotic range (their
+    differences do not shrink geometrically)
     """
     h, f = np.asarray(sizes, float), np.asarray(values, float)
     order = np.argsort(h)
@@ -288,7 +294,9 @@ def unstable_orders(sizes, values, lowest: float = LOWEST_CREDIBLE_ORDER
     if len(orders) < 2:
         return ""
     reasons = []
-    if any(not p >= lowest for p in orders):
+    if any(np.isnan(p) for p in orders):       # (local_orders: no order)
+        reasons.append("a triplet's differences change sign or vanish")
+    if any(p < lowest for p in orders):
         reasons.append("below {:g}".format(lowest))
     positive = [p for p in orders if p > 0]
     if len(positive) == len(orders) and \
