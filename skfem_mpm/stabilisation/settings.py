@@ -30,7 +30,11 @@ class Stabilisation:
     Parameters
     ----------
     ghost
-        Ghost-penalty factor for partially filled cells
+        Ghost-penalty factor for partially filled cells, those the
+        points fill to less than half
+        (:data:`~skfem_mpm.stabilisation.ghost.CUT_FILL`: a body whose
+        cells are all at least half full gets no penalty, whatever the
+        factor; trial 88's block with its top row exactly half full)
         (:mod:`skfem_mpm.stabilisation.ghost`, e.g. 0.1); 0: none;
         ``"auto"`` (default): none, but where points move a load step
         that fails in finite deformation, with contacts between bodies
