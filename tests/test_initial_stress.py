@@ -20,6 +20,15 @@ def hooke_inverse(sigma):
     return ((1 + NU) * sigma - NU * trace * np.eye(3)[:, :, None]) / E
 
 
+def box_rollers(b):
+    """The unit box's sides on rollers."""
+    return np.concatenate([
+        b.get_dofs(lambda x: np.isclose(x[0], 0) | np.isclose(x[0], 1))
+        .nodal["u^1"],
+        b.get_dofs(lambda x: np.isclose(x[1], 0) | np.isclose(x[1], 1))
+        .nodal["u^2"]])
+
+
 def rotated_stress(n):
     """A plane stress state with shear, rotated differently at each of
     ``n`` points, compressive."""
@@ -76,13 +85,7 @@ def test_a_stress_set_by_hand_is_kept(material, kinematics):
     pts = seed_points(mesh, 2)
     pts.stress[:] = -200. * np.eye(3)[:, :, None]
 
-    def rollers(b):
-        return np.concatenate([
-            b.get_dofs(lambda x: np.isclose(x[0], 0) | np.isclose(x[0], 1))
-            .nodal["u^1"],
-            b.get_dofs(lambda x: np.isclose(x[1], 0) | np.isclose(x[1], 1))
-            .nodal["u^2"]])
-    res = simulate(mesh, ElementQuad1(), pts, material, rollers,
+    res = simulate(mesh, ElementQuad1(), pts, material, box_rollers,
                    body_force=None, nsteps=1, kinematics=kinematics)
     assert np.abs(res.points.stress - pts.stress).max() <= 1e-9 * 200.
     assert np.abs(res.points.displacement).max() <= 1e-12
@@ -153,13 +156,7 @@ def test_a_stress_on_stretched_points_is_kept_by_either_kinematics(
     assert np.abs(pts.strain - hooke_inverse(J * pts.stress)).max() \
         <= 1e-15
 
-    def rollers(b):
-        return np.concatenate([
-            b.get_dofs(lambda x: np.isclose(x[0], 0) | np.isclose(x[0], 1))
-            .nodal["u^1"],
-            b.get_dofs(lambda x: np.isclose(x[1], 0) | np.isclose(x[1], 1))
-            .nodal["u^2"]])
-    res = simulate(mesh, ElementQuad1(), pts, soil, rollers,
+    res = simulate(mesh, ElementQuad1(), pts, soil, box_rollers,
                    body_force=None, nsteps=1, kinematics=kinematics)
     assert np.abs(res.points.stress + 100. * np.eye(3)[:, :, None]).max() \
         <= 1e-9 * 100.
