@@ -126,7 +126,8 @@ def build_parser() -> argparse.ArgumentParser:
                           "(resume later with --resume)")
     run.add_argument("--steps", type=int, metavar="N",
                      help="override the scene's number of load steps "
-                     "(N >= 1; not with --resume)")
+                     "(N >= 1; with --resume only the run's own "
+                     "count, completed or not)")
     run.add_argument("--no-series", action="store_true",
                      help="write plots and summary only, no VTU series")
     compare = sub.add_parser("compare",
@@ -908,6 +909,21 @@ def refuse_changes(args, source: Path):
             "folder; leave --out out".format(args.out, args.resume))
 
 
+def refuse_other_steps(args, outdir: Path, planned):
+    """Refuse ``--steps`` with ``--resume`` other than ``planned``, the
+    run's own count: its checkpoint's, or where a completed run kept none,
+    its ``summary.json``'s ``steps`` (``None``: not known, not checked).
+    A completed run was told "nothing to resume" for any ``--steps`` (a
+    user trial's ``--steps 9`` on a run of 6), an unfinished one refused
+    it; a completed run told its own count is still complete."""
+    if args.steps and isinstance(planned, int) and args.steps != planned:
+        raise InvalidInputError(
+            "--steps {} with --resume {}: the run there was planned in "
+            "{} steps, and a resume continues it bit for bit; leave "
+            "--steps out, or run the scene anew with --out".format(
+                args.steps, outdir, planned))
+
+
 def load_run(args):
     """The scene of a run (``--resume``: the checkpoint's), its output
     folder, the checkpoint resumed from (or ``None``), the points to start
@@ -929,6 +945,7 @@ def load_run(args):
         earlier = load_checkpoint(outdir, scene_digest(source)) if kept \
             else None
         if earlier is not None and earlier.complete:   # a trial's resume
+            refuse_other_steps(args, outdir, earlier.nsteps)
             raise RunComplete(                          # ran them again
                 "{}: the run in {} is complete (its checkpoint holds its "
                 "end, {} {} steps{}): nothing to resume, every output left "
@@ -939,6 +956,9 @@ def load_run(args):
                     ", {} planned".format(earlier.nsteps),
                     figures_note(outdir)))
         if completed_before(outdir):    # a checkpoint short of its end was
+            refuse_other_steps(args, outdir, earlier.nsteps
+                               if earlier is not None else
+                               summary_of(outdir).get("steps"))
             raise RunComplete(         # left before runs ended on one
                 "{}: the run in {} is complete (summary.json; {}): nothing "
                 "to resume, every output left as it was{}".format(
@@ -949,12 +969,7 @@ def load_run(args):
             earlier = load_checkpoint(outdir, scene_digest(source))
         # the checkpoint's count: scene.toml keeps no --steps given to the
         # run (a review's run started with --steps 5 was told 20)
-        if args.steps and args.steps != earlier.nsteps:
-            raise InvalidInputError(
-                "--steps {} with --resume {}: the run there was planned in "
-                "{} steps, and a resume continues it bit for bit; leave "
-                "--steps out, or run the scene anew with --out".format(
-                    args.steps, outdir, earlier.nsteps))
+        refuse_other_steps(args, outdir, earlier.nsteps)
         points = earlier.points
         if scene.dynamics is None:
             scene.nsteps = earlier.nsteps
