@@ -139,7 +139,10 @@ def build_parser() -> argparse.ArgumentParser:
     study = sub.add_parser(
         "study", help="error and cost over a grid of choices",
         description="Vary elements (the cells along the grid's most "
-        "refined axis, the other axes in proportion: a value that does "
+        "refined axis, the other axes in proportion, but an axis of one "
+        "cell stays one cell where another has more: a strip one cell "
+        "wide, such as the column, stays one, its cell size the cells' "
+        "length along it; a value that does "
         "not scale every axis to whole cells is refused before any work, "
         "naming the axis, the count it would need and the values that "
         "keep whole cells, and so are values of which none keeps the "

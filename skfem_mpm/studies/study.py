@@ -219,10 +219,33 @@ def own_lines(scene: Scene) -> list:
 
 def _counts(scene: Scene, elements: int) -> list:
     """Each axis's cell count scaled to ``elements`` along the most
-    refined one, unrounded (an axis one cell across stays so)."""
+    refined one, unrounded (an axis one cell across stays so where
+    another has more: :func:`scaled_axes`)."""
     ref = max(n for _, _, n in scene.grid.axes)
-    return [n if n == 1 else n * elements / ref
-            for _, _, n in scene.grid.axes]
+    scaled = scaled_axes(scene)
+    return [n * elements / ref if d in scaled else n
+            for d, (_, _, n) in enumerate(scene.grid.axes)]
+
+
+def scaled_axes(scene: Scene) -> list:
+    """The axes a study's ``elements`` refines (:func:`refine`): those of
+    more than one cell, or every axis of a grid of one cell.  An axis one
+    cell across stays one cell: a strip one cell wide between rollers,
+    such as the column, is a 1D problem, which more cells across would
+    make dearer without changing it; its cells lengthen or shorten along
+    the other axes only.
+
+    >>> from skfem_mpm.scenes.scene import Grid, Scene
+    >>> strip = Grid(axes=[(0., 2.5, 1), (0., 50., 20)])    # 1 x 20
+    >>> scaled_axes(Scene(grid=strip, bodies=[]))
+    [1]
+    >>> [n for _, _, n in refine(Scene(grid=strip, bodies=[]),
+    ...                          160).grid.axes]
+    [1, 160]
+    """
+    axes = scene.grid.axes
+    many = [d for d, (_, _, n) in enumerate(axes) if n > 1]
+    return many or list(range(len(axes)))
 
 
 def _rounded(scene: Scene, elements: int) -> Scene:
@@ -287,9 +310,11 @@ def not_whole(scene: Scene, values: Sequence[int]) -> str:
 
 def refine(scene: Scene, elements: int) -> Scene:
     """The scene on a grid with ``elements`` cells along its most refined
-    axis, the other axes in proportion (axes one cell across stay so):
-    the same cells' shape and the same grid lines at the scene's faces
-    as on its own grid, coarser or finer.
+    axis, the other axes in proportion, but an axis one cell across
+    stays one cell where another has more (:func:`scaled_axes`: the
+    column's 1 x 20 cells at 160 elements are 1 x 160): the same cells'
+    shape along the axes refined and the same grid lines at the scene's
+    faces as on its own grid, coarser or finer.
 
     Raises
     ------
@@ -632,10 +657,21 @@ def cell_size(scene: Scene, elements: int) -> float:
     """The representative cell size ``(V / N)^(1/d)`` (Celik et al. 2008)
     of the scene's grid refined to ``elements`` (:func:`refine`; for a
     row of an older study whose ``elements`` did not scale every axis to
-    whole cells, the grid it ran on, the counts rounded)."""
+    whole cells, the grid it ran on, the counts rounded), over the ``d``
+    axes it refines (:func:`scaled_axes`): over all, a strip one cell
+    wide, the column's 1 x 20 cells, had its cell size shrink as the
+    square root of the cells along it, and orders fitted against it
+    came out twice the order in the cells' length.
+
+    >>> from skfem_mpm.scenes.scene import Grid, Scene
+    >>> strip = Grid(axes=[(0., 2.5, 1), (0., 50., 20)])    # 1 x 20
+    >>> cell_size(Scene(grid=strip, bodies=[]), 40)   # 50 m in 40 cells
+    1.25
+    """
     axes = _rounded(scene, elements).grid.axes
-    return float(np.prod([(hi - lo) / n for lo, hi, n in axes])
-                 ** (1. / len(axes)))
+    scaled = scaled_axes(scene)
+    return float(np.prod([(axes[d][1] - axes[d][0]) / axes[d][2]
+                          for d in scaled]) ** (1. / len(scaled)))
 
 
 def feature_lines(scene: Scene) -> list:
@@ -776,6 +812,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     convergence = []
     lines = feature_lines(scene) if refined else []
     for choices, members in _groups(done, keys):
+        if refined:     # coarse to fine (they came in the order done)
+            members = sorted(members, key=lambda r: r["elements"])
         fitted, left_out = (same_geometry(scene, members, lines) if refined
                             else (members, ""))
         alike, mixed = same_stabilisation(members, refined, choices)
