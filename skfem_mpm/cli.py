@@ -804,15 +804,26 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
         mark_peak(ax, line, disp @ direction, force @ direction)
     ax.set_xlabel("displacement along the motion ({})".format(
         unit("length", scene.units)))
-    ax.set_ylabel("force along the motion ({})\n(the weight of "
-                  "the points in its cells taken off)".format(
-                      quantity_unit("rigid_force", scene.grid.dim,
-                                    scene.units)))
+    ax.set_ylabel("force along the motion ({}){}".format(
+        quantity_unit("rigid_force", scene.grid.dim, scene.units),
+        weight_taken_off(scene)))
     ax.set_title("{}: force-displacement\nof the rigid bodies".format(
         scene.name))
     ax.legend(loc="lower right")
     fig.tight_layout()
     plot.save_figure(fig, path)
+
+
+def weight_taken_off(scene) -> str:
+    """The second line of a rigid body's force label where the scene has
+    a body force (gravity, or an acceleration on bodies with a density):
+    the weight of the points in its cells is taken off its force; ``""``
+    without one (a user trial's label said so on a scene without
+    gravity)."""
+    forces = scene.body_forces()
+    if forces is None or not np.any(forces):
+        return ""
+    return "\n(the weight of the points in its cells taken off)"
 
 
 def plot_bearing_capacity(scene, curves: dict, path: Path):
@@ -840,8 +851,8 @@ def plot_bearing_capacity(scene, curves: dict, path: Path):
                       "body" if footing.kind == "rigid_bodies"
                       else "over the soil"))
     ax.set_ylabel("footing pressure / cohesion (-){}".format(
-        "\n(the weight of the points in its cells taken off)"
-        if footing.kind == "rigid_bodies" else ""))
+        weight_taken_off(scene) if footing.kind == "rigid_bodies"
+        else ""))
     ax.set_title("{}: load-settlement curve\nagainst the bearing "
                  "capacity N_c c".format(scene.name))
     ax.legend(loc="lower right")

@@ -195,17 +195,23 @@ def nonconforming_words(mesh: Mesh, facets: ndarray, own: ndarray,
                     int(v), np.round(mesh.p[:, v], 12).tolist())
         elif twin.any():
             v = others[twin][0]
-            hanging = "; vertex {} at {} lies where one of its own does: " \
-                "the cells meet there without sharing a node (duplicated " \
-                "nodes, a slit)".format(
-                    int(v), np.round(mesh.p[:, v], 12).tolist())
+            mate = ends[np.argmin(np.linalg.norm(
+                corners - mesh.p[:, v][:, None], axis=0))]
+            hanging = "; vertex {} at {} coincides with vertex {} of the " \
+                "facet: the cells meet there without sharing a node " \
+                "(duplicated nodes, a slit)".format(
+                    int(v), np.round(mesh.p[:, v], 12).tolist(), int(mate))
+    slit = "; one grid cannot model a slit: two bodies in contact can " \
+        "(docs/contact.md, Contact between bodies)" if hanging.endswith(
+            "a slit)") else ""
     return (
         "the grid is not conforming: {} boundary facet(s) lie inside the "
-        "domain, e.g. the facet of cell {} with vertices {}, beside cell "
-        "{}{}: the cells do not share that facet, so the displacement is "
-        "not continuous across it; use a conforming grid, one node where "
-        "cells meet (scikit-fem's refined() of the whole grid, or "
+        "domain, e.g. the facet of cell {} with vertices {}, beside "
+        "cell {}{}: the cells do not share that facet, so the displacement "
+        "is not continuous across it{}; use a conforming grid, one node "
+        "where cells meet (scikit-fem's refined() of the whole grid, or "
         "MeshTri's refined(marked), keep it so)".format(
             facets.size, int(own[big]),
-            ", ".join(str(np.round(c, 12).tolist()) for c in corners.T),
-            int(found[big]), hanging))
+            ", ".join("{} at {}".format(int(k), np.round(c, 12).tolist())
+                      for k, c in zip(ends, corners.T)),
+            int(found[big]), hanging, slit))
