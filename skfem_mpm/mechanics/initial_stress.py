@@ -65,7 +65,9 @@ def initial_stress(points: MaterialPoints, material,
     InvalidInputError
         A stress of the wrong shape, not symmetric or not finite, or one
         outside the material's yield surface (the message names the count
-        and the first point), or with no elastic state (Cam clay at a mean
+        and the first point).
+    InvalidMaterialError
+        A stress with no elastic state in the material (Cam clay at a mean
         pressure that is not compressive).
 
     Examples
@@ -121,14 +123,8 @@ def elastic_state(materials, sigma: ndarray, points: MaterialPoints,
     n = idx.size
     J = np.linalg.det(points.F[:, :, idx].transpose(2, 0, 1)) if finite \
         else np.ones(n)
-    if not np.any(sigma - np.einsum("aap->ap", sigma)[:, None, :]
-                  * np.eye(3)[:, :, None]):
-        values = np.einsum("aap->ap", sigma)        # on the axes: exact
-        vectors = np.repeat(np.eye(3)[:, :, None], n, axis=2)
-    else:
-        values, vectors = np.linalg.eigh(sigma.transpose(2, 0, 1))
-        values, vectors = values.T, vectors.transpose(1, 2, 0)
     # the Kirchhoff stress J sigma has the same axes
+    values, vectors = principal_axes(sigma)
     principal = inverse_elastic_law(materials, values * J)
     if is_plastic(materials):
         state = initial_state(materials, n)
@@ -155,6 +151,19 @@ def elastic_state(materials, sigma: ndarray, points: MaterialPoints,
     be = np.einsum("ap,bap,cap->bcp", np.exp(2 * principal), vectors,
                    vectors)
     return strain, be
+
+
+def principal_axes(sigma: ndarray) -> tuple:
+    """Principal values (3, n) and axes (3, 3, n; axis ``A`` in column
+    ``[:, A]``) of symmetric tensors (3, 3, n); exact where they are
+    diagonal."""
+    n = sigma.shape[-1]
+    if not np.any(sigma - np.einsum("aap->ap", sigma)[:, None, :]
+                  * np.eye(3)[:, :, None]):
+        return np.einsum("aap->ap", sigma), np.repeat(
+            np.eye(3)[:, :, None], n, axis=2)
+    values, vectors = np.linalg.eigh(sigma.transpose(2, 0, 1))
+    return values.T, vectors.transpose(1, 2, 0)
 
 
 def derive_elastic_state(points: MaterialPoints, material,
@@ -185,3 +194,47 @@ def derive_elastic_state(points: MaterialPoints, material,
                 "strain: their strain and be are the stress's by the "
                 "material's inverse elastic law (initial_stress)",
                 idx.size, points.n)
+
+
+def warn_carried_from_finite(points: MaterialPoints, material) -> None:
+    """A warning where a small-strain run starts from points of an earlier
+    finite-deformation stage (``det F`` not 1) whose material reads its
+    stress from the elastic strain (a plastic one): that strain holds
+    their Kirchhoff stress ``det(F) stress``, which small strain takes for
+    the stress (a user trial's Mohr-Coulomb column, carried over at
+    ``det F = 0.934``, started 6.6% off its load and moved 2.9e-2 where
+    the stress's own strain moved 1.1e-2, unsaid).  An elastic body's
+    small strain adds its increments to the stress itself: not warned."""
+    materials = at_points(material, points)
+    plastic = np.array([is_plastic(m) for m in materials.materials])[
+        materials.body] if isinstance(materials, PointMaterials) else \
+        np.full(points.n, is_plastic(materials))
+    if not plastic.any():
+        return
+    J = np.linalg.det(points.F.transpose(2, 0, 1))
+    carried = np.flatnonzero(plastic & (np.abs(J - 1.) > 1e-9) & np.any(
+        points.strain.reshape(9, -1), axis=0))
+    if not carried.size:
+        return
+    # not where the strain is already the stress's (initial_stress(...,
+    # "small"), or a small-strain stage of its own)
+    if isinstance(materials, PointMaterials):
+        materials = materials.take(carried)
+    values, vectors = principal_axes(points.stress[:, :, carried])
+    own = np.einsum("ap,bap,cap->bcp", inverse_elastic_law(
+        materials, values), vectors, vectors)
+    gap = np.abs(own - points.strain[:, :, carried]).max(axis=(0, 1))
+    carried = carried[gap > 1e-8 * np.abs(own).max(axis=(0, 1))]
+    if not carried.size:
+        return
+    off = np.abs(J[carried] - 1.).max()
+    logger.warning(
+        "%d of %d points come from finite deformation (det F from %.4g to "
+        "%.4g) into small strain, which reads their stress from their "
+        "elastic strain: it holds their Kirchhoff stress det(F) stress, "
+        "up to %.3g%% off their stress; give them the strain of their "
+        "stress with initial_stress(points, material, points.stress, "
+        "'small'), or continue in finite deformation",
+        carried.size, points.n, J[carried].min(), J[carried].max(),
+        100. * off)
+

@@ -58,7 +58,8 @@ from ..errors import (ContactError, GridMotionError, HeldSupportError,
                       StepTooLongError, UnsettledContactError,
                       check_choice, check_int)
 from ..mechanics.forms import as_body_force
-from ..mechanics.initial_stress import derive_elastic_state
+from ..mechanics.initial_stress import (derive_elastic_state,
+                                        warn_carried_from_finite)
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
 from ..mechanics.materials import at_points, initial_state, is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
@@ -1989,6 +1990,8 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     for name, value in initial_state(case.material, points.n).items():
         points.state.setdefault(name, value)
     derive_elastic_state(points, case.material, kinematics == "finite")
+    if kinematics == "small":
+        warn_carried_from_finite(points, case.material)
     resume = options.resume or Resume()
     held = support_dofs(supports, user_grid)
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
