@@ -133,14 +133,24 @@ class SafetyFactor:
     reference
         The displacement of the run at ``low``, the scale of ``growth``
         (``None`` without the displacement criterion).
+
+    Its repr is the factor, the bracket and the trials (``print`` of
+    the whole run at ``converged`` ran to thousands of characters):
+
+    >>> from skfem_mpm.solve.strength_reduction import SafetyFactor
+    >>> SafetyFactor(1.5, 1.25, 1.75, [(1., True), (2., False)],
+    ...              result=object(), displacements=[.1, None],
+    ...              reference=.1)
+    SafetyFactor(factor=1.5, converged=1.25, failed=1.75, \
+trials=[(1.0, True), (2.0, False)])
     """
     factor: float
     converged: float
     failed: float
     trials: list
-    result: Result
-    displacements: list = field(default_factory=list)
-    reference: Optional[float] = None
+    result: Result = field(repr=False)
+    displacements: list = field(default_factory=list, repr=False)
+    reference: Optional[float] = field(default=None, repr=False)
 
 
 def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
