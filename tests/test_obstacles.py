@@ -2916,3 +2916,29 @@ def test_dynamics_books_the_obstacles_work_from_the_last_steps_end(
         force = record.end_force.toarray().ravel()
         assert np.isclose(force[1::2].sum(), record.obstacle_forces[0, 1],
                           rtol=1e-8)
+
+
+def test_a_corner_beyond_the_material_s_cells_says_why_and_what_to_do():
+    """Trial 90: a granular column at L0/h = 16 failed with a corner
+    that "reaches no grid node that carries material", with no cause
+    and no remedy; the words now give both (the lone point ahead of a
+    flow, more points per cell, a shorter step, flip < 1)."""
+    from types import SimpleNamespace
+
+    from scipy.sparse import csr_matrix
+
+    from skfem_mpm.errors import ContactError
+    from skfem_mpm.solve.contact import supported_rows
+    # two corners over four 1D nodes; the step's material holds nodes 0
+    # and 1 (DOFs 0 to 3 in 2D), the second corner reaches only 2 and 3
+    S = csr_matrix(np.array([[.5, .5, 0., 0.], [0., 0., .5, .5]]))
+    op = SimpleNamespace(active_dofs=np.arange(4))
+    X = np.array([[.1, 1.4], [0., .0025]])
+    with pytest.raises(ContactError) as caught:
+        supported_rows(S, op, X, np.array([7, 1023]))
+    words = str(caught.value)
+    assert "corner at [1.4, 0.0025] (of point 1023)" in words
+    for remedy in ("ahead of a flow", "docs/dynamics.md",
+                   "more points per cell", "a shorter time step",
+                   "flip < 1"):
+        assert remedy in words, remedy

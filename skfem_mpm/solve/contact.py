@@ -520,8 +520,14 @@ def supported_rows(S: csr_matrix, op, X: ndarray, p: ndarray
     if empty.size:        # its force would hold it to a fixed point
         raise ContactError(
             "a contact's corner at {} (of point {}) reaches no grid "
-            "node that carries material in this step".format(
-                X[:, empty[0]].tolist(), int(p[empty[0]])))
+            "node that carries material in this step: the corner lies "
+            "beyond the cells its body's points fill (a point's domain "
+            "stretched ahead of its neighbours, as a lone point run "
+            "ahead of a flow's front: docs/dynamics.md); more points "
+            "per cell, a shorter time step, or in dynamics flip < 1 "
+            "(the PIC share damps the velocity noise that sends points "
+            "ahead) keep the corners among the material's "
+            "cells".format(X[:, empty[0]].tolist(), int(p[empty[0]])))
     return S
 
 
