@@ -130,6 +130,10 @@ def build_parser() -> argparse.ArgumentParser:
                      "count, completed or not)")
     run.add_argument("--no-series", action="store_true",
                      help="write plots and summary only, no VTU series")
+    run.add_argument("--series-every", type=int, default=1, metavar="N",
+                     help="write the VTU series at the start, every N-th "
+                     "step and the last (default 1: every step; a large "
+                     "3D run writes about 250 bytes a point a step)")
     compare = sub.add_parser("compare",
                              help="run FE and MPM on one scene and plot both")
     compare.add_argument("scene", type=Path, help="scene file")
@@ -1032,12 +1036,17 @@ def load_run(args):
 
 def run(args) -> int:
     for name, least in (("checkpoint_every", 0), ("max_steps", 1),
-                        ("steps", 1)):
+                        ("steps", 1), ("series_every", 1)):
         if getattr(args, name) is not None and getattr(args, name) < least:
             print("skfem-mpm: --{} must be >= {}, got {}".format(
                 name.replace("_", "-"), least, getattr(args, name)),
                 file=sys.stderr)
             return 2
+    if args.no_series and args.series_every != 1:
+        print("skfem-mpm: --series-every {} with --no-series: there is no "
+              "series to thin; leave one out".format(args.series_every),
+              file=sys.stderr)
+        return 2
     try:
         scene, source, outdir, earlier, points, resume, mesh, initial = \
             load_run(args)
@@ -1092,7 +1101,8 @@ def run(args) -> int:
             notes["series_note"] = (
                 "the VTU series lacks {} of the {} states before step {} "
                 "(the start, step 0, counted; an invocation with "
-                "--no-series writes none): points.pvd and grid.pvd list "
+                "--no-series writes none, one with --series-every N every "
+                "N-th): points.pvd and grid.pvd list "
                 "the steps written".format(missing, len(earlier.history)
                                            + 1, earlier.step + 1))
     elif earlier is not None and (outdir / "points.pvd").is_file():
@@ -1168,7 +1178,10 @@ def run(args) -> int:
         if start is not None and not series.entries:
             series.write(0, 0., start, np.unique(locate_points(
                 mesh, start.x)[0]), None)
-        if series is not None:
+        if series is not None and (
+                record.step % args.series_every == 0
+                or record.load_factor >= 1. or (
+                    args.max_steps and len(history) + 1 >= args.max_steps)):
             series.write(record.step, float(
                 record.load_factor if record.time is None else record.time),
                 pts, record.elements, record.u, record.reactions)

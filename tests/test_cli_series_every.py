@@ -1,0 +1,51 @@
+"""``run --series-every N``: the VTU series thinned for large runs (trial
+82: 250 bytes a point a step in 3D, and no option to write fewer)."""
+import json
+import re
+
+from skfem_mpm.cli import main
+from test_cli_trial53 import PRESSED
+
+
+def written(out):
+    """The steps of the points' VTU files in ``out`` and those its
+    collection lists."""
+    files = sorted(int(p.stem.split("_")[1]) for p in out.glob(
+        "points_*.vtu"))
+    listed = [int(n) for n in re.findall(r'file="points_(\d+)\.vtu"',
+                                         (out / "points.pvd").read_text())]
+    return files, listed
+
+
+def test_series_every_n_steps_writes_the_start_each_nth_and_the_last(
+        tmp_path, monkeypatch, capsys):
+    """Four steps with ``--series-every 3``: the start, step 3 and the
+    last, step 4, in the files and the collection; where ``--max-steps``
+    stops the run (step 2), that step too, and the resume goes on every
+    third.  N < 1 and N with ``--no-series`` are refused before any
+    work."""
+    import skfem_mpm.cli as cli
+    monkeypatch.setattr(cli, "plot_outputs", lambda *args, **kwargs: None)
+    scene = tmp_path / "pressed.toml"
+    scene.write_text(PRESSED)
+    steps = int(re.search(r"steps = (\d+)", PRESSED).group(1))
+    out = tmp_path / "thin"
+    assert main(["run", str(scene), "--out", str(out), "--series-every",
+                 "3", "--no-progress"]) == 0
+    assert json.loads((out / "summary.json").read_text())["steps_run"] \
+        == steps
+    assert written(out) == ([0, 3, 4], [0, 3, 4])
+    stopped = tmp_path / "stopped"
+    assert main(["run", str(scene), "--out", str(stopped), "--series-every",
+                 "3", "--max-steps", "2", "--no-progress"]) == 0
+    assert written(stopped) == ([0, 2], [0, 2])
+    assert main(["run", "--resume", str(stopped), "--series-every", "3",
+                 "--no-progress"]) == 0
+    assert written(stopped) == ([0, 2, 3, 4], [0, 2, 3, 4])
+    capsys.readouterr()
+    for extra in (["--series-every", "0"],
+                  ["--series-every", "2", "--no-series"]):
+        assert main(["run", str(scene), "--out", str(tmp_path / "no"),
+                     "--no-progress"] + extra) == 2
+        assert "--series-every" in capsys.readouterr().err
+    assert not (tmp_path / "no").exists()
