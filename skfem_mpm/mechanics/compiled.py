@@ -245,8 +245,9 @@ class CompiledPasses:
     def __init__(self, passes, material, params: ndarray, dim: int,
                  explicit: bool, body: Optional[ndarray] = None):
         # numba: imported with passes
-        from ..kernels import dilatation, fbar
+        from ..kernels import dilatation, fbar, parallel
         self.passes, self.material, self.params = passes, material, params
+        self.parallel = parallel
         self.dim, self.explicit, self.body = dim, explicit, body
         kinds = params[:, 0]
         # any body's plastic: the small pass takes the return map at every
@@ -262,6 +263,9 @@ class CompiledPasses:
         #: the passes without and with mean dilatation, each
         #: ``(finite_residual, small_residual, stiffness)``
         self.plain = passes.passes_of(dim)
+        #: the plain passes in chunks on the machine's cores, the same
+        #: three (:mod:`skfem_mpm.kernels.parallel`)
+        self.chunked = parallel.passes_of(dim)
         self.averaged = dilatation.passes_of(dim)
         #: with F-bar on the increment, ``(finite_residual, stiffness)``
         self.fbar = fbar.passes_of(dim)
@@ -305,6 +309,28 @@ class CompiledPasses:
             self._row0 = np.zeros(n, dtype=np.int64)
         return self._row0
 
+    def _run(self, which: int, serial, layout, plain: bool, *args):
+        """``serial(*layout.groups, *args)``, one of the passes; a plain
+        pass (not mean dilatation's, nor F-bar's) of a layout cut into
+        chunks (``layout.chunks``) runs them on the machine's cores, the
+        chunked pass ``which`` of :attr:`chunked` (0 finite residual,
+        1 small residual, 2 stiffness)."""
+        if not plain or layout.chunks is None:
+            return serial(*layout.groups, *args)
+        with self.parallel.LOCK:
+            return self.chunked[which](layout.chunks, *layout.groups, *args)
+
+    def _points_pass(self, serial, chunked, n: int, *args):
+        """``serial(*args)``, a pass point by point over ``n`` points, or
+        in chunks of points on the machine's cores (``chunked(count,
+        *args)``, :func:`~skfem_mpm.kernels.parallel.point_chunks`;
+        the same answer to the bit)."""
+        count = self.parallel.point_chunks(n)
+        if count == 1:
+            return serial(*args)
+        with self.parallel.LOCK:
+            return chunked(count, *args)
+
     def _layout(self, op):
         """``(passes, layout, cells, m)`` of the served operator ``op``:
         the passes, the method operator's layout, the cells' arrays of its
@@ -326,8 +352,10 @@ class CompiledPasses:
         if strain is not points.strain:
             if value is None or value.shape[-1] != points.n:
                 value = points_first(points.n, 3, 3)  # else the last step's
-            self.passes.start_deviation(self.dim, contiguous(points.strain),
-                                        value)
+            self._points_pass(self.passes.start_deviation,
+                              self.parallel.start_deviation_in_chunks,
+                              points.n, self.dim,
+                              contiguous(points.strain), value)
             self._start = (points.strain, value)
         return value
 
@@ -383,8 +411,8 @@ class CompiledPasses:
 
         def stiffness():
             data = np.zeros(pattern.nnz)
-            assemble(*layout.groups, *places, contiguous(w), kind, C, body,
-                     *parts, data, *extra)
+            self._run(2, assemble, layout, cells is None, *places,
+                      contiguous(w), kind, C, body, *parts, data, *extra)
             return pattern.csr(data)
         return stiffness
 
@@ -419,8 +447,9 @@ class CompiledPasses:
         tau, yielded, spectral = kinematics.workspace(n, m, False)[1:]
         dF, dF_inv = self._increment_arrays(n, m)
         f, eq = np.zeros(op.N), np.empty((2, n))
-        status = finite(
-            *layout.groups, contiguous(points.volume0), contiguous(du),
+        status = self._run(
+            0, finite, layout, not fbar and cells is None,
+            contiguous(points.volume0), contiguous(du),
             self._start_deviation(points), self.params, body,
             self._state(points), f, dF, dF_inv, tau, spectral.d,
             spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq,
@@ -437,8 +466,9 @@ class CompiledPasses:
         def converged(old):
             F, J = np.empty((3, 3, n)), np.empty(n)
             b_e, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
-            self.passes.finite_commit(
-                self.dim, self.params, body, spectral.d, spectral.vecs,
+            self._points_pass(
+                self.passes.finite_commit, self.parallel.commit_in_chunks,
+                n, self.dim, self.params, body, spectral.d, spectral.vecs,
                 self._state(old), dF, contiguous(old.F), F, J, b_e, strain)
             return F, J, b_e, strain
 
@@ -487,8 +517,9 @@ class CompiledPasses:
         y, dy_dx = points_first(n, m), points_first(n, m, m)
         yielded, eq = np.zeros(n, dtype=bool), np.empty((2, n))
         f = np.zeros(op.N)
-        small(
-            *layout.groups, contiguous(points.volume), contiguous(du),
+        self._run(
+            1, small, layout, cells is None,
+            contiguous(points.volume), contiguous(du),
             contiguous(points.stress), contiguous(points.strain), self.params,
             body, self._state(points),
             f, stress, strain, x, vecs, y, dy_dx, yielded, eq,

@@ -11,7 +11,7 @@ matrix carries explicit zeros on inactive DOFs, which condensing onto the
 free DOFs drops.
 
 """
-from typing import NamedTuple
+from typing import NamedTuple, Optional
 
 import numpy as np
 from numpy import ndarray
@@ -19,6 +19,7 @@ from scipy.sparse import csc_matrix, csr_matrix
 
 __all__ = ["assembled_in_pattern", "ElementPattern", "GraphPattern",
            "KernelLayout", "PatternMatrices", "block_structure",
+           "phased_chunks",
            "local_stiffness", "local_force", "local_load"]
 
 CHUNK = 512             # elements per block (bounds the temporaries)
@@ -402,10 +403,71 @@ class KernelLayout(NamedTuple):
     of ``pattern`` (``nnz``, ``csr(data)``): the element pattern's map of
     the grid element ``elements[r]`` (:data:`~skfem_mpm.kernels.
     PER_ENTRY`, :data:`~skfem_mpm.kernels.PER_NODE_PAIR`), or bisection
-    of the node graph's rows (:data:`~skfem_mpm.kernels.BISECTION`)."""
+    of the node graph's rows (:data:`~skfem_mpm.kernels.BISECTION`);
+    ``chunks``: the bounds of the groups' chunks that the passes run on
+    the machine's cores (:func:`phased_chunks`), or ``None`` (serial)."""
     groups: tuple
     places: tuple
     pattern: object
+    chunks: Optional[ndarray] = None
+
+
+#: the fewest points a chunk of groups takes (an operator of fewer than
+#: twice as many runs its passes serial: threads would cost more than
+#: they save)
+CHUNK_POINTS = 8192
+#: the most chunks of groups
+MOST_CHUNKS = 16
+
+
+def phased_chunks(nodes: ndarray, node_start: ndarray, node_count: ndarray,
+                  runs: ndarray) -> Optional[ndarray]:
+    """The bounds of an even number of chunks of consecutive groups (group
+    ``r``: ``node_count[r]`` nodes from ``nodes[node_start[r]]``, its
+    points from ``runs[r]`` to ``runs[r + 1]``) of about equal points,
+    such that no node is in two chunks but neighbouring ones: the even
+    chunks may then run side by side, and the odd ones after them
+    (:mod:`skfem_mpm.kernels.parallel`).  As many chunks as
+    :data:`CHUNK_POINTS` and :data:`MOST_CHUNKS` allow, halved until the
+    nodes keep them apart; ``None`` where fewer than two do (a small
+    operator, or groups in an order that spreads a node over chunks).
+
+    >>> nodes = np.array([0, 1, 1, 2, 2, 3, 3, 4])
+    >>> start, count = np.arange(0, 8, 2), np.full(4, 2)
+    >>> phased_chunks(nodes, start, count, np.arange(0, 40001, 10000))
+    array([0, 1, 2, 3, 4])
+    >>> phased_chunks(nodes, start, count, np.arange(0, 4001, 1000))
+    >>> ring = np.array([0, 1, 1, 2, 2, 3, 3, 0])     # node 0: chunks 0, 3
+    >>> phased_chunks(ring, start, count, np.arange(0, 40001, 10000))
+    array([0, 2, 4])
+    """
+    points, groups = int(runs[-1]), len(node_count)
+    count = min(MOST_CHUNKS, points // CHUNK_POINTS, groups) // 2 * 2
+    if count < 2:
+        return None
+    # each node's first and last group: a node in chunks i and j of
+    # different parity that are not neighbours (|i - j| > 1) forbids
+    # running them side by side
+    group = np.repeat(np.arange(groups), node_count)
+    start = np.repeat(node_start - np.cumsum(node_count) + node_count,
+                      node_count)
+    touched = nodes[start + np.arange(group.size)]
+    first = np.full(touched.max() + 1, groups)
+    last = np.full(touched.max() + 1, -1)
+    np.minimum.at(first, touched, group)
+    np.maximum.at(last, touched, group)
+    used = last >= 0
+    first, last = first[used], last[used]
+    while count >= 2:
+        bounds = np.searchsorted(runs, np.linspace(0., points, count + 1))
+        bounds[0], bounds[-1] = 0, groups
+        if np.all(np.diff(bounds) > 0):
+            spread = np.searchsorted(bounds, last, side="right") \
+                - np.searchsorted(bounds, first, side="right")
+            if spread.max() <= 1:
+                return bounds.astype(np.int64)
+        count = count // 4 * 2
+    return None
 
 
 def local_stiffness(G: ndarray, A: ndarray, w: ndarray, slots: ndarray):

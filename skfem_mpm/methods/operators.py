@@ -32,6 +32,7 @@ from ..errors import InvalidInputError
 from ..kernels import BISECTION, PER_ENTRY, PER_NODE_PAIR
 from ..graph import distinct, edge_graph, element_adjacency
 from .assembly import (ElementPattern, GraphPattern, KernelLayout,
+                       phased_chunks,
                        local_force, local_load, local_stiffness)
 from ..mechanics.forms import body_force
 
@@ -199,16 +200,17 @@ class PointOperator:
             self.shape_gradients = first_points.transpose(3, 2, 0, 1)
             self.basis.share_gradients(first_points.transpose(2, 3, 0, 1))
             G = first_points.reshape(-1, self.dim)
+            groups = (G, np.ascontiguousarray(self.scalar_dofs.T,
+                                              dtype=np.int64).ravel(),
+                      np.arange(nel, dtype=np.int64) * nloc,
+                      np.full(nel, nloc, dtype=np.int64),
+                      runs, in_slots, flat)
             self._layout = KernelLayout(
-                (G, np.ascontiguousarray(self.scalar_dofs.T,
-                                         dtype=np.int64).ravel(),
-                 np.arange(nel, dtype=np.int64) * nloc,
-                 np.full(nel, nloc, dtype=np.int64),
-                 runs, in_slots, flat),
+                groups,
                 (PER_ENTRY if expand is None else PER_NODE_PAIR,
                  np.asarray(self.elements, dtype=np.int64), first,
                  np.ascontiguousarray(length), NO_INDEX, NO_INDEX),
-                self.pattern())
+                self.pattern(), phased_chunks(*groups[1:5]))
         return self._layout
 
     def _scatter(self, local: ndarray) -> ndarray:
@@ -348,14 +350,15 @@ class SparseOperator:
                                    shape=S.shape)
             graph = (incidence.T.tocsr() @ incidence).tocsr()
             graph.sort_indices()
+            groups = (G, nodes, qstart[runs], counts[points[runs]].astype(
+                np.int64), np.append(runs, n).astype(np.int64),
+                points.astype(np.int64), qstart)
             self._layout = KernelLayout(
-                (G, nodes, qstart[runs], counts[points[runs]].astype(
-                    np.int64), np.append(runs, n).astype(np.int64),
-                 points.astype(np.int64), qstart),
+                groups,
                 (BISECTION, NO_INDEX, NO_PLACES, NO_PLACES,
                  graph.indptr.astype(np.int64),
                  graph.indices.astype(np.int64)),
-                GraphPattern(graph, self.dim))
+                GraphPattern(graph, self.dim), phased_chunks(*groups[1:5]))
         return self._layout
 
     def stiffness(self, A: ndarray, w: ndarray):

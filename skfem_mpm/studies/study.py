@@ -27,7 +27,7 @@ Cases are independent: they run serially (with a progress line) or on a
 Dask cluster (``dask.distributed``, an optional extra: a local cluster or
 ``scheduler=ADDRESS``).  A local cluster has at most one worker per core
 (more are capped, with a warning) and each worker one thread (OpenMP,
-MKL and OpenBLAS limited to one before the worker imports numpy).  Every
+MKL, OpenBLAS and numba limited to one before the worker imports numpy).  Every
 case records its wall time and its CPU time (``time.process_time`` of the
 process that ran it): workers that share cores, memory bandwidth or the
 machine with the study's own process stretch wall times, not CPU times,
@@ -1828,7 +1828,7 @@ def estimate(scene: Scene, cases: List[dict], outdir, quantities,
 
 #: a local cluster's workers each compute on one thread
 ONE_THREAD = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1,
-              "OPENBLAS_NUM_THREADS": 1}
+              "OPENBLAS_NUM_THREADS": 1, "NUMBA_NUM_THREADS": 1}
 
 
 def cores() -> int:
