@@ -187,7 +187,8 @@ def large(reps: int):
 #: a fresh process's first runs, each timed: 2D and 3D, finite and small
 #: deformation, elastic and von Mises (every compiled pass), then cpGIMP
 #: (the same passes: nothing more to compile), then mean dilatation (its
-#: passes, 2D and 3D, finite and small deformation)
+#: passes, 2D and 3D, finite and small deformation), then the plain
+#: passes in chunks on the cores (:mod:`skfem_mpm.kernels.parallel`)
 FIRST_RUNS = """
 import sys, time
 sys.path.insert(0, {here!r})
@@ -225,6 +226,23 @@ for dim in (2, 3):
                  method="mpm", kinematics=kinematics, options=Options(
                      stabilisation=Stabilisation(antilocking=True)))
         print(dim, kinematics, "mean dilatation", time.perf_counter() - tic)
+import skfem_mpm.kernels.parallel
+import skfem_mpm.methods.assembly
+# the passes in chunks on the cores (an operator of 2 x 8192 points or
+# more): here on a small block, its chunks of 8 points
+skfem_mpm.methods.assembly.CHUNK_POINTS = 8
+skfem_mpm.kernels.parallel.POINTS_PER_CHUNK = 8
+for dim in (2, 3):
+    mesh, points = block(4, dim)
+    for kinematics in ("finite", "small"):
+        for material in (LinearElastic(1e6, .3), VonMises(1e6, .3, 1e3)):
+            tic = time.perf_counter()
+            simulate(mesh, GRIDS[dim][1](), points.copy(), material,
+                     lambda b: b.get_dofs(lambda x: x[-1] == 0),
+                     body_force=np.r_[np.zeros(dim - 1), -1e4], nsteps=1,
+                     method="mpm", kinematics=kinematics)
+            print(dim, kinematics, type(material).__name__, "in chunks",
+                  time.perf_counter() - tic)
 """
 
 
