@@ -38,8 +38,9 @@ from .scenes.footing import scene_footing, soil_strength
 from .scenes.io import (atomic_path, clear_earlier_run,
                         interrupts_deferred, remove_temporaries,
                         terminate_as_interrupt)
-from .scenes.output import (SeriesWriter, point_cloud, von_mises,
-                             without_negative_zeros, write_summary)
+from .scenes.output import (SeriesWriter, contact_pressure_fields,
+                             point_cloud, von_mises, without_negative_zeros,
+                             write_summary)
 from .scenes import plot  # save_figure looked up when called: tests wrap it
 from .scenes.plot import (STRESS_NAMES, SupportMarks, body_figure_size,
                           colour_scale, draw_deformed_shape, draw_energies,
@@ -1184,7 +1185,8 @@ def run(args) -> int:
                     args.max_steps and len(history) + 1 >= args.max_steps)):
             series.write(record.step, float(
                 record.load_factor if record.time is None else record.time),
-                pts, record.elements, record.u, record.reactions)
+                pts, record.elements, record.u, record.reactions,
+                contact_pressure_fields(record))
         # the step counts once both its VTUs are written: one interrupted
         # between them is neither checkpointed nor listed on resume
         history.append(record)
