@@ -1177,8 +1177,11 @@ def run(args) -> int:
         prepare()
         progress(record)
         if start is not None and not series.entries:
+            # the fields of the steps, zero at the start
             series.write(0, 0., start, np.unique(locate_points(
-                mesh, start.x)[0]), None)
+                mesh, start.x)[0]), None, None, {
+                    name: np.zeros_like(values) for name, values in
+                    contact_pressure_fields(record).items()})
         if series is not None and (
                 record.step % args.series_every == 0
                 or record.load_factor >= 1. or (
