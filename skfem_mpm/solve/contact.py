@@ -94,7 +94,9 @@ again.  The multipliers (``lambda`` where pressed) and the friction
 tractions are point state (``contact<i>_p<c>``, ``contact<i>_t<a><c>``:
 obstacle i, corner c, component a), so checkpoints carry them and a step
 starts from the last step's tractions: with the penetration it ended at,
-``lambda - kappa g`` is the last step's pressure.  The method follows the
+``lambda - kappa g`` is the last step's pressure (the multipliers are
+not the pressure: each step's record has that per point,
+:meth:`StepContact.pressures`).  The method follows the
 penalty contact at GIMP domain corners of Bird et al. (2024) with the
 augmented-Lagrangian updates of Simo and Laursen (1992); see
 ``docs/references.md``.
