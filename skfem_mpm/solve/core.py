@@ -95,7 +95,8 @@ from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
 from .obstacles import check_obstacles
 from .problem import STABILISATION, STABILISATION_FLOOR, StepProblem
 from .results import Result
-from .rigid import RigidBody, check_rigid_bodies, warn_stiff_smooth_bodies
+from .rigid import (RigidBody, check_rigid_bodies, warn_rigid_cells,
+                    warn_stiff_smooth_bodies)
 from .rotation import SmallStrainRange
 from .fixed_domains import FixedDomainsRange
 
@@ -1927,6 +1928,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       or bool(rigid_bodies),
                       contact=contact_named(obstacles, contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
+    warn_rigid_cells(rigid_bodies, mesh, points, options.locator)
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
                               stabilisation.antilocking,
                               stabilisation.extended_splines)
