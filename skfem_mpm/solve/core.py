@@ -1478,6 +1478,17 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         Missing supports (rigid-body modes of the active grid), refused
         before a step's iterations.
 
+    Notes
+    -----
+    Progress: the run logs a line a step at INFO (load factor, Newton
+    iterations, residual, time, the time left at the pace so far) on the
+    ``skfem_mpm`` loggers, silent by default; show them with
+    ``logging.basicConfig(format="%(message)s")`` and
+    ``logging.getLogger("skfem_mpm").setLevel(logging.INFO)``, or pass
+    ``Options(callback=f)``, called ``f(record, points)`` after every
+    step.  Only the command line (``skfem-mpm run``) draws a progress
+    bar.  Warnings reach stderr without any set-up.
+
     Examples
     --------
     Small-strain plasticity with standard MPM (Newton with the consistent
