@@ -12,12 +12,9 @@ B-splines, with or without mean dilatation
 (:mod:`skfem_mpm.kernels.dilatation`; F-bar on the increment in finite
 deformation, :mod:`skfem_mpm.kernels.fbar`), in 2D and 3D, small and finite
 deformation (not the total Lagrangian scheme of ``method="fem"``),
-``LinearElastic``, ``VonMises``, ``DruckerPrager``, ``MohrCoulomb`` of
-``friction_angle > 0`` and ``ModifiedCamClay`` (the classes, not
-subclasses), one for all points or one per body (each point takes its
-body's parameters); not a user's material, also as one body's, nor
-Mohr-Coulomb without friction (Tresca: the numpy path serves it, about
-twice the cost an iteration, said at WARNING).  numba
+``LinearElastic``, ``VonMises``, ``DruckerPrager``, ``MohrCoulomb`` and
+``ModifiedCamClay``, one for all points or one per body (each point takes
+its body's parameters); not a user's material, also as one body's.  numba
 is imported only when a run first asks for the passes, so that ``import
 skfem_mpm`` stays light; the kernels are cached on disk, so a second
 process does not compile them again.  The environment variable
