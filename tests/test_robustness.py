@@ -590,6 +590,46 @@ def test_every_failure_is_an_mpm_error_carrying_the_last_state():
     assert caught.value.state.x[1].max() < 1.
 
 
+
+def test_a_callback_s_exception_propagates_with_the_state():
+    """An exception of a user's own raised by ``Options.callback`` after
+    step 2 of 4 comes out as itself (it is the user's to catch), carrying
+    the step's points, load factor and history (it came out bare, a user
+    trial); an attribute of one of those names that the exception has is
+    kept, and a run resumed from the attached state ends as the straight
+    run."""
+    from skfem_mpm import Resume
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 1)
+    args = (mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    kwargs = dict(body_force=[0., -5.], nsteps=4)
+
+    class Stop(Exception):
+        pass
+
+    class Labelled(Exception):
+        history = "mine"
+
+    def stop_with(error):
+        def stop(record, points):
+            if record.step == 2:
+                raise error("enough")
+        return Options(callback=stop)
+    with pytest.raises(Labelled) as caught:
+        simulate(*args, options=stop_with(Labelled), **kwargs)
+    assert caught.value.history == "mine"
+    with pytest.raises(Stop, match="enough") as caught:
+        simulate(*args, options=stop_with(Stop), **kwargs)
+    err = caught.value
+    assert type(err) is Stop and err.load_factor == 2 / 4
+    assert [record.step for record in err.history] == [1, 2]
+    resumed = simulate(mesh, ElementQuad1(), err.state, *args[3:],
+                       options=Options(resume=Resume.after(err.history[-1])),
+                       **kwargs)
+    straight = simulate(*args, **kwargs)
+    assert np.array_equal(resumed.points.x, straight.points.x)
+
 def test_unvalidated_parameters_are_refused_before_any_work():
     """String moduli, a NaN or outsized locator tolerance, a locator of
     another mesh and sizes beyond the machine's memory (with an estimate)

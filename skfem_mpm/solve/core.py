@@ -94,7 +94,7 @@ from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
                       translate_aliases)
 from .obstacles import check_obstacles
 from .problem import STABILISATION, STABILISATION_FLOOR, StepProblem
-from .results import Result
+from .results import Result, StepRecord
 from .rigid import RigidBody, check_rigid_bodies, warn_stiff_smooth_bodies
 from .rotation import SmallStrainRange
 from .fixed_domains import FixedDomainsRange
@@ -899,6 +899,35 @@ def may_collapse(run: Run) -> bool:
     return run.dynamics is None and is_plastic(run.material) and not driven
 
 
+def call_back(callback: Callable, record: StepRecord,
+              points: MaterialPoints, result: Result):
+    """``callback(record, points)`` after a converged step.  What it
+    raises propagates unchanged, a user's own type to catch as such, with
+    the run's state attached as the package's convergence errors carry
+    it: ``state`` (the step's points), ``load_factor`` and ``history``
+    (each where the exception has no attribute of that name; it came out
+    bare, and a trial resuming after an exception of its own had to keep
+    the points itself)."""
+    try:
+        callback(record, points)
+    except Exception as err:
+        for name, value in (("state", points),
+                            ("load_factor", record.load_factor),
+                            ("history", result.history)):
+            if not hasattr(err, name):
+                try:
+                    setattr(err, name, value)
+                except AttributeError:        # slots, read-only names
+                    pass
+        if hasattr(err, "add_note"):                 # Python >= 3.11
+            err.add_note("raised by Options.callback after step {} (load "
+                         "factor {:.6g}); the step's points are attached "
+                         "as .state, with .load_factor and "
+                         ".history".format(record.step,
+                                           record.load_factor))
+        raise
+
+
 def collapse_hint(run: Run, reach: list) -> str:
     """A sentence for a failed quasi-static run of a plastic body whose
     loads are forces, not displacements, where the last converged step
@@ -1339,7 +1368,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             reach.append((factor, largest_displacement(points)))
         result.basis = getattr(op, "basis", None)
         if callback is not None:
-            callback(record, points)
+            call_back(callback, record, points, result)
         now = run_clock()
         left = steps_left(factor, increment, nsteps, adaptive)
         if timed:       # the invocation's first step carries its set-up

@@ -245,7 +245,12 @@ class Options:
         Keep per-step grid increments, positions, displacements and
         stresses in the history.
     callback
-        ``callback(record, points)`` after every step.
+        ``callback(record, points)`` after every step.  An exception it
+        raises ends the run and propagates unchanged (catch your own
+        type), with the run's state attached where the exception has no
+        attribute of the name: ``state`` (the step's points, to resume
+        from with ``Resume.after(record)``), ``load_factor`` and
+        ``history``, as on a :class:`~skfem_mpm.errors.ConvergenceError`.
     locator
         A :func:`~skfem_mpm.point_locator` of the mesh to reuse (checked
         against the mesh when the run starts).
