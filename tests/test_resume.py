@@ -384,7 +384,9 @@ def test_ctrl_c_while_saving_a_checkpoint_keeps_the_previous_one(
 def test_a_checkpoint_without_the_contact_corners_says_why(names, dated):
     """A B-spline contact's corners and the pressures' rates between
     bodies became point state: a checkpoint written before lacks them,
-    and the refusal says so (only where they are all it lacks)."""
+    and the refusal says so (only where they are all it lacks), first,
+    and counts the names it lacks, naming a few (a trial's named some 70
+    before its reason, 2.9 kB on one line)."""
     from types import SimpleNamespace
     from skfem import MeshQuad
     from skfem_mpm import seed_points
@@ -395,8 +397,33 @@ def test_a_checkpoint_without_the_contact_corners_says_why(names, dated):
         check_against("ckpt", SimpleNamespace(points=points,
                                               domain0=points.domain),
                       points, names, mesh)
-    assert ("run the scene again from its start" in str(caught.value)) \
-        == dated
+    text = str(caught.value)
+    assert ("run the scene again from its start" in text) == dated
+    assert "it lacks {} ({}".format(len(names), min(names)) in text
+    assert not dated or text.index("run the scene again") < text.index(
+        "it lacks")
+    assert names[-1] not in text or len(names) <= 4
+
+
+def test_a_checkpoint_whose_points_moved_names_the_file_and_field():
+    """A checkpoint whose positions were moved 1e-3 from their initial
+    ones plus their displacement is refused naming the file and
+    ``points_x`` (the run's refusal said how to seed moved points, and
+    named no file, a user trial)."""
+    from types import SimpleNamespace
+    from skfem import MeshQuad
+    from skfem_mpm import seed_points
+    from skfem_mpm.scenes.checkpoint import check_against
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    points = seed_points(mesh, 2)
+    saved = SimpleNamespace(points=points.copy(), domain0=points.domain)
+    saved.points.displacement[1] = -.01
+    saved.points.x = saved.points.x0 + saved.points.displacement
+    check_against("ckpt", saved, points, [], mesh)      # as a run left it
+    saved.points.x = saved.points.x + 1e-3
+    with pytest.raises(CheckpointError, match="ckpt: field 'points_x' puts "
+                       "{} point.* by 0.001".format(points.n)):
+        check_against("ckpt", saved, points, [], mesh)
 
 
 @pytest.mark.slow
