@@ -968,6 +968,33 @@ def test_points_outside_the_grid_as_given_are_not_said_to_leave_it(method):
     assert "left it" not in str(err.value)
 
 
+
+def test_a_support_keeping_no_component_is_warned(caplog):
+    """Side rollers written ``.all("u^0")`` (scikit-fem names a vector's
+    components from ``u^1``) kept no DOF beside a base held in full, and
+    nothing said so (a user trial): warned, naming the components; a
+    component that exists is not."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import LinearElastic, seed_points, simulate
+    mesh = MeshQuad.init_tensor(np.linspace(0., 4., 5),
+                                np.linspace(0., 4., 5))
+    points = seed_points(mesh, 2, region=[(0., 4.), (0., 2.)])
+    sides = mesh.nodes_satisfying(lambda x: (x[0] == 0.) | (x[0] == 4.))
+    for name, warned in (("u^0", True), ("u^1", False)):
+        def supports(basis, name=name):
+            return np.concatenate([
+                basis.get_dofs(lambda x: x[1] == 0.).all(),
+                basis.get_dofs(lambda x: (x[0] == 0.)
+                               | (x[0] == 4.)).all(name)])
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+            simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                     supports, body_force=[0., -1e3])
+        expected = ("supports: get_dofs call 2: .all('u^0') kept none of "
+                    "its {} DOFs, named u^1, u^2: that part of the supports "
+                    "holds nothing".format(2 * sides.size))
+        assert (expected in caplog.text) == warned, caplog.text
+
 def test_a_support_selecting_no_dof_beside_others_is_warned(caplog):
     """A supports function whose roller misses the grid (``x == 46`` on a
     grid ending at 45, trial 68's slope) held nothing without a word:

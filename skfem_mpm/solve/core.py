@@ -1413,8 +1413,13 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     supports
         Fixed (zero) grid DOFs: DOF indices, a ``DofsView`` or a callable
         taking the grid's vector ``Basis``, e.g.
-        ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.  With contacts
-        between bodies a support holds each body's copy of a node only
+        ``lambda b: b.get_dofs(lambda x: x[0] == 0)``; one component:
+        ``.all("u^1")`` (x), ``"u^2"``, ``"u^3"``, scikit-fem's names,
+        counted from 1.  A callable's ``get_dofs`` that selects no DOF,
+        and its ``.all(name)`` that keeps none, are warned (that part of
+        the supports holds nothing); DOF indices computed otherwise, an
+        empty array among others, cannot be told from intended ones and
+        are not.  With contacts between bodies a support holds each body's copy of a node only
         where that body lies on it
         (:meth:`~skfem_mpm.solve.body_contact.BodyContact.held_supports`).
     body_force
