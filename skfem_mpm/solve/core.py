@@ -974,9 +974,51 @@ def collapse_hint(run: Run, reach: list) -> str:
             "collapse: this discretisation carried load factor {:.4g}; "
             "the body's limit load, which coarse grids overestimate, may "
             "be lower (a finer grid tells), and past it no equilibrium "
-            "exists: a smaller load, or a displacement prescribed instead "
-            "(an Obstacle, a rigid body), follows the collapse".format(
+            "exists: a run to a smaller load, or one with a displacement "
+            "prescribed instead (an Obstacle, a rigid body), follows the "
+            "collapse".format(
                 rates[-1] / stiffest, f[-1]))
+
+
+def start_hint(starts: list) -> str:
+    """A sentence for a step cut back to the end whose first residual did
+    not fall with its increment (``starts``: each failed increment and
+    the first residual of its attempts), or ``""``: what unbalances the
+    step is not its load increment but its start, a state out of balance
+    on the grid (standard MPM: every step starts out of balance by the
+    points' last move within their cells) or loads in full from the first
+    step.  A trial's new stage from a collapsed footing's ``err.state``
+    (standard MPM, Mohr-Coulomb, 380 kPa, mean dilatation) started at
+    0.0742 at every cut-back, holding the load or unloading by up to
+    2.5% in its first step; unloading by 5% or more in one step
+    converged (5 iterations), and reloading after it in steps too, the
+    settlement at the collapse load 0.020 then 0.032 m; cpGIMP's stage
+    started at 8.5e-4 and held the load (5 iterations).
+
+    >>> start_hint([(.25, .0909), (.125, .0818), (.0625, .0778)])[:44]
+    "; the step's first residual stayed at 0.0778"
+    >>> start_hint([(.25, .4), (.125, .21), (.0625, .1)])
+    ''
+    """
+    if len(starts) < 3 or any(first is None for _, first in starts):
+        return ""
+    (longest, r0), (shortest, r1) = starts[0], starts[-1]
+    if not (r1 >= .5 * r0 and shortest <= longest / 4 * (1 + 1e-9)):
+        return ""
+    return ("; the step's first residual stayed at {:.3g} ({:.3g} at the first "
+            "attempt) while the increment was cut {:.0f}-fold: the step's "
+            "start is out of balance, not its load increment (loads in "
+            "full from the first step, ramp=False; standard MPM: every "
+            "step starts out of balance by the points' last move within "
+            "their cells), so a shorter step cannot help.  To go on from "
+            "the attached state: a step changing the load by more than "
+            "that imbalance at once (a collapsed footing's stage held its "
+            "load in vain at every cut-back and converged unloaded by 5% "
+            "in one step, not by 2.5%; reloaded in steps after it), or "
+            "cpGIMP, whose points start nearly in balance (that stage "
+            "started at 8.5e-4 and held the load); docs/geomechanics.md, "
+            "'Continuing after a collapse'".format(
+                r1, r0, longest / shortest))
 
 
 def left_grid_cause(run: Run, points: MaterialPoints,
@@ -1230,6 +1272,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     easy = 0            # easy sub-steps in a row, grow_back off (the hint)
     reach = [(factor, largest_displacement(points))] if watch else []
     stalled_at = None   # the last failed increment and its attempts' stalls
+    starts = []         # the step's failed increments, first residuals
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
         target = min(factor + increment, boundary)
@@ -1240,6 +1283,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                                          step + 1)
         except STEP_FAILURES as err:
             held = held + 1 if isinstance(err, HeldSupportError) else 0
+            starts.append((target - factor,
+                           getattr(err, "first_residual", None)))
             unbalanced = no_equilibrium(run, points)
             floor = stall_floor(getattr(err, "stalls", None), stalled_at,
                                 target - factor)
@@ -1272,8 +1317,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         "cause".format(
                             HELD_HALVINGS, span(run, target - factor)),
                         progress(run, factor), too_soft(run, points)
-                        + (collapse_hint(run, reach) if isinstance(
-                            err, NewtonDivergenceError) else ""),
+                        + (collapse_hint(run, reach) + start_hint(starts)
+                           if isinstance(err, NewtonDivergenceError)
+                           else ""),
                         ghost_hint(run) + seeded_hint(run) + (
                             "".join(term.unheld_hint() for term in run.terms)
                             if isinstance(err, SingularSystemError) else ""),
@@ -1362,7 +1408,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             increment = grown
         record.increment, record.counters = increment, dict(run.counters)
         result.history.append(record)
-        stalled_at = None
+        stalled_at, starts = None, []
         result.points = points
         if watch:
             reach.append((factor, largest_displacement(points)))
