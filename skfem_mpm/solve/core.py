@@ -1005,8 +1005,8 @@ def start_hint(starts: list) -> str:
     (longest, r0), (shortest, r1) = starts[0], starts[-1]
     if not (r1 >= .5 * r0 and shortest <= longest / 4 * (1 + 1e-9)):
         return ""
-    return ("; the step's first residual stayed at {:.3g} ({:.3g} at the first "
-            "attempt) while the increment was cut {:.0f}-fold: the step's "
+    return ("; the step's first residual stayed at {:.3g} ({:.3g} at the "
+            "first attempt) while the increment was cut {:.0f}-fold: the step's "
             "start is out of balance, not its load increment (loads in "
             "full from the first step, ramp=False; standard MPM: every "
             "step starts out of balance by the points' last move within "
@@ -1465,8 +1465,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         and its ``.all(name)`` that keeps none, are warned (that part of
         the supports holds nothing); DOF indices computed otherwise, an
         empty array among others, cannot be told from intended ones and
-        are not.  With contacts between bodies a support holds each body's copy of a node only
-        where that body lies on it
+        are not.  With contacts between bodies a support holds each
+        body's copy of a node only where that body lies on it
         (:meth:`~skfem_mpm.solve.body_contact.BodyContact.held_supports`).
     body_force
         Body force per unit *initial* volume at full load, shape (dim,), or
