@@ -1006,8 +1006,8 @@ def start_hint(starts: list) -> str:
     if not (r1 >= .5 * r0 and shortest <= longest / 4 * (1 + 1e-9)):
         return ""
     return ("; the step's first residual stayed at {:.3g} ({:.3g} at the "
-            "first attempt) while the increment was cut {:.0f}-fold: the step's "
-            "start is out of balance, not its load increment (loads in "
+            "first attempt) while the increment was cut {:.0f}-fold: the "
+            "step's start is out of balance, not its load increment (loads in "
             "full from the first step, ramp=False; standard MPM: every "
             "step starts out of balance by the points' last move within "
             "their cells), so a shorter step cannot help.  To go on from "
