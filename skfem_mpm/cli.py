@@ -1830,8 +1830,10 @@ def run_safety(args) -> int:
 
     tic = run_clock()
     try:
+        # the trials' lines count the later warnings (quiet_logs)
         found = strength_reduction(trial, options["low"], options["high"],
-                                   options["tolerance"], options["growth"])
+                                   options["tolerance"], options["growth"],
+                                   quiet=False)
     except KeyboardInterrupt:
         print("skfem-mpm: strength reduction interrupted after {} "
               "trial(s): nothing written".format(len(trials)),

@@ -705,6 +705,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                             stabilise, modified or report["reused"],
                             report)))
             error.stalled = report.get("stalled")
+            error.first_residual = residuals[0]
             raise error
         if it == 0 and predictor is not None:
             d = problem.solve(*predictor, stabilise)[0]
