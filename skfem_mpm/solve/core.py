@@ -151,15 +151,6 @@ SLIVER_METHODS = ("ugimp", "cpgimp", "bspline3", "bspline3-gimp")
 #: start, a pile in soil whose sides lie on grid lines settled 10% less
 #: than half a cell off them (0.01% without, 0.5% off the lines)
 INTERFACE_METHODS = ("bspline",)
-#: the methods whose ghost penalty ``ghost="auto"`` switches on (for the
-#: rest of the run, at :data:`DEFAULT_GHOST` for the B-splines) at a step
-#: whose operator reaches a cell inside an obstacle: a quadratic spline
-#: block on a smooth floor between grid lines (3 points a cell, the floor
-#: 0.48 h above one) had its second row at 1.76 times the exact stress,
-#: 0.21 of rho g H off with it; 2 points, the floor 0.24 h above: 0.54
-#: off with 1e-3, 0.20 with 0.1
-OBSTACLE_METHODS = ("ugimp", "cpgimp", "bspline", "bspline-gimp",
-                    "bspline3", "bspline3-gimp")
 #: with ``NewtonOptions(grow_back=True)`` a cut-back's increment grows
 #: back (:func:`grown_increment`) by ``GROWTH`` after ``EASY_STEPS``
 #: sub-steps in a row that each converged in at most ``EASY_SHARE`` of
@@ -298,8 +289,7 @@ class Run:
 def ghost_term(run: Run) -> Optional[GridTerm]:
     """The ghost penalty of ``ghost=gamma``, or the one ``ghost="auto"``
     holds in reserve (:data:`DEFAULT_GHOST`; :data:`SMALL_STRAIN_GHOST` in
-    small strain, unless such bodies are in contact or B-splines meet
-    obstacles), on from the start
+    small strain, unless such bodies are in contact), on from the start
     for GIMP and the cubic splines with contacts between bodies
     (:data:`SLIVER_METHODS`): each body's domains reach a sliver of the
     cells across an interface on a grid line, on its own field, and the
@@ -320,14 +310,13 @@ def ghost_term(run: Run) -> Optional[GridTerm]:
                         DEFAULT_GHOST)
         shared = bool(run.contacts) and \
             run.method.name in INTERFACE_METHODS
-        splines = bool(run.obstacles) and run.method.name.startswith(
-            "bspline")
-        gamma = DEFAULT_GHOST if (run.finite or slivers or splines
-                                  or shared) else SMALL_STRAIN_GHOST
+        gamma = DEFAULT_GHOST if run.finite or slivers or shared else \
+            SMALL_STRAIN_GHOST
         return GhostStabilisation(
             run.mesh, run.grid.elem, gamma, run.material, active=slivers,
-            obstacles=run.obstacles if run.method.name in OBSTACLE_METHODS
-            else (), field_cells=field_cells, shared_cells=shared)
+            obstacles=run.obstacles if run.method.name in (
+                "ugimp", "cpgimp") else (), field_cells=field_cells,
+            shared_cells=shared)
     return None
 
 

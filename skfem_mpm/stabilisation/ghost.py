@@ -231,8 +231,8 @@ class GhostStabilisation(GridTerm):
         :func:`faces_crossed_past_supports`).
     obstacles
         The run's obstacles, where a step whose points' domains reach
-        into a cell inside one switches the penalty on (GIMP's domains,
-        the B-splines' supports).
+        into a cell inside one switches the penalty on (GIMP's domains;
+        a B-spline's support reaches the cells beside its body anyway).
     field_cells
         With contacts between bodies, the cells of each body's field (the
         grid's): a cell that only domains reach takes the modulus of the
