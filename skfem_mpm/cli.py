@@ -38,8 +38,9 @@ from .scenes.footing import scene_footing, soil_strength
 from .scenes.io import (atomic_path, clear_earlier_run,
                         interrupts_deferred, remove_temporaries,
                         terminate_as_interrupt)
-from .scenes.output import (SeriesWriter, point_cloud, von_mises,
-                             without_negative_zeros, write_summary)
+from .scenes.output import (SeriesWriter, contact_pressure_fields,
+                             point_cloud, von_mises, without_negative_zeros,
+                             write_summary)
 from .scenes import plot  # save_figure looked up when called: tests wrap it
 from .scenes.plot import (STRESS_NAMES, SupportMarks, body_figure_size,
                           colour_scale, draw_deformed_shape, draw_energies,
@@ -1176,15 +1177,19 @@ def run(args) -> int:
         prepare()
         progress(record)
         if start is not None and not series.entries:
+            # the fields of the steps, zero at the start
             series.write(0, 0., start, np.unique(locate_points(
-                mesh, start.x)[0]), None)
+                mesh, start.x)[0]), None, None, {
+                    name: np.zeros_like(values) for name, values in
+                    contact_pressure_fields(record).items()})
         if series is not None and (
                 record.step % args.series_every == 0
                 or record.load_factor >= 1. or (
                     args.max_steps and len(history) + 1 >= args.max_steps)):
             series.write(record.step, float(
                 record.load_factor if record.time is None else record.time),
-                pts, record.elements, record.u, record.reactions)
+                pts, record.elements, record.u, record.reactions,
+                contact_pressure_fields(record))
         # the step counts once both its VTUs are written: one interrupted
         # between them is neither checkpointed nor listed on resume
         history.append(record)
@@ -1825,8 +1830,10 @@ def run_safety(args) -> int:
 
     tic = run_clock()
     try:
+        # the trials' lines count the later warnings (quiet_logs)
         found = strength_reduction(trial, options["low"], options["high"],
-                                   options["tolerance"], options["growth"])
+                                   options["tolerance"], options["growth"],
+                                   quiet=False)
     except KeyboardInterrupt:
         print("skfem-mpm: strength reduction interrupted after {} "
               "trial(s): nothing written".format(len(trials)),

@@ -23,11 +23,15 @@ __all__ = ["OnceEach", "warnings_once"]
 
 class OnceEach(logging.Filter):
     """Passes each warning (and error) text once, every record below
-    ``WARNING``; counts those it drops."""
+    ``WARNING``; counts those it drops.  While ``hushed`` (set it), it
+    drops every warning not said before and counts it in
+    ``hushed_count`` too (the trials after the first of a strength
+    reduction)."""
 
     def __init__(self):
         super().__init__()
         self.seen, self.dropped, self.loggers = set(), 0, []
+        self.hushed, self.hushed_count = False, 0
 
     def filter(self, record: logging.LogRecord) -> bool:
         if record.levelno < logging.WARNING:
@@ -35,6 +39,10 @@ class OnceEach(logging.Filter):
         text = record.getMessage()
         if text in self.seen:
             self.dropped += 1
+            return False
+        if self.hushed:
+            self.dropped += 1
+            self.hushed_count += 1
             return False
         self.seen.add(text)
         return True

@@ -49,3 +49,29 @@ def test_series_every_n_steps_writes_the_start_each_nth_and_the_last(
                      "--no-progress"] + extra) == 2
         assert "--series-every" in capsys.readouterr().err
     assert not (tmp_path / "no").exists()
+
+
+def test_the_points_vtus_carry_the_contact_pressure(tmp_path, monkeypatch):
+    """Trial 93: the VTUs had the multipliers, not the pressure.  Each
+    step's points carry ``contact0_pressure`` and ``contact0_area``,
+    whose product sums to the obstacle's force (zero at the start)."""
+    import meshio
+    import numpy as np
+
+    import skfem_mpm.cli as cli
+    monkeypatch.setattr(cli, "plot_outputs", lambda *args, **kwargs: None)
+    scene = tmp_path / "pressed.toml"
+    scene.write_text(PRESSED)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out),
+                 "--no-progress"]) == 0
+    force = json.loads((out / "summary.json").read_text())["obstacles"]
+    force = next(iter(force.values()))["force"]
+    pressed = 0
+    for step in range(5):
+        data = meshio.read(out / "points_{:04d}.vtu".format(step)).point_data
+        total = (data["contact0_pressure"] * data["contact0_area"]).sum()
+        expected = 0. if step == 0 else abs(force[step - 1][1])
+        assert np.isclose(total, expected, rtol=1e-12, atol=0.)
+        pressed += total > 0
+    assert pressed

@@ -1011,6 +1011,58 @@ def test_a_footing_loaded_past_its_limit_load_is_said_to_collapse():
             err.load_factor) in str(err)
 
 
+
+@pytest.mark.slow
+def test_a_stage_from_a_collapse_is_told_its_start_is_out_of_balance():
+    """Trial 92's strip load on Mohr-Coulomb soil (standard MPM, mean
+    dilatation) fails past 380 kPa, and a new stage from ``err.state``
+    holding that load fails at every cut-back: each step starts out of
+    balance by the points' last move, not by its load increment.  Both
+    errors say the first residual did not fall with the increment (they
+    said only "a smaller load ... follows the collapse"), and what they
+    advise holds: unloading by 5% in one step converges (10-25 s: slow;
+    ``start_hint``'s doctest is the fast suite's check)."""
+    from skfem_mpm import (BodyForce, MohrCoulomb, Stabilisation, Traction,
+                           geostatic_stress, side_points)
+    width, depth, h, gamma = 2., 1., 1 / 8, 18e3
+    soil = MohrCoulomb(E=2e7, nu=.3, cohesion=10e3, friction_angle=30.)
+    mesh = MeshQuad.init_tensor(np.arange(0, width + 1e-9, h),
+                                np.arange(0, depth + 4 * h + 1e-9, h))
+    points = geostatic_stress(
+        seed_points(mesh, 2, region=lambda x: x[1] < depth), soil,
+        [0., -gamma], surface=depth, K0=.5)
+    top = side_points(points, "top")
+    strip = top[np.abs(points.x[0, top] - width / 2) < .25]
+
+    def supports(b):
+        return np.concatenate([
+            b.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+            b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                       | np.isclose(x[0], width)).all("u^1")])
+
+    def run(start, loads, nsteps):
+        return simulate(mesh, ElementQuad1(), start, soil, supports,
+                        body_force=BodyForce([0., -gamma], ramp=False),
+                        loads=loads, nsteps=nsteps, options=Options(
+                            stabilisation=Stabilisation(antilocking=True)))
+    with pytest.raises(NewtonDivergenceError) as failure:
+        run(points, [Traction(strip, "top", [0., -3e6])], 10)
+    collapsed = failure.value
+    assert "the step's start is out of balance" in str(collapsed)
+    q = collapsed.load_factor * 3e6
+    held = Traction(strip, "top", [0., -q], ramp=False)
+    with pytest.raises(NewtonDivergenceError) as failure:
+        run(collapsed.state, [held], 1)
+    said = re.search(r"first residual stayed at ([\d.e-]+) \(([\d.e-]+) at "
+                     r"the first attempt\) while the increment was cut "
+                     r"(\d+)-fold: the step's start is out of balance",
+                     str(failure.value))
+    assert float(said.group(1)) > .5 * float(said.group(2))
+    assert int(said.group(3)) >= 4
+    unloaded = run(collapsed.state, [held, Traction(strip, "top",
+                                                    [0., .05 * q])], 1)
+    assert len(unloaded.history) == 1
+
 def test_the_collapse_hint_measures_against_the_stiffest_step():
     """A body force in full from the first step moves the body in it: a
     first step of 1.0 over a load increment of 0.25, then 0.01, 0.02 and

@@ -2942,3 +2942,76 @@ def test_a_corner_beyond_the_material_s_cells_says_why_and_what_to_do():
                    "more points per cell", "a shorter time step",
                    "flip < 1"):
         assert remedy in words, remedy
+
+
+@pytest.mark.parametrize("method, spread", (("fem", 1e-9), ("mpm", .02)))
+def test_a_pressed_block_s_contact_pressure_is_load_over_area(method,
+                                                              spread):
+    """Trial 93: no documented contact pressure, only forces (the point
+    state's multipliers summed to 0.34-0.66 of a force).  A block on
+    rollers pressed by a smooth plate: each point's pressure is the
+    force over the top's width, uniform (FE to round-off, standard MPM
+    within 2%), and pressure times area sums to the force."""
+    from skfem_mpm.scenes.output import contact_pressure_fields
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < 1. + 1e-9)
+    width = 2.
+    top = Obstacle(box=[[-1, 3], [1., 1.7]], displacement=[0, -.025])
+    res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+                   lambda b: np.concatenate([
+                       b.get_dofs(lambda x: x[1] == 0).all("u^2"),
+                       b.get_dofs(lambda x: x[0] == 0).all("u^1")]),
+                   nsteps=2, method=method, obstacles=[top])
+    for record in res.history:
+        force = record.obstacle_forces[0, 1]
+        pressure = record.contact_pressure.toarray()[0]
+        area = record.contact_area.toarray()[0]
+        pressed = pressure > 0
+        assert np.isclose((pressure * area).sum(), force, rtol=1e-12)
+        assert np.isclose(area.sum(), width, rtol=1e-12)
+        assert np.allclose(pressure[pressed], force / width, rtol=spread)
+        # the top row of points, and only they
+        assert np.array_equal(pressed, pts.x[1] > 1. - .125)
+        fields = contact_pressure_fields(record)
+        assert np.array_equal(fields["contact0_pressure"], pressure)
+    # the multipliers are not the pressure: less the penalty's force of
+    # the penetration the step ended with
+    lam = sum(res.points.state["contact0_p{}".format(c)] * .0625
+              for c in range(4))
+    assert lam.sum() < force
+
+
+def test_a_stall_as_a_block_lands_on_an_incline_names_the_contact(caplog):
+    """Trial 93: a block landing on a Coulomb incline (27.5 degrees, a
+    staircase) stalled in its first step, and the words asked whether
+    the body was collapsing; they name the contact engaging."""
+    mu, g, rho = .4, 9.81, 1e3
+    th = np.arctan(mu) + .1
+    t_ = np.array([np.cos(th), -np.sin(th)])
+    n_ = np.array([np.sin(th), np.cos(th)])
+    o = np.array([.4, .8 - np.tan(th) * .4])
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 41),
+                                np.linspace(-.2, 1.2, 29))
+
+    def region(x):
+        u, v = (x - o[:, None]).T @ t_, (x - o[:, None]).T @ n_
+        return (u > 0) & (u < .4) & (v > 0) & (v < .2)
+    pts = seed_points(mesh, 2, region=region)
+    lowest = min(((pts.x + np.array([[sx], [sy]]) * pts.domain
+                   - o[:, None]) * n_[:, None]).sum(0).min()
+                 for sx in (-1, 1) for sy in (-1, 1))
+    a = o + lowest * n_                  # the plane touches the lowest
+    incline = Obstacle(polygon=[list(a - 5 * t_), list(a + 5 * t_),
+                                list(a + 5 * t_ - 2 * n_),
+                                list(a - 5 * t_ - 2 * n_)], friction=mu,
+                       name="incline")
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e7, .3), [],
+                 body_force=BodyForce([0, -g * rho], ramp=False),
+                 kinematics="finite", obstacles=[incline],
+                 dynamics=Dynamics(time_step=.01, duration=.01,
+                                   density=rho))
+    stalls = [r.getMessage() for r in caplog.records
+              if "made no progress" in r.getMessage()]
+    assert stalls and all("the contact with obstacle 'incline'" in words
+                          and "engaging" in words for words in stalls)

@@ -142,10 +142,6 @@ def test_simulate_refuses_what_it_cannot_use():
     with pytest.raises(InvalidInputError, match="Resume.first_step 5 is "
                        "beyond the run's 2 steps"):
         simulate(*args, nsteps=2, options=Options(resume=Resume(5)))
-    with pytest.raises(InvalidInputError, match="resuming a cpgimp run "
-                       "needs Resume.domain0"):
-        simulate(*args, nsteps=2, method="cpgimp", options=Options(
-            resume=Resume(2)))
     push = Prescribed(lambda b, f0, f1: (np.array([0]), np.zeros(1)))
     with pytest.raises(InvalidInputError, match="2 Prescribed items"):
         simulate(*args, loads=[push, push], **fail)

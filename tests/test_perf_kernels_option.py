@@ -90,3 +90,40 @@ def test_simulate_hands_the_kernels_option_to_the_basis(refused):
                    lambda b: b.get_dofs(lambda x: x[1] == 0).all(),
                    body_force=[0., -1.], options=Options(kernels="numpy"))
     assert res.history[-1].load_factor == 1.
+
+
+def test_tresca_on_the_numpy_path_is_a_warning(monkeypatch, caplog):
+    """Mohr-Coulomb without friction (Tresca) falls back to the numpy path
+    with ``kernels="auto"``, at about twice an iteration's cost (trial 94:
+    0.225 s against von Mises' 0.128): said at WARNING, with the remedy;
+    a dilating Mohr-Coulomb takes the passes, a subclass of von Mises (a
+    user's law) falls back at INFO."""
+    import logging
+    from skfem_mpm import MohrCoulomb, VonMises
+    from skfem_mpm import kernels
+    from skfem_mpm.mechanics import compiled
+    monkeypatch.setenv(kernels.AUTO_VARIABLE, "auto")
+    monkeypatch.setattr(kernels, "_LOGGED", set())
+    # no compilation here: a path the passes serve gets a stand-in
+    monkeypatch.setattr(compiled, "compiled_passes", lambda: object())
+    monkeypatch.setattr(compiled, "CompiledPasses", lambda *a: "served")
+
+    class Mine(VonMises):
+        pass
+    cases = [(MohrCoulomb(1e4, .3, cohesion=10., friction_angle=0.),
+              logging.WARNING),
+             (Mine(1e4, .3, yield_stress=10.), logging.INFO),
+             (MohrCoulomb(1e4, .3, cohesion=10., friction_angle=30.), None)]
+    for material, level in cases:
+        caplog.clear()
+        with caplog.at_level(logging.INFO, logger="skfem_mpm.kernels"):
+            path = compiled.compiled_path("auto", material, 3)
+        said = [(r.levelno, r.getMessage()) for r in caplog.records]
+        if level is None:
+            assert path == "served" and said == []
+            continue
+        assert path is None and [lv for lv, _ in said] == [level]
+        if level == logging.WARNING:
+            assert "MohrCoulomb without friction" in said[0][1]
+            assert "about twice" in said[0][1]
+            assert "VonMises(yield_stress=sqrt(3) c)" in said[0][1]

@@ -384,7 +384,9 @@ def test_ctrl_c_while_saving_a_checkpoint_keeps_the_previous_one(
 def test_a_checkpoint_without_the_contact_corners_says_why(names, dated):
     """A B-spline contact's corners and the pressures' rates between
     bodies became point state: a checkpoint written before lacks them,
-    and the refusal says so (only where they are all it lacks)."""
+    and the refusal says so (only where they are all it lacks), first,
+    and counts the names it lacks, naming a few (a trial's named some 70
+    before its reason, 2.9 kB on one line)."""
     from types import SimpleNamespace
     from skfem import MeshQuad
     from skfem_mpm import seed_points
@@ -395,8 +397,33 @@ def test_a_checkpoint_without_the_contact_corners_says_why(names, dated):
         check_against("ckpt", SimpleNamespace(points=points,
                                               domain0=points.domain),
                       points, names, mesh)
-    assert ("run the scene again from its start" in str(caught.value)) \
-        == dated
+    text = str(caught.value)
+    assert ("run the scene again from its start" in text) == dated
+    assert "it lacks {} ({}".format(len(names), min(names)) in text
+    assert not dated or text.index("run the scene again") < text.index(
+        "it lacks")
+    assert names[-1] not in text or len(names) <= 4
+
+
+def test_a_checkpoint_whose_points_moved_names_the_file_and_field():
+    """A checkpoint whose positions were moved 1e-3 from their initial
+    ones plus their displacement is refused naming the file and
+    ``points_x`` (the run's refusal said how to seed moved points, and
+    named no file, a user trial)."""
+    from types import SimpleNamespace
+    from skfem import MeshQuad
+    from skfem_mpm import seed_points
+    from skfem_mpm.scenes.checkpoint import check_against
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    points = seed_points(mesh, 2)
+    saved = SimpleNamespace(points=points.copy(), domain0=points.domain)
+    saved.points.displacement[1] = -.01
+    saved.points.x = saved.points.x0 + saved.points.displacement
+    check_against("ckpt", saved, points, [], mesh)      # as a run left it
+    saved.points.x = saved.points.x + 1e-3
+    with pytest.raises(CheckpointError, match="ckpt: field 'points_x' puts "
+                       "{} point.* by 0.001".format(points.n)):
+        check_against("ckpt", saved, points, [], mesh)
 
 
 @pytest.mark.slow
@@ -711,3 +738,47 @@ def test_a_resumed_run_s_load_displacement_curve_starts_at_its_resume(
     title, factors = drawn.pop("split")
     assert len(factors) == 3 and factors[0] > 0.
     assert title.endswith("material points, steps 4 to 6 (resumed)")
+
+
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+def test_a_cpgimp_run_resumes_without_its_initial_domains(kinematics):
+    """``Resume.after(record)`` without ``domain0`` on a cpGIMP run was
+    refused ("resuming a cpgimp run needs Resume.domain0", a user trial),
+    where its docstring says the points' domains unstretched by ``F`` are
+    the default: an elastic block (cells 0.3, domains 0.075) pushed down
+    by a plate in 4 steps, stopped by its callback after step 2 and
+    resumed, ends as the straight run, bit for bit (in finite
+    deformation its domains were stretched where it stopped)."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import (LinearElastic, Obstacle, Options, Resume,
+                           seed_points, simulate)
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2.1, 8),
+                                np.linspace(0, 2.1, 8))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < 1.2 + 1e-9)
+    args = (mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    kwargs = dict(nsteps=4, method="cpgimp", kinematics=kinematics,
+                  obstacles=[Obstacle(box=[[-1, 3], [1.2, 1.9]],
+                                      displacement=[0, -.05])])
+    straight = simulate(*args, **kwargs)
+    kept = {}
+
+    class Stop(Exception):
+        pass
+
+    def stop(record, points):
+        if record.step == 2:
+            kept.update(points=points.copy(), record=record)
+            raise Stop
+
+    with pytest.raises(Stop):
+        simulate(*args, options=Options(callback=stop), **kwargs)
+    resumed = simulate(args[0], args[1], kept["points"], *args[3:],
+                       options=Options(resume=Resume.after(kept["record"])),
+                       **kwargs)
+    stretched = np.abs(kept["points"].domain - pts.domain).max() > 1e-4
+    assert stretched == (kinematics == "finite")
+    assert np.array_equal(resumed.domain0, pts.domain)
+    for name in ("x", "stress", "domain", "F"):
+        assert np.array_equal(getattr(resumed.points, name),
+                              getattr(straight.points, name)), name

@@ -167,3 +167,65 @@ def test_a_stiff_smooth_body_is_named_in_a_warning(caplog):
                  [LinearElastic(1e4, .3), LinearElastic(modulus, .3)], base,
                  rigid_bodies=RigidBody(1, [0., -.01], rough=False))
         assert ("smooth rigid body 1" in caplog.text) == warned
+
+
+@pytest.mark.parametrize("half, warned", [(.45, True), (HALF, False)])
+def test_a_body_that_cuts_its_cells_is_warned_with_both_volumes(
+        half, warned, caplog):
+    """A footing whose side cuts a cell pushes the whole cell (trial 94's
+    circular footing on a square grid: cells of 1.13-1.27 times its area):
+    the warning at the run's start names the points' area and the cells',
+    computed here from the seeding, and the remedies; a footing on grid
+    lines is not warned."""
+    mesh = MeshQuad.init_tensor(np.arange(0., WIDTH + 1e-9, H),
+                                np.arange(0., DEPTH + 4 * H + 1e-9, H))
+    soil = seed_points(mesh, 2, region=lambda x: x[1] < DEPTH)
+    foot = seed_points(mesh, 2, region=lambda x: (x[1] > DEPTH)
+                       & (x[1] < DEPTH + H) & (x[0] < half))
+    foot.body[:] = 1
+    area = foot.volume.sum()
+    # the sub-cells of width H / 2 whose centres lie left of ``half``
+    assert area == pytest.approx(H * H / 2 * np.ceil(half / (H / 2) - .5))
+    cells = len(np.unique(np.floor(foot.x[0] / H)))
+    with caplog.at_level("WARNING", logger="skfem_mpm.solve.rigid"):
+        simulate(mesh, ElementQuad1(), concatenate_points([soil, foot]),
+                 [LinearElastic(1e4, .3), LinearElastic(1e1, .3)],
+                 supports, rigid_bodies=RigidBody(1, [0., -1e-3]))
+    said = [r.getMessage() for r in caplog.records
+            if r.getMessage().startswith("rigid body 1: its points")]
+    assert len(said) == int(warned)
+    if warned:
+        assert cells * H * H > 1.05 * area
+        assert "an area of {:.4g}, the {} cells they sit in {:.4g} " \
+            "({:+.1f}%)".format(area, cells, cells * H * H,
+                                100 * (cells * H * H / area - 1)) in said[0]
+        for remedy in ("Obstacle", "contacts between bodies",
+                       "grid with cell faces on the body's sides"):
+            assert remedy in said[0]
+
+
+def test_a_scene_footing_that_cuts_its_cells_is_warned(caplog):
+    """The scene file's rigid body runs through the same check."""
+    from skfem_mpm.scenes.scene import run_scene
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    text = """
+[grid]
+x = [0.0, 1.0, 4]
+y = [0.0, 1.5, 6]
+[[bodies]]
+name = "soil"
+region = { x = [0.0, 1.0], y = [0.0, 1.0] }
+material = { model = "linear_elastic", E = 1e4, nu = 0.3 }
+[[bodies]]
+name = "footing"
+region = { x = [0.0, 0.4], y = [1.0, 1.25] }
+material = { model = "linear_elastic", E = 10.0, nu = 0.3 }
+rigid = { displacement = [0.0, -0.001] }
+[[supports]]
+boundary = "bottom"
+[solver]
+steps = 1
+"""
+    with caplog.at_level("WARNING", logger="skfem_mpm.solve.rigid"):
+        run_scene(parse_scene(tomllib.loads(text)))
+    assert "rigid body 1: its points hold an area of" in caplog.text

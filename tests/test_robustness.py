@@ -590,6 +590,46 @@ def test_every_failure_is_an_mpm_error_carrying_the_last_state():
     assert caught.value.state.x[1].max() < 1.
 
 
+
+def test_a_callback_s_exception_propagates_with_the_state():
+    """An exception of a user's own raised by ``Options.callback`` after
+    step 2 of 4 comes out as itself (it is the user's to catch), carrying
+    the step's points, load factor and history (it came out bare, a user
+    trial); an attribute of one of those names that the exception has is
+    kept, and a run resumed from the attached state ends as the straight
+    run."""
+    from skfem_mpm import Resume
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 1)
+    args = (mesh, ElementQuad1(), points, LinearElastic(1e3, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    kwargs = dict(body_force=[0., -5.], nsteps=4)
+
+    class Stop(Exception):
+        pass
+
+    class Labelled(Exception):
+        history = "mine"
+
+    def stop_with(error):
+        def stop(record, points):
+            if record.step == 2:
+                raise error("enough")
+        return Options(callback=stop)
+    with pytest.raises(Labelled) as caught:
+        simulate(*args, options=stop_with(Labelled), **kwargs)
+    assert caught.value.history == "mine"
+    with pytest.raises(Stop, match="enough") as caught:
+        simulate(*args, options=stop_with(Stop), **kwargs)
+    err = caught.value
+    assert type(err) is Stop and err.load_factor == 2 / 4
+    assert [record.step for record in err.history] == [1, 2]
+    resumed = simulate(mesh, ElementQuad1(), err.state, *args[3:],
+                       options=Options(resume=Resume.after(err.history[-1])),
+                       **kwargs)
+    straight = simulate(*args, **kwargs)
+    assert np.array_equal(resumed.points.x, straight.points.x)
+
 def test_unvalidated_parameters_are_refused_before_any_work():
     """String moduli, a NaN or outsized locator tolerance, a locator of
     another mesh and sizes beyond the machine's memory (with an estimate)
@@ -927,6 +967,33 @@ def test_points_outside_the_grid_as_given_are_not_said_to_leave_it(method):
     assert "where the step starts, as given to the run" in str(err.value)
     assert "left it" not in str(err.value)
 
+
+
+def test_a_support_keeping_no_component_is_warned(caplog):
+    """Side rollers written ``.all("u^0")`` (scikit-fem names a vector's
+    components from ``u^1``) kept no DOF beside a base held in full, and
+    nothing said so (a user trial): warned, naming the components; a
+    component that exists is not."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import LinearElastic, seed_points, simulate
+    mesh = MeshQuad.init_tensor(np.linspace(0., 4., 5),
+                                np.linspace(0., 4., 5))
+    points = seed_points(mesh, 2, region=[(0., 4.), (0., 2.)])
+    sides = mesh.nodes_satisfying(lambda x: (x[0] == 0.) | (x[0] == 4.))
+    for name, warned in (("u^0", True), ("u^1", False)):
+        def supports(basis, name=name):
+            return np.concatenate([
+                basis.get_dofs(lambda x: x[1] == 0.).all(),
+                basis.get_dofs(lambda x: (x[0] == 0.)
+                               | (x[0] == 4.)).all(name)])
+        caplog.clear()
+        with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+            simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                     supports, body_force=[0., -1e3])
+        expected = ("supports: get_dofs call 2: .all('u^0') kept none of "
+                    "its {} DOFs, named u^1, u^2: that part of the supports "
+                    "holds nothing".format(2 * sides.size))
+        assert (expected in caplog.text) == warned, caplog.text
 
 def test_a_support_selecting_no_dof_beside_others_is_warned(caplog):
     """A supports function whose roller misses the grid (``x == 46`` on a

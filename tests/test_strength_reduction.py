@@ -152,3 +152,41 @@ def test_the_factor_of_safety_does_not_depend_on_the_load_stepping():
             if stood:
                 assert moved <= 5 * s.reference
         assert s.result.history[-1].n_yielded > 0
+
+
+@pytest.mark.parametrize("quiet", [True, False])
+def test_the_later_trials_warnings_are_counted_not_said(quiet, caplog):
+    """As ``skfem-mpm safety`` prints them: the first trial's warnings are
+    logged, the later trials' counted (trial 94: about 100 lines of
+    Newton's retries for 8 trials of a slope), per trial and in one
+    warning at the end; ``quiet=False`` logs them all."""
+    import logging
+    solver = logging.getLogger("skfem_mpm.solve.core")
+    limit, said = 1.37, {}
+
+    def run(factor):
+        # a run says more the nearer it is to collapse, each text new
+        said[factor] = 1 + int(10 * factor)
+        for k in range(said[factor]):
+            solver.warning("step %d: retrying at F = %.6f", k, factor)
+        if factor > limit:
+            raise NewtonDivergenceError("no equilibrium")
+        return stand_in(factor)
+    with caplog.at_level(logging.WARNING):
+        s = strength_reduction(run, tolerance=1e-2, quiet=quiet)
+    retries = [r for r in caplog.records if r.name == solver.name]
+    factors = [f for f, _ in s.trials]
+    later = sum(said[f] for f in factors[1:])
+    assert len(factors) > 2 and later > 0
+    if quiet:
+        assert len(retries) == said[factors[0]]
+        assert s.quieted == [0] + [said[f] for f in factors[1:]]
+        ending = [r.getMessage() for r in caplog.records
+                  if r.name.endswith("strength_reduction")]
+        assert len(ending) == 1 and ": {} warning(s) of the trials after " \
+            "the first were counted, not logged".format(later) in ending[0]
+        assert "F = {:.4f}: {}".format(factors[1], said[factors[1]]) \
+            in ending[0]
+    else:
+        assert len(retries) == said[factors[0]] + later
+        assert s.quieted == [0] * len(factors)

@@ -58,8 +58,16 @@ __all__ = ["compiled_path", "CompiledPasses", "material_parameters",
 COVERAGE = ("standard MPM, uGIMP, cpGIMP and B-splines in 2D and 3D, small "
             "and finite deformation, with or without mean dilatation "
             "(antilocking=True) or F-bar on the increment ('fbar'), "
-            "LinearElastic, VonMises, DruckerPrager, MohrCoulomb and "
-            "ModifiedCamClay (one for all points or one per body)")
+            "LinearElastic, VonMises, DruckerPrager, MohrCoulomb of "
+            "friction_angle > 0 and ModifiedCamClay (one for all points or "
+            "one per body)")
+
+#: what a run of Mohr-Coulomb without friction (Tresca) on the numpy path
+#: is told, at WARNING (trial 94: it doubles an iteration's cost)
+TRESCA_COST = (": an iteration costs about twice the compiled passes' "
+               "(a 3D footing at B/h = 6: 0.225 s against VonMises' 0.128 "
+               "s); in plane strain VonMises(yield_stress=sqrt(3) c) has "
+               "Tresca's limit loads and runs compiled")
 
 
 def material_parameters(material) -> Optional[ndarray]:
@@ -149,7 +157,10 @@ def compiled_path(kernels: str, material, dim: int,
     ``SKFEM_MPM_KERNELS=numpy`` (:func:`~skfem_mpm.kernels.auto_kernels`);
     with ``"auto"`` where the
     passes do not cover the material, dimension or scheme or numba does
-    not import (logged once); with ``"compiled"`` those are refused
+    not import (logged once at INFO; at WARNING for Mohr-Coulomb without
+    friction, Tresca, a built-in material whose iterations then cost
+    about twice the compiled ones: :data:`TRESCA_COST`); with
+    ``"compiled"`` those are refused
     (:class:`~skfem_mpm.errors.InvalidInputError`), before any work.
     Mean dilatation needs no say here: :meth:`CompiledPasses.serves`
     finds it on each operator.
@@ -181,8 +192,11 @@ passes do not serve 1D grids; ...
                 COVERAGE))
     if reason is None:                  # no numba: compiled_passes logged
         return None
-    log_once(logging.INFO, "kernels='auto': the numpy path serves %s",
-             reason)
+    # Tresca, a built-in material, is warned of: its cost surprises
+    tresca = reason.startswith("the material MohrCoulomb without friction")
+    log_once(logging.WARNING if tresca else logging.INFO,
+             "kernels='auto': the numpy path serves %s%s", reason,
+             TRESCA_COST if tresca else "")
     return None
 
 

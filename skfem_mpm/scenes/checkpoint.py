@@ -368,13 +368,46 @@ def check_against(path, checkpoint: Checkpoint, initial: MaterialPoints,
         if (value is None) != (seeded is None) or (
                 value is not None and not np.array_equal(value, seeded)):
             raise bad(name, "differs from what the scene seeds")
+    moved = np.minimum(                   # FE: x = x0; else x0 + u
+        np.abs(points.x - points.x0 - points.displacement).max(axis=0),
+        np.abs(points.x - points.x0).max(axis=0))
+    off = moved > 1e-9 * np.ptp(mesh.p, axis=1).max()
+    if off.any():
+        worst = int(np.argmax(moved))
+        raise bad("points_x", "puts {} point(s) where points_x0 and "
+                  "points_displacement do not (point {} by {:.3g}): the "
+                  "file was edited or damaged".format(
+                      int(off.sum()), worst, moved[worst]))
     try:
         point_locator(mesh)(points.x)
     except PointsOutsideGridError as err:
         raise bad("points_x", "puts points outside the grid ({})".format(
             err)) from None
     if set(points.state) != set(state_names):
-        raise bad("state_*", "holds the point state {}, where the scene's "
-                  "materials and terms keep {}{}".format(
-                      sorted(points.state), sorted(state_names),
-                      written_before(points.state, state_names)))
+        missing = set(state_names) - set(points.state)
+        extra = set(points.state) - set(state_names)
+        since = written_before(points.state, state_names)
+        raise bad("state_*", "{}: it lacks {} of the point state the "
+                  "scene's materials and terms keep, and holds {} beyond "
+                  "it".format(
+                      since[2:] if since else "differs from the point "
+                      "state the scene keeps", some_names(missing),
+                      some_names(extra)))
+
+
+def some_names(names, shown: int = 4) -> str:
+    """A few of ``names``, counted: a refusal's brief list (a trial's
+    named some 70 before its reason, 2.9 kB on one line).
+
+    >>> some_names({"b", "a"})
+    '2 (a, b)'
+    >>> some_names(["n{}".format(k) for k in range(9)], 2)
+    '9 (n0, n1, ...)'
+    >>> some_names([])
+    'none'
+    """
+    names = sorted(names)
+    if not names:
+        return "none"
+    return "{} ({}{})".format(len(names), ", ".join(names[:shown]),
+                              ", ..." if len(names) > shown else "")

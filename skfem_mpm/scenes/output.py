@@ -19,7 +19,7 @@ from .io import atomic_path
 from ..quadrature.points import MaterialPoints
 
 __all__ = ["SeriesWriter", "write_summary", "point_cloud", "von_mises",
-           "without_negative_zeros"]
+           "without_negative_zeros", "contact_pressure_fields"]
 
 
 def _pad3(a: ndarray) -> ndarray:
@@ -86,6 +86,22 @@ def active_grid(mesh, elements: ndarray, u: Optional[ndarray],
     return meshio.Mesh(_pad3(mesh.p), [(cell, t.T)], point_data=data)
 
 
+def contact_pressure_fields(record) -> dict:
+    """The points' contact pressure and its area per obstacle of a step's
+    ``record`` (:attr:`~skfem_mpm.StepRecord.contact_pressure`,
+    ``contact_area``) as point fields ``contact<i>_pressure`` and
+    ``contact<i>_area`` (zero where a point does not press); ``{}``
+    without obstacles."""
+    fields = {}
+    for name in ("pressure", "area"):
+        values = getattr(record, "contact_" + name, None)
+        if values is None:
+            continue
+        for i, row in enumerate(values.toarray()):
+            fields["contact{}_{}".format(i, name)] = row
+    return fields
+
+
 #: the state variable whose growth in a step marks plastic flow
 PLASTIC_STRAIN = "equivalent_plastic_strain"
 
@@ -110,14 +126,18 @@ class SeriesWriter:
 
     def write(self, step: int, time: float, points: MaterialPoints,
               elements: ndarray, u: Optional[ndarray],
-              reactions: Optional[ndarray] = None):
+              reactions: Optional[ndarray] = None,
+              point_data: Optional[dict] = None):
         """Step ``step`` at ``time`` (load factor, or seconds): the points,
         and the ``elements`` of the grid with the step's increment ``u``
-        and ``reactions`` (``None`` at step 0)."""
+        and ``reactions`` (``None`` at step 0); ``point_data``, more
+        fields of the points (name: values (n,)), as
+        :func:`contact_pressure_fields` gives them."""
         import meshio
         names = ("points_{:04d}.vtu".format(step),
                  "grid_{:04d}.vtu".format(step))
         cloud = point_cloud(points)
+        cloud.point_data.update(point_data or {})
         plastic = points.state.get(PLASTIC_STRAIN)
         if plastic is not None:
             before = self.plastic_strain if self.plastic_strain is not None \

@@ -94,7 +94,9 @@ again.  The multipliers (``lambda`` where pressed) and the friction
 tractions are point state (``contact<i>_p<c>``, ``contact<i>_t<a><c>``:
 obstacle i, corner c, component a), so checkpoints carry them and a step
 starts from the last step's tractions: with the penetration it ended at,
-``lambda - kappa g`` is the last step's pressure.  The method follows the
+``lambda - kappa g`` is the last step's pressure (the multipliers are
+not the pressure: each step's record has that per point,
+:meth:`StepContact.pressures`).  The method follows the
 penalty contact at GIMP domain corners of Bird et al. (2024) with the
 augmented-Lagrangian updates of Simo and Laursen (1992); see
 ``docs/references.md``.
@@ -1479,11 +1481,18 @@ class StepContact(GridTerm):
         # start; after Newton, those found apart let go and those pressed
         # join, each once), their gaps at the start, which changed
         self.held, self.start_gap, self.changed = [], [], []
+        #: per obstacle, the corners pressed at the step's start (by the
+        #: last step's multipliers) and in the step's last trial, and how
+        #: many changed between its trials (:meth:`engaging_words`)
+        self.pressed_start, self.pressed_last, self.flips = [], [], []
         self.inward = self.material_side()
         for i, ob in enumerate(term.obstacles):
             names = pressure_names(i, dim)
             self.lam.append(np.concatenate([self.state[nm][idx]
                                             for nm in names[0]]))
+            self.pressed_start.append(self.lam[-1] > 0)
+            self.pressed_last.append(None)
+            self.flips.append(0)
             self.tau.append(np.array([np.concatenate(
                 [self.state[nm][idx] for nm in comp])
                 for comp in names[1:]]))
@@ -1822,6 +1831,11 @@ class StepContact(GridTerm):
                 continue
             p = np.where(over, np.maximum(0., self.lam[i] - kappa * gap), 0.)
             active = p > 0
+            if not start:
+                if self.pressed_last[i] is not None:
+                    self.flips[i] += int(
+                        (active != self.pressed_last[i]).sum())
+                self.pressed_last[i] = active
             T = area * p * n
             nn = np.einsum("as,bs->abs", n, n)
             C[:, :, active] = (kappa * area * nn)[:, :, active]
@@ -1946,6 +1960,32 @@ class StepContact(GridTerm):
             blocks[id(J)] = (J, blocks.get(id(J), (J, 0.))[1] + C)
         return sum(J.T @ (block_diagonal(C) @ J)
                    for J, C in blocks.values()).tocsr()
+
+    def engaging_words(self) -> str:
+        """What a Newton loop that made no progress says of the contact
+        where its pressed corners changed in the step (from those the
+        last step left pressed, or between trials): the contact engaging
+        (a first touch, a landing) or letting go, not a body collapsing;
+        else ``""``.  Trial 93's block landing on an incline stalled in
+        its first step, "the body collapsing?", and the retry with the
+        line search solved it."""
+        told = []
+        for ob, start, last, flips in zip(self.term.obstacles,
+                                          self.pressed_start,
+                                          self.pressed_last, self.flips):
+            if last is None:
+                continue
+            new, gone = int((last & ~start).sum()), int((start & ~last).sum())
+            if new or gone or flips:
+                told.append("{!r} (domain corners pressed: {} new since "
+                            "the step's start, {} let go, {} changes "
+                            "between trials)".format(ob.name, new, gone,
+                                                     flips))
+        if not told:
+            return ""
+        return ("the contact with obstacle {} engaging or letting go: its "
+                "pressed corners changed within the step (a first touch, "
+                "a landing; a retry takes it)".format(", ".join(told)))
 
     def unsettled_hint(self) -> str:
         """:meth:`ObstacleContact.held_hint`: where an obstacle pushes
@@ -2159,6 +2199,7 @@ class StepContact(GridTerm):
                     new.state[name] = column
             forces.append(-T.sum(axis=1))
         record.obstacle_forces = np.array(forces)
+        record.contact_pressure, record.contact_area = self.pressures(ev)
         self.committed = ev
         run = problem.run
         # (the last settle's, of this evaluation, where it ran)
@@ -2176,6 +2217,39 @@ class StepContact(GridTerm):
                 np.array([(self.area[i] * np.sqrt((part[1] ** 2).sum(
                     axis=0))).sum()]))
             for i, (_, _, _, part) in enumerate(ev)])
+
+    def pressures(self, ev):
+        """The contact pressure and its area per obstacle and point
+        (csr, obstacles x n), of the converged corner pressures ``p`` of
+        ``ev`` (:meth:`evaluate`): a point's pressure is the normal force
+        its pressed corners transmit, ``sum A_c p_c``, over their share
+        ``sum A_c`` of the surface (its area), so that ``sum(pressure *
+        area)`` over the points is the sum of the corners' normal forces,
+        an obstacle's force normal to a flat face.  Tied obstacles: none
+        (their force is the tractions')."""
+        dim, nc, m = self.dim, 2 ** self.dim, len(self.idx)
+        n = self.X.shape[2]
+        rows, cols, pressure, area = [], [], [], []
+        for i, (_, _, _, part) in enumerate(ev):
+            if part is None:
+                continue
+            pressed = part[0] > 0
+            a = np.where(pressed, self.area[i], 0.).reshape(nc, m).sum(0)
+            f = (self.area[i] * part[0]).reshape(nc, m).sum(0)
+            k = np.flatnonzero(a > 0)
+            rows.append(np.full(k.size, i))
+            cols.append(self.idx[k])
+            pressure.append(f[k] / a[k])
+            area.append(a[k])
+        shape = (len(ev), n)
+
+        def matrix(values):
+            if not rows:
+                return csr_matrix(shape)
+            return coo_matrix((np.concatenate(values), (
+                np.concatenate(rows), np.concatenate(cols))),
+                shape=shape).tocsr()
+        return matrix(pressure), matrix(area)
 
     def finish(self, problem, new, record) -> None:
         """In dynamics, an impact is perfectly plastic along the normal:

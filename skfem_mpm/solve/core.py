@@ -94,8 +94,9 @@ from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
                       translate_aliases)
 from .obstacles import check_obstacles
 from .problem import STABILISATION, STABILISATION_FLOOR, StepProblem
-from .results import Result
-from .rigid import RigidBody, check_rigid_bodies, warn_stiff_smooth_bodies
+from .results import Result, StepRecord
+from .rigid import (RigidBody, check_rigid_bodies, warn_rigid_cells,
+                    warn_stiff_smooth_bodies)
 from .rotation import SmallStrainRange
 from .fixed_domains import FixedDomainsRange
 
@@ -911,6 +912,35 @@ def may_collapse(run: Run) -> bool:
     return run.dynamics is None and is_plastic(run.material) and not driven
 
 
+def call_back(callback: Callable, record: StepRecord,
+              points: MaterialPoints, result: Result):
+    """``callback(record, points)`` after a converged step.  What it
+    raises propagates unchanged, a user's own type to catch as such, with
+    the run's state attached as the package's convergence errors carry
+    it: ``state`` (the step's points), ``load_factor`` and ``history``
+    (each where the exception has no attribute of that name; it came out
+    bare, and a trial resuming after an exception of its own had to keep
+    the points itself)."""
+    try:
+        callback(record, points)
+    except Exception as err:
+        for name, value in (("state", points),
+                            ("load_factor", record.load_factor),
+                            ("history", result.history)):
+            if not hasattr(err, name):
+                try:
+                    setattr(err, name, value)
+                except AttributeError:        # slots, read-only names
+                    pass
+        if hasattr(err, "add_note"):                 # Python >= 3.11
+            err.add_note("raised by Options.callback after step {} (load "
+                         "factor {:.6g}); the step's points are attached "
+                         "as .state, with .load_factor and "
+                         ".history".format(record.step,
+                                           record.load_factor))
+        raise
+
+
 def collapse_hint(run: Run, reach: list) -> str:
     """A sentence for a failed quasi-static run of a plastic body whose
     loads are forces, not displacements, where the last converged step
@@ -957,9 +987,51 @@ def collapse_hint(run: Run, reach: list) -> str:
             "collapse: this discretisation carried load factor {:.4g}; "
             "the body's limit load, which coarse grids overestimate, may "
             "be lower (a finer grid tells), and past it no equilibrium "
-            "exists: a smaller load, or a displacement prescribed instead "
-            "(an Obstacle, a rigid body), follows the collapse".format(
+            "exists: a run to a smaller load, or one with a displacement "
+            "prescribed instead (an Obstacle, a rigid body), follows the "
+            "collapse".format(
                 rates[-1] / stiffest, f[-1]))
+
+
+def start_hint(starts: list) -> str:
+    """A sentence for a step cut back to the end whose first residual did
+    not fall with its increment (``starts``: each failed increment and
+    the first residual of its attempts), or ``""``: what unbalances the
+    step is not its load increment but its start, a state out of balance
+    on the grid (standard MPM: every step starts out of balance by the
+    points' last move within their cells) or loads in full from the first
+    step.  A trial's new stage from a collapsed footing's ``err.state``
+    (standard MPM, Mohr-Coulomb, 380 kPa, mean dilatation) started at
+    0.0742 at every cut-back, holding the load or unloading by up to
+    2.5% in its first step; unloading by 5% or more in one step
+    converged (5 iterations), and reloading after it in steps too, the
+    settlement at the collapse load 0.020 then 0.032 m; cpGIMP's stage
+    started at 8.5e-4 and held the load (5 iterations).
+
+    >>> start_hint([(.25, .0909), (.125, .0818), (.0625, .0778)])[:44]
+    "; the step's first residual stayed at 0.0778"
+    >>> start_hint([(.25, .4), (.125, .21), (.0625, .1)])
+    ''
+    """
+    if len(starts) < 3 or any(first is None for _, first in starts):
+        return ""
+    (longest, r0), (shortest, r1) = starts[0], starts[-1]
+    if not (r1 >= .5 * r0 and shortest <= longest / 4 * (1 + 1e-9)):
+        return ""
+    return ("; the step's first residual stayed at {:.3g} ({:.3g} at the "
+            "first attempt) while the increment was cut {:.0f}-fold: the "
+            "step's start is out of balance, not its load increment (loads in "
+            "full from the first step, ramp=False; standard MPM: every "
+            "step starts out of balance by the points' last move within "
+            "their cells), so a shorter step cannot help.  To go on from "
+            "the attached state: a step changing the load by more than "
+            "that imbalance at once (a collapsed footing's stage held its "
+            "load in vain at every cut-back and converged unloaded by 5% "
+            "in one step, not by 2.5%; reloaded in steps after it), or "
+            "cpGIMP, whose points start nearly in balance (that stage "
+            "started at 8.5e-4 and held the load); docs/geomechanics.md, "
+            "'Continuing after a collapse'".format(
+                r1, r0, longest / shortest))
 
 
 def left_grid_cause(run: Run, points: MaterialPoints,
@@ -1213,6 +1285,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     easy = 0            # easy sub-steps in a row, grow_back off (the hint)
     reach = [(factor, largest_displacement(points))] if watch else []
     stalled_at = None   # the last failed increment and its attempts' stalls
+    starts = []         # the step's failed increments, first residuals
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
         target = min(factor + increment, boundary)
@@ -1223,6 +1296,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                                          step + 1)
         except STEP_FAILURES as err:
             held = held + 1 if isinstance(err, HeldSupportError) else 0
+            starts.append((target - factor,
+                           getattr(err, "first_residual", None)))
             unbalanced = no_equilibrium(run, points)
             floor = stall_floor(getattr(err, "stalls", None), stalled_at,
                                 target - factor)
@@ -1255,8 +1330,9 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         "cause".format(
                             HELD_HALVINGS, span(run, target - factor)),
                         progress(run, factor), too_soft(run, points)
-                        + (collapse_hint(run, reach) if isinstance(
-                            err, NewtonDivergenceError) else ""),
+                        + (collapse_hint(run, reach) + start_hint(starts)
+                           if isinstance(err, NewtonDivergenceError)
+                           else ""),
                         ghost_hint(run) + seeded_hint(run) + (
                             "".join(term.unheld_hint() for term in run.terms)
                             if isinstance(err, SingularSystemError) else ""),
@@ -1345,13 +1421,13 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             increment = grown
         record.increment, record.counters = increment, dict(run.counters)
         result.history.append(record)
-        stalled_at = None
+        stalled_at, starts = None, []
         result.points = points
         if watch:
             reach.append((factor, largest_displacement(points)))
         result.basis = getattr(op, "basis", None)
         if callback is not None:
-            callback(record, points)
+            call_back(callback, record, points, result)
         now = run_clock()
         left = steps_left(factor, increment, nsteps, adaptive)
         if timed:       # the invocation's first step carries its set-up
@@ -1396,9 +1472,14 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     supports
         Fixed (zero) grid DOFs: DOF indices, a ``DofsView`` or a callable
         taking the grid's vector ``Basis``, e.g.
-        ``lambda b: b.get_dofs(lambda x: x[0] == 0)``.  With contacts
-        between bodies a support holds each body's copy of a node only
-        where that body lies on it
+        ``lambda b: b.get_dofs(lambda x: x[0] == 0)``; one component:
+        ``.all("u^1")`` (x), ``"u^2"``, ``"u^3"``, scikit-fem's names,
+        counted from 1.  A callable's ``get_dofs`` that selects no DOF,
+        and its ``.all(name)`` that keeps none, are warned (that part of
+        the supports holds nothing); DOF indices computed otherwise, an
+        empty array among others, cannot be told from intended ones and
+        are not.  With contacts between bodies a support holds each
+        body's copy of a node only where that body lies on it
         (:meth:`~skfem_mpm.solve.body_contact.BodyContact.held_supports`).
     body_force
         Body force per unit *initial* volume at full load, shape (dim,), or
@@ -1488,6 +1569,17 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     SingularSystemError
         Missing supports (rigid-body modes of the active grid), refused
         before a step's iterations.
+
+    Notes
+    -----
+    Progress: the run logs a line a step at INFO (load factor, Newton
+    iterations, residual, time, the time left at the pace so far) on the
+    ``skfem_mpm`` loggers, silent by default; show them with
+    ``logging.basicConfig(format="%(message)s")`` and
+    ``logging.getLogger("skfem_mpm").setLevel(logging.INFO)``, or pass
+    ``Options(callback=f)``, called ``f(record, points)`` after every
+    step.  Only the command line (``skfem-mpm run``) draws a progress
+    bar.  Warnings reach stderr without any set-up.
 
     Examples
     --------
@@ -1939,6 +2031,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       or bool(rigid_bodies),
                       contact=contact_named(obstacles, contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
+    warn_rigid_cells(rigid_bodies, mesh, points, options.locator)
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
                               stabilisation.antilocking,
                               stabilisation.extended_splines)

@@ -22,6 +22,7 @@ from scipy.sparse import csr_matrix, spmatrix
 from scipy.sparse.csgraph import connected_components
 from scipy.sparse.linalg import MatrixRankWarning
 from skfem import condense
+from skfem.assembly.dofs import DofsView
 
 from ..errors import InvalidInputError, SingularSystemError
 from ..graph import distinct
@@ -60,6 +61,12 @@ def support_dofs(supports, basis) -> ndarray:
                     "{} {:.6g} to {:.6g}".format(axis, lo, hi)
                     for axis, lo, hi in zip("xyz", basis.mesh.p.min(axis=1),
                                             basis.mesh.p.max(axis=1))))
+        for selection in watched.unnamed:
+            logger.warning(
+                "supports: get_dofs %s: that part of the supports holds "
+                "nothing (scikit-fem counts a vector's components from "
+                "u^1)",
+                selection)
     if not isinstance(supports, ndarray) and hasattr(supports, "all"):
         check_view_basis(supports, basis)
         supports = supports.all()
@@ -178,6 +185,7 @@ class SupportSelections:
     def __init__(self, basis):
         self.basis = basis
         self.empty = []
+        self.unnamed = []
         self.calls = 0
 
     def __enter__(self):
@@ -191,6 +199,8 @@ class SupportSelections:
                     [getattr(a, "__name__", repr(a)) for a in args]
                     + ["{}={}".format(k, getattr(v, "__name__", repr(v)))
                        for k, v in kwargs.items()])))
+            elif isinstance(dofs, DofsView):
+                dofs.keep = self.kept(dofs, self.calls)
             return dofs
         self.basis.get_dofs = watched
         return self
@@ -198,6 +208,24 @@ class SupportSelections:
     def __exit__(self, *exc):
         vars(self.basis).pop("get_dofs", None)
         return False
+
+    def kept(self, dofs, call: int):
+        """``dofs.keep`` (``.all(names)`` calls it), noting in
+        :attr:`unnamed` names that keep none of the selection's DOFs:
+        scikit-fem names a vector's components ``u^1``, ``u^2``, ``u^3``,
+        and a trial's rollers ``.all("u^0")`` held nothing unsaid."""
+        keep = type(dofs).keep.__get__(dofs)
+
+        def watched(dofnames):
+            kept = keep(dofnames)
+            if kept.flatten().size == 0:
+                self.unnamed.append(
+                    "call {}: .all({!r}) kept none of its {} DOFs, named "
+                    "{}".format(call, dofnames, dofs.flatten().size,
+                                ", ".join(sorted(set(
+                                    dofs.obj.element.dofnames)))))
+            return kept
+        return watched
 
 
 def free_dofs(active: ndarray, D: ndarray) -> ndarray:

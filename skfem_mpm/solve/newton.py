@@ -699,12 +699,13 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                     tolerance_words(tol, getattr(run, "tol", None)),
                     stall_words(stuck) + residual_place(problem, current)
                     if stuck and stuck[0] == "stalled" else
-                    stall_words(stuck),
+                    stall_words(stuck, problem),
                     "" if stuck else linear_words(
                             residuals, getattr(run, "material", None),
                             stabilise, modified or report["reused"],
                             report)))
             error.stalled = report.get("stalled")
+            error.first_residual = residuals[0]
             raise error
         if it == 0 and predictor is not None:
             d = problem.solve(*predictor, stabilise)[0]
@@ -785,10 +786,19 @@ def stalled(residuals: List[float],
     return None
 
 
-def stall_words(stuck: Optional[tuple]) -> str:
-    """What a Newton loop :func:`stalled` at says of it, or ``""``."""
+def stall_words(stuck: Optional[tuple], problem=None) -> str:
+    """What a Newton loop :func:`stalled` at says of it, or ``""``;
+    where one of ``problem``'s terms says its contact engaged or let go
+    within the step (``engaging_words()``), that instead of a body
+    collapsing."""
     if not stuck:
         return ""
+    engaging = [words for words in (
+        getattr(term, "engaging_words", lambda: "")()
+        for term in getattr(problem, "terms", ())) if words]
+    cause = "a tangent that lost its stiffness, the body collapsing?"
+    if engaging:
+        cause = "; ".join(engaging) + "; or " + cause
     if stuck[0] == "stalled":
         return ("; stopped early: the residual stalled at {:.3g} over the "
                 "last {} iterations (within a factor {:g}): a floor of the "
@@ -796,13 +806,11 @@ def stall_words(stuck: Optional[tuple]) -> str:
                     stuck[1], STALL_ITERATIONS, STALL_SPREAD))
     if stuck[0] == "flat":
         return ("; stopped early: the last {} residuals all stayed within "
-                "a factor {:g} of {:.3g}: Newton made no progress (a tangent "
-                "that lost its stiffness, the body collapsing?)".format(
-                    FLAT_ITERATIONS, STALL_SPREAD, stuck[1]))
+                "a factor {:g} of {:.3g}: Newton made no progress ({})"
+                .format(FLAT_ITERATIONS, STALL_SPREAD, stuck[1], cause))
     return ("; stopped early: the last {} residuals all stayed above {:g} "
-            "times the smallest, {:.3g}: Newton went astray (a tangent "
-            "that lost its stiffness, the body collapsing?)".format(
-                STALL_ITERATIONS, ASTRAY_FACTOR, stuck[1]))
+            "times the smallest, {:.3g}: Newton went astray ({})".format(
+                STALL_ITERATIONS, ASTRAY_FACTOR, stuck[1], cause))
 
 
 def residual_place(problem, current) -> str:

@@ -77,6 +77,18 @@ class StepRecord:
         Runs with obstacles (``simulate(obstacles=...)``): the force
         (obstacles x dim) the material exerts on each obstacle at the end
         of the step; ``None`` without obstacles.
+    contact_pressure, contact_area
+        Runs with obstacles: the contact pressure at the end of the step
+        and the surface it acts on, per obstacle and point (sparse,
+        ``scipy.sparse`` csr, obstacles x points; ``.toarray()`` gives
+        them in full, zero where a point does not press): a point's
+        pressure is the normal force its domain's pressed corners
+        transmit over their share of the surface (its area), so that
+        ``contact_pressure.multiply(contact_area).sum(axis=1)`` is each
+        obstacle's normal force, on a flat face its ``obstacle_forces``
+        along the face's normal to round-off (friction's part of the
+        force is the rest; docs/contact.md, "Contact pressure").  ``None``
+        without obstacles; tied obstacles have none.
     contact_forces
         Runs with contacts between bodies (``simulate(contacts=...)``):
         the force (contacts x dim) the first body of each contact exerts
@@ -118,6 +130,8 @@ class StepRecord:
     counters: Optional[dict] = None
     rigid_forces: List[ndarray] = field(default_factory=list)
     obstacle_forces: Optional[ndarray] = None
+    contact_pressure: Optional[object] = None
+    contact_area: Optional[object] = None
     contact_forces: Optional[ndarray] = None
     time: Optional[float] = None
     time_step: Optional[float] = None

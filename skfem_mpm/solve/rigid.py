@@ -16,6 +16,11 @@ by about 15% as the base crosses a grid line (a footing of width 8 h).
 For penetration by many cells, move the grid with the footing instead
 (the moving-mesh concept of Beuth 2012 and Phuong et al., *Int. J.
 Numer. Anal. Methods Geomech.* 40, 2016; ``examples/penetration.py``).
+The contact is the faces of whole cells, so a body whose sides cut the
+cells (a circular footing on a square grid) pushes more than its own
+area, and its force is the push on those cells: the run's start warns
+where the cells' volume differs from its points' by more than 5%
+(:func:`warn_rigid_cells`).
 
 The force that holds the motion is the sum of the reactions at the body's
 prescribed DOFs other than supported ones (internal minus external force
@@ -125,6 +130,57 @@ def warn_stiff_smooth_bodies(rigid_bodies, material, points):
                 "motion it holds the nodes it shares with them and slides "
                 "no more than a rough body; give it a modulus far below "
                 "theirs", b.body, materials[b.body].mu, min(others))
+
+
+#: the relative difference between the volume of the cells a rigid body
+#: drives and that of its points beyond which the run is warned
+CELLS_TOLERANCE = .05
+
+
+def warn_rigid_cells(rigid_bodies, mesh, points, locate=None) -> None:
+    """Log a warning, at the run's start, for each rigid body whose points
+    sit in cells of a volume (area in 2D) that differs from the points'
+    by more than :data:`CELLS_TOLERANCE`: the body drives those cells'
+    nodes, so its contact is their faces, a staircase of whole cells,
+    and its force (:attr:`~skfem_mpm.StepRecord.rigid_forces`) the push
+    on them, not on its outline (a user trial's circular footing, a
+    quarter circle of area 0.196 on cells of h = 0.25, 0.167 and 0.125,
+    pushed cells of area 0.250, 0.222 and 0.234).  Only a body whose
+    points are where they were seeded (``x == x0``): one that has sunk
+    into the next row of cells (a resumed or staged push) straddles two
+    rows by design.  ``locate``: the run's point locator (built here
+    without one)."""
+    if not rigid_bodies:
+        return
+    from skfem import Basis
+
+    from ..quadrature.locate import point_locator
+    locate = point_locator(mesh) if locate is None else locate
+    cells = np.asarray(locate(points.x)[0])
+    for rigid in rigid_bodies:
+        mine = points.body == rigid.body
+        if points.x0 is not None and not np.array_equal(
+                points.x[:, mine], points.x0[:, mine]):
+            continue
+        held = np.unique(cells[mine])
+        cells_volume = float(Basis(mesh, mesh.elem(), elements=held)
+                             .dx.sum())
+        volume = float(points.volume[mine].sum())
+        if abs(cells_volume - volume) <= CELLS_TOLERANCE * volume:
+            continue
+        word = {1: "a length", 2: "an area"}.get(mesh.dim(), "a volume")
+        logger.warning(
+            "rigid body %d: its points hold %s of %.4g, the %d cells "
+            "they sit in %.4g (%+.1f%%), and the body drives those cells' "
+            "nodes: its contact is their faces (a staircase of whole "
+            "cells, not its outline) and its force the push on them, so a "
+            "pressure is the force over their area; for a body whose sides "
+            "cut the cells (a circle on a square grid, a footing thinner "
+            "than a cell) use an Obstacle of its shape, contact at the "
+            "material's surface (a body moved by Prescribed motion with "
+            "contacts between bodies), or a grid with cell faces on the "
+            "body's sides", rigid.body, word, volume, held.size,
+            cells_volume, 100. * (cells_volume / volume - 1.))
 
 
 def check_rigid_bodies(rigid_bodies, points, dim: int, method: str) -> tuple:

@@ -133,6 +133,10 @@ class SafetyFactor:
     reference
         The displacement of the run at ``low``, the scale of ``growth``
         (``None`` without the displacement criterion).
+    quieted
+        The number of warnings of each trial, in the order of ``trials``,
+        that ``quiet`` kept from the log (0 for the first, whose
+        warnings are logged).
 
     Its repr is the factor, the bracket and the trials (``print`` of
     the whole run at ``converged`` ran to thousands of characters):
@@ -151,12 +155,13 @@ trials=[(1.0, True), (2.0, False)])
     result: Result = field(repr=False)
     displacements: list = field(default_factory=list, repr=False)
     reference: Optional[float] = field(default=None, repr=False)
+    quieted: list = field(default_factory=list, repr=False)
 
 
 def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
                        tolerance: float = .01, growth: Optional[float] = 5.,
-                       displacement: Callable = largest_displacement
-                       ) -> SafetyFactor:
+                       displacement: Callable = largest_displacement,
+                       quiet: bool = True) -> SafetyFactor:
     """Bracket and bisect the factor of safety.
 
     Parameters
@@ -187,6 +192,15 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
     displacement
         ``displacement(result) -> float``: how far a trial moved (default
         :func:`largest_displacement`, the largest point displacement).
+    quiet
+        ``True`` (default): the first trial's warnings are logged, each
+        text once; those of the later trials (Newton's retries and
+        cut-backs: a trial near collapse has dozens; a text said before
+        is dropped as ever) are counted, per
+        trial in :attr:`SafetyFactor.quieted` and the INFO line of the
+        trial, and said in one warning at the end, as ``skfem-mpm
+        safety`` prints them; ``False``: every trial's warnings are
+        logged (each text once).
 
     Raises
     ------
@@ -226,41 +240,58 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
             "displacement, over that of the run at low, beyond which a "
             "trial has collapsed) or None, got {!r}".format(growth))
     with warnings_once() as once:      # each trial's warnings: once
-        return bisect(run, low, high, tolerance, growth, displacement,
-                      once)
+        found = bisect(run, low, high, tolerance, growth, displacement,
+                       once, quiet)
+    said = ["F = {:.4f}: {}".format(f, n)
+            for (f, _), n in zip(found.trials, found.quieted) if n]
+    if said:
+        logger.warning(
+            "strength reduction: %d warning(s) of the trials after the "
+            "first were counted, not logged (%s); "
+            "strength_reduction(..., quiet=False) logs them",
+            sum(found.quieted), ", ".join(said))
+    return found
 
 
 def bisect(run: Callable, low: float, high: float, tolerance: float,
-           growth: Optional[float], displacement: Callable, once: OnceEach
-           ) -> SafetyFactor:
+           growth: Optional[float], displacement: Callable, once: OnceEach,
+           quiet: bool = False) -> SafetyFactor:
     """:func:`strength_reduction`'s bracket and bisection, its arguments
-    checked; ``once`` filters the trials' repeated warnings."""
-    trials, displacements, scale = [], [], []
+    checked; ``once`` filters the trials' repeated warnings, and hushes
+    those of the trials after the first where ``quiet``."""
+    trials, displacements, scale, quieted = [], [], [], []
 
     def attempt(factor):
         once.cover()
+        before = once.hushed_count
+        once.hushed = quiet and bool(trials)
         try:
             result = run(factor)
         except PrescribedMotionError:
             raise
         except (ConvergenceError, SingularSystemError,
                 PointsOutsideGridError) as err:
-            logger.info("strength reduction factor %.4f: fails (%s)",
-                        factor, type(err).__name__)
+            quieted.append(once.hushed_count - before)
+            logger.info("strength reduction factor %.4f: fails (%s)%s",
+                        factor, type(err).__name__, hushed(quieted[-1]))
             trials.append((factor, False))
             displacements.append(None)
             return None, err
+        finally:
+            once.hushed = False
+        quieted.append(once.hushed_count - before)
         moved = float(displacement(result)) if growth is not None else None
         displacements.append(moved)
         if scale and not moved <= growth * scale[0]:
             logger.info("strength reduction factor %.4f: converges but "
                         "moves %.4g, more than %g times the %.4g at %g: "
-                        "collapse", factor, moved, growth, scale[0],
-                        trials[0][0])
+                        "collapse%s", factor, moved, growth, scale[0],
+                        trials[0][0], hushed(quieted[-1]))
             trials.append((factor, False))
             return None, None
-        logger.info("strength reduction factor %.4f: stands (moves %s)",
-                    factor, "-" if moved is None else "{:.4g}".format(moved))
+        logger.info("strength reduction factor %.4f: stands (moves %s)%s",
+                    factor, "-" if moved is None else "{:.4g}".format(moved),
+                    hushed(quieted[-1]))
         trials.append((factor, True))
         return result, None
 
@@ -294,4 +325,9 @@ def bisect(run: Callable, low: float, high: float, tolerance: float,
         else:
             low, result = middle, trial
     return SafetyFactor(.5 * (low + high), low, high, trials, result,
-                        displacements, scale[0] if scale else None)
+                        displacements, scale[0] if scale else None, quieted)
+
+
+def hushed(count: int) -> str:
+    """The words of a trial's INFO line on the warnings it kept quiet."""
+    return "; {} warning(s) counted, not said".format(count) if count else ""

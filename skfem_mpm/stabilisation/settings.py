@@ -155,7 +155,14 @@ def warn_volumetric_locking(materials: Sequence, antilocking,
     word), or the additive mean dilatation in finite deformation from
     :data:`ADDITIVE_NU`, whose answer depends on the step size there (the
     cantilever at nu = 0.4999, 10 steps: 0.91 of the elastica with FE and
-    cpGIMP, 0.84 with B-splines; 40 steps: FE 0.997)."""
+    cpGIMP, 0.84 with B-splines; 40 steps: FE 0.997).
+
+    The isochoric flow is warned of at the start, before anything yields,
+    so for every such material, whatever the problem: its words say it
+    is a caution for collapse loads, which a run that stays elastic (a
+    level geostatic sand, trial 94) can pass by.  Warning only once the
+    material flows would need the step loop and come mid-run, after the
+    choice of stabilisation is made."""
     nus = [getattr(m, "nu", None) for m in materials]
     nu = max((float(v) for v in nus if v is not None), default=0.)
     isochoric = dim > 1 and any(
@@ -172,10 +179,12 @@ def warn_volumetric_locking(materials: Sequence, antilocking,
     elif antilocking is False and isochoric and not higher_order:
         logger.warning(
             "a plastic flow that keeps the volume (%s) without "
-            "anti-locking: where it flows the cells lock, so limit loads "
-            "come out high, with every step converged (a Tresca strip "
-            "footing carried 1.4 times Prandtl's load, 7.2 c); use "
-            "mean dilatation%s: %s",
+            "anti-locking, a caution for collapse: where the material "
+            "flows the cells lock, so a limit load or a factor of safety "
+            "comes out high, with every step converged (a Tresca strip "
+            "footing carried 1.4 times Prandtl's load, 7.2 c); a run that "
+            "stays elastic (a geostatic start) is not affected; for "
+            "collapse use mean dilatation%s: %s",
             ", ".join(sorted({type(m).__name__ for m in materials if getattr(
                 m, "isochoric_flow", False)})), fbar, ANTILOCKING)
     elif antilocking is True and kinematics == "finite" and \
