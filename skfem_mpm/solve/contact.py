@@ -104,7 +104,7 @@ augmented-Lagrangian updates of Simo and Laursen (1992); see
 import itertools
 import logging
 from weakref import WeakKeyDictionary
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 from numpy import ndarray
@@ -169,6 +169,32 @@ CONTACTS_MEASURED = (
 CONTACTS_SERVE = (("'bspline-gimp'", "-1.56 p to -0.45 p"),
                   ("cpGIMP", "-1.53 p to -0.72 p"),
                   ("standard MPM", "-1.59 p to -0.78 p"))
+
+
+def faces_between_lines(obstacles, mesh) -> Optional[str]:
+    """The name of the first obstacle with a face between the grid lines
+    of the axis-aligned ``mesh`` and inside its bounds (a box's face off
+    the lines; any polygon), or ``None``.
+
+    >>> import numpy as np
+    >>> from skfem import MeshQuad
+    >>> from skfem_mpm import Obstacle
+    >>> mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
+    >>> faces_between_lines([Obstacle(box=[[-1, 2], [-1, .25]])], mesh)
+    >>> faces_between_lines([Obstacle(box=[[-1, 2], [-1, .3]], name="a")],
+    ...                     mesh)
+    'a'
+    """
+    for ob in obstacles:
+        if ob.box is None:
+            return ob.name
+        for axis, ends in enumerate(ob.box):
+            lines = np.unique(mesh.p[axis])
+            tie = 1e-9 * (lines[-1] - lines[0])
+            inside = ends[(ends > lines[0] + tie) & (ends < lines[-1] - tie)]
+            if np.any(np.abs(inside[:, None] - lines).min(axis=1) > tie):
+                return ob.name
+    return None
 
 
 def contacts_remedy(method: str) -> str:
@@ -918,12 +944,37 @@ class ObstacleContact(GridTerm):
         between grid lines, 2 x 2 points, its stresses 9% high).  The
         remedy, ``Stabilisation(extended_splines=True)``, is named where
         it is not refused; with contacts between bodies, where it is,
-        the methods that scatter less (:func:`contacts_remedy`)."""
+        the methods that scatter less (:func:`contacts_remedy`).  So is
+        a fixed smooth obstacle whose face lies between grid lines
+        (:func:`faces_between_lines`): the splines reach the cells under
+        it, whose nodes only its push on the material holds (a block
+        under gravity on a floor 0.24 of a cell above a grid line, 2
+        points a cell: 0.97 of rho g H off with ``"bspline"``, 0.63
+        averaged, extended 0.38 and 0.19; 3 points, the floor 0.48 of a
+        cell above: 0.22 and 0.76, extended 0.23 and 0.22; the cubic
+        splines 0.31 and 0.30)."""
         piece = getattr(run.method, "piece", run.method)
         if getattr(piece, "spline", None) is None or piece.extended:
             return
         moves = any(ob.displacement.any() for ob in self.obstacles)
         holds = any(ob.friction != 0. for ob in self.obstacles)
+        between = not (moves or holds) and faces_between_lines(
+            self.obstacles, run.user_grid.mesh)
+        if between:
+            logger.warning(
+                "method %r meets obstacles without extended splines, and "
+                "a face of %s lies between grid lines: the splines reach "
+                "the cells beyond it, whose nodes only its push on the "
+                "material holds, and the stresses by it go wrong (a block "
+                "under gravity on a smooth floor 0.24 of a cell above a "
+                "grid line, 2 points a cell: 0.97 of rho g H off with "
+                "'bspline', 0.63 with 'bspline-gimp', 0.31 with the cubic "
+                "splines; extended 0.19-0.23, 'bspline' at 2 points a "
+                "cell 0.38) "
+                "(docs/bspline.md)%s", piece.name, between,
+                contacts_remedy(piece.name) if run.contacts else
+                "; {} folds those nodes, or put the face on a grid "
+                "line".format(setting("extended_splines", True)))
         if not (moves or holds):
             return
         logger.warning(

@@ -30,7 +30,7 @@ from ..protocols import GridTerm
 from ..spelling import setting
 
 __all__ = ["ghost_penalty", "cut_cells", "faces_crossed_past_supports",
-           "GhostStabilisation", "CUT_FILL"]
+           "cells_of_two_fields", "GhostStabilisation", "CUT_FILL"]
 
 logger = logging.getLogger(__name__)
 
@@ -47,6 +47,19 @@ CUT_FILL = .5
 #: cell its points fill to exactly ``CUT_FILL``, a cell centre on an
 #: obstacle's surface), so round-off does not decide them
 TIE = 1e-9
+
+
+def cells_of_two_fields(point_cells: ndarray, field_cells: int) -> ndarray:
+    """The grid's cells that hold points of more than one field (cells
+    ``point_cells`` of the fields' copies of a grid of ``field_cells``
+    cells: :func:`~skfem_mpm.methods.fields.extended_mesh`).
+
+    >>> import numpy as np
+    >>> cells_of_two_fields(np.array([0, 1, 5, 7]), 4)     # 1 and 5
+    array([1])
+    """
+    cells = np.unique(point_cells)
+    return np.flatnonzero(np.bincount(cells % field_cells) > 1)
 
 
 def cut_cells(fill: ndarray, full: float = CUT_FILL) -> ndarray:
@@ -227,6 +240,10 @@ class GhostStabilisation(GridTerm):
         80 times stiffer than its von Mises soil, settled 2.44 mm where
         MPM's settles 7.7 and a rigid obstacle needs 7.4: the soil's
         field's penalty had the pile's modulus; now 7.75 mm).
+    shared_cells
+        With ``field_cells``: in reserve, switched on at a step where a
+        grid cell holds points of two fields (bodies in contact meeting
+        inside a cell).
     """
 
     @property
@@ -235,10 +252,12 @@ class GhostStabilisation(GridTerm):
         return self.active
 
     def __init__(self, mesh, elem, gamma: float, material,
-                 active: bool = True, obstacles=(), field_cells=None):
+                 active: bool = True, obstacles=(), field_cells=None,
+                 shared_cells: bool = False):
         self.mesh, self.elem, self.gamma = mesh, elem, gamma
         self.material, self.active = material, active
         self.field_cells = field_cells
+        self.shared_cells = shared_cells and field_cells is not None
         self.obstacles = obstacles
         self._cell_volume = None
         self._faces_mesh = None
@@ -252,9 +271,21 @@ class GhostStabilisation(GridTerm):
         """The step's penalty; ``None`` (no contribution) while in reserve
         or where no face needs one.  In reserve, switched on for the rest
         of the run at a step whose points' domains reach past a support
-        or into a cell inside an obstacle (never searched for an
+        or into a cell inside an obstacle, or (:attr:`shared_cells`)
+        whose cells hold points of two bodies (never searched for an
         operator whose active cells are those of its points,
         ``connectivity_from_elements``: standard MPM's)."""
+        if not self.active and self.shared_cells:
+            shared = cells_of_two_fields(problem.op.point_elements,
+                                         self.field_cells)
+            if shared.size:
+                self.switch_on()
+                problem.counters["ghost_from_step"] = problem.step
+                logger.info(
+                    "step %d: %d grid cells hold points of two bodies in "
+                    "contact (the first, cell %d): the ghost penalty on "
+                    "(gamma %g) for the rest of the run", problem.step,
+                    shared.size, shared[0], self.gamma)
         if not self.active:
             op = problem.op
             if getattr(op, "connectivity_from_elements", False):

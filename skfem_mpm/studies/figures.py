@@ -17,7 +17,8 @@ from ..scenes.plot import pyplot, series_styles
 from ..solve.results import PHASES, Result
 from .column import SOURCE, analytical_stress, analytical_stress_current, \
     vertical_stress
-from .study import VARIABLES, fitted_rate, levelling_off, not_falling
+from .study import (VARIABLES, fitted_rate, levelling_off, not_falling,
+                    own_groups)
 
 __all__ = ["draw_column_stress", "draw_convergence", "pareto_front",
            "plot_column_stress", "plot_study"]
@@ -287,11 +288,15 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
                       label="Pareto front: one case, the cheapest of "
                       "least known error")
         _disagreement(ax, measured)
+        own = [c["reference"] for c in own_groups(measured)]
         written.append(_finish(
             fig, ax, "CPU time per case (s)", ylabel,
             "What accuracy costs: {} against CPU time,\nthe error "
-            "against {}{}".format(label, measured["error"]["against"],
-                                  _bars(measured)),
+            "against {}{}{}".format(
+                label, measured["error"]["against"], _bars(measured),
+                ";\neach group's against its own reference, {:.2%} apart"
+                .format((max(own) - min(own)) / (abs(max(own, key=abs))
+                                                 or 1.)) if own else ""),
             outdir / "error_vs_time.png"))
     if ok:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
