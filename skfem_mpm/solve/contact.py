@@ -2227,7 +2227,7 @@ class StepContact(GridTerm):
         area)`` over the points is the sum of the corners' normal forces,
         an obstacle's force normal to a flat face.  Tied obstacles: none
         (their force is the tractions')."""
-        dim, nc, m = self.dim, 2 ** self.dim, len(self.idx)
+        nc, m = 2 ** self.dim, len(self.idx)
         n = self.X.shape[2]
         rows, cols, pressure, area = [], [], [], []
         for i, (_, _, _, part) in enumerate(ev):
