@@ -209,3 +209,37 @@ def test_a_run_in_chunks_resumes_bit_identically(method, monkeypatch):
     for name in ("x", "stress", "strain", "F", "volume", "domain"):
         assert np.array_equal(getattr(rest.points, name),
                               getattr(whole.points, name)), name
+
+
+def forked_run(queue):
+    """A child's run of the first case in chunks, its positions put on
+    ``queue`` (:func:`test_a_forked_process_runs_in_chunks`)."""
+    queue.put(run(*CASES[0]).points.x)
+
+
+@pytest.mark.slow
+def test_a_forked_process_runs_in_chunks(monkeypatch):
+    """A process that ran the passes in chunks and then forks (a
+    ``multiprocessing`` pool's default start on Linux) has children that
+    run them too, to the parent's answer: the threading layer is numba's
+    ``workqueue``, which survives a fork (GNU OpenMP's terminates the
+    child: "fork() called from a process already using GNU OpenMP", and
+    a pool waits for it for ever)."""
+    pytest.importorskip("numba")
+    import multiprocessing
+    from skfem_mpm.kernels import parallel
+    monkeypatch.setattr(assembly, "CHUNK_POINTS", 16)
+    monkeypatch.setattr(parallel, "POINTS_PER_CHUNK", 16)
+    numba_threads(2)
+    parent = run(*CASES[0]).points.x
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    child = context.Process(target=forked_run, args=(queue,))
+    child.start()
+    try:
+        x = queue.get(timeout=60)
+    finally:
+        child.join(timeout=30)
+        if child.is_alive():
+            child.kill()
+    assert child.exitcode == 0 and np.array_equal(x, parent)

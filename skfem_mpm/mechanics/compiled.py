@@ -480,11 +480,19 @@ class CompiledPasses:
         def converged(old):
             F, J = np.empty((3, 3, n)), np.empty(n)
             b_e, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
-            self._points_pass(
-                self.passes.finite_commit, self.parallel.commit_in_chunks,
-                n, self.dim, self.params, body, spectral.d, spectral.vecs,
-                self._state(old), dF, contiguous(old.F), F, J, b_e, strain)
-            return F, J, b_e, strain
+            args = (self.dim, self.params, body, spectral.d, spectral.vecs,
+                    self._state(old), dF, contiguous(old.F), F, J, b_e,
+                    strain)
+            count = self.parallel.point_chunks(n)
+            if count == 1:
+                self.passes.finite_commit(*args)
+                return F, J, b_e, strain, tau / J, J * old.volume0
+            stress, volume = np.empty((3, 3, n)), np.empty(n)
+            with self.parallel.LOCK:
+                self.parallel.commit_in_chunks(
+                    count, *args, tau, contiguous(old.volume0), stress,
+                    volume)
+            return F, J, b_e, strain, stress, volume
 
         def P():            # read by no step: formed when asked for
             return np.einsum("abp,ebp->aep", tau[:m, :m], dF_inv[:m, :m])

@@ -370,7 +370,8 @@ class FiniteStrain:
         ``state`` (``P`` a function forming it, for a compiled response);
         ``b_dev``: ``b_tr - I`` (3, 3, n), or ``None`` (compiled) where
         the tangent forms it from the spectral parts; ``converged(old)``:
-        the compiled ``(F, det F, b_e, eps_e)`` of the commit; ``fused``:
+        the compiled ``(F, det F, b_e, eps_e, sigma, volume)`` of the
+        commit; ``fused``:
         the compiled ``force`` and ``stiffness``."""
         dim = self.dim
         tau, yielded, spectral = self.workspace(points.n, k, False)[1:]
@@ -402,18 +403,18 @@ class FiniteStrain:
             if converged is None:
                 new.F = np.einsum("abp,bcp->acp", dF, old.F)
                 J = inverse_and_det(new.F, dim)[1]
-            else:                # compiled: F, J and the elastic state
-                new.F, J, be, strain = converged(old)
+            else:   # compiled: F, J, the elastic state, stress, volume
+                new.F, J, be, strain, stress, volume = converged(old)
             if not (J > 0).all():
                 raise InversionError("det F <= 0 at {} point(s)".format(
                     int((J <= 0).sum())))
             if converged is None:
                 new.be, new.strain = self.elastic_state(spectral, old.state)
+                new.stress, new.volume = tau / J, J * old.volume0
             else:
                 new.be, new.strain = be, strain
+                new.stress, new.volume = stress, volume
                 self.counters["return_maps"] += self.plastic
-            new.stress = tau / J
-            new.volume = J * old.volume0
             new.state = {**old.state, **state}    # variables of no model kept
             return new
         def deformation(idx):
