@@ -199,17 +199,24 @@ from step_cost import GRIDS, block
 tic = time.perf_counter()
 import skfem_mpm.kernels.passes
 print("import", time.perf_counter() - tic)
-for dim in (2, 3):
-    mesh, points = block(2, dim)
-    for kinematics in ("finite", "small"):
-        for material in (LinearElastic(1e6, .3), VonMises(1e6, .3, 1e3)):
-            tic = time.perf_counter()
-            simulate(mesh, GRIDS[dim][1](), points.copy(), material,
-                     lambda b: b.get_dofs(lambda x: x[-1] == 0),
-                     body_force=np.r_[np.zeros(dim - 1), -1e4], nsteps=1,
-                     method="mpm", kinematics=kinematics)
-            print(dim, kinematics, type(material).__name__,
-                  time.perf_counter() - tic)
+
+
+def plain_runs(cells, label):
+    for dim in (2, 3):
+        mesh, points = block(cells, dim)
+        for kinematics in ("finite", "small"):
+            for material in (LinearElastic(1e6, .3),
+                             VonMises(1e6, .3, 1e3)):
+                tic = time.perf_counter()
+                simulate(mesh, GRIDS[dim][1](), points.copy(), material,
+                         lambda b: b.get_dofs(lambda x: x[-1] == 0),
+                         body_force=np.r_[np.zeros(dim - 1), -1e4],
+                         nsteps=1, method="mpm", kinematics=kinematics)
+                print(dim, kinematics, type(material).__name__ + label,
+                      time.perf_counter() - tic)
+
+
+plain_runs(2, "")
 mesh, points = block(2, 2)
 tic = time.perf_counter()
 simulate(mesh, GRIDS[2][1](), points.copy(), LinearElastic(1e6, .3),
@@ -232,17 +239,7 @@ import skfem_mpm.methods.assembly
 # more): here on a small block, its chunks of 8 points
 skfem_mpm.methods.assembly.CHUNK_POINTS = 8
 skfem_mpm.kernels.parallel.POINTS_PER_CHUNK = 8
-for dim in (2, 3):
-    mesh, points = block(4, dim)
-    for kinematics in ("finite", "small"):
-        for material in (LinearElastic(1e6, .3), VonMises(1e6, .3, 1e3)):
-            tic = time.perf_counter()
-            simulate(mesh, GRIDS[dim][1](), points.copy(), material,
-                     lambda b: b.get_dofs(lambda x: x[-1] == 0),
-                     body_force=np.r_[np.zeros(dim - 1), -1e4], nsteps=1,
-                     method="mpm", kinematics=kinematics)
-            print(dim, kinematics, type(material).__name__, "in chunks",
-                  time.perf_counter() - tic)
+plain_runs(4, " in chunks")
 """
 
 
