@@ -233,12 +233,10 @@ for dim in (2, 3):
                  method="mpm", kinematics=kinematics, options=Options(
                      stabilisation=Stabilisation(antilocking=True)))
         print(dim, kinematics, "mean dilatation", time.perf_counter() - tic)
-import skfem_mpm.kernels.parallel
 import skfem_mpm.methods.assembly
-# the passes in chunks on the cores (an operator of 2 x 8192 points or
+# the passes in chunks on the cores (an operator of 3 x 8192 points or
 # more): here on a small block, its chunks of 8 points
 skfem_mpm.methods.assembly.CHUNK_POINTS = 8
-skfem_mpm.kernels.parallel.POINTS_PER_CHUNK = 8
 plain_runs(4, " in chunks")
 """
 

@@ -141,6 +141,7 @@ def test_points_moved_through_x_alone_are_refused(method):
     points.x0 = points.x.copy()
     assert simulate(*args, method=method).history[-1].residual < 1e-9
 
+
 def homogeneous_run(H, nsteps, material, kinematics="small", method="mpm"):
     """A 1 x 1 block on a 2 x 2 grid whose boundary nodes follow
     ``x -> x + f H x`` at load factor f: homogeneous strain."""
@@ -1011,7 +1012,6 @@ def test_a_footing_loaded_past_its_limit_load_is_said_to_collapse():
             err.load_factor) in str(err)
 
 
-
 @pytest.mark.slow
 def test_a_stage_from_a_collapse_is_told_its_start_is_out_of_balance():
     """Trial 92's strip load on Mohr-Coulomb soil (standard MPM, mean
@@ -1062,6 +1062,7 @@ def test_a_stage_from_a_collapse_is_told_its_start_is_out_of_balance():
     unloaded = run(collapsed.state, [held, Traction(strip, "top",
                                                     [0., .05 * q])], 1)
     assert len(unloaded.history) == 1
+
 
 def test_the_collapse_hint_measures_against_the_stiffest_step():
     """A body force in full from the first step moves the body in it: a

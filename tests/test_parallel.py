@@ -23,15 +23,15 @@ GRIDS = {2: (MeshQuad, ElementQuad1), 3: (MeshHex, ElementHex1)}
 TOL = 1e-12
 
 
-def block(dim, cells):
-    """A block 1 wide and 2 tall of 2^dim points a cell, ``cells`` across,
-    in a grid as wide and a cell taller."""
+def block(dim, cells, width=1.):
+    """A block ``width`` wide (along x) and 2 tall of 2^dim points a cell
+    of size ``1 / cells``, in a grid as wide and a cell taller."""
     h = 1. / cells
-    axes = [np.linspace(0., 1., cells + 1)] * (dim - 1) + [
+    axes = [np.linspace(0., width, int(round(width * cells)) + 1)] + [
+        np.linspace(0., 1., cells + 1)] * (dim - 2) + [
         np.linspace(0., 2. + h, 2 * cells + 2)]
     mesh = GRIDS[dim][0].init_tensor(*axes)
-    points = seed_points(mesh, 2, region=lambda x: (x[:-1] < 1.).all(0)
-                         & (x[-1] < 2.))
+    points = seed_points(mesh, 2, region=lambda x: x[-1] < 2.)
     return mesh, points
 
 
@@ -59,8 +59,8 @@ def chunk_spread(layout, bounds):
 @pytest.mark.parametrize("dim, method", [(2, "mpm"), (2, "gimp"),
                                          (3, "mpm"), (3, "gimp")])
 def test_chunks_keep_nodes_to_neighbouring_chunks(dim, method, monkeypatch):
-    """On operators of standard MPM and GIMP: an even number
-    of chunks, each of groups in order, their points balanced to a group's
+    """On operators of standard MPM and GIMP: three chunks or more,
+    each of groups in order, their points balanced to a group's
     points, every node in one chunk or two neighbouring ones (checked node
     by node here); the groups shuffled, fewer chunks or none; an operator
     below twice ``CHUNK_POINTS`` none."""
@@ -70,13 +70,13 @@ def test_chunks_keep_nodes_to_neighbouring_chunks(dim, method, monkeypatch):
     monkeypatch.setattr(assembly, "CHUNK_POINTS", 32)
     runs = layout.groups[4]
     bounds = phased_chunks(*layout.groups[1:5])
-    expected = min(assembly.MOST_CHUNKS, runs[-1] // 32) // 2 * 2
+    expected = min(assembly.MOST_CHUNKS, runs[-1] // 32)
     # as many as the points allow, halved until nodes keep them apart
     # (the grid's columns of elements come one after another: chunks of
     # half a column would put a node in chunks 0 and 2)
     assert len(bounds) - 1 in (expected, expected // 2) and \
-        (len(bounds) - 1) % 2 == 0 and bounds[0] == 0 and \
-        bounds[-1] == len(runs) - 1 and np.all(np.diff(bounds) > 0)
+        bounds[0] == 0 and bounds[-1] == len(runs) - 1 and \
+        np.all(np.diff(bounds) > 0)
     share = np.diff(runs[bounds])
     assert share.max() - share.min() <= 2 * np.diff(runs).max()
     assert chunk_spread(layout, bounds) <= 1
@@ -93,8 +93,8 @@ def test_chunks_keep_nodes_to_neighbouring_chunks(dim, method, monkeypatch):
 
 
 def test_an_operator_s_layout_keeps_its_chunks(monkeypatch):
-    """The layout of an operator of more than twice ``CHUNK_POINTS``
-    points carries its chunks, formed once."""
+    """The layout of an operator of three times ``CHUNK_POINTS`` points
+    or more carries its chunks, formed once; no points, no chunks."""
     monkeypatch.setattr(assembly, "CHUNK_POINTS", 64)
     calls = []
 
@@ -106,19 +106,26 @@ def test_an_operator_s_layout_keeps_its_chunks(monkeypatch):
     op = operator("mpm", mesh, points)
     assert op.kernel_layout() is op.kernel_layout() and len(calls) == 1
     assert len(op.kernel_layout().chunks) - 1 == 8
+    empty = [np.zeros(0, dtype=np.int64)] * 2
+    assert phased_chunks(*empty, np.zeros(4, dtype=np.int64),
+                         np.arange(0, 40001, 10000)) is None
 
 
 def run(dim, method, kinematics, material, path="compiled", nsteps=3,
         points=None, **options):
     """The block under its weight, confined (an oedometer), on the
-    kernels ``path`` (from
-    ``points`` where given)."""
-    mesh, seeded = block(dim, 6 if dim == 2 else 3)
+    kernels ``path`` (from ``points`` where given); in 2D 3 wide (the
+    groups of a sparse operator come in columns: chunks of a narrow block
+    would be too narrow to keep a B-spline's supports apart)."""
+    mesh, seeded = block(dim, 6, 3.) if dim == 2 else block(dim, 3)
     points = seeded if points is None else points
+    ends = mesh.p.max(axis=1)
+
     def supports(b):            # base held, sides on rollers
         return np.concatenate([b.get_dofs(lambda x: x[-1] == 0).all()] + [
             b.get_dofs(lambda x, a=a: np.isclose(x[a], 0.)
-                       | np.isclose(x[a], 1.)).all("u^{}".format(a + 1))
+                       | np.isclose(x[a], ends[a])).all(
+                           "u^{}".format(a + 1))
             for a in range(dim - 1)])
     return simulate(mesh, GRIDS[dim][1](), points, material, supports,
                     body_force=np.r_[np.zeros(dim - 1), -1e4],
@@ -147,12 +154,20 @@ CASES = [(2, "mpm", "finite", VonMises(1e6, .3, 3e3)),
 
 
 def chunked_runs(monkeypatch, *case, **options):
-    """The run of ``case`` in chunks (``CHUNK_POINTS`` and
-    ``POINTS_PER_CHUNK`` 16: a few hundred points make 8 to 16), on one
-    thread and on two: ``{threads: result}``."""
-    from skfem_mpm.kernels import parallel
-    monkeypatch.setattr(assembly, "CHUNK_POINTS", 16)
-    monkeypatch.setattr(parallel, "POINTS_PER_CHUNK", 16)
+    """The run of ``case`` in chunks (``CHUNK_POINTS`` 96 in 3D, 192 in
+    2D: 3 to 4 chunks, in 2D wide enough that a quadratic B-spline's
+    supports keep chunks 0 and 2 apart; every operator runs in 3 or more,
+    so that chunks run side by side), on one thread and on two:
+    ``{threads: result}``."""
+    monkeypatch.setattr(assembly, "CHUNK_POINTS", 192 if case[0] == 2
+                        else 96)
+    counts = []
+
+    def counted(*args):
+        chunks = phased_chunks(*args)
+        counts.append(0 if chunks is None else len(chunks) - 1)
+        return chunks
+    monkeypatch.setattr(operators, "phased_chunks", counted)
     runs = {}
     try:
         for threads in (1, 2):
@@ -160,6 +175,7 @@ def chunked_runs(monkeypatch, *case, **options):
             runs[threads] = run(*case, **options)
     finally:
         numba_threads(1 << 10)
+    assert counts and min(counts) >= 3
     return runs
 
 
@@ -201,7 +217,7 @@ def test_a_run_in_chunks_resumes_bit_identically(method, monkeypatch):
             saved.update(record=record, state=state)
     case = (2, method, "finite", VonMises(1e6, .3, 3e3))
     whole = chunked_runs(monkeypatch, *case, nsteps=4, callback=keep)[2]
-    domain0 = block(2, 6)[1].domain
+    domain0 = block(2, 6, 3.)[1].domain
     rest = chunked_runs(monkeypatch, *case, nsteps=4, points=saved["state"],
                         resume=Resume.after(saved["record"],
                                             domain0=domain0))[2]
@@ -227,9 +243,7 @@ def test_a_forked_process_runs_in_chunks(monkeypatch):
     a pool waits for it for ever)."""
     pytest.importorskip("numba")
     import multiprocessing
-    from skfem_mpm.kernels import parallel
-    monkeypatch.setattr(assembly, "CHUNK_POINTS", 16)
-    monkeypatch.setattr(parallel, "POINTS_PER_CHUNK", 16)
+    monkeypatch.setattr(assembly, "CHUNK_POINTS", 192)
     numba_threads(2)
     parent = run(*CASES[0]).points.x
     context = multiprocessing.get_context("fork")

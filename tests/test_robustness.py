@@ -244,6 +244,7 @@ def test_bad_point_state(kwargs, error):
 
 # property-based tests ------------------------------------------------------
 
+
 def tensor_grid(draw_x, draw_y):
     return MeshQuad.init_tensor(np.cumsum(np.r_[0., draw_x]),
                                 np.cumsum(np.r_[0., draw_y]))
@@ -590,13 +591,12 @@ def test_every_failure_is_an_mpm_error_carrying_the_last_state():
     assert caught.value.state.x[1].max() < 1.
 
 
-
 def test_a_callback_s_exception_propagates_with_the_state():
     """An exception of a user's own raised by ``Options.callback`` after
     step 2 of 4 comes out as itself (it is the user's to catch), carrying
     the step's points, load factor and history (it came out bare, a user
     trial); an attribute of one of those names that the exception has is
-    kept, and a run resumed from the attached state ends as the straight
+    kept (not one the package's errors hold as None), and a run resumed from the attached state ends as the straight
     run."""
     from skfem_mpm import Resume
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
@@ -619,6 +619,11 @@ def test_a_callback_s_exception_propagates_with_the_state():
     with pytest.raises(Labelled) as caught:
         simulate(*args, options=stop_with(Labelled), **kwargs)
     assert caught.value.history == "mine"
+    # the package's own errors, whose state is None until attached
+    from skfem_mpm import NewtonDivergenceError
+    with pytest.raises(NewtonDivergenceError) as caught:
+        simulate(*args, options=stop_with(NewtonDivergenceError), **kwargs)
+    assert caught.value.state is not None and caught.value.load_factor == .5
     with pytest.raises(Stop, match="enough") as caught:
         simulate(*args, options=stop_with(Stop), **kwargs)
     err = caught.value
@@ -629,6 +634,7 @@ def test_a_callback_s_exception_propagates_with_the_state():
                        **kwargs)
     straight = simulate(*args, **kwargs)
     assert np.array_equal(resumed.points.x, straight.points.x)
+
 
 def test_unvalidated_parameters_are_refused_before_any_work():
     """String moduli, a NaN or outsized locator tolerance, a locator of
@@ -968,7 +974,6 @@ def test_points_outside_the_grid_as_given_are_not_said_to_leave_it(method):
     assert "left it" not in str(err.value)
 
 
-
 def test_a_support_keeping_no_component_is_warned(caplog):
     """Side rollers written ``.all("u^0")`` (scikit-fem names a vector's
     components from ``u^1``) kept no DOF beside a base held in full, and
@@ -994,6 +999,7 @@ def test_a_support_keeping_no_component_is_warned(caplog):
                     "its {} DOFs, named u^1, u^2: that part of the supports "
                     "holds nothing".format(2 * sides.size))
         assert (expected in caplog.text) == warned, caplog.text
+
 
 def test_a_support_selecting_no_dof_beside_others_is_warned(caplog):
     """A supports function whose roller misses the grid (``x == 46`` on a

@@ -1,7 +1,7 @@
 """The plain passes of :mod:`skfem_mpm.kernels.passes` on the machine's
 cores.
 
-A large operator's groups are cut into an even number of *chunks* of
+A large operator's groups are cut into three *chunks* or more of
 consecutive groups (:func:`~skfem_mpm.methods.assembly.phased_chunks`,
 kept in its :class:`~skfem_mpm.methods.assembly.KernelLayout`); the even
 chunks run side by side, then the odd ones.  Two chunks run at the same
@@ -33,6 +33,8 @@ import numba
 import numpy as np
 from numba import njit, prange
 
+from ..methods import assembly
+
 from .passes import (_finite_residual, _small_residual, _stiffness,
                      finite_commit, start_deviation)
 
@@ -46,19 +48,17 @@ SOURCES = "36066efde2099ca6"
 LOCK = threading.Lock()
 if "NUMBA_THREADING_LAYER" not in os.environ:
     numba.config.THREADING_LAYER = "workqueue"
-#: the fewest points a chunk of a point-by-point pass takes
-POINTS_PER_CHUNK = 8192
-#: the most chunks of a point-by-point pass
-MOST_CHUNKS = 16
 
 
 def point_chunks(n: int) -> int:
-    """The chunks of ``n`` points in a point-by-point pass (1: serial).
+    """The chunks of ``n`` points in a point-by-point pass (1: serial),
+    of :data:`~skfem_mpm.methods.assembly.CHUNK_POINTS` points at the
+    least, :data:`~skfem_mpm.methods.assembly.MOST_CHUNKS` at the most.
 
     >>> point_chunks(1000), point_chunks(40000), point_chunks(10 ** 6)
     (1, 4, 16)
     """
-    return max(1, min(MOST_CHUNKS, n // POINTS_PER_CHUNK))
+    return max(1, min(assembly.MOST_CHUNKS, n // assembly.CHUNK_POINTS))
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
@@ -67,7 +67,7 @@ def _finite_chunks(chunks, G, nodes, node_start, node_count, runs, order,
                    tau, d, vecs, y, dy_dx, yielded, eq, k):
     status = np.zeros(len(chunks) - 1, dtype=np.int64)
     for phase in range(2):
-        for c in prange((len(chunks) - 1) // 2):
+        for c in prange((len(chunks) - phase) // 2):
             j = 2 * c + phase
             a, b = chunks[j], chunks[j + 1]
             status[j] = _finite_residual(
@@ -83,7 +83,7 @@ def _small_chunks(chunks, G, nodes, node_start, node_count, runs, order,
                   qstart, w, du, stress0, strain0, params, body, eq0, f,
                   stress, strain, x, vecs, y, dy_dx, yielded, eq, k):
     for phase in range(2):
-        for c in prange((len(chunks) - 1) // 2):
+        for c in prange((len(chunks) - phase) // 2):
             j = 2 * c + phase
             a, b = chunks[j], chunks[j + 1]
             _small_residual(
@@ -100,7 +100,7 @@ def _stiffness_chunks(chunks, G, nodes, node_start, node_count, runs, order,
                       dF_inv, data, k):
     m = len(elements)           # none where the pattern is a node graph
     for phase in range(2):
-        for c in prange((len(chunks) - 1) // 2):
+        for c in prange((len(chunks) - phase) // 2):
             j = 2 * c + phase
             a, b = chunks[j], chunks[j + 1]
             _stiffness(G, nodes, node_start[a:b], node_count[a:b],

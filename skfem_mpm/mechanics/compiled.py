@@ -486,7 +486,9 @@ class CompiledPasses:
             count = self.parallel.point_chunks(n)
             if count == 1:
                 self.passes.finite_commit(*args)
-                return F, J, b_e, strain, tau / J, J * old.volume0
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    stress = tau / J    # J <= 0: the caller's error
+                return F, J, b_e, strain, stress, J * old.volume0
             stress, volume = np.empty((3, 3, n)), np.empty(n)
             with self.parallel.LOCK:
                 self.parallel.commit_in_chunks(

@@ -129,17 +129,29 @@ class SpectralParts(NamedTuple):
                                     self.vecs[:k, :k])
 
 
-def principal_state(material, b_minus_identity: ndarray, dim: int, state):
+def principal_state(material, b_minus_identity: ndarray, dim: int, state,
+                    first: int = 0):
     """The principal frame of ``b_tr = I + b_minus_identity`` and the
     material's principal update: ``(d, vecs, tau_p, eps_e, D, yielded,
-    state)`` with ``eig(b_tr) = 1 + d``."""
+    state)`` with ``eig(b_tr) = 1 + d``; ``first``: the index of the
+    first of these points among the run's (for the error's words).
+
+    >>> import numpy as np
+    >>> from skfem_mpm import LinearElastic
+    >>> b = np.zeros((3, 3, 4))
+    >>> b[0, 0, 3] = -2.            # a principal stretch squared of -1
+    >>> principal_state(LinearElastic(1e3, .3), b, 2, None, first=1000)
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InversionError: the trial elastic deformation b_tr is not positive definite (a principal stretch <= 0 or NaN) at 1 point(s), the first [1003]
+    """
     d, vecs = principal_frame(b_minus_identity, dim)
     bad = np.flatnonzero(~(d > -1).all(axis=0))
     if bad.size:
         raise InversionError(
             "the trial elastic deformation b_tr is not positive definite (a "
-            "principal stretch <= 0 or NaN) at {} point(s) of the block, "
-            "first {}".format(bad.size, bad[:5].tolist()))
+            "principal stretch <= 0 or NaN) at {} point(s), the first "
+            "{}".format(bad.size, (bad[:5] + first).tolist()))
     if state is None:
         state = initial_state(material, d.shape[1])
     tau_p, eps_e, D, yielded, state = material.principal_update(
@@ -153,16 +165,17 @@ def spectral_sum(values: ndarray, vecs: ndarray) -> ndarray:
 
 
 def hencky_stress(material, b_minus_identity: ndarray, dim: int = 3,
-                  state=None, components: Optional[int] = None):
+                  state=None, components: Optional[int] = None,
+                  first: int = 0):
     """The stress part of :func:`hencky_update`: ``(tau, parts,
     yielded, state)``, the Kirchhoff stress (3, 3, n) and the
     :class:`SpectralParts` from which its derivative is formed when a
     Newton iteration needs it, and the elastic state once the step has
     converged.  ``components``: those of the tangent (default ``dim``; 3
     for mean dilatation in plane strain, whose gradients have an
-    out-of-plane component)."""
+    out-of-plane component); ``first``: as :func:`principal_state`."""
     d, vecs, tau_p, eps_e, D, yielded, state = principal_state(
-        material, b_minus_identity, dim, state)
+        material, b_minus_identity, dim, state, first)
     return spectral_sum(tau_p, vecs), SpectralParts.of(
         d, tau_p, D, vecs, components or dim), yielded, state
 

@@ -350,7 +350,7 @@ class FiniteStrain:
                 + np.einsum("abp,cbp->acp", G, G)
             tau[..., block], parts, yielded[block], new = hencky_stress(
                 material_block(self.material, block), b_dev[..., block],
-                dim, state_block(points.state, block), k)
+                dim, state_block(points.state, block), k, block.start)
             for kept, value in zip(spectral, parts):
                 kept[..., block] = value
             for name, value in new.items():

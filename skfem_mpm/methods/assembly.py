@@ -412,25 +412,26 @@ class KernelLayout(NamedTuple):
     chunks: Optional[ndarray] = None
 
 
-#: the fewest points a chunk of groups takes (an operator of fewer than
-#: twice as many runs its passes serial: threads would cost more than
-#: they save)
+#: the fewest points a chunk takes (an operator of fewer than three times
+#: as many runs its passes serial: threads would cost more than they
+#: save; the point-by-point passes' chunks too)
 CHUNK_POINTS = 8192
-#: the most chunks of groups
+#: the most chunks (the even ones, 8, side by side: 8 cores at the most)
 MOST_CHUNKS = 16
 
 
 def phased_chunks(nodes: ndarray, node_start: ndarray, node_count: ndarray,
                   runs: ndarray) -> Optional[ndarray]:
-    """The bounds of an even number of chunks of consecutive groups (group
+    """The bounds of three chunks or more of consecutive groups (group
     ``r``: ``node_count[r]`` nodes from ``nodes[node_start[r]]``, its
     points from ``runs[r]`` to ``runs[r + 1]``) of about equal points,
     such that no node is in two chunks but neighbouring ones: the even
     chunks may then run side by side, and the odd ones after them
-    (:mod:`skfem_mpm.kernels.parallel`).  As many chunks as
-    :data:`CHUNK_POINTS` and :data:`MOST_CHUNKS` allow, halved until the
-    nodes keep them apart; ``None`` where fewer than two do (a small
-    operator, or groups in an order that spreads a node over chunks).
+    (:mod:`skfem_mpm.kernels.parallel`; two chunks would run one after
+    the other).  As many chunks as :data:`CHUNK_POINTS` and
+    :data:`MOST_CHUNKS` allow, halved until the nodes keep them apart;
+    ``None`` where fewer than three do (a small operator, or groups in an
+    order that spreads a node over chunks).
 
     >>> nodes = np.array([0, 1, 1, 2, 2, 3, 3, 4])
     >>> start, count = np.arange(0, 8, 2), np.full(4, 2)
@@ -439,11 +440,10 @@ def phased_chunks(nodes: ndarray, node_start: ndarray, node_count: ndarray,
     >>> phased_chunks(nodes, start, count, np.arange(0, 4001, 1000))
     >>> ring = np.array([0, 1, 1, 2, 2, 3, 3, 0])     # node 0: chunks 0, 3
     >>> phased_chunks(ring, start, count, np.arange(0, 40001, 10000))
-    array([0, 2, 4])
     """
     points, groups = int(runs[-1]), len(node_count)
-    count = min(MOST_CHUNKS, points // CHUNK_POINTS, groups) // 2 * 2
-    if count < 2:
+    count = min(MOST_CHUNKS, points // CHUNK_POINTS, groups)
+    if count < 3 or not node_count.any():
         return None
     # each node's first and last group: a node in chunks i and j of
     # different parity that are not neighbours (|i - j| > 1) forbids
@@ -458,7 +458,7 @@ def phased_chunks(nodes: ndarray, node_start: ndarray, node_count: ndarray,
     np.maximum.at(last, touched, group)
     used = last >= 0
     first, last = first[used], last[used]
-    while count >= 2:
+    while count >= 3:
         bounds = np.searchsorted(runs, np.linspace(0., points, count + 1))
         bounds[0], bounds[-1] = 0, groups
         if np.all(np.diff(bounds) > 0):
@@ -466,7 +466,7 @@ def phased_chunks(nodes: ndarray, node_start: ndarray, node_count: ndarray,
                 - np.searchsorted(bounds, first, side="right")
             if spread.max() <= 1:
                 return bounds.astype(np.int64)
-        count = count // 4 * 2
+        count //= 2
     return None
 
 

@@ -180,7 +180,8 @@ def faces_between_lines(obstacles, mesh) -> Optional[str]:
     >>> from skfem import MeshQuad
     >>> from skfem_mpm import Obstacle
     >>> mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1, 5))
-    >>> faces_between_lines([Obstacle(box=[[-1, 2], [-1, .25]])], mesh)
+    >>> faces_between_lines([Obstacle(box=[[-1, 2], [-1, .25]], name="b")],
+    ...                     mesh)
     >>> faces_between_lines([Obstacle(box=[[-1, 2], [-1, .3]], name="a")],
     ...                     mesh)
     'a'

@@ -289,13 +289,17 @@ class Run:
 
 def ghost_term(run: Run) -> Optional[GridTerm]:
     """The ghost penalty of ``ghost=gamma``, or the one ``ghost="auto"``
-    holds in reserve (:data:`DEFAULT_GHOST`; :data:`SMALL_STRAIN_GHOST` in
-    small strain, unless such bodies are in contact), on from the start
-    for GIMP and the cubic splines with contacts between bodies
-    (:data:`SLIVER_METHODS`): each body's domains reach a sliver of the
-    cells across an interface on a grid line, on its own field, and the
-    nodes there, barely held, drew 9% of the stress of two pressed blocks
-    after the first step (0.2% after 6 steps with it)."""
+    holds in reserve: :data:`DEFAULT_GHOST`, or :data:`SMALL_STRAIN_GHOST`
+    in small strain where no contact between bodies of the methods below
+    is declared.  With contacts between bodies it is on from the start
+    for GIMP and the cubic splines (:data:`SLIVER_METHODS`): each body's
+    domains reach a sliver of the cells across an interface on a grid
+    line, on its own field, and the nodes there, barely held, drew 9% of
+    the stress of two pressed blocks after the first step (0.2% after 6
+    steps with it); for the quadratic splines at the points
+    (:data:`INTERFACE_METHODS`) it goes on at the first step where a cell
+    holds points of two bodies (stacked blocks, the interface inside a
+    cell: 1.5 rho g H off without it)."""
     # with contacts between bodies a cell that only domains reach takes the
     # stiffest point of its own field's body, not of every body
     field_cells = run.user_grid.mesh.nelements if run.contacts else None
@@ -927,7 +931,7 @@ def call_back(callback: Callable, record: StepRecord,
         for name, value in (("state", points),
                             ("load_factor", record.load_factor),
                             ("history", result.history)):
-            if not hasattr(err, name):
+            if getattr(err, name, None) is None:
                 try:
                     setattr(err, name, value)
                 except AttributeError:        # slots, read-only names
@@ -1020,10 +1024,11 @@ def start_hint(starts: list) -> str:
         return ""
     return ("; the step's first residual stayed at {:.3g} ({:.3g} at the "
             "first attempt) while the increment was cut {:.0f}-fold: the "
-            "step's start is out of balance, not its load increment (loads in "
-            "full from the first step, ramp=False; standard MPM: every "
-            "step starts out of balance by the points' last move within "
-            "their cells), so a shorter step cannot help.  To go on from "
+            "step's start is out of balance, not its load increment (the "
+            "possible causes: loads in full from the first step, as "
+            "ramp=False applies them; with standard MPM every step starts "
+            "out of balance by the points' last move within their cells), "
+            "so a shorter step cannot help.  To go on from "
             "the attached state: a step changing the load by more than "
             "that imbalance at once (a collapsed footing's stage held its "
             "load in vain at every cut-back and converged unloaded by 5% "
