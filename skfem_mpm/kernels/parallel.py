@@ -13,10 +13,10 @@ chunk's first groups add into a node it shares with the chunk before it
 before that chunk does, where the odd chunk runs first: round-off.)  The
 passes with mean dilatation or F-bar, which also sum into their cells'
 arrays, stay serial.  The commit of a finite-deformation step and a
-step's ``b_n - I``, point by point, run in chunks of points
-(:func:`point_chunks`), to the bit the serial passes' answers (the commit
-also divides the stress by ``J`` there: a 72-MB division at 1e6 points,
-and its new pages, on one core before).
+step's ``b_n - I``, point by point, run in chunks of points (as many as
+the operator's chunks), to the bit the serial passes' answers (the
+commit also divides the stress by ``J`` there: a 72-MB division at 1e6
+points, and its new pages, on one core before).
 
 The threads are numba's: as many as the machine's cores, or
 ``NUMBA_NUM_THREADS`` (``numba.set_num_threads`` in a process).  Its
@@ -33,12 +33,10 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..methods import assembly
-
 from .passes import (_finite_residual, _small_residual, _stiffness,
                      finite_commit, start_deviation)
 
-__all__ = ["passes_of", "point_chunks", "commit_in_chunks",
+__all__ = ["passes_of", "commit_in_chunks",
            "start_deviation_in_chunks", "LOCK", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
@@ -49,16 +47,6 @@ LOCK = threading.Lock()
 if "NUMBA_THREADING_LAYER" not in os.environ:
     numba.config.THREADING_LAYER = "workqueue"
 
-
-def point_chunks(n: int) -> int:
-    """The chunks of ``n`` points in a point-by-point pass (1: serial),
-    of :data:`~skfem_mpm.methods.assembly.CHUNK_POINTS` points at the
-    least, :data:`~skfem_mpm.methods.assembly.MOST_CHUNKS` at the most.
-
-    >>> point_chunks(1000), point_chunks(40000), point_chunks(10 ** 6)
-    (1, 4, 16)
-    """
-    return max(1, min(assembly.MOST_CHUNKS, n // assembly.CHUNK_POINTS))
 
 
 @njit(cache=True, error_model="numpy", parallel=True)

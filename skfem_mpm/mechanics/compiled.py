@@ -334,16 +334,11 @@ class CompiledPasses:
         with self.parallel.LOCK:
             return self.chunked[which](layout.chunks, *layout.groups, *args)
 
-    def _points_pass(self, serial, chunked, n: int, *args):
-        """``serial(*args)``, a pass point by point over ``n`` points, or
-        in chunks of points on the machine's cores (``chunked(count,
-        *args)``, :func:`~skfem_mpm.kernels.parallel.point_chunks`;
-        the same answer to the bit)."""
-        count = self.parallel.point_chunks(n)
-        if count == 1:
-            return serial(*args)
-        with self.parallel.LOCK:
-            return chunked(count, *args)
+    @staticmethod
+    def _point_chunks(layout) -> int:
+        """As many chunks of points for a pass point by point as the
+        operator's ``layout`` has chunks of groups (1: serial)."""
+        return 1 if layout.chunks is None else len(layout.chunks) - 1
 
     def _layout(self, op):
         """``(passes, layout, cells, m)`` of the served operator ``op``:
@@ -358,18 +353,22 @@ class CompiledPasses:
         return self.averaged, op.op.kernel_layout(), \
             average.kernel_layout(), 3
 
-    def _start_deviation(self, points) -> ndarray:
+    def _start_deviation(self, points, count: int = 1) -> ndarray:
         """The compiled twin of :meth:`~skfem_mpm.mechanics.kinematics.
         FiniteStrain.start_deviation` (``b_n - I``), once a step: for the
-        strain it was computed from."""
+        strain it was computed from; in ``count`` chunks of points on the
+        machine's cores where more than one (the same answer to the
+        bit)."""
         strain, value = self._start
         if strain is not points.strain:
             if value is None or value.shape[-1] != points.n:
                 value = points_first(points.n, 3, 3)  # else the last step's
-            self._points_pass(self.passes.start_deviation,
-                              self.parallel.start_deviation_in_chunks,
-                              points.n, self.dim,
-                              contiguous(points.strain), value)
+            args = (self.dim, contiguous(points.strain), value)
+            if count == 1:
+                self.passes.start_deviation(*args)
+            else:
+                with self.parallel.LOCK:
+                    self.parallel.start_deviation_in_chunks(count, *args)
             self._start = (points.strain, value)
         return value
 
@@ -464,7 +463,8 @@ class CompiledPasses:
         status = self._run(
             0, finite, layout, not fbar and cells is None,
             contiguous(points.volume0), contiguous(du),
-            self._start_deviation(points), self.params, body,
+            self._start_deviation(points, self._point_chunks(layout)),
+            self.params, body,
             self._state(points), f, dF, dF_inv, tau, spectral.d,
             spectral.vecs, spectral.tau, spectral.dtau_dx, yielded, eq,
             *trailing)
@@ -483,7 +483,7 @@ class CompiledPasses:
             args = (self.dim, self.params, body, spectral.d, spectral.vecs,
                     self._state(old), dF, contiguous(old.F), F, J, b_e,
                     strain)
-            count = self.parallel.point_chunks(n)
+            count = self._point_chunks(layout)
             if count == 1:
                 self.passes.finite_commit(*args)
                 with np.errstate(divide="ignore", invalid="ignore"):
