@@ -365,6 +365,33 @@ def test_a_dynamic_scene_varies_no_load_steps(tmp_path, capsys):
         sorted(DEFAULT_VARY)
 
 
+def test_choices_the_scene_refuses_are_refused_before_any_case(tmp_path,
+                                                                capsys):
+    """A study over ``method=mpm,cpgimp`` of a scene with a rigid body
+    (the strip footing example) ran each cpGIMP case to the refusal
+    "rigid bodies need method 'mpm' or 'fem'" after the mpm cases had
+    run (trial 96): it is refused before any work, naming the value and
+    the scene's reason; the values the scene takes pass."""
+    from skfem_mpm.studies.study import check_vary
+    path = Path(__file__).parents[1] / "examples" / "strip_footing.toml"
+    out = tmp_path / "study"
+    assert main(["study", str(path), "--vary", "method=mpm,cpgimp",
+                 "--vary", "elements=8", "--out", str(out),
+                 "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot vary method: the scene refuses method='cpgimp': rigid " \
+        "bodies (footing) need method 'mpm' or 'fem'" in err
+    assert not out.exists()
+    scene = load_scene(path)
+    check_vary({"method": ["mpm", "fem"], "newton": ["full", "modified"]},
+               scene)
+    with pytest.raises(InvalidInputError, match="cannot vary method and "
+                       "rhs: the scene refuses method='mpm', "
+                       "rhs='increment': rhs = 'increment'"):
+        check_vary({"method": ["mpm"], "rhs": ["residual", "increment"]},
+                   scene)
+
+
 # a trial's footing scene: cells of 0.125 on both axes, y = 0 (the soil's
 # base, the floor obstacle's top) a grid line
 FLOOR_FOOTING = """

@@ -1708,19 +1708,14 @@ def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
     failed, refused by the scene's check (a user trial); ``elements``
     that do not scale every axis of its grid to whole cells are refused
     with :func:`not_whole`'s words (:func:`refine`), and ``elements`` of
-    which none keeps the scene's geometry with :func:`lost_lines`'s."""
+    which none keeps the scene's geometry with :func:`lost_lines`'s;
+    choices the scene refuses with :func:`refused_choices`'s."""
     if scene is not None and scene.dynamics is not None and \
             "loadsteps" in vary:
         raise InvalidInputError(
             "cannot vary loadsteps in a dynamic scene: it takes its steps "
             "from [dynamics] (duration / time_step); vary elements, ppc or "
             "method, and the time step in the scene itself")
-    if scene is not None and scene.stabilisation.antilocking == "fbar" \
-            and "fem" in vary.get("method", ()):
-        raise InvalidInputError(
-            "cannot vary method over 'fem' with antilocking='fbar': F-bar on "
-            "the increment is for points that move (each fem case would "
-            "be refused); leave 'fem' out, or take antilocking = true")
     for name, values in vary.items():
         if name not in VARIABLES:
             raise InvalidInputError("cannot vary {!r}: choose from {}".format(
@@ -1737,11 +1732,34 @@ def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
         if len(set(values)) != len(values):
             raise InvalidInputError("--vary {} repeats a value: {}".format(
                 name, list(values)))
+    if scene is not None:
+        refused_choices(scene, vary)
     if scene is not None and "elements" in vary:
         why = not_whole(scene, [int(v) for v in vary["elements"]]) or \
             lost_lines(scene, [int(v) for v in vary["elements"]])
         if why:
             raise InvalidInputError(why)
+
+
+def refused_choices(scene: Scene, vary: Dict[str, Sequence]) -> None:
+    """Raise :class:`~skfem_mpm.errors.InvalidInputError` if the scene's
+    check (:meth:`~skfem_mpm.scenes.scene.Scene.check`) refuses a
+    combination of the values of ``vary`` named by words (method, rhs,
+    line_search, newton), naming the values and the scene's reason: each
+    such case would fail after the others had run (a trial's study over
+    ``method=mpm,cpgimp`` of a scene with a rigid body ran every cpGIMP
+    case to the same refusal)."""
+    chosen = {name: values for name, values in vary.items()
+              if name in CHOICES}
+    for case in cases_of(chosen):
+        try:
+            configure(scene, case).check()
+        except InvalidInputError as err:
+            raise InvalidInputError(
+                "cannot vary {}: the scene refuses {}: {}; leave {} out"
+                .format(" and ".join(chosen), ", ".join(
+                    "{}={!r}".format(*kv) for kv in case.items()), err,
+                        "it" if len(case) == 1 else "one of them")) from err
 
 
 def cases_of(vary: Dict[str, Sequence]) -> List[dict]:
