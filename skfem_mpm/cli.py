@@ -251,9 +251,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 #: where the progress stream is not a terminal (a log file), a line is
-#: written at most this often (seconds), and at the end of a run that
-#: wrote one: a trial's 3D run redirected to a log showed no progress in
-#: its 31 s
+#: written at most this often (seconds), and one at the end: a trial's
+#: 3D run redirected to a log showed no progress in its 31 s, another's
+#: short run none at all where the README promised one at the end
 LINE_INTERVAL = 10.
 
 
@@ -261,10 +261,15 @@ class Progress:
     """Progress on ``stream`` (stderr): on a terminal (or ``enabled`` is
     ``"always"``) a one-line bar redrawn in place, elsewhere (a log file)
     a line at most every :data:`LINE_INTERVAL` seconds and one at the
-    end of a run that wrote one; each with the step, the load factor (or
-    time) as a bar, Newton iterations, residual, elapsed time and an
-    estimate of the time left, from the pace since ``start_factor``
-    (where a resumed run began)."""
+    end (of the last step done, also where a run stopped early); each
+    with the step, the load factor (or time) as a bar, Newton
+    iterations, residual, elapsed time and an estimate of the time left,
+    from the pace since ``start_factor`` (where a resumed run began).
+    A log record written by a handler with a :class:`BarBreak` while
+    the bar is on its line starts on a line of its own."""
+
+    #: the bar on its line, not ended (a log record breaks it first)
+    drawn_bar = None
 
     def __init__(self, total: int, enabled, start_factor: float = 0.,
                  stream=None, timer=time.monotonic):
@@ -277,7 +282,7 @@ class Progress:
         self.timer = timer
         self.started = self.written = timer()
         self.drawn = False      # a bar is on its line, not ended
-        self.lines = 0          # lines written (not a terminal)
+        self.pending = None     # the last line, not written (no terminal)
 
     def __call__(self, record):
         if not self.enabled:
@@ -302,21 +307,60 @@ class Progress:
         if self.bar:
             self.stream.write("\r" + words)
             self.drawn = not last
+            Progress.drawn_bar = self if self.drawn else None
             if last:
                 self.stream.write("\n")
-        elif now - self.written >= LINE_INTERVAL or last and self.lines:
+        elif now - self.written >= LINE_INTERVAL or last:
             self.stream.write(words + "\n")
-            self.written, self.lines = now, self.lines + 1
+            self.written, self.pending = now, None
         else:
+            self.pending = words
             return
         self.stream.flush()
 
     def end(self):
-        """End a bar left on its line (a run that stopped early)."""
+        """End a bar left on its line, or write the last step's line
+        not written (a run that stopped early)."""
         if self.drawn:
             self.stream.write("\n")
-            self.stream.flush()
             self.drawn = False
+        elif self.pending is not None:
+            self.stream.write(self.pending + "\n")
+            self.pending = None
+        else:
+            return
+        if Progress.drawn_bar is self:
+            Progress.drawn_bar = None
+        self.stream.flush()
+
+
+class BarBreak(logging.Filter):
+    """On a handler writing to ``stream``: a record ends the progress
+    bar drawn there first, so that it starts on a line of its own (a
+    trial's warning was glued to the bar: ``... left 0:01skfem_mpm.solve
+    .rotation: step 9 ...``)."""
+
+    def __init__(self, stream):
+        super().__init__()
+        self.stream = stream
+
+    def filter(self, record):
+        bar = Progress.drawn_bar
+        if bar is not None and bar.drawn and bar.stream is self.stream:
+            bar.stream.write("\n")
+            bar.stream.flush()
+            bar.drawn = False
+            Progress.drawn_bar = None
+        return True
+
+
+def break_bars_for_logs():
+    """A :class:`BarBreak` on each root handler writing to stderr (once)."""
+    for handler in logging.getLogger().handlers:
+        stream = getattr(handler, "stream", None)
+        if stream is sys.stderr and not any(
+                isinstance(f, BarBreak) for f in handler.filters):
+            handler.addFilter(BarBreak(stream))
 
 
 class StopRun(Exception):
@@ -2034,6 +2078,7 @@ def dispatch(argv) -> int:
         return int(exit.code or 0)
     logging.basicConfig(level=logging.WARNING,
                         format="%(name)s: %(message)s")
+    break_bars_for_logs()
     # -v: this package's steps, not every library's notes (and, without
     # it, back to the root's level in a process that called main before)
     logging.getLogger("skfem_mpm").setLevel(

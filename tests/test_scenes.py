@@ -750,7 +750,9 @@ def test_progress_to_a_log_file_is_a_line_every_interval():
     """Not a terminal (a log file; a trial's 3D run redirected to one
     showed no progress in its 31 s): no bar redrawn in place, a line at
     most every LINE_INTERVAL seconds and one at the end of a run that
-    wrote one; a run shorter than the interval writes nothing."""
+    wrote one; a run shorter than the interval writes its last line
+    only (the README promises one at the end; a trial's log had none),
+    and one stopped early the last step it did."""
     import io
     from types import SimpleNamespace
     from skfem_mpm.cli import LINE_INTERVAL, Progress
@@ -770,7 +772,49 @@ def test_progress_to_a_log_file_is_a_line_every_interval():
     for step in (1, 2):
         log(SimpleNamespace(step=step, load_factor=step / 2,
                             newton_iterations=2, residual=1e-12))
-    assert short.getvalue() == ""
+    assert short.getvalue().startswith("step    2/2 [") and \
+        short.getvalue().count("\n") == 1
+    stopped = io.StringIO()
+    log = Progress(4, True, stream=stopped, timer=lambda: 0.)
+    log(SimpleNamespace(step=1, load_factor=.25, newton_iterations=2,
+                        residual=1e-12))
+    assert stopped.getvalue() == ""
+    log.end()
+    assert stopped.getvalue().startswith("step    1/4 [") and \
+        stopped.getvalue().count("\n") == 1
+
+
+def test_a_log_record_after_the_bar_starts_on_its_own_line():
+    """A warning while the bar is on its line (a trial's read ``... left
+    0:01skfem_mpm.solve.rotation: step 9 ...``) starts on a new line;
+    the bar is redrawn on the line after it."""
+    import io
+    import logging
+    from types import SimpleNamespace
+    from skfem_mpm.cli import BarBreak, Progress
+    stream = io.StringIO()
+    handler = logging.StreamHandler(stream)
+    handler.setFormatter(logging.Formatter("%(name)s: %(message)s"))
+    handler.addFilter(BarBreak(stream))
+    logger = logging.getLogger("skfem_mpm.test_bar")
+    logger.addHandler(handler)
+    try:
+        bar = Progress(4, "always", stream=stream, timer=lambda: 0.)
+        bar(SimpleNamespace(step=1, load_factor=.25, newton_iterations=1,
+                            residual=1e-12))
+        logger.warning("step 2: a note")
+        bar(SimpleNamespace(step=2, load_factor=.5, newton_iterations=1,
+                            residual=1e-12))
+        logger.warning("step 3: another")     # twice: one line break
+        logger.warning("step 3: a third")
+    finally:
+        logger.removeHandler(handler)
+    lines = stream.getvalue().split("\n")
+    assert lines[0].startswith("\rstep    1/4")
+    assert lines[1] == "skfem_mpm.test_bar: step 2: a note"
+    assert lines[2].startswith("\rstep    2/4")
+    assert lines[3:] == ["skfem_mpm.test_bar: step 3: another",
+                         "skfem_mpm.test_bar: step 3: a third", ""]
 
 
 def test_a_value_at_an_interface_is_one_bodys():
