@@ -495,7 +495,7 @@ def summary_units(dim: int, dynamics: bool = False,
     force, length, time = (unit(k, system, dim) for k in (
         "force", "length", "time"))
     units = {"system": system, "max_displacement": length,
-             "max_residual": "-", "wall_seconds": "s",
+             "max_residual": "-", "wall_seconds": "s", "timings": "s",
              "compile_seconds": "s", "load_factor": "-",
              "reactions": force, "force": force, "displacement": length}
     if dynamics:      # a static run has no energies (a trial read its
