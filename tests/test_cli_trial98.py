@@ -25,3 +25,136 @@ def test_the_vtu_table_has_a_row_per_field_a_reader_looks_for():
     fields = [row[2].strip() for row in rows if len(row) > 4]
     for name in ("stress", "strain", "volume", "volume0", "yielding"):
         assert "`{}`".format(name) in fields, name
+
+
+WALL = """\
+name = "retaining wall"
+units = "kN-m"
+[grid]
+x = [0.0, 6.0, 24]
+y = [0.0, 4.0, 16]
+[[bodies]]
+name = "backfill"
+region = {{ x = [0.0, 4.0], y = [0.0, 3.0] }}
+material = {{ model = "linear_elastic", E = 2e4, nu = 0.3 }}
+[[obstacles]]
+name = "wall"
+box = {{ x = [{wall}, 4.5], y = [0.0, 4.0] }}
+displacement = [0.02, 0.0]
+[[supports]]
+name = "base"
+boundary = "bottom"
+{extra}
+"""
+H = 6. / 24      # the grid's cell size along x (and y: 4 / 16)
+
+
+def refusal(tmp_path, capsys, text):
+    """``skfem-mpm run`` of ``text``: its exit code and stderr, the
+    output folder (not made where refused before any work)."""
+    from skfem_mpm.cli import main
+    path = tmp_path / "scene.toml"
+    path.write_text(text)
+    out = tmp_path / "out"
+    code = main(["run", str(path), "--out", str(out), "--no-progress"])
+    return code, capsys.readouterr().err, out
+
+
+def test_an_obstacle_off_the_grid_is_named_by_file_and_table(tmp_path,
+                                                             capsys):
+    """``obstacle 'wall' ... never reaches the grid`` named neither the
+    file nor the table."""
+    code, err, out = refusal(tmp_path, capsys, WALL.format(
+        wall=7.0, extra="").replace("4.5]", "8.0]"))
+    assert code == 2 and not out.exists()
+    assert "scene.toml: obstacles[0]: obstacle 'wall' (bounds [[7.0, " \
+        "8.0], [0.0, 4.0]], moving by [0.02, 0.0]) never reaches the grid " \
+        "(bounds [[0.0, 6.0], [0.0, 4.0]])" in err
+    assert "(lengths in m)" in err
+
+
+def test_a_support_off_the_grid_lines_names_the_nearest(tmp_path, capsys):
+    """A support's region between grid lines was refused at set-up with
+    no line named (the ``at`` form named the nearest node): both are
+    refused before any work, naming the table and the nearest lines."""
+    x = 2.1
+    below, above = H * (x // H), H * (x // H + 1)
+    code, err, out = refusal(tmp_path, capsys, WALL.format(
+        wall=4.0, extra='[[supports]]\nname = "anchor"\nregion = {{ x = '
+        '[{0}, {0}], y = [0.0, 3.0] }}\ncomponents = ["x"]'.format(x)))
+    assert code == 2 and not out.exists()
+    assert "scene.toml: supports[1].region: support 'anchor' holds no " \
+        "grid node (x = {!r} lies between the grid lines x = {!r} and " \
+        "x = {!r})".format(x, below, above) in err
+    at = [2.1, 1.3]
+    nearest = [H * round(v / H) for v in at]
+    code, err, out = refusal(tmp_path, capsys, WALL.format(
+        wall=4.0, extra='[[supports]]\nname = "pin"\nat = {}'.format(at)))
+    assert code == 2 and not out.exists()
+    assert "scene.toml: supports[1].at: support 'pin' has no grid node " \
+        "there (nearest is {})".format(nearest) in err
+
+
+def test_an_obstacle_over_a_body_is_refused_before_work(tmp_path, capsys):
+    """A wall box overlapping the backfill was refused after the set-up
+    (its warnings printed), "0.5 inside" with no unit: refused before any
+    work, with the overlap in the scene's length unit; one within the
+    obstacle's tolerance (1e-3 cells) runs as before."""
+    wall = 3.5
+    code, err, out = refusal(tmp_path, capsys, WALL.format(wall=wall,
+                                                           extra=""))
+    assert code == 2 and not out.exists()
+    assert err.count("\n") == 1          # no warning of a set-up before
+    assert "scene.toml: obstacles[0].box: obstacle 'wall' overlaps body " \
+        "'backfill' at the start, {:.3g} m across (where x in [{!r}, 4.0]" \
+        ", y in [0.0, 3.0])".format(4. - wall, wall) in err
+    from skfem_mpm.scenes.scene_file import load_scene
+    path = tmp_path / "touching.toml"
+    path.write_text(WALL.format(wall=4. - .5e-3 * H, extra=""))
+    assert load_scene(path).obstacles[0].name == "wall"
+
+
+def test_a_refused_support_value_is_said_once(tmp_path, capsys):
+    """``value = [0, 0, -0.05]`` with ``components = ["z"]`` was refused,
+    and then its ``bodies = ["pile"]`` too, as though not a list of body
+    names."""
+    code, err, out = refusal(tmp_path, capsys, WALL.format(
+        wall=4.0, extra='[[supports]]\nregion = { y = [3.0, 3.0] }\n'
+        'components = ["y"]\nvalue = [0, 0, -0.05]\nbodies = ["backfill"]'))
+    assert code == 2
+    assert "supports[1].value: must be a list of 1 finite numbers" in err
+    assert "bodies" not in err
+    # without a value, the bodies are refused for that reason
+    code, err, out = refusal(tmp_path, capsys, WALL.format(
+        wall=4.0, extra='[[supports]]\nregion = { y = [3.0, 3.0] }\n'
+        'components = ["y"]\nbodies = ["backfill"]'))
+    assert code == 2 and "supports[1].bodies: needs a value" in err
+
+
+def test_the_scene_file_reference_says_how_to_write_tresca():
+    """No ``tresca`` model, and the scene-file reference did not say how
+    to write one: its two forms load, and a plane-strain pure shear
+    past yield flows at the shear strength c_u in both."""
+    import re
+    import numpy as np
+    from skfem_mpm.mechanics.materials import initial_state
+    from skfem_mpm.scenes.scene_file import parse_scene, tomllib
+    text = (README.parent / "docs" / "scene_files.rst").read_text()
+    section = text.split("Undrained soil (Tresca)\n")[1].split("\n----")[0]
+    c_u = float(re.search(r"# c_u = ([0-9.]+)", section).group(1))
+    block = section.split(".. code-block:: toml\n")[1].split("\n\n")[0]
+    forms = [line.split("# or")[0] for line in block.split(
+        "material = ")[1:]]
+    assert len(forms) == 2
+    shear = []
+    for form in forms:
+        material = tomllib.loads("m = " + " ".join(form.split()))["m"]
+        scene = parse_scene({
+            "grid": {"x": [0., 1., 1], "y": [0., 1., 1]},
+            "bodies": [{"region": {}, "material": material}],
+            "supports": [{"boundary": "y-"}]})
+        model = scene.bodies[0].material
+        eps = np.array([[1e-2], [-1e-2], [0.]])     # plane-strain shear
+        tau = model.principal_update(eps, initial_state(model, 1))[0]
+        shear.append(float(tau.max() - tau.min()) / 2)
+    assert np.allclose(shear, c_u, rtol=1e-4)

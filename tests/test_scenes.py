@@ -182,10 +182,17 @@ def test_supports_on_regions(tmp_path):
         support = {"region": {"x": bad.pop("x")}, **bad}
         with pytest.raises(SceneError, match=message):
             parse_scene({**data, "supports": [support]})
-    empty = parse_scene({**data, "supports": [
-        {"region": {"x": [.1, .2], "y": [.1, .2]}}]})
-    with pytest.raises(InvalidInputError, match="no grid node"):
-        scene_support_dofs(empty.supports[0], basis, 2)
+    # a box without grid nodes: refused by the scene file (trial 98,
+    # naming the table and the nearest lines) and from Python
+    with pytest.raises(SceneError, match=r"supports\[0\]\.region: support "
+                       r"holds no grid node \(x = \[0.1, 0.2\] lies "
+                       r"between the grid lines x = 0.0 and x = 0.25; y "):
+        parse_scene({**data, "supports": [
+            {"region": {"x": [.1, .2], "y": [.1, .2]}}]})
+    with pytest.raises(InvalidInputError, match=r"no grid node there \(x "
+                       r"= \[0.1, 0.2\] lies between the grid lines x = "
+                       r"0.0 and x = 0.25; y "):
+        scene_support_dofs(Support(region=[(.1, .2), (.1, .2)]), basis, 2)
 
 
 def test_a_support_on_a_list_of_sides_holds_their_union():

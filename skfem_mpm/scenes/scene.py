@@ -820,13 +820,37 @@ def scene_support_dofs(s: Support, basis, dim: int) -> ndarray:
         tol = 1e-9 * (1 + np.abs(p).max())
         nodes = np.flatnonzero(closed_region(region, p, tol))
         if nodes.size == 0:
+            box = isinstance(region, np.ndarray)
             raise InvalidInputError(
-                "support {}in region {}: no grid node there".format(
-                    "{!r} ".format(s.name) if s.name else "", region.tolist()
-                    if isinstance(region, np.ndarray) else region))
+                "support {}in region {}: no grid node there{}".format(
+                    "{!r} ".format(s.name) if s.name else "",
+                    region.tolist() if box else region,
+                    off_grid_lines(region, [np.unique(p[d]) for d in range(
+                        dim)], tol) if box else ""))
     else:
         nodes = np.flatnonzero(s.where(p))
     return first[nodes] + np.array(comps, dtype=np.int64)[:, None]
+
+
+def off_grid_lines(box, lines, tol: float) -> str:
+    """Where a support's ``box`` (``[lo, hi]`` per axis) misses the
+    grid: for each axis with no grid line (of ``lines``, per axis) in
+    ``[lo, hi]`` (to ``tol``), the nearest lines on either side, in the
+    words of the ``at`` form's "nearest is" (a trial's region at x = 2.1
+    was refused with no line named); ``""`` where every axis has one."""
+    words = []
+    for d, (lo, hi) in enumerate(np.asarray(box, float)):
+        axis = np.asarray(lines[d], float)
+        if ((axis >= lo - tol) & (axis <= hi + tol)).any():
+            continue
+        near = [axis[axis < lo].max()] if (axis < lo).any() else []
+        near += [axis[axis > hi].min()] if (axis > hi).any() else []
+        words.append("{} = {!r} lies {} {}".format(
+            "xyz"[d], float(lo) if lo == hi else [float(lo), float(hi)],
+            "between the grid lines" if len(near) == 2 else
+            "beyond the grid, whose nearest line is", " and ".join(
+                "{} = {!r}".format("xyz"[d], float(v)) for v in near)))
+    return " ({})".format("; ".join(words)) if words else ""
 
 
 #: how far, in cells, a method's shape functions reach a node from the

@@ -203,6 +203,8 @@ offending value (unknown keys, wrong types, impossible values), in a
 import math
 from pathlib import Path
 
+import numpy as np
+
 try:
     import tomllib
 except ImportError:                       # Python 3.10
@@ -217,15 +219,16 @@ from ..solve.backends import FACTORIES
 from ..solve.dynamics import MASSES
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS, NewtonOptions
 from ..solve.body_contact import Contact
-from ..solve.obstacles import Obstacle
+from ..solve.obstacles import Obstacle, check_obstacles
 from ..solve.loads import WORDS_OF_2D, side_axis, side_names
 from ..spelling import PARAMETER_KEYS, did_you_mean
 from ..stabilisation.settings import Stabilisation
 from .quantities import Quantity, check_quantities
 from .regions import Ball, Polygon, outside_grid, region_shape
-from .units import SYSTEMS
+from .units import SYSTEMS, unit
 from .scene import (KINEMATICS, SCHEMES, METHODS, Body, Grid, PointLoad,
-                    Scene, Support, Traction, TimeIntegration)
+                    Scene, Support, Traction, TimeIntegration,
+                    off_grid_lines)
 
 __all__ = ["load_scene", "parse_scene", "parse_quantity", "REFERENCES"]
 
@@ -816,6 +819,86 @@ def _name(c, data):
     return name
 
 
+def grid_lines(grid) -> list:
+    """Per axis, the coordinates of the grid's node lines (a ``Q2``
+    grid's: the cells' edges and middles)."""
+    per = 2 if grid.element == "Q2" else 1
+    return [np.linspace(lo, hi, per * n + 1) for lo, hi, n in grid.axes]
+
+
+def _supports_on_grid(c, supports, grid):
+    """A support ``at`` a place or in a box holding no grid node is
+    refused before any work, naming its table and the nearest grid lines
+    (a trial's region at x = 2.1 was refused at the run's set-up with
+    neither)."""
+    lines = grid_lines(grid)
+    tol = 1e-9 * (1 + max(max(abs(lo), abs(hi)) for lo, hi, _ in
+                          grid.axes))
+    for k, s in enumerate(supports):
+        key = "supports[{}]".format(k)
+        if s.at is not None:
+            nearest = [float(axis[np.abs(axis - x).argmin()])
+                       for axis, x in zip(lines, s.at)]
+            if any(abs(a - x) > tol for a, x in zip(nearest, s.at)):
+                c.bad(key + ".at", "support {}has no grid node there "
+                      "(nearest is {})".format(
+                          "{!r} ".format(s.name) if s.name else "",
+                          nearest), list(s.at))
+        elif s.region is not None and not isinstance(s.region,
+                                                     (Polygon, Ball)):
+            words = off_grid_lines(s.region, lines, tol)
+            if words:
+                c.bad(key + ".region", "support {}holds no grid node{}"
+                      .format("{!r} ".format(s.name) if s.name else "",
+                              words), [list(b) for b in s.region])
+
+
+def _obstacles_placed(c, obstacles, bodies, grid, static: bool,
+                      system: str):
+    """An obstacle that never reaches the grid, and (a static scene) a
+    box obstacle overlapping a box body at the start by more than its
+    tolerance, are refused before any work, naming the table and the
+    overlap in the scene's length unit (a trial's was refused after
+    the set-up, "0.5 inside" and no unit)."""
+    length = unit("length", system, len(grid.axes))
+    bounds = np.array([[lo, hi] for lo, hi, _ in grid.axes])
+    cells = np.prod([(hi - lo) / n for lo, hi, n in grid.axes]) ** (
+        1. / len(grid.axes))
+    for k, ob in enumerate(obstacles):
+        if ob is None:
+            continue
+        key = "obstacles[{}]".format(k)
+        try:
+            check_obstacles([ob], len(grid.axes), bounds)
+        except InvalidInputError as err:
+            c.problems.append("{}: {} (lengths in {})".format(
+                key, err, length))
+            continue
+        if not static or getattr(ob, "box", None) is None:
+            continue            # (in dynamics it may start displaced)
+        for body in bodies:
+            if body is None or region_shape(body.region) != "box":
+                continue
+            box = np.array(body.region, float)
+            low = np.maximum(box[:, 0], ob.box[:, 0])
+            high = np.minimum(box[:, 1], ob.box[:, 1])
+            # the overlap's middle lies half its least extent inside the
+            # obstacle (the run refuses a point's domain corner deeper
+            # than the tolerance; this, twice that, only the clear cases)
+            across = float(np.min(high - low))
+            if across > 2 * ob.tolerance * cells:
+                c.bad(key + ".box", "obstacle {!r} overlaps body {!r} "
+                      "at the start, {:.3g} {} across (where {}): it would "
+                      "hold material inside it; move the obstacle or "
+                      "shrink the body".format(
+                          ob.name or "", body.name, across, length,
+                          ", ".join("{} in [{!r}, {!r}]".format(
+                              AXES[d], float(lo), float(hi)) for d, (lo, hi)
+                              in enumerate(zip(low, high)))),
+                      {AXES[d]: list(b) for d, b in enumerate(
+                          ob.box.tolist())})
+
+
 def parse_scene(data: dict, source: str = "") -> Scene:
     """Build a :class:`~skfem_mpm.scenes.scene.Scene` from a parsed TOML tree.
 
@@ -872,12 +955,18 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         elif name is not None and name in [x.name for x in supports]:
             c.bad(key + ".name", "names another support too", name)
         moved = s.get("bodies")
-        if moved is not None and (value is None or not isinstance(
-                moved, list) or not moved or not all(
-                    isinstance(b, str) for b in moved)):
-            c.bad(key + ".bodies", "must be a list of body names, with a "
-                  "value (the bodies a moving support moves)", moved)
+        if moved is not None and (not isinstance(moved, list) or not moved
+                                  or not all(isinstance(b, str)
+                                             for b in moved)):
+            c.bad(key + ".bodies", "must be a list of body names (the "
+                  "bodies a moving support moves)", moved)
             moved = None
+        elif moved is not None and "value" not in s:
+            c.bad(key + ".bodies", "needs a value: the bodies a moving "
+                  "support moves", moved)
+            moved = None
+        elif value is None:   # a value refused above: said once (a trial
+            moved = None      # read a follow-on error about its bodies)
         supports.append(Support(boundary=boundary, at=at, region=box,
                                 components=comps, value=value, name=name,
                                 bodies=moved))
@@ -988,6 +1077,10 @@ def parse_scene(data: dict, source: str = "") -> Scene:
             scene.check()
         except Exception as err:
             c.problems.append("scene: {}".format(err))
+    if not c.problems:
+        _supports_on_grid(c, supports, grid)
+        _obstacles_placed(c, obstacles, bodies, grid, dynamics is None,
+                          scene.units)
     if outputs and not c.problems:
         try:
             check_quantities(scene, outputs)
