@@ -57,6 +57,7 @@ from .solve.body_contact import body_contact_state_names
 from .solve.contact import contact_state_names
 from .solve.rotation import rotation_state_names, start_missing_rotation
 from .solve.core import grid_parts
+from .solve.loads import side_axis
 from .solve.options import Resume, end_force_of, resumed_counters
 from .solve.results import PHASES, Result
 from .solve.strength_reduction import (largest_displacement,
@@ -731,6 +732,43 @@ def support_marks(scene, mesh, elem) -> list:
     return marks
 
 
+def drivers(scene, pts, deformed, mesh, elem) -> tuple:
+    """What drives a 3D run besides its obstacles, for the slice of its
+    pictures (:func:`~skfem_mpm.scenes.plot.slice_plane`): the boxes
+    (3, 2) of the rigid bodies' points at ``deformed`` (their domains'
+    reach) and of the nodes of the moving supports, their motions, and
+    the symmetry planes: ``(axis, position)`` of each grid side a
+    support holds across it alone (a roller)."""
+    boxes, motions, mirrors = [], [], []
+    spacing = .5 * float(np.cbrt(np.median(pts.volume)))
+    for k, body in enumerate(scene.bodies):
+        mine = pts.body == k
+        if body.rigid is not None and mine.any():
+            boxes.append(np.stack([deformed[:, mine].min(axis=1) - spacing,
+                                   deformed[:, mine].max(axis=1) + spacing],
+                                  axis=1))
+            motions.append(np.asarray(body.rigid, float))
+    grid, dim = grid_parts(mesh, elem)[1], mesh.dim()
+    for s in scene.supports:
+        held = ["xyz".index(c) for c in s.components]
+        if s.value is not None and np.any(s.value):
+            places = grid.doflocs[:, scene_support_dofs(s, grid, dim)[0]]
+            motion = np.zeros(dim)
+            motion[held] = s.value
+            boxes.append(np.stack([places.min(axis=1), places.max(axis=1)],
+                                  axis=1))
+            motions.append(motion)
+        elif s.boundary is not None:
+            for side in [s.boundary] if isinstance(s.boundary, str) \
+                    else s.boundary:
+                axis, sign = side_axis(side, dim)
+                if held == [axis]:
+                    mirrors.append((axis, float(
+                        mesh.p[axis].max() if sign > 0
+                        else mesh.p[axis].min())))
+    return boxes, motions, mirrors
+
+
 def plot_deformed_shape(scene, pts, when: str, half, path: Path,
                         load_factor: float):
     """The deformed shape of the points ``pts`` of a run
@@ -758,8 +796,11 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
         obstacles = [(o.name, o.outline(shift * o.displacement))
                      for o in obstacle_list(scene)]
     elif pts.dim == 3:                  # boxes: a vertical slice through
-        plane = plot.slice_plane(deformed, [b for _, b, _ in moved],
-                                 [d for _, _, d in moved])
+        boxes, motions, mirrors = drivers(scene, pts, deformed, mesh,
+                                          elem)
+        plane = plot.slice_plane(
+            deformed, [b for _, b, _ in moved] + boxes,
+            [d for _, _, d in moved] + motions, mirrors)
         axes = tuple(k for k in range(3) if k != plane[0])
         obstacles = [(name, plot.box_section(box, plane, axes))
                      for name, box, _ in moved]
@@ -776,7 +817,7 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
         cell=float(np.ptp(mesh.p[:, mesh.t], axis=1).max()), scale=scale,
         loads=plot.scene_load_marks(scene, pts, scale))
     fig.tight_layout()
-    plot.save_figure(fig, path)
+    plot.save_figure(fig, path, trim=True)
 
 
 def plot_contact_forces(scene, curves: dict, motion: dict, what: str,

@@ -158,3 +158,89 @@ def test_the_scene_file_reference_says_how_to_write_tresca():
         tau = model.principal_update(eps, initial_state(model, 1))[0]
         shear.append(float(tau.max() - tau.min()) / 2)
     assert np.allclose(shear, c_u, rtol=1e-4)
+
+
+QUARTER = """\
+name = "quarter pile"
+[grid]
+x = [0.0, 1.0, 4]
+y = [0.0, 1.0, 4]
+z = [0.0, 2.5, 10]
+[[bodies]]
+name = "soil"
+region = { x = [0.0, 1.0], y = [0.0, 1.0], z = [0.0, 2.0] }
+material = { model = "linear_elastic", E = 2e4, nu = 0.3 }
+[[bodies]]
+name = "pile"
+region = { x = [0.0, 0.25], y = [0.0, 0.25], z = [1.0, 2.5] }
+replaces = ["soil"]
+material = { model = "linear_elastic", E = 3e7, nu = 0.2 }
+[[supports]]
+name = "base"
+boundary = "z-"
+[[supports]]
+name = "xsides"
+boundary = ["x-", "x+"]
+components = ["x"]
+[[supports]]
+name = "ysides"
+boundary = ["y-", "y+"]
+components = ["y"]
+[[supports]]
+name = "pilehead"
+region = { x = [0.0, 0.25], y = [0.0, 0.25], z = [2.5, 2.5] }
+value = [-0.05]
+bodies = ["pile"]
+components = ["z"]
+"""
+
+
+def test_a_quarter_model_is_sliced_on_its_symmetry_plane(tmp_path,
+                                                         monkeypatch):
+    """A quarter model's pile (pushed by a moving support at its head) and
+    footing (a rigid body) lie on the symmetry planes x = 0 and y = 0:
+    the deformed shape's slice is the layer of points on one (it was
+    y = 0.439 m, through none of the pile), the roller holding that
+    plane is named, not marked at every node, and the figure has no
+    empty margins (the pile's had a third of its height empty)."""
+    import numpy as np
+    from skfem_mpm import cli
+    from skfem_mpm.scenes import plot
+    from skfem_mpm.scenes.scene import build_points
+    from skfem_mpm.scenes.scene_file import load_scene
+    kept = {}
+    save = plot.save_figure
+
+    def keep(fig, path, *args, **kwargs):
+        kept["title"] = fig.axes[0].get_title()
+        kept["legend"] = [t.get_text() for ax in fig.axes if ax.get_legend()
+                          for t in ax.get_legend().get_texts()]
+        save(fig, path, *args, **kwargs)
+    monkeypatch.setattr(plot, "save_figure", keep)
+    for name, text in (("pile", QUARTER), ("footing", QUARTER.replace(
+            'replaces = ["soil"]', 'replaces = ["soil"]\nrigid = { '
+            'displacement = [0.0, 0.0, -0.05] }').split("[[supports]]\n"
+            'name = "pilehead"')[0])):
+        path = tmp_path / (name + ".toml")
+        path.write_text(text)
+        scene = load_scene(path)
+        pts = build_points(scene, scene.grid.build()[0])
+        layer = .5 * 1. / 4 / 2       # half the points' spacing in y
+        png = tmp_path / (name + ".png")
+        cli.plot_deformed_shape(scene, pts, "at the start", None, png, 0.)
+        assert "slice y = {:.3g} m".format(layer) in " ".join(
+            kept["title"].split()), name
+        assert "ysides (y- + y+): y fixed (holds the plane of this " \
+            "slice, not marked)" in kept["legend"]
+        image = pyplot_image(png)
+        rows = np.flatnonzero((image < .9).any(axis=1))
+        columns = np.flatnonzero((image < .9).any(axis=0))
+        assert rows[0] < 20 and rows[-1] > image.shape[0] - 20, name
+        assert columns[0] < 20 and columns[-1] > image.shape[1] - 20, name
+
+
+def pyplot_image(path):
+    """The PNG at ``path`` as grey levels (rows, columns), 0 to 1."""
+    from skfem_mpm.scenes.plot import pyplot
+    image = pyplot().imread(str(path))
+    return image[..., :3].mean(axis=2)

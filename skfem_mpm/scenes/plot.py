@@ -50,18 +50,21 @@ def pyplot():
     return plt
 
 
-def save_figure(fig, path, dpi: int = 120):
+def save_figure(fig, path, dpi: int = 120, trim: bool = False):
     """Write ``fig`` to ``path`` (PNG) atomically and close it, laid out
     so that its text can be read (:func:`settle_layout`), drawn once: the
     place-holder a ``tight_layout`` leaves as the figure's layout engine
     is dropped (``savefig`` drew a figure with one a second time, without
-    rendering, to run the engine, which does nothing)."""
+    rendering, to run the engine, which does nothing).  ``trim``: the
+    empty margins cut off (a tall 3D slice at equal aspect left a third
+    of its figure empty above and below it, trial 98)."""
     from matplotlib.layout_engine import PlaceHolderLayoutEngine
     settle_layout(fig)
     if isinstance(fig.get_layout_engine(), PlaceHolderLayoutEngine):
         fig.set_layout_engine(None)
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png")
+        fig.savefig(tmp, dpi=dpi, format="png", **(dict(
+            bbox_inches="tight", pad_inches=.1) if trim else {}))
     pyplot().close(fig)
 
 
@@ -138,14 +141,21 @@ def shown_axes(x: np.ndarray, volume: np.ndarray, plane=None):
                                                       x[across][slab].mean())
 
 
-def slice_plane(x: np.ndarray, boxes=(), motions=()) -> tuple:
+def slice_plane(x: np.ndarray, boxes=(), motions=(), mirrors=()) -> tuple:
     """``(axis, position)`` of the vertical slice (across x or y; z is up)
     a picture of a 3D body of points at ``x`` (3, n) shows: through the
-    middle of the obstacles' ``boxes`` ((3, 2) each, m) that reach the
-    body (the body's own middle without), across the horizontal axis
-    along which they move least (``motions``: their displacements), else
-    the body's thinner one, else y (a front view).  A horizontal slice
-    through the middle of a block missed the punch pressed on its top.
+    boxes ((3, 2) each, m) of what drives the run (obstacles, rigid
+    bodies, moving supports) that reach the body (the body's own middle
+    without), across the horizontal axis along which they move least
+    (``motions``: their displacements), else one with a symmetry plane
+    they all lie on, else the body's thinner one, else y (a front view).
+    The slice is on that symmetry plane (``mirrors``: ``(axis,
+    position)`` of the grid's sides held by rollers across them; a
+    quarter model's footing or pile lies on two), else through the
+    middle of the boxes' common part.  A horizontal slice through the
+    middle of a block missed the punch pressed on its top; one through
+    the middle of a quarter model's footing showed none of its soil's
+    centre line (trial 98).
 
     >>> import numpy as np
     >>> from skfem_mpm.scenes.plot import slice_plane
@@ -154,6 +164,9 @@ def slice_plane(x: np.ndarray, boxes=(), motions=()) -> tuple:
     >>> wall = np.array([[1., 1.3], [-.1, 1.1], [-.1, .8]])
     >>> slice_plane(x, [punch, wall], [[0, 0, -.03], [-.02, 0, 0]])
     (1, 0.4)
+    >>> corner = np.array([[0., .3], [0., .3], [.5, .6]])  # a quarter's
+    >>> slice_plane(x, [corner], [[0, 0, -.01]], [(0, 0.), (1, 0.)])
+    (1, 0.0)
     """
     lo, hi = x.min(axis=1), x.max(axis=1)
     pad = .1 * float((hi - lo).max())     # the points' centres: the body
@@ -163,10 +176,20 @@ def slice_plane(x: np.ndarray, boxes=(), motions=()) -> tuple:
             and (np.asarray(b)[:, 1] >= lo - pad).all()]
     moving = np.sum([m[:2] for _, m in near], axis=0) if near else \
         np.zeros(2)
+    tol = 1e-6 * float((hi - lo).max())
+
+    def mirror(k):
+        """The symmetry plane across axis ``k`` every box lies on."""
+        return next((float(at) for axis, at in mirrors if axis == k and
+                     all(b[k, 0] - tol <= at <= b[k, 1] + tol
+                         for b, _ in near)), None) if near else None
     extent = hi[:2] - lo[:2]
-    across = min((1, 0), key=lambda k: (moving[k], extent[k]))
+    across = min((1, 0), key=lambda k: (moving[k], mirror(k) is None,
+                                        extent[k]))
     if not near:
         return across, round(float(.5 * (lo[across] + hi[across])), 12)
+    if mirror(across) is not None:
+        return across, round(mirror(across), 12)
     # each box's part within the body; their common part if any
     parts = np.array([[max(b[across, 0], lo[across]),
                        min(b[across, 1], hi[across])] for b, _ in near])
@@ -924,6 +947,11 @@ def draw_supports(ax, supports, axes: tuple, slab, handles: list,
             on = np.isclose(nodes[3 - a - b], plane)
             if not on.any():
                 label += " (not in this slice)"
+            elif held == (3 - a - b,):
+                # a roller on the slice's own plane (a quarter model's
+                # symmetry plane): its marks would cover the picture
+                label += " (holds the plane of this slice, not marked)"
+                on[:] = False
             nodes = nodes[:, on]
         ax.plot(nodes[a], nodes[b], ls="", marker=marker, ms=5, color=colour,
                 markeredgecolor="k", markeredgewidth=.4, zorder=4)
