@@ -827,7 +827,7 @@ def test_a_dynamic_scene_s_loaded_points_are_drawn_against_time(
     from skfem_mpm.scenes import plot
     drawn = {}
 
-    def save(fig, path, dpi=120):
+    def save(fig, path, dpi=120, **kw):
         if path.name == "load_displacement.png":
             ax = fig.axes[0]
             drawn[path.name] = (ax.get_ylabel(), ax.lines[0].get_ydata())

@@ -309,7 +309,7 @@ def test_a_scene_s_moving_support_names_its_bodies():
         at=[1.5, .5], components=["y"], value=[0.], bodies=["B"]))
     with pytest.raises(InvalidInputError, match="name different bodies"):
         run_scene(two)
-    with pytest.raises(SceneError, match="with a value"):
+    with pytest.raises(SceneError, match="bodies: needs a value"):
         parse_scene(tomllib.loads(SCENE.format(move=-MOVE, bodies="")
                                   .replace('boundary = "bottom"',
                                            'boundary = "bottom"\n'

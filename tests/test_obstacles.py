@@ -1409,7 +1409,7 @@ def test_the_obstacles_picture_draws_the_force_s_components(tmp_path):
                         "displacement": [[0., -.05], [0., -.1]]}}
     drawn = {}
 
-    def keep(fig, path):
+    def keep(fig, path, **kw):
         assert not plot.figure_problems(fig)
         drawn.update({line.get_label(): line.get_ydata()
                       for line in fig.axes[0].get_lines()})

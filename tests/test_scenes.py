@@ -1244,7 +1244,7 @@ def test_the_deformed_shape_shows_the_material_not_the_whole_floor(
     scene, result, _ = resting
     kept = {}
     monkeypatch.setattr(plot, "save_figure",
-                        lambda fig, path: kept.update(fig=fig))
+                        lambda fig, path, **kw: kept.update(fig=fig))
     plot_deformed_shape(scene, result.points, "", None, Path("no.png"), 1.)
     ax = kept["fig"].axes[0]
     assert not plot.figure_problems(kept["fig"])
@@ -1286,7 +1286,7 @@ def test_the_force_curves_legend_covers_no_curve(tmp_path, monkeypatch):
                         "load_factor": t.tolist(), "time": t.tolist()}}
     kept = {}
     monkeypatch.setattr(plot, "save_figure",
-                        lambda fig, path: kept.update(fig=fig))
+                        lambda fig, path, **kw: kept.update(fig=fig))
     plot_contact_forces(scene, curves, {"floor": np.zeros(2),
                                         "press": np.array([0., -.01])},
                         "obstacles", tmp_path / "obstacles.png")

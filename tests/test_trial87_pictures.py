@@ -195,7 +195,7 @@ def test_the_peak_marked_is_the_magnitude_and_the_components_say_theirs(
     y component the terminal gave as 179.369 (20 kN/m sideways)."""
     kept = {}
     monkeypatch.setattr(plot, "save_figure",
-                        lambda fig, path: kept.update(fig=fig))
+                        lambda fig, path, **kw: kept.update(fig=fig))
     force = [[-2., 31.], [10., 120.], [19.99, 179.369]]
     curves = {"footing": {"force": force, "displacement": [
         [0., -.01], [0., -.02], [0., -.05]], "load_factor": [.2, .4, 1.]}}
