@@ -1436,3 +1436,47 @@ def test_failed_attempts_are_timed_in_the_step_that_converges(monkeypatch):
     for phase, seconds in res.timings().items():
         assert seconds == pytest.approx(sum(t[phase] for t in made),
                                         rel=1e-9, abs=1e-12)
+
+
+def stacked_blocks(ghost, **kw):
+    """A user trial's two elastic blocks (E = 1e6, nu = 0.3) stacked in
+    rough contact, sheared by a quarter of their height, on a grid of h =
+    0.235 (2 x 2 points per cell, uGIMP, small strain), held at y = 0,
+    under a weight of 1e4 in 2 steps: the run."""
+    from skfem_mpm import Contact
+    h, x0, W, H = .235, .176, .834, .658
+    mesh = MeshQuad.init_tensor(np.arange(-3, 8) * h, np.arange(0, 10) * h)
+
+    def block(ya, yb, xa, xb):
+        return seed_points(mesh, 2, region=lambda x: (
+            (x[1] > ya) & (x[1] < yb) & (x[0] > xa + (x[1] - ya) / 4)
+            & (x[0] < xb + (x[1] - ya) / 4)))
+    upper = block(H / 2, H, x0 + .15 + H / 8, x0 + W - .15 + H / 8)
+    upper.body[:] = 1
+    points = concatenate_points([block(0., H / 2, x0, x0 + W), upper])
+    return simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                    lambda b: b.get_dofs(lambda x: x[1] == 0),
+                    body_force=[0., -1e4], nsteps=2, method="ugimp",
+                    kinematics="small",
+                    contacts=[Contact(0, 1, friction="rough")],
+                    options=Options(stabilisation=Stabilisation(
+                        ghost=ghost), **kw))
+
+
+def test_a_point_thrown_by_light_nodes_is_refused():
+    """The stacked blocks' second step converged with the upper block's
+    corner point thrown 3 cells down through the lower block by two nodes
+    holding 0.016 and 0.047 cells of material (above the slivers' 1e-3),
+    its other nodes moving 0.02 cells; the run ended with the point
+    outside the grid, "a grid too tight".  Such a step fails
+    (``GridMotionError``, naming the point and the ghost penalty);
+    ``ghost="auto"`` carries the blocks with no point moved a fiftieth
+    of a cell."""
+    from skfem_mpm import GridMotionError
+    h = .235
+    res = stacked_blocks("auto")
+    moved = np.sqrt((res.points.displacement ** 2).sum(axis=0))
+    assert moved.max() < h / 50
+    with pytest.raises(GridMotionError, match="step 2: point .* moved .* "
+                       "cells .* holding less than 0.1 cells .* ghost"):
+        stacked_blocks(0.)
