@@ -1230,6 +1230,35 @@ def test_quadratic_cells_with_too_few_points_are_warned():
         and m.endswith("seed 3 points per cell and axis") for m in warned)
 
 
+def test_linear_cells_with_one_point_each_are_warned():
+    """Standard MPM on Q1 cells seeded 1 a cell: a point's strain states
+    (3 in 2D, 6 in 3D) are fewer than a cell's DOFs less its rigid-body
+    modes (2 x 4 - 3, 3 x 8 - 6): a user trial's 3D block of 2 x 2 x 2
+    cells on a tied floor stalled Newton at 2.5e-7 of its load, named a
+    floor of the residual with no word of the cause.  Warned before any
+    work; 1D's one strain state is enough, 2 points per cell too."""
+    from skfem import ElementHex1, ElementLineP1, MeshHex, MeshLine
+    from skfem_mpm.solve.core import underintegrated_cells
+    axis = np.linspace(0, 1, 3)
+    for mesh, elem in ((MeshQuad.init_tensor(axis, axis), ElementQuad1()),
+                       (MeshHex.init_tensor(axis, axis, axis),
+                        ElementHex1())):
+        dim = mesh.dim()
+        strains, nodes = dim * (dim + 1) // 2, 2 ** dim
+        message = underintegrated_cells("mpm", mesh, elem,
+                                        seed_points(mesh, 1))
+        assert "1 point per cell and axis: 1 point gives a cell of {} " \
+            "nodes {} of the {} strain states".format(
+                nodes, strains, dim * nodes - strains) in message
+        assert "zero-energy modes" in message and message.endswith(
+            "seed 2 points per cell and axis")
+        assert underintegrated_cells("mpm", mesh, elem,
+                                     seed_points(mesh, 2)) == ""
+    line = MeshLine(axis)
+    assert underintegrated_cells("mpm", line, ElementLineP1(),
+                                 seed_points(line, 1)) == ""
+
+
 def test_antilocking_on_quadratic_cells_with_plasticity_is_refused(caplog):
     """Standard MPM with mean dilatation on Q2 cells and von Mises soil:
     a user trial's strip footing came out 17-26% under Prandtl's limit
@@ -1480,3 +1509,28 @@ def test_a_point_thrown_by_light_nodes_is_refused():
     with pytest.raises(GridMotionError, match="step 2: point .* moved .* "
                        "cells .* holding less than 0.1 cells .* ghost"):
         stacked_blocks(0.)
+
+
+def test_unsettled_contact_says_it_is_cut_back(caplog):
+    """A block on a rough floor whose penalty is 1e-6 (a user trial's
+    extreme option): its rounds do not settle, and the failure was logged
+    as "not retried" beside the step's cut-backs.  The words say what
+    happens: not retried at this increment, cut back while it can be."""
+    from skfem_mpm import Obstacle, UnsettledContactError
+    h = .23
+    mesh = MeshQuad.init_tensor(np.arange(-3, 9) * h, np.arange(-2, 10) * h)
+    points = seed_points(mesh, 2, region=lambda x: (x[0] > .1)
+                         & (x[0] < 1.1) & (x[1] > 0.) & (x[1] < .9))
+    floor = points.x[1].min() - h / 4
+    with caplog.at_level(logging.WARNING), pytest.raises(
+            UnsettledContactError):
+        simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                 np.array([], dtype=int), body_force=[0., -1e4], nsteps=2,
+                 method="mpm", obstacles=[Obstacle(
+                     box=[[-1, 3], [-1, floor]], friction="rough",
+                     penalty=1e-6)])
+    said = [r.getMessage() for r in caplog.records
+            if "did not settle" in r.getMessage()]
+    assert said and all("not retried at this increment" in m
+                        and m.endswith("cut back while it can be")
+                        for m in said)

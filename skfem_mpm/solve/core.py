@@ -777,9 +777,10 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                     break
             else:
                 if isinstance(failure, UnsettledContactError):
-                    logger.warning("%s; not retried (the retry ladder's "
-                                   "other rungs solve each round to the "
-                                   "same equilibrium)", failure)
+                    logger.warning("%s; not retried at this increment "
+                                   "(the retry ladder's other rungs solve "
+                                   "each round to the same equilibrium): "
+                                   "cut back while it can be", failure)
                 raise
             if rung.how is None:
                 rung.change(run, step, failure)
@@ -1940,6 +1941,15 @@ def cell_nodes(elem: Element, mesh: Mesh) -> tuple:
                            np.zeros((0, mesh.dim()))).shape[0]
 
 
+def plural(count: str) -> str:
+    """``count`` points in words.
+
+    >>> plural("1"), plural("2.5")
+    ('1 point', '2.5 points')
+    """
+    return count + (" point" if count == "1" else " points")
+
+
 def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
                           points: MaterialPoints) -> str:
     """Where standard MPM's points, seeded on a tensor grid of
@@ -1950,11 +1960,16 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     whose message blamed nodes held by too few points, in finite
     deformation Newton failed down to the smallest increment with no word
     of the cause (Q2 with 2 x 2 points: 12 of the 15 needed; user
-    trials).  Logged as a warning at the run's start and added to a
+    trials).  Q1 cells with 1 point per cell and axis in 2D and 3D alike
+    (a point's 3 or 6 strain states of a cell's 5 or 18; 1D's one is
+    enough): a 3D block of 2 x 2 x 2 cells on a tied floor (small
+    strain) stalled Newton at 2.5e-7 of its load in its second step,
+    named "a floor of the residual" with no word of the cause (a user
+    trial).  Logged as a warning at the run's start and added to a
     failed run's error."""
     dim = mesh.dim()
     scalar, nodes = cell_nodes(elem, mesh)
-    if method != "mpm" or mesh.t.shape[0] != 2 ** dim or nodes <= 2 ** dim:
+    if method != "mpm" or mesh.t.shape[0] != 2 ** dim:
         return ""
     per_axis = points_per_cell_axis(mesh, points)
     strains = dim * (dim + 1) // 2
@@ -1963,13 +1978,14 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     if have >= needed:
         return ""
     return (
-        "element {} with {} points per cell and axis: {} points give "
+        "element {} with {} per cell and axis: {} {} "
         "a cell of {} nodes {} of the {} strain states its DOFs need, so "
-        "the stiffness has zero-energy modes (a singular matrix); seed "
+        "the stiffness has zero-energy modes (a singular matrix, or "
+        "Newton stalled at a floor of the residual); seed "
         "{} points per cell and axis".format(
-            type(scalar).__name__, per_axis_words(per_axis),
-            int(round(per_axis)) ** dim,
-            nodes, have, needed,
+            type(scalar).__name__, plural(per_axis_words(per_axis)),
+            plural(str(int(round(per_axis)) ** dim)),
+            "gives" if round(per_axis) == 1 else "give", nodes, have, needed,
             int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))))
 
 
