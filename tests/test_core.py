@@ -897,12 +897,16 @@ def test_bspline_supports_inside_the_grid_or_on_part_of_an_edge_are_refused():
     """B-splines' nodes are control points, the field's values only at the
     grid's ends: the block held on a line inside the grid carried 11% less
     force than its support's reaction said, and a block on a base held
-    only under it had stresses 15-19% off.  Refused at the first step,
-    naming a node and the way out; the whole edge held runs."""
+    only under it had stresses 15-19% off.  Refused before the run (its
+    first step's supports and points; a user trial's refusal came in
+    step 1, the run's state attached), naming a node and the way out;
+    the whole edge held runs."""
     with pytest.raises(InvalidInputError, match=r"step 1: method 'bspline' "
                        r"holds DOFs at 4 grid nodes beside free ones .*"
-                       r"\(the first at \[0.5, 0.0\]\).*make the grid end"):
+                       r"\(the first at \[0.5, 0.0\]\).*make the grid end"
+                       ) as refused:
         pressed_against_a_held_line("bspline")
+    assert getattr(refused.value, "state", None) is None   # before work
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
     points = seed_points(mesh, 2, region=lambda x: x[0] < 1)
     for under, refused in ((lambda x: x[0] <= 1, True), (None, False)):

@@ -66,7 +66,8 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..methods.assembly import ElementPattern
 from ..methods.bspline import check_uniform_axes, warn_loaded_point_splines
-from ..methods.method import DOMAIN_METHODS, METHODS, make_method
+from ..methods.method import (DOMAIN_METHODS, METHODS, PointMethod,
+                             make_method)
 from ..protocols import GridTerm
 from ..methods.gimp import single_point_domains
 from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
@@ -94,7 +95,8 @@ from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
                       translate_aliases)
 from .obstacles import check_obstacles
 from .problem import STABILISATION, STABILISATION_FLOOR, StepProblem
-from .results import Result, StepRecord
+from .motion import held_motion
+from .results import PHASES, Result, StepRecord
 from .rigid import (RigidBody, check_rigid_bodies, warn_rigid_cells,
                     warn_stiff_smooth_bodies)
 from .rotation import SmallStrainRange
@@ -1646,6 +1648,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     increment = 1. / nsteps if resume.increment is None \
         else float(resume.increment)
     smallest = 1. / nsteps / 2 ** options.newton.max_cutbacks
+    if step == 0:
+        check_first_supports(run, result.points, factor + increment)
     if resume.counters:
         run.counters.update(resume.counters)
         if run.counters["ghost_from_step"]:
@@ -1654,6 +1658,23 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                     term.switch_on()
     return advance(run, result, nsteps, step, factor, increment, smallest,
                    options.callback)
+
+
+def check_first_supports(run: Run, points: MaterialPoints, f_new: float):
+    """The method's check of the supports
+    (:meth:`~skfem_mpm.methods.method.BSplineMethod.check_supports`: a
+    B-spline's held nodes inside the grid) on the first step's points and
+    held DOFs, before any work: it had refused at step 1, the run's
+    state attached and no step done (a user trial).  A method that checks
+    nothing builds no operator here; the later steps are checked as they
+    come (the points move to other nodes)."""
+    method = getattr(run.method, "piece", run.method)
+    if type(method).check_supports is PointMethod.check_supports:
+        return
+    op = run.method.operator(points, 1, dict.fromkeys(PHASES, 0.))
+    fixed = held_motion(run, op, points, run.scale(0.), run.scale(f_new),
+                        1).fixed
+    run.method.check_supports(op, fixed, run.grid.nodal_dofs, 1)
 
 
 class Case(NamedTuple):
