@@ -219,9 +219,9 @@ def build_parser() -> argparse.ArgumentParser:
         "(up to 3 retries; --no-retry: none); every trial is judged at "
         "the end: a run that failed below one that converged, a verdict "
         "not monotone in F, widen the factor's span beyond its bracket "
-        "(a WARNING).  Prints a line per "
-        "trial; writes safety.json (every trial with its error message, "
-        "the factor, its bracket and span), safety.png (largest displacement against F) and "
+        "(a WARNING).  Prints a line per trial; writes safety.json "
+        "(every trial with its error message, the factor, its bracket "
+        "and span), safety.png (largest displacement against F) and "
         "mechanism.png (the plastic zone of the last trial that stood) "
         "to --out.  Recommended: --low well below the factor (1 for a "
         "slope thought to stand), 8 or more load steps.")
