@@ -290,3 +290,25 @@ def test_a_trial_that_stands_above_one_that_did_not_is_said():
     assert span == (1.5, 1.75)
     assert "not monotone" in said[-1] and "from 1.5 to 1.75" in said[-1]
     assert "F = 1.6250 failed (E: c) but the one at F = 1.7000" in said[0]
+
+
+def test_convergence_alone_says_a_trial_that_stood_far_away():
+    """Trial 98 with ``--growth none``: F = 1.8906 stood, 28 times as far
+    as the run at F = 1, and set 1.896 where the displacement criterion
+    gives 1.820: the result says so, naming the smallest such factor."""
+    knee, limit = 1.3, 1.37
+
+    def run(factor):
+        if factor > limit:
+            raise NewtonDivergenceError("no equilibrium")
+        return stand_in(factor, 10. if factor > knee else 1.)
+    s = strength_reduction(run, growth=None)
+    assert s.converged <= limit < s.failed
+    far = [f for (f, stood), d in zip(s.trials, s.displacements)
+           if stood and d > 5 * s.displacements[0]]
+    assert far and knee < min(far)
+    assert s.warnings == [
+        "judged by convergence alone, the trial at F = {:.4f} stood though "
+        "it moved 10 times the run at F = 1; with growth = 5 the factor of "
+        "safety is below {:.4g}".format(max(far), min(far))]
+    assert strength_reduction(run).warnings == []
