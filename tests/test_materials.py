@@ -59,10 +59,11 @@ MATERIAL = HardeningVonMises(1e4, .3, yield_stress=10., H=2e3)
 GAMMA = 5e-3
 
 
-def shear_run(nsteps, kinematics="small", points=None, **kwargs):
+def shear_run(nsteps, kinematics="small", points=None, material=MATERIAL,
+              **kwargs):
     """A unit block on a 2 x 2 grid whose boundary follows the simple
     shear ``u_x = f gamma y`` at load factor f (from ``points``, default
-    2 x 2 per cell)."""
+    2 x 2 per cell; of ``material``)."""
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
 
     def prescribed(basis, f_old, f_new):
@@ -72,7 +73,7 @@ def shear_run(nsteps, kinematics="small", points=None, **kwargs):
         return basis.nodal_dofs[:, nodes].T.ravel(), du.T.ravel()
     if points is None:
         points = seed_points(mesh, 2)
-    return simulate(mesh, ElementQuad1(), points, MATERIAL,
+    return simulate(mesh, ElementQuad1(), points, material,
                     np.array([], dtype=np.int64), prescribed=prescribed,
                     nsteps=nsteps, kinematics=kinematics, **kwargs)
 
