@@ -260,6 +260,12 @@ def test_a_linear_rate_of_a_user_material_is_named_in_the_error():
         "may not be the derivative of its stress (check it with " \
         "skfem_mpm.mechanics.element_tests.tangent_error" \
         in str(failed.value)
+    # the last attempt's tangent was stabilised; the rate is an earlier
+    # one's (it said "the attempt with the exact tangent" of a wrong one)
+    assert "exact tangent" not in str(failed.value)
+    assert "this attempt's tangent was stabilised; an earlier attempt's, " \
+        "with the tangent as assembled: the residual fell" \
+        in str(failed.value)
     good = simulate(mesh, ElementQuad1(), points.copy(), MATERIAL,
                     np.array([], dtype=np.int64),
                     loads=[Prescribed(prescribed)], nsteps=2,
