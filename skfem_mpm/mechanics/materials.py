@@ -524,6 +524,7 @@ def update(material, eps: ndarray, state, where=0):
     ...     def principal_update(self, eps, state):
     ...         return LinearElastic.principal_update(self, eps)[:4] + (
     ...             {"junk": eps[0]},)
+    >>> Leaky.__module__ = "my_models"         # (a doctest's is ours)
     >>> update(Leaky(1e3, .3), np.zeros((3, 2)), {})
     Traceback (most recent call last):
     ...
