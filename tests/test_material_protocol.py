@@ -159,3 +159,38 @@ def test_a_protocol_gap_is_named_by_class_not_repr():
         run(NoLam(), "small")
     assert "material NoLam does not" in str(caught.value)
     assert "object at" not in str(caught.value)
+
+
+class NaNElastic(OwnElastic):
+    """An elastic model of one's own whose stress (small strain's linear
+    law) is NaN where the shear strain passes a threshold."""
+    plastic = False
+
+    def stress(self, strain):
+        tr = np.trace(strain)
+        sig = 2 * self.mu * strain + self.lam * tr * np.eye(3)[:, :, None]
+        return np.where(np.abs(strain[0, 1]) > 1e-3, np.nan, sig)
+
+
+def test_nan_in_an_elastic_stress_is_named():
+    with pytest.raises(NonFiniteMaterialError,
+                       match=r"NaNElastic.stress returned NaN or inf in "
+                       r"stress at \d+ point\(s\)"):
+        run(NaNElastic(1e4, 3e3), "small")
+
+
+def test_several_bodies_name_the_runs_point_indices():
+    """A user's model as body 1 of two: the indices are the run's, those
+    of body 1's points."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import seed_points
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    points = seed_points(mesh, 2)
+    points.body = (points.x[1] > .5).astype(int)
+    bad = variant(nan_state)
+    with pytest.raises(NonFiniteMaterialError) as caught:
+        shear_run(4, "small", points=points,
+                  material=[VonMises(1e4, .3, 1e9), bad])
+    cause = caught.value.__cause__ or caught.value
+    assert cause.indices and all(points.body[i] == 1
+                                 for i in cause.indices)
