@@ -1237,6 +1237,65 @@ def terms_hint(run: Run, points) -> str:
                    for term in run.terms)
 
 
+def warn_resumed_terms(run: Run, resume: Resume) -> None:
+    """A resumed run with grid terms of the user's own that do not say
+    they keep nothing over the steps (:attr:`~skfem_mpm.GridTerm.
+    stateless`) is warned, naming them: what such a term keeps (a
+    spring bed's total displacement) is in neither the points nor the
+    checkpoints, and ``begin_run`` has just started it afresh (trial
+    97's spring bed, resumed with a fresh term after 2 of 4 steps,
+    settled -2.16e-3 against -1.44e-3 uninterrupted, +50%, silently)."""
+    if not run.resumed:
+        return
+    own = sorted({type(term).__name__ for term in run.user_terms
+                  if not type(term).__module__.startswith("skfem_mpm.")
+                  and not term.stateless})
+    if own:
+        logger.warning(
+            "resumed at step %d with grid terms of your own (%s): what "
+            "they keep over the steps (a total displacement, a history) "
+            "is in neither the points nor the checkpoints, and begin_run "
+            "started it afresh; restore it in the term (a spring bed "
+            "resumed fresh settled 50%% more), or set stateless = True "
+            "on a term that keeps nothing", resume.first_step,
+            ", ".join(own))
+
+
+def own_terms_hint(run: Run, err: Exception) -> str:
+    """The run's grid terms of the user's own (``loads=[...]``, classes
+    defined outside the package) named for a failed run's error ``err``:
+    a singular system says what ``holds_free_body`` does, a Newton loop
+    at a linear rate that a term's matrix must be its force's
+    derivative; ``""`` without such terms (trial 97's spring bed ended
+    in "add supports", its matrix left out in "missing supports", its
+    matrix doubled in a linear rate, the term never named)."""
+    own = [term for term in getattr(run, "user_terms", ())
+           if not type(term).__module__.startswith("skfem_mpm.")]
+    if not own:
+        return ""
+    names = ", ".join(sorted({type(term).__name__ for term in own}))
+    holding = [term for term in own if term.holds_free_body]
+    if isinstance(err, SingularSystemError):
+        if not holding:
+            return ("; the run's grid terms of your own ({}) do not set "
+                    "holds_free_body = True: a term whose matrix holds "
+                    "the body in every rigid-body motion (an elastic "
+                    "foundation, a mass) sets it, and the check of the "
+                    "supports is left out (docs/architecture.md, Grid "
+                    "terms)".format(names))
+        return ("; the run's grid terms of your own ({}) set "
+                "holds_free_body = True, which leaves the check of the "
+                "supports out: their matrix(response) must then hold the "
+                "body in every rigid-body motion (a term returning None "
+                "adds nothing to the stiffness)".format(names))
+    if "a linear rate" in str(err):
+        return ("; the run's grid terms of your own ({}) take part: a "
+                "term's matrix(response) must be the derivative of its "
+                "force(du, response), or Newton converges linearly"
+                .format(names))
+    return ""
+
+
 def seeded_hint(run: Run) -> str:
     """The run's start's :func:`underintegrated_cells` sentence for a
     failed run's error, or ``""``."""
@@ -1343,7 +1402,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                            else ""),
                         ghost_hint(run) + seeded_hint(run) + (
                             "".join(term.unheld_hint() for term in run.terms)
-                            if isinstance(err, SingularSystemError) else ""),
+                            if isinstance(err, SingularSystemError) else "")
+                        + own_terms_hint(run, err),
                         terms_hint(run, points)),
                     state=points, load_factor=factor,
                     history=result.history) from err
@@ -1366,8 +1426,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                                 and factor == 0. else ""),)
             elif isinstance(err, SingularSystemError):
                 err.args = (err.args[0] + "".join(
-                    term.unheld_hint() for term in run.terms),) \
-                    + err.args[1:]
+                    term.unheld_hint() for term in run.terms)
+                    + own_terms_hint(run, err),) + err.args[1:]
             elif isinstance(err, PointsOutsideGridError):
                 err.args = (err.args[0] + too_soft(run, points) + (
                     "; they left it in step {} ({} to {}): a grid too "
@@ -2203,6 +2263,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     run.terms = sorted(terms + case.terms, key=lambda term: term.weighs)
     for term in run.terms:
         term.begin_run(points)
+    warn_resumed_terms(run, resume)
     if resume.end_force is not None:
         inertia = [term for term in run.terms
                    if isinstance(term, InertiaTerm)]
