@@ -31,7 +31,8 @@ __all__ = [
     "reduce_strength", "strength_reduction", "Dynamics", "Newmark",
     "GeneralizedAlpha", "material_point_bases", "Obstacle", "ContactError",
     "StepTooLongError", "HeldSupportError", "UnsettledContactError",
-    "Contact",
+    "Contact", "MaterialOutputError", "MaterialProtocolError",
+    "NonFiniteMaterialError",
 ]
 
 
@@ -41,6 +42,8 @@ def _public() -> dict:
     from .errors import (ContactError, ConvergenceError, GridMotionError,
                          InvalidInputError, InvalidMaterialError,
                          InversionError, MPMError, NewtonDivergenceError,
+                         MaterialOutputError, MaterialProtocolError,
+                         NonFiniteMaterialError,
                          NumericalError, PointsOutsideGridError,
                          PrescribedMotionError, SingularSystemError,
                          SingularTangentError, StepFailedError,

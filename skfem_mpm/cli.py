@@ -215,9 +215,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--low and --high (doubled until a trial collapses) and bisected "
         "to --tolerance.  A trial stands when its run converges and its "
         "largest point displacement is at most --growth times that of "
-        "the run at --low; it collapses otherwise.  Prints a line per "
-        "trial; writes safety.json (every trial, the factor and its "
-        "bracket), safety.png (largest displacement against F) and "
+        "the run at --low; it collapses otherwise.  A failed run at the "
+        "top of the final bracket is retried with twice the load steps "
+        "(up to 3 retries; --no-retry: none); every trial is judged at "
+        "the end: a run that failed below one that converged, a verdict "
+        "not monotone in F, widen the factor's span beyond its bracket "
+        "(a WARNING).  Prints a line per trial; writes safety.json "
+        "(every trial with its error message, the factor, its bracket "
+        "and span), safety.png (largest displacement against F) and "
         "mechanism.png (the plastic zone of the last trial that stood) "
         "to --out.  Recommended: --low well below the factor (1 for a "
         "slope thought to stand), 8 or more load steps.")
@@ -242,6 +247,9 @@ def build_parser() -> argparse.ArgumentParser:
     safety.add_argument("--steps", default=None, metavar="N",
                         help="override the scene's number of load steps "
                         "(N >= 1; 8 or more recommended)")
+    safety.add_argument("--no-retry", action="store_true",
+                        help="do not retry a failed run at the top of the "
+                        "bracket with twice the load steps")
     for p in (run, compare, study, safety):
         p.add_argument("--no-progress", action="store_true",
                        help="no progress bar")
@@ -1868,24 +1876,30 @@ def run_safety(args) -> int:
             replace(b, material=reduce_strength(b.material, factor))
             if k in reduced else b for k, b in enumerate(scene.bodies)])
 
-    def trial(factor):
-        """A run at ``factor``, its line printed and its record kept."""
-        progress = Progress(scene.step_count, not args.no_progress)
+    def trial(factor, steps=scene.step_count):
+        """A run at ``factor`` in ``steps`` load steps (more than the
+        scene's: a retry), its line printed and its record kept."""
+        progress = Progress(steps, not args.no_progress)
         tic = run_clock()
         record = {"factor": factor, "converged": False, "error": None,
-                  "largest_displacement": None}
+                  "largest_displacement": None, "steps": steps,
+                  "retry": steps != scene.step_count}
         trials.append(record)
+        if record["retry"]:
+            print("  F = {:.4f}: its run failed; retried with {} load "
+                  "steps (an extra run)".format(factor, steps), flush=True)
         try:
             # the first trial's warnings said (the scene's own, once),
             # the later ones' counted
             with quiet_logs(not args.verbose and len(trials) > 1) as notes:
-                result = run_scene(variant(factor), initial=initial,
+                result = run_scene(replace(variant(factor), nsteps=steps),
+                                   initial=initial,
                                    callback=lambda r, _: progress(r))
         except PrescribedMotionError:
             raise
         except (ConvergenceError, SingularSystemError,
                 PointsOutsideGridError) as err:
-            record.update(error=type(err).__name__,
+            record.update(error="{}: {}".format(type(err).__name__, err),
                           seconds=run_clock() - tic)
             progress.end()
             print("  F = {:.4f}: not converged ({}), {:.1f} s{}".format(
@@ -1916,9 +1930,10 @@ def run_safety(args) -> int:
     tic = run_clock()
     try:
         # the trials' lines count the later warnings (quiet_logs)
-        found = strength_reduction(trial, options["low"], options["high"],
-                                   options["tolerance"], options["growth"],
-                                   quiet=False)
+        found = strength_reduction(
+            trial, options["low"], options["high"], options["tolerance"],
+            options["growth"], quiet=False, retry=None if args.no_retry
+            else lambda f: trial(f, 2 * scene.step_count))
     except KeyboardInterrupt:
         print("skfem-mpm: strength reduction interrupted after {} "
               "trial(s): nothing written".format(len(trials)),
@@ -1935,15 +1950,27 @@ def run_safety(args) -> int:
     print("  {:>8s}  {:9s}  {}".format("F", "outcome",
                                         "largest displacement ({})".format(
                                             length)))
-    for t in summary["trials"]:
-        print("  {:8.4f}  {:9s}  {}".format(
+    for t in sorted(summary["trials"], key=lambda t: t["factor"]):
+        print("  {:8.4f}  {:9s}  {}{}".format(
             t["factor"], t["outcome"], "-" if t["largest_displacement"]
-            is None else "{:.4g}".format(t["largest_displacement"])))
+            is None else "{:.4g}".format(t["largest_displacement"]),
+            "  (retry, {} steps)".format(t["steps"]) if t["retry"]
+            else ""))
+    retries = sum(t["retry"] for t in trials)
     print("{}: factor of safety {:.3f} (bracket {:.4f} .. {:.4f}, {} "
-          "runs, {})".format(scene.name, found.factor, found.converged,
-                             found.failed, len(trials),
-                             clock(summary["wall_seconds"])))
+          "runs{}, {})".format(scene.name, found.factor, found.converged,
+                               found.failed, len(trials),
+                               " of which {} retr{}".format(
+                                   retries, "ies" if retries > 1 else "y")
+                               if retries else "",
+                               clock(summary["wall_seconds"])))
     print(safety_set_by(summary)[1])
+    for sentence in found.warnings:
+        print("  WARNING: {}".format(sentence))
+    if tuple(found.span) != (found.converged, found.failed):
+        print("  WARNING: the factor of safety is uncertain: {:.3f} .. "
+              "{:.3f}, not only its bracket (safety.json's span)".format(
+                  *found.span))
     width, height = body_figure_size(found.result.points.x[:2])
     # room for the colour bar's label (two lines) beside a low slope
     fig, ax = pyplot().subplots(figsize=(max(width, 8.), max(height, 4.5)))
@@ -2023,11 +2050,13 @@ def write_safety(outdir: Path, scene, reduced: list, options: dict,
         "factor_of_safety": None if found is None else found.factor,
         "bracket": None if found is None else [found.converged,
                                                found.failed],
+        "span": None if found is None else list(found.span),
+        "warnings": [] if found is None else list(found.warnings),
         "reference_displacement": None if found is None else
         found.reference,
         "trials": rows, "wall_seconds": seconds,
         "units": {"factor_of_safety": "-", "factor": "-",
-                  "largest_displacement": length,
+                  "largest_displacement": length, "span": "-",
                   "reference_displacement": length, "seconds": "s",
                   "wall_seconds": "s", "system": scene.units}}
     if error is not None:
@@ -2070,6 +2099,11 @@ def plot_safety(summary: dict, path: Path):
         ax.axhline(summary["growth"] * moved[0], color="tab:red", ls="--",
                    lw=1., label="collapse threshold: {:g} x the run at "
                    "F = {:g}".format(summary["growth"], summary["low"]))
+    if summary["factor_of_safety"] is not None and \
+            summary.get("span") not in (None, summary["bracket"]):
+        ax.axvspan(*summary["span"], color="tab:orange", alpha=.2, lw=0,
+                   hatch="//", label="WARNING: uncertain,\n{:.4f} .. "
+                   "{:.4f}".format(*summary["span"]))
     if summary["factor_of_safety"] is not None:
         lo, hi = summary["bracket"]
         ax.axvspan(lo, hi, color="tab:green", alpha=.25, lw=0)

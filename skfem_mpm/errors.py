@@ -162,6 +162,55 @@ class StepFailedError(ConvergenceError):
     ``__cause__``, the last converged state is attached."""
 
 
+class MaterialOutputError(MPMError):
+    """What a material of the user's own returned (or did) breaks the
+    material protocol (:mod:`skfem_mpm.mechanics.materials`).
+
+    Attributes
+    ----------
+    material
+        The material's class name.
+    method
+        ``"principal_update"`` or ``"stress"``.
+    variable
+        What is wrong: ``"tau"``, ``"eps_e"``, ``"D"``, ``"yielded"``,
+        ``"new_state"`` or ``"new_state['name']"``, ``"state['name']"``
+        (written into), ``"stress"``.
+    indices
+        The run's indices of the points concerned (the first few), or
+        ``None`` where the fault is not a point's (a shape).
+
+    In a run the last converged state is attached (``state``,
+    ``load_factor``, ``history``); after cut-backs the error raised is a
+    new one of the same type whose ``__cause__`` carries these
+    attributes.
+
+    """
+
+    def __init__(self, message, material=None, method=None, variable=None,
+                 indices=None, **kwargs):
+        super().__init__(message, **kwargs)
+        self.material, self.method = material, method
+        self.variable, self.indices = variable, indices
+        for name in ("state", "load_factor", "history"):
+            if not hasattr(self, name):
+                setattr(self, name, None)
+
+
+class MaterialProtocolError(MaterialOutputError, InvalidMaterialError):
+    """A material returned arrays of the wrong shape or type, a state
+    without one of its ``state_variables`` or with a name it does not
+    declare, or wrote into the state it was given: the run stops at
+    once (a shorter step cannot cure it)."""
+
+
+class NonFiniteMaterialError(MaterialOutputError, NumericalError):
+    """A material returned NaN or inf (stress, elastic strain, tangent or
+    a state variable) at some points: a failed step, cut back like a
+    diverging one (a shorter step may avoid a trial state where the
+    model's arithmetic overflows)."""
+
+
 def check_finite(name: str, a: np.ndarray):
     """Raise :class:`InvalidInputError` naming the first non-finite entry."""
     bad = ~np.isfinite(a)

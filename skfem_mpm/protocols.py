@@ -101,13 +101,23 @@ class GridTerm:
 
     The displacement increment ``du`` is the step's (the grid is reset
     every step): the spring keeps the total in :meth:`commit`, valid while
-    the material at its node stays in the node's cells.
+    the material at its node stays in the node's cells.  That total is
+    the term's own: a checkpoint does not hold it, and a resumed run
+    starts it again in :meth:`begin_run` (and warns, unless the term
+    sets :attr:`stateless`); restore it there to resume such a run.
     """
 
     #: the term's matrix holds every rigid-body motion of the grid (a mass,
     #: an elastic foundation): the check for missing supports before a
     #: step is left out
     holds_free_body = False
+    #: the term keeps nothing over the steps (its force and matrix depend
+    #: on the step's increment and the points alone): a resumed run does
+    #: not warn of it.  What a term keeps (a spring's total displacement)
+    #: is in neither the points nor the checkpoints, and :meth:`begin_run`
+    #: starts it again on a resume: a resumed run with terms of one's own
+    #: that do not set this warns, naming them
+    stateless = False
     #: the term weighs the balance in time (:meth:`weigh`): begun after
     #: every other term of a run
     weighs = False

@@ -897,12 +897,16 @@ def test_bspline_supports_inside_the_grid_or_on_part_of_an_edge_are_refused():
     """B-splines' nodes are control points, the field's values only at the
     grid's ends: the block held on a line inside the grid carried 11% less
     force than its support's reaction said, and a block on a base held
-    only under it had stresses 15-19% off.  Refused at the first step,
-    naming a node and the way out; the whole edge held runs."""
+    only under it had stresses 15-19% off.  Refused before the run (its
+    first step's supports and points; a user trial's refusal came in
+    step 1, the run's state attached), naming a node and the way out;
+    the whole edge held runs."""
     with pytest.raises(InvalidInputError, match=r"step 1: method 'bspline' "
                        r"holds DOFs at 4 grid nodes beside free ones .*"
-                       r"\(the first at \[0.5, 0.0\]\).*make the grid end"):
+                       r"\(the first at \[0.5, 0.0\]\).*make the grid end"
+                       ) as refused:
         pressed_against_a_held_line("bspline")
+    assert getattr(refused.value, "state", None) is None   # before work
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 1, 5))
     points = seed_points(mesh, 2, region=lambda x: x[0] < 1)
     for under, refused in ((lambda x: x[0] <= 1, True), (None, False)):
@@ -1230,6 +1234,35 @@ def test_quadratic_cells_with_too_few_points_are_warned():
         and m.endswith("seed 3 points per cell and axis") for m in warned)
 
 
+def test_linear_cells_with_one_point_each_are_warned():
+    """Standard MPM on Q1 cells seeded 1 a cell: a point's strain states
+    (3 in 2D, 6 in 3D) are fewer than a cell's DOFs less its rigid-body
+    modes (2 x 4 - 3, 3 x 8 - 6): a user trial's 3D block of 2 x 2 x 2
+    cells on a tied floor stalled Newton at 2.5e-7 of its load, named a
+    floor of the residual with no word of the cause.  Warned before any
+    work; 1D's one strain state is enough, 2 points per cell too."""
+    from skfem import ElementHex1, ElementLineP1, MeshHex, MeshLine
+    from skfem_mpm.solve.core import underintegrated_cells
+    axis = np.linspace(0, 1, 3)
+    for mesh, elem in ((MeshQuad.init_tensor(axis, axis), ElementQuad1()),
+                       (MeshHex.init_tensor(axis, axis, axis),
+                        ElementHex1())):
+        dim = mesh.dim()
+        strains, nodes = dim * (dim + 1) // 2, 2 ** dim
+        message = underintegrated_cells("mpm", mesh, elem,
+                                        seed_points(mesh, 1))
+        assert "1 point per cell and axis: 1 point gives a cell of {} " \
+            "nodes {} of the {} strain states".format(
+                nodes, strains, dim * nodes - strains) in message
+        assert "zero-energy modes" in message and message.endswith(
+            "seed 2 points per cell and axis")
+        assert underintegrated_cells("mpm", mesh, elem,
+                                     seed_points(mesh, 2)) == ""
+    line = MeshLine(axis)
+    assert underintegrated_cells("mpm", line, ElementLineP1(),
+                                 seed_points(line, 1)) == ""
+
+
 def test_antilocking_on_quadratic_cells_with_plasticity_is_refused(caplog):
     """Standard MPM with mean dilatation on Q2 cells and von Mises soil:
     a user trial's strip footing came out 17-26% under Prandtl's limit
@@ -1436,3 +1469,72 @@ def test_failed_attempts_are_timed_in_the_step_that_converges(monkeypatch):
     for phase, seconds in res.timings().items():
         assert seconds == pytest.approx(sum(t[phase] for t in made),
                                         rel=1e-9, abs=1e-12)
+
+
+def stacked_blocks(ghost, **kw):
+    """A user trial's two elastic blocks (E = 1e6, nu = 0.3) stacked in
+    rough contact, sheared by a quarter of their height, on a grid of h =
+    0.235 (2 x 2 points per cell, uGIMP, small strain), held at y = 0,
+    under a weight of 1e4 in 2 steps: the run."""
+    from skfem_mpm import Contact
+    h, x0, W, H = .235, .176, .834, .658
+    mesh = MeshQuad.init_tensor(np.arange(-3, 8) * h, np.arange(0, 10) * h)
+
+    def block(ya, yb, xa, xb):
+        return seed_points(mesh, 2, region=lambda x: (
+            (x[1] > ya) & (x[1] < yb) & (x[0] > xa + (x[1] - ya) / 4)
+            & (x[0] < xb + (x[1] - ya) / 4)))
+    upper = block(H / 2, H, x0 + .15 + H / 8, x0 + W - .15 + H / 8)
+    upper.body[:] = 1
+    points = concatenate_points([block(0., H / 2, x0, x0 + W), upper])
+    return simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                    lambda b: b.get_dofs(lambda x: x[1] == 0),
+                    body_force=[0., -1e4], nsteps=2, method="ugimp",
+                    kinematics="small",
+                    contacts=[Contact(0, 1, friction="rough")],
+                    options=Options(stabilisation=Stabilisation(
+                        ghost=ghost), **kw))
+
+
+def test_a_point_thrown_by_light_nodes_is_refused():
+    """The stacked blocks' second step converged with the upper block's
+    corner point thrown 3 cells down through the lower block by two nodes
+    holding 0.016 and 0.047 cells of material (above the slivers' 1e-3),
+    its other nodes moving 0.02 cells; the run ended with the point
+    outside the grid, "a grid too tight".  Such a step fails
+    (``GridMotionError``, naming the point and the ghost penalty);
+    ``ghost="auto"`` carries the blocks with no point moved a fiftieth
+    of a cell."""
+    from skfem_mpm import GridMotionError
+    h = .235
+    res = stacked_blocks("auto")
+    moved = np.sqrt((res.points.displacement ** 2).sum(axis=0))
+    assert moved.max() < h / 50
+    with pytest.raises(GridMotionError, match="step 2: point .* moved .* "
+                       "cells .* holding less than 0.1 cells .* ghost"):
+        stacked_blocks(0.)
+
+
+def test_unsettled_contact_says_it_is_cut_back(caplog):
+    """A block on a rough floor whose penalty is 1e-6 (a user trial's
+    extreme option): its rounds do not settle, and the failure was logged
+    as "not retried" beside the step's cut-backs.  The words say what
+    happens: not retried at this increment, cut back while it can be."""
+    from skfem_mpm import Obstacle, UnsettledContactError
+    h = .23
+    mesh = MeshQuad.init_tensor(np.arange(-3, 9) * h, np.arange(-2, 10) * h)
+    points = seed_points(mesh, 2, region=lambda x: (x[0] > .1)
+                         & (x[0] < 1.1) & (x[1] > 0.) & (x[1] < .9))
+    floor = points.x[1].min() - h / 4
+    with caplog.at_level(logging.WARNING), pytest.raises(
+            UnsettledContactError):
+        simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                 np.array([], dtype=int), body_force=[0., -1e4], nsteps=2,
+                 method="mpm", obstacles=[Obstacle(
+                     box=[[-1, 3], [-1, floor]], friction="rough",
+                     penalty=1e-6)])
+    said = [r.getMessage() for r in caplog.records
+            if "did not settle" in r.getMessage()]
+    assert said and all("not retried at this increment" in m
+                        and m.endswith("cut back while it can be")
+                        for m in said)

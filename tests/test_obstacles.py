@@ -852,6 +852,45 @@ def wall_against_held_base(method, held_x, caplog):
                      if ": obstacle 'wall' pushes" in r.getMessage()]
 
 
+@pytest.mark.parametrize("pin", [False, True])
+def test_an_obstacle_s_force_is_its_own_where_a_support_holds_its_nodes(
+        pin):
+    """A block 1 x 0.5 under its weight on a smooth floor obstacle, its
+    left side held in x (the nodes the floor presses there too): the
+    floor's force is the weight to 1e-8, none of it booked at the
+    support.  Its lowest left nodes also held in y (a pin sharing the
+    floor's DOFs): the pin takes a share, and the floor's force plus the
+    supports' reactions is the weight to 1e-8, nothing counted twice or
+    lost (trial 98 suspected a retaining wall's thrust booked as its held
+    base's reaction; it was not: docs/contact.md, "Retaining walls")."""
+    h, weight, width, height = .125, 2e4, 1., .5
+    mesh = MeshQuad.init_tensor(np.arange(-.25, 1.25 + 1e-9, h),
+                                np.arange(-.25, .75 + 1e-9, h))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] > 0) & (x[0] < width)
+                      & (x[1] > 0) & (x[1] < height))
+
+    def supports(b):
+        left = b.get_dofs(lambda x: np.isclose(x[0], 0.)).nodal["u^1"]
+        if not pin:
+            return left
+        return np.union1d(left, b.get_dofs(
+            lambda x: np.isclose(x[0], 0.) & (x[1] < .1)).all())
+    floor = Obstacle(box=[[-.5, 1.5], [-.5, 0.]], name="floor")
+    last = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e7, .3),
+                    supports, body_force=[0., -weight], nsteps=2,
+                    obstacles=[floor], method="mpm").history[-1]
+    W = weight * width * height
+    held = last.reactions.reshape(-1, 2).sum(axis=0)
+    assert last.obstacle_forces[0, 0] == pytest.approx(0., abs=1e-8 * W)
+    assert held[0] == pytest.approx(0., abs=1e-8 * W)
+    assert held[1] - last.obstacle_forces[0, 1] == pytest.approx(
+        W, rel=1e-8)
+    if pin:
+        assert .01 * W < held[1] < .5 * W
+    else:
+        assert -last.obstacle_forces[0, 1] == pytest.approx(W, rel=1e-8)
+
+
 def held_share(text: str) -> float:
     """The share of an obstacle's force on held nodes in a message."""
     return float(text.split("pushes ")[1].split("%")[0]) / 100

@@ -152,3 +152,90 @@ def test_a_scene_without_strength_to_reduce_is_refused(tmp_path, capsys,
     assert main(["safety", str(scene), "--out", str(tmp_path / "o")]) == 2
     assert "static scene" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def fake_runs(monkeypatch, limit=1.37, hole=(1.30, 1.33),
+              far=(1.95, 2.05)):
+    """``run_scene`` of the CLI replaced by a stand-in of SLOPE: it
+    collapses beyond ``limit`` (its run fails), fails inside ``hole``
+    with the scene's 8 load steps (a load step too large; more steps
+    converge) and converges again, slumped 30 times as far, in ``far``
+    (trial 98's path: 1.8281 failed, 1.8438 converged).  Returns the
+    (factor, steps) of every run."""
+    import skfem_mpm.cli as cli
+    from types import SimpleNamespace
+
+    from skfem_mpm import NewtonDivergenceError
+    calls = []
+
+    def run_scene(scene, initial=None, callback=None):
+        factor = 86.6 / scene.bodies[0].material.yield_stress
+        calls.append((factor, scene.step_count))
+        if scene.step_count == 8 and hole[0] < factor < hole[1]:
+            raise NewtonDivergenceError(
+                "step 5 of 8: the residual grew (F = {:.6f})".format(factor))
+        moved = .3 if far[0] < factor <= far[1] else .01
+        if factor > limit and not far[0] < factor <= far[1]:
+            raise NewtonDivergenceError("no equilibrium")
+        x = np.array([[10.3, 35.], [0., 10.]])
+        return SimpleNamespace(history=[None] * scene.step_count,
+                               points=SimpleNamespace(
+                                   x=x, dim=2, state={},
+                                   displacement=np.array([[0., 0.],
+                                                          [0., -moved]])))
+    monkeypatch.setattr(cli, "run_scene", run_scene)
+    return calls
+
+
+def test_a_failure_below_a_converged_run_is_said_and_retried(
+        tmp_path, capsys, monkeypatch):
+    """Trial 98: a run failed at a factor below one that converged, and
+    the factor (1.820 or 1.896 by the search path) hid it.  Without
+    retries: a WARNING printed and in safety.json, the span from the
+    bracket's bottom to the run that converged above, each failure's
+    whole message.  With them (the default): the failed top of the
+    bracket is run again with twice the load steps, the bisection goes
+    on to the collapse, each retry a trial and a line."""
+    limit, hole, far = 1.37, (1.30, 1.33), (1.95, 2.05)
+    calls = fake_runs(monkeypatch, limit, hole, far)
+    scene = tmp_path / "slope.toml"
+    scene.write_text(SLOPE)
+    out = tmp_path / "plain"
+    assert main(["safety", str(scene), "--out", str(out), "--no-progress",
+                 "--no-retry"]) == 0
+    printed = capsys.readouterr().out
+    s = json.loads((out / "safety.json").read_text())
+    low, high = s["bracket"]
+    assert hole[0] <= high < hole[1] and all(n == 8 for _, n in calls)
+    above = min(t["factor"] for t in s["trials"]
+                if t["converged"] and t["factor"] > high)
+    assert far[0] < above <= far[1]
+    assert s["span"] == [low, above]
+    top = [t for t in s["trials"] if t["factor"] == high][0]
+    assert top["error"] == "NewtonDivergenceError: step 5 of 8: the " \
+        "residual grew (F = {:.6f})".format(high)
+    assert len(s["warnings"]) == 1
+    assert "the one at F = {:.4f} converged".format(above) in \
+        s["warnings"][0]
+    assert "  WARNING: {}".format(s["warnings"][0]) in printed
+    assert "uncertain: {:.3f} .. {:.3f}".format(low, above) in printed
+    calls.clear()
+    out = tmp_path / "retried"
+    assert main(["safety", str(scene), "--out", str(out),
+                 "--no-progress"]) == 0
+    printed = capsys.readouterr().out
+    s = json.loads((out / "safety.json").read_text())
+    low, high = s["bracket"]
+    assert low <= limit < high and s["span"] == [low, high]
+    again = [t for t in s["trials"] if t["retry"]]
+    assert 1 <= len(again) <= 3 and all(t["steps"] == 16 for t in again)
+    assert [n for _, n in calls].count(16) == len(again)
+    assert len(calls) == len(s["trials"])
+    assert not any("WARNING" in line and "uncertain" in line
+                   for line in printed.splitlines())
+    assert "{} runs of which {} retr".format(len(calls), len(again)) \
+        in printed
+    for t in again:
+        assert "F = {:.4f}: its run failed; retried with 16 load " \
+            "steps".format(t["factor"]) in printed
+    assert any("was numerical" in w for w in s["warnings"])

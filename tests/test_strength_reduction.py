@@ -190,3 +190,125 @@ def test_the_later_trials_warnings_are_counted_not_said(quiet, caplog):
     else:
         assert len(retries) == said[factors[0]] + later
         assert s.quieted == [0] * len(factors)
+
+
+def holed(limit, hole, far=None):
+    """``(run, retry)``: a stand-in collapsing beyond ``limit`` whose
+    ``run`` also fails, for a load step too large, inside ``hole`` (an
+    interval below ``limit``) where ``retry`` (more load steps) stands;
+    with ``far = (a, b)`` both converge again, slumped 30 times as far,
+    between ``a`` and ``b`` (a material point run finding equilibrium
+    metres away)."""
+    def retry(factor):
+        if far is not None and far[0] < factor <= far[1]:
+            return stand_in(factor, 30.)
+        if factor > limit:
+            raise NewtonDivergenceError("no equilibrium at {}".format(
+                factor))
+        return stand_in(factor)
+
+    def run(factor):
+        if hole[0] < factor < hole[1]:
+            raise NewtonDivergenceError("step 5: the residual grew at "
+                                        "{}".format(factor))
+        return retry(factor)
+    return run, retry
+
+
+def test_a_numerical_failure_is_told_by_its_retry():
+    """Trial 98: a run fails at one factor and converges at a larger
+    one.  A failure inside a hole below the collapse (1.37) stops the
+    plain bisection short, unseen among its trials; ``retry`` re-runs
+    the failed top of the bracket and the bisection goes on to the
+    collapse, each retry a trial, the failures' messages kept."""
+    limit, hole = 1.37, (1.30, 1.33)
+    run, retry = holed(limit, hole)
+    plain = strength_reduction(run, growth=None)
+    assert hole[0] <= plain.failed < hole[1]
+    assert plain.warnings == [] and plain.span == (plain.converged,
+                                                   plain.failed)
+    s = strength_reduction(run, growth=None, retry=retry)
+    assert s.converged <= limit < s.failed
+    assert s.failed - s.converged <= .01 * s.converged
+    factors = [f for f, _ in s.trials]
+    assert len(s.retried) == len(s.errors) == len(factors)
+    again = [f for f, r in zip(factors, s.retried) if r]
+    assert 1 <= len(again) <= 3
+    # each retry at a factor whose plain run failed just before it
+    for k, r in enumerate(s.retried):
+        if r:
+            assert factors[k] in factors[:k] and \
+                s.errors[factors.index(factors[k])] is not None
+    holes = [f for f, e in zip(factors, s.errors)
+             if e is not None and hole[0] < f < hole[1]]
+    assert holes and all("step 5: the residual grew at {}".format(f)
+                         in s.errors[factors.index(f)] for f in holes)
+    assert all(e.startswith("NewtonDivergenceError: ")
+               for e in s.errors if e is not None)
+    assert s.span == (s.converged, s.failed)
+    said = " ".join(s.warnings)
+    for f in holes:
+        assert "F = {:.4f} failed".format(f) in said
+    assert "was numerical" in said
+
+
+def test_a_failure_below_a_converged_run_widens_the_span(caplog):
+    """Trial 98's path with ``growth``: the run fails at the top of the
+    bracket (inside a hole) but converges, slumped, above it: the
+    factor's span reaches that run and a warning says so; a retry
+    resolves it."""
+    import logging
+    limit, hole, far = 1.37, (1.30, 1.33), (1.95, 2.05)
+    run, retry = holed(limit, hole, far)
+    with caplog.at_level(logging.WARNING):
+        s = strength_reduction(run)
+    assert hole[0] <= s.failed < hole[1]
+    converged_above = min(f for (f, _), e in zip(s.trials, s.errors)
+                          if e is None and f > s.failed)
+    assert far[0] < converged_above <= far[1]
+    assert s.span == (s.converged, converged_above)
+    said = [r.getMessage() for r in caplog.records
+            if r.levelno == logging.WARNING]
+    assert any("{:.4f}".format(s.failed) in m and "failed (Newton"
+               "DivergenceError: step 5: the residual grew" in m and
+               "the one at F = {:.4f} converged".format(converged_above)
+               in m for m in said), said
+    s = strength_reduction(run, retry=retry)
+    assert s.converged <= limit < s.failed
+    assert s.span == (s.converged, s.failed)
+
+
+def test_a_trial_that_stands_above_one_that_did_not_is_said():
+    """A verdict that is not monotone (a retry stood above a plain
+    failure kept) gives the span from the last stand below the first
+    failure to the first firm failure above the last stand."""
+    from skfem_mpm.solve.strength_reduction import flip_span
+    trials = [(1., True), (2., False), (1.5, True), (1.75, False),
+              (1.625, False), (1.7, True), (1.8, False)]
+    errors = [None, "E: a", None, "E: b", "E: c", None, "E: d"]
+    span, said = flip_span(trials, errors, [False] * len(trials))
+    assert span == (1.5, 1.75)
+    assert "not monotone" in said[-1] and "from 1.5 to 1.75" in said[-1]
+    assert "F = 1.6250 failed (E: c) but the one at F = 1.7000" in said[0]
+
+
+def test_convergence_alone_says_a_trial_that_stood_far_away():
+    """Trial 98 with ``--growth none``: F = 1.8906 stood, 28 times as far
+    as the run at F = 1, and set 1.896 where the displacement criterion
+    gives 1.820: the result says so, naming the smallest such factor."""
+    knee, limit = 1.3, 1.37
+
+    def run(factor):
+        if factor > limit:
+            raise NewtonDivergenceError("no equilibrium")
+        return stand_in(factor, 10. if factor > knee else 1.)
+    s = strength_reduction(run, growth=None)
+    assert s.converged <= limit < s.failed
+    far = [f for (f, stood), d in zip(s.trials, s.displacements)
+           if stood and d > 5 * s.displacements[0]]
+    assert far and knee < min(far)
+    assert s.warnings == [
+        "judged by convergence alone, the trial at F = {:.4f} stood though "
+        "it moved 10 times the run at F = 1; with growth = 5 the factor of "
+        "safety is below {:.4g}".format(max(far), min(far))]
+    assert strength_reduction(run).warnings == []

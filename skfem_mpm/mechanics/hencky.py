@@ -24,7 +24,7 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InversionError
-from .materials import initial_state
+from .materials import initial_state, update
 
 __all__ = ["hencky_update", "hencky_stress", "hencky_elastic_state",
            "SpectralParts", "spatial_tangent", "pull_back",
@@ -154,8 +154,8 @@ def principal_state(material, b_minus_identity: ndarray, dim: int, state,
             "{}".format(bad.size, (bad[:5] + first).tolist()))
     if state is None:
         state = initial_state(material, d.shape[1])
-    tau_p, eps_e, D, yielded, state = material.principal_update(
-        .5 * np.log1p(d), state)
+    tau_p, eps_e, D, yielded, state = update(material, .5 * np.log1p(d),
+                                             state, first)
     return d, vecs, tau_p, eps_e, D, yielded, state
 
 
@@ -180,14 +180,16 @@ def hencky_stress(material, b_minus_identity: ndarray, dim: int = 3,
         d, tau_p, D, vecs, components or dim), yielded, state
 
 
-def hencky_elastic_state(material, parts: SpectralParts, state=None):
+def hencky_elastic_state(material, parts: SpectralParts, state=None,
+                         first: int = 0):
     """The elastic part of :func:`hencky_update` from the
     :class:`SpectralParts` of a trial and the points' internal variables
     at the start of the step: ``(b_e, eps_e)``, the updated elastic left
-    Cauchy-Green tensor and logarithmic strain (3, 3, n)."""
+    Cauchy-Green tensor and logarithmic strain (3, 3, n); ``first``: as
+    :func:`principal_state`."""
     if state is None:
         state = initial_state(material, parts.d.shape[1])
-    eps_e = material.principal_update(.5 * np.log1p(parts.d), state)[1]
+    eps_e = update(material, .5 * np.log1p(parts.d), state, first)[1]
     return spectral_sum(np.exp(2. * eps_e), parts.vecs), \
         spectral_sum(eps_e, parts.vecs)
 

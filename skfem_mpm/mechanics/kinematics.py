@@ -49,7 +49,8 @@ from .hencky import (SpectralParts, hencky_elastic_state, hencky_stress,
                      inverse_and_det, isotropic_derivative, principal_frame,
                      pull_back, spatial_tangent)
 from .compiled import compiled_path, identity_out_of_plane
-from .materials import PointMaterials, elastic_tensor, is_plastic
+from .materials import (PointMaterials, elastic_stress, elastic_tensor,
+                        is_plastic, update)
 
 __all__ = ["SmallStrain", "FiniteStrain", "Response", "KINEMATICS",
            "point_blocks"]
@@ -183,12 +184,13 @@ class SmallStrain:
         k = components(op, self.dim)   # of P and the tangent
         if not self.plastic:
             return self.elastic_response(
-                points, points.stress + self.material.stress(deps),
+                points, points.stress + elastic_stress(self.material,
+                                                       deps),
                 points.strain + deps, k)
         self.counters["return_maps"] += 1
         x, vecs = principal_frame(points.strain + deps, self.dim)
-        sig, eps_e, D, yielded, state = self.material.principal_update(
-            x, points.state)
+        sig, eps_e, D, yielded, state = update(self.material, x,
+                                               points.state)
         stress = np.einsum("Ap,aAp,bAp->abp", sig, vecs, vecs)
         strain = np.einsum("Ap,aAp,bAp->abp", eps_e, vecs, vecs)
         return self.plastic_response(points, (x[:k], sig[:k], D[:k, :k],
@@ -432,7 +434,7 @@ class FiniteStrain:
             b_e[..., block], strain[..., block] = hencky_elastic_state(
                 material_block(self.material, block),
                 SpectralParts(*(part[..., block] for part in spectral)),
-                state_block(state, block))
+                state_block(state, block), block.start)
         self.counters["return_maps"] += self.plastic
         return b_e, strain
 

@@ -21,7 +21,7 @@ A material is an object with
   the isotropic return map on principal values, vectorised over points:
   trial elastic strains ``eps`` (3, n) (logarithmic in finite deformation,
   infinitesimal in small strain), the state at the start of the step
-  (``{name: (n,) array}``, never modified) to principal stresses ``tau``
+  (``{name: (n,) array}``, read-only) to principal stresses ``tau``
   (Kirchhoff in finite deformation, Cauchy in small strain), elastic
   strains ``eps_e`` (3, n), the algorithmic tangent ``D = dtau/deps``
   (3, 3, n), the points that yielded (n,) and the new state;
@@ -38,7 +38,9 @@ A material is an object with
 
 The kinematics (:mod:`skfem_mpm.mechanics.kinematics`) turn principal
 values into tensors and consistent tangents, so a model written once works
-in small strain and in finite deformation.  ``docs/materials.md`` writes a
+in small strain and in finite deformation.  What a model of the user's
+own returns is checked (:func:`update`: shapes, names, finite values).
+``docs/materials.md`` writes a
 model of one's own (von Mises with linear isotropic hardening, run by
 ``tests/test_materials.py``).
 
@@ -50,12 +52,14 @@ from numpy import ndarray
 from skfem.assembly import BilinearForm
 from skfem.models.elasticity import linear_elasticity
 
-from ..errors import InvalidMaterialError, check_real
+from ..errors import (InvalidMaterialError, MaterialProtocolError,
+                      NonFiniteMaterialError, check_real)
 
 __all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
            "is_plastic", "elastic_tensor", "state_variables",
            "initial_state", "inverse_elastic_law", "check_moduli",
-           "MODULUS_LIMIT"]
+           "MODULUS_LIMIT", "update", "elastic_stress", "trusted",
+           "check_lame"]
 
 #: the largest modulus (Young's, Lame's, shear, bulk or hardening) a
 #: material accepts: eight orders below the float64 limit (1.8e308), room
@@ -291,9 +295,10 @@ class PointMaterials:
                 out[:, sel] = inverse_elastic_law(material, tau[:, sel])
         return out
 
-    def principal_update(self, eps: ndarray, state):
-        """Each body's model on its points; a body's internal variables
-        stay unchanged on the points of other bodies."""
+    def principal_update(self, eps: ndarray, state, where=0):
+        """Each body's model on its points (through :func:`update`,
+        ``where`` as there); a body's internal variables stay unchanged
+        on the points of other bodies."""
         tau, eps_e = np.empty_like(eps), np.empty_like(eps)
         D = np.empty((3, 3, eps.shape[1]))
         yielded = np.zeros(eps.shape[1], dtype=bool)
@@ -302,9 +307,12 @@ class PointMaterials:
             sel = np.flatnonzero(self.body == k)
             if sel.size:
                 tau[:, sel], eps_e[:, sel], D[:, :, sel], yielded[sel], \
-                    mine = material.principal_update(
-                        eps[:, sel], {name: state[name][sel]
-                                      for name in material.state_variables})
+                    mine = update(
+                        material, eps[:, sel],
+                        {name: state[name][sel]
+                         for name in getattr(material, "state_variables",
+                                             {})},
+                        run_indices(where, sel))
                 for name, value in mine.items():
                     new[name][sel] = value
         return tau, eps_e, D, yielded, new
@@ -321,10 +329,15 @@ def at_points(material, points) -> object:
                    if not hasattr(m, name)]
         if missing or not (is_plastic(m) or hasattr(m, "stress")):
             raise InvalidMaterialError(
-                "material {}{!r} does not follow the material protocol (see "
+                "material {}{} does not follow the material protocol (see "
                 "skfem_mpm.mechanics.materials): it lacks {}".format(
-                    "{} ".format(k) if len(materials) > 1 else "", m,
+                    "{} ".format(k) if len(materials) > 1 else "",
+                    type(m).__name__,
                     ", ".join(missing or ["stress (elastic materials)"])))
+        if not trusted(m):
+            check_lame(m, "material {}{}".format(
+                "{} ".format(k) if len(materials) > 1 else "",
+                type(m).__name__))
     if not isinstance(material, (list, tuple)):
         return material
     used = int(points.body.max()) + 1
@@ -336,6 +349,45 @@ def at_points(material, points) -> object:
                                        "y" if used == 1 else "ies",
                                        used - 1))
     return PointMaterials(materials, points.body)
+
+
+def check_lame(material, label: str) -> None:
+    """Refuse a material of the user's own whose ``lam`` and ``mu`` are
+    not real and finite, or give a shear modulus ``mu`` or a bulk modulus
+    ``lam + 2 mu / 3`` that is not positive (the shipped models' ``E > 0``
+    and ``-1 < nu < 0.5``): :class:`InvalidMaterialError` naming
+    ``label`` and the values.  A negative modulus ran into
+    PointsOutsideGridError after a warning of 394% strain.
+
+    >>> class Soft:
+    ...     lam, mu = 1e4, -3e3
+    >>> check_lame(Soft(), "material Soft")
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidMaterialError: material Soft: its shear modulus mu = -3000 must be positive (the shipped models' E > 0, -1 < nu < 0.5)
+    """
+    try:
+        lam = np.asarray(material.lam, dtype=float)
+        mu = np.asarray(material.mu, dtype=float)
+    except (TypeError, ValueError) as err:
+        raise InvalidMaterialError("{}: lam and mu must be numbers, got {!r}"
+                                   " and {!r} ({})".format(
+                                       label, material.lam, material.mu,
+                                       err)) from None
+    with np.errstate(over="ignore", invalid="ignore"):
+        bulk = lam + 2 * mu / 3
+    for name, value in (("Lame parameter lam", lam), ("shear modulus mu", mu),
+                        ("bulk modulus lam + 2 mu / 3", bulk)):
+        bad = ~(np.isfinite(value) & (value > 0 if name != "Lame parameter "
+                                      "lam" else True))
+        if np.any(bad):
+            raise InvalidMaterialError(
+                "{}: its {} = {:.6g} must be {} (the shipped models' E > 0, "
+                "-1 < nu < 0.5)".format(
+                    label, name, np.ravel(value)[np.flatnonzero(bad)[0]],
+                    "finite" if name.startswith("Lame") else "positive"))
+    check_moduli([(label + "'s lam", np.max(np.abs(lam))),
+                  (label + "'s mu", np.max(np.abs(mu)))])
 
 
 def is_plastic(material) -> bool:
@@ -397,3 +449,185 @@ def initial_state(material, n: int) -> dict:
     """The internal variables of ``n`` points at their initial values."""
     return {name: np.full(n, float(value)) for name, value in
             getattr(material, "state_variables", {}).items()}
+
+
+def trusted(material) -> bool:
+    """Whether ``material`` is one of the package's own (its class defined
+    in skfem_mpm, not a user's subclass): :func:`update` does not check
+    what it returns (its tests do)."""
+    return type(material).__module__.split(".")[0] == "skfem_mpm"
+
+
+def run_indices(where, local: ndarray) -> ndarray:
+    """The run's indices of points ``local`` of a part of the run's
+    points: ``where`` the index of the part's first point, or the run's
+    index of each of its points."""
+    return local + where if np.ndim(where) == 0 else np.asarray(where)[local]
+
+
+def _fault(material, method, variable, text, indices=None,
+           error=MaterialProtocolError):
+    return error("{}.{} {}".format(type(material).__name__, method, text),
+                 material=type(material).__name__, method=method,
+                 variable=variable, indices=indices)
+
+
+def _non_finite(material, method, variable, value, n, where):
+    """The error for NaN or inf in ``value`` (..., n), or ``None``; a sum
+    first (one pass; a finite sum is finite entries, an overflowing one
+    goes on to the entries)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        if np.isfinite(np.sum(value)):
+            return None
+    bad = np.flatnonzero(~np.isfinite(np.reshape(value, (-1, n))).all(
+        axis=0))
+    if not bad.size:
+        return None
+    at = run_indices(where, bad)
+    return _fault(material, method, variable,
+                  "returned NaN or inf in {} at {} point(s), the first {} "
+                  "(the run's point indices)".format(
+                      variable, bad.size, at[:5].tolist()),
+                  at[:5].tolist(), NonFiniteMaterialError)
+
+
+def _written(material, eps, state) -> list:
+    """The names of ``state`` that ``material.principal_update`` writes
+    into (it raised on read-only views): a second call on copies, the
+    arrays compared; ``None`` where that call fails too."""
+    copies = {name: np.array(value) for name, value in state.items()}
+    try:
+        material.principal_update(eps, copies)
+    except Exception:
+        return None
+    return [name for name, value in state.items() if not np.array_equal(
+        value, copies[name], equal_nan=True)]
+
+
+def update(material, eps: ndarray, state, where=0):
+    """``material.principal_update(eps, state)`` of the load steps, with
+    what a material of the user's own returns checked (``where``: the
+    run's index of the first of these points, or of each; for the
+    errors' words).  A user's model gets read-only views of the state (a
+    model writing into it, against the protocol, raises
+    :class:`~skfem_mpm.errors.MaterialProtocolError` naming the
+    variables) and its return is checked, vectorised: ``tau`` and
+    ``eps_e`` (3, n), ``D`` (3, 3, n), ``yielded`` a bool (n,), the new
+    state exactly its ``state_variables`` each (n,)
+    (:class:`~skfem_mpm.errors.MaterialProtocolError`), every value
+    finite (:class:`~skfem_mpm.errors.NonFiniteMaterialError`, naming
+    the points).  The package's own models (:func:`trusted`) are called
+    as they are.
+
+    >>> import numpy as np
+    >>> class Leaky(LinearElastic):
+    ...     def principal_update(self, eps, state):
+    ...         return LinearElastic.principal_update(self, eps)[:4] + (
+    ...             {"junk": eps[0]},)
+    >>> Leaky.__module__ = "my_models"         # (a doctest's is ours)
+    >>> update(Leaky(1e3, .3), np.zeros((3, 2)), {})
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.MaterialProtocolError: Leaky.principal_update returned a new_state with 'junk', which its state_variables ({}) do not declare (it would be carried into the output and checkpoints): return exactly the declared variables
+    """
+    if trusted(material):
+        if isinstance(material, PointMaterials):
+            return material.principal_update(eps, state, where)
+        return material.principal_update(eps, state)
+    method = "principal_update"
+    state = {} if state is None else state
+    given = {}
+    for name, value in state.items():
+        given[name] = value.view()
+        given[name].flags.writeable = False
+    try:
+        out = material.principal_update(eps, given)
+    except ValueError as err:
+        written = _written(material, eps, state) \
+            if "read-only" in str(err) else None
+        if not written:
+            raise
+        raise _fault(material, method, "state[{!r}]".format(written[0]),
+                     "wrote into its input state {} ({}: the state at the "
+                     "start of the step is read-only, and a cut-back or a "
+                     "later Newton iteration starts from it again): return "
+                     "new arrays in new_state (state[{!r}] + 1, not "
+                     "state[{!r}] += 1)".format(
+                         ", ".join(map(repr, written)), err, written[0],
+                         written[0])) from err
+    n = eps.shape[1]
+    if not isinstance(out, tuple) or len(out) != 5:
+        raise _fault(material, method, "return",
+                     "returned {} where (tau, eps_e, D, yielded, new_state) "
+                     "is expected".format(type(out).__name__ if not
+                                          isinstance(out, tuple) else
+                                          "{} values".format(len(out))))
+    tau, eps_e, D, yielded, new = out
+    for variable, value, shape in (("tau", tau, (3, n)),
+                                   ("eps_e", eps_e, (3, n)),
+                                   ("D", D, (3, 3, n))):
+        if np.shape(value) != shape:
+            raise _fault(material, method, variable,
+                         "returned {} of shape {} where {} is expected (n = "
+                         "{} points)".format(variable, np.shape(value),
+                                             shape, n))
+    if np.shape(yielded) != (n,) or np.asarray(yielded).dtype != bool:
+        raise _fault(material, method, "yielded",
+                     "returned yielded as {} of shape {} where a bool array "
+                     "of shape {} is expected (n = {} points)".format(
+                         np.asarray(yielded).dtype, np.shape(yielded), (n,),
+                         n))
+    declared = getattr(material, "state_variables", {})
+    if not isinstance(new, dict):
+        raise _fault(material, method, "new_state",
+                     "returned new_state as {} where a dict of its "
+                     "state_variables is expected".format(type(new).__name__))
+    missing = [name for name in declared if name not in new]
+    extra = [name for name in new if name not in declared]
+    if missing or extra:
+        raise _fault(material, method, "new_state", "returned a new_state {}"
+                     ", which its state_variables ({}) {}: return exactly "
+                     "the declared variables".format(
+                         "without {}".format(", ".join(map(repr, missing)))
+                         if missing else "with {}".format(
+                             ", ".join(map(repr, extra))),
+                         ", ".join(map(repr, declared)) or "{}",
+                         "declare (it would keep its start value)"
+                         if missing else "do not declare (it would be "
+                         "carried into the output and checkpoints)"))
+    new = dict(new)
+    for name, value in new.items():
+        variable = "new_state[{!r}]".format(name)
+        if np.shape(value) != (n,):
+            raise _fault(material, method, variable,
+                         "returned {} of shape {} where {} is expected (n = "
+                         "{} points)".format(variable, np.shape(value), (n,),
+                                             n))
+        if value is given.get(name):         # unchanged: the points' own
+            new[name] = state[name]
+        elif not isinstance(value, ndarray) or not value.flags.writeable:
+            new[name] = np.array(value, dtype=float)
+    for variable, value in (("tau", tau), ("eps_e", eps_e), ("D", D)) + \
+            tuple(("new_state[{!r}]".format(name), value)
+                  for name, value in new.items()):
+        error = _non_finite(material, method, variable, value, n, where)
+        if error is not None:
+            raise error
+    return tau, eps_e, D, yielded, new
+
+
+def elastic_stress(material, strain: ndarray, where=0) -> ndarray:
+    """``material.stress(strain)`` of an elastic body in small strain,
+    checked as :func:`update` checks a return map: (3, 3, n), finite."""
+    stress = material.stress(strain)
+    if trusted(material):
+        return stress
+    n = strain.shape[-1]
+    if np.shape(stress) != (3, 3, n):
+        raise _fault(material, "stress", "stress",
+                     "returned a stress of shape {} where (3, 3, n) = {} is "
+                     "expected".format(np.shape(stress), (3, 3, n)))
+    error = _non_finite(material, "stress", "stress", stress, n, where)
+    if error is not None:
+        raise error
+    return stress

@@ -66,7 +66,8 @@ from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..methods.assembly import ElementPattern
 from ..methods.bspline import check_uniform_axes, warn_loaded_point_splines
-from ..methods.method import DOMAIN_METHODS, METHODS, make_method
+from ..methods.method import (DOMAIN_METHODS, METHODS, PointMethod,
+                             make_method)
 from ..protocols import GridTerm
 from ..methods.gimp import single_point_domains
 from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
@@ -94,7 +95,8 @@ from .options import (BodyForce, Options, Prescribed, Resume, check_ramp,
                       translate_aliases)
 from .obstacles import check_obstacles
 from .problem import STABILISATION, STABILISATION_FLOOR, StepProblem
-from .results import Result, StepRecord
+from .motion import held_motion
+from .results import PHASES, Result, StepRecord
 from .rigid import (RigidBody, check_rigid_bodies, warn_rigid_cells,
                     warn_stiff_smooth_bodies)
 from .rotation import SmallStrainRange
@@ -777,9 +779,10 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                     break
             else:
                 if isinstance(failure, UnsettledContactError):
-                    logger.warning("%s; not retried (the retry ladder's "
-                                   "other rungs solve each round to the "
-                                   "same equilibrium)", failure)
+                    logger.warning("%s; not retried at this increment "
+                                   "(the retry ladder's other rungs solve "
+                                   "each round to the same equilibrium): "
+                                   "cut back while it can be", failure)
                 raise
             if rung.how is None:
                 rung.change(run, step, failure)
@@ -1234,6 +1237,65 @@ def terms_hint(run: Run, points) -> str:
                    for term in run.terms)
 
 
+def warn_resumed_terms(run: Run, resume: Resume) -> None:
+    """A resumed run with grid terms of the user's own that do not say
+    they keep nothing over the steps (:attr:`~skfem_mpm.GridTerm.
+    stateless`) is warned, naming them: what such a term keeps (a
+    spring bed's total displacement) is in neither the points nor the
+    checkpoints, and ``begin_run`` has just started it afresh (trial
+    97's spring bed, resumed with a fresh term after 2 of 4 steps,
+    settled -2.16e-3 against -1.44e-3 uninterrupted, +50%, silently)."""
+    if not run.resumed:
+        return
+    own = sorted({type(term).__name__ for term in run.user_terms
+                  if not type(term).__module__.startswith("skfem_mpm.")
+                  and not term.stateless})
+    if own:
+        logger.warning(
+            "resumed at step %d with grid terms of your own (%s): what "
+            "they keep over the steps (a total displacement, a history) "
+            "is in neither the points nor the checkpoints, and begin_run "
+            "started it afresh; restore it in the term (a spring bed "
+            "resumed fresh settled 50%% more), or set stateless = True "
+            "on a term that keeps nothing", resume.first_step,
+            ", ".join(own))
+
+
+def own_terms_hint(run: Run, err: Exception) -> str:
+    """The run's grid terms of the user's own (``loads=[...]``, classes
+    defined outside the package) named for a failed run's error ``err``:
+    a singular system says what ``holds_free_body`` does, a Newton loop
+    at a linear rate that a term's matrix must be its force's
+    derivative; ``""`` without such terms (trial 97's spring bed ended
+    in "add supports", its matrix left out in "missing supports", its
+    matrix doubled in a linear rate, the term never named)."""
+    own = [term for term in getattr(run, "user_terms", ())
+           if not type(term).__module__.startswith("skfem_mpm.")]
+    if not own:
+        return ""
+    names = ", ".join(sorted({type(term).__name__ for term in own}))
+    holding = [term for term in own if term.holds_free_body]
+    if isinstance(err, SingularSystemError):
+        if not holding:
+            return ("; the run's grid terms of your own ({}) do not set "
+                    "holds_free_body = True: a term whose matrix holds "
+                    "the body in every rigid-body motion (an elastic "
+                    "foundation, a mass) sets it, and the check of the "
+                    "supports is left out (docs/architecture.md, Grid "
+                    "terms)".format(names))
+        return ("; the run's grid terms of your own ({}) set "
+                "holds_free_body = True, which leaves the check of the "
+                "supports out: their matrix(response) must then hold the "
+                "body in every rigid-body motion (a term returning None "
+                "adds nothing to the stiffness)".format(names))
+    if "a linear rate" in str(err):
+        return ("; the run's grid terms of your own ({}) take part: a "
+                "term's matrix(response) must be the derivative of its "
+                "force(du, response), or Newton converges linearly"
+                .format(names))
+    return ""
+
+
 def seeded_hint(run: Run) -> str:
     """The run's start's :func:`underintegrated_cells` sentence for a
     failed run's error, or ``""``."""
@@ -1340,7 +1402,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                            else ""),
                         ghost_hint(run) + seeded_hint(run) + (
                             "".join(term.unheld_hint() for term in run.terms)
-                            if isinstance(err, SingularSystemError) else ""),
+                            if isinstance(err, SingularSystemError) else "")
+                        + own_terms_hint(run, err),
                         terms_hint(run, points)),
                     state=points, load_factor=factor,
                     history=result.history) from err
@@ -1363,8 +1426,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                                 and factor == 0. else ""),)
             elif isinstance(err, SingularSystemError):
                 err.args = (err.args[0] + "".join(
-                    term.unheld_hint() for term in run.terms),) \
-                    + err.args[1:]
+                    term.unheld_hint() for term in run.terms)
+                    + own_terms_hint(run, err),) + err.args[1:]
             elif isinstance(err, PointsOutsideGridError):
                 err.args = (err.args[0] + too_soft(run, points) + (
                     "; they left it in step {} ({} to {}): a grid too "
@@ -1645,6 +1708,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     increment = 1. / nsteps if resume.increment is None \
         else float(resume.increment)
     smallest = 1. / nsteps / 2 ** options.newton.max_cutbacks
+    if step == 0:
+        check_first_supports(run, result.points, factor + increment)
     if resume.counters:
         run.counters.update(resume.counters)
         if run.counters["ghost_from_step"]:
@@ -1653,6 +1718,23 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
                     term.switch_on()
     return advance(run, result, nsteps, step, factor, increment, smallest,
                    options.callback)
+
+
+def check_first_supports(run: Run, points: MaterialPoints, f_new: float):
+    """The method's check of the supports
+    (:meth:`~skfem_mpm.methods.method.BSplineMethod.check_supports`: a
+    B-spline's held nodes inside the grid) on the first step's points and
+    held DOFs, before any work: it had refused at step 1, the run's
+    state attached and no step done (a user trial).  A method that checks
+    nothing builds no operator here; the later steps are checked as they
+    come (the points move to other nodes)."""
+    method = getattr(run.method, "piece", run.method)
+    if type(method).check_supports is PointMethod.check_supports:
+        return
+    op = run.method.operator(points, 1, dict.fromkeys(PHASES, 0.))
+    fixed = held_motion(run, op, points, run.scale(0.), run.scale(f_new),
+                        1).fixed
+    run.method.check_supports(op, fixed, run.grid.nodal_dofs, 1)
 
 
 class Case(NamedTuple):
@@ -1940,6 +2022,15 @@ def cell_nodes(elem: Element, mesh: Mesh) -> tuple:
                            np.zeros((0, mesh.dim()))).shape[0]
 
 
+def plural(count: str) -> str:
+    """``count`` points in words.
+
+    >>> plural("1"), plural("2.5")
+    ('1 point', '2.5 points')
+    """
+    return count + (" point" if count == "1" else " points")
+
+
 def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
                           points: MaterialPoints) -> str:
     """Where standard MPM's points, seeded on a tensor grid of
@@ -1950,11 +2041,16 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     whose message blamed nodes held by too few points, in finite
     deformation Newton failed down to the smallest increment with no word
     of the cause (Q2 with 2 x 2 points: 12 of the 15 needed; user
-    trials).  Logged as a warning at the run's start and added to a
+    trials).  Q1 cells with 1 point per cell and axis in 2D and 3D alike
+    (a point's 3 or 6 strain states of a cell's 5 or 18; 1D's one is
+    enough): a 3D block of 2 x 2 x 2 cells on a tied floor (small
+    strain) stalled Newton at 2.5e-7 of its load in its second step,
+    named "a floor of the residual" with no word of the cause (a user
+    trial).  Logged as a warning at the run's start and added to a
     failed run's error."""
     dim = mesh.dim()
     scalar, nodes = cell_nodes(elem, mesh)
-    if method != "mpm" or mesh.t.shape[0] != 2 ** dim or nodes <= 2 ** dim:
+    if method != "mpm" or mesh.t.shape[0] != 2 ** dim:
         return ""
     per_axis = points_per_cell_axis(mesh, points)
     strains = dim * (dim + 1) // 2
@@ -1963,13 +2059,14 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     if have >= needed:
         return ""
     return (
-        "element {} with {} points per cell and axis: {} points give "
+        "element {} with {} per cell and axis: {} {} "
         "a cell of {} nodes {} of the {} strain states its DOFs need, so "
-        "the stiffness has zero-energy modes (a singular matrix); seed "
+        "the stiffness has zero-energy modes (a singular matrix, or "
+        "Newton stalled at a floor of the residual); seed "
         "{} points per cell and axis".format(
-            type(scalar).__name__, per_axis_words(per_axis),
-            int(round(per_axis)) ** dim,
-            nodes, have, needed,
+            type(scalar).__name__, plural(per_axis_words(per_axis)),
+            plural(str(int(round(per_axis)) ** dim)),
+            "gives" if round(per_axis) == 1 else "give", nodes, have, needed,
             int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))))
 
 
@@ -2166,6 +2263,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     run.terms = sorted(terms + case.terms, key=lambda term: term.weighs)
     for term in run.terms:
         term.begin_run(points)
+    warn_resumed_terms(run, resume)
     if resume.end_force is not None:
         inertia = [term for term in run.terms
                    if isinstance(term, InertiaTerm)]

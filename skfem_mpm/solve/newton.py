@@ -878,7 +878,8 @@ def linear_rate(residuals: List[float]) -> Optional[float]:
 def linear_words(residuals: List[float], material, stabilised: bool,
                  kept: bool, report: dict) -> str:
     """What a failed Newton loop's error adds of its rate: with the
-    exact tangent, every iteration's (not ``kept``: modified Newton, a
+    tangent as assembled (the material's ``D``, not stabilised), every
+    iteration's (not ``kept``: modified Newton, a
     kept factorisation, converge linearly by design), the words of
     :func:`linear_hint`, kept in ``report["linear"]`` for the step's
     later attempts; with the tangent ``stabilised`` (whose own rate is
@@ -888,7 +889,8 @@ def linear_words(residuals: List[float], material, stabilised: bool,
         return ""
     if stabilised:
         earlier = report.get("linear", "")
-        return earlier and "; the attempt with the exact tangent: " + \
+        return earlier and "; this attempt's tangent was stabilised; " \
+            "an earlier attempt's, with the tangent as assembled: " + \
             earlier
     words = linear_hint(residuals, material)
     if words:

@@ -47,8 +47,11 @@ class Resume:
     ``domain0`` if given: the run then continues bit-identically, its
     counters and energies too (a run with domains resumed without
     ``domain0`` was refused before 2026-11-29, untrue to the default
-    above).  What grid terms of one's own keep over the steps is
-    theirs to keep.
+    above).  What grid terms of one's own keep over the steps (a spring
+    bed's total displacement) is theirs to keep: it is not in the points
+    or the checkpoints, ``begin_run`` starts it again, and a resumed run
+    warns, naming them, unless a term sets ``stateless = True``
+    (:class:`~skfem_mpm.GridTerm`).
 
     >>> from skfem_mpm import Resume
     >>> Resume(first_step=0)

@@ -99,8 +99,16 @@ class StepRecord:
         "internal_work": ..., "external_work": ...}``: the kinetic energy
         at its start and end and the work
         of the internal and external forces (loads; not the reactions of
-        supports or prescribed motion) over the step; ``None`` in
-        quasi-static runs.  :meth:`Result.energies` sums them.
+        supports or prescribed motion) over the step, trapezoidal on the
+        grid from the forces at its start and end; ``None`` in
+        quasi-static runs.  :meth:`Result.energies` sums them.  The
+        internal work is the change of the stored elastic energy plus
+        the plastic work and, with obstacles or contacts, the contact
+        forces' work as the trapezoid books it, which a landing within a
+        step leaves behind: a 64 kg block dropped 0.4 m on a smooth floor
+        keeps 71.55 J of it in flight after its bounce, its strain energy
+        under 1e-3 J, where the floor does no work (75.03 J at half the
+        time step, 16.18 J at a quarter; docs/dynamics.md).
     end_force
         Dynamic runs with contact between bodies: the contact's force
         (a sparse 1 x N row of the step's grid DOFs) where the step

@@ -137,6 +137,25 @@ class SafetyFactor:
         The number of warnings of each trial, in the order of ``trials``,
         that ``quiet`` kept from the log (0 for the first, whose
         warnings are logged).
+    errors
+        Why each trial's run failed, ``"ErrorClass: message"``, in the
+        order of ``trials`` (``None`` where it converged).
+    retried
+        Whether each trial was a retry (``retry``: a failed trial at the
+        top of the bracket run again more carefully), in the order of
+        ``trials``.
+    span
+        ``(lower, upper)``: where the verdict flips, judged on every
+        trial: ``lower`` the largest factor below every trial that did
+        not stand, ``upper`` the smallest factor that did not stand
+        above every trial that stood, a failed run not counted where a
+        run at a larger factor converged (the failure may be numerical)
+        and no retry at its factor failed too.  The bracket where the
+        trials are monotone; wider (a :attr:`warnings`) where not.
+    warnings
+        What makes the factor less certain than its bracket, one
+        sentence each: a run that failed below one that converged, a
+        :attr:`span` wider than the bracket (empty: none).
 
     Its repr is the factor, the bracket and the trials (``print`` of
     the whole run at ``converged`` ran to thousands of characters):
@@ -156,12 +175,17 @@ trials=[(1.0, True), (2.0, False)])
     displacements: list = field(default_factory=list, repr=False)
     reference: Optional[float] = field(default=None, repr=False)
     quieted: list = field(default_factory=list, repr=False)
+    errors: list = field(default_factory=list, repr=False)
+    retried: list = field(default_factory=list, repr=False)
+    span: Optional[tuple] = field(default=None, repr=False)
+    warnings: list = field(default_factory=list, repr=False)
 
 
 def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
                        tolerance: float = .01, growth: Optional[float] = 5.,
                        displacement: Callable = largest_displacement,
-                       quiet: bool = True) -> SafetyFactor:
+                       quiet: bool = True, retry: Optional[Callable] = None,
+                       retries: int = 3) -> SafetyFactor:
     """Bracket and bisect the factor of safety.
 
     Parameters
@@ -201,6 +225,25 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
         trial, and said in one warning at the end, as ``skfem-mpm
         safety`` prints them; ``False``: every trial's warnings are
         logged (each text once).
+    retry
+        ``retry(factor) -> Result``: a more careful run than ``run`` (more
+        load steps, e.g. twice as many), or ``None`` (default: no
+        retry).  Where the trial at the top of the final bracket failed
+        to converge, it is run again by ``retry``: a failure for a load
+        step too large is told from a collapse.  If the retry stands, the
+        bisection goes on above it (and its new top is retried in turn);
+        at most ``retries`` retries in all (default 3), each a trial in
+        :attr:`SafetyFactor.trials` (:attr:`SafetyFactor.retried`).
+    retries
+        The most retries (each a whole run, longer than a trial).
+
+    Whether a run converges is not always monotone in the factor: a run
+    fails at one factor and converges at a larger one (trial 98, a
+    Mohr-Coulomb slope: 1.8281 failed, 1.8438 converged, 1.875 failed,
+    1.8906 converged).  The bisection then depends on its path; every
+    trial is judged afterwards: :attr:`SafetyFactor.span` is where the
+    verdict flips (the bracket, or wider) and
+    :attr:`SafetyFactor.warnings` says why, each logged as a warning.
 
     Raises
     ------
@@ -241,7 +284,9 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
             "trial has collapsed) or None, got {!r}".format(growth))
     with warnings_once() as once:      # each trial's warnings: once
         found = bisect(run, low, high, tolerance, growth, displacement,
-                       once, quiet)
+                       once, quiet, retry, retries)
+    for sentence in found.warnings:
+        logger.warning("strength reduction: %s", sentence)
     said = ["F = {:.4f}: {}".format(f, n)
             for (f, _), n in zip(found.trials, found.quieted) if n]
     if said:
@@ -255,42 +300,55 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
 
 def bisect(run: Callable, low: float, high: float, tolerance: float,
            growth: Optional[float], displacement: Callable, once: OnceEach,
-           quiet: bool = False) -> SafetyFactor:
+           quiet: bool = False, retry: Optional[Callable] = None,
+           retries: int = 3) -> SafetyFactor:
     """:func:`strength_reduction`'s bracket and bisection, its arguments
     checked; ``once`` filters the trials' repeated warnings, and hushes
-    those of the trials after the first where ``quiet``."""
+    those of the trials after the first where ``quiet``; a failed trial
+    at the top of the final bracket is run again by ``retry`` (at most
+    ``retries`` times in all), the bisection going on above it where the
+    retry stands."""
     trials, displacements, scale, quieted = [], [], [], []
+    errors, retried = [], []
 
-    def attempt(factor):
+    def attempt(factor, runner=run):
         once.cover()
         before = once.hushed_count
         once.hushed = quiet and bool(trials)
+        again = runner is not run
         try:
-            result = run(factor)
+            result = runner(factor)
         except PrescribedMotionError:
             raise
         except (ConvergenceError, SingularSystemError,
                 PointsOutsideGridError) as err:
             quieted.append(once.hushed_count - before)
-            logger.info("strength reduction factor %.4f: fails (%s)%s",
-                        factor, type(err).__name__, hushed(quieted[-1]))
+            logger.info("strength reduction factor %.4f%s: fails (%s)%s",
+                        factor, " (retry)" if again else "",
+                        type(err).__name__, hushed(quieted[-1]))
             trials.append((factor, False))
             displacements.append(None)
+            errors.append("{}: {}".format(type(err).__name__, err))
+            retried.append(again)
             return None, err
         finally:
             once.hushed = False
         quieted.append(once.hushed_count - before)
-        moved = float(displacement(result)) if growth is not None else None
+        errors.append(None)
+        retried.append(again)
+        moved = float(displacement(result))
         displacements.append(moved)
         if scale and not moved <= growth * scale[0]:
-            logger.info("strength reduction factor %.4f: converges but "
+            logger.info("strength reduction factor %.4f%s: converges but "
                         "moves %.4g, more than %g times the %.4g at %g: "
-                        "collapse%s", factor, moved, growth, scale[0],
-                        trials[0][0], hushed(quieted[-1]))
+                        "collapse%s", factor, " (retry)" if again else "",
+                        moved, growth, scale[0], trials[0][0],
+                        hushed(quieted[-1]))
             trials.append((factor, False))
             return None, None
-        logger.info("strength reduction factor %.4f: stands (moves %s)%s",
-                    factor, "-" if moved is None else "{:.4g}".format(moved),
+        logger.info("strength reduction factor %.4f%s: stands (moves %s)%s",
+                    factor, " (retry)" if again else "",
+                    "-" if moved is None else "{:.4g}".format(moved),
                     hushed(quieted[-1]))
         trials.append((factor, True))
         return result, None
@@ -317,15 +375,132 @@ def bisect(run: Callable, low: float, high: float, tolerance: float,
     else:
         raise InvalidInputError("no run failed up to the strength reduction "
                                 "factor {}: nothing collapses".format(low))
-    while high - low > tolerance * low:
-        middle = .5 * (low + high)
-        trial, _ = attempt(middle)
+    while True:
+        while high - low > tolerance * low:
+            middle = .5 * (low + high)
+            trial, _ = attempt(middle)
+            if trial is None:
+                high = middle
+            else:
+                low, result = middle, trial
+        # the top of the bracket: its last trial failed, not yet retried
+        top = max(k for k, (f, _) in enumerate(trials) if f == high)
+        if retry is None or sum(retried) >= retries or \
+                errors[top] is None or retried[top]:
+            break
+        trial, _ = attempt(high, retry)
         if trial is None:
-            high = middle
-        else:
-            low, result = middle, trial
+            break
+        # a numerical failure: the bisection goes on above it
+        low, result = high, trial
+        high = min(f for f, stood in trials if not stood and f > low)
+    span, warnings = flip_span(trials, errors, retried)
+    if growth is None:
+        warnings += far_moved(trials, displacements, low)
     return SafetyFactor(.5 * (low + high), low, high, trials, result,
-                        displacements, scale[0] if scale else None, quieted)
+                        displacements, scale[0] if scale else None, quieted,
+                        errors, retried, span, warnings)
+
+
+def far_moved(trials: list, displacements: list, top: float,
+              growth: float = 5.) -> list:
+    """Judged by convergence alone, the sentence (a list of none or
+    one) on the trials up to ``top`` that stood though they moved more
+    than ``growth`` times the first trial (trial 98: F = 1.8906 stood,
+    28 times the run at F = 1: the factor 1.896 against 1.820 with
+    ``growth=5``).
+
+    >>> from skfem_mpm.solve.strength_reduction import far_moved
+    >>> far_moved([(1., True), (2., True), (1.5, True)], [.1, .9, .2], 2.)
+    ... # doctest: +NORMALIZE_WHITESPACE
+    ['judged by convergence alone, the trial at F = 2.0000 stood though
+    it moved 9 times the run at F = 1; with growth = 5 the factor of
+    safety is below 2']
+    """
+    first = displacements[0]
+    far = [f for (f, stood), d in zip(trials, displacements)
+           if stood and f <= top and d is not None and first
+           and d > growth * first]
+    if not far:
+        return []
+    k = max(range(len(trials)), key=lambda k: (
+        trials[k][0] in far, trials[k][0]))
+    return ["judged by convergence alone, the trial at F = {:.4f} stood "
+            "though it moved {:.3g} times the run at F = {:g}; with growth "
+            "= {:g} the factor of safety is below {:.4g}".format(
+                trials[k][0], displacements[k] / first, trials[0][0],
+                growth, min(far))]
+
+
+def flip_span(trials: list, errors: list, retried: list) -> tuple:
+    """Where the verdict of ``trials`` (``(factor, stood)``) flips, and
+    the sentences that say why it is less certain than the bracket:
+    ``((lower, upper), warnings)`` (see :attr:`SafetyFactor.span`);
+    ``errors`` and ``retried`` as :class:`SafetyFactor`'s.
+
+    A run stood at 1.8, failed at 1.83 and 1.875, converged (and stood)
+    at 1.84 and 1.89; it failed again at 1.9:
+
+    >>> from textwrap import fill
+    >>> from skfem_mpm.solve.strength_reduction import flip_span
+    >>> span, said = flip_span(
+    ...     [(1., True), (1.875, False), (1.8, True), (1.83, False),
+    ...      (1.84, True), (1.89, True), (1.9, False)],
+    ...     [None, "E: x", None, "E: y", None, None, "E: z"], [False] * 7)
+    >>> span
+    (1.8, 1.9)
+    >>> for line in said:
+    ...     print(fill(line, 70))
+    the runs at F = 1.8300, 1.8750 failed (E: y, ...) but the one at F =
+    1.8400 converged: the failures may be numerical (load steps too
+    large), the factor of safety up to 1.9
+    the verdict is not monotone in F: a trial stood at F = 1.8900, above
+    one that did not at F = 1.8300; the factor of safety lies anywhere
+    from 1.8 to 1.9, not only in the bracket
+    """
+    # a failure whose retry at the same factor converged: the retry's
+    # verdict stands for it
+    superseded = [k for k, e in enumerate(errors) if e is not None and any(
+        retried[j] and errors[j] is None and trials[j][0] == trials[k][0]
+        for j in range(k + 1, len(trials)))]
+    kept = [k for k in range(len(trials)) if k not in superseded]
+    fell = [trials[k][0] for k in kept if not trials[k][1]]
+    stood = [trials[k][0] for k in kept if trials[k][1]]
+    # a failure below a converged run, not confirmed by a failed retry
+    doubtful = [k for k in kept if errors[k] is not None and not any(
+        retried[j] and errors[j] is not None and j != k
+        and trials[j][0] == trials[k][0] for j in kept) and any(
+        errors[j] is None and trials[j][0] > trials[k][0] for j in kept)]
+    lower = max([f for f in stood if f < min(fell)] or [min(stood)])
+    upper = min(trials[k][0] for k in kept if not trials[k][1] and
+                trials[k][0] > max(stood) and k not in doubtful)
+    warnings = []
+    for k in sorted(superseded, key=lambda k: trials[k][0]):
+        warnings.append("the run at F = {:.4f} failed ({}) but stood or "
+                        "converged when retried: the failure was "
+                        "numerical".format(trials[k][0], errors[k]))
+    below = sorted((k for k in doubtful if trials[k][0] < upper),
+                   key=lambda k: trials[k][0])
+    if below:
+        first = trials[below[0]][0]
+        warnings.append(
+            "the run{} at F = {} failed ({}{}) but the one at F = {:.4f} "
+            "converged: {} may be numerical (load steps too large), the "
+            "factor of safety up to {:.4g}".format(
+                "s" if len(below) > 1 else "",
+                ", ".join("{:.4f}".format(trials[k][0]) for k in below),
+                errors[below[0]], ", ..." if len(below) > 1 else "",
+                min(trials[j][0] for j in kept if errors[j] is None
+                    and trials[j][0] > first),
+                "the failures" if len(below) > 1 else "the failure",
+                upper))
+    if max(stood) > min(fell):
+        warnings.append(
+            "the verdict is not monotone in F: a trial stood at F = {:.4f}, "
+            "above one that did not at F = {:.4f}; the factor of safety "
+            "lies anywhere from {:.4g} to {:.4g}, not only in the "
+            "bracket".format(max(stood), min(fell), lower, upper))
+    return (lower, upper), warnings
 
 
 def hushed(count: int) -> str:

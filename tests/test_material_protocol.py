@@ -1,0 +1,196 @@
+"""What a material of the user's own returns is checked (trial 97): NaN,
+a state written into, missing or extra variables, wrong shapes and types
+are refused by an MPMError naming the class, the method, the variable and
+the points, with the last converged state; Lame parameters that give a
+negative modulus are refused at set-up."""
+import numpy as np
+import pytest
+
+from skfem_mpm import (InvalidMaterialError, MaterialProtocolError,
+                       NonFiniteMaterialError, MPMError, VonMises)
+from skfem_mpm.mechanics.materials import trusted, update
+from test_materials import HardeningVonMises, shear_run
+
+GOOD = HardeningVonMises(1e4, .3, yield_stress=10., H=2e3)
+
+
+def variant(change):
+    """A subclass of the documented model whose return goes through
+    ``change(eps, state, out) -> out``."""
+    class Model(HardeningVonMises):
+        def principal_update(self, eps, state):
+            return change(eps, state, list(
+                HardeningVonMises.principal_update(self, eps, state)))
+    Model.__name__ = change.__name__
+    return Model(1e4, .3, yield_stress=10., H=2e3)
+
+
+def nan_state(eps, state, out):
+    out[4] = {"alpha": np.where(out[3], np.nan, out[4]["alpha"])}
+    return tuple(out)
+
+
+def nan_stress(eps, state, out):
+    out[0] = np.where(out[3], np.nan, out[0])
+    return tuple(out)
+
+
+def writes_state(eps, state, out):
+    state["alpha"] += 1.
+    return tuple(out)
+
+
+def missing(eps, state, out):
+    out[4] = {}
+    return tuple(out)
+
+
+def extra(eps, state, out):
+    out[4] = dict(out[4], junk=np.zeros(eps.shape[1]))
+    return tuple(out)
+
+
+def tangent_transposed(eps, state, out):
+    out[2] = np.ascontiguousarray(out[2].transpose(2, 0, 1))
+    return tuple(out)
+
+
+def tangent_2x2(eps, state, out):
+    out[2] = out[2][:2, :2]
+    return tuple(out)
+
+
+def state_short(eps, state, out):
+    out[4] = {"alpha": out[4]["alpha"][:-1]}
+    return tuple(out)
+
+
+def yielded_float(eps, state, out):
+    out[3] = out[3].astype(float)
+    return tuple(out)
+
+
+def run(material, kinematics):
+    return shear_run(4, kinematics, material=material)
+
+
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+@pytest.mark.parametrize("change, error, variable", [
+    (nan_state, NonFiniteMaterialError, "new_state['alpha']"),
+    (nan_stress, NonFiniteMaterialError, "tau"),
+    (writes_state, MaterialProtocolError, "state['alpha']"),
+    (missing, MaterialProtocolError, "new_state"),
+    (extra, MaterialProtocolError, "new_state"),
+    (tangent_transposed, MaterialProtocolError, "D"),
+    (tangent_2x2, MaterialProtocolError, "D"),
+    (state_short, MaterialProtocolError, "new_state['alpha']"),
+    (yielded_float, MaterialProtocolError, "yielded")])
+def test_a_bad_return_is_refused_by_name(change, error, variable,
+                                         kinematics):
+    """Each ran silently (NaN kappa, a state grown 300-fold, a variable
+    left at 0 or carried into checkpoints, a 2 x 2 tangent) or ended in a
+    bare numpy broadcasting error or 'Newton did not converge ... nan'
+    after 10 cut-backs."""
+    material = variant(change)
+    with pytest.raises(error) as caught:
+        run(material, kinematics)
+    err = caught.value
+    text = str(err)
+    assert isinstance(err, MPMError)
+    assert change.__name__ + ".principal_update" in text
+    assert "object at 0x" not in text
+    cause = err if err.material else err.__cause__
+    assert (cause.material, cause.method, cause.variable) == (
+        change.__name__, "principal_update", variable)
+    assert err.state is not None                  # last converged state
+    if error is NonFiniteMaterialError:
+        # the points that yield first: the run's indices, named
+        assert cause.indices is not None and len(cause.indices) > 0
+        assert str(cause.indices[:2])[:-1] in text
+    else:
+        assert variable.split("[")[-1].strip("]") in text or \
+            variable in ("D", "yielded")
+
+
+def test_the_documented_model_and_shipped_ones_pass_unchanged():
+    """The well-formed model runs as before (its state arrays stay
+    writable in the points); the package's models are not checked."""
+    res = run(GOOD, "small")
+    assert res.points.state["alpha"].max() > 0
+    assert res.points.state["alpha"].flags.writeable
+    assert trusted(VonMises(1e4, .3, 10.)) and not trusted(GOOD)
+    state = {"alpha": np.zeros(2)}
+    out = update(GOOD, np.zeros((3, 2)), state)
+    assert out[4]["alpha"] is state["alpha"]      # unchanged: the same
+
+
+class OwnElastic:
+    """Lame parameters of the user's own (bulk K, shear G)."""
+    plastic = True
+    state_variables = {}
+
+    def __init__(self, K, G):
+        self.lam, self.mu = K - 2 * G / 3, G
+
+    def principal_update(self, eps, state):
+        C = self.lam * np.ones((3, 3)) + 2 * self.mu * np.eye(3)
+        return C @ eps, eps, np.repeat(C[:, :, None], eps.shape[1], 2), \
+            np.zeros(eps.shape[1], bool), {}
+
+
+@pytest.mark.parametrize("K, G, word", [(-1e4, 3e3, "bulk modulus"),
+                                        (1e4, -3e3, "shear modulus"),
+                                        (np.nan, 3e3, "lam")])
+def test_negative_moduli_of_a_users_material_are_refused(K, G, word):
+    """PressureElastic(K0=-1e4) ran into PointsOutsideGridError after a
+    warning of 394% strain, the material not named."""
+    with pytest.raises(InvalidMaterialError, match="OwnElastic.*" + word):
+        run(OwnElastic(K, G), "small")
+    assert run(OwnElastic(1e4, 3e3), "small").points.n > 0
+
+
+def test_a_protocol_gap_is_named_by_class_not_repr():
+    class NoLam:
+        plastic, mu, state_variables = True, 1., {}
+
+        def principal_update(self, eps, state):
+            raise AssertionError
+    with pytest.raises(InvalidMaterialError) as caught:
+        run(NoLam(), "small")
+    assert "material NoLam does not" in str(caught.value)
+    assert "object at" not in str(caught.value)
+
+
+class NaNElastic(OwnElastic):
+    """An elastic model of one's own whose stress (small strain's linear
+    law) is NaN where the shear strain passes a threshold."""
+    plastic = False
+
+    def stress(self, strain):
+        tr = np.trace(strain)
+        sig = 2 * self.mu * strain + self.lam * tr * np.eye(3)[:, :, None]
+        return np.where(np.abs(strain[0, 1]) > 1e-3, np.nan, sig)
+
+
+def test_nan_in_an_elastic_stress_is_named():
+    with pytest.raises(NonFiniteMaterialError,
+                       match=r"NaNElastic.stress returned NaN or inf in "
+                       r"stress at \d+ point\(s\)"):
+        run(NaNElastic(1e4, 3e3), "small")
+
+
+def test_several_bodies_name_the_runs_point_indices():
+    """A user's model as body 1 of two: the indices are the run's, those
+    of body 1's points."""
+    from skfem import ElementQuad1, MeshQuad
+    from skfem_mpm import seed_points
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    points = seed_points(mesh, 2)
+    points.body = (points.x[1] > .5).astype(int)
+    bad = variant(nan_state)
+    with pytest.raises(NonFiniteMaterialError) as caught:
+        shear_run(4, "small", points=points,
+                  material=[VonMises(1e4, .3, 1e9), bad])
+    cause = caught.value.__cause__ or caught.value
+    assert cause.indices and all(points.body[i] == 1
+                                 for i in cause.indices)
