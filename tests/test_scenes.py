@@ -1492,3 +1492,26 @@ steps = 2
                             method=method))
     assert res.history[-1].reactions.reshape(-1, 2)[:, 1].sum() == \
         pytest.approx(10. * 3., rel=1e-9)
+
+
+def test_series_collections_list_times_without_summed_round_off(tmp_path):
+    # five time steps of 0.01 summed end at 0.049999999999999996, which
+    # the collections listed as written (a user trial's PVD)
+    from skfem import MeshQuad
+    from skfem_mpm import seed_points
+    from skfem_mpm.scenes.output import SeriesWriter
+    mesh = MeshQuad.init_tensor(np.linspace(0., 1., 3), np.linspace(0., 1.,
+                                                                     3))
+    points = seed_points(mesh, 1)
+    writer = SeriesWriter(tmp_path, mesh, points)
+    factor, times = 0., []         # a run of 60 steps over 0.6 s
+    for step in range(6):
+        times.append(factor * 0.6)
+        writer.write(step, times[-1], points, np.arange(mesh.nelements),
+                     None)
+        factor += 1 / 60
+    assert times[5] != 0.05                     # the round-off is there
+    pvd = (tmp_path / "points.pvd").read_text()
+    assert '<DataSet timestep="0.05" file="points_0005.vtu"/>' in pvd
+    assert "99999" not in pvd and "99999" not in (
+        tmp_path / "grid.pvd").read_text()

@@ -106,6 +106,18 @@ def contact_pressure_fields(record) -> dict:
 PLASTIC_STRAIN = "equivalent_plastic_strain"
 
 
+def pvd_time(t: float) -> float:
+    """A step's time (or load factor) as a collection lists it: to 12
+    significant digits, so that the round-off of summed time steps does not
+    show (five steps of 0.01 end at 0.049999999999999996, written 0.05); the
+    run and its files keep the time as computed.
+
+    >>> pvd_time(0.01 + 0.01 + 0.01 + 0.01 + 0.01), pvd_time(1 / 3)
+    (0.05, 0.333333333333)
+    """
+    return float("{:.12g}".format(t))
+
+
 class SeriesWriter:
     """Writes ``points_NNNN.vtu`` and ``grid_NNNN.vtu`` per step and keeps
     ``points.pvd`` / ``grid.pvd`` up to date.
@@ -154,8 +166,8 @@ class SeriesWriter:
             lines = ['<?xml version="1.0"?>',
                      '<VTKFile type="Collection" version="0.1">',
                      "<Collection>"]
-            lines += ['<DataSet timestep="{!r}" file="{}"/>'.format(t, n[k])
-                      for t, n in self.entries]
+            lines += ['<DataSet timestep="{!r}" file="{}"/>'.format(
+                pvd_time(t), n[k]) for t, n in self.entries]
             lines += ["</Collection>", "</VTKFile>"]
             with atomic_path(self.outdir / collection) as tmp:
                 Path(tmp).write_text("\n".join(lines) + "\n")
