@@ -9,7 +9,8 @@ from skfem import ElementQuad1, MeshQuad
 
 from skfem_mpm import (BodyForce, Dynamics, GeneralizedAlpha,
                        InvalidInputError, LinearElastic, MohrCoulomb, MPMError,
-                       Newmark, NewtonOptions, Obstacle, Options, Resume,
+                       Newmark, NewtonOptions, Obstacle, Options,
+                       PointsOutsideGridError, Resume,
                        RigidBody, Stabilisation, VonMises, concatenate_points,
                        seed_points, simulate)
 from skfem_mpm.solve.contact import (StepContact, contact_modulus,
@@ -3054,3 +3055,37 @@ def test_a_stall_as_a_block_lands_on_an_incline_names_the_contact(caplog):
               if "made no progress" in r.getMessage()]
     assert stalls and all("the contact with obstacle 'incline'" in words
                           and "engaging" in words for words in stalls)
+
+
+@pytest.mark.parametrize("below", [0, 1])
+def test_points_leaving_through_a_floor_on_the_grids_edge_name_it(below):
+    # points whose centres pass a floor (here within a wide tolerance; a
+    # user trial's sheared toe domain, its corners held on the floor, 59
+    # times it) left a grid that ended at the floor, and the error blamed
+    # a grid too tight or the body's motion, not the floor
+    h, tolerance = 0.25, 0.45
+    mesh = MeshQuad.init_tensor(np.arange(0., 2. + 1e-9, h),
+                                np.arange(-below * h, 2. + 1e-9, h))
+    points = seed_points(mesh, 2, region=lambda x: (x[0] < 1.)
+                         & (x[1] > 0.) & (x[1] < 1.))
+    floor = Obstacle(box=[[-1., 3.], [-1., 0.]], penalty=1e-3,
+                     tolerance=tolerance, name="floor")
+
+    def run():
+        return simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, .3),
+                        lambda b: b.get_dofs(lambda x: np.isclose(
+                            x[0], 0.)).all("u^1"),
+                        body_force=[0., -1e4], method="mpm",
+                        obstacles=[floor], nsteps=4)
+    if below:               # a cell of grid beyond the face: it completes
+        x = run().points.x
+        assert -tolerance * h < x[1].min() < 0.
+        return
+    with pytest.raises(PointsOutsideGridError) as caught:
+        run()
+    text = str(caught.value)
+    assert "left it through obstacle 'floor'" in text
+    assert "let the grid reach a cell or more beyond the obstacle's face" \
+        in text
+    assert "tolerance {:.3g}".format(tolerance * h) in text
+    assert "a grid too tight" not in text

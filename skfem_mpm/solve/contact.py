@@ -1119,6 +1119,48 @@ class ObstacleContact(GridTerm):
                                             ob.friction, *part)
                               for ob, part in zip(self.obstacles, parts))
 
+    def crossed_hint(self, points, indices, positions) -> str:
+        """Words for points ``indices`` that left the grid at
+        ``positions`` (dim, m) in a step from the converged ``points``,
+        where their centres lie inside an obstacle: its name, how deep
+        (in cells and in the contact's tolerance), how deep they were at
+        the step's start, and the grid to extend; else ``""``.  The
+        contact holds the domains' corners, not the points' centres: a
+        user trial's granular column (cpGIMP, finite deformation) left a
+        toe point's centre 0.0074 below a rough floor (6% of a cell, 59
+        times the tolerance) with its corners on it, and with the floor
+        on the grid's edge the run ended blaming a tight grid or the
+        body's motion."""
+        if indices is None or positions is None:
+            return ""
+        indices = np.asarray(indices)
+        words = []
+        for i, ob in enumerate(self.obstacles):
+            shift = self.scale * ob.displacement
+            phi = ob.signed_distance(positions, shift)[0]
+            inside = phi < 0
+            if not inside.any():
+                continue
+            depth = float(-phi.min())
+            start = float(-ob.signed_distance(
+                points.x[:, indices[inside]], shift)[0].min())
+            words.append(
+                "; {} of them left it through obstacle {!r}: their centres "
+                "up to {:.3g} inside its face ({:.2g} cells, {:.3g} times "
+                "the contact's tolerance {:.3g}; at the step's start {:.3g} "
+                "{}){}; let the grid reach a cell or more beyond the "
+                "obstacle's face".format(
+                    int(inside.sum()), ob.name, depth, depth / self.h,
+                    depth / self.tol[i], self.tol[i], abs(start),
+                    "inside" if start > 0 else "outside",
+                    ": the contact holds the points' domain corners, not "
+                    "their centres, and a domain sheared along the face "
+                    "keeps its corners on it with its centre past it "
+                    "(docs/contact.md, \"A point's centre past a face\")"
+                    if depth > self.tol[i] else ": the corners press in "
+                    "up to the tolerance, the centres with them"))
+        return "".join(words)
+
     def closing_rigid_bodies(self, points) -> list:
         """``(obstacle, rigid body, closing)`` per obstacle and rigid body
         (:attr:`rigid_bodies`) that touch at the run's start and whose

@@ -1429,12 +1429,16 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                     term.unheld_hint() for term in run.terms)
                     + own_terms_hint(run, err),) + err.args[1:]
             elif isinstance(err, PointsOutsideGridError):
+                crossed = "".join(
+                    term.crossed_hint(points, err.indices, getattr(
+                        err, "positions", None)) for term in run.terms
+                    if hasattr(term, "crossed_hint"))
                 err.args = (err.args[0] + too_soft(run, points) + (
-                    "; they left it in step {} ({} to {}): a grid too "
-                    "tight around the body's motion, or {}{}".format(
+                    "; they left it in step {} ({} to {}){}{}".format(
                         step + 1, progress(run, factor),
-                        progress(run, target).split()[-1],
-                        left_grid_cause(run, points, target - factor),
+                        progress(run, target).split()[-1], crossed or
+                        ": a grid too tight around the body's motion, or "
+                        + left_grid_cause(run, points, target - factor),
                         terms_hint(run, points))),)
             if err.args and isinstance(err.args[0], str):
                 # a singular stiffness of cells seeded too thinly blamed

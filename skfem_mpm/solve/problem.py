@@ -29,8 +29,8 @@ from numpy import ndarray
 from scipy.linalg.blas import dnrm2
 
 from ..kernels import run_clock
-from ..errors import GridMotionError, SingularSystemError, \
-    SingularTangentError
+from ..errors import GridMotionError, PointsOutsideGridError, \
+    SingularSystemError, SingularTangentError
 from ..mechanics.materials import is_plastic
 from ..protocols import Balance
 from ..spelling import setting
@@ -843,7 +843,13 @@ class StepProblem:
             term.finish(self, new, record)
         t["update"] += run_clock() - tic
         if run.method.moves:   # inside the grid (the location serves the
-            run.method.locate(new.x, self.step, t, points)    # next step)
+            try:                                            # next step)
+                run.method.locate(new.x, self.step, t, points)
+            except PointsOutsideGridError as err:
+                # where they went (an obstacle's face they crossed)
+                if err.indices is not None:
+                    err.positions = new.x[:, err.indices]
+                raise
         for dofs in self.rigid_dofs:  # a support's DOFs keep their reactions
             dofs = dofs[~np.isin(dofs, run.D)]
             force = np.zeros(run.dim)
