@@ -3089,3 +3089,37 @@ def test_points_leaving_through_a_floor_on_the_grids_edge_name_it(below):
         in text
     assert "tolerance {:.3g}".format(tolerance * h) in text
     assert "a grid too tight" not in text
+
+
+def test_a_first_step_resting_on_a_coulomb_floor_says_its_retry_expected(
+        caplog):
+    # trial 102: every granular column on a floor of friction tan 30
+    # logged step 1's failed full Newton steps, "retrying with the line
+    # search", as if something were wrong; an elastic block fails alike,
+    # and converges in a few iterations on a smooth floor
+    h, mu = 0.125, np.tan(np.radians(30.))
+    mesh = MeshQuad.init_tensor(np.arange(0., 1. + 1e-9, h),
+                                np.arange(-h, .75 + 1e-9, h))
+    points = seed_points(mesh, 2, region=lambda x: (x[0] < .5)
+                         & (x[1] > 0.) & (x[1] < .5))
+
+    def run(friction):
+        return simulate(mesh, ElementQuad1(), points,
+                        LinearElastic(5e6, .3), lambda b: b.get_dofs(
+                            lambda x: np.isclose(x[0], 0.)).all("u^1"),
+                        body_force=[0., -2000. * 9.81], kinematics="finite",
+                        method="cpgimp", obstacles=[Obstacle(
+                            box=[[-1., 2.], [-1., 0.]], friction=friction,
+                            name="floor")],
+                        dynamics=Dynamics(.01, .01, 2000., flip=1.))
+    with caplog.at_level(logging.WARNING):
+        smooth = run(0.)
+    assert len(smooth.history[0].newton_residuals) - 1 <= 4
+    assert "retrying" not in caplog.text
+    with caplog.at_level(logging.WARNING):
+        run(mu)
+    retry = [r.getMessage() for r in caplog.records
+             if "retrying with the line search" in r.getMessage()]
+    assert len(retry) == 1
+    assert "(expected: the material starts resting on obstacle 'floor', " \
+        "of Coulomb friction {:.3g}".format(mu) in retry[0]

@@ -1119,6 +1119,36 @@ class ObstacleContact(GridTerm):
                                             ob.friction, *part)
                               for ob, part in zip(self.obstacles, parts))
 
+    def onset_hint(self, points) -> str:
+        """Words for a run's first step whose full Newton steps failed
+        where material rests at the start on an obstacle with Coulomb
+        friction, none of its corners pressed yet (``points``, the
+        start): expected, and why; else ``""``.  Trial 102's granular
+        columns on a floor of friction tan 30 degrees failed so every
+        one, and the same column elastic alike, where a smooth or rough
+        floor (or held nodes) took 3 iterations: the friction's stick
+        and slip, set by a pressure that grows from zero within the
+        step.  The line search takes the step, and starts the later
+        ones."""
+        dim = points.x.shape[0]
+        for i, ob in enumerate(self.obstacles):
+            if isinstance(ob.friction, str) or ob.friction <= 0. or \
+                    not self.near[i].any():
+                continue
+            lam = np.array([points.state[name]
+                            for name in pressure_names(i, dim)[0]])
+            if (lam[self.near[i]] > 0).any():
+                continue
+            return (" (expected: the material starts resting on obstacle "
+                    "{!r}, of Coulomb friction {:.3g}, with no pressure "
+                    "yet; its stick and slip, set by a pressure that grows "
+                    "from zero within the step, make Newton's full steps "
+                    "cycle: a user trial's granular and elastic columns "
+                    "alike, 3 iterations on a smooth or rough floor; the "
+                    "line search takes the step and starts the later "
+                    "ones)".format(ob.name, ob.friction))
+        return ""
+
     def crossed_hint(self, points, indices, positions) -> str:
         """Words for points ``indices`` that left the grid at
         ``positions`` (dim, m) in a step from the converged ``points``,

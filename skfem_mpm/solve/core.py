@@ -788,8 +788,21 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 rung.change(run, step, failure)
                 how, rungs = FIRST, iter(RETRY_LADDER)
             else:
-                logger.warning("%s; retrying with %s", failure, rung.what)
+                logger.warning("%s; retrying with %s%s", failure, rung.what,
+                               onset_words(run, points, f_old)
+                               if rung.how is LINE_SEARCH else "")
                 how = rung.how
+
+
+def onset_words(run: Run, points: MaterialPoints, f_old: float) -> str:
+    """What the run's grid terms say of a failed first step from the
+    run's start (``f_old`` 0) that the line search retries
+    (:meth:`~skfem_mpm.solve.contact.ObstacleContact.onset_hint`:
+    material resting on a Coulomb floor, expected), else ``""``."""
+    if f_old != 0.:
+        return ""
+    return "".join(term.onset_hint(points) for term in run.terms
+                   if hasattr(term, "onset_hint"))
 
 
 def stall_floor(stalls, before, increment: float) -> str:
