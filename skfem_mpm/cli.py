@@ -517,19 +517,22 @@ def summary_units(dim: int, dynamics: bool = False,
 def energy_curves(rows) -> dict:
     """A dynamic run's energies over time from its history ``rows``: at
     the start and after every step, ``time`` (s), ``kinetic`` energy and
-    the accumulated ``internal_work`` and ``external_work`` (J, per unit
-    thickness in 2D) and ``balance``, as :meth:`skfem_mpm.Result.
-    energies`."""
+    the accumulated ``internal_work`` (the points' stresses'),
+    ``external_work`` (the loads') and ``contact_work`` (obstacles' and
+    contacts' forces) (J, per unit thickness in 2D) and ``balance``, as
+    :meth:`skfem_mpm.Result.energies`."""
     col = {k: rows[:, HISTORY_KEYS.index(k)] for k in HISTORY_KEYS}
     kinetic = np.r_[col["kinetic_start"][0], col["kinetic"]]
     internal = np.r_[0., np.cumsum(col["internal_work"])]
     external = np.r_[0., np.cumsum(col["external_work"])]
+    contact = np.r_[0., np.cumsum(col["contact_work"])]
     return {
         "time": [float(col["time"][0] - col["time_step"][0])]
         + col["time"].tolist(),
         "kinetic": kinetic.tolist(), "internal_work": internal.tolist(),
         "external_work": external.tolist(),
-        "balance": (kinetic + internal - external).tolist()}
+        "contact_work": contact.tolist(),
+        "balance": (kinetic + internal + contact - external).tolist()}
 
 
 def rigid_body_curves(scene, rows, reactions) -> dict:

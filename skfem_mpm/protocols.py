@@ -183,7 +183,10 @@ class GridTerm:
         return self
 
     def force(self, du: ndarray, response) -> Optional[ndarray]:
-        """Internal force (grid vector) of the trial increment ``du``."""
+        """Internal force (grid vector) of the trial increment ``du``.
+        In dynamics its work over a step is booked with the contacts',
+        ``contact_work`` of :attr:`~skfem_mpm.StepRecord.energy`, apart
+        from the points' stresses' ``internal_work``."""
         return None
 
     def start_force(self, zero: ndarray, response) -> Optional[ndarray]:
