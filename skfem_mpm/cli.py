@@ -218,9 +218,10 @@ def build_parser() -> argparse.ArgumentParser:
         "the run at --low; it collapses otherwise.  A failed run at the "
         "top of the final bracket is retried with twice the load steps "
         "(up to 3 retries; --no-retry: none); every trial is judged at "
-        "the end: a run that failed below one that converged, a verdict "
-        "not monotone in F, widen the factor's span beyond its bracket "
-        "(a WARNING).  Prints a line per trial; writes safety.json "
+        "the end: a run that failed below a trial that stood (not one "
+        "that converged past --growth: a collapse) or a verdict not "
+        "monotone in F widens the factor's span beyond its bracket (a "
+        "WARNING).  Prints a line per trial; writes safety.json "
         "(every trial with its error message, the factor, its bracket "
         "and span), safety.png (largest displacement against F) and "
         "mechanism.png (the plastic zone of the last trial that stood) "
@@ -1931,6 +1932,12 @@ def run_safety(args) -> int:
         return result
 
     tic = run_clock()
+    # the factor's warnings: printed with the summary, not logged too
+    said_below = logging.getLogger(strength_reduction.__module__)
+
+    def unlogged(record):
+        return not getattr(record, "safety_warning", False)
+    said_below.addFilter(unlogged)
     try:
         # the trials' lines count the later warnings (quiet_logs)
         found = strength_reduction(
@@ -1948,6 +1955,8 @@ def run_safety(args) -> int:
             write_safety(args.out, scene, reduced, options, trials, None,
                          run_clock() - tic, "{}".format(err))
         raise
+    finally:
+        said_below.removeFilter(unlogged)
     summary = write_safety(args.out, scene, reduced, options, trials, found,
                            run_clock() - tic)
     print("  {:>8s}  {:9s}  {}".format("F", "outcome",

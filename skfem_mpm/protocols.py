@@ -45,6 +45,21 @@ __all__ = ["GridTerm", "Balance", "PointOperator", "Response", "Kinematics",
            "Material", "LinearSolver"]
 
 
+def of_package(obj) -> bool:
+    """Whether ``obj`` is of one of the package's own classes (defined in
+    ``skfem_mpm`` or a module under it), not a user's (a subclass of a
+    shipped class included): the one test of the material checks
+    (:func:`~skfem_mpm.mechanics.materials.trusted`) and of the hints
+    that name a user's terms and materials.
+
+    >>> from skfem_mpm import LinearElastic
+    >>> of_package(LinearElastic(1., 0.)), of_package(object())
+    (True, False)
+    """
+    module = type(obj).__module__ or ""
+    return module == "skfem_mpm" or module.startswith("skfem_mpm.")
+
+
 class Balance:
     """A trial's balance of forces on the grid while terms weigh it:
     internal and external force vectors, ``scale``, the force the

@@ -177,7 +177,13 @@ class Result:
     basis
         The material-point basis (scalar element) of the last step, before
         the final position update; vector DOF ``dim * k + a`` of the grid
-        solution is component a at its DOF k.
+        solution is component a at its DOF k.  Methods ``"mpm"`` and
+        ``"fem"`` only: ``None`` for GIMP and the B-splines (``"ugimp"``,
+        ``"cpgimp"``, ``"bspline"`` and the rest: their weights are no
+        scikit-fem basis).  The step's
+        equilibrium holds on these positions, not on :attr:`points`'
+        (moved after it): a basis of one's own for such a run is built on
+        them (``x0`` after one step).
     counters
         How often each kind of work was done: ``locate`` (point location),
         ``body_force`` (body-force assemblies), ``linear_solves``,
