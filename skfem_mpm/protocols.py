@@ -133,6 +133,12 @@ class GridTerm:
     #: starts it again on a resume: a resumed run with terms of one's own
     #: that do not set this warns, naming them
     stateless = False
+    #: the term's force is a contact's (with obstacles, between bodies): in
+    #: dynamics its work is booked as ``contact_work`` of
+    #: :attr:`~skfem_mpm.StepRecord.energy`; any other term's (the ghost
+    #: penalty's, a term of one's own that does not set this) with the
+    #: points' stresses' as ``internal_work``
+    contact = False
     #: the term weighs the balance in time (:meth:`weigh`): begun after
     #: every other term of a run
     weighs = False
@@ -199,9 +205,10 @@ class GridTerm:
 
     def force(self, du: ndarray, response) -> Optional[ndarray]:
         """Internal force (grid vector) of the trial increment ``du``.
-        In dynamics its work over a step is booked with the contacts',
-        ``contact_work`` of :attr:`~skfem_mpm.StepRecord.energy`, apart
-        from the points' stresses' ``internal_work``."""
+        In dynamics its work over a step is booked as ``internal_work``
+        of :attr:`~skfem_mpm.StepRecord.energy`, with the points'
+        stresses', or as ``contact_work`` where the term sets
+        :attr:`contact`."""
         return None
 
     def start_force(self, zero: ndarray, response) -> Optional[ndarray]:

@@ -1,5 +1,5 @@
-"""Dynamics' energies: the work of the grid terms' forces (contact with
-obstacles and between bodies) booked apart from the points' stresses'
+"""Dynamics' energies: the work of the contact forces (with obstacles
+and between bodies) booked apart from the points' stresses'
 (``contact_work`` beside ``internal_work``; trial 98's block dropped on a
 floor kept the floor's work, 71.55 J, in its internal work in flight)."""
 import json
@@ -117,14 +117,17 @@ duration = 0.2
 """
 
 
-def test_without_contact_the_energies_are_as_before(tmp_path, monkeypatch):
+@pytest.mark.parametrize("ghost", ["", "[solver]\nghost = 0.1\n"])
+def test_without_contact_the_energies_are_as_before(tmp_path, monkeypatch,
+                                                     ghost):
     """A block on a fixed base sagging under its weight (no obstacle, no
-    contact): ``contact_work``
-    zero at every step, the internal work bit for bit the trapezoidal
-    work of the internal force as it was booked before, and the balance
-    ``kinetic + internal_work - external_work`` bit for bit."""
+    contact; also with the ghost penalty on, a grid term that is not a
+    contact): ``contact_work`` zero at every step, the internal work bit
+    for bit the trapezoidal work of the internal force as it was booked
+    before, and the balance ``kinetic + internal_work - external_work``
+    bit for bit."""
     path = tmp_path / "sag.toml"
-    path.write_text(SAG)
+    path.write_text(SAG + ghost)
     together = booked_together(monkeypatch)
     result = run_scene(load_scene(path))
     e = result.energies()

@@ -568,8 +568,8 @@ class InertiaTerm(GridTerm):
         start = run.kinematics.response(op, zero, points)
         step.f_int0, step.f_points0, terms0 = problem.internal_force(
             zero, start, start=True, parts=True)
-        # the grid terms' force the step's contact work starts from (the
-        # points' stresses' apart: internal_work): a contact's
+        # the contact terms' force the step's contact work starts from
+        # (the rest apart: internal_work): a contact's
         # force where the last step ended, not at the pairs the step
         # starts from (the pressures Newton's predictor, pairs made anew
         # without theirs: a block sliding to rest on a slab lost 11% of
@@ -739,12 +739,12 @@ class StepInertia(Inertia, GridTerm):
 
 def contact_work(start: Optional[ndarray], end: Optional[ndarray],
                  du: ndarray) -> float:
-    """The work over a step of increment ``du`` of the grid terms' forces
-    (contact with obstacles and between bodies, and any other
-    :class:`~skfem_mpm.protocols.GridTerm`'s force), trapezoidal from
+    """The work over a step of increment ``du`` of the contact forces
+    (with obstacles and between bodies: the grid terms that set
+    :attr:`~skfem_mpm.protocols.GridTerm.contact`), trapezoidal from
     their sum ``start`` at the step's start to ``end`` at its end
-    (``None``: no term exerts one): a record's ``contact_work``, apart
-    from the points' stresses' ``internal_work``.
+    (``None``: none exerts one): a record's ``contact_work``, apart
+    from ``internal_work``.
 
     >>> import numpy as np
     >>> contact_work(None, None, np.ones(2))

@@ -99,12 +99,13 @@ class StepRecord:
         "internal_work": ..., "external_work": ..., "contact_work":
         ...}``: the kinetic energy at its start and end, the work of the
         points' internal forces (their stresses' divergence: the change
-        of the stored elastic energy plus the plastic work), of the
-        external forces (loads; not the reactions of supports or
-        prescribed motion) and of the grid terms' forces (contact with
-        obstacles, friction included, and between bodies, and any other
-        :class:`~skfem_mpm.protocols.GridTerm`'s force: the ghost
-        penalty's, which dissipates, a term of one's own) over the step,
+        of the stored elastic energy plus the plastic work; with the
+        forces of the grid terms that are not contacts, the ghost
+        penalty's, a term of one's own), of the external forces (loads;
+        not the reactions of supports or prescribed motion) and of the
+        contact forces (with obstacles, friction included, and between
+        bodies: the grid terms that set
+        :attr:`~skfem_mpm.protocols.GridTerm.contact`) over the step,
         trapezoidal on the grid from the forces at its start and end;
         ``None`` in quasi-static runs.  :meth:`Result.energies` sums
         them.  The contact work is what the trapezoid books of forces
@@ -230,9 +231,9 @@ class Result:
         step, of ``time``, ``kinetic`` energy, the accumulated
         ``internal_work`` (of the points' stresses: stored elastic energy
         plus plastic work), ``external_work`` (of the loads) and
-        ``contact_work`` (of the grid terms' forces: contact with
-        obstacles, friction included, and between bodies; zero without
-        grid terms; :attr:`StepRecord.energy`), all zero at the start,
+        ``contact_work`` (of the contact forces: with obstacles,
+        friction included, and between bodies; zero without contact;
+        :attr:`StepRecord.energy`), all zero at the start,
         and ``balance = kinetic + internal_work + contact_work -
         external_work`` (constant, the initial kinetic energy, where
         nothing dissipates and supports do no work: its fall from
