@@ -218,9 +218,10 @@ def build_parser() -> argparse.ArgumentParser:
         "the run at --low; it collapses otherwise.  A failed run at the "
         "top of the final bracket is retried with twice the load steps "
         "(up to 3 retries; --no-retry: none); every trial is judged at "
-        "the end: a run that failed below one that converged, a verdict "
-        "not monotone in F, widen the factor's span beyond its bracket "
-        "(a WARNING).  Prints a line per trial; writes safety.json "
+        "the end: a run that failed below a trial that stood (not one "
+        "that converged past --growth: a collapse) or a verdict not "
+        "monotone in F widens the factor's span beyond its bracket (a "
+        "WARNING).  Prints a line per trial; writes safety.json "
         "(every trial with its error message, the factor, its bracket "
         "and span), safety.png (largest displacement against F) and "
         "mechanism.png (the plastic zone of the last trial that stood) "
@@ -517,19 +518,22 @@ def summary_units(dim: int, dynamics: bool = False,
 def energy_curves(rows) -> dict:
     """A dynamic run's energies over time from its history ``rows``: at
     the start and after every step, ``time`` (s), ``kinetic`` energy and
-    the accumulated ``internal_work`` and ``external_work`` (J, per unit
-    thickness in 2D) and ``balance``, as :meth:`skfem_mpm.Result.
-    energies`."""
+    the accumulated ``internal_work`` (the points' stresses'),
+    ``external_work`` (the loads') and ``contact_work`` (obstacles' and
+    contacts' forces) (J, per unit thickness in 2D) and ``balance``, as
+    :meth:`skfem_mpm.Result.energies`."""
     col = {k: rows[:, HISTORY_KEYS.index(k)] for k in HISTORY_KEYS}
     kinetic = np.r_[col["kinetic_start"][0], col["kinetic"]]
     internal = np.r_[0., np.cumsum(col["internal_work"])]
     external = np.r_[0., np.cumsum(col["external_work"])]
+    contact = np.r_[0., np.cumsum(col["contact_work"])]
     return {
         "time": [float(col["time"][0] - col["time_step"][0])]
         + col["time"].tolist(),
         "kinetic": kinetic.tolist(), "internal_work": internal.tolist(),
         "external_work": external.tolist(),
-        "balance": (kinetic + internal - external).tolist()}
+        "contact_work": contact.tolist(),
+        "balance": (kinetic + internal + contact - external).tolist()}
 
 
 def rigid_body_curves(scene, rows, reactions) -> dict:
@@ -1928,6 +1932,12 @@ def run_safety(args) -> int:
         return result
 
     tic = run_clock()
+    # the factor's warnings: printed with the summary, not logged too
+    said_below = logging.getLogger(strength_reduction.__module__)
+
+    def unlogged(record):
+        return not getattr(record, "safety_warning", False)
+    said_below.addFilter(unlogged)
     try:
         # the trials' lines count the later warnings (quiet_logs)
         found = strength_reduction(
@@ -1945,6 +1955,8 @@ def run_safety(args) -> int:
             write_safety(args.out, scene, reduced, options, trials, None,
                          run_clock() - tic, "{}".format(err))
         raise
+    finally:
+        said_below.removeFilter(unlogged)
     summary = write_safety(args.out, scene, reduced, options, trials, found,
                            run_clock() - tic)
     print("  {:>8s}  {:9s}  {}".format("F", "outcome",

@@ -175,7 +175,8 @@ class MaterialOutputError(MPMError):
     variable
         What is wrong: ``"tau"``, ``"eps_e"``, ``"D"``, ``"yielded"``,
         ``"new_state"`` or ``"new_state['name']"``, ``"state['name']"``
-        (written into), ``"stress"``.
+        (written into), ``"stress"``; ``None`` where the model raised on
+        writing into a read-only array of its own.
     indices
         The run's indices of the points concerned (the first few), or
         ``None`` where the fault is not a point's (a shape).

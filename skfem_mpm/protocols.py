@@ -45,6 +45,21 @@ __all__ = ["GridTerm", "Balance", "PointOperator", "Response", "Kinematics",
            "Material", "LinearSolver"]
 
 
+def of_package(obj) -> bool:
+    """Whether ``obj`` is of one of the package's own classes (defined in
+    ``skfem_mpm`` or a module under it), not a user's (a subclass of a
+    shipped class included): the one test of the material checks
+    (:func:`~skfem_mpm.mechanics.materials.trusted`) and of the hints
+    that name a user's terms and materials.
+
+    >>> from skfem_mpm import LinearElastic
+    >>> of_package(LinearElastic(1., 0.)), of_package(object())
+    (True, False)
+    """
+    module = type(obj).__module__ or ""
+    return module == "skfem_mpm" or module.startswith("skfem_mpm.")
+
+
 class Balance:
     """A trial's balance of forces on the grid while terms weigh it:
     internal and external force vectors, ``scale``, the force the
@@ -118,6 +133,12 @@ class GridTerm:
     #: starts it again on a resume: a resumed run with terms of one's own
     #: that do not set this warns, naming them
     stateless = False
+    #: the term's force is a contact's (with obstacles, between bodies): in
+    #: dynamics its work is booked as ``contact_work`` of
+    #: :attr:`~skfem_mpm.StepRecord.energy`; any other term's (the ghost
+    #: penalty's, a term of one's own that does not set this) with the
+    #: points' stresses' as ``internal_work``
+    contact = False
     #: the term weighs the balance in time (:meth:`weigh`): begun after
     #: every other term of a run
     weighs = False
@@ -183,7 +204,11 @@ class GridTerm:
         return self
 
     def force(self, du: ndarray, response) -> Optional[ndarray]:
-        """Internal force (grid vector) of the trial increment ``du``."""
+        """Internal force (grid vector) of the trial increment ``du``.
+        In dynamics its work over a step is booked as ``internal_work``
+        of :attr:`~skfem_mpm.StepRecord.energy`, with the points'
+        stresses', or as ``contact_work`` where the term sets
+        :attr:`contact`."""
         return None
 
     def start_force(self, zero: ndarray, response) -> Optional[ndarray]:

@@ -197,7 +197,13 @@ def arrays(result):
             out["step{}.rigid{}".format(k, j)] = force
         if r.energy is not None:
             out["step{}.energy".format(k)] = np.array(
-                [r.energy[key] for key in sorted(r.energy)])
+                [r.energy[key] for key in sorted(r.energy)
+                 if key != "contact_work"])
+            # booked apart since 2026-11-29: zero without grid terms, whose
+            # runs keep their fingerprints
+            if r.energy.get("contact_work", 0.) != 0.:
+                out["step{}.contact_work".format(k)] = np.array(
+                    [r.energy["contact_work"]])
     out["counters"] = np.array([result.counters[key]
                                 for key in sorted(result.counters)],
                                dtype=float)

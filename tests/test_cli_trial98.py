@@ -114,6 +114,18 @@ def test_an_obstacle_over_a_body_is_refused_before_work(tmp_path, capsys):
     assert load_scene(path).obstacles[0].name == "wall"
 
 
+def test_a_tied_obstacle_inside_a_body_is_taken(tmp_path):
+    """The run refuses no tied obstacle for lying inside a body (an
+    anchor holds material inside it); the scene file refused one as
+    overlapping the body ("it would hold material inside it")."""
+    from skfem_mpm.scenes.scene_file import load_scene
+    path = tmp_path / "anchor.toml"
+    path.write_text(WALL.format(wall=3.5, extra="").replace(
+        "displacement = [0.02, 0.0]", 'friction = "tied"'))
+    obstacle = load_scene(path).obstacles[0]
+    assert (obstacle.name, obstacle.friction) == ("wall", "tied")
+
+
 def test_a_refused_support_value_is_said_once(tmp_path, capsys):
     """``value = [0, 0, -0.05]`` with ``components = ["z"]`` was refused,
     and then its ``bodies = ["pile"]`` too, as though not a list of body

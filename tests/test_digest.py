@@ -36,7 +36,10 @@ hashes when the points began to keep their rotation
 (``state.rotation``; every other sum unchanged to the bit);
 fem_finite_antilocking when finite elements in finite deformation began
 to average the increment's spatial divergence ``tr(grad_X(du)
-F_n^-1)`` (its second step: the displacement sum moved 1.1e-4)."""
+F_n^-1)`` (its second step: the displacement sum moved 1.1e-4).  The
+contact's work booked apart in dynamics (``contact_work``, 2026-11-29)
+is kept in its own array where it is not zero: every case's arrays
+unchanged to the bit."""
 import json
 from pathlib import Path
 

@@ -105,3 +105,22 @@ def test_public_names_have_docstrings():
         for name in getattr(module, "__all__", []):
             assert getattr(module, name).__doc__, "{}.{}".format(
                 module.__name__, name)
+
+
+def test_every_test_a_page_cites_exists():
+    """A page's `test_file.py::test_name` (and a `::test_name` after it,
+    of the same file) names a test of that file: robustness.md cited
+    test_bspline_support_inside_the_grid_is_refused, renamed since."""
+    missing = []
+    for page in sorted(DOCS.glob("*.md")) + [ROOT / "README.md"]:
+        current = None
+        for match in re.finditer(r"`(?:tests/)?(test_\w+\.py)?::(test_\w+)",
+                                 page.read_text()):
+            current = match.group(1) or current
+            path = ROOT / "tests" / str(current)
+            if current is None or not path.exists() or not re.search(
+                    r"^def {}\(".format(match.group(2)), path.read_text(),
+                    re.M):
+                missing.append("{}: {}::{}".format(page.name, current,
+                                                   match.group(2)))
+    assert not missing, missing

@@ -6,8 +6,11 @@ negative modulus are refused at set-up."""
 import numpy as np
 import pytest
 
-from skfem_mpm import (InvalidMaterialError, MaterialProtocolError,
-                       NonFiniteMaterialError, MPMError, VonMises)
+from skfem import MeshQuad
+
+from skfem_mpm import (InvalidMaterialError, LinearElastic, MaterialPoints,
+                       MaterialProtocolError, NonFiniteMaterialError,
+                       MPMError, VonMises, seed_points)
 from skfem_mpm.mechanics.materials import trusted, update
 from test_materials import HardeningVonMises, shear_run
 
@@ -194,3 +197,122 @@ def test_several_bodies_name_the_runs_point_indices():
     cause = caught.value.__cause__ or caught.value
     assert cause.indices and all(points.body[i] == 1
                                  for i in cause.indices)
+
+
+class Merging(HardeningVonMises):
+    """The documented model returning the state it was given merged
+    with its own (``{**state, **new}``), recording the names it got."""
+    seen = set()
+
+    def principal_update(self, eps, state):
+        type(self).seen.update(state)
+        out = HardeningVonMises.principal_update(self, eps, state)
+        return out[:4] + ({**state, **out[4]},)
+
+
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+@pytest.mark.parametrize("bodies", [1, 2])
+def test_a_model_is_handed_its_own_variables_only(kinematics, bodies):
+    """A single model was handed every variable of the run's points (a
+    contact's multipliers and offsets, the rotation), then refused for
+    returning them ('new_state with 'contact_dx00', ... which its
+    state_variables do not declare'); of several bodies each model got
+    its own only.  Both hand a model its declared variables; the
+    others are carried unchanged."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    base = seed_points(mesh, 2)
+    other = np.arange(base.n, dtype=float)
+    points = MaterialPoints(x=base.x, volume=base.volume,
+                            body=(base.x[1] > .5).astype(int)
+                            if bodies == 2 else None,
+                            state={"other": other})
+    Merging.seen = set()
+    model = Merging(1e4, .3, yield_stress=10., H=2e3)
+    res = shear_run(4, kinematics, points=points,
+                    material=model if bodies == 1 else [model, model])
+    assert Merging.seen == {"alpha"}
+    assert res.points.state["alpha"].max() > 0
+    assert np.array_equal(res.points.state["other"], other)
+
+
+def test_a_geostatic_start_hands_a_model_its_own_variables_only():
+    """The check of a geostatic start against the yield surface called
+    the model directly, with every variable of the points."""
+    from skfem_mpm import geostatic_stress
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    base = seed_points(mesh, 2)
+    points = MaterialPoints(x=base.x, volume=base.volume,
+                            state={"other": np.ones(base.n)})
+    Merging.seen = set()
+    geostatic_stress(points, Merging(1e4, .3, yield_stress=1e3, H=0.),
+                     [0., -10.], 1., .5)
+    assert Merging.seen == {"alpha"}
+
+
+class WritesD(LinearElastic):
+    """An elastic model of one's own that writes into the tangent
+    LinearElastic returns (a read-only broadcast), not into its state."""
+    plastic = True
+
+    def principal_update(self, eps, state):
+        tau, eps_e, D, yielded, new = LinearElastic.principal_update(
+            self, eps)
+        D[0, 0] *= 1.
+        return tau, eps_e, D, yielded, new
+
+
+def test_a_read_only_array_of_its_own_is_named_by_the_model():
+    """The numpy error 'output array is read-only' came back bare, the
+    model not named, where a call on writable copies of the state raised
+    it too."""
+    with pytest.raises(MaterialProtocolError) as caught:
+        update(WritesD(1e4, .3), np.zeros((3, 2)), {})
+    text = str(caught.value)
+    assert text.startswith("WritesD.principal_update raised ValueError: ")
+    assert "read-only" in text.split(",")[0]
+    assert "not in writing into its input state" in text
+    assert isinstance(caught.value.__cause__, ValueError)
+
+
+def test_nan_in_an_elastic_stress_of_one_of_several_bodies_is_named():
+    """With material=[...] the stress was the linear law of the bodies'
+    lam and mu: the user's stress was never called, its NaN unseen."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
+    points = seed_points(mesh, 2)
+    points.body = (points.x[1] > .5).astype(int)
+    with pytest.raises(NonFiniteMaterialError) as caught:
+        shear_run(4, "small", points=points, material=[
+            LinearElastic(1e4, .3), NaNElastic(1e4, 3e3)])
+    cause = caught.value.__cause__ or caught.value
+    assert "NaNElastic.stress returned NaN or inf in stress" in str(
+        caught.value)
+    assert cause.indices and all(points.body[i] == 1
+                                 for i in cause.indices)
+
+
+def test_the_package_own_is_decided_once():
+    """A class of the package's top module (``skfem_mpm``) was the
+    package's own to the material checks (split(".")[0]) and a user's to
+    the hints (startswith("skfem_mpm.")): one test now decides all."""
+    from types import SimpleNamespace
+    from skfem_mpm import GridTerm
+    from skfem_mpm.errors import NewtonDivergenceError
+    from skfem_mpm.solve.core import own_terms_hint
+    from skfem_mpm.solve.newton import linear_hint
+
+    class Top(HardeningVonMises):
+        pass
+
+    class Term(GridTerm):
+        pass
+    residuals = [.5 ** k for k in range(8)]        # a linear rate 0.5
+    err = NewtonDivergenceError("the residual fell ...: a linear rate")
+    for module, own in (("skfem_mpm", True), ("skfem_mpm.x", True),
+                        ("skfem_mpmx", False), ("user", False)):
+        Top.__module__ = Term.__module__ = module
+        model = Top(1e4, .3, yield_stress=10., H=2e3)
+        assert trusted(model) is own
+        assert ("Top's principal_update" in linear_hint(residuals, model)
+                ) is not own
+        assert bool(own_terms_hint(SimpleNamespace(user_terms=(Term(),)),
+                                   err)) is not own

@@ -2922,8 +2922,8 @@ def test_dynamics_books_the_obstacles_work_from_the_last_steps_end(
     at a step's start and none at its end, -2.70 J of internal work in
     one step, the body nearly at rest).  A cpGIMP block resting on a
     floor, one bottom corner put 1 mm into it after step 3: step 4's
-    energies balance, ``dK + W_int - W_ext`` -0.05 J (-1.42 J booked
-    from the start's force; the floor's push gives the block 0.29 J);
+    energies balance, ``dK + W_int + W_contact - W_ext`` -0.05 J (-1.42
+    J booked from the start's force; the floor's push gives the block 0.29 J);
     each record keeps the floor's end force, whose vertical sum is the
     floor's force."""
     commit = StepContact.commit
@@ -2950,7 +2950,7 @@ def test_dynamics_books_the_obstacles_work_from_the_last_steps_end(
     e = res.history[3].energy
     assert e["kinetic"] > .2
     assert abs(e["kinetic"] - e["kinetic_start"] + e["internal_work"]
-               - e["external_work"]) < .1
+               + e["contact_work"] - e["external_work"]) < .1
     for record in res.history:
         assert record.obstacle_forces[0, 1] < 0.
         force = record.end_force.toarray().ravel()

@@ -187,15 +187,18 @@ def fake_runs(monkeypatch, limit=1.37, hole=(1.30, 1.33),
     return calls
 
 
-def test_a_failure_below_a_converged_run_is_said_and_retried(
-        tmp_path, capsys, monkeypatch):
+def test_a_failure_below_a_slumped_run_is_retried_and_said_once(
+        tmp_path, capsys, monkeypatch, caplog):
     """Trial 98: a run failed at a factor below one that converged, and
-    the factor (1.820 or 1.896 by the search path) hid it.  Without
-    retries: a WARNING printed and in safety.json, the span from the
-    bracket's bottom to the run that converged above, each failure's
-    whole message.  With them (the default): the failed top of the
+    the factor (1.820 or 1.896 by the search path) hid it.  The run
+    that converged moved past --growth: a collapse, which the failures
+    below it agree with, so without retries the trials look monotone:
+    no WARNING, the span the bracket (an ordinary search past collapse
+    was "uncertain").  With them (the default): the failed top of the
     bracket is run again with twice the load steps, the bisection goes
-    on to the collapse, each retry a trial and a line."""
+    on to the collapse, each retry a trial and a line, each warning
+    printed with the summary and not logged to stderr as well."""
+    import logging
     limit, hole, far = 1.37, (1.30, 1.33), (1.95, 2.05)
     calls = fake_runs(monkeypatch, limit, hole, far)
     scene = tmp_path / "slope.toml"
@@ -210,19 +213,17 @@ def test_a_failure_below_a_converged_run_is_said_and_retried(
     above = min(t["factor"] for t in s["trials"]
                 if t["converged"] and t["factor"] > high)
     assert far[0] < above <= far[1]
-    assert s["span"] == [low, above]
+    assert s["span"] == [low, high] and s["warnings"] == []
     top = [t for t in s["trials"] if t["factor"] == high][0]
     assert top["error"] == "NewtonDivergenceError: step 5 of 8: the " \
         "residual grew (F = {:.6f})".format(high)
-    assert len(s["warnings"]) == 1
-    assert "the one at F = {:.4f} converged".format(above) in \
-        s["warnings"][0]
-    assert "  WARNING: {}".format(s["warnings"][0]) in printed
-    assert "uncertain: {:.3f} .. {:.3f}".format(low, above) in printed
+    assert "WARNING" not in printed
     calls.clear()
     out = tmp_path / "retried"
-    assert main(["safety", str(scene), "--out", str(out),
-                 "--no-progress"]) == 0
+    with caplog.at_level(logging.WARNING):
+        caplog.clear()
+        assert main(["safety", str(scene), "--out", str(out),
+                     "--no-progress"]) == 0
     printed = capsys.readouterr().out
     s = json.loads((out / "safety.json").read_text())
     low, high = s["bracket"]
@@ -239,3 +240,35 @@ def test_a_failure_below_a_converged_run_is_said_and_retried(
         assert "F = {:.4f}: its run failed; retried with 16 load " \
             "steps".format(t["factor"]) in printed
     assert any("was numerical" in w for w in s["warnings"])
+    logged = [r.getMessage() for r in caplog.records]
+    for w in s["warnings"]:
+        assert printed.count(w) == 1 and printed.count(
+            "  WARNING: {}".format(w)) == 1
+        assert not [m for m in logged if w in m]
+
+
+def test_the_readme_names_every_file_safety_writes():
+    """README's paragraph on ``skfem-mpm safety``: its ``--out ... gets``
+    sentence names each file the command writes (its docstring's), and
+    the span's hatching is said of safety.png alone (a sentence put in
+    the middle of the list had taken mechanism.png out of it)."""
+    import re
+    from pathlib import Path
+
+    from skfem_mpm.cli import run_safety
+    written = set(re.findall(r"``(\w+\.(?:json|png))``", run_safety.__doc__))
+    assert written == {"safety.json", "safety.png", "mechanism.png"}
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    paragraph = readme[readme.index("`skfem-mpm safety SCENE"):]
+    paragraph = " ".join(paragraph[:paragraph.index("\n\n")].split())
+    start = paragraph.index("`--out` (default")
+    depth, end = 0, start
+    while not (depth == 0 and paragraph.startswith(". ", end)):
+        depth += {"(": 1, ")": -1}.get(paragraph[end], 0)
+        end += 1
+    gets = paragraph[start:end]
+    outside = re.sub(r"\([^()]*(\([^()]*\)[^()]*)*\)", "", gets)
+    assert set(re.findall(r"`(\w+\.(?:json|png))`", outside)) == written
+    hatched = paragraph[paragraph.index("hatched on"):]
+    hatched = hatched[:hatched.index(". ")]
+    assert "mechanism.png" not in hatched

@@ -21,7 +21,7 @@ from numpy import ndarray
 from ..errors import InvalidInputError
 from ..quadrature.points import MaterialPoints
 from .materials import (PointMaterials, at_points, initial_state,
-                        inverse_elastic_law, is_plastic)
+                        inverse_elastic_law, is_plastic, update)
 
 __all__ = ["initial_stress"]
 
@@ -129,7 +129,7 @@ def elastic_state(materials, sigma: ndarray, points: MaterialPoints,
     if is_plastic(materials):
         state = initial_state(materials, n)
         state.update({k: v[idx] for k, v in (points.state or {}).items()})
-        yielded = materials.principal_update(principal, state)[3]
+        yielded = update(materials, principal, state, idx)[3]
         if yielded.any():
             k = int(np.flatnonzero(yielded)[0])
             i = int(idx[k])

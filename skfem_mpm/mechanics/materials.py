@@ -54,6 +54,7 @@ from skfem.models.elasticity import linear_elasticity
 
 from ..errors import (InvalidMaterialError, MaterialProtocolError,
                       NonFiniteMaterialError, check_real)
+from ..protocols import of_package
 
 __all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
            "is_plastic", "elastic_tensor", "state_variables",
@@ -282,9 +283,20 @@ class PointMaterials:
         """The materials of a subset of the points (an index or slice)."""
         return PointMaterials(self.materials, self.body[points])
 
-    def stress(self, strain: ndarray) -> ndarray:
-        """``2 mu eps + lam tr(eps) I`` with per-point Lame parameters."""
-        return LinearElastic.stress(self, strain)
+    def stress(self, strain: ndarray, where=0) -> ndarray:
+        """``2 mu eps + lam tr(eps) I`` with per-point Lame parameters
+        where every body's model is the package's own; else each body's
+        ``stress`` on its points (through :func:`elastic_stress`,
+        ``where`` as there), as a single material's is called."""
+        if all(trusted(m) for m in self.materials):
+            return LinearElastic.stress(self, strain)
+        out = np.empty(np.shape(strain))
+        for k, material in enumerate(self.materials):
+            sel = np.flatnonzero(self.body == k)
+            if sel.size:
+                out[..., sel] = elastic_stress(material, strain[..., sel],
+                                               run_indices(where, sel))
+        return out
 
     def elastic_strain(self, tau: ndarray) -> ndarray:
         """Each body's inverse elastic law on its points."""
@@ -453,9 +465,10 @@ def initial_state(material, n: int) -> dict:
 
 def trusted(material) -> bool:
     """Whether ``material`` is one of the package's own (its class defined
-    in skfem_mpm, not a user's subclass): :func:`update` does not check
-    what it returns (its tests do)."""
-    return type(material).__module__.split(".")[0] == "skfem_mpm"
+    in skfem_mpm, not a user's subclass: :func:`~skfem_mpm.protocols.
+    of_package`): :func:`update` does not check what it returns (its
+    tests do)."""
+    return of_package(material)
 
 
 def run_indices(where, local: ndarray) -> ndarray:
@@ -508,10 +521,13 @@ def update(material, eps: ndarray, state, where=0):
     """``material.principal_update(eps, state)`` of the load steps, with
     what a material of the user's own returns checked (``where``: the
     run's index of the first of these points, or of each; for the
-    errors' words).  A user's model gets read-only views of the state (a
-    model writing into it, against the protocol, raises
+    errors' words).  A user's model gets read-only views of the
+    variables its ``state_variables`` declare, and only those (``state``
+    may hold more: the run's own, a contact's, other bodies'), as
+    :class:`PointMaterials` hands each body's model; a model writing into
+    them, against the protocol, raises
     :class:`~skfem_mpm.errors.MaterialProtocolError` naming the
-    variables) and its return is checked, vectorised: ``tau`` and
+    variables; its return is checked, vectorised: ``tau`` and
     ``eps_e`` (3, n), ``D`` (3, 3, n), ``yielded`` a bool (n,), the new
     state exactly its ``state_variables`` each (n,)
     (:class:`~skfem_mpm.errors.MaterialProtocolError`), every value
@@ -535,7 +551,9 @@ def update(material, eps: ndarray, state, where=0):
             return material.principal_update(eps, state, where)
         return material.principal_update(eps, state)
     method = "principal_update"
-    state = {} if state is None else state
+    declared = getattr(material, "state_variables", {})
+    state = {} if state is None else {name: state[name] for name in
+                                      declared}
     given = {}
     for name, value in state.items():
         given[name] = value.view()
@@ -543,10 +561,19 @@ def update(material, eps: ndarray, state, where=0):
     try:
         out = material.principal_update(eps, given)
     except ValueError as err:
-        written = _written(material, eps, state) \
-            if "read-only" in str(err) else None
-        if not written:
+        if "read-only" not in str(err):
             raise
+        written = _written(material, eps, state)
+        if written == []:       # it wrote its state's own values back
+            written = list(state) or None
+        if written is None:     # an array of its own, not the state given
+            raise _fault(material, method, None,
+                         "raised ValueError: {}, though not in writing into"
+                         " its input state (a call on writable copies of "
+                         "it raised too): an array it writes into is "
+                         "read-only, e.g. a broadcast such as the D of "
+                         "LinearElastic.principal_update; write into a "
+                         "copy (np.array(D))".format(err)) from err
         raise _fault(material, method, "state[{!r}]".format(written[0]),
                      "wrote into its input state {} ({}: the state at the "
                      "start of the step is read-only, and a cut-back or a "
@@ -577,7 +604,6 @@ def update(material, eps: ndarray, state, where=0):
                      "of shape {} is expected (n = {} points)".format(
                          np.asarray(yielded).dtype, np.shape(yielded), (n,),
                          n))
-    declared = getattr(material, "state_variables", {})
     if not isinstance(new, dict):
         raise _fault(material, method, "new_state",
                      "returned new_state as {} where a dict of its "
@@ -618,7 +644,10 @@ def update(material, eps: ndarray, state, where=0):
 
 def elastic_stress(material, strain: ndarray, where=0) -> ndarray:
     """``material.stress(strain)`` of an elastic body in small strain,
-    checked as :func:`update` checks a return map: (3, 3, n), finite."""
+    checked as :func:`update` checks a return map: (3, 3, n), finite (of
+    several bodies, each body's model on its points)."""
+    if isinstance(material, PointMaterials):
+        return material.stress(strain, where)
     stress = material.stress(strain)
     if trusted(material):
         return stress

@@ -22,8 +22,8 @@ import numpy as np
 from numpy import ndarray
 from skfem.assembly import CellBasis, Dofs
 from skfem.assembly.basis import AbstractBasis
-from skfem.element import DiscreteField, Element, ElementH1, ElementHex1, \
-    ElementQuad1
+from skfem.element import DiscreteField, Element, ElementComposite, \
+    ElementH1, ElementHex1, ElementQuad1, ElementVector
 from skfem.mesh import Mesh
 
 from ..errors import InvalidInputError
@@ -56,7 +56,11 @@ class MaterialPointBasis(CellBasis):
         :class:`~skfem_mpm.MaterialPoints`; their volumes become ``dx``.
     location
         Optional ``(tind, X)`` from a locator; computed with
-        :func:`~skfem_mpm.locate_points` when not given.
+        :func:`~skfem_mpm.locate_points` when not given.  A basis
+        locating its own points logs a warning where no cell holds
+        points enough for a form in the gradients to see its functions
+        (:func:`thin_cells`: P2 triangles with one point, Q2 with one,
+        Q2 hexahedra with 2 x 2 x 2); the runs check their own seeding.
     dofs
         Optional scikit-fem ``Dofs`` of ``(mesh, elem)`` to reuse between
         load steps.  When given, global DOF locations (``doflocs``) are
@@ -79,6 +83,15 @@ class MaterialPointBasis(CellBasis):
         The indices of the points integrated, sorted: the order of
         :meth:`point_values`.
 
+    Notes
+    -----
+    scikit-fem's ``with_element``, ``with_elements`` and ``split_bases``
+    give material-point bases on the same points (those in the elements
+    asked for: ``with_elements``).  Points at the centres of equal
+    sub-cells (:func:`~skfem_mpm.seed_points`) integrate exactly only
+    what is linear in a cell: quadratic elements lose an order of
+    convergence on them (the README gives the numbers).
+
     Examples
     --------
     >>> from skfem import MeshQuad, ElementQuad1, asm, BilinearForm
@@ -97,6 +110,7 @@ class MaterialPointBasis(CellBasis):
                  subset: Optional[ndarray] = None, kernels: str = "auto"):
         tind, X = _located(mesh, points, location)
         self.subset = _check_subset(subset, points.n)
+        self._npoints = points.n
         self._basis = None
         passes = compiled_kernels(kernels=kernels) \
             if subset is None and points.n else None
@@ -133,6 +147,94 @@ class MaterialPointBasis(CellBasis):
         self.dx = dx
         logger.debug("material-point basis: %d points in %d active elements "
                      "(at most %d per element)", points.n, *shape)
+        if location is None:            # a user's basis (the runs check
+            thin = thin_cells(elem, shape[1])   # their own seeding)
+            if thin:
+                logger.warning(thin)
+
+    def with_element(self, elem: Element) -> "MaterialPointBasis":
+        """A material-point basis of ``elem`` on the same points, slots and
+        volumes: what a fresh :class:`MaterialPointBasis` of ``elem`` on
+        the points gives (scikit-fem's ``CellBasis.with_element``).
+
+        >>> from skfem import MeshQuad, ElementQuad1, ElementQuad2
+        >>> from skfem_mpm import MaterialPointBasis, seed_points
+        >>> mesh = MeshQuad().refined(1)
+        >>> basis = MaterialPointBasis(mesh, ElementQuad1(),
+        ...                            seed_points(mesh, 3))
+        >>> quadratic = basis.with_element(ElementQuad2())
+        >>> int(quadratic.N), quadratic.dx.shape == basis.dx.shape
+        (25, True)
+        """
+        return self._on_slots(elem, self.tind, self.X, self.dx,
+                              self.point_index, self._passes)
+
+    def with_elements(self, elements=None) -> "MaterialPointBasis":
+        """A material-point basis of the points in the grid's ``elements``
+        (indices, a boolean mask or a callable of the element centres, as
+        scikit-fem's ``CellBasis.with_elements``): what a fresh
+        :class:`MaterialPointBasis` with ``subset=`` those points gives.
+        Elements holding no points of this basis add nothing; none of
+        them holding any is refused.
+
+        >>> from skfem import MeshQuad, ElementQuad1
+        >>> from skfem_mpm import MaterialPointBasis, seed_points
+        >>> mesh = MeshQuad().refined(1)
+        >>> basis = MaterialPointBasis(mesh, ElementQuad1(),
+        ...                            seed_points(mesh, 2))
+        >>> left = basis.with_elements(lambda x: x[0] < .5)
+        >>> left.tind.tolist(), left.subset.size, float(left.dx.sum())
+        ([0, 3], 8, 0.5)
+        """
+        wanted = np.zeros(self.mesh.nelements, dtype=bool)
+        wanted[self.mesh.normalize_elements(
+            True if elements is None else elements)] = True
+        rows = np.flatnonzero(wanted[self.tind])
+        if rows.size == 0:
+            raise InvalidInputError(
+                "with_elements: none of the {} element(s) asked for holds "
+                "a point of this basis (its {} active elements)".format(
+                    int(wanted.sum()), self.nelems))
+        index = self.point_index[rows]
+        width = int((index >= 0).sum(axis=1).max())  # points fill the
+        return self._on_slots(self.elem, self.tind[rows],  # first slots
+                              self.X[:, rows, :width],
+                              self.dx[rows, :width], index[:, :width],
+                              passes=None)    # a subset's: the numpy path
+
+    def split_bases(self) -> List["MaterialPointBasis"]:
+        """Material-point bases of the solution's components (scikit-fem's
+        ``split_bases``), on the same points: :meth:`with_element`."""
+        if isinstance(self.elem, ElementComposite):
+            return [self.with_element(e) for e in self.elem.elems]
+        if isinstance(self.elem, ElementVector):
+            return [self.with_element(self.elem.elem)
+                    for _ in range(self.elem.dim)]
+        return [self]
+
+    def _on_slots(self, elem: Element, elements: ndarray, Xq: ndarray,
+                  dx: ndarray, point_index: ndarray,
+                  passes) -> "MaterialPointBasis":
+        """A basis of ``elem`` on the slots ``point_index`` (rows: the
+        active ``elements``) at the local coordinates ``Xq`` with the
+        volumes ``dx``, formed as a fresh basis without ``dofs`` forms
+        its own; ``passes``: its compiled slot kernels or ``None``."""
+        new = object.__new__(type(self))
+        real = point_index.ravel() >= 0
+        flat = np.flatnonzero(real)
+        order = point_index.ravel()[flat]
+        new.subset = np.sort(order)
+        new._slot_of_point = flat[np.argsort(order)]   # by subset
+        new.point_index, new._padding = point_index, np.flatnonzero(~real)
+        new._npoints, new._passes = self._npoints, passes
+        new._basis = new._doflocs = new._scalar_fields = new._groups = None
+        mapping = fresh_mapping(self.mesh)
+        CellBasis.__init__(new, self.mesh, elem, mapping=mapping,
+                           elements=elements, quadrature=(Xq, dx))
+        if isinstance(mapping, PointMapping):
+            mapping.forget()
+        new.dx = dx
+        return new
 
     @property
     def basis(self) -> list:
@@ -335,10 +437,65 @@ class MaterialPointBasis(CellBasis):
         """Scatter the values (..., n) of all points into a quadrature
         field (..., nelems, nqp) of the points in :attr:`subset`, zero in
         padding slots: the inverse of :meth:`point_values`, for point data
-        entering forms."""
+        entering forms.  Values of another count than the points' are
+        refused.
+
+        >>> import numpy as np
+        >>> from skfem import MeshQuad, ElementQuad1
+        >>> from skfem_mpm import MaterialPointBasis, seed_points
+        >>> mesh = MeshQuad().refined(1)
+        >>> basis = MaterialPointBasis(mesh, ElementQuad1(),
+        ...                            seed_points(mesh, 2))
+        >>> basis.quadrature_field(np.arange(16.)).shape
+        (4, 4)
+        """
+        values = np.asarray(values)
+        if values.ndim == 0 or values.shape[-1] != self._npoints:
+            raise InvalidInputError(
+                "quadrature_field: values of shape {}, the last axis must "
+                "hold one value for each of the basis's {} points (all of "
+                "them, not only its subset)".format(values.shape,
+                                                    self._npoints))
         out = np.take(values, self.point_index.ravel(), axis=-1)
         out[..., self._padding] = 0.
         return out.reshape(values.shape[:-1] + self.point_index.shape)
+
+
+def thin_cells(elem: Element, slots: int) -> str:
+    """Where ``slots`` points, the most an active element holds, are too
+    few for a form in the gradients of the H1 element ``elem`` (scalar or
+    ``ElementVector``, c components, nloc functions) to see each cell's
+    functions less the c constants, a sentence saying so, else ``""``.
+    k points give an element matrix of a form in the gradients rank at
+    most c dim k, below nloc - c in every cell: zero-energy modes, a
+    singular matrix or a polluted solution (P2 triangles with one point:
+    an L2 error of 3.6e15; a user trial).  A few integer products: no work
+    over the points.  Forms in the symmetric gradient (elasticity) need
+    more (the runs' own check, a Q2 cell 15 strain states of its 18
+    DOFs; ``underintegrated_cells``).
+
+    >>> from skfem import ElementTriP2, ElementQuad2
+    >>> thin_cells(ElementQuad2(), 4)
+    ''
+    >>> thin_cells(ElementTriP2(), 1)[:43]
+    'material-point basis of ElementTriP2: at mo'
+    """
+    scalar, c = (elem.elem, elem.dim) if isinstance(elem, ElementVector) \
+        else (elem, 1)
+    if not isinstance(scalar, ElementH1):
+        return ""
+    nloc, dim = scalar.doflocs.shape[0], scalar.dim
+    if c * dim * slots >= c * (nloc - 1):
+        return ""
+    return (
+        "material-point basis of {}: at most {} point(s) in any cell, "
+        "which give a form in the gradients rank at most {} a cell, below "
+        "the {} its {} functions less the constants need: zero-energy "
+        "modes in every cell (a singular matrix, or a solution polluted by "
+        "them where the supports do not hold them); seed at least {} "
+        "points per cell".format(
+            type(elem).__name__, slots, c * dim * slots, c * (nloc - 1),
+            c * nloc, -(-(nloc - 1) // dim)))
 
 
 def _h1_fields(elem: Element, nloc: int, mapping: PointMapping,

@@ -41,8 +41,14 @@ __all__ = ["Checkpoint", "CheckpointError", "save_checkpoint",
 CHECKPOINT = "checkpoint.npz"
 HISTORY_KEYS = ("step", "load_factor", "residual", "n_active_elements",
                 "n_free_dofs", "newton_iterations", "time", "time_step",
-                "kinetic_start", "kinetic", "internal_work", "external_work")
-ENERGY_KEYS = ("kinetic_start", "kinetic", "internal_work", "external_work")
+                "kinetic_start", "kinetic", "internal_work", "external_work",
+                "contact_work")
+ENERGY_KEYS = ("kinetic_start", "kinetic", "internal_work", "external_work",
+               "contact_work")
+#: the history's columns a checkpoint written before ``contact_work`` was
+#: kept apart holds (its contact work inside ``internal_work``): read with
+#: a ``contact_work`` of zero
+HISTORY_KEYS_BEFORE_CONTACT_WORK = HISTORY_KEYS[:-1]
 POINT_FIELDS = ("x", "volume", "force", "x0", "stress", "strain",
                 "displacement", "volume0", "F", "be", "body", "domain",
                 "velocity", "acceleration")
@@ -109,7 +115,9 @@ class Checkpoint:
         The run's counters so far.
     history
         One row per converged step (:data:`HISTORY_KEYS`; newton
-        iterations -1 for a linear step).
+        iterations -1 for a linear step).  A checkpoint written before
+        ``contact_work`` was kept apart reads with that column zero, its
+        contact work inside ``internal_work`` (the balance the same).
     reactions
         Reaction resultants, (steps, supports, dim).
     scene_sha256
@@ -161,7 +169,7 @@ def history_rows(records) -> ndarray:
                       else r.newton_iterations,
                       -1 if r.time is None else r.time,
                       -1 if r.time_step is None else r.time_step]
-                     + [0. if r.energy is None else r.energy[k]
+                     + [0. if r.energy is None else r.energy.get(k, 0.)
                         for k in ENERGY_KEYS] for r in records],
                     dtype=np.float64).reshape(-1, len(HISTORY_KEYS))
 
@@ -289,6 +297,10 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
                       "must be >= 0")
         timings = {str(k): float(v) for k, v in zip(phases, seconds)}
     history = get("history", "f", 2)
+    if history.shape == (step, len(HISTORY_KEYS_BEFORE_CONTACT_WORK)):
+        # written before contact_work was kept apart: its contact work is
+        # in internal_work, and the balance the same
+        history = np.hstack([history, np.zeros((step, 1))])
     if history.shape != (step, len(HISTORY_KEYS)):
         raise bad("history", "has shape {}, expected ({}, {})".format(
             history.shape, step, len(HISTORY_KEYS)))

@@ -442,22 +442,31 @@ DISSIPATION = "numerical dissipation (scheme, mapping, impacts)"
 
 def draw_energies(ax, energies: dict, title: str, unit: str = "J",
                   scale: float = 1.):
-    """A dynamic run's kinetic energy, work of the internal and external
-    forces and what the scheme, the mapping and impacts dissipated (the
-    fall of the balance kinetic energy + internal work - external work
-    from its start, the initial kinetic energy: an impact's loss within
-    its steps too, as a user trial's block dropped on an incline showed;
-    plastic and friction work are in the internal work) against time;
-    ``energies`` as :meth:`skfem_mpm.Result.energies`, divided by
-    ``scale`` (its ``unit``, e.g. ``"kJ/m"`` with 1e3 for a 2D run)."""
+    """A dynamic run's kinetic energy, work of the internal forces (the
+    points' stresses: stored elastic energy plus plastic work), of the
+    external forces (loads) and, where it has any, of the contact forces
+    (obstacles, contacts between bodies; friction's work too), and what
+    the scheme, the mapping and impacts dissipated (the fall of the
+    balance kinetic energy + internal work + contact work - external
+    work from its start, the initial kinetic energy: an impact's loss
+    within its steps too, as a user trial's block dropped on an incline
+    showed) against time; ``energies`` as :meth:`skfem_mpm.Result.
+    energies` (without ``contact_work``: none), divided by ``scale``
+    (its ``unit``, e.g. ``"kJ/m"`` with 1e3 for a 2D run)."""
     t = np.asarray(energies["time"])
     kinetic, internal, external = (np.asarray(energies[k]) / scale for k in (
         "kinetic", "internal_work", "external_work"))
-    for values, style, label in ((kinetic, "-", "kinetic energy"),
-                                 (internal, "--", "internal work"),
-                                 (external, ":", "external work")):
-        ax.plot(t, values, style, label=label)
-    balance = kinetic + internal - external
+    contact = np.asarray(energies.get("contact_work", np.zeros_like(
+        t))) / scale
+    curves = [(kinetic, "-", "kinetic energy"),
+              (internal, "--", "internal work (stresses)"),
+              (external, ":", "external work (loads)")]
+    if np.any(contact):
+        curves.append((contact, (0, (5, 1, 1, 1, 1, 1)),
+                       "contact work (obstacles, contacts)"))
+    for values, style, label in curves:
+        ax.plot(t, values, linestyle=style, label=label)
+    balance = kinetic + internal + contact - external
     ax.plot(t, balance[0] - balance, "-.", label=DISSIPATION)
     ax.set_xlabel("time ({})".format(TIME))
     ax.set_ylabel("energy ({})".format(unit))

@@ -856,10 +856,11 @@ def _supports_on_grid(c, supports, grid):
 def _obstacles_placed(c, obstacles, bodies, grid, static: bool,
                       system: str):
     """An obstacle that never reaches the grid, and (a static scene) a
-    box obstacle overlapping a box body at the start by more than its
-    tolerance, are refused before any work, naming the table and the
-    overlap in the scene's length unit (a trial's was refused after
-    the set-up, "0.5 inside" and no unit)."""
+    box obstacle, not a tied one, overlapping a box body at the start by
+    more than its tolerance, are refused before any work, naming the
+    table and the overlap in the scene's length unit (a trial's was
+    refused after the set-up, "0.5 inside" and no unit; the run refuses
+    no tied obstacle for lying inside a body)."""
     length = unit("length", system, len(grid.axes))
     bounds = np.array([[lo, hi] for lo, hi, _ in grid.axes])
     cells = np.prod([(hi - lo) / n for lo, hi, n in grid.axes]) ** (
@@ -874,8 +875,10 @@ def _obstacles_placed(c, obstacles, bodies, grid, static: bool,
             c.problems.append("{}: {} (lengths in {})".format(
                 key, err, length))
             continue
-        if not static or getattr(ob, "box", None) is None:
-            continue            # (in dynamics it may start displaced)
+        if not static or getattr(ob, "box", None) is None \
+                or ob.friction == "tied":
+            continue    # (in dynamics it may start displaced; a tied one
+            #              may hold material inside it, as the run allows)
         for body in bodies:
             if body is None or region_shape(body.region) != "box":
                 continue

@@ -1209,6 +1209,7 @@ class StepBodyContact(GridTerm):
     """One step's contact between bodies (built by
     :meth:`BodyContact.begin_step`)."""
 
+    contact = True
     settles = True
     works_from_last_end = True
 

@@ -1474,6 +1474,7 @@ class StepContact(GridTerm):
     """One step's contact with the obstacles (built by
     :meth:`ObstacleContact.begin_step`)."""
 
+    contact = True
     settles = True
     # in dynamics the step's work starts from the force the last step
     # ended with: a corner that drifted a cell from its point goes back

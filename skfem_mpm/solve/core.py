@@ -68,7 +68,7 @@ from ..methods.assembly import ElementPattern
 from ..methods.bspline import check_uniform_axes, warn_loaded_point_splines
 from ..methods.method import (DOMAIN_METHODS, METHODS, PointMethod,
                              make_method)
-from ..protocols import GridTerm
+from ..protocols import GridTerm, of_package
 from ..methods.gimp import single_point_domains
 from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
 from ..quadrature.grid import GridBasis
@@ -1261,8 +1261,7 @@ def warn_resumed_terms(run: Run, resume: Resume) -> None:
     if not run.resumed:
         return
     own = sorted({type(term).__name__ for term in run.user_terms
-                  if not type(term).__module__.startswith("skfem_mpm.")
-                  and not term.stateless})
+                  if not of_package(term) and not term.stateless})
     if own:
         logger.warning(
             "resumed at step %d with grid terms of your own (%s): what "
@@ -1283,7 +1282,7 @@ def own_terms_hint(run: Run, err: Exception) -> str:
     in "add supports", its matrix left out in "missing supports", its
     matrix doubled in a linear rate, the term never named)."""
     own = [term for term in getattr(run, "user_terms", ())
-           if not type(term).__module__.startswith("skfem_mpm.")]
+           if not of_package(term)]
     if not own:
         return ""
     names = ", ".join(sorted({type(term).__name__ for term in own}))

@@ -367,8 +367,9 @@ def scheme_for(dynamics: Optional[Dynamics], contact: bool
             "can return more energy than the fall (a block dropped 0.5 on "
             "a floor rebounded to twice its height with steps of 0.02); "
             "watch the kinetic energy less the external work "
-            "(Result.energies(); its internal_work holds the contact's "
-            "work too), or leave the scheme to its default with contact, "
+            "(Result.energies(); the contact's work is its contact_work, "
+            "apart from internal_work), or leave the scheme to its "
+            "default with contact, "
             "GeneralizedAlpha(0.) (scene files: scheme = \"auto\")")
     return dynamics
 
@@ -565,13 +566,15 @@ class InertiaTerm(GridTerm):
             points.velocity ** 2).sum(0))
         zero = np.zeros(op.N)
         start = run.kinematics.response(op, zero, points)
-        step.f_int0 = problem.internal_force(zero, start, start=True)
-        # the internal force the step's work starts from: a contact's
+        step.f_int0, step.f_points0, terms0 = problem.internal_force(
+            zero, start, start=True, parts=True)
+        # the contact terms' force the step's contact work starts from
+        # (the rest apart: internal_work): a contact's
         # force where the last step ended, not at the pairs the step
         # starts from (the pressures Newton's predictor, pairs made anew
         # without theirs: a block sliding to rest on a slab lost 11% of
         # its energy to the balance at dt = 0.02)
-        step.owner, step.f_work0 = self, step.f_int0
+        step.owner, step.f_work0 = self, terms0
         ends = [term for term in problem.terms
                 if getattr(term, "works_from_last_end", False)]
         if self.resumed and self.last_end.size != zero.size:
@@ -583,8 +586,8 @@ class InertiaTerm(GridTerm):
         if ends and self.last_end is not None \
                 and self.last_end.size == zero.size:
             f = [term.start_force(zero, start) for term in ends]
-            step.f_work0 = step.f_int0 + self.last_end - sum(
-                x for x in f if x is not None)
+            step.f_work0 = (0. if terms0 is None else terms0) \
+                + self.last_end - sum(x for x in f if x is not None)
         f_ext0 = run.loads.external(op, points, problem.s_old)
         follower = problem.trial_loads(start, problem.s_old)
         if follower is not None:          # pressure on the start's surface
@@ -701,7 +704,8 @@ class StepInertia(Inertia, GridTerm):
             flip * (new.velocity + op.values(v - self.v)) \
             + (1 - flip) * op.values(v)
         new.acceleration = op.values(a)
-        f_int = problem.internal_force(du, response)
+        f_int, f_points, f_terms = problem.internal_force(
+            du, response, parts=True)
         alpha, f_dead = self.alpha_f, problem.f_dead   # at n+1-alpha_f
         f_ext1 = f_dead if alpha == 0 else \
             (f_dead - alpha * self.f_ext0) / (1 - alpha)
@@ -722,14 +726,36 @@ class StepInertia(Inertia, GridTerm):
         record.energy = {
             "kinetic_start": self.kinetic_start,
             "kinetic": .5 * float(masses @ (new.velocity ** 2).sum(0)),
-            "internal_work": .5 * float((self.f_work0 + f_int) @ du),
-            "external_work": .5 * float((self.f_ext0 + f_ext1) @ du)}
+            "internal_work": .5 * float((self.f_points0 + f_points) @ du),
+            "external_work": .5 * float((self.f_ext0 + f_ext1) @ du),
+            "contact_work": contact_work(self.f_work0, f_terms, du)}
         if self.owner.created is not None:
             self.owner.created.check(problem, record, float(
                 np.abs(f_ext1).sum()) * problem.run.cell_size)
         if problem.step == 1:
             warn_unresolved_period(record, float(du @ (f_int - self.f_int0)),
                                    float(du @ (self.M @ du)))
+
+
+def contact_work(start: Optional[ndarray], end: Optional[ndarray],
+                 du: ndarray) -> float:
+    """The work over a step of increment ``du`` of the contact forces
+    (with obstacles and between bodies: the grid terms that set
+    :attr:`~skfem_mpm.protocols.GridTerm.contact`), trapezoidal from
+    their sum ``start`` at the step's start to ``end`` at its end
+    (``None``: none exerts one): a record's ``contact_work``, apart
+    from ``internal_work``.
+
+    >>> import numpy as np
+    >>> contact_work(None, None, np.ones(2))
+    0.0
+    >>> contact_work(None, np.array([2., 4.]), np.array([1., .5]))
+    2.0
+    """
+    if start is None and end is None:
+        return 0.
+    total = (0. if start is None else start) + (0. if end is None else end)
+    return .5 * float(total @ du)
 
 
 #: a run's first time step longer than this many periods of the motion it
@@ -780,10 +806,11 @@ class CreatedEnergy:
     since, the external work (where no prescribed motion, rigid body or
     moving obstacle does work that it leaves out), so their kinetic
     energy is at most that.  Beyond it the run created energy, which the
-    balance ``kinetic + internal - external`` books as a loss (the
-    internal work of a step resolved so coarsely goes below zero).  The
-    internal work bounds no stored energy: a block landing on a floor in
-    steps of 0.04 booked -54.8 J of it and lost energy.  Measured: a 2D
+    balance ``kinetic + internal + contact - external`` books as a loss
+    (the internal and contact work of a step resolved so coarsely go
+    below zero).  They bound no stored energy: a block landing on a
+    floor in steps of 0.04 booked -54.8 J of the two (when they were
+    kept together) and lost energy.  Measured: a 2D
     MPM block (E = 1e7) dropped on a 35 degree incline with friction
     0.3 at dt = 0.01, whose impact step converged through a node barely
     held (:meth:`StepInertia.settle`, now refused): kinetic energy 45.7

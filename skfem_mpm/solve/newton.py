@@ -71,6 +71,7 @@ from ..kernels import run_clock
 from ..errors import (InvalidInputError, InversionError, NewtonDivergenceError,
                       SingularSystemError, check_choice, check_int,
                       check_real)
+from ..protocols import of_package
 
 logger = logging.getLogger(__name__)
 
@@ -909,7 +910,7 @@ def linear_hint(residuals: List[float], material) -> str:
         return ""
     users = [] if material is None else [
         type(m).__name__ for m in getattr(material, "materials", [material])
-        if not type(m).__module__.startswith("skfem_mpm.")]
+        if not of_package(m)]
     return ("the residual fell by about {:.2g} an iteration over the "
             "last {}: a linear rate (Newton's with the exact derivative is "
             "quadratic){}".format(

@@ -344,19 +344,31 @@ class StepProblem:
         return hasattr(self.run.solver, "factorise")
 
     def internal_force(self, du: ndarray, response,
-                       start: bool = False) -> ndarray:
+                       start: bool = False, parts: bool = False):
         """The static internal force of a trial: the points' stresses and
         the terms' forces; with ``start`` (``du`` zero) the force where the
         step starts, each term's :meth:`~skfem_mpm.protocols.GridTerm.
-        start_force`."""
+        start_force`.  With ``parts`` ``(f_int, internal, contact)``: the
+        sum as without, the points' stresses' part with the forces of the
+        terms that are not contacts, and the sum of the forces of those
+        that are (:attr:`~skfem_mpm.protocols.GridTerm.contact`; ``None``
+        where none exerts one), which dynamics books the work of apart
+        (``internal_work``, ``contact_work``)."""
         f_int = self.op.force(response.P, response.w) \
             if response.force is None else response.force()
+        points = f_int.copy() if parts else None
+        terms = None
         for term in self.terms:
             f = term.start_force(du, response) if start else \
                 term.force(du, response)
-            if f is not None:
-                f_int += f
-        return f_int
+            if f is None:
+                continue
+            f_int += f
+            if parts and getattr(term, "contact", False):
+                terms = f.copy() if terms is None else terms + f
+            elif parts:
+                points += f
+        return (f_int, points, terms) if parts else f_int
 
     def trial_loads(self, response, scale: float):
         """The sum of the terms' trial-dependent loads at the loads' scale

@@ -96,19 +96,26 @@ class StepRecord:
     time, time_step, energy
         Dynamic runs (``simulate(dynamics=...)``): the time at the end of
         the step, its length, and ``{"kinetic_start": ..., "kinetic": ...,
-        "internal_work": ..., "external_work": ...}``: the kinetic energy
-        at its start and end and the work
-        of the internal and external forces (loads; not the reactions of
-        supports or prescribed motion) over the step, trapezoidal on the
-        grid from the forces at its start and end; ``None`` in
-        quasi-static runs.  :meth:`Result.energies` sums them.  The
-        internal work is the change of the stored elastic energy plus
-        the plastic work and, with obstacles or contacts, the contact
-        forces' work as the trapezoid books it, which a landing within a
-        step leaves behind: a 64 kg block dropped 0.4 m on a smooth floor
-        keeps 71.55 J of it in flight after its bounce, its strain energy
-        under 1e-3 J, where the floor does no work (75.03 J at half the
-        time step, 16.18 J at a quarter; docs/dynamics.md).
+        "internal_work": ..., "external_work": ..., "contact_work":
+        ...}``: the kinetic energy at its start and end, the work of the
+        points' internal forces (their stresses' divergence: the change
+        of the stored elastic energy plus the plastic work; with the
+        forces of the grid terms that are not contacts, the ghost
+        penalty's, a term of one's own), of the external forces (loads;
+        not the reactions of supports or prescribed motion) and of the
+        contact forces (with obstacles, friction included, and between
+        bodies: the grid terms that set
+        :attr:`~skfem_mpm.protocols.GridTerm.contact`) over the step,
+        trapezoidal on the grid from the forces at its start and end;
+        ``None`` in quasi-static runs.  :meth:`Result.energies` sums
+        them.  The contact work is what the trapezoid books of forces
+        that a fixed smooth obstacle exerts without doing work, and a
+        landing within a step leaves it behind: a 64 kg block dropped 0.4
+        m on a smooth floor keeps 71.55 J of it in flight after its
+        bounce, where its internal work is its strain energy, under 1e-3
+        J (75.03 J at half the time step, 16.18 J at a quarter;
+        docs/dynamics.md).  (Before ``contact_work`` was kept apart, the
+        internal work held it.)
     end_force
         Dynamic runs with contact between bodies: the contact's force
         (a sparse 1 x N row of the step's grid DOFs) where the step
@@ -171,7 +178,13 @@ class Result:
     basis
         The material-point basis (scalar element) of the last step, before
         the final position update; vector DOF ``dim * k + a`` of the grid
-        solution is component a at its DOF k.
+        solution is component a at its DOF k.  Methods ``"mpm"`` and
+        ``"fem"`` only: ``None`` for GIMP and the B-splines (``"ugimp"``,
+        ``"cpgimp"``, ``"bspline"`` and the rest: their weights are no
+        scikit-fem basis).  The step's
+        equilibrium holds on these positions, not on :attr:`points`'
+        (moved after it): a basis of one's own for such a run is built on
+        them (``x0`` after one step).
     counters
         How often each kind of work was done: ``locate`` (point location),
         ``body_force`` (body-force assemblies), ``linear_solves``,
@@ -216,12 +229,15 @@ class Result:
     def energies(self) -> dict:
         """Dynamic runs: arrays over time, at the start and after every
         step, of ``time``, ``kinetic`` energy, the accumulated
-        ``internal_work`` and ``external_work`` (zero at the start), and
-        ``balance = kinetic + internal_work - external_work`` (constant,
-        the initial kinetic energy, where nothing dissipates and supports
-        do no work: its fall from ``kinetic[0]`` is what the scheme and
-        impacts dissipated; the internal work holds the contact forces'
-        work too, an obstacle's friction with its normal force).  On a
+        ``internal_work`` (of the points' stresses: stored elastic energy
+        plus plastic work), ``external_work`` (of the loads) and
+        ``contact_work`` (of the contact forces: with obstacles,
+        friction included, and between bodies; zero without contact;
+        :attr:`StepRecord.energy`), all zero at the start,
+        and ``balance = kinetic + internal_work + contact_work -
+        external_work`` (constant, the initial kinetic energy, where
+        nothing dissipates and supports do no work: its fall from
+        ``kinetic[0]`` is what the scheme and impacts dissipated).  On a
         friction floor that fall is large, and no missing friction
         work: a granular column's came to 8-26% of gravity's work (17.7%
         with Newmark's rule, which damps nothing), a third of it in the
@@ -238,9 +254,9 @@ class Result:
                                 + [r.time for r in steps]),
                "kinetic": np.array([first.energy["kinetic_start"]]
                                    + [r.energy["kinetic"] for r in steps])}
-        for name in ("internal_work", "external_work"):
+        for name in ("internal_work", "external_work", "contact_work"):
             out[name] = np.concatenate([[0.], np.cumsum(
-                [r.energy[name] for r in steps])])
+                [r.energy.get(name, 0.) for r in steps])])
         out["balance"] = out["kinetic"] + out["internal_work"] \
-            - out["external_work"]
+            + out["contact_work"] - out["external_work"]
         return out

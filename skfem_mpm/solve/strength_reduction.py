@@ -149,12 +149,14 @@ class SafetyFactor:
         trial: ``lower`` the largest factor below every trial that did
         not stand, ``upper`` the smallest factor that did not stand
         above every trial that stood, a failed run not counted where a
-        run at a larger factor converged (the failure may be numerical)
-        and no retry at its factor failed too.  The bracket where the
-        trials are monotone; wider (a :attr:`warnings`) where not.
+        trial at a larger factor stood (the failure may be numerical)
+        and no retry at its factor failed too; a run that converged but
+        moved past ``growth`` is a collapse, and the failures below it
+        agree with it.  The bracket where the trials are monotone; wider
+        (a :attr:`warnings`) where not.
     warnings
         What makes the factor less certain than its bracket, one
-        sentence each: a run that failed below one that converged, a
+        sentence each: a run that failed below a trial that stood, a
         :attr:`span` wider than the bracket (empty: none).
 
     Its repr is the factor, the bracket and the trials (``print`` of
@@ -231,7 +233,10 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
         retry).  Where the trial at the top of the final bracket failed
         to converge, it is run again by ``retry``: a failure for a load
         step too large is told from a collapse.  If the retry stands, the
-        bisection goes on above it (and its new top is retried in turn);
+        bisection goes on above it, up to the smallest factor above it
+        whose trial did not stand or, where there is none (the top was
+        the first ``high``), up to its factor doubled until a trial does
+        not stand, as at the start (and its new top is retried in turn);
         at most ``retries`` retries in all (default 3), each a trial in
         :attr:`SafetyFactor.trials` (:attr:`SafetyFactor.retried`).
     retries
@@ -251,7 +256,8 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
         If the run at ``low`` already fails (the factor of safety is below
         ``low``: the message says so, with the failure), if it does not
         move (no scale for ``growth``), or none up to ``high * 32``
-        collapses.
+        collapses (after a retry that stood at ``high``: up to 64 times
+        that).
 
     Examples
     --------
@@ -286,7 +292,9 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
         found = bisect(run, low, high, tolerance, growth, displacement,
                        once, quiet, retry, retries)
     for sentence in found.warnings:
-        logger.warning("strength reduction: %s", sentence)
+        # marked: skfem-mpm safety prints them with its summary instead
+        logger.warning("strength reduction: %s", sentence,
+                       extra={"safety_warning": True})
     said = ["F = {:.4f}: {}".format(f, n)
             for (f, _), n in zip(found.trials, found.quieted) if n]
     if said:
@@ -367,14 +375,19 @@ def bisect(run: Callable, low: float, high: float, tolerance: float,
                 "pass growth=None to judge by convergence alone".format(
                     low, displacements[0]))
         scale.append(displacements[0])
-    for _ in range(6):
-        trial, _ = attempt(high)
-        if trial is None:
-            break
-        low, result, high = high, trial, 2 * high
-    else:
+
+    def climb(low, result, high):
+        """The bracket: ``high`` doubled (up to five times) until its
+        trial does not stand, ``low`` and ``result`` the last that did."""
+        for _ in range(6):
+            trial, _ = attempt(high)
+            if trial is None:
+                return low, result, high
+            low, result, high = high, trial, 2 * high
         raise InvalidInputError("no run failed up to the strength reduction "
                                 "factor {}: nothing collapses".format(low))
+
+    low, result, high = climb(low, result, high)
     while True:
         while high - low > tolerance * low:
             middle = .5 * (low + high)
@@ -391,9 +404,14 @@ def bisect(run: Callable, low: float, high: float, tolerance: float,
         trial, _ = attempt(high, retry)
         if trial is None:
             break
-        # a numerical failure: the bisection goes on above it
-        low, result = high, trial
-        high = min(f for f, stood in trials if not stood and f > low)
+        # a numerical failure: the bisection goes on above it, to the
+        # smallest failure there; none where every midpoint stood (the
+        # top was the first bracket's): the bracket climbs again
+        above = [f for f, stood in trials if not stood and f > high]
+        if above:
+            low, result, high = high, trial, min(above)
+        else:
+            low, result, high = climb(high, trial, 2 * high)
     span, warnings = flip_span(trials, errors, retried)
     if growth is None:
         warnings += far_moved(trials, displacements, low)
@@ -452,8 +470,8 @@ def flip_span(trials: list, errors: list, retried: list) -> tuple:
     >>> for line in said:
     ...     print(fill(line, 70))
     the runs at F = 1.8300, 1.8750 failed (E: y, ...) but the one at F =
-    1.8400 converged: the failures may be numerical (load steps too
-    large), the factor of safety up to 1.9
+    1.8400 stood: the failures may be numerical (load steps too large),
+    the factor of safety up to 1.9
     the verdict is not monotone in F: a trial stood at F = 1.8900, above
     one that did not at F = 1.8300; the factor of safety lies anywhere
     from 1.8 to 1.9, not only in the bracket
@@ -466,11 +484,13 @@ def flip_span(trials: list, errors: list, retried: list) -> tuple:
     kept = [k for k in range(len(trials)) if k not in superseded]
     fell = [trials[k][0] for k in kept if not trials[k][1]]
     stood = [trials[k][0] for k in kept if trials[k][1]]
-    # a failure below a converged run, not confirmed by a failed retry
+    # a failure below a trial that stood, not confirmed by a failed
+    # retry (a run that converged but moved past growth is a collapse:
+    # the failures below it agree with it)
     doubtful = [k for k in kept if errors[k] is not None and not any(
         retried[j] and errors[j] is not None and j != k
         and trials[j][0] == trials[k][0] for j in kept) and any(
-        errors[j] is None and trials[j][0] > trials[k][0] for j in kept)]
+        trials[j][1] and trials[j][0] > trials[k][0] for j in kept)]
     lower = max([f for f in stood if f < min(fell)] or [min(stood)])
     upper = min(trials[k][0] for k in kept if not trials[k][1] and
                 trials[k][0] > max(stood) and k not in doubtful)
@@ -485,12 +505,12 @@ def flip_span(trials: list, errors: list, retried: list) -> tuple:
         first = trials[below[0]][0]
         warnings.append(
             "the run{} at F = {} failed ({}{}) but the one at F = {:.4f} "
-            "converged: {} may be numerical (load steps too large), the "
+            "stood: {} may be numerical (load steps too large), the "
             "factor of safety up to {:.4g}".format(
                 "s" if len(below) > 1 else "",
                 ", ".join("{:.4f}".format(trials[k][0]) for k in below),
                 errors[below[0]], ", ..." if len(below) > 1 else "",
-                min(trials[j][0] for j in kept if errors[j] is None
+                min(trials[j][0] for j in kept if trials[j][1]
                     and trials[j][0] > first),
                 "the failures" if len(below) > 1 else "the failure",
                 upper))
