@@ -185,7 +185,7 @@ def test_nan_in_an_elastic_stress_is_named():
 def test_several_bodies_name_the_runs_point_indices():
     """A user's model as body 1 of two: the indices are the run's, those
     of body 1's points."""
-    from skfem import ElementQuad1, MeshQuad
+    from skfem import MeshQuad
     from skfem_mpm import seed_points
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 1, 3))
     points = seed_points(mesh, 2)
