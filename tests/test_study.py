@@ -1587,3 +1587,97 @@ def test_an_extreme_at_other_points_on_each_grid_is_warned(tmp_path,
     assert not [x for x in study_module.report(
         rows, rows.measured, ["elements"])
         if "different material point" in x or "own reference" in x]
+
+
+COLUMN_1D = """
+name = "column1d"
+reference = "column"
+[grid]
+x = [0.0, 50.0, 8]
+[[bodies]]
+name = "column"
+region = { x = [0.0, 50.0] }
+points_per_cell = 2
+material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
+[[supports]]
+boundary = "left"
+[gravity]
+body_force = [-800.0]
+[solver]
+method = "mpm"
+steps = 4
+"""
+
+
+def test_the_suggested_measure_names_the_component_that_carries_it(
+        tmp_path):
+    """A trial's 1D column: the warning that the largest displacement is
+    taken at a different point on each grid suggested ``component="y"``,
+    which a 1D scene refuses (and in a 3D column on rollers, the
+    sideways displacement, zero).  It names the component of the
+    largest displacement at that point, here ``"x"``, and the measure it
+    suggests is accepted by the scene."""
+    path = tmp_path / "column.toml"
+    path.write_text(COLUMN_1D)
+    scene = load_scene(path)
+    rows = study(scene, {"elements": [8, 16]}, tmp_path / "a",
+                 progress=False, warn=False)
+    said = [x for x in study_module.report(rows, rows.measured,
+                                           ["elements"])
+            if "at a different material point" in x]
+    assert len(said) == 1
+    found = re.search(r"quantity=\"(\w+)\", component=\"(\w+)\", "
+                      r"at=\[([^\]]*)\]", said[0])
+    assert found.group(1, 2) == ("displacement", "x")
+    at = tuple(float(v) for v in found.group(3).split(","))
+    Quantity("displacement", "x", at=at).check(scene)
+
+
+ROLLERS_2D = """
+name = "strip"
+[grid]
+x = [0.0, 2.5, 1]
+y = [0.0, 50.0, 8]
+[[bodies]]
+name = "column"
+region = { x = [0.0, 2.5], y = [0.0, 50.0] }
+points_per_cell = 2
+material = { model = "linear_elastic", E = 1e6, nu = 0.0 }
+[[supports]]
+boundary = "bottom"
+[[supports]]
+boundary = "left"
+components = ["x"]
+[[supports]]
+boundary = "right"
+components = ["x"]
+[gravity]
+body_force = [0.0, -800.0]
+[solver]
+method = "mpm"
+steps = 1
+"""
+
+
+def test_a_quantity_zero_in_every_case_is_warned(tmp_path, caplog):
+    """A trial measured a 3D column's sideways displacement at its top,
+    which its rollers hold at zero: the study reported "reference 0 +-
+    6.7e-308 m: the values agree to round-off", as if converged.  A
+    quantity zero (or round-off against the run's largest of its kind)
+    in every case is warned, in the summary and the log; the vertical
+    displacement is not."""
+    path = tmp_path / "strip.toml"
+    path.write_text(ROLLERS_2D)
+    scene = load_scene(path)
+    side = Quantity("displacement", "x", at=(1.25, 49.))
+    down = Quantity("displacement", "y", at=(1.25, 49.))
+    caplog.set_level(logging.WARNING)
+    rows = study(replace(scene, outputs=(side, down)),
+                 {"elements": [8, 16, 32]}, tmp_path / "a", progress=False)
+    assert all(abs(r["values"][side.label]) <= 1e-9 * r["scale"][side.label]
+               for r in rows)
+    lines = study_module.report(rows, rows.measured, ["elements"])
+    said = [x for x in lines if "zero in every case" in x]
+    assert len(said) == 1 and said[0].startswith("WARNING: " + side.label)
+    assert any("zero in every case" in r.getMessage()
+               for r in caplog.records)

@@ -307,6 +307,37 @@ class Quantity:
             self.reduce, lambda v: np.argmax(np.abs(v)))(values)
         return pts.x0[:, chosen[pick]].copy()
 
+    def extreme_component(self, scene, result) -> Optional[str]:
+        """The component to measure ``at`` the extreme's point
+        (:meth:`extreme_point`), or ``None`` where it has none: this
+        quantity's own component, and for the magnitude of the
+        displacement the axis of that point's largest displacement
+        component (a column's vertical one, not a sideways one its
+        rollers hold at zero)."""
+        at = self.extreme_point(scene, result)
+        if at is None:
+            return None
+        if self.quantity != "displacement" or \
+                self.component != "magnitude":
+            return self.component
+        pts = result.points
+        chosen = np.flatnonzero(self._chosen(scene, pts))
+        point = chosen[np.argmin(((pts.x0[:, chosen] - at[:, None]) ** 2)
+                                 .sum(axis=0))]
+        return "xyz"[int(np.argmax(np.abs(pts.displacement[:, point])))]
+
+    def scale(self, scene, result) -> Optional[float]:
+        """The size of this kind of quantity in the run, against which a
+        value of it is round-off: the largest displacement (magnitude)
+        or stress component of any point; ``None`` for a force."""
+        if self.quantity not in ("displacement", "stress"):
+            return None
+        pts = result.points
+        if self.quantity == "displacement":
+            return float(np.sqrt((pts.displacement ** 2).sum(axis=0))
+                         .max(initial=0.))
+        return float(np.abs(pts.stress).max(initial=0.))
+
     def measure(self, scene, result) -> float:
         """The quantity of a finished run (``result`` of
         :func:`~skfem_mpm.scenes.scene.run_scene` on ``scene``); a box

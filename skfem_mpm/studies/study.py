@@ -506,6 +506,11 @@ def run_case(scene: Scene, params: dict, quantities=()) -> dict:
             q.label: [float(v) for v in at] for q, at in (
                 (q, q.extreme_point(case, result)) for q in quantities)
             if at is not None}
+        row["extreme_component"] = {
+            q.label: q.extreme_component(case, result) for q in quantities
+            if q.label in row["extreme_at"]}
+        # the size of each kind of quantity, to tell a zero (zero_values)
+        row["scale"] = {q.label: q.scale(case, result) for q in quantities}
     except MPMError as err:
         row["failure"] = "{}: {}".format(type(err).__name__, err)
     row.update(
@@ -1196,6 +1201,7 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
             _number(c["uncertainty"], "{:.2g}"), c["unit"], c["why"]))
     lines.extend(mixed_stabilisation(measured))
     lines.extend(moving_extremes(rows))
+    lines.extend(zero_values(rows))
     lines.extend(own_references(measured))
     pairs = measured.get("disagreements", ())
     for d in sorted(pairs, key=lambda d: -d["apart"])[:SHOWN_PAIRS]:
@@ -1252,19 +1258,67 @@ def moving_extremes(rows: List[dict]) -> List[str]:
             continue
         finest = max(at, key=lambda a: a[0])
         where = ", ".join("{:.4g}".format(v) for v in finest[1])
+        # the component that carries the extreme at the finest grid's
+        # point: "y" was named in a 1D scene (which has none) and in a
+        # 3D column, whose sideways "y" its rollers hold at zero
+        carried = [r.get("extreme_component", {}).get(label) for r in done
+                   if r["elements"] == finest[0]]
+        component = next((c for c in carried if c), "xyz"[len(
+            finest[1]) - 1])
+        kind = "stress" if len(component) == 2 or component in (
+            "mises", "pressure") else "displacement"
         lines.append(
             "WARNING: {} is taken at a different material point on each "
             "grid (on {} elements at x0 = [{}], on {} at [{}]): its value "
             "moves with where the grid's points lie, an error first order "
             "in the cell size that every method shares, so the errors, "
             "rates and ranking measure that; measure the field at one "
-            "place instead, e.g. --measure 'quantity=\"displacement\", "
-            "component=\"y\", at=[{}]' (a place of the body's surface "
+            "place instead, e.g. --measure 'quantity=\"{}\", "
+            "component=\"{}\", at=[{}]' (a place of the body's surface "
             "such as a tip is extrapolated from the points near it)".format(
                 label, min(at, key=lambda a: a[0])[0], ", ".join(
                     "{:.4g}".format(v) for v in min(
                         at, key=lambda a: a[0])[1]),
-                finest[0], where, where))
+                finest[0], where, kind, component, where))
+    return lines
+
+
+#: a quantity whose values are all within this fraction of the run's
+#: largest value of its kind (:meth:`~skfem_mpm.scenes.quantities.
+#: Quantity.scale`) is zero: :func:`zero_values`
+ZERO_FRACTION = 1e-9
+
+
+def zero_values(rows: List[dict]) -> List[str]:
+    """A warning per quantity that is zero, or round-off against the
+    largest value of its kind in the run (:data:`ZERO_FRACTION`), in
+    every case: its convergence then reads "the values agree to
+    round-off", which says nothing of the run's accuracy (a trial's 3D
+    column on rollers, its sideways displacement at the top: 0 in every
+    case, reported as converged to +- 6.7e-308 m).
+
+    >>> rows = [dict(failure="", values={"u y": 0.}, scale={"u y": 1.})]
+    >>> print(zero_values(rows)[0][:44])
+    WARNING: u y is zero in every case (largest
+    """
+    lines = []
+    done = [r for r in rows if not r.get("failure") and r.get("values")]
+    for label in sorted({k for r in done for k in r["values"]}):
+        pairs = [(r["values"][label], (r.get("scale") or {}).get(label))
+                 for r in done if label in r["values"]]
+        if not all(np.isfinite(v) and abs(v) <= ZERO_FRACTION * (s or 0.)
+                   for v, s in pairs):
+            continue
+        largest = max(abs(v) for v, _ in pairs)
+        lines.append(
+            "WARNING: {} is zero in every case ({}{}): its "
+            "convergence and errors say nothing of the runs' accuracy; a "
+            "support or symmetry may hold it, measure a component that "
+            "carries the load".format(
+                label, "largest {:.2g}".format(largest) if largest else
+                "exactly 0", ", round-off against the largest {:.3g} "
+                "of its kind".format(max(s for _, s in pairs))
+                if largest else ""))
     return lines
 
 
@@ -1642,12 +1696,14 @@ def _study(scene: Scene, vary: Dict[str, Sequence], outdir,
 
 def warn_mixed(measured: dict, rows: List[dict], warn: bool = True
                ) -> dict:
-    """Log (if ``warn``) :func:`mixed_stabilisation`'s warnings, and one
+    """Log (if ``warn``) the warnings of :func:`mixed_stabilisation`,
+    :func:`moving_extremes` and :func:`zero_values`, and one
     where cases read back from an older ``study.json`` do not say whether
     the ghost penalty switched on in them; returns ``measured``."""
     if not warn:
         return measured
-    for line in mixed_stabilisation(measured) + moving_extremes(rows):
+    for line in mixed_stabilisation(measured) + moving_extremes(rows) \
+            + zero_values(rows):
         logger.warning("%s", line[len("WARNING: "):])
     unknown = [r for r in rows if not r["failure"]
                and "ghost_from_step" not in r]
