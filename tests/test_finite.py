@@ -569,3 +569,34 @@ def test_a_b_spline_retry_with_the_stabilised_tangent_stays_quadratic(
                         (False, False)]
     assert len(res.history) == 2
     assert len(res.history[0].newton_residuals) == 3
+
+
+def test_finite_deformation_is_hencky_s_column_not_2_27_s():
+    """A trial: seed (2.27) had been called the finite-deformation
+    solution; it holds for the law ``sigma = E (F - 1)`` (current height
+    ``L0 - b L0^2 / (2 E)``, 49), while finite deformation here is
+    Hencky's, Cauchy ``E ln F / F`` = the weight ``-b (L0 - Y)``, so
+    ``F = W(a) / a`` with ``a = b (L0 - Y) / E`` and, integrating with
+    ``a = w e^w``, ``z(Y) = (E / b) (w + w^2 / 2)`` taken between the
+    base's ``w`` and the point's (top 49.038).  One finite step of MPM and 20
+    of cpGIMP put the points there to 1e-4, 0.038 from (2.27)'s."""
+    from scipy.special import lambertw
+
+    def hencky_z(Y):
+        w = lambertw(LOAD * (HEIGHT - Y) / MATERIAL.E).real
+        base = lambertw(LOAD * HEIGHT / MATERIAL.E).real
+        return MATERIAL.E / LOAD * (base + base ** 2 / 2 - w - w ** 2 / 2)
+
+    def linear_z(Y):            # the law of (2.27): u of small strain
+        return Y - LOAD / MATERIAL.E * (HEIGHT * Y - Y ** 2 / 2)
+
+    assert linear_z(HEIGHT) == pytest.approx(49., rel=1e-14)
+    from scipy.integrate import quad
+    stretch = quad(lambda Y: lambertw(LOAD * (HEIGHT - Y) / MATERIAL.E).real
+                   / (LOAD * (HEIGHT - Y) / MATERIAL.E), 0., HEIGHT - 1e-12,
+                   epsabs=1e-12)[0]        # the integral of F
+    assert hencky_z(HEIGHT) == pytest.approx(stretch, rel=1e-10)
+    for method, nsteps in (("mpm", 1), ("cpgimp", 20)):
+        p = run_column(64, method, nsteps).points
+        assert np.abs(p.x[1] - hencky_z(p.x0[1])).max() < 1e-4
+        assert np.abs(p.x[1] - linear_z(p.x0[1])).max() > .03

@@ -70,11 +70,24 @@ def analytical_stress(Y: ndarray, load: float = LOAD,
 
 def analytical_stress_current(z: ndarray, top: float) -> ndarray:
     """Seed (2.27): the stress at current height z of a column of current
-    height ``top`` (finite-deformation solution, compression negative),
+    height ``top`` (compression negative),
     ``E (sqrt(2 rho0 b / E (top - z) + 1) - 1)`` with the body force
     ``rho0 b = -LOAD`` pointing down: at the base of the column of current
     height ``L0 - LOAD L0^2 / (2 E)`` (49 of 50) it carries the weight
     ``-LOAD L0``.
+
+    It is exact for the law ``sigma = E (F - 1)`` (Cauchy stress linear
+    in the stretch): the small-strain solution's displacement field,
+    ``u(Y) = -rho0 b (L0 Y - Y^2 / 2) / E``, written in current
+    coordinates ``z = Y + u``.  The chapter takes it from its reference
+    [15] without naming a law.  It is *not* the exact solution of this
+    package's finite-deformation kinematics (Hencky: Kirchhoff stress
+    ``E ln F``, Cauchy ``E ln F / F`` in 1D), whose column's top lies at
+    ``(E / rho0 b) (w + w^2 / 2)``, ``w = W(rho0 b L0 / E)`` (Lambert's
+    W), 49.0380 of 50 (a shortening of 0.9620, not 1; finite-deformation
+    runs reproduce it, ``tests/test_finite.py``).  The two laws' stresses
+    at one current height differ at second order in the strain (here by
+    up to 30, near the top, against the base's 40000).
 
     >>> from skfem_mpm.studies.column import analytical_stress_current
     >>> round(float(analytical_stress_current(0., 49.)), 6)
@@ -99,7 +112,9 @@ def column_error(points: MaterialPoints, load: float = LOAD,
     (2.27) at their current positions: on a column on rollers the Cauchy
     stress at a material point is the weight above it over an unchanged
     area for any elastic law, while (2.27) is that stress in current
-    coordinates for one law and needs the run's current height.  So the
+    coordinates for one law (``sigma = E (F - 1)``, not the Hencky law
+    of finite deformation: :func:`analytical_stress_current`) and needs
+    the run's current height.  So the
     measure holds for every law and kinematics, and sees the stresses
     only, not where the points went: a small-strain run at 20% strain
     (body force 8000, 32 elements, one step) reads 7.8e-3 with its top
