@@ -1297,9 +1297,10 @@ def zero_values(rows: List[dict]) -> List[str]:
     column on rollers, its sideways displacement at the top: 0 in every
     case, reported as converged to +- 6.7e-308 m).
 
-    >>> rows = [dict(failure="", values={"u y": 0.}, scale={"u y": 1.})]
-    >>> print(zero_values(rows)[0][:44])
-    WARNING: u y is zero in every case (largest
+    >>> rows = [dict(failure="", values={"u y": v}, scale={"u y": 2.})
+    ...         for v in (0., 3e-16)]
+    >>> print(zero_values(rows)[0][:79])
+    WARNING: u y is zero in every case (largest 3e-16, round-off against the la
     """
     lines = []
     done = [r for r in rows if not r.get("failure") and r.get("values")]
