@@ -1299,7 +1299,7 @@ def zero_values(rows: List[dict]) -> List[str]:
 
     >>> rows = [dict(failure="", values={"u y": v}, scale={"u y": 2.})
     ...         for v in (0., 3e-16)]
-    >>> print(zero_values(rows)[0][:79])
+    >>> print(zero_values(rows)[0][:75])
     WARNING: u y is zero in every case (largest 3e-16, round-off against the la
     """
     lines = []
