@@ -659,8 +659,8 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
             None, "completed"):
         plot_column_stress([result], ["{}, {} steps".format(
             scene.method, scene.step_count)], outdir / "column_stress.png",
-            title="{}: vertical stress against height,\nwith the closed "
-            "forms of {}".format(scene.name, COLUMN_SOURCE),
+            title="{}: vertical stress against initial height,\nwith "
+            "the closed form of {}".format(scene.name, COLUMN_SOURCE),
             unit=stress)
     if loaded.size and result.history and \
             result.history[0].displacement is not None:

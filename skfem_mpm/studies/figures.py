@@ -15,8 +15,7 @@ import numpy as np
 from ..scenes import plot  # save_figure looked up when called: tests wrap it
 from ..scenes.plot import pyplot, series_styles
 from ..solve.results import PHASES, Result
-from .column import SOURCE, analytical_stress, analytical_stress_current, \
-    vertical_stress
+from .column import HEIGHT, SOURCE, analytical_stress, vertical_stress
 from .study import (VARIABLES, fitted_rate, levelling_off, not_falling,
                     own_groups)
 
@@ -26,38 +25,45 @@ __all__ = ["draw_column_stress", "draw_convergence", "pareto_front",
 
 def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
                        title: str = "", unit: str = "Pa"):
-    """Vertical stress of the column's points against current height, with
-    the linear solution at initial heights and seed (2.27) at current ones
-    (a panel of seed Figure 2.9); ``unit``: the stress's
-    (:func:`~skfem_mpm.scenes.units.unit`)."""
+    """Vertical stress of the column's points against their *initial*
+    height ``Y``, with the closed form ``-rho0 b (L0 - Y)`` at the same
+    heights (a panel of seed Figure 2.9); ``unit``: the stress's
+    (:func:`~skfem_mpm.scenes.units.unit`).
+
+    One coordinate for both: the points had been drawn at their current
+    heights and the closed form at initial ones on one "height" axis (a
+    trial).  The initial height is the one where the closed form is the
+    exact Cauchy stress of any elastic law on rollers (the weight above
+    over an unchanged area), small strain or finite, and where (2.28)
+    compares (:func:`~skfem_mpm.studies.column.column_error`); seed
+    (2.27), its law's stress at current heights, is the same line mapped
+    to initial heights (:func:`~skfem_mpm.studies.column.
+    analytical_stress_current`)."""
     for res, label in zip(results, labels):
         pts = res.points
-        order = np.argsort(pts.x[-1])
-        ax.plot(-vertical_stress(pts)[order], pts.x[-1][order], ".-", ms=3,
-                lw=.8, label=label)
-    pts = results[0].points
-    Y = np.linspace(0., pts.x0[-1].max(), 200)
+        order = np.argsort(pts.x0[-1])
+        ax.plot(-vertical_stress(pts)[order], pts.x0[-1][order], ".-",
+                ms=3, lw=.8, label=label)
+    Y = np.linspace(0., HEIGHT, 200)
     ax.plot(-analytical_stress(Y), Y, "k--", lw=1,
-            label=r"$\rho_0 b (L_0 - Y)$, initial height")
-    # the material's current top: the top point's domain above it (its
-    # height, 1.25 of a cell of 5, put the curve's zero at 47.5 for 49)
-    top = (pts.x[-1] + (0. if pts.domain is None else pts.domain[-1])).max()
-    z = np.linspace(0., top, 200)
-    ax.plot(-analytical_stress_current(z, top), z, "k:", lw=1,
-            label="(2.27) of {}, current height".format(SOURCE))
+            label=r"$\rho_0 b (L_0 - Y)$, exact for any elastic law")
     ax.set_xlabel(r"$-\sigma_{yy}$ (" + unit + ")")
-    ax.set_ylabel("height (m)")
+    ax.set_ylabel("initial height Y of the points (m)")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=6)
 
 
 def draw_convergence(ax, nelems: np.ndarray, errors: Dict[str, np.ndarray],
-                     rates: Dict[str, float], title: str = ""):
+                     rates: Dict[str, object], title: str = ""):
     """Error against number of elements on log-log axes, one curve per
-    label with its fitted rate (a panel of seed Figure 2.10)."""
+    label with its rate (a panel of seed Figure 2.10): a number, or words
+    where the errors have none (``"no rate: ..."``, as
+    ``examples/column.py`` judges them)."""
     for label, err in errors.items():
-        ax.loglog(nelems, err, "o-", ms=3, lw=.8,
-                  label="{} (rate {:.2f})".format(label, rates[label]))
+        rate = rates[label]
+        ax.loglog(nelems, err, "o-", ms=3, lw=.8, label="{} ({})".format(
+            label, rate if isinstance(rate, str)
+            else "rate {:.2f}".format(rate)))
     ref = errors[next(iter(errors))][0] * nelems[0] / nelems
     ax.loglog(nelems, ref, "k:", lw=.8, label="slope 1")
     ax.set_xlabel("number of elements (-)")
