@@ -1681,3 +1681,25 @@ def test_a_quantity_zero_in_every_case_is_warned(tmp_path, caplog):
     assert len(said) == 1 and said[0].startswith("WARNING: " + side.label)
     assert any("zero in every case" in r.getMessage()
                for r in caplog.records)
+
+
+def test_the_time_figures_say_what_their_times_and_exponents_are(
+        tmp_path, monkeypatch):
+    """A trial: cases under ~0.2 s are mostly fixed cost and repeat only
+    within 10-25%, and time_vs_points.png's exponent per phase is fitted
+    over every case, the methods pooled; neither figure said so."""
+    import skfem_mpm.studies.figures as figures
+    rows, measured = refined_study({"mpm": 1., "cpgimp": 1.001})
+    for r in rows:
+        r["cpu_seconds"] = .01 * r["elements"]      # 0.04 to 0.16 s
+    titles = {}
+    finish = figures._finish
+    monkeypatch.setattr(figures, "_finish", lambda fig, ax, *a: titles.update(
+        {a[-1].name: a[-2]}) or finish(fig, ax, *a))
+    figures.plot_study(rows, tmp_path, measured)
+    quick = sum(r["cpu_seconds"] < figures.FIXED_COST_SECONDS for r in rows)
+    assert quick
+    for name in ("error_vs_time.png", "time_vs_points.png"):
+        assert "{} of {} cases under".format(quick, len(rows)) in \
+            titles[name], titles[name]
+    assert "pooling the methods cpgimp, mpm" in titles["time_vs_points.png"]

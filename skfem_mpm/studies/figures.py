@@ -188,6 +188,23 @@ def _group_name(choices: dict) -> str:
         if choices.get(k) is not None) or "all"
 
 
+#: CPU seconds below which a case is mostly fixed cost (set-up, the
+#: first assembly, the solver's start): a trial's column cases under
+#: ~0.2 s repeated only within 10-25% from one run of a study to the next
+FIXED_COST_SECONDS = .2
+
+
+def _fixed_cost_note(rows: list) -> str:
+    """A line for a time figure where some cases took under
+    :data:`FIXED_COST_SECONDS`, else ``""``."""
+    quick = sum(_cost(r) < FIXED_COST_SECONDS for r in rows)
+    if not quick:
+        return ""
+    return ("\n{} of {} cases under {:g} s: mostly fixed cost, their times "
+            "repeat only within 10-25%".format(quick, len(rows),
+                                               FIXED_COST_SECONDS))
+
+
 def _cost(r: dict) -> float:
     """A case's CPU seconds (its wall seconds in studies from before
     they were recorded)."""
@@ -235,7 +252,8 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
     case's uncertainty where the error has one (a case whose error is
     unknown, the finest of a group where nothing was extrapolated, drawn
     at its uncertainty), (c) time per phase and
-    load step against points with fitted exponents, (d) each quantity of
+    load step against points with exponents fitted over all cases (every
+    method pooled), (d) each quantity of
     interest against the cell size with each value's uncertainty, and
     each group's reference and its uncertainty band.  Returns the files
     written."""
@@ -298,16 +316,21 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
         written.append(_finish(
             fig, ax, "CPU time per case (s)", ylabel,
             "What accuracy costs: {} against CPU time,\nthe error "
-            "against {}{}{}".format(
+            "against {}{}{}{}".format(
                 label, measured["error"]["against"], _bars(measured),
                 ";\neach group's against its own reference, {:.2%} apart"
                 .format((max(own) - min(own)) / (abs(max(own, key=abs))
-                                                 or 1.)) if own else ""),
+                                                 or 1.)) if own else "",
+                _fixed_cost_note(ok)),
             outdir / "error_vs_time.png"))
     if ok:
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
         points = np.array([r["points"] for r in ok], float)
         steps = np.array([max(r["steps_run"], 1) for r in ok], float)
+        # the exponents pool every case: methods, solvers, points per cell
+        methods = sorted({str(r["method"]) for r in ok if "method" in r})
+        pooled = ", pooling the methods {}".format(", ".join(methods)) \
+            if len(methods) > 1 else ""
         for style, p in zip(series_styles(len(PHASES)), PHASES):
             t = np.array([r["t_" + p] for r in ok]) / steps
             good = t > 0
@@ -320,7 +343,9 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
                 _loglog(ax, points[good], t[good], style, name, line=False)
         written.append(_finish(
             fig, ax, "material points (-)", "time per load step (s)",
-            "Cost of each phase per load step against the points",
+            "Cost of each phase per load step against the points;\n"
+            "each exponent fitted over all {} cases{}{}".format(
+                len(ok), pooled, _fixed_cost_note(ok)),
             outdir / "time_vs_points.png"))
     convergence = [c for c in measured["convergence"] if c["cell_sizes"]]
     if convergence:
