@@ -67,3 +67,57 @@ def test_the_scene_file_refuses_no_disc_the_run_takes(tmp_path):
         corners = points.x[1] - points.domain[1]
         tol = scene.obstacles[0].tolerance * 0.25
         assert (corners < top - tol).any(), top
+
+
+CUBE = """\
+name = "cube"
+[grid]
+{grid}
+[[bodies]]
+name = "soil"
+region = {{ {region} }}
+material = {{ model = "linear_elastic", E = 1e5, nu = 0.3 }}
+[[supports]]
+boundary = "{bottom}"
+"""
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+@pytest.mark.parametrize("share", [.0094, .0047])
+def test_a_deformed_shape_follows_the_readme_rule(tmp_path, monkeypatch,
+                                                  dim, share):
+    """A 1 m cube (square) on 4 cells, 2 points per cell: its side was
+    measured between its points' centres (0.875 m), so a largest
+    displacement of 0.94% of its side was drawn at true scale, 0.47% x 5
+    (4.7% drawn at x 10).  The README: under 1% of the body's longer
+    side, exaggerated by the largest 1, 2 or 5 x 10^k drawing it at most
+    5% of it."""
+    from pathlib import Path
+    from skfem_mpm.cli import plot_deformed_shape
+    from skfem_mpm.scenes import plot
+    from skfem_mpm.scenes.scene import build_points
+    from skfem_mpm.scenes.scene_file import load_scene
+    axes = "xyz"[:dim]
+    path = tmp_path / "cube.toml"
+    path.write_text(CUBE.format(
+        grid="\n".join("{} = [0.0, 1.0, 4]".format(a) for a in axes),
+        region=", ".join("{} = [0.0, 1.0]".format(a) for a in axes),
+        bottom=axes[-1] + "-"))
+    scene = load_scene(path)
+    mesh, _ = scene.grid.build()
+    pts = build_points(scene, mesh)
+    side = float(np.max(pts.x0 + pts.domain) - np.min(pts.x0 - pts.domain))
+    pts.displacement[dim - 1] = -share * side * pts.x0[dim - 1] / np.max(
+        pts.x0[dim - 1])
+    largest = np.abs(pts.displacement).max()
+    assert largest < .01 * side
+    wanted = .05 * side / largest
+    power = 10. ** np.floor(np.log10(wanted))
+    factor = max(m * power for m in (1, 2, 5, 10) if m * power <= wanted)
+    kept = {}
+    monkeypatch.setattr(plot, "save_figure",
+                        lambda fig, path, **kw: kept.update(fig=fig))
+    for half in (pts.domain.copy(), None):   # without: from the volumes
+        plot_deformed_shape(scene, pts, "", half, Path("no.png"), 1.)
+        title = kept["fig"].axes[0].get_title()
+        assert "(displacements x {:g}, the".format(factor) in title, title
