@@ -121,3 +121,51 @@ def test_a_deformed_shape_follows_the_readme_rule(tmp_path, monkeypatch,
         plot_deformed_shape(scene, pts, "", half, Path("no.png"), 1.)
         title = kept["fig"].axes[0].get_title()
         assert "(displacements x {:g}, the".format(factor) in title, title
+
+
+def test_the_basis_warning_says_what_seed_points_takes():
+    """The basis warning said "seed at least 2 points per cell" (Q1) and
+    "3" (P2) where ``seed_points(mesh, n)`` takes n per cell and axis:
+    it says the count in a cell and the n that seeds it, and that n's
+    points are enough."""
+    from skfem import (ElementHex1, ElementQuad1, ElementTriP2, MeshHex,
+                       MeshQuad, MeshTri)
+    from skfem_mpm import seed_points
+    from skfem_mpm.quadrature.basis import thin_cells
+    for elem, mesh in ((ElementQuad1(), MeshQuad()),
+                       (ElementTriP2(), MeshTri()),
+                       (ElementHex1(), MeshHex())):
+        message = thin_cells(elem, 1)
+        dim = mesh.dim()
+        least = -(-(elem.doflocs.shape[0] - 1) // dim)
+        n = int(message.split("seed_points(mesh, ")[1].split(")")[0])
+        assert n ** dim >= least and (n - 1) ** dim < least
+        assert "seed at least {} points in every cell (seed_points(mesh, " \
+            "{}) seeds {} a cell".format(least, n, n ** dim) in message
+        most = seed_points(mesh, n).n // mesh.nelements
+        assert most == n ** dim and thin_cells(elem, most) == ""
+
+
+def test_fem_with_one_point_a_linear_cell_is_warned():
+    """``method="fem"`` on Q1 cells with 1 point each has the hourglass
+    modes "mpm" is warned of (a point's 3 strain states of a cell's 8
+    DOFs less 3): warned too, naming seed_gauss_points; the Gauss points
+    of rules exact for the element (order 2 for Q1, 4 for Q2) are not."""
+    from skfem import ElementQuad1, ElementQuad2, MeshQuad
+    from skfem_mpm import seed_gauss_points, seed_points
+    from skfem_mpm.solve.core import underintegrated_cells
+    axis = np.linspace(0., 1., 3)
+    mesh = MeshQuad.init_tensor(axis, axis)
+    one = seed_points(mesh, 1)
+    mpm = underintegrated_cells("mpm", mesh, ElementQuad1(), one)
+    fem = underintegrated_cells("fem", mesh, ElementQuad1(), one)
+    assert mpm and fem.startswith(mpm)
+    assert fem.endswith("seed 2 points per cell and axis (seed_points("
+                        "mesh, 2), or seed_gauss_points(mesh, 2): 2 Gauss "
+                        "points a cell and axis)")
+    assert underintegrated_cells("fem", mesh, ElementQuad1(),
+                                 seed_gauss_points(mesh, 2)) == ""
+    assert underintegrated_cells("fem", mesh, ElementQuad2(),
+                                 seed_gauss_points(mesh, 4)) == ""
+    assert "seed_gauss_points(mesh, 4)" in underintegrated_cells(
+        "fem", mesh, ElementQuad2(), seed_gauss_points(mesh, 2))

@@ -2062,11 +2062,15 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     enough): a 3D block of 2 x 2 x 2 cells on a tied floor (small
     strain) stalled Newton at 2.5e-7 of its load in its second step,
     named "a floor of the residual" with no word of the cause (a user
-    trial).  Logged as a warning at the run's start and added to a
-    failed run's error."""
+    trial).  ``method="fem"`` alike: its points are the quadrature, and
+    one a Q1 cell (a one-point Gauss rule) has the same hourglass modes
+    (trial 103: warned for "mpm" only); the Gauss points of a rule exact
+    for the element (``seed_gauss_points``, order 2 for Q1, 4 for Q2:
+    2 or 3 a cell and axis) are enough, and not warned.  Logged as a
+    warning at the run's start and added to a failed run's error."""
     dim = mesh.dim()
     scalar, nodes = cell_nodes(elem, mesh)
-    if method != "mpm" or mesh.t.shape[0] != 2 ** dim:
+    if method not in ("mpm", "fem") or mesh.t.shape[0] != 2 ** dim:
         return ""
     per_axis = points_per_cell_axis(mesh, points)
     strains = dim * (dim + 1) // 2
@@ -2074,16 +2078,19 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     have = int(round(per_axis)) ** dim * strains
     if have >= needed:
         return ""
+    wanted = int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))
     return (
         "element {} with {} per cell and axis: {} {} "
         "a cell of {} nodes {} of the {} strain states its DOFs need, so "
         "the stiffness has zero-energy modes (a singular matrix, or "
         "Newton stalled at a floor of the residual); seed "
-        "{} points per cell and axis".format(
+        "{} points per cell and axis{}".format(
             type(scalar).__name__, plural(per_axis_words(per_axis)),
             plural(str(int(round(per_axis)) ** dim)),
             "gives" if round(per_axis) == 1 else "give", nodes, have, needed,
-            int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))))
+            wanted, " (seed_points(mesh, {0}), or seed_gauss_points(mesh, "
+            "{1}): {0} Gauss points a cell and axis)".format(
+                wanted, 2 * (wanted - 1)) if method == "fem" else ""))
 
 
 def surface_in_full(forces) -> str:
