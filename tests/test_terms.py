@@ -128,6 +128,11 @@ class Doubled(SpringBed):
         return 2 * SpringBed.matrix(self, response)
 
 
+class Weak(SpringBed):
+    def matrix(self, response):
+        return .3 * SpringBed.matrix(self, response)
+
+
 @pytest.mark.parametrize("term, error, words", [
     (Unheld, SingularSystemError, "the run's grid terms of your own "
      "(Unheld) do not set holds_free_body = True"),
@@ -136,12 +141,16 @@ class Doubled(SpringBed):
      "the supports out: their matrix(response) must"),
     (Doubled, NewtonDivergenceError, "the run's grid terms of your own "
      "(Doubled) take part: a term's matrix(response) must be the "
+     "derivative of its force"),
+    (Weak, NewtonDivergenceError, "the run's grid terms of your own "
+     "(Weak) take part: a term's matrix(response) must be the "
      "derivative of its force")])
 def test_a_failure_names_the_runs_own_grid_terms(term, error, words):
     """Trial 97's spring bed: without ``holds_free_body`` the run said
     "not held ... add supports", without a matrix "zero-energy mode ...
     or missing supports", with its matrix doubled "a linear rate", never
-    naming the term."""
+    naming the term.  Trial 103's, its matrix 0.3 of the derivative,
+    diverged in the linear run unnamed ("not cut back")."""
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
     points = seed_points(mesh, 2, region=lambda x: x[1] < 1.5)
     base = np.flatnonzero(mesh.p[1] == 0)

@@ -1277,10 +1277,12 @@ def own_terms_hint(run: Run, err: Exception) -> str:
     """The run's grid terms of the user's own (``loads=[...]``, classes
     defined outside the package) named for a failed run's error ``err``:
     a singular system says what ``holds_free_body`` does, a Newton loop
-    at a linear rate that a term's matrix must be its force's
-    derivative; ``""`` without such terms (trial 97's spring bed ended
-    in "add supports", its matrix left out in "missing supports", its
-    matrix doubled in a linear rate, the term never named)."""
+    at a linear rate, or a linear run's that did not converge, that a
+    term's matrix must be its force's derivative; ``""`` without such
+    terms (trial 97's spring bed ended in "add supports", its matrix left
+    out in "missing supports", its matrix doubled in a linear rate, the
+    term never named; trial 103's, its matrix 0.3 of the derivative in a
+    linear run, diverged unnamed)."""
     own = [term for term in getattr(run, "user_terms", ())
            if not of_package(term)]
     if not own:
@@ -1305,6 +1307,12 @@ def own_terms_hint(run: Run, err: Exception) -> str:
                 "term's matrix(response) must be the derivative of its "
                 "force(du, response), or Newton converges linearly"
                 .format(names))
+    if isinstance(err, NewtonDivergenceError) and getattr(run, "linear",
+                                                          False):
+        return ("; the run's grid terms of your own ({}) take part: a "
+                "term's matrix(response) must be the derivative of its "
+                "force(du, response), with which a linear step converges "
+                "at its first solve".format(names))
     return ""
 
 
