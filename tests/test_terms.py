@@ -164,6 +164,31 @@ def test_a_failure_names_the_runs_own_grid_terms(term, error, words):
     assert words in str(caught.value)
 
 
+def test_a_first_step_from_rest_is_not_told_its_start_is_unbalanced():
+    """Trial 103's spring bed, its matrix 0.3 of its force's derivative,
+    under an elastic-plastic body that never yields: every cut-back of
+    the first step starts at the residual 1, all of it the load
+    increment's (the body at rest, unloaded), and the error said "the
+    step's start is out of balance, not its load increment ... so a
+    shorter step cannot help".  It now names the term alone; the start's
+    own share of the first residual is measured (0 here)."""
+    from skfem_mpm import NewtonOptions, Options, VonMises
+    mesh = MeshQuad.init_tensor(np.linspace(0, 4, 5), np.linspace(0, 4, 5))
+    dofs = np.arange(2 * mesh.nvertices)          # a bed under every DOF
+    with pytest.raises(NewtonDivergenceError) as caught:
+        simulate(mesh, ElementQuad1(),
+                 seed_points(mesh, 2, region=lambda x: x[1] < 2),
+                 VonMises(1e6, .3, yield_stress=1e9),
+                 lambda b: np.array([], dtype=int), body_force=[0., -800.],
+                 loads=[Weak(dofs, np.full(dofs.size, 1e5))], nsteps=2,
+                 options=Options(newton=NewtonOptions(max_cutbacks=2)))
+    said = str(caught.value)
+    assert "load increment of {:.2e}".format(.5 / 4) in said
+    assert "(Weak) take part" in said
+    assert "out of balance" not in said
+    assert caught.value.__cause__.start_share == 0.
+
+
 class StatelessBed(SpringBed):
     """(Said to keep nothing, for the test: its warning is left out.)"""
     stateless = True

@@ -52,7 +52,8 @@ from ..kernels import run_clock
 from ..errors import (ContactError, GridMotionError, HeldSupportError,
                       InvalidInputError, InversionError,
                       PointsOutsideGridError, UnsupportedElementError,
-                      MPMError, NewtonDivergenceError, NumericalError,
+                      MPMError, NewtonDivergenceError,
+                      NonFiniteMaterialError, NumericalError,
                       SingularSystemError, SingularTangentError,
                       StepFailedError,
                       StepTooLongError, UnsettledContactError,
@@ -741,13 +742,21 @@ RETRY_LADDER = (
 
 
 def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
-            step: int):
+            step: int, said: Optional[set] = None):
     """A load step, retried along :data:`RETRY_LADDER` when Newton fails
     in a nonlinear step; the last rung's failure is raised.  Contact that
     did not settle (:class:`~skfem_mpm.errors.UnsettledContactError`)
     takes only the rungs that change the step's equations (the ghost
     penalty): the others solve each of its rounds to the same
-    equilibrium."""
+    equilibrium.  A material's NaN or inf
+    (:class:`~skfem_mpm.errors.NonFiniteMaterialError`) takes only the
+    rungs that keep them: the ghost penalty cannot mend a model's
+    arithmetic (trial 103's NaN switched it on, with its limit-load
+    caution).  A failure said before in the step (``said``, the
+    :func:`failure_key` of those logged: a model's deterministic NaN,
+    3 identical warnings at each of 8 cut-backs) is logged again at
+    INFO."""
+    said = set() if said is None else said
     how, rungs = FIRST, iter(RETRY_LADDER)
     zero_energy = False         # an attempt met zero-energy modes
     stalls = []     # each failed attempt's stalled residual (or None)
@@ -774,7 +783,9 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             for rung in rungs:
                 if (rung.linear or not run.linear) and (
                         rung.how is None or not isinstance(
-                            failure, UnsettledContactError)) and \
+                            failure, UnsettledContactError)) and (
+                        rung.how is not None or not isinstance(
+                            failure, NonFiniteMaterialError)) and \
                         rung.applies(run, failure, report):
                     break
             else:
@@ -788,10 +799,23 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 rung.change(run, step, failure)
                 how, rungs = FIRST, iter(RETRY_LADDER)
             else:
-                logger.warning("%s; retrying with %s%s", failure, rung.what,
-                               onset_words(run, points, f_old)
-                               if rung.how is LINE_SEARCH else "")
+                key = failure_key(failure)
+                logger.log(logging.INFO if key in said else logging.WARNING,
+                           "%s; retrying with %s%s", failure, rung.what,
+                           onset_words(run, points, f_old)
+                           if rung.how is LINE_SEARCH else "")
+                said.add(key)
                 how = rung.how
+
+
+def failure_key(failure: Exception) -> tuple:
+    """What makes a failed attempt's warning one said before in its step
+    (:func:`attempt`): a material's NaN or inf in the same variable of the
+    same method, at whatever points; otherwise the same message."""
+    if isinstance(failure, NonFiniteMaterialError):
+        return (NonFiniteMaterialError, failure.material, failure.method,
+                failure.variable)
+    return (str(failure),)
 
 
 def onset_words(run: Run, points: MaterialPoints, f_old: float) -> str:
@@ -1013,6 +1037,11 @@ def collapse_hint(run: Run, reach: list) -> str:
                 rates[-1] / stiffest, f[-1]))
 
 
+#: the share of a step's first out-of-balance force its start must hold
+#: (:func:`start_hint`) for a shorter step to be said not to help
+START_SHARE = .5
+
+
 def start_hint(starts: list) -> str:
     """A sentence for a step cut back to the end whose first residual did
     not fall with its increment (``starts``: each failed increment and
@@ -1032,11 +1061,27 @@ def start_hint(starts: list) -> str:
     "; the step's first residual stayed at 0.0778"
     >>> start_hint([(.25, .4), (.125, .21), (.0625, .1)])
     ''
+
+    Each entry may carry a third, the share of the attempt's first
+    out-of-balance force that the step's start holds (newton's
+    :func:`~skfem_mpm.solve.newton.start_share`): a run's first step
+    from rest (trial 103: a spring bed's wrong matrix) starts with the
+    residual 1 at every cut-back, all of it the load increment's, and
+    was told its start was out of balance.
+
+    >>> start_hint([(.25, 1., 0.), (.125, 1., 0.), (.0625, 1., 0.)])
+    ''
+    >>> start_hint([(.25, .0909, .9), (.125, .0818, .95),
+    ...             (.0625, .0778, .97)])[:44]
+    "; the step's first residual stayed at 0.0778"
     """
-    if len(starts) < 3 or any(first is None for _, first in starts):
+    if len(starts) < 3 or any(entry[1] is None for entry in starts):
         return ""
-    (longest, r0), (shortest, r1) = starts[0], starts[-1]
+    (longest, r0), (shortest, r1) = starts[0][:2], starts[-1][:2]
     if not (r1 >= .5 * r0 and shortest <= longest / 4 * (1 + 1e-9)):
+        return ""
+    share = starts[-1][2] if len(starts[-1]) > 2 else None
+    if share is not None and share < START_SHARE:
         return ""
     return ("; the step's first residual stayed at {:.3g} ({:.3g} at the "
             "first attempt) while the increment was cut {:.0f}-fold: the "
@@ -1373,6 +1418,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     reach = [(factor, largest_displacement(points))] if watch else []
     stalled_at = None   # the last failed increment and its attempts' stalls
     starts = []         # the step's failed increments, first residuals
+    said = set()        # the step's failures logged (attempt)
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
         target = min(factor + increment, boundary)
@@ -1380,11 +1426,12 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             target = boundary
         try:
             points, record, op = attempt(run, points, factor, target,
-                                         step + 1)
+                                         step + 1, said)
         except STEP_FAILURES as err:
             held = held + 1 if isinstance(err, HeldSupportError) else 0
             starts.append((target - factor,
-                           getattr(err, "first_residual", None)))
+                           getattr(err, "first_residual", None),
+                           getattr(err, "start_share", None)))
             unbalanced = no_equilibrium(run, points)
             floor = stall_floor(getattr(err, "stalls", None), stalled_at,
                                 target - factor)
@@ -1473,7 +1520,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                 state=points, load_factor=factor,
                 history=result.history) from err
         step += 1
-        factor, held = target, 0
+        factor, held, starts, said = target, 0, [], set()
         if adaptive and record.newton_iterations is not None:
             increment = dynamics.adapt(increment, 1. / nsteps, smallest,
                                        record.newton_iterations)
