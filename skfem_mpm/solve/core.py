@@ -742,7 +742,7 @@ RETRY_LADDER = (
 
 
 def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
-            step: int, said: Optional[set] = None):
+            step: int):
     """A load step, retried along :data:`RETRY_LADDER` when Newton fails
     in a nonlinear step; the last rung's failure is raised.  Contact that
     did not settle (:class:`~skfem_mpm.errors.UnsettledContactError`)
@@ -752,11 +752,10 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     (:class:`~skfem_mpm.errors.NonFiniteMaterialError`) takes only the
     rungs that keep them: the ghost penalty cannot mend a model's
     arithmetic (trial 103's NaN switched it on, with its limit-load
-    caution).  A failure said before in the step (``said``, the
-    :func:`failure_key` of those logged: a model's deterministic NaN,
-    3 identical warnings at each of 8 cut-backs) is logged again at
-    INFO."""
-    said = set() if said is None else said
+    caution).  A failure said before in the step (its
+    :func:`failure_key` among the run's ``warned``: a model's
+    deterministic NaN, 3 identical warnings at each of 8 cut-backs) is
+    logged again at INFO."""
     how, rungs = FIRST, iter(RETRY_LADDER)
     zero_energy = False         # an attempt met zero-energy modes
     stalls = []     # each failed attempt's stalled residual (or None)
@@ -799,12 +798,13 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 rung.change(run, step, failure)
                 how, rungs = FIRST, iter(RETRY_LADDER)
             else:
-                key = failure_key(failure)
-                logger.log(logging.INFO if key in said else logging.WARNING,
+                key = ("retried", step) + failure_key(failure)
+                logger.log(logging.INFO if key in run.warned
+                           else logging.WARNING,
                            "%s; retrying with %s%s", failure, rung.what,
                            onset_words(run, points, f_old)
                            if rung.how is LINE_SEARCH else "")
-                said.add(key)
+                run.warned.add(key)
                 how = rung.how
 
 
@@ -1418,7 +1418,6 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
     reach = [(factor, largest_displacement(points))] if watch else []
     stalled_at = None   # the last failed increment and its attempts' stalls
     starts = []         # the step's failed increments, first residuals
-    said = set()        # the step's failures logged (attempt)
     while factor < 1. - 1e-12:
         boundary = (np.floor(factor * nsteps + 1e-9) + 1) / nsteps
         target = min(factor + increment, boundary)
@@ -1426,7 +1425,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             target = boundary
         try:
             points, record, op = attempt(run, points, factor, target,
-                                         step + 1, said)
+                                         step + 1)
         except STEP_FAILURES as err:
             held = held + 1 if isinstance(err, HeldSupportError) else 0
             starts.append((target - factor,
@@ -1520,7 +1519,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                 state=points, load_factor=factor,
                 history=result.history) from err
         step += 1
-        factor, held, starts, said = target, 0, [], set()
+        factor, held, starts = target, 0, []
         if adaptive and record.newton_iterations is not None:
             increment = dynamics.adapt(increment, 1. / nsteps, smallest,
                                        record.newton_iterations)

@@ -866,6 +866,11 @@ class StepProblem:
             record.u, record.x = du, new.x.copy()
             record.displacement = new.displacement.copy()
             record.stress = new.stress.copy()
+        for term in self.terms:     # what a term reads before any commits
+            # (the time integrator's end forces: a term's own may change)
+            before = getattr(term, "before_commit", None)
+            if before is not None:
+                before(self, trial, du)
         for term in self.terms:
             term.commit(self, trial, du, new, record)
         for term in self.terms:
