@@ -796,7 +796,10 @@ def plot_deformed_shape(scene, pts, when: str, half, path: Path,
     (:func:`~skfem_mpm.scenes.plot.displacement_scale`)."""
     mesh, elem = scene.grid.build()
     # small displacements exaggerated, the obstacles' motion with them
-    scale = plot.displacement_scale(pts.x0, pts.displacement)
+    # (the body's side: its points' reach, not their centres')
+    scale = plot.displacement_scale(
+        pts.x0, pts.displacement, half if half is not None else
+        pts.volume0 ** (1. / pts.dim) / 2)
     shift = scale * load_scale(scene, [load_factor])[0]
     rigid = {b.name: pts.body == k for k, b in enumerate(scene.bodies)
              if b.rigid is not None}

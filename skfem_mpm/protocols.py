@@ -269,7 +269,9 @@ class GridTerm:
 
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
         """After convergence: update the new state ``new`` (points) and
-        the step's ``record`` with what the term keeps."""
+        the step's ``record`` with what the term keeps (a total
+        displacement, ``u += du``: in dynamics the step's work is booked
+        from the terms' forces read before any term commits)."""
 
     def finish(self, problem, new, record) -> None:
         """After every term's commit: correct the new state's motion

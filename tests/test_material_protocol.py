@@ -115,6 +115,30 @@ def test_a_bad_return_is_refused_by_name(change, error, variable,
             variable in ("D", "yielded")
 
 
+@pytest.mark.parametrize("kinematics", ["small", "finite"])
+def test_a_nan_is_said_once_a_step_and_takes_no_ghost_penalty(
+        caplog, kinematics):
+    """Trial 103: a model's NaN, the same at every attempt, logged 3
+    identical warnings at each cut-back (27 lines before the error), and
+    in finite strain switched the ghost penalty on, with its limit-load
+    caution, which cannot mend a model's arithmetic.  Now the failing
+    step says it once at WARNING (the retries at INFO) and the ghost
+    penalty stays off."""
+    def nan_always(eps, state, out):
+        out[0] = out[0].copy()
+        out[0][0, 0] = np.nan
+        return tuple(out)
+    with caplog.at_level("WARNING", logger="skfem_mpm"), \
+            pytest.raises(NonFiniteMaterialError):
+        run(variant(nan_always), kinematics)
+    said = [r for r in caplog.records
+            if "nan_always.principal_update" in r.getMessage()]
+    cut = [r for r in caplog.records if "cutting" in r.getMessage()]
+    assert len(said) == 1 and len(cut) >= 2
+    assert not any("ghost penalty" in r.getMessage()
+                   for r in caplog.records)
+
+
 def test_the_documented_model_and_shipped_ones_pass_unchanged():
     """The well-formed model runs as before (its state arrays stay
     writable in the points); the package's models are not checked."""

@@ -487,15 +487,19 @@ def thin_cells(elem: Element, slots: int) -> str:
     nloc, dim = scalar.doflocs.shape[0], scalar.dim
     if c * dim * slots >= c * (nloc - 1):
         return ""
+    least = -(-(nloc - 1) // dim)
+    # seed_points(mesh, n): n per axis, n^dim a cell (n^2 sub-triangles)
+    axis = next(n for n in range(1, least + 1) if n ** dim >= least)
     return (
         "material-point basis of {}: at most {} point(s) in any cell, "
         "which give a form in the gradients rank at most {} a cell, below "
         "the {} its {} functions less the constants need: zero-energy "
         "modes in every cell (a singular matrix, or a solution polluted by "
         "them where the supports do not hold them); seed at least {} "
-        "points per cell".format(
+        "points in every cell (seed_points(mesh, {}) seeds {} a cell: its "
+        "n is per cell and axis, n^{} a cell)".format(
             type(elem).__name__, slots, c * dim * slots, c * (nloc - 1),
-            c * nloc, -(-(nloc - 1) // dim)))
+            c * nloc, least, axis, axis ** dim, dim))
 
 
 def _h1_fields(elem: Element, nloc: int, mapping: PointMapping,

@@ -651,13 +651,18 @@ def view_limits(x: np.ndarray, margin: float = .1):
 VISIBLE_SHARE, EXAGGERATED_SHARE = .01, .05
 
 
-def displacement_scale(x0: np.ndarray, displacement: np.ndarray) -> float:
+def displacement_scale(x0: np.ndarray, displacement: np.ndarray,
+                       half=None) -> float:
     """The factor a deformed shape multiplies the ``displacement`` (dim,
     n) of points at ``x0`` by: 1 (true scale) where the largest is at
     least :data:`VISIBLE_SHARE` of the body's longer side, else the
     largest of 1, 2, 5 times a power of ten that draws it at most
     :data:`EXAGGERATED_SHARE` of that side (trial 87: a slope's 1 cm on
-    a section 16 m wide was invisible at true scale).
+    a section 16 m wide was invisible at true scale).  The side: the
+    points' reach, their domains' half-widths ``half`` ((dim, n) or (n,))
+    either side of them (trial 103: a 1 m cube seeded 2 per cell on 4
+    cells measured by its points' centres, 0.875 m, drew 0.94% of its
+    side at true scale and 0.47% x 5); without them, their centres'.
 
     >>> import numpy as np
     >>> from skfem_mpm.scenes.plot import displacement_scale
@@ -666,8 +671,13 @@ def displacement_scale(x0: np.ndarray, displacement: np.ndarray) -> float:
     50.0
     >>> displacement_scale(x0, np.array([[0., .2], [0., 0.]]))
     1.0
+    >>> u = np.array([[0., .16], [0., 0.]])
+    >>> displacement_scale(x0, u), displacement_scale(x0, u, half=.5)
+    (1.0, 5.0)
     """
-    size = float(np.ptp(x0, axis=1).max()) if x0.shape[1] > 1 else 0.
+    reach = np.zeros(1) if half is None else np.asarray(half, float)
+    size = float((np.max(x0 + reach, axis=1) - np.min(x0 - reach, axis=1))
+                 .max()) if x0.shape[1] > 0 else 0.
     largest = float(np.sqrt((displacement ** 2).sum(axis=0)).max(
         initial=0.))
     if not largest > 0. or not size > 0. or \

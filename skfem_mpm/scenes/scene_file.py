@@ -853,18 +853,50 @@ def _supports_on_grid(c, supports, grid):
                               words), [list(b) for b in s.region])
 
 
+def _region_inside(region, box, need: float, spacing: float):
+    """The deepest a polygon's or ball's region reaches into the box
+    ``[lo, hi]`` (dim, 2), and where, at positions of a lattice of the
+    given spacing (at most about 10^5 of them): over every position inside
+    the region, and over those whose axis-aligned cube of half-width
+    ``need`` lies inside it (``(0, None)`` where none)."""
+    dim = box.shape[0]
+    bounds = region.bounds()
+    low = np.maximum(bounds[:, 0], box[:, 0])
+    high = np.minimum(bounds[:, 1], box[:, 1])
+    if (high <= low).any():
+        return (0., None), (0., None)
+    spacing = max(spacing, float(np.prod(high - low) / 1e5) ** (1. / dim))
+    axes = [np.linspace(lo, hi, max(int(np.ceil((hi - lo) / spacing)), 1)
+                        + 1) for lo, hi in zip(low, high)]
+    y = np.stack([a.ravel() for a in np.meshgrid(*axes, indexing="ij")])
+    # a cube of half-width r lies inside a ball of radius r sqrt(dim)
+    inner = -region.distance(y) / math.sqrt(dim)
+    depth = np.min(np.minimum(y - box[:, :1], box[:, 1:] - y), axis=0)
+    found = []
+    for keep in (inner > 0., inner >= need):
+        if not keep.any():
+            found.append((0., None))
+            continue
+        k = np.flatnonzero(keep)[np.argmax(depth[keep])]
+        found.append((float(depth[k]), y[:, k]))
+    return found
+
+
 def _obstacles_placed(c, obstacles, bodies, grid, static: bool,
                       system: str):
     """An obstacle that never reaches the grid, and (a static scene) a
-    box obstacle, not a tied one, overlapping a box body at the start by
+    box obstacle, not a tied one, overlapping a body at the start by
     more than its tolerance, are refused before any work, naming the
     table and the overlap in the scene's length unit (a trial's was
     refused after the set-up, "0.5 inside" and no unit; the run refuses
-    no tied obstacle for lying inside a body)."""
+    no tied obstacle for lying inside a body).  A polygon's or ball's
+    body is refused where its seeded points must have a domain corner
+    deeper inside than the tolerance (a trial's disc was refused after
+    the set-up, in the old words)."""
     length = unit("length", system, len(grid.axes))
     bounds = np.array([[lo, hi] for lo, hi, _ in grid.axes])
-    cells = np.prod([(hi - lo) / n for lo, hi, n in grid.axes]) ** (
-        1. / len(grid.axes))
+    widths = [(hi - lo) / n for lo, hi, n in grid.axes]
+    cells = np.prod(widths) ** (1. / len(grid.axes))
     for k, ob in enumerate(obstacles):
         if ob is None:
             continue
@@ -879,8 +911,31 @@ def _obstacles_placed(c, obstacles, bodies, grid, static: bool,
                 or ob.friction == "tied":
             continue    # (in dynamics it may start displaced; a tied one
             #              may hold material inside it, as the run allows)
+        shown = {AXES[d]: list(b) for d, b in enumerate(ob.box.tolist())}
         for body in bodies:
-            if body is None or region_shape(body.region) != "box":
+            if body is None or region_shape(body.region) == "function":
+                continue
+            if region_shape(body.region) != "box":
+                # a point is seeded at each sub-cell centre inside the
+                # region, its domain corners within a sub-cell of it
+                # (its sub-cell's, or a cube of its volume's side): a
+                # position whose cube of half a sub-cell lies in the
+                # region has a point within half a sub-cell, its corners
+                # within one sub-cell, so deeper than a sub-cell and the
+                # tolerance inside the box, the run refuses it
+                sub = max(widths) / body.points_per_cell
+                (reach, where), (deep, _) = _region_inside(
+                    body.region, ob.box, sub / 2, sub / 8)
+                if deep > sub + ob.tolerance * max(widths):
+                    c.bad(key + ".box", "obstacle {!r} overlaps body {!r} "
+                          "at the start: its {} reaches about {:.2g} {} into "
+                          "it "
+                          "(at [{}]): it would hold material inside it; "
+                          "move the obstacle or shrink the body".format(
+                              ob.name or "", body.name,
+                              region_shape(body.region), reach, length,
+                              ", ".join("{:.4g}".format(v) for v in where)),
+                          shown)
                 continue
             box = np.array(body.region, float)
             low = np.maximum(box[:, 0], ob.box[:, 0])
@@ -897,9 +952,7 @@ def _obstacles_placed(c, obstacles, bodies, grid, static: bool,
                           ob.name or "", body.name, across, length,
                           ", ".join("{} in [{!r}, {!r}]".format(
                               AXES[d], float(lo), float(hi)) for d, (lo, hi)
-                              in enumerate(zip(low, high)))),
-                      {AXES[d]: list(b) for d, b in enumerate(
-                          ob.box.tolist())})
+                              in enumerate(zip(low, high)))), shown)
 
 
 def parse_scene(data: dict, source: str = "") -> Scene:

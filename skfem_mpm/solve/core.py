@@ -52,7 +52,8 @@ from ..kernels import run_clock
 from ..errors import (ContactError, GridMotionError, HeldSupportError,
                       InvalidInputError, InversionError,
                       PointsOutsideGridError, UnsupportedElementError,
-                      MPMError, NewtonDivergenceError, NumericalError,
+                      MPMError, NewtonDivergenceError,
+                      NonFiniteMaterialError, NumericalError,
                       SingularSystemError, SingularTangentError,
                       StepFailedError,
                       StepTooLongError, UnsettledContactError,
@@ -747,7 +748,14 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     did not settle (:class:`~skfem_mpm.errors.UnsettledContactError`)
     takes only the rungs that change the step's equations (the ghost
     penalty): the others solve each of its rounds to the same
-    equilibrium."""
+    equilibrium.  A material's NaN or inf
+    (:class:`~skfem_mpm.errors.NonFiniteMaterialError`) takes only the
+    rungs that keep them: the ghost penalty cannot mend a model's
+    arithmetic (trial 103's NaN switched it on, with its limit-load
+    caution).  A failure said before in the step (its
+    :func:`failure_key` among the run's ``warned``: a model's
+    deterministic NaN, 3 identical warnings at each of 8 cut-backs) is
+    logged again at INFO."""
     how, rungs = FIRST, iter(RETRY_LADDER)
     zero_energy = False         # an attempt met zero-energy modes
     stalls = []     # each failed attempt's stalled residual (or None)
@@ -774,7 +782,9 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             for rung in rungs:
                 if (rung.linear or not run.linear) and (
                         rung.how is None or not isinstance(
-                            failure, UnsettledContactError)) and \
+                            failure, UnsettledContactError)) and (
+                        rung.how is not None or not isinstance(
+                            failure, NonFiniteMaterialError)) and \
                         rung.applies(run, failure, report):
                     break
             else:
@@ -788,10 +798,24 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 rung.change(run, step, failure)
                 how, rungs = FIRST, iter(RETRY_LADDER)
             else:
-                logger.warning("%s; retrying with %s%s", failure, rung.what,
-                               onset_words(run, points, f_old)
-                               if rung.how is LINE_SEARCH else "")
+                key = ("retried", step) + failure_key(failure)
+                logger.log(logging.INFO if key in run.warned
+                           else logging.WARNING,
+                           "%s; retrying with %s%s", failure, rung.what,
+                           onset_words(run, points, f_old)
+                           if rung.how is LINE_SEARCH else "")
+                run.warned.add(key)
                 how = rung.how
+
+
+def failure_key(failure: Exception) -> tuple:
+    """What makes a failed attempt's warning one said before in its step
+    (:func:`attempt`): a material's NaN or inf in the same variable of the
+    same method, at whatever points; otherwise the same message."""
+    if isinstance(failure, NonFiniteMaterialError):
+        return (NonFiniteMaterialError, failure.material, failure.method,
+                failure.variable)
+    return (str(failure),)
 
 
 def onset_words(run: Run, points: MaterialPoints, f_old: float) -> str:
@@ -1013,6 +1037,11 @@ def collapse_hint(run: Run, reach: list) -> str:
                 rates[-1] / stiffest, f[-1]))
 
 
+#: the share of a step's first out-of-balance force its start must hold
+#: (:func:`start_hint`) for a shorter step to be said not to help
+START_SHARE = .5
+
+
 def start_hint(starts: list) -> str:
     """A sentence for a step cut back to the end whose first residual did
     not fall with its increment (``starts``: each failed increment and
@@ -1032,11 +1061,27 @@ def start_hint(starts: list) -> str:
     "; the step's first residual stayed at 0.0778"
     >>> start_hint([(.25, .4), (.125, .21), (.0625, .1)])
     ''
+
+    Each entry may carry a third, the share of the attempt's first
+    out-of-balance force that the step's start holds (newton's
+    :func:`~skfem_mpm.solve.newton.start_share`): a run's first step
+    from rest (trial 103: a spring bed's wrong matrix) starts with the
+    residual 1 at every cut-back, all of it the load increment's, and
+    was told its start was out of balance.
+
+    >>> start_hint([(.25, 1., 0.), (.125, 1., 0.), (.0625, 1., 0.)])
+    ''
+    >>> start_hint([(.25, .0909, .9), (.125, .0818, .95),
+    ...             (.0625, .0778, .97)])[:44]
+    "; the step's first residual stayed at 0.0778"
     """
-    if len(starts) < 3 or any(first is None for _, first in starts):
+    if len(starts) < 3 or any(entry[1] is None for entry in starts):
         return ""
-    (longest, r0), (shortest, r1) = starts[0], starts[-1]
+    (longest, r0), (shortest, r1) = starts[0][:2], starts[-1][:2]
     if not (r1 >= .5 * r0 and shortest <= longest / 4 * (1 + 1e-9)):
+        return ""
+    share = starts[-1][2] if len(starts[-1]) > 2 else None
+    if share is not None and share < START_SHARE:
         return ""
     return ("; the step's first residual stayed at {:.3g} ({:.3g} at the "
             "first attempt) while the increment was cut {:.0f}-fold: the "
@@ -1277,10 +1322,12 @@ def own_terms_hint(run: Run, err: Exception) -> str:
     """The run's grid terms of the user's own (``loads=[...]``, classes
     defined outside the package) named for a failed run's error ``err``:
     a singular system says what ``holds_free_body`` does, a Newton loop
-    at a linear rate that a term's matrix must be its force's
-    derivative; ``""`` without such terms (trial 97's spring bed ended
-    in "add supports", its matrix left out in "missing supports", its
-    matrix doubled in a linear rate, the term never named)."""
+    at a linear rate, or a linear run's that did not converge, that a
+    term's matrix must be its force's derivative; ``""`` without such
+    terms (trial 97's spring bed ended in "add supports", its matrix left
+    out in "missing supports", its matrix doubled in a linear rate, the
+    term never named; trial 103's, its matrix 0.3 of the derivative in a
+    linear run, diverged unnamed)."""
     own = [term for term in getattr(run, "user_terms", ())
            if not of_package(term)]
     if not own:
@@ -1305,6 +1352,12 @@ def own_terms_hint(run: Run, err: Exception) -> str:
                 "term's matrix(response) must be the derivative of its "
                 "force(du, response), or Newton converges linearly"
                 .format(names))
+    if isinstance(err, NewtonDivergenceError) and getattr(run, "linear",
+                                                          False):
+        return ("; the run's grid terms of your own ({}) take part: a "
+                "term's matrix(response) must be the derivative of its "
+                "force(du, response), with which a linear step converges "
+                "at its first solve".format(names))
     return ""
 
 
@@ -1376,7 +1429,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
         except STEP_FAILURES as err:
             held = held + 1 if isinstance(err, HeldSupportError) else 0
             starts.append((target - factor,
-                           getattr(err, "first_residual", None)))
+                           getattr(err, "first_residual", None),
+                           getattr(err, "start_share", None)))
             unbalanced = no_equilibrium(run, points)
             floor = stall_floor(getattr(err, "stalls", None), stalled_at,
                                 target - factor)
@@ -1465,7 +1519,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                 state=points, load_factor=factor,
                 history=result.history) from err
         step += 1
-        factor, held = target, 0
+        factor, held, starts = target, 0, []
         if adaptive and record.newton_iterations is not None:
             increment = dynamics.adapt(increment, 1. / nsteps, smallest,
                                        record.newton_iterations)
@@ -2062,11 +2116,15 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     enough): a 3D block of 2 x 2 x 2 cells on a tied floor (small
     strain) stalled Newton at 2.5e-7 of its load in its second step,
     named "a floor of the residual" with no word of the cause (a user
-    trial).  Logged as a warning at the run's start and added to a
-    failed run's error."""
+    trial).  ``method="fem"`` alike: its points are the quadrature, and
+    one a Q1 cell (a one-point Gauss rule) has the same hourglass modes
+    (trial 103: warned for "mpm" only); the Gauss points of a rule exact
+    for the element (``seed_gauss_points``, order 2 for Q1, 4 for Q2:
+    2 or 3 a cell and axis) are enough, and not warned.  Logged as a
+    warning at the run's start and added to a failed run's error."""
     dim = mesh.dim()
     scalar, nodes = cell_nodes(elem, mesh)
-    if method != "mpm" or mesh.t.shape[0] != 2 ** dim:
+    if method not in ("mpm", "fem") or mesh.t.shape[0] != 2 ** dim:
         return ""
     per_axis = points_per_cell_axis(mesh, points)
     strains = dim * (dim + 1) // 2
@@ -2074,16 +2132,19 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     have = int(round(per_axis)) ** dim * strains
     if have >= needed:
         return ""
+    wanted = int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))
     return (
         "element {} with {} per cell and axis: {} {} "
         "a cell of {} nodes {} of the {} strain states its DOFs need, so "
         "the stiffness has zero-energy modes (a singular matrix, or "
         "Newton stalled at a floor of the residual); seed "
-        "{} points per cell and axis".format(
+        "{} points per cell and axis{}".format(
             type(scalar).__name__, plural(per_axis_words(per_axis)),
             plural(str(int(round(per_axis)) ** dim)),
             "gives" if round(per_axis) == 1 else "give", nodes, have, needed,
-            int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))))
+            wanted, " (seed_points(mesh, {0}), or seed_gauss_points(mesh, "
+            "{1}): {0} Gauss points a cell and axis)".format(
+                wanted, 2 * (wanted - 1)) if method == "fem" else ""))
 
 
 def surface_in_full(forces) -> str:

@@ -68,9 +68,9 @@ import numpy as np
 from numpy import ndarray
 
 from ..kernels import run_clock
-from ..errors import (InvalidInputError, InversionError, NewtonDivergenceError,
-                      SingularSystemError, check_choice, check_int,
-                      check_real)
+from ..errors import (InvalidInputError, InversionError, MPMError,
+                      NewtonDivergenceError, SingularSystemError,
+                      check_choice, check_int, check_real)
 from ..protocols import of_package
 
 logger = logging.getLogger(__name__)
@@ -594,6 +594,24 @@ class Converged(NamedTuple):
     factorised: Optional[Callable] = None
 
 
+def start_share(problem, like: ndarray, first: float) -> Optional[float]:
+    """The share of a failed step's first out-of-balance force ``first``
+    (its norm) that the step's start holds
+    (:meth:`~skfem_mpm.solve.problem.StepProblem.start_imbalance`), or
+    ``None`` where the problem does not tell: near 1 where a shorter step
+    cannot help, near 0 where the load increment unbalances the step (a
+    run's first step from rest: its first residual is 1 at every
+    cut-back)."""
+    imbalance = getattr(problem, "start_imbalance", None)
+    if imbalance is None or not first > 0.:
+        return None
+    try:
+        found = imbalance(like)
+    except MPMError:
+        return None
+    return None if found is None else found / first
+
+
 def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
            modified: bool = False, stabilise: bool = False,
            single_solve: bool = False, report: dict = None,
@@ -672,7 +690,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     except InversionError as err:
         raise InversionError("step {}: {}".format(problem.step, err)) \
             from err
-    residuals, last = [], None
+    residuals, last, first_merit = [], None, current.merit
     report = {} if report is None else report
     report["reused"] = False
     started = run_clock()
@@ -707,6 +725,7 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                             report)))
             error.stalled = report.get("stalled")
             error.first_residual = residuals[0]
+            error.start_share = start_share(problem, du, first_merit)
             raise error
         if it == 0 and predictor is not None:
             d = problem.solve(*predictor, stabilise)[0]

@@ -455,6 +455,23 @@ class StepProblem:
         self.t["check"] += run_clock() - tic
         return Trial(response, r, merit, merit / scale)
 
+    def start_imbalance(self, like: ndarray) -> Optional[float]:
+        """The out-of-balance force's norm over the free DOFs at the step's
+        start: no increment (``like``'s zeros), the loads at the start's
+        scale; ``None`` in dynamics (its integrator weighs the loads).
+        What no cut-back of the step shrinks (:func:`~skfem_mpm.solve.
+        core.start_hint`); a trial's state, evaluated on a failure."""
+        if self.run.dynamics is not None:
+            return None
+        kept = self.f_dead, self.s_new
+        self.f_dead = self.run.loads.external(self.op, self.points,
+                                              self.s_old)
+        self.s_new = self.s_old
+        try:
+            return self.residual(np.zeros_like(like)).merit
+        finally:
+            self.f_dead, self.s_new = kept
+
     def _dead_norm(self) -> float:
         """The norm of :attr:`f_dead`, found once for each array a step
         holds there (a term replaces it, never writes it: a time
@@ -849,6 +866,11 @@ class StepProblem:
             record.u, record.x = du, new.x.copy()
             record.displacement = new.displacement.copy()
             record.stress = new.stress.copy()
+        for term in self.terms:     # what a term reads before any commits
+            # (the time integrator's end forces: a term's own may change)
+            before = getattr(term, "before_commit", None)
+            if before is not None:
+                before(self, trial, du)
         for term in self.terms:
             term.commit(self, trial, du, new, record)
         for term in self.terms:
