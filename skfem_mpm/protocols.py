@@ -267,6 +267,11 @@ class GridTerm:
         a :class:`~skfem_mpm.errors.HeldSupportError`)."""
         return ""
 
+    def before_commit(self, problem, trial, du: ndarray) -> None:
+        """After convergence, before any term's :meth:`commit`: read what
+        the commits may change (the time integrator: the forces where the
+        step ends, whose work it books)."""
+
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
         """After convergence: update the new state ``new`` (points) and
         the step's ``record`` with what the term keeps (a total

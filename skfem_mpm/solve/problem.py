@@ -867,7 +867,8 @@ class StepProblem:
             record.displacement = new.displacement.copy()
             record.stress = new.stress.copy()
         for term in self.terms:     # what a term reads before any commits
-            # (the time integrator's end forces: a term's own may change)
+            # (the time integrator's end forces: a term's own may change;
+            # an object of a term's interface from before it had one)
             before = getattr(term, "before_commit", None)
             if before is not None:
                 before(self, trial, du)
