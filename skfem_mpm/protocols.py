@@ -169,7 +169,8 @@ class GridTerm:
     #: from are Newton's predictor, and pairs made anew start without
     #: theirs; an obstacle's corner put back on its point can start
     #: inside it); that force is kept with the step's record and carried
-    #: through a resume (:attr:`~skfem_mpm.StepRecord.end_force`)
+    #: through a resume (:attr:`~skfem_mpm.StepRecord.end_force`); read of
+    #: terms that set :attr:`contact` alone, whose work is ``contact_work``
     works_from_last_end = False
 
     def held_dofs(self, op, points, scale: float) -> Optional[ndarray]:

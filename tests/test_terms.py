@@ -223,6 +223,29 @@ def test_a_first_step_from_rest_is_not_told_its_start_is_unbalanced():
     assert caught.value.__cause__.start_share == 0.
 
 
+def test_an_obstacle_s_push_is_not_read_as_the_start_s_imbalance():
+    """A block at rest, unloaded, pressed by an obstacle moved down (its
+    only load), Newton starved so that every cut-back fails (review of
+    session 82): the start's share was measured with the obstacle where
+    the step ends, 1.0 at every cut-back (the push halving with the
+    increment), and the error said the step's start was out of balance.
+    With each term's force where the step starts the share is 0."""
+    from skfem_mpm import NewtonOptions, Obstacle, Options, VonMises
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1.5, 7))
+    press = Obstacle(box=[[-.5, 1.5], [1., 1.4]], displacement=[0., -.05],
+                     name="press")
+    with pytest.raises(NewtonDivergenceError) as caught:
+        simulate(mesh, ElementQuad1(),
+                 seed_points(mesh, 2, region=lambda x: x[1] < 1.),
+                 VonMises(1e6, .3, yield_stress=1e3),
+                 lambda b: b.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+                 nsteps=1, obstacles=[press],
+                 options=Options(newton=NewtonOptions(max_iter=2,
+                                                      max_cutbacks=3)))
+    assert caught.value.__cause__.start_share == 0.
+    assert "out of balance" not in str(caught.value)
+
+
 class StatelessBed(SpringBed):
     """(Said to keep nothing, for the test: its warning is left out.)"""
     stateless = True

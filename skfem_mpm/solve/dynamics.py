@@ -575,8 +575,9 @@ class InertiaTerm(GridTerm):
         # without theirs: a block sliding to rest on a slab lost 11% of
         # its energy to the balance at dt = 0.02)
         step.owner, step.f_work0 = self, terms0
-        ends = [term for term in problem.terms
-                if getattr(term, "works_from_last_end", False)]
+        ends = [term for term in problem.terms if getattr(
+            term, "works_from_last_end", False) and getattr(
+                term, "contact", False)]
         if self.resumed and self.last_end.size != zero.size:
             raise InvalidInputError(
                 "Resume.end_force holds {} entries, the run's grid {} DOFs: "
@@ -703,7 +704,8 @@ class StepInertia(Inertia, GridTerm):
         response = trial.response
         self.end_forces = problem.internal_force(du, response, parts=True)
         ends = [term.force(du, response) for term in problem.terms
-                if getattr(term, "works_from_last_end", False)]
+                if getattr(term, "works_from_last_end", False)
+                and getattr(term, "contact", False)]
         self.ends = [f for f in ends if f is not None]
 
     def commit(self, problem, trial, du: ndarray, new, record):

@@ -463,14 +463,17 @@ class StepProblem:
         core.start_hint`); a trial's state, evaluated on a failure."""
         if self.run.dynamics is not None:
             return None
-        kept = self.f_dead, self.s_new
-        self.f_dead = self.run.loads.external(self.op, self.points,
-                                              self.s_old)
-        self.s_new = self.s_old
-        try:
-            return self.residual(np.zeros_like(like)).merit
-        finally:
-            self.f_dead, self.s_new = kept
+        zero = np.zeros_like(like)
+        response = self.run.kinematics.response(self.op, zero, self.points)
+        f_ext = self.run.loads.external(self.op, self.points, self.s_old)
+        follower = self.trial_loads(response, self.s_old)
+        if follower is not None:
+            f_ext = f_ext + self.load_weight * follower
+        # each term's force where the step starts (an obstacle where the
+        # last step left it: with its force at the step's end, a block at
+        # rest pushed by an obstacle read the push as its start's)
+        r = f_ext - self.internal_force(zero, response, start=True)
+        return safe_norm(r[self.free])
 
     def _dead_norm(self) -> float:
         """The norm of :attr:`f_dead`, found once for each array a step

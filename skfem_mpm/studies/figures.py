@@ -344,8 +344,8 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
         written.append(_finish(
             fig, ax, "material points (-)", "time per load step (s)",
             "Cost of each phase per load step against the points;\n"
-            "each exponent fitted over all {} cases{}{}".format(
-                len(ok), pooled, _fixed_cost_note(ok)),
+            "each exponent fitted over the cases of the {} with a time "
+            "in its phase{}{}".format(len(ok), pooled, _fixed_cost_note(ok)),
             outdir / "time_vs_points.png"))
     convergence = [c for c in measured["convergence"] if c["cell_sizes"]]
     if convergence:

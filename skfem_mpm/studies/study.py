@@ -1301,6 +1301,12 @@ def zero_values(rows: List[dict]) -> List[str]:
     ...         for v in (0., 3e-16)]
     >>> print(zero_values(rows)[0][:75])
     WARNING: u y is zero in every case (largest 3e-16, round-off against the la
+
+    A row read back from an older ``study.json`` has no scale:
+
+    >>> del rows[0]["scale"]
+    >>> print(zero_values(rows)[0][36:94])
+    largest 3e-16, round-off against the largest 2 of its kind
     """
     lines = []
     done = [r for r in rows if not r.get("failure") and r.get("values")]
@@ -1318,7 +1324,8 @@ def zero_values(rows: List[dict]) -> List[str]:
             "carries the load".format(
                 label, "largest {:.2g}".format(largest) if largest else
                 "exactly 0", ", round-off against the largest {:.3g} "
-                "of its kind".format(max(s for _, s in pairs))
+                "of its kind".format(max(s for _, s in pairs
+                                         if s is not None))
                 if largest else ""))
     return lines
 
