@@ -242,14 +242,6 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
     retries
         The most retries (each a whole run, longer than a trial).
 
-    Whether a run converges is not always monotone in the factor: a run
-    fails at one factor and converges at a larger one (trial 98, a
-    Mohr-Coulomb slope: 1.8281 failed, 1.8438 converged, 1.875 failed,
-    1.8906 converged).  The bisection then depends on its path; every
-    trial is judged afterwards: :attr:`SafetyFactor.span` is where the
-    verdict flips (the bracket, or wider) and
-    :attr:`SafetyFactor.warnings` says why, each logged as a warning.
-
     Raises
     ------
     InvalidInputError
@@ -258,6 +250,16 @@ def strength_reduction(run: Callable, low: float = 1., high: float = 2.,
         move (no scale for ``growth``), or none up to ``high * 32``
         collapses (after a retry that stood at ``high``: up to 64 times
         that).
+
+    Notes
+    -----
+    Whether a run converges is not always monotone in the factor: a run
+    fails at one factor and converges at a larger one (trial 98, a
+    Mohr-Coulomb slope: 1.8281 failed, 1.8438 converged, 1.875 failed,
+    1.8906 converged).  The bisection then depends on its path; every
+    trial is judged afterwards: :attr:`SafetyFactor.span` is where the
+    verdict flips (the bracket, or wider) and
+    :attr:`SafetyFactor.warnings` says why, each logged as a warning.
 
     Examples
     --------
