@@ -1083,6 +1083,42 @@ def test_a_3d_block_tied_with_cpgimp_at_a_tight_tolerance():
     assert settlement[1] == pytest.approx(settlement[0], rel=1e-9)
     assert iterations[1] <= iterations[0]
 
+def test_a_rough_footing_keeps_the_material_at_its_edge():
+    """A rough footing one cell wide (a half model, its edge on a grid
+    line) pressed into perfectly plastic soil in 3 steps: the corners
+    under its edge, held by a penalty that lets them slip by ~1e-6 of a
+    cell, lay 3e-7 beyond the edge after the first step; "over the face"
+    was read to a round-off's slack, so they let go, the soil's edge node
+    rose beside the footing and the force fell 13% (35.50 to 30.99,
+    the contact's area 0.625 to 0.25; in 3D 10.35 c to 1.06 c).  Over
+    the face within the tolerance, the footing keeps its contact and its
+    force does not fall."""
+    h, B, W, D, push = .5, 1., 2., 1.5, .01
+    mesh = MeshQuad.init_tensor(np.linspace(0, W, int(W / h) + 1),
+                                np.linspace(0, D + 2 * h, int(D / h) + 3))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < D)
+
+    def supports(b):
+        return np.concatenate([
+            b.get_dofs(lambda x: np.isclose(x[0], 0)
+                       | np.isclose(x[0], W)).nodal["u^1"],
+            b.get_dofs(lambda x: np.isclose(x[1], 0)).all()])
+    foot = Obstacle(box=[[-1., B / 2], [D, D + 2]],
+                    displacement=[0., -push], friction="rough")
+    res = simulate(mesh, ElementQuad1(), pts,
+                   MohrCoulomb(1e6, .3, cohesion=10., friction_angle=0.),
+                   supports, nsteps=3, obstacles=[foot],
+                   options=Options(stabilisation=Stabilisation(
+                       antilocking=True)))
+    force = [rec.obstacle_forces[0][1] for rec in res.history]
+    area = [rec.contact_area.sum() for rec in res.history]
+    # the points' domains under the footing, and the edge corner of the
+    # next point's (half its domain's width, 2 x 2 points a cell)
+    under = B / 2 + h / 2 / 2
+    assert area == pytest.approx([under] * 3, rel=1e-9)
+    assert np.all(np.diff(force) >= 0.)
+
+
 def test_extended_b_splines_on_a_rough_floor_between_grid_lines():
     """A user trial's elastic block (2 x 2 points per cell) under gravity
     tilted by 20 degrees on a rough floor between grid lines, quadratic

@@ -257,17 +257,20 @@ class Obstacle:
         return by_blocks(nearest, np.vstack([x, np.arange(x.shape[1])]),
                           a.shape[1])[0]
 
-    def face_gap(self, x: ndarray, face: ndarray, shift: ndarray):
+    def face_gap(self, x: ndarray, face: ndarray, shift: ndarray,
+                 slack: float = 0.):
         """The gap (m,) of each position ``x`` (dim, m) from the plane of
         its ``face`` (m,) of the obstacle shifted by ``shift`` (negative:
         through it), the face's outward normal (dim, m), and whether the
         position lies over the face (its projection within the face's
-        extent): contact with a face ends at its edges."""
+        extent, widened by ``slack`` and at least by the round-off of the
+        obstacle's size): contact with a face ends at its edges."""
         x = x - shift[:, None]
         a, n, lo, hi = self.faces()
         af, nf = a[:, face], n[:, face]
         gap = ((x - af) * nf).sum(axis=0)
-        slack = 1e-9 * np.ptp(self.bounds(0 * shift), axis=1).max()
+        slack = max(slack, 1e-9 * np.ptp(self.bounds(0 * shift),
+                                          axis=1).max())
         if lo is not None:
             over = ((x >= lo[:, face] - slack)
                     & (x <= hi[:, face] + slack)).all(axis=0)
