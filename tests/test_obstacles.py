@@ -1322,6 +1322,20 @@ def test_a_polygon_s_inside_holds_at_a_vertex_s_height():
     (lambda: Obstacle(box=[[0, 1]], displacement=[0, 1]), "displacement"),
     (lambda: Obstacle(box=[[0, 1]], tolerance=1.), "tolerance"),
     (lambda: Obstacle(box=[[0, 1, 2], [0, 1, 2]]), "pair per dimension"),
+    # a 2D box on a 3D grid: its dimension first, not the displacement's
+    # alone (a user trial), and what a 3D obstacle is
+    (lambda: Obstacle(box=[[0, 1], [.5, .6]], displacement=[0, 0, -.01]),
+     r"box is 2D \(2 intervals\), so its displacement must be 2 finite "
+     r"numbers, got \[0, 0, -0.01\] \(a 3D obstacle is a box=\[\[x0, "
+     r"x1\], \[y0, y1\], \[z0, z1\]\]\)"),
+    (lambda: Obstacle(polygon=[[0, 0], [1, 0], [0, 1]],
+                      displacement=[0, 0, 1]),
+     r"polygon is 2D, so .* \(polygons are 2D only; a 3D obstacle is a "
+     "box="),
+    # xyz vertices: polygons are 2D only, not "at least 3 [x, y]"
+    (lambda: Obstacle(polygon=[[0, 0, .5], [1, 0, .5], [1, 1, .5]]),
+     r"Obstacle polygon vertices have 3 coordinates, but polygons are 2D "
+     r"only \[\[x, y\], ...\]; a 3D obstacle is a box="),
 ])
 def test_bad_obstacles_are_refused(make, words):
     with pytest.raises(InvalidInputError, match=words):

@@ -102,15 +102,26 @@ class Obstacle:
                     "dimension, got {}".format(self.box.tolist()))
             self.dim, self.vertices = self.box.shape[0], None
         else:
-            self.box, self.vertices = None, checked_polygon(polygon)
+            self.box, self.vertices = None, checked_polygon(
+                polygon, alternative=BOX_3D)
             self.dim = 2
         self.displacement = np.zeros(self.dim) if displacement is None \
             else np.array(displacement, dtype=np.float64)
         if self.displacement.shape != (self.dim,) or \
                 not np.isfinite(self.displacement).all():
+            # the shape's dimension first: a 2D box on a 3D grid with a
+            # 3D displacement blamed the displacement (a user trial)
+            shape = "box is {}D ({} interval{})".format(
+                self.dim, self.dim, "s" if self.dim > 1 else "") \
+                if self.box is not None else "polygon is 2D"
+            more = self.displacement.size > self.dim and self.dim < 3
             raise InvalidInputError(
-                "Obstacle displacement must be {} finite numbers, got "
-                "{!r}".format(self.dim, displacement))
+                "Obstacle {}, so its displacement must be {} finite "
+                "numbers, got {!r}{}".format(
+                    shape, self.dim, displacement,
+                    " (polygons are 2D only; {})".format(BOX_3D)
+                    if more and self.box is None else
+                    " ({})".format(BOX_3D) if more else ""))
         if isinstance(friction, str):
             if friction not in FRICTION_KINDS:
                 raise InvalidInputError(
@@ -381,13 +392,25 @@ def by_blocks(compute, x: ndarray, faces: int) -> tuple:
     return tuple(np.concatenate(p, axis=-1) for p in zip(*parts))
 
 
-def checked_polygon(polygon, what: str = "Obstacle polygon") -> ndarray:
+#: what a 3D obstacle is (a polygon's or a 2D box's error says it)
+BOX_3D = "a 3D obstacle is a box=[[x0, x1], [y0, y1], [z0, z1]]"
+
+
+def checked_polygon(polygon, what: str = "Obstacle polygon",
+                    alternative: str = "") -> ndarray:
     """The vertices (2, m) of a simple polygon, counter-clockwise; its
-    problems named as ``what`` (a body's region uses it too)."""
+    problems named as ``what`` (a body's region uses it too); vertices of
+    3 coordinates are told that polygons are 2D only, and
+    ``alternative``, what to take in 3D."""
     try:
         v = np.array(polygon, dtype=np.float64)
     except (TypeError, ValueError):     # ragged, or not numbers
         v = np.zeros((0, 2))
+    if v.ndim == 2 and v.shape[1] == 3:
+        raise InvalidInputError(
+            "{} vertices have 3 coordinates, but polygons are 2D only "
+            "[[x, y], ...]{}; got {!r}".format(
+                what, "; " + alternative if alternative else "", polygon))
     if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3 or \
             not np.isfinite(v).all():
         raise InvalidInputError("{} must be at least 3 finite [x, y] "
