@@ -1119,6 +1119,43 @@ def test_a_rough_footing_keeps_the_material_at_its_edge():
     assert np.all(np.diff(force) >= 0.)
 
 
+@pytest.mark.parametrize("wide, tall, words", [
+    (.25, .5, None),
+    (.5, .25, r"pushes 4[0-9]% .* the node \[0.5, 0.0\], a roller\)")])
+def test_a_symmetry_roller_takes_a_rough_plate_s_friction_unwarned(
+        caplog, wide, tall, words):
+    """A rough plate pressing a half block (x held on its symmetry line,
+    y on its base: rollers): the friction it puts on the symmetry line's
+    nodes is the mirror half's, and was warned as 24% of its force going
+    into a support ("end the obstacle a cell short", which a symmetry
+    plane cannot follow).  Its push is still counted: a block thinner
+    than a cell pressed into its base's rollers is warned, the node
+    named a roller."""
+    h = .5
+    mesh = MeshQuad.init_tensor(np.arange(0, wide + 2 * h + 1e-9, h),
+                                np.arange(0, tall + 2 * h + 1e-9, h))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] < wide)
+                      & (x[1] < tall))
+
+    def rollers(b):
+        return np.concatenate([
+            b.get_dofs(lambda x: np.isclose(x[0], 0)).nodal["u^1"],
+            b.get_dofs(lambda x: np.isclose(x[1], 0)).nodal["u^2"]])
+    plate = Obstacle(box=[[-1., wide + 1], [tall, tall + 1]],
+                     displacement=[0., -1e-3 * tall], friction="rough")
+    with caplog.at_level("WARNING", logger="skfem_mpm"):
+        res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .49),
+                       rollers, nsteps=1, obstacles=[plate])
+    force = res.history[-1].obstacle_forces[0]
+    held = [r.message for r in caplog.records
+            if "nodes a support holds" in r.message]
+    if words is None:
+        assert force[0] > .5 * force[1]    # the friction is large
+        assert held == []
+    else:
+        assert len(held) == 1 and re.search(words, held[0])
+
+
 def test_extended_b_splines_on_a_rough_floor_between_grid_lines():
     """A user trial's elastic block (2 x 2 points per cell) under gravity
     tilted by 20 degrees on a rough floor between grid lines, quadratic

@@ -512,19 +512,31 @@ def point_rows(op, idx: ndarray):
     return rows(values), [rows(g) for g in grads]
 
 
-def held_words(name: str, share: float, where: ndarray) -> str:
+def held_words(name: str, share: float, where: ndarray,
+               roller: bool = False) -> str:
     """An obstacle pushing ``share`` of its force on the grid into DOFs a
-    support holds (the largest at the node ``where``), in words."""
+    support holds (the largest at the node ``where``, held in some
+    components only where ``roller``), in words."""
     return ("obstacle {!r} pushes {:.0%} of its force on the grid into "
-            "nodes a support holds (the most at the node {}): that force "
+            "nodes a support holds (the most at the node {}{}): that force "
             "goes straight into the support's reaction, not through the "
             "material (a wall pushed 1e-3 against a block whose base was "
             "held in every component met 400 times the force it meets "
             "where the base slides; with standard MPM contact did not "
             "settle); end the obstacle a cell short of the support, or "
             "hold the support in the components the obstacle does not "
-            "push".format(
-                name, share, np.round(where, 12).tolist()))
+            "push{}".format(
+                name, share, np.round(where, 12).tolist(),
+                ", a roller" if roller else "", ROLLER_WORDS if roller
+                else ""))
+
+
+#: what :func:`held_words` adds where the node is a roller's
+ROLLER_WORDS = (" (a roller, such as a symmetry plane's, is counted only "
+                "for what the obstacle pushes along the component it "
+                "holds: the friction it takes from an obstacle that does "
+                "not move that way is the mirror half's; docs/contact.md, "
+                "\"Half and quarter models\")")
 
 
 def supported_rows(S: csr_matrix, op, X: ndarray, p: ndarray
@@ -1754,17 +1766,38 @@ class StepContact(GridTerm):
         grid by the corner tractions of ``ev`` (:meth:`evaluate`; the
         sum of the nodal forces' sizes) that acts on DOFs the step holds
         (supports, prescribed motion, rigid bodies), and the node where
-        the largest of those acts."""
+        the largest of those acts.
+
+        A roller's DOF (a node held in some components only: a symmetry
+        plane) counts the obstacle's normal push, not its friction where
+        the obstacle does not move along it: there the friction is the
+        mirror half's, which the roller stands for (a rough plate on a
+        half block on a symmetry roller was told 24% of its force went
+        into the support, and to end the plate a cell short of it)."""
         D = np.asarray(self.problem.fixed, dtype=np.int64)
+        dim = self.dim
         found = []
-        for J, (T, *_) in zip(self.J, ev):
+        held = np.bincount(D // dim) if D.size else np.zeros(0, int)
+        roller = held[D // dim] < dim if D.size else np.zeros(0, bool)
+        for i, (ob, J, (T, _, _, part)) in enumerate(zip(
+                self.term.obstacles, self.J, ev)):
             f = np.abs(J.T @ T.T.ravel())
             total = f.sum()
             if not D.size or total == 0.:
                 found.append((0., None))
                 continue
-            found.append((f[D].sum() / total, self.problem.grid.doflocs[
-                :, D[np.argmax(f[D])]]))
+            on = f[D]
+            if part is not None and ob.friction != 0.:
+                # the normal push alone on a roller the obstacle does not
+                # move along
+                still = roller & (ob.displacement[D % dim] == 0.)
+                normal = ob.face_gap(self.Xs, self.face[i][0],
+                                     self.shift[i])[1]
+                fn = np.abs(J.T @ (self.area[i] * part[0] * normal).T.ravel())
+                on = np.where(still, fn[D], on)
+            most = np.argmax(on)
+            found.append((on.sum() / total, self.problem.grid.doflocs[
+                :, D[most]], bool(roller[most])))
         return found
 
     def grid_force(self, ev) -> ndarray:
