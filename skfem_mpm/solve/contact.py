@@ -57,8 +57,9 @@ the pressure of an augmented Lagrangian
 
 with ``g = n . (x_c - a)`` the gap from the plane of the obstacle's face
 nearest to the corner at the step's start (outward normal ``n``), for
-the corners over the face at the step's start (contact with a face ends
-at its edges): smooth in the trial, so Newton does not hop between faces
+the corners over the face at the step's start, within the obstacle's
+tolerance of its edges (contact with a face ends at its edges): smooth
+in the trial, so Newton does not hop between faces
 or across an edge at an obstacle's corner.  A corner found through
 another face after Newton takes the face nearest to it and the step is
 solved again.
