@@ -425,6 +425,8 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     new state, the step's record and its point operator; ``report``
     receives what the Newton driver reports."""
     problem = StepProblem(run, points, f_old, f_new, step)
+    run.loads.check_held_share(problem.op, points, problem.fixed, step,
+                               run.warned)
     if report is not None:      # its seconds, should it fail
         report["timings"] = problem.t
     problem.floored = how.floored
