@@ -39,7 +39,11 @@ geostatic stress under its weight, a sample at its confining pressure).
   rate that grows with the pressure over the stiffness, and not with the
   step (a cut-back does not help; ``docs/robustness.md`` has the rates
   measured): for pressures of a fraction of a percent of ``E`` (soils,
-  fluids on solids) the extra iterations are one or two.
+  fluids on solids) the extra iterations are one or two.  In small
+  strain the points' faces move and their volumes do not: a face that
+  moved into a cell whose far nodes are held puts a share of its force
+  straight into the supports (:meth:`ExternalLoads.check_held_share`
+  warns past :data:`HELD_SHARE`).
 - :class:`GridLoad`: any scikit-fem ``LinearForm`` assembled on the whole
   grid with Gaussian quadrature (a load fixed in space).
 
