@@ -56,14 +56,58 @@ __all__ = ["MaterialPoints", "seed_points", "seed_gauss_points",
 class MaterialPoints:
     """Material points: a moving quadrature carrying its own state.
 
+    Points of one's own (another code's model) need ``x`` and ``volume``,
+    and ``body`` for more than one material; every other field has a
+    default.  Arrays hold points along their last axis.
+
     Parameters
     ----------
     x
         Positions, shape (dim, n).
     volume
-        Volumes (length in 1D, area in 2D), shape (n,), all positive.
+        Volumes (length in 1D, area in 2D), shape (n,), all positive: the
+        part of the body each point stands for (its cells' volumes shared
+        among their points; a run warns of volumes far from the cells'
+        they fill).
     force
-        Optional point forces at full load, shape (dim, n).
+        Point forces at full load, shape (dim, n) (default zero), ramped
+        with the load factor.
+    x0
+        Initial positions, shape (dim, n) (default ``x``): the run refuses
+        points whose ``x`` differs from ``x0 + displacement``.
+    stress
+        Cauchy stress, tension positive (compression negative), the full
+        symmetric 3x3 tensor in any dimension, shape (3, 3, n) (default
+        zero): an initial (geostatic) stress goes here, or through
+        :func:`~skfem_mpm.initial_stress` which also sets the materials'
+        state from it.
+    strain
+        Elastic strain, shape (3, 3, n) (default zero): infinitesimal in
+        small strain, logarithmic in finite deformation.
+    displacement
+        Accumulated displacement, shape (dim, n) (default zero).
+    volume0
+        Initial volumes, shape (n,) (default ``volume``).
+    F, be
+        Deformation gradient and elastic left Cauchy-Green tensor, shape
+        (3, 3, n) (default the identity; finite deformation).
+    domain
+        GIMP and averaged-spline domains: half-lengths per grid axis,
+        shape (dim, n), or ``None`` (methods ``"mpm"``, ``"fem"``,
+        ``"bspline"``).  :func:`seed_points` sets them; for points of
+        one's own filling square (cubic) domains,
+        ``np.tile(volume ** (1 / dim) / 2, (dim, 1))``.
+    body
+        Integer body (and material) index per point, shape (n,), counted
+        from 0 (default all 0): ``material`` and a per-body
+        ``body_force`` have one entry per index 0 .. ``body.max()``.
+    state
+        The materials' internal variables, ``{name: (n,) array}`` (e.g.
+        ``equivalent_plastic_strain``); the run adds those it lacks.
+    velocity, acceleration
+        Shape (dim, n), or ``None``: carried by implicit dynamics
+        (``velocity`` given is the initial velocity); a quasi-static run
+        refuses them.
 
     Examples
     --------
