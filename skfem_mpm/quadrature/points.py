@@ -662,6 +662,7 @@ def concatenate_points(parts, material=None) -> MaterialPoints:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from skfem import MeshQuad
     >>> from skfem_mpm import seed_points
     >>> from skfem_mpm.quadrature.points import concatenate_points
@@ -741,6 +742,7 @@ def select_points(points: MaterialPoints, which) -> MaterialPoints:
 
     Examples
     --------
+    >>> import numpy as np
     >>> from skfem import MeshQuad
     >>> from skfem_mpm import seed_points, select_points
     >>> points = seed_points(MeshQuad().refined(1), 1)
