@@ -719,14 +719,20 @@ def known_initial_values(names, material=None) -> dict:
     """The initial values of the state variables ``names`` that are known:
     the small-strain rotation's (zero) and, with ``material`` (or a list,
     one per body), the materials' internal variables'."""
-    from ..mechanics.materials import state_variables
     known = {name: 0. for name in names
              if name == "rotation" or name in ROTATION_3D}
-    if material is not None:
-        materials = list(material) if isinstance(material, (list, tuple)) \
-            else [material]
-        known.update((name, float(value)) for name, value in
-                     state_variables(materials).items() if name in names)
+    if material is None:
+        return known
+    given = {}          # (the materials' own state_variables, read here:
+    # the quadrature layer imports no mechanics)
+    for m in material if isinstance(material, (list, tuple)) else [material]:
+        for name, value in getattr(m, "state_variables", {}).items():
+            if given.setdefault(name, float(value)) != float(value):
+                raise InvalidInputError(
+                    "state variable {!r} has two initial values ({} and "
+                    "{})".format(name, given[name], value))
+    known.update((name, value) for name, value in given.items()
+                 if name in names)
     return known
 
 
