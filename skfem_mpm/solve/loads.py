@@ -417,8 +417,10 @@ class ExternalLoads:
         axis, sign = side_axis(load.side, self.dim)
         if self.domain0 is None:
             raise InvalidInputError(
-                "{} needs point domains (MaterialPoints.domain)".format(
-                    type(load).__name__))
+                "{} needs point domains (MaterialPoints.domain): "
+                "half-lengths per axis, shape (dim, n), set by seed_points; "
+                "for points of one's own np.tile(volume ** (1 / dim) / 2, "
+                "(dim, 1)) (square domains)".format(type(load).__name__))
         name = type(load).__name__
         raw = np.asarray(load.points)
         if raw.dtype.kind not in "iu":
