@@ -18,7 +18,7 @@ __all__ = [
     "GridTerm", "Options", "NewtonOptions", "Stabilisation", "Resume",
     "Prescribed", "BodyForce",
     "MaterialPointBasis", "MaterialPoints", "seed_points", "seed_gauss_points",
-    "concatenate_points",
+    "concatenate_points", "select_points",
     "locate_points", "point_locator", "MPMError", "InvalidInputError",
     "InvalidMaterialError", "PointsOutsideGridError", "SingularSystemError", "SingularTangentError",
     "UnsupportedElementError", "LinearElastic", "solve_mpm", "Result",
@@ -58,7 +58,8 @@ def _public() -> dict:
     from .mechanics.geostatic import geostatic_stress
     from .mechanics.initial_stress import initial_stress
     from .quadrature.points import (MaterialPoints, concatenate_points,
-                                    seed_gauss_points, seed_points)
+                                    seed_gauss_points, seed_points,
+                                    select_points)
     from .protocols import GridTerm
     from .solve.core import simulate
     from .solve.newton import NewtonOptions

@@ -473,7 +473,8 @@ def summarise(scene, result, seconds: float, earlier=None,
     if scene.outputs and result.history:    # quantities at this step
         summary["outputs"] = {q.label: {
             "value": q.measure(scene, result),
-            "unit": q.unit(pts.dim, scene.units)}
+            "unit": q.unit(pts.dim, scene.units),
+            "history": q.history(scene, result)}
             for q in scene.outputs}
     return without_negative_zeros(summary)    # no "-0 N" printed
 

@@ -151,6 +151,15 @@ class GridTerm:
     #: only their multipliers (contact pairs joined, a rough pair let go),
     #: and the next solve starts from a fresh tangent, not the kept one
     reshaped = False
+    #: read after a :meth:`settle` that returned ``False``, which sets it
+    #: on that call: how far the term's constraints were from holding, in
+    #: its tolerances (the deepest penetration over the contact's
+    #: tolerance); where it is at least :data:`~skfem_mpm.solve.core.
+    #: FAR_OFF`, the next solve stops at the loose residual
+    #: :data:`~skfem_mpm.solve.core.SETTLE_RESIDUAL` as the step's first
+    #: does (another update will follow it); 0 (the default): the next
+    #: solve goes on to the tolerance
+    off_by = 0.
     #: the term ties grid nodes that a sliver of material supports to a
     #: stiff constraint (an obstacle holding the material where its
     #: corners cut cells): a step that fails also with the stabilised

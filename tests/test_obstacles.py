@@ -2974,7 +2974,7 @@ def test_slow_augmented_lagrangian_updates_are_told_once(caplog):
     """The cpGIMP disc at R/h = 12: its corners' penetration follows
     their neighbours' more than their own pressure, and a step took 9
     updates, each cutting the penetration by 2.6%: the run says so once,
-    and that a larger penalty takes fewer (30 Newton iterations at the
+    and that a larger penalty takes fewer (29 Newton iterations at the
     default 10, 18 at 100, the force within 2e-5); standard MPM takes 4
     updates in all and is not told."""
     with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
@@ -2982,7 +2982,7 @@ def test_slow_augmented_lagrangian_updates_are_told_once(caplog):
     told = [r.getMessage() for r in caplog.records
             if "augmented-Lagrangian updates" in r.getMessage()]
     assert len(told) == 1 and "a larger Obstacle penalty" in told[0]
-    assert res.counters["newton_iterations"] == 30
+    assert res.counters["newton_iterations"] == 29
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
         stiff = squeezed_disc("cpgimp", 12, .04, penalty=100.)

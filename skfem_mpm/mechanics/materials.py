@@ -356,11 +356,30 @@ def at_points(material, points) -> object:
     if len(materials) != used:
         raise InvalidMaterialError(
             "{} materials are given, one per body, but the points belong to "
-            "{} bod{} (points.body from 0 to {}): the materials and the "
-            "bodies must match".format(len(materials), used,
-                                       "y" if used == 1 else "ies",
-                                       used - 1))
+            "{} bod{} ({}): the materials and the bodies must match".format(
+                len(materials), used, "y" if used == 1 else "ies",
+                bodies_words(points.body)))
     return PointMaterials(materials, points.body)
+
+
+def bodies_words(body: ndarray) -> str:
+    """The bodies the points' ``body`` indices hold, in words, and those
+    from 0 up that hold none: body ids count from 0 (a ported model's ids
+    1 and 2 asked for 3 materials and body forces, blamed on their
+    count).
+
+    >>> bodies_words(np.array([1, 2, 2]))
+    'body ids count from 0 to 2; the points hold bodies [1, 2], body 0 none'
+    >>> bodies_words(np.array([0, 1]))
+    'body ids count from 0 to 1; the points hold bodies [0, 1]'
+    """
+    counts = np.bincount(body)
+    held, empty = np.flatnonzero(counts), np.flatnonzero(counts == 0)
+    return "body ids count from 0 to {}; the points hold bod{} {}{}".format(
+        counts.size - 1, "y" if held.size == 1 else "ies", held.tolist(),
+        "" if not empty.size else ", bod{} {} none".format(
+            "y" if empty.size == 1 else "ies",
+            empty[0] if empty.size == 1 else empty[:10].tolist()))
 
 
 def check_lame(material, label: str) -> None:

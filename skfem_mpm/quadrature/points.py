@@ -49,21 +49,65 @@ from .mapping import fresh_mapping
 logger = logging.getLogger(__name__)
 
 __all__ = ["MaterialPoints", "seed_points", "seed_gauss_points",
-           "concatenate_points"]
+           "concatenate_points", "select_points"]
 
 
 @dataclass
 class MaterialPoints:
     """Material points: a moving quadrature carrying its own state.
 
+    Points of one's own (another code's model) need ``x`` and ``volume``,
+    and ``body`` for more than one material; every other field has a
+    default.  Arrays hold points along their last axis.
+
     Parameters
     ----------
     x
         Positions, shape (dim, n).
     volume
-        Volumes (length in 1D, area in 2D), shape (n,), all positive.
+        Volumes (length in 1D, area in 2D), shape (n,), all positive: the
+        part of the body each point stands for (its cells' volumes shared
+        among their points; a run warns of volumes far from the cells'
+        they fill).
     force
-        Optional point forces at full load, shape (dim, n).
+        Point forces at full load, shape (dim, n) (default zero), ramped
+        with the load factor.
+    x0
+        Initial positions, shape (dim, n) (default ``x``): the run refuses
+        points whose ``x`` differs from ``x0 + displacement``.
+    stress
+        Cauchy stress, tension positive (compression negative), the full
+        symmetric 3x3 tensor in any dimension, shape (3, 3, n) (default
+        zero): an initial (geostatic) stress goes here, or through
+        :func:`~skfem_mpm.initial_stress` which also sets the materials'
+        state from it.
+    strain
+        Elastic strain, shape (3, 3, n) (default zero): infinitesimal in
+        small strain, logarithmic in finite deformation.
+    displacement
+        Accumulated displacement, shape (dim, n) (default zero).
+    volume0
+        Initial volumes, shape (n,) (default ``volume``).
+    F, be
+        Deformation gradient and elastic left Cauchy-Green tensor, shape
+        (3, 3, n) (default the identity; finite deformation).
+    domain
+        GIMP and averaged-spline domains: half-lengths per grid axis,
+        shape (dim, n), or ``None`` (methods ``"mpm"``, ``"fem"``,
+        ``"bspline"``).  :func:`seed_points` sets them; for points of
+        one's own filling square (cubic) domains,
+        ``np.tile(volume ** (1 / dim) / 2, (dim, 1))``.
+    body
+        Integer body (and material) index per point, shape (n,), counted
+        from 0 (default all 0): ``material`` and a per-body
+        ``body_force`` have one entry per index 0 .. ``body.max()``.
+    state
+        The materials' internal variables, ``{name: (n,) array}`` (e.g.
+        ``equivalent_plastic_strain``); the run adds those it lacks.
+    velocity, acceleration
+        Shape (dim, n), or ``None``: carried by implicit dynamics
+        (``velocity`` given is the initial velocity); a quasi-static run
+        refuses them.
 
     Examples
     --------
@@ -648,11 +692,21 @@ def positive_orders(refdom, intorder: int) -> list:
     return sorted(found)
 
 
-def concatenate_points(parts) -> MaterialPoints:
+def concatenate_points(parts, material=None) -> MaterialPoints:
     """Join point sets (e.g. bodies) into one, keeping every field.
+
+    A part that lacks a state variable the others hold gets its initial
+    value where it is known: the small-strain rotation (``rotation``;
+    ``rotation_x``, ``rotation_y``, ``rotation_z`` in 3D, which a run
+    adds) starts at zero, counted from the joining (a fresh layer placed
+    on a stage's points has rotated nothing), and with ``material`` (a
+    material, or one per body as :func:`~skfem_mpm.simulate` takes them)
+    the materials' internal variables take their initial values
+    (``state_variables``).  Any other variable a part lacks is refused.
 
     Examples
     --------
+    >>> import numpy as np
     >>> from skfem import MeshQuad
     >>> from skfem_mpm import seed_points
     >>> from skfem_mpm.quadrature.points import concatenate_points
@@ -663,25 +717,34 @@ def concatenate_points(parts) -> MaterialPoints:
     >>> concatenate_points([a, b]).body.tolist()
     [0, 0, 1, 1]
 
+    A stage's points (a run gave them ``rotation``) and a fresh layer:
+
+    >>> a.state["rotation"] = np.array([.01, .02])
+    >>> concatenate_points([a, b]).state["rotation"].tolist()
+    [0.01, 0.02, 0.0, 0.0]
+
     """
     parts = list(parts)
     kwargs = {}
     names = set().union(*(p.state for p in parts))
-    lacking = [(k, sorted(names - set(p.state)))
-               for k, p in enumerate(parts) if names - set(p.state)]
+    known = known_initial_values(names, material)
+    lacking = [(k, sorted(names - set(p.state) - set(known)))
+               for k, p in enumerate(parts)
+               if names - set(p.state) - set(known)]
     if lacking:
         k, missing = lacking[0]
         raise InvalidInputError(
             "cannot join point sets with different state variables: part "
-            "{} lacks {} (the parts have {}); give every part the same "
-            "ones, e.g. parts[{}].state[{!r}] = np.zeros(parts[{}].n) for "
-            "the material's initial value, or set them on the joined "
-            "points (a run gives variables missing from points.state "
-            "their material's initial values)".format(
+            "{} lacks {} (the parts have {}), whose initial value is not "
+            "known here; give the materials (concatenate_points(parts, "
+            "material=...): their variables take their initial values), "
+            "or give every part the same ones, e.g. parts[{}].state[{!r}] "
+            "= np.zeros(parts[{}].n)".format(
                 k, ", ".join(missing), [sorted(p.state) for p in parts],
                 k, missing[0], k))
-    kwargs["state"] = {name: np.concatenate([p.state[name] for p in parts])
-                       for name in names}
+    kwargs["state"] = {name: np.concatenate([
+        p.state[name] if name in p.state else np.full(p.n, known[name])
+        for p in parts]) for name in names}
     for f in fields(MaterialPoints):
         if f.name == "state":
             continue
@@ -693,4 +756,73 @@ def concatenate_points(parts) -> MaterialPoints:
                         f.name))
             continue
         kwargs[f.name] = np.concatenate(values, axis=-1)
+    return MaterialPoints(**kwargs)
+
+
+def known_initial_values(names, material=None) -> dict:
+    """The initial values of the state variables ``names`` that are known:
+    the small-strain rotation's (zero) and, with ``material`` (or a list,
+    one per body), the materials' internal variables'."""
+    known = {name: 0. for name in names
+             if name == "rotation" or name in ROTATION_3D}
+    if material is None:
+        return known
+    given = {}          # (the materials' own state_variables, read here:
+    # the quadrature layer imports no mechanics)
+    for m in material if isinstance(material, (list, tuple)) else [material]:
+        for name, value in getattr(m, "state_variables", {}).items():
+            if given.setdefault(name, float(value)) != float(value):
+                raise InvalidInputError(
+                    "state variable {!r} has two initial values ({} and "
+                    "{})".format(name, given[name], value))
+    known.update((name, value) for name, value in given.items()
+                 if name in names)
+    return known
+
+
+#: the names of the small-strain rotation kept in 3D
+#: (:func:`~skfem_mpm.solve.rotation.rotation_names`)
+ROTATION_3D = ("rotation_x", "rotation_y", "rotation_z")
+
+
+def select_points(points: MaterialPoints, which) -> MaterialPoints:
+    """The points ``which`` (a boolean mask of ``points.n``, or indices)
+    keeps, with every field and state variable: an excavation's stage
+    removes the others (``select_points(points, ~dug)``).  A copy.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from skfem import MeshQuad
+    >>> from skfem_mpm import seed_points, select_points
+    >>> points = seed_points(MeshQuad().refined(1), 1)
+    >>> points.state["rotation"] = np.arange(4.)
+    >>> kept = select_points(points, points.x[1] < .5)
+    >>> kept.n, kept.x[1].tolist(), kept.state["rotation"].tolist()
+    (2, [0.25, 0.25], [0.0, 1.0])
+
+    """
+    which = np.asarray(which)
+    if which.dtype == bool:
+        if which.shape != (points.n,):
+            raise InvalidInputError(
+                "a mask selecting points must have one entry per point "
+                "({}), got shape {}".format(points.n, which.shape))
+        which = np.flatnonzero(which)
+    elif which.ndim != 1 or not np.issubdtype(which.dtype, np.integer) \
+            and which.size:
+        raise InvalidInputError(
+            "points are selected by a boolean mask or integer indices, "
+            "got {!r}".format(which.dtype))
+    which = which.astype(int)
+    if which.size and (which.min() < -points.n or which.max() >= points.n):
+        raise InvalidInputError(
+            "point indices must lie within 0..{}, got {} to {}".format(
+                points.n - 1, int(which.min()), int(which.max())))
+    kwargs = {"state": {name: np.array(value[..., which]) for name, value
+                        in (points.state or {}).items()}}
+    for f in fields(MaterialPoints):
+        value = getattr(points, f.name)
+        if f.name != "state" and value is not None:
+            kwargs[f.name] = np.array(value[..., which])
     return MaterialPoints(**kwargs)

@@ -67,14 +67,15 @@ CELL_TYPES = {(1, 2): "line", (2, 4): "quad", (2, 3): "triangle",
               (3, 8): "hexahedron", (3, 4): "tetra"}
 
 
-def active_grid(mesh, elements: ndarray, u: Optional[ndarray],
+def active_grid(mesh, elements: Optional[ndarray], u: Optional[ndarray],
                 reactions: Optional[ndarray] = None):
-    """The grid's active elements with the step's nodal displacement
-    increment ``u`` (``displacement_increment``) and the reactions of the
-    supports (``reaction``), vectors over the grid DOFs; zero where not
-    given (step 0)."""
+    """The grid's active elements (``None``: every cell) with the step's
+    nodal displacement increment ``u`` (``displacement_increment``) and
+    the reactions of the supports (``reaction``), vectors over the grid
+    DOFs; zero where not given (step 0)."""
     import meshio
-    t = mesh.t[:, elements]
+    t = mesh.t if elements is None else mesh.t[:, np.asarray(
+        elements, dtype=np.int64).ravel()]
     if mesh.t.shape[0] == 8:
         t = t[[0, 2, 4, 1, 3, 6, 7, 5]]       # scikit-fem to VTK hexahedra
     cell = CELL_TYPES[(mesh.dim(), mesh.t.shape[0])]
@@ -137,12 +138,14 @@ class SeriesWriter:
             points.state.get(PLASTIC_STRAIN)
 
     def write(self, step: int, time: float, points: MaterialPoints,
-              elements: ndarray, u: Optional[ndarray],
+              elements: Optional[ndarray], u: Optional[ndarray],
               reactions: Optional[ndarray] = None,
               point_data: Optional[dict] = None):
         """Step ``step`` at ``time`` (load factor, or seconds): the points,
-        and the ``elements`` of the grid with the step's increment ``u``
-        and ``reactions`` (``None`` at step 0); ``point_data``, more
+        and the ``elements`` of the grid (a step's record's
+        ``elements``; ``None``: every cell) with the step's increment
+        ``u`` and ``reactions`` (``None`` at step 0, as in
+        ``write(0, 0., points, None, None)``); ``point_data``, more
         fields of the points (name: values (n,)), as
         :func:`contact_pressure_fields` gives them."""
         import meshio

@@ -20,6 +20,7 @@ thickness in 2D, per m^2 in 1D); with ``units = "kN-m"`` in kPa and kN.
 
 """
 from dataclasses import dataclass
+from types import SimpleNamespace
 from typing import Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -338,6 +339,58 @@ class Quantity:
                          .max(initial=0.))
         return float(np.abs(pts.stress).max(initial=0.))
 
+    def history(self, scene, result) -> dict:
+        """The quantity at every step of ``result.history`` that kept its
+        points' snapshots (a scene's run keeps them): ``{"step": [...],
+        "load_factor": [...], "value": [...]}``, with ``"time"`` in
+        dynamics; its last value is :meth:`measure`'s.  A mean over
+        points weighs them by their final volumes (the steps' own in
+        small strain); ``footing_pressure`` gives the pressure of each
+        step (its ``value`` is the largest).  Steps of the points' values
+        are measured together (one fit for a place ``at``), not point by
+        point."""
+        records = list(result.history)
+        if self.quantity in ("displacement", "stress"):
+            records = [r for r in records if r.displacement is not None
+                       and r.stress is not None]
+        out = {"step": [int(r.step) for r in records],
+               "load_factor": [float(r.load_factor) for r in records]}
+        if any(getattr(r, "time", None) is not None for r in records):
+            out["time"] = [float(r.time) for r in records]
+        if not records:
+            out["value"] = []
+        elif self.quantity == "footing_pressure":
+            from .footing import footing_forces, footing_pressure
+            out["value"] = footing_pressure(scene, footing_forces(
+                scene, records)).tolist()
+        elif self.quantity in FORCES:
+            out["value"] = [self.measure(scene, SimpleNamespace(
+                history=[r], points=result.points)) for r in records]
+        else:
+            out["value"] = self._point_history(scene, result, records)
+        return out
+
+    def _point_history(self, scene, result, records) -> list:
+        """:meth:`history`'s values of a displacement or stress."""
+        pts = result.points
+        chosen = self._chosen(scene, pts)
+        if not chosen.any():
+            return [float("nan")] * len(records)
+        values = np.stack([point_values(SimpleNamespace(
+            displacement=r.displacement, stress=r.stress), self.quantity,
+            self.component)[chosen] for r in records], axis=1)
+        if self.at is not None:
+            return fitted_value(pts.x0[:, chosen], values,
+                                np.asarray(self.at, float)).tolist()
+        volume = pts.volume[chosen]
+        reduce = self.reduce or "mean"
+        if reduce == "mean":
+            return (volume @ values / volume.sum()).tolist()
+        if reduce == "max_abs":
+            return values[np.argmax(np.abs(values), axis=0),
+                          np.arange(values.shape[1])].tolist()
+        return getattr(values, reduce)(axis=0).tolist()
+
     def measure(self, scene, result) -> float:
         """The quantity of a finished run (``result`` of
         :func:`~skfem_mpm.scenes.scene.run_scene` on ``scene``); a box
@@ -445,16 +498,17 @@ def point_values(points, quantity: str, component: str) -> ndarray:
     return s[i, j].copy()
 
 
-def fitted_value(x0: ndarray, values: ndarray, at: ndarray) -> float:
+def fitted_value(x0: ndarray, values: ndarray, at: ndarray):
     """The value at ``at`` of the linear least-squares fit of ``values``
-    over the nearest points (by initial position ``x0``)."""
+    over the nearest points (by initial position ``x0``); ``values`` (n,)
+    gives a float, (n, m) the m fits' (m,) values."""
     dim = x0.shape[0]
     k = min(FIT_POINTS[dim], x0.shape[1])
     offset = x0 - at[:, None]
     near = np.argsort((offset ** 2).sum(axis=0), kind="stable")[:k]
     A = np.column_stack([np.ones(k), offset[:, near].T])
     coef = np.linalg.lstsq(A, values[near], rcond=None)[0]
-    return float(coef[0])
+    return float(coef[0]) if np.ndim(values) == 1 else coef[0]
 
 
 def check_quantities(scene, quantities: Sequence[Quantity], points=None):

@@ -1518,7 +1518,7 @@ class StepBodyContact(GridTerm):
         join, or rough pairs let go or join (:meth:`rough_changes`), and
         the step is solved again (from a fresh tangent where pairs joined
         or changed: :attr:`reshaped`)."""
-        self.reshaped = True
+        self.reshaped, self.off_by = True, 0.
         if self.join(du):
             logger.debug("step %d: bodies met beyond the step's pairs; "
                          "solving again", problem.step)
@@ -1538,7 +1538,7 @@ class StepBodyContact(GridTerm):
             default=0.)
         if worst <= 1.:
             return True
-        self.reshaped = False
+        self.reshaped, self.off_by = False, worst
         for part, e in zip(self.parts, ev):
             part["lam"], part["tau"] = accelerated(part, e[4]), e[5]
         self.evaluations = WeakKeyDictionary()

@@ -2119,7 +2119,7 @@ class StepContact(GridTerm):
         Lagrangian), corners newly near an obstacle join, and the step is
         solved again."""
         term, dim = self.term, self.dim
-        self.reshaped = True
+        self.reshaped, self.off_by = True, 0.
         ev = self.evaluate(du, trial.response)
         # corners outside the step's selection that went through an
         # obstacle: of the points that moved as far as their clearance
@@ -2176,7 +2176,7 @@ class StepContact(GridTerm):
         worst = [e[2] / tol for e, tol in zip(ev, term.tol)]
         if max(worst, default=0.) <= 1.:
             return True
-        self.reshaped = False
+        self.reshaped, self.off_by = False, max(worst)
         for i, (T, C, violation, normal_part) in enumerate(ev):
             if violation <= term.tol[i]:
                 continue

@@ -62,7 +62,8 @@ from ..mechanics.forms import as_body_force
 from ..mechanics.initial_stress import (derive_elastic_state,
                                         warn_carried_from_finite)
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
-from ..mechanics.materials import at_points, initial_state, is_plastic
+from ..mechanics.materials import (at_points, bodies_words,
+                                   initial_state, is_plastic)
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..methods.assembly import ElementPattern
@@ -128,6 +129,15 @@ SETTLE_ROUNDS = 30
 #: augmented-Lagrangian rounds); the solves after it go on to the
 #: tolerance
 SETTLE_RESIDUAL = 1e-3
+#: the distance from settling (a term's
+#: :attr:`~skfem_mpm.protocols.GridTerm.off_by`, in its tolerances) from
+#: which a solve after an augmented-Lagrangian update also stops at
+#: :data:`SETTLE_RESIDUAL`: the update after it is certain, and the
+#: solve's error in the penetration, about the loose residual times the
+#: penalty's penetration under the whole load, is a hundredth of the
+#: update's (two bodies in contact: the first update 1e3 tolerances off,
+#: the second 5.4; 4 Newton iterations instead of 5)
+FAR_OFF = 100.
 #: the halvings of a step's increment after which a step that failed at
 #: each with its contact unsettled by an obstacle pushing into held nodes
 #: (:class:`~skfem_mpm.errors.HeldSupportError`) stops the run: the share
@@ -425,6 +435,8 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     new state, the step's record and its point operator; ``report``
     receives what the Newton driver reports."""
     problem = StepProblem(run, points, f_old, f_new, step)
+    run.loads.check_held_share(problem.op, points, problem.fixed, step,
+                               run.warned)
     if report is not None:      # its seconds, should it fail
         report["timings"] = problem.t
     problem.floored = how.floored
@@ -437,8 +449,10 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
     # augmented Lagrangian) has the step solved again from the last
     # increment, and the kinematics' response to it; the first round
     # stops at SETTLE_RESIDUAL (the constraint may move after it anyway),
-    # the rounds after it go on to the tolerance (a floor's step at 1e5
-    # points: 4 iterations and 5 material updates instead of 5 and 7)
+    # and so does each round after it while a term is FAR_OFF its
+    # constraints; the rounds after those go on to the tolerance (a
+    # floor's step at 1e5 points: 4 iterations and 5 material updates
+    # instead of 5 and 7)
     keep = how.modified and not how.stabilise and problem.settles
     loose = problem.settles and SETTLE_RESIDUAL > run.tol
     try:
@@ -448,7 +462,8 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                 modified=run.modified and how.modified and not how.stabilise,
                 stabilise=how.stabilise, single_solve=run.rhs == "increment",
                 report=report, predict=rounds == 0, keep=keep, seed=seed,
-                tol=SETTLE_RESIDUAL if loose else None, response=response)
+                tol=SETTLE_RESIDUAL if loose else None,
+                relative=rounds > 0, response=response)
             iterations += len(found.residuals) - 1
             settled = problem.settled(found.trial, found.du)
             if settled and (not loose or problem.converged(found.trial)):
@@ -460,9 +475,13 @@ def load_step(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             # its constraints (two bodies' pairs joined at a step's end: the
             # kept tangent, blind to them, sent the residual from 9 to 937
             # and the step took 25 iterations where it takes 9)
+            aged = seed is not None and len(found.residuals) <= 2
             du, seed = found.du, None if settled or problem.reshaped \
-                else found.factorised
-            response, loose = found.trial.response, False
+                or aged else found.factorised
+            response = found.trial.response
+            loose = loose and not settled and max(
+                getattr(term, "off_by", 0.)
+                for term in problem.unsettled) >= FAR_OFF
             # the step's record shows every round's residuals in order; a
             # solve that settled at the loose residual and goes on is one
             # solve (its last residual is where the next one starts)
@@ -2015,8 +2034,9 @@ def check_body_force(body_force, points: MaterialPoints, dim: int,
         return gravity, ramp
     if len(body_force) != bodies:
         raise InvalidInputError(
-            "body_force per body needs one row per body ({}), got {}".format(
-                bodies, len(body_force)))
+            "body_force per body needs one row per body ({}), got {} "
+            "({})".format(bodies, len(body_force),
+                          bodies_words(points.body)))
     return np.stack([as_body_force(row, dim) for row in body_force]), ramp
 
 
@@ -2101,6 +2121,22 @@ def plural(count: str) -> str:
     return count + (" point" if count == "1" else " points")
 
 
+def counted_per_axis(mesh: Mesh, points: MaterialPoints,
+                     estimate: float) -> float:
+    """The points per cell and axis counted: the median count of the cells
+    holding points, to the power ``1 / dim`` (``estimate``, from the
+    volumes, for points outside the grid).  The volumes' estimate
+    (:func:`points_per_cell_axis`) is cheap but blamed the count for
+    volumes given twice over: "1.4 points per cell and axis ... seed 2"
+    where every cell held 2 x 2 (a ported model)."""
+    try:
+        cells = point_locator(mesh, kernels="numpy")(points.x)[0]
+    except PointsOutsideGridError:
+        return estimate
+    counts = np.bincount(cells)
+    return float(np.median(counts[counts > 0]) ** (1. / mesh.dim()))
+
+
 def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
                           points: MaterialPoints) -> str:
     """Where standard MPM's points, seeded on a tensor grid of
@@ -2130,12 +2166,16 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     strains = dim * (dim + 1) // 2
     needed = dim * nodes - strains      # less the rigid-body modes
     have = int(round(per_axis)) ** dim * strains
+    if have < needed:       # estimated from volumes: the points counted
+        per_axis = counted_per_axis(mesh, points, per_axis)
+        have = int(round(per_axis)) ** dim * strains
     if have >= needed:
         return ""
     wanted = int(np.ceil((needed / strains) ** (1. / dim) - 1e-9))
     return (
         "element {} with {} per cell and axis: {} {} "
-        "a cell of {} nodes {} of the {} strain states its DOFs need, so "
+        "a cell of {} nodes {} of the {} strain states its DOFs need "
+        "(points counted: the median of the cells holding them), so "
         "the stiffness has zero-energy modes (a singular matrix, or "
         "Newton stalled at a floor of the residual); seed "
         "{} points per cell and axis{}".format(
@@ -2153,6 +2193,127 @@ def surface_in_full(forces) -> str:
     return in_full_words([isinstance(load, Pressure) for load in forces
                           if isinstance(load, (Traction, Pressure))
                           and not check_load_ramp(load)])
+
+
+def refuse_duplicate_points(points: MaterialPoints,
+                            body_field: Optional[ndarray] = None) -> None:
+    """Raise :class:`~skfem_mpm.errors.InvalidInputError` where two points
+    share their coordinates exactly, naming the first pairs, their bodies
+    and positions: a ported model's 5 points given twice ran silently with
+    their mass added (a slope's settlement -0.022077 for -0.022339).
+    Points of two glued bodies at one position are refused alike (the
+    bodies overlap); those of two bodies in contact (on the fields
+    ``body_field`` tells apart) are left to the contact's check of
+    their overlap, which measures it.  Sorted, not looped: O(n log n)."""
+    x = points.x
+    order = np.lexsort(x[::-1])
+    same = (x[:, order[1:]] == x[:, order[:-1]]).all(axis=0)
+    if same.any() and body_field is not None:
+        fields = body_field[points.body]
+        same &= fields[order[1:]] == fields[order[:-1]]
+    if not same.any():
+        return
+    first, second = order[:-1][same], order[1:][same]
+    first, second = np.minimum(first, second), np.maximum(first, second)
+    shown = np.argsort(first, kind="stable")[:3]
+    body = points.body
+    raise InvalidInputError(
+        "{} point(s) repeat another's coordinates exactly, a point's mass "
+        "counted twice: {}{}; give each point once{}".format(
+            int(same.sum()), "; ".join(
+                "points {} and {} at {}{}".format(
+                    first[k], second[k], x[:, first[k]].tolist(),
+                    "" if body[first[k]] == body[second[k]] else
+                    " (bodies {} and {} overlap)".format(
+                        body[first[k]], body[second[k]]))
+                for k in shown), "; ..." if same.sum() > 3 else "",
+            " (np.unique(points.x, axis=1, return_index=True) finds them)"))
+
+
+def warn_empty_bodies(points: MaterialPoints) -> None:
+    """Log a warning where a body index from 0 to the largest holds no
+    point: its material and body force act on nothing (a ported model's
+    1-based ids 1 and 2 with three materials, body 0 a dummy, ran
+    silently; an excavated body's stage, by design)."""
+    if (np.bincount(points.body) == 0).any():
+        logger.warning(
+            "a body holds no point (%s): its material and body force act "
+            "on nothing; ids of one's own counted from 1 need "
+            "body - 1 (an excavated body's stage: by design)",
+            bodies_words(points.body))
+
+
+def filled_cells(mesh: Mesh, points: MaterialPoints, locate) -> tuple:
+    """The points' volumes summed in each cell they occupy: those cells'
+    names, their volumes and the volumes in them.  An axis-aligned tensor
+    grid's cells by the locator (cheap there); any other grid's by boxes
+    of twice its :func:`cell_size` from its lower corner (its locator
+    costs a step's location: 0.8 s for 5e5 points on triangles), named by
+    their lower corners.  ``None`` for points outside the grid (the first
+    step names them)."""
+    if tensor_grid(mesh) is None:
+        side = 2 * cell_size(mesh)
+        low = mesh.p.min(axis=1)
+        index = np.floor((points.x - low[:, None]) / side).astype(np.int64)
+        shape = tuple(index.max(axis=1) + 1)
+        boxes, cells = np.unique(np.ravel_multi_index(index, shape),
+                                 return_inverse=True)
+        filled = np.bincount(cells.ravel(), weights=points.volume)
+        return (lambda k: "box at [{}]".format(", ".join(
+            "{:.4g}".format(c) for c in low + side * np.array(
+                np.unravel_index(boxes[k], shape)))),
+                np.full(filled.size, side ** mesh.dim()), filled)
+    try:
+        cells = locate(points.x)[0]
+    except PointsOutsideGridError:
+        return None
+    filled = np.bincount(cells, weights=points.volume)
+    held = np.flatnonzero(filled)
+    volume = np.prod(np.ptp(mesh.p[:, mesh.t[:, held]], axis=1), axis=0)
+    return lambda k: "cell {}".format(held[k]), volume, filled[held]
+
+
+#: a run's start warns where the points' volumes in the cells they occupy
+#: sum to more than this share of those cells' volume, or to less than
+#: :data:`FILL_LOW`: seeded points (seed_points 1-4 a cell and axis,
+#: whole or a disc, quadrilaterals, triangles, a graded axis, 1D, 3D;
+#: Gauss points) gave 0.63-1.02, a block collapsed in finite deformation
+#: (its toe moved 8 cells; mpm, cpgimp) 0.87-0.99 at every stage, and
+#: its points given to another run alike (its single cells up to 1.9)
+FILL_HIGH = 1.5
+FILL_LOW = 0.1
+
+
+def warn_volumes_vs_cells(mesh: Mesh, points: MaterialPoints,
+                          locate) -> None:
+    """Log a warning where the points' volumes sum to more than
+    :data:`FILL_HIGH` of the volume of the cells they occupy
+    (:func:`filled_cells`), or to less than :data:`FILL_LOW` of it,
+    naming the fullest (emptiest) cells and their shares: a ported
+    model's volumes given twice over (239 m2 of points on 120 m2 of
+    cells) ran with their weight doubled and a warning of too few points
+    per cell where every cell held 2 x 2; a hundredth of them,
+    silently."""
+    found = filled_cells(mesh, points, locate)
+    if found is None:
+        return
+    name, volume, filled = found
+    total = filled.sum() / volume.sum()
+    if FILL_LOW <= total <= FILL_HIGH:
+        return
+    high = total > FILL_HIGH
+    share = filled / volume
+    worst = np.argsort(-share if high else share, kind="stable")[:3]
+    logger.warning(
+        "the points' volumes sum to %.3g of the volume of the %d cells they "
+        "occupy (%.4g of %.4g)%s; %s: %s; points stand for their share of "
+        "the body (in the grid's units; seed_points gives each cell's "
+        "volume shared among its points)",
+        total, filled.size, filled.sum(), volume.sum(),
+        " (volumes too large, or points given twice?)" if high else
+        " (volumes too small, or a body thinner than a cell?)",
+        "fullest" if high else "emptiest",
+        ", ".join("{} {:.3g}".format(name(k), share[k]) for k in worst))
 
 
 def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
@@ -2183,8 +2344,12 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
     if method in DOMAIN_METHODS and points.domain is None:
         raise InvalidInputError(
             "method {!r} needs point domains (MaterialPoints.domain); "
-            "seed_points sets them on tensor-product grids{}".format(
-                method, "; {!r} (the splines at the points) needs none"
+            "seed_points sets them on tensor-product grids; points of "
+            "one's own take half-lengths per axis, shape (dim, n): "
+            "np.tile(volume ** (1 / {}) / 2, ({}, 1)) for square domains"
+            "{}".format(
+                method, mesh.dim(), mesh.dim(),
+                "; {!r} (the splines at the points) needs none"
                 .format(method[:-5]) if method.startswith("bspline")
                 else ""))
     material = at_points(material, points)
@@ -2230,6 +2395,10 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
             "the points carry a velocity or acceleration but the run is "
             "quasi-static (dynamics=None), which would drop them; pass "
             "dynamics=Dynamics(...) or clear them")
+    refuse_duplicate_points(points, body_field)
+    warn_empty_bodies(points)
+    warn_volumes_vs_cells(mesh, points, locator or point_locator(
+        mesh, kernels=options.kernels))
     return Case(nsteps, material, linear, gravity, ramp, forces,
                 None if prescribed is None else prescribed.function,
                 rigid_bodies, terms, obstacles, tuple(contacts), body_field,

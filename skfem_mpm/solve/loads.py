@@ -16,10 +16,14 @@ geostatic stress under its weight, a sample at its confining pressure).
   point of application.  Standard MPM maps it with the shape functions of
   the cell that holds the point (with two points per cell along the side,
   this integrates a uniform traction exactly, as finite elements do); a
-  face centre that has left the point's cell is taken at the nearest
-  point of that cell: the force goes to nodes the step's points support
-  (a cell without points has no stiffness to carry it) and its resultant
-  is kept.  GIMP loads the face of the point's domain in the step's
+  face centre that has left the point's cell takes that cell's shape
+  functions extrapolated: the force goes to nodes the step's points
+  support (a cell without points has no stiffness to carry it) and keeps
+  its resultant and its point of application, which the internal force
+  of the points' stress needs (clamped onto the cell, a one-cell drained
+  triaxial test's cell pressure of 100 was carried as 89.95 once the
+  sample had grown 11.7% sideways past its cell).  GIMP loads the face of
+  the point's domain in the step's
   operator (its centre ``x +- domain`` along the side's axis) by GIMP's
   weights averaged over it, the nodes the domain's internal force
   reaches (a domain past a grid line included).  B-splines take the
@@ -35,11 +39,16 @@ geostatic stress under its weight, a sample at its confining pressure).
   rate that grows with the pressure over the stiffness, and not with the
   step (a cut-back does not help; ``docs/robustness.md`` has the rates
   measured): for pressures of a fraction of a percent of ``E`` (soils,
-  fluids on solids) the extra iterations are one or two.
+  fluids on solids) the extra iterations are one or two.  In small
+  strain the points' faces move and their volumes do not: a face that
+  moved into a cell whose far nodes are held puts a share of its force
+  straight into the supports (:meth:`ExternalLoads.check_held_share`
+  warns past :data:`HELD_SHARE`).
 - :class:`GridLoad`: any scikit-fem ``LinearForm`` assembled on the whole
   grid with Gaussian quadrature (a load fixed in space).
 
 """
+import logging
 from dataclasses import dataclass
 from typing import Optional, Sequence
 
@@ -56,6 +65,12 @@ from ..quadrature.locate import cell_coordinates
 from ..quadrature.points import MaterialPoints
 from ..protocols import GridTerm
 
+logger = logging.getLogger(__name__)
+
+#: a surface load with more than this share of its force on held DOFs
+#: across the body (:meth:`ExternalLoads.check_held_share`) is warned about
+HELD_SHARE = .01
+
 __all__ = ["Traction", "Pressure", "GridLoad", "SIDES", "side_points",
            "side_axis", "side_names", "ExternalLoads", "check_exposed"]
 
@@ -69,6 +84,9 @@ SIDES = {"left": (0, -1), "right": (0, 1), "bottom": (1, -1),
 #: the words refused in 3D: which face is the top there depends on the axis
 #: a user takes as up (y, as in 2D, or z, as in this package's 3D examples)
 WORDS_OF_2D = ("bottom", "top", "back", "front")
+#: ``(axis, sign): name`` by the axis and the sign
+SIDES_NAME = {value: name for name, value in SIDES.items()
+              if name[0] in "xyz"}
 
 
 def side_names(dim: int) -> list:
@@ -371,7 +389,7 @@ class ExternalLoads:
                 self.surface.append(self._surface(load, n_points))
                 self.surface_ramp.append(check_load_ramp(load))
                 if self.cell_local is None:
-                    self.cell_local = cell_coordinates(mesh)
+                    self.cell_local = cell_coordinates(mesh, clip=False)
             elif isinstance(load, GridLoad):
                 from skfem import asm
                 basis = grid_load_basis(mesh, grid.elem, load.facets)
@@ -392,15 +410,17 @@ class ExternalLoads:
                     "loads must be Traction, Pressure, GridLoad, Prescribed, "
                     "RigidBody or GridTerm items, got {}".format(
                         type(load).__name__))
-        self.moves = moves
+        self.moves, self.finite = moves, follow
         self.follows = follow and any(item[-1] for item in self.surface)
 
     def _surface(self, load, n_points: int):
         axis, sign = side_axis(load.side, self.dim)
         if self.domain0 is None:
             raise InvalidInputError(
-                "{} needs point domains (MaterialPoints.domain)".format(
-                    type(load).__name__))
+                "{} needs point domains (MaterialPoints.domain): "
+                "half-lengths per axis, shape (dim, n), set by seed_points; "
+                "for points of one's own np.tile(volume ** (1 / dim) / 2, "
+                "(dim, 1)) (square domains)".format(type(load).__name__))
         name = type(load).__name__
         raw = np.asarray(load.points)
         if raw.dtype.kind not in "iu":
@@ -539,6 +559,81 @@ class ExternalLoads:
                  for row in force], axis=1)
         return out
 
+    def held_shares(self, op, points: MaterialPoints,
+                    held: ndarray) -> list:
+        """Per surface load, the share of its force (projected on its
+        resultant) that its faces' weights put on the ``held`` DOFs of
+        nodes across the body: behind its faces by more than the points'
+        width along the side's axis (not those along its faces: a
+        traction's share on a held base next to it is a finite element's
+        too).  That force goes straight into the supports' reactions and
+        the material's stress misses it: a one-cell cube in small strain,
+        pressed to 400 on three faces against rollers on the others,
+        reached ``p = 387.33`` (its points moved, their faces with them,
+        3.2% into the cell, whose far nodes are the rollers').  Pressures
+        on the start-of-step deformation."""
+        shares = []
+        N, dim = op.N, self.dim
+        if self.doflocs is None:
+            self.doflocs = self.grid.doflocs
+        n = min(N, self.doflocs.shape[1])
+        mask = np.zeros(n, dtype=bool)
+        held = np.asarray(held, dtype=np.int64)
+        mask[held[held < n]] = True
+        for face, (idx, axis, sign, value, pressure) in zip(
+                self._faces_of(op, points), self.surface):
+            if pressure:
+                f = self._pressure(face, points.F[:, :, idx], axis, sign,
+                                   value, N)
+            else:
+                f = face.point_force(value[:, None] * face.area)[:N]
+            f = f[:n]
+            resultant = f[:n - n % dim].reshape(-1, dim).sum(axis=0)
+            size = resultant @ resultant
+            plane = np.median(face.centre[axis])
+            depth = 2 * np.abs(face.offset[axis]).max()
+            across = mask & (sign * (self.doflocs[axis, :n] - plane)
+                             < -depth)
+            dofs = np.flatnonzero(across & (f != 0.))
+            shares.append((0., dofs) if size == 0. or dofs.size == 0 else
+                          (float(f[dofs] @ resultant[dofs % dim] / size),
+                           dofs))
+        return shares
+
+    def check_held_share(self, op, points: MaterialPoints, held: ndarray,
+                         step: int, warned: set) -> None:
+        """Warn (once a run per side; ``warned`` keeps the sides said) of
+        a surface load with more than :data:`HELD_SHARE` of its force on
+        held DOFs across the body (:meth:`held_shares`), naming the load,
+        the share and the cures: in small strain, where the points (and
+        their faces) move and their volumes do not.  In finite
+        deformation such a share is the force's point of application
+        kept (a face past its cell: negative there; a face moved into
+        it: the volume shrank with it) and the stress is exact."""
+        if not self.surface or self.finite or not self.moves:
+            return
+        for k, (share, dofs) in enumerate(self.held_shares(op, points,
+                                                           held)):
+            axis, sign = self.surface[k][1:3]
+            if share <= HELD_SHARE or ("held_share", axis, sign) in warned:
+                continue
+            warned.add(("held_share", axis, sign))
+            logger.warning(
+                "step %d: the %s on side %r (of %d points) puts %.1f%% of "
+                "its force on held DOFs across the body (%d, e.g. at %s): "
+                "that share goes straight into the supports' reactions and "
+                "the material's stress misses it (small strain moves the "
+                "points and their faces into the cells whose far nodes are "
+                "held, and keeps their volumes: a body one cell across).  "
+                "Take kinematics='finite' (faces and volumes move "
+                "together: exact), or prescribe the face's motion instead; "
+                "more cells across move the shortfall into the stress "
+                "field, they do not remove it (docs/robustness.md)",
+                step, "pressure" if self.surface[k][4] else "traction",
+                SIDES_NAME[(axis, sign)], self.surface[k][0].size,
+                100 * share, dofs.size,
+                np.round(self.doflocs[:, dofs[0]], 6).tolist())
+
     def _pressure(self, face, F, axis, sign, value, N) -> ndarray:
         """``-p J F^-T N A0`` (Nanson's formula) on the faces."""
         F_inv, J = inverse_and_det(F, self.dim)
@@ -575,7 +670,8 @@ class ExternalLoads:
         """The faces of points ``idx`` as a point operator at the faces'
         centres (the method's weights there: B-splines', GIMP's of the
         domains' faces; or standard MPM's, the grid element's in the
-        cells holding the points), with the faces' initial
+        cells holding the points, extrapolated past them), with the
+        faces' initial
         areas as ``area``: at the start of the step ``x + F d0 N`` when the
         points move, in the reference configuration ``X + d0 N`` when they
         do not (finite elements, total Lagrangian)."""
@@ -591,13 +687,13 @@ class ExternalLoads:
             face = self.weights(centre, idx, axis, sign)
             face.S = supported_share(face.S, op.active_dofs[::self.dim]
                                      // self.dim)
-            face.area = area
+            face.area, face.centre, face.offset = area, centre, offset
             return face
         cells = op.point_elements[idx]
         face = PointOperator(MaterialPointBasis(
             self.mesh, self.elem, MaterialPoints(x=centre, volume=area),
             (cells, self.cell_local(centre, cells)), kernels=self.kernels))
-        face.area = area
+        face.area, face.centre, face.offset = area, centre, offset
         return face
 
 

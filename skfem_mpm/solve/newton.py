@@ -617,7 +617,8 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
            single_solve: bool = False, report: dict = None,
            predict: bool = True, keep: bool = False,
            seed: Optional[Callable] = None,
-           tol: Optional[float] = None, response=None) -> Converged:
+           tol: Optional[float] = None, relative: bool = False,
+           response=None) -> Converged:
     """Newton-Raphson on ``problem`` from the grid increment ``du``.
 
     Parameters
@@ -662,6 +663,13 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
         Converged at this relative residual instead of the problem's own
         test (``problem.converged``): a looser one where a term will move
         its constraint after Newton anyway.
+    relative
+        ``tol`` is relative to the first residual (or the problem's own
+        test holds): a solve after a term
+        moved its constraint resolves that move, whatever the residual it
+        starts from (a soft block's contact with a stiff one moved it by
+        1e-4 of the load: at an absolute loose residual no solve
+        followed, and the rounds repeated one update 30 times).
     seed
         A factorised solve to take the first direction with (a
         neighbouring tangent's: the kept one of a solve that a term's
@@ -677,8 +685,9 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
     """
     predictor = None
     frozen = seed if modified else None
-    converged = problem.converged if tol is None else \
-        (lambda trial: trial.residual <= tol)
+    converged = problem.converged if tol is None else (
+        lambda trial: problem.converged(trial) or trial.residual <= tol * (
+            residuals[0] if relative else 1.))
     if predict and not problem.linear and problem.driven.size:
         start = problem.residual(np.zeros_like(du))
         K_start = problem.tangent(start)

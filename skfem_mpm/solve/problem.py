@@ -43,6 +43,27 @@ from .results import PHASES, StepRecord
 
 logger = logging.getLogger(__name__)
 
+#: a static run's first step from stressed points whose start is out of
+#: balance by more than this share of the larger of the points' internal
+#: force and the loads is warned about (:meth:`StepProblem.warn_start`)
+START_IMBALANCE = 1e-3
+#: what the warning adds for B-splines: their points' rule leaves a
+#: geostatic stress out of balance at the surface's nodes (measured on a
+#: Mohr-Coulomb layer under a level surface, docs/geomechanics.md)
+B_SPLINE_START = (
+    "; with B-splines a geostatic stress itself starts out of balance at "
+    "the surface's nodes, the points' rule being inexact there: about "
+    "0.023 at 2 points per cell along the vertical, 0.0057 at 4 (as 1 / "
+    "n^2), round-off at an odd count with 'bspline' (a point on every "
+    "knot, the cells' midpoints), 0.0017 to 0.015 at 2 to 6 with "
+    "'bspline-gimp'; the first step settles it")
+
+
+def is_bspline(method) -> bool:
+    """Whether a run's method (or its piece: fields) is a B-spline's."""
+    from ..methods.method import BSplineMethod
+    return isinstance(getattr(method, "piece", method), BSplineMethod)
+
 __all__ = ["StepProblem", "Trial", "STABILISATION", "STABILISATION_FLOOR"]
 
 #: the fraction of its diagonal added to a tangent refused as singular, or
@@ -390,6 +411,7 @@ class StepProblem:
         tangent stabilised where ``stabilise``) where that lowers the
         residual.  A step that drives prescribed motion takes the Newton
         driver's own predictor instead."""
+        self.warn_start()
         du = self.du0
         if self.driven.size:
             return du, None
@@ -463,6 +485,15 @@ class StepProblem:
         core.start_hint`); a trial's state, evaluated on a failure."""
         if self.run.dynamics is not None:
             return None
+        found = self.start_forces(like)
+        return None if found is None else safe_norm(found[0][self.free])
+
+    def start_forces(self, like: ndarray) -> Optional[tuple]:
+        """The step's start (see :meth:`start_imbalance`): the
+        out-of-balance force, the internal and the external force
+        (each of ``like``'s shape); ``None`` in dynamics."""
+        if self.run.dynamics is not None:
+            return None
         zero = np.zeros_like(like)
         response = self.run.kinematics.response(self.op, zero, self.points)
         f_ext = self.run.loads.external(self.op, self.points, self.s_old)
@@ -472,8 +503,54 @@ class StepProblem:
         # each term's force where the step starts (an obstacle where the
         # last step left it: with its force at the step's end, a block at
         # rest pushed by an obstacle read the push as its start's)
-        r = f_ext - self.internal_force(zero, response, start=True)
-        return safe_norm(r[self.free])
+        f_int = self.internal_force(zero, response, start=True)
+        return f_ext - f_int, f_int, f_ext
+
+    def start_share(self) -> Optional[float]:
+        """The out-of-balance force at the step's start (see
+        :meth:`start_imbalance`) over the larger of the points' internal
+        force and the loads there (norms over the free DOFs); ``None`` in
+        dynamics, 0 where neither acts."""
+        found = self.start_forces(self.du0)
+        if found is None:
+            return None
+        r, f_int, f_ext = (safe_norm(f[self.free]) for f in found)
+        size = max(f_int, f_ext)
+        return r / size if size > 0. else 0.
+
+    def warn_start(self) -> None:
+        """A warning, once a run, where a static run's first step starts
+        from points that carry a stress out of balance (its
+        :meth:`start_share` above :data:`START_IMBALANCE`): the step
+        carries it at once, and no cut-back or ``nsteps`` spreads it.
+        Unstressed points are not checked (nothing to compute), nor
+        dynamics, where an unbalanced start is an initial value (a
+        release: the body accelerates) that the inertia term weighs."""
+        run = self.run
+        warned = getattr(run, "warned", None)
+        if self.step != 1 or warned is None or "start" in warned \
+                or getattr(run, "resumed", False) or run.dynamics is not None \
+                or not np.any(self.points.stress):
+            return
+        warned.add("start")
+        share = self.start_share()
+        if share is None or not share > START_IMBALANCE:
+            return
+        logger.warning(
+            "step 1 starts from stressed points out of balance: the "
+            "out-of-balance force at the start (no increment, the loads "
+            "at load factor %.3g) is %.2g of the larger of the points' "
+            "internal force and the loads, and the step carries it at "
+            "once (no cut-back or nsteps spreads it).  Usual causes: the "
+            "body force ramped up (BodyForce(..., ramp=True), the "
+            "default) under a stress that holds the weight already "
+            "(ramp=False); a stress of the wrong sign (tension is "
+            "positive, compression negative); a material or stiffness "
+            "other than the one the stress was made with (the points' "
+            "elastic strain is read with the new one); a grid other than "
+            "the stress's; by design, an excavation's stage (the removed "
+            "points' force acts in full in step 1)%s", self.f_old, share,
+            B_SPLINE_START if is_bspline(run.method) else "")
 
     def _dead_norm(self) -> float:
         """The norm of :attr:`f_dead`, found once for each array a step

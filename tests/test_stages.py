@@ -1,0 +1,171 @@
+"""Construction in stages from Python: a stage's start out of balance is
+warned, points removed (an excavation) and joined (a layer), and a
+stage's own displacement (docs/geomechanics.md, "Construction in
+stages")."""
+import logging
+import re
+
+import numpy as np
+import pytest
+from skfem import MeshQuad, ElementQuad1
+
+from skfem_mpm import (BodyForce, InvalidInputError, LinearElastic,
+                       MohrCoulomb, VonMises, concatenate_points,
+                       geostatic_stress, seed_points, select_points,
+                       side_points, simulate, Traction)
+from skfem_mpm.solve import problem
+
+GAMMA, E, NU = 18., 2e4, .3
+MESH = MeshQuad.init_tensor(np.linspace(0, 2, 5), np.linspace(0, 1.5, 4))
+SOIL = MohrCoulomb(E=E, nu=NU, cohesion=5., friction_angle=30.)
+K0 = 1 - np.sin(np.radians(30.))
+FULL = BodyForce([0., -GAMMA], ramp=False)
+WORDS = "starts from stressed points out of balance"
+
+
+def supports(basis):
+    width = basis.mesh.p[0].max()
+    return np.concatenate([
+        basis.get_dofs(lambda x: np.isclose(x[1], 0.)).all(),
+        basis.get_dofs(lambda x: np.isclose(x[0], 0.)
+                       | np.isclose(x[0], width)).all("u^1")])
+
+
+def ground(n=2, material=SOIL, k0=K0):
+    return geostatic_stress(seed_points(MESH, n, region=lambda x: x[1] < 1.),
+                            material, [0., -GAMMA], None, k0)
+
+
+def start_share(caplog, points, material=SOIL, body_force=FULL,
+                mesh=MESH, method="mpm"):
+    """The share the start warning names, or None without one."""
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
+        simulate(mesh, ElementQuad1(), points, material, supports,
+                 body_force=body_force, nsteps=1, method=method)
+    said = [r.getMessage() for r in caplog.records if WORDS in r.getMessage()]
+    assert len(said) <= 1
+    if not said:
+        return None
+    return float(re.search(r"is (\S+) of the larger", said[0]).group(1))
+
+
+@pytest.mark.parametrize("method", ["mpm", "cpgimp"])
+def test_a_balanced_geostatic_stage_is_not_warned(caplog, method):
+    assert start_share(caplog, ground(), method=method) is None
+
+
+def test_a_stage_out_of_balance_is_warned_with_its_share(caplog):
+    """A Mohr-Coulomb stage read with twice the stiffness doubles its
+    internal force (share |f - 2 f| / |2 f| = 1/2); the gravity ramped
+    from 0 leaves the internal force alone (share 1); an elastic K0 stress
+    of the wrong sign pulls where it should push (|f + f| / |f| = 2)."""
+    stiffer = MohrCoulomb(E=2 * E, nu=NU, cohesion=5., friction_angle=30.)
+    assert start_share(caplog, ground(), stiffer) == pytest.approx(1 / 2)
+    assert "tension is positive" in caplog.text
+    assert start_share(caplog, ground(), body_force=BodyForce(
+        [0., -GAMMA], ramp=True)) == pytest.approx(1.)
+    elastic = LinearElastic(E, NU)
+    pulled = ground(material=elastic, k0=NU / (1 - NU))
+    pulled.stress = -pulled.stress
+    assert start_share(caplog, pulled, elastic) == pytest.approx(2.)
+
+
+def test_other_grids_poisson_ratios_and_excavations_are_warned(caplog):
+    softer = MohrCoulomb(E=E, nu=.2, cohesion=5., friction_angle=30.)
+    assert start_share(caplog, ground(), softer) > problem.START_IMBALANCE
+    finer = MeshQuad.init_tensor(np.linspace(0, 2, 8), np.linspace(0, 1.5, 6))
+    assert start_share(caplog, ground(), mesh=finer) > \
+        problem.START_IMBALANCE
+    elastic = LinearElastic(E, NU)
+    points = ground(material=elastic, k0=NU / (1 - NU))
+    dug = (np.abs(points.x[0] - 1.) < .5) & (points.x[1] > .5)
+    assert start_share(caplog, select_points(points, ~dug), elastic) > \
+        problem.START_IMBALANCE
+    assert "excavation" in caplog.text
+
+
+def test_b_splines_say_their_own_geostatic_imbalance(caplog):
+    """Even counts of points per cell leave the surface's nodes out of
+    balance (a point on every knot balances them: 3 per cell)."""
+    assert start_share(caplog, ground(2), method="bspline") > \
+        problem.START_IMBALANCE
+    assert "with B-splines a geostatic stress" in caplog.text
+    assert start_share(caplog, ground(3), method="bspline") is None
+
+
+def test_unstressed_points_are_not_checked(monkeypatch):
+    def refuse(self):
+        raise AssertionError("the start was measured")
+    monkeypatch.setattr(problem.StepProblem, "start_share", refuse)
+    simulate(MESH, ElementQuad1(), seed_points(
+        MESH, 2, region=lambda x: x[1] < 1.), SOIL, supports,
+        body_force=[0., -GAMMA], nsteps=1)
+
+
+def test_select_points_keeps_every_field_and_state():
+    points = ground()
+    points.state["rotation"] = np.arange(points.n, dtype=float)
+    kept = np.flatnonzero(points.x[0] < 1.)
+    out = select_points(points, points.x[0] < 1.)
+    assert out.n == kept.size
+    for name in ("x", "x0", "stress", "strain", "volume", "domain", "body"):
+        assert np.array_equal(getattr(out, name),
+                              getattr(points, name)[..., kept])
+    assert np.array_equal(out.state["rotation"], kept)
+    assert np.array_equal(select_points(points, kept).stress, out.stress)
+    out.stress[:] = 0.                  # a copy
+    assert points.stress.any()
+    with pytest.raises(InvalidInputError, match="one entry per point"):
+        select_points(points, np.ones(3, dtype=bool))
+    with pytest.raises(InvalidInputError, match="within 0"):
+        select_points(points, [points.n])
+
+
+def test_a_fresh_layer_joins_a_stage_points():
+    """A run gives its points ``rotation`` (and a plastic material its
+    variables): a fresh layer starts them at their initial values."""
+    elastic = LinearElastic(E, NU)
+    layer = seed_points(MESH, 2, region=lambda x: (x[1] > 1.)
+                        & (x[1] < 1.25))
+    layer.body[:] = 1
+    done = simulate(MESH, ElementQuad1(), ground(material=elastic),
+                    elastic, supports, body_force=FULL, nsteps=1).points
+    assert sorted(done.state) == ["rotation"]
+    joined = concatenate_points([done, layer])
+    assert np.array_equal(joined.state["rotation"],
+                          np.r_[done.state["rotation"], np.zeros(layer.n)])
+    done = simulate(MESH, ElementQuad1(), ground(), SOIL, supports,
+                    body_force=FULL, nsteps=1).points
+    with pytest.raises(InvalidInputError, match="part 1 lacks equivalent"):
+        concatenate_points([done, layer])
+    joined = concatenate_points([done, layer], material=[SOIL, elastic])
+    assert np.array_equal(
+        joined.state["equivalent_plastic_strain"],
+        np.r_[done.state["equivalent_plastic_strain"], np.full(
+            layer.n, SOIL.state_variables["equivalent_plastic_strain"])])
+
+
+def test_a_stage_displacement_from_zero_changes_nothing_else():
+    """``x0 = x``, ``displacement = 0`` on a stage's points: the next
+    stage's positions and stresses are the same, its displacement the
+    stage's own (cpGIMP in finite deformation: its domains and F)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 1.5, 7))
+    material = VonMises(1e3, .3, yield_stress=8.)
+    first = simulate(mesh, ElementQuad1(), seed_points(
+        mesh, 2, region=lambda x: x[1] < 1.), material, supports,
+        body_force=[0., -10.], nsteps=2, method="cpgimp",
+        kinematics="finite").points
+    reset = first.copy()
+    reset.x0, reset.displacement[:] = reset.x.copy(), 0.
+    top = side_points(first, "top")
+    out = [simulate(mesh, ElementQuad1(), p, material, supports,
+                    body_force=BodyForce([0., -10.], ramp=False),
+                    loads=[Traction(top, "top", [0., -5.])], nsteps=2,
+                    method="cpgimp", kinematics="finite").points
+           for p in (first, reset)]
+    assert np.array_equal(out[0].x, out[1].x)
+    assert np.array_equal(out[0].stress, out[1].stress)
+    assert np.allclose(out[1].displacement,
+                       out[0].displacement - first.displacement,
+                       rtol=0, atol=1e-14)
