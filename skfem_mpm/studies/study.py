@@ -48,6 +48,7 @@ the cases finished before, or from the smallest ones, run first), which
 
 """
 import csv
+import hashlib
 import io
 import itertools
 import json
@@ -545,6 +546,27 @@ def scene_key(scene: Scene) -> str:
     every case of it, not for another scene's kinematics, materials,
     obstacles or dimension."""
     return re.sub(r" at 0x[0-9a-fA-F]+", "", repr(scene))
+
+
+def scene_sha256(scene: Scene) -> str:
+    """The SHA-256 of the scene's content (:func:`scene_key`) but its
+    ``outputs``, recorded with each case of a study (``scene_sha256``): a
+    study resumed in a folder refuses the cases of another scene
+    (:func:`finished_rows`; a user trial resumed a study after doubling E
+    and the load steps, and its old cases were read back as the new
+    scene's).  The outputs are the study's quantities, recorded apart
+    (:func:`measure_key`): a quantity added or defined otherwise runs
+    the cases again, on the same scene."""
+    return hashlib.sha256(scene_key(replace(scene, outputs=()))
+                          .encode()).hexdigest()
+
+
+def measure_key(quantity: Quantity) -> str:
+    """A quantity's whole definition as text (recorded with each case
+    under ``measures``, per label): a case whose quantity of a label was
+    defined otherwise (a user's ``name`` kept over a changed point or
+    component) runs again on resume (:func:`finished_rows`)."""
+    return re.sub(r" at 0x[0-9a-fA-F]+", "", repr(quantity))
 
 
 def choices_of(params: dict) -> dict:
@@ -1504,6 +1526,20 @@ class StudyRows(list):
         return self.warm_up
 
 
+#: what study.json keeps of a case and study.csv not: the definitions of
+#: its quantities (:func:`measure_key`), long text read on resume only
+NOT_IN_CSV = ("measures",)
+
+
+def _cell(value):
+    """A value of study.csv: a table or list (``extreme_at``,
+    ``extreme_component``, ``scale``) as JSON text, which any reader
+    parses, not Python's repr of it."""
+    if isinstance(value, (dict, list, tuple)):
+        return json.dumps(value, sort_keys=True)
+    return value
+
+
 def _write(outdir: Path, rows: List[dict], workers: int, measured: dict,
            warm_ups: Sequence[dict] = ()):
     rows = _known(rows)
@@ -1511,7 +1547,8 @@ def _write(outdir: Path, rows: List[dict], workers: int, measured: dict,
         Path(tmp).write_text(json.dumps(dict(
             workers=workers, rows=rows, **_known(measured),
             warm_up=_known(list(warm_ups))), indent=1))
-    flat = [{**{k: v for k, v in r.items() if k not in PER_QUANTITY},
+    flat = [{**{k: _cell(v) for k, v in r.items()
+                if k not in PER_QUANTITY and k not in NOT_IN_CSV},
              **{prefix + k: v for field, prefix in PER_QUANTITY.items()
                 for k, v in r.get(field, {}).items()}}
             for r in rows]
@@ -1634,7 +1671,9 @@ def _study(scene: Scene, vary: Dict[str, Sequence], outdir,
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     cases = cases_of(vary)
-    rows = finished_rows(outdir, quantities)
+    rows = finished_rows(outdir, quantities, scene)
+    digest = scene_sha256(scene)
+    measures = {q.label: measure_key(q) for q in quantities}
     warm_ups = finished_warm_ups(outdir)
     done = {_key(r) for r in rows}
     todo = [c for c in cases if _key(c) not in done]
@@ -1643,6 +1682,7 @@ def _study(scene: Scene, vary: Dict[str, Sequence], outdir,
     smallest = smallest_cases(scene, warm_from or cases)
 
     def add(row, records):
+        row.update(scene_sha256=digest, measures=measures)
         rows.append(row)
         warm_ups.extend(records)
         for r in records:
@@ -1833,15 +1873,50 @@ def cases_of(vary: Dict[str, Sequence]) -> List[dict]:
             for combo in itertools.product(*(vary[n] for n in names))]
 
 
-def finished_rows(outdir, quantities) -> List[dict]:
+def finished_rows(outdir, quantities, scene: Optional[Scene] = None
+                  ) -> List[dict]:
     """The cases ``study.json`` in ``outdir`` holds that need not run
-    again: failed ones, and those with a value of every quantity."""
+    again: failed ones, and those with a value of every quantity as
+    ``quantities`` define it (a case that recorded another definition of
+    a quantity's label, :func:`measure_key`, runs again).  Given the
+    ``scene``, raise :class:`~skfem_mpm.errors.InvalidInputError` if a
+    case there was run on another scene (:func:`scene_sha256`): its
+    numbers are not this scene's (cases run before the digest was
+    recorded cannot be told apart: a warning says so)."""
     path = Path(outdir) / "study.json"
     if not path.exists():
         return []
-    labels = {q.label for q in quantities}
-    rows = [r for r in json.loads(path.read_text())["rows"]
-            if r["failure"] or labels <= set(r.get("values", ()))]
+    rows = json.loads(path.read_text())["rows"]
+    if scene is not None:
+        digest = scene_sha256(scene)
+        other = [r for r in rows
+                 if r.get("scene_sha256", digest) != digest]
+        if other:
+            raise InvalidInputError(
+                "{}: {} of its {} case{} ran on another scene (SHA-256 of "
+                "the scene's content {}..., this scene's {}...: its "
+                "material, loads, steps, name or anything else differ), "
+                "and a study resumed there would read their numbers back "
+                "as this scene's; study into another --out folder, or "
+                "delete {} to run the cases again".format(
+                    path, len(other), len(rows),
+                    "s" if len(rows) > 1 else "",
+                    other[0]["scene_sha256"][:12], digest[:12], path))
+        unknown = [r for r in rows if "scene_sha256" not in r]
+        if unknown:
+            logger.warning(
+                "%s: %d case%s ran before studies recorded their scene: "
+                "read back as this scene's, unchecked (delete the file "
+                "if the scene changed since)", path, len(unknown),
+                "s" if len(unknown) > 1 else "")
+    labels = {q.label: measure_key(q) for q in quantities}
+
+    def same(r):
+        kept = r.get("measures", {})
+        return all(kept.get(label, key) == key
+                   for label, key in labels.items())
+    rows = [r for r in rows if r["failure"] or (
+        set(labels) <= set(r.get("values", ())) and same(r))]
     for r in rows:
         for name in OLD_PER_QUANTITY:
             r.pop(name, None)
@@ -1960,7 +2035,7 @@ def estimate(scene: Scene, cases: List[dict], outdir, quantities,
     its own (for a serial study run after the estimate, in the same
     process, only those of choices and solvers not yet warmed up)."""
     quantities = list(quantities or scene_quantities(scene))
-    rows = {_key(r): r for r in finished_rows(outdir, quantities)}
+    rows = {_key(r): r for r in finished_rows(outdir, quantities, scene)}
     work = {_key(c): case_work(scene, c) for c in cases}
     measured = [(work[k], r["wall_seconds"]) for k, r in rows.items()
                 if k in work and not r["failure"]]

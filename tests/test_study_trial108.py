@@ -1,0 +1,94 @@
+"""A user trial's study findings (trial108): a study resumed after its
+scene changed, a failed finest case, the safety factor of orders above
+the formal one, three grids' rate, the command's input, ``compare``'s
+words and study.csv's tables."""
+import csv
+import json
+import logging
+from dataclasses import replace
+
+import pytest
+
+import skfem_mpm.studies.study as study_module
+from skfem_mpm.cli import EMBEDDED
+from skfem_mpm.errors import InvalidInputError
+from skfem_mpm.scenes.quantities import Quantity
+from skfem_mpm.scenes.scene_file import load_scene
+from skfem_mpm.studies.study import estimate, study
+
+COLUMN = load_scene(EMBEDDED)
+VARY = {"elements": [4, 8], "loadsteps": [1]}
+
+
+def stiffer(scene, factor=2.):
+    body = scene.bodies[0]
+    return replace(scene, bodies=(replace(body, material=replace(
+        body.material, E=body.material.E * factor)),) + tuple(
+            scene.bodies[1:]))
+
+
+def test_a_study_resumed_on_another_scene_is_refused(tmp_path, caplog,
+                                                     monkeypatch):
+    """trial108: a study resumed in its folder after E doubled (and the
+    name and steps changed) said "3 finished before" and reported the old
+    scene's numbers (a sag of -0.0191 where the new scene gives
+    -0.00954).  Every case records its scene's digest; a study or an
+    estimate of another scene in that folder is refused, saying why; the
+    same scene resumes without running anything."""
+    rows = study(COLUMN, VARY, tmp_path, progress=False)
+    digest = study_module.scene_sha256(COLUMN)
+    assert all(r["scene_sha256"] == digest for r in rows)
+    changed = stiffer(COLUMN)
+    assert study_module.scene_sha256(changed) != digest
+    for call in (lambda: study(changed, VARY, tmp_path, progress=False),
+                 lambda: estimate(changed, study_module.cases_of(VARY),
+                                  tmp_path, None)):
+        with pytest.raises(InvalidInputError, match="another scene") as err:
+            call()
+        assert "2 of its 2 cases" in str(err.value) and digest[:12] in \
+            str(err.value)
+    for name in ("renamed", ):                  # a new name is another scene
+        with pytest.raises(InvalidInputError, match="another scene"):
+            study(replace(COLUMN, name=name), VARY, tmp_path,
+                  progress=False)
+    calls = []
+    monkeypatch.setattr(study_module, "run_case",
+                        lambda *a: calls.append(a))
+    again = study(COLUMN, VARY, tmp_path, progress=False)
+    assert not calls and [r["wall_seconds"] for r in again] == \
+        [r["wall_seconds"] for r in rows]
+    # an older study.json without digests: read back, with a warning
+    saved = json.loads((tmp_path / "study.json").read_text())
+    for r in saved["rows"]:
+        del r["scene_sha256"]
+    (tmp_path / "study.json").write_text(json.dumps(saved))
+    caplog.set_level(logging.WARNING)
+    study(changed, VARY, tmp_path, progress=False)
+    assert not calls and any("before studies recorded their scene" in
+                             r.getMessage() for r in caplog.records)
+
+
+def test_a_quantity_defined_otherwise_under_its_name_runs_again(tmp_path):
+    """A measure kept under its ``name`` but moved to another point is
+    another quantity: its cases run again, not read back."""
+    top = Quantity("displacement", "x", at=(50.,), name="sag")
+    rows = study(replace(COLUMN, outputs=(top,)), VARY, tmp_path,
+                 progress=False)
+    lower = replace(top, at=(25.,))
+    again = study(replace(COLUMN, outputs=(lower,)), VARY, tmp_path,
+                  progress=False)
+    assert [r["wall_seconds"] for r in again] != \
+        [r["wall_seconds"] for r in rows]
+    assert all(r["measures"]["sag"] == study_module.measure_key(lower)
+               for r in again)
+
+
+def test_study_csv_holds_tables_as_json(tmp_path):
+    """trial108: study.csv's ``extreme_at`` held a Python dict's repr."""
+    rows = study(COLUMN, VARY, tmp_path, progress=False)
+    with open(tmp_path / "study.csv") as f:
+        table = list(csv.DictReader(f))
+    for r, line in zip(rows, table):
+        assert json.loads(line["extreme_at"]) == r["extreme_at"]
+        assert json.loads(line["scale"]) == r["scale"]
+    assert "measures" not in table[0]
