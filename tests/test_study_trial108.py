@@ -7,6 +7,7 @@ import json
 import logging
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 import skfem_mpm.studies.study as study_module
@@ -92,3 +93,23 @@ def test_study_csv_holds_tables_as_json(tmp_path):
         assert json.loads(line["extreme_at"]) == r["extreme_at"]
         assert json.loads(line["scale"]) == r["scale"]
     assert "measures" not in table[0]
+
+
+@pytest.mark.parametrize("p, factor", [(2., 1.25), (2.05, 1.25),
+                                       (2.2, 3.), (3.59, 3.), (1.5, 1.25)])
+def test_the_safety_factor_is_eca_and_hoekstras(p, factor):
+    """trial108: an observed order 3.59 against the formal 2 got the
+    safety factor 1.25.  Eca and Hoekstra (2014) give 1.25 for
+    ``0.5 <= p < 2.1`` (formal order 2) and 3 above: ``U_i = F_s
+    |alpha| h_i^p + sigma + |r_i|``, over three grids ``sigma = r_i =
+    0``."""
+    from skfem_mpm.studies.convergence import self_convergence
+    h = np.array([.4, .2, .1])
+    alpha, f0 = -.3, 2.
+    found = self_convergence(h, f0 + alpha * h ** p, formal_order=2)
+    assert found.against == "richardson" and abs(found.order - p) < 1e-6
+    assert found.safety_factor == factor
+    expected = factor * abs(alpha) * h ** p
+    assert np.allclose(found.uncertainties, expected, rtol=1e-6)
+    assert ("above the formal order 2" in found.why) == (factor == 3.)
+    assert "{:g} x the error estimate".format(factor) in found.why
