@@ -15,6 +15,7 @@ from skfem_mpm.cli import EMBEDDED
 from skfem_mpm.errors import InvalidInputError
 from skfem_mpm.scenes.quantities import Quantity
 from skfem_mpm.scenes.scene_file import load_scene
+from skfem_mpm.solve.results import PHASES
 from skfem_mpm.studies.study import estimate, study
 
 COLUMN = load_scene(EMBEDDED)
@@ -113,3 +114,80 @@ def test_the_safety_factor_is_eca_and_hoekstras(p, factor):
     assert np.allclose(found.uncertainties, expected, rtol=1e-6)
     assert ("above the formal order 2" in found.why) == (factor == 3.)
     assert "{:g} x the error estimate".format(factor) in found.why
+
+
+COLLAPSE = ("NewtonDivergenceError: step 12: Newton-Raphson did not "
+            "converge; the last converged state (load factor 0.975) is "
+            "attached; it may be yielding towards a collapse")
+DIVERGED = ("NewtonDivergenceError: step 3: Newton-Raphson did not "
+            "converge; the last converged state (load factor 0.5) is "
+            "attached")
+
+
+def refinement(failure, p=2.):
+    """Rows of a refinement, 4, 8, 16 elements converging at order ``p``
+    (``f = 1 + h^p``) and 32 failed with ``failure``."""
+    scene = replace(COLUMN, reference=None)
+    label = study_module.DEFAULT_QUANTITY.label
+    times = dict(wall_seconds=.1, cpu_seconds=.1, steps_run=1,
+                 **{"t_" + p: .01 for p in PHASES})
+    rows = [dict(elements=n, failure="", points=2 * n, ghost_from_step=0,
+                 newton_iterations=1, dofs=n,
+                 **dict(times, cpu_seconds=.01 * n, wall_seconds=.01 * n),
+                 values={label: 1. + study_module.cell_size(scene, n) ** p})
+            for n in (4, 8, 16)]
+    rows.append(dict(elements=32, failure=failure, **times))
+    return scene, rows
+
+
+def test_a_failed_finest_case_is_said_and_marked(tmp_path):
+    """trial108: the finest case (128 elements) failed "yielding towards
+    a collapse" after load factor 0.975, and the study still said
+    "extrapolated ... values monotone" without a word of it.  A failure
+    that says collapse refuses the extrapolation (the reference is the
+    finest case that ran, 3 x the data range); another failure keeps it,
+    said to stand on the coarser grids only; both are warned in the
+    summary, kept in study.json's convergence (``failed``) and marked
+    in the figures."""
+    from skfem_mpm.studies.figures import plot_study
+    quantity = [study_module.DEFAULT_QUANTITY]
+    scene, rows = refinement(COLLAPSE)
+    measured = study_module.analyse(scene, rows, quantity)
+    c = measured["convergence"][0]
+    values = c["values"]
+    assert c["against"] == "finest" and c["reference"] == values[-1]
+    assert abs(c["uncertainty"] - 3 * (max(values) - min(values))) < 1e-12
+    assert "may be collapsing" in c["why"] and "0.975" in c["why"]
+    assert c["failed"] == [dict(
+        elements=32, cell_size=study_module.cell_size(scene, 32),
+        error="NewtonDivergenceError", load_factor=.975, collapse=True)]
+    lines = study_module.report(rows, measured, ["elements"])
+    warned = [x for x in lines if x.startswith("WARNING: ")
+              and "finest case failed" in x]
+    assert len(warned) == 1 and "nothing is extrapolated" in warned[0]
+    scene, rows = refinement(DIVERGED)
+    measured = study_module.analyse(scene, rows, quantity)
+    c = measured["convergence"][0]
+    h = [study_module.cell_size(scene, n) for n in (4, 8, 16)]
+    assert c["against"] == "richardson" and abs(c["reference"] - 1.) < 1e-9
+    assert abs(c["order"] - 2.) < 1e-6
+    assert "coarser grids only (4, 8, 16 elements)" in c["why"]
+    assert c["cell_sizes"] == h
+    lines = study_module.report(rows, measured, ["elements"])
+    assert any("finest case failed" in x and "coarser grids only" in x
+               for x in lines)
+    drawn = []
+    import matplotlib.axes          # the figures' axes: their axvline
+    real = matplotlib.axes.Axes.axvline
+
+    def axvline(self, x, *args, **kwargs):
+        drawn.append((x, kwargs.get("label", "")))
+        return real(self, x, *args, **kwargs)
+    matplotlib.axes.Axes.axvline = axvline
+    try:
+        plot_study(rows, tmp_path, measured)
+    finally:
+        matplotlib.axes.Axes.axvline = real
+    assert (32, "32 elements failed: NewtonDivergenceError") in drawn
+    assert (study_module.cell_size(scene, 32), "32 elements failed: "
+            "NewtonDivergenceError after load factor 0.5") in drawn

@@ -868,6 +868,10 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             "the scene's geometry (other: {})".format(left_out) if left_out
             else "", "the finest grid's ghost penalty (ghost=\"auto\": {})"
             .format(mixed) if ends else "") if words)
+        failed = failed_cases(scene, rows, keys, choices) if refined \
+            else []
+        finer = [f for f in failed if f["elements"] > max(
+            r["elements"] for r in members)]
         for q in quantities:
             values = [r["values"][q.label] for r in fitted]
             if refined and fitted is members and others:
@@ -906,6 +910,9 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                     found.why += "; the range mixes cases whose ghost " \
                         "penalty switched on otherwise (ghost=\"auto\"): " \
                         + mixed
+            if finer:
+                found = finest_failed(found, finer, fitted, values, [
+                    cell_size(scene, r["elements"]) for r in fitted])
             scale = abs(found.reference) or max(abs(v) for v in values) \
                 or 1.
             for r, e, u in zip(fitted, found.errors, found.uncertainties):
@@ -933,7 +940,7 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                 choices=choices, cell_sizes=sizes, values=values,
                 ghost_from_step=[r.get("ghost_from_step") for r in fitted],
                 mixed_stabilisation=mixed, stabilisation_left_out=ends,
-                **found))
+                failed=failed, **found))
     first = quantities[0].label
     for r in done:
         r["error"] = r["reference_error"] if scene.reference else \
@@ -982,6 +989,99 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             "convergence": convergence,
             "disagreements": [] if scene.reference else
             disagreements(convergence)}
+
+
+def failed_cases(scene: Scene, rows: List[dict], keys: Sequence[str],
+                 choices: dict) -> List[dict]:
+    """The failed cases of a refinement's group (its ``choices`` of
+    ``keys``), coarse to fine: ``elements``, ``cell_size``, the error's
+    class (``error``), the load factor its run last converged at
+    (``load_factor``, ``None`` if its message names none) and
+    ``collapse``: whether the message says the body may be collapsing
+    (:func:`finest_failed`)."""
+    out = []
+    for r in rows:
+        if not r["failure"] or "elements" not in r or any(
+                r.get(k) != choices.get(k) for k in keys):
+            continue
+        load = re.search(r"load factor ([0-9.]+(?:e[-+]?[0-9]+)?)",
+                         r["failure"])
+        out.append(dict(
+            elements=r["elements"],
+            cell_size=cell_size(scene, r["elements"]),
+            error=r["failure"].split(":")[0],
+            load_factor=float(load.group(1)) if load else None,
+            collapse="collapse" in r["failure"]))
+    return sorted(out, key=lambda f: f["elements"])
+
+
+def _failed_words(failed: List[dict]) -> str:
+    return ", ".join("{} elements ({}{})".format(
+        f["elements"], f["error"], "" if f["load_factor"] is None else
+        " after load factor {:g}".format(f["load_factor"]))
+        for f in failed)
+
+
+def finest_failed(found, finer: List[dict], fitted: List[dict],
+                  values: List[float], sizes: List[float]):
+    """``found`` (a :class:`~.convergence.SelfConvergence`) of a group
+    whose finest cases ``finer`` failed (:func:`failed_cases`): its
+    ``why`` says so, and that an extrapolation stands on the coarser
+    grids only; where a failure says the body may be collapsing, nothing
+    is extrapolated (the finer grid did not carry the load the coarser
+    ones did, and their values need not converge to any solution: a
+    trial's pad, 128 elements, stopped at load factor 0.975 "yielding
+    towards a collapse" while 16, 32 and 64 gave an extrapolation
+    +- 0.34%): the reference is then the finest case that ran, with
+    :func:`~.convergence.from_data_range`'s uncertainty."""
+    words = _failed_words(finer)
+    coarser = ", ".join(str(r["elements"]) for r in fitted)
+    if any(f["collapse"] for f in finer) and found.against == "richardson":
+        finest = min(range(len(sizes)), key=lambda k: sizes[k])
+        return from_data_range(
+            values, finest, "the finest case{} failed, saying the body "
+            "may be collapsing: {}; the coarser grids ({} elements), "
+            "whose fit alone gave {} (order {:.2f}), carried a load a "
+            "finer one did not and need not converge to any solution"
+            .format("s" if len(finer) > 1 else "", words, coarser,
+                    _number(found.reference, "{:.6g}"), found.order),
+            formal_order=found.formal_order,
+            credible_orders=found.credible_orders,
+            observed_order=found.observed_order)
+    found.why += "; the finest case{} failed: {}: {} on the coarser grids " \
+        "only ({} elements){}".format(
+            "s" if len(finer) > 1 else "", words,
+            "extrapolated" if found.against == "richardson" else
+            "the reference is", coarser,
+            ", where a failure that says collapse would refuse it"
+            if found.against == "richardson" else "")
+    return found
+
+
+def failed_finest(measured: dict) -> List[str]:
+    """A warning per quantity and group whose finest cases failed
+    (``convergence``'s ``failed`` finer than every case that ran; a
+    trial's study said "extrapolated ... values monotone", exit 0, and
+    its figure left the failed case out without a mark)."""
+    lines = []
+    for c in measured["convergence"]:
+        sizes = c["cell_sizes"] or []
+        finer = [f for f in c.get("failed", ())
+                 if sizes and f["cell_size"] < min(sizes)]
+        if not finer:
+            continue
+        where = ", ".join("{}={}".format(k, v)
+                          for k, v in c["choices"].items())
+        lines.append(
+            "WARNING: {}{}: the finest case{} failed: {}; {}".format(
+                c["quantity"], " [" + where + "]" if where else "",
+                "s" if len(finer) > 1 else "", _failed_words(finer),
+                "the reference is extrapolated from the coarser grids "
+                "only" if c["against"] == "richardson" else
+                "nothing is extrapolated (a failure says collapse)"
+                if any(f["collapse"] for f in finer) else
+                "the reference is the finest case that ran"))
+    return lines
 
 
 #: the summary names this many pairs of disagreeing groups, the furthest
@@ -1222,6 +1322,7 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
             _number(c["reference"], "{:.6g}"),
             _number(c["uncertainty"], "{:.2g}"), c["unit"], c["why"]))
     lines.extend(mixed_stabilisation(measured))
+    lines.extend(failed_finest(measured))
     lines.extend(moving_extremes(rows))
     lines.extend(zero_values(rows))
     lines.extend(own_references(measured))
@@ -1750,8 +1851,8 @@ def warn_mixed(measured: dict, rows: List[dict], warn: bool = True
     the ghost penalty switched on in them; returns ``measured``."""
     if not warn:
         return measured
-    for line in mixed_stabilisation(measured) + moving_extremes(rows) \
-            + zero_values(rows):
+    for line in mixed_stabilisation(measured) + failed_finest(measured) \
+            + moving_extremes(rows) + zero_values(rows):
         logger.warning("%s", line[len("WARNING: "):])
     unknown = [r for r in rows if not r["failure"]
                and "ghost_from_step" not in r]
@@ -1873,6 +1974,10 @@ def cases_of(vary: Dict[str, Sequence]) -> List[dict]:
             for combo in itertools.product(*(vary[n] for n in names))]
 
 
+#: the study.json files of cases without a scene digest warned of
+UNCHECKED = set()
+
+
 def finished_rows(outdir, quantities, scene: Optional[Scene] = None
                   ) -> List[dict]:
     """The cases ``study.json`` in ``outdir`` holds that need not run
@@ -1903,7 +2008,8 @@ def finished_rows(outdir, quantities, scene: Optional[Scene] = None
                     "s" if len(rows) > 1 else "",
                     other[0]["scene_sha256"][:12], digest[:12], path))
         unknown = [r for r in rows if "scene_sha256" not in r]
-        if unknown:
+        if unknown and str(path) not in UNCHECKED:
+            UNCHECKED.add(str(path))
             logger.warning(
                 "%s: %d case%s ran before studies recorded their scene: "
                 "read back as this scene's, unchecked (delete the file "
