@@ -191,3 +191,31 @@ def test_a_failed_finest_case_is_said_and_marked(tmp_path):
     assert (32, "32 elements failed: NewtonDivergenceError") in drawn
     assert (study_module.cell_size(scene, 32), "32 elements failed: "
             "NewtonDivergenceError after load factor 0.5") in drawn
+
+
+def test_three_grids_give_no_independent_rate():
+    """trial108: on three grids the extrapolation passes through them,
+    so the errors against it are ``|alpha| h^p`` exactly and their rate
+    is the observed order again ("standard error 0.00; local rates 3.59,
+    3.59"): the summary says it is no independent rate.  With a fourth
+    grid the rate is fitted and given with its spread."""
+    quantity = [study_module.DEFAULT_QUANTITY]
+    scene, rows = refinement("", p=1.5)
+    label = quantity[0].label
+    rows[-1]["values"] = {label: 1. + study_module.cell_size(scene, 32)
+                          ** 1.5 * (1 + 1e-3)}
+    rows[-1].update(rows[0], elements=32, values=rows[-1]["values"])
+    three = rows[:3]
+    measured = study_module.analyse(scene, three, quantity)
+    assert study_module.circular(measured["convergence"][0])
+    line = [x for x in study_module.report(three, measured, ["elements"])
+            if x.startswith("rate of the error")][0]
+    assert line.startswith("rate of the error all: 1.50, the observed "
+                           "order of the extrapolation") and \
+        "no independent rate from three grids" in line and \
+        "standard error" not in line
+    measured = study_module.analyse(scene, rows, quantity)
+    assert not study_module.circular(measured["convergence"][0])
+    line = [x for x in study_module.report(rows, measured, ["elements"])
+            if x.startswith("rate of the error")][0]
+    assert "standard error" in line and "independent" not in line

@@ -991,6 +991,18 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             disagreements(convergence)}
 
 
+def circular(convergence: dict) -> bool:
+    """Whether a group's errors (``convergence``, of :func:`analyse`) are
+    distances to an extrapolation with the observed order through exactly
+    three grids: the fit passes through them, the errors are ``|alpha|
+    h^p`` exactly, and their rate is that order again (a trial's "rate
+    3.59 ...; standard error 0.00; local rates 3.59, 3.59"), no
+    independent measure."""
+    return (convergence["against"] == "richardson"
+            and convergence["basis"] == "observed order"
+            and len(convergence["values"]) == 3)
+
+
 def failed_cases(scene: Scene, rows: List[dict], keys: Sequence[str],
                  choices: dict) -> List[dict]:
     """The failed cases of a refinement's group (its ``choices`` of
@@ -1290,6 +1302,22 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                      if r.get("other_stabilisation")]
             rate = fitted_rate([r["elements"] for r in kept],
                                [r["error"] for r in kept])
+            left = "{}{}".format(
+                "; left out, their grids modelling a geometry other than "
+                "the finest one's: {} elements".format(", ".join(other))
+                if other else "", "; left out, the ghost penalty switched "
+                "on otherwise than on the finest grid: {} elements".format(
+                    ", ".join(ghost)) if ghost else "")
+            if found and circular(found[0]):
+                lines.append(
+                    "rate of the error {}: {:.2f}, the observed order of "
+                    "the extrapolation the errors are measured against, "
+                    "which passes through the three grids ({} elements): "
+                    "no independent rate from three grids (a fourth grid "
+                    "or a closed form gives one){}".format(
+                        where, rate, ", ".join(
+                            str(r["elements"]) for r in kept), left))
+                continue
             rising = not_falling([r["elements"] for r in kept],
                                  [r["error"] for r in kept])
             floor = levelling_off([r["elements"] for r in kept],
@@ -1304,12 +1332,7 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                                       [r["error"] for r in kept]),
                     "; " + floor if floor else "")
                 if np.isfinite(rate) else
-                "needs two cases with a non-zero error", "; left out, "
-                "their grids modelling a geometry other than the finest "
-                "one's: {} elements".format(", ".join(other))
-                if other else "", "; left out, the ghost penalty switched "
-                "on otherwise than on the finest grid: {} elements".format(
-                    ", ".join(ghost)) if ghost else ""))
+                "needs two cases with a non-zero error", left, ""))
     for c in measured["convergence"]:
         where = ", ".join("{}={}".format(k, v) for k, v in
                           c["choices"].items())
