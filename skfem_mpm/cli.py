@@ -46,12 +46,14 @@ from .scenes.plot import (STRESS_NAMES, SupportMarks, body_figure_size,
                           colour_scale, draw_deformed_shape, draw_energies,
                           draw_plastic_zone, draw_points, mark_peak,
                           pyplot)
-from .scenes.quantities import check_quantities, quantity_unit
+from .scenes.quantities import (COMPONENTS, QUANTITIES, check_quantities,
+                                quantity_unit)
 from .scenes.scene import (build_points, load_scale, obstacle_list,
                            point_bound, reaction_resultants,
                            run_scene, scene_support_dofs, support_names,
                            surface_loads)
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
+from .spelling import did_you_mean
 from .scenes.units import unit
 from .solve.body_contact import body_contact_state_names
 from .solve.contact import contact_state_names
@@ -70,8 +72,9 @@ from .studies.footing import (bearing_capacity_factor, footing_error,
 from .studies.study import (CASES_UNASKED, CHOICES, DEFAULT_VARY,
                             REFERENCE_ERRORS, VARIABLES, analyse, case_error,
                             case_work, cases_of, check_reference, check_vary,
-                            clock, configure, default_vary, estimate, report,
-                            scene_quantities, study, worker_count)
+                            clock, configure, default_vary, estimate,
+                            not_a_variable, report, scene_quantities, study,
+                            worker_count)
 
 DESCRIPTION = """\
 Implicit Material Point Method on scikit-fem.
@@ -1623,6 +1626,15 @@ def parse_vary(items):
         if not values:
             raise SceneError(["--vary {!r}: expected NAME=V1,V2,...".format(
                 item)])
+        if name not in VARIABLES:       # the name first, then its values
+            raise SceneError([not_a_variable(name)])
+        if name in vary:
+            raise SceneError([
+                "--vary {} is given twice ({} and {}): one would replace "
+                "the other; give all its values in one, --vary {}={}"
+                .format(name, ",".join(str(v) for v in vary[name]), values,
+                        name, ",".join([str(v) for v in vary[name]]
+                                       + [values]))])
         values = values.split(",")
         if name not in CHOICES:
             try:
@@ -1644,6 +1656,16 @@ def parse_measures(items, dim: int) -> list:
         except tomllib.TOMLDecodeError as err:
             raise SceneError(["--measure {!r}: not TOML keys ({})".format(
                 item, err)])
+        named = table.get("quantity")
+        if isinstance(named, str) and named not in QUANTITIES:
+            raise SceneError(["--measure {!r}: unknown quantity {!r}, "
+                              "choose from {}{}".format(
+                                  item, named, ", ".join(QUANTITIES),
+                                  did_you_mean(named, QUANTITIES))])
+        if named in COMPONENTS and "component" not in table:
+            raise SceneError(["--measure {!r}: needs a component of {}: "
+                              "one of {}".format(item, named, ", ".join(
+                                  COMPONENTS[named]))])
         quantities.append(parse_quantity(table, dim, "--measure {!r}"
                                          .format(item)))
     return quantities

@@ -219,3 +219,30 @@ def test_three_grids_give_no_independent_rate():
     line = [x for x in study_module.report(rows, measured, ["elements"])
             if x.startswith("rate of the error")][0]
     assert "standard error" in line and "independent" not in line
+
+
+@pytest.mark.parametrize("args, said", [
+    (["--vary", "time_step=0.1,0.05"], "cannot vary 'time_step': choose "
+     "from elements"),
+    (["--vary", "foo=0.1,0.2"], "cannot vary 'foo'"),
+    (["--vary", "elements=8,16", "--vary", "elements=32"],
+     "--vary elements is given twice (8,16 and 32): one would replace the "
+     "other; give all its values in one, --vary elements=8,16,32"),
+    (["--measure", 'quantity="temperature"'], "unknown quantity "
+     "'temperature', choose from displacement"),
+    (["--measure", 'quantity="stress"'], "needs a component of stress: "
+     "one of xx")])
+def test_the_study_command_checks_names_before_values(tmp_path, capsys,
+                                                      args, said):
+    """trial108: ``--vary time_step=0.1,0.05`` was told "values must be
+    integers", a repeated ``--vary elements`` kept the last one silently,
+    and ``--measure 'quantity="temperature"'`` was told it "needs
+    quantity and component" before that its quantity is unknown."""
+    from skfem_mpm.cli import main
+    assert main(["study", str(EMBEDDED), "--out", str(tmp_path / "s"),
+                 "--no-progress"] + args) == 2
+    err = capsys.readouterr().err
+    assert said in err and "integers" not in err
+    assert not (tmp_path / "s" / "study.json").exists()
+    if "time_step" in args[1]:
+        assert "[dynamics] time_step" in err

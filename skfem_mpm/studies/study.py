@@ -92,7 +92,8 @@ __all__ = ["study", "refine", "case_error", "check_reference", "analyse",
            "DEFAULT_VARY", "DEFAULT_QUANTITY", "FOOTING_QUANTITY",
            "CASES_UNASKED",
            "default_vary", "default_elements", "whole_cells_step",
-           "not_whole", "geometry_step", "lost_lines", "own_lines"]
+           "not_whole", "geometry_step", "lost_lines", "own_lines",
+           "not_a_variable"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
              "line_search", "newton")
@@ -1946,8 +1947,7 @@ def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
             "method, and the time step in the scene itself")
     for name, values in vary.items():
         if name not in VARIABLES:
-            raise InvalidInputError("cannot vary {!r}: choose from {}".format(
-                name, ", ".join(VARIABLES)))
+            raise InvalidInputError(not_a_variable(name))
         if not len(values):
             raise InvalidInputError("--vary {} has no value".format(name))
         if name in CHOICES and not set(values) <= set(CHOICES[name]):
@@ -1967,6 +1967,33 @@ def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
             lost_lines(scene, [int(v) for v in vary["elements"]])
         if why:
             raise InvalidInputError(why)
+
+
+#: names a user may mean for a dynamic scene's time step
+TIME_STEP_NAMES = ("time_step", "dt", "timestep", "time-step", "duration")
+
+
+def not_a_variable(name: str) -> str:
+    """The words refusing ``--vary NAME`` of a name not among
+    :data:`VARIABLES` (checked before its values: a trial's
+    ``--vary time_step=0.1,0.05`` was told "values must be integers"),
+    with how to study a dynamic scene's time step, which no study
+    varies.
+
+    >>> from skfem_mpm.studies.study import not_a_variable
+    >>> not_a_variable("element")[:60]
+    "cannot vary 'element': choose from elements, ppc, loadsteps,"
+    """
+    from ..spelling import did_you_mean
+    words = "cannot vary {!r}: choose from {}{}".format(
+        name, ", ".join(VARIABLES), did_you_mean(name, VARIABLES))
+    if name.lower() in TIME_STEP_NAMES:
+        words += "; a dynamic scene's time step is its [dynamics] " \
+            "time_step, which a study does not vary: study (or run) one " \
+            "copy of the scene file per time step, each with --out of " \
+            "its own, and compare their quantities (halving the step " \
+            "until they agree)"
+    return words
 
 
 def refused_choices(scene: Scene, vary: Dict[str, Sequence]) -> None:
