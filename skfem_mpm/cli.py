@@ -182,7 +182,10 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("scene", type=Path, help="scene file")
     study.add_argument("--vary", action="append", default=[],
                        metavar="NAME=V1,V2,...",
-                       help="values of one choice (repeat for more)")
+                       help="values of one choice: {} (repeat for "
+                       "more choices, each once); a dynamic scene's time "
+                       "step is not one: study one copy of the scene per "
+                       "[dynamics] time_step".format(", ".join(VARIABLES)))
     study.add_argument("--measure", action="append", default=[],
                        metavar="KEY=VALUE,...",
                        help="a quantity of interest as the keys of a "
