@@ -1567,15 +1567,25 @@ def compare(args) -> int:
     for name in ("displacement", "stress"):
         d = getattr(b, name) - getattr(a, name)
         scale = np.abs(getattr(a, name)).max()
+        where = np.unravel_index(int(np.abs(d).argmax()), d.shape)
         difference[name] = {
             "max": float(np.abs(d).max()),
             "rms": float(np.sqrt(np.mean(d ** 2))),
-            "max_relative": float(np.abs(d).max() / scale) if scale else 0.}
+            "max_relative": float(np.abs(d).max() / scale) if scale else 0.,
+            # where the largest difference is: the point (its index and
+            # its place at the start, the same in both runs) and component
+            "max_at_point": int(where[-1]),
+            "max_at": [float(v) for v in a.x0[:, where[-1]]],
+            "max_component": ("xyz"[where[0]] if name == "displacement"
+                              else STRESS_NAMES[where[0], where[1]])}
     summary = {"scene": scene.name, "kinematics": scene.kinematics,
                "methods": list(runs), "difference": difference,
                "difference_is": "{} minus fem, at the same material points "
                                 "(max, root mean square, max over the fem "
-                                "field's largest magnitude)".format(
+                                "field's largest magnitude; the point and "
+                                "component of the max, max_at its place "
+                                "at the start); stress: the Cauchy "
+                                "stress, every component".format(
                                     other.method),
                "runs": {m: summarise(v, r, s) for m, (v, r, s) in
                         runs.items()},
@@ -1611,12 +1621,21 @@ def compare(args) -> int:
         scene.name, component))
     fig.tight_layout(rect=(0., 0., 1., .92))
     plot.save_figure(fig, args.out / "compare.png")
-    print("  {} - fem: displacement max {:.3e} ({:.2e} relative), stress max "
-          "{:.3e} ({:.2e} relative)".format(
-              other.method, difference["displacement"]["max"],
-              difference["displacement"]["max_relative"],
-              difference["stress"]["max"],
-              difference["stress"]["max_relative"]))
+    for name, what in (("displacement", "displacement"),
+                       ("stress", "Cauchy stress")):
+        d = difference[name]
+        print("  {} - fem, {}: max {:.3e} {} ({:.2e} of FE's largest "
+              "|{}|), at point {} (at {} at the start) in {}; rms {:.3e}".format(
+                  other.method, what, d["max"], summary["units"][name],
+                  d["max_relative"], name, d["max_at_point"],
+                  ", ".join("{:.4g}".format(v) for v in d["max_at"]),
+                  d["max_component"], d["rms"]))
+    if scene.reference:
+        label, against, _ = REFERENCE_ERRORS[scene.reference]
+        print("  {} against {}: {}".format(label, against, ", ".join(
+            "{} {}".format(m, "-" if "error" not in summary["runs"][m]
+                           else "{:.3e}".format(summary["runs"][m]["error"]))
+            for m in runs)))
     print("  output {}".format(args.out))
     return 0
 

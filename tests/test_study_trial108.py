@@ -246,3 +246,32 @@ def test_the_study_command_checks_names_before_values(tmp_path, capsys,
     assert not (tmp_path / "s" / "study.json").exists()
     if "time_step" in args[1]:
         assert "[dynamics] time_step" in err
+
+
+def test_compare_says_where_and_what_it_compares(tmp_path, capsys):
+    """trial108: compare printed the largest differences alone; it now
+    names the point (index, place at the start) and component of each,
+    that "stress" is the Cauchy stress, what the relative one divides
+    by, and each run's error against the scene's closed form."""
+    import meshio
+    from skfem_mpm.cli import main
+    out = tmp_path / "cmp"
+    assert main(["compare", str(EMBEDDED), "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    fem, mpm = (meshio.read(out / "{}.vtu".format(m)) for m in ("fem", "mpm"))
+    for name in ("displacement", "stress"):
+        d = np.abs(mpm.point_data[name] - fem.point_data[name]).reshape(
+            len(fem.points), -1)
+        k = int(d.max(axis=1).argmax())
+        got = summary["difference"][name]
+        assert got["max_at_point"] == k and got["max"] == d.max()
+        assert got["max_at"] == pytest.approx(
+            fem.point_data["initial_position"][k][:1].tolist())
+        assert "at point {} (at {:.4g} at the start)".format(
+            k, got["max_at"][0]) in said
+    assert "Cauchy stress: max" in said and "of FE's largest |stress|" in \
+        said and "Cauchy stress" in summary["difference_is"]
+    errors = [summary["runs"][m]["error"] for m in ("fem", "mpm")]
+    assert "against the column's closed form" in said and \
+        "fem {:.3e}, mpm {:.3e}".format(*errors) in said
