@@ -275,3 +275,32 @@ def test_compare_says_where_and_what_it_compares(tmp_path, capsys):
     errors = [summary["runs"][m]["error"] for m in ("fem", "mpm")]
     assert "against the column's closed form" in said and \
         "fem {:.3e}, mpm {:.3e}".format(*errors) in said
+
+
+def test_a_closed_form_s_model_error_is_suspected_where_it_shows():
+    """trial108: against the elastica a cantilever's errors fell and rose
+    (5.0%, 1.2%, 4.3% at 10, 20, 40 elements) while its displacement
+    converged by itself (0.717, 0.767, 0.790 m): the summary says the
+    closed form's model error may dominate.  Against a closed form the
+    rate over three grids is not the fit's order (the errors are not
+    against the extrapolation)."""
+    quantity = [study_module.DEFAULT_QUANTITY]
+    scene, rows = refinement("", p=1.5)
+    rows = rows[:3]
+    for r, e in zip(rows, (.05, .012, .043)):
+        r["reference_error"] = e
+    measured = study_module.analyse(COLUMN, rows, quantity)
+    c = measured["convergence"][0]
+    assert c["against"] == "richardson"
+    line = [x for x in study_module.report(rows, measured, ["elements"])
+            if x.startswith("rate of the error")][0]
+    assert line.startswith("rate of the error all: none: the errors do not "
+                           "fall") and "independent" not in line
+    assert "converges by itself (extrapolated {:.6g}".format(
+        c["reference"]) in line and "model error" in line
+    for r, e in zip(rows, (.05, .02, .01)):     # falling: no such words
+        r["reference_error"] = e
+    measured = study_module.analyse(COLUMN, rows, quantity)
+    line = [x for x in study_module.report(rows, measured, ["elements"])
+            if x.startswith("rate of the error")][0]
+    assert "model error" not in line and "independent" not in line
