@@ -1625,11 +1625,12 @@ def compare(args) -> int:
                        ("stress", "Cauchy stress")):
         d = difference[name]
         print("  {} - fem, {}: max {:.3e} {} ({:.2e} of FE's largest "
-              "|{}|), at point {} (at {} at the start) in {}; rms {:.3e}".format(
-                  other.method, what, d["max"], summary["units"][name],
-                  d["max_relative"], name, d["max_at_point"],
-                  ", ".join("{:.4g}".format(v) for v in d["max_at"]),
-                  d["max_component"], d["rms"]))
+              "|{}|), at point {} (at {} at the start) in {}; rms {:.3e}"
+              .format(other.method, what, d["max"],
+                      summary["units"][name], d["max_relative"], name,
+                      d["max_at_point"],
+                      ", ".join("{:.4g}".format(v) for v in d["max_at"]),
+                      d["max_component"], d["rms"]))
     if scene.reference:
         label, against, _ = REFERENCE_ERRORS[scene.reference]
         print("  {} against {}: {}".format(label, against, ", ".join(
