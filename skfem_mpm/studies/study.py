@@ -41,7 +41,8 @@ Pardiso's library and first factorisation: 0.6-1.5 s of CPU, 10-20 times
 a small case's); the warm-ups' times are kept apart, in ``study.json``
 under ``"warm_up"`` and in the summary's last line.  Results are
 appended per case, atomically, to ``study.json`` and ``study.csv``; an
-interrupted study resumes without re-running finished cases.
+interrupted study resumes without re-running finished cases, and refuses
+a folder whose cases ran on another scene (:func:`finished_rows`).
 :func:`estimate` puts a rough time on the cases before they start (from
 the cases finished before, or from the smallest ones, run first), which
 ``skfem-mpm study`` prints.
@@ -1767,8 +1768,9 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     -------
     rows
         :class:`StudyRows`: one dict per case (finished ones read back on
-        resume, unless they lack a value of ``quantities``: those run
-        again), with ``values`` and ``relative_errors`` per quantity and
+        resume, unless they lack a value of ``quantities`` or recorded
+        another definition of one: those run again; cases of another
+        scene are refused, :func:`finished_rows`), with ``values`` and ``relative_errors`` per quantity and
         the headline ``error``; its ``warm_up`` lists the warm-ups.
         Groups whose cases switched the ghost penalty on otherwise are
         warned (:func:`mixed_stabilisation`).
