@@ -46,12 +46,14 @@ from .scenes.plot import (STRESS_NAMES, SupportMarks, body_figure_size,
                           colour_scale, draw_deformed_shape, draw_energies,
                           draw_plastic_zone, draw_points, mark_peak,
                           pyplot)
-from .scenes.quantities import check_quantities, quantity_unit
+from .scenes.quantities import (COMPONENTS, QUANTITIES, check_quantities,
+                                quantity_unit)
 from .scenes.scene import (build_points, load_scale, obstacle_list,
                            point_bound, reaction_resultants,
                            run_scene, scene_support_dofs, support_names,
                            surface_loads)
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
+from .spelling import did_you_mean
 from .scenes.units import unit
 from .solve.body_contact import body_contact_state_names
 from .solve.contact import contact_state_names
@@ -70,8 +72,9 @@ from .studies.footing import (bearing_capacity_factor, footing_error,
 from .studies.study import (CASES_UNASKED, CHOICES, DEFAULT_VARY,
                             REFERENCE_ERRORS, VARIABLES, analyse, case_error,
                             case_work, cases_of, check_reference, check_vary,
-                            clock, configure, default_vary, estimate, report,
-                            scene_quantities, study, worker_count)
+                            clock, configure, default_vary, estimate,
+                            not_a_variable, report, scene_quantities, study,
+                            worker_count)
 
 DESCRIPTION = """\
 Implicit Material Point Method on scikit-fem.
@@ -179,7 +182,10 @@ def build_parser() -> argparse.ArgumentParser:
     study.add_argument("scene", type=Path, help="scene file")
     study.add_argument("--vary", action="append", default=[],
                        metavar="NAME=V1,V2,...",
-                       help="values of one choice (repeat for more)")
+                       help="values of one choice: {} (repeat for "
+                       "more choices, each once); a dynamic scene's time "
+                       "step is not one: study one copy of the scene per "
+                       "[dynamics] time_step".format(", ".join(VARIABLES)))
     study.add_argument("--measure", action="append", default=[],
                        metavar="KEY=VALUE,...",
                        help="a quantity of interest as the keys of a "
@@ -1562,15 +1568,25 @@ def compare(args) -> int:
     for name in ("displacement", "stress"):
         d = getattr(b, name) - getattr(a, name)
         scale = np.abs(getattr(a, name)).max()
+        where = np.unravel_index(int(np.abs(d).argmax()), d.shape)
         difference[name] = {
             "max": float(np.abs(d).max()),
             "rms": float(np.sqrt(np.mean(d ** 2))),
-            "max_relative": float(np.abs(d).max() / scale) if scale else 0.}
+            "max_relative": float(np.abs(d).max() / scale) if scale else 0.,
+            # where the largest difference is: the point (its index and
+            # its place at the start, the same in both runs) and component
+            "max_at_point": int(where[-1]),
+            "max_at": [float(v) for v in a.x0[:, where[-1]]],
+            "max_component": ("xyz"[where[0]] if name == "displacement"
+                              else STRESS_NAMES[where[0], where[1]])}
     summary = {"scene": scene.name, "kinematics": scene.kinematics,
                "methods": list(runs), "difference": difference,
                "difference_is": "{} minus fem, at the same material points "
                                 "(max, root mean square, max over the fem "
-                                "field's largest magnitude)".format(
+                                "field's largest magnitude; the point and "
+                                "component of the max, max_at its place "
+                                "at the start); stress: the Cauchy "
+                                "stress, every component".format(
                                     other.method),
                "runs": {m: summarise(v, r, s) for m, (v, r, s) in
                         runs.items()},
@@ -1606,12 +1622,22 @@ def compare(args) -> int:
         scene.name, component))
     fig.tight_layout(rect=(0., 0., 1., .92))
     plot.save_figure(fig, args.out / "compare.png")
-    print("  {} - fem: displacement max {:.3e} ({:.2e} relative), stress max "
-          "{:.3e} ({:.2e} relative)".format(
-              other.method, difference["displacement"]["max"],
-              difference["displacement"]["max_relative"],
-              difference["stress"]["max"],
-              difference["stress"]["max_relative"]))
+    for name, what in (("displacement", "displacement"),
+                       ("stress", "Cauchy stress")):
+        d = difference[name]
+        print("  {} - fem, {}: max {:.3e} {} ({:.2e} of FE's largest "
+              "|{}|), at point {} (at {} at the start) in {}; rms {:.3e}"
+              .format(other.method, what, d["max"],
+                      summary["units"][name], d["max_relative"], name,
+                      d["max_at_point"],
+                      ", ".join("{:.4g}".format(v) for v in d["max_at"]),
+                      d["max_component"], d["rms"]))
+    if scene.reference:
+        label, against, _ = REFERENCE_ERRORS[scene.reference]
+        print("  {} against {}: {}".format(label, against, ", ".join(
+            "{} {}".format(m, "-" if "error" not in summary["runs"][m]
+                           else "{:.3e}".format(summary["runs"][m]["error"]))
+            for m in runs)))
     print("  output {}".format(args.out))
     return 0
 
@@ -1624,6 +1650,15 @@ def parse_vary(items):
         if not values:
             raise SceneError(["--vary {!r}: expected NAME=V1,V2,...".format(
                 item)])
+        if name not in VARIABLES:       # the name first, then its values
+            raise SceneError([not_a_variable(name)])
+        if name in vary:
+            raise SceneError([
+                "--vary {} is given twice ({} and {}): one would replace "
+                "the other; give all its values in one, --vary {}={}"
+                .format(name, ",".join(str(v) for v in vary[name]), values,
+                        name, ",".join([str(v) for v in vary[name]]
+                                       + [values]))])
         values = values.split(",")
         if name not in CHOICES:
             try:
@@ -1645,6 +1680,16 @@ def parse_measures(items, dim: int) -> list:
         except tomllib.TOMLDecodeError as err:
             raise SceneError(["--measure {!r}: not TOML keys ({})".format(
                 item, err)])
+        named = table.get("quantity")
+        if isinstance(named, str) and named not in QUANTITIES:
+            raise SceneError(["--measure {!r}: unknown quantity {!r}, "
+                              "choose from {}{}".format(
+                                  item, named, ", ".join(QUANTITIES),
+                                  did_you_mean(named, QUANTITIES))])
+        if named in COMPONENTS and "component" not in table:
+            raise SceneError(["--measure {!r}: needs a component of {}: "
+                              "one of {}".format(item, named, ", ".join(
+                                  COMPONENTS[named]))])
         quantities.append(parse_quantity(table, dim, "--measure {!r}"
                                          .format(item)))
     return quantities

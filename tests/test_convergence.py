@@ -122,14 +122,15 @@ def test_an_exact_power_law_over_four_grids():
 
 def test_orders_outside_the_credible_range_are_not_extrapolated():
     """An order above 2 P falls back to the closer fit of fixed order 1
-    or 2 (safety factor 3, said in words); the same values are trusted
-    when the formal order allows them; an order below 0.5 extrapolates
-    nothing."""
+    or 2 (safety factor 3, said in words); the same values are
+    extrapolated with their order when the formal order allows it (above
+    the formal order with the safety factor 3: test_study_trial108); an
+    order below 0.5 extrapolates nothing."""
     h = np.array([.4, .2, .1, .05])
     fast = 1. + .5 * h ** 3
     trusted = self_convergence(h, fast, formal_order=2)
     assert trusted.basis == "observed order" and \
-        abs(trusted.order - 3.) < 1e-8 and trusted.safety_factor == 1.25
+        abs(trusted.order - 3.) < 1e-8 and trusted.safety_factor == 3.
     fixed = self_convergence(h, fast, formal_order=1)
     assert fixed.order == 2. and fixed.basis == "fixed order"
     assert abs(fixed.observed_order - 3.) < 1e-8

@@ -26,7 +26,11 @@ Eng. 130, 078001, from three grids to all of them.  With cell sizes
    the data range per grid ``(max f - min f) / (n - 1)``.
    Then the reference is ``f_0``, each grid's error estimate is
    ``eps_i = |alpha| h_i^p`` and its uncertainty
-   ``U_i = 1.25 eps_i + sigma + |r_i|``.
+   ``U_i = F_s eps_i + sigma + |r_i|``, with Eca and Hoekstra's safety
+   factor ``F_s = 1.25`` for ``0.5 <= p < P + 0.1`` (their ``p < 2.1``
+   for ``P = 2``) and ``F_s = 3`` for an order above the formal one:
+   convergence faster than the method's is less sure (said under
+   ``caution``).
 4. An order above ``2 P`` (or a scattered fit) falls back to the fits
    with the fixed orders 1 and 2 (the one of smaller ``sigma``, if it is
    below the data range per grid): the reference is its ``f_0``,
@@ -60,6 +64,10 @@ __all__ = ["SelfConvergence", "self_convergence", "from_data_range",
 
 #: safety factors of the uncertainty: a trusted fit, anything else
 SAFETY_TRUSTED, SAFETY_UNTRUSTED = 1.25, 3.
+#: an observed order at least this far above the formal one ``P`` gets
+#: the safety factor 3, not 1.25 (Eca and Hoekstra 2014: 1.25 for
+#: ``0.5 <= p < 2.1`` with ``P = 2``)
+ABOVE_FORMAL = .1
 #: the lowest credible order; the highest is twice the formal order
 LOWEST_CREDIBLE_ORDER = .5
 #: the fixed orders fitted when the observed one is not credible
@@ -102,7 +110,8 @@ class SelfConvergence:
         ``"observed order"``, ``"fixed order"``, ``"data range"`` or
         ``"one grid"``.
     safety_factor
-        1.25 for a trusted fit, 3 otherwise.
+        1.25 for a trusted fit of an order below ``P + 0.1``, 3
+        otherwise.
     data_range, standard_deviation
         ``max |f_i - f_j|`` and the fit's ``sigma`` (``None``: no fit).
     sign_changes
@@ -439,11 +448,23 @@ def self_convergence(sizes: Sequence[float], values: Sequence[float],
             "{}".format(seen, n, unstable), **found)
     safety, caution = SAFETY_TRUSTED, ""
     if p <= hi and sigma < per_grid:
+        above = p >= formal_order + ABOVE_FORMAL
+        if above:                   # Eca and Hoekstra: 1.25 below P only
+            safety = SAFETY_UNTRUSTED
+            caution = "observed order {:.2f} above the formal order {:g}: " \
+                "safety factor {:g}, not {:g} (Eca and Hoekstra 2014: " \
+                "1.25 only for 0.5 <= p < {:g})".format(
+                    p, formal_order, safety, SAFETY_TRUSTED,
+                    formal_order + ABOVE_FORMAL)
         why = "{} (least squares over {} grids) within {}, values " \
             "monotone: extrapolated; uncertainty {:g} x the error estimate " \
             "of the fit".format(seen, n, credible, safety)
         if sigma > roundoff:
             why += " + its standard deviation {}".format(_number(sigma))
+        if above:
+            why += " (the order is above the formal order {:g}: Eca and " \
+                "Hoekstra's 1.25 holds for 0.5 <= p < {:g} only)".format(
+                    formal_order, formal_order + ABOVE_FORMAL)
     else:
         reason = "{} outside {}".format(seen, credible) if p > hi else \
             "{} but its fit scatters (standard deviation {} above the data " \
@@ -458,6 +479,7 @@ def self_convergence(sizes: Sequence[float], values: Sequence[float],
             return from_data_range(f, finest, reason + " and no fit of a "
                                    "fixed order 1 or 2 is closer",
                                    **found)
+        above = False
         sigma, p, f0, alpha, r = min(fits)
         sigma = float(sigma)
         found["standard_deviation"] = sigma
@@ -471,8 +493,8 @@ def self_convergence(sizes: Sequence[float], values: Sequence[float],
     errors = np.maximum(np.abs(fs - f0), floor)
     back = np.empty(n, int)
     back[order] = np.arange(n)
-    found.update(basis="observed order" if safety == SAFETY_TRUSTED else
-                 "fixed order")
+    found.update(basis="fixed order" if caution and not above else
+                 "observed order")
     return SelfConvergence(
         float(f0), float(U[0]), float(p), "richardson", why,
         caution=caution, safety_factor=safety, data_range=spread,

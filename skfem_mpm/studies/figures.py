@@ -180,6 +180,18 @@ def _disagreement(ax, measured: dict) -> None:
             "this".format(max(apart))))
 
 
+def _failed_mark(ax, x: float, style: dict, elements: int, error: str,
+                 load_factor=None) -> None:
+    """A dashed vertical line at a failed case (``x``: its elements or
+    cell size), named in the legend: a figure without it left a trial's
+    failed finest case out unmarked, its curve ending at the grid
+    before."""
+    ax.axvline(x, color=style["color"], ls="--", lw=.8, label=(
+        "{} elements failed: {}{}".format(
+            elements, error, "" if load_factor is None else
+            " after load factor {:g}".format(load_factor))))
+
+
 def _group_name(choices: dict) -> str:
     """The name of a study's group of cases (a row or a convergence
     group's ``choices``): its choices but the elements, in one order."""
@@ -289,6 +301,10 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
                     measured, rs[0]) else "{} (no extrapolation: distance "
                 "to the finest case)".format(name), bound=_bounds(rs))
             named = _unknown(ax, x, rs, style, named)
+        for r in rows:
+            if r.get("failure") and _group_name(r) in styles:
+                _failed_mark(ax, r["elements"], styles[_group_name(r)],
+                             r["elements"], r["failure"].split(":")[0])
         _disagreement(ax, measured)
         written.append(_finish(
             fig, ax, "elements along the most refined axis (-)", ylabel,
@@ -372,6 +388,10 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
                                 capsize=2)
                 ax.axhline(c["reference"], color=style["color"], lw=.6,
                            ls=":", label=_reference_label(c))
+                for failed in c.get("failed", ()):
+                    _failed_mark(ax, failed["cell_size"], style,
+                                 failed["elements"], failed["error"],
+                                 failed["load_factor"])
                 if c["uncertainty"] is not None:
                     ax.axhspan(c["reference"] - c["uncertainty"],
                                c["reference"] + c["uncertainty"],

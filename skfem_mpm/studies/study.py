@@ -41,13 +41,15 @@ Pardiso's library and first factorisation: 0.6-1.5 s of CPU, 10-20 times
 a small case's); the warm-ups' times are kept apart, in ``study.json``
 under ``"warm_up"`` and in the summary's last line.  Results are
 appended per case, atomically, to ``study.json`` and ``study.csv``; an
-interrupted study resumes without re-running finished cases.
+interrupted study resumes without re-running finished cases, and refuses
+a folder whose cases ran on another scene (:func:`finished_rows`).
 :func:`estimate` puts a rough time on the cases before they start (from
 the cases finished before, or from the smallest ones, run first), which
 ``skfem-mpm study`` prints.
 
 """
 import csv
+import hashlib
 import io
 import itertools
 import json
@@ -91,7 +93,8 @@ __all__ = ["study", "refine", "case_error", "check_reference", "analyse",
            "DEFAULT_VARY", "DEFAULT_QUANTITY", "FOOTING_QUANTITY",
            "CASES_UNASKED",
            "default_vary", "default_elements", "whole_cells_step",
-           "not_whole", "geometry_step", "lost_lines", "own_lines"]
+           "not_whole", "geometry_step", "lost_lines", "own_lines",
+           "not_a_variable"]
 
 VARIABLES = ("elements", "ppc", "loadsteps", "method", "rhs",
              "line_search", "newton")
@@ -547,6 +550,27 @@ def scene_key(scene: Scene) -> str:
     return re.sub(r" at 0x[0-9a-fA-F]+", "", repr(scene))
 
 
+def scene_sha256(scene: Scene) -> str:
+    """The SHA-256 of the scene's content (:func:`scene_key`) but its
+    ``outputs``, recorded with each case of a study (``scene_sha256``): a
+    study resumed in a folder refuses the cases of another scene
+    (:func:`finished_rows`; a user trial resumed a study after doubling E
+    and the load steps, and its old cases were read back as the new
+    scene's).  The outputs are the study's quantities, recorded apart
+    (:func:`measure_key`): a quantity added or defined otherwise runs
+    the cases again, on the same scene."""
+    return hashlib.sha256(scene_key(replace(scene, outputs=()))
+                          .encode()).hexdigest()
+
+
+def measure_key(quantity: Quantity) -> str:
+    """A quantity's whole definition as text (recorded with each case
+    under ``measures``, per label): a case whose quantity of a label was
+    defined otherwise (a user's ``name`` kept over a changed point or
+    component) runs again on resume (:func:`finished_rows`)."""
+    return re.sub(r" at 0x[0-9a-fA-F]+", "", repr(quantity))
+
+
 def choices_of(params: dict) -> dict:
     """The choices of a case that select code (method, right-hand side,
     line search, Newton variant): cases sharing them run the same compiled
@@ -846,6 +870,10 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             "the scene's geometry (other: {})".format(left_out) if left_out
             else "", "the finest grid's ghost penalty (ghost=\"auto\": {})"
             .format(mixed) if ends else "") if words)
+        failed = failed_cases(scene, rows, keys, choices) if refined \
+            else []
+        finer = [f for f in failed if f["elements"] > max(
+            r["elements"] for r in members)]
         for q in quantities:
             values = [r["values"][q.label] for r in fitted]
             if refined and fitted is members and others:
@@ -884,6 +912,9 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                     found.why += "; the range mixes cases whose ghost " \
                         "penalty switched on otherwise (ghost=\"auto\"): " \
                         + mixed
+            if finer:
+                found = finest_failed(found, finer, fitted, values, [
+                    cell_size(scene, r["elements"]) for r in fitted])
             scale = abs(found.reference) or max(abs(v) for v in values) \
                 or 1.
             for r, e, u in zip(fitted, found.errors, found.uncertainties):
@@ -911,7 +942,7 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                 choices=choices, cell_sizes=sizes, values=values,
                 ghost_from_step=[r.get("ghost_from_step") for r in fitted],
                 mixed_stabilisation=mixed, stabilisation_left_out=ends,
-                **found))
+                failed=failed, **found))
     first = quantities[0].label
     for r in done:
         r["error"] = r["reference_error"] if scene.reference else \
@@ -960,6 +991,133 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             "convergence": convergence,
             "disagreements": [] if scene.reference else
             disagreements(convergence)}
+
+
+def model_error(measured: dict, found: List[dict],
+                kept: List[dict]) -> str:
+    """Words for a group whose errors against a closed form fall and
+    then rise with refinement while its quantity converges by itself
+    (``found``: its convergence, extrapolated), else ``""``: the closed
+    form's own model error may then dominate (a trial's cantilever
+    against the elastica: 5.0%, 1.2%, 4.3% at 10, 20, 40 elements while
+    the tip's displacement converged, 0.717, 0.767, 0.790 m)."""
+    errors = [r["error"] for r in sorted(kept, key=lambda r: r["elements"])
+              if r.get("error") is not None and np.isfinite(r["error"])]
+    if not (measured["error"].get("closed_form") and found
+            and found[0]["against"] == "richardson" and len(errors) > 2
+            and errors[-1] > min(errors)):
+        return ""
+    c = found[0]
+    return "; yet {} converges by itself (extrapolated {} +- {} {}): the " \
+        "closed form's own model error (what its theory leaves out) may " \
+        "dominate on the finer grids, where the discretisation's is the " \
+        "smaller".format(c["quantity"], _number(c["reference"], "{:.6g}"),
+                         _number(c["uncertainty"], "{:.2g}"), c["unit"])
+
+
+def circular(convergence: dict) -> bool:
+    """Whether a group's errors (``convergence``, of :func:`analyse`) are
+    distances to an extrapolation with the observed order through exactly
+    three grids: the fit passes through them, the errors are ``|alpha|
+    h^p`` exactly, and their rate is that order again (a trial's "rate
+    3.59 ...; standard error 0.00; local rates 3.59, 3.59"), no
+    independent measure."""
+    return (convergence["against"] == "richardson"
+            and convergence["basis"] == "observed order"
+            and len(convergence["values"]) == 3)
+
+
+def failed_cases(scene: Scene, rows: List[dict], keys: Sequence[str],
+                 choices: dict) -> List[dict]:
+    """The failed cases of a refinement's group (its ``choices`` of
+    ``keys``), coarse to fine: ``elements``, ``cell_size``, the error's
+    class (``error``), the load factor its run last converged at
+    (``load_factor``, ``None`` if its message names none) and
+    ``collapse``: whether the message says the body may be collapsing
+    (:func:`finest_failed`)."""
+    out = []
+    for r in rows:
+        if not r["failure"] or "elements" not in r or any(
+                r.get(k) != choices.get(k) for k in keys):
+            continue
+        load = re.search(r"load factor ([0-9.]+(?:e[-+]?[0-9]+)?)",
+                         r["failure"])
+        out.append(dict(
+            elements=r["elements"],
+            cell_size=cell_size(scene, r["elements"]),
+            error=r["failure"].split(":")[0],
+            load_factor=float(load.group(1)) if load else None,
+            collapse="collapse" in r["failure"]))
+    return sorted(out, key=lambda f: f["elements"])
+
+
+def _failed_words(failed: List[dict]) -> str:
+    return ", ".join("{} elements ({}{})".format(
+        f["elements"], f["error"], "" if f["load_factor"] is None else
+        " after load factor {:g}".format(f["load_factor"]))
+        for f in failed)
+
+
+def finest_failed(found, finer: List[dict], fitted: List[dict],
+                  values: List[float], sizes: List[float]):
+    """``found`` (a :class:`~.convergence.SelfConvergence`) of a group
+    whose finest cases ``finer`` failed (:func:`failed_cases`): its
+    ``why`` says so, and that an extrapolation stands on the coarser
+    grids only; where a failure says the body may be collapsing, nothing
+    is extrapolated (the finer grid did not carry the load the coarser
+    ones did, and their values need not converge to any solution: a
+    trial's pad, 128 elements, stopped at load factor 0.975 "yielding
+    towards a collapse" while 16, 32 and 64 gave an extrapolation
+    +- 0.34%): the reference is then the finest case that ran, with
+    :func:`~.convergence.from_data_range`'s uncertainty."""
+    words = _failed_words(finer)
+    coarser = ", ".join(str(r["elements"]) for r in fitted)
+    if any(f["collapse"] for f in finer) and found.against == "richardson":
+        finest = min(range(len(sizes)), key=lambda k: sizes[k])
+        return from_data_range(
+            values, finest, "the finest case{} failed, saying the body "
+            "may be collapsing: {}; the coarser grids ({} elements), "
+            "whose fit alone gave {} (order {:.2f}), carried a load a "
+            "finer one did not and need not converge to any solution"
+            .format("s" if len(finer) > 1 else "", words, coarser,
+                    _number(found.reference, "{:.6g}"), found.order),
+            formal_order=found.formal_order,
+            credible_orders=found.credible_orders,
+            observed_order=found.observed_order)
+    found.why += "; the finest case{} failed: {}: {} on the coarser grids " \
+        "only ({} elements){}".format(
+            "s" if len(finer) > 1 else "", words,
+            "extrapolated" if found.against == "richardson" else
+            "the reference is", coarser,
+            ", where a failure that says collapse would refuse it"
+            if found.against == "richardson" else "")
+    return found
+
+
+def failed_finest(measured: dict) -> List[str]:
+    """A warning per quantity and group whose finest cases failed
+    (``convergence``'s ``failed`` finer than every case that ran; a
+    trial's study said "extrapolated ... values monotone", exit 0, and
+    its figure left the failed case out without a mark)."""
+    lines = []
+    for c in measured["convergence"]:
+        sizes = c["cell_sizes"] or []
+        finer = [f for f in c.get("failed", ())
+                 if sizes and f["cell_size"] < min(sizes)]
+        if not finer:
+            continue
+        where = ", ".join("{}={}".format(k, v)
+                          for k, v in c["choices"].items())
+        lines.append(
+            "WARNING: {}{}: the finest case{} failed: {}; {}".format(
+                c["quantity"], " [" + where + "]" if where else "",
+                "s" if len(finer) > 1 else "", _failed_words(finer),
+                "the reference is extrapolated from the coarser grids "
+                "only" if c["against"] == "richardson" else
+                "nothing is extrapolated (a failure says collapse)"
+                if any(f["collapse"] for f in finer) else
+                "the reference is the finest case that ran"))
+    return lines
 
 
 #: the summary names this many pairs of disagreeing groups, the furthest
@@ -1168,6 +1326,23 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                      if r.get("other_stabilisation")]
             rate = fitted_rate([r["elements"] for r in kept],
                                [r["error"] for r in kept])
+            left = "{}{}".format(
+                "; left out, their grids modelling a geometry other than "
+                "the finest one's: {} elements".format(", ".join(other))
+                if other else "", "; left out, the ghost penalty switched "
+                "on otherwise than on the finest grid: {} elements".format(
+                    ", ".join(ghost)) if ghost else "")
+            if found and not measured["error"].get("closed_form") and \
+                    circular(found[0]):
+                lines.append(
+                    "rate of the error {}: {:.2f}, the observed order of "
+                    "the extrapolation the errors are measured against, "
+                    "which passes through the three grids ({} elements): "
+                    "no independent rate from three grids (a fourth grid "
+                    "or a closed form gives one){}".format(
+                        where, rate, ", ".join(
+                            str(r["elements"]) for r in kept), left))
+                continue
             rising = not_falling([r["elements"] for r in kept],
                                  [r["error"] for r in kept])
             floor = levelling_off([r["elements"] for r in kept],
@@ -1182,12 +1357,8 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                                       [r["error"] for r in kept]),
                     "; " + floor if floor else "")
                 if np.isfinite(rate) else
-                "needs two cases with a non-zero error", "; left out, "
-                "their grids modelling a geometry other than the finest "
-                "one's: {} elements".format(", ".join(other))
-                if other else "", "; left out, the ghost penalty switched "
-                "on otherwise than on the finest grid: {} elements".format(
-                    ", ".join(ghost)) if ghost else ""))
+                "needs two cases with a non-zero error", left,
+                model_error(measured, found, kept) if rising else ""))
     for c in measured["convergence"]:
         where = ", ".join("{}={}".format(k, v) for k, v in
                           c["choices"].items())
@@ -1200,6 +1371,7 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
             _number(c["reference"], "{:.6g}"),
             _number(c["uncertainty"], "{:.2g}"), c["unit"], c["why"]))
     lines.extend(mixed_stabilisation(measured))
+    lines.extend(failed_finest(measured))
     lines.extend(moving_extremes(rows))
     lines.extend(zero_values(rows))
     lines.extend(own_references(measured))
@@ -1504,6 +1676,20 @@ class StudyRows(list):
         return self.warm_up
 
 
+#: what study.json keeps of a case and study.csv not: the definitions of
+#: its quantities (:func:`measure_key`), long text read on resume only
+NOT_IN_CSV = ("measures",)
+
+
+def _cell(value):
+    """A value of study.csv: a table or list (``extreme_at``,
+    ``extreme_component``, ``scale``) as JSON text, which any reader
+    parses, not Python's repr of it."""
+    if isinstance(value, (dict, list, tuple)):
+        return json.dumps(value, sort_keys=True)
+    return value
+
+
 def _write(outdir: Path, rows: List[dict], workers: int, measured: dict,
            warm_ups: Sequence[dict] = ()):
     rows = _known(rows)
@@ -1511,7 +1697,8 @@ def _write(outdir: Path, rows: List[dict], workers: int, measured: dict,
         Path(tmp).write_text(json.dumps(dict(
             workers=workers, rows=rows, **_known(measured),
             warm_up=_known(list(warm_ups))), indent=1))
-    flat = [{**{k: v for k, v in r.items() if k not in PER_QUANTITY},
+    flat = [{**{k: _cell(v) for k, v in r.items()
+                if k not in PER_QUANTITY and k not in NOT_IN_CSV},
              **{prefix + k: v for field, prefix in PER_QUANTITY.items()
                 for k, v in r.get(field, {}).items()}}
             for r in rows]
@@ -1581,8 +1768,9 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     -------
     rows
         :class:`StudyRows`: one dict per case (finished ones read back on
-        resume, unless they lack a value of ``quantities``: those run
-        again), with ``values`` and ``relative_errors`` per quantity and
+        resume, unless they lack a value of ``quantities`` or recorded
+        another definition of one: those run again; cases of another
+        scene are refused, :func:`finished_rows`), with ``values`` and ``relative_errors`` per quantity and
         the headline ``error``; its ``warm_up`` lists the warm-ups.
         Groups whose cases switched the ghost penalty on otherwise are
         warned (:func:`mixed_stabilisation`).
@@ -1634,7 +1822,9 @@ def _study(scene: Scene, vary: Dict[str, Sequence], outdir,
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     cases = cases_of(vary)
-    rows = finished_rows(outdir, quantities)
+    rows = finished_rows(outdir, quantities, scene)
+    digest = scene_sha256(scene)
+    measures = {q.label: measure_key(q) for q in quantities}
     warm_ups = finished_warm_ups(outdir)
     done = {_key(r) for r in rows}
     todo = [c for c in cases if _key(c) not in done]
@@ -1643,6 +1833,7 @@ def _study(scene: Scene, vary: Dict[str, Sequence], outdir,
     smallest = smallest_cases(scene, warm_from or cases)
 
     def add(row, records):
+        row.update(scene_sha256=digest, measures=measures)
         rows.append(row)
         warm_ups.extend(records)
         for r in records:
@@ -1710,8 +1901,8 @@ def warn_mixed(measured: dict, rows: List[dict], warn: bool = True
     the ghost penalty switched on in them; returns ``measured``."""
     if not warn:
         return measured
-    for line in mixed_stabilisation(measured) + moving_extremes(rows) \
-            + zero_values(rows):
+    for line in mixed_stabilisation(measured) + failed_finest(measured) \
+            + moving_extremes(rows) + zero_values(rows):
         logger.warning("%s", line[len("WARNING: "):])
     unknown = [r for r in rows if not r["failure"]
                and "ghost_from_step" not in r]
@@ -1782,8 +1973,7 @@ def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
             "method, and the time step in the scene itself")
     for name, values in vary.items():
         if name not in VARIABLES:
-            raise InvalidInputError("cannot vary {!r}: choose from {}".format(
-                name, ", ".join(VARIABLES)))
+            raise InvalidInputError(not_a_variable(name))
         if not len(values):
             raise InvalidInputError("--vary {} has no value".format(name))
         if name in CHOICES and not set(values) <= set(CHOICES[name]):
@@ -1803,6 +1993,33 @@ def check_vary(vary: Dict[str, Sequence], scene: Optional[Scene] = None):
             lost_lines(scene, [int(v) for v in vary["elements"]])
         if why:
             raise InvalidInputError(why)
+
+
+#: names a user may mean for a dynamic scene's time step
+TIME_STEP_NAMES = ("time_step", "dt", "timestep", "time-step", "duration")
+
+
+def not_a_variable(name: str) -> str:
+    """The words refusing ``--vary NAME`` of a name not among
+    :data:`VARIABLES` (checked before its values: a trial's
+    ``--vary time_step=0.1,0.05`` was told "values must be integers"),
+    with how to study a dynamic scene's time step, which no study
+    varies.
+
+    >>> from skfem_mpm.studies.study import not_a_variable
+    >>> not_a_variable("element")[:60]
+    "cannot vary 'element': choose from elements, ppc, loadsteps,"
+    """
+    from ..spelling import did_you_mean
+    words = "cannot vary {!r}: choose from {}{}".format(
+        name, ", ".join(VARIABLES), did_you_mean(name, VARIABLES))
+    if name.lower() in TIME_STEP_NAMES:
+        words += "; a dynamic scene's time step is its [dynamics] " \
+            "time_step, which a study does not vary: study (or run) one " \
+            "copy of the scene file per time step, each with --out of " \
+            "its own, and compare their quantities (halving the step " \
+            "until they agree)"
+    return words
 
 
 def refused_choices(scene: Scene, vary: Dict[str, Sequence]) -> None:
@@ -1833,15 +2050,55 @@ def cases_of(vary: Dict[str, Sequence]) -> List[dict]:
             for combo in itertools.product(*(vary[n] for n in names))]
 
 
-def finished_rows(outdir, quantities) -> List[dict]:
+#: the study.json files of cases without a scene digest warned of
+UNCHECKED = set()
+
+
+def finished_rows(outdir, quantities, scene: Optional[Scene] = None
+                  ) -> List[dict]:
     """The cases ``study.json`` in ``outdir`` holds that need not run
-    again: failed ones, and those with a value of every quantity."""
+    again: failed ones, and those with a value of every quantity as
+    ``quantities`` define it (a case that recorded another definition of
+    a quantity's label, :func:`measure_key`, runs again).  Given the
+    ``scene``, raise :class:`~skfem_mpm.errors.InvalidInputError` if a
+    case there was run on another scene (:func:`scene_sha256`): its
+    numbers are not this scene's (cases run before the digest was
+    recorded cannot be told apart: a warning says so)."""
     path = Path(outdir) / "study.json"
     if not path.exists():
         return []
-    labels = {q.label for q in quantities}
-    rows = [r for r in json.loads(path.read_text())["rows"]
-            if r["failure"] or labels <= set(r.get("values", ()))]
+    rows = json.loads(path.read_text())["rows"]
+    if scene is not None:
+        digest = scene_sha256(scene)
+        other = [r for r in rows
+                 if r.get("scene_sha256", digest) != digest]
+        if other:
+            raise InvalidInputError(
+                "{}: {} of its {} case{} ran on another scene (SHA-256 of "
+                "the scene's content {}..., this scene's {}...: its "
+                "material, loads, steps, name or anything else differ), "
+                "and a study resumed there would read their numbers back "
+                "as this scene's; study into another --out folder, or "
+                "delete {} to run the cases again".format(
+                    path, len(other), len(rows),
+                    "s" if len(rows) > 1 else "",
+                    other[0]["scene_sha256"][:12], digest[:12], path))
+        unknown = [r for r in rows if "scene_sha256" not in r]
+        if unknown and str(path) not in UNCHECKED:
+            UNCHECKED.add(str(path))
+            logger.warning(
+                "%s: %d case%s ran before studies recorded their scene: "
+                "read back as this scene's, unchecked (delete the file "
+                "if the scene changed since)", path, len(unknown),
+                "s" if len(unknown) > 1 else "")
+    labels = {q.label: measure_key(q) for q in quantities}
+
+    def same(r):
+        kept = r.get("measures", {})
+        return all(kept.get(label, key) == key
+                   for label, key in labels.items())
+    rows = [r for r in rows if r["failure"] or (
+        set(labels) <= set(r.get("values", ())) and same(r))]
     for r in rows:
         for name in OLD_PER_QUANTITY:
             r.pop(name, None)
@@ -1960,7 +2217,7 @@ def estimate(scene: Scene, cases: List[dict], outdir, quantities,
     its own (for a serial study run after the estimate, in the same
     process, only those of choices and solvers not yet warmed up)."""
     quantities = list(quantities or scene_quantities(scene))
-    rows = {_key(r): r for r in finished_rows(outdir, quantities)}
+    rows = {_key(r): r for r in finished_rows(outdir, quantities, scene)}
     work = {_key(c): case_work(scene, c) for c in cases}
     measured = [(work[k], r["wall_seconds"]) for k, r in rows.items()
                 if k in work and not r["failure"]]
