@@ -100,10 +100,10 @@ not the pressure: each step's record has that per point,
 :meth:`StepContact.pressures`).  A tied corner keeps its traction, a
 step's multiplier that traction with the penalty's of its mismatch at
 the step's start, so a staged run, which ties its corners where the
-earlier run left them, starts pulling with that run's force.  The method follows the
-penalty contact at GIMP domain corners of Bird et al. (2024) with the
-augmented-Lagrangian updates of Simo and Laursen (1992); see
-``docs/references.md``.
+earlier run left them, starts pulling with that run's force.  The
+method follows the penalty contact at GIMP domain corners of Bird et
+al. (2024) with the augmented-Lagrangian updates of Simo and Laursen
+(1992); see ``docs/references.md``.
 """
 import itertools
 import logging
