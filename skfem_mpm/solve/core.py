@@ -2204,12 +2204,17 @@ def refuse_duplicate_points(points: MaterialPoints,
     Points of two glued bodies at one position are refused alike (the
     bodies overlap); those of two bodies in contact (on the fields
     ``body_field`` tells apart) are left to the contact's check of
-    their overlap, which measures it.  Sorted, not looped: O(n log n)."""
+    their overlap, which measures it.  Sorted, not looped: O(n log n);
+    by position, then field, so that a field's points at one position
+    are neighbours however many other fields' sit there (points of
+    fields 0, 1, 0 at one position passed, compared neighbour to
+    neighbour only)."""
     x = points.x
-    order = np.lexsort(x[::-1])
+    fields = None if body_field is None else body_field[points.body]
+    order = np.lexsort(x[::-1] if fields is None else
+                       np.vstack([fields, x[::-1]]))
     same = (x[:, order[1:]] == x[:, order[:-1]]).all(axis=0)
-    if same.any() and body_field is not None:
-        fields = body_field[points.body]
+    if fields is not None:
         same &= fields[order[1:]] == fields[order[:-1]]
     if not same.any():
         return
