@@ -55,7 +55,7 @@ B_SPLINE_START = (
     "the surface's nodes, the points' rule being inexact there: about "
     "0.023 at 2 points per cell along the vertical, 0.0057 at 4 (as 1 / "
     "n^2), round-off at an odd count with 'bspline' (a point on every "
-    "knot, the cells' midpoints), 0.0017 to 0.015 at 2 to 6 with "
+    "knot, the cells' midpoints), 0.015 at 2 to 0.0017 at 6 with "
     "'bspline-gimp'; the first step settles it")
 
 
