@@ -93,9 +93,9 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
         equal sub-cells; Gauss points, whose material reaches elsewhere,
         need their surface given: the top Gauss point was taken for the
         top, and points of one's own started a hold 0.11 out of balance,
-        a user trial) or one entry per body: ``None`` continues the layers above (the
-        default), a height starts that body alone from it (its own
-        weight up to there, ignoring the bodies above).
+        a user trial) or one entry per body: ``None`` continues the
+        layers above (the default), a height starts that body alone from
+        it (its own weight up to there, ignoring the bodies above).
     K0
         Ratio of horizontal to vertical stress (> 0), or one per body.
 
