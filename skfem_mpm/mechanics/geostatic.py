@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import InvalidInputError, check_real
 from ..quadrature.points import MaterialPoints
 from .initial_stress import elastic_state
-from .materials import at_points
+from .materials import at_points, warn_empty_bodies
 
 __all__ = ["geostatic_stress"]
 
@@ -137,7 +137,6 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
     """
     # body ids from 1 with one material per id (body 0 a dummy): the
     # words of simulate's check (they passed here without one, a trial)
-    from ..solve.core import warn_empty_bodies
     warn_empty_bodies(points)
     return k0_state(points, material, body_force, surface, K0)
 
