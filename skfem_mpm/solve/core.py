@@ -64,7 +64,8 @@ from ..mechanics.initial_stress import (derive_elastic_state,
                                         warn_carried_from_finite)
 from ..mechanics.kinematics import KINEMATICS, make_kinematics
 from ..mechanics.materials import (at_points, bodies_words,
-                                   initial_state, is_plastic)
+                                   initial_state, is_plastic,
+                                   warn_empty_bodies)
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..methods.assembly import ElementPattern
@@ -2247,19 +2248,6 @@ def refuse_duplicate_points(points: MaterialPoints,
                         body[first[k]], body[second[k]]))
                 for k in shown), "; ..." if same.sum() > 3 else "",
             " (np.unique(points.x, axis=1, return_index=True) finds them)"))
-
-
-def warn_empty_bodies(points: MaterialPoints) -> None:
-    """Log a warning where a body index from 0 to the largest holds no
-    point: its material and body force act on nothing (a ported model's
-    1-based ids 1 and 2 with three materials, body 0 a dummy, ran
-    silently; an excavated body's stage, by design)."""
-    if (np.bincount(points.body) == 0).any():
-        logger.warning(
-            "a body holds no point (%s): its material and body force act "
-            "on nothing; ids of one's own counted from 1 need "
-            "body - 1 (an excavated body's stage: by design)",
-            bodies_words(points.body))
 
 
 def cell_volumes(mesh: Mesh, cells: ndarray) -> ndarray:
