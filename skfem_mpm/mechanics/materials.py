@@ -45,6 +45,7 @@ model of one's own (von Mises with linear isotropic hardening, run by
 ``tests/test_materials.py``).
 
 """
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,6 +56,8 @@ from skfem.models.elasticity import linear_elasticity
 from ..errors import (InvalidMaterialError, MaterialProtocolError,
                       NonFiniteMaterialError, check_real)
 from ..protocols import of_package, state_variables
+
+logger = logging.getLogger(__name__)
 
 __all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
            "is_plastic", "elastic_tensor", "state_variables",
@@ -360,6 +363,20 @@ def at_points(material, points) -> object:
                 len(materials), used, "y" if used == 1 else "ies",
                 bodies_words(points.body)))
     return PointMaterials(materials, points.body)
+
+
+def warn_empty_bodies(points) -> None:
+    """Log a warning where a body index from 0 to the largest holds no
+    point: its material and body force act on nothing (a ported model's
+    1-based ids 1 and 2 with three materials, body 0 a dummy, ran
+    silently; an excavated body's stage, by design).  ``simulate`` and
+    :func:`~skfem_mpm.geostatic_stress` say it."""
+    if (np.bincount(points.body) == 0).any():
+        logger.warning(
+            "a body holds no point (%s): its material and body force act "
+            "on nothing; ids of one's own counted from 1 need "
+            "body - 1 (an excavated body's stage: by design)",
+            bodies_words(points.body))
 
 
 def bodies_words(body: ndarray) -> str:
