@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from skfem import ElementQuad1, MeshQuad
 
-from skfem_mpm import (LinearElastic, Prescribed, Pressure, seed_points,
-                       side_points, simulate)
+from skfem_mpm import (LinearElastic, Prescribed, Pressure, Traction,
+                       seed_points, side_points, simulate)
 
 P = 100.
 
@@ -45,7 +45,7 @@ def test_a_lateral_pressure_past_the_cell_is_carried_in_full(cells):
     np.testing.assert_allclose(run.points.stress[0, 0], -P, rtol=1e-7)
 
 
-def isotropic(kinematics, caplog, nsteps=4):
+def isotropic(kinematics, caplog, nsteps=4, method="mpm"):
     """A unit square in one cell on rollers, the pressure 100 in full
     and 300 more ramped on its right and top sides, elastic; returns the
     run, the x+ points' face centres along x after each step and the
@@ -64,18 +64,18 @@ def isotropic(kinematics, caplog, nsteps=4):
         caplog.clear()
         run = simulate(grid, ElementQuad1(), points, LinearElastic(5e3, .3),
                        rollers, nsteps=nsteps, kinematics=kinematics,
-                       loads=loads, callback=callback)
+                       loads=loads, callback=callback, method=method)
     said = [r.getMessage() for r in caplog.records
             if "held DOFs across the body" in r.getMessage()]
     return run, faces, said
 
 
 def test_a_small_strain_load_onto_held_dofs_is_named(caplog):
-    """Small strain moves the points' faces into their cell and keeps
-    their volumes: the face's force on the far nodes (the rollers') is
-    ``1 - x_face / h`` of it, which the stress misses; said with the
-    share, the first step it passes 1%."""
-    run, faces, said = isotropic("small", caplog)
+    """GIMP in small strain moves the points' domains, their faces with
+    them, into their cell and keeps their volumes: the face's force on
+    the far nodes (the rollers') is ``1 - x_face / h`` of it, which the
+    stress misses; said with the share, the first step it passes 1%."""
+    run, faces, said = isotropic("small", caplog, method="cpgimp")
     assert len(said) == 2           # each side once
     share = 1. - np.mean(faces[0])  # the faces at the start of step 2
     assert share > .01 and 1. - np.mean(faces[-2]) > share
@@ -85,6 +85,63 @@ def test_a_small_strain_load_onto_held_dofs_is_named(caplog):
     # the last step's equilibrium: -sigma_xx = 4 P (1 - its share)
     np.testing.assert_allclose(-run.points.stress[0, 0],
                                4 * P * np.mean(faces[-2]), rtol=1e-7)
+
+
+def test_small_strain_mpm_loads_the_reference_faces(caplog):
+    """Standard MPM in small strain puts the faces along their axis where
+    they were (equilibrium on the reference configuration): the same
+    isotropic test reaches ``-4 P`` exactly, unsaid (the faces moved
+    with their points gave -390.15)."""
+    run, faces, said = isotropic("small", caplog)
+    assert said == [] and np.mean(faces[-1]) < .99
+    np.testing.assert_allclose(run.points.stress[0, 0], -4 * P, rtol=1e-9)
+    np.testing.assert_allclose(run.points.stress[1, 1], -4 * P, rtol=1e-9)
+
+
+@pytest.mark.parametrize("nsteps", [2, 8])
+def test_a_small_strain_oedometer_is_uniform_in_every_row(nsteps):
+    """A block 2 x 1 (4 cells high) on rollers, pressed by ``P`` on its
+    top in ``nsteps`` steps: ``sigma_yy = -P`` in every row of points
+    (the faces moved with their points left the top cell's rows at
+    -98.61 with 2 steps, -97.58 with 8) and
+    ``sigma_xx = nu / (1 - nu) sigma_yy``."""
+    grid = MeshQuad.init_tensor(np.linspace(0., 2., 9),
+                                np.linspace(0., 1.5, 7))
+    points = seed_points(grid, 2, region=lambda x: x[1] < 1.)
+
+    def sides(basis):
+        return np.union1d(rollers(basis), basis.get_dofs(
+            lambda x: np.isclose(x[0], 2.)).nodal["u^1"])
+    nu = .3
+    run = simulate(grid, ElementQuad1(), points, LinearElastic(1e4, nu),
+                   sides, nsteps=nsteps, loads=[
+                       Pressure(side_points(points, "top"), "top", P)])
+    assert run.points.displacement[1].min() < -5e-3      # they moved
+    np.testing.assert_allclose(run.points.stress[1, 1], -P, rtol=1e-9)
+    np.testing.assert_allclose(run.points.stress[0, 0], -P * nu / (1 - nu),
+                               rtol=1e-9)
+
+
+def test_a_small_strain_cantilever_keeps_the_tip_load_s_moment():
+    """A cantilever 4 x 0.5 clamped at x = 0, a shear traction ``q`` on
+    its tip in 8 steps of small strain: the clamp's reactions balance
+    the resultant ``q H`` and its moment ``q H L`` (the tip's faces moved
+    with their points gave 1.999874 for 2)."""
+    grid = MeshQuad.init_tensor(np.linspace(0., 4.5, 37),
+                                np.linspace(-1., 1., 17))
+    points = seed_points(grid, 2, region=lambda x: (x[0] < 4.)
+                         & (np.abs(x[1]) < .25))
+    q, H, L = 1., .5, 4.
+    run = simulate(grid, ElementQuad1(), points, LinearElastic(2e4, 0.),
+                   lambda b: b.get_dofs(
+                       lambda x: np.isclose(x[0], 0.)).all(),
+                   nsteps=8, loads=[Traction(side_points(points, "right"),
+                                             "right", [0., -q])])
+    R = run.history[-1].reactions
+    x, y = grid.p
+    np.testing.assert_allclose(R[1::2].sum(), q * H, rtol=1e-9)
+    np.testing.assert_allclose((x * R[1::2] - y * R[0::2]).sum(),
+                               q * H * L, rtol=1e-9)
 
 
 def test_finite_deformation_carries_the_isotropic_load_unsaid(caplog):

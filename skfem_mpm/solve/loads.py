@@ -30,8 +30,8 @@ geostatic stress under its weight, a sample at its confining pressure).
   splines at the face's centre (``"bspline"``) or averaged over the face
   (``"bspline-gimp"``; with the splines at the points a uniform traction
   gives a uniform stress only at 2 or 4 points a cell, whose rule
-  integrates the splines' gradients exactly: ``docs/bspline.md``).  A traction is a dead load per initial
-  area; a pressure follows the surface in finite deformation: its force
+  integrates the splines' gradients exactly: ``docs/bspline.md``).  A
+  traction is a dead load per initial area; a pressure follows the surface in finite deformation: its force
   ``-p J F^-T N A0`` (Nanson's formula) is evaluated at every iteration's
   trial deformation, so the converged state carries the pressure on the
   deformed surface.  Its load stiffness is not in the tangent (which stays
@@ -39,11 +39,20 @@ geostatic stress under its weight, a sample at its confining pressure).
   rate that grows with the pressure over the stiffness, and not with the
   step (a cut-back does not help; ``docs/robustness.md`` has the rates
   measured): for pressures of a fraction of a percent of ``E`` (soils,
-  fluids on solids) the extra iterations are one or two.  In small
-  strain the points' faces move and their volumes do not: a face that
-  moved into a cell whose far nodes are held puts a share of its force
-  straight into the supports (:meth:`ExternalLoads.check_held_share`
-  warns past :data:`HELD_SHARE`).
+  fluids on solids) the extra iterations are one or two.  Small strain
+  is in equilibrium on the reference configuration: standard MPM puts a
+  face along its axis where it was (``x0 + d0``; across the axis where
+  its point is), since the grid element's derivative along an axis does
+  not depend on the position along it and the points' volumes are
+  kept (a face moved with its point put ``u / h`` of its force on the
+  grid line below: an oedometer's top cell was under-stressed, an
+  isotropic test on one cell reached 387.33 for 400).  GIMP and
+  B-splines keep the faces where their points' domains and splines
+  are (their internal forces depend on those positions: the reference
+  faces were worse there); a face moved into a cell whose far nodes
+  are held puts a share of its force straight into the supports
+  (:meth:`ExternalLoads.check_held_share` warns past
+  :data:`HELD_SHARE`).
 - :class:`GridLoad`: any scikit-fem ``LinearForm`` assembled on the whole
   grid with Gaussian quadrature (a load fixed in space).
 
@@ -567,11 +576,12 @@ class ExternalLoads:
         width along the side's axis (not those along its faces: a
         traction's share on a held base next to it is a finite element's
         too).  That force goes straight into the supports' reactions and
-        the material's stress misses it: a one-cell cube in small strain,
-        pressed to 400 on three faces against rollers on the others,
-        reached ``p = 387.33`` (its points moved, their faces with them,
-        3.2% into the cell, whose far nodes are the rollers').  Pressures
-        on the start-of-step deformation."""
+        the material's stress misses it: a one-cell square in small
+        strain with cpGIMP, pressed to 400 on two sides against rollers
+        on the others, reached 390.15 (its points moved, their domains'
+        faces with them, 2.5% into the cell, whose far nodes are the
+        rollers'; standard MPM's faces stay at the reference).
+        Pressures on the start-of-step deformation."""
         shares = []
         N, dim = op.N, self.dim
         if self.doflocs is None:
@@ -606,10 +616,11 @@ class ExternalLoads:
         a surface load with more than :data:`HELD_SHARE` of its force on
         held DOFs across the body (:meth:`held_shares`), naming the load,
         the share and the cures: in small strain, where the points (and
-        their faces) move and their volumes do not.  In finite
-        deformation such a share is the force's point of application
-        kept (a face past its cell: negative there; a face moved into
-        it: the volume shrank with it) and the stress is exact."""
+        GIMP's and B-splines' faces) move and their volumes do not.  In
+        finite deformation such a share is the force's point of
+        application kept (a face past its cell: negative there; a face
+        moved into it: the volume shrank with it) and the stress is
+        exact."""
         if not self.surface or self.finite or not self.moves:
             return
         for k, (share, dofs) in enumerate(self.held_shares(op, points,
@@ -671,10 +682,11 @@ class ExternalLoads:
         centres (the method's weights there: B-splines', GIMP's of the
         domains' faces; or standard MPM's, the grid element's in the
         cells holding the points, extrapolated past them), with the
-        faces' initial
-        areas as ``area``: at the start of the step ``x + F d0 N`` when the
-        points move, in the reference configuration ``X + d0 N`` when they
-        do not (finite elements, total Lagrangian)."""
+        faces' initial areas as ``area``: at the start of the step
+        ``x + F d0 N`` when the points move, in the reference
+        configuration ``X + d0 N`` when they do not (finite elements,
+        total Lagrangian); standard MPM in small strain along the axis
+        at the reference (:meth:`_reference_faces`)."""
         d0 = self.domain0[axis, idx]
         area = points.volume0[idx] / (2 * d0)              # initial area
         if self.moves:
@@ -690,11 +702,48 @@ class ExternalLoads:
             face.area, face.centre, face.offset = area, centre, offset
             return face
         cells = op.point_elements[idx]
+        local = self.cell_local(centre, cells)
+        if self.moves and not self.finite:
+            centre, local = self._reference_faces(points, idx, axis, sign,
+                                                  centre, local, cells)
+        if self.weights is not None:     # the method's field, not the grid's
+            face = self.weights(centre, idx, axis, sign)
+            face.S = supported_share(face.S, op.active_dofs[::self.dim]
+                                     // self.dim)
+            face.area, face.centre, face.offset = area, centre, offset
+            return face
         face = PointOperator(MaterialPointBasis(
             self.mesh, self.elem, MaterialPoints(x=centre, volume=area),
-            (cells, self.cell_local(centre, cells)), kernels=self.kernels))
+            (cells, local), kernels=self.kernels))
         face.area, face.centre, face.offset = area, centre, offset
         return face
+
+    def _reference_faces(self, points, idx, axis, sign, centre, local,
+                         cells):
+        """Standard MPM in small strain: the faces along their axis where
+        they were in the reference configuration (``x0 + d0``), across it
+        where their points are, in the cells of the points.  The grid
+        element's derivative along an axis does not depend on the
+        position along it, so the points' internal force in a cell is
+        that of their reference positions along the axis (their volumes
+        kept), and a face moved with its point put ``u / h`` of its force
+        on the grid line below: an oedometer's top cell under 100 carried
+        -98.61 after two steps, -97.58 after eight.  A face whose
+        reference position lies further outside its point's cell than
+        its current one (a body moved across cells) keeps the current
+        one."""
+        moved = centre.copy()
+        moved[axis] = points.x0[axis, idx] + sign * self.domain0[axis, idx]
+        there = self.cell_local(moved, cells)
+        keep = outside(there) <= outside(local) + 1e-9
+        centre = np.where(keep, moved, centre)
+        local = np.where(keep, there, local)
+        return centre, local
+
+
+def outside(local: ndarray) -> ndarray:
+    """How far local coordinates (dim, n) lie outside the unit cell."""
+    return np.maximum(-local, local - 1.).max(axis=0).clip(0.)
 
 
 class FollowerPressure(GridTerm):
