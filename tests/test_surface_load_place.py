@@ -205,3 +205,18 @@ def test_the_splines_reach_through_a_thin_body_unsaid(caplog):
     assert not [r for r in caplog.records if "held DOFs" in r.getMessage()]
     np.testing.assert_allclose(run.history[-1].reactions[1::2].sum(),
                                P * 2., rtol=1e-9)
+
+
+def test_side_points_keep_a_deformed_layer_whole():
+    """The top row of a stage's deformed points differs in height by a
+    fraction of a cell: ``side_points`` takes the whole row (it took the
+    one highest point of 21), and not the row below."""
+    grid = MeshQuad.init_tensor(np.linspace(0., 2., 9),
+                                np.linspace(0., 1., 5))
+    points = seed_points(grid, 2)
+    top = side_points(points, "top")
+    assert top.size == 16
+    points.x[1] += 1.8e-3 * np.sin(7. * points.x[0])      # deformed
+    np.testing.assert_array_equal(side_points(points, "top"), top)
+    below = points.x[1] < 1. - 2. * points.domain[1]
+    assert side_points(points, "top", select=below).size == 16

@@ -146,7 +146,11 @@ def side_points(points: MaterialPoints, side: str,
     ``"x-"`` to ``"z+"``; in 2D also ``"left"``, ``"right"``, ``"bottom"``,
     ``"top"``, in 3D ``"left"`` and ``"right"``): those whose domain
     reaches the extreme coordinate of the selected points (``select``: a
-    boolean mask or indices, default all).
+    boolean mask or indices, default all) to within half its own width
+    along the side's axis: deformed points (a stage's, whose top row
+    differs in height by a fraction of a cell) keep their whole layer,
+    and the next layer's domains end a whole width short.  A side that
+    slopes by more than that takes its highest part only.
 
     Examples
     --------
@@ -172,10 +176,11 @@ def side_points(points: MaterialPoints, side: str,
     if mine.size == 0:
         raise InvalidInputError("no point selected for side {!r}".format(
             side))
-    face = points.x[axis, mine] + sign * points.domain[axis, mine]
+    width = points.domain[axis, mine]
+    face = points.x[axis, mine] + sign * width
     edge = face.max() if sign > 0 else face.min()
     tol = 1e-9 * (1 + np.abs(edge))
-    return mine[np.abs(face - edge) <= tol + 1e-6 * points.domain[axis, mine]]
+    return mine[np.abs(face - edge) <= tol + .5 * width]
 
 
 def check_exposed(loads, points: MaterialPoints) -> None:
