@@ -201,11 +201,10 @@ def test_the_kernels_option_is_checked_and_reaches_the_locator():
 @pytest.mark.parametrize("reach", [1., 4., 8.])
 def test_extrapolated_local_coordinates_on_a_distorted_grid(reach):
     """``cell_coordinates(clip=False)`` on a grid that is not affine: a
-    position ``reach`` half-cells out of its element maps back onto
+    position ``reach`` cells from its element's centre maps back onto
     itself by the element's shape functions (Newton's iterates were
-    clamped to [-2, 3]: at 4 half-cells out it gave -2.0 for about
-    -3.4, a face's force there kept its resultant and lost its
-    moment)."""
+    clamped to [-2, 3]: 4 cells out it gave -2.0 for -3.41, a face's
+    force there kept its resultant and lost its moment)."""
     from skfem import ElementQuad1
     grid = MeshQuad.init_tensor(*(np.linspace(0., 1., 3),) * 2)
     p = grid.p.copy()

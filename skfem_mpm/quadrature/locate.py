@@ -174,8 +174,8 @@ def cell_coordinates(mesh: Mesh, clip: bool = True
     element's shape functions extrapolate; on other grids by Newton on
     the extrapolated map, refused with a
     :class:`~skfem_mpm.errors.NumericalError` where it does not invert:
-    it was clamped to ``[-2, 3]``, and a face 4 half-cells out took -2.0
-    for about -3.5, its force's moment wrong, silently).
+    it was clamped to ``[-2, 3]``, and a face 4 cells from its cell's
+    centre took -2.0 for -3.41, its force's moment wrong, silently).
 
     Examples
     --------
