@@ -1,6 +1,7 @@
 """Globalised Newton (skfem_mpm/solve/newton.py): the line search takes the
 steps plain Newton cannot, and changes nothing where plain Newton
 converges."""
+import re
 from pathlib import Path
 
 import numpy as np
@@ -620,3 +621,32 @@ def test_a_line_search_flat_far_from_equilibrium_fails_early():
     problem = StalledStep([.997, .821] + [1.] * 9 + [.9, 1e-10], 1e-6)
     newton(problem, np.ones(1), search, max_iter=25)
     assert not list(problem.residuals)
+
+
+def test_a_relative_loose_tolerance_is_the_solve_s_first_residual_s():
+    """A round after a contact's update far from settling stops at
+    ``tol`` times its first residual (``relative``), not at ``tol``: a
+    round starting at 1e-4 (a soft block's contact with a stiff one) is
+    solved, where at the absolute 1e-3 it stopped before any solve and the
+    rounds repeated one update; it still ends where the problem's own test
+    holds; and its failure names the tolerance it aimed at."""
+    from skfem_mpm.errors import NewtonDivergenceError
+    from skfem_mpm.solve.newton import newton
+    residuals = [1e-4, 5e-8, 1e-12]
+    loose = newton(StalledStep(residuals, 1e-6), np.ones(1),
+                   FullStep().start(), max_iter=25, tol=1e-3)
+    assert loose.residuals == residuals[:1]
+    found = newton(StalledStep(residuals, 1e-6), np.ones(1),
+                   FullStep().start(), max_iter=25, tol=1e-3, relative=True)
+    assert found.residuals == residuals[:2]      # 5e-8 <= 1e-3 x 1e-4
+    found = newton(StalledStep([1e-12], 1e-6), np.ones(1),
+                   FullStep().start(), max_iter=25, tol=1e-3, relative=True)
+    assert found.residuals == [1e-12]           # converged by its own test
+    with pytest.raises(NewtonDivergenceError,
+                       match=re.escape("tolerance 5e-07 (0.001 of the "
+                                       "solve's first residual) for a "
+                                       "round, before the contact's next "
+                                       "update")):
+        newton(StalledStep([5e-4, 1e-4, 1.1e-4] + [1e-4] * 30, 1e-6),
+               np.ones(1), FullStep().start(), max_iter=25, tol=1e-3,
+               relative=True)

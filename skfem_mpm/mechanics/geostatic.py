@@ -29,7 +29,7 @@ import numpy as np
 from ..errors import InvalidInputError, check_real
 from ..quadrature.points import MaterialPoints
 from .initial_stress import elastic_state
-from .materials import at_points
+from .materials import at_points, warn_empty_bodies
 
 __all__ = ["geostatic_stress"]
 
@@ -37,6 +37,21 @@ logger = logging.getLogger(__name__)
 
 ALONE = ("give every one of them a surface (each then starts alone, under "
          "its own weight) or start them without K0")
+#: what the refusals of layers add for points without domains
+SQUARES = (" (points without domains: each one's extent taken as a "
+           "square's, volume ** (1 / dim) / 2 either side; Gauss points "
+           "lie otherwise: give them a surface each)")
+
+
+def extents(points: MaterialPoints) -> np.ndarray:
+    """The points' half-lengths (dim, n): their domains, or for points
+    without domains those of squares (cubes) of their volumes,
+    ``volume ** (1 / dim) / 2`` (as :class:`~skfem_mpm.MaterialPoints`
+    documents for points of one's own; exact for equal sub-cells)."""
+    if points.domain is not None:
+        return points.domain
+    return np.tile(np.abs(points.volume) ** (1 / points.dim) / 2,
+                   (points.dim, 1))
 
 
 def geostatic_stress(points: MaterialPoints, material, body_force,
@@ -72,10 +87,15 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
         clay's elastic law at zero pressure).
     surface
         Ground height (a number or a callable); with layers also ``None``
-        (the top of each uppermost body's material, its points' domains)
-        or one entry per body: ``None`` continues the layers above (the
-        default), a height starts that body alone from it (its own
-        weight up to there, ignoring the bodies above).
+        (the top of each uppermost body's material: its points' domains,
+        or for points without domains squares of their volumes,
+        ``volume ** (1 / dim) / 2`` above the highest point, exact for
+        equal sub-cells; Gauss points, whose material reaches elsewhere,
+        need their surface given: the top Gauss point was taken for the
+        top, and points of one's own started a hold 0.11 out of balance,
+        a user trial) or one entry per body: ``None`` continues the
+        layers above (the default), a height starts that body alone from
+        it (its own weight up to there, ignoring the bodies above).
     K0
         Ratio of horizontal to vertical stress (> 0), or one per body.
 
@@ -115,6 +135,17 @@ def geostatic_stress(points: MaterialPoints, material, body_force,
     ([-28.0, -9.0], [-14.0, -3.0])
 
     """
+    # body ids from 1 with one material per id (body 0 a dummy): the
+    # words of simulate's check (they passed here without one, a trial)
+    warn_empty_bodies(points)
+    return k0_state(points, material, body_force, surface, K0)
+
+
+def k0_state(points: MaterialPoints, material, body_force, surface, K0
+             ) -> MaterialPoints:
+    """:func:`geostatic_stress` without its check of empty bodies: a scene
+    file's geostatic bodies, a part of its bodies (their ids leave out the
+    others')."""
     dim = points.dim
     b = np.asarray(body_force, dtype=float)
     layered = b.ndim == 2 or np.ndim(K0) == 1 or (
@@ -225,8 +256,8 @@ def layered_vertical(points: MaterialPoints, body, weights,
     above it at their interface; the bodies with none above start from
     ``surface`` (see :func:`geostatic_stress`)."""
     dim, n = points.x.shape
-    domain = np.zeros_like(points.x) if points.domain is None \
-        else points.domain
+    domain = extents(points)
+    alone = ALONE + ("" if points.domain is not None else SQUARES)
     present = np.unique(body)
     nb = int(body.max()) + 1
     if surface is not None and not callable(surface) \
@@ -260,14 +291,14 @@ def layered_vertical(points: MaterialPoints, body, weights,
                     raise InvalidInputError(
                         "bodies {} and {} are not horizontal layers (their "
                         "heights interleave in the same columns): "
-                        "{}".format(k, j, ALONE))
+                        "{}".format(k, j, alone))
                 continue
             if (lj[:-1] > lk[:-1] + tol).any() or \
                     (hj[:-1] < hk[:-1] - tol).any():
                 raise InvalidInputError(
                     "body {} lies over part of body {} only: the layers "
                     "must cover each other (horizontal layers); "
-                    "{}".format(j, k, ALONE))
+                    "{}".format(j, k, alone))
             if k not in above or lj[-1] < box[above[k]][0][-1]:
                 above[k] = j
     for k, j in above.items():                # level faces at interfaces
@@ -275,7 +306,7 @@ def layered_vertical(points: MaterialPoints, body, weights,
             raise InvalidInputError(
                 "body {} lies above body {} with a gap ({:.6g} to {:.6g}): "
                 "the layers must touch; {}".format(
-                    j, k, box[k][1][-1], box[j][0][-1], ALONE))
+                    j, k, box[k][1][-1], box[j][0][-1], alone))
         for face, sel, top in ((hi, body == k, True), (lo, body == j, False)):
             cols, where = np.unique(np.round(points.x[:-1, sel] / tol),
                                     axis=1, return_inverse=True)
@@ -286,7 +317,7 @@ def layered_vertical(points: MaterialPoints, body, weights,
                 raise InvalidInputError(
                     "the interface of bodies {} (above) and {} is not level "
                     "(heights {:.6g} to {:.6g}): horizontal layers only; "
-                    "{}".format(j, k, ends.min(), ends.max(), ALONE))
+                    "{}".format(j, k, ends.min(), ends.max(), alone))
 
     def at(k, idx, y):
         """Vertical stress of body ``k`` in the columns of the points

@@ -45,6 +45,7 @@ model of one's own (von Mises with linear isotropic hardening, run by
 ``tests/test_materials.py``).
 
 """
+import logging
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,7 +55,9 @@ from skfem.models.elasticity import linear_elasticity
 
 from ..errors import (InvalidMaterialError, MaterialProtocolError,
                       NonFiniteMaterialError, check_real)
-from ..protocols import of_package
+from ..protocols import of_package, state_variables
+
+logger = logging.getLogger(__name__)
 
 __all__ = ["LinearElastic", "VonMises", "PointMaterials", "at_points",
            "is_plastic", "elastic_tensor", "state_variables",
@@ -362,6 +365,20 @@ def at_points(material, points) -> object:
     return PointMaterials(materials, points.body)
 
 
+def warn_empty_bodies(points) -> None:
+    """Log a warning where a body index from 0 to the largest holds no
+    point: its material and body force act on nothing (a ported model's
+    1-based ids 1 and 2 with three materials, body 0 a dummy, ran
+    silently; an excavated body's stage, by design).  ``simulate`` and
+    :func:`~skfem_mpm.geostatic_stress` say it."""
+    if (np.bincount(points.body) == 0).any():
+        logger.warning(
+            "a body holds no point (%s): its material and body force act "
+            "on nothing; ids of one's own counted from 1 need "
+            "body - 1 (an excavated body's stage: by design)",
+            bodies_words(points.body))
+
+
 def bodies_words(body: ndarray) -> str:
     """The bodies the points' ``body`` indices hold, in words, and those
     from 0 up that hold none: body ids count from 0 (a ported model's ids
@@ -424,20 +441,6 @@ def check_lame(material, label: str) -> None:
 def is_plastic(material) -> bool:
     """Whether a stress update may involve a return map."""
     return bool(getattr(material, "plastic", False))
-
-
-def state_variables(materials) -> dict:
-    """The internal variables ``{name: initial value}`` of several
-    materials; a name declared twice must have one initial value."""
-    out = {}
-    for material in materials:
-        for name, value in getattr(material, "state_variables", {}).items():
-            if name in out and out[name] != value:
-                raise InvalidMaterialError(
-                    "state variable {!r} has two initial values ({} and {})"
-                    .format(name, out[name], value))
-            out[name] = value
-    return out
 
 
 def elastic_tensor(material, n: int, dim: int) -> ndarray:

@@ -21,7 +21,7 @@ from skfem import ElementHex1, ElementLineP1, ElementQuad1, ElementQuad2, \
 
 from ..errors import InvalidInputError, check_choice
 from ..kernels import check_kernels
-from ..mechanics.geostatic import geostatic_stress
+from ..mechanics.geostatic import k0_state
 from ..mechanics.kinematics import KINEMATICS
 from ..mechanics.materials import is_plastic
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
@@ -628,7 +628,7 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
     if geostatic:                 # the layers together: each continues
         sel = np.flatnonzero(np.isin(points.body, geostatic))   # the above
         try:
-            start = geostatic_stress(
+            start = k0_state(
                 MaterialPoints(x=points.x[:, sel], volume=points.volume[sel],
                                domain=points.domain[:, sel],
                                body=points.body[sel]),

@@ -117,7 +117,11 @@ offending value (unknown keys, wrong types, impossible values), in a
                                     # `skfem-mpm study` (default there:
                                     # the largest point displacement; a
                                     # footing scene's peak footing
-                                    # pressure)
+                                    # pressure); summary.json's
+                                    # outputs[name]: value, unit and
+                                    # history, columns {step: [...],
+                                    # load_factor: [...], value: [...]}
+                                    # (time: [...] too in dynamics)
     name = "top settlement"         # optional label
     quantity = "displacement"       # or "stress", "reaction" (support =
                                     # its name), "rigid_force" (body = ..)

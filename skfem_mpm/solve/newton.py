@@ -724,7 +724,8 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
                     problem.step, "the equilibrium iteration"
                     if problem.linear else "Newton-Raphson", it,
                     residuals[0], min(residuals), residuals[-1],
-                    tolerance_words(tol, getattr(run, "tol", None)),
+                    tolerance_words(tol, getattr(run, "tol", None),
+                                    residuals[0] if relative else None),
                     stall_words(stuck) + residual_place(problem, current)
                     if stuck and stuck[0] == "stalled" else
                     stall_words(stuck, problem),
@@ -862,12 +863,15 @@ def residual_place(problem, current) -> str:
         ", ".join("{:.4g}".format(c) for c in doflocs[:, top]))
 
 
-def tolerance_words(tol: Optional[float], own: Optional[float]) -> str:
+def tolerance_words(tol: Optional[float], own: Optional[float],
+                    first: Optional[float] = None) -> str:
     """The tolerance a failed solve aimed at: the run's own, or ``tol``,
-    the looser one of a first round before a term's constraint settles
+    the looser one of a round before a term's constraint settles
     (contact's augmented-Lagrangian update), said so with the run's (a
     trial's obstacle run said "tolerance 0.001" where its scene's was
-    1e-9, and no more).
+    1e-9, and no more); ``first``: ``tol`` was relative to the solve's
+    first residual ``first`` (a round after an update, far from
+    settling).
 
     >>> tolerance_words(None, 1e-9)
     '; tolerance 1e-09'
@@ -875,12 +879,18 @@ def tolerance_words(tol: Optional[float], own: Optional[float]) -> str:
     ...     print(part)
     ; tolerance 0.001 for the first round
     before the contact's update; the run's own is 1e-09
+    >>> for part in tolerance_words(1e-3, 1e-9, 0.5).split(", "):
+    ...     print(part)
+    ; tolerance 0.0005 (0.001 of the solve's first residual) for a round
+    before the contact's next update; the run's own is 1e-09
     """
     if tol is None:
         return "" if own is None else "; tolerance {:.3g}".format(own)
-    return "; tolerance {:.3g} for the first round, before the " \
-        "contact's update{}".format(tol, "" if own is None else
-                                    "; the run's own is {:.3g}".format(own))
+    return "; tolerance {}, before the contact's {}update{}".format(
+        "{:.3g} for the first round".format(tol) if first is None else
+        "{:.3g} ({:.3g} of the solve's first residual) for a round".format(
+            tol * first, tol), "" if first is None else "next ",
+        "" if own is None else "; the run's own is {:.3g}".format(own))
 
 
 def linear_rate(residuals: List[float]) -> Optional[float]:
