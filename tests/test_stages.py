@@ -10,7 +10,7 @@ import pytest
 from skfem import MeshQuad, ElementQuad1
 
 from skfem_mpm import (BodyForce, InvalidInputError, LinearElastic,
-                       MohrCoulomb, VonMises, concatenate_points,
+                       MohrCoulomb, Obstacle, VonMises, concatenate_points,
                        geostatic_stress, seed_points, select_points,
                        side_points, simulate, Traction)
 from skfem_mpm.solve import problem
@@ -36,13 +36,21 @@ def ground(n=2, material=SOIL, k0=K0):
                             material, [0., -GAMMA], None, k0)
 
 
+def rollers(basis):
+    width = basis.mesh.p[0].max()
+    return basis.get_dofs(lambda x: np.isclose(x[0], 0.)
+                          | np.isclose(x[0], width)).all("u^1")
+
+
 def start_share(caplog, points, material=SOIL, body_force=FULL,
-                mesh=MESH, method="mpm", nsteps=1):
+                mesh=MESH, method="mpm", nsteps=1, held=supports,
+                obstacles=()):
     """The share the start warning names, or None without one."""
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="skfem_mpm"):
-        simulate(mesh, ElementQuad1(), points, material, supports,
-                 body_force=body_force, nsteps=nsteps, method=method)
+        simulate(mesh, ElementQuad1(), points, material, held,
+                 body_force=body_force, nsteps=nsteps, method=method,
+                 obstacles=list(obstacles))
     said = [r.getMessage() for r in caplog.records if WORDS in r.getMessage()]
     assert len(said) <= 1
     if not said:
@@ -85,6 +93,37 @@ def test_one_step_whose_end_the_start_balances_is_not_warned(caplog):
     pulled.stress = -pulled.stress
     assert start_share(caplog, pulled, elastic, ramped) == \
         pytest.approx(1.)
+
+
+@pytest.mark.parametrize("friction", [0., "tied"])
+def test_a_geostatic_layer_on_an_obstacle_floor(caplog, friction):
+    """A level layer on an obstacle's face midway between grid lines,
+    rollers at its sides: the floor's force starts from none in a run's
+    first step (no multipliers yet) and carries the weight within it,
+    as a support's reaction would; the rows it acts on are left out of
+    the start's balance (they were out of balance by the whole weight,
+    share 1.01, a fuzzer's trial).  A stress of the wrong sign and the
+    weight ramped from 0 on it are warned still, shares 2 and 1 as on
+    supports."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 5),
+                                np.linspace(0, 2.5, 6))
+    base, top = .75, 2.          # base midway in the cells [0.5, 1]
+    elastic = LinearElastic(E, NU)
+    floor = [Obstacle(box=[[-1., 3.], [-1., base]], friction=friction)]
+
+    def layer():
+        return geostatic_stress(
+            seed_points(mesh, 2, region=lambda x: (x[1] > base)
+                        & (x[1] < top)),
+            elastic, [0., -GAMMA], top, NU / (1 - NU))
+    on_floor = dict(material=elastic, mesh=mesh, held=rollers,
+                    obstacles=floor, nsteps=2)
+    assert start_share(caplog, layer(), **on_floor) is None
+    pulled = layer()
+    pulled.stress = -pulled.stress
+    assert start_share(caplog, pulled, **on_floor) == pytest.approx(2.)
+    assert start_share(caplog, layer(), body_force=BodyForce(
+        [0., -GAMMA], ramp=True), **on_floor) == pytest.approx(1.)
 
 
 def test_other_grids_poisson_ratios_and_excavations_are_warned(caplog):

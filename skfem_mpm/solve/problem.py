@@ -319,9 +319,13 @@ class StepProblem:
         held_by_terms = [h for h in (
             term.held_dofs(self.method_op, points, self.s_old)
             for term in run.terms) if h is not None]
-        check_held(run, op, np.union1d(self.fixed, np.concatenate(
-            held_by_terms)).astype(self.fixed.dtype) if held_by_terms
-            else self.fixed, step, bool(held_by_terms))
+        #: the DOFs the terms hold as supports would at the step's start
+        #: (an obstacle's, a contact's pairs' rows): :meth:`start_share`
+        self.held_by_terms = np.unique(np.concatenate(held_by_terms)) \
+            if held_by_terms else np.zeros(0, dtype=int)
+        check_held(run, op, np.union1d(self.fixed, self.held_by_terms)
+                   .astype(self.fixed.dtype) if held_by_terms
+                   else self.fixed, step, bool(held_by_terms))
         self.free = free_dofs(op.active_dofs, self.fixed)
         self.f_dead = run.loads.external(op, points, self.s_new)
         self._kept_norm = None          # f_dead's norm (_dead_norm)
@@ -513,13 +517,20 @@ class StepProblem:
     def start_share(self, end: bool = False) -> Optional[float]:
         """The out-of-balance force at the step's start (see
         :meth:`start_imbalance`) over the larger of the points' internal
-        force and the loads there (norms over the free DOFs); ``None`` in
-        dynamics, 0 where neither acts.  With ``end`` the points' start
-        under the step's end (:meth:`start_forces`)."""
+        force and the loads there (norms over the free DOFs but those the
+        terms hold as supports would, :attr:`held_by_terms`: a contact's
+        force balances them as a support's reaction does, and in a run's
+        first step starts from none, its multipliers yet to come, where
+        the layer on an obstacle floor was out of balance by its whole
+        weight, share 1, a fuzzer's trial); ``None`` in dynamics, 0 where
+        neither acts.  With ``end`` the points' start under the step's
+        end (:meth:`start_forces`)."""
         found = self.start_forces(self.du0, end)
         if found is None:
             return None
-        r, f_int, f_ext = (safe_norm(f[self.free]) for f in found)
+        kept = np.setdiff1d(self.free, self.held_by_terms,
+                            assume_unique=True)
+        r, f_int, f_ext = (safe_norm(f[kept]) for f in found)
         size = max(f_int, f_ext)
         return r / size if size > 0. else 0.
 
