@@ -41,6 +41,8 @@ from typing import Callable, Optional, Protocol, runtime_checkable
 
 from numpy import ndarray
 
+from .errors import InvalidMaterialError
+
 __all__ = ["GridTerm", "Balance", "PointOperator", "Response", "Kinematics",
            "Material", "LinearSolver"]
 
@@ -58,6 +60,28 @@ def of_package(obj) -> bool:
     """
     module = type(obj).__module__ or ""
     return module == "skfem_mpm" or module.startswith("skfem_mpm.")
+
+
+def state_variables(materials) -> dict:
+    """The internal variables ``{name: initial value}`` of several
+    materials (their ``state_variables``, :class:`Material`); a name
+    declared twice must have one initial value: the one rule of a run's
+    materials (:mod:`skfem_mpm.mechanics.materials`) and of
+    :func:`~skfem_mpm.quadrature.points.concatenate_points`.
+
+    >>> from skfem_mpm import MohrCoulomb
+    >>> state_variables([MohrCoulomb(1., .3, 1., 30.)])
+    {'equivalent_plastic_strain': 0.0}
+    """
+    out = {}
+    for material in materials:
+        for name, value in getattr(material, "state_variables", {}).items():
+            if name in out and out[name] != value:
+                raise InvalidMaterialError(
+                    "state variable {!r} has two initial values ({} and {})"
+                    .format(name, out[name], value))
+            out[name] = value
+    return out
 
 
 class Balance:

@@ -9,11 +9,15 @@ import numpy as np
 import pytest
 from skfem import MeshQuad, ElementQuad1
 
-from skfem_mpm import (BodyForce, InvalidInputError, LinearElastic,
-                       MohrCoulomb, Obstacle, VonMises, concatenate_points,
-                       geostatic_stress, seed_points, select_points,
-                       side_points, simulate, Traction)
+from skfem_mpm import (BodyForce, InvalidInputError, InvalidMaterialError,
+                       LinearElastic, MohrCoulomb, Obstacle, VonMises,
+                       concatenate_points, geostatic_stress, seed_points,
+                       select_points, side_points, simulate, Traction)
+from skfem_mpm.mechanics.materials import state_variables
 from skfem_mpm.solve import problem
+from skfem_mpm.quadrature.points import FRESH_CONTACT
+from skfem_mpm.solve.body_contact import body_contact_state_names
+from skfem_mpm.solve.contact import contact_state_names
 
 GAMMA, E, NU = 18., 2e4, .3
 MESH = MeshQuad.init_tensor(np.linspace(0, 2, 5), np.linspace(0, 1.5, 4))
@@ -262,3 +266,71 @@ def test_a_stage_displacement_from_zero_changes_nothing_else():
     assert np.allclose(out[1].displacement,
                        out[0].displacement - first.displacement,
                        rtol=0, atol=1e-14)
+
+
+def test_a_fresh_layer_joins_a_stage_that_had_an_obstacle():
+    """A stage with an obstacle gives its points the contact's state
+    (multipliers, tractions, corner offsets, the small-strain gradient):
+    a fresh layer, in contact with nothing and moved by no run, starts
+    them at zero (it was refused, and told to give the materials, which
+    were given; a user trial), and the next stage runs.  A variable
+    still unknown is refused without that advice where the materials
+    are given."""
+    elastic = LinearElastic(E, NU)
+    push = Obstacle(box=[[1., 2.5], [1., 1.3]], friction="tied",
+                    displacement=[0., -.005])
+    done = simulate(MESH, ElementQuad1(), ground(), SOIL, supports,
+                    body_force=FULL, nsteps=1, obstacles=[push]).points
+    plate = Obstacle(box=[[1., 2.5], [.995, 1.295]], friction="tied")
+    contact = [name for name in done.state if name.startswith("contact")]
+    assert set(contact) == set(contact_state_names(1, 2, False))
+    assert any(done.state[name].any() for name in contact)
+    layer = seed_points(MESH, 2, region=lambda x: (x[1] > 1.)
+                        & (x[1] < 1.25) & (x[0] < .5))
+    layer.body[:] = 1
+    joined = concatenate_points([done, layer], material=[SOIL, elastic])
+    for name in contact:
+        assert np.array_equal(joined.state[name],
+                              np.r_[done.state[name], np.zeros(layer.n)])
+    out = simulate(MESH, ElementQuad1(), joined, [SOIL, elastic], supports,
+                   body_force=BodyForce([[0., -GAMMA]] * 2,
+                                        ramp=[False, True]),
+                   nsteps=1, obstacles=[plate])
+    assert out.history[-1].residual < 1e-8
+    done.state["mine"] = np.ones(done.n)
+    with pytest.raises(InvalidInputError) as err:
+        concatenate_points([done, layer], material=[SOIL, elastic])
+    assert "part 1 lacks mine" in str(err.value)
+    assert "material=" not in str(err.value)
+    with pytest.raises(InvalidInputError, match="material="):
+        concatenate_points([done, layer])
+
+
+def test_two_initial_values_of_a_variable_are_one_rule():
+    """Materials that declare one variable with two initial values are
+    refused alike by a run's materials and by concatenate_points."""
+    class Declares(LinearElastic):
+        pass
+    a, b = Declares(E, NU), Declares(E, NU)
+    a.state_variables, b.state_variables = {"kappa": 0.}, {"kappa": 1.}
+    with pytest.raises(InvalidMaterialError) as direct:
+        state_variables([a, b])
+    layer = seed_points(MESH, 1, region=lambda x: x[1] > 1.)
+    with pytest.raises(InvalidMaterialError) as joined:
+        concatenate_points([layer, layer], material=[a, b])
+    assert str(joined.value) == str(direct.value)
+
+
+def test_the_contact_state_a_fresh_layer_starts_at_zero_is_named():
+    """The contact's point state that concatenate_points starts at zero is
+    every name an obstacle's and a contact between bodies keep but the
+    B-spline corners' offsets from their points (the domain's
+    half-widths, not zero)."""
+    for dim, finite in [(2, False), (3, True)]:
+        names = contact_state_names(2, dim, finite) + \
+            body_contact_state_names(2, dim, finite)
+        assert all(FRESH_CONTACT.fullmatch(name) for name in names)
+        corners = set(body_contact_state_names(1, dim, finite, True)) - \
+            set(body_contact_state_names(1, dim, finite))
+        assert corners and not any(FRESH_CONTACT.fullmatch(name)
+                                   for name in corners)

@@ -52,9 +52,10 @@ def test_volumes_far_from_the_cells_are_warned(caplog, mesh, elem):
     with the share, seeded ones are not."""
     from skfem_mpm.quadrature.locate import point_locator
     from skfem_mpm.solve.core import filled_cells
-    name, volume, filled = filled_cells(mesh, block(mesh),
-                                        point_locator(mesh))
-    share = filled.sum() / volume.sum()     # 1: cells; boxes on triangles
+    pts = block(mesh)
+    name, volume, filled = filled_cells(mesh, pts, point_locator(mesh)(
+        pts.x)[0])
+    share = filled.sum() / volume.sum()     # 1: the cells'
     for scale, words in ((1., None), (2., "volumes too large"),
                          (.01, "volumes too small")):
         caplog.clear()
@@ -93,12 +94,14 @@ def test_seeded_and_deformed_points_fill_their_cells():
     mesh = MeshQuad.init_tensor(np.linspace(0., 8., 17),
                                 np.linspace(0., 4., 9))
     pts = seed_points(mesh, 2, region=lambda x: (x[0] < 4.) & (x[1] < 2.))
-    name, volume, filled = filled_cells(mesh, pts, point_locator(mesh))
+    name, volume, filled = filled_cells(mesh, pts,
+                                        point_locator(mesh)(pts.x)[0])
     assert filled.sum() / volume.sum() == pytest.approx(1.)
     F = np.array([[1., .4], [0., 2. / 3.]])
     x = F @ pts.x + .3
     moved = MaterialPoints(x=x, volume=pts.volume * np.linalg.det(F))
-    name, volume, filled = filled_cells(mesh, moved, point_locator(mesh))
+    name, volume, filled = filled_cells(mesh, moved,
+                                        point_locator(mesh)(moved.x)[0])
     assert FILL_LOW < filled.sum() / volume.sum() < FILL_HIGH / 1.3
 
 

@@ -55,7 +55,7 @@ from skfem.models.elasticity import linear_elasticity
 
 from ..errors import (InvalidMaterialError, MaterialProtocolError,
                       NonFiniteMaterialError, check_real)
-from ..protocols import of_package
+from ..protocols import of_package, state_variables
 
 logger = logging.getLogger(__name__)
 
@@ -441,20 +441,6 @@ def check_lame(material, label: str) -> None:
 def is_plastic(material) -> bool:
     """Whether a stress update may involve a return map."""
     return bool(getattr(material, "plastic", False))
-
-
-def state_variables(materials) -> dict:
-    """The internal variables ``{name: initial value}`` of several
-    materials; a name declared twice must have one initial value."""
-    out = {}
-    for material in materials:
-        for name, value in getattr(material, "state_variables", {}).items():
-            if name in out and out[name] != value:
-                raise InvalidMaterialError(
-                    "state variable {!r} has two initial values ({} and {})"
-                    .format(name, out[name], value))
-            out[name] = value
-    return out
 
 
 def elastic_tensor(material, n: int, dim: int) -> ndarray:

@@ -31,6 +31,7 @@ the total strain of an elastic body), logarithmic in finite deformation.
 """
 import itertools
 import logging
+import re
 from dataclasses import dataclass, fields
 from typing import Callable, Optional, Sequence, Union
 
@@ -43,6 +44,7 @@ from skfem.refdom import RefLine, RefQuad, RefHex, RefTri
 from ..errors import (InvalidInputError, UnsupportedElementError,
                       check_finite, check_int)
 from ..memory import SEED_BYTES_PER_POINT, refuse_beyond_memory
+from ..protocols import state_variables
 from .locate import tensor_grid
 from .mapping import fresh_mapping
 
@@ -702,7 +704,10 @@ def concatenate_points(parts, material=None) -> MaterialPoints:
     on a stage's points has rotated nothing), and with ``material`` (a
     material, or one per body as :func:`~skfem_mpm.simulate` takes them)
     the materials' internal variables take their initial values
-    (``state_variables``).  Any other variable a part lacks is refused.
+    (``state_variables``).  A contact's variables (a stage with an
+    obstacle, or with contact between bodies, gives its points them)
+    start at zero, in contact with nothing: :data:`FRESH_CONTACT`.  Any
+    other variable a part lacks is refused.
 
     Examples
     --------
@@ -736,11 +741,16 @@ def concatenate_points(parts, material=None) -> MaterialPoints:
         raise InvalidInputError(
             "cannot join point sets with different state variables: part "
             "{} lacks {} (the parts have {}), whose initial value is not "
-            "known here; give the materials (concatenate_points(parts, "
-            "material=...): their variables take their initial values), "
-            "or give every part the same ones, e.g. parts[{}].state[{!r}] "
-            "= np.zeros(parts[{}].n)".format(
+            "known here (known: the rotation's and a contact's, zero, but "
+            "the B-spline corners' between bodies, contact_body_corner*, "
+            "and {}); {}give every part the same ones, e.g. "
+            "parts[{}].state[{!r}] = np.zeros(parts[{}].n)".format(
                 k, ", ".join(missing), [sorted(p.state) for p in parts],
+                "the given materials' variables': it is none of theirs"
+                if material is not None else "with the materials theirs",
+                "" if material is not None else "if it is a material's, "
+                "give the materials (concatenate_points(parts, material="
+                "...): their variables take their initial values), or ",
                 k, missing[0], k))
     kwargs["state"] = {name: np.concatenate([
         p.state[name] if name in p.state else np.full(p.n, known[name])
@@ -761,23 +771,38 @@ def concatenate_points(parts, material=None) -> MaterialPoints:
 
 def known_initial_values(names, material=None) -> dict:
     """The initial values of the state variables ``names`` that are known:
-    the small-strain rotation's (zero) and, with ``material`` (or a list,
-    one per body), the materials' internal variables'."""
+    the small-strain rotation's and the contact's of :data:`FRESH_CONTACT`
+    (zero) and, with ``material`` (or a list, one per body), the
+    materials' internal variables'
+    (:func:`~skfem_mpm.protocols.state_variables`)."""
     known = {name: 0. for name in names
-             if name == "rotation" or name in ROTATION_3D}
+             if name == "rotation" or name in ROTATION_3D
+             or FRESH_CONTACT.fullmatch(name)}
     if material is None:
         return known
-    given = {}          # (the materials' own state_variables, read here:
-    # the quadrature layer imports no mechanics)
-    for m in material if isinstance(material, (list, tuple)) else [material]:
-        for name, value in getattr(m, "state_variables", {}).items():
-            if given.setdefault(name, float(value)) != float(value):
-                raise InvalidInputError(
-                    "state variable {!r} has two initial values ({} and "
-                    "{})".format(name, given[name], value))
-    known.update((name, value) for name, value in given.items()
+    given = state_variables(material if isinstance(material, (list, tuple))
+                            else [material])
+    known.update((name, float(value)) for name, value in given.items()
                  if name in names)
     return known
+
+
+#: the point state a run with contact keeps that is zero on points in
+#: contact with nothing that no run has moved (a fresh layer): an
+#: obstacle's multipliers and tractions (``contact<i>_p<c>``,
+#: ``contact<i>_t<a><c>``), its corners' offsets from where the points'
+#: deformation puts them and from the initial places at the run's start
+#: (``contact_dx<a><c>``, ``contact_start_dx<a><c>``) and the small-strain
+#: displacement gradient (``contact_grad<a><b>``,
+#: :func:`~skfem_mpm.solve.contact.contact_state_names`); between bodies
+#: the pressure, gap, friction traction and pressure rate
+#: (``contact_body<k>_<p|g|t|r><a><c>``) and the gradient
+#: (``contact_body_grad<a><b>``), not the B-spline corners' offsets from
+#: their points (``contact_body_corner<a><c>``, the domain's half-widths:
+#: :func:`~skfem_mpm.solve.body_contact.body_contact_state_names`)
+FRESH_CONTACT = re.compile(r"contact\d+_[pt]\d+|contact_(start_)?dx\d+"
+                           r"|contact_grad\d+|contact_body\d+_[pgtr]\d+"
+                           r"|contact_body_grad\d+")
 
 
 #: the names of the small-strain rotation kept in 3D

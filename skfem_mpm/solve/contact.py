@@ -97,10 +97,13 @@ obstacle i, corner c, component a), so checkpoints carry them and a step
 starts from the last step's tractions: with the penetration it ended at,
 ``lambda - kappa g`` is the last step's pressure (the multipliers are
 not the pressure: each step's record has that per point,
-:meth:`StepContact.pressures`).  The method follows the
-penalty contact at GIMP domain corners of Bird et al. (2024) with the
-augmented-Lagrangian updates of Simo and Laursen (1992); see
-``docs/references.md``.
+:meth:`StepContact.pressures`).  A tied corner keeps its traction, a
+step's multiplier that traction with the penalty's of its mismatch at
+the step's start, so a staged run, which ties its corners where the
+earlier run left them, starts pulling with that run's force.  The
+method follows the penalty contact at GIMP domain corners of Bird et
+al. (2024) with the augmented-Lagrangian updates of Simo and Laursen
+(1992); see ``docs/references.md``.
 """
 import itertools
 import logging
@@ -1617,6 +1620,14 @@ class StepContact(GridTerm):
                 X0 = term.start_corners(self.problem.points, idx).reshape(
                     dim, -1)
                 self.anchor.append((tied, X0))
+                # the point state keeps the traction (a staged run, its
+                # anchors where the earlier run left the corners, starts
+                # pulling with it: it started from the multiplier, the
+                # penalty's share lost, a user trial's tied wall 29.73 to
+                # 27.67); the multiplier is the traction with the
+                # penalty's of the corners' mismatch at the step's start
+                self.tau[i] = self.tau[i] + term.kappa[i] * self.mismatch(
+                    i, np.zeros_like(self.Xs), self.shift_old[i])
         self.resolution = RESOLVED * max(
             (kappa * tol * safe_norm(area) for kappa, tol, area in zip(
                 term.kappa, term.tol, self.area)), default=0.)
@@ -1880,6 +1891,14 @@ class StepContact(GridTerm):
                         passed[0] % self.X.shape[2], far / term.h,
                         RUNAWAY if far > span.max() else ""))
 
+    def mismatch(self, i: int, u: ndarray, shift: ndarray) -> ndarray:
+        """The tied obstacle ``i``'s corners' mismatch (dim, nc m), their
+        motion since the run's start, the step's ``u`` with it, less the
+        obstacle's (at ``shift``); zero where a corner is not tied."""
+        tied, X0 = self.anchor[i]
+        return np.where(tied, (self.Xs - X0) + u - (
+            shift - self.term.start[i])[:, None], 0.)
+
     def corner_areas(self, normal: ndarray, idx: ndarray) -> ndarray:
         """Each corner's share (nc m,) of its domain's area projected on
         the plane of ``normal`` (dim, nc m): in finite deformation Nanson's
@@ -1936,9 +1955,8 @@ class StepContact(GridTerm):
                 gap[np.abs(gap) <= self.roundoff] = 0.
             C = np.zeros((dim, dim, u.shape[1]))
             if self.anchor[i] is not None:
-                tied, X0 = self.anchor[i]
-                mismatch = np.where(tied, (self.Xs - X0) + u - (
-                    self.shift[i] - term.start[i])[:, None], 0.)
+                tied = self.anchor[i][0]
+                mismatch = self.mismatch(i, u, self.shift[i])
                 T = area * np.where(tied, self.tau[i] - kappa * mismatch, 0.)
                 C[:, :, tied] = kappa * area[tied] * eye
                 ev.append((T, C, np.abs(mismatch).max(initial=0.), None))
@@ -2296,8 +2314,10 @@ class StepContact(GridTerm):
         forces = []
         for i, (T, C, violation, normal_part) in enumerate(ev):
             names = pressure_names(i, dim)
-            if normal_part is None:         # tied: the multiplier too
-                p, tau = np.zeros(nc * m), self.tau[i]
+            if normal_part is None:         # tied: the traction
+                p = np.zeros(nc * m)
+                tau = self.tau[i] - term.kappa[i] * self.mismatch(
+                    i, self.motions(du)[i], self.shift[i])
             else:
                 # the multiplier, so that the next step starts from this
                 # pressure with this penetration (the pressure would add

@@ -47,6 +47,7 @@ from numpy import ndarray
 from skfem.assembly import Dofs
 from skfem.element import Element, ElementVector
 from skfem.mesh import Mesh
+from skfem.quadrature import get_quadrature
 
 from ..kernels import run_clock
 from ..errors import (ContactError, GridMotionError, HeldSupportError,
@@ -75,7 +76,8 @@ from ..protocols import GridTerm, of_package
 from ..methods.gimp import single_point_domains
 from ..methods.fields import FieldLocator, Fields, extended_mesh, tile_dofs
 from ..quadrature.grid import GridBasis
-from ..quadrature.locate import point_locator, tensor_grid
+from ..quadrature.locate import point_locator, tensor_grid, using_kernels
+from ..quadrature.mapping import fresh_mapping
 from ..quadrature.points import MaterialPoints
 from ..spelling import setting
 from ..stabilisation.ghost import GhostStabilisation
@@ -1781,7 +1783,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
         getattr(case.material, "materials", [case.material]),
         options.stabilisation.antilocking, kinematics, method, mesh.dim(),
         higher_order=cell_nodes(elem, mesh)[1] > mesh.t.shape[0])
-    underintegrated = underintegrated_cells(method, mesh, elem, points)
+    underintegrated = underintegrated_cells(method, mesh, elem, points,
+                                            case.location)
     if method in ("ugimp", "cpgimp"):
         underintegrated = single_point_domains(
             method, points_per_cell_axis(mesh, points), case.nsteps)
@@ -1844,6 +1847,10 @@ class Case(NamedTuple):
     contacts: tuple = ()
     body_field: Optional[ndarray] = None
     prescribed_bodies: Optional[tuple] = None
+    #: the run's point locator, built once, and the points' location at
+    #: the start (``None``: outside the grid)
+    locate: Optional[Callable] = None
+    location: Optional[tuple] = None
 
 
 def split_loads(loads) -> tuple:
@@ -2123,15 +2130,18 @@ def plural(count: str) -> str:
 
 
 def counted_per_axis(mesh: Mesh, points: MaterialPoints,
-                     estimate: float) -> float:
+                     estimate: float, cells: Optional[ndarray] = None
+                     ) -> float:
     """The points per cell and axis counted: the median count of the cells
     holding points, to the power ``1 / dim`` (``estimate``, from the
     volumes, for points outside the grid).  The volumes' estimate
     (:func:`points_per_cell_axis`) is cheap but blamed the count for
     volumes given twice over: "1.4 points per cell and axis ... seed 2"
-    where every cell held 2 x 2 (a ported model)."""
+    where every cell held 2 x 2 (a ported model).  ``cells``: each
+    point's, where the run located them (located here without)."""
     try:
-        cells = point_locator(mesh, kernels="numpy")(points.x)[0]
+        if cells is None:
+            cells = point_locator(mesh, kernels="numpy")(points.x)[0]
     except PointsOutsideGridError:
         return estimate
     counts = np.bincount(cells)
@@ -2139,7 +2149,8 @@ def counted_per_axis(mesh: Mesh, points: MaterialPoints,
 
 
 def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
-                          points: MaterialPoints) -> str:
+                          points: MaterialPoints,
+                          location: Optional[tuple] = None) -> str:
     """Where standard MPM's points, seeded on a tensor grid of
     higher-order Lagrange cells (Q2: 9 nodes), are too few per cell to
     give each cell's DOFs, less its rigid-body modes, as many strain
@@ -2158,7 +2169,9 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     (trial 103: warned for "mpm" only); the Gauss points of a rule exact
     for the element (``seed_gauss_points``, order 2 for Q1, 4 for Q2:
     2 or 3 a cell and axis) are enough, and not warned.  Logged as a
-    warning at the run's start and added to a failed run's error."""
+    warning at the run's start and added to a failed run's error.
+    ``location``: the points' where the run located them (located here
+    without)."""
     dim = mesh.dim()
     scalar, nodes = cell_nodes(elem, mesh)
     if method not in ("mpm", "fem") or mesh.t.shape[0] != 2 ** dim:
@@ -2168,7 +2181,8 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
     needed = dim * nodes - strains      # less the rigid-body modes
     have = int(round(per_axis)) ** dim * strains
     if have < needed:       # estimated from volumes: the points counted
-        per_axis = counted_per_axis(mesh, points, per_axis)
+        per_axis = counted_per_axis(mesh, points, per_axis, None if
+                                    location is None else location[0])
         have = int(round(per_axis)) ** dim * strains
     if have >= needed:
         return ""
@@ -2205,12 +2219,17 @@ def refuse_duplicate_points(points: MaterialPoints,
     Points of two glued bodies at one position are refused alike (the
     bodies overlap); those of two bodies in contact (on the fields
     ``body_field`` tells apart) are left to the contact's check of
-    their overlap, which measures it.  Sorted, not looped: O(n log n)."""
+    their overlap, which measures it.  Sorted, not looped: O(n log n);
+    by position, then field, so that a field's points at one position
+    are neighbours however many other fields' sit there (points of
+    fields 0, 1, 0 at one position passed, compared neighbour to
+    neighbour only)."""
     x = points.x
-    order = np.lexsort(x[::-1])
+    fields = None if body_field is None else body_field[points.body]
+    order = np.lexsort(x[::-1] if fields is None else
+                       np.vstack([fields, x[::-1]]))
     same = (x[:, order[1:]] == x[:, order[:-1]]).all(axis=0)
-    if same.any() and body_field is not None:
-        fields = body_field[points.body]
+    if fields is not None:
         same &= fields[order[1:]] == fields[order[:-1]]
     if not same.any():
         return
@@ -2231,49 +2250,47 @@ def refuse_duplicate_points(points: MaterialPoints,
             " (np.unique(points.x, axis=1, return_index=True) finds them)"))
 
 
-def filled_cells(mesh: Mesh, points: MaterialPoints, locate) -> tuple:
-    """The points' volumes summed in each cell they occupy: those cells'
-    names, their volumes and the volumes in them.  An axis-aligned tensor
-    grid's cells by the locator (cheap there); any other grid's by boxes
-    of twice its :func:`cell_size` from its lower corner (its locator
-    costs a step's location: 0.8 s for 5e5 points on triangles), named by
-    their lower corners.  ``None`` for points outside the grid (the first
-    step names them)."""
-    if tensor_grid(mesh) is None:
-        side = 2 * cell_size(mesh)
-        low = mesh.p.min(axis=1)
-        index = np.floor((points.x - low[:, None]) / side).astype(np.int64)
-        shape = tuple(index.max(axis=1) + 1)
-        boxes, cells = np.unique(np.ravel_multi_index(index, shape),
-                                 return_inverse=True)
-        filled = np.bincount(cells.ravel(), weights=points.volume)
-        return (lambda k: "box at [{}]".format(", ".join(
-            "{:.4g}".format(c) for c in low + side * np.array(
-                np.unravel_index(boxes[k], shape)))),
-                np.full(filled.size, side ** mesh.dim()), filled)
-    try:
-        cells = locate(points.x)[0]
-    except PointsOutsideGridError:
+def cell_volumes(mesh: Mesh, cells: ndarray) -> ndarray:
+    """The volumes of the grid's ``cells``: an axis-aligned tensor grid's
+    from their extents, any other's by Gauss quadrature of the map's
+    Jacobian (one point on affine cells; exact for bi- and trilinear
+    ones)."""
+    if tensor_grid(mesh) is not None:
+        return np.prod(np.ptp(mesh.p[:, mesh.t[:, cells]], axis=1), axis=0)
+    X, W = get_quadrature(mesh.refdom, 0 if mesh.affine else 4)
+    detJ = fresh_mapping(mesh).detDF(X, tind=cells)
+    return np.abs(detJ) @ W
+
+
+def filled_cells(mesh: Mesh, points: MaterialPoints,
+                 cells: Optional[ndarray]) -> Optional[tuple]:
+    """The points' volumes summed in each cell they occupy (``cells``,
+    each point's, as the run locates them): those cells' names, their
+    volumes (:func:`cell_volumes`) and the volumes in them.  ``None``
+    where ``cells`` is (points outside the grid: the first step names
+    them)."""
+    if cells is None:
         return None
     filled = np.bincount(cells, weights=points.volume)
     held = np.flatnonzero(filled)
-    volume = np.prod(np.ptp(mesh.p[:, mesh.t[:, held]], axis=1), axis=0)
-    return lambda k: "cell {}".format(held[k]), volume, filled[held]
+    return (lambda k: "cell {}".format(held[k]), cell_volumes(mesh, held),
+            filled[held])
 
 
 #: a run's start warns where the points' volumes in the cells they occupy
 #: sum to more than this share of those cells' volume, or to less than
 #: :data:`FILL_LOW`: seeded points (seed_points 1-4 a cell and axis,
-#: whole or a disc, quadrilaterals, triangles, a graded axis, 1D, 3D;
-#: Gauss points) gave 0.63-1.02, a block collapsed in finite deformation
-#: (its toe moved 8 cells; mpm, cpgimp) 0.87-0.99 at every stage, and
-#: its points given to another run alike (its single cells up to 1.9)
+#: whole or a disc, quadrilaterals, skewed ones, triangles, graded axes,
+#: 1D, 3D; Gauss points) gave 0.65-1 (1 to round-off where whole, a
+#: disc's cut cells less), a block collapsed in finite deformation (its
+#: toe moved 8 cells; mpm, cpgimp) 0.87-0.99 at every stage, and its
+#: points given to another run alike (its single cells up to 1.9)
 FILL_HIGH = 1.5
 FILL_LOW = 0.1
 
 
 def warn_volumes_vs_cells(mesh: Mesh, points: MaterialPoints,
-                          locate) -> None:
+                          cells: Optional[ndarray]) -> None:
     """Log a warning where the points' volumes sum to more than
     :data:`FILL_HIGH` of the volume of the cells they occupy
     (:func:`filled_cells`), or to less than :data:`FILL_LOW` of it,
@@ -2282,7 +2299,7 @@ def warn_volumes_vs_cells(mesh: Mesh, points: MaterialPoints,
     cells) ran with their weight doubled and a warning of too few points
     per cell where every cell held 2 x 2; a hundredth of them,
     silently."""
-    found = filled_cells(mesh, points, locate)
+    found = filled_cells(mesh, points, cells)
     if found is None:
         return
     name, volume, filled = found
@@ -2363,7 +2380,6 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
                       or bool(rigid_bodies),
                       contact=contact_named(obstacles, contacts))
     warn_stiff_smooth_bodies(rigid_bodies, material, points)
-    warn_rigid_cells(rigid_bodies, mesh, points, options.locator)
     warn_sparse_spline_points(method, mesh, points, is_plastic(material),
                               stabilisation.antilocking,
                               stabilisation.extended_splines)
@@ -2377,6 +2393,7 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
             "locator must be point_locator(mesh) of the mesh solved on; this "
             "one {}".format("locates on another mesh" if hasattr(
                 locator, "mesh") else "is not a point_locator"))
+    locate = point_locator(mesh) if locator is None else locator
     if dynamics is None and (points.velocity is not None
                              or points.acceleration is not None):
         raise InvalidInputError(
@@ -2385,12 +2402,50 @@ def check_case(mesh: Mesh, points: MaterialPoints, material, body_force,
             "dynamics=Dynamics(...) or clear them")
     refuse_duplicate_points(points, body_field)
     warn_empty_bodies(points)
-    warn_volumes_vs_cells(mesh, points, locator or point_locator(
-        mesh, kernels=options.kernels))
+    location = start_location(locate, points, options.kernels)
+    warn_rigid_cells(rigid_bodies, mesh, points, locate if location is None
+                     else lambda x: location)
+    warn_volumes_vs_cells(mesh, points,
+                          None if location is None else location[0])
     return Case(nsteps, material, linear, gravity, ramp, forces,
                 None if prescribed is None else prescribed.function,
                 rigid_bodies, terms, obstacles, tuple(contacts), body_field,
-                moved_bodies)
+                moved_bodies, locate, location)
+
+
+def start_location(locate, points: MaterialPoints, kernels: str):
+    """The points located at the run's start by its locator ``locate``
+    (with the run's ``kernels``, as its first step locates them), for
+    the start's checks of the cells and for the first step, which
+    reuses it (:func:`reuse_location`); ``None`` for points outside the
+    grid (the first step names them)."""
+    try:
+        return using_kernels(locate, kernels)(points.x)
+    except PointsOutsideGridError:
+        return None
+
+
+def reuse_location(piece, x: ndarray, location: tuple,
+                   fields: Optional[Fields]) -> None:
+    """Give ``piece``, the run's method, the location of its points at
+    ``x`` that the run's start made (:func:`start_location`): its
+    locator answers its first call, for those points (the same array),
+    with it, and locates every other (5e5 points on triangles: 0.6 s
+    saved; counted by the step, as before, where a resumed run's
+    counters include it)."""
+    grid_piece = getattr(piece, "piece", piece)       # a FieldMethod's
+    if not isinstance(grid_piece, PointMethod):
+        return
+    tind, X = location
+    if grid_piece is piece and fields is not None:    # the fields' cells
+        tind = tind + fields.locate.offset
+    later, start = grid_piece._locate, [(x, (tind, X))]
+
+    def locate(y: ndarray) -> tuple:
+        first = start.pop() if start else None
+        return first[1] if first is not None and first[0] is y \
+            else later(y)
+    grid_piece._locate = locate
 
 
 def initial_domains(piece, points: MaterialPoints):
@@ -2415,8 +2470,7 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
     velocities)."""
     result = Result(points=points.copy())
     points, counters = result.points, result.counters
-    locate = point_locator(mesh) if options.locator is None \
-        else options.locator
+    locate = point_locator(mesh) if case.locate is None else case.locate
     scalar, user_grid, scalar_dofs, pattern = grid_parts(mesh, elem)
     grid, fields, run_locate = user_grid, None, locate
     if case.contacts:             # a grid copy per field, supports on each
@@ -2440,6 +2494,8 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
                         extended=options.stabilisation.extended_splines,
                         held=np.isin(user_grid.nodal_dofs, held).any(axis=0),
                         kernels=options.kernels)
+    if case.location is not None:
+        reuse_location(piece, points.x, case.location, fields)
     domain0 = resume.domain0 if resume.domain0 is not None else \
         initial_domains(piece, points)
     result.domain0 = domain0
