@@ -32,8 +32,9 @@ from .errors import (ConvergenceError, InvalidInputError, MPMError,
 from .mechanics.materials import LinearElastic, state_variables
 from .quadrature.locate import locate_points
 from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
-                                check_against, history_rows, load_checkpoint,
-                                save_checkpoint, scene_digest)
+                                check_against, check_tied, history_rows,
+                                load_checkpoint, save_checkpoint,
+                                scene_digest)
 from .scenes.footing import scene_footing, soil_strength
 from .scenes.io import (atomic_path, clear_earlier_run,
                         interrupts_deferred, remove_temporaries,
@@ -1096,6 +1097,7 @@ def load_run(args):
         # the checkpoint's count: scene.toml keeps no --steps given to the
         # run (a review's run started with --steps 5 was told 20)
         refuse_other_steps(args, outdir, earlier.nsteps)
+        check_tied(outdir / CHECKPOINT, earlier, scene.obstacles)
         points = earlier.points
         if scene.dynamics is None:
             scene.nsteps = earlier.nsteps

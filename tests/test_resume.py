@@ -782,3 +782,64 @@ def test_a_cpgimp_run_resumes_without_its_initial_domains(kinematics):
     for name in ("x", "stress", "domain", "F"):
         assert np.array_equal(getattr(resumed.points, name),
                               getattr(straight.points, name)), name
+
+
+PLATE = """
+name = "block under a plate"
+[grid]
+x = [0.0, 2.0, 8]
+y = [0.0, 2.0, 8]
+[[bodies]]
+name = "block"
+region = { x = [0.0, 2.0], y = [0.0, 1.0] }
+material = { model = "linear_elastic", E = 1e3, nu = 0.3 }
+[[obstacles]]
+name = "plate"
+box = { x = [-1.0, 3.0], y = [1.0, 1.7] }
+displacement = [0.0, -0.02]
+friction = "FRICTION"
+[[supports]]
+name = "base"
+boundary = "bottom"
+[solver]
+method = "mpm"
+steps = 2
+"""
+
+
+@pytest.mark.parametrize("friction", ["tied", "rough"])
+def test_a_tied_checkpoint_written_before_its_traction_is_refused(
+        tmp_path, capsys, friction):
+    """A tied obstacle's point state became its traction (it was the
+    multiplier): a checkpoint written before, resumed, took the
+    multiplier for the traction, the tied force shifted by the penalty's
+    share of the corners' mismatch, silently.  Such a checkpoint (here:
+    its ``tied_traction`` taken out) is refused, naming the file and
+    saying to run again; one with it resumes to the straight run's end,
+    and one of a rough plate without it too, bit for bit."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(PLATE.replace("FRICTION", friction))
+    straight, resumed = tmp_path / "straight", tmp_path / "resumed"
+    assert main(["run", str(scene), "--out", str(straight),
+                 "--no-progress"]) == 0
+    assert main(["run", str(scene), "--out", str(resumed), "--no-progress",
+                 "--max-steps", "1"]) == 0
+    kept = dict(np.load(resumed / CHECKPOINT))
+    assert kept["tied_traction"].item() is True
+    assert load_checkpoint(resumed).tied_traction
+    if friction == "tied":
+        assert main(["run", str(scene), "--out", str(tmp_path / "new"),
+                     "--no-progress", "--max-steps", "1"]) == 0
+    del kept["tied_traction"]
+    np.savez(resumed / CHECKPOINT, **kept)
+    assert not load_checkpoint(resumed).tied_traction
+    if friction == "tied":
+        assert main(["run", "--resume", str(resumed), "--no-progress"]) == 2
+        err = capsys.readouterr().err
+        assert "{}: written before a tied obstacle's point state".format(
+            resumed / CHECKPOINT) in err, err
+        assert "shifting the force of tied obstacle(s) 'plate'): run the " \
+            "scene again from its start" in err, err
+        resumed = tmp_path / "new"
+    assert main(["run", "--resume", str(resumed), "--no-progress"]) == 0
+    assert_same_run(straight, resumed)

@@ -11,8 +11,12 @@ one history row per converged step and the reaction resultants per support
 seconds and the seconds per phase spent on the steps it holds (so that a
 resumed run's ``wall_seconds`` and ``timings`` add its invocations up),
 the force of a contact between bodies where a dynamic run's last step
-ended (its next step books the contact's work from it), and the SHA-256
-of the scene file it belongs to (a stale checkpoint is refused).  A run
+ended (its next step books the contact's work from it), the SHA-256
+of the scene file it belongs to (a stale checkpoint is refused) and
+``tied_traction``: a tied obstacle's point state (``contact<i>_t<a><c>``)
+is its traction (since 2026-11-29; it was the multiplier, and a resume
+read it as the traction, shifting the tied force: a checkpoint of a run
+with a tied obstacle written before is refused, :func:`check_tied`).  A run
 that kept checkpoints ends with one at its last step, load factor 1
 (:attr:`Checkpoint.complete`): resuming it has nothing to do (a trial's
 completed run left its checkpoint at step 15 of 20, and ``--resume``
@@ -35,8 +39,8 @@ from ..quadrature.points import MaterialPoints
 from .io import atomic_path
 
 __all__ = ["Checkpoint", "CheckpointError", "save_checkpoint",
-           "load_checkpoint", "check_against", "history_rows", "scene_digest", "CHECKPOINT",
-           "HISTORY_KEYS"]
+           "load_checkpoint", "check_against", "check_tied", "history_rows",
+           "scene_digest", "CHECKPOINT", "HISTORY_KEYS"]
 
 CHECKPOINT = "checkpoint.npz"
 HISTORY_KEYS = ("step", "load_factor", "residual", "n_active_elements",
@@ -132,6 +136,10 @@ class Checkpoint:
         Dynamic runs with contact between bodies: the contact's force
         where the last step ended, a grid vector
         (:attr:`~skfem_mpm.Resume.end_force`), or ``None``.
+    tied_traction
+        Whether a tied obstacle's point state is its traction (every
+        checkpoint written since 2026-11-29); ``False``: the multiplier,
+        read from a checkpoint written before (:func:`check_tied`).
 
     """
     step: int
@@ -147,6 +155,7 @@ class Checkpoint:
     wall_seconds: float = 0.
     timings: dict = field(default_factory=dict)
     end_force: Optional[ndarray] = None
+    tied_traction: bool = True
 
     @property
     def complete(self) -> bool:
@@ -188,7 +197,8 @@ def save_checkpoint(outdir, checkpoint: Checkpoint):
               "wall_seconds": np.array(float(c.wall_seconds)),
               "timing_names": np.array(sorted(c.timings), dtype=str),
               "timing_values": np.array([c.timings[k] for k in sorted(
-                  c.timings)], dtype=np.float64)}
+                  c.timings)], dtype=np.float64),
+              "tied_traction": np.array(bool(c.tied_traction))}
     for name in POINT_FIELDS:
         value = getattr(c.points, name)
         if value is not None:
@@ -249,9 +259,10 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
         value = a[name]
         if value.dtype.kind not in kind or (      # float32 would round
                 value.dtype.kind in "fi" and value.dtype.itemsize != 8):
-            raise bad(name, "has dtype {} (expected 64-bit {})".format(
-                value.dtype, {"f": "float", "i": "integer", "U": "text",
-                              "fi": "number", "if": "number"}[kind]))
+            raise bad(name, "has dtype {} (expected {})".format(
+                value.dtype, {"f": "64-bit float", "i": "64-bit integer",
+                              "U": "text", "fi": "64-bit number",
+                              "if": "64-bit number", "b": "boolean"}[kind]))
         if ndim is not None and value.ndim != ndim:
             raise bad(name, "has {} dimension(s), expected {}".format(
                 value.ndim, ndim))
@@ -338,6 +349,9 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
     if domain0 is not None and domain0.shape != state.x.shape:
         raise bad("domain0", "has shape {}, expected {}".format(
             domain0.shape, state.x.shape))
+    # written since 2026-11-29 (before: a tied obstacle's multiplier)
+    tied = bool(get("tied_traction", "b", 0)) if "tied_traction" in a \
+        else False
     end_force = get("end_force", "f", 1) if "end_force" in a else None
     if end_force is not None and (state.velocity is None or step == 0):
         raise bad("end_force", "is a dynamic run's after a step, and this "
@@ -351,7 +365,7 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
                       history=history, reactions=reactions,
                       scene_sha256=digest, domain0=domain0,
                       wall_seconds=wall, timings=timings,
-                      end_force=end_force)
+                      end_force=end_force, tied_traction=tied)
 
 
 
@@ -405,6 +419,24 @@ def check_against(path, checkpoint: Checkpoint, initial: MaterialPoints,
                       since[2:] if since else "differs from the point "
                       "state the scene keeps", some_names(missing),
                       some_names(extra)))
+
+
+def check_tied(path, checkpoint: Checkpoint, obstacles):
+    """Raise :class:`CheckpointError` where the scene's ``obstacles``
+    hold a tied one and the checkpoint, written before 2026-11-29, keeps
+    its multiplier as point state where the run now keeps its traction:
+    resumed, the multiplier read as the traction would add the penalty's
+    share of the corners' mismatch to the tied force, silently."""
+    tied = ["obstacle{}".format(i) if ob.name is None else ob.name
+            for i, ob in enumerate(obstacles) if ob.friction == "tied"]
+    if tied and not checkpoint.tied_traction and checkpoint.step > 0:
+        raise CheckpointError(
+            "{}: written before a tied obstacle's point state "
+            "(contact<i>_t<a><c>) became its traction (2026-11-29; it held "
+            "the multiplier, which a resume would take for the traction, "
+            "shifting the force of tied obstacle(s) {}): run the scene "
+            "again from its start".format(path, ", ".join(
+                repr(name) for name in tied)))
 
 
 def some_names(names, shown: int = 4) -> str:
