@@ -1719,11 +1719,12 @@ def run_study(args) -> int:
                   len(cases)), file=sys.stderr)
         return 2
     try:
-        print(announce(estimate(scene, cases, args.out, quantities),
+        print(announce(estimate(scene, cases, args.out, quantities,
+                                scene_file=args.scene),
                        args.workers, args.scheduler), flush=True)
         rows = study(scene, vary, args.out, scheduler=args.scheduler,
                      workers=args.workers, progress=not args.no_progress,
-                     quantities=quantities)
+                     quantities=quantities, scene_file=args.scene)
     except KeyboardInterrupt:
         print("skfem-mpm: study interrupted; the finished cases are in {}; "
               "the same command resumes it".format(args.out / "study.json"),

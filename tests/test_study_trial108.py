@@ -304,3 +304,68 @@ def test_a_closed_form_s_model_error_is_suspected_where_it_shows():
     line = [x for x in study_module.report(rows, measured, ["elements"])
             if x.startswith("rate of the error")][0]
     assert "model error" not in line and "independent" not in line
+
+
+def test_a_study_of_a_scene_file_compares_the_file_s_settings(
+        tmp_path, monkeypatch, capsys):
+    """A study digested the scene as Python holds it, every default
+    included: a later version adding a default field (here: the digest
+    of the same scene otherwise, as that version would compute it), or a
+    solver or kernels choice, refused the study of the same file, saying
+    its "material, loads, steps, name or anything else differ".  A study
+    of a file compares the file's settings but its outputs: read back
+    whatever the defaults, and the same with comments and another
+    output; refused, saying so, where a setting of the file differs."""
+    from skfem_mpm.cli import main
+    scene = tmp_path / "column.toml"
+    text = EMBEDDED.read_text()
+    scene.write_text(text)
+    out = tmp_path / "study"
+    command = ["study", str(scene), "--vary", "elements=4,8", "--vary",
+               "loadsteps=1", "--out", str(out), "--no-progress",
+               "--measure", 'quantity="displacement", component="x", '
+               'at=[50.0]']
+    assert main(command) == 0
+    rows = json.loads((out / "study.json").read_text())["rows"]
+    digest = study_module.scene_file_sha256(scene)
+    assert [r["scene_file_sha256"] for r in rows] == [digest] * 2
+    assert [r["scene_sha256"] for r in rows] == [
+        study_module.scene_sha256(load_scene(scene))] * 2
+    calls = []
+    monkeypatch.setattr(study_module, "run_case",
+                        lambda *a: calls.append(a))
+    scene_sha256 = study_module.scene_sha256
+    monkeypatch.setattr(study_module, "scene_sha256",
+                        lambda s: scene_sha256(replace(s, name="later")))
+    scene.write_text("# the same column\n" + text.replace(
+        'name = "column"', 'name    =    "column"') + '\n[[outputs]]\n'
+        'quantity = "displacement"\ncomponent = "x"\nat = [25.0]\n')
+    assert study_module.scene_file_sha256(scene) == digest
+    capsys.readouterr()
+    assert main(command) == 0, capsys.readouterr().err
+    assert not calls
+    scene.write_text(text.replace("E = 1e6", "E = 2e6"))
+    assert main(command) == 2
+    err = capsys.readouterr().err
+    assert "2 of its 2 cases ran on another scene (SHA-256 of the scene " \
+        "file's settings but its outputs {}..., {}'s {}...: its material, " \
+        "loads, steps, name, solver or another setting differs)".format(
+            digest[:12], scene, study_module.scene_file_sha256(
+                scene)[:12]) in err, err
+    # cases run before the file's digest was recorded: by the repr
+    scene.write_text(text)
+    saved = json.loads((out / "study.json").read_text())
+    for r in saved["rows"]:
+        del r["scene_file_sha256"]
+    (out / "study.json").write_text(json.dumps(saved))
+    assert main(command) == 2
+    err = capsys.readouterr().err
+    assert study_module.SCENE_SEEN + " (the cases recorded no digest of a " \
+        "scene file: run before studies recorded one)" in err, err
+    # a scene built in Python: its digest sees every default, and says so
+    monkeypatch.undo()
+    study(COLUMN, VARY, tmp_path / "python", progress=False)
+    with pytest.raises(InvalidInputError) as refused:
+        study(replace(COLUMN, kernels="numpy"), VARY, tmp_path / "python",
+              progress=False)
+    assert study_module.SCENE_SEEN in str(refused.value)

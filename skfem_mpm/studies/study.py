@@ -563,6 +563,39 @@ def scene_sha256(scene: Scene) -> str:
                           .encode()).hexdigest()
 
 
+#: what :func:`scene_sha256` sees, said where it refuses a study
+SCENE_SEEN = ("a field of the scene as Python holds it differs, defaults "
+              "included: the material, loads, steps or name, or the "
+              "solver, kernels, units or a field a later version of "
+              "skfem-mpm added, which may leave the numbers alone; "
+              "functions count by their names only")
+
+
+def scene_file_sha256(path) -> str:
+    """The SHA-256 of a scene file's settings but its ``[[outputs]]``
+    (its TOML parsed, numbers as floats, keys sorted: comments, layout
+    and ``1000`` for ``1000.0`` count as the same), recorded with each
+    case of a study run on the file (``scene_file_sha256``, beside
+    :func:`scene_sha256`): a study resumed on the same file reads its
+    cases back whatever a later version of skfem-mpm adds to the scene's
+    defaults, and refuses them where a setting of the file differs
+    (:func:`finished_rows`)."""
+    from ..scenes.scene_file import tomllib
+    data = tomllib.loads(Path(path).read_bytes().decode("utf-8"))
+    data.pop("outputs", None)
+
+    def plain(value):
+        if isinstance(value, dict):
+            return {k: plain(v) for k, v in value.items()}
+        if isinstance(value, list):
+            return [plain(v) for v in value]
+        if isinstance(value, int) and not isinstance(value, bool):
+            return float(value)
+        return value
+    return hashlib.sha256(json.dumps(plain(data), sort_keys=True,
+                                     default=str).encode()).hexdigest()
+
+
 def measure_key(quantity: Quantity) -> str:
     """A quantity's whole definition as text (recorded with each case
     under ``measures``, per label): a case whose quantity of a label was
@@ -1715,7 +1748,7 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
           scheduler: Optional[str] = None, workers: int = 0,
           progress: bool = True, quantities=None,
           warm_from: Optional[List[dict]] = None,
-          warn: bool = True) -> "StudyRows":
+          warn: bool = True, scene_file=None) -> "StudyRows":
     """Run every combination of ``vary``, measure the quantities of
     interest and the errors (:func:`analyse`), and record it in
     ``outdir``.
@@ -1763,6 +1796,13 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
         Log the warnings of :func:`warn_mixed` at the end (:func:`estimate`
         runs its timing cases without: the study after them warns, and a
         serial study's warning was logged twice before its report).
+    scene_file
+        The file ``scene`` was read from, unchanged since
+        (``skfem-mpm study`` gives it): the cases record its settings'
+        digest (:func:`scene_file_sha256`) and a resume compares those;
+        without it the scene's as Python holds it
+        (:func:`scene_sha256`), which sees every default and functions by
+        their names only.
 
     Returns
     -------
@@ -1804,13 +1844,13 @@ def study(scene: Scene, vary: Dict[str, Sequence], outdir,
     """
     with warnings_once():
         return _study(scene, vary, outdir, scheduler, workers, progress,
-                      quantities, warm_from, warn)
+                      quantities, warm_from, warn, scene_file)
 
 
 def _study(scene: Scene, vary: Dict[str, Sequence], outdir,
            scheduler: Optional[str], workers: int, progress: bool,
            quantities, warm_from: Optional[List[dict]],
-           warn: bool) -> "StudyRows":
+           warn: bool, scene_file=None) -> "StudyRows":
     """:func:`study`'s work."""
     check_vary(vary, scene)
     check_reference(scene)
@@ -1822,8 +1862,10 @@ def _study(scene: Scene, vary: Dict[str, Sequence], outdir,
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     cases = cases_of(vary)
-    rows = finished_rows(outdir, quantities, scene)
-    digest = scene_sha256(scene)
+    rows = finished_rows(outdir, quantities, scene, scene_file)
+    digest = dict(scene_sha256=scene_sha256(scene))
+    if scene_file is not None:
+        digest.update(scene_file_sha256=scene_file_sha256(scene_file))
     measures = {q.label: measure_key(q) for q in quantities}
     warm_ups = finished_warm_ups(outdir)
     done = {_key(r) for r in rows}
@@ -1833,7 +1875,7 @@ def _study(scene: Scene, vary: Dict[str, Sequence], outdir,
     smallest = smallest_cases(scene, warm_from or cases)
 
     def add(row, records):
-        row.update(scene_sha256=digest, measures=measures)
+        row.update(digest, measures=measures)
         rows.append(row)
         warm_ups.extend(records)
         for r in records:
@@ -2054,35 +2096,59 @@ def cases_of(vary: Dict[str, Sequence]) -> List[dict]:
 UNCHECKED = set()
 
 
-def finished_rows(outdir, quantities, scene: Optional[Scene] = None
-                  ) -> List[dict]:
+def finished_rows(outdir, quantities, scene: Optional[Scene] = None,
+                  scene_file=None) -> List[dict]:
     """The cases ``study.json`` in ``outdir`` holds that need not run
     again: failed ones, and those with a value of every quantity as
     ``quantities`` define it (a case that recorded another definition of
     a quantity's label, :func:`measure_key`, runs again).  Given the
     ``scene``, raise :class:`~skfem_mpm.errors.InvalidInputError` if a
-    case there was run on another scene (:func:`scene_sha256`): its
-    numbers are not this scene's (cases run before the digest was
-    recorded cannot be told apart: a warning says so)."""
+    case there was run on another scene: its numbers are not this
+    scene's.  A case run on a scene file compares that file's settings
+    (:func:`scene_file_sha256`) where ``scene_file`` is given, else the
+    scene as Python holds it (:func:`scene_sha256`: every default
+    included).  Cases run before the digest was recorded cannot be told
+    apart: a warning says so."""
     path = Path(outdir) / "study.json"
     if not path.exists():
         return []
     rows = json.loads(path.read_text())["rows"]
     if scene is not None:
         digest = scene_sha256(scene)
+        text = None if scene_file is None else scene_file_sha256(
+            scene_file)
+
+        def kind(r):
+            """The digest a case is compared by."""
+            return "scene_file_sha256" if text is not None and \
+                "scene_file_sha256" in r else "scene_sha256"
+        ours = dict(scene_sha256=digest, scene_file_sha256=text)
         other = [r for r in rows
-                 if r.get("scene_sha256", digest) != digest]
+                 if r.get(kind(r), ours[kind(r)]) != ours[kind(r)]]
         if other:
+            first = kind(other[0])
             raise InvalidInputError(
-                "{}: {} of its {} case{} ran on another scene (SHA-256 of "
-                "the scene's content {}..., this scene's {}...: its "
-                "material, loads, steps, name or anything else differ), "
+                "{}: {} of its {} case{} ran on another scene ({}: {}), "
                 "and a study resumed there would read their numbers back "
                 "as this scene's; study into another --out folder, or "
                 "delete {} to run the cases again".format(
                     path, len(other), len(rows),
                     "s" if len(rows) > 1 else "",
-                    other[0]["scene_sha256"][:12], digest[:12], path))
+                    "SHA-256 of the scene file's settings but its outputs "
+                    "{}..., {}'s {}...".format(
+                        other[0][first][:12], scene_file, text[:12])
+                    if first == "scene_file_sha256" else
+                    "SHA-256 of the scene's content but its outputs "
+                    "{}..., this scene's {}...".format(
+                        other[0][first][:12], digest[:12]),
+                    "its material, loads, steps, name, solver or another "
+                    "setting differs" if first == "scene_file_sha256" else
+                    SCENE_SEEN + ("" if scene_file is None else
+                                  " (the case{} recorded no digest of a "
+                                  "scene file: run before studies "
+                                  "recorded one)".format(
+                                      "s" if len(other) > 1 else "")),
+                    path))
         unknown = [r for r in rows if "scene_sha256" not in r]
         if unknown and str(path) not in UNCHECKED:
             UNCHECKED.add(str(path))
@@ -2200,7 +2266,7 @@ def time_left(rows: List[dict], work: Dict[str, float],
 
 
 def estimate(scene: Scene, cases: List[dict], outdir, quantities,
-             budget: float = 2.) -> dict:
+             budget: float = 2., scene_file=None) -> dict:
     """What a study of ``cases`` in ``outdir`` would take: ``cases``,
     ``done`` (finished before), ``ran`` (run now to time them), ``left``,
     the ``largest`` case's point bound and steps, the ``model`` of
@@ -2215,9 +2281,11 @@ def estimate(scene: Scene, cases: List[dict], outdir, quantities,
     first one's pace puts under ``budget`` seconds.  Like the cases'
     times it leaves the warm-ups out: each process that runs cases adds
     its own (for a serial study run after the estimate, in the same
-    process, only those of choices and solvers not yet warmed up)."""
+    process, only those of choices and solvers not yet warmed up).
+    ``scene_file``: as :func:`study`'s."""
     quantities = list(quantities or scene_quantities(scene))
-    rows = {_key(r): r for r in finished_rows(outdir, quantities, scene)}
+    rows = {_key(r): r for r in finished_rows(outdir, quantities, scene,
+                                              scene_file)}
     work = {_key(c): case_work(scene, c) for c in cases}
     measured = [(work[k], r["wall_seconds"]) for k, r in rows.items()
                 if k in work and not r["failure"]]
@@ -2231,7 +2299,7 @@ def estimate(scene: Scene, cases: List[dict], outdir, quantities,
     def run_first(params):
         row = study(scene, {k: [v] for k, v in params.items()}, outdir,
                     progress=False, quantities=quantities,
-                    warm_from=cases, warn=False)[0]
+                    warm_from=cases, warn=False, scene_file=scene_file)[0]
         todo.remove(params)
         if not row["failure"]:
             measured.append((work[_key(params)], row["wall_seconds"]))
