@@ -3244,3 +3244,35 @@ def test_a_staged_run_keeps_a_tied_obstacle_s_force():
     assert first["fem", "tied"] < 1e-10
     assert first["mpm", "tied"] == pytest.approx(first["mpm", "rough"],
                                                  rel=1e-2)
+
+
+def test_a_staged_run_closes_no_gap_past_a_face_s_edge():
+    """FE, an elastic block its bottom held: its weight presses it up on
+    a smooth plate over its top's right half, and a sideways weight
+    moves its top's corner at the plate's edge past the edge, within the
+    plate's tolerance; a staged run holds the loads.  It starts in
+    balance, its force the first run's: the corner past the edge is
+    pressed on the plate's face by the gap to that face, where it took
+    its distance from the plate, the edge's, as a gap closed at the
+    start, and pressed harder (a residual of 0.64 at the start, the
+    force 5% up; a user trial's soil under a wall's edge, 0.75)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] < 1. + 1e-9)
+                      & (x[1] < 1. + 1e-9))
+    args = (mesh, ElementQuad1())
+    rest = (LinearElastic(1e3, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    edge = .5
+    plate = Obstacle(box=[[edge, 3.], [1., 1.7]], tolerance=1e-2)
+    kwargs = dict(body_force=BodyForce([-2.7, 20.], ramp=False), nsteps=1,
+                  method="fem", obstacles=[plate])
+    first = simulate(*args, pts, *rest, **kwargs)
+    X = corners(first.points, pts.domain, "fem")
+    top = np.abs(X[1] - 1.) <= plate.tolerance * .25
+    past = (edge - X[0])[top & (X[0] < edge)]
+    assert past.size and past.max() < plate.tolerance * .25
+    held = simulate(*args, first.points, *rest, **kwargs)
+    assert held.history[0].newton_residuals[0] < 1e-10
+    force = first.history[-1].obstacle_forces[0]
+    assert held.history[-1].obstacle_forces[0] == pytest.approx(
+        force, rel=1e-10, abs=1e-10 * abs(force).max())
