@@ -824,6 +824,32 @@ class ObstacleContact(GridTerm):
             near = phi <= self.tol[i]
             self.near.append(near)
             self.start_gaps.append(float(phi.min()))
+            if (phi < -self.tol[i]).any():
+                # a tied one too: it is bonded to the material touching
+                # it, and one holding material inside it tied those
+                # corners there and failed its first step's Newton (a
+                # user trial's wall 0.094 into the soil: a residual
+                # from 0.627 to 6.85e4, cut back to 1.95e-3)
+                c, p = np.unravel_index(np.argmin(phi), phi.shape)
+                # in dynamics without a load ramp the displacement
+                # applies from t = 0: the box as written did not
+                # overlap, and the message said neither (a user trial)
+                moved = "" if not self.start[i].any() else (
+                    " (it starts displaced by {}: in dynamics the "
+                    "loads' scale at t = 0 moves it; a Dynamics(load="
+                    "...) from 0 at t = 0, or the scene key [dynamics] "
+                    "load_ramp, starts it where it is written)"
+                    .format(self.start[i].tolist()))
+                tied = "" if ob.friction != "tied" else (
+                    "; a tied obstacle is bonded to the material touching "
+                    "it, within the tolerance, not to material inside it")
+                raise InvalidInputError(
+                    "obstacle {!r} holds material at the start: the "
+                    "domain corner of point {} at {} is {:.3g} inside "
+                    "(tolerance {:.3g}){}{}; move the obstacle or the "
+                    "points".format(ob.name, p, X0[:, c, p].tolist(),
+                                    float(-phi[c, p]), self.tol[i],
+                                    moved, tied))
             if ob.friction == "tied":
                 if not near.any():
                     raise InvalidInputError(
@@ -834,24 +860,6 @@ class ObstacleContact(GridTerm):
                 self.anchor.append(near)
             else:
                 self.anchor.append(None)
-                if (phi < -self.tol[i]).any():
-                    c, p = np.unravel_index(np.argmin(phi), phi.shape)
-                    # in dynamics without a load ramp the displacement
-                    # applies from t = 0: the box as written did not
-                    # overlap, and the message said neither (a user trial)
-                    moved = "" if not self.start[i].any() else (
-                        " (it starts displaced by {}: in dynamics the "
-                        "loads' scale at t = 0 moves it; a Dynamics(load="
-                        "...) from 0 at t = 0, or the scene key [dynamics] "
-                        "load_ramp, starts it where it is written)"
-                        .format(self.start[i].tolist()))
-                    raise InvalidInputError(
-                        "obstacle {!r} holds material at the start: the "
-                        "domain corner of point {} at {} is {:.3g} inside "
-                        "(tolerance {:.3g}){}; move the obstacle or the "
-                        "points".format(ob.name, p, X0[:, c, p].tolist(),
-                                        float(-phi[c, p]), self.tol[i],
-                                        moved))
         # the corners an earlier run moved (a staged run's start)
         start = np.array([[points.state[name] for name in row]
                           for row in start_names(dim)])
