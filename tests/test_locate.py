@@ -196,3 +196,24 @@ def test_the_kernels_option_is_checked_and_reaches_the_locator():
         assert np.array_equal(got, want)
     assert all(np.array_equal(a, b) for a, b in zip(numpy_path(x),
                                                      locate(x)))
+
+
+@pytest.mark.parametrize("reach", [1., 4., 8.])
+def test_extrapolated_local_coordinates_on_a_distorted_grid(reach):
+    """``cell_coordinates(clip=False)`` on a grid that is not affine: a
+    position ``reach`` cells from its element's centre maps back onto
+    itself by the element's shape functions (Newton's iterates were
+    clamped to [-2, 3]: 4 cells out it gave -2.0 for -3.41, a face's
+    force there kept its resultant and lost its moment)."""
+    from skfem import ElementQuad1
+    grid = MeshQuad.init_tensor(*(np.linspace(0., 1., 3),) * 2)
+    p = grid.p.copy()
+    p[0] += .15 * p[1] ** 2 * p[0]
+    p[1] += .1 * p[0] ** 2
+    grid = MeshQuad(p, grid.t)
+    x = np.array([[.25 - reach * .5], [.25]])
+    X = cell_coordinates(grid, clip=False)(x, np.array([0]))
+    elem = ElementQuad1()
+    back = sum(grid.p[:, grid.t[i, 0]][:, None] * elem.lbasis(X, i)[0]
+               for i in range(4))
+    np.testing.assert_allclose(back, x, atol=1e-12)

@@ -29,8 +29,9 @@ from scipy.spatial import cKDTree
 from skfem.mesh import Mesh
 from skfem.refdom import RefHex, RefLine, RefQuad, RefTet, RefTri
 
-from ..errors import (InvalidInputError, PointsOutsideGridError,
-                     UnsupportedElementError, check_finite, check_real)
+from ..errors import (InvalidInputError, NumericalError,
+                     PointsOutsideGridError, UnsupportedElementError,
+                     check_finite, check_real)
 from ..kernels import check_kernels
 from .mapping import fresh_mapping
 
@@ -170,7 +171,11 @@ def cell_coordinates(mesh: Mesh, clip: bool = True
     reference element (a position outside its element is moved to the
     nearest point of it, on tensor grids; simplices scale back onto the
     face ``sum X = 1``), or with ``clip=False`` beyond it (where the
-    element's shape functions extrapolate; affine and tensor grids).
+    element's shape functions extrapolate; on other grids by Newton on
+    the extrapolated map, refused with a
+    :class:`~skfem_mpm.errors.NumericalError` where it does not invert:
+    it was clamped to ``[-2, 3]``, and a face 4 cells from its cell's
+    centre took -2.0 for -3.41, its force's moment wrong, silently).
 
     Examples
     --------
@@ -190,10 +195,19 @@ def cell_coordinates(mesh: Mesh, clip: bool = True
             return np.einsum("ijn,jn->in", Ainv[:, :, tind],
                              x - origin[:, tind])
     else:
-        newton = _newton_local(mesh)
+        newton = _newton_local(mesh, clamp=clip)
 
         def raw(x, tind):
-            return newton(x, tind[:, None])[:, :, 0]
+            X = newton(x, tind[:, None])[:, :, 0]
+            lost = np.flatnonzero(np.isnan(X).any(axis=0))
+            if lost.size and not clip:
+                raise NumericalError(
+                    "{} position(s) cannot be mapped into their elements' "
+                    "coordinates (the element's map extrapolated that far "
+                    "does not invert), e.g. {} in element {}".format(
+                        lost.size, x[:, lost[0]].tolist(),
+                        int(tind[lost[0]])))
+            return X
 
     simplex = mesh.refdom in (RefTri, RefTet)
 
@@ -389,11 +403,15 @@ def _affine_local(mesh: Mesh):
     return local
 
 
-def _newton_local(mesh: Mesh, maxiter: int = 30):
+def _newton_local(mesh: Mesh, maxiter: int = 30, clamp: bool = True):
     """Inverse isoparametric map by Newton iteration (no mapping caches),
     in coordinates relative to each element's first node, so that cells
     small against their coordinates (1 m cells at x = 5e5) are inverted
-    to the round-off of their own size, not of the coordinates'."""
+    to the round-off of their own size, not of the coordinates'.  With
+    ``clamp`` the iterates stay in ``[-2, 3]`` (a finder's candidates:
+    a position further out is not in that cell); without it they go
+    where the extrapolated map takes them (``NaN`` where Newton does not
+    converge)."""
     elem = mesh.elem()
     p, t = mesh.doflocs, mesh.dofs.element_dofs
     dim = mesh.dim()
@@ -415,7 +433,7 @@ def _newton_local(mesh: Mesh, maxiter: int = 30):
                 DF += node[:, None] * dphi[None]
             inverse = np.linalg.inv(np.moveaxis(DF, (0, 1), (-2, -1)))
             dX = np.einsum("mij,jm->im", inverse, offset[:, active] - F)
-            Xnew = np.clip(Xa + dX, -2., 3.)
+            Xnew = np.clip(Xa + dX, -2., 3.) if clamp else Xa + dX
             # converged where the step is within what round-off in the
             # offsets moves the local coordinates by (a fixed 1e-14 was
             # below it where positions lie cells beyond their element:

@@ -30,20 +30,31 @@ geostatic stress under its weight, a sample at its confining pressure).
   splines at the face's centre (``"bspline"``) or averaged over the face
   (``"bspline-gimp"``; with the splines at the points a uniform traction
   gives a uniform stress only at 2 or 4 points a cell, whose rule
-  integrates the splines' gradients exactly: ``docs/bspline.md``).  A traction is a dead load per initial
-  area; a pressure follows the surface in finite deformation: its force
-  ``-p J F^-T N A0`` (Nanson's formula) is evaluated at every iteration's
-  trial deformation, so the converged state carries the pressure on the
+  integrates the splines' gradients exactly: ``docs/bspline.md``).  A
+  traction is a dead load per initial area; a pressure follows the
+  surface in finite deformation: its force ``-p J F^-T N A0``
+  (Nanson's formula) is evaluated at every iteration's trial
+  deformation, so the converged state carries the pressure on the
   deformed surface.  Its load stiffness is not in the tangent (which stays
   symmetric, for every linear solver): Newton then contracts at a linear
   rate that grows with the pressure over the stiffness, and not with the
   step (a cut-back does not help; ``docs/robustness.md`` has the rates
   measured): for pressures of a fraction of a percent of ``E`` (soils,
-  fluids on solids) the extra iterations are one or two.  In small
-  strain the points' faces move and their volumes do not: a face that
-  moved into a cell whose far nodes are held puts a share of its force
-  straight into the supports (:meth:`ExternalLoads.check_held_share`
-  warns past :data:`HELD_SHARE`).
+  fluids on solids) the extra iterations are one or two.  Small strain
+  is in equilibrium on the reference configuration: standard MPM puts a
+  face along its axis where it was (``x0 + d0``; across the axis where
+  its point is), since the grid element's derivative along an axis does
+  not depend on the position along it and the points' volumes are
+  kept (a face moved with its point put ``u / h`` of its force on the
+  grid line below: an oedometer's top cell was under-stressed, an
+  isotropic test on one cell reached 387.33 for 400).  GIMP and
+  B-splines keep the faces where their points' domains and splines
+  are (their internal forces depend on those positions: the reference
+  faces were worse there); a face moved into a cell whose far nodes
+  are held puts a share of its force straight into the supports
+  (:meth:`ExternalLoads.check_held_share` warns past
+  :data:`HELD_SHARE`, and in every kinematics of a load on a support,
+  more than :data:`ON_SUPPORT` of its force on held DOFs).
 - :class:`GridLoad`: any scikit-fem ``LinearForm`` assembled on the whole
   grid with Gaussian quadrature (a load fixed in space).
 
@@ -70,6 +81,10 @@ logger = logging.getLogger(__name__)
 #: a surface load with more than this share of its force on held DOFs
 #: across the body (:meth:`ExternalLoads.check_held_share`) is warned about
 HELD_SHARE = .01
+#: a surface load with more than this share of its force on held DOFs
+#: (a load on a support: :meth:`ExternalLoads.check_held_share`) is
+#: warned about, in every kinematics
+ON_SUPPORT = .5
 
 __all__ = ["Traction", "Pressure", "GridLoad", "SIDES", "side_points",
            "side_axis", "side_names", "ExternalLoads", "check_exposed"]
@@ -131,7 +146,11 @@ def side_points(points: MaterialPoints, side: str,
     ``"x-"`` to ``"z+"``; in 2D also ``"left"``, ``"right"``, ``"bottom"``,
     ``"top"``, in 3D ``"left"`` and ``"right"``): those whose domain
     reaches the extreme coordinate of the selected points (``select``: a
-    boolean mask or indices, default all).
+    boolean mask or indices, default all) to within half its own width
+    along the side's axis: deformed points (a stage's, whose top row
+    differs in height by a fraction of a cell) keep their whole layer,
+    and the next layer's domains end a whole width short.  A side that
+    slopes by more than that takes its highest part only.
 
     Examples
     --------
@@ -157,10 +176,11 @@ def side_points(points: MaterialPoints, side: str,
     if mine.size == 0:
         raise InvalidInputError("no point selected for side {!r}".format(
             side))
-    face = points.x[axis, mine] + sign * points.domain[axis, mine]
+    width = points.domain[axis, mine]
+    face = points.x[axis, mine] + sign * width
     edge = face.max() if sign > 0 else face.min()
     tol = 1e-9 * (1 + np.abs(edge))
-    return mine[np.abs(face - edge) <= tol + 1e-6 * points.domain[axis, mine]]
+    return mine[np.abs(face - edge) <= tol + .5 * width]
 
 
 def check_exposed(loads, points: MaterialPoints) -> None:
@@ -381,13 +401,16 @@ class ExternalLoads:
         self.ramp_gravity = np.atleast_1d(np.asarray(ramp_gravity, bool))
         self.gravity, self.counters, self.domain0 = gravity, counters, domain0
         self.surface, self.grid_vector, self.cell_local = [], None, None
+        self.cell_clip = None
         self.surface_ramp = []       # per surface load: grows with factor
+        self.surface_sides = []      # per surface load: its side, as named
         self._faces = (None, [])
         self.grid, self.doflocs = grid, None
         for load in loads:
             if isinstance(load, (Traction, Pressure)):
                 self.surface.append(self._surface(load, n_points))
                 self.surface_ramp.append(check_load_ramp(load))
+                self.surface_sides.append(load.side)
                 if self.cell_local is None:
                     self.cell_local = cell_coordinates(mesh, clip=False)
             elif isinstance(load, GridLoad):
@@ -561,17 +584,25 @@ class ExternalLoads:
 
     def held_shares(self, op, points: MaterialPoints,
                     held: ndarray) -> list:
-        """Per surface load, the share of its force (projected on its
-        resultant) that its faces' weights put on the ``held`` DOFs of
-        nodes across the body: behind its faces by more than the points'
-        width along the side's axis (not those along its faces: a
-        traction's share on a held base next to it is a finite element's
-        too).  That force goes straight into the supports' reactions and
-        the material's stress misses it: a one-cell cube in small strain,
-        pressed to 400 on three faces against rollers on the others,
-        reached ``p = 387.33`` (its points moved, their faces with them,
-        3.2% into the cell, whose far nodes are the rollers').  Pressures
-        on the start-of-step deformation."""
+        """Per surface load, ``(moved, dofs, support, on)``: ``moved`` the
+        share of its force (projected on its resultant) that its faces'
+        weights put on the ``held`` DOFs ``dofs`` of nodes across the
+        body (behind its faces by more than the points' width along the
+        side's axis) beyond what the same faces put there at their
+        reference positions (``x0 + d0``; the points' quadrature matches
+        those: a traction's share on a held base next to it, or the
+        splines' reach through a body thinner than they are, is the
+        method's own and not missed); ``support`` the share on all held
+        DOFs ``on`` by the grid element's shape functions at the faces'
+        centres, in their points' cells (one measure for every method:
+        B-splines' and GIMP's weights reach held nodes through the body,
+        as the points' own do).  The moved share goes straight into the
+        supports' reactions and the material's stress misses it: a
+        one-cell square in small strain with cpGIMP, pressed to 400 on
+        two sides against rollers on the others, reached 390.15 (its
+        points moved, their domains' faces with them, 2.5% into the cell,
+        whose far nodes are the rollers'; standard MPM's faces stay at
+        the reference).  Pressures on the start-of-step deformation."""
         shares = []
         N, dim = op.N, self.dim
         if self.doflocs is None:
@@ -580,58 +611,116 @@ class ExternalLoads:
         mask = np.zeros(n, dtype=bool)
         held = np.asarray(held, dtype=np.int64)
         mask[held[held < n]] = True
+        moving = self.moves and not self.finite
         for face, (idx, axis, sign, value, pressure) in zip(
                 self._faces_of(op, points), self.surface):
             if pressure:
-                f = self._pressure(face, points.F[:, :, idx], axis, sign,
-                                   value, N)
+                F_inv, J = inverse_and_det(points.F[:, :, idx], self.dim)
+                load = -value * sign * J * F_inv[axis, :self.dim] * face.area
             else:
-                f = face.point_force(value[:, None] * face.area)[:N]
-            f = f[:n]
+                load = value[:, None] * face.area
+            f = face.point_force(load)[:N][:n]
             resultant = f[:n - n % dim].reshape(-1, dim).sum(axis=0)
             size = resultant @ resultant
-            plane = np.median(face.centre[axis])
-            depth = 2 * np.abs(face.offset[axis]).max()
-            across = mask & (sign * (self.doflocs[axis, :n] - plane)
-                             < -depth)
-            dofs = np.flatnonzero(across & (f != 0.))
-            shares.append((0., dofs) if size == 0. or dofs.size == 0 else
-                          (float(f[dofs] @ resultant[dofs % dim] / size),
-                           dofs))
+            if self.cell_clip is None:
+                self.cell_clip = cell_coordinates(self.mesh)
+            cells = op.point_elements[idx]
+            on_grid = PointOperator(MaterialPointBasis(
+                self.mesh, self.elem, MaterialPoints(
+                    x=face.centre, volume=face.area),
+                (cells, self.cell_clip(face.centre, cells)),
+                kernels=self.kernels)).point_force(load)[:N][:n]
+            on = np.flatnonzero(mask & (on_grid != 0.))
+            if size == 0.:
+                shares.append((0., on[:0], 0., on))
+                continue
+            support = float(on_grid[on] @ resultant[on % dim] / size)
+            dofs, moved = on[:0], 0.
+            if moving:
+                still = self._reference_face(op, points, idx, axis, sign
+                                             ).point_force(load)[:N][:n]
+                plane = np.median(face.centre[axis])
+                depth = 2 * np.abs(face.offset[axis]).max()
+                across = mask & (sign * (self.doflocs[axis, :n] - plane)
+                                 < -depth)
+                dofs = np.flatnonzero(across & ((f != 0.) | (still != 0.)))
+                moved = float((f - still)[dofs] @ resultant[dofs % dim]
+                              / size)
+            shares.append((moved, dofs, support, on))
         return shares
+
+    def _reference_face(self, op, points, idx, axis, sign):
+        """The faces of points ``idx`` at their reference positions
+        (``x0 + d0`` along the side's axis, ``x0`` across it) in the
+        method's weights (GIMP: the faces of the initial domains)."""
+        d0 = self.domain0[axis, idx]
+        centre = points.x0[:, idx].copy()
+        centre[axis] += sign * d0
+        owner = getattr(self.weights, "__self__", None)
+        if self.weights is None:
+            cells = op.point_elements[idx]
+            return PointOperator(MaterialPointBasis(
+                self.mesh, self.elem, MaterialPoints(x=centre, volume=d0),
+                (cells, self.cell_local(centre, cells)),
+                kernels=self.kernels))
+        if hasattr(owner, "gimp"):
+            box = self.domain0[:, idx].copy()
+            box[axis] = 0.
+            face = owner.gimp(centre, box)
+        else:
+            face = self.weights(centre, idx, axis, sign)
+        face.S = supported_share(face.S, op.active_dofs[::self.dim]
+                                 // self.dim)
+        return face
 
     def check_held_share(self, op, points: MaterialPoints, held: ndarray,
                          step: int, warned: set) -> None:
         """Warn (once a run per side; ``warned`` keeps the sides said) of
-        a surface load with more than :data:`HELD_SHARE` of its force on
-        held DOFs across the body (:meth:`held_shares`), naming the load,
-        the share and the cures: in small strain, where the points (and
-        their faces) move and their volumes do not.  In finite
-        deformation such a share is the force's point of application
-        kept (a face past its cell: negative there; a face moved into
-        it: the volume shrank with it) and the stress is exact."""
-        if not self.surface or self.finite or not self.moves:
+        a surface load with more than :data:`ON_SUPPORT` of its force on
+        held DOFs (a load on a support: it goes into the reactions and
+        does nothing to the body), and, in small strain where the points
+        (and GIMP's and B-splines' faces) move and their volumes do not,
+        of one whose faces moved more than :data:`HELD_SHARE` of its
+        force onto held DOFs across the body (:meth:`held_shares`),
+        naming the load, the share and the cures.  In finite deformation
+        such a share is the force's point of application kept (a face
+        past its cell: negative there; a face moved into it: the volume
+        shrank with it) and the stress is exact."""
+        if not self.surface:
             return
-        for k, (share, dofs) in enumerate(self.held_shares(op, points,
-                                                           held)):
-            axis, sign = self.surface[k][1:3]
-            if share <= HELD_SHARE or ("held_share", axis, sign) in warned:
+        for k, (moved, dofs, support, on) in enumerate(
+                self.held_shares(op, points, held)):
+            idx, axis, sign = self.surface[k][:3]
+            kind = "pressure" if self.surface[k][4] else "traction"
+            side = self.surface_sides[k]
+            if support > ON_SUPPORT + 1e-9 and ("on_support", axis, sign) \
+                    not in warned:
+                warned.add(("on_support", axis, sign))
+                logger.warning(
+                    "step %d: the %s on side %r (of %d points) puts %.1f%% "
+                    "of its force on held DOFs (%d, e.g. at %s; by the grid "
+                    "element's shape functions at its faces): a load on a "
+                    "support goes into the reactions and does nothing to "
+                    "the body; load a free side, or release the support "
+                    "there", step, kind, side, idx.size, 100 * support,
+                    on.size, np.round(self.doflocs[:, on[0]], 6).tolist())
+            if moved <= HELD_SHARE or ("held_share", axis, sign) in warned:
                 continue
             warned.add(("held_share", axis, sign))
             logger.warning(
-                "step %d: the %s on side %r (of %d points) puts %.1f%% of "
-                "its force on held DOFs across the body (%d, e.g. at %s): "
-                "that share goes straight into the supports' reactions and "
-                "the material's stress misses it (small strain moves the "
-                "points and their faces into the cells whose far nodes are "
-                "held, and keeps their volumes: a body one cell across).  "
-                "Take kinematics='finite' (faces and volumes move "
-                "together: exact), or prescribe the face's motion instead; "
-                "more cells across move the shortfall into the stress "
-                "field, they do not remove it (docs/robustness.md)",
-                step, "pressure" if self.surface[k][4] else "traction",
-                SIDES_NAME[(axis, sign)], self.surface[k][0].size,
-                100 * share, dofs.size,
+                "step %d: the %s on side %r (of %d points) has moved %.1f%% "
+                "of its force onto held DOFs across the body (%d, e.g. at "
+                "%s) since its faces' reference positions: that share goes "
+                "straight into the supports' reactions and the material's "
+                "stress misses it (small strain moves the points and their "
+                "faces into the cells whose far nodes are held, and keeps "
+                "their volumes: a body one cell across).  Take "
+                "kinematics='finite' (faces and volumes move together: "
+                "exact), method='mpm' (its faces stay at the reference), "
+                "or prescribe the face's motion instead; more cells across "
+                "move the shortfall into the stress field, they do not "
+                "remove it (docs/robustness.md)",
+                step, kind, side, idx.size, 100 * moved, dofs.size,
                 np.round(self.doflocs[:, dofs[0]], 6).tolist())
 
     def _pressure(self, face, F, axis, sign, value, N) -> ndarray:
@@ -671,10 +760,11 @@ class ExternalLoads:
         centres (the method's weights there: B-splines', GIMP's of the
         domains' faces; or standard MPM's, the grid element's in the
         cells holding the points, extrapolated past them), with the
-        faces' initial
-        areas as ``area``: at the start of the step ``x + F d0 N`` when the
-        points move, in the reference configuration ``X + d0 N`` when they
-        do not (finite elements, total Lagrangian)."""
+        faces' initial areas as ``area``: at the start of the step
+        ``x + F d0 N`` when the points move, in the reference
+        configuration ``X + d0 N`` when they do not (finite elements,
+        total Lagrangian); standard MPM in small strain along the axis
+        at the reference (:meth:`_reference_faces`)."""
         d0 = self.domain0[axis, idx]
         area = points.volume0[idx] / (2 * d0)              # initial area
         if self.moves:
@@ -690,11 +780,48 @@ class ExternalLoads:
             face.area, face.centre, face.offset = area, centre, offset
             return face
         cells = op.point_elements[idx]
+        local = self.cell_local(centre, cells)
+        if self.moves and not self.finite:
+            centre, local = self._reference_faces(points, idx, axis, sign,
+                                                  centre, local, cells)
+        if self.weights is not None:     # the method's field, not the grid's
+            face = self.weights(centre, idx, axis, sign)
+            face.S = supported_share(face.S, op.active_dofs[::self.dim]
+                                     // self.dim)
+            face.area, face.centre, face.offset = area, centre, offset
+            return face
         face = PointOperator(MaterialPointBasis(
             self.mesh, self.elem, MaterialPoints(x=centre, volume=area),
-            (cells, self.cell_local(centre, cells)), kernels=self.kernels))
+            (cells, local), kernels=self.kernels))
         face.area, face.centre, face.offset = area, centre, offset
         return face
+
+    def _reference_faces(self, points, idx, axis, sign, centre, local,
+                         cells):
+        """Standard MPM in small strain: the faces along their axis where
+        they were in the reference configuration (``x0 + d0``), across it
+        where their points are, in the cells of the points.  The grid
+        element's derivative along an axis does not depend on the
+        position along it, so the points' internal force in a cell is
+        that of their reference positions along the axis (their volumes
+        kept), and a face moved with its point put ``u / h`` of its force
+        on the grid line below: an oedometer's top cell under 100 carried
+        -98.61 after two steps, -97.58 after eight.  A face whose
+        reference position lies further outside its point's cell than
+        its current one (a body moved across cells) keeps the current
+        one."""
+        moved = centre.copy()
+        moved[axis] = points.x0[axis, idx] + sign * self.domain0[axis, idx]
+        there = self.cell_local(moved, cells)
+        keep = outside(there) <= outside(local) + 1e-9
+        centre = np.where(keep, moved, centre)
+        local = np.where(keep, there, local)
+        return centre, local
+
+
+def outside(local: ndarray) -> ndarray:
+    """How far local coordinates (dim, n) lie outside the unit cell."""
+    return np.maximum(-local, local - 1.).max(axis=0).clip(0.)
 
 
 class FollowerPressure(GridTerm):
