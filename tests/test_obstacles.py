@@ -1070,7 +1070,7 @@ def test_a_3d_block_tied_with_cpgimp_at_a_tight_tolerance():
     from skfem import ElementHex1, MeshHex
     g = np.linspace(0, 1, 5)
     mesh = MeshHex.init_tensor(g, g, np.linspace(-.25, 1, 6))
-    pts = seed_points(mesh, 2, region=lambda x: (x[2] < .5)
+    pts = seed_points(mesh, 2, region=lambda x: (x[2] > 0) & (x[2] < .5)
                       & (np.abs(x[0] - .5) < .4) & (np.abs(x[1] - .5) < .4))
     settlement, iterations = [], []
     for method in ("mpm", "cpgimp"):
@@ -1388,6 +1388,8 @@ def test_bad_obstacles_are_refused(make, words):
     ([Obstacle(box=[[0, 1], [.8, 2]], friction="tied")],
      "touches no material"),
     ([Obstacle(box=[[0, 1], [.3, 2]])], "holds material at the start"),
+    ([Obstacle(box=[[0, 1], [.3, 2]], friction="tied")],
+     "holds material at the start.*bonded"),
     ([Obstacle(box=[[0, 1]])], "1D on a 2D grid"),
     (["floor"], "Obstacle"),
 ])
@@ -3244,3 +3246,71 @@ def test_a_staged_run_keeps_a_tied_obstacle_s_force():
     assert first["fem", "tied"] < 1e-10
     assert first["mpm", "tied"] == pytest.approx(first["mpm", "rough"],
                                                  rel=1e-2)
+
+
+def test_a_staged_run_closes_no_gap_past_a_face_s_edge():
+    """FE, an elastic block its bottom held: its weight presses it up on
+    a smooth plate over its top's right half, and a sideways weight
+    moves its top's corner at the plate's edge past the edge, within the
+    plate's tolerance; a staged run holds the loads.  It starts in
+    balance, its force the first run's: the corner past the edge is
+    pressed on the plate's face by the gap to that face, where it took
+    its distance from the plate, the edge's, as a gap closed at the
+    start, and pressed harder (a residual of 0.64 at the start, the
+    force 5% up; a user trial's soil under a wall's edge, 0.75)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
+    pts = seed_points(mesh, 2, region=lambda x: (x[0] < 1. + 1e-9)
+                      & (x[1] < 1. + 1e-9))
+    args = (mesh, ElementQuad1())
+    rest = (LinearElastic(1e3, .3),
+            lambda b: b.get_dofs(lambda x: x[1] == 0))
+    edge = .5
+    plate = Obstacle(box=[[edge, 3.], [1., 1.7]], tolerance=1e-2)
+    kwargs = dict(body_force=BodyForce([-2.7, 20.], ramp=False), nsteps=1,
+                  method="fem", obstacles=[plate])
+    first = simulate(*args, pts, *rest, **kwargs)
+    X = corners(first.points, pts.domain, "fem")
+    top = np.abs(X[1] - 1.) <= plate.tolerance * .25
+    past = (edge - X[0])[top & (X[0] < edge)]
+    assert past.size and past.max() < plate.tolerance * .25
+    held = simulate(*args, first.points, *rest, **kwargs)
+    assert held.history[0].newton_residuals[0] < 1e-10
+    force = first.history[-1].obstacle_forces[0]
+    assert held.history[-1].obstacle_forces[0] == pytest.approx(
+        force, rel=1e-10, abs=1e-10 * abs(force).max())
+
+
+def test_a_tied_obstacle_refuses_material_inside_it_as_others_do():
+    """A tied plate on an elastic block's top: touching it, or inside it
+    within the plate's tolerance, ties the corners there; inside it by
+    twice the tolerance is refused with a rough or smooth plate's words
+    (it tied the corners inside it, and a user trial's wall 0.094 into
+    the soil failed its first step's Newton).  A tied base under the
+    block, nothing else holding it, holds it."""
+    h = .25
+    mesh = MeshQuad.init_tensor(np.arange(0., 1. + 1e-9, h),
+                                np.arange(0., 1. + 1e-9, h))
+    pts = seed_points(mesh, 2, region=lambda x: x[1] < .5)
+    tol = Obstacle(box=[[0, 1], [.5, 2]]).tolerance * h
+
+    def run(obstacle, supports=lambda b: b.get_dofs(lambda x: x[1] == 0)):
+        return simulate(mesh, ElementQuad1(), pts, LinearElastic(1e3, .3),
+                        supports, body_force=[0., -10.], method="fem",
+                        obstacles=[obstacle])
+    weight = 10. * pts.volume.sum()
+    for inside in (0., tol / 2):
+        plate = run(Obstacle(box=[[0, 1], [.5 - inside, 2]],
+                             friction="tied"))
+        assert 0. < -plate.history[-1].obstacle_forces[0, 1] < weight
+    base = run(Obstacle(box=[[-1, 2], [-1, 0]], friction="tied"),
+               supports=[])
+    assert base.history[-1].obstacle_forces[0, 1] == pytest.approx(
+        -weight, rel=1e-6)
+    for friction in ("tied", "rough"):
+        with pytest.raises(InvalidInputError, match=re.escape(
+                "holds material at the start: the domain corner of point "
+                )) as err:
+            run(Obstacle(box=[[0, 1], [.5 - 2 * tol, 2]],
+                         friction=friction))
+        assert "{:.3g} inside (tolerance {:.3g})".format(
+            2 * tol, tol) in str(err.value)

@@ -806,7 +806,11 @@ class ObstacleContact(GridTerm):
                 for c, name in enumerate(row):
                     points.state[name] = offset[a, c]
         X0 = self.start_corners(points)
-        self.anchor, self.near, self.closed = [], [], []
+        self.anchor, self.near = [], []
+        #: a staged start's multipliers are less the penalty's force of
+        #: the gaps closed at the start, in the run's first step
+        #: (:meth:`StepContact.closed_gaps`)
+        self.staged_start = not self.resumed
         #: per obstacle, the material's least distance from it at the start
         self.start_gaps = []
         for i, ob in enumerate(self.obstacles):
@@ -820,20 +824,32 @@ class ObstacleContact(GridTerm):
             near = phi <= self.tol[i]
             self.near.append(near)
             self.start_gaps.append(float(phi.min()))
-            # a corner within the tolerance of the obstacle at the start is
-            # in contact: its gap there (a floor placed with round-off, or
-            # a tolerance's width below the body) is closed for the run
-            closed = np.where(near, np.clip(phi, 0., None), 0.)
-            self.closed.append(closed)
-            if not self.resumed:
-                # a staged start: a corner an earlier run left pressed
-                # across a gap keeps its pressure, its multiplier less the
-                # penalty's force of the gap now closed (a uGIMP footing's
-                # next stage started pressing 5% harder, 91.7 for 87.3)
-                for c, name in enumerate(pressure_names(i, dim)[0]):
-                    lam = points.state[name]
-                    points.state[name] = np.where(lam > 0, np.maximum(
-                        lam - self.kappa[i] * closed[c], 0.), lam)
+            if (phi < -self.tol[i]).any():
+                # a tied one too: it is bonded to the material touching
+                # it, and one holding material inside it tied those
+                # corners there and failed its first step's Newton (a
+                # user trial's wall 0.094 into the soil: a residual
+                # from 0.627 to 6.85e4, cut back to 1.95e-3)
+                c, p = np.unravel_index(np.argmin(phi), phi.shape)
+                # in dynamics without a load ramp the displacement
+                # applies from t = 0: the box as written did not
+                # overlap, and the message said neither (a user trial)
+                moved = "" if not self.start[i].any() else (
+                    " (it starts displaced by {}: in dynamics the "
+                    "loads' scale at t = 0 moves it; a Dynamics(load="
+                    "...) from 0 at t = 0, or the scene key [dynamics] "
+                    "load_ramp, starts it where it is written)"
+                    .format(self.start[i].tolist()))
+                tied = "" if ob.friction != "tied" else (
+                    "; a tied obstacle is bonded to the material touching "
+                    "it, within the tolerance, not to material inside it")
+                raise InvalidInputError(
+                    "obstacle {!r} holds material at the start: the "
+                    "domain corner of point {} at {} is {:.3g} inside "
+                    "(tolerance {:.3g}){}{}; move the obstacle or the "
+                    "points".format(ob.name, p, X0[:, c, p].tolist(),
+                                    float(-phi[c, p]), self.tol[i],
+                                    moved, tied))
             if ob.friction == "tied":
                 if not near.any():
                     raise InvalidInputError(
@@ -844,24 +860,6 @@ class ObstacleContact(GridTerm):
                 self.anchor.append(near)
             else:
                 self.anchor.append(None)
-                if (phi < -self.tol[i]).any():
-                    c, p = np.unravel_index(np.argmin(phi), phi.shape)
-                    # in dynamics without a load ramp the displacement
-                    # applies from t = 0: the box as written did not
-                    # overlap, and the message said neither (a user trial)
-                    moved = "" if not self.start[i].any() else (
-                        " (it starts displaced by {}: in dynamics the "
-                        "loads' scale at t = 0 moves it; a Dynamics(load="
-                        "...) from 0 at t = 0, or the scene key [dynamics] "
-                        "load_ramp, starts it where it is written)"
-                        .format(self.start[i].tolist()))
-                    raise InvalidInputError(
-                        "obstacle {!r} holds material at the start: the "
-                        "domain corner of point {} at {} is {:.3g} inside "
-                        "(tolerance {:.3g}){}; move the obstacle or the "
-                        "points".format(ob.name, p, X0[:, c, p].tolist(),
-                                        float(-phi[c, p]), self.tol[i],
-                                        moved))
         # the corners an earlier run moved (a staged run's start)
         start = np.array([[points.state[name] for name in row]
                           for row in start_names(dim)])
@@ -1578,14 +1576,6 @@ class StepContact(GridTerm):
         self.inward = self.material_side()
         for i, ob in enumerate(term.obstacles):
             names = pressure_names(i, dim)
-            self.lam.append(np.concatenate([self.state[nm][idx]
-                                            for nm in names[0]]))
-            self.pressed_start.append(self.lam[-1] > 0)
-            self.pressed_last.append(None)
-            self.flips.append(0)
-            self.tau.append(np.array([np.concatenate(
-                [self.state[nm][idx] for nm in comp])
-                for comp in names[1:]]))
             face = ob.nearest_face(self.Xs, self.shift_old[i], self.inward,
                                    ALIKE * term.h)
             # over the face within the tolerance of its edges: a rough
@@ -1596,7 +1586,22 @@ class StepContact(GridTerm):
             _, normal, over = ob.face_gap(self.Xs, face, self.shift_old[i],
                                           term.tol[i])
             self.face.append((face, over))
-            self.closed.append(term.closed[i][:, idx].ravel())
+            self.closed.append(self.closed_gaps(i, face))
+            lam = np.concatenate([self.state[nm][idx] for nm in names[0]])
+            if term.staged_start:
+                # a staged start: a corner an earlier run left pressed
+                # across a gap keeps its pressure, its multiplier less the
+                # penalty's force of the gap now closed (a uGIMP footing's
+                # next stage started pressing 5% harder, 91.7 for 87.3)
+                lam = np.where(lam > 0, np.maximum(
+                    lam - term.kappa[i] * self.closed[i], 0.), lam)
+            self.lam.append(lam)
+            self.pressed_start.append(lam > 0)
+            self.pressed_last.append(None)
+            self.flips.append(0)
+            self.tau.append(np.array([np.concatenate(
+                [self.state[nm][idx] for nm in comp])
+                for comp in names[1:]]))
             self.area.append(self.corner_areas(normal, idx))
             if not term.reads_field[i] and self.J[i] is self.rows.get(False):
                 face_rows = self.face_rows(idx, normal, scalar[False])
@@ -1633,6 +1638,24 @@ class StepContact(GridTerm):
                 term.kappa, term.tol, self.area)), default=0.)
         self.evaluations = WeakKeyDictionary()
         self.carriers = self.sliver_carriers()
+
+    def closed_gaps(self, i: int, face: ndarray) -> ndarray:
+        """The gaps (nc m,) closed for the run at obstacle ``i``: of the
+        step's corners within its tolerance of it at the run's start
+        (:meth:`ObstacleContact.begin_run`) the gap there from the plane
+        of their ``face`` (m,), the gap the step measures, where positive
+        (a floor placed with round-off, or a tolerance's width below the
+        body); else zero.  The distance from the obstacle is not that
+        gap past a face's edge: a corner a staged run started with
+        beyond a wall's edge within the tolerance, pressed on its face,
+        had that distance closed as well, and pressed 10 times harder
+        (a user trial's hold started at a residual of 0.75)."""
+        term, dim = self.term, self.dim
+        near = term.near[i][:, self.idx].ravel()
+        X0 = term.start_corners(self.problem.points, self.idx).reshape(
+            dim, -1)
+        gap = self.term.obstacles[i].face_gap(X0, face, term.start[i])[0]
+        return np.where(near, np.clip(gap, 0., None), 0.)
 
     def sliver_carriers(self) -> list:
         """The field's rows (vector) of the step's corners where an
@@ -2181,6 +2204,7 @@ class StepContact(GridTerm):
                     Xs[:, wrong], self.shift[i],
                     lambda which: self.inward(wrong[which]), ALIKE * term.h)
                 over[wrong] = True
+                self.closed[i] = self.closed_gaps(i, face)
                 across = True
         if across:
             self.evaluations = WeakKeyDictionary()
@@ -2283,6 +2307,9 @@ class StepContact(GridTerm):
     def commit(self, problem, trial, du: ndarray, new, record) -> None:
         term, dim, idx = self.term, self.dim, self.idx
         ev = self.evaluate(du, trial.response)
+        # the multipliers committed are the staged start's, its closed
+        # gaps' force taken off (:meth:`select`)
+        term.staged_start = False
         nc, m = 2 ** dim, len(idx)
         new.state = dict(new.state)
         if not term.finite:

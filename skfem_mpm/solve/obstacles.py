@@ -49,8 +49,10 @@ class Obstacle:
         ``"rough"`` (no slip while in contact, free to separate; a part
         of the surface that touches it within a load or time step sticks
         from where the step's straight path met it) or
-        ``"tied"`` (bonded to the material touching it at the start: a
-        support that need not lie on grid lines).
+        ``"tied"`` (bonded to the material touching it at the start,
+        within the tolerance: a support that need not lie on grid
+        lines; material inside it beyond the tolerance is refused, as
+        by the others).
     name
         The obstacle's name in records and output (default
         ``"obstacle<i>"`` by its position in the list).

@@ -32,6 +32,7 @@ from ..kernels import run_clock
 from ..errors import GridMotionError, PointsOutsideGridError, \
     SingularSystemError, SingularTangentError
 from ..mechanics.materials import is_plastic
+from ..stabilisation.volumetric import points_per_cell_axis
 from ..protocols import Balance
 from ..spelling import setting
 from .backends import TINY
@@ -82,6 +83,22 @@ def is_bspline(method) -> bool:
     """Whether a run's method (or its piece: fields) is a B-spline's."""
     from ..methods.method import BSplineMethod
     return isinstance(getattr(method, "piece", method), BSplineMethod)
+
+
+def spline_start_inexact(method, mesh, points) -> bool:
+    """Whether a B-spline method leaves a level geostatic stress out of
+    balance by its points' rule (:data:`B_SPLINE_START`): every one but
+    the quadratic splines at the points (``"bspline"``) seeded an odd
+    count a cell and axis, a point on every knot, which balance it to
+    round-off (a review: the weight 5% off was left unwarned under the
+    splines' own limit there, standard MPM warned at 1.6%)."""
+    if not is_bspline(method):
+        return False
+    if getattr(getattr(method, "piece", method), "name", "") != "bspline":
+        return True
+    per_axis = points_per_cell_axis(mesh, points)
+    return not (abs(per_axis - round(per_axis)) < 1e-6
+                and round(per_axis) % 2 == 1)
 
 __all__ = ["StepProblem", "Trial", "STABILISATION", "STABILISATION_FLOOR"]
 
@@ -557,7 +574,8 @@ class StepProblem:
         """A warning, once a run, where a static run's first step starts
         from points that carry a stress out of balance (its
         :meth:`start_share` above :data:`START_IMBALANCE`, or above
-        :data:`START_INEXACT` with B-splines and from points that moved,
+        :data:`START_INEXACT` with B-splines (:func:`spline_start_inexact`)
+        and from points that moved,
         whose discretisation leaves a share of its own): the step
         carries it at once, and no cut-back or ``nsteps`` spreads it.
         Not where the start balances the step's end loads and the step
@@ -575,7 +593,7 @@ class StepProblem:
         share = self.start_share()
         moves = getattr(run.method, "moves", True)
         moved = moves and bool(np.any(self.points.displacement))
-        spline = is_bspline(run.method)
+        spline = spline_start_inexact(run.method, run.mesh, self.points)
         limit = START_INEXACT if moved or spline else START_IMBALANCE
         if share is None or not share > limit:
             return
