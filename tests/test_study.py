@@ -831,22 +831,28 @@ def test_gimp_footing_with_the_ghost_switched_on_keeps_to_its_steps(
         monkeypatch):
     """cpGIMP's footing at B / h = 8 (the methods study's, small strain):
     the heaving soil's domains reach a sliver of the row of cells above
-    it, and at step 2 of 10 and of 40 steps the absurd motion of the
-    nodes there switches ``ghost="auto"``'s penalty on.  It acts on each
-    step's increment; with gamma = 0.1 the end pressure was 18.0% and
-    13.6% above Prandtl's, with :data:`SMALL_STRAIN_GHOST` (1e-3) 9.1% and
-    8.8%: within 1% of each other.  On the numpy path: whether the
-    slivers' motion passes the threshold is a matter of round-off (on the
-    compiled passes the 10-step run's does not, and ends at +5.4%)."""
+    it, and the absurd motion of the nodes there switches
+    ``ghost="auto"``'s penalty on.  It acts on each step's increment;
+    with gamma = 0.1 the end pressure was 18.0% and 13.6% above Prandtl's
+    in 10 and 40 steps, with :data:`SMALL_STRAIN_GHOST` (1e-3) 9.1% and
+    8.8%: within 1% of each other.  Whether the slivers' motion passes
+    the threshold is a matter of round-off (since the session 83 contact
+    changes, the 10-step run's does not on either path, and ends at
+    +5.3%; the 40-step one's does at step 2): the test lowers the
+    threshold (``ABSURD_GRID_MOTION`` 1e5 -> 1e3) so that both switch the
+    penalty on, and checks what it exists for, the end pressures."""
     from skfem_mpm.mechanics import kinematics
+    from skfem_mpm.solve import problem
     from skfem_mpm.solve.core import SMALL_STRAIN_GHOST
     monkeypatch.setattr(kinematics, "compiled_path",
                         lambda *args, **kwargs: None)
+    monkeypatch.setattr(problem, "ABSURD_GRID_MOTION", 1e3)
     from skfem_mpm.studies.methods import footing, footing_reference
     assert SMALL_STRAIN_GHOST == 1e-3
     limit = footing_reference()
     runs = [footing(.125, "cpgimp", nsteps=n) for n in (10, 40)]
-    assert [res.counters["ghost_from_step"] for res, _, _ in runs] == [2, 2]
+    assert all(0 < res.counters["ghost_from_step"] <= 4
+               for res, _, _ in runs)
     low, high = sorted(value for _, value, _ in runs)
     assert high < 1.01 * low
     assert limit < low and high < 1.12 * limit
