@@ -190,7 +190,11 @@ def test_stale_and_corrupted_checkpoints_are_refused(straight, tmp_path):
 
     refused = [lambda n=n: (out / CHECKPOINT).write_bytes(good[:n])
                for n in (0, 10, len(good) // 2, len(good) - 1)]
-    refused += [lambda n=name: rewrite(**{n: None}) for name in fields]
+    # every field but the mark of tied obstacles' tractions, whose
+    # absence is an older checkpoint's (refused only for a run with tied
+    # obstacles: test_a_tied_checkpoint_written_before_its_traction_...)
+    refused += [lambda n=name: rewrite(**{n: None}) for name in fields
+                if name != "tied_traction"]
     n = fields["points_x"].shape[1]
     for change in (dict(step=np.array(99)), dict(step=np.array(2.5)),
                    dict(nsteps=np.array(3.)), dict(nsteps=np.array(0)),
