@@ -515,7 +515,10 @@ def summary_units(dim: int, dynamics: bool = False,
     units = {"system": system, "max_displacement": length,
              "max_residual": "-", "wall_seconds": "s", "timings": "s",
              "compile_seconds": "s", "load_factor": "-",
-             "reactions": force, "force": force, "displacement": length}
+             "reactions": force, "force": force, "displacement": length,
+             # a count and dimensionless errors (a lecturer's trial
+             # found them without a unit)
+             "points": "-", "steps": "-", "steps_run": "-", "error": "-"}
     if dynamics:      # a static run has no energies (a trial read its
         units["time"] = time        # unit as though it had)
         units["energies"] = "{} (time: {})".format(
