@@ -68,15 +68,16 @@ def visualize(outdir="."):
     fig, (ax, ay) = pyplot().subplots(1, 2, figsize=(11, 4))
     ax.plot(alpha, v, "o", ms=3, label="GIMP, vertical")
     ax.plot(alpha, u, "s", ms=3, label="GIMP, horizontal")
-    ax.plot(alpha, v_ref, "k-", lw=1, label="elastica")
-    ax.plot(alpha, u_ref, "k--", lw=1)
+    ax.plot(alpha, v_ref, "k-", lw=1, label="elastica, vertical")
+    ax.plot(alpha, u_ref, "k--", lw=1, label="elastica, horizontal")
     ax.set_xlabel(r"load $P L^2 / (E I)$ (-)")
     ax.set_ylabel("tip deflection / L (-)")
     ax.set_title("tip deflection against the elastica")
-    ax.legend()
+    ax.legend(fontsize=8)
     pts = result.points
     draw_points(fig, ay, pts, pts.stress[0, 0] / 1e3, r"$\sigma_{xx}$ (kPa)",
-                "final shape", size=1)
+                "final shape at P L^2 / (E I) = {:g}:\nsigma_xx (Cauchy, "
+                "tension positive,\nglobal axes)".format(alpha[-1]), size=1)
     fig.tight_layout()
     save_figure(fig, Path(outdir) / "cantilever.png")
 

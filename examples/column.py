@@ -135,7 +135,7 @@ def visualize(outdir="."):
     fig.tight_layout()
     save_figure(fig, Path(outdir) / "column_stress_profiles.png")
 
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    fig, axes = plt.subplots(1, 3, figsize=(15, 6))
     for ax, nsteps in zip(axes, (1, 2, 20)):
         draw_convergence(
             ax, nelems,

@@ -647,7 +647,8 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
                                 body_figure_size(pts.x[:2]))
     draw_points(fig, ax, pts, pts.stress[d, d],
                 "{} ({})".format(name, stress),
-                "{}: {} at the final points".format(scene.name, name))
+                "{}: {} at the final points (Cauchy, tension positive, "
+                "global axes)".format(scene.name, name))
     fig.tight_layout()
     plot.save_figure(fig, outdir / "final_stress.png")
     if pts.dim > 1:
@@ -671,8 +672,10 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
         plot_column_stress([result], ["{}, {} steps".format(
             scene.method, scene.step_count)], outdir / "column_stress.png",
             title="{}: vertical stress against initial height,\nwith "
-            "the closed form of {}".format(scene.name, COLUMN_SOURCE),
-            unit=stress)
+            "the linear solution; (2.28) of {}: {}".format(
+                scene.name, COLUMN_SOURCE,
+                "{:.3g}".format(summary["error"]) if "error" in summary
+                else "-"), unit=stress)
     if loaded.size and result.history and \
             result.history[0].displacement is not None:
         fig, ax = pyplot().subplots(figsize=(5, 4))
@@ -1623,10 +1626,24 @@ def compare(args) -> int:
             ax.set_ylim(scale["vmin"], scale["vmax"])
         print("{:>7}: largest displacement {:.4f}, {:.3f} s".format(
             method, largest_displacement(result), seconds))
-    fig.suptitle("{}: {} at the deformed points, one colour scale".format(
-        scene.name, component))
+    # one view for both panels (a trial: each body's own limits, the
+    # panels' axes unlike), the empty band above the panels trimmed
+    for get, put in (("get_xlim", "set_xlim"), ("get_ylim", "set_ylim")):
+        lims = np.array([getattr(ax, get)() for ax in axes])
+        for ax in axes:
+            getattr(ax, put)(lims[:, 0].min(), lims[:, 1].max())
+    title = fig.suptitle("{}: {} (Cauchy, tension positive, global "
+                         "axes) at the "
+                         "deformed points, one colour scale".format(
+                             scene.name, component))
     fig.tight_layout(rect=(0., 0., 1., .92))
-    plot.save_figure(fig, args.out / "compare.png")
+    # equal aspect leaves the panels lower than their room: the title
+    # just above them, and the band left above it trimmed
+    renderer = fig.canvas.get_renderer()
+    top = max(ax.get_tightbbox(renderer).y1 for ax in fig.axes)
+    title.set_verticalalignment("bottom")
+    title.set_y(top / fig.bbox.height + .01)
+    plot.save_figure(fig, args.out / "compare.png", trim=True)
     for name, what in (("displacement", "displacement"),
                        ("stress", "Cauchy stress")):
         d = difference[name]

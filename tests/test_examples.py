@@ -60,7 +60,6 @@ def test_column_figure_2_9_and_dimensions(column):
     assert column.dim_difference < 1e-9
 
 
-@pytest.mark.slow
 def test_column_plateau_is_the_small_strain_model():
     """The 20-step plateau of ``examples/column.py`` is mostly the model,
     not grid crossing (a lecturer's trial): small strain with moving
@@ -117,6 +116,7 @@ def test_column_plateau_is_the_small_strain_model():
     assert mpm[80] > 1.3 * mpm[20]
 
 
+@pytest.mark.slow
 def test_column_figures_are_written(column, tmp_path):
     column.visualize(tmp_path)
     for name in ("column_stress_profiles.png", "column_convergence.png"):
@@ -220,9 +220,29 @@ def test_collapse_runs_conserves_mass_and_collapses(tmp_path):
     assert (tmp_path / "collapse.png").stat().st_size > 10_000
 
 
-def test_cantilever_figure(cantilever, tmp_path):
+def test_cantilever_figure(cantilever, tmp_path, monkeypatch):
+    """A lecturer's trial: the dashed (horizontal) elastica had no legend
+    entry and the "final shape" panel did not say which load or stress
+    it shows."""
+    from skfem_mpm.scenes import plot
+    kept, save = {}, plot.save_figure
+
+    def keep(fig, path, *args, **kwargs):
+        kept[path.name] = fig
+        save(fig, path, *args, **kwargs)
+    monkeypatch.setattr(plot, "save_figure", keep)
     cantilever.visualize(tmp_path)
     assert (tmp_path / "cantilever.png").stat().st_size > 10_000
+    curves, shape = kept["cantilever.png"].axes[:2]
+    dashed = [line for line in curves.lines if line.get_linestyle() == "--"]
+    assert dashed and all(not line.get_label().startswith("_")
+                          for line in dashed)
+    texts = curves.get_legend().get_texts()
+    assert "elastica, horizontal" in [t.get_text() for t in texts]
+    assert all(t.get_fontsize() >= 8 for t in texts)
+    title = shape.get_title()
+    assert "P L^2 / (E I) = {:g}".format(cantilever.ALPHA) in title
+    assert "Cauchy, tension positive" in title
 
 
 @pytest.mark.slow

@@ -862,12 +862,18 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     if coloured:
         side_colorbar(fig, ax, sc, "displacement magnitude |u| ({})"
                       .format(LENGTH), "4%")
-    legend = ax.legend(handles=handles, loc="upper center", fontsize=7,
-                       bbox_to_anchor=(.5, -.2), ncol=2, frameon=False)
+    # what a support's marks are (a lecturer's trial read a root's
+    # roller below a bent beam as holding nothing: the node's cell does)
+    where = "supports marked at the grid nodes of cells with material" \
+        if supports and cell is not None and dim > 1 else None
+    legend = ax.legend(handles=handles, loc="upper center", fontsize=8,
+                       bbox_to_anchor=(.5, -.2), ncol=2, frameon=False,
+                       title=where, title_fontsize=8)
     if legend.get_window_extent(fig.canvas.get_renderer()).width > \
             .95 * fig.bbox.width:      # a tall, thin body's narrow figure
-        ax.legend(handles=handles, loc="upper center", fontsize=7,
-                  bbox_to_anchor=(.5, -.2), ncol=1, frameon=False)
+        ax.legend(handles=handles, loc="upper center", fontsize=8,
+                  bbox_to_anchor=(.5, -.2), ncol=1, frameon=False,
+                  title=where, title_fontsize=8)
     return sc
 
 
