@@ -30,7 +30,7 @@ def test_column_figure_2_10(column):
     for ppc in (2, 3, 4, 5):
         # one load step: FE convergence, rate 1
         assert abs(column.rates[1, ppc] - 1.) < .1
-        # 20 load steps: the grid-crossing plateau, and no rate
+        # 20 load steps: the plateau (mostly the model), and no rate
         err20 = column.errors[20, ppc]
         assert np.isnan(column.rates[20, ppc])
         assert np.isnan(column.rates[2, ppc])
