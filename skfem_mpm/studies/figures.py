@@ -374,8 +374,13 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
     convergence = [c for c in measured["convergence"] if c["cell_sizes"]]
     if convergence:
         names = list(dict.fromkeys(c["quantity"] for c in convergence))
+        # each panel 3.2 in and its legend below it (8 pt: a curve and
+        # a reference a group, and its failed cases)
+        tall = [3.2 + (.19 * sum(
+            2 + len(c.get("failed", ())) for c in convergence
+            if c["quantity"] == n)) for n in names]
         fig, axes = plt.subplots(len(names), 1, squeeze=False, figsize=(
-            10., 3.2 * len(names)))
+            10., sum(tall)), gridspec_kw={"height_ratios": tall})
         for ax, name in zip(axes[:, 0], names):
             mine = [c for c in convergence if c["quantity"] == name]
             for c in mine:
@@ -411,9 +416,11 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             ax.set_title("{} over refinement, with the reference of each "
                          "group;\nbars and bands: uncertainties".format(name),
                          fontsize=9)
-            # beside the panel: inside, a group's entries and references
-            # covered the lower panel's data (a user trial)
-            ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.))
+            # below the panel: inside, a group's entries and references
+            # covered the lower panel's data (a user trial); beside it
+            # at 8 pt its long entries narrowed the panel under its title
+            ax.legend(fontsize=8, loc="upper center",
+                      bbox_to_anchor=(.5, -.22))
         fig.tight_layout()
         plot.save_figure(fig, outdir / "quantities.png")
         written.append(outdir / "quantities.png")
