@@ -254,6 +254,22 @@ SLIDING = 1e-6
 #: the cells within which a corner touches a face for that warning
 TOUCHING = .1
 
+#: trial 115's strip footing (B = 1, half model, von Mises 0.5 m at
+#: c = 30 over clay at c = 10, standard MPM, 3 x 3 points a cell, pushed
+#: 0.1 m in 40 steps): its pressure (kPa) at 0.1 m with its edge inside
+#: a cell (h = 0.09) and the answers with the edge on a grid line
+#: (h = 0.1) and inside a cell of half the size (h = 0.045, 2 x 2)
+LAYERED_EDGE = (70.97, (91.99, 88.18))
+
+#: what that warning says of an edge inside a cell: the pressure off
+#: both ways (a user trial found its footing below the answer where the
+#: warning said above), and the jumps between steps
+EDGE_MEASURED = (
+    "a footing's edge inside a cell pressed 3-26% above Prandtl's "
+    "pressure on clay, {:.0f}-{:.0f}% below the answer on a stiff layer "
+    "over clay, and jumped by 6-105% between steps".format(
+        *sorted(100. * (1. - LAYERED_EDGE[0] / np.array(LAYERED_EDGE[1])))))
+
 #: that warning's advice where an earlier run moved the material there
 #: (a staged run's start: a footing lifted from where a push left it)
 STAGED_EDGE = ("an earlier run moved the material there, off the grid's "
@@ -1031,7 +1047,9 @@ class ObstacleContact(GridTerm):
         above Prandtl's pressure over the first 0.03 B (the cell's
         straight field carries soil beyond the edge down with it) and
         jumped by 6-105% between steps as rows of points crossed cells;
-        with its edge on a grid line it changes by 2.9% at most.  Where
+        with its edge on a grid line it changes by 2.9% at most.  It may
+        come out below, too: on a stiff layer over clay
+        (:data:`LAYERED_EDGE`) 20-23% below the answer.  Where
         ``moved`` (corners,) says an earlier run moved the material
         there (a staged run's start: its footing stands where a push
         left it, off the grid's lines), the advice is a grid of this
@@ -1091,10 +1109,8 @@ class ObstacleContact(GridTerm):
                     logger.warning(
                         "obstacle %r: its edge at %s meets the material "
                         "inside a grid cell: the contact is resolved only "
-                        "to the cell (a footing's edge inside a cell "
-                        "pressed 3-26%% above Prandtl's pressure and "
-                        "jumped by 6-105%% between steps; docs/contact.md);"
-                        " %s", ob.name, np.round(corner, 12).tolist(),
+                        "to the cell (%s; docs/contact.md); %s", ob.name,
+                        np.round(corner, 12).tolist(), EDGE_MEASURED,
                         STAGED_EDGE if staged else "put a grid line at it, "
                         "or refine")
                     break
