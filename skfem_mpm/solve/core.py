@@ -91,7 +91,7 @@ from .body_contact import BodyContact, check_contacts
 from .contact import CellValues, contact_term, linear_gimp
 from .dynamics import Dynamics, InertiaTerm, scheme_for
 from .grid_checks import check_grid
-from .linear import support_dofs
+from .linear import support_dofs, warn_interior_supports
 from .loads import (ExternalLoads, FollowerPressure, GridLoad, Pressure,
                     Traction, check_exposed, check_load_ramp, in_full_words)
 from .newton import (CORRECTION_ROUNDOFF, FullStep, NewtonOptions,
@@ -2489,6 +2489,9 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         warn_carried_from_finite(points, case.material)
     resume = options.resume or Resume()
     held = support_dofs(supports, user_grid)
+    if case.location is not None:
+        warn_interior_supports(mesh, user_grid.nodal_dofs, held,
+                               case.location[0])
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
                         counters, fields,
                         extended=options.stabilisation.extended_splines,
