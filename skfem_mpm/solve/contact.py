@@ -161,6 +161,15 @@ RUNAWAY = (", farther than the grid spans: grid nodes that carry almost "
            "penalty holds them, {}; B-splines: {})".format(
                setting("ghost", 0.1), setting("extended_splines", True)))
 
+#: the displacement gradient (Frobenius norm) in one step beyond which
+#: material carried through an obstacle is a diverged solution, not a
+#: step too long (:meth:`StepContact.check_passing`): trial 115's
+#: passive wall (h = 0.14, 2 x 2 points a cell, anti-locking) at a load
+#: increment of 1.3e-4 (the wall moved 3e-4 cells) moved corners 21
+#: cells, its points' gradients up to 80, and was reported as material
+#: gone through the wall
+DIVERGED_GRADIENT = 1.
+
 #: what :func:`contacts_remedy` measured (a user trial's block pushed 2
 #: cells along a slab by a wall, mu = 0.3, 20 steps; the methods that
 #: scatter less, each with its range)
@@ -1909,7 +1918,11 @@ class StepContact(GridTerm):
         went deeper into it than its tolerance between ends that are not.
         A block dropped onto a floor 0.05 thick in time steps of 0.2 ended
         under it, and a blade pushed 0.6 in one load step through a plate
-        0.1 thick left it undeformed, both with no force and no error."""
+        0.1 thick left it undeformed, both with no force and no error.
+        A pass with a displacement gradient beyond
+        :data:`DIVERGED_GRADIENT` in the step is a diverged solution, not
+        a step too long (:class:`~skfem_mpm.errors.GridMotionError`: the
+        retry ladder, then cut back)."""
         term, dim = self.term, self.dim
         motion = u[:, None, :] + np.einsum("abp,bcp->acp", H, self.q)
         for i, ob in enumerate(term.obstacles):
@@ -1921,6 +1934,24 @@ class StepContact(GridTerm):
             if passed.size:
                 far = np.sqrt((d[:, passed] ** 2).sum(axis=0)).max()
                 span = np.ptp(self.problem.run.user_grid.mesh.p, axis=1)
+                owners = np.unique(passed % self.X.shape[2])
+                strain = np.sqrt((H[:, :, owners] ** 2).sum(
+                    axis=(0, 1))).max()
+                if strain > DIVERGED_GRADIENT and far <= span.max():
+                    raise GridMotionError(
+                        "step {}: the step's solution moved material "
+                        "through obstacle {!r} ({} domain corners, the "
+                        "first of point {}, up to {:.3g} cells relative to "
+                        "it, while the obstacle moved {:.2g} cells), with "
+                        "a displacement gradient up to {:.3g} in the step: "
+                        "a diverged solution, not a motion of the "
+                        "material (grid nodes that carry almost no "
+                        "material running away: the ghost penalty holds "
+                        "them, {}); retried, then cut back".format(
+                            self.problem.step, ob.name, passed.size,
+                            passed[0] % self.X.shape[2], far / term.h,
+                            np.linalg.norm(self.moved[i]) / term.h, strain,
+                            setting("ghost", 0.1)))
                 raise StepTooLongError(
                     "step {}: material went through obstacle {!r} within "
                     "the step ({} domain corners, the first of point {}, "
