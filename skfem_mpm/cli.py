@@ -56,7 +56,7 @@ from .scenes.scene import (build_points, load_scale, obstacle_list,
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
 from .spelling import did_you_mean
 from .scenes.units import unit
-from .solve.body_contact import body_contact_state_names
+from .solve.body_contact import body_contact_state_names, interface_count
 from .solve.contact import contact_state_names
 from .solve.rotation import rotation_state_names, start_missing_rotation
 from .solve.core import grid_parts
@@ -1136,7 +1136,9 @@ def load_run(args):
             + contact_state_names(len(scene.obstacles), mesh.dim(),
                                   scene.kinematics == "finite")
             + body_contact_state_names(
-                len(scene.contacts), mesh.dim(),
+                interface_count(scene.contacts, len(scene.bodies),
+                                [body.name for body in scene.bodies]),
+                mesh.dim(),
                 scene.kinematics == "finite",
                 scene.method.startswith("bspline"))
             + rotation_state_names(mesh.dim(),
