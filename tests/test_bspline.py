@@ -976,3 +976,21 @@ def test_stacked_blocks_with_splines_at_the_points_get_the_ghost():
     assert res.counters["ghost_from_step"] == 1
     exact = -g * (1 - res.points.x[1])
     assert np.abs(res.points.stress[1, 1] - exact).max() / g < .2
+
+
+@pytest.mark.parametrize("method,words", [
+    ("bspline", "a point's quadratic B-splines reaches"),
+    ("bspline-gimp", "a point's quadratic B-splines, averaged over its "
+     "domain, reaches")])
+def test_rigid_bodies_refused_in_the_method_s_words(method, words):
+    """A rigid body with B-splines is refused naming the splines, not "a
+    GIMP point's domain" (a user trial's ``"bspline"`` run was told so)."""
+    from skfem_mpm import RigidBody
+    mesh = MeshQuad.init_tensor(*AXES[:2])
+    points = seed_points(mesh, 2)
+    points.body[points.x[1] > 1.5] = 1
+    with pytest.raises(InvalidInputError) as refusal:
+        simulate(mesh, ElementQuad1(), points, [LinearElastic(1e3, .3)] * 2,
+                 lambda b: b.get_dofs(lambda x: x[1] == -1.),
+                 rigid_bodies=[RigidBody(1, [0., -.1])], method=method)
+    assert words in str(refusal.value) and "GIMP" not in str(refusal.value)
