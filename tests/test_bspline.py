@@ -1033,9 +1033,9 @@ def test_one_point_per_cell_has_zero_energy_modes_warned(caplog, method,
 
 
 @pytest.mark.parametrize("method,words", [
-    ("bspline", "a point's quadratic B-splines reaches"),
+    ("bspline", "a point's quadratic B-splines reach nodes"),
     ("bspline-gimp", "a point's quadratic B-splines, averaged over its "
-     "domain, reaches")])
+     "domain, reach nodes")])
 def test_rigid_bodies_refused_in_the_method_s_words(method, words):
     """A rigid body with B-splines is refused naming the splines, not "a
     GIMP point's domain" (a user trial's ``"bspline"`` run was told so)."""

@@ -447,7 +447,7 @@ class Scene:
         if rigid and self.method not in ("mpm", "fem"):
             raise InvalidInputError(
                 "rigid bodies ({}) need method 'mpm' or 'fem', not {!r}: {} "
-                "reaches nodes of the cells beside its own, which the rigid "
+                "nodes of the cells beside its own, which the rigid "
                 "body does not drive".format(
                     ", ".join(rigid), self.method,
                     beyond_cell_words(self.method)))

@@ -189,13 +189,13 @@ def beyond_cell_words(method: str) -> str:
     was told of "a GIMP point's domain").
 
     >>> beyond_cell_words("cpgimp"), beyond_cell_words("bspline3")
-    ("a GIMP point's domain", "a point's cubic B-splines")
+    ("a GIMP point's domain reaches", "a point's cubic B-splines reach")
     >>> beyond_cell_words("bspline-gimp")
-    "a point's quadratic B-splines, averaged over its domain,"
+    "a point's quadratic B-splines, averaged over its domain, reach"
     """
     if not method.startswith("bspline"):
-        return "a GIMP point's domain"
-    return "a point's {} B-splines{}".format(
+        return "a GIMP point's domain reaches"
+    return "a point's {} B-splines{} reach".format(
         "cubic" if method.startswith("bspline3") else "quadratic",
         ", averaged over its domain," if method.endswith("-gimp") else "")
 
@@ -211,7 +211,7 @@ def check_rigid_bodies(rigid_bodies, points, dim: int, method: str) -> tuple:
         else tuple(rigid_bodies or ())
     if bodies and method not in ("mpm", "fem"):
         raise InvalidInputError(
-            "rigid_bodies need method 'mpm' or 'fem', not {!r}: {} reaches "
+            "rigid_bodies need method 'mpm' or 'fem', not {!r}: {} "
             "nodes of the cells beside its own, which the rigid body does "
             "not drive, so it would not move rigidly".format(
                 method, beyond_cell_words(method)))
