@@ -1397,7 +1397,7 @@ def run(args) -> int:
         # converged (the curves up to the failure)
         partial, failed = unfinished(
             "failed", state, error="{}: {}".format(type(err).__name__, err),
-            checkpoint=state is not None)
+            checkpoint=kept[0] is not None, checkpoint_step=kept[0])
         write_summary(outdir / "summary.json", failed)
         factor = getattr(err, "load_factor", failed["load_factor"])
         plot_outputs(scene, partial, outdir, loaded, failed, initial,
