@@ -56,7 +56,7 @@ from .scenes.scene import (build_points, load_scale, obstacle_list,
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
 from .spelling import did_you_mean
 from .scenes.units import unit
-from .solve.body_contact import body_contact_state_names
+from .solve.body_contact import body_contact_state_names, interface_count
 from .solve.contact import contact_state_names
 from .solve.rotation import rotation_state_names, start_missing_rotation
 from .solve.core import grid_parts
@@ -1187,7 +1187,9 @@ def load_run(args):
             + contact_state_names(len(scene.obstacles), mesh.dim(),
                                   scene.kinematics == "finite")
             + body_contact_state_names(
-                len(scene.contacts), mesh.dim(),
+                interface_count(scene.contacts, len(scene.bodies),
+                                [body.name for body in scene.bodies]),
+                mesh.dim(),
                 scene.kinematics == "finite",
                 scene.method.startswith("bspline"))
             + rotation_state_names(mesh.dim(),
@@ -1446,7 +1448,7 @@ def run(args) -> int:
         # converged (the curves up to the failure)
         partial, failed = unfinished(
             "failed", state, error="{}: {}".format(type(err).__name__, err),
-            checkpoint=state is not None)
+            checkpoint=kept[0] is not None, checkpoint_step=kept[0])
         write_summary(outdir / "summary.json", failed)
         factor = getattr(err, "load_factor", failed["load_factor"])
         plot_outputs(scene, partial, outdir, loaded, failed, initial,
