@@ -340,3 +340,56 @@ def test_the_package_own_is_decided_once():
                 ) is not own
         assert bool(own_terms_hint(SimpleNamespace(user_terms=(Term(),)),
                                    err)) is not own
+
+
+class Raises(HardeningVonMises):
+    def principal_update(self, eps, state):
+        return np.linalg.solve(np.zeros((3, 3)), eps)
+
+
+def test_an_arithmetic_error_of_ones_model_is_named_and_not_retried(
+        caplog):
+    """Trial 116: a model raising LinAlgError ended as "NumericalError:
+    step 1: LinAlgError: Singular matrix" after the ghost penalty and 8
+    cut-backs, its class never named; raised where the step starts (no
+    increment), every shorter step calls it alike."""
+    from skfem_mpm.errors import MaterialRaisedError, NumericalError
+    with pytest.raises(MaterialRaisedError) as caught:
+        shear_run(2, "finite", material=Raises(1e4, .3, yield_stress=10.,
+                                               H=2e3))
+    text = str(caught.value)
+    assert text.startswith("step 1: Raises.principal_update raised "
+                           "LinAlgError: Singular matrix where the step "
+                           "starts"), text
+    assert "not cut back" in text
+    assert isinstance(caught.value, NumericalError)      # (ladder's kind)
+    assert caught.value.load_factor == 0.
+    assert not [r for r in caplog.records if "cutting" in r.getMessage()
+                or "ghost" in r.getMessage()]
+
+
+def test_a_stalled_newton_names_ones_own_extensions():
+    """Trial 116: a model's D halved, a spring bed's matrix 0.3 of its
+    derivative: "Newton made no progress (... the body collapsing?)",
+    neither named; the words name them, names only."""
+    from types import SimpleNamespace
+    from skfem_mpm import GridTerm
+    from skfem_mpm.solve.newton import stall_words
+
+    class Bed(GridTerm):
+        pass
+    Bed.__module__ = "user"
+    model = variant(lambda eps, state, out: tuple(out))
+    model.__class__.__name__ = "Halved"
+    type(model).__module__ = "user"
+    problem = SimpleNamespace(run=SimpleNamespace(material=model),
+                              terms=[Bed()])
+    words = stall_words(("flat", 1.), problem)
+    assert "Newton made no progress" in words
+    assert "the tangent D of Halved's principal_update may not be the " \
+        "derivative of its stress" in words
+    assert "the matrix of Bed may not be the derivative of its force" \
+        in words
+    type(model).__module__ = "skfem_mpm.x"
+    Bed.__module__ = "skfem_mpm.y"
+    assert "may not be" not in stall_words(("flat", 1.), problem)

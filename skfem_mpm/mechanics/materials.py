@@ -54,7 +54,8 @@ from skfem.assembly import BilinearForm
 from skfem.models.elasticity import linear_elasticity
 
 from ..errors import (InvalidMaterialError, MaterialProtocolError,
-                      NonFiniteMaterialError, check_real)
+                      MaterialRaisedError, NonFiniteMaterialError,
+                      check_real)
 from ..protocols import of_package, state_variables
 
 logger = logging.getLogger(__name__)
@@ -582,6 +583,11 @@ def update(material, eps: ndarray, state, where=0):
         given[name].flags.writeable = False
     try:
         out = material.principal_update(eps, given)
+    except (ArithmeticError, np.linalg.LinAlgError) as err:
+        # named (it had been "NumericalError: step 1: LinAlgError:
+        # Singular matrix" after 8 cut-backs, trial 116)
+        raise _fault(material, method, None, "raised {}: {}".format(
+            type(err).__name__, err), error=MaterialRaisedError) from err
     except ValueError as err:
         if "read-only" not in str(err):
             raise
