@@ -251,12 +251,18 @@ class StatelessBed(SpringBed):
     stateless = True
 
 
-@pytest.mark.parametrize("term", [SpringBed, StatelessBed])
+class RestoringBed(SpringBed):
+    """(Said to restore what it keeps: trial 116's term, whose resume
+    was warned "stateless", the only silence.)"""
+    restores_state = True
+
+
+@pytest.mark.parametrize("term", [SpringBed, StatelessBed, RestoringBed])
 def test_a_resume_with_a_term_of_ones_own_warns(caplog, term):
     """Trial 97: a spring bed resumed with a fresh term after 2 of 4 steps
     settled -2.16e-3 against -1.44e-3 uninterrupted (+50%), silently: its
     total displacement is not in the checkpoint.  The resume now warns,
-    naming the term, unless it says it keeps nothing."""
+    naming the term, unless it says it keeps nothing or restores it."""
     from skfem_mpm import Options, Resume
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
     points = seed_points(mesh, 2, region=lambda x: x[1] < 1.5)
@@ -277,7 +283,7 @@ def test_a_resume_with_a_term_of_ones_own_warns(caplog, term):
         run(Options(resume=Resume.after(kept[2])))
     said = [r.getMessage() for r in caplog.records
             if "grid terms of your own" in r.getMessage()]
-    if term is StatelessBed:
+    if term is not SpringBed:
         assert not said
     else:
         assert len(said) == 1 and "(SpringBed)" in said[0] \
@@ -397,3 +403,41 @@ def test_a_wrong_matrix_of_a_term_is_named_in_newton_s_warning(caplog):
             if "did not converge" in r.getMessage()]
     assert said and all("the matrix of Weak may not be the derivative "
                         "of its force" in s for s in said), said
+
+
+class OneBodyBed(SpringBed):
+    """A spring bed under body 0 alone, its DOFs picked as the GridTerm
+    docstring says: one copy's by location, moved to the body's field."""
+
+    def begin_step(self, problem):
+        run = problem.run
+        base = run.user_grid.get_dofs(lambda x: np.isclose(x[1], 0.))
+        self.dofs = base.all("u^2")
+        if run.body_field is not None:
+            self.dofs = self.dofs + run.body_field[0] * run.user_grid.N
+        return SpringBed.begin_step(self, problem)
+
+
+def test_a_term_picks_one_body_s_copy_of_the_grid_with_contact():
+    """Trial 116: with Contact the grid is the extended mesh of 2 copies
+    (op.N twice the nodes' DOFs): a term picking DOFs by location got
+    both copies.  The documented recipe picks body 0's, and the column
+    of two bodies in contact sinks by its whole weight over the bed's
+    stiffness."""
+    from skfem_mpm import Contact
+    h, kappa, height, weight_density = .25, 1e5, 1.5, 2e3
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < height)
+    points.body = (points.x[1] > .75).astype(int)
+    base = np.flatnonzero(mesh.p[1] == 0)
+    k = kappa * np.where(np.isin(mesh.p[0, base], (0., 1.)), h / 2, h)
+    bed = OneBodyBed(np.zeros(base.size, dtype=int), k)
+    simulate(mesh, ElementQuad1(), points, [LinearElastic(1e6, 0.)] * 2,
+             lambda b: b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                                  | np.isclose(x[0], 1.)).all("u^1"),
+             body_force=[0., -weight_density], loads=[bed], nsteps=1,
+             kinematics="small", contacts=[Contact(0, 1)])
+    assert bed.N == 2 * 2 * mesh.nvertices             # two copies
+    assert bed.dofs.size == base.size
+    W = weight_density * height
+    assert np.abs(bed.u / (-W / kappa) - 1).max() < 1e-6

@@ -349,7 +349,14 @@ def at_points(material, points) -> object:
                 "skfem_mpm.mechanics.materials): it lacks {}".format(
                     "{} ".format(k) if len(materials) > 1 else "",
                     type(m).__name__,
-                    ", ".join(missing or ["stress (elastic materials)"])))
+                    ", ".join(missing or [
+                        "stress (a material with plastic = False is "
+                        "linear elastic and needs stress(strain), its "
+                        "linear law; a nonlinear elastic model, e.g. a "
+                        "hyperelastic one of its own, sets plastic = "
+                        "True: its principal_update is then called in "
+                        "small strain and finite deformation alike; "
+                        "docs/materials.md)"])))
         if not trusted(m):
             check_lame(m, "material {}{}".format(
                 "{} ".format(k) if len(materials) > 1 else "",

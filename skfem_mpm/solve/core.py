@@ -1335,15 +1335,17 @@ def warn_resumed_terms(run: Run, resume: Resume) -> None:
     if not run.resumed:
         return
     own = sorted({type(term).__name__ for term in run.user_terms
-                  if not of_package(term) and not term.stateless})
+                  if not of_package(term) and not term.stateless
+                  and not getattr(term, "restores_state", False)})
     if own:
         logger.warning(
             "resumed at step %d with grid terms of your own (%s): what "
             "they keep over the steps (a total displacement, a history) "
             "is in neither the points nor the checkpoints, and begin_run "
             "started it afresh; restore it in the term (a spring bed "
-            "resumed fresh settled 50%% more), or set stateless = True "
-            "on a term that keeps nothing", resume.first_step,
+            "resumed fresh settled 50%% more) and set restores_state = "
+            "True on it, or set stateless = True on a term that keeps "
+            "nothing", resume.first_step,
             ", ".join(own))
 
 

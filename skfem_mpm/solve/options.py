@@ -50,8 +50,9 @@ class Resume:
     above).  What grid terms of one's own keep over the steps (a spring
     bed's total displacement) is theirs to keep: it is not in the points
     or the checkpoints, ``begin_run`` starts it again, and a resumed run
-    warns, naming them, unless a term sets ``stateless = True``
-    (:class:`~skfem_mpm.GridTerm`).
+    warns, naming them, unless a term sets ``stateless = True`` (it keeps
+    nothing) or ``restores_state = True`` (it restores what it keeps in
+    ``begin_run``; :class:`~skfem_mpm.GridTerm`).
 
     >>> from skfem_mpm import Resume
     >>> Resume(first_step=0)
