@@ -84,6 +84,38 @@ def test_a_frictionless_interface_carries_a_uniform_stress(method, interface,
     assert np.isclose(res.history[-1].reactions[1::2].sum(), p, rtol=1e-9)
 
 
+@pytest.mark.parametrize("method, n", [("bspline", 4),
+                                       ("bspline-gimp", 4),
+                                       ("bspline-gimp", 3)])
+def test_blocks_ending_inside_a_cell_carry_a_uniform_stress(method, n):
+    """The pressed stack on a grid wider than the blocks, their right
+    sides a quarter (a third) of a cell past a grid line: the spline of
+    the node beyond reaches the blocks there, and its node took no pair
+    (its share of the interface's force had nowhere to go) or the end
+    corner's alone, which balances a uniform stress only pulling (a user
+    trial: sigma_yy 0.97-1.01 of the load, bspline-gimp 0.72-1.28, at
+    the blocks' edge).  The node before it pairs every corner within
+    half a cell: uniform to 1e-6 of p."""
+    h, p = .25, 10.
+    right, interface = 1. + h / n, 1. + h * (n // 2) / n
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.5, 7),
+                                np.linspace(0, 2.5, 11))
+    pts = bodies(mesh, n, [[(0, right), (0, interface)],
+                           [(0, right), (interface, 2.)]])
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [LinearElastic(1e4, .3), LinearElastic(1e5, .2)],
+                   roller_base_and_left_wall, method=method,
+                   loads=[Traction(side_points(pts, "top"), "top",
+                                   [0., -p])],
+                   contacts=[Contact(0, 1, tolerance=1e-9)],
+                   options=Options(NewtonOptions(tol=1e-10)))
+    s = res.points.stress
+    assert np.abs(s[1, 1] + p).max() < 1e-6 * p
+    assert np.abs(s[0, 0]).max() < 1e-6 * p
+    assert np.allclose(res.history[-1].contact_forces[0], [0., p * right],
+                       rtol=1e-9, atol=1e-6 * p)
+
+
 @pytest.mark.parametrize("method", ("ugimp", "cpgimp"))
 def test_a_tight_tolerance_holds_over_steps(method):
     """The pressed stack (stiffness contrast 100) in three steps with the

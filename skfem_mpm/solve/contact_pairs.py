@@ -16,8 +16,8 @@ body's surface corner nearest the node and the first body's corner
 nearest that one, facing it or under it where the first body reaches on
 beyond the second as a surface, make the node's pair
 (:meth:`PairFinder.extreme`, :meth:`PairFinder.facing`; with B-splines,
-where a body ends within a cell of the node, every surface corner within
-half a cell: :meth:`PairFinder.surface`), one per place of the second
+where a body ends within a cell of the node, or within half a cell past
+it, every surface corner within half a cell: :meth:`PairFinder.surface`), one per place of the second
 body's corner and normal, and at a place of the first body's those
 nearest each other (two tip corners facing one corner are both kept);
 after the run's start a pair deeper than :data:`DEEPEST` cells is none
@@ -679,10 +679,17 @@ class PairFinder:
     def surface(self, entries, normal, node_x):
         """The second body's corners of the nodes' pairs: per node its
         surface corner nearest (:meth:`extreme`), and at a node where
-        either body ends within a cell across the normal (no corners of
-        it between half a hundredth and one cell to one side), every
-        surface corner within half a cell across (per column of corners,
-        their places across the normal, the lowest along it).  With
+        either body ends within a cell across the normal, or within half
+        a cell past it (no corners of it between half a cell and one
+        cell to one side), every surface corner within half a cell
+        across (per column of corners, their places across the normal,
+        the lowest along it); such a node with none within half a cell
+        keeps its nearest.  A body ending a quarter of a cell past a
+        node: the spline of the node beyond reaches its last sliver, and
+        that node took no pair (two blocks pressed together carried
+        0.97-1.01 of the load at their edge, ``"bspline-gimp"``
+        0.72-1.28), or, given the end corner, one that balances a
+        uniform stress only pulling; the node before pairs all four.  With
         B-splines a surface ending on a grid line is made of the splines
         of one more node beyond each end than its nodes' pairs hold (a
         pile's tip, two cells wide on grid lines: five control values,
@@ -706,7 +713,8 @@ class PairFinder:
                 for n_k, _, X_k in entries:
                     across = side * (t[:, n_k] * (X_k - node_x[:, n_k])
                                      ).sum(axis=0)
-                    near = (across > eps) & (across <= self.h + eps)
+                    near = (across > .5 * self.h + eps) \
+                        & (across <= self.h + eps)
                     end |= inside & (np.bincount(n_k[near], minlength=m)
                                      == 0)
         nearest = self.extreme(entries[1], normal, node_x, True)
@@ -715,8 +723,9 @@ class PairFinder:
         along = (normal[:, node] * Xc).sum(axis=0)
         key = [node]
         for t in tangents(normal):
-            across = (t[:, node] * (Xc - node_x[:, node])).sum(axis=0)
-            at = np.abs(across) <= .5 * self.h + eps
+            across = np.abs((t[:, node] * (Xc - node_x[:, node])).sum(
+                axis=0))
+            at = across <= .5 * self.h + eps
             key = [k[at] for k in key]
             node, corner, along, Xc = node[at], corner[at], along[at], \
                 Xc[:, at]
@@ -726,9 +735,9 @@ class PairFinder:
         key = key[:, order]
         head = np.ones(order.size, dtype=bool)   # a column's lowest
         head[1:] = (key[:, 1:] != key[:, :-1]).any(axis=0)
-        inner = np.flatnonzero(~end)
-        return (np.r_[inner, node[order][head]],
-                np.r_[nearest[inner], corner[order][head]])
+        node, corner = node[order][head], corner[order][head]
+        inner = np.flatnonzero(~end | ~np.isin(np.arange(m), node))
+        return np.r_[inner, node], np.r_[nearest[inner], corner]
 
     @staticmethod
     def extreme(entries, normal, near, lowest: bool,
