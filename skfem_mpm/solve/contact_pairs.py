@@ -679,9 +679,10 @@ class PairFinder:
     def surface(self, entries, normal, node_x):
         """The second body's corners of the nodes' pairs: per node its
         surface corner nearest (:meth:`extreme`), and at a node where
-        either body ends within a cell across the normal, or within half
-        a cell past it (no corners of it between half a cell and one
-        cell to one side), every surface corner within half a cell
+        either body ends within a cell across the normal (no corners of
+        it between half a hundredth and one cell to one side), or the
+        second body within half a cell past it (none between half a cell
+        and one cell), every surface corner within half a cell
         across (per column of corners, their places across the normal,
         the lowest along it); such a node with none within half a cell
         keeps its nearest.  A body ending a quarter of a cell past a
@@ -710,11 +711,16 @@ class PairFinder:
                 probe = node_x + side * self.h * t
                 inside = ((probe >= low[:, None] - eps)
                           & (probe <= high[:, None] + eps)).all(axis=0)
+                # the second body's surface ending within half a cell
+                # past the node too (not the first's facing corners,
+                # which end where the second's do: a block four cells
+                # long gliding on a slab made every corner a pair, nine
+                # for seven splines, and its contact did not settle)
                 for n_k, _, X_k in entries:
                     across = side * (t[:, n_k] * (X_k - node_x[:, n_k])
                                      ).sum(axis=0)
-                    near = (across > .5 * self.h + eps) \
-                        & (across <= self.h + eps)
+                    near = (across > (.5 * self.h if n_k is node else 0.)
+                            + eps) & (across <= self.h + eps)
                     end |= inside & (np.bincount(n_k[near], minlength=m)
                                      == 0)
         nearest = self.extreme(entries[1], normal, node_x, True)
