@@ -136,10 +136,11 @@ def build_parser() -> argparse.ArgumentParser:
                      "count, completed or not)")
     run.add_argument("--no-series", action="store_true",
                      help="write plots and summary only, no VTU series")
-    run.add_argument("--series-every", type=int, default=1, metavar="N",
+    run.add_argument("--series-every", type=int, metavar="N",
                      help="write the VTU series at the start, every N-th "
-                     "step and the last (default 1: every step; a large "
-                     "3D run writes about 250 bytes a point a step)")
+                     "step and the last (default 1: every step; with "
+                     "--resume the run's own; a large 3D run writes about "
+                     "250 bytes a point a step)")
     compare = sub.add_parser("compare",
                              help="run FE and MPM on one scene and plot both")
     compare.add_argument("scene", type=Path, help="scene file")
@@ -1152,7 +1153,7 @@ def run(args) -> int:
                 name.replace("_", "-"), least, getattr(args, name)),
                 file=sys.stderr)
             return 2
-    if args.no_series and args.series_every != 1:
+    if args.no_series and args.series_every not in (None, 1):
         print("skfem-mpm: --series-every {} with --no-series: there is no "
               "series to thin; leave one out".format(args.series_every),
               file=sys.stderr)
@@ -1199,22 +1200,31 @@ def run(args) -> int:
         prepared.append(outdir)
 
     series = None if args.no_series else SeriesWriter(outdir, mesh, points)
-    # what a resume's series lacks, said in the log and summary.json (a
-    # trial's resume after --no-series began its series at step 8 without
-    # a word)
+    # a resume keeps the run's --series-every unless told another (trial
+    # 111: started with 2, the resume wrote every step); the steps the
+    # series was to hold, by each invocation's N, written or not
+    every = args.series_every or (1 if earlier is None
+                                  else earlier.series_every)
+    wanted = [0] if earlier is None else [0] + [
+        int(r[0]) for r in earlier.history] \
+        if earlier.series_steps is None else list(earlier.series_steps)
+    # what a resume's series lacks of those, said in the log and
+    # summary.json (a trial's resume after --no-series began its series at
+    # step 8 without a word; the steps --series-every left out are not
+    # lacking)
     notes = {}
     if series is not None and earlier is not None:
         series.restore([(int(r[0]), float(r[6] if scene.dynamics else r[1]))
                         for r in earlier.history])
-        missing = len(earlier.history) + 1 - len(series.entries)
+        missing = len(set(wanted) - {int(names[0][7:-4]) for _, names
+                                     in series.entries})
         if missing:
             notes["series_note"] = (
                 "the VTU series lacks {} of the {} states before step {} "
-                "(the start, step 0, counted; an invocation with "
-                "--no-series writes none, one with --series-every N every "
-                "N-th): points.pvd and grid.pvd list "
-                "the steps written".format(missing, len(earlier.history)
-                                           + 1, earlier.step + 1))
+                "it was to hold (the start, step 0, counted; an "
+                "invocation with --no-series writes none): points.pvd and "
+                "grid.pvd list the steps written".format(
+                    missing, len(wanted), earlier.step + 1))
     elif earlier is not None and (outdir / "points.pvd").is_file():
         notes["series_note"] = (
             "the VTU series stops at step {}: the resume from there ran "
@@ -1260,7 +1270,8 @@ def run(args) -> int:
                 domain0=domain0, wall_seconds=run_clock() - tic + (
                     0. if earlier is None else earlier.wall_seconds),
                 timings=run_timings(history, earlier),
-                end_force=end_force))
+                end_force=end_force, series_every=every,
+                series_steps=np.array(wanted, dtype=np.int64)))
             kept[0] = len(rows)
 
     def unfinished(status, state, **keys):
@@ -1291,10 +1302,10 @@ def run(args) -> int:
                 mesh, start.x)[0]), None, None, {
                     name: np.zeros_like(values) for name, values in
                     contact_pressure_fields(record).items()})
-        if series is not None and (
-                record.step % args.series_every == 0
-                or record.load_factor >= 1. or (
-                    args.max_steps and len(history) + 1 >= args.max_steps)):
+        if record.step % every == 0 or record.load_factor >= 1. or (
+                args.max_steps and len(history) + 1 >= args.max_steps):
+            wanted.append(record.step)
+        if series is not None and wanted[-1] == record.step:
             series.write(record.step, float(
                 record.load_factor if record.time is None else record.time),
                 pts, record.elements, record.u, record.reactions,
