@@ -290,7 +290,7 @@ class Progress:
     drawn_bar = None
 
     def __init__(self, total: int, enabled, start_factor: float = 0.,
-                 stream=None, timer=time.monotonic):
+                 stream=None, timer=time.monotonic, started=None):
         self.total = total
         self.stream = sys.stderr if stream is None else stream
         self.enabled = bool(enabled)
@@ -298,7 +298,11 @@ class Progress:
             self.enabled and self.stream.isatty())
         self.start_factor = start_factor
         self.timer = timer
-        self.started = self.written = timer()
+        # elapsed from ``started`` (the set-up's start: a trial's 1e6
+        # points said 0:36 at step 1, 60 s after its launch), the pace
+        # from the steps' start
+        self.paced = self.written = timer()
+        self.started = self.paced if started is None else started
         self.drawn = False      # a bar is on its line, not ended
         self.pending = None     # the last line, not written (no terminal)
 
@@ -312,7 +316,7 @@ class Progress:
         elapsed = now - self.started
         progressed = record.load_factor - self.start_factor
         left = "" if progressed <= 0 else " left {}".format(clock(
-            elapsed * (1. - record.load_factor) / progressed))
+            (now - self.paced) * (1. - record.load_factor) / progressed))
         # past the steps planned (cut-backs), the count is not a share:
         # a trial read "step   43/40"; the bar is the load factor's
         count = "{:4d}/{}".format(record.step, self.total) \
@@ -350,6 +354,34 @@ class Progress:
         if Progress.drawn_bar is self:
             Progress.drawn_bar = None
         self.stream.flush()
+
+
+#: a run's set-up says its stages on stderr once it has lasted this long
+#: (s), or from the start where the grid holds this many sub-cells
+#: (:class:`SetUp`)
+LONG_SETUP, LARGE_SETUP = 2., 100_000
+
+
+class SetUp:
+    """The stages of a run's set-up on ``stream`` (stderr) where
+    ``enabled`` (the progress is): each as it begins, with the time
+    elapsed since the set-up began (``started``), once that is
+    :data:`LONG_SETUP` or the run is ``large`` (a trial's 1e6-point run
+    wrote its first line 28 s after its launch, its first step 60 s)."""
+
+    def __init__(self, enabled, stream=None, timer=time.monotonic):
+        self.enabled = bool(enabled)
+        self.stream = sys.stderr if stream is None else stream
+        self.timer = timer
+        self.started = timer()
+        self.large = False
+
+    def __call__(self, stage: str):
+        elapsed = self.timer() - self.started
+        if self.enabled and (self.large or elapsed >= LONG_SETUP):
+            self.stream.write("set-up: {}, elapsed {}\n".format(
+                stage, clock(elapsed)))
+            self.stream.flush()
 
 
 class BarBreak(logging.Filter):
@@ -1052,11 +1084,13 @@ def refuse_other_steps(args, outdir: Path, planned):
                 args.steps, outdir, planned))
 
 
-def load_run(args):
+def load_run(args, setup=None):
     """The scene of a run (``--resume``: the checkpoint's), its output
     folder, the checkpoint resumed from (or ``None``), the points to start
     from, the :class:`~skfem_mpm.Resume`, the grid and the points the
-    scene seeds.  Writes nothing."""
+    scene seeds.  Writes nothing; ``setup`` (:class:`SetUp`) is told
+    its stages."""
+    setup = SetUp(False) if setup is None else setup
     earlier, points, resume = None, None, Resume()
     if args.resume is not None:
         outdir = args.resume
@@ -1121,7 +1155,14 @@ def load_run(args):
     check_folder(outdir, "--out" if args.resume is None else "--resume")
     check_reference(scene)
     mesh, _ = scene.grid.build()
+    cells = mesh.nelements * sum(b.points_per_cell ** mesh.dim()
+                                 for b in scene.bodies)
+    setup.large = cells >= LARGE_SETUP
+    setup("seeding {} {} on {} cells ({} sub-cells)".format(
+        len(scene.bodies), "body" if len(scene.bodies) == 1 else "bodies",
+        mesh.nelements, cells))
     initial = build_points(scene, mesh)
+    setup("checking the {} points".format(initial.n))
     check_quantities(scene, scene.outputs, initial)
     if points is None:
         points = initial
@@ -1158,9 +1199,10 @@ def run(args) -> int:
               "series to thin; leave one out".format(args.series_every),
               file=sys.stderr)
         return 2
+    setup = SetUp(not args.no_progress)
     try:
         scene, source, outdir, earlier, points, resume, mesh, initial = \
-            load_run(args)
+            load_run(args, setup)
     except KeyboardInterrupt:
         print("skfem-mpm: interrupted while setting up the run (reading the "
               "scene, seeding the points): nothing written", file=sys.stderr)
@@ -1236,7 +1278,8 @@ def run(args) -> int:
     start = points.copy() if series is not None and earlier is None \
         else None
     progress = Progress(scene.step_count, not args.no_progress,
-                        0. if earlier is None else float(earlier.load_factor))
+                        0. if earlier is None else float(earlier.load_factor),
+                        started=setup.started)
     # the records and the last state of the steps written (output and
     # all), and the step the checkpoint on disk holds
     history, latest = [], []
@@ -1324,6 +1367,8 @@ def run(args) -> int:
                 and record.load_factor < 1.:
             raise StopRun(record.step)
 
+    setup("setting up the solver (the grid's operators, supports, "
+          "contact) and step {}".format(resume.first_step))
     tic, compiled = run_clock(), compile_seconds()
     try:
         result = run_scene(scene, points, resume=resume, callback=callback,
