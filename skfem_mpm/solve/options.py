@@ -238,7 +238,9 @@ class Options:
         penalty and mean dilatation.
     solver
         Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name
-        (``"scipy"``, ``"pypardiso"``, ``"pyamg"``, ``"auto"``); default
+        (``"scipy"``: SciPy's SuperLU, ``"pypardiso"``: MKL's Pardiso,
+        ``"pyamg"``: AMG-CG, ``"auto"``; a back end's name, "superlu",
+        is refused naming the one meant); default
         ``"auto"``, the back end measured fastest for each system's size
         among those installed, logged; checked when the run starts
         (:func:`~skfem_mpm.solve.backends.solver_auto`).
