@@ -265,8 +265,8 @@ class Options:
         and B-splines in 2D and 3D, small and finite deformation,
         ``LinearElastic``, ``VonMises``, ``DruckerPrager``,
         ``MohrCoulomb`` and ``ModifiedCamClay``, with or without mean
-        dilatation) and numba imports, the numpy path otherwise (logged
-        once; and under ``SKFEM_MPM_KERNELS=numpy``);
+        dilatation) and numba imports, the numpy path otherwise and
+        under ``SKFEM_MPM_KERNELS=numpy`` (each logged once at INFO);
         ``"numpy"``: the numpy path, the tested reference;
         ``"compiled"``: the compiled passes, a run they cannot serve
         refused before any work (:mod:`skfem_mpm.kernels`).  The
