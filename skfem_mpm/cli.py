@@ -56,7 +56,7 @@ from .scenes.scene import (build_points, load_scale, obstacle_list,
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
 from .spelling import did_you_mean
 from .scenes.units import unit
-from .solve.body_contact import body_contact_state_names
+from .solve.body_contact import body_contact_state_names, interface_count
 from .solve.contact import contact_state_names
 from .solve.rotation import rotation_state_names, start_missing_rotation
 from .solve.core import grid_parts
@@ -548,7 +548,10 @@ def summary_units(dim: int, dynamics: bool = False,
     units = {"system": system, "max_displacement": length,
              "max_residual": "-", "wall_seconds": "s", "timings": "s",
              "compile_seconds": "s", "load_factor": "-",
-             "reactions": force, "force": force, "displacement": length}
+             "reactions": force, "force": force, "displacement": length,
+             # a count and dimensionless errors (a lecturer's trial
+             # found them without a unit)
+             "points": "-", "steps": "-", "steps_run": "-", "error": "-"}
     if dynamics:      # a static run has no energies (a trial read its
         units["time"] = time        # unit as though it had)
         units["energies"] = "{} (time: {})".format(
@@ -586,9 +589,10 @@ def rigid_body_curves(scene, rows, reactions) -> dict:
     the scene has such bodies.  A rigid body's force is the one that
     holds its motion, an obstacle's the one the material exerts on it, a
     contact's the one its first body exerts on its second;
-    the peak is where the force along the motion is largest (an obstacle
-    that does not move: the largest force); in dynamics each step's
-    ``time`` (s) beside its ``load_factor`` (there t / duration)."""
+    the peak (:func:`peak_step`) is where the force along the motion that
+    resists it is largest, signed (an obstacle that does not move: the
+    largest force), ``first_force`` the first step's; in dynamics each
+    step's ``time`` (s) beside its ``load_factor`` (there t / duration)."""
     rigid = [(b.name, b.rigid, 1.) for b in scene.bodies
              if b.rigid is not None]
     obstacles = [(o.name, o.displacement, -1.)
@@ -621,20 +625,14 @@ def motion_curves(items, factors, scale, forces, times=None) -> dict:
         force = forces[:, k]
         displacement = scale[:, None] * np.asarray(
             np.zeros(force.shape[1]) if motion is None else motion)
-        size = 0. if motion is None else np.linalg.norm(motion)
-        # the force that holds the motion points along it (a footing
-        # pushed down: downward): its largest component along the motion
-        if size > 0:
-            resistance = sign * force @ (np.asarray(motion) / size)
-        else:                              # a fixed obstacle: the largest
-            resistance = np.linalg.norm(force, axis=1)
-        peak = int(np.argmax(resistance)) if len(force) else None
+        peak = peak_step(force, motion, sign)
         curves[name] = {
             "load_factor": np.asarray(factors).tolist(),
             "displacement": displacement.tolist(), "force": force.tolist(),
             "peak_force": None if peak is None else force[peak].tolist(),
             "peak_displacement": None if peak is None
             else displacement[peak].tolist(),
+            "first_force": force[0].tolist() if len(force) else None,
             "final_force": force[-1].tolist() if len(force) else None}
         if times is not None:
             curves[name]["time"] = np.asarray(times).tolist()
@@ -642,6 +640,46 @@ def motion_curves(items, factors, scale, forces, times=None) -> dict:
             del curves[name]["displacement"], \
                 curves[name]["peak_displacement"]
     return curves
+
+
+def peak_step(force, motion, sign: float = -1.):
+    """The step (index into ``force``, steps x dim; ``None`` without
+    steps) of the peak that ``summary.json`` and the pictures give: where
+    the force along the ``motion`` that resists it (``sign``: -1 for the
+    force of the material on an obstacle, +1 for the one that holds a
+    rigid body's motion) is largest, signed.  The material pushing an
+    obstacle along its motion (an active wall moving away from the soil)
+    resists it negatively: the peak is then the step it pushes least, the
+    active limit (a user trial's wall read 25.41 in summary.json and 25.74
+    in the picture, the largest push).  Without a motion (``None`` or
+    zero) the largest force.
+
+    >>> import numpy as np
+    >>> from skfem_mpm.cli import peak_step
+    >>> push = np.array([[25.74, 0.], [25.6, 0.], [25.41, 0.]])
+    >>> peak_step(push, [.03, 0.]), peak_step(push, [-.03, 0.])
+    (2, 0)
+    """
+    force = np.asarray(force, dtype=float)
+    if not len(force):
+        return None
+    size = 0. if motion is None else np.linalg.norm(motion)
+    if size > 0:
+        resistance = sign * force @ (np.asarray(motion) / size)
+    else:                                  # a fixed obstacle: the largest
+        resistance = np.linalg.norm(force, axis=1)
+    return int(np.argmax(resistance))
+
+
+def at_rest_start(scene) -> bool:
+    """Whether the scene's run starts at rest, its forces zero at step 0
+    (drawn there in the force curves); ``False`` where a body starts from
+    a geostatic stress (``K0``): its forces at step 0 are not computed,
+    and a curve from 0 drew a rise that was not there (a user trial's
+    wall, at rest at 38.6 kN/m, seemed to rise from 0 to 25.7 as it
+    moved away from the soil)."""
+    return not any(getattr(b, "K0", None) is not None
+                   for b in getattr(scene, "bodies", ()))
 
 
 def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
@@ -677,7 +715,8 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
                                 body_figure_size(pts.x[:2]))
     draw_points(fig, ax, pts, pts.stress[d, d],
                 "{} ({})".format(name, stress),
-                "{}: {} at the final points".format(scene.name, name))
+                "{}: {} at the final points (Cauchy, tension positive, "
+                "global axes)".format(scene.name, name))
     fig.tight_layout()
     plot.save_figure(fig, outdir / "final_stress.png")
     if pts.dim > 1:
@@ -701,8 +740,10 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
         plot_column_stress([result], ["{}, {} steps".format(
             scene.method, scene.step_count)], outdir / "column_stress.png",
             title="{}: vertical stress against initial height,\nwith "
-            "the closed form of {}".format(scene.name, COLUMN_SOURCE),
-            unit=stress)
+            "the linear solution; (2.28) of {}: {}".format(
+                scene.name, COLUMN_SOURCE,
+                "{:.3g}".format(summary["error"]) if "error" in summary
+                else "-"), unit=stress)
     if loaded.size and result.history and \
             result.history[0].displacement is not None:
         fig, ax = pyplot().subplots(figsize=(5, 4))
@@ -886,18 +927,23 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
     load) where every one moves, else against the load factor (time in
     dynamics).  A component equal to the magnitude at every step is not
     drawn under it, where it could not be seen (a user trial read the
-    pressed blocks' y as missing): the magnitude's label names it."""
+    pressed blocks' y as missing): the magnitude's label names it.  The
+    peak marked is the summary's (:func:`peak_step`); the curves start
+    at 0 where the run starts at rest (:func:`at_rest_start`), else at
+    the first step."""
     fig, ax = pyplot().subplots(figsize=(8.5, 4.5))
     moving = all(np.any(d) for d in motion.values())
+    origin = 1 if at_rest_start(scene) else 0
     for name, curve in curves.items():
-        force = np.vstack([np.zeros((1, len(curve["force"][0]))),
+        force = np.vstack([np.zeros((origin, len(curve["force"][0]))),
                            curve["force"]])
         if moving:
-            disp = np.vstack([np.zeros_like(force[:1]),
+            disp = np.vstack([np.zeros((origin, force.shape[1])),
                               curve["displacement"]])
             x = disp @ (motion[name] / np.linalg.norm(motion[name]))
         else:                          # in dynamics, the time
-            x = np.array([0.] + curve.get("time", curve["load_factor"]))
+            x = np.array([0.] * origin
+                         + curve.get("time", curve["load_factor"]))
         magnitude = np.linalg.norm(force, axis=1)
         same = [np.allclose(force[:, k], magnitude, rtol=1e-9, atol=0.)
                 for k in range(force.shape[1])]
@@ -905,7 +951,14 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
                         label="{}, magnitude{}".format(name, "".join(
                             " (= {})".format("xyz"[k])
                             for k in np.flatnonzero(same))))
-        mark_peak(ax, line, x, magnitude, "magnitude")
+        peak = peak_step(curve["force"], motion[name] if moving else None,
+                         -1. if what == "obstacles" else 1.)
+        direction = motion[name] / np.linalg.norm(motion[name]) \
+            if moving else None
+        assisted = moving and what == "obstacles" and \
+            np.asarray(curve["force"][peak]) @ direction > 0
+        mark_peak(ax, line, x, magnitude, "magnitude", peak=peak + origin,
+                  first=not origin, assisted=assisted)
         for k, style in zip(range(force.shape[1]), ("--", ":", "-.")):
             if not same[k]:      # its final value as the terminal says it
                 ax.plot(x, force[:, k], style, color=line.get_color(),
@@ -940,14 +993,18 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
         plot_bearing_capacity(scene, curves, path)
         return
     fig, ax = pyplot().subplots(figsize=(5.5, 4))
+    origin = 1 if at_rest_start(scene) else 0
     for name, curve in curves.items():
-        disp = np.vstack([np.zeros((1, len(curve["displacement"][0]))),
+        disp = np.vstack([np.zeros((origin, len(curve["displacement"][0]))),
                           curve["displacement"]])
-        force = np.vstack([np.zeros_like(disp[:1]), curve["force"]])
+        force = np.vstack([np.zeros((origin, disp.shape[1])),
+                           curve["force"]])
         direction = disp[-1] / np.linalg.norm(disp[-1])
         line, = ax.plot(disp @ direction, force @ direction, "o-",
                         ms=3, label=name)
-        mark_peak(ax, line, disp @ direction, force @ direction)
+        mark_peak(ax, line, disp @ direction, force @ direction,
+                  peak=peak_step(curve["force"], direction, 1.) + origin,
+                  first=not origin)
     ax.set_xlabel("displacement along the motion ({})".format(
         unit("length", scene.units)))
     ax.set_ylabel("force along the motion ({}){}".format(
@@ -1178,7 +1235,9 @@ def load_run(args, setup=None):
             + contact_state_names(len(scene.obstacles), mesh.dim(),
                                   scene.kinematics == "finite")
             + body_contact_state_names(
-                len(scene.contacts), mesh.dim(),
+                interface_count(scene.contacts, len(scene.bodies),
+                                [body.name for body in scene.bodies]),
+                mesh.dim(),
                 scene.kinematics == "finite",
                 scene.method.startswith("bspline"))
             + rotation_state_names(mesh.dim(),
@@ -1451,7 +1510,7 @@ def run(args) -> int:
         # converged (the curves up to the failure)
         partial, failed = unfinished(
             "failed", state, error="{}: {}".format(type(err).__name__, err),
-            checkpoint=state is not None)
+            checkpoint=kept[0] is not None, checkpoint_step=kept[0])
         write_summary(outdir / "summary.json", failed)
         factor = getattr(err, "load_factor", failed["load_factor"])
         plot_outputs(scene, partial, outdir, loaded, failed, initial,
@@ -1676,10 +1735,24 @@ def compare(args) -> int:
             ax.set_ylim(scale["vmin"], scale["vmax"])
         print("{:>7}: largest displacement {:.4f}, {:.3f} s".format(
             method, largest_displacement(result), seconds))
-    fig.suptitle("{}: {} at the deformed points, one colour scale".format(
-        scene.name, component))
+    # one view for both panels (a trial: each body's own limits, the
+    # panels' axes unlike), the empty band above the panels trimmed
+    for get, put in (("get_xlim", "set_xlim"), ("get_ylim", "set_ylim")):
+        lims = np.array([getattr(ax, get)() for ax in axes])
+        for ax in axes:
+            getattr(ax, put)(lims[:, 0].min(), lims[:, 1].max())
+    title = fig.suptitle("{}: {} (Cauchy, tension positive, global "
+                         "axes) at the "
+                         "deformed points, one colour scale".format(
+                             scene.name, component))
     fig.tight_layout(rect=(0., 0., 1., .92))
-    plot.save_figure(fig, args.out / "compare.png")
+    # equal aspect leaves the panels lower than their room: the title
+    # just above them, and the band left above it trimmed
+    renderer = fig.canvas.get_renderer()
+    top = max(ax.get_tightbbox(renderer).y1 for ax in fig.axes)
+    title.set_verticalalignment("bottom")
+    title.set_y(top / fig.bbox.height + .01)
+    plot.save_figure(fig, args.out / "compare.png", trim=True)
     for name, what in (("displacement", "displacement"),
                        ("stress", "Cauchy stress")):
         d = difference[name]

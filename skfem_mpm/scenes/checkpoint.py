@@ -324,13 +324,21 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
         # written before contact_work was kept apart: its contact work is
         # in internal_work, and the balance the same
         history = np.hstack([history, np.zeros((step, 1))])
+    reactions = get("reactions", "f", 3)
+    if history.shape[1:] == (len(HISTORY_KEYS),) and \
+            history.shape[0] != step and \
+            reactions.shape[0] == history.shape[0] and np.array_equal(
+                history[:, 0], np.arange(1, history.shape[0] + 1)):
+        # the history of steps 1 to its rows and the reactions of as many
+        # steps agree: the step is the field changed
+        raise bad("step", "is {} but the history and the reactions hold "
+                  "steps 1 to {}".format(step, history.shape[0]))
     if history.shape != (step, len(HISTORY_KEYS)):
         raise bad("history", "has shape {}, expected ({}, {})".format(
             history.shape, step, len(HISTORY_KEYS)))
     if step and abs(history[-1, 1] - factor) > 1e-12:
         raise bad("load_factor", "{} differs from the last step's {}".format(
             factor, history[-1, 1]))
-    reactions = get("reactions", "f", 3)
     if reactions.shape[0] != step:
         raise bad("reactions", "has {} rows for {} steps".format(
             reactions.shape[0], step))

@@ -442,11 +442,17 @@ def draw_plastic_zone(fig, ax, points, title: str, rigid=None,
                   "top 2% clipped")
 
 
-def mark_peak(ax, line, x: np.ndarray, y: np.ndarray, what: str = ""):
-    """The largest ``y`` of a curve ``line`` marked, its value and the
-    final one in the legend, after ``what`` the curve shows where given
-    (trial 87: "peak 180.5, final 180.5" beside a footing's force, whose
-    y component the terminal said was 179.369, was its magnitude).
+def mark_peak(ax, line, x: np.ndarray, y: np.ndarray, what: str = "",
+              peak=None, first: bool = False, assisted: bool = False):
+    """The peak of a curve ``line`` marked, its value and the final one in
+    the legend, after ``what`` the curve shows where given (trial 87:
+    "peak 180.5, final 180.5" beside a footing's force, whose y component
+    the terminal said was 179.369, was its magnitude).  The peak is the
+    largest ``y``, or the point ``peak`` (an index into ``x`` and ``y``:
+    the summary's, :func:`~skfem_mpm.cli.peak_step`); ``first`` gives the
+    first point's value too (a curve that does not start at 0);
+    ``assisted``: at the peak the material pushes the obstacle along its
+    motion (an active wall), the peak being where it pushes least.
 
     >>> import numpy as np
     >>> from skfem_mpm.scenes.plot import mark_peak, pyplot
@@ -459,11 +465,14 @@ def mark_peak(ax, line, x: np.ndarray, y: np.ndarray, what: str = ""):
     >>> pyplot().close(fig)
     """
     if len(y) > 1:
-        peak = int(np.argmax(y))
-        ax.plot(x[peak], y[peak], "^", ms=7, color=line.get_color(),
-                label="{}peak {}, final {}".format(
-                    what + ": " if what else "", significant(y[peak]),
-                    significant(y[-1])))
+        peak = int(np.argmax(y)) if peak is None else int(peak)
+        ax.plot(x[peak], y[peak], "v" if assisted else "^", ms=7,
+                color=line.get_color(), label="{}{} {}{}, final {}".format(
+                    what + ": " if what else "",
+                    "least push (peak resistance)" if assisted
+                    else "peak", significant(y[peak]),
+                    ", first {}".format(significant(y[0])) if first
+                    else "", significant(y[-1])))
 
 
 def significant(value: float, digits: int = 4) -> str:
@@ -936,12 +945,18 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     if coloured:
         side_colorbar(fig, ax, sc, "displacement magnitude |u| ({})"
                       .format(LENGTH), "4%")
-    legend = ax.legend(handles=handles, loc="upper center", fontsize=7,
-                       bbox_to_anchor=(.5, -.2), ncol=2, frameon=False)
+    # what a support's marks are (a lecturer's trial read a root's
+    # roller below a bent beam as holding nothing: the node's cell does)
+    where = "supports marked at the grid nodes of cells with material" \
+        if supports and cell is not None and dim > 1 else None
+    legend = ax.legend(handles=handles, loc="upper center", fontsize=8,
+                       bbox_to_anchor=(.5, -.2), ncol=2, frameon=False,
+                       title=where, title_fontsize=8)
     if legend.get_window_extent(fig.canvas.get_renderer()).width > \
             .95 * fig.bbox.width:      # a tall, thin body's narrow figure
-        ax.legend(handles=handles, loc="upper center", fontsize=7,
-                  bbox_to_anchor=(.5, -.2), ncol=1, frameon=False)
+        ax.legend(handles=handles, loc="upper center", fontsize=8,
+                  bbox_to_anchor=(.5, -.2), ncol=1, frameon=False,
+                  title=where, title_fontsize=8)
     return sc
 
 

@@ -40,7 +40,7 @@ from ..solve.options import BodyForce, Options, Prescribed, Resume
 from ..solve.results import Result
 from ..solve.body_contact import Contact, check_contacts
 from ..solve.obstacles import Obstacle
-from ..solve.rigid import RigidBody
+from ..solve.rigid import RigidBody, beyond_cell_words
 from ..stabilisation.settings import Stabilisation
 from .footing import check_footing_scene
 from .regions import Ball, Polygon, bounding_box, check_shape, closed_region
@@ -446,10 +446,11 @@ class Scene:
         rigid = [b.name for b in self.bodies if b.rigid is not None]
         if rigid and self.method not in ("mpm", "fem"):
             raise InvalidInputError(
-                "rigid bodies ({}) need method 'mpm' or 'fem', not {!r}: a "
-                "GIMP point reaches nodes of the cells beside its own, which "
-                "the rigid body does not drive".format(
-                    ", ".join(rigid), self.method))
+                "rigid bodies ({}) need method 'mpm' or 'fem', not {!r}: {} "
+                "nodes of the cells beside its own, which the rigid "
+                "body does not drive".format(
+                    ", ".join(rigid), self.method,
+                    beyond_cell_words(self.method)))
         if rigid and len(rigid) == len(self.bodies):
             raise InvalidInputError("every body is rigid: nothing deforms")
         moving = any(s.value is not None for s in self.supports)
