@@ -1245,7 +1245,53 @@ def load_run(args, setup=None):
     return scene, source, outdir, earlier, points, resume, mesh, initial
 
 
+class KeptWarnings(logging.Handler):
+    """The package's warnings while it is attached to the ``skfem_mpm``
+    logger, for ``summary.json``: ``said``, each message once, in the
+    order first logged, at most :data:`WARNINGS_KEPT` (then a last line
+    counting the rest).  A run that completes with only a warning of what
+    went wrong (a trial's traction 1000 E, 62% of it on held DOFs) says
+    it in its summary too, not only on stderr."""
+
+    def __init__(self):
+        super().__init__(logging.WARNING)
+        self.said, self.seen, self.more = [], set(), 0
+
+    def emit(self, record):
+        message = record.getMessage()
+        if message in self.seen:
+            return
+        self.seen.add(message)
+        if len(self.said) < WARNINGS_KEPT:
+            self.said.append(message)
+            return
+        self.more += 1
+        line = "... and {} more (the log has them)".format(self.more)
+        if self.more == 1:
+            self.said.append(line)
+        else:
+            self.said[-1] = line
+
+
+#: the distinct warnings a run's summary keeps
+WARNINGS_KEPT = 100
+
+
 def run(args) -> int:
+    """``skfem-mpm run``: :func:`run_warned` with the package's warnings
+    kept for its summary (:class:`KeptWarnings`)."""
+    kept = KeptWarnings()
+    package = logging.getLogger("skfem_mpm")
+    package.addHandler(kept)
+    try:
+        return run_warned(args, kept.said)
+    finally:
+        package.removeHandler(kept)
+
+
+def run_warned(args, warned: list) -> int:
+    """``skfem-mpm run``; ``warned``, the list of the warnings logged so
+    far (growing), goes into every summary it writes."""
     for name, least in (("checkpoint_every", 0), ("max_steps", 1),
                         ("steps", 1), ("series_every", 1)):
         if getattr(args, name) is not None and getattr(args, name) < least:
@@ -1313,7 +1359,7 @@ def run(args) -> int:
     # summary.json (a trial's resume after --no-series began its series at
     # step 8 without a word; the steps --series-every left out are not
     # lacking)
-    notes = {}
+    notes = {"warnings": warned}
     if series is not None and earlier is not None:
         series.restore([(int(r[0]), float(r[6] if scene.dynamics else r[1]))
                         for r in earlier.history])
@@ -1330,7 +1376,7 @@ def run(args) -> int:
         notes["series_note"] = (
             "the VTU series stops at step {}: the resume from there ran "
             "with --no-series".format(earlier.step))
-    if notes:
+    if "series_note" in notes:
         logger.warning("%s: %s", outdir, notes["series_note"])
     # the start, written as step 0 with the first step's frame (so that a
     # run refused before its first step writes nothing)
@@ -1523,7 +1569,7 @@ def run(args) -> int:
                 "scene": scene.name, "status": "failed",
                 "error": "{}: {}".format(type(err).__name__, err),
                 "last_converged_step": history[-1].step if history else
-                resume.first_step - 1})
+                resume.first_step - 1, "warnings": warned})
         except OSError:
             logger.info("no summary either: %s", err)
         raise
