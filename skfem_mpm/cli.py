@@ -56,7 +56,7 @@ from .scenes.scene import (build_points, load_scale, obstacle_list,
 from .scenes.scene_file import EMBEDDED, load_scene, parse_quantity, tomllib
 from .spelling import did_you_mean
 from .scenes.units import unit
-from .solve.body_contact import body_contact_state_names
+from .solve.body_contact import body_contact_state_names, interface_count
 from .solve.contact import contact_state_names
 from .solve.rotation import rotation_state_names, start_missing_rotation
 from .solve.core import grid_parts
@@ -136,10 +136,11 @@ def build_parser() -> argparse.ArgumentParser:
                      "count, completed or not)")
     run.add_argument("--no-series", action="store_true",
                      help="write plots and summary only, no VTU series")
-    run.add_argument("--series-every", type=int, default=1, metavar="N",
+    run.add_argument("--series-every", type=int, metavar="N",
                      help="write the VTU series at the start, every N-th "
-                     "step and the last (default 1: every step; a large "
-                     "3D run writes about 250 bytes a point a step)")
+                     "step and the last (default 1: every step; with "
+                     "--resume the run's own; a large 3D run writes about "
+                     "250 bytes a point a step)")
     compare = sub.add_parser("compare",
                              help="run FE and MPM on one scene and plot both")
     compare.add_argument("scene", type=Path, help="scene file")
@@ -289,7 +290,7 @@ class Progress:
     drawn_bar = None
 
     def __init__(self, total: int, enabled, start_factor: float = 0.,
-                 stream=None, timer=time.monotonic):
+                 stream=None, timer=time.monotonic, started=None):
         self.total = total
         self.stream = sys.stderr if stream is None else stream
         self.enabled = bool(enabled)
@@ -297,7 +298,11 @@ class Progress:
             self.enabled and self.stream.isatty())
         self.start_factor = start_factor
         self.timer = timer
-        self.started = self.written = timer()
+        # elapsed from ``started`` (the set-up's start: a trial's 1e6
+        # points said 0:36 at step 1, 60 s after its launch), the pace
+        # from the steps' start
+        self.paced = self.written = timer()
+        self.started = self.paced if started is None else started
         self.drawn = False      # a bar is on its line, not ended
         self.pending = None     # the last line, not written (no terminal)
 
@@ -311,7 +316,7 @@ class Progress:
         elapsed = now - self.started
         progressed = record.load_factor - self.start_factor
         left = "" if progressed <= 0 else " left {}".format(clock(
-            elapsed * (1. - record.load_factor) / progressed))
+            (now - self.paced) * (1. - record.load_factor) / progressed))
         # past the steps planned (cut-backs), the count is not a share:
         # a trial read "step   43/40"; the bar is the load factor's
         count = "{:4d}/{}".format(record.step, self.total) \
@@ -349,6 +354,34 @@ class Progress:
         if Progress.drawn_bar is self:
             Progress.drawn_bar = None
         self.stream.flush()
+
+
+#: a run's set-up says its stages on stderr once it has lasted this long
+#: (s), or from the start where the grid holds this many sub-cells
+#: (:class:`SetUp`)
+LONG_SETUP, LARGE_SETUP = 2., 100_000
+
+
+class SetUp:
+    """The stages of a run's set-up on ``stream`` (stderr) where
+    ``enabled`` (the progress is): each as it begins, with the time
+    elapsed since the set-up began (``started``), once that is
+    :data:`LONG_SETUP` or the run is ``large`` (a trial's 1e6-point run
+    wrote its first line 28 s after its launch, its first step 60 s)."""
+
+    def __init__(self, enabled, stream=None, timer=time.monotonic):
+        self.enabled = bool(enabled)
+        self.stream = sys.stderr if stream is None else stream
+        self.timer = timer
+        self.started = timer()
+        self.large = False
+
+    def __call__(self, stage: str):
+        elapsed = self.timer() - self.started
+        if self.enabled and (self.large or elapsed >= LONG_SETUP):
+            self.stream.write("set-up: {}, elapsed {}\n".format(
+                stage, clock(elapsed)))
+            self.stream.flush()
 
 
 class BarBreak(logging.Filter):
@@ -515,7 +548,10 @@ def summary_units(dim: int, dynamics: bool = False,
     units = {"system": system, "max_displacement": length,
              "max_residual": "-", "wall_seconds": "s", "timings": "s",
              "compile_seconds": "s", "load_factor": "-",
-             "reactions": force, "force": force, "displacement": length}
+             "reactions": force, "force": force, "displacement": length,
+             # a count and dimensionless errors (a lecturer's trial
+             # found them without a unit)
+             "points": "-", "steps": "-", "steps_run": "-", "error": "-"}
     if dynamics:      # a static run has no energies (a trial read its
         units["time"] = time        # unit as though it had)
         units["energies"] = "{} (time: {})".format(
@@ -553,9 +589,10 @@ def rigid_body_curves(scene, rows, reactions) -> dict:
     the scene has such bodies.  A rigid body's force is the one that
     holds its motion, an obstacle's the one the material exerts on it, a
     contact's the one its first body exerts on its second;
-    the peak is where the force along the motion is largest (an obstacle
-    that does not move: the largest force); in dynamics each step's
-    ``time`` (s) beside its ``load_factor`` (there t / duration)."""
+    the peak (:func:`peak_step`) is where the force along the motion that
+    resists it is largest, signed (an obstacle that does not move: the
+    largest force), ``first_force`` the first step's; in dynamics each
+    step's ``time`` (s) beside its ``load_factor`` (there t / duration)."""
     rigid = [(b.name, b.rigid, 1.) for b in scene.bodies
              if b.rigid is not None]
     obstacles = [(o.name, o.displacement, -1.)
@@ -588,20 +625,14 @@ def motion_curves(items, factors, scale, forces, times=None) -> dict:
         force = forces[:, k]
         displacement = scale[:, None] * np.asarray(
             np.zeros(force.shape[1]) if motion is None else motion)
-        size = 0. if motion is None else np.linalg.norm(motion)
-        # the force that holds the motion points along it (a footing
-        # pushed down: downward): its largest component along the motion
-        if size > 0:
-            resistance = sign * force @ (np.asarray(motion) / size)
-        else:                              # a fixed obstacle: the largest
-            resistance = np.linalg.norm(force, axis=1)
-        peak = int(np.argmax(resistance)) if len(force) else None
+        peak = peak_step(force, motion, sign)
         curves[name] = {
             "load_factor": np.asarray(factors).tolist(),
             "displacement": displacement.tolist(), "force": force.tolist(),
             "peak_force": None if peak is None else force[peak].tolist(),
             "peak_displacement": None if peak is None
             else displacement[peak].tolist(),
+            "first_force": force[0].tolist() if len(force) else None,
             "final_force": force[-1].tolist() if len(force) else None}
         if times is not None:
             curves[name]["time"] = np.asarray(times).tolist()
@@ -609,6 +640,46 @@ def motion_curves(items, factors, scale, forces, times=None) -> dict:
             del curves[name]["displacement"], \
                 curves[name]["peak_displacement"]
     return curves
+
+
+def peak_step(force, motion, sign: float = -1.):
+    """The step (index into ``force``, steps x dim; ``None`` without
+    steps) of the peak that ``summary.json`` and the pictures give: where
+    the force along the ``motion`` that resists it (``sign``: -1 for the
+    force of the material on an obstacle, +1 for the one that holds a
+    rigid body's motion) is largest, signed.  The material pushing an
+    obstacle along its motion (an active wall moving away from the soil)
+    resists it negatively: the peak is then the step it pushes least, the
+    active limit (a user trial's wall read 25.41 in summary.json and 25.74
+    in the picture, the largest push).  Without a motion (``None`` or
+    zero) the largest force.
+
+    >>> import numpy as np
+    >>> from skfem_mpm.cli import peak_step
+    >>> push = np.array([[25.74, 0.], [25.6, 0.], [25.41, 0.]])
+    >>> peak_step(push, [.03, 0.]), peak_step(push, [-.03, 0.])
+    (2, 0)
+    """
+    force = np.asarray(force, dtype=float)
+    if not len(force):
+        return None
+    size = 0. if motion is None else np.linalg.norm(motion)
+    if size > 0:
+        resistance = sign * force @ (np.asarray(motion) / size)
+    else:                                  # a fixed obstacle: the largest
+        resistance = np.linalg.norm(force, axis=1)
+    return int(np.argmax(resistance))
+
+
+def at_rest_start(scene) -> bool:
+    """Whether the scene's run starts at rest, its forces zero at step 0
+    (drawn there in the force curves); ``False`` where a body starts from
+    a geostatic stress (``K0``): its forces at step 0 are not computed,
+    and a curve from 0 drew a rise that was not there (a user trial's
+    wall, at rest at 38.6 kN/m, seemed to rise from 0 to 25.7 as it
+    moved away from the soil)."""
+    return not any(getattr(b, "K0", None) is not None
+                   for b in getattr(scene, "bodies", ()))
 
 
 def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
@@ -644,7 +715,8 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
                                 body_figure_size(pts.x[:2]))
     draw_points(fig, ax, pts, pts.stress[d, d],
                 "{} ({})".format(name, stress),
-                "{}: {} at the final points".format(scene.name, name))
+                "{}: {} at the final points (Cauchy, tension positive, "
+                "global axes)".format(scene.name, name))
     fig.tight_layout()
     plot.save_figure(fig, outdir / "final_stress.png")
     if pts.dim > 1:
@@ -668,8 +740,10 @@ def plot_outputs(scene, result, outdir: Path, loaded, summary: dict,
         plot_column_stress([result], ["{}, {} steps".format(
             scene.method, scene.step_count)], outdir / "column_stress.png",
             title="{}: vertical stress against initial height,\nwith "
-            "the closed form of {}".format(scene.name, COLUMN_SOURCE),
-            unit=stress)
+            "the linear solution; (2.28) of {}: {}".format(
+                scene.name, COLUMN_SOURCE,
+                "{:.3g}".format(summary["error"]) if "error" in summary
+                else "-"), unit=stress)
     if loaded.size and result.history and \
             result.history[0].displacement is not None:
         fig, ax = pyplot().subplots(figsize=(5, 4))
@@ -853,18 +927,23 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
     load) where every one moves, else against the load factor (time in
     dynamics).  A component equal to the magnitude at every step is not
     drawn under it, where it could not be seen (a user trial read the
-    pressed blocks' y as missing): the magnitude's label names it."""
+    pressed blocks' y as missing): the magnitude's label names it.  The
+    peak marked is the summary's (:func:`peak_step`); the curves start
+    at 0 where the run starts at rest (:func:`at_rest_start`), else at
+    the first step."""
     fig, ax = pyplot().subplots(figsize=(8.5, 4.5))
     moving = all(np.any(d) for d in motion.values())
+    origin = 1 if at_rest_start(scene) else 0
     for name, curve in curves.items():
-        force = np.vstack([np.zeros((1, len(curve["force"][0]))),
+        force = np.vstack([np.zeros((origin, len(curve["force"][0]))),
                            curve["force"]])
         if moving:
-            disp = np.vstack([np.zeros_like(force[:1]),
+            disp = np.vstack([np.zeros((origin, force.shape[1])),
                               curve["displacement"]])
             x = disp @ (motion[name] / np.linalg.norm(motion[name]))
         else:                          # in dynamics, the time
-            x = np.array([0.] + curve.get("time", curve["load_factor"]))
+            x = np.array([0.] * origin
+                         + curve.get("time", curve["load_factor"]))
         magnitude = np.linalg.norm(force, axis=1)
         same = [np.allclose(force[:, k], magnitude, rtol=1e-9, atol=0.)
                 for k in range(force.shape[1])]
@@ -872,7 +951,14 @@ def plot_contact_forces(scene, curves: dict, motion: dict, what: str,
                         label="{}, magnitude{}".format(name, "".join(
                             " (= {})".format("xyz"[k])
                             for k in np.flatnonzero(same))))
-        mark_peak(ax, line, x, magnitude, "magnitude")
+        peak = peak_step(curve["force"], motion[name] if moving else None,
+                         -1. if what == "obstacles" else 1.)
+        direction = motion[name] / np.linalg.norm(motion[name]) \
+            if moving else None
+        assisted = moving and what == "obstacles" and \
+            np.asarray(curve["force"][peak]) @ direction > 0
+        mark_peak(ax, line, x, magnitude, "magnitude", peak=peak + origin,
+                  first=not origin, assisted=assisted)
         for k, style in zip(range(force.shape[1]), ("--", ":", "-.")):
             if not same[k]:      # its final value as the terminal says it
                 ax.plot(x, force[:, k], style, color=line.get_color(),
@@ -907,14 +993,18 @@ def plot_rigid_bodies(scene, curves: dict, path: Path):
         plot_bearing_capacity(scene, curves, path)
         return
     fig, ax = pyplot().subplots(figsize=(5.5, 4))
+    origin = 1 if at_rest_start(scene) else 0
     for name, curve in curves.items():
-        disp = np.vstack([np.zeros((1, len(curve["displacement"][0]))),
+        disp = np.vstack([np.zeros((origin, len(curve["displacement"][0]))),
                           curve["displacement"]])
-        force = np.vstack([np.zeros_like(disp[:1]), curve["force"]])
+        force = np.vstack([np.zeros((origin, disp.shape[1])),
+                           curve["force"]])
         direction = disp[-1] / np.linalg.norm(disp[-1])
         line, = ax.plot(disp @ direction, force @ direction, "o-",
                         ms=3, label=name)
-        mark_peak(ax, line, disp @ direction, force @ direction)
+        mark_peak(ax, line, disp @ direction, force @ direction,
+                  peak=peak_step(curve["force"], direction, 1.) + origin,
+                  first=not origin)
     ax.set_xlabel("displacement along the motion ({})".format(
         unit("length", scene.units)))
     ax.set_ylabel("force along the motion ({}){}".format(
@@ -1051,11 +1141,13 @@ def refuse_other_steps(args, outdir: Path, planned):
                 args.steps, outdir, planned))
 
 
-def load_run(args):
+def load_run(args, setup=None):
     """The scene of a run (``--resume``: the checkpoint's), its output
     folder, the checkpoint resumed from (or ``None``), the points to start
     from, the :class:`~skfem_mpm.Resume`, the grid and the points the
-    scene seeds.  Writes nothing."""
+    scene seeds.  Writes nothing; ``setup`` (:class:`SetUp`) is told
+    its stages."""
+    setup = SetUp(False) if setup is None else setup
     earlier, points, resume = None, None, Resume()
     if args.resume is not None:
         outdir = args.resume
@@ -1120,7 +1212,14 @@ def load_run(args):
     check_folder(outdir, "--out" if args.resume is None else "--resume")
     check_reference(scene)
     mesh, _ = scene.grid.build()
+    cells = mesh.nelements * sum(b.points_per_cell ** mesh.dim()
+                                 for b in scene.bodies)
+    setup.large = cells >= LARGE_SETUP
+    setup("seeding {} {} on {} cells ({} sub-cells)".format(
+        len(scene.bodies), "body" if len(scene.bodies) == 1 else "bodies",
+        mesh.nelements, cells))
     initial = build_points(scene, mesh)
+    setup("checking the {} points".format(initial.n))
     check_quantities(scene, scene.outputs, initial)
     if points is None:
         points = initial
@@ -1136,7 +1235,9 @@ def load_run(args):
             + contact_state_names(len(scene.obstacles), mesh.dim(),
                                   scene.kinematics == "finite")
             + body_contact_state_names(
-                len(scene.contacts), mesh.dim(),
+                interface_count(scene.contacts, len(scene.bodies),
+                                [body.name for body in scene.bodies]),
+                mesh.dim(),
                 scene.kinematics == "finite",
                 scene.method.startswith("bspline"))
             + rotation_state_names(mesh.dim(),
@@ -1144,7 +1245,53 @@ def load_run(args):
     return scene, source, outdir, earlier, points, resume, mesh, initial
 
 
+class KeptWarnings(logging.Handler):
+    """The package's warnings while it is attached to the ``skfem_mpm``
+    logger, for ``summary.json``: ``said``, each message once, in the
+    order first logged, at most :data:`WARNINGS_KEPT` (then a last line
+    counting the rest).  A run that completes with only a warning of what
+    went wrong (a trial's traction 1000 E, 62% of it on held DOFs) says
+    it in its summary too, not only on stderr."""
+
+    def __init__(self):
+        super().__init__(logging.WARNING)
+        self.said, self.seen, self.more = [], set(), 0
+
+    def emit(self, record):
+        message = record.getMessage()
+        if message in self.seen:
+            return
+        self.seen.add(message)
+        if len(self.said) < WARNINGS_KEPT:
+            self.said.append(message)
+            return
+        self.more += 1
+        line = "... and {} more (the log has them)".format(self.more)
+        if self.more == 1:
+            self.said.append(line)
+        else:
+            self.said[-1] = line
+
+
+#: the distinct warnings a run's summary keeps
+WARNINGS_KEPT = 100
+
+
 def run(args) -> int:
+    """``skfem-mpm run``: :func:`run_warned` with the package's warnings
+    kept for its summary (:class:`KeptWarnings`)."""
+    kept = KeptWarnings()
+    package = logging.getLogger("skfem_mpm")
+    package.addHandler(kept)
+    try:
+        return run_warned(args, kept.said)
+    finally:
+        package.removeHandler(kept)
+
+
+def run_warned(args, warned: list) -> int:
+    """``skfem-mpm run``; ``warned``, the list of the warnings logged so
+    far (growing), goes into every summary it writes."""
     for name, least in (("checkpoint_every", 0), ("max_steps", 1),
                         ("steps", 1), ("series_every", 1)):
         if getattr(args, name) is not None and getattr(args, name) < least:
@@ -1152,14 +1299,15 @@ def run(args) -> int:
                 name.replace("_", "-"), least, getattr(args, name)),
                 file=sys.stderr)
             return 2
-    if args.no_series and args.series_every != 1:
+    if args.no_series and args.series_every not in (None, 1):
         print("skfem-mpm: --series-every {} with --no-series: there is no "
               "series to thin; leave one out".format(args.series_every),
               file=sys.stderr)
         return 2
+    setup = SetUp(not args.no_progress)
     try:
         scene, source, outdir, earlier, points, resume, mesh, initial = \
-            load_run(args)
+            load_run(args, setup)
     except KeyboardInterrupt:
         print("skfem-mpm: interrupted while setting up the run (reading the "
               "scene, seeding the points): nothing written", file=sys.stderr)
@@ -1199,34 +1347,44 @@ def run(args) -> int:
         prepared.append(outdir)
 
     series = None if args.no_series else SeriesWriter(outdir, mesh, points)
-    # what a resume's series lacks, said in the log and summary.json (a
-    # trial's resume after --no-series began its series at step 8 without
-    # a word)
-    notes = {}
+    # a resume keeps the run's --series-every unless told another (trial
+    # 111: started with 2, the resume wrote every step); the steps the
+    # series was to hold, by each invocation's N, written or not
+    every = args.series_every or (1 if earlier is None
+                                  else earlier.series_every)
+    wanted = [0] if earlier is None else [0] + [
+        int(r[0]) for r in earlier.history] \
+        if earlier.series_steps is None else list(earlier.series_steps)
+    # what a resume's series lacks of those, said in the log and
+    # summary.json (a trial's resume after --no-series began its series at
+    # step 8 without a word; the steps --series-every left out are not
+    # lacking)
+    notes = {"warnings": warned}
     if series is not None and earlier is not None:
         series.restore([(int(r[0]), float(r[6] if scene.dynamics else r[1]))
                         for r in earlier.history])
-        missing = len(earlier.history) + 1 - len(series.entries)
+        missing = len(set(wanted) - {int(names[0][7:-4]) for _, names
+                                     in series.entries})
         if missing:
             notes["series_note"] = (
                 "the VTU series lacks {} of the {} states before step {} "
-                "(the start, step 0, counted; an invocation with "
-                "--no-series writes none, one with --series-every N every "
-                "N-th): points.pvd and grid.pvd list "
-                "the steps written".format(missing, len(earlier.history)
-                                           + 1, earlier.step + 1))
+                "it was to hold (the start, step 0, counted; an "
+                "invocation with --no-series writes none): points.pvd and "
+                "grid.pvd list the steps written".format(
+                    missing, len(wanted), earlier.step + 1))
     elif earlier is not None and (outdir / "points.pvd").is_file():
         notes["series_note"] = (
             "the VTU series stops at step {}: the resume from there ran "
             "with --no-series".format(earlier.step))
-    if notes:
+    if "series_note" in notes:
         logger.warning("%s: %s", outdir, notes["series_note"])
     # the start, written as step 0 with the first step's frame (so that a
     # run refused before its first step writes nothing)
     start = points.copy() if series is not None and earlier is None \
         else None
     progress = Progress(scene.step_count, not args.no_progress,
-                        0. if earlier is None else float(earlier.load_factor))
+                        0. if earlier is None else float(earlier.load_factor),
+                        started=setup.started)
     # the records and the last state of the steps written (output and
     # all), and the step the checkpoint on disk holds
     history, latest = [], []
@@ -1260,7 +1418,8 @@ def run(args) -> int:
                 domain0=domain0, wall_seconds=run_clock() - tic + (
                     0. if earlier is None else earlier.wall_seconds),
                 timings=run_timings(history, earlier),
-                end_force=end_force))
+                end_force=end_force, series_every=every,
+                series_steps=np.array(wanted, dtype=np.int64)))
             kept[0] = len(rows)
 
     def unfinished(status, state, **keys):
@@ -1291,10 +1450,10 @@ def run(args) -> int:
                 mesh, start.x)[0]), None, None, {
                     name: np.zeros_like(values) for name, values in
                     contact_pressure_fields(record).items()})
-        if series is not None and (
-                record.step % args.series_every == 0
-                or record.load_factor >= 1. or (
-                    args.max_steps and len(history) + 1 >= args.max_steps)):
+        if record.step % every == 0 or record.load_factor >= 1. or (
+                args.max_steps and len(history) + 1 >= args.max_steps):
+            wanted.append(record.step)
+        if series is not None and wanted[-1] == record.step:
             series.write(record.step, float(
                 record.load_factor if record.time is None else record.time),
                 pts, record.elements, record.u, record.reactions,
@@ -1313,6 +1472,8 @@ def run(args) -> int:
                 and record.load_factor < 1.:
             raise StopRun(record.step)
 
+    setup("setting up the solver (the grid's operators, supports, "
+          "contact) and step {}".format(resume.first_step))
     tic, compiled = run_clock(), compile_seconds()
     try:
         result = run_scene(scene, points, resume=resume, callback=callback,
@@ -1395,7 +1556,7 @@ def run(args) -> int:
         # converged (the curves up to the failure)
         partial, failed = unfinished(
             "failed", state, error="{}: {}".format(type(err).__name__, err),
-            checkpoint=state is not None)
+            checkpoint=kept[0] is not None, checkpoint_step=kept[0])
         write_summary(outdir / "summary.json", failed)
         factor = getattr(err, "load_factor", failed["load_factor"])
         plot_outputs(scene, partial, outdir, loaded, failed, initial,
@@ -1408,7 +1569,7 @@ def run(args) -> int:
                 "scene": scene.name, "status": "failed",
                 "error": "{}: {}".format(type(err).__name__, err),
                 "last_converged_step": history[-1].step if history else
-                resume.first_step - 1})
+                resume.first_step - 1, "warnings": warned})
         except OSError:
             logger.info("no summary either: %s", err)
         raise
@@ -1620,10 +1781,24 @@ def compare(args) -> int:
             ax.set_ylim(scale["vmin"], scale["vmax"])
         print("{:>7}: largest displacement {:.4f}, {:.3f} s".format(
             method, largest_displacement(result), seconds))
-    fig.suptitle("{}: {} at the deformed points, one colour scale".format(
-        scene.name, component))
+    # one view for both panels (a trial: each body's own limits, the
+    # panels' axes unlike), the empty band above the panels trimmed
+    for get, put in (("get_xlim", "set_xlim"), ("get_ylim", "set_ylim")):
+        lims = np.array([getattr(ax, get)() for ax in axes])
+        for ax in axes:
+            getattr(ax, put)(lims[:, 0].min(), lims[:, 1].max())
+    title = fig.suptitle("{}: {} (Cauchy, tension positive, global "
+                         "axes) at the "
+                         "deformed points, one colour scale".format(
+                             scene.name, component))
     fig.tight_layout(rect=(0., 0., 1., .92))
-    plot.save_figure(fig, args.out / "compare.png")
+    # equal aspect leaves the panels lower than their room: the title
+    # just above them, and the band left above it trimmed
+    renderer = fig.canvas.get_renderer()
+    top = max(ax.get_tightbbox(renderer).y1 for ax in fig.axes)
+    title.set_verticalalignment("bottom")
+    title.set_y(top / fig.bbox.height + .01)
+    plot.save_figure(fig, args.out / "compare.png", trim=True)
     for name, what in (("displacement", "displacement"),
                        ("stress", "Cauchy stress")):
         d = difference[name]

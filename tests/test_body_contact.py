@@ -456,17 +456,149 @@ def test_three_stacked_bodies_in_contact():
     assert np.allclose(forces, [10., 10., 0.], atol=1e-8)
 
 
-def test_two_contacts_between_the_same_fields_are_refused():
+def test_two_contacts_between_the_same_fields_act_as_one_interface():
     """Bodies 1 and 2 glued (no contact between them), each in contact
-    with body 0: the two contacts would join the same two fields."""
+    with body 0 (the upper, 2, never touching it): one interface between
+    fields {0} and {1, 2}, as bodies 1 and 2 made one (refused before:
+    "join the same two groups").  Contacts that disagree are refused,
+    saying which value differs."""
     assert body_fields([(0, 1), (0, 2)], 3).tolist() == [0, 1, 1]
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2.5, 11))
     pts = bodies(mesh, 2, [[(0, 1), (0, 1.)], [(0, 1), (1., 1.5)],
                            [(0, 1), (1.5, 2.)]])
-    with pytest.raises(InvalidInputError, match="one contact per pair"):
-        simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
-                 roller_base_and_left_wall, body_force=[0., -1.],
-                 contacts=[Contact(0, 1), Contact(0, 2)])
+    top = side_points(pts, "top")
+    p = 10.
+    one = pts.copy()
+    one.body[one.body == 2] = 1
+
+    def run(points, contacts):
+        return simulate(mesh, ElementQuad1(), points,
+                        LinearElastic(1e4, .3), roller_base_and_left_wall,
+                        loads=[Traction(top, "top", [0., -p])],
+                        contacts=contacts,
+                        options=Options(NewtonOptions(tol=1e-10)))
+    two = run(pts, [Contact(0, 1, tolerance=1e-9),
+                    Contact(2, 0, tolerance=1e-9)])
+    glued = run(one, [Contact(0, 1, tolerance=1e-9)])
+    assert np.abs(two.points.stress[1, 1] + p).max() < 1e-6 * p
+    # the force of each contact's first body on its second: 0 on 1 holds
+    # the load p (the width is 1); 2 never touches 0
+    width = 1.
+    assert np.allclose(two.history[-1].contact_forces,
+                       [[0., p * width], [0., 0.]], atol=1e-8)
+    assert np.allclose(two.points.displacement, glued.points.displacement,
+                       rtol=0., atol=1e-12)
+    with pytest.raises(InvalidInputError, match=re.escape(
+            "contacts '0-1' and '2-0' join the same two groups of glued "
+            "bodies ([0] and [1, 2]) with different friction (0.0 and "
+            "0.3)")):
+        run(pts, [Contact(0, 1), Contact(2, 0, friction=.3)])
+    with pytest.raises(InvalidInputError, match=r"tolerance \(0.001 and "
+                       r"0.01\), penalty \(10.0 and 20.0\)"):
+        run(pts, [Contact(0, 1), Contact(2, 0, tolerance=1e-2,
+                                         penalty=20.)])
+
+
+def test_a_pile_glued_to_its_cap_carries_the_cap_s_load_into_the_soil():
+    """A user trial's pile (body 1, elastic, its sides on grid lines) in
+    elastic soil (body 0), with a wider cap (body 2) glued to its head
+    half a metre above the soil, rough contacts of the soil with both:
+    refused before (with the pile's contact alone, "glued through body
+    2"; with both, "join the same two groups").  The cap driven down as
+    a rigid body: the soil's force on the pile is the cap's force to
+    round-off, the cap's contact carries nothing.  The cap pushed by
+    point forces: the pile settles as the pile and cap made one body."""
+    from skfem_mpm import RigidBody
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9),
+                                np.linspace(0, 2.25, 10))
+    surface, head = 1.25, 1.75
+
+    def pile(x):
+        return (np.abs(x[0] - 1.) < .25) & (x[1] > .5) & (x[1] < head)
+    pts = bodies(mesh, 2, [lambda x: (x[1] < surface) & ~pile(x), pile,
+                           lambda x: (np.abs(x[0] - 1.) < .5)
+                           & (x[1] > head) & (x[1] < head + .25)])
+    cap = pts.body == 2
+    assert (pts.x[1] - pts.domain[1])[cap].min() - surface == .5
+
+    def fixed(b):
+        return np.union1d(b.get_dofs(lambda x: x[1] == 0).all(),
+                          b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2))
+                          .nodal["u^1"])
+    soil, stiff = LinearElastic(1e4, .3), LinearElastic(1e7, .2)
+    rough = [Contact(0, 1, friction="rough"),
+             Contact(0, 2, friction="rough")]
+    with pytest.raises(InvalidInputError, match="glued through body 2.*"
+                       "Contact\\(0, 2\\) too"):
+        simulate(mesh, ElementQuad1(), pts, [soil, stiff, stiff], fixed,
+                 loads=[RigidBody(2, [0., -.01])], contacts=rough[:1])
+    res = simulate(mesh, ElementQuad1(), pts, [soil, stiff, stiff], fixed,
+                   nsteps=2, loads=[RigidBody(2, [0., -.01])],
+                   contacts=rough)
+    for record in res.history:
+        soil_on_pile, soil_on_cap = record.contact_forces
+        push = record.rigid_forces[0]
+        assert soil_on_pile[1] > 0. and (soil_on_cap == 0.).all()
+        assert np.abs(soil_on_pile + push).max() < 1e-12 * soil_on_pile[1]
+    load = 100.
+    on_top = cap & (pts.x[1] > head + .125)
+    pts.force[1, on_top] = -load / on_top.sum()
+    two = simulate(mesh, ElementQuad1(), pts, [soil, stiff, stiff], fixed,
+                   nsteps=2, contacts=rough)
+    one = pts.copy()
+    one.body[cap] = 1
+    glued = simulate(mesh, ElementQuad1(), one, [soil, stiff], fixed,
+                     nsteps=2, contacts=rough[:1])
+    for a, b in zip(two.history, glued.history):
+        assert np.allclose(a.contact_forces[0], b.contact_forces[0],
+                           rtol=1e-12, atol=1e-12 * load)
+        assert np.allclose(a.contact_forces[0],
+                           [0., a.load_factor * load], atol=1e-9 * load)
+    scale = np.abs(two.points.displacement).max()
+    assert scale > 0. and np.abs(two.points.displacement
+                                 - glued.points.displacement).max() \
+        < 1e-12 * scale
+
+
+def test_a_footing_of_two_materials_on_soil_shares_its_load():
+    """A footing of two glued bodies side by side (1 stiff, 2 softer) on
+    soil (body 0), rough contacts with both, the second declared the
+    other way round: the two contacts' forces add up to the load on the
+    footing (the second's the soil's on body 2, so of opposite sign),
+    and equal the same footing made one body."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9),
+                                np.linspace(0, 1.5, 7))
+    pts = bodies(mesh, 2, [[(0, 2), (0, 1.)], [(.5, 1.), (1., 1.25)],
+                           [(1., 1.5), (1., 1.25)]])
+    top = side_points(pts, "top")
+    top = top[pts.body[top] > 0]
+    q, width = 20., 1.
+
+    def run(points, materials, contacts):
+        return simulate(mesh, ElementQuad1(), points, materials,
+                        roller_base_and_left_wall, nsteps=1,
+                        loads=[Traction(top, "top", [0., -q])],
+                        contacts=contacts,
+                        options=Options(NewtonOptions(tol=1e-10)))
+    soil = LinearElastic(1e4, .3)
+    rough = [Contact(0, 1, friction="rough"),
+             Contact(2, 0, friction="rough")]
+    two = run(pts, [soil, LinearElastic(1e6, .2), LinearElastic(1e5, .2)],
+              rough)
+    forces = two.history[-1].contact_forces
+    assert forces[0, 1] > 0. and forces[1, 1] < 0.
+    assert abs(forces[0, 1] - forces[1, 1] - q * width) < 1e-8 * q
+    one = pts.copy()
+    one.body[one.body == 2] = 1
+    same = run(one, [soil, LinearElastic(1e6, .2)], rough[:1])
+    mixed = run(pts, [soil, LinearElastic(1e6, .2), LinearElastic(1e6, .2)],
+                rough)
+    total = mixed.history[-1].contact_forces[0] \
+        - mixed.history[-1].contact_forces[1]
+    assert np.allclose(total, same.history[-1].contact_forces[0],
+                       rtol=1e-12, atol=1e-12 * q)
+    assert np.allclose(mixed.points.displacement, same.points.displacement,
+                       rtol=0., atol=1e-12)
 
 
 def full_and_resumed(args, kwargs, after):
@@ -918,6 +1050,79 @@ def pile_in_soil(friction, penalty=10., tolerance=1e-3, nsteps=2,
                       loads=[Traction(top, "top", [0., -load])],
                       contacts=contacts, method=method)
     return result.points.displacement[:, top].mean(axis=1)
+
+
+def test_a_pile_one_cell_wide_pulled_with_friction_stays_symmetric():
+    """A pile one cell wide (so a node's support holds both its sides'
+    corners), mirror-symmetric in soil at rest (K0 = 0.5), pulled up with
+    friction 0.3: no sideways force.  A node kept the direction its pile
+    corners were pressed along at the last step's end, the sum of the two
+    sides' pressures, which cancel to round-off: that direction took x at
+    one side's node and the tip's vertical at the other's (here a
+    sideways force of 1e-6 to 2e-5 of the pull; the trial's pile, h = 0.28,
+    41%)."""
+    from skfem_mpm import RigidBody, geostatic_stress, select_points
+    h = .25
+    mesh = MeshQuad.init_tensor(np.linspace(0, 7 * h, 8),
+                                np.linspace(0, 8 * h, 9))
+    soil = LinearElastic(1e4, .3)
+
+    def pile(x):
+        return (x[0] > 3 * h) & (x[0] < 4 * h) & (x[1] > 3 * h)
+
+    ground = geostatic_stress(seed_points(mesh, 2,
+                                          region=lambda x: x[1] < 6 * h),
+                              soil, [0., -18.], None, .5)
+    ground = select_points(ground, ~pile(ground.x))
+    body = seed_points(mesh, 2, region=lambda x: pile(x) & (x[1] < 7 * h))
+    body.body[:] = 1
+
+    def supports(basis):
+        sides = basis.get_dofs(lambda x: (x[0] == 0) | (x[0] == 7 * h))
+        return np.union1d(sides.nodal["u^1"],
+                          basis.get_dofs(lambda x: x[1] == 0).all())
+
+    res = simulate(mesh, ElementQuad1(), concatenate_points([ground, body]),
+                   [soil, LinearElastic(1e7, .2)], supports,
+                   body_force=BodyForce([[0., -18.], [0., 0.]], ramp=False),
+                   nsteps=4, loads=[RigidBody(1, [0., .02])],
+                   contacts=[Contact(0, 1, friction=.3)])
+    for record in res.history:
+        force = record.rigid_forces[0]
+        assert force[1] > 0.
+        assert abs(force[0]) < 1e-9 * force[1]
+
+
+def test_a_rough_interface_touching_unpressed_holds_in_simple_shear():
+    """A rigid slab dragged up along an elastic block in simple shear
+    (its far side held, its top and bottom on rollers across),
+    weightless: the interface touches and nothing presses it, and the
+    rough contact carries the shear ``G d H / L`` as the glued bodies
+    do.  Its pairs, touching within the tolerance with no pressure, let
+    go after every Newton solve: it carried 0.75 and 0.86 of it in two
+    steps and pressed the slab sideways (a rough pile in weightless clay
+    carried nothing)."""
+    from skfem_mpm import RigidBody
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.5, 7), np.linspace(0, 1, 5))
+    points = seed_points(mesh, 2)
+    points.body[:] = points.x[0] > 1.
+
+    def supports(basis):
+        ends = basis.get_dofs(lambda x: ((x[1] == 0) | (x[1] == 1))
+                              & (x[0] <= 1.)).nodal["u^1"]
+        return np.union1d(basis.get_dofs(lambda x: x[0] == 0).all(), ends)
+
+    E, nu, drag = 1e4, .3, 1e-3
+    res = simulate(mesh, ElementQuad1(), points,
+                   [LinearElastic(E, nu), LinearElastic(1e7, .2)], supports,
+                   nsteps=2, loads=[RigidBody(1, [0., drag])],
+                   contacts=[Contact(0, 1, friction="rough")])
+    shear = E / 2 / (1 + nu) * drag * 1. / 1.      # G d H / L
+    for record in res.history:
+        force = record.rigid_forces[0]
+        assert force[1] == pytest.approx(record.load_factor * shear,
+                                         rel=1e-3)
+        assert abs(force[0]) < 1e-4 * force[1]
 
 
 @pytest.mark.parametrize("method", [

@@ -17,6 +17,30 @@ def test_timings_have_a_unit():
         assert units["timings"] == units["wall_seconds"] == "s"
 
 
+def test_counts_and_errors_have_a_unit():
+    """A lecturer's trial: ``units`` had no entry for ``error`` (a
+    dimensionless error) and ``points`` (a count)."""
+    from skfem_mpm.cli import summary_units
+    for dim, system in ((1, "SI"), (2, "kN-m")):
+        units = summary_units(dim, system=system)
+        for key in ("error", "points", "steps", "steps_run"):
+            assert units[key] == "-", key
+
+
+def test_point_cloud_names_its_fields_and_h5py():
+    """A lecturer's trial: ``point_cloud``'s docstring was one line,
+    naming no field, and its ``.xdmf`` needs ``h5py``, which no extra
+    installs."""
+    from skfem import MeshQuad
+    from skfem_mpm import seed_points
+    from skfem_mpm.scenes.output import point_cloud
+    cloud = point_cloud(seed_points(MeshQuad(), 2))
+    doc = point_cloud.__doc__
+    for name in cloud.point_data:
+        assert "``{}``".format(name) in doc, name
+    assert "h5py" in doc
+
+
 def test_the_vtu_table_has_a_row_per_field_a_reader_looks_for():
     """``strain``, ``volume0`` and ``yielding`` were named only inside
     rows of two or three fields: each has a row of its own."""

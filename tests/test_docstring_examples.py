@@ -35,3 +35,21 @@ def test_example_runs_in_a_clean_namespace(name):
         runner.run(test, out=report.append, clear_globs=True)
     result = runner.summarize(verbose=False)
     assert result.failed == 0, "".join(report)
+
+
+def test_every_module_s_examples_pass_plain_doctest():
+    """``python -m doctest`` and ``doctest.testmod`` use no option flags:
+    an expected traceback shortened with ``...`` needs its own
+    ``# doctest: +ELLIPSIS`` (a lecturer's trial: check_conforming and
+    check_displacement_element failed so)."""
+    import importlib
+    import pkgutil
+    failed = []
+    for info in pkgutil.walk_packages(skfem_mpm.__path__, "skfem_mpm."):
+        if info.name.endswith("__main__"):
+            continue
+        module = importlib.import_module(info.name)
+        result = doctest.testmod(module, report=False, optionflags=0)
+        if result.failed:
+            failed.append(info.name)
+    assert not failed

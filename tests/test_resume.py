@@ -217,6 +217,16 @@ def test_stale_and_corrupted_checkpoints_are_refused(straight, tmp_path):
         corrupt()
         code, _ = _resume(out)
         assert code == 2, k
+    # the field changed is the one named: a step beyond the history of
+    # steps 1 to 4 (and their reactions) blamed the history (trial 114);
+    # a history cut short is the history's
+    rewrite(step=np.array(99))
+    with pytest.raises(CheckpointError, match="'step' is 99 but the "
+                       "history and the reactions hold steps 1 to 4"):
+        load_checkpoint(out, _digest(out))
+    rewrite(history=fields["history"][:3])
+    with pytest.raises(CheckpointError, match=r"'history' has shape \(3, "):
+        load_checkpoint(out, _digest(out))
     # a flipped byte is caught by the zip's CRC-32 or its structure; one
     # in a part nothing reads may pass, and must then change nothing
     rng = np.random.default_rng(7)

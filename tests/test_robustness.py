@@ -86,6 +86,8 @@ steps = 4
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "failed"
     assert summary["last_converged_step"] == 1 and summary["checkpoint"]
+    # the step of the checkpoint it kept (trial 114: null, "none kept")
+    assert summary["checkpoint_step"] == 1
     assert (out / "points_0001.vtu").exists()
     assert not (out / "points_0002.vtu").exists()
     assert not list(out.glob(".*"))            # no half-written file

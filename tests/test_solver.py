@@ -54,7 +54,9 @@ def test_column_one_step_converges_at_rate_one():
 
 
 def test_column_twenty_steps_plateaus():
-    """Grid crossing: with 20 load steps the error stops decreasing."""
+    """With 20 load steps the error stops decreasing: the small-strain
+    model with moving points, MPM's grid crossing on top
+    (``test_examples.py::test_column_plateau_is_the_small_strain_model``)."""
     nel = np.array([4, 16, 64, 256])
     err = np.array([column_error(run_column(
         n, 2, 20, options=Options(keep_snapshots=False))

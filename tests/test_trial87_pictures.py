@@ -260,3 +260,63 @@ steps = 1
     assert left.N == round(.75 * 8) and np.all(left.U > 0)
     assert np.all(left.V == 0)
     assert load.N == 1 and load.U[0] == 0 and load.V[0] < 0
+
+
+def test_compare_panels_share_one_view_under_their_title(tmp_path,
+                                                         figures):
+    """A lecturer's trial: compare.png's panels had each its own limits
+    and a large empty band above them; its title named a stress
+    component, not which stress."""
+    scene = tmp_path / "slope.toml"
+    scene.write_text(SLOPE)
+    assert main(["compare", str(scene), "--out", str(tmp_path / "c")]) == 0
+    fig = figures["compare.png"]
+    panels = [ax for ax in fig.axes if ax.get_title()]
+    assert panels[0].get_xlim() == panels[1].get_xlim()
+    assert panels[0].get_ylim() == panels[1].get_ylim()
+    renderer = fig.kept_renderer
+    title = fig.get_suptitle()
+    assert "Cauchy, tension positive" in title
+    top = max(ax.get_tightbbox(renderer).y1 for ax in panels)
+    below = [t for t in fig.texts if t.get_text() == title][0] \
+        .get_window_extent(renderer).y0
+    assert 0. <= below - top < .03 * fig.bbox.height
+
+
+def test_the_column_s_stress_pictures_say_which_stress(tmp_path, figures):
+    """A lecturer's trial: the 1D column's column_stress.png said
+    sigma_yy where its final_stress.png and VTU say sigma_xx (the field
+    is stress[0, 0]), its title claimed a closed form of the seed it
+    does not draw (the linear solution) and gave no error; no stress
+    picture said Cauchy, tension positive."""
+    from skfem_mpm.scenes.scene_file import EMBEDDED
+    out = tmp_path / "col"
+    assert main(["run", str(EMBEDDED), "--out", str(out),
+                 "--no-progress", "--no-series"]) == 0
+    import json
+    error = json.loads((out / "summary.json").read_text())["error"]
+    ax = figures["column_stress.png"].axes[0]
+    assert "sigma_{xx}" in ax.get_xlabel()
+    assert "Cauchy" in ax.get_xlabel()
+    assert "closed form" not in ax.get_title()
+    assert "linear solution" in ax.get_title()
+    assert "{:.3g}".format(error) in ax.get_title()
+    assert all(t.get_fontsize() >= 8
+               for t in ax.get_legend().get_texts())
+    stress = figures["final_stress.png"].axes[0].get_title()
+    assert "sigma_xx" in stress and "Cauchy, tension positive" in stress
+
+
+def test_deformed_shape_s_legend_is_readable_and_says_what_it_marks(
+        tmp_path, figures):
+    """A lecturer's trial: legends at 5-7 pt, and a support marker below
+    a bent beam's root read as holding no material (it marks a node of a
+    cell that holds some)."""
+    scene = tmp_path / "slope.toml"
+    scene.write_text(SLOPE)
+    assert main(["run", str(scene), "--out", str(tmp_path / "s"),
+                 "--no-progress", "--no-series"]) == 0
+    legend = figures["deformed_shape.png"].axes[0].get_legend()
+    assert "grid nodes of cells with material" in legend.get_title() \
+        .get_text()
+    assert all(t.get_fontsize() >= 8 for t in legend.get_texts())

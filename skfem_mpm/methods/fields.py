@@ -35,7 +35,9 @@ def body_fields(pairs, nbodies: int) -> ndarray:
 
     Raises :class:`~skfem_mpm.errors.InvalidInputError` where a declared
     pair would share a field (both glued to a third body that is in
-    contact with neither).
+    contact with neither).  Two fields of several bodies each are apart
+    where every pair of their bodies has a contact: one interface
+    (:func:`~skfem_mpm.solve.body_contact.contact_interfaces`).
 
     Examples
     --------
@@ -60,8 +62,13 @@ def body_fields(pairs, nbodies: int) -> ndarray:
                     and field[c] == field[a]]
             raise InvalidInputError(
                 "bodies {} and {} are in contact but glued through body "
-                "{}, which has no contact with {}: declare the contacts "
-                "of every pair of bodies that must not be glued".format(
+                "{}, which has no contact with {}: bodies without a "
+                "contact are glued, whether they meet or not; declare the "
+                "contacts of every pair of bodies that must not be glued "
+                "(a cap 2 glued to its pile 1 above soil 0: Contact(0, 2) "
+                "too, with the friction of Contact(0, 1): the contacts "
+                "between two groups of glued bodies make one "
+                "interface)".format(
                     a, b, glue[0], "either" if not (apart[glue[0], a] or
                                                    apart[glue[0], b])
                     else "one of them"))

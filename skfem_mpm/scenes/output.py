@@ -39,7 +39,33 @@ def von_mises(stress: ndarray) -> ndarray:
 
 
 def point_cloud(points: MaterialPoints):
-    """The points as a meshio mesh of vertices with all state fields."""
+    """The points as a meshio mesh of vertices with all state fields.
+
+    The vertices lie at the points' current positions ``x`` (padded to
+    3D), in the points' order (a point's index is its vertex id), with
+    the point data of the README's table of ``points_NNNN.vtu``:
+    ``volume``, ``volume0``, ``body``, ``displacement``,
+    ``initial_position``, ``force`` (3-vectors), ``stress`` (Cauchy,
+    tension positive), ``strain``, ``F`` (the identity in small strain)
+    as 9 columns each, row by row, ``von_mises``, ``domain`` (the GIMP
+    half-lengths, where the points have domains), ``velocity`` and
+    ``acceleration`` (dynamic runs) and every variable of the material's
+    ``state`` (``state_<name>`` where it would repeat a name above);
+    ``yielding`` is :class:`SeriesWriter`'s, which compares two steps.
+    ``.write(path)`` writes any format meshio knows by the suffix:
+    ``.vtu`` with meshio alone, ``.xdmf`` needs ``h5py`` too (not a
+    dependency of skfem-mpm: ``pip install h5py``).
+
+    Examples
+    --------
+    >>> from skfem import MeshQuad
+    >>> from skfem_mpm import seed_points
+    >>> from skfem_mpm.scenes.output import point_cloud
+    >>> cloud = point_cloud(seed_points(MeshQuad(), 2))
+    >>> cloud.points.shape, cloud.point_data["stress"].shape
+    ((4, 3), (4, 9))
+
+    """
     import meshio
     n = points.n
     data = {

@@ -40,7 +40,7 @@ from ..solve.options import BodyForce, Options, Prescribed, Resume
 from ..solve.results import Result
 from ..solve.body_contact import Contact, check_contacts
 from ..solve.obstacles import Obstacle
-from ..solve.rigid import RigidBody
+from ..solve.rigid import RigidBody, beyond_cell_words
 from ..stabilisation.settings import Stabilisation
 from .footing import check_footing_scene
 from .regions import Ball, Polygon, bounding_box, check_shape, closed_region
@@ -446,10 +446,11 @@ class Scene:
         rigid = [b.name for b in self.bodies if b.rigid is not None]
         if rigid and self.method not in ("mpm", "fem"):
             raise InvalidInputError(
-                "rigid bodies ({}) need method 'mpm' or 'fem', not {!r}: a "
-                "GIMP point reaches nodes of the cells beside its own, which "
-                "the rigid body does not drive".format(
-                    ", ".join(rigid), self.method))
+                "rigid bodies ({}) need method 'mpm' or 'fem', not {!r}: {} "
+                "nodes of the cells beside its own, which the rigid "
+                "body does not drive".format(
+                    ", ".join(rigid), self.method,
+                    beyond_cell_words(self.method)))
         if rigid and len(rigid) == len(self.bodies):
             raise InvalidInputError("every body is rigid: nothing deforms")
         moving = any(s.value is not None for s in self.supports)
@@ -618,7 +619,8 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
         pts.body[:] = k
         parts.append(pts)
     check_overlaps(scene.bodies, parts)
-    points = concatenate_points(parts)
+    # one body: its points as seeded (joining one copied 1e6 points)
+    points = parts[0] if len(parts) == 1 else concatenate_points(parts)
     weights = scene.body_forces()
     geostatic = [k for k, b in enumerate(scene.bodies) if b.K0 is not None]
     if geostatic and weights is None:

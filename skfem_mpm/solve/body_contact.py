@@ -87,13 +87,24 @@ from .problem import SLIVER_SUPPORT
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["Contact", "check_contacts", "BodyContact",
-           "body_contact_state_names"]
+__all__ = ["Contact", "check_contacts", "contact_interfaces",
+           "interface_count", "BodyContact", "body_contact_state_names"]
 
 
 class Contact:
     """An interface between two bodies that may slide, separate and
     touch again (bodies without one are glued where they meet).
+
+    Bodies glued to each other share a grid field, and a contact is
+    between the two groups its bodies lie in: they are apart where
+    every pair of their bodies has a contact (undeclared pairs are
+    glued, whether they meet or not), and meet at one interface, whose
+    contacts must have the same friction, tolerance and penalty (else
+    refused).  A pile (body 1) with a cap (body 2) glued to it above
+    soil (body 0): ``Contact(0, 1, friction=f)`` and ``Contact(0, 2,
+    friction=f)``, though the cap never reaches the soil.  Each contact
+    reports the force of the interface's pairs between its own two
+    bodies.
 
     Parameters
     ----------
@@ -168,8 +179,11 @@ class Contact:
 def check_contacts(contacts, nbodies: int, names=None):
     """The contacts with their bodies as indices, and the field of each
     body; refused before any work: a contact of bodies that do not exist,
-    of a body with itself, a pair declared twice, two names alike, or a
-    pair that cannot be apart (glued through a third body)."""
+    of a body with itself, a pair declared twice, two names alike, a
+    pair that cannot be apart (glued through a third body), or two
+    contacts between the same two groups of glued bodies (one interface:
+    :func:`contact_interfaces`) whose friction, tolerance or penalty
+    differ."""
     checked = []
     for contact in contacts:
         if not isinstance(contact, Contact):
@@ -204,15 +218,78 @@ def check_contacts(contacts, nbodies: int, names=None):
     field = body_fields([c[:2] for c in checked], nbodies)
     between = {}
     for a, b, contact in checked:
-        key = (field[a], field[b])
-        if key in between or key[::-1] in between:
+        key = frozenset((int(field[a]), int(field[b])))
+        if key not in between:
+            between[key] = contact
+            continue
+        other = between[key]
+        differ = [(what, getattr(other, what), getattr(contact, what))
+                  for what in ("friction", "tolerance", "penalty")
+                  if getattr(other, what) != getattr(contact, what)]
+        if differ:
+            groups = [np.flatnonzero(field == f).tolist() for f in
+                      sorted(key)]
             raise InvalidInputError(
                 "contacts {!r} and {!r} join the same two groups of glued "
-                "bodies: declare one contact per pair of groups".format(
-                    between.get(key, between.get(key[::-1])).name,
-                    contact.name))
-        between[key] = contact
+                "bodies ({} and {}) with different {}: the bodies of a "
+                "group share one grid field, so the two groups meet at one "
+                "interface, and it has one friction, tolerance and "
+                "penalty; give the contacts the same ones (a pile and its "
+                "cap, glued, on the soil: the same friction), or declare a "
+                "contact between the bodies of a group too where they must "
+                "not be glued".format(
+                    other.name, contact.name, groups[0], groups[1],
+                    ", ".join("{} ({!r} and {!r})".format(*d)
+                              for d in differ)))
     return checked, field
+
+
+def contact_interfaces(checked, field: ndarray) -> tuple:
+    """The interfaces of the contacts ``checked`` (``(first, second,
+    Contact)``, bodies as indices; :func:`check_contacts`) between the
+    fields ``field`` of the bodies: one per pair of fields, as
+    ``(first, second, Contact)`` (the first of its contacts; where it
+    has several, one named by theirs joined with ``+``, their friction,
+    tolerance and penalty), and per interface its contacts as ``(index,
+    first, second, sign)``: ``sign`` -1 where the contact's first body
+    lies on the interface's second field.
+
+    >>> import numpy as np
+    >>> from skfem_mpm import Contact
+    >>> found, members = contact_interfaces(
+    ...     [(0, 1, Contact(0, 1)), (2, 0, Contact(2, 0))],
+    ...     np.array([0, 1, 1]))
+    >>> found
+    [(0, 1, Contact(0, 1, friction=0.0))]
+    >>> found[0][2].name, members
+    ('0-1+2-0', [[(0, 0, 1, 1), (1, 2, 0, -1)]])
+    """
+    keys, found, members = [], [], []
+    for j, (a, b, contact) in enumerate(checked):
+        key = frozenset((int(field[a]), int(field[b])))
+        if key not in keys:
+            keys.append(key)
+            found.append((a, b, contact))
+            members.append([])
+        k = keys.index(key)
+        first = found[k][0]
+        members[k].append((j, a, b, 1 if field[a] == field[first] else -1))
+    for k, (a, b, contact) in enumerate(found):
+        if len(members[k]) > 1:
+            found[k] = (a, b, Contact(
+                a, b, friction=contact.friction, name="+".join(
+                    checked[j][2].name for j, *_ in members[k]),
+                penalty=contact.penalty, tolerance=contact.tolerance))
+    return found, members
+
+
+def interface_count(contacts, nbodies: int, names=None) -> int:
+    """The interfaces of ``contacts`` (:func:`contact_interfaces`), whose
+    point state a run keeps (:func:`body_contact_state_names`)."""
+    if not contacts:
+        return 0
+    return len(contact_interfaces(*check_contacts(contacts, nbodies,
+                                                  names))[0])
 
 
 def gradient_state(dim: int) -> list:
@@ -231,9 +308,11 @@ def corner_state(dim: int) -> list:
 
 
 def traction_state(k: int, dim: int) -> list:
-    """The point-state names of contact ``k``'s state at the second
-    body's domain corners, per component a per corner c, summed over the
-    pairs at the corner's place (a body's corner in a notch of the other
+    """The point-state names of interface ``k``'s state
+    (:func:`contact_interfaces`; one per contact where no two join the
+    same groups of glued bodies) at the second body's domain corners,
+    per component a per corner c, summed over the pairs at the corner's
+    place (a body's corner in a notch of the other
     has a pair per face, each along its own normal): the pressure vector
     ``p n`` (``contact_body<k>_p<a><c>``), the gap vector ``g n`` where
     pressed (``_g<a><c>``), the friction traction (``_t<a><c>``) and the
@@ -284,9 +363,10 @@ def corner_values(state: dict, row: list, corner: ndarray,
 
 def body_contact_state_names(contacts: int, dim: int, finite: bool,
                              splines: bool = False) -> list:
-    """The point-state names a run with ``contacts`` contacts between
-    bodies keeps (for a checkpoint's check; ``splines``: the method's
-    weights are B-splines)."""
+    """The point-state names a run with ``contacts`` interfaces between
+    bodies keeps (:func:`interface_count`: contacts between the same two
+    groups of glued bodies make one), for a checkpoint's check
+    (``splines``: the method's weights are B-splines)."""
     names = [name for k in range(contacts) for rows in traction_state(k, dim)
              for name in rows]
     if contacts and splines:
@@ -344,7 +424,10 @@ class BodyContact(GridTerm):
     Parameters
     ----------
     contacts
-        ``(first, second, Contact)`` from :func:`check_contacts`.
+        ``(first, second, Contact)`` from :func:`check_contacts`: the
+        term acts per interface between two fields
+        (:func:`contact_interfaces`, :attr:`contacts`), and reports the
+        force per contact (:attr:`members`).
     field
         The field of each body.
     mesh, elem
@@ -379,12 +462,15 @@ class BodyContact(GridTerm):
     def __init__(self, contacts, field: ndarray, mesh, elem, vertices: int,
                  cell_size: float, material, domain0, finite: bool,
                  counters: dict, weights=None, cells: int = 0, gimp=None):
-        self.contacts, self.field = contacts, field
+        #: the interfaces (one per pair of fields) and each one's contacts
+        self.contacts, self.members = contact_interfaces(contacts, field)
+        self.declared = contacts
+        self.field = field
         self.nv = vertices
         self.dim = mesh.dim()
         self.h, self.domain0, self.finite = cell_size, domain0, finite
         self.material = material
-        self.tol = [c.tolerance * cell_size for _, _, c in contacts]
+        self.tol = [c.tolerance * cell_size for _, _, c in self.contacts]
         self.cell_values = CellValues(mesh, elem)
         self.weights = weights
         self.cells = cells
@@ -395,7 +481,8 @@ class BodyContact(GridTerm):
         self.kept_corners = None     # :meth:`corners`, the last
         self.grid_locate = None      # :meth:`corner_cells`
         self.interfaces = WeakKeyDictionary()    # :meth:`interface`
-        self.finder = PairFinder(contacts, field, mesh, vertices, cell_size,
+        self.finder = PairFinder(self.contacts, field, mesh, vertices,
+                                 cell_size,
                                  columns=weights is not None)
         counters.setdefault("contact_updates", 0)
         if weights is not None:
@@ -422,7 +509,7 @@ class BodyContact(GridTerm):
         dim, inside = self.dim, 0
         stairs = []               # (body, partner bodies, axis, levels)
         partners = {}
-        for a, b, _ in self.contacts:
+        for a, b, _ in self.declared:
             partners.setdefault(a, set()).add(b)
             partners.setdefault(b, set()).add(a)
         for k, others in partners.items():
@@ -493,9 +580,12 @@ class BodyContact(GridTerm):
         modulus = np.broadcast_to(np.asarray(self.material.lam, float)
                                   + 2 * np.asarray(self.material.mu, float),
                                   (points.n,))
-        stiffest = np.full(points.body.max() + 1, -np.inf)
-        np.maximum.at(stiffest, points.body, modulus)
-        self.kappa = [c.penalty * min(stiffest[a], stiffest[b])
+        # per field: the softer side of an interface (a pile glued to its
+        # cap on the soil: the soil's)
+        stiffest = np.full(self.field.max() + 1, -np.inf)
+        np.maximum.at(stiffest, self.field[points.body], modulus)
+        self.kappa = [c.penalty * min(stiffest[self.field[a]],
+                                      stiffest[self.field[b]])
                       * self.h ** (dim - 2) for a, b, c in self.contacts]
         half = self.domain0 if self.domain0 is not None else np.repeat(
             (points.volume0 ** (1. / dim) / 2)[None], dim, axis=0)
@@ -602,7 +692,8 @@ class BodyContact(GridTerm):
                 continue
             body, other, towards = found[:3]
             level = np.einsum("d,dcn->cn", towards, self.corners(points))
-            if level[:, points.body == other].max() <= \
+            on = self.field[points.body]
+            if level[:, on == self.field[other]].max() <= \
                     level[:, points.body == body].min() + self.tol[k]:
                 return True
         return False
@@ -632,6 +723,29 @@ class BodyContact(GridTerm):
                                 for body in (a, b)], minlength=bodies)
         return (contacts == 1) & ~held[self.field] & (
             np.bincount(self.field, minlength=fields)[self.field] == 1)
+
+    def declared_forces(self, parts, ev, points) -> ndarray:
+        """The force (contacts x dim) the first body of each contact
+        exerts on the second, from its interface's pairs' tractions on
+        the interface's second field (``ev``, of
+        :meth:`StepBodyContact.evaluate`): those of the pairs whose
+        corners lie on the contact's bodies (every pair of an
+        interface's fields' bodies has a contact, else they would be
+        glued)."""
+        out = np.zeros((len(self.declared), self.dim))
+        corners = 2 ** self.dim * points.n
+        for part, e, members in zip(parts, ev, self.members):
+            if len(members) == 1:
+                j, _, _, sign = members[0]
+                out[j] = sign * e[0].sum(axis=1)
+                continue
+            keys = part.get("keys", np.zeros(0, dtype=np.int64))
+            B, A = (points.body[(keys // corners) % points.n],
+                    points.body[(keys % corners) % points.n])
+            for j, a, b, sign in members:
+                mine = ((A == a) & (B == b)) | ((A == b) & (B == a))
+                out[j] = sign * e[0][:, mine].sum(axis=1)
+        return out
 
     def domain_offsets(self, points) -> ndarray:
         """The corners' offsets from their points (dim, corners, n) where
@@ -749,10 +863,11 @@ class BodyContact(GridTerm):
         # touch, their sides inside cells, as overlapping by half a cell
         # (a user trial's pile, h = 2/15, its sides a third of a cell off
         # grid lines: refused by every method)
+        on = self.field[points.body]
         start = not points.displacement.any() and any(
             overlapping(points.x, self.half,
-                        np.flatnonzero(points.body == b),
-                        np.flatnonzero(points.body == a), tol).any()
+                        np.flatnonzero(on == self.field[b]),
+                        np.flatnonzero(on == self.field[a]), tol).any()
             for (a, b, _), tol in zip(self.contacts, self.tol))
         out = self.finder.find_pairs(self.interface(op, points)[1],
                                      points.x,
@@ -1391,7 +1506,8 @@ class StepBodyContact(GridTerm):
         off[self.interface] = False
         apart = []
         for (a, b, _), tol in zip(term.contacts, term.tol):
-            first, second = (np.flatnonzero(points.body == k)
+            first, second = (np.flatnonzero(term.point_field
+                                            == term.field[k])
                              for k in (a, b))
             for inner, outer in ((second, first), (first, second)):
                 inner = inner[off[inner]]
@@ -1418,10 +1534,10 @@ class StepBodyContact(GridTerm):
         """Pairs ``(B, A)`` with their normals and gaps at the step's
         start joined to a contact's ``part`` (empty at first)."""
         term = self.term
-        first, second = term.contacts[part["contact"]][:2]
-        body = points.body[self.interface]
-        nearB = term.companions(points, B, self.interface[body == second])
-        nearA = term.companions(points, A, self.interface[body == first])
+        first, second = term.field[list(term.contacts[part["contact"]][:2])]
+        field = term.point_field[self.interface]
+        nearB = term.companions(points, B, self.interface[field == second])
+        nearA = term.companions(points, A, self.interface[field == first])
         # with friction a pair's stick is carried per corner (its
         # traction, point state at its place): the mean's rows, tried
         # there, moved a rough pile's settlement in 20 steps by 4.6%
@@ -1549,19 +1665,25 @@ class StepBodyContact(GridTerm):
 
     def rough_changes(self, ev, du: ndarray) -> bool:
         """After Newton, rough contacts: a pair that stuck but was found
-        apart lets go; one pressed that did not stick joins, sticking
+        apart (unpressed, its gap beyond the tolerance) lets go; one
+        pressed that did not stick joins, sticking
         from where its corners met within the step (their relative motion
         scaled by the start gap over its closing: the multiplier ``kappa
         P`` of that motion); each pair changes once a step, so the rounds
         end.  ``True`` when any changed (the step is solved again)."""
         dim, changes = self.dim, 0
-        for (_, _, contact), part, e, kappa in zip(
-                self.term.contacts, self.parts, ev, self.term.kappa):
+        for (_, _, contact), part, e, kappa, tol in zip(
+                self.term.contacts, self.parts, ev, self.term.kappa,
+                self.term.tol):
             if contact.friction != "rough":
                 continue
             p, gap, n = e[4], e[6], part["n"]
             free = ~part["changed"]
-            apart = free & part["held"] & (p <= 0.)
+            # apart: unpressed and open beyond the tolerance, as a pair
+            # is held at the start; a pair touching unpressed (p = 0,
+            # its gap within the tolerance) let go, and a block in simple
+            # shear beside a rough slab carried 0.75 of the shear
+            apart = free & part["held"] & (p <= 0.) & (gap > tol)
             join = free & ~part["held"] & (p > 0.)
             part["steady"] &= not (apart.any() or join.any())
             part["tau"][:, apart] = 0.
@@ -1633,8 +1755,8 @@ class StepBodyContact(GridTerm):
             # that neighbouring domains share): the next step may pair
             # another of them there
             B = part["keys"] // X.shape[1]
-            b = self.term.contacts[part["contact"]][1]
-            own = np.flatnonzero(problem.points.body[
+            b = self.term.field[self.term.contacts[part["contact"]][1]]
+            own = np.flatnonzero(self.term.point_field[
                 self.interface] == b)
             mine = (np.arange(2 ** self.dim)[:, None] * n
                     + self.interface[own][None, :]).ravel()
@@ -1692,7 +1814,8 @@ class StepBodyContact(GridTerm):
             for a, row in enumerate(gradient_state(dim)):
                 for b, name in enumerate(row):
                     new.state[name] = new.state[name] + H[a, b]
-        record.contact_forces = np.array([e[0].sum(axis=1) for e in ev])
+        record.contact_forces = self.term.declared_forces(
+            self.parts, ev, problem.points)
         N = record.n_dofs // int(self.term.field.max() + 1)
         dofs = record.reaction_dofs % N
         record.reaction_dofs = np.unique(dofs)

@@ -163,6 +163,15 @@ RUNAWAY = (", farther than the grid spans: grid nodes that carry almost "
            "penalty holds them, {}; B-splines: {})".format(
                setting("ghost", 0.1), setting("extended_splines", True)))
 
+#: the displacement gradient (Frobenius norm) in one step beyond which
+#: material carried through an obstacle is a diverged solution, not a
+#: step too long (:meth:`StepContact.check_passing`): trial 115's
+#: passive wall (h = 0.14, 2 x 2 points a cell, anti-locking) at a load
+#: increment of 1.3e-4 (the wall moved 3e-4 cells) moved corners 21
+#: cells, its points' gradients up to 80, and was reported as material
+#: gone through the wall
+DIVERGED_GRADIENT = 1.
+
 #: what :func:`contacts_remedy` measured (a user trial's block pushed 2
 #: cells along a slab by a wall, mu = 0.3, 20 steps; the methods that
 #: scatter less, each with its range)
@@ -255,6 +264,22 @@ SLIDING = 1e-6
 
 #: the cells within which a corner touches a face for that warning
 TOUCHING = .1
+
+#: trial 115's strip footing (B = 1, half model, von Mises 0.5 m at
+#: c = 30 over clay at c = 10, standard MPM, 3 x 3 points a cell, pushed
+#: 0.1 m in 40 steps): its pressure (kPa) at 0.1 m with its edge inside
+#: a cell (h = 0.09) and the answers with the edge on a grid line
+#: (h = 0.1) and inside a cell of half the size (h = 0.045, 2 x 2)
+LAYERED_EDGE = (70.97, (91.99, 88.18))
+
+#: what that warning says of an edge inside a cell: the pressure off
+#: both ways (a user trial found its footing below the answer where the
+#: warning said above), and the jumps between steps
+EDGE_MEASURED = (
+    "a footing's edge inside a cell pressed 3-26% above Prandtl's "
+    "pressure on clay, {:.0f}-{:.0f}% below the answer on a stiff layer "
+    "over clay, and jumped by 6-105% between steps".format(
+        *sorted(100. * (1. - LAYERED_EDGE[0] / np.array(LAYERED_EDGE[1])))))
 
 #: that warning's advice where an earlier run moved the material there
 #: (a staged run's start: a footing lifted from where a push left it)
@@ -1045,7 +1070,9 @@ class ObstacleContact(GridTerm):
         above Prandtl's pressure over the first 0.03 B (the cell's
         straight field carries soil beyond the edge down with it) and
         jumped by 6-105% between steps as rows of points crossed cells;
-        with its edge on a grid line it changes by 2.9% at most.  Where
+        with its edge on a grid line it changes by 2.9% at most.  It may
+        come out below, too: on a stiff layer over clay
+        (:data:`LAYERED_EDGE`) 20-23% below the answer.  Where
         ``moved`` (corners,) says an earlier run moved the material
         there (a staged run's start: its footing stands where a push
         left it, off the grid's lines), the advice is a grid of this
@@ -1105,10 +1132,8 @@ class ObstacleContact(GridTerm):
                     logger.warning(
                         "obstacle %r: its edge at %s meets the material "
                         "inside a grid cell: the contact is resolved only "
-                        "to the cell (a footing's edge inside a cell "
-                        "pressed 3-26%% above Prandtl's pressure and "
-                        "jumped by 6-105%% between steps; docs/contact.md);"
-                        " %s", ob.name, np.round(corner, 12).tolist(),
+                        "to the cell (%s; docs/contact.md); %s", ob.name,
+                        np.round(corner, 12).tolist(), EDGE_MEASURED,
                         STAGED_EDGE if staged else "put a grid line at it, "
                         "or refine")
                     break
@@ -1914,7 +1939,11 @@ class StepContact(GridTerm):
         went deeper into it than its tolerance between ends that are not.
         A block dropped onto a floor 0.05 thick in time steps of 0.2 ended
         under it, and a blade pushed 0.6 in one load step through a plate
-        0.1 thick left it undeformed, both with no force and no error."""
+        0.1 thick left it undeformed, both with no force and no error.
+        A pass with a displacement gradient beyond
+        :data:`DIVERGED_GRADIENT` in the step is a diverged solution, not
+        a step too long (:class:`~skfem_mpm.errors.GridMotionError`: the
+        retry ladder, then cut back)."""
         term, dim = self.term, self.dim
         motion = u[:, None, :] + np.einsum("abp,bcp->acp", H, self.q)
         for i, ob in enumerate(term.obstacles):
@@ -1926,6 +1955,24 @@ class StepContact(GridTerm):
             if passed.size:
                 far = np.sqrt((d[:, passed] ** 2).sum(axis=0)).max()
                 span = np.ptp(self.problem.run.user_grid.mesh.p, axis=1)
+                owners = np.unique(passed % self.X.shape[2])
+                strain = np.sqrt((H[:, :, owners] ** 2).sum(
+                    axis=(0, 1))).max()
+                if strain > DIVERGED_GRADIENT and far <= span.max():
+                    raise GridMotionError(
+                        "step {}: the step's solution moved material "
+                        "through obstacle {!r} ({} domain corners, the "
+                        "first of point {}, up to {:.3g} cells relative to "
+                        "it, while the obstacle moved {:.2g} cells), with "
+                        "a displacement gradient up to {:.3g} in the step: "
+                        "a diverged solution, not a motion of the "
+                        "material (grid nodes that carry almost no "
+                        "material running away: the ghost penalty holds "
+                        "them, {}); retried, then cut back".format(
+                            self.problem.step, ob.name, passed.size,
+                            passed[0] % self.X.shape[2], far / term.h,
+                            np.linalg.norm(self.moved[i]) / term.h, strain,
+                            setting("ghost", 0.1)))
                 raise StepTooLongError(
                     "step {}: material went through obstacle {!r} within "
                     "the step ({} domain corners, the first of point {}, "

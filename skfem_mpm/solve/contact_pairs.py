@@ -75,6 +75,10 @@ LAST = .05
 #: step's end above which a candidate keeps it (with friction)
 HELD = .9
 
+#: the pressures summed at a node, relative to their sizes summed, below
+#: which they cancel and hold the node along no direction
+CANCELLED = 1e-6
+
 #: candidate normals alike in gap whose cosines to the centroids' line
 #: differ by less than this are tied (with friction the first is taken)
 TIED = 1e-9
@@ -178,8 +182,19 @@ class PairFinder:
             held = None
             if pressed is not None and not smooth:
                 held = np.zeros((dim, shared.size))
-                np.add.at(held.T, entries[1][0],
-                          pressed(k, entries[1][1]).T)
+                push = pressed(k, entries[1][1])
+                np.add.at(held.T, entries[1][0], push.T)
+                # pushes that cancel (a pile one cell wide: its two
+                # sides' corners at one node) hold no direction: their
+                # round-off's direction took x at one side's node and the
+                # tip's vertical at the other's, and a symmetric pile
+                # pulled with friction 0.3 took a sideways force of 41%
+                # of its pull
+                total = np.zeros(shared.size)
+                np.add.at(total, entries[1][0],
+                          np.sqrt((push ** 2).sum(axis=0)))
+                held[:, np.sqrt((held ** 2).sum(axis=0))
+                     <= CANCELLED * total] = 0.
             slot, normal = self.separating_normal(entries, centre, node_x,
                                                   smooth, held)
             node_x = node_x[:, slot]

@@ -69,7 +69,9 @@ from ..mechanics.materials import (at_points, bodies_words,
 from ..memory import (GRID_BYTES_PER_CELL, RUN_BYTES_PER_POINT,
                       STEP_RECORD_BYTES, refuse_beyond_memory)
 from ..methods.assembly import ElementPattern
-from ..methods.bspline import check_uniform_axes, warn_loaded_point_splines
+from ..methods.bspline import (check_uniform_axes, on_the_knots,
+                               single_point_splines,
+                               warn_loaded_point_splines)
 from ..methods.method import (DOMAIN_METHODS, METHODS, PointMethod,
                              make_method)
 from ..protocols import GridTerm, of_package
@@ -91,7 +93,7 @@ from .body_contact import BodyContact, check_contacts
 from .contact import CellValues, contact_term, linear_gimp
 from .dynamics import Dynamics, InertiaTerm, scheme_for
 from .grid_checks import check_grid
-from .linear import support_dofs
+from .linear import support_dofs, warn_interior_supports
 from .loads import (ExternalLoads, FollowerPressure, GridLoad, Pressure,
                     Traction, check_exposed, check_load_ramp, in_full_words)
 from .newton import (CORRECTION_ROUNDOFF, FullStep, NewtonOptions,
@@ -1788,6 +1790,8 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     if method in ("ugimp", "cpgimp"):
         underintegrated = single_point_domains(
             method, points_per_cell_axis(mesh, points), case.nsteps)
+    if method.startswith("bspline"):
+        underintegrated = spline_zero_energy(method, mesh, points, case)
     if underintegrated:
         logger.warning(underintegrated)
     run, result = build_run(mesh, elem, points, supports, case, method,
@@ -2202,6 +2206,20 @@ def underintegrated_cells(method: str, mesh: Mesh, elem: Element,
                 wanted, 2 * (wanted - 1)) if method == "fem" else ""))
 
 
+def spline_zero_energy(method: str, mesh: Mesh, points: MaterialPoints,
+                       case) -> str:
+    """The run's start's :func:`~skfem_mpm.methods.bspline.
+    single_point_splines` sentence for B-spline ``method`` (the points
+    per cell and axis counted where the volumes' estimate says 1)."""
+    per_axis = points_per_cell_axis(mesh, points)
+    if per_axis < 1.5:
+        per_axis = counted_per_axis(mesh, points, per_axis, None if
+                                    case.location is None
+                                    else case.location[0])
+    return single_point_splines(method, per_axis, case.nsteps,
+                                on_the_knots(mesh, points.x))
+
+
 def surface_in_full(forces) -> str:
     """The tractions and pressures among ``forces`` that act in full from
     the first step (``ramp=False``, checked), in words (``""``: none)."""
@@ -2489,6 +2507,9 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         warn_carried_from_finite(points, case.material)
     resume = options.resume or Resume()
     held = support_dofs(supports, user_grid)
+    if case.location is not None:
+        warn_interior_supports(mesh, user_grid.nodal_dofs, held,
+                               case.location[0])
     piece = make_method(method, mesh, scalar, scalar_dofs, pattern, locate,
                         counters, fields,
                         extended=options.stabilisation.extended_splines,

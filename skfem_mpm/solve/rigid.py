@@ -183,6 +183,23 @@ def warn_rigid_cells(rigid_bodies, mesh, points, locate=None) -> None:
             cells_volume, 100. * (cells_volume / volume - 1.))
 
 
+def beyond_cell_words(method: str) -> str:
+    """What of a point of ``method`` (not ``"mpm"``, ``"fem"``) reaches
+    beyond its cell, in words for a refusal (a trial's ``"bspline"`` run
+    was told of "a GIMP point's domain").
+
+    >>> beyond_cell_words("cpgimp"), beyond_cell_words("bspline3")
+    ("a GIMP point's domain reaches", "a point's cubic B-splines reach")
+    >>> beyond_cell_words("bspline-gimp")
+    "a point's quadratic B-splines, averaged over its domain, reach"
+    """
+    if not method.startswith("bspline"):
+        return "a GIMP point's domain reaches"
+    return "a point's {} B-splines{} reach".format(
+        "cubic" if method.startswith("bspline3") else "quadratic",
+        ", averaged over its domain," if method.endswith("-gimp") else "")
+
+
 def check_rigid_bodies(rigid_bodies, points, dim: int, method: str) -> tuple:
     """The rigid bodies as a tuple (one :class:`RigidBody` alone is
     welcome), checked against the points and the method: each a
@@ -194,10 +211,10 @@ def check_rigid_bodies(rigid_bodies, points, dim: int, method: str) -> tuple:
         else tuple(rigid_bodies or ())
     if bodies and method not in ("mpm", "fem"):
         raise InvalidInputError(
-            "rigid_bodies need method 'mpm' or 'fem', not {!r}: a GIMP "
-            "point's domain reaches nodes of the cells beside its own, which "
-            "the rigid body does not drive, so it would not move "
-            "rigidly".format(method))
+            "rigid_bodies need method 'mpm' or 'fem', not {!r}: {} "
+            "nodes of the cells beside its own, which the rigid body does "
+            "not drive, so it would not move rigidly".format(
+                method, beyond_cell_words(method)))
     seen = set()
     for k, rigid in enumerate(bodies):
         if not isinstance(rigid, RigidBody):

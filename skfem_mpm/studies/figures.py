@@ -39,18 +39,24 @@ def draw_column_stress(ax, results: Sequence[Result], labels: Sequence[str],
     (2.27), its law's stress at current heights, is the same line mapped
     to initial heights (:func:`~skfem_mpm.studies.column.
     analytical_stress_current`)."""
+    dim = 1
     for res, label in zip(results, labels):
         pts = res.points
+        dim = pts.dim
         order = np.argsort(pts.x0[-1])
         ax.plot(-vertical_stress(pts)[order], pts.x0[-1][order], ".-",
                 ms=3, lw=.8, label=label)
     Y = np.linspace(0., HEIGHT, 200)
     ax.plot(-analytical_stress(Y), Y, "k--", lw=1,
             label=r"$\rho_0 b (L_0 - Y)$, exact for any elastic law")
-    ax.set_xlabel(r"$-\sigma_{yy}$ (" + unit + ")")
+    # the field drawn is stress[d, d]: sigma_xx in 1D (a trial: the same
+    # run's final_stress.png and VTU said sigma_xx, this one sigma_yy)
+    name = "xyz"[dim - 1] * 2
+    ax.set_xlabel(r"$-\sigma_{" + name + r"}$, Cauchy stress, compression "
+                  "positive (" + unit + ")")
     ax.set_ylabel("initial height Y of the points (m)")
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=6)
+    ax.legend(fontsize=8, loc="upper right")
 
 
 def draw_convergence(ax, nelems: np.ndarray, errors: Dict[str, np.ndarray],
@@ -69,7 +75,9 @@ def draw_convergence(ax, nelems: np.ndarray, errors: Dict[str, np.ndarray],
     ax.set_xlabel("number of elements (-)")
     ax.set_ylabel("error measure (2.28) of {} (-)".format(SOURCE))
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=6)
+    # below the axes: inside, the verdicts' words covered the curves (a
+    # trial: 5 pt over the 2-step panel's data)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(.5, -.18))
 
 
 def plot_column_stress(results: Sequence[Result], labels: Sequence[str],
@@ -87,7 +95,7 @@ def _finish(fig, ax, xlabel: str, ylabel: str, title: str, path):
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=6)
+    ax.legend(fontsize=8)
     fig.tight_layout()
     plot.save_figure(fig, path)
     return path
@@ -366,8 +374,13 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
     convergence = [c for c in measured["convergence"] if c["cell_sizes"]]
     if convergence:
         names = list(dict.fromkeys(c["quantity"] for c in convergence))
+        # each panel 3.2 in and its legend below it (8 pt: a curve and
+        # a reference a group, and its failed cases)
+        tall = [3.2 + (.19 * sum(
+            2 + len(c.get("failed", ())) for c in convergence
+            if c["quantity"] == n)) for n in names]
         fig, axes = plt.subplots(len(names), 1, squeeze=False, figsize=(
-            10., 3.2 * len(names)))
+            10., sum(tall)), gridspec_kw={"height_ratios": tall})
         for ax, name in zip(axes[:, 0], names):
             mine = [c for c in convergence if c["quantity"] == name]
             for c in mine:
@@ -403,9 +416,11 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             ax.set_title("{} over refinement, with the reference of each "
                          "group;\nbars and bands: uncertainties".format(name),
                          fontsize=9)
-            # beside the panel: inside, a group's entries and references
-            # covered the lower panel's data (a user trial)
-            ax.legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.01, 1.))
+            # below the panel: inside, a group's entries and references
+            # covered the lower panel's data (a user trial); beside it
+            # at 8 pt its long entries narrowed the panel under its title
+            ax.legend(fontsize=8, loc="upper center",
+                      bbox_to_anchor=(.5, -.22))
         fig.tight_layout()
         plot.save_figure(fig, outdir / "quantities.png")
         written.append(outdir / "quantities.png")
