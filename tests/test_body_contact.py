@@ -84,6 +84,38 @@ def test_a_frictionless_interface_carries_a_uniform_stress(method, interface,
     assert np.isclose(res.history[-1].reactions[1::2].sum(), p, rtol=1e-9)
 
 
+@pytest.mark.parametrize("method, n", [("bspline", 4),
+                                       ("bspline-gimp", 4),
+                                       ("bspline-gimp", 3)])
+def test_blocks_ending_inside_a_cell_carry_a_uniform_stress(method, n):
+    """The pressed stack on a grid wider than the blocks, their right
+    sides a quarter (a third) of a cell past a grid line: the spline of
+    the node beyond reaches the blocks there, and its node took no pair
+    (its share of the interface's force had nowhere to go) or the end
+    corner's alone, which balances a uniform stress only pulling (a user
+    trial: sigma_yy 0.97-1.01 of the load, bspline-gimp 0.72-1.28, at
+    the blocks' edge).  The node before it pairs every corner within
+    half a cell: uniform to 1e-6 of p."""
+    h, p = .25, 10.
+    right, interface = 1. + h / n, 1. + h * (n // 2) / n
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.5, 7),
+                                np.linspace(0, 2.5, 11))
+    pts = bodies(mesh, n, [[(0, right), (0, interface)],
+                           [(0, right), (interface, 2.)]])
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [LinearElastic(1e4, .3), LinearElastic(1e5, .2)],
+                   roller_base_and_left_wall, method=method,
+                   loads=[Traction(side_points(pts, "top"), "top",
+                                   [0., -p])],
+                   contacts=[Contact(0, 1, tolerance=1e-9)],
+                   options=Options(NewtonOptions(tol=1e-10)))
+    s = res.points.stress
+    assert np.abs(s[1, 1] + p).max() < 1e-6 * p
+    assert np.abs(s[0, 0]).max() < 1e-6 * p
+    assert np.allclose(res.history[-1].contact_forces[0], [0., p * right],
+                       rtol=1e-9, atol=1e-6 * p)
+
+
 @pytest.mark.parametrize("method", ("ugimp", "cpgimp"))
 def test_a_tight_tolerance_holds_over_steps(method):
     """The pressed stack (stiffness contrast 100) in three steps with the
@@ -1018,6 +1050,79 @@ def pile_in_soil(friction, penalty=10., tolerance=1e-3, nsteps=2,
                       loads=[Traction(top, "top", [0., -load])],
                       contacts=contacts, method=method)
     return result.points.displacement[:, top].mean(axis=1)
+
+
+def test_a_pile_one_cell_wide_pulled_with_friction_stays_symmetric():
+    """A pile one cell wide (so a node's support holds both its sides'
+    corners), mirror-symmetric in soil at rest (K0 = 0.5), pulled up with
+    friction 0.3: no sideways force.  A node kept the direction its pile
+    corners were pressed along at the last step's end, the sum of the two
+    sides' pressures, which cancel to round-off: that direction took x at
+    one side's node and the tip's vertical at the other's (here a
+    sideways force of 1e-6 to 2e-5 of the pull; the trial's pile, h = 0.28,
+    41%)."""
+    from skfem_mpm import RigidBody, geostatic_stress, select_points
+    h = .25
+    mesh = MeshQuad.init_tensor(np.linspace(0, 7 * h, 8),
+                                np.linspace(0, 8 * h, 9))
+    soil = LinearElastic(1e4, .3)
+
+    def pile(x):
+        return (x[0] > 3 * h) & (x[0] < 4 * h) & (x[1] > 3 * h)
+
+    ground = geostatic_stress(seed_points(mesh, 2,
+                                          region=lambda x: x[1] < 6 * h),
+                              soil, [0., -18.], None, .5)
+    ground = select_points(ground, ~pile(ground.x))
+    body = seed_points(mesh, 2, region=lambda x: pile(x) & (x[1] < 7 * h))
+    body.body[:] = 1
+
+    def supports(basis):
+        sides = basis.get_dofs(lambda x: (x[0] == 0) | (x[0] == 7 * h))
+        return np.union1d(sides.nodal["u^1"],
+                          basis.get_dofs(lambda x: x[1] == 0).all())
+
+    res = simulate(mesh, ElementQuad1(), concatenate_points([ground, body]),
+                   [soil, LinearElastic(1e7, .2)], supports,
+                   body_force=BodyForce([[0., -18.], [0., 0.]], ramp=False),
+                   nsteps=4, loads=[RigidBody(1, [0., .02])],
+                   contacts=[Contact(0, 1, friction=.3)])
+    for record in res.history:
+        force = record.rigid_forces[0]
+        assert force[1] > 0.
+        assert abs(force[0]) < 1e-9 * force[1]
+
+
+def test_a_rough_interface_touching_unpressed_holds_in_simple_shear():
+    """A rigid slab dragged up along an elastic block in simple shear
+    (its far side held, its top and bottom on rollers across),
+    weightless: the interface touches and nothing presses it, and the
+    rough contact carries the shear ``G d H / L`` as the glued bodies
+    do.  Its pairs, touching within the tolerance with no pressure, let
+    go after every Newton solve: it carried 0.75 and 0.86 of it in two
+    steps and pressed the slab sideways (a rough pile in weightless clay
+    carried nothing)."""
+    from skfem_mpm import RigidBody
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.5, 7), np.linspace(0, 1, 5))
+    points = seed_points(mesh, 2)
+    points.body[:] = points.x[0] > 1.
+
+    def supports(basis):
+        ends = basis.get_dofs(lambda x: ((x[1] == 0) | (x[1] == 1))
+                              & (x[0] <= 1.)).nodal["u^1"]
+        return np.union1d(basis.get_dofs(lambda x: x[0] == 0).all(), ends)
+
+    E, nu, drag = 1e4, .3, 1e-3
+    res = simulate(mesh, ElementQuad1(), points,
+                   [LinearElastic(E, nu), LinearElastic(1e7, .2)], supports,
+                   nsteps=2, loads=[RigidBody(1, [0., drag])],
+                   contacts=[Contact(0, 1, friction="rough")])
+    shear = E / 2 / (1 + nu) * drag * 1. / 1.      # G d H / L
+    for record in res.history:
+        force = record.rigid_forces[0]
+        assert force[1] == pytest.approx(record.load_factor * shear,
+                                         rel=1e-3)
+        assert abs(force[0]) < 1e-4 * force[1]
 
 
 @pytest.mark.parametrize("method", [

@@ -1665,19 +1665,25 @@ class StepBodyContact(GridTerm):
 
     def rough_changes(self, ev, du: ndarray) -> bool:
         """After Newton, rough contacts: a pair that stuck but was found
-        apart lets go; one pressed that did not stick joins, sticking
+        apart (unpressed, its gap beyond the tolerance) lets go; one
+        pressed that did not stick joins, sticking
         from where its corners met within the step (their relative motion
         scaled by the start gap over its closing: the multiplier ``kappa
         P`` of that motion); each pair changes once a step, so the rounds
         end.  ``True`` when any changed (the step is solved again)."""
         dim, changes = self.dim, 0
-        for (_, _, contact), part, e, kappa in zip(
-                self.term.contacts, self.parts, ev, self.term.kappa):
+        for (_, _, contact), part, e, kappa, tol in zip(
+                self.term.contacts, self.parts, ev, self.term.kappa,
+                self.term.tol):
             if contact.friction != "rough":
                 continue
             p, gap, n = e[4], e[6], part["n"]
             free = ~part["changed"]
-            apart = free & part["held"] & (p <= 0.)
+            # apart: unpressed and open beyond the tolerance, as a pair
+            # is held at the start; a pair touching unpressed (p = 0,
+            # its gap within the tolerance) let go, and a block in simple
+            # shear beside a rough slab carried 0.75 of the shear
+            apart = free & part["held"] & (p <= 0.) & (gap > tol)
             join = free & ~part["held"] & (p > 0.)
             part["steady"] &= not (apart.any() or join.any())
             part["tau"][:, apart] = 0.

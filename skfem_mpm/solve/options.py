@@ -239,7 +239,9 @@ class Options:
         penalty and mean dilatation.
     solver
         Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name
-        (``"scipy"``, ``"pypardiso"``, ``"pyamg"``, ``"auto"``); default
+        (``"scipy"``: SciPy's SuperLU, ``"pypardiso"``: MKL's Pardiso,
+        ``"pyamg"``: AMG-CG, ``"auto"``; a back end's name, "superlu",
+        is refused naming the one meant); default
         ``"auto"``, the back end measured fastest for each system's size
         among those installed, logged; checked when the run starts
         (:func:`~skfem_mpm.solve.backends.solver_auto`).
@@ -264,8 +266,8 @@ class Options:
         and B-splines in 2D and 3D, small and finite deformation,
         ``LinearElastic``, ``VonMises``, ``DruckerPrager``,
         ``MohrCoulomb`` and ``ModifiedCamClay``, with or without mean
-        dilatation) and numba imports, the numpy path otherwise (logged
-        once; and under ``SKFEM_MPM_KERNELS=numpy``);
+        dilatation) and numba imports, the numpy path otherwise and
+        under ``SKFEM_MPM_KERNELS=numpy`` (each logged once at INFO);
         ``"numpy"``: the numpy path, the tested reference;
         ``"compiled"``: the compiled passes, a run they cannot serve
         refused before any work (:mod:`skfem_mpm.kernels`).  The
