@@ -346,7 +346,7 @@ def drawn_points(x: np.ndarray, volume: np.ndarray, dim: int,
     >>> shown, volume, note = drawn_points(x, np.full(x.shape[1], 1e-5),
     ...                                    2, most=10_000)
     >>> shown.size <= 10_000, note
-    (True, '9801 of 120000 points drawn, one per 0.0101 m square')
+    (True, '9801 of 120000 points drawn, one per 0.0102 m square')
     """
     most = DRAWN_MOST if most is None else int(most)
     n = x.shape[1]
