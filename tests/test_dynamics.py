@@ -1161,3 +1161,27 @@ def test_lumped_mass_loses_energy_under_a_sudden_load():
     assert all(-.05 < loss < -.03 for loss in first)
     assert first[1] == pytest.approx(first[0], rel=.05)
     assert abs(suddenly_loaded_block(2e-3, 1, "consistent")[0]) < 1e-9
+
+
+def test_a_load_function_that_raises_stops_the_run_at_once():
+    """Trial 117: a ``load(t)`` raising ZeroDivisionError beyond 0.02 s
+    was taken for a failed step, cut back nine times and reported as a
+    NumericalError; the user's function, which no shorter step avoids:
+    an InvalidInputError at once, naming load(t), the time and the
+    exception."""
+    mesh = MeshLine(np.arange(0, 1.2 + 1e-9, .1))
+    points = seed_points(mesh, 2, region=lambda x: x[0] < .95)
+    cut = []
+
+    def load(t):
+        cut.append(t)
+        return 1. if t < .02 + 1e-9 else 1 / 0
+    with pytest.raises(InvalidInputError, match=re.escape(
+            "Dynamics: load(t) raised ZeroDivisionError at t = 0.03 s: "
+            "division by zero")) as err:
+        simulate(mesh, ElementLineP1(), points, LinearElastic(1e6, 0.),
+                 fixed_end, body_force=[1e3],
+                 dynamics=Dynamics(.01, .05, 1e3, load=load))
+    assert isinstance(err.value.__cause__, ZeroDivisionError)
+    assert max(cut) == pytest.approx(.03) and len(
+        [t for t in cut if t > .02 + 1e-9]) == 1

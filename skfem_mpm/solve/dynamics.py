@@ -303,10 +303,25 @@ class Dynamics:
         return increment
 
     def scale(self, t: float) -> float:
-        """The loads' scale at time ``t``."""
+        """The loads' scale at time ``t``.  What ``load(t)`` raises stops
+        the run at once, as :class:`~skfem_mpm.errors.InvalidInputError`
+        naming the time and the exception: the user's function, not the
+        step's numerics, and no shorter step avoids it (a step cut back
+        still ends at the multiple of ``time_step`` it failed to reach,
+        and evaluates ``load`` there; a trial's ``1 / 0`` beyond 0.02 s
+        was taken for a failed step, cut back nine times and reported as
+        a ``NumericalError``)."""
         if self.load is None:
             return 1.
-        value = self.load(float(t))
+        try:
+            value = self.load(float(t))
+        except Exception as err:
+            raise InvalidInputError(
+                "Dynamics: load(t) raised {} at t = {:.6g} s: {} (the "
+                "user's function of time, not the step's numerics: a "
+                "shorter step would still end at each multiple of "
+                "time_step)".format(type(err).__name__, float(t), err)
+            ) from err
         if isinstance(value, (bool, np.bool_)) or not isinstance(
                 value, (int, float, np.integer, np.floating)) or \
                 not np.isfinite(value):
