@@ -110,7 +110,11 @@ class Contact:
     ----------
     first, second
         The bodies: indices of ``MaterialPoints.body``, or names of a
-        scene's bodies (resolved by the scene).
+        scene's bodies (resolved by the scene), in either order: the
+        interface pairs the corners of its smaller side (by the points'
+        initial volumes) with the other's facing corners
+        (:func:`smaller_second`); the reported force is the first's on
+        the second.
     friction
         ``0.`` (smooth, the default), a Coulomb coefficient, or
         ``"rough"`` (no slip while in contact, free to separate).
@@ -281,6 +285,43 @@ def contact_interfaces(checked, field: ndarray) -> tuple:
                     checked[j][2].name for j, *_ in members[k]),
                 penalty=contact.penalty, tolerance=contact.tolerance))
     return found, members
+
+
+def smaller_second(found: list, members: list, field: ndarray,
+                   volume: ndarray) -> None:
+    """Orders each interface of ``found`` and ``members``
+    (:func:`contact_interfaces`), in place, so that its second field
+    is the one of smaller volume (``volume``: per field, the points'
+    initial volumes summed; alike, the declared order): the pairs are
+    the second body's corners, each with the first body's corner facing
+    it, and a body's corners in a notch of the other (a pile's tip)
+    are held only as the second.  Declared with the soil second, a
+    smooth pile (E = 1e8, 2 cells wide on grid lines, its tip at y =
+    0.5 in soil of E = 1e6, h = 0.125, 2 x 2 points, a traction on its
+    cap) kept one pair under its tip, which passed 6 mm into the soil,
+    and settled 14.10 mm (uGIMP; MPM 16.72) where with the pile second
+    it settled 7.76 (7.88).  The signs of ``members`` follow, so each
+    contact's force stays that of its declared first body on its
+    second.
+
+    >>> import numpy as np
+    >>> from skfem_mpm import Contact
+    >>> found, members = contact_interfaces([(1, 0, Contact(1, 0))],
+    ...                                     np.array([0, 1]))
+    >>> smaller_second(found, members, np.array([0, 1]),
+    ...                np.array([4., 1.]))
+    >>> found, members
+    ([(0, 1, Contact(0, 1, friction=0.0))], [[(0, 1, 0, -1)]])
+    >>> found[0][2].name
+    '1-0'
+    """
+    for k, (a, b, contact) in enumerate(found):
+        if volume[field[a]] < volume[field[b]] * (1 - 1e-9):
+            found[k] = (b, a, Contact(
+                b, a, friction=contact.friction, name=contact.name,
+                penalty=contact.penalty, tolerance=contact.tolerance))
+            members[k] = [(j, c, d, -sign)
+                          for j, c, d, sign in members[k]]
 
 
 def interface_count(contacts, nbodies: int, names=None) -> int:
@@ -577,6 +618,10 @@ class BodyContact(GridTerm):
 
     def begin_run(self, points) -> None:
         dim = self.dim
+        # the smaller field of each interface second (its corners held)
+        volume = np.zeros(self.field.max() + 1)
+        np.add.at(volume, self.field[points.body], points.volume0)
+        smaller_second(self.contacts, self.members, self.field, volume)
         modulus = np.broadcast_to(np.asarray(self.material.lam, float)
                                   + 2 * np.asarray(self.material.mu, float),
                                   (points.n,))
