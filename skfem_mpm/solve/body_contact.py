@@ -317,8 +317,9 @@ def smaller_second(found: list, members: list, field: ndarray,
     """
     for k, (a, b, contact) in enumerate(found):
         if volume[field[a]] < volume[field[b]] * (1 - 1e-9):
-            found[k] = (b, a, Contact(
-                b, a, friction=contact.friction, name=contact.name,
+            found[k] = (b, a, Contact(    # a scene's names kept
+                contact.second, contact.first, friction=contact.friction,
+                name=contact.name,
                 penalty=contact.penalty, tolerance=contact.tolerance))
             members[k] = [(j, c, d, -sign)
                           for j, c, d, sign in members[k]]
