@@ -601,6 +601,33 @@ def test_a_footing_of_two_materials_on_soil_shares_its_load():
                        rtol=0., atol=1e-12)
 
 
+def test_glued_blocks_side_by_side_each_report_their_own_load():
+    """Two blocks glued side by side (1 left, 2 right, meeting at
+    ``x = s``) on a third (body 0), pressed by ``p``, the second
+    contact declared the other way round: each contact's force is the
+    load on its own block, ``p s`` and ``p (1 - s)`` (the stress is
+    uniform), and the two add up to the load.  With the blocks meeting
+    on a grid node (s = 0.5) the pair there went whole to the second
+    block: 3.75 and 6.25 for 5 and 5 (mpm and cpGIMP)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2.5, 11))
+    p = 10.
+    for s, method in ((.5, "mpm"), (.5, "cpgimp"), (.375, "mpm")):
+        pts = bodies(mesh, 2, [[(0, 1), (0, 1.)], [(0, s), (1., 2.)],
+                               [(s, 1), (1., 2.)]])
+        top = side_points(pts, "top")
+        res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+                       roller_base_and_left_wall, method=method,
+                       loads=[Traction(top, "top", [0., -p])],
+                       contacts=[Contact(0, 1, tolerance=1e-9),
+                                 Contact(2, 0, tolerance=1e-9)],
+                       options=Options(NewtonOptions(tol=1e-10)))
+        assert np.abs(res.points.stress[1, 1] + p).max() < 1e-6 * p
+        forces = res.history[-1].contact_forces
+        assert np.allclose(forces, [[0., p * s], [0., -p * (1. - s)]],
+                           rtol=0., atol=1e-6 * p), (s, method, forces)
+        assert abs(forces[0, 1] - forces[1, 1] - p) < 1e-12 * p
+
+
 def full_and_resumed(args, kwargs, after):
     """The run of ``simulate(*args, **kwargs)`` whole, and resumed after
     step ``after`` from its points and record there."""

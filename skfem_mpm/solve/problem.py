@@ -31,8 +31,8 @@ from scipy.sparse import issparse
 
 from ..kernels import run_clock
 from ..errors import GridMotionError, GridTermProtocolError, \
-    MaterialRaisedError, NonFiniteGridTermError, PointsOutsideGridError, \
-    SingularSystemError, SingularTangentError
+    MaterialRaisedError, NonFiniteGridTermError, NonFiniteMaterialError, \
+    PointsOutsideGridError, SingularSystemError, SingularTangentError
 from ..mechanics.materials import is_plastic
 from ..stabilisation.volumetric import points_per_cell_axis
 from ..protocols import Balance, of_package
@@ -608,9 +608,11 @@ class StepProblem:
             try:
                 response = self.run.kinematics.response(self.op, du,
                                                         self.points)
-            except MaterialRaisedError as err:
+            except (MaterialRaisedError, NonFiniteMaterialError) as err:
                 # where the step starts (no increment) a shorter step
-                # calls the material alike: not retried (core.attempt)
+                # calls the material alike: not retried (core.attempt;
+                # a model returning NaN there was cut back 8 times for
+                # nothing, trial 119)
                 err.at_start = not np.any(du)
                 err.args = ("step {}: {}{}".format(
                     self.step, err.args[0], " where the step starts (no "
