@@ -102,6 +102,18 @@ def spline_start_inexact(method, mesh, points) -> bool:
 
 __all__ = ["StepProblem", "Trial", "STABILISATION", "STABILISATION_FLOOR"]
 
+#: the round-off floor of a static step's residual, as a share of its
+#: internal forces (their norm over every DOF, supports' and driven ones
+#: too, or at the step's start where larger) where no term sets one
+#: (dynamics: :data:`~skfem_mpm.solve.dynamics.ROUNDOFF`, its value): a
+#: residual norm at or below it is converged whatever the tolerance.  A
+#: step whose loads and driven forces are nothing but round-off has no
+#: other force to be measured against: a rough pile pulled out of
+#: weightless clay, all its pairs let go, took the round-off of its own
+#: stress as the driven force, 5e-12 (3e-13 of the soil's forces,
+#: growing with the pile's stiffness), its first residual was 1.9e12 and
+#: the step failed
+STATIC_ROUNDOFF = 1e-12
 #: the fraction of its diagonal added to a tangent refused as singular, or
 #: when a failed step is retried so (:meth:`StepProblem.solve`)
 STABILISATION = 1e-7
@@ -502,12 +514,16 @@ class StepProblem:
         for term in self.terms:
             term.weigh(balance, du)
         r = balance.f_ext - balance.f_int
-        scale = balance.scale
-        if balance.floor > 0.:        # a residual at the round-off of the
-            # forces the balance sums is converged (a body in free flight)
-            scale = max(scale, balance.floor / self.run.tol)
         if self.start_force is None:
             self.start_force = safe_norm(balance.f_int)
+        scale, floor = balance.scale, balance.floor
+        if floor == 0. and scale > 0.:  # (none: measured as below)
+            floor = STATIC_ROUNDOFF * max(safe_norm(balance.f_int),
+                                          self.start_force)
+        if floor > 0.:                # a residual at the round-off of the
+            # forces the balance sums is converged (a body in free flight,
+            # a driven body that carries nothing)
+            scale = max(scale, floor / self.run.tol)
         if scale == 0.:               # nothing loads or drives: the stresses
             # at the step's start and now (an initial stress unloaded to
             # none: measured against its own vanishing forces, the round-
