@@ -32,7 +32,8 @@ __all__ = [
     "GeneralizedAlpha", "material_point_bases", "Obstacle", "ContactError",
     "StepTooLongError", "HeldSupportError", "UnsettledContactError",
     "Contact", "MaterialOutputError", "MaterialProtocolError",
-    "NonFiniteMaterialError",
+    "NonFiniteMaterialError", "MaterialRaisedError", "GridTermError",
+    "GridTermProtocolError", "NonFiniteGridTermError",
 ]
 
 
@@ -43,7 +44,9 @@ def _public() -> dict:
                          InvalidInputError, InvalidMaterialError,
                          InversionError, MPMError, NewtonDivergenceError,
                          MaterialOutputError, MaterialProtocolError,
-                         NonFiniteMaterialError,
+                         NonFiniteMaterialError, MaterialRaisedError,
+                         GridTermError, GridTermProtocolError,
+                         NonFiniteGridTermError,
                          NumericalError, PointsOutsideGridError,
                          PrescribedMotionError, SingularSystemError,
                          SingularTangentError, StepFailedError,

@@ -136,10 +136,11 @@ def build_parser() -> argparse.ArgumentParser:
                      "count, completed or not)")
     run.add_argument("--no-series", action="store_true",
                      help="write plots and summary only, no VTU series")
-    run.add_argument("--series-every", type=int, default=1, metavar="N",
+    run.add_argument("--series-every", type=int, metavar="N",
                      help="write the VTU series at the start, every N-th "
-                     "step and the last (default 1: every step; a large "
-                     "3D run writes about 250 bytes a point a step)")
+                     "step and the last (default 1: every step; with "
+                     "--resume the run's own; a large 3D run writes about "
+                     "250 bytes a point a step)")
     compare = sub.add_parser("compare",
                              help="run FE and MPM on one scene and plot both")
     compare.add_argument("scene", type=Path, help="scene file")
@@ -289,7 +290,7 @@ class Progress:
     drawn_bar = None
 
     def __init__(self, total: int, enabled, start_factor: float = 0.,
-                 stream=None, timer=time.monotonic):
+                 stream=None, timer=time.monotonic, started=None):
         self.total = total
         self.stream = sys.stderr if stream is None else stream
         self.enabled = bool(enabled)
@@ -297,7 +298,11 @@ class Progress:
             self.enabled and self.stream.isatty())
         self.start_factor = start_factor
         self.timer = timer
-        self.started = self.written = timer()
+        # elapsed from ``started`` (the set-up's start: a trial's 1e6
+        # points said 0:36 at step 1, 60 s after its launch), the pace
+        # from the steps' start
+        self.paced = self.written = timer()
+        self.started = self.paced if started is None else started
         self.drawn = False      # a bar is on its line, not ended
         self.pending = None     # the last line, not written (no terminal)
 
@@ -311,7 +316,7 @@ class Progress:
         elapsed = now - self.started
         progressed = record.load_factor - self.start_factor
         left = "" if progressed <= 0 else " left {}".format(clock(
-            elapsed * (1. - record.load_factor) / progressed))
+            (now - self.paced) * (1. - record.load_factor) / progressed))
         # past the steps planned (cut-backs), the count is not a share:
         # a trial read "step   43/40"; the bar is the load factor's
         count = "{:4d}/{}".format(record.step, self.total) \
@@ -349,6 +354,34 @@ class Progress:
         if Progress.drawn_bar is self:
             Progress.drawn_bar = None
         self.stream.flush()
+
+
+#: a run's set-up says its stages on stderr once it has lasted this long
+#: (s), or from the start where the grid holds this many sub-cells
+#: (:class:`SetUp`)
+LONG_SETUP, LARGE_SETUP = 2., 100_000
+
+
+class SetUp:
+    """The stages of a run's set-up on ``stream`` (stderr) where
+    ``enabled`` (the progress is): each as it begins, with the time
+    elapsed since the set-up began (``started``), once that is
+    :data:`LONG_SETUP` or the run is ``large`` (a trial's 1e6-point run
+    wrote its first line 28 s after its launch, its first step 60 s)."""
+
+    def __init__(self, enabled, stream=None, timer=time.monotonic):
+        self.enabled = bool(enabled)
+        self.stream = sys.stderr if stream is None else stream
+        self.timer = timer
+        self.started = timer()
+        self.large = False
+
+    def __call__(self, stage: str):
+        elapsed = self.timer() - self.started
+        if self.enabled and (self.large or elapsed >= LONG_SETUP):
+            self.stream.write("set-up: {}, elapsed {}\n".format(
+                stage, clock(elapsed)))
+            self.stream.flush()
 
 
 class BarBreak(logging.Filter):
@@ -1108,11 +1141,13 @@ def refuse_other_steps(args, outdir: Path, planned):
                 args.steps, outdir, planned))
 
 
-def load_run(args):
+def load_run(args, setup=None):
     """The scene of a run (``--resume``: the checkpoint's), its output
     folder, the checkpoint resumed from (or ``None``), the points to start
     from, the :class:`~skfem_mpm.Resume`, the grid and the points the
-    scene seeds.  Writes nothing."""
+    scene seeds.  Writes nothing; ``setup`` (:class:`SetUp`) is told
+    its stages."""
+    setup = SetUp(False) if setup is None else setup
     earlier, points, resume = None, None, Resume()
     if args.resume is not None:
         outdir = args.resume
@@ -1177,7 +1212,14 @@ def load_run(args):
     check_folder(outdir, "--out" if args.resume is None else "--resume")
     check_reference(scene)
     mesh, _ = scene.grid.build()
+    cells = mesh.nelements * sum(b.points_per_cell ** mesh.dim()
+                                 for b in scene.bodies)
+    setup.large = cells >= LARGE_SETUP
+    setup("seeding {} {} on {} cells ({} sub-cells to sample)".format(
+        len(scene.bodies), "body" if len(scene.bodies) == 1 else "bodies",
+        mesh.nelements, cells))
     initial = build_points(scene, mesh)
+    setup("checking the {} points".format(initial.n))
     check_quantities(scene, scene.outputs, initial)
     if points is None:
         points = initial
@@ -1203,7 +1245,53 @@ def load_run(args):
     return scene, source, outdir, earlier, points, resume, mesh, initial
 
 
+class KeptWarnings(logging.Handler):
+    """The package's warnings while it is attached to the ``skfem_mpm``
+    logger, for ``summary.json``: ``said``, each message once, in the
+    order first logged, at most :data:`WARNINGS_KEPT` (then a last line
+    counting the rest).  A run that completes with only a warning of what
+    went wrong (a trial's traction 1000 E, 62% of it on held DOFs) says
+    it in its summary too, not only on stderr."""
+
+    def __init__(self):
+        super().__init__(logging.WARNING)
+        self.said, self.seen, self.more = [], set(), 0
+
+    def emit(self, record):
+        message = record.getMessage()
+        if message in self.seen:
+            return
+        self.seen.add(message)
+        if len(self.said) < WARNINGS_KEPT:
+            self.said.append(message)
+            return
+        self.more += 1
+        line = "... and {} more (the log has them)".format(self.more)
+        if self.more == 1:
+            self.said.append(line)
+        else:
+            self.said[-1] = line
+
+
+#: the distinct warnings a run's summary keeps
+WARNINGS_KEPT = 100
+
+
 def run(args) -> int:
+    """``skfem-mpm run``: :func:`run_warned` with the package's warnings
+    kept for its summary (:class:`KeptWarnings`)."""
+    kept = KeptWarnings()
+    package = logging.getLogger("skfem_mpm")
+    package.addHandler(kept)
+    try:
+        return run_warned(args, kept.said)
+    finally:
+        package.removeHandler(kept)
+
+
+def run_warned(args, warned: list) -> int:
+    """``skfem-mpm run``; ``warned``, the list of the warnings logged so
+    far (growing), goes into every summary it writes."""
     for name, least in (("checkpoint_every", 0), ("max_steps", 1),
                         ("steps", 1), ("series_every", 1)):
         if getattr(args, name) is not None and getattr(args, name) < least:
@@ -1211,14 +1299,15 @@ def run(args) -> int:
                 name.replace("_", "-"), least, getattr(args, name)),
                 file=sys.stderr)
             return 2
-    if args.no_series and args.series_every != 1:
+    if args.no_series and args.series_every not in (None, 1):
         print("skfem-mpm: --series-every {} with --no-series: there is no "
               "series to thin; leave one out".format(args.series_every),
               file=sys.stderr)
         return 2
+    setup = SetUp(not args.no_progress)
     try:
         scene, source, outdir, earlier, points, resume, mesh, initial = \
-            load_run(args)
+            load_run(args, setup)
     except KeyboardInterrupt:
         print("skfem-mpm: interrupted while setting up the run (reading the "
               "scene, seeding the points): nothing written", file=sys.stderr)
@@ -1258,34 +1347,44 @@ def run(args) -> int:
         prepared.append(outdir)
 
     series = None if args.no_series else SeriesWriter(outdir, mesh, points)
-    # what a resume's series lacks, said in the log and summary.json (a
-    # trial's resume after --no-series began its series at step 8 without
-    # a word)
-    notes = {}
+    # a resume keeps the run's --series-every unless told another (trial
+    # 111: started with 2, the resume wrote every step); the steps the
+    # series was to hold, by each invocation's N, written or not
+    every = args.series_every or (1 if earlier is None
+                                  else earlier.series_every)
+    wanted = [0] if earlier is None else [0] + [
+        int(r[0]) for r in earlier.history] \
+        if earlier.series_steps is None else list(earlier.series_steps)
+    # what a resume's series lacks of those, said in the log and
+    # summary.json (a trial's resume after --no-series began its series at
+    # step 8 without a word; the steps --series-every left out are not
+    # lacking)
+    notes = {"warnings": warned}
     if series is not None and earlier is not None:
         series.restore([(int(r[0]), float(r[6] if scene.dynamics else r[1]))
                         for r in earlier.history])
-        missing = len(earlier.history) + 1 - len(series.entries)
+        missing = len(set(wanted) - {int(names[0][7:-4]) for _, names
+                                     in series.entries})
         if missing:
             notes["series_note"] = (
                 "the VTU series lacks {} of the {} states before step {} "
-                "(the start, step 0, counted; an invocation with "
-                "--no-series writes none, one with --series-every N every "
-                "N-th): points.pvd and grid.pvd list "
-                "the steps written".format(missing, len(earlier.history)
-                                           + 1, earlier.step + 1))
+                "it was to hold (the start, step 0, counted; an "
+                "invocation with --no-series writes none): points.pvd and "
+                "grid.pvd list the steps written".format(
+                    missing, len(wanted), earlier.step + 1))
     elif earlier is not None and (outdir / "points.pvd").is_file():
         notes["series_note"] = (
             "the VTU series stops at step {}: the resume from there ran "
             "with --no-series".format(earlier.step))
-    if notes:
+    if "series_note" in notes:
         logger.warning("%s: %s", outdir, notes["series_note"])
     # the start, written as step 0 with the first step's frame (so that a
     # run refused before its first step writes nothing)
     start = points.copy() if series is not None and earlier is None \
         else None
     progress = Progress(scene.step_count, not args.no_progress,
-                        0. if earlier is None else float(earlier.load_factor))
+                        0. if earlier is None else float(earlier.load_factor),
+                        started=setup.started)
     # the records and the last state of the steps written (output and
     # all), and the step the checkpoint on disk holds
     history, latest = [], []
@@ -1319,7 +1418,8 @@ def run(args) -> int:
                 domain0=domain0, wall_seconds=run_clock() - tic + (
                     0. if earlier is None else earlier.wall_seconds),
                 timings=run_timings(history, earlier),
-                end_force=end_force))
+                end_force=end_force, series_every=every,
+                series_steps=np.array(wanted, dtype=np.int64)))
             kept[0] = len(rows)
 
     def unfinished(status, state, **keys):
@@ -1350,10 +1450,10 @@ def run(args) -> int:
                 mesh, start.x)[0]), None, None, {
                     name: np.zeros_like(values) for name, values in
                     contact_pressure_fields(record).items()})
-        if series is not None and (
-                record.step % args.series_every == 0
-                or record.load_factor >= 1. or (
-                    args.max_steps and len(history) + 1 >= args.max_steps)):
+        if record.step % every == 0 or record.load_factor >= 1. or (
+                args.max_steps and len(history) + 1 >= args.max_steps):
+            wanted.append(record.step)
+        if series is not None and wanted[-1] == record.step:
             series.write(record.step, float(
                 record.load_factor if record.time is None else record.time),
                 pts, record.elements, record.u, record.reactions,
@@ -1372,6 +1472,8 @@ def run(args) -> int:
                 and record.load_factor < 1.:
             raise StopRun(record.step)
 
+    setup("setting up the solver (the grid's operators, supports, "
+          "contact) and step {}".format(resume.first_step))
     tic, compiled = run_clock(), compile_seconds()
     try:
         result = run_scene(scene, points, resume=resume, callback=callback,
@@ -1467,7 +1569,7 @@ def run(args) -> int:
                 "scene": scene.name, "status": "failed",
                 "error": "{}: {}".format(type(err).__name__, err),
                 "last_converged_step": history[-1].step if history else
-                resume.first_step - 1})
+                resume.first_step - 1, "warnings": warned})
         except OSError:
             logger.info("no summary either: %s", err)
         raise
@@ -1565,8 +1667,9 @@ def print_report(scene, summary: dict, seconds: float, outdir: Path,
         label, against, _ = REFERENCE_ERRORS[scene.reference]
         print("  {:26s}{:.4e} (against {})".format(label + " ",
                                                    summary["error"], against))
-    print("  largest displacement      {:.4f} m".format(
-        summary["max_displacement"]))
+    # four significant digits (a trial's 4e-6 printed 0.0000 m)
+    print("  largest displacement      {:.4g} {}".format(
+        summary["max_displacement"], unit("length", scene.units)))
     for label, q in summary.get("outputs", {}).items():
         print("  {} {:.6g} {}".format(label.ljust(25), q["value"],
                                       q["unit"]))
@@ -1677,7 +1780,7 @@ def compare(args) -> int:
                     scale=scale, colorbar=k == 1)
         if a.dim == 1:
             ax.set_ylim(scale["vmin"], scale["vmax"])
-        print("{:>7}: largest displacement {:.4f}, {:.3f} s".format(
+        print("{:>7}: largest displacement {:.4g}, {:.3f} s".format(
             method, largest_displacement(result), seconds))
     # one view for both panels (a trial: each body's own limits, the
     # panels' axes unlike), the empty band above the panels trimmed

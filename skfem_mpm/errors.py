@@ -209,7 +209,58 @@ class NonFiniteMaterialError(MaterialOutputError, NumericalError):
     """A material returned NaN or inf (stress, elastic strain, tangent or
     a state variable) at some points: a failed step, cut back like a
     diverging one (a shorter step may avoid a trial state where the
-    model's arithmetic overflows)."""
+    model's arithmetic overflows), unless returned where the step starts
+    (no increment: ``at_start``), which every shorter step evaluates
+    again: the run then stops at once."""
+
+    at_start = False
+
+
+class GridTermError(MPMError):
+    """What a grid term of the user's own (an item of ``loads``, a
+    :class:`~skfem_mpm.GridTerm`) returned breaks the grid-term protocol:
+    a force of the wrong shape, a matrix that is not sparse ``N x N``,
+    NaN or inf.
+
+    Attributes
+    ----------
+    term
+        The term's class name.
+    method
+        ``"force"``, ``"start_force"``, ``"load"``, ``"matrix"`` or
+        ``"begin_step"``.
+
+    In a run the last converged state is attached (``state``,
+    ``load_factor``, ``history``)."""
+
+    def __init__(self, message, term=None, method=None, **kwargs):
+        super().__init__(message, **kwargs)
+        self.term, self.method = term, method
+        for name in ("state", "load_factor", "history"):
+            if not hasattr(self, name):
+                setattr(self, name, None)
+
+
+class GridTermProtocolError(GridTermError, InvalidInputError):
+    """A grid term returned a force or matrix of the wrong shape or type:
+    the run stops at once (a shorter step cannot cure it)."""
+
+
+class NonFiniteGridTermError(GridTermError, NumericalError):
+    """A grid term returned NaN or inf in its force, load or matrix: a
+    failed step, cut back as a material's NaN is
+    (:class:`NonFiniteMaterialError`)."""
+
+
+class MaterialRaisedError(MaterialOutputError, NumericalError):
+    """A material of the user's own raised an arithmetic error
+    (``ArithmeticError``, ``numpy.linalg.LinAlgError``) in its method,
+    named with it: a failed step, retried and cut back (a shorter step
+    may avoid the trial state), unless raised where the step starts (no
+    increment: ``at_start``), which every shorter step evaluates again:
+    the run then stops at once."""
+
+    at_start = False
 
 
 def check_finite(name: str, a: np.ndarray):

@@ -111,7 +111,22 @@ class GridTerm:
     ``driven`` grid DOFs, ``du0`` (the prescribed increments), ``s_old``,
     ``s_new`` (the loads' scale at the step's start and end), ``f_dead``
     (the external force that does not depend on the trial), ``step``,
-    ``counters`` and ``grid`` (the grid's vector basis).
+    ``counters``, ``grid`` (the grid's vector basis) and ``run``.
+
+    In a run with contact between bodies (``contacts=``) the grid is the
+    *extended* mesh of one copy per field (:mod:`skfem_mpm.methods.
+    fields`): ``problem.grid`` and ``op.N`` span every copy, and DOFs
+    picked by location (``problem.grid.get_dofs(...)``) are every copy's
+    node there.  A term acting on one body picks its copy:
+    ``problem.run.user_grid`` is one copy's vector basis (its ``N``
+    DOFs), ``problem.run.body_field[b]`` the field of body ``b``
+    (``None`` without such contacts), and field ``k``'s DOFs are one
+    copy's plus ``k * user_grid.N``::
+
+        run = problem.run
+        dofs = run.user_grid.get_dofs(on_base).all("u^2")
+        if run.body_field is not None:
+            dofs = dofs + run.body_field[body] * run.user_grid.N
 
     Examples
     --------
@@ -143,7 +158,8 @@ class GridTerm:
     the material at its node stays in the node's cells.  That total is
     the term's own: a checkpoint does not hold it, and a resumed run
     starts it again in :meth:`begin_run` (and warns, unless the term
-    sets :attr:`stateless`); restore it there to resume such a run.
+    sets :attr:`stateless` or :attr:`restores_state`); restore it there
+    to resume such a run, and set :attr:`restores_state`.
     """
 
     #: the term's matrix holds every rigid-body motion of the grid (a mass,
@@ -155,8 +171,13 @@ class GridTerm:
     #: not warn of it.  What a term keeps (a spring's total displacement)
     #: is in neither the points nor the checkpoints, and :meth:`begin_run`
     #: starts it again on a resume: a resumed run with terms of one's own
-    #: that do not set this warns, naming them
+    #: that set neither this nor :attr:`restores_state` warns, naming them
     stateless = False
+    #: the term keeps state over the steps and restores it itself on a
+    #: resume (in :meth:`begin_run`, from a store of its own, e.g. a
+    #: total displacement handed to it before the resumed run): a resumed
+    #: run does not warn of it, as of a :attr:`stateless` one
+    restores_state = False
     #: the term's force is a contact's (with obstacles, between bodies): in
     #: dynamics its work is booked as ``contact_work`` of
     #: :attr:`~skfem_mpm.StepRecord.energy`; any other term's (the ghost

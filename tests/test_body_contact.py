@@ -84,6 +84,38 @@ def test_a_frictionless_interface_carries_a_uniform_stress(method, interface,
     assert np.isclose(res.history[-1].reactions[1::2].sum(), p, rtol=1e-9)
 
 
+@pytest.mark.parametrize("method, n", [("bspline", 4),
+                                       ("bspline-gimp", 4),
+                                       ("bspline-gimp", 3)])
+def test_blocks_ending_inside_a_cell_carry_a_uniform_stress(method, n):
+    """The pressed stack on a grid wider than the blocks, their right
+    sides a quarter (a third) of a cell past a grid line: the spline of
+    the node beyond reaches the blocks there, and its node took no pair
+    (its share of the interface's force had nowhere to go) or the end
+    corner's alone, which balances a uniform stress only pulling (a user
+    trial: sigma_yy 0.97-1.01 of the load, bspline-gimp 0.72-1.28, at
+    the blocks' edge).  The node before it pairs every corner within
+    half a cell: uniform to 1e-6 of p."""
+    h, p = .25, 10.
+    right, interface = 1. + h / n, 1. + h * (n // 2) / n
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.5, 7),
+                                np.linspace(0, 2.5, 11))
+    pts = bodies(mesh, n, [[(0, right), (0, interface)],
+                           [(0, right), (interface, 2.)]])
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [LinearElastic(1e4, .3), LinearElastic(1e5, .2)],
+                   roller_base_and_left_wall, method=method,
+                   loads=[Traction(side_points(pts, "top"), "top",
+                                   [0., -p])],
+                   contacts=[Contact(0, 1, tolerance=1e-9)],
+                   options=Options(NewtonOptions(tol=1e-10)))
+    s = res.points.stress
+    assert np.abs(s[1, 1] + p).max() < 1e-6 * p
+    assert np.abs(s[0, 0]).max() < 1e-6 * p
+    assert np.allclose(res.history[-1].contact_forces[0], [0., p * right],
+                       rtol=1e-9, atol=1e-6 * p)
+
+
 @pytest.mark.parametrize("method", ("ugimp", "cpgimp"))
 def test_a_tight_tolerance_holds_over_steps(method):
     """The pressed stack (stiffness contrast 100) in three steps with the
@@ -567,6 +599,33 @@ def test_a_footing_of_two_materials_on_soil_shares_its_load():
                        rtol=1e-12, atol=1e-12 * q)
     assert np.allclose(mixed.points.displacement, same.points.displacement,
                        rtol=0., atol=1e-12)
+
+
+def test_glued_blocks_side_by_side_each_report_their_own_load():
+    """Two blocks glued side by side (1 left, 2 right, meeting at
+    ``x = s``) on a third (body 0), pressed by ``p``, the second
+    contact declared the other way round: each contact's force is the
+    load on its own block, ``p s`` and ``p (1 - s)`` (the stress is
+    uniform), and the two add up to the load.  With the blocks meeting
+    on a grid node (s = 0.5) the pair there went whole to the second
+    block: 3.75 and 6.25 for 5 and 5 (mpm and cpGIMP)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2.5, 11))
+    p = 10.
+    for s, method in ((.5, "mpm"), (.5, "cpgimp"), (.375, "mpm")):
+        pts = bodies(mesh, 2, [[(0, 1), (0, 1.)], [(0, s), (1., 2.)],
+                               [(s, 1), (1., 2.)]])
+        top = side_points(pts, "top")
+        res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+                       roller_base_and_left_wall, method=method,
+                       loads=[Traction(top, "top", [0., -p])],
+                       contacts=[Contact(0, 1, tolerance=1e-9),
+                                 Contact(2, 0, tolerance=1e-9)],
+                       options=Options(NewtonOptions(tol=1e-10)))
+        assert np.abs(res.points.stress[1, 1] + p).max() < 1e-6 * p
+        forces = res.history[-1].contact_forces
+        assert np.allclose(forces, [[0., p * s], [0., -p * (1. - s)]],
+                           rtol=0., atol=1e-6 * p), (s, method, forces)
+        assert abs(forces[0, 1] - forces[1, 1] - p) < 1e-12 * p
 
 
 def full_and_resumed(args, kwargs, after):

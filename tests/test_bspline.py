@@ -945,6 +945,33 @@ def test_splines_on_a_floor_between_grid_lines_are_warned(caplog):
                 if "lies between grid lines" in r.getMessage()]
 
 
+def test_a_press_onto_a_floor_between_grid_lines_is_warned_too(caplog):
+    """A block on a smooth floor a third of a cell above a grid line,
+    squeezed 0.1% by a smooth press (3 points a cell, h = 0.2, a roller
+    at x = 0; a user trial): ``sigma_yy`` 0.64-1.38 of the uniaxial
+    ``-E eps / (1 - nu^2)`` with ``"bspline-gimp"``, warned only for
+    the moving press.  The floor between grid lines is warned too."""
+    from skfem_mpm import Obstacle
+    h, n, E, nu, eps = .2, 3, 1e4, .3, 1e-3
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 11),
+                                np.linspace(0, 1.6, 9))
+    y0, top, right = h + h / n, 5 * h + h / n, 5 * h + h / n
+    points = seed_points(mesh, n, region=lambda x: (x[0] < right) & (
+        x[1] > y0) & (x[1] < top))
+    caplog.set_level("WARNING")
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(E, nu),
+                   lambda b: b.get_dofs(lambda x: x[0] == 0).all("u^1"),
+                   method="bspline-gimp", obstacles=[
+                       Obstacle(box=[[-1, 3], [-1, y0]], name="floor"),
+                       Obstacle(box=[[-1, 3], [top, 5]], name="press",
+                                displacement=[0, -eps * (top - y0)])])
+    said = [r.getMessage() for r in caplog.records
+            if "lies between grid lines" in r.getMessage()]
+    assert len(said) == 1 and "face of floor" in said[0]
+    exact = -E / (1 - nu ** 2) * eps
+    assert np.abs(res.points.stress[1, 1] / exact - 1).max() > .3
+
+
 def test_stacked_blocks_with_splines_at_the_points_get_the_ghost():
     """Two stacked blocks in contact (``Contact(0, 1)``) with the
     quadratic splines at the points, 3 a cell, the interface a third of

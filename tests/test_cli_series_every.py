@@ -75,3 +75,33 @@ def test_the_points_vtus_carry_the_contact_pressure(tmp_path, monkeypatch):
         assert np.isclose(total, expected, rtol=1e-12, atol=0.)
         pressed += total > 0
     assert pressed
+
+
+def test_a_resume_keeps_the_runs_series_every(tmp_path, monkeypatch,
+                                              caplog):
+    """Trial 111: started with ``--series-every 2``, the resume wrote
+    every step, and its note said the series lacked the states the run
+    had been asked to leave out.  The resume keeps the run's N (unless
+    told another) and says nothing of the steps N leaves out."""
+    import skfem_mpm.cli as cli
+    monkeypatch.setattr(cli, "plot_outputs", lambda *args, **kwargs: None)
+    scene = tmp_path / "pressed.toml"
+    scene.write_text(PRESSED)
+    steps = int(re.search(r"steps = (\d+)", PRESSED).group(1))
+    out = tmp_path / "every2"
+    assert main(["run", str(scene), "--out", str(out), "--series-every",
+                 "2", "--max-steps", "1", "--no-progress"]) == 0
+    assert written(out) == ([0, 1], [0, 1])
+    assert main(["run", "--resume", str(out), "--no-progress"]) == 0
+    wanted = sorted({0, 1, steps} | set(range(0, steps + 1, 2)))
+    assert written(out) == (wanted, wanted)
+    summary = json.loads((out / "summary.json").read_text())
+    assert "series_note" not in summary
+    assert "lacks" not in caplog.text
+    # told another N, the resume takes it
+    again = tmp_path / "again"
+    assert main(["run", str(scene), "--out", str(again), "--series-every",
+                 "2", "--max-steps", "1", "--no-progress"]) == 0
+    assert main(["run", "--resume", str(again), "--series-every", "1",
+                 "--no-progress"]) == 0
+    assert written(again)[0] == list(range(steps + 1))

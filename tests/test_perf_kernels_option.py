@@ -127,3 +127,24 @@ def test_tresca_on_the_numpy_path_is_a_warning(monkeypatch, caplog):
             assert "MohrCoulomb without friction" in said[0][1]
             assert "about twice" in said[0][1]
             assert "VonMises(yield_stress=sqrt(3) c)" in said[0][1]
+
+
+def test_the_numpy_path_by_the_environment_is_logged(monkeypatch, caplog):
+    """Trial 111: under ``SKFEM_MPM_KERNELS=numpy`` no line said the numpy
+    path served (the docstrings said the choice was logged).  It is
+    logged once at INFO, naming the variable; ``kernels="numpy"``, asked
+    for, is not."""
+    import logging
+    from skfem_mpm import LinearElastic, kernels
+    from skfem_mpm.mechanics.compiled import compiled_path
+    monkeypatch.setattr(kernels, "_LOGGED", set())
+    monkeypatch.setenv(kernels.AUTO_VARIABLE, "numpy")
+    material = LinearElastic(1e6, .3)
+    with caplog.at_level(logging.INFO, logger="skfem_mpm"):
+        assert compiled_path("numpy", material, 2) is None
+        assert "numpy path" not in caplog.text
+        for _ in range(2):
+            assert compiled_path("auto", material, 2) is None
+    said = [r for r in caplog.records if "numpy path" in r.getMessage()]
+    assert len(said) == 1 and said[0].levelno == logging.INFO
+    assert "{}=numpy".format(kernels.AUTO_VARIABLE) in said[0].getMessage()

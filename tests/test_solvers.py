@@ -44,6 +44,12 @@ def test_amg_uses_rigid_body_modes_in_3d():
 def test_unknown_solver_name():
     with pytest.raises(InvalidInputError, match="linear solver must be one"):
         get_solver("cholmod")
+    # Options check the name on creation, as they do their other fields
+    # (a trial's "umfpack" was refused only when the run started)
+    from skfem_mpm import Options
+    with pytest.raises(InvalidInputError, match="got 'umfpack'"):
+        Options(solver="umfpack")
+    assert Options(solver="pyamg").solver == "pyamg"
 
 
 def test_pardiso_reuses_its_analysis_over_newton_iterations():
@@ -903,3 +909,36 @@ def test_pardiso_beyond_the_hand_over_fill_refines_and_says_so(caplog):
     assert superlu.refined == 0
     assert any("checked SuperLU" in r.getMessage() and r.levelno ==
                logging.INFO for r in caplog.records)
+
+
+@pytest.mark.parametrize("name,meant", [("superlu", "scipy"),
+                                        ("SuperLU", "scipy"),
+                                        ("pardiso", "pypardiso"),
+                                        ("Pardiso", "pypardiso"),
+                                        ("amg", "pyamg")])
+def test_a_back_ends_name_is_told_the_solver_name_it_means(
+        name, meant, tmp_path):
+    """Trial 111: "superlu", "SuperLU" and "pardiso", the names the logs
+    and the README give the back ends, were refused with the solver
+    names alone.  The message says which back end each name is and the
+    name meant, in Python and in a scene file."""
+    from skfem_mpm.scenes.scene_file import load_scene
+    from skfem_mpm.solve.backends import SOLVER_WORDS
+    with pytest.raises(InvalidInputError) as err:
+        get_solver(name)
+    text = str(err.value)
+    for solver, words in SOLVER_WORDS.items():
+        assert "{!r} ({})".format(solver, words) in text
+    assert "SuperLU" in SOLVER_WORDS["scipy"]
+    assert "Pardiso" in SOLVER_WORDS["pypardiso"]
+    assert text.endswith("got {!r}; did you mean {!r}?".format(name, meant))
+    scene = tmp_path / "s.toml"
+    scene.write_text('[grid]\nx = [0.0, 1.0, 2]\ny = [0.0, 1.0, 2]\n\n'
+                     '[[bodies]]\nregion = "all"\nmaterial = {{ E = 1e6, '
+                     'nu = 0.3 }}\n\n[solver]\nlinear = "{}"\n'.format(name))
+    with pytest.raises(InvalidInputError) as err:
+        load_scene(scene)
+    assert "solver.linear: must be one of 'scipy' ({})".format(
+        SOLVER_WORDS["scipy"]) in str(err.value)
+    assert "got {!r}; did you mean {!r}?".format(name, meant) in \
+        str(err.value)

@@ -251,12 +251,18 @@ class StatelessBed(SpringBed):
     stateless = True
 
 
-@pytest.mark.parametrize("term", [SpringBed, StatelessBed])
+class RestoringBed(SpringBed):
+    """(Said to restore what it keeps: trial 116's term, whose resume
+    was warned "stateless", the only silence.)"""
+    restores_state = True
+
+
+@pytest.mark.parametrize("term", [SpringBed, StatelessBed, RestoringBed])
 def test_a_resume_with_a_term_of_ones_own_warns(caplog, term):
     """Trial 97: a spring bed resumed with a fresh term after 2 of 4 steps
     settled -2.16e-3 against -1.44e-3 uninterrupted (+50%), silently: its
     total displacement is not in the checkpoint.  The resume now warns,
-    naming the term, unless it says it keeps nothing."""
+    naming the term, unless it says it keeps nothing or restores it."""
     from skfem_mpm import Options, Resume
     mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
     points = seed_points(mesh, 2, region=lambda x: x[1] < 1.5)
@@ -277,8 +283,161 @@ def test_a_resume_with_a_term_of_ones_own_warns(caplog, term):
         run(Options(resume=Resume.after(kept[2])))
     said = [r.getMessage() for r in caplog.records
             if "grid terms of your own" in r.getMessage()]
-    if term is StatelessBed:
+    if term is not SpringBed:
         assert not said
     else:
         assert len(said) == 1 and "(SpringBed)" in said[0] \
             and "stateless = True" in said[0]
+
+
+class ShortForce(SpringBed):
+    def force(self, du, response):
+        return SpringBed.force(self, du, response)[:-2]
+
+
+class SmallMatrix(SpringBed):
+    def matrix(self, response):
+        return SpringBed.matrix(self, response)[:-2, :-2]
+
+
+class DenseMatrix(SpringBed):
+    def matrix(self, response):
+        return SpringBed.matrix(self, response).toarray()
+
+
+class NaNForce(SpringBed):
+    def force(self, du, response):
+        f = SpringBed.force(self, du, response)
+        f[self.dofs[0]] = np.nan
+        return f
+
+
+class NaNMatrix(SpringBed):
+    def matrix(self, response):
+        return np.nan * SpringBed.matrix(self, response)
+
+
+class NoneStep(SpringBed):
+    def begin_step(self, problem):
+        SpringBed.begin_step(self, problem)
+        return None
+
+
+def bed_run(term, kinematics="finite", nsteps=1):
+    """The column of :func:`test_a_failure_names_the_runs_own_grid_terms`
+    on a spring bed of class ``term``; returns the bed."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 3), np.linspace(0, 2, 5))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < 1.5)
+    base = np.flatnonzero(mesh.p[1] == 0)
+    bed = term(2 * base + 1, np.full(base.size, 1e5))
+    simulate(mesh, ElementQuad1(), points, LinearElastic(1e6, 0.),
+             lambda b: b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                                  | np.isclose(x[0], 1.)).all("u^1"),
+             body_force=[0., -2e3], loads=[bed], nsteps=nsteps,
+             kinematics=kinematics)
+    return bed
+
+
+@pytest.mark.parametrize("term, words", [
+    (ShortForce, "ShortForce.force returned an array of shape ({},) where "
+     "a grid vector of shape ({},) is expected"),
+    (SmallMatrix, "SmallMatrix.matrix returned a sparse matrix of shape "
+     "({0}, {0}) where a scipy.sparse matrix of shape ({1}, {1}) is "
+     "expected"),
+    (DenseMatrix, "DenseMatrix.matrix returned a dense ndarray of shape "
+     "({1}, {1}) where a scipy.sparse matrix of shape ({1}, {1})")])
+def test_a_terms_output_of_the_wrong_shape_or_type_is_named(term, words):
+    """Trial 116: "StepFailedError: step 1: ValueError: inconsistent
+    shapes", a numpy broadcast error "(714,) (712,)", "'numpy.ndarray'
+    object has no attribute 'tocsr'": the term never named."""
+    from skfem_mpm.errors import GridTermProtocolError
+    made = []
+
+    class Kept(term):
+        def begin_step(self, problem):
+            made.append(problem.op.N)
+            return term.begin_step(self, problem)
+    Kept.__name__ = term.__name__
+    with pytest.raises(GridTermProtocolError) as caught:
+        bed_run(Kept)
+    N = made[0]
+    assert "step 1: " + words.format(N - 2, N) in str(caught.value)
+    assert caught.value.term == term.__name__
+    assert caught.value.load_factor == 0.
+
+
+@pytest.mark.parametrize("term, words", [
+    (NaNForce, "NaNForce.force returned NaN or inf at 1 of its"),
+    (NaNMatrix, "NaNMatrix.matrix returned NaN or inf in 3 of its 3 "
+     "stored entries")])
+def test_nan_of_a_term_is_named(term, words, caplog):
+    """Trial 116: NaN in a spring bed's force was "Newton-Raphson did not
+    converge in 0 iterations (residual first nan)" after the ghost
+    penalty and 8 cut-backs, in its matrix a singular stiffness; the
+    term is named, the ghost penalty not switched on."""
+    from skfem_mpm.errors import NonFiniteGridTermError
+    with pytest.raises(NonFiniteGridTermError) as caught:
+        bed_run(term)
+    assert "step 1: " + words in str(caught.value)
+    assert not [r for r in caplog.records if "ghost" in r.getMessage()]
+
+
+def test_a_holding_term_absent_from_a_step_is_named():
+    """Trial 116: a spring bed whose begin_step returned None while it
+    sets holds_free_body ended in "Newton made no progress (... the body
+    collapsing?)": the supports are checked without it, and the error
+    names it."""
+    with pytest.raises(SingularSystemError) as caught:
+        bed_run(NoneStep)
+    assert "NoneStep.begin_step returned None in this step" in str(
+        caught.value)
+    assert "not held against translation along y" in str(caught.value)
+
+
+def test_a_wrong_matrix_of_a_term_is_named_in_newton_s_warning(caplog):
+    """Trial 116: the spring matrix 0.3 of its derivative, in finite
+    deformation: the warnings ("Newton made no progress", a divergence)
+    never named the term; the line search then carried the step."""
+    bed_run(Weak)
+    said = [r.getMessage() for r in caplog.records
+            if "did not converge" in r.getMessage()]
+    assert said and all("the matrix of Weak may not be the derivative "
+                        "of its force" in s for s in said), said
+
+
+class OneBodyBed(SpringBed):
+    """A spring bed under body 0 alone, its DOFs picked as the GridTerm
+    docstring says: one copy's by location, moved to the body's field."""
+
+    def begin_step(self, problem):
+        run = problem.run
+        base = run.user_grid.get_dofs(lambda x: np.isclose(x[1], 0.))
+        self.dofs = base.all("u^2")
+        if run.body_field is not None:
+            self.dofs = self.dofs + run.body_field[0] * run.user_grid.N
+        return SpringBed.begin_step(self, problem)
+
+
+def test_a_term_picks_one_body_s_copy_of_the_grid_with_contact():
+    """Trial 116: with Contact the grid is the extended mesh of 2 copies
+    (op.N twice the nodes' DOFs): a term picking DOFs by location got
+    both copies.  The documented recipe picks body 0's, and the column
+    of two bodies in contact sinks by its whole weight over the bed's
+    stiffness."""
+    from skfem_mpm import Contact
+    h, kappa, height, weight_density = .25, 1e5, 1.5, 2e3
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2, 9))
+    points = seed_points(mesh, 2, region=lambda x: x[1] < height)
+    points.body = (points.x[1] > .75).astype(int)
+    base = np.flatnonzero(mesh.p[1] == 0)
+    k = kappa * np.where(np.isin(mesh.p[0, base], (0., 1.)), h / 2, h)
+    bed = OneBodyBed(np.zeros(base.size, dtype=int), k)
+    simulate(mesh, ElementQuad1(), points, [LinearElastic(1e6, 0.)] * 2,
+             lambda b: b.get_dofs(lambda x: np.isclose(x[0], 0.)
+                                  | np.isclose(x[0], 1.)).all("u^1"),
+             body_force=[0., -weight_density], loads=[bed], nsteps=1,
+             kinematics="small", contacts=[Contact(0, 1)])
+    assert bed.N == 2 * 2 * mesh.nvertices             # two copies
+    assert bed.dofs.size == base.size
+    W = weight_density * height
+    assert np.abs(bed.u / (-W / kappa) - 1).max() < 1e-6

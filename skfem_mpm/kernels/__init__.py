@@ -19,7 +19,7 @@ is imported only when a run first asks for the passes, so that ``import
 skfem_mpm`` stays light; the kernels are cached on disk, so a second
 process does not compile them again.  The environment variable
 ``SKFEM_MPM_KERNELS=numpy`` makes ``"auto"`` take the numpy path
-(:func:`auto_kernels`): a short run on a machine whose kernel cache is
+(:func:`auto_kernels`; logged once at INFO): a short run on a machine whose kernel cache is
 empty spares the passes' compilation (about 90 s once), and the
 README's fast test command runs so.
 

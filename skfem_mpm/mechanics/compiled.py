@@ -41,8 +41,8 @@ import numpy as np
 from numpy import ndarray
 
 from ..errors import InvalidInputError
-from ..kernels import (CAM_CLAY, DRUCKER_PRAGER, ELASTIC, MOHR_COULOMB,
-                       VON_MISES, auto_kernels, check_kernels,
+from ..kernels import (AUTO_VARIABLE, CAM_CLAY, DRUCKER_PRAGER, ELASTIC,
+                       MOHR_COULOMB, VON_MISES, auto_kernels, check_kernels,
                        compiled_passes, log_once)
 from .hencky import SpectralParts
 from .materials import (LinearElastic, PointMaterials, VonMises,
@@ -154,8 +154,8 @@ def compiled_path(kernels: str, material, dim: int,
                   total_lagrangian: bool = False):
     """The :class:`CompiledPasses` of a kinematics piece, or ``None`` (the
     numpy path): with ``kernels="numpy"``, or ``"auto"`` under
-    ``SKFEM_MPM_KERNELS=numpy`` (:func:`~skfem_mpm.kernels.auto_kernels`);
-    with ``"auto"`` where the
+    ``SKFEM_MPM_KERNELS=numpy`` (:func:`~skfem_mpm.kernels.auto_kernels`;
+    logged once at INFO, naming the variable); with ``"auto"`` where the
     passes do not cover the material, dimension or scheme or numba does
     not import (logged once at INFO; at WARNING for Mohr-Coulomb without
     friction, Tresca, a built-in material whose iterations then cost
@@ -173,8 +173,13 @@ def compiled_path(kernels: str, material, dim: int,
     skfem_mpm.errors.InvalidInputError: kernels='compiled': the compiled \
 passes do not serve 1D grids; ...
     """
-    if check_kernels(kernels) == "numpy" or (
-            kernels == "auto" and auto_kernels() == "numpy"):
+    if check_kernels(kernels) == "numpy":
+        return None
+    if kernels == "auto" and auto_kernels() == "numpy":
+        # said (trial 111: no line said which path a run took)
+        log_once(logging.INFO, "kernels='auto': the numpy path serves "
+                 "every run (the environment variable %s=numpy)",
+                 AUTO_VARIABLE)
         return None
     params, body, reason = body_parameters(material)
     reason = ("{}D grids".format(dim) if dim not in (2, 3)

@@ -54,7 +54,8 @@ from skfem.assembly import BilinearForm
 from skfem.models.elasticity import linear_elasticity
 
 from ..errors import (InvalidMaterialError, MaterialProtocolError,
-                      NonFiniteMaterialError, check_real)
+                      MaterialRaisedError, NonFiniteMaterialError,
+                      check_real)
 from ..protocols import of_package, state_variables
 
 logger = logging.getLogger(__name__)
@@ -348,7 +349,14 @@ def at_points(material, points) -> object:
                 "skfem_mpm.mechanics.materials): it lacks {}".format(
                     "{} ".format(k) if len(materials) > 1 else "",
                     type(m).__name__,
-                    ", ".join(missing or ["stress (elastic materials)"])))
+                    ", ".join(missing or [
+                        "stress (a material with plastic = False is "
+                        "linear elastic and needs stress(strain), its "
+                        "linear law; a nonlinear elastic model, e.g. a "
+                        "hyperelastic one of its own, sets plastic = "
+                        "True: its principal_update is then called in "
+                        "small strain and finite deformation alike; "
+                        "docs/materials.md)"])))
         if not trusted(m):
             check_lame(m, "material {}{}".format(
                 "{} ".format(k) if len(materials) > 1 else "",
@@ -582,6 +590,11 @@ def update(material, eps: ndarray, state, where=0):
         given[name].flags.writeable = False
     try:
         out = material.principal_update(eps, given)
+    except (ArithmeticError, np.linalg.LinAlgError) as err:
+        # named (it had been "NumericalError: step 1: LinAlgError:
+        # Singular matrix" after 8 cut-backs, trial 116)
+        raise _fault(material, method, None, "raised {}: {}".format(
+            type(err).__name__, err), error=MaterialRaisedError) from err
     except ValueError as err:
         if "read-only" not in str(err):
             raise

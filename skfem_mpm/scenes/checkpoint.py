@@ -140,6 +140,13 @@ class Checkpoint:
         Whether a tied obstacle's point state is its traction (every
         checkpoint written since 2026-11-29); ``False``: the multiplier,
         read from a checkpoint written before (:func:`check_tied`).
+    series_every, series_steps
+        The ``--series-every`` of the invocation that wrote it (a resume
+        keeps it unless told another) and the steps up to ``step`` whose
+        states the VTU series was to hold by the ``--series-every`` of
+        each invocation (the start, 0, included; written or not: with
+        ``--no-series`` none is); a checkpoint written before they were
+        kept: 1 and ``None`` (every step).
 
     """
     step: int
@@ -156,6 +163,8 @@ class Checkpoint:
     timings: dict = field(default_factory=dict)
     end_force: Optional[ndarray] = None
     tied_traction: bool = True
+    series_every: int = 1
+    series_steps: Optional[ndarray] = None
 
     @property
     def complete(self) -> bool:
@@ -198,7 +207,8 @@ def save_checkpoint(outdir, checkpoint: Checkpoint):
               "timing_names": np.array(sorted(c.timings), dtype=str),
               "timing_values": np.array([c.timings[k] for k in sorted(
                   c.timings)], dtype=np.float64),
-              "tied_traction": np.array(bool(c.tied_traction))}
+              "tied_traction": np.array(bool(c.tied_traction)),
+              "series_every": np.array(int(c.series_every))}
     for name in POINT_FIELDS:
         value = getattr(c.points, name)
         if value is not None:
@@ -209,6 +219,8 @@ def save_checkpoint(outdir, checkpoint: Checkpoint):
         arrays["domain0"] = c.domain0
     if c.end_force is not None:
         arrays["end_force"] = c.end_force
+    if c.series_steps is not None:
+        arrays["series_steps"] = np.asarray(c.series_steps, np.int64)
     with atomic_path(Path(outdir) / CHECKPOINT) as tmp:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
@@ -366,6 +378,14 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
                   "checkpoint's {}".format("points have no velocity"
                                           if state.velocity is None
                                           else "step is 0"))
+    # kept since 2026-11-30 (before: every step written)
+    every = int(get("series_every", "i", 0)) if "series_every" in a else 1
+    if every < 1:
+        raise bad("series_every", "must be >= 1, got {}".format(every))
+    series = get("series_steps", "i", 1) if "series_steps" in a else None
+    if series is not None and series.size and (
+            series.min() < 0 or series.max() > step):
+        raise bad("series_steps", "must lie in [0, step {}]".format(step))
     return Checkpoint(step=step, nsteps=nsteps, load_factor=factor,
                       increment=increment, points=state,
                       counters={str(k): int(v) for k, v in zip(names,
@@ -373,7 +393,8 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
                       history=history, reactions=reactions,
                       scene_sha256=digest, domain0=domain0,
                       wall_seconds=wall, timings=timings,
-                      end_force=end_force, tied_traction=tied)
+                      end_force=end_force, tied_traction=tied,
+                      series_every=every, series_steps=series)
 
 
 

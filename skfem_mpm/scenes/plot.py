@@ -27,7 +27,7 @@ __all__ = ["pyplot", "save_figure", "draw_plastic_zone", "draw_points",
            "figure_problems", "STRESS_NAMES", "mark_peak", "marker_size",
            "draw_deformed_shape", "SupportMarks", "outline",
            "draw_supports", "material_nodes", "side_colorbar",
-           "view_limits", "fit_title",
+           "view_limits", "fit_title", "drawn_points",
            "significant", "layout_problems", "thin_ticks",
            "settle_layout", "slice_plane",
            "box_section", "displacement_scale", "scale_note",
@@ -244,11 +244,15 @@ def draw_points(fig, ax, points, values: np.ndarray, label: str, title: str,
         return None
     (a, b), shown, note = shown_axes(x, points.volume)
     scale = colour_scale(values[shown]) if scale is None else scale
+    shown = np.flatnonzero(shown)                # at most DRAWN_MOST
+    pick, volume, thinned = drawn_points(x[[a, b]][:, shown], points.volume,
+                                         x.shape[0])
+    shown = shown[pick]
+    note = ", ".join(filter(None, (note, thinned)))
     if size is None:
-        size = marker_size(fig, ax, x[[a, b]][:, shown], points.volume,
-                           x.shape[0])
+        size = marker_size(fig, ax, x[[a, b]][:, shown], volume, x.shape[0])
     sc = ax.scatter(x[a, shown], x[b, shown], c=values[shown], s=size,
-                    **scale)
+                    rasterized=True, **scale)
     ax.set_aspect("equal")
     ax.set_xlabel("{} ({})".format("xyz"[a], LENGTH))
     ax.set_ylabel("{} ({})".format("xyz"[b], LENGTH))
@@ -319,6 +323,51 @@ def marker_size(fig, ax, x: np.ndarray, volume: np.ndarray,
 DOT_SPACING = 4.
 
 
+#: the most points one picture draws (:func:`drawn_points`): beyond some
+#: 1e5 the markers are finer than the pixels, and each costs the renderer
+#: its time (a trial's million points: 66 to 78 s of figures)
+DRAWN_MOST = 100_000
+
+
+def drawn_points(x: np.ndarray, volume: np.ndarray, dim: int,
+                 most: int = None) -> tuple:
+    """Which of the points at ``x`` (2, n; volumes ``volume``, of
+    dimension ``dim``) a picture draws: all, if at most ``most`` (default
+    :data:`DRAWN_MOST`); of more, one per square of a regular grid over
+    their box, the first by index in each (deterministic, and even over
+    the body: no part of it is left out), the squares grown until at
+    most ``most`` hold points.  Returns the indices, the volumes for
+    :func:`marker_size` (of the squares where they are the wider, so the
+    markers still cover the body) and a note for the title ("" when all
+    are drawn).
+
+    >>> import numpy as np
+    >>> x = np.mgrid[0:1:300j, 0:1:400j].reshape(2, -1)
+    >>> shown, volume, note = drawn_points(x, np.full(x.shape[1], 1e-5),
+    ...                                    2, most=10_000)
+    >>> shown.size <= 10_000, note
+    (True, '9801 of 120000 points drawn, one per 0.0102 m square')
+    """
+    most = DRAWN_MOST if most is None else int(most)
+    n = x.shape[1]
+    if n <= most:
+        return np.arange(n), volume, ""
+    lo = x.min(axis=1)
+    extent = np.ptp(x, axis=1)
+    side = max(np.sqrt(extent[0] * extent[1] / most), extent.max() / most,
+               1e-300)
+    while True:                       # the squares holding points: <= most
+        cells = np.floor((x - lo[:, None]) / side).astype(np.int64)
+        key = cells[0] * (int(cells[1].max()) + 1) + cells[1]
+        first = np.unique(key, return_index=True)[1]
+        if first.size <= most:
+            break
+        side *= 1.01 * np.sqrt(first.size / most)
+    volume = np.full(1, max(float(np.median(volume)), side ** dim))
+    return np.sort(first), volume, "{} of {} points drawn, one per {:.3g} " \
+        "{} square".format(first.size, n, side, LENGTH)
+
+
 def figure_problems(fig) -> list:
     """What keeps ``fig`` from explaining itself: axes with data but no x
     or y label or no title (a figure title counts), colour bars without a
@@ -365,15 +414,27 @@ def draw_plastic_zone(fig, ax, points, title: str, rigid=None,
     the points where ``rigid`` (bool per point) holds in black."""
     plastic = points.state["equivalent_plastic_strain"]
     soil = np.ones(points.n, dtype=bool) if rigid is None else ~rigid
-    sc = ax.scatter(points.x[0, soil], points.x[1, soil], c=plastic[soil],
-                    s=size, cmap="viridis",
-                    vmax=np.percentile(plastic[soil], 98))
-    if rigid is not None:
-        ax.scatter(points.x[0, rigid], points.x[1, rigid], c="k", s=size)
+    top = np.percentile(plastic[soil], 98)
+    notes = []
+    for k, mask in enumerate((soil, rigid)):   # at most DRAWN_MOST each
+        if mask is None or not mask.any():
+            continue
+        mine = np.flatnonzero(mask)
+        pick, _, note = drawn_points(points.x[:2, mine], points.volume, 2)
+        mine = mine[pick]
+        notes.append(note)
+        if k == 0:
+            sc = ax.scatter(points.x[0, mine], points.x[1, mine],
+                            c=plastic[mine], s=size, cmap="viridis",
+                            vmax=top, rasterized=True)
+        else:
+            ax.scatter(points.x[0, mine], points.x[1, mine], c="k",
+                       s=size, rasterized=True)
     ax.set_aspect("equal")
     ax.set_xlabel("x ({})".format(LENGTH))
     ax.set_ylabel("y ({})".format(LENGTH))
-    ax.set_title(title)
+    notes = ", ".join(filter(None, notes))
+    ax.set_title(title + ("\n(" + notes + ")" if notes else ""))
     # beside the axes and as high (trial 87: ``fig.colorbar(ax=ax)`` kept
     # the axes' box, and beside a low slope drawn at equal aspect the
     # bar was twice the plot's height)
@@ -809,10 +870,17 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
                           label="undeformed body (outline)"))
     body = shown & soil
     coloured = coloured and body.any()  # a slice of rigid points: plain
-    size = marker_size(fig, ax, x[[a, b]][:, shown], points.volume,
-                       dim) if dim > 1 else 6.
     scale = colour_scale(magnitude[body]) if coloured else None
+    body, volume, drawn = np.flatnonzero(body), points.volume, []
+    if dim > 1:                                   # at most DRAWN_MOST
+        pick, volume, thinned = drawn_points(x[[a, b]][:, body],
+                                             points.volume, dim)
+        body = body[pick]
+        drawn.append(thinned)
+    size = marker_size(fig, ax, x[[a, b]][:, shown], volume,
+                       dim) if dim > 1 else 6.
     sc = ax.scatter(x[a, body], x[b, body], s=size, zorder=2,
+                    rasterized=True,
                     **(dict(c=magnitude[body], **scale) if coloured
                        else dict(color="tab:blue")))
     handles.append(Line2D([], [], marker="o", ls="", color="tab:blue" if
@@ -823,7 +891,12 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
         mine = mask & shown
         if not mine.any():
             continue
-        ax.scatter(x[a, mine], x[b, mine], s=size, color="k", zorder=3)
+        shape = np.flatnonzero(mine)              # at most DRAWN_MOST
+        pick, _, thinned = drawn_points(x[[a, b]][:, shape], points.volume,
+                                        max(dim, 2))
+        drawn.append(thinned)
+        ax.scatter(x[a, shape[pick]], x[b, shape[pick]], s=size, color="k",
+                   zorder=3, rasterized=True)
         outline(ax, x[[a, b]][:, mine], half[[a, b]][:, mine], colors="k",
                 linewidths=1.2)
         handles.append(Line2D([], [], marker="o", ls="-", color="k",
@@ -867,6 +940,7 @@ def draw_deformed_shape(fig, ax, points, title: str, supports=(),
     else:
         ax.set_ylabel("{} ({})".format("xyz"[b], LENGTH))
         ax.locator_params(nbins=5)
+    note = ", ".join(filter(None, [note] + drawn))
     fit_title(fig, ax, title + (", " + note if note else ""))
     if coloured:
         side_colorbar(fig, ax, sc, "displacement magnitude |u| ({})"

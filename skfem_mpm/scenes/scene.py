@@ -619,7 +619,8 @@ def build_points(scene: Scene, mesh) -> MaterialPoints:
         pts.body[:] = k
         parts.append(pts)
     check_overlaps(scene.bodies, parts)
-    points = concatenate_points(parts)
+    # one body: its points as seeded (joining one copied 1e6 points)
+    points = parts[0] if len(parts) == 1 else concatenate_points(parts)
     weights = scene.body_forces()
     geostatic = [k for k, b in enumerate(scene.bodies) if b.K0 is not None]
     if geostatic and weights is None:

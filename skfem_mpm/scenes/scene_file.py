@@ -219,7 +219,7 @@ from ..kernels import KERNELS
 from ..mechanics.cam_clay import ModifiedCamClay
 from ..mechanics.materials import LinearElastic, VonMises
 from ..mechanics.soils import DP_FITS, DruckerPrager, MohrCoulomb
-from ..solve.backends import FACTORIES
+from ..solve.backends import FACTORIES, solver_choices, solver_meant
 from ..solve.dynamics import MASSES
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS, NewtonOptions
 from ..solve.body_contact import Contact
@@ -815,6 +815,18 @@ def _dynamics(c, data) -> TimeIntegration:
                                    open_low=False, integer=True))
 
 
+def linear_solver(c, solver) -> str:
+    """``[solver] linear``: a solver name, the message saying what each
+    is and which one a back end's name means (``"superlu"``: 'scipy')."""
+    value = solver.get("linear", "auto")
+    if value not in FACTORIES:
+        c.bad("solver.linear", "must be one of {}".format(solver_choices()),
+              value)
+        c.problems[-1] += solver_meant(value)
+        return "auto"
+    return value
+
+
 def _name(c, data):
     name = data.get("name", "scene")
     if not isinstance(name, str):
@@ -1125,8 +1137,7 @@ def parse_scene(data: dict, source: str = "") -> Scene:
         kinematics=kinematics, nsteps=steps, dynamics=dynamics,
         newton=newton, stabilisation=stabilisation, name=_name(c, data),
         reference=c.choice(data, "", "reference", REFERENCES + (None,)),
-        solver=c.choice(solver, "solver", "linear", tuple(FACTORIES),
-                        "auto"),
+        solver=linear_solver(c, solver),
         kernels=c.choice(solver, "solver", "kernels", KERNELS, "auto"),
         outputs=outputs, obstacles=[o for o in obstacles if o is not None],
         contacts=[t for t in contacts if t is not None],

@@ -38,7 +38,7 @@ from numpy import ndarray
 from scipy.sparse import csc_matrix, csr_matrix, triu
 from scipy.sparse.linalg import splu
 
-from ..errors import InvalidInputError, SingularSystemError, check_choice
+from ..errors import InvalidInputError, SingularSystemError
 from ..methods.assembly import PatternMatrices, compressed_matrix
 from ..quadrature.basis import compiled_kernels
 from ..spelling import setting
@@ -1185,6 +1185,59 @@ def solver_auto(dim: int = 2) -> Callable:
 FACTORIES = {"scipy": solver_direct_checked, "pypardiso": solver_pypardiso,
              "pyamg": solver_pyamg, "auto": solver_auto}
 
+#: what each solver name is (the logs and the README name the back ends)
+SOLVER_WORDS = {"scipy": "SciPy's SuperLU", "pypardiso": "MKL's Pardiso",
+                "pyamg": "AMG-CG, algebraic multigrid",
+                "auto": "one of these by the system's size"}
+
+#: the names of the back ends and their libraries, lower case, by the
+#: solver name they mean (trial 111 tried "superlu", "SuperLU", "pardiso")
+SOLVER_ALIASES = {"superlu": "scipy", "splu": "scipy", "spsolve": "scipy",
+                  "pardiso": "pypardiso", "mkl": "pypardiso",
+                  "amg": "pyamg", "amg-cg": "pyamg", "cg": "pyamg"}
+
+
+def solver_choices() -> str:
+    """The solver names with what each is: ``'scipy' (SciPy's SuperLU),
+    ...``."""
+    return ", ".join("{!r} ({})".format(k, v) for k, v in
+                     SOLVER_WORDS.items())
+
+
+def solver_meant(name) -> str:
+    """``"; did you mean 'scipy'?"`` for a solver ``name`` that names a
+    back end or its library (``"SuperLU"``, ``"pardiso"``) or is a name
+    misspelt, else ``""``.
+
+    >>> solver_meant("SuperLU"), solver_meant("Pardiso")
+    ("; did you mean 'scipy'?", "; did you mean 'pypardiso'?")
+    """
+    from ..spelling import did_you_mean
+    if isinstance(name, str) and name.strip().lower() in SOLVER_ALIASES:
+        return "; did you mean {!r}?".format(
+            SOLVER_ALIASES[name.strip().lower()])
+    return did_you_mean(name, FACTORIES)
+
+
+def check_solver(solver) -> None:
+    """Refuse (:class:`~skfem_mpm.errors.InvalidInputError`) a ``solver``
+    that is neither ``None``, a function nor one of the names, saying
+    which is which and the name meant (``Options`` checks on creation:
+    a trial's ``Options(solver="umfpack")`` was refused at the run).
+
+    >>> check_solver("pardiso")
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: linear solver must be one of 'scipy' (SciPy's SuperLU), 'pypardiso' (MKL's Pardiso), 'pyamg' (AMG-CG, algebraic multigrid), 'auto' (one of these by the system's size) or a function f(A, b) -> x, got 'pardiso'; did you mean 'pypardiso'?
+    """
+    if solver is None or callable(solver):
+        return
+    if not isinstance(solver, str) or solver not in FACTORIES:
+        raise InvalidInputError(
+            "linear solver must be one of {} or a function f(A, b) -> x, "
+            "got {!r}{}".format(solver_choices(), solver,
+                                solver_meant(solver)))
+
 
 def get_solver(solver: Union[None, str, Callable], dim: int = 2) -> Callable:
     """A solver function from a name (``"scipy"``, ``"pypardiso"``,
@@ -1195,7 +1248,7 @@ def get_solver(solver: Union[None, str, Callable], dim: int = 2) -> Callable:
         solver = "auto"
     if callable(solver):
         return solver
-    check_choice("linear solver", solver, FACTORIES)
+    check_solver(solver)
     if solver in ("auto", "pyamg"):     # their direct choice by dimension
         return FACTORIES[solver](dim=dim)
     return FACTORIES[solver]()

@@ -103,8 +103,10 @@ class Contact:
     refused).  A pile (body 1) with a cap (body 2) glued to it above
     soil (body 0): ``Contact(0, 1, friction=f)`` and ``Contact(0, 2,
     friction=f)``, though the cap never reaches the soil.  Each contact
-    reports the force of the interface's pairs between its own two
-    bodies.
+    reports the force of the interface's pairs, each pair's shared by
+    the bodies of the corners at its two corners' places (two blocks
+    glued side by side on a third each report the load on their own
+    top; ``docs/contact.md``).
 
     Parameters
     ----------
@@ -728,23 +730,35 @@ class BodyContact(GridTerm):
         """The force (contacts x dim) the first body of each contact
         exerts on the second, from its interface's pairs' tractions on
         the interface's second field (``ev``, of
-        :meth:`StepBodyContact.evaluate`): those of the pairs whose
-        corners lie on the contact's bodies (every pair of an
-        interface's fields' bodies has a contact, else they would be
-        glued)."""
+        :meth:`StepBodyContact.evaluate`), each pair's split by the
+        bodies of the corners at its two corners' places (``sides``, of
+        :meth:`StepBodyContact.add`; every pair of an interface's
+        fields' bodies has a contact, else they would be glued): a
+        contact takes the share of its first body on one side times its
+        second's on the other.  A pair on the line where two glued
+        bodies meet shares their corners: taken whole by the body of
+        the corner the pairs' search found, the load ``p`` on two
+        blocks side by side, each half the width, on a third, was 3.75
+        and 6.25 for 5 and 5."""
         out = np.zeros((len(self.declared), self.dim))
-        corners = 2 ** self.dim * points.n
+        nb = len(self.field)
         for part, e, members in zip(parts, ev, self.members):
             if len(members) == 1:
                 j, _, _, sign = members[0]
                 out[j] = sign * e[0].sum(axis=1)
                 continue
-            keys = part.get("keys", np.zeros(0, dtype=np.int64))
-            B, A = (points.body[(keys // corners) % points.n],
-                    points.body[(keys % corners) % points.n])
+            m = e[0].shape[1]
+            sides = part.get("sides", np.zeros((2, 0), dtype=np.int64))
+            side = part.get("side", np.zeros(0, dtype=np.int64))
+            # per side (0: the second field's, 1: the first's), pair and
+            # body: the share of the corners at the pair's place
+            share = np.zeros((2, m, nb))
+            np.add.at(share, (side, sides[0], points.body[sides[1]]), 1.)
+            share /= np.maximum(share.sum(axis=2, keepdims=True), 1.)
             for j, a, b, sign in members:
-                mine = ((A == a) & (B == b)) | ((A == b) & (B == a))
-                out[j] = sign * e[0][:, mine].sum(axis=1)
+                mine = share[1, :, a] * share[0, :, b] \
+                    + share[1, :, b] * share[0, :, a]
+                out[j] = sign * (e[0] @ mine)
         return out
 
     def domain_offsets(self, points) -> ndarray:

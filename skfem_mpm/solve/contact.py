@@ -37,14 +37,16 @@ moves linearly in the grid increment, ``u_c = J_c du``:
   (friction, rough, tied), by the grid's field where the corner is (kept
   as ``d_c`` too, where such an obstacle holds it): the element
   polynomial of the cell holding the corner (GIMP) or the splines there
-  (extended B-splines), :meth:`ObstacleContact.field_rows`.  A domain's
+  (B-splines: extended, or at a tied face),
+  :meth:`ObstacleContact.field_rows`.  A domain's
   two corners on a face, moved by their point's value and gradient,
   held the point's gradient along the face as well: a tied clamp came
   out too stiff (3.3% at a tolerance of 1e-5), and a 3D tied floor took
   3528 Newton iterations.  Smooth faces keep the point's rows (read at
   the field, a uGIMP block pressed on a wall was 6.5% off its stress by
   the wall, where its point's rows hold it within 5%), and so do
-  B-splines without the extension (warned).
+  B-splines without the extension at a face that is not tied
+  (warned).
 
 Interior corners coincide with neighbours' and never reach an obstacle
 while the surface corners are held, so every corner is a candidate and
@@ -990,13 +992,13 @@ class ObstacleContact(GridTerm):
         8 h: by up to 19% between steps; extended 3-8%) or stalls (a
         user's smooth punch at B = 16 h, 2 x 2 points per cell: at 0.66
         of Prandtl's pressure for 9 of its 20 steps, extended within
-        6%).  The corners of a face that holds the material move by their
+        6%).  The corners of a face that holds the material (friction,
+        rough; a tied face reads the splines there) move by their
         point's value and gradient (the splines' field at the surface
         loses those nodes too: :meth:`field_rows`), and two corners of a
-        domain on the face hold its point's gradient as well (a tied
-        clamp 3% too stiff at ``tolerance=1e-5``, after 325
-        augmented-Lagrangian rounds, in 3D 9.5%; a block on a rough floor
-        between grid lines, 2 x 2 points, its stresses 9% high).  The
+        domain on the face hold its point's gradient as well (a block on
+        a rough floor between grid lines, 2 x 2 points, its stresses 9%
+        high; a tied clamp was 3% too stiff at ``tolerance=1e-5``).  The
         remedy, ``Stabilisation(extended_splines=True)``, is named where
         it is not refused; with contacts between bodies, where it is,
         the methods that scatter less (:func:`contacts_remedy`).  So is
@@ -1007,14 +1009,24 @@ class ObstacleContact(GridTerm):
         points a cell: 0.97 of rho g H off with ``"bspline"``, 0.63
         averaged, extended 0.38 and 0.19; 3 points, the floor 0.48 of a
         cell above: 0.22 and 0.76, extended 0.23 and 0.22; the cubic
-        splines 0.31 and 0.30)."""
+        splines 0.31 and 0.30); warned whatever the other obstacles do
+        (a press moving onto a block on such a floor, 3 points a cell,
+        the floor a third of a cell above a grid line: 0.64-1.38 of the
+        uniform stress with ``"bspline-gimp"``, was warned only for the
+        press)."""
         piece = getattr(run.method, "piece", run.method)
         if getattr(piece, "spline", None) is None or piece.extended:
             return
         moves = any(ob.displacement.any() for ob in self.obstacles)
-        holds = any(ob.friction != 0. for ob in self.obstacles)
-        between = not (moves or holds) and faces_between_lines(
-            self.obstacles, run.user_grid.mesh)
+        # a tied face reads the field (:meth:`field_rows`)
+        holds = any(ob.friction != 0. and ob.friction != "tied"
+                    for ob in self.obstacles)
+        # a fixed smooth face, whatever the others do: a press moving
+        # onto a block on such a floor left it unwarned but for the press
+        between = faces_between_lines(
+            [ob for ob in self.obstacles
+             if ob.friction == 0. and not ob.displacement.any()],
+            run.user_grid.mesh)
         if between:
             logger.warning(
                 "method %r meets obstacles without extended splines, and "
@@ -1025,7 +1037,10 @@ class ObstacleContact(GridTerm):
                 "grid line, 2 points a cell: 0.97 of rho g H off with "
                 "'bspline', 0.63 with 'bspline-gimp', 0.31 with the cubic "
                 "splines; extended 0.19-0.23, 'bspline' at 2 points a "
-                "cell 0.38) "
+                "cell 0.38; a block pressed 0.1%% onto such a floor a "
+                "third of a cell above a grid line, 3 points a cell: "
+                "0.64-1.38 of the uniform stress with 'bspline-gimp', "
+                "extended 0.67-1.40, 'cpgimp' 1.0000) "
                 "(docs/bspline.md)%s", piece.name, between,
                 contacts_remedy(piece.name) if run.contacts else
                 "; {} folds those nodes, or put the face on a grid "
@@ -1045,9 +1060,8 @@ class ObstacleContact(GridTerm):
                     "scatter (a block pressed 0.5%, 2 x 2 points per cell: "
                     "-74 to -40 where -55 is uniform; extended 0.1%)"]) +
                 ([] if not holds else [
-                    "a face that holds the material (friction, rough, tied) "
-                    "holds its domains' gradient along it too (a tied clamp "
-                    "3% too stiff at tolerance 1e-5, in 3D 9.5%; a block on "
+                    "a face that holds the material (friction, rough) "
+                    "holds its domains' gradient along it too (a block on "
                     "a rough floor between grid lines, 2 x 2 points, its "
                     "stresses 9% high)"])),
             contacts_remedy(piece.name) if run.contacts else
@@ -1509,13 +1523,20 @@ class ObstacleContact(GridTerm):
         (smooth faces; B-splines without the extension, whose field at
         the surface loses the nodes the surface leaves: a rough footing's
         pressure fell by 61% over two steps, and a 3D Coulomb floor on a
-        grid plane slipped where it holds).  Chosen per obstacle: a
-        frictional box far from the material changed a smooth plate's
-        force by 3.9% while the choice was the run's."""
+        grid plane slipped where it holds), except at a tied obstacle,
+        whose material stays where it is bonded (read at the point, a
+        half block under gravity on a tied floor between grid lines took
+        a sideways force of -0.051 of its weight where its rough floor's
+        and cpGIMP's are +0.106, in 3D -25.4 against +55.1; a tied clamp
+        stiffened by 3.3% from the tolerance 1e-3 to 1e-5, MPM's by
+        0.75%).  Chosen per obstacle: a frictional box far from the
+        material changed a smooth plate's force by 3.9% while the choice
+        was the run's."""
         piece = getattr(run.method, "piece", run.method)
         plain = getattr(piece, "spline", None) is not None and \
             not piece.extended
-        return [ob.friction != 0. and not plain for ob in self.obstacles]
+        return [ob.friction != 0. and (not plain or ob.friction == "tied")
+                for ob in self.obstacles]
 
 
 class StartOfStep:

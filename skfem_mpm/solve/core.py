@@ -54,7 +54,8 @@ from ..errors import (ContactError, GridMotionError, HeldSupportError,
                       InvalidInputError, InversionError,
                       PointsOutsideGridError, UnsupportedElementError,
                       MPMError, NewtonDivergenceError,
-                      NonFiniteMaterialError, NumericalError,
+                      NonFiniteGridTermError, NonFiniteMaterialError,
+                      NumericalError,
                       SingularSystemError, SingularTangentError,
                       StepFailedError,
                       StepTooLongError, UnsettledContactError,
@@ -796,8 +797,9 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
             return done
         except STEP_FAILURES as failure:
             book_failed_attempt(run, report.get("timings", {}))
-            if isinstance(failure, StepTooLongError):
-                raise                       # only a shorter step helps
+            if isinstance(failure, StepTooLongError) or getattr(
+                    failure, "at_start", False):
+                raise       # only a shorter step helps; or none does
             zero_energy |= report.get("stabilised", False)
             report["zero_energy"] = zero_energy
             stalls.append(getattr(failure, "stalled", None))
@@ -808,7 +810,8 @@ def attempt(run: Run, points: MaterialPoints, f_old: float, f_new: float,
                         rung.how is None or not isinstance(
                             failure, UnsettledContactError)) and (
                         rung.how is not None or not isinstance(
-                            failure, NonFiniteMaterialError)) and \
+                            failure, (NonFiniteMaterialError,
+                                      NonFiniteGridTermError))) and \
                         rung.applies(run, failure, report):
                     break
             else:
@@ -836,6 +839,8 @@ def failure_key(failure: Exception) -> tuple:
     """What makes a failed attempt's warning one said before in its step
     (:func:`attempt`): a material's NaN or inf in the same variable of the
     same method, at whatever points; otherwise the same message."""
+    if isinstance(failure, NonFiniteGridTermError):
+        return (NonFiniteGridTermError, failure.term, failure.method)
     if isinstance(failure, NonFiniteMaterialError):
         return (NonFiniteMaterialError, failure.material, failure.method,
                 failure.variable)
@@ -1330,15 +1335,17 @@ def warn_resumed_terms(run: Run, resume: Resume) -> None:
     if not run.resumed:
         return
     own = sorted({type(term).__name__ for term in run.user_terms
-                  if not of_package(term) and not term.stateless})
+                  if not of_package(term) and not term.stateless
+                  and not getattr(term, "restores_state", False)})
     if own:
         logger.warning(
             "resumed at step %d with grid terms of your own (%s): what "
             "they keep over the steps (a total displacement, a history) "
             "is in neither the points nor the checkpoints, and begin_run "
             "started it afresh; restore it in the term (a spring bed "
-            "resumed fresh settled 50%% more), or set stateless = True "
-            "on a term that keeps nothing", resume.first_step,
+            "resumed fresh settled 50%% more) and set restores_state = "
+            "True on it, or set stateless = True on a term that keeps "
+            "nothing", resume.first_step,
             ", ".join(own))
 
 
@@ -1358,6 +1365,8 @@ def own_terms_hint(run: Run, err: Exception) -> str:
         return ""
     names = ", ".join(sorted({type(term).__name__ for term in own}))
     holding = [term for term in own if term.holds_free_body]
+    if "begin_step returned None" in str(err):   # (the step named them)
+        return ""
     if isinstance(err, SingularSystemError):
         if not holding:
             return ("; the run's grid terms of your own ({}) do not set "
@@ -1469,8 +1478,10 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             # a linear quasi-static step cut back solves the same
             # equations, scaled; a time step's change with it
             unscaled = run.linear and dynamics is None
+            at_start = getattr(err, "at_start", False)
             if unscaled or (target - factor) / 2 < smallest * (1 - 1e-9) \
-                    or held > HELD_HALVINGS or unbalanced or floor:
+                    or held > HELD_HALVINGS or unbalanced or floor \
+                    or at_start:
                 raise type(err)(
                     "{}; {}: the last converged state ({}) is attached"
                     "{}{}{}".format(
@@ -1478,6 +1489,8 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                         "at every load factor, so a shorter step has no "
                         "equilibrium either"
                         if unbalanced else floor if floor else
+                        "not cut back: raised where the step starts"
+                        if at_start else
                         "not cut back: a linear step's shorter one solves "
                         "the same equations, scaled" if unscaled else
                         "no convergence down to {}".format(span(

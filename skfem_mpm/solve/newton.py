@@ -718,21 +718,29 @@ def newton(problem, du: ndarray, search: Callable, *, max_iter: int,
             if stuck and stuck[0] == "stalled":
                 report["stalled"] = stuck[1]
             run = getattr(problem, "run", None)    # (a problem of tests)
+            material = getattr(run, "material", None)
+            terms = getattr(problem, "terms", ())
+            words = (stall_words(stuck) + residual_place(problem, current)
+                     if stuck and stuck[0] == "stalled" else
+                     stall_words(stuck, problem)) + (
+                "" if stuck else linear_words(
+                    residuals, material, stabilise,
+                    modified or report["reused"], report, terms))
+            own = suspects(material, terms)
+            if own and own not in words and np.isfinite(residuals[-1]) \
+                    and not (stuck and stuck[0] == "stalled"):
+                # a diverging loop with extensions of the user's own
+                # (trial 116's spring matrix 0.3 of its derivative)
+                words += "; extensions of your own take part: " + own
             error = NewtonDivergenceError(
                 "step {}: {} did not converge in {} iterations (residual "
-                "first {:.3g}, smallest {:.3g}, last {:.3g}{}){}{}".format(
+                "first {:.3g}, smallest {:.3g}, last {:.3g}{}){}".format(
                     problem.step, "the equilibrium iteration"
                     if problem.linear else "Newton-Raphson", it,
                     residuals[0], min(residuals), residuals[-1],
                     tolerance_words(tol, getattr(run, "tol", None),
                                     residuals[0] if relative else None),
-                    stall_words(stuck) + residual_place(problem, current)
-                    if stuck and stuck[0] == "stalled" else
-                    stall_words(stuck, problem),
-                    "" if stuck else linear_words(
-                            residuals, getattr(run, "material", None),
-                            stabilise, modified or report["reused"],
-                            report)))
+                    words))
             error.stalled = report.get("stalled")
             error.first_residual = residuals[0]
             error.start_share = start_share(problem, du, first_merit)
@@ -829,6 +837,10 @@ def stall_words(stuck: Optional[tuple], problem=None) -> str:
     cause = "a tangent that lost its stiffness, the body collapsing?"
     if engaging:
         cause = "; ".join(engaging) + "; or " + cause
+    own = suspects(getattr(getattr(problem, "run", None), "material", None),
+                   getattr(problem, "terms", ()))
+    if own:
+        cause += "; or " + own
     if stuck[0] == "stalled":
         return ("; stopped early: the residual stalled at {:.3g} over the "
                 "last {} iterations (within a factor {:g}): a floor of the "
@@ -915,7 +927,7 @@ def linear_rate(residuals: List[float]) -> Optional[float]:
 
 
 def linear_words(residuals: List[float], material, stabilised: bool,
-                 kept: bool, report: dict) -> str:
+                 kept: bool, report: dict, terms=()) -> str:
     """What a failed Newton loop's error adds of its rate: with the
     tangent as assembled (the material's ``D``, not stabilised), every
     iteration's (not ``kept``: modified Newton, a
@@ -931,32 +943,58 @@ def linear_words(residuals: List[float], material, stabilised: bool,
         return earlier and "; this attempt's tangent was stabilised; " \
             "an earlier attempt's, with the tangent as assembled: " + \
             earlier
-    words = linear_hint(residuals, material)
+    words = linear_hint(residuals, material, terms)
     if words:
         report["linear"] = words
     return words and "; " + words
 
 
-def linear_hint(residuals: List[float], material) -> str:
+def suspects(material, terms=()) -> str:
+    """The extensions of the user's own that take part in a step, named
+    as suspects of a tangent that is not the derivative of the forces
+    (a material's ``D``, a grid term's ``matrix``), or ``""``: names
+    only, no solve (trial 116's spring matrix 0.3 of its derivative, a
+    material's ``D`` halved, ended in "Newton made no progress (... the
+    body collapsing?)", neither named).
+
+    >>> class Bed:
+    ...     pass
+    >>> Bed.__module__ = "my_terms"          # (a doctest's is ours)
+    >>> suspects(None, [Bed()])
+    'the matrix of Bed may not be the derivative of its force'
+    """
+    users = [] if material is None else sorted({
+        type(m).__name__ for m in getattr(material, "materials", [material])
+        if not of_package(m)})
+    own = sorted({type(term).__name__ for term in terms
+                  if not of_package(term)})
+    words = []
+    if users:
+        words.append("the tangent D of {}'s principal_update may not be "
+                     "the derivative of its stress (check it with "
+                     "skfem_mpm.mechanics.element_tests.tangent_error; "
+                     "docs/materials.md)".format(" and ".join(users)))
+    if own:
+        words.append("the matrix of {} may not be the derivative of its "
+                     "force".format(" and ".join(own)))
+    return ", or ".join(words)
+
+
+def linear_hint(residuals: List[float], material, terms=()) -> str:
     """Where a failed Newton loop's ``residuals`` fell at a linear rate
     (:func:`linear_rate`), that rate in words, and where ``material`` (or
-    one of several bodies') is a user's (defined outside this package),
-    that its tangent may not be the derivative of its stress update;
-    else ``""``."""
+    one of several bodies') or one of the step's grid ``terms`` is a
+    user's (defined outside this package), that its tangent may not be
+    the derivative of its force (:func:`suspects`); else ``""``."""
     rate = linear_rate(residuals)
     if rate is None:
         return ""
-    users = [] if material is None else [
-        type(m).__name__ for m in getattr(material, "materials", [material])
-        if not of_package(m)]
+    own = suspects(material, terms)
     return ("the residual fell by about {:.2g} an iteration over the "
             "last {}: a linear rate (Newton's with the exact derivative is "
             "quadratic){}".format(
-                rate, LINEAR_ITERATIONS, "" if not users else
-                ": the tangent D of {}'s principal_update may not be the "
-                "derivative of its stress (check it with skfem_mpm."
-                "mechanics.element_tests.tangent_error; docs/materials.md)"
-                .format(" and ".join(sorted(set(users))))))
+                rate, LINEAR_ITERATIONS, "" if not own else
+                ": " + own))
 
 
 def predicted(problem, du: ndarray, d: ndarray, current):

@@ -18,6 +18,7 @@ from numpy import ndarray
 from ..errors import InvalidInputError, check_int
 from ..kernels import check_kernels
 from ..stabilisation.settings import Stabilisation
+from .backends import check_solver
 from .newton import NewtonOptions
 from .rigid import RigidBody
 
@@ -50,8 +51,9 @@ class Resume:
     above).  What grid terms of one's own keep over the steps (a spring
     bed's total displacement) is theirs to keep: it is not in the points
     or the checkpoints, ``begin_run`` starts it again, and a resumed run
-    warns, naming them, unless a term sets ``stateless = True``
-    (:class:`~skfem_mpm.GridTerm`).
+    warns, naming them, unless a term sets ``stateless = True`` (it keeps
+    nothing) or ``restores_state = True`` (it restores what it keeps in
+    ``begin_run``; :class:`~skfem_mpm.GridTerm`).
 
     >>> from skfem_mpm import Resume
     >>> Resume(first_step=0)
@@ -238,10 +240,13 @@ class Options:
         penalty and mean dilatation.
     solver
         Linear solver: a scikit-fem solver ``f(A, b) -> x`` or a name
-        (``"scipy"``, ``"pypardiso"``, ``"pyamg"``, ``"auto"``); default
+        (``"scipy"``: SciPy's SuperLU, ``"pypardiso"``: MKL's Pardiso,
+        ``"pyamg"``: AMG-CG, ``"auto"``; a back end's name, "superlu",
+        is refused naming the one meant); default
         ``"auto"``, the back end measured fastest for each system's size
-        among those installed, logged; checked when the run starts
-        (:func:`~skfem_mpm.solve.backends.solver_auto`).
+        among those installed, logged
+        (:func:`~skfem_mpm.solve.backends.solver_auto`); the name is
+        checked on creation, the back end's package when the run starts.
     resume
         :class:`Resume`, or ``None``: from the start.
     keep_snapshots
@@ -263,8 +268,8 @@ class Options:
         and B-splines in 2D and 3D, small and finite deformation,
         ``LinearElastic``, ``VonMises``, ``DruckerPrager``,
         ``MohrCoulomb`` and ``ModifiedCamClay``, with or without mean
-        dilatation) and numba imports, the numpy path otherwise (logged
-        once; and under ``SKFEM_MPM_KERNELS=numpy``);
+        dilatation) and numba imports, the numpy path otherwise and
+        under ``SKFEM_MPM_KERNELS=numpy`` (each logged once at INFO);
         ``"numpy"``: the numpy path, the tested reference;
         ``"compiled"``: the compiled passes, a run they cannot serve
         refused before any work (:mod:`skfem_mpm.kernels`).  The
@@ -311,6 +316,7 @@ class Options:
             raise InvalidInputError("callback must be callable, got "
                                     "{!r}".format(self.callback))
         check_kernels(self.kernels)
+        check_solver(self.solver)
 
 
 #: the keyword arguments :func:`~skfem_mpm.simulate` took before

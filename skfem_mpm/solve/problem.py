@@ -27,18 +27,20 @@ from typing import NamedTuple, Optional
 import numpy as np
 from numpy import ndarray
 from scipy.linalg.blas import dnrm2
+from scipy.sparse import issparse
 
 from ..kernels import run_clock
-from ..errors import GridMotionError, PointsOutsideGridError, \
-    SingularSystemError, SingularTangentError
+from ..errors import GridMotionError, GridTermProtocolError, \
+    MaterialRaisedError, NonFiniteGridTermError, NonFiniteMaterialError, \
+    PointsOutsideGridError, SingularSystemError, SingularTangentError
 from ..mechanics.materials import is_plastic
 from ..stabilisation.volumetric import points_per_cell_axis
-from ..protocols import Balance
+from ..protocols import Balance, of_package
 from ..spelling import setting
 from .backends import TINY
 from .linear import Condensation, condensed, factorise_condensed, \
     free_dofs
-from .motion import check_held, held_motion
+from .motion import check_held, held_motion, unheld_rigid_modes
 from .newton import trial_state
 from .results import PHASES, StepRecord
 
@@ -322,6 +324,91 @@ def add_within(K, G, kept: Optional[dict] = None):
     return type(K)((data, K.indices, K.indptr), shape=K.shape)
 
 
+def step_words(step) -> str:
+    """``"step 3: "`` for an error's words, ``""`` without a step."""
+    return "" if step is None else "step {}: ".format(step)
+
+
+def term_vector(term, method: str, f, N: int, step: int = None):
+    """``f``, what ``term.method`` returned, checked where the term is a
+    user's (:func:`~skfem_mpm.protocols.of_package`): ``None`` or a grid
+    vector of shape ``(N,)`` (:class:`~skfem_mpm.errors.
+    GridTermProtocolError` naming the term, the method, the expected and
+    the given shape; a shape a sum would broadcast or refuse said
+    "operands could not be broadcast", trial 116).  Finiteness is not
+    checked here, only where the residual is not finite
+    (:meth:`StepProblem.non_finite_term`).
+
+    >>> class Short:
+    ...     pass
+    >>> Short.__module__ = "my_terms"          # (a doctest's is ours)
+    >>> term_vector(Short(), "force", np.zeros(3), 4)
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.GridTermProtocolError: Short.force returned an array of shape (3,) where a grid vector of shape (4,) is expected (op.N, the step's grid DOFs: problem.op.N in begin_step)
+    """
+    if f is None or of_package(term) or np.shape(f) == (N,):
+        return f
+    name = type(term).__name__
+    given = "an array of shape {}".format(np.shape(f)) if isinstance(
+        f, np.ndarray) else "a {} of shape {}".format(type(f).__name__,
+                                                      np.shape(f))
+    raise GridTermProtocolError(
+        "{}{}.{} returned {} where a grid vector of shape ({},) is "
+        "expected (op.N, the step's grid DOFs: problem.op.N in "
+        "begin_step)".format(step_words(step), name, method, given, N),
+        term=name, method=method)
+
+
+def term_matrix(term, G, N: int, finite: bool, step: int = None):
+    """``G``, what ``term.matrix`` returned, checked where the term is a
+    user's: ``None`` or a scipy sparse matrix of shape ``(N, N)``
+    (:class:`~skfem_mpm.errors.GridTermProtocolError`: a dense array had
+    ended in "'numpy.ndarray' object has no attribute 'tocsr'", a
+    smaller matrix in "inconsistent shapes", trial 116); with ``finite``
+    (a step's first tangent) its entries finite too
+    (:class:`~skfem_mpm.errors.NonFiniteGridTermError`: NaN had been
+    called a singular stiffness).
+
+    >>> from scipy.sparse import identity
+    >>> class Dense:
+    ...     pass
+    >>> Dense.__module__ = "my_terms"          # (a doctest's is ours)
+    >>> term_matrix(Dense(), np.eye(2), 2, False)
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.GridTermProtocolError: Dense.matrix returned a dense ndarray of shape (2, 2) where a scipy.sparse matrix of shape (2, 2) is expected (op.N, the step's grid DOFs: problem.op.N in begin_step; scipy.sparse.csr_matrix(...))
+    >>> term_matrix(Dense(), identity(3), 2, False)
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.GridTermProtocolError: Dense.matrix returned a sparse matrix of shape (3, 3) where a scipy.sparse matrix of shape (2, 2) is expected (op.N, the step's grid DOFs: problem.op.N in begin_step; scipy.sparse.csr_matrix(...))
+    """
+    if G is None or of_package(term):
+        return G
+    name = type(term).__name__
+    sparse = issparse(G)
+    if not sparse or G.shape != (N, N):
+        raise GridTermProtocolError(
+            "{}{}.matrix returned {} of shape {} where a scipy.sparse "
+            "matrix of shape ({}, {}) is expected (op.N, the step's grid "
+            "DOFs: problem.op.N in begin_step; scipy.sparse.csr_matrix("
+            "...))".format(step_words(step), name, "a sparse matrix"
+                           if sparse else "a dense {}".format(
+                               type(G).__name__), np.shape(G), N, N),
+            term=name, method="matrix")
+    if finite:
+        bad = ~np.isfinite(G.data if G.format in ("csr", "csc", "coo",
+                                                  "bsr")
+                           else G.tocoo().data)
+        if bad.any():
+            raise NonFiniteGridTermError(
+                "{}{}.matrix returned NaN or inf in {} of its {} stored "
+                "entries".format(step_words(step), name, int(bad.sum()),
+                                 bad.size),
+                term=name, method="matrix")
+    return G
+
+
 class StepProblem:
     """The load (or time) step of ``run`` from load factor ``f_old`` to
     ``f_new`` starting from the converged state ``points``.
@@ -374,9 +461,9 @@ class StepProblem:
         #: (an obstacle's, a contact's pairs' rows): :meth:`start_share`
         self.held_by_terms = np.unique(np.concatenate(held_by_terms)) \
             if held_by_terms else np.zeros(0, dtype=int)
-        check_held(run, op, np.union1d(self.fixed, self.held_by_terms)
-                   .astype(self.fixed.dtype) if held_by_terms
-                   else self.fixed, step, bool(held_by_terms))
+        held = np.union1d(self.fixed, self.held_by_terms).astype(
+            self.fixed.dtype) if held_by_terms else self.fixed
+        check_held(run, op, held, step, bool(held_by_terms))
         self.free = free_dofs(op.active_dofs, self.fixed)
         self.f_dead = run.loads.external(op, points, self.s_new)
         self._kept_norm = None          # f_dead's norm (_dead_norm)
@@ -400,14 +487,45 @@ class StepProblem:
         self._own = None    # the last tangent made of arrays of its own
         self._gradients = None  # (du, its gradients): increment_gradients
         self._union = {}        # add_within's places of a pattern union
+        #: the user's terms' matrices checked finite (a step's first
+        #: tangent: :func:`term_matrix`)
+        self._matrices_checked = False
         self.terms = []
+        absent = []     # user's terms that hold a free body, not in it
         for term in run.terms:             # in order: a term may use those
             begun = term.begin_step(self)  # before it (their loads)
             if begun is not None:
                 self.terms.append(begun)
+            elif term.holds_free_body and not of_package(term):
+                absent.append(type(term).__name__)
+        if absent:
+            self.check_held_without(held, absent)
         self.settles = any(getattr(term, "settles", False)
                            for term in self.terms)
         t["assemble"] += run_clock() - tic
+
+    def check_held_without(self, held: ndarray, absent: list) -> None:
+        """The check of the supports that a user's term setting
+        ``holds_free_body`` left out (:func:`~skfem_mpm.solve.motion.
+        check_held`), made where its ``begin_step`` returned ``None``
+        (``absent``: their class names) and no other term of the step
+        holds a free body: a :class:`~skfem_mpm.errors.
+        SingularSystemError` naming them where the supports leave a
+        rigid-body mode (trial 116's spring bed whose ``begin_step``
+        returned ``None`` ended in "Newton made no progress" after 8
+        cut-backs, the term unnamed)."""
+        if any(getattr(term, "holds_free_body", False)
+               for term in self.terms):
+            return
+        err = unheld_rigid_modes(self.run, self.op, held, self.step)
+        if err is not None:
+            names = ", ".join(sorted(set(absent)))
+            raise SingularSystemError(
+                "{}; {}.begin_step returned None in this step (the term "
+                "adds nothing to it) though the term sets holds_free_body "
+                "= True, which left this check of the supports out: "
+                "return the term (self) from begin_step where it holds "
+                "the body".format(err, names)) from err
 
     @property
     def linear(self) -> bool:
@@ -437,8 +555,10 @@ class StepProblem:
         points = f_int.copy() if parts else None
         terms = None
         for term in self.terms:
-            f = term.start_force(du, response) if start else \
-                term.force(du, response)
+            f = term_vector(term, "start_force", term.start_force(
+                du, response), f_int.shape[0], self.step) if start else \
+                term_vector(term, "force", term.force(du, response),
+                            f_int.shape[0], self.step)
             if f is None:
                 continue
             f_int += f
@@ -453,7 +573,8 @@ class StepProblem:
         ``scale``, or ``None``."""
         total = None
         for term in self.terms:
-            f = term.load(response, scale)
+            f = term_vector(term, "load", term.load(response, scale),
+                            self.op.N, self.step)
             if f is not None:
                 total = f if total is None else total + f
         return total
@@ -501,7 +622,20 @@ class StepProblem:
         solved again after a term moved its constraint)."""
         if response is None:
             tic = run_clock()
-            response = self.run.kinematics.response(self.op, du, self.points)
+            try:
+                response = self.run.kinematics.response(self.op, du,
+                                                        self.points)
+            except (MaterialRaisedError, NonFiniteMaterialError) as err:
+                # where the step starts (no increment) a shorter step
+                # calls the material alike: not retried (core.attempt;
+                # a model returning NaN there was cut back 8 times for
+                # nothing, trial 119)
+                err.at_start = not np.any(du)
+                err.args = ("step {}: {}{}".format(
+                    self.step, err.args[0], " where the step starts (no "
+                    "increment: every shorter step evaluates that state "
+                    "again)" if err.at_start else ""),) + err.args[1:]
+                raise
             self.t["update"] += run_clock() - tic
         tic = run_clock()
         f_ext = self.f_dead
@@ -540,7 +674,36 @@ class StepProblem:
             scale = max(safe_norm(balance.f_int), self.start_force, TINY)
         merit = safe_norm(r[self.free])
         self.t["check"] += run_clock() - tic
+        if not np.isfinite(merit):
+            self.non_finite_term(du, response)
         return Trial(response, r, merit, merit / scale)
+
+    def non_finite_term(self, du: ndarray, response) -> None:
+        """Where a trial's residual is not finite: raise
+        :class:`~skfem_mpm.errors.NonFiniteGridTermError` naming the
+        first grid term of the user's own whose force or load there is
+        not (each asked again: the check costs nothing in a step whose
+        residual is finite; trial 116's NaN in a spring bed's force was
+        "Newton-Raphson did not converge in 0 iterations (residual first
+        nan)" after 8 cut-backs, the term never named)."""
+        for term in self.terms:
+            if of_package(term):
+                continue
+            for method, f in (("force", lambda: term.force(du, response)),
+                              ("load", lambda: term.load(response,
+                                                         self.s_new))):
+                value = f()
+                if value is None:
+                    continue
+                bad = ~np.isfinite(np.asarray(value, dtype=float))
+                if bad.any():
+                    name = type(term).__name__
+                    raise NonFiniteGridTermError(
+                        "step {}: {}.{} returned NaN or inf at {} of its {} "
+                        "grid DOFs, the first {}".format(
+                            self.step, name, method, int(bad.sum()),
+                            bad.size, np.flatnonzero(bad)[:5].tolist()),
+                        term=name, method=method)
 
     def start_imbalance(self, like: ndarray) -> Optional[float]:
         """The out-of-balance force's norm over the free DOFs at the step's
@@ -706,8 +869,11 @@ class StepProblem:
         else:
             K = op.stiffness(response.tangent_of if blocks
                              else response.tangent(), response.w)
+        first = not self._matrices_checked      # a step's first tangent
+        self._matrices_checked = True
         for term in self.terms:
-            G = term.matrix(response)
+            G = term_matrix(term, term.matrix(response), K.shape[0], first,
+                            self.step)
             if G is not None:
                 K = add_within(K, G, self._union)
                 own = True
