@@ -79,8 +79,8 @@ from ..methods.fields import body_fields
 from ..protocols import GridTerm
 from ..quadrature.locate import point_locator
 from .contact import (CellValues, block_diagonal, check_carried_corners,
-                      corner_signs, coulomb, friction_hint, side_rows,
-                      spline_rows)
+                      corner_signs, coulomb, friction_hint, rough_apart_join,
+                      side_rows, spline_rows)
 from .contact_pairs import FACING, PairFinder, overlapping
 from .dynamics import operator_slivers, value_matrix
 from .problem import SLIVER_SUPPORT
@@ -1738,13 +1738,12 @@ class StepBodyContact(GridTerm):
             if contact.friction != "rough":
                 continue
             p, gap, n = e[4], e[6], part["n"]
-            free = ~part["changed"]
             # apart: unpressed and open beyond the tolerance, as a pair
             # is held at the start; a pair touching unpressed (p = 0,
             # its gap within the tolerance) let go, and a block in simple
             # shear beside a rough slab carried 0.75 of the shear
-            apart = free & part["held"] & (p <= 0.) & (gap > tol)
-            join = free & ~part["held"] & (p > 0.)
+            apart, join = rough_apart_join(part["held"], part["changed"], p,
+                                           gap, tol)
             part["steady"] &= not (apart.any() or join.any())
             part["tau"][:, apart] = 0.
             if join.any():
