@@ -1450,16 +1450,19 @@ def run_warned(args, warned: list) -> int:
                 mesh, start.x)[0]), None, None, {
                     name: np.zeros_like(values) for name, values in
                     contact_pressure_fields(record).items()})
-        if record.step % every == 0 or record.load_factor >= 1. or (
-                args.max_steps and len(history) + 1 >= args.max_steps):
-            wanted.append(record.step)
-        if series is not None and wanted[-1] == record.step:
+        due = record.step % every == 0 or record.load_factor >= 1. or (
+            args.max_steps and len(history) + 1 >= args.max_steps)
+        if series is not None and due:
             series.write(record.step, float(
                 record.load_factor if record.time is None else record.time),
                 pts, record.elements, record.u, record.reactions,
                 contact_pressure_fields(record))
         # the step counts once both its VTUs are written: one interrupted
-        # between them is neither checkpointed nor listed on resume
+        # between them is neither checkpointed nor listed on resume (nor
+        # among the steps the series was to hold: a Ctrl-C inside its grid
+        # VTU left a checkpoint of step 3 listing step 4, refused)
+        if due:
+            wanted.append(record.step)
         history.append(record)
         latest[:] = [pts]
         if record.load_factor < 1. and (
