@@ -1215,7 +1215,7 @@ def load_run(args, setup=None):
     cells = mesh.nelements * sum(b.points_per_cell ** mesh.dim()
                                  for b in scene.bodies)
     setup.large = cells >= LARGE_SETUP
-    setup("seeding {} {} on {} cells ({} sub-cells)".format(
+    setup("seeding {} {} on {} cells ({} sub-cells to sample)".format(
         len(scene.bodies), "body" if len(scene.bodies) == 1 else "bodies",
         mesh.nelements, cells))
     initial = build_points(scene, mesh)
@@ -1667,8 +1667,9 @@ def print_report(scene, summary: dict, seconds: float, outdir: Path,
         label, against, _ = REFERENCE_ERRORS[scene.reference]
         print("  {:26s}{:.4e} (against {})".format(label + " ",
                                                    summary["error"], against))
-    print("  largest displacement      {:.4f} m".format(
-        summary["max_displacement"]))
+    # four significant digits (a trial's 4e-6 printed 0.0000 m)
+    print("  largest displacement      {:.4g} {}".format(
+        summary["max_displacement"], unit("length", scene.units)))
     for label, q in summary.get("outputs", {}).items():
         print("  {} {:.6g} {}".format(label.ljust(25), q["value"],
                                       q["unit"]))
@@ -1779,7 +1780,7 @@ def compare(args) -> int:
                     scale=scale, colorbar=k == 1)
         if a.dim == 1:
             ax.set_ylim(scale["vmin"], scale["vmax"])
-        print("{:>7}: largest displacement {:.4f}, {:.3f} s".format(
+        print("{:>7}: largest displacement {:.4g}, {:.3f} s".format(
             method, largest_displacement(result), seconds))
     # one view for both panels (a trial: each body's own limits, the
     # panels' axes unlike), the empty band above the panels trimmed

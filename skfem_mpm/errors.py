@@ -209,7 +209,11 @@ class NonFiniteMaterialError(MaterialOutputError, NumericalError):
     """A material returned NaN or inf (stress, elastic strain, tangent or
     a state variable) at some points: a failed step, cut back like a
     diverging one (a shorter step may avoid a trial state where the
-    model's arithmetic overflows)."""
+    model's arithmetic overflows), unless returned where the step starts
+    (no increment: ``at_start``), which every shorter step evaluates
+    again: the run then stops at once."""
+
+    at_start = False
 
 
 class GridTermError(MPMError):

@@ -601,6 +601,33 @@ def test_a_footing_of_two_materials_on_soil_shares_its_load():
                        rtol=0., atol=1e-12)
 
 
+def test_glued_blocks_side_by_side_each_report_their_own_load():
+    """Two blocks glued side by side (1 left, 2 right, meeting at
+    ``x = s``) on a third (body 0), pressed by ``p``, the second
+    contact declared the other way round: each contact's force is the
+    load on its own block, ``p s`` and ``p (1 - s)`` (the stress is
+    uniform), and the two add up to the load.  With the blocks meeting
+    on a grid node (s = 0.5) the pair there went whole to the second
+    block: 3.75 and 6.25 for 5 and 5 (mpm and cpGIMP)."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1, 5), np.linspace(0, 2.5, 11))
+    p = 10.
+    for s, method in ((.5, "mpm"), (.5, "cpgimp"), (.375, "mpm")):
+        pts = bodies(mesh, 2, [[(0, 1), (0, 1.)], [(0, s), (1., 2.)],
+                               [(s, 1), (1., 2.)]])
+        top = side_points(pts, "top")
+        res = simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+                       roller_base_and_left_wall, method=method,
+                       loads=[Traction(top, "top", [0., -p])],
+                       contacts=[Contact(0, 1, tolerance=1e-9),
+                                 Contact(2, 0, tolerance=1e-9)],
+                       options=Options(NewtonOptions(tol=1e-10)))
+        assert np.abs(res.points.stress[1, 1] + p).max() < 1e-6 * p
+        forces = res.history[-1].contact_forces
+        assert np.allclose(forces, [[0., p * s], [0., -p * (1. - s)]],
+                           rtol=0., atol=1e-6 * p), (s, method, forces)
+        assert abs(forces[0, 1] - forces[1, 1] - p) < 1e-12 * p
+
+
 def full_and_resumed(args, kwargs, after):
     """The run of ``simulate(*args, **kwargs)`` whole, and resumed after
     step ``after`` from its points and record there."""
@@ -2656,3 +2683,44 @@ def test_rounds_far_from_settling_stop_at_the_loose_residual(monkeypatch):
     u = far.history[-1].displacement
     assert np.abs(u - near.history[-1].displacement).max() <= \
         1e-7 * np.abs(u).max()
+
+
+@pytest.mark.parametrize("method", ["ugimp", "mpm"])
+def test_a_smooth_pile_settles_alike_with_its_contact_declared_reversed(
+        method):
+    """A trial's smooth pile (E = 1e8, two cells wide on grid lines, its
+    tip at y = 0.5) with a wider cap, one body, in soil (E = 1e6), a
+    traction on the cap: declared Contact(1, 0) its tip kept one pair
+    and passed into the soil, and it settled 14.10 mm against 7.76 with
+    Contact(0, 1) (uGIMP; MPM 16.72 and 7.88).  Now the smaller body's
+    corners are paired either way: the same settlement, the force of
+    each contact's first body on its second opposite, the load."""
+    h, p = .125, 2e4
+    mesh = MeshQuad.init_tensor(np.arange(0, 2 + 1e-9, h),
+                                np.arange(0, 1.75 + 1e-9, h))
+
+    def pile(x):
+        return (np.abs(x[0] - 1.) < .125) & (x[1] > .5) & (x[1] < 1.25)
+
+    def cap(x):
+        return (np.abs(x[0] - 1.) < .25) & (x[1] > 1.25) & (x[1] < 1.5)
+    pts = bodies(mesh, 2, [lambda x: (x[1] < 1.) & ~pile(x)
+                           & ~((np.abs(x[0] - 1.) < .125) & (x[1] > .5)),
+                           lambda x: pile(x) | cap(x)])
+    top = side_points(pts, "top", select=pts.body == 1)
+
+    def fixed(b):
+        return np.union1d(b.get_dofs(lambda x: x[1] == 0).all(),
+                          b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2))
+                          .nodal["u^1"])
+    runs = [simulate(mesh, ElementQuad1(), pts,
+                     [LinearElastic(1e6, .3), LinearElastic(1e8, .3)],
+                     fixed, loads=[Traction(top, "top", [0., -p])],
+                     nsteps=2, method=method, contacts=[contact])
+            for contact in (Contact(0, 1), Contact(1, 0))]
+    tip = [(r.points.x[1] - pts.x[1])[pts.body == 1].min() for r in runs]
+    assert tip[0] < -5e-3
+    assert abs(tip[0] - tip[1]) < 1e-3 * h
+    forces = [r.history[-1].contact_forces[0] for r in runs]
+    assert np.allclose(forces[0], -forces[1], rtol=0., atol=1e-9 * p)
+    assert np.allclose(forces[0], [0., p * .5], rtol=1e-6, atol=1e-6 * p)

@@ -57,7 +57,8 @@ def test_a_large_run_says_its_set_up(tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err
     lines = [line for line in err.splitlines() if line.startswith("set-up")]
     assert [re.sub(r"\d+", "N", line) for line in lines] == [
-        "set-up: seeding N body on N cells (N sub-cells), elapsed N:N",
+        "set-up: seeding N body on N cells (N sub-cells to sample), "
+        "elapsed N:N",
         "set-up: checking the N points, elapsed N:N",
         "set-up: setting up the solver (the grid's operators, supports, "
         "contact) and step N, elapsed N:N"]

@@ -122,19 +122,21 @@ def test_a_nan_is_said_once_a_step_and_takes_no_ghost_penalty(
     identical warnings at each cut-back (27 lines before the error), and
     in finite strain switched the ghost penalty on, with its limit-load
     caution, which cannot mend a model's arithmetic.  Now the failing
-    step says it once at WARNING (the retries at INFO) and the ghost
-    penalty stays off."""
+    step says it once at WARNING and the ghost penalty stays off; a NaN
+    where the step starts (no increment) is not cut back at all (trial
+    119: 8 cut-backs, each evaluating that state again)."""
     def nan_always(eps, state, out):
         out[0] = out[0].copy()
         out[0][0, 0] = np.nan
         return tuple(out)
     with caplog.at_level("WARNING", logger="skfem_mpm"), \
-            pytest.raises(NonFiniteMaterialError):
+            pytest.raises(NonFiniteMaterialError) as caught:
         run(variant(nan_always), kinematics)
     said = [r for r in caplog.records
             if "nan_always.principal_update" in r.getMessage()]
     cut = [r for r in caplog.records if "cutting" in r.getMessage()]
-    assert len(said) == 1 and len(cut) >= 2
+    assert len(said) <= 1 and not cut
+    assert "where the step starts" in str(caught.value)
     assert not any("ghost penalty" in r.getMessage()
                    for r in caplog.records)
 
@@ -366,6 +368,27 @@ def test_an_arithmetic_error_of_ones_model_is_named_and_not_retried(
     assert caught.value.load_factor == 0.
     assert not [r for r in caplog.records if "cutting" in r.getMessage()
                 or "ghost" in r.getMessage()]
+
+
+class NaNs(HardeningVonMises):
+    def principal_update(self, eps, state):
+        out = list(super().principal_update(eps, state))
+        out[0] = np.full_like(out[0], np.nan)
+        return tuple(out)
+
+
+def test_nan_from_ones_model_where_the_step_starts_is_not_retried(caplog):
+    """Trial 119: a model returning NaN at every call was named, but only
+    after 8 cut-backs, each evaluating the step's start again."""
+    from skfem_mpm.errors import NonFiniteMaterialError
+    with pytest.raises(NonFiniteMaterialError) as caught:
+        shear_run(2, "finite", material=NaNs(1e4, .3, yield_stress=10.,
+                                             H=2e3))
+    text = str(caught.value)
+    assert text.startswith("step 1: ") and "NaNs.principal_update" in text
+    assert "where the step starts" in text and "not cut back" in text
+    assert caught.value.load_factor == 0.
+    assert not [r for r in caplog.records if "cutting" in r.getMessage()]
 
 
 def test_a_stalled_newton_names_ones_own_extensions():

@@ -2138,6 +2138,40 @@ def test_a_rough_obstacle_moving_away_lets_go():
     assert np.abs(res.points.displacement).max() < 1e-15
 
 
+def test_a_rough_obstacle_touching_unpressed_holds_in_simple_shear():
+    """A rigid rough slab dragged up along an elastic block in simple
+    shear (its far side held, its top and bottom on rollers across),
+    weightless: the face touches and nothing presses it, and the slab
+    carries the shear ``G d H / L``, less the share of the penalty's
+    slip (a spring of ``kappa H`` in series with the block's ``G H /
+    L``).  Its corners, touching within the tolerance with no pressure,
+    let go after the first Newton solve and it carried nothing (a rough
+    pile in weightless clay: 43 of its 46 corners let go at the first
+    step)."""
+    E, nu, drag, h, H, L = 1e4, .3, 1e-3, .25, 1., 1.
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.5, 7),
+                                np.linspace(0, 1, 5))
+    points = seed_points(mesh, 2, region=lambda x: x[0] < 1.)
+
+    def supports(basis):
+        ends = basis.get_dofs(lambda x: ((x[1] == 0) | (x[1] == 1))
+                              & (x[0] <= 1.)).nodal["u^1"]
+        return np.union1d(basis.get_dofs(lambda x: x[0] == 0).all(), ends)
+
+    slab = Obstacle(box=[[1., 2.], [-1., 2.]], friction="rough",
+                    displacement=[0., drag])
+    res = simulate(mesh, ElementQuad1(), points, LinearElastic(E, nu),
+                   supports, nsteps=2, obstacles=[slab])
+    G = E / 2 / (1 + nu)
+    kappa = slab.penalty * E / (1 - nu ** 2) / h
+    shear = G * drag * H / L / (1 + G / (kappa * L))
+    for record in res.history:
+        force = -record.obstacle_forces[0]
+        assert force[1] == pytest.approx(record.load_factor * shear,
+                                         rel=1e-4)
+        assert abs(force[0]) < 1e-4 * force[1]
+
+
 def test_a_rough_plate_closing_a_gap_within_a_step_sticks_from_contact():
     """A rough plate 0.01 above a block (held at its base) moves down
     0.06 and sideways 0.02: the block's top follows it sideways from the

@@ -44,6 +44,12 @@ def test_amg_uses_rigid_body_modes_in_3d():
 def test_unknown_solver_name():
     with pytest.raises(InvalidInputError, match="linear solver must be one"):
         get_solver("cholmod")
+    # Options check the name on creation, as they do their other fields
+    # (a trial's "umfpack" was refused only when the run started)
+    from skfem_mpm import Options
+    with pytest.raises(InvalidInputError, match="got 'umfpack'"):
+        Options(solver="umfpack")
+    assert Options(solver="pyamg").solver == "pyamg"
 
 
 def test_pardiso_reuses_its_analysis_over_newton_iterations():

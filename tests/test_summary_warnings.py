@@ -41,6 +41,17 @@ def test_a_completed_run_s_warnings_are_in_its_summary(tmp_path):
     assert _summary(tmp_path, 2)["warnings"] == []
 
 
+def test_the_largest_displacement_is_printed_to_four_digits(tmp_path,
+                                                           capsys):
+    """A trial's 4e-6 m printed as 0.0000 m: four significant digits."""
+    summary = _summary(tmp_path, 2)
+    line = [text for text in capsys.readouterr().out.splitlines()
+            if "largest displacement" in text]
+    assert line == ["  largest displacement      {:.4g} m".format(
+        summary["max_displacement"])]
+    assert not line[0].endswith(" 0.0000 m")
+
+
 def test_kept_warnings_once_each_and_counted_past_the_limit():
     import logging
     kept = KeptWarnings()

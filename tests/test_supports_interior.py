@@ -53,6 +53,24 @@ def test_supports_on_the_boundaries_are_not_warned(caplog, height, rows):
     assert found == []
 
 
+def test_a_symmetry_line_through_a_body_is_not_warned(caplog):
+    """One component held on a line through the body (a symmetry axis,
+    the shipped cylinder's x on x = 0.5 through its disc) is a roller,
+    not a support holding the inside: not warned (the review found the
+    shipped example warned), while the same line holding both components
+    is."""
+    axis = [lambda b: np.concatenate([
+        b.get_dofs(lambda x: x[1] == 0.).all(),
+        b.get_dofs(lambda x: x[0] == .5).nodal["u^1"]]),
+        lambda b: np.concatenate([
+            b.get_dofs(lambda x: x[1] == 0.).all(),
+            b.get_dofs(lambda x: x[0] == .5).all()])]
+    assert warned(caplog, 1., axis[0]) == []
+    caplog.clear()
+    found = warned(caplog, 1., axis[1])
+    assert len(found) == 1 and "along x = 0.5" in found[0]
+
+
 def test_the_warning_is_silenced_by_its_logger(caplog):
     """Meant (an anchor held inside the body): its logger's level."""
     logging.getLogger("skfem_mpm.supports.interior").setLevel(

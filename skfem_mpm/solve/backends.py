@@ -1219,6 +1219,26 @@ def solver_meant(name) -> str:
     return did_you_mean(name, FACTORIES)
 
 
+def check_solver(solver) -> None:
+    """Refuse (:class:`~skfem_mpm.errors.InvalidInputError`) a ``solver``
+    that is neither ``None``, a function nor one of the names, saying
+    which is which and the name meant (``Options`` checks on creation:
+    a trial's ``Options(solver="umfpack")`` was refused at the run).
+
+    >>> check_solver("pardiso")
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: linear solver must be one of 'scipy' (SciPy's SuperLU), 'pypardiso' (MKL's Pardiso), 'pyamg' (AMG-CG, algebraic multigrid), 'auto' (one of these by the system's size) or a function f(A, b) -> x, got 'pardiso'; did you mean 'pypardiso'?
+    """
+    if solver is None or callable(solver):
+        return
+    if not isinstance(solver, str) or solver not in FACTORIES:
+        raise InvalidInputError(
+            "linear solver must be one of {} or a function f(A, b) -> x, "
+            "got {!r}{}".format(solver_choices(), solver,
+                                solver_meant(solver)))
+
+
 def get_solver(solver: Union[None, str, Callable], dim: int = 2) -> Callable:
     """A solver function from a name (``"scipy"``, ``"pypardiso"``,
     ``"pyamg"``, ``"auto"``), a function, or ``None`` (``"auto"``);
@@ -1228,11 +1248,7 @@ def get_solver(solver: Union[None, str, Callable], dim: int = 2) -> Callable:
         solver = "auto"
     if callable(solver):
         return solver
-    if not isinstance(solver, str) or solver not in FACTORIES:
-        raise InvalidInputError(
-            "linear solver must be one of {} or a function f(A, b) -> x, "
-            "got {!r}{}".format(solver_choices(), solver,
-                                solver_meant(solver)))
+    check_solver(solver)
     if solver in ("auto", "pyamg"):     # their direct choice by dimension
         return FACTORIES[solver](dim=dim)
     return FACTORIES[solver]()

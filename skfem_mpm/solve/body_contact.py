@@ -79,8 +79,8 @@ from ..methods.fields import body_fields
 from ..protocols import GridTerm
 from ..quadrature.locate import point_locator
 from .contact import (CellValues, block_diagonal, check_carried_corners,
-                      corner_signs, coulomb, friction_hint, side_rows,
-                      spline_rows)
+                      corner_signs, coulomb, friction_hint, rough_apart_join,
+                      side_rows, spline_rows)
 from .contact_pairs import FACING, PairFinder, overlapping
 from .dynamics import operator_slivers, value_matrix
 from .problem import SLIVER_SUPPORT
@@ -103,14 +103,20 @@ class Contact:
     refused).  A pile (body 1) with a cap (body 2) glued to it above
     soil (body 0): ``Contact(0, 1, friction=f)`` and ``Contact(0, 2,
     friction=f)``, though the cap never reaches the soil.  Each contact
-    reports the force of the interface's pairs between its own two
-    bodies.
+    reports the force of the interface's pairs, each pair's shared by
+    the bodies of the corners at its two corners' places (two blocks
+    glued side by side on a third each report the load on their own
+    top; ``docs/contact.md``).
 
     Parameters
     ----------
     first, second
         The bodies: indices of ``MaterialPoints.body``, or names of a
-        scene's bodies (resolved by the scene).
+        scene's bodies (resolved by the scene), in either order: the
+        interface pairs the corners of its smaller side (by the points'
+        initial volumes) with the other's facing corners
+        (:func:`smaller_second`); the reported force is the first's on
+        the second.
     friction
         ``0.`` (smooth, the default), a Coulomb coefficient, or
         ``"rough"`` (no slip while in contact, free to separate).
@@ -281,6 +287,44 @@ def contact_interfaces(checked, field: ndarray) -> tuple:
                     checked[j][2].name for j, *_ in members[k]),
                 penalty=contact.penalty, tolerance=contact.tolerance))
     return found, members
+
+
+def smaller_second(found: list, members: list, field: ndarray,
+                   volume: ndarray) -> None:
+    """Orders each interface of ``found`` and ``members``
+    (:func:`contact_interfaces`), in place, so that its second field
+    is the one of smaller volume (``volume``: per field, the points'
+    initial volumes summed; alike, the declared order): the pairs are
+    the second body's corners, each with the first body's corner facing
+    it, and a body's corners in a notch of the other (a pile's tip)
+    are held only as the second.  Declared with the soil second, a
+    smooth pile (E = 1e8, 2 cells wide on grid lines, its tip at y =
+    0.5 in soil of E = 1e6, h = 0.125, 2 x 2 points, a traction on its
+    cap) kept one pair under its tip, which passed 6 mm into the soil,
+    and settled 14.10 mm (uGIMP; MPM 16.72) where with the pile second
+    it settled 7.76 (7.88).  The signs of ``members`` follow, so each
+    contact's force stays that of its declared first body on its
+    second.
+
+    >>> import numpy as np
+    >>> from skfem_mpm import Contact
+    >>> found, members = contact_interfaces([(1, 0, Contact(1, 0))],
+    ...                                     np.array([0, 1]))
+    >>> smaller_second(found, members, np.array([0, 1]),
+    ...                np.array([4., 1.]))
+    >>> found, members
+    ([(0, 1, Contact(0, 1, friction=0.0))], [[(0, 1, 0, -1)]])
+    >>> found[0][2].name
+    '1-0'
+    """
+    for k, (a, b, contact) in enumerate(found):
+        if volume[field[a]] < volume[field[b]] * (1 - 1e-9):
+            found[k] = (b, a, Contact(    # a scene's names kept
+                contact.second, contact.first, friction=contact.friction,
+                name=contact.name,
+                penalty=contact.penalty, tolerance=contact.tolerance))
+            members[k] = [(j, c, d, -sign)
+                          for j, c, d, sign in members[k]]
 
 
 def interface_count(contacts, nbodies: int, names=None) -> int:
@@ -577,6 +621,10 @@ class BodyContact(GridTerm):
 
     def begin_run(self, points) -> None:
         dim = self.dim
+        # the smaller field of each interface second (its corners held)
+        volume = np.zeros(self.field.max() + 1)
+        np.add.at(volume, self.field[points.body], points.volume0)
+        smaller_second(self.contacts, self.members, self.field, volume)
         modulus = np.broadcast_to(np.asarray(self.material.lam, float)
                                   + 2 * np.asarray(self.material.mu, float),
                                   (points.n,))
@@ -728,23 +776,35 @@ class BodyContact(GridTerm):
         """The force (contacts x dim) the first body of each contact
         exerts on the second, from its interface's pairs' tractions on
         the interface's second field (``ev``, of
-        :meth:`StepBodyContact.evaluate`): those of the pairs whose
-        corners lie on the contact's bodies (every pair of an
-        interface's fields' bodies has a contact, else they would be
-        glued)."""
+        :meth:`StepBodyContact.evaluate`), each pair's split by the
+        bodies of the corners at its two corners' places (``sides``, of
+        :meth:`StepBodyContact.add`; every pair of an interface's
+        fields' bodies has a contact, else they would be glued): a
+        contact takes the share of its first body on one side times its
+        second's on the other.  A pair on the line where two glued
+        bodies meet shares their corners: taken whole by the body of
+        the corner the pairs' search found, the load ``p`` on two
+        blocks side by side, each half the width, on a third, was 3.75
+        and 6.25 for 5 and 5."""
         out = np.zeros((len(self.declared), self.dim))
-        corners = 2 ** self.dim * points.n
+        nb = len(self.field)
         for part, e, members in zip(parts, ev, self.members):
             if len(members) == 1:
                 j, _, _, sign = members[0]
                 out[j] = sign * e[0].sum(axis=1)
                 continue
-            keys = part.get("keys", np.zeros(0, dtype=np.int64))
-            B, A = (points.body[(keys // corners) % points.n],
-                    points.body[(keys % corners) % points.n])
+            m = e[0].shape[1]
+            sides = part.get("sides", np.zeros((2, 0), dtype=np.int64))
+            side = part.get("side", np.zeros(0, dtype=np.int64))
+            # per side (0: the second field's, 1: the first's), pair and
+            # body: the share of the corners at the pair's place
+            share = np.zeros((2, m, nb))
+            np.add.at(share, (side, sides[0], points.body[sides[1]]), 1.)
+            share /= np.maximum(share.sum(axis=2, keepdims=True), 1.)
             for j, a, b, sign in members:
-                mine = ((A == a) & (B == b)) | ((A == b) & (B == a))
-                out[j] = sign * e[0][:, mine].sum(axis=1)
+                mine = share[1, :, a] * share[0, :, b] \
+                    + share[1, :, b] * share[0, :, a]
+                out[j] = sign * (e[0] @ mine)
         return out
 
     def domain_offsets(self, points) -> ndarray:
@@ -1678,13 +1738,12 @@ class StepBodyContact(GridTerm):
             if contact.friction != "rough":
                 continue
             p, gap, n = e[4], e[6], part["n"]
-            free = ~part["changed"]
             # apart: unpressed and open beyond the tolerance, as a pair
             # is held at the start; a pair touching unpressed (p = 0,
             # its gap within the tolerance) let go, and a block in simple
             # shear beside a rough slab carried 0.75 of the shear
-            apart = free & part["held"] & (p <= 0.) & (gap > tol)
-            join = free & ~part["held"] & (p > 0.)
+            apart, join = rough_apart_join(part["held"], part["changed"], p,
+                                           gap, tol)
             part["steady"] &= not (apart.any() or join.any())
             part["tau"][:, apart] = 0.
             if join.any():

@@ -142,7 +142,8 @@ def warn_faces_left(run, step: int, s_old: float = 0.,
     unit block on rollers, h = 0.125, 2 x 2 points per cell, its top
     nodes pushed 0.02 in 4 steps): ``sigma_yy`` from -25.3 to -21.4
     (cpGIMP, finite strain; -22.29 uniform with standard MPM), the
-    spread 1.2 to 2.2 times the gap in cells; one step, or a rigid
+    spread 1.2 to 2.2 times the gap in cells (uGIMP 17.7-17.9%,
+    ``"bspline-gimp"`` 22.6% against cpGIMP's 17.4%); one step, or a rigid
     ``Obstacle`` platen (cpGIMP, finite strain: to 2e-12), is uniform."""
     if "faces left" in run.warned or not run.method.moves:
         return
@@ -174,9 +175,10 @@ def warn_faces_left(run, step: int, s_old: float = 0.,
                     "while the material's face leaves it, and method "
                     "%r, whose points' domains end at the face, then "
                     "leaves a step's uniform stress out of balance by "
-                    "that gap over a cell (the stress near the face "
-                    "scatters by 1.2 to 2.2 times the gap in cells; a "
-                    "patch test 0.12 cells off: by 17%%); beyond %g of "
+                    "that gap over a cell (with cpGIMP the stress near "
+                    "the face scatters by 1.2 to 2.2 times the gap in "
+                    "cells; a patch test 0.12 cells off: by 17%%, by 18%% "
+                    "with uGIMP, 23%% with bspline-gimp); beyond %g of "
                     "a cell push with a rigid Obstacle (docs/contact.md)"
                     " or a traction", step,
                     "xyz"[c], float(places[c, along][0]), moved,

@@ -18,6 +18,7 @@ from numpy import ndarray
 from ..errors import InvalidInputError, check_int
 from ..kernels import check_kernels
 from ..stabilisation.settings import Stabilisation
+from .backends import check_solver
 from .newton import NewtonOptions
 from .rigid import RigidBody
 
@@ -243,8 +244,9 @@ class Options:
         ``"pyamg"``: AMG-CG, ``"auto"``; a back end's name, "superlu",
         is refused naming the one meant); default
         ``"auto"``, the back end measured fastest for each system's size
-        among those installed, logged; checked when the run starts
-        (:func:`~skfem_mpm.solve.backends.solver_auto`).
+        among those installed, logged
+        (:func:`~skfem_mpm.solve.backends.solver_auto`); the name is
+        checked on creation, the back end's package when the run starts.
     resume
         :class:`Resume`, or ``None``: from the start.
     keep_snapshots
@@ -314,6 +316,7 @@ class Options:
             raise InvalidInputError("callback must be callable, got "
                                     "{!r}".format(self.callback))
         check_kernels(self.kernels)
+        check_solver(self.solver)
 
 
 #: the keyword arguments :func:`~skfem_mpm.simulate` took before
