@@ -311,6 +311,20 @@ GROW_SLOW = .75
 GROWTH = 10.
 #: see :data:`GROW_AFTER`
 GROWTHS = 2
+#: the run's counter of the penalty's growths (:data:`GROW_AFTER`), there
+#: from the first; per obstacle :func:`grown_name`'s: a resume goes on
+#: from them, its penalties grown as the run's
+GROWN = "contact_penalty_growths"
+
+
+def grown_name(i: int) -> str:
+    """The run's counter of obstacle ``i``'s penalty's growths
+    (:data:`GROWN`).
+
+    >>> grown_name(1)
+    'contact1_penalty_growths'
+    """
+    return "contact{}_penalty_growths".format(i)
 
 #: faces of an obstacle whose distances from a corner differ by less than
 #: this many cells are alike: the material's side decides
@@ -723,8 +737,11 @@ class ObstacleContact(GridTerm):
         self.h, self.domain0 = cell_size, domain0
         self.kappa = [ob.penalty * modulus / cell_size for ob in obstacles]
         #: the penalties the run started with, and how many times
-        #: :meth:`StepContact.grow_penalty` grew them
+        #: :meth:`StepContact.grow_penalty` grew them (the counters keep
+        #: it, :data:`GROWN`, and a resumed run grows them again in
+        #: :meth:`begin_run`)
         self.kappa0, self.growths = list(self.kappa), 0
+        self.counters = counters
         self.tol = [ob.tolerance * cell_size for ob in obstacles]
         self.total_lagrangian, self.moves = total_lagrangian, moves
         self.finite = finite
@@ -861,6 +878,13 @@ class ObstacleContact(GridTerm):
     def begin_run(self, points) -> None:
         dim, n = points.x.shape
         self.mobilisation = (None, ())
+        # the penalties grown before a resume (the counters resumed):
+        # multiplied as the run did, bit for bit
+        self.kappa = list(self.kappa0)
+        self.growths = self.counters.get(GROWN, 0)
+        for i in range(len(self.kappa)):
+            for _ in range(self.counters.get(grown_name(i), 0)):
+                self.kappa[i] *= GROWTH
         half = self.domain0 if self.domain0 is not None else np.repeat(
             (points.volume0 ** (1. / dim) / 2)[None], dim, axis=0)
         self.half = half
@@ -2384,8 +2408,11 @@ class StepContact(GridTerm):
         if not grown:
             return
         term.growths += 1
+        counters = term.counters
+        counters[GROWN] = term.growths
         for i in grown:
             term.kappa[i] *= GROWTH
+            counters[grown_name(i)] = counters.get(grown_name(i), 0) + 1
         self.resolve()
         self.updates = []
         logger.warning(

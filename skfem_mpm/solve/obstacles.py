@@ -68,7 +68,9 @@ class Obstacle:
         smooth obstacle's grows 10 times for the rest of the run (twice
         at the most, warned) where a step's augmented-Lagrangian updates
         settle slowly: GIMP's corners on a curved face
-        (docs/contact.md).
+        (docs/contact.md); the run's counters keep the growths
+        (``contact<k>_penalty_growths``), and a resumed run goes on at
+        the grown penalty.
     tolerance
         The penetration (and for ``"tied"`` the mismatch) allowed at a
         converged step, as a fraction of the cell size (default 1e-3).
