@@ -1161,3 +1161,99 @@ def test_lumped_mass_loses_energy_under_a_sudden_load():
     assert all(-.05 < loss < -.03 for loss in first)
     assert first[1] == pytest.approx(first[0], rel=.05)
     assert abs(suddenly_loaded_block(2e-3, 1, "consistent")[0]) < 1e-9
+
+
+def bar_loaded_at_once(periods, scheme=GeneralizedAlpha(0.), load=None,
+                       steps=1):
+    """Trial 117's bar (E = 1e6, rho = 1e3, held at x = 0, 1D, h = 0.05,
+    2 points a cell) under a body force of 1e3 at once, in steps of
+    ``periods`` first periods ``4 L / c``: the energies and the log."""
+    import logging
+    b, E_, rho = 1e3, 1e6, 1e3
+    mesh = MeshLine(np.arange(0, 1.2 + 1e-9, .05))
+    points = seed_points(mesh, 2, region=lambda x: x[0] < .975)
+    length = points.volume.sum()
+    dt = periods * 4 * length / np.sqrt(E_ / rho)
+    records = []
+    handler = logging.Handler(logging.WARNING)
+    handler.emit = lambda r: records.append(r.getMessage())
+    logging.getLogger("skfem_mpm").addHandler(handler)
+    try:
+        res = simulate(mesh, ElementLineP1(), points, LinearElastic(E_, 0.),
+                       fixed_end, body_force=[b],
+                       dynamics=Dynamics(dt, steps * dt, rho, scheme=scheme,
+                                         flip=1., load=load))
+    finally:
+        logging.getLogger("skfem_mpm").removeHandler(handler)
+    e = {k: v[-1] for k, v in res.energies().items()}
+    return e, " ".join(records), dict(load=b * length, mass=rho * length,
+                                     dt=dt, elastic=b ** 2 * length ** 3
+                                     / (6 * E_))
+
+
+@pytest.mark.parametrize("periods", [1.5, 10.])
+def test_a_first_step_creating_more_than_the_load_can_give_is_warned(
+        periods):
+    """Trial 117: a bar loaded at once in one step of 1.5 (and 10) first
+    periods, generalised-alpha 0, gained kinetic energy 1.1 J (44.8 J)
+    against 0.30 J of the load's work, unwarned: under the start's
+    allowance ``(|f| dt)^2 / 32 m``, which grows as ``dt^2``.  Bounded by
+    the most work the load can do on the bar that holds it, four times
+    the elastic energy it stores at rest (``b^2 L^3 / 6 E``), it is
+    warned; so is the step longer than two periods (10), in the words of
+    the generalised-alpha scheme, not of Newmark's trapezoidal rule."""
+    e, told, bar = bar_loaded_at_once(periods)
+    excess = e["kinetic"] - e["external_work"]
+    allowance = (bar["load"] * bar["dt"]) ** 2 / (32 * bar["mass"])
+    assert 4 * bar["elastic"] < excess < allowance
+    assert told.count("created energy") == 1
+    assert "step 1 (time {:.4g}): the run created energy".format(
+        bar["dt"]) in told
+    if periods > 2:
+        assert "the generalised-alpha scheme (rho_inf = 0) damps it" \
+            in told and "trapezoidal" not in told
+    else:
+        assert "Rayleigh" not in told
+    # the bound from the step's own work and stiffness: the bar's at
+    # rest, near which the step ends
+    from skfem_mpm.solve.dynamics import held_work, start_allowance
+    assert start_allowance(bar["load"], bar["dt"], bar["mass"], 1.) == \
+        pytest.approx(allowance)
+    assert held_work(e["external_work"], 2 * e["internal_work"]) == \
+        pytest.approx(4 * bar["elastic"], rel=.1)
+
+
+def test_a_step_resolving_the_period_creates_nothing_warned():
+    """The same bar in steps of a twentieth of its period, and Newmark's
+    rule in one step of 10 periods, create no energy (Newmark's is
+    warned in its own words: the trapezoidal rule's swing)."""
+    e, told, bar = bar_loaded_at_once(.05, steps=20)
+    assert "created" not in told
+    e, told, bar = bar_loaded_at_once(10., scheme=Newmark())
+    assert "created" not in told
+    assert "without numerical damping (Newmark's trapezoidal rule)" in told
+    assert e["kinetic"] < e["external_work"]
+
+
+def test_a_load_function_that_raises_stops_the_run_at_once():
+    """Trial 117: a ``load(t)`` raising ZeroDivisionError beyond 0.02 s
+    was taken for a failed step, cut back nine times and reported as a
+    NumericalError; the user's function, which no shorter step avoids:
+    an InvalidInputError at once, naming load(t), the time and the
+    exception."""
+    mesh = MeshLine(np.arange(0, 1.2 + 1e-9, .1))
+    points = seed_points(mesh, 2, region=lambda x: x[0] < .95)
+    cut = []
+
+    def load(t):
+        cut.append(t)
+        return 1. if t < .02 + 1e-9 else 1 / 0
+    with pytest.raises(InvalidInputError, match=re.escape(
+            "Dynamics: load(t) raised ZeroDivisionError at t = 0.03 s: "
+            "division by zero")) as err:
+        simulate(mesh, ElementLineP1(), points, LinearElastic(1e6, 0.),
+                 fixed_end, body_force=[1e3],
+                 dynamics=Dynamics(.01, .05, 1e3, load=load))
+    assert isinstance(err.value.__cause__, ZeroDivisionError)
+    assert max(cut) == pytest.approx(.03) and len(
+        [t for t in cut if t > .02 + 1e-9]) == 1

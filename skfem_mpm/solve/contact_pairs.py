@@ -694,10 +694,10 @@ class PairFinder:
     def surface(self, entries, normal, node_x):
         """The second body's corners of the nodes' pairs: per node its
         surface corner nearest (:meth:`extreme`), and at a node where
-        either body ends within a cell across the normal (no corners of
-        it between half a hundredth and one cell to one side), or the
-        second body within half a cell past it (none between half a cell
-        and one cell), every surface corner within half a cell
+        either body ends across the normal (its outermost corner in the
+        node's support at most half a hundredth of a cell past it to one
+        side), or the second body within half a cell past it, every
+        surface corner within half a cell
         across (per column of corners, their places across the normal,
         the lowest along it); such a node with none within half a cell
         keeps its nearest.  A body ending a quarter of a cell past a
@@ -713,7 +713,12 @@ class PairFinder:
         settled 55% more than a rigid obstacle in the same hole needed);
         corners every half a cell everywhere held more places than the
         splines have values (four cells: nine for seven), which the
-        augmented Lagrangian with friction did not settle.  Returns the
+        augmented Lagrangian with friction did not settle.  The end is
+        the outermost corner, not a window half a cell wide (none between
+        half a cell and one): corners stretched along a surface more
+        than half a cell apart missed it at nodes inside, which paired
+        every corner (two blocks pressed with nu = 0.45 in finite strain
+        did not settle).  Returns the
         node of each pair (k,) and its corner of the second body."""
         node, corner, Xc = entries[1]
         m = normal.shape[1]
@@ -744,13 +749,19 @@ class PairFinder:
                     for j in places.get(k, ())) for i, k in enumerate(
                         map(tuple, self.place(probe).T))], dtype=bool)
                 window = np.where(turns, 0., .5 * self.h)
+                # the body's real end on this side: its outermost corner
+                # in the node's support (a window (h/2, h] found none at
+                # nodes inside a surface stretched along its length, its
+                # corners more than h/2 apart: two blocks pressed with
+                # nu = 0.45 in finite strain paired every corner there
+                # and did not settle)
                 for n_k, _, X_k in entries:
                     across = side * (t[:, n_k] * (X_k - node_x[:, n_k])
                                      ).sum(axis=0)
-                    past = window[n_k] if n_k is node else 0.
-                    near = (across > past + eps) & (across <= self.h + eps)
-                    end |= inside & (np.bincount(n_k[near], minlength=m)
-                                     == 0)
+                    reach = np.full(m, -np.inf)
+                    np.maximum.at(reach, n_k, across)
+                    past = window if n_k is node else 0.
+                    end |= inside & (reach <= past + eps)
         nearest = self.extreme(entries[1], normal, node_x, True)
         at = end[node]
         node, corner, Xc = node[at], corner[at], Xc[:, at]

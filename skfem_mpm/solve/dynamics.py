@@ -303,10 +303,25 @@ class Dynamics:
         return increment
 
     def scale(self, t: float) -> float:
-        """The loads' scale at time ``t``."""
+        """The loads' scale at time ``t``.  What ``load(t)`` raises stops
+        the run at once, as :class:`~skfem_mpm.errors.InvalidInputError`
+        naming the time and the exception: the user's function, not the
+        step's numerics, and no shorter step avoids it (a step cut back
+        still ends at the multiple of ``time_step`` it failed to reach,
+        and evaluates ``load`` there; a trial's ``1 / 0`` beyond 0.02 s
+        was taken for a failed step, cut back nine times and reported as
+        a ``NumericalError``)."""
         if self.load is None:
             return 1.
-        value = self.load(float(t))
+        try:
+            value = self.load(float(t))
+        except Exception as err:
+            raise InvalidInputError(
+                "Dynamics: load(t) raised {} at t = {:.6g} s: {} (the "
+                "user's function of time, not the step's numerics: a "
+                "shorter step would still end at each multiple of "
+                "time_step)".format(type(err).__name__, float(t), err)
+            ) from err
         if isinstance(value, (bool, np.bool_)) or not isinstance(
                 value, (int, float, np.integer, np.floating)) or \
                 not np.isfinite(value):
@@ -745,13 +760,18 @@ class StepInertia(Inertia, GridTerm):
             "external_work": .5 * float((self.f_ext0 + f_ext1) @ du),
             "contact_work": contact_work(self.f_work0, f_terms, du)}
         # what the scheme's start may leave under the loads at the step's
-        # end where the bodies' mass shares them (CreatedEnergy)
-        self.allowance = start_allowance(
-            float(np.abs(f_ext1).sum()), record.time_step, masses.sum(),
-            self.alpha_f - self.alpha_m)
+        # end where the bodies' mass shares them, and no more than the
+        # work those loads can do where the stiffness holds the step's
+        # motion (CreatedEnergy)
+        stiffness = float(du @ (f_int - self.f_int0))
+        self.allowance = min(
+            start_allowance(float(np.abs(f_ext1).sum()), record.time_step,
+                            masses.sum(), self.alpha_f - self.alpha_m),
+            held_work(float(f_ext1 @ du), stiffness))
         if problem.step == 1:
-            warn_unresolved_period(record, float(du @ (f_int - self.f_int0)),
-                                   float(du @ (self.M @ du)))
+            warn_unresolved_period(record, stiffness,
+                                   float(du @ (self.M @ du)),
+                                   self.dynamics.scheme)
 
 
     def finish(self, problem, new, record) -> None:
@@ -794,7 +814,8 @@ def contact_work(start: Optional[ndarray], end: Optional[ndarray],
 PERIODS_PER_STEP = 2.
 
 
-def warn_unresolved_period(record, stiffness: float, mass: float) -> None:
+def warn_unresolved_period(record, stiffness: float, mass: float,
+                           scheme=None) -> None:
     """Log a warning where the first time step (``record``) is longer than
     :data:`PERIODS_PER_STEP` periods of the motion it excites, that of
     Rayleigh's quotient of its displacement ``du``: ``2 pi sqrt(du M du /
@@ -804,21 +825,42 @@ def warn_unresolved_period(record, stiffness: float, mass: float) -> None:
     answer: a user trial's bar under an end load applied at once (its
     first period 0.127 s) came out twice the static answer in one step
     of 10 s, its reactions from -1.90 to -0.27 of the load in steps of
-    0.2 s, without a word."""
+    0.2 s, without a word.  The words fit the ``scheme`` (a
+    :class:`Newmark` or :class:`GeneralizedAlpha`; ``None``: Newmark's
+    rule): the generalised-alpha scheme damps the swing, but its first
+    steps overshoot (a bar loaded at once, steps of 2-10 first periods:
+    1.5 times the static displacement in the second step at ``rho_inf =
+    0``; 1.69 in the first at 0.5, then swings decaying over ten
+    steps)."""
     if not (stiffness > 0 and mass > 0):
         return
     period = 2 * np.pi * np.sqrt(mass / stiffness)
     if record.time_step > PERIODS_PER_STEP * period:
+        if isinstance(scheme, GeneralizedAlpha):
+            swing = (
+                "the generalised-alpha scheme (rho_inf = {:g}) damps it "
+                "but overshoots the static answer in its first steps "
+                "under a load applied at once (a bar: 1.5 times it in the "
+                "second step at rho_inf = 0)".format(scheme.rho_inf))
+        elif scheme is None or (scheme.beta, scheme.gamma) == (.25, .5):
+            swing = (
+                "without numerical damping (Newmark's trapezoidal rule) "
+                "the answer swings about the static one, up to twice it "
+                "under a load applied at once")
+        else:
+            swing = (
+                "Newmark's scheme (beta = {:g}, gamma = {:g}) swings "
+                "about the static answer, up to twice it under a load "
+                "applied at once, damped by gamma > 1/2 alone".format(
+                    scheme.beta, scheme.gamma))
         logger.warning(
             "step 1: the time step %.3g s is %.3g times the period of the "
             "motion it excites, about %.3g s (Rayleigh's quotient of its "
             "displacement): the scheme does not follow that motion, and "
-            "without numerical damping (Newmark's trapezoidal rule) the "
-            "answer swings about the static one, up to twice it under a "
-            "load applied at once; take a time step of a twentieth of the "
-            "period or less to follow it, or run quasi-static "
-            "(dynamics=None) for the static answer",
-            record.time_step, record.time_step / period, period)
+            "%s; take a time step of a twentieth of the period or less to "
+            "follow it, or run quasi-static (dynamics=None) for the "
+            "static answer", record.time_step, record.time_step / period,
+            period, swing)
 
 
 def start_allowance(load: float, dt: float, mass: float,
@@ -840,6 +882,30 @@ def start_allowance(load: float, dt: float, mass: float,
     0.0
     """
     return .5 * (load * dt) ** 2 / mass * (delta / (1 + delta)) ** 4
+
+
+def held_work(load_work: float, stiffness: float) -> float:
+    """The most work a load applied at once does on a linear elastic body
+    that holds it, along a step's displacement ``du``: four times the
+    energy it stores at rest, ``U = (f . du)^2 / (2 du . K du)``
+    (``load_work``, ``stiffness``; the static displacement along ``du``
+    is ``(f . du) / (du . K du)`` of it, the swing's reach twice that).
+    It bounds the first step's overshoot (:func:`start_allowance`),
+    which grows as ``dt^2`` and has no bound of its own: a bar loaded at
+    once (rho_inf = 0, one step of 1.5 and of 10 first periods) gained
+    1.1 and 44.8 J of kinetic energy against 0.30 and 0.31 J of the
+    load's work, under ``(|f| dt)^2 / 32 m`` (1.04 and 46 J), unwarned;
+    the step's elastic energy bounds them at 4 x 0.15 J.  A step without
+    stiffness along ``du`` (a body in free flight) has no bound.
+
+    >>> held_work(2., 4.) == 4 * 2. ** 2 / (2 * 4.)
+    True
+    >>> held_work(2., 0.)
+    inf
+    """
+    if not stiffness > 0:
+        return np.inf
+    return 2 * load_work ** 2 / stiffness
 
 
 #: the energy a run may create, as a share of the largest energy it
@@ -881,8 +947,13 @@ class CreatedEnergy:
     ``|f|`` the sum of the sizes of the loads' grid components at the
     step's end): a block released on a floor or a slope has its
     velocity into it (examples/obstacles.py: 0.012 J on the slope
-    against 0.033 J; a block of E = 1e9 on a floor, 0.018 J against
-    0.024 J), a top traction far more (0.254 above against 0.141).
+    against 0.033 J), a top traction far more (0.254 above against
+    0.141); bounded by the most work the loads can do where the
+    stiffness holds the step's motion (:func:`held_work`; the allowance
+    grows as ``dt^2``: a bar loaded at once gained 1.12 J against 0.30
+    J of work in one step of 1.5 first periods, within 1.04 J of it; a
+    block of E = 1e9 resting on a floor, 0.018 J against 0.024 J, at
+    13.5 periods a step, is warned now).
     Until this allowance the scale held the loads' work over a cell
     (16.25 for the block above: 5% of it hid its excess of 0.254)."""
 
