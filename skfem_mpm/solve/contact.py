@@ -293,6 +293,39 @@ STAGED_EDGE = ("an earlier run moved the material there, off the grid's "
 #: the contact's state there follows those nodes' absurd values
 CARRIED = .1
 
+#: a step's augmented-Lagrangian updates from which an update that left
+#: more than :data:`GROW_SLOW` of the last's penetration multiplies the
+#: unsettled obstacles' penalty by :data:`GROWTH` for the rest of the run
+#: (:meth:`StepContact.grow_penalty`), :data:`GROWTHS` times at the
+#: most: GIMP's corners sharing grid nodes at different heights (a
+#: sphere's staircase on a floor) cannot all meet the face, and each
+#: update moves the force from the higher to the lowest by the penalty
+#: times their height difference, a fixed amount: trial 118's cpGIMP
+#: hemisphere (Hertz radius 3.2 cells) took more than 30 updates at every
+#: cut-back at penalty 10, its worst corner the same one, the updates'
+#: cosine 0.99-1.0 and their rate 0.9-0.99; at 100 it settles in a few
+GROW_AFTER = 4
+#: see :data:`GROW_AFTER`
+GROW_SLOW = .75
+#: see :data:`GROW_AFTER`
+GROWTH = 10.
+#: see :data:`GROW_AFTER`
+GROWTHS = 2
+#: the run's counter of the penalty's growths (:data:`GROW_AFTER`), there
+#: from the first; per obstacle :func:`grown_name`'s: a resume goes on
+#: from them, its penalties grown as the run's
+GROWN = "contact_penalty_growths"
+
+
+def grown_name(i: int) -> str:
+    """The run's counter of obstacle ``i``'s penalty's growths
+    (:data:`GROWN`).
+
+    >>> grown_name(1)
+    'contact1_penalty_growths'
+    """
+    return "contact{}_penalty_growths".format(i)
+
 #: faces of an obstacle whose distances from a corner differ by less than
 #: this many cells are alike: the material's side decides
 #: (:meth:`~skfem_mpm.solve.obstacles.Obstacle.nearest_face`); corners
@@ -308,7 +341,8 @@ SLOW_UPDATES = 8
 SLOW_UPDATE = .9
 #: what a larger penalty did where the updates were slow (trial 72's
 #: cpGIMP disc squeezed by a plate, R/h = 40)
-SLOW_MEASURED = ("a cpGIMP disc squeezed by a plate: 61 updates and 102 "
+SLOW_MEASURED = ("a cpGIMP disc squeezed by a plate, before a smooth "
+                 "obstacle's penalty grew by itself: 61 updates and 102 "
                  "Newton iterations at the default penalty 10, 6 and 48 at "
                  "100, the force 1e-4 apart; but a block indented by a "
                  "polygon disc took 14 updates for 26 and 510 iterations "
@@ -631,17 +665,25 @@ def check_carried_corners(moved: ndarray, where: ndarray, h: float,
     cells (of size ``h``) through grid nodes that slivers of material
     hold (``slivers``: what they are) with
     :class:`~skfem_mpm.errors.GridMotionError`, which the retry ladder
-    answers with the ghost penalty's rung."""
+    answers with the ghost penalty's rung.  Beyond
+    :data:`DIVERGED_GRADIENT` cells (the nodes' motion over a cell a
+    displacement gradient beyond it) the trial is a diverged iterate,
+    not a motion, and the error says so (trial 118's 3D cpGIMP footing:
+    "moved 1.49e+04 cells", a step of 0.005 of the footing's width)."""
     if not moved.max(initial=0.) > CARRIED * h:
         return
     k = int(np.argmax(moved))
+    diverged = moved[k] > DIVERGED_GRADIENT * h
     raise GridMotionError(
         "step {}: a contact's corner at {} moved {:.3g} cells through grid "
-        "nodes holding less than {:g} cells of material ({}): the contact "
-        "does not hold there; the ghost penalty ties them (ghost='auto', "
-        "the default, switches it on; or {})".format(
+        "nodes holding less than {:g} cells of material ({}): {}; the "
+        "ghost penalty ties them (ghost='auto', the default, switches it "
+        "on; or {})".format(
             step, np.round(where[:, k], 12).tolist(), moved[k] / h,
-            SLIVER_SUPPORT, slivers, setting("ghost", 0.1)))
+            SLIVER_SUPPORT, slivers,
+            "a diverged Newton iterate (those nodes ran away), not a "
+            "motion of the material" if diverged else
+            "the contact does not hold there", setting("ghost", 0.1)))
 
 
 class ObstacleContact(GridTerm):
@@ -694,6 +736,12 @@ class ObstacleContact(GridTerm):
         self.locate = None      # the grid's locator (corner_cells)
         self.h, self.domain0 = cell_size, domain0
         self.kappa = [ob.penalty * modulus / cell_size for ob in obstacles]
+        #: the penalties the run started with, and how many times
+        #: :meth:`StepContact.grow_penalty` grew them (the counters keep
+        #: it, :data:`GROWN`, and a resumed run grows them again in
+        #: :meth:`begin_run`)
+        self.kappa0, self.growths = list(self.kappa), 0
+        self.counters = counters
         self.tol = [ob.tolerance * cell_size for ob in obstacles]
         self.total_lagrangian, self.moves = total_lagrangian, moves
         self.finite = finite
@@ -830,6 +878,13 @@ class ObstacleContact(GridTerm):
     def begin_run(self, points) -> None:
         dim, n = points.x.shape
         self.mobilisation = (None, ())
+        # the penalties grown before a resume (the counters resumed):
+        # multiplied as the run did, bit for bit
+        self.kappa = list(self.kappa0)
+        self.growths = self.counters.get(GROWN, 0)
+        for i in range(len(self.kappa)):
+            for _ in range(self.counters.get(grown_name(i), 0)):
+                self.kappa[i] *= GROWTH
         half = self.domain0 if self.domain0 is not None else np.repeat(
             (points.volume0 ** (1. / dim) / 2)[None], dim, axis=0)
         self.half = half
@@ -1694,11 +1749,17 @@ class StepContact(GridTerm):
                 # penalty's of the corners' mismatch at the step's start
                 self.tau[i] = self.tau[i] + term.kappa[i] * self.mismatch(
                     i, np.zeros_like(self.Xs), self.shift_old[i])
+        self.resolve()
+        self.evaluations = WeakKeyDictionary()
+        self.carriers = self.sliver_carriers()
+
+    def resolve(self) -> None:
+        """What the contact resolves (:meth:`weigh`): :data:`RESOLVED`
+        of the force a penetration of the tolerance makes."""
+        term = self.term
         self.resolution = RESOLVED * max(
             (kappa * tol * safe_norm(area) for kappa, tol, area in zip(
                 term.kappa, term.tol, self.area)), default=0.)
-        self.evaluations = WeakKeyDictionary()
-        self.carriers = self.sliver_carriers()
 
     def closed_gaps(self, i: int, face: ndarray) -> ndarray:
         """The gaps (nc m,) closed for the run at obstacle ``i``: of the
@@ -2316,8 +2377,57 @@ class StepContact(GridTerm):
         logger.debug("step %d: penetration %.2g of the tolerance; "
                      "augmented-Lagrangian update", problem.step, max(worst))
         self.updates.append(max(worst))
+        self.grow_penalty(worst)
         self.tell_slow_updates()
         return False
+
+    def grow_penalty(self, worst) -> None:
+        """From the step's :data:`GROW_AFTER`-th augmented-Lagrangian
+        update, one that left more than :data:`GROW_SLOW` of the last's
+        penetration multiplies the penalty of the obstacles not settled
+        (``worst``: their penetrations in tolerances) by :data:`GROWTH`
+        for the rest of the run, :data:`GROWTHS` times a run at the most
+        (a user's penalty, the default's or not, is where a run starts);
+        a smooth obstacle's only, not one's pushing more than
+        :data:`HELD_SHARE` of its force into held DOFs.  The step's next
+        solve takes it, the multipliers kept."""
+        done, term = self.updates, self.term
+        if len(done) < GROW_AFTER or done[-1] <= GROW_SLOW * done[-2] \
+                or term.growths >= GROWTHS:
+            return
+        # a smooth obstacle's: one that holds the material along its face
+        # (friction, rough, tied) holds it there by the penalty within a
+        # step, and its answer follows the penalty (a half block on a
+        # rough floor, B-splines: a sideways force of 0.106 of its
+        # weight at the default penalty, 0.075 grown to 100); nor one
+        # pushing held DOFs (no penalty closes that penetration:
+        # :meth:`ObstacleContact.held_hint`)
+        grown = [i for i, (ob, w) in enumerate(zip(term.obstacles, worst))
+                 if w > 1. and ob.friction == 0.
+                 and term.held_share[i][0] <= HELD_SHARE]
+        if not grown:
+            return
+        term.growths += 1
+        counters = term.counters
+        counters[GROWN] = term.growths
+        for i in grown:
+            term.kappa[i] *= GROWTH
+            counters[grown_name(i)] = counters.get(grown_name(i), 0) + 1
+        self.resolve()
+        self.updates = []
+        logger.warning(
+            "step %d: the contact's penetration still %.2g of the "
+            "tolerance after %d augmented-Lagrangian updates, the last "
+            "%s it by %.1f%%: the penalty grown %g times for the rest "
+            "of the run, obstacle %s (GIMP's corners on a curved face "
+            "cannot all meet it, and each update moves their force by "
+            "the penalty's times their heights' difference)",
+            self.problem.step, done[-1], len(done),
+            "cutting" if done[-1] <= done[-2] else "raising",
+            100 * abs(1 - done[-1] / done[-2]), GROWTH,
+            ", ".join("{!r} to {:.3g}".format(
+                term.obstacles[i].name, term.obstacles[i].penalty
+                * term.kappa[i] / term.kappa0[i]) for i in grown))
 
     def tell_slow_updates(self) -> None:
         """Warn once a run where a step's augmented-Lagrangian updates
@@ -2328,7 +2438,9 @@ class StepContact(GridTerm):
         multiplier by the penalty's force of a penetration that fell by
         1-4%; one pressing across a gap let go by as little), and each
         update takes a solve.  A larger penalty takes fewer
-        (:data:`SLOW_MEASURED`)."""
+        (:data:`SLOW_MEASURED`); a smooth obstacle's grows by itself
+        (:meth:`grow_penalty`), and the updates are counted again
+        after it."""
         run, done = self.problem.run, self.updates
         if len(done) <= SLOW_UPDATES or done[-1] <= SLOW_UPDATE * done[-2] \
                 or ("slow updates",) in run.warned:

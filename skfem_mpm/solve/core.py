@@ -1821,7 +1821,6 @@ def simulate(mesh: Mesh, elem: Element, points: MaterialPoints, material,
     if step == 0:
         check_first_supports(run, result.points, factor + increment)
     if resume.counters:
-        run.counters.update(resume.counters)
         if run.counters["ghost_from_step"]:
             for term in run.terms:          # a switched-on ghost stays on
                 if isinstance(term, GhostStabilisation):
@@ -2585,6 +2584,10 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         factory(run) for factory in GRID_TERMS) if term is not None]
     # those that weigh the balance in time after all others (stable)
     run.terms = sorted(terms + case.terms, key=lambda term: term.weighs)
+    if resume.counters:
+        # before the terms start: a resumed obstacle's penalty grown
+        # before the resume (contact_penalty_growths) is grown again
+        counters.update(resume.counters)
     for term in run.terms:
         term.begin_run(points)
     warn_resumed_terms(run, resume)

@@ -64,7 +64,13 @@ class Obstacle:
         (default 10): the force that starts each augmented-Lagrangian
         solve; it changes how many augmentations a step takes and the
         answer within what the tolerance allows (a penetration up to the
-        tolerance: a force error of the body's stiffness times it).
+        tolerance: a force error of the body's stiffness times it).  A
+        smooth obstacle's grows 10 times for the rest of the run (twice
+        at the most, warned) where a step's augmented-Lagrangian updates
+        settle slowly: GIMP's corners on a curved face
+        (docs/contact.md); the run's counters keep the growths
+        (``contact<k>_penalty_growths``), and a resumed run goes on at
+        the grown penalty.
     tolerance
         The penetration (and for ``"tied"`` the mismatch) allowed at a
         converged step, as a fraction of the cell size (default 1e-3).

@@ -200,11 +200,14 @@ class Result:
         matrices factorised: one per linear solve of a load step, fewer
         with ``newton="modified"``); with obstacles ``contact_updates``
         (augmented-Lagrangian updates of contact: each solves a step
-        again); with ``NewtonOptions(grow_back=True)``, after a cut-back,
-        ``easy_sub_steps`` (the sub-steps in a row that converged easily
-        at the cut-back's increment, which grows back after two:
-        :func:`~skfem_mpm.solve.core.grown_increment`; a resume goes on
-        from it).
+        again), from a smooth obstacle's penalty's first growth
+        ``contact_penalty_growths`` (the run's growths) and
+        ``contact<k>_penalty_growths`` (obstacle ``k``'s: a resume grows
+        it again); with ``NewtonOptions(grow_back=True)``, after a
+        cut-back, ``easy_sub_steps`` (the sub-steps in a row that
+        converged easily at the cut-back's increment, which grows back
+        after two: :func:`~skfem_mpm.solve.core.grown_increment`; a
+        resume goes on from it).
     domain0
         GIMP and averaged splines: the domains' half-lengths (dim, n) the
         run's deformation stretches (cpGIMP) from, the initial ones, also
