@@ -19,9 +19,9 @@ is imported only when a run first asks for the passes, so that ``import
 skfem_mpm`` stays light; the kernels are cached on disk, so a second
 process does not compile them again.  The environment variable
 ``SKFEM_MPM_KERNELS=numpy`` makes ``"auto"`` take the numpy path
-(:func:`auto_kernels`; logged once at INFO): a short run on a machine whose kernel cache is
-empty spares the passes' compilation (about 90 s once), and the
-README's fast test command runs so.
+(:func:`auto_kernels`; logged once at INFO): a short run on a machine
+whose kernel cache is empty spares the passes' compilation (about 90 s
+once), and the README's fast test command runs so.
 
 numba's compilation and its loads from the disk cache in a process are
 timed (:func:`compile_seconds`, the first compilation logged at INFO)

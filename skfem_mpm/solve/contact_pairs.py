@@ -17,8 +17,8 @@ nearest that one, facing it or under it where the first body reaches on
 beyond the second as a surface, make the node's pair
 (:meth:`PairFinder.extreme`, :meth:`PairFinder.facing`; with B-splines,
 where a body ends within a cell of the node, or within half a cell past
-it, every surface corner within half a cell: :meth:`PairFinder.surface`), one per place of the second
-body's corner and normal, and at a place of the first body's those
+it, every surface corner within half a cell: :meth:`PairFinder.surface`),
+one per place of the second body's corner and normal, and at a place of the first body's those
 nearest each other (two tip corners facing one corner are both kept);
 after the run's start a pair deeper than :data:`DEEPEST` cells is none
 (the first body on both sides of the second at the node), and a corner
