@@ -1257,6 +1257,13 @@ class KeptWarnings(logging.Handler):
         super().__init__(logging.WARNING)
         self.said, self.seen, self.more = [], set(), 0
 
+    def restore(self, earlier) -> None:
+        """Put the warnings ``earlier`` (a checkpoint's, of the run's
+        invocations before this resume) before this invocation's."""
+        now = [w for w in self.said if w not in earlier]
+        self.said[:] = list(earlier) + now
+        self.seen |= set(earlier)
+
     def emit(self, record):
         message = record.getMessage()
         if message in self.seen:
@@ -1284,14 +1291,16 @@ def run(args) -> int:
     package = logging.getLogger("skfem_mpm")
     package.addHandler(kept)
     try:
-        return run_warned(args, kept.said)
+        return run_warned(args, kept)
     finally:
         package.removeHandler(kept)
 
 
-def run_warned(args, warned: list) -> int:
-    """``skfem-mpm run``; ``warned``, the list of the warnings logged so
-    far (growing), goes into every summary it writes."""
+def run_warned(args, kept: KeptWarnings) -> int:
+    """``skfem-mpm run``; ``kept.said``, the list of the warnings logged
+    so far (growing; a resume's begins with the checkpoint's), goes into
+    every summary and checkpoint it writes."""
+    warned = kept.said
     for name, least in (("checkpoint_every", 0), ("max_steps", 1),
                         ("steps", 1), ("series_every", 1)):
         if getattr(args, name) is not None and getattr(args, name) < least:
@@ -1316,6 +1325,8 @@ def run_warned(args, warned: list) -> int:
         print(done.args[0])
         return 0
     digest = scene_digest(source)
+    if earlier is not None:      # the summary lists the whole run's
+        kept.restore(earlier.warnings)
     domain0 = points.domain if earlier is None else earlier.domain0
     # points carrying a point load or a surface load (traction, pressure)
     loaded = np.union1d(np.flatnonzero(np.abs(initial.force).sum(axis=0)),
@@ -1419,7 +1430,8 @@ def run_warned(args, warned: list) -> int:
                     0. if earlier is None else earlier.wall_seconds),
                 timings=run_timings(history, earlier),
                 end_force=end_force, series_every=every,
-                series_steps=np.array(wanted, dtype=np.int64)))
+                series_steps=np.array(wanted, dtype=np.int64),
+                warnings=tuple(warned)))
             kept[0] = len(rows)
 
     def unfinished(status, state, **keys):

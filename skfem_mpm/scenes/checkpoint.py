@@ -147,6 +147,11 @@ class Checkpoint:
         each invocation (the start, 0, included; written or not: with
         ``--no-series`` none is); a checkpoint written before they were
         kept: 1 and ``None`` (every step).
+    warnings
+        The warnings the run logged up to the checkpoint, each once, in
+        the order first logged (``summary.json``'s ``warnings``: a
+        resumed run's summary lists the whole run's); a checkpoint
+        written before they were kept: none.
 
     """
     step: int
@@ -165,6 +170,7 @@ class Checkpoint:
     tied_traction: bool = True
     series_every: int = 1
     series_steps: Optional[ndarray] = None
+    warnings: tuple = ()
 
     @property
     def complete(self) -> bool:
@@ -208,7 +214,8 @@ def save_checkpoint(outdir, checkpoint: Checkpoint):
               "timing_values": np.array([c.timings[k] for k in sorted(
                   c.timings)], dtype=np.float64),
               "tied_traction": np.array(bool(c.tied_traction)),
-              "series_every": np.array(int(c.series_every))}
+              "series_every": np.array(int(c.series_every)),
+              "warnings": np.array(list(c.warnings), dtype=str)}
     for name in POINT_FIELDS:
         value = getattr(c.points, name)
         if value is not None:
@@ -386,6 +393,9 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
     if series is not None and series.size and (
             series.min() < 0 or series.max() > step):
         raise bad("series_steps", "must lie in [0, step {}]".format(step))
+    # kept since 2026-11-30 (before: none)
+    warned = tuple(str(w) for w in get("warnings", "U", 1)) \
+        if "warnings" in a else ()
     return Checkpoint(step=step, nsteps=nsteps, load_factor=factor,
                       increment=increment, points=state,
                       counters={str(k): int(v) for k, v in zip(names,
@@ -394,7 +404,8 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
                       scene_sha256=digest, domain0=domain0,
                       wall_seconds=wall, timings=timings,
                       end_force=end_force, tied_traction=tied,
-                      series_every=every, series_steps=series)
+                      series_every=every, series_steps=series,
+                      warnings=warned)
 
 
 
