@@ -787,9 +787,12 @@ def test_an_obstacle_moved_past_the_material_is_named_in_the_error():
     "raise the penalty" (a user trial), names the press, how far it had
     moved past the block's top against the block's height, and its full
     displacement.  (A press moving along its face or away from the
-    material, or from afar by less, squeezes nothing: no such hint.)"""
-    from skfem_mpm import ContactError
-    with pytest.raises(ContactError) as failed:
+    material, or from afar by less, squeezes nothing: no such hint.)
+    Since a smooth obstacle's penalty grows where the rounds stall
+    (2026-11-30) the squeezed points leave the grid before the contact
+    gives up: that error names the press alike."""
+    from skfem_mpm import ContactError, PointsOutsideGridError
+    with pytest.raises((ContactError, PointsOutsideGridError)) as failed:
         pressed_block(Obstacle(box=[[.1, .9], [.5, .7]],
                                displacement=[0., -40.], name="press"),
                       nsteps=4)

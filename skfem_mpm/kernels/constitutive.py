@@ -26,7 +26,7 @@ from .soils import drucker_prager, elastic_strains, mohr_coulomb
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: and constants this module compiles in (as
 #: :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "4aaaaceb0a24d1cd"
+SOURCES = "8ca9c32727d90f6f"
 
 
 @njit(cache=True, error_model="numpy")

@@ -41,7 +41,7 @@ __all__ = ["passes_of", "commit_in_chunks",
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "36066efde2099ca6"
+SOURCES = "66456985c5c294e6"
 #: one parallel call at a time in a process
 LOCK = threading.Lock()
 if "NUMBA_THREADING_LAYER" not in os.environ:

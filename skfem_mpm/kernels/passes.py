@@ -64,7 +64,7 @@ __all__ = ["passes_of", "finite_commit", "start_deviation",
 #: function on its own file alone, so a change there must change this
 #: file too, or the passes would run the cached old code
 #: (``tests/test_compiled.py`` checks it)
-SOURCES = "5ea076e2ee048e23"
+SOURCES = "46c0695137346007"
 
 
 @njit(cache=True, error_model="numpy", inline="always")
