@@ -279,11 +279,18 @@ def main():
     KERNELS["method"], KERNELS["antilocking"] = args.method, args.antilocking
     if args.compile:
         compile_times()
-    # untimed: numba's cached kernels and the solver's libraries load
-    mesh, points = block(4, 2)
-    for path in PATHS:
-        use(path)
-        once(mesh, GRIDS[2][1](), points)
+    # untimed: numba's cached kernels and the solver's libraries load,
+    # the passes in chunks too (an operator of 3 x 8192 points or more:
+    # here on a small block, its chunks of 8 points; a 1e6-point run
+    # loaded them in its first step, 0.06-0.07 s, before)
+    import skfem_mpm.methods.assembly as assembly
+    chunk = assembly.CHUNK_POINTS
+    for cells, assembly.CHUNK_POINTS in ((4, chunk), (8, 8)):
+        mesh, points = block(cells, 2)
+        for path in PATHS:
+            use(path)
+            once(mesh, GRIDS[2][1](), points)
+    assembly.CHUNK_POINTS = chunk
     tic = time.perf_counter()
     for dim in args.dim:
         table(dim, args.reps, args.cells)
