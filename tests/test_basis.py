@@ -481,7 +481,8 @@ def test_operator_slivers_are_the_value_matrix_ones(elem):
     a point's tiny volume makes its nodes slivers."""
     import skfem
     from skfem_mpm.methods.operators import PointOperator
-    from skfem_mpm.solve.dynamics import (operator_slivers, sliver_nodes,
+    from skfem_mpm.solve.dynamics import (operator_slivers,
+                                          operator_supports, sliver_nodes,
                                           value_matrix)
     mesh = MeshQuad.init_tensor(*[np.linspace(0., 1., 5)] * 2)
     points = arbitrary_points(mesh, 60, seed=3, clustered=True)
@@ -496,3 +497,12 @@ def test_operator_slivers_are_the_value_matrix_ones(elem):
     found = operator_slivers(op, volume, least)
     assert 0 < expected.size < op.N // 2
     assert found.tolist() == expected.tolist()
+    # the weights formed in place: the sums of the product formed apart,
+    # to the bit (the same products, summed in the same order)
+    rows = op.basis.point_index
+    weights = np.abs(op.shape_values) * np.where(rows >= 0, volume[rows],
+                                                 0.)[None]
+    before = np.bincount(np.broadcast_to(op.scalar_dofs[:, :, None],
+                                         weights.shape).ravel(),
+                         weights.ravel(), minlength=op.N // op.dim)
+    assert np.array_equal(operator_supports(op, volume), before)

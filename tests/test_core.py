@@ -1517,6 +1517,27 @@ def test_a_point_thrown_by_light_nodes_is_refused():
         stacked_blocks(0.)
 
 
+def test_a_step_sums_its_nodes_supports_once(monkeypatch):
+    """The checks of thrown points ask a step for its sliver nodes and its
+    light ones (:meth:`~skfem_mpm.solve.problem.StepProblem.slivers`):
+    the material each node's support holds is summed once a step (at 1e6
+    points 0.03-0.05 s and 80-150 MB of new pages a sum), each threshold
+    taken against the same sums."""
+    from types import SimpleNamespace
+    from skfem_mpm.solve import dynamics
+    from skfem_mpm.solve.problem import StepProblem
+    calls = []
+    held = np.array([0., 1e-4, .05, 1.])
+    monkeypatch.setattr(dynamics, "operator_supports",
+                        lambda op, volume: calls.append(op) or held)
+    problem = StepProblem.__new__(StepProblem)       # the step's pieces
+    problem.op, problem.points = "op", SimpleNamespace(volume=np.ones(3))
+    problem._supports = None
+    assert problem.slivers(1e-3).tolist() == [0, 1]
+    assert problem.slivers(.1).tolist() == [0, 1, 2]
+    assert calls == ["op"]
+
+
 def test_unsettled_contact_says_it_is_cut_back(caplog):
     """A block on a rough floor whose penalty is 1e-6 (a user trial's
     extreme option): its rounds do not settle, and the failure was logged
