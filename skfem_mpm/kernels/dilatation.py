@@ -36,7 +36,7 @@ __all__ = ["passes_of", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "66456985c5c294e6"
+SOURCES = "8762136cc307a70d"
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -39,7 +39,7 @@ __all__ = ["passes_of", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "620364070a3e5a57"
+SOURCES = "3d6bbd023fe1e5ce"
 
 
 @njit(cache=True, error_model="numpy", inline="always")

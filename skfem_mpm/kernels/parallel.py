@@ -41,7 +41,7 @@ __all__ = ["passes_of", "commit_in_chunks",
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
-SOURCES = "66456985c5c294e6"
+SOURCES = "8762136cc307a70d"
 #: one parallel call at a time in a process
 LOCK = threading.Lock()
 if "NUMBA_THREADING_LAYER" not in os.environ:
@@ -169,7 +169,8 @@ def commit_in_chunks(count, dim, params, body, d, vecs, eq0, dF, F0, F, J,
     """:func:`~skfem_mpm.kernels.passes.finite_commit` in ``count`` chunks
     of points side by side (``body`` one entry a point), and of each
     chunk's points the Cauchy stress ``tau / J`` and the volume ``J
-    volume0`` (as numpy's division and product, to the bit)."""
+    volume0`` (as numpy's division and product, to the bit; ``stress``
+    may be ``tau`` itself, each entry divided in place)."""
     n = d.shape[1]
     for c in prange(count):
         a, b = n * c // count, n * (c + 1) // count

@@ -54,7 +54,7 @@ from .points import (ELASTIC_TANGENT, FINITE_TANGENT, RETURN_MAP_TANGENT,
 
 #: what the callers read here (the tangents from
 #: :mod:`skfem_mpm.kernels.points`)
-__all__ = ["passes_of", "finite_commit", "start_deviation",
+__all__ = ["passes_of", "finite_commit", "start_deviation", "unstrained",
            "ELASTIC_TANGENT", "RETURN_MAP_TANGENT", "FINITE_TANGENT",
            "SOURCES"]
 
@@ -530,6 +530,21 @@ def start_deviation(dim, strain, out):
         _start_deviation(strain, out, 2)
     else:
         _start_deviation(strain, out, 3)
+
+
+@njit(cache=True, error_model="numpy")
+def unstrained(strain):
+    """Whether every entry of the points' strain (3, 3, n), C-contiguous,
+    is zero (``-0.`` too), looked at until the first that is not (a
+    strained step's first point, at once): :func:`start_deviation` then
+    writes ``+0.`` everywhere (``expm1`` of a zero principal strain
+    times its frame, summed from ``+0.``), and a step's caller may take
+    zeros it never writes (a first step from unstrained points)."""
+    flat = strain.ravel()
+    for i in range(flat.size):
+        if flat[i] != 0.:
+            return False
+    return True
 
 
 def passes_of(dim: int):

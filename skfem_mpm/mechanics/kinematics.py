@@ -43,7 +43,7 @@ from typing import Callable, Optional
 import numpy as np
 from numpy import ndarray
 
-from ..errors import InversionError
+from ..errors import InvalidInputError, InversionError
 from .forms import full_tensor
 from .hencky import (SpectralParts, hencky_elastic_state, hencky_stress,
                      inverse_and_det, isotropic_derivative, principal_frame,
@@ -93,7 +93,10 @@ class Response:
     P, w
         Stress measure and weights of the internal force (a compiled
         response, whose force the pass sums, forms ``P`` when it is read:
-        from its trial's arrays, while it is the latest).
+        from its trial's arrays, while it is the latest and not
+        committed; a compiled finite-deformation commit writes the new
+        state into those arrays, and ``P``, the tangent and the
+        stiffness are refused after it: ``InvalidInputError``).
     yielded
         Points on the yield surface (n,).
     deformation
@@ -281,14 +284,25 @@ class FiniteStrain:
         runs without it (648 bytes a point in 3D).  The frames' out of
         plane part is the identity (that of every 2D frame, which the
         compiled 2D pass then leaves)."""
-        if self._buffers is None or self._buffers[1].shape[-1] != n \
+        if self._buffers is None or self._buffers[2].shape[0] != n \
                 or self._buffers[3].tau.shape[0] != k:
             tau, parts = (numpy_workspace if self.compiled is None
                           else self.compiled.workspace)(n, k)
             self._buffers = (None, tau, np.empty(n, dtype=bool), parts)
+        elif self._buffers[1] is None:   # a state's stress now: a new one
+            self._buffers = (self._buffers[0], np.empty((3, 3, n))) \
+                + self._buffers[2:]
         if deviation and self._buffers[0] is None:
             self._buffers = (np.empty((3, 3, n)),) + self._buffers[1:]
         return self._buffers
+
+    def hand_over_stress(self, tau: ndarray) -> None:
+        """Forget the workspace's Kirchhoff stress where it is ``tau``,
+        which a compiled commit divides in place into the new state's
+        Cauchy stress: the next response gets a new one
+        (:meth:`workspace`)."""
+        if self._buffers is not None and self._buffers[1] is tau:
+            self._buffers = (self._buffers[0], None) + self._buffers[2:]
 
     def start_deviation(self, points) -> ndarray:
         """``b_n - I = sum_A expm1(2 eps_A) e_A e_A`` from the points'
@@ -373,10 +387,24 @@ class FiniteStrain:
         ``b_dev``: ``b_tr - I`` (3, 3, n), or ``None`` (compiled) where
         the tangent forms it from the spectral parts; ``converged(old)``:
         the compiled ``(F, det F, b_e, eps_e, sigma, volume)`` of the
-        commit; ``fused``:
-        the compiled ``force`` and ``stiffness``."""
+        commit, written into the trial's arrays (its stress measure,
+        tangents and commit are refused after it, :data:`SPENT`);
+        ``fused``: the compiled ``force`` and ``stiffness``."""
         dim = self.dim
         tau, yielded, spectral = self.workspace(points.n, k, False)[1:]
+        # a compiled commit writes the new state into the trial's arrays
+        # (the stress, dF^-1): what reads them is refused after it
+        handed = []
+
+        def unspent(f):          # f, refused once the commit is made
+            if f is None or converged is None:
+                return f
+
+            def read(*args):
+                if handed:
+                    raise InvalidInputError(SPENT)
+                return f(*args)
+            return read
 
         def tangent_of(idx):
             """Formed from the spectral parts of points ``idx`` (only for
@@ -406,6 +434,7 @@ class FiniteStrain:
                 new.F = np.einsum("abp,bcp->acp", dF, old.F)
                 J = inverse_and_det(new.F, dim)[1]
             else:   # compiled: F, J, the elastic state, stress, volume
+                handed.append(True)
                 new.F, J, be, strain, stress, volume = converged(old)
             if not (J > 0).all():
                 raise InversionError("det F <= 0 at {} point(s)".format(
@@ -421,8 +450,11 @@ class FiniteStrain:
             return new
         def deformation(idx):
             return np.einsum("abp,bcp->acp", dF[..., idx], points.F[..., idx])
-        return Response(P, points.volume0, yielded.copy(), tangent, commit,
-                        deformation, tangent_of, **fused)
+        if converged is not None:
+            fused["stiffness"] = unspent(fused.get("stiffness"))
+        return Response(unspent(P), points.volume0, yielded.copy(),
+                        unspent(tangent), unspent(commit), deformation,
+                        unspent(tangent_of), **fused)
 
     def elastic_state(self, spectral: SpectralParts, state: dict):
         """Elastic left Cauchy-Green tensor and logarithmic strain of the
@@ -437,6 +469,14 @@ class FiniteStrain:
                 state_block(state, block), block.start)
         self.counters["return_maps"] += self.plastic
         return b_e, strain
+
+
+#: what a compiled response says when read after its commit
+SPENT = ("a compiled finite-deformation response was read after its "
+         "commit, which wrote the new state into its arrays (the stress, "
+         "dF^-1): read its stress measure, tangent or stiffness before "
+         "the commit, or the committed state (its force and deformation "
+         "stay)")
 
 
 def numpy_workspace(n: int, k: int):
