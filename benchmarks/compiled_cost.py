@@ -280,17 +280,25 @@ def main():
     if args.compile:
         compile_times()
     # untimed: numba's cached kernels and the solver's libraries load,
-    # the passes in chunks too (an operator of 3 x 8192 points or more:
-    # here on a small block, its chunks of 8 points; a 1e6-point run
-    # loaded them in its first step, 0.06-0.07 s, before)
+    # the passes in chunks too (an operator of 3 x 8192 points or more,
+    # a basis's fields or values of parallel.SPLIT points: here on a
+    # small block, in chunks of 8 points; a 1e6-point run loaded them in
+    # its first step, 0.06-0.07 s, before)
     import skfem_mpm.methods.assembly as assembly
-    chunk = assembly.CHUNK_POINTS
-    for cells, assembly.CHUNK_POINTS in ((4, chunk), (8, 8)):
+    from skfem_mpm.quadrature.basis import compiled_kernels
+    parallel = compiled_kernels("parallel", "compiled")   # None: no numba
+    kept = assembly.CHUNK_POINTS, getattr(parallel, "SPLIT", None)
+    for cells, small in ((4, False), (8, True)):
+        assembly.CHUNK_POINTS = 8 if small else kept[0]
+        if kept[1] is not None:
+            parallel.SPLIT = 16 if small else kept[1]
         mesh, points = block(cells, 2)
         for path in PATHS:
             use(path)
             once(mesh, GRIDS[2][1](), points)
-    assembly.CHUNK_POINTS = chunk
+    assembly.CHUNK_POINTS = kept[0]
+    if kept[1] is not None:
+        parallel.SPLIT = kept[1]
     tic = time.perf_counter()
     for dim in args.dim:
         table(dim, args.reps, args.cells)

@@ -8,7 +8,7 @@ commit and a step's ``b_n - I`` in chunks of points are the serial
 passes' to the bit."""
 import numpy as np
 import pytest
-from skfem import ElementHex1, ElementQuad1, MeshHex, MeshQuad
+from skfem import Dofs, ElementHex1, ElementQuad1, MeshHex, MeshQuad
 
 from skfem_mpm import (LinearElastic, MohrCoulomb, Options, Resume,
                        VonMises, seed_points, simulate)
@@ -225,6 +225,46 @@ def test_a_run_in_chunks_resumes_bit_identically(method, monkeypatch):
     for name in ("x", "stress", "strain", "F", "volume", "domain"):
         assert np.array_equal(getattr(rest.points, name),
                               getattr(whole.points, name)), name
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("dim", [2, 3])
+def test_point_passes_in_chunks_are_the_serial_ones(dim, monkeypatch):
+    """A basis's fields and a vector's values at the points, in chunks of
+    elements (or points) side by side (``split_count``: numba's threads
+    from ``SPLIT`` points), are the serial passes' to the bit, on one
+    thread and on two; below ``SPLIT`` they run serial."""
+    pytest.importorskip("numba")
+    from skfem_mpm.kernels import parallel
+    mesh, points = block(dim, 8 if dim == 2 else 4)
+    u = np.random.default_rng(dim).standard_normal(mesh.nvertices * dim)
+    calls = []
+    for name in ("values_in_chunks", "quad1_fields_in_chunks",
+                 "hex1_fields_in_chunks"):
+        chunked = getattr(parallel, name)
+        monkeypatch.setattr(parallel, name, lambda *a, f=chunked, n=name: (
+            calls.append(n), f(*a))[1])
+
+    def pieces():
+        elem = GRIDS[dim][1]()          # the grid's DOFs, as a step's
+        op = PointOperator(MaterialPointBasis(
+            mesh, elem, points, dofs=Dofs(mesh, elem), kernels="compiled"))
+        return op.shape_values, op.shape_gradients, op.values(u)
+    serial = pieces()
+    assert not calls and points.n < parallel.SPLIT
+    monkeypatch.setattr(parallel, "SPLIT", 16)
+    try:
+        for threads in (1, 2):
+            numba_threads(threads)
+            calls.clear()
+            chunked = pieces()
+            assert sorted(calls) == sorted([
+                "values_in_chunks", "{}_fields_in_chunks".format(
+                    "quad1" if dim == 2 else "hex1")]) or threads == 1
+            assert all(np.array_equal(a, b) and a.dtype == b.dtype
+                       for a, b in zip(chunked, serial))
+    finally:
+        numba_threads(1 << 10)
 
 
 def forked_run(queue):

@@ -26,7 +26,8 @@ import numpy as np
 from numba import njit
 
 __all__ = ["quad1_fields", "hex1_fields", "point_slots",
-           "point_values", "slot_sums", "point_loads"]
+           "point_values", "slot_sums", "point_loads", "quad1_range",
+           "hex1_range", "values_range"]
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -49,10 +50,17 @@ def quad1_fields(p, element_dofs, tind, X, values, gradients):
     whose nodes ``element_dofs[:, tind]`` (the mesh's (4, elements)) have
     the coordinates ``p`` (2, vertices); 1 at a zero Jacobian
     determinant, else 0."""
-    nel, nq = X.shape[1], X.shape[2]
+    return quad1_range(p, element_dofs, tind, X, values, gradients, 0,
+                       X.shape[1])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def quad1_range(p, element_dofs, tind, X, values, gradients, lo, hi):
+    """:func:`quad1_fields` of the elements ``lo`` to ``hi``."""
+    nq = X.shape[2]
     d0 = np.empty(4)
     d1 = np.empty(4)
-    for e in range(nel):
+    for e in range(lo, hi):
         for q in range(nq):
             x, y = X[0, e, q], X[1, e, q]
             J00 = J01 = J10 = J11 = 0.
@@ -106,11 +114,18 @@ def hex1_fields(p, element_dofs, tind, X, values, gradients):
     """:func:`quad1_fields` of ``ElementHex1``: values (8, e, q) and
     gradients (8, 3, e, q) at ``X`` (3, e, q), the mesh's element nodes
     (8, elements), ``p`` (3, vertices)."""
-    nel, nq = X.shape[1], X.shape[2]
+    return hex1_range(p, element_dofs, tind, X, values, gradients, 0,
+                      X.shape[1])
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def hex1_range(p, element_dofs, tind, X, values, gradients, lo, hi):
+    """:func:`hex1_fields` of the elements ``lo`` to ``hi``."""
+    nq = X.shape[2]
     d = np.empty((3, 8))
     J = np.empty((3, 3))
     inv = np.empty((3, 3))
-    for e in range(nel):
+    for e in range(lo, hi):
         for q in range(nq):
             x, y, z = X[0, e, q], X[1, e, q], X[2, e, q]
             J[:] = 0.
@@ -232,16 +247,23 @@ def point_values(N, dofs, u, k, slot_of_point, slots):
     gather, an ``einsum`` and a ``take`` (whose sum runs over the nodes as
     the outer loop of its iterator, from zero: the same operations, equal
     to the bit, ``tests/test_perf18_values.py``), in one pass."""
-    n, nloc = slot_of_point.size, N.shape[0]
-    out = np.empty((k, n))
-    for p in range(n):
+    out = np.empty((k, slot_of_point.size))
+    values_range(N, dofs, u, k, slot_of_point, slots, out, 0,
+                 slot_of_point.size)
+    return out
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def values_range(N, dofs, u, k, slot_of_point, slots, out, lo, hi):
+    """:func:`point_values` of the points ``lo`` to ``hi`` into ``out``."""
+    nloc = N.shape[0]
+    for p in range(lo, hi):
         e, m = slot_of_point[p] // slots, slot_of_point[p] % slots
         for a in range(k):
             s = 0.
             for i in range(nloc):
                 s += N[i, e, m] * u[k * dofs[i, e] + a]
             out[a, p] = s
-    return out
 
 
 @njit(cache=True, error_model="numpy", inline="always")

@@ -409,10 +409,11 @@ class MaterialPointBasis(CellBasis):
         at 56 points in 2D 41-57 -> 13-21 us); else ``None``."""
         if self._passes is None or shape_values.ndim != 3:
             return None
-        return self._passes.point_values(
-            shape_values, scalar_dofs, np.ascontiguousarray(
-                u, dtype=np.float64), dim, self._slot_of_point,
-            self.point_index.shape[1])
+        args = (shape_values, scalar_dofs, np.ascontiguousarray(
+            u, dtype=np.float64), dim, self._slot_of_point,
+                self.point_index.shape[1])
+        return in_chunks(self._slot_of_point.size, "values_in_chunks",
+                         self._passes.point_values, args)
 
     def nodal_loads(self, shape_values: ndarray, scalar_dofs: ndarray,
                     f: ndarray, size: int) -> Optional[ndarray]:
@@ -632,14 +633,32 @@ def compiled_fields(elem: Element, mapping: PointMapping, X: ndarray,
     values = np.empty((nloc,) + X.shape[1:])
     gradients = np.empty((nloc,) + X.shape)
     # the elements' nodes read in the pass (a gathered copy: 5 us a step)
-    if getattr(kernels, name)(
-            np.ascontiguousarray(mapping.mesh.doflocs, dtype=np.float64),
+    args = (np.ascontiguousarray(mapping.mesh.doflocs, dtype=np.float64),
             np.ascontiguousarray(mapping.mesh.dofs.element_dofs,
                                  dtype=np.int64),
             np.ascontiguousarray(tind, dtype=np.int64),
-            np.ascontiguousarray(X, dtype=np.float64), values, gradients):
+            np.ascontiguousarray(X, dtype=np.float64), values, gradients)
+    if in_chunks(X.shape[1] * X.shape[2], name + "_in_chunks",
+                 getattr(kernels, name), args):
         return None                     # a zero determinant: refused there
     return values, gradients
+
+
+def in_chunks(n: int, chunked: str, serial, args: tuple):
+    """``serial(*args)``, a compiled pass over ``n`` points (or their
+    slots), or where ``n`` is large (:func:`~skfem_mpm.kernels.parallel.
+    split_count`) its twin ``chunked`` of :mod:`skfem_mpm.kernels.
+    parallel` on the machine's cores, the same answer to the bit: at 1e6
+    points in 2D (two cores) a step's basis 0.091 -> 0.073 s, a vector's
+    values 0.025 -> 0.012 s (the commit's, and its check of thrown
+    points'), the least of six."""
+    # the caller's pass is compiled: numba imports, the chunks serve too
+    parallel = compiled_kernels("parallel", "compiled")
+    count = 1 if parallel is None else parallel.split_count(n)
+    if count == 1:
+        return serial(*args)
+    with parallel.LOCK:
+        return getattr(parallel, chunked)(count, *args)
 
 
 def _located(mesh: Mesh, points: MaterialPoints,
