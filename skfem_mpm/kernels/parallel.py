@@ -39,8 +39,7 @@ from .passes import (_finite_residual, _small_residual, _stiffness,
 
 __all__ = ["passes_of", "commit_in_chunks",
            "start_deviation_in_chunks", "values_in_chunks",
-           "quad1_fields_in_chunks", "hex1_fields_in_chunks",
-           "split_count", "LOCK", "SOURCES"]
+           "fields_in_chunks", "split_count", "LOCK", "SOURCES"]
 
 #: the first 16 hex digits of the sha256 of the kernel files whose code
 #: this module compiles in (as :data:`skfem_mpm.kernels.passes.SOURCES`)
@@ -226,29 +225,20 @@ def values_in_chunks(count, N, dofs, u, k, slot_of_point, slots):
 
 
 @njit(cache=True, error_model="numpy", parallel=True)
-def quad1_fields_in_chunks(count, p, element_dofs, tind, X, values,
-                           gradients):
-    """:func:`~skfem_mpm.kernels.basis.quad1_fields` in ``count`` chunks
-    of elements side by side; 1 where an element's Jacobian determinant
-    is zero (the values then hold no answer), else 0."""
+def fields_in_chunks(count, hexahedra, p, element_dofs, tind, X, values,
+                     gradients):
+    """:func:`~skfem_mpm.kernels.basis.quad1_fields` (or with
+    ``hexahedra`` :func:`~skfem_mpm.kernels.basis.hex1_fields`) in
+    ``count`` chunks of elements side by side; 1 where an element's
+    Jacobian determinant is zero (the values then hold no answer), else
+    0."""
     nel = X.shape[1]
     status = np.zeros(count, dtype=np.int64)
     for c in prange(count):
-        status[c] = quad1_range(p, element_dofs, tind, X, values, gradients,
-                                nel * c // count, nel * (c + 1) // count)
-    return status.max()
-
-
-@njit(cache=True, error_model="numpy", parallel=True)
-def hex1_fields_in_chunks(count, p, element_dofs, tind, X, values,
-                          gradients):
-    """:func:`~skfem_mpm.kernels.basis.hex1_fields` in ``count`` chunks
-    of elements (as :func:`quad1_fields_in_chunks`)."""
-    nel = X.shape[1]
-    status = np.zeros(count, dtype=np.int64)
-    for c in prange(count):
+        lo, hi = nel * c // count, nel * (c + 1) // count
         status[c] = hex1_range(p, element_dofs, tind, X, values, gradients,
-                               nel * c // count, nel * (c + 1) // count)
+                               lo, hi) if hexahedra else quad1_range(
+            p, element_dofs, tind, X, values, gradients, lo, hi)
     return status.max()
 
 
