@@ -392,32 +392,6 @@ def test_unstrained_points_start_from_zeros(monkeypatch):
     assert np.any(kinematics.compiled._start_deviation(points))
 
 
-@pytest.mark.parametrize("kind", ["small", "finite"])
-def test_internal_variables_only_where_the_passes_carry_some(kind):
-    """Where the passes carry no internal variable (elastic bodies) every
-    response reads the same zeros and writes the same work array (16 MB
-    of new pages a residual at 1e6 points before); a plastic material's
-    responses write new ones, which their states hold."""
-    mesh, points = block(2)
-    op = operator("mpm", mesh, points, 2)
-    du = 1e-3 * np.random.default_rng(3).standard_normal(op.N)
-    elastic = make_kinematics(kind, MATERIALS["elastic"], 2,
-                              {"return_maps": 0}, kernels="compiled")
-    spare = [elastic.compiled._scratch(points.n)]
-    for _ in range(2):
-        elastic.response(op, du, points).commit(points)
-        spare.append(elastic.compiled._scratch(points.n))
-    assert spare[0] is spare[1] is spare[2] and not spare[0][0].any()
-    material = MATERIALS["von_mises"]
-    points.state.update(initial_state(material, points.n))
-    plastic = make_kinematics(kind, material, 2, {"return_maps": 0},
-                              kernels="compiled")
-    states = [plastic.response(op, s * du, points).commit(points).state[
-        "equivalent_plastic_strain"] for s in (10., 20.)]
-    assert states[1].max() > states[0].max() > 0
-    assert not np.shares_memory(*states)
-
-
 def test_the_mohr_coulomb_return_equals_numpy_on_every_branch():
     """The compiled return map on principal strains, point by point,
     against :meth:`MohrCoulomb.principal_update` on all points at once:

@@ -303,7 +303,6 @@ class CompiledPasses:
         self.fbar = fbar.passes_of(dim)
         self._start = (None, None)      # a step's strain and b_n - I
         self._increments = None         # dF and dF^-1, reused
-        self._spare = None              # no internal variable: _scratch
         # the stiffness pass's C with m components (dim, or 3 with mean
         # dilatation), one a body, made once: zeros where it reads none,
         # and Hooke's tensors of elastic materials in small strain on first
@@ -451,30 +450,11 @@ class CompiledPasses:
             points_first(n, m, m))
 
     def _state(self, points) -> ndarray:
-        """The internal variables of ``points``, (2, n): where the passes
-        carry none, the zeros of :meth:`_scratch` (read, never written)."""
-        if not self.variables:
-            return self._scratch(points.n)[0]
+        """The internal variables of ``points``, (2, n)."""
         state = np.zeros((2, points.n))
         for row, name in enumerate(self.variables):
             state[row] = points.state[name]
         return state
-
-    def _variables_out(self, n: int) -> ndarray:
-        """The (2, n) array a residual pass writes the internal variables
-        into: a new one where the passes carry some (the response's state
-        holds its rows), else the work array of :meth:`_scratch`, which
-        no one reads (16 MB of new pages a residual at 1e6 points)."""
-        return self._scratch(n)[1] if not self.variables \
-            else np.empty((2, n))
-
-    def _scratch(self, n: int):
-        """``(zeros, work)``, two (2, n) arrays made once for ``n`` points
-        where the passes carry no internal variable: what they read as
-        the points' and what they write."""
-        if self._spare is None or self._spare[0].shape[1] != n:
-            self._spare = (np.zeros((2, n)), np.empty((2, n)))
-        return self._spare
 
     def _named(self, state: ndarray) -> dict:
         """The internal variables (2, n) by name."""
@@ -526,7 +506,7 @@ class CompiledPasses:
         n, body = points.n, self._bodies(points.n)
         tau, yielded, spectral = kinematics.workspace(n, m, False)[1:]
         dF, dF_inv = self._increment_arrays(n, m)
-        f, eq = np.zeros(op.N), self._variables_out(n)
+        f, eq = np.zeros(op.N), np.empty((2, n))
         start = self._start_deviation(points, self._point_chunks(layout))
         status = self._run(
             0, finite, layout, not fbar and cells is None,
@@ -610,7 +590,7 @@ class CompiledPasses:
         stress, strain = np.empty((3, 3, n)), np.empty((3, 3, n))
         x, vecs = points_first(n, 3), points_first(n, 3, 3)
         y, dy_dx = points_first(n, m), points_first(n, m, m)
-        yielded, eq = np.zeros(n, dtype=bool), self._variables_out(n)
+        yielded, eq = np.zeros(n, dtype=bool), np.empty((2, n))
         f = np.zeros(op.N)
         self._run(
             1, small, layout, cells is None,
