@@ -2559,11 +2559,13 @@ def test_a_block_tilted_past_coulomb_from_the_start_names_its_load():
                  nsteps=2, contacts=[Contact(0, 1, friction=mu)])
 
 
-def stacked_halves(h=.125, weight=2e4, nsteps=1, **kwargs):
+def stacked_halves(h=.125, weight=2e4, nsteps=1,
+                   material=LinearElastic(1e6, .3), **kwargs):
     """benchmarks/contact_cost.py's ``--bodies`` scene, 8 x 8 cells: a
     unit square cut at y = 0.5 into two bodies in smooth contact, the
     lower held by the grid nodes of y = 0, one load step (``nsteps``) of
-    finite deformation under its ``weight`` per unit volume."""
+    finite deformation under its ``weight`` per unit volume (the bodies
+    of ``material``, or of a material each)."""
     mesh = MeshQuad.init_tensor(np.arange(0., 1. + 2.5 * h, h),
                                 np.arange(-h, 1. + 2.5 * h, h))
     pts = seed_points(mesh, 2, region=lambda x: (x[0] < 1.) & (x[1] > 0)
@@ -2576,8 +2578,8 @@ def stacked_halves(h=.125, weight=2e4, nsteps=1, **kwargs):
                                .all()])
     kwargs.setdefault("body_force", [0., -weight])
     kwargs.setdefault("contacts", [Contact(0, 1)])
-    return simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
-                    supports, nsteps=nsteps, kinematics="finite", **kwargs)
+    return simulate(mesh, ElementQuad1(), pts, material, supports,
+                    nsteps=nsteps, kinematics="finite", **kwargs)
 
 
 def test_a_step_of_bodies_in_contact_keeps_one_tangent_pattern():
@@ -2672,6 +2674,43 @@ def test_a_pressed_pair_starts_its_step_at_the_pressure_it_is_rising_to():
     h = .125
     assert np.abs(res.points.displacement
                   - one.points.displacement).max() < 1e-3 * h
+    assert np.allclose(res.history[-1].contact_forces, [[0., 2e4 * .5]],
+                       rtol=1e-10)
+
+
+def test_a_node_s_pair_on_another_corner_starts_from_its_last_pressure():
+    """A node's pair is the second body's corner nearest it: the upper
+    half ten times softer than the lower spreads over it under its
+    weight (h = 1/16, 8 steps), and from step 7 two nodes by its edge
+    pair the corners beside their last ones.  Those pairs started from
+    nothing, their share of the weight all on the penalty, and each of
+    the two steps took 3 augmented-Lagrangian updates and 12 Newton
+    iterations; each now starts from its node's last pressure (and
+    rate): every pair starts pressed, 2 updates and 10 iterations, the
+    displacements within 2.7e-6 cells of the old (the tolerance 1e-3);
+    the upper half's weight crosses the interface whole."""
+    from skfem_mpm.solve.body_contact import StepBodyContact
+    unpressed, add = [], StepBodyContact.add
+
+    def counted(self, part, *args, **kwargs):
+        add(self, part, *args, **kwargs)
+        if self.problem.f_old > 0. and "keys" in part and \
+                part["keys"].size == args[2].size:     # the step's start
+            unpressed.append(int((part["start"] == 0.).sum()))
+    h = 1 / 16
+    kwargs = dict(h=h, material=[LinearElastic(1e6, .3),
+                                 LinearElastic(1e5, .3)],
+                  options=Options(stabilisation=Stabilisation(ghost=0.)))
+    StepBodyContact.add = counted
+    try:
+        res = stacked_halves(nsteps=8, **kwargs)
+    finally:
+        StepBodyContact.add = add
+    assert unpressed == [0] * 7
+    updates = np.diff([0] + [r.counters["contact_updates"]
+                             for r in res.history])
+    assert (updates[1:] <= 2).all()
+    assert sum(r.newton_iterations for r in res.history[6:]) <= 20
     assert np.allclose(res.history[-1].contact_forces, [[0., 2e4 * .5]],
                        rtol=1e-10)
 
