@@ -2612,8 +2612,12 @@ def test_pairs_joined_after_newton_start_the_next_solve_afresh(caplog):
     halves squeezed 20% under their weight) change the constraints: the
     next solve's first direction is the new tangent's.  By the kept
     tangent, blind to the new pairs, its residual rose from 12 to 14 and
-    the step took 47 Newton iterations where it takes 28 (at 1e5 points
-    and a tenth of the weight, 25 where 9)."""
+    the step took 47 Newton iterations where it took 28 (at 1e5 points
+    and a tenth of the weight, 25 where 9).  The joined pairs start
+    unpressed, their penetration all on the penalty, hundreds of
+    tolerances off: the next solve stops at the loose residual, as a
+    step's first does (another update follows it anyway), and the step
+    takes 20 iterations where it took 24 solving to the tolerance."""
     with caplog.at_level("DEBUG", logger="skfem_mpm"):
         res = stacked_halves(h=1 / 24, weight=2e5, nsteps=4,
                              options=Options(stabilisation=Stabilisation(
@@ -2625,13 +2629,17 @@ def test_pairs_joined_after_newton_start_the_next_solve_afresh(caplog):
     for k in joins:
         after = []                      # the next solve's residuals
         for name, line in records[k + 1:]:
-            if not name.endswith(".newton"):
+            if not name.endswith(".newton") or (
+                    after and " iteration 0:" in line):
                 break
             if " iteration " in line:
                 after.append(float(line.split("residual ")[1]))
-        # Newton from the new tangent: the residual falls at once
+        # Newton from the new tangent: the residual falls at once, to
+        # the loose residual (1e-3 of the solve's first), not the
+        # tolerance
         assert len(after) >= 2 and after[1] < after[0]
-    assert res.history[2].newton_iterations <= 35
+        assert 1e-9 < after[-1] <= 1e-3 * after[0]
+    assert res.history[2].newton_iterations <= 21
 
 
 def test_a_contact_step_computes_the_domains_corners_once():
@@ -2686,7 +2694,8 @@ def test_a_node_s_pair_on_another_corner_starts_from_its_last_pressure():
     nothing, their share of the weight all on the penalty, and each of
     the two steps took 3 augmented-Lagrangian updates and 12 Newton
     iterations; each now starts from its node's last pressure (and
-    rate): every pair starts pressed, 2 updates and 10 iterations, the
+    rate): every pair starts pressed, 2 updates and 10 iterations (7
+    where the solve after pairs joined stops at the loose residual), the
     displacements within 2.7e-6 cells of the old (the tolerance 1e-3);
     the upper half's weight crosses the interface whole."""
     from skfem_mpm.solve.body_contact import StepBodyContact
@@ -2710,7 +2719,7 @@ def test_a_node_s_pair_on_another_corner_starts_from_its_last_pressure():
     updates = np.diff([0] + [r.counters["contact_updates"]
                              for r in res.history])
     assert (updates[1:] <= 2).all()
-    assert sum(r.newton_iterations for r in res.history[6:]) <= 20
+    assert sum(r.newton_iterations for r in res.history[6:]) <= 14
     assert np.allclose(res.history[-1].contact_forces, [[0., 2e4 * .5]],
                        rtol=1e-10)
 

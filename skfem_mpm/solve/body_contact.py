@@ -1768,25 +1768,25 @@ class StepBodyContact(GridTerm):
         the converged tractions (augmented Lagrangian), or the new pairs
         join, or rough pairs let go or join (:meth:`rough_changes`), and
         the step is solved again (from a fresh tangent where pairs joined
-        or changed: :attr:`reshaped`)."""
+        or changed: :attr:`reshaped`; after a join, :attr:`off_by` is
+        how far the joined pairs, at no pressure yet, leave it)."""
         self.reshaped, self.off_by = True, 0.
         if self.join(du):
+            # as far off as the joined pairs, at no pressure yet, make it
+            # (their penetration beyond the tolerance all on the penalty:
+            # the update after the next solve is as certain as after a
+            # step's first)
+            self.off_by = self.worst(self.evaluate(du, trial.response))
+            self.evaluations = WeakKeyDictionary()
             logger.debug("step %d: bodies met beyond the step's pairs; "
-                         "solving again", problem.step)
+                         "solving again (%.2g of the tolerance)",
+                         problem.step, self.off_by)
             return False
         ev = self.evaluate(du, trial.response)
         if self.rough_changes(ev, du):
             self.evaluations = WeakKeyDictionary()
             return False
-        # in cells, and relative to the largest pair's force: with a
-        # penalty from the softer body, a penetration of the tolerance in
-        # cells was a quarter of a soft block's compression; a floor of
-        # 1e-6 of the tolerance for bodies that touch and do not press
-        worst = max((max(max(e[2], e[3]) / tol, kappa * e[2] / max(
-            c.tolerance * e[4].max(initial=0.), 1e-6 * kappa * tol))
-            for e, tol, kappa, (_, _, c) in zip(
-                ev, self.term.tol, self.term.kappa, self.term.contacts)),
-            default=0.)
+        worst = self.worst(ev)
         if worst <= 1.:
             return True
         self.reshaped, self.off_by = False, worst
@@ -1797,6 +1797,22 @@ class StepBodyContact(GridTerm):
         logger.debug("step %d: body contact %.2g of the tolerance; "
                      "augmented-Lagrangian update", problem.step, worst)
         return False
+
+    def worst(self, ev) -> float:
+        """How far the pairs of :meth:`evaluate`'s ``ev`` are from
+        settling, in their tolerances (:meth:`settle`: 1 or less holds):
+        the largest penetration (or gap of a pressed pair) and stick slip
+        in cells, and the penalty's force on the deepest penetration
+        relative to the largest pair's force."""
+        # in cells, and relative to the largest pair's force: with a
+        # penalty from the softer body, a penetration of the tolerance in
+        # cells was a quarter of a soft block's compression; a floor of
+        # 1e-6 of the tolerance for bodies that touch and do not press
+        return max((max(max(e[2], e[3]) / tol, kappa * e[2] / max(
+            c.tolerance * e[4].max(initial=0.), 1e-6 * kappa * tol))
+            for e, tol, kappa, (_, _, c) in zip(
+                ev, self.term.tol, self.term.kappa, self.term.contacts)),
+            default=0.)
 
     def rough_changes(self, ev, du: ndarray) -> bool:
         """After Newton, rough contacts: a pair that stuck but was found

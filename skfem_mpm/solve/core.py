@@ -137,7 +137,8 @@ SETTLE_ROUNDS = 30
 SETTLE_RESIDUAL = 1e-3
 #: the distance from settling (a term's
 #: :attr:`~skfem_mpm.protocols.GridTerm.off_by`, in its tolerances) from
-#: which a solve after an augmented-Lagrangian update also stops at
+#: which a solve after an augmented-Lagrangian update (or after contact
+#: pairs joined, their penetration all on the penalty) also stops at
 #: :data:`SETTLE_RESIDUAL`: the update after it is certain, and the
 #: solve's error in the penetration, about the loose residual times the
 #: penalty's penetration under the whole load, is a hundredth of the
