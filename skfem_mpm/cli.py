@@ -32,7 +32,8 @@ from .errors import (ConvergenceError, InvalidInputError, MPMError,
 from .mechanics.materials import LinearElastic, state_variables
 from .quadrature.locate import locate_points
 from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
-                                check_against, check_tied, history_rows,
+                                check_against, check_contact_sides,
+                                check_tied, history_rows,
                                 load_checkpoint, save_checkpoint,
                                 scene_digest)
 from .scenes.footing import scene_footing, soil_strength
@@ -1190,6 +1191,7 @@ def load_run(args, setup=None):
         # run (a review's run started with --steps 5 was told 20)
         refuse_other_steps(args, outdir, earlier.nsteps)
         check_tied(outdir / CHECKPOINT, earlier, scene.obstacles)
+        check_contact_sides(outdir / CHECKPOINT, earlier, scene)
         points = earlier.points
         if scene.dynamics is None:
             scene.nsteps = earlier.nsteps

@@ -16,7 +16,11 @@ of the scene file it belongs to (a stale checkpoint is refused) and
 ``tied_traction``: a tied obstacle's point state (``contact<i>_t<a><c>``)
 is its traction (since 2026-11-29; it was the multiplier, and a resume
 read it as the traction, shifting the tied force: a checkpoint of a run
-with a tied obstacle written before is refused, :func:`check_tied`).  A run
+with a tied obstacle written before is refused, :func:`check_tied`) and
+``contact_sides``: each interface between bodies pairs its smaller side's
+corners (since 2026-11-30; the declared second body's before, where its
+point state lay: a checkpoint written before, of a scene whose interface
+now pairs the other side, is refused, :func:`check_contact_sides`).  A run
 that kept checkpoints ends with one at its last step, load factor 1
 (:attr:`Checkpoint.complete`): resuming it has nothing to do (a trial's
 completed run left its checkpoint at step 15 of 20, and ``--resume``
@@ -36,10 +40,12 @@ from numpy import ndarray
 from ..errors import InvalidInputError, MPMError, PointsOutsideGridError
 from ..quadrature.locate import point_locator
 from ..quadrature.points import MaterialPoints
+from ..solve.body_contact import swapped_interfaces
 from .io import atomic_path
 
 __all__ = ["Checkpoint", "CheckpointError", "save_checkpoint",
-           "load_checkpoint", "check_against", "check_tied", "history_rows",
+           "load_checkpoint", "check_against", "check_tied", "check_contact_sides",
+           "history_rows",
            "scene_digest", "CHECKPOINT", "HISTORY_KEYS"]
 
 CHECKPOINT = "checkpoint.npz"
@@ -140,6 +146,11 @@ class Checkpoint:
         Whether a tied obstacle's point state is its traction (every
         checkpoint written since 2026-11-29); ``False``: the multiplier,
         read from a checkpoint written before (:func:`check_tied`).
+    contact_sides
+        Whether each interface between bodies kept its point state on
+        its smaller side (every checkpoint written since 2026-11-30);
+        ``False``: on the declared second body, read from a checkpoint
+        written before (:func:`check_contact_sides`).
     series_every, series_steps
         The ``--series-every`` of the invocation that wrote it (a resume
         keeps it unless told another) and the steps up to ``step`` whose
@@ -168,6 +179,7 @@ class Checkpoint:
     timings: dict = field(default_factory=dict)
     end_force: Optional[ndarray] = None
     tied_traction: bool = True
+    contact_sides: bool = True
     series_every: int = 1
     series_steps: Optional[ndarray] = None
     warnings: tuple = ()
@@ -214,6 +226,7 @@ def save_checkpoint(outdir, checkpoint: Checkpoint):
               "timing_values": np.array([c.timings[k] for k in sorted(
                   c.timings)], dtype=np.float64),
               "tied_traction": np.array(bool(c.tied_traction)),
+              "contact_sides": np.array(bool(c.contact_sides)),
               "series_every": np.array(int(c.series_every)),
               "warnings": np.array(list(c.warnings), dtype=str)}
     for name in POINT_FIELDS:
@@ -379,6 +392,9 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
     # written since 2026-11-29 (before: a tied obstacle's multiplier)
     tied = bool(get("tied_traction", "b", 0)) if "tied_traction" in a \
         else False
+    # written since 2026-11-30 (before: the declared second body's)
+    sides = bool(get("contact_sides", "b", 0)) if "contact_sides" in a \
+        else False
     end_force = get("end_force", "f", 1) if "end_force" in a else None
     if end_force is not None and (state.velocity is None or step == 0):
         raise bad("end_force", "is a dynamic run's after a step, and this "
@@ -404,6 +420,7 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
                       scene_sha256=digest, domain0=domain0,
                       wall_seconds=wall, timings=timings,
                       end_force=end_force, tied_traction=tied,
+                      contact_sides=sides,
                       series_every=every, series_steps=series,
                       warnings=warned)
 
@@ -477,6 +494,33 @@ def check_tied(path, checkpoint: Checkpoint, obstacles):
             "shifting the force of tied obstacle(s) {}): run the scene "
             "again from its start".format(path, ", ".join(
                 repr(name) for name in tied)))
+
+
+def check_contact_sides(path, checkpoint: Checkpoint, scene):
+    """Raise :class:`CheckpointError` where the checkpoint, written
+    before 2026-11-30, keeps the point state of a contact between
+    bodies of ``scene`` on its declared second body and the run now
+    pairs that interface's other, smaller side
+    (:func:`~skfem_mpm.solve.body_contact.swapped_interfaces`): resumed,
+    the pressures, gaps and friction tractions would be read at the
+    other body's points (zero there), a sticking interface's shear lost,
+    silently."""
+    if not scene.contacts or checkpoint.contact_sides \
+            or checkpoint.step == 0:
+        return
+    points = checkpoint.points
+    swapped = swapped_interfaces(scene.contacts, len(scene.bodies),
+                                 [b.name for b in scene.bodies],
+                                 points.body, points.volume0)
+    if swapped:
+        raise CheckpointError(
+            "{}: written before each interface between bodies paired its "
+            "smaller side's corners (2026-11-30; it paired the declared "
+            "second body's, where its point state lies, and the run now "
+            "pairs the other side of contact(s) {}, whose pressures and "
+            "friction a resume would read at the wrong points): run the "
+            "scene again from its start".format(path, ", ".join(
+                repr(name) for name in swapped)))
 
 
 def some_names(names, shown: int = 4) -> str:
