@@ -18,6 +18,7 @@ import signal
 import sys
 import tempfile
 import time
+from types import SimpleNamespace
 from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
@@ -33,7 +34,7 @@ from .mechanics.materials import LinearElastic, state_variables
 from .quadrature.locate import locate_points
 from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
                                 check_against, check_contact_sides,
-                                check_tied, history_rows,
+                                check_outputs, check_tied, history_rows,
                                 load_checkpoint, save_checkpoint,
                                 scene_digest)
 from .scenes.footing import scene_footing, soil_strength
@@ -48,8 +49,8 @@ from .scenes.plot import (STRESS_NAMES, SupportMarks, body_figure_size,
                           colour_scale, draw_deformed_shape, draw_energies,
                           draw_plastic_zone, draw_points, mark_peak,
                           pyplot)
-from .scenes.quantities import (COMPONENTS, QUANTITIES, check_quantities,
-                                quantity_unit)
+from .scenes.quantities import (COMPONENTS, POINTWISE, QUANTITIES,
+                                check_quantities, quantity_unit)
 from .scenes.scene import (build_points, load_scale, obstacle_list,
                            point_bound, reaction_resultants,
                            run_scene, scene_support_dofs, support_names,
@@ -460,15 +461,18 @@ def figures_note(outdir: Path) -> str:
 
 
 def summarise(scene, result, seconds: float, earlier=None,
-              complete: bool = True) -> dict:
+              complete: bool = True, measured=None) -> dict:
     """The numbers of a run, for ``summary.json`` and the terminal; with
     ``earlier`` (the :class:`~skfem_mpm.scenes.checkpoint.Checkpoint` a
     run resumed from), over the whole run: history rows, Newton iterations,
-    reactions, wall seconds and seconds per phase of the invocations
+    reactions, the outputs' histories and what they give (a footing's
+    peak pressure), wall seconds and seconds per phase of the invocations
     before the resume included (``seconds``: this invocation's).  A run
     not ``complete`` (failed, stopped, interrupted: ``result`` holds the
     steps that converged) gets no ``error`` against the scene's closed
-    form, which is the full load's."""
+    form, which is the full load's.  ``measured``: the scene's point
+    outputs (:func:`point_outputs`) at each step of ``result.history``,
+    (outputs, steps), as the steps ended (:func:`output_summaries`)."""
     pts = result.points
     history = result.history
     names, resultant = reaction_resultants(scene)
@@ -511,13 +515,60 @@ def summarise(scene, result, seconds: float, earlier=None,
         error = case_error(scene, result)
     if np.isfinite(error):
         summary["error"] = error
-    if scene.outputs and result.history:    # quantities at this step
-        summary["outputs"] = {q.label: {
-            "value": q.measure(scene, result),
-            "unit": q.unit(pts.dim, scene.units),
-            "history": q.history(scene, result)}
-            for q in scene.outputs}
+    if scene.outputs and len(rows):
+        summary["outputs"] = output_summaries(scene, result, rows,
+                                              reactions, earlier, measured)
     return without_negative_zeros(summary)    # no "-0 N" printed
+
+
+def point_outputs(scene) -> list:
+    """The scene's ``[[outputs]]`` of a displacement or stress of the
+    points, in order: measured at each step as it ends (the points'
+    state is not kept per step) and kept in a checkpoint."""
+    return [q for q in scene.outputs if q.quantity in POINTWISE]
+
+
+def output_summaries(scene, result, rows, reactions, earlier=None,
+                     measured=None) -> dict:
+    """``summary.json``'s ``outputs``: per ``[[outputs]]`` label its
+    ``value``, ``unit`` and ``history`` (columns ``step``, ``load_factor``,
+    ``time`` in dynamics, ``value``) over the run's history ``rows`` and
+    ``reactions`` (resumes included, as :func:`summarise` has them).  A
+    force or a footing's pressure comes from the reactions (a
+    ``footing_pressure``'s ``value`` the largest of its history's), a
+    displacement or stress from ``measured``, this invocation's values
+    at each step as it ended (a mean over points weighted by that step's
+    volumes), after the checkpoint ``earlier``'s (one written before
+    2026-11-30 kept none: the history starts at the resume); its
+    ``value`` is :meth:`~skfem_mpm.scenes.quantities.Quantity.measure`'s
+    on ``result``.  Without ``measured`` (``skfem-mpm compare``'s runs,
+    from their start) the records' snapshots give them
+    (:meth:`~skfem_mpm.scenes.quantities.Quantity.history`: a mean
+    weighted by the final volumes)."""
+    dim, pointwise = result.points.dim, point_outputs(scene)
+    before = {} if earlier is None else earlier.outputs or {}
+    out = {}
+    for q in scene.outputs:
+        if q.quantity in POINTWISE and measured is None:
+            history = q.history(scene, result)
+        else:
+            values = q.of_forces(scene, reactions) \
+                if q.quantity not in POINTWISE else np.r_[
+                    before.get(q.label, []), measured[pointwise.index(q)]]
+            steps = rows[len(rows) - len(values):]
+            history = {"step": steps[:, 0].astype(int).tolist(),
+                       "load_factor": steps[:, 1].tolist()}
+            if scene.dynamics is not None:
+                history["time"] = steps[:, HISTORY_KEYS.index(
+                    "time")].tolist()
+            history["value"] = np.asarray(values).tolist()
+        values = history["value"]
+        out[q.label] = {
+            "value": q.measure(scene, result) if q.quantity in POINTWISE
+            else max(values) if q.quantity == "footing_pressure"
+            else values[-1],
+            "unit": q.unit(dim, scene.units), "history": history}
+    return out
 
 
 def run_timings(records, earlier=None) -> dict:
@@ -1244,6 +1295,16 @@ def load_run(args, setup=None):
                 scene.method.startswith("bspline"))
             + rotation_state_names(mesh.dim(),
                                    scene.kinematics == "finite"), mesh)
+        labels = [q.label for q in point_outputs(scene)]
+        check_outputs(outdir / CHECKPOINT, earlier, labels)
+        if labels and earlier.outputs_from:
+            logger.warning(
+                "%s was written before checkpoints kept the point "
+                "outputs' values (2026-11-30): the histories of %s in "
+                "summary.json start at step %d, where the run was first "
+                "resumed (the forces' cover the whole run)",
+                outdir / CHECKPOINT, ", ".join(map(repr, labels)),
+                earlier.outputs_from + 1)
     return scene, source, outdir, earlier, points, resume, mesh, initial
 
 
@@ -1402,6 +1463,15 @@ def run_warned(args, kept: KeptWarnings) -> int:
     # all), and the step the checkpoint on disk holds
     history, latest = [], []
     kept = [None if earlier is None else earlier.step]
+    # the point outputs at each step of this invocation, as it ended
+    pointwise, measured = point_outputs(scene), []
+
+    def values():
+        """``measured`` as (outputs, steps) of the steps in ``history``
+        (a Ctrl-C between the two appends leaves one more row)."""
+        rows = measured[:len(history)]
+        return np.array(rows, dtype=np.float64).reshape(
+            len(rows), len(pointwise)).T
 
     def so_far():
         """History rows and reactions of the run so far (before this
@@ -1423,6 +1493,10 @@ def run_warned(args, kept: KeptWarnings) -> int:
         # dynamics: the next step books its work from it)
         end_force = end_force_of(history[-1]) if history \
             else resume.end_force
+        before = {q.label: [] for q in pointwise} if earlier is None \
+            or earlier.outputs is None else earlier.outputs
+        outputs = {q.label: np.r_[before[q.label], row] for q, row in
+                   zip(pointwise, values())}
         with interrupts_deferred():
             save_checkpoint(outdir, Checkpoint(
                 step=len(rows), nsteps=scene.step_count, load_factor=factor,
@@ -1433,7 +1507,9 @@ def run_warned(args, kept: KeptWarnings) -> int:
                 timings=run_timings(history, earlier),
                 end_force=end_force, series_every=every,
                 series_steps=np.array(wanted, dtype=np.int64),
-                warnings=tuple(warned)))
+                warnings=tuple(warned), outputs=outputs,
+                outputs_from=0 if earlier is None
+                else earlier.outputs_from))
             kept[0] = len(rows)
 
     def unfinished(status, state, **keys):
@@ -1448,7 +1524,7 @@ def run_warned(args, kept: KeptWarnings) -> int:
             counters=dict(last.counters if last else
                           earlier.counters if earlier else {}))
         summary = summarise(scene, partial, run_clock() - tic,
-                            earlier, complete=False)
+                            earlier, complete=False, measured=values())
         summary.update(notes)
         summary.update(status=status, last_converged_step=last.step if last
                        else resume.first_step - 1,
@@ -1477,6 +1553,8 @@ def run_warned(args, kept: KeptWarnings) -> int:
         # VTU left a checkpoint of step 3 listing step 4, refused)
         if due:
             wanted.append(record.step)
+        measured.append([q.measure(scene, SimpleNamespace(points=pts))
+                         for q in pointwise])
         history.append(record)
         latest[:] = [pts]
         if record.load_factor < 1. and (
@@ -1595,7 +1673,8 @@ def run_warned(args, kept: KeptWarnings) -> int:
 
     def completed():
         """The summary of the completed run, written."""
-        done = summarise(scene, result, seconds, earlier)
+        done = summarise(scene, result, seconds, earlier,
+                         measured=values())
         done.update(notes)
         done.update(status="completed",
                     compile_seconds=compile_seconds() - compiled)
