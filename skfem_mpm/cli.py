@@ -37,7 +37,7 @@ from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
                                 check_outputs, check_tied, history_rows,
                                 load_checkpoint, save_checkpoint,
                                 scene_digest)
-from .scenes.footing import scene_footing, soil_strength
+from .scenes.footing import scene_footing, soil_strength, still_rising
 from .scenes.io import (atomic_path, clear_earlier_run,
                         interrupts_deferred, remove_temporaries,
                         terminate_as_interrupt)
@@ -71,7 +71,7 @@ from .solve.strength_reduction import (largest_displacement,
 from .studies.column import SOURCE as COLUMN_SOURCE
 from .studies.figures import plot_column_stress, plot_study
 from .studies.footing import (bearing_capacity_factor, footing_error,
-                              footing_pressure)
+                              footing_pressure, limit_pressure)
 from .studies.study import (CASES_UNASKED, CHOICES, DEFAULT_VARY,
                             REFERENCE_ERRORS, VARIABLES, analyse, case_error,
                             case_work, cases_of, check_reference, check_vary,
@@ -511,14 +511,38 @@ def summarise(scene, result, seconds: float, earlier=None,
     elif scene.reference == "bearing_capacity":
         error = footing_error(scene,
                               reactions[:, scene_footing(scene).column])
+        if len(rows):
+            summary["bearing_capacity"] = bearing_capacity(scene, rows,
+                                                           reactions)
     else:
         error = case_error(scene, result)
     if np.isfinite(error):
         summary["error"] = error
+    if complete and len(rows) and (
+            scene.reference == "bearing_capacity" or any(
+                q.quantity == "footing_pressure" for q in scene.outputs)):
+        rising = still_rising(footing_pressure(scene, reactions[
+            :, scene_footing(scene).column]), unit("stress", scene.units))
+        if rising:
+            logger.warning("%s: %s", scene.name, rising)
     if scene.outputs and len(rows):
         summary["outputs"] = output_summaries(scene, result, rows,
                                               reactions, earlier, measured)
     return without_negative_zeros(summary)    # no "-0 N" printed
+
+
+def bearing_capacity(scene, rows, reactions) -> dict:
+    """A footing scene's peak pressure over the run's history ``rows``
+    and ``reactions`` (as :func:`summarise` has them): ``peak_pressure``,
+    its ``peak_step``, ``N_c c`` (``limit_pressure``) and
+    ``signed_error``, ``peak_pressure / limit_pressure - 1`` (negative
+    below ``N_c c``; ``error`` is its size)."""
+    pressure = footing_pressure(scene, reactions[
+        :, scene_footing(scene).column])
+    peak, limit = int(np.argmax(pressure)), limit_pressure(scene)
+    return {"peak_pressure": float(pressure[peak]),
+            "peak_step": int(rows[peak, 0]), "limit_pressure": limit,
+            "signed_error": float(pressure[peak] / limit - 1)}
 
 
 def point_outputs(scene) -> list:
@@ -603,7 +627,10 @@ def summary_units(dim: int, dynamics: bool = False,
              "reactions": force, "force": force, "displacement": length,
              # a count and dimensionless errors (a lecturer's trial
              # found them without a unit)
-             "points": "-", "steps": "-", "steps_run": "-", "error": "-"}
+             "points": "-", "steps": "-", "steps_run": "-", "error": "-",
+             # a footing scene's
+             "bearing_capacity": "{} (peak_step, signed_error: -)".format(
+                 unit("stress", system, dim))}
     if dynamics:      # a static run has no energies (a trial read its
         units["time"] = time        # unit as though it had)
         units["energies"] = "{} (time: {})".format(
@@ -1763,6 +1790,15 @@ def print_report(scene, summary: dict, seconds: float, outdir: Path,
         label, against, _ = REFERENCE_ERRORS[scene.reference]
         print("  {:26s}{:.4e} (against {})".format(label + " ",
                                                    summary["error"], against))
+    footing = summary.get("bearing_capacity")
+    if footing is not None:     # the error's side (a trial's soil that
+        # never failed read 9.96e-01, unsaid whether above or below)
+        print("  peak against N_c c        {:.6g} {} at step {}, {:.2%} {} "
+              "N_c c = {:.6g} {}".format(
+                  footing["peak_pressure"], unit("stress", scene.units),
+                  footing["peak_step"], abs(footing["signed_error"]),
+                  "below" if footing["signed_error"] < 0 else "above",
+                  footing["limit_pressure"], unit("stress", scene.units)))
     # four significant digits (a trial's 4e-6 printed 0.0000 m)
     print("  largest displacement      {:.4g} {}".format(
         summary["max_displacement"], unit("length", scene.units)))

@@ -165,6 +165,9 @@ def test_a_footing_resumed_past_its_peak_reports_the_whole_run(
     assert int(np.argmax(values)) == 5          # step 6, before the stop
     assert peak["value"] == max(values) == pytest.approx(233.3, abs=0.1)
     assert max(values[7:]) < peak["value"] - 3.    # the resume's steps
+    # a peak before the end: a collapse load (no warning that it is not)
+    assert not [w for w in b["warnings"] if "not a collapse load" in w]
+    assert b["bearing_capacity"]["peak_step"] == 6
     # the pressure is the obstacle's force over its width over the soil
     force = b["obstacles"]["footing"]["force"]
     assert values == pytest.approx([f[1] / 0.5 for f in force], rel=1e-14)

@@ -19,7 +19,15 @@ from ..mechanics.soils import DruckerPrager, MohrCoulomb
 from .regions import bounding_box, region_shape
 
 __all__ = ["soil_strength", "Footing", "scene_footing", "check_footing_scene",
-           "footing_pressure", "footing_forces"]
+           "footing_pressure", "footing_forces", "still_rising",
+           "STILL_RISING"]
+
+#: the rise of a footing's pressure over its last step, relative to it,
+#: beyond which a peak at that step is no collapse load (a plateau's
+#: steps rise by less: a trial's Tresca footing, its peak the last of 20
+#: steps, still rose 0.8% a step; a soil that never failed, its
+#: cohesion in Pa where the units were kPa, 5.3%, all 20 elastic)
+STILL_RISING = 0.005
 
 
 def soil_strength(material) -> tuple:
@@ -182,6 +190,35 @@ def footing_pressure(scene, forces: ndarray) -> ndarray:
     (:func:`~skfem_mpm.scenes.footing.scene_footing`)."""
     footing = scene_footing(scene)
     return footing.sign * np.asarray(forces)[:, 1] / footing.width
+
+
+def still_rising(pressure: ndarray, unit: str = "") -> str:
+    """``""``, or where a footing's pressure per step (``pressure``, from
+    the first step; in ``unit``) peaks at its last step and that step
+    raised it by more than :data:`STILL_RISING` of it, the words of a
+    warning: that peak is no collapse load.
+
+    >>> from skfem_mpm.scenes.footing import still_rising
+    >>> still_rising([50., 100., 104.])[:59]
+    'not a collapse load: the footing pressure peaks at the last'
+    >>> still_rising([50., 100., 100.1]), still_rising([50., 104., 100.])
+    ('', '')
+    """
+    pressure = np.asarray(pressure, dtype=float)
+    if not pressure.size or int(np.argmax(pressure)) != pressure.size - 1 \
+            or pressure[-1] <= 0:
+        return ""
+    before = pressure[-2] if pressure.size > 1 else 0.
+    rise = (pressure[-1] - before) / pressure[-1]
+    if rise <= STILL_RISING:
+        return ""
+    return ("not a collapse load: the footing pressure peaks at the last "
+            "step, {:.6g}{}, and rose {:.2%} over that step (more than "
+            "{:.1%}): it is still rising; push the footing further (a "
+            "larger displacement) until the pressure levels off, in more "
+            "steps if they fail".format(
+                pressure[-1], " " + unit if unit else "", rise,
+                STILL_RISING))
 
 
 def footing_forces(scene, history) -> ndarray:

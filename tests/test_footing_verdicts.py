@@ -1,0 +1,95 @@
+"""What a footing run says of its peak (a geotechnical engineer's trial):
+a soil that never failed, its strength in Pa where the scene's stresses
+are in kPa, reported "peak pressure error 9.96e-01" and nothing else;
+now its strength above its stiffness is warned of, a peak at the last
+step of a curve still rising is no collapse load (warned, in
+``summary.json``'s ``warnings``), and the error has its side."""
+import json
+
+import pytest
+
+import skfem_mpm.cli as cli
+from skfem_mpm.cli import main
+from skfem_mpm.scenes.footing import STILL_RISING, still_rising
+
+# a smooth footing (half model) on von Mises clay whose yield stress was
+# given in Pa, sqrt(3) x 20000, where the scene is in kPa (E = 1e4 kPa)
+IN_PA = """
+name = "clay in Pa"
+units = "kN-m"
+reference = "bearing_capacity"
+[grid]
+x = [0.0, 1.5, 6]
+y = [0.0, 1.0, 4]
+[[bodies]]
+name = "clay"
+region = { x = [0.0, 1.5], y = [0.0, 0.75] }
+points_per_cell = 2
+material = { model = "von_mises", E = 1e4, nu = 0.3, yield_stress = 34641.0 }
+[[supports]]
+name = "base"
+boundary = "bottom"
+[[supports]]
+name = "sides"
+boundary = ["left", "right"]
+components = ["x"]
+[[obstacles]]
+name = "footing"
+box = { x = [-0.3, 0.5], y = [0.75, 1.0] }
+displacement = [0.0, -0.01]
+friction = 0.0
+[solver]
+method = "mpm"
+steps = 4
+antilocking = true
+"""
+
+
+def test_a_soil_that_never_failed_is_said_to(tmp_path, monkeypatch,
+                                             capsys):
+    monkeypatch.setattr(cli, "plot_outputs", lambda *a, **k: None)
+    scene, out = tmp_path / "scene.toml", tmp_path / "out"
+    scene.write_text(IN_PA)
+    assert main(["run", str(scene), "--out", str(out), "--no-progress",
+                 "--no-series"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    warnings = summary["warnings"]
+    assert "body 'clay': its yield_stress 34641 kPa exceeds its Young's " \
+        "modulus E = 10000 kPa" in warnings[0]
+    assert "a unit slipped? Every stress of the scene is in kPa " \
+        "(units = 'kN-m')" in warnings[0]
+    # elastic: each of the 4 steps adds about as much
+    rising = [w for w in warnings if "not a collapse load" in w]
+    assert len(rising) == 1
+    assert rising[0].startswith(
+        "clay in Pa: not a collapse load: the footing pressure peaks at "
+        "the last step, 232.032 kPa, and rose 26.51% over that step (more "
+        "than 0.5%)")
+    footing = summary["bearing_capacity"]
+    # N_c c = (2 + pi) 20000: the pressure 0.23% of it, below
+    assert footing["limit_pressure"] == pytest.approx(102832., rel=1e-5)
+    assert footing["peak_step"] == 4
+    assert footing["peak_pressure"] == pytest.approx(232.032, rel=1e-5)
+    assert footing["signed_error"] == -summary["error"]
+    assert footing["signed_error"] == pytest.approx(-0.99774, abs=1e-5)
+    assert summary["units"]["bearing_capacity"] == \
+        "kPa (peak_step, signed_error: -)"
+    printed = capsys.readouterr().out
+    assert "  peak against N_c c        232.032 kPa at step 4, 99.77% " \
+        "below N_c c = 102832 kPa\n" in printed
+
+
+@pytest.mark.parametrize("pressure, rises", [
+    ([50., 100., 104.], True),              # still rising, 3.8%
+    ([50., 100., 100.1], False),            # a plateau
+    ([50., 104., 100.], False),             # the peak before the end
+    ([100. * (1 - STILL_RISING) + 1e-9, 100.], False),
+    ([99.4, 100.], True),
+    ([0., -5.], False),                     # pulled: no pressure
+    ([], False)])
+def test_a_peak_at_the_last_step_of_a_rising_curve(pressure, rises):
+    words = still_rising(pressure, "kPa")
+    assert bool(words) == rises
+    if rises:
+        assert "peaks at the last step, 100 kPa" in words or \
+            "104 kPa" in words
