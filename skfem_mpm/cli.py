@@ -1110,8 +1110,10 @@ def weight_taken_off(scene) -> str:
 
 def plot_bearing_capacity(scene, curves: dict, path: Path):
     """A bearing-capacity scene's footing pressure over the cohesion
-    against its settlement over its width, with ``N_c``, from the
-    ``curves`` of its kind (rigid bodies or obstacles; the footing:
+    against its settlement ``s`` over the whole footing's width ``B``
+    (twice a half model's footing, its ``B``: a trial's axis was
+    ``s / (B / 2)``), with ``N_c``, from the ``curves`` of its kind
+    (rigid bodies or obstacles; the footing:
     :func:`~skfem_mpm.scenes.footing.scene_footing`)."""
     footing = scene_footing(scene)
     fig, ax = pyplot().subplots(figsize=(5.5, 4))
@@ -1121,17 +1123,21 @@ def plot_bearing_capacity(scene, curves: dict, path: Path):
     settlement = -np.array([0.] + [d[1] for d in curve["displacement"]])
     pressure = np.concatenate([[0.], footing_pressure(
         scene, np.array(curve["force"]))])
-    x = settlement / footing.width
+    x = settlement / footing.B
     line, = ax.plot(x, pressure / c, "o-", ms=3, label="{}, {}".format(
         footing.name, scene.method))
     mark_peak(ax, line, x, pressure / c)
     ax.axhline(bearing_capacity_factor(phi), color="k", ls="--",
                label="N_c = {:.2f} (phi = {:g} deg)".format(
                    bearing_capacity_factor(phi), phi))
-    ax.set_xlabel("settlement / width of the footing {} (-)\n(half "
-                  "the footing in a half model)".format(
-                      "body" if footing.kind == "rigid_bodies"
-                      else "over the soil"))
+    length = unit("length", scene.units)
+    ax.set_xlabel("settlement s / footing width B (-), B = {}".format(
+        "{:g} {}\n(twice the {:g} {} of this half model's footing, from "
+        "its symmetry line)".format(footing.B, length, footing.width,
+                                    length) if footing.half else
+        "{:g} {}\n(the width of the footing {})".format(
+            footing.B, length, "body" if footing.kind == "rigid_bodies"
+            else "over the soil")))
     ax.set_ylabel("footing pressure / cohesion (-){}".format(
         weight_taken_off(scene) if footing.kind == "rigid_bodies"
         else ""))

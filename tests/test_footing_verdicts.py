@@ -9,6 +9,7 @@ import json
 import pytest
 
 import skfem_mpm.cli as cli
+from skfem_mpm import Obstacle
 from skfem_mpm.cli import main
 from skfem_mpm.scenes.footing import STILL_RISING, still_rising
 
@@ -93,3 +94,45 @@ def test_a_peak_at_the_last_step_of_a_rising_curve(pressure, rises):
     if rises:
         assert "peaks at the last step, 100 kPa" in words or \
             "104 kPa" in words
+
+
+def test_the_curve_is_against_settlement_over_the_whole_width(
+        tmp_path, monkeypatch):
+    """A trial's figure put the settlement over the width of the footing
+    over the soil, ``s / (B / 2)`` in a half model, where engineers read
+    ``s / B``: its axis is ``s / B`` now, and says what ``B`` is."""
+    from skfem_mpm.scenes import plot
+    from skfem_mpm.scenes.footing import scene_footing
+    from skfem_mpm.scenes.scene_file import load_scene
+    monkeypatch.setattr(cli, "plot_outputs", lambda *a, **k: None)
+    path, out = tmp_path / "scene.toml", tmp_path / "out"
+    path.write_text(IN_PA)
+    assert main(["run", str(path), "--out", str(out), "--no-progress",
+                 "--no-series"]) == 0
+    curves = json.loads((out / "summary.json").read_text())["obstacles"]
+    drawn = []
+    monkeypatch.setattr(plot, "save_figure", lambda fig, where: (
+        drawn.append((fig.axes[0].get_xlabel(),
+                      fig.axes[0].lines[0].get_xdata()))))
+    scene = load_scene(path)
+    footing = scene_footing(scene)
+    assert (footing.width, footing.half, footing.B) == (.5, True, 1.)
+    cli.plot_bearing_capacity(scene, curves, tmp_path / "b.png")
+    label, x = drawn.pop()
+    # pushed 0.01 m: s / B = 0.01 with B = 1 m, twice the 0.5 m modelled
+    assert x[-1] == pytest.approx(.01, rel=1e-12)
+    assert label == ("settlement s / footing width B (-), B = 1 m\n(twice "
+                     "the 0.5 m of this half model's footing, from its "
+                     "symmetry line)")
+    # a footing with soil on both sides is whole: B its width
+    whole = load_scene(path)
+    whole.obstacles[0] = Obstacle(box=[[.5, 1.], [.75, 1.]],
+                                  displacement=[0., -.01], friction=0.,
+                                  name="footing")
+    footing = scene_footing(whole)
+    assert (footing.width, footing.half, footing.B) == (.5, False, .5)
+    cli.plot_bearing_capacity(whole, curves, tmp_path / "b.png")
+    label, x = drawn.pop()
+    assert x[-1] == pytest.approx(.02, rel=1e-12)
+    assert label == ("settlement s / footing width B (-), B = 0.5 m\n(the "
+                     "width of the footing over the soil)")

@@ -71,6 +71,15 @@ class Footing(NamedTuple):
     #: the soil's push on it is ``sign`` times its force there (a rigid
     #: body's holds its motion, down; an obstacle's is the material's)
     sign: float
+    #: it reaches the soil's side (a half model: that side is the
+    #: symmetry line of a footing twice as wide)
+    half: bool = False
+
+    @property
+    def B(self) -> float:
+        """The whole footing's width: twice :attr:`width` in a half
+        model (an engineer's ``s / B``), else :attr:`width`."""
+        return 2. * self.width if self.half else self.width
 
 
 def scene_footing(scene) -> Footing:
@@ -82,7 +91,10 @@ def scene_footing(scene) -> Footing:
     the part over the soil (the soil bodies' regions' x-extent, the
     grid's for a region that is a plain function: a half model's box may
     reach past the symmetry line), which must leave soil surface free
-    beside it; anything else is refused."""
+    beside it; anything else is refused.  A footing that reaches the
+    soil's side is half of a symmetric one, that side its symmetry line
+    (:attr:`Footing.half`: its ``B`` twice its width): ``N_c c`` is the
+    collapse pressure of a footing on a half-space, not at its edge."""
     from .scene import obstacle_list
     rigid = [b for b in scene.bodies if b.rigid is not None]
     obstacles = [(k, o) for k, o in enumerate(obstacle_list(scene))
@@ -123,7 +135,8 @@ def scene_footing(scene) -> Footing:
                 "mechanism and no N_c c".format(
                     obstacle.name, *obstacle.box[0], *soil))
         return Footing("obstacles", obstacle.name,
-                       first + len(rigid) + k, float(hi - lo), 1.)
+                       first + len(rigid) + k, float(hi - lo), 1.,
+                       bool(lo <= soil[0] or hi >= soil[1]))
     footing = rigid[0]
     if callable(footing.region):
         raise InvalidInputError(
@@ -140,7 +153,9 @@ def scene_footing(scene) -> Footing:
                 "its region's; put its edges on grid lines".format(
                     footing.name, edge, lines.min(), lines.max()))
     lo, hi = footing.region[0]
-    return Footing("rigid_bodies", footing.name, first, float(hi - lo), -1.)
+    soil = soil_extent(scene, lines[0], lines[-1])
+    return Footing("rigid_bodies", footing.name, first, float(hi - lo), -1.,
+                   bool(lo <= soil[0] or hi >= soil[1]))
 
 
 def soil_extent(scene, low: float, high: float) -> tuple:
