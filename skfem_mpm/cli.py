@@ -1306,7 +1306,10 @@ def load_run(args, setup=None):
         mesh.nelements, cells))
     initial = build_points(scene, mesh)
     setup("checking the {} points".format(initial.n))
-    check_quantities(scene, scene.outputs, initial)
+    try:
+        check_quantities(scene, scene.outputs, initial, key="outputs")
+    except SceneError as err:     # the file named, as the scene's own
+        raise SceneError(err.problems, str(source)) from None
     if points is None:
         points = initial
     else:
@@ -2224,7 +2227,10 @@ def run_safety(args) -> int:
     check_reference(scene)
     mesh, _ = scene.grid.build()
     initial = build_points(scene, mesh)
-    check_quantities(scene, scene.outputs, initial)
+    try:
+        check_quantities(scene, scene.outputs, initial, key="outputs")
+    except SceneError as err:       # the file named, as the scene's own
+        raise SceneError(err.problems, str(args.scene)) from None
     length = unit("length", scene.units)
     kept = [b.name for k, b in enumerate(scene.bodies) if k not in reduced]
     print("{}: strength reduction of {} ({} load steps, {}); bracket from "

@@ -136,3 +136,20 @@ def test_the_curve_is_against_settlement_over_the_whole_width(
     assert x[-1] == pytest.approx(.02, rel=1e-12)
     assert label == ("settlement s / footing width B (-), B = 0.5 m\n(the "
                      "width of the footing over the soil)")
+
+
+@pytest.mark.parametrize("command", ["run", "safety"])
+def test_a_place_outside_the_points_names_the_file_and_output(
+        tmp_path, capsys, command):
+    """A trial's ``at`` outside the points was refused without the file
+    and ``outputs[K]`` every other message of a scene file names."""
+    path = tmp_path / "at_outside.toml"
+    path.write_text(IN_PA + '[[outputs]]\nquantity = "displacement"\n'
+                    'component = "y"\nat = [10.0, 0.75]\n')
+    assert main([command, str(path), "--out", str(tmp_path / "out"),
+                 "--no-progress"]) == 2
+    assert capsys.readouterr().err == (
+        "skfem-mpm: {}: outputs[0]: displacement y at (10, 0.75): [10.0, "
+        "0.75] lies outside the points (initial positions [0.0625, 0.0625]"
+        " to [1.4375, 0.6875])\n".format(path))
+    assert not (tmp_path / "out").exists()

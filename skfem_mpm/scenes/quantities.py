@@ -26,7 +26,7 @@ from typing import Optional, Sequence, Tuple, Union
 import numpy as np
 from numpy import ndarray
 
-from ..errors import InvalidInputError, check_choice
+from ..errors import InvalidInputError, SceneError, check_choice
 from .regions import Ball, Polygon, closed_region
 from .scene import obstacle_list, reaction_resultants, support_names
 from .units import unit
@@ -535,14 +535,30 @@ def fitted_value(x0: ndarray, values: ndarray, at: ndarray):
     return float(coef[0]) if np.ndim(values) == 1 else coef[0]
 
 
-def check_quantities(scene, quantities: Sequence[Quantity], points=None):
+def check_quantities(scene, quantities: Sequence[Quantity], points=None,
+                     key: Optional[str] = None):
     """:meth:`Quantity.check` every quantity (on the scene's initial
     ``points`` when given), and refuse two with one label (tables and
-    plots tell them apart by it)."""
+    plots tell them apart by it).  ``key``: the scene file's table the
+    quantities are (``"outputs"``): each refusal names its entry,
+    ``outputs[K]: ``, all of them in one
+    :class:`~skfem_mpm.errors.SceneError` (a trial's place outside the
+    points was refused without it, where every other problem of a scene
+    file is named so)."""
     labels = [q.label for q in quantities]
     twice = sorted({a for a in labels if labels.count(a) > 1})
     if twice:
-        raise InvalidInputError("quantities named twice: {}; give them "
-                                "distinct names".format(", ".join(twice)))
-    for q in quantities:
-        q.check(scene, points)
+        raise InvalidInputError("{}quantities named twice: {}; give them "
+                                "distinct names".format(
+                                    "" if key is None else key + ": ",
+                                    ", ".join(twice)))
+    problems = []
+    for k, q in enumerate(quantities):
+        try:
+            q.check(scene, points)
+        except InvalidInputError as err:
+            if key is None:
+                raise
+            problems.append("{}[{}]: {}".format(key, k, err))
+    if problems:
+        raise SceneError(problems)
