@@ -153,3 +153,34 @@ def test_a_place_outside_the_points_names_the_file_and_output(
         "0.75] lies outside the points (initial positions [0.0625, 0.0625]"
         " to [1.4375, 0.6875])\n".format(path))
     assert not (tmp_path / "out").exists()
+
+
+def test_a_flat_mpm_footing_s_penalty_growth_gives_its_own_reason(
+        tmp_path, monkeypatch):
+    """A trial's standard-MPM footing (flat box, 30 x 17 cells) grew its
+    penalty at step 15, told of "GIMP's corners on a curved face": its
+    worst corner lay by the footing's edge.  The reason is its case's."""
+    from skfem_mpm.solve.contact import growth_reason
+    monkeypatch.setattr(cli, "plot_outputs", lambda *a, **k: None)
+    text = IN_PA
+    for old, new in (("x = [0.0, 1.5, 6]", "x = [0.0, 3.0, 30]"),
+                     ("y = [0.0, 1.0, 4]", "y = [0.0, 1.7, 17]"),
+                     ("x = [0.0, 1.5], y = [0.0, 0.75]",
+                      "x = [0.0, 3.0], y = [0.0, 1.5]"),
+                     ("points_per_cell = 2", "points_per_cell = 3"),
+                     ("y = [0.75, 1.0]", "y = [1.5, 1.7]"),
+                     ("[0.0, -0.01]", "[0.0, -0.03]"), ("steps = 4",
+                                                        "steps = 20")):
+        assert old in text
+        text = text.replace(old, new)
+    path, out = tmp_path / "scene.toml", tmp_path / "out"
+    path.write_text(text)
+    assert main(["run", str(path), "--out", str(out), "--no-progress",
+                 "--no-series"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    grown = [w for w in summary["warnings"] if "the penalty grown" in w]
+    assert len(grown) == 1 and summary["counters"][
+        "contact_penalty_growths"] == 1
+    assert grown[0].endswith("obstacle 'footing' to 100 ({})".format(
+        growth_reason(False, False)))
+    assert "GIMP" not in grown[0]
