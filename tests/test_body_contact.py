@@ -747,12 +747,20 @@ def two_blocks():
 @pytest.mark.parametrize("contacts, kwargs, words", [
     ([Contact(0, 2)], {}, "body 2 does not exist"),
     ([Contact(1, 1)], {}, "with itself"),
-    ([Contact(0, 1), Contact(1, 0)], {}, "two contacts"),
+    ([Contact(0, 1), Contact(1, 0)], {}, re.escape(
+        "contacts '0-1' and '1-0' are both between bodies 0 and 1: a pair "
+        "of bodies has one contact")),
     ([Contact("soil", 1)], {}, "no body named 'soil'"),
     ([Contact(0, 1)], {"method": "fem"}, "'fem' keeps them"),
     (["0-1"], {}, "Contact items"),
+    (Contact(0, 1), {}, re.escape(
+        "contacts must be a list of Contact items, got one Contact: pass "
+        "contacts=[Contact(0, 1, friction=0.0)]")),
+    (5, {}, "contacts must be a list of Contact items, got int"),
 ])
 def test_mistakes_are_refused(contacts, kwargs, words):
+    """A user trial: the pair declared twice was not named, and one
+    Contact not in a list ended in a TypeError."""
     mesh, pts = two_blocks()
     with pytest.raises(InvalidInputError, match=words):
         simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
@@ -764,11 +772,32 @@ def test_mistakes_are_refused(contacts, kwargs, words):
     (lambda: Contact(0, 1, friction="tied"), "glued: declare no contact"),
     (lambda: Contact(0, 1, friction=-1.), "finite and >= 0"),
     (lambda: Contact(0, 1, tolerance=2.), "tolerance in"),
-    (lambda: Contact(0., 1), "body index or name"),
+    (lambda: Contact(0., 1), "body index"),
+    (lambda: Contact(0, -1), re.escape(
+        "Contact second body must be a body index (>= 0) or name, got -1")),
+    (lambda: Contact(np.int64(-2), 1), "got -2"),
 ])
 def test_bad_contacts_are_refused(make, words):
+    """A negative body index is refused where it is given (a user trial's
+    contact was named '0--1' and refused as a body that does not
+    exist)."""
     with pytest.raises(InvalidInputError, match=words):
         make()
+
+
+def test_contacts_of_one_interface_alike_at_single_precision_are_one():
+    """A user trial: a pile's and its glued cap's contacts with the soil
+    (one interface), friction 0.3 given as ``numpy.float32`` on one and
+    a float on the other, were refused as two frictions; they are alike
+    at single precision, and differ beyond it."""
+    from skfem_mpm.solve.body_contact import check_contacts
+    field = check_contacts([Contact(0, 1, friction=np.float32(.3)),
+                            Contact(0, 2, friction=.3)], 3)[1]
+    assert field.tolist() == [0, 1, 1]
+    with pytest.raises(InvalidInputError, match=re.escape(
+            "different friction (0.3 and 0.3001)")):
+        check_contacts([Contact(0, 1, friction=.3),
+                        Contact(0, 2, friction=.3001)], 3)
 
 
 def test_a_pair_glued_through_a_third_body_is_refused():

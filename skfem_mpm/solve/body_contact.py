@@ -151,10 +151,14 @@ class Contact:
                  penalty: float = 10., tolerance: float = 1e-3):
         for which, body in (("first", first), ("second", second)):
             if not isinstance(body, (str, int, np.integer)) or \
-                    isinstance(body, bool):
+                    isinstance(body, bool) or \
+                    not isinstance(body, str) and body < 0:
+                # (a negative index was named '0--1' before it was
+                # refused as a body that does not exist: a user trial)
                 raise InvalidInputError(
-                    "Contact {} body must be a body index or name, got "
-                    "{!r}".format(which, body))
+                    "Contact {} body must be a body index (>= 0) or "
+                    "name, got {!r}".format(which, int(body) if isinstance(
+                        body, np.integer) else body))
         self.first, self.second = first, second
         if isinstance(friction, str):
             if friction != "rough":
@@ -190,7 +194,25 @@ def check_contacts(contacts, nbodies: int, names=None):
     pair that cannot be apart (glued through a third body), or two
     contacts between the same two groups of glued bodies (one interface:
     :func:`contact_interfaces`) whose friction, tolerance or penalty
-    differ."""
+    differ (compared at single precision: a friction of 0.3 given as a
+    ``numpy.float32`` on one contact and a float on the other was refused
+    as two, a user trial), and ``contacts`` not a list of them.
+
+    >>> check_contacts(Contact(0, 1), 2)
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: contacts must be a list of Contact items, got one Contact: pass contacts=[Contact(0, 1, friction=0.0)]
+    """
+    if isinstance(contacts, Contact):
+        raise InvalidInputError(
+            "contacts must be a list of Contact items, got one Contact: "
+            "pass contacts=[{!r}]".format(contacts))
+    try:
+        contacts = list(contacts)
+    except TypeError:
+        raise InvalidInputError(
+            "contacts must be a list of Contact items, got {}".format(
+                type(contacts).__name__)) from None
     checked = []
     for contact in contacts:
         if not isinstance(contact, Contact):
@@ -216,8 +238,14 @@ def check_contacts(contacts, nbodies: int, names=None):
                                     "contact with itself".format(contact.name))
         checked.append((bodies[0], bodies[1], contact))
     pairs = [frozenset(c[:2]) for c in checked]
-    if len(set(pairs)) < len(pairs):
-        raise InvalidInputError("a pair of bodies has two contacts")
+    for j, pair in enumerate(pairs):
+        if pair in pairs[:j]:
+            i = pairs.index(pair)
+            raise InvalidInputError(
+                "contacts {!r} and {!r} are both between bodies {} and {}: "
+                "a pair of bodies has one contact".format(
+                    checked[i][2].name, checked[j][2].name,
+                    *sorted(pair)))
     given = [c[2].name for c in checked]
     if len(set(given)) < len(given):
         raise InvalidInputError("contact names must differ, got {}".format(
@@ -232,7 +260,8 @@ def check_contacts(contacts, nbodies: int, names=None):
         other = between[key]
         differ = [(what, getattr(other, what), getattr(contact, what))
                   for what in ("friction", "tolerance", "penalty")
-                  if getattr(other, what) != getattr(contact, what)]
+                  if not same_setting(getattr(other, what),
+                                      getattr(contact, what))]
         if differ:
             groups = [np.flatnonzero(field == f).tolist() for f in
                       sorted(key)]
@@ -249,6 +278,21 @@ def check_contacts(contacts, nbodies: int, names=None):
                     ", ".join("{} ({!r} and {!r})".format(*d)
                               for d in differ)))
     return checked, field
+
+
+def same_setting(a, b) -> bool:
+    """Whether two contacts' friction, tolerance or penalty ``a`` and
+    ``b`` are the same: equal strings, or numbers equal at single
+    precision (what a ``numpy.float32`` holds).
+
+    >>> same_setting(float(np.float32(.3)), .3), same_setting(.3, .30001)
+    (True, False)
+    >>> same_setting("rough", .3)
+    False
+    """
+    if isinstance(a, str) or isinstance(b, str):
+        return a == b
+    return bool(np.float32(a) == np.float32(b))
 
 
 def contact_interfaces(checked, field: ndarray) -> tuple:

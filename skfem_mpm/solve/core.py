@@ -2107,8 +2107,7 @@ def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
     yet is refused."""
     if not contacts:
         return (), None
-    contacts, field = check_contacts(list(contacts),
-                                     int(points.body.max()) + 1)
+    contacts, field = check_contacts(contacts, int(points.body.max()) + 1)
     if method == "fem":
         raise InvalidInputError(
             "contacts between bodies need points that move with the "
