@@ -702,6 +702,47 @@ def test_glued_blocks_side_by_side_each_report_their_own_load():
         assert abs(forces[0, 1] - forces[1, 1] - p) < 1e-12 * p
 
 
+@pytest.mark.slow
+def test_a_cap_glued_to_its_pile_above_the_soil_reports_no_force():
+    """A user trial's pile (body 1, two cells wide, on grid lines) in
+    Tresca soil (body 0) with a wider cap (body 2) glued to its head, a
+    cell above the soil, cpGIMP, 8 steps of a traction of 40 on the cap
+    (20 in all): the soil yields, and at step 8 pairs of the cap's far
+    corners and the soil's corners beside the pile's head along inclined
+    normals carried 1.39 of the 20, reported as the soil's force on the
+    cap, 0.7 cells above it.  The cap's contact reports nothing at every
+    step, the pile's the whole load."""
+    from skfem_mpm import MohrCoulomb
+    mesh = MeshQuad.init_tensor(np.linspace(0, 2, 17),
+                                np.linspace(0, 1.5, 13))
+
+    def pile(x):
+        return (np.abs(x[0] - 1.) < .125) & (x[1] > .5) & (x[1] < 1.125)
+    pts = bodies(mesh, 2, [lambda x: (x[1] < 1.) & ~pile(x), pile,
+                           lambda x: (np.abs(x[0] - 1.) < .25)
+                           & (x[1] > 1.125) & (x[1] < 1.25)])
+    top = side_points(pts, "top", select=pts.body == 2)
+    stiff = LinearElastic(1e7, .2)
+    res = simulate(mesh, ElementQuad1(), pts,
+                   [MohrCoulomb(1e4, .3, cohesion=3., friction_angle=0.),
+                    stiff, stiff],
+                   lambda b: np.union1d(
+                       b.get_dofs(lambda x: x[1] == 0).all(),
+                       b.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2))
+                       .nodal["u^1"]),
+                   loads=[Traction(top, "top", [0., -40.])], nsteps=8,
+                   method="cpgimp",
+                   contacts=[Contact(0, 1), Contact(0, 2)])
+    cap = res.points.body == 2
+    above = (res.points.x[1] - res.points.domain[1])[cap].min() - 1.
+    assert above > .08                       # 0.7 cells (h = 0.125)
+    for record in res.history:
+        on_pile, on_cap = record.contact_forces
+        assert np.abs(on_cap).max() < 1e-12 * 20.
+        assert on_pile == pytest.approx([0., 20. * record.load_factor],
+                                        rel=1e-9, abs=1e-9)
+
+
 def full_and_resumed(args, kwargs, after):
     """The run of ``simulate(*args, **kwargs)`` whole, and resumed after
     step ``after`` from its points and record there."""
