@@ -138,7 +138,9 @@ class Contact:
         of every pair (and the gap of a pair still pressed) and the slip
         of every sticking pair, in cells; and the penalty's pressure on
         the deepest penetration, relative to the largest pair's pressure
-        (the multipliers settled).
+        (the multipliers settled; where a round no longer closes the
+        penetration, the grid's forces of the penalty's pressures
+        relative to the pairs': :func:`unsettled`).
 
     Examples
     --------
@@ -1448,6 +1450,11 @@ CORNER_BLOCK = 1 << 13
 #: (:func:`accelerated`)
 STRETCH = 20.
 
+#: the share of the last augmented-Lagrangian round's penetration a
+#: round that closes no more leaves, from which :func:`unsettled` judges
+#: the multipliers by the grid's forces
+STALLED_ROUND = .99
+
 #: the cosine between two rounds' updates above which they are one mode
 ALIGNED = .99
 
@@ -1482,6 +1489,41 @@ def nearest_within(x: ndarray, these: ndarray, those: ndarray,
         out[near_a] = cKDTree(b[:, near_b].T, balanced_tree=False).query(
             a[:, near_a].T, p=np.inf, distance_upper_bound=bound)[0]
     return out
+
+
+def unsettled(part: dict, e: tuple, kappa: float, tol: float,
+              tolerance: float) -> float:
+    """How far the multipliers of a contact's pairs ``part`` are from
+    settled after a round that ended at ``e`` (of
+    :meth:`StepBodyContact.evaluate`), in units of the contact's
+    ``tolerance``: the penalty ``kappa``'s force on the deepest
+    penetration (or gap of a pressed pair) relative to the largest
+    pair's force (a floor of 1e-6 of the tolerance in length, ``tol``,
+    for bodies that touch and do not press); where the round left that
+    penetration as it was (within :data:`STALLED_ROUND` of the last
+    round's), the grid's forces of the penalty on every pressed pair's
+    penetration relative to those of the pairs' pressures: what a
+    further round would change.  Pairs more than the splines' motions
+    can close apart (a block on a slab with the quadratic B-splines, two
+    points per cell: eight pairs along four cells, whose relative
+    normal motions span six) keep a penetration no round closes while
+    the multipliers drift along the mode: a block sliding at 25 degrees
+    (mu = 0.3, dynamics) kept 1.9e-9 in every round (the penalty's force
+    on it 1.2 times the tolerance of the largest pair's), with the
+    penalty 100 times the default too, and failed after 30 rounds at
+    every cut-back; its grid forces were 3e-4 to 0.03 of the
+    tolerance."""
+    depth = e[2]
+    out = kappa * depth / max(tolerance * e[4].max(initial=0.),
+                              1e-6 * kappa * tol)
+    last, part["depth"] = part.get("depth"), depth
+    if out <= 1. or last is None or depth < STALLED_ROUND * last:
+        return out
+    p, n, D = e[4], part["n"], part["D"]
+    push = D.T @ (np.where(p > 0., kappa * e[6], 0.) * n).T.ravel()
+    held = D.T @ (p * n).T.ravel()
+    return float(np.abs(push).max(initial=0.) / max(
+        tolerance * np.abs(held).max(initial=0.), 1e-6 * kappa * tol))
 
 
 def accelerated(part: dict, p: ndarray) -> ndarray:
@@ -1834,7 +1876,9 @@ class StepBodyContact(GridTerm):
         pressed pair's gap) and every sticking pair's slip is within the
         contact's tolerance in cells, and the penalty's force on the
         deepest penetration within the tolerance of the largest pair's
-        force (the multipliers have settled); else the multipliers take
+        force (the multipliers have settled: :func:`unsettled`, by the
+        grid's forces where a round closed no more); else the
+        multipliers take
         the converged tractions (augmented Lagrangian), or the new pairs
         join, or rough pairs let go or join (:meth:`rough_changes`), and
         the step is solved again (from a fresh tangent where pairs joined
@@ -1852,10 +1896,11 @@ class StepBodyContact(GridTerm):
         # penalty from the softer body, a penetration of the tolerance in
         # cells was a quarter of a soft block's compression; a floor of
         # 1e-6 of the tolerance for bodies that touch and do not press
-        worst = max((max(max(e[2], e[3]) / tol, kappa * e[2] / max(
-            c.tolerance * e[4].max(initial=0.), 1e-6 * kappa * tol))
-            for e, tol, kappa, (_, _, c) in zip(
-                ev, self.term.tol, self.term.kappa, self.term.contacts)),
+        worst = max((max(max(e[2], e[3]) / tol, unsettled(
+            part, e, kappa, tol, c.tolerance))
+            for part, e, tol, kappa, (_, _, c) in zip(
+                self.parts, ev, self.term.tol, self.term.kappa,
+                self.term.contacts)),
             default=0.)
         if worst <= 1.:
             return True
