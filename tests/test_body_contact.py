@@ -454,13 +454,16 @@ def test_a_block_held_by_a_contact_alone_past_mu_is_not_cut_back(caplog):
     equilibrium, and the run stops at its first failure where it cut the
     step back 8 times in vain (2.1 s, now 0.5 s; trial 64's obstacle
     case alike).  Held also by a support (failing by a Newton limit), it
-    is cut back as before, and not said to have no equilibrium."""
+    is cut back as before, and not said to have no equilibrium.  The
+    error opens with the cause (a user trial's read Newton's words first
+    and the ratio last)."""
     message, cut_backs = tilted_block_on_slab(caplog, held=False)
     assert not cut_backs
     assert "not cut back: the loads keep their direction" in message
-    assert "the load on body 1 pushes it along its contact '0-1' with " \
-        "body 0 with {:.3f} times mu".format(
-            np.tan(np.radians(25.)) / .3) in message
+    assert message.startswith(
+        "step 1: the load on body 1 pushes it along its contact '0-1' with "
+        "body 0 with {:.3f} times mu".format(np.tan(np.radians(25.)) / .3))
+    assert message.index("it slides") < message.index("Newton-Raphson")
     message, cut_backs = tilted_block_on_slab(caplog, held=True)
     assert len(cut_backs) == 1 and "not cut back" not in message
     assert "pushes it along" not in message
@@ -2484,18 +2487,32 @@ def test_a_block_pushed_over_a_base_body_slides_at_coulomb_s_force(
     assert "extended_splines" not in caplog.text
 
 
+def in_a_hole(sides, tip):
+    """The soil below 1.5 with a hole from ``sides`` down to ``tip``."""
+    return lambda x: (x[1] < 1.5) & ~((x[0] > sides[0]) & (x[0] < sides[1])
+                                      & (x[1] > tip))
+
+
 @pytest.mark.parametrize("lower, upper, warned", [
     ([(0, 2), (0, 1)], [(.3, 1.3), (1, 1.5)], False),     # sides face none
-    ([(0, 2), (0, 1.1)], [(.3, 1.3), (1.1, 1.6)], True),  # bottom in a cell
-    ([(0, .6), (0, 2)], [(.6, 1.5), (0, 1)], True)])      # side in a cell
+    ([(0, 2), (0, 1.1)], [(.3, 1.3), (1.1, 1.6)], False),  # bottom in a cell
+    ([(0, .6), (0, 2)], [(.6, 1.5), (0, 1)], False),       # side in a cell
+    (in_a_hole((.8, 1.2), .5), [(.8, 1.2), (.5, 1.75)], True),  # a pile
+    (in_a_hole((.8, 1.5), .5), [(.8, 1.5), (.5, 1.75)], True),  # one side
+    (in_a_hole((.5, 1.5), .5), [(.5, 1.5), (.5, 1.75)], False),  # on lines
+    (in_a_hole((.7, 1.2), .5), [(.8, 1.2), (.5, 1.75)], False)])  # apart
 def test_lean_warning_only_where_a_side_in_a_cell_faces_the_other_body(
         lower, upper, warned, caplog):
     """A user trial: the warning that bodies meeting inside grid cells may
     lean was given for a block lying on a slab as wide as the grid, its
-    bottom on a grid line, its sides inside cells and facing nothing.  It
-    is given where a side inside a cell faces the other body: a block
-    whose bottom lies inside a cell, a block beside a wall body meeting it
-    inside a cell."""
+    bottom on a grid line, its sides inside cells and facing nothing;
+    another's: for a block whose bottom on a slab lies inside a cell (a
+    flat interface: cpGIMP, its settlement within 1% of the refined
+    grid's, glued 5%), a block beside a wall body meeting it inside a
+    cell, and a pile apart from its hole's side.  It is given where a body
+    touches the other on both its sides across an axis, one of them
+    inside a cell: a pile in its soil (h = 0.25) with its sides at 0.8
+    and 1.2, or 0.8 and 1.5, not 0.5 and 1.5."""
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 9), np.linspace(0, 2, 9))
     pts = bodies(mesh, 4, [lower, upper])
     simulate(mesh, ElementQuad1(), pts, LinearElastic(1e6, .3),
