@@ -20,7 +20,12 @@ with a tied obstacle written before is refused, :func:`check_tied`) and
 ``contact_sides``: each interface between bodies pairs its smaller side's
 corners (since 2026-11-30; the declared second body's before, where its
 point state lay: a checkpoint written before, of a scene whose interface
-now pairs the other side, is refused, :func:`check_contact_sides`).  A run
+now pairs the other side, is refused, :func:`check_contact_sides`) and
+the values of the scene's point outputs (``[[outputs]]`` of a
+displacement or stress) at every step (since 2026-11-30, so that their
+histories in ``summary.json`` cover the whole run too: a checkpoint
+written before has none, and the resumed run's histories of them start
+at its resume, :func:`check_outputs`).  A run
 that kept checkpoints ends with one at its last step, load factor 1
 (:attr:`Checkpoint.complete`): resuming it has nothing to do (a trial's
 completed run left its checkpoint at step 15 of 20, and ``--resume``
@@ -44,8 +49,8 @@ from ..solve.body_contact import swapped_interfaces
 from .io import atomic_path
 
 __all__ = ["Checkpoint", "CheckpointError", "save_checkpoint",
-           "load_checkpoint", "check_against", "check_tied", "check_contact_sides",
-           "history_rows",
+           "load_checkpoint", "check_against", "check_tied",
+           "check_contact_sides", "check_outputs", "history_rows",
            "scene_digest", "CHECKPOINT", "HISTORY_KEYS"]
 
 CHECKPOINT = "checkpoint.npz"
@@ -66,6 +71,9 @@ OPTIONAL_POINT_FIELDS = ("domain", "velocity", "acceleration")
 #: the times of the invocations so far (absent from a checkpoint written
 #: before they were kept)
 TIME_FIELDS = ("wall_seconds", "timing_names", "timing_values")
+#: the point outputs' values (absent from a checkpoint written before
+#: they were kept, 2026-11-30)
+OUTPUT_FIELDS = ("output_labels", "output_values", "output_from")
 
 
 #: point state that runs keep since checkpoints were first written,
@@ -163,6 +171,15 @@ class Checkpoint:
         the order first logged (``summary.json``'s ``warnings``: a
         resumed run's summary lists the whole run's); a checkpoint
         written before they were kept: none.
+    outputs, outputs_from
+        The values of the scene's point outputs (``[[outputs]]`` of a
+        displacement or stress, by label) at the steps after
+        ``outputs_from`` (0: every step; a run resumed from a checkpoint
+        written before they were kept keeps them from its resume on), one
+        each, as :func:`~skfem_mpm.cli.summarise` reports them; forces
+        and footing pressures come from ``reactions``.  ``None`` (and
+        ``step``): a checkpoint written before 2026-11-30, which kept
+        none.
 
     """
     step: int
@@ -183,6 +200,8 @@ class Checkpoint:
     series_every: int = 1
     series_steps: Optional[ndarray] = None
     warnings: tuple = ()
+    outputs: Optional[dict] = None
+    outputs_from: int = 0
 
     @property
     def complete(self) -> bool:
@@ -241,6 +260,14 @@ def save_checkpoint(outdir, checkpoint: Checkpoint):
         arrays["end_force"] = c.end_force
     if c.series_steps is not None:
         arrays["series_steps"] = np.asarray(c.series_steps, np.int64)
+    if c.outputs is not None:
+        labels = sorted(c.outputs)
+        arrays.update(output_labels=np.array(labels, dtype=str),
+                      output_values=np.array(
+                          [c.outputs[k] for k in labels],
+                          dtype=np.float64).reshape(
+                              len(labels), c.step - c.outputs_from),
+                      output_from=np.array(int(c.outputs_from)))
     with atomic_path(Path(outdir) / CHECKPOINT) as tmp:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
@@ -412,6 +439,28 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
     # kept since 2026-11-30 (before: none)
     warned = tuple(str(w) for w in get("warnings", "U", 1)) \
         if "warnings" in a else ()
+    # kept since 2026-11-30 (before: none): all or none
+    outputs, first = None, step
+    held = [k for k in OUTPUT_FIELDS if k in a]
+    if held and len(held) < len(OUTPUT_FIELDS):
+        raise bad(next(k for k in OUTPUT_FIELDS if k not in a),
+                  "is missing (the outputs' labels, values and first step "
+                  "come together)")
+    if held:
+        labels = get("output_labels", "U", 1)
+        first = int(get("output_from", "i", 0))
+        if not 0 <= first <= step:
+            raise bad("output_from", "must lie in [0, step {}], got {}"
+                      .format(step, first))
+        measured = get("output_values", "f", 2)
+        if measured.shape != (labels.size, step - first):
+            raise bad("output_values", "has shape {}, expected ({}, {}): "
+                      "a row per label of output_labels, a column per "
+                      "step after output_from".format(
+                          measured.shape, labels.size, step - first))
+        if np.unique(labels).size != labels.size:
+            raise bad("output_labels", "names an output twice")
+        outputs = {str(k): v for k, v in zip(labels, measured)}
     return Checkpoint(step=step, nsteps=nsteps, load_factor=factor,
                       increment=increment, points=state,
                       counters={str(k): int(v) for k, v in zip(names,
@@ -422,7 +471,7 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
                       end_force=end_force, tied_traction=tied,
                       contact_sides=sides,
                       series_every=every, series_steps=series,
-                      warnings=warned)
+                      warnings=warned, outputs=outputs, outputs_from=first)
 
 
 
@@ -521,6 +570,21 @@ def check_contact_sides(path, checkpoint: Checkpoint, scene):
             "friction a resume would read at the wrong points): run the "
             "scene again from its start".format(path, ", ".join(
                 repr(name) for name in swapped)))
+
+
+def check_outputs(path, checkpoint: Checkpoint, labels) -> None:
+    """Raise :class:`CheckpointError` unless the checkpoint's point
+    outputs are the scene's, ``labels`` (the ``[[outputs]]`` of a
+    displacement or stress): the scene file is the checkpoint's (its
+    SHA-256), so others are an edited or damaged file.  A checkpoint
+    written before they were kept (``outputs`` ``None``) passes: the
+    resumed run's histories of them start at its resume."""
+    if checkpoint.outputs is None or set(checkpoint.outputs) == set(labels):
+        return
+    raise CheckpointError(
+        "{}: field 'output_labels' names the outputs {} where the scene's "
+        "point outputs are {}: the file was edited or damaged".format(
+            path, sorted(checkpoint.outputs), sorted(labels)))
 
 
 def some_names(names, shown: int = 4) -> str:
