@@ -1921,8 +1921,10 @@ def compare(args) -> int:
                     scale=scale, colorbar=k == 1)
         if a.dim == 1:
             ax.set_ylim(scale["vmin"], scale["vmax"])
-        print("{:>7}: largest displacement {:.4g}, {:.3f} s".format(
-            method, largest_displacement(result), seconds))
+        # in the scene's unit (a trial's "largest displacement 0.0298")
+        print("{:>7}: largest displacement {:.4g} {}, {:.3f} s".format(
+            method, largest_displacement(result),
+            summary["units"]["displacement"], seconds))
     # one view for both panels (a trial: each body's own limits, the
     # panels' axes unlike), the empty band above the panels trimmed
     for get, put in (("get_xlim", "set_xlim"), ("get_ylim", "set_ylim")):
@@ -1945,12 +1947,13 @@ def compare(args) -> int:
                        ("stress", "Cauchy stress")):
         d = difference[name]
         print("  {} - fem, {}: max {:.3e} {} ({:.2e} of FE's largest "
-              "|{}|), at point {} (at {} at the start) in {}; rms {:.3e}"
-              .format(other.method, what, d["max"],
-                      summary["units"][name], d["max_relative"], name,
-                      d["max_at_point"],
-                      ", ".join("{:.4g}".format(v) for v in d["max_at"]),
-                      d["max_component"], d["rms"]))
+              "|{}|), at point {} (at {} {} at the start) in {}; rms "
+              "{:.3e} {}".format(
+                  other.method, what, d["max"], summary["units"][name],
+                  d["max_relative"], name, d["max_at_point"],
+                  ", ".join("{:.4g}".format(v) for v in d["max_at"]),
+                  summary["units"]["displacement"], d["max_component"],
+                  d["rms"], summary["units"][name]))
     if scene.reference:
         label, against, _ = REFERENCE_ERRORS[scene.reference]
         print("  {} against {}: {}".format(label, against, ", ".join(
