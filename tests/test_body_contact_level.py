@@ -253,16 +253,24 @@ def test_a_pile_with_a_cap_warns_of_pairs_that_start_deep(caplog):
             basis.get_dofs(lambda x: (x[0] == 0) | (x[0] == 2))
             .nodal["u^1"])
 
-    with caplog.at_level("WARNING", logger="skfem_mpm.solve.body_contact"):
-        res = simulate(mesh, ElementQuad1(), pts,
-                       [LinearElastic(1e4, .3), LinearElastic(1e7, .2),
-                        LinearElastic(1e7, .2)], supports,
-                       loads=[Traction(top, "top", [0., -40.])], nsteps=2,
-                       method="cpgimp",
-                       contacts=[Contact(0, 1), Contact(0, 2)])
-    told = [r.getMessage() for r in caplog.records
-            if "cells deep" in r.getMessage()]
+    def settled(nsteps):
+        caplog.clear()
+        with caplog.at_level("WARNING",
+                             logger="skfem_mpm.solve.body_contact"):
+            res = simulate(mesh, ElementQuad1(), pts.copy(),
+                           [LinearElastic(1e4, .3), LinearElastic(1e7, .2),
+                            LinearElastic(1e7, .2)], supports,
+                           loads=[Traction(top, "top", [0., -40.])],
+                           nsteps=nsteps, method="cpgimp",
+                           contacts=[Contact(0, 1), Contact(0, 2)])
+        told = [r.getMessage() for r in caplog.records
+                if "cells deep" in r.getMessage()]
+        return -res.points.displacement[1, res.points.body == 2].mean(), \
+            told
+    once, quiet = settled(1)
+    twice, told = settled(2)
+    assert not quiet
     assert len(told) == 1 and told[0].startswith("step 2:")
     assert "0.45 cells deep" in told[0]
-    settled = -res.points.displacement[1, res.points.body == 2].mean()
-    assert settled == pytest.approx(1.4164e-3, rel=1e-3)
+    # what the warning is about: the two steps' settlement off the one's
+    assert abs(twice / once - 1.) > .05
