@@ -88,7 +88,8 @@ from .problem import SLIVER_SUPPORT
 logger = logging.getLogger(__name__)
 
 __all__ = ["Contact", "check_contacts", "contact_interfaces",
-           "interface_count", "BodyContact", "body_contact_state_names"]
+           "interface_count", "swapped_interfaces", "BodyContact",
+           "body_contact_state_names"]
 
 
 class Contact:
@@ -325,6 +326,33 @@ def smaller_second(found: list, members: list, field: ndarray,
                 penalty=contact.penalty, tolerance=contact.tolerance))
             members[k] = [(j, c, d, -sign)
                           for j, c, d, sign in members[k]]
+
+
+def swapped_interfaces(contacts, nbodies: int, names, body: ndarray,
+                       volume: ndarray) -> list:
+    """The names of the interfaces of ``contacts`` (bodies ``names``, or
+    indices of ``nbodies``) that a run pairs the other way round than
+    declared (:func:`smaller_second`: their declared second side holds
+    more of the points' initial ``volume``, ``body`` their bodies): a
+    contact's point state lies on the other side's points than before
+    2026-11-30, when the declared second was paired.
+
+    >>> import numpy as np
+    >>> from skfem_mpm import Contact
+    >>> body, volume = np.array([0, 1, 1]), np.ones(3)
+    >>> swapped_interfaces([Contact(0, 1)], 2, None, body, volume)
+    ['0-1']
+    >>> swapped_interfaces([Contact(1, 0)], 2, None, body, volume)
+    []
+    """
+    checked, field = check_contacts(contacts, nbodies, names)
+    found, members = contact_interfaces(checked, field)
+    declared = [a for a, _, _ in found]
+    summed = np.zeros(field.max() + 1)
+    np.add.at(summed, field[body], volume)
+    smaller_second(found, members, field, summed)
+    return [contact.name for (a, _, contact), first in zip(found, declared)
+            if a != first]
 
 
 def interface_count(contacts, nbodies: int, names=None) -> int:
