@@ -531,11 +531,17 @@ class BodyContact(GridTerm):
         pair along a grid axis on the side of their domain facing the
         other body move with them (:meth:`rows`); or ``None``: with the
         grid element's shape functions.
+    locate
+        :func:`~skfem_mpm.quadrature.locate.point_locator` of one field's
+        grid with its defaults (the run's own: a second took 20 ms of a
+        run's start at 1e5 points), or ``None``: built at the corners'
+        first location (:meth:`corner_cells`).
     """
 
     def __init__(self, contacts, field: ndarray, mesh, elem, vertices: int,
                  cell_size: float, material, domain0, finite: bool,
-                 counters: dict, weights=None, cells: int = 0, gimp=None):
+                 counters: dict, weights=None, cells: int = 0, gimp=None,
+                 locate=None):
         #: the interfaces (one per pair of fields) and each one's contacts
         self.contacts, self.members = contact_interfaces(contacts, field)
         self.declared = contacts
@@ -553,7 +559,7 @@ class BodyContact(GridTerm):
         self.geometry, self.supports = WeakKeyDictionary(), \
             WeakKeyDictionary()
         self.kept_corners = None     # :meth:`corners`, the last
-        self.grid_locate = None      # :meth:`corner_cells`
+        self.grid_locate = locate    # :meth:`corner_cells`
         self.interfaces = WeakKeyDictionary()    # :meth:`interface`
         self.finder = PairFinder(self.contacts, field, mesh, vertices,
                                  cell_size,
