@@ -541,7 +541,7 @@ def check_quantities(scene, quantities: Sequence[Quantity], points=None,
     ``points`` when given), and refuse two with one label (tables and
     plots tell them apart by it).  ``key``: the scene file's table the
     quantities are (``"outputs"``): each refusal names its entry,
-    ``outputs[K]: ``, all of them in one
+    ``outputs[K]``, all of them in one
     :class:`~skfem_mpm.errors.SceneError` (a trial's place outside the
     points was refused without it, where every other problem of a scene
     file is named so)."""

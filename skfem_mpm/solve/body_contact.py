@@ -87,6 +87,10 @@ from .problem import SLIVER_SUPPORT
 
 logger = logging.getLogger(__name__)
 
+#: the cells deep a pair may start before it is warned of as a misread
+#: (:meth:`StepBodyContact.add`)
+MISREAD = .25
+
 __all__ = ["Contact", "check_contacts", "contact_interfaces",
            "interface_count", "swapped_interfaces", "BodyContact",
            "body_contact_state_names"]
@@ -105,9 +109,10 @@ class Contact:
     soil (body 0): ``Contact(0, 1, friction=f)`` and ``Contact(0, 2,
     friction=f)``, though the cap never reaches the soil.  Each contact
     reports the force of the interface's pairs, each pair's shared by
-    the bodies of the corners at its two corners' places (two blocks
-    glued side by side on a third each report the load on their own
-    top; ``docs/contact.md``).
+    the bodies that touch the other group nearest its corners (two
+    blocks glued side by side on a third each report the load on their
+    own top, a cap above the soil nothing;
+    :meth:`BodyContact.declared_forces`, ``docs/contact.md``).
 
     Parameters
     ----------
@@ -137,7 +142,9 @@ class Contact:
         of every pair (and the gap of a pair still pressed) and the slip
         of every sticking pair, in cells; and the penalty's pressure on
         the deepest penetration, relative to the largest pair's pressure
-        (the multipliers settled).
+        (the multipliers settled; where a round no longer closes the
+        penetration, the grid's forces of the penalty's pressures
+        relative to the pairs': :func:`unsettled`).
 
     Examples
     --------
@@ -151,10 +158,14 @@ class Contact:
                  penalty: float = 10., tolerance: float = 1e-3):
         for which, body in (("first", first), ("second", second)):
             if not isinstance(body, (str, int, np.integer)) or \
-                    isinstance(body, bool):
+                    isinstance(body, bool) or \
+                    not isinstance(body, str) and body < 0:
+                # (a negative index was named '0--1' before it was
+                # refused as a body that does not exist: a user trial)
                 raise InvalidInputError(
-                    "Contact {} body must be a body index or name, got "
-                    "{!r}".format(which, body))
+                    "Contact {} body must be a body index (>= 0) or "
+                    "name, got {!r}".format(which, int(body) if isinstance(
+                        body, np.integer) else body))
         self.first, self.second = first, second
         if isinstance(friction, str):
             if friction != "rough":
@@ -190,7 +201,25 @@ def check_contacts(contacts, nbodies: int, names=None):
     pair that cannot be apart (glued through a third body), or two
     contacts between the same two groups of glued bodies (one interface:
     :func:`contact_interfaces`) whose friction, tolerance or penalty
-    differ."""
+    differ (compared at single precision: a friction of 0.3 given as a
+    ``numpy.float32`` on one contact and a float on the other was refused
+    as two, a user trial), and ``contacts`` not a list of them.
+
+    >>> check_contacts(Contact(0, 1), 2)    # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: contacts must be a list ... pass...
+    """
+    if isinstance(contacts, Contact):
+        raise InvalidInputError(
+            "contacts must be a list of Contact items, got one Contact: "
+            "pass contacts=[{!r}]".format(contacts))
+    try:
+        contacts = list(contacts)
+    except TypeError:
+        raise InvalidInputError(
+            "contacts must be a list of Contact items, got {}".format(
+                type(contacts).__name__)) from None
     checked = []
     for contact in contacts:
         if not isinstance(contact, Contact):
@@ -216,8 +245,14 @@ def check_contacts(contacts, nbodies: int, names=None):
                                     "contact with itself".format(contact.name))
         checked.append((bodies[0], bodies[1], contact))
     pairs = [frozenset(c[:2]) for c in checked]
-    if len(set(pairs)) < len(pairs):
-        raise InvalidInputError("a pair of bodies has two contacts")
+    for j, pair in enumerate(pairs):
+        if pair in pairs[:j]:
+            i = pairs.index(pair)
+            raise InvalidInputError(
+                "contacts {!r} and {!r} are both between bodies {} and {}: "
+                "a pair of bodies has one contact".format(
+                    checked[i][2].name, checked[j][2].name,
+                    *sorted(pair)))
     given = [c[2].name for c in checked]
     if len(set(given)) < len(given):
         raise InvalidInputError("contact names must differ, got {}".format(
@@ -232,7 +267,8 @@ def check_contacts(contacts, nbodies: int, names=None):
         other = between[key]
         differ = [(what, getattr(other, what), getattr(contact, what))
                   for what in ("friction", "tolerance", "penalty")
-                  if getattr(other, what) != getattr(contact, what)]
+                  if not same_setting(getattr(other, what),
+                                      getattr(contact, what))]
         if differ:
             groups = [np.flatnonzero(field == f).tolist() for f in
                       sorted(key)]
@@ -249,6 +285,21 @@ def check_contacts(contacts, nbodies: int, names=None):
                     ", ".join("{} ({!r} and {!r})".format(*d)
                               for d in differ)))
     return checked, field
+
+
+def same_setting(a, b) -> bool:
+    """Whether two contacts' friction, tolerance or penalty ``a`` and
+    ``b`` are the same: equal strings, or numbers equal at single
+    precision (what a ``numpy.float32`` holds).
+
+    >>> same_setting(float(np.float32(.3)), .3), same_setting(.3, .30001)
+    (True, False)
+    >>> same_setting("rough", .3)
+    False
+    """
+    if isinstance(a, str) or isinstance(b, str):
+        return a == b
+    return bool(np.float32(a) == np.float32(b))
 
 
 def contact_interfaces(checked, field: ndarray) -> tuple:
@@ -492,6 +543,22 @@ def facing_tree(half: ndarray, d: int, other: ndarray,
     return cKDTree((other / scale[:, None]).T, balanced_tree=False)
 
 
+def near_box(other: ndarray, x: ndarray, margin: ndarray) -> ndarray:
+    """Which of the points ``other`` (dim, q) lie within ``margin``
+    (dim,; ``inf`` along an axis: any) of the box of the points ``x``
+    (dim, m) along every axis (none where ``x`` has none).
+
+    >>> x = np.array([[0., 1.], [0., 0.]])
+    >>> other = np.array([[-.5, 1.5, .5], [0., 0., 2.]])
+    >>> near_box(other, x, np.array([.5, 1.])).tolist()
+    [True, True, False]
+    """
+    if not x.shape[1]:
+        return np.zeros(other.shape[1], dtype=bool)
+    return np.all((other >= (x.min(axis=1) - margin)[:, None])
+                  & (other <= (x.max(axis=1) + margin)[:, None]), axis=0)
+
+
 class BodyContact(GridTerm):
     """Contact between the run's bodies (a grid term).
 
@@ -575,17 +642,22 @@ class BodyContact(GridTerm):
         self.loads, self.alone = None, None
 
     def warn_sides_inside_cells(self, points, half: ndarray) -> None:
-        """A warning where a side of a body in contact (a face of a
-        point's domain, ``half`` its half-widths, with no domain of the
-        body beside it) faces a body it is in contact with and lies
-        inside a grid cell: such bodies may lean and settle by the grid.
+        """A warning where a body in contact touches a body it is in
+        contact with on both its sides across an axis (faces of its
+        points' domains, ``half`` their half-widths, with no domain of the
+        body beside them), one of them inside a grid cell: such bodies
+        may lean and settle by the grid.
         Judged on the points' initial positions, so a run resumed where
         its bodies have moved says what its first invocation said (a user
         trial's resumed run warned where the first had not).  Given on
         every contact run, it told a user whose bodies' sides all
         lay on grid lines the same; given for every side inside a cell,
         it told a user whose block lay on a slab of the grid's width, its
-        sides inside cells facing nothing (user trials)."""
+        sides inside cells facing nothing (user trials); given for any
+        side inside a cell that faced the other body, it told users whose
+        bodies met on a flat interface inside a cell, or lay apart, the
+        same: only the sides of a body held between the other's across
+        an axis, both touching it (a pile in its soil), count."""
         dim, inside = self.dim, 0
         stairs = []               # (body, partner bodies, axis, levels)
         partners = {}
@@ -603,8 +675,8 @@ class BodyContact(GridTerm):
                 np.int64) + 1
             shape = tuple(q.max(axis=1) + 2)
             keys = np.ravel_multi_index(tuple(q), shape)
-            partner = points.x0.compress(np.isin(points.body, list(others)),
-                                         axis=1)
+            on = np.isin(points.body, list(others))
+            partner = points.x0.compress(on, axis=1)
             for d in range(dim):
                 lines = self.lines[d]
                 sides = []
@@ -613,20 +685,28 @@ class BodyContact(GridTerm):
                     moved[d] += sign
                     sides.append(~np.isin(np.ravel_multi_index(
                         tuple(moved), shape), keys))
-                # the tree of the partners' points across from the sides
-                # (within twice the domains' width across d, where
-                # facing() looks within it): along the sides of a stack
-                # a row (four trees of the whole partners took 30 ms of
-                # a run's start at 1e5 points)
-                ends = x[:, sides[0] | sides[1]]
-                near = np.full(partner.shape[1], ends.size > 0)
-                for a in range(dim):
-                    if a != d and ends.size:
-                        near &= (partner[a] >= ends[a].min() - 2 * w[a, 0]) \
-                            & (partner[a] <= ends[a].max() + 2 * w[a, 0])
-                across = partner.compress(near, axis=1)
+                # the trees of the partners' points that may face the
+                # sides, of those in a box round the sides' domains, twice
+                # the width facing() looks within (along the sides of a
+                # stack a row: trees of the whole partners took 30 ms of a
+                # run's start at 1e5 points, twelve of them 0.1 s)
+                margin = 2 * w[:, 0]
+                margin[d] = np.inf
+                across = partner.compress(near_box(
+                    partner, x[:, sides[0] | sides[1]], margin), axis=1)
                 tree = facing_tree(w[:, 0], d, across, lines[-1] - lines[0]) \
                     if across.shape[1] else None
+                # the sides that touch a partner (its domains' centres
+                # within their half-width of the face), per sign: a body
+                # held between the other's across the axis (a pile in its
+                # soil) leans and settles by the grid where one of them
+                # lies inside a cell; a flat interface inside a cell, or
+                # bodies apart, do not (cpGIMP, a block on a slab, its
+                # bottom inside a cell: settled within 1% of the refined
+                # grid's, glued 5%; user trials)
+                reach = half[d, on].max(initial=0.) + FACING * self.h
+                margin[d] = w[d, 0] + 2 * reach
+                touch, off_lines = [False, False], 0
                 for sign, side in zip((-1, 1), sides):
                     face = x[d, side] + sign * w[d, side]
                     faces = facing(x[:, side], w[:, 0], d, sign, across,
@@ -644,8 +724,15 @@ class BodyContact(GridTerm):
                                  lines.size - 1)
                     off = np.minimum(np.abs(face - lines[at - 1]),
                                      np.abs(face - lines[at]))
-                    inside += int(np.count_nonzero(faces
-                                                   & (off > 1e-9 * self.h)))
+                    meets = facing(x[:, side], w[:, 0], d, sign,
+                                   partner.compress(near_box(
+                                       partner, x[:, side], margin), axis=1),
+                                   reach)
+                    touch[sign > 0] = bool(meets.any())
+                    off_lines += int(np.count_nonzero(
+                        meets & (off > 1e-9 * self.h)))
+                if all(touch):
+                    inside += off_lines
         for k, others, d, levels in stairs[:1]:
             logger.warning(
                 "contact between bodies: body %d's surface facing body %s "
@@ -823,40 +910,106 @@ class BodyContact(GridTerm):
         return (contacts == 1) & ~held[self.field] & (
             np.bincount(self.field, minlength=fields)[self.field] == 1)
 
-    def declared_forces(self, parts, ev, points) -> ndarray:
+    def declared_forces(self, parts, ev, points, among) -> ndarray:
         """The force (contacts x dim) the first body of each contact
         exerts on the second, from its interface's pairs' tractions on
         the interface's second field (``ev``, of
-        :meth:`StepBodyContact.evaluate`), each pair's split by the
-        bodies of the corners at its two corners' places (``sides``, of
-        :meth:`StepBodyContact.add`; every pair of an interface's
-        fields' bodies has a contact, else they would be glued): a
-        contact takes the share of its first body on one side times its
-        second's on the other.  A pair on the line where two glued
-        bodies meet shares their corners: taken whole by the body of
-        the corner the pairs' search found, the load ``p`` on two
-        blocks side by side, each half the width, on a third, was 3.75
-        and 6.25 for 5 and 5."""
+        :meth:`StepBodyContact.evaluate`), each pair's split among the
+        bodies of its two fields (every pair of an interface's fields'
+        bodies has a contact, else they would be glued): a contact takes
+        the share of its first body on one side times its second's on
+        the other, a side's shares those of its bodies that touch the
+        other field (:meth:`touching`; all where none does) whose
+        material lies nearest the pair's corner on the other side
+        (:meth:`nearest_bodies`), ``points`` the state the step ended
+        at, ``among`` the points searched (the step's interface).  By
+        the bodies of the corners at each corner's own place, a user
+        trial's cap glued to its pile 0.7 cells above Tresca soil
+        reported 1.39 of the load of 20, and 0.30 of 7.06 in finite
+        strain 0.3 cells above it: pairs of the cap's corners and the
+        soil's corners beside the pile's head along inclined normals;
+        now nothing.  A pair on the line where two glued bodies meet is
+        shared by both (taken whole by the body of the corner the pairs'
+        search found, the load ``p`` on two blocks side by side, each
+        half the width, on a third, was 3.75 and 6.25 for 5 and 5)."""
         out = np.zeros((len(self.declared), self.dim))
-        nb = len(self.field)
+        X = touch = None
         for part, e, members in zip(parts, ev, self.members):
             if len(members) == 1:
                 j, _, _, sign = members[0]
                 out[j] = sign * e[0].sum(axis=1)
                 continue
-            m = e[0].shape[1]
-            sides = part.get("sides", np.zeros((2, 0), dtype=np.int64))
-            side = part.get("side", np.zeros(0, dtype=np.int64))
+            if X is None:
+                X = self.corners(points).reshape(self.dim, -1)
+                touch = self.touching(points, among)
             # per side (0: the second field's, 1: the first's), pair and
-            # body: the share of the corners at the pair's place
-            share = np.zeros((2, m, nb))
-            np.add.at(share, (side, sides[0], points.body[sides[1]]), 1.)
-            share /= np.maximum(share.sum(axis=2, keepdims=True), 1.)
+            # body: the shares of the pairs that carry a force
+            loaded = np.flatnonzero(np.abs(e[0]).max(axis=0) > 0.)
+            B, A = np.divmod(part["keys"][loaded], X.shape[1])
+            first, second = self.field[list(
+                self.contacts[part["contact"]][:2])]
+            share = [self.nearest_bodies(
+                points, X[:, at], among, field,
+                touch[:, self.field == other].any(axis=1))
+                for at, field, other in ((A, second, first),
+                                         (B, first, second))]
             for j, a, b, sign in members:
-                mine = share[1, :, a] * share[0, :, b] \
-                    + share[1, :, b] * share[0, :, a]
-                out[j] = sign * (e[0] @ mine)
+                mine = share[1][:, a] * share[0][:, b] \
+                    + share[1][:, b] * share[0][:, a]
+                out[j] = sign * (e[0][:, loaded] @ mine)
         return out
+
+    def touching(self, points, among) -> ndarray:
+        """Per two bodies (bodies x bodies), whether their domains (as
+        :meth:`corners` has them) among the points ``among`` lie within
+        :data:`TOUCHING` cells of each other, in the maximum norm."""
+        out = np.zeros((self.field.size,) * 2, dtype=bool)
+        X = self.corners(points)[:, :, among]
+        lo, hi = X.min(axis=1), X.max(axis=1)
+        centre, half = (lo + hi) / 2, (hi - lo) / 2
+        reach = TOUCHING * self.h
+        i, j = cKDTree(centre.T).query_pairs(
+            2 * half.max(initial=0.) + reach, p=np.inf,
+            output_type="ndarray").T
+        body = points.body[among]
+        i, j = i[body[i] != body[j]], j[body[i] != body[j]]
+        apart = np.maximum(np.abs(centre[:, i] - centre[:, j]) - half[:, i]
+                           - half[:, j], 0.).max(axis=0, initial=0.)
+        close = apart <= reach
+        out[body[i[close]], body[j[close]]] = True
+        return out | out.T
+
+    def nearest_bodies(self, points, at: ndarray, among: ndarray,
+                       field: int, allowed: ndarray) -> ndarray:
+        """Per position ``at`` (dim, m), the shares (m, bodies) of the
+        bodies on ``field`` (of those ``allowed``, a mask of the bodies,
+        where any is) whose domains (as :meth:`corners` has them) among
+        the points ``among`` lie nearest it, in the maximum norm, alike
+        within :data:`~skfem_mpm.solve.contact_pairs.FACING` cells
+        (shared equally)."""
+        out = np.zeros((at.shape[1], self.field.size))
+        on = among[self.point_field[among] == field]
+        if allowed[points.body[on]].any():
+            on = on[allowed[points.body[on]]]
+        if not at.shape[1] or not on.size:
+            return out
+        X = self.corners(points)[:, :, on]
+        lo, hi = X.min(axis=1), X.max(axis=1)
+        centre, half = (lo + hi) / 2, (hi - lo) / 2
+        tie = FACING * self.h
+        tree = cKDTree(centre.T)
+        # the nearest centre bounds the nearest domain
+        bound = tree.query(at.T, p=np.inf)[0] + tie + half.max()
+        found = tree.query_ball_point(at.T, bound, p=np.inf)
+        pair = np.repeat(np.arange(at.shape[1]), [len(f) for f in found])
+        near = np.concatenate(found).astype(np.int64)
+        apart = np.maximum(np.abs(at[:, pair] - centre[:, near])
+                           - half[:, near], 0.).max(axis=0)
+        least = np.full(at.shape[1], np.inf)
+        np.minimum.at(least, pair, apart)
+        keep = apart <= least[pair] + tie
+        out[pair[keep], points.body[on[near[keep]]]] = 1.
+        return out / np.maximum(out.sum(axis=1, keepdims=True), 1.)
 
     def domain_offsets(self, points) -> ndarray:
         """The corners' offsets from their points (dim, corners, n) where
@@ -1352,6 +1505,12 @@ PULL = 1e-6
 #: the most bins of :func:`near_sites`' raster of sites
 SITE_BINS = 1 << 20
 
+#: the cells within which two bodies' domains touch, for the force each
+#: contact of an interface reports (:meth:`BodyContact.declared_forces`):
+#: a cap glued to its pile 0.3 cells above the soil (a user trial) does
+#: not
+TOUCHING = .1
+
 #: the points whose corners' splines are evaluated at once
 #: (:meth:`BodyContact.corner_motion`)
 CORNER_BLOCK = 1 << 13
@@ -1359,6 +1518,11 @@ CORNER_BLOCK = 1 << 13
 #: the most an augmented-Lagrangian update is stretched by
 #: (:func:`accelerated`)
 STRETCH = 20.
+
+#: the share of the last augmented-Lagrangian round's penetration a
+#: round that closes no more leaves, from which :func:`unsettled` judges
+#: the multipliers by the grid's forces
+STALLED_ROUND = .99
 
 #: the cosine between two rounds' updates above which they are one mode
 ALIGNED = .99
@@ -1431,6 +1595,41 @@ def near_sites(x: ndarray, sites: ndarray, reach: float) -> ndarray:
     out = np.zeros(x.shape[1], dtype=bool)
     out[inside] = raster[tuple(b[inside] for b in bins)]
     return out
+
+
+def unsettled(part: dict, e: tuple, kappa: float, tol: float,
+              tolerance: float) -> float:
+    """How far the multipliers of a contact's pairs ``part`` are from
+    settled after a round that ended at ``e`` (of
+    :meth:`StepBodyContact.evaluate`), in units of the contact's
+    ``tolerance``: the penalty ``kappa``'s force on the deepest
+    penetration (or gap of a pressed pair) relative to the largest
+    pair's force (a floor of 1e-6 of the tolerance in length, ``tol``,
+    for bodies that touch and do not press); where the round left that
+    penetration as it was (within :data:`STALLED_ROUND` of the last
+    round's), the grid's forces of the penalty on every pressed pair's
+    penetration relative to those of the pairs' pressures: what a
+    further round would change.  Pairs more than the splines' motions
+    can close apart (a block on a slab with the quadratic B-splines, two
+    points per cell: eight pairs along four cells, whose relative
+    normal motions span six) keep a penetration no round closes while
+    the multipliers drift along the mode: a block sliding at 25 degrees
+    (mu = 0.3, dynamics) kept 1.9e-9 in every round (the penalty's force
+    on it 1.2 times the tolerance of the largest pair's), with the
+    penalty 100 times the default too, and failed after 30 rounds at
+    every cut-back; its grid forces were 3e-4 to 0.03 of the
+    tolerance."""
+    depth = e[2]
+    out = kappa * depth / max(tolerance * e[4].max(initial=0.),
+                              1e-6 * kappa * tol)
+    last, part["depth"] = part.get("depth"), depth
+    if out <= 1. or last is None or depth < STALLED_ROUND * last:
+        return out
+    p, n, D = e[4], part["n"], part["D"]
+    push = D.T @ (np.where(p > 0., kappa * e[6], 0.) * n).T.ravel()
+    held = D.T @ (p * n).T.ravel()
+    return float(np.abs(push).max(initial=0.) / max(
+        tolerance * np.abs(held).max(initial=0.), 1e-6 * kappa * tol))
 
 
 def accelerated(part: dict, p: ndarray) -> ndarray:
@@ -1730,6 +1929,26 @@ class StepBodyContact(GridTerm):
         p, g, tau, rate = carried(points.state, part["contact"], B,
                                   normal, n, term.place(points, B))
         pressed = p > 0
+        # a pair that starts a quarter of a cell deep is a misread, not
+        # a penetration (a pressed pair's corners stay within about the
+        # tolerance of where the last step held them): a pile
+        # whose glued cap had settled a sliver into the supports of the
+        # soil's surface nodes beside it took a leaning normal there
+        # (every candidate showing the bodies overlapping) and a pair of
+        # a side corner with the soil's top corner a cell above it, 0.45
+        # cells deep, closed, held the pile like friction (cpGIMP, smooth:
+        # 7-9% less settlement in 2 or 10 steps than in 1; not fixed,
+        # docs/contact.md)
+        misread = gap < -MISREAD * term.h
+        if misread.any():
+            logger.warning(
+                "step %d: contact %r: %d pairs start "
+                "%.2g cells deep (bodies wrapped round each "
+                "other at a node: the answer may depend on the number of "
+                "steps; docs/contact.md, 'not yet good enough')",
+                self.problem.step,
+                term.contacts[part["contact"]][2].name, int(misread.sum()),
+                float(-gap[misread].min() / term.h))
         gap = np.where(pressed, g, np.maximum(gap, 0.))
         start = np.where(pressed, p, 0.)
         # the pressure the step is expected to end at, by the last step's
@@ -1783,7 +2002,9 @@ class StepBodyContact(GridTerm):
         pressed pair's gap) and every sticking pair's slip is within the
         contact's tolerance in cells, and the penalty's force on the
         deepest penetration within the tolerance of the largest pair's
-        force (the multipliers have settled); else the multipliers take
+        force (the multipliers have settled: :func:`unsettled`, by the
+        grid's forces where a round closed no more); else the
+        multipliers take
         the converged tractions (augmented Lagrangian), or the new pairs
         join, or rough pairs let go or join (:meth:`rough_changes`), and
         the step is solved again (from a fresh tangent where pairs joined
@@ -1801,10 +2022,11 @@ class StepBodyContact(GridTerm):
         # penalty from the softer body, a penetration of the tolerance in
         # cells was a quarter of a soft block's compression; a floor of
         # 1e-6 of the tolerance for bodies that touch and do not press
-        worst = max((max(max(e[2], e[3]) / tol, kappa * e[2] / max(
-            c.tolerance * e[4].max(initial=0.), 1e-6 * kappa * tol))
-            for e, tol, kappa, (_, _, c) in zip(
-                ev, self.term.tol, self.term.kappa, self.term.contacts)),
+        worst = max((max(max(e[2], e[3]) / tol, unsettled(
+            part, e, kappa, tol, c.tolerance))
+            for part, e, tol, kappa, (_, _, c) in zip(
+                self.parts, ev, self.term.tol, self.term.kappa,
+                self.term.contacts)),
             default=0.)
         if worst <= 1.:
             return True
@@ -1977,7 +2199,7 @@ class StepBodyContact(GridTerm):
                 for b, name in enumerate(row):
                     new.state[name] = new.state[name] + H[a, b]
         record.contact_forces = self.term.declared_forces(
-            self.parts, ev, problem.points)
+            self.parts, ev, new, self.interface)
         N = record.n_dofs // int(self.term.field.max() + 1)
         dofs = record.reaction_dofs % N
         record.reaction_dofs = np.unique(dofs)
