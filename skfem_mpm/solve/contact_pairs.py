@@ -141,6 +141,7 @@ def projection(direction: ndarray, node: ndarray, X: ndarray) -> ndarray:
     [2.0, 6.0, 7.0]
     """
     out = direction[0].take(node) * X[0]
+    out += 0.           # numpy's sum starts from +0 (a lone -0 is +0 there)
     for a in range(1, len(direction)):
         out += direction[a].take(node) * X[a]
     return out
