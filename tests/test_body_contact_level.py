@@ -274,3 +274,20 @@ def test_a_pile_with_a_cap_warns_of_pairs_that_start_deep(caplog):
     assert "0.45 cells deep" in told[0]
     # what the warning is about: the two steps' settlement off the one's
     assert abs(twice / once - 1.) > .05
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_projections_are_the_gathered_sums_to_the_bit(dim):
+    """``contact_pairs.projection``, the corners' positions along their
+    nodes' directions a component at a time, is the gathered product
+    summed over the components, bit for bit (the search for pairs it
+    serves keeps its answers)."""
+    from skfem_mpm.solve.contact_pairs import projection
+    rng = np.random.default_rng(3)
+    direction = rng.standard_normal((dim, 500))
+    direction[:, ::7] = -0.                      # signed zeros too
+    node = rng.integers(0, 500, 20000)
+    X = rng.standard_normal((dim, 20000)) * 10. ** rng.integers(
+        -8, 8, 20000)
+    gathered = (direction[:, node] * X).sum(axis=0)
+    assert projection(direction, node, X).tobytes() == gathered.tobytes()

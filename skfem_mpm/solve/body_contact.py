@@ -538,10 +538,28 @@ def facing_tree(half: ndarray, d: int, other: ndarray,
                 extent: float) -> cKDTree:
     """The tree of the points ``other`` that :func:`facing` searches
     along axis ``d`` (both signs alike: a body's sides took a tree each,
-    0.1 s of a run's start at 1e5 points)."""
+    0.1 s of a run's start at 1e5 points), split at the midpoints of its
+    boxes (medians, of a lattice's many equal coordinates: 1.7 times
+    longer to build)."""
     scale = np.array(half, dtype=float)
     scale[d] = extent / 2
-    return cKDTree((other / scale[:, None]).T)
+    return cKDTree((other / scale[:, None]).T, balanced_tree=False)
+
+
+def near_box(other: ndarray, x: ndarray, margin: ndarray) -> ndarray:
+    """Which of the points ``other`` (dim, q) lie within ``margin``
+    (dim,; ``inf`` along an axis: any) of the box of the points ``x``
+    (dim, m) along every axis (none where ``x`` has none).
+
+    >>> x = np.array([[0., 1.], [0., 0.]])
+    >>> other = np.array([[-.5, 1.5, .5], [0., 0., 2.]])
+    >>> near_box(other, x, np.array([.5, 1.])).tolist()
+    [True, True, False]
+    """
+    if not x.shape[1]:
+        return np.zeros(other.shape[1], dtype=bool)
+    return np.all((other >= (x.min(axis=1) - margin)[:, None])
+                  & (other <= (x.max(axis=1) + margin)[:, None]), axis=0)
 
 
 class BodyContact(GridTerm):
@@ -583,11 +601,17 @@ class BodyContact(GridTerm):
         pair along a grid axis on the side of their domain facing the
         other body move with them (:meth:`rows`); or ``None``: with the
         grid element's shape functions.
+    locate
+        :func:`~skfem_mpm.quadrature.locate.point_locator` of one field's
+        grid with its defaults (the run's own: a second took 20 ms of a
+        run's start at 1e5 points), or ``None``: built at the corners'
+        first location (:meth:`corner_cells`).
     """
 
     def __init__(self, contacts, field: ndarray, mesh, elem, vertices: int,
                  cell_size: float, material, domain0, finite: bool,
-                 counters: dict, weights=None, cells: int = 0, gimp=None):
+                 counters: dict, weights=None, cells: int = 0, gimp=None,
+                 locate=None):
         #: the interfaces (one per pair of fields) and each one's contacts
         self.contacts, self.members = contact_interfaces(contacts, field)
         self.declared = contacts
@@ -605,7 +629,7 @@ class BodyContact(GridTerm):
         self.geometry, self.supports = WeakKeyDictionary(), \
             WeakKeyDictionary()
         self.kept_corners = None     # :meth:`corners`, the last
-        self.grid_locate = None      # :meth:`corner_cells`
+        self.grid_locate = locate    # :meth:`corner_cells`
         self.interfaces = WeakKeyDictionary()    # :meth:`interface`
         self.node_tree = None        # the grid's nodes: StepBodyContact.heirs
         self.finder = PairFinder(self.contacts, field, mesh, vertices,
@@ -646,7 +670,7 @@ class BodyContact(GridTerm):
             partners.setdefault(b, set()).add(a)
         for k, others in partners.items():
             sel = np.flatnonzero(points.body == k)
-            x, w = points.x0[:, sel], half[:, sel]
+            x, w = points.x0.take(sel, axis=1), half.take(sel, axis=1)
             if not np.allclose(w, w[:, :1]):    # not one lattice: say so
                 inside = 1
                 break
@@ -656,11 +680,26 @@ class BodyContact(GridTerm):
             shape = tuple(q.max(axis=1) + 2)
             keys = np.ravel_multi_index(tuple(q), shape)
             on = np.isin(points.body, list(others))
-            partner = points.x0[:, on]
+            partner = points.x0.compress(on, axis=1)
             for d in range(dim):
                 lines = self.lines[d]
-                tree = facing_tree(w[:, 0], d, partner, lines[-1] - lines[0]) \
-                    if partner.shape[1] else None
+                sides = []
+                for sign in (-1, 1):
+                    moved = q.copy()
+                    moved[d] += sign
+                    sides.append(~np.isin(np.ravel_multi_index(
+                        tuple(moved), shape), keys))
+                # the trees of the partners' points that may face the
+                # sides, of those in a box round the sides' domains, twice
+                # the width facing() looks within (along the sides of a
+                # stack a row: trees of the whole partners took 30 ms of a
+                # run's start at 1e5 points, twelve of them 0.1 s)
+                margin = 2 * w[:, 0]
+                margin[d] = np.inf
+                across = partner.compress(near_box(
+                    partner, x[:, sides[0] | sides[1]], margin), axis=1)
+                tree = facing_tree(w[:, 0], d, across, lines[-1] - lines[0]) \
+                    if across.shape[1] else None
                 # the sides that touch a partner (its domains' centres
                 # within their half-width of the face), per sign: a body
                 # held between the other's across the axis (a pile in its
@@ -670,14 +709,11 @@ class BodyContact(GridTerm):
                 # bottom inside a cell: settled within 1% of the refined
                 # grid's, glued 5%; user trials)
                 reach = half[d, on].max(initial=0.) + FACING * self.h
+                margin[d] = w[d, 0] + 2 * reach
                 touch, off_lines = [False, False], 0
-                for sign in (-1, 1):
-                    moved = q.copy()
-                    moved[d] += sign
-                    side = ~np.isin(np.ravel_multi_index(tuple(moved),
-                                                         shape), keys)
+                for sign, side in zip((-1, 1), sides):
                     face = x[d, side] + sign * w[d, side]
-                    faces = facing(x[:, side], w[:, 0], d, sign, partner,
+                    faces = facing(x[:, side], w[:, 0], d, sign, across,
                                    lines[-1] - lines[0], tree)
                     levels = np.unique(np.rint(face[faces] / step[d]))
                     # consecutive levels, one domain apart: a staircase,
@@ -692,7 +728,9 @@ class BodyContact(GridTerm):
                                  lines.size - 1)
                     off = np.minimum(np.abs(face - lines[at - 1]),
                                      np.abs(face - lines[at]))
-                    meets = facing(x[:, side], w[:, 0], d, sign, partner,
+                    meets = facing(x[:, side], w[:, 0], d, sign,
+                                   partner.compress(near_box(
+                                       partner, x[:, side], margin), axis=1),
                                    reach)
                     touch[sign > 0] = bool(meets.any())
                     off_lines += int(np.count_nonzero(
@@ -1399,9 +1437,12 @@ class BodyContact(GridTerm):
             sel = np.flatnonzero(self.point_field == k)
             if not sel.size:
                 continue
-            reach = half[:, sel].max() + size.max() + 2 * SUPPORT_NEAREST * h
+            reach = half.take(sel, axis=1).max() + size.max() \
+                + 2 * SUPPORT_NEAREST * h
             # the points near a support (a tree of those, not of the
-            # field's every point: 0.15 s a step at 1e5 points)
+            # field's every point: 0.15 s a step at 1e5 points), of those
+            # in the supports' bins (each point searched: 25 ms a step)
+            sel = sel[near_sites(centre.take(sel, axis=1), at, reach)]
             sel = sel[tree.query(centre[:, sel].T, p=np.inf,
                                  distance_upper_bound=reach)[0] <= reach]
             near = cKDTree(centre[:, sel].T).sparse_distance_matrix(
@@ -1465,6 +1506,9 @@ PASSING_NEAR = 2.
 #: (:meth:`~skfem_mpm.solve.contact.ObstacleContact.corner_cells`)
 PULL = 1e-6
 
+#: the most bins of :func:`near_sites`' raster of sites
+SITE_BINS = 1 << 20
+
 #: the cells within which two bodies' domains touch, for the force each
 #: contact of an interface reports (:meth:`BodyContact.declared_forces`):
 #: a cap glued to its pile 0.3 cells above the soil (a user trial) does
@@ -1498,7 +1542,9 @@ def nearest_within(x: ndarray, these: ndarray, those: ndarray,
     in the maximum norm to the nearest of ``those``, ``inf`` beyond
     ``bound``: only the points of each within ``bound`` of the other's
     box are searched (two bodies stacked at 1e5 points: a tree of each
-    whole body, 0.27 s a step).
+    whole body, 0.27 s a step).  The points are gathered row by row
+    (``take``): the boxes of ``x[:, these]``, laid out point by point,
+    took 5 ms a call there, 20 ms of a step's start.
 
     >>> import numpy as np
     >>> x = np.array([[0., 1., 5., 1.5], [0., 0., 0., 0.]])
@@ -1506,17 +1552,52 @@ def nearest_within(x: ndarray, these: ndarray, those: ndarray,
     [inf, 0.5, inf]
     """
     out = np.full(these.size, np.inf)
-    a, b = x[:, these], x[:, those]
     if not (these.size and those.size):
         return out
+    a, b = x.take(these, axis=1), x.take(those, axis=1)
     near_a = np.all((a >= b.min(axis=1)[:, None] - bound)
                     & (a <= b.max(axis=1)[:, None] + bound), axis=0)
-    near_b = np.all((b >= a[:, near_a].min(axis=1, initial=np.inf)[:, None]
-                     - bound) & (b <= a[:, near_a].max(
-                         axis=1, initial=-np.inf)[:, None] + bound), axis=0)
+    a = a.compress(near_a, axis=1)
+    near_b = np.all((b >= a.min(axis=1, initial=np.inf)[:, None] - bound)
+                    & (b <= a.max(axis=1, initial=-np.inf)[:, None]
+                       + bound), axis=0)
     if near_a.any() and near_b.any():
-        out[near_a] = cKDTree(b[:, near_b].T, balanced_tree=False).query(
-            a[:, near_a].T, p=np.inf, distance_upper_bound=bound)[0]
+        out[near_a] = cKDTree(b.compress(near_b, axis=1).T,
+                              balanced_tree=False).query(
+            a.T, p=np.inf, distance_upper_bound=bound)[0]
+    return out
+
+
+def near_sites(x: ndarray, sites: ndarray, reach: float) -> ndarray:
+    """Which of the points ``x`` (dim, n) may lie within ``reach`` of
+    one of the ``sites`` (dim, m; m > 0) along every axis: every one that
+    does, and others in the bins next to a site's, of bins at least
+    ``2 reach`` wide over the sites' box (at most :data:`SITE_BINS` of
+    them): a point within reach of a site, round-off and all, lies in the
+    site's bin or the next along each axis.  A cheap sieve before an
+    exact search (:meth:`BodyContact.support_distances`).
+
+    >>> x = np.array([[0., 1., 3., 9.], [0., 0., 0., 0.]])
+    >>> near_sites(x, np.array([[1.], [0.]]), .5).tolist()
+    [True, True, False, False]
+    """
+    dim, lo = x.shape[0], sites.min(axis=1)[:, None]
+    width = np.maximum((sites.max(axis=1)[:, None] - lo)
+                       / int(SITE_BINS ** (1. / dim)), 2. * reach)
+    at = np.floor((sites - lo) / width).astype(np.int64) + 1
+    shape = at.max(axis=1) + 2                  # a bin more either side
+    raster = np.zeros(tuple(shape), dtype=bool)
+    raster[tuple(at)] = True
+    for d in range(dim):            # each site's bin and the next ones
+        line = np.moveaxis(raster, d, 0)
+        line[1:] |= line[:-1]
+        line[:-1] |= line[1:]
+    # clipped beyond the raster (far points: no integer overflow)
+    bins = np.clip(np.floor((x - lo) / width) + 1, -1,
+                   shape[:, None]).astype(np.int64)
+    inside = np.all((bins >= 0) & (bins < shape[:, None]), axis=0)
+    out = np.zeros(x.shape[1], dtype=bool)
+    out[inside] = raster[tuple(b[inside] for b in bins)]
     return out
 
 
@@ -1790,8 +1871,8 @@ class StepBodyContact(GridTerm):
                 inner = inner[off[inner]]
                 if not (inner.size and outer.size):
                     continue
-                reach = float(term.half[:, outer].max()
-                              + term.half[:, inner].max())
+                reach = float(term.half.take(outer, axis=1).max()
+                              + term.half.take(inner, axis=1).max())
                 # looked for within PASSING_NEAR cells of motion (a
                 # search without bound took 3 s at 1e5 points): beyond,
                 # infinite
@@ -2179,8 +2260,11 @@ class StepBodyContact(GridTerm):
                                 * part["n"]])
             for row, value in zip(traction_state(part["contact"], self.dim),
                                   values):
-                table = np.zeros((len(row), n))
-                np.add.at(table, (to // n, to % n), value[frm])
+                # summed per corner c n + p, the table's flat index (on
+                # its two indices np.add.at took three times longer)
+                table = np.zeros(len(row) * n)
+                np.add.at(table, to, value[frm])
+                table = table.reshape(-1, n)
                 for name, column in zip(row, table):
                     new.state[name] = column
         op, dim = problem.method_op, self.dim

@@ -361,7 +361,7 @@ def body_contact_term(run: Run) -> Optional[GridTerm]:
                        run.counters,
                        weights=getattr(run.method, "weights_at", None),
                        cells=run.user_grid.mesh.nelements,
-                       gimp=linear_gimp(run.method))
+                       gimp=linear_gimp(run.method), locate=run.grid_locate)
 
 
 def obstacle_term(run: Run) -> Optional[GridTerm]:
@@ -2599,7 +2599,9 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         scale=(lambda f: f) if dynamics is None
         else (lambda f: dynamics.scale(f * dynamics.duration)),
         initial_cells=None if case.prescribed is None
-        else run_locate(points.x0)[0])
+        else run_locate(points.x0)[0],
+        # the grid's locator with point_locator's defaults (not a user's)
+        grid_locate=locate if options.locator is None else None)
     terms = [term for term in (
         factory(run) for factory in GRID_TERMS) if term is not None]
     # those that weigh the balance in time after all others (stable)
