@@ -975,9 +975,10 @@ def test_a_warm_up_takes_the_solvers_the_case_may_take(tmp_path,
 def test_a_study_names_groups_whose_references_disagree():
     """Two methods on one grid, only the load steps varied, each
     method's cases agreeing to 1e-12: each claims an error of round-off
-    (1e-8 of the values, 10 x the scene's Newton tolerance), though their references lie 2% apart, an error of the methods that
-    no column showed (a user trial: cpGIMP's passive wall 2% over
-    Rankine, its error 9e-5).  The study names the pair and how far
+    (1e-8 of the values, 10 x the scene's Newton tolerance), though their
+    references lie 2% apart, an error of the methods that no column showed (a
+    user trial: cpGIMP's passive wall 2% over Rankine, its error 9e-5).  The
+    study names the pair and how far
     apart they are; a pair within its uncertainties is not named; the
     error says what it does not measure.  A pair within round-off (here
     the cases of each equal, ugimp 2e-16 from mpm) is not named."""

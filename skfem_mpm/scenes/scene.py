@@ -899,9 +899,9 @@ def warn_strength_above_stiffness(scene: Scene):
     """Log a warning for each body whose material's strength (a soil's
     ``cohesion``, a metal's ``yield_stress``) exceeds its Young's modulus
     ``E``: a soil's or a metal's strength is some 1e-4 to 1e-2 of its
-    stiffness, and one above it is a unit slipped (a trial's clay took its cohesion in
-    Pa, 20000, in a scene in kPa, E = 1e4: it never yielded, its footing
-    pressure 0.4% of N_c c, and nothing said so)."""
+    stiffness, and one above it is a unit slipped (a trial's clay took its
+    cohesion in Pa, 20000, in a scene in kPa, E = 1e4: it never yielded, its
+    footing pressure 0.4% of N_c c, and nothing said so)."""
     stress = unit("stress", scene.units)
     for body in scene.bodies:
         material, E = body.material, getattr(body.material, "E", None)
