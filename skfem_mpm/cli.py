@@ -1421,6 +1421,11 @@ def run_warned(args, kept: KeptWarnings) -> int:
               "scene, seeding the points): nothing written", file=sys.stderr)
         return 130
     except RunComplete as done:
+        # a kill while a completed run drew its figures left their
+        # partial files (a SIGKILL campaign's resume kept one)
+        if remove_temporaries(args.resume):
+            logger.info("removed the partial files of a killed run in %s",
+                        args.resume)
         print(done.args[0])
         return 0
     digest = scene_digest(source)

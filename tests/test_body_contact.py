@@ -2521,6 +2521,28 @@ def test_lean_warning_only_where_a_side_in_a_cell_faces_the_other_body(
     assert ("may lean" in caplog.text) == warned
 
 
+@pytest.mark.parametrize("contacts, warned", [
+    ([(0, 1), (1, 2)], True),       # 0 and 2 glued: one body round 1
+    ([(0, 1), (1, 2), (0, 2)], False)])     # three bodies
+def test_lean_warning_counts_sides_touching_one_group_of_glued_bodies(
+        contacts, warned, caplog):
+    """The review: a block between two others, its flat interfaces
+    inside cells (y = 1.125 and 2.125, h = 0.25), was warned as held
+    between the other's, a pile in its soil, where its two sides touch
+    two bodies apart; the sides count where they touch one group of
+    glued bodies (one field), as the lower and upper block are where no
+    contact parts them."""
+    mesh = MeshQuad.init_tensor(np.linspace(0, 1.5, 7), np.linspace(0, 3, 13))
+    pts = bodies(mesh, 2, [[(0, 1), (0, 1.125)], [(0, 1), (1.125, 2.125)],
+                           [(0, 1), (2.125, 2.5)]])
+    caplog.set_level("WARNING")
+    simulate(mesh, ElementQuad1(), pts, LinearElastic(1e4, .3),
+             roller_base_and_left_wall, method="cpgimp", nsteps=1,
+             body_force=[0., -1e3],
+             contacts=[Contact(a, b) for a, b in contacts])
+    assert ("may lean" in caplog.text) == warned
+
+
 @pytest.mark.parametrize("slope, warned", [(np.tan(np.radians(20.)), True),
                                            (0., False)])
 def test_a_body_s_inclined_surface_is_warned_as_a_staircase(slope, warned,

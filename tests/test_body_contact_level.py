@@ -227,8 +227,9 @@ def test_a_pile_with_a_cap_warns_of_pairs_that_start_deep(caplog):
     into the supports of the soil's surface nodes beside the pile, the
     bodies read as overlapping there along every candidate, and a pair
     along the leaning centroid line starts 0.45 cells deep: it is told
-    (a warning), and the settlement, 1.4164 mm, is 7% below that in one
-    step (1.5227; standard MPM 1.5196 in two)."""
+    (a warning, once a run), and the settlement, 1.4164 mm, is 7% below
+    that in one step (1.5227; standard MPM 1.5196 in two; in 5 steps the
+    pair starts deep in each from the second)."""
     h = .125
     mesh = MeshQuad.init_tensor(np.linspace(0, 2, 17),
                                 np.linspace(0, 1.5, 13))
@@ -268,8 +269,9 @@ def test_a_pile_with_a_cap_warns_of_pairs_that_start_deep(caplog):
         return -res.points.displacement[1, res.points.body == 2].mean(), \
             told
     once, quiet = settled(1)
-    twice, told = settled(2)
+    twice, told = settled(5)
     assert not quiet
+    # told once a run (the review: every step from the second, 4 of 5)
     assert len(told) == 1 and told[0].startswith("step 2:")
     assert "0.45 cells deep" in told[0]
     # what the warning is about: the two steps' settlement off the one's

@@ -656,6 +656,10 @@ def test_a_completed_run_s_resume_does_nothing(tmp_path, capsys):
                          "steps"), (bare, "summary.json; it "
                                               "kept no checkpoint")):
         before = outputs(folder)
+        # a kill while the run drew its figures leaves a partial file
+        # (the SIGKILL campaign's resume kept one): removed
+        partial = folder / (TEMPORARY_PREFIX + "deformed_shape.x1.png")
+        partial.write_bytes(b"\x89PNG")
         assert main(["run", "--resume", str(folder), "--no-progress"]) == 0
         printed = capsys.readouterr()
         assert printed.out == "column: the run in {} is complete ({}): " \

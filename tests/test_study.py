@@ -324,6 +324,33 @@ def test_the_rate_is_fitted_to_the_grids_of_one_geometry():
                          "elements")
 
 
+def test_values_agreeing_to_round_off_off_a_closed_form_keep_their_rate():
+    """The review: a group whose values agree to round-off, each 1% off
+    the closed form, was said "converged to round-off", no rate, as if
+    the error were nothing; against a closed form the errors are the
+    closed form's, and the rate is theirs: none, the errors not falling
+    with the cell, said with the errors."""
+    from skfem_mpm.studies.study import report
+    rows = [dict(elements=n, failure="", error=.01, uncertainty=None,
+                 values={"top": 1.01}, wall_seconds=1., cpu_seconds=1.,
+                 points=n * n, newton_iterations=1, factorisations=1)
+            for n in (10, 20, 40)]
+    measured = {"error": {"measures": "a closed form", "closed_form": True,
+                          "roundoff": 1e-8},
+                "convergence": [{"quantity": "top", "unit": "m",
+                                 "choices": {}, "basis": "round-off",
+                                 "against": "finest", "reference": 1.01,
+                                 "uncertainty": 3e-8,
+                                 "why": "converged to round-off",
+                                 "cell_sizes": [.1, .05, .025],
+                                 "failed": []}]}
+    line = [x for x in report(rows, measured, ["elements"])
+            if x.startswith("rate of the error")][0]
+    assert "round-off" not in line, line
+    assert "errors do not fall with every refinement (errors 1.00e-02, " \
+        "1.00e-02, 1.00e-02" in line, line
+
+
 DYNAMIC_DROP = """
 name = "drop"
 [grid]
