@@ -18,6 +18,7 @@ import signal
 import sys
 import tempfile
 import time
+from types import SimpleNamespace
 from contextlib import nullcontext
 from dataclasses import replace
 from pathlib import Path
@@ -32,10 +33,11 @@ from .errors import (ConvergenceError, InvalidInputError, MPMError,
 from .mechanics.materials import LinearElastic, state_variables
 from .quadrature.locate import locate_points
 from .scenes.checkpoint import (CHECKPOINT, HISTORY_KEYS, Checkpoint,
-                                check_against, check_tied, history_rows,
+                                check_against, check_contact_sides,
+                                check_outputs, check_tied, history_rows,
                                 load_checkpoint, save_checkpoint,
                                 scene_digest)
-from .scenes.footing import scene_footing, soil_strength
+from .scenes.footing import scene_footing, soil_strength, still_rising
 from .scenes.io import (atomic_path, clear_earlier_run,
                         interrupts_deferred, remove_temporaries,
                         terminate_as_interrupt)
@@ -47,8 +49,8 @@ from .scenes.plot import (STRESS_NAMES, SupportMarks, body_figure_size,
                           colour_scale, draw_deformed_shape, draw_energies,
                           draw_plastic_zone, draw_points, mark_peak,
                           pyplot)
-from .scenes.quantities import (COMPONENTS, QUANTITIES, check_quantities,
-                                quantity_unit)
+from .scenes.quantities import (COMPONENTS, POINTWISE, QUANTITIES,
+                                check_quantities, quantity_unit)
 from .scenes.scene import (build_points, load_scale, obstacle_list,
                            point_bound, reaction_resultants,
                            run_scene, scene_support_dofs, support_names,
@@ -69,7 +71,7 @@ from .solve.strength_reduction import (largest_displacement,
 from .studies.column import SOURCE as COLUMN_SOURCE
 from .studies.figures import plot_column_stress, plot_study
 from .studies.footing import (bearing_capacity_factor, footing_error,
-                              footing_pressure)
+                              footing_pressure, limit_pressure)
 from .studies.study import (CASES_UNASKED, CHOICES, DEFAULT_VARY,
                             REFERENCE_ERRORS, VARIABLES, analyse, case_error,
                             case_work, cases_of, check_reference, check_vary,
@@ -459,15 +461,18 @@ def figures_note(outdir: Path) -> str:
 
 
 def summarise(scene, result, seconds: float, earlier=None,
-              complete: bool = True) -> dict:
+              complete: bool = True, measured=None) -> dict:
     """The numbers of a run, for ``summary.json`` and the terminal; with
     ``earlier`` (the :class:`~skfem_mpm.scenes.checkpoint.Checkpoint` a
     run resumed from), over the whole run: history rows, Newton iterations,
-    reactions, wall seconds and seconds per phase of the invocations
+    reactions, the outputs' histories and what they give (a footing's
+    peak pressure), wall seconds and seconds per phase of the invocations
     before the resume included (``seconds``: this invocation's).  A run
     not ``complete`` (failed, stopped, interrupted: ``result`` holds the
     steps that converged) gets no ``error`` against the scene's closed
-    form, which is the full load's."""
+    form, which is the full load's.  ``measured``: the scene's point
+    outputs (:func:`point_outputs`) at each step of ``result.history``,
+    (outputs, steps), as the steps ended (:func:`output_summaries`)."""
     pts = result.points
     history = result.history
     names, resultant = reaction_resultants(scene)
@@ -506,17 +511,88 @@ def summarise(scene, result, seconds: float, earlier=None,
     elif scene.reference == "bearing_capacity":
         error = footing_error(scene,
                               reactions[:, scene_footing(scene).column])
+        if len(rows):
+            summary["bearing_capacity"] = bearing_capacity(scene, rows,
+                                                           reactions)
     else:
         error = case_error(scene, result)
     if np.isfinite(error):
         summary["error"] = error
-    if scene.outputs and result.history:    # quantities at this step
-        summary["outputs"] = {q.label: {
-            "value": q.measure(scene, result),
-            "unit": q.unit(pts.dim, scene.units),
-            "history": q.history(scene, result)}
-            for q in scene.outputs}
+    if complete and len(rows) and (
+            scene.reference == "bearing_capacity" or any(
+                q.quantity == "footing_pressure" for q in scene.outputs)):
+        rising = still_rising(footing_pressure(scene, reactions[
+            :, scene_footing(scene).column]), unit("stress", scene.units))
+        if rising:
+            logger.warning("%s: %s", scene.name, rising)
+    if scene.outputs and len(rows):
+        summary["outputs"] = output_summaries(scene, result, rows,
+                                              reactions, earlier, measured)
     return without_negative_zeros(summary)    # no "-0 N" printed
+
+
+def bearing_capacity(scene, rows, reactions) -> dict:
+    """A footing scene's peak pressure over the run's history ``rows``
+    and ``reactions`` (as :func:`summarise` has them): ``peak_pressure``,
+    its ``peak_step``, ``N_c c`` (``limit_pressure``) and
+    ``signed_error``, ``peak_pressure / limit_pressure - 1`` (negative
+    below ``N_c c``; ``error`` is its size)."""
+    pressure = footing_pressure(scene, reactions[
+        :, scene_footing(scene).column])
+    peak, limit = int(np.argmax(pressure)), limit_pressure(scene)
+    return {"peak_pressure": float(pressure[peak]),
+            "peak_step": int(rows[peak, 0]), "limit_pressure": limit,
+            "signed_error": float(pressure[peak] / limit - 1)}
+
+
+def point_outputs(scene) -> list:
+    """The scene's ``[[outputs]]`` of a displacement or stress of the
+    points, in order: measured at each step as it ends (the points'
+    state is not kept per step) and kept in a checkpoint."""
+    return [q for q in scene.outputs if q.quantity in POINTWISE]
+
+
+def output_summaries(scene, result, rows, reactions, earlier=None,
+                     measured=None) -> dict:
+    """``summary.json``'s ``outputs``: per ``[[outputs]]`` label its
+    ``value``, ``unit`` and ``history`` (columns ``step``, ``load_factor``,
+    ``time`` in dynamics, ``value``) over the run's history ``rows`` and
+    ``reactions`` (resumes included, as :func:`summarise` has them).  A
+    force or a footing's pressure comes from the reactions (a
+    ``footing_pressure``'s ``value`` the largest of its history's), a
+    displacement or stress from ``measured``, this invocation's values
+    at each step as it ended (a mean over points weighted by that step's
+    volumes), after the checkpoint ``earlier``'s (one written before
+    2026-11-30 kept none: the history starts at the resume); its
+    ``value`` is :meth:`~skfem_mpm.scenes.quantities.Quantity.measure`'s
+    on ``result``.  Without ``measured`` (``skfem-mpm compare``'s runs,
+    from their start) the records' snapshots give them
+    (:meth:`~skfem_mpm.scenes.quantities.Quantity.history`: a mean
+    weighted by the final volumes)."""
+    dim, pointwise = result.points.dim, point_outputs(scene)
+    before = {} if earlier is None else earlier.outputs or {}
+    out = {}
+    for q in scene.outputs:
+        if q.quantity in POINTWISE and measured is None:
+            history = q.history(scene, result)
+        else:
+            values = q.of_forces(scene, reactions) \
+                if q.quantity not in POINTWISE else np.r_[
+                    before.get(q.label, []), measured[pointwise.index(q)]]
+            steps = rows[len(rows) - len(values):]
+            history = {"step": steps[:, 0].astype(int).tolist(),
+                       "load_factor": steps[:, 1].tolist()}
+            if scene.dynamics is not None:
+                history["time"] = steps[:, HISTORY_KEYS.index(
+                    "time")].tolist()
+            history["value"] = np.asarray(values).tolist()
+        values = history["value"]
+        out[q.label] = {
+            "value": q.measure(scene, result) if q.quantity in POINTWISE
+            else max(values) if q.quantity == "footing_pressure"
+            else values[-1],
+            "unit": q.unit(dim, scene.units), "history": history}
+    return out
 
 
 def run_timings(records, earlier=None) -> dict:
@@ -551,7 +627,10 @@ def summary_units(dim: int, dynamics: bool = False,
              "reactions": force, "force": force, "displacement": length,
              # a count and dimensionless errors (a lecturer's trial
              # found them without a unit)
-             "points": "-", "steps": "-", "steps_run": "-", "error": "-"}
+             "points": "-", "steps": "-", "steps_run": "-", "error": "-",
+             # a footing scene's
+             "bearing_capacity": "{} (peak_step, signed_error: -)".format(
+                 unit("stress", system, dim))}
     if dynamics:      # a static run has no energies (a trial read its
         units["time"] = time        # unit as though it had)
         units["energies"] = "{} (time: {})".format(
@@ -1031,8 +1110,10 @@ def weight_taken_off(scene) -> str:
 
 def plot_bearing_capacity(scene, curves: dict, path: Path):
     """A bearing-capacity scene's footing pressure over the cohesion
-    against its settlement over its width, with ``N_c``, from the
-    ``curves`` of its kind (rigid bodies or obstacles; the footing:
+    against its settlement ``s`` over the whole footing's width ``B``
+    (twice a half model's footing, its ``B``: a trial's axis was
+    ``s / (B / 2)``), with ``N_c``, from the ``curves`` of its kind
+    (rigid bodies or obstacles; the footing:
     :func:`~skfem_mpm.scenes.footing.scene_footing`)."""
     footing = scene_footing(scene)
     fig, ax = pyplot().subplots(figsize=(5.5, 4))
@@ -1042,17 +1123,21 @@ def plot_bearing_capacity(scene, curves: dict, path: Path):
     settlement = -np.array([0.] + [d[1] for d in curve["displacement"]])
     pressure = np.concatenate([[0.], footing_pressure(
         scene, np.array(curve["force"]))])
-    x = settlement / footing.width
+    x = settlement / footing.B
     line, = ax.plot(x, pressure / c, "o-", ms=3, label="{}, {}".format(
         footing.name, scene.method))
     mark_peak(ax, line, x, pressure / c)
     ax.axhline(bearing_capacity_factor(phi), color="k", ls="--",
                label="N_c = {:.2f} (phi = {:g} deg)".format(
                    bearing_capacity_factor(phi), phi))
-    ax.set_xlabel("settlement / width of the footing {} (-)\n(half "
-                  "the footing in a half model)".format(
-                      "body" if footing.kind == "rigid_bodies"
-                      else "over the soil"))
+    length = unit("length", scene.units)
+    ax.set_xlabel("settlement s / footing width B (-), B = {}".format(
+        "{:g} {}\n(twice the {:g} {} of this half model's footing, from "
+        "its symmetry line)".format(footing.B, length, footing.width,
+                                    length) if footing.half else
+        "{:g} {}\n(the width of the footing {})".format(
+            footing.B, length, "body" if footing.kind == "rigid_bodies"
+            else "over the soil")))
     ax.set_ylabel("footing pressure / cohesion (-){}".format(
         weight_taken_off(scene) if footing.kind == "rigid_bodies"
         else ""))
@@ -1190,6 +1275,7 @@ def load_run(args, setup=None):
         # run (a review's run started with --steps 5 was told 20)
         refuse_other_steps(args, outdir, earlier.nsteps)
         check_tied(outdir / CHECKPOINT, earlier, scene.obstacles)
+        check_contact_sides(outdir / CHECKPOINT, earlier, scene)
         points = earlier.points
         if scene.dynamics is None:
             scene.nsteps = earlier.nsteps
@@ -1220,7 +1306,10 @@ def load_run(args, setup=None):
         mesh.nelements, cells))
     initial = build_points(scene, mesh)
     setup("checking the {} points".format(initial.n))
-    check_quantities(scene, scene.outputs, initial)
+    try:
+        check_quantities(scene, scene.outputs, initial, key="outputs")
+    except SceneError as err:     # the file named, as the scene's own
+        raise SceneError(err.problems, str(source)) from None
     if points is None:
         points = initial
     else:
@@ -1242,6 +1331,16 @@ def load_run(args, setup=None):
                 scene.method.startswith("bspline"))
             + rotation_state_names(mesh.dim(),
                                    scene.kinematics == "finite"), mesh)
+        labels = [q.label for q in point_outputs(scene)]
+        check_outputs(outdir / CHECKPOINT, earlier, labels)
+        if labels and earlier.outputs_from:
+            logger.warning(
+                "%s was written before checkpoints kept the point "
+                "outputs' values (2026-11-30): the histories of %s in "
+                "summary.json start at step %d, where the run was first "
+                "resumed (the forces' cover the whole run)",
+                outdir / CHECKPOINT, ", ".join(map(repr, labels)),
+                earlier.outputs_from + 1)
     return scene, source, outdir, earlier, points, resume, mesh, initial
 
 
@@ -1322,6 +1421,11 @@ def run_warned(args, kept: KeptWarnings) -> int:
               "scene, seeding the points): nothing written", file=sys.stderr)
         return 130
     except RunComplete as done:
+        # a kill while a completed run drew its figures left their
+        # partial files (a SIGKILL campaign's resume kept one)
+        if remove_temporaries(args.resume):
+            logger.info("removed the partial files of a killed run in %s",
+                        args.resume)
         print(done.args[0])
         return 0
     digest = scene_digest(source)
@@ -1400,6 +1504,15 @@ def run_warned(args, kept: KeptWarnings) -> int:
     # all), and the step the checkpoint on disk holds
     history, latest = [], []
     kept = [None if earlier is None else earlier.step]
+    # the point outputs at each step of this invocation, as it ended
+    pointwise, measured = point_outputs(scene), []
+
+    def values():
+        """``measured`` as (outputs, steps) of the steps in ``history``
+        (a Ctrl-C between the two appends leaves one more row)."""
+        rows = measured[:len(history)]
+        return np.array(rows, dtype=np.float64).reshape(
+            len(rows), len(pointwise)).T
 
     def so_far():
         """History rows and reactions of the run so far (before this
@@ -1421,6 +1534,10 @@ def run_warned(args, kept: KeptWarnings) -> int:
         # dynamics: the next step books its work from it)
         end_force = end_force_of(history[-1]) if history \
             else resume.end_force
+        before = {q.label: [] for q in pointwise} if earlier is None \
+            or earlier.outputs is None else earlier.outputs
+        outputs = {q.label: np.r_[before[q.label], row] for q, row in
+                   zip(pointwise, values())}
         with interrupts_deferred():
             save_checkpoint(outdir, Checkpoint(
                 step=len(rows), nsteps=scene.step_count, load_factor=factor,
@@ -1431,7 +1548,9 @@ def run_warned(args, kept: KeptWarnings) -> int:
                 timings=run_timings(history, earlier),
                 end_force=end_force, series_every=every,
                 series_steps=np.array(wanted, dtype=np.int64),
-                warnings=tuple(warned)))
+                warnings=tuple(warned), outputs=outputs,
+                outputs_from=0 if earlier is None
+                else earlier.outputs_from))
             kept[0] = len(rows)
 
     def unfinished(status, state, **keys):
@@ -1446,7 +1565,7 @@ def run_warned(args, kept: KeptWarnings) -> int:
             counters=dict(last.counters if last else
                           earlier.counters if earlier else {}))
         summary = summarise(scene, partial, run_clock() - tic,
-                            earlier, complete=False)
+                            earlier, complete=False, measured=values())
         summary.update(notes)
         summary.update(status=status, last_converged_step=last.step if last
                        else resume.first_step - 1,
@@ -1475,6 +1594,8 @@ def run_warned(args, kept: KeptWarnings) -> int:
         # VTU left a checkpoint of step 3 listing step 4, refused)
         if due:
             wanted.append(record.step)
+        measured.append([q.measure(scene, SimpleNamespace(points=pts))
+                         for q in pointwise])
         history.append(record)
         latest[:] = [pts]
         if record.load_factor < 1. and (
@@ -1593,7 +1714,8 @@ def run_warned(args, kept: KeptWarnings) -> int:
 
     def completed():
         """The summary of the completed run, written."""
-        done = summarise(scene, result, seconds, earlier)
+        done = summarise(scene, result, seconds, earlier,
+                         measured=values())
         done.update(notes)
         done.update(status="completed",
                     compile_seconds=compile_seconds() - compiled)
@@ -1682,6 +1804,15 @@ def print_report(scene, summary: dict, seconds: float, outdir: Path,
         label, against, _ = REFERENCE_ERRORS[scene.reference]
         print("  {:26s}{:.4e} (against {})".format(label + " ",
                                                    summary["error"], against))
+    footing = summary.get("bearing_capacity")
+    if footing is not None:     # the error's side (a trial's soil that
+        # never failed read 9.96e-01, unsaid whether above or below)
+        print("  peak against N_c c        {:.6g} {} at step {}, {:.2%} {} "
+              "N_c c = {:.6g} {}".format(
+                  footing["peak_pressure"], unit("stress", scene.units),
+                  footing["peak_step"], abs(footing["signed_error"]),
+                  "below" if footing["signed_error"] < 0 else "above",
+                  footing["limit_pressure"], unit("stress", scene.units)))
     # four significant digits (a trial's 4e-6 printed 0.0000 m)
     print("  largest displacement      {:.4g} {}".format(
         summary["max_displacement"], unit("length", scene.units)))
@@ -1795,8 +1926,10 @@ def compare(args) -> int:
                     scale=scale, colorbar=k == 1)
         if a.dim == 1:
             ax.set_ylim(scale["vmin"], scale["vmax"])
-        print("{:>7}: largest displacement {:.4g}, {:.3f} s".format(
-            method, largest_displacement(result), seconds))
+        # in the scene's unit (a trial's "largest displacement 0.0298")
+        print("{:>7}: largest displacement {:.4g} {}, {:.3f} s".format(
+            method, largest_displacement(result),
+            summary["units"]["displacement"], seconds))
     # one view for both panels (a trial: each body's own limits, the
     # panels' axes unlike), the empty band above the panels trimmed
     for get, put in (("get_xlim", "set_xlim"), ("get_ylim", "set_ylim")):
@@ -1819,12 +1952,13 @@ def compare(args) -> int:
                        ("stress", "Cauchy stress")):
         d = difference[name]
         print("  {} - fem, {}: max {:.3e} {} ({:.2e} of FE's largest "
-              "|{}|), at point {} (at {} at the start) in {}; rms {:.3e}"
-              .format(other.method, what, d["max"],
-                      summary["units"][name], d["max_relative"], name,
-                      d["max_at_point"],
-                      ", ".join("{:.4g}".format(v) for v in d["max_at"]),
-                      d["max_component"], d["rms"]))
+              "|{}|), at point {} (at {} {} at the start) in {}; rms "
+              "{:.3e} {}".format(
+                  other.method, what, d["max"], summary["units"][name],
+                  d["max_relative"], name, d["max_at_point"],
+                  ", ".join("{:.4g}".format(v) for v in d["max_at"]),
+                  summary["units"]["displacement"], d["max_component"],
+                  d["rms"], summary["units"][name]))
     if scene.reference:
         label, against, _ = REFERENCE_ERRORS[scene.reference]
         print("  {} against {}: {}".format(label, against, ", ".join(
@@ -2101,7 +2235,10 @@ def run_safety(args) -> int:
     check_reference(scene)
     mesh, _ = scene.grid.build()
     initial = build_points(scene, mesh)
-    check_quantities(scene, scene.outputs, initial)
+    try:
+        check_quantities(scene, scene.outputs, initial, key="outputs")
+    except SceneError as err:       # the file named, as the scene's own
+        raise SceneError(err.problems, str(args.scene)) from None
     length = unit("length", scene.units)
     kept = [b.name for k, b in enumerate(scene.bodies) if k not in reduced]
     print("{}: strength reduction of {} ({} load steps, {}); bracket from "

@@ -7,9 +7,11 @@ that the runs are unchanged.
 
 ``python tests/digest_cases.py`` prints the fingerprints as JSON (how the
 stored file was written, on the commit before the split)."""
+import ctypes
 import hashlib
 import json
 import sys
+from pathlib import Path
 
 import numpy as np
 import scipy
@@ -238,7 +240,29 @@ def versions() -> dict:
     return {"numpy": np.__version__, "scipy": scipy.__version__,
             "scikit-fem": skfem.__version__,
             "cpu": sorted(feature for feature, present in
-                          umath.__cpu_features__.items() if present)}
+                          umath.__cpu_features__.items() if present),
+            "openblas": [openblas_core(module) for module in (np, scipy)]}
+
+
+def openblas_core(module) -> str:
+    """The kernels' family the OpenBLAS bundled with ``module`` (numpy's
+    or scipy's wheel, ``<name>.libs``) chose for this CPU, or
+    ``"unknown"``: CPUs of the same features may take other families
+    (an AMD EPYC with AVX-512 took Haswell's, where the fingerprints'
+    Intel CPU of the same features had taken others, and all 13 cases
+    differed in their last bits)."""
+    folder = Path(module.__file__).parent.parent / (module.__name__
+                                                    + ".libs")
+    for lib in sorted(folder.glob("*openblas*")):
+        library = ctypes.CDLL(str(lib))
+        for symbol in ("scipy_openblas_get_corename64_",
+                       "scipy_openblas_get_corename",
+                       "openblas_get_corename64_", "openblas_get_corename"):
+            corename = getattr(library, symbol, None)
+            if corename is not None:
+                corename.restype = ctypes.c_char_p
+                return corename().decode()
+    return "unknown"
 
 
 if __name__ == "__main__":

@@ -115,3 +115,36 @@ def test_resume_is_bit_identical(method):
     assert np.array_equal(full.points.velocity, resumed.points.velocity)
     assert np.array_equal(full.history[-1].contact_forces,
                           resumed.history[-1].contact_forces)
+
+
+def test_the_supports_sieve_keeps_every_point_within_reach():
+    """``near_sites`` sieves the points before the supports' bounded
+    search (:meth:`BodyContact.support_distances`): every point within
+    the reach of a site along every axis passes, round-off and the
+    raster's edges too, so the held supports are the search's alone.
+    Sites on a grid's boundary lines and points around them, at reaches
+    from a hundredth of a cell to ten cells; points exactly at the reach
+    (in 2D and 3D)."""
+    from scipy.spatial import cKDTree
+
+    from skfem_mpm.solve.body_contact import near_sites
+    rng = np.random.default_rng(7)
+    for dim in (2, 3):
+        h = .1
+        sites = np.array(np.meshgrid(*[np.arange(0., 1. + h / 2, h)] * dim)
+                         ).reshape(dim, -1)
+        sites = sites[:, (sites == 0.).any(axis=0)]      # boundary nodes
+        for reach in (1e-3, .0125, .3, 1.):
+            x = rng.uniform(-2 * reach, 1. + 2 * reach, (dim, 20000))
+            at = sites[:, rng.integers(0, sites.shape[1], 2000)]
+            x = np.hstack([x, at + rng.uniform(-reach, reach, at.shape),
+                           # at the reach, to round-off
+                           at + rng.choice([-reach, reach], at.shape)])
+            # what the search finds: the sites within reach, inclusive
+            within = cKDTree(sites.T).query_ball_point(
+                x.T, reach, p=np.inf, return_length=True) > 0
+            sieved = near_sites(x, sites, reach)
+            assert within.sum() > 2000
+            assert sieved[within].all()
+            if reach < .1:          # bins narrower than the grid: a sieve
+                assert sieved.sum() < .8 * x.shape[1]

@@ -1040,18 +1040,21 @@ def test_one_point_per_cell_has_zero_energy_modes_warned(caplog, method,
     """One point per cell and axis leaves the splines zero-energy modes
     (a line of m cells samples m strains of m + 3 nodes, averaged or
     cubic; m + 2 at points off the knots): the squeezed block moved
-    its points without a strain, the press's force 0 of the 13.19 of
-    plane strain, its residual converged, with no word of it (a user
-    trial).  Warned at the start, naming the modes; the quadratic
-    splines at the knots (the cells' centres) in one step are held and
-    not warned: within 1% of the force."""
+    its points without a strain, the press's force 0 (5.0 on another CPU) of
+    the 13.19 of plane strain, its residual converged, with no word of it (a
+    user trial).  Warned at the start, naming the modes; the quadratic splines
+    at the knots (the cells' centres) in one step are held and not warned:
+    within 1% of the force."""
     caplog.set_level("WARNING")
     force, exact = squeezed_block(method, shift)
     said = [r.getMessage() for r in caplog.records
             if "zero-energy modes" in r.getMessage()]
     assert len(said) == 1 and said[0].startswith(
         "method {!r} with 1 point per cell and axis".format(method))
-    assert abs(force) < 1e-6 * exact        # what the warning is about
+    # what the warning is about: the modes leave the answer to the
+    # solver's round-off (0 on one CPU, 0.38 of it on another), far from
+    # plane strain's
+    assert abs(force / exact - 1.) > .5
     caplog.clear()
     force, exact = squeezed_block("bspline")
     assert abs(force / exact - 1.) < .01

@@ -284,16 +284,35 @@ def test_a_static_run_s_units_name_no_energies():
         "{} (time: s)".format(unit("energy", "kN-m", 2))
 
 
-def test_compare_s_summary_has_the_units_of_its_differences(tmp_path):
-    """compare's summary.json gave its differences without units."""
+def test_compare_s_summary_has_the_units_of_its_differences(tmp_path,
+                                                            capsys):
+    """compare's summary.json gave its differences without units; its
+    lines printed "largest displacement 0.0298" and the rms and places
+    of the differences without them (session 85, trial 1)."""
     from skfem_mpm.scenes.units import unit
     path = tmp_path / "block.toml"
     path.write_text(PRESSED.replace("steps = 4", "steps = 1").replace(
         'name = "pressed block"', 'name = "pressed block"\nunits = "kN-m"'))
     out = tmp_path / "cmp"
+    capsys.readouterr()
     assert main(["compare", str(path), "--out", str(out)]) == 0
+    said = capsys.readouterr().out
     summary = json.loads((out / "summary.json").read_text())
     assert summary["units"] == {
         "system": "kN-m", "max_relative": "-",
         "displacement": unit("length", "kN-m", 2),
         "stress": unit("stress", "kN-m", 2)}
+    length, stress = unit("length", "kN-m", 2), unit("stress", "kN-m", 2)
+    for method in ("fem", "mpm"):
+        moved = summary["runs"][method]["max_displacement"]
+        assert "{:>7}: largest displacement {:.4g} {}, ".format(
+            method, moved, length) in said, said
+    for name, what, its in (("displacement", "displacement", length),
+                            ("stress", "Cauchy stress", stress)):
+        d = summary["difference"][name]
+        line = next(x for x in said.splitlines()
+                    if x.startswith("  mpm - fem, {}:".format(what)))
+        where = ", ".join("{:.4g}".format(v) for v in d["max_at"])
+        assert "max {:.3e} {} (".format(d["max"], its) in line
+        assert "(at {} {} at the start)".format(where, length) in line
+        assert line.endswith("; rms {:.3e} {}".format(d["rms"], its))

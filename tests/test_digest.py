@@ -1,8 +1,9 @@
 """The load-step core computes today what it computed before it was split
 into a step problem, a Newton driver and grid terms: bit for bit where the
 numerical libraries are the versions the fingerprints were taken with
-on a CPU of the same features (``tests/data/core_digests.json``: the
-versions and the features, :func:`digest_cases.versions`), to 1e-12 of
+on a CPU of the same features whose OpenBLAS chose the same kernels
+(``tests/data/core_digests.json``: the versions, the features and
+OpenBLAS's choice, :func:`digest_cases.versions`), to 1e-12 of
 every array's size where they are not (another numpy may round a sum
 differently; so does the same numpy where it dispatches to other SIMD
 loops: on a CPU with AVX-512 all 13 cases recorded with these
@@ -41,7 +42,10 @@ contact's work booked apart in dynamics (``contact_work``, 2026-11-29)
 is kept in its own array where it is not zero: every case's arrays
 unchanged to the bit.  linear_traction when standard MPM in small strain
 began to load its faces at their reference positions along their axis
-(the stress sum moved 3.5e-4 relative)."""
+(the stress sum moved 3.5e-4 relative).  Every case re-recorded, its
+arrays unchanged to 4.6e-15 relative, when OpenBLAS's choice of kernels
+joined the key (2026-11-30: an AMD EPYC of the recorded features, its
+OpenBLAS on Haswell's kernels, differed in the last bits of all 13)."""
 import json
 from pathlib import Path
 

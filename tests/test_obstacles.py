@@ -535,6 +535,8 @@ def test_a_load_past_mu_in_proportion_is_not_cut_back(caplog):
     assert "not cut back: the loads keep their direction" in message
     assert "along the face of obstacle 'floor' with {:.3f} times " \
         "mu".format(ratio) in message
+    assert message.startswith("step 1: ") and message.index(
+        "times mu") < message.index("Newton-Raphson")      # cause first
 
 
 def test_a_load_past_mu_not_in_proportion_is_cut_back(caplog):

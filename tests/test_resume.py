@@ -49,7 +49,8 @@ max_iterations = 3
 """
 
 VOLATILE = ("wall_seconds", "timings", "compile_seconds")
-OPTIONAL_FIELDS = ("tied_traction", "series_every", "series_steps",
+OPTIONAL_FIELDS = ("tied_traction", "contact_sides", "series_every",
+                   "series_steps",
                    "warnings")
 
 
@@ -655,6 +656,10 @@ def test_a_completed_run_s_resume_does_nothing(tmp_path, capsys):
                          "steps"), (bare, "summary.json; it "
                                               "kept no checkpoint")):
         before = outputs(folder)
+        # a kill while the run drew its figures leaves a partial file
+        # (the SIGKILL campaign's resume kept one): removed
+        partial = folder / (TEMPORARY_PREFIX + "deformed_shape.x1.png")
+        partial.write_bytes(b"\x89PNG")
         assert main(["run", "--resume", str(folder), "--no-progress"]) == 0
         printed = capsys.readouterr()
         assert printed.out == "column: the run in {} is complete ({}): " \
@@ -801,6 +806,75 @@ def test_a_cpgimp_run_resumes_without_its_initial_domains(kinematics):
     for name in ("x", "stress", "domain", "F"):
         assert np.array_equal(getattr(resumed.points, name),
                               getattr(straight.points, name)), name
+
+
+SHEARED_BLOCK = """
+name = "block sheared on a slab body"
+[grid]
+x = [0.0, 2.0, 8]
+y = [0.0, 1.5, 6]
+[[bodies]]
+name = "slab"
+region = { x = [0.0, 2.0], y = [0.0, 0.5] }
+material = { model = "linear_elastic", E = 1e3, nu = 0.3 }
+[[bodies]]
+name = "block"
+region = { x = [0.5, 1.5], y = [0.5, 1.0] }
+material = { model = "linear_elastic", E = 1e3, nu = 0.3 }
+[[contacts]]
+first = "FIRST"
+second = "SECOND"
+friction = 0.5
+[[tractions]]
+body = "block"
+side = "top"
+traction = [4.0, -20.0]
+[[supports]]
+name = "base"
+boundary = "bottom"
+[solver]
+method = "mpm"
+steps = 2
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("first, second", [("block", "slab"),
+                                           ("slab", "block")])
+def test_a_contact_checkpoint_from_before_its_sides_are_paired_by_volume(
+        tmp_path, capsys, first, second):
+    """Each interface between bodies pairs its smaller side's corners
+    since 2026-11-30, where its point state (pressures, gaps, friction
+    tractions) lies; before, the declared second body's.  A checkpoint
+    written before (here: its ``contact_sides`` taken out) of a block
+    declared first on a larger slab, resumed, would read the block's
+    friction at the slab's points: refused, naming the file and the
+    contact.  Declared the other way round (the pairing unchanged) it
+    resumes to the straight run's end, bit for bit."""
+    scene = tmp_path / "scene.toml"
+    scene.write_text(SHEARED_BLOCK.replace("FIRST", first).replace(
+        "SECOND", second))
+    straight, resumed = tmp_path / "straight", tmp_path / "resumed"
+    assert main(["run", str(scene), "--out", str(straight),
+                 "--no-progress"]) == 0
+    assert main(["run", str(scene), "--out", str(resumed), "--no-progress",
+                 "--max-steps", "1"]) == 0
+    kept = dict(np.load(resumed / CHECKPOINT))
+    assert kept["contact_sides"].item() is True
+    assert np.abs(kept["state_contact_body0_t00"]).max() > 0.  # friction
+    del kept["contact_sides"]
+    np.savez(resumed / CHECKPOINT, **kept)
+    assert not load_checkpoint(resumed).contact_sides
+    if first == "block":
+        assert main(["run", "--resume", str(resumed), "--no-progress"]) == 2
+        err = capsys.readouterr().err
+        assert "{}: written before each interface between bodies paired " \
+            "its smaller side's corners".format(resumed / CHECKPOINT) \
+            in err, err
+        assert "the other side of contact(s) 'block-slab'" in err, err
+        return
+    assert main(["run", "--resume", str(resumed), "--no-progress"]) == 0
+    assert_same_run(straight, resumed)
 
 
 PLATE = """

@@ -268,8 +268,8 @@ def test_compare_says_where_and_what_it_compares(tmp_path, capsys):
         assert got["max_at_point"] == k and got["max"] == d.max()
         assert got["max_at"] == pytest.approx(
             fem.point_data["initial_position"][k][:1].tolist())
-        assert "at point {} (at {:.4g} at the start)".format(
-            k, got["max_at"][0]) in said
+        assert "at point {} (at {:.4g} {} at the start)".format(
+            k, got["max_at"][0], summary["units"]["displacement"]) in said
     assert "Cauchy stress: max" in said and "of FE's largest |stress|" in \
         said and "Cauchy stress" in summary["difference_is"]
     errors = [summary["runs"][m]["error"] for m in ("fem", "mpm")]

@@ -16,7 +16,16 @@ of the scene file it belongs to (a stale checkpoint is refused) and
 ``tied_traction``: a tied obstacle's point state (``contact<i>_t<a><c>``)
 is its traction (since 2026-11-29; it was the multiplier, and a resume
 read it as the traction, shifting the tied force: a checkpoint of a run
-with a tied obstacle written before is refused, :func:`check_tied`).  A run
+with a tied obstacle written before is refused, :func:`check_tied`) and
+``contact_sides``: each interface between bodies pairs its smaller side's
+corners (since 2026-11-30; the declared second body's before, where its
+point state lay: a checkpoint written before, of a scene whose interface
+now pairs the other side, is refused, :func:`check_contact_sides`) and
+the values of the scene's point outputs (``[[outputs]]`` of a
+displacement or stress) at every step (since 2026-11-30, so that their
+histories in ``summary.json`` cover the whole run too: a checkpoint
+written before has none, and the resumed run's histories of them start
+at its resume, :func:`check_outputs`).  A run
 that kept checkpoints ends with one at its last step, load factor 1
 (:attr:`Checkpoint.complete`): resuming it has nothing to do (a trial's
 completed run left its checkpoint at step 15 of 20, and ``--resume``
@@ -36,10 +45,12 @@ from numpy import ndarray
 from ..errors import InvalidInputError, MPMError, PointsOutsideGridError
 from ..quadrature.locate import point_locator
 from ..quadrature.points import MaterialPoints
+from ..solve.body_contact import swapped_interfaces
 from .io import atomic_path
 
 __all__ = ["Checkpoint", "CheckpointError", "save_checkpoint",
-           "load_checkpoint", "check_against", "check_tied", "history_rows",
+           "load_checkpoint", "check_against", "check_tied",
+           "check_contact_sides", "check_outputs", "history_rows",
            "scene_digest", "CHECKPOINT", "HISTORY_KEYS"]
 
 CHECKPOINT = "checkpoint.npz"
@@ -60,6 +71,9 @@ OPTIONAL_POINT_FIELDS = ("domain", "velocity", "acceleration")
 #: the times of the invocations so far (absent from a checkpoint written
 #: before they were kept)
 TIME_FIELDS = ("wall_seconds", "timing_names", "timing_values")
+#: the point outputs' values (absent from a checkpoint written before
+#: they were kept, 2026-11-30)
+OUTPUT_FIELDS = ("output_labels", "output_values", "output_from")
 
 
 #: point state that runs keep since checkpoints were first written,
@@ -140,6 +154,11 @@ class Checkpoint:
         Whether a tied obstacle's point state is its traction (every
         checkpoint written since 2026-11-29); ``False``: the multiplier,
         read from a checkpoint written before (:func:`check_tied`).
+    contact_sides
+        Whether each interface between bodies kept its point state on
+        its smaller side (every checkpoint written since 2026-11-30);
+        ``False``: on the declared second body, read from a checkpoint
+        written before (:func:`check_contact_sides`).
     series_every, series_steps
         The ``--series-every`` of the invocation that wrote it (a resume
         keeps it unless told another) and the steps up to ``step`` whose
@@ -152,6 +171,15 @@ class Checkpoint:
         the order first logged (``summary.json``'s ``warnings``: a
         resumed run's summary lists the whole run's); a checkpoint
         written before they were kept: none.
+    outputs, outputs_from
+        The values of the scene's point outputs (``[[outputs]]`` of a
+        displacement or stress, by label) at the steps after
+        ``outputs_from`` (0: every step; a run resumed from a checkpoint
+        written before they were kept keeps them from its resume on), one
+        each, as :func:`~skfem_mpm.cli.summarise` reports them; forces
+        and footing pressures come from ``reactions``.  ``None`` (and
+        ``step``): a checkpoint written before 2026-11-30, which kept
+        none.
 
     """
     step: int
@@ -168,9 +196,12 @@ class Checkpoint:
     timings: dict = field(default_factory=dict)
     end_force: Optional[ndarray] = None
     tied_traction: bool = True
+    contact_sides: bool = True
     series_every: int = 1
     series_steps: Optional[ndarray] = None
     warnings: tuple = ()
+    outputs: Optional[dict] = None
+    outputs_from: int = 0
 
     @property
     def complete(self) -> bool:
@@ -214,6 +245,7 @@ def save_checkpoint(outdir, checkpoint: Checkpoint):
               "timing_values": np.array([c.timings[k] for k in sorted(
                   c.timings)], dtype=np.float64),
               "tied_traction": np.array(bool(c.tied_traction)),
+              "contact_sides": np.array(bool(c.contact_sides)),
               "series_every": np.array(int(c.series_every)),
               "warnings": np.array(list(c.warnings), dtype=str)}
     for name in POINT_FIELDS:
@@ -228,6 +260,14 @@ def save_checkpoint(outdir, checkpoint: Checkpoint):
         arrays["end_force"] = c.end_force
     if c.series_steps is not None:
         arrays["series_steps"] = np.asarray(c.series_steps, np.int64)
+    if c.outputs is not None:
+        labels = sorted(c.outputs)
+        arrays.update(output_labels=np.array(labels, dtype=str),
+                      output_values=np.array(
+                          [c.outputs[k] for k in labels],
+                          dtype=np.float64).reshape(
+                              len(labels), c.step - c.outputs_from),
+                      output_from=np.array(int(c.outputs_from)))
     with atomic_path(Path(outdir) / CHECKPOINT) as tmp:
         with open(tmp, "wb") as f:
             np.savez(f, **arrays)
@@ -379,6 +419,9 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
     # written since 2026-11-29 (before: a tied obstacle's multiplier)
     tied = bool(get("tied_traction", "b", 0)) if "tied_traction" in a \
         else False
+    # written since 2026-11-30 (before: the declared second body's)
+    sides = bool(get("contact_sides", "b", 0)) if "contact_sides" in a \
+        else False
     end_force = get("end_force", "f", 1) if "end_force" in a else None
     if end_force is not None and (state.velocity is None or step == 0):
         raise bad("end_force", "is a dynamic run's after a step, and this "
@@ -396,6 +439,28 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
     # kept since 2026-11-30 (before: none)
     warned = tuple(str(w) for w in get("warnings", "U", 1)) \
         if "warnings" in a else ()
+    # kept since 2026-11-30 (before: none): all or none
+    outputs, first = None, step
+    held = [k for k in OUTPUT_FIELDS if k in a]
+    if held and len(held) < len(OUTPUT_FIELDS):
+        raise bad(next(k for k in OUTPUT_FIELDS if k not in a),
+                  "is missing (the outputs' labels, values and first step "
+                  "come together)")
+    if held:
+        labels = get("output_labels", "U", 1)
+        first = int(get("output_from", "i", 0))
+        if not 0 <= first <= step:
+            raise bad("output_from", "must lie in [0, step {}], got {}"
+                      .format(step, first))
+        measured = get("output_values", "f", 2)
+        if measured.shape != (labels.size, step - first):
+            raise bad("output_values", "has shape {}, expected ({}, {}): "
+                      "a row per label of output_labels, a column per "
+                      "step after output_from".format(
+                          measured.shape, labels.size, step - first))
+        if np.unique(labels).size != labels.size:
+            raise bad("output_labels", "names an output twice")
+        outputs = {str(k): v for k, v in zip(labels, measured)}
     return Checkpoint(step=step, nsteps=nsteps, load_factor=factor,
                       increment=increment, points=state,
                       counters={str(k): int(v) for k, v in zip(names,
@@ -404,8 +469,9 @@ def _checked(path, a: dict, scene_sha256) -> Checkpoint:
                       scene_sha256=digest, domain0=domain0,
                       wall_seconds=wall, timings=timings,
                       end_force=end_force, tied_traction=tied,
+                      contact_sides=sides,
                       series_every=every, series_steps=series,
-                      warnings=warned)
+                      warnings=warned, outputs=outputs, outputs_from=first)
 
 
 
@@ -477,6 +543,48 @@ def check_tied(path, checkpoint: Checkpoint, obstacles):
             "shifting the force of tied obstacle(s) {}): run the scene "
             "again from its start".format(path, ", ".join(
                 repr(name) for name in tied)))
+
+
+def check_contact_sides(path, checkpoint: Checkpoint, scene):
+    """Raise :class:`CheckpointError` where the checkpoint, written
+    before 2026-11-30, keeps the point state of a contact between
+    bodies of ``scene`` on its declared second body and the run now
+    pairs that interface's other, smaller side
+    (:func:`~skfem_mpm.solve.body_contact.swapped_interfaces`): resumed,
+    the pressures, gaps and friction tractions would be read at the
+    other body's points (zero there), a sticking interface's shear lost,
+    silently."""
+    if not scene.contacts or checkpoint.contact_sides \
+            or checkpoint.step == 0:
+        return
+    points = checkpoint.points
+    swapped = swapped_interfaces(scene.contacts, len(scene.bodies),
+                                 [b.name for b in scene.bodies],
+                                 points.body, points.volume0)
+    if swapped:
+        raise CheckpointError(
+            "{}: written before each interface between bodies paired its "
+            "smaller side's corners (2026-11-30; it paired the declared "
+            "second body's, where its point state lies, and the run now "
+            "pairs the other side of contact(s) {}, whose pressures and "
+            "friction a resume would read at the wrong points): run the "
+            "scene again from its start".format(path, ", ".join(
+                repr(name) for name in swapped)))
+
+
+def check_outputs(path, checkpoint: Checkpoint, labels) -> None:
+    """Raise :class:`CheckpointError` unless the checkpoint's point
+    outputs are the scene's, ``labels`` (the ``[[outputs]]`` of a
+    displacement or stress): the scene file is the checkpoint's (its
+    SHA-256), so others are an edited or damaged file.  A checkpoint
+    written before they were kept (``outputs`` ``None``) passes: the
+    resumed run's histories of them start at its resume."""
+    if checkpoint.outputs is None or set(checkpoint.outputs) == set(labels):
+        return
+    raise CheckpointError(
+        "{}: field 'output_labels' names the outputs {} where the scene's "
+        "point outputs are {}: the file was edited or damaged".format(
+            path, sorted(checkpoint.outputs), sorted(labels)))
 
 
 def some_names(names, shown: int = 4) -> str:

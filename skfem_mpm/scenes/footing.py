@@ -19,7 +19,15 @@ from ..mechanics.soils import DruckerPrager, MohrCoulomb
 from .regions import bounding_box, region_shape
 
 __all__ = ["soil_strength", "Footing", "scene_footing", "check_footing_scene",
-           "footing_pressure", "footing_forces"]
+           "footing_pressure", "footing_forces", "still_rising",
+           "STILL_RISING"]
+
+#: the rise of a footing's pressure over its last step, relative to it,
+#: beyond which a peak at that step is no collapse load (a plateau's
+#: steps rise by less: a trial's Tresca footing, its peak the last of 20
+#: steps, still rose 0.8% a step; a soil that never failed, its
+#: cohesion in Pa where the units were kPa, 5.3%, all 20 elastic)
+STILL_RISING = 0.005
 
 
 def soil_strength(material) -> tuple:
@@ -63,6 +71,15 @@ class Footing(NamedTuple):
     #: the soil's push on it is ``sign`` times its force there (a rigid
     #: body's holds its motion, down; an obstacle's is the material's)
     sign: float
+    #: it reaches the soil's side (a half model: that side is the
+    #: symmetry line of a footing twice as wide)
+    half: bool = False
+
+    @property
+    def B(self) -> float:
+        """The whole footing's width: twice :attr:`width` in a half
+        model (an engineer's ``s / B``), else :attr:`width`."""
+        return 2. * self.width if self.half else self.width
 
 
 def scene_footing(scene) -> Footing:
@@ -74,7 +91,10 @@ def scene_footing(scene) -> Footing:
     the part over the soil (the soil bodies' regions' x-extent, the
     grid's for a region that is a plain function: a half model's box may
     reach past the symmetry line), which must leave soil surface free
-    beside it; anything else is refused."""
+    beside it; anything else is refused.  A footing that reaches the
+    soil's side is half of a symmetric one, that side its symmetry line
+    (:attr:`Footing.half`: its ``B`` twice its width): ``N_c c`` is the
+    collapse pressure of a footing on a half-space, not at its edge."""
     from .scene import obstacle_list
     rigid = [b for b in scene.bodies if b.rigid is not None]
     obstacles = [(k, o) for k, o in enumerate(obstacle_list(scene))
@@ -115,7 +135,8 @@ def scene_footing(scene) -> Footing:
                 "mechanism and no N_c c".format(
                     obstacle.name, *obstacle.box[0], *soil))
         return Footing("obstacles", obstacle.name,
-                       first + len(rigid) + k, float(hi - lo), 1.)
+                       first + len(rigid) + k, float(hi - lo), 1.,
+                       bool(lo <= soil[0] or hi >= soil[1]))
     footing = rigid[0]
     if callable(footing.region):
         raise InvalidInputError(
@@ -132,7 +153,9 @@ def scene_footing(scene) -> Footing:
                 "its region's; put its edges on grid lines".format(
                     footing.name, edge, lines.min(), lines.max()))
     lo, hi = footing.region[0]
-    return Footing("rigid_bodies", footing.name, first, float(hi - lo), -1.)
+    soil = soil_extent(scene, lines[0], lines[-1])
+    return Footing("rigid_bodies", footing.name, first, float(hi - lo), -1.,
+                   bool(lo <= soil[0] or hi >= soil[1]))
 
 
 def soil_extent(scene, low: float, high: float) -> tuple:
@@ -182,6 +205,35 @@ def footing_pressure(scene, forces: ndarray) -> ndarray:
     (:func:`~skfem_mpm.scenes.footing.scene_footing`)."""
     footing = scene_footing(scene)
     return footing.sign * np.asarray(forces)[:, 1] / footing.width
+
+
+def still_rising(pressure: ndarray, unit: str = "") -> str:
+    """``""``, or where a footing's pressure per step (``pressure``, from
+    the first step; in ``unit``) peaks at its last step and that step
+    raised it by more than :data:`STILL_RISING` of it, the words of a
+    warning: that peak is no collapse load.
+
+    >>> from skfem_mpm.scenes.footing import still_rising
+    >>> still_rising([50., 100., 104.])[:59]
+    'not a collapse load: the footing pressure peaks at the last'
+    >>> still_rising([50., 100., 100.1]), still_rising([50., 104., 100.])
+    ('', '')
+    """
+    pressure = np.asarray(pressure, dtype=float)
+    if not pressure.size or int(np.argmax(pressure)) != pressure.size - 1 \
+            or pressure[-1] <= 0:
+        return ""
+    before = pressure[-2] if pressure.size > 1 else 0.
+    rise = (pressure[-1] - before) / pressure[-1]
+    if rise <= STILL_RISING:
+        return ""
+    return ("not a collapse load: the footing pressure peaks at the last "
+            "step, {:.6g}{}, and rose {:.2%} over that step (more than "
+            "{:.1%}): it is still rising; push the footing further (a "
+            "larger displacement) until the pressure levels off, in more "
+            "steps if they fail".format(
+                pressure[-1], " " + unit if unit else "", rise,
+                STILL_RISING))
 
 
 def footing_forces(scene, history) -> ndarray:

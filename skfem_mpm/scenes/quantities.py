@@ -26,13 +26,13 @@ from typing import Optional, Sequence, Tuple, Union
 import numpy as np
 from numpy import ndarray
 
-from ..errors import InvalidInputError, check_choice
+from ..errors import InvalidInputError, SceneError, check_choice
 from .regions import Ball, Polygon, closed_region
 from .scene import obstacle_list, reaction_resultants, support_names
 from .units import unit
 
 __all__ = ["Quantity", "QUANTITIES", "COMPONENTS", "REDUCTIONS",
-           "quantity_unit", "check_quantities"]
+           "POINTWISE", "quantity_unit", "check_quantities"]
 
 #: what a quantity can measure
 QUANTITIES = ("displacement", "stress", "reaction", "rigid_force",
@@ -42,6 +42,9 @@ QUANTITIES = ("displacement", "stress", "reaction", "rigid_force",
 #: the order of :func:`~skfem_mpm.scenes.scene.reaction_resultants`)
 FORCES = {"reaction": "support", "rigid_force": "body",
           "obstacle_force": "obstacle", "contact_force": "contact"}
+#: the quantities of the material points (the others, forces and a
+#: footing's pressure, are the steps' reactions')
+POINTWISE = ("displacement", "stress")
 #: the components of each kind of quantity
 COMPONENTS = {"displacement": ("x", "y", "z", "magnitude"),
               "stress": ("xx", "yy", "zz", "xy", "xz", "yz", "mises",
@@ -345,7 +348,10 @@ class Quantity:
         "load_factor": [...], "value": [...]}``, with ``"time"`` in
         dynamics; its last value is :meth:`measure`'s.  A mean over
         points weighs them by their final volumes (the steps' own in
-        small strain); ``footing_pressure`` gives the pressure of each
+        small strain: ``skfem-mpm run`` measures each step's points as
+        the step ends instead, :func:`~skfem_mpm.cli.output_summaries`,
+        so that a resumed run's history is an uninterrupted one's);
+        ``footing_pressure`` gives the pressure of each
         step (its ``value`` is the largest).  Steps of the points' values
         are measured together (one fit for a place ``at``), not point by
         point."""
@@ -391,6 +397,39 @@ class Quantity:
                           np.arange(values.shape[1])].tolist()
         return getattr(values, reduce)(axis=0).tolist()
 
+    def of_forces(self, scene, reactions: ndarray) -> ndarray:
+        """A force quantity or ``footing_pressure`` at every step, (steps,),
+        from the steps' ``reactions`` (steps, rows, dim): per step the
+        rows of :func:`~skfem_mpm.scenes.scene.reaction_resultants`
+        (supports, rigid bodies, obstacles, contacts), as a checkpoint
+        keeps them, so that a resumed run has the whole run's; a
+        ``footing_pressure`` gives each step's pressure (:meth:`measure`
+        its largest)."""
+        reactions = np.asarray(reactions, dtype=float)
+        if self.quantity == "footing_pressure":
+            from .footing import footing_pressure, scene_footing
+            return footing_pressure(scene, reactions[
+                :, scene_footing(scene).column])
+        if self.quantity not in FORCES:
+            raise InvalidInputError("{}: a point quantity is not one of "
+                                    "the forces".format(self.label))
+        names = reaction_resultants(scene)[0]
+        # supports, rigid bodies, obstacles and contacts in that order:
+        # the name is looked up among its own kind (with the contacts'
+        # names last, the obstacles were looked up among the wrong names,
+        # and a finished run ended in a ValueError)
+        ends = np.cumsum([len(scene.supports), len(names) - len(
+            scene.supports) - len(scene.obstacles) - len(scene.contacts),
+            len(scene.obstacles), len(scene.contacts)])
+        kinds = [names[a:b] for a, b in zip(np.r_[0, ends[:-1]], ends)]
+        kind = list(FORCES).index(self.quantity)
+        start = sum(len(k) for k in kinds[:kind])
+        force = reactions[:, start + kinds[kind].index(
+            getattr(self, FORCES[self.quantity]))]
+        if self.component == "magnitude":
+            return np.linalg.norm(force, axis=1)
+        return force[:, "xyz".index(self.component)].copy()
+
     def measure(self, scene, result) -> float:
         """The quantity of a finished run (``result`` of
         :func:`~skfem_mpm.scenes.scene.run_scene` on ``scene``); a box
@@ -402,25 +441,10 @@ class Quantity:
                 scene, result.history))
             return float(pressure.max()) if pressure.size else float("nan")
         if self.quantity in FORCES:
-            names, resultant = reaction_resultants(scene)
-            rows = resultant(result.history[-1])
-            # supports, rigid bodies, obstacles and contacts in that
-            # order: the name is looked up among its own kind (with the
-            # contacts' names last, the obstacles were looked up among
-            # the wrong names, and a finished run ended in a ValueError)
-            ends = np.cumsum([len(scene.supports), len(names) - len(
-                scene.supports) - len(scene.obstacles) - len(
-                    scene.contacts), len(scene.obstacles),
-                len(scene.contacts)])
-            kinds = [names[a:b] for a, b in zip(np.r_[0, ends[:-1]], ends)]
-            kind = list(FORCES).index(self.quantity)
-            start = sum(len(k) for k in kinds[:kind])
-            force = rows[start + kinds[kind].index(
-                getattr(self, FORCES[self.quantity]))]
+            resultant = reaction_resultants(scene)[1]
             # + 0.: an obstacle never touched has -0.0, not "-0 N"
-            return float(np.linalg.norm(force)) if \
-                self.component == "magnitude" else \
-                float(force["xyz".index(self.component)]) + 0.
+            return float(self.of_forces(scene, resultant(
+                result.history[-1])[None])[0]) + 0.
         pts = result.points
         chosen = self._chosen(scene, pts)
         if not chosen.any():
@@ -511,14 +535,30 @@ def fitted_value(x0: ndarray, values: ndarray, at: ndarray):
     return float(coef[0]) if np.ndim(values) == 1 else coef[0]
 
 
-def check_quantities(scene, quantities: Sequence[Quantity], points=None):
+def check_quantities(scene, quantities: Sequence[Quantity], points=None,
+                     key: Optional[str] = None):
     """:meth:`Quantity.check` every quantity (on the scene's initial
     ``points`` when given), and refuse two with one label (tables and
-    plots tell them apart by it)."""
+    plots tell them apart by it).  ``key``: the scene file's table the
+    quantities are (``"outputs"``): each refusal names its entry,
+    ``outputs[K]``, all of them in one
+    :class:`~skfem_mpm.errors.SceneError` (a trial's place outside the
+    points was refused without it, where every other problem of a scene
+    file is named so)."""
     labels = [q.label for q in quantities]
     twice = sorted({a for a in labels if labels.count(a) > 1})
     if twice:
-        raise InvalidInputError("quantities named twice: {}; give them "
-                                "distinct names".format(", ".join(twice)))
-    for q in quantities:
-        q.check(scene, points)
+        raise InvalidInputError("{}quantities named twice: {}; give them "
+                                "distinct names".format(
+                                    "" if key is None else key + ": ",
+                                    ", ".join(twice)))
+    problems = []
+    for k, q in enumerate(quantities):
+        try:
+            q.check(scene, points)
+        except InvalidInputError as err:
+            if key is None:
+                raise
+            problems.append("{}[{}]: {}".format(key, k, err))
+    if problems:
+        raise SceneError(problems)

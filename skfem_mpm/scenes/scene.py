@@ -44,7 +44,7 @@ from ..solve.rigid import RigidBody, beyond_cell_words
 from ..stabilisation.settings import Stabilisation
 from .footing import check_footing_scene
 from .regions import Ball, Polygon, bounding_box, check_shape, closed_region
-from .units import check_units
+from .units import check_units, unit
 
 logger = logging.getLogger(__name__)
 
@@ -895,6 +895,28 @@ def warn_unreached_supports(scene: Scene, mesh, elem,
                 "to it)", name, distance.min(), scene.method, reach)
 
 
+def warn_strength_above_stiffness(scene: Scene):
+    """Log a warning for each body whose material's strength (a soil's
+    ``cohesion``, a metal's ``yield_stress``) exceeds its Young's modulus
+    ``E``: a soil's or a metal's strength is some 1e-4 to 1e-2 of its
+    stiffness, and one above it is a unit slipped (a trial's clay took its
+    cohesion in Pa, 20000, in a scene in kPa, E = 1e4: it never yielded, its
+    footing pressure 0.4% of N_c c, and nothing said so)."""
+    stress = unit("stress", scene.units)
+    for body in scene.bodies:
+        material, E = body.material, getattr(body.material, "E", None)
+        for name in ("cohesion", "yield_stress"):
+            strength = getattr(material, name, None)
+            if E is None or strength is None or strength <= E:
+                continue
+            logger.warning(
+                "body %r: its %s %g %s exceeds its Young's modulus E = %g "
+                "%s (a soil's or a metal's strength is some 1e-4 to 1e-2 "
+                "of its stiffness): a unit slipped? Every stress of the "
+                "scene is in %s (units = %r)", body.name, name, strength,
+                stress, E, stress, stress, scene.units)
+
+
 def warn_ramped_gravity(scene: Scene):
     """Log a warning where the gravity of bodies without ``K0`` grows with
     the load factor while an obstacle, a rigid body or a moving support
@@ -1075,6 +1097,7 @@ def run_scene(scene: Scene, points: Optional[MaterialPoints] = None,
         warn_unreached_supports(scene, mesh, elem, points)
         warn_held_tractions(scene, mesh, elem, initial)
         warn_ramped_gravity(scene)
+        warn_strength_above_stiffness(scene)
     materials = [b.material for b in scene.bodies]
     material = materials[0] if len(materials) == 1 else materials
     supports = scene_supports(scene, mesh.dim())

@@ -1154,9 +1154,11 @@ def parse_scene(data: dict, source: str = "") -> Scene:
                           scene.units)
     if outputs and not c.problems:
         try:
-            check_quantities(scene, outputs)
+            check_quantities(scene, outputs, key="outputs")
+        except SceneError as err:
+            c.problems.extend(err.problems)
         except InvalidInputError as err:
-            c.problems.append("outputs: {}".format(err))
+            c.problems.append(str(err))
     if not (supports or obstacles) and dynamics is None and \
             not c.problems:
         c.problems.append("supports: missing: without supports or "

@@ -54,7 +54,10 @@ each pair taking its own normal's part), so a sticking interface keeps
 its shear, and its pressure ahead by the rate it rose at in the last
 step (``_r<a><c>``, per unit of the load factor; zero after a step
 whose pairs changed, and not in a run's first step), a Coulomb pair's
-friction traction scaled alike; any other pair that penetrates at a
+friction traction scaled alike; a node's pair on another corner than
+the last step's (a body sliding along the other past the grid) starts
+from the state its node's last pair left, at its own gap
+(:meth:`StepBodyContact.heirs`); any other pair that penetrates at a
 step's start is closed there (the corners of deformed domains, moved
 through each point's own gradient, are not quite where the grid field
 moved the last step's pairs).  The penalty ``kappa``
@@ -81,14 +84,19 @@ from ..quadrature.locate import point_locator
 from .contact import (CellValues, block_diagonal, check_carried_corners,
                       corner_signs, coulomb, friction_hint, rough_apart_join,
                       side_rows, spline_rows)
-from .contact_pairs import FACING, PairFinder, overlapping
+from .contact_pairs import FACING, HELD, PairFinder, overlapping
 from .dynamics import operator_slivers, value_matrix
 from .problem import SLIVER_SUPPORT
 
 logger = logging.getLogger(__name__)
 
+#: the cells deep a pair may start before it is warned of as a misread
+#: (:meth:`StepBodyContact.add`)
+MISREAD = .25
+
 __all__ = ["Contact", "check_contacts", "contact_interfaces",
-           "interface_count", "BodyContact", "body_contact_state_names"]
+           "interface_count", "swapped_interfaces", "BodyContact",
+           "body_contact_state_names"]
 
 
 class Contact:
@@ -104,9 +112,10 @@ class Contact:
     soil (body 0): ``Contact(0, 1, friction=f)`` and ``Contact(0, 2,
     friction=f)``, though the cap never reaches the soil.  Each contact
     reports the force of the interface's pairs, each pair's shared by
-    the bodies of the corners at its two corners' places (two blocks
-    glued side by side on a third each report the load on their own
-    top; ``docs/contact.md``).
+    the bodies that touch the other group nearest its corners (two
+    blocks glued side by side on a third each report the load on their
+    own top, a cap above the soil nothing;
+    :meth:`BodyContact.declared_forces`, ``docs/contact.md``).
 
     Parameters
     ----------
@@ -136,7 +145,9 @@ class Contact:
         of every pair (and the gap of a pair still pressed) and the slip
         of every sticking pair, in cells; and the penalty's pressure on
         the deepest penetration, relative to the largest pair's pressure
-        (the multipliers settled).
+        (the multipliers settled; where a round no longer closes the
+        penetration, the grid's forces of the penalty's pressures
+        relative to the pairs': :func:`unsettled`).
 
     Examples
     --------
@@ -150,10 +161,14 @@ class Contact:
                  penalty: float = 10., tolerance: float = 1e-3):
         for which, body in (("first", first), ("second", second)):
             if not isinstance(body, (str, int, np.integer)) or \
-                    isinstance(body, bool):
+                    isinstance(body, bool) or \
+                    not isinstance(body, str) and body < 0:
+                # (a negative index was named '0--1' before it was
+                # refused as a body that does not exist: a user trial)
                 raise InvalidInputError(
-                    "Contact {} body must be a body index or name, got "
-                    "{!r}".format(which, body))
+                    "Contact {} body must be a body index (>= 0) or "
+                    "name, got {!r}".format(which, int(body) if isinstance(
+                        body, np.integer) else body))
         self.first, self.second = first, second
         if isinstance(friction, str):
             if friction != "rough":
@@ -189,7 +204,25 @@ def check_contacts(contacts, nbodies: int, names=None):
     pair that cannot be apart (glued through a third body), or two
     contacts between the same two groups of glued bodies (one interface:
     :func:`contact_interfaces`) whose friction, tolerance or penalty
-    differ."""
+    differ (compared at single precision: a friction of 0.3 given as a
+    ``numpy.float32`` on one contact and a float on the other was refused
+    as two, a user trial), and ``contacts`` not a list of them.
+
+    >>> check_contacts(Contact(0, 1), 2)    # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    skfem_mpm.errors.InvalidInputError: contacts must be a list ... pass...
+    """
+    if isinstance(contacts, Contact):
+        raise InvalidInputError(
+            "contacts must be a list of Contact items, got one Contact: "
+            "pass contacts=[{!r}]".format(contacts))
+    try:
+        contacts = list(contacts)
+    except TypeError:
+        raise InvalidInputError(
+            "contacts must be a list of Contact items, got {}".format(
+                type(contacts).__name__)) from None
     checked = []
     for contact in contacts:
         if not isinstance(contact, Contact):
@@ -215,8 +248,14 @@ def check_contacts(contacts, nbodies: int, names=None):
                                     "contact with itself".format(contact.name))
         checked.append((bodies[0], bodies[1], contact))
     pairs = [frozenset(c[:2]) for c in checked]
-    if len(set(pairs)) < len(pairs):
-        raise InvalidInputError("a pair of bodies has two contacts")
+    for j, pair in enumerate(pairs):
+        if pair in pairs[:j]:
+            i = pairs.index(pair)
+            raise InvalidInputError(
+                "contacts {!r} and {!r} are both between bodies {} and {}: "
+                "a pair of bodies has one contact".format(
+                    checked[i][2].name, checked[j][2].name,
+                    *sorted(pair)))
     given = [c[2].name for c in checked]
     if len(set(given)) < len(given):
         raise InvalidInputError("contact names must differ, got {}".format(
@@ -231,7 +270,8 @@ def check_contacts(contacts, nbodies: int, names=None):
         other = between[key]
         differ = [(what, getattr(other, what), getattr(contact, what))
                   for what in ("friction", "tolerance", "penalty")
-                  if getattr(other, what) != getattr(contact, what)]
+                  if not same_setting(getattr(other, what),
+                                      getattr(contact, what))]
         if differ:
             groups = [np.flatnonzero(field == f).tolist() for f in
                       sorted(key)]
@@ -248,6 +288,21 @@ def check_contacts(contacts, nbodies: int, names=None):
                     ", ".join("{} ({!r} and {!r})".format(*d)
                               for d in differ)))
     return checked, field
+
+
+def same_setting(a, b) -> bool:
+    """Whether two contacts' friction, tolerance or penalty ``a`` and
+    ``b`` are the same: equal strings, or numbers equal at single
+    precision (what a ``numpy.float32`` holds).
+
+    >>> same_setting(float(np.float32(.3)), .3), same_setting(.3, .30001)
+    (True, False)
+    >>> same_setting("rough", .3)
+    False
+    """
+    if isinstance(a, str) or isinstance(b, str):
+        return a == b
+    return bool(np.float32(a) == np.float32(b))
 
 
 def contact_interfaces(checked, field: ndarray) -> tuple:
@@ -325,6 +380,33 @@ def smaller_second(found: list, members: list, field: ndarray,
                 penalty=contact.penalty, tolerance=contact.tolerance))
             members[k] = [(j, c, d, -sign)
                           for j, c, d, sign in members[k]]
+
+
+def swapped_interfaces(contacts, nbodies: int, names, body: ndarray,
+                       volume: ndarray) -> list:
+    """The names of the interfaces of ``contacts`` (bodies ``names``, or
+    indices of ``nbodies``) that a run pairs the other way round than
+    declared (:func:`smaller_second`: their declared second side holds
+    more of the points' initial ``volume``, ``body`` their bodies): a
+    contact's point state lies on the other side's points than before
+    2026-11-30, when the declared second was paired.
+
+    >>> import numpy as np
+    >>> from skfem_mpm import Contact
+    >>> body, volume = np.array([0, 1, 1]), np.ones(3)
+    >>> swapped_interfaces([Contact(0, 1)], 2, None, body, volume)
+    ['0-1']
+    >>> swapped_interfaces([Contact(1, 0)], 2, None, body, volume)
+    []
+    """
+    checked, field = check_contacts(contacts, nbodies, names)
+    found, members = contact_interfaces(checked, field)
+    declared = [a for a, _, _ in found]
+    summed = np.zeros(field.max() + 1)
+    np.add.at(summed, field[body], volume)
+    smaller_second(found, members, field, summed)
+    return [contact.name for (a, _, contact), first in zip(found, declared)
+            if a != first]
 
 
 def interface_count(contacts, nbodies: int, names=None) -> int:
@@ -456,10 +538,28 @@ def facing_tree(half: ndarray, d: int, other: ndarray,
                 extent: float) -> cKDTree:
     """The tree of the points ``other`` that :func:`facing` searches
     along axis ``d`` (both signs alike: a body's sides took a tree each,
-    0.1 s of a run's start at 1e5 points)."""
+    0.1 s of a run's start at 1e5 points), split at the midpoints of its
+    boxes (medians, of a lattice's many equal coordinates: 1.7 times
+    longer to build)."""
     scale = np.array(half, dtype=float)
     scale[d] = extent / 2
-    return cKDTree((other / scale[:, None]).T)
+    return cKDTree((other / scale[:, None]).T, balanced_tree=False)
+
+
+def near_box(other: ndarray, x: ndarray, margin: ndarray) -> ndarray:
+    """Which of the points ``other`` (dim, q) lie within ``margin``
+    (dim,; ``inf`` along an axis: any) of the box of the points ``x``
+    (dim, m) along every axis (none where ``x`` has none).
+
+    >>> x = np.array([[0., 1.], [0., 0.]])
+    >>> other = np.array([[-.5, 1.5, .5], [0., 0., 2.]])
+    >>> near_box(other, x, np.array([.5, 1.])).tolist()
+    [True, True, False]
+    """
+    if not x.shape[1]:
+        return np.zeros(other.shape[1], dtype=bool)
+    return np.all((other >= (x.min(axis=1) - margin)[:, None])
+                  & (other <= (x.max(axis=1) + margin)[:, None]), axis=0)
 
 
 class BodyContact(GridTerm):
@@ -501,11 +601,17 @@ class BodyContact(GridTerm):
         pair along a grid axis on the side of their domain facing the
         other body move with them (:meth:`rows`); or ``None``: with the
         grid element's shape functions.
+    locate
+        :func:`~skfem_mpm.quadrature.locate.point_locator` of one field's
+        grid with its defaults (the run's own: a second took 20 ms of a
+        run's start at 1e5 points), or ``None``: built at the corners'
+        first location (:meth:`corner_cells`).
     """
 
     def __init__(self, contacts, field: ndarray, mesh, elem, vertices: int,
                  cell_size: float, material, domain0, finite: bool,
-                 counters: dict, weights=None, cells: int = 0, gimp=None):
+                 counters: dict, weights=None, cells: int = 0, gimp=None,
+                 locate=None):
         #: the interfaces (one per pair of fields) and each one's contacts
         self.contacts, self.members = contact_interfaces(contacts, field)
         self.declared = contacts
@@ -523,8 +629,9 @@ class BodyContact(GridTerm):
         self.geometry, self.supports = WeakKeyDictionary(), \
             WeakKeyDictionary()
         self.kept_corners = None     # :meth:`corners`, the last
-        self.grid_locate = None      # :meth:`corner_cells`
+        self.grid_locate = locate    # :meth:`corner_cells`
         self.interfaces = WeakKeyDictionary()    # :meth:`interface`
+        self.node_tree = None        # the grid's nodes: StepBodyContact.heirs
         self.finder = PairFinder(self.contacts, field, mesh, vertices,
                                  cell_size,
                                  columns=weights is not None)
@@ -537,19 +644,29 @@ class BodyContact(GridTerm):
         #: surface loads at the last step tried (:meth:`sliding_load_hint`), and whether
         #: its contact alone may hold it (:meth:`held_by_contact_alone`)
         self.loads, self.alone = None, None
+        #: the contacts whose pairs were told to start deep
+        #: (:meth:`StepBodyContact.add`: once a run, not every step)
+        self.told_deep = set()
 
     def warn_sides_inside_cells(self, points, half: ndarray) -> None:
-        """A warning where a side of a body in contact (a face of a
-        point's domain, ``half`` its half-widths, with no domain of the
-        body beside it) faces a body it is in contact with and lies
-        inside a grid cell: such bodies may lean and settle by the grid.
+        """A warning where a body in contact touches a body it is in
+        contact with on both its sides across an axis (faces of its
+        points' domains, ``half`` their half-widths, with no domain of the
+        body beside them), one of them inside a grid cell: such bodies
+        may lean and settle by the grid.
         Judged on the points' initial positions, so a run resumed where
         its bodies have moved says what its first invocation said (a user
         trial's resumed run warned where the first had not).  Given on
         every contact run, it told a user whose bodies' sides all
         lay on grid lines the same; given for every side inside a cell,
         it told a user whose block lay on a slab of the grid's width, its
-        sides inside cells facing nothing (user trials)."""
+        sides inside cells facing nothing (user trials); given for any
+        side inside a cell that faced the other body, it told users whose
+        bodies met on a flat interface inside a cell, or lay apart, the
+        same: only the sides of a body held between the other's across
+        an axis, both touching it (a pile in its soil), count, and both
+        the same group of glued bodies (one field: a block between two
+        others, on flat interfaces inside cells, was warned)."""
         dim, inside = self.dim, 0
         stairs = []               # (body, partner bodies, axis, levels)
         partners = {}
@@ -558,7 +675,7 @@ class BodyContact(GridTerm):
             partners.setdefault(b, set()).add(a)
         for k, others in partners.items():
             sel = np.flatnonzero(points.body == k)
-            x, w = points.x0[:, sel], half[:, sel]
+            x, w = points.x0.take(sel, axis=1), half.take(sel, axis=1)
             if not np.allclose(w, w[:, :1]):    # not one lattice: say so
                 inside = 1
                 break
@@ -567,18 +684,48 @@ class BodyContact(GridTerm):
                 np.int64) + 1
             shape = tuple(q.max(axis=1) + 2)
             keys = np.ravel_multi_index(tuple(q), shape)
-            partner = points.x0[:, np.isin(points.body, list(others))]
+            on = np.isin(points.body, list(others))
+            partner = points.x0.compress(on, axis=1)
+            fields = self.field[points.body]
+            groups = {f: points.x0.compress(on & (fields == f), axis=1)
+                      for f in np.unique(self.field[list(others)])}
             for d in range(dim):
                 lines = self.lines[d]
-                tree = facing_tree(w[:, 0], d, partner, lines[-1] - lines[0]) \
-                    if partner.shape[1] else None
+                sides = []
                 for sign in (-1, 1):
                     moved = q.copy()
                     moved[d] += sign
-                    side = ~np.isin(np.ravel_multi_index(tuple(moved),
-                                                         shape), keys)
+                    sides.append(~np.isin(np.ravel_multi_index(
+                        tuple(moved), shape), keys))
+                # the trees of the partners' points that may face the
+                # sides, of those in a box round the sides' domains, twice
+                # the width facing() looks within (along the sides of a
+                # stack a row: trees of the whole partners took 30 ms of a
+                # run's start at 1e5 points, twelve of them 0.1 s)
+                margin = 2 * w[:, 0]
+                margin[d] = np.inf
+                across = partner.compress(near_box(
+                    partner, x[:, sides[0] | sides[1]], margin), axis=1)
+                tree = facing_tree(w[:, 0], d, across, lines[-1] - lines[0]) \
+                    if across.shape[1] else None
+                # the sides that touch a partner (its domains' centres
+                # within their half-width of the face), per sign: a body
+                # held between the other's across the axis (a pile in its
+                # soil) leans and settles by the grid where one of them
+                # lies inside a cell; a flat interface inside a cell, or
+                # bodies apart, do not (cpGIMP, a block on a slab, its
+                # bottom inside a cell: settled within 1% of the refined
+                # grid's, glued 5%; user trials)
+                reach = half[d, on].max(initial=0.) + FACING * self.h
+                margin[d] = w[d, 0] + 2 * reach
+                # per group of glued partners (one field): a body between
+                # two others, flat interfaces inside cells, leans on none
+                # (the review: three stacked blocks were warned)
+                touch = {f: [False, False] for f in groups}
+                off_lines = dict.fromkeys(groups, 0)
+                for sign, side in zip((-1, 1), sides):
                     face = x[d, side] + sign * w[d, side]
-                    faces = facing(x[:, side], w[:, 0], d, sign, partner,
+                    faces = facing(x[:, side], w[:, 0], d, sign, across,
                                    lines[-1] - lines[0], tree)
                     levels = np.unique(np.rint(face[faces] / step[d]))
                     # consecutive levels, one domain apart: a staircase,
@@ -593,8 +740,16 @@ class BodyContact(GridTerm):
                                  lines.size - 1)
                     off = np.minimum(np.abs(face - lines[at - 1]),
                                      np.abs(face - lines[at]))
-                    inside += int(np.count_nonzero(faces
-                                                   & (off > 1e-9 * self.h)))
+                    for f, group in groups.items():
+                        meets = facing(x[:, side], w[:, 0], d, sign,
+                                       group.compress(near_box(
+                                           group, x[:, side], margin),
+                                           axis=1), reach)
+                        touch[f][sign > 0] = bool(meets.any())
+                        off_lines[f] += int(np.count_nonzero(
+                            meets & (off > 1e-9 * self.h)))
+                inside += sum(off_lines[f] for f in groups
+                              if all(touch[f]))
         for k, others, d, levels in stairs[:1]:
             logger.warning(
                 "contact between bodies: body %d's surface facing body %s "
@@ -772,40 +927,106 @@ class BodyContact(GridTerm):
         return (contacts == 1) & ~held[self.field] & (
             np.bincount(self.field, minlength=fields)[self.field] == 1)
 
-    def declared_forces(self, parts, ev, points) -> ndarray:
+    def declared_forces(self, parts, ev, points, among) -> ndarray:
         """The force (contacts x dim) the first body of each contact
         exerts on the second, from its interface's pairs' tractions on
         the interface's second field (``ev``, of
-        :meth:`StepBodyContact.evaluate`), each pair's split by the
-        bodies of the corners at its two corners' places (``sides``, of
-        :meth:`StepBodyContact.add`; every pair of an interface's
-        fields' bodies has a contact, else they would be glued): a
-        contact takes the share of its first body on one side times its
-        second's on the other.  A pair on the line where two glued
-        bodies meet shares their corners: taken whole by the body of
-        the corner the pairs' search found, the load ``p`` on two
-        blocks side by side, each half the width, on a third, was 3.75
-        and 6.25 for 5 and 5."""
+        :meth:`StepBodyContact.evaluate`), each pair's split among the
+        bodies of its two fields (every pair of an interface's fields'
+        bodies has a contact, else they would be glued): a contact takes
+        the share of its first body on one side times its second's on
+        the other, a side's shares those of its bodies that touch the
+        other field (:meth:`touching`; all where none does) whose
+        material lies nearest the pair's corner on the other side
+        (:meth:`nearest_bodies`), ``points`` the state the step ended
+        at, ``among`` the points searched (the step's interface).  By
+        the bodies of the corners at each corner's own place, a user
+        trial's cap glued to its pile 0.7 cells above Tresca soil
+        reported 1.39 of the load of 20, and 0.30 of 7.06 in finite
+        strain 0.3 cells above it: pairs of the cap's corners and the
+        soil's corners beside the pile's head along inclined normals;
+        now nothing.  A pair on the line where two glued bodies meet is
+        shared by both (taken whole by the body of the corner the pairs'
+        search found, the load ``p`` on two blocks side by side, each
+        half the width, on a third, was 3.75 and 6.25 for 5 and 5)."""
         out = np.zeros((len(self.declared), self.dim))
-        nb = len(self.field)
+        X = touch = None
         for part, e, members in zip(parts, ev, self.members):
             if len(members) == 1:
                 j, _, _, sign = members[0]
                 out[j] = sign * e[0].sum(axis=1)
                 continue
-            m = e[0].shape[1]
-            sides = part.get("sides", np.zeros((2, 0), dtype=np.int64))
-            side = part.get("side", np.zeros(0, dtype=np.int64))
+            if X is None:
+                X = self.corners(points).reshape(self.dim, -1)
+                touch = self.touching(points, among)
             # per side (0: the second field's, 1: the first's), pair and
-            # body: the share of the corners at the pair's place
-            share = np.zeros((2, m, nb))
-            np.add.at(share, (side, sides[0], points.body[sides[1]]), 1.)
-            share /= np.maximum(share.sum(axis=2, keepdims=True), 1.)
+            # body: the shares of the pairs that carry a force
+            loaded = np.flatnonzero(np.abs(e[0]).max(axis=0) > 0.)
+            B, A = np.divmod(part["keys"][loaded], X.shape[1])
+            first, second = self.field[list(
+                self.contacts[part["contact"]][:2])]
+            share = [self.nearest_bodies(
+                points, X[:, at], among, field,
+                touch[:, self.field == other].any(axis=1))
+                for at, field, other in ((A, second, first),
+                                         (B, first, second))]
             for j, a, b, sign in members:
-                mine = share[1, :, a] * share[0, :, b] \
-                    + share[1, :, b] * share[0, :, a]
-                out[j] = sign * (e[0] @ mine)
+                mine = share[1][:, a] * share[0][:, b] \
+                    + share[1][:, b] * share[0][:, a]
+                out[j] = sign * (e[0][:, loaded] @ mine)
         return out
+
+    def touching(self, points, among) -> ndarray:
+        """Per two bodies (bodies x bodies), whether their domains (as
+        :meth:`corners` has them) among the points ``among`` lie within
+        :data:`TOUCHING` cells of each other, in the maximum norm."""
+        out = np.zeros((self.field.size,) * 2, dtype=bool)
+        X = self.corners(points)[:, :, among]
+        lo, hi = X.min(axis=1), X.max(axis=1)
+        centre, half = (lo + hi) / 2, (hi - lo) / 2
+        reach = TOUCHING * self.h
+        i, j = cKDTree(centre.T).query_pairs(
+            2 * half.max(initial=0.) + reach, p=np.inf,
+            output_type="ndarray").T
+        body = points.body[among]
+        i, j = i[body[i] != body[j]], j[body[i] != body[j]]
+        apart = np.maximum(np.abs(centre[:, i] - centre[:, j]) - half[:, i]
+                           - half[:, j], 0.).max(axis=0, initial=0.)
+        close = apart <= reach
+        out[body[i[close]], body[j[close]]] = True
+        return out | out.T
+
+    def nearest_bodies(self, points, at: ndarray, among: ndarray,
+                       field: int, allowed: ndarray) -> ndarray:
+        """Per position ``at`` (dim, m), the shares (m, bodies) of the
+        bodies on ``field`` (of those ``allowed``, a mask of the bodies,
+        where any is) whose domains (as :meth:`corners` has them) among
+        the points ``among`` lie nearest it, in the maximum norm, alike
+        within :data:`~skfem_mpm.solve.contact_pairs.FACING` cells
+        (shared equally)."""
+        out = np.zeros((at.shape[1], self.field.size))
+        on = among[self.point_field[among] == field]
+        if allowed[points.body[on]].any():
+            on = on[allowed[points.body[on]]]
+        if not at.shape[1] or not on.size:
+            return out
+        X = self.corners(points)[:, :, on]
+        lo, hi = X.min(axis=1), X.max(axis=1)
+        centre, half = (lo + hi) / 2, (hi - lo) / 2
+        tie = FACING * self.h
+        tree = cKDTree(centre.T)
+        # the nearest centre bounds the nearest domain
+        bound = tree.query(at.T, p=np.inf)[0] + tie + half.max()
+        found = tree.query_ball_point(at.T, bound, p=np.inf)
+        pair = np.repeat(np.arange(at.shape[1]), [len(f) for f in found])
+        near = np.concatenate(found).astype(np.int64)
+        apart = np.maximum(np.abs(at[:, pair] - centre[:, near])
+                           - half[:, near], 0.).max(axis=0)
+        least = np.full(at.shape[1], np.inf)
+        np.minimum.at(least, pair, apart)
+        keep = apart <= least[pair] + tie
+        out[pair[keep], points.body[on[near[keep]]]] = 1.
+        return out / np.maximum(out.sum(axis=1, keepdims=True), 1.)
 
     def domain_offsets(self, points) -> ndarray:
         """The corners' offsets from their points (dim, corners, n) where
@@ -1229,9 +1450,12 @@ class BodyContact(GridTerm):
             sel = np.flatnonzero(self.point_field == k)
             if not sel.size:
                 continue
-            reach = half[:, sel].max() + size.max() + 2 * SUPPORT_NEAREST * h
+            reach = half.take(sel, axis=1).max() + size.max() \
+                + 2 * SUPPORT_NEAREST * h
             # the points near a support (a tree of those, not of the
-            # field's every point: 0.15 s a step at 1e5 points)
+            # field's every point: 0.15 s a step at 1e5 points), of those
+            # in the supports' bins (each point searched: 25 ms a step)
+            sel = sel[near_sites(centre.take(sel, axis=1), at, reach)]
             sel = sel[tree.query(centre[:, sel].T, p=np.inf,
                                  distance_upper_bound=reach)[0] <= reach]
             near = cKDTree(centre[:, sel].T).sparse_distance_matrix(
@@ -1295,6 +1519,15 @@ PASSING_NEAR = 2.
 #: (:meth:`~skfem_mpm.solve.contact.ObstacleContact.corner_cells`)
 PULL = 1e-6
 
+#: the most bins of :func:`near_sites`' raster of sites
+SITE_BINS = 1 << 20
+
+#: the cells within which two bodies' domains touch, for the force each
+#: contact of an interface reports (:meth:`BodyContact.declared_forces`):
+#: a cap glued to its pile 0.3 cells above the soil (a user trial) does
+#: not
+TOUCHING = .1
+
 #: the points whose corners' splines are evaluated at once
 #: (:meth:`BodyContact.corner_motion`)
 CORNER_BLOCK = 1 << 13
@@ -1302,6 +1535,11 @@ CORNER_BLOCK = 1 << 13
 #: the most an augmented-Lagrangian update is stretched by
 #: (:func:`accelerated`)
 STRETCH = 20.
+
+#: the share of the last augmented-Lagrangian round's penetration a
+#: round that closes no more leaves, from which :func:`unsettled` judges
+#: the multipliers by the grid's forces
+STALLED_ROUND = .99
 
 #: the cosine between two rounds' updates above which they are one mode
 ALIGNED = .99
@@ -1317,7 +1555,9 @@ def nearest_within(x: ndarray, these: ndarray, those: ndarray,
     in the maximum norm to the nearest of ``those``, ``inf`` beyond
     ``bound``: only the points of each within ``bound`` of the other's
     box are searched (two bodies stacked at 1e5 points: a tree of each
-    whole body, 0.27 s a step).
+    whole body, 0.27 s a step).  The points are gathered row by row
+    (``take``): the boxes of ``x[:, these]``, laid out point by point,
+    took 5 ms a call there, 20 ms of a step's start.
 
     >>> import numpy as np
     >>> x = np.array([[0., 1., 5., 1.5], [0., 0., 0., 0.]])
@@ -1325,18 +1565,88 @@ def nearest_within(x: ndarray, these: ndarray, those: ndarray,
     [inf, 0.5, inf]
     """
     out = np.full(these.size, np.inf)
-    a, b = x[:, these], x[:, those]
     if not (these.size and those.size):
         return out
+    a, b = x.take(these, axis=1), x.take(those, axis=1)
     near_a = np.all((a >= b.min(axis=1)[:, None] - bound)
                     & (a <= b.max(axis=1)[:, None] + bound), axis=0)
-    near_b = np.all((b >= a[:, near_a].min(axis=1, initial=np.inf)[:, None]
-                     - bound) & (b <= a[:, near_a].max(
-                         axis=1, initial=-np.inf)[:, None] + bound), axis=0)
+    a = a.compress(near_a, axis=1)
+    near_b = np.all((b >= a.min(axis=1, initial=np.inf)[:, None] - bound)
+                    & (b <= a.max(axis=1, initial=-np.inf)[:, None]
+                       + bound), axis=0)
     if near_a.any() and near_b.any():
-        out[near_a] = cKDTree(b[:, near_b].T, balanced_tree=False).query(
-            a[:, near_a].T, p=np.inf, distance_upper_bound=bound)[0]
+        out[near_a] = cKDTree(b.compress(near_b, axis=1).T,
+                              balanced_tree=False).query(
+            a.T, p=np.inf, distance_upper_bound=bound)[0]
     return out
+
+
+def near_sites(x: ndarray, sites: ndarray, reach: float) -> ndarray:
+    """Which of the points ``x`` (dim, n) may lie within ``reach`` of
+    one of the ``sites`` (dim, m; m > 0) along every axis: every one that
+    does, and others in the bins next to a site's, of bins at least
+    ``2 reach`` wide over the sites' box (at most :data:`SITE_BINS` of
+    them): a point within reach of a site, round-off and all, lies in the
+    site's bin or the next along each axis.  A cheap sieve before an
+    exact search (:meth:`BodyContact.support_distances`).
+
+    >>> x = np.array([[0., 1., 3., 9.], [0., 0., 0., 0.]])
+    >>> near_sites(x, np.array([[1.], [0.]]), .5).tolist()
+    [True, True, False, False]
+    """
+    dim, lo = x.shape[0], sites.min(axis=1)[:, None]
+    width = np.maximum((sites.max(axis=1)[:, None] - lo)
+                       / int(SITE_BINS ** (1. / dim)), 2. * reach)
+    at = np.floor((sites - lo) / width).astype(np.int64) + 1
+    shape = at.max(axis=1) + 2                  # a bin more either side
+    raster = np.zeros(tuple(shape), dtype=bool)
+    raster[tuple(at)] = True
+    for d in range(dim):            # each site's bin and the next ones
+        line = np.moveaxis(raster, d, 0)
+        line[1:] |= line[:-1]
+        line[:-1] |= line[1:]
+    # clipped beyond the raster (far points: no integer overflow)
+    bins = np.clip(np.floor((x - lo) / width) + 1, -1,
+                   shape[:, None]).astype(np.int64)
+    inside = np.all((bins >= 0) & (bins < shape[:, None]), axis=0)
+    out = np.zeros(x.shape[1], dtype=bool)
+    out[inside] = raster[tuple(b[inside] for b in bins)]
+    return out
+
+
+def unsettled(part: dict, e: tuple, kappa: float, tol: float,
+              tolerance: float) -> float:
+    """How far the multipliers of a contact's pairs ``part`` are from
+    settled after a round that ended at ``e`` (of
+    :meth:`StepBodyContact.evaluate`), in units of the contact's
+    ``tolerance``: the penalty ``kappa``'s force on the deepest
+    penetration (or gap of a pressed pair) relative to the largest
+    pair's force (a floor of 1e-6 of the tolerance in length, ``tol``,
+    for bodies that touch and do not press); where the round left that
+    penetration as it was (within :data:`STALLED_ROUND` of the last
+    round's), the grid's forces of the penalty on every pressed pair's
+    penetration relative to those of the pairs' pressures: what a
+    further round would change.  Pairs more than the splines' motions
+    can close apart (a block on a slab with the quadratic B-splines, two
+    points per cell: eight pairs along four cells, whose relative
+    normal motions span six) keep a penetration no round closes while
+    the multipliers drift along the mode: a block sliding at 25 degrees
+    (mu = 0.3, dynamics) kept 1.9e-9 in every round (the penalty's force
+    on it 1.2 times the tolerance of the largest pair's), with the
+    penalty 100 times the default too, and failed after 30 rounds at
+    every cut-back; its grid forces were 3e-4 to 0.03 of the
+    tolerance."""
+    depth = e[2]
+    out = kappa * depth / max(tolerance * e[4].max(initial=0.),
+                              1e-6 * kappa * tol)
+    last, part["depth"] = part.get("depth"), depth
+    if out <= 1. or last is None or depth < STALLED_ROUND * last:
+        return out
+    p, n, D = e[4], part["n"], part["D"]
+    push = D.T @ (np.where(p > 0., kappa * e[6], 0.) * n).T.ravel()
+    held = D.T @ (p * n).T.ravel()
+    return float(np.abs(push).max(initial=0.) / max(
+        tolerance * np.abs(held).max(initial=0.), 1e-6 * kappa * tol))
 
 
 def accelerated(part: dict, p: ndarray) -> ndarray:
@@ -1399,7 +1709,8 @@ class StepBodyContact(GridTerm):
         for k, ((B, A, normal, gap), tol) in enumerate(zip(
                 term.pairs(op, points), term.tol)):
             self.parts.append({"contact": k})
-            self.add(self.parts[-1], op, points, B, A, normal, gap, tol)
+            self.add(self.parts[-1], op, points, B, A, normal, gap, tol,
+                     self.heirs(k, B, normal))
         self.evaluations = WeakKeyDictionary()
 
     def evaluate(self, du: ndarray, response):
@@ -1573,8 +1884,8 @@ class StepBodyContact(GridTerm):
                 inner = inner[off[inner]]
                 if not (inner.size and outer.size):
                     continue
-                reach = float(term.half[:, outer].max()
-                              + term.half[:, inner].max())
+                reach = float(term.half.take(outer, axis=1).max()
+                              + term.half.take(inner, axis=1).max())
                 # looked for within PASSING_NEAR cells of motion (a
                 # search without bound took 3 s at 1e5 points): beyond,
                 # infinite
@@ -1590,9 +1901,69 @@ class StepBodyContact(GridTerm):
                               (inner[keep], d_in[keep]), reach))
         return apart
 
-    def add(self, part, op, points, B, A, normal, gap, tol):
+    def heirs(self, k: int, B: ndarray, normal: ndarray) -> ndarray:
+        """The second body's corners (``c n + p``) whose state the last
+        step ended with contact ``k``'s pairs at the corners ``B`` start
+        from (:meth:`add`), with normals ``normal`` (dim, m): each its
+        own, but a pair whose place holds no pressure takes the state
+        left at a place no pair of the step holds (the last step's pair
+        of its node, which now pairs another corner): within a cell of
+        it, pressed along its normal (within
+        :data:`~skfem_mpm.solve.contact_pairs.HELD` in cosine), nearest
+        the same grid node or one beyond it along the normal; of several,
+        the nearest.  A node's pair is the second body's corner nearest
+        it, and a body sliding along the other by a quarter of a cell
+        past the grid pairs its nodes with the neighbouring corners, a
+        corner spacing (half a cell with 2 x 2 points) from the last
+        step's, as far as the next node's: the upper of two blocks
+        stacked on a grid line, spreading over the lower under its
+        weight (h = 1/158, benchmarks/contact_cost.py), started 8 pairs
+        of 160 by its edge from nothing in its fourth step, their load
+        all on the penalty (775 times the tolerance off), and the step
+        took 11 Newton iterations in 6 solves where it takes 6 in 4."""
+        term, points, dim = self.term, self.problem.points, self.dim
+        pressed = term.pressed(points)
+        own = np.flatnonzero(~pressed(k, B).any(axis=0))
+        if not own.size:
+            return B
+        b = term.field[term.contacts[k][1]]
+        mine = (np.arange(2 ** dim)[:, None] * points.n + self.interface[
+            term.point_field[self.interface] == b][None, :]).ravel()
+        push = pressed(k, mine)
+        X = term.corners(points).reshape(dim, -1)
+        which = np.unique(term.finder.place(np.hstack([X[:, B], X[:, mine]])),
+                          axis=1, return_inverse=True)[1].ravel()
+        left = push.any(axis=0) & ~np.isin(which[B.size:], which[:B.size])
+        if not left.any():
+            return B
+        mine, push, which = mine[left], push[:, left], which[B.size:][left]
+        near = cKDTree(X[:, mine].T).sparse_distance_matrix(
+            cKDTree(X[:, B[own]].T), term.h, output_type="coo_matrix")
+        o, r = near.row, own[near.col]
+        if term.node_tree is None:
+            term.node_tree = cKDTree(term.finder.mesh.p[:, :term.nv].T)
+        node = term.node_tree.data.T[:, term.node_tree.query(
+            np.hstack([X[:, mine[o]], X[:, B[r]]]).T)[1]]
+        apart = node[:, :o.size] - node[:, o.size:]
+        takes = (np.abs((normal[:, r] * apart).sum(axis=0))
+                 >= HELD * np.sqrt((apart ** 2).sum(axis=0))) & (
+            (normal[:, r] * push[:, o]).sum(axis=0)
+            > HELD * np.sqrt((push[:, o] ** 2).sum(axis=0)))
+        # nearest first, each receiver and each place left once
+        order = np.argsort(near.data[takes], kind="stable")
+        r, o = r[takes][order], o[takes][order]
+        first = np.sort(np.unique(r, return_index=True)[1])
+        r, o = r[first], o[first]
+        first = np.unique(which[o], return_index=True)[1]
+        out = B.copy()
+        out[r[first]] = mine[o[first]]
+        return out
+
+    def add(self, part, op, points, B, A, normal, gap, tol, source=None):
         """Pairs ``(B, A)`` with their normals and gaps at the step's
-        start joined to a contact's ``part`` (empty at first)."""
+        start joined to a contact's ``part`` (empty at first), each
+        starting from the state the last step ended with at the second
+        body's corner ``source`` (:meth:`heirs`; ``B`` where not given)."""
         term = self.term
         first, second = term.field[list(term.contacts[part["contact"]][:2])]
         field = term.point_field[self.interface]
@@ -1632,11 +2003,41 @@ class StepBodyContact(GridTerm):
         # zero, and closed, a pair forgave the penetration, and a sticking
         # one the slip, the tolerance allows in every step: a pile's
         # settlement was 40% off after 10 steps with a soft penalty)
+        # a pair that takes the state of its node's last pair, another
+        # corner (:meth:`heirs`), starts at its own gap, closed as a new
+        # pair's: that pair's gap was its own corners' (inherited, a pile
+        # driven through von Mises soil, test_a_pile_driven_by_a_rough_
+        # cap_passes_its_soil_s_top_row, went another path from its
+        # sixth step and ended at a tip resistance of 4.4 c_u where 8.2)
         n = points.n
-        p, g, tau, rate = carried(points.state, part["contact"], B,
+        heir = np.zeros(B.size, dtype=bool) if source is None \
+            else source != B
+        p, g, tau, rate = carried(points.state, part["contact"],
+                                  B if source is None else source,
                                   normal, n, term.place(points, B))
         pressed = p > 0
-        gap = np.where(pressed, g, np.maximum(gap, 0.))
+        # a pair that starts a quarter of a cell deep is a misread, not
+        # a penetration (a pressed pair's corners stay within about the
+        # tolerance of where the last step held them): a pile
+        # whose glued cap had settled a sliver into the supports of the
+        # soil's surface nodes beside it took a leaning normal there
+        # (every candidate showing the bodies overlapping) and a pair of
+        # a side corner with the soil's top corner a cell above it, 0.45
+        # cells deep, closed, held the pile like friction (cpGIMP, smooth:
+        # 7-9% less settlement in 2 or 10 steps than in 1; not fixed,
+        # docs/contact.md)
+        misread = gap < -MISREAD * term.h
+        name = term.contacts[part["contact"]][2].name
+        if misread.any() and name not in term.told_deep:
+            term.told_deep.add(name)
+            logger.warning(
+                "step %d: contact %r: %d pairs start "
+                "%.2g cells deep (bodies wrapped round each "
+                "other at a node: the answer may depend on the number of "
+                "steps; docs/contact.md, 'not yet good enough'; said once "
+                "a run)", self.problem.step, name, int(misread.sum()),
+                float(-gap[misread].min() / term.h))
+        gap = np.where(pressed & ~heir, g, np.maximum(gap, 0.))
         start = np.where(pressed, p, 0.)
         # the pressure the step is expected to end at, by the last step's
         # rate (zero after a step whose pairs changed): from the last
@@ -1658,7 +2059,8 @@ class StepBodyContact(GridTerm):
         if friction != "rough":
             tau = tau * np.where(start > 0, ahead / np.maximum(start, 1e-300),
                                  1.)
-        lam = np.where(pressed, ahead + term.kappa[part["contact"]] * g, 0.)
+        lam = np.where(pressed, ahead + term.kappa[part["contact"]]
+                       * np.where(heir, 0., g), 0.)
         part["steady"] = part.get("steady", True) and not deep.any() \
             and before == 0
         corners = term.corners(points)[0].size
@@ -1689,29 +2091,32 @@ class StepBodyContact(GridTerm):
         pressed pair's gap) and every sticking pair's slip is within the
         contact's tolerance in cells, and the penalty's force on the
         deepest penetration within the tolerance of the largest pair's
-        force (the multipliers have settled); else the multipliers take
+        force (the multipliers have settled: :func:`unsettled`, by the
+        grid's forces where a round closed no more); else the
+        multipliers take
         the converged tractions (augmented Lagrangian), or the new pairs
         join, or rough pairs let go or join (:meth:`rough_changes`), and
         the step is solved again (from a fresh tangent where pairs joined
-        or changed: :attr:`reshaped`)."""
+        or changed: :attr:`reshaped`; after a join, :attr:`off_by` is
+        how far the joined pairs, at no pressure yet, leave it)."""
         self.reshaped, self.off_by = True, 0.
         if self.join(du):
+            # as far off as the joined pairs, at no pressure yet, make it
+            # (their penetration beyond the tolerance all on the penalty:
+            # the update after the next solve is as certain as after a
+            # step's first)
+            self.off_by = self.worst(self.evaluate(du, trial.response),
+                                     rounds=False)
+            self.evaluations = WeakKeyDictionary()
             logger.debug("step %d: bodies met beyond the step's pairs; "
-                         "solving again", problem.step)
+                         "solving again (%.2g of the tolerance)",
+                         problem.step, self.off_by)
             return False
         ev = self.evaluate(du, trial.response)
         if self.rough_changes(ev, du):
             self.evaluations = WeakKeyDictionary()
             return False
-        # in cells, and relative to the largest pair's force: with a
-        # penalty from the softer body, a penetration of the tolerance in
-        # cells was a quarter of a soft block's compression; a floor of
-        # 1e-6 of the tolerance for bodies that touch and do not press
-        worst = max((max(max(e[2], e[3]) / tol, kappa * e[2] / max(
-            c.tolerance * e[4].max(initial=0.), 1e-6 * kappa * tol))
-            for e, tol, kappa, (_, _, c) in zip(
-                ev, self.term.tol, self.term.kappa, self.term.contacts)),
-            default=0.)
+        worst = self.worst(ev)
         if worst <= 1.:
             return True
         self.reshaped, self.off_by = False, worst
@@ -1722,6 +2127,27 @@ class StepBodyContact(GridTerm):
         logger.debug("step %d: body contact %.2g of the tolerance; "
                      "augmented-Lagrangian update", problem.step, worst)
         return False
+
+    def worst(self, ev, rounds: bool = True) -> float:
+        """How far the pairs of :meth:`evaluate`'s ``ev`` are from
+        settling, in their tolerances (:meth:`settle`: 1 or less holds):
+        the largest penetration (or gap of a pressed pair) and stick slip
+        in cells, and how far the multipliers are from settled
+        (:func:`unsettled`); ``rounds``: ``ev`` ends an augmented-
+        Lagrangian round, whose penetration the next round's judgement
+        of a stalled round reads (not after pairs joined: a state no
+        round ended at)."""
+        # in cells, and relative to the largest pair's force: with a
+        # penalty from the softer body, a penetration of the tolerance in
+        # cells was a quarter of a soft block's compression; a floor of
+        # 1e-6 of the tolerance for bodies that touch and do not press
+        return max((max(max(e[2], e[3]) / tol, unsettled(
+            part if rounds else dict(part, depth=None), e, kappa, tol,
+            c.tolerance))
+            for part, e, tol, kappa, (_, _, c) in zip(
+                self.parts, ev, self.term.tol, self.term.kappa,
+                self.term.contacts)),
+            default=0.)
 
     def rough_changes(self, ev, du: ndarray) -> bool:
         """After Newton, rough contacts: a pair that stuck but was found
@@ -1848,8 +2274,11 @@ class StepBodyContact(GridTerm):
                                 * part["n"]])
             for row, value in zip(traction_state(part["contact"], self.dim),
                                   values):
-                table = np.zeros((len(row), n))
-                np.add.at(table, (to // n, to % n), value[frm])
+                # summed per corner c n + p, the table's flat index (on
+                # its two indices np.add.at took three times longer)
+                table = np.zeros(len(row) * n)
+                np.add.at(table, to, value[frm])
+                table = table.reshape(-1, n)
                 for name, column in zip(row, table):
                     new.state[name] = column
         op, dim = problem.method_op, self.dim
@@ -1880,7 +2309,7 @@ class StepBodyContact(GridTerm):
                 for b, name in enumerate(row):
                     new.state[name] = new.state[name] + H[a, b]
         record.contact_forces = self.term.declared_forces(
-            self.parts, ev, problem.points)
+            self.parts, ev, new, self.interface)
         N = record.n_dofs // int(self.term.field.max() + 1)
         dofs = record.reaction_dofs % N
         record.reaction_dofs = np.unique(dofs)

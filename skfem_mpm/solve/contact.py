@@ -317,6 +317,31 @@ GROWTHS = 2
 GROWN = "contact_penalty_growths"
 
 
+def growth_reason(smooth: bool, curved: bool) -> str:
+    """Why a step's augmented-Lagrangian updates settled slowly, as the
+    warning of a penalty's growth says it (:data:`GROW_AFTER`): with
+    GIMP's or B-splines' smooth weights (``smooth``) on a polygon
+    obstacle (``curved``), the domains' staircase on the curved face;
+    else corners at different heights by a face's edge (a trial's flat
+    standard-MPM footing, told of GIMP's corners on a curved face: the
+    worst corner 0.0035 from its edge pressed across a gap of 1.1
+    tolerances, its cell's neighbours 0.36 into the face).
+
+    >>> growth_reason(True, True)[:30]
+    "GIMP's corners on a curved fac"
+    >>> growth_reason(False, False)[:43]
+    'corners sharing grid nodes at different hei'
+    """
+    if smooth and curved:
+        return ("GIMP's corners on a curved face cannot all meet it, and "
+                "each update moves their force by the penalty's times "
+                "their heights' difference")
+    return ("corners sharing grid nodes at different heights cannot all "
+            "meet its face, as by a face's edge where the surface bends "
+            "beside it, and each update moves their force by the "
+            "penalty's times their heights' difference")
+
+
 def grown_name(i: int) -> str:
     """The run's counter of obstacle ``i``'s penalty's growths
     (:data:`GROWN`).
@@ -2419,15 +2444,15 @@ class StepContact(GridTerm):
             "step %d: the contact's penetration still %.2g of the "
             "tolerance after %d augmented-Lagrangian updates, the last "
             "%s it by %.1f%%: the penalty grown %g times for the rest "
-            "of the run, obstacle %s (GIMP's corners on a curved face "
-            "cannot all meet it, and each update moves their force by "
-            "the penalty's times their heights' difference)",
+            "of the run, obstacle %s (%s)",
             self.problem.step, done[-1], len(done),
             "cutting" if done[-1] <= done[-2] else "raising",
             100 * abs(1 - done[-1] / done[-2]), GROWTH,
             ", ".join("{!r} to {:.3g}".format(
                 term.obstacles[i].name, term.obstacles[i].penalty
-                * term.kappa[i] / term.kappa0[i]) for i in grown))
+                * term.kappa[i] / term.kappa0[i]) for i in grown),
+            growth_reason(hasattr(self.op, "S"), any(
+                term.obstacles[i].box is None for i in grown)))
 
     def tell_slow_updates(self) -> None:
         """Warn once a run where a step's augmented-Lagrangian updates

@@ -39,6 +39,7 @@ absurdly), a stabilised tangent) and only then is cut back.
 
 """
 import logging
+import re
 from contextlib import contextmanager
 from typing import Callable, NamedTuple, Optional, Sequence
 
@@ -137,7 +138,8 @@ SETTLE_ROUNDS = 30
 SETTLE_RESIDUAL = 1e-3
 #: the distance from settling (a term's
 #: :attr:`~skfem_mpm.protocols.GridTerm.off_by`, in its tolerances) from
-#: which a solve after an augmented-Lagrangian update also stops at
+#: which a solve after an augmented-Lagrangian update (or after contact
+#: pairs joined, their penetration all on the penalty) also stops at
 #: :data:`SETTLE_RESIDUAL`: the update after it is certain, and the
 #: solve's error in the penetration, about the loose residual times the
 #: penalty's penetration under the whole load, is a hundredth of the
@@ -359,7 +361,7 @@ def body_contact_term(run: Run) -> Optional[GridTerm]:
                        run.counters,
                        weights=getattr(run.method, "weights_at", None),
                        cells=run.user_grid.mesh.nelements,
-                       gimp=linear_gimp(run.method))
+                       gimp=linear_gimp(run.method), locate=run.grid_locate)
 
 
 def obstacle_term(run: Run) -> Optional[GridTerm]:
@@ -1316,6 +1318,22 @@ def check_higher_order_antilocking(method: str, elem: Element, mesh: Mesh,
         "bilinear cells (Q1) with it", type(scalar).__name__, nodes)
 
 
+def cause_first(err, hint: str) -> str:
+    """A failed step's error ``err`` led by the grid terms' ``hint``
+    (:func:`terms_hint`, ``"; ..."``) where they see why no load factor
+    has an equilibrium: a user trial's block on a slab past mu read
+    Newton's words first and "1.554 times mu" last.
+
+    >>> cause_first(ValueError("step 3: Newton did not converge"),
+    ...             "; the load slides the block")
+    'step 3: the load slides the block; Newton did not converge'
+    """
+    text = str(err)
+    step = re.match(r"step \d+: ", text)
+    lead = step.group(0) if step else ""
+    return "{}{}; {}".format(lead, hint[2:], text[len(lead):])
+
+
 def terms_hint(run: Run, points) -> str:
     """What the run's grid terms see of a failure at the last converged
     state ``points`` (:meth:`~skfem_mpm.protocols.GridTerm.failure_hint`),
@@ -1482,10 +1500,13 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
             if unscaled or (target - factor) / 2 < smallest * (1 - 1e-9) \
                     or held > HELD_HALVINGS or unbalanced or floor \
                     or at_start:
+                hint = terms_hint(run, points)
                 raise type(err)(
                     "{}; {}: the last converged state ({}) is attached"
                     "{}{}{}".format(
-                        err, "not cut back: the loads keep their direction "
+                        cause_first(err, hint) if unbalanced and hint
+                        else err, "not cut back: the loads keep their "
+                        "direction "
                         "at every load factor, so a shorter step has no "
                         "equilibrium either"
                         if unbalanced else floor if floor else
@@ -1507,7 +1528,7 @@ def advance(run: Run, result: Result, nsteps: int, step: int, factor: float,
                             "".join(term.unheld_hint() for term in run.terms)
                             if isinstance(err, SingularSystemError) else "")
                         + own_terms_hint(run, err),
-                        terms_hint(run, points)),
+                        "" if unbalanced else hint),
                     state=points, load_factor=factor,
                     history=result.history) from err
             increment, easy = (target - factor) / 2, 0
@@ -2107,8 +2128,7 @@ def check_body_contacts(contacts, mesh: Mesh, points: MaterialPoints,
     yet is refused."""
     if not contacts:
         return (), None
-    contacts, field = check_contacts(list(contacts),
-                                     int(points.body.max()) + 1)
+    contacts, field = check_contacts(contacts, int(points.body.max()) + 1)
     if method == "fem":
         raise InvalidInputError(
             "contacts between bodies need points that move with the "
@@ -2579,7 +2599,9 @@ def build_run(mesh: Mesh, elem: Element, points: MaterialPoints, supports,
         scale=(lambda f: f) if dynamics is None
         else (lambda f: dynamics.scale(f * dynamics.duration)),
         initial_cells=None if case.prescribed is None
-        else run_locate(points.x0)[0])
+        else run_locate(points.x0)[0],
+        # the grid's locator with point_locator's defaults (not a user's)
+        grid_locate=locate if options.locator is None else None)
     terms = [term for term in (
         factory(run) for factory in GRID_TERMS) if term is not None]
     # those that weigh the balance in time after all others (stable)

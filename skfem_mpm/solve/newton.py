@@ -828,13 +828,43 @@ def stall_words(stuck: Optional[tuple], problem=None) -> str:
     """What a Newton loop :func:`stalled` at says of it, or ``""``;
     where one of ``problem``'s terms says its contact engaged or let go
     within the step (``engaging_words()``), that instead of a body
-    collapsing."""
+    collapsing; where the run's material is elastic (no return map:
+    ``plastic`` false), grid nodes that slivers of material barely hold
+    (an elastic pile with the B-splines, in soil through a contact,
+    stalled and was asked whether it was collapsing before the ghost
+    penalty carried it: a user trial), buckling in finite deformation,
+    or a contact's changes or its load past what it holds.
+
+    >>> from types import SimpleNamespace as S
+    >>> from skfem_mpm import LinearElastic
+    >>> print(stall_words(("flat", 1e-3), S(run=S(
+    ...     material=LinearElastic(1e4, .3), finite=False), terms=())))
+    ... # doctest: +NORMALIZE_WHITESPACE
+    ; stopped early: the last 10 residuals all stayed within a factor 1.05
+    of 0.001: Newton made no progress (the bodies are elastic, not
+    collapsing: a tangent near-singular at grid nodes that slivers of
+    material barely hold, cut cells the ghost penalty ties)
+    """
     if not stuck:
         return ""
     engaging = [words for words in (
         getattr(term, "engaging_words", lambda: "")()
         for term in getattr(problem, "terms", ())) if words]
+    run = getattr(problem, "run", None)
+    material = getattr(run, "material", None)
     cause = "a tangent that lost its stiffness, the body collapsing?"
+    if material is not None and not getattr(material, "plastic", True):
+        finite = getattr(run, "finite", False)
+        cause = ("the bodies are elastic{}: a tangent near-singular at "
+                 "grid nodes that slivers of material barely hold, cut "
+                 "cells the ghost penalty ties{}{}".format(
+                     "" if finite else ", not collapsing",
+                     ", or buckling" if finite else "",
+                     ", or a contact changing within the step or not "
+                     "holding the load" if any(
+                         getattr(term, "contact", False)
+                         for term in getattr(problem, "terms", ()))
+                     else ""))
     if engaging:
         cause = "; ".join(engaging) + "; or " + cause
     own = suspects(getattr(getattr(problem, "run", None), "material", None),

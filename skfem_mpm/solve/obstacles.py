@@ -67,7 +67,8 @@ class Obstacle:
         tolerance: a force error of the body's stiffness times it).  A
         smooth obstacle's grows 10 times for the rest of the run (twice
         at the most, warned) where a step's augmented-Lagrangian updates
-        settle slowly: GIMP's corners on a curved face
+        settle slowly: corners sharing grid nodes at different heights,
+        GIMP's on a curved face or any by a face's edge
         (docs/contact.md); the run's counters keep the growths
         (``contact<k>_penalty_growths``), and a resumed run goes on at
         the grown penalty.

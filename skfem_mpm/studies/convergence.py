@@ -36,21 +36,29 @@ Eng. 130, 078001, from three grids to all of them.  With cell sizes
    below the data range per grid): the reference is its ``f_0``,
    ``U_i = 3 eps_i + sigma + |r_i|``.
 5. Otherwise -- oscillating values, an order below 0.5, unstable local
-   orders, no fixed-order fit, two grids, values equal to round-off --
-   nothing is extrapolated ("not credible", with the reason): the
+   orders, no fixed-order fit, two grids, values that agree to round-off
+   (all of them, or the two finest: "converged to round-off", basis
+   ``"round-off"``, no order fitted) -- nothing is extrapolated ("not
+   credible", with the reason): the
    reference is the finest value, its uncertainty ``U = 3 Delta`` with
    the data range ``Delta = max |f_i - f_j|`` and its own error unknown
    (``None``, at most ``U``); every other grid's error estimate is its
    distance to the finest ``|f_i - f_finest|``, its uncertainty that
    plus ``3 Delta`` (:func:`from_data_range`).
 
-No error or uncertainty is ever exactly zero: below round-off
-(:data:`ROUNDOFF` of the values) the data cannot tell, and that is what is
-reported; only the finest case's error where nothing was extrapolated is
-unknown.  Every result says in words why the reference was or was not
-extrapolated.  An observed order is only as good as the data are
-asymptotic: standard MPM's grid-crossing error (seed 2.2.3) gives erratic
-orders, which the values' plot shows.
+No error or uncertainty is ever exactly zero: below round-off the data
+cannot tell, and that is what is reported; only the finest case's error
+where nothing was extrapolated is unknown.  Round-off is relative to the
+largest of the values: :data:`ROUNDOFF` (1e-12, the arithmetic's), or for
+the values of runs that iterate to equilibrium with a tolerance ``tol``
+(a study passes its scene's Newton tolerance) :data:`SOLVER_ROUNDOFF`
+times it where that is larger (:func:`roundoff_floor`: 1e-8 at the
+default 1e-9).  Differences within it are not counted as convergence,
+oscillation or disagreement, and no order is fitted to them.  Every
+result says in words why the reference was or was not extrapolated.
+An observed order is only as good as the data are asymptotic: standard
+MPM's grid-crossing error (seed 2.2.3) gives erratic orders, which the
+values' plot shows.
 
 """
 from dataclasses import asdict, dataclass, field
@@ -59,7 +67,8 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 __all__ = ["SelfConvergence", "self_convergence", "from_data_range",
-           "fit_order", "fit_fixed_order", "sign_changes", "local_orders",
+           "roundoff_floor", "roundoff_words", "fit_order",
+           "fit_fixed_order", "sign_changes", "local_orders",
            "unstable_orders", "relative_errors"]
 
 #: safety factors of the uncertainty: a trusted fit, anything else
@@ -76,6 +85,44 @@ FIXED_ORDERS = (1., 2.)
 ORDERS = np.geomspace(1e-3, 20., 400)
 #: differences below this fraction of the values are round-off
 ROUNDOFF = 1e-12
+#: differences below this many times the runs' Newton tolerance, relative
+#: to the values, are the solver's round-off (:func:`roundoff_floor`)
+SOLVER_ROUNDOFF = 10.
+
+
+def roundoff_floor(tol: Optional[float] = None) -> float:
+    """The fraction of a quantity's values below which their differences
+    are round-off: :data:`ROUNDOFF`, or for runs that iterate to
+    equilibrium with the tolerance ``tol`` (on the out-of-balance force,
+    relative to the forces that drive the run) :data:`SOLVER_ROUNDOFF`
+    times it where larger.  A run stops once its residual is below
+    ``tol``, so a quantity differs from the equilibrium's by about that
+    fraction, two runs by about twice; a factor 10 covers that and a
+    quantity that is part of the forces (a user trial: a wall pushed
+    along a Coulomb floor, ``tol = 1e-9``: the push of mpm and cpgimp on
+    14, 28 and 56 elements all within 2.6e-9 of Coulomb's mu W = 24
+    kN/m, which the study had fitted a rate 2.93 to, extrapolated from
+    and called a disagreement).
+
+    >>> from skfem_mpm.studies.convergence import roundoff_floor
+    >>> roundoff_floor(), roundoff_floor(1e-9), roundoff_floor(1e-15)
+    (1e-12, 1e-08, 1e-12)
+    """
+    return ROUNDOFF if tol is None else max(ROUNDOFF, SOLVER_ROUNDOFF * tol)
+
+
+def roundoff_words(tol: Optional[float] = None) -> str:
+    """What :func:`roundoff_floor` is, in words.
+
+    >>> from skfem_mpm.studies.convergence import roundoff_words
+    >>> roundoff_words(1e-9)
+    "1e-08 of the values: 10 x the solver's tolerance 1e-09"
+    """
+    floor = roundoff_floor(tol)
+    return "{:g} of the values{}".format(floor, "" if floor == ROUNDOFF
+                                         else ": {:g} x the solver's "
+                                         "tolerance {:g}".format(
+                                             SOLVER_ROUNDOFF, tol))
 
 
 @dataclass
@@ -107,8 +154,9 @@ class SelfConvergence:
     formal_order, credible_orders
         The method's formal order ``P`` and the range ``[0.5, 2 P]``.
     basis
-        ``"observed order"``, ``"fixed order"``, ``"data range"`` or
-        ``"one grid"``.
+        ``"observed order"``, ``"fixed order"``, ``"data range"``,
+        ``"round-off"`` (the values, or the two finest, agree to
+        round-off: converged, no order) or ``"one grid"``.
     safety_factor
         1.25 for a trusted fit of an order below ``P + 0.1``, 3
         otherwise.
@@ -121,6 +169,11 @@ class SelfConvergence:
         (``|f_i - f_0|``; where nothing was extrapolated the distance to
         the finest value, the finest's own ``None``: unknown, at most its
         uncertainty) and ``U_i``, in the quantity's unit; never zero.
+    tolerance, roundoff
+        The runs' Newton tolerance (``None``: not given) and the
+        fraction of the values below which differences are round-off
+        (:func:`roundoff_floor`); errors and uncertainties are at least
+        that fraction of the largest value.
     """
     reference: float
     uncertainty: Optional[float]
@@ -139,6 +192,8 @@ class SelfConvergence:
     sign_changes: int = 0
     errors: List[Optional[float]] = field(default_factory=list)
     uncertainties: List[Optional[float]] = field(default_factory=list)
+    tolerance: Optional[float] = None
+    roundoff: float = ROUNDOFF
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -327,13 +382,16 @@ def _number(x: float) -> str:
 
 
 def from_data_range(values: Sequence[float], reference: int, why: str,
-                    **found) -> SelfConvergence:
+                    tolerance: Optional[float] = None, **found
+                    ) -> SelfConvergence:
     """No extrapolation: the reference is ``values[reference]`` (the
     finest case), its uncertainty three times the data range
-    ``Delta = max |f_i - f_j|`` (at least round-off) and its own error
-    unknown (``None``: at most that uncertainty); every other value's
-    error estimate is its distance to the reference ``|f_i - f_ref|``
-    (at least round-off), its uncertainty that plus the reference's
+    ``Delta = max |f_i - f_j|`` (at least round-off: of the runs' Newton
+    ``tolerance`` where given, :func:`roundoff_floor`) and its own
+    error unknown (``None``: at most that uncertainty); every other
+    value's error estimate is its distance to the reference
+    ``|f_i - f_ref|`` (at least round-off), its uncertainty that plus the
+    reference's
     ``3 Delta`` (its distance to the answer is at most its distance to
     the reference plus the reference's).  ``why`` (in words) gains how
     the uncertainty was found.
@@ -359,7 +417,8 @@ def from_data_range(values: Sequence[float], reference: int, why: str,
     """
     f = np.asarray(values, float)
     spread = float(f.max() - f.min())
-    roundoff = max(ROUNDOFF * np.abs(f).max(), np.finfo(float).tiny)
+    floor = roundoff_floor(tolerance)
+    roundoff = max(floor * np.abs(f).max(), np.finfo(float).tiny)
     uncertainty = SAFETY_UNTRUSTED * max(spread, roundoff)
     errors = [None if i == reference else
               max(float(abs(v - f[reference])), roundoff)
@@ -371,17 +430,24 @@ def from_data_range(values: Sequence[float], reference: int, why: str,
         "case's error its distance to the finest case, its uncertainty "
         "that plus the finest's".format(
             SAFETY_UNTRUSTED, "the data range " + _number(spread)
-            if spread >= roundoff else "round-off ({:g} of the values)"
-            .format(ROUNDOFF)),
+            if spread >= roundoff else "round-off ({})".format(
+                roundoff_words(tolerance))),
         safety_factor=SAFETY_UNTRUSTED, data_range=spread, errors=errors,
-        uncertainties=[uncertainty + (e or 0.) for e in errors], **found)
+        uncertainties=[uncertainty + (e or 0.) for e in errors],
+        tolerance=tolerance, roundoff=floor, **found)
 
 
 def self_convergence(sizes: Sequence[float], values: Sequence[float],
-                     formal_order: float = 2.) -> SelfConvergence:
+                     formal_order: float = 2., tol: Optional[float] = None
+                     ) -> SelfConvergence:
     """The convergence of ``values`` over cell ``sizes`` (any order, at
     least one; equal sizes are not allowed) of a method whose formal order
-    for this quantity is ``formal_order``.
+    for this quantity is ``formal_order``, the values of runs iterated to
+    equilibrium with the Newton tolerance ``tol`` (``None``: round-off is
+    the arithmetic's alone): differences within :func:`roundoff_floor`
+    of the values are round-off, and where all the values, or the two
+    finest, agree so, they have converged to round-off and no order is
+    fitted (basis ``"round-off"``).
 
     Examples
     --------
@@ -396,6 +462,20 @@ def self_convergence(sizes: Sequence[float], values: Sequence[float],
     values monotone: extrapolated; uncertainty 1.25 x the error estimate
     of the fit
 
+    Values that differ by the solver's round-off alone (a trial's push,
+    Coulomb's 24 kN/m, on 14, 28, 56 elements, Newton tolerance 1e-9):
+
+    >>> c = self_convergence([.125, .0625, .03125], [-24.000000061685,
+    ...                      -23.999999999469868, -23.999999991564227],
+    ...                      tol=1e-9)
+    >>> c.order, c.basis, c.reference
+    (None, 'round-off', -23.999999991564227)
+    >>> print(c.why)  # doctest: +NORMALIZE_WHITESPACE
+    converged to round-off (differences within 1e-08 of the values: 10 x
+    the solver's tolerance 1e-09): no order is fitted to round-off: no
+    extrapolation; uncertainty 3 x round-off (1e-08 of the values: 10
+    x the solver's tolerance 1e-09); each other case's error its distance
+    to the finest case, its uncertainty that plus the finest's
     """
     h = np.asarray(sizes, float)
     f = np.asarray(values, float)
@@ -407,21 +487,31 @@ def self_convergence(sizes: Sequence[float], values: Sequence[float],
     lo, hi = LOWEST_CREDIBLE_ORDER, 2. * formal_order
     credible = "[{:g}, {:g}]".format(lo, hi)
     found = dict(formal_order=float(formal_order),
-                 credible_orders=(lo, hi))
+                 credible_orders=(lo, hi), tolerance=tol)
     finest = int(order[0])
     if n == 1:
         return SelfConvergence(
             float(f[0]), None, None, "finest", "one grid: nothing to "
             "compare, no extrapolation and no uncertainty", basis="one grid",
-            errors=[None], uncertainties=[None], **found)
-    roundoff = ROUNDOFF * np.abs(f).max()
+            errors=[None], uncertainties=[None],
+            roundoff=roundoff_floor(tol), **found)
+    roundoff = roundoff_floor(tol) * np.abs(f).max()
     spread = float(f.max() - f.min())
     if n == 2:
         return from_data_range(f, finest, "two grids: an order needs "
                                "three", **found)
     if spread <= roundoff:
-        return from_data_range(f, finest, "the values agree to round-off",
-                               **found)
+        return from_data_range(
+            f, finest, "converged to round-off (differences within {}): "
+            "no order is fitted to round-off".format(
+                roundoff_words(tol)), basis="round-off", **found)
+    if abs(fs[1] - fs[0]) <= roundoff:
+        return from_data_range(
+            f, finest, "converged to round-off on the finest grids: the "
+            "two finest values agree within {}; no order is fitted to a "
+            "round-off difference (the uncertainty, from all the values, "
+            "holds the coarser grids' differences)".format(
+                roundoff_words(tol)), basis="round-off", **found)
     changes = sign_changes(fs, roundoff)
     p, f0, alpha, r = fit_order(hs, fs)
     sigma = float(np.sqrt(r @ r / (n - 1)))
@@ -499,7 +589,7 @@ def self_convergence(sizes: Sequence[float], values: Sequence[float],
         float(f0), float(U[0]), float(p), "richardson", why,
         caution=caution, safety_factor=safety, data_range=spread,
         errors=errors[back].tolist(), uncertainties=U[back].tolist(),
-        **found)
+        roundoff=roundoff_floor(tol), **found)
 
 
 def relative_errors(values: Sequence[float], reference: float

@@ -16,8 +16,8 @@ from ..scenes import plot  # save_figure looked up when called: tests wrap it
 from ..scenes.plot import pyplot, series_styles
 from ..solve.results import PHASES, Result
 from .column import HEIGHT, SOURCE, analytical_stress, vertical_stress
-from .study import (VARIABLES, fitted_rate, levelling_off, not_falling,
-                    own_groups)
+from .study import (VARIABLES, above_roundoff, error_floor, fitted_rate,
+                    levelling_off, not_falling, own_apart, percent)
 
 __all__ = ["draw_column_stress", "draw_convergence", "pareto_front",
            "plot_column_stress", "plot_study"]
@@ -160,15 +160,52 @@ def _bars(measured: dict) -> str:
         ";\nbars up to each case's uncertainty"
 
 
-def _extrapolated(measured: dict, row: dict) -> bool:
-    """Whether the error of ``row``'s group has a rate: a closed form, or
-    the first quantity's reference extrapolated."""
-    if measured["error"].get("closed_form", True):
-        return True
+def _convergence(measured: dict, row: dict):
+    """The convergence of the error's quantity in ``row``'s group
+    (``None`` where there is none: a closed form's error)."""
     mine = {k: row[k] for k in VARIABLES
             if k != "elements" and row.get(k) is not None}
-    return next((c["against"] == "richardson" for c in
-                 measured["convergence"] if c["choices"] == mine), False)
+    return next((c for c in measured["convergence"] if c["choices"] == mine
+                 and c["quantity"] == measured["error"].get("quantity")),
+                None)
+
+
+def curve_label(measured: dict, name: str, rows: list) -> str:
+    """The legend of the curve of a group's errors against elements
+    (``rows``, coarse to fine): its rate where the error has one (a
+    closed form, or the reference extrapolated), fitted to the errors
+    above round-off (:func:`~skfem_mpm.studies.study.above_roundoff`),
+    else words: a group whose values converged to round-off has none (a
+    trial's push, within 2.6e-9 of Coulomb's answer, was given a rate).
+
+    >>> from skfem_mpm.studies.figures import curve_label
+    >>> measured = {"error": {"closed_form": True, "roundoff": 1e-8},
+    ...             "convergence": []}
+    >>> rows = [dict(elements=n, error=e) for n, e in
+    ...         ((8, 4e-3), (16, 1e-3), (32, 2e-9))]
+    >>> curve_label(measured, "mpm", rows)
+    'mpm (rate 2.00, errors at round-off left out)'
+    """
+    c = _convergence(measured, rows[0])
+    if c is not None and c.get("basis") == "round-off":
+        return "{} (converged to round-off: no rate)".format(name)
+    if not measured["error"].get("closed_form", True) and not (
+            c is not None and c["against"] == "richardson"):
+        return "{} (no extrapolation: distance to the finest case)".format(
+            name)
+    x = [r["elements"] for r in rows]
+    y = above_roundoff([r["error"] for r in rows], error_floor(measured, c))
+    noise = any(e is None and r["error"] is not None
+                and np.isfinite(r["error"]) for r, e in zip(rows, y))
+    rate = fitted_rate(x, y)
+    if not np.isfinite(rate):
+        return "{} ({})".format(name, "errors at round-off: no rate"
+                                if noise else "no rate")
+    if not_falling(x, y):
+        return "{} (errors not falling: no rate)".format(name)
+    return "{} (rate {:.2f}{}{})".format(
+        name, rate, ", levelling off" if levelling_off(x, y, rate) else "",
+        ", errors at round-off left out" if noise else "")
 
 
 def _disagreement(ax, measured: dict) -> None:
@@ -183,9 +220,9 @@ def _disagreement(ax, measured: dict) -> None:
              if d["quantity"] == measured["error"].get("quantity")]
     if apart:
         ax.axhline(max(apart), color="0.3", ls="--", lw=.8, label=(
-            "groups' references {:.2%} apart: errors are against each "
+            "groups' references {} apart: errors are against each "
             "group's own,\nso the answer is not shown to be closer than "
-            "this".format(max(apart))))
+            "this".format(percent(max(apart)))))
 
 
 def _failed_mark(ax, x: float, style: dict, elements: int, error: str,
@@ -300,14 +337,8 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
             rs = sorted(rs, key=lambda r: r["elements"])
             x = [r["elements"] for r in rs]
             y = [r["error"] for r in rs]
-            _loglog(ax, x, y, style, "{} ({})".format(
-                name, "errors not falling: no rate" if not_falling(x, y)
-                else "rate {:.2f}{}".format(fitted_rate(x, y), (
-                    ", levelling off" if levelling_off(
-                        x, y, fitted_rate(x, y)) else "")))
-                if _extrapolated(
-                    measured, rs[0]) else "{} (no extrapolation: distance "
-                "to the finest case)".format(name), bound=_bounds(rs))
+            _loglog(ax, x, y, style, curve_label(measured, name, rs),
+                    bound=_bounds(rs))
             named = _unknown(ax, x, rs, style, named)
         for r in rows:
             if r.get("failure") and _group_name(r) in styles:
@@ -336,15 +367,14 @@ def plot_study(rows: list, outdir, measured: dict) -> list:
                       label="Pareto front: one case, the cheapest of "
                       "least known error")
         _disagreement(ax, measured)
-        own = [c["reference"] for c in own_groups(measured)]
+        own = own_apart(measured)
         written.append(_finish(
             fig, ax, "CPU time per case (s)", ylabel,
             "What accuracy costs: {} against CPU time,\nthe error "
             "against {}{}{}{}".format(
                 label, measured["error"]["against"], _bars(measured),
-                ";\neach group's against its own reference, {:.2%} apart"
-                .format((max(own) - min(own)) / (abs(max(own, key=abs))
-                                                 or 1.)) if own else "",
+                ";\neach group's against its own reference, {} apart"
+                .format(percent(own)) if own is not None else "",
                 _fixed_cost_note(ok)),
             outdir / "error_vs_time.png"))
     if ok:

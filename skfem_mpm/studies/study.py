@@ -80,8 +80,8 @@ from ..solve.core import DEFAULT_GHOST, SMALL_STRAIN_GHOST
 from ..solve.newton import LINE_SEARCHES, NEWTON, RHS
 from ..solve.results import PHASES
 from .column import SOURCE, column_error, column_extent
-from .convergence import (ROUNDOFF, from_data_range,
-                          self_convergence)
+from .convergence import (ROUNDOFF, from_data_range, roundoff_floor,
+                          roundoff_words, self_convergence)
 
 logger = logging.getLogger(__name__)
 
@@ -871,12 +871,22 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
     A group of one case has no error and no uncertainty (NaN, written as
     null); the finest case of a group where nothing was extrapolated has
     no error (unknown: at most its uncertainty).
+
+    Differences within round-off are no convergence and no disagreement:
+    the scene's Newton tolerance ``tol`` sets it,
+    :func:`~.convergence.roundoff_floor` (10 ``tol`` of a quantity's
+    largest value, 1e-8 at the default; at least 1e-12), which
+    ``"error"`` holds as ``roundoff`` (with ``roundoff_is``, in words):
+    values that agree so have converged to round-off (no order, no
+    extrapolation, no rate of their errors) and no error or uncertainty
+    is below it.
     """
     done = [r for r in rows if not r["failure"] and "values" in r]
     refined = any("elements" in r for r in rows)   # all failed: varied
     keys = [k for k in VARIABLES if k != "elements"] if refined else \
         list(CHOICES)
     convergence = []
+    tol = scene.newton.tol      # the runs' round-off (studies vary no tol)
     lines = feature_lines(scene) if refined else []
     for choices, members in _groups(done, keys):
         if refined:     # coarse to fine (they came in the order done)
@@ -917,11 +927,11 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                 found = from_data_range(
                     values, min(kept or range(len(members)),
                                 key=lambda k: sizes[k]),
-                    "fewer than three grids share " + others)
+                    "fewer than three grids share " + others, tol)
             elif refined:
                 sizes = [cell_size(scene, r["elements"]) for r in fitted]
                 found = self_convergence(sizes, values,
-                                         formal_order(scene, q))
+                                         formal_order(scene, q), tol)
                 if left_out:
                     found.why += "; left out of the fit, a geometry other " \
                         "than the scene's: " + left_out
@@ -937,7 +947,8 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                     members[k]["points"], members[k].get("loadsteps", 0)))
                 found = from_data_range(
                     values, finest, "elements not varied: the case with "
-                    "the most points (then load steps) is the reference")
+                    "the most points (then load steps) is the reference",
+                    tol)
                 if len(members) == 1:
                     found.errors = found.uncertainties = [None]
                     found.uncertainty = None
@@ -961,7 +972,7 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
                     # plus the reference's (from_data_range's rule: three
                     # times the distance was zero where the two agreed)
                     error = max(abs(r["values"][q.label] - found.reference),
-                                ROUNDOFF * abs(found.reference))
+                                found.roundoff * abs(found.reference))
                     r.setdefault("relative_errors", {})[q.label] = \
                         _relative(error, scale)
                     r.setdefault("relative_uncertainties", {})[q.label] = \
@@ -1020,7 +1031,9 @@ def analyse(scene: Scene, rows: List[dict], quantities) -> dict:
             "named (disagreements)"
     return {"error": {"label": label, "against": against, "measures": what,
                       "closed_form": bool(scene.reference),
-                      "quantity": None if scene.reference else first},
+                      "quantity": None if scene.reference else first,
+                      "roundoff": roundoff_floor(tol),
+                      "roundoff_is": roundoff_words(tol)},
             "convergence": convergence,
             "disagreements": [] if scene.reference else
             disagreements(convergence)}
@@ -1114,7 +1127,7 @@ def finest_failed(found, finer: List[dict], fitted: List[dict],
             "finer one did not and need not converge to any solution"
             .format("s" if len(finer) > 1 else "", words, coarser,
                     _number(found.reference, "{:.6g}"), found.order),
-            formal_order=found.formal_order,
+            found.tolerance, formal_order=found.formal_order,
             credible_orders=found.credible_orders,
             observed_order=found.observed_order)
     found.why += "; the finest case{} failed: {}: {} on the coarser grids " \
@@ -1161,7 +1174,11 @@ SHOWN_PAIRS = 5
 def disagreements(convergence: List[dict]) -> List[dict]:
     """Per quantity, the pairs of groups (their ``choices``) whose
     references lie further apart than the sum of their uncertainties and
-    the round-off (:data:`~.convergence.ROUNDOFF` of the references):
+    the round-off (each group's ``roundoff``,
+    :func:`~.convergence.roundoff_floor` of its runs' Newton tolerance,
+    :data:`~.convergence.ROUNDOFF` where it has none, of the larger
+    reference: a user trial's push, mu W = 24 kN/m within 2.6e-9 in
+    every case of mpm and cpgimp, tolerance 1e-9, was named):
     both converge to the one answer of the scene's problem, so at least
     one carries an error its refinement did not remove, or claims too
     small an uncertainty (a user trial's passive wall: cpGIMP's reference
@@ -1181,6 +1198,11 @@ def disagreements(convergence: List[dict]) -> List[dict]:
     ...                     uncertainty=0.) for r, v in
     ...                [("residual", 1.), ("increment", 1. + 2e-16)]])
     []
+    >>> disagreements([dict(quantity="F", choices={"method": m},
+    ...                     reference=v, uncertainty=u, roundoff=1e-8)
+    ...                for m, v, u in [("mpm", -24.0000000036, 3.6e-9),
+    ...                                ("cpgimp", -23.9999999995, 1.5e-9)]])
+    []
     """
     found = []
     for i, a in enumerate(convergence):
@@ -1191,7 +1213,9 @@ def disagreements(convergence: List[dict]) -> List[dict]:
             apart = abs(a["reference"] - b["reference"])
             # within round-off the data cannot tell (a linear run, equal
             # to 2e-16 with rhs varied, was named; a reviewer's)
-            if apart > a["uncertainty"] + b["uncertainty"] + ROUNDOFF * max(
+            floor = max(a.get("roundoff", ROUNDOFF),
+                        b.get("roundoff", ROUNDOFF))
+            if apart > a["uncertainty"] + b["uncertainty"] + floor * max(
                     abs(a["reference"]), abs(b["reference"])):
                 found.append(dict(
                     quantity=a["quantity"],
@@ -1296,7 +1320,10 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
     whose grids model the finest one's geometry, the others named: a
     trial's footing study over 10, 20 and 40 elements printed a rate of
     2.95 for standard MPM, its coarse grids putting the soil's surface
-    inside cells), and per quantity and group its reference and
+    inside cells; none where the values converged to round-off, and
+    errors at round-off, :func:`error_floor`, left out of it and named:
+    a trial's push, within 2.6e-9 of Coulomb's answer in every case,
+    printed a rate 2.93), and per quantity and group its reference and
     uncertainty with, in words, why it was or was not extrapolated.
     :func:`study`'s docstring shows it from Python.
 
@@ -1345,6 +1372,15 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                               mine.items()) or "all"
             found = [c for c in measured["convergence"]
                      if c["quantity"] == first and c["choices"] == mine]
+            # against a closed form the errors are the closed form's, a
+            # rate theirs (the review: values agreeing to round-off 1%
+            # off the closed form were said converged, with no rate)
+            if found and found[0].get("basis") == "round-off" and not \
+                    measured["error"].get("closed_form"):
+                lines.append("rate of the error {}: none: {} converged to "
+                             "round-off (within {}), no rate".format(
+                                 where, first, roundoff_is(measured)))
+                continue
             if not measured["error"].get("closed_form") and not (
                     found and found[0]["against"] == "richardson"):
                 lines.append("rate of the error {}: none (no extrapolation:"
@@ -1357,14 +1393,26 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                      if r.get("other_geometry")]
             ghost = [str(r["elements"]) for r in members
                      if r.get("other_stabilisation")]
-            rate = fitted_rate([r["elements"] for r in kept],
-                               [r["error"] for r in kept])
-            left = "{}{}".format(
+            noise_floor = error_floor(measured, found[0] if found else None)
+            errors = above_roundoff([r["error"] for r in kept], noise_floor)
+            noise = [str(r["elements"]) for r, e in zip(kept, errors)
+                     if e is None and r["error"] is not None
+                     and np.isfinite(r["error"])]
+            rate = fitted_rate([r["elements"] for r in kept], errors)
+            left = "{}{}{}".format(
                 "; left out, their grids modelling a geometry other than "
                 "the finest one's: {} elements".format(", ".join(other))
                 if other else "", "; left out, the ghost penalty switched "
                 "on otherwise than on the finest grid: {} elements".format(
-                    ", ".join(ghost)) if ghost else "")
+                    ", ".join(ghost)) if ghost else "",
+                "; left out, their errors round-off (at most {:.2g}, {}): "
+                "{} elements".format(noise_floor, roundoff_is(measured),
+                                     ", ".join(noise))
+                if noise else "")
+            if noise and not np.isfinite(rate):
+                lines.append("rate of the error {}: none: the errors are "
+                             "round-off, no rate{}".format(where, left))
+                continue
             if found and not measured["error"].get("closed_form") and \
                     circular(found[0]):
                 lines.append(
@@ -1377,9 +1425,9 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                             str(r["elements"]) for r in kept), left))
                 continue
             rising = not_falling([r["elements"] for r in kept],
-                                 [r["error"] for r in kept])
+                                 errors)
             floor = levelling_off([r["elements"] for r in kept],
-                                  [r["error"] for r in kept], rate)
+                                  errors, rate)
             lines.append("rate of the error {}: {}{}{}".format(
                 where, "none: the errors do not fall with every "
                 "refinement ({}; a slope fitted to them, {:.2f}, would "
@@ -1387,7 +1435,7 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                 "or the error is noise)".format(rising, rate) if rising
                 else "{:.2f} ({}{})".format(
                     rate, rate_spread([r["elements"] for r in kept],
-                                      [r["error"] for r in kept]),
+                                      errors),
                     "; " + floor if floor else "")
                 if np.isfinite(rate) else
                 "needs two cases with a non-zero error", left,
@@ -1413,7 +1461,7 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
         where = [", ".join("{}={}".format(k, v) for k, v in c.items())
                  for c in d["choices"]]
         lines.append(
-            "{} disagrees: [{}] {} +- {} against [{}] {} +- {}, {:.2%} "
+            "{} disagrees: [{}] {} +- {} against [{}] {} +- {}, {} "
             "apart, further than their uncertainties: at least one "
             "carries an error its group's varied choices do not change "
             "(points per cell, a penalty, the method) or claims too small "
@@ -1422,13 +1470,59 @@ def report(rows: List[dict], measured: dict, keys: Sequence[str]
                                                  "{:.6g}"),
                 _number(d["uncertainties"][0], "{:.2g}"), where[1],
                 _number(d["references"][1], "{:.6g}"),
-                _number(d["uncertainties"][1], "{:.2g}"), d["apart"]))
+                _number(d["uncertainties"][1], "{:.2g}"),
+                percent(d["apart"])))
     if len(pairs) > SHOWN_PAIRS:
         lines.append("{} more pairs of groups disagree (study.json: "
                      "disagreements)".format(len(pairs) - SHOWN_PAIRS))
     if getattr(rows, "warm_up", None):
         lines.append(warm_up_summary(rows.warm_up))
     return lines
+
+
+def roundoff_is(measured: dict) -> str:
+    """What round-off is in a study's analysis (:func:`analyse`), in
+    words (a ``study.json`` from before it said: the arithmetic's)."""
+    return measured["error"].get("roundoff_is", roundoff_words())
+
+
+def error_floor(measured: dict, convergence: Optional[dict]) -> float:
+    """The relative error at and below which a group's errors are
+    round-off: the analysis' round-off (:func:`analyse`'s
+    ``"roundoff"``, :func:`~.convergence.roundoff_floor`); without a
+    closed form, where the group's errors are distances to its
+    ``convergence``'s reference, that fraction of its largest value over
+    the reference (what :func:`~.convergence.self_convergence` makes the
+    least error).
+
+    >>> from skfem_mpm.studies.study import error_floor
+    >>> measured = {"error": {"closed_form": False, "roundoff": 1e-8}}
+    >>> round(error_floor(measured, dict(values=[-24.5, -24.],
+    ...                                  reference=-24., roundoff=1e-8)), 11)
+    1.021e-08
+    """
+    floor = measured["error"].get("roundoff", ROUNDOFF)
+    if measured["error"].get("closed_form", True) or not convergence or \
+            not convergence.get("values") or not convergence["reference"]:
+        return floor
+    return convergence.get("roundoff", floor) * max(
+        abs(v) for v in convergence["values"]) / abs(
+            convergence["reference"])
+
+
+def above_roundoff(errors: Sequence, floor: float) -> list:
+    """``errors`` with those at most ``floor`` (:func:`error_floor`,
+    with a margin of 1e-9 of it) as ``None``: unknown to a rate, which
+    round-off differences do not have (a user trial's push: errors 3e-9,
+    4e-10, 5e-11 of mpm at 14, 28, 56 elements, Newton tolerance 1e-9,
+    printed the rate 2.93).
+
+    >>> from skfem_mpm.studies.study import above_roundoff
+    >>> above_roundoff([3e-9, 2e-6, None, 1e-8], 1e-8)
+    [None, 2e-06, None, None]
+    """
+    return [None if e is None or e <= floor * (1. + 1e-9) else e
+            for e in errors]
 
 
 def moving_extremes(rows: List[dict]) -> List[str]:
@@ -1497,8 +1591,8 @@ ZERO_FRACTION = 1e-9
 def zero_values(rows: List[dict]) -> List[str]:
     """A warning per quantity that is zero, or round-off against the
     largest value of its kind in the run (:data:`ZERO_FRACTION`), in
-    every case: its convergence then reads "the values agree to
-    round-off", which says nothing of the run's accuracy (a trial's 3D
+    every case: its convergence then reads "converged to round-off",
+    which says nothing of the run's accuracy (a trial's 3D
     column on rollers, its sideways displacement at the top: 0 in every
     case, reported as converged to +- 6.7e-308 m).
 
@@ -1546,6 +1640,22 @@ def own_groups(measured: dict) -> List[dict]:
     return groups if len(groups) > 1 else []
 
 
+def own_apart(measured: dict) -> Optional[float]:
+    """How far apart the references of :func:`own_groups` lie, relative
+    to the largest, ``None`` where there are none or they agree to
+    round-off (the groups' ``roundoff``): then they are one reference (a
+    trial's NOTE said "-24; -24; 0.00% apart" of a push within 2.6e-9
+    of Coulomb's in every case)."""
+    groups = own_groups(measured)
+    if not groups:
+        return None
+    refs = [c["reference"] for c in groups]
+    spread = (max(refs) - min(refs)) / (abs(max(refs, key=abs)) or 1.)
+    if spread <= max(c.get("roundoff", ROUNDOFF) for c in groups):
+        return None
+    return spread
+
+
 def own_references(measured: dict) -> List[str]:
     """Without a closed form, where the error's quantity has more than
     one group (methods, solvers): a line saying that each group's errors
@@ -1561,19 +1671,30 @@ def own_references(measured: dict) -> List[str]:
     ...     quantity="u"), convergence=c))[0][:58])
     NOTE: without a closed form each group's errors are agains
     """
-    groups = own_groups(measured)
-    if not groups:
+    spread = own_apart(measured)
+    if spread is None:
         return []
-    refs = [c["reference"] for c in groups]
-    spread = (max(refs) - min(refs)) / (abs(max(refs, key=abs)) or 1.)
+    groups = own_groups(measured)
     return ["NOTE: without a closed form each group's errors are against "
-            "its own reference ({}; {:.2%} apart): the table's errors and "
+            "its own reference ({}; {} apart): the table's errors and "
             "the Pareto front of error_vs_time.png compare each case with "
             "its own group's answer, not with one answer of the "
             "problem".format("; ".join("{}: {}".format(", ".join(
                 "{}={}".format(k, v) for k, v in c["choices"].items())
                 or "all", _number(c["reference"], "{:.6g}"))
-                for c in groups), spread)]
+                for c in groups), percent(spread))]
+
+
+def percent(fraction: float) -> str:
+    """``fraction`` as a percentage, with two decimals, or two
+    significant digits below 0.01% (a trial's "0.00% apart").
+
+    >>> from skfem_mpm.studies.study import percent
+    >>> percent(.02), percent(3.2e-7)
+    ('2.00%', '3.2e-05%')
+    """
+    return "{:.2%}".format(fraction) if abs(fraction) >= 1e-4 else \
+        "{:.2g}%".format(100. * fraction)
 
 
 def mixed_stabilisation(measured: dict) -> List[str]:
