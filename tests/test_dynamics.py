@@ -899,7 +899,11 @@ def test_an_impact_step_through_a_barely_held_node_is_retried(caplog):
     is refused and retried with the ghost penalty: a rebound as cpGIMP's
     (at most 0.16 m/s), no energy created."""
     res, vn, log = incline_drop(caplog)
-    assert "moved 6.15 cells" in log and "step 8" in log
+    # the impact step refused: its node thrown 6.15 cells, or (the
+    # compiled passes on an AMD EPYC, whose sums round otherwise) Newton
+    # stalled at a linear rate there first
+    assert "step 8" in log and ("moved 6.15 cells" in log
+                                or "did not converge" in log)
     assert vn[:7].min() < -.45 and vn[7:].max() < .2      # was 1.04
     en = res.energies()
     assert en["internal_work"].min() >= 0.
